@@ -1,0 +1,81 @@
+/*
+ * kdtree.h -- SAH k-d tree with 8-byte nodes, in the manner of pbrt.
+ *
+ * Node encoding (two 32-bit words, 8 bytes, the modeled record):
+ *   interior: w0 = bit pattern of the float split position;
+ *             w1 = (above_child << 2) | axis, axis in {0,1,2};
+ *             the below child is the next node in the array (index + 1).
+ *   leaf:     w0 = offset of the leaf's first entry in the index list;
+ *             w1 = (ntri << 2) | 3.
+ * Invariants (checked by rt_kd_check):
+ *   - node 0 is the root; every interior node i has below = i + 1 and
+ *     i + 1 < above < nnodes; every node is reachable exactly once;
+ *   - leaf index ranges lie inside idx[0..nidx) and every entry < ntri;
+ *   - every triangle whose bounds overlap a leaf's cell (clipped to the
+ *     scene bounds) appears in that leaf, so traversal never misses a hit;
+ *   - depth <= max_depth.
+ * Build: SAH with intersection cost 80, traversal cost 1, empty bonus 0.5,
+ * max depth round(8 + 1.3 log2 N), split candidates at triangle bound
+ * edges (exact sweep, O(N log^2 N)).
+ */
+#ifndef RT_KDTREE_H
+#define RT_KDTREE_H
+
+#include "rt.h"
+#include "rt_math.h"
+#include "scene.h"
+
+#include <stdint.h>
+#include <string.h>
+
+typedef struct rt_kdnode {
+    uint32_t w0; /* split float bits, or first index-list entry (leaf) */
+    uint32_t w1; /* (above << 2) | axis, or (ntri << 2) | 3 (leaf) */
+} rt_kdnode;
+
+static inline int rt_kd_is_leaf(const rt_kdnode *n) { return (n->w1 & 3u) == 3u; }
+static inline int rt_kd_axis(const rt_kdnode *n) { return (int)(n->w1 & 3u); }
+static inline uint32_t rt_kd_above(const rt_kdnode *n) { return n->w1 >> 2; }
+static inline uint32_t rt_kd_ntri(const rt_kdnode *n) { return n->w1 >> 2; }
+static inline uint32_t rt_kd_first(const rt_kdnode *n) { return n->w0; }
+static inline float rt_kd_split(const rt_kdnode *n)
+{
+    float f;
+    memcpy(&f, &n->w0, sizeof f);
+    return f;
+}
+
+typedef struct rt_kd_params {
+    float isect_cost;  /* 80 */
+    float trav_cost;   /* 1 */
+    float empty_bonus; /* 0.5 */
+    int max_depth;     /* <= 0: round(8 + 1.3 log2 N) */
+    int max_leaf_tris; /* make a leaf at or below this many triangles (1) */
+} rt_kd_params;
+
+void rt_kd_default_params(rt_kd_params *p);
+
+typedef struct rt_kdtree {
+    rt_kdnode *nodes;     /* nnodes nodes, root first */
+    uint32_t nnodes;
+    uint32_t *idx;        /* leaf triangle-index lists, concatenated */
+    uint32_t nidx;
+    rt_bounds bounds;     /* scene bounds the tree was built in */
+    /* statistics */
+    uint32_t nleaves;     /* leaves, including empty ones */
+    uint32_t nempty;      /* empty leaves */
+    uint32_t maxdepth;    /* deepest leaf (root = depth 0) */
+    uint32_t maxleaf;     /* most triangles in one leaf */
+    double build_sec;     /* wall time of rt_kd_build */
+} rt_kdtree;
+
+/* Builds the tree over all triangles of s. NULL on failure (out of memory). */
+rt_kdtree *rt_kd_build(const rt_scene *s, const rt_kd_params *p, rt_err *e);
+void rt_kd_free(rt_kdtree *t);
+/* Verifies the invariants above; 0 if all hold, else -1 with the first
+ * violation described. Intended for tests (it is O(N * depth)). */
+int rt_kd_check(const rt_kdtree *t, const rt_scene *s, rt_err *e);
+/* Mean triangles per non-empty leaf. */
+double rt_kd_mean_leaf_tris(const rt_kdtree *t);
+
+#endif

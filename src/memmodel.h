@@ -1,0 +1,151 @@
+/*
+ * memmodel.h -- the modeled address space and the memory-access stream.
+ *
+ * Traffic is measured on a *modeled* address space, not on the addresses
+ * malloc happens to return, so that every trace is deterministic and every
+ * layout decision is explicit and documented (docs/memory-model.md).
+ *
+ * A layout is an ordered list of regions. Each region is one data structure
+ * a tracer touches: a name, a class, a record size, a record count and a
+ * base address. Invariants:
+ *   - bases are assigned in the order regions are added, starting at
+ *     RT_MM_BASE, each aligned to RT_MM_ALIGN (4 KiB), with regions never
+ *     overlapping: base[i+1] >= base[i] + recsize[i] * count[i];
+ *   - the same sequence of rt_mm_add calls yields the same addresses on any
+ *     machine (no pointers, no hashing of memory);
+ *   - a region exists only if the scene and tracer use it: tracers add
+ *     regions lazily (shading data only when shading happens, queues only
+ *     for the dynamic tracer), so a trace's region table lists only what the
+ *     run needed;
+ *   - the address of record i of region r is base[r] + i * recsize[r];
+ *     sub-record accesses add a byte offset within the record.
+ *
+ * An access is (address, size, read|write, class). Tracers report accesses
+ * in program order through an rt_rec recorder. The recorder buffers
+ * accesses and hands full buffers to a sink (trace file writer, in-process
+ * cache simulator, counter, ...). When recording is off the tracer holds a
+ * NULL recorder and every RT_REC() is a single predictable branch, so the
+ * untraced path costs (almost) nothing.
+ *
+ * Classes group into the paper's two columns: geometry (nodes, index lists,
+ * triangles, shading data) and ray (ray records, queues, queue table, hit
+ * records, stream buffers); the framebuffer is "other".
+ */
+#ifndef RT_MEMMODEL_H
+#define RT_MEMMODEL_H
+
+#include "rt.h"
+
+#include <stdint.h>
+
+typedef enum rt_class {
+    RT_CLS_NODE = 0,   /* k-d tree nodes, 8 B */
+    RT_CLS_INDEX = 1,  /* leaf triangle-index lists, 4 B per entry */
+    RT_CLS_TRI = 2,    /* triangle vertex data, 36 B per triangle */
+    RT_CLS_SHADE = 3,  /* shading data, read only when a hit is shaded */
+    RT_CLS_RAY = 4,    /* 32-byte ray records */
+    RT_CLS_QUEUE = 5,  /* ray queue buffers (dynamic scheduler) */
+    RT_CLS_QTABLE = 6, /* queue table, 8 B per queue point */
+    RT_CLS_HIT = 7,    /* hit records */
+    RT_CLS_STREAM = 8, /* stream / ping-pong buffers of later tracers */
+    RT_CLS_FB = 9,     /* framebuffer */
+    RT_NCLASS = 10
+} rt_class;
+
+typedef enum rt_group {
+    RT_GROUP_GEOMETRY = 0,
+    RT_GROUP_RAY = 1,
+    RT_GROUP_OTHER = 2,
+    RT_NGROUP = 3
+} rt_group;
+
+/* Short lowercase class name ("node", "tri", ...); NULL if out of range. */
+const char *rt_class_name(int cls);
+/* Class from its name, or -1. */
+int rt_class_from_name(const char *name);
+/* Paper column of a class. */
+rt_group rt_class_group(int cls);
+const char *rt_group_name(int group);
+
+#define RT_MM_BASE 0x10000000ULL /* first region base; 0 is never a valid address */
+#define RT_MM_ALIGN 4096ULL
+#define RT_MM_MAX_REGIONS 32
+#define RT_MM_NAME_LEN 24
+
+typedef struct rt_region {
+    char name[RT_MM_NAME_LEN]; /* e.g. "kd.nodes" */
+    uint8_t cls;               /* rt_class */
+    uint32_t recsize;          /* bytes per record */
+    uint64_t count;            /* records */
+    uint64_t base;             /* modeled address of record 0 */
+} rt_region;
+
+typedef struct rt_layout {
+    int n;                              /* regions in use */
+    rt_region r[RT_MM_MAX_REGIONS];     /* in order of addition */
+    uint64_t next;                      /* first free modeled address */
+} rt_layout;
+
+void rt_mm_init(rt_layout *L);
+/* Adds a region and returns its index (>= 0), or -1 if the table is full or
+ * the region would overflow the 64-bit address space. */
+int rt_mm_add(rt_layout *L, const char *name, rt_class cls, uint32_t recsize, uint64_t count, rt_err *e);
+/* Index of the region with this name, or -1. */
+int rt_mm_find(const rt_layout *L, const char *name);
+static inline uint64_t rt_mm_addr(const rt_layout *L, int reg, uint64_t rec)
+{
+    return L->r[reg].base + rec * L->r[reg].recsize;
+}
+
+/* One memory reference. */
+typedef struct rt_access {
+    uint64_t addr;  /* modeled byte address */
+    uint32_t size;  /* bytes, >= 1 */
+    uint8_t write;  /* 0 read, 1 write */
+    uint8_t cls;    /* rt_class */
+} rt_access;
+
+/*
+ * A sink consumes batches of accesses. put() returns 0 or -1 (with the
+ * message in the sink's own error, retrievable by the owner). The sink does
+ * not keep the pointer past the call.
+ */
+typedef struct rt_sink rt_sink;
+struct rt_sink {
+    int (*put)(rt_sink *s, const rt_access *a, size_t n);
+    void *ctx; /* owner's state */
+};
+
+#define RT_REC_BUF 4096
+
+typedef struct rt_rec {
+    rt_access buf[RT_REC_BUF]; /* pending accesses */
+    size_t n;                  /* entries in buf */
+    rt_sink *sink;             /* receives full buffers; never NULL */
+    uint64_t total;            /* accesses recorded so far */
+    int failed;                /* a put() failed; later accesses are dropped */
+} rt_rec;
+
+/* Creates a recorder feeding sink; NULL on out of memory. */
+rt_rec *rt_rec_new(rt_sink *sink, rt_err *e);
+/* Hands the pending buffer to the sink. Returns 0, or -1 if any put failed. */
+int rt_rec_flush(rt_rec *r);
+void rt_rec_free(rt_rec *r);
+
+static inline void rt_rec_push(rt_rec *r, uint64_t addr, uint32_t size, int write, int cls)
+{
+    rt_access *a = &r->buf[r->n++];
+    a->addr = addr;
+    a->size = size;
+    a->write = (uint8_t)write;
+    a->cls = (uint8_t)cls;
+    if (r->n == RT_REC_BUF) rt_rec_flush(r);
+}
+
+/* The tracers' hook: free when recording is off (rec == NULL). */
+#define RT_REC(rec, addr, size, write, cls)                              \
+    do {                                                                 \
+        if (rec) rt_rec_push((rec), (addr), (uint32_t)(size), (write), (cls)); \
+    } while (0)
+
+#endif

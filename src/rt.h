@@ -1,0 +1,59 @@
+/*
+ * rt.h -- conventions shared by every raytraffic module.
+ *
+ * The library never prints and never exits. A function that can fail takes
+ * an `rt_err *` as its last argument, returns NULL or a negative value on
+ * failure, and writes one line (no trailing newline) into the error, naming
+ * the file and position where there is one ("scene.obj:12: bad index").
+ * The front end prefixes the subcommand name and prints it. `rt_err *` may
+ * be NULL when the caller does not want the message.
+ *
+ * Naming: each module has a short prefix (rt_kd_, rt_tr_, rt_sim_, ...);
+ * destroy functions accept NULL.
+ */
+#ifndef RT_H
+#define RT_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include <stdarg.h>
+
+#define RT_ERR_LEN 512
+
+typedef struct rt_err {
+    char msg[RT_ERR_LEN]; /* one line, no newline; empty when no error */
+} rt_err;
+
+/* Formats a message into e (if non-NULL). Always returns -1 so callers can
+ * write `return rt_errf(e, ...)`. */
+int rt_errf(rt_err *e, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 2, 3)))
+#endif
+    ;
+
+/* Tool version ("0.1.0") and git revision ("abc123def456" or "unknown"). */
+const char *rt_version(void);
+const char *rt_git_rev(void);
+
+/* Monotonic wall clock in seconds. */
+double rt_now(void);
+
+/* Allocation that reports failure through rt_err instead of aborting.
+ * Returns NULL (and sets e) when n*size overflows or memory is exhausted. */
+void *rt_calloc(size_t n, size_t size, rt_err *e);
+void *rt_reallocarray(void *p, size_t n, size_t size, rt_err *e);
+
+/* Test hook: when > 0, the n-th following rt_calloc/rt_reallocarray call
+ * fails (counts down; 0 disables). Lets tests exercise out-of-memory paths. */
+extern long rt_fail_alloc_after;
+
+/* 64-bit FNV-1a, used for scene and trace identity hashes. */
+uint64_t rt_fnv1a(uint64_t h, const void *data, size_t n);
+#define RT_FNV_INIT 0xcbf29ce484222325ULL
+
+/* Parses sizes like "64", "64K", "4M", "1G" (binary multiples).
+ * Returns 0 and stores the value, or -1 on a malformed or overflowing string. */
+int rt_parse_size(const char *s, uint64_t *out);
+
+#endif

@@ -1,0 +1,83 @@
+/*
+ * scene.h -- triangles, shading attributes, camera and lights.
+ *
+ * A scene is a flat array of triangles (three vertices each, 36 bytes, the
+ * record the tracers read), a parallel array of per-triangle shading records
+ * (diffuse colour; kept apart because it is read only when a hit is shaded),
+ * a pinhole camera and exactly three point lights (the paper's experiments
+ * use lights 0, 1, 2). Scenes come from deterministic built-in generators
+ * (scene_builtin.c) or from OBJ/PLY files (scene_obj.c, scene_ply.c); the
+ * same spec always yields bit-identical triangles on any machine, which the
+ * scene hash (rt_scene_hash) certifies in every trace and result row.
+ *
+ * Scene specs: a built-in name with optional parameters, e.g.
+ *   "sphereflake", "sphereflake:level=2,tess=3", "grove:trees=4",
+ * or a path ending in .obj or .ply.
+ */
+#ifndef RT_SCENE_H
+#define RT_SCENE_H
+
+#include "rt.h"
+#include "rt_math.h"
+
+#include <stdint.h>
+
+typedef struct rt_tri {
+    rt_vec3 p[3]; /* vertices; 36 bytes, the modeled triangle record */
+} rt_tri;
+
+typedef struct rt_shade {
+    float rgb[3];   /* diffuse albedo, linear */
+    uint32_t flags; /* reserved (material bits); record is 16 bytes */
+} rt_shade;
+
+typedef struct rt_camera {
+    rt_vec3 eye, at, up; /* look-at frame */
+    float fovy_deg;      /* vertical field of view, degrees */
+} rt_camera;
+
+#define RT_NLIGHTS 3
+
+typedef struct rt_scene {
+    char name[64];          /* spec it was made from (built-in name or file) */
+    char params[128];       /* canonical parameter string, "" if none */
+    uint32_t ntri;          /* triangles */
+    rt_tri *tri;            /* ntri triangles */
+    rt_shade *shade;        /* ntri shading records */
+    rt_camera cam;          /* default view */
+    rt_vec3 light[RT_NLIGHTS]; /* point lights 0..2 */
+    float light_power;      /* radiance scale of each light */
+    float ambient;          /* ambient term */
+    rt_vec3 background;     /* colour of rays that leave the scene */
+    rt_bounds bounds;       /* of all vertices */
+} rt_scene;
+
+/* Built-in scene names, NULL-terminated. */
+extern const char *const rt_scene_builtin_names[];
+/* One-line description of a built-in scene, or NULL if unknown. */
+const char *rt_scene_describe(const char *name);
+
+/* Makes a scene from a spec (built-in name[:k=v,...] or .obj/.ply path).
+ * Returns NULL with a one-line message on failure. Free with rt_scene_free. */
+rt_scene *rt_scene_load(const char *spec, rt_err *e);
+rt_scene *rt_scene_builtin(const char *name, const char *params, rt_err *e);
+rt_scene *rt_scene_load_obj(const char *path, rt_err *e);
+rt_scene *rt_scene_load_ply(const char *path, rt_err *e);
+void rt_scene_free(rt_scene *s);
+
+/* Allocates an empty scene with room for ntri triangles (ntri may grow via
+ * rt_scene_reserve). */
+rt_scene *rt_scene_new(uint32_t ntri, rt_err *e);
+int rt_scene_reserve(rt_scene *s, uint32_t ntri, rt_err *e);
+/* Appends a triangle with a colour; returns 0 or -1. */
+int rt_scene_add_tri(rt_scene *s, rt_vec3 a, rt_vec3 b, rt_vec3 c, const float rgb[3], rt_err *e);
+/* Recomputes bounds; rejects NaN/Inf coordinates. Returns 0 or -1. */
+int rt_scene_finish(rt_scene *s, rt_err *e);
+/* Frames the camera on the bounds and places three default lights. */
+void rt_scene_autoframe(rt_scene *s);
+/* Identity hash over triangles, shading, camera and lights. */
+uint64_t rt_scene_hash(const rt_scene *s);
+/* Writes the scene as OBJ (with a usemtl-free colour comment per group). */
+int rt_scene_export_obj(const rt_scene *s, const char *path, rt_err *e);
+
+#endif
