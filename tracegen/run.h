@@ -1,0 +1,37 @@
+/*
+ * run.h -- one rendering job: scene + tree + tracer + options, traced or not.
+ *
+ * Used by `render`, `trace`, `bench` and `sweep` so that they all set up a
+ * run the same way: load the scene from its spec, build the k-d tree, let
+ * the tracer declare its regions, then run with or without a sink.
+ */
+#ifndef RT_RUN_H
+#define RT_RUN_H
+
+#include "kdtree.h"
+#include "scene.h"
+#include "trace.h"
+#include "tracer.h"
+
+typedef struct rt_job {
+    rt_scene *sc;          /* owned */
+    rt_kdtree *kd;         /* owned */
+    const rt_tracer *tr;   /* static */
+    rt_render_opts opt;    /* copy of the options */
+    rt_layout L;           /* regions declared by the tracer */
+    double kd_sec;         /* tree build time */
+} rt_job;
+
+/* Loads the scene, builds the tree and the layout. 0 or -1 (job freed). */
+int rt_job_setup(rt_job *j, const char *scene_spec, const char *tracer, const rt_render_opts *o, rt_err *e);
+/* Reuses an already loaded scene and tree (ownership stays with caller:
+ * rt_job_free will not free them when borrowed). */
+int rt_job_setup_borrowed(rt_job *j, rt_scene *sc, rt_kdtree *kd, const char *tracer, const rt_render_opts *o,
+                          rt_err *e);
+/* Renders into img (W x H); sink NULL = untraced. Fills st. 0 or -1. */
+int rt_job_run(rt_job *j, rt_sink *sink, rt_image *img, rt_run_stats *st, rt_err *e);
+/* Fills trace metadata from the job (command line from rt_cmd_line()). */
+void rt_job_meta(const rt_job *j, const char *command, rt_tr_meta *m);
+void rt_job_free(rt_job *j);
+
+#endif
