@@ -41,3 +41,40 @@ void rt_cmd_set_line(int argc, char **argv);
 int rt_cmd_wants_help(int argc, char **argv);
 
 #endif
+
+/* ---- render options shared by render, trace, bench and sweep ---------- */
+#include "tracer.h"
+#include <getopt.h>
+
+/* getopt_long codes for the shared render options. */
+enum {
+    RT_OPT_LIGHTS = 1000,
+    RT_OPT_CACHE_SIZE,
+    RT_OPT_GMAX,
+    RT_OPT_PACKET,
+    RT_OPT_QORDER,
+    RT_OPT_THREADS
+};
+
+/* The shared long options ({"lights",...}, {"cache-size",...}, ...);
+ * terminated by a zero entry. Copy them into a command's own table with
+ * rt_cmd_merge_opts. */
+extern const struct option rt_render_longopts[];
+#define RT_RENDER_SHORTOPTS "t:W:H:"
+#define RT_RENDER_OPTS_HELP                                                                  \
+    "  -t TRACER          recursive | packet | dynamic (default recursive)\n"               \
+    "  -W N, -H N         image size in pixels\n"                                            \
+    "  --lights L         all | none | comma list of lights 0,1,2 (default none)\n"         \
+    "  --packet N         packet edge in pixels for -t packet (default 8)\n"                 \
+    "  --cache-size S     dynamic: cache size to schedule for, e.g. 64K (default 64K)\n"    \
+    "  --gmax B           dynamic: explicit geometry budget in bytes (overrides derivation)\n" \
+    "  --qorder O         dynamic: queue order, fullest | tree (default fullest)\n"          \
+    "  --threads N        dynamic: modeled threads, 2 rays buffered each (default 4)\n"
+
+/* Appends the shared options to a command's own NULL-terminated table;
+ * returns a malloc'd table (caller frees) or NULL. */
+struct option *rt_cmd_merge_opts(const struct option *own);
+
+/* Handles one shared option. Returns 1 if handled, 0 if c is not a shared
+ * option, -1 on a bad value (message printed for cmd). */
+int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o, const char **tracer);

@@ -1,15 +1,131 @@
-/* cmd_render.c -- `raytraffic render` (not yet implemented). */
+/* cmd_render.c -- `raytraffic render`: render a scene with a tracer to an
+ * OpenEXR image (RGB + cost channels + depth) and print render statistics. */
 #include "cmd.h"
+#include "image.h"
+#include "run.h"
 
+#include <inttypes.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
+
+static void usage(FILE *f)
+{
+    fprintf(f,
+            "Usage: raytraffic render SCENE [options] -o out.exr\n\n"
+            "Render SCENE (a built-in name like sphereflake, name:k=v,... or an .obj/.ply file)\n"
+            "and write a float OpenEXR with channels R, G, B, Z (depth), nodes and tests\n"
+            "(per-pixel k-d nodes visited and triangles tested).\n\n"
+            "Options:\n"
+            "  -o FILE            output EXR (required)\n"
+            "  --ppm FILE         also write an 8-bit gamma-2.2 preview (binary PPM)\n"
+            "  --json             print statistics as JSON on stdout\n" RT_RENDER_OPTS_HELP
+            "  -h, --help         this help\n\n"
+            "Statistics (stderr, or JSON): rays traced, nodes visited and triangles tested\n"
+            "per ray, and the distinct triangles tested by primary rays and by all rays\n"
+            "(the paper's potentially visible geometry).\n");
+}
+
+void rt_print_run_stats(FILE *f, const rt_job *j, const rt_run_stats *st, int json);
+
+void rt_print_run_stats(FILE *f, const rt_job *j, const rt_run_stats *st, int json)
+{
+    uint64_t rays = st->rays_primary + st->rays_shadow;
+    double per = rays ? 1.0 / (double)rays : 0;
+    if (json) {
+        fprintf(f,
+                "{\"scene\": \"%s\", \"tracer\": \"%s\", \"width\": %d, \"height\": %d, \"lights\": %u, "
+                "\"triangles\": %" PRIu32 ", \"rays_primary\": %" PRIu64 ", \"rays_shadow\": %" PRIu64
+                ", \"nodes\": %" PRIu64 ", \"tests\": %" PRIu64 ", \"nodes_per_ray\": %.3f, \"tests_per_ray\": %.3f"
+                ", \"pv_primary\": %" PRIu64 ", \"pv_all\": %" PRIu64 ", \"kd_build_seconds\": %.3f"
+                ", \"render_seconds\": %.3f, \"mrays_per_second\": %.3f%s%s%s}\n",
+                j->sc->name, j->tr->name, j->opt.W, j->opt.H, j->opt.lights, j->sc->ntri, st->rays_primary,
+                st->rays_shadow, st->nodes, st->tests, (double)st->nodes * per, (double)st->tests * per,
+                st->pv_primary, st->pv_all, j->kd_sec, st->seconds,
+                st->seconds > 0 ? (double)rays / st->seconds * 1e-6 : 0.0, st->extra[0] ? ", \"extra\": \"" : "",
+                st->extra, st->extra[0] ? "\"" : "");
+        return;
+    }
+    fprintf(f, "scene %s (%" PRIu32 " triangles), tracer %s, %dx%d, lights %u\n", j->sc->name, j->sc->ntri,
+            j->tr->name, j->opt.W, j->opt.H, j->opt.lights);
+    fprintf(f, "rays: %" PRIu64 " primary + %" PRIu64 " shadow; per ray %.2f nodes, %.2f triangle tests\n",
+            st->rays_primary, st->rays_shadow, (double)st->nodes * per, (double)st->tests * per);
+    fprintf(f, "potentially visible triangles: %" PRIu64 " primary, %" PRIu64 " primary+shadow\n", st->pv_primary,
+            st->pv_all);
+    fprintf(f, "k-d build %.2f s, render %.2f s (%.2f Mrays/s)\n", j->kd_sec, st->seconds,
+            st->seconds > 0 ? (double)rays / st->seconds * 1e-6 : 0.0);
+    if (st->extra[0]) fprintf(f, "%s\n", st->extra);
+}
 
 int main_render(int argc, char **argv)
 {
-    if (argc > 1 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
-        printf("Usage: raytraffic render (not yet implemented)\n");
-        return RT_EXIT_OK;
+    static const struct option own[] = {
+        {"output", required_argument, NULL, 'o'},
+        {"ppm", required_argument, NULL, 'p'},
+        {"json", no_argument, NULL, 'j'},
+        {"help", no_argument, NULL, 'h'},
+        {NULL, 0, NULL, 0},
+    };
+    rt_render_opts o;
+    rt_render_default_opts(&o);
+    const char *tracer = "recursive", *out = NULL, *ppm = NULL;
+    int json = 0, c, rc = RT_EXIT_FAIL;
+    struct option *lo = rt_cmd_merge_opts(own);
+    if (!lo) return RT_EXIT_FAIL;
+    optind = 1;
+    while ((c = getopt_long(argc, argv, "o:h" RT_RENDER_SHORTOPTS, lo, NULL)) != -1) {
+        int r = rt_cmd_render_opt("render", c, optarg, &o, &tracer);
+        if (r < 0) goto usage_err;
+        if (r > 0) continue;
+        switch (c) {
+        case 'o': out = optarg; break;
+        case 'p': ppm = optarg; break;
+        case 'j': json = 1; break;
+        case 'h': usage(stdout); free(lo); return RT_EXIT_OK;
+        default: goto usage_err;
+        }
     }
-    rt_cmd_error("render", "not yet implemented");
-    return RT_EXIT_FAIL;
+    free(lo);
+    lo = NULL;
+    if (optind != argc - 1) {
+        rt_cmd_error("render", "expected exactly one SCENE (see --help)");
+        return RT_EXIT_USAGE;
+    }
+    if (!out) {
+        rt_cmd_error("render", "missing -o out.exr");
+        return RT_EXIT_USAGE;
+    }
+    rt_err e = {""};
+    rt_job j;
+    rt_image *img = NULL;
+    rt_run_stats st;
+    if (rt_job_setup(&j, argv[optind], tracer, &o, &e) < 0) {
+        rt_cmd_error("render", "%s", e.msg);
+        return RT_EXIT_FAIL;
+    }
+    if (!(img = rt_image_new(o.W, o.H, &e)) || rt_job_run(&j, NULL, img, &st, &e) < 0) goto fail;
+    char hash[32], params[128];
+    snprintf(hash, sizeof hash, "%016llx", (unsigned long long)rt_scene_hash(j.sc));
+    snprintf(params, sizeof params, "W=%d H=%d lights=%u", o.W, o.H, o.lights);
+    rt_exr_attr attrs[] = {
+        {"raytraffic:version", rt_version()}, {"raytraffic:git", rt_git_rev()},
+        {"raytraffic:command", rt_cmd_line()}, {"raytraffic:scene", j.sc->name},
+        {"raytraffic:scene_hash", hash},     {"raytraffic:tracer", j.tr->name},
+        {"raytraffic:params", params},
+    };
+    if (rt_exr_write(out, img, attrs, (int)(sizeof attrs / sizeof attrs[0]), &e) < 0) goto fail;
+    if (ppm && rt_ppm_write(ppm, img, &e) < 0) goto fail;
+    rt_print_run_stats(json ? stdout : stderr, &j, &st, json);
+    fprintf(stderr, "wrote %s\n", out);
+    rc = RT_EXIT_OK;
+    goto done;
+fail:
+    rt_cmd_error("render", "%s", e.msg);
+done:
+    rt_image_free(img);
+    rt_job_free(&j);
+    return rc;
+usage_err:
+    free(lo);
+    return RT_EXIT_USAGE;
 }

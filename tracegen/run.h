@@ -20,6 +20,7 @@ typedef struct rt_job {
     rt_render_opts opt;    /* copy of the options */
     rt_layout L;           /* regions declared by the tracer */
     double kd_sec;         /* tree build time */
+    int borrowed;          /* scene and tree belong to the caller */
 } rt_job;
 
 /* Loads the scene, builds the tree and the layout. 0 or -1 (job freed). */

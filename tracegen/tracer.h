@@ -13,11 +13,15 @@
  * are bit-identical): c = albedo * ambient; for each enabled light i in
  * increasing order, if visible: c += albedo * (max(0, n.l) * light_power);
  * n is the geometric normal facing the eye ray, l the unit vector to the
- * light. Rays that miss get the scene background.
+ * light. With no light enabled (primary rays only) a headlight stands in
+ * so the image still shows shape: c = albedo * (ambient + |n.d| *
+ * light_power), d the unit eye direction. Rays that miss get the scene
+ * background.
  */
 #ifndef RT_TRACER_H
 #define RT_TRACER_H
 
+#include "image.h"
 #include "kdtrav.h"
 #include "memmodel.h"
 #include "scene.h"
@@ -39,17 +43,7 @@ typedef struct rt_render_opts {
 
 void rt_render_default_opts(rt_render_opts *o);
 
-/* A float image with cost channels; all planes are W*H, row-major, y down. */
-typedef struct rt_image {
-    int W, H;
-    float *rgb;    /* 3 floats per pixel */
-    float *nodes;  /* k-d nodes visited for this pixel (all its rays) */
-    float *tests;  /* triangles tested for this pixel (all its rays) */
-    float *depth;  /* primary hit distance, +inf on a miss */
-} rt_image;
 
-rt_image *rt_image_new(int W, int H, rt_err *e);
-void rt_image_free(rt_image *im);
 
 typedef struct rt_run_stats {
     uint64_t rays_primary;   /* primary rays traced */
@@ -87,9 +81,9 @@ const rt_tracer *rt_tracer_find(const char *name);
 /* Parses "all", "none", or a comma list of light indices "0,2". */
 int rt_parse_lights(const char *s, unsigned *mask);
 
-/* Shared layout of the geometry regions, in this order: kd.nodes, kd.index,
- * tri.verts, tri.shade (shade only when want_shade). Region indices are
- * stored into *tv (reg_node, reg_idx, reg_tri) and *reg_shade. */
+/* Adds the geometry regions, in this order: kd.nodes (8 B x nodes),
+ * kd.index (4 B x entries), tri.verts (36 B x triangles) and, when
+ * want_shade, tri.shade (16 B x triangles). Look them up with rt_mm_find. */
 int rt_layout_geometry(const rt_tracer_ctx *ctx, rt_layout *L, int want_shade, rt_err *e);
 
 /* Shades one primary hit exactly as documented above. vis[i] != 0 when light
@@ -97,8 +91,22 @@ int rt_layout_geometry(const rt_tracer_ctx *ctx, rt_layout *L, int want_shade, r
 void rt_shade_hit(const rt_scene *sc, const rt_ray *eye, const rt_hit *h, const int vis[RT_NLIGHTS],
                   unsigned lights, float rgb[3]);
 
-/* Primary ray through the centre of pixel (x, y) for scene camera. */
-void rt_camera_ray(const rt_scene *sc, int W, int H, int x, int y, rt_ray *r);
+/* Pinhole camera basis, computed once per render (deterministic: no libm
+ * trigonometry). */
+typedef struct rt_cam_frame {
+    rt_vec3 eye, dir, right, up; /* dir/right/up scaled to the image plane */
+    int W, H;
+} rt_cam_frame;
+void rt_cam_setup(rt_cam_frame *f, const rt_scene *sc, int W, int H);
+/* Primary ray through the centre of pixel (x, y), y down. */
+void rt_camera_ray(const rt_cam_frame *f, int x, int y, rt_ray *r);
+
+/* Initialises a traversal context for ctx (region indices looked up in
+ * ctx->L when recording). */
+void rt_trav_init(rt_trav *tv, const rt_tracer_ctx *ctx);
+
+/* Deterministic double-precision tangent for |x| < pi/2 (series; no libm). */
+double rt_dtan(double x);
 
 /* Shadow ray from a primary hit toward light i: origin offset off the
  * surface toward the eye side, direction = light - origin, interval

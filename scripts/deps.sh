@@ -1,0 +1,17 @@
+#!/usr/bin/env bash
+# Installs the Debian packages raytraffic needs, only those missing.
+set -euo pipefail
+pkgs="build-essential autoconf automake pkg-config libsqlite3-dev zlib1g-dev libopenexr-dev sqlite3 gnuplot-nox"
+missing=""
+for p in $pkgs; do
+    dpkg -s "$p" >/dev/null 2>&1 || missing="$missing $p"
+done
+[ -z "$missing" ] && exit 0
+if ! command -v apt-get >/dev/null 2>&1; then
+    echo "raytraffic: please install:$missing" >&2
+    exit 1
+fi
+SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+echo "installing:$missing" >&2
+$SUDO apt-get update -qq
+DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends $missing >/dev/null

@@ -1,0 +1,110 @@
+/* cmd_common.c -- option parsing shared by the rendering subcommands, so
+ * the same option is spelled and checked the same way everywhere. */
+#include "cmd.h"
+
+#include <errno.h>
+#include <limits.h>
+#include <stdlib.h>
+#include <string.h>
+
+const struct option rt_render_longopts[] = {
+    {"lights", required_argument, NULL, RT_OPT_LIGHTS},
+    {"cache-size", required_argument, NULL, RT_OPT_CACHE_SIZE},
+    {"gmax", required_argument, NULL, RT_OPT_GMAX},
+    {"packet", required_argument, NULL, RT_OPT_PACKET},
+    {"qorder", required_argument, NULL, RT_OPT_QORDER},
+    {"threads", required_argument, NULL, RT_OPT_THREADS},
+    {"tracer", required_argument, NULL, 't'},
+    {"width", required_argument, NULL, 'W'},
+    {"height", required_argument, NULL, 'H'},
+    {NULL, 0, NULL, 0},
+};
+
+struct option *rt_cmd_merge_opts(const struct option *own)
+{
+    size_t a = 0, b = 0;
+    while (own[a].name) a++;
+    while (rt_render_longopts[b].name) b++;
+    struct option *t = calloc(a + b + 1, sizeof *t);
+    if (!t) return NULL;
+    memcpy(t, own, a * sizeof *t);
+    memcpy(t + a, rt_render_longopts, b * sizeof *t);
+    return t;
+}
+
+static int parse_int(const char *s, long lo, long hi, long *out)
+{
+    char *end;
+    errno = 0;
+    long v = strtol(s, &end, 10);
+    if (errno || end == s || *end || v < lo || v > hi) return -1;
+    *out = v;
+    return 0;
+}
+
+int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o, const char **tracer)
+{
+    long v;
+    uint64_t u;
+    switch (c) {
+    case 't':
+        if (!rt_tracer_find(arg)) {
+            rt_cmd_error(cmd, "unknown tracer '%s' (recursive, packet, dynamic)", arg);
+            return -1;
+        }
+        *tracer = arg;
+        return 1;
+    case 'W':
+    case 'H':
+        if (parse_int(arg, 1, 65536, &v) < 0) {
+            rt_cmd_error(cmd, "-%c: '%s' is not an image size in 1..65536", c, arg);
+            return -1;
+        }
+        if (c == 'W') o->W = (int)v; else o->H = (int)v;
+        return 1;
+    case RT_OPT_LIGHTS:
+        if (rt_parse_lights(arg, &o->lights) < 0) {
+            rt_cmd_error(cmd, "--lights: '%s' is not all, none or a list like 0,2", arg);
+            return -1;
+        }
+        return 1;
+    case RT_OPT_CACHE_SIZE:
+        if (rt_parse_size(arg, &u) < 0 || u < 64) {
+            rt_cmd_error(cmd, "--cache-size: '%s' is not a size like 64K (>= 64)", arg);
+            return -1;
+        }
+        o->cache_size = u;
+        return 1;
+    case RT_OPT_GMAX:
+        if (rt_parse_size(arg, &u) < 0 || u == 0) {
+            rt_cmd_error(cmd, "--gmax: '%s' is not a positive byte count", arg);
+            return -1;
+        }
+        o->gmax = u;
+        return 1;
+    case RT_OPT_PACKET:
+        if (parse_int(arg, 1, 256, &v) < 0) {
+            rt_cmd_error(cmd, "--packet: '%s' is not in 1..256", arg);
+            return -1;
+        }
+        o->packet = (int)v;
+        return 1;
+    case RT_OPT_QORDER:
+        if (!strcmp(arg, "fullest")) o->qorder = RT_QORDER_FULLEST;
+        else if (!strcmp(arg, "tree")) o->qorder = RT_QORDER_TREE;
+        else {
+            rt_cmd_error(cmd, "--qorder: '%s' is not fullest or tree", arg);
+            return -1;
+        }
+        return 1;
+    case RT_OPT_THREADS:
+        if (parse_int(arg, 1, 1024, &v) < 0) {
+            rt_cmd_error(cmd, "--threads: '%s' is not in 1..1024", arg);
+            return -1;
+        }
+        o->threads = (int)v;
+        return 1;
+    default:
+        return 0;
+    }
+}

@@ -1,0 +1,153 @@
+/* test_core.c -- Hilbert order, EXR round trip, memory model, size parsing,
+ * light lists: the small core pieces, each against a hand-checked answer. */
+#include "hilbert.h"
+#include "image.h"
+#include "memmodel.h"
+#include "rt.h"
+#include "tracer.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+static int failures;
+#define CHECK(cond, ...)                                                   \
+    do {                                                                   \
+        if (!(cond)) {                                                     \
+            failures++;                                                    \
+            fprintf(stderr, "%s:%d: FAIL: ", __FILE__, __LINE__);         \
+            fprintf(stderr, __VA_ARGS__);                                  \
+            fputc('\n', stderr);                                           \
+        }                                                                  \
+    } while (0)
+
+static void test_hilbert(void)
+{
+    static const int sizes[][2] = {{1, 1}, {2, 2}, {3, 5}, {7, 3}, {64, 64}, {100, 37}, {1, 257}, {513, 2}};
+    for (size_t s = 0; s < sizeof sizes / sizeof sizes[0]; s++) {
+        int W = sizes[s][0], H = sizes[s][1];
+        uint32_t *order = calloc((size_t)W * H, sizeof *order);
+        unsigned char *seen = calloc((size_t)W * H, 1);
+        rt_hilbert_order(W, H, order);
+        int dup = 0;
+        for (int i = 0; i < W * H; i++) {
+            if (order[i] >= (uint32_t)(W * H) || seen[order[i]]) dup++;
+            else seen[order[i]] = 1;
+        }
+        int missing = 0;
+        for (int i = 0; i < W * H; i++) missing += !seen[i];
+        CHECK(!dup && !missing, "hilbert %dx%d: %d duplicates, %d missing", W, H, dup, missing);
+        free(order);
+        free(seen);
+    }
+    /* On a power-of-two square consecutive pixels are 4-neighbours. */
+    int W = 32;
+    uint32_t order[32 * 32];
+    rt_hilbert_order(W, W, order);
+    int jumps = 0;
+    for (int i = 1; i < W * W; i++) {
+        int dx = abs((int)(order[i] % W) - (int)(order[i - 1] % W));
+        int dy = abs((int)(order[i] / W) - (int)(order[i - 1] / W));
+        jumps += dx + dy != 1;
+    }
+    CHECK(jumps == 0, "hilbert 32x32 has %d non-adjacent steps", jumps);
+    /* The curve of side 2 is (0,0) (0,1) (1,1) (1,0). */
+    uint32_t x, y;
+    rt_hilbert_d2xy(2, 0, &x, &y); CHECK(x == 0 && y == 0, "d=0");
+    rt_hilbert_d2xy(2, 1, &x, &y); CHECK(x == 0 && y == 1, "d=1");
+    rt_hilbert_d2xy(2, 2, &x, &y); CHECK(x == 1 && y == 1, "d=2");
+    rt_hilbert_d2xy(2, 3, &x, &y); CHECK(x == 1 && y == 0, "d=3");
+}
+
+static void test_exr(void)
+{
+    rt_err e = {""};
+    rt_image *im = rt_image_new(37, 19, &e);
+    CHECK(im != NULL, "image_new: %s", e.msg);
+    if (!im) return;
+    for (int i = 0; i < 37 * 19; i++) {
+        im->rgb[3 * i] = (float)i * 0.25f;
+        im->rgb[3 * i + 1] = -1.0f / (float)(i + 1);
+        im->rgb[3 * i + 2] = 1e30f;
+        im->nodes[i] = (float)(i % 97);
+        im->tests[i] = (float)(i * 3);
+        im->depth[i] = (i % 5) ? (float)i : INFINITY;
+    }
+    char path[] = "/tmp/rt_test_exr_XXXXXX";
+    int fd = mkstemp(path);
+    close(fd);
+    rt_exr_attr a[] = {{"raytraffic:test", "yes"}};
+    CHECK(rt_exr_write(path, im, a, 1, &e) == 0, "exr write: %s", e.msg);
+    rt_image *back = rt_exr_read(path, &e);
+    CHECK(back != NULL, "exr read: %s", e.msg);
+    if (back) {
+        size_t n = 37 * 19;
+        CHECK(back->W == 37 && back->H == 19, "size %dx%d", back->W, back->H);
+        CHECK(!memcmp(back->rgb, im->rgb, n * 3 * sizeof(float)), "rgb differs");
+        CHECK(!memcmp(back->nodes, im->nodes, n * sizeof(float)), "nodes differ");
+        CHECK(!memcmp(back->tests, im->tests, n * sizeof(float)), "tests differ");
+        CHECK(!memcmp(back->depth, im->depth, n * sizeof(float)), "depth differs");
+    }
+    rt_image_free(back);
+    /* A file that is not an EXR gives an error naming it. */
+    FILE *f = fopen(path, "wb");
+    fputs("not an exr", f);
+    fclose(f);
+    back = rt_exr_read(path, &e);
+    CHECK(back == NULL && strstr(e.msg, path), "bad exr accepted or message lacks path: %s", e.msg);
+    rt_image_free(back);
+    CHECK(rt_exr_write("/nonexistent-dir/x.exr", im, NULL, 0, &e) < 0 && strstr(e.msg, "/nonexistent-dir"),
+          "unwritable path: %s", e.msg);
+    unlink(path);
+    rt_image_free(im);
+}
+
+static void test_memmodel(void)
+{
+    rt_layout L;
+    rt_err e;
+    rt_mm_init(&L);
+    int a = rt_mm_add(&L, "a", RT_CLS_NODE, 8, 1000, &e);
+    int b = rt_mm_add(&L, "b", RT_CLS_TRI, 36, 3, &e);
+    int c = rt_mm_add(&L, "c", RT_CLS_RAY, 32, 0, &e);
+    CHECK(a == 0 && b == 1 && c == 2, "indices");
+    CHECK(L.r[0].base == RT_MM_BASE, "first base");
+    CHECK(L.r[1].base == RT_MM_BASE + 8192, "second base %llx", (unsigned long long)L.r[1].base);
+    CHECK(L.r[2].base == L.r[1].base + 4096, "third base");
+    CHECK(rt_mm_addr(&L, b, 2) == L.r[1].base + 72, "record address");
+    CHECK(rt_mm_find(&L, "c") == 2 && rt_mm_find(&L, "zz") == -1, "find");
+    CHECK(rt_class_group(RT_CLS_SHADE) == RT_GROUP_GEOMETRY && rt_class_group(RT_CLS_QUEUE) == RT_GROUP_RAY &&
+              rt_class_group(RT_CLS_FB) == RT_GROUP_OTHER,
+          "groups");
+    for (int k = 0; k < RT_NCLASS; k++) CHECK(rt_class_from_name(rt_class_name(k)) == k, "class name %d", k);
+}
+
+static void test_parsers(void)
+{
+    uint64_t v;
+    CHECK(rt_parse_size("64K", &v) == 0 && v == 65536, "64K");
+    CHECK(rt_parse_size("4M", &v) == 0 && v == 4194304, "4M");
+    CHECK(rt_parse_size("1kb", &v) == 0 && v == 1024, "1kb");
+    CHECK(rt_parse_size("100", &v) == 0 && v == 100, "100");
+    CHECK(rt_parse_size("-1", &v) < 0 && rt_parse_size("1X", &v) < 0 && rt_parse_size("", &v) < 0, "bad sizes");
+    CHECK(rt_parse_size("99999999999999999999", &v) < 0 && rt_parse_size("17179869184G", &v) < 0, "overflow");
+    unsigned m;
+    CHECK(rt_parse_lights("all", &m) == 0 && m == 7, "all");
+    CHECK(rt_parse_lights("none", &m) == 0 && m == 0, "none");
+    CHECK(rt_parse_lights("0,2", &m) == 0 && m == 5, "0,2");
+    CHECK(rt_parse_lights("3", &m) < 0 && rt_parse_lights("0,", &m) < 0 && rt_parse_lights("a", &m) < 0, "bad");
+    CHECK(fabs(rt_dtan(0.5) - 0.54630248984379051) < 1e-15, "dtan");
+    CHECK(fabs(rt_dtan(1.2) - 2.5721516221263188) < 1e-13, "dtan 1.2");
+}
+
+int main(void)
+{
+    test_hilbert();
+    test_exr();
+    test_memmodel();
+    test_parsers();
+    if (failures) fprintf(stderr, "%d failure(s)\n", failures);
+    return failures ? 1 : 0;
+}

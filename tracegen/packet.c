@@ -1,0 +1,305 @@
+/*
+ * packet.c -- ray packets: P x P pixels (default 8 x 8) traced together.
+ *
+ * Packets tile the image in row-major order. A packet descends the k-d tree
+ * front to back (front as seen by its first active ray) and visits a child
+ * when any of its active rays' parametric intervals reaches it; each ray
+ * keeps its own interval and closest hit, and a ray leaves the packet's
+ * traversal once its best hit lies before the interval of the node about
+ * to be visited, so every ray finds exactly the hit a single-ray traversal
+ * (and brute force) finds. Shadow rays are traced as one packet per light
+ * from the packet's hit points (any hit ends a ray).
+ *
+ * Memory accesses: each node is read once per packet visit (8 B), a leaf's
+ * index list once per visit, each triangle once per packet test (36 B),
+ * each primary ray record once (32 B); per-ray hit records (t, triangle:
+ * 8 B) live in a P*P-entry packet buffer that is rewritten for every packet
+ * and read back for shading and shadow-ray setup.
+ */
+#include "tracer.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+typedef struct plist {
+    int n;          /* active rays */
+    uint16_t *idx;  /* ray index within the packet */
+    float *t0, *t1; /* per-ray interval in the current node */
+} plist;
+
+typedef struct pstate {
+    rt_trav *tv;
+    const rt_kdtree *kd;
+    const rt_scene *sc;
+    rt_rec *rec;
+    const rt_layout *L;
+    int reg_node, reg_idx, reg_tri;
+    rt_ray *ray;     /* P*P rays */
+    rt_hit *hit;     /* closest hits (primary) */
+    uint8_t *done;   /* shadow: occluded */
+    int shadow;      /* any-hit mode */
+    float *pnodes;   /* per-ray node visits (cost channel) */
+    float *ptests;   /* per-ray triangle tests */
+    plist *store;    /* 2 lists per depth */
+    int maxdepth;
+} pstate;
+
+/* Drops rays that no longer need this node: occluded shadow rays, or rays
+ * whose best hit lies strictly before the node's interval. */
+static void prune(const pstate *ps, plist *l)
+{
+    int k = 0;
+    for (int j = 0; j < l->n; j++) {
+        int i = l->idx[j];
+        if (ps->shadow ? ps->done[i] : (ps->hit[i].tri != RT_NO_HIT && ps->hit[i].t < l->t0[j])) continue;
+        l->idx[k] = l->idx[j];
+        l->t0[k] = l->t0[j];
+        l->t1[k] = l->t1[j];
+        k++;
+    }
+    l->n = k;
+}
+
+static void leaf(pstate *ps, const rt_kdnode *nd, plist *l)
+{
+    uint32_t n = rt_kd_ntri(nd), first = rt_kd_first(nd);
+    if (n == 0) return;
+    RT_REC(ps->rec, rt_mm_addr(ps->L, ps->reg_idx, first), 4 * n, 0, RT_CLS_INDEX);
+    for (uint32_t k = 0; k < n && l->n > 0; k++) {
+        uint32_t tri = ps->kd->idx[first + k];
+        const rt_tri *T = &ps->sc->tri[tri];
+        RT_REC(ps->rec, rt_mm_addr(ps->L, ps->reg_tri, tri), 36, 0, RT_CLS_TRI);
+        if (ps->tv->mark) ps->tv->mark[tri] |= ps->tv->mark_bit;
+        for (int j = 0; j < l->n; j++) {
+            int i = l->idx[j];
+            float t, u, v;
+            ps->tv->tests++;
+            ps->ptests[i] += 1;
+            if (!rt_isect_tri(&ps->ray[i], T, &t, &u, &v)) continue;
+            if (ps->shadow) {
+                ps->done[i] = 1;
+            } else {
+                rt_hit *h = &ps->hit[i];
+                if (h->tri == RT_NO_HIT || t < h->t || (t == h->t && tri < h->tri)) {
+                    h->t = t;
+                    h->tri = tri;
+                    h->u = u;
+                    h->v = v;
+                }
+            }
+        }
+        if (ps->shadow) prune(ps, l);
+    }
+}
+
+static void visit(pstate *ps, uint32_t node, plist *l, int depth)
+{
+    prune(ps, l);
+    if (l->n == 0) return;
+    const rt_kdnode *nd = &ps->kd->nodes[node];
+    RT_REC(ps->rec, rt_mm_addr(ps->L, ps->reg_node, node), 8, 0, RT_CLS_NODE);
+    ps->tv->nodes++;
+    for (int j = 0; j < l->n; j++) ps->pnodes[l->idx[j]] += 1;
+    if (rt_kd_is_leaf(nd)) {
+        leaf(ps, nd, l);
+        return;
+    }
+    int axis = rt_kd_axis(nd);
+    float split = rt_kd_split(nd);
+    plist *first = &ps->store[2 * depth], *second = &ps->store[2 * depth + 1];
+    /* The packet's order: the first active ray's near child goes first. */
+    const rt_ray *r0 = &ps->ray[l->idx[0]];
+    float o0 = rt_axis(r0->o, axis), d0 = rt_axis(r0->d, axis);
+    int below_first_pkt = o0 < split || (o0 == split && d0 <= 0);
+    uint32_t child_first = below_first_pkt ? node + 1 : rt_kd_above(nd);
+    uint32_t child_second = below_first_pkt ? rt_kd_above(nd) : node + 1;
+    first->n = second->n = 0;
+    for (int j = 0; j < l->n; j++) {
+        int i = l->idx[j];
+        const rt_ray *r = &ps->ray[i];
+        float o = rt_axis(r->o, axis), d = rt_axis(r->d, axis), inv = rt_axis(r->inv_d, axis);
+        float tp = (split - o) * inv;
+        int below_first = o < split || (o == split && d <= 0);
+        float t0 = l->t0[j], t1 = l->t1[j];
+        /* near/far as in single-ray traversal; then mapped to packet order */
+        int near_is_first = below_first == below_first_pkt;
+        plist *nearl = near_is_first ? first : second, *farl = near_is_first ? second : first;
+        if (tp > t1 || tp <= 0) {
+            nearl->idx[nearl->n] = (uint16_t)i, nearl->t0[nearl->n] = t0, nearl->t1[nearl->n++] = t1;
+        } else if (tp < t0) {
+            farl->idx[farl->n] = (uint16_t)i, farl->t0[farl->n] = t0, farl->t1[farl->n++] = t1;
+        } else {
+            nearl->idx[nearl->n] = (uint16_t)i, nearl->t0[nearl->n] = t0, nearl->t1[nearl->n++] = tp;
+            farl->idx[farl->n] = (uint16_t)i, farl->t0[farl->n] = tp, farl->t1[farl->n++] = t1;
+        }
+    }
+    if (first->n) visit(ps, child_first, first, depth + 1);
+    if (second->n) visit(ps, child_second, second, depth + 1);
+}
+
+static int pk_layout(const rt_tracer_ctx *ctx, rt_layout *L, rt_err *e)
+{
+    size_t npix = (size_t)ctx->opt->W * (size_t)ctx->opt->H;
+    int P = ctx->opt->packet;
+    if (rt_layout_geometry(ctx, L, 1, e) < 0) return -1;
+    if (rt_mm_add(L, "rays.primary", RT_CLS_RAY, 32, npix, e) < 0) return -1;
+    if (rt_mm_add(L, "packet.hits", RT_CLS_HIT, 8, (uint64_t)P * P, e) < 0) return -1;
+    if (rt_mm_add(L, "fb", RT_CLS_FB, 12, npix, e) < 0) return -1;
+    return 0;
+}
+
+/* Traces the packet's active rays (list l, intervals already clipped). */
+static void trace_packet(pstate *ps, plist *l)
+{
+    if (l->n) visit(ps, 0, l, 0);
+}
+
+static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_err *e)
+{
+    const rt_scene *sc = ctx->sc;
+    const rt_render_opts *o = ctx->opt;
+    const int W = o->W, H = o->H, P = o->packet, NP = P * P;
+    const rt_layout *L = ctx->L;
+    rt_rec *rec = ctx->rec;
+    int reg_ray = rt_mm_find(L, "rays.primary"), reg_fb = rt_mm_find(L, "fb");
+    int reg_shade = rt_mm_find(L, "tri.shade"), reg_hits = rt_mm_find(L, "packet.hits");
+    rt_trav tv;
+    rt_trav_init(&tv, ctx);
+    pstate ps = {&tv, ctx->kd, sc, rec, L, tv.reg_node, tv.reg_idx, tv.reg_tri, NULL, NULL, NULL, 0, NULL, NULL, NULL, 0};
+    ps.maxdepth = (int)ctx->kd->maxdepth + 2;
+    int rc = -1;
+    rt_ray *eye = rt_calloc(NP, sizeof *eye, e);
+    rt_ray *sray = eye ? rt_calloc(NP, sizeof *sray, e) : NULL;
+    rt_hit *hit = sray ? rt_calloc(NP, sizeof *hit, e) : NULL;
+    uint8_t *done = hit ? rt_calloc(NP, 1, e) : NULL;
+    uint8_t *want = done ? rt_calloc(NP, 1, e) : NULL;
+    int *vis = want ? rt_calloc((size_t)NP * RT_NLIGHTS, sizeof *vis, e) : NULL;
+    float *pn = vis ? rt_calloc(NP, sizeof *pn, e) : NULL;
+    float *pt = pn ? rt_calloc(NP, sizeof *pt, e) : NULL;
+    uint8_t *mark = pt ? rt_calloc(sc->ntri ? sc->ntri : 1, 1, e) : NULL;
+    plist *store = mark ? rt_calloc((size_t)2 * (ps.maxdepth + 1) + 1, sizeof *store, e) : NULL;
+    void *pool = store ? rt_calloc(((size_t)2 * (ps.maxdepth + 1) + 1) * NP, 10, e) : NULL;
+    if (!pool) goto done;
+    {
+        unsigned char *p = pool;
+        for (int k = 0; k < 2 * (ps.maxdepth + 1) + 1; k++) {
+            store[k].t0 = (float *)p, p += 4 * (size_t)NP;
+            store[k].t1 = (float *)p, p += 4 * (size_t)NP;
+            store[k].idx = (uint16_t *)p, p += 2 * (size_t)NP;
+        }
+    }
+    ps.done = done;
+    ps.pnodes = pn;
+    ps.ptests = pt;
+    ps.store = store;
+    tv.mark = mark;
+    plist *top = &store[2 * (ps.maxdepth + 1)];
+    rt_cam_frame cam;
+    rt_cam_setup(&cam, sc, W, H);
+
+    for (int py = 0; py < H; py += P) {
+        for (int px = 0; px < W; px += P) {
+            int pw = W - px < P ? W - px : P, ph = H - py < P ? H - py : P;
+            int n = pw * ph;
+            /* primary rays */
+            top->n = 0;
+            for (int k = 0; k < n; k++) {
+                int x = px + k % pw, y = py + k / pw;
+                uint32_t pix = (uint32_t)y * (uint32_t)W + (uint32_t)x;
+                RT_REC(rec, rt_mm_addr(L, reg_ray, pix), 32, 0, RT_CLS_RAY);
+                rt_camera_ray(&cam, x, y, &eye[k]);
+                hit[k].tri = RT_NO_HIT;
+                hit[k].t = INFINITY;
+                pn[k] = pt[k] = 0;
+                float t0, t1;
+                if (rt_kd_clip(ctx->kd, &eye[k], &t0, &t1)) {
+                    top->idx[top->n] = (uint16_t)k, top->t0[top->n] = t0, top->t1[top->n++] = t1;
+                }
+            }
+            st->rays_primary += (uint64_t)n;
+            ps.ray = eye;
+            ps.hit = hit;
+            ps.shadow = 0;
+            tv.mark_bit = 1;
+            trace_packet(&ps, top);
+            for (int k = 0; k < n; k++) RT_REC(rec, rt_mm_addr(L, reg_hits, k), 8, 1, RT_CLS_HIT);
+            /* shadow packets, one per light */
+            memset(vis, 0, sizeof(int) * (size_t)NP * RT_NLIGHTS);
+            for (int li = 0; li < RT_NLIGHTS; li++) {
+                if (!(o->lights & (1u << li))) continue;
+                top->n = 0;
+                for (int k = 0; k < n; k++) {
+                    RT_REC(rec, rt_mm_addr(L, reg_hits, k), 8, 0, RT_CLS_HIT);
+                    want[k] = 0;
+                    done[k] = 0;
+                    if (hit[k].tri == RT_NO_HIT) continue;
+                    if (!rt_shadow_ray(sc, &eye[k], &hit[k], li, &sray[k])) continue;
+                    want[k] = 1;
+                    st->rays_shadow++;
+                    float t0, t1;
+                    if (rt_kd_clip(ctx->kd, &sray[k], &t0, &t1)) {
+                        top->idx[top->n] = (uint16_t)k, top->t0[top->n] = t0, top->t1[top->n++] = t1;
+                    }
+                }
+                ps.ray = sray;
+                ps.shadow = 1;
+                tv.mark_bit = 2;
+                trace_packet(&ps, top);
+                for (int k = 0; k < n; k++) vis[k * RT_NLIGHTS + li] = want[k] && !done[k];
+            }
+            /* shade and write */
+            for (int k = 0; k < n; k++) {
+                int x = px + k % pw, y = py + k / pw;
+                uint32_t pix = (uint32_t)y * (uint32_t)W + (uint32_t)x;
+                float rgb[3];
+                RT_REC(rec, rt_mm_addr(L, reg_hits, k), 8, 0, RT_CLS_HIT);
+                if (hit[k].tri != RT_NO_HIT) {
+                    RT_REC(rec, rt_mm_addr(L, reg_shade, hit[k].tri), 16, 0, RT_CLS_SHADE);
+                    rt_shade_hit(sc, &eye[k], &hit[k], &vis[k * RT_NLIGHTS], o->lights, rgb);
+                    img->depth[pix] = hit[k].t * rt_len(eye[k].d);
+                } else {
+                    rgb[0] = sc->background.x;
+                    rgb[1] = sc->background.y;
+                    rgb[2] = sc->background.z;
+                    img->depth[pix] = INFINITY;
+                }
+                img->rgb[3 * pix] = rgb[0];
+                img->rgb[3 * pix + 1] = rgb[1];
+                img->rgb[3 * pix + 2] = rgb[2];
+                img->nodes[pix] = pn[k];
+                img->tests[pix] = pt[k];
+                RT_REC(rec, rt_mm_addr(L, reg_fb, pix), 12, 1, RT_CLS_FB);
+            }
+        }
+    }
+    st->nodes = tv.nodes;
+    st->tests = tv.tests;
+    for (uint32_t i = 0; i < sc->ntri; i++) {
+        st->pv_primary += mark[i] & 1;
+        st->pv_all += mark[i] != 0;
+    }
+    snprintf(st->extra, sizeof st->extra, "packet=%d nodes=packet node visits tests=ray-triangle tests", P);
+    rc = 0;
+done:
+    free(pool);
+    free(store);
+    free(mark);
+    free(pt);
+    free(pn);
+    free(vis);
+    free(want);
+    free(done);
+    free(hit);
+    free(sray);
+    free(eye);
+    return rc;
+}
+
+const rt_tracer rt_tracer_packet = {
+    "packet",
+    "P x P ray packets tiled over the image, shadow packets per light",
+    pk_layout,
+    pk_run,
+};

@@ -1,0 +1,114 @@
+/* run.c -- set up and run one rendering job (see run.h). */
+#include "run.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static int layout(rt_job *j, rt_err *e)
+{
+    rt_tracer_ctx ctx = {j->sc, j->kd, &j->opt, &j->L, NULL};
+    rt_mm_init(&j->L);
+    return j->tr->layout(&ctx, &j->L, e);
+}
+
+static int check_opts(const rt_render_opts *o, rt_err *e)
+{
+    if (o->W <= 0 || o->H <= 0 || o->W > 65536 || o->H > 65536)
+        return rt_errf(e, "image size %dx%d out of range (1..65536)", o->W, o->H);
+    if (o->packet <= 0 || o->packet > 256) return rt_errf(e, "packet size %d out of range (1..256)", o->packet);
+    return 0;
+}
+
+int rt_job_setup_borrowed(rt_job *j, rt_scene *sc, rt_kdtree *kd, const char *tracer, const rt_render_opts *o,
+                          rt_err *e)
+{
+    memset(j, 0, sizeof *j);
+    j->tr = rt_tracer_find(tracer);
+    if (!j->tr) return rt_errf(e, "unknown tracer '%s'", tracer);
+    if (check_opts(o, e) < 0) return -1;
+    j->sc = sc;
+    j->kd = kd;
+    j->opt = *o;
+    j->kd_sec = kd->build_sec;
+    j->borrowed = 1;
+    return layout(j, e);
+}
+
+int rt_job_setup(rt_job *j, const char *scene_spec, const char *tracer, const rt_render_opts *o, rt_err *e)
+{
+    memset(j, 0, sizeof *j);
+    j->tr = rt_tracer_find(tracer);
+    if (!j->tr) return rt_errf(e, "unknown tracer '%s'", tracer);
+    if (check_opts(o, e) < 0) return -1;
+    j->opt = *o;
+    j->sc = rt_scene_load(scene_spec, e);
+    if (!j->sc) return -1;
+    rt_kd_params kp;
+    rt_kd_default_params(&kp);
+    j->kd = rt_kd_build(j->sc, &kp, e);
+    if (!j->kd) {
+        rt_job_free(j);
+        return -1;
+    }
+    j->kd_sec = j->kd->build_sec;
+    if (layout(j, e) < 0) {
+        rt_job_free(j);
+        return -1;
+    }
+    return 0;
+}
+
+int rt_job_run(rt_job *j, rt_sink *sink, rt_image *img, rt_run_stats *st, rt_err *e)
+{
+    rt_rec *rec = NULL;
+    memset(st, 0, sizeof *st);
+    if (img->W != j->opt.W || img->H != j->opt.H)
+        return rt_errf(e, "image is %dx%d, job wants %dx%d", img->W, img->H, j->opt.W, j->opt.H);
+    if (sink && !(rec = rt_rec_new(sink, e))) return -1;
+    rt_tracer_ctx ctx = {j->sc, j->kd, &j->opt, &j->L, rec};
+    double t0 = rt_now();
+    int rc = j->tr->run(&ctx, img, st, e);
+    if (rec) {
+        if (rt_rec_flush(rec) < 0 && rc == 0) rc = rt_errf(e, "trace sink failed");
+        st->accesses = rec->total;
+        rt_rec_free(rec);
+    }
+    st->seconds = rt_now() - t0;
+    return rc;
+}
+
+void rt_job_meta(const rt_job *j, const char *command, rt_tr_meta *m)
+{
+    memset(m, 0, sizeof *m);
+    snprintf(m->tool_version, sizeof m->tool_version, "%s", rt_version());
+    snprintf(m->git_rev, sizeof m->git_rev, "%s", rt_git_rev());
+    snprintf(m->command, sizeof m->command, "%s", command ? command : "");
+    snprintf(m->scene, sizeof m->scene, "%s", j->sc->name);
+    snprintf(m->scene_params, sizeof m->scene_params, "%s", j->sc->params);
+    m->scene_hash = rt_scene_hash(j->sc);
+    m->ntri = j->sc->ntri;
+    snprintf(m->tracer, sizeof m->tracer, "%s", j->tr->name);
+    m->W = j->opt.W;
+    m->H = j->opt.H;
+    m->lights = j->opt.lights;
+    if (!strcmp(j->tr->name, "dynamic")) {
+        m->cache_size = j->opt.cache_size;
+        m->gmax = j->opt.gmax;
+        snprintf(m->params, sizeof m->params, "qorder=%s threads=%d",
+                 j->opt.qorder == RT_QORDER_TREE ? "tree" : "fullest", j->opt.threads);
+    } else if (!strcmp(j->tr->name, "packet")) {
+        snprintf(m->params, sizeof m->params, "packet=%d", j->opt.packet);
+    }
+    m->layout = j->L;
+}
+
+void rt_job_free(rt_job *j)
+{
+    if (!j) return;
+    if (!j->borrowed) {
+        rt_kd_free(j->kd);
+        rt_scene_free(j->sc);
+    }
+    memset(j, 0, sizeof *j);
+}
