@@ -17,9 +17,7 @@ extern const rt_tracer rt_tracer_dynamic;
 const rt_tracer *const rt_tracers[] = {
     &rt_tracer_recursive,
     &rt_tracer_packet,
-#ifdef RT_HAVE_DYNAMIC
     &rt_tracer_dynamic,
-#endif
     NULL,
 };
 

@@ -1,0 +1,39 @@
+/*
+ * dynamic.h -- dynamic ray scheduling (Navrátil, Fussell, Lin 2007, sec. 2):
+ * queue-point selection, exposed for tests and reports.
+ *
+ * Subtree geometry g(n) is the upper bound, in bytes, of what processing
+ * the subtree rooted at n can bring into the cache: 8 bytes per node of the
+ * subtree plus, per leaf, its index list (4 B per entry) and its triangles
+ * (36 B each; a triangle referenced by several leaves counts once per leaf,
+ * so g is an upper bound, never an underestimate).
+ *
+ * Queue points are the first nodes on each branch, from the root down,
+ * with 0 < g(n) <= g_max; a leaf with triangles is a queue point even when
+ * its geometry exceeds g_max (it is then processed in cache-sized blocks).
+ * Subtrees holding no triangles are never queue points: rays cross them in
+ * the tree top without stopping. The root alone is the queue point when
+ * everything fits, and the scheduler degenerates to recursive order.
+ */
+#ifndef RT_DYNAMIC_H
+#define RT_DYNAMIC_H
+
+#include "kdtree.h"
+
+#include <stdint.h>
+
+/* Fills g[0..nnodes) with subtree geometry bytes (see above). */
+void rt_dyn_subtree_geometry(const rt_kdtree *kd, uint64_t *g);
+
+/* Marks queue points: qp[n] = queue-point number (0.. in depth-first order)
+ * or -1. Returns the number of queue points; *ntop receives the number of
+ * tree-top nodes (non-queue-point nodes above the queue points). */
+uint32_t rt_dyn_select(const rt_kdtree *kd, const uint64_t *g, uint64_t gmax, int32_t *qp, uint32_t *ntop);
+
+/* Derives g_max for a cache of cache_bytes: the geometry that fits after the
+ * resident tree top (8 B per node), the queue table (8 B per queue point)
+ * and the ray buffer (raybuf_bytes), iterated to a fixed point. Returns 0
+ * when nothing fits (then every leaf with triangles is a queue point). */
+uint64_t rt_dyn_derive_gmax(const rt_kdtree *kd, const uint64_t *g, uint64_t cache_bytes, uint64_t raybuf_bytes);
+
+#endif
