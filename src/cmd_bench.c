@@ -1,15 +1,226 @@
-/* cmd_bench.c -- `raytraffic bench` (not yet implemented). */
+/* cmd_bench.c -- `raytraffic bench`: throughput figures for the README.
+ *
+ * Measures, on one core: k-d tree build time; primary-ray throughput of each
+ * tracer untraced, recording into a null sink (the cost of recording), into
+ * a trace file (recording + encoding + zlib), and streaming into the
+ * one-pass 13-size cache simulator; and the simulator's own throughput on a
+ * synthetic trace. Results go to stdout as a Markdown table (or TSV). */
 #include "cmd.h"
+#include "run.h"
+#include "sim.h"
+#include "trace.h"
 
+#include <inttypes.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
+
+static void usage(FILE *f)
+{
+    fprintf(f,
+            "Usage: raytraffic bench [options]\n\n"
+            "Measures tracer, trace and simulator throughput on one core.\n\n"
+            "Options:\n"
+            "  --scene SPEC       scene (default sphereflake)\n"
+            "  -W N, -H N         image size (default 1024x1024)\n"
+            "  --lights L         lights for the tracer runs (default none: primary rays)\n"
+            "  --tracers LIST     comma list (default recursive,packet,dynamic)\n"
+            "  --cache-size S     dynamic tracer's schedule (default 64K)\n"
+            "  --what LIST        tracers,trace,sim (default all three)\n"
+            "  --sim-refs N       synthetic simulator trace length (default 20000000)\n"
+            "  --tmpdir DIR       where trace files are written (default /tmp)\n"
+            "  -h, --help         this help\n");
+}
+
+static int null_put(rt_sink *s, const rt_access *a, size_t n)
+{
+    (void)a;
+    *(uint64_t *)s->ctx += n;
+    return 0;
+}
+
+static int bench_tracer(rt_job *j, const char *tmpdir, int do_trace, int do_sim)
+/* do_sim here: also stream the tracer into the simulator in-process */
+{
+    rt_err e = {""};
+    rt_image *img = rt_image_new(j->opt.W, j->opt.H, &e);
+    rt_run_stats st;
+    if (!img) return -1;
+    const char *name = j->tr->name;
+    uint64_t rays;
+    /* untraced */
+    if (rt_job_run(j, NULL, img, &st, &e) < 0) goto fail;
+    rays = st.rays_primary + st.rays_shadow;
+    double base = st.seconds;
+    printf("| %s | untraced | %.2f | %.2f | | |\n", name, st.seconds, (double)rays / st.seconds * 1e-6);
+    fflush(stdout);
+    /* recording into a null sink */
+    uint64_t cnt = 0;
+    rt_sink ns = {null_put, &cnt};
+    if (rt_job_run(j, &ns, img, &st, &e) < 0) goto fail;
+    printf("| %s | recording (null sink) | %.2f | %.2f | %.1f | %.2f |\n", name, st.seconds,
+           (double)rays / st.seconds * 1e-6, (double)st.accesses / (double)rays, st.seconds / base);
+    fflush(stdout);
+    if (do_trace) {
+        char path[4096];
+        snprintf(path, sizeof path, "%s/rt-bench-%ld.rtt", tmpdir, (long)getpid());
+        rt_tr_meta m;
+        rt_job_meta(j, rt_cmd_line(), &m);
+        rt_tr_writer *w = rt_tr_create(path, &m, &e);
+        if (!w) goto fail;
+        double t0 = rt_now();
+        if (rt_job_run(j, rt_tr_sink(w), img, &st, &e) < 0) {
+            rt_tr_abort(w);
+            goto fail;
+        }
+        if (rt_tr_finish(w, &e) < 0) goto fail;
+        double sec = rt_now() - t0;
+        FILE *f = fopen(path, "rb");
+        long bytes = 0;
+        if (f) {
+            fseek(f, 0, SEEK_END);
+            bytes = ftell(f);
+            fclose(f);
+        }
+        printf("| %s | trace file (%.2f B/ref, %.1f MB) | %.2f | %.2f | %.1f | %.2f |\n", name,
+               st.accesses ? (double)bytes / (double)st.accesses : 0.0, bytes / 1048576.0, sec,
+               (double)rays / sec * 1e-6, (double)st.accesses / (double)rays, sec / base);
+        fflush(stdout);
+        unlink(path);
+    }
+    if (do_sim) {
+        rt_sim_config c;
+        rt_sim_config_default(&c);
+        rt_sim *s = rt_sim_new(&c, &e);
+        if (!s) goto fail;
+        double t0 = rt_now();
+        if (rt_job_run(j, rt_sim_sink(s), img, &st, &e) < 0) {
+            rt_sim_free(s);
+            goto fail;
+        }
+        double sec = rt_now() - t0;
+        printf("| %s | in-process 13-size simulation | %.2f | %.2f | %.1f | %.2f |\n", name, sec,
+               (double)rays / sec * 1e-6, (double)st.accesses / (double)rays, sec / base);
+        fflush(stdout);
+        rt_sim_free(s);
+    }
+    rt_image_free(img);
+    return 0;
+fail:
+    rt_cmd_error("bench", "%s", e.msg);
+    rt_image_free(img);
+    return -1;
+}
 
 int main_bench(int argc, char **argv)
 {
-    if (argc > 1 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
-        printf("Usage: raytraffic bench (not yet implemented)\n");
-        return RT_EXIT_OK;
+    static const struct option own[] = {
+        {"scene", required_argument, NULL, 's'},
+        {"tracers", required_argument, NULL, 'T'},
+        {"what", required_argument, NULL, 'w'},
+        {"sim-refs", required_argument, NULL, 'n'},
+        {"tmpdir", required_argument, NULL, 'd'},
+        {"help", no_argument, NULL, 'h'},
+        {NULL, 0, NULL, 0},
+    };
+    rt_render_opts o;
+    rt_render_default_opts(&o);
+    o.W = o.H = 1024;
+    const char *scene = "sphereflake", *tracers = "recursive,packet,dynamic", *what = "tracers,trace,sim";
+    const char *tmpdir = "/tmp", *dummy = NULL;
+    uint64_t simrefs = 20000000;
+    struct option *lo = rt_cmd_merge_opts(own);
+    int c;
+    if (!lo) return RT_EXIT_FAIL;
+    optind = 1;
+    while ((c = getopt_long(argc, argv, "h" RT_RENDER_SHORTOPTS, lo, NULL)) != -1) {
+        int r = rt_cmd_render_opt("bench", c, optarg, &o, &dummy);
+        if (r < 0) {
+            free(lo);
+            return RT_EXIT_USAGE;
+        }
+        if (r > 0) continue;
+        switch (c) {
+        case 's': scene = optarg; break;
+        case 'T': tracers = optarg; break;
+        case 'w': what = optarg; break;
+        case 'd': tmpdir = optarg; break;
+        case 'n':
+            if (rt_parse_size(optarg, &simrefs) < 0 || simrefs == 0) {
+                rt_cmd_error("bench", "--sim-refs: '%s' is not a positive count", optarg);
+                free(lo);
+                return RT_EXIT_USAGE;
+            }
+            break;
+        case 'h': usage(stdout); free(lo); return RT_EXIT_OK;
+        default: free(lo); return RT_EXIT_USAGE;
+        }
     }
-    rt_cmd_error("bench", "not yet implemented");
-    return RT_EXIT_FAIL;
+    free(lo);
+    if (optind != argc) {
+        rt_cmd_error("bench", "unexpected argument '%s'", argv[optind]);
+        return RT_EXIT_USAGE;
+    }
+    int do_tr = 0, do_trace = 0, do_sim = 0;
+    {
+        char *list = strdup(what), *save = NULL;
+        for (char *t = strtok_r(list, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
+            if (!strcmp(t, "tracers")) do_tr = 1;
+            else if (!strcmp(t, "trace")) do_trace = 1;
+            else if (!strcmp(t, "sim")) do_sim = 1;
+            else {
+                rt_cmd_error("bench", "--what: unknown item '%s' (tracers, trace, sim)", t);
+                free(list);
+                return RT_EXIT_USAGE;
+            }
+        }
+        free(list);
+    }
+    printf("raytraffic %s (%s) bench: scene %s, %dx%d, lights %u, one core\n\n", rt_version(), rt_git_rev(), scene,
+           o.W, o.H, o.lights);
+    if (do_tr || do_trace) {
+        rt_err e = {""};
+        rt_scene *sc = rt_scene_load(scene, &e);
+        if (!sc) {
+            rt_cmd_error("bench", "%s", e.msg);
+            return RT_EXIT_FAIL;
+        }
+        rt_kd_params kp;
+        rt_kd_default_params(&kp);
+        rt_kdtree *kd = rt_kd_build(sc, &kp, &e);
+        if (!kd) {
+            rt_cmd_error("bench", "%s", e.msg);
+            rt_scene_free(sc);
+            return RT_EXIT_FAIL;
+        }
+        printf("k-d tree: %" PRIu32 " triangles, %" PRIu32 " nodes, %" PRIu32 " leaves, depth %" PRIu32
+               ", %.2f triangles per non-empty leaf, built in %.2f s\n\n",
+               sc->ntri, kd->nnodes, kd->nleaves, kd->maxdepth, rt_kd_mean_leaf_tris(kd), kd->build_sec);
+        printf("| tracer | mode | seconds | Mrays/s | refs/ray | time vs untraced |\n|---|---|---|---|---|---|\n");
+        char *list = strdup(tracers), *save = NULL;
+        int rc = 0;
+        for (char *t = strtok_r(list, ",", &save); t && rc == 0; t = strtok_r(NULL, ",", &save)) {
+            rt_job j;
+            rt_err e2 = {""};
+            if (rt_job_setup_borrowed(&j, sc, kd, t, &o, &e2) < 0) {
+                rt_cmd_error("bench", "%s", e2.msg);
+                rc = -1;
+                break;
+            }
+            rc = bench_tracer(&j, tmpdir, do_trace, do_sim);
+            rt_job_free(&j);
+        }
+        free(list);
+        rt_kd_free(kd);
+        rt_scene_free(sc);
+        if (rc < 0) return RT_EXIT_FAIL;
+        printf("\n");
+    }
+    if (do_sim) {
+        printf("Cache simulator on a synthetic trace:\n\n");
+        fflush(stdout);
+        if (rt_sim_bench_n(stdout, simrefs) < 0) return RT_EXIT_FAIL;
+    }
+    return RT_EXIT_OK;
 }

@@ -97,8 +97,10 @@ uint32_t rt_dyn_select(const rt_kdtree *kd, const uint64_t *g, uint64_t gmax, in
     return nq;
 }
 
-uint64_t rt_dyn_derive_gmax(const rt_kdtree *kd, const uint64_t *g, uint64_t cache_bytes, uint64_t raybuf_bytes)
+uint64_t rt_dyn_derive_gmax(const rt_kdtree *kd, const uint64_t *g, uint64_t cache_bytes, uint64_t raybuf_bytes,
+                            int *fallback)
 {
+    if (fallback) *fallback = 0;
     if (cache_bytes <= raybuf_bytes) return 0;
     int32_t *qp = malloc(sizeof *qp * (kd->nnodes ? kd->nnodes : 1));
     if (!qp) return 0;
@@ -112,6 +114,12 @@ uint64_t rt_dyn_derive_gmax(const rt_kdtree *kd, const uint64_t *g, uint64_t cac
         if (gm == 0) break;
     }
     free(qp);
+    if (gm == 0) {
+        /* The tree top cannot be resident at all: give half the cache to
+         * subtree geometry and let the top stream (docs/tracers.md). */
+        gm = (cache_bytes - raybuf_bytes) / 2;
+        if (fallback) *fallback = 1;
+    }
     return gm;
 }
 
@@ -664,6 +672,7 @@ static uint64_t raybuf_bytes(const rt_render_opts *o) { return 2ull * (uint64_t)
 
 typedef struct sched {
     uint64_t gmax;
+    int fallback; /* top could not be resident: half-cache rule used */
     uint32_t nq, ntop;
     int32_t *qp;
 } sched;
@@ -678,7 +687,9 @@ static int schedule(const rt_tracer_ctx *ctx, sched *s, rt_err *e)
         return -1;
     }
     rt_dyn_subtree_geometry(kd, g);
-    s->gmax = ctx->opt->gmax ? ctx->opt->gmax : rt_dyn_derive_gmax(kd, g, ctx->opt->cache_size, raybuf_bytes(ctx->opt));
+    s->fallback = 0;
+    s->gmax = ctx->opt->gmax ? ctx->opt->gmax
+                             : rt_dyn_derive_gmax(kd, g, ctx->opt->cache_size, raybuf_bytes(ctx->opt), &s->fallback);
     s->nq = rt_dyn_select(kd, g, s->gmax, s->qp, &s->ntop);
     free(g);
     return 0;
@@ -729,7 +740,7 @@ static int dyn_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
     D.rbslots = (uint32_t)(2 * o->threads);
     rt_cam_setup(&D.cam, sc, o->W, o->H);
     int rc = -1;
-    sched s = {0, 0, 0, NULL};
+    sched s = {0, 0, 0, 0, NULL};
     uint32_t *order = NULL;
     uint8_t *want = NULL;
     if (schedule(ctx, &s, e) < 0) return -1;
@@ -830,11 +841,11 @@ static int dyn_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
         oversized += rt_kd_is_leaf(nd) && 40ull * rt_kd_ntri(nd) > D.gmax;
     }
     snprintf(st->extra, sizeof st->extra,
-             "gmax=%" PRIu64 " queue_points=%u top_nodes=%u oversized_leaves=%u enqueues=%" PRIu64
+             "gmax=%" PRIu64 " gmax_rule=%s queue_points=%u top_nodes=%u oversized_leaves=%u enqueues=%" PRIu64
              " queue_events=%" PRIu64 " rays_per_event_mean=%.1f rays_per_event_max=%" PRIu64
              " peak_queued_bytes=%" PRIu64 " events_per_queue_mean=%.2f events_per_queue_max=%u rays=%" PRIu64
              " resolved=%" PRIu64,
-             D.gmax, D.nq, D.ntop, oversized, D.enq, D.events, D.events ? (double)D.ev_rays / (double)D.events : 0.0,
+             D.gmax, o->gmax ? "given" : (s.fallback ? "half-cache" : "resident-top"), D.nq, D.ntop, oversized, D.enq, D.events, D.events ? (double)D.ev_rays / (double)D.events : 0.0,
              D.ev_max, D.peak_queued * 32, D.nq ? (double)D.events / D.nq : 0.0, qmax, D.created, D.done);
     rc = 0;
 done:
