@@ -1,15 +1,229 @@
-/* cmd_scene.c -- `raytraffic scene` (not yet implemented). */
+/*
+ * cmd_scene.c -- `raytraffic scene`: list the built-in scenes, describe a
+ * scene (triangles, bounds, identity hash, camera, lights and the statistics
+ * of its SAH k-d tree), and export a scene as OBJ.
+ *
+ *   raytraffic scene list
+ *   raytraffic scene info SCENE [--json] [--no-tree]
+ *   raytraffic scene export SCENE -o FILE.obj
+ */
+#include "config.h"
 #include "cmd.h"
+#include "kdtree.h"
+#include "scene.h"
 
+#include <inttypes.h>
 #include <stdio.h>
 #include <string.h>
 
-int main_scene(int argc, char **argv)
+static void usage(FILE *f)
 {
-    if (argc > 1 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
-        printf("Usage: raytraffic scene (not yet implemented)\n");
+    fprintf(f,
+            "Usage: raytraffic scene list\n"
+            "       raytraffic scene info SCENE [--json] [--no-tree]\n"
+            "       raytraffic scene export SCENE -o FILE.obj\n\n"
+            "SCENE is a built-in name with optional parameters (sphereflake:level=2,tess=3)\n"
+            "or a mesh file ending in .obj or .ply.\n\n"
+            "  list      built-in scenes, their parameters and one-line descriptions\n"
+            "  info      triangles, bounds, scene hash, camera, lights and k-d tree statistics\n"
+            "            --json     one JSON object on stdout\n"
+            "            --no-tree  skip building the k-d tree\n"
+            "  export    write the scene's triangles as Wavefront OBJ\n"
+            "            -o FILE    output file (required)\n");
+}
+
+static int cmd_list(int argc, char **argv)
+{
+    if (rt_cmd_wants_help(argc, argv)) {
+        usage(stdout);
         return RT_EXIT_OK;
     }
-    rt_cmd_error("scene", "not yet implemented");
-    return RT_EXIT_FAIL;
+    if (argc > 1) {
+        rt_cmd_error("scene", "list takes no arguments (got '%s')", argv[1]);
+        return RT_EXIT_USAGE;
+    }
+    for (int i = 0; rt_scene_builtin_names[i]; i++) {
+        const char *n = rt_scene_builtin_names[i];
+        char pbuf[512];
+        printf("%-12s %s\n", n, rt_scene_describe(n));
+        if (rt_scene_builtin_params(n, pbuf, sizeof pbuf) == 0 && pbuf[0])
+            printf("%-12s   params: %s\n", "", pbuf);
+    }
+    printf("%-12s %s\n", "FILE.obj", "Wavefront OBJ mesh (auto-framed camera, default lights)");
+    printf("%-12s %s\n", "FILE.ply", "Stanford PLY mesh, ascii or binary (auto-framed camera, default lights)");
+    return RT_EXIT_OK;
+}
+
+/* Prints s as a JSON string (escaping quotes, backslashes, controls). */
+static void json_str(const char *s)
+{
+    putchar('"');
+    for (; *s; s++) {
+        unsigned char c = (unsigned char)*s;
+        if (c == '"' || c == '\\') printf("\\%c", c);
+        else if (c < 0x20) printf("\\u%04x", c);
+        else putchar(c);
+    }
+    putchar('"');
+}
+
+static void json_vec(const char *key, rt_vec3 v, int comma)
+{
+    printf("  \"%s\": [%.9g, %.9g, %.9g]%s\n", key, (double)v.x, (double)v.y, (double)v.z, comma ? "," : "");
+}
+
+static int cmd_info(int argc, char **argv)
+{
+    if (rt_cmd_wants_help(argc, argv)) {
+        usage(stdout);
+        return RT_EXIT_OK;
+    }
+    const char *spec = NULL;
+    int json = 0, tree = 1;
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--json")) json = 1;
+        else if (!strcmp(argv[i], "--no-tree")) tree = 0;
+        else if (argv[i][0] == '-' && argv[i][1]) {
+            rt_cmd_error("scene", "info: unknown option '%s'", argv[i]);
+            return RT_EXIT_USAGE;
+        } else if (spec) {
+            rt_cmd_error("scene", "info: more than one scene given ('%s', '%s')", spec, argv[i]);
+            return RT_EXIT_USAGE;
+        } else spec = argv[i];
+    }
+    if (!spec) {
+        rt_cmd_error("scene", "info: no scene given (see 'raytraffic scene --help')");
+        return RT_EXIT_USAGE;
+    }
+    rt_err e = {""};
+    double t0 = rt_now();
+    rt_scene *s = rt_scene_load(spec, &e);
+    if (!s) {
+        rt_cmd_error("scene", "%s", e.msg);
+        return RT_EXIT_FAIL;
+    }
+    double load_sec = rt_now() - t0;
+    rt_kdtree *kd = NULL;
+    if (tree) {
+        rt_kd_params kp;
+        rt_kd_default_params(&kp);
+        kd = rt_kd_build(s, &kp, &e);
+        if (!kd) {
+            rt_cmd_error("scene", "%s: k-d tree: %s", spec, e.msg);
+            rt_scene_free(s);
+            return RT_EXIT_FAIL;
+        }
+    }
+    uint64_t h = rt_scene_hash(s);
+    if (json) {
+        printf("{\n  \"spec\": ");
+        json_str(spec);
+        printf(",\n  \"name\": ");
+        json_str(s->name);
+        printf(",\n  \"params\": ");
+        json_str(s->params);
+        printf(",\n  \"triangles\": %u,\n", s->ntri);
+        printf("  \"hash\": \"%016" PRIx64 "\",\n", h);
+        json_vec("bounds_lo", s->bounds.lo, 1);
+        json_vec("bounds_hi", s->bounds.hi, 1);
+        json_vec("eye", s->cam.eye, 1);
+        json_vec("at", s->cam.at, 1);
+        json_vec("up", s->cam.up, 1);
+        printf("  \"fovy_deg\": %.9g,\n", (double)s->cam.fovy_deg);
+        printf("  \"lights\": [");
+        for (int i = 0; i < RT_NLIGHTS; i++)
+            printf("%s[%.9g, %.9g, %.9g]", i ? ", " : "", (double)s->light[i].x, (double)s->light[i].y,
+                   (double)s->light[i].z);
+        printf("],\n  \"light_power\": %.9g,\n  \"ambient\": %.9g,\n", (double)s->light_power, (double)s->ambient);
+        printf("  \"load_sec\": %.6f", load_sec);
+        if (kd) {
+            printf(",\n  \"kd\": {\"nodes\": %u, \"leaves\": %u, \"empty_leaves\": %u, \"depth\": %u, "
+                   "\"index_entries\": %u, \"mean_leaf_tris\": %.4f, \"max_leaf_tris\": %u, \"build_sec\": %.6f}",
+                   kd->nnodes, kd->nleaves, kd->nempty, kd->maxdepth, kd->nidx, rt_kd_mean_leaf_tris(kd),
+                   kd->maxleaf, kd->build_sec);
+        }
+        printf("\n}\n");
+    } else {
+        printf("scene        %s%s%s\n", s->name, s->params[0] ? ":" : "", s->params);
+        printf("triangles    %u\n", s->ntri);
+        printf("hash         %016" PRIx64 "\n", h);
+        printf("bounds       (%.6g, %.6g, %.6g) - (%.6g, %.6g, %.6g)\n", (double)s->bounds.lo.x,
+               (double)s->bounds.lo.y, (double)s->bounds.lo.z, (double)s->bounds.hi.x, (double)s->bounds.hi.y,
+               (double)s->bounds.hi.z);
+        printf("camera       eye (%.6g, %.6g, %.6g) at (%.6g, %.6g, %.6g) up (%.6g, %.6g, %.6g) fovy %.6g\n",
+               (double)s->cam.eye.x, (double)s->cam.eye.y, (double)s->cam.eye.z, (double)s->cam.at.x,
+               (double)s->cam.at.y, (double)s->cam.at.z, (double)s->cam.up.x, (double)s->cam.up.y,
+               (double)s->cam.up.z, (double)s->cam.fovy_deg);
+        for (int i = 0; i < RT_NLIGHTS; i++)
+            printf("light %d      (%.6g, %.6g, %.6g)\n", i, (double)s->light[i].x, (double)s->light[i].y,
+                   (double)s->light[i].z);
+        printf("shading      light_power %.6g, ambient %.6g\n", (double)s->light_power, (double)s->ambient);
+        printf("load time    %.3f s\n", load_sec);
+        if (kd) {
+            printf("kd nodes     %u\n", kd->nnodes);
+            printf("kd leaves    %u (%u empty)\n", kd->nleaves, kd->nempty);
+            printf("kd depth     %u\n", kd->maxdepth);
+            printf("kd entries   %u\n", kd->nidx);
+            printf("kd leaf tris mean %.2f (non-empty leaves), max %u\n", rt_kd_mean_leaf_tris(kd), kd->maxleaf);
+            printf("kd build     %.3f s\n", kd->build_sec);
+        }
+    }
+    rt_kd_free(kd);
+    rt_scene_free(s);
+    return RT_EXIT_OK;
+}
+
+static int cmd_export(int argc, char **argv)
+{
+    if (rt_cmd_wants_help(argc, argv)) {
+        usage(stdout);
+        return RT_EXIT_OK;
+    }
+    const char *spec = NULL, *out = NULL;
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "-o") || !strcmp(argv[i], "--output")) {
+            if (i + 1 >= argc) {
+                rt_cmd_error("scene", "export: %s needs a file name", argv[i]);
+                return RT_EXIT_USAGE;
+            }
+            out = argv[++i];
+        } else if (argv[i][0] == '-' && argv[i][1]) {
+            rt_cmd_error("scene", "export: unknown option '%s'", argv[i]);
+            return RT_EXIT_USAGE;
+        } else if (spec) {
+            rt_cmd_error("scene", "export: more than one scene given ('%s', '%s')", spec, argv[i]);
+            return RT_EXIT_USAGE;
+        } else spec = argv[i];
+    }
+    if (!spec || !out) {
+        rt_cmd_error("scene", "export: need a scene and -o FILE.obj");
+        return RT_EXIT_USAGE;
+    }
+    rt_err e = {""};
+    rt_scene *s = rt_scene_load(spec, &e);
+    if (!s) {
+        rt_cmd_error("scene", "%s", e.msg);
+        return RT_EXIT_FAIL;
+    }
+    int rc = rt_scene_export_obj(s, out, &e);
+    rt_scene_free(s);
+    if (rc < 0) {
+        rt_cmd_error("scene", "%s", e.msg);
+        return RT_EXIT_FAIL;
+    }
+    return RT_EXIT_OK;
+}
+
+int main_scene(int argc, char **argv)
+{
+    if (argc < 2 || !strcmp(argv[1], "--help") || !strcmp(argv[1], "-h") || !strcmp(argv[1], "help")) {
+        usage(stdout);
+        return RT_EXIT_OK;
+    }
+    const char *sub = argv[1];
+    if (!strcmp(sub, "list")) return cmd_list(argc - 1, argv + 1);
+    if (!strcmp(sub, "info")) return cmd_info(argc - 1, argv + 1);
+    if (!strcmp(sub, "export")) return cmd_export(argc - 1, argv + 1);
+    rt_cmd_error("scene", "unknown subcommand '%s' (list, info, export)", sub);
+    return RT_EXIT_USAGE;
 }

@@ -80,4 +80,8 @@ uint64_t rt_scene_hash(const rt_scene *s);
 /* Writes the scene as OBJ (with a usemtl-free colour comment per group). */
 int rt_scene_export_obj(const rt_scene *s, const char *path, rt_err *e);
 
+/* Parameters a built-in scene accepts, as one human-readable line
+ * ("key=default (min..max): help; ..."), into buf. 0, or -1 if unknown. */
+int rt_scene_builtin_params(const char *name, char *buf, size_t n);
+
 #endif

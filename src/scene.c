@@ -1,0 +1,240 @@
+/*
+ * scene.c -- the scene container: allocation and growth, bounds and
+ * validation, the default camera and lights for loaded meshes, the identity
+ * hash, OBJ export, and the spec dispatcher (rt_scene_load) that picks a
+ * loader by suffix or falls back to the built-in generators.
+ *
+ * Everything here is deterministic and machine independent: the hash reads
+ * every float as its IEEE-754 bit pattern in little-endian byte order, and
+ * rt_scene_autoframe uses only + - * / and sqrt.
+ */
+#include "config.h"
+#include "scene.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Light grey for meshes without colour. */
+static const float default_grey[3] = {0.7f, 0.7f, 0.7f};
+
+/* The public struct has no capacity field, so every scene is allocated
+ * inside this private wrapper (public part first, so the pointers are
+ * interchangeable). Scenes must therefore come from rt_scene_new. */
+typedef struct scene_priv {
+    rt_scene pub;  /* what callers see */
+    uint32_t cap;  /* allocated triangles in pub.tri and pub.shade */
+} scene_priv;
+
+rt_scene *rt_scene_new(uint32_t ntri, rt_err *e)
+{
+    scene_priv *p = rt_calloc(1, sizeof *p, e);
+    if (!p) return NULL;
+    rt_scene *s = &p->pub;
+    s->bounds = rt_bounds_empty();
+    s->light_power = 0.45f;
+    s->ambient = 0.1f;
+    s->background = rt_v3(0.05f, 0.05f, 0.08f);
+    s->cam.up = rt_v3(0, 0, 1);
+    s->cam.at = rt_v3(0, 0, 0);
+    s->cam.eye = rt_v3(0, -1, 0);
+    s->cam.fovy_deg = 45.0f;
+    if (rt_scene_reserve(s, ntri ? ntri : 16, e) < 0) {
+        rt_scene_free(s);
+        return NULL;
+    }
+    return s;
+}
+
+int rt_scene_reserve(rt_scene *s, uint32_t ntri, rt_err *e)
+{
+    scene_priv *p = (scene_priv *)s;
+    if (ntri <= p->cap) return 0;
+    rt_tri *t = rt_reallocarray(s->tri, ntri, sizeof *t, e);
+    if (!t) return -1;
+    s->tri = t;
+    rt_shade *h = rt_reallocarray(s->shade, ntri, sizeof *h, e);
+    if (!h) return -1;
+    s->shade = h;
+    p->cap = ntri;
+    return 0;
+}
+
+int rt_scene_add_tri(rt_scene *s, rt_vec3 a, rt_vec3 b, rt_vec3 c, const float rgb[3], rt_err *e)
+{
+    scene_priv *p = (scene_priv *)s;
+    uint32_t n = s->ntri;
+    if (n >= p->cap) {
+        if (n >= UINT32_MAX / 2) return rt_errf(e, "%s: too many triangles", s->name);
+        if (rt_scene_reserve(s, n < 16 ? 16 : 2 * n, e) < 0) return -1;
+    }
+    rt_tri *t = &s->tri[n];
+    t->p[0] = a;
+    t->p[1] = b;
+    t->p[2] = c;
+    const float *col = rgb ? rgb : default_grey;
+    rt_shade *h = &s->shade[n];
+    h->rgb[0] = col[0];
+    h->rgb[1] = col[1];
+    h->rgb[2] = col[2];
+    h->flags = 0;
+    s->ntri = n + 1;
+    return 0;
+}
+
+void rt_scene_free(rt_scene *s)
+{
+    if (!s) return;
+    free(s->tri);
+    free(s->shade);
+    free(s);
+}
+
+int rt_scene_finish(rt_scene *s, rt_err *e)
+{
+    if (s->ntri == 0) return rt_errf(e, "%s: scene has no triangles", s->name);
+    rt_bounds b = rt_bounds_empty();
+    for (uint32_t i = 0; i < s->ntri; i++)
+        for (int k = 0; k < 3; k++) {
+            rt_vec3 p = s->tri[i].p[k];
+            if (!isfinite(p.x) || !isfinite(p.y) || !isfinite(p.z))
+                return rt_errf(e, "%s: triangle %u has a non-finite vertex", s->name, i);
+            rt_bounds_grow(&b, p);
+        }
+    s->bounds = b;
+    return 0;
+}
+
+void rt_scene_autoframe(rt_scene *s)
+{
+    rt_bounds b = s->bounds;
+    if (!(b.lo.x <= b.hi.x)) b.lo = b.hi = rt_v3(0, 0, 0);
+    double cx = 0.5 * ((double)b.lo.x + b.hi.x), cy = 0.5 * ((double)b.lo.y + b.hi.y),
+           cz = 0.5 * ((double)b.lo.z + b.hi.z);
+    double dx = (double)b.hi.x - b.lo.x, dy = (double)b.hi.y - b.lo.y, dz = (double)b.hi.z - b.lo.z;
+    double rad = 0.5 * sqrt(dx * dx + dy * dy + dz * dz);
+    if (!(rad > 0)) rad = 1;
+    /* Meshes from OBJ/PLY are conventionally y-up. View from the front
+     * (+z), a little right and above; distance so the bounding sphere fits
+     * the 45-degree field: rad / sin(22.5 deg), plus a margin. */
+    const double sin22_5 = 0.38268343236508977;
+    double dist = 1.1 * rad / sin22_5;
+    double vx = 0.4, vy = 0.35, vz = 1.0;
+    double vl = sqrt(vx * vx + vy * vy + vz * vz);
+    vx /= vl, vy /= vl, vz /= vl;
+    s->cam.at = rt_v3((float)cx, (float)cy, (float)cz);
+    s->cam.eye = rt_v3((float)(cx + dist * vx), (float)(cy + dist * vy), (float)(cz + dist * vz));
+    s->cam.up = rt_v3(0, 1, 0);
+    s->cam.fovy_deg = 45.0f;
+    /* Light 0 at the camera (the paper's best case for recursive tracers);
+     * lights 1 and 2 above, to the left and to the right. */
+    s->light[0] = s->cam.eye;
+    s->light[1] = rt_v3((float)(cx - 1.5 * rad), (float)(cy + 2.0 * rad), (float)(cz + 1.0 * rad));
+    s->light[2] = rt_v3((float)(cx + 2.0 * rad), (float)(cy + 1.5 * rad), (float)(cz - 0.5 * rad));
+    s->light_power = 0.45f;
+    s->ambient = 0.1f;
+    s->background = rt_v3(0.05f, 0.05f, 0.08f);
+}
+
+/* Hashes values as little-endian 32-bit words, independent of the host. */
+static uint64_t hash_u32(uint64_t h, uint32_t v)
+{
+    unsigned char b[4] = {(unsigned char)v, (unsigned char)(v >> 8), (unsigned char)(v >> 16),
+                          (unsigned char)(v >> 24)};
+    return rt_fnv1a(h, b, 4);
+}
+
+static uint64_t hash_f(uint64_t h, float f)
+{
+    uint32_t u;
+    memcpy(&u, &f, 4);
+    return hash_u32(h, u);
+}
+
+static uint64_t hash_v(uint64_t h, rt_vec3 v) { return hash_f(hash_f(hash_f(h, v.x), v.y), v.z); }
+
+uint64_t rt_scene_hash(const rt_scene *s)
+{
+    uint64_t h = RT_FNV_INIT;
+    h = hash_u32(h, s->ntri);
+    for (uint32_t i = 0; i < s->ntri; i++)
+        for (int k = 0; k < 3; k++) h = hash_v(h, s->tri[i].p[k]);
+    for (uint32_t i = 0; i < s->ntri; i++) {
+        for (int k = 0; k < 3; k++) h = hash_f(h, s->shade[i].rgb[k]);
+        h = hash_u32(h, s->shade[i].flags);
+    }
+    h = hash_v(h, s->cam.eye);
+    h = hash_v(h, s->cam.at);
+    h = hash_v(h, s->cam.up);
+    h = hash_f(h, s->cam.fovy_deg);
+    for (int i = 0; i < RT_NLIGHTS; i++) h = hash_v(h, s->light[i]);
+    h = hash_f(h, s->light_power);
+    h = hash_f(h, s->ambient);
+    h = hash_v(h, s->background);
+    return h;
+}
+
+int rt_scene_export_obj(const rt_scene *s, const char *path, rt_err *e)
+{
+    FILE *f = fopen(path, "w");
+    if (!f) return rt_errf(e, "%s: %s", path, strerror(errno));
+    fprintf(f, "# raytraffic %s scene export\n# scene %s%s%s\n# triangles %u\n", rt_version(), s->name,
+            s->params[0] ? ":" : "", s->params, s->ntri);
+    fprintf(f, "# camera eye %.9g %.9g %.9g at %.9g %.9g %.9g up %.9g %.9g %.9g fovy %.9g\n",
+            (double)s->cam.eye.x, (double)s->cam.eye.y, (double)s->cam.eye.z, (double)s->cam.at.x,
+            (double)s->cam.at.y, (double)s->cam.at.z, (double)s->cam.up.x, (double)s->cam.up.y,
+            (double)s->cam.up.z, (double)s->cam.fovy_deg);
+    for (int i = 0; i < RT_NLIGHTS; i++)
+        fprintf(f, "# light %d %.9g %.9g %.9g\n", i, (double)s->light[i].x, (double)s->light[i].y,
+                (double)s->light[i].z);
+    /* Vertices: three per triangle, %.9g round-trips a float exactly. */
+    for (uint32_t i = 0; i < s->ntri; i++)
+        for (int k = 0; k < 3; k++)
+            fprintf(f, "v %.9g %.9g %.9g\n", (double)s->tri[i].p[k].x, (double)s->tri[i].p[k].y,
+                    (double)s->tri[i].p[k].z);
+    /* Faces, one group per run of equal colour, named by a comment. */
+    for (uint32_t i = 0; i < s->ntri; i++) {
+        const float *c = s->shade[i].rgb;
+        if (i == 0 || memcmp(c, s->shade[i - 1].rgb, sizeof s->shade[i].rgb) != 0)
+            fprintf(f, "# rgb %.9g %.9g %.9g\n", (double)c[0], (double)c[1], (double)c[2]);
+        unsigned long v = 3ul * i + 1;
+        fprintf(f, "f %lu %lu %lu\n", v, v + 1, v + 2);
+    }
+    int bad = ferror(f);
+    if (fclose(f) != 0 || bad) return rt_errf(e, "%s: write failed: %s", path, strerror(errno));
+    return 0;
+}
+
+static int has_suffix(const char *s, const char *suf)
+{
+    size_t n = strlen(s), m = strlen(suf);
+    if (n < m) return 0;
+    for (size_t i = 0; i < m; i++) {
+        char a = s[n - m + i], b = suf[i];
+        if (a >= 'A' && a <= 'Z') a = (char)(a - 'A' + 'a');
+        if (a != b) return 0;
+    }
+    return 1;
+}
+
+rt_scene *rt_scene_load(const char *spec, rt_err *e)
+{
+    if (!spec || !*spec) {
+        rt_errf(e, "empty scene spec");
+        return NULL;
+    }
+    if (has_suffix(spec, ".obj")) return rt_scene_load_obj(spec, e);
+    if (has_suffix(spec, ".ply")) return rt_scene_load_ply(spec, e);
+    char name[64];
+    const char *colon = strchr(spec, ':');
+    size_t n = colon ? (size_t)(colon - spec) : strlen(spec);
+    if (n >= sizeof name) {
+        rt_errf(e, "unknown scene '%.40s...' (not .obj/.ply, not a built-in; see 'raytraffic scene list')", spec);
+        return NULL;
+    }
+    memcpy(name, spec, n);
+    name[n] = 0;
+    return rt_scene_builtin(name, colon ? colon + 1 : "", e);
+}

@@ -1,0 +1,509 @@
+/*
+ * scene_ply.c -- Stanford PLY loader (ascii, binary_little_endian,
+ * binary_big_endian).
+ *
+ * From the header we need an element `vertex` with scalar properties x, y
+ * and z (any of the eight PLY scalar types, under either their old names
+ * char/uchar/short/ushort/int/uint/float/double or the sized ones
+ * int8...float64) and an element `face` with a list property
+ * `vertex_indices` or `vertex_index` (any integer count and index types).
+ * Every other element and property, list properties included, is parsed and
+ * skipped. Elements may come in any order: faces are collected as index
+ * triples (fan triangulation) and resolved once all data is read.
+ *
+ * Errors are one line: header problems and ascii data as "FILE:LINE: what",
+ * binary data as "FILE: byte OFFSET: what" (offset of the value that could
+ * not be read). Every read is bounds-checked against the file buffer;
+ * element counts are checked against the bytes remaining before anything is
+ * allocated, so a lying header cannot make us allocate gigabytes.
+ */
+#include "config.h"
+#include "scene.h"
+
+#include <errno.h>
+#include <float.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+enum { T_I8, T_U8, T_I16, T_U16, T_I32, T_U32, T_F32, T_F64, T_NTYPES };
+
+static const struct {
+    const char *name, *alias;
+    int size;
+} ply_types[T_NTYPES] = {
+    {"char", "int8", 1},     {"uchar", "uint8", 1}, {"short", "int16", 2},   {"ushort", "uint16", 2},
+    {"int", "int32", 4},     {"uint", "uint32", 4}, {"float", "float32", 4}, {"double", "float64", 8},
+};
+
+static int type_of(const char *s)
+{
+    for (int i = 0; i < T_NTYPES; i++)
+        if (!strcmp(s, ply_types[i].name) || !strcmp(s, ply_types[i].alias)) return i;
+    return -1;
+}
+
+static int is_int_type(int t) { return t != T_F32 && t != T_F64; }
+
+#define MAXELEM 32
+#define MAXPROP 64
+
+typedef struct plyprop {
+    char name[40]; /* property name (truncated) */
+    int type;      /* scalar type, or item type of a list */
+    int is_list;   /* 1 for list properties */
+    int ctype;     /* list count type */
+} plyprop;
+
+typedef struct plyelem {
+    char name[40];     /* element name (truncated) */
+    uint32_t count;    /* instances */
+    int nprop;         /* properties */
+    plyprop prop[MAXPROP];
+} plyelem;
+
+enum { F_ASCII, F_LE, F_BE };
+
+typedef struct plyload {
+    const char *path;
+    const unsigned char *buf; /* whole file, NUL-terminated */
+    size_t n;                 /* file size */
+    size_t pos;               /* read position in the data section */
+    unsigned long line;       /* ascii: current line */
+    int fmt;                  /* F_ASCII, F_LE, F_BE */
+    rt_err *e;
+} plyload;
+
+/* Reads a whole file into a NUL-terminated buffer. 0 or -1. */
+static int slurp(const char *path, char **pbuf, size_t *pn, rt_err *e)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return rt_errf(e, "%s: %s", path, strerror(errno));
+    size_t cap = 1 << 16, n = 0;
+    char *buf = rt_calloc(cap, 1, e);
+    if (!buf) {
+        fclose(f);
+        return -1;
+    }
+    for (;;) {
+        if (n + 1 >= cap) {
+            if (cap > SIZE_MAX / 2) {
+                free(buf);
+                fclose(f);
+                return rt_errf(e, "%s: file too large", path);
+            }
+            char *nb = rt_reallocarray(buf, cap * 2, 1, e);
+            if (!nb) {
+                free(buf);
+                fclose(f);
+                return -1;
+            }
+            buf = nb;
+            cap *= 2;
+        }
+        size_t got = fread(buf + n, 1, cap - 1 - n, f);
+        n += got;
+        if (got == 0) break;
+    }
+    int bad = ferror(f);
+    fclose(f);
+    if (bad) {
+        free(buf);
+        return rt_errf(e, "%s: read error", path);
+    }
+    buf[n] = 0;
+    *pbuf = buf;
+    *pn = n;
+    return 0;
+}
+
+/* ------------------------------------------------------------------------ */
+/* Header                                                                    */
+
+/* Splits a header line (modified in place) into at most 8 tokens. */
+static int split(char *s, char **tok, int max)
+{
+    int n = 0;
+    for (;;) {
+        while (*s == ' ' || *s == '\t' || *s == '\r') s++;
+        if (!*s) break;
+        if (n == max) return max + 1;
+        tok[n++] = s;
+        while (*s && *s != ' ' && *s != '\t' && *s != '\r') s++;
+        if (*s) *s++ = 0;
+    }
+    return n;
+}
+
+static int parse_header(plyload *L, plyelem *el, int *nel)
+{
+    const char *b = (const char *)L->buf;
+    size_t n = L->n, p = 0;
+    char line[512];
+    int nelem = 0;
+    L->line = 0;
+    for (;;) {
+        if (p >= n) return rt_errf(L->e, "%s:%lu: header has no end_header line", L->path, L->line + 1);
+        const char *nl = memchr(b + p, '\n', n - p);
+        if (!nl) return rt_errf(L->e, "%s:%lu: header has no end_header line", L->path, L->line + 1);
+        size_t len = (size_t)(nl - (b + p));
+        L->line++;
+        if (memchr(b + p, 0, len)) return rt_errf(L->e, "%s:%lu: NUL byte in header", L->path, L->line);
+        if (len >= sizeof line) return rt_errf(L->e, "%s:%lu: header line too long", L->path, L->line);
+        memcpy(line, b + p, len);
+        line[len] = 0;
+        p += len + 1;
+        char *tok[8];
+        int nt = split(line, tok, 8);
+        if (L->line == 1) {
+            if (nt != 1 || strcmp(tok[0], "ply"))
+                return rt_errf(L->e, "%s:1: not a PLY file (no 'ply' magic line)", L->path);
+            continue;
+        }
+        if (nt == 0) continue;
+        if (!strcmp(tok[0], "comment") || !strcmp(tok[0], "obj_info")) continue;
+        if (nt > 8) return rt_errf(L->e, "%s:%lu: too many words in header line", L->path, L->line);
+        if (!strcmp(tok[0], "format")) {
+            if (nt != 3) return rt_errf(L->e, "%s:%lu: format line needs a format and a version", L->path, L->line);
+            if (!strcmp(tok[1], "ascii")) L->fmt = F_ASCII;
+            else if (!strcmp(tok[1], "binary_little_endian")) L->fmt = F_LE;
+            else if (!strcmp(tok[1], "binary_big_endian")) L->fmt = F_BE;
+            else return rt_errf(L->e, "%s:%lu: unknown format '%s'", L->path, L->line, tok[1]);
+            if (strcmp(tok[2], "1.0") && strcmp(tok[2], "1"))
+                return rt_errf(L->e, "%s:%lu: unsupported PLY version '%s'", L->path, L->line, tok[2]);
+            if (L->line != 2) return rt_errf(L->e, "%s:%lu: format line must follow 'ply'", L->path, L->line);
+        } else if (L->line == 2) {
+            return rt_errf(L->e, "%s:2: expected a format line", L->path);
+        } else if (!strcmp(tok[0], "element")) {
+            if (nt != 3) return rt_errf(L->e, "%s:%lu: element line needs a name and a count", L->path, L->line);
+            if (nelem == MAXELEM) return rt_errf(L->e, "%s:%lu: too many elements", L->path, L->line);
+            char *q;
+            errno = 0;
+            unsigned long long c = strtoull(tok[2], &q, 10);
+            if (*q || q == tok[2] || tok[2][0] == '-' || errno || c > UINT32_MAX)
+                return rt_errf(L->e, "%s:%lu: bad element count '%s'", L->path, L->line, tok[2]);
+            plyelem *E = &el[nelem++];
+            memset(E, 0, sizeof *E);
+            snprintf(E->name, sizeof E->name, "%s", tok[1]);
+            E->count = (uint32_t)c;
+        } else if (!strcmp(tok[0], "property")) {
+            if (nelem == 0) return rt_errf(L->e, "%s:%lu: property before any element", L->path, L->line);
+            plyelem *E = &el[nelem - 1];
+            if (E->nprop == MAXPROP) return rt_errf(L->e, "%s:%lu: too many properties", L->path, L->line);
+            plyprop *P = &E->prop[E->nprop];
+            if (nt >= 2 && !strcmp(tok[1], "list")) {
+                if (nt != 5) return rt_errf(L->e, "%s:%lu: bad list property line", L->path, L->line);
+                P->is_list = 1;
+                P->ctype = type_of(tok[2]);
+                P->type = type_of(tok[3]);
+                if (P->ctype < 0 || P->type < 0)
+                    return rt_errf(L->e, "%s:%lu: unknown property type '%s'", L->path, L->line,
+                                   P->ctype < 0 ? tok[2] : tok[3]);
+                if (!is_int_type(P->ctype))
+                    return rt_errf(L->e, "%s:%lu: list count type '%s' is not an integer type", L->path, L->line,
+                                   tok[2]);
+                snprintf(P->name, sizeof P->name, "%s", tok[4]);
+            } else {
+                if (nt != 3) return rt_errf(L->e, "%s:%lu: bad property line", L->path, L->line);
+                P->type = type_of(tok[1]);
+                if (P->type < 0)
+                    return rt_errf(L->e, "%s:%lu: unknown property type '%s'", L->path, L->line, tok[1]);
+                snprintf(P->name, sizeof P->name, "%s", tok[2]);
+            }
+            E->nprop++;
+        } else if (!strcmp(tok[0], "end_header")) {
+            if (nt != 1) return rt_errf(L->e, "%s:%lu: bad end_header line", L->path, L->line);
+            break;
+        } else {
+            return rt_errf(L->e, "%s:%lu: unknown header keyword '%.40s'", L->path, L->line, tok[0]);
+        }
+    }
+    if (L->line < 3) return rt_errf(L->e, "%s:%lu: header lacks a format line", L->path, L->line);
+    L->pos = p;
+    L->line++; /* ascii data starts on the line after end_header */
+    *nel = nelem;
+    return 0;
+}
+
+/* ------------------------------------------------------------------------ */
+/* Data                                                                      */
+
+typedef struct val {
+    double d;    /* value as double (exact for every PLY integer type) */
+    long long i; /* value as integer, for integer types */
+} val;
+
+static int read_ascii(plyload *L, int type, const char *what, val *v)
+{
+    const char *b = (const char *)L->buf;
+    while (L->pos < L->n) {
+        char c = b[L->pos];
+        if (c == '\n') L->line++;
+        else if (c != ' ' && c != '\t' && c != '\r' && c != '\f' && c != '\v') break;
+        L->pos++;
+    }
+    if (L->pos >= L->n) return rt_errf(L->e, "%s:%lu: truncated %s data", L->path, L->line, what);
+    const char *tok = b + L->pos;
+    if (*tok == 0) return rt_errf(L->e, "%s:%lu: NUL byte in %s data", L->path, L->line, what);
+    int tl = 0;
+    while (L->pos + (size_t)tl < L->n && tok[tl] && !strchr(" \t\r\n\f\v", tok[tl])) tl++;
+    char buf[64];
+    if (tl >= (int)sizeof buf) return rt_errf(L->e, "%s:%lu: bad number '%.20s...'", L->path, L->line, tok);
+    memcpy(buf, tok, (size_t)tl);
+    buf[tl] = 0;
+    char *end;
+    errno = 0;
+    if (is_int_type(type)) {
+        long long x = strtoll(buf, &end, 10);
+        if (*end || end == buf || errno)
+            return rt_errf(L->e, "%s:%lu: bad integer '%s' in %s data", L->path, L->line, buf, what);
+        static const long long lo[] = {-128, 0, -32768, 0, -2147483648LL, 0};
+        static const long long hi[] = {127, 255, 32767, 65535, 2147483647LL, 4294967295LL};
+        if (x < lo[type] || x > hi[type])
+            return rt_errf(L->e, "%s:%lu: %s value %lld out of range in %s data", L->path, L->line,
+                           ply_types[type].name, x, what);
+        v->i = x;
+        v->d = (double)x;
+    } else {
+        double x = strtod(buf, &end);
+        if (*end || end == buf)
+            return rt_errf(L->e, "%s:%lu: bad number '%s' in %s data", L->path, L->line, buf, what);
+        v->d = x;
+        v->i = 0;
+    }
+    L->pos += (size_t)tl;
+    return 0;
+}
+
+static int read_binary(plyload *L, int type, const char *what, val *v)
+{
+    int sz = ply_types[type].size;
+    if (L->n - L->pos < (size_t)sz)
+        return rt_errf(L->e, "%s: byte %zu: truncated %s data", L->path, L->pos, what);
+    const unsigned char *p = L->buf + L->pos;
+    uint64_t u = 0;
+    for (int k = 0; k < sz; k++) {
+        int idx = L->fmt == F_LE ? sz - 1 - k : k;
+        u = (u << 8) | p[idx];
+    }
+    L->pos += (size_t)sz;
+    switch (type) {
+    case T_I8: v->i = (int8_t)(uint8_t)u; break;
+    case T_U8: v->i = (uint8_t)u; break;
+    case T_I16: v->i = (int16_t)(uint16_t)u; break;
+    case T_U16: v->i = (uint16_t)u; break;
+    case T_I32: v->i = (int32_t)(uint32_t)u; break;
+    case T_U32: v->i = (uint32_t)u; break;
+    case T_F32: {
+        uint32_t w = (uint32_t)u;
+        float f;
+        memcpy(&f, &w, 4);
+        v->d = f;
+        v->i = 0;
+        return 0;
+    }
+    default: {
+        double d;
+        memcpy(&d, &u, 8);
+        v->d = d;
+        v->i = 0;
+        return 0;
+    }
+    }
+    v->d = (double)v->i;
+    return 0;
+}
+
+static int read_val(plyload *L, int type, const char *what, val *v)
+{
+    return L->fmt == F_ASCII ? read_ascii(L, type, what, v) : read_binary(L, type, what, v);
+}
+
+/* Where the last value started, for messages. */
+static void where(const plyload *L, size_t at, char *buf, size_t n)
+{
+    if (L->fmt == F_ASCII) snprintf(buf, n, "%s:%lu", L->path, L->line);
+    else snprintf(buf, n, "%s: byte %zu", L->path, at);
+}
+
+typedef struct idxbuf {
+    uint32_t *v; /* triangle corner indices, 3 per triangle */
+    size_t n, cap;
+} idxbuf;
+
+static int push3(idxbuf *B, uint32_t a, uint32_t b, uint32_t c, rt_err *e)
+{
+    if (B->n + 3 > B->cap) {
+        size_t nc = B->cap ? 2 * B->cap : 3 * 1024;
+        uint32_t *nv = rt_reallocarray(B->v, nc, sizeof *nv, e);
+        if (!nv) return -1;
+        B->v = nv;
+        B->cap = nc;
+    }
+    B->v[B->n++] = a;
+    B->v[B->n++] = b;
+    B->v[B->n++] = c;
+    return 0;
+}
+
+static int min_record_size(const plyelem *E)
+{
+    int s = 0;
+    for (int i = 0; i < E->nprop; i++) s += E->prop[i].is_list ? ply_types[E->prop[i].ctype].size : ply_types[E->prop[i].type].size;
+    return s;
+}
+
+rt_scene *rt_scene_load_ply(const char *path, rt_err *e)
+{
+    char *buf = NULL;
+    size_t n = 0;
+    if (slurp(path, &buf, &n, e) < 0) return NULL;
+    plyload L = {path, (const unsigned char *)buf, n, 0, 0, F_ASCII, e};
+    plyelem *el = rt_calloc(MAXELEM, sizeof *el, e);
+    rt_vec3 *verts = NULL;
+    idxbuf tris = {NULL, 0, 0};
+    rt_scene *s = NULL;
+    int nel = 0, rc = 0;
+    if (!el || parse_header(&L, el, &nel) < 0) goto fail;
+
+    /* Locate what we need. */
+    int vi = -1, fi = -1, px = -1, py = -1, pz = -1, pl = -1;
+    for (int i = 0; i < nel; i++) {
+        if (!strcmp(el[i].name, "vertex") && vi < 0) {
+            vi = i;
+            for (int k = 0; k < el[i].nprop; k++) {
+                const plyprop *P = &el[i].prop[k];
+                int *slot = !strcmp(P->name, "x") ? &px : !strcmp(P->name, "y") ? &py : !strcmp(P->name, "z") ? &pz : NULL;
+                if (slot && !P->is_list) *slot = k;
+            }
+        } else if (!strcmp(el[i].name, "face") && fi < 0) {
+            fi = i;
+            for (int k = 0; k < el[i].nprop; k++) {
+                const plyprop *P = &el[i].prop[k];
+                if (P->is_list && (!strcmp(P->name, "vertex_indices") || !strcmp(P->name, "vertex_index"))) pl = k;
+            }
+        }
+    }
+    if (vi < 0) {
+        rc = rt_errf(e, "%s: no 'vertex' element in header", path);
+        goto fail;
+    }
+    if (px < 0 || py < 0 || pz < 0) {
+        rc = rt_errf(e, "%s: vertex element lacks scalar x, y and z properties", path);
+        goto fail;
+    }
+    if (fi < 0 || pl < 0) {
+        rc = rt_errf(e, "%s: no 'face' element with a vertex_indices list (point clouds are not supported)", path);
+        goto fail;
+    }
+    if (!is_int_type(el[fi].prop[pl].type)) {
+        rc = rt_errf(e, "%s: face index type '%s' is not an integer type", path, ply_types[el[fi].prop[pl].type].name);
+        goto fail;
+    }
+    uint32_t nvert = el[vi].count;
+    if (nvert == 0 || el[fi].count == 0) {
+        rc = rt_errf(e, "%s: empty mesh (%u vertices, %u faces)", path, nvert, el[fi].count);
+        goto fail;
+    }
+    /* Counts must fit in the bytes left (>= 1 byte per value in ascii,
+     * the fixed record size in binary) before we allocate for them. */
+    for (int i = 0; i < nel; i++) {
+        size_t rec = L.fmt == F_ASCII ? (size_t)(el[i].nprop ? 1 : 0) : (size_t)min_record_size(&el[i]);
+        if (rec && el[i].count > (n - L.pos) / rec) {
+            if (L.fmt == F_ASCII)
+                rc = rt_errf(e, "%s:%lu: truncated %s data (%u declared, file too short)", path, L.line, el[i].name,
+                             el[i].count);
+            else
+                rc = rt_errf(e, "%s: byte %zu: truncated %s data (%u declared, file too short)", path, n, el[i].name,
+                             el[i].count);
+            goto fail;
+        }
+    }
+    verts = rt_calloc(nvert, sizeof *verts, e);
+    if (!verts) goto fail;
+
+    for (int i = 0; i < nel; i++) {
+        plyelem *E = &el[i];
+        for (uint32_t r = 0; r < E->count; r++) {
+            for (int k = 0; k < E->nprop; k++) {
+                const plyprop *P = &E->prop[k];
+                size_t at = L.pos;
+                val v;
+                if (!P->is_list) {
+                    if (read_val(&L, P->type, E->name, &v) < 0) goto fail;
+                    if (i == vi && (k == px || k == py || k == pz)) {
+                        if (!isfinite(v.d) || fabs(v.d) > FLT_MAX) {
+                            char w[300];
+                            where(&L, at, w, sizeof w);
+                            rc = rt_errf(e, "%s: vertex %u: coordinate is not a finite float", w, r);
+                            goto fail;
+                        }
+                        float f = (float)v.d;
+                        if (k == px) verts[r].x = f;
+                        else if (k == py) verts[r].y = f;
+                        else verts[r].z = f;
+                    }
+                    continue;
+                }
+                if (read_val(&L, P->ctype, E->name, &v) < 0) goto fail;
+                long long cnt = v.i;
+                int want = i == fi && k == pl;
+                if (cnt < 0 || (want && cnt < 3)) {
+                    char w[300];
+                    where(&L, at, w, sizeof w);
+                    if (cnt < 0) rc = rt_errf(e, "%s: negative list length %lld", w, cnt);
+                    else rc = rt_errf(e, "%s: face %u has %lld vertices (need at least 3)", w, r, cnt);
+                    goto fail;
+                }
+                if (L.fmt != F_ASCII && (size_t)cnt > (n - L.pos) / (size_t)ply_types[P->type].size) {
+                    rc = rt_errf(e, "%s: byte %zu: truncated %s data (list of %lld)", path, L.pos, E->name, cnt);
+                    goto fail;
+                }
+                uint32_t first = 0, prev = 0;
+                for (long long j = 0; j < cnt; j++) {
+                    size_t vat = L.pos;
+                    if (read_val(&L, P->type, E->name, &v) < 0) goto fail;
+                    if (!want) continue;
+                    if (v.i < 0 || v.i >= (long long)nvert) {
+                        char w[300];
+                        where(&L, vat, w, sizeof w);
+                        rc = rt_errf(e, "%s: face %u: vertex index %lld out of range (%u vertices)", w, r, v.i, nvert);
+                        goto fail;
+                    }
+                    uint32_t x = (uint32_t)v.i;
+                    if (j == 0) first = x;
+                    else if (j >= 2 && push3(&tris, first, prev, x, e) < 0) goto fail;
+                    prev = x;
+                }
+            }
+        }
+    }
+    if (tris.n / 3 > UINT32_MAX / 2) {
+        rc = rt_errf(e, "%s: too many triangles", path);
+        goto fail;
+    }
+    s = rt_scene_new((uint32_t)(tris.n / 3), e);
+    if (!s) goto fail;
+    {
+        const char *base = strrchr(path, '/');
+        snprintf(s->name, sizeof s->name, "%s", base ? base + 1 : path);
+    }
+    for (size_t t = 0; t < tris.n; t += 3)
+        if (rt_scene_add_tri(s, verts[tris.v[t]], verts[tris.v[t + 1]], verts[tris.v[t + 2]], NULL, e) < 0) goto fail;
+    if (rt_scene_finish(s, e) < 0) goto fail;
+    rt_scene_autoframe(s);
+    free(buf);
+    free(el);
+    free(verts);
+    free(tris.v);
+    return s;
+fail:
+    (void)rc;
+    rt_scene_free(s);
+    free(buf);
+    free(el);
+    free(verts);
+    free(tris.v);
+    return NULL;
+}

@@ -1,0 +1,458 @@
+/*
+ * test_loaders.c -- tests for the OBJ and PLY loaders: the meshes in
+ * data/meshes, every OBJ face-corner form, ascii / binary little-endian /
+ * binary big-endian PLY of the same mesh giving identical triangles, and
+ * malformed input written into a temporary directory (every truncation
+ * point of a binary PLY, bad tokens, out-of-range and zero indices, short
+ * faces, NaN/Inf, bad headers, empty meshes, random corruption), which must
+ * be rejected with a one-line message naming the file -- or, for random
+ * corruption, at least never crash. Exit status 0 = all passed.
+ */
+#include "config.h"
+#include "scene.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+static int failures;
+
+#define CHECK(cond, ...)                                                                                    \
+    do {                                                                                                    \
+        if (!(cond)) {                                                                                      \
+            failures++;                                                                                     \
+            fprintf(stderr, "FAIL %s:%d: %s: ", __FILE__, __LINE__, #cond);                                 \
+            fprintf(stderr, __VA_ARGS__);                                                                   \
+            fputc('\n', stderr);                                                                            \
+        }                                                                                                   \
+    } while (0)
+
+static char tmpdir[256];
+
+static const char *tpath(const char *name)
+{
+    static char buf[4][600];
+    static int k;
+    k = (k + 1) & 3;
+    snprintf(buf[k], sizeof buf[k], "%s/%s", tmpdir, name);
+    return buf[k];
+}
+
+static void write_file(const char *path, const void *data, size_t n)
+{
+    FILE *f = fopen(path, "wb");
+    if (!f || fwrite(data, 1, n, f) != n || fclose(f) != 0) {
+        perror(path);
+        exit(1);
+    }
+}
+
+static const char *datafile(const char *name)
+{
+    static char buf[2][600];
+    static int k;
+    k ^= 1;
+    const char *src = getenv("RT_SRCDIR");
+    if (src && *src) snprintf(buf[k], sizeof buf[k], "%s/data/meshes/%s", src, name);
+    else snprintf(buf[k], sizeof buf[k], "%s/meshes/%s", RT_SRCDATADIR, name);
+    return buf[k];
+}
+
+static int veq(rt_vec3 a, float x, float y, float z) { return a.x == x && a.y == y && a.z == z; }
+
+/* Loads text written to a temp file; expects failure whose message holds
+ * the file name and `needle`. */
+static void expect_fail_text(const char *name, const char *text, const char *needle)
+{
+    const char *p = tpath(name);
+    write_file(p, text, strlen(text));
+    rt_err e = {""};
+    rt_scene *s = rt_scene_load(p, &e);
+    CHECK(s == NULL, "%s accepted:\n%s", name, text);
+    CHECK(strstr(e.msg, p) != NULL, "%s: message '%s' lacks the file name", name, e.msg);
+    CHECK(!needle || strstr(e.msg, needle) != NULL, "%s: message '%s' lacks '%s'", name, e.msg, needle);
+    CHECK(strchr(e.msg, '\n') == NULL, "%s: multi-line message", name);
+    rt_scene_free(s);
+}
+
+static rt_scene *expect_ok_text(const char *name, const char *text, uint32_t ntri)
+{
+    const char *p = tpath(name);
+    write_file(p, text, strlen(text));
+    rt_err e = {""};
+    rt_scene *s = rt_scene_load(p, &e);
+    CHECK(s != NULL, "%s rejected: %s", name, e.msg);
+    if (s) CHECK(s->ntri == ntri, "%s: %u triangles, want %u", name, s->ntri, ntri);
+    return s;
+}
+
+static void test_obj(void)
+{
+    rt_err e = {""};
+    rt_scene *s = rt_scene_load(datafile("cube.obj"), &e);
+    CHECK(s != NULL, "cube.obj: %s", e.msg);
+    if (s) {
+        CHECK(s->ntri == 12, "cube: %u triangles", s->ntri);
+        CHECK(veq(s->bounds.lo, 0, 0, 0) && veq(s->bounds.hi, 1, 1, 1), "cube bounds");
+        /* Quad 1 4 3 2 fans into (1,4,3) and (1,3,2). */
+        CHECK(veq(s->tri[0].p[0], 0, 0, 0) && veq(s->tri[0].p[1], 0, 1, 0) && veq(s->tri[0].p[2], 1, 1, 0), "quad fan 1");
+        CHECK(veq(s->tri[1].p[0], 0, 0, 0) && veq(s->tri[1].p[1], 1, 1, 0) && veq(s->tri[1].p[2], 1, 0, 0), "quad fan 2");
+        CHECK(!strcmp(s->name, "cube.obj"), "name '%s'", s->name);
+        CHECK(s->cam.fovy_deg > 0 && !veq(s->cam.eye, s->cam.at.x, s->cam.at.y, s->cam.at.z), "autoframe");
+        rt_scene_free(s);
+    }
+    s = rt_scene_load(datafile("forms.obj"), &e);
+    CHECK(s != NULL, "forms.obj: %s", e.msg);
+    if (s) {
+        CHECK(s->ntri == 7, "forms: %u triangles", s->ntri);
+        if (s->ntri == 7) {
+            CHECK(veq(s->tri[2].p[2], 1, 1, 0), "v/vt/vn corner");
+            CHECK(veq(s->tri[3].p[0], 0, 0, 0) && veq(s->tri[3].p[2], 1, 1, 0), "negative indices");
+            /* Pentagon 1 2 3 5 4: (1,2,3) (1,3,5) (1,5,4). */
+            CHECK(veq(s->tri[5].p[2], 0.5f, 1.5f, 0) && veq(s->tri[6].p[1], 0.5f, 1.5f, 0) &&
+                      veq(s->tri[6].p[2], 0, 1, 0), "pentagon fan");
+        }
+        rt_scene_free(s);
+    }
+    s = expect_ok_text("neg.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\nv 5 5 5\nf -4 -1 -2\n", 2);
+    if (s && s->ntri == 2) CHECK(veq(s->tri[1].p[1], 5, 5, 5), "relative index after more vertices");
+    rt_scene_free(s);
+    rt_scene_free(expect_ok_text("exp.obj", "v 1e-3 -2.5E+1 +3\nv 1 0 0\nv 0 1 0\nvt 0.5 0.5\nf 1/1 2/1 3/1\n", 1));
+    rt_scene_free(expect_ok_text("noeol.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3", 1));
+    rt_scene_free(expect_ok_text("upper.OBJ", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", 1));
+
+    static const struct {
+        const char *name, *text, *needle;
+    } bad[] = {
+        {"badnum.obj", "v 0 0 0\nv 1 0 x\n", ":2: bad number 'x'"},
+        {"badnum2.obj", "v 0 0 0\nv 1 0 1.5q\n", ":2: bad number"},
+        {"fewcoord.obj", "v 0 0\n", ":1: vertex has 2 coordinates"},
+        {"nan.obj", "v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n", ":3: coordinate is not a finite"},
+        {"inf.obj", "v 0 0 0\nv 1 0 0\nv 0 -inf 0\nf 1 2 3\n", ":3:"},
+        {"huge.obj", "v 0 0 0\nv 1 0 0\nv 0 1e39 0\nf 1 2 3\n", ":3:"},
+        {"range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n", ":4: face index 9 out of range (3 vertices)"},
+        {"forward.obj", "v 0 0 0\nv 1 0 0\nf 1 2 3\nv 0 1 0\n", ":3: face index 3 out of range"},
+        {"negrange.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -4\n", ":4: face index -4 out of range"},
+        {"zero.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n", ":4: face index 0"},
+        {"short.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n", ":4: face has 2 vertices"},
+        {"badidx.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 a\n", ":4: bad face index 'a'"},
+        {"badidx2.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3/x\n", ":4: bad face index '3/x'"},
+        {"badidx3.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3//1/1\n", ":4: bad face index"},
+        {"bigidx.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99999999999999999999999\n", ":4:"},
+        {"empty.obj", "", "no faces"},
+        {"nofaces.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n# only vertices\n", "no faces"},
+        {"fnodata.obj", "v 0 0 0\nf\n", ":2:"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) expect_fail_text(bad[i].name, bad[i].text, bad[i].needle);
+    /* Embedded NUL byte. */
+    const char nul[] = "v 0 0 0\nv 1 0\0 0\nv 0 1 0\nf 1 2 3\n";
+    write_file(tpath("nul.obj"), nul, sizeof nul - 1);
+    rt_err e2 = {""};
+    s = rt_scene_load(tpath("nul.obj"), &e2);
+    CHECK(s == NULL && strstr(e2.msg, "nul.obj:2:"), "NUL byte: '%s'", e2.msg);
+    rt_scene_free(s);
+    /* Random corruption of an OBJ: any outcome but a crash. */
+    static const char good[] = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nf 1/1 2/1 3/1\nf -4//1 -2//1 -1//1\n"
+                               "f 1 2 3 4\n";
+    static const char alphabet[] = "0123456789-+./ \n\r\tvfeEnaiN#x";
+    uint32_t st = 777;
+    char buf[sizeof good];
+    for (int it = 0; it < 3000; it++) {
+        memcpy(buf, good, sizeof good);
+        for (int k = 0; k < 1 + it % 3; k++) {
+            st = st * 1664525u + 1013904223u;
+            size_t at = (st >> 8) % (sizeof good - 1);
+            st = st * 1664525u + 1013904223u;
+            buf[at] = alphabet[(st >> 24) % (sizeof alphabet - 1)];
+        }
+        write_file(tpath("fuzz.obj"), buf, sizeof good - 1 - (it % 7 == 0 ? it % 11 : 0));
+        rt_err fe = {""};
+        rt_scene *t = rt_scene_load(tpath("fuzz.obj"), &fe);
+        if (!t) CHECK(strstr(fe.msg, "fuzz.obj") != NULL, "fuzz: message '%s'", fe.msg);
+        rt_scene_free(t);
+    }
+    /* Missing file. */
+    s = rt_scene_load(tpath("missing.obj"), &e2);
+    CHECK(s == NULL && strstr(e2.msg, "missing.obj"), "missing file: '%s'", e2.msg);
+    rt_scene_free(s);
+}
+
+/* ------------------------------------------------------------------------ */
+/* PLY                                                                       */
+
+/* A small mesh: 5 vertices (a square pyramid), a quad base and 4 sides. */
+static const float pv[5][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0.5f, 0.5f, 1.25f}};
+static const int pf[5][4] = {{0, 3, 2, 1}, {0, 1, 4, -1}, {1, 2, 4, -1}, {2, 3, 4, -1}, {3, 0, 4, -1}};
+
+typedef struct wbuf {
+    unsigned char d[4096];
+    size_t n;
+} wbuf;
+
+static void put(wbuf *w, const void *p, size_t n, int be)
+{
+    const unsigned char *b = p;
+    for (size_t i = 0; i < n; i++) w->d[w->n++] = b[be ? n - 1 - i : i];
+}
+
+static int host_be(void)
+{
+    uint16_t x = 1;
+    unsigned char c;
+    memcpy(&c, &x, 1);
+    return c == 0;
+}
+
+/* Writes the pyramid as PLY in the given format, with extra properties and
+ * an extra element to skip (including a list property). */
+static size_t make_ply(wbuf *w, const char *fmt)
+{
+    int ascii = !strcmp(fmt, "ascii"), be = !strcmp(fmt, "binary_big_endian");
+    w->n = 0;
+    char hdr[1024];
+    snprintf(hdr, sizeof hdr,
+             "ply\nformat %s 1.0\ncomment test pyramid\n"
+             "element material 1\nproperty list uchar float kd\n"
+             "element vertex 5\nproperty double x\nproperty float y\nproperty float z\n"
+             "property uchar red\nproperty list ushort short junk\n"
+             "element face 5\nproperty uchar flags\nproperty list uchar uint vertex_indices\n"
+             "end_header\n",
+             fmt);
+    memcpy(w->d, hdr, strlen(hdr));
+    w->n = strlen(hdr);
+    if (ascii) {
+        char b[1024];
+        size_t k = 0;
+        k += (size_t)snprintf(b + k, sizeof b - k, "3 0.5 0.25 1\n");
+        for (int i = 0; i < 5; i++)
+            k += (size_t)snprintf(b + k, sizeof b - k, "%.9g %.9g %.9g 200 2 -1 7\n", (double)pv[i][0],
+                                  (double)pv[i][1], (double)pv[i][2]);
+        for (int i = 0; i < 5; i++) {
+            int c = pf[i][3] < 0 ? 3 : 4;
+            k += (size_t)snprintf(b + k, sizeof b - k, "1 %d", c);
+            for (int j = 0; j < c; j++) k += (size_t)snprintf(b + k, sizeof b - k, " %d", pf[i][j]);
+            k += (size_t)snprintf(b + k, sizeof b - k, "\n");
+        }
+        memcpy(w->d + w->n, b, k);
+        w->n += k;
+        return w->n;
+    }
+    int swap = be != host_be();
+    unsigned char u8 = 3;
+    put(w, &u8, 1, 0);
+    float kd[3] = {0.5f, 0.25f, 1};
+    for (int i = 0; i < 3; i++) put(w, &kd[i], 4, swap);
+    for (int i = 0; i < 5; i++) {
+        double x = pv[i][0];
+        put(w, &x, 8, swap);
+        put(w, &pv[i][1], 4, swap);
+        put(w, &pv[i][2], 4, swap);
+        u8 = 200;
+        put(w, &u8, 1, 0);
+        uint16_t n = 2;
+        put(w, &n, 2, swap);
+        int16_t j1 = -1, j2 = 7;
+        put(w, &j1, 2, swap);
+        put(w, &j2, 2, swap);
+    }
+    for (int i = 0; i < 5; i++) {
+        u8 = 1;
+        put(w, &u8, 1, 0);
+        u8 = (unsigned char)(pf[i][3] < 0 ? 3 : 4);
+        put(w, &u8, 1, 0);
+        for (int j = 0; j < u8; j++) {
+            uint32_t x = (uint32_t)pf[i][j];
+            put(w, &x, 4, swap);
+        }
+    }
+    return w->n;
+}
+
+static void test_ply_formats(void)
+{
+    const char *fmts[] = {"ascii", "binary_little_endian", "binary_big_endian"};
+    rt_scene *sc[3] = {NULL, NULL, NULL};
+    static wbuf w;
+    for (int i = 0; i < 3; i++) {
+        make_ply(&w, fmts[i]);
+        char name[64];
+        snprintf(name, sizeof name, "pyr_%d.ply", i);
+        write_file(tpath(name), w.d, w.n);
+        rt_err e = {""};
+        sc[i] = rt_scene_load(tpath(name), &e);
+        CHECK(sc[i] != NULL, "%s: %s", fmts[i], e.msg);
+        if (sc[i]) CHECK(sc[i]->ntri == 6, "%s: %u triangles", fmts[i], sc[i]->ntri);
+    }
+    if (sc[0] && sc[0]->ntri == 6) {
+        CHECK(veq(sc[0]->tri[0].p[0], 0, 0, 0) && veq(sc[0]->tri[0].p[1], 0, 1, 0) && veq(sc[0]->tri[0].p[2], 1, 1, 0),
+              "ascii quad fan");
+        CHECK(veq(sc[0]->tri[2].p[2], 0.5f, 0.5f, 1.25f), "apex");
+    }
+    for (int i = 1; i < 3; i++)
+        if (sc[0] && sc[i] && sc[0]->ntri == sc[i]->ntri)
+            CHECK(!memcmp(sc[0]->tri, sc[i]->tri, sizeof(rt_tri) * sc[0]->ntri), "%s differs from ascii", fmts[i]);
+    for (int i = 0; i < 3; i++) rt_scene_free(sc[i]);
+
+    rt_err e = {""};
+    rt_scene *s = rt_scene_load(datafile("tetra_ascii.ply"), &e);
+    CHECK(s != NULL, "tetra_ascii.ply: %s", e.msg);
+    if (s) {
+        CHECK(s->ntri == 4, "tetra: %u", s->ntri);
+        rt_scene_free(s);
+    }
+
+    /* Every truncation of the binary files fails with a byte offset. */
+    for (int f = 1; f < 3; f++) {
+        make_ply(&w, fmts[f]);
+        int bad = 0;
+        for (size_t n = 0; n < w.n; n++) {
+            write_file(tpath("trunc.ply"), w.d, n);
+            rt_err te = {""};
+            rt_scene *t = rt_scene_load(tpath("trunc.ply"), &te);
+            if (t || !strstr(te.msg, tpath("trunc.ply")) || strchr(te.msg, '\n')) {
+                if (!bad) fprintf(stderr, "truncation at %zu of %zu: %s\n", n, w.n, t ? "accepted" : te.msg);
+                bad++;
+            }
+            rt_scene_free(t);
+        }
+        CHECK(bad == 0, "%s: %d truncations not rejected properly", fmts[f], bad);
+    }
+    /* Truncating ascii at every line boundary fails too. */
+    make_ply(&w, "ascii");
+    int bad = 0;
+    for (size_t n = 0; n < w.n; n++) {
+        if (n && w.d[n - 1] != '\n') continue;
+        write_file(tpath("trunc_a.ply"), w.d, n);
+        rt_err te = {""};
+        rt_scene *t = rt_scene_load(tpath("trunc_a.ply"), &te);
+        if (t || !strstr(te.msg, "trunc_a.ply")) bad++;
+        rt_scene_free(t);
+    }
+    CHECK(bad == 0, "ascii: %d line truncations not rejected", bad);
+
+    /* Random corruption of the binary file: any outcome but a crash. */
+    make_ply(&w, "binary_little_endian");
+    uint32_t st = 12345;
+    static wbuf c;
+    for (int it = 0; it < 3000; it++) {
+        c = w;
+        int nflip = 1 + it % 4;
+        for (int k = 0; k < nflip; k++) {
+            st = st * 1664525u + 1013904223u;
+            size_t at = (st >> 8) % c.n;
+            st = st * 1664525u + 1013904223u;
+            c.d[at] = (unsigned char)(st >> 24);
+        }
+        write_file(tpath("fuzz.ply"), c.d, c.n);
+        rt_err fe = {""};
+        rt_scene *t = rt_scene_load(tpath("fuzz.ply"), &fe);
+        if (!t) CHECK(strstr(fe.msg, "fuzz.ply") != NULL, "fuzz: message '%s'", fe.msg);
+        rt_scene_free(t);
+    }
+}
+
+static void test_ply_malformed(void)
+{
+    const char *H = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                    "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
+    char t[1024];
+    static const struct {
+        const char *name, *body, *needle;
+    } data[] = {
+        {"a_badnum.ply", "0 0 0\n1 0 x\n0 1 0\n3 0 1 2\n", ":11: bad number 'x'"},
+        {"a_nan.ply", "0 0 0\n1 0 nan\n0 1 0\n3 0 1 2\n", ":11:"},
+        {"a_inf.ply", "0 0 0\n1 0 0\n0 1 inf\n3 0 1 2\n", "not a finite"},
+        {"a_range.ply", "0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n", ":13: face 0: vertex index 3 out of range (3 vertices)"},
+        {"a_negidx.ply", "0 0 0\n1 0 0\n0 1 0\n3 0 1 -1\n", "out of range"},
+        {"a_short.ply", "0 0 0\n1 0 0\n0 1 0\n2 0 1\n", "face 0 has 2 vertices"},
+        {"a_badcount.ply", "0 0 0\n1 0 0\n0 1 0\n300 0 1 2\n", "out of range"},
+        {"a_trunc.ply", "0 0 0\n1 0 0\n0 1 0\n3 0 1\n", "truncated face data"},
+        {"a_floatidx.ply", "0 0 0\n1 0 0\n0 1 0\n3 0 1 1.5\n", "bad integer"},
+    };
+    for (size_t i = 0; i < sizeof data / sizeof data[0]; i++) {
+        snprintf(t, sizeof t, "%s%s", H, data[i].body);
+        expect_fail_text(data[i].name, t, data[i].needle);
+    }
+    static const struct {
+        const char *name, *text, *needle;
+    } hdr[] = {
+        {"h_magic.ply", "plx\nformat ascii 1.0\nend_header\n", ":1: not a PLY file"},
+        {"h_fmt.ply", "ply\nformat binary_middle_endian 1.0\nend_header\n", ":2: unknown format"},
+        {"h_ver.ply", "ply\nformat ascii 2.0\nend_header\n", ":2: unsupported PLY version"},
+        {"h_nofmt.ply", "ply\nelement vertex 3\nend_header\n", ":2: expected a format line"},
+        {"h_noend.ply", "ply\nformat ascii 1.0\nelement vertex 3\n", "no end_header"},
+        {"h_prop.ply", "ply\nformat ascii 1.0\nproperty float x\nend_header\n", ":3: property before any element"},
+        {"h_type.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty real x\nend_header\n", ":4: unknown property type 'real'"},
+        {"h_lcount.ply", "ply\nformat ascii 1.0\nelement face 1\nproperty list float int vertex_indices\nend_header\n",
+         "not an integer type"},
+        {"h_count.ply", "ply\nformat ascii 1.0\nelement vertex -3\nend_header\n", ":3: bad element count"},
+        {"h_count2.ply", "ply\nformat ascii 1.0\nelement vertex 99999999999\nend_header\n", "bad element count"},
+        {"h_kw.ply", "ply\nformat ascii 1.0\nbogus line\nend_header\n", ":3: unknown header keyword 'bogus'"},
+        {"h_novert.ply", "ply\nformat ascii 1.0\nelement face 0\nproperty list uchar int vertex_indices\nend_header\n",
+         "no 'vertex' element"},
+        {"h_noxyz.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+                        "element face 0\nproperty list uchar int vertex_indices\nend_header\n0 0\n", "lacks scalar x, y and z"},
+        {"h_noface.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
+                         "end_header\n0 0 0\n", "point clouds"},
+        {"h_floatidx.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
+                           "element face 1\nproperty list uchar float vertex_indices\nend_header\n0 0 0\n3 0 0 0\n",
+         "not an integer type"},
+        {"h_empty.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                        "element face 0\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n",
+         "empty mesh"},
+        {"h_liar.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nproperty float x\n"
+                       "property float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                       "end_header\n", "truncated vertex data"},
+        {"h_zero.ply", "", ":1:"},
+    };
+    for (size_t i = 0; i < sizeof hdr / sizeof hdr[0]; i++) expect_fail_text(hdr[i].name, hdr[i].text, hdr[i].needle);
+
+    /* Binary NaN coordinate and out-of-range index report byte offsets. */
+    static wbuf w;
+    const char *bh = "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                     "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+    size_t hl = strlen(bh);
+    w.n = 0;
+    memcpy(w.d, bh, hl);
+    w.n = hl;
+    int swap = host_be();
+    float v[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    for (int i = 0; i < 9; i++) put(&w, &v[i], 4, swap);
+    unsigned char three = 3;
+    put(&w, &three, 1, 0);
+    int32_t idx[3] = {0, 1, 5};
+    for (int i = 0; i < 3; i++) put(&w, &idx[i], 4, swap);
+    write_file(tpath("b_range.ply"), w.d, w.n);
+    rt_err e = {""};
+    rt_scene *s = rt_scene_load(tpath("b_range.ply"), &e);
+    char want[64];
+    snprintf(want, sizeof want, "byte %zu: face 0: vertex index 5 out of range", hl + 36 + 1 + 8);
+    CHECK(s == NULL && strstr(e.msg, want), "binary range: '%s' (want '%s')", e.msg, want);
+    rt_scene_free(s);
+    w.d[hl + 4] = 0, w.d[hl + 5] = 0, w.d[hl + 6] = 0xc0, w.d[hl + 7] = 0x7f; /* y of vertex 0: NaN (LE) */
+    write_file(tpath("b_nan.ply"), w.d, w.n);
+    s = rt_scene_load(tpath("b_nan.ply"), &e);
+    snprintf(want, sizeof want, "byte %zu: vertex 0: coordinate is not a finite", hl + 4);
+    CHECK(s == NULL && strstr(e.msg, want), "binary NaN: '%s' (want '%s')", e.msg, want);
+    rt_scene_free(s);
+}
+
+int main(void)
+{
+    const char *td = getenv("TMPDIR");
+    snprintf(tmpdir, sizeof tmpdir, "%s/rt_test_loaders.XXXXXX", td && *td ? td : "/tmp");
+    if (!mkdtemp(tmpdir)) {
+        perror("mkdtemp");
+        return 1;
+    }
+    test_obj();
+    test_ply_formats();
+    test_ply_malformed();
+    char cmd[600];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmpdir);
+    if (system(cmd) != 0) fprintf(stderr, "warning: could not remove %s\n", tmpdir);
+    if (failures) fprintf(stderr, "%d failure(s)\n", failures);
+    else printf("test_loaders: all passed\n");
+    return failures ? 1 : 0;
+}
