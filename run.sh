@@ -17,5 +17,5 @@ mkdir -p "$bdir" "$out"
   fi
   make -j"$(nproc)" >/dev/null )
 rt="$bdir/raytraffic"
-"$rt" render sphereflake -W 1024 -H 1024 --lights all -o "$out/sphereflake.exr" --ppm "$out/sphereflake.ppm"
-echo "rendered: $out/sphereflake.exr (preview $out/sphereflake.ppm)"
+"$rt" render sphereflake -W 1024 -H 1024 --lights all -o "$out/sphereflake.exr" --png "$out/sphereflake.png"
+echo "rendered: $out/sphereflake.exr (preview $out/sphereflake.png)"

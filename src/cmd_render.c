@@ -18,7 +18,8 @@ static void usage(FILE *f)
             "(per-pixel k-d nodes visited and triangles tested).\n\n"
             "Options:\n"
             "  -o FILE            output EXR (required)\n"
-            "  --ppm FILE         also write an 8-bit gamma-2.2 preview (binary PPM)\n"
+            "  --png FILE         also write an 8-bit gamma-2.2 preview PNG\n"
+            "  --ppm FILE         same as a binary PPM\n"
             "  --json             print statistics as JSON on stdout\n" RT_RENDER_OPTS_HELP
             "  -h, --help         this help\n\n"
             "Statistics (stderr, or JSON): rays traced, nodes visited and triangles tested\n"
@@ -62,13 +63,14 @@ int main_render(int argc, char **argv)
     static const struct option own[] = {
         {"output", required_argument, NULL, 'o'},
         {"ppm", required_argument, NULL, 'p'},
+        {"png", required_argument, NULL, 'g'},
         {"json", no_argument, NULL, 'j'},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0},
     };
     rt_render_opts o;
     rt_render_default_opts(&o);
-    const char *tracer = "recursive", *out = NULL, *ppm = NULL;
+    const char *tracer = "recursive", *out = NULL, *ppm = NULL, *png = NULL;
     int json = 0, c, rc = RT_EXIT_FAIL;
     struct option *lo = rt_cmd_merge_opts(own);
     if (!lo) return RT_EXIT_FAIL;
@@ -80,6 +82,7 @@ int main_render(int argc, char **argv)
         switch (c) {
         case 'o': out = optarg; break;
         case 'p': ppm = optarg; break;
+        case 'g': png = optarg; break;
         case 'j': json = 1; break;
         case 'h': usage(stdout); free(lo); return RT_EXIT_OK;
         default: goto usage_err;
@@ -115,6 +118,7 @@ int main_render(int argc, char **argv)
     };
     if (rt_exr_write(out, img, attrs, (int)(sizeof attrs / sizeof attrs[0]), &e) < 0) goto fail;
     if (ppm && rt_ppm_write(ppm, img, &e) < 0) goto fail;
+    if (png && rt_png_write(png, img, &e) < 0) goto fail;
     rt_print_run_stats(json ? stdout : stderr, &j, &st, json);
     fprintf(stderr, "wrote %s\n", out);
     rc = RT_EXIT_OK;

@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <zlib.h>
 
 rt_image *rt_image_new(int W, int H, rt_err *e)
 {
@@ -64,4 +65,78 @@ int rt_ppm_write(const char *path, const rt_image *im, rt_err *e)
     }
     if (fclose(f) != 0) return rt_errf(e, "%s: write failed: %s", path, strerror(errno));
     return 0;
+}
+
+/* ---- PNG (8-bit RGB, one IDAT, zlib) --------------------------------- */
+
+static void put32(unsigned char *p, uint32_t v)
+{
+    p[0] = (unsigned char)(v >> 24);
+    p[1] = (unsigned char)(v >> 16);
+    p[2] = (unsigned char)(v >> 8);
+    p[3] = (unsigned char)v;
+}
+
+static int png_chunk(FILE *f, const char *type, const unsigned char *data, size_t n)
+{
+    unsigned char hdr[8];
+    put32(hdr, (uint32_t)n);
+    memcpy(hdr + 4, type, 4);
+    uLong crc = crc32(0L, (const Bytef *)type, 4);
+    if (n) crc = crc32(crc, data, (uInt)n);
+    unsigned char c[4];
+    put32(c, (uint32_t)crc);
+    return fwrite(hdr, 1, 8, f) == 8 && (n == 0 || fwrite(data, 1, n, f) == n) && fwrite(c, 1, 4, f) == 4 ? 0 : -1;
+}
+
+int rt_png_write_rgb8(const char *path, int W, int H, const unsigned char *rgb, rt_err *e)
+{
+    size_t row = (size_t)W * 3 + 1, raw_n = row * (size_t)H;
+    unsigned char *raw = rt_calloc(raw_n, 1, e);
+    if (!raw) return -1;
+    for (int y = 0; y < H; y++) {
+        raw[(size_t)y * row] = 0; /* filter: none */
+        memcpy(raw + (size_t)y * row + 1, rgb + (size_t)y * W * 3, (size_t)W * 3);
+    }
+    uLongf zn = compressBound((uLong)raw_n);
+    unsigned char *z = rt_calloc(zn, 1, e);
+    if (!z || compress2(z, &zn, raw, (uLong)raw_n, 6) != Z_OK) {
+        free(raw);
+        free(z);
+        return z ? rt_errf(e, "%s: compression failed", path) : -1;
+    }
+    free(raw);
+    FILE *f = fopen(path, "wb");
+    if (!f) {
+        free(z);
+        return rt_errf(e, "%s: %s", path, strerror(errno));
+    }
+    static const unsigned char sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    unsigned char ihdr[13];
+    put32(ihdr, (uint32_t)W);
+    put32(ihdr + 4, (uint32_t)H);
+    ihdr[8] = 8;  /* bit depth */
+    ihdr[9] = 2;  /* colour type: RGB */
+    ihdr[10] = ihdr[11] = ihdr[12] = 0;
+    int ok = fwrite(sig, 1, 8, f) == 8 && png_chunk(f, "IHDR", ihdr, 13) == 0 && png_chunk(f, "IDAT", z, zn) == 0 &&
+             png_chunk(f, "IEND", NULL, 0) == 0;
+    free(z);
+    if (fclose(f) != 0) ok = 0;
+    return ok ? 0 : rt_errf(e, "%s: write failed: %s", path, strerror(errno));
+}
+
+void rt_image_to_rgb8(const rt_image *im, unsigned char *out)
+{
+    size_t n = (size_t)im->W * (size_t)im->H;
+    for (size_t i = 0; i < 3 * n; i++) out[i] = to8(im->rgb[i]);
+}
+
+int rt_png_write(const char *path, const rt_image *im, rt_err *e)
+{
+    unsigned char *rgb = rt_calloc((size_t)im->W * im->H, 3, e);
+    if (!rgb) return -1;
+    rt_image_to_rgb8(im, rgb);
+    int rc = rt_png_write_rgb8(path, im->W, im->H, rgb, e);
+    free(rgb);
+    return rc;
 }

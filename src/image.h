@@ -42,4 +42,11 @@ rt_image *rt_exr_read(const char *path, rt_err *e);
  * clamped; used for looking at renders and for the side-by-side plots. */
 int rt_ppm_write(const char *path, const rt_image *im, rt_err *e);
 
+/* Writes the image as an 8-bit gamma-2.2 PNG (zlib, no external library). */
+int rt_png_write(const char *path, const rt_image *im, rt_err *e);
+/* Writes raw 8-bit RGB rows (W*H*3 bytes) as PNG. */
+int rt_png_write_rgb8(const char *path, int W, int H, const unsigned char *rgb, rt_err *e);
+/* Tone-maps to 8-bit RGB (gamma 2.2, clamped). out holds W*H*3 bytes. */
+void rt_image_to_rgb8(const rt_image *im, unsigned char *out);
+
 #endif

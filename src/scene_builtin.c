@@ -510,7 +510,9 @@ static void tree_rec(tree *T, const aff *A, double s, int depth, int n)
     }
     if (n - depth <= 2)
         colour(g, 0.22 + 0.03 * (depth & 3), 0.50 + 0.04 * (depth & 1), 0.18);
-    sphere_from(g, T->tmpl, T->tess, apex, ra);
+    /* The outermost apex spheres stand for foliage clusters: 12x the apex
+     * radius, so the canopy hides the inner branches as leaves would. */
+    sphere_from(g, T->tmpl, T->tess, apex, depth == n ? 12.0 * ra : ra);
     if (depth == n) return;
     for (int i = 0; i < 2; i++) {
         aff C = acompose(&T->child[i], A);
@@ -599,7 +601,7 @@ static int gen_grove(gen *g, const int *pv)
     /* Camera: SPD tree's view direction, (4.5,0.4,0.5) from the target,
      * pulled back so the spiral (radius maxr + 1) fills the view width. */
     rt_scene *s = g->s;
-    double dist = (maxr + 1.0) / 0.41421356237309503; /* tan(22.5 deg) */
+    double dist = 0.8 * (maxr + 1.0) / 0.41421356237309503; /* tan(22.5 deg) */
     dv3 dir = dnorm(d3(4.5, 0.4, 0.5));
     dv3 at = d3(0, 0, 1.5);
     if (ntrees > 1) at = d3(0, 0, 1.7);
