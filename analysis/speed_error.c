@@ -1,0 +1,154 @@
+/*
+ * speed_error.c -- `raytraffic report --speed-error`: approximate methods
+ * against the exact simulation, measured on the database's own runs.
+ *
+ * For every run whose sim_method is not 'exact', the exact run with the same
+ * identity (scene, tracer, size, lights, schedule, tracer parameters) is the
+ * reference. Per cache size and group (geometry, ray) it compares the miss
+ * ratio (fetch misses / accesses) and the traffic; the table gives, per
+ * method and parameters, the wall time of both runs, the speedup, and the
+ * mean and maximum over the sizes of the absolute miss-ratio error and of
+ * the relative traffic error (%), naming the exact run compared against.
+ */
+#include "cmd.h"
+
+#include <math.h>
+#include <sqlite3.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "config.h"
+
+int rt_report_speed_error(sqlite3 *h, int csv, const char *plotdir);
+
+/* Pairs (approximate run, exact run) with per-size group figures. */
+static const char *pairs_sql =
+    "WITH g AS ("
+    "  SELECT t.run_id, c.size, k.grp,"
+    "    SUM(t.accesses) AS acc, SUM(t.read_misses + t.write_misses) AS miss, SUM(t.traffic_bytes) AS bytes"
+    "  FROM traffic t JOIN cache_configs c ON c.id = t.config_id JOIN classes k ON k.name = t.class"
+    "  WHERE c.line = 64 AND c.assoc = 0 AND k.grp IN ('geometry', 'ray')"
+    "  GROUP BY t.run_id, c.size, k.grp)"
+    " SELECT s.name, a.tracer, a.W, a.H, a.lights, a.sched_cache_size, a.sim_method, a.sim_params, a.id, x.id,"
+    "   a.wall_time, x.wall_time, ga.grp, ga.size,"
+    "   CASE WHEN ga.acc > 0 THEN 1.0 * ga.miss / ga.acc ELSE 0 END,"
+    "   CASE WHEN gx.acc > 0 THEN 1.0 * gx.miss / gx.acc ELSE 0 END,"
+    "   ga.bytes, gx.bytes"
+    " FROM runs a JOIN runs x ON x.scene_id = a.scene_id AND x.tracer = a.tracer AND x.W = a.W AND x.H = a.H"
+    "   AND x.lights = a.lights AND x.sched_cache_size = a.sched_cache_size AND x.gmax = a.gmax"
+    "   AND x.params = a.params AND x.sim_method = 'exact'"
+    " JOIN scenes s ON s.id = a.scene_id"
+    " JOIN g ga ON ga.run_id = a.id JOIN g gx ON gx.run_id = x.id AND gx.size = ga.size AND gx.grp = ga.grp"
+    " WHERE a.sim_method <> 'exact'"
+    " ORDER BY s.name, a.tracer, a.lights, a.sched_cache_size, a.sim_method, a.sim_params, a.id, ga.grp, ga.size";
+
+typedef struct acc {
+    int n;
+    double mr_sum, mr_max, rel_sum, rel_max;
+} acc;
+
+int rt_report_speed_error(sqlite3 *h, int csv, const char *plotdir)
+{
+    sqlite3_stmt *st;
+    if (sqlite3_prepare_v2(h, pairs_sql, -1, &st, NULL) != SQLITE_OK) {
+        rt_cmd_error("report", "speed-error query: %s", sqlite3_errmsg(h));
+        return -1;
+    }
+    FILE *dat = NULL;
+    char datpath[4096] = "";
+    if (plotdir) {
+        mkdir(plotdir, 0777);
+        snprintf(datpath, sizeof datpath, "%s/speed-error.dat", plotdir);
+        dat = fopen(datpath, "w");
+        if (dat) fprintf(dat, "# method speedup geom_mean_abs_mr_err ray_mean_abs_mr_err\n");
+    }
+    if (csv)
+        printf("scene,tracer,W,H,lights,sched,method,params,run,exact_run,seconds,exact_seconds,speedup,"
+               "geom_mr_mean,geom_mr_max,geom_rel_mean_pct,geom_rel_max_pct,ray_mr_mean,ray_mr_max,ray_rel_mean_pct,"
+               "ray_rel_max_pct\n");
+    else
+        printf("# Speed against error (approximate vs exact simulation)\n\n"
+               "Miss ratio = fetch misses / line accesses per group; errors are absolute (miss ratio) and relative "
+               "(traffic, %%), mean and max over the cache sizes.\n\n"
+               "| scene | tracer | lights | sched | method | params | run (exact run) | s (exact s) | speedup | geometry "
+               "MR err mean / max | geometry traffic err %% mean / max | ray MR err mean / max | ray traffic err %% "
+               "mean / max |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    int rows = 0;
+    long cur = -1;
+    char hdr[1024] = "";
+    double secs = 0, xsecs = 0;
+    long xid = 0;
+    acc A[2];
+    memset(A, 0, sizeof A);
+    int rc;
+    for (;;) {
+        rc = sqlite3_step(st);
+        long id = rc == SQLITE_ROW ? sqlite3_column_int64(st, 8) : -2;
+        if (id != cur && cur != -1) {
+            double sp = secs > 0 ? xsecs / secs : NAN;
+            acc *G = &A[0], *Y = &A[1];
+            if (csv)
+                printf("%s,%ld,%ld,%.3f,%.3f,%.2f,%.5f,%.5f,%.3f,%.3f,%.5f,%.5f,%.3f,%.3f\n", hdr, cur, xid, secs,
+                       xsecs, sp, G->n ? G->mr_sum / G->n : NAN, G->mr_max, G->n ? G->rel_sum / G->n : NAN, G->rel_max,
+                       Y->n ? Y->mr_sum / Y->n : NAN, Y->mr_max, Y->n ? Y->rel_sum / Y->n : NAN, Y->rel_max);
+            else
+                printf("%s | %ld (%ld) | %.2f (%.2f) | %.1fx | %.4f / %.4f | %.2f / %.2f | %.4f / %.4f | %.2f / %.2f |\n",
+                       hdr, cur, xid, secs, xsecs, sp, G->n ? G->mr_sum / G->n : NAN, G->mr_max,
+                       G->n ? G->rel_sum / G->n : NAN, G->rel_max, Y->n ? Y->mr_sum / Y->n : NAN, Y->mr_max,
+                       Y->n ? Y->rel_sum / Y->n : NAN, Y->rel_max);
+            if (dat)
+                fprintf(dat, "\"%s\" %.4f %.6f %.6f\n", hdr, sp, G->n ? G->mr_sum / G->n : NAN,
+                        Y->n ? Y->mr_sum / Y->n : NAN);
+            rows++;
+            memset(A, 0, sizeof A);
+        }
+        if (rc != SQLITE_ROW) break;
+        if (id != cur) {
+            cur = id;
+            xid = sqlite3_column_int64(st, 9);
+            secs = sqlite3_column_double(st, 10);
+            xsecs = sqlite3_column_double(st, 11);
+            const char *m = (const char *)sqlite3_column_text(st, 6), *p = (const char *)sqlite3_column_text(st, 7);
+            if (csv)
+                snprintf(hdr, sizeof hdr, "%s,%s,%d,%d,%d,%lld,%s,\"%s\"", sqlite3_column_text(st, 0),
+                         sqlite3_column_text(st, 1), sqlite3_column_int(st, 2), sqlite3_column_int(st, 3),
+                         sqlite3_column_int(st, 4), (long long)sqlite3_column_int64(st, 5), m, p ? p : "");
+            else
+                snprintf(hdr, sizeof hdr, "| %s | %s | %d | %lld | %s | %s", sqlite3_column_text(st, 0),
+                         sqlite3_column_text(st, 1), sqlite3_column_int(st, 4), (long long)sqlite3_column_int64(st, 5), m,
+                         p ? p : "");
+        }
+        int gi = strcmp((const char *)sqlite3_column_text(st, 12), "geometry") == 0 ? 0 : 1;
+        double mra = sqlite3_column_double(st, 14), mrx = sqlite3_column_double(st, 15);
+        double ba = sqlite3_column_double(st, 16), bx = sqlite3_column_double(st, 17);
+        double emr = fabs(mra - mrx), rel = bx > 0 ? 100.0 * fabs(ba - bx) / bx : (ba > 0 ? 100.0 : 0.0);
+        acc *a = &A[gi];
+        a->n++;
+        a->mr_sum += emr;
+        a->rel_sum += rel;
+        if (emr > a->mr_max) a->mr_max = emr;
+        if (rel > a->rel_max) a->rel_max = rel;
+    }
+    sqlite3_finalize(st);
+    if (rc != SQLITE_DONE) {
+        rt_cmd_error("report", "speed-error query: %s", sqlite3_errmsg(h));
+        if (dat) fclose(dat);
+        return -1;
+    }
+    if (!rows && !csv) printf("(no approximate runs in the database: run `raytraffic sim --method ...` or the sweep with "
+                              "--approx)\n");
+    if (dat) {
+        fclose(dat);
+        const char *gp = GNUPLOT_PATH[0] ? GNUPLOT_PATH : "gnuplot";
+        char cmd[8192];
+        snprintf(cmd, sizeof cmd,
+                 "'%s' -e \"set terminal pngcairo size 800,500; set output '%s/speed-error.png'; set logscale xy; set "
+                 "xlabel 'speedup over exact'; set ylabel 'mean abs miss-ratio error'; set grid; plot '%s' u 2:3 w p "
+                 "pt 7 t 'geometry', '' u 2:4 w p pt 5 t 'ray'\" >/dev/null 2>&1",
+                 gp, plotdir, datpath);
+        if (rows && system(cmd) == 0) fprintf(stderr, "wrote %s/speed-error.png\n", plotdir);
+    }
+    return 0;
+}

@@ -1,0 +1,123 @@
+/*
+ * din.c -- reader for Dinero IV "din" text traces.
+ *
+ * Each line is "LABEL ADDRESS [ignored...]": LABEL 0 = data read, 1 = data
+ * write, 2 = instruction fetch (simulated as a read); ADDRESS is
+ * hexadecimal with or without 0x. Any other label, a missing or malformed
+ * address, is an error naming file:line. Blank lines are skipped. Every
+ * record becomes a 1-byte reference of the class given at open (default
+ * "other"), as Dinero IV itself treats din records without a size.
+ */
+#include "sim.h"
+
+#include <ctype.h>
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+struct rt_din {
+    FILE *f;          /* open file */
+    char *path;       /* for messages */
+    int cls;          /* class of every record */
+    uint64_t lineno;  /* lines read */
+    uint64_t hash;    /* FNV-1a of bytes read */
+    uint64_t bytes;   /* bytes read */
+    char *buf;        /* getline buffer */
+    size_t bufcap;    /* its capacity */
+};
+
+rt_din *rt_din_open(const char *path, int cls, rt_err *e)
+{
+    if (cls < 0 || cls >= RT_NCLASS) return rt_errf(e, "%s: bad din class %d", path, cls), NULL;
+    rt_din *d = rt_calloc(1, sizeof *d, e);
+    if (!d) return NULL;
+    d->path = strdup(path);
+    d->f = fopen(path, "rb");
+    if (!d->path || !d->f) {
+        rt_errf(e, "%s: %s", path, strerror(errno));
+        rt_din_close(d);
+        return NULL;
+    }
+    d->cls = cls;
+    d->hash = RT_FNV_INIT;
+    return d;
+}
+
+long rt_din_read(rt_din *d, rt_access *buf, size_t cap, rt_err *e)
+{
+    size_t n = 0;
+    while (n < cap) {
+        ssize_t len = getline(&d->buf, &d->bufcap, d->f);
+        if (len < 0) {
+            if (ferror(d->f)) return rt_errf(e, "%s:%llu: read error", d->path, (unsigned long long)d->lineno + 1);
+            break;
+        }
+        d->lineno++;
+        d->bytes += (uint64_t)len;
+        d->hash = rt_fnv1a(d->hash, d->buf, (size_t)len);
+        const char *p = d->buf;
+        while (*p == ' ' || *p == '\t') p++;
+        if (*p == '\n' || *p == '\r' || *p == 0) continue;
+        if (!isdigit((unsigned char)*p))
+            return rt_errf(e, "%s:%llu: expected 'label address'", d->path, (unsigned long long)d->lineno);
+        char *end;
+        unsigned long label = strtoul(p, &end, 10);
+        if (end == p || (*end != ' ' && *end != '\t'))
+            return rt_errf(e, "%s:%llu: expected 'label address'", d->path, (unsigned long long)d->lineno);
+        if (label > 2)
+            return rt_errf(e, "%s:%llu: unsupported din label %lu (0 read, 1 write, 2 fetch)", d->path,
+                           (unsigned long long)d->lineno, label);
+        p = end;
+        while (*p == ' ' || *p == '\t') p++;
+        if (!isxdigit((unsigned char)*p))
+            return rt_errf(e, "%s:%llu: missing hexadecimal address", d->path, (unsigned long long)d->lineno);
+        errno = 0;
+        unsigned long long addr = strtoull(p, &end, 16);
+        if (errno || (*end && !isspace((unsigned char)*end)))
+            return rt_errf(e, "%s:%llu: bad hexadecimal address", d->path, (unsigned long long)d->lineno);
+        buf[n].addr = addr;
+        buf[n].size = 1;
+        buf[n].write = label == 1;
+        buf[n].cls = (uint8_t)d->cls;
+        n++;
+    }
+    return (long)n;
+}
+
+uint64_t rt_din_file_hash(const rt_din *d) { return d->hash; }
+uint64_t rt_din_file_bytes(const rt_din *d) { return d->bytes; }
+
+void rt_din_close(rt_din *d)
+{
+    if (!d) return;
+    if (d->f) fclose(d->f);
+    free(d->path);
+    free(d->buf);
+    free(d);
+}
+
+int rt_sim_sniff(const char *path, rt_err *e)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return rt_errf(e, "%s: %s", path, strerror(errno));
+    unsigned char b[4096];
+    size_t n = fread(b, 1, sizeof b, f);
+    int err = ferror(f);
+    fclose(f);
+    if (err) return rt_errf(e, "%s: read error", path);
+    if (n == 0) return rt_errf(e, "%s: empty file", path);
+    /* din: printable text whose first non-blank line is "digits space hex" */
+    for (size_t i = 0; i < n; i++)
+        if (!(isprint(b[i]) || b[i] == '\n' || b[i] == '\r' || b[i] == '\t')) return RT_SIM_IN_RTT;
+    size_t i = 0;
+    while (i < n && isspace(b[i])) i++;
+    if (i < n && isdigit(b[i])) {
+        while (i < n && isdigit(b[i])) i++;
+        if (i < n && (b[i] == ' ' || b[i] == '\t')) {
+            while (i < n && (b[i] == ' ' || b[i] == '\t')) i++;
+            if (i < n && isxdigit(b[i])) return RT_SIM_IN_DIN;
+        }
+    }
+    return rt_errf(e, "%s: neither a raytraffic trace nor a din file", path);
+}

@@ -1,0 +1,25 @@
+/*
+ * msim.h -- one-pass multi-size fully associative LRU simulator (private to
+ * cachesim/; the public entry point is sim.h). See the essay in msim.c.
+ */
+#ifndef RT_MSIM_H
+#define RT_MSIM_H
+
+#include "sim.h"
+
+typedef struct rt_msim rt_msim;
+
+/* k sizes (bytes, strictly increasing, each a multiple of line, k <=
+ * RT_SIM_MAXSIZES), line size in bytes (any; powers of two are faster). */
+rt_msim *rt_msim_new(const uint64_t *sizes, int k, uint32_t line, rt_err *e);
+void rt_msim_free(rt_msim *m);
+void rt_msim_put(rt_msim *m, const rt_access *a, size_t n);
+/* Counters of size index i, class cls (traffic_bytes filled in). */
+void rt_msim_get(const rt_msim *m, int i, int cls, rt_sim_counts *out);
+int rt_msim_check(const rt_msim *m, rt_err *e);
+/* Test hook: adds n touches of (cls, write) at stack group g (0..k, k =
+ * missed everywhere) to the counters, without simulating them; lets tests
+ * check that counters and their sums are 64-bit without 2^32 references. */
+void rt_msim_test_add(rt_msim *m, int cls, int write, int g, uint64_t n);
+
+#endif

@@ -1,0 +1,257 @@
+/*
+ * setassoc.c -- set-associative (and direct-mapped, and fully associative)
+ * LRU cache of one size, any line size, any write policy.
+ *
+ * Mapping: line = addr / line_size, set = line % nsets (so 48-byte lines, as
+ * in Purcell et al.'s 64 KB direct-mapped texture cache, work: nothing needs
+ * a power of two). Each set owns `assoc` consecutive slots; its resident
+ * lines form an LRU list (head = most recent) threaded through the slots.
+ * A hash table (line -> slot) finds a line in O(1) whatever the
+ * associativity, so the same code serves direct-mapped caches and one-set
+ * fully associative caches with a non-default write policy.
+ *
+ * Policies (Dinero IV semantics, docs/cachesim.md):
+ *   write-back     a write hit or allocated write miss marks the line dirty;
+ *                  evicting a dirty line costs one line (a write-back),
+ *                  charged to the class of the last write to the line;
+ *   write-through  each write touch sends the bytes it covers inside that
+ *                  line to memory (wt_bytes); lines are never dirty;
+ *   write-allocate a write miss fetches the line like a read miss;
+ *   no-write-allocate a write miss leaves the cache unchanged and sends its
+ *                  bytes to memory (wt_bytes), whatever the hit policy.
+ * Invariants (rt_sa_check): each set's list has used[s] <= assoc slots, all
+ * inside the set, each in the hash table under its line, whose set is s.
+ */
+#include "setassoc.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#define NIL UINT32_MAX
+
+typedef struct saslot {
+    uint64_t line;  /* resident line number */
+    uint32_t prev;  /* more recent slot in the set, NIL at head */
+    uint32_t next;  /* less recent, NIL at tail */
+    uint8_t dirty;  /* write-back: modified since fetched */
+    uint8_t wcls;   /* class of the last write */
+} saslot;
+
+typedef struct saset {
+    uint32_t head, tail; /* MRU / LRU slot, NIL when empty */
+    uint32_t used;       /* resident lines */
+} saset;
+
+typedef struct sahash {
+    uint64_t key; /* line */
+    uint32_t val; /* slot, NIL = empty */
+} sahash;
+
+struct rt_sa {
+    uint64_t size;       /* bytes */
+    uint32_t line;       /* bytes per line */
+    uint32_t assoc;      /* ways per set */
+    uint64_t nsets;      /* sets */
+    int wt, nwa;         /* write-through, no-write-allocate */
+    saslot *slots;       /* nsets * assoc */
+    saset *sets;         /* nsets */
+    sahash *ht;          /* line -> slot */
+    uint64_t hmask;      /* table size - 1 */
+    int hshift;          /* 64 - log2(table size) */
+    uint64_t acc[RT_NCLASS], rm[RT_NCLASS], wm[RT_NCLASS], wb[RT_NCLASS], wtb[RT_NCLASS]; /* counters */
+};
+
+static inline uint64_t hs(const rt_sa *c, uint64_t line) { return (line * 0x9E3779B97F4A7C15ULL) >> c->hshift; }
+
+static uint32_t h_find(const rt_sa *c, uint64_t line)
+{
+    for (uint64_t i = hs(c, line);; i = (i + 1) & c->hmask) {
+        if (c->ht[i].val == NIL) return NIL;
+        if (c->ht[i].key == line) return c->ht[i].val;
+    }
+}
+
+static void h_insert(rt_sa *c, uint64_t line, uint32_t val)
+{
+    uint64_t i = hs(c, line);
+    while (c->ht[i].val != NIL) i = (i + 1) & c->hmask;
+    c->ht[i].key = line;
+    c->ht[i].val = val;
+}
+
+static void h_delete(rt_sa *c, uint64_t line)
+{
+    uint64_t i = hs(c, line);
+    while (c->ht[i].val == NIL || c->ht[i].key != line) i = (i + 1) & c->hmask;
+    for (uint64_t j = i;;) {
+        j = (j + 1) & c->hmask;
+        if (c->ht[j].val == NIL) break;
+        uint64_t h = hs(c, c->ht[j].key);
+        if (i <= j ? (i < h && h <= j) : (i < h || h <= j)) continue;
+        c->ht[i] = c->ht[j];
+        i = j;
+    }
+    c->ht[i].val = NIL;
+}
+
+rt_sa *rt_sa_new(uint64_t size, uint32_t line, uint32_t assoc, int write_through, int no_write_allocate, rt_err *e)
+{
+    if (line == 0 || size < line || size % line)
+        return rt_errf(e, "cache size %llu is not a positive multiple of the %u-byte line", (unsigned long long)size,
+                       line), NULL;
+    uint64_t nlines = size / line;
+    if (assoc == 0) assoc = (uint32_t)(nlines < UINT32_MAX ? nlines : 0);
+    if (assoc == 0 || nlines % assoc || nlines >= (1u << 30))
+        return rt_errf(e, "cache of %llu lines cannot be split into %u-way sets", (unsigned long long)nlines, assoc),
+               NULL;
+    rt_sa *c = rt_calloc(1, sizeof *c, e);
+    if (!c) return NULL;
+    c->size = size;
+    c->line = line;
+    c->assoc = assoc;
+    c->nsets = nlines / assoc;
+    c->wt = write_through;
+    c->nwa = no_write_allocate;
+    uint64_t tsize = 16;
+    int bits = 4;
+    while (tsize < 2 * nlines) tsize <<= 1, bits++;
+    c->hmask = tsize - 1;
+    c->hshift = 64 - bits;
+    c->slots = rt_calloc(nlines, sizeof *c->slots, e);
+    c->sets = rt_calloc(c->nsets, sizeof *c->sets, e);
+    c->ht = rt_calloc(tsize, sizeof *c->ht, e);
+    if (!c->slots || !c->sets || !c->ht) {
+        rt_sa_free(c);
+        return NULL;
+    }
+    for (uint64_t i = 0; i < c->nsets; i++) c->sets[i].head = c->sets[i].tail = NIL;
+    for (uint64_t i = 0; i < tsize; i++) c->ht[i].val = NIL;
+    return c;
+}
+
+void rt_sa_free(rt_sa *c)
+{
+    if (!c) return;
+    free(c->slots);
+    free(c->sets);
+    free(c->ht);
+    free(c);
+}
+
+static inline void unlink_slot(rt_sa *c, saset *s, uint32_t x)
+{
+    saslot *sl = c->slots;
+    if (sl[x].prev != NIL) sl[sl[x].prev].next = sl[x].next;
+    else s->head = sl[x].next;
+    if (sl[x].next != NIL) sl[sl[x].next].prev = sl[x].prev;
+    else s->tail = sl[x].prev;
+}
+
+static inline void push_head(rt_sa *c, saset *s, uint32_t x)
+{
+    saslot *sl = c->slots;
+    sl[x].prev = NIL;
+    sl[x].next = s->head;
+    if (s->head != NIL) sl[s->head].prev = x;
+    else s->tail = x;
+    s->head = x;
+}
+
+/* One line touch; bytes = bytes of the reference inside this line. */
+static void touch(rt_sa *c, uint64_t L, int w, unsigned cls, uint32_t bytes)
+{
+    saset *s = &c->sets[L % c->nsets];
+    saslot *sl = c->slots;
+    c->acc[cls]++;
+    uint32_t x = (s->head != NIL && sl[s->head].line == L) ? s->head : h_find(c, L);
+    if (x != NIL) {
+        if (x != s->head) {
+            unlink_slot(c, s, x);
+            push_head(c, s, x);
+        }
+    } else {
+        if (w) c->wm[cls]++;
+        else c->rm[cls]++;
+        if (w && c->nwa) { /* write around the cache */
+            c->wtb[cls] += bytes;
+            return;
+        }
+        uint64_t set = L % c->nsets;
+        if (s->used < c->assoc) {
+            x = (uint32_t)(set * c->assoc + s->used++);
+        } else {
+            x = s->tail;
+            if (sl[x].dirty) c->wb[sl[x].wcls]++;
+            unlink_slot(c, s, x);
+            h_delete(c, sl[x].line);
+        }
+        sl[x].line = L;
+        sl[x].dirty = 0;
+        h_insert(c, L, x);
+        push_head(c, s, x);
+    }
+    if (w) {
+        if (c->wt) {
+            c->wtb[cls] += bytes;
+        } else {
+            sl[x].dirty = 1;
+            sl[x].wcls = (uint8_t)cls;
+        }
+    }
+}
+
+void rt_sa_put(rt_sa *c, const rt_access *a, size_t n)
+{
+    const uint64_t ls = c->line;
+    for (size_t i = 0; i < n; i++) {
+        uint64_t addr = a[i].addr;
+        uint32_t sz = a[i].size ? a[i].size : 1;
+        unsigned cls = a[i].cls < RT_NCLASS ? a[i].cls : RT_CLS_FB;
+        uint64_t end = addr + sz; /* exclusive */
+        uint64_t first = addr / ls, last = (end - 1) / ls;
+        for (uint64_t L = first; L <= last; L++) {
+            uint64_t lo = L == first ? addr : L * ls;
+            uint64_t hi = L == last ? end : (L + 1) * ls;
+            touch(c, L, a[i].write != 0, cls, (uint32_t)(hi - lo));
+        }
+    }
+}
+
+void rt_sa_get(const rt_sa *c, int cls, rt_sim_counts *out)
+{
+    memset(out, 0, sizeof *out);
+    if (cls < 0 || cls >= RT_NCLASS) return;
+    out->accesses = c->acc[cls];
+    out->read_misses = c->rm[cls];
+    out->write_misses = c->wm[cls];
+    out->writebacks = c->wb[cls];
+    out->wt_bytes = c->wtb[cls];
+    uint64_t fetches = c->rm[cls] + (c->nwa ? 0 : c->wm[cls]);
+    out->traffic_bytes = (fetches + c->wb[cls]) * c->line + c->wtb[cls];
+}
+
+int rt_sa_check(const rt_sa *c, rt_err *e)
+{
+    uint64_t total = 0;
+    for (uint64_t s = 0; s < c->nsets; s++) {
+        const saset *st = &c->sets[s];
+        if (st->used > c->assoc) return rt_errf(e, "setassoc: set %llu over-full", (unsigned long long)s);
+        uint32_t n = 0, prev = NIL;
+        for (uint32_t x = st->head; x != NIL; x = c->slots[x].next) {
+            if (++n > st->used) return rt_errf(e, "setassoc: set %llu list too long", (unsigned long long)s);
+            if (x / c->assoc != s) return rt_errf(e, "setassoc: slot %u outside set %llu", x, (unsigned long long)s);
+            if (c->slots[x].prev != prev) return rt_errf(e, "setassoc: broken prev link at slot %u", x);
+            if (c->slots[x].line % c->nsets != s) return rt_errf(e, "setassoc: line in wrong set");
+            if (h_find(c, c->slots[x].line) != x) return rt_errf(e, "setassoc: slot %u missing from hash", x);
+            if (c->wt && c->slots[x].dirty) return rt_errf(e, "setassoc: dirty line in write-through cache");
+            prev = x;
+        }
+        if (n != st->used || st->tail != prev) return rt_errf(e, "setassoc: set %llu count/tail mismatch", (unsigned long long)s);
+        total += n;
+    }
+    uint64_t inhash = 0;
+    for (uint64_t i = 0; i <= c->hmask; i++) inhash += c->ht[i].val != NIL;
+    if (inhash != total) return rt_errf(e, "setassoc: hash has %llu entries, sets %llu", (unsigned long long)inhash,
+                                        (unsigned long long)total);
+    return 0;
+}

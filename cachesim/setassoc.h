@@ -1,0 +1,21 @@
+/*
+ * setassoc.h -- one set-associative LRU cache of one size (private to
+ * cachesim/; see setassoc.c).
+ */
+#ifndef RT_SETASSOC_H
+#define RT_SETASSOC_H
+
+#include "sim.h"
+
+typedef struct rt_sa rt_sa;
+
+/* size and line in bytes (any line size >= 1); assoc ways per set, 0 =
+ * fully associative (one set). size must be a multiple of line*assoc. */
+rt_sa *rt_sa_new(uint64_t size, uint32_t line, uint32_t assoc, int write_through, int no_write_allocate,
+                 rt_err *e);
+void rt_sa_free(rt_sa *c);
+void rt_sa_put(rt_sa *c, const rt_access *a, size_t n);
+void rt_sa_get(const rt_sa *c, int cls, rt_sim_counts *out);
+int rt_sa_check(const rt_sa *c, rt_err *e);
+
+#endif

@@ -1,0 +1,191 @@
+/*
+ * sim.c -- the rt_sim front door: configurations, engine choice, the sink,
+ * per-size / per-class / per-group results (see sim.h).
+ */
+#include "sim.h"
+#include "msim.h"
+#include "setassoc.h"
+#include "db.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+struct rt_sim {
+    rt_sim_config cfg;               /* as created */
+    rt_msim *ms;                     /* one-pass engine, or NULL */
+    rt_sa *sa[RT_SIM_MAXSIZES];      /* per-size engines, or NULL */
+    rt_sink sink;                    /* put() -> rt_sim_put */
+    uint64_t refs;                   /* references seen */
+};
+
+void rt_sim_config_default(rt_sim_config *c)
+{
+    memset(c, 0, sizeof *c);
+    c->nsizes = RT_SIM_PAPER_NSIZES;
+    for (int i = 0; i < c->nsizes; i++) c->sizes[i] = 1024ULL << i;
+    c->line = 64;
+    c->assoc = 0;
+}
+
+static int cmp_u64(const void *a, const void *b)
+{
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return x < y ? -1 : x > y;
+}
+
+int rt_sim_parse_sizes(const char *s, rt_sim_config *c, rt_err *e)
+{
+    char buf[512];
+    if (!s || !*s || strlen(s) >= sizeof buf) return rt_errf(e, "bad size list '%s'", s ? s : "");
+    strcpy(buf, s);
+    char *dash = strchr(buf, '-');
+    int n = 0;
+    if (dash && !strchr(buf, ',')) {
+        *dash = 0;
+        uint64_t lo, hi;
+        if (rt_parse_size(buf, &lo) || rt_parse_size(dash + 1, &hi) || lo == 0 || hi < lo)
+            return rt_errf(e, "bad size range '%s' (want e.g. 1K-4M)", s);
+        for (uint64_t v = lo; v <= hi; v *= 2) {
+            if (n == RT_SIM_MAXSIZES) return rt_errf(e, "size range '%s' has more than %d sizes", s, RT_SIM_MAXSIZES);
+            c->sizes[n++] = v;
+            if (v > UINT64_MAX / 2) break;
+        }
+    } else {
+        for (char *tok = strtok(buf, ","); tok; tok = strtok(NULL, ",")) {
+            uint64_t v;
+            if (rt_parse_size(tok, &v) || v == 0) return rt_errf(e, "bad cache size '%s'", tok);
+            if (n == RT_SIM_MAXSIZES) return rt_errf(e, "more than %d sizes in '%s'", RT_SIM_MAXSIZES, s);
+            c->sizes[n++] = v;
+        }
+        qsort(c->sizes, (size_t)n, sizeof c->sizes[0], cmp_u64);
+        for (int i = 1; i < n; i++)
+            if (c->sizes[i] == c->sizes[i - 1]) return rt_errf(e, "size list '%s' repeats a size", s);
+    }
+    if (n == 0) return rt_errf(e, "empty size list");
+    c->nsizes = n;
+    return 0;
+}
+
+const char *rt_sim_policy_name(const rt_sim_config *c)
+{
+    static const char *const names[4] = {"wb-wa", "wb-nwa", "wt-wa", "wt-nwa"};
+    return names[(c->write_through ? 2 : 0) + (c->no_write_allocate ? 1 : 0)];
+}
+
+int rt_sim_config_check(const rt_sim_config *c, rt_err *e)
+{
+    if (c->nsizes < 1 || c->nsizes > RT_SIM_MAXSIZES) return rt_errf(e, "need 1..%d cache sizes", RT_SIM_MAXSIZES);
+    if (c->line == 0) return rt_errf(e, "line size must be at least 1 byte");
+    uint64_t unit = (uint64_t)c->line * (c->assoc ? c->assoc : 1);
+    for (int i = 0; i < c->nsizes; i++) {
+        if (i && c->sizes[i] <= c->sizes[i - 1]) return rt_errf(e, "cache sizes must increase");
+        if (c->sizes[i] < unit || c->sizes[i] % unit)
+            return rt_errf(e, "cache size %llu is not a multiple of line x assoc = %llu bytes",
+                           (unsigned long long)c->sizes[i], (unsigned long long)unit);
+        if (c->sizes[i] / c->line >= (1u << 30)) return rt_errf(e, "cache size %llu too large", (unsigned long long)c->sizes[i]);
+    }
+    return 0;
+}
+
+static int sink_put(rt_sink *sk, const rt_access *a, size_t n) { return rt_sim_put(sk->ctx, a, n); }
+
+rt_sim *rt_sim_new(const rt_sim_config *c, rt_err *e)
+{
+    if (rt_sim_config_check(c, e)) return NULL;
+    rt_sim *s = rt_calloc(1, sizeof *s, e);
+    if (!s) return NULL;
+    s->cfg = *c;
+    s->sink.put = sink_put;
+    s->sink.ctx = s;
+    if (c->assoc == 0 && !c->write_through && !c->no_write_allocate) {
+        s->ms = rt_msim_new(c->sizes, c->nsizes, c->line, e);
+        if (!s->ms) goto fail;
+    } else {
+        for (int i = 0; i < c->nsizes; i++) {
+            s->sa[i] = rt_sa_new(c->sizes[i], c->line, c->assoc, c->write_through, c->no_write_allocate, e);
+            if (!s->sa[i]) goto fail;
+        }
+    }
+    return s;
+fail:
+    rt_sim_free(s);
+    return NULL;
+}
+
+void rt_sim_free(rt_sim *s)
+{
+    if (!s) return;
+    rt_msim_free(s->ms);
+    for (int i = 0; i < RT_SIM_MAXSIZES; i++) rt_sa_free(s->sa[i]);
+    free(s);
+}
+
+const rt_sim_config *rt_sim_get_config(const rt_sim *s) { return &s->cfg; }
+const char *rt_sim_engine(const rt_sim *s) { return s->ms ? "exact-stack" : "exact-persize"; }
+rt_sink *rt_sim_sink(rt_sim *s) { return &s->sink; }
+uint64_t rt_sim_refs(const rt_sim *s) { return s->refs; }
+
+int rt_sim_put(rt_sim *s, const rt_access *a, size_t n)
+{
+    s->refs += n;
+    if (s->ms) rt_msim_put(s->ms, a, n);
+    else
+        for (int i = 0; i < s->cfg.nsizes; i++) rt_sa_put(s->sa[i], a, n);
+    return 0;
+}
+
+void rt_sim_get(const rt_sim *s, int i, int cls, rt_sim_counts *out)
+{
+    memset(out, 0, sizeof *out);
+    if (i < 0 || i >= s->cfg.nsizes) return;
+    if (s->ms) rt_msim_get(s->ms, i, cls, out);
+    else rt_sa_get(s->sa[i], cls, out);
+}
+
+void rt_sim_get_group(const rt_sim *s, int i, int group, rt_sim_counts *out)
+{
+    memset(out, 0, sizeof *out);
+    for (int c = 0; c < RT_NCLASS; c++) {
+        if ((int)rt_class_group(c) != group) continue;
+        rt_sim_counts t;
+        rt_sim_get(s, i, c, &t);
+        out->accesses += t.accesses;
+        out->read_misses += t.read_misses;
+        out->write_misses += t.write_misses;
+        out->writebacks += t.writebacks;
+        out->wt_bytes += t.wt_bytes;
+        out->traffic_bytes += t.traffic_bytes;
+    }
+}
+
+int rt_sim_check(const rt_sim *s, rt_err *e)
+{
+    if (s->ms) return rt_msim_check(s->ms, e);
+    for (int i = 0; i < s->cfg.nsizes; i++)
+        if (rt_sa_check(s->sa[i], e)) return -1;
+    return 0;
+}
+
+size_t rt_sim_db_rows(const rt_sim *s, rt_db_traffic *rows)
+{
+    size_t n = 0;
+    for (int i = 0; i < s->cfg.nsizes; i++)
+        for (int c = 0; c < RT_NCLASS; c++) {
+            rt_sim_counts t;
+            rt_sim_get(s, i, c, &t);
+            if (!t.accesses) continue;
+            rt_db_traffic *r = &rows[n++];
+            r->size = s->cfg.sizes[i];
+            r->line = s->cfg.line;
+            r->assoc = s->cfg.assoc;
+            r->policy = rt_sim_policy_name(&s->cfg);
+            r->cls = c;
+            r->accesses = t.accesses;
+            r->read_misses = t.read_misses;
+            r->write_misses = t.write_misses;
+            r->writebacks = t.writebacks;
+            r->wt_bytes = t.wt_bytes;
+            r->traffic_bytes = t.traffic_bytes;
+        }
+    return n;
+}

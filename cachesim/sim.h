@@ -1,0 +1,171 @@
+/*
+ * sim.h -- cache simulators: the public API (module prefix rt_sim_).
+ *
+ * One rt_sim simulates a set of cache configurations that share a line size,
+ * an associativity and a write policy, and differ only in total size. It
+ * consumes memory references (rt_access) through an rt_sink, so a tracer can
+ * stream into it in-process, or replays a trace file (.rtt) or a Dinero IV
+ * din text file. Results are 64-bit counters per (size, class).
+ *
+ * Engines (chosen by rt_sim_new, see docs/cachesim.md):
+ *   - fully associative, write-back, write-allocate (the paper's setting):
+ *     the one-pass multi-size LRU stack simulator (msim.c), exact for every
+ *     size at O(#sizes) per reference;
+ *   - anything else (set-associative, direct-mapped, write-through,
+ *     no-write-allocate, fully associative with a non-default policy):
+ *     one set-associative LRU simulator per size (setassoc.c), any line size.
+ *
+ * Accounting (Dinero IV defaults, documented in docs/cachesim.md):
+ *   - a reference touches every line in [addr, addr+size-1]; each touch is
+ *     one access; a read touch that misses is a read miss, a write touch
+ *     that misses is a write miss;
+ *   - with write-allocate every miss fetches the line (one line of traffic),
+ *     also a write miss; with no-write-allocate a write miss does not
+ *     allocate and its bytes go to memory;
+ *   - write-back: an evicted dirty line costs one line of traffic, charged
+ *     to the class of the reference that last wrote the line; lines still
+ *     resident at the end are not flushed (Dinero IV does not flush either);
+ *   - write-through: every write touch sends its bytes (the part of the
+ *     reference inside that line) to memory; lines are never dirty;
+ *   - traffic_bytes = (fetches + write-backs) x line + write-through bytes.
+ */
+#ifndef RT_SIM_H
+#define RT_SIM_H
+
+#include "memmodel.h"
+#include "rt.h"
+#include "trace.h"
+
+#include <stdint.h>
+#include <stdio.h>
+
+#define RT_SIM_MAXSIZES 32
+
+/* The paper's 13 sizes: 1 KiB, 2 KiB, ..., 4 MiB. */
+#define RT_SIM_PAPER_NSIZES 13
+
+typedef struct rt_sim_config {
+    int nsizes;                      /* 1..RT_SIM_MAXSIZES, strictly increasing */
+    uint64_t sizes[RT_SIM_MAXSIZES]; /* cache sizes in bytes */
+    uint32_t line;                   /* line size in bytes (any value >= 1) */
+    uint32_t assoc;                  /* ways per set; 0 = fully associative */
+    int write_through;               /* 1: write-through, 0: write-back */
+    int no_write_allocate;           /* 1: write misses do not allocate */
+} rt_sim_config;
+
+/* One size's counters for one class (64-bit). */
+typedef struct rt_sim_counts {
+    uint64_t accesses;     /* line touches */
+    uint64_t read_misses;  /* read touches that missed */
+    uint64_t write_misses; /* write touches that missed */
+    uint64_t writebacks;   /* dirty lines evicted (charged to the last writer's class) */
+    uint64_t wt_bytes;     /* bytes written through / around the cache to memory */
+    uint64_t traffic_bytes;/* (fetches + writebacks) * line + wt_bytes */
+} rt_sim_counts;
+
+/* Fills c with the paper's configuration: 13 sizes 1K..4M, 64-byte lines,
+ * fully associative, write-back, write-allocate. */
+void rt_sim_config_default(rt_sim_config *c);
+
+/* Parses a size list: "1K-4M" (powers of two from..to), "1K,2K,64K", or a
+ * single size. Returns 0, or -1 with a message. */
+int rt_sim_parse_sizes(const char *s, rt_sim_config *c, rt_err *e);
+
+/* Policy label used in the database: "wb-wa", "wb-nwa", "wt-wa", "wt-nwa". */
+const char *rt_sim_policy_name(const rt_sim_config *c);
+
+/* Checks a configuration: sizes increasing, each a multiple of
+ * line * assoc (fully associative: of line), at least one set. 0 or -1. */
+int rt_sim_config_check(const rt_sim_config *c, rt_err *e);
+
+typedef struct rt_sim rt_sim;
+
+/* Creates a simulator (cold caches). NULL on a bad configuration or out of
+ * memory. Memory: about 48 bytes per line of the largest cache (exact
+ * engine) or per line of every size (per-size engine). */
+rt_sim *rt_sim_new(const rt_sim_config *c, rt_err *e);
+void rt_sim_free(rt_sim *s);
+
+/* The configuration s was created with. */
+const rt_sim_config *rt_sim_get_config(const rt_sim *s);
+/* "exact-stack" (one-pass msim) or "exact-persize" (setassoc per size). */
+const char *rt_sim_engine(const rt_sim *s);
+
+/* Simulates n references. Never fails (returns 0); references with size 0
+ * are treated as size 1. Class values >= RT_NCLASS are counted as RT_CLS_FB
+ * ("other"). */
+int rt_sim_put(rt_sim *s, const rt_access *a, size_t n);
+
+/* An rt_sink feeding s; owned by s, valid until rt_sim_free. */
+rt_sink *rt_sim_sink(rt_sim *s);
+
+/* References (rt_access records, not line touches) seen so far. */
+uint64_t rt_sim_refs(const rt_sim *s);
+
+/* Counters of size index i (0..nsizes-1) for class cls (0..RT_NCLASS-1),
+ * with traffic_bytes computed. */
+void rt_sim_get(const rt_sim *s, int i, int cls, rt_sim_counts *out);
+/* Sum over the classes of a group (rt_group). */
+void rt_sim_get_group(const rt_sim *s, int i, int group, rt_sim_counts *out);
+
+/* Checks the simulator's internal invariants (stack markers, group sizes,
+ * hash table, dirty bits). 0 if consistent, -1 with a message. Slow; for
+ * tests. */
+int rt_sim_check(const rt_sim *s, rt_err *e);
+
+/* ---- input files ------------------------------------------------------ */
+
+enum { RT_SIM_IN_AUTO = 0, RT_SIM_IN_RTT = 1, RT_SIM_IN_DIN = 2 };
+
+/* Guesses the format of a file from its first bytes: RT_SIM_IN_RTT,
+ * RT_SIM_IN_DIN, or -1 (unreadable / unknown, with a message). */
+int rt_sim_sniff(const char *path, rt_err *e);
+
+/* What a replay learned about its input. */
+typedef struct rt_sim_input {
+    int format;          /* RT_SIM_IN_RTT or RT_SIM_IN_DIN */
+    int has_meta;        /* 1 for .rtt (meta valid) */
+    uint64_t refs;       /* references replayed */
+    uint64_t file_bytes; /* size of the input */
+    uint64_t file_hash;  /* 64-bit content hash (rt_tr_file_hash for .rtt,
+                            FNV-1a of the bytes for din) */
+} rt_sim_input;
+
+/* Replays a whole file through s. fmt is RT_SIM_IN_AUTO/RTT/DIN; din_class
+ * is the class given to din records (RT_CLS_FB = "other" by default;
+ * label 2, instruction fetch, is a read). If meta is non-NULL and the input
+ * is .rtt, the header is copied there. Returns 0, or -1 with the reader's
+ * message (file and position). On failure s holds a partial simulation. */
+int rt_sim_replay(rt_sim *s, const char *path, int fmt, int din_class, rt_tr_meta *meta,
+                  rt_sim_input *info, rt_err *e);
+
+/* Din reader (din.c): opens a Dinero IV "label hexaddress" text file. */
+typedef struct rt_din rt_din;
+rt_din *rt_din_open(const char *path, int cls, rt_err *e);
+/* Fills buf; returns records (> 0), 0 at end of file, -1 on a bad line
+ * ("file:line: message"). Labels: 0 read, 1 write, 2 instruction fetch
+ * (read); any other label is an error. Each record is a 1-byte reference. */
+long rt_din_read(rt_din *d, rt_access *buf, size_t cap, rt_err *e);
+uint64_t rt_din_file_hash(const rt_din *d); /* FNV-1a of the bytes read so far */
+uint64_t rt_din_file_bytes(const rt_din *d);
+void rt_din_close(rt_din *d);
+
+/* ---- results database ------------------------------------------------- */
+
+struct rt_db_traffic;
+/* Writes s's results as database rows (db.h): for each size, one row per
+ * class with at least one access, sizes in order. rows must hold
+ * nsizes * RT_NCLASS entries. Returns the number of rows written. */
+size_t rt_sim_db_rows(const rt_sim *s, struct rt_db_traffic *rows);
+
+/* ---- benchmark -------------------------------------------------------- */
+
+/* Generates a 20-million-reference synthetic trace (hot tree-top lines,
+ * streaming triangles, ray records) and reports to out the references/s of
+ * the one-pass 13-size simulation and the time of simulating the 13 sizes
+ * one at a time. Returns 0 or -1 (out of memory). */
+int rt_sim_bench(FILE *out);
+/* Same with a chosen trace length (tests use a short one). */
+int rt_sim_bench_n(FILE *out, uint64_t nrefs);
+
+#endif

@@ -1,0 +1,102 @@
+/*
+ * db.h -- the SQLite results database (module prefix rt_db_).
+ *
+ * One file (default raytraffic.db) holds scenes, runs (one per simulated
+ * trace or in-process stream), cache configurations and per-class traffic
+ * rows; views give the paper's geometry / ray traffic in MB (2^20 bytes).
+ * The schema is documented in docs/database.md and created on first open
+ * (PRAGMA user_version = RT_DB_SCHEMA_VERSION).
+ *
+ * Concurrency: WAL journal, 60 s busy timeout, every run stored in one
+ * BEGIN IMMEDIATE ... COMMIT transaction, so several processes (a parallel
+ * sweep) may write to the same file; a failed store leaves nothing behind.
+ *
+ * Identity: a run is identified by (scene name, scene params, scene hash,
+ * tracer, W, H, lights, scheduled cache size, gmax, tracer params,
+ * sim method, sim params). Storing a run whose key exists updates the run's
+ * provenance and replaces its traffic rows for the cache configurations
+ * being stored (rows of other configurations are kept); nothing is ever
+ * duplicated.
+ *
+ * All functions return 0 (or a documented non-negative value) on success,
+ * -1 on failure with one line in e naming the database path.
+ */
+#ifndef RT_DB_H
+#define RT_DB_H
+
+#include "rt.h"
+
+#include <stdint.h>
+
+#define RT_DB_SCHEMA_VERSION 1
+
+typedef struct rt_db rt_db;
+
+/* The identifying columns and provenance of one run. NULL strings are
+ * stored as ''. */
+typedef struct rt_db_run {
+    /* identity (the runs table's UNIQUE key, through the scene) */
+    const char *scene;        /* scene spec, e.g. "room" */
+    const char *scene_params; /* canonical scene parameters */
+    uint64_t scene_hash;      /* rt_scene_hash (stored as 16 hex digits) */
+    const char *tracer;       /* "recursive", "packet", "dynamic", ..., "din" */
+    int W, H;                 /* image size */
+    uint32_t lights;          /* enabled-light mask */
+    uint64_t cache_size;      /* cache size the trace was scheduled for (0 = n/a) */
+    uint64_t gmax;            /* geometry budget (0 = n/a) */
+    const char *params;       /* other tracer parameters "k=v k=v" */
+    const char *sim_method;   /* "exact" (NULL = "exact"); later "sampled" ... */
+    const char *sim_params;   /* parameters of the sim method ('' for exact) */
+    /* provenance */
+    uint32_t ntri;            /* scene triangles */
+    uint64_t trace_hash;      /* content hash of the trace (0 = in-process stream) */
+    uint64_t refs;            /* references simulated */
+    const char *tool_version; /* NULL = rt_version() */
+    const char *git_rev;      /* NULL = rt_git_rev() */
+    const char *command;      /* command line */
+    double wall_time;         /* seconds spent producing the results */
+    const char *stats;        /* tracer statistics "k=v k=v" (rays, nodes, tests, ...) */
+} rt_db_run;
+
+/* One traffic row: counters of one class in one cache configuration. */
+typedef struct rt_db_traffic {
+    uint64_t size;          /* cache size, bytes */
+    uint32_t line;          /* line size, bytes */
+    uint32_t assoc;         /* ways, 0 = fully associative */
+    const char *policy;     /* "wb-wa", "wb-nwa", "wt-wa", "wt-nwa" */
+    int cls;                /* rt_class */
+    uint64_t accesses;      /* line touches */
+    uint64_t read_misses;   /* read touches that missed */
+    uint64_t write_misses;  /* write touches that missed */
+    uint64_t writebacks;    /* dirty evictions charged to this class */
+    uint64_t wt_bytes;      /* write-through / write-around bytes */
+    uint64_t traffic_bytes; /* (fetches + writebacks) * line + wt_bytes */
+} rt_db_traffic;
+
+/* Opens (creating if needed) the database at path and ensures the schema.
+ * Fails with "PATH: message" if the file cannot be created or written, is
+ * not a SQLite database, or has a newer schema version. */
+rt_db *rt_db_open(const char *path, rt_err *e);
+void rt_db_close(rt_db *db); /* NULL is fine */
+
+/* 1 if a run with this key has been stored, 0 if not, -1 on error. Only
+ * the identity fields of key are used. */
+int rt_db_has_run(rt_db *db, const rt_db_run *key, rt_err *e);
+
+/* Stores run and its n traffic rows in one transaction. On success returns
+ * 0 and, if run_id is non-NULL, the run's id. On failure nothing of this
+ * store is left in the database. */
+int rt_db_store_run(rt_db *db, const rt_db_run *run, const rt_db_traffic *rows, size_t n, int64_t *run_id,
+                    rt_err *e);
+
+/* The schema (tables, views) as SQL, for docs and tests. */
+const char *rt_db_schema_sql(void);
+
+/* The underlying sqlite3 handle (for reports and tests; type-erased). */
+void *rt_db_handle(rt_db *db);
+
+/* Test hook: when > 0, the n-th traffic row insert of a store fails
+ * (counts down; 0 disables), exercising the rollback path. */
+extern long rt_db_fail_row_after;
+
+#endif

@@ -1,0 +1,65 @@
+#!/bin/sh
+# `raytraffic sim` front end: din input, output formats, --db idempotence,
+# a bad trace leaves nothing in the database, usage errors exit 2.
+set -u
+bin=${RT_BIN:-./raytraffic}
+tmp=$(mktemp -d /tmp/rt_sim_cli.XXXXXX)
+trap 'rm -rf "$tmp"' EXIT
+fail=0
+die() { echo "FAIL: $*"; fail=1; }
+
+# 17 lines cycled 4 times, one write per line on the first pass
+i=0
+while [ $i -lt 4 ]; do
+    l=0
+    while [ $l -lt 17 ]; do
+        if [ $i -eq 0 ]; then echo "1 $(printf %x $((4096 + l * 64)))"; else echo "0 $(printf %x $((4096 + l * 64)))"; fi
+        l=$((l + 1))
+    done
+    i=$((i + 1))
+done > "$tmp/cyc.din"
+
+"$bin" sim --sizes 1K,2K "$tmp/cyc.din" > "$tmp/out.txt" || die "sim text exit $?"
+# 1K = 16 lines: every one of the 68 references misses; 17 write-backs
+grep -E '^ +1024 +64 +full fb +68 +51 +17 +17 +0 +5440$' "$tmp/out.txt" >/dev/null || { die "1K row"; cat "$tmp/out.txt"; }
+grep -E '^ +2048 +64 +full other +68 +0 +17 +0 +0 +1088$' "$tmp/out.txt" >/dev/null || die "2K group row"
+"$bin" sim --format csv --sizes 1K "$tmp/cyc.din" | head -1 | grep -q '^trace,size_bytes,line,assoc,class,accesses' || die "csv header"
+"$bin" sim --format json --sizes 1K "$tmp/cyc.din" | grep -q '"traffic_bytes": 5440' || die "json"
+"$bin" sim --input-format din --din-class tri --sizes 1K "$tmp/cyc.din" | grep -q ' geometry ' || die "--din-class"
+"$bin" sim --assoc 1 --line 48 --sizes 48K "$tmp/cyc.din" >/dev/null || die "direct-mapped 48-byte lines"
+
+# database: storing twice keeps one run
+"$bin" sim --db "$tmp/r.db" "$tmp/cyc.din" 2>"$tmp/err" || die "sim --db exit"
+grep -q 'refs' "$tmp/err" || die "summary line on stderr"
+"$bin" sim --db "$tmp/r.db" "$tmp/cyc.din" 2>/dev/null || die "sim --db again"
+if command -v sqlite3 >/dev/null 2>&1; then
+    n=$(sqlite3 "$tmp/r.db" 'SELECT count(*) FROM runs')
+    [ "$n" = 1 ] || die "runs after two stores: $n"
+    n=$(sqlite3 "$tmp/r.db" 'SELECT count(*) FROM traffic')
+    [ "$n" = 13 ] || die "traffic rows: $n"
+fi
+
+# bad trace: exit 1, message with file:line, nothing stored
+printf '0 100\n9 200\n' > "$tmp/bad.din"
+"$bin" sim --db "$tmp/r.db" "$tmp/bad.din" 2>"$tmp/err"; st=$?
+[ $st -eq 1 ] || die "bad din exit $st"
+grep -q 'bad.din:2:' "$tmp/err" || die "bad din message: $(cat "$tmp/err")"
+if command -v sqlite3 >/dev/null 2>&1; then
+    n=$(sqlite3 "$tmp/r.db" 'SELECT count(*) FROM runs')
+    [ "$n" = 1 ] || die "bad trace stored something"
+fi
+printf 'garbage\0\1\2' > "$tmp/junk.rtt"
+"$bin" sim "$tmp/junk.rtt" >/dev/null 2>&1; st=$?
+[ $st -eq 1 ] || die "corrupt rtt exit $st"
+echo "not a database" > "$tmp/corrupt.db"
+"$bin" sim --db "$tmp/corrupt.db" "$tmp/cyc.din" 2>"$tmp/err"; st=$?
+[ $st -eq 1 ] && grep -q corrupt.db "$tmp/err" || die "corrupt db: exit $st $(cat "$tmp/err")"
+
+# usage errors
+for args in "" "--sizes x f" "--assoc zero f" "--format xml f" "--input-format foo f" "--nope f" "--line 0 f"; do
+    # shellcheck disable=SC2086
+    "$bin" sim $args >/dev/null 2>&1; st=$?
+    [ $st -eq 2 ] || die "usage error '$args' exit $st"
+done
+"$bin" sim --help | grep -q '^Usage: raytraffic sim' || die "--help"
+exit $fail

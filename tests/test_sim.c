@@ -1,0 +1,521 @@
+/*
+ * test_sim.c -- cache simulators against obviously-correct references.
+ *
+ * The reference is a plain array kept in recency order (move-to-front by
+ * linear scan), one independent cache per size and, for set-associative
+ * caches, one such array per set. It is run separately for every size and
+ * compared counter by counter (per class: accesses, read/write misses,
+ * write-backs, write-through bytes, traffic) with the one-pass simulator,
+ * whose invariant checker also runs every few thousand references.
+ */
+#include "msim.h"
+#include "setassoc.h"
+#include "sim.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+static int failures = 0;
+#define CHECK(cond, ...)                                                   \
+    do {                                                                   \
+        if (!(cond)) {                                                     \
+            fprintf(stderr, "FAIL %s:%d: ", __FILE__, __LINE__);          \
+            fprintf(stderr, __VA_ARGS__);                                  \
+            fputc('\n', stderr);                                           \
+            if (++failures > 20) exit(1);                                  \
+        }                                                                  \
+    } while (0)
+
+/* ---- naive reference: one cache, sets of recency-ordered arrays -------- */
+
+typedef struct naive {
+    uint64_t line, nsets, ways;
+    int wt, nwa;
+    uint64_t *tag;    /* nsets * ways, MRU first */
+    uint8_t *dirty, *wcls;
+    uint64_t *used;   /* per set */
+    rt_sim_counts c[RT_NCLASS];
+} naive;
+
+static naive *naive_new(uint64_t size, uint64_t line, uint64_t assoc, int wt, int nwa)
+{
+    naive *n = calloc(1, sizeof *n);
+    uint64_t lines = size / line;
+    n->line = line;
+    n->ways = assoc ? assoc : lines;
+    n->nsets = lines / n->ways;
+    n->wt = wt;
+    n->nwa = nwa;
+    n->tag = calloc(lines, sizeof *n->tag);
+    n->dirty = calloc(lines, 1);
+    n->wcls = calloc(lines, 1);
+    n->used = calloc(n->nsets, sizeof *n->used);
+    return n;
+}
+
+static void naive_free(naive *n)
+{
+    free(n->tag);
+    free(n->dirty);
+    free(n->wcls);
+    free(n->used);
+    free(n);
+}
+
+static void naive_touch(naive *n, uint64_t L, int w, int cls, uint64_t bytes)
+{
+    uint64_t s = L % n->nsets;
+    uint64_t *t = n->tag + s * n->ways;
+    uint8_t *d = n->dirty + s * n->ways, *wc = n->wcls + s * n->ways;
+    n->c[cls].accesses++;
+    uint64_t i;
+    for (i = 0; i < n->used[s]; i++)
+        if (t[i] == L) break;
+    uint8_t dd, ww;
+    if (i < n->used[s]) { /* hit: rotate to front */
+        dd = d[i];
+        ww = wc[i];
+        memmove(t + 1, t, i * sizeof *t);
+        memmove(d + 1, d, i);
+        memmove(wc + 1, wc, i);
+    } else {
+        if (w) n->c[cls].write_misses++;
+        else n->c[cls].read_misses++;
+        if (w && n->nwa) {
+            n->c[cls].wt_bytes += bytes;
+            return;
+        }
+        if (n->used[s] == n->ways) { /* evict the last */
+            uint64_t l = n->ways - 1;
+            if (d[l]) n->c[wc[l]].writebacks++;
+            n->used[s]--;
+        }
+        uint64_t u = n->used[s]++;
+        memmove(t + 1, t, u * sizeof *t);
+        memmove(d + 1, d, u);
+        memmove(wc + 1, wc, u);
+        dd = 0;
+        ww = 0;
+    }
+    t[0] = L;
+    d[0] = dd;
+    wc[0] = ww;
+    if (w) {
+        if (n->wt) n->c[cls].wt_bytes += bytes;
+        else d[0] = 1, wc[0] = (uint8_t)cls;
+    }
+}
+
+static void naive_put(naive *n, const rt_access *a, size_t cnt)
+{
+    for (size_t i = 0; i < cnt; i++) {
+        uint64_t sz = a[i].size ? a[i].size : 1;
+        uint64_t end = a[i].addr + sz;
+        for (uint64_t L = a[i].addr / n->line; L * n->line < end; L++) {
+            uint64_t lo = L * n->line > a[i].addr ? L * n->line : a[i].addr;
+            uint64_t hi = (L + 1) * n->line < end ? (L + 1) * n->line : end;
+            naive_touch(n, L, a[i].write, a[i].cls, hi - lo);
+        }
+    }
+}
+
+static void naive_get(const naive *n, int cls, rt_sim_counts *o)
+{
+    *o = n->c[cls];
+    uint64_t fetch = o->read_misses + (n->nwa ? 0 : o->write_misses);
+    o->traffic_bytes = (fetch + o->writebacks) * n->line + o->wt_bytes;
+}
+
+/* ---- trace generators --------------------------------------------------- */
+
+static uint64_t rs = 88172645463325252ULL;
+static uint64_t rnd(void)
+{
+    rs ^= rs << 13;
+    rs ^= rs >> 7;
+    rs ^= rs << 17;
+    return rs;
+}
+
+enum { GEN_RANDOM, GEN_ZIPF, GEN_CYCLIC };
+
+static const uint32_t sizes_pool[] = {1, 4, 8, 8, 8, 32, 36, 36, 64, 100};
+
+/* footprint in 64-byte units; addresses get a random offset and size */
+static void gen(rt_access *a, size_t n, int kind, uint64_t footprint)
+{
+    uint64_t cyc = 0;
+    for (size_t i = 0; i < n; i++) {
+        uint64_t r = rnd(), unit;
+        if (kind == GEN_RANDOM) {
+            unit = r % footprint;
+        } else if (kind == GEN_ZIPF) {
+            double u = (double)(r >> 11) / 9007199254740992.0;
+            unit = (uint64_t)(footprint * u * u * u * u);
+        } else {
+            unit = (r & 15) == 0 ? (r >> 8) % (footprint * 2) : cyc++ % footprint;
+        }
+        a[i].addr = 0x10000000ULL + unit * 64 + ((r >> 40) & 63);
+        a[i].size = sizes_pool[(r >> 48) % 10];
+        a[i].write = ((r >> 52) & 7) < 3;
+        a[i].cls = (uint8_t)((r >> 56) % RT_NCLASS);
+    }
+}
+
+static int same(const rt_sim_counts *x, const rt_sim_counts *y)
+{
+    return x->accesses == y->accesses && x->read_misses == y->read_misses && x->write_misses == y->write_misses &&
+           x->writebacks == y->writebacks && x->wt_bytes == y->wt_bytes && x->traffic_bytes == y->traffic_bytes;
+}
+
+static void show(const char *what, const rt_sim_counts *c)
+{
+    fprintf(stderr, "  %s acc %llu rm %llu wm %llu wb %llu wt %llu traffic %llu\n", what,
+            (unsigned long long)c->accesses, (unsigned long long)c->read_misses, (unsigned long long)c->write_misses,
+            (unsigned long long)c->writebacks, (unsigned long long)c->wt_bytes, (unsigned long long)c->traffic_bytes);
+}
+
+/* Runs a through a simulator with config c and through one naive cache per
+ * size; compares everything. */
+static void compare(const char *name, const rt_sim_config *c, const rt_access *a, size_t n)
+{
+    rt_err e = {{0}};
+    rt_sim *s = rt_sim_new(c, &e);
+    CHECK(s, "%s: rt_sim_new: %s", name, e.msg);
+    if (!s) return;
+    for (size_t i = 0; i < n; i += 4096) {
+        rt_sim_put(s, a + i, n - i < 4096 ? n - i : 4096);
+        if ((i / 4096) % 16 == 0) CHECK(rt_sim_check(s, &e) == 0, "%s: invariant: %s", name, e.msg);
+    }
+    CHECK(rt_sim_check(s, &e) == 0, "%s: invariant: %s", name, e.msg);
+    CHECK(rt_sim_refs(s) == n, "%s: refs", name);
+    for (int i = 0; i < c->nsizes; i++) {
+        naive *nv = naive_new(c->sizes[i], c->line, c->assoc, c->write_through, c->no_write_allocate);
+        naive_put(nv, a, n);
+        for (int k = 0; k < RT_NCLASS; k++) {
+            rt_sim_counts x, y;
+            rt_sim_get(s, i, k, &x);
+            naive_get(nv, k, &y);
+            if (!same(&x, &y)) {
+                CHECK(0, "%s: size %llu class %s differs (engine %s)", name, (unsigned long long)c->sizes[i],
+                      rt_class_name(k), rt_sim_engine(s));
+                show("sim  ", &x);
+                show("naive", &y);
+            }
+        }
+        naive_free(nv);
+    }
+    rt_sim_free(s);
+}
+
+/* ---- hand-computed cases ------------------------------------------------ */
+
+static void test_cycles(void)
+{
+    /* 16-line cache (1 KB, 64 B lines) inside a 3-size simulation */
+    rt_sim_config c;
+    rt_sim_config_default(&c);
+    c.nsizes = 3;
+    c.sizes[0] = 512, c.sizes[1] = 1024, c.sizes[2] = 2048;
+    rt_sim *s = rt_sim_new(&c, NULL);
+    rt_access a;
+    /* 17 lines cycled 10 times: every reference misses in 16 lines and
+     * below; in 32 lines only the first pass misses */
+    for (int pass = 0; pass < 10; pass++)
+        for (int l = 0; l < 17; l++) {
+            a = (rt_access){0x1000 + (uint64_t)l * 64, 8, 0, RT_CLS_TRI};
+            rt_sim_put(s, &a, 1);
+        }
+    rt_sim_counts r;
+    rt_sim_get(s, 1, RT_CLS_TRI, &r);
+    CHECK(r.accesses == 170 && r.read_misses == 170, "cycle N+1 through N: %llu misses", (unsigned long long)r.read_misses);
+    rt_sim_get(s, 0, RT_CLS_TRI, &r);
+    CHECK(r.read_misses == 170, "cycle through 8 lines");
+    rt_sim_get(s, 2, RT_CLS_TRI, &r);
+    CHECK(r.read_misses == 17, "cycle fits 32 lines: %llu", (unsigned long long)r.read_misses);
+    CHECK(r.traffic_bytes == 17 * 64, "traffic");
+    rt_sim_free(s);
+
+    /* N lines in an N-line cache: all hit after the first pass */
+    s = rt_sim_new(&c, NULL);
+    for (int pass = 0; pass < 5; pass++)
+        for (int l = 0; l < 16; l++) {
+            a = (rt_access){0x1000 + (uint64_t)l * 64, 64, pass & 1, RT_CLS_NODE};
+            rt_sim_put(s, &a, 1);
+        }
+    rt_sim_get(s, 1, RT_CLS_NODE, &r);
+    CHECK(r.read_misses == 16 && r.write_misses == 0 && r.writebacks == 0, "N lines in N-line cache");
+    rt_sim_get(s, 0, RT_CLS_NODE, &r);
+    CHECK(r.read_misses + r.write_misses == 80, "16 lines in 8-line cache always miss");
+    /* 8-line cache: passes 1 and 3 write every line, each written line is
+     * evicted dirty by the next pass: 32 write-backs */
+    CHECK(r.writebacks == 32, "write-backs in 8-line cache: %llu", (unsigned long long)r.writebacks);
+    rt_sim_free(s);
+}
+
+static void test_writebacks_by_hand(void)
+{
+    /* sizes 1 and 2 lines of 64 B: W a(node) R b(ray) R a(node) W c(tri) R b(ray) */
+    rt_sim_config c;
+    rt_sim_config_default(&c);
+    c.nsizes = 2;
+    c.sizes[0] = 64, c.sizes[1] = 128;
+    const rt_access seq[5] = {
+        {0x000, 4, 1, RT_CLS_NODE}, {0x040, 4, 0, RT_CLS_RAY}, {0x000, 4, 0, RT_CLS_NODE},
+        {0x080, 4, 1, RT_CLS_TRI}, {0x040, 4, 0, RT_CLS_RAY},
+    };
+    for (int engine = 0; engine < 2; engine++) {
+        c.assoc = engine ? 1 : 0; /* 1 way: direct-mapped 1 set = same as full for 1 line */
+        if (engine) c.nsizes = 1;
+        rt_sim *s = rt_sim_new(&c, NULL);
+        rt_sim_put(s, seq, 5);
+        rt_sim_counts n, r, t;
+        rt_sim_get(s, 0, RT_CLS_NODE, &n);
+        rt_sim_get(s, 0, RT_CLS_RAY, &r);
+        rt_sim_get(s, 0, RT_CLS_TRI, &t);
+        CHECK(n.write_misses == 1 && n.read_misses == 1 && n.writebacks == 1, "1 line: node");
+        CHECK(r.read_misses == 2 && r.writebacks == 0, "1 line: ray");
+        CHECK(t.write_misses == 1 && t.writebacks == 1, "1 line: tri");
+        CHECK(n.traffic_bytes == 3 * 64 && t.traffic_bytes == 2 * 64, "1 line: traffic");
+        if (!engine) {
+            rt_sim_get(s, 1, RT_CLS_NODE, &n);
+            rt_sim_get(s, 1, RT_CLS_RAY, &r);
+            rt_sim_get(s, 1, RT_CLS_TRI, &t);
+            CHECK(n.write_misses == 1 && n.read_misses == 0 && n.writebacks == 1, "2 lines: node");
+            CHECK(r.read_misses == 2 && r.writebacks == 0, "2 lines: ray");
+            CHECK(t.write_misses == 1 && t.writebacks == 0, "2 lines: tri");
+        }
+        rt_sim_free(s);
+    }
+    /* a reference spanning three lines touches three lines */
+    rt_sim_config_default(&c);
+    rt_sim *s = rt_sim_new(&c, NULL);
+    rt_access big = {0x1030, 100, 0, RT_CLS_TRI}; /* 0x1030..0x1093: lines 0x40, 0x41, 0x42 */
+    rt_sim_put(s, &big, 1);
+    rt_sim_counts t;
+    rt_sim_get(s, 0, RT_CLS_TRI, &t);
+    CHECK(t.accesses == 3 && t.read_misses == 3, "spanning reference: %llu touches", (unsigned long long)t.accesses);
+    rt_sim_free(s);
+}
+
+static void test_counters_64bit(void)
+{
+    _Static_assert(sizeof(((rt_sim_counts *)0)->accesses) == 8, "64-bit counters");
+    uint64_t sz[2] = {1024, 2048};
+    rt_msim *m = rt_msim_new(sz, 2, 64, NULL);
+    uint64_t big = (1ULL << 32) + 12345;
+    rt_msim_test_add(m, RT_CLS_RAY, 0, 2, big); /* misses everywhere */
+    rt_msim_test_add(m, RT_CLS_RAY, 1, 1, big); /* misses in size 0 only */
+    rt_sim_counts c;
+    rt_msim_get(m, 0, RT_CLS_RAY, &c);
+    CHECK(c.accesses == 2 * big && c.read_misses == big && c.write_misses == big, "64-bit sums");
+    CHECK(c.traffic_bytes == 2 * big * 64, "64-bit traffic");
+    rt_msim_get(m, 1, RT_CLS_RAY, &c);
+    CHECK(c.read_misses == big && c.write_misses == 0, "64-bit sums, size 1");
+    rt_msim_free(m);
+    /* real traffic beyond 2^32 bytes: 1 GiB lines */
+    rt_sim_config cf;
+    rt_sim_config_default(&cf);
+    cf.nsizes = 1;
+    cf.sizes[0] = 1ULL << 30;
+    cf.line = 1u << 30;
+    rt_sim *s = rt_sim_new(&cf, NULL);
+    for (int i = 0; i < 6; i++) {
+        rt_access a = {(uint64_t)i << 30, 8, 1, RT_CLS_HIT};
+        rt_sim_put(s, &a, 1);
+    }
+    rt_sim_get(s, 0, RT_CLS_HIT, &c);
+    CHECK(c.write_misses == 6 && c.writebacks == 5 && c.traffic_bytes == 11ULL << 30, "traffic > 2^32");
+    rt_sim_free(s);
+}
+
+/* ---- din reader --------------------------------------------------------- */
+
+static void test_din(void)
+{
+    char path[] = "/tmp/rt_test_din_XXXXXX";
+    int fd = mkstemp(path);
+    CHECK(fd >= 0, "mkstemp");
+    FILE *f = fdopen(fd, "w");
+    enum { N = 20000 };
+    rt_access *a = malloc(N * sizeof *a);
+    for (int i = 0; i < N; i++) {
+        uint64_t r = rnd();
+        int label = (int)(r % 3);
+        a[i] = (rt_access){(r >> 8) % 200000, 1, label == 1, RT_CLS_FB};
+        fprintf(f, i % 2 ? "%d %llx\n" : "%d 0x%llx trailing\n", label, (unsigned long long)a[i].addr);
+        if (i == 5) fprintf(f, "\n");
+    }
+    fclose(f);
+    rt_sim_config c;
+    rt_sim_config_default(&c);
+    rt_sim *s1 = rt_sim_new(&c, NULL), *s2 = rt_sim_new(&c, NULL);
+    rt_sim_put(s1, a, N);
+    rt_err e = {{0}};
+    rt_din *d = rt_din_open(path, RT_CLS_FB, &e);
+    CHECK(d, "din open: %s", e.msg);
+    rt_access buf[1000];
+    long n, total = 0;
+    while ((n = rt_din_read(d, buf, 1000, &e)) > 0) {
+        rt_sim_put(s2, buf, (size_t)n);
+        total += n;
+    }
+    CHECK(n == 0 && total == N, "din read: %ld records, %s", total, e.msg);
+    rt_din_close(d);
+    for (int i = 0; i < c.nsizes; i++) {
+        rt_sim_counts x, y;
+        rt_sim_get(s1, i, RT_CLS_FB, &x);
+        rt_sim_get(s2, i, RT_CLS_FB, &y);
+        CHECK(same(&x, &y), "din result differs from the access stream at size %d", i);
+    }
+    CHECK(rt_sim_sniff(path, &e) == RT_SIM_IN_DIN, "sniff din: %s", e.msg);
+    rt_sim_free(s1);
+    rt_sim_free(s2);
+    /* a bad label is an error naming file:line */
+    f = fopen(path, "w");
+    fprintf(f, "0 100\n1 200\n7 300\n");
+    fclose(f);
+    d = rt_din_open(path, RT_CLS_FB, &e);
+    n = rt_din_read(d, buf, 1000, &e);
+    char want[300];
+    snprintf(want, sizeof want, "%s:3:", path);
+    CHECK(n < 0 && strstr(e.msg, want), "bad label message: '%s'", e.msg);
+    rt_din_close(d);
+    f = fopen(path, "w");
+    fprintf(f, "0 zzz\n");
+    fclose(f);
+    d = rt_din_open(path, RT_CLS_FB, &e);
+    CHECK(rt_din_read(d, buf, 1000, &e) < 0 && strstr(e.msg, ":1:"), "bad address message: '%s'", e.msg);
+    rt_din_close(d);
+    unlink(path);
+    free(a);
+}
+
+static void test_parse(void)
+{
+    rt_sim_config c;
+    rt_sim_config_default(&c);
+    CHECK(rt_sim_parse_sizes("1K-4M", &c, NULL) == 0 && c.nsizes == 13 && c.sizes[12] == 4u << 20, "1K-4M");
+    CHECK(rt_sim_parse_sizes("64K,1K,2K", &c, NULL) == 0 && c.nsizes == 3 && c.sizes[0] == 1024 &&
+              c.sizes[2] == 65536, "list");
+    CHECK(rt_sim_parse_sizes("1K,1K", &c, NULL) < 0, "duplicate");
+    CHECK(rt_sim_parse_sizes("abc", &c, NULL) < 0, "garbage");
+    rt_sim_config_default(&c);
+    c.line = 48;
+    c.assoc = 1;
+    c.nsizes = 1;
+    c.sizes[0] = 65536; /* not a multiple of 48 */
+    CHECK(rt_sim_config_check(&c, NULL) < 0, "64K / 48-byte lines rejected");
+}
+
+int main(void)
+{
+    enum { N = 150000 };
+    rt_access *a = malloc(N * sizeof *a);
+    test_parse();
+    test_cycles();
+    test_writebacks_by_hand();
+    test_counters_64bit();
+    test_din();
+
+    /* one-pass fully associative vs naive, sizes 1K..64K */
+    rt_sim_config c;
+    rt_sim_config_default(&c);
+    CHECK(rt_sim_parse_sizes("1K-64K", &c, NULL) == 0, "sizes");
+    const char *kinds[3] = {"random", "zipf", "cyclic"};
+    const uint64_t fp[3] = {1500, 6000, 700};
+    for (int k = 0; k < 3; k++) {
+        gen(a, N, k, fp[k]);
+        char name[64];
+        snprintf(name, sizeof name, "full/%s", kinds[k]);
+        compare(name, &c, a, N);
+    }
+    /* odd sizes and line size (non-power-of-two path) */
+    rt_sim_config odd = c;
+    odd.line = 48;
+    odd.nsizes = 4;
+    odd.sizes[0] = 48, odd.sizes[1] = 480, odd.sizes[2] = 4800, odd.sizes[3] = 48000;
+    gen(a, N / 2, GEN_ZIPF, 3000);
+    compare("full/48-byte lines", &odd, a, N / 2);
+
+    /* the paper's 13 sizes: one-pass vs the independent per-size engine,
+     * which itself is checked against naive below */
+    rt_sim_config_default(&c);
+    enum { NB = 400000 };
+    rt_access *b = malloc(NB * sizeof *b);
+    gen(b, NB, GEN_ZIPF, 150000);
+    {
+        rt_sim_config pc = c;
+        pc.no_write_allocate = 0;
+        rt_sim *one = rt_sim_new(&c, NULL);
+        /* per-size engine with the same policy: force by a 1-set "assoc" */
+        rt_sim *per[RT_SIM_PAPER_NSIZES];
+        rt_sim_put(one, b, NB);
+        rt_err e = {{0}};
+        CHECK(rt_sim_check(one, &e) == 0, "13 sizes invariant: %s", e.msg);
+        for (int i = 0; i < c.nsizes; i++) {
+            pc.nsizes = 1;
+            pc.sizes[0] = c.sizes[i];
+            pc.assoc = (uint32_t)(c.sizes[i] / 64); /* one set = fully associative */
+            per[i] = rt_sim_new(&pc, NULL);
+            rt_sim_put(per[i], b, NB);
+            for (int k = 0; k < RT_NCLASS; k++) {
+                rt_sim_counts x, y;
+                rt_sim_get(one, i, k, &x);
+                rt_sim_get(per[i], 0, k, &y);
+                CHECK(same(&x, &y), "13 sizes: size %llu class %d differs", (unsigned long long)c.sizes[i], k);
+            }
+            rt_sim_free(per[i]);
+        }
+        rt_sim_free(one);
+    }
+    free(b);
+
+    /* set-associative, direct-mapped, write policies, any line size */
+    struct {
+        const char *name;
+        uint32_t line, assoc;
+        int wt, nwa;
+        const char *sizes;
+    } sa[] = {
+        {"direct-mapped 64", 64, 1, 0, 0, "1K,4K,16K"},
+        {"2-way 64", 64, 2, 0, 0, "1K,8K"},
+        {"4-way 32 wt", 32, 4, 1, 0, "2K,8K"},
+        {"8-way 64 nwa", 64, 8, 0, 1, "4K,32K"},
+        {"4-way 64 wt nwa", 64, 4, 1, 1, "4K"},
+        {"full wt", 64, 0, 1, 0, "1K,4K"},
+        {"direct-mapped 48 (Purcell)", 48, 1, 0, 0, "48K,96K"},
+        {"texture 64K direct 48B", 48, 1, 0, 0, "64K"},
+    };
+    for (size_t t = 0; t < sizeof sa / sizeof sa[0]; t++) {
+        rt_sim_config_default(&c);
+        if (rt_sim_parse_sizes(sa[t].sizes, &c, NULL)) CHECK(0, "sizes %s", sa[t].sizes);
+        c.line = sa[t].line;
+        c.assoc = sa[t].assoc;
+        c.write_through = sa[t].wt;
+        c.no_write_allocate = sa[t].nwa;
+        if (c.sizes[0] == 65536 && c.line == 48) {
+            /* 64 KB is not a multiple of 48: the texture cache holds
+             * floor(65536 / 48) = 1365 lines; model it as 1365 * 48 bytes */
+            c.sizes[0] = 1365 * 48;
+        }
+        for (int k = 0; k < 3; k++) {
+            gen(a, N / 3, k, fp[k] * 2);
+            char name[96];
+            snprintf(name, sizeof name, "%s/%s", sa[t].name, kinds[k]);
+            compare(name, &c, a, N / 3);
+        }
+    }
+    free(a);
+
+    /* benchmark entry point runs (short) */
+    FILE *devnull = fopen("/dev/null", "w");
+    CHECK(rt_sim_bench_n(devnull, 100000) == 0, "bench");
+    fclose(devnull);
+
+    if (failures) fprintf(stderr, "test_sim: %d failures\n", failures);
+    else printf("test_sim: ok\n");
+    return failures ? 1 : 0;
+}
