@@ -14,7 +14,8 @@
  * rt_tr_read fills a caller buffer with records and returns how many
  * (> 0), 0 at the verified end of the trace, or -1 on truncation or
  * corruption (message names the file and byte offset). Memory is bounded
- * by one chunk, independent of the trace's length.
+ * by one chunk, independent of the trace's length. After -1 every later
+ * call returns -1 with the same message; after 0, 0 again.
  */
 #ifndef RT_TRACE_H
 #define RT_TRACE_H
@@ -50,8 +51,29 @@ typedef struct rt_tr_totals {
     uint64_t nchunks;          /* chunks written */
 } rt_tr_totals;
 
+/* Format constants (layout in trace.c and docs/trace-format.md). */
+#define RT_TR_FORMAT_VERSION 1        /* written; the reader accepts 1..this */
+#define RT_TR_DEFAULT_LEVEL 3         /* zlib level (3: ~2x faster than 6, +30% size) */
+#define RT_TR_DEFAULT_CHUNK 65536     /* records per chunk */
+#define RT_TR_MAX_CHUNK (1u << 20)    /* largest records-per-chunk accepted */
+
+/* Writer options: zlib level 0..9 and records per chunk 1..RT_TR_MAX_CHUNK. */
+typedef struct rt_tr_wopts {
+    int level;              /* zlib compression level, default 3 */
+    uint32_t chunk_records; /* records per chunk, default 65536 */
+} rt_tr_wopts;
+void rt_tr_default_wopts(rt_tr_wopts *o);
+
 typedef struct rt_tr_writer rt_tr_writer;
+/* Opens PATH.tmp and writes the header. NULL on failure (bad metadata,
+ * I/O error, out of memory). rt_tr_create uses the default options. */
 rt_tr_writer *rt_tr_create(const char *path, const rt_tr_meta *m, rt_err *e);
+rt_tr_writer *rt_tr_create_opts(const char *path, const rt_tr_meta *m, const rt_tr_wopts *o, rt_err *e);
+/* Totals of the records accepted so far (owned by w). */
+const rt_tr_totals *rt_tr_writer_totals(const rt_tr_writer *w);
+/* Message of the first failed put() (I/O error, class out of range, size
+ * 0), or "" if none. Owned by w. */
+const char *rt_tr_writer_error(const rt_tr_writer *w);
 rt_sink *rt_tr_sink(rt_tr_writer *w);
 /* Finishes and renames into place. Frees w in every case. 0 or -1. */
 int rt_tr_finish(rt_tr_writer *w, rt_err *e);
@@ -64,10 +86,14 @@ const rt_tr_meta *rt_tr_get_meta(const rt_tr_reader *r);
 /* Totals from the footer; valid only after rt_tr_read returned 0. */
 const rt_tr_totals *rt_tr_get_totals(const rt_tr_reader *r);
 long rt_tr_read(rt_tr_reader *r, rt_access *buf, size_t cap, rt_err *e);
-/* Byte size of the file and a 64-bit hash of its contents (computed while
- * reading; valid after rt_tr_read returned 0). */
+/* Byte size of the file (known from rt_tr_open) and a 64-bit FNV-1a hash
+ * (rt_fnv1a) of all its bytes (computed while reading; valid after
+ * rt_tr_read returned 0). */
 uint64_t rt_tr_file_bytes(const rt_tr_reader *r);
 uint64_t rt_tr_file_hash(const rt_tr_reader *r);
+/* Format version of the open file and its records-per-chunk limit. */
+uint32_t rt_tr_get_version(const rt_tr_reader *r);
+uint32_t rt_tr_get_chunk_records(const rt_tr_reader *r);
 void rt_tr_close(rt_tr_reader *r);
 
 #endif

@@ -137,7 +137,9 @@ typedef struct dyn {
     const rt_layout *L;
     rt_rec *rec;
     rt_trav tv;
-    int reg_shade, reg_ray, reg_fb, reg_hits, reg_qt, reg_q, reg_box, reg_rb;
+    int reg_shade, reg_ray, reg_fb, reg_hits, reg_qt, reg_q, reg_box, reg_rb, reg_top;
+    int32_t *topid;      /* entry of a node in the packed tree top, or -1 */
+    uint8_t *hastris;    /* subtree holds triangles */
     uint64_t gmax;
     int32_t *qp;         /* queue point of node, or -1 */
     uint32_t *qnode;     /* node of queue point */
@@ -282,7 +284,7 @@ static int32_t to_queue_point(dyn *D, const rt_ray *r, float t0, float t1, int32
     float tmin = t0, tmax = t1;
     for (;;) {
         const rt_kdnode *nd = &kd->nodes[node];
-        RT_REC(D->rec, rt_mm_addr(D->L, D->tv.reg_node, node), 8, 0, RT_CLS_NODE);
+        RT_REC(D->rec, rt_mm_addr(D->L, D->reg_top, (uint64_t)D->topid[node]), 8, 0, RT_CLS_NODE);
         D->tv.nodes++;
         int32_t q = D->qp[node];
         if (q >= 0) {
@@ -291,7 +293,7 @@ static int32_t to_queue_point(dyn *D, const rt_ray *r, float t0, float t1, int32
                 *qb = tmax;
                 return q;
             }
-        } else if (!rt_kd_is_leaf(nd)) {
+        } else if (D->hastris[node] && !rt_kd_is_leaf(nd)) {
             int axis = rt_kd_axis(nd);
             float split = rt_kd_split(nd);
             float o = rt_axis(r->o, axis), d = rt_axis(r->d, axis);
@@ -675,7 +677,17 @@ typedef struct sched {
     int fallback; /* top could not be resident: half-cache rule used */
     uint32_t nq, ntop;
     int32_t *qp;
+    int32_t *topid;    /* packed tree-top entry per node, -1 below queue points */
+    uint8_t *hastris;  /* subtree holds triangles */
+    uint32_t ntopent;  /* entries of the packed top */
 } sched;
+
+static void sched_free(sched *s)
+{
+    free(s->qp);
+    free(s->topid);
+    free(s->hastris);
+}
 
 static int schedule(const rt_tracer_ctx *ctx, sched *s, rt_err *e)
 {
@@ -692,6 +704,33 @@ static int schedule(const rt_tracer_ctx *ctx, sched *s, rt_err *e)
                              : rt_dyn_derive_gmax(kd, g, ctx->opt->cache_size, raybuf_bytes(ctx->opt), &s->fallback);
     s->nq = rt_dyn_select(kd, g, s->gmax, s->qp, &s->ntop);
     free(g);
+    /* The tree top (interior nodes above the queue points, the queue points
+     * and the roots of empty subtrees) is packed depth first into its own
+     * region, dyn.top: it is the structure that routes rays to queues and is
+     * kept apart from the subtrees so it can stay in cache. */
+    s->topid = rt_calloc(kd->nnodes, sizeof *s->topid, e);
+    s->hastris = s->topid ? rt_calloc(kd->nnodes, 1, e) : NULL;
+    if (!s->hastris) {
+        sched_free(s);
+        return -1;
+    }
+    for (uint32_t i = kd->nnodes; i-- > 0;) {
+        const rt_kdnode *n = &kd->nodes[i];
+        s->topid[i] = -1;
+        s->hastris[i] = rt_kd_is_leaf(n) ? rt_kd_ntri(n) > 0 : (s->hastris[i + 1] || s->hastris[rt_kd_above(n)]);
+    }
+    uint32_t stack[RT_KD_STACK * 2 + 8], id = 0;
+    int sp = 0;
+    stack[sp++] = 0;
+    while (sp) {
+        uint32_t i = stack[--sp];
+        s->topid[i] = (int32_t)id++;
+        const rt_kdnode *n = &kd->nodes[i];
+        if (s->qp[i] >= 0 || !s->hastris[i] || rt_kd_is_leaf(n)) continue;
+        stack[sp++] = rt_kd_above(n);
+        stack[sp++] = i + 1;
+    }
+    s->ntopent = id;
     return 0;
 }
 
@@ -700,13 +739,14 @@ static int dyn_layout(const rt_tracer_ctx *ctx, rt_layout *L, rt_err *e)
     size_t npix = (size_t)ctx->opt->W * (size_t)ctx->opt->H;
     sched s;
     if (schedule(ctx, &s, e) < 0) return -1;
-    free(s.qp);
-    uint64_t nq = s.nq ? s.nq : 1;
+    uint64_t nq = s.nq ? s.nq : 1, ntop = s.ntopent;
+    sched_free(&s);
     if (rt_layout_geometry(ctx, L, 1, e) < 0) return -1;
     if (rt_mm_add(L, "rays.primary", RT_CLS_RAY, 32, npix, e) < 0) return -1;
     if (rt_mm_add(L, "dyn.raybuf", RT_CLS_RAY, 32, 2ull * (uint64_t)ctx->opt->threads, e) < 0) return -1;
     if (rt_mm_add(L, "dyn.qtable", RT_CLS_QTABLE, 8, nq, e) < 0) return -1;
     if (rt_mm_add(L, "dyn.qpbox", RT_CLS_QTABLE, 24, nq, e) < 0) return -1;
+    if (rt_mm_add(L, "dyn.top", RT_CLS_NODE, 8, ntop, e) < 0) return -1;
     if (rt_mm_add(L, "dyn.hits", RT_CLS_HIT, 24, npix, e) < 0) return -1;
     if (rt_mm_add(L, "fb", RT_CLS_FB, 12, npix, e) < 0) return -1;
     if (rt_mm_add(L, "dyn.queues", RT_CLS_QUEUE, 32, ((uint64_t)npix / QBLK + nq + 2) * QBLK, e) < 0) return -1;
@@ -740,11 +780,14 @@ static int dyn_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
     D.rbslots = (uint32_t)(2 * o->threads);
     rt_cam_setup(&D.cam, sc, o->W, o->H);
     int rc = -1;
-    sched s = {0, 0, 0, 0, NULL};
+    sched s = {0, 0, 0, 0, NULL, NULL, NULL, 0};
     uint32_t *order = NULL;
     uint8_t *want = NULL;
     if (schedule(ctx, &s, e) < 0) return -1;
     D.qp = s.qp;
+    D.topid = s.topid;
+    D.hastris = s.hastris;
+    D.reg_top = rt_mm_find(L, "dyn.top");
     D.gmax = s.gmax;
     D.nq = s.nq;
     D.ntop = s.ntop;
@@ -849,7 +892,7 @@ static int dyn_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
              D.ev_max, D.peak_queued * 32, D.nq ? (double)D.events / D.nq : 0.0, qmax, D.created, D.done);
     rc = 0;
 done:
-    free(s.qp);
+    sched_free(&s);
     free(D.qnode);
     free(D.blk);
     free(D.bnext);

@@ -1,0 +1,513 @@
+/* test_trace.c -- the .rtt trace format: exact round trips of random record
+ * streams, rejection of every truncation and of corrupted bytes, version and
+ * magic checks, interrupted writes, determinism, out-of-memory paths.
+ *
+ * `test_trace --synthetic PATH` writes the small deterministic trace that
+ * tests/trace_cli.sh dumps and compares against tests/golden/. */
+#include "memmodel.h"
+#include "rt.h"
+#include "trace.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <zlib.h>
+
+static int failures;
+#define CHECK(cond, ...)                                                   \
+    do {                                                                   \
+        if (!(cond)) {                                                     \
+            failures++;                                                    \
+            fprintf(stderr, "%s:%d: FAIL: ", __FILE__, __LINE__);         \
+            fprintf(stderr, __VA_ARGS__);                                  \
+            fputc('\n', stderr);                                           \
+        }                                                                  \
+    } while (0)
+
+static uint64_t rng_state = 0x9e3779b97f4a7c15ULL;
+static uint64_t rnd(void) /* splitmix64 */
+{
+    uint64_t z = (rng_state += 0x9e3779b97f4a7c15ULL);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+    return z ^ (z >> 31);
+}
+
+static char dir[64];
+static char *tpath(const char *name)
+{
+    static char buf[8][256];
+    static int k;
+    char *p = buf[k++ & 7];
+    snprintf(p, 256, "%s/%s", dir, name);
+    return p;
+}
+
+static int exists(const char *p)
+{
+    struct stat st;
+    return stat(p, &st) == 0;
+}
+
+static void fill_meta(rt_tr_meta *m)
+{
+    memset(m, 0, sizeof *m);
+    snprintf(m->tool_version, sizeof m->tool_version, "0.1.0");
+    snprintf(m->git_rev, sizeof m->git_rev, "0123456789ab-dirty");
+    snprintf(m->command, sizeof m->command, "raytraffic trace sphereflake -t recursive -o x.rtt");
+    snprintf(m->scene, sizeof m->scene, "sphereflake");
+    snprintf(m->scene_params, sizeof m->scene_params, "level=4 tess=3");
+    m->scene_hash = 0xfedcba9876543210ULL;
+    m->ntri = 797150;
+    snprintf(m->tracer, sizeof m->tracer, "dynamic");
+    m->W = 1024;
+    m->H = 768;
+    m->lights = 5;
+    m->cache_size = 65536;
+    m->gmax = 12345;
+    snprintf(m->params, sizeof m->params, "qorder=fullest threads=4");
+    rt_mm_init(&m->layout);
+    rt_mm_add(&m->layout, "kd.nodes", RT_CLS_NODE, 8, 1000, NULL);
+    rt_mm_add(&m->layout, "kd.index", RT_CLS_INDEX, 4, 5000, NULL);
+    rt_mm_add(&m->layout, "tri.verts", RT_CLS_TRI, 36, 797150, NULL);
+    rt_mm_add(&m->layout, "rays", RT_CLS_RAY, 32, 1 << 20, NULL);
+    rt_mm_add(&m->layout, "fb", RT_CLS_FB, 12, 1 << 20, NULL);
+}
+
+static int meta_equal(const rt_tr_meta *a, const rt_tr_meta *b)
+{
+    if (strcmp(a->tool_version, b->tool_version) || strcmp(a->git_rev, b->git_rev) ||
+        strcmp(a->command, b->command) || strcmp(a->scene, b->scene) || strcmp(a->scene_params, b->scene_params) ||
+        a->scene_hash != b->scene_hash || a->ntri != b->ntri || strcmp(a->tracer, b->tracer) || a->W != b->W ||
+        a->H != b->H || a->lights != b->lights || a->cache_size != b->cache_size || a->gmax != b->gmax ||
+        strcmp(a->params, b->params) || a->layout.n != b->layout.n || a->layout.next != b->layout.next)
+        return 0;
+    for (int i = 0; i < a->layout.n; i++) {
+        const rt_region *x = &a->layout.r[i], *y = &b->layout.r[i];
+        if (strcmp(x->name, y->name) || x->cls != y->cls || x->recsize != y->recsize || x->count != y->count ||
+            x->base != y->base)
+            return 0;
+    }
+    return 1;
+}
+
+/* A random stream with the features the coder special-cases. */
+static rt_access *random_stream(size_t n)
+{
+    rt_access *a = calloc(n ? n : 1, sizeof *a);
+    static const uint64_t extremes[] = {0, 1, 0x7fffffffffffffffULL, 0x8000000000000000ULL, UINT64_MAX,
+                                        UINT64_MAX - 1, RT_MM_BASE};
+    static const uint32_t sizes[] = {1, 4, 8, 32, 36, 0x7fffffff, 0x80000000u, UINT32_MAX};
+    size_t i = 0;
+    while (i < n) {
+        int kind = (int)(rnd() % 6);
+        size_t run = 1 + (size_t)(rnd() % 200);
+        uint8_t cls = (uint8_t)(rnd() % RT_NCLASS);
+        uint32_t size = sizes[rnd() % 8];
+        uint64_t addr = rnd();
+        for (size_t k = 0; k < run && i < n; k++, i++) {
+            rt_access *x = &a[i];
+            x->write = (uint8_t)(rnd() & 1);
+            switch (kind) {
+            case 0: /* sequential run, same class and size */
+                x->cls = cls; x->size = size; x->addr = addr; addr += size;
+                break;
+            case 1: /* extremes */
+                x->cls = (uint8_t)(rnd() % RT_NCLASS);
+                x->addr = extremes[rnd() % 7];
+                x->size = sizes[rnd() % 8];
+                break;
+            case 2: /* fully random */
+                x->cls = (uint8_t)(rnd() % RT_NCLASS);
+                x->addr = rnd();
+                x->size = (uint32_t)(1 + rnd() % UINT32_MAX);
+                break;
+            case 3: /* repeated address */
+                x->cls = cls; x->addr = addr; x->size = size;
+                break;
+            case 4: /* small deltas both ways, interleaved classes */
+                x->cls = (uint8_t)(rnd() % 3);
+                addr += (uint64_t)((int64_t)(rnd() % 4001) - 2000);
+                x->addr = addr; x->size = (uint32_t)(4 << (rnd() % 4));
+                break;
+            default: /* tree-like: 8-byte nodes in a region */
+                x->cls = RT_CLS_NODE; x->size = 8;
+                x->addr = RT_MM_BASE + 8 * (rnd() % 100000);
+                break;
+            }
+        }
+    }
+    return a;
+}
+
+static int write_trace(const char *path, const rt_tr_meta *m, const rt_access *a, size_t n, int level,
+                       uint32_t chunk, rt_err *e)
+{
+    rt_tr_wopts o = {level, chunk};
+    rt_tr_writer *w = rt_tr_create_opts(path, m, &o, e);
+    if (!w) return -1;
+    rt_sink *s = rt_tr_sink(w);
+    size_t i = 0;
+    while (i < n) { /* batches of varying size, as a recorder would */
+        size_t k = 1 + (size_t)(rnd() % 5000);
+        if (k > n - i) k = n - i;
+        if (s->put(s, a + i, k) < 0) {
+            rt_errf(e, "%s", rt_tr_writer_error(w));
+            rt_tr_abort(w);
+            return -1;
+        }
+        i += k;
+    }
+    return rt_tr_finish(w, e);
+}
+
+/* Reads the whole file with buffer capacity cap. Returns records read, or
+ * -1 with e set. Compares against want when non-NULL (*mismatch set). */
+static long read_all(const char *path, size_t cap, const rt_access *want, size_t nwant, int *mismatch, rt_err *e,
+                     rt_tr_totals *tot)
+{
+    rt_tr_reader *r = rt_tr_open(path, e);
+    if (!r) return -1;
+    rt_access *buf = calloc(cap, sizeof *buf);
+    long total = 0, k;
+    while ((k = rt_tr_read(r, buf, cap, e)) > 0) {
+        if (want)
+            for (long i = 0; i < k; i++) {
+                size_t j = (size_t)total + (size_t)i;
+                if (j >= nwant || buf[i].addr != want[j].addr || buf[i].size != want[j].size ||
+                    buf[i].write != want[j].write || buf[i].cls != want[j].cls) {
+                    if (!*mismatch)
+                        fprintf(stderr, "  first mismatch at record %zu\n", j);
+                    *mismatch = 1;
+                }
+            }
+        total += k;
+    }
+    if (k == 0 && rt_tr_read(r, buf, cap, NULL) != 0) total = -2; /* 0 must be sticky */
+    if (k == 0 && tot) *tot = *rt_tr_get_totals(r);
+    free(buf);
+    rt_tr_close(r);
+    return k < 0 ? -1 : total;
+}
+
+static void test_round_trip(void)
+{
+    rt_tr_meta m, *mm = &m;
+    fill_meta(mm);
+    static const size_t ns[] = {0, 1, 2, 1000, 65535, 65536, 65537, 300000};
+    static const uint32_t chunks[] = {1, 7, 1000, 65536};
+    for (size_t t = 0; t < sizeof ns / sizeof ns[0]; t++) {
+        size_t n = ns[t];
+        rt_access *a = random_stream(n);
+        for (size_t c = 0; c < 4; c++) {
+            if (chunks[c] == 1 && n > 70000) continue;
+            rt_err e = {""};
+            const char *p = tpath("rt.rtt");
+            int level = (int)(c * 3); /* 0, 3, 6, 9 */
+            int rc = write_trace(p, mm, a, n, level, chunks[c], &e);
+            CHECK(rc == 0, "write n=%zu chunk=%u: %s", n, chunks[c], e.msg);
+            CHECK(!exists(tpath("rt.rtt.tmp")), "tmp left behind");
+            size_t caps[] = {1, 3, 4096, 100000};
+            for (size_t q = 0; q < 4; q++) {
+                if (caps[q] < 4096 && n > 70000) continue;
+                int mis = 0;
+                rt_tr_totals tot;
+                long got = read_all(p, caps[q], a, n, &mis, &e, &tot);
+                CHECK(got == (long)n && !mis, "round trip n=%zu chunk=%u cap=%zu: got %ld mismatch %d (%s)", n,
+                      chunks[c], caps[q], got, mis, e.msg);
+                if (got == (long)n) {
+                    uint64_t refs = 0;
+                    for (int k = 0; k < RT_NCLASS; k++) refs += tot.refs[k];
+                    CHECK(tot.nrefs == n && refs == n, "footer totals");
+                    CHECK(tot.nchunks == (n + chunks[c] - 1) / chunks[c], "chunk count %llu",
+                          (unsigned long long)tot.nchunks);
+                }
+            }
+            rt_tr_reader *r = rt_tr_open(p, &e);
+            CHECK(r && meta_equal(rt_tr_get_meta(r), mm), "metadata round trip");
+            if (r) {
+                CHECK(rt_tr_get_version(r) == RT_TR_FORMAT_VERSION, "version");
+                CHECK(rt_tr_get_chunk_records(r) == chunks[c], "chunk records");
+            }
+            rt_tr_close(r);
+        }
+        free(a);
+    }
+    /* per-class totals against a direct count */
+    size_t n = 50000;
+    rt_access *a = random_stream(n);
+    rt_tr_totals want;
+    memset(&want, 0, sizeof want);
+    for (size_t i = 0; i < n; i++) {
+        want.refs[a[i].cls]++;
+        want.bytes[a[i].cls] += a[i].size;
+        want.writes[a[i].cls] += a[i].write;
+    }
+    rt_err e = {""};
+    rt_tr_totals tot;
+    int mis = 0;
+    CHECK(write_trace(tpath("tot.rtt"), mm, a, n, 6, 4096, &e) == 0, "%s", e.msg);
+    CHECK(read_all(tpath("tot.rtt"), 4096, a, n, &mis, &e, &tot) == (long)n, "%s", e.msg);
+    for (int c = 0; c < RT_NCLASS; c++)
+        CHECK(tot.refs[c] == want.refs[c] && tot.bytes[c] == want.bytes[c] && tot.writes[c] == want.writes[c],
+              "totals of class %d", c);
+    free(a);
+}
+
+static unsigned char *slurp(const char *p, size_t *n)
+{
+    FILE *f = fopen(p, "rb");
+    if (!f) return NULL;
+    fseek(f, 0, SEEK_END);
+    long len = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    unsigned char *b = malloc((size_t)len + 1);
+    *n = fread(b, 1, (size_t)len, f);
+    fclose(f);
+    return b;
+}
+
+static void spit(const char *p, const unsigned char *b, size_t n)
+{
+    FILE *f = fopen(p, "wb");
+    if (n) fwrite(b, 1, n, f);
+    fclose(f);
+}
+
+/* Expects the file to be rejected (open fails or a read returns -1) with a
+ * message naming the file and a byte offset. Returns 1 if rejected. */
+static int rejected(const char *p, char *msg, size_t msgcap)
+{
+    rt_err e = {""};
+    long got = read_all(p, 4096, NULL, 0, NULL, &e, NULL);
+    if (msg) snprintf(msg, msgcap, "%s", e.msg);
+    if (got != -1) return 0;
+    if (!strstr(e.msg, p) || !strstr(e.msg, "byte ")) {
+        fprintf(stderr, "  message lacks file or offset: %s\n", e.msg);
+        return 0;
+    }
+    return 1;
+}
+
+static void test_corruption(void)
+{
+    rt_tr_meta m;
+    fill_meta(&m);
+    size_t n = 3000;
+    rt_access *a = random_stream(n);
+    rt_err e = {""};
+    const char *good = tpath("good.rtt"), *bad = tpath("bad.rtt");
+    CHECK(write_trace(good, &m, a, n, 6, 700, &e) == 0, "%s", e.msg);
+    free(a);
+    size_t len;
+    unsigned char *b = slurp(good, &len);
+    CHECK(b && len > 100, "slurp");
+    if (!b) return;
+    /* every truncation point */
+    int bad_trunc = 0;
+    for (size_t k = 0; k < len; k++) {
+        spit(bad, b, k);
+        if (!rejected(bad, NULL, 0)) {
+            if (bad_trunc++ < 5) fprintf(stderr, "  truncation at %zu of %zu accepted\n", k, len);
+        }
+    }
+    CHECK(bad_trunc == 0, "%d of %zu truncations accepted", bad_trunc, len);
+    char msg[RT_ERR_LEN];
+    spit(bad, b, len - 1);
+    CHECK(rejected(bad, msg, sizeof msg) && strstr(msg, "trunc"), "truncation message: %s", msg);
+    /* every bit of the header (magic .. CRC) and of the footer */
+    uint32_t hlen = 16 + (b[12] | b[13] << 8 | (uint32_t)b[14] << 16 | (uint32_t)b[15] << 24) + 4;
+    size_t footlen = 4 + 4 + 16 + 24 * RT_NCLASS + 4;
+    int bad_flip = 0, nflip = 0;
+    for (size_t bit = 0; bit < 8 * (size_t)len; bit++) {
+        size_t byte = bit / 8;
+        int in_hdr = byte < hlen, in_foot = byte >= len - footlen;
+        if (!in_hdr && !in_foot && rnd() % 64) continue; /* ~1 in 64 chunk bits: several hundred */
+        b[byte] ^= (unsigned char)(1u << (bit % 8));
+        spit(bad, b, len);
+        b[byte] ^= (unsigned char)(1u << (bit % 8));
+        nflip++;
+        if (!rejected(bad, NULL, 0) && bad_flip++ < 5) fprintf(stderr, "  flip of bit %zu accepted\n", bit);
+    }
+    CHECK(bad_flip == 0, "%d of %d bit flips accepted", bad_flip, nflip);
+    CHECK(nflip > 2000, "only %d flips tried", nflip);
+    /* a CRC mismatch names the chunk */
+    b[hlen + 30] ^= 0x40;
+    spit(bad, b, len);
+    b[hlen + 30] ^= 0x40;
+    CHECK(rejected(bad, msg, sizeof msg) && strstr(msg, "chunk 0 CRC mismatch"), "chunk CRC message: %s", msg);
+    /* wrong magic */
+    memcpy(b, "RTTRACF", 7);
+    spit(bad, b, len);
+    memcpy(b, "RTTRACE", 7);
+    CHECK(rejected(bad, msg, sizeof msg) && strstr(msg, "magic"), "magic message: %s", msg);
+    /* trailing garbage */
+    unsigned char *b2 = malloc(len + 3);
+    memcpy(b2, b, len);
+    memcpy(b2 + len, "xyz", 3);
+    spit(bad, b2, len + 3);
+    free(b2);
+    CHECK(rejected(bad, msg, sizeof msg) && strstr(msg, "trailing"), "trailing message: %s", msg);
+    /* a newer format version, with a valid header CRC */
+    b[8] = 2;
+    uint32_t c = (uint32_t)crc32(0, b, hlen - 4);
+    unsigned char save[4];
+    memcpy(save, b + hlen - 4, 4);
+    for (int i = 0; i < 4; i++) b[hlen - 4 + i] = (unsigned char)(c >> (8 * i));
+    spit(bad, b, len);
+    CHECK(rejected(bad, msg, sizeof msg) && strstr(msg, "version 2") && strstr(msg, "newer"), "version message: %s",
+          msg);
+    b[8] = 1;
+    memcpy(b + hlen - 4, save, 4);
+    /* the restored bytes read fine again */
+    spit(bad, b, len);
+    CHECK(!rejected(bad, msg, sizeof msg), "restored copy rejected: %s", msg);
+    /* an empty file and a missing file */
+    spit(bad, b, 0);
+    CHECK(rejected(bad, NULL, 0), "empty file accepted");
+    rt_err e2 = {""};
+    CHECK(!rt_tr_open(tpath("no-such.rtt"), &e2) && strstr(e2.msg, "no-such.rtt"), "missing file: %s", e2.msg);
+    free(b);
+}
+
+static void test_interrupted(void)
+{
+    rt_tr_meta m;
+    fill_meta(&m);
+    rt_err e = {""};
+    const char *p = tpath("int.rtt"), *tmp = tpath("int.rtt.tmp");
+    size_t n = 100000;
+    rt_access *a = random_stream(n);
+    rt_tr_writer *w = rt_tr_create(p, &m, &e);
+    CHECK(w != NULL, "%s", e.msg);
+    if (!w) return;
+    rt_sink *s = rt_tr_sink(w);
+    CHECK(s->put(s, a, n) == 0, "put");
+    CHECK(!exists(p), "unfinished trace visible at PATH");
+    CHECK(exists(tmp), "no tmp file while writing");
+    rt_tr_abort(w);
+    CHECK(!exists(p) && !exists(tmp), "abort left a file");
+    rt_tr_abort(NULL);
+    /* a bad record makes put fail and finish fail, leaving nothing */
+    w = rt_tr_create(p, &m, &e);
+    s = rt_tr_sink(w);
+    rt_access badrec = {RT_MM_BASE, 8, 0, RT_NCLASS};
+    CHECK(s->put(s, a, 10) == 0 && s->put(s, &badrec, 1) < 0, "class out of range accepted");
+    CHECK(strstr(rt_tr_writer_error(w), "class"), "writer error: %s", rt_tr_writer_error(w));
+    CHECK(rt_tr_finish(w, &e) < 0 && strstr(e.msg, "class"), "finish after failed put: %s", e.msg);
+    CHECK(!exists(p) && !exists(tmp), "failed finish left a file");
+    w = rt_tr_create(p, &m, &e);
+    s = rt_tr_sink(w);
+    badrec.cls = 0;
+    badrec.size = 0;
+    CHECK(s->put(s, &badrec, 1) < 0, "size 0 accepted");
+    rt_tr_abort(w);
+    /* metadata that does not fit */
+    rt_tr_meta m2 = m;
+    m2.layout.r[1].cls = 200;
+    CHECK(!rt_tr_create(p, &m2, &e) && !exists(tmp), "bad region class accepted");
+    m2 = m;
+    memset(m2.scene, 'x', sizeof m2.scene); /* no NUL */
+    CHECK(!rt_tr_create(p, &m2, &e), "unterminated string accepted");
+    rt_tr_wopts o = {10, 100};
+    CHECK(!rt_tr_create_opts(p, &m, &o, &e), "level 10 accepted");
+    o.level = 6;
+    o.chunk_records = 0;
+    CHECK(!rt_tr_create_opts(p, &m, &o, &e), "chunk 0 accepted");
+    /* unwritable directory */
+    CHECK(!rt_tr_create("/nonexistent-dir/x.rtt", &m, &e) && strstr(e.msg, "/nonexistent-dir/x.rtt.tmp"),
+          "unwritable path: %s", e.msg);
+    free(a);
+}
+
+static void test_deterministic(void)
+{
+    rt_tr_meta m;
+    fill_meta(&m);
+    size_t n = 200000;
+    rt_access *a = random_stream(n);
+    rt_err e = {""};
+    rng_state = 42; /* same batch sizes too */
+    CHECK(write_trace(tpath("d1.rtt"), &m, a, n, 6, 65536, &e) == 0, "%s", e.msg);
+    rng_state = 4242; /* different batching must not matter */
+    CHECK(write_trace(tpath("d2.rtt"), &m, a, n, 6, 65536, &e) == 0, "%s", e.msg);
+    size_t l1, l2;
+    unsigned char *b1 = slurp(tpath("d1.rtt"), &l1), *b2 = slurp(tpath("d2.rtt"), &l2);
+    CHECK(b1 && b2 && l1 == l2 && !memcmp(b1, b2, l1), "same input gives different files");
+    /* the file hash is FNV-1a of the bytes */
+    rt_tr_reader *r = rt_tr_open(tpath("d1.rtt"), &e);
+    rt_access buf[4096];
+    while (rt_tr_read(r, buf, 4096, &e) > 0) {}
+    CHECK(rt_tr_file_hash(r) == rt_fnv1a(RT_FNV_INIT, b1, l1), "file hash");
+    CHECK(rt_tr_file_bytes(r) == l1, "file bytes");
+    rt_tr_close(r);
+    free(b1);
+    free(b2);
+    free(a);
+}
+
+static void test_oom(void)
+{
+    rt_tr_meta m;
+    fill_meta(&m);
+    rt_access a[100];
+    for (int i = 0; i < 100; i++) a[i] = (rt_access){RT_MM_BASE + 8u * (unsigned)i, 8, 0, RT_CLS_NODE};
+    rt_err e = {""};
+    const char *p = tpath("oom.rtt");
+    CHECK(write_trace(p, &m, a, 100, 6, 65536, &e) == 0, "%s", e.msg);
+    for (long k = 1; k < 12; k++) {
+        rt_fail_alloc_after = k;
+        rt_tr_writer *w = rt_tr_create(tpath("oom2.rtt"), &m, &e);
+        rt_fail_alloc_after = 0;
+        if (w) rt_tr_abort(w);
+        CHECK(!exists(tpath("oom2.rtt.tmp")), "tmp after failed create");
+        rt_fail_alloc_after = k;
+        rt_tr_reader *r = rt_tr_open(p, &e);
+        rt_fail_alloc_after = 0;
+        rt_tr_close(r);
+    }
+}
+
+/* The deterministic synthetic trace for the din golden file. */
+static int synthetic(const char *path)
+{
+    rt_tr_meta m;
+    fill_meta(&m);
+    snprintf(m.git_rev, sizeof m.git_rev, "synthetic");
+    rt_access a[] = {
+        {0x10000000, 8, 0, RT_CLS_NODE},   {0x10000008, 8, 0, RT_CLS_NODE},  {0x10000038, 8, 0, RT_CLS_NODE},
+        {0x10001000, 4, 0, RT_CLS_INDEX},  {0x10001004, 4, 0, RT_CLS_INDEX}, {0x10002020, 36, 0, RT_CLS_TRI},
+        {0x10002044, 36, 0, RT_CLS_TRI},   {0x10003000, 32, 0, RT_CLS_RAY},  {0x10003000, 32, 1, RT_CLS_RAY},
+        {0x1000303c, 8, 1, RT_CLS_HIT},    {0x10004000, 200, 0, RT_CLS_QUEUE}, {0x1000403f, 1, 1, RT_CLS_FB},
+        {0x1000403f, 2, 1, RT_CLS_FB},     {0xffffffffffffffc0ULL, 64, 0, RT_CLS_STREAM},
+        {0xfffffffffffffff0ULL, 100, 1, RT_CLS_STREAM},
+    };
+    rt_err e = {""};
+    rt_tr_wopts o = {6, 4};
+    rt_tr_writer *w = rt_tr_create_opts(path, &m, &o, &e);
+    if (!w) return fprintf(stderr, "%s\n", e.msg), 1;
+    rt_sink *s = rt_tr_sink(w);
+    if (s->put(s, a, sizeof a / sizeof a[0]) < 0) return fprintf(stderr, "%s\n", rt_tr_writer_error(w)), 1;
+    if (rt_tr_finish(w, &e) < 0) return fprintf(stderr, "%s\n", e.msg), 1;
+    return 0;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc == 3 && !strcmp(argv[1], "--synthetic")) return synthetic(argv[2]);
+    snprintf(dir, sizeof dir, "/tmp/rt_test_trace_XXXXXX");
+    if (!mkdtemp(dir)) return perror("mkdtemp"), 1;
+    double t0 = rt_now();
+    test_round_trip();
+    test_corruption();
+    test_interrupted();
+    test_deterministic();
+    test_oom();
+    char cmd[128];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
+    if (system(cmd) != 0) fprintf(stderr, "could not remove %s\n", dir);
+    fprintf(stderr, "test_trace: %d failures (%.1f s)\n", failures, rt_now() - t0);
+    return failures ? 1 : 0;
+}
