@@ -113,13 +113,24 @@ uint64_t rt_dyn_derive_gmax(const rt_kdtree *kd, const uint64_t *g, uint64_t cac
         gm = next;
         if (gm == 0) break;
     }
-    free(qp);
     if (gm == 0) {
-        /* The tree top cannot be resident at all: give half the cache to
-         * subtree geometry and let the top stream (docs/tracers.md). */
-        gm = (cache_bytes - raybuf_bytes) / 2;
+        /* The tree top and queue table cannot be resident beside any
+         * geometry. Keep the routing structure resident instead (every ray
+         * passes through it): the smallest g_max whose top and table fit in
+         * half the cache left by the ray buffer; subtree geometry then
+         * streams through the other half (docs/tracers.md). g is monotone:
+         * a larger g_max never selects more queue points. */
+        uint64_t budget = (cache_bytes - raybuf_bytes) / 2, lo = 1, hi = g[0];
+        while (lo < hi) {
+            uint64_t mid = lo + (hi - lo) / 2;
+            uint32_t ntop = 0, nq = rt_dyn_select(kd, g, mid, qp, &ntop);
+            if (8ull * ntop + 8ull * nq <= budget) hi = mid;
+            else lo = mid + 1;
+        }
+        gm = lo;
         if (fallback) *fallback = 1;
     }
+    free(qp);
     return gm;
 }
 
@@ -439,6 +450,12 @@ static void advance(dyn *D, uint32_t pixf, const rt_ray *trav, float tmin, float
     uint32_t pix = pixf & ~CAND_FLAG;
     float qa, qb;
     uint64_t n0 = D->tv.nodes;
+    /* With a candidate hit only cells entered at or before it can hold a
+     * closer (or equal-t, lower-index) hit: stop the search there. */
+    if (!D->shadow && best_tri != RT_NO_HIT) {
+        float lim = nextafterf(best_t, INFINITY);
+        if (lim < tmax) tmax = lim;
+    }
     int32_t q = tmax > tmin ? to_queue_point(D, trav, tmin, tmax, skip, &qa, &qb) : -1;
     D->img->nodes[pix] += (float)(D->tv.nodes - n0);
     if (q >= 0) {
@@ -888,7 +905,7 @@ static int dyn_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
              " queue_events=%" PRIu64 " rays_per_event_mean=%.1f rays_per_event_max=%" PRIu64
              " peak_queued_bytes=%" PRIu64 " events_per_queue_mean=%.2f events_per_queue_max=%u rays=%" PRIu64
              " resolved=%" PRIu64,
-             D.gmax, o->gmax ? "given" : (s.fallback ? "half-cache" : "resident-top"), D.nq, D.ntop, oversized, D.enq, D.events, D.events ? (double)D.ev_rays / (double)D.events : 0.0,
+             D.gmax, o->gmax ? "given" : (s.fallback ? "top-first" : "resident-top"), D.nq, D.ntop, oversized, D.enq, D.events, D.events ? (double)D.ev_rays / (double)D.events : 0.0,
              D.ev_max, D.peak_queued * 32, D.nq ? (double)D.events / D.nq : 0.0, qmax, D.created, D.done);
     rc = 0;
 done:
