@@ -41,7 +41,77 @@ int rt_isect_tri(const rt_ray *r, const rt_tri *tri, float *t_out, float *u, flo
 /* Geometric normal (unnormalised cross product of the edges). */
 rt_vec3 rt_tri_normal(const rt_tri *tri);
 
-/* Offsets p along n (pointing to the side the new ray leaves on). */
+/* The point at barycentrics (u, v) of p[1], p[2]: p0 + u (p1-p0) + v (p2-p0).
+ * Use this, not o + t d, as the origin of secondary rays: its error is a few
+ * ULPs of the vertex coordinates, which rt_offset_origin is sized for. */
+rt_vec3 rt_tri_point(const rt_tri *tri, float u, float v);
+
+/* Offsets p along n (pointing to the side the new ray leaves on; need not
+ * be unit length: it is normalised here). Every component moves by up to
+ * 256 ULPs of itself (components below 1/32 in magnitude by n/65536). */
 rt_vec3 rt_offset_origin(rt_vec3 p, rt_vec3 n);
+
+/* 1 when the triangle has zero area to rounding (collinear or repeated
+ * vertices); such triangles never hit. */
+int rt_isect_degenerate(const rt_tri *tri);
+
+/*
+ * The shared intersection core, inline so the k-d tree traversal's inner
+ * loop and the brute-force reference compute bit-identical results.
+ * Returns 1 when the ray's line hits the triangle at a t that is not
+ * checked against any interval (callers compare t themselves: rt_isect_tri
+ * against (tmin, tmax), the traversal also breaks ties by triangle index).
+ * Never returns 1 with a NaN or infinite t.
+ */
+#if defined(__GNUC__)
+#define RT_ALWAYS_INLINE inline __attribute__((always_inline))
+#else
+#define RT_ALWAYS_INLINE inline
+#endif
+static RT_ALWAYS_INLINE int rt_isect_core(const rt_ray *r, const rt_tri *tri, float *t_out, float *u, float *v)
+{
+    const float *p = (const float *)(const void *)tri; /* 9 floats */
+    const float *o = (const float *)(const void *)&r->o;
+    const int kx = r->kx, ky = r->ky, kz = r->kz;
+    const float Ax0 = p[kx] - o[kx], Ay0 = p[ky] - o[ky], Az0 = p[kz] - o[kz];
+    const float Bx0 = p[3 + kx] - o[kx], By0 = p[3 + ky] - o[ky], Bz0 = p[3 + kz] - o[kz];
+    const float Cx0 = p[6 + kx] - o[kx], Cy0 = p[6 + ky] - o[ky], Cz0 = p[6 + kz] - o[kz];
+    const float Ax = Ax0 - r->Sx * Az0, Ay = Ay0 - r->Sy * Az0;
+    const float Bx = Bx0 - r->Sx * Bz0, By = By0 - r->Sy * Bz0;
+    const float Cx = Cx0 - r->Sx * Cz0, Cy = Cy0 - r->Sy * Cz0;
+    const float U = Cx * By - Cy * Bx;
+    const float V = Ax * Cy - Ay * Cx;
+    const float W = Bx * Ay - By * Ax;
+    float t, b1, b2;
+    if (U != 0.0f && V != 0.0f && W != 0.0f) {
+        if ((U < 0.0f || V < 0.0f || W < 0.0f) && (U > 0.0f || V > 0.0f || W > 0.0f)) return 0;
+        const float det = U + V + W;
+        if (det == 0.0f) return 0;
+        const float T = U * (r->Sz * Az0) + V * (r->Sz * Bz0) + W * (r->Sz * Cz0);
+        const float inv = 1.0f / det;
+        t = T * inv;
+        b1 = V * inv;
+        b2 = W * inv;
+    } else {
+        /* An edge function is exactly 0: redo all three in double, where
+         * the products of two floats are exact, so the sign is right. */
+        const double Ud = (double)Cx * By - (double)Cy * Bx;
+        const double Vd = (double)Ax * Cy - (double)Ay * Cx;
+        const double Wd = (double)Bx * Ay - (double)By * Ax;
+        if ((Ud < 0.0 || Vd < 0.0 || Wd < 0.0) && (Ud > 0.0 || Vd > 0.0 || Wd > 0.0)) return 0;
+        const double det = Ud + Vd + Wd;
+        if (det == 0.0) return 0;
+        const double T = Ud * ((double)r->Sz * Az0) + Vd * ((double)r->Sz * Bz0) + Wd * ((double)r->Sz * Cz0);
+        t = (float)(T / det);
+        b1 = (float)(Vd / det);
+        b2 = (float)(Wd / det);
+    }
+    if (!(t > -INFINITY && t < INFINITY)) return 0; /* NaN or overflow */
+    if (rt_isect_degenerate(tri)) return 0;          /* rare: only on a hit */
+    *t_out = t;
+    *u = b1;
+    *v = b2;
+    return 1;
+}
 
 #endif

@@ -40,13 +40,47 @@ typedef struct rt_trav {
     uint8_t mark_bit;
 } rt_trav;
 
+/*
+ * Early exit of closest-hit traversal: stop before a node whose entry
+ * distance tmin lies beyond the best hit so far. pbrt stops at best < tmin;
+ * here the test is widened by 2^-16 relative, because a hit lying in a split
+ * plane is computed (by the triangle test) with a rounding different from
+ * the plane distance, and a triangle in the next cell at the same t (a tie
+ * the lower index must win) or a hair closer must still be found.
+ * Schedulers that walk the tree themselves should use the same test.
+ */
+static inline int rt_kd_past(float best, float tmin) { return best < tmin * (1.0f - 1.0f / 65536.0f); }
+
 /* Clips r to the tree bounds; returns 0 when the ray misses them. */
 int rt_kd_clip(const rt_kdtree *kd, const rt_ray *r, float *t0, float *t1);
 
-/* Closest hit in (r->tmin, r->tmax). Returns 1 and fills *h on a hit. */
+/* Closest hit in (r->tmin, r->tmax). Returns 1 and fills *h on a hit; on a
+ * miss returns 0 with h->tri = RT_NO_HIT and h->t = +inf. */
 int rt_kd_closest(rt_trav *tv, const rt_ray *r, rt_hit *h);
 /* Any hit in (r->tmin, r->tmax) (shadow rays). Returns 1 if occluded. */
 int rt_kd_occluded(rt_trav *tv, const rt_ray *r);
+
+/*
+ * Subtree-restricted traversal (for ray schedulers that resume a ray at a
+ * queue point): traverses only the subtree rooted at `node` over the
+ * parametric interval [t0, t1] (the ray's extent inside that node's cell;
+ * the ray's own (tmin, tmax) still bounds accepted hits). Records and counts
+ * exactly as the full traversal does from that node on.
+ * rt_kd_closest_sub: *h is in/out; set h->tri = RT_NO_HIT (rt_hit_none) before
+ * the first call. A hit already in *h is replaced only by a closer one (equal
+ * t: lower triangle index), and the walk stops early once h->t lies before
+ * the next node's entry. Returns 1 when *h holds a hit afterwards.
+ * rt_kd_occluded_sub: returns 1 on any hit in (r->tmin, r->tmax).
+ */
+int rt_kd_closest_sub(rt_trav *tv, const rt_ray *r, uint32_t node, float t0, float t1, rt_hit *h);
+int rt_kd_occluded_sub(rt_trav *tv, const rt_ray *r, uint32_t node, float t0, float t1);
+
+static inline void rt_hit_none(rt_hit *h)
+{
+    h->t = INFINITY;
+    h->tri = RT_NO_HIT;
+    h->u = h->v = 0.0f;
+}
 
 /* Brute force over all triangles: the obviously-correct reference. */
 int rt_brute_closest(const rt_scene *sc, const rt_ray *r, rt_hit *h);

@@ -12,11 +12,16 @@
  *     i + 1 < above < nnodes; every node is reachable exactly once;
  *   - leaf index ranges lie inside idx[0..nidx) and every entry < ntri;
  *   - every triangle whose bounds overlap a leaf's cell (clipped to the
- *     scene bounds) appears in that leaf, so traversal never misses a hit;
+ *     scene bounds) appears in that leaf, so traversal never misses a hit
+ *     (a box that only touches a split plane goes to its own side, a box
+ *     lying flat in the plane to at least one side: kdtree.c, I4);
+ *   - leaf lists are strictly ascending, each idx entry in exactly one leaf;
  *   - depth <= max_depth.
  * Build: SAH with intersection cost 80, traversal cost 1, empty bonus 0.5,
- * max depth round(8 + 1.3 log2 N), split candidates at triangle bound
- * edges (exact sweep, O(N log^2 N)).
+ * max depth round(8 + 1.3 log2 N) with pbrt's integer (floor) log2,
+ * capped at RT_KD_DEPTH_CAP; split candidates at triangle bounding-box
+ * edges (exact sweep over edges presorted once, O(N log N) overall).
+ * The essay at the top of kdtree.c details representation and invariants.
  */
 #ifndef RT_KDTREE_H
 #define RT_KDTREE_H
@@ -45,6 +50,10 @@ static inline float rt_kd_split(const rt_kdnode *n)
     return f;
 }
 
+/* Hard cap on the depth limit: a traversal pushes at most one stack entry
+ * per level, so trees never outgrow kdtrav.h's RT_KD_STACK (64). */
+#define RT_KD_DEPTH_CAP 60
+
 typedef struct rt_kd_params {
     float isect_cost;  /* 80 */
     float trav_cost;   /* 1 */
@@ -67,6 +76,7 @@ typedef struct rt_kdtree {
     uint32_t maxdepth;    /* deepest leaf (root = depth 0) */
     uint32_t maxleaf;     /* most triangles in one leaf */
     double build_sec;     /* wall time of rt_kd_build */
+    uint32_t max_depth;   /* depth limit the tree was built with */
 } rt_kdtree;
 
 /* Builds the tree over all triangles of s. NULL on failure (out of memory). */
@@ -77,5 +87,22 @@ void rt_kd_free(rt_kdtree *t);
 int rt_kd_check(const rt_kdtree *t, const rt_scene *s, rt_err *e);
 /* Mean triangles per non-empty leaf. */
 double rt_kd_mean_leaf_tris(const rt_kdtree *t);
+
+/* Size of the subtree rooted at a node (for queue-point selection). */
+typedef struct rt_kd_subsize {
+    uint32_t nodes; /* nodes in the subtree, itself included */
+    uint32_t nidx;  /* index-list entries in its leaves (with repeats) */
+    uint32_t ntri;  /* distinct triangles referenced by its leaves */
+} rt_kd_subsize;
+
+/* Fills out[0..nnodes) for every node; ntri is the scene's triangle count.
+ * Returns 0, or -1 (out of memory, or an index >= ntri). O(refs * depth). */
+int rt_kd_subtree_sizes(const rt_kdtree *t, uint32_t ntri, rt_kd_subsize *out, rt_err *e);
+
+/* Modeled geometry bytes of a subtree: nodes, index entries, triangles. */
+static inline uint64_t rt_kd_subsize_bytes(const rt_kd_subsize *z)
+{
+    return 8ull * z->nodes + 4ull * z->nidx + 36ull * z->ntri;
+}
 
 #endif
