@@ -395,7 +395,7 @@ static void print_jobs(const sweep_opts *o, long nj, int argc, char **argv)
     }
 }
 
-int main_sweep(int argc, char **argv)
+static int sweep_impl(int argc, char **argv, char **own_lists)
 {
     static const struct option own[] = {
         {"preset", required_argument, NULL, 'p'},
@@ -421,7 +421,10 @@ int main_sweep(int argc, char **argv)
     o.only = -1;
     rt_render_default_opts(&o.ro);
     rt_sim_config_default(&o.sim);
-    char *scenes_arg = NULL, *tracers_arg = NULL, *lights_arg = NULL, *sizes_arg = NULL;
+    char *sizes_arg = NULL;
+#define scenes_arg own_lists[0]
+#define tracers_arg own_lists[1]
+#define lights_arg own_lists[2]
     int W = 0, H = 0, c;
     long line = 64;
     rt_err e = {""};
@@ -458,9 +461,11 @@ int main_sweep(int argc, char **argv)
             }
             o.preset = optarg;
             break;
-        case 's': scenes_arg = optarg; break;
-        case 'T': tracers_arg = optarg; break;
-        case 'l': lights_arg = optarg; break;
+        /* copies: the lists are split in place and argv is reprinted by
+         * --list-jobs */
+        case 's': free(scenes_arg); scenes_arg = strdup(optarg); break;
+        case 'T': free(tracers_arg); tracers_arg = strdup(optarg); break;
+        case 'l': free(lights_arg); lights_arg = strdup(optarg); break;
         case 'z': sizes_arg = optarg; break;
         case 'L': {
             char *end;
@@ -634,4 +639,16 @@ int main_sweep(int argc, char **argv)
     munmap(sh, sizeof *sh);
     free(J);
     return rc < 0 || done < total ? RT_EXIT_FAIL : RT_EXIT_OK;
+}
+
+#undef scenes_arg
+#undef tracers_arg
+#undef lights_arg
+
+int main_sweep(int argc, char **argv)
+{
+    char *lists[3] = {NULL, NULL, NULL};
+    int rc = sweep_impl(argc, argv, lists);
+    for (int i = 0; i < 3; i++) free(lists[i]);
+    return rc;
 }

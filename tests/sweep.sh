@@ -1,0 +1,79 @@
+#!/bin/sh
+# The sweep and report: a tiny sweep matches a golden report; rerunning adds
+# no rows; a sweep killed midway and rerun ends with the same contents as an
+# uninterrupted one; db merge of shards equals a one-process sweep; --jobs 2
+# equals --jobs 1. Set RT_REDO_GOLDEN=1 to regenerate the golden report.
+set -u
+bin=${RT_BIN:-./raytraffic}
+src=${RT_SRCDIR:-.}
+golden="$src/tests/golden/sweep_report.md"
+tmp=$(mktemp -d /tmp/rt-sweep-XXXXXX)
+trap 'rm -rf "$tmp"' EXIT
+fail=0
+args="--scenes cornell,knot --lights primary,0,all -W 24 -H 20 --sizes 1K,4K,64K"
+contents() { # the database's results, without volatile provenance
+    sqlite3 "$1" "SELECT s.name, s.hash, r.tracer, r.W, r.H, r.lights, r.sched_cache_size, r.params, r.refs, r.stats,
+        c.size, t.class, t.accesses, t.read_misses, t.write_misses, t.writebacks, t.traffic_bytes
+        FROM traffic t JOIN runs r ON r.id = t.run_id JOIN scenes s ON s.id = r.scene_id
+        JOIN cache_configs c ON c.id = t.config_id
+        ORDER BY s.name, r.tracer, r.lights, r.sched_cache_size, c.size, t.class" |
+        sed 's/render_seconds=[0-9.]*//'
+}
+# 1. golden report
+"$bin" sweep $args --db "$tmp/a.db" 2>"$tmp/log" || { echo "FAIL: sweep"; cat "$tmp/log"; exit 1; }
+"$bin" report --db "$tmp/a.db" | sed "s#$tmp/a.db#DB#" > "$tmp/report.md" || { echo "FAIL: report"; fail=1; }
+if [ "${RT_REDO_GOLDEN:-0}" = 1 ]; then cp "$tmp/report.md" "$golden"; echo "regenerated $golden"; fi
+diff -u "$golden" "$tmp/report.md" || { echo "FAIL: report differs from $golden"; fail=1; }
+"$bin" report --db "$tmp/a.db" --format csv >/dev/null || { echo "FAIL: csv report"; fail=1; }
+"$bin" report --db "$tmp/a.db" --compare-paper >/dev/null || { echo "FAIL: compare-paper"; fail=1; }
+# 2. rerun adds nothing
+n1=$(sqlite3 "$tmp/a.db" "SELECT COUNT(*) FROM runs; SELECT COUNT(*) FROM traffic" | tr '\n' ' ')
+"$bin" sweep $args --db "$tmp/a.db" 2>"$tmp/log2" || { echo "FAIL: rerun"; fail=1; }
+n2=$(sqlite3 "$tmp/a.db" "SELECT COUNT(*) FROM runs; SELECT COUNT(*) FROM traffic" | tr '\n' ' ')
+[ "$n1" = "$n2" ] || { echo "FAIL: rerun changed row counts: $n1 -> $n2"; fail=1; }
+grep -q "already in the database" "$tmp/log2" || { echo "FAIL: rerun did not skip"; fail=1; }
+contents "$tmp/a.db" > "$tmp/a.txt"
+# 3. killed midway, then rerun
+"$bin" sweep $args --db "$tmp/k.db" 2>/dev/null &
+pid=$!
+i=0
+while [ "$i" -lt 100 ]; do
+    c=$(sqlite3 "$tmp/k.db" "SELECT COUNT(*) FROM runs" 2>/dev/null || echo 0)
+    [ "${c:-0}" -ge 5 ] && break
+    sleep 0.05; i=$((i + 1))
+done
+kill -9 "$pid" 2>/dev/null; wait "$pid" 2>/dev/null
+"$bin" sweep $args --db "$tmp/k.db" 2>/dev/null || { echo "FAIL: resume after kill"; fail=1; }
+contents "$tmp/k.db" > "$tmp/k.txt"
+cmp -s "$tmp/a.txt" "$tmp/k.txt" || { echo "FAIL: killed+resumed sweep differs from an uninterrupted one"; fail=1; }
+# 4. shards + merge
+"$bin" sweep $args --db "$tmp/s.db" --list-jobs > "$tmp/jobs" || { echo "FAIL: list-jobs"; fail=1; }
+njobs=$(wc -l < "$tmp/jobs")
+[ "$njobs" -gt 10 ] || { echo "FAIL: list-jobs printed $njobs commands"; fail=1; }
+(cd "$tmp" && sed "s#^raytraffic #'$bin' #" jobs | sh 2>/dev/null) || { echo "FAIL: running shard commands"; fail=1; }
+"$bin" db merge "$tmp/m.db" "$tmp"/s.job*.db 2>/dev/null || { echo "FAIL: db merge"; fail=1; }
+"$bin" db merge "$tmp/m.db" "$tmp"/s.job*.db 2>/dev/null || { echo "FAIL: db merge twice"; fail=1; }
+contents "$tmp/m.db" > "$tmp/m.txt"
+cmp -s "$tmp/a.txt" "$tmp/m.txt" || { echo "FAIL: merged shards differ from a one-process sweep"; fail=1; }
+# 5. --jobs 2
+"$bin" sweep $args --db "$tmp/j.db" --jobs 2 2>/dev/null || { echo "FAIL: --jobs 2"; fail=1; }
+contents "$tmp/j.db" > "$tmp/j.txt"
+cmp -s "$tmp/a.txt" "$tmp/j.txt" || { echo "FAIL: --jobs 2 differs from --jobs 1"; fail=1; }
+# 6. --keep-traces gives the same numbers as streaming
+"$bin" sweep --scenes cornell --lights all --tracers dynamic -W 16 -H 16 --sizes 4K --db "$tmp/t.db" --keep-traces "$tmp/tr" 2>/dev/null || { echo "FAIL: keep-traces"; fail=1; }
+tr=$(ls "$tmp"/tr/*.rtt 2>/dev/null | head -n1)
+if [ -n "$tr" ]; then
+    "$bin" sim "$tr" --sizes 4K --format csv > "$tmp/sim.csv" || { echo "FAIL: sim on kept trace"; fail=1; }
+    want=$(sqlite3 "$tmp/t.db" "SELECT SUM(traffic_bytes) FROM traffic")
+    # per-class rows come first, then the group rows (geometry, ray, other)
+    got=$(awk -F, 'NR == 1 { for (i = 1; i <= NF; i++) { if ($i == "traffic_bytes") c = i; if ($i == "class") k = i }; next }
+        $k == "geometry" { done = 1 } !done { s += $c } END { print s }' "$tmp/sim.csv")
+    [ "$want" = "$got" ] || { echo "FAIL: kept trace simulates to $got bytes, streamed run stored $want"; fail=1; }
+else
+    echo "FAIL: no trace kept"; fail=1
+fi
+# 7. bad input
+"$bin" sweep --preset nope >/dev/null 2>&1; [ $? -eq 2 ] || { echo "FAIL: bad preset not a usage error"; fail=1; }
+"$bin" report --db "$tmp/none.db" >/dev/null 2>&1; [ $? -eq 1 ] || { echo "FAIL: missing db not an error"; fail=1; }
+[ $fail -eq 0 ] && echo "sweep tests passed"
+exit $fail
