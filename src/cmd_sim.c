@@ -1,5 +1,6 @@
 /* cmd_sim.c -- `raytraffic sim`: replay traces through cache models, print
  * the counters or store them in the results database. */
+#include "approx.h"
 #include "cmd.h"
 #include "db.h"
 #include "sim.h"
@@ -18,6 +19,7 @@ typedef struct sim_opts {
     int din_class;      /* class of din records */
     const char *db;     /* database path or NULL */
     int outfmt;         /* FMT_* */
+    rt_approx_config ac;/* --method etc.; RT_APPROX_EXACT = the exact simulator */
 } sim_opts;
 
 static void usage(FILE *f)
@@ -38,6 +40,15 @@ static void usage(FILE *f)
             "  --db FILE              store one run per trace in this SQLite database and\n"
             "                         print a one-line summary per trace to stderr\n"
             "  --format F             text | csv | json output when --db is not given\n"
+            "  --method M             exact (default) | shards | shards-fixed | statstack:\n"
+            "                         sampled estimates (docs/approx.md); fully associative\n"
+            "                         write-back write-allocate caches only\n"
+            "  --rate R               sampling rate of shards / statstack (default 0.01)\n"
+            "  --smax N               sampled lines kept by shards-fixed (default 8192)\n"
+            "  --seed S               sampling seed (default 1)\n"
+            "  --exact-below SIZE     simulate sizes below SIZE exactly (default 0 = none);\n"
+            "                         sizes without an estimate are left out (text: a\n"
+            "                         '#' line gives the reason)\n"
             "  -h, --help             this help\n\n"
             "Output columns: size_bytes line assoc class accesses read_misses write_misses\n"
             "writebacks wt_bytes traffic_bytes; one row per size and class, then group rows\n"
@@ -98,13 +109,42 @@ static void print_results(FILE *f, int fmt, const char *trace, const rt_sim *s, 
     }
 }
 
-static int store(rt_db *db, const char *path, const rt_sim *s, const rt_tr_meta *m, const rt_sim_input *in,
-                 double secs, int din_class, rt_err *e)
+/* print_results for a sampled estimate: sizes without one are left out. */
+static void print_results_approx(FILE *f, int fmt, const char *trace, const rt_approx *ap, int *first)
 {
-    const rt_sim_config *c = rt_sim_get_config(s);
+    const rt_sim_config *c = rt_approx_get_config(ap);
+    char params[160];
+    rt_approx_params(rt_approx_get_approx_config(ap), params, sizeof params);
+    if (fmt == FMT_TEXT) {
+        fprintf(f, "# %s: %llu references, policy %s, engine %s %s\n", trace,
+                (unsigned long long)rt_approx_refs(ap), rt_sim_policy_name(c),
+                rt_approx_method_name(rt_approx_get_approx_config(ap)->method), params);
+        fprintf(f, "%12s %5s %5s %-9s %14s %12s %12s %12s %12s %16s\n", "size_bytes", "line", "assoc", "class",
+                "accesses", "read_misses", "write_misses", "writebacks", "wt_bytes", "traffic_bytes");
+    }
+    for (int i = 0; i < c->nsizes; i++) {
+        rt_sim_counts t;
+        rt_err e = {{0}};
+        if (!rt_approx_available(ap, i, &e)) {
+            if (fmt == FMT_TEXT) fprintf(f, "# %llu: %s\n", (unsigned long long)c->sizes[i], e.msg);
+            continue;
+        }
+        for (int k = 0; k < RT_NCLASS; k++)
+            if (!rt_approx_get(ap, i, k, &t, NULL) && t.accesses) print_row(f, fmt, trace, c, i, rt_class_name(k), &t, first);
+        for (int g = 0; g < RT_NGROUP; g++)
+            if (!rt_approx_get_group(ap, i, g, &t, NULL)) print_row(f, fmt, trace, c, i, rt_group_name(g), &t, first);
+    }
+}
+
+static int store(rt_db *db, const char *path, const rt_sim *s, const rt_approx *ap, const rt_tr_meta *m,
+                 const rt_sim_input *in, double secs, int din_class, rt_err *e)
+{
+    const rt_sim_config *c = s ? rt_sim_get_config(s) : rt_approx_get_config(ap);
     rt_db_traffic *rows = calloc((size_t)c->nsizes * RT_NCLASS, sizeof *rows);
     if (!rows) return rt_errf(e, "out of memory");
-    size_t n = rt_sim_db_rows(s, rows);
+    size_t n = s ? rt_sim_db_rows(s, rows) : rt_approx_db_rows(ap, rows);
+    char sim_params[160] = "";
+    if (ap) rt_approx_params(rt_approx_get_approx_config(ap), sim_params, sizeof sim_params);
     rt_db_run r;
     memset(&r, 0, sizeof r);
     char scene[300], params[64];
@@ -128,7 +168,8 @@ static int store(rt_db *db, const char *path, const rt_sim *s, const rt_tr_meta 
         r.tracer = "din";
         r.params = params;
     }
-    r.sim_method = "exact";
+    r.sim_method = ap ? rt_approx_method_name(rt_approx_get_approx_config(ap)->method) : "exact";
+    r.sim_params = sim_params;
     r.trace_hash = in->file_hash;
     r.refs = in->refs;
     r.command = rt_cmd_line();
@@ -153,7 +194,10 @@ int main_sim(int argc, char **argv)
     memset(&o, 0, sizeof o);
     rt_sim_config_default(&o.cfg);
     o.din_class = RT_CLS_FB;
-    enum { O_SIZES = 1, O_LINE, O_ASSOC, O_WT, O_NWA, O_INFMT, O_DINCLS, O_DB, O_FMT };
+    rt_approx_config_default(&o.ac);
+    o.ac.method = RT_APPROX_EXACT;
+    enum { O_SIZES = 1, O_LINE, O_ASSOC, O_WT, O_NWA, O_INFMT, O_DINCLS, O_DB, O_FMT, O_METHOD, O_RATE, O_SMAX,
+           O_SEED, O_EXACT_BELOW };
     static const struct option longopts[] = {
         {"sizes", required_argument, NULL, O_SIZES},
         {"line", required_argument, NULL, O_LINE},
@@ -164,6 +208,11 @@ int main_sim(int argc, char **argv)
         {"din-class", required_argument, NULL, O_DINCLS},
         {"db", required_argument, NULL, O_DB},
         {"format", required_argument, NULL, O_FMT},
+        {"method", required_argument, NULL, O_METHOD},
+        {"rate", required_argument, NULL, O_RATE},
+        {"smax", required_argument, NULL, O_SMAX},
+        {"seed", required_argument, NULL, O_SEED},
+        {"exact-below", required_argument, NULL, O_EXACT_BELOW},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0},
     };
@@ -222,6 +271,34 @@ int main_sim(int argc, char **argv)
                 return RT_EXIT_USAGE;
             }
             break;
+        case O_METHOD:
+            o.ac.method = rt_approx_method_from_name(optarg);
+            if (o.ac.method < 0) {
+                rt_cmd_error("sim", "--method: '%s' is not exact, shards, shards-fixed or statstack", optarg);
+                return RT_EXIT_USAGE;
+            }
+            break;
+        case O_RATE: {
+            char *end;
+            o.ac.rate = strtod(optarg, &end);
+            if (end == optarg || *end) {
+                rt_cmd_error("sim", "--rate: '%s' is not a number", optarg);
+                return RT_EXIT_USAGE;
+            }
+            break;
+        }
+        case O_SMAX:
+        case O_SEED:
+        case O_EXACT_BELOW:
+            if (rt_parse_size(optarg, &v)) {
+                rt_cmd_error("sim", "--%s: '%s' is not a count", ch == O_SMAX ? "smax" : ch == O_SEED ? "seed" : "exact-below",
+                             optarg);
+                return RT_EXIT_USAGE;
+            }
+            if (ch == O_SMAX) o.ac.smax = v;
+            else if (ch == O_SEED) o.ac.seed = v;
+            else o.ac.exact_below = v;
+            break;
         case 'h': usage(stdout); return RT_EXIT_OK;
         default:
             rt_cmd_error("sim", "unknown or incomplete option '%s' (see --help)", argv[optind - 1]);
@@ -232,7 +309,7 @@ int main_sim(int argc, char **argv)
         rt_cmd_error("sim", "no trace given (see --help)");
         return RT_EXIT_USAGE;
     }
-    if (rt_sim_config_check(&o.cfg, &err)) {
+    if (rt_sim_config_check(&o.cfg, &err) || rt_approx_config_check(&o.cfg, &o.ac, &err)) {
         rt_cmd_error("sim", "%s", err.msg);
         return RT_EXIT_USAGE;
     }
@@ -254,6 +331,30 @@ int main_sim(int argc, char **argv)
     }
     for (int a = optind; a < argc; a++) {
         const char *path = argv[a];
+        if (o.ac.method != RT_APPROX_EXACT) { /* sampled estimate */
+            rt_approx *ap = rt_approx_new(&o.cfg, &o.ac, &err);
+            if (!ap) {
+                rt_cmd_error("sim", "%s", err.msg);
+                status = RT_EXIT_FAIL;
+                break;
+            }
+            rt_sim_input in;
+            double t0 = rt_now();
+            memset(meta, 0, sizeof *meta);
+            if (rt_approx_replay(ap, path, o.infmt, o.din_class, meta, &in, &err) || rt_approx_finish(ap, &err)) {
+                rt_cmd_error("sim", "%s", err.msg);
+                status = RT_EXIT_FAIL;
+            } else if (db) {
+                if (store(db, path, NULL, ap, meta, &in, rt_now() - t0, o.din_class, &err)) {
+                    rt_cmd_error("sim", "%s", err.msg);
+                    status = RT_EXIT_FAIL;
+                }
+            } else {
+                print_results_approx(stdout, o.outfmt, path, ap, &first);
+            }
+            rt_approx_free(ap);
+            continue;
+        }
         rt_sim *s = rt_sim_new(&o.cfg, &err);
         if (!s) {
             rt_cmd_error("sim", "%s", err.msg);
@@ -267,7 +368,7 @@ int main_sim(int argc, char **argv)
             rt_cmd_error("sim", "%s", err.msg);
             status = RT_EXIT_FAIL;
         } else if (db) {
-            if (store(db, path, s, meta, &in, rt_now() - t0, o.din_class, &err)) {
+            if (store(db, path, s, NULL, meta, &in, rt_now() - t0, o.din_class, &err)) {
                 rt_cmd_error("sim", "%s", err.msg);
                 status = RT_EXIT_FAIL;
             }

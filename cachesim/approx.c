@@ -1,0 +1,349 @@
+/*
+ * approx.c -- the rt_approx front door (approx.h): configuration, method
+ * names and canonical parameters, the split of sizes between the exact
+ * simulator (sizes below exact_below) and a sampling estimator (shards.c,
+ * statstack.c), replay, availability rules, rounding of estimates, and
+ * database rows.
+ *
+ * Size split: sizes[0..nexact-1] (those < exact_below, or all of them for
+ * RT_APPROX_EXACT) go to an rt_sim that sees every reference; the rest,
+ * converted to lines, go to the estimator, which also counts every touch
+ * (so accesses are exact for every size). Estimates are doubles in full-
+ * trace units; rt_approx_get clamps misses to the exact accesses of their
+ * kind, rounds to the nearest integer and recomputes traffic as the exact
+ * simulator does, so (rm + wm + wb) * line == traffic_bytes holds here too.
+ *
+ * Availability: a size has no estimate if the sample is smaller than
+ * RT_APPROX_MIN_SAMPLES (too few sampled lines or references: the trace is
+ * too short for the rate; not checked at rate 1, where nothing is left
+ * out), or, for SHARDS, if the cache holds fewer than
+ * one sampled line (R x lines < 1; its hit threshold would be below one
+ * sampled line, so only immediate re-touches could hit).
+ */
+#include "approx.h"
+#include "approx_int.h"
+#include "db.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define REPLAY_BUF 65536
+
+struct rt_approx {
+    rt_sim_config cfg;          /* as created */
+    rt_approx_config ac;        /* as created (rate as given) */
+    rt_sink sink;               /* put() -> rt_approx_put */
+    uint64_t refs;              /* references seen */
+    rt_sim *exact;              /* sizes 0..nexact-1, or NULL */
+    int nexact;                 /* sizes simulated exactly */
+    rt_shards *sh;              /* SHARDS estimator, or NULL */
+    rt_sstack *ss;              /* StatStack estimator, or NULL */
+    uint64_t acc[RT_NCLASS][2]; /* exact touches by class, write */
+    rt_approx_est est;          /* estimates of the last finish */
+    int finished;               /* est is valid */
+    uint64_t fin_refs;          /* refs at the last finish */
+};
+
+static const char *const method_names[RT_APPROX_NMETHODS] = {"exact", "shards", "shards-fixed", "statstack"};
+
+void rt_approx_config_default(rt_approx_config *ac)
+{
+    memset(ac, 0, sizeof *ac);
+    ac->method = RT_APPROX_SHARDS_RATE;
+    ac->rate = 0.01;
+    ac->smax = 8192;
+    ac->seed = 1;
+    ac->exact_below = 0;
+}
+
+const char *rt_approx_method_name(int method)
+{
+    return method >= 0 && method < RT_APPROX_NMETHODS ? method_names[method] : NULL;
+}
+
+int rt_approx_method_from_name(const char *name)
+{
+    for (int i = 0; name && i < RT_APPROX_NMETHODS; i++)
+        if (!strcmp(name, method_names[i])) return i;
+    return -1;
+}
+
+const char *rt_approx_params(const rt_approx_config *ac, char *buf, size_t n)
+{
+    if (!n) return buf;
+    switch (ac->method) {
+    case RT_APPROX_SHARDS_RATE:
+    case RT_APPROX_STATSTACK:
+        snprintf(buf, n, "rate=%.6g seed=%llu exact_below=%llu", ac->rate, (unsigned long long)ac->seed,
+                 (unsigned long long)ac->exact_below);
+        break;
+    case RT_APPROX_SHARDS_FIXED:
+        snprintf(buf, n, "smax=%llu seed=%llu exact_below=%llu", (unsigned long long)ac->smax,
+                 (unsigned long long)ac->seed, (unsigned long long)ac->exact_below);
+        break;
+    default:
+        buf[0] = 0;
+    }
+    return buf;
+}
+
+int rt_approx_config_check(const rt_sim_config *c, const rt_approx_config *ac, rt_err *e)
+{
+    if (rt_sim_config_check(c, e)) return -1;
+    if (!rt_approx_method_name(ac->method)) return rt_errf(e, "unknown approximation method %d", ac->method);
+    if (ac->method == RT_APPROX_EXACT) return 0;
+    if (c->assoc || c->write_through || c->no_write_allocate)
+        return rt_errf(e, "sampled simulation (%s) supports only fully associative write-back write-allocate "
+                          "caches, not %s assoc %u",
+                       rt_approx_method_name(ac->method), rt_sim_policy_name(c), c->assoc);
+    if (ac->method == RT_APPROX_SHARDS_FIXED) {
+        if (ac->smax < RT_APPROX_MIN_SAMPLES || ac->smax > (1ULL << 30))
+            return rt_errf(e, "smax %llu out of range (%d..%llu)", (unsigned long long)ac->smax,
+                           RT_APPROX_MIN_SAMPLES, 1ULL << 30);
+    } else if (!(ac->rate >= 0x1p-32 && ac->rate <= 1)) {
+        return rt_errf(e, "sampling rate %g out of range (2^-32 .. 1)", ac->rate);
+    }
+    return 0;
+}
+
+static int sink_put(rt_sink *sk, const rt_access *a, size_t n) { return rt_approx_put(sk->ctx, a, n); }
+
+rt_approx *rt_approx_new(const rt_sim_config *c, const rt_approx_config *ac, rt_err *e)
+{
+    if (rt_approx_config_check(c, ac, e)) return NULL;
+    rt_approx *a = rt_calloc(1, sizeof *a, e);
+    if (!a) return NULL;
+    a->cfg = *c;
+    a->ac = *ac;
+    a->sink.put = sink_put;
+    a->sink.ctx = a;
+    if (ac->method == RT_APPROX_EXACT) a->nexact = c->nsizes;
+    else
+        while (a->nexact < c->nsizes && c->sizes[a->nexact] < ac->exact_below) a->nexact++;
+    if (a->nexact) {
+        rt_sim_config ce = *c;
+        ce.nsizes = a->nexact;
+        a->exact = rt_sim_new(&ce, e);
+        if (!a->exact) goto fail;
+    }
+    int ns = c->nsizes - a->nexact;
+    if (ns > 0) {
+        uint64_t lines[RT_SIM_MAXSIZES];
+        for (int i = 0; i < ns; i++) lines[i] = c->sizes[a->nexact + i] / c->line;
+        if (ac->method == RT_APPROX_STATSTACK) a->ss = rt_sstack_new(lines, ns, c->line, ac->rate, ac->seed, e);
+        else
+            a->sh = rt_shards_new(lines, ns, c->line, ac->rate, ac->method == RT_APPROX_SHARDS_FIXED ? ac->smax : 0,
+                                  ac->seed, e);
+        if (!a->ss && !a->sh) goto fail;
+    }
+    return a;
+fail:
+    rt_approx_free(a);
+    return NULL;
+}
+
+void rt_approx_free(rt_approx *a)
+{
+    if (!a) return;
+    rt_sim_free(a->exact);
+    rt_shards_free(a->sh);
+    rt_sstack_free(a->ss);
+    free(a);
+}
+
+const rt_sim_config *rt_approx_get_config(const rt_approx *a) { return &a->cfg; }
+const rt_approx_config *rt_approx_get_approx_config(const rt_approx *a) { return &a->ac; }
+rt_sink *rt_approx_sink(rt_approx *a) { return &a->sink; }
+uint64_t rt_approx_refs(const rt_approx *a) { return a->refs; }
+
+int rt_approx_put(rt_approx *a, const rt_access *acc, size_t n)
+{
+    a->refs += n;
+    if (a->exact) rt_sim_put(a->exact, acc, n);
+    if (a->sh) rt_shards_put(a->sh, acc, n, a->acc);
+    if (a->ss) rt_sstack_put(a->ss, acc, n, a->acc);
+    return 0;
+}
+
+int rt_approx_replay(rt_approx *a, const char *path, int fmt, int din_class, rt_tr_meta *meta,
+                     rt_sim_input *info, rt_err *e)
+{
+    rt_sim_input loc;
+    if (!info) info = &loc;
+    memset(info, 0, sizeof *info);
+    if (fmt == RT_SIM_IN_AUTO) {
+        fmt = rt_sim_sniff(path, e);
+        if (fmt < 0) return -1;
+    }
+    rt_access *buf = rt_calloc(REPLAY_BUF, sizeof *buf, e);
+    if (!buf) return -1;
+    int rc = -1;
+    long n;
+    info->format = fmt;
+    if (fmt == RT_SIM_IN_DIN) {
+        rt_din *d = rt_din_open(path, din_class, e);
+        if (!d) goto out;
+        while ((n = rt_din_read(d, buf, REPLAY_BUF, e)) > 0) {
+            rt_approx_put(a, buf, (size_t)n);
+            info->refs += (uint64_t)n;
+        }
+        info->file_bytes = rt_din_file_bytes(d);
+        info->file_hash = rt_din_file_hash(d);
+        rt_din_close(d);
+    } else {
+        rt_tr_reader *r = rt_tr_open(path, e);
+        if (!r) goto out;
+        if (meta) *meta = *rt_tr_get_meta(r);
+        info->has_meta = 1;
+        while ((n = rt_tr_read(r, buf, REPLAY_BUF, e)) > 0) {
+            rt_approx_put(a, buf, (size_t)n);
+            info->refs += (uint64_t)n;
+        }
+        if (n == 0) {
+            info->file_bytes = rt_tr_file_bytes(r);
+            info->file_hash = rt_tr_file_hash(r);
+        }
+        rt_tr_close(r);
+    }
+    if (n == 0) rc = 0;
+out:
+    free(buf);
+    return rc;
+}
+
+int rt_approx_finish(rt_approx *a, rt_err *e)
+{
+    a->finished = 0;
+    if (a->sh && rt_shards_estimate(a->sh, &a->est, e)) return -1;
+    if (a->ss && rt_sstack_estimate(a->ss, (const uint64_t(*)[2])a->acc, &a->est, e)) return -1;
+    a->finished = 1;
+    a->fin_refs = a->refs;
+    return 0;
+}
+
+/* "1K", "64K", "4M", or bytes. */
+static void fmt_size(char *buf, size_t n, uint64_t v)
+{
+    if (v >= (1ULL << 20) && v % (1ULL << 20) == 0) snprintf(buf, n, "%lluM", (unsigned long long)(v >> 20));
+    else if (v >= 1024 && v % 1024 == 0) snprintf(buf, n, "%lluK", (unsigned long long)(v >> 10));
+    else snprintf(buf, n, "%llu", (unsigned long long)v);
+}
+
+int rt_approx_available(const rt_approx *a, int i, rt_err *e)
+{
+    if (i < 0 || i >= a->cfg.nsizes) return rt_errf(e, "size index %d out of range", i), 0;
+    if (i < a->nexact) return 1;
+    if (!a->finished || a->fin_refs != a->refs)
+        return rt_errf(e, "rt_approx_finish was not called after the last references"), 0;
+    const char *unit = a->ss ? "sampled references" : "sampled lines";
+    if (a->est.sampled_lines < RT_APPROX_MIN_SAMPLES && a->est.rate < 1) {
+        if (a->ac.method == RT_APPROX_SHARDS_FIXED)
+            rt_errf(e, "trace too short for sampling: %llu %s (need %d)", (unsigned long long)a->est.sampled_lines,
+                    unit, RT_APPROX_MIN_SAMPLES);
+        else
+            rt_errf(e, "trace too short for rate %g: %llu %s (need %d)", a->ac.rate,
+                    (unsigned long long)a->est.sampled_lines, unit, RT_APPROX_MIN_SAMPLES);
+        return 0;
+    }
+    if (a->sh) {
+        double sl = a->est.rate * (double)(a->cfg.sizes[i] / a->cfg.line);
+        if (sl < 1) {
+            char sz[32];
+            fmt_size(sz, sizeof sz, a->cfg.sizes[i]);
+            rt_errf(e, "size %s is below the sampling resolution at rate %g (%.3g sampled lines, need >= 1); "
+                       "simulate it exactly with exact_below",
+                    sz, a->est.rate, sl);
+            return 0;
+        }
+    }
+    return 1;
+}
+
+static uint64_t rnd(double x, uint64_t hi)
+{
+    if (!(x > 0)) return 0;
+    if (x >= (double)hi) return hi;
+    return (uint64_t)(x + 0.5);
+}
+
+int rt_approx_get(const rt_approx *a, int i, int cls, rt_sim_counts *out, rt_err *e)
+{
+    memset(out, 0, sizeof *out);
+    if (cls < 0 || cls >= RT_NCLASS) return rt_errf(e, "class %d out of range", cls);
+    if (!rt_approx_available(a, i, e)) return -1;
+    if (i < a->nexact) {
+        rt_sim_get(a->exact, i, cls, out);
+        return 0;
+    }
+    int j = i - a->nexact;
+    out->accesses = a->acc[cls][0] + a->acc[cls][1];
+    out->read_misses = rnd(a->est.rm[j][cls], a->acc[cls][0]);
+    out->write_misses = rnd(a->est.wm[j][cls], a->acc[cls][1]);
+    out->writebacks = rnd(a->est.wb[j][cls], UINT64_MAX / 2);
+    out->traffic_bytes = (out->read_misses + out->write_misses + out->writebacks) * a->cfg.line;
+    return 0;
+}
+
+int rt_approx_get_group(const rt_approx *a, int i, int group, rt_sim_counts *out, rt_err *e)
+{
+    memset(out, 0, sizeof *out);
+    for (int c = 0; c < RT_NCLASS; c++) {
+        if ((int)rt_class_group(c) != group) continue;
+        rt_sim_counts t;
+        if (rt_approx_get(a, i, c, &t, e)) return -1;
+        out->accesses += t.accesses;
+        out->read_misses += t.read_misses;
+        out->write_misses += t.write_misses;
+        out->writebacks += t.writebacks;
+        out->wt_bytes += t.wt_bytes;
+        out->traffic_bytes += t.traffic_bytes;
+    }
+    return 0;
+}
+
+void rt_approx_get_stats(const rt_approx *a, rt_approx_stats *st)
+{
+    memset(st, 0, sizeof *st);
+    st->refs = a->refs;
+    for (int c = 0; c < RT_NCLASS; c++) st->touches += a->acc[c][0] + a->acc[c][1];
+    if (a->ac.method == RT_APPROX_EXACT) {
+        st->touches = 0;
+        for (int c = 0; c < RT_NCLASS; c++) {
+            rt_sim_counts t;
+            rt_sim_get(a->exact, 0, c, &t);
+            st->touches += t.accesses;
+        }
+        st->sampled_touches = st->touches;
+        st->rate = 1;
+        return;
+    }
+    st->sampled_touches = a->est.sampled_touches;
+    st->sampled_lines = a->est.sampled_lines;
+    st->rate = a->est.rate;
+}
+
+size_t rt_approx_db_rows(const rt_approx *a, rt_db_traffic *rows)
+{
+    size_t n = 0;
+    for (int i = 0; i < a->cfg.nsizes; i++) {
+        if (!rt_approx_available(a, i, NULL)) continue;
+        for (int c = 0; c < RT_NCLASS; c++) {
+            rt_sim_counts t;
+            if (rt_approx_get(a, i, c, &t, NULL) || !t.accesses) continue;
+            rt_db_traffic *r = &rows[n++];
+            r->size = a->cfg.sizes[i];
+            r->line = a->cfg.line;
+            r->assoc = a->cfg.assoc;
+            r->policy = rt_sim_policy_name(&a->cfg);
+            r->cls = c;
+            r->accesses = t.accesses;
+            r->read_misses = t.read_misses;
+            r->write_misses = t.write_misses;
+            r->writebacks = t.writebacks;
+            r->wt_bytes = t.wt_bytes;
+            r->traffic_bytes = t.traffic_bytes;
+        }
+    }
+    return n;
+}

@@ -1,0 +1,159 @@
+/*
+ * approx.h -- approximate (sampled) cache simulation with measured error
+ * (module prefix rt_approx_).
+ *
+ * An rt_approx estimates, for the cache configurations of an rt_sim_config
+ * (fully associative LRU, write-back, write-allocate: the paper's setting),
+ * the same per-size, per-class counters the exact simulator produces
+ * (rt_sim_counts), from a sample of the reference stream, at a fraction of
+ * the cost. Methods (docs/approx.md has the formulas and measured errors):
+ *
+ *   RT_APPROX_EXACT         no sampling: the exact simulator for every size
+ *                           (lets a front end use one code path);
+ *   RT_APPROX_SHARDS_RATE   spatial sampling, fixed rate (SHARDS, Waldspurger
+ *                           et al., FAST 2015): lines whose hash falls under
+ *                           a threshold are simulated, distances scaled;
+ *   RT_APPROX_SHARDS_FIXED  spatial sampling with at most smax sampled lines
+ *                           (SHARDS fixed-size): the threshold is lowered as
+ *                           lines arrive, so memory is bounded;
+ *   RT_APPROX_STATSTACK     temporal sampling of reuse times (StatStack,
+ *                           Eklov and Hagersten, ISPASS 2010), converted to
+ *                           expected stack distances.
+ *
+ * Sizes strictly below ac->exact_below bytes are simulated exactly (the real
+ * rt_sim, on every reference, but only for those small sizes). A sampled
+ * size whose scaled capacity is below one sampled line (SHARDS: rate x lines
+ * < 1) has no estimate: rt_approx_get fails for it with a message naming
+ * the remedy (exact_below). Accesses are always counted exactly; misses and
+ * write-backs are estimates scaled back to full-trace units.
+ *
+ * Usage: rt_approx_new, feed references through rt_approx_sink /
+ * rt_approx_put or rt_approx_replay, call rt_approx_finish, then
+ * rt_approx_get. Return conventions as in rt.h: 0 / non-NULL on success,
+ * -1 / NULL with one line in e.
+ */
+#ifndef RT_APPROX_H
+#define RT_APPROX_H
+
+#include "memmodel.h"
+#include "rt.h"
+#include "sim.h"
+#include "trace.h"
+
+#include <stdint.h>
+#include <stdio.h>
+
+enum {
+    RT_APPROX_EXACT = 0,
+    RT_APPROX_SHARDS_RATE = 1,
+    RT_APPROX_SHARDS_FIXED = 2,
+    RT_APPROX_STATSTACK = 3,
+    RT_APPROX_NMETHODS = 4
+};
+
+/* Fewest sampled lines (SHARDS) or sampled references (StatStack) that give
+ * an estimate; below it rt_approx_get fails ("trace too short"). */
+#define RT_APPROX_MIN_SAMPLES 32
+
+typedef struct rt_approx_config {
+    int method;           /* RT_APPROX_* */
+    double rate;          /* SHARDS_RATE, STATSTACK: sampling rate, 2^-32 .. 1 */
+    uint64_t smax;        /* SHARDS_FIXED: most sampled lines kept (>= RT_APPROX_MIN_SAMPLES) */
+    uint64_t seed;        /* hash / PRNG seed; equal seeds give bit-identical estimates */
+    uint64_t exact_below; /* sizes (bytes) strictly below this are simulated exactly; 0 = none */
+} rt_approx_config;
+
+/* SHARDS_RATE, rate 0.01, smax 8192, seed 1, exact_below 0. */
+void rt_approx_config_default(rt_approx_config *ac);
+
+/* "exact", "shards", "shards-fixed", "statstack"; NULL if out of range. */
+const char *rt_approx_method_name(int method);
+/* Method from its name, or -1. */
+int rt_approx_method_from_name(const char *name);
+
+/* Canonical parameter string for the database's sim_params, e.g.
+ * "rate=0.01 seed=1 exact_below=16384" (shards, statstack),
+ * "smax=8192 seed=1 exact_below=0" (shards-fixed), "" (exact). Writes at
+ * most n bytes (NUL included) into buf and returns buf. */
+const char *rt_approx_params(const rt_approx_config *ac, char *buf, size_t n);
+
+/* Checks ac against c: a known method, rate in [2^-32, 1], smax >= the
+ * minimum, and a fully associative write-back write-allocate c. 0 or -1. */
+int rt_approx_config_check(const rt_sim_config *c, const rt_approx_config *ac, rt_err *e);
+
+typedef struct rt_approx rt_approx;
+
+/* Creates an estimator for the sizes of c (copied). NULL on a bad
+ * configuration or out of memory. Memory: the exact simulator of the
+ * sizes below exact_below, plus about 64 bytes per sampled line (SHARDS)
+ * or per outstanding sampled reference (StatStack). */
+rt_approx *rt_approx_new(const rt_sim_config *c, const rt_approx_config *ac, rt_err *e);
+void rt_approx_free(rt_approx *a); /* NULL is fine */
+
+const rt_sim_config *rt_approx_get_config(const rt_approx *a);
+const rt_approx_config *rt_approx_get_approx_config(const rt_approx *a);
+
+/* Consumes n references. Returns 0 (never fails; out-of-memory while
+ * growing a table is remembered and reported by rt_approx_finish). Class
+ * values >= RT_NCLASS count as RT_CLS_FB, size 0 as 1, as in rt_sim_put. */
+int rt_approx_put(rt_approx *a, const rt_access *acc, size_t n);
+/* An rt_sink feeding a; owned by a, valid until rt_approx_free. */
+rt_sink *rt_approx_sink(rt_approx *a);
+/* References seen so far. */
+uint64_t rt_approx_refs(const rt_approx *a);
+
+/* Replays a whole .rtt or din file into a; arguments and return as
+ * rt_sim_replay (sim.h). Does not call rt_approx_finish. */
+int rt_approx_replay(rt_approx *a, const char *path, int fmt, int din_class, rt_tr_meta *meta,
+                     rt_sim_input *info, rt_err *e);
+
+/* Computes the estimates from the references seen so far (a snapshot:
+ * more references may follow, and finish again). -1 only if an earlier
+ * put ran out of memory. */
+int rt_approx_finish(rt_approx *a, rt_err *e);
+
+/* 1 if size index i has a number after rt_approx_finish, 0 if not (with
+ * the reason in e: trace too short for the rate, size below the sampling
+ * resolution, or finish not called). */
+int rt_approx_available(const rt_approx *a, int i, rt_err *e);
+
+/* Estimated counters of size index i for class cls, in full-trace units,
+ * rounded to integers, with traffic_bytes = (read_misses + write_misses +
+ * writebacks) * line and wt_bytes 0. Exact for sizes below exact_below.
+ * Returns 0, or -1 with a message ("trace too short for rate 0.0001: 3
+ * sampled lines", "size 1K is below the sampling resolution ...") when
+ * the size has no estimate. */
+int rt_approx_get(const rt_approx *a, int i, int cls, rt_sim_counts *out, rt_err *e);
+/* Sum over the classes of a group (rt_group). Same returns. */
+int rt_approx_get_group(const rt_approx *a, int i, int group, rt_sim_counts *out, rt_err *e);
+
+/* Sampling statistics of the last rt_approx_finish. */
+typedef struct rt_approx_stats {
+    uint64_t refs;            /* references seen */
+    uint64_t touches;         /* line touches seen (all sizes' accesses) */
+    uint64_t sampled_touches; /* touches that went to the estimator */
+    uint64_t sampled_lines;   /* SHARDS: distinct lines in the sample now; StatStack: sampled references */
+    double rate;              /* effective rate (SHARDS_FIXED: the final one) */
+} rt_approx_stats;
+void rt_approx_get_stats(const rt_approx *a, rt_approx_stats *st);
+
+struct rt_db_traffic;
+/* Database rows (db.h) of the available sizes, one per class with at least
+ * one access, sizes in order; rows must hold nsizes * RT_NCLASS entries.
+ * Returns the number of rows written. */
+size_t rt_approx_db_rows(const rt_approx *a, struct rt_db_traffic *rows);
+
+/* ---- benchmark -------------------------------------------------------- */
+
+/* Runs the exact simulator and each method at several parameters over a
+ * synthetic 20-million-reference trace (trace_path NULL) or a .rtt/din
+ * file, and writes a Markdown table to out: wall time of simulation, speed-
+ * up over exact, mean and max absolute miss-ratio error over the available
+ * sizes, and the max relative traffic error (all classes, and per group)
+ * over the sizes >= 16K. Returns 0 or -1 (file or memory error; nothing is
+ * printed for it, the message goes to e). */
+int rt_approx_bench(FILE *out, const char *trace_path, rt_err *e);
+/* Same with a chosen synthetic length (tests use a short one). */
+int rt_approx_bench_n(FILE *out, const char *trace_path, uint64_t nrefs, rt_err *e);
+
+#endif

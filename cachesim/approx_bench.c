@@ -1,0 +1,239 @@
+/*
+ * approx_bench.c -- speed and error of the sampled estimators against the
+ * exact simulator (rt_approx_bench, see approx.h).
+ *
+ * Input: a synthetic trace in the style of cachesim/bench.c (a k-d tree
+ * ray tracer with coherent rays: a 32-byte ray record read, an 18-level
+ * walk down a breadth-first node array whose top levels change every few
+ * thousand rays, two leaves of an index read and four 36-byte triangles in
+ * a 500K-triangle array, a 16-byte hit write; 30 references per ray),
+ * generated in chunks from a fixed seed so every pass sees the same
+ * stream, or a .rtt / din file read in chunks. Only the time spent inside
+ * the simulator (put and finish) is measured; generation and decompression
+ * are excluded.
+ *
+ * Errors are measured against the exact one-pass simulator on the same
+ * stream: miss ratio = (read + write misses) / accesses over all classes
+ * per size, absolute error averaged and maximized over the sizes that have
+ * an estimate; traffic error = |estimate - exact| / exact over sizes >= 16K
+ * (all classes, then the geometry and ray groups).
+ */
+#include "approx.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define CHUNK 65536
+#define NODE_BASE 0x10000000ULL
+#define INDEX_BASE 0x11000000ULL
+#define TRI_BASE 0x12000000ULL
+#define RAY_BASE 0x20000000ULL
+#define NTRI 500000u
+#define NRAY (1u << 20)
+#define DEPTH 18
+
+typedef struct gen {
+    uint64_t ray;  /* current ray */
+    int phase;     /* step within the current ray */
+    uint64_t node; /* current node (breadth-first, root 1) */
+    uint64_t leaf; /* current leaf's first triangle */
+} gen;
+
+static inline uint64_t mix(uint64_t x)
+{
+    x ^= x >> 33;
+    x *= 0xff51afd7ed558ccdULL;
+    x ^= x >> 33;
+    x *= 0xc4ceb9fe1a85ec53ULL;
+    return x ^ (x >> 33);
+}
+
+static void gen_fill(gen *g, rt_access *a, size_t n)
+{
+    for (size_t i = 0; i < n; i++) {
+        int p = g->phase++;
+        uint64_t ray = g->ray;
+        if (p == 0) {
+            a[i] = (rt_access){RAY_BASE + (ray % NRAY) * 32, 32, 0, RT_CLS_RAY};
+            g->node = 1;
+        } else if (p <= DEPTH) {
+            int sh = 14 - p > 0 ? 14 - p : 0;
+            uint64_t bit = mix(((ray >> sh) << 5) ^ (uint64_t)p) & 1;
+            g->node = g->node * 2 + bit;
+            a[i] = (rt_access){NODE_BASE + g->node * 8, 8, 0, RT_CLS_NODE};
+        } else if (p == DEPTH + 1 || p == DEPTH + 6) {
+            uint64_t leaf = g->node ^ (p == DEPTH + 6 ? 1 : 0);
+            g->leaf = mix(leaf) % (NTRI - 4);
+            a[i] = (rt_access){INDEX_BASE + (leaf & 0xfffff) * 16, 16, 0, RT_CLS_INDEX};
+        } else if (p <= DEPTH + 10) {
+            uint64_t t = g->leaf + (uint64_t)((p - DEPTH - 2) % 5);
+            a[i] = (rt_access){TRI_BASE + t * 36, 36, 0, RT_CLS_TRI};
+        } else {
+            a[i] = (rt_access){RAY_BASE + (ray % NRAY) * 32 + 16, 16, 1, RT_CLS_RAY};
+            g->phase = 0;
+            g->ray++;
+        }
+    }
+}
+
+/* A pass over the input: synthetic or a file. */
+typedef struct source {
+    const char *path; /* NULL = synthetic */
+    uint64_t nrefs;   /* synthetic length */
+    uint64_t done;    /* synthetic references produced */
+    gen g;            /* synthetic state */
+    int fmt;          /* file format */
+    rt_tr_reader *tr; /* .rtt reader */
+    rt_din *din;      /* din reader */
+} source;
+
+static int src_open(source *s, const char *path, uint64_t nrefs, rt_err *e)
+{
+    memset(s, 0, sizeof *s);
+    s->path = path;
+    s->nrefs = nrefs;
+    s->g.node = 1;
+    if (!path) return 0;
+    s->fmt = rt_sim_sniff(path, e);
+    if (s->fmt < 0) return -1;
+    if (s->fmt == RT_SIM_IN_DIN) s->din = rt_din_open(path, RT_CLS_FB, e);
+    else s->tr = rt_tr_open(path, e);
+    return s->din || s->tr ? 0 : -1;
+}
+
+static long src_read(source *s, rt_access *buf, size_t cap, rt_err *e)
+{
+    if (!s->path) {
+        size_t n = s->nrefs - s->done < cap ? (size_t)(s->nrefs - s->done) : cap;
+        gen_fill(&s->g, buf, n);
+        s->done += n;
+        return (long)n;
+    }
+    return s->din ? rt_din_read(s->din, buf, cap, e) : rt_tr_read(s->tr, buf, cap, e);
+}
+
+static void src_close(source *s)
+{
+    rt_din_close(s->din);
+    rt_tr_close(s->tr);
+}
+
+typedef struct result {
+    double secs;                          /* time inside the simulator */
+    int avail[RT_SIM_MAXSIZES];           /* size has an estimate */
+    double mr[RT_SIM_MAXSIZES];           /* miss ratio, all classes */
+    double traffic[RT_SIM_MAXSIZES][3];   /* all classes, geometry, ray */
+} result;
+
+static int run(const rt_sim_config *c, const rt_approx_config *ac, const char *path, uint64_t nrefs,
+               rt_access *buf, result *res, rt_err *e)
+{
+    memset(res, 0, sizeof *res);
+    rt_approx *a = rt_approx_new(c, ac, e);
+    if (!a) return -1;
+    source src;
+    int rc = -1;
+    if (src_open(&src, path, nrefs, e)) goto out;
+    long n;
+    while ((n = src_read(&src, buf, CHUNK, e)) > 0) {
+        double t0 = rt_now();
+        rt_approx_put(a, buf, (size_t)n);
+        res->secs += rt_now() - t0;
+    }
+    src_close(&src);
+    if (n < 0) goto out;
+    double t0 = rt_now();
+    if (rt_approx_finish(a, e)) goto out;
+    res->secs += rt_now() - t0;
+    for (int i = 0; i < c->nsizes; i++) {
+        if (!rt_approx_available(a, i, NULL)) continue;
+        res->avail[i] = 1;
+        uint64_t acc = 0, miss = 0;
+        for (int k = 0; k < RT_NCLASS; k++) {
+            rt_sim_counts t;
+            rt_approx_get(a, i, k, &t, NULL);
+            acc += t.accesses;
+            miss += t.read_misses + t.write_misses;
+            res->traffic[i][0] += (double)t.traffic_bytes;
+            if (rt_class_group(k) == RT_GROUP_GEOMETRY) res->traffic[i][1] += (double)t.traffic_bytes;
+            if (rt_class_group(k) == RT_GROUP_RAY) res->traffic[i][2] += (double)t.traffic_bytes;
+        }
+        res->mr[i] = acc ? (double)miss / (double)acc : 0;
+    }
+    rc = 0;
+out:
+    rt_approx_free(a);
+    return rc;
+}
+
+int rt_approx_bench_n(FILE *out, const char *trace_path, uint64_t nrefs, rt_err *e)
+{
+    rt_sim_config c;
+    rt_sim_config_default(&c);
+    static const struct {
+        int method;
+        double rate;
+        uint64_t smax, exact_below;
+    } runs[] = {
+        {RT_APPROX_SHARDS_RATE, 0.1, 0, 0},       {RT_APPROX_SHARDS_RATE, 0.01, 0, 0},
+        {RT_APPROX_SHARDS_RATE, 0.001, 0, 0},     {RT_APPROX_SHARDS_RATE, 0.01, 0, 16384},
+        {RT_APPROX_SHARDS_RATE, 0.001, 0, 65536}, {RT_APPROX_SHARDS_FIXED, 0, 4096, 0},
+        {RT_APPROX_SHARDS_FIXED, 0, 16384, 0},    {RT_APPROX_SHARDS_FIXED, 0, 16384, 16384},
+        {RT_APPROX_STATSTACK, 0.01, 0, 0},        {RT_APPROX_STATSTACK, 0.001, 0, 0},
+        {RT_APPROX_STATSTACK, 0.0001, 0, 0},      {RT_APPROX_STATSTACK, 0.001, 0, 16384},
+    };
+    rt_access *buf = rt_calloc(CHUNK, sizeof *buf, e);
+    result *ex = rt_calloc(1, sizeof *ex, e), *r = rt_calloc(1, sizeof *r, e);
+    int rc = -1;
+    if (!buf || !ex || !r) goto out;
+    rt_approx_config ac;
+    rt_approx_config_default(&ac);
+    ac.method = RT_APPROX_EXACT;
+    if (run(&c, &ac, trace_path, nrefs, buf, ex, e)) goto out;
+    fprintf(out, "Input: %s; 13 sizes 1K..4M, 64-byte lines, fully associative LRU, write-back.\n\n",
+            trace_path ? trace_path : "synthetic ray-tracer trace");
+    fprintf(out, "| method | params | time (s) | speedup | sizes | MR err mean | MR err max | traffic err max "
+                 ">=16K | geometry | ray |\n");
+    fprintf(out, "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+    fprintf(out, "| exact | | %.3f | 1.0 | %d | 0 | 0 | 0 | 0 | 0 |\n", ex->secs, c.nsizes);
+    for (size_t k = 0; k < sizeof runs / sizeof runs[0]; k++) {
+        rt_approx_config_default(&ac);
+        ac.method = runs[k].method;
+        ac.rate = runs[k].rate;
+        if (runs[k].smax) ac.smax = runs[k].smax;
+        ac.exact_below = runs[k].exact_below;
+        if (run(&c, &ac, trace_path, nrefs, buf, r, e)) goto out;
+        int nav = 0;
+        double sum = 0, mx = 0, tmax[3] = {0, 0, 0};
+        for (int i = 0; i < c.nsizes; i++) {
+            if (!r->avail[i]) continue;
+            nav++;
+            double d = fabs(r->mr[i] - ex->mr[i]);
+            sum += d;
+            if (d > mx) mx = d;
+            if (c.sizes[i] < 16384) continue;
+            for (int g = 0; g < 3; g++) {
+                double rel = ex->traffic[i][g] > 0 ? fabs(r->traffic[i][g] - ex->traffic[i][g]) / ex->traffic[i][g]
+                                                   : (r->traffic[i][g] > 0 ? 1 : 0);
+                if (rel > tmax[g]) tmax[g] = rel;
+            }
+        }
+        char params[128];
+        rt_approx_params(&ac, params, sizeof params);
+        fprintf(out, "| %s | %s | %.3f | %.1f | %d | %.4f | %.4f | %.2f%% | %.2f%% | %.2f%% |\n",
+                rt_approx_method_name(ac.method), params, r->secs, r->secs > 0 ? ex->secs / r->secs : 0, nav,
+                nav ? sum / nav : 0, mx, 100 * tmax[0], 100 * tmax[1], 100 * tmax[2]);
+    }
+    rc = 0;
+out:
+    free(buf);
+    free(ex);
+    free(r);
+    return rc;
+}
+
+int rt_approx_bench(FILE *out, const char *trace_path, rt_err *e)
+{
+    return rt_approx_bench_n(out, trace_path, 20000000ULL, e);
+}

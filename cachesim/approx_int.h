@@ -1,0 +1,84 @@
+/*
+ * approx_int.h -- the interface between the approximate-simulation glue
+ * (approx.c) and its estimators (shards.c, statstack.c). Private to
+ * cachesim/; the public API is approx.h.
+ *
+ * An estimator sees every reference, splits it into line touches, counts
+ * the touches per class exactly (acc), samples some of them, and on request
+ * writes its estimates for k sampled sizes (in lines) into an rt_approx_est,
+ * in full-trace units (already scaled by the inverse sampling rate).
+ */
+#ifndef RT_APPROX_INT_H
+#define RT_APPROX_INT_H
+
+#include "approx.h"
+
+typedef struct rt_approx_est {
+    double rm[RT_SIM_MAXSIZES][RT_NCLASS]; /* estimated read misses */
+    double wm[RT_SIM_MAXSIZES][RT_NCLASS]; /* estimated write misses */
+    double wb[RT_SIM_MAXSIZES][RT_NCLASS]; /* estimated write-backs (class of the last writer) */
+    uint64_t sampled_touches;              /* touches the estimator simulated */
+    uint64_t sampled_lines;                /* SHARDS: lines in the sample; StatStack: sampled references */
+    double rate;                           /* effective sampling rate at the end */
+} rt_approx_est;
+
+/* Splits references into line touches: line size as shift (power of two)
+ * or divisor. */
+typedef struct rt_approx_lines {
+    uint32_t line; /* bytes */
+    int shift;     /* log2(line), or -1 */
+} rt_approx_lines;
+
+static inline void rt_approx_lines_init(rt_approx_lines *l, uint32_t line)
+{
+    l->line = line;
+    l->shift = -1;
+    if ((line & (line - 1)) == 0) {
+        l->shift = 0;
+        while ((1u << l->shift) != line) l->shift++;
+    }
+}
+
+static inline uint64_t rt_approx_line_of(const rt_approx_lines *l, uint64_t addr)
+{
+    return l->shift >= 0 ? addr >> l->shift : addr / l->line;
+}
+
+/* The seeded 64-bit mixer (splitmix64 / murmur3 finalizer). */
+static inline uint64_t rt_approx_mix(uint64_t x)
+{
+    x ^= x >> 33;
+    x *= 0xff51afd7ed558ccdULL;
+    x ^= x >> 33;
+    x *= 0xc4ceb9fe1a85ec53ULL;
+    return x ^ (x >> 33);
+}
+
+/* Miss weight of a reuse with (estimated) y other distinct lines since the
+ * previous touch, in a cache whose hit threshold is t (see shards.c). */
+static inline double rt_approx_missw(double y, double t)
+{
+    double d = y - t;
+    return d <= 0 ? 0 : d >= 1 ? 1 : d;
+}
+
+/* ---- SHARDS (shards.c) ---- */
+typedef struct rt_shards rt_shards;
+/* lines[0..k-1]: sampled sizes in lines, increasing. smax 0 = fixed rate. */
+rt_shards *rt_shards_new(const uint64_t *lines, int k, uint32_t line, double rate, uint64_t smax, uint64_t seed,
+                         rt_err *e);
+void rt_shards_free(rt_shards *s);
+void rt_shards_put(rt_shards *s, const rt_access *a, size_t n, uint64_t acc[RT_NCLASS][2]);
+/* -1 if a table could not grow (out of memory) during put. */
+int rt_shards_estimate(const rt_shards *s, rt_approx_est *est, rt_err *e);
+
+/* ---- StatStack (statstack.c) ---- */
+typedef struct rt_sstack rt_sstack;
+rt_sstack *rt_sstack_new(const uint64_t *lines, int k, uint32_t line, double rate, uint64_t seed, rt_err *e);
+void rt_sstack_free(rt_sstack *s);
+void rt_sstack_put(rt_sstack *s, const rt_access *a, size_t n, uint64_t acc[RT_NCLASS][2]);
+/* acc: the exact touch counts (for splitting cold misses into reads and
+ * writes). */
+int rt_sstack_estimate(const rt_sstack *s, const uint64_t acc[RT_NCLASS][2], rt_approx_est *est, rt_err *e);
+
+#endif

@@ -1,0 +1,472 @@
+/*
+ * test_approx.c -- the sampled estimators (approx.h) against the exact
+ * simulator and against traces with a known miss-ratio curve.
+ *
+ *   - at rate 1 SHARDS (fixed rate, and fixed size with smax above the
+ *     number of lines) equals rt_sim counter by counter, for every class,
+ *     on a random stream of reads and writes spanning lines;
+ *   - sizes below exact_below equal rt_sim; a din replay equals streaming;
+ *   - cyclic over W lines (misses below W lines, hits from W after the
+ *     first lap) and uniform random over W lines (miss ratio 1 - C/W): each
+ *     estimator is within a statistical bound that shrinks as the rate goes
+ *     to 1, and SHARDS is exact at rate 1;
+ *   - the same seed gives bit-identical estimates; another seed differs;
+ *   - a trace too short for the rate, and a size below the sampling
+ *     resolution, give errors, not numbers; bad configurations are refused;
+ *     out-of-memory in rt_approx_new fails cleanly;
+ *   - the benchmark runs on a short synthetic trace.
+ */
+#include "approx.h"
+#include "sim.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+static int failures = 0;
+#define CHECK(cond, ...)                                                   \
+    do {                                                                   \
+        if (!(cond)) {                                                     \
+            fprintf(stderr, "FAIL %s:%d: ", __FILE__, __LINE__);          \
+            fprintf(stderr, __VA_ARGS__);                                  \
+            fputc('\n', stderr);                                           \
+            if (++failures > 20) exit(1);                                  \
+        }                                                                  \
+    } while (0)
+
+static uint64_t rng_state;
+static uint64_t rnd64(void)
+{
+    uint64_t z = (rng_state += 0x9E3779B97F4A7C15ULL);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+    return z ^ (z >> 31);
+}
+
+/* Sizes 1K..max (powers of two), 64-byte lines, the paper's policy. */
+static void config(rt_sim_config *c, uint64_t max)
+{
+    rt_sim_config_default(c);
+    c->nsizes = 0;
+    for (uint64_t s = 1024; s <= max; s *= 2) c->sizes[c->nsizes++] = s;
+}
+
+/* Random mixed stream: nlines lines, several classes, reads and writes,
+ * references of 1..100 bytes (some span lines), a hot region. */
+static void mixed_stream(rt_access *a, size_t n, uint64_t nlines)
+{
+    for (size_t i = 0; i < n; i++) {
+        uint64_t r = rnd64();
+        uint64_t line = (r & 3) ? (r >> 8) % nlines : (r >> 8) % 16; /* 1/4 of refs to 16 hot lines */
+        a[i].addr = 0x10000000ULL + line * 64 + ((r >> 40) & 63);
+        a[i].size = (uint32_t)(1 + ((r >> 50) % 100));
+        a[i].write = ((r >> 20) % 5) == 0;
+        a[i].cls = (uint8_t)(line % 7 == 0 ? RT_CLS_RAY : line % 3 == 0 ? RT_CLS_TRI : RT_CLS_NODE);
+    }
+}
+
+static int counts_equal(const rt_sim_counts *x, const rt_sim_counts *y)
+{
+    return x->accesses == y->accesses && x->read_misses == y->read_misses && x->write_misses == y->write_misses &&
+           x->writebacks == y->writebacks && x->traffic_bytes == y->traffic_bytes;
+}
+
+static void compare_exact(const char *what, const rt_sim *s, const rt_approx *a)
+{
+    const rt_sim_config *c = rt_sim_get_config(s);
+    for (int i = 0; i < c->nsizes; i++)
+        for (int k = 0; k < RT_NCLASS; k++) {
+            rt_sim_counts x, y;
+            rt_err e = {{0}};
+            rt_sim_get(s, i, k, &x);
+            int rc = rt_approx_get(a, i, k, &y, &e);
+            CHECK(rc == 0, "%s: size %d class %d: %s", what, i, k, e.msg);
+            CHECK(counts_equal(&x, &y),
+                  "%s: size %llu class %s: exact acc %llu rm %llu wm %llu wb %llu, approx %llu %llu %llu %llu", what,
+                  (unsigned long long)c->sizes[i], rt_class_name(k), (unsigned long long)x.accesses,
+                  (unsigned long long)x.read_misses, (unsigned long long)x.write_misses,
+                  (unsigned long long)x.writebacks, (unsigned long long)y.accesses,
+                  (unsigned long long)y.read_misses, (unsigned long long)y.write_misses,
+                  (unsigned long long)y.writebacks);
+        }
+}
+
+static void test_rate1_exact(void)
+{
+    rt_sim_config c;
+    config(&c, 64 * 1024);
+    size_t n = 300000;
+    rt_access *a = malloc(n * sizeof *a);
+    rng_state = 42;
+    mixed_stream(a, n, 3000);
+    rt_err e = {{0}};
+    rt_sim *s = rt_sim_new(&c, &e);
+    rt_sim_put(s, a, n);
+    rt_approx_config ac;
+    rt_approx_config_default(&ac);
+    ac.rate = 1;
+    rt_approx *x = rt_approx_new(&c, &ac, &e);
+    CHECK(x, "new: %s", e.msg);
+    for (size_t i = 0; i < n; i += 1000) rt_approx_put(x, a + i, 1000); /* several batches */
+    CHECK(rt_approx_finish(x, &e) == 0, "finish: %s", e.msg);
+    compare_exact("shards rate 1", s, x);
+    rt_approx_free(x);
+
+    /* fixed size with room for every line: never lowers the rate */
+    ac.method = RT_APPROX_SHARDS_FIXED;
+    ac.smax = 1 << 16;
+    x = rt_approx_new(&c, &ac, &e);
+    rt_approx_put(x, a, n);
+    rt_approx_finish(x, &e);
+    compare_exact("shards-fixed, large smax", s, x);
+    rt_approx_stats st;
+    rt_approx_get_stats(x, &st);
+    CHECK(st.rate == 1 && st.refs == n, "fixed: rate %g refs %llu", st.rate, (unsigned long long)st.refs);
+    rt_approx_free(x);
+
+    /* exact method, and exact_below covering every size */
+    ac.method = RT_APPROX_EXACT;
+    x = rt_approx_new(&c, &ac, &e);
+    rt_approx_put(x, a, n);
+    rt_approx_finish(x, &e);
+    compare_exact("exact method", s, x);
+    rt_approx_free(x);
+    ac.method = RT_APPROX_STATSTACK;
+    ac.rate = 0.01;
+    ac.exact_below = 1ULL << 40;
+    x = rt_approx_new(&c, &ac, &e);
+    rt_approx_put(x, a, n);
+    rt_approx_finish(x, &e);
+    compare_exact("statstack, all sizes below exact_below", s, x);
+    rt_approx_free(x);
+    rt_sim_free(s);
+
+    /* a line size that is not a power of two */
+    rt_sim_config c48;
+    rt_sim_config_default(&c48);
+    c48.line = 48;
+    c48.nsizes = 4;
+    for (int i = 0; i < 4; i++) c48.sizes[i] = 48 * (32ULL << i);
+    s = rt_sim_new(&c48, &e);
+    rt_sim_put(s, a, n);
+    rt_approx_config_default(&ac);
+    ac.rate = 1;
+    x = rt_approx_new(&c48, &ac, &e);
+    rt_approx_put(x, a, n);
+    rt_approx_finish(x, &e);
+    compare_exact("shards rate 1, 48-byte lines", s, x);
+    rt_approx_free(x);
+    rt_sim_free(s);
+    free(a);
+}
+
+static void test_exact_below_and_replay(void)
+{
+    rt_sim_config c;
+    config(&c, 256 * 1024);
+    size_t n = 200000;
+    rt_access *a = malloc(n * sizeof *a);
+    rng_state = 7;
+    mixed_stream(a, n, 20000);
+    rt_err e = {{0}};
+    rt_sim *s = rt_sim_new(&c, &e);
+    rt_sim_put(s, a, n);
+    rt_approx_config ac;
+    rt_approx_config_default(&ac);
+    ac.rate = 0.05;
+    ac.exact_below = 16384;
+    rt_approx *x = rt_approx_new(&c, &ac, &e);
+    rt_approx_put(x, a, n);
+    rt_approx_finish(x, &e);
+    for (int i = 0; i < c.nsizes; i++) {
+        if (c.sizes[i] >= 16384) break;
+        for (int k = 0; k < RT_NCLASS; k++) {
+            rt_sim_counts p, q;
+            rt_sim_get(s, i, k, &p);
+            CHECK(rt_approx_get(x, i, k, &q, &e) == 0 && counts_equal(&p, &q), "exact_below size %d class %d", i, k);
+        }
+    }
+    char buf[128];
+    CHECK(!strcmp(rt_approx_params(&ac, buf, sizeof buf), "rate=0.05 seed=1 exact_below=16384"), "params '%s'", buf);
+    CHECK(!strcmp(rt_approx_method_name(ac.method), "shards"), "method name");
+    CHECK(rt_approx_method_from_name("statstack") == RT_APPROX_STATSTACK, "method from name");
+    CHECK(rt_approx_method_from_name("nope") == -1, "unknown method name");
+
+    /* din replay of the same references (1-byte reads/writes) equals streaming */
+    char path[] = "/tmp/test_approx_XXXXXX";
+    int fd = mkstemp(path);
+    FILE *f = fdopen(fd, "w");
+    rt_access *d = malloc(n * sizeof *d);
+    for (size_t i = 0; i < n; i++) {
+        d[i] = (rt_access){a[i].addr, 1, a[i].write, RT_CLS_FB};
+        fprintf(f, "%d %llx\n", a[i].write, (unsigned long long)a[i].addr);
+    }
+    fclose(f);
+    rt_approx *y = rt_approx_new(&c, &ac, &e), *z = rt_approx_new(&c, &ac, &e);
+    rt_sim_input in;
+    CHECK(rt_approx_replay(y, path, RT_SIM_IN_AUTO, RT_CLS_FB, NULL, &in, &e) == 0, "replay: %s", e.msg);
+    CHECK(in.refs == n && in.format == RT_SIM_IN_DIN, "replay info");
+    rt_approx_put(z, d, n);
+    rt_approx_finish(y, &e);
+    rt_approx_finish(z, &e);
+    for (int i = 0; i < c.nsizes; i++) {
+        rt_sim_counts p, q;
+        int r1 = rt_approx_get(y, i, RT_CLS_FB, &p, NULL), r2 = rt_approx_get(z, i, RT_CLS_FB, &q, NULL);
+        CHECK(r1 == r2 && (r1 || counts_equal(&p, &q)), "replay vs stream, size %d", i);
+    }
+    CHECK(rt_approx_replay(y, "/nonexistent/x.rtt", RT_SIM_IN_AUTO, RT_CLS_FB, NULL, NULL, &e) == -1 && e.msg[0],
+          "missing file error");
+    unlink(path);
+    rt_approx_free(x);
+    rt_approx_free(y);
+    rt_approx_free(z);
+    rt_sim_free(s);
+    free(a);
+    free(d);
+}
+
+/* Stream generators with a known curve. */
+static void cyclic(rt_access *a, size_t n, uint64_t W)
+{
+    for (size_t i = 0; i < n; i++) a[i] = (rt_access){0x10000000ULL + (i % W) * 64, 8, (i % 3) == 0, RT_CLS_NODE};
+}
+static void uniform(rt_access *a, size_t n, uint64_t W)
+{
+    for (size_t i = 0; i < n; i++) a[i] = (rt_access){0x10000000ULL + (rnd64() % W) * 64, 8, 0, RT_CLS_TRI};
+}
+
+/* Mean and max absolute miss-ratio error of an estimator against rt_sim
+ * over the available sizes; returns the number of available sizes. */
+static int mr_error(const rt_sim_config *c, const rt_access *a, size_t n, const rt_approx_config *ac, double *mean,
+                    double *mx)
+{
+    rt_err e = {{0}};
+    rt_sim *s = rt_sim_new(c, &e);
+    rt_approx *x = rt_approx_new(c, ac, &e);
+    rt_sim_put(s, a, n);
+    rt_approx_put(x, a, n);
+    rt_approx_finish(x, &e);
+    int nav = 0;
+    *mean = *mx = 0;
+    for (int i = 0; i < c->nsizes; i++) {
+        rt_sim_counts p, q;
+        if (rt_approx_get_group(x, i, RT_GROUP_GEOMETRY, &q, NULL)) continue;
+        rt_sim_get_group(s, i, RT_GROUP_GEOMETRY, &p);
+        double d = fabs((double)(q.read_misses + q.write_misses) - (double)(p.read_misses + p.write_misses)) /
+                   (double)p.accesses;
+        *mean += d;
+        if (d > *mx) *mx = d;
+        nav++;
+    }
+    if (nav) *mean /= nav;
+    rt_approx_free(x);
+    rt_sim_free(s);
+    return nav;
+}
+
+static void test_known_curves(void)
+{
+    rt_sim_config c;
+    config(&c, 4 * 1024 * 1024);
+    size_t n = 1500000;
+    rt_access *a = malloc(n * sizeof *a);
+    static const double rates[] = {0.05, 0.2, 1};
+    for (int kind = 0; kind < 2; kind++) {
+        uint64_t W = 20000; /* lines: 1.25 MB, between the 1M and 2M caches */
+        rng_state = 99;
+        if (kind == 0) cyclic(a, n, W);
+        else uniform(a, n, W);
+        /* the exact curve is what the text book says */
+        rt_err e = {{0}};
+        rt_sim *s = rt_sim_new(&c, &e);
+        rt_sim_put(s, a, n);
+        for (int i = 0; i < c.nsizes; i++) {
+            rt_sim_counts p;
+            rt_sim_get(s, i, kind ? RT_CLS_TRI : RT_CLS_NODE, &p);
+            double C = (double)(c.sizes[i] / 64), mr = (double)(p.read_misses + p.write_misses) / (double)p.accesses;
+            double want = C >= (double)W ? (double)W / (double)n : (kind == 0 ? 1 : 1 - C / (double)W);
+            CHECK(fabs(mr - want) < 0.01, "%s W=%llu C=%g: exact miss ratio %g, expected %g",
+                  kind ? "uniform" : "cyclic", (unsigned long long)W, C, mr, want);
+        }
+        rt_sim_free(s);
+        for (int m = RT_APPROX_SHARDS_RATE; m <= RT_APPROX_STATSTACK; m++) {
+            for (int r = 0; r < 3; r++) {
+                rt_approx_config ac;
+                rt_approx_config_default(&ac);
+                ac.method = m;
+                ac.rate = rates[r];
+                ac.smax = (uint64_t)(W * rates[r]) + 1; /* fixed size: the same share of the lines */
+                if (ac.smax < RT_APPROX_MIN_SAMPLES) ac.smax = RT_APPROX_MIN_SAMPLES;
+                double mean, mx;
+                int nav = mr_error(&c, a, n, &ac, &mean, &mx);
+                CHECK(nav >= 5, "%s %s rate %g: only %d sizes", kind ? "uniform" : "cyclic",
+                      rt_approx_method_name(m), rates[r], nav);
+                /* SHARDS scales sampled misses by 1/R: the relative error is that of
+                 * the number of sampled lines, sd = sqrt((1-R)/(R W)); allow 4 sd.
+                 * StatStack's error is the model's, small on these two curves. */
+                double R = rates[r];
+                double bound = m == RT_APPROX_STATSTACK ? 0.01 : R >= 1 ? 1e-12 : 0.005 + 4 * sqrt((1 - R) / (R * (double)W));
+                CHECK(mx <= bound, "%s %s rate %g: max miss-ratio error %g > %g", kind ? "uniform" : "cyclic",
+                      rt_approx_method_name(m), rates[r], mx, bound);
+                if (getenv("APPROX_VERBOSE"))
+                    fprintf(stderr, "%s %-12s rate %-5g sizes %2d mean err %.5f max %.5f\n",
+                            kind ? "uniform" : "cyclic ", rt_approx_method_name(m), rates[r], nav, mean, mx);
+            }
+        }
+    }
+    free(a);
+}
+
+static void snapshot(const rt_approx *x, rt_sim_counts *out, int nsizes)
+{
+    for (int i = 0; i < nsizes; i++)
+        for (int k = 0; k < RT_NCLASS; k++) rt_approx_get(x, i, k, &out[i * RT_NCLASS + k], NULL);
+}
+
+static void test_determinism(void)
+{
+    rt_sim_config c;
+    config(&c, 1024 * 1024);
+    size_t n = 400000;
+    rt_access *a = malloc(n * sizeof *a);
+    rng_state = 5;
+    mixed_stream(a, n, 40000);
+    size_t ns = (size_t)c.nsizes * RT_NCLASS;
+    rt_sim_counts *r1 = calloc(ns, sizeof *r1), *r2 = calloc(ns, sizeof *r2);
+    for (int m = RT_APPROX_SHARDS_RATE; m <= RT_APPROX_STATSTACK; m++) {
+        rt_approx_config ac;
+        rt_approx_config_default(&ac);
+        ac.method = m;
+        ac.rate = 0.02;
+        ac.smax = 512;
+        ac.seed = 1234;
+        for (int pass = 0; pass < 3; pass++) {
+            if (pass == 2) ac.seed = 4321;
+            rt_err e = {{0}};
+            rt_approx *x = rt_approx_new(&c, &ac, &e);
+            rt_approx_put(x, a, n / 2);
+            rt_approx_put(x, a + n / 2, n - n / 2);
+            CHECK(rt_approx_finish(x, &e) == 0, "finish: %s", e.msg);
+            memset(pass ? r2 : r1, 0, ns * sizeof *r1);
+            snapshot(x, pass ? r2 : r1, c.nsizes);
+            rt_approx_free(x);
+            if (pass == 1)
+                CHECK(!memcmp(r1, r2, ns * sizeof *r1), "%s: same seed, different estimates",
+                      rt_approx_method_name(m));
+            if (pass == 2)
+                CHECK(memcmp(r1, r2, ns * sizeof *r1), "%s: different seeds, identical estimates",
+                      rt_approx_method_name(m));
+        }
+    }
+    free(r1);
+    free(r2);
+    free(a);
+}
+
+static void test_errors(void)
+{
+    rt_sim_config c;
+    config(&c, 4 * 1024 * 1024);
+    size_t n = 20000;
+    rt_access *a = malloc(n * sizeof *a);
+    rng_state = 11;
+    mixed_stream(a, n, 5000);
+    rt_err e = {{0}};
+    rt_approx_config ac;
+    rt_approx_config_default(&ac);
+    for (int m = RT_APPROX_SHARDS_RATE; m <= RT_APPROX_STATSTACK; m += 2) {
+        ac.method = m;
+        ac.rate = 1e-4;
+        rt_approx *x = rt_approx_new(&c, &ac, &e);
+        rt_approx_put(x, a, n);
+        rt_sim_counts q;
+        CHECK(rt_approx_get(x, 12, RT_CLS_TRI, &q, &e) == -1 && strstr(e.msg, "rt_approx_finish"),
+              "get before finish: '%s'", e.msg);
+        rt_approx_finish(x, &e);
+        e.msg[0] = 0;
+        CHECK(rt_approx_get(x, 12, RT_CLS_TRI, &q, &e) == -1, "%s: too short gave a number",
+              rt_approx_method_name(m));
+        CHECK(strstr(e.msg, "trace too short for rate 0.0001"), "too-short message '%s'", e.msg);
+        rt_approx_free(x);
+    }
+    /* resolution: 1K at rate 0.01 is 0.16 sampled lines */
+    ac.method = RT_APPROX_SHARDS_RATE;
+    ac.rate = 0.01;
+    rt_approx *x = rt_approx_new(&c, &ac, &e);
+    rng_state = 12;
+    size_t n2 = 200000;
+    rt_access *b = malloc(n2 * sizeof *b);
+    mixed_stream(b, n2, 50000);
+    rt_approx_put(x, b, n2);
+    rt_approx_finish(x, &e);
+    rt_sim_counts q;
+    CHECK(rt_approx_get(x, 0, RT_CLS_NODE, &q, &e) == -1 && strstr(e.msg, "size 1K is below the sampling resolution"),
+          "resolution message '%s'", e.msg);
+    CHECK(rt_approx_get(x, 12, RT_CLS_NODE, &q, &e) == 0, "4M at rate 0.01: %s", e.msg);
+    CHECK(rt_approx_get(x, 12, RT_NCLASS, &q, &e) == -1, "bad class accepted");
+    CHECK(rt_approx_get(x, 13, RT_CLS_NODE, &q, &e) == -1, "bad size index accepted");
+    rt_approx_free(x);
+    free(b);
+
+    /* bad configurations */
+    ac.rate = 0;
+    CHECK(!rt_approx_new(&c, &ac, &e) && strstr(e.msg, "rate"), "rate 0 accepted: '%s'", e.msg);
+    ac.rate = 1.5;
+    CHECK(!rt_approx_new(&c, &ac, &e), "rate 1.5 accepted");
+    ac.rate = 0.01;
+    ac.method = RT_APPROX_SHARDS_FIXED;
+    ac.smax = 3;
+    CHECK(!rt_approx_new(&c, &ac, &e) && strstr(e.msg, "smax"), "smax 3 accepted: '%s'", e.msg);
+    ac.method = 17;
+    CHECK(!rt_approx_new(&c, &ac, &e), "method 17 accepted");
+    ac.method = RT_APPROX_STATSTACK;
+    rt_sim_config sa = c;
+    sa.assoc = 4;
+    CHECK(!rt_approx_new(&sa, &ac, &e) && strstr(e.msg, "fully associative"), "set-assoc accepted: '%s'", e.msg);
+    rt_approx_free(NULL);
+
+    /* out of memory in rt_approx_new: every failure point fails cleanly */
+    for (int m = RT_APPROX_EXACT; m <= RT_APPROX_STATSTACK; m++) {
+        rt_approx_config_default(&ac);
+        ac.method = m;
+        ac.exact_below = 8192;
+        for (long k = 1; k < 12; k++) {
+            rt_fail_alloc_after = k;
+            rt_approx *y = rt_approx_new(&c, &ac, &e);
+            rt_fail_alloc_after = 0;
+            if (y) {
+                rt_approx_put(y, a, n);
+                CHECK(rt_approx_finish(y, &e) == 0, "finish after new with fail point %ld", k);
+            }
+            rt_approx_free(y);
+        }
+    }
+    free(a);
+}
+
+static void test_bench(void)
+{
+    FILE *f = fopen("/dev/null", "w");
+    rt_err e = {{0}};
+    CHECK(rt_approx_bench_n(f, NULL, 300000, &e) == 0, "bench: %s", e.msg);
+    CHECK(rt_approx_bench_n(f, "/nonexistent.rtt", 1000, &e) == -1, "bench on a missing file succeeded");
+    fclose(f);
+}
+
+int main(void)
+{
+    test_rate1_exact();
+    test_exact_below_and_replay();
+    test_known_curves();
+    test_determinism();
+    test_errors();
+    test_bench();
+    if (failures) {
+        fprintf(stderr, "test_approx: %d failure(s)\n", failures);
+        return 1;
+    }
+    printf("test_approx: ok\n");
+    return 0;
+}
