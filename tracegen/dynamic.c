@@ -172,6 +172,7 @@ typedef struct dyn {
     rt_cam_frame cam;
     float *hit_t;
     uint32_t *hit_tri;
+    float *hit_u, *hit_v; /* barycentrics of the final hit */
     uint8_t *vis;        /* bit i: light i visible */
     uint8_t *resolved;   /* rays of this generation resolved per pixel */
     int shadow;          /* current generation: 0 primary, 1 shadow */
@@ -199,7 +200,7 @@ static void make_rays(dyn *D, uint32_t pix, rt_ray *trav, rt_ray *test)
         *test = eye;
         return;
     }
-    rt_hit h = {D->hit_t[pix], D->hit_tri[pix], 0, 0};
+    rt_hit h = {D->hit_t[pix], D->hit_tri[pix], D->hit_u[pix], D->hit_v[pix]};
     rt_shadow_ray(D->sc, &eye, &h, D->light, test);
     rt_ray_init(trav, D->sc->light[D->light], rt_sub(test->o, D->sc->light[D->light]));
     trav->tmin = 0.0f;
@@ -373,7 +374,7 @@ static int subtree(dyn *D, uint32_t root, const rt_ray *trav, const rt_ray *test
     uint32_t node = root;
     float tmin = a, tmax = b;
     for (;;) {
-        if (!D->shadow && *best_tri != RT_NO_HIT && *best_t < tmin) return 0;
+        if (!D->shadow && *best_tri != RT_NO_HIT && rt_kd_past(*best_t, tmin)) return 0;
         const rt_kdnode *nd = &kd->nodes[node];
         RT_REC(D->rec, rt_mm_addr(D->L, D->tv.reg_node, node), 8, 0, RT_CLS_NODE);
         D->tv.nodes++;
@@ -419,6 +420,14 @@ static void resolve_primary(dyn *D, uint32_t pix, float t, uint32_t tri, int tri
     D->done++;
     D->hit_t[pix] = t;
     D->hit_tri[pix] = tri;
+    if (tri != RT_NO_HIT) {
+        /* barycentrics of the final hit: the same test on the same ray
+         * gives the same t, u, v as during traversal */
+        rt_ray eye;
+        float tt;
+        rt_camera_ray(&D->cam, (int)(pix % (uint32_t)D->cam.W), (int)(pix / (uint32_t)D->cam.W), &eye);
+        rt_isect_tri(&eye, &D->sc->tri[tri], &tt, &D->hit_u[pix], &D->hit_v[pix]);
+    }
     if (tri == RT_NO_HIT) {
         RT_REC(D->rec, rt_mm_addr(D->L, D->reg_hits, pix), 4, 1, RT_CLS_HIT);
         RT_REC(D->rec, rt_mm_addr(D->L, D->reg_fb, pix), 12, 1, RT_CLS_FB);
@@ -450,10 +459,11 @@ static void advance(dyn *D, uint32_t pixf, const rt_ray *trav, float tmin, float
     uint32_t pix = pixf & ~CAND_FLAG;
     float qa, qb;
     uint64_t n0 = D->tv.nodes;
-    /* With a candidate hit only cells entered at or before it can hold a
-     * closer (or equal-t, lower-index) hit: stop the search there. */
+    /* With a candidate hit only cells the single-ray traversal would still
+     * enter (rt_kd_past: entered before the hit, with its margin) can hold a
+     * closer or equal-t, lower-index hit: stop the search there. */
     if (!D->shadow && best_tri != RT_NO_HIT) {
-        float lim = nextafterf(best_t, INFINITY);
+        float lim = nextafterf(best_t / (1.0f - 1.0f / 65536.0f), INFINITY);
         if (lim < tmax) tmax = lim;
     }
     int32_t q = tmax > tmin ? to_queue_point(D, trav, tmin, tmax, skip, &qa, &qb) : -1;
@@ -490,7 +500,7 @@ static void process(dyn *D, uint32_t q, const qent *e)
             resolve_shadow(D, pix, 0);
             return;
         }
-    } else if (best_tri != RT_NO_HIT && best_t < e->t1) {
+    } else if (best_tri != RT_NO_HIT && rt_kd_past(best_t, e->t1)) {
         resolve_primary(D, pix, best_t, best_tri, 1);
         return;
     }
@@ -564,7 +574,7 @@ static void process_oversized(dyn *D, uint32_t q, const qent *es, uint32_t n)
             resolve_shadow(D, pix, 0);
             continue;
         }
-        if (!D->shadow && btri[i] != RT_NO_HIT && bt[i] < es[i].t1) {
+        if (!D->shadow && btri[i] != RT_NO_HIT && rt_kd_past(bt[i], es[i].t1)) {
             resolve_primary(D, pix, bt[i], btri[i], 0);
             continue;
         }
@@ -816,7 +826,8 @@ static int dyn_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
         !(D.qcount = rt_calloc(nq, sizeof *D.qcount, e)) || !(D.qtimes = rt_calloc(nq, sizeof *D.qtimes, e)) ||
         !(D.bk_head = rt_calloc(npix + 2, sizeof *D.bk_head, e)) || !(D.bk_next = rt_calloc(nq, sizeof *D.bk_next, e)) ||
         !(D.bk_prev = rt_calloc(nq, sizeof *D.bk_prev, e)) || !(D.hit_t = rt_calloc(npix, sizeof *D.hit_t, e)) ||
-        !(D.hit_tri = rt_calloc(npix, sizeof *D.hit_tri, e)) || !(D.vis = rt_calloc(npix, 1, e)) ||
+        !(D.hit_tri = rt_calloc(npix, sizeof *D.hit_tri, e)) ||
+        !(D.hit_u = rt_calloc(npix, sizeof *D.hit_u, e)) || !(D.hit_v = rt_calloc(npix, sizeof *D.hit_v, e)) || !(D.vis = rt_calloc(npix, 1, e)) ||
         !(D.resolved = rt_calloc(npix, 1, e)) || !(D.mark = rt_calloc(sc->ntri ? sc->ntri : 1, 1, e)) ||
         !(order = rt_calloc(npix, sizeof *order, e)) || !(want = rt_calloc(npix, 1, e)))
         goto done;
@@ -857,7 +868,7 @@ static int dyn_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
             if (D.hit_tri[pix] == RT_NO_HIT) continue;
             rt_ray eye, sr;
             rt_camera_ray(&D.cam, (int)(pix % (uint32_t)o->W), (int)(pix / (uint32_t)o->W), &eye);
-            rt_hit h = {D.hit_t[pix], D.hit_tri[pix], 0, 0};
+            rt_hit h = {D.hit_t[pix], D.hit_tri[pix], D.hit_u[pix], D.hit_v[pix]};
             if (!rt_shadow_ray(sc, &eye, &h, li, &sr)) continue;
             want[pix] = 1;
             st->rays_shadow++;
@@ -873,7 +884,7 @@ static int dyn_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
         rt_ray eye;
         rt_camera_ray(&D.cam, (int)(p % (size_t)o->W), (int)(p / (size_t)o->W), &eye);
         if (D.hit_tri[p] != RT_NO_HIT) {
-            rt_hit h = {D.hit_t[p], D.hit_tri[p], 0, 0};
+            rt_hit h = {D.hit_t[p], D.hit_tri[p], D.hit_u[p], D.hit_v[p]};
             int vis[RT_NLIGHTS];
             for (int i = 0; i < RT_NLIGHTS; i++) vis[i] = (D.vis[p] >> i) & 1;
             rt_shade_hit(sc, &eye, &h, vis, o->lights, rgb);
@@ -923,6 +934,8 @@ done:
     free(D.bk_prev);
     free(D.hit_t);
     free(D.hit_tri);
+    free(D.hit_u);
+    free(D.hit_v);
     free(D.vis);
     free(D.resolved);
     free(D.mark);

@@ -53,7 +53,7 @@ static void prune(const pstate *ps, plist *l)
     int k = 0;
     for (int j = 0; j < l->n; j++) {
         int i = l->idx[j];
-        if (ps->shadow ? ps->done[i] : (ps->hit[i].tri != RT_NO_HIT && ps->hit[i].t < l->t0[j])) continue;
+        if (ps->shadow ? ps->done[i] : (ps->hit[i].tri != RT_NO_HIT && rt_kd_past(ps->hit[i].t, l->t0[j]))) continue;
         l->idx[k] = l->idx[j];
         l->t0[k] = l->t0[j];
         l->t1[k] = l->t1[j];

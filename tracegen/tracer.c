@@ -148,15 +148,18 @@ static rt_vec3 facing_normal(const rt_scene *sc, const rt_ray *eye, const rt_hit
     return n;
 }
 
-static rt_vec3 hit_point(const rt_ray *eye, const rt_hit *h)
+/* From barycentrics, not o + t d: the robust offset assumes a point
+ * computed on the triangle (o + t d can land a few ULPs off it at large
+ * scales and let the shadow ray re-hit its own triangle). */
+static rt_vec3 hit_point(const rt_scene *sc, const rt_hit *h)
 {
-    return rt_add(eye->o, rt_mul(eye->d, h->t));
+    return rt_tri_point(&sc->tri[h->tri], h->u, h->v);
 }
 
 int rt_shadow_ray(const rt_scene *sc, const rt_ray *eye, const rt_hit *h, int light, rt_ray *sr)
 {
     rt_vec3 n = facing_normal(sc, eye, h);
-    rt_vec3 p = hit_point(eye, h);
+    rt_vec3 p = hit_point(sc, h);
     rt_vec3 l = rt_sub(sc->light[light], p);
     if (!(rt_dot(n, l) > 0)) return 0;
     rt_vec3 o = rt_offset_origin(p, n);
@@ -177,7 +180,7 @@ void rt_shade_hit(const rt_scene *sc, const rt_ray *eye, const rt_hit *h, const 
         return;
     }
     for (int k = 0; k < 3; k++) rgb[k] = alb[k] * sc->ambient;
-    rt_vec3 p = hit_point(eye, h);
+    rt_vec3 p = hit_point(sc, h);
     for (int i = 0; i < RT_NLIGHTS; i++) {
         if (!(lights & (1u << i)) || !vis[i]) continue;
         rt_vec3 l = rt_norm(rt_sub(sc->light[i], p));
