@@ -9,6 +9,8 @@
  * method and parameters, the wall time of both runs, the speedup, and the
  * mean and maximum over the sizes of the absolute miss-ratio error and of
  * the relative traffic error (%), naming the exact run compared against.
+ * Times are simulation times on the same access stream when the sweep
+ * measured them (sweep --approx), else the runs' wall times.
  */
 #include "cmd.h"
 
@@ -35,7 +37,7 @@ static const char *pairs_sql =
     "   a.wall_time, x.wall_time, ga.grp, ga.size,"
     "   CASE WHEN ga.acc > 0 THEN 1.0 * ga.miss / ga.acc ELSE 0 END,"
     "   CASE WHEN gx.acc > 0 THEN 1.0 * gx.miss / gx.acc ELSE 0 END,"
-    "   ga.bytes, gx.bytes"
+    "   ga.bytes, gx.bytes, x.stats"
     " FROM runs a JOIN runs x ON x.scene_id = a.scene_id AND x.tracer = a.tracer AND x.W = a.W AND x.H = a.H"
     "   AND x.lights = a.lights AND x.sched_cache_size = a.sched_cache_size AND x.gmax = a.gmax"
     "   AND x.params = a.params AND x.sim_method = 'exact'"
@@ -110,6 +112,10 @@ int rt_report_speed_error(sqlite3 *h, int csv, const char *plotdir)
             xid = sqlite3_column_int64(st, 9);
             secs = sqlite3_column_double(st, 10);
             xsecs = sqlite3_column_double(st, 11);
+            /* the exact run's own simulation time when the sweep measured it
+             * (its wall time includes the tracer) */
+            const char *xs = (const char *)sqlite3_column_text(st, 18), *q = xs ? strstr(xs, "sim_seconds=") : NULL;
+            if (q && (q == xs || q[-1] == ' ')) xsecs = strtod(q + 12, NULL);
             const char *m = (const char *)sqlite3_column_text(st, 6), *p = (const char *)sqlite3_column_text(st, 7);
             if (csv)
                 snprintf(hdr, sizeof hdr, "%s,%s,%d,%d,%d,%lld,%s,\"%s\"", sqlite3_column_text(st, 0),

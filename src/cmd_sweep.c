@@ -20,6 +20,7 @@
 #include "cmd.h"
 #include "db.h"
 #include "run.h"
+#include "approx.h"
 #include "sim.h"
 #include "trace.h"
 
@@ -65,6 +66,8 @@ typedef struct sweep_opts {
     int list;
     long only; /* --job K, -1 = all */
     int dyn_all;
+    rt_approx_config approx[8]; /* --approx: estimators run beside the exact simulation */
+    int napprox;
 } sweep_opts;
 
 typedef struct shared {
@@ -93,6 +96,10 @@ static void usage(FILE *f)
             "  --jobs N           worker processes (default 1)\n"
             "  --keep-traces DIR  also write every job's trace to DIR\n"
             "  --dynamic-all-sizes  simulate each dynamic schedule at every size\n"
+            "  --approx LIST      also run approximate simulators on the same access stream\n"
+            "                     and store them beside the exact runs: comma list of\n"
+            "                     shards:RATE[:EXACT_BELOW], shards-fixed:SMAX[:EXACT_BELOW],\n"
+            "                     statstack:RATE[:EXACT_BELOW] (see report --speed-error)\n"
             "  --qorder O, --threads N  dynamic scheduler options (see render --help)\n"
             "  --list-jobs        print one self-contained command per job and exit\n"
             "  --job K            run only job K (0-based) of the matrix\n"
@@ -154,18 +161,55 @@ static int build_matrix(const sweep_opts *o, job **out)
     return (int)n;
 }
 
-/* A sink that feeds two sinks (simulator and trace file). */
-typedef struct tee {
+/* A sink that feeds several sinks (exact simulator, approximate
+ * simulators, trace file) and times each, so the speed of each simulator on
+ * the same stream is measured without the tracer's time. */
+#define MAXFAN 10
+typedef struct fan {
     rt_sink self;
-    rt_sink *a, *b;
-} tee;
+    int n;
+    rt_sink *to[MAXFAN];
+    double sec[MAXFAN];
+} fan;
 
-static int tee_put(rt_sink *s, const rt_access *acc, size_t n)
+static int fan_put(rt_sink *s, const rt_access *acc, size_t n)
 {
-    tee *t = s->ctx;
-    int ra = t->a->put(t->a, acc, n);
-    int rb = t->b->put(t->b, acc, n);
-    return ra < 0 || rb < 0 ? -1 : 0;
+    fan *f = s->ctx;
+    int rc = 0;
+    for (int i = 0; i < f->n; i++) {
+        double t0 = rt_now();
+        if (f->to[i]->put(f->to[i], acc, n) < 0) rc = -1;
+        f->sec[i] += rt_now() - t0;
+    }
+    return rc;
+}
+
+static int parse_approx(char *s, sweep_opts *o, rt_err *e)
+{
+    char *items[MAX_LIST];
+    int n = split_list(s, items, MAX_LIST);
+    if (n <= 0 || n > 8) return rt_errf(e, "--approx: expected 1 to 8 comma-separated methods");
+    for (int i = 0; i < n; i++) {
+        rt_approx_config *ac = &o->approx[i];
+        rt_approx_config_default(ac);
+        char *save = NULL, *m = strtok_r(items[i], ":", &save), *p = strtok_r(NULL, ":", &save),
+             *x = strtok_r(NULL, ":", &save);
+        int method = m ? rt_approx_method_from_name(m) : -1;
+        if (method <= 0 || !p) return rt_errf(e, "--approx: '%s' is not shards:RATE, shards-fixed:SMAX or statstack:RATE", m ? m : "");
+        ac->method = method;
+        char *end;
+        if (method == RT_APPROX_SHARDS_FIXED) {
+            uint64_t v;
+            if (rt_parse_size(p, &v) < 0) return rt_errf(e, "--approx: bad sample size '%s'", p);
+            ac->smax = v;
+        } else {
+            ac->rate = strtod(p, &end);
+            if (*end || !(ac->rate > 0) || ac->rate > 1) return rt_errf(e, "--approx: bad rate '%s'", p);
+        }
+        if (x && rt_parse_size(x, &ac->exact_below) < 0) return rt_errf(e, "--approx: bad exact-below size '%s'", x);
+    }
+    o->napprox = n;
+    return 0;
 }
 
 typedef struct worker {
@@ -227,6 +271,14 @@ static int run_job(worker *w, const job *jb, long index, rt_err *e)
     key_for(w, jb, params, sizeof params, &run);
     int has = rt_db_has_run(w->db, &run, e);
     if (has < 0) return -1;
+    char aparams[8][128];
+    for (int a = 0; a < o->napprox && has; a++) {
+        rt_db_run k = run;
+        k.sim_method = rt_approx_method_name(o->approx[a].method);
+        k.sim_params = rt_approx_params(&o->approx[a], aparams[a], sizeof aparams[a]);
+        has = rt_db_has_run(w->db, &k, e);
+        if (has < 0) return -1;
+    }
     if (has) return 0;
     if (!w->kd) {
         rt_kd_params kp;
@@ -248,11 +300,20 @@ static int run_job(worker *w, const job *jb, long index, rt_err *e)
     rt_image *img = sim ? rt_image_new(ro.W, ro.H, e) : NULL;
     rt_tr_writer *tw = NULL;
     rt_db_traffic *rows = NULL;
+    rt_approx *ap[8] = {NULL};
     int rc = -1;
     char tpath[4096] = "";
     if (!img) goto done;
-    rt_sink *sink = rt_sim_sink(sim);
-    tee tt;
+    fan fn;
+    memset(&fn, 0, sizeof fn);
+    fn.self.put = fan_put;
+    fn.self.ctx = &fn;
+    fn.to[fn.n++] = rt_sim_sink(sim);
+    for (int a = 0; a < o->napprox; a++) {
+        if (!(ap[a] = rt_approx_new(&sc, &o->approx[a], e))) goto done;
+        fn.to[fn.n++] = rt_approx_sink(ap[a]);
+    }
+    rt_sink *sink = &fn.self;
     if (o->keep) {
         snprintf(tpath, sizeof tpath, "%s/job%04ld-%s-%s-%s%s%" PRIu64 ".rtt", o->keep, index, o->scenes[jb->scene],
                  o->lightings[jb->lighting].label, jb->tracer, jb->sched ? "-" : "", jb->sched);
@@ -261,11 +322,7 @@ static int run_job(worker *w, const job *jb, long index, rt_err *e)
         rt_tr_meta m;
         rt_job_meta(&j, rt_cmd_line(), &m);
         if (!(tw = rt_tr_create(tpath, &m, e))) goto done;
-        tt.self.put = tee_put;
-        tt.self.ctx = &tt;
-        tt.a = sink;
-        tt.b = rt_tr_sink(tw);
-        sink = &tt.self;
+        fn.to[fn.n++] = rt_tr_sink(tw);
     }
     rt_run_stats st;
     if (rt_job_run(&j, sink, img, &st, e) < 0) goto done;
@@ -297,16 +354,31 @@ static int run_job(worker *w, const job *jb, long index, rt_err *e)
     char stats[768];
     snprintf(stats, sizeof stats,
              "rays_primary=%" PRIu64 " rays_shadow=%" PRIu64 " nodes=%" PRIu64 " tests=%" PRIu64 " pv_primary=%" PRIu64
-             " pv_all=%" PRIu64 " render_seconds=%.3f%s%s",
-             st.rays_primary, st.rays_shadow, st.nodes, st.tests, st.pv_primary, st.pv_all, st.seconds,
+             " pv_all=%" PRIu64 " render_seconds=%.3f sim_seconds=%.3f%s%s",
+             st.rays_primary, st.rays_shadow, st.nodes, st.tests, st.pv_primary, st.pv_all, st.seconds, fn.sec[0],
              st.extra[0] ? " " : "", st.extra);
     run.refs = rt_sim_refs(sim);
     run.command = rt_cmd_line();
     run.wall_time = rt_now() - t0;
     run.stats = stats;
     if (rt_db_store_run(w->db, &run, rows, k, NULL, e) < 0) goto done;
+    for (int a = 0; a < o->napprox; a++) {
+        double t0a = rt_now();
+        if (rt_approx_finish(ap[a], e) < 0) goto done;
+        double fin = rt_now() - t0a;
+        size_t na = rt_approx_db_rows(ap[a], rows);
+        rt_db_run ra = run;
+        char astats[sizeof stats + 64];
+        ra.sim_method = rt_approx_method_name(o->approx[a].method);
+        ra.sim_params = rt_approx_params(&o->approx[a], aparams[a], sizeof aparams[a]);
+        ra.wall_time = fn.sec[1 + a] + fin;
+        snprintf(astats, sizeof astats, "sim_seconds=%.3f exact_sim_seconds=%.3f", fn.sec[1 + a] + fin, fn.sec[0]);
+        ra.stats = astats;
+        if (rt_db_store_run(w->db, &ra, rows, na, NULL, e) < 0) goto done;
+    }
     rc = 1;
 done:
+    for (int a = 0; a < o->napprox; a++) rt_approx_free(ap[a]);
     if (tw) rt_tr_abort(tw);
     free(rows);
     rt_image_free(img);
@@ -410,6 +482,7 @@ static int sweep_impl(int argc, char **argv, char **own_lists)
         {"dynamic-all-sizes", no_argument, NULL, 'a'},
         {"list-jobs", no_argument, NULL, 'P'},
         {"job", required_argument, NULL, 'J'},
+        {"approx", required_argument, NULL, 'A'},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0},
     };
@@ -489,6 +562,14 @@ static int sweep_impl(int argc, char **argv, char **own_lists)
         }
         case 'k': o.keep = optarg; break;
         case 'a': o.dyn_all = 1; break;
+        case 'A':
+            free(own_lists[3]);
+            own_lists[3] = strdup(optarg);
+            if (parse_approx(own_lists[3], &o, &e) < 0) {
+                rt_cmd_error("sweep", "%s", e.msg);
+                return RT_EXIT_USAGE;
+            }
+            break;
         case 'P': o.list = 1; break;
         case 'J': {
             char *end;
@@ -647,8 +728,8 @@ static int sweep_impl(int argc, char **argv, char **own_lists)
 
 int main_sweep(int argc, char **argv)
 {
-    char *lists[3] = {NULL, NULL, NULL};
+    char *lists[4] = {NULL, NULL, NULL, NULL};
     int rc = sweep_impl(argc, argv, lists);
-    for (int i = 0; i < 3; i++) free(lists[i]);
+    for (int i = 0; i < 4; i++) free(lists[i]);
     return rc;
 }
