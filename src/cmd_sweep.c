@@ -272,7 +272,10 @@ static int run_job(worker *w, const job *jb, long index, rt_err *e)
     int has = rt_db_has_run(w->db, &run, e);
     if (has < 0) return -1;
     char aparams[8][128];
-    for (int a = 0; a < o->napprox && has; a++) {
+    /* approximate methods are compared over several sizes: only for jobs
+     * simulated at every size (recursive, packet, --dynamic-all-sizes) */
+    int napprox = jb->sched && !o->dyn_all ? 0 : o->napprox;
+    for (int a = 0; a < napprox && has; a++) {
         rt_db_run k = run;
         k.sim_method = rt_approx_method_name(o->approx[a].method);
         k.sim_params = rt_approx_params(&o->approx[a], aparams[a], sizeof aparams[a]);
@@ -309,7 +312,7 @@ static int run_job(worker *w, const job *jb, long index, rt_err *e)
     fn.self.put = fan_put;
     fn.self.ctx = &fn;
     fn.to[fn.n++] = rt_sim_sink(sim);
-    for (int a = 0; a < o->napprox; a++) {
+    for (int a = 0; a < napprox; a++) {
         if (!(ap[a] = rt_approx_new(&sc, &o->approx[a], e))) goto done;
         fn.to[fn.n++] = rt_approx_sink(ap[a]);
     }
@@ -362,7 +365,7 @@ static int run_job(worker *w, const job *jb, long index, rt_err *e)
     run.wall_time = rt_now() - t0;
     run.stats = stats;
     if (rt_db_store_run(w->db, &run, rows, k, NULL, e) < 0) goto done;
-    for (int a = 0; a < o->napprox; a++) {
+    for (int a = 0; a < napprox; a++) {
         double t0a = rt_now();
         if (rt_approx_finish(ap[a], e) < 0) goto done;
         double fin = rt_now() - t0a;
@@ -378,7 +381,7 @@ static int run_job(worker *w, const job *jb, long index, rt_err *e)
     }
     rc = 1;
 done:
-    for (int a = 0; a < o->napprox; a++) rt_approx_free(ap[a]);
+    for (int a = 0; a < napprox; a++) rt_approx_free(ap[a]);
     if (tw) rt_tr_abort(tw);
     free(rows);
     rt_image_free(img);
