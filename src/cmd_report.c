@@ -323,12 +323,16 @@ static const char *data_path(const char *name, char *buf, size_t n)
 
 static void ratio_cell(const rep *R, double ours, double paper)
 {
-    if (isnan(ours) || isnan(paper)) {
-        printf(R->csv ? ",," : " | — | —");
+    if (R->csv) {
+        printf(",");
+        if (!isnan(ours)) printf("%.2f", ours);
+        printf(",");
+        if (!isnan(paper)) printf("%.2f", paper);
         return;
     }
-    if (R->csv) printf(",%.2f,%.2f", ours, paper);
-    else printf(" | %.2f / %.2f (%.2fx)", ours, paper, paper != 0 ? ours / paper : NAN);
+    if (isnan(ours) || isnan(paper)) printf(" | —");
+    else if (paper != 0 && (ours > 0) == (paper > 0)) printf(" | %.2f / %.2f (%.2fx)", ours, paper, ours / paper);
+    else printf(" | %.2f / %.2f", ours, paper);
 }
 
 static int compare_paper(rep *R)
