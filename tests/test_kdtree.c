@@ -487,7 +487,7 @@ int main(int argc, char **argv)
         {"knot", NULL, 100000},
         {"sphereflake", "level=2,tess=2", 100000},
         {"grove", "trees=1,depth=4,tess=2", 100000},
-        {"room", NULL, 10000},
+        {"room", NULL, 100000},
     };
     for (size_t i = 0; i < sizeof bi / sizeof bi[0]; i++) {
         rt_err e = {{0}};
