@@ -180,14 +180,14 @@ static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_
     float *pt = pn ? rt_calloc(NP, sizeof *pt, e) : NULL;
     uint8_t *mark = pt ? rt_calloc(sc->ntri ? sc->ntri : 1, 1, e) : NULL;
     plist *store = mark ? rt_calloc((size_t)2 * (ps.maxdepth + 1) + 1, sizeof *store, e) : NULL;
-    void *pool = store ? rt_calloc(((size_t)2 * (ps.maxdepth + 1) + 1) * NP, 10, e) : NULL;
+    void *pool = store ? rt_calloc(((size_t)2 * (ps.maxdepth + 1) + 1) * NP, 12, e) : NULL;
     if (!pool) goto done;
     {
         unsigned char *p = pool;
         for (int k = 0; k < 2 * (ps.maxdepth + 1) + 1; k++) {
             store[k].t0 = (float *)p, p += 4 * (size_t)NP;
             store[k].t1 = (float *)p, p += 4 * (size_t)NP;
-            store[k].idx = (uint16_t *)p, p += 2 * (size_t)NP;
+            store[k].idx = (uint16_t *)p, p += 4 * (size_t)NP; /* keeps the next floats aligned */
         }
     }
     ps.done = done;
