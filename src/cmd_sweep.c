@@ -334,26 +334,9 @@ static int run_job(worker *w, const job *jb, long index, rt_err *e)
         tw = NULL;
         if (r < 0) goto done;
     }
-    size_t nrows = (size_t)sc.nsizes * RT_NCLASS, k = 0;
+    size_t nrows = (size_t)sc.nsizes * RT_NCLASS, k;
     if (!(rows = rt_calloc(nrows, sizeof *rows, e))) goto done;
-    for (int i = 0; i < sc.nsizes; i++)
-        for (int c = 0; c < RT_NCLASS; c++) {
-            rt_sim_counts cnt;
-            rt_sim_get(sim, i, c, &cnt);
-            if (!cnt.accesses && !cnt.writebacks) continue;
-            rt_db_traffic *r = &rows[k++];
-            r->size = sc.sizes[i];
-            r->line = sc.line;
-            r->assoc = sc.assoc;
-            r->policy = rt_sim_policy_name(&sc);
-            r->cls = c;
-            r->accesses = cnt.accesses;
-            r->read_misses = cnt.read_misses;
-            r->write_misses = cnt.write_misses;
-            r->writebacks = cnt.writebacks;
-            r->wt_bytes = cnt.wt_bytes;
-            r->traffic_bytes = cnt.traffic_bytes;
-        }
+    k = rt_sim_db_rows(sim, rows);
     char stats[768];
     snprintf(stats, sizeof stats,
              "rays_primary=%" PRIu64 " rays_shadow=%" PRIu64 " nodes=%" PRIu64 " tests=%" PRIu64 " pv_primary=%" PRIu64

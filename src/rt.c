@@ -96,3 +96,45 @@ int rt_parse_size(const char *s, uint64_t *out)
     *out = (uint64_t)v << shift;
     return 0;
 }
+
+int rt_slurp(const char *path, char **pbuf, size_t *pn, rt_err *e)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return rt_errf(e, "%s: %s", path, strerror(errno));
+    size_t cap = 1 << 16, n = 0;
+    char *buf = rt_calloc(cap, 1, e);
+    if (!buf) {
+        fclose(f);
+        return -1;
+    }
+    for (;;) {
+        if (n + 1 >= cap) {
+            if (cap > SIZE_MAX / 2) {
+                free(buf);
+                fclose(f);
+                return rt_errf(e, "%s: file too large", path);
+            }
+            char *nb = rt_reallocarray(buf, cap * 2, 1, e);
+            if (!nb) {
+                free(buf);
+                fclose(f);
+                return -1;
+            }
+            buf = nb;
+            cap *= 2;
+        }
+        size_t got = fread(buf + n, 1, cap - 1 - n, f);
+        n += got;
+        if (got == 0) break;
+    }
+    int bad = ferror(f);
+    fclose(f);
+    if (bad) {
+        free(buf);
+        return rt_errf(e, "%s: read error", path);
+    }
+    buf[n] = 0;
+    *pbuf = buf;
+    *pn = n;
+    return 0;
+}

@@ -56,4 +56,8 @@ uint64_t rt_fnv1a(uint64_t h, const void *data, size_t n);
  * Returns 0 and stores the value, or -1 on a malformed or overflowing string. */
 int rt_parse_size(const char *s, uint64_t *out);
 
+/* Reads a whole file into a malloc'd NUL-terminated buffer (*pbuf, length
+ * *pn, caller frees). 0, or -1 with "path: reason". */
+int rt_slurp(const char *path, char **pbuf, size_t *pn, rt_err *e);
+
 #endif

@@ -26,48 +26,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* Reads a whole file into a NUL-terminated buffer. 0 or -1. */
-static int slurp(const char *path, char **pbuf, size_t *pn, rt_err *e)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f) return rt_errf(e, "%s: %s", path, strerror(errno));
-    size_t cap = 1 << 16, n = 0;
-    char *buf = rt_calloc(cap, 1, e);
-    if (!buf) {
-        fclose(f);
-        return -1;
-    }
-    for (;;) {
-        if (n + 1 >= cap) {
-            if (cap > SIZE_MAX / 2) {
-                free(buf);
-                fclose(f);
-                return rt_errf(e, "%s: file too large", path);
-            }
-            char *nb = rt_reallocarray(buf, cap * 2, 1, e);
-            if (!nb) {
-                free(buf);
-                fclose(f);
-                return -1;
-            }
-            buf = nb;
-            cap *= 2;
-        }
-        size_t got = fread(buf + n, 1, cap - 1 - n, f);
-        n += got;
-        if (got == 0) break;
-    }
-    int bad = ferror(f);
-    fclose(f);
-    if (bad) {
-        free(buf);
-        return rt_errf(e, "%s: read error", path);
-    }
-    buf[n] = 0;
-    *pbuf = buf;
-    *pn = n;
-    return 0;
-}
 
 static int is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v'; }
 
@@ -204,7 +162,7 @@ rt_scene *rt_scene_load_obj(const char *path, rt_err *e)
 {
     char *buf = NULL;
     size_t n = 0;
-    if (slurp(path, &buf, &n, e) < 0) return NULL;
+    if (rt_slurp(path, &buf, &n, e) < 0) return NULL;
     rt_scene *s = rt_scene_new(0, e);
     if (!s) {
         free(buf);

@@ -17,7 +17,7 @@ contents() { # the database's results, without volatile provenance
         FROM traffic t JOIN runs r ON r.id = t.run_id JOIN scenes s ON s.id = r.scene_id
         JOIN cache_configs c ON c.id = t.config_id
         ORDER BY s.name, r.tracer, r.lights, r.sched_cache_size, c.size, t.class" |
-        sed 's/render_seconds=[0-9.]*//'
+        sed -e 's/render_seconds=[0-9.]*//' -e 's/sim_seconds=[0-9.]*//'
 }
 # 1. golden report
 "$bin" sweep $args --db "$tmp/a.db" 2>"$tmp/log" || { echo "FAIL: sweep"; cat "$tmp/log"; exit 1; }

@@ -281,16 +281,43 @@ static void enqueue(dyn *D, uint32_t q, uint32_t pix, float t0, float t1)
 
 /* ---- traversal ------------------------------------------------------------- */
 
+typedef struct tstack {
+    uint32_t node;
+    float t0, t1;
+} tstack;
+
+/* One front-to-back step at an interior node (pbrt's rules, as in
+ * kdtrav.c): returns the child to visit next, narrowing *tmax and pushing
+ * the far child when the ray crosses the split inside [tmin, *tmax]. */
+static inline uint32_t interior_step(const rt_kdnode *nd, uint32_t node, const rt_ray *r, float tmin, float *tmax,
+                                     tstack *stack, int *sp)
+{
+    int axis = rt_kd_axis(nd);
+    float split = rt_kd_split(nd);
+    float o = rt_axis(r->o, axis), d = rt_axis(r->d, axis);
+    float tp = (split - o) * rt_axis(r->inv_d, axis);
+    int below_first = o < split || (o == split && d <= 0);
+    uint32_t nearc = below_first ? node + 1 : rt_kd_above(nd);
+    uint32_t farc = below_first ? rt_kd_above(nd) : node + 1;
+    if (tp > *tmax || tp <= 0) return nearc;
+    if (tp < tmin) return farc;
+    if (*sp < RT_KD_STACK) {
+        stack[*sp].node = farc;
+        stack[*sp].t0 = tp;
+        stack[*sp].t1 = *tmax;
+        (*sp)++;
+    }
+    *tmax = tp;
+    return nearc;
+}
+
 /* Descends the tree top from the root over [t0, t1] of r and returns the
  * first queue point (other than skip) the ray enters with a non-empty
  * interval, or -1 when it leaves the scene first. */
 static int32_t to_queue_point(dyn *D, const rt_ray *r, float t0, float t1, int32_t skip, float *qa, float *qb)
 {
     const rt_kdtree *kd = D->kd;
-    struct {
-        uint32_t node;
-        float t0, t1;
-    } stack[RT_KD_STACK];
+    tstack stack[RT_KD_STACK];
     int sp = 0;
     uint32_t node = 0;
     float tmin = t0, tmax = t1;
@@ -306,27 +333,7 @@ static int32_t to_queue_point(dyn *D, const rt_ray *r, float t0, float t1, int32
                 return q;
             }
         } else if (D->hastris[node] && !rt_kd_is_leaf(nd)) {
-            int axis = rt_kd_axis(nd);
-            float split = rt_kd_split(nd);
-            float o = rt_axis(r->o, axis), d = rt_axis(r->d, axis);
-            float tp = (split - o) * rt_axis(r->inv_d, axis);
-            int below_first = o < split || (o == split && d <= 0);
-            uint32_t nearc = below_first ? node + 1 : rt_kd_above(nd);
-            uint32_t farc = below_first ? rt_kd_above(nd) : node + 1;
-            if (tp > tmax || tp <= 0) {
-                node = nearc;
-            } else if (tp < tmin) {
-                node = farc;
-            } else {
-                if (sp < RT_KD_STACK) {
-                    stack[sp].node = farc;
-                    stack[sp].t0 = tp;
-                    stack[sp].t1 = tmax;
-                    sp++;
-                }
-                node = nearc;
-                tmax = tp;
-            }
+            node = interior_step(nd, node, r, tmin, &tmax, stack, &sp);
             continue;
         }
         if (!sp) return -1;
@@ -366,10 +373,7 @@ static int subtree(dyn *D, uint32_t root, const rt_ray *trav, const rt_ray *test
                    uint32_t *best_tri)
 {
     const rt_kdtree *kd = D->kd;
-    struct {
-        uint32_t node;
-        float t0, t1;
-    } stack[RT_KD_STACK];
+    tstack stack[RT_KD_STACK];
     int sp = 0;
     uint32_t node = root;
     float tmin = a, tmax = b;
@@ -381,27 +385,7 @@ static int subtree(dyn *D, uint32_t root, const rt_ray *trav, const rt_ray *test
         if (rt_kd_is_leaf(nd)) {
             if (leaf_test(D, nd, test, best_t, best_tri)) return 1;
         } else {
-            int axis = rt_kd_axis(nd);
-            float split = rt_kd_split(nd);
-            float o = rt_axis(trav->o, axis), d = rt_axis(trav->d, axis);
-            float tp = (split - o) * rt_axis(trav->inv_d, axis);
-            int below_first = o < split || (o == split && d <= 0);
-            uint32_t nearc = below_first ? node + 1 : rt_kd_above(nd);
-            uint32_t farc = below_first ? rt_kd_above(nd) : node + 1;
-            if (tp > tmax || tp <= 0) {
-                node = nearc;
-            } else if (tp < tmin) {
-                node = farc;
-            } else {
-                if (sp < RT_KD_STACK) {
-                    stack[sp].node = farc;
-                    stack[sp].t0 = tp;
-                    stack[sp].t1 = tmax;
-                    sp++;
-                }
-                node = nearc;
-                tmax = tp;
-            }
+            node = interior_step(nd, node, trav, tmin, &tmax, stack, &sp);
             continue;
         }
         if (!sp) return 0;
