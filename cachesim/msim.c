@@ -12,14 +12,19 @@
  * REPRESENTATION. With a fixed set of k sizes C_0 < C_1 < ... < C_{k-1}
  * (in lines) we do not need the exact depth, only which interval it falls
  * in (Kim, Hill and Wood 1991). The stack is a doubly linked list threaded
- * through an index array (nodes[], 32-bit links, NIL = UINT32_MAX), head =
- * most recently used. Each node carries its *group* g: the node is at depth
- * in (C_{g-1}, C_g] (C_{-1} = 0). There is one *marker* per group pointing
- * at the group's deepest (least recently used) node, and a count per group.
- * Lines deeper than C_{k-1} are in no simulated cache and are dropped from
- * the structure, so it never holds more than C_{k-1} nodes. An open-
- * addressing hash table (linear probing, Fibonacci hashing, backward-shift
- * deletion, load <= 1/2) maps a line number to its node.
+ * through an index array of 16-byte hot records (nodes[]: 32-bit prev/next
+ * links, NIL = UINT32_MAX, dirty mask, group, last-writer class), head =
+ * most recently used; node i's line number is kept apart in lines[i]. Each
+ * node carries its *group* g: the node is at depth in (C_{g-1}, C_g]
+ * (C_{-1} = 0). There is one *marker* per group pointing at the group's
+ * deepest (least recently used) node, and a count per group. Lines deeper
+ * than C_{k-1} are in no simulated cache and are dropped from the
+ * structure, so it never holds more than C_{k-1} nodes. An open-addressing
+ * hash table (linear probing, Fibonacci hashing h = L * PHI, backward-shift
+ * deletion, load <= 1/2) maps a line to its node; a slot is 64 bits: the
+ * top 32 bits of h (a fingerprint whose top bits are the slot's home, so
+ * deletion needs no line numbers) and the node index. A fingerprint match
+ * is confirmed against lines[].
  *
  * A REFERENCE to line L:
  *   1. look L up; if present its group g says it hits in sizes g..k-1 and
@@ -34,6 +39,12 @@
  *      group j+1 (retag it, move the marker one node up). Only tags and
  *      markers change, never links, and the cascade stops at group g, so the
  *      cost is O(g) <= O(k).
+ *   Once the stack holds C_{k-1} lines every group is full and stays full
+ *   (a hit takes one node out of group g and the cascade hands one back; a
+ *   miss evicts one from group k-1 and the cascade refills it), so the
+ *   steady-state path moves only markers and tags -- exactly g boundary
+ *   crossings for a hit, k-1 for a miss -- and keeps no counts; the generic
+ *   path (touch_fill) runs while the stack fills and when C_{k-1} = 1.
  *
  * DIRTY STATE. A line can be dirty in one cache and clean in another (a
  * larger cache keeps a line a smaller one has already written back). Each
@@ -55,13 +66,24 @@
  *     from the top), hence nused <= C_{k-1};
  *   - a node in group g has no dirty bit below g (it is in no cache smaller
  *     than C_g);
- *   - mru_line is the line of the head node.
+ *   - mru_line is the line of the head node;
+ *   - every slot's fingerprint is the top half of lines[node] * PHI, and
+ *     full is set iff nused == C_{k-1} >= 2.
  *
- * SPEED. A repeat of the most recently used line (the common case: several
- * fields of one record, a record spanning two lines) takes a fast path
- * without hashing. Power-of-two lines use a shift, other sizes a division.
- * While simulating a batch, the hash slot of the reference a few ahead is
- * prefetched.
+ * SPEED. The costs are memory latency (at 4 MB: 1 MB of nodes, 0.5 MB of
+ * lines, 1 MB of hash table, touched at random) and instructions. A repeat
+ * of the most recently used line takes a fast path without hashing.
+ * Power-of-two lines use a shift, other sizes a division. rt_msim_put
+ * pipelines each batch: a reference's lines are hashed and their slots
+ * prefetched PF_SLOT references ahead, the slots are read and the nodes and
+ * lines prefetched PF_NODE ahead (the node index is kept as a *hint*: since
+ * every node below nused is in the stack with its line in lines[], a hint
+ * with lines[hint] == L is L's node and the probe is skipped), and the
+ * nodes' list neighbours (which the unlink writes) are prefetched PF_NEIGH
+ * ahead. The next victim's node, line and slot are warmed ahead of the
+ * eviction, and each marker prefetches its new node when it moves, so the
+ * next crossing of that boundary finds it in cache. Prefetches are hints
+ * only; results do not depend on them.
  */
 #include "msim.h"
 
@@ -69,84 +91,93 @@
 #include <string.h>
 
 #define NIL UINT32_MAX
-#define PREFETCH_AHEAD 16 /* hash slot prefetch distance */
-#define PREFETCH_NODE 4   /* node prefetch distance (slot should be cached by then) */
+#define PHI 0x9E3779B97F4A7C15ULL /* Fibonacci hashing multiplier (odd) */
+#define PF_SLOT 16 /* hash slot prefetch distance, in references */
+#define PF_NODE 5  /* node prefetch distance (its slot should be cached by then) */
+#ifndef PF_NEIGH
+#define PF_NEIGH 2 /* neighbour prefetch distance (the node should be cached by then) */
+#endif
 
+/* Hot part of a stack entry: 16 bytes, four per cache line. The line
+ * number lives apart in lines[] (read on lookups to confirm a fingerprint
+ * match and on eviction). */
 typedef struct msnode {
-    uint64_t line;  /* line number (address / line size) */
     uint32_t prev;  /* towards the top (more recent); NIL at head */
     uint32_t next;  /* towards the bottom; NIL at tail */
     uint32_t dirty; /* bit i: dirty in the cache of size i */
     uint8_t grp;    /* size interval the node's depth is in */
     uint8_t wcls;   /* class of the last write to the line */
+    uint16_t pad;
 } msnode;
 
-typedef struct msslot {
-    uint64_t key; /* line number */
-    uint32_t val; /* node index, NIL = empty slot */
-} msslot;
-
 struct rt_msim {
-    int k;                                   /* number of sizes */
-    uint32_t line;                           /* line size in bytes */
-    int shift;                               /* log2(line), or -1 if not a power of two */
-    uint64_t sizes[RT_SIM_MAXSIZES];         /* sizes in bytes */
-    uint32_t cap[RT_SIM_MAXSIZES + 1];       /* group capacities in lines */
-    uint32_t cnt[RT_SIM_MAXSIZES + 1];       /* nodes per group */
-    uint32_t marker[RT_SIM_MAXSIZES + 1];    /* last node of each group */
-    uint32_t allmask;                        /* k low bits set */
-    uint32_t cmax;                           /* lines of the largest cache */
-    uint32_t nused;                          /* nodes in use (all in the list) */
+    /* hot fields first */
     uint32_t head, tail;                     /* list ends */
+    uint32_t nused;                          /* nodes in use (all in the list) */
+    uint32_t cmax;                           /* lines of the largest cache */
     uint64_t mru_line;                       /* line of head (valid if head != NIL) */
     msnode *nodes;                           /* cmax nodes */
-    msslot *ht;                              /* hash table */
+    uint64_t *lines;                         /* cmax line numbers (node i holds lines[i]) */
+    uint64_t *ht;                            /* hash slots: fingerprint << 32 | node, node NIL = empty */
     uint64_t hmask;                          /* table size - 1 */
     int hshift;                              /* 64 - log2(table size) */
+    int fpshift;                             /* 32 - log2(table size): home = fingerprint >> fpshift */
+    int k;                                   /* number of sizes */
+    uint32_t allmask;                        /* k low bits set */
+    int shift;                               /* log2(line), or -1 if not a power of two */
+    uint32_t line;                           /* line size in bytes */
+    uint32_t cnt[RT_SIM_MAXSIZES + 1];       /* nodes per group */
+    uint32_t cap[RT_SIM_MAXSIZES + 1];       /* group capacities in lines */
+    uint32_t marker[RT_SIM_MAXSIZES + 1];    /* last node of each group */
+    int full;                                /* nused == cmax >= 2: steady state */
     uint64_t hist[RT_NCLASS][2][RT_SIM_MAXSIZES + 1]; /* touches by class, write, group */
     uint64_t wb[RT_SIM_MAXSIZES][RT_NCLASS]; /* write-backs by size, class */
+    uint64_t sizes[RT_SIM_MAXSIZES];         /* sizes in bytes */
 };
 
-static inline uint64_t hslot(const rt_msim *m, uint64_t line)
-{
-    return (line * 0x9E3779B97F4A7C15ULL) >> m->hshift;
-}
+static inline uint64_t hslot(const rt_msim *m, uint64_t line) { return (line * PHI) >> m->hshift; }
 
 static inline uint32_t h_find(const rt_msim *m, uint64_t line)
 {
-    uint64_t i = hslot(m, line);
+    uint64_t h = line * PHI, i = h >> m->hshift;
+    uint32_t fp = (uint32_t)(h >> 32);
     for (;;) {
-        const msslot *s = &m->ht[i];
-        if (s->val == NIL) return NIL;
-        if (s->key == line) return s->val;
+        uint64_t s = m->ht[i];
+        uint32_t v = (uint32_t)s;
+        if (v == NIL) return NIL;
+        if ((uint32_t)(s >> 32) == fp && m->lines[v] == line) return v;
         i = (i + 1) & m->hmask;
     }
 }
 
 static inline void h_insert(rt_msim *m, uint64_t line, uint32_t val)
 {
-    uint64_t i = hslot(m, line);
-    while (m->ht[i].val != NIL) i = (i + 1) & m->hmask;
-    m->ht[i].key = line;
-    m->ht[i].val = val;
+    uint64_t h = line * PHI, i = h >> m->hshift;
+    while ((uint32_t)m->ht[i] != NIL) i = (i + 1) & m->hmask;
+    m->ht[i] = (h & 0xFFFFFFFF00000000ULL) | val;
 }
 
-static void h_delete(rt_msim *m, uint64_t line)
+/* Removes node x (holding lines[x]) from the table. */
+static inline void h_delete(rt_msim *m, uint32_t x)
 {
-    uint64_t i = hslot(m, line);
-    while (m->ht[i].key != line || m->ht[i].val == NIL) i = (i + 1) & m->hmask;
-    /* backward-shift deletion keeps every probe chain unbroken */
+    uint64_t *restrict ht = m->ht;
+    const uint64_t mask = m->hmask;
+    uint64_t i = hslot(m, m->lines[x]);
+    while ((uint32_t)ht[i] != x) i = (i + 1) & mask;
+    /* backward-shift deletion keeps every probe chain unbroken; a slot's
+     * home is the top bits of its fingerprint */
     uint64_t j = i;
     for (;;) {
-        j = (j + 1) & m->hmask;
-        if (m->ht[j].val == NIL) break;
-        uint64_t h = hslot(m, m->ht[j].key);
+        j = (j + 1) & mask;
+        uint64_t s = ht[j];
+        if ((uint32_t)s == NIL) break;
+        uint64_t h = (s >> 32) >> m->fpshift;
         /* leave slot j alone if its home h is cyclically in (i, j] */
         if (i <= j ? (i < h && h <= j) : (i < h || h <= j)) continue;
-        m->ht[i] = m->ht[j];
+        ht[i] = s;
         i = j;
     }
-    m->ht[i].val = NIL;
+    ht[i] = UINT64_MAX;
 }
 
 rt_msim *rt_msim_new(const uint64_t *sizes, int k, uint32_t line, rt_err *e)
@@ -185,16 +216,18 @@ rt_msim *rt_msim_new(const uint64_t *sizes, int k, uint32_t line, rt_err *e)
     m->head = m->tail = NIL;
     uint64_t tsize = 16;
     int bits = 4;
-    while (tsize < 2 * (uint64_t)m->cmax) tsize <<= 1, bits++;
+    while (tsize < 2 * (uint64_t)m->cmax) tsize <<= 1, bits++; /* bits <= 31 */
     m->hmask = tsize - 1;
     m->hshift = 64 - bits;
+    m->fpshift = 32 - bits;
     m->nodes = rt_calloc(m->cmax, sizeof *m->nodes, e);
+    m->lines = rt_calloc(m->cmax, sizeof *m->lines, e);
     m->ht = rt_calloc(tsize, sizeof *m->ht, e);
-    if (!m->nodes || !m->ht) {
+    if (!m->nodes || !m->lines || !m->ht) {
         rt_msim_free(m);
         return NULL;
     }
-    for (uint64_t i = 0; i < tsize; i++) m->ht[i].val = NIL;
+    memset(m->ht, 0xFF, tsize * sizeof *m->ht);
     return m;
 }
 
@@ -202,30 +235,24 @@ void rt_msim_free(rt_msim *m)
 {
     if (!m) return;
     free(m->nodes);
+    free(m->lines);
     free(m->ht);
     free(m);
 }
 
-/* One line touch. */
-static inline void touch(rt_msim *restrict m, uint64_t L, unsigned w, unsigned cls)
+/* Generic touch, used while the stack is filling (and for a one-line
+ * largest cache): group counts change, the cascade stops at the first group
+ * that does not overflow. x is L's node or NIL. */
+static void touch_fill(rt_msim *restrict m, uint64_t L, uint32_t x, unsigned w, unsigned cls)
 {
     msnode *restrict nd = m->nodes;
-    if (L == m->mru_line && m->head != NIL) { /* fast path: top of stack */
-        m->hist[cls][w][0]++;
-        if (w) {
-            nd[m->head].dirty = m->allmask;
-            nd[m->head].wcls = (uint8_t)cls;
-        }
-        return;
-    }
-    uint32_t x = h_find(m, L);
     unsigned g;
     if (x != NIL) {
         g = nd[x].grp;
-        if (m->marker[g] == x) m->marker[g] = m->cnt[g] > 1 ? nd[x].prev : NIL;
+        uint32_t p = nd[x].prev, n = nd[x].next;
+        if (m->marker[g] == x) m->marker[g] = m->cnt[g] > 1 ? p : NIL;
         m->cnt[g]--;
         /* unlink (x is not the head: the head is mru_line) */
-        uint32_t p = nd[x].prev, n = nd[x].next;
         nd[p].next = n;
         if (n != NIL) nd[n].prev = p;
         else m->tail = p;
@@ -241,11 +268,11 @@ static inline void touch(rt_msim *restrict m, uint64_t L, unsigned w, unsigned c
             m->tail = nd[x].prev;
             if (m->tail != NIL) nd[m->tail].next = NIL;
             else m->head = NIL;
-            h_delete(m, nd[x].line);
+            h_delete(m, x);
         } else {
             x = m->nused++;
         }
-        nd[x].line = L;
+        m->lines[x] = L;
         nd[x].dirty = 0;
         h_insert(m, L, x);
     }
@@ -275,33 +302,187 @@ static inline void touch(rt_msim *restrict m, uint64_t L, unsigned w, unsigned c
         m->cnt[j]--;
         if (++m->cnt[j + 1] == 1) m->marker[j + 1] = y;
     }
+    m->full = m->nused == m->cmax && m->cmax > 1;
+}
+
+/* One line touch. L is the line, h = L * PHI, hint a node that may hold L
+ * (or NIL). */
+static inline __attribute__((always_inline)) void touch(rt_msim *restrict m, uint64_t L, uint64_t h, uint32_t hint,
+                                                         unsigned w, unsigned cls)
+{
+    msnode *restrict nd = m->nodes;
+    if (L == m->mru_line && m->head != NIL) { /* fast path: top of stack */
+        m->hist[cls][w][0]++;
+        if (w) {
+            nd[m->head].dirty = m->allmask;
+            nd[m->head].wcls = (uint8_t)cls;
+        }
+        return;
+    }
+    uint32_t x;
+    /* every node below nused is in the stack and lines[] is its line, so a
+     * hint that names L is L's node */
+    if (hint < m->nused && m->lines[hint] == L) {
+        x = hint;
+    } else {
+        uint64_t i = h >> m->hshift;
+        uint32_t fp = (uint32_t)(h >> 32);
+        for (;;) {
+            uint64_t s = m->ht[i];
+            x = (uint32_t)s;
+            if (x == NIL || ((uint32_t)(s >> 32) == fp && m->lines[x] == L)) break;
+            i = (i + 1) & m->hmask;
+        }
+    }
+    if (__builtin_expect(!m->full, 0)) {
+        touch_fill(m, L, x, w, cls);
+        return;
+    }
+    /* Steady state: the stack holds cmax lines, every group is full and
+     * stays full, so no count changes. A hit at group g hands one node
+     * across each boundary 0..g-1; a miss evicts the tail and hands one
+     * node across each boundary 0..k-2. */
+    unsigned g, ncas;
+    if (x != NIL) {
+        g = nd[x].grp;
+        ncas = g;
+        uint32_t p = nd[x].prev, n = nd[x].next;
+        /* x's successor as last of group g is p: p is in group g, or p is
+         * the last of group g-1 and is about to cross into g */
+        if (m->marker[g] == x) m->marker[g] = p;
+        nd[p].next = n;
+        if (n != NIL) nd[n].prev = p;
+        else m->tail = p;
+    } else {
+        unsigned kk = (unsigned)m->k - 1;
+        g = kk + 1;
+        ncas = kk;
+        x = m->tail;
+        uint32_t p = nd[x].prev; /* not NIL: cmax >= 2 */
+        if (nd[x].dirty & (1u << kk)) m->wb[kk][nd[x].wcls]++;
+        m->marker[kk] = p; /* as above */
+        m->tail = p;
+        nd[p].next = NIL;
+        uint32_t q = nd[p].prev; /* the victim after next: warm it */
+        if (q != NIL) {
+            __builtin_prefetch(&nd[q], 1);
+            __builtin_prefetch(&m->lines[q]);
+        }
+        h_delete(m, x);
+        m->lines[x] = L;
+        nd[x].dirty = 0;
+        uint64_t i = h >> m->hshift;
+        while ((uint32_t)m->ht[i] != NIL) i = (i + 1) & m->hmask;
+        m->ht[i] = (h & 0xFFFFFFFF00000000ULL) | x;
+    }
+    m->hist[cls][w][g]++;
+    uint32_t hd = m->head;
+    nd[x].prev = NIL;
+    nd[x].next = hd;
+    nd[hd].prev = x;
+    m->head = x;
+    m->mru_line = L;
+    nd[x].grp = 0;
+    if (w) {
+        nd[x].dirty = m->allmask;
+        nd[x].wcls = (uint8_t)cls;
+    }
+    uint32_t *restrict mk = m->marker;
+    for (unsigned j = 0; j < ncas; j++) {
+        uint32_t y = mk[j];
+        msnode *ny = &nd[y];
+        ny->grp = (uint8_t)(j + 1);
+        uint32_t d = ny->dirty;
+        if (__builtin_expect(d & (1u << j), 0)) {
+            m->wb[j][ny->wcls]++;
+            ny->dirty = d & ~(1u << j);
+        }
+        uint32_t p = ny->prev; /* not NIL: group j holds cap[j] + 1 >= 2 nodes now */
+        mk[j] = p;
+        __builtin_prefetch(&nd[p], 1); /* the next node to cross this boundary */
+    }
+}
+
+/* Prefetch pipeline: references are hashed PF_SLOT ahead (slot
+ * prefetched), their nodes found PF_NODE ahead (node and line prefetched,
+ * the node remembered as a hint), and the nodes' list neighbours prefetched
+ * PF_NEIGH ahead. */
+#define RING 32 /* > PF_SLOT, power of two */
+typedef struct pfent {
+    uint64_t f, l;   /* first and last line of the reference */
+    uint64_t hf, hl; /* their hashes */
+    uint32_t xf, xl; /* hints: nodes that held them PF_NODE references ago, or NIL */
+} pfent;
+
+static inline uint32_t pf_node(const rt_msim *m, uint64_t L, uint64_t h)
+{
+    uint64_t s = m->ht[h >> m->hshift];
+    uint32_t v = (uint32_t)s;
+    if (v != NIL && (s >> 32) == (h >> 32)) {
+        __builtin_prefetch(&m->nodes[v], 1);
+        __builtin_prefetch(&m->lines[v]);
+        (void)L;
+        return v;
+    }
+    return NIL;
+}
+
+static inline void pf_neigh(const rt_msim *m, uint32_t x)
+{
+    if (x < m->nused) {
+        const msnode *nx = &m->nodes[x];
+        uint32_t p = nx->prev, n = nx->next;
+        if (p != NIL) __builtin_prefetch(&m->nodes[p], 1);
+        if (n != NIL) __builtin_prefetch(&m->nodes[n], 1);
+    }
 }
 
 static inline void put_batch(rt_msim *restrict m, const rt_access *a, size_t n, const int pow2)
 {
     const int sh = m->shift;
     const uint64_t ls = m->line;
+    pfent ring[RING];
+#define LINE_OF(x) (pow2 ? (x) >> sh : (x) / ls)
+#define STAGE_SLOT(idx)                                                          \
+    do {                                                                         \
+        const rt_access *r_ = &a[idx];                                           \
+        pfent *e_ = &ring[(idx) & (RING - 1)];                                   \
+        e_->f = LINE_OF(r_->addr);                                               \
+        e_->l = LINE_OF(r_->addr + (r_->size ? r_->size : 1) - 1);               \
+        e_->hf = e_->f * PHI;                                                    \
+        e_->hl = e_->l * PHI;                                                    \
+        e_->xf = e_->xl = NIL;                                                   \
+        __builtin_prefetch(&m->ht[e_->hf >> m->hshift]);                         \
+        if (e_->l != e_->f) __builtin_prefetch(&m->ht[e_->hl >> m->hshift]);     \
+    } while (0)
+    size_t pre = n < PF_SLOT ? n : PF_SLOT;
+    for (size_t i = 0; i < pre; i++) STAGE_SLOT(i);
     for (size_t i = 0; i < n; i++) {
-        if (i + PREFETCH_AHEAD < n) {
-            uint64_t pl = pow2 ? a[i + PREFETCH_AHEAD].addr >> sh : a[i + PREFETCH_AHEAD].addr / ls;
-            __builtin_prefetch(&m->ht[hslot(m, pl)]);
+        if (i + PF_SLOT < n) STAGE_SLOT(i + PF_SLOT);
+        if (i + PF_NODE < n) {
+            pfent *e = &ring[(i + PF_NODE) & (RING - 1)];
+            e->xf = pf_node(m, e->f, e->hf);
+            if (e->l != e->f) e->xl = pf_node(m, e->l, e->hl);
         }
-        if (i + PREFETCH_NODE < n) {
-            uint64_t pl = pow2 ? a[i + PREFETCH_NODE].addr >> sh : a[i + PREFETCH_NODE].addr / ls;
-            const msslot *ps = &m->ht[hslot(m, pl)];
-            if (ps->val != NIL && ps->key == pl) {
-                __builtin_prefetch(&m->nodes[ps->val]);
-            }
+        if (PF_NEIGH && i + PF_NEIGH < n) {
+            const pfent *e = &ring[(i + PF_NEIGH) & (RING - 1)];
+            pf_neigh(m, e->xf);
+            if (e->l != e->f) pf_neigh(m, e->xl);
         }
-        uint64_t addr = a[i].addr;
-        uint32_t sz = a[i].size ? a[i].size : 1;
+        if (m->full) /* the slot of the next victim */
+            __builtin_prefetch(&m->ht[hslot(m, m->lines[m->tail])]);
+        const pfent *e = &ring[i & (RING - 1)];
         unsigned cls = a[i].cls < RT_NCLASS ? a[i].cls : RT_CLS_FB;
         unsigned w = a[i].write ? 1 : 0;
-        uint64_t first = pow2 ? addr >> sh : addr / ls;
-        uint64_t last = pow2 ? (addr + sz - 1) >> sh : (addr + sz - 1) / ls;
-        touch(m, first, w, cls);
-        for (uint64_t L = first + 1; L <= last; L++) touch(m, L, w, cls);
+        uint64_t first = e->f, last = e->l;
+        touch(m, first, e->hf, e->xf, w, cls);
+        if (last > first) { /* (an end past 2^64 - 1 touches the first line only) */
+            for (uint64_t L = first + 1; L < last; L++) touch(m, L, L * PHI, NIL, w, cls);
+            touch(m, last, e->hl, e->xl, w, cls);
+        }
     }
+#undef STAGE_SLOT
+#undef LINE_OF
 }
 
 void rt_msim_put(rt_msim *m, const rt_access *a, size_t n)
@@ -345,12 +526,12 @@ int rt_msim_check(const rt_msim *m, rt_err *e)
         last[g] = x;
         if (nd[x].dirty & ~m->allmask) return rt_errf(e, "msim: node %u has dirty bits beyond k", x);
         if (nd[x].dirty & ((1u << g) - 1)) return rt_errf(e, "msim: node %u (group %u) dirty in a smaller cache", x, g);
-        if (h_find(m, nd[x].line) != x) return rt_errf(e, "msim: node %u not found in hash table", x);
+        if (h_find(m, m->lines[x]) != x) return rt_errf(e, "msim: node %u not found in hash table", x);
         prev = x;
     }
     if (seen != m->nused) return rt_errf(e, "msim: list has %u nodes, nused %u", seen, m->nused);
     if (m->tail != prev) return rt_errf(e, "msim: tail mismatch");
-    if (m->head != NIL && nd[m->head].line != m->mru_line) return rt_errf(e, "msim: mru_line is not the head line");
+    if (m->head != NIL && m->lines[m->head] != m->mru_line) return rt_errf(e, "msim: mru_line is not the head line");
     for (int j = 0; j < m->k; j++) {
         if (cnt[j] != m->cnt[j]) return rt_errf(e, "msim: group %d has %u nodes, count says %u", j, cnt[j], m->cnt[j]);
         if (cnt[j] > m->cap[j]) return rt_errf(e, "msim: group %d over capacity", j);
@@ -361,11 +542,13 @@ int rt_msim_check(const rt_msim *m, rt_err *e)
     }
     uint64_t inhash = 0;
     for (uint64_t i = 0; i <= m->hmask; i++)
-        if (m->ht[i].val != NIL) {
+        if ((uint32_t)m->ht[i] != NIL) {
+            uint32_t v = (uint32_t)m->ht[i];
             inhash++;
-            if (m->ht[i].val >= m->nused || nd[m->ht[i].val].line != m->ht[i].key)
+            if (v >= m->nused || (m->ht[i] >> 32) != ((m->lines[v] * PHI) >> 32))
                 return rt_errf(e, "msim: stale hash slot %llu", (unsigned long long)i);
         }
+    if (m->full != (m->nused == m->cmax && m->cmax > 1)) return rt_errf(e, "msim: steady-state flag wrong");
     if (inhash != m->nused) return rt_errf(e, "msim: hash holds %llu lines, stack %u", (unsigned long long)inhash, m->nused);
     return 0;
 }
