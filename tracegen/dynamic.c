@@ -53,14 +53,37 @@
 
 /* ---- queue-point selection ---------------------------------------------- */
 
-void rt_dyn_subtree_geometry(const rt_kdtree *kd, uint64_t *g)
+int rt_dyn_subtree_geometry(const rt_kdtree *kd, uint32_t ntri, uint64_t *g, rt_err *e)
 {
-    /* Children have larger indices than their parent: one backward pass. */
-    for (uint32_t i = kd->nnodes; i-- > 0;) {
-        const rt_kdnode *n = &kd->nodes[i];
-        if (rt_kd_is_leaf(n)) g[i] = 8 + 40ull * rt_kd_ntri(n);
-        else g[i] = 8 + g[i + 1] + g[rt_kd_above(n)];
+    /* The distinct-triangle sizes cost O(references x depth); a sweep
+     * schedules the same tree for many cache sizes, so the last result is
+     * kept (keyed by the tree's identity and shape). */
+    static const rt_kdtree *last_kd;
+    static uint32_t last_nnodes, last_nidx;
+    static double last_build;
+    static uint64_t *last_g;
+    if (last_g && last_kd == kd && last_nnodes == kd->nnodes && last_nidx == kd->nidx && last_build == kd->build_sec) {
+        memcpy(g, last_g, sizeof *g * kd->nnodes);
+        return 0;
     }
+    rt_kd_subsize *z = rt_calloc(kd->nnodes, sizeof *z, e);
+    if (!z || rt_kd_subtree_sizes(kd, ntri, z, e) < 0) {
+        free(z);
+        return -1;
+    }
+    for (uint32_t i = 0; i < kd->nnodes; i++) g[i] = rt_kd_subsize_bytes(&z[i]);
+    free(z);
+    uint64_t *copy = malloc(sizeof *copy * (kd->nnodes ? kd->nnodes : 1));
+    if (copy) {
+        memcpy(copy, g, sizeof *g * kd->nnodes);
+        free(last_g);
+        last_g = copy;
+        last_kd = kd;
+        last_nnodes = kd->nnodes;
+        last_nidx = kd->nidx;
+        last_build = kd->build_sec;
+    }
+    return 0;
 }
 
 uint32_t rt_dyn_select(const rt_kdtree *kd, const uint64_t *g, uint64_t gmax, int32_t *qp, uint32_t *ntop)
@@ -709,7 +732,12 @@ static int schedule(const rt_tracer_ctx *ctx, sched *s, rt_err *e)
         free(g);
         return -1;
     }
-    rt_dyn_subtree_geometry(kd, g);
+    if (rt_dyn_subtree_geometry(kd, ctx->sc->ntri, g, e) < 0) {
+        free(g);
+        free(s->qp);
+        s->qp = NULL;
+        return -1;
+    }
     s->fallback = 0;
     s->gmax = ctx->opt->gmax ? ctx->opt->gmax
                              : rt_dyn_derive_gmax(kd, g, ctx->opt->cache_size, raybuf_bytes(ctx->opt), &s->fallback);

@@ -2,11 +2,11 @@
  * dynamic.h -- dynamic ray scheduling (Navrátil, Fussell, Lin 2007, sec. 2):
  * queue-point selection, exposed for tests and reports.
  *
- * Subtree geometry g(n) is the upper bound, in bytes, of what processing
- * the subtree rooted at n can bring into the cache: 8 bytes per node of the
- * subtree plus, per leaf, its index list (4 B per entry) and its triangles
- * (36 B each; a triangle referenced by several leaves counts once per leaf,
- * so g is an upper bound, never an underestimate).
+ * Subtree geometry g(n) is the geometry, in bytes, that processing the
+ * subtree rooted at n can bring into the cache: 8 bytes per node of the
+ * subtree, 4 bytes per entry of its leaves' index lists, and 36 bytes per
+ * distinct triangle its leaves reference (a triangle shared by several
+ * leaves is loaded once).
  *
  * Queue points are the first nodes on each branch, from the root down,
  * with 0 < g(n) <= g_max; a leaf with triangles is a queue point even when
@@ -22,8 +22,9 @@
 
 #include <stdint.h>
 
-/* Fills g[0..nnodes) with subtree geometry bytes (see above). */
-void rt_dyn_subtree_geometry(const rt_kdtree *kd, uint64_t *g);
+/* Fills g[0..nnodes) with subtree geometry bytes (see above); ntri is the
+ * scene's triangle count. 0 or -1 (out of memory). */
+int rt_dyn_subtree_geometry(const rt_kdtree *kd, uint32_t ntri, uint64_t *g, rt_err *e);
 
 /* Marks queue points: qp[n] = queue-point number (0.. in depth-first order)
  * or -1. Returns the number of queue points; *ntop receives the number of
