@@ -9,7 +9,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define REPLAY_BUF 65536
+#define REPLAY_BUF 4096 /* 64 KB: small enough to stay in L2 beside the simulator */
 
 int rt_sim_replay(rt_sim *s, const char *path, int fmt, int din_class, rt_tr_meta *meta, rt_sim_input *info,
                   rt_err *e)
