@@ -7,6 +7,7 @@
  * synthetic trace. Results go to stdout as a Markdown table (or TSV). */
 #include "cmd.h"
 #include "run.h"
+#include "approx.h"
 #include "sim.h"
 #include "trace.h"
 
@@ -27,7 +28,10 @@ static void usage(FILE *f)
             "  --lights L         lights for the tracer runs (default none: primary rays)\n"
             "  --tracers LIST     comma list (default recursive,packet,dynamic)\n"
             "  --cache-size S     dynamic tracer's schedule (default 64K)\n"
-            "  --what LIST        tracers,trace,sim (default all three)\n"
+            "  --what LIST        tracers,trace,sim,approx (default tracers,trace,sim);\n"
+            "                     approx: sampled simulators against exact\n"
+            "                     (docs/approx.md) on --trace or the synthetic trace\n"
+            "  --trace FILE       .rtt or din trace for --what approx\n"
             "  --sim-refs N       synthetic simulator trace length (default 20000000)\n"
             "  --tmpdir DIR       where trace files are written (default /tmp)\n"
             "  -h, --help         this help\n");
@@ -121,6 +125,7 @@ int main_bench(int argc, char **argv)
         {"what", required_argument, NULL, 'w'},
         {"sim-refs", required_argument, NULL, 'n'},
         {"tmpdir", required_argument, NULL, 'd'},
+        {"trace", required_argument, NULL, 1100},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0},
     };
@@ -128,7 +133,7 @@ int main_bench(int argc, char **argv)
     rt_render_default_opts(&o);
     o.W = o.H = 1024;
     const char *scene = "sphereflake", *tracers = "recursive,packet,dynamic", *what = "tracers,trace,sim";
-    const char *tmpdir = "/tmp", *dummy = NULL;
+    const char *tmpdir = "/tmp", *dummy = NULL, *trace = NULL;
     uint64_t simrefs = 20000000;
     struct option *lo = rt_cmd_merge_opts(own);
     int c;
@@ -146,6 +151,7 @@ int main_bench(int argc, char **argv)
         case 'T': tracers = optarg; break;
         case 'w': what = optarg; break;
         case 'd': tmpdir = optarg; break;
+        case 1100: trace = optarg; break;
         case 'n':
             if (rt_parse_size(optarg, &simrefs) < 0 || simrefs == 0) {
                 rt_cmd_error("bench", "--sim-refs: '%s' is not a positive count", optarg);
@@ -162,15 +168,16 @@ int main_bench(int argc, char **argv)
         rt_cmd_error("bench", "unexpected argument '%s'", argv[optind]);
         return RT_EXIT_USAGE;
     }
-    int do_tr = 0, do_trace = 0, do_sim = 0;
+    int do_tr = 0, do_trace = 0, do_sim = 0, do_approx = 0;
     {
         char *list = strdup(what), *save = NULL;
         for (char *t = strtok_r(list, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
             if (!strcmp(t, "tracers")) do_tr = 1;
             else if (!strcmp(t, "trace")) do_trace = 1;
             else if (!strcmp(t, "sim")) do_sim = 1;
+            else if (!strcmp(t, "approx")) do_approx = 1;
             else {
-                rt_cmd_error("bench", "--what: unknown item '%s' (tracers, trace, sim)", t);
+                rt_cmd_error("bench", "--what: unknown item '%s' (tracers, trace, sim, approx)", t);
                 free(list);
                 return RT_EXIT_USAGE;
             }
@@ -221,6 +228,15 @@ int main_bench(int argc, char **argv)
         printf("Cache simulator on a synthetic trace:\n\n");
         fflush(stdout);
         if (rt_sim_bench_n(stdout, simrefs) < 0) return RT_EXIT_FAIL;
+    }
+    if (do_approx) {
+        rt_err e = {""};
+        printf("\nSampled simulation against exact (time inside the simulators):\n\n");
+        fflush(stdout);
+        if (rt_approx_bench_n(stdout, trace, simrefs, &e) < 0) {
+            rt_cmd_error("bench", "%s", e.msg);
+            return RT_EXIT_FAIL;
+        }
     }
     return RT_EXIT_OK;
 }
