@@ -11,6 +11,17 @@
  * the relative traffic error (%), naming the exact run compared against.
  * Times are simulation times on the same access stream when the sweep
  * measured them (sweep --approx), else the runs' wall times.
+ *
+ * Reduced experiments (sweep --proxy) are exact simulations of a smaller
+ * problem: a lower resolution or a subsample of the pixels. Their
+ * reference is the exact full run of the same configuration with the most
+ * pixels; miss ratios are compared as they are and traffic is scaled by
+ * (reference primary rays / proxy primary rays). Speedups are whole-run
+ * wall times (tracer + exact simulation; the reference's approximate
+ * simulators, if any ran beside it, are subtracted). For the dynamic
+ * scheduler a second table gives the rays per queue event, which is what a
+ * reduced experiment changes: fewer rays per pixel of geometry means each
+ * queue holds fewer rays when it is processed.
  */
 #include "cmd.h"
 
@@ -46,10 +57,50 @@ static const char *pairs_sql =
     " WHERE a.sim_method <> 'exact'"
     " ORDER BY s.name, a.tracer, a.lights, a.sched_cache_size, a.sim_method, a.sim_params, a.id, ga.grp, ga.size";
 
+/* Pairs (reduced run, full exact run) with per-size group figures. */
+static const char *proxy_sql =
+    "WITH g AS ("
+    "  SELECT t.run_id, c.size, k.grp,"
+    "    SUM(t.accesses) AS acc, SUM(t.read_misses + t.write_misses) AS miss, SUM(t.traffic_bytes) AS bytes"
+    "  FROM traffic t JOIN cache_configs c ON c.id = t.config_id JOIN classes k ON k.name = t.class"
+    "  WHERE c.line = 64 AND c.assoc = 0 AND k.grp IN ('geometry', 'ray')"
+    "  GROUP BY t.run_id, c.size, k.grp),"
+    " full AS (SELECT r.* FROM runs r WHERE r.sim_method = 'exact' AND r.params NOT LIKE '%subsample=%'"
+    "   AND r.W * r.H = (SELECT MAX(q.W * q.H) FROM runs q WHERE q.scene_id = r.scene_id AND q.tracer = r.tracer"
+    "     AND q.lights = r.lights AND q.sched_cache_size = r.sched_cache_size AND q.gmax = r.gmax"
+    "     AND q.params = r.params AND q.sim_method = 'exact'))"
+    " SELECT s.name, a.tracer, a.W, a.H, a.lights, a.sched_cache_size, a.params, a.id, x.id, x.W, x.H,"
+    "   a.wall_time, x.wall_time - COALESCE((SELECT SUM(y.wall_time) FROM runs y WHERE y.scene_id = x.scene_id"
+    "     AND y.tracer = x.tracer AND y.W = x.W AND y.H = x.H AND y.lights = x.lights"
+    "     AND y.sched_cache_size = x.sched_cache_size AND y.gmax = x.gmax AND y.params = x.params"
+    "     AND y.sim_method <> 'exact'), 0),"
+    "   a.stats, x.stats, ga.grp, ga.size,"
+    "   CASE WHEN ga.acc > 0 THEN 1.0 * ga.miss / ga.acc ELSE 0 END,"
+    "   CASE WHEN gx.acc > 0 THEN 1.0 * gx.miss / gx.acc ELSE 0 END,"
+    "   ga.bytes, gx.bytes"
+    " FROM runs a JOIN full x ON x.scene_id = a.scene_id AND x.tracer = a.tracer AND x.lights = a.lights"
+    "   AND x.sched_cache_size = a.sched_cache_size AND x.gmax = a.gmax AND x.id <> a.id"
+    "   AND (a.params = x.params OR a.params LIKE x.params || ' subsample=%')"
+    " JOIN scenes s ON s.id = a.scene_id"
+    " JOIN g ga ON ga.run_id = a.id JOIN g gx ON gx.run_id = x.id AND gx.size = ga.size AND gx.grp = ga.grp"
+    " WHERE a.sim_method = 'exact' AND (a.W * a.H < x.W * x.H OR a.params LIKE '%subsample=%')"
+    " ORDER BY s.name, a.tracer, a.lights, a.sched_cache_size, a.W * a.H DESC, a.params, a.id, ga.grp, ga.size";
+
+/* A "key=" number from a stats string, or NAN. */
+static double stat_num(const char *stats, const char *key)
+{
+    size_t kl = strlen(key);
+    for (const char *q = stats; q && (q = strstr(q, key)); q += kl)
+        if ((q == stats || q[-1] == ' ') && q[kl] == '=') return strtod(q + kl + 1, NULL);
+    return NAN;
+}
+
 typedef struct acc {
     int n;
     double mr_sum, mr_max, rel_sum, rel_max;
 } acc;
+
+static int report_proxies(sqlite3 *h, int csv, FILE *dat);
 
 int rt_report_speed_error(sqlite3 *h, int csv, const char *plotdir)
 {
@@ -145,6 +196,10 @@ int rt_report_speed_error(sqlite3 *h, int csv, const char *plotdir)
     }
     if (!rows && !csv) printf("(no approximate runs in the database: run `raytraffic sim --method ...` or the sweep with "
                               "--approx)\n");
+    if (report_proxies(h, csv, dat) < 0) {
+        if (dat) fclose(dat);
+        return -1;
+    }
     if (dat) {
         fclose(dat);
         const char *gp = GNUPLOT_PATH[0] ? GNUPLOT_PATH : "gnuplot";
@@ -154,7 +209,136 @@ int rt_report_speed_error(sqlite3 *h, int csv, const char *plotdir)
                  "xlabel 'speedup over exact'; set ylabel 'mean abs miss-ratio error'; set grid; plot '%s' u 2:3 w p "
                  "pt 7 t 'geometry', '' u 2:4 w p pt 5 t 'ray'\" >/dev/null 2>&1",
                  gp, plotdir, datpath);
-        if (rows && system(cmd) == 0) fprintf(stderr, "wrote %s/speed-error.png\n", plotdir);
+        if (system(cmd) == 0) fprintf(stderr, "wrote %s/speed-error.png\n", plotdir);
     }
+    return 0;
+}
+
+/* One finished (proxy, reference) pair. */
+typedef struct ppair {
+    char hdr[512], desc[128];
+    long id, xid;
+    double secs, xsecs, scale, dens, xdens;
+    acc A[2];
+} ppair;
+
+static void proxy_row(const ppair *p, int csv, FILE *dat)
+{
+    double sp = p->secs > 0 ? p->xsecs / p->secs : NAN;
+    const acc *G = &p->A[0], *Y = &p->A[1];
+    if (csv)
+        printf("%s,%ld,%ld,%.3f,%.3f,%.2f,%.5f,%.5f,%.3f,%.3f,%.5f,%.5f,%.3f,%.3f\n", p->hdr, p->id, p->xid, p->secs,
+               p->xsecs, sp, G->n ? G->mr_sum / G->n : NAN, G->mr_max, G->n ? G->rel_sum / G->n : NAN, G->rel_max,
+               Y->n ? Y->mr_sum / Y->n : NAN, Y->mr_max, Y->n ? Y->rel_sum / Y->n : NAN, Y->rel_max);
+    else
+        printf("%s | %ld (%ld) | %.2f (%.2f) | %.1fx | %.4f / %.4f | %.2f / %.2f | %.4f / %.4f | %.2f / %.2f |\n", p->hdr,
+               p->id, p->xid, p->secs, p->xsecs, sp, G->n ? G->mr_sum / G->n : NAN, G->mr_max,
+               G->n ? G->rel_sum / G->n : NAN, G->rel_max, Y->n ? Y->mr_sum / Y->n : NAN, Y->mr_max,
+               Y->n ? Y->rel_sum / Y->n : NAN, Y->rel_max);
+    if (dat)
+        fprintf(dat, "\"%s\" %.4f %.6f %.6f\n", p->desc, sp, G->n ? G->mr_sum / G->n : NAN,
+                Y->n ? Y->mr_sum / Y->n : NAN);
+}
+
+static int report_proxies(sqlite3 *h, int csv, FILE *dat)
+{
+    sqlite3_stmt *st;
+    if (sqlite3_prepare_v2(h, proxy_sql, -1, &st, NULL) != SQLITE_OK) {
+        rt_cmd_error("report", "reduced-experiment query: %s", sqlite3_errmsg(h));
+        return -1;
+    }
+    ppair cur, *dyn = NULL;
+    size_t ndyn = 0, capdyn = 0;
+    int rows = 0, rc, have = 0;
+    memset(&cur, 0, sizeof cur);
+    for (;;) {
+        rc = sqlite3_step(st);
+        long id = rc == SQLITE_ROW ? sqlite3_column_int64(st, 7) : -2;
+        if (have && id != cur.id) {
+            if (!rows && !csv)
+                printf("\n## Reduced experiments (exact simulation of a smaller problem)\n\n"
+                       "Lower resolution or pixel subsampling, compared with the exact full run of the same "
+                       "configuration (the run in parentheses). Traffic is scaled by the ratio of primary rays (x "
+                       "factor in params); miss ratios are compared unscaled. Times are whole runs (tracer + "
+                       "simulation).\n\n"
+                       "| scene | tracer | lights | sched | method | params | run (full run) | s (full s) | speedup "
+                       "| geometry MR err mean / max | geometry traffic err %% mean / max | ray MR err mean / max | "
+                       "ray traffic err %% mean / max |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+            proxy_row(&cur, csv, dat);
+            rows++;
+            if (!isnan(cur.dens) && !isnan(cur.xdens)) {
+                if (ndyn == capdyn) {
+                    ppair *t = realloc(dyn, (capdyn = capdyn ? 2 * capdyn : 16) * sizeof *t);
+                    if (!t) break;
+                    dyn = t;
+                }
+                dyn[ndyn++] = cur;
+            }
+            have = 0;
+        }
+        if (rc != SQLITE_ROW) break;
+        if (!have) {
+            memset(&cur, 0, sizeof cur);
+            have = 1;
+            cur.id = id;
+            cur.xid = sqlite3_column_int64(st, 8);
+            cur.secs = sqlite3_column_double(st, 11);
+            cur.xsecs = sqlite3_column_double(st, 12);
+            const char *as = (const char *)sqlite3_column_text(st, 13), *xs = (const char *)sqlite3_column_text(st, 14);
+            double ra = stat_num(as, "rays_primary"), rx = stat_num(xs, "rays_primary");
+            cur.scale = ra > 0 && rx > 0 ? rx / ra : NAN;
+            cur.dens = stat_num(as, "rays_per_event_mean");
+            cur.xdens = stat_num(xs, "rays_per_event_mean");
+            int W = sqlite3_column_int(st, 2), H = sqlite3_column_int(st, 3);
+            const char *params = (const char *)sqlite3_column_text(st, 6), *sub = params ? strstr(params, "subsample=") : NULL;
+            const char *method = sub ? "subsample" : "resolution";
+            if (sub)
+                snprintf(cur.desc, sizeof cur.desc, "%dx%d %s (x%.2f)", W, H, sub, cur.scale);
+            else
+                snprintf(cur.desc, sizeof cur.desc, "%dx%d (x%.2f)", W, H, cur.scale);
+            if (csv)
+                snprintf(cur.hdr, sizeof cur.hdr, "%s,%s,%d,%d,%d,%lld,%s,\"%s\"", sqlite3_column_text(st, 0),
+                         sqlite3_column_text(st, 1), W, H, sqlite3_column_int(st, 4),
+                         (long long)sqlite3_column_int64(st, 5), method, cur.desc);
+            else
+                snprintf(cur.hdr, sizeof cur.hdr, "| %s | %s | %d | %lld | %s | %s", sqlite3_column_text(st, 0),
+                         sqlite3_column_text(st, 1), sqlite3_column_int(st, 4), (long long)sqlite3_column_int64(st, 5),
+                         method, cur.desc);
+        }
+        int gi = strcmp((const char *)sqlite3_column_text(st, 15), "geometry") == 0 ? 0 : 1;
+        double mra = sqlite3_column_double(st, 17), mrx = sqlite3_column_double(st, 18);
+        double ba = sqlite3_column_double(st, 19) * (isnan(cur.scale) ? 1.0 : cur.scale),
+               bx = sqlite3_column_double(st, 20);
+        double emr = fabs(mra - mrx), rel = bx > 0 ? 100.0 * fabs(ba - bx) / bx : (ba > 0 ? 100.0 : 0.0);
+        acc *a = &cur.A[gi];
+        a->n++;
+        a->mr_sum += emr;
+        a->rel_sum += rel;
+        if (emr > a->mr_max) a->mr_max = emr;
+        if (rel > a->rel_max) a->rel_max = rel;
+    }
+    sqlite3_finalize(st);
+    if (rc != SQLITE_DONE) {
+        rt_cmd_error("report", "reduced-experiment query: %s", sqlite3_errmsg(h));
+        free(dyn);
+        return -1;
+    }
+    if (ndyn && !csv) {
+        printf("\n### Dynamic scheduler: rays per queue event in reduced experiments\n\n"
+               "A queue is processed when it is the fullest (or in tree order); the rays it holds then are what "
+               "amortise loading its subtree. Fewer traced pixels leave fewer rays per queue, so reduced "
+               "experiments overstate the dynamic scheduler's geometry traffic per ray.\n\n"
+               "| scene | lights | sched | reduced run | pixel fraction | rays/event full | rays/event reduced | ratio |\n"
+               "|---|---|---|---|---|---|---|---|\n");
+        for (size_t i = 0; i < ndyn; i++) {
+            const ppair *p = &dyn[i];
+            char scene[128] = "", lights[32] = "", sched[32] = "";
+            /* hdr is "| scene | tracer | lights | sched | method | desc" */
+            sscanf(p->hdr, "| %127s | %*s | %31s | %31s |", scene, lights, sched);
+            printf("| %s | %s | %s | %s | %.4f | %.1f | %.1f | %.3f |\n", scene, lights, sched, p->desc,
+                   p->scale > 0 ? 1.0 / p->scale : NAN, p->xdens, p->dens, p->xdens > 0 ? p->dens / p->xdens : NAN);
+        }
+    }
+    free(dyn);
     return 0;
 }

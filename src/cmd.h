@@ -53,7 +53,8 @@ enum {
     RT_OPT_GMAX,
     RT_OPT_PACKET,
     RT_OPT_QORDER,
-    RT_OPT_THREADS
+    RT_OPT_THREADS,
+    RT_OPT_SUBSAMPLE
 };
 
 /* The shared long options ({"lights",...}, {"cache-size",...}, ...);
@@ -68,6 +69,8 @@ extern const struct option rt_render_longopts[];
     "  --packet N         packet edge in pixels for -t packet (default 8)\n"                 \
     "  --cache-size S     dynamic: cache size to schedule for, e.g. 64K (default 64K)\n"    \
     "  --gmax B           dynamic: explicit geometry budget in bytes (overrides derivation)\n" \
+    "  --subsample K[:T]  reduced experiment: trace 1 in K tiles of TxT pixels (T default 8;\n" \
+    "                     1 = single pixels; packet tracer: T a multiple of the packet)\n" \
     "  --qorder O         dynamic: queue order, fullest | tree (default fullest)\n"          \
     "  --threads N        dynamic: modeled threads, 2 rays buffered each (default 4)\n"
 

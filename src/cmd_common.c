@@ -14,6 +14,7 @@ const struct option rt_render_longopts[] = {
     {"packet", required_argument, NULL, RT_OPT_PACKET},
     {"qorder", required_argument, NULL, RT_OPT_QORDER},
     {"threads", required_argument, NULL, RT_OPT_THREADS},
+    {"subsample", required_argument, NULL, RT_OPT_SUBSAMPLE},
     {"tracer", required_argument, NULL, 't'},
     {"width", required_argument, NULL, 'W'},
     {"height", required_argument, NULL, 'H'},
@@ -104,6 +105,25 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         }
         o->threads = (int)v;
         return 1;
+    case RT_OPT_SUBSAMPLE: {
+        char buf[64], *colon;
+        long t = 8;
+        snprintf(buf, sizeof buf, "%s", arg);
+        if ((colon = strchr(buf, ':'))) {
+            *colon = 0;
+            if (parse_int(colon + 1, 1, 4096, &t) < 0) {
+                rt_cmd_error(cmd, "--subsample: tile '%s' is not in 1..4096", colon + 1);
+                return -1;
+            }
+        }
+        if (parse_int(buf, 1, 1L << 20, &v) < 0) {
+            rt_cmd_error(cmd, "--subsample: '%s' is not K or K:TILE with K in 1..1048576", arg);
+            return -1;
+        }
+        o->subsample = (uint32_t)v;
+        o->subtile = (int)t;
+        return 1;
+    }
     default:
         return 0;
     }

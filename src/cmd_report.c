@@ -215,7 +215,7 @@ static int run_stats(rep *R, const char *scene, const char *tracer, unsigned lig
 {
     static const char *sql = "SELECT r.stats FROM runs r JOIN scenes s ON s.id = r.scene_id WHERE s.name = ?1 AND "
                              "r.tracer = ?2 AND r.lights = ?3 AND r.W = ?4 AND r.H = ?5 AND r.sim_method = 'exact' "
-                             "ORDER BY r.id LIMIT 1";
+                             "AND r.params NOT LIKE '%subsample=%' ORDER BY r.id LIMIT 1";
     sqlite3_stmt *st;
     if (sqlite3_prepare_v2(R->h, sql, -1, &st, NULL) != SQLITE_OK) return 0;
     sqlite3_bind_text(st, 1, scene, -1, SQLITE_STATIC);

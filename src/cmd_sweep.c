@@ -48,7 +48,16 @@ typedef struct job {
     int lighting;    /* index into opts.lightings */
     const char *tracer;
     uint64_t sched;  /* dynamic: scheduled cache size; 0 otherwise */
+    int proxy;       /* index into opts.proxies, -1 = the full experiment */
 } job;
+
+/* A reduced experiment run beside each job (--proxy): a lower resolution
+ * (res:N, N pixels wide, same aspect) or pixel subsampling (sub:K[:T]). */
+typedef struct proxy {
+    int W, H;          /* res: image size; 0 = unchanged */
+    uint32_t subsample; /* sub: 1 in K tiles */
+    int subtile;
+} proxy;
 
 typedef struct sweep_opts {
     const char *preset;
@@ -68,6 +77,8 @@ typedef struct sweep_opts {
     int dyn_all;
     rt_approx_config approx[8]; /* --approx: estimators run beside the exact simulation */
     int napprox;
+    proxy proxies[8];
+    int nproxies;
 } sweep_opts;
 
 typedef struct shared {
@@ -100,6 +111,10 @@ static void usage(FILE *f)
             "                     and store them beside the exact runs: comma list of\n"
             "                     shards:RATE[:EXACT_BELOW], shards-fixed:SMAX[:EXACT_BELOW],\n"
             "                     statstack:RATE[:EXACT_BELOW] (see report --speed-error)\n"
+            "  --proxy LIST       also run reduced experiments of every job (exact simulation,\n"
+            "                     compared with the full run by report --speed-error): comma\n"
+            "                     list of res:N (N pixels wide, same aspect) and sub:K[:T]\n"
+            "                     (trace 1 in K tiles of TxT pixels, T default 8)\n"
             "  --qorder O, --threads N  dynamic scheduler options (see render --help)\n"
             "  --list-jobs        print one self-contained command per job and exit\n"
             "  --job K            run only job K (0-based) of the matrix\n"
@@ -145,18 +160,26 @@ static int parse_lightings(char *s, sweep_opts *o)
 
 static int build_matrix(const sweep_opts *o, job **out)
 {
-    size_t cap = (size_t)o->nscenes * o->nlightings * o->ntracers * (o->sim.nsizes + 1), n = 0;
+    size_t cap = (size_t)o->nscenes * o->nlightings * o->ntracers * (o->sim.nsizes + 1) * (o->nproxies + 1), n = 0;
     job *J = calloc(cap ? cap : 1, sizeof *J);
     if (!J) return -1;
     for (int s = 0; s < o->nscenes; s++)
         for (int l = 0; l < o->nlightings; l++)
             for (int t = 0; t < o->ntracers; t++) {
                 if (!strcmp(o->tracers[t], "dynamic")) {
-                    for (int k = 0; k < o->sim.nsizes; k++) J[n++] = (job){s, l, o->tracers[t], o->sim.sizes[k]};
+                    for (int k = 0; k < o->sim.nsizes; k++) J[n++] = (job){s, l, o->tracers[t], o->sim.sizes[k], -1};
                 } else {
-                    J[n++] = (job){s, l, o->tracers[t], 0};
+                    J[n++] = (job){s, l, o->tracers[t], 0, -1};
                 }
             }
+    /* reduced experiments after all full ones, so a partial sweep has the
+     * references first */
+    size_t nbase = n;
+    for (int p = 0; p < o->nproxies; p++)
+        for (size_t i = 0; i < nbase; i++) {
+            J[n] = J[i];
+            J[n++].proxy = p;
+        }
     *out = J;
     return (int)n;
 }
@@ -212,6 +235,57 @@ static int parse_approx(char *s, sweep_opts *o, rt_err *e)
     return 0;
 }
 
+static int parse_proxies(char *s, sweep_opts *o, rt_err *e)
+{
+    char *items[8];
+    int n = split_list(s, items, 8);
+    if (n <= 0) return rt_errf(e, "--proxy: expected 1 to 8 comma-separated items res:N or sub:K[:T]");
+    for (int i = 0; i < n; i++) {
+        proxy *p = &o->proxies[i];
+        char *end;
+        memset(p, 0, sizeof *p);
+        p->subsample = 1;
+        p->subtile = 8;
+        if (!strncmp(items[i], "res:", 4)) {
+            long v = strtol(items[i] + 4, &end, 10);
+            if (*end || v < 8 || v > 65536) return rt_errf(e, "--proxy: '%s': res:N needs N in 8..65536", items[i]);
+            p->W = (int)v;
+        } else if (!strncmp(items[i], "sub:", 4)) {
+            long k = strtol(items[i] + 4, &end, 10), t = 8;
+            if (*end == ':') t = strtol(end + 1, &end, 10);
+            if (*end || k < 2 || k > 1L << 20 || t < 1 || t > 4096)
+                return rt_errf(e, "--proxy: '%s': sub:K[:T] needs K in 2..1048576 and T in 1..4096", items[i]);
+            p->subsample = (uint32_t)k;
+            p->subtile = (int)t;
+        } else {
+            return rt_errf(e, "--proxy: '%s' is not res:N or sub:K[:T]", items[i]);
+        }
+    }
+    o->nproxies = n;
+    return 0;
+}
+
+/* The render options of job jb (its proxy applied). */
+static rt_render_opts job_opts(const sweep_opts *o, const job *jb)
+{
+    rt_render_opts ro = o->ro;
+    ro.lights = o->lightings[jb->lighting].mask;
+    ro.cache_size = jb->sched ? jb->sched : ro.cache_size;
+    if (jb->proxy >= 0) {
+        const proxy *p = &o->proxies[jb->proxy];
+        if (p->W) {
+            ro.H = (int)(((int64_t)o->ro.H * p->W + o->ro.W / 2) / o->ro.W);
+            ro.W = p->W;
+            if (ro.H < 1) ro.H = 1;
+        }
+        if (p->subsample > 1) {
+            ro.subsample = p->subsample;
+            ro.subtile = p->subtile;
+        }
+    }
+    return ro;
+}
+
 typedef struct worker {
     const sweep_opts *o;
     rt_db *db;
@@ -224,13 +298,14 @@ typedef struct worker {
 static void key_for(const worker *w, const job *jb, char *params, size_t np, rt_db_run *k)
 {
     const sweep_opts *o = w->o;
+    rt_render_opts ro = job_opts(o, jb);
     memset(k, 0, sizeof *k);
     k->scene = w->sc->name;
     k->scene_params = w->sc->params;
     k->scene_hash = w->scene_hash;
     k->tracer = jb->tracer;
-    k->W = o->ro.W;
-    k->H = o->ro.H;
+    k->W = ro.W;
+    k->H = ro.H;
     k->lights = o->lightings[jb->lighting].mask;
     k->cache_size = jb->sched;
     k->gmax = 0;
@@ -241,6 +316,7 @@ static void key_for(const worker *w, const job *jb, char *params, size_t np, rt_
         snprintf(params, np, "packet=%d", o->ro.packet);
     else
         params[0] = 0;
+    rt_subsample_params(&ro, params + strlen(params), np - strlen(params));
     k->params = params;
     k->sim_method = "exact";
     k->sim_params = "";
@@ -274,7 +350,7 @@ static int run_job(worker *w, const job *jb, long index, rt_err *e)
     char aparams[8][128];
     /* approximate methods are compared over several sizes: only for jobs
      * simulated at every size (recursive, packet, --dynamic-all-sizes) */
-    int napprox = jb->sched && !o->dyn_all ? 0 : o->napprox;
+    int napprox = (jb->sched && !o->dyn_all) || jb->proxy >= 0 ? 0 : o->napprox;
     for (int a = 0; a < napprox && has; a++) {
         rt_db_run k = run;
         k.sim_method = rt_approx_method_name(o->approx[a].method);
@@ -289,9 +365,7 @@ static int run_job(worker *w, const job *jb, long index, rt_err *e)
         if (!(w->kd = rt_kd_build(w->sc, &kp, e))) return -1;
     }
     double t0 = rt_now();
-    rt_render_opts ro = o->ro;
-    ro.lights = o->lightings[jb->lighting].mask;
-    ro.cache_size = jb->sched ? jb->sched : ro.cache_size;
+    rt_render_opts ro = job_opts(o, jb);
     rt_sim_config sc = o->sim;
     if (jb->sched && !o->dyn_all) {
         sc.nsizes = 1;
@@ -318,8 +392,9 @@ static int run_job(worker *w, const job *jb, long index, rt_err *e)
     }
     rt_sink *sink = &fn.self;
     if (o->keep) {
-        snprintf(tpath, sizeof tpath, "%s/job%04ld-%s-%s-%s%s%" PRIu64 ".rtt", o->keep, index, o->scenes[jb->scene],
-                 o->lightings[jb->lighting].label, jb->tracer, jb->sched ? "-" : "", jb->sched);
+        snprintf(tpath, sizeof tpath, "%s/job%04ld-%s-%s-%s%s%" PRIu64 "%s.rtt", o->keep, index, o->scenes[jb->scene],
+                 o->lightings[jb->lighting].label, jb->tracer, jb->sched ? "-" : "", jb->sched,
+                 jb->proxy >= 0 ? "-proxy" : "");
         for (char *p = tpath + strlen(o->keep) + 1; *p; p++)
             if (*p == '/' || *p == ':' || *p == ',' || *p == '=') *p = '_';
         rt_tr_meta m;
@@ -375,11 +450,17 @@ done:
 
 static void job_label(const sweep_opts *o, const job *jb, char *buf, size_t n)
 {
+    char px[64] = "";
+    if (jb->proxy >= 0) {
+        const proxy *p = &o->proxies[jb->proxy];
+        if (p->W) snprintf(px, sizeof px, " [res:%d]", p->W);
+        else snprintf(px, sizeof px, " [sub:%u:%d]", (unsigned)p->subsample, p->subtile);
+    }
     if (jb->sched)
-        snprintf(buf, n, "%s %s %s @%" PRIu64 "K", o->scenes[jb->scene], o->lightings[jb->lighting].label, jb->tracer,
-                 jb->sched / 1024);
+        snprintf(buf, n, "%s %s %s @%" PRIu64 "K%s", o->scenes[jb->scene], o->lightings[jb->lighting].label, jb->tracer,
+                 jb->sched / 1024, px);
     else
-        snprintf(buf, n, "%s %s %s", o->scenes[jb->scene], o->lightings[jb->lighting].label, jb->tracer);
+        snprintf(buf, n, "%s %s %s%s", o->scenes[jb->scene], o->lightings[jb->lighting].label, jb->tracer, px);
 }
 
 static int worker_loop(const sweep_opts *o, const job *J, long nj, shared *sh, int tty)
@@ -469,6 +550,7 @@ static int sweep_impl(int argc, char **argv, char **own_lists)
         {"list-jobs", no_argument, NULL, 'P'},
         {"job", required_argument, NULL, 'J'},
         {"approx", required_argument, NULL, 'A'},
+        {"proxy", required_argument, NULL, 'X'},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0},
     };
@@ -556,6 +638,14 @@ static int sweep_impl(int argc, char **argv, char **own_lists)
                 return RT_EXIT_USAGE;
             }
             break;
+        case 'X':
+            free(own_lists[4]);
+            own_lists[4] = strdup(optarg);
+            if (parse_proxies(own_lists[4], &o, &e) < 0) {
+                rt_cmd_error("sweep", "%s", e.msg);
+                return RT_EXIT_USAGE;
+            }
+            break;
         case 'P': o.list = 1; break;
         case 'J': {
             char *end;
@@ -591,6 +681,16 @@ static int sweep_impl(int argc, char **argv, char **own_lists)
         if (!rt_tracer_find(o.tracers[t])) {
             rt_cmd_error("sweep", "--tracers: unknown tracer '%s'", o.tracers[t]);
             return RT_EXIT_USAGE;
+        }
+    for (int p = 0; p < o.nproxies; p++)
+        for (int t = 0; t < o.ntracers; t++) {
+            rt_render_opts ro = o.ro;
+            ro.subsample = o.proxies[p].subsample;
+            ro.subtile = o.proxies[p].subtile;
+            if (rt_check_subsample(&ro, o.tracers[t], &e) < 0) {
+                rt_cmd_error("sweep", "--proxy: %s", e.msg);
+                return RT_EXIT_USAGE;
+            }
         }
     if (parse_lightings(lights_arg ? lights_arg : deflights, &o) < 0) {
         rt_cmd_error("sweep", "--lights: expected a comma list of primary, 0, 1, 2, all");
@@ -714,8 +814,8 @@ static int sweep_impl(int argc, char **argv, char **own_lists)
 
 int main_sweep(int argc, char **argv)
 {
-    char *lists[4] = {NULL, NULL, NULL, NULL};
+    char *lists[5] = {NULL, NULL, NULL, NULL, NULL};
     int rc = sweep_impl(argc, argv, lists);
-    for (int i = 0; i < 4; i++) free(lists[i]);
+    for (int i = 0; i < 5; i++) free(lists[i]);
     return rc;
 }

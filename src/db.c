@@ -79,7 +79,8 @@ static const char schema_sql[] =
     "  SELECT s.name AS scene, r.tracer, r.lights, r.W, r.H, r.sched_cache_size, g.cache_size,\n"
     "    g.geometry_mb, g.ray_mb\n"
     "  FROM v_traffic_group g JOIN runs r ON r.id = g.run_id JOIN scenes s ON s.id = r.scene_id\n"
-    "  WHERE g.line = 64 AND g.assoc = 0 AND g.policy = 'wb-wa' AND r.sim_method = 'exact';\n";
+    "  WHERE g.line = 64 AND g.assoc = 0 AND g.policy = 'wb-wa' AND r.sim_method = 'exact'\n"
+    "    AND r.params NOT LIKE '%subsample=%';\n";
 
 struct rt_db {
     sqlite3 *h;        /* connection */

@@ -852,18 +852,18 @@ static int dyn_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
         if (D.qp[n] >= 0) D.qnode[D.qp[n]] = n;
     for (uint32_t q = 0; q < D.nq; q++) bk_link(&D, q);
     D.tv.mark = D.mark;
-    rt_hilbert_order(o->W, o->H, order);
+    const size_t ntr = rt_pixel_order(o, order); /* traced pixels (all unless subsampling) */
 
     /* generation 0: primary rays */
     D.shadow = 0;
     D.tv.mark_bit = 1;
-    for (size_t k = 0; k < npix; k++) {
+    for (size_t k = 0; k < ntr; k++) {
         RT_REC(D.rec, rt_mm_addr(L, D.reg_ray, order[k]), 32, 0, RT_CLS_RAY);
         start(&D, order[k]);
     }
-    st->rays_primary = npix;
+    st->rays_primary = ntr;
     run_queues(&D);
-    memset(want, 1, npix);
+    for (size_t k = 0; k < ntr; k++) want[order[k]] = 1;
     if (check_generation(&D, want, npix, e) < 0) goto done;
 
     /* shadow generations, one per light, from the light toward the hits */
@@ -873,7 +873,7 @@ static int dyn_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
         if (!(o->lights & (1u << li))) continue;
         D.light = li;
         memset(D.resolved, 0, npix);
-        for (size_t k = 0; k < npix; k++) {
+        for (size_t k = 0; k < ntr; k++) {
             uint32_t pix = order[k];
             want[pix] = 0;
             RT_REC(D.rec, rt_mm_addr(L, D.reg_hits, pix), 24, 0, RT_CLS_HIT);
@@ -894,6 +894,7 @@ static int dyn_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
     for (size_t p = 0; p < npix; p++) {
         float rgb[3];
         rt_ray eye;
+        if (!rt_pixel_kept(o, (int)(p % (size_t)o->W), (int)(p / (size_t)o->W))) continue; /* not traced */
         rt_camera_ray(&D.cam, (int)(p % (size_t)o->W), (int)(p / (size_t)o->W), &eye);
         if (D.hit_tri[p] != RT_NO_HIT) {
             rt_hit h = {D.hit_t[p], D.hit_tri[p], D.hit_u[p], D.hit_v[p]};

@@ -201,6 +201,7 @@ static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_
 
     for (int py = 0; py < H; py += P) {
         for (int px = 0; px < W; px += P) {
+            if (!rt_pixel_kept(o, px, py)) continue; /* subsampling: tiles hold whole packets */
             int pw = W - px < P ? W - px : P, ph = H - py < P ? H - py : P;
             int n = pw * ph;
             /* primary rays */

@@ -39,14 +39,14 @@ static int rec_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
         free(mark);
         return -1;
     }
-    rt_hilbert_order(W, H, order);
+    size_t npix = rt_pixel_order(o, order);
     rt_cam_frame cam;
     rt_cam_setup(&cam, sc, W, H);
     rt_trav tv;
     rt_trav_init(&tv, ctx);
     tv.mark = mark;
 
-    for (size_t k = 0; k < (size_t)W * H; k++) {
+    for (size_t k = 0; k < npix; k++) {
         uint32_t pix = order[k];
         int x = (int)(pix % (uint32_t)W), y = (int)(pix / (uint32_t)W);
         uint64_t n0 = tv.nodes, t0 = tv.tests;

@@ -26,6 +26,7 @@ int rt_job_setup_borrowed(rt_job *j, rt_scene *sc, rt_kdtree *kd, const char *tr
     memset(j, 0, sizeof *j);
     j->tr = rt_tracer_find(tracer);
     if (!j->tr) return rt_errf(e, "unknown tracer '%s'", tracer);
+    if (rt_check_subsample(o, tracer, e) < 0) return -1;
     if (check_opts(o, e) < 0) return -1;
     j->sc = sc;
     j->kd = kd;
@@ -40,6 +41,7 @@ int rt_job_setup(rt_job *j, const char *scene_spec, const char *tracer, const rt
     memset(j, 0, sizeof *j);
     j->tr = rt_tracer_find(tracer);
     if (!j->tr) return rt_errf(e, "unknown tracer '%s'", tracer);
+    if (rt_check_subsample(o, tracer, e) < 0) return -1;
     if (check_opts(o, e) < 0) return -1;
     j->opt = *o;
     j->sc = rt_scene_load(scene_spec, e);
@@ -100,6 +102,7 @@ void rt_job_meta(const rt_job *j, const char *command, rt_tr_meta *m)
     } else if (!strcmp(j->tr->name, "packet")) {
         snprintf(m->params, sizeof m->params, "packet=%d", j->opt.packet);
     }
+    rt_subsample_params(&j->opt, m->params + strlen(m->params), sizeof m->params - strlen(m->params));
     m->layout = j->L;
 }
 

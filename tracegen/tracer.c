@@ -5,9 +5,11 @@
  * bit-identical: they differ only in the order they trace rays.
  */
 #include "tracer.h"
+#include "hilbert.h"
 
 #include <math.h>
 #include <stdlib.h>
+#include <stdio.h>
 #include <string.h>
 
 extern const rt_tracer rt_tracer_recursive;
@@ -39,6 +41,47 @@ void rt_render_default_opts(rt_render_opts *o)
     o->gmax = 0;
     o->qorder = RT_QORDER_FULLEST;
     o->threads = 4;
+    o->subsample = 1;
+    o->subtile = 8;
+}
+
+int rt_pixel_kept(const rt_render_opts *o, int x, int y)
+{
+    if (o->subsample <= 1) return 1;
+    uint64_t t = ((uint64_t)(uint32_t)(x / o->subtile) << 32) | (uint32_t)(y / o->subtile);
+    /* splitmix64 finalizer: tiles are chosen independently of position */
+    t += 0x9e3779b97f4a7c15ULL;
+    t = (t ^ (t >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    t = (t ^ (t >> 27)) * 0x94d049bb133111ebULL;
+    t ^= t >> 31;
+    return t % o->subsample == 0;
+}
+
+size_t rt_pixel_order(const rt_render_opts *o, uint32_t *order)
+{
+    size_t npix = (size_t)o->W * (size_t)o->H, n = 0;
+    rt_hilbert_order(o->W, o->H, order);
+    if (o->subsample <= 1) return npix;
+    for (size_t k = 0; k < npix; k++) {
+        uint32_t p = order[k];
+        if (rt_pixel_kept(o, (int)(p % (uint32_t)o->W), (int)(p / (uint32_t)o->W))) order[n++] = p;
+    }
+    return n;
+}
+
+void rt_subsample_params(const rt_render_opts *o, char *buf, size_t n)
+{
+    if (n) buf[0] = 0;
+    if (o->subsample > 1) snprintf(buf, n, " subsample=%u tile=%d", (unsigned)o->subsample, o->subtile);
+}
+
+int rt_check_subsample(const rt_render_opts *o, const char *tracer, rt_err *e)
+{
+    if (o->subsample < 1 || o->subtile < 1) return rt_errf(e, "subsampling needs K >= 1 and a tile of >= 1 pixel");
+    if (o->subsample > 1 && tracer && !strcmp(tracer, "packet") && o->subtile % o->packet)
+        return rt_errf(e, "packet tracer: subsampling tile %d is not a multiple of the packet edge %d (whole packets "
+                          "are traced or skipped)", o->subtile, o->packet);
+    return 0;
 }
 
 int rt_parse_lights(const char *s, unsigned *mask)

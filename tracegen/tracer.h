@@ -39,9 +39,32 @@ typedef struct rt_render_opts {
     uint64_t gmax;       /* dynamic: explicit geometry budget, 0 = derive */
     int qorder;          /* dynamic: rt_qorder */
     int threads;         /* dynamic: modeled threads (ray buffer = 2 rays each) */
+    uint32_t subsample;  /* reduced experiment: trace 1 in K tiles (1 = all) */
+    int subtile;         /* subsampling tile edge in pixels (default 8) */
 } rt_render_opts;
 
 void rt_render_default_opts(rt_render_opts *o);
+
+/*
+ * Pixel subsampling, a reduced experiment: the image is cut into square
+ * tiles of o->subtile pixels and a tile is traced iff a fixed hash of its
+ * coordinates is 0 mod o->subsample, so about 1/K of the tiles are traced,
+ * the same ones on every machine and for every tracer. Tiles keep the
+ * locality of neighbouring rays (a tile of 8 is one packet, and two rays
+ * per ray-record line); tile 1 samples single pixels. Untraced pixels
+ * keep the image's initial zeros and are never referenced, so their ray
+ * records and framebuffer lines never enter the cache. Traffic of the
+ * full image is estimated as traffic x (pixels / traced pixels).
+ */
+int rt_pixel_kept(const rt_render_opts *o, int x, int y);
+/* Writes the traced pixels (y * W + x) in Hilbert-curve order to order[]
+ * (room for W * H) and returns how many there are. */
+size_t rt_pixel_order(const rt_render_opts *o, uint32_t *order);
+/* Checks subsample/subtile against the tracer (packet tiles must hold
+ * whole packets). */
+/* Appends " subsample=K tile=T" (nothing when K = 1) for run parameters. */
+void rt_subsample_params(const rt_render_opts *o, char *buf, size_t n);
+int rt_check_subsample(const rt_render_opts *o, const char *tracer, rt_err *e);
 
 
 
