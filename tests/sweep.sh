@@ -72,6 +72,25 @@ if [ -n "$tr" ]; then
 else
     echo "FAIL: no trace kept"; fail=1
 fi
+# 8. reduced experiments: --proxy runs res:16 and sub:4 of every job; the
+# report pairs each with its full run and its figures match a direct query
+"$bin" sweep --scenes cornell --lights primary --tracers recursive,dynamic -W 32 -H 32 --sizes 4K,64K \
+    --proxy res:16,sub:4:2 --db "$tmp/p.db" 2>/dev/null || { echo "FAIL: sweep --proxy"; fail=1; }
+n=$(sqlite3 "$tmp/p.db" "SELECT COUNT(*) FROM runs")
+[ "$n" = 9 ] || { echo "FAIL: --proxy stored $n runs, want 3 full + 6 reduced"; fail=1; }
+"$bin" report --db "$tmp/p.db" --speed-error --format csv > "$tmp/p.csv" || { echo "FAIL: report --speed-error on proxies"; fail=1; }
+nr=$(grep -c ',resolution,"16x16 (x4.00)"' "$tmp/p.csv"); ns=$(grep -c ',subsample,"32x32 subsample=4 tile=2' "$tmp/p.csv")
+[ "$nr" = 3 ] && [ "$ns" = 3 ] || { echo "FAIL: want 3 resolution and 3 subsample rows, got $nr and $ns"; cat "$tmp/p.csv"; fail=1; }
+# geometry traffic error (max over sizes, %) of the recursive res:16 proxy, from the tables
+want=$(sqlite3 "$tmp/p.db" "WITH g AS (SELECT r.W, c.size, SUM(t.traffic_bytes) AS b FROM traffic t
+    JOIN runs r ON r.id = t.run_id JOIN cache_configs c ON c.id = t.config_id JOIN classes k ON k.name = t.class
+    WHERE r.tracer = 'recursive' AND r.params = '' AND k.grp = 'geometry' GROUP BY r.W, c.size)
+    SELECT printf('%.3f', MAX(ABS(4.0 * a.b - x.b) * 100.0 / x.b)) FROM g a JOIN g x ON x.size = a.size AND x.W = 32 WHERE a.W = 16")
+got=$(awk -F, '$2 == "recursive" && $7 == "resolution" { print $17 }' "$tmp/p.csv")
+[ -n "$want" ] && [ "$want" = "$got" ] || { echo "FAIL: res:16 geometry traffic error $got%, direct query $want%"; fail=1; }
+"$bin" report --db "$tmp/p.db" --speed-error | grep -q "rays per queue event" || { echo "FAIL: no ray-density table"; fail=1; }
+"$bin" sweep --proxy sub:4:3 --tracers packet --db "$tmp/p.db" >/dev/null 2>&1; [ $? -eq 2 ] || { echo "FAIL: packet tile 3 not a usage error"; fail=1; }
+"$bin" sweep --proxy bogus --db "$tmp/p.db" >/dev/null 2>&1; [ $? -eq 2 ] || { echo "FAIL: bad --proxy not a usage error"; fail=1; }
 # 7. bad input
 "$bin" sweep --preset nope >/dev/null 2>&1; [ $? -eq 2 ] || { echo "FAIL: bad preset not a usage error"; fail=1; }
 "$bin" report --db "$tmp/none.db" >/dev/null 2>&1; [ $? -eq 1 ] || { echo "FAIL: missing db not an error"; fail=1; }
