@@ -24,11 +24,16 @@ db="$out/raytraffic.db"
 # beside the exact one, its tables, the speed-vs-error table and plots.
 "$rt" sweep --preset quick --jobs "$(nproc)" --db "$db" \
     --approx shards:0.01:16K,shards-fixed:16K,statstack:0.01,statstack:0.001
-{ "$rt" report --db "$db" --compare-paper; echo; "$rt" report --db "$db" --speed-error; } > "$out/report.md"
+# Reduced experiments of the primary-ray runs (half resolution, 1 in 4 tiles
+# of 8x8 pixels), compared with the full runs by report --speed-error.
+"$rt" sweep --preset quick --lights primary --jobs "$(nproc)" --db "$db" --proxy res:128,sub:4
 plots="no plots (gnuplot missing)"
+plotarg=()
 if command -v gnuplot >/dev/null 2>&1; then
     "$rt" report --db "$db" --figure scenes --plot "$out/plots" > /dev/null && plots="$out/plots/"
+    plotarg=(--plot "$out/plots")
 fi
+{ "$rt" report --db "$db" --compare-paper; echo; "$rt" report --db "$db" --speed-error "${plotarg[@]}"; } > "$out/report.md"
 "$rt" render sphereflake -W 1024 -H 1024 --lights all -o "$out/sphereflake.exr" --png "$out/sphereflake.png" 2>/dev/null
 cat <<EOT
 
