@@ -39,13 +39,16 @@ struct rt_approx {
     int nexact;                 /* sizes simulated exactly */
     rt_shards *sh;              /* SHARDS estimator, or NULL */
     rt_sstack *ss;              /* StatStack estimator, or NULL */
+    rt_twin *tw;                /* hybrid: windowed sizes nexact..nexact+nwin-1, or NULL */
+    int nwin;                   /* sizes on windows */
     uint64_t acc[RT_NCLASS][2]; /* exact touches by class, write */
     rt_approx_est est;          /* estimates of the last finish */
     int finished;               /* est is valid */
     uint64_t fin_refs;          /* refs at the last finish */
 };
 
-static const char *const method_names[RT_APPROX_NMETHODS] = {"exact", "shards", "shards-fixed", "statstack"};
+static const char *const method_names[RT_APPROX_NMETHODS] = {"exact", "shards", "shards-fixed", "statstack",
+                                                              "hybrid"};
 
 void rt_approx_config_default(rt_approx_config *ac)
 {
@@ -55,6 +58,9 @@ void rt_approx_config_default(rt_approx_config *ac)
     ac->smax = 8192;
     ac->seed = 1;
     ac->exact_below = 0;
+    ac->window_below = RT_APPROX_HYBRID_WINDOW_BELOW;
+    ac->period = RT_APPROX_HYBRID_PERIOD;
+    ac->window = RT_APPROX_HYBRID_WINDOW;
 }
 
 const char *rt_approx_method_name(int method)
@@ -77,6 +83,11 @@ const char *rt_approx_params(const rt_approx_config *ac, char *buf, size_t n)
     case RT_APPROX_STATSTACK:
         snprintf(buf, n, "rate=%.6g seed=%llu exact_below=%llu", ac->rate, (unsigned long long)ac->seed,
                  (unsigned long long)ac->exact_below);
+        break;
+    case RT_APPROX_HYBRID:
+        snprintf(buf, n, "rate=%.6g seed=%llu window_below=%llu period=%llu window=%llu exact_below=%llu", ac->rate,
+                 (unsigned long long)ac->seed, (unsigned long long)ac->window_below, (unsigned long long)ac->period,
+                 (unsigned long long)ac->window, (unsigned long long)ac->exact_below);
         break;
     case RT_APPROX_SHARDS_FIXED:
         snprintf(buf, n, "smax=%llu seed=%llu exact_below=%llu", (unsigned long long)ac->smax,
@@ -104,6 +115,13 @@ int rt_approx_config_check(const rt_sim_config *c, const rt_approx_config *ac, r
     } else if (!(ac->rate >= 0x1p-32 && ac->rate <= 1)) {
         return rt_errf(e, "sampling rate %g out of range (2^-32 .. 1)", ac->rate);
     }
+    if (ac->method == RT_APPROX_HYBRID) {
+        if (ac->window < 1 || ac->period < 2 * ac->window)
+            return rt_errf(e, "hybrid: window %llu must be at least 1 and at most half the period %llu",
+                           (unsigned long long)ac->window, (unsigned long long)ac->period);
+        if (ac->period > (1ULL << 40))
+            return rt_errf(e, "hybrid: period %llu too large", (unsigned long long)ac->period);
+    }
     return 0;
 }
 
@@ -127,14 +145,21 @@ rt_approx *rt_approx_new(const rt_sim_config *c, const rt_approx_config *ac, rt_
         a->exact = rt_sim_new(&ce, e);
         if (!a->exact) goto fail;
     }
-    int ns = c->nsizes - a->nexact;
+    if (ac->method == RT_APPROX_HYBRID) {
+        while (a->nexact + a->nwin < c->nsizes && c->sizes[a->nexact + a->nwin] < ac->window_below) a->nwin++;
+        if (a->nwin) {
+            a->tw = rt_twin_new(c->sizes + a->nexact, a->nwin, c->line, ac->period, ac->window, e);
+            if (!a->tw) goto fail;
+        }
+    }
+    int first = a->nexact + a->nwin, ns = c->nsizes - first;
     if (ns > 0) {
         uint64_t lines[RT_SIM_MAXSIZES];
-        for (int i = 0; i < ns; i++) lines[i] = c->sizes[a->nexact + i] / c->line;
+        for (int i = 0; i < ns; i++) lines[i] = c->sizes[first + i] / c->line;
         if (ac->method == RT_APPROX_STATSTACK) a->ss = rt_sstack_new(lines, ns, c->line, ac->rate, ac->seed, e);
         else
             a->sh = rt_shards_new(lines, ns, c->line, ac->rate, ac->method == RT_APPROX_SHARDS_FIXED ? ac->smax : 0,
-                                  ac->seed, e);
+                                  ac->seed, ac->method == RT_APPROX_HYBRID, e);
         if (!a->ss && !a->sh) goto fail;
     }
     return a;
@@ -149,6 +174,7 @@ void rt_approx_free(rt_approx *a)
     rt_sim_free(a->exact);
     rt_shards_free(a->sh);
     rt_sstack_free(a->ss);
+    rt_twin_free(a->tw);
     free(a);
 }
 
@@ -157,11 +183,26 @@ const rt_approx_config *rt_approx_get_approx_config(const rt_approx *a) { return
 rt_sink *rt_approx_sink(rt_approx *a) { return &a->sink; }
 uint64_t rt_approx_refs(const rt_approx *a) { return a->refs; }
 
+/* Exact touch counts when no sampling estimator runs beside the windows. */
+static void count_touches(rt_approx *a, const rt_access *r, size_t n)
+{
+    rt_approx_lines ln;
+    rt_approx_lines_init(&ln, a->cfg.line);
+    for (size_t i = 0; i < n; i++) {
+        unsigned cls = r[i].cls < RT_NCLASS ? r[i].cls : RT_CLS_FB;
+        uint64_t f = rt_approx_line_of(&ln, r[i].addr);
+        uint64_t l = rt_approx_line_of(&ln, r[i].addr + (r[i].size ? r[i].size : 1) - 1);
+        a->acc[cls][r[i].write ? 1 : 0] += l - f + 1;
+    }
+}
+
 int rt_approx_put(rt_approx *a, const rt_access *acc, size_t n)
 {
     a->refs += n;
     if (a->exact) rt_sim_put(a->exact, acc, n);
+    if (a->tw) rt_twin_put(a->tw, acc, n);
     if (a->sh) rt_shards_put(a->sh, acc, n, a->acc);
+    else if (a->tw) count_touches(a, acc, n); /* no estimator counts them */
     if (a->ss) rt_sstack_put(a->ss, acc, n, a->acc);
     return 0;
 }
@@ -215,8 +256,22 @@ out:
 int rt_approx_finish(rt_approx *a, rt_err *e)
 {
     a->finished = 0;
-    if (a->sh && rt_shards_estimate(a->sh, &a->est, e)) return -1;
+    memset(&a->est, 0, sizeof a->est);
+    if (a->sh) { /* the estimators write from index 0: shift past the windowed sizes */
+        rt_approx_est t;
+        if (rt_shards_estimate(a->sh, &t, e)) return -1;
+        for (int i = 0; i + a->nwin < RT_SIM_MAXSIZES; i++)
+            for (int c = 0; c < RT_NCLASS; c++) {
+                a->est.rm[a->nwin + i][c] = t.rm[i][c];
+                a->est.wm[a->nwin + i][c] = t.wm[i][c];
+                a->est.wb[a->nwin + i][c] = t.wb[i][c];
+            }
+        a->est.sampled_touches = t.sampled_touches;
+        a->est.sampled_lines = t.sampled_lines;
+        a->est.rate = t.rate;
+    }
     if (a->ss && rt_sstack_estimate(a->ss, (const uint64_t(*)[2])a->acc, &a->est, e)) return -1;
+    if (a->tw && rt_twin_estimate(a->tw, (const uint64_t(*)[2])a->acc, &a->est, 0, e)) return -1;
     a->finished = 1;
     a->fin_refs = a->refs;
     return 0;
@@ -236,6 +291,16 @@ int rt_approx_available(const rt_approx *a, int i, rt_err *e)
     if (i < a->nexact) return 1;
     if (!a->finished || a->fin_refs != a->refs)
         return rt_errf(e, "rt_approx_finish was not called after the last references"), 0;
+    if (i < a->nexact + a->nwin) {
+        uint64_t nw, ns, fed;
+        rt_twin_stats(a->tw, &nw, &ns, &fed);
+        if (nw < RT_APPROX_MIN_SAMPLES) {
+            rt_errf(e, "trace too short for windows every %llu references: %llu windows (need %d)",
+                    (unsigned long long)a->ac.period, (unsigned long long)nw, RT_APPROX_MIN_SAMPLES);
+            return 0;
+        }
+        return 1;
+    }
     const char *unit = a->ss ? "sampled references" : "sampled lines";
     if (a->est.sampled_lines < RT_APPROX_MIN_SAMPLES && a->est.rate < 1) {
         if (a->ac.method == RT_APPROX_SHARDS_FIXED)
@@ -321,6 +386,7 @@ void rt_approx_get_stats(const rt_approx *a, rt_approx_stats *st)
     st->sampled_touches = a->est.sampled_touches;
     st->sampled_lines = a->est.sampled_lines;
     st->rate = a->est.rate;
+    if (a->tw) rt_twin_stats(a->tw, &st->windows, &st->short_warmups, &st->window_refs);
 }
 
 size_t rt_approx_db_rows(const rt_approx *a, rt_db_traffic *rows)

@@ -18,7 +18,12 @@
  *                           lines arrive, so memory is bounded;
  *   RT_APPROX_STATSTACK     temporal sampling of reuse times (StatStack,
  *                           Eklov and Hagersten, ISPASS 2010), converted to
- *                           expected stack distances.
+ *                           expected stack distances;
+ *   RT_APPROX_HYBRID        sizes below window_below simulated exactly on
+ *                           evenly spaced windows of the stream, each warmed
+ *                           exactly from the references before it; larger
+ *                           sizes by SHARDS with golden-ratio (stratified)
+ *                           line sampling at a fixed rate.
  *
  * Sizes strictly below ac->exact_below bytes are simulated exactly (the real
  * rt_sim, on every reference, but only for those small sizes). A sampled
@@ -48,7 +53,8 @@ enum {
     RT_APPROX_SHARDS_RATE = 1,
     RT_APPROX_SHARDS_FIXED = 2,
     RT_APPROX_STATSTACK = 3,
-    RT_APPROX_NMETHODS = 4
+    RT_APPROX_HYBRID = 4,
+    RT_APPROX_NMETHODS = 5
 };
 
 /* Fewest sampled lines (SHARDS) or sampled references (StatStack) that give
@@ -61,18 +67,31 @@ typedef struct rt_approx_config {
     uint64_t smax;        /* SHARDS_FIXED: most sampled lines kept (>= RT_APPROX_MIN_SAMPLES) */
     uint64_t seed;        /* hash / PRNG seed; equal seeds give bit-identical estimates */
     uint64_t exact_below; /* sizes (bytes) strictly below this are simulated exactly; 0 = none */
+    uint64_t window_below; /* HYBRID: sizes (bytes) below this (and >= exact_below) on windows */
+    uint64_t period;       /* HYBRID: one window every period references */
+    uint64_t window;       /* HYBRID: references measured per window (1..period) */
 } rt_approx_config;
 
-/* SHARDS_RATE, rate 0.01, smax 8192, seed 1, exact_below 0. */
+/* Defaults of the hybrid method (docs/approx.md has the measurements). */
+#define RT_APPROX_HYBRID_RATE (1.0 / 64)
+#define RT_APPROX_HYBRID_WINDOW_BELOW 32768
+#define RT_APPROX_HYBRID_PERIOD 65536
+#define RT_APPROX_HYBRID_WINDOW 1024
+
+/* SHARDS_RATE, rate 0.01, smax 8192, seed 1, exact_below 0; the hybrid
+ * fields at their defaults (used only by RT_APPROX_HYBRID). */
 void rt_approx_config_default(rt_approx_config *ac);
 
-/* "exact", "shards", "shards-fixed", "statstack"; NULL if out of range. */
+/* "exact", "shards", "shards-fixed", "statstack", "hybrid"; NULL if out of
+ * range. */
 const char *rt_approx_method_name(int method);
 /* Method from its name, or -1. */
 int rt_approx_method_from_name(const char *name);
 
 /* Canonical parameter string for the database's sim_params, e.g.
  * "rate=0.01 seed=1 exact_below=16384" (shards, statstack),
+ * "rate=0.015625 seed=1 window_below=32768 period=65536 window=1024
+ * exact_below=0" (hybrid),
  * "smax=8192 seed=1 exact_below=0" (shards-fixed), "" (exact). Writes at
  * most n bytes (NUL included) into buf and returns buf. */
 const char *rt_approx_params(const rt_approx_config *ac, char *buf, size_t n);
@@ -134,6 +153,9 @@ typedef struct rt_approx_stats {
     uint64_t sampled_touches; /* touches that went to the estimator */
     uint64_t sampled_lines;   /* SHARDS: distinct lines in the sample now; StatStack: sampled references */
     double rate;              /* effective rate (SHARDS_FIXED: the final one) */
+    uint64_t windows;         /* HYBRID: windows measured */
+    uint64_t short_warmups;   /* HYBRID: of which warmed from fewer lines than the largest windowed cache */
+    uint64_t window_refs;     /* HYBRID: references simulated for the windows (warm-up included) */
 } rt_approx_stats;
 void rt_approx_get_stats(const rt_approx *a, rt_approx_stats *st);
 

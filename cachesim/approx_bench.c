@@ -182,6 +182,8 @@ int rt_approx_bench_n(FILE *out, const char *trace_path, uint64_t nrefs, rt_err 
         {RT_APPROX_SHARDS_FIXED, 0, 16384, 0},    {RT_APPROX_SHARDS_FIXED, 0, 16384, 16384},
         {RT_APPROX_STATSTACK, 0.01, 0, 0},        {RT_APPROX_STATSTACK, 0.001, 0, 0},
         {RT_APPROX_STATSTACK, 0.0001, 0, 0},      {RT_APPROX_STATSTACK, 0.001, 0, 16384},
+        {RT_APPROX_HYBRID, 1.0 / 64, 0, 0},       {RT_APPROX_HYBRID, 1.0 / 64, 0, 8192},
+        {RT_APPROX_HYBRID, 1.0 / 128, 0, 0},      {RT_APPROX_HYBRID, 1.0 / 64, 0, 1},
     };
     rt_access *buf = rt_calloc(CHUNK, sizeof *buf, e);
     result *ex = rt_calloc(1, sizeof *ex, e), *r = rt_calloc(1, sizeof *r, e);
@@ -202,7 +204,12 @@ int rt_approx_bench_n(FILE *out, const char *trace_path, uint64_t nrefs, rt_err 
         ac.method = runs[k].method;
         ac.rate = runs[k].rate;
         if (runs[k].smax) ac.smax = runs[k].smax;
-        ac.exact_below = runs[k].exact_below;
+        if (ac.method == RT_APPROX_HYBRID) {
+            /* the last field is window_below for hybrid: 0 = default, 1 = none */
+            if (runs[k].exact_below) ac.window_below = runs[k].exact_below == 1 ? 0 : runs[k].exact_below;
+        } else {
+            ac.exact_below = runs[k].exact_below;
+        }
         if (run(&c, &ac, trace_path, nrefs, buf, r, e)) goto out;
         int nav = 0;
         double sum = 0, mx = 0, tmax[3] = {0, 0, 0};

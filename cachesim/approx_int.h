@@ -66,11 +66,25 @@ static inline double rt_approx_missw(double y, double t)
 typedef struct rt_shards rt_shards;
 /* lines[0..k-1]: sampled sizes in lines, increasing. smax 0 = fixed rate. */
 rt_shards *rt_shards_new(const uint64_t *lines, int k, uint32_t line, double rate, uint64_t smax, uint64_t seed,
-                         rt_err *e);
+                         int golden, rt_err *e);
+/* 1 if this CPU runs the AVX-512 golden filter (RT_NO_SIMD in the
+ * environment turns it off; both give identical results). */
+int rt_shards_simd_available(void);
 void rt_shards_free(rt_shards *s);
 void rt_shards_put(rt_shards *s, const rt_access *a, size_t n, uint64_t acc[RT_NCLASS][2]);
 /* -1 if a table could not grow (out of memory) during put. */
 int rt_shards_estimate(const rt_shards *s, rt_approx_est *est, rt_err *e);
+
+/* ---- time-sampled exact windows (window.c) ---- */
+typedef struct rt_twin rt_twin;
+/* sizes[0..k-1] in bytes, increasing; a window of `window` references
+ * every `period` (period >= window >= 1). */
+rt_twin *rt_twin_new(const uint64_t *sizes, int k, uint32_t line, uint64_t period, uint64_t window, rt_err *e);
+void rt_twin_free(rt_twin *t);
+void rt_twin_put(rt_twin *t, const rt_access *a, size_t n);
+/* Writes sizes off..off+k-1 of est, scaled per class by acc (exact touches). */
+int rt_twin_estimate(const rt_twin *t, const uint64_t acc[RT_NCLASS][2], rt_approx_est *est, int off, rt_err *e);
+void rt_twin_stats(const rt_twin *t, uint64_t *windows, uint64_t *short_warmups, uint64_t *fed);
 
 /* ---- StatStack (statstack.c) ---- */
 typedef struct rt_sstack rt_sstack;

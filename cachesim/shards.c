@@ -67,6 +67,22 @@
  * (fixed size) heap entries <= smax; every live line has h < T and a unique
  * timestamp in 1..now <= fcap; the MRU line (last) is live with ts = now.
  *
+ * GOLDEN (STRATIFIED) SAMPLING. With golden = 1 the decision is instead
+ * L * G + c < T64 (mod 2^64), G = 2^64 / phi (the golden ratio), c =
+ * mix(seed), T64 = R 2^64: a line is sampled iff frac(L / phi + c') < R.
+ * Over a uniform offset each line is sampled with probability exactly R,
+ * so every expectation above still holds, but the multiples of 1/phi are
+ * the most evenly spread sequence mod 1 (three-gap theorem): any run of N
+ * consecutive lines holds N R + O(log N) sampled lines instead of N R +-
+ * sqrt(N R). Ray tracers touch lines in long contiguous runs (ray buffers,
+ * the visible part of a triangle array), so the count of sampled lines per
+ * class -- the main source of SHARDS' error at large caches -- is nearly
+ * exact, and the test is one multiply and one compare per touch (the
+ * seeded mixer is computed only for sampled lines, for the hash table).
+ * Golden sampling is rate-only (no fixed size); put_golden is the
+ * filter, with an AVX-512 version chosen at run time that gives the same
+ * touches in the same order.
+ *
  * WEAK CASES: a few very hot lines (the top of a k-d tree) carry much of the
  * traffic; whether they fall in the sample changes the estimate of small
  * caches by a lot, so small sizes need large R or exact simulation
@@ -78,6 +94,12 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(RT_NO_AVX512)
+#define RT_SHARDS_HAVE_AVX512 1
+#else
+#define RT_SHARDS_HAVE_AVX512 0
+#endif
 
 #define NIL UINT32_MAX
 #define TWO32 4294967296.0
@@ -118,6 +140,9 @@ struct rt_shards {
     uint32_t nheap, heapcap;                        /* entries, allocated */
     uint32_t last;                                  /* slot of the MRU sampled line, or NIL */
     uint64_t last_line;                             /* its line */
+    int golden;                                     /* golden-ratio sampling (rate only) */
+    uint64_t T64, goff;                             /* golden: sample iff L * G + goff < T64; T64 0 = all */
+    int simd;                                       /* golden: the AVX-512 filter may be used */
     double m[2][RT_NCLASS][RT_SIM_MAXSIZES];        /* miss weight / R by write, class, size */
     double wb[RT_NCLASS][RT_SIM_MAXSIZES];          /* write-back weight / R */
     uint64_t sampled_touches;                       /* touches of sampled lines */
@@ -308,8 +333,9 @@ static void shrink(rt_shards *s)
 }
 
 rt_shards *rt_shards_new(const uint64_t *lines, int k, uint32_t line, double rate, uint64_t smax, uint64_t seed,
-                         rt_err *e)
+                         int golden, rt_err *e)
 {
+    if (golden && smax) return rt_errf(e, "shards: golden sampling has a fixed rate, not a fixed size"), NULL;
     rt_shards *s = rt_calloc(1, sizeof *s, e);
     if (!s) return NULL;
     s->k = k;
@@ -321,6 +347,19 @@ rt_shards *rt_shards_new(const uint64_t *lines, int k, uint32_t line, double rat
     set_rate(s, (uint64_t)Td);
     s->smax = smax;
     s->seedmix = rt_approx_mix(seed ^ 0x5851f42d4c957f2dULL);
+    if (golden) {
+        /* T64 = R 2^64 exactly representable for rates 2^-k; the rate is
+         * then T64 / 2^64 (rate 1: T64 = 0 means every line). */
+        s->golden = 1;
+        s->goff = rt_approx_mix(seed ^ 0x9e3779b97f4a7c15ULL);
+        double T = floor(rate * 0x1p64 + 0.5);
+        if (T < 1) T = 1;
+        s->T64 = T >= 0x1p64 ? 0 : (uint64_t)T;
+        s->R = s->T64 ? (double)s->T64 * 0x1p-64 : 1;
+        s->invR = 1 / s->R;
+        for (int i = 0; i < k; i++) s->t[i] = s->R * s->cm1[i];
+        s->simd = rt_shards_simd_available() && !getenv("RT_NO_SIMD");
+    }
     s->freeslot = NIL;
     s->last = NIL;
     s->fcap = 4096;
@@ -413,8 +452,14 @@ static void sample(rt_shards *restrict s, uint64_t L, uint64_t hv, unsigned w, u
     s->last_line = L;
 }
 
+static void put_golden(rt_shards *restrict s, const rt_access *a, size_t n, uint64_t acc[RT_NCLASS][2]);
+
 void rt_shards_put(rt_shards *restrict s, const rt_access *a, size_t n, uint64_t acc[RT_NCLASS][2])
 {
+    if (s->golden) {
+        put_golden(s, a, n, acc);
+        return;
+    }
     for (size_t r = 0; r < n; r++) {
         uint32_t sz = a[r].size ? a[r].size : 1;
         unsigned cls = a[r].cls < RT_NCLASS ? a[r].cls : RT_CLS_FB;
@@ -427,6 +472,142 @@ void rt_shards_put(rt_shards *restrict s, const rt_access *a, size_t n, uint64_t
             if ((hv & 0xffffffffULL) < s->T) sample(s, L, hv, w, cls); /* s->T falls as the sample fills */
         }
     }
+}
+
+/* ---- golden-ratio filter ---- */
+
+#define GOLD 0x9e3779b97f4a7c15ULL
+
+/* One reference, generic: any size, any line. */
+static inline void golden_ref(rt_shards *restrict s, const rt_access *r, uint64_t acc[RT_NCLASS][2])
+{
+    uint32_t sz = r->size ? r->size : 1;
+    unsigned cls = r->cls < RT_NCLASS ? r->cls : RT_CLS_FB;
+    unsigned w = r->write ? 1 : 0;
+    uint64_t first = rt_approx_line_of(&s->ln, r->addr);
+    uint64_t last = rt_approx_line_of(&s->ln, r->addr + sz - 1);
+    acc[cls][w] += last - first + 1;
+    for (uint64_t L = first; L <= last; L++)
+        if (!s->T64 || L * GOLD + s->goff < s->T64) sample(s, L, hash_of(s, L), w, cls);
+}
+
+/* Scalar filter for 64-byte-style power-of-two lines: the common reference
+ * covers one or two lines; anything else takes golden_ref. Counts go to two
+ * interleaved tables so consecutive references of one class do not wait on
+ * each other's store. */
+static void put_golden_scalar(rt_shards *restrict s, const rt_access *a, size_t n, uint64_t acc[RT_NCLASS][2])
+{
+    if (s->ln.shift < 0 || !s->T64) {
+        for (size_t i = 0; i < n; i++) golden_ref(s, &a[i], acc);
+        return;
+    }
+    const int sh = s->ln.shift;
+    const uint64_t T = s->T64, off = s->goff, maxsz = s->ln.line;
+    uint64_t c[2][RT_NCLASS][2];
+    memset(c, 0, sizeof c);
+    for (size_t i = 0; i < n; i++) {
+        const rt_access *r = &a[i];
+        uint64_t f = r->addr >> sh, l = (r->addr + (r->size ? r->size : 1) - 1) >> sh;
+        int odd = (r->size > maxsz) | (r->cls >= RT_NCLASS) | ((f * GOLD + off) < T) | ((l * GOLD + off) < T);
+        if (__builtin_expect(odd, 0)) {
+            golden_ref(s, r, acc);
+            continue;
+        }
+        c[i & 1][r->cls][r->write ? 1 : 0] += 1 + (l - f);
+    }
+    for (int k = 0; k < RT_NCLASS; k++)
+        for (int w = 0; w < 2; w++) acc[k][w] += c[0][k][w] + c[1][k][w];
+}
+
+#if RT_SHARDS_HAVE_AVX512
+#include <immintrin.h>
+
+/* AVX-512 filter: eight references per step. Lanes that need care (a
+ * sampled line, more than two lines, a class out of range) are handled by
+ * golden_ref in lane order, so sampled touches reach sample() in stream
+ * order; the others are counted in packed 8-bit fields (key = class * 2 +
+ * write, three accumulators of eight fields, flushed before a field can
+ * reach 255). Same counts and same sampled touches as the scalar filter. */
+__attribute__((target("avx512f,avx512dq"))) static void put_golden_avx512(rt_shards *restrict s, const rt_access *a,
+                                                                           size_t n, uint64_t acc[RT_NCLASS][2])
+{
+    _Static_assert(sizeof(rt_access) == 16, "rt_access is 16 bytes");
+    const int sh = s->ln.shift;
+    const __m512i vT = _mm512_set1_epi64((long long)s->T64), voff = _mm512_set1_epi64((long long)s->goff),
+                  vG = _mm512_set1_epi64((long long)GOLD), one = _mm512_set1_epi64(1),
+                  lo32 = _mm512_set1_epi64(0xffffffffLL), b8 = _mm512_set1_epi64(0xff),
+                  vmax = _mm512_set1_epi64((long long)s->ln.line), vncls = _mm512_set1_epi64(RT_NCLASS),
+                  seven = _mm512_set1_epi64(7), ieven = _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14),
+                  iodd = _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15);
+    const __m128i vsh = _mm_set_epi64x(0, sh);
+    uint64_t cnt[24] = {0};
+    size_t i = 0;
+    while (i + 8 <= n) {
+        __m512i p0 = _mm512_setzero_si512(), p1 = p0, p2 = p0;
+        uint8_t oddm[120];
+        size_t blk = i, stop = i + 8 * 120; /* at most 2 per step per field: 240 < 256 */
+        if (stop > n) stop = n;
+        for (; i + 8 <= stop; i += 8) {
+            __m512i z0 = _mm512_loadu_si512((const void *)(a + i)), z1 = _mm512_loadu_si512((const void *)(a + i + 4));
+            __m512i addr = _mm512_permutex2var_epi64(z0, ieven, z1), meta = _mm512_permutex2var_epi64(z0, iodd, z1);
+            __m512i size = _mm512_max_epu64(_mm512_and_si512(meta, lo32), one);
+            __m512i f = _mm512_srl_epi64(addr, vsh);
+            __m512i l = _mm512_srl_epi64(_mm512_sub_epi64(_mm512_add_epi64(addr, size), one), vsh);
+            __m512i wr = _mm512_and_si512(_mm512_srli_epi64(meta, 32), b8);
+            __m512i cls = _mm512_and_si512(_mm512_srli_epi64(meta, 40), b8);
+            __mmask8 odd = _mm512_cmpgt_epu64_mask(size, vmax) | _mm512_cmpge_epu64_mask(cls, vncls) |
+                           _mm512_cmplt_epu64_mask(_mm512_add_epi64(_mm512_mullo_epi64(f, vG), voff), vT) |
+                           _mm512_cmplt_epu64_mask(_mm512_add_epi64(_mm512_mullo_epi64(l, vG), voff), vT);
+            /* key = cls * 2 + (write != 0); field (key & 7) of accumulator key >> 3 */
+            __m512i key = _mm512_add_epi64(_mm512_add_epi64(cls, cls),
+                                           _mm512_min_epu64(wr, one));
+            __m512i nt = _mm512_maskz_add_epi64((__mmask8)~odd, _mm512_sub_epi64(l, f), one);
+            __m512i v = _mm512_sllv_epi64(nt, _mm512_slli_epi64(_mm512_and_si512(key, seven), 3));
+            __m512i hi = _mm512_srli_epi64(key, 3);
+            p0 = _mm512_mask_add_epi64(p0, _mm512_cmpeq_epi64_mask(hi, _mm512_setzero_si512()), p0, v);
+            p1 = _mm512_mask_add_epi64(p1, _mm512_cmpeq_epi64_mask(hi, one), p1, v);
+            p2 = _mm512_mask_add_epi64(p2, _mm512_cmpeq_epi64_mask(hi, _mm512_add_epi64(one, one)), p2, v);
+            oddm[(i - blk) / 8] = odd;
+        }
+        /* second pass, out of the vector loop (no calls inside it): the
+         * lanes that need care, in stream order */
+        for (size_t g = 0; g < (i - blk) / 8; g++)
+            for (unsigned odd = oddm[g]; odd; odd &= odd - 1)
+                golden_ref(s, &a[blk + 8 * g + (size_t)__builtin_ctz(odd)], acc);
+        for (int fld = 0; fld < 8; fld++) {
+            __m512i m8 = _mm512_set1_epi64(0xff);
+            cnt[fld] += (uint64_t)_mm512_reduce_add_epi64(_mm512_and_si512(_mm512_srli_epi64(p0, 8 * (unsigned)fld), m8));
+            cnt[8 + fld] +=
+                (uint64_t)_mm512_reduce_add_epi64(_mm512_and_si512(_mm512_srli_epi64(p1, 8 * (unsigned)fld), m8));
+            cnt[16 + fld] +=
+                (uint64_t)_mm512_reduce_add_epi64(_mm512_and_si512(_mm512_srli_epi64(p2, 8 * (unsigned)fld), m8));
+        }
+    }
+    for (int k = 0; k < RT_NCLASS; k++)
+        for (int w = 0; w < 2; w++) acc[k][w] += cnt[2 * k + w];
+    if (i < n) put_golden_scalar(s, a + i, n - i, acc);
+}
+#endif
+
+int rt_shards_simd_available(void)
+{
+#if RT_SHARDS_HAVE_AVX512
+    __builtin_cpu_init();
+    return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq");
+#else
+    return 0;
+#endif
+}
+
+static void put_golden(rt_shards *restrict s, const rt_access *a, size_t n, uint64_t acc[RT_NCLASS][2])
+{
+#if RT_SHARDS_HAVE_AVX512
+    if (s->simd && s->ln.shift >= 0 && s->ln.shift < 64 && s->T64) {
+        put_golden_avx512(s, a, n, acc);
+        return;
+    }
+#endif
+    put_golden_scalar(s, a, n, acc);
 }
 
 int rt_shards_estimate(const rt_shards *s, rt_approx_est *est, rt_err *e)

@@ -40,6 +40,9 @@ void rt_cmd_set_line(int argc, char **argv);
 /* True when argv holds -h or --help anywhere before "--". */
 int rt_cmd_wants_help(int argc, char **argv);
 
+/* A sampling rate: a number in (0, 1] or 1/N ("1/64"). 0 or -1. */
+int rt_cmd_parse_rate(const char *s, double *out);
+
 #endif
 
 /* ---- render options shared by render, trace, bench and sweep ---------- */

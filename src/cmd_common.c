@@ -128,3 +128,19 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         return 0;
     }
 }
+
+int rt_cmd_parse_rate(const char *s, double *out)
+{
+    char *end;
+    double v = strtod(s, &end);
+    if (end == s) return -1;
+    if (*end == '/') {
+        const char *d = end + 1;
+        double q = strtod(d, &end);
+        if (end == d || !(q >= 1)) return -1;
+        v /= q;
+    }
+    if (*end || !(v > 0) || v > 1) return -1;
+    *out = v;
+    return 0;
+}

@@ -40,10 +40,14 @@ static void usage(FILE *f)
             "  --db FILE              store one run per trace in this SQLite database and\n"
             "                         print a one-line summary per trace to stderr\n"
             "  --format F             text | csv | json output when --db is not given\n"
-            "  --method M             exact (default) | shards | shards-fixed | statstack:\n"
-            "                         sampled estimates (docs/approx.md); fully associative\n"
-            "                         write-back write-allocate caches only\n"
-            "  --rate R               sampling rate of shards / statstack (default 0.01)\n"
+            "  --method M             exact (default) | shards | shards-fixed | statstack |\n"
+            "                         hybrid: sampled estimates (docs/approx.md); fully\n"
+            "                         associative write-back write-allocate caches only\n"
+            "  --rate R               sampling rate, a number or 1/N (default 0.01; hybrid:\n"
+            "                         1/64, golden-ratio line sampling)\n"
+            "  --window-below SIZE    hybrid: sizes below SIZE on exact windows (default 32K)\n"
+            "  --period N             hybrid: one window every N references (default 65536)\n"
+            "  --window N             hybrid: references per window (default 1024)\n"
             "  --smax N               sampled lines kept by shards-fixed (default 8192)\n"
             "  --seed S               sampling seed (default 1)\n"
             "  --exact-below SIZE     simulate sizes below SIZE exactly (default 0 = none);\n"
@@ -196,8 +200,9 @@ int main_sim(int argc, char **argv)
     o.din_class = RT_CLS_FB;
     rt_approx_config_default(&o.ac);
     o.ac.method = RT_APPROX_EXACT;
+    int rate_given = 0;
     enum { O_SIZES = 1, O_LINE, O_ASSOC, O_WT, O_NWA, O_INFMT, O_DINCLS, O_DB, O_FMT, O_METHOD, O_RATE, O_SMAX,
-           O_SEED, O_EXACT_BELOW };
+           O_SEED, O_EXACT_BELOW, O_WINDOW_BELOW, O_PERIOD, O_WINDOW };
     static const struct option longopts[] = {
         {"sizes", required_argument, NULL, O_SIZES},
         {"line", required_argument, NULL, O_LINE},
@@ -213,6 +218,9 @@ int main_sim(int argc, char **argv)
         {"smax", required_argument, NULL, O_SMAX},
         {"seed", required_argument, NULL, O_SEED},
         {"exact-below", required_argument, NULL, O_EXACT_BELOW},
+        {"window-below", required_argument, NULL, O_WINDOW_BELOW},
+        {"period", required_argument, NULL, O_PERIOD},
+        {"window", required_argument, NULL, O_WINDOW},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0},
     };
@@ -274,30 +282,33 @@ int main_sim(int argc, char **argv)
         case O_METHOD:
             o.ac.method = rt_approx_method_from_name(optarg);
             if (o.ac.method < 0) {
-                rt_cmd_error("sim", "--method: '%s' is not exact, shards, shards-fixed or statstack", optarg);
+                rt_cmd_error("sim", "--method: '%s' is not exact, shards, shards-fixed, statstack or hybrid", optarg);
                 return RT_EXIT_USAGE;
             }
             break;
-        case O_RATE: {
-            char *end;
-            o.ac.rate = strtod(optarg, &end);
-            if (end == optarg || *end) {
-                rt_cmd_error("sim", "--rate: '%s' is not a number", optarg);
+        case O_RATE:
+            if (rt_cmd_parse_rate(optarg, &o.ac.rate)) {
+                rt_cmd_error("sim", "--rate: '%s' is not a rate in (0, 1] or 1/N", optarg);
                 return RT_EXIT_USAGE;
             }
+            rate_given = 1;
             break;
-        }
         case O_SMAX:
         case O_SEED:
         case O_EXACT_BELOW:
+        case O_WINDOW_BELOW:
+        case O_PERIOD:
+        case O_WINDOW:
             if (rt_parse_size(optarg, &v)) {
-                rt_cmd_error("sim", "--%s: '%s' is not a count", ch == O_SMAX ? "smax" : ch == O_SEED ? "seed" : "exact-below",
-                             optarg);
+                rt_cmd_error("sim", "--%s: '%s' is not a count", longopts[ch - O_SIZES].name, optarg);
                 return RT_EXIT_USAGE;
             }
             if (ch == O_SMAX) o.ac.smax = v;
             else if (ch == O_SEED) o.ac.seed = v;
-            else o.ac.exact_below = v;
+            else if (ch == O_EXACT_BELOW) o.ac.exact_below = v;
+            else if (ch == O_WINDOW_BELOW) o.ac.window_below = v;
+            else if (ch == O_PERIOD) o.ac.period = v;
+            else o.ac.window = v;
             break;
         case 'h': usage(stdout); return RT_EXIT_OK;
         default:
@@ -305,6 +316,7 @@ int main_sim(int argc, char **argv)
             return RT_EXIT_USAGE;
         }
     }
+    if (o.ac.method == RT_APPROX_HYBRID && !rate_given) o.ac.rate = RT_APPROX_HYBRID_RATE;
     if (optind >= argc) {
         rt_cmd_error("sim", "no trace given (see --help)");
         return RT_EXIT_USAGE;

@@ -110,7 +110,8 @@ static void usage(FILE *f)
             "  --approx LIST      also run approximate simulators on the same access stream\n"
             "                     and store them beside the exact runs: comma list of\n"
             "                     shards:RATE[:EXACT_BELOW], shards-fixed:SMAX[:EXACT_BELOW],\n"
-            "                     statstack:RATE[:EXACT_BELOW] (see report --speed-error)\n"
+            "                     statstack:RATE[:EXACT_BELOW], hybrid[:RATE[:WINDOW_BELOW]]\n"
+            "                     (rates as 0.01 or 1/64; see report --speed-error)\n"
             "  --proxy LIST       also run reduced experiments of every job (exact simulation,\n"
             "                     compared with the full run by report --speed-error): comma\n"
             "                     list of res:N (N pixels wide, same aspect) and sub:K[:T]\n"
@@ -218,18 +219,24 @@ static int parse_approx(char *s, sweep_opts *o, rt_err *e)
         char *save = NULL, *m = strtok_r(items[i], ":", &save), *p = strtok_r(NULL, ":", &save),
              *x = strtok_r(NULL, ":", &save);
         int method = m ? rt_approx_method_from_name(m) : -1;
-        if (method <= 0 || !p) return rt_errf(e, "--approx: '%s' is not shards:RATE, shards-fixed:SMAX or statstack:RATE", m ? m : "");
+        if (method <= 0 || (!p && method != RT_APPROX_HYBRID))
+            return rt_errf(e, "--approx: '%s' is not shards:RATE, shards-fixed:SMAX, statstack:RATE or hybrid[:RATE]",
+                           m ? m : "");
         ac->method = method;
-        char *end;
+        if (method == RT_APPROX_HYBRID) ac->rate = RT_APPROX_HYBRID_RATE;
         if (method == RT_APPROX_SHARDS_FIXED) {
             uint64_t v;
             if (rt_parse_size(p, &v) < 0) return rt_errf(e, "--approx: bad sample size '%s'", p);
             ac->smax = v;
-        } else {
-            ac->rate = strtod(p, &end);
-            if (*end || !(ac->rate > 0) || ac->rate > 1) return rt_errf(e, "--approx: bad rate '%s'", p);
+        } else if (p && rt_cmd_parse_rate(p, &ac->rate) < 0) {
+            return rt_errf(e, "--approx: bad rate '%s' (a number in (0, 1] or 1/N)", p);
         }
-        if (x && rt_parse_size(x, &ac->exact_below) < 0) return rt_errf(e, "--approx: bad exact-below size '%s'", x);
+        /* third field: exact-below, or for hybrid the window-below size */
+        uint64_t *third = method == RT_APPROX_HYBRID ? &ac->window_below : &ac->exact_below;
+        if (x && rt_parse_size(x, third) < 0) return rt_errf(e, "--approx: bad size '%s'", x);
+        rt_sim_config dc;
+        rt_sim_config_default(&dc);
+        if (rt_approx_config_check(&dc, ac, e) < 0) return -1;
     }
     o->napprox = n;
     return 0;

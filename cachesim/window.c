@@ -1,0 +1,257 @@
+/*
+ * window.c -- time-sampled exact simulation of small caches: short windows
+ * of the stream simulated exactly, each warmed from the references just
+ * before it (the small-size half of the hybrid method, approx.h).
+ *
+ * WHY. Spatial sampling cannot see a 1 KB cache (16 lines): at rate R it
+ * holds 16 R sampled lines, and the handful of very hot lines (the tree
+ * top) that carry its hits are in or out of the sample by luck. But a small
+ * cache forgets fast: its contents at any moment are fixed by the last few
+ * hundred references. So small caches are simulated exactly, on windows.
+ *
+ * WINDOWS. Window j measures the M references [s_j, s_j + M) with s_j =
+ * (j + 1) P - M (P = period, M = window): the windows are evenly spaced,
+ * at positions fixed in advance, independent of what the stream does.
+ * That matters: starting a window when the warm-up "looks done" (say, at
+ * the miss that fills the stack) starts it inside a burst of misses and
+ * biases the miss ratio up (measured: +0.02 at 4 KB on sphereflake).
+ *
+ * EXACT WARM-UP. LRU's top C entries at time s_j are the C most recently
+ * touched distinct lines before s_j, whatever happened earlier. We keep the
+ * H = min(P - M, 128 C_max) references before s_j, scan them backward
+ * until C_max distinct lines have been seen (C_max = the largest windowed
+ * cache, in lines), and give those lines, least recent first, one touch
+ * each to a fresh exact simulator (rt_msim): at s_j its stack holds exactly
+ * the true top C_max lines in the true order, so every touch of the window
+ * hits or misses exactly as in the full simulation, at every windowed size,
+ * for C_max touches of warm-up instead of the thousands of references the
+ * history spans. If the kept
+ * history holds fewer than C_max distinct lines the warm-up is exact only
+ * when it reaches back to the start of the trace; otherwise the window is
+ * counted as short (stats) and its few unknown lines count as misses.
+ *
+ * DIRTY STATE is approximate: a line the scan saw written starts dirty in
+ * every windowed size (even if a small cache evicted and refetched it since
+ * the write), a line written before the scanned history starts clean.
+ * Misses are exact per window; write-backs of the windowed sizes are not.
+ *
+ * ESTIMATE. Per class, measured misses and write-backs are scaled by
+ * (exact touches of the class in the whole trace) / (its touches inside the
+ * windows): a ratio estimator, so a class that is rare in the windows is
+ * scaled by its own frequency. A class with accesses but none inside any
+ * window is scaled by the overall touch ratio (its measured misses are
+ * then 0). Fewer than RT_APPROX_MIN_SAMPLES windows: no estimate.
+ *
+ * INVARIANTS: pos = references seen; next = s_j of the window in progress
+ * or to come; nhist = references of [next - H, next) kept so far (hist
+ * holds them in order); cur != NULL iff next <= pos < next + M.
+ */
+#include "approx_int.h"
+#include "msim.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+/* History kept per line of the largest windowed cache: the backward scan
+ * needs ~12 references per line on sphereflake at 1024^2 (p99 2.8K for 64
+ * lines, 10.3K for 128); more than that is copied for nothing. */
+#define RT_TWIN_HIST_PER_LINE 128
+
+struct rt_twin {
+    int k;                          /* windowed sizes */
+    uint64_t sizes[RT_SIM_MAXSIZES]; /* bytes */
+    uint32_t line;
+    rt_approx_lines ln;
+    uint64_t cmax;                  /* lines of the largest windowed size */
+    uint64_t P, M, H;               /* period, window, history kept */
+    uint64_t pos;                   /* references seen */
+    uint64_t next;                  /* start of the current / next window */
+    rt_access *hist;                /* the H references before next */
+    uint64_t nhist;                 /* of which kept so far */
+    uint64_t *set;                  /* distinct-line set for the backward scan */
+    uint32_t *setidx;               /* index in stk of each set entry */
+    uint64_t setmask;
+    rt_access *stk;                 /* the lines found, most recent first */
+    rt_msim *cur;                   /* simulator of the window in progress */
+    rt_sim_counts base[RT_SIM_MAXSIZES][RT_NCLASS]; /* its counters at the window start */
+    double rm[RT_SIM_MAXSIZES][RT_NCLASS], wm[RT_SIM_MAXSIZES][RT_NCLASS], wb[RT_SIM_MAXSIZES][RT_NCLASS];
+    uint64_t macc[RT_NCLASS];       /* touches inside windows, by class */
+    uint64_t nwin, nshort, fed;     /* windows done, with short warm-up, references simulated */
+    int oom;
+};
+
+rt_twin *rt_twin_new(const uint64_t *sizes, int k, uint32_t line, uint64_t period, uint64_t window, rt_err *e)
+{
+    if (k < 1 || k > RT_SIM_MAXSIZES) return rt_errf(e, "windows: %d sizes", k), NULL;
+    if (window < 1 || period < window)
+        return rt_errf(e, "windows: window %llu must be 1..period (%llu)", (unsigned long long)window,
+                       (unsigned long long)period),
+               NULL;
+    rt_twin *t = rt_calloc(1, sizeof *t, e);
+    if (!t) return NULL;
+    t->k = k;
+    memcpy(t->sizes, sizes, (size_t)k * sizeof *sizes);
+    t->line = line;
+    rt_approx_lines_init(&t->ln, line);
+    t->cmax = sizes[k - 1] / line;
+    t->P = period;
+    t->M = window;
+    uint64_t hmax = RT_TWIN_HIST_PER_LINE * t->cmax;
+    t->H = period - window < hmax ? period - window : hmax;
+    t->next = period - window;
+    uint64_t ss = 16;
+    while (ss < 4 * t->cmax) ss <<= 1;
+    t->setmask = ss - 1;
+    t->set = rt_calloc(ss, sizeof *t->set, e);
+    t->setidx = rt_calloc(ss, sizeof *t->setidx, e);
+    t->stk = rt_calloc(t->cmax, sizeof *t->stk, e);
+    t->hist = t->H ? rt_calloc(t->H, sizeof *t->hist, e) : NULL;
+    if (!t->set || !t->setidx || !t->stk || (t->H && !t->hist)) {
+        rt_twin_free(t);
+        return NULL;
+    }
+    return t;
+}
+
+void rt_twin_free(rt_twin *t)
+{
+    if (!t) return;
+    rt_msim_free(t->cur);
+    free(t->hist);
+    free(t->set);
+    free(t->setidx);
+    free(t->stk);
+    free(t);
+}
+
+/* Finds line L in the scan set, adding it (with index n) if absent; returns
+ * its index. Slots hold L + 1 (0 = empty). */
+static uint32_t set_find(rt_twin *t, uint64_t L, uint32_t n)
+{
+    uint64_t i = (L * 0x9e3779b97f4a7c15ULL) >> 40 & t->setmask;
+    for (;;) {
+        if (t->set[i] == L + 1) return t->setidx[i];
+        if (!t->set[i]) {
+            t->set[i] = L + 1;
+            t->setidx[i] = n;
+            return n;
+        }
+        i = (i + 1) & t->setmask;
+    }
+}
+
+/* Window start: rebuilds the top of the LRU stack from the history. The
+ * backward scan meets lines in recency order, so the first C_max distinct
+ * lines it meets, replayed least recent first as one touch each, leave the
+ * simulator's stack exactly as the full simulation's top C_max; a line is
+ * replayed as a write (dirty in every size, charged to the writer's class)
+ * if the scan saw it written. */
+static void window_begin(rt_twin *t)
+{
+    rt_err e;
+    t->cur = rt_msim_new(t->sizes, t->k, t->line, &e);
+    if (!t->cur) {
+        t->oom = 1;
+        return;
+    }
+    memset(t->set, 0, (t->setmask + 1) * sizeof *t->set);
+    uint32_t seen = 0;
+    uint64_t s = t->nhist;
+    while (s > 0 && seen < t->cmax) {
+        const rt_access *r = &t->hist[--s];
+        uint64_t f = rt_approx_line_of(&t->ln, r->addr);
+        uint64_t l = rt_approx_line_of(&t->ln, r->addr + (r->size ? r->size : 1) - 1);
+        uint8_t cls = r->cls < RT_NCLASS ? r->cls : RT_CLS_FB;
+        for (uint64_t L = l + 1; L-- > f && seen < t->cmax;) {
+            uint32_t x = set_find(t, L, seen);
+            if (x == seen) { /* new: its most recent touch */
+                t->stk[seen++] = (rt_access){L * t->line, 1, r->write ? 1 : 0, cls};
+            } else if (r->write && !t->stk[x].write) { /* its latest write */
+                t->stk[x].write = 1;
+                t->stk[x].cls = cls;
+            }
+        }
+    }
+    /* the history reaches back to the trace start iff next - nhist == 0 */
+    if (seen < t->cmax && t->next - t->nhist > 0) t->nshort++;
+    for (uint32_t i = seen; i-- > 0;) rt_msim_put(t->cur, &t->stk[i], 1);
+    t->fed += t->nhist - s;
+    for (int i = 0; i < t->k; i++)
+        for (int c = 0; c < RT_NCLASS; c++) rt_msim_get(t->cur, i, c, &t->base[i][c]);
+}
+
+static void window_end(rt_twin *t)
+{
+    for (int c = 0; c < RT_NCLASS; c++) {
+        rt_sim_counts x;
+        for (int i = 0; i < t->k; i++) {
+            rt_msim_get(t->cur, i, c, &x);
+            const rt_sim_counts *b = &t->base[i][c];
+            t->rm[i][c] += (double)(x.read_misses - b->read_misses);
+            t->wm[i][c] += (double)(x.write_misses - b->write_misses);
+            t->wb[i][c] += (double)(x.writebacks - b->writebacks);
+            if (i == 0) t->macc[c] += x.accesses - b->accesses;
+        }
+    }
+    rt_msim_free(t->cur);
+    t->cur = NULL;
+    t->nwin++;
+    t->nhist = 0;
+    t->next += t->P;
+}
+
+void rt_twin_put(rt_twin *t, const rt_access *a, size_t n)
+{
+    if (t->oom) return;
+    uint64_t end = t->pos + n;
+    while (t->pos < end) {
+        uint64_t p = t->pos;
+        if (p < t->next) { /* before the window: keep the last H references */
+            uint64_t stop = end < t->next ? end : t->next, from = p;
+            if (t->H && stop > t->next - t->H) {
+                if (from < t->next - t->H) from = t->next - t->H;
+                memcpy(t->hist + t->nhist, a + (from - (end - n)), (size_t)(stop - from) * sizeof *a);
+                t->nhist += stop - from;
+            }
+            t->pos = stop;
+            continue;
+        }
+        if (!t->cur) {
+            window_begin(t);
+            if (t->oom) return;
+        }
+        uint64_t stop = end < t->next + t->M ? end : t->next + t->M;
+        rt_msim_put(t->cur, a + (p - (end - n)), (size_t)(stop - p));
+        t->fed += stop - p;
+        t->pos = stop;
+        if (stop == t->next + t->M) window_end(t);
+    }
+}
+
+int rt_twin_estimate(const rt_twin *t, const uint64_t acc[RT_NCLASS][2], rt_approx_est *est, int off, rt_err *e)
+{
+    if (t->oom) return rt_errf(e, "windows: out of memory");
+    uint64_t tall = 0, mall = 0;
+    for (int c = 0; c < RT_NCLASS; c++) {
+        tall += acc[c][0] + acc[c][1];
+        mall += t->macc[c];
+    }
+    double g = mall ? (double)tall / (double)mall : 0;
+    for (int c = 0; c < RT_NCLASS; c++) {
+        uint64_t tc = acc[c][0] + acc[c][1];
+        double f = t->macc[c] ? (double)tc / (double)t->macc[c] : g;
+        for (int i = 0; i < t->k; i++) {
+            est->rm[off + i][c] = t->rm[i][c] * f;
+            est->wm[off + i][c] = t->wm[i][c] * f;
+            est->wb[off + i][c] = t->wb[i][c] * f;
+        }
+    }
+    return 0;
+}
+
+void rt_twin_stats(const rt_twin *t, uint64_t *windows, uint64_t *short_warmups, uint64_t *fed)
+{
+    *windows = t->nwin;
+    *short_warmups = t->nshort;
+    *fed = t->fed;
+}
