@@ -55,8 +55,25 @@ echo "not a database" > "$tmp/corrupt.db"
 "$bin" sim --db "$tmp/corrupt.db" "$tmp/cyc.din" 2>"$tmp/err"; st=$?
 [ $st -eq 1 ] && grep -q corrupt.db "$tmp/err" || die "corrupt db: exit $st $(cat "$tmp/err")"
 
+# hybrid: estimates beside the reasons for the sizes it cannot give; the
+# same seed twice gives the same numbers; rates as 1/N
+i=0
+while [ $i -lt 3000 ]; do
+    echo "0 $(printf %x $((65536 + (i * 7919 % 2000) * 64)))"
+    i=$((i + 1))
+done > "$tmp/mix.din"
+"$bin" sim --method hybrid --rate 1/4 --period 64 --window 16 --sizes 1K,2K,64K "$tmp/mix.din" > "$tmp/h1.txt" || die "hybrid exit $?"
+grep -q 'engine hybrid rate=0.25 seed=1 window_below=32768 period=64 window=16' "$tmp/h1.txt" || die "hybrid engine line: $(head -1 "$tmp/h1.txt")"
+grep -Eq '^ +65536 +64 +full fb +3000 ' "$tmp/h1.txt" || die "hybrid 64K row: $(cat "$tmp/h1.txt")"
+grep -Eq '^ +1024 +64 +full fb +3000 ' "$tmp/h1.txt" || die "hybrid windowed 1K row"
+"$bin" sim --method hybrid --rate 0.25 --period 64 --window 16 --sizes 1K,2K,64K "$tmp/mix.din" > "$tmp/h2.txt"
+cmp -s "$tmp/h1.txt" "$tmp/h2.txt" || die "hybrid: same seed, different output"
+"$bin" sim --method hybrid --sizes 1K,64K "$tmp/mix.din" | grep -q '^# 1024: trace too short for windows every 65536 references: 0 windows (need 32)' \
+    || die "hybrid too-short reason"
+
 # usage errors
-for args in "" "--sizes x f" "--assoc zero f" "--format xml f" "--input-format foo f" "--nope f" "--line 0 f"; do
+for args in "" "--sizes x f" "--assoc zero f" "--format xml f" "--input-format foo f" "--nope f" "--line 0 f" \
+    "--method hybrid --rate 2 f" "--method hybrid --rate 1/0 f" "--method hybrid --window 0 f" "--method hybrid --period x f"; do
     # shellcheck disable=SC2086
     "$bin" sim $args >/dev/null 2>&1; st=$?
     [ $st -eq 2 ] || die "usage error '$args' exit $st"

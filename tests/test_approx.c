@@ -14,9 +14,16 @@
  *   - a trace too short for the rate, and a size below the sampling
  *     resolution, give errors, not numbers; bad configurations are refused;
  *     out-of-memory in rt_approx_new fails cleanly;
+ *   - hybrid: at rate 1 without windows it equals rt_sim; the AVX-512 and
+ *     scalar golden-ratio filters give identical counters and samples; each
+ *     window's misses equal the exact simulator's misses over the same
+ *     references (the exact warm-up), so the windowed estimate is the exact
+ *     per-window count scaled per class; golden sampling holds within
+ *     O(log N) of R N lines in any run of N consecutive lines;
  *   - the benchmark runs on a short synthetic trace.
  */
 #include "approx.h"
+#include "approx_int.h"
 #include "sim.h"
 
 #include <math.h>
@@ -291,12 +298,14 @@ static void test_known_curves(void)
                   kind ? "uniform" : "cyclic", (unsigned long long)W, C, mr, want);
         }
         rt_sim_free(s);
-        for (int m = RT_APPROX_SHARDS_RATE; m <= RT_APPROX_STATSTACK; m++) {
+        for (int m = RT_APPROX_SHARDS_RATE; m <= RT_APPROX_HYBRID; m++) {
             for (int r = 0; r < 3; r++) {
                 rt_approx_config ac;
                 rt_approx_config_default(&ac);
                 ac.method = m;
                 ac.rate = rates[r];
+                ac.period = 16384; /* hybrid: 91 windows */
+                if (rates[r] >= 1) ac.window_below = 0; /* rate 1: every size exact */
                 ac.smax = (uint64_t)(W * rates[r]) + 1; /* fixed size: the same share of the lines */
                 if (ac.smax < RT_APPROX_MIN_SAMPLES) ac.smax = RT_APPROX_MIN_SAMPLES;
                 double mean, mx;
@@ -319,6 +328,223 @@ static void test_known_curves(void)
     free(a);
 }
 
+
+static void snapshot(const rt_approx *x, rt_sim_counts *out, int nsizes);
+
+/* ---- hybrid ---- */
+
+static void hybrid_config(rt_approx_config *ac, double rate, uint64_t window_below)
+{
+    rt_approx_config_default(ac);
+    ac->method = RT_APPROX_HYBRID;
+    ac->rate = rate;
+    ac->window_below = window_below;
+}
+
+static void test_hybrid_rate1(void)
+{
+    rt_sim_config c;
+    config(&c, 256 * 1024);
+    size_t n = 300000;
+    rt_access *a = malloc(n * sizeof *a);
+    rng_state = 77;
+    mixed_stream(a, n, 5000);
+    rt_err e = {{0}};
+    rt_sim *s = rt_sim_new(&c, &e);
+    rt_sim_put(s, a, n);
+    rt_approx_config ac;
+    hybrid_config(&ac, 1, 0);
+    rt_approx *x = rt_approx_new(&c, &ac, &e);
+    CHECK(x, "hybrid new: %s", e.msg);
+    for (size_t i = 0; i < n; i += 777) rt_approx_put(x, a + i, n - i < 777 ? n - i : 777);
+    CHECK(rt_approx_finish(x, &e) == 0, "finish: %s", e.msg);
+    compare_exact("hybrid rate 1, no windows", s, x);
+    rt_approx_free(x);
+    rt_sim_free(s);
+
+    rt_sim_config c48;
+    rt_sim_config_default(&c48);
+    c48.line = 48;
+    c48.nsizes = 4;
+    for (int i = 0; i < 4; i++) c48.sizes[i] = 48 * (32ULL << i);
+    s = rt_sim_new(&c48, &e);
+    rt_sim_put(s, a, n);
+    x = rt_approx_new(&c48, &ac, &e);
+    rt_approx_put(x, a, n);
+    rt_approx_finish(x, &e);
+    compare_exact("hybrid rate 1, 48-byte lines", s, x);
+    rt_approx_free(x);
+    rt_sim_free(s);
+    free(a);
+}
+
+/* The vector and scalar filters: same counters, same sampled touches, on a
+ * stream with multi-line references, out-of-range classes and every
+ * alignment, at several rates and batch lengths. */
+static void test_golden_simd(void)
+{
+    rt_sim_config c;
+    config(&c, 4 * 1024 * 1024);
+    size_t n = 200003;
+    rt_access *a = malloc(n * sizeof *a);
+    rng_state = 8;
+    mixed_stream(a, n, 100000);
+    for (size_t i = 0; i < n; i += 97) a[i].cls = 200;  /* counts as fb */
+    for (size_t i = 5; i < n; i += 101) a[i].size = 0; /* counts as 1 byte */
+    for (size_t i = 7; i < n; i += 89) a[i].size = 300;
+    if (!rt_shards_simd_available()) fprintf(stderr, "test_golden_simd: no AVX-512 here, scalar against scalar\n");
+    static const double rates[] = {1.0 / 4, 1.0 / 64, 1e-3};
+    size_t ns = (size_t)c.nsizes * RT_NCLASS;
+    rt_sim_counts *r1 = calloc(ns, sizeof *r1), *r2 = calloc(ns, sizeof *r2);
+    for (int r = 0; r < 3; r++) {
+        rt_approx_stats st[2];
+        for (int pass = 0; pass < 2; pass++) {
+            if (pass) setenv("RT_NO_SIMD", "1", 1);
+            rt_approx_config ac;
+            hybrid_config(&ac, rates[r], 0);
+            rt_err e = {{0}};
+            rt_approx *x = rt_approx_new(&c, &ac, &e);
+            unsetenv("RT_NO_SIMD");
+            for (size_t i = 0, b = 1; i < n; i += b, b = b * 3 % 1000 + 1)
+                rt_approx_put(x, a + i, n - i < b ? n - i : b);
+            CHECK(rt_approx_finish(x, &e) == 0, "finish: %s", e.msg);
+            memset(pass ? r2 : r1, 0, ns * sizeof *r1);
+            snapshot(x, pass ? r2 : r1, c.nsizes);
+            rt_approx_get_stats(x, &st[pass]);
+            rt_approx_free(x);
+        }
+        CHECK(!memcmp(r1, r2, ns * sizeof *r1), "rate %g: vector and scalar filters differ", rates[r]);
+        CHECK(st[0].touches == st[1].touches && st[0].sampled_touches == st[1].sampled_touches &&
+                  st[0].sampled_lines == st[1].sampled_lines,
+              "rate %g: stats differ: touches %llu/%llu sampled %llu/%llu", rates[r],
+              (unsigned long long)st[0].touches, (unsigned long long)st[1].touches,
+              (unsigned long long)st[0].sampled_touches, (unsigned long long)st[1].sampled_touches);
+        CHECK(st[0].sampled_touches > 0 && st[0].sampled_touches < st[0].touches, "rate %g: %llu sampled touches",
+              rates[r], (unsigned long long)st[0].sampled_touches);
+    }
+    free(r1);
+    free(r2);
+    free(a);
+}
+
+/* Golden-ratio sampling is stratified: every run of N consecutive lines
+ * holds R N sampled lines within a few, for any start and seed; a hashed
+ * (Bernoulli) sample would be off by ~sqrt(R N) = 16 here. */
+static void test_golden_stratified(void)
+{
+    rt_sim_config c;
+    rt_sim_config_default(&c);
+    c.nsizes = 1;
+    c.sizes[0] = 1ULL << 30; /* large enough that every sampled line stays */
+    uint64_t N = 1 << 14;
+    rt_access *a = malloc(N * sizeof *a);
+    for (uint64_t seed = 1; seed <= 5; seed++) {
+        uint64_t start = rnd64() >> 30;
+        for (uint64_t i = 0; i < N; i++) a[i] = (rt_access){(start + i) * 64, 8, 0, RT_CLS_RAY};
+        rt_approx_config ac;
+        hybrid_config(&ac, 1.0 / 64, 0);
+        ac.seed = seed;
+        rt_err e = {{0}};
+        rt_approx *x = rt_approx_new(&c, &ac, &e);
+        rt_approx_put(x, a, N);
+        rt_approx_finish(x, &e);
+        rt_approx_stats st;
+        rt_approx_get_stats(x, &st);
+        double want = (double)N / 64;
+        CHECK(fabs((double)st.sampled_lines - want) <= 4, "seed %llu: %llu sampled lines in %llu, expected %g +- 4",
+              (unsigned long long)seed, (unsigned long long)st.sampled_lines, (unsigned long long)N, want);
+        rt_sim_counts q;
+        CHECK(rt_approx_get(x, 0, RT_CLS_RAY, &q, &e) == 0 && llabs((long long)q.read_misses - (long long)N) <= 4 * 64,
+              "seed %llu: cold misses %llu, expected %llu", (unsigned long long)seed,
+              (unsigned long long)q.read_misses, (unsigned long long)N);
+        rt_approx_free(x);
+    }
+    free(a);
+}
+
+/* Each window's counts are the exact simulator's over the same references:
+ * feed rt_sim in pieces cut at the window edges and rebuild the estimate. */
+static void test_windows_exact(void)
+{
+    rt_sim_config c;
+    config(&c, 16 * 1024); /* 1K..16K, all on windows */
+    const uint64_t P = 4096, M = 512;
+    size_t n = 40 * P + 1000;
+    rt_access *a = malloc(n * sizeof *a);
+    rng_state = 31;
+    mixed_stream(a, n, 3000);
+    rt_err e = {{0}};
+    rt_sim *s = rt_sim_new(&c, &e);
+    static double mrm[RT_SIM_MAXSIZES][RT_NCLASS], mwm[RT_SIM_MAXSIZES][RT_NCLASS];
+    uint64_t macc[RT_NCLASS] = {0};
+    memset(mrm, 0, sizeof mrm);
+    memset(mwm, 0, sizeof mwm);
+    uint64_t pos = 0, nwin = 0;
+    for (uint64_t st = P - M; st + M <= n; st += P, nwin++) {
+        rt_sim_put(s, a + pos, (size_t)(st - pos));
+        rt_sim_counts b[RT_SIM_MAXSIZES][RT_NCLASS], x;
+        for (int i = 0; i < c.nsizes; i++)
+            for (int k = 0; k < RT_NCLASS; k++) rt_sim_get(s, i, k, &b[i][k]);
+        rt_sim_put(s, a + st, M);
+        pos = st + M;
+        for (int i = 0; i < c.nsizes; i++)
+            for (int k = 0; k < RT_NCLASS; k++) {
+                rt_sim_get(s, i, k, &x);
+                mrm[i][k] += (double)(x.read_misses - b[i][k].read_misses);
+                mwm[i][k] += (double)(x.write_misses - b[i][k].write_misses);
+                if (i == 0) macc[k] += x.accesses - b[i][k].accesses;
+            }
+    }
+    rt_sim_put(s, a + pos, n - pos);
+    rt_approx_config ac;
+    hybrid_config(&ac, 1.0 / 64, 32768);
+    ac.period = P;
+    ac.window = M;
+    rt_approx *h = rt_approx_new(&c, &ac, &e);
+    CHECK(h, "new: %s", e.msg);
+    for (size_t i = 0; i < n; i += 1500) rt_approx_put(h, a + i, n - i < 1500 ? n - i : 1500);
+    CHECK(rt_approx_finish(h, &e) == 0, "finish: %s", e.msg);
+    rt_approx_stats st;
+    rt_approx_get_stats(h, &st);
+    CHECK(st.windows == nwin && st.short_warmups == 0, "windows %llu (want %llu), short %llu",
+          (unsigned long long)st.windows, (unsigned long long)nwin, (unsigned long long)st.short_warmups);
+    for (int i = 0; i < c.nsizes; i++)
+        for (int k = 0; k < RT_NCLASS; k++) {
+            rt_sim_counts x, q;
+            rt_sim_get(s, i, k, &x);
+            if (!x.accesses) continue;
+            CHECK(rt_approx_get(h, i, k, &q, &e) == 0, "size %d class %d: %s", i, k, e.msg);
+            double f = (double)x.accesses / (double)macc[k];
+            CHECK(q.accesses == x.accesses, "accesses %llu vs %llu", (unsigned long long)q.accesses,
+                  (unsigned long long)x.accesses);
+            CHECK(fabs((double)q.read_misses - mrm[i][k] * f) <= 0.5 + 1e-9 * mrm[i][k] * f &&
+                      fabs((double)q.write_misses - mwm[i][k] * f) <= 0.5 + 1e-9 * mwm[i][k] * f,
+                  "size %llu class %s: estimate %llu/%llu, exact windows scaled %.1f/%.1f",
+                  (unsigned long long)c.sizes[i], rt_class_name(k), (unsigned long long)q.read_misses,
+                  (unsigned long long)q.write_misses, mrm[i][k] * f, mwm[i][k] * f);
+        }
+    /* fewer than RT_APPROX_MIN_SAMPLES windows: no number, a reason */
+    rt_approx_free(h);
+    ac.period = 65536;
+    ac.window = 1024;
+    h = rt_approx_new(&c, &ac, &e);
+    rt_approx_put(h, a, n);
+    rt_approx_finish(h, &e);
+    rt_sim_counts q;
+    CHECK(rt_approx_get(h, 0, RT_CLS_NODE, &q, &e) == -1 &&
+              strstr(e.msg, "trace too short for windows every 65536 references: 2 windows (need 32)"),
+          "too few windows: '%s'", e.msg);
+    rt_approx_free(h);
+    /* bad window geometry */
+    ac.window = 40000;
+    CHECK(!rt_approx_new(&c, &ac, &e) && strstr(e.msg, "half the period"), "window > period / 2: '%s'", e.msg);
+    ac.window = 0;
+    CHECK(!rt_approx_new(&c, &ac, &e), "window 0 accepted");
+    rt_sim_free(s);
+    free(a);
+}
+
+
 static void snapshot(const rt_approx *x, rt_sim_counts *out, int nsizes)
 {
     for (int i = 0; i < nsizes; i++)
@@ -335,11 +561,12 @@ static void test_determinism(void)
     mixed_stream(a, n, 40000);
     size_t ns = (size_t)c.nsizes * RT_NCLASS;
     rt_sim_counts *r1 = calloc(ns, sizeof *r1), *r2 = calloc(ns, sizeof *r2);
-    for (int m = RT_APPROX_SHARDS_RATE; m <= RT_APPROX_STATSTACK; m++) {
+    for (int m = RT_APPROX_SHARDS_RATE; m <= RT_APPROX_HYBRID; m++) {
         rt_approx_config ac;
         rt_approx_config_default(&ac);
         ac.method = m;
         ac.rate = 0.02;
+        ac.period = 8192; /* hybrid: 48 windows */
         ac.smax = 512;
         ac.seed = 1234;
         for (int pass = 0; pass < 3; pass++) {
@@ -428,7 +655,7 @@ static void test_errors(void)
     rt_approx_free(NULL);
 
     /* out of memory in rt_approx_new: every failure point fails cleanly */
-    for (int m = RT_APPROX_EXACT; m <= RT_APPROX_STATSTACK; m++) {
+    for (int m = RT_APPROX_EXACT; m <= RT_APPROX_HYBRID; m++) {
         rt_approx_config_default(&ac);
         ac.method = m;
         ac.exact_below = 8192;
@@ -461,6 +688,10 @@ int main(void)
     test_exact_below_and_replay();
     test_known_curves();
     test_determinism();
+    test_hybrid_rate1();
+    test_golden_simd();
+    test_golden_stratified();
+    test_windows_exact();
     test_errors();
     test_bench();
     if (failures) {
