@@ -123,6 +123,15 @@ static void print_results_approx(FILE *f, int fmt, const char *trace, const rt_a
         fprintf(f, "# %s: %llu references, policy %s, engine %s %s\n", trace,
                 (unsigned long long)rt_approx_refs(ap), rt_sim_policy_name(c),
                 rt_approx_method_name(rt_approx_get_approx_config(ap)->method), params);
+        rt_approx_stats st;
+        rt_approx_get_stats(ap, &st);
+        fprintf(f, "# sample: %llu of %llu line touches (%llu lines, rate %.6g)", (unsigned long long)st.sampled_touches,
+                (unsigned long long)st.touches, (unsigned long long)st.sampled_lines, st.rate);
+        if (rt_approx_get_approx_config(ap)->method == RT_APPROX_HYBRID)
+            fprintf(f, "; %llu windows, %llu with a short warm-up, %llu references scanned or simulated for them",
+                    (unsigned long long)st.windows, (unsigned long long)st.short_warmups,
+                    (unsigned long long)st.window_refs);
+        fputc('\n', f);
         fprintf(f, "%12s %5s %5s %-9s %14s %12s %12s %12s %12s %16s\n", "size_bytes", "line", "assoc", "class",
                 "accesses", "read_misses", "write_misses", "writebacks", "wt_bytes", "traffic_bytes");
     }

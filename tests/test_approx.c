@@ -618,6 +618,24 @@ static void test_errors(void)
         CHECK(strstr(e.msg, "trace too short for rate 0.0001"), "too-short message '%s'", e.msg);
         rt_approx_free(x);
     }
+    /* hybrid at the smallest rates: the SHARDS sizes say "too short", the
+     * windowed ones "too few windows"; no number, no division by zero */
+    for (int r = 0; r < 2; r++) {
+        ac.method = RT_APPROX_HYBRID;
+        ac.rate = r ? 0x1p-32 : 1e-4;
+        rt_approx *x = rt_approx_new(&c, &ac, &e);
+        CHECK(x, "hybrid rate %g: %s", ac.rate, e.msg);
+        rt_approx_put(x, a, n);
+        CHECK(rt_approx_finish(x, &e) == 0, "finish: %s", e.msg);
+        rt_sim_counts q;
+        CHECK(rt_approx_get(x, 12, RT_CLS_TRI, &q, &e) == -1 && strstr(e.msg, "trace too short for rate"),
+              "hybrid rate %g: '%s'", ac.rate, e.msg);
+        CHECK(rt_approx_get(x, 0, RT_CLS_TRI, &q, &e) == -1 && strstr(e.msg, "trace too short for windows"),
+              "hybrid windows: '%s'", e.msg);
+        rt_approx_free(x);
+    }
+    rt_approx_config_default(&ac);
+
     /* resolution: 1K at rate 0.01 is 0.16 sampled lines */
     ac.method = RT_APPROX_SHARDS_RATE;
     ac.rate = 0.01;
