@@ -156,11 +156,13 @@ static void window_begin(rt_twin *t)
     }
     memset(t->set, 0, (t->setmask + 1) * sizeof *t->set);
     uint32_t seen = 0;
-    uint64_t s = t->nhist;
+    uint64_t s = t->nhist, prev = UINT64_MAX;
     while (s > 0 && seen < t->cmax) {
         const rt_access *r = &t->hist[--s];
         uint64_t f = rt_approx_line_of(&t->ln, r->addr);
         uint64_t l = rt_approx_line_of(&t->ln, r->addr + (r->size ? r->size : 1) - 1);
+        if (f == l && f == prev && !r->write) continue; /* a read of the line just met: nothing new */
+        prev = f;
         uint8_t cls = r->cls < RT_NCLASS ? r->cls : RT_CLS_FB;
         for (uint64_t L = l + 1; L-- > f && seen < t->cmax;) {
             uint32_t x = set_find(t, L, seen);
