@@ -102,6 +102,67 @@ typedef struct acc {
 
 static int report_proxies(sqlite3 *h, int csv, FILE *dat);
 
+/* Plot series: one per method and parameter set (approximate runs) or per
+ * kind of reduced experiment; a point's series index is the dat file's
+ * last column. */
+#define MAX_SERIES 24
+static char series[MAX_SERIES][128];
+static int nseries;
+
+static int series_id(const char *label)
+{
+    for (int i = 0; i < nseries; i++)
+        if (!strcmp(series[i], label)) return i;
+    if (nseries == MAX_SERIES) return MAX_SERIES - 1; /* the last one takes the rest */
+    snprintf(series[nseries], sizeof series[nseries], "%s", label);
+    return nseries++;
+}
+
+/* "hybrid rate=0.015625 window_below=8192": the parameters without the
+ * defaults every run shares. */
+static int approx_series(const char *method, const char *params)
+{
+    static const char *const skip[] = {"seed=1", "exact_below=0", "period=65536", "window=1024"};
+    char lab[128];
+    size_t n = (size_t)snprintf(lab, sizeof lab, "%s", method);
+    const char *q = params ? params : "";
+    while (*q && n + 2 < sizeof lab) {
+        size_t len = strcspn(q, " ");
+        int keep = 1;
+        for (size_t k = 0; k < sizeof skip / sizeof skip[0]; k++)
+            if (len == strlen(skip[k]) && !strncmp(q, skip[k], len)) keep = 0;
+        if (keep && len) n += (size_t)snprintf(lab + n, sizeof lab - n, " %.*s", (int)len, q);
+        q += len;
+        while (*q == ' ') q++;
+    }
+    return series_id(lab);
+}
+
+/* Writes the gnuplot script beside the data and runs it: miss-ratio error
+ * against speedup, geometry and ray side by side, one colour per series. */
+static void plot_speed_error(const char *plotdir, const char *datpath)
+{
+    char gpath[4096];
+    snprintf(gpath, sizeof gpath, "%s/speed-error.gp", plotdir);
+    FILE *g = fopen(gpath, "w");
+    if (!g) return;
+    fprintf(g, "set terminal pngcairo size 1200,640 noenhanced\nset output '%s/speed-error.png'\n", plotdir);
+    fprintf(g, "array L[%d]\n", nseries ? nseries : 1);
+    for (int i = 0; i < nseries; i++) fprintf(g, "L[%d] = \"%s\"\n", i + 1, series[i]);
+    fprintf(g, "set multiplot layout 1,2\nset logscale xy\nset grid\nset xlabel 'speedup over exact'\n"
+               "set bmargin at screen 0.24\nset key at screen 0.5, screen 0.03 center bottom horizontal maxrows 3 "
+               "font ',9'\nset ylabel 'geometry: mean abs miss-ratio error'\n"
+               "plot for [i=1:%d] '%s' u ($5==i-1?$2:1/0):3 w p pt 7 ps 0.8 t L[i]\n"
+               "unset key\nset ylabel 'ray: mean abs miss-ratio error'\n"
+               "plot for [i=1:%d] '%s' u ($5==i-1?$2:1/0):4 w p pt 7 ps 0.8\nunset multiplot\n",
+            nseries ? nseries : 1, datpath, nseries ? nseries : 1, datpath);
+    fclose(g);
+    const char *gp = GNUPLOT_PATH[0] ? GNUPLOT_PATH : "gnuplot";
+    char cmd[8400];
+    snprintf(cmd, sizeof cmd, "'%s' '%s' >/dev/null 2>&1", gp, gpath);
+    if (system(cmd) == 0) fprintf(stderr, "wrote %s/speed-error.png\n", plotdir);
+}
+
 int rt_report_speed_error(sqlite3 *h, int csv, const char *plotdir)
 {
     sqlite3_stmt *st;
@@ -115,7 +176,8 @@ int rt_report_speed_error(sqlite3 *h, int csv, const char *plotdir)
         mkdir(plotdir, 0777);
         snprintf(datpath, sizeof datpath, "%s/speed-error.dat", plotdir);
         dat = fopen(datpath, "w");
-        if (dat) fprintf(dat, "# method speedup geom_mean_abs_mr_err ray_mean_abs_mr_err\n");
+        if (dat) fprintf(dat, "# run speedup geom_mean_abs_mr_err ray_mean_abs_mr_err series\n");
+        nseries = 0;
     }
     if (csv)
         printf("scene,tracer,W,H,lights,sched,method,params,run,exact_run,seconds,exact_seconds,speedup,"
@@ -133,6 +195,7 @@ int rt_report_speed_error(sqlite3 *h, int csv, const char *plotdir)
     char hdr[1024] = "";
     double secs = 0, xsecs = 0;
     long xid = 0;
+    int series_cur = 0;
     acc A[2];
     memset(A, 0, sizeof A);
     int rc;
@@ -152,8 +215,8 @@ int rt_report_speed_error(sqlite3 *h, int csv, const char *plotdir)
                        G->n ? G->rel_sum / G->n : NAN, G->rel_max, Y->n ? Y->mr_sum / Y->n : NAN, Y->mr_max,
                        Y->n ? Y->rel_sum / Y->n : NAN, Y->rel_max);
             if (dat)
-                fprintf(dat, "\"%s\" %.4f %.6f %.6f\n", hdr, sp, G->n ? G->mr_sum / G->n : NAN,
-                        Y->n ? Y->mr_sum / Y->n : NAN);
+                fprintf(dat, "\"%s\" %.4f %.6f %.6f %d\n", hdr, sp, G->n ? G->mr_sum / G->n : NAN,
+                        Y->n ? Y->mr_sum / Y->n : NAN, series_cur);
             rows++;
             memset(A, 0, sizeof A);
         }
@@ -168,6 +231,7 @@ int rt_report_speed_error(sqlite3 *h, int csv, const char *plotdir)
             const char *xs = (const char *)sqlite3_column_text(st, 18), *q = xs ? strstr(xs, "sim_seconds=") : NULL;
             if (q && (q == xs || q[-1] == ' ')) xsecs = strtod(q + 12, NULL);
             const char *m = (const char *)sqlite3_column_text(st, 6), *p = (const char *)sqlite3_column_text(st, 7);
+            if (dat) series_cur = approx_series(m, p);
             if (csv)
                 snprintf(hdr, sizeof hdr, "%s,%s,%d,%d,%d,%lld,%s,\"%s\"", sqlite3_column_text(st, 0),
                          sqlite3_column_text(st, 1), sqlite3_column_int(st, 2), sqlite3_column_int(st, 3),
@@ -202,14 +266,7 @@ int rt_report_speed_error(sqlite3 *h, int csv, const char *plotdir)
     }
     if (dat) {
         fclose(dat);
-        const char *gp = GNUPLOT_PATH[0] ? GNUPLOT_PATH : "gnuplot";
-        char cmd[8192];
-        snprintf(cmd, sizeof cmd,
-                 "'%s' -e \"set terminal pngcairo size 800,500; set output '%s/speed-error.png'; set logscale xy; set "
-                 "xlabel 'speedup over exact'; set ylabel 'mean abs miss-ratio error'; set grid; plot '%s' u 2:3 w p "
-                 "pt 7 t 'geometry', '' u 2:4 w p pt 5 t 'ray'\" >/dev/null 2>&1",
-                 gp, plotdir, datpath);
-        if (system(cmd) == 0) fprintf(stderr, "wrote %s/speed-error.png\n", plotdir);
+        plot_speed_error(plotdir, datpath);
     }
     return 0;
 }
@@ -217,6 +274,7 @@ int rt_report_speed_error(sqlite3 *h, int csv, const char *plotdir)
 /* One finished (proxy, reference) pair. */
 typedef struct ppair {
     char hdr[512], desc[128];
+    int series; /* plot series: "reduced sub:K" or "reduced WxH" */
     long id, xid;
     double secs, xsecs, scale, dens, xdens;
     acc A[2];
@@ -236,8 +294,8 @@ static void proxy_row(const ppair *p, int csv, FILE *dat)
                G->n ? G->rel_sum / G->n : NAN, G->rel_max, Y->n ? Y->mr_sum / Y->n : NAN, Y->mr_max,
                Y->n ? Y->rel_sum / Y->n : NAN, Y->rel_max);
     if (dat)
-        fprintf(dat, "\"%s\" %.4f %.6f %.6f\n", p->desc, sp, G->n ? G->mr_sum / G->n : NAN,
-                Y->n ? Y->mr_sum / Y->n : NAN);
+        fprintf(dat, "\"%s\" %.4f %.6f %.6f %d\n", p->desc, sp, G->n ? G->mr_sum / G->n : NAN,
+                Y->n ? Y->mr_sum / Y->n : NAN, p->series);
 }
 
 static int report_proxies(sqlite3 *h, int csv, FILE *dat)
@@ -292,10 +350,15 @@ static int report_proxies(sqlite3 *h, int csv, FILE *dat)
             int W = sqlite3_column_int(st, 2), H = sqlite3_column_int(st, 3);
             const char *params = (const char *)sqlite3_column_text(st, 6), *sub = params ? strstr(params, "subsample=") : NULL;
             const char *method = sub ? "subsample" : "resolution";
-            if (sub)
+            char lab[64];
+            if (sub) {
                 snprintf(cur.desc, sizeof cur.desc, "%dx%d %s (x%.2f)", W, H, sub, cur.scale);
-            else
+                snprintf(lab, sizeof lab, "reduced sub:%ld", strtol(sub + 10, NULL, 10));
+            } else {
                 snprintf(cur.desc, sizeof cur.desc, "%dx%d (x%.2f)", W, H, cur.scale);
+                snprintf(lab, sizeof lab, "reduced resolution (1/%.0f of the pixels)", cur.scale);
+            }
+            cur.series = series_id(lab);
             if (csv)
                 snprintf(cur.hdr, sizeof cur.hdr, "%s,%s,%d,%d,%d,%lld,%s,\"%s\"", sqlite3_column_text(st, 0),
                          sqlite3_column_text(st, 1), W, H, sqlite3_column_int(st, 4),
