@@ -100,6 +100,26 @@ static void compare_exact(const char *what, const rt_sim *s, const rt_approx *a)
         }
 }
 
+/* An estimator against rt_sim with 48-byte lines (not a power of two). */
+static void compare_exact_48(const char *what, const rt_access *a, size_t n, const rt_approx_config *ac)
+{
+    rt_sim_config c48;
+    rt_sim_config_default(&c48);
+    c48.line = 48;
+    c48.nsizes = 4;
+    for (int i = 0; i < 4; i++) c48.sizes[i] = 48 * (32ULL << i);
+    rt_err e = {{0}};
+    rt_sim *s = rt_sim_new(&c48, &e);
+    rt_sim_put(s, a, n);
+    rt_approx *x = rt_approx_new(&c48, ac, &e);
+    CHECK(x, "%s: %s", what, e.msg);
+    rt_approx_put(x, a, n);
+    rt_approx_finish(x, &e);
+    compare_exact(what, s, x);
+    rt_approx_free(x);
+    rt_sim_free(s);
+}
+
 static void test_rate1_exact(void)
 {
     rt_sim_config c;
@@ -151,21 +171,9 @@ static void test_rate1_exact(void)
     rt_sim_free(s);
 
     /* a line size that is not a power of two */
-    rt_sim_config c48;
-    rt_sim_config_default(&c48);
-    c48.line = 48;
-    c48.nsizes = 4;
-    for (int i = 0; i < 4; i++) c48.sizes[i] = 48 * (32ULL << i);
-    s = rt_sim_new(&c48, &e);
-    rt_sim_put(s, a, n);
     rt_approx_config_default(&ac);
     ac.rate = 1;
-    x = rt_approx_new(&c48, &ac, &e);
-    rt_approx_put(x, a, n);
-    rt_approx_finish(x, &e);
-    compare_exact("shards rate 1, 48-byte lines", s, x);
-    rt_approx_free(x);
-    rt_sim_free(s);
+    compare_exact_48("shards rate 1, 48-byte lines", a, n, &ac);
     free(a);
 }
 
@@ -362,19 +370,7 @@ static void test_hybrid_rate1(void)
     rt_approx_free(x);
     rt_sim_free(s);
 
-    rt_sim_config c48;
-    rt_sim_config_default(&c48);
-    c48.line = 48;
-    c48.nsizes = 4;
-    for (int i = 0; i < 4; i++) c48.sizes[i] = 48 * (32ULL << i);
-    s = rt_sim_new(&c48, &e);
-    rt_sim_put(s, a, n);
-    x = rt_approx_new(&c48, &ac, &e);
-    rt_approx_put(x, a, n);
-    rt_approx_finish(x, &e);
-    compare_exact("hybrid rate 1, 48-byte lines", s, x);
-    rt_approx_free(x);
-    rt_sim_free(s);
+    compare_exact_48("hybrid rate 1, 48-byte lines", a, n, &ac);
     free(a);
 }
 
