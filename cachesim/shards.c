@@ -532,11 +532,12 @@ __attribute__((target("avx512f,avx512dq"))) static void put_golden_avx512(rt_sha
                                                                            size_t n, uint64_t acc[RT_NCLASS][2])
 {
     _Static_assert(sizeof(rt_access) == 16, "rt_access is 16 bytes");
+    _Static_assert(RT_CLS_FB == RT_NCLASS - 1, "out-of-range classes clamp to the framebuffer");
     const int sh = s->ln.shift;
     const __m512i vT = _mm512_set1_epi64((long long)s->T64), voff = _mm512_set1_epi64((long long)s->goff),
                   vG = _mm512_set1_epi64((long long)GOLD), one = _mm512_set1_epi64(1),
                   lo32 = _mm512_set1_epi64(0xffffffffLL), b8 = _mm512_set1_epi64(0xff),
-                  vmax = _mm512_set1_epi64((long long)s->ln.line), vncls = _mm512_set1_epi64(RT_NCLASS),
+                  vmax = _mm512_set1_epi64((long long)s->ln.line), vfb = _mm512_set1_epi64(RT_CLS_FB),
                   seven = _mm512_set1_epi64(7), ieven = _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14),
                   iodd = _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15);
     const __m128i vsh = _mm_set_epi64x(0, sh);
@@ -554,14 +555,19 @@ __attribute__((target("avx512f,avx512dq"))) static void put_golden_avx512(rt_sha
             __m512i f = _mm512_srl_epi64(addr, vsh);
             __m512i l = _mm512_srl_epi64(_mm512_sub_epi64(_mm512_add_epi64(addr, size), one), vsh);
             __m512i wr = _mm512_and_si512(_mm512_srli_epi64(meta, 32), b8);
-            __m512i cls = _mm512_and_si512(_mm512_srli_epi64(meta, 40), b8);
-            __mmask8 odd = _mm512_cmpgt_epu64_mask(size, vmax) | _mm512_cmpge_epu64_mask(cls, vncls) |
-                           _mm512_cmplt_epu64_mask(_mm512_add_epi64(_mm512_mullo_epi64(f, vG), voff), vT) |
-                           _mm512_cmplt_epu64_mask(_mm512_add_epi64(_mm512_mullo_epi64(l, vG), voff), vT);
+            /* classes out of range count as the framebuffer, the last class */
+            __m512i cls = _mm512_min_epu64(_mm512_and_si512(_mm512_srli_epi64(meta, 40), b8), vfb);
+            /* a reference of at most one line covers f or f, f + 1: the hash
+             * of l is that of f plus G when it crosses (wider ones are odd) */
+            __m512i d = _mm512_sub_epi64(l, f);
+            __m512i hf = _mm512_add_epi64(_mm512_mullo_epi64(f, vG), voff);
+            __m512i hl = _mm512_mask_add_epi64(hf, _mm512_test_epi64_mask(d, d), hf, vG);
+            __mmask8 odd = _mm512_cmpgt_epu64_mask(size, vmax) | _mm512_cmplt_epu64_mask(hf, vT) |
+                           _mm512_cmplt_epu64_mask(hl, vT);
             /* key = cls * 2 + (write != 0); field (key & 7) of accumulator key >> 3 */
             __m512i key = _mm512_add_epi64(_mm512_add_epi64(cls, cls),
                                            _mm512_min_epu64(wr, one));
-            __m512i nt = _mm512_maskz_add_epi64((__mmask8)~odd, _mm512_sub_epi64(l, f), one);
+            __m512i nt = _mm512_maskz_add_epi64((__mmask8)~odd, d, one);
             __m512i v = _mm512_sllv_epi64(nt, _mm512_slli_epi64(_mm512_and_si512(key, seven), 3));
             __m512i hi = _mm512_srli_epi64(key, 3);
             p0 = _mm512_mask_add_epi64(p0, _mm512_cmpeq_epi64_mask(hi, _mm512_setzero_si512()), p0, v);
