@@ -138,6 +138,61 @@ static int approx_series(const char *method, const char *params)
     return series_id(lab);
 }
 
+/* Summary per scene and method/parameters over the runs (tracers, lights). */
+#define MAX_SUMM 256
+typedef struct summ {
+    char scene[64], method[32], params[192];
+    int n;
+    double secs, xsecs;       /* summed over the runs */
+    double mr_mean[2], mr_max[2], rel_mean[2], rel_max[2]; /* geometry, ray: mean of the runs' means, max of maxima */
+} summ;
+static summ summs[MAX_SUMM];
+static int nsumm;
+
+static void summ_add(const char *scene, const char *method, const char *params, double secs, double xsecs,
+                     const acc *A)
+{
+    summ *u = NULL;
+    for (int i = 0; i < nsumm && !u; i++)
+        if (!strcmp(summs[i].scene, scene) && !strcmp(summs[i].method, method) && !strcmp(summs[i].params, params))
+            u = &summs[i];
+    if (!u) {
+        if (nsumm == MAX_SUMM) return;
+        u = &summs[nsumm++];
+        memset(u, 0, sizeof *u);
+        snprintf(u->scene, sizeof u->scene, "%s", scene);
+        snprintf(u->method, sizeof u->method, "%s", method);
+        snprintf(u->params, sizeof u->params, "%s", params);
+    }
+    u->n++;
+    u->secs += secs;
+    u->xsecs += xsecs;
+    for (int g = 0; g < 2; g++) {
+        if (!A[g].n) continue;
+        u->mr_mean[g] += A[g].mr_sum / A[g].n;
+        u->rel_mean[g] += A[g].rel_sum / A[g].n;
+        if (A[g].mr_max > u->mr_max[g]) u->mr_max[g] = A[g].mr_max;
+        if (A[g].rel_max > u->rel_max[g]) u->rel_max[g] = A[g].rel_max;
+    }
+}
+
+static void summ_print(void)
+{
+    if (!nsumm) return;
+    printf("\n## Summary per scene and method\n\nOver the runs of each scene (tracers, lights): total simulation time "
+           "and speedup (ratio of the totals); errors as above, the mean of the runs' means and the largest "
+           "maximum.\n\n| scene | method | params | runs | s (exact s) | speedup | geometry MR err mean / max | "
+           "geometry traffic err %% mean / max | ray MR err mean / max | ray traffic err %% mean / max |\n"
+           "|---|---|---|---|---|---|---|---|---|---|\n");
+    for (int i = 0; i < nsumm; i++) {
+        const summ *u = &summs[i];
+        printf("| %s | %s | %s | %d | %.2f (%.2f) | %.1fx | %.4f / %.4f | %.2f / %.2f | %.4f / %.4f | %.2f / %.2f |\n",
+               u->scene, u->method, u->params, u->n, u->secs, u->xsecs, u->secs > 0 ? u->xsecs / u->secs : NAN,
+               u->mr_mean[0] / u->n, u->mr_max[0], u->rel_mean[0] / u->n, u->rel_max[0], u->mr_mean[1] / u->n,
+               u->mr_max[1], u->rel_mean[1] / u->n, u->rel_max[1]);
+    }
+}
+
 /* Writes the gnuplot script beside the data and runs it: miss-ratio error
  * against speedup, geometry and ray side by side, one colour per series. */
 static void plot_speed_error(const char *plotdir, const char *datpath)
@@ -196,6 +251,8 @@ int rt_report_speed_error(sqlite3 *h, int csv, const char *plotdir)
     double secs = 0, xsecs = 0;
     long xid = 0;
     int series_cur = 0;
+    char cur_scene[64] = "", cur_method[32] = "", cur_params[192] = "";
+    nsumm = 0;
     acc A[2];
     memset(A, 0, sizeof A);
     int rc;
@@ -217,6 +274,7 @@ int rt_report_speed_error(sqlite3 *h, int csv, const char *plotdir)
             if (dat)
                 fprintf(dat, "\"%s\" %.4f %.6f %.6f %d\n", hdr, sp, G->n ? G->mr_sum / G->n : NAN,
                         Y->n ? Y->mr_sum / Y->n : NAN, series_cur);
+            if (!csv) summ_add(cur_scene, cur_method, cur_params, secs, xsecs, A);
             rows++;
             memset(A, 0, sizeof A);
         }
@@ -232,6 +290,9 @@ int rt_report_speed_error(sqlite3 *h, int csv, const char *plotdir)
             if (q && (q == xs || q[-1] == ' ')) xsecs = strtod(q + 12, NULL);
             const char *m = (const char *)sqlite3_column_text(st, 6), *p = (const char *)sqlite3_column_text(st, 7);
             if (dat) series_cur = approx_series(m, p);
+            snprintf(cur_scene, sizeof cur_scene, "%s", (const char *)sqlite3_column_text(st, 0));
+            snprintf(cur_method, sizeof cur_method, "%s", m ? m : "");
+            snprintf(cur_params, sizeof cur_params, "%s", p ? p : "");
             if (csv)
                 snprintf(hdr, sizeof hdr, "%s,%s,%d,%d,%d,%lld,%s,\"%s\"", sqlite3_column_text(st, 0),
                          sqlite3_column_text(st, 1), sqlite3_column_int(st, 2), sqlite3_column_int(st, 3),
@@ -260,6 +321,7 @@ int rt_report_speed_error(sqlite3 *h, int csv, const char *plotdir)
     }
     if (!rows && !csv) printf("(no approximate runs in the database: run `raytraffic sim --method ...` or the sweep with "
                               "--approx)\n");
+    if (!csv) summ_print();
     if (report_proxies(h, csv, dat) < 0) {
         if (dat) fclose(dat);
         return -1;
