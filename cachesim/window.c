@@ -124,22 +124,6 @@ void rt_twin_free(rt_twin *t)
     free(t);
 }
 
-/* Finds line L in the scan set, adding it (with index n) if absent; returns
- * its index. Slots hold L + 1 (0 = empty). */
-static uint32_t set_find(rt_twin *t, uint64_t L, uint32_t n)
-{
-    uint64_t i = (L * 0x9e3779b97f4a7c15ULL) >> 40 & t->setmask;
-    for (;;) {
-        if (t->set[i] == L + 1) return t->setidx[i];
-        if (!t->set[i]) {
-            t->set[i] = L + 1;
-            t->setidx[i] = n;
-            return n;
-        }
-        i = (i + 1) & t->setmask;
-    }
-}
-
 /* Window start: rebuilds the top of the LRU stack from the history. The
  * backward scan meets lines in recency order, so the first C_max distinct
  * lines it meets, replayed least recent first as one touch each, leave the
@@ -155,22 +139,34 @@ static void window_begin(rt_twin *t)
         return;
     }
     memset(t->set, 0, (t->setmask + 1) * sizeof *t->set);
+    /* locals: the stores into stk must not make the compiler reload the
+     * table pointers on every reference (they alias nothing here) */
+    uint64_t *restrict set = t->set;
+    uint32_t *restrict setidx = t->setidx;
+    rt_access *restrict stk = t->stk;
+    const rt_access *restrict hist = t->hist;
+    const uint64_t mask = t->setmask, cmax = t->cmax, line = t->line;
+    const rt_approx_lines ln = t->ln;
     uint32_t seen = 0;
     uint64_t s = t->nhist, prev = UINT64_MAX;
-    while (s > 0 && seen < t->cmax) {
-        const rt_access *r = &t->hist[--s];
-        uint64_t f = rt_approx_line_of(&t->ln, r->addr);
-        uint64_t l = rt_approx_line_of(&t->ln, r->addr + (r->size ? r->size : 1) - 1);
+    while (s > 0 && seen < cmax) {
+        const rt_access *r = &hist[--s];
+        uint64_t f = rt_approx_line_of(&ln, r->addr);
+        uint64_t l = rt_approx_line_of(&ln, r->addr + (r->size ? r->size : 1) - 1);
         if (f == l && f == prev && !r->write) continue; /* a read of the line just met: nothing new */
         prev = f;
         uint8_t cls = r->cls < RT_NCLASS ? r->cls : RT_CLS_FB;
-        for (uint64_t L = l + 1; L-- > f && seen < t->cmax;) {
-            uint32_t x = set_find(t, L, seen);
-            if (x == seen) { /* new: its most recent touch */
-                t->stk[seen++] = (rt_access){L * t->line, 1, r->write ? 1 : 0, cls};
-            } else if (r->write && !t->stk[x].write) { /* its latest write */
-                t->stk[x].write = 1;
-                t->stk[x].cls = cls;
+        for (uint64_t L = l + 1; L-- > f && seen < cmax;) {
+            /* the scan set: slots hold L + 1 (0 = empty), setidx the line's index in stk */
+            uint64_t i = (L * 0x9e3779b97f4a7c15ULL) >> 40 & mask;
+            while (set[i] && set[i] != L + 1) i = (i + 1) & mask;
+            if (!set[i]) { /* new: this is its most recent touch */
+                set[i] = L + 1;
+                setidx[i] = seen;
+                stk[seen++] = (rt_access){L * line, 1, r->write ? 1 : 0, cls};
+            } else if (r->write && !stk[setidx[i]].write) { /* its latest write */
+                stk[setidx[i]].write = 1;
+                stk[setidx[i]].cls = cls;
             }
         }
     }
