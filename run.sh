@@ -23,7 +23,7 @@ db="$out/raytraffic.db"
 # on 2 cores; rerunning skips finished runs) with approximate simulators
 # beside the exact one, its tables, the speed-vs-error table and plots.
 "$rt" sweep --preset quick --jobs "$(nproc)" --db "$db" \
-    --approx hybrid,hybrid:1/64:8K,shards:0.01:16K,shards-fixed:16K,statstack:0.01,statstack:0.001
+    --approx hybrid,hybrid:1/64:32K:16384,hybrid:1/64:8K,shards:0.01:16K,shards-fixed:16K,statstack:0.01,statstack:0.001
 # Reduced experiments of the primary-ray runs (half resolution, 1 in 4 tiles
 # of 8x8 pixels), compared with the full runs by report --speed-error.
 "$rt" sweep --preset quick --lights primary --jobs "$(nproc)" --db "$db" --proxy res:128,sub:4

@@ -142,7 +142,7 @@ static int approx_series(const char *method, const char *params)
 #define MAX_SUMM 256
 typedef struct summ {
     char scene[64], method[32], params[192];
-    int n;
+    int n, minsizes;          /* runs; fewest sizes compared in one of them */
     double secs, xsecs;       /* summed over the runs */
     double mr_mean[2], mr_max[2], rel_mean[2], rel_max[2]; /* geometry, ray: mean of the runs' means, max of maxima */
 } summ;
@@ -164,6 +164,7 @@ static void summ_add(const char *scene, const char *method, const char *params, 
         snprintf(u->method, sizeof u->method, "%s", method);
         snprintf(u->params, sizeof u->params, "%s", params);
     }
+    if (!u->n || A[0].n < u->minsizes) u->minsizes = A[0].n;
     u->n++;
     u->secs += secs;
     u->xsecs += xsecs;
@@ -181,13 +182,15 @@ static void summ_print(void)
     if (!nsumm) return;
     printf("\n## Summary per scene and method\n\nOver the runs of each scene (tracers, lights): total simulation time "
            "and speedup (ratio of the totals); errors as above, the mean of the runs' means and the largest "
-           "maximum.\n\n| scene | method | params | runs | s (exact s) | speedup | geometry MR err mean / max | "
-           "geometry traffic err %% mean / max | ray MR err mean / max | ray traffic err %% mean / max |\n"
-           "|---|---|---|---|---|---|---|---|---|---|\n");
+           "maximum; sizes = the fewest sizes compared in one run.\n\n| scene | method | params | runs | s (exact s) | "
+           "speedup | sizes | geometry MR err mean / max | geometry traffic err %% mean / max | ray MR err mean / max | "
+           "ray traffic err %% mean / max |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (int i = 0; i < nsumm; i++) {
         const summ *u = &summs[i];
-        printf("| %s | %s | %s | %d | %.2f (%.2f) | %.1fx | %.4f / %.4f | %.2f / %.2f | %.4f / %.4f | %.2f / %.2f |\n",
+        printf("| %s | %s | %s | %d | %.2f (%.2f) | %.1fx | %d | %.4f / %.4f | %.2f / %.2f | %.4f / %.4f | %.2f / "
+               "%.2f |\n",
                u->scene, u->method, u->params, u->n, u->secs, u->xsecs, u->secs > 0 ? u->xsecs / u->secs : NAN,
+               u->minsizes,
                u->mr_mean[0] / u->n, u->mr_max[0], u->rel_mean[0] / u->n, u->rel_max[0], u->mr_mean[1] / u->n,
                u->mr_max[1], u->rel_mean[1] / u->n, u->rel_max[1]);
     }
@@ -237,14 +240,16 @@ int rt_report_speed_error(sqlite3 *h, int csv, const char *plotdir)
     if (csv)
         printf("scene,tracer,W,H,lights,sched,method,params,run,exact_run,seconds,exact_seconds,speedup,"
                "geom_mr_mean,geom_mr_max,geom_rel_mean_pct,geom_rel_max_pct,ray_mr_mean,ray_mr_max,ray_rel_mean_pct,"
-               "ray_rel_max_pct\n");
+               "ray_rel_max_pct,sizes\n");
     else
         printf("# Speed against error (approximate vs exact simulation)\n\n"
                "Miss ratio = fetch misses / line accesses per group; errors are absolute (miss ratio) and relative "
-               "(traffic, %%), mean and max over the cache sizes.\n\n"
-               "| scene | tracer | lights | sched | method | params | run (exact run) | s (exact s) | speedup | geometry "
-               "MR err mean / max | geometry traffic err %% mean / max | ray MR err mean / max | ray traffic err %% "
-               "mean / max |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+               "(traffic, %%), mean and max over the cache sizes that have an estimate (sizes: how many of them; a "
+               "sampled method leaves out the sizes it cannot estimate, e.g. hybrid's windowed sizes on a trace "
+               "shorter than 32 windows).\n\n"
+               "| scene | tracer | lights | sched | method | params | run (exact run) | s (exact s) | speedup | sizes | "
+               "geometry MR err mean / max | geometry traffic err %% mean / max | ray MR err mean / max | ray traffic "
+               "err %% mean / max |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     int rows = 0;
     long cur = -1;
     char hdr[1024] = "";
@@ -263,12 +268,13 @@ int rt_report_speed_error(sqlite3 *h, int csv, const char *plotdir)
             double sp = secs > 0 ? xsecs / secs : NAN;
             acc *G = &A[0], *Y = &A[1];
             if (csv)
-                printf("%s,%ld,%ld,%.3f,%.3f,%.2f,%.5f,%.5f,%.3f,%.3f,%.5f,%.5f,%.3f,%.3f\n", hdr, cur, xid, secs,
+                printf("%s,%ld,%ld,%.3f,%.3f,%.2f,%.5f,%.5f,%.3f,%.3f,%.5f,%.5f,%.3f,%.3f,%d\n", hdr, cur, xid, secs,
                        xsecs, sp, G->n ? G->mr_sum / G->n : NAN, G->mr_max, G->n ? G->rel_sum / G->n : NAN, G->rel_max,
-                       Y->n ? Y->mr_sum / Y->n : NAN, Y->mr_max, Y->n ? Y->rel_sum / Y->n : NAN, Y->rel_max);
+                       Y->n ? Y->mr_sum / Y->n : NAN, Y->mr_max, Y->n ? Y->rel_sum / Y->n : NAN, Y->rel_max, G->n);
             else
-                printf("%s | %ld (%ld) | %.2f (%.2f) | %.1fx | %.4f / %.4f | %.2f / %.2f | %.4f / %.4f | %.2f / %.2f |\n",
-                       hdr, cur, xid, secs, xsecs, sp, G->n ? G->mr_sum / G->n : NAN, G->mr_max,
+                printf("%s | %ld (%ld) | %.2f (%.2f) | %.1fx | %d | %.4f / %.4f | %.2f / %.2f | %.4f / %.4f | %.2f / "
+                       "%.2f |\n",
+                       hdr, cur, xid, secs, xsecs, sp, G->n, G->n ? G->mr_sum / G->n : NAN, G->mr_max,
                        G->n ? G->rel_sum / G->n : NAN, G->rel_max, Y->n ? Y->mr_sum / Y->n : NAN, Y->mr_max,
                        Y->n ? Y->rel_sum / Y->n : NAN, Y->rel_max);
             if (dat)
@@ -347,9 +353,9 @@ static void proxy_row(const ppair *p, int csv, FILE *dat)
     double sp = p->secs > 0 ? p->xsecs / p->secs : NAN;
     const acc *G = &p->A[0], *Y = &p->A[1];
     if (csv)
-        printf("%s,%ld,%ld,%.3f,%.3f,%.2f,%.5f,%.5f,%.3f,%.3f,%.5f,%.5f,%.3f,%.3f\n", p->hdr, p->id, p->xid, p->secs,
-               p->xsecs, sp, G->n ? G->mr_sum / G->n : NAN, G->mr_max, G->n ? G->rel_sum / G->n : NAN, G->rel_max,
-               Y->n ? Y->mr_sum / Y->n : NAN, Y->mr_max, Y->n ? Y->rel_sum / Y->n : NAN, Y->rel_max);
+        printf("%s,%ld,%ld,%.3f,%.3f,%.2f,%.5f,%.5f,%.3f,%.3f,%.5f,%.5f,%.3f,%.3f,%d\n", p->hdr, p->id, p->xid,
+               p->secs, p->xsecs, sp, G->n ? G->mr_sum / G->n : NAN, G->mr_max, G->n ? G->rel_sum / G->n : NAN,
+               G->rel_max, Y->n ? Y->mr_sum / Y->n : NAN, Y->mr_max, Y->n ? Y->rel_sum / Y->n : NAN, Y->rel_max, G->n);
     else
         printf("%s | %ld (%ld) | %.2f (%.2f) | %.1fx | %.4f / %.4f | %.2f / %.2f | %.4f / %.4f | %.2f / %.2f |\n", p->hdr,
                p->id, p->xid, p->secs, p->xsecs, sp, G->n ? G->mr_sum / G->n : NAN, G->mr_max,

@@ -110,7 +110,7 @@ static void usage(FILE *f)
             "  --approx LIST      also run approximate simulators on the same access stream\n"
             "                     and store them beside the exact runs: comma list of\n"
             "                     shards:RATE[:EXACT_BELOW], shards-fixed:SMAX[:EXACT_BELOW],\n"
-            "                     statstack:RATE[:EXACT_BELOW], hybrid[:RATE[:WINDOW_BELOW]]\n"
+            "                     statstack:RATE[:EXACT_BELOW], hybrid[:RATE[:WINDOW_BELOW[:PERIOD]]]\n"
             "                     (rates as 0.01 or 1/64; see report --speed-error)\n"
             "  --proxy LIST       also run reduced experiments of every job (exact simulation,\n"
             "                     compared with the full run by report --speed-error): comma\n"
@@ -217,7 +217,7 @@ static int parse_approx(char *s, sweep_opts *o, rt_err *e)
         rt_approx_config *ac = &o->approx[i];
         rt_approx_config_default(ac);
         char *save = NULL, *m = strtok_r(items[i], ":", &save), *p = strtok_r(NULL, ":", &save),
-             *x = strtok_r(NULL, ":", &save);
+             *x = strtok_r(NULL, ":", &save), *y = strtok_r(NULL, ":", &save);
         int method = m ? rt_approx_method_from_name(m) : -1;
         if (method <= 0 || (!p && method != RT_APPROX_HYBRID))
             return rt_errf(e, "--approx: '%s' is not shards:RATE, shards-fixed:SMAX, statstack:RATE or hybrid[:RATE]",
@@ -234,6 +234,9 @@ static int parse_approx(char *s, sweep_opts *o, rt_err *e)
         /* third field: exact-below, or for hybrid the window-below size */
         uint64_t *third = method == RT_APPROX_HYBRID ? &ac->window_below : &ac->exact_below;
         if (x && rt_parse_size(x, third) < 0) return rt_errf(e, "--approx: bad size '%s'", x);
+        /* fourth field, hybrid only: the window period */
+        if (y && (method != RT_APPROX_HYBRID || rt_parse_size(y, &ac->period) < 0))
+            return rt_errf(e, "--approx: bad fourth field '%s' (hybrid:RATE:WINDOW_BELOW:PERIOD)", y);
         rt_sim_config dc;
         rt_sim_config_default(&dc);
         if (rt_approx_config_check(&dc, ac, e) < 0) return -1;
