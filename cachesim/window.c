@@ -71,6 +71,7 @@ struct rt_twin {
     uint64_t *set;                  /* distinct-line set for the backward scan */
     uint32_t *setidx;               /* index in stk of each set entry */
     uint64_t setmask;
+    int setshift;                   /* 64 - log2(set size): Fibonacci hashing takes the top bits */
     rt_access *stk;                 /* the lines found, most recent first */
     rt_msim *cur;                   /* simulator of the window in progress */
     rt_sim_counts base[RT_SIM_MAXSIZES][RT_NCLASS]; /* its counters at the window start */
@@ -102,6 +103,8 @@ rt_twin *rt_twin_new(const uint64_t *sizes, int k, uint32_t line, uint64_t perio
     uint64_t ss = 16;
     while (ss < 4 * t->cmax) ss <<= 1;
     t->setmask = ss - 1;
+    t->setshift = 64;
+    for (uint64_t q = ss; q > 1; q >>= 1) t->setshift--;
     t->set = rt_calloc(ss, sizeof *t->set, e);
     t->setidx = rt_calloc(ss, sizeof *t->setidx, e);
     t->stk = rt_calloc(t->cmax, sizeof *t->stk, e);
@@ -146,6 +149,7 @@ static void window_begin(rt_twin *t)
     rt_access *restrict stk = t->stk;
     const rt_access *restrict hist = t->hist;
     const uint64_t mask = t->setmask, cmax = t->cmax, line = t->line;
+    const int shift = t->setshift;
     const rt_approx_lines ln = t->ln;
     uint32_t seen = 0;
     uint64_t s = t->nhist, prev = UINT64_MAX;
@@ -158,7 +162,7 @@ static void window_begin(rt_twin *t)
         uint8_t cls = r->cls < RT_NCLASS ? r->cls : RT_CLS_FB;
         for (uint64_t L = l + 1; L-- > f && seen < cmax;) {
             /* the scan set: slots hold L + 1 (0 = empty), setidx the line's index in stk */
-            uint64_t i = (L * 0x9e3779b97f4a7c15ULL) >> 40 & mask;
+            uint64_t i = (L * 0x9e3779b97f4a7c15ULL) >> shift;
             while (set[i] && set[i] != L + 1) i = (i + 1) & mask;
             if (!set[i]) { /* new: this is its most recent touch */
                 set[i] = L + 1;
