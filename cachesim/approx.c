@@ -148,7 +148,7 @@ rt_approx *rt_approx_new(const rt_sim_config *c, const rt_approx_config *ac, rt_
     if (ac->method == RT_APPROX_HYBRID) {
         while (a->nexact + a->nwin < c->nsizes && c->sizes[a->nexact + a->nwin] < ac->window_below) a->nwin++;
         if (a->nwin) {
-            a->tw = rt_twin_new(c->sizes + a->nexact, a->nwin, c->line, ac->period, ac->window, e);
+            a->tw = rt_twin_new(c->sizes + a->nexact, a->nwin, c->line, ac->period, ac->window, ac->seed, e);
             if (!a->tw) goto fail;
         }
     }

@@ -78,8 +78,9 @@ int rt_shards_estimate(const rt_shards *s, rt_approx_est *est, rt_err *e);
 /* ---- time-sampled exact windows (window.c) ---- */
 typedef struct rt_twin rt_twin;
 /* sizes[0..k-1] in bytes, increasing; a window of `window` references
- * every `period` (period >= window >= 1). */
-rt_twin *rt_twin_new(const uint64_t *sizes, int k, uint32_t line, uint64_t period, uint64_t window, rt_err *e);
+ * every `period` (period > window >= 1), placed by seed. */
+rt_twin *rt_twin_new(const uint64_t *sizes, int k, uint32_t line, uint64_t period, uint64_t window, uint64_t seed,
+                     rt_err *e);
 void rt_twin_free(rt_twin *t);
 void rt_twin_put(rt_twin *t, const rt_access *a, size_t n);
 /* Writes sizes off..off+k-1 of est, scaled per class by acc (exact touches). */

@@ -10,8 +10,9 @@
  * hundred references. So small caches are simulated exactly, on windows.
  *
  * WINDOWS. Window j measures the M references [s_j, s_j + M) with s_j =
- * (j + 1) P - M (P = period, M = window): the windows are evenly spaced,
- * at positions fixed in advance, independent of what the stream does.
+ * (j + 1) P - M - o (P = period, M = window, o in [0, P - M) from the seed,
+ * 0 for seed 1): the windows are evenly spaced, at positions fixed in
+ * advance, independent of what the stream does.
  * That matters: starting a window when the warm-up "looks done" (say, at
  * the miss that fills the stack) starts it inside a burst of misses and
  * biases the miss ratio up (measured: +0.02 at 4 KB on sphereflake).
@@ -81,7 +82,8 @@ struct rt_twin {
     int oom;
 };
 
-rt_twin *rt_twin_new(const uint64_t *sizes, int k, uint32_t line, uint64_t period, uint64_t window, rt_err *e)
+rt_twin *rt_twin_new(const uint64_t *sizes, int k, uint32_t line, uint64_t period, uint64_t window, uint64_t seed,
+                     rt_err *e)
 {
     if (k < 1 || k > RT_SIM_MAXSIZES) return rt_errf(e, "windows: %d sizes", k), NULL;
     if (window < 1 || period < window)
@@ -99,7 +101,9 @@ rt_twin *rt_twin_new(const uint64_t *sizes, int k, uint32_t line, uint64_t perio
     t->M = window;
     uint64_t hmax = RT_TWIN_HIST_PER_LINE * t->cmax;
     t->H = period - window < hmax ? period - window : hmax;
-    t->next = period - window;
+    /* the seed shifts every window by the same offset in [0, P - M): seed 1
+     * (the default) by none, other seeds give other, independent placements */
+    t->next = period - window - ((seed - 1) * 0x9e3779b97f4a7c15ULL) % (period - window);
     uint64_t ss = 16;
     while (ss < 4 * t->cmax) ss <<= 1;
     t->setmask = ss - 1;
@@ -210,8 +214,9 @@ void rt_twin_put(rt_twin *t, const rt_access *a, size_t n)
         uint64_t p = t->pos;
         if (p < t->next) { /* before the window: keep the last H references */
             uint64_t stop = end < t->next ? end : t->next, from = p;
-            if (t->H && stop > t->next - t->H) {
-                if (from < t->next - t->H) from = t->next - t->H;
+            uint64_t hstart = t->next > t->H ? t->next - t->H : 0; /* the first window may start early */
+            if (t->H && stop > hstart) {
+                if (from < hstart) from = hstart;
                 memcpy(t->hist + t->nhist, a + (from - (end - n)), (size_t)(stop - from) * sizeof *a);
                 t->nhist += stop - from;
             }
