@@ -26,10 +26,10 @@
  * the true top C_max lines in the true order, so every touch of the window
  * hits or misses exactly as in the full simulation, at every windowed size,
  * for C_max touches of warm-up instead of the thousands of references the
- * history spans. If the kept
- * history holds fewer than C_max distinct lines the warm-up is exact only
- * when it reaches back to the start of the trace; otherwise the window is
- * counted as short (stats) and its few unknown lines count as misses.
+ * history spans. If the kept history holds fewer than C_max distinct lines
+ * the warm-up is exact only when it reaches back to the start of the trace;
+ * otherwise the window is counted as short (stats) and its few unknown
+ * lines count as misses.
  *
  * DIRTY STATE is approximate: a line the scan saw written starts dirty in
  * every windowed size (even if a small cache evicted and refetched it since
@@ -44,8 +44,8 @@
  * then 0). Fewer than RT_APPROX_MIN_SAMPLES windows: no estimate.
  *
  * INVARIANTS: pos = references seen; next = s_j of the window in progress
- * or to come; nhist = references of [next - H, next) kept so far (hist
- * holds them in order); cur != NULL iff next <= pos < next + M.
+ * or to come; nhist = references of [max(next - H, 0), next) kept so far
+ * (hist holds them in order); cur != NULL iff next <= pos < next + M.
  */
 #include "approx_int.h"
 #include "msim.h"
@@ -54,8 +54,9 @@
 #include <string.h>
 
 /* History kept per line of the largest windowed cache: the backward scan
- * needs ~12 references per line on sphereflake at 1024^2 (p99 2.8K for 64
- * lines, 10.3K for 128); more than that is copied for nothing. */
+ * needs ~40 references per line on sphereflake at 1024^2 (median 9.5K, p99
+ * 29K references for 256 lines; grove: 14K, 33K); more is copied for
+ * nothing, less makes more short warm-ups. */
 #define RT_TWIN_HIST_PER_LINE 128
 
 struct rt_twin {
