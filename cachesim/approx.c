@@ -189,10 +189,8 @@ static void count_touches(rt_approx *a, const rt_access *r, size_t n)
     rt_approx_lines ln;
     rt_approx_lines_init(&ln, a->cfg.line);
     for (size_t i = 0; i < n; i++) {
-        unsigned cls = r[i].cls < RT_NCLASS ? r[i].cls : RT_CLS_FB;
-        uint64_t f = rt_approx_line_of(&ln, r[i].addr);
-        uint64_t l = rt_approx_line_of(&ln, r[i].addr + (r[i].size ? r[i].size : 1) - 1);
-        a->acc[cls][r[i].write ? 1 : 0] += l - f + 1;
+        rt_approx_touch t = rt_approx_touch_of(&ln, &r[i]);
+        a->acc[t.cls][t.w] += t.last - t.first + 1;
     }
 }
 

@@ -155,7 +155,7 @@ typedef struct rt_approx_stats {
     double rate;              /* effective rate (SHARDS_FIXED: the final one) */
     uint64_t windows;         /* HYBRID: windows measured */
     uint64_t short_warmups;   /* HYBRID: of which warmed from fewer lines than the largest windowed cache */
-    uint64_t window_refs;     /* HYBRID: references simulated for the windows (warm-up included) */
+    uint64_t window_refs;     /* HYBRID: references scanned (history) or simulated for the windows */
 } rt_approx_stats;
 void rt_approx_get_stats(const rt_approx *a, rt_approx_stats *st);
 

@@ -44,6 +44,24 @@ static inline uint64_t rt_approx_line_of(const rt_approx_lines *l, uint64_t addr
     return l->shift >= 0 ? addr >> l->shift : addr / l->line;
 }
 
+/* What every estimator reads of a reference: the lines it covers (size 0
+ * counts as 1 byte), its class (out of range: the framebuffer, as in
+ * rt_sim_put) and whether it writes. */
+typedef struct rt_approx_touch {
+    uint64_t first, last; /* lines first..last */
+    unsigned cls, w;
+} rt_approx_touch;
+
+static inline rt_approx_touch rt_approx_touch_of(const rt_approx_lines *l, const rt_access *r)
+{
+    rt_approx_touch t;
+    t.first = rt_approx_line_of(l, r->addr);
+    t.last = rt_approx_line_of(l, r->addr + (r->size ? r->size : 1) - 1);
+    t.cls = r->cls < RT_NCLASS ? r->cls : RT_CLS_FB;
+    t.w = r->write ? 1 : 0;
+    return t;
+}
+
 /* The seeded 64-bit mixer (splitmix64 / murmur3 finalizer). */
 static inline uint64_t rt_approx_mix(uint64_t x)
 {

@@ -461,15 +461,11 @@ void rt_shards_put(rt_shards *restrict s, const rt_access *a, size_t n, uint64_t
         return;
     }
     for (size_t r = 0; r < n; r++) {
-        uint32_t sz = a[r].size ? a[r].size : 1;
-        unsigned cls = a[r].cls < RT_NCLASS ? a[r].cls : RT_CLS_FB;
-        unsigned w = a[r].write ? 1 : 0;
-        uint64_t first = rt_approx_line_of(&s->ln, a[r].addr);
-        uint64_t last = rt_approx_line_of(&s->ln, a[r].addr + sz - 1);
-        acc[cls][w] += last - first + 1;
-        for (uint64_t L = first; L <= last; L++) {
+        rt_approx_touch t = rt_approx_touch_of(&s->ln, &a[r]);
+        acc[t.cls][t.w] += t.last - t.first + 1;
+        for (uint64_t L = t.first; L <= t.last; L++) {
             uint64_t hv = rt_approx_mix(L ^ s->seedmix);
-            if ((hv & 0xffffffffULL) < s->T) sample(s, L, hv, w, cls); /* s->T falls as the sample fills */
+            if ((hv & 0xffffffffULL) < s->T) sample(s, L, hv, t.w, t.cls); /* s->T falls as the sample fills */
         }
     }
 }
@@ -481,14 +477,10 @@ void rt_shards_put(rt_shards *restrict s, const rt_access *a, size_t n, uint64_t
 /* One reference, generic: any size, any line. */
 static inline void golden_ref(rt_shards *restrict s, const rt_access *r, uint64_t acc[RT_NCLASS][2])
 {
-    uint32_t sz = r->size ? r->size : 1;
-    unsigned cls = r->cls < RT_NCLASS ? r->cls : RT_CLS_FB;
-    unsigned w = r->write ? 1 : 0;
-    uint64_t first = rt_approx_line_of(&s->ln, r->addr);
-    uint64_t last = rt_approx_line_of(&s->ln, r->addr + sz - 1);
-    acc[cls][w] += last - first + 1;
-    for (uint64_t L = first; L <= last; L++)
-        if (!s->T64 || L * GOLD + s->goff < s->T64) sample(s, L, hash_of(s, L), w, cls);
+    rt_approx_touch t = rt_approx_touch_of(&s->ln, r);
+    acc[t.cls][t.w] += t.last - t.first + 1;
+    for (uint64_t L = t.first; L <= t.last; L++)
+        if (!s->T64 || L * GOLD + s->goff < s->T64) sample(s, L, hash_of(s, L), t.w, t.cls);
 }
 
 /* Scalar filter for 64-byte-style power-of-two lines: the common reference
@@ -523,9 +515,9 @@ static void put_golden_scalar(rt_shards *restrict s, const rt_access *a, size_t 
 #include <immintrin.h>
 
 /* AVX-512 filter: eight references per step. Lanes that need care (a
- * sampled line, more than two lines, a class out of range) are handled by
- * golden_ref in lane order, so sampled touches reach sample() in stream
- * order; the others are counted in packed 8-bit fields (key = class * 2 +
+ * sampled line, a reference longer than a line) are handled by golden_ref
+ * in lane order, so sampled touches reach sample() in stream order; the
+ * others are counted in packed 8-bit fields (key = class * 2 +
  * write, three accumulators of eight fields, flushed before a field can
  * reach 255). Same counts and same sampled touches as the scalar filter. */
 __attribute__((target("avx512f,avx512dq"))) static void put_golden_avx512(rt_shards *restrict s, const rt_access *a,
@@ -608,7 +600,7 @@ int rt_shards_simd_available(void)
 static void put_golden(rt_shards *restrict s, const rt_access *a, size_t n, uint64_t acc[RT_NCLASS][2])
 {
 #if RT_SHARDS_HAVE_AVX512
-    if (s->simd && s->ln.shift >= 0 && s->ln.shift < 64 && s->T64) {
+    if (s->simd && s->ln.shift >= 0 && s->T64) {
         put_golden_avx512(s, a, n, acc);
         return;
     }

@@ -216,13 +216,10 @@ static void start(rt_sstack *s, uint64_t L, uint64_t t, unsigned w, unsigned cls
 void rt_sstack_put(rt_sstack *restrict s, const rt_access *a, size_t n, uint64_t acc[RT_NCLASS][2])
 {
     for (size_t r = 0; r < n; r++) {
-        uint32_t sz = a[r].size ? a[r].size : 1;
-        unsigned cls = a[r].cls < RT_NCLASS ? a[r].cls : RT_CLS_FB;
-        unsigned w = a[r].write ? 1 : 0;
-        uint64_t first = rt_approx_line_of(&s->ln, a[r].addr);
-        uint64_t last = rt_approx_line_of(&s->ln, a[r].addr + sz - 1);
-        acc[cls][w] += last - first + 1;
-        for (uint64_t L = first; L <= last; L++) {
+        rt_approx_touch tc = rt_approx_touch_of(&s->ln, &a[r]);
+        unsigned cls = tc.cls, w = tc.w;
+        acc[cls][w] += tc.last - tc.first + 1;
+        for (uint64_t L = tc.first; L <= tc.last; L++) {
             uint64_t t = s->now++;
             uint32_t fi = (uint32_t)((L * FIB) >> (64 - FBITS));
             if (s->filt[fi]) reuse(s, L, t, w, cls, fi);

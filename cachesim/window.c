@@ -79,7 +79,7 @@ struct rt_twin {
     rt_sim_counts base[RT_SIM_MAXSIZES][RT_NCLASS]; /* its counters at the window start */
     double rm[RT_SIM_MAXSIZES][RT_NCLASS], wm[RT_SIM_MAXSIZES][RT_NCLASS], wb[RT_SIM_MAXSIZES][RT_NCLASS];
     uint64_t macc[RT_NCLASS];       /* touches inside windows, by class */
-    uint64_t nwin, nshort, fed;     /* windows done, with short warm-up, references simulated */
+    uint64_t nwin, nshort, fed;     /* windows done, with short warm-up, references scanned or simulated */
     int oom;
 };
 
@@ -87,8 +87,8 @@ rt_twin *rt_twin_new(const uint64_t *sizes, int k, uint32_t line, uint64_t perio
                      rt_err *e)
 {
     if (k < 1 || k > RT_SIM_MAXSIZES) return rt_errf(e, "windows: %d sizes", k), NULL;
-    if (window < 1 || period < window)
-        return rt_errf(e, "windows: window %llu must be 1..period (%llu)", (unsigned long long)window,
+    if (window < 1 || period <= window) /* the seed's offset is taken mod period - window */
+        return rt_errf(e, "windows: window %llu must be 1..period - 1 (%llu)", (unsigned long long)window,
                        (unsigned long long)period),
                NULL;
     rt_twin *t = rt_calloc(1, sizeof *t, e);
@@ -159,12 +159,10 @@ static void window_begin(rt_twin *t)
     uint32_t seen = 0;
     uint64_t s = t->nhist, prev = UINT64_MAX;
     while (s > 0 && seen < cmax) {
-        const rt_access *r = &hist[--s];
-        uint64_t f = rt_approx_line_of(&ln, r->addr);
-        uint64_t l = rt_approx_line_of(&ln, r->addr + (r->size ? r->size : 1) - 1);
-        if (f == l && f == prev && !r->write) continue; /* a read of the line just met: nothing new */
+        rt_approx_touch tc = rt_approx_touch_of(&ln, &hist[--s]);
+        uint64_t f = tc.first, l = tc.last;
+        if (f == l && f == prev && !tc.w) continue; /* a read of the line just met: nothing new */
         prev = f;
-        uint8_t cls = r->cls < RT_NCLASS ? r->cls : RT_CLS_FB;
         for (uint64_t L = l + 1; L-- > f && seen < cmax;) {
             /* the scan set: slots hold L + 1 (0 = empty), setidx the line's index in stk */
             uint64_t i = (L * 0x9e3779b97f4a7c15ULL) >> shift;
@@ -172,10 +170,10 @@ static void window_begin(rt_twin *t)
             if (!set[i]) { /* new: this is its most recent touch */
                 set[i] = L + 1;
                 setidx[i] = seen;
-                stk[seen++] = (rt_access){L * line, 1, r->write ? 1 : 0, cls};
-            } else if (r->write && !stk[setidx[i]].write) { /* its latest write */
+                stk[seen++] = (rt_access){L * line, 1, (uint8_t)tc.w, (uint8_t)tc.cls};
+            } else if (tc.w && !stk[setidx[i]].write) { /* its latest write */
                 stk[setidx[i]].write = 1;
-                stk[setidx[i]].cls = cls;
+                stk[setidx[i]].cls = (uint8_t)tc.cls;
             }
         }
     }
