@@ -255,19 +255,8 @@ int rt_approx_finish(rt_approx *a, rt_err *e)
 {
     a->finished = 0;
     memset(&a->est, 0, sizeof a->est);
-    if (a->sh) { /* the estimators write from index 0: shift past the windowed sizes */
-        rt_approx_est t;
-        if (rt_shards_estimate(a->sh, &t, e)) return -1;
-        for (int i = 0; i + a->nwin < RT_SIM_MAXSIZES; i++)
-            for (int c = 0; c < RT_NCLASS; c++) {
-                a->est.rm[a->nwin + i][c] = t.rm[i][c];
-                a->est.wm[a->nwin + i][c] = t.wm[i][c];
-                a->est.wb[a->nwin + i][c] = t.wb[i][c];
-            }
-        a->est.sampled_touches = t.sampled_touches;
-        a->est.sampled_lines = t.sampled_lines;
-        a->est.rate = t.rate;
-    }
+    /* est index j is size nexact + j: SHARDS' sizes follow the windowed ones */
+    if (a->sh && rt_shards_estimate(a->sh, &a->est, a->nwin, e)) return -1;
     if (a->ss && rt_sstack_estimate(a->ss, (const uint64_t(*)[2])a->acc, &a->est, e)) return -1;
     if (a->tw && rt_twin_estimate(a->tw, (const uint64_t(*)[2])a->acc, &a->est, 0, e)) return -1;
     a->finished = 1;

@@ -90,8 +90,9 @@ rt_shards *rt_shards_new(const uint64_t *lines, int k, uint32_t line, double rat
 int rt_shards_simd_available(void);
 void rt_shards_free(rt_shards *s);
 void rt_shards_put(rt_shards *s, const rt_access *a, size_t n, uint64_t acc[RT_NCLASS][2]);
-/* -1 if a table could not grow (out of memory) during put. */
-int rt_shards_estimate(const rt_shards *s, rt_approx_est *est, rt_err *e);
+/* Writes sizes off..off+k-1 (and the sampling statistics) of est, which the
+ * caller has zeroed. -1 if a table could not grow (out of memory) during put. */
+int rt_shards_estimate(const rt_shards *s, rt_approx_est *est, int off, rt_err *e);
 
 /* ---- time-sampled exact windows (window.c) ---- */
 typedef struct rt_twin rt_twin;

@@ -608,15 +608,14 @@ static void put_golden(rt_shards *restrict s, const rt_access *a, size_t n, uint
     put_golden_scalar(s, a, n, acc);
 }
 
-int rt_shards_estimate(const rt_shards *s, rt_approx_est *est, rt_err *e)
+int rt_shards_estimate(const rt_shards *s, rt_approx_est *est, int off, rt_err *e)
 {
     if (s->oom) return rt_errf(e, "shards: out of memory while growing the sample");
-    memset(est, 0, sizeof *est);
     for (int i = 0; i < s->k; i++)
         for (int c = 0; c < RT_NCLASS; c++) {
-            est->rm[i][c] = s->m[0][c][i];
-            est->wm[i][c] = s->m[1][c][i];
-            est->wb[i][c] = s->wb[c][i];
+            est->rm[off + i][c] = s->m[0][c][i];
+            est->wm[off + i][c] = s->m[1][c][i];
+            est->wb[off + i][c] = s->wb[c][i];
         }
     /* dirty lines that have fallen out of a cache since their last touch */
     for (uint32_t x = 0; x < s->nsl; x++) {
@@ -625,7 +624,7 @@ int rt_shards_estimate(const rt_shards *s, rt_approx_est *est, rt_err *e)
         double y = (double)(s->live - fw_prefix(s->fw, p->ts)), rwm = s->R * p->wmax;
         for (int i = 0; i < s->k; i++) {
             double b = rt_approx_missw(y, s->t[i]) - rt_approx_missw(rwm, s->t[i]);
-            if (b > 0) est->wb[i][p->wcls] += b * s->invR;
+            if (b > 0) est->wb[off + i][p->wcls] += b * s->invR;
         }
     }
     est->sampled_touches = s->sampled_touches;
