@@ -221,6 +221,25 @@ static void plot_speed_error(const char *plotdir, const char *datpath)
     if (system(cmd) == 0) fprintf(stderr, "wrote %s/speed-error.png\n", plotdir);
 }
 
+/* One compared pair, as a table row (Markdown or CSV) and a plot point:
+ * the run, its reference, both times, the speedup, how many sizes were
+ * compared, and the geometry and ray errors. */
+static void pair_row(const char *hdr, long id, long xid, double secs, double xsecs, const acc *A, int csv, FILE *dat,
+                     const char *label, int sid)
+{
+    double sp = secs > 0 ? xsecs / secs : NAN;
+    const acc *G = &A[0], *Y = &A[1];
+    double gm = G->n ? G->mr_sum / G->n : NAN, gr = G->n ? G->rel_sum / G->n : NAN;
+    double ym = Y->n ? Y->mr_sum / Y->n : NAN, yr = Y->n ? Y->rel_sum / Y->n : NAN;
+    if (csv)
+        printf("%s,%ld,%ld,%.3f,%.3f,%.2f,%.5f,%.5f,%.3f,%.3f,%.5f,%.5f,%.3f,%.3f,%d\n", hdr, id, xid, secs, xsecs, sp,
+               gm, G->mr_max, gr, G->rel_max, ym, Y->mr_max, yr, Y->rel_max, G->n);
+    else
+        printf("%s | %ld (%ld) | %.2f (%.2f) | %.1fx | %d | %.4f / %.4f | %.2f / %.2f | %.4f / %.4f | %.2f / %.2f |\n", hdr,
+               id, xid, secs, xsecs, sp, G->n, gm, G->mr_max, gr, G->rel_max, ym, Y->mr_max, yr, Y->rel_max);
+    if (dat) fprintf(dat, "\"%s\" %.4f %.6f %.6f %d\n", label, sp, gm, ym, sid);
+}
+
 int rt_report_speed_error(sqlite3 *h, int csv, const char *plotdir)
 {
     sqlite3_stmt *st;
@@ -265,21 +284,7 @@ int rt_report_speed_error(sqlite3 *h, int csv, const char *plotdir)
         rc = sqlite3_step(st);
         long id = rc == SQLITE_ROW ? sqlite3_column_int64(st, 8) : -2;
         if (id != cur && cur != -1) {
-            double sp = secs > 0 ? xsecs / secs : NAN;
-            acc *G = &A[0], *Y = &A[1];
-            if (csv)
-                printf("%s,%ld,%ld,%.3f,%.3f,%.2f,%.5f,%.5f,%.3f,%.3f,%.5f,%.5f,%.3f,%.3f,%d\n", hdr, cur, xid, secs,
-                       xsecs, sp, G->n ? G->mr_sum / G->n : NAN, G->mr_max, G->n ? G->rel_sum / G->n : NAN, G->rel_max,
-                       Y->n ? Y->mr_sum / Y->n : NAN, Y->mr_max, Y->n ? Y->rel_sum / Y->n : NAN, Y->rel_max, G->n);
-            else
-                printf("%s | %ld (%ld) | %.2f (%.2f) | %.1fx | %d | %.4f / %.4f | %.2f / %.2f | %.4f / %.4f | %.2f / "
-                       "%.2f |\n",
-                       hdr, cur, xid, secs, xsecs, sp, G->n, G->n ? G->mr_sum / G->n : NAN, G->mr_max,
-                       G->n ? G->rel_sum / G->n : NAN, G->rel_max, Y->n ? Y->mr_sum / Y->n : NAN, Y->mr_max,
-                       Y->n ? Y->rel_sum / Y->n : NAN, Y->rel_max);
-            if (dat)
-                fprintf(dat, "\"%s\" %.4f %.6f %.6f %d\n", hdr, sp, G->n ? G->mr_sum / G->n : NAN,
-                        Y->n ? Y->mr_sum / Y->n : NAN, series_cur);
+            pair_row(hdr, cur, xid, secs, xsecs, A, csv, dat, hdr, series_cur);
             if (!csv) summ_add(cur_scene, cur_method, cur_params, secs, xsecs, A);
             rows++;
             memset(A, 0, sizeof A);
@@ -348,24 +353,6 @@ typedef struct ppair {
     acc A[2];
 } ppair;
 
-static void proxy_row(const ppair *p, int csv, FILE *dat)
-{
-    double sp = p->secs > 0 ? p->xsecs / p->secs : NAN;
-    const acc *G = &p->A[0], *Y = &p->A[1];
-    if (csv)
-        printf("%s,%ld,%ld,%.3f,%.3f,%.2f,%.5f,%.5f,%.3f,%.3f,%.5f,%.5f,%.3f,%.3f,%d\n", p->hdr, p->id, p->xid,
-               p->secs, p->xsecs, sp, G->n ? G->mr_sum / G->n : NAN, G->mr_max, G->n ? G->rel_sum / G->n : NAN,
-               G->rel_max, Y->n ? Y->mr_sum / Y->n : NAN, Y->mr_max, Y->n ? Y->rel_sum / Y->n : NAN, Y->rel_max, G->n);
-    else
-        printf("%s | %ld (%ld) | %.2f (%.2f) | %.1fx | %.4f / %.4f | %.2f / %.2f | %.4f / %.4f | %.2f / %.2f |\n", p->hdr,
-               p->id, p->xid, p->secs, p->xsecs, sp, G->n ? G->mr_sum / G->n : NAN, G->mr_max,
-               G->n ? G->rel_sum / G->n : NAN, G->rel_max, Y->n ? Y->mr_sum / Y->n : NAN, Y->mr_max,
-               Y->n ? Y->rel_sum / Y->n : NAN, Y->rel_max);
-    if (dat)
-        fprintf(dat, "\"%s\" %.4f %.6f %.6f %d\n", p->desc, sp, G->n ? G->mr_sum / G->n : NAN,
-                Y->n ? Y->mr_sum / Y->n : NAN, p->series);
-}
-
 static int report_proxies(sqlite3 *h, int csv, FILE *dat)
 {
     sqlite3_stmt *st;
@@ -388,9 +375,9 @@ static int report_proxies(sqlite3 *h, int csv, FILE *dat)
                        "factor in params); miss ratios are compared unscaled. Times are whole runs (tracer + "
                        "simulation).\n\n"
                        "| scene | tracer | lights | sched | method | params | run (full run) | s (full s) | speedup "
-                       "| geometry MR err mean / max | geometry traffic err %% mean / max | ray MR err mean / max | "
-                       "ray traffic err %% mean / max |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
-            proxy_row(&cur, csv, dat);
+                       "| sizes | geometry MR err mean / max | geometry traffic err %% mean / max | ray MR err mean / "
+                       "max | ray traffic err %% mean / max |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+            pair_row(cur.hdr, cur.id, cur.xid, cur.secs, cur.xsecs, cur.A, csv, dat, cur.desc, cur.series);
             rows++;
             if (!isnan(cur.dens) && !isnan(cur.xdens)) {
                 if (ndyn == capdyn) {
