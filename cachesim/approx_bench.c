@@ -174,16 +174,16 @@ int rt_approx_bench_n(FILE *out, const char *trace_path, uint64_t nrefs, rt_err 
     static const struct {
         int method;
         double rate;
-        uint64_t smax, exact_below;
+        uint64_t smax, exact_below, window_below; /* window_below: hybrid only */
     } runs[] = {
-        {RT_APPROX_SHARDS_RATE, 0.1, 0, 0},       {RT_APPROX_SHARDS_RATE, 0.01, 0, 0},
-        {RT_APPROX_SHARDS_RATE, 0.001, 0, 0},     {RT_APPROX_SHARDS_RATE, 0.01, 0, 16384},
-        {RT_APPROX_SHARDS_RATE, 0.001, 0, 65536}, {RT_APPROX_SHARDS_FIXED, 0, 4096, 0},
-        {RT_APPROX_SHARDS_FIXED, 0, 16384, 0},    {RT_APPROX_SHARDS_FIXED, 0, 16384, 16384},
-        {RT_APPROX_STATSTACK, 0.01, 0, 0},        {RT_APPROX_STATSTACK, 0.001, 0, 0},
-        {RT_APPROX_STATSTACK, 0.0001, 0, 0},      {RT_APPROX_STATSTACK, 0.001, 0, 16384},
-        {RT_APPROX_HYBRID, 1.0 / 64, 0, 0},       {RT_APPROX_HYBRID, 1.0 / 64, 0, 8192},
-        {RT_APPROX_HYBRID, 1.0 / 128, 0, 0},      {RT_APPROX_HYBRID, 1.0 / 64, 0, 1},
+        {RT_APPROX_SHARDS_RATE, 0.1, 0, 0, 0},       {RT_APPROX_SHARDS_RATE, 0.01, 0, 0, 0},
+        {RT_APPROX_SHARDS_RATE, 0.001, 0, 0, 0},     {RT_APPROX_SHARDS_RATE, 0.01, 0, 16384, 0},
+        {RT_APPROX_SHARDS_RATE, 0.001, 0, 65536, 0}, {RT_APPROX_SHARDS_FIXED, 0, 4096, 0, 0},
+        {RT_APPROX_SHARDS_FIXED, 0, 16384, 0, 0},    {RT_APPROX_SHARDS_FIXED, 0, 16384, 16384, 0},
+        {RT_APPROX_STATSTACK, 0.01, 0, 0, 0},        {RT_APPROX_STATSTACK, 0.001, 0, 0, 0},
+        {RT_APPROX_STATSTACK, 0.0001, 0, 0, 0},      {RT_APPROX_STATSTACK, 0.001, 0, 16384, 0},
+        {RT_APPROX_HYBRID, 1.0 / 64, 0, 0, 32768},   {RT_APPROX_HYBRID, 1.0 / 64, 0, 0, 8192},
+        {RT_APPROX_HYBRID, 1.0 / 128, 0, 0, 32768},  {RT_APPROX_HYBRID, 1.0 / 64, 0, 0, 0},
     };
     rt_access *buf = rt_calloc(CHUNK, sizeof *buf, e);
     result *ex = rt_calloc(1, sizeof *ex, e), *r = rt_calloc(1, sizeof *r, e);
@@ -204,12 +204,8 @@ int rt_approx_bench_n(FILE *out, const char *trace_path, uint64_t nrefs, rt_err 
         ac.method = runs[k].method;
         ac.rate = runs[k].rate;
         if (runs[k].smax) ac.smax = runs[k].smax;
-        if (ac.method == RT_APPROX_HYBRID) {
-            /* the last field is window_below for hybrid: 0 = default, 1 = none */
-            if (runs[k].exact_below) ac.window_below = runs[k].exact_below == 1 ? 0 : runs[k].exact_below;
-        } else {
-            ac.exact_below = runs[k].exact_below;
-        }
+        ac.exact_below = runs[k].exact_below;
+        if (ac.method == RT_APPROX_HYBRID) ac.window_below = runs[k].window_below;
         if (run(&c, &ac, trace_path, nrefs, buf, r, e)) goto out;
         int nav = 0;
         double sum = 0, mx = 0, tmax[3] = {0, 0, 0};
