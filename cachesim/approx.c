@@ -54,7 +54,7 @@ void rt_approx_config_default(rt_approx_config *ac)
 {
     memset(ac, 0, sizeof *ac);
     ac->method = RT_APPROX_SHARDS_RATE;
-    ac->rate = 0.01;
+    ac->rate = rt_approx_default_rate(ac->method);
     ac->smax = 8192;
     ac->seed = 1;
     ac->exact_below = 0;
@@ -62,6 +62,8 @@ void rt_approx_config_default(rt_approx_config *ac)
     ac->period = RT_APPROX_HYBRID_PERIOD;
     ac->window = RT_APPROX_HYBRID_WINDOW;
 }
+
+double rt_approx_default_rate(int method) { return method == RT_APPROX_HYBRID ? RT_APPROX_HYBRID_RATE : 0.01; }
 
 const char *rt_approx_method_name(int method)
 {

@@ -81,6 +81,9 @@ typedef struct rt_approx_config {
 /* SHARDS_RATE, rate 0.01, smax 8192, seed 1, exact_below 0; the hybrid
  * fields at their defaults (used only by RT_APPROX_HYBRID). */
 void rt_approx_config_default(rt_approx_config *ac);
+/* The rate a method uses when none is given: RT_APPROX_HYBRID_RATE for
+ * hybrid, 0.01 for the others. */
+double rt_approx_default_rate(int method);
 
 /* "exact", "shards", "shards-fixed", "statstack", "hybrid"; NULL if out of
  * range. */

@@ -325,7 +325,7 @@ int main_sim(int argc, char **argv)
             return RT_EXIT_USAGE;
         }
     }
-    if (o.ac.method == RT_APPROX_HYBRID && !rate_given) o.ac.rate = RT_APPROX_HYBRID_RATE;
+    if (!rate_given) o.ac.rate = rt_approx_default_rate(o.ac.method);
     if (optind >= argc) {
         rt_cmd_error("sim", "no trace given (see --help)");
         return RT_EXIT_USAGE;

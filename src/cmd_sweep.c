@@ -223,7 +223,7 @@ static int parse_approx(char *s, sweep_opts *o, rt_err *e)
             return rt_errf(e, "--approx: '%s' is not shards:RATE, shards-fixed:SMAX, statstack:RATE or hybrid[:RATE]",
                            m ? m : "");
         ac->method = method;
-        if (method == RT_APPROX_HYBRID) ac->rate = RT_APPROX_HYBRID_RATE;
+        ac->rate = rt_approx_default_rate(method);
         if (method == RT_APPROX_SHARDS_FIXED) {
             uint64_t v;
             if (rt_parse_size(p, &v) < 0) return rt_errf(e, "--approx: bad sample size '%s'", p);
