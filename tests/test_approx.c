@@ -337,7 +337,11 @@ static void test_known_curves(void)
 }
 
 
-static void snapshot(const rt_approx *x, rt_sim_counts *out, int nsizes);
+static void snapshot(const rt_approx *x, rt_sim_counts *out, int nsizes)
+{
+    for (int i = 0; i < nsizes; i++)
+        for (int k = 0; k < RT_NCLASS; k++) rt_approx_get(x, i, k, &out[i * RT_NCLASS + k], NULL);
+}
 
 /* ---- hybrid ---- */
 
@@ -555,12 +559,6 @@ static void test_windows_exact(void)
     CHECK(m1 != m7, "seeds 1 and 7 placed the windows alike (%llu misses)", (unsigned long long)m1);
 }
 
-
-static void snapshot(const rt_approx *x, rt_sim_counts *out, int nsizes)
-{
-    for (int i = 0; i < nsizes; i++)
-        for (int k = 0; k < RT_NCLASS; k++) rt_approx_get(x, i, k, &out[i * RT_NCLASS + k], NULL);
-}
 
 static void test_determinism(void)
 {
