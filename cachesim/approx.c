@@ -22,7 +22,6 @@
  */
 #include "approx.h"
 #include "approx_int.h"
-#include "db.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -378,27 +377,3 @@ void rt_approx_get_stats(const rt_approx *a, rt_approx_stats *st)
     if (a->tw) rt_twin_stats(a->tw, &st->windows, &st->short_warmups, &st->window_refs);
 }
 
-size_t rt_approx_db_rows(const rt_approx *a, rt_db_traffic *rows)
-{
-    size_t n = 0;
-    for (int i = 0; i < a->cfg.nsizes; i++) {
-        if (!rt_approx_available(a, i, NULL)) continue;
-        for (int c = 0; c < RT_NCLASS; c++) {
-            rt_sim_counts t;
-            if (rt_approx_get(a, i, c, &t, NULL) || !t.accesses) continue;
-            rt_db_traffic *r = &rows[n++];
-            r->size = a->cfg.sizes[i];
-            r->line = a->cfg.line;
-            r->assoc = a->cfg.assoc;
-            r->policy = rt_sim_policy_name(&a->cfg);
-            r->cls = c;
-            r->accesses = t.accesses;
-            r->read_misses = t.read_misses;
-            r->write_misses = t.write_misses;
-            r->writebacks = t.writebacks;
-            r->wt_bytes = t.wt_bytes;
-            r->traffic_bytes = t.traffic_bytes;
-        }
-    }
-    return n;
-}

@@ -162,23 +162,4 @@ typedef struct rt_approx_stats {
 } rt_approx_stats;
 void rt_approx_get_stats(const rt_approx *a, rt_approx_stats *st);
 
-struct rt_db_traffic;
-/* Database rows (db.h) of the available sizes, one per class with at least
- * one access, sizes in order; rows must hold nsizes * RT_NCLASS entries.
- * Returns the number of rows written. */
-size_t rt_approx_db_rows(const rt_approx *a, struct rt_db_traffic *rows);
-
-/* ---- benchmark -------------------------------------------------------- */
-
-/* Runs the exact simulator and each method at several parameters over a
- * synthetic 20-million-reference trace (trace_path NULL) or a .rtt/din
- * file, and writes a Markdown table to out: wall time of simulation, speed-
- * up over exact, mean and max absolute miss-ratio error over the available
- * sizes, and the max relative traffic error (all classes, and per group)
- * over the sizes >= 16K. Returns 0 or -1 (file or memory error; nothing is
- * printed for it, the message goes to e). */
-int rt_approx_bench(FILE *out, const char *trace_path, rt_err *e);
-/* Same with a chosen synthetic length (tests use a short one). */
-int rt_approx_bench_n(FILE *out, const char *trace_path, uint64_t nrefs, rt_err *e);
-
 #endif

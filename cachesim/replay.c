@@ -6,6 +6,8 @@
 #include "sim.h"
 #include "trace.h"
 
+#include <errno.h>
+#include <ctype.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -58,4 +60,29 @@ int rt_sim_replay(rt_sim *s, const char *path, int fmt, int din_class, rt_tr_met
 out:
     free(buf);
     return rc;
+}
+
+int rt_sim_sniff(const char *path, rt_err *e)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return rt_errf(e, "%s: %s", path, strerror(errno));
+    unsigned char b[4096];
+    size_t n = fread(b, 1, sizeof b, f);
+    int err = ferror(f);
+    fclose(f);
+    if (err) return rt_errf(e, "%s: read error", path);
+    if (n == 0) return rt_errf(e, "%s: empty file", path);
+    /* din: printable text whose first non-blank line is "digits space hex" */
+    for (size_t i = 0; i < n; i++)
+        if (!(isprint(b[i]) || b[i] == '\n' || b[i] == '\r' || b[i] == '\t')) return RT_SIM_IN_RTT;
+    size_t i = 0;
+    while (i < n && isspace(b[i])) i++;
+    if (i < n && isdigit(b[i])) {
+        while (i < n && isdigit(b[i])) i++;
+        if (i < n && (b[i] == ' ' || b[i] == '\t')) {
+            while (i < n && (b[i] == ' ' || b[i] == '\t')) i++;
+            if (i < n && isxdigit(b[i])) return RT_SIM_IN_DIN;
+        }
+    }
+    return rt_errf(e, "%s: neither a raytraffic trace nor a din file", path);
 }

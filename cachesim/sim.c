@@ -5,7 +5,6 @@
 #include "sim.h"
 #include "msim.h"
 #include "setassoc.h"
-#include "db.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -166,26 +165,3 @@ int rt_sim_check(const rt_sim *s, rt_err *e)
     return 0;
 }
 
-size_t rt_sim_db_rows(const rt_sim *s, rt_db_traffic *rows)
-{
-    size_t n = 0;
-    for (int i = 0; i < s->cfg.nsizes; i++)
-        for (int c = 0; c < RT_NCLASS; c++) {
-            rt_sim_counts t;
-            rt_sim_get(s, i, c, &t);
-            if (!t.accesses) continue;
-            rt_db_traffic *r = &rows[n++];
-            r->size = s->cfg.sizes[i];
-            r->line = s->cfg.line;
-            r->assoc = s->cfg.assoc;
-            r->policy = rt_sim_policy_name(&s->cfg);
-            r->cls = c;
-            r->accesses = t.accesses;
-            r->read_misses = t.read_misses;
-            r->write_misses = t.write_misses;
-            r->writebacks = t.writebacks;
-            r->wt_bytes = t.wt_bytes;
-            r->traffic_bytes = t.traffic_bytes;
-        }
-    return n;
-}

@@ -34,6 +34,7 @@
 
 #include "memmodel.h"
 #include "rt.h"
+#include "din.h"
 #include "trace.h"
 
 #include <stdint.h>
@@ -138,34 +139,5 @@ typedef struct rt_sim_input {
  * message (file and position). On failure s holds a partial simulation. */
 int rt_sim_replay(rt_sim *s, const char *path, int fmt, int din_class, rt_tr_meta *meta,
                   rt_sim_input *info, rt_err *e);
-
-/* Din reader (din.c): opens a Dinero IV "label hexaddress" text file. */
-typedef struct rt_din rt_din;
-rt_din *rt_din_open(const char *path, int cls, rt_err *e);
-/* Fills buf; returns records (> 0), 0 at end of file, -1 on a bad line
- * ("file:line: message"). Labels: 0 read, 1 write, 2 instruction fetch
- * (read); any other label is an error. Each record is a 1-byte reference. */
-long rt_din_read(rt_din *d, rt_access *buf, size_t cap, rt_err *e);
-uint64_t rt_din_file_hash(const rt_din *d); /* FNV-1a of the bytes read so far */
-uint64_t rt_din_file_bytes(const rt_din *d);
-void rt_din_close(rt_din *d);
-
-/* ---- results database ------------------------------------------------- */
-
-struct rt_db_traffic;
-/* Writes s's results as database rows (db.h): for each size, one row per
- * class with at least one access, sizes in order. rows must hold
- * nsizes * RT_NCLASS entries. Returns the number of rows written. */
-size_t rt_sim_db_rows(const rt_sim *s, struct rt_db_traffic *rows);
-
-/* ---- benchmark -------------------------------------------------------- */
-
-/* Generates a 20-million-reference synthetic trace (hot tree-top lines,
- * streaming triangles, ray records) and reports to out the references/s of
- * the one-pass 13-size simulation and the time of simulating the 13 sizes
- * one at a time. Returns 0 or -1 (out of memory). */
-int rt_sim_bench(FILE *out);
-/* Same with a chosen trace length (tests use a short one). */
-int rt_sim_bench_n(FILE *out, uint64_t nrefs);
 
 #endif

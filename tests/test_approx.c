@@ -22,6 +22,7 @@
  *     O(log N) of R N lines in any run of N consecutive lines;
  *   - the benchmark runs on a short synthetic trace.
  */
+#include "bench.h"
 #include "approx.h"
 #include "approx_int.h"
 #include "sim.h"

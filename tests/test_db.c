@@ -2,7 +2,7 @@
  * test_db.c -- the results database: schema, idempotent stores, rollback of
  * a failed store, concurrent writers (fork), views, error messages.
  */
-#include "db.h"
+#include "rows.h"
 #include "memmodel.h"
 #include "sim.h"
 

@@ -8,6 +8,7 @@
  * write-backs, write-through bytes, traffic) with the one-pass simulator,
  * whose invariant checker also runs every few thousand references.
  */
+#include "bench.h"
 #include "msim.h"
 #include "setassoc.h"
 #include "sim.h"

@@ -2,7 +2,7 @@
  * the counters or store them in the results database. */
 #include "approx.h"
 #include "cmd.h"
-#include "db.h"
+#include "rows.h"
 #include "sim.h"
 #include "trace.h"
 

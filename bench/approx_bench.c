@@ -18,7 +18,7 @@
  * an estimate; traffic error = |estimate - exact| / exact over sizes >= 16K
  * (all classes, then the geometry and ray groups).
  */
-#include "approx.h"
+#include "bench.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -12,6 +12,7 @@
  * seed, so every pass sees the same references and only simulation is
  * timed.
  */
+#include "bench.h"
 #include "msim.h"
 #include "sim.h"
 

@@ -8,7 +8,7 @@
  * record becomes a 1-byte reference of the class given at open (default
  * "other"), as Dinero IV itself treats din records without a size.
  */
-#include "sim.h"
+#include "din.h"
 
 #include <ctype.h>
 #include <errno.h>
@@ -95,29 +95,4 @@ void rt_din_close(rt_din *d)
     free(d->path);
     free(d->buf);
     free(d);
-}
-
-int rt_sim_sniff(const char *path, rt_err *e)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f) return rt_errf(e, "%s: %s", path, strerror(errno));
-    unsigned char b[4096];
-    size_t n = fread(b, 1, sizeof b, f);
-    int err = ferror(f);
-    fclose(f);
-    if (err) return rt_errf(e, "%s: read error", path);
-    if (n == 0) return rt_errf(e, "%s: empty file", path);
-    /* din: printable text whose first non-blank line is "digits space hex" */
-    for (size_t i = 0; i < n; i++)
-        if (!(isprint(b[i]) || b[i] == '\n' || b[i] == '\r' || b[i] == '\t')) return RT_SIM_IN_RTT;
-    size_t i = 0;
-    while (i < n && isspace(b[i])) i++;
-    if (i < n && isdigit(b[i])) {
-        while (i < n && isdigit(b[i])) i++;
-        if (i < n && (b[i] == ' ' || b[i] == '\t')) {
-            while (i < n && (b[i] == ' ' || b[i] == '\t')) i++;
-            if (i < n && isxdigit(b[i])) return RT_SIM_IN_DIN;
-        }
-    }
-    return rt_errf(e, "%s: neither a raytraffic trace nor a din file", path);
 }

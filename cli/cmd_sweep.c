@@ -18,7 +18,7 @@
  * joins the shards.
  */
 #include "cmd.h"
-#include "db.h"
+#include "rows.h"
 #include "run.h"
 #include "approx.h"
 #include "sim.h"

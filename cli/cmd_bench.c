@@ -5,6 +5,7 @@
  * a trace file (recording + encoding + zlib), and streaming into the
  * one-pass 13-size cache simulator; and the simulator's own throughput on a
  * synthetic trace. Results go to stdout as a Markdown table (or TSV). */
+#include "bench.h"
 #include "cmd.h"
 #include "run.h"
 #include "approx.h"

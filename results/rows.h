@@ -1,0 +1,21 @@
+/*
+ * rows.h -- simulator counters as database rows (module prefix rt_rows_).
+ *
+ * The only place where a simulator's counters become rt_db_traffic rows:
+ * one row per (size, class) with at least one access, sizes in order.
+ */
+#ifndef RT_ROWS_H
+#define RT_ROWS_H
+
+#include "approx.h"
+#include "db.h"
+#include "sim.h"
+
+#include <stddef.h>
+
+/* rows must hold nsizes * RT_NCLASS entries; returns the rows written. */
+size_t rt_sim_db_rows(const rt_sim *s, rt_db_traffic *rows);
+/* Same for the sizes an approximate simulator has estimates for. */
+size_t rt_approx_db_rows(const rt_approx *a, rt_db_traffic *rows);
+
+#endif
