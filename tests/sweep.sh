@@ -12,11 +12,11 @@ trap 'rm -rf "$tmp"' EXIT
 fail=0
 args="--scenes cornell,knot --lights primary,0,all -W 24 -H 20 --sizes 1K,4K,64K"
 contents() { # the database's results, without volatile provenance
-    sqlite3 "$1" "SELECT s.name, s.hash, r.tracer, r.W, r.H, r.lights, r.sched_cache_size, r.params, r.refs, r.stats,
+    sqlite3 "$1" "SELECT s.name, s.hash, r.tracer, r.W, r.H, r.lights, r.sched_size, r.params, r.refs, r.stats,
         c.size, t.class, t.accesses, t.read_misses, t.write_misses, t.writebacks, t.traffic_bytes
         FROM traffic t JOIN runs r ON r.id = t.run_id JOIN scenes s ON s.id = r.scene_id
         JOIN cache_configs c ON c.id = t.config_id
-        ORDER BY s.name, r.tracer, r.lights, r.sched_cache_size, c.size, t.class" |
+        ORDER BY s.name, r.tracer, r.lights, r.sched_size, c.size, t.class" |
         sed -e 's/render_seconds=[0-9.]*//' -e 's/sim_seconds=[0-9.]*//'
 }
 # 1. golden report

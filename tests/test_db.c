@@ -80,7 +80,7 @@ static void run_key(rt_db_run *r, const char *tracer, uint32_t lights, uint64_t 
     r->W = 1024;
     r->H = 1024;
     r->lights = lights;
-    r->cache_size = cache;
+    r->sched_size = cache;
     r->refs = 123456789;
     r->trace_hash = 0x8000000000000001ULL;
     r->command = "test_db";
