@@ -349,25 +349,32 @@ int rt_db_has_run(rt_db *db, const rt_db_run *key, rt_err *e)
     return step_id(db, db->st[S_RUN_GET], NULL, e);
 }
 
-static int store(rt_db *db, const rt_db_run *r, const rt_db_traffic *rows, size_t n, int64_t *run_id, rt_err *e)
+/* Inserts the run's scene if new (or fills in its triangle count); its id. */
+static int store_scene(rt_db *db, const rt_db_run *r, int64_t *scene_id, rt_err *e)
 {
-    char hash[17], thash[17];
+    char hash[17];
     sqlite3_stmt **st = db->st;
-    /* scene */
     hex64(hash, r->scene_hash);
     sqlite3_bind_text(st[S_SCENE_INS], 1, nz(r->scene), -1, SQLITE_TRANSIENT);
     sqlite3_bind_text(st[S_SCENE_INS], 2, nz(r->scene_params), -1, SQLITE_TRANSIENT);
     sqlite3_bind_text(st[S_SCENE_INS], 3, hash, -1, SQLITE_TRANSIENT);
     sqlite3_bind_int64(st[S_SCENE_INS], 4, r->ntri);
     if (step_id(db, st[S_SCENE_INS], NULL, e) < 0) return -1;
-    int64_t scene_id = 0;
     sqlite3_bind_text(st[S_SCENE_GET], 1, nz(r->scene), -1, SQLITE_TRANSIENT);
     sqlite3_bind_text(st[S_SCENE_GET], 2, nz(r->scene_params), -1, SQLITE_TRANSIENT);
     sqlite3_bind_text(st[S_SCENE_GET], 3, hash, -1, SQLITE_TRANSIENT);
-    if (step_id(db, st[S_SCENE_GET], &scene_id, e) != 1) return rt_errf(e, "%s: scene row vanished", db->path);
-    sqlite3_bind_int64(st[S_SCENE_TRI], 1, scene_id);
+    if (step_id(db, st[S_SCENE_GET], scene_id, e) != 1) return rt_errf(e, "%s: scene row vanished", db->path);
+    sqlite3_bind_int64(st[S_SCENE_TRI], 1, *scene_id);
     sqlite3_bind_int64(st[S_SCENE_TRI], 2, r->ntri);
-    if (step_id(db, st[S_SCENE_TRI], NULL, e) < 0) return -1;
+    return step_id(db, st[S_SCENE_TRI], NULL, e) < 0 ? -1 : 0;
+}
+
+static int store(rt_db *db, const rt_db_run *r, const rt_db_traffic *rows, size_t n, int64_t *run_id, rt_err *e)
+{
+    char hash[17], thash[17];
+    sqlite3_stmt **st = db->st;
+    int64_t scene_id = 0;
+    if (store_scene(db, r, &scene_id, e) < 0) return -1;
     /* run: update in place if the key exists, else insert */
     int64_t rid = 0;
     bind_key(st[S_RUN_GET], r, hash);
