@@ -27,7 +27,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define REPLAY_BUF 65536
 
 struct rt_approx {
     rt_sim_config cfg;          /* as created */
@@ -209,47 +208,12 @@ int rt_approx_put(rt_approx *a, const rt_access *acc, size_t n)
 int rt_approx_replay(rt_approx *a, const char *path, int fmt, int din_class, rt_tr_meta *meta,
                      rt_sim_input *info, rt_err *e)
 {
-    rt_sim_input loc;
-    if (!info) info = &loc;
-    memset(info, 0, sizeof *info);
-    if (fmt == RT_SIM_IN_AUTO) {
-        fmt = rt_sim_sniff(path, e);
-        if (fmt < 0) return -1;
-    }
-    rt_access *buf = rt_calloc(REPLAY_BUF, sizeof *buf, e);
-    if (!buf) return -1;
-    int rc = -1;
-    long n;
-    info->format = fmt;
-    if (fmt == RT_SIM_IN_DIN) {
-        rt_din *d = rt_din_open(path, din_class, e);
-        if (!d) goto out;
-        while ((n = rt_din_read(d, buf, REPLAY_BUF, e)) > 0) {
-            rt_approx_put(a, buf, (size_t)n);
-            info->refs += (uint64_t)n;
-        }
-        info->file_bytes = rt_din_file_bytes(d);
-        info->file_hash = rt_din_file_hash(d);
-        rt_din_close(d);
-    } else {
-        rt_tr_reader *r = rt_tr_open(path, e);
-        if (!r) goto out;
-        if (meta) *meta = *rt_tr_get_meta(r);
-        info->has_meta = 1;
-        while ((n = rt_tr_read(r, buf, REPLAY_BUF, e)) > 0) {
-            rt_approx_put(a, buf, (size_t)n);
-            info->refs += (uint64_t)n;
-        }
-        if (n == 0) {
-            info->file_bytes = rt_tr_file_bytes(r);
-            info->file_hash = rt_tr_file_hash(r);
-        }
-        rt_tr_close(r);
-    }
-    if (n == 0) rc = 0;
-out:
-    free(buf);
-    return rc;
+    return rt_sim_replay_sink(&a->sink, path, fmt, din_class, meta, info, e);
+}
+
+const char *rt_approx_engine(const rt_approx *a)
+{
+    return a->ac.method == RT_APPROX_EXACT ? rt_sim_engine(a->exact) : method_names[a->ac.method];
 }
 
 int rt_approx_finish(rt_approx *a, rt_err *e)

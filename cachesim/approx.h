@@ -123,6 +123,9 @@ int rt_approx_put(rt_approx *a, const rt_access *acc, size_t n);
 rt_sink *rt_approx_sink(rt_approx *a);
 /* References seen so far. */
 uint64_t rt_approx_refs(const rt_approx *a);
+/* The engine: for RT_APPROX_EXACT the exact simulator's (rt_sim_engine:
+ * "exact-stack" or "exact-persize"), else the method name. Static string. */
+const char *rt_approx_engine(const rt_approx *a);
 
 /* Replays a whole .rtt or din file into a; arguments and return as
  * rt_sim_replay (sim.h). Does not call rt_approx_finish. */

@@ -1,7 +1,9 @@
 /*
  * replay.c -- feed a trace file (.rtt through the trace reader, or din)
- * through a simulator (rt_sim_replay, see sim.h). Kept apart from sim.c so
- * programs that only stream in-process do not link the trace reader.
+ * into any rt_sink: the one trace-replay loop (rt_sim_replay_sink, see
+ * sim.h), used by the exact and the approximate simulators alike. Kept
+ * apart from sim.c so programs that only stream in-process do not link the
+ * trace reader.
  */
 #include "sim.h"
 #include "trace.h"
@@ -13,8 +15,23 @@
 
 #define REPLAY_BUF 4096 /* 64 KB: small enough to stay in L2 beside the simulator */
 
-int rt_sim_replay(rt_sim *s, const char *path, int fmt, int din_class, rt_tr_meta *meta, rt_sim_input *info,
-                  rt_err *e)
+/* Reads the whole input through next() into sink, counting references. */
+static long pump(long (*next)(void *, rt_access *, size_t, rt_err *), void *src, rt_sink *sink, rt_access *buf,
+                 rt_sim_input *info, rt_err *e)
+{
+    long n;
+    while ((n = next(src, buf, REPLAY_BUF, e)) > 0) {
+        if (sink->put(sink, buf, (size_t)n) < 0) return rt_errf(e, "the simulator rejected references");
+        info->refs += (uint64_t)n;
+    }
+    return n;
+}
+
+static long din_next(void *d, rt_access *b, size_t n, rt_err *e) { return rt_din_read(d, b, n, e); }
+static long rtt_next(void *r, rt_access *b, size_t n, rt_err *e) { return rt_tr_read(r, b, n, e); }
+
+int rt_sim_replay_sink(rt_sink *sink, const char *path, int fmt, int din_class, rt_tr_meta *meta,
+                       rt_sim_input *info, rt_err *e)
 {
     rt_sim_input loc;
     if (!info) info = &loc;
@@ -25,41 +42,37 @@ int rt_sim_replay(rt_sim *s, const char *path, int fmt, int din_class, rt_tr_met
     }
     rt_access *buf = rt_calloc(REPLAY_BUF, sizeof *buf, e);
     if (!buf) return -1;
-    int rc = -1;
+    long n = -1;
     info->format = fmt;
     if (fmt == RT_SIM_IN_DIN) {
         rt_din *d = rt_din_open(path, din_class, e);
-        if (!d) goto out;
-        long n;
-        while ((n = rt_din_read(d, buf, REPLAY_BUF, e)) > 0) {
-            rt_sim_put(s, buf, (size_t)n);
-            info->refs += (uint64_t)n;
+        if (d) {
+            n = pump(din_next, d, sink, buf, info, e);
+            info->file_bytes = rt_din_file_bytes(d);
+            info->file_hash = rt_din_file_hash(d);
+            rt_din_close(d);
         }
-        info->file_bytes = rt_din_file_bytes(d);
-        info->file_hash = rt_din_file_hash(d);
-        rt_din_close(d);
-        if (n < 0) goto out;
     } else {
         rt_tr_reader *r = rt_tr_open(path, e);
-        if (!r) goto out;
-        if (meta) *meta = *rt_tr_get_meta(r);
-        info->has_meta = 1;
-        long n;
-        while ((n = rt_tr_read(r, buf, REPLAY_BUF, e)) > 0) {
-            rt_sim_put(s, buf, (size_t)n);
-            info->refs += (uint64_t)n;
+        if (r) {
+            if (meta) *meta = *rt_tr_get_meta(r);
+            info->has_meta = 1;
+            n = pump(rtt_next, r, sink, buf, info, e);
+            if (n == 0) {
+                info->file_bytes = rt_tr_file_bytes(r);
+                info->file_hash = rt_tr_file_hash(r);
+            }
+            rt_tr_close(r);
         }
-        if (n == 0) {
-            info->file_bytes = rt_tr_file_bytes(r);
-            info->file_hash = rt_tr_file_hash(r);
-        }
-        rt_tr_close(r);
-        if (n < 0) goto out;
     }
-    rc = 0;
-out:
     free(buf);
-    return rc;
+    return n == 0 ? 0 : -1;
+}
+
+int rt_sim_replay(rt_sim *s, const char *path, int fmt, int din_class, rt_tr_meta *meta, rt_sim_input *info,
+                  rt_err *e)
+{
+    return rt_sim_replay_sink(rt_sim_sink(s), path, fmt, din_class, meta, info, e);
 }
 
 int rt_sim_sniff(const char *path, rt_err *e)

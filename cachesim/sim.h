@@ -139,5 +139,9 @@ typedef struct rt_sim_input {
  * message (file and position). On failure s holds a partial simulation. */
 int rt_sim_replay(rt_sim *s, const char *path, int fmt, int din_class, rt_tr_meta *meta,
                   rt_sim_input *info, rt_err *e);
+/* The same replay into any sink (rt_sim_sink, rt_approx_sink, a fan-out):
+ * the one replay loop. A put that fails ends it with -1. */
+int rt_sim_replay_sink(rt_sink *sink, const char *path, int fmt, int din_class, rt_tr_meta *meta,
+                       rt_sim_input *info, rt_err *e);
 
 #endif

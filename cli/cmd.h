@@ -9,6 +9,10 @@
 #ifndef RT_CMD_H
 #define RT_CMD_H
 
+#include "tracer.h"
+
+#include <getopt.h>
+#include <stdint.h>
 #include <stdio.h>
 
 #define RT_EXIT_OK 0
@@ -43,11 +47,19 @@ int rt_cmd_wants_help(int argc, char **argv);
 /* A sampling rate: a number in (0, 1] or 1/N ("1/64"). 0 or -1. */
 int rt_cmd_parse_rate(const char *s, double *out);
 
-#endif
+/* A decimal integer in lo..hi (nothing after it). 0 or -1 (no message). */
+int rt_cmd_parse_long(const char *s, long lo, long hi, long *out);
+
+/* --line: a line size in bytes, 1..1M, as a number or with a K/M suffix
+ * ("64", "4K"). 0, or -1 with the message printed for cmd. The one parser
+ * of --line (sim, sweep, trace-dump). */
+int rt_cmd_parse_line(const char *cmd, const char *arg, uint32_t *line);
+
+/* Writes s to f as a JSON string literal (quotes, backslashes and control
+ * bytes escaped). */
+void rt_cmd_json_str(FILE *f, const char *s);
 
 /* ---- render options shared by render, trace, bench and sweep ---------- */
-#include "tracer.h"
-#include <getopt.h>
 
 /* getopt_long codes for the shared render options. */
 enum {
@@ -84,3 +96,5 @@ struct option *rt_cmd_merge_opts(const struct option *own);
 /* Handles one shared option. Returns 1 if handled, 0 if c is not a shared
  * option, -1 on a bad value (message printed for cmd). */
 int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o, const char **tracer);
+
+#endif

@@ -1,5 +1,6 @@
-/* cmd_common.c -- option parsing shared by the rendering subcommands, so
- * the same option is spelled and checked the same way everywhere. */
+/* cmd_common.c -- option parsing and output helpers shared by the
+ * subcommands, so the same option is spelled and checked the same way
+ * everywhere and JSON strings are escaped one way. */
 #include "cmd.h"
 
 #include <errno.h>
@@ -33,7 +34,7 @@ struct option *rt_cmd_merge_opts(const struct option *own)
     return t;
 }
 
-static int parse_int(const char *s, long lo, long hi, long *out)
+int rt_cmd_parse_long(const char *s, long lo, long hi, long *out)
 {
     char *end;
     errno = 0;
@@ -57,7 +58,7 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         return 1;
     case 'W':
     case 'H':
-        if (parse_int(arg, 1, 65536, &v) < 0) {
+        if (rt_cmd_parse_long(arg, 1, 65536, &v) < 0) {
             rt_cmd_error(cmd, "-%c: '%s' is not an image size in 1..65536", c, arg);
             return -1;
         }
@@ -84,7 +85,7 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         o->gmax = u;
         return 1;
     case RT_OPT_PACKET:
-        if (parse_int(arg, 1, 256, &v) < 0) {
+        if (rt_cmd_parse_long(arg, 1, 256, &v) < 0) {
             rt_cmd_error(cmd, "--packet: '%s' is not in 1..256", arg);
             return -1;
         }
@@ -99,7 +100,7 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         }
         return 1;
     case RT_OPT_THREADS:
-        if (parse_int(arg, 1, 1024, &v) < 0) {
+        if (rt_cmd_parse_long(arg, 1, 1024, &v) < 0) {
             rt_cmd_error(cmd, "--threads: '%s' is not in 1..1024", arg);
             return -1;
         }
@@ -111,12 +112,12 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         snprintf(buf, sizeof buf, "%s", arg);
         if ((colon = strchr(buf, ':'))) {
             *colon = 0;
-            if (parse_int(colon + 1, 1, 4096, &t) < 0) {
+            if (rt_cmd_parse_long(colon + 1, 1, 4096, &t) < 0) {
                 rt_cmd_error(cmd, "--subsample: tile '%s' is not in 1..4096", colon + 1);
                 return -1;
             }
         }
-        if (parse_int(buf, 1, 1L << 20, &v) < 0) {
+        if (rt_cmd_parse_long(buf, 1, 1L << 20, &v) < 0) {
             rt_cmd_error(cmd, "--subsample: '%s' is not K or K:TILE with K in 1..1048576", arg);
             return -1;
         }
@@ -143,4 +144,27 @@ int rt_cmd_parse_rate(const char *s, double *out)
     if (*end || !(v > 0) || v > 1) return -1;
     *out = v;
     return 0;
+}
+
+int rt_cmd_parse_line(const char *cmd, const char *arg, uint32_t *line)
+{
+    uint64_t v;
+    if (rt_parse_size(arg, &v) < 0 || v == 0 || v > (1u << 20)) {
+        rt_cmd_error(cmd, "--line: '%s' is not a line size in 1..1M bytes", arg);
+        return -1;
+    }
+    *line = (uint32_t)v;
+    return 0;
+}
+
+void rt_cmd_json_str(FILE *f, const char *s)
+{
+    fputc('"', f);
+    for (; *s; s++) {
+        unsigned char c = (unsigned char)*s;
+        if (c == '"' || c == '\\') fprintf(f, "\\%c", c);
+        else if (c < 0x20) fprintf(f, "\\u%04x", c);
+        else fputc(c, f);
+    }
+    fputc('"', f);
 }

@@ -55,17 +55,7 @@ static int cmd_list(int argc, char **argv)
 }
 
 /* Prints s as a JSON string (escaping quotes, backslashes, controls). */
-static void json_str(const char *s)
-{
-    putchar('"');
-    for (; *s; s++) {
-        unsigned char c = (unsigned char)*s;
-        if (c == '"' || c == '\\') printf("\\%c", c);
-        else if (c < 0x20) printf("\\u%04x", c);
-        else putchar(c);
-    }
-    putchar('"');
-}
+static void json_str(const char *s) { rt_cmd_json_str(stdout, s); }
 
 static void json_vec(const char *key, rt_vec3 v, int comma)
 {

@@ -1,7 +1,13 @@
 /* cmd_sim.c -- `raytraffic sim`: replay traces through cache models, print
- * the counters or store them in the results database. */
+ * the counters or store them in the results database.
+ *
+ * One path for every method: each trace is replayed into an rt_approx
+ * (RT_APPROX_EXACT wraps the exact simulator, so its output and rows are
+ * those of rt_sim), counters are printed from it or turned into rows by
+ * rows.c and stored under the key experiment.c builds. */
 #include "approx.h"
 #include "cmd.h"
+#include "experiment.h"
 #include "rows.h"
 #include "sim.h"
 #include "trace.h"
@@ -20,6 +26,7 @@ typedef struct sim_opts {
     const char *db;     /* database path or NULL */
     int outfmt;         /* FMT_* */
     rt_approx_config ac;/* --method etc.; RT_APPROX_EXACT = the exact simulator */
+    int rate_given;     /* --rate seen */
 } sim_opts;
 
 static void usage(FILE *f)
@@ -60,12 +67,6 @@ static void usage(FILE *f)
             "docs/cachesim.md. Exit status 0 ok, 1 a trace failed, 2 usage error.\n");
 }
 
-static const char *basename_of(const char *p)
-{
-    const char *s = strrchr(p, '/');
-    return s ? s + 1 : p;
-}
-
 static void print_row(FILE *f, int fmt, const char *trace, const rt_sim_config *c, int i, const char *name,
                       const rt_sim_counts *t, int *first)
 {
@@ -91,50 +92,36 @@ static void print_row(FILE *f, int fmt, const char *trace, const rt_sim_config *
     }
 }
 
-static void print_results(FILE *f, int fmt, const char *trace, const rt_sim *s, int *first)
-{
-    const rt_sim_config *c = rt_sim_get_config(s);
-    if (fmt == FMT_TEXT) {
-        fprintf(f, "# %s: %llu references, policy %s, engine %s\n", trace, (unsigned long long)rt_sim_refs(s),
-                rt_sim_policy_name(c), rt_sim_engine(s));
-        fprintf(f, "%12s %5s %5s %-9s %14s %12s %12s %12s %12s %16s\n", "size_bytes", "line", "assoc", "class",
-                "accesses", "read_misses", "write_misses", "writebacks", "wt_bytes", "traffic_bytes");
-    }
-    for (int i = 0; i < c->nsizes; i++) {
-        rt_sim_counts t;
-        for (int k = 0; k < RT_NCLASS; k++) {
-            rt_sim_get(s, i, k, &t);
-            if (t.accesses) print_row(f, fmt, trace, c, i, rt_class_name(k), &t, first);
-        }
-        for (int g = 0; g < RT_NGROUP; g++) {
-            rt_sim_get_group(s, i, g, &t);
-            print_row(f, fmt, trace, c, i, rt_group_name(g), &t, first);
-        }
-    }
-}
-
-/* print_results for a sampled estimate: sizes without one are left out. */
-static void print_results_approx(FILE *f, int fmt, const char *trace, const rt_approx *ap, int *first)
+/* The header lines of the text format. */
+static void print_header(FILE *f, const char *trace, const rt_approx *ap)
 {
     const rt_sim_config *c = rt_approx_get_config(ap);
+    const rt_approx_config *ac = rt_approx_get_approx_config(ap);
     char params[160];
-    rt_approx_params(rt_approx_get_approx_config(ap), params, sizeof params);
-    if (fmt == FMT_TEXT) {
-        fprintf(f, "# %s: %llu references, policy %s, engine %s %s\n", trace,
-                (unsigned long long)rt_approx_refs(ap), rt_sim_policy_name(c),
-                rt_approx_method_name(rt_approx_get_approx_config(ap)->method), params);
+    rt_approx_params(ac, params, sizeof params);
+    fprintf(f, "# %s: %llu references, policy %s, engine %s%s%s\n", trace, (unsigned long long)rt_approx_refs(ap),
+            rt_sim_policy_name(c), rt_approx_engine(ap), ac->method == RT_APPROX_EXACT ? "" : " ", params);
+    if (ac->method != RT_APPROX_EXACT) {
         rt_approx_stats st;
         rt_approx_get_stats(ap, &st);
         fprintf(f, "# sample: %llu of %llu line touches (%llu lines, rate %.6g)", (unsigned long long)st.sampled_touches,
                 (unsigned long long)st.touches, (unsigned long long)st.sampled_lines, st.rate);
-        if (rt_approx_get_approx_config(ap)->method == RT_APPROX_HYBRID)
+        if (ac->method == RT_APPROX_HYBRID)
             fprintf(f, "; %llu windows, %llu with a short warm-up, %llu references scanned or simulated for them",
                     (unsigned long long)st.windows, (unsigned long long)st.short_warmups,
                     (unsigned long long)st.window_refs);
         fputc('\n', f);
-        fprintf(f, "%12s %5s %5s %-9s %14s %12s %12s %12s %12s %16s\n", "size_bytes", "line", "assoc", "class",
-                "accesses", "read_misses", "write_misses", "writebacks", "wt_bytes", "traffic_bytes");
     }
+    fprintf(f, "%12s %5s %5s %-9s %14s %12s %12s %12s %12s %16s\n", "size_bytes", "line", "assoc", "class",
+            "accesses", "read_misses", "write_misses", "writebacks", "wt_bytes", "traffic_bytes");
+}
+
+/* Per-class rows (those with accesses), then group rows, for every size;
+ * sizes without an estimate are left out (text: a '#' line says why). */
+static void print_results(FILE *f, int fmt, const char *trace, const rt_approx *ap, int *first)
+{
+    const rt_sim_config *c = rt_approx_get_config(ap);
+    if (fmt == FMT_TEXT) print_header(f, trace, ap);
     for (int i = 0; i < c->nsizes; i++) {
         rt_sim_counts t;
         rt_err e = {{0}};
@@ -149,40 +136,23 @@ static void print_results_approx(FILE *f, int fmt, const char *trace, const rt_a
     }
 }
 
-static int store(rt_db *db, const char *path, const rt_sim *s, const rt_approx *ap, const rt_tr_meta *m,
-                 const rt_sim_input *in, double secs, int din_class, rt_err *e)
+/* Stores one replayed trace as a run; prints a summary line to stderr. */
+static int store(rt_db *db, const char *path, const rt_approx *ap, const rt_tr_meta *m, const rt_sim_input *in,
+                 double secs, int din_class, rt_err *e)
 {
-    const rt_sim_config *c = s ? rt_sim_get_config(s) : rt_approx_get_config(ap);
+    const rt_sim_config *c = rt_approx_get_config(ap);
     rt_db_traffic *rows = calloc((size_t)c->nsizes * RT_NCLASS, sizeof *rows);
     if (!rows) return rt_errf(e, "out of memory");
-    size_t n = s ? rt_sim_db_rows(s, rows) : rt_approx_db_rows(ap, rows);
-    char sim_params[160] = "";
-    if (ap) rt_approx_params(rt_approx_get_approx_config(ap), sim_params, sizeof sim_params);
-    rt_db_run r;
-    memset(&r, 0, sizeof r);
-    char scene[300], params[64];
+    size_t n = rt_approx_db_rows(ap, rows);
+    rt_exp_key k;
     if (in->has_meta) {
-        r.scene = m->scene;
-        r.scene_params = m->scene_params;
-        r.scene_hash = m->scene_hash;
-        r.ntri = m->ntri;
-        r.tracer = m->tracer;
-        r.W = m->W;
-        r.H = m->H;
-        r.lights = m->lights;
-        r.cache_size = m->cache_size;
-        r.gmax = m->gmax;
-        r.params = m->params;
-    } else { /* din: identified by file name and content */
-        snprintf(scene, sizeof scene, "din:%s", basename_of(path));
-        snprintf(params, sizeof params, "din_class=%s", rt_class_name(din_class));
-        r.scene = scene;
-        r.scene_hash = in->file_hash;
-        r.tracer = "din";
-        r.params = params;
+        memset(&k, 0, sizeof k);
+        rt_exp_run_from_meta(m, &k.run);
+    } else {
+        rt_exp_run_from_din(path, din_class, in->file_hash, &k);
     }
-    r.sim_method = ap ? rt_approx_method_name(rt_approx_get_approx_config(ap)->method) : "exact";
-    r.sim_params = sim_params;
+    rt_exp_key_method(&k, rt_approx_get_approx_config(ap));
+    rt_db_run r = k.run;
     r.trace_hash = in->file_hash;
     r.refs = in->refs;
     r.command = rt_cmd_line();
@@ -197,6 +167,145 @@ static int store(rt_db *db, const char *path, const rt_sim *s, const rt_approx *
     return rc;
 }
 
+enum { O_SIZES = 1, O_LINE, O_ASSOC, O_WT, O_NWA, O_INFMT, O_DINCLS, O_DB, O_FMT, O_METHOD, O_RATE, O_SMAX,
+       O_SEED, O_EXACT_BELOW, O_WINDOW_BELOW, O_PERIOD, O_WINDOW };
+static const struct option longopts[] = {
+    {"sizes", required_argument, NULL, O_SIZES},
+    {"line", required_argument, NULL, O_LINE},
+    {"assoc", required_argument, NULL, O_ASSOC},
+    {"write-through", no_argument, NULL, O_WT},
+    {"no-write-allocate", no_argument, NULL, O_NWA},
+    {"input-format", required_argument, NULL, O_INFMT},
+    {"din-class", required_argument, NULL, O_DINCLS},
+    {"db", required_argument, NULL, O_DB},
+    {"format", required_argument, NULL, O_FMT},
+    {"method", required_argument, NULL, O_METHOD},
+    {"rate", required_argument, NULL, O_RATE},
+    {"smax", required_argument, NULL, O_SMAX},
+    {"seed", required_argument, NULL, O_SEED},
+    {"exact-below", required_argument, NULL, O_EXACT_BELOW},
+    {"window-below", required_argument, NULL, O_WINDOW_BELOW},
+    {"period", required_argument, NULL, O_PERIOD},
+    {"window", required_argument, NULL, O_WINDOW},
+    {"help", no_argument, NULL, 'h'},
+    {NULL, 0, NULL, 0},
+};
+
+/* Index of arg in names (NULL-terminated), or -1 with a usage message. */
+static int pick(const char *opt, const char *arg, const char *const *names, const char *expect)
+{
+    for (int i = 0; names[i]; i++)
+        if (!strcmp(arg, names[i])) return i;
+    rt_cmd_error("sim", "--%s: '%s' is not %s", opt, arg, expect);
+    return -1;
+}
+
+/* Handles one option. 0 ok, -1 usage error (printed). */
+static int parse_opt(sim_opts *o, int ch, const char *arg, const char *argv_opt)
+{
+    static const char *const infmts[] = {"auto", "rtt", "din", NULL}, *const outfmts[] = {"text", "csv", "json", NULL};
+    rt_err err = {{0}};
+    uint64_t v;
+    switch (ch) {
+    case O_SIZES:
+        if (rt_sim_parse_sizes(arg, &o->cfg, &err)) {
+            rt_cmd_error("sim", "--sizes: %s", err.msg);
+            return -1;
+        }
+        return 0;
+    case O_LINE: return rt_cmd_parse_line("sim", arg, &o->cfg.line);
+    case O_ASSOC:
+        if (!strcmp(arg, "full")) o->cfg.assoc = 0;
+        else if (rt_parse_size(arg, &v) || v == 0 || v > (1u << 30)) {
+            rt_cmd_error("sim", "--assoc: '%s' is not 'full' or a positive number of ways", arg);
+            return -1;
+        } else o->cfg.assoc = (uint32_t)v;
+        return 0;
+    case O_WT: o->cfg.write_through = 1; return 0;
+    case O_NWA: o->cfg.no_write_allocate = 1; return 0;
+    case O_INFMT: /* RT_SIM_IN_AUTO, _RTT, _DIN are 0, 1, 2 */
+        return (o->infmt = pick("input-format", arg, infmts, "auto, rtt or din")) < 0 ? -1 : 0;
+    case O_DINCLS:
+        if ((o->din_class = rt_class_from_name(arg)) < 0) {
+            rt_cmd_error("sim", "--din-class: unknown class '%s'", arg);
+            return -1;
+        }
+        return 0;
+    case O_DB: o->db = arg; return 0;
+    case O_FMT: return (o->outfmt = pick("format", arg, outfmts, "text, csv or json")) < 0 ? -1 : 0;
+    case O_METHOD:
+        if ((o->ac.method = rt_approx_method_from_name(arg)) < 0) {
+            rt_cmd_error("sim", "--method: '%s' is not exact, shards, shards-fixed, statstack or hybrid", arg);
+            return -1;
+        }
+        return 0;
+    case O_RATE:
+        if (rt_cmd_parse_rate(arg, &o->ac.rate)) {
+            rt_cmd_error("sim", "--rate: '%s' is not a rate in (0, 1] or 1/N", arg);
+            return -1;
+        }
+        o->rate_given = 1;
+        return 0;
+    case O_SMAX: case O_SEED: case O_EXACT_BELOW: case O_WINDOW_BELOW: case O_PERIOD: case O_WINDOW: {
+        uint64_t *dst[] = {&o->ac.smax, &o->ac.seed, &o->ac.exact_below, &o->ac.window_below, &o->ac.period,
+                           &o->ac.window};
+        if (rt_parse_size(arg, &v)) {
+            rt_cmd_error("sim", "--%s: '%s' is not a count", longopts[ch - O_SIZES].name, arg);
+            return -1;
+        }
+        *dst[ch - O_SMAX] = v;
+        return 0;
+    }
+    default:
+        rt_cmd_error("sim", "unknown or incomplete option '%s' (see --help)", argv_opt);
+        return -1;
+    }
+}
+
+/* Parses argv; optind is left at the first trace. 0 ok, -1 usage error. */
+static int parse_args(int argc, char **argv, sim_opts *o)
+{
+    memset(o, 0, sizeof *o);
+    rt_sim_config_default(&o->cfg);
+    o->din_class = RT_CLS_FB;
+    rt_approx_config_default(&o->ac);
+    o->ac.method = RT_APPROX_EXACT;
+    rt_err err = {{0}};
+    optind = 1;
+    opterr = 0;
+    int ch;
+    while ((ch = getopt_long(argc, argv, "h", longopts, NULL)) != -1)
+        if (parse_opt(o, ch, optarg, argv[optind - 1]) < 0) return -1;
+    if (!o->rate_given) o->ac.rate = rt_approx_default_rate(o->ac.method);
+    if (optind >= argc) {
+        rt_cmd_error("sim", "no trace given (see --help)");
+        return -1;
+    }
+    if (rt_sim_config_check(&o->cfg, &err) || rt_approx_config_check(&o->cfg, &o->ac, &err)) {
+        rt_cmd_error("sim", "%s", err.msg);
+        return -1;
+    }
+    return 0;
+}
+
+/* Replays one trace and prints or stores its counters. 0 or -1 (printed). */
+static int sim_one(const sim_opts *o, rt_db *db, const char *path, rt_tr_meta *meta, int *first)
+{
+    rt_err err = {{0}};
+    rt_approx *ap = rt_approx_new(&o->cfg, &o->ac, &err);
+    rt_sim_input in;
+    double t0 = rt_now();
+    int rc = -1;
+    memset(meta, 0, sizeof *meta);
+    if (ap && !rt_approx_replay(ap, path, o->infmt, o->din_class, meta, &in, &err) && !rt_approx_finish(ap, &err)) {
+        if (!db) print_results(stdout, o->outfmt, path, ap, first);
+        rc = db ? store(db, path, ap, meta, &in, rt_now() - t0, o->din_class, &err) : 0;
+    }
+    if (rc < 0) rt_cmd_error("sim", "%s", err.msg);
+    rt_approx_free(ap);
+    return rc;
+}
+
 int main_sim(int argc, char **argv)
 {
     if (rt_cmd_wants_help(argc, argv)) {
@@ -204,139 +313,17 @@ int main_sim(int argc, char **argv)
         return RT_EXIT_OK;
     }
     sim_opts o;
-    memset(&o, 0, sizeof o);
-    rt_sim_config_default(&o.cfg);
-    o.din_class = RT_CLS_FB;
-    rt_approx_config_default(&o.ac);
-    o.ac.method = RT_APPROX_EXACT;
-    int rate_given = 0;
-    enum { O_SIZES = 1, O_LINE, O_ASSOC, O_WT, O_NWA, O_INFMT, O_DINCLS, O_DB, O_FMT, O_METHOD, O_RATE, O_SMAX,
-           O_SEED, O_EXACT_BELOW, O_WINDOW_BELOW, O_PERIOD, O_WINDOW };
-    static const struct option longopts[] = {
-        {"sizes", required_argument, NULL, O_SIZES},
-        {"line", required_argument, NULL, O_LINE},
-        {"assoc", required_argument, NULL, O_ASSOC},
-        {"write-through", no_argument, NULL, O_WT},
-        {"no-write-allocate", no_argument, NULL, O_NWA},
-        {"input-format", required_argument, NULL, O_INFMT},
-        {"din-class", required_argument, NULL, O_DINCLS},
-        {"db", required_argument, NULL, O_DB},
-        {"format", required_argument, NULL, O_FMT},
-        {"method", required_argument, NULL, O_METHOD},
-        {"rate", required_argument, NULL, O_RATE},
-        {"smax", required_argument, NULL, O_SMAX},
-        {"seed", required_argument, NULL, O_SEED},
-        {"exact-below", required_argument, NULL, O_EXACT_BELOW},
-        {"window-below", required_argument, NULL, O_WINDOW_BELOW},
-        {"period", required_argument, NULL, O_PERIOD},
-        {"window", required_argument, NULL, O_WINDOW},
-        {"help", no_argument, NULL, 'h'},
-        {NULL, 0, NULL, 0},
-    };
+    if (parse_args(argc, argv, &o) < 0) return RT_EXIT_USAGE;
     rt_err err = {{0}};
-    optind = 1;
-    opterr = 0;
-    int ch;
-    while ((ch = getopt_long(argc, argv, "h", longopts, NULL)) != -1) {
-        uint64_t v;
-        switch (ch) {
-        case O_SIZES:
-            if (rt_sim_parse_sizes(optarg, &o.cfg, &err)) {
-                rt_cmd_error("sim", "--sizes: %s", err.msg);
-                return RT_EXIT_USAGE;
-            }
-            break;
-        case O_LINE:
-            if (rt_parse_size(optarg, &v) || v == 0 || v > (1u << 20)) {
-                rt_cmd_error("sim", "--line: '%s' is not a line size in 1..1M bytes", optarg);
-                return RT_EXIT_USAGE;
-            }
-            o.cfg.line = (uint32_t)v;
-            break;
-        case O_ASSOC:
-            if (!strcmp(optarg, "full")) o.cfg.assoc = 0;
-            else if (rt_parse_size(optarg, &v) || v == 0 || v > (1u << 30)) {
-                rt_cmd_error("sim", "--assoc: '%s' is not 'full' or a positive number of ways", optarg);
-                return RT_EXIT_USAGE;
-            } else o.cfg.assoc = (uint32_t)v;
-            break;
-        case O_WT: o.cfg.write_through = 1; break;
-        case O_NWA: o.cfg.no_write_allocate = 1; break;
-        case O_INFMT:
-            if (!strcmp(optarg, "auto")) o.infmt = RT_SIM_IN_AUTO;
-            else if (!strcmp(optarg, "rtt")) o.infmt = RT_SIM_IN_RTT;
-            else if (!strcmp(optarg, "din")) o.infmt = RT_SIM_IN_DIN;
-            else {
-                rt_cmd_error("sim", "--input-format: '%s' is not auto, rtt or din", optarg);
-                return RT_EXIT_USAGE;
-            }
-            break;
-        case O_DINCLS:
-            o.din_class = rt_class_from_name(optarg);
-            if (o.din_class < 0) {
-                rt_cmd_error("sim", "--din-class: unknown class '%s'", optarg);
-                return RT_EXIT_USAGE;
-            }
-            break;
-        case O_DB: o.db = optarg; break;
-        case O_FMT:
-            if (!strcmp(optarg, "text")) o.outfmt = FMT_TEXT;
-            else if (!strcmp(optarg, "csv")) o.outfmt = FMT_CSV;
-            else if (!strcmp(optarg, "json")) o.outfmt = FMT_JSON;
-            else {
-                rt_cmd_error("sim", "--format: '%s' is not text, csv or json", optarg);
-                return RT_EXIT_USAGE;
-            }
-            break;
-        case O_METHOD:
-            o.ac.method = rt_approx_method_from_name(optarg);
-            if (o.ac.method < 0) {
-                rt_cmd_error("sim", "--method: '%s' is not exact, shards, shards-fixed, statstack or hybrid", optarg);
-                return RT_EXIT_USAGE;
-            }
-            break;
-        case O_RATE:
-            if (rt_cmd_parse_rate(optarg, &o.ac.rate)) {
-                rt_cmd_error("sim", "--rate: '%s' is not a rate in (0, 1] or 1/N", optarg);
-                return RT_EXIT_USAGE;
-            }
-            rate_given = 1;
-            break;
-        case O_SMAX:
-        case O_SEED:
-        case O_EXACT_BELOW:
-        case O_WINDOW_BELOW:
-        case O_PERIOD:
-        case O_WINDOW:
-            if (rt_parse_size(optarg, &v)) {
-                rt_cmd_error("sim", "--%s: '%s' is not a count", longopts[ch - O_SIZES].name, optarg);
-                return RT_EXIT_USAGE;
-            }
-            if (ch == O_SMAX) o.ac.smax = v;
-            else if (ch == O_SEED) o.ac.seed = v;
-            else if (ch == O_EXACT_BELOW) o.ac.exact_below = v;
-            else if (ch == O_WINDOW_BELOW) o.ac.window_below = v;
-            else if (ch == O_PERIOD) o.ac.period = v;
-            else o.ac.window = v;
-            break;
-        case 'h': usage(stdout); return RT_EXIT_OK;
-        default:
-            rt_cmd_error("sim", "unknown or incomplete option '%s' (see --help)", argv[optind - 1]);
-            return RT_EXIT_USAGE;
-        }
-    }
-    if (!rate_given) o.ac.rate = rt_approx_default_rate(o.ac.method);
-    if (optind >= argc) {
-        rt_cmd_error("sim", "no trace given (see --help)");
-        return RT_EXIT_USAGE;
-    }
-    if (rt_sim_config_check(&o.cfg, &err) || rt_approx_config_check(&o.cfg, &o.ac, &err)) {
-        rt_cmd_error("sim", "%s", err.msg);
-        return RT_EXIT_USAGE;
-    }
     rt_db *db = NULL;
     if (o.db && !(db = rt_db_open(o.db, &err))) {
         rt_cmd_error("sim", "%s", err.msg);
+        return RT_EXIT_FAIL;
+    }
+    rt_tr_meta *meta = malloc(sizeof *meta);
+    if (!meta) {
+        rt_cmd_error("sim", "out of memory");
+        rt_db_close(db);
         return RT_EXIT_FAIL;
     }
     int status = RT_EXIT_OK, first = 1;
@@ -344,60 +331,8 @@ int main_sim(int argc, char **argv)
         printf("trace,size_bytes,line,assoc,class,accesses,read_misses,write_misses,writebacks,wt_bytes,"
                "traffic_bytes\n");
     if (!db && o.outfmt == FMT_JSON) printf("[");
-    rt_tr_meta *meta = malloc(sizeof *meta);
-    if (!meta) {
-        rt_cmd_error("sim", "out of memory");
-        rt_db_close(db);
-        return RT_EXIT_FAIL;
-    }
-    for (int a = optind; a < argc; a++) {
-        const char *path = argv[a];
-        if (o.ac.method != RT_APPROX_EXACT) { /* sampled estimate */
-            rt_approx *ap = rt_approx_new(&o.cfg, &o.ac, &err);
-            if (!ap) {
-                rt_cmd_error("sim", "%s", err.msg);
-                status = RT_EXIT_FAIL;
-                break;
-            }
-            rt_sim_input in;
-            double t0 = rt_now();
-            memset(meta, 0, sizeof *meta);
-            if (rt_approx_replay(ap, path, o.infmt, o.din_class, meta, &in, &err) || rt_approx_finish(ap, &err)) {
-                rt_cmd_error("sim", "%s", err.msg);
-                status = RT_EXIT_FAIL;
-            } else if (db) {
-                if (store(db, path, NULL, ap, meta, &in, rt_now() - t0, o.din_class, &err)) {
-                    rt_cmd_error("sim", "%s", err.msg);
-                    status = RT_EXIT_FAIL;
-                }
-            } else {
-                print_results_approx(stdout, o.outfmt, path, ap, &first);
-            }
-            rt_approx_free(ap);
-            continue;
-        }
-        rt_sim *s = rt_sim_new(&o.cfg, &err);
-        if (!s) {
-            rt_cmd_error("sim", "%s", err.msg);
-            status = RT_EXIT_FAIL;
-            break;
-        }
-        rt_sim_input in;
-        double t0 = rt_now();
-        memset(meta, 0, sizeof *meta);
-        if (rt_sim_replay(s, path, o.infmt, o.din_class, meta, &in, &err)) {
-            rt_cmd_error("sim", "%s", err.msg);
-            status = RT_EXIT_FAIL;
-        } else if (db) {
-            if (store(db, path, s, NULL, meta, &in, rt_now() - t0, o.din_class, &err)) {
-                rt_cmd_error("sim", "%s", err.msg);
-                status = RT_EXIT_FAIL;
-            }
-        } else {
-            print_results(stdout, o.outfmt, path, s, &first);
-        }
-        rt_sim_free(s);
-    }
+    for (int a = optind; a < argc; a++)
+        if (sim_one(&o, db, argv[a], meta, &first) < 0) status = RT_EXIT_FAIL;
     if (!db && o.outfmt == FMT_JSON) printf("\n]\n");
     free(meta);
     rt_db_close(db);

@@ -21,17 +21,7 @@ static void usage(FILE *f)
             "  -h, --help         this help\n");
 }
 
-static void json_str(FILE *f, const char *s)
-{
-    fputc('"', f);
-    for (; *s; s++) {
-        unsigned char c = (unsigned char)*s;
-        if (c == '"' || c == '\\') fprintf(f, "\\%c", c);
-        else if (c < 0x20) fprintf(f, "\\u%04x", c);
-        else fputc(c, f);
-    }
-    fputc('"', f);
-}
+static void json_str(FILE *f, const char *s) { rt_cmd_json_str(f, s); }
 
 static void lights_str(uint32_t mask, char *buf, size_t cap)
 {

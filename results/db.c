@@ -1,10 +1,17 @@
 /*
  * db.c -- the SQLite results database (see db.h and docs/database.md).
  *
- * The schema lives in one string below (also shipped as
- * analysis/views.sql-style documentation in docs/database.md). Version 1.
- * Unsigned 64-bit hashes are stored as 16 lowercase hex digits, counters as
- * INTEGER (they stay far below 2^63).
+ * The schema lives in one string below (documented column by column in
+ * docs/database.md). Version 2; a version-1 file is upgraded in place when
+ * opened (migrate_v1, one transaction). Unsigned 64-bit hashes are stored
+ * as 16 lowercase hex digits, counters as INTEGER (they stay far below
+ * 2^63).
+ *
+ * Names: sched_size is the cache size a dynamic trace was *scheduled* for
+ * (a property of the run); cache_size (views) and cache_configs.size are
+ * the *simulated* size. Version 1 called the former sched_cache_size; that
+ * name survives only as a read-only alias (a generated column of runs and
+ * a column of v_paper) so queries written against version 1 keep working.
  */
 #include "db.h"
 #include "memmodel.h"
@@ -15,6 +22,10 @@
 #include <string.h>
 
 long rt_db_fail_row_after = 0;
+
+/* Version 1's name of sched_size, kept as a generated read-only alias
+ * (last column of runs, so fresh and upgraded files have the same layout). */
+#define SCHED_ALIAS "sched_cache_size INTEGER GENERATED ALWAYS AS (sched_size) VIRTUAL"
 
 static const char schema_sql[] =
     "CREATE TABLE IF NOT EXISTS scenes(\n"
@@ -31,7 +42,7 @@ static const char schema_sql[] =
     "  W INTEGER NOT NULL,\n"
     "  H INTEGER NOT NULL,\n"
     "  lights INTEGER NOT NULL,            -- enabled-light mask\n"
-    "  sched_cache_size INTEGER NOT NULL DEFAULT 0, -- cache size the trace was scheduled for (0 = n/a)\n"
+    "  sched_size INTEGER NOT NULL DEFAULT 0, -- cache size the trace was scheduled for (0 = n/a)\n"
     "  gmax INTEGER NOT NULL DEFAULT 0,    -- geometry budget (0 = n/a)\n"
     "  params TEXT NOT NULL DEFAULT '',    -- other tracer parameters\n"
     "  sim_method TEXT NOT NULL DEFAULT 'exact',\n"
@@ -44,7 +55,8 @@ static const char schema_sql[] =
     "  wall_time REAL NOT NULL DEFAULT 0,  -- seconds\n"
     "  stats TEXT NOT NULL DEFAULT '',     -- tracer statistics, k=v k=v\n"
     "  created TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%SZ','now')),\n"
-    "  UNIQUE(scene_id, tracer, W, H, lights, sched_cache_size, gmax, params, sim_method, sim_params));\n"
+    "  " SCHED_ALIAS ",\n"
+    "  UNIQUE(scene_id, tracer, W, H, lights, sched_size, gmax, params, sim_method, sim_params));\n"
     "CREATE TABLE IF NOT EXISTS cache_configs(\n"
     "  id INTEGER PRIMARY KEY,\n"
     "  size INTEGER NOT NULL,              -- bytes\n"
@@ -76,8 +88,8 @@ static const char schema_sql[] =
     "  FROM traffic t JOIN cache_configs c ON c.id = t.config_id JOIN classes k ON k.name = t.class\n"
     "  GROUP BY t.run_id, t.config_id;\n"
     "CREATE VIEW IF NOT EXISTS v_paper AS\n"
-    "  SELECT s.name AS scene, r.tracer, r.lights, r.W, r.H, r.sched_cache_size, g.cache_size,\n"
-    "    g.geometry_mb, g.ray_mb\n"
+    "  SELECT s.name AS scene, r.tracer, r.lights, r.W, r.H, r.sched_size, g.cache_size,\n"
+    "    g.geometry_mb, g.ray_mb, r.sched_size AS sched_cache_size\n"
     "  FROM v_traffic_group g JOIN runs r ON r.id = g.run_id JOIN scenes s ON s.id = r.scene_id\n"
     "  WHERE g.line = 64 AND g.assoc = 0 AND g.policy = 'wb-wa' AND r.sim_method = 'exact'\n"
     "    AND r.params NOT LIKE '%subsample=%';\n";
@@ -98,9 +110,9 @@ static const char *const stmt_sql[S_NSTMT] = {
     "SELECT id FROM scenes WHERE name = ?1 AND params = ?2 AND hash = ?3",
     "UPDATE scenes SET triangles = ?2 WHERE id = ?1 AND ?2 > 0",
     "SELECT r.id FROM runs r JOIN scenes s ON s.id = r.scene_id WHERE s.name = ?1 AND s.params = ?2 AND s.hash = ?3"
-    " AND r.tracer = ?4 AND r.W = ?5 AND r.H = ?6 AND r.lights = ?7 AND r.sched_cache_size = ?8 AND r.gmax = ?9"
+    " AND r.tracer = ?4 AND r.W = ?5 AND r.H = ?6 AND r.lights = ?7 AND r.sched_size = ?8 AND r.gmax = ?9"
     " AND r.params = ?10 AND r.sim_method = ?11 AND r.sim_params = ?12",
-    "INSERT INTO runs(scene_id, tracer, W, H, lights, sched_cache_size, gmax, params, sim_method, sim_params,"
+    "INSERT INTO runs(scene_id, tracer, W, H, lights, sched_size, gmax, params, sim_method, sim_params,"
     " trace_hash, refs, tool_version, git_rev, command, wall_time, stats)"
     " VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17)",
     "UPDATE runs SET trace_hash = ?2, refs = ?3, tool_version = ?4, git_rev = ?5, command = ?6, wall_time = ?7,"
@@ -151,24 +163,89 @@ void rt_db_close(rt_db *db)
     free(db);
 }
 
+/* Creates the tables, views and class rows of an empty database. */
+static int create_tables(rt_db *db, rt_err *e)
+{
+    if (exec(db, schema_sql, e)) return -1;
+    char sql[128];
+    for (int c = 0; c < RT_NCLASS; c++) {
+        snprintf(sql, sizeof sql, "INSERT OR REPLACE INTO classes(name, grp) VALUES('%s', '%s')", rt_class_name(c),
+                 rt_group_name(rt_class_group(c)));
+        if (exec(db, sql, e)) return -1;
+    }
+    return 0;
+}
+
+/* Version 1 -> 2: runs.sched_cache_size becomes sched_size (the UNIQUE
+ * key follows the rename), the old name an alias; views rebuilt. Runs
+ * inside the caller's transaction. */
+static int migrate_v1(rt_db *db, rt_err *e)
+{
+    return exec(db,
+                "DROP VIEW IF EXISTS v_paper;\n"
+                "DROP VIEW IF EXISTS v_traffic_group;\n"
+                "ALTER TABLE runs RENAME COLUMN sched_cache_size TO sched_size;\n"
+                "ALTER TABLE runs ADD COLUMN " SCHED_ALIAS ";\n",
+                e) ||
+           exec(db, schema_sql, e);
+}
+
+/* The name of a table that is not raytraffic's, or "" (none); for refusing
+ * to add tables to an unrelated file. */
+static int foreign_table(rt_db *db, char *name, size_t n, rt_err *e)
+{
+    sqlite3_stmt *st;
+    name[0] = 0;
+    if (sqlite3_prepare_v2(db->h,
+                           "SELECT name FROM sqlite_master WHERE name NOT LIKE 'sqlite_%' AND name NOT IN "
+                           "('scenes', 'runs', 'cache_configs', 'classes', 'traffic', 'traffic_config', "
+                           "'v_traffic_group', 'v_paper') ORDER BY name LIMIT 1",
+                           -1, &st, NULL) != SQLITE_OK)
+        return dberr(db, e, NULL);
+    int rc = sqlite3_step(st);
+    if (rc == SQLITE_ROW) snprintf(name, n, "%s", (const char *)sqlite3_column_text(st, 0));
+    sqlite3_finalize(st);
+    if (rc != SQLITE_ROW && rc != SQLITE_DONE) return dberr(db, e, NULL);
+    return 0;
+}
+
+/* Refuses, before anything is written, a file with a newer schema or an
+ * unrelated SQLite file (user_version 0 but tables of its own). */
+static int check_foreign(rt_db *db, rt_err *e)
+{
+    int64_t ver = 0;
+    char other[128];
+    if (get_int(db, "PRAGMA user_version", &ver, e)) return -1;
+    if (ver > RT_DB_SCHEMA_VERSION)
+        return rt_errf(e, "%s: database schema version %lld is newer than this raytraffic supports (%d)", db->path,
+                       (long long)ver, RT_DB_SCHEMA_VERSION);
+    if (ver < 0) return rt_errf(e, "%s: not a raytraffic database (user_version %lld)", db->path, (long long)ver);
+    if (ver == 0) {
+        if (foreign_table(db, other, sizeof other, e)) return -1;
+        if (other[0])
+            return rt_errf(e, "%s: not a raytraffic database (it has a table or view '%s'); refusing to add tables "
+                              "to it", db->path, other);
+    }
+    return 0;
+}
+
+/* Brings the file to RT_DB_SCHEMA_VERSION in one transaction: creates the
+ * schema of an empty file, upgrades a version-1 one. */
 static int create_schema(rt_db *db, rt_err *e)
 {
     int64_t ver = 0;
     if (get_int(db, "PRAGMA user_version", &ver, e)) return -1;
     if (ver == RT_DB_SCHEMA_VERSION) return 0;
-    if (ver > RT_DB_SCHEMA_VERSION)
-        return rt_errf(e, "%s: database schema version %lld is newer than this raytraffic supports (%d)", db->path,
-                       (long long)ver, RT_DB_SCHEMA_VERSION);
     if (exec(db, "BEGIN IMMEDIATE", e)) return -1;
     if (get_int(db, "PRAGMA user_version", &ver, e)) goto fail;
-    if (ver == 0) { /* still empty: nobody created it in between */
-        if (exec(db, schema_sql, e)) goto fail;
-        char sql[128];
-        for (int c = 0; c < RT_NCLASS; c++) {
-            snprintf(sql, sizeof sql, "INSERT OR REPLACE INTO classes(name, grp) VALUES('%s', '%s')", rt_class_name(c),
-                     rt_group_name(rt_class_group(c)));
-            if (exec(db, sql, e)) goto fail;
-        }
+    /* re-read under the lock: another process may have done it meanwhile */
+    if (ver == 0) {
+        if (create_tables(db, e)) goto fail;
+    } else if (ver == 1) {
+        if (migrate_v1(db, e)) goto fail;
+    }
+    if (ver < RT_DB_SCHEMA_VERSION) {
+        char sql[64];
         snprintf(sql, sizeof sql, "PRAGMA user_version = %d", RT_DB_SCHEMA_VERSION);
         if (exec(db, sql, e)) goto fail;
     }
@@ -199,6 +276,7 @@ rt_db *rt_db_open(const char *path, rt_err *e)
         rt_errf(e, "%s: database is not writable", path);
         goto fail;
     }
+    if (check_foreign(db, e)) goto fail;
     if (exec(db, "PRAGMA foreign_keys = ON", e)) goto fail;
     /* journal_mode returns a row; a non-database file fails here */
     {
@@ -241,7 +319,7 @@ static void bind_key(sqlite3_stmt *st, const rt_db_run *r, char *hash)
     sqlite3_bind_int(st, 5, r->W);
     sqlite3_bind_int(st, 6, r->H);
     sqlite3_bind_int64(st, 7, r->lights);
-    sqlite3_bind_int64(st, 8, (sqlite3_int64)r->cache_size);
+    sqlite3_bind_int64(st, 8, (sqlite3_int64)r->sched_size);
     sqlite3_bind_int64(st, 9, (sqlite3_int64)r->gmax);
     sqlite3_bind_text(st, 10, nz(r->params), -1, SQLITE_TRANSIENT);
     sqlite3_bind_text(st, 11, r->sim_method ? r->sim_method : "exact", -1, SQLITE_TRANSIENT);
@@ -271,25 +349,32 @@ int rt_db_has_run(rt_db *db, const rt_db_run *key, rt_err *e)
     return step_id(db, db->st[S_RUN_GET], NULL, e);
 }
 
-static int store(rt_db *db, const rt_db_run *r, const rt_db_traffic *rows, size_t n, int64_t *run_id, rt_err *e)
+/* Inserts the run's scene if new (or fills in its triangle count); its id. */
+static int store_scene(rt_db *db, const rt_db_run *r, int64_t *scene_id, rt_err *e)
 {
-    char hash[17], thash[17];
+    char hash[17];
     sqlite3_stmt **st = db->st;
-    /* scene */
     hex64(hash, r->scene_hash);
     sqlite3_bind_text(st[S_SCENE_INS], 1, nz(r->scene), -1, SQLITE_TRANSIENT);
     sqlite3_bind_text(st[S_SCENE_INS], 2, nz(r->scene_params), -1, SQLITE_TRANSIENT);
     sqlite3_bind_text(st[S_SCENE_INS], 3, hash, -1, SQLITE_TRANSIENT);
     sqlite3_bind_int64(st[S_SCENE_INS], 4, r->ntri);
     if (step_id(db, st[S_SCENE_INS], NULL, e) < 0) return -1;
-    int64_t scene_id = 0;
     sqlite3_bind_text(st[S_SCENE_GET], 1, nz(r->scene), -1, SQLITE_TRANSIENT);
     sqlite3_bind_text(st[S_SCENE_GET], 2, nz(r->scene_params), -1, SQLITE_TRANSIENT);
     sqlite3_bind_text(st[S_SCENE_GET], 3, hash, -1, SQLITE_TRANSIENT);
-    if (step_id(db, st[S_SCENE_GET], &scene_id, e) != 1) return rt_errf(e, "%s: scene row vanished", db->path);
-    sqlite3_bind_int64(st[S_SCENE_TRI], 1, scene_id);
+    if (step_id(db, st[S_SCENE_GET], scene_id, e) != 1) return rt_errf(e, "%s: scene row vanished", db->path);
+    sqlite3_bind_int64(st[S_SCENE_TRI], 1, *scene_id);
     sqlite3_bind_int64(st[S_SCENE_TRI], 2, r->ntri);
-    if (step_id(db, st[S_SCENE_TRI], NULL, e) < 0) return -1;
+    return step_id(db, st[S_SCENE_TRI], NULL, e) < 0 ? -1 : 0;
+}
+
+static int store(rt_db *db, const rt_db_run *r, const rt_db_traffic *rows, size_t n, int64_t *run_id, rt_err *e)
+{
+    char hash[17], thash[17];
+    sqlite3_stmt **st = db->st;
+    int64_t scene_id = 0;
+    if (store_scene(db, r, &scene_id, e) < 0) return -1;
     /* run: update in place if the key exists, else insert */
     int64_t rid = 0;
     bind_key(st[S_RUN_GET], r, hash);
@@ -317,7 +402,7 @@ static int store(rt_db *db, const rt_db_run *r, const rt_db_traffic *rows, size_
         sqlite3_bind_int(in, 3, r->W);
         sqlite3_bind_int(in, 4, r->H);
         sqlite3_bind_int64(in, 5, r->lights);
-        sqlite3_bind_int64(in, 6, (sqlite3_int64)r->cache_size);
+        sqlite3_bind_int64(in, 6, (sqlite3_int64)r->sched_size);
         sqlite3_bind_int64(in, 7, (sqlite3_int64)r->gmax);
         sqlite3_bind_text(in, 8, nz(r->params), -1, SQLITE_TRANSIENT);
         sqlite3_bind_text(in, 9, r->sim_method ? r->sim_method : "exact", -1, SQLITE_TRANSIENT);
@@ -395,4 +480,200 @@ int rt_db_store_run(rt_db *db, const rt_db_run *run, const rt_db_traffic *rows, 
         return -1;
     }
     return 0;
+}
+
+/* ---- merge ------------------------------------------------------------- */
+
+/* A shard being merged: its connection and the two reading statements. */
+typedef struct shard {
+    const char *path; /* for messages */
+    sqlite3 *h;
+    sqlite3_stmt *runs, *rows;
+} shard;
+
+static const char *txt(sqlite3_stmt *st, int i)
+{
+    const unsigned char *t = sqlite3_column_text(st, i);
+    return t ? (const char *)t : "";
+}
+
+/* Column i of st as a count (an INTEGER >= 0), else -1 with a message
+ * naming the shard, the row and the column. */
+static int count_col(const shard *sh, sqlite3_stmt *st, int i, const char *row, uint64_t *out, rt_err *e)
+{
+    if (sqlite3_column_type(st, i) != SQLITE_INTEGER)
+        return rt_errf(e, "%s: %s: %s is '%s', not an integer", sh->path, row, sqlite3_column_name(st, i),
+                       txt(st, i));
+    sqlite3_int64 v = sqlite3_column_int64(st, i);
+    if (v < 0) return rt_errf(e, "%s: %s: %s is negative (%lld)", sh->path, row, sqlite3_column_name(st, i), (long long)v);
+    *out = (uint64_t)v;
+    return 0;
+}
+
+/* Opens a shard read-only and checks it is a raytraffic database of a
+ * version this build reads (1 or 2; older column name for 1). */
+static int shard_open(shard *sh, const char *path, rt_err *e)
+{
+    memset(sh, 0, sizeof *sh);
+    sh->path = path;
+    FILE *f = fopen(path, "rb");
+    if (!f) return rt_errf(e, "%s: cannot open", path);
+    fclose(f);
+    if (sqlite3_open_v2(path, &sh->h, SQLITE_OPEN_READONLY, NULL) != SQLITE_OK)
+        return rt_errf(e, "%s: cannot open database: %s", path, sh->h ? sqlite3_errmsg(sh->h) : "out of memory");
+    sqlite3_busy_timeout(sh->h, 60000);
+    sqlite3_stmt *st;
+    int64_t ver = -1;
+    if (sqlite3_prepare_v2(sh->h, "PRAGMA user_version", -1, &st, NULL) == SQLITE_OK && sqlite3_step(st) == SQLITE_ROW)
+        ver = sqlite3_column_int64(st, 0);
+    sqlite3_finalize(st);
+    if (ver > RT_DB_SCHEMA_VERSION)
+        return rt_errf(e, "%s: database schema version %lld is newer than this raytraffic supports (%d)", path,
+                       (long long)ver, RT_DB_SCHEMA_VERSION);
+    if (ver < 1) return rt_errf(e, "%s: not a raytraffic database (schema version %lld)", path, (long long)ver);
+    char runs_sql[600];
+    snprintf(runs_sql, sizeof runs_sql,
+             "SELECT r.id, s.name, s.params, s.hash, s.triangles, r.tracer, r.W, r.H, r.lights, r.%s, r.gmax,"
+             " r.params, r.sim_method, r.sim_params, r.trace_hash, r.refs, r.tool_version, r.git_rev, r.command,"
+             " r.wall_time, r.stats FROM runs r JOIN scenes s ON s.id = r.scene_id ORDER BY r.id",
+             ver == 1 ? "sched_cache_size" : "sched_size");
+    static const char rows_sql[] =
+        "SELECT c.size, c.line, c.assoc, c.policy, t.class, t.accesses, t.read_misses, t.write_misses, t.writebacks,"
+        " t.wt_bytes, t.traffic_bytes FROM traffic t JOIN cache_configs c ON c.id = t.config_id WHERE t.run_id = ?1"
+        " ORDER BY c.size, t.class";
+    if (sqlite3_prepare_v2(sh->h, runs_sql, -1, &sh->runs, NULL) != SQLITE_OK ||
+        sqlite3_prepare_v2(sh->h, rows_sql, -1, &sh->rows, NULL) != SQLITE_OK)
+        return rt_errf(e, "%s: not a raytraffic database: %s", path, sqlite3_errmsg(sh->h));
+    return 0;
+}
+
+static void shard_close(shard *sh)
+{
+    sqlite3_finalize(sh->runs);
+    sqlite3_finalize(sh->rows);
+    sqlite3_close(sh->h);
+}
+
+/* The current row of sh->runs as a run (strings point into the statement,
+ * valid until its next step). */
+static int read_run(const shard *sh, rt_db_run *r, int64_t *id, rt_err *e)
+{
+    sqlite3_stmt *st = sh->runs;
+    char row[64];
+    uint64_t v[6];
+    *id = sqlite3_column_int64(st, 0);
+    snprintf(row, sizeof row, "run %lld", (long long)*id);
+    static const int cols[6] = {4, 6, 7, 8, 9, 10};
+    for (int k = 0; k < 6; k++)
+        if (count_col(sh, st, cols[k], row, &v[k], e)) return -1;
+    if (count_col(sh, st, 15, row, &r->refs, e)) return -1;
+    int wt = sqlite3_column_type(st, 19);
+    if ((wt != SQLITE_INTEGER && wt != SQLITE_FLOAT) || sqlite3_column_double(st, 19) < 0)
+        return rt_errf(e, "%s: %s: wall_time is '%s', not a number of seconds", sh->path, row, txt(st, 19));
+    if (v[1] > 65536 || v[2] > 65536 || v[3] > UINT32_MAX || v[0] > UINT32_MAX)
+        return rt_errf(e, "%s: %s: image size, lights or triangles out of range", sh->path, row);
+    r->scene = txt(st, 1);
+    r->scene_params = txt(st, 2);
+    r->scene_hash = strtoull(txt(st, 3), NULL, 16);
+    r->ntri = (uint32_t)v[0];
+    r->tracer = txt(st, 5);
+    r->W = (int)v[1];
+    r->H = (int)v[2];
+    r->lights = (uint32_t)v[3];
+    r->sched_size = v[4];
+    r->gmax = v[5];
+    r->params = txt(st, 11);
+    r->sim_method = txt(st, 12);
+    r->sim_params = txt(st, 13);
+    r->trace_hash = strtoull(txt(st, 14), NULL, 16);
+    r->tool_version = txt(st, 16);
+    r->git_rev = txt(st, 17);
+    r->command = txt(st, 18);
+    r->wall_time = sqlite3_column_double(st, 19);
+    r->stats = txt(st, 20);
+    return 0;
+}
+
+/* The current row of sh->rows as a traffic row (policy strdup'd). */
+static int read_row(const shard *sh, int64_t id, rt_db_traffic *t, rt_err *e)
+{
+    sqlite3_stmt *st = sh->rows;
+    char row[160];
+    uint64_t v[9];
+    snprintf(row, sizeof row, "run %lld, traffic row (size %s, class %s)", (long long)id, txt(st, 0), txt(st, 4));
+    static const int cols[9] = {0, 1, 2, 5, 6, 7, 8, 9, 10};
+    for (int k = 0; k < 9; k++)
+        if (count_col(sh, st, cols[k], row, &v[k], e)) return -1;
+    t->cls = rt_class_from_name(txt(st, 4));
+    if (t->cls < 0) return rt_errf(e, "%s: %s: unknown class", sh->path, row);
+    if (v[1] == 0 || v[1] > UINT32_MAX || v[2] > UINT32_MAX)
+        return rt_errf(e, "%s: %s: line or assoc out of range", sh->path, row);
+    t->size = v[0];
+    t->line = (uint32_t)v[1];
+    t->assoc = (uint32_t)v[2];
+    t->accesses = v[3];
+    t->read_misses = v[4];
+    t->write_misses = v[5];
+    t->writebacks = v[6];
+    t->wt_bytes = v[7];
+    t->traffic_bytes = v[8];
+    if (!(t->policy = strdup(txt(st, 3)))) return rt_errf(e, "%s: out of memory", sh->path);
+    return 0;
+}
+
+/* Reads run id's rows into *rows (grown as needed); the row count, or -1. */
+static long read_rows(const shard *sh, int64_t id, rt_db_traffic **rows, size_t *cap, rt_err *e)
+{
+    size_t n = 0;
+    int step;
+    sqlite3_reset(sh->rows);
+    sqlite3_bind_int64(sh->rows, 1, id);
+    while ((step = sqlite3_step(sh->rows)) == SQLITE_ROW) {
+        if (n == *cap) {
+            size_t nc = *cap ? 2 * *cap : 256;
+            rt_db_traffic *r2 = rt_reallocarray(*rows, nc, sizeof **rows, e);
+            if (!r2) goto fail;
+            *rows = r2;
+            *cap = nc;
+        }
+        (*rows)[n].policy = NULL;
+        if (read_row(sh, id, &(*rows)[n], e)) goto fail;
+        n++;
+    }
+    if (step == SQLITE_DONE) return (long)n;
+    rt_errf(e, "%s: %s", sh->path, sqlite3_errmsg(sh->h));
+fail:
+    for (size_t k = 0; k < n; k++) free((char *)(*rows)[k].policy);
+    return -1;
+}
+
+int rt_db_merge(rt_db *out, const char *inpath, long *nruns, rt_err *e)
+{
+    shard sh;
+    rt_db_traffic *rows = NULL;
+    size_t cap = 0;
+    int rc = -1, step;
+    *nruns = 0;
+    if (shard_open(&sh, inpath, e)) goto done;
+    while ((step = sqlite3_step(sh.runs)) == SQLITE_ROW) {
+        rt_db_run run;
+        int64_t id;
+        memset(&run, 0, sizeof run);
+        if (read_run(&sh, &run, &id, e)) goto done;
+        long n = read_rows(&sh, id, &rows, &cap, e);
+        if (n < 0) goto done;
+        int st = rt_db_store_run(out, &run, rows, (size_t)n, NULL, e);
+        for (long k = 0; k < n; k++) free((char *)rows[k].policy);
+        if (st < 0) goto done;
+        (*nruns)++;
+    }
+    if (step != SQLITE_DONE) {
+        rt_errf(e, "%s: %s", inpath, sqlite3_errmsg(sh.h));
+        goto done;
+    }
+    rc = 0;
+done:
+    free(rows);
+    shard_close(&sh);
+    return rc;
 }

@@ -28,7 +28,7 @@
 
 #include <stdint.h>
 
-#define RT_DB_SCHEMA_VERSION 1
+#define RT_DB_SCHEMA_VERSION 2
 
 typedef struct rt_db rt_db;
 
@@ -42,7 +42,7 @@ typedef struct rt_db_run {
     const char *tracer;       /* "recursive", "packet", "dynamic", ..., "din" */
     int W, H;                 /* image size */
     uint32_t lights;          /* enabled-light mask */
-    uint64_t cache_size;      /* cache size the trace was scheduled for (0 = n/a) */
+    uint64_t sched_size;      /* cache size the trace was scheduled for (0 = n/a) */
     uint64_t gmax;            /* geometry budget (0 = n/a) */
     const char *params;       /* other tracer parameters "k=v k=v" */
     const char *sim_method;   /* "exact" (NULL = "exact"); later "sampled" ... */
@@ -74,8 +74,11 @@ typedef struct rt_db_traffic {
 } rt_db_traffic;
 
 /* Opens (creating if needed) the database at path and ensures the schema.
- * Fails with "PATH: message" if the file cannot be created or written, is
- * not a SQLite database, or has a newer schema version. */
+ * A version-1 file is upgraded to RT_DB_SCHEMA_VERSION in place, in one
+ * transaction. Fails with "PATH: message", leaving the file untouched, if
+ * it cannot be created or written, is not a SQLite database, has a newer
+ * schema version, or is an unrelated SQLite file (schema version 0 with
+ * tables of its own: raytraffic adds none to it). */
 rt_db *rt_db_open(const char *path, rt_err *e);
 void rt_db_close(rt_db *db); /* NULL is fine */
 
@@ -88,6 +91,18 @@ int rt_db_has_run(rt_db *db, const rt_db_run *key, rt_err *e);
  * store is left in the database. */
 int rt_db_store_run(rt_db *db, const rt_db_run *run, const rt_db_traffic *rows, size_t n, int64_t *run_id,
                     rt_err *e);
+
+/* Copies every run of the database at inpath (with its scene, provenance,
+ * statistics and traffic rows) into out through rt_db_store_run: a run
+ * whose key is already in out is replaced, never duplicated; each run in
+ * its own transaction. inpath is opened read-only and never written. It
+ * must be a raytraffic database of schema version 1 or 2; a newer version,
+ * a foreign file, or a value that is not a non-negative integer where a
+ * count belongs (negative counts, text) is refused with a message naming
+ * inpath and the offending run / traffic row, and nothing of that run is
+ * stored (runs copied before it stay). Returns 0 and the runs copied in
+ * *nruns, or -1. */
+int rt_db_merge(rt_db *out, const char *inpath, long *nruns, rt_err *e);
 
 /* The schema (tables, views) as SQL, for docs and tests. */
 const char *rt_db_schema_sql(void);

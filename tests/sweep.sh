@@ -1,6 +1,6 @@
 #!/bin/sh
 # The sweep and report: a tiny sweep matches a golden report; rerunning adds
-# no rows; a sweep killed midway and rerun ends with the same contents as an
+# no rows; a sweep stopped after 5 runs and rerun ends with the same contents as an
 # uninterrupted one; db merge of shards equals a one-process sweep; --jobs 2
 # equals --jobs 1. Set RT_REDO_GOLDEN=1 to regenerate the golden report.
 set -u
@@ -12,11 +12,11 @@ trap 'rm -rf "$tmp"' EXIT
 fail=0
 args="--scenes cornell,knot --lights primary,0,all -W 24 -H 20 --sizes 1K,4K,64K"
 contents() { # the database's results, without volatile provenance
-    sqlite3 "$1" "SELECT s.name, s.hash, r.tracer, r.W, r.H, r.lights, r.sched_cache_size, r.params, r.refs, r.stats,
+    sqlite3 "$1" "SELECT s.name, s.hash, r.tracer, r.W, r.H, r.lights, r.sched_size, r.params, r.refs, r.stats,
         c.size, t.class, t.accesses, t.read_misses, t.write_misses, t.writebacks, t.traffic_bytes
         FROM traffic t JOIN runs r ON r.id = t.run_id JOIN scenes s ON s.id = r.scene_id
         JOIN cache_configs c ON c.id = t.config_id
-        ORDER BY s.name, r.tracer, r.lights, r.sched_cache_size, c.size, t.class" |
+        ORDER BY s.name, r.tracer, r.lights, r.sched_size, c.size, t.class" |
         sed -e 's/render_seconds=[0-9.]*//' -e 's/sim_seconds=[0-9.]*//'
 }
 # 1. golden report
@@ -33,17 +33,16 @@ n2=$(sqlite3 "$tmp/a.db" "SELECT COUNT(*) FROM runs; SELECT COUNT(*) FROM traffi
 [ "$n1" = "$n2" ] || { echo "FAIL: rerun changed row counts: $n1 -> $n2"; fail=1; }
 grep -q "already in the database" "$tmp/log2" || { echo "FAIL: rerun did not skip"; fail=1; }
 contents "$tmp/a.db" > "$tmp/a.txt"
-# 3. killed midway, then rerun
-"$bin" sweep $args --db "$tmp/k.db" 2>/dev/null &
-pid=$!
-i=0
-while [ "$i" -lt 100 ]; do
-    c=$(sqlite3 "$tmp/k.db" "SELECT COUNT(*) FROM runs" 2>/dev/null || echo 0)
-    [ "${c:-0}" -ge 5 ] && break
-    sleep 0.05; i=$((i + 1))
-done
-kill -9 "$pid" 2>/dev/null; wait "$pid" 2>/dev/null
-"$bin" sweep $args --db "$tmp/k.db" 2>/dev/null || { echo "FAIL: resume after kill"; fail=1; }
+# 3. interrupted for certain, then rerun: RT_SWEEP_STOP_AFTER (a test-only
+# hook) kills the sweep with SIGKILL after 5 stored runs, as a kill would
+total=$(sqlite3 "$tmp/a.db" "SELECT COUNT(*) FROM runs")
+RT_SWEEP_STOP_AFTER=5 "$bin" sweep $args --db "$tmp/k.db" 2>/dev/null
+st=$?
+[ "$st" -ne 0 ] || { echo "FAIL: stopped sweep exited 0"; fail=1; }
+c=$(sqlite3 "$tmp/k.db" "SELECT COUNT(*) FROM runs")
+[ "$c" = 5 ] && [ "$c" -lt "$total" ] || { echo "FAIL: interrupted sweep stored $c runs, want 5 of $total"; fail=1; }
+"$bin" sweep $args --db "$tmp/k.db" 2>"$tmp/log3" || { echo "FAIL: resume after kill"; fail=1; }
+grep -q "(5 already in the database)" "$tmp/log3" || { echo "FAIL: resume did not skip the 5 stored runs"; cat "$tmp/log3"; fail=1; }
 contents "$tmp/k.db" > "$tmp/k.txt"
 cmp -s "$tmp/a.txt" "$tmp/k.txt" || { echo "FAIL: killed+resumed sweep differs from an uninterrupted one"; fail=1; }
 # 4. shards + merge

@@ -1,6 +1,7 @@
 /*
  * test_db.c -- the results database: schema, idempotent stores, rollback of
- * a failed store, concurrent writers (fork), views, error messages.
+ * a failed store, concurrent writers (fork), views, error messages, the
+ * upgrade of a version-1 file, refusal of foreign files, merge checks.
  */
 #include "rows.h"
 #include "memmodel.h"
@@ -80,10 +81,214 @@ static void run_key(rt_db_run *r, const char *tracer, uint32_t lights, uint64_t 
     r->W = 1024;
     r->H = 1024;
     r->lights = lights;
-    r->cache_size = cache;
+    r->sched_size = cache;
     r->refs = 123456789;
     r->trace_hash = 0x8000000000000001ULL;
     r->command = "test_db";
+}
+
+
+/* Version 1's schema, as raytraffic 1 created it (the runs column was
+ * sched_cache_size), with one dynamic run: the input of the upgrade test. */
+static const char v1_schema_sql[] =
+    "CREATE TABLE IF NOT EXISTS scenes(\n"
+    "  id INTEGER PRIMARY KEY,\n"
+    "  name TEXT NOT NULL,                 -- scene spec (built-in name or file)\n"
+    "  params TEXT NOT NULL DEFAULT '',    -- canonical scene parameters\n"
+    "  hash TEXT NOT NULL,                 -- rt_scene_hash, 16 hex digits\n"
+    "  triangles INTEGER NOT NULL DEFAULT 0,\n"
+    "  UNIQUE(name, params, hash));\n"
+    "CREATE TABLE IF NOT EXISTS runs(\n"
+    "  id INTEGER PRIMARY KEY,\n"
+    "  scene_id INTEGER NOT NULL REFERENCES scenes(id),\n"
+    "  tracer TEXT NOT NULL,\n"
+    "  W INTEGER NOT NULL,\n"
+    "  H INTEGER NOT NULL,\n"
+    "  lights INTEGER NOT NULL,            -- enabled-light mask\n"
+    "  sched_cache_size INTEGER NOT NULL DEFAULT 0, -- cache size the trace was scheduled for (0 = n/a)\n"
+    "  gmax INTEGER NOT NULL DEFAULT 0,    -- geometry budget (0 = n/a)\n"
+    "  params TEXT NOT NULL DEFAULT '',    -- other tracer parameters\n"
+    "  sim_method TEXT NOT NULL DEFAULT 'exact',\n"
+    "  sim_params TEXT NOT NULL DEFAULT '',\n"
+    "  trace_hash TEXT NOT NULL DEFAULT '', -- 16 hex digits; '' for in-process streams\n"
+    "  refs INTEGER NOT NULL DEFAULT 0,    -- references simulated\n"
+    "  tool_version TEXT NOT NULL DEFAULT '',\n"
+    "  git_rev TEXT NOT NULL DEFAULT '',\n"
+    "  command TEXT NOT NULL DEFAULT '',\n"
+    "  wall_time REAL NOT NULL DEFAULT 0,  -- seconds\n"
+    "  stats TEXT NOT NULL DEFAULT '',     -- tracer statistics, k=v k=v\n"
+    "  created TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%SZ','now')),\n"
+    "  UNIQUE(scene_id, tracer, W, H, lights, sched_cache_size, gmax, params, sim_method, sim_params));\n"
+    "CREATE TABLE IF NOT EXISTS cache_configs(\n"
+    "  id INTEGER PRIMARY KEY,\n"
+    "  size INTEGER NOT NULL,              -- bytes\n"
+    "  line INTEGER NOT NULL,              -- bytes\n"
+    "  assoc INTEGER NOT NULL,             -- ways; 0 = fully associative\n"
+    "  policy TEXT NOT NULL,               -- wb-wa | wb-nwa | wt-wa | wt-nwa\n"
+    "  UNIQUE(size, line, assoc, policy));\n"
+    "CREATE TABLE IF NOT EXISTS classes(\n"
+    "  name TEXT PRIMARY KEY,              -- memory-model class\n"
+    "  grp TEXT NOT NULL);                 -- geometry | ray | other\n"
+    "CREATE TABLE IF NOT EXISTS traffic(\n"
+    "  run_id INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE,\n"
+    "  config_id INTEGER NOT NULL REFERENCES cache_configs(id),\n"
+    "  class TEXT NOT NULL REFERENCES classes(name),\n"
+    "  accesses INTEGER NOT NULL,          -- line touches\n"
+    "  read_misses INTEGER NOT NULL,\n"
+    "  write_misses INTEGER NOT NULL,\n"
+    "  writebacks INTEGER NOT NULL,\n"
+    "  wt_bytes INTEGER NOT NULL DEFAULT 0, -- write-through / write-around bytes\n"
+    "  traffic_bytes INTEGER NOT NULL,     -- (fetches + writebacks) * line + wt_bytes\n"
+    "  UNIQUE(run_id, config_id, class));\n"
+    "CREATE INDEX IF NOT EXISTS traffic_config ON traffic(config_id);\n"
+    "CREATE VIEW IF NOT EXISTS v_traffic_group AS\n"
+    "  SELECT t.run_id, t.config_id, c.size AS cache_size, c.line, c.assoc, c.policy,\n"
+    "    SUM(CASE WHEN k.grp = 'geometry' THEN t.traffic_bytes ELSE 0 END) / 1048576.0 AS geometry_mb,\n"
+    "    SUM(CASE WHEN k.grp = 'ray' THEN t.traffic_bytes ELSE 0 END) / 1048576.0 AS ray_mb,\n"
+    "    SUM(CASE WHEN k.grp = 'other' THEN t.traffic_bytes ELSE 0 END) / 1048576.0 AS other_mb,\n"
+    "    SUM(t.traffic_bytes) / 1048576.0 AS total_mb\n"
+    "  FROM traffic t JOIN cache_configs c ON c.id = t.config_id JOIN classes k ON k.name = t.class\n"
+    "  GROUP BY t.run_id, t.config_id;\n"
+    "CREATE VIEW IF NOT EXISTS v_paper AS\n"
+    "  SELECT s.name AS scene, r.tracer, r.lights, r.W, r.H, r.sched_cache_size, g.cache_size,\n"
+    "    g.geometry_mb, g.ray_mb\n"
+    "  FROM v_traffic_group g JOIN runs r ON r.id = g.run_id JOIN scenes s ON s.id = r.scene_id\n"
+    "  WHERE g.line = 64 AND g.assoc = 0 AND g.policy = 'wb-wa' AND r.sim_method = 'exact'\n"
+    "    AND r.params NOT LIKE '%subsample=%';\n"
+    "INSERT INTO classes(name, grp) VALUES('tri', 'geometry'), ('ray', 'ray');\n"
+    "INSERT INTO scenes(name, params, hash, triangles) VALUES('room', '', 'fedcba9876543210', 47000);\n"
+    "INSERT INTO runs(scene_id, tracer, W, H, lights, sched_cache_size, params) VALUES(1, 'dynamic', 64, 64, 7, 65536,"
+    " 'qorder=fullest threads=4');\n"
+    "INSERT INTO cache_configs(size, line, assoc, policy) VALUES(4096, 64, 0, 'wb-wa');\n"
+    "INSERT INTO traffic VALUES(1, 1, 'tri', 100, 10, 0, 0, 0, 640), (1, 1, 'ray', 50, 5, 5, 2, 0, 768);\n"
+    "PRAGMA user_version = 1;\n";
+
+/* Runs sql on a new SQLite file at path (not through rt_db). */
+static int make_file(const char *path, const char *sql)
+{
+    sqlite3 *h;
+    int rc = sqlite3_open(path, &h) == SQLITE_OK && sqlite3_exec(h, sql, NULL, NULL, NULL) == SQLITE_OK ? 0 : -1;
+    sqlite3_close(h);
+    return rc;
+}
+
+/* A version-1 file is upgraded in place: column renamed, key and views
+ * follow, the old name still reads, and the run is found by its key. */
+static void test_upgrade_v1(const char *dir)
+{
+    char path[300];
+    rt_err e = {{0}};
+    snprintf(path, sizeof path, "%s/v1.db", dir);
+    CHECK(make_file(path, v1_schema_sql) == 0, "create v1 file");
+    rt_db *db = rt_db_open(path, &e);
+    CHECK(db, "open v1: %s", e.msg);
+    if (!db) return;
+    CHECK(count(db, "PRAGMA user_version") == 2, "upgraded to version 2");
+    CHECK(count(db, "SELECT sched_size FROM runs") == 65536, "sched_size carries the old value");
+    CHECK(count(db, "SELECT sched_cache_size FROM runs") == 65536, "old name reads as an alias");
+    CHECK(count(db, "SELECT sched_size FROM v_paper WHERE cache_size = 4096") == 65536, "v_paper has sched_size");
+    CHECK(getd(db, "SELECT ray_mb FROM v_paper") == 768 / 1048576.0, "v_paper ray_mb after upgrade");
+    rt_db_run r;
+    memset(&r, 0, sizeof r);
+    r.scene = "room";
+    r.scene_hash = 0xfedcba9876543210ULL;
+    r.tracer = "dynamic";
+    r.W = r.H = 64;
+    r.lights = 7;
+    r.sched_size = 65536;
+    r.params = "qorder=fullest threads=4";
+    CHECK(rt_db_has_run(db, &r, &e) == 1, "upgraded run found by its key: %s", e.msg);
+    rt_db_traffic t = {4096, 64, 0, "wb-wa", RT_CLS_RAY, 60, 6, 6, 3, 0, 960};
+    CHECK(rt_db_store_run(db, &r, &t, 1, NULL, &e) == 0, "store into upgraded: %s", e.msg);
+    CHECK(count(db, "SELECT count(*) FROM runs") == 1, "the unique key still holds after the rename");
+    CHECK(count(db, "SELECT traffic_bytes FROM traffic WHERE class = 'ray'") == 960, "row replaced");
+    /* same layout as a fresh file: column names in order */
+    sqlite3_stmt *st;
+    sqlite3_prepare_v2(rt_db_handle(db), "SELECT group_concat(name, ' ') FROM pragma_table_xinfo('runs')", -1, &st,
+                       NULL);
+    sqlite3_step(st);
+    const char *cols = (const char *)sqlite3_column_text(st, 0);
+    CHECK(cols && !strcmp(cols, "id scene_id tracer W H lights sched_size gmax params sim_method sim_params trace_hash "
+                                "refs tool_version git_rev command wall_time stats created sched_cache_size"),
+          "upgraded runs columns: %s", cols ? cols : "(none)");
+    sqlite3_finalize(st);
+    rt_db_close(db);
+}
+
+/* An unrelated SQLite file is refused and left as it was. */
+static void test_foreign(const char *dir)
+{
+    char path[300];
+    rt_err e = {{0}};
+    snprintf(path, sizeof path, "%s/other.db", dir);
+    CHECK(make_file(path, "CREATE TABLE notes(x TEXT); INSERT INTO notes VALUES('keep me');") == 0, "create foreign");
+    struct stat a, b;
+    stat(path, &a);
+    CHECK(!rt_db_open(path, &e), "a foreign file was opened");
+    CHECK(strstr(e.msg, path) && strstr(e.msg, "notes"), "message names the file and its table: %s", e.msg);
+    stat(path, &b);
+    CHECK(a.st_size == b.st_size && a.st_mtime == b.st_mtime, "foreign file touched");
+    sqlite3 *h;
+    sqlite3_open(path, &h);
+    sqlite3_stmt *st;
+    sqlite3_prepare_v2(h, "SELECT count(*) FROM sqlite_master", -1, &st, NULL);
+    sqlite3_step(st);
+    CHECK(sqlite3_column_int(st, 0) == 1, "tables were added to a foreign file");
+    sqlite3_finalize(st);
+    sqlite3_close(h);
+    /* a newer schema version is refused too */
+    snprintf(path, sizeof path, "%s/newer.db", dir);
+    CHECK(make_file(path, "PRAGMA user_version = 3;") == 0, "create newer");
+    CHECK(!rt_db_open(path, &e) && strstr(e.msg, "newer"), "newer schema: %s", e.msg);
+}
+
+/* Merge copies runs, refuses newer shards and bad values with the shard
+ * path and the offending row, and stores nothing of a bad run. */
+static void test_merge(const char *dir, const rt_db_traffic *rows, size_t n)
+{
+    char out[300], in[300], v1[300];
+    rt_err e = {{0}};
+    long nr = -1;
+    snprintf(out, sizeof out, "%s/m.db", dir);
+    snprintf(in, sizeof in, "%s/shard.db", dir);
+    snprintf(v1, sizeof v1, "%s/v1.db", dir); /* upgraded by test_upgrade_v1: 1 run */
+    rt_db *s = rt_db_open(in, &e);
+    rt_db_run r;
+    run_key(&r, "recursive", 0, 0);
+    CHECK(s && rt_db_store_run(s, &r, rows, n, NULL, &e) == 0, "shard: %s", e.msg);
+    run_key(&r, "dynamic", 1, 4096);
+    CHECK(rt_db_store_run(s, &r, rows, n, NULL, &e) == 0, "shard 2: %s", e.msg);
+    rt_db_close(s);
+    rt_db *db = rt_db_open(out, &e);
+    CHECK(db && rt_db_merge(db, in, &nr, &e) == 0 && nr == 2, "merge: %ld runs, %s", nr, e.msg);
+    CHECK(rt_db_merge(db, in, &nr, &e) == 0 && nr == 2, "merge twice");
+    CHECK(count(db, "SELECT count(*) FROM runs") == 2 && count(db, "SELECT count(*) FROM traffic") == 2 * (long long)n,
+          "merging twice duplicated nothing");
+    CHECK(count(db, "SELECT sched_size FROM runs WHERE tracer = 'dynamic'") == 4096, "sched_size merged");
+    CHECK(rt_db_merge(db, v1, &nr, &e) == 0 && nr == 1, "merge an upgraded v1 file: %s", e.msg);
+    /* bad values: a negative count, then text where a number belongs */
+    static const char *const bad[] = {"UPDATE traffic SET writebacks = -3 WHERE rowid = 5",
+                                      "UPDATE runs SET W = 'wide' WHERE tracer = 'recursive'"};
+    static const char *const want[] = {"writebacks is negative", "W is 'wide'"};
+    for (int k = 0; k < 2; k++) {
+        sqlite3 *h;
+        sqlite3_open(in, &h);
+        sqlite3_exec(h, bad[k], NULL, NULL, NULL);
+        sqlite3_close(h);
+        long long before = count(db, "SELECT count(*) FROM traffic");
+        sqlite3_exec(rt_db_handle(db), "DELETE FROM traffic; DELETE FROM runs", NULL, NULL, NULL);
+        CHECK(rt_db_merge(db, in, &nr, &e) < 0, "bad value %d merged", k);
+        CHECK(strstr(e.msg, in) && strstr(e.msg, want[k]) && strstr(e.msg, "run "), "message: %s", e.msg);
+        CHECK(count(db, "SELECT count(*) FROM runs WHERE tracer = 'recursive'") == 0, "bad run stored");
+        (void)before;
+    }
+    /* a newer shard is refused without reading it */
+    sqlite3 *h;
+    sqlite3_open(in, &h);
+    sqlite3_exec(h, "PRAGMA user_version = 3", NULL, NULL, NULL);
+    sqlite3_close(h);
+    CHECK(rt_db_merge(db, in, &nr, &e) < 0 && strstr(e.msg, in) && strstr(e.msg, "newer"), "newer shard: %s", e.msg);
+    rt_db_close(db);
 }
 
 int main(void)
@@ -219,6 +424,10 @@ int main(void)
         chmod(bad, 0444);
         CHECK(!rt_db_open(bad, &e) && strstr(e.msg, bad), "read-only: %s", e.msg);
     }
+
+    test_upgrade_v1(dir);
+    test_foreign(dir);
+    test_merge(dir, rows, n);
 
     char cmd[400];
     snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);

@@ -1,0 +1,364 @@
+/*
+ * experiment.c -- jobs rendered in-process into simulators and stored as
+ * runs (see experiment.h).
+ *
+ * One job is: load (or keep) the scene and its tree, build the run key,
+ * skip if stored, render with the access stream fanned out to the exact
+ * simulator, the approximate ones and a trace writer, then turn counters
+ * into rows (rows.c) and store them. The fan-out keeps one timer per
+ * target, so the stored sim_seconds of each simulator is its own time on
+ * the same stream.
+ */
+#include "experiment.h"
+#include "rows.h"
+#include "run.h"
+
+#include <inttypes.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* ---- fan-out sink ------------------------------------------------------ */
+
+static int fan_put(rt_sink *s, const rt_access *acc, size_t n)
+{
+    rt_exp_fan *f = s->ctx;
+    int rc = 0;
+    for (int i = 0; i < f->n; i++) {
+        double t0 = rt_now();
+        if (f->to[i]->put(f->to[i], acc, n) < 0) rc = -1;
+        f->sec[i] += rt_now() - t0;
+    }
+    return rc;
+}
+
+void rt_exp_fan_init(rt_exp_fan *f)
+{
+    memset(f, 0, sizeof *f);
+    f->self.put = fan_put;
+    f->self.ctx = f;
+}
+
+int rt_exp_fan_add(rt_exp_fan *f, rt_sink *to, rt_err *e)
+{
+    if (f->n == RT_EXP_MAXFAN) return rt_errf(e, "fan-out: more than %d sinks", RT_EXP_MAXFAN);
+    f->to[f->n] = to;
+    return f->n++;
+}
+
+rt_sink *rt_exp_fan_sink(rt_exp_fan *f) { return &f->self; }
+
+/* ---- matrix ------------------------------------------------------------ */
+
+long rt_exp_matrix(const rt_exp_config *c, rt_exp_job **out, rt_err *e)
+{
+    size_t cap = (size_t)c->nscenes * c->nlightings * c->ntracers * (c->sim.nsizes + 1) * (c->nproxies + 1), n = 0;
+    rt_exp_job *J = rt_calloc(cap ? cap : 1, sizeof *J, e);
+    if (!J) return -1;
+    for (int s = 0; s < c->nscenes; s++)
+        for (int l = 0; l < c->nlightings; l++)
+            for (int t = 0; t < c->ntracers; t++) {
+                if (!strcmp(c->tracers[t], "dynamic")) {
+                    for (int k = 0; k < c->sim.nsizes; k++)
+                        J[n++] = (rt_exp_job){s, l, c->tracers[t], c->sim.sizes[k], -1};
+                } else {
+                    J[n++] = (rt_exp_job){s, l, c->tracers[t], 0, -1};
+                }
+            }
+    size_t nbase = n;
+    for (int p = 0; p < c->nproxies; p++)
+        for (size_t i = 0; i < nbase; i++) {
+            J[n] = J[i];
+            J[n++].proxy = p;
+        }
+    *out = J;
+    return (long)n;
+}
+
+rt_render_opts rt_exp_job_opts(const rt_exp_config *c, const rt_exp_job *jb)
+{
+    rt_render_opts ro = c->ro;
+    ro.lights = c->lightings[jb->lighting].mask;
+    ro.cache_size = jb->sched ? jb->sched : ro.cache_size;
+    if (jb->proxy >= 0) {
+        const rt_exp_proxy *p = &c->proxies[jb->proxy];
+        if (p->W) {
+            ro.H = (int)(((int64_t)c->ro.H * p->W + c->ro.W / 2) / c->ro.W);
+            ro.W = p->W;
+            if (ro.H < 1) ro.H = 1;
+        }
+        if (p->subsample > 1) {
+            ro.subsample = p->subsample;
+            ro.subtile = p->subtile;
+        }
+    }
+    return ro;
+}
+
+/* ---- run identity ------------------------------------------------------ */
+
+const char *rt_exp_tracer_params(const char *tracer, const rt_render_opts *ro, int all_sizes, char *buf, size_t n)
+{
+    if (!n) return buf;
+    if (!strcmp(tracer, "dynamic"))
+        snprintf(buf, n, "qorder=%s threads=%d%s", ro->qorder == RT_QORDER_TREE ? "tree" : "fullest", ro->threads,
+                 all_sizes ? " sim=all-sizes" : "");
+    else if (!strcmp(tracer, "packet"))
+        snprintf(buf, n, "packet=%d", ro->packet);
+    else
+        buf[0] = 0;
+    size_t l = strlen(buf);
+    rt_subsample_params(ro, buf + l, n - l);
+    return buf;
+}
+
+void rt_exp_job_key(const rt_exp_config *c, const rt_exp_job *jb, const rt_scene *sc, uint64_t scene_hash,
+                    rt_exp_key *k)
+{
+    rt_render_opts ro = rt_exp_job_opts(c, jb);
+    int dynamic = !strcmp(jb->tracer, "dynamic");
+    memset(k, 0, sizeof *k);
+    rt_db_run *r = &k->run;
+    r->scene = sc->name;
+    r->scene_params = sc->params;
+    r->scene_hash = scene_hash;
+    r->ntri = sc->ntri;
+    r->tracer = jb->tracer;
+    r->W = ro.W;
+    r->H = ro.H;
+    r->lights = ro.lights;
+    r->sched_size = dynamic ? ro.cache_size : 0;
+    r->gmax = dynamic ? ro.gmax : 0;
+    r->params = rt_exp_tracer_params(jb->tracer, &ro, dynamic && c->dyn_all, k->params, sizeof k->params);
+    r->sim_method = "exact";
+    r->sim_params = "";
+}
+
+void rt_exp_key_method(rt_exp_key *k, const rt_approx_config *ac)
+{
+    k->run.sim_method = rt_approx_method_name(ac->method);
+    k->run.sim_params = rt_approx_params(ac, k->sim_params, sizeof k->sim_params);
+}
+
+void rt_exp_run_from_meta(const rt_tr_meta *m, rt_db_run *r)
+{
+    memset(r, 0, sizeof *r);
+    r->scene = m->scene;
+    r->scene_params = m->scene_params;
+    r->scene_hash = m->scene_hash;
+    r->ntri = m->ntri;
+    r->tracer = m->tracer;
+    r->W = m->W;
+    r->H = m->H;
+    r->lights = m->lights;
+    r->sched_size = m->cache_size;
+    r->gmax = m->gmax;
+    r->params = m->params;
+    r->sim_method = "exact";
+    r->sim_params = "";
+}
+
+void rt_exp_run_from_din(const char *path, int din_class, uint64_t file_hash, rt_exp_key *k)
+{
+    const char *base = strrchr(path, '/');
+    memset(k, 0, sizeof *k);
+    snprintf(k->scene, sizeof k->scene, "din:%s", base ? base + 1 : path);
+    snprintf(k->params, sizeof k->params, "din_class=%s", rt_class_name(din_class));
+    k->run.scene = k->scene;
+    k->run.scene_hash = file_hash;
+    k->run.tracer = "din";
+    k->run.params = k->params;
+    k->run.sim_method = "exact";
+    k->run.sim_params = "";
+}
+
+/* ---- running jobs ------------------------------------------------------ */
+
+struct rt_exp_worker {
+    const rt_exp_config *c; /* borrowed */
+    rt_db *db;              /* borrowed */
+    int cur_scene;          /* index of sc, -1 = none */
+    rt_scene *sc;           /* current scene, or NULL */
+    rt_kdtree *kd;          /* its tree, built on the first job that runs */
+    uint64_t scene_hash;    /* rt_scene_hash(sc) */
+};
+
+rt_exp_worker *rt_exp_worker_new(const rt_exp_config *c, rt_db *db, rt_err *e)
+{
+    rt_exp_worker *w = rt_calloc(1, sizeof *w, e);
+    if (!w) return NULL;
+    w->c = c;
+    w->db = db;
+    w->cur_scene = -1;
+    return w;
+}
+
+void rt_exp_worker_free(rt_exp_worker *w)
+{
+    if (!w) return;
+    rt_kd_free(w->kd);
+    rt_scene_free(w->sc);
+    free(w);
+}
+
+static int load_scene(rt_exp_worker *w, int s, rt_err *e)
+{
+    if (w->cur_scene == s) return 0;
+    rt_kd_free(w->kd);
+    rt_scene_free(w->sc);
+    w->kd = NULL;
+    w->cur_scene = -1;
+    w->sc = rt_scene_load(w->c->scenes[s], e);
+    if (!w->sc) return -1;
+    w->scene_hash = rt_scene_hash(w->sc);
+    w->cur_scene = s;
+    return 0;
+}
+
+/* Approximate methods are compared over several sizes: only jobs simulated
+ * at every size (recursive, packet, --dynamic-all-sizes) run them. */
+static int job_napprox(const rt_exp_config *c, const rt_exp_job *jb)
+{
+    return (jb->sched && !c->dyn_all) || jb->proxy >= 0 ? 0 : c->napprox;
+}
+
+/* 1 if the job's exact run and all its approximate runs are stored. */
+static int job_stored(rt_exp_worker *w, const rt_exp_job *jb, const rt_exp_key *key, rt_err *e)
+{
+    int has = rt_db_has_run(w->db, &key->run, e);
+    for (int a = 0; a < job_napprox(w->c, jb) && has > 0; a++) {
+        rt_exp_key k = *key;
+        k.run.params = k.params;
+        rt_exp_key_method(&k, &w->c->approx[a]);
+        has = rt_db_has_run(w->db, &k.run, e);
+    }
+    return has;
+}
+
+/* The state of one job being run. */
+typedef struct jobrun {
+    rt_job j;                          /* scene, tree, tracer, options */
+    int have_job;                      /* j needs rt_job_free */
+    rt_sim *sim;                       /* the exact simulator */
+    rt_approx *ap[RT_EXP_MAXAPPROX];   /* approximate simulators */
+    int napprox;
+    rt_tr_writer *tw;                  /* trace writer, or NULL */
+    rt_exp_fan fan;                    /* sim, ap[0..napprox-1], tw */
+    rt_image *img;
+    rt_sim_config sc;                  /* sizes simulated */
+    rt_run_stats st;                   /* tracer statistics */
+} jobrun;
+
+static void jobrun_free(jobrun *r)
+{
+    for (int a = 0; a < r->napprox; a++) rt_approx_free(r->ap[a]);
+    if (r->tw) rt_tr_abort(r->tw);
+    rt_image_free(r->img);
+    rt_sim_free(r->sim);
+    if (r->have_job) rt_job_free(&r->j);
+}
+
+static int open_trace(rt_exp_worker *w, jobrun *r, const rt_exp_job *jb, long index, rt_err *e)
+{
+    const rt_exp_config *c = w->c;
+    char path[4096];
+    snprintf(path, sizeof path, "%s/job%04ld-%s-%s-%s%s%" PRIu64 "%s.rtt", c->keep, index, c->scenes[jb->scene],
+             c->lightings[jb->lighting].label, jb->tracer, jb->sched ? "-" : "", jb->sched,
+             jb->proxy >= 0 ? "-proxy" : "");
+    for (char *p = path + strlen(c->keep) + 1; *p; p++)
+        if (*p == '/' || *p == ':' || *p == ',' || *p == '=') *p = '_';
+    rt_tr_meta m;
+    rt_job_meta(&r->j, c->command, &m);
+    if (!(r->tw = rt_tr_create(path, &m, e))) return -1;
+    return rt_exp_fan_add(&r->fan, rt_tr_sink(r->tw), e) < 0 ? -1 : 0;
+}
+
+/* Sets up the simulators, the fan-out and the trace, then renders. */
+static int render_job(rt_exp_worker *w, jobrun *r, const rt_exp_job *jb, long index, rt_err *e)
+{
+    const rt_exp_config *c = w->c;
+    rt_render_opts ro = rt_exp_job_opts(c, jb);
+    r->sc = c->sim;
+    if (jb->sched && !c->dyn_all) {
+        r->sc.nsizes = 1;
+        r->sc.sizes[0] = jb->sched;
+    }
+    if (rt_job_setup_borrowed(&r->j, w->sc, w->kd, jb->tracer, &ro, e) < 0) return -1;
+    r->have_job = 1;
+    if (!(r->sim = rt_sim_new(&r->sc, e)) || !(r->img = rt_image_new(ro.W, ro.H, e))) return -1;
+    rt_exp_fan_init(&r->fan);
+    rt_exp_fan_add(&r->fan, rt_sim_sink(r->sim), e);
+    for (int a = 0; a < job_napprox(c, jb); a++) {
+        if (!(r->ap[a] = rt_approx_new(&r->sc, &c->approx[a], e))) return -1;
+        r->napprox = a + 1;
+        if (rt_exp_fan_add(&r->fan, rt_approx_sink(r->ap[a]), e) < 0) return -1;
+    }
+    if (c->keep && open_trace(w, r, jb, index, e) < 0) return -1;
+    if (rt_job_run(&r->j, rt_exp_fan_sink(&r->fan), r->img, &r->st, e) < 0) return -1;
+    if (r->tw) {
+        int rc = rt_tr_finish(r->tw, e);
+        r->tw = NULL;
+        if (rc < 0) return -1;
+    }
+    return 0;
+}
+
+/* Stores the exact run, then each approximate run. */
+static int store_job(rt_exp_worker *w, jobrun *r, rt_exp_key *key, double t0, rt_err *e)
+{
+    size_t nrows = (size_t)r->sc.nsizes * RT_NCLASS;
+    rt_db_traffic *rows = rt_calloc(nrows, sizeof *rows, e);
+    if (!rows) return -1;
+    size_t k = rt_sim_db_rows(r->sim, rows);
+    char stats[768];
+    const rt_run_stats *st = &r->st;
+    snprintf(stats, sizeof stats,
+             "rays_primary=%" PRIu64 " rays_shadow=%" PRIu64 " nodes=%" PRIu64 " tests=%" PRIu64 " pv_primary=%" PRIu64
+             " pv_all=%" PRIu64 " render_seconds=%.3f sim_seconds=%.3f%s%s",
+             st->rays_primary, st->rays_shadow, st->nodes, st->tests, st->pv_primary, st->pv_all, st->seconds,
+             r->fan.sec[0], st->extra[0] ? " " : "", st->extra);
+    rt_db_run run = key->run;
+    run.refs = rt_sim_refs(r->sim);
+    run.command = w->c->command;
+    run.wall_time = rt_now() - t0;
+    run.stats = stats;
+    int rc = rt_db_store_run(w->db, &run, rows, k, NULL, e);
+    for (int a = 0; a < r->napprox && rc == 0; a++) {
+        double t0a = rt_now();
+        if ((rc = rt_approx_finish(r->ap[a], e)) < 0) break;
+        double sec = r->fan.sec[1 + a] + (rt_now() - t0a);
+        size_t na = rt_approx_db_rows(r->ap[a], rows);
+        char astats[sizeof stats + 64];
+        rt_exp_key_method(key, &w->c->approx[a]);
+        rt_db_run ra = run;
+        ra.sim_method = key->run.sim_method;
+        ra.sim_params = key->run.sim_params;
+        ra.wall_time = sec;
+        snprintf(astats, sizeof astats, "sim_seconds=%.3f exact_sim_seconds=%.3f", sec, r->fan.sec[0]);
+        ra.stats = astats;
+        rc = rt_db_store_run(w->db, &ra, rows, na, NULL, e);
+    }
+    free(rows);
+    return rc;
+}
+
+int rt_exp_run_job(rt_exp_worker *w, const rt_exp_job *jb, long index, rt_err *e)
+{
+    if (load_scene(w, jb->scene, e) < 0) return -1;
+    rt_exp_key key;
+    rt_exp_job_key(w->c, jb, w->sc, w->scene_hash, &key);
+    int has = job_stored(w, jb, &key, e);
+    if (has != 0) return has < 0 ? -1 : 0;
+    if (!w->kd) {
+        rt_kd_params kp;
+        rt_kd_default_params(&kp);
+        if (!(w->kd = rt_kd_build(w->sc, &kp, e))) return -1;
+    }
+    double t0 = rt_now();
+    jobrun r;
+    memset(&r, 0, sizeof r);
+    int rc = render_job(w, &r, jb, index, e);
+    if (rc == 0) rc = store_job(w, &r, &key, t0, e);
+    jobrun_free(&r);
+    return rc < 0 ? -1 : 1;
+}

@@ -1,0 +1,173 @@
+/*
+ * experiment.h -- the experiment: jobs rendered in-process, their access
+ * stream fanned out to simulators, their runs stored (module prefix
+ * rt_exp_).
+ *
+ * A reference travels tracer -> recorder -> fan-out sink (this module) ->
+ * the exact simulator, any approximate simulators and an optional trace
+ * writer; the counters become rows (rows.h) and runs (db.h). `sweep` builds
+ * the matrix of jobs and hands each job to rt_exp_run_job; the front end only
+ * parses options, forks workers and prints. The tests call the same
+ * function, so what is tested is what the sweep runs.
+ *
+ * Run identity: every rt_db_run key is built here, by rt_exp_job_key (an
+ * in-process job), rt_exp_run_from_meta (a trace header) or
+ * rt_exp_run_from_din (a din file); the tracer parameter string ("qorder=..
+ * threads=..", "packet=N", "subsample=..") is formatted in one place,
+ * rt_exp_tracer_params, and matches the string the trace writer records, so
+ * `sim --db` of a kept trace finds the run the sweep stored.
+ *
+ * Return conventions as in rt.h: 0 / non-NULL on success, -1 / NULL with
+ * one line in e; nothing here prints or exits.
+ */
+#ifndef RT_EXPERIMENT_H
+#define RT_EXPERIMENT_H
+
+#include "approx.h"
+#include "db.h"
+#include "sim.h"
+#include "trace.h"
+#include "tracer.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+/* ---- fan-out sink ------------------------------------------------------ */
+
+#define RT_EXP_MAXFAN 10
+
+/* One rt_sink feeding up to RT_EXP_MAXFAN sinks in the order added, timing
+ * each, so every simulator's speed on the same stream is measured without
+ * the tracer's time. Embed it (no allocation); the targets stay owned by
+ * the caller and must outlive the fan. */
+typedef struct rt_exp_fan {
+    rt_sink self;               /* hand this to the recorder (rt_exp_fan_sink) */
+    int n;                      /* targets */
+    rt_sink *to[RT_EXP_MAXFAN]; /* targets, in the order added */
+    double sec[RT_EXP_MAXFAN];  /* seconds spent in each target's put */
+} rt_exp_fan;
+
+/* Empties f (no targets, zero times). */
+void rt_exp_fan_init(rt_exp_fan *f);
+/* Adds a target; returns its index (into f->sec), or -1 when full. */
+int rt_exp_fan_add(rt_exp_fan *f, rt_sink *to, rt_err *e);
+/* The sink feeding every target; its put fails (-1) if any target's did,
+ * after still feeding the others. Valid as long as f. */
+rt_sink *rt_exp_fan_sink(rt_exp_fan *f);
+
+/* ---- the experiment's settings and its matrix of jobs ------------------ */
+
+#define RT_EXP_MAXLIST 32
+#define RT_EXP_MAXAPPROX 8
+#define RT_EXP_MAXPROXY 8
+
+typedef struct rt_exp_lighting {
+    const char *label; /* "primary", "0", "1", "2", "all" */
+    unsigned mask;     /* enabled-light mask */
+} rt_exp_lighting;
+
+/* A reduced experiment run beside each job: a lower resolution (W pixels
+ * wide, same aspect) or pixel subsampling (1 in subsample tiles). */
+typedef struct rt_exp_proxy {
+    int W;              /* res: image width; 0 = unchanged */
+    uint32_t subsample; /* sub: 1 in K tiles (1 = none) */
+    int subtile;        /* sub: tile edge in pixels */
+} rt_exp_proxy;
+
+/* Everything jobs share. Strings are borrowed: they must outlive every use
+ * of the configuration. */
+typedef struct rt_exp_config {
+    char *scenes[RT_EXP_MAXLIST];               /* scene specs */
+    int nscenes;
+    char *tracers[RT_EXP_MAXLIST];              /* tracer names */
+    int ntracers;
+    rt_exp_lighting lightings[RT_EXP_MAXLIST];
+    int nlightings;
+    rt_sim_config sim;                          /* cache sizes, line, policy */
+    rt_render_opts ro;                          /* image size, dynamic options, ... */
+    int dyn_all;                                /* simulate each dynamic schedule at every size */
+    rt_approx_config approx[RT_EXP_MAXAPPROX];  /* estimators run beside the exact simulator */
+    int napprox;
+    rt_exp_proxy proxies[RT_EXP_MAXPROXY];      /* reduced experiments of every job */
+    int nproxies;
+    const char *keep;                           /* directory for every job's trace, or NULL */
+    const char *command;                        /* command line recorded as provenance */
+} rt_exp_config;
+
+/* One job of the matrix: scene x lighting x tracer (x scheduled size for
+ * the dynamic tracer) (x proxy). */
+typedef struct rt_exp_job {
+    int scene;          /* index into config scenes */
+    int lighting;       /* index into config lightings */
+    const char *tracer; /* borrowed from the config */
+    uint64_t sched;     /* dynamic: scheduled cache size; 0 otherwise */
+    int proxy;          /* index into config proxies, -1 = the full experiment */
+} rt_exp_job;
+
+/* The matrix in run order: every full job, then each proxy's copies (so a
+ * partial sweep has the references first). Returns the number of jobs and
+ * a malloc'd array in *out (caller frees), or -1. */
+long rt_exp_matrix(const rt_exp_config *c, rt_exp_job **out, rt_err *e);
+
+/* The render options of a job: the config's, with its lighting, scheduled
+ * size and proxy applied. */
+rt_render_opts rt_exp_job_opts(const rt_exp_config *c, const rt_exp_job *jb);
+
+/* ---- run identity ------------------------------------------------------ */
+
+#define RT_EXP_PARAMS 512 /* = sizeof(rt_tr_meta.params) */
+
+/* The tracer parameter string of a run: "qorder=Q threads=N" (dynamic,
+ * then " sim=all-sizes" if all_sizes), "packet=N" (packet), "" (others),
+ * then " subsample=K tile=T" when subsampled. The one formatter of that
+ * string for database keys (the trace header's copy, rt_job_meta, writes
+ * the same for all_sizes = 0; the tests compare them). Writes at most n
+ * bytes (NUL included) and returns buf. */
+const char *rt_exp_tracer_params(const char *tracer, const rt_render_opts *ro, int all_sizes, char *buf, size_t n);
+
+/* A run key with the storage its strings point into. */
+typedef struct rt_exp_key {
+    rt_db_run run;             /* identity (provenance fields zero) */
+    char params[RT_EXP_PARAMS]; /* run.params points here */
+    char sim_params[160];      /* run.sim_params points here */
+    char scene[300];           /* run.scene points here (din keys) */
+} rt_exp_key;
+
+/* The key of an in-process job of scene sc (whose rt_scene_hash is
+ * scene_hash), exact method. A dynamic job simulated at every size carries
+ * " sim=all-sizes" in its params. */
+void rt_exp_job_key(const rt_exp_config *c, const rt_exp_job *jb, const rt_scene *sc, uint64_t scene_hash,
+                    rt_exp_key *k);
+/* Switches k to an approximate method (ac->method != RT_APPROX_EXACT for
+ * an approximate run; RT_APPROX_EXACT gives the exact key back). */
+void rt_exp_key_method(rt_exp_key *k, const rt_approx_config *ac);
+/* The key of a replayed .rtt trace, from its header; strings point into m,
+ * which must outlive r. Exact method. */
+void rt_exp_run_from_meta(const rt_tr_meta *m, rt_db_run *r);
+/* The key of a replayed din file: scene "din:BASENAME", tracer "din",
+ * params "din_class=CLASS", scene hash = the file's content hash. */
+void rt_exp_run_from_din(const char *path, int din_class, uint64_t file_hash, rt_exp_key *k);
+
+/* ---- running jobs ------------------------------------------------------ */
+
+/* A worker runs jobs one after the other into one database, keeping the
+ * current scene and its k-d tree between jobs of the same scene. */
+typedef struct rt_exp_worker rt_exp_worker;
+
+/* c and db are borrowed and must outlive the worker. NULL on out of memory. */
+rt_exp_worker *rt_exp_worker_new(const rt_exp_config *c, rt_db *db, rt_err *e);
+void rt_exp_worker_free(rt_exp_worker *w); /* NULL is fine; frees scene and tree, not db */
+
+/* Runs job jb (index is its place in the matrix, used to name a kept
+ * trace): skips it if its exact run and every approximate run are already
+ * stored; otherwise renders it in-process streaming into the exact
+ * simulator (at every size, or at the scheduled size alone for a dynamic
+ * job without dyn_all), the approximate simulators (only for jobs simulated
+ * at every size, never for proxies) and, with c->keep, a trace file
+ * KEEP/jobNNNN-SCENE-LIGHT-TRACER[-SIZE][-proxy].rtt, then stores the exact
+ * run and each approximate run, each in its own transaction. Returns 1 if
+ * run and stored, 0 if skipped, -1 on error (a failed store leaves no row
+ * of that run; runs stored before it stay). */
+int rt_exp_run_job(rt_exp_worker *w, const rt_exp_job *jb, long index, rt_err *e);
+
+#endif
