@@ -249,8 +249,8 @@ int rt_plot_speed_error(const rt_plot_opts *p, const char *datpath, const char (
     if (!g) return rt_errf(e, "%s: %s", gpath, strerror(errno));
     int ncol = (int)(sizeof colours / sizeof colours[0]);
     /* two plots on the top of the page, the key in its own band below the
-     * x labels: three entries per row, as many rows as it needs */
-    int rows = (n + 2) / 3, H = 560 + 22 * rows;
+     * x labels: two entries per row, as many rows as it needs */
+    int rows = (n + 1) / 2, H = 560 + 22 * rows;
     double band = (22.0 * rows + 16) / H;
     fprintf(g, "set terminal pngcairo size 1200,%d enhanced\nset output ", H);
     rt_plot_quote_path(g, png);
@@ -274,7 +274,7 @@ int rt_plot_speed_error(const rt_plot_opts *p, const char *datpath, const char (
     fprintf(g, "unset logscale\nunset border\nunset tics\nunset xlabel\nunset ylabel\nunset grid\n"
                "set lmargin at screen 0.02\nset rmargin at screen 0.98\nset bmargin at screen 0.01\n"
                "set tmargin at screen %.4f\nset xrange [0:1]\nset yrange [0:1]\n"
-               "set key inside center center horizontal maxcols 3 width 2 samplen 1 noenhanced font \",10\"\nplot ",
+               "set key inside center center horizontal maxcols 2 width 2 samplen 1 reverse Left noenhanced font \",10\"\nplot ",
             band);
     if (!n) fprintf(g, "NaN notitle");
     for (int i = 0; i < n; i++) {
@@ -304,7 +304,13 @@ int rt_plot_scenes(const rt_report *R, const rt_plot_opts *p, rt_err *e)
         rt_job j;
         rt_run_stats st;
         if (rt_job_setup(&j, R->scenes[i], "recursive", &o, e) < 0) {
-            rc = -1; /* e names the scene file that could not be loaded */
+            /* e names the scene file that could not be loaded */
+            if (e) {
+                char m[RT_ERR_LEN];
+                snprintf(m, sizeof m, "%s", e->msg);
+                rt_errf(e, "scene thumbnails: %s", m);
+            }
+            rc = -1;
             break;
         }
         rt_image *im = rt_image_new(tile, tile, e);

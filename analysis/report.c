@@ -2,11 +2,17 @@
  * report.c -- what every report shares: the read-only database, the
  * report's axes and the one query every table is made of.
  *
- * A report reads, never writes. The database is opened with
- * SQLITE_OPEN_READONLY: the file is not created when missing, and a
- * database in WAL mode whose -wal file is gone (a cleanly closed sweep) is
- * read like a rollback-journal database, so no -wal or -shm file appears
- * and a read-only file in a read-only folder can be reported on.
+ * A report reads, never writes, and creates no file. Even a read-only
+ * SQLite connection creates the -wal and -shm files of a WAL database
+ * when they are missing (and fails where the folder is read-only), so the
+ * open depends on the -wal file:
+ * - no -wal file: no connection has the database open and everything is
+ *   in the main file (the last connection to close checkpoints and removes
+ *   the -wal), so it is opened immutable (URI immutable=1): no locks, no
+ *   side files, and a read-only file in a read-only folder works;
+ * - a -wal file: a writer is active (a sweep) or was killed, and the -wal
+ *   may hold committed runs, so it is opened read-only the normal way
+ *   (mode=ro), reading the -wal under the usual locks.
  *
  * Axes: the resolution (the largest exact run's unless asked), the cache
  * sizes with fully associative 64-byte write-back write-allocate traffic,
@@ -17,6 +23,7 @@
 #include "analysis_int.h"
 #include "db.h"
 
+#include <ctype.h>
 #include <errno.h>
 #include <math.h>
 #include <stdarg.h>
@@ -73,8 +80,25 @@ int rt_report_db_open(const char *path, sqlite3 **ph, rt_err *e)
     *ph = NULL;
     struct stat sb;
     if (stat(path, &sb) < 0) return rt_errf(e, "%s: %s (run `raytraffic sweep` first)", path, strerror(errno));
+    size_t n = strlen(path);
+    char *uri = rt_calloc(3 * n + 32, 1, e);
+    if (!uri) return -1;
+    /* a URI, so every byte outside the unreserved set is percent-encoded */
+    size_t k = (size_t)sprintf(uri, "file:");
+    for (const unsigned char *p = (const unsigned char *)path; *p; p++)
+        k += (size_t)(isalnum(*p) || strchr("-._~/", *p) ? sprintf(uri + k, "%c", *p) : sprintf(uri + k, "%%%02X", *p));
+    char *wal = rt_calloc(n + 8, 1, e);
+    if (!wal) {
+        free(uri);
+        return -1;
+    }
+    sprintf(wal, "%s-wal", path);
+    strcat(uri, stat(wal, &sb) == 0 ? "?mode=ro" : "?immutable=1");
+    free(wal);
     sqlite3 *h = NULL;
-    if (sqlite3_open_v2(path, &h, SQLITE_OPEN_READONLY, NULL) != SQLITE_OK) {
+    int orc = sqlite3_open_v2(uri, &h, SQLITE_OPEN_READONLY | SQLITE_OPEN_URI, NULL);
+    free(uri);
+    if (orc != SQLITE_OK) {
         rt_errf(e, "%s: cannot open database: %s", path, h ? sqlite3_errmsg(h) : "out of memory");
         sqlite3_close(h);
         return -1;
