@@ -22,19 +22,18 @@
  * scheduler a second table gives the rays per queue event, which is what a
  * reduced experiment changes: fewer rays per pixel of geometry means each
  * queue holds fewer rays when it is processed.
+ *
+ * The plot data (DIR/speed-error.dat) has one point per compared pair:
+ * speedup, geometry and ray mean miss-ratio error, and a series index (one
+ * series per method and parameter set, one per kind of reduced
+ * experiment) whose labels the plot script names (rt_plot_speed_error).
  */
-#include "cmd.h"
+#include "analysis_int.h"
 
+#include <errno.h>
 #include <math.h>
-#include <sqlite3.h>
-#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
-
-#include "config.h"
-
-int rt_report_speed_error(sqlite3 *h, int csv, const char *plotdir);
 
 /* Pairs (approximate run, exact run) with per-size group figures. */
 static const char *pairs_sql =
@@ -44,18 +43,18 @@ static const char *pairs_sql =
     "  FROM traffic t JOIN cache_configs c ON c.id = t.config_id JOIN classes k ON k.name = t.class"
     "  WHERE c.line = 64 AND c.assoc = 0 AND k.grp IN ('geometry', 'ray')"
     "  GROUP BY t.run_id, c.size, k.grp)"
-    " SELECT s.name, a.tracer, a.W, a.H, a.lights, a.sched_cache_size, a.sim_method, a.sim_params, a.id, x.id,"
+    " SELECT s.name, a.tracer, a.W, a.H, a.lights, a.sched_size, a.sim_method, a.sim_params, a.id, x.id,"
     "   a.wall_time, x.wall_time, ga.grp, ga.size,"
     "   CASE WHEN ga.acc > 0 THEN 1.0 * ga.miss / ga.acc ELSE 0 END,"
     "   CASE WHEN gx.acc > 0 THEN 1.0 * gx.miss / gx.acc ELSE 0 END,"
     "   ga.bytes, gx.bytes, x.stats"
     " FROM runs a JOIN runs x ON x.scene_id = a.scene_id AND x.tracer = a.tracer AND x.W = a.W AND x.H = a.H"
-    "   AND x.lights = a.lights AND x.sched_cache_size = a.sched_cache_size AND x.gmax = a.gmax"
+    "   AND x.lights = a.lights AND x.sched_size = a.sched_size AND x.gmax = a.gmax"
     "   AND x.params = a.params AND x.sim_method = 'exact'"
     " JOIN scenes s ON s.id = a.scene_id"
     " JOIN g ga ON ga.run_id = a.id JOIN g gx ON gx.run_id = x.id AND gx.size = ga.size AND gx.grp = ga.grp"
     " WHERE a.sim_method <> 'exact'"
-    " ORDER BY s.name, a.tracer, a.lights, a.sched_cache_size, a.sim_method, a.sim_params, a.id, ga.grp, ga.size";
+    " ORDER BY s.name, a.tracer, a.lights, a.sched_size, a.sim_method, a.sim_params, a.id, ga.grp, ga.size";
 
 /* Pairs (reduced run, full exact run) with per-size group figures. */
 static const char *proxy_sql =
@@ -67,24 +66,24 @@ static const char *proxy_sql =
     "  GROUP BY t.run_id, c.size, k.grp),"
     " full AS (SELECT r.* FROM runs r WHERE r.sim_method = 'exact' AND r.params NOT LIKE '%subsample=%'"
     "   AND r.W * r.H = (SELECT MAX(q.W * q.H) FROM runs q WHERE q.scene_id = r.scene_id AND q.tracer = r.tracer"
-    "     AND q.lights = r.lights AND q.sched_cache_size = r.sched_cache_size AND q.gmax = r.gmax"
+    "     AND q.lights = r.lights AND q.sched_size = r.sched_size AND q.gmax = r.gmax"
     "     AND q.params = r.params AND q.sim_method = 'exact'))"
-    " SELECT s.name, a.tracer, a.W, a.H, a.lights, a.sched_cache_size, a.params, a.id, x.id, x.W, x.H,"
+    " SELECT s.name, a.tracer, a.W, a.H, a.lights, a.sched_size, a.params, a.id, x.id, x.W, x.H,"
     "   a.wall_time, x.wall_time - COALESCE((SELECT SUM(y.wall_time) FROM runs y WHERE y.scene_id = x.scene_id"
     "     AND y.tracer = x.tracer AND y.W = x.W AND y.H = x.H AND y.lights = x.lights"
-    "     AND y.sched_cache_size = x.sched_cache_size AND y.gmax = x.gmax AND y.params = x.params"
+    "     AND y.sched_size = x.sched_size AND y.gmax = x.gmax AND y.params = x.params"
     "     AND y.sim_method <> 'exact'), 0),"
     "   a.stats, x.stats, ga.grp, ga.size,"
     "   CASE WHEN ga.acc > 0 THEN 1.0 * ga.miss / ga.acc ELSE 0 END,"
     "   CASE WHEN gx.acc > 0 THEN 1.0 * gx.miss / gx.acc ELSE 0 END,"
     "   ga.bytes, gx.bytes"
     " FROM runs a JOIN full x ON x.scene_id = a.scene_id AND x.tracer = a.tracer AND x.lights = a.lights"
-    "   AND x.sched_cache_size = a.sched_cache_size AND x.gmax = a.gmax AND x.id <> a.id"
+    "   AND x.sched_size = a.sched_size AND x.gmax = a.gmax AND x.id <> a.id"
     "   AND (a.params = x.params OR a.params LIKE x.params || ' subsample=%')"
     " JOIN scenes s ON s.id = a.scene_id"
     " JOIN g ga ON ga.run_id = a.id JOIN g gx ON gx.run_id = x.id AND gx.size = ga.size AND gx.grp = ga.grp"
     " WHERE a.sim_method = 'exact' AND (a.W * a.H < x.W * x.H OR a.params LIKE '%subsample=%')"
-    " ORDER BY s.name, a.tracer, a.lights, a.sched_cache_size, a.W * a.H DESC, a.params, a.id, ga.grp, ga.size";
+    " ORDER BY s.name, a.tracer, a.lights, a.sched_size, a.W * a.H DESC, a.params, a.id, ga.grp, ga.size";
 
 /* A "key=" number from a stats string, or NAN. */
 static double stat_num(const char *stats, const char *key)
@@ -95,32 +94,58 @@ static double stat_num(const char *stats, const char *key)
     return NAN;
 }
 
+/* Errors of one compared pair in one group, over the cache sizes. */
 typedef struct acc {
-    int n;
-    double mr_sum, mr_max, rel_sum, rel_max;
+    int n;                                 /* sizes compared */
+    double mr_sum, mr_max, rel_sum, rel_max; /* absolute miss-ratio error; relative traffic error, % */
 } acc;
 
-static int report_proxies(sqlite3 *h, int csv, FILE *dat);
-
-/* Plot series: one per method and parameter set (approximate runs) or per
- * kind of reduced experiment; a point's series index is the dat file's
- * last column. */
-#define MAX_SERIES 24
-static char series[MAX_SERIES][128];
-static int nseries;
-
-static int series_id(const char *label)
+/* Adds one size: miss ratios (approximate, exact) and traffic bytes. */
+static void acc_add(acc *a, double mra, double mrx, double ba, double bx)
 {
-    for (int i = 0; i < nseries; i++)
-        if (!strcmp(series[i], label)) return i;
-    if (nseries == MAX_SERIES) return MAX_SERIES - 1; /* the last one takes the rest */
-    snprintf(series[nseries], sizeof series[nseries], "%s", label);
-    return nseries++;
+    double emr = fabs(mra - mrx), rel = bx > 0 ? 100.0 * fabs(ba - bx) / bx : (ba > 0 ? 100.0 : 0.0);
+    a->n++;
+    a->mr_sum += emr;
+    a->rel_sum += rel;
+    if (emr > a->mr_max) a->mr_max = emr;
+    if (rel > a->rel_max) a->rel_max = rel;
+}
+
+#define MAX_SERIES 24
+#define MAX_SUMM 256
+
+/* Summary per scene and method/parameters over the runs (tracers, lights). */
+typedef struct summ {
+    char scene[64], method[32], params[192];
+    int n, minsizes;          /* runs; fewest sizes compared in one of them */
+    double secs, xsecs;       /* summed over the runs */
+    double mr_mean[2], mr_max[2], rel_mean[2], rel_max[2]; /* geometry, ray: mean of the runs' means, max of maxima */
+} summ;
+
+/* One report's state. */
+typedef struct se_ctx {
+    sqlite3 *h;
+    int csv;
+    FILE *out;                        /* the tables */
+    FILE *dat;                        /* plot points, or NULL */
+    char series[MAX_SERIES][128];     /* plot series labels; a point's series is the dat file's last column */
+    int nseries;
+    summ summs[MAX_SUMM];
+    int nsumm;
+} se_ctx;
+
+static int series_id(se_ctx *C, const char *label)
+{
+    for (int i = 0; i < C->nseries; i++)
+        if (!strcmp(C->series[i], label)) return i;
+    if (C->nseries == MAX_SERIES) return MAX_SERIES - 1; /* the last one takes the rest */
+    snprintf(C->series[C->nseries], sizeof C->series[0], "%s", label);
+    return C->nseries++;
 }
 
 /* "hybrid rate=0.015625 window_below=8192": the parameters without the
  * defaults every run shares. */
-static int approx_series(const char *method, const char *params)
+static int approx_series(se_ctx *C, const char *method, const char *params)
 {
     static const char *const skip[] = {"seed=1", "exact_below=0", "period=65536", "window=1024"};
     char lab[128];
@@ -135,30 +160,20 @@ static int approx_series(const char *method, const char *params)
         q += len;
         while (*q == ' ') q++;
     }
-    return series_id(lab);
+    return series_id(C, lab);
 }
 
-/* Summary per scene and method/parameters over the runs (tracers, lights). */
-#define MAX_SUMM 256
-typedef struct summ {
-    char scene[64], method[32], params[192];
-    int n, minsizes;          /* runs; fewest sizes compared in one of them */
-    double secs, xsecs;       /* summed over the runs */
-    double mr_mean[2], mr_max[2], rel_mean[2], rel_max[2]; /* geometry, ray: mean of the runs' means, max of maxima */
-} summ;
-static summ summs[MAX_SUMM];
-static int nsumm;
-
-static void summ_add(const char *scene, const char *method, const char *params, double secs, double xsecs,
+static void summ_add(se_ctx *C, const char *scene, const char *method, const char *params, double secs, double xsecs,
                      const acc *A)
 {
     summ *u = NULL;
-    for (int i = 0; i < nsumm && !u; i++)
-        if (!strcmp(summs[i].scene, scene) && !strcmp(summs[i].method, method) && !strcmp(summs[i].params, params))
-            u = &summs[i];
+    for (int i = 0; i < C->nsumm && !u; i++)
+        if (!strcmp(C->summs[i].scene, scene) && !strcmp(C->summs[i].method, method) &&
+            !strcmp(C->summs[i].params, params))
+            u = &C->summs[i];
     if (!u) {
-        if (nsumm == MAX_SUMM) return;
-        u = &summs[nsumm++];
+        if (C->nsumm == MAX_SUMM) return;
+        u = &C->summs[C->nsumm++];
         memset(u, 0, sizeof *u);
         snprintf(u->scene, sizeof u->scene, "%s", scene);
         snprintf(u->method, sizeof u->method, "%s", method);
@@ -177,115 +192,82 @@ static void summ_add(const char *scene, const char *method, const char *params, 
     }
 }
 
-static void summ_print(void)
+static void summ_print(const se_ctx *C)
 {
-    if (!nsumm) return;
-    printf("\n## Summary per scene and method\n\nOver the runs of each scene (tracers, lights): total simulation time "
-           "and speedup (ratio of the totals); errors as above, the mean of the runs' means and the largest "
-           "maximum; sizes = the fewest sizes compared in one run.\n\n| scene | method | params | runs | s (exact s) | "
-           "speedup | sizes | geometry MR err mean / max | geometry traffic err %% mean / max | ray MR err mean / max | "
-           "ray traffic err %% mean / max |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
-    for (int i = 0; i < nsumm; i++) {
-        const summ *u = &summs[i];
-        printf("| %s | %s | %s | %d | %.2f (%.2f) | %.1fx | %d | %.4f / %.4f | %.2f / %.2f | %.4f / %.4f | %.2f / "
-               "%.2f |\n",
-               u->scene, u->method, u->params, u->n, u->secs, u->xsecs, u->secs > 0 ? u->xsecs / u->secs : NAN,
-               u->minsizes,
-               u->mr_mean[0] / u->n, u->mr_max[0], u->rel_mean[0] / u->n, u->rel_max[0], u->mr_mean[1] / u->n,
-               u->mr_max[1], u->rel_mean[1] / u->n, u->rel_max[1]);
+    if (!C->nsumm) return;
+    fprintf(C->out,
+            "\n## Summary per scene and method\n\nOver the runs of each scene (tracers, lights): total simulation time "
+            "and speedup (ratio of the totals); errors as above, the mean of the runs' means and the largest "
+            "maximum; sizes = the fewest sizes compared in one run.\n\n| scene | method | params | runs | s (exact s) | "
+            "speedup | sizes | geometry MR err mean / max | geometry traffic err %% mean / max | ray MR err mean / max | "
+            "ray traffic err %% mean / max |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
+    for (int i = 0; i < C->nsumm; i++) {
+        const summ *u = &C->summs[i];
+        fprintf(C->out,
+                "| %s | %s | %s | %d | %.2f (%.2f) | %.1fx | %d | %.4f / %.4f | %.2f / %.2f | %.4f / %.4f | %.2f / "
+                "%.2f |\n",
+                u->scene, u->method, u->params, u->n, u->secs, u->xsecs, u->secs > 0 ? u->xsecs / u->secs : NAN,
+                u->minsizes, u->mr_mean[0] / u->n, u->mr_max[0], u->rel_mean[0] / u->n, u->rel_max[0],
+                u->mr_mean[1] / u->n, u->mr_max[1], u->rel_mean[1] / u->n, u->rel_max[1]);
     }
-}
-
-/* Writes the gnuplot script beside the data and runs it: miss-ratio error
- * against speedup, geometry and ray side by side, one colour per series. */
-static void plot_speed_error(const char *plotdir, const char *datpath)
-{
-    char gpath[4096];
-    snprintf(gpath, sizeof gpath, "%s/speed-error.gp", plotdir);
-    FILE *g = fopen(gpath, "w");
-    if (!g) return;
-    fprintf(g, "set terminal pngcairo size 1200,640 noenhanced\nset output '%s/speed-error.png'\n", plotdir);
-    fprintf(g, "array L[%d]\n", nseries ? nseries : 1);
-    for (int i = 0; i < nseries; i++) fprintf(g, "L[%d] = \"%s\"\n", i + 1, series[i]);
-    fprintf(g, "set multiplot layout 1,2\nset logscale xy\nset grid\nset xlabel 'speedup over exact'\n"
-               "set bmargin at screen 0.24\nset key at screen 0.5, screen 0.03 center bottom horizontal maxrows 3 "
-               "font ',9'\nset ylabel 'geometry: mean abs miss-ratio error'\n"
-               "plot for [i=1:%d] '%s' u ($5==i-1?$2:1/0):3 w p pt 7 ps 0.8 t L[i]\n"
-               "unset key\nset ylabel 'ray: mean abs miss-ratio error'\n"
-               "plot for [i=1:%d] '%s' u ($5==i-1?$2:1/0):4 w p pt 7 ps 0.8\nunset multiplot\n",
-            nseries ? nseries : 1, datpath, nseries ? nseries : 1, datpath);
-    fclose(g);
-    const char *gp = GNUPLOT_PATH[0] ? GNUPLOT_PATH : "gnuplot";
-    char cmd[8400];
-    snprintf(cmd, sizeof cmd, "'%s' '%s' >/dev/null 2>&1", gp, gpath);
-    if (system(cmd) == 0) fprintf(stderr, "wrote %s/speed-error.png\n", plotdir);
 }
 
 /* One compared pair, as a table row (Markdown or CSV) and a plot point:
  * the run, its reference, both times, the speedup, how many sizes were
- * compared, and the geometry and ray errors. */
-static void pair_row(const char *hdr, long id, long xid, double secs, double xsecs, const acc *A, int csv, FILE *dat,
+ * compared, and the geometry and ray errors. The point's label is the
+ * row's description with quotes and control bytes replaced, so that it
+ * stays one column of the data file. */
+static void pair_row(se_ctx *C, const char *hdr, long id, long xid, double secs, double xsecs, const acc *A,
                      const char *label, int sid)
 {
     double sp = secs > 0 ? xsecs / secs : NAN;
     const acc *G = &A[0], *Y = &A[1];
     double gm = G->n ? G->mr_sum / G->n : NAN, gr = G->n ? G->rel_sum / G->n : NAN;
     double ym = Y->n ? Y->mr_sum / Y->n : NAN, yr = Y->n ? Y->rel_sum / Y->n : NAN;
-    if (csv)
-        printf("%s,%ld,%ld,%.3f,%.3f,%.2f,%.5f,%.5f,%.3f,%.3f,%.5f,%.5f,%.3f,%.3f,%d\n", hdr, id, xid, secs, xsecs, sp,
-               gm, G->mr_max, gr, G->rel_max, ym, Y->mr_max, yr, Y->rel_max, G->n);
+    if (C->csv)
+        fprintf(C->out, "%s,%ld,%ld,%.3f,%.3f,%.2f,%.5f,%.5f,%.3f,%.3f,%.5f,%.5f,%.3f,%.3f,%d\n", hdr, id, xid, secs,
+                xsecs, sp, gm, G->mr_max, gr, G->rel_max, ym, Y->mr_max, yr, Y->rel_max, G->n);
     else
-        printf("%s | %ld (%ld) | %.2f (%.2f) | %.1fx | %d | %.4f / %.4f | %.2f / %.2f | %.4f / %.4f | %.2f / %.2f |\n", hdr,
-               id, xid, secs, xsecs, sp, G->n, gm, G->mr_max, gr, G->rel_max, ym, Y->mr_max, yr, Y->rel_max);
-    if (dat) fprintf(dat, "\"%s\" %.4f %.6f %.6f %d\n", label, sp, gm, ym, sid);
+        fprintf(C->out, "%s | %ld (%ld) | %.2f (%.2f) | %.1fx | %d | %.4f / %.4f | %.2f / %.2f | %.4f / %.4f | %.2f / %.2f |\n",
+                hdr, id, xid, secs, xsecs, sp, G->n, gm, G->mr_max, gr, G->rel_max, ym, Y->mr_max, yr, Y->rel_max);
+    if (C->dat) {
+        fputc('"', C->dat);
+        for (const unsigned char *p = (const unsigned char *)label; *p; p++)
+            fputc(*p < 0x20 || *p == '"' || *p == 0x7f ? '_' : *p, C->dat);
+        fprintf(C->dat, "\" %.4f %.6f %.6f %d\n", sp, gm, ym, sid);
+    }
 }
 
-int rt_report_speed_error(sqlite3 *h, int csv, const char *plotdir)
+static int report_approx(se_ctx *C, rt_err *e)
 {
-    sqlite3_stmt *st;
-    if (sqlite3_prepare_v2(h, pairs_sql, -1, &st, NULL) != SQLITE_OK) {
-        rt_cmd_error("report", "speed-error query: %s", sqlite3_errmsg(h));
-        return -1;
-    }
-    FILE *dat = NULL;
-    char datpath[4096] = "";
-    if (plotdir) {
-        mkdir(plotdir, 0777);
-        snprintf(datpath, sizeof datpath, "%s/speed-error.dat", plotdir);
-        dat = fopen(datpath, "w");
-        if (dat) fprintf(dat, "# run speedup geom_mean_abs_mr_err ray_mean_abs_mr_err series\n");
-        nseries = 0;
-    }
-    if (csv)
-        printf("scene,tracer,W,H,lights,sched,method,params,run,exact_run,seconds,exact_seconds,speedup,"
-               "geom_mr_mean,geom_mr_max,geom_rel_mean_pct,geom_rel_max_pct,ray_mr_mean,ray_mr_max,ray_rel_mean_pct,"
-               "ray_rel_max_pct,sizes\n");
+    sqlite3_stmt *st = rt_report_stmt(C->h, pairs_sql, "speed-error query", e, "");
+    if (!st) return -1;
+    FILE *out = C->out;
+    if (C->csv)
+        fprintf(out, "scene,tracer,W,H,lights,sched,method,params,run,exact_run,seconds,exact_seconds,speedup,"
+                     "geom_mr_mean,geom_mr_max,geom_rel_mean_pct,geom_rel_max_pct,ray_mr_mean,ray_mr_max,"
+                     "ray_rel_mean_pct,ray_rel_max_pct,sizes\n");
     else
-        printf("# Speed against error (approximate vs exact simulation)\n\n"
-               "Miss ratio = fetch misses / line accesses per group; errors are absolute (miss ratio) and relative "
-               "(traffic, %%), mean and max over the cache sizes that have an estimate (sizes: how many of them; a "
-               "sampled method leaves out the sizes it cannot estimate, e.g. hybrid's windowed sizes on a trace "
-               "shorter than 32 windows).\n\n"
-               "| scene | tracer | lights | sched | method | params | run (exact run) | s (exact s) | speedup | sizes | "
-               "geometry MR err mean / max | geometry traffic err %% mean / max | ray MR err mean / max | ray traffic "
-               "err %% mean / max |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
-    int rows = 0;
-    long cur = -1;
-    char hdr[1024] = "";
+        fprintf(out, "# Speed against error (approximate vs exact simulation)\n\n"
+                     "Miss ratio = fetch misses / line accesses per group; errors are absolute (miss ratio) and relative "
+                     "(traffic, %%), mean and max over the cache sizes that have an estimate (sizes: how many of them; "
+                     "a sampled method leaves out the sizes it cannot estimate, e.g. hybrid's windowed sizes on a "
+                     "trace shorter than 32 windows).\n\n"
+                     "| scene | tracer | lights | sched | method | params | run (exact run) | s (exact s) | speedup | "
+                     "sizes | geometry MR err mean / max | geometry traffic err %% mean / max | ray MR err mean / max | "
+                     "ray traffic err %% mean / max |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    int rows = 0, series_cur = 0, rc;
+    long cur = -1, xid = 0;
+    char hdr[1024] = "", cur_scene[64] = "", cur_method[32] = "", cur_params[192] = "";
     double secs = 0, xsecs = 0;
-    long xid = 0;
-    int series_cur = 0;
-    char cur_scene[64] = "", cur_method[32] = "", cur_params[192] = "";
-    nsumm = 0;
     acc A[2];
     memset(A, 0, sizeof A);
-    int rc;
     for (;;) {
         rc = sqlite3_step(st);
         long id = rc == SQLITE_ROW ? sqlite3_column_int64(st, 8) : -2;
         if (id != cur && cur != -1) {
-            pair_row(hdr, cur, xid, secs, xsecs, A, csv, dat, hdr, series_cur);
-            if (!csv) summ_add(cur_scene, cur_method, cur_params, secs, xsecs, A);
+            pair_row(C, hdr, cur, xid, secs, xsecs, A, hdr, series_cur);
+            if (!C->csv) summ_add(C, cur_scene, cur_method, cur_params, secs, xsecs, A);
             rows++;
             memset(A, 0, sizeof A);
         }
@@ -300,47 +282,28 @@ int rt_report_speed_error(sqlite3 *h, int csv, const char *plotdir)
             const char *xs = (const char *)sqlite3_column_text(st, 18), *q = xs ? strstr(xs, "sim_seconds=") : NULL;
             if (q && (q == xs || q[-1] == ' ')) xsecs = strtod(q + 12, NULL);
             const char *m = (const char *)sqlite3_column_text(st, 6), *p = (const char *)sqlite3_column_text(st, 7);
-            if (dat) series_cur = approx_series(m, p);
+            if (C->dat) series_cur = approx_series(C, m, p);
             snprintf(cur_scene, sizeof cur_scene, "%s", (const char *)sqlite3_column_text(st, 0));
             snprintf(cur_method, sizeof cur_method, "%s", m ? m : "");
             snprintf(cur_params, sizeof cur_params, "%s", p ? p : "");
-            if (csv)
+            if (C->csv)
                 snprintf(hdr, sizeof hdr, "%s,%s,%d,%d,%d,%lld,%s,\"%s\"", sqlite3_column_text(st, 0),
                          sqlite3_column_text(st, 1), sqlite3_column_int(st, 2), sqlite3_column_int(st, 3),
                          sqlite3_column_int(st, 4), (long long)sqlite3_column_int64(st, 5), m, p ? p : "");
             else
                 snprintf(hdr, sizeof hdr, "| %s | %s | %d | %lld | %s | %s", sqlite3_column_text(st, 0),
-                         sqlite3_column_text(st, 1), sqlite3_column_int(st, 4), (long long)sqlite3_column_int64(st, 5), m,
-                         p ? p : "");
+                         sqlite3_column_text(st, 1), sqlite3_column_int(st, 4), (long long)sqlite3_column_int64(st, 5),
+                         m, p ? p : "");
         }
         int gi = strcmp((const char *)sqlite3_column_text(st, 12), "geometry") == 0 ? 0 : 1;
-        double mra = sqlite3_column_double(st, 14), mrx = sqlite3_column_double(st, 15);
-        double ba = sqlite3_column_double(st, 16), bx = sqlite3_column_double(st, 17);
-        double emr = fabs(mra - mrx), rel = bx > 0 ? 100.0 * fabs(ba - bx) / bx : (ba > 0 ? 100.0 : 0.0);
-        acc *a = &A[gi];
-        a->n++;
-        a->mr_sum += emr;
-        a->rel_sum += rel;
-        if (emr > a->mr_max) a->mr_max = emr;
-        if (rel > a->rel_max) a->rel_max = rel;
+        acc_add(&A[gi], sqlite3_column_double(st, 14), sqlite3_column_double(st, 15), sqlite3_column_double(st, 16),
+                sqlite3_column_double(st, 17));
     }
-    sqlite3_finalize(st);
-    if (rc != SQLITE_DONE) {
-        rt_cmd_error("report", "speed-error query: %s", sqlite3_errmsg(h));
-        if (dat) fclose(dat);
-        return -1;
-    }
-    if (!rows && !csv) printf("(no approximate runs in the database: run `raytraffic sim --method ...` or the sweep with "
-                              "--approx)\n");
-    if (!csv) summ_print();
-    if (report_proxies(h, csv, dat) < 0) {
-        if (dat) fclose(dat);
-        return -1;
-    }
-    if (dat) {
-        fclose(dat);
-        plot_speed_error(plotdir, datpath);
-    }
+    if (rt_report_done(st, rc, "speed-error query", e) < 0) return -1;
+    if (!rows && !C->csv)
+        fprintf(out, "(no approximate runs in the database: run `raytraffic sim --method ...` or the sweep with "
+                     "--approx)\n");
+    if (!C->csv) summ_print(C);
     return 0;
 }
 
@@ -353,13 +316,29 @@ typedef struct ppair {
     acc A[2];
 } ppair;
 
-static int report_proxies(sqlite3 *h, int csv, FILE *dat)
+static void proxies_dynamic(const se_ctx *C, const ppair *dyn, size_t ndyn)
 {
-    sqlite3_stmt *st;
-    if (sqlite3_prepare_v2(h, proxy_sql, -1, &st, NULL) != SQLITE_OK) {
-        rt_cmd_error("report", "reduced-experiment query: %s", sqlite3_errmsg(h));
-        return -1;
+    fprintf(C->out,
+            "\n### Dynamic scheduler: rays per queue event in reduced experiments\n\n"
+            "A queue is processed when it is the fullest (or in tree order); the rays it holds then are what "
+            "amortise loading its subtree. Fewer traced pixels leave fewer rays per queue, so reduced "
+            "experiments overstate the dynamic scheduler's geometry traffic per ray.\n\n"
+            "| scene | lights | sched | reduced run | pixel fraction | rays/event full | rays/event reduced | ratio |\n"
+            "|---|---|---|---|---|---|---|---|\n");
+    for (size_t i = 0; i < ndyn; i++) {
+        const ppair *p = &dyn[i];
+        char scene[128] = "", lights[32] = "", sched[32] = "";
+        /* hdr is "| scene | tracer | lights | sched | method | desc" */
+        sscanf(p->hdr, "| %127s | %*s | %31s | %31s |", scene, lights, sched);
+        fprintf(C->out, "| %s | %s | %s | %s | %.4f | %.1f | %.1f | %.3f |\n", scene, lights, sched, p->desc,
+                p->scale > 0 ? 1.0 / p->scale : NAN, p->xdens, p->dens, p->xdens > 0 ? p->dens / p->xdens : NAN);
     }
+}
+
+static int report_proxies(se_ctx *C, rt_err *e)
+{
+    sqlite3_stmt *st = rt_report_stmt(C->h, proxy_sql, "reduced-experiment query", e, "");
+    if (!st) return -1;
     ppair cur, *dyn = NULL;
     size_t ndyn = 0, capdyn = 0;
     int rows = 0, rc, have = 0;
@@ -368,21 +347,26 @@ static int report_proxies(sqlite3 *h, int csv, FILE *dat)
         rc = sqlite3_step(st);
         long id = rc == SQLITE_ROW ? sqlite3_column_int64(st, 7) : -2;
         if (have && id != cur.id) {
-            if (!rows && !csv)
-                printf("\n## Reduced experiments (exact simulation of a smaller problem)\n\n"
-                       "Lower resolution or pixel subsampling, compared with the exact full run of the same "
-                       "configuration (the run in parentheses). Traffic is scaled by the ratio of primary rays (x "
-                       "factor in params); miss ratios are compared unscaled. Times are whole runs (tracer + "
-                       "simulation).\n\n"
-                       "| scene | tracer | lights | sched | method | params | run (full run) | s (full s) | speedup "
-                       "| sizes | geometry MR err mean / max | geometry traffic err %% mean / max | ray MR err mean / "
-                       "max | ray traffic err %% mean / max |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
-            pair_row(cur.hdr, cur.id, cur.xid, cur.secs, cur.xsecs, cur.A, csv, dat, cur.desc, cur.series);
+            if (!rows && !C->csv)
+                fprintf(C->out,
+                        "\n## Reduced experiments (exact simulation of a smaller problem)\n\n"
+                        "Lower resolution or pixel subsampling, compared with the exact full run of the same "
+                        "configuration (the run in parentheses). Traffic is scaled by the ratio of primary rays (x "
+                        "factor in params); miss ratios are compared unscaled. Times are whole runs (tracer + "
+                        "simulation).\n\n"
+                        "| scene | tracer | lights | sched | method | params | run (full run) | s (full s) | speedup "
+                        "| sizes | geometry MR err mean / max | geometry traffic err %% mean / max | ray MR err mean / "
+                        "max | ray traffic err %% mean / max |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+            pair_row(C, cur.hdr, cur.id, cur.xid, cur.secs, cur.xsecs, cur.A, cur.desc, cur.series);
             rows++;
             if (!isnan(cur.dens) && !isnan(cur.xdens)) {
                 if (ndyn == capdyn) {
-                    ppair *t = realloc(dyn, (capdyn = capdyn ? 2 * capdyn : 16) * sizeof *t);
-                    if (!t) break;
+                    ppair *t = rt_reallocarray(dyn, capdyn = capdyn ? 2 * capdyn : 16, sizeof *t, e);
+                    if (!t) {
+                        sqlite3_finalize(st);
+                        free(dyn);
+                        return -1;
+                    }
                     dyn = t;
                 }
                 dyn[ndyn++] = cur;
@@ -413,8 +397,8 @@ static int report_proxies(sqlite3 *h, int csv, FILE *dat)
                 snprintf(cur.desc, sizeof cur.desc, "%dx%d (x%.2f)", W, H, cur.scale);
                 snprintf(lab, sizeof lab, "reduced resolution (1/%.0f of the pixels)", cur.scale);
             }
-            cur.series = series_id(lab);
-            if (csv)
+            cur.series = series_id(C, lab);
+            if (C->csv)
                 snprintf(cur.hdr, sizeof cur.hdr, "%s,%s,%d,%d,%d,%lld,%s,\"%s\"", sqlite3_column_text(st, 0),
                          sqlite3_column_text(st, 1), W, H, sqlite3_column_int(st, 4),
                          (long long)sqlite3_column_int64(st, 5), method, cur.desc);
@@ -424,39 +408,51 @@ static int report_proxies(sqlite3 *h, int csv, FILE *dat)
                          method, cur.desc);
         }
         int gi = strcmp((const char *)sqlite3_column_text(st, 15), "geometry") == 0 ? 0 : 1;
-        double mra = sqlite3_column_double(st, 17), mrx = sqlite3_column_double(st, 18);
-        double ba = sqlite3_column_double(st, 19) * (isnan(cur.scale) ? 1.0 : cur.scale),
-               bx = sqlite3_column_double(st, 20);
-        double emr = fabs(mra - mrx), rel = bx > 0 ? 100.0 * fabs(ba - bx) / bx : (ba > 0 ? 100.0 : 0.0);
-        acc *a = &cur.A[gi];
-        a->n++;
-        a->mr_sum += emr;
-        a->rel_sum += rel;
-        if (emr > a->mr_max) a->mr_max = emr;
-        if (rel > a->rel_max) a->rel_max = rel;
+        /* traffic of the reduced run scaled up to the full problem */
+        acc_add(&cur.A[gi], sqlite3_column_double(st, 17), sqlite3_column_double(st, 18),
+                sqlite3_column_double(st, 19) * (isnan(cur.scale) ? 1.0 : cur.scale), sqlite3_column_double(st, 20));
     }
-    sqlite3_finalize(st);
-    if (rc != SQLITE_DONE) {
-        rt_cmd_error("report", "reduced-experiment query: %s", sqlite3_errmsg(h));
+    if (rt_report_done(st, rc, "reduced-experiment query", e) < 0) {
         free(dyn);
         return -1;
     }
-    if (ndyn && !csv) {
-        printf("\n### Dynamic scheduler: rays per queue event in reduced experiments\n\n"
-               "A queue is processed when it is the fullest (or in tree order); the rays it holds then are what "
-               "amortise loading its subtree. Fewer traced pixels leave fewer rays per queue, so reduced "
-               "experiments overstate the dynamic scheduler's geometry traffic per ray.\n\n"
-               "| scene | lights | sched | reduced run | pixel fraction | rays/event full | rays/event reduced | ratio |\n"
-               "|---|---|---|---|---|---|---|---|\n");
-        for (size_t i = 0; i < ndyn; i++) {
-            const ppair *p = &dyn[i];
-            char scene[128] = "", lights[32] = "", sched[32] = "";
-            /* hdr is "| scene | tracer | lights | sched | method | desc" */
-            sscanf(p->hdr, "| %127s | %*s | %31s | %31s |", scene, lights, sched);
-            printf("| %s | %s | %s | %s | %.4f | %.1f | %.1f | %.3f |\n", scene, lights, sched, p->desc,
-                   p->scale > 0 ? 1.0 / p->scale : NAN, p->xdens, p->dens, p->xdens > 0 ? p->dens / p->xdens : NAN);
-        }
-    }
+    if (ndyn && !C->csv) proxies_dynamic(C, dyn, ndyn);
     free(dyn);
     return 0;
+}
+
+int rt_report_speed_error(sqlite3 *h, int csv, const rt_plot_opts *plot, FILE *out, rt_err *e)
+{
+    se_ctx *C = rt_calloc(1, sizeof *C, e);
+    if (!C) return -1;
+    C->h = h;
+    C->csv = csv;
+    C->out = out;
+    char datpath[4096] = "";
+    int rc = -1;
+    if (plot) {
+        if (rt_plot_mkdir(plot->dir, e) < 0) goto done;
+        snprintf(datpath, sizeof datpath, "%s/speed-error.dat", plot->dir);
+        if (!(C->dat = fopen(datpath, "w"))) {
+            rt_errf(e, "%s: %s", datpath, strerror(errno));
+            goto done;
+        }
+        fprintf(C->dat, "# run speedup geom_mean_abs_mr_err ray_mean_abs_mr_err series\n");
+    }
+    if (report_approx(C, e) < 0 || report_proxies(C, e) < 0 || rt_report_flush(out, e) < 0) goto done;
+    if (C->dat) {
+        int bad = ferror(C->dat);
+        if (fclose(C->dat) != 0 || bad) {
+            C->dat = NULL;
+            rt_errf(e, "%s: write error: %s", datpath, strerror(errno ? errno : EIO));
+            goto done;
+        }
+        C->dat = NULL;
+        if (rt_plot_speed_error(plot, datpath, (const char(*)[128])C->series, C->nseries, e) < 0) goto done;
+    }
+    rc = 0;
+done:
+    if (C->dat) fclose(C->dat);
+    free(C);
+    return rc;
 }

@@ -1,0 +1,154 @@
+/*
+ * analysis.h -- reports and plots from a results database (prefixes
+ * rt_report_, rt_plot_). This header is the manual of analysis/.
+ *
+ * The paper's tables (Figures 3-9), the comparison with the paper's
+ * published values, the speed-against-error tables of approximate and
+ * reduced experiments, and the gnuplot plots are all computed here from
+ * the SQLite database that results/ writes. The front end (cli/cmd_report.c)
+ * parses options, calls these functions and prints their error messages.
+ *
+ * Conventions, for every function below unless it says otherwise:
+ * - tables go to the FILE *out given; nothing is ever written to stdout or
+ *   stderr directly, and nothing exits;
+ * - the return value is 0 on success and -1 on failure, with one line in
+ *   e (which may be NULL); a database error, a file that cannot be written,
+ *   a failed write on out (checked with fflush/ferror before returning) and
+ *   a plot that gnuplot fails to draw are all failures;
+ * - the database is only read: open it with rt_report_db_open (read-only)
+ *   or pass any sqlite3 handle, e.g. rt_db_handle() of an rt_db.
+ *
+ * Plots never go through a shell: gnuplot runs with fork/execvp on a script
+ * file, and every string that enters a script (scene names, paths) is
+ * written by rt_plot_quote, so a scene named x'$(touch PWNED)'.obj is just a
+ * title.
+ */
+#ifndef RT_ANALYSIS_H
+#define RT_ANALYSIS_H
+
+#include "rt.h"
+
+#include <sqlite3.h>
+#include <stdint.h>
+#include <stdio.h>
+
+#define RT_REPORT_MAXSIZES 32  /* cache sizes reported */
+#define RT_REPORT_MAXSCENES 16 /* scenes reported */
+
+/* What a report shows. Zero-initialised means: Markdown, geometry
+ * reductions in figures 7-9, the largest resolution present, all scenes. */
+typedef struct rt_report_opts {
+    int csv;           /* CSV instead of Markdown */
+    int total;         /* figures 7-9 (and their comparison) on total instead of geometry traffic */
+    int W, H;          /* resolution to report; 0 = the largest exact run's */
+    const char *scene; /* only this scene; NULL = every scene at that resolution */
+} rt_report_opts;
+
+/* A report's axes, read from the database by rt_report_init. */
+typedef struct rt_report {
+    sqlite3 *h;                       /* borrowed handle; never closed here */
+    const char *dbpath;               /* named in the Markdown header (borrowed) */
+    int csv, total;                   /* from rt_report_opts */
+    int W, H;                         /* resolution reported (0x0 when the database has no exact runs) */
+    int nsizes;                       /* cache sizes with fully associative 64-byte wb-wa traffic */
+    uint64_t sizes[RT_REPORT_MAXSIZES]; /* ascending, bytes */
+    int nscenes;                      /* scenes with runs at W x H (0: nothing to report) */
+    char scenes[RT_REPORT_MAXSCENES][128]; /* room, grove, sphereflake first, then by name */
+    int packet;                       /* packet edge of the packet runs (default 8) */
+} rt_report;
+
+/* Opens the results database at path read-only (no file is ever created
+ * or written, so it works on a read-only file in a read-only folder).
+ * Fails with "PATH: reason" when the file is missing, is not a SQLite
+ * database, is not a raytraffic database, or has a schema version newer
+ * than RT_DB_SCHEMA_VERSION. On success *ph is the handle; the caller
+ * closes it with sqlite3_close. */
+int rt_report_db_open(const char *path, sqlite3 **ph, rt_err *e);
+
+/* Reads the report's axes (resolution, cache sizes, scenes, packet edge)
+ * from h. dbpath is only used in texts. nscenes == 0 is not an error:
+ * the caller decides whether an empty report is one. */
+int rt_report_init(rt_report *R, sqlite3 *h, const char *dbpath, const rt_report_opts *o, rt_err *e);
+
+/* Geometry and ray traffic (MB) of tracer on scene at cache size `size`
+ * with light mask `lights`; the dynamic tracer's run is the one scheduled
+ * for that size. Returns 1 and sets *geom, *ray when the run exists, 0
+ * when it does not, -1 on a database error. */
+int rt_report_value(const rt_report *R, const char *scene, const char *tracer, unsigned lights, uint64_t size,
+                    double *geom, double *ray, rt_err *e);
+
+/* The paper's reduction in percent: 100 (base / dyn - 1) when dyn <= base,
+ * else -100 (dyn / base - 1); NAN unless both are positive. */
+double rt_report_reduction(double base, double dyn);
+
+/* The report's tables: figure is "all" (header, scene table, Figures 4-6
+ * then 7-9 for every scene), "scenes" (the scene table) or "4".."9" (that
+ * figure's table for the paper scene it belongs to: 4/7 room, 5/8 grove,
+ * 6/9 sphereflake). The Markdown header is printed for every figure. An
+ * unknown figure is an error. */
+int rt_report_tables(const rt_report *R, const char *figure, FILE *out, rt_err *e);
+
+/* The single tables behind rt_report_tables: the scene table (the paper's
+ * Figure 3 statistics), one scene's primary-ray traffic (Figures 4-6), one
+ * scene's shadow-ray reductions (Figures 7-9). */
+int rt_report_scenes(const rt_report *R, FILE *out, rt_err *e);
+int rt_report_primary(const rt_report *R, const char *scene, FILE *out, rt_err *e);
+int rt_report_shadows(const rt_report *R, const char *scene, FILE *out, rt_err *e);
+
+/* Our values beside the paper's (data/paper_primary.csv,
+ * data/paper_shadows.csv, found in the source tree or the installed data
+ * folder) for the paper scenes present, with ratios and, in Markdown, the
+ * qualitative findings. An unreadable paper table is an error. */
+int rt_report_compare_paper(const rt_report *R, FILE *out, rt_err *e);
+
+/* ---- plots ---------------------------------------------------------------- */
+
+/* Where and how plots are drawn. */
+typedef struct rt_plot_opts {
+    const char *dir;     /* output folder, created if missing */
+    const char *gnuplot; /* gnuplot executable (rt_plot_find_gnuplot); NULL = data files and scripts only */
+    FILE *log;           /* one "wrote PATH" line per picture; NULL = quiet */
+} rt_plot_opts;
+
+/* Finds gnuplot: $RT_GNUPLOT if set and non-empty (not checked: a wrong
+ * value fails when plotting), else the configure-time GNUPLOT_PATH if
+ * executable, else "gnuplot" on PATH. Writes the path into buf (n bytes)
+ * and returns 0, or returns -1 when there is none. */
+int rt_plot_find_gnuplot(char *buf, size_t n);
+
+/* Runs `gnuplot script` with fork/execvp (no shell), its output discarded.
+ * Fails with "script: gnuplot ...: first line of its messages" unless
+ * gnuplot exits with status 0. */
+int rt_plot_run(const char *gnuplot, const char *script, rt_err *e);
+
+/* Writes s to f as one gnuplot double-quoted string: quotes, backslashes,
+ * control bytes, and the characters gnuplot substitutes inside double
+ * quotes (` for commands, @ and $) become octal escapes; bytes >= 0x80
+ * pass through (UTF-8 names stay readable). rt_plot_quote_path does the
+ * same for a file name and prefixes "./" to a relative one, so that a
+ * name starting with '<' or '|' is never read as a pipe. Return fputs's
+ * convention: non-negative, or EOF on a write error. */
+int rt_plot_quote(FILE *f, const char *s);
+int rt_plot_quote_path(FILE *f, const char *path);
+
+/* Per scene: DIR/NAME-traffic.dat (geometry and ray MB against cache size,
+ * primary rays), DIR/NAME-traffic.gp and, with gnuplot, .png and .svg;
+ * NAME is the scene name with '/' replaced by '_'. */
+int rt_plot_traffic(const rt_report *R, const rt_plot_opts *p, rt_err *e);
+
+/* DIR/scenes.png: every scene rendered at 256x256 (recursive tracer, all
+ * lights), side by side. A scene that cannot be rebuilt (e.g. a mesh file
+ * no longer where the database says) is an error naming it; nothing is
+ * written then. */
+int rt_plot_scenes(const rt_report *R, const rt_plot_opts *p, rt_err *e);
+
+/* ---- approximate and reduced experiments ------------------------------------- */
+
+/* Speed against error: every approximate run against the exact run of the
+ * same identity, every reduced experiment against its full exact run
+ * (tables and summary in analysis/speed_error.c). csv selects CSV. With
+ * plot non-NULL also writes DIR/speed-error.dat and .gp and, with
+ * gnuplot, DIR/speed-error.png (mean miss-ratio error against speedup). */
+int rt_report_speed_error(sqlite3 *h, int csv, const rt_plot_opts *plot, FILE *out, rt_err *e);
+
+#endif

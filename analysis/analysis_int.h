@@ -1,0 +1,30 @@
+/*
+ * analysis_int.h -- helpers shared by the files of analysis/ (not public).
+ */
+#ifndef RT_ANALYSIS_INT_H
+#define RT_ANALYSIS_INT_H
+
+#include "analysis.h"
+
+/* Prepares sql on h and binds its parameters ?1, ?2, ... from the
+ * variable arguments, one per character of types: 's' const char *,
+ * 'i' int, 'I' int64_t. NULL with "context: sqlite message" on failure. */
+sqlite3_stmt *rt_report_stmt(sqlite3 *h, const char *sql, const char *context, rt_err *e, const char *types, ...);
+
+/* Finalizes st after the last sqlite3_step returned rc: 0 when rc is
+ * SQLITE_ROW or SQLITE_DONE, else -1 with "context: sqlite message". */
+int rt_report_done(sqlite3_stmt *st, int rc, const char *context, rt_err *e);
+
+/* 0 if everything written to out so far reached it (fflush), else -1
+ * with "write error: reason". */
+int rt_report_flush(FILE *out, rt_err *e);
+
+/* Creates dir unless it exists. */
+int rt_plot_mkdir(const char *dir, rt_err *e);
+
+/* Writes DIR/speed-error.gp for the data file datpath whose last column
+ * is a series index into labels[0..n-1], and runs it when p->gnuplot is
+ * set. */
+int rt_plot_speed_error(const rt_plot_opts *p, const char *datpath, const char (*labels)[128], int n, rt_err *e);
+
+#endif

@@ -1,0 +1,332 @@
+/*
+ * plot.c -- everything gnuplot: traffic against cache size per scene, the
+ * speed-against-error scatter, and the scene thumbnails.
+ *
+ * No shell anywhere. Scene names come from the database and may be any
+ * file name, so they never reach a command line: gnuplot runs with
+ * fork/execvp on a script file (rt_plot_run), and every string written into
+ * a script goes through rt_plot_quote, which escapes everything gnuplot
+ * interprets inside a double-quoted string (backslash escapes, ` command
+ * substitution) and keeps file names from being read as pipes ('<cmd',
+ * '|cmd'). gnuplot's exit status is checked: a plot it cannot draw is an
+ * error carrying the first line of its messages.
+ *
+ * Text: the terminals are enhanced only for the 10^{k} tick labels of log
+ * axes; every title and key entry that comes from data is `noenhanced`, so
+ * bun_zipper stays bun_zipper instead of growing a subscript. Ticks of log
+ * axes are at powers of ten (a tic increment of 10 on a log axis is a
+ * factor), and autoscaling extends the range to the next power, so an axis
+ * always has at least two labelled ticks.
+ */
+#include "analysis_int.h"
+#include "image.h"
+#include "run.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <inttypes.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "config.h"
+
+/* ---- running gnuplot -------------------------------------------------------- */
+
+static int executable(const char *path) { return access(path, X_OK) == 0; }
+
+int rt_plot_find_gnuplot(char *buf, size_t n)
+{
+    const char *env = getenv("RT_GNUPLOT");
+    if (env && *env) return snprintf(buf, n, "%s", env) < (int)n ? 0 : -1;
+    if (GNUPLOT_PATH[0] && executable(GNUPLOT_PATH)) return snprintf(buf, n, "%s", GNUPLOT_PATH) < (int)n ? 0 : -1;
+    const char *path = getenv("PATH");
+    while (path && *path) {
+        size_t len = strcspn(path, ":");
+        if (len && snprintf(buf, n, "%.*s/gnuplot", (int)len, path) < (int)n && executable(buf)) return 0;
+        path += len + (path[len] == ':');
+    }
+    return -1;
+}
+
+int rt_plot_run(const char *gnuplot, const char *script, rt_err *e)
+{
+    int fd[2];
+    if (pipe(fd) < 0) return rt_errf(e, "%s: pipe: %s", script, strerror(errno));
+    pid_t pid = fork();
+    if (pid < 0) {
+        close(fd[0]);
+        close(fd[1]);
+        return rt_errf(e, "%s: fork: %s", script, strerror(errno));
+    }
+    if (pid == 0) { /* child: stdout discarded, stderr into the pipe */
+        int null = open("/dev/null", O_RDWR);
+        if (null >= 0) {
+            dup2(null, 0);
+            dup2(null, 1);
+        }
+        dup2(fd[1], 2);
+        close(fd[0]);
+        char *const argv[] = {(char *)gnuplot, (char *)script, NULL};
+        execvp(gnuplot, argv);
+        dprintf(2, "cannot run %s: %s\n", gnuplot, strerror(errno));
+        _exit(127);
+    }
+    close(fd[1]);
+    char msg[400];
+    size_t len = 0;
+    for (;;) { /* drain everything, keep the start */
+        char chunk[4096];
+        ssize_t r = read(fd[0], chunk, sizeof chunk);
+        if (r < 0 && errno == EINTR) continue;
+        if (r <= 0) break;
+        size_t take = (size_t)r < sizeof msg - 1 - len ? (size_t)r : sizeof msg - 1 - len;
+        memcpy(msg + len, chunk, take);
+        len += take;
+    }
+    close(fd[0]);
+    msg[len] = 0;
+    int status;
+    while (waitpid(pid, &status, 0) < 0)
+        if (errno != EINTR) return rt_errf(e, "%s: waitpid: %s", script, strerror(errno));
+    if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return 0;
+    /* the first non-blank line of gnuplot's messages says what went wrong */
+    char *line = msg + strspn(msg, " \t\r\n");
+    line[strcspn(line, "\r\n")] = 0;
+    if (WIFSIGNALED(status))
+        return rt_errf(e, "%s: gnuplot killed by signal %d%s%s", script, WTERMSIG(status), *line ? ": " : "", line);
+    return rt_errf(e, "%s: gnuplot exited with status %d%s%s", script, WEXITSTATUS(status), *line ? ": " : "", line);
+}
+
+/* ---- script strings ----------------------------------------------------------- */
+
+int rt_plot_quote(FILE *f, const char *s)
+{
+    int rc = fputc('"', f);
+    for (const unsigned char *p = (const unsigned char *)s; *p && rc != EOF; p++) {
+        if (*p >= 0x80 || (*p >= 0x20 && *p < 0x7f && !strchr("\"\\`@$", *p))) rc = fputc(*p, f);
+        else rc = fprintf(f, "\\%03o", *p) < 0 ? EOF : 0;
+    }
+    if (rc != EOF) rc = fputc('"', f);
+    return rc == EOF ? EOF : 0;
+}
+
+int rt_plot_quote_path(FILE *f, const char *path)
+{
+    if (path[0] == '/') return rt_plot_quote(f, path);
+    char *buf = malloc(strlen(path) + 3);
+    if (!buf) return EOF;
+    sprintf(buf, "./%s", path);
+    int rc = rt_plot_quote(f, buf);
+    free(buf);
+    return rc;
+}
+
+int rt_plot_mkdir(const char *dir, rt_err *e)
+{
+    if (mkdir(dir, 0777) < 0 && errno != EEXIST) return rt_errf(e, "%s: %s", dir, strerror(errno));
+    return 0;
+}
+
+/* DIR/NAME-SUFFIX with '/' in the scene name replaced: a mesh given by its
+ * path ("data/meshes/bun_zipper.ply") still makes one file in DIR. */
+static void scene_file(char *buf, size_t n, const char *dir, const char *scene, const char *suffix)
+{
+    int k = snprintf(buf, n, "%s/", dir);
+    for (const char *p = scene; *p && k + 1 < (int)n; p++) buf[k++] = *p == '/' ? '_' : *p;
+    buf[k < (int)n ? k : (int)n - 1] = 0;
+    snprintf(buf + strlen(buf), n - strlen(buf), "%s", suffix);
+}
+
+/* Closes a script or data file, turning a failed write into an error. */
+static int close_file(FILE *f, const char *path, rt_err *e)
+{
+    int bad = ferror(f);
+    if (fclose(f) != 0 || bad) return rt_errf(e, "%s: write error: %s", path, strerror(errno ? errno : EIO));
+    return 0;
+}
+
+/* Runs the script when gnuplot is there; one "wrote" line per picture. */
+static int draw(const rt_plot_opts *p, const char *script, const char *wrote, rt_err *e)
+{
+    if (!p->gnuplot) return 0;
+    if (rt_plot_run(p->gnuplot, script, e) < 0) return -1;
+    if (p->log) fprintf(p->log, "wrote %s\n", wrote);
+    return 0;
+}
+
+/* ---- traffic against cache size ------------------------------------------------- */
+
+static int traffic_script(FILE *f, const rt_report *R, const char *scene, const char *dat, const char *base)
+{
+    for (int t = 0; t < 2; t++) {
+        char out[4200];
+        snprintf(out, sizeof out, "%s.%s", base, t ? "svg" : "png");
+        fprintf(f, "set terminal %s enhanced\nset output ", t ? "svg size 900,420 dynamic" : "pngcairo size 900,420");
+        rt_plot_quote_path(f, out);
+        fprintf(f, "\nset multiplot layout 1,2 title ");
+        char title[512];
+        snprintf(title, sizeof title, "%s: DRAM traffic, primary rays, %dx%d", scene, R->W, R->H);
+        rt_plot_quote(f, title);
+        fprintf(f, " noenhanced\n"
+                   "set logscale xy\nset format y \"10^{%%L}\"\nset ytics 10\nset xlabel \"cache size (KB)\"\n"
+                   "set ylabel \"MB\"\nset grid\nset key top right noenhanced\n"
+                   "set xtics (1,4,16,64,256,1024,4096)\n");
+        static const char *const what[2] = {"geometry", "ray"};
+        for (int g = 0; g < 2; g++) {
+            fprintf(f, "set title \"%s traffic\"\nplot ", what[g]);
+            rt_plot_quote_path(f, dat);
+            fprintf(f,
+                    " u 1:%d w lp lc rgb \"#0072b2\" pt 7 t \"recursive\", '' u 1:%d w lp lc rgb \"#e69f00\" pt 5 t "
+                    "\"packet\", '' u 1:%d w lp lc rgb \"#009e73\" pt 9 t \"dynamic\"\n",
+                    2 + 3 * g, 3 + 3 * g, 4 + 3 * g);
+        }
+        fprintf(f, "unset multiplot\n");
+    }
+    return ferror(f) ? -1 : 0;
+}
+
+int rt_plot_traffic(const rt_report *R, const rt_plot_opts *p, rt_err *e)
+{
+    if (rt_plot_mkdir(p->dir, e) < 0) return -1;
+    for (int i = 0; i < R->nscenes; i++) {
+        const char *sc = R->scenes[i];
+        char dat[4096], gpf[4096], base[4096], png[4200];
+        scene_file(dat, sizeof dat, p->dir, sc, "-traffic.dat");
+        scene_file(gpf, sizeof gpf, p->dir, sc, "-traffic.gp");
+        scene_file(base, sizeof base, p->dir, sc, "-traffic");
+        FILE *f = fopen(dat, "w");
+        if (!f) return rt_errf(e, "%s: %s", dat, strerror(errno));
+        fprintf(f, "# cache_kb geom_recursive geom_packet geom_dynamic ray_recursive ray_packet ray_dynamic (MB, "
+                   "primary rays)\n");
+        for (int k = 0; k < R->nsizes; k++) {
+            uint64_t s = R->sizes[k];
+            double v[6];
+            int h[3];
+            static const char *const tr[3] = {"recursive", "packet", "dynamic"};
+            for (int t = 0; t < 3; t++) {
+                h[t] = rt_report_value(R, sc, tr[t], 0, s, &v[t], &v[t + 3], e);
+                if (h[t] < 0) {
+                    fclose(f);
+                    return -1;
+                }
+            }
+            h[1] = h[1] && s > (uint64_t)R->packet * R->packet * 32;
+            fprintf(f, "%" PRIu64, s / 1024);
+            for (int c = 0; c < 6; c++)
+                if (h[c % 3] && v[c] > 0) fprintf(f, " %.6g", v[c]);
+                else fprintf(f, " NaN");
+            fprintf(f, "\n");
+        }
+        if (close_file(f, dat, e) < 0) return -1;
+        if (!(f = fopen(gpf, "w"))) return rt_errf(e, "%s: %s", gpf, strerror(errno));
+        traffic_script(f, R, sc, dat, base);
+        if (close_file(f, gpf, e) < 0) return -1;
+        snprintf(png, sizeof png, "%s.png and .svg", base);
+        if (draw(p, gpf, png, e) < 0) return -1;
+    }
+    return 0;
+}
+
+/* ---- speed against error ----------------------------------------------------------- */
+
+/* Colour-blind-safe and then clearly distinct colours, one per series. */
+static const char *const colours[] = {
+    "#0072b2", "#e69f00", "#009e73", "#d55e00", "#cc79a7", "#56b4e9", "#000000", "#f0e442",
+    "#8c564b", "#7f7f7f", "#17becf", "#bcbd22", "#1f3f8f", "#9467bd", "#2ca02c", "#d62728",
+    "#ff9896", "#98df8a", "#c5b0d5", "#aec7e8", "#ffbb78", "#c49c94", "#f7b6d2", "#dbdb8d",
+};
+static const int points[] = {7, 5, 9, 11, 13, 15};
+
+int rt_plot_speed_error(const rt_plot_opts *p, const char *datpath, const char (*labels)[128], int n, rt_err *e)
+{
+    char gpath[4096], png[4096];
+    snprintf(gpath, sizeof gpath, "%s/speed-error.gp", p->dir);
+    snprintf(png, sizeof png, "%s/speed-error.png", p->dir);
+    FILE *g = fopen(gpath, "w");
+    if (!g) return rt_errf(e, "%s: %s", gpath, strerror(errno));
+    int ncol = (int)(sizeof colours / sizeof colours[0]);
+    /* two plots on the top of the page, the key in its own band below the
+     * x labels: two entries per row, as many rows as it needs */
+    int rows = (n + 1) / 2, H = 560 + 22 * rows;
+    double band = (22.0 * rows + 16) / H;
+    fprintf(g, "set terminal pngcairo size 1200,%d enhanced\nset output ", H);
+    rt_plot_quote_path(g, png);
+    fprintf(g, "\nset logscale xy\nset format x \"10^{%%L}\"\nset format y \"10^{%%L}\"\nset xtics 10\nset ytics 10\n"
+               "set grid\nset xlabel \"speedup over exact\"\nunset key\n"
+               "set multiplot\nset bmargin at screen %.4f\nset tmargin at screen 0.95\n",
+            band + 0.09);
+    for (int side = 0; side < 2; side++) {
+        fprintf(g, "set lmargin at screen %.2f\nset rmargin at screen %.2f\n", side ? 0.57 : 0.08, side ? 0.98 : 0.49);
+        fprintf(g, "set ylabel \"%s: mean abs miss-ratio error\"\nplot ", side ? "ray" : "geometry");
+        if (!n) fprintf(g, "NaN notitle");
+        for (int i = 0; i < n; i++) {
+            fprintf(g, "%s", i ? ", \\\n  " : "");
+            rt_plot_quote_path(g, datpath);
+            fprintf(g, " u ($5==%d?$2:1/0):%d w p pt %d ps 1.1 lc rgb \"%s\" notitle", i, side ? 4 : 3,
+                    points[i % 6], colours[i % ncol]);
+        }
+        fprintf(g, "\n");
+    }
+    /* the key: an empty plot over the band, one invisible point per series */
+    fprintf(g, "unset logscale\nunset border\nunset tics\nunset xlabel\nunset ylabel\nunset grid\n"
+               "set lmargin at screen 0.02\nset rmargin at screen 0.98\nset bmargin at screen 0.01\n"
+               "set tmargin at screen %.4f\nset xrange [0:1]\nset yrange [0:1]\n"
+               "set key inside center center horizontal maxcols 2 width 2 samplen 1 reverse Left noenhanced font \",10\"\nplot ",
+            band);
+    if (!n) fprintf(g, "NaN notitle");
+    for (int i = 0; i < n; i++) {
+        fprintf(g, "%sNaN w p pt %d ps 1.1 lc rgb \"%s\" t ", i ? ", \\\n  " : "", points[i % 6], colours[i % ncol]);
+        rt_plot_quote(g, labels[i]);
+    }
+    fprintf(g, "\nunset multiplot\n");
+    if (close_file(g, gpath, e) < 0) return -1;
+    return draw(p, gpath, png, e);
+}
+
+/* ---- scene thumbnails --------------------------------------------------------------- */
+
+int rt_plot_scenes(const rt_report *R, const rt_plot_opts *p, rt_err *e)
+{
+    const int tile = 256, n = R->nscenes;
+    if (n <= 0) return 0;
+    if (rt_plot_mkdir(p->dir, e) < 0) return -1;
+    unsigned char *all = rt_calloc((size_t)tile * n * tile * 3, 1, e);
+    unsigned char *px = rt_calloc((size_t)tile * tile * 3, 1, e);
+    int rc = all && px ? 0 : -1;
+    for (int i = 0; i < n && rc == 0; i++) {
+        rt_render_opts o;
+        rt_render_default_opts(&o);
+        o.W = o.H = tile;
+        o.lights = 7;
+        rt_job j;
+        rt_run_stats st;
+        if (rt_job_setup(&j, R->scenes[i], "recursive", &o, e) < 0) {
+            /* e names the scene file that could not be loaded */
+            if (e) {
+                char m[RT_ERR_LEN];
+                snprintf(m, sizeof m, "%s", e->msg);
+                rt_errf(e, "scene thumbnails: %s", m);
+            }
+            rc = -1;
+            break;
+        }
+        rt_image *im = rt_image_new(tile, tile, e);
+        rc = im ? rt_job_run(&j, NULL, im, &st, e) : -1;
+        rt_job_free(&j);
+        if (rc == 0) rt_image_to_rgb8(im, px);
+        rt_image_free(im);
+        if (rc < 0) break;
+        for (int y = 0; y < tile; y++)
+            memcpy(all + ((size_t)y * tile * n + (size_t)i * tile) * 3, px + (size_t)y * tile * 3, (size_t)tile * 3);
+    }
+    char path[4096];
+    snprintf(path, sizeof path, "%s/scenes.png", p->dir);
+    if (rc == 0) rc = rt_png_write_rgb8(path, tile * n, tile, all, e);
+    if (rc == 0 && p->log) fprintf(p->log, "wrote %s\n", path);
+    free(px);
+    free(all);
+    return rc;
+}

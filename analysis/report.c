@@ -1,0 +1,203 @@
+/*
+ * report.c -- what every report shares: the read-only database, the
+ * report's axes and the one query every table is made of.
+ *
+ * A report reads, never writes, and creates no file. Even a read-only
+ * SQLite connection creates the -wal and -shm files of a WAL database
+ * when they are missing (and fails where the folder is read-only), so the
+ * open depends on the -wal file:
+ * - no -wal file: no connection has the database open and everything is
+ *   in the main file (the last connection to close checkpoints and removes
+ *   the -wal), so it is opened immutable (URI immutable=1): no locks, no
+ *   side files, and a read-only file in a read-only folder works;
+ * - a -wal file: a writer is active (a sweep) or was killed, and the -wal
+ *   may hold committed runs, so it is opened read-only the normal way
+ *   (mode=ro), reading the -wal under the usual locks.
+ *
+ * Axes: the resolution (the largest exact run's unless asked), the cache
+ * sizes with fully associative 64-byte write-back write-allocate traffic,
+ * the scenes at that resolution (the paper's room, grove, sphereflake
+ * first), and the packet edge of the packet runs, which decides where
+ * packets are not reported (a cache that cannot hold one packet of rays).
+ */
+#include "analysis_int.h"
+#include "db.h"
+
+#include <ctype.h>
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+sqlite3_stmt *rt_report_stmt(sqlite3 *h, const char *sql, const char *context, rt_err *e, const char *types, ...)
+{
+    sqlite3_stmt *st;
+    if (sqlite3_prepare_v2(h, sql, -1, &st, NULL) != SQLITE_OK) {
+        rt_errf(e, "%s: %s", context, sqlite3_errmsg(h));
+        return NULL;
+    }
+    va_list ap;
+    va_start(ap, types);
+    for (int i = 0; types[i]; i++) {
+        if (types[i] == 's') sqlite3_bind_text(st, i + 1, va_arg(ap, const char *), -1, SQLITE_TRANSIENT);
+        else if (types[i] == 'i') sqlite3_bind_int(st, i + 1, va_arg(ap, int));
+        else sqlite3_bind_int64(st, i + 1, (sqlite3_int64)va_arg(ap, int64_t));
+    }
+    va_end(ap);
+    return st;
+}
+
+int rt_report_done(sqlite3_stmt *st, int rc, const char *context, rt_err *e)
+{
+    if (rc != SQLITE_ROW && rc != SQLITE_DONE) rt_errf(e, "%s: %s", context, sqlite3_errmsg(sqlite3_db_handle(st)));
+    sqlite3_finalize(st);
+    return rc != SQLITE_ROW && rc != SQLITE_DONE ? -1 : 0;
+}
+
+int rt_report_flush(FILE *out, rt_err *e)
+{
+    if (fflush(out) != 0 || ferror(out)) return rt_errf(e, "write error: %s", strerror(errno ? errno : EIO));
+    return 0;
+}
+
+/* One integer from a query (0 when it returns no row). */
+static int get_int(sqlite3 *h, const char *path, const char *sql, sqlite3_int64 *v, rt_err *e)
+{
+    sqlite3_stmt *st;
+    *v = 0;
+    if (sqlite3_prepare_v2(h, sql, -1, &st, NULL) != SQLITE_OK) return rt_errf(e, "%s: %s", path, sqlite3_errmsg(h));
+    int rc = sqlite3_step(st);
+    if (rc == SQLITE_ROW) *v = sqlite3_column_int64(st, 0);
+    sqlite3_finalize(st);
+    if (rc != SQLITE_ROW && rc != SQLITE_DONE) return rt_errf(e, "%s: %s", path, sqlite3_errmsg(h));
+    return 0;
+}
+
+int rt_report_db_open(const char *path, sqlite3 **ph, rt_err *e)
+{
+    *ph = NULL;
+    struct stat sb;
+    if (stat(path, &sb) < 0) return rt_errf(e, "%s: %s (run `raytraffic sweep` first)", path, strerror(errno));
+    size_t n = strlen(path);
+    char *uri = rt_calloc(3 * n + 32, 1, e);
+    if (!uri) return -1;
+    /* a URI, so every byte outside the unreserved set is percent-encoded */
+    size_t k = (size_t)sprintf(uri, "file:");
+    for (const unsigned char *p = (const unsigned char *)path; *p; p++)
+        k += (size_t)(isalnum(*p) || strchr("-._~/", *p) ? sprintf(uri + k, "%c", *p) : sprintf(uri + k, "%%%02X", *p));
+    char *wal = rt_calloc(n + 8, 1, e);
+    if (!wal) {
+        free(uri);
+        return -1;
+    }
+    sprintf(wal, "%s-wal", path);
+    strcat(uri, stat(wal, &sb) == 0 ? "?mode=ro" : "?immutable=1");
+    free(wal);
+    sqlite3 *h = NULL;
+    int orc = sqlite3_open_v2(uri, &h, SQLITE_OPEN_READONLY | SQLITE_OPEN_URI, NULL);
+    free(uri);
+    if (orc != SQLITE_OK) {
+        rt_errf(e, "%s: cannot open database: %s", path, h ? sqlite3_errmsg(h) : "out of memory");
+        sqlite3_close(h);
+        return -1;
+    }
+    sqlite3_busy_timeout(h, 60000);
+    sqlite3_int64 ver, ntab;
+    if (get_int(h, path, "PRAGMA user_version", &ver, e) < 0 ||
+        get_int(h, path, "SELECT COUNT(*) FROM sqlite_master WHERE type = 'table' AND name = 'runs'", &ntab, e) < 0)
+        goto fail;
+    if (ver > RT_DB_SCHEMA_VERSION) {
+        rt_errf(e, "%s: database schema version %lld is newer than this raytraffic supports (%d); use a newer raytraffic",
+                path, (long long)ver, RT_DB_SCHEMA_VERSION);
+        goto fail;
+    }
+    if (ver < 1 || !ntab) {
+        rt_errf(e, "%s: not a raytraffic results database", path);
+        goto fail;
+    }
+    *ph = h;
+    return 0;
+fail:
+    sqlite3_close(h);
+    return -1;
+}
+
+int rt_report_init(rt_report *R, sqlite3 *h, const char *dbpath, const rt_report_opts *o, rt_err *e)
+{
+    memset(R, 0, sizeof *R);
+    R->h = h;
+    R->dbpath = dbpath;
+    R->csv = o->csv;
+    R->total = o->total;
+    R->W = o->W;
+    R->H = o->H;
+    R->packet = 8;
+    sqlite3_stmt *st;
+    int rc;
+    if (!R->W) {
+        st = rt_report_stmt(h, "SELECT W, H FROM runs WHERE sim_method = 'exact' ORDER BY W * H DESC LIMIT 1", dbpath,
+                            e, "");
+        if (!st) return -1;
+        if ((rc = sqlite3_step(st)) == SQLITE_ROW) {
+            R->W = sqlite3_column_int(st, 0);
+            R->H = sqlite3_column_int(st, 1);
+        }
+        if (rt_report_done(st, rc, dbpath, e) < 0) return -1;
+    }
+    st = rt_report_stmt(h,
+                        "SELECT DISTINCT c.size FROM traffic t JOIN cache_configs c ON c.id = t.config_id WHERE "
+                        "c.line = 64 AND c.assoc = 0 AND c.policy = 'wb-wa' ORDER BY c.size",
+                        dbpath, e, "");
+    if (!st) return -1;
+    while ((rc = sqlite3_step(st)) == SQLITE_ROW && R->nsizes < RT_REPORT_MAXSIZES)
+        R->sizes[R->nsizes++] = (uint64_t)sqlite3_column_int64(st, 0);
+    if (rt_report_done(st, rc, dbpath, e) < 0) return -1;
+    /* scenes in the paper's order first, then the rest by name */
+    st = rt_report_stmt(h,
+                        "SELECT DISTINCT s.name FROM runs r JOIN scenes s ON s.id = r.scene_id WHERE r.W = ?1 AND "
+                        "r.H = ?2 ORDER BY CASE s.name WHEN 'room' THEN 0 WHEN 'grove' THEN 1 WHEN 'sphereflake' "
+                        "THEN 2 ELSE 3 END, s.name",
+                        dbpath, e, "ii", R->W, R->H);
+    if (!st) return -1;
+    while ((rc = sqlite3_step(st)) == SQLITE_ROW && R->nscenes < RT_REPORT_MAXSCENES) {
+        const char *n = (const char *)sqlite3_column_text(st, 0);
+        if (o->scene && strcmp(n, o->scene)) continue;
+        snprintf(R->scenes[R->nscenes++], sizeof R->scenes[0], "%s", n);
+    }
+    if (rt_report_done(st, rc, dbpath, e) < 0) return -1;
+    st = rt_report_stmt(h, "SELECT params FROM runs WHERE tracer = 'packet' LIMIT 1", dbpath, e, "");
+    if (!st) return -1;
+    if ((rc = sqlite3_step(st)) == SQLITE_ROW && sqlite3_column_text(st, 0)) {
+        const char *p = strstr((const char *)sqlite3_column_text(st, 0), "packet=");
+        if (p) R->packet = atoi(p + 7);
+    }
+    return rt_report_done(st, rc, dbpath, e);
+}
+
+double rt_report_reduction(double base, double dyn)
+{
+    if (!(base > 0) || !(dyn > 0)) return NAN;
+    return base >= dyn ? 100.0 * (base / dyn - 1.0) : -100.0 * (dyn / base - 1.0);
+}
+
+int rt_report_value(const rt_report *R, const char *scene, const char *tracer, unsigned lights, uint64_t size,
+                    double *geom, double *ray, rt_err *e)
+{
+    /* the dynamic tracer's value at a size is its run scheduled for that size */
+    int64_t sched = strcmp(tracer, "dynamic") ? 0 : (int64_t)size;
+    sqlite3_stmt *st = rt_report_stmt(
+        R->h,
+        "SELECT geometry_mb, ray_mb FROM v_paper WHERE scene = ?1 AND tracer = ?2 AND lights = ?3"
+        " AND sched_size = ?4 AND cache_size = ?5 AND W = ?6 AND H = ?7 ORDER BY geometry_mb LIMIT 1",
+        R->dbpath, e, "ssIIIii", scene, tracer, (int64_t)lights, sched, (int64_t)size, R->W, R->H);
+    if (!st) return -1;
+    int rc = sqlite3_step(st), found = rc == SQLITE_ROW;
+    if (found) {
+        *geom = sqlite3_column_double(st, 0);
+        *ray = sqlite3_column_double(st, 1);
+    }
+    if (rt_report_done(st, rc, R->dbpath, e) < 0) return -1;
+    return found;
+}

@@ -1,0 +1,356 @@
+/*
+ * test_report.c -- the report tables against hand-computed values.
+ *
+ * A small database is built with rt_db_store_run from hand-made traffic
+ * rows (the room scene at 16x16, cache sizes 1K, 2K and 4K, geometry in
+ * the tri class, rays in the ray class), and the tables are written into
+ * a memory stream and compared with text whose numbers were worked out by
+ * hand with the paper's reduction definition, e.g. 5863.94 / 943.52 - 1 =
+ * 521.5% (the paper's room at 2K). Also: the packet rule (no packets at
+ * sizes <= 8x8 x 32 B), the dynamic tracer read from the run scheduled
+ * for the size, --total, the paper comparison's content, the read-only
+ * open (no side files, missing file not created, newer schema refused),
+ * write errors on the output, and the gnuplot string quoting, round-tripped
+ * through gnuplot itself when it is installed.
+ */
+#include "analysis.h"
+#include "db.h"
+#include "memmodel.h"
+
+#include <sqlite3.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+static int failures = 0;
+#define CHECK(cond, ...)                                          \
+    do {                                                          \
+        if (!(cond)) {                                            \
+            fprintf(stderr, "FAIL %s:%d: ", __FILE__, __LINE__); \
+            fprintf(stderr, __VA_ARGS__);                         \
+            fputc('\n', stderr);                                  \
+            failures++;                                           \
+        }                                                         \
+    } while (0)
+
+#define MB(x) ((uint64_t)((x) * 1048576.0 + 0.5)) /* MB (2^20 bytes) with two decimals -> bytes */
+
+/* One run: geometry (tri class) and ray MB at up to three sizes. */
+typedef struct spec {
+    const char *tracer;
+    unsigned lights;
+    uint64_t sched;   /* scheduled cache size (dynamic) */
+    int n;            /* sizes */
+    uint64_t size[3]; /* bytes */
+    double geom[3], ray[3];
+} spec;
+
+static int store(rt_db *db, const spec *s, const char *stats, rt_err *e)
+{
+    rt_db_traffic rows[6];
+    size_t n = 0;
+    for (int i = 0; i < s->n; i++)
+        for (int g = 0; g < 2; g++) {
+            rt_db_traffic *t = &rows[n++];
+            memset(t, 0, sizeof *t);
+            t->size = s->size[i];
+            t->line = 64;
+            t->policy = "wb-wa";
+            t->cls = g ? RT_CLS_RAY : RT_CLS_TRI;
+            t->traffic_bytes = MB(g ? s->ray[i] : s->geom[i]);
+            t->accesses = t->traffic_bytes / 64 + 1;
+            t->read_misses = t->traffic_bytes / 64;
+        }
+    rt_db_run r;
+    memset(&r, 0, sizeof r);
+    r.scene = "room";
+    r.scene_hash = 0x1234;
+    r.ntri = 47000;
+    r.tracer = s->tracer;
+    r.W = r.H = 16;
+    r.lights = s->lights;
+    r.cache_size = s->sched;
+    r.params = !strcmp(s->tracer, "packet") ? "packet=8" : "";
+    r.command = "test_report";
+    r.stats = stats;
+    return rt_db_store_run(db, &r, rows, n, NULL, e);
+}
+
+/* The whole of what a call wrote into a memory stream (caller frees). */
+typedef struct mem {
+    char *buf;
+    size_t len;
+    FILE *f;
+} mem;
+static FILE *mem_open(mem *m)
+{
+    m->buf = NULL;
+    m->len = 0;
+    return m->f = open_memstream(&m->buf, &m->len);
+}
+static char *mem_close(mem *m)
+{
+    fclose(m->f);
+    return m->buf;
+}
+
+static const char *header =
+    "# raytraffic report: DB\n\nTraffic in MB (2^20 bytes) between DRAM and a fully associative LRU cache with "
+    "64-byte lines (write-back, write-allocate). Reduction = baseline / dynamic - 1 (negative: -(dynamic / baseline "
+    "- 1)).\n";
+
+/* Figures 3, 4 and 7 of the database below, worked out by hand:
+ * 1K: -(267.28 / 36.86 - 1) = -625.1%; packets hidden at 1K and 2K.
+ * 2K: 5863.94 / 943.52 - 1 = 521.5%; total (5863.94 + 1) / (943.52 + 2) - 1
+ *     = 520.3%.
+ * 4K: 200 / 50 - 1 = 300.0%, 100 / 50 - 1 = 100.0%; total 210 / 80 - 1 =
+ *     162.5%, 110 / 80 - 1 = 37.5%.
+ * Shadows (all lights) at 4K: geometry 200 / 100 - 1 = 100.0%, total
+ * 250 / 250 - 1 = 0.0%. */
+static const char *expect_tables =
+    "\n### Scenes (the paper's Figure 3 statistics), 16x16\n\n"
+    "| scene | triangles | potentially visible, primary | primary + shadow | paper |\n|---|---|---|---|---|\n"
+    "| room | 47000 | 6600 | 7700 | 47K; 6.6K; 7.7K |\n"
+    "\n### Figure 4: data traffic (MB) for `room`, primary rays, 16x16\n\n"
+    "| cache | geometry recursive | packet | dynamic | ray recursive | packet | dynamic | geometry reduction vs "
+    "recursive | vs packet | total reduction vs recursive | vs packet |\n|---|---|---|---|---|---|---|---|---|---|---|\n"
+    "| 1 K | 36.86 | — | 267.28 | 0.00 | — | 0.00 | -625.1% | — | -625.1% | — |\n"
+    "| 2 K | 5863.94 | — | 943.52 | 1.00 | — | 2.00 | 521.5% | — | 520.3% | — |\n"
+    "| 4 K | 200.00 | 100.00 | 50.00 | 10.00 | 10.00 | 30.00 | 300.0% | 100.0% | 162.5% | 37.5% |\n"
+    "\n### Figure 7: geometry traffic reduction for `room` with shadows, 16x16\n\n"
+    "| cache | light 0 vs recursive | vs packet | light 1 vs recursive | vs packet | light 2 vs recursive | vs packet | "
+    "all 3 lights vs recursive | vs packet |\n|---|---|---|---|---|---|---|---|---|\n"
+    "| 4 K | — | — | — | — | — | — | 100.0% | — |\n";
+
+static const char *expect_csv4 =
+    "figure,scene,cache_bytes,geom_recursive,geom_packet,geom_dynamic,ray_recursive,ray_packet,ray_dynamic,"
+    "geomred_recursive_pct,geomred_packet_pct,totalred_recursive_pct,totalred_packet_pct\n"
+    "4,room,1024,36.86,,267.28,0.00,,0.00,-625.1%,,-625.1%,\n"
+    "4,room,2048,5863.94,,943.52,1.00,,2.00,521.5%,,520.3%,\n"
+    "4,room,4096,200.00,100.00,50.00,10.00,10.00,30.00,300.0%,100.0%,162.5%,37.5%\n";
+
+static int exists(const char *path)
+{
+    struct stat sb;
+    return stat(path, &sb) == 0;
+}
+
+static void build(const char *path)
+{
+    rt_err e = {""};
+    rt_db *db = rt_db_open(path, &e);
+    CHECK(db, "rt_db_open: %s", e.msg);
+    if (!db) exit(1);
+    const spec runs[] = {
+        {"recursive", 0, 0, 3, {1024, 2048, 4096}, {36.86, 5863.94, 200}, {0, 1, 10}},
+        {"packet", 0, 0, 3, {1024, 2048, 4096}, {20, 1000, 100}, {5, 0.5, 10}},
+        /* dynamic: each run scheduled for one size; the 1K schedule also
+         * simulated at 4K, which the report must not use for 4K */
+        {"dynamic", 0, 1024, 2, {1024, 4096}, {267.28, 111}, {0, 111}},
+        {"dynamic", 0, 2048, 1, {2048}, {943.52}, {2}},
+        {"dynamic", 0, 4096, 1, {4096}, {50}, {30}},
+        {"recursive", 7, 0, 1, {4096}, {200}, {50}},
+        {"dynamic", 7, 4096, 1, {4096}, {100}, {150}},
+    };
+    for (size_t i = 0; i < sizeof runs / sizeof runs[0]; i++) {
+        const char *stats = !strcmp(runs[i].tracer, "recursive") ? (runs[i].lights ? "rays=1 pv_primary=6600 pv_all=7700"
+                                                                                     : "pv_primary=6600")
+                                                                 : "";
+        CHECK(store(db, &runs[i], stats, &e) == 0, "store %zu: %s", i, e.msg);
+    }
+    rt_db_close(db);
+}
+
+static void test_tables(sqlite3 *h)
+{
+    rt_err e = {""};
+    rt_report R;
+    rt_report_opts o = {0};
+    CHECK(rt_report_init(&R, h, "DB", &o, &e) == 0, "init: %s", e.msg);
+    CHECK(R.W == 16 && R.H == 16 && R.nsizes == 3 && R.nscenes == 1 && R.packet == 8, "axes %dx%d %d sizes %d scenes",
+          R.W, R.H, R.nsizes, R.nscenes);
+    CHECK(rt_report_reduction(5863.94, 943.52) > 521.49 && rt_report_reduction(5863.94, 943.52) < 521.50, "reduction");
+    CHECK(rt_report_reduction(36.86, 267.28) < -625.1 && rt_report_reduction(36.86, 267.28) > -625.2, "negative");
+
+    mem m;
+    mem_open(&m);
+    CHECK(rt_report_tables(&R, "all", m.f, &e) == 0, "tables: %s", e.msg);
+    char *got = mem_close(&m);
+    size_t hl = strlen(header);
+    CHECK(!strncmp(got, header, hl), "header:\n%s", got);
+    CHECK(!strcmp(got + (strncmp(got, header, hl) ? 0 : hl), expect_tables), "tables differ:\n%s\n--- expected:\n%s", got,
+          expect_tables);
+    free(got);
+
+    /* --total: the all-lights reduction on total traffic is 0.0% */
+    mem_open(&m);
+    R.total = 1;
+    CHECK(rt_report_tables(&R, "7", m.f, &e) == 0, "figure 7: %s", e.msg);
+    got = mem_close(&m);
+    CHECK(strstr(got, "total traffic reduction for `room`") && strstr(got, "| 4 K | — | — | — | — | — | — | 0.0% | — |\n"),
+          "figure 7 --total:\n%s", got);
+    CHECK(!strstr(got, "### Scenes") && !strstr(got, "Figure 4"), "figure 7 only:\n%s", got);
+    free(got);
+    R.total = 0;
+
+    R.csv = 1;
+    mem_open(&m);
+    CHECK(rt_report_primary(&R, "room", m.f, &e) == 0, "csv: %s", e.msg);
+    got = mem_close(&m);
+    CHECK(!strcmp(got, expect_csv4), "csv differs:\n%s", got);
+    free(got);
+    R.csv = 0;
+
+    mem_open(&m);
+    CHECK(rt_report_tables(&R, "10", m.f, &e) < 0 && strstr(e.msg, "10"), "bad figure: %s", e.msg);
+    free(mem_close(&m));
+
+    /* the comparison: our 2K values are the paper's, so ratios 1.00x */
+    mem_open(&m);
+    CHECK(rt_report_compare_paper(&R, m.f, &e) == 0, "compare-paper: %s", e.msg);
+    got = mem_close(&m);
+    static const char *const want[] = {
+        "## Comparison with the paper (ours / paper (ratio)), 16x16; paper at 1024x1024\n",
+        "| 2 K | 5863.94 / 5863.94 (1.00x) | — | 943.52 / 943.52 (1.00x) | 2.00 / 323.14 (0.01x) | 521.50 / 521.50 "
+        "(1.00x) |\n",
+        "| 1 K | 36.86 / 6056.65 (0.01x) | — | 267.28 / 4531.30 (0.06x) | 0.00 / 245.32 | -625.12 / 33.70 |\n",
+        "- dynamic moves less geometry than recursive at 2 of 3 sizes (paper: all 13).\n",
+        "- largest geometry reduction vs recursive: 521% at 2 K (paper: 2030% at 4 K) — both at small caches, agrees.\n",
+        "- dynamic ray traffic exceeds recursive at 2 of 3 sizes (paper: 3): the ray-traffic overhead agrees.\n",
+        "- total traffic turns against dynamic from 1 K (paper: 0 K).\n",
+        "| 4 K | — | — | — | 100.00 / 1060.90 (0.09x) |\n",
+        "Why numbers differ:",
+    };
+    for (size_t i = 0; i < sizeof want / sizeof want[0]; i++)
+        CHECK(strstr(got, want[i]), "compare-paper lacks \"%s\":\n%s", want[i], got);
+    CHECK(!strstr(got, "`grove`") && !strstr(got, "`sphereflake`"), "only scenes present:\n%s", got);
+    free(got);
+
+    /* a write error on the output is an error */
+    FILE *full = fopen("/dev/full", "w");
+    if (full) {
+        CHECK(rt_report_tables(&R, "all", full, &e) < 0 && strstr(e.msg, "write error"), "/dev/full: %s", e.msg);
+        fclose(full);
+    }
+}
+
+/* Escaping: the exact bytes, and (with gnuplot) the round trip. */
+static void test_quote(const char *dir)
+{
+    static const char nasty[] = "x'$(touch PWNED)'\"q`touch BQ`@m\\n\n\t\x01 bun_zipper \xc3\xa9.obj";
+    mem m;
+    mem_open(&m);
+    rt_plot_quote(m.f, nasty);
+    fputc('|', m.f);
+    rt_plot_quote_path(m.f, "<cmd");
+    fputc('|', m.f);
+    rt_plot_quote_path(m.f, "/abs/p");
+    char *got = mem_close(&m);
+    const char *want = "\"x'\\044(touch PWNED)'\\042q\\140touch BQ\\140\\100m\\134n\\012\\011\\001 bun_zipper "
+                       "\xc3\xa9.obj\"|\"./<cmd\"|\"/abs/p\"";
+    CHECK(!strcmp(got, want), "quote:\n%s\n%s", got, want);
+    free(got);
+
+    char gp[4096];
+    if (rt_plot_find_gnuplot(gp, sizeof gp) < 0) {
+        fprintf(stderr, "gnuplot not found: round trip skipped\n");
+        return;
+    }
+    char script[4096], outp[4096], bq[4096];
+    snprintf(script, sizeof script, "%s/q.gp", dir);
+    snprintf(outp, sizeof outp, "%s/q.out", dir);
+    snprintf(bq, sizeof bq, "%s/BQ", dir);
+    FILE *f = fopen(script, "w");
+    fprintf(f, "cd ");
+    rt_plot_quote_path(f, dir);
+    fprintf(f, "\nset print ");
+    rt_plot_quote_path(f, outp);
+    fprintf(f, "\nprint ");
+    rt_plot_quote(f, nasty);
+    fprintf(f, "\n");
+    fclose(f);
+    rt_err e = {""};
+    CHECK(rt_plot_run(gp, script, &e) == 0, "gnuplot: %s", e.msg);
+    char *back = NULL;
+    size_t n = 0;
+    CHECK(rt_slurp(outp, &back, &n, &e) == 0, "%s", e.msg);
+    CHECK(back && n == sizeof nasty && !memcmp(back, nasty, n - 1) && back[n - 1] == '\n', "round trip: %s", back);
+    free(back);
+    CHECK(!exists(bq) && !exists("BQ"), "backquote ran a command");
+
+    /* a failing script is an error carrying gnuplot's message */
+    f = fopen(script, "w");
+    fprintf(f, "plot no_such_function(x)\n");
+    fclose(f);
+    CHECK(rt_plot_run(gp, script, &e) < 0 && strstr(e.msg, "status") && strstr(e.msg, "q.gp"), "failing script: %s",
+          e.msg);
+    CHECK(rt_plot_run("/nonexistent/gnuplot", script, &e) < 0 && strstr(e.msg, "/nonexistent/gnuplot"), "missing: %s",
+          e.msg);
+}
+
+int main(void)
+{
+    char dir[] = "/tmp/rt_test_report_XXXXXX";
+    if (!mkdtemp(dir)) return 1;
+    char path[256], side[300];
+    snprintf(path, sizeof path, "%s/r.db", dir);
+    build(path);
+
+    /* read-only: the file and the folder made read-only (as root this does
+     * not stop writes, so what is checked is that no side file appears) */
+    chmod(path, 0444);
+    chmod(dir, 0555);
+    rt_err e = {""};
+    sqlite3 *h = NULL;
+    CHECK(rt_report_db_open(path, &h, &e) == 0, "open read-only: %s", e.msg);
+    if (h) {
+        test_tables(h);
+        sqlite3_close(h);
+    }
+    snprintf(side, sizeof side, "%s-wal", path);
+    CHECK(!exists(side), "%s appeared", side);
+    snprintf(side, sizeof side, "%s-shm", path);
+    CHECK(!exists(side), "%s appeared", side);
+    chmod(dir, 0755);
+
+    /* missing: an error naming it, and nothing created */
+    char missing[300];
+    snprintf(missing, sizeof missing, "%s/none.db", dir);
+    CHECK(rt_report_db_open(missing, &h, &e) < 0 && strstr(e.msg, missing) && strstr(e.msg, "No such file"),
+          "missing: %s", e.msg);
+    CHECK(!exists(missing), "missing database was created");
+
+    /* a newer schema is refused */
+    char newer[300];
+    snprintf(newer, sizeof newer, "%s/newer.db", dir);
+    rt_db *db = rt_db_open(newer, &e);
+    CHECK(db != NULL, "%s", e.msg);
+    if (db) {
+        sqlite3_exec(rt_db_handle(db), "PRAGMA user_version = 99", NULL, NULL, NULL);
+        rt_db_close(db);
+    }
+    CHECK(rt_report_db_open(newer, &h, &e) < 0 && strstr(e.msg, "schema version 99 is newer"), "newer: %s", e.msg);
+    /* not a database */
+    char junk[300];
+    snprintf(junk, sizeof junk, "%s/junk.db", dir);
+    FILE *f = fopen(junk, "w");
+    fprintf(f, "this is not a database, just text long enough to have a header page............................\n");
+    fclose(f);
+    CHECK(rt_report_db_open(junk, &h, &e) < 0 && strstr(e.msg, junk), "junk: %s", e.msg);
+
+    test_quote(dir);
+
+    if (!failures) { /* clean up what this test made */
+        static const char *const made[] = {"r.db", "newer.db", "junk.db", "q.gp", "q.out"};
+        char p[400];
+        for (size_t i = 0; i < sizeof made / sizeof made[0]; i++) {
+            snprintf(p, sizeof p, "%s/%s", dir, made[i]);
+            unlink(p);
+        }
+        rmdir(dir);
+    }
+    if (failures) fprintf(stderr, "%d failure(s)\n", failures);
+    return failures ? 1 : 0;
+}
