@@ -71,7 +71,7 @@ static int store(rt_db *db, const spec *s, const char *stats, rt_err *e)
     r.tracer = s->tracer;
     r.W = r.H = 16;
     r.lights = s->lights;
-    r.cache_size = s->sched;
+    r.sched_size = s->sched;
     r.params = !strcmp(s->tracer, "packet") ? "packet=8" : "";
     r.command = "test_report";
     r.stats = stats;
