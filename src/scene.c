@@ -10,6 +10,7 @@
  */
 #include "config.h"
 #include "scene.h"
+#include "outfile.h"
 
 #include <errno.h>
 #include <math.h>
@@ -178,8 +179,9 @@ uint64_t rt_scene_hash(const rt_scene *s)
 
 int rt_scene_export_obj(const rt_scene *s, const char *path, rt_err *e)
 {
-    FILE *f = fopen(path, "w");
-    if (!f) return rt_errf(e, "%s: %s", path, strerror(errno));
+    rt_out *o = rt_out_open(path, e);
+    if (!o) return -1;
+    FILE *f = rt_out_stream(o);
     fprintf(f, "# raytraffic %s scene export\n# scene %s%s%s\n# triangles %u\n", rt_version(), s->name,
             s->params[0] ? ":" : "", s->params, s->ntri);
     fprintf(f, "# camera eye %.9g %.9g %.9g at %.9g %.9g %.9g up %.9g %.9g %.9g fovy %.9g\n",
@@ -202,9 +204,7 @@ int rt_scene_export_obj(const rt_scene *s, const char *path, rt_err *e)
         unsigned long v = 3ul * i + 1;
         fprintf(f, "f %lu %lu %lu\n", v, v + 1, v + 2);
     }
-    int bad = ferror(f);
-    if (fclose(f) != 0 || bad) return rt_errf(e, "%s: write failed: %s", path, strerror(errno));
-    return 0;
+    return rt_out_commit(o, e); /* complete, or no file and an error */
 }
 
 static int has_suffix(const char *s, const char *suf)
