@@ -10,19 +10,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <signal.h>
 #include <sys/stat.h>
 #include <unistd.h>
-
-/* An interrupted trace must not leave OUT.tmp behind: unlink is
- * async-signal-safe, and the default action then ends the process. */
-static char tmp_path[4096];
-static void on_signal(int sig)
-{
-    if (tmp_path[0]) unlink(tmp_path);
-    signal(sig, SIG_DFL);
-    raise(sig);
-}
 
 static void usage(FILE *f)
 {
@@ -31,7 +20,8 @@ static void usage(FILE *f)
             "Render SCENE (a built-in name like sphereflake, name:k=v,... or an .obj/.ply file)\n"
             "with a tracer and record every modeled memory reference (address, size,\n"
             "read/write, class) into a compressed, self-describing trace file. The file is\n"
-            "written as out.rtt.tmp and renamed when complete; on failure nothing is left.\n"
+            "written to a temporary beside it and renamed when complete; on failure nothing\n"
+            "is left.\n"
             "Inspect it with trace-info and trace-dump, replay it with sim.\n\n"
             "Options:\n"
             "  -o FILE            output trace (required)\n"
@@ -105,12 +95,9 @@ int main_trace(int argc, char **argv)
         rt_cmd_error("trace", "%s", e.msg);
         return RT_EXIT_FAIL;
     }
+    rt_scene_fit_aspect(j.sc, o.W, o.H); /* tall images: keep the whole mesh in view */
     if (!(m = rt_calloc(1, sizeof *m, &e))) goto fail;
     rt_job_meta(&j, rt_cmd_line(), m);
-    if ((size_t)snprintf(tmp_path, sizeof tmp_path, "%s.tmp", out) >= sizeof tmp_path) tmp_path[0] = 0;
-    signal(SIGINT, on_signal);
-    signal(SIGTERM, on_signal);
-    signal(SIGHUP, on_signal);
     if (!(w = rt_tr_create_opts(out, m, &wo, &e))) goto fail;
     if (!(img = rt_image_new(o.W, o.H, &e))) goto fail;
     double t0 = rt_now();
@@ -123,7 +110,6 @@ int main_trace(int argc, char **argv)
     rt_tr_writer *wf = w;
     w = NULL;
     int frc = rt_tr_finish(wf, &e);
-    tmp_path[0] = 0;
     if (frc < 0) goto fail;
     double sec = rt_now() - t0;
     struct stat sb;

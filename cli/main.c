@@ -1,9 +1,16 @@
-/* main.c -- the raytraffic front end: a thin dispatcher over subcommands. */
+/* main.c -- the raytraffic front end: a thin dispatcher over subcommands.
+ * It also owns what every command shares at exit: a failed write to
+ * standard output is an error (as coreutils' close_stdout), and a fatal
+ * signal removes the temporaries of unfinished output files. */
 #include "config.h"
 #include "cmd.h"
+#include "outfile.h"
 #include "rt.h"
 
+#include <errno.h>
+#include <signal.h>
 #include <stdarg.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -84,9 +91,8 @@ static void version(void)
     printf("gnuplot: %s\n", GNUPLOT_PATH[0] ? GNUPLOT_PATH : "(not found at configure time)");
 }
 
-int main(int argc, char **argv)
+static int dispatch(int argc, char **argv)
 {
-    rt_cmd_set_line(argc, argv);
     if (argc < 2) {
         usage(stdout);
         return RT_EXIT_OK;
@@ -117,4 +123,40 @@ int main(int argc, char **argv)
         if (!strcmp(c->name, name)) return c->fn(argc - 1, argv + 1);
     fprintf(stderr, "raytraffic: unknown command '%s' (see 'raytraffic --help')\n", name);
     return RT_EXIT_USAGE;
+}
+
+/* An interrupted run must not leave temporaries behind: unlink is
+ * async-signal-safe, and the default action then ends the process. */
+static void on_signal(int sig)
+{
+    rt_out_remove_temporaries();
+    signal(sig, SIG_DFL);
+    raise(sig);
+}
+
+/* Output that could not be written (a full disk, /dev/full, a closed pipe's
+ * EIO) must not end in exit 0: check stdout's error flag and its final
+ * flush, as coreutils' close_stdout does. */
+static int close_stdout(int rc)
+{
+    int prev = ferror(stdout);
+    errno = 0;
+    int fail = fclose(stdout) != 0;
+    if (!prev && !fail) return rc;
+    if (!fail) errno = 0; /* the failed write's errno is long gone */
+    if (errno) fprintf(stderr, "raytraffic: write error: %s\n", strerror(errno));
+    else fprintf(stderr, "raytraffic: write error\n");
+    return rc != RT_EXIT_OK ? rc : RT_EXIT_FAIL;
+}
+
+int main(int argc, char **argv)
+{
+    rt_cmd_set_line(argc, argv);
+    static const int sigs[] = {SIGINT, SIGTERM, SIGHUP};
+    for (size_t i = 0; i < sizeof sigs / sizeof sigs[0]; i++)
+        if (signal(sigs[i], on_signal) == SIG_IGN) signal(sigs[i], SIG_IGN); /* keep nohup's choice */
+    /* Test hook: every output file fails with ENOSPC after N bytes. */
+    const char *fa = getenv("RT_OUT_FAIL_AFTER");
+    if (fa && *fa) rt_out_fail_after = strtoll(fa, NULL, 10);
+    return close_stdout(dispatch(argc, argv));
 }

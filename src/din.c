@@ -4,7 +4,7 @@
  * Each line is "LABEL ADDRESS [ignored...]": LABEL 0 = data read, 1 = data
  * write, 2 = instruction fetch (simulated as a read); ADDRESS is
  * hexadecimal with or without 0x. Any other label, a missing or malformed
- * address, is an error naming file:line. Blank lines are skipped. Every
+ * address, or a NUL byte, is an error naming file:line. Blank lines are skipped. Every
  * record becomes a 1-byte reference of the class given at open (default
  * "other"), as Dinero IV itself treats din records without a size.
  */
@@ -56,6 +56,10 @@ long rt_din_read(rt_din *d, rt_access *buf, size_t cap, rt_err *e)
         d->lineno++;
         d->bytes += (uint64_t)len;
         d->hash = rt_fnv1a(d->hash, d->buf, (size_t)len);
+        /* strtoull would stop at a NUL and take what follows for the end
+         * of the line: a text trace has no NUL bytes. */
+        if (memchr(d->buf, 0, (size_t)len))
+            return rt_errf(e, "%s:%llu: NUL byte in line", d->path, (unsigned long long)d->lineno);
         const char *p = d->buf;
         while (*p == ' ' || *p == '\t') p++;
         if (*p == '\n' || *p == '\r' || *p == 0) continue;

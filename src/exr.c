@@ -6,8 +6,16 @@
  * compression; provenance goes into string attributes. OpenEXRCore's
  * default error handler prints to stderr, which a library must not do, so
  * a silent handler keeps the last message for our one-line error instead.
+ *
+ * OpenEXRCore seeks back to fill in the chunk offset table, and its own
+ * temporary-file mode leaves "tmp.PID..." files behind on failure and
+ * replaces devices. So the file is encoded into memory through a custom
+ * write stream and then written in one piece through outfile.c, which
+ * gives every output the same rules (complete or absent, devices and
+ * FIFOs written in place, symlinks followed).
  */
 #include "image.h"
+#include "outfile.h"
 
 #include <openexr.h>
 #include <stdio.h>
@@ -25,6 +33,39 @@ static void quiet_handler(exr_const_context_t ctxt, exr_result_t code, const cha
 static int exr_fail(rt_err *e, const char *path, const char *what, exr_result_t rv)
 {
     return rt_errf(e, "%s: %s: %s", path, what, exr_last_msg[0] ? exr_last_msg : exr_get_error_code_as_string(rv));
+}
+
+/* The whole file in memory; OpenEXRCore writes at arbitrary offsets. */
+typedef struct membuf {
+    unsigned char *p; /* bytes written so far */
+    size_t n;         /* file length: highest offset written */
+    size_t cap;       /* allocated */
+} membuf;
+
+static int64_t mem_write(exr_const_context_t ctxt, void *ud, const void *buf, uint64_t sz, uint64_t off,
+                         exr_stream_error_func_ptr_t error_cb)
+{
+    membuf *m = ud;
+    if (off > SIZE_MAX / 2 || sz > SIZE_MAX / 2 - off) {
+        error_cb(ctxt, EXR_ERR_OUT_OF_MEMORY, "image too large to encode in memory");
+        return -1;
+    }
+    size_t end = (size_t)(off + sz);
+    if (end > m->cap) {
+        size_t cap = m->cap ? m->cap : 1 << 16;
+        while (cap < end) cap *= 2;
+        unsigned char *q = realloc(m->p, cap);
+        if (!q) {
+            error_cb(ctxt, EXR_ERR_OUT_OF_MEMORY, "out of memory encoding the image");
+            return -1;
+        }
+        m->p = q;
+        m->cap = cap;
+    }
+    if (off > m->n) memset(m->p + m->n, 0, (size_t)off - m->n);
+    memcpy(m->p + off, buf, (size_t)sz);
+    if (end > m->n) m->n = end;
+    return (int64_t)sz;
 }
 
 /* Plane of im for a channel name, or NULL. */
@@ -47,15 +88,21 @@ int rt_exr_write(const char *path, const rt_image *im, const rt_exr_attr *attrs,
 {
     static const char *const names[] = {"R", "G", "B", "Z", "nodes", "tests"};
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    membuf mem = {NULL, 0, 0};
     init.error_handler_fn = quiet_handler;
+    init.user_data = &mem;
+    init.write_fn = mem_write;
     exr_context_t f = NULL;
     exr_encode_pipeline_t enc;
     int have_enc = 0, part = 0, rc = -1;
     exr_result_t rv;
     exr_last_msg[0] = 0;
 
-    rv = exr_start_write(&f, path, EXR_INTERMEDIATE_TEMP_FILE, &init);
-    if (rv != EXR_ERR_SUCCESS) return exr_fail(e, path, "cannot create", rv);
+    rv = exr_start_write(&f, path, EXR_WRITE_FILE_DIRECTLY, &init);
+    if (rv != EXR_ERR_SUCCESS) {
+        free(mem.p);
+        return exr_fail(e, path, "cannot create", rv);
+    }
     if ((rv = exr_add_part(f, "render", EXR_STORAGE_SCANLINE, &part)) ||
         (rv = exr_initialize_required_attr_simple(f, part, im->W, im->H, EXR_COMPRESSION_ZIP))) {
         exr_fail(e, path, "header", rv);
@@ -119,6 +166,15 @@ done:
     if (have_enc) exr_encoding_destroy(f, &enc);
     rv = exr_finish(&f);
     if (rc == 0 && rv != EXR_ERR_SUCCESS) rc = exr_fail(e, path, "finish", rv);
+    if (rc == 0) {
+        rt_out *o = rt_out_open(path, e);
+        if (!o) rc = -1;
+        else {
+            fwrite(mem.p, 1, mem.n, rt_out_stream(o));
+            rc = rt_out_commit(o, e); /* catches a short fwrite through the error flag */
+        }
+    }
+    free(mem.p);
     return rc;
 }
 

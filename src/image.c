@@ -1,5 +1,7 @@
-/* image.c -- float images with cost channels, and a PPM preview writer. */
+/* image.c -- float images with cost channels, and PPM and PNG preview
+ * writers (through outfile.c: complete or absent). */
 #include "image.h"
+#include "outfile.h"
 
 #include <errno.h>
 #include <math.h>
@@ -55,16 +57,16 @@ static unsigned char to8(float v)
 
 int rt_ppm_write(const char *path, const rt_image *im, rt_err *e)
 {
-    FILE *f = fopen(path, "wb");
-    if (!f) return rt_errf(e, "%s: %s", path, strerror(errno));
+    rt_out *o = rt_out_open(path, e);
+    if (!o) return -1;
+    FILE *f = rt_out_stream(o);
     fprintf(f, "P6\n%d %d\n255\n", im->W, im->H);
     size_t n = (size_t)im->W * (size_t)im->H;
     for (size_t i = 0; i < n; i++) {
         unsigned char px[3] = {to8(im->rgb[3 * i]), to8(im->rgb[3 * i + 1]), to8(im->rgb[3 * i + 2])};
         fwrite(px, 1, 3, f);
     }
-    if (fclose(f) != 0) return rt_errf(e, "%s: write failed: %s", path, strerror(errno));
-    return 0;
+    return rt_out_commit(o, e); /* checks the stream's error flag */
 }
 
 /* ---- PNG (8-bit RGB, one IDAT, zlib) --------------------------------- */
@@ -106,11 +108,12 @@ int rt_png_write_rgb8(const char *path, int W, int H, const unsigned char *rgb, 
         return z ? rt_errf(e, "%s: compression failed", path) : -1;
     }
     free(raw);
-    FILE *f = fopen(path, "wb");
-    if (!f) {
+    rt_out *o = rt_out_open(path, e);
+    if (!o) {
         free(z);
-        return rt_errf(e, "%s: %s", path, strerror(errno));
+        return -1;
     }
+    FILE *f = rt_out_stream(o);
     static const unsigned char sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
     unsigned char ihdr[13];
     put32(ihdr, (uint32_t)W);
@@ -121,8 +124,12 @@ int rt_png_write_rgb8(const char *path, int W, int H, const unsigned char *rgb, 
     int ok = fwrite(sig, 1, 8, f) == 8 && png_chunk(f, "IHDR", ihdr, 13) == 0 && png_chunk(f, "IDAT", z, zn) == 0 &&
              png_chunk(f, "IEND", NULL, 0) == 0;
     free(z);
-    if (fclose(f) != 0) ok = 0;
-    return ok ? 0 : rt_errf(e, "%s: write failed: %s", path, strerror(errno));
+    if (!ok) {
+        int err = errno ? errno : EIO;
+        rt_out_abort(o);
+        return rt_errf(e, "%s: write failed: %s", path, strerror(err));
+    }
+    return rt_out_commit(o, e);
 }
 
 void rt_image_to_rgb8(const rt_image *im, unsigned char *out)

@@ -52,9 +52,21 @@ extern long rt_fail_alloc_after;
 uint64_t rt_fnv1a(uint64_t h, const void *data, size_t n);
 #define RT_FNV_INIT 0xcbf29ce484222325ULL
 
-/* Parses sizes like "64", "64K", "4M", "1G" (binary multiples).
- * Returns 0 and stores the value, or -1 on a malformed or overflowing string. */
+/* Parses sizes like "64", "64K", "4M", "1G" (binary multiples): digits
+ * first, no sign, no whitespace anywhere. Returns 0 and stores the value,
+ * or -1 on a malformed or overflowing string. */
 int rt_parse_size(const char *s, uint64_t *out);
+
+/* Copies s (at most max bytes, stopping at NUL) into buf of n bytes for
+ * quoting input in an error message: control bytes, DEL and bytes >= 0x80
+ * become \xNN, so a hostile file cannot move the terminal's cursor or
+ * forge lines. Truncates (with "...") to fit. Returns buf. */
+const char *rt_esc(char *buf, size_t n, const char *s, size_t max);
+
+/* sin and cos of an angle in degrees, using only + - * / so that the
+ * result is the same on every IEEE machine (libm's last bit is not).
+ * Multiples of 90 degrees give exact 0 and +-1. */
+void rt_dsincos_deg(double deg, double *s, double *c);
 
 /* Reads a whole file into a malloc'd NUL-terminated buffer (*pbuf, length
  * *pn, caller frees). 0, or -1 with "path: reason". */

@@ -10,6 +10,7 @@
  */
 #include "config.h"
 #include "scene.h"
+#include "outfile.h"
 
 #include <errno.h>
 #include <math.h>
@@ -26,6 +27,7 @@ static const float default_grey[3] = {0.7f, 0.7f, 0.7f};
 typedef struct scene_priv {
     rt_scene pub;  /* what callers see */
     uint32_t cap;  /* allocated triangles in pub.tri and pub.shade */
+    int framed;    /* camera set by rt_scene_autoframe */
 } scene_priv;
 
 rt_scene *rt_scene_new(uint32_t ntri, rt_err *e)
@@ -107,7 +109,29 @@ int rt_scene_finish(rt_scene *s, rt_err *e)
     return 0;
 }
 
-void rt_scene_autoframe(rt_scene *s)
+int rt_scene_check_range(const rt_scene *s, const char *where, rt_err *e)
+{
+    rt_bounds b = s->bounds;
+    if (!(b.lo.x <= b.hi.x)) return 0; /* empty: rt_scene_finish refuses it */
+    double m = 0;
+    float c[6] = {b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z};
+    for (int k = 0; k < 6; k++) m = fmax(m, fabs((double)c[k]));
+    double dx = (double)b.hi.x - b.lo.x, dy = (double)b.hi.y - b.lo.y, dz = (double)b.hi.z - b.lo.z;
+    double d = sqrt(dx * dx + dy * dy + dz * dz);
+    if (m > RT_COORD_MAX)
+        return rt_errf(e, "%s: coordinate magnitude %.9g above %g (docs/scenes.md: coordinate range)", where, m,
+                       RT_COORD_MAX);
+    if (d > RT_EXTENT_MAX)
+        return rt_errf(e, "%s: scene extent %.9g above %g: shading would overflow single precision "
+                          "(docs/scenes.md: coordinate range)", where, d, RT_EXTENT_MAX);
+    if (d < m * RT_EXTENT_MIN_REL)
+        return rt_errf(e, "%s: scene extent %.9g is below 1/8192 of its largest coordinate %.9g: single "
+                          "precision cannot resolve it there (docs/scenes.md: coordinate range)", where, d, m);
+    return 0;
+}
+
+/* Places the camera so the bounding sphere fits a W x H image. */
+static void frame(rt_scene *s, int W, int H)
 {
     rt_bounds b = s->bounds;
     if (!(b.lo.x <= b.hi.x)) b.lo = b.hi = rt_v3(0, 0, 0);
@@ -121,6 +145,13 @@ void rt_scene_autoframe(rt_scene *s)
      * the 45-degree field: rad / sin(22.5 deg), plus a margin. */
     const double sin22_5 = 0.38268343236508977;
     double dist = 1.1 * rad / sin22_5;
+    if (W < H) {
+        /* The horizontal half-angle h is narrower: tan h = tan 22.5 * W/H,
+         * and the sphere fits when dist * sin h >= 1.1 rad. */
+        const double tan22_5 = 0.41421356237309503;
+        double t = tan22_5 * (double)W / (double)H;
+        dist = 1.1 * rad * sqrt(1.0 + t * t) / t;
+    }
     double vx = 0.4, vy = 0.35, vz = 1.0;
     double vl = sqrt(vx * vx + vy * vy + vz * vz);
     vx /= vl, vy /= vl, vz /= vl;
@@ -136,6 +167,14 @@ void rt_scene_autoframe(rt_scene *s)
     s->light_power = 0.45f;
     s->ambient = 0.1f;
     s->background = rt_v3(0.05f, 0.05f, 0.08f);
+    ((scene_priv *)s)->framed = 1;
+}
+
+void rt_scene_autoframe(rt_scene *s) { frame(s, 1, 1); }
+
+void rt_scene_fit_aspect(rt_scene *s, int W, int H)
+{
+    if (((scene_priv *)s)->framed && W > 0 && W < H) frame(s, W, H);
 }
 
 /* Hashes values as little-endian 32-bit words, independent of the host. */
@@ -178,8 +217,9 @@ uint64_t rt_scene_hash(const rt_scene *s)
 
 int rt_scene_export_obj(const rt_scene *s, const char *path, rt_err *e)
 {
-    FILE *f = fopen(path, "w");
-    if (!f) return rt_errf(e, "%s: %s", path, strerror(errno));
+    rt_out *o = rt_out_open(path, e);
+    if (!o) return -1;
+    FILE *f = rt_out_stream(o);
     fprintf(f, "# raytraffic %s scene export\n# scene %s%s%s\n# triangles %u\n", rt_version(), s->name,
             s->params[0] ? ":" : "", s->params, s->ntri);
     fprintf(f, "# camera eye %.9g %.9g %.9g at %.9g %.9g %.9g up %.9g %.9g %.9g fovy %.9g\n",
@@ -202,9 +242,7 @@ int rt_scene_export_obj(const rt_scene *s, const char *path, rt_err *e)
         unsigned long v = 3ul * i + 1;
         fprintf(f, "f %lu %lu %lu\n", v, v + 1, v + 2);
     }
-    int bad = ferror(f);
-    if (fclose(f) != 0 || bad) return rt_errf(e, "%s: write failed: %s", path, strerror(errno));
-    return 0;
+    return rt_out_commit(o, e); /* complete, or no file and an error */
 }
 
 static int has_suffix(const char *s, const char *suf)

@@ -73,8 +73,28 @@ int rt_scene_reserve(rt_scene *s, uint32_t ntri, rt_err *e);
 int rt_scene_add_tri(rt_scene *s, rt_vec3 a, rt_vec3 b, rt_vec3 c, const float rgb[3], rt_err *e);
 /* Recomputes bounds; rejects NaN/Inf coordinates. Returns 0 or -1. */
 int rt_scene_finish(rt_scene *s, rt_err *e);
-/* Frames the camera on the bounds and places three default lights. */
+/* Frames the camera on the bounds and places three default lights. The
+ * bounding sphere fits the vertical field of view, which is enough for
+ * images at least as wide as tall. */
 void rt_scene_autoframe(rt_scene *s);
+/* For an image W x H with W < H, moves an auto-framed camera (and light 0,
+ * which sits at the camera) back so the bounding sphere also fits the
+ * narrower horizontal field. Does nothing for W >= H or a scene whose
+ * camera was not auto-framed, so those stay bit-identical. */
+void rt_scene_fit_aspect(rt_scene *s, int W, int H);
+
+/* The coordinates the single-precision pipeline resolves (derivation in
+ * docs/scenes.md): every |coordinate| <= RT_COORD_MAX, the bounding-box
+ * diagonal D <= RT_EXTENT_MAX (normals are cross products of edges, and
+ * their squared length ~D^4 must stay below FLT_MAX), and
+ * D >= RT_EXTENT_MIN_REL * the largest |coordinate| (at least 2^10 float
+ * steps across the scene, so vertices do not collapse onto each other). */
+#define RT_COORD_MAX 1e13
+#define RT_EXTENT_MAX 1e9
+#define RT_EXTENT_MIN_REL (1.0 / 8192.0)
+/* Checks a finished scene (bounds computed) against that range. 0, or -1
+ * with "WHERE: what (value)". Loaders call it with the file name. */
+int rt_scene_check_range(const rt_scene *s, const char *where, rt_err *e);
 /* Identity hash over triangles, shading, camera and lights. */
 uint64_t rt_scene_hash(const rt_scene *s);
 /* Writes the scene as OBJ (with a usemtl-free colour comment per group). */

@@ -8,8 +8,8 @@
  * recorded in every trace and result row. So geometry is computed in double
  * precision using only + - * / and sqrt (all correctly rounded by IEEE 754),
  * never libm's sin/cos/acos whose last bit differs between libm versions;
- * the trigonometry below is our own (exact reduction in degrees, then a
- * Taylor polynomial), the pseudo-random numbers are a 32-bit integer hash,
+ * the trigonometry is rt_dsincos_deg (rt.c: exact reduction in degrees,
+ * then a Taylor polynomial), the pseudo-random numbers are a 32-bit integer hash,
  * and the build disables FMA contraction. Results are rounded to float only
  * when a triangle is stored.
  *
@@ -24,60 +24,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-/* ------------------------------------------------------------------------ */
-/* Deterministic trigonometry                                                */
-
-static const double PI = 3.14159265358979323846;
-
-/* sin and cos of r radians, |r| <= pi/4, by Taylor series to degree 19/18
- * (truncation error < 1e-19, below double rounding). Horner form. */
-static void sincos_small(double r, double *s, double *c)
-{
-    double r2 = r * r;
-    double ps = 1.0 / 121645100408832000.0; /* 1/19! */
-    ps = 1.0 / 355687428096000.0 - r2 * ps;  /* 1/17! */
-    ps = 1.0 / 1307674368000.0 - r2 * ps;    /* 1/15! */
-    ps = 1.0 / 6227020800.0 - r2 * ps;       /* 1/13! */
-    ps = 1.0 / 39916800.0 - r2 * ps;         /* 1/11! */
-    ps = 1.0 / 362880.0 - r2 * ps;           /* 1/9! */
-    ps = 1.0 / 5040.0 - r2 * ps;             /* 1/7! */
-    ps = 1.0 / 120.0 - r2 * ps;              /* 1/5! */
-    ps = 1.0 / 6.0 - r2 * ps;                /* 1/3! */
-    *s = r - r * r2 * ps;
-    double pc = 1.0 / 6402373705728000.0; /* 1/18! */
-    pc = 1.0 / 20922789888000.0 - r2 * pc; /* 1/16! */
-    pc = 1.0 / 87178291200.0 - r2 * pc;    /* 1/14! */
-    pc = 1.0 / 479001600.0 - r2 * pc;      /* 1/12! */
-    pc = 1.0 / 3628800.0 - r2 * pc;        /* 1/10! */
-    pc = 1.0 / 40320.0 - r2 * pc;          /* 1/8! */
-    pc = 1.0 / 720.0 - r2 * pc;            /* 1/6! */
-    pc = 1.0 / 24.0 - r2 * pc;             /* 1/4! */
-    pc = 0.5 - r2 * pc;                    /* 1/2! */
-    *c = 1.0 - r2 * pc;
-}
-
-/* sin and cos of an angle in degrees. Reduction to [-45, 45] degrees is
- * done in degrees (exact for the angles used here), so multiples of 90
- * degrees give exact 0 and +-1. */
-static void dsincos_deg(double deg, double *s, double *c)
-{
-    /* q = nearest multiple of 90; reduce by whole turns first. */
-    double turns = deg / 360.0;
-    long long t = (long long)turns;
-    deg -= 360.0 * (double)t;
-    if (deg < 0) deg += 360.0;
-    int q = (int)((deg + 45.0) / 90.0);
-    double r = (deg - 90.0 * q) * (PI / 180.0);
-    double ss, cc;
-    sincos_small(r, &ss, &cc);
-    switch (q & 3) {
-    case 0: *s = ss; *c = cc; break;
-    case 1: *s = cc; *c = -ss; break;
-    case 2: *s = -ss; *c = -cc; break;
-    default: *s = -cc; *c = ss; break;
-    }
-}
 
 /* ------------------------------------------------------------------------ */
 /* Small double-precision vectors and emission                               */
@@ -106,6 +52,30 @@ typedef struct gen {
     int failed;
     rt_err *e;
 } gen;
+
+/* A built-in scene's view: z-up camera, three point lights, shading. */
+typedef struct view {
+    rt_vec3 eye, at;               /* camera */
+    float fovy_deg;                /* vertical field of view */
+    rt_vec3 light[RT_NLIGHTS];     /* point lights */
+    float light_power, ambient;    /* shading */
+    rt_vec3 background;            /* colour of escaping rays */
+} view;
+
+/* Sets the view; ends every generator, so it returns its status. */
+static int set_view(gen *g, const view *v)
+{
+    rt_scene *s = g->s;
+    s->cam.eye = v->eye;
+    s->cam.at = v->at;
+    s->cam.up = rt_v3(0, 0, 1);
+    s->cam.fovy_deg = v->fovy_deg;
+    for (int i = 0; i < RT_NLIGHTS; i++) s->light[i] = v->light[i];
+    s->light_power = v->light_power;
+    s->ambient = v->ambient;
+    s->background = v->background;
+    return g->failed ? -1 : 0;
+}
 
 static void colour(gen *g, double r, double gg, double b)
 {
@@ -137,7 +107,7 @@ typedef struct xform {
 static xform xf(double x, double y, double z, double deg)
 {
     xform f;
-    dsincos_deg(deg, &f.s, &f.c);
+    rt_dsincos_deg(deg, &f.s, &f.c);
     f.t = d3(x, y, z);
     f.scale = 1.0;
     return f;
@@ -176,8 +146,8 @@ static void frustum(gen *g, const xform *f, double cx, double cy, double z0, dou
 {
     for (int i = 0; i < n; i++) {
         double s0, c0, s1, c1;
-        dsincos_deg(360.0 * i / n, &s0, &c0);
-        dsincos_deg(360.0 * (i + 1) / n, &s1, &c1);
+        rt_dsincos_deg(360.0 * i / n, &s0, &c0);
+        rt_dsincos_deg(360.0 * (i + 1) / n, &s1, &c1);
         dv3 a = d3(cx + r0 * c0, cy + r0 * s0, z0), b = d3(cx + r0 * c1, cy + r0 * s1, z0);
         dv3 c = d3(cx + r1 * c1, cy + r1 * s1, z1), d = d3(cx + r1 * c0, cy + r1 * s0, z1);
         if (r1 > 0)
@@ -186,11 +156,11 @@ static void frustum(gen *g, const xform *f, double cx, double cy, double z0, dou
             xtri(g, f, a, b, d);
     }
     double sa, ca;
-    dsincos_deg(0, &sa, &ca);
+    rt_dsincos_deg(0, &sa, &ca);
     for (int i = 1; i + 1 < n; i++) {
         double s1, c1, s2, c2;
-        dsincos_deg(360.0 * i / n, &s1, &c1);
-        dsincos_deg(360.0 * (i + 1) / n, &s2, &c2);
+        rt_dsincos_deg(360.0 * i / n, &s1, &c1);
+        rt_dsincos_deg(360.0 * (i + 1) / n, &s2, &c2);
         if (cap0)
             xtri(g, f, d3(cx + r0 * ca, cy + r0 * sa, z0), d3(cx + r0 * c2, cy + r0 * s2, z0),
                  d3(cx + r0 * c1, cy + r0 * s1, z0));
@@ -422,13 +392,13 @@ static int gen_sphereflake(gen *g, const int *pv)
      * azimuths 45 + 120k degrees. */
     for (int k = 0; k < 6; k++) {
         double sn, cs;
-        dsincos_deg(15.0 + 60.0 * k, &sn, &cs);
+        rt_dsincos_deg(15.0 + 60.0 * k, &sn, &cs);
         F.dirs[k] = d3(cs, sn, 0);
     }
     double zr = sqrt(2.0 / 3.0), hr = sqrt(1.0 / 3.0);
     for (int k = 0; k < 3; k++) {
         double sn, cs;
-        dsincos_deg(45.0 + 120.0 * k, &sn, &cs);
+        rt_dsincos_deg(45.0 + 120.0 * k, &sn, &cs);
         F.dirs[6 + k] = d3(hr * cs, hr * sn, zr);
     }
     dv3 *tmpl = sphere_template(tess, g->e);
@@ -438,18 +408,10 @@ static int gen_sphereflake(gen *g, const int *pv)
     free(tmpl);
     colour(g, 0.55, 0.55, 0.50);
     quad(g, d3(-12, -12, -0.5), d3(12, -12, -0.5), d3(12, 12, -0.5), d3(-12, 12, -0.5));
-    rt_scene *s = g->s;
-    s->cam.eye = rt_v3(2.1f, 1.3f, 1.7f);
-    s->cam.at = rt_v3(0, 0, 0);
-    s->cam.up = rt_v3(0, 0, 1);
-    s->cam.fovy_deg = 45.0f;
-    s->light[0] = rt_v3(4, 3, 2);
-    s->light[1] = rt_v3(1, -4, 4);
-    s->light[2] = rt_v3(-3, 1, 5);
-    s->light_power = 0.45f;
-    s->ambient = 0.12f;
-    s->background = rt_v3(0.08f, 0.10f, 0.16f);
-    return g->failed ? -1 : 0;
+    view v = {rt_v3(2.1f, 1.3f, 1.7f), rt_v3(0, 0, 0), 45.0f,
+              {rt_v3(4, 3, 2), rt_v3(1, -4, 4), rt_v3(-3, 1, 5)},
+              0.45f, 0.12f, rt_v3(0.08f, 0.10f, 0.16f)};
+    return set_view(g, &v);
 }
 
 /* ------------------------------------------------------------------------ */
@@ -525,7 +487,7 @@ static aff rotx(double deg)
     aff A;
     memset(&A, 0, sizeof A);
     double s, c;
-    dsincos_deg(deg, &s, &c);
+    rt_dsincos_deg(deg, &s, &c);
     A.L[0][0] = 1;
     A.L[1][1] = c, A.L[1][2] = s;
     A.L[2][1] = -s, A.L[2][2] = c;
@@ -537,7 +499,7 @@ static aff rotz(double deg)
     aff A;
     memset(&A, 0, sizeof A);
     double s, c;
-    dsincos_deg(deg, &s, &c);
+    rt_dsincos_deg(deg, &s, &c);
     A.L[0][0] = c, A.L[0][1] = s;
     A.L[1][0] = -s, A.L[1][1] = c;
     A.L[2][2] = 1;
@@ -572,7 +534,7 @@ static int gen_grove(gen *g, const int *pv)
     T.g = g;
     T.tess = tess;
     T.nside = 4 * tess;
-    for (int i = 0; i < T.nside; i++) dsincos_deg(360.0 * i / T.nside, &T.sn[i], &T.cs[i]);
+    for (int i = 0; i < T.nside; i++) rt_dsincos_deg(360.0 * i / T.nside, &T.sn[i], &T.cs[i]);
     aff r1 = rotx(40), r2 = rotz(90), s1 = scale_tr(0.65, d3(0, 0, 1));
     aff t1 = acompose(&r1, &r2);
     T.child[0] = acompose(&t1, &s1);
@@ -588,7 +550,7 @@ static int gen_grove(gen *g, const int *pv)
     for (int i = 0; i < ntrees; i++) {
         double ang = 137.5 * i, rr = 1.9 * sqrt((double)i);
         double sn, cs;
-        dsincos_deg(ang, &sn, &cs);
+        rt_dsincos_deg(ang, &sn, &cs);
         double k = 1.0 - 0.06 * (i % 4);
         aff rz = rotz(71.0 * i), sc = scale_tr(k, d3(rr * cs, rr * sn, 0));
         aff A = acompose(&rz, &sc);
@@ -600,25 +562,17 @@ static int gen_grove(gen *g, const int *pv)
     quad(g, d3(-50, -50, 0), d3(50, -50, 0), d3(50, 50, 0), d3(-50, 50, 0));
     /* Camera: SPD tree's view direction, (4.5,0.4,0.5) from the target,
      * pulled back so the spiral (radius maxr + 1) fills the view width. */
-    rt_scene *s = g->s;
     double dist = 0.8 * (maxr + 1.0) / 0.41421356237309503; /* tan(22.5 deg) */
     dv3 dir = dnorm(d3(4.5, 0.4, 0.5));
     dv3 at = d3(0, 0, 1.5);
     if (ntrees > 1) at = d3(0, 0, 1.7);
     dv3 eye = dadd(at, dmul(dir, ntrees > 1 ? dist : 4.54)); /* 1 tree: exactly SPD's view */
-    s->cam.eye = tof(eye);
-    s->cam.at = tof(at);
-    s->cam.up = rt_v3(0, 0, 1);
-    s->cam.fovy_deg = 45.0f;
     /* Light 0 at the camera (the paper's setting), light 1 high to the
      * left, light 2 low from behind the grove. */
-    s->light[0] = s->cam.eye;
-    s->light[1] = tof(d3(0.3 * dist, 0.8 * dist, 0.9 * dist));
-    s->light[2] = tof(d3(-0.6 * dist, -0.7 * dist, 0.4 * dist));
-    s->light_power = 0.42f;
-    s->ambient = 0.15f;
-    s->background = rt_v3(0.55f, 0.65f, 0.85f);
-    return g->failed ? -1 : 0;
+    view v = {tof(eye), tof(at), 45.0f,
+              {tof(eye), tof(d3(0.3 * dist, 0.8 * dist, 0.9 * dist)), tof(d3(-0.6 * dist, -0.7 * dist, 0.4 * dist))},
+              0.42f, 0.15f, rt_v3(0.55f, 0.65f, 0.85f)};
+    return set_view(g, &v);
 }
 
 /* ------------------------------------------------------------------------ */
@@ -761,7 +715,7 @@ static void plant(gen *g, const xform *f, int nleaf, uint32_t seed)
     for (int i = 0; i < nleaf; i++) {
         double az = 360.0 * urand(&st), el = 0.35 + 0.5 * urand(&st), len = 0.30 + 0.25 * urand(&st);
         double sa, ca;
-        dsincos_deg(az, &sa, &ca);
+        rt_dsincos_deg(az, &sa, &ca);
         dv3 base = d3(0.04 * ca, 0.04 * sa, 0.33);
         dv3 dir = dnorm(d3(ca, sa, el * 2.0));
         dv3 side = d3(-sa * 0.03, ca * 0.03, 0);
@@ -857,7 +811,7 @@ static int gen_room(gen *g, const int *pv)
     frustum(g, &f, 0, 0, 0, 0.08, 0.08, 0.16, 32, 1, 0);
     for (int k = 0; k < 12; k++) {
         double sa, ca;
-        dsincos_deg(30.0 * k, &sa, &ca);
+        rt_dsincos_deg(30.0 * k, &sa, &ca);
         double rr = k < 8 ? 0.09 : 0.04;
         colour(g, k & 1 ? 0.85 : 0.75, k & 2 ? 0.55 : 0.20, 0.10);
         sphere_from(g, tmpl, 4, d3(2 * RX + 2.5 + rr * ca, 2.0 + rr * sa, 0.76 + (k < 8 ? 0.1 : 0.17)), 0.04);
@@ -901,18 +855,10 @@ static int gen_room(gen *g, const int *pv)
     /* Camera in a corner of the living room, looking through the door
      * into the library; light 0 at the camera, lights 1 and 2 near the
      * living-room ceiling. */
-    rt_scene *s = g->s;
-    s->cam.eye = rt_v3(0.5f, 0.45f, 1.65f);
-    s->cam.at = rt_v3(5.0f, 2.3f, 1.0f);
-    s->cam.up = rt_v3(0, 0, 1);
-    s->cam.fovy_deg = 50.0f;
-    s->light[0] = s->cam.eye;
-    s->light[1] = rt_v3(2.9f, 1.5f, 2.35f);
-    s->light[2] = rt_v3(4.3f, 3.2f, 2.2f);
-    s->light_power = 0.40f;
-    s->ambient = 0.15f;
-    s->background = rt_v3(0, 0, 0);
-    return g->failed ? -1 : 0;
+    view v = {rt_v3(0.5f, 0.45f, 1.65f), rt_v3(5.0f, 2.3f, 1.0f), 50.0f,
+              {rt_v3(0.5f, 0.45f, 1.65f), rt_v3(2.9f, 1.5f, 2.35f), rt_v3(4.3f, 3.2f, 2.2f)},
+              0.40f, 0.15f, rt_v3(0, 0, 0)};
+    return set_view(g, &v);
 }
 
 /* ------------------------------------------------------------------------ */
@@ -946,18 +892,11 @@ static int gen_cornell(gen *g, const int *pv)
     colour(g, 0.73, 0.73, 0.73);
     cbox(g, 0.33, 0.62, 0.30, 0.30, 0.60, 17);  /* tall box */
     cbox(g, 0.66, 0.32, 0.30, 0.30, 0.30, -17); /* short box */
-    rt_scene *s = g->s;
-    s->cam.eye = rt_v3(0.5f, -1.35f, 0.5f);
-    s->cam.at = rt_v3(0.5f, 0.5f, 0.5f);
-    s->cam.up = rt_v3(0, 0, 1);
-    s->cam.fovy_deg = 40.0f;
-    s->light[0] = rt_v3(0.5f, -0.9f, 0.55f); /* near the camera */
-    s->light[1] = rt_v3(0.5f, 0.5f, 0.95f);  /* under the ceiling lamp */
-    s->light[2] = rt_v3(0.85f, 0.15f, 0.80f);
-    s->light_power = 0.45f;
-    s->ambient = 0.12f;
-    s->background = rt_v3(0, 0, 0);
-    return g->failed ? -1 : 0;
+    view v = {rt_v3(0.5f, -1.35f, 0.5f), rt_v3(0.5f, 0.5f, 0.5f), 40.0f,
+              {rt_v3(0.5f, -0.9f, 0.55f) /* near the camera */, rt_v3(0.5f, 0.5f, 0.95f) /* under the lamp */,
+               rt_v3(0.85f, 0.15f, 0.80f)},
+              0.45f, 0.12f, rt_v3(0, 0, 0)};
+    return set_view(g, &v);
 }
 
 /* ------------------------------------------------------------------------ */
@@ -983,12 +922,12 @@ static int gen_knot(gen *g, const int *pv)
         free(ring);
         return -1;
     }
-    for (int j = 0; j < sides; j++) dsincos_deg(360.0 * j / sides, &cs[2 * j + 1], &cs[2 * j]);
+    for (int j = 0; j < sides; j++) rt_dsincos_deg(360.0 * j / sides, &cs[2 * j + 1], &cs[2 * j]);
     for (int i = 0; i < segs; i++) {
         /* Angles in degrees reduced exactly with integer arithmetic. */
         double sp, cp, sq, cq;
-        dsincos_deg(360.0 * (double)(((long long)P * i) % segs) / segs, &sp, &cp);
-        dsincos_deg(360.0 * (double)(((long long)Q * i) % segs) / segs, &sq, &cq);
+        rt_dsincos_deg(360.0 * (double)(((long long)P * i) % segs) / segs, &sp, &cp);
+        rt_dsincos_deg(360.0 * (double)(((long long)Q * i) % segs) / segs, &sq, &cq);
         double rr = R + r * cq;
         dv3 C = d3(rr * cp, rr * sp, r * sq);
         dv3 T = dnorm(d3(-Q * r * sq * cp - P * rr * sp, -Q * r * sq * sp + P * rr * cp, Q * r * cq));
@@ -1012,18 +951,10 @@ static int gen_knot(gen *g, const int *pv)
     }
     free(ring);
     free(cs);
-    rt_scene *s = g->s;
-    s->cam.eye = rt_v3(0.0f, -3.4f, 2.4f);
-    s->cam.at = rt_v3(0, 0, 0);
-    s->cam.up = rt_v3(0, 0, 1);
-    s->cam.fovy_deg = 45.0f;
-    s->light[0] = rt_v3(0.3f, -3.0f, 2.6f);
-    s->light[1] = rt_v3(3.0f, 2.0f, 4.0f);
-    s->light[2] = rt_v3(-3.0f, 1.0f, 3.0f);
-    s->light_power = 0.45f;
-    s->ambient = 0.12f;
-    s->background = rt_v3(0.1f, 0.1f, 0.12f);
-    return g->failed ? -1 : 0;
+    view v = {rt_v3(0.0f, -3.4f, 2.4f), rt_v3(0, 0, 0), 45.0f,
+              {rt_v3(0.3f, -3.0f, 2.6f), rt_v3(3.0f, 2.0f, 4.0f), rt_v3(-3.0f, 1.0f, 3.0f)},
+              0.45f, 0.12f, rt_v3(0.1f, 0.1f, 0.12f)};
+    return set_view(g, &v);
 }
 
 /* ------------------------------------------------------------------------ */

@@ -12,7 +12,9 @@
  * Malformed input never crashes and never reads outside the file buffer:
  * the first problem ends the load with one line "FILE:LINE: what", e.g.
  * "mesh.obj:12: face index 9 out of range (8 vertices)". A file without
- * faces, or with a NaN/Inf or out-of-float-range coordinate, is rejected.
+ * faces, with a NaN/Inf coordinate, or outside the coordinate range the
+ * float pipeline resolves (rt_scene_check_range) is rejected; input quoted
+ * in a message is escaped (rt_esc).
  * Loaded meshes get a default grey, an auto-framed camera and default
  * lights (rt_scene_autoframe).
  */
@@ -36,7 +38,8 @@ static const char *skip_space(const char *p)
 }
 
 /* Parses one float coordinate at *pp (a whole whitespace-delimited token).
- * 0 on success, else 1 = not a number, 2 = not finite/out of range. */
+ * 0 on success, else 1 = not a number, 2 = NaN or infinite, 3 = beyond
+ * RT_COORD_MAX (docs/scenes.md: coordinate range). */
 static int parse_coord(const char **pp, float *out)
 {
     const char *p = *pp;
@@ -45,7 +48,8 @@ static int parse_coord(const char **pp, float *out)
     double v = strtod(p, &end);
     if (end == p || (*end && !is_space(*end))) return 1;
     *pp = end;
-    if (!isfinite(v) || fabs(v) > FLT_MAX) return 2;
+    if (!isfinite(v)) return 2;
+    if (fabs(v) > RT_COORD_MAX) return 3;
     *out = (float)v;
     return 0;
 }
@@ -77,10 +81,15 @@ static int vertex_line(objload *L, const char *p)
             break;
         }
         float x;
+        const char *tok = p;
         int r = parse_coord(&p, &x);
-        if (r == 1)
-            return rt_errf(L->e, "%s:%lu: bad number '%.*s'", L->path, L->line, token_len(p), p);
-        if (r == 2) return rt_errf(L->e, "%s:%lu: coordinate is not a finite float", L->path, L->line);
+        char q[64];
+        if (r) rt_esc(q, sizeof q, tok, (size_t)token_len(tok));
+        if (r == 1) return rt_errf(L->e, "%s:%lu: bad number '%s'", L->path, L->line, q);
+        if (r == 2) return rt_errf(L->e, "%s:%lu: coordinate is not a finite number ('%s')", L->path, L->line, q);
+        if (r == 3)
+            return rt_errf(L->e, "%s:%lu: coordinate %s out of range (|c| <= %g, docs/scenes.md)", L->path, L->line,
+                           q, RT_COORD_MAX);
         if (k < 3) c[k] = x;
     }
     /* Further tokens (vertex colours) are ignored. */
@@ -121,17 +130,21 @@ static int face_line(objload *L, rt_scene *s, const char *p)
         if (!*p) break;
         const char *tok = p;
         long long idx;
+        char q[64];
         if (parse_int(&p, &idx) < 0)
-            return rt_errf(L->e, "%s:%lu: bad face index '%.*s'", L->path, L->line, token_len(tok), tok);
+            return rt_errf(L->e, "%s:%lu: bad face index '%s'", L->path, L->line,
+                           rt_esc(q, sizeof q, tok, (size_t)token_len(tok)));
         /* Optional /vt, //vn, /vt/vn: validated, then ignored. */
         for (int k = 0; k < 2 && *p == '/'; k++) {
             p++;
             long long dummy;
             if (*p != '/' && *p && !is_space(*p) && parse_int(&p, &dummy) < 0)
-                return rt_errf(L->e, "%s:%lu: bad face index '%.*s'", L->path, L->line, token_len(tok), tok);
+                return rt_errf(L->e, "%s:%lu: bad face index '%s'", L->path, L->line,
+                               rt_esc(q, sizeof q, tok, (size_t)token_len(tok)));
         }
         if (*p && !is_space(*p))
-            return rt_errf(L->e, "%s:%lu: bad face index '%.*s'", L->path, L->line, token_len(tok), tok);
+            return rt_errf(L->e, "%s:%lu: bad face index '%s'", L->path, L->line,
+                           rt_esc(q, sizeof q, tok, (size_t)token_len(tok)));
         if (idx == 0) return rt_errf(L->e, "%s:%lu: face index 0 (OBJ indices start at 1)", L->path, L->line);
         long long abs_i = idx > 0 ? idx - 1 : (long long)L->nv + idx;
         if (abs_i < 0 || abs_i >= (long long)L->nv)
@@ -200,6 +213,7 @@ rt_scene *rt_scene_load_obj(const char *path, rt_err *e)
     if (rc == 0) {
         rt_err fe;
         if (rt_scene_finish(s, &fe) < 0) rc = rt_errf(e, "%s: %s", path, fe.msg);
+        else rc = rt_scene_check_range(s, path, e);
     }
     if (rc < 0) {
         rt_scene_free(s);

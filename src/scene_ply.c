@@ -59,6 +59,7 @@ typedef struct plyprop {
 typedef struct plyelem {
     char name[40];     /* element name (truncated) */
     uint32_t count;    /* instances */
+    unsigned long line; /* header line declaring it */
     int nprop;         /* properties */
     plyprop prop[MAXPROP];
 } plyelem;
@@ -94,12 +95,21 @@ static int split(char *s, char **tok, int max)
     return n;
 }
 
+/* An element with instances but no properties takes no bytes, so the file
+ * size cannot bound its count (4294967295 of them would spin): refused. */
+#define CHECK_PROPS(E)                                                                                           \
+    do {                                                                                                         \
+        if ((E)->count > 0 && (E)->nprop == 0)                                                                   \
+            return rt_errf(L->e, "%s:%lu: element '%s' has %u instances but no properties", L->path, (E)->line,   \
+                           rt_esc(q, sizeof q, (E)->name, 40), (E)->count);                                      \
+    } while (0)
+
 static int parse_header(plyload *L, plyelem *el, int *nel)
 {
     const char *b = (const char *)L->buf;
     size_t n = L->n, p = 0;
-    char line[512];
-    int nelem = 0;
+    char line[512], q[64];
+    int nelem = 0, have_format = 0;
     L->line = 0;
     for (;;) {
         if (p >= n) return rt_errf(L->e, "%s:%lu: header has no end_header line", L->path, L->line + 1);
@@ -122,29 +132,35 @@ static int parse_header(plyload *L, plyelem *el, int *nel)
         if (nt == 0) continue;
         if (!strcmp(tok[0], "comment") || !strcmp(tok[0], "obj_info")) continue;
         if (nt > 8) return rt_errf(L->e, "%s:%lu: too many words in header line", L->path, L->line);
+        if (strcmp(tok[0], "format") && !have_format)
+            return rt_errf(L->e, "%s:%lu: expected a format line before '%s'", L->path, L->line,
+                           rt_esc(q, sizeof q, tok[0], 40));
         if (!strcmp(tok[0], "format")) {
+            if (have_format) return rt_errf(L->e, "%s:%lu: second format line", L->path, L->line);
+            have_format = 1;
             if (nt != 3) return rt_errf(L->e, "%s:%lu: format line needs a format and a version", L->path, L->line);
             if (!strcmp(tok[1], "ascii")) L->fmt = F_ASCII;
             else if (!strcmp(tok[1], "binary_little_endian")) L->fmt = F_LE;
             else if (!strcmp(tok[1], "binary_big_endian")) L->fmt = F_BE;
-            else return rt_errf(L->e, "%s:%lu: unknown format '%s'", L->path, L->line, tok[1]);
+            else return rt_errf(L->e, "%s:%lu: unknown format '%s'", L->path, L->line, rt_esc(q, sizeof q, tok[1], 40));
             if (strcmp(tok[2], "1.0") && strcmp(tok[2], "1"))
-                return rt_errf(L->e, "%s:%lu: unsupported PLY version '%s'", L->path, L->line, tok[2]);
+                return rt_errf(L->e, "%s:%lu: unsupported PLY version '%s'", L->path, L->line,
+                               rt_esc(q, sizeof q, tok[2], 40));
             if (L->line != 2) return rt_errf(L->e, "%s:%lu: format line must follow 'ply'", L->path, L->line);
-        } else if (L->line == 2) {
-            return rt_errf(L->e, "%s:2: expected a format line", L->path);
         } else if (!strcmp(tok[0], "element")) {
             if (nt != 3) return rt_errf(L->e, "%s:%lu: element line needs a name and a count", L->path, L->line);
             if (nelem == MAXELEM) return rt_errf(L->e, "%s:%lu: too many elements", L->path, L->line);
-            char *q;
+            char *end;
             errno = 0;
-            unsigned long long c = strtoull(tok[2], &q, 10);
-            if (*q || q == tok[2] || tok[2][0] == '-' || errno || c > UINT32_MAX)
-                return rt_errf(L->e, "%s:%lu: bad element count '%s'", L->path, L->line, tok[2]);
+            unsigned long long c = strtoull(tok[2], &end, 10);
+            if (*end || end == tok[2] || tok[2][0] < '0' || tok[2][0] > '9' || errno || c > UINT32_MAX)
+                return rt_errf(L->e, "%s:%lu: bad element count '%s'", L->path, L->line, rt_esc(q, sizeof q, tok[2], 40));
+            if (nelem > 0) CHECK_PROPS(&el[nelem - 1]);
             plyelem *E = &el[nelem++];
             memset(E, 0, sizeof *E);
-            snprintf(E->name, sizeof E->name, "%s", tok[1]);
+            rt_esc(E->name, sizeof E->name, tok[1], 39); /* names reach messages */
             E->count = (uint32_t)c;
+            E->line = L->line;
         } else if (!strcmp(tok[0], "property")) {
             if (nelem == 0) return rt_errf(L->e, "%s:%lu: property before any element", L->path, L->line);
             plyelem *E = &el[nelem - 1];
@@ -157,24 +173,27 @@ static int parse_header(plyload *L, plyelem *el, int *nel)
                 P->type = type_of(tok[3]);
                 if (P->ctype < 0 || P->type < 0)
                     return rt_errf(L->e, "%s:%lu: unknown property type '%s'", L->path, L->line,
-                                   P->ctype < 0 ? tok[2] : tok[3]);
+                                   rt_esc(q, sizeof q, P->ctype < 0 ? tok[2] : tok[3], 40));
                 if (!is_int_type(P->ctype))
                     return rt_errf(L->e, "%s:%lu: list count type '%s' is not an integer type", L->path, L->line,
-                                   tok[2]);
-                snprintf(P->name, sizeof P->name, "%s", tok[4]);
+                                   rt_esc(q, sizeof q, tok[2], 40));
+                rt_esc(P->name, sizeof P->name, tok[4], 39);
             } else {
                 if (nt != 3) return rt_errf(L->e, "%s:%lu: bad property line", L->path, L->line);
                 P->type = type_of(tok[1]);
                 if (P->type < 0)
-                    return rt_errf(L->e, "%s:%lu: unknown property type '%s'", L->path, L->line, tok[1]);
-                snprintf(P->name, sizeof P->name, "%s", tok[2]);
+                    return rt_errf(L->e, "%s:%lu: unknown property type '%s'", L->path, L->line,
+                                   rt_esc(q, sizeof q, tok[1], 40));
+                rt_esc(P->name, sizeof P->name, tok[2], 39);
             }
             E->nprop++;
         } else if (!strcmp(tok[0], "end_header")) {
             if (nt != 1) return rt_errf(L->e, "%s:%lu: bad end_header line", L->path, L->line);
+            if (nelem > 0) CHECK_PROPS(&el[nelem - 1]);
             break;
         } else {
-            return rt_errf(L->e, "%s:%lu: unknown header keyword '%.40s'", L->path, L->line, tok[0]);
+            return rt_errf(L->e, "%s:%lu: unknown header keyword '%s'", L->path, L->line,
+                           rt_esc(q, sizeof q, tok[0], 40));
         }
     }
     if (L->line < 3) return rt_errf(L->e, "%s:%lu: header lacks a format line", L->path, L->line);
@@ -305,11 +324,170 @@ static int push3(idxbuf *B, uint32_t a, uint32_t b, uint32_t c, rt_err *e)
     return 0;
 }
 
-static int min_record_size(const plyelem *E)
+/* Bytes one record of E needs at least in binary (lists: their count). */
+static uint64_t min_record_size(const plyelem *E)
 {
-    int s = 0;
-    for (int i = 0; i < E->nprop; i++) s += E->prop[i].is_list ? ply_types[E->prop[i].ctype].size : ply_types[E->prop[i].type].size;
+    uint64_t s = 0;
+    for (int i = 0; i < E->nprop; i++)
+        s += (uint64_t)ply_types[E->prop[i].is_list ? E->prop[i].ctype : E->prop[i].type].size;
     return s;
+}
+
+/* What the mesh needs from the header: element and property indices. */
+typedef struct plyneed {
+    int vi, fi;     /* vertex and face elements */
+    int px, py, pz; /* x, y, z properties of vertex */
+    int pl;         /* vertex_indices list of face */
+    uint32_t nvert; /* vertices */
+} plyneed;
+
+static int locate(const plyload *L, const plyelem *el, int nel, plyneed *N)
+{
+    N->vi = N->fi = N->px = N->py = N->pz = N->pl = -1;
+    for (int i = 0; i < nel; i++) {
+        if (!strcmp(el[i].name, "vertex") && N->vi < 0) {
+            N->vi = i;
+            for (int k = 0; k < el[i].nprop; k++) {
+                const plyprop *P = &el[i].prop[k];
+                int *slot = !strcmp(P->name, "x") ? &N->px : !strcmp(P->name, "y") ? &N->py
+                          : !strcmp(P->name, "z") ? &N->pz : NULL;
+                if (slot && !P->is_list) *slot = k;
+            }
+        } else if (!strcmp(el[i].name, "face") && N->fi < 0) {
+            N->fi = i;
+            for (int k = 0; k < el[i].nprop; k++) {
+                const plyprop *P = &el[i].prop[k];
+                if (P->is_list && (!strcmp(P->name, "vertex_indices") || !strcmp(P->name, "vertex_index"))) N->pl = k;
+            }
+        }
+    }
+    if (N->vi < 0) return rt_errf(L->e, "%s: no 'vertex' element in header", L->path);
+    if (N->px < 0 || N->py < 0 || N->pz < 0)
+        return rt_errf(L->e, "%s: vertex element lacks scalar x, y and z properties", L->path);
+    if (N->fi < 0 || N->pl < 0)
+        return rt_errf(L->e, "%s: no 'face' element with a vertex_indices list (point clouds are not supported)",
+                       L->path);
+    const plyprop *P = &el[N->fi].prop[N->pl];
+    if (!is_int_type(P->type))
+        return rt_errf(L->e, "%s: face index type '%s' is not an integer type", L->path, ply_types[P->type].name);
+    N->nvert = el[N->vi].count;
+    if (N->nvert == 0 || el[N->fi].count == 0)
+        return rt_errf(L->e, "%s: empty mesh (%u vertices, %u faces)", L->path, N->nvert, el[N->fi].count);
+    return 0;
+}
+
+/* The header's counts must fit in the bytes left before anything is
+ * allocated or looped over: in ascii every value (a scalar or a list's
+ * count) takes a digit and a separator, so V values need 2V-1 bytes; in
+ * binary each record takes at least its fixed-size part. Elements without
+ * properties occupy no bytes, so their count is unchecked by the file:
+ * parse_header refuses them. */
+static int check_counts(const plyload *L, const plyelem *el, int nel)
+{
+    uint64_t left = L->n - L->pos, need = 0;
+    for (int i = 0; i < nel; i++) {
+        need += (uint64_t)el[i].count * (L->fmt == F_ASCII ? (uint64_t)el[i].nprop : min_record_size(&el[i]));
+        if (L->fmt == F_ASCII ? need <= (left + 1) / 2 : need <= left) continue;
+        if (L->fmt == F_ASCII)
+            return rt_errf(L->e, "%s:%lu: truncated %s data (%u declared; the elements so far need %llu values, "
+                                 "the %llu bytes of data hold at most %llu)", L->path, L->line, el[i].name,
+                           el[i].count, (unsigned long long)need, (unsigned long long)left,
+                           (unsigned long long)((left + 1) / 2));
+        return rt_errf(L->e, "%s: byte %zu: truncated %s data (%u declared; the elements so far need %llu bytes, "
+                             "the file has %llu)", L->path, L->n, el[i].name, el[i].count, (unsigned long long)need,
+                       (unsigned long long)left);
+    }
+    return 0;
+}
+
+/* Reads one scalar property; stores it if it is a vertex coordinate. */
+static int read_scalar(plyload *L, const plyelem *el, const plyneed *N, int i, int k, uint32_t r, rt_vec3 *verts)
+{
+    const plyprop *P = &el[i].prop[k];
+    size_t at = L->pos;
+    val v;
+    if (read_val(L, P->type, el[i].name, &v) < 0) return -1;
+    if (i != N->vi || (k != N->px && k != N->py && k != N->pz)) return 0;
+    if (!isfinite(v.d) || fabs(v.d) > RT_COORD_MAX) {
+        char w[300];
+        where(L, at, w, sizeof w);
+        if (!isfinite(v.d)) return rt_errf(L->e, "%s: vertex %u: coordinate is not a finite number", w, r);
+        return rt_errf(L->e, "%s: vertex %u: coordinate %.9g out of range (|c| <= %g, docs/scenes.md)", w, r, v.d,
+                       RT_COORD_MAX);
+    }
+    float f = (float)v.d;
+    if (k == N->px) verts[r].x = f;
+    else if (k == N->py) verts[r].y = f;
+    else verts[r].z = f;
+    return 0;
+}
+
+/* Reads one list property; the face list becomes fan triangles. */
+static int read_list(plyload *L, const plyelem *el, const plyneed *N, int i, int k, uint32_t r, idxbuf *tris)
+{
+    const plyprop *P = &el[i].prop[k];
+    size_t at = L->pos;
+    val v;
+    if (read_val(L, P->ctype, el[i].name, &v) < 0) return -1;
+    long long cnt = v.i;
+    int want = i == N->fi && k == N->pl;
+    char w[300];
+    if (cnt < 0 || (want && cnt < 3)) {
+        where(L, at, w, sizeof w);
+        if (cnt < 0) return rt_errf(L->e, "%s: negative list length %lld", w, cnt);
+        return rt_errf(L->e, "%s: face %u has %lld vertices (need at least 3)", w, r, cnt);
+    }
+    size_t left = L->n - L->pos;
+    if (L->fmt == F_ASCII ? (size_t)cnt > (left + 1) / 2 : (size_t)cnt > left / (size_t)ply_types[P->type].size) {
+        where(L, at, w, sizeof w);
+        return rt_errf(L->e, "%s: truncated %s data (list of %lld)", w, el[i].name, cnt);
+    }
+    uint32_t first = 0, prev = 0;
+    for (long long j = 0; j < cnt; j++) {
+        size_t vat = L->pos;
+        if (read_val(L, P->type, el[i].name, &v) < 0) return -1;
+        if (!want) continue;
+        if (v.i < 0 || v.i >= (long long)N->nvert) {
+            where(L, vat, w, sizeof w);
+            return rt_errf(L->e, "%s: face %u: vertex index %lld out of range (%u vertices)", w, r, v.i, N->nvert);
+        }
+        uint32_t x = (uint32_t)v.i;
+        if (j == 0) first = x;
+        else if (j >= 2 && push3(tris, first, prev, x, L->e) < 0) return -1;
+        prev = x;
+    }
+    return 0;
+}
+
+static int read_data(plyload *L, const plyelem *el, int nel, const plyneed *N, rt_vec3 *verts, idxbuf *tris)
+{
+    for (int i = 0; i < nel; i++)
+        for (uint32_t r = 0; r < el[i].count; r++)
+            for (int k = 0; k < el[i].nprop; k++) {
+                int rc = el[i].prop[k].is_list ? read_list(L, el, N, i, k, r, tris)
+                                               : read_scalar(L, el, N, i, k, r, verts);
+                if (rc < 0) return -1;
+            }
+    return 0;
+}
+
+static rt_scene *build(const char *path, const rt_vec3 *verts, const idxbuf *tris, rt_err *e)
+{
+    if (tris->n / 3 > UINT32_MAX / 2) return rt_errf(e, "%s: too many triangles", path), NULL;
+    rt_scene *s = rt_scene_new((uint32_t)(tris->n / 3), e);
+    if (!s) return NULL;
+    const char *base = strrchr(path, '/');
+    snprintf(s->name, sizeof s->name, "%s", base ? base + 1 : path);
+    for (size_t t = 0; t < tris->n; t += 3)
+        if (rt_scene_add_tri(s, verts[tris->v[t]], verts[tris->v[t + 1]], verts[tris->v[t + 2]], NULL, e) < 0)
+            goto fail;
+    if (rt_scene_finish(s, e) < 0) goto fail;
+    if (rt_scene_check_range(s, path, e) < 0) goto fail;
+    rt_scene_autoframe(s);
+    return s;
+fail:
+    rt_scene_free(s);
+    return NULL;
 }
 
 rt_scene *rt_scene_load_ply(const char *path, rt_err *e)
@@ -322,146 +500,14 @@ rt_scene *rt_scene_load_ply(const char *path, rt_err *e)
     rt_vec3 *verts = NULL;
     idxbuf tris = {NULL, 0, 0};
     rt_scene *s = NULL;
-    int nel = 0, rc = 0;
-    if (!el || parse_header(&L, el, &nel) < 0) goto fail;
-
-    /* Locate what we need. */
-    int vi = -1, fi = -1, px = -1, py = -1, pz = -1, pl = -1;
-    for (int i = 0; i < nel; i++) {
-        if (!strcmp(el[i].name, "vertex") && vi < 0) {
-            vi = i;
-            for (int k = 0; k < el[i].nprop; k++) {
-                const plyprop *P = &el[i].prop[k];
-                int *slot = !strcmp(P->name, "x") ? &px : !strcmp(P->name, "y") ? &py : !strcmp(P->name, "z") ? &pz : NULL;
-                if (slot && !P->is_list) *slot = k;
-            }
-        } else if (!strcmp(el[i].name, "face") && fi < 0) {
-            fi = i;
-            for (int k = 0; k < el[i].nprop; k++) {
-                const plyprop *P = &el[i].prop[k];
-                if (P->is_list && (!strcmp(P->name, "vertex_indices") || !strcmp(P->name, "vertex_index"))) pl = k;
-            }
-        }
-    }
-    if (vi < 0) {
-        rc = rt_errf(e, "%s: no 'vertex' element in header", path);
-        goto fail;
-    }
-    if (px < 0 || py < 0 || pz < 0) {
-        rc = rt_errf(e, "%s: vertex element lacks scalar x, y and z properties", path);
-        goto fail;
-    }
-    if (fi < 0 || pl < 0) {
-        rc = rt_errf(e, "%s: no 'face' element with a vertex_indices list (point clouds are not supported)", path);
-        goto fail;
-    }
-    if (!is_int_type(el[fi].prop[pl].type)) {
-        rc = rt_errf(e, "%s: face index type '%s' is not an integer type", path, ply_types[el[fi].prop[pl].type].name);
-        goto fail;
-    }
-    uint32_t nvert = el[vi].count;
-    if (nvert == 0 || el[fi].count == 0) {
-        rc = rt_errf(e, "%s: empty mesh (%u vertices, %u faces)", path, nvert, el[fi].count);
-        goto fail;
-    }
-    /* Counts must fit in the bytes left (>= 1 byte per value in ascii,
-     * the fixed record size in binary) before we allocate for them. */
-    for (int i = 0; i < nel; i++) {
-        size_t rec = L.fmt == F_ASCII ? (size_t)(el[i].nprop ? 1 : 0) : (size_t)min_record_size(&el[i]);
-        if (rec && el[i].count > (n - L.pos) / rec) {
-            if (L.fmt == F_ASCII)
-                rc = rt_errf(e, "%s:%lu: truncated %s data (%u declared, file too short)", path, L.line, el[i].name,
-                             el[i].count);
-            else
-                rc = rt_errf(e, "%s: byte %zu: truncated %s data (%u declared, file too short)", path, n, el[i].name,
-                             el[i].count);
-            goto fail;
-        }
-    }
-    verts = rt_calloc(nvert, sizeof *verts, e);
-    if (!verts) goto fail;
-
-    for (int i = 0; i < nel; i++) {
-        plyelem *E = &el[i];
-        for (uint32_t r = 0; r < E->count; r++) {
-            for (int k = 0; k < E->nprop; k++) {
-                const plyprop *P = &E->prop[k];
-                size_t at = L.pos;
-                val v;
-                if (!P->is_list) {
-                    if (read_val(&L, P->type, E->name, &v) < 0) goto fail;
-                    if (i == vi && (k == px || k == py || k == pz)) {
-                        if (!isfinite(v.d) || fabs(v.d) > FLT_MAX) {
-                            char w[300];
-                            where(&L, at, w, sizeof w);
-                            rc = rt_errf(e, "%s: vertex %u: coordinate is not a finite float", w, r);
-                            goto fail;
-                        }
-                        float f = (float)v.d;
-                        if (k == px) verts[r].x = f;
-                        else if (k == py) verts[r].y = f;
-                        else verts[r].z = f;
-                    }
-                    continue;
-                }
-                if (read_val(&L, P->ctype, E->name, &v) < 0) goto fail;
-                long long cnt = v.i;
-                int want = i == fi && k == pl;
-                if (cnt < 0 || (want && cnt < 3)) {
-                    char w[300];
-                    where(&L, at, w, sizeof w);
-                    if (cnt < 0) rc = rt_errf(e, "%s: negative list length %lld", w, cnt);
-                    else rc = rt_errf(e, "%s: face %u has %lld vertices (need at least 3)", w, r, cnt);
-                    goto fail;
-                }
-                if (L.fmt != F_ASCII && (size_t)cnt > (n - L.pos) / (size_t)ply_types[P->type].size) {
-                    rc = rt_errf(e, "%s: byte %zu: truncated %s data (list of %lld)", path, L.pos, E->name, cnt);
-                    goto fail;
-                }
-                uint32_t first = 0, prev = 0;
-                for (long long j = 0; j < cnt; j++) {
-                    size_t vat = L.pos;
-                    if (read_val(&L, P->type, E->name, &v) < 0) goto fail;
-                    if (!want) continue;
-                    if (v.i < 0 || v.i >= (long long)nvert) {
-                        char w[300];
-                        where(&L, vat, w, sizeof w);
-                        rc = rt_errf(e, "%s: face %u: vertex index %lld out of range (%u vertices)", w, r, v.i, nvert);
-                        goto fail;
-                    }
-                    uint32_t x = (uint32_t)v.i;
-                    if (j == 0) first = x;
-                    else if (j >= 2 && push3(&tris, first, prev, x, e) < 0) goto fail;
-                    prev = x;
-                }
-            }
-        }
-    }
-    if (tris.n / 3 > UINT32_MAX / 2) {
-        rc = rt_errf(e, "%s: too many triangles", path);
-        goto fail;
-    }
-    s = rt_scene_new((uint32_t)(tris.n / 3), e);
-    if (!s) goto fail;
-    {
-        const char *base = strrchr(path, '/');
-        snprintf(s->name, sizeof s->name, "%s", base ? base + 1 : path);
-    }
-    for (size_t t = 0; t < tris.n; t += 3)
-        if (rt_scene_add_tri(s, verts[tris.v[t]], verts[tris.v[t + 1]], verts[tris.v[t + 2]], NULL, e) < 0) goto fail;
-    if (rt_scene_finish(s, e) < 0) goto fail;
-    rt_scene_autoframe(s);
+    plyneed N;
+    int nel = 0;
+    if (el && parse_header(&L, el, &nel) == 0 && locate(&L, el, nel, &N) == 0 && check_counts(&L, el, nel) == 0 &&
+        (verts = rt_calloc(N.nvert, sizeof *verts, e)) && read_data(&L, el, nel, &N, verts, &tris) == 0)
+        s = build(path, verts, &tris, e);
     free(buf);
     free(el);
     free(verts);
     free(tris.v);
     return s;
-fail:
-    (void)rc;
-    rt_scene_free(s);
-    free(buf);
-    free(el);
-    free(verts);
-    free(tris.v);
-    return NULL;
 }

@@ -71,15 +71,17 @@
  * WRITER. Records are encoded as they arrive (through the rt_sink) into a
  * buffer of one chunk; a full buffer is deflated and written. Memory is one
  * chunk's raw and compressed buffers (~2 MiB at the default 64K records).
- * The file is written as PATH.tmp and renamed to PATH only by rt_tr_finish
- * after the footer is flushed and synced; rt_tr_abort unlinks PATH.tmp. So
- * a file at PATH is always complete.
+ * The file goes through outfile.c: a unique temporary beside PATH, renamed
+ * to PATH only by rt_tr_finish after the footer is flushed and synced;
+ * rt_tr_abort removes the temporary. So a file at PATH is always complete,
+ * and of two writers to one PATH the last to finish wins.
  *
  * READER. Reads sequentially through stdio, keeps one chunk in memory and
  * decodes records into the caller's buffer on demand; it hashes every byte
  * (FNV-1a 64) for provenance.
  */
 #include "trace.h"
+#include "outfile.h"
 
 #include <errno.h>
 #include <limits.h>
@@ -232,9 +234,9 @@ static int hg_str(hbuf *h, char *dst, size_t cap)
 
 struct rt_tr_writer {
     rt_sink sink;           /* handed to recorders; ctx = this */
-    FILE *f;                /* PATH.tmp */
-    char *path;             /* final path */
-    char *tmp;              /* PATH.tmp */
+    rt_out *of;             /* the output (a temporary until finished) */
+    FILE *f;                /* its stream */
+    char *path;             /* final path, for messages */
     uint32_t chunk_records; /* records per chunk */
     unsigned char *raw;     /* encoded records of the current chunk */
     size_t rawlen;          /* bytes in raw */
@@ -248,7 +250,6 @@ struct rt_tr_writer {
     rt_tr_totals tot;       /* totals so far */
     uint64_t written;       /* bytes written to the file */
     int failed;             /* a put failed; err holds why */
-    int created;            /* tmp exists (ours to unlink) */
     rt_err err;             /* first failure */
 };
 
@@ -261,7 +262,7 @@ void rt_tr_default_wopts(rt_tr_wopts *o)
 static int w_write(rt_tr_writer *w, const void *p, size_t n, rt_err *e)
 {
     if (fwrite(p, 1, n, w->f) != n)
-        return rt_errf(e, "%s: byte %llu: write failed: %s", w->tmp, (unsigned long long)w->written,
+        return rt_errf(e, "%s: byte %llu: write failed: %s", w->path, (unsigned long long)w->written,
                        strerror(errno ? errno : EIO));
     w->written += n;
     return 0;
@@ -270,16 +271,16 @@ static int w_write(rt_tr_writer *w, const void *p, size_t n, rt_err *e)
 static int w_flush_chunk(rt_tr_writer *w, rt_err *e)
 {
     if (w->nrec == 0) return 0;
-    if (w->tot.nchunks >= UINT32_MAX) return rt_errf(e, "%s: more than 2^32-1 chunks", w->tmp);
+    if (w->tot.nchunks >= UINT32_MAX) return rt_errf(e, "%s: more than 2^32-1 chunks", w->path);
     unsigned char *h = w->out;
     w->zs.next_in = w->raw;
     w->zs.avail_in = (uInt)w->rawlen;
     w->zs.next_out = w->out + CHUNK_HDR;
     w->zs.avail_out = (uInt)(w->outcap - CHUNK_HDR);
     int zr = deflate(&w->zs, Z_FINISH);
-    if (zr != Z_STREAM_END) return rt_errf(e, "%s: zlib deflate failed (%d)", w->tmp, zr);
+    if (zr != Z_STREAM_END) return rt_errf(e, "%s: zlib deflate failed (%d)", w->path, zr);
     size_t clen = w->outcap - CHUNK_HDR - w->zs.avail_out;
-    if (deflateReset(&w->zs) != Z_OK) return rt_errf(e, "%s: zlib deflateReset failed", w->tmp);
+    if (deflateReset(&w->zs) != Z_OK) return rt_errf(e, "%s: zlib deflateReset failed", w->path);
     memcpy(h, CHUNK_MAGIC, 4);
     put32(h + 4, (uint32_t)w->tot.nchunks);
     put32(h + 8, w->nrec);
@@ -315,7 +316,7 @@ static int w_put(rt_sink *s, const rt_access *a, size_t n)
         uint64_t addr = a[i].addr;
         uint32_t size = a[i].size;
         if (cls >= RT_NCLASS || size == 0) {
-            rt_errf(&w->err, "%s: record %llu: %s", w->tmp, (unsigned long long)w->tot.nrefs,
+            rt_errf(&w->err, "%s: record %llu: %s", w->path, (unsigned long long)w->tot.nrefs,
                     cls >= RT_NCLASS ? "class out of range" : "size 0");
             w->failed = 1;
             return -1;
@@ -413,12 +414,9 @@ rt_tr_writer *rt_tr_create_opts(const char *path, const rt_tr_meta *m, const rt_
     w->chunk_records = o->chunk_records;
     size_t plen = strlen(path);
     w->path = rt_calloc(plen + 1, 1, e);
-    w->tmp = w->path ? rt_calloc(plen + 5, 1, e) : NULL;
-    w->raw = w->tmp ? rt_calloc(o->chunk_records, MAX_REC_BYTES, e) : NULL;
+    w->raw = w->path ? rt_calloc(o->chunk_records, MAX_REC_BYTES, e) : NULL;
     if (!w->raw) goto fail;
     memcpy(w->path, path, plen + 1);
-    memcpy(w->tmp, path, plen);
-    memcpy(w->tmp + plen, ".tmp", 5);
     if (deflateInit(&w->zs, o->level) != Z_OK) {
         rt_errf(e, "%s: zlib deflateInit failed", path);
         goto fail;
@@ -426,11 +424,8 @@ rt_tr_writer *rt_tr_create_opts(const char *path, const rt_tr_meta *m, const rt_
     w->zinit = 1;
     w->outcap = CHUNK_HDR + deflateBound(&w->zs, (uLong)o->chunk_records * MAX_REC_BYTES);
     if (!(w->out = rt_calloc(w->outcap, 1, e))) goto fail;
-    if (!(w->f = fopen(w->tmp, "wb"))) {
-        rt_errf(e, "%s: %s", w->tmp, strerror(errno));
-        goto fail;
-    }
-    w->created = 1;
+    if (!(w->of = rt_out_open(path, e))) goto fail;
+    w->f = rt_out_stream(w->of);
     unsigned char pre[16];
     memcpy(pre, HDR_MAGIC, 8);
     put32(pre + 8, RT_TR_FORMAT_VERSION);
@@ -456,7 +451,6 @@ static void w_free(rt_tr_writer *w)
     free(w->raw);
     free(w->out);
     free(w->path);
-    free(w->tmp);
     free(w);
 }
 
@@ -481,22 +475,12 @@ int rt_tr_finish(rt_tr_writer *w, rt_err *e)
     }
     put32(f + FOOT_LEN - 4, crc(0, f, FOOT_LEN - 4));
     if (w_write(w, f, FOOT_LEN, e) < 0) goto fail;
-    if (fflush(w->f) != 0 || fsync(fileno(w->f)) != 0) {
-        rt_errf(e, "%s: flush failed: %s", w->tmp, strerror(errno));
-        goto fail;
-    }
-    FILE *fp = w->f;
+    rt_out *of = w->of;
+    w->of = NULL;
     w->f = NULL;
-    if (fclose(fp) != 0) {
-        rt_errf(e, "%s: close failed: %s", w->tmp, strerror(errno));
-        goto fail;
-    }
-    if (rename(w->tmp, w->path) != 0) {
-        rt_errf(e, "%s: cannot rename to %s: %s", w->tmp, w->path, strerror(errno));
-        goto fail;
-    }
+    int rc = rt_out_commit(of, e);
     w_free(w);
-    return 0;
+    return rc;
 fail:
     rt_tr_abort(w);
     return -1;
@@ -505,8 +489,7 @@ fail:
 void rt_tr_abort(rt_tr_writer *w)
 {
     if (!w) return;
-    if (w->f) fclose(w->f);
-    if (w->created) unlink(w->tmp);
+    rt_out_abort(w->of);
     w_free(w);
 }
 
