@@ -1,5 +1,6 @@
 /* test_core.c -- Hilbert order, EXR round trip, memory model, size parsing,
  * light lists: the small core pieces, each against a hand-checked answer. */
+#include "check.h"
 #include "hilbert.h"
 #include "image.h"
 #include "memmodel.h"
@@ -11,17 +12,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
-
-static int failures;
-#define CHECK(cond, ...)                                                   \
-    do {                                                                   \
-        if (!(cond)) {                                                     \
-            failures++;                                                    \
-            fprintf(stderr, "%s:%d: FAIL: ", __FILE__, __LINE__);         \
-            fprintf(stderr, __VA_ARGS__);                                  \
-            fputc('\n', stderr);                                           \
-        }                                                                  \
-    } while (0)
 
 static void test_hilbert(void)
 {
