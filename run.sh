@@ -7,16 +7,10 @@
 set -euo pipefail
 top="$(cd "$(dirname "$0")" && pwd)"
 cd "$top"
-"$top/scripts/deps.sh"
-[ -x configure ] || autoreconf -fi
 bdir="${RT_BUILD_DIR:-build}"
 out="${RT_OUT:-out}"
-mkdir -p "$bdir" "$out"
-( cd "$bdir"
-  if [ ! -f Makefile ] || [ "$top/configure" -nt config.status ]; then
-      "$top/configure" -q CFLAGS="${CFLAGS:--O2 -g}"
-  fi
-  make -j"$(nproc)" >/dev/null )
+"$top/scripts/build.sh" "$bdir"
+mkdir -p "$out"
 rt="$bdir/raytraffic"
 db="$out/raytraffic.db"
 # The paper's experiment at the quick preset's resolution (about 2 minutes

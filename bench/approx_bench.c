@@ -2,13 +2,9 @@
  * approx_bench.c -- speed and error of the sampled estimators against the
  * exact simulator (rt_approx_bench, see approx.h).
  *
- * Input: a synthetic trace in the style of cachesim/bench.c (a k-d tree
- * ray tracer with coherent rays: a 32-byte ray record read, an 18-level
- * walk down a breadth-first node array whose top levels change every few
- * thousand rays, two leaves of an index read and four 36-byte triangles in
- * a 500K-triangle array, a 16-byte hit write; 30 references per ray),
- * generated in chunks from a fixed seed so every pass sees the same
- * stream, or a .rtt / din file read in chunks. Only the time spent inside
+ * Input: the synthetic ray-tracer trace of synth.h (the one sim_bench.c
+ * replays), regenerated in chunks so every pass sees the same stream, or a
+ * .rtt / din file read in chunks. Only the time spent inside
  * the simulator (put and finish) is measured; generation and decompression
  * are excluded.
  *
@@ -19,70 +15,20 @@
  * (all classes, then the geometry and ray groups).
  */
 #include "bench.h"
+#include "synth.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
 #define CHUNK 65536
-#define NODE_BASE 0x10000000ULL
-#define INDEX_BASE 0x11000000ULL
-#define TRI_BASE 0x12000000ULL
-#define RAY_BASE 0x20000000ULL
-#define NTRI 500000u
-#define NRAY (1u << 20)
-#define DEPTH 18
-
-typedef struct gen {
-    uint64_t ray;  /* current ray */
-    int phase;     /* step within the current ray */
-    uint64_t node; /* current node (breadth-first, root 1) */
-    uint64_t leaf; /* current leaf's first triangle */
-} gen;
-
-static inline uint64_t mix(uint64_t x)
-{
-    x ^= x >> 33;
-    x *= 0xff51afd7ed558ccdULL;
-    x ^= x >> 33;
-    x *= 0xc4ceb9fe1a85ec53ULL;
-    return x ^ (x >> 33);
-}
-
-static void gen_fill(gen *g, rt_access *a, size_t n)
-{
-    for (size_t i = 0; i < n; i++) {
-        int p = g->phase++;
-        uint64_t ray = g->ray;
-        if (p == 0) {
-            a[i] = (rt_access){RAY_BASE + (ray % NRAY) * 32, 32, 0, RT_CLS_RAY};
-            g->node = 1;
-        } else if (p <= DEPTH) {
-            int sh = 14 - p > 0 ? 14 - p : 0;
-            uint64_t bit = mix(((ray >> sh) << 5) ^ (uint64_t)p) & 1;
-            g->node = g->node * 2 + bit;
-            a[i] = (rt_access){NODE_BASE + g->node * 8, 8, 0, RT_CLS_NODE};
-        } else if (p == DEPTH + 1 || p == DEPTH + 6) {
-            uint64_t leaf = g->node ^ (p == DEPTH + 6 ? 1 : 0);
-            g->leaf = mix(leaf) % (NTRI - 4);
-            a[i] = (rt_access){INDEX_BASE + (leaf & 0xfffff) * 16, 16, 0, RT_CLS_INDEX};
-        } else if (p <= DEPTH + 10) {
-            uint64_t t = g->leaf + (uint64_t)((p - DEPTH - 2) % 5);
-            a[i] = (rt_access){TRI_BASE + t * 36, 36, 0, RT_CLS_TRI};
-        } else {
-            a[i] = (rt_access){RAY_BASE + (ray % NRAY) * 32 + 16, 16, 1, RT_CLS_RAY};
-            g->phase = 0;
-            g->ray++;
-        }
-    }
-}
 
 /* A pass over the input: synthetic or a file. */
 typedef struct source {
     const char *path; /* NULL = synthetic */
     uint64_t nrefs;   /* synthetic length */
     uint64_t done;    /* synthetic references produced */
-    gen g;            /* synthetic state */
+    rt_synth g;       /* synthetic state */
     int fmt;          /* file format */
     rt_tr_reader *tr; /* .rtt reader */
     rt_din *din;      /* din reader */
@@ -93,7 +39,7 @@ static int src_open(source *s, const char *path, uint64_t nrefs, rt_err *e)
     memset(s, 0, sizeof *s);
     s->path = path;
     s->nrefs = nrefs;
-    s->g.node = 1;
+    rt_synth_init(&s->g);
     if (!path) return 0;
     s->fmt = rt_sim_sniff(path, e);
     if (s->fmt < 0) return -1;
@@ -106,7 +52,7 @@ static long src_read(source *s, rt_access *buf, size_t cap, rt_err *e)
 {
     if (!s->path) {
         size_t n = s->nrefs - s->done < cap ? (size_t)(s->nrefs - s->done) : cap;
-        gen_fill(&s->g, buf, n);
+        rt_synth_fill(&s->g, buf, n);
         s->done += n;
         return (long)n;
     }

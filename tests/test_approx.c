@@ -22,6 +22,7 @@
  *     O(log N) of R N lines in any run of N consecutive lines;
  *   - the benchmark runs on a short synthetic trace.
  */
+#include "check.h"
 #include "bench.h"
 #include "approx.h"
 #include "approx_int.h"
@@ -32,26 +33,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
-
-static int failures = 0;
-#define CHECK(cond, ...)                                                   \
-    do {                                                                   \
-        if (!(cond)) {                                                     \
-            fprintf(stderr, "FAIL %s:%d: ", __FILE__, __LINE__);          \
-            fprintf(stderr, __VA_ARGS__);                                  \
-            fputc('\n', stderr);                                           \
-            if (++failures > 20) exit(1);                                  \
-        }                                                                  \
-    } while (0)
-
-static uint64_t rng_state;
-static uint64_t rnd64(void)
-{
-    uint64_t z = (rng_state += 0x9E3779B97F4A7C15ULL);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
-    return z ^ (z >> 31);
-}
 
 /* Sizes 1K..max (powers of two), 64-byte lines, the paper's policy. */
 static void config(rt_sim_config *c, uint64_t max)
@@ -73,6 +54,24 @@ static void mixed_stream(rt_access *a, size_t n, uint64_t nlines)
         a[i].write = ((r >> 20) % 5) == 0;
         a[i].cls = (uint8_t)(line % 7 == 0 ? RT_CLS_RAY : line % 3 == 0 ? RT_CLS_TRI : RT_CLS_NODE);
     }
+}
+
+/* A mixed stream of n references over nlines lines from seed, and the exact
+ * simulator (sizes 1K..max in c) that has seen it. The caller frees both. */
+static rt_access *exact_run(rt_sim_config *c, uint64_t max, size_t n, uint64_t nlines, uint64_t seed, rt_sim **s)
+{
+    config(c, max);
+    rt_access *a = malloc(n * sizeof *a);
+    rnd_seed(seed);
+    mixed_stream(a, n, nlines);
+    rt_err e = {{0}};
+    *s = rt_sim_new(c, &e);
+    if (!a || !*s) {
+        fprintf(stderr, "exact_run: out of memory (%s)\n", e.msg);
+        exit(1);
+    }
+    rt_sim_put(*s, a, n);
+    return a;
 }
 
 static int counts_equal(const rt_sim_counts *x, const rt_sim_counts *y)
@@ -124,14 +123,10 @@ static void compare_exact_48(const char *what, const rt_access *a, size_t n, con
 static void test_rate1_exact(void)
 {
     rt_sim_config c;
-    config(&c, 64 * 1024);
     size_t n = 300000;
-    rt_access *a = malloc(n * sizeof *a);
-    rng_state = 42;
-    mixed_stream(a, n, 3000);
+    rt_sim *s;
+    rt_access *a = exact_run(&c, 64 * 1024, n, 3000, 42, &s);
     rt_err e = {{0}};
-    rt_sim *s = rt_sim_new(&c, &e);
-    rt_sim_put(s, a, n);
     rt_approx_config ac;
     rt_approx_config_default(&ac);
     ac.rate = 1;
@@ -181,14 +176,10 @@ static void test_rate1_exact(void)
 static void test_exact_below_and_replay(void)
 {
     rt_sim_config c;
-    config(&c, 256 * 1024);
     size_t n = 200000;
-    rt_access *a = malloc(n * sizeof *a);
-    rng_state = 7;
-    mixed_stream(a, n, 20000);
+    rt_sim *s;
+    rt_access *a = exact_run(&c, 256 * 1024, n, 20000, 7, &s);
     rt_err e = {{0}};
-    rt_sim *s = rt_sim_new(&c, &e);
-    rt_sim_put(s, a, n);
     rt_approx_config ac;
     rt_approx_config_default(&ac);
     ac.rate = 0.05;
@@ -291,7 +282,7 @@ static void test_known_curves(void)
     static const double rates[] = {0.05, 0.2, 1};
     for (int kind = 0; kind < 2; kind++) {
         uint64_t W = 20000; /* lines: 1.25 MB, between the 1M and 2M caches */
-        rng_state = 99;
+        rnd_seed(99);
         if (kind == 0) cyclic(a, n, W);
         else uniform(a, n, W);
         /* the exact curve is what the text book says */
@@ -360,7 +351,7 @@ static void test_hybrid_rate1(void)
     config(&c, 256 * 1024);
     size_t n = 300000;
     rt_access *a = malloc(n * sizeof *a);
-    rng_state = 77;
+    rnd_seed(77);
     mixed_stream(a, n, 5000);
     rt_err e = {{0}};
     rt_sim *s = rt_sim_new(&c, &e);
@@ -388,7 +379,7 @@ static void test_golden_simd(void)
     config(&c, 4 * 1024 * 1024);
     size_t n = 200003;
     rt_access *a = malloc(n * sizeof *a);
-    rng_state = 8;
+    rnd_seed(8);
     mixed_stream(a, n, 100000);
     for (size_t i = 0; i < n; i += 97) a[i].cls = 200;  /* counts as fb */
     for (size_t i = 5; i < n; i += 101) a[i].size = 0; /* counts as 1 byte */
@@ -473,7 +464,7 @@ static void test_windows_exact_seed(uint64_t seed, uint64_t *misses1k)
     const uint64_t off = ((seed - 1) * 0x9e3779b97f4a7c15ULL) % (P - M); /* window.c's placement */
     size_t n = 40 * P + 1000;
     rt_access *a = malloc(n * sizeof *a);
-    rng_state = 31;
+    rnd_seed(31);
     mixed_stream(a, n, 3000);
     rt_err e = {{0}};
     rt_sim *s = rt_sim_new(&c, &e);
@@ -567,7 +558,7 @@ static void test_determinism(void)
     config(&c, 1024 * 1024);
     size_t n = 400000;
     rt_access *a = malloc(n * sizeof *a);
-    rng_state = 5;
+    rnd_seed(5);
     mixed_stream(a, n, 40000);
     size_t ns = (size_t)c.nsizes * RT_NCLASS;
     rt_sim_counts *r1 = calloc(ns, sizeof *r1), *r2 = calloc(ns, sizeof *r2);
@@ -608,7 +599,7 @@ static void test_errors(void)
     config(&c, 4 * 1024 * 1024);
     size_t n = 20000;
     rt_access *a = malloc(n * sizeof *a);
-    rng_state = 11;
+    rnd_seed(11);
     mixed_stream(a, n, 5000);
     rt_err e = {{0}};
     rt_approx_config ac;
@@ -650,7 +641,7 @@ static void test_errors(void)
     ac.method = RT_APPROX_SHARDS_RATE;
     ac.rate = 0.01;
     rt_approx *x = rt_approx_new(&c, &ac, &e);
-    rng_state = 12;
+    rnd_seed(12);
     size_t n2 = 200000;
     rt_access *b = malloc(n2 * sizeof *b);
     mixed_stream(b, n2, 50000);

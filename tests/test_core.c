@@ -1,5 +1,11 @@
 /* test_core.c -- Hilbert order, EXR round trip, memory model, size parsing,
- * light lists: the small core pieces, each against a hand-checked answer. */
+ * light lists: the small core pieces, each against a hand-checked answer.
+ *
+ * `test_core --exr-pixel FILE X Y` prints pixel (X, Y) of an EXR as
+ * "R G B Z nodes tests" and `test_core --exr-sums FILE` the sums of the
+ * nodes and tests channels, for tests/render_cli.sh (the shell has no EXR
+ * reader). */
+#include "check.h"
 #include "hilbert.h"
 #include "image.h"
 #include "memmodel.h"
@@ -11,17 +17,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
-
-static int failures;
-#define CHECK(cond, ...)                                                   \
-    do {                                                                   \
-        if (!(cond)) {                                                     \
-            failures++;                                                    \
-            fprintf(stderr, "%s:%d: FAIL: ", __FILE__, __LINE__);         \
-            fprintf(stderr, __VA_ARGS__);                                  \
-            fputc('\n', stderr);                                           \
-        }                                                                  \
-    } while (0)
 
 static void test_hilbert(void)
 {
@@ -142,8 +137,41 @@ static void test_parsers(void)
     CHECK(fabs(rt_dtan(1.2) - 2.5721516221263188) < 1e-13, "dtan 1.2");
 }
 
-int main(void)
+/* The --exr-pixel and --exr-sums modes; exit 1 if the file does not read. */
+static int exr_query(int argc, char **argv)
 {
+    rt_err e = {""};
+    rt_image *im = rt_exr_read(argv[2], &e);
+    if (!im) return fprintf(stderr, "%s\n", e.msg), 1;
+    int rc = 0;
+    if (!strcmp(argv[1], "--exr-sums")) {
+        double nodes = 0, tests = 0;
+        for (size_t i = 0; i < (size_t)im->W * im->H; i++) {
+            nodes += im->nodes[i];
+            tests += im->tests[i];
+        }
+        printf("%.0f %.0f\n", nodes, tests);
+    } else if (argc == 5) {
+        int x = atoi(argv[3]), y = atoi(argv[4]);
+        if (x < 0 || y < 0 || x >= im->W || y >= im->H) {
+            fprintf(stderr, "pixel (%d, %d) outside %dx%d\n", x, y, im->W, im->H);
+            rc = 1;
+        } else {
+            size_t i = (size_t)y * im->W + x;
+            printf("%.9g %.9g %.9g %.9g %.9g %.9g\n", im->rgb[3 * i], im->rgb[3 * i + 1], im->rgb[3 * i + 2],
+                   im->depth[i], im->nodes[i], im->tests[i]);
+        }
+    } else {
+        fprintf(stderr, "usage: test_core --exr-pixel FILE X Y | --exr-sums FILE\n");
+        rc = 1;
+    }
+    rt_image_free(im);
+    return rc;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc > 2 && (!strcmp(argv[1], "--exr-pixel") || !strcmp(argv[1], "--exr-sums"))) return exr_query(argc, argv);
     test_hilbert();
     test_exr();
     test_memmodel();

@@ -3,6 +3,7 @@
  * a failed store, concurrent writers (fork), views, error messages, the
  * upgrade of a version-1 file, refusal of foreign files, merge checks.
  */
+#include "check.h"
 #include "rows.h"
 #include "memmodel.h"
 #include "sim.h"
@@ -14,17 +15,6 @@
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
-
-static int failures = 0;
-#define CHECK(cond, ...)                                          \
-    do {                                                          \
-        if (!(cond)) {                                            \
-            fprintf(stderr, "FAIL %s:%d: ", __FILE__, __LINE__); \
-            fprintf(stderr, __VA_ARGS__);                         \
-            fputc('\n', stderr);                                  \
-            failures++;                                           \
-        }                                                         \
-    } while (0)
 
 static long long count(rt_db *db, const char *sql)
 {

@@ -12,6 +12,7 @@
  * Exit 0 on success; failures are printed and exit 1.
  */
 #include "config.h"
+#include "check.h"
 #include "isect.h"
 #include "kdtrav.h"
 
@@ -20,35 +21,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-static int nfail;
-#define CHECK(c, ...)                                                         \
-    do {                                                                      \
-        if (!(c)) {                                                           \
-            fprintf(stderr, "%s:%d: FAIL %s: ", __FILE__, __LINE__, #c);      \
-            fprintf(stderr, __VA_ARGS__);                                     \
-            fputc('\n', stderr);                                              \
-            if (++nfail > 10) exit(1);                                        \
-        }                                                                     \
-    } while (0)
-
-static uint64_t rng = 0x243f6a8885a308d3ULL;
-static uint64_t next_u64(void)
-{
-    uint64_t z = (rng += 0x9e3779b97f4a7c15ULL);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-    return z ^ (z >> 31);
-}
-static double unif(void) { return (double)(next_u64() >> 11) * (1.0 / 9007199254740992.0); }
-static float uf(float a, float b) { return (float)(a + (b - a) * unif()); }
-static rt_vec3 rand_dir(void)
-{
-    for (;;) {
-        rt_vec3 v = rt_v3(uf(-1, 1), uf(-1, 1), uf(-1, 1));
-        float l = rt_dot(v, v);
-        if (l > 1e-4f && l <= 1.0f) return rt_mul(v, 1.0f / sqrtf(l));
-    }
-}
 
 /* A mesh as a plain triangle array plus its points of interest. */
 typedef struct mesh {
@@ -187,8 +159,8 @@ static void test_watertight(const char *name, const mesh *m, double scale, doubl
         rt_vec3 o = rt_add(m->centre, rt_mul(rand_dir(), (float)(0.5 * scale * unif())));
         rt_vec3 d;
         if (k & 1) {
-            d = rt_v3((next_u64() & 1) ? -0.0f : 0.0f, (next_u64() & 1) ? -0.0f : 0.0f, (next_u64() & 1) ? -0.0f : 0.0f);
-            rt_set_axis(&d, (int)(next_u64() % 3), (next_u64() & 1) ? -1.0f : 1.0f);
+            d = rt_v3((rnd64() & 1) ? -0.0f : 0.0f, (rnd64() & 1) ? -0.0f : 0.0f, (rnd64() & 1) ? -0.0f : 0.0f);
+            rt_set_axis(&d, (int)(rnd64() % 3), (rnd64() & 1) ? -1.0f : 1.0f);
         } else {
             d = rand_dir();
         }
@@ -357,6 +329,7 @@ static void test_offset(double scale, double shift)
 
 int main(void)
 {
+    rnd_seed(0x243f6a8885a308d3ULL);
     test_signed_zero();
     test_degenerate();
     test_grazing();
@@ -377,8 +350,8 @@ int main(void)
         mesh_free(&m);
         test_offset(sc[i].scale, sc[i].shift);
     }
-    if (nfail) {
-        fprintf(stderr, "%d failures\n", nfail);
+    if (failures) {
+        fprintf(stderr, "%d failures\n", failures);
         return 1;
     }
     printf("test_isect: ok\n");

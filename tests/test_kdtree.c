@@ -10,9 +10,12 @@
  * builds are byte-identical; recorded accesses agree with the counters;
  * subtree sizes agree with a direct count; subtree-restricted traversal
  * composed over a cut of the tree equals the full traversal.
- * Exit 0 on success; the first failure is printed and exits 1.
+ * The quick tier compares 20,000 rays per scene (3,000 on room); the long
+ * tier (RT_TEST_LONG=1) 100,000. An optional argument multiplies both.
+ * Exit 0 on success; failures are printed and exit 1.
  */
 #include "config.h"
+#include "check.h"
 #include "kdtrav.h"
 #include "kdtree.h"
 #include "memmodel.h"
@@ -23,35 +26,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-static int nfail;
-#define CHECK(c, ...)                                                         \
-    do {                                                                      \
-        if (!(c)) {                                                           \
-            fprintf(stderr, "%s:%d: FAIL %s: ", __FILE__, __LINE__, #c);      \
-            fprintf(stderr, __VA_ARGS__);                                     \
-            fputc('\n', stderr);                                              \
-            if (++nfail > 10) exit(1);                                        \
-        }                                                                     \
-    } while (0)
-
-static uint64_t rng = 0x9e3779b97f4a7c15ULL;
-static uint64_t next_u64(void)
-{
-    uint64_t z = (rng += 0x9e3779b97f4a7c15ULL);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-    return z ^ (z >> 31);
-}
-static double unif(void) { return (double)(next_u64() >> 11) * (1.0 / 9007199254740992.0); }
-static float uf(float a, float b) { return (float)(a + (b - a) * unif()); }
-static rt_vec3 rand_dir(void)
-{
-    for (;;) {
-        rt_vec3 v = rt_v3(uf(-1, 1), uf(-1, 1), uf(-1, 1));
-        float l = rt_dot(v, v);
-        if (l > 1e-4f && l <= 1.0f) return rt_mul(v, 1.0f / sqrtf(l));
-    }
-}
 
 static const float grey[3] = {0.5f, 0.5f, 0.5f};
 
@@ -79,25 +53,25 @@ static rt_scene *make_soup(uint32_t n)
     rt_scene *s = rt_scene_new(n, NULL);
     if (!s) exit(1);
     for (uint32_t i = 0; i < n; i++) {
-        int kind = (int)(next_u64() % 16);
+        int kind = (int)(rnd64() % 16);
         rt_vec3 c = rt_v3(uf(0, 1), uf(0, 1), uf(0, 1));
         float sz = kind == 0 ? 0.5f : (kind < 4 ? 0.002f : 0.05f);
         if (kind == 4 || kind == 5) {
             /* Axis-aligned flat triangle on a coarse grid: split planes
              * coincide with it and with neighbours. */
-            int ax = (int)(next_u64() % 3);
-            float g = (float)(next_u64() % 9) / 8.0f;
+            int ax = (int)(rnd64() % 3);
+            float g = (float)(rnd64() % 9) / 8.0f;
             rt_vec3 p[3];
             for (int k = 0; k < 3; k++) {
-                p[k] = rt_v3((float)(next_u64() % 9) / 8.0f, (float)(next_u64() % 9) / 8.0f,
-                             (float)(next_u64() % 9) / 8.0f);
+                p[k] = rt_v3((float)(rnd64() % 9) / 8.0f, (float)(rnd64() % 9) / 8.0f,
+                             (float)(rnd64() % 9) / 8.0f);
                 rt_set_axis(&p[k], ax, g);
             }
             add(s, p[0], p[1], p[2]);
         } else if (kind == 6) {
             /* Degenerate: repeated vertex or exactly collinear. */
             rt_vec3 a = c, b = rt_add(c, rt_v3(0.125f, 0.25f, 0.0625f));
-            if (next_u64() & 1) add(s, a, b, b);
+            if (rnd64() & 1) add(s, a, b, b);
             else add(s, a, b, rt_add(c, rt_v3(0.25f, 0.5f, 0.125f)));
         } else {
             add(s, rt_add(c, rt_mul(rand_dir(), sz)), rt_add(c, rt_mul(rand_dir(), sz)),
@@ -194,9 +168,9 @@ static void gen_ray(const rt_scene *s, const cam *c, rt_ray *r, int k)
         o = c->eye;
         d = rt_add(c->dir, rt_add(rt_mul(c->right, uf(-1, 1)), rt_mul(c->up, uf(-1, 1))));
     } else if (k == 6) {
-        int ax = (int)(next_u64() % 3);
-        d = rt_v3((next_u64() & 1) ? -0.0f : 0.0f, (next_u64() & 1) ? -0.0f : 0.0f, (next_u64() & 1) ? -0.0f : 0.0f);
-        rt_set_axis(&d, ax, (next_u64() & 1) ? -1.0f : 1.0f);
+        int ax = (int)(rnd64() % 3);
+        d = rt_v3((rnd64() & 1) ? -0.0f : 0.0f, (rnd64() & 1) ? -0.0f : 0.0f, (rnd64() & 1) ? -0.0f : 0.0f);
+        rt_set_axis(&d, ax, (rnd64() & 1) ? -1.0f : 1.0f);
     } else {
         d = rand_dir();
     }
@@ -465,29 +439,34 @@ static void test_small_cases(void)
 
 int main(int argc, char **argv)
 {
+    rnd_seed(0x9e3779b97f4a7c15ULL);
     long scale = argc > 1 ? atol(argv[1]) : 1; /* ray-count multiplier */
+    /* The quick tier compares fewer rays (brute force on room's 46,588
+     * triangles is most of the time); the long tier runs 100,000 per scene. */
+    int full = check_long();
+    long rays = full ? 100000 : 20000;
     test_small_cases();
 
     rt_scene *s = make_soup(300);
-    run_scene("soup-300", s, 100000 * scale, 5000, 1);
+    run_scene("soup-300", s, rays * scale, 5000, 1);
     rt_scene_free(s);
     s = make_soup(2000);
-    run_scene("soup-2000", s, 100000 * scale, 5000, 0);
+    run_scene("soup-2000", s, rays * scale, 5000, 0);
     rt_scene_free(s);
     s = make_sphere(8);
-    run_scene("sphere-r8", s, 100000 * scale, 5000, 1);
+    run_scene("sphere-r8", s, rays * scale, 5000, 1);
     rt_scene_free(s);
 
-    /* Built-in scenes at reduced size. */
+    /* Built-in scenes at reduced size; rays in the long and quick tiers. */
     static const struct {
         const char *name, *params;
-        long rays;
+        long rays, quick;
     } bi[] = {
-        {"cornell", NULL, 100000},
-        {"knot", NULL, 100000},
-        {"sphereflake", "level=2,tess=2", 100000},
-        {"grove", "trees=1,depth=4,tess=2", 100000},
-        {"room", NULL, 100000},
+        {"cornell", NULL, 100000, 100000},
+        {"knot", NULL, 100000, 20000},
+        {"sphereflake", "level=2,tess=2", 100000, 20000},
+        {"grove", "trees=1,depth=4,tess=2", 100000, 20000},
+        {"room", NULL, 100000, 3000},
     };
     for (size_t i = 0; i < sizeof bi / sizeof bi[0]; i++) {
         rt_err e = {{0}};
@@ -496,12 +475,9 @@ int main(int argc, char **argv)
         if (!s) continue;
         char label[64];
         snprintf(label, sizeof label, "%s%s%s", bi[i].name, bi[i].params ? ":" : "", bi[i].params ? bi[i].params : "");
-        run_scene(label, s, bi[i].rays * scale, 3000, s->ntri < 5000);
+        run_scene(label, s, (full ? bi[i].rays : bi[i].quick) * scale, 3000, s->ntri < 5000);
         rt_scene_free(s);
     }
-    if (nfail) {
-        fprintf(stderr, "%d failures\n", nfail);
-        return 1;
-    }
-    return 0;
+    if (failures) fprintf(stderr, "%d failures\n", failures);
+    return failures ? 1 : 0;
 }

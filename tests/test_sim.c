@@ -8,6 +8,7 @@
  * write-backs, write-through bytes, traffic) with the one-pass simulator,
  * whose invariant checker also runs every few thousand references.
  */
+#include "check.h"
 #include "bench.h"
 #include "msim.h"
 #include "setassoc.h"
@@ -17,17 +18,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
-
-static int failures = 0;
-#define CHECK(cond, ...)                                                   \
-    do {                                                                   \
-        if (!(cond)) {                                                     \
-            fprintf(stderr, "FAIL %s:%d: ", __FILE__, __LINE__);          \
-            fprintf(stderr, __VA_ARGS__);                                  \
-            fputc('\n', stderr);                                           \
-            if (++failures > 20) exit(1);                                  \
-        }                                                                  \
-    } while (0)
 
 /* ---- naive reference: one cache, sets of recency-ordered arrays -------- */
 

@@ -1,9 +1,12 @@
 /* test_trace.c -- the .rtt trace format: exact round trips of random record
  * streams, rejection of every truncation and of corrupted bytes, version and
- * magic checks, interrupted writes, determinism, out-of-memory paths.
+ * magic checks, interrupted writes, determinism, out-of-memory paths. The
+ * quick tier cuts a 500-record file at every byte and skips the 300,000-
+ * record round trips; the long tier (RT_TEST_LONG=1) uses 3,000 and runs them.
  *
  * `test_trace --synthetic PATH` writes the small deterministic trace that
  * tests/trace_cli.sh dumps and compares against tests/golden/. */
+#include "check.h"
 #include "memmodel.h"
 #include "rt.h"
 #include "trace.h"
@@ -16,36 +19,6 @@
 #include <unistd.h>
 #include <zlib.h>
 
-static int failures;
-#define CHECK(cond, ...)                                                   \
-    do {                                                                   \
-        if (!(cond)) {                                                     \
-            failures++;                                                    \
-            fprintf(stderr, "%s:%d: FAIL: ", __FILE__, __LINE__);         \
-            fprintf(stderr, __VA_ARGS__);                                  \
-            fputc('\n', stderr);                                           \
-        }                                                                  \
-    } while (0)
-
-static uint64_t rng_state = 0x9e3779b97f4a7c15ULL;
-static uint64_t rnd(void) /* splitmix64 */
-{
-    uint64_t z = (rng_state += 0x9e3779b97f4a7c15ULL);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-    return z ^ (z >> 31);
-}
-
-static char dir[64];
-static char *tpath(const char *name)
-{
-    static char buf[8][256];
-    static int k;
-    char *p = buf[k++ & 7];
-    snprintf(p, 256, "%s/%s", dir, name);
-    return p;
-}
-
 static int exists(const char *p)
 {
     struct stat st;
@@ -55,7 +28,7 @@ static int exists(const char *p)
 /* The writer's temporary for int.rtt (".int.rtt.XXXXXX", see outfile.c). */
 static int tmp_exists(void)
 {
-    DIR *d = opendir(dir);
+    DIR *d = opendir(check_dir);
     struct dirent *de;
     int found = 0;
     while (d && (de = readdir(d))) found |= !strncmp(de->d_name, ".int.rtt.", 9);
@@ -114,39 +87,39 @@ static rt_access *random_stream(size_t n)
     static const uint32_t sizes[] = {1, 4, 8, 32, 36, 0x7fffffff, 0x80000000u, UINT32_MAX};
     size_t i = 0;
     while (i < n) {
-        int kind = (int)(rnd() % 6);
-        size_t run = 1 + (size_t)(rnd() % 200);
-        uint8_t cls = (uint8_t)(rnd() % RT_NCLASS);
-        uint32_t size = sizes[rnd() % 8];
-        uint64_t addr = rnd();
+        int kind = (int)(rnd64() % 6);
+        size_t run = 1 + (size_t)(rnd64() % 200);
+        uint8_t cls = (uint8_t)(rnd64() % RT_NCLASS);
+        uint32_t size = sizes[rnd64() % 8];
+        uint64_t addr = rnd64();
         for (size_t k = 0; k < run && i < n; k++, i++) {
             rt_access *x = &a[i];
-            x->write = (uint8_t)(rnd() & 1);
+            x->write = (uint8_t)(rnd64() & 1);
             switch (kind) {
             case 0: /* sequential run, same class and size */
                 x->cls = cls; x->size = size; x->addr = addr; addr += size;
                 break;
             case 1: /* extremes */
-                x->cls = (uint8_t)(rnd() % RT_NCLASS);
-                x->addr = extremes[rnd() % 7];
-                x->size = sizes[rnd() % 8];
+                x->cls = (uint8_t)(rnd64() % RT_NCLASS);
+                x->addr = extremes[rnd64() % 7];
+                x->size = sizes[rnd64() % 8];
                 break;
             case 2: /* fully random */
-                x->cls = (uint8_t)(rnd() % RT_NCLASS);
-                x->addr = rnd();
-                x->size = (uint32_t)(1 + rnd() % UINT32_MAX);
+                x->cls = (uint8_t)(rnd64() % RT_NCLASS);
+                x->addr = rnd64();
+                x->size = (uint32_t)(1 + rnd64() % UINT32_MAX);
                 break;
             case 3: /* repeated address */
                 x->cls = cls; x->addr = addr; x->size = size;
                 break;
             case 4: /* small deltas both ways, interleaved classes */
-                x->cls = (uint8_t)(rnd() % 3);
-                addr += (uint64_t)((int64_t)(rnd() % 4001) - 2000);
-                x->addr = addr; x->size = (uint32_t)(4 << (rnd() % 4));
+                x->cls = (uint8_t)(rnd64() % 3);
+                addr += (uint64_t)((int64_t)(rnd64() % 4001) - 2000);
+                x->addr = addr; x->size = (uint32_t)(4 << (rnd64() % 4));
                 break;
             default: /* tree-like: 8-byte nodes in a region */
                 x->cls = RT_CLS_NODE; x->size = 8;
-                x->addr = RT_MM_BASE + 8 * (rnd() % 100000);
+                x->addr = RT_MM_BASE + 8 * (rnd64() % 100000);
                 break;
             }
         }
@@ -163,7 +136,7 @@ static int write_trace(const char *path, const rt_tr_meta *m, const rt_access *a
     rt_sink *s = rt_tr_sink(w);
     size_t i = 0;
     while (i < n) { /* batches of varying size, as a recorder would */
-        size_t k = 1 + (size_t)(rnd() % 5000);
+        size_t k = 1 + (size_t)(rnd64() % 5000);
         if (k > n - i) k = n - i;
         if (s->put(s, a + i, k) < 0) {
             rt_errf(e, "%s", rt_tr_writer_error(w));
@@ -210,17 +183,19 @@ static void test_round_trip(void)
     fill_meta(mm);
     static const size_t ns[] = {0, 1, 2, 1000, 65535, 65536, 65537, 300000};
     static const uint32_t chunks[] = {1, 7, 1000, 65536};
-    for (size_t t = 0; t < sizeof ns / sizeof ns[0]; t++) {
+    /* the chunk-boundary sizes stay in the quick tier; 300,000 is long only */
+    size_t nns = sizeof ns / sizeof ns[0] - (check_long() ? 0 : 1);
+    for (size_t t = 0; t < nns; t++) {
         size_t n = ns[t];
         rt_access *a = random_stream(n);
         for (size_t c = 0; c < 4; c++) {
             if (chunks[c] == 1 && n > 70000) continue;
             rt_err e = {""};
-            const char *p = tpath("rt.rtt");
+            const char *p = check_path("rt.rtt");
             int level = (int)(c * 3); /* 0, 3, 6, 9 */
             int rc = write_trace(p, mm, a, n, level, chunks[c], &e);
             CHECK(rc == 0, "write n=%zu chunk=%u: %s", n, chunks[c], e.msg);
-            CHECK(!exists(tpath("rt.rtt.tmp")), "tmp left behind");
+            CHECK(!exists(check_path("rt.rtt.tmp")), "tmp left behind");
             size_t caps[] = {1, 3, 4096, 100000};
             for (size_t q = 0; q < 4; q++) {
                 if (caps[q] < 4096 && n > 70000) continue;
@@ -260,8 +235,8 @@ static void test_round_trip(void)
     rt_err e = {""};
     rt_tr_totals tot;
     int mis = 0;
-    CHECK(write_trace(tpath("tot.rtt"), mm, a, n, 6, 4096, &e) == 0, "%s", e.msg);
-    CHECK(read_all(tpath("tot.rtt"), 4096, a, n, &mis, &e, &tot) == (long)n, "%s", e.msg);
+    CHECK(write_trace(check_path("tot.rtt"), mm, a, n, 6, 4096, &e) == 0, "%s", e.msg);
+    CHECK(read_all(check_path("tot.rtt"), 4096, a, n, &mis, &e, &tot) == (long)n, "%s", e.msg);
     for (int c = 0; c < RT_NCLASS; c++)
         CHECK(tot.refs[c] == want.refs[c] && tot.bytes[c] == want.bytes[c] && tot.writes[c] == want.writes[c],
               "totals of class %d", c);
@@ -283,6 +258,7 @@ static unsigned char *slurp(const char *p, size_t *n)
 
 static void spit(const char *p, const unsigned char *b, size_t n)
 {
+    unlink(p); /* a new file: rewriting a truncated one makes ext4 flush it */
     FILE *f = fopen(p, "wb");
     if (n) fwrite(b, 1, n, f);
     fclose(f);
@@ -307,10 +283,10 @@ static void test_corruption(void)
 {
     rt_tr_meta m;
     fill_meta(&m);
-    size_t n = 3000;
+    size_t n = check_long() ? 3000 : 500; /* every truncation: one file per byte */
     rt_access *a = random_stream(n);
     rt_err e = {""};
-    const char *good = tpath("good.rtt"), *bad = tpath("bad.rtt");
+    const char *good = check_path("good.rtt"), *bad = check_path("bad.rtt");
     CHECK(write_trace(good, &m, a, n, 6, 700, &e) == 0, "%s", e.msg);
     free(a);
     size_t len;
@@ -336,7 +312,7 @@ static void test_corruption(void)
     for (size_t bit = 0; bit < 8 * (size_t)len; bit++) {
         size_t byte = bit / 8;
         int in_hdr = byte < hlen, in_foot = byte >= len - footlen;
-        if (!in_hdr && !in_foot && rnd() % 64) continue; /* ~1 in 64 chunk bits: several hundred */
+        if (!in_hdr && !in_foot && rnd64() % 64) continue; /* ~1 in 64 chunk bits: several hundred */
         b[byte] ^= (unsigned char)(1u << (bit % 8));
         spit(bad, b, len);
         b[byte] ^= (unsigned char)(1u << (bit % 8));
@@ -380,7 +356,7 @@ static void test_corruption(void)
     spit(bad, b, 0);
     CHECK(rejected(bad, NULL, 0), "empty file accepted");
     rt_err e2 = {""};
-    CHECK(!rt_tr_open(tpath("no-such.rtt"), &e2) && strstr(e2.msg, "no-such.rtt"), "missing file: %s", e2.msg);
+    CHECK(!rt_tr_open(check_path("no-such.rtt"), &e2) && strstr(e2.msg, "no-such.rtt"), "missing file: %s", e2.msg);
     free(b);
 }
 
@@ -389,7 +365,7 @@ static void test_interrupted(void)
     rt_tr_meta m;
     fill_meta(&m);
     rt_err e = {""};
-    const char *p = tpath("int.rtt");
+    const char *p = check_path("int.rtt");
     size_t n = 100000;
     rt_access *a = random_stream(n);
     rt_tr_writer *w = rt_tr_create(p, &m, &e);
@@ -441,15 +417,15 @@ static void test_deterministic(void)
     size_t n = 200000;
     rt_access *a = random_stream(n);
     rt_err e = {""};
-    rng_state = 42; /* same batch sizes too */
-    CHECK(write_trace(tpath("d1.rtt"), &m, a, n, 6, 65536, &e) == 0, "%s", e.msg);
-    rng_state = 4242; /* different batching must not matter */
-    CHECK(write_trace(tpath("d2.rtt"), &m, a, n, 6, 65536, &e) == 0, "%s", e.msg);
+    rnd_seed(42); /* same batch sizes too */
+    CHECK(write_trace(check_path("d1.rtt"), &m, a, n, 6, 65536, &e) == 0, "%s", e.msg);
+    rnd_seed(4242); /* different batching must not matter */
+    CHECK(write_trace(check_path("d2.rtt"), &m, a, n, 6, 65536, &e) == 0, "%s", e.msg);
     size_t l1, l2;
-    unsigned char *b1 = slurp(tpath("d1.rtt"), &l1), *b2 = slurp(tpath("d2.rtt"), &l2);
+    unsigned char *b1 = slurp(check_path("d1.rtt"), &l1), *b2 = slurp(check_path("d2.rtt"), &l2);
     CHECK(b1 && b2 && l1 == l2 && !memcmp(b1, b2, l1), "same input gives different files");
     /* the file hash is FNV-1a of the bytes */
-    rt_tr_reader *r = rt_tr_open(tpath("d1.rtt"), &e);
+    rt_tr_reader *r = rt_tr_open(check_path("d1.rtt"), &e);
     rt_access buf[4096];
     while (rt_tr_read(r, buf, 4096, &e) > 0) {}
     CHECK(rt_tr_file_hash(r) == rt_fnv1a(RT_FNV_INIT, b1, l1), "file hash");
@@ -467,14 +443,14 @@ static void test_oom(void)
     rt_access a[100];
     for (int i = 0; i < 100; i++) a[i] = (rt_access){RT_MM_BASE + 8u * (unsigned)i, 8, 0, RT_CLS_NODE};
     rt_err e = {""};
-    const char *p = tpath("oom.rtt");
+    const char *p = check_path("oom.rtt");
     CHECK(write_trace(p, &m, a, 100, 6, 65536, &e) == 0, "%s", e.msg);
     for (long k = 1; k < 12; k++) {
         rt_fail_alloc_after = k;
-        rt_tr_writer *w = rt_tr_create(tpath("oom2.rtt"), &m, &e);
+        rt_tr_writer *w = rt_tr_create(check_path("oom2.rtt"), &m, &e);
         rt_fail_alloc_after = 0;
         if (w) rt_tr_abort(w);
-        CHECK(!exists(tpath("oom2.rtt.tmp")), "tmp after failed create");
+        CHECK(!exists(check_path("oom2.rtt.tmp")), "tmp after failed create");
         rt_fail_alloc_after = k;
         rt_tr_reader *r = rt_tr_open(p, &e);
         rt_fail_alloc_after = 0;
@@ -509,17 +485,14 @@ static int synthetic(const char *path)
 int main(int argc, char **argv)
 {
     if (argc == 3 && !strcmp(argv[1], "--synthetic")) return synthetic(argv[2]);
-    snprintf(dir, sizeof dir, "/tmp/rt_test_trace_XXXXXX");
-    if (!mkdtemp(dir)) return perror("mkdtemp"), 1;
+    if (!check_tmpdir("test_trace")) return perror("mkdtemp"), 1;
     double t0 = rt_now();
     test_round_trip();
     test_corruption();
     test_interrupted();
     test_deterministic();
     test_oom();
-    char cmd[128];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
-    if (system(cmd) != 0) fprintf(stderr, "could not remove %s\n", dir);
+    check_rmdir();
     fprintf(stderr, "test_trace: %d failures (%.1f s)\n", failures, rt_now() - t0);
     return failures ? 1 : 0;
 }

@@ -4,6 +4,7 @@
  * of every generation is resolved exactly once; with the root as the only
  * queue point the dynamic tracer reads exactly the geometry the recursive
  * tracer reads, in the same order. */
+#include "check.h"
 #include "dynamic.h"
 #include "run.h"
 
@@ -11,17 +12,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-static int failures;
-#define CHECK(cond, ...)                                                   \
-    do {                                                                   \
-        if (!(cond)) {                                                     \
-            failures++;                                                    \
-            fprintf(stderr, "%s:%d: FAIL: ", __FILE__, __LINE__);         \
-            fprintf(stderr, __VA_ARGS__);                                  \
-            fputc('\n', stderr);                                           \
-        }                                                                  \
-    } while (0)
 
 static rt_image *render(rt_scene *sc, rt_kdtree *kd, const char *tracer, rt_render_opts *o, rt_sink *sink,
                         rt_run_stats *st)

@@ -1,0 +1,185 @@
+#!/bin/sh
+# `raytraffic render`, `scene info` and `bench` end to end.
+#
+# render: cornell at 16x16 to EXR, PNG and PPM. Pixels that look straight
+# at a diffuse wall are computed here independently (camera ray of the
+# pixel, albedo * (ambient + cos * light_power) with lights none, plus
+# n.l * light_power for a light that sees the point) and compared with the
+# EXR's R, G, B and Z; the PPM is the EXR's colour through gamma 2.2; the
+# PNG decodes (perl, zlib) to the PPM's bytes; a background pixel of knot
+# is its background colour at infinite depth; the nodes and tests channels
+# sum to the --json counters; the packet and dynamic tracers give the
+# recursive tracer's image. scene info: triangle counts and bounds of the
+# built-ins. bench: its smallest settings print every table and exit 0.
+set -u
+bin=${RT_BIN:-./raytraffic}
+build=${RT_BUILDDIR:-.}
+exr="$build/tests/test_core" # --exr-pixel / --exr-sums: the shell reads no EXR
+tmp=$(mktemp -d /tmp/rt_render_cli.XXXXXX) || exit 1
+trap 'rm -rf "$tmp"' EXIT
+fail=0
+err() { echo "FAIL: $*"; fail=1; }
+[ -x "$bin" ] || { echo "FAIL: $bin is not an executable"; exit 1; }
+[ -x "$exr" ] || { echo "FAIL: $exr is not built"; exit 1; }
+
+# near GOT WANT: |GOT - WANT| <= 1e-5 * max(1, |WANT|) ("inf" equals only "inf")
+near() {
+    awk -v g="$1" -v w="$2" 'BEGIN {
+        if (g == "inf" || w == "inf") exit !(g == w)
+        d = g - w; if (d < 0) d = -d; a = w < 0 ? -w : w; exit !(d <= 1e-5 * (a > 1 ? a : 1)) }'
+}
+
+# wall X Y AXIS PLANE ALB_R ALB_G ALB_B [LIGHT_X LIGHT_Y LIGHT_Z]
+# Prints "R G B Z" of cornell's 16x16 pixel (X, Y) that looks at the wall
+# AXIS = PLANE (axis 0 = x, 1 = y): the camera at (0.5, -1.35, 0.5) looks
+# along +y with +z up and fovy 40, so the ray is (sx h, 1, sy h) with
+# h = tan(20 deg), sx = 2 (X + 0.5) / 16 - 1, sy = 1 - 2 (Y + 0.5) / 16.
+wall() {
+    awk -v X="$1" -v Y="$2" -v axis="$3" -v plane="$4" -v r="$5" -v g="$6" -v b="$7" \
+        -v lx="${8:-}" -v ly="${9:-}" -v lz="${10:-}" 'BEGIN {
+        pi = atan2(0, -1); h = sin(20 * pi / 180) / cos(20 * pi / 180)
+        sx = 2 * (X + 0.5) / 16 - 1; sy = 1 - 2 * (Y + 0.5) / 16
+        ex = 0.5; ey = -1.35; ez = 0.5; dx = sx * h; dy = 1; dz = sy * h
+        len = sqrt(dx * dx + dy * dy + dz * dz)
+        t = axis == 0 ? (plane - ex) / dx : (plane - ey) / dy
+        c = (axis == 0 ? dx : dy) / len; if (c < 0) c = -c
+        ambient = 0.12; power = 0.45
+        if (lx == "") k = ambient + c * power
+        else { # one light that sees the point: n.l with n facing the eye
+            px = ex + t * dx; py = ey + t * dy; pz = ez + t * dz
+            Lx = lx - px; Ly = ly - py; Lz = lz - pz
+            ndl = (axis == 0 ? Lx * (dx < 0 ? 1 : -1) : Ly * (dy < 0 ? 1 : -1)) / sqrt(Lx * Lx + Ly * Ly + Lz * Lz)
+            k = ambient + (ndl > 0 ? ndl * power : 0)
+        }
+        printf "%.9g %.9g %.9g %.9g\n", r * k, g * k, b * k, t * len }'
+}
+
+# expect_px FILE X Y "R G B Z" what
+expect_px() {
+    got=$("$exr" --exr-pixel "$1" "$2" "$3") || { err "$5: cannot read pixel ($2, $3) of $1"; return; }
+    set -- "$got" "$4" "$5"
+    i=1
+    for w in $2; do
+        g=$(echo "$1" | cut -d' ' -f$i)
+        near "$g" "$w" || err "$3: channel $i is $g, want $w (pixel: $1)"
+        i=$((i + 1))
+    done
+}
+
+# --- render cornell 16x16, lights none ---------------------------------------
+"$bin" render cornell -W 16 -H 16 -o "$tmp/c.exr" --png "$tmp/c.png" --ppm "$tmp/c.ppm" --json \
+    > "$tmp/c.json" 2> "$tmp/c.err" || err "render cornell exited $?: $(cat "$tmp/c.err")"
+for f in '"width": 16, "height": 16, "lights": 0, "triangles": 36, "rays_primary": 256, "rays_shadow": 0'; do
+    grep -q "$f" "$tmp/c.json" || err "render --json lacks $f: $(cat "$tmp/c.json")"
+done
+# the centre pixel sees the grey back wall (y = 1), pixel (0, 7) the red left wall (x = 0)
+expect_px "$tmp/c.exr" 8 8 "$(wall 8 8 1 1 0.73 0.73 0.73)" "cornell back wall"
+expect_px "$tmp/c.exr" 0 7 "$(wall 0 7 0 0 0.63 0.065 0.05)" "cornell red wall"
+# every pixel's k-d nodes and triangle tests add up to the run's counters
+nodes=$(sed -n 's/.*"nodes": \([0-9]*\),.*/\1/p' "$tmp/c.json")
+tests=$(sed -n 's/.*"tests": \([0-9]*\),.*/\1/p' "$tmp/c.json")
+[ -n "$nodes" ] && [ "$("$exr" --exr-sums "$tmp/c.exr")" = "$nodes $tests" ] \
+    || err "EXR nodes/tests sums $("$exr" --exr-sums "$tmp/c.exr") differ from --json $nodes $tests"
+
+# --- PPM = EXR through gamma 2.2; PNG decodes to the PPM's bytes -------------
+[ "$(head -c 13 "$tmp/c.ppm" | tr '\n' ' ')" = "P6 16 16 255 " ] || err "PPM header"
+[ "$(wc -c < "$tmp/c.ppm")" -eq $((13 + 16 * 16 * 3)) ] || err "PPM size"
+for p in "8 8" "0 7" "15 15" "3 12"; do
+    set -- $p
+    want=$("$exr" --exr-pixel "$tmp/c.exr" "$1" "$2" | awk '{
+        for (i = 1; i <= 3; i++) { v = $i; b = v <= 0 ? 0 : v >= 1 ? 255 : int(255 * exp(log(v) / 2.2) + 0.5); printf "%d ", b } }')
+    got=$(od -An -tu1 -j $((13 + 3 * ($2 * 16 + $1))) -N 3 "$tmp/c.ppm" | awk '{ printf "%d %d %d ", $1, $2, $3 }')
+    [ "$got" = "$want" ] || err "PPM pixel ($1, $2) is $got, want $want"
+done
+if perl -MCompress::Zlib -e 1 2>/dev/null; then
+    perl -MCompress::Zlib -e '
+        local $/; open my $f, "<:raw", $ARGV[0] or die "png: $!\n"; my $png = <$f>;
+        open my $g, "<:raw", $ARGV[1] or die "ppm: $!\n"; my $ppm = <$g>;
+        substr($png, 0, 8) eq "\x89PNG\r\n\x1a\n" or die "png signature\n";
+        my ($pos, $idat, $ihdr) = (8, "", undef);
+        while ($pos < length $png) {
+            my ($n, $type) = unpack("N a4", substr($png, $pos, 8));
+            my $data = substr($png, $pos + 8, $n);
+            unpack("N", substr($png, $pos + 8 + $n, 4)) == crc32($type . $data) or die "png: $type CRC\n";
+            $ihdr = $data if $type eq "IHDR";
+            $idat .= $data if $type eq "IDAT";
+            $pos += 12 + $n;
+        }
+        my ($w, $h, $depth, $ctype) = unpack("N N C C", $ihdr);
+        "$w $h $depth $ctype" eq "16 16 8 2" or die "png IHDR $w $h $depth $ctype\n";
+        my $raw = uncompress($idat); defined $raw or die "png: IDAT does not inflate\n";
+        my $rgb = "";
+        for my $y (0 .. $h - 1) {
+            my $row = substr($raw, $y * (3 * $w + 1), 3 * $w + 1);
+            substr($row, 0, 1) eq "\0" or die "png: row $y filter is not 0\n";
+            $rgb .= substr($row, 1);
+        }
+        $rgb eq substr($ppm, 13) or die "png pixels differ from the ppm\n";
+    ' "$tmp/c.png" "$tmp/c.ppm" 2> "$tmp/png.err" || err "PNG: $(cat "$tmp/png.err")"
+else
+    echo "SKIP: PNG decode (perl's Compress::Zlib is missing)"
+fi
+
+# --- the other tracers render the same image; one light ----------------------
+for t in packet dynamic; do
+    "$bin" render cornell -t $t -W 16 -H 16 -o "$tmp/$t.exr" --ppm "$tmp/$t.ppm" 2>/dev/null || err "render -t $t"
+    cmp -s "$tmp/c.ppm" "$tmp/$t.ppm" || err "-t $t renders a different image from -t recursive"
+done
+# light 1, under the ceiling lamp, sees the centre of the back wall
+"$bin" render cornell -W 16 -H 16 --lights 1 -o "$tmp/l1.exr" --json > "$tmp/l1.json" 2>/dev/null \
+    || err "render --lights 1"
+grep -q '"rays_shadow": [1-9]' "$tmp/l1.json" || err "--lights 1 traced no shadow rays: $(cat "$tmp/l1.json")"
+expect_px "$tmp/l1.exr" 8 8 "$(wall 8 8 1 1 0.73 0.73 0.73 0.5 0.5 0.95)" "cornell back wall, light 1"
+
+# --- background: knot's corner pixel misses everything -----------------------
+"$bin" render knot -W 16 -H 16 -o "$tmp/k.exr" 2>/dev/null || err "render knot"
+expect_px "$tmp/k.exr" 0 0 "0.1 0.1 0.12 inf" "knot background"
+"$exr" --exr-pixel "$tmp/k.exr" 0 0 | grep -q ' inf 0 0$' || err "a background pixel visits k-d nodes"
+
+# --- usage and failure exits ---------------------------------------------------
+"$bin" render cornell > /dev/null 2>&1; [ $? -eq 2 ] || err "render without -o should exit 2"
+"$bin" render no-such-scene -o "$tmp/x.exr" > /dev/null 2>&1; [ $? -eq 1 ] || err "render of a bad scene should exit 1"
+[ ! -e "$tmp/x.exr" ] || err "a failed render left its EXR"
+
+# --- scene info: counts and bounds of the built-ins -----------------------------
+# sphereflake: 7381 spheres (level 4) of 108 triangles and a 2-triangle floor;
+# cornell is the unit box
+info() { "$bin" scene info "$1" --no-tree 2>&1 || echo "exit $?"; }
+check_info() { # SCENE TRIANGLES BOUNDS
+    out=$(info "$1")
+    echo "$out" | grep -q "^triangles  *$2\$" || err "scene info $1: triangles, want $2: $out"
+    echo "$out" | grep -qF "bounds       $3" || err "scene info $1: bounds, want $3: $out"
+}
+check_info sphereflake $((7381 * 108 + 2)) "(-12, -12, -0.5) - (12, 12, 0.829978)"
+check_info grove 168302 "(-50, -50, 0) - (50, 50, 3.06208)"
+check_info room 46588 "(-0.06, -0.06, 0) - (15.06, 8.06, 2.6)"
+check_info cornell 36 "(0, 0, 0) - (1, 1, 1)"
+check_info knot 1024 "(-1.24557, -1.44274, -0.52) - (1.52, 1.44274, 0.52)"
+check_info "knot:segs=10,sides=4" 80 ""
+"$bin" scene info cornell --json > "$tmp/info.json" || err "scene info --json"
+grep -q '"triangles": 36,' "$tmp/info.json" && grep -q '"bounds_lo": \[0, 0, 0\],' "$tmp/info.json" \
+    && grep -q '"bounds_hi": \[1, 1, 1\],' "$tmp/info.json" || err "scene info --json: $(cat "$tmp/info.json")"
+grep -q '"kd": {"nodes": 75, "leaves": 38, "empty_leaves": 1, "depth": 10, "index_entries": 222,' "$tmp/info.json" \
+    || err "scene info --json: cornell's k-d tree"
+"$bin" scene list > "$tmp/list" || err "scene list"
+for s in sphereflake grove room cornell knot; do grep -q "$s" "$tmp/list" || err "scene list lacks $s"; done
+"$bin" scene info no-such-scene > /dev/null 2>&1; [ $? -eq 1 ] || err "scene info of a bad scene should exit 1"
+
+# --- bench, smallest settings -----------------------------------------------------
+"$bin" bench --scene cornell -W 8 -H 8 --what tracers,trace,sim,approx --sim-refs 100000 --tmpdir "$tmp" \
+    > "$tmp/bench" 2> "$tmp/bench.err" || err "bench exited $?: $(cat "$tmp/bench.err")"
+for t in recursive packet dynamic; do
+    for m in "untraced" "recording (null sink)" "trace file" "in-process 13-size simulation"; do
+        grep -qF "| $t | $m" "$tmp/bench" || err "bench lacks the row $t / $m"
+    done
+done
+grep -q "^k-d tree: 36 triangles, 75 nodes, 38 leaves, depth 10" "$tmp/bench" || err "bench k-d tree line"
+grep -q "^cachesim: 100000 synthetic references, 13 sizes" "$tmp/bench" || err "bench cachesim header"
+grep -q "^cachesim: one pass, 13 sizes: .* M refs/s" "$tmp/bench" || err "bench one-pass line"
+# the synthetic trace is deterministic: the same misses every run
+grep -q "^cachesim: (check) tri read misses 1K 21203, 4M 15727" "$tmp/bench" || err "bench synthetic-trace misses"
+grep -q "^| exact | | [0-9.]* | 1.0 | 13 | 0 | 0 | 0 | 0 | 0 |" "$tmp/bench" || err "bench approx exact row"
+for m in shards shards-fixed statstack hybrid; do grep -q "^| $m | " "$tmp/bench" || err "bench lacks $m rows"; done
+ls "$tmp"/rt-bench-* > /dev/null 2>&1 && err "bench left trace files in --tmpdir"
+"$bin" bench --sim-refs 0 > /dev/null 2>&1; [ $? -eq 2 ] || err "bench --sim-refs 0 should exit 2"
+exit $fail
