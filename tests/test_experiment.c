@@ -8,6 +8,7 @@
  */
 #include "experiment.h"
 #include "rows.h"
+#include "check.h"
 
 #include <dirent.h>
 #include <sqlite3.h>
@@ -17,16 +18,6 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-static int failures = 0;
-#define CHECK(cond, ...)                                          \
-    do {                                                          \
-        if (!(cond)) {                                            \
-            fprintf(stderr, "FAIL %s:%d: ", __FILE__, __LINE__); \
-            fprintf(stderr, __VA_ARGS__);                         \
-            fputc('\n', stderr);                                  \
-            failures++;                                           \
-        }                                                         \
-    } while (0)
 
 static long long count(rt_db *db, const char *sql)
 {

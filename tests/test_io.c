@@ -16,6 +16,7 @@
 #include "outfile.h"
 #include "scene.h"
 #include "trace.h"
+#include "check.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -26,17 +27,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-static int failures;
 
-#define CHECK(cond, ...)                                                                                    \
-    do {                                                                                                    \
-        if (!(cond)) {                                                                                      \
-            failures++;                                                                                     \
-            fprintf(stderr, "FAIL %s:%d: %s: ", __FILE__, __LINE__, #cond);                                 \
-            fprintf(stderr, __VA_ARGS__);                                                                   \
-            fputc('\n', stderr);                                                                            \
-        }                                                                                                   \
-    } while (0)
 
 static char tmpdir[256];
 

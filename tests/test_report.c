@@ -16,6 +16,7 @@
 #include "analysis.h"
 #include "db.h"
 #include "memmodel.h"
+#include "check.h"
 
 #include <sqlite3.h>
 #include <stdio.h>
@@ -24,16 +25,6 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-static int failures = 0;
-#define CHECK(cond, ...)                                          \
-    do {                                                          \
-        if (!(cond)) {                                            \
-            fprintf(stderr, "FAIL %s:%d: ", __FILE__, __LINE__); \
-            fprintf(stderr, __VA_ARGS__);                         \
-            fputc('\n', stderr);                                  \
-            failures++;                                           \
-        }                                                         \
-    } while (0)
 
 #define MB(x) ((uint64_t)((x) * 1048576.0 + 0.5)) /* MB (2^20 bytes) with two decimals -> bytes */
 
