@@ -7,6 +7,7 @@
  * and the leaves change with every ray.
  */
 #include "synth.h"
+#include "rt_math.h"
 
 #define NODE_BASE 0x10000000ULL
 #define INDEX_BASE 0x11000000ULL
@@ -16,15 +17,6 @@
 #define NRAY (1u << 20)
 #define DEPTH 18
 
-/* The murmur3 64-bit finalizer: a cheap, well-mixed, seedless hash. */
-static inline uint64_t mix(uint64_t x)
-{
-    x ^= x >> 33;
-    x *= 0xff51afd7ed558ccdULL;
-    x ^= x >> 33;
-    x *= 0xc4ceb9fe1a85ec53ULL;
-    return x ^ (x >> 33);
-}
 
 void rt_synth_init(rt_synth *g)
 {
@@ -44,12 +36,12 @@ void rt_synth_fill(rt_synth *g, rt_access *a, size_t n)
             g->node = 1;
         } else if (p <= DEPTH) { /* one level down: coherent choice */
             int sh = 14 - p > 0 ? 14 - p : 0;
-            uint64_t bit = mix(((ray >> sh) << 5) ^ (uint64_t)p) & 1;
+            uint64_t bit = rt_mix64(((ray >> sh) << 5) ^ (uint64_t)p) & 1;
             g->node = g->node * 2 + bit;
             a[i] = (rt_access){NODE_BASE + g->node * 8, 8, 0, RT_CLS_NODE};
         } else if (p == DEPTH + 1 || p == DEPTH + 6) { /* leaf index list */
             uint64_t leaf = g->node ^ (p == DEPTH + 6 ? 1 : 0);
-            g->leaf = mix(leaf) % (NTRI - 4);
+            g->leaf = rt_mix64(leaf) % (NTRI - 4);
             a[i] = (rt_access){INDEX_BASE + (leaf & 0xfffff) * 16, 16, 0, RT_CLS_INDEX};
         } else if (p <= DEPTH + 10) { /* four triangles per leaf */
             uint64_t t = g->leaf + (uint64_t)((p - DEPTH - 2) % 5);

@@ -12,6 +12,7 @@
 #define RT_APPROX_INT_H
 
 #include "approx.h"
+#include "rt_math.h"
 
 typedef struct rt_approx_est {
     double rm[RT_SIM_MAXSIZES][RT_NCLASS]; /* estimated read misses */
@@ -62,15 +63,6 @@ static inline rt_approx_touch rt_approx_touch_of(const rt_approx_lines *l, const
     return t;
 }
 
-/* The seeded 64-bit mixer (splitmix64 / murmur3 finalizer). */
-static inline uint64_t rt_approx_mix(uint64_t x)
-{
-    x ^= x >> 33;
-    x *= 0xff51afd7ed558ccdULL;
-    x ^= x >> 33;
-    x *= 0xc4ceb9fe1a85ec53ULL;
-    return x ^ (x >> 33);
-}
 
 /* Miss weight of a reuse with (estimated) y other distinct lines since the
  * previous touch, in a cache whose hit threshold is t (see shards.c). */

@@ -157,7 +157,7 @@ static void set_rate(rt_shards *s, uint64_t T)
     for (int i = 0; i < s->k; i++) s->t[i] = s->R * s->cm1[i];
 }
 
-static inline uint64_t hash_of(const rt_shards *s, uint64_t L) { return rt_approx_mix(L ^ s->seedmix); }
+static inline uint64_t hash_of(const rt_shards *s, uint64_t L) { return rt_mix64(L ^ s->seedmix); }
 
 /* ---- Fenwick tree over timestamps ---- */
 
@@ -346,12 +346,12 @@ rt_shards *rt_shards_new(const uint64_t *lines, int k, uint32_t line, double rat
     if (Td > TWO32) Td = TWO32;
     set_rate(s, (uint64_t)Td);
     s->smax = smax;
-    s->seedmix = rt_approx_mix(seed ^ 0x5851f42d4c957f2dULL);
+    s->seedmix = rt_mix64(seed ^ 0x5851f42d4c957f2dULL);
     if (golden) {
         /* T64 = R 2^64 exactly representable for rates 2^-k; the rate is
          * then T64 / 2^64 (rate 1: T64 = 0 means every line). */
         s->golden = 1;
-        s->goff = rt_approx_mix(seed ^ 0x9e3779b97f4a7c15ULL);
+        s->goff = rt_mix64(seed ^ 0x9e3779b97f4a7c15ULL);
         double T = floor(rate * 0x1p64 + 0.5);
         if (T < 1) T = 1;
         s->T64 = T >= 0x1p64 ? 0 : (uint64_t)T;
@@ -464,7 +464,7 @@ void rt_shards_put(rt_shards *restrict s, const rt_access *a, size_t n, uint64_t
         rt_approx_touch t = rt_approx_touch_of(&s->ln, &a[r]);
         acc[t.cls][t.w] += t.last - t.first + 1;
         for (uint64_t L = t.first; L <= t.last; L++) {
-            uint64_t hv = rt_approx_mix(L ^ s->seedmix);
+            uint64_t hv = rt_mix64(L ^ s->seedmix);
             if ((hv & 0xffffffffULL) < s->T) sample(s, L, hv, t.w, t.cls); /* s->T falls as the sample fills */
         }
     }

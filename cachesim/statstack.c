@@ -113,7 +113,7 @@ static uint64_t gap(rt_sstack *s)
 {
     if (s->rate >= 1) return 1;
     s->rng += 0x9E3779B97F4A7C15ULL;
-    uint64_t x = rt_approx_mix(s->rng);
+    uint64_t x = rt_mix64(s->rng);
     double u = (double)((x >> 11) + 1) * (1.0 / 9007199254740992.0); /* (0, 1] */
     double g = floor(log(u) / s->lnq);
     return g >= 4e18 ? (uint64_t)4e18 : 1 + (uint64_t)g;

@@ -67,16 +67,14 @@ int main_trace_dump(int argc, char **argv)
         {NULL, 0, NULL, 0},
     };
     int din = 0, c;
-    uint64_t line = 64, limit = UINT64_MAX;
+    uint32_t line = 64;
+    uint64_t limit = UINT64_MAX;
     optind = 1;
     while ((c = getopt_long(argc, argv, "h", lo, NULL)) != -1) {
         switch (c) {
         case 'd': din = 1; break;
         case 'l':
-            if (rt_parse_size(optarg, &line) < 0 || line == 0) {
-                rt_cmd_error("trace-dump", "--line: '%s' is not a positive byte count", optarg);
-                return RT_EXIT_USAGE;
-            }
+            if (rt_cmd_parse_line("trace-dump", optarg, &line) < 0) return RT_EXIT_USAGE;
             break;
         case 'n':
             if (parse_u64(optarg, 0, &limit) < 0) {

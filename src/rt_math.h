@@ -6,6 +6,7 @@
 #define RT_MATH_H
 
 #include <math.h>
+#include <stdint.h>
 
 typedef struct rt_vec3 {
     float x, y, z;
@@ -53,6 +54,17 @@ static inline void rt_bounds_grow(rt_bounds *b, rt_vec3 p)
 {
     b->lo = rt_vmin(b->lo, p);
     b->hi = rt_vmax(b->hi, p);
+}
+
+/* The murmur3 64-bit finalizer: a cheap, well-mixed hash of a 64-bit key,
+ * shared by the samplers and the synthetic benchmark trace. */
+static inline uint64_t rt_mix64(uint64_t x)
+{
+    x ^= x >> 33;
+    x *= 0xff51afd7ed558ccdULL;
+    x ^= x >> 33;
+    x *= 0xc4ceb9fe1a85ec53ULL;
+    return x ^ (x >> 33);
 }
 
 #endif
