@@ -1,17 +1,30 @@
 /* test_tracers.c -- the three tracers agree: identical RGB images on every
  * built-in scene (reduced size) for several schedules; the dynamic
  * scheduler's queue-point selection matches the paper's Figure 1; every ray
- * of every generation is resolved exactly once; with the root as the only
+ * of every generation is resolved exactly once and the scheduler's
+ * invariants (rt_dyn_check) hold at every step; with the root as the only
  * queue point the dynamic tracer reads exactly the geometry the recursive
- * tracer reads, in the same order. */
+ * tracer reads, in the same order. Each tracer's traffic is checked on its
+ * own: every access lies in a region of the memory model's table
+ * (docs/memory-model.md) with that region's class and record size, and the
+ * per-region reference counts follow from the run's statistics and a
+ * single-ray reference render; golden files (tests/golden/tracer_*.txt,
+ * rewritten only with RT_REDO_GOLDEN=1) hold a hash of each full record
+ * stream so a reordering is caught. */
+#include "camera.h"
 #include "check.h"
 #include "dynamic.h"
 #include "run.h"
+#include "shade.h"
 
 #include <inttypes.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+/* Renders with the tracer's invariant checks on (test mode) unless
+ * quick is set: checking after every queue costs O(queues) per queue. */
+static int quick;
 
 static rt_image *render(rt_scene *sc, rt_kdtree *kd, const char *tracer, rt_render_opts *o, rt_sink *sink,
                         rt_run_stats *st)
@@ -22,6 +35,7 @@ static rt_image *render(rt_scene *sc, rt_kdtree *kd, const char *tracer, rt_rend
         CHECK(0, "setup %s: %s", tracer, e.msg);
         return NULL;
     }
+    j.check = !quick;
     rt_image *im = rt_image_new(o->W, o->H, &e);
     if (!im || rt_job_run(&j, sink, im, st, &e) < 0) {
         CHECK(0, "run %s: %s", tracer, e.msg);
@@ -71,7 +85,10 @@ static void same_images(const char *spec, int W, int H)
         for (size_t c = 0; c < sizeof caches / sizeof caches[0]; c++) {
             o.cache_size = caches[c];
             o.qorder = qo;
+            /* invariants checked at every step on the small trees and the larger budgets */
+            quick = caches[c] < 262144 && strcmp(spec, "cornell") && strcmp(spec, "knot");
             rt_image *dy = render(sc, kd, "dynamic", &o, NULL, &st);
+            quick = 0;
             if (ref && dy)
                 CHECK(count_diff(ref, dy) == 0, "%s: dynamic (cache %" PRIu64 ", qorder %d) differs in %zu values", spec,
                       caches[c], qo, count_diff(ref, dy));
@@ -94,7 +111,9 @@ static void same_images(const char *spec, int W, int H)
     o.cache_size = 65536;
     o.qorder = 0;
     o.gmax = 200; /* forces oversized leaves processed in blocks */
+    quick = strcmp(spec, "cornell") && strcmp(spec, "knot"); /* a queue per leaf */
     rt_image *dy = render(sc, kd, "dynamic", &o, NULL, &st);
+    quick = 0;
     if (ref && dy) CHECK(count_diff(ref, dy) == 0, "%s: dynamic with gmax=200 differs", spec);
     rt_image_free(dy);
     rt_image_free(ref);
@@ -293,8 +312,427 @@ static void subsampling(const char *spec, int W, int H, uint32_t K, int tile)
     rt_scene_free(sc);
 }
 
+/* ---- traffic: sizes from the region table, counts from the statistics ---- */
+
+/* The memory model's region table (docs/memory-model.md), written out here
+ * independently of the tracers: class and record size of every region. */
+static const struct {
+    const char *name;
+    int cls;
+    uint32_t recsize;
+} model[] = {
+    {"kd.nodes", RT_CLS_NODE, 8},      {"kd.index", RT_CLS_INDEX, 4},     {"tri.verts", RT_CLS_TRI, 36},
+    {"tri.shade", RT_CLS_SHADE, 16},   {"rays.primary", RT_CLS_RAY, 32},  {"packet.hits", RT_CLS_HIT, 8},
+    {"dyn.raybuf", RT_CLS_RAY, 32},    {"dyn.qtable", RT_CLS_QTABLE, 8},  {"dyn.qpbox", RT_CLS_QTABLE, 24},
+    {"dyn.top", RT_CLS_NODE, 8},       {"dyn.hits", RT_CLS_HIT, 24},      {"fb", RT_CLS_FB, 12},
+    {"dyn.queues", RT_CLS_QUEUE, 32},
+};
+
+/* Per-region tallies of one run's record stream, plus structural facts. */
+typedef struct tally {
+    const rt_layout *L;
+    const rt_kdtree *kd;
+    uint64_t reads[RT_MM_MAX_REGIONS], writes[RT_MM_MAX_REGIONS], bytes[RT_MM_MAX_REGIONS];
+    uint64_t by_size[RT_MM_MAX_REGIONS][2][4]; /* dyn.hits: [write][size 4, 8, 24, other] */
+    uint64_t cls_refs[RT_NCLASS], cls_bytes[RT_NCLASS];
+    uint64_t leaf_visits, leaf_bytes; /* node reads of leaves with triangles, their lists' bytes */
+    uint64_t hash, n;                 /* FNV-1a over (addr, size, write, cls) in order */
+    size_t bad;                       /* accesses breaking the region table */
+    char why[256];                    /* the first of them */
+    int tri_prefix;                   /* tri reads after an index read follow its list (-1: not checked) */
+    uint32_t list_first, list_n, list_pos; /* the last index list read, tri reads since */
+    size_t bad_order;
+} tally;
+
+static void fnv(uint64_t *h, uint64_t v, int nbytes)
+{
+    for (int i = 0; i < nbytes; i++) {
+        *h ^= (v >> (8 * i)) & 0xff;
+        *h *= 0x100000001b3ULL;
+    }
+}
+
+static int tally_put(rt_sink *s, const rt_access *a, size_t n)
+{
+    tally *t = s->ctx;
+    const rt_layout *L = t->L;
+    for (size_t i = 0; i < n; i++, t->n++) {
+        fnv(&t->hash, a[i].addr, 8);
+        fnv(&t->hash, a[i].size, 4);
+        fnv(&t->hash, a[i].write, 1);
+        fnv(&t->hash, a[i].cls, 1);
+        t->cls_refs[a[i].cls < RT_NCLASS ? a[i].cls : 0]++;
+        t->cls_bytes[a[i].cls < RT_NCLASS ? a[i].cls : 0] += a[i].size;
+        int r = -1;
+        for (int k = 0; k < L->n; k++)
+            if (a[i].addr >= L->r[k].base && a[i].addr < L->r[k].base + L->r[k].recsize * L->r[k].count) r = k;
+        const char *why = NULL;
+        uint64_t off = r >= 0 ? a[i].addr - L->r[r].base : 0, rec = r >= 0 ? off / L->r[r].recsize : 0;
+        if (r < 0) why = "outside every region";
+        else if (a[i].cls != L->r[r].cls) why = "class differs from its region's";
+        else if (off % L->r[r].recsize) why = "not at a record boundary";
+        else if (!strcmp(L->r[r].name, "kd.index") ? a[i].size % 4 != 0 || off + a[i].size > 4 * L->r[r].count
+                 : !strcmp(L->r[r].name, "dyn.hits") ? a[i].size != 24 && a[i].size != 8 && a[i].size != 4
+                                                      : a[i].size != L->r[r].recsize)
+            why = "size is not the region's record size";
+        if (why) {
+            if (!t->bad++)
+                snprintf(t->why, sizeof t->why, "access %" PRIu64 " (addr %#" PRIx64 " size %u cls %u) %s (%s)", t->n,
+                         a[i].addr, a[i].size, a[i].cls, why, r >= 0 ? L->r[r].name : "-");
+            continue;
+        }
+        a[i].write ? t->writes[r]++ : t->reads[r]++;
+        t->bytes[r] += a[i].size;
+        if (!strcmp(L->r[r].name, "dyn.hits"))
+            t->by_size[r][a[i].write][a[i].size == 4 ? 0 : a[i].size == 8 ? 1 : a[i].size == 24 ? 2 : 3]++;
+        if (!strcmp(L->r[r].name, "kd.nodes") && rec < t->kd->nnodes) {
+            const rt_kdnode *nd = &t->kd->nodes[rec];
+            if (rt_kd_is_leaf(nd) && rt_kd_ntri(nd)) {
+                t->leaf_visits++;
+                t->leaf_bytes += 4ull * rt_kd_ntri(nd);
+            }
+            t->list_n = 0;
+        } else if (!strcmp(L->r[r].name, "kd.index")) {
+            t->list_first = (uint32_t)rec;
+            t->list_n = a[i].size / 4;
+            t->list_pos = 0;
+        } else if (!strcmp(L->r[r].name, "tri.verts") && t->tri_prefix >= 0) {
+            if (t->list_pos >= t->list_n || t->kd->idx[t->list_first + t->list_pos] != rec) t->bad_order++;
+            t->list_pos++;
+        } else if (t->tri_prefix >= 0) {
+            t->list_n = 0;
+        }
+    }
+    return 0;
+}
+
+static uint64_t reads(const tally *t, const char *region)
+{
+    int r = rt_mm_find(t->L, region);
+    return r >= 0 ? t->reads[r] : 0;
+}
+static uint64_t writes(const tally *t, const char *region)
+{
+    int r = rt_mm_find(t->L, region);
+    return r >= 0 ? t->writes[r] : 0;
+}
+static uint64_t bytes_of(const tally *t, const char *region)
+{
+    int r = rt_mm_find(t->L, region);
+    return r >= 0 ? t->bytes[r] : 0;
+}
+
+/* What a single-ray render finds (src/kdtrav.c, tested against brute force
+ * in test_kdtree): traced pixels, hits, shadow rays and visible lights. */
+typedef struct reference {
+    uint64_t pixels, hits, shadow, visible;
+} reference;
+
+static reference single_ray(const rt_scene *sc, const rt_kdtree *kd, const rt_render_opts *o)
+{
+    reference R = {0, 0, 0, 0};
+    rt_cam_frame cam;
+    rt_cam_setup(&cam, sc, o->W, o->H);
+    rt_trav tv;
+    memset(&tv, 0, sizeof tv);
+    tv.kd = kd;
+    tv.sc = sc;
+    for (int y = 0; y < o->H; y++)
+        for (int x = 0; x < o->W; x++) {
+            if (!rt_pixel_kept(o, x, y)) continue;
+            rt_ray r;
+            rt_hit h;
+            rt_cam_ray(&cam, x, y, &r);
+            R.pixels++;
+            if (!rt_kd_closest(&tv, &r, &h)) continue;
+            R.hits++;
+            for (int i = 0; i < RT_NLIGHTS; i++) {
+                rt_ray sr;
+                if (!(o->lights & (1u << i)) || !rt_shade_ray(sc, &r, &h, i, &sr)) continue;
+                R.shadow++;
+                R.visible += !rt_kd_occluded(&tv, &sr);
+            }
+        }
+    return R;
+}
+
+static uint64_t extra_u64(const rt_run_stats *st, const char *key)
+{
+    char k[64];
+    snprintf(k, sizeof k, " %s=", key);
+    const char *p = strstr(st->extra, k);
+    if (!p && !strncmp(st->extra, k + 1, strlen(k + 1))) p = st->extra - 1;
+    CHECK(p != NULL, "statistics lack %s: %s", key, st->extra);
+    return p ? strtoull(p + strlen(k), NULL, 10) : 0;
+}
+
+static int nlights(unsigned m)
+{
+    int n = 0;
+    for (int i = 0; i < RT_NLIGHTS; i++) n += (m >> i) & 1;
+    return n;
+}
+
+/* One recorded run: the region table against the model, every access
+ * against the table, and the per-region counts the statistics imply. Fills
+ * *out (for golden files). */
+static void traffic_run(rt_scene *sc, rt_kdtree *kd, const char *spec, const char *tracer, const rt_render_opts *o,
+                        tally *out)
+{
+    rt_err e = {""};
+    rt_job j;
+    rt_run_stats st;
+    memset(out, 0, sizeof *out);
+    if (rt_job_setup_borrowed(&j, sc, kd, tracer, o, &e) < 0) {
+        CHECK(0, "%s %s: %s", spec, tracer, e.msg);
+        return;
+    }
+    j.check = 1;
+    const char *tag = tracer;
+    for (int r = 0; r < j.L.n; r++) {
+        int known = 0;
+        for (size_t m = 0; m < sizeof model / sizeof model[0]; m++) {
+            if (strcmp(model[m].name, j.L.r[r].name)) continue;
+            known = 1;
+            CHECK(j.L.r[r].cls == model[m].cls && j.L.r[r].recsize == model[m].recsize,
+                  "%s %s: region %s has class %u and %u-byte records; the memory model says %d and %u", spec, tag,
+                  j.L.r[r].name, j.L.r[r].cls, j.L.r[r].recsize, model[m].cls, model[m].recsize);
+        }
+        CHECK(known, "%s %s: region %s is not in the memory model's table", spec, tag, j.L.r[r].name);
+    }
+    tally *t = out;
+    t->L = &j.L;
+    t->kd = kd;
+    t->hash = 0xcbf29ce484222325ULL;
+    t->tri_prefix = strcmp(tracer, "dynamic") ? 1 : -1;
+    rt_sink sink = {tally_put, t};
+    rt_image *im = rt_image_new(o->W, o->H, &e);
+    if (!im || rt_job_run(&j, &sink, im, &st, &e) < 0) {
+        CHECK(0, "%s %s: %s", spec, tag, e.msg);
+        rt_image_free(im);
+        rt_job_free(&j);
+        return;
+    }
+    reference R = single_ray(sc, kd, o);
+    const uint64_t P = st.rays_primary, H = R.hits, NL = (uint64_t)nlights(o->lights);
+    CHECK(t->bad == 0, "%s %s: %zu accesses break the region table; first: %s", spec, tag, t->bad, t->why);
+    CHECK(t->n == st.accesses, "%s %s: %" PRIu64 " accesses seen, %" PRIu64 " reported", spec, tag, t->n, st.accesses);
+    CHECK(P == R.pixels && st.rays_shadow == R.shadow, "%s %s: %" PRIu64 "/%" PRIu64 " rays, reference %" PRIu64 "/%" PRIu64,
+          spec, tag, P, st.rays_shadow, R.pixels, R.shadow);
+    /* geometry */
+    CHECK(reads(t, "tri.shade") == H && !writes(t, "tri.shade"), "%s %s: %" PRIu64 " shading reads, %" PRIu64 " hits", spec,
+          tag, reads(t, "tri.shade"), H);
+    /* a leaf visit reads its whole list (an oversized leaf at a dynamic
+     * queue point instead reads it block by block: same bytes, more reads) */
+    int blocked = !strcmp(tracer, "dynamic") && extra_u64(&st, "oversized_leaves") > 0;
+    CHECK((blocked ? reads(t, "kd.index") >= t->leaf_visits : reads(t, "kd.index") == t->leaf_visits) &&
+              bytes_of(t, "kd.index") == t->leaf_bytes,
+          "%s %s: %" PRIu64 " index reads (%" PRIu64 " B) for %" PRIu64 " visits of non-empty leaves (%" PRIu64 " B)", spec,
+          tag, reads(t, "kd.index"), bytes_of(t, "kd.index"), t->leaf_visits, t->leaf_bytes);
+    CHECK(bytes_of(t, "tri.verts") == 36 * reads(t, "tri.verts") && !writes(t, "tri.verts"), "%s %s: triangle bytes %" PRIu64,
+          spec, tag, bytes_of(t, "tri.verts"));
+    CHECK(reads(t, "rays.primary") == P && bytes_of(t, "rays.primary") == 32 * P && !writes(t, "rays.primary"),
+          "%s %s: %" PRIu64 " primary ray reads for %" PRIu64 " rays", spec, tag, reads(t, "rays.primary"), P);
+    /* the tests channel sums to the tests; the nodes channel counts per-ray
+     * visits, which are the statistics' node visits for single rays only */
+    double sn = 0, stt = 0;
+    for (size_t p = 0; p < (size_t)o->W * o->H; p++) sn += im->nodes[p], stt += im->tests[p];
+    CHECK(stt == (double)st.tests, "%s %s: tests channel sums to %.0f, statistics %" PRIu64, spec, tag, stt, st.tests);
+    if (!strcmp(tracer, "recursive"))
+        CHECK(sn == (double)st.nodes, "%s %s: nodes channel sums to %.0f, statistics %" PRIu64, spec, tag, sn, st.nodes);
+    if (!strcmp(tracer, "recursive")) {
+        CHECK(reads(t, "kd.nodes") == st.nodes && bytes_of(t, "kd.nodes") == 8 * st.nodes,
+              "%s %s: %" PRIu64 " node reads, %" PRIu64 " visits", spec, tag, reads(t, "kd.nodes"), st.nodes);
+        CHECK(bytes_of(t, "tri.verts") == 36 * st.tests, "%s %s: %" PRIu64 " triangle bytes for %" PRIu64 " tests", spec, tag,
+              bytes_of(t, "tri.verts"), st.tests);
+        CHECK(writes(t, "fb") == P && !reads(t, "fb") && bytes_of(t, "fb") == 12 * P, "%s %s: framebuffer %" PRIu64 "w/%" PRIu64
+              "r", spec, tag, writes(t, "fb"), reads(t, "fb"));
+        CHECK(t->bad_order == 0, "%s %s: %zu triangle reads not in their leaf's list order", spec, tag, t->bad_order);
+    } else if (!strcmp(tracer, "packet")) {
+        CHECK(reads(t, "kd.nodes") == st.nodes, "%s %s: %" PRIu64 " node reads, %" PRIu64 " packet visits", spec, tag,
+              reads(t, "kd.nodes"), st.nodes);
+        CHECK(reads(t, "tri.verts") <= st.tests && reads(t, "tri.verts") > 0, "%s %s: %" PRIu64 " triangle reads, %" PRIu64
+              " ray tests", spec, tag, reads(t, "tri.verts"), st.tests);
+        CHECK(writes(t, "packet.hits") == P && reads(t, "packet.hits") == P * (1 + NL) && bytes_of(t, "packet.hits") == 8 * P * (2 + NL),
+              "%s %s: hit buffer %" PRIu64 "w/%" PRIu64 "r", spec, tag, writes(t, "packet.hits"), reads(t, "packet.hits"));
+        CHECK(writes(t, "fb") == P && !reads(t, "fb") && bytes_of(t, "fb") == 12 * P, "%s %s: framebuffer %" PRIu64 "w/%" PRIu64
+              "r", spec, tag, writes(t, "fb"), reads(t, "fb"));
+        CHECK(t->bad_order == 0, "%s %s: %zu triangle reads not in their leaf's list order", spec, tag, t->bad_order);
+    } else {
+        uint64_t enq = extra_u64(&st, "enqueues"), ev = extra_u64(&st, "queue_events");
+        uint64_t over = extra_u64(&st, "oversized_leaves");
+        int hr = rt_mm_find(&j.L, "dyn.hits");
+        CHECK(writes(t, "dyn.queues") == enq && reads(t, "dyn.queues") == enq && bytes_of(t, "dyn.queues") == 64 * enq,
+              "%s %s: queues %" PRIu64 "w/%" PRIu64 "r for %" PRIu64 " enqueues", spec, tag, writes(t, "dyn.queues"),
+              reads(t, "dyn.queues"), enq);
+        CHECK(reads(t, "dyn.qtable") == enq + ev && writes(t, "dyn.qtable") == enq && bytes_of(t, "dyn.qtable") == 8 * (2 * enq + ev),
+              "%s %s: queue table %" PRIu64 "r/%" PRIu64 "w for %" PRIu64 " enqueues, %" PRIu64 " events", spec, tag,
+              reads(t, "dyn.qtable"), writes(t, "dyn.qtable"), enq, ev);
+        CHECK(reads(t, "dyn.qpbox") == ev && !writes(t, "dyn.qpbox"), "%s %s: %" PRIu64 " box reads, %" PRIu64 " events", spec,
+              tag, reads(t, "dyn.qpbox"), ev);
+        CHECK(writes(t, "dyn.raybuf") == enq && reads(t, "dyn.raybuf") <= enq, "%s %s: ray buffer %" PRIu64 "w/%" PRIu64 "r", spec,
+              tag, writes(t, "dyn.raybuf"), reads(t, "dyn.raybuf"));
+        CHECK(writes(t, "fb") == P + R.visible && reads(t, "fb") == R.visible && bytes_of(t, "fb") == 12 * (P + 2 * R.visible),
+              "%s %s: framebuffer %" PRIu64 "w/%" PRIu64 "r, %" PRIu64 " pixels, %" PRIu64 " visible lights", spec, tag,
+              writes(t, "fb"), reads(t, "fb"), P, R.visible);
+        if (hr >= 0)
+            CHECK(t->by_size[hr][1][2] == H && t->by_size[hr][1][0] == P - H && t->by_size[hr][0][2] == P * NL &&
+                      !t->by_size[hr][0][0] && t->by_size[hr][1][3] + t->by_size[hr][0][3] == 0,
+                  "%s %s: hit records: %" PRIu64 " 24-B writes (hits %" PRIu64 "), %" PRIu64 " 4-B writes, %" PRIu64
+                  " 24-B reads", spec, tag, t->by_size[hr][1][2], H, t->by_size[hr][1][0], t->by_size[hr][0][2]);
+        if (over == 0) {
+            CHECK(reads(t, "kd.nodes") + reads(t, "dyn.top") == st.nodes, "%s %s: %" PRIu64 "+%" PRIu64 " node reads, %" PRIu64
+                  " visits", spec, tag, reads(t, "kd.nodes"), reads(t, "dyn.top"), st.nodes);
+            /* one read per test, plus one when a hit settled outside its
+             * subtree is shaded (its vertices are not in cache then) */
+            CHECK(reads(t, "tri.verts") >= st.tests && reads(t, "tri.verts") <= st.tests + H,
+                  "%s %s: %" PRIu64 " triangle reads for %" PRIu64 " tests and %" PRIu64 " hits", spec, tag,
+                  reads(t, "tri.verts"), st.tests, H);
+            if (extra_u64(&st, "queue_points") == 1)
+                CHECK(reads(t, "tri.verts") == st.tests, "%s %s: root only: %" PRIu64 " triangle reads, %" PRIu64 " tests",
+                      spec, tag, reads(t, "tri.verts"), st.tests);
+        }
+    }
+    t->L = NULL;
+    rt_image_free(im);
+    rt_job_free(&j);
+}
+
+/* Golden record streams: one small file per tracer and scene. */
+static void golden(const char *name, const char *spec, const char *tracer, const rt_render_opts *o, const tally *t,
+                   const rt_layout *L)
+{
+    char text[4096];
+    size_t n = 0;
+    n += (size_t)snprintf(text + n, sizeof text - n, "# %s %s %dx%d lights=%u cache=%" PRIu64 " qorder=%d (RT_REDO_GOLDEN=1 rewrites)\n",
+                          spec, tracer, o->W, o->H, o->lights, o->cache_size, o->qorder);
+    n += (size_t)snprintf(text + n, sizeof text - n, "accesses %" PRIu64 "\nstream_fnv1a %016" PRIx64 "\n", t->n, t->hash);
+    for (int c = 0; c < RT_NCLASS; c++)
+        if (t->cls_refs[c])
+            n += (size_t)snprintf(text + n, sizeof text - n, "class %s refs %" PRIu64 " bytes %" PRIu64 "\n", rt_class_name(c),
+                                  t->cls_refs[c], t->cls_bytes[c]);
+    for (int r = 0; r < L->n && n < sizeof text; r++)
+        n += (size_t)snprintf(text + n, sizeof text - n, "region %s reads %" PRIu64 " writes %" PRIu64 " bytes %" PRIu64 "\n",
+                              L->r[r].name, t->reads[r], t->writes[r], t->bytes[r]);
+    const char *dir = getenv("srcdir");
+    char path[1024];
+    snprintf(path, sizeof path, "%s/tests/golden/tracer_%s.txt", dir ? dir : ".", name);
+    if (getenv("RT_REDO_GOLDEN") && !strcmp(getenv("RT_REDO_GOLDEN"), "1")) {
+        FILE *f = fopen(path, "w");
+        CHECK(f && fputs(text, f) >= 0 && fclose(f) == 0, "cannot write %s", path);
+        return;
+    }
+    char want[4096];
+    FILE *f = fopen(path, "r");
+    size_t m = f ? fread(want, 1, sizeof want - 1, f) : 0;
+    if (f) fclose(f);
+    want[m] = 0;
+    CHECK(f != NULL, "missing golden file %s (RT_REDO_GOLDEN=1 writes it)", path);
+    if (f) CHECK(!strcmp(want, text), "%s differs from this run:\n--- expected\n%s--- got\n%s", path, want, text);
+}
+
+static void traffic(const char *spec, int W, int H, const char *gold)
+{
+    rt_err e = {""};
+    rt_scene *sc = rt_scene_load(spec, &e);
+    rt_kd_params kp;
+    rt_kd_default_params(&kp);
+    rt_kdtree *kd = sc ? rt_kd_build(sc, &kp, &e) : NULL;
+    CHECK(kd != NULL, "%s: %s", spec, e.msg);
+    if (!kd) {
+        rt_scene_free(sc);
+        return;
+    }
+    rt_render_opts o;
+    rt_render_default_opts(&o);
+    o.W = W;
+    o.H = H;
+    o.lights = 7;
+    o.cache_size = 4096;
+    static const char *tracers[] = {"recursive", "packet", "dynamic"};
+    for (int t = 0; t < 3; t++) {
+        tally tl;
+        traffic_run(sc, kd, spec, tracers[t], &o, &tl);
+        if (gold) {
+            rt_job j;
+            char name[128];
+            snprintf(name, sizeof name, "%s_%s", tracers[t], gold);
+            if (rt_job_setup_borrowed(&j, sc, kd, tracers[t], &o, &e) == 0) {
+                golden(name, spec, tracers[t], &o, &tl, &j.L);
+                rt_job_free(&j);
+            }
+        }
+    }
+    /* the dynamic tracer at other budgets and orders, and with light subsets */
+    static const uint64_t caches[] = {1024, 16384, 1u << 24};
+    for (int qo = 0; qo < 2; qo++)
+        for (size_t c = 0; c < sizeof caches / sizeof caches[0]; c++) {
+            tally tl;
+            o.cache_size = caches[c];
+            o.qorder = qo;
+            o.lights = c == 1 ? 5 : 7;
+            traffic_run(sc, kd, spec, "dynamic", &o, &tl);
+        }
+    o.lights = 0;
+    o.qorder = 0;
+    o.cache_size = 2048;
+    for (int t = 0; t < 3; t++) {
+        tally tl;
+        traffic_run(sc, kd, spec, tracers[t], &o, &tl);
+    }
+    rt_kd_free(kd);
+    rt_scene_free(sc);
+}
+
+/* A subsampling factor above the tile count (or one that keeps no tile)
+ * would trace nothing: the job refuses it, naming the option and the tiles. */
+static void subsample_refused(void)
+{
+    rt_err e = {""};
+    rt_scene *sc = rt_scene_load("cornell", &e);
+    rt_kd_params kp;
+    rt_kd_default_params(&kp);
+    rt_kdtree *kd = sc ? rt_kd_build(sc, &kp, &e) : NULL;
+    CHECK(kd != NULL, "cornell: %s", e.msg);
+    if (!kd) {
+        rt_scene_free(sc);
+        return;
+    }
+    rt_render_opts o;
+    rt_render_default_opts(&o);
+    o.W = 20; /* 3 x 2 tiles of 8 (partial tiles count) */
+    o.H = 16;
+    o.subtile = 8;
+    CHECK(rt_pixel_tiles(&o) == 6, "20x16 in tiles of 8: %" PRIu64 " tiles", rt_pixel_tiles(&o));
+    static const char *tracers[] = {"recursive", "packet", "dynamic"};
+    for (uint32_t K = 2; K <= 9; K++) {
+        o.subsample = K;
+        int kept = 0;
+        for (int y = 0; y < o.H; y++)
+            for (int x = 0; x < o.W; x++) kept += rt_pixel_kept(&o, x, y);
+        for (int t = 0; t < 3; t++) {
+            rt_job j;
+            e.msg[0] = 0;
+            int rc = rt_job_setup_borrowed(&j, sc, kd, tracers[t], &o, &e);
+            if (rc == 0) rt_job_free(&j);
+            if (K > 6)
+                CHECK(rc < 0 && strstr(e.msg, "--subsample") && strstr(e.msg, "6 tiles"),
+                      "%s: subsample %u of 6 tiles accepted or unnamed: %s", tracers[t], K, e.msg);
+            else
+                CHECK((rc == 0) == (kept > 0) && (rc == 0 || strstr(e.msg, "--subsample")),
+                      "%s: subsample %u keeping %d pixels: rc %d (%s)", tracers[t], K, kept, rc, e.msg);
+        }
+    }
+    rt_kd_free(kd);
+    rt_scene_free(sc);
+}
+
 int main(void)
 {
+    subsample_refused();
+    traffic("cornell", 16, 16, "cornell");
+    traffic("knot", 16, 16, "knot");
+    traffic("sphereflake:level=1", 24, 20, NULL);
     subsampling("cornell", 64, 48, 4, 8);
     subsampling("sphereflake:level=2", 48, 48, 3, 1);
     figure1();

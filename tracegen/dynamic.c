@@ -32,6 +32,50 @@
  *   - when the root is the only queue point (everything fits), rays are
  *     traced straight away without queueing: recursive order.
  *
+ * Representation. The schedule (the plan, computed once per job from the
+ * tree and the budget, and shared read-only by the layout and the run)
+ * holds per node: g[] subtree geometry bytes, hastris[] (the subtree lists
+ * a triangle), qp[] (queue-point number or -1) and topid[] (entry in the
+ * packed tree top, region dyn.top, or -1); per queue point qnode[] (its
+ * node). The run's state holds the queues: a pool of nblk blocks of QBLK
+ * entries, bnext[] linking a queue's blocks head to tail and the free
+ * blocks into a LIFO list; per queue qhead/qtail (blocks, -1 when empty),
+ * qheadpos (read position in the head block, always 0 since a queue is
+ * drained whole) and qcount (rays); for fullest-first order, bucket lists
+ * bk_head[c] doubly linked through bk_next/bk_prev holding the queues with
+ * c rays, and bk_max bounding the fullest; per pixel the hit record
+ * (hit_t, hit_tri, barycentrics), the visibility bits and resolved[] (rays
+ * of the current generation resolved).
+ *
+ * Invariants, holding between steps (after a generation's rays have been
+ * started and after each queue is drained; verified by rt_dyn_check):
+ *   I1  queue points: qp numbers 0..nq-1 in node order (depth first) and
+ *       qnode is its inverse; a queue point's subtree holds triangles and
+ *       fits (g <= gmax) unless it is a leaf; every proper ancestor of a
+ *       queue point is a tree-top node; hastris[] is the OR of the leaves'
+ *       triangle counts below each node;
+ *   I2  tree top: the top interior nodes are exactly the interior nodes
+ *       with triangles, no queue point and g > gmax, whose ancestors are all
+ *       top interior nodes; there are ntop of them; topid numbers the root,
+ *       the top interior nodes and their children depth first 0..ntopent-1
+ *       (a below child right after its parent) and is -1 elsewhere;
+ *   I3  queues: queue q is empty (qhead = qtail = -1, qcount = qheadpos =
+ *       0) or a chain of ceil((qheadpos + qcount) / QBLK) blocks from qhead
+ *       to qtail, bnext[qtail] = -1, qheadpos < QBLK; the counts sum to
+ *       queued <= peak_queued;
+ *   I4  block pool: every block lies in exactly one queue's chain or on the
+ *       free list, never twice;
+ *   I5  buckets (fullest-first order only): every queue is in exactly one
+ *       bucket, the one of its count, and bk_prev mirrors bk_next; no queue
+ *       holds more than bk_max rays;
+ *   I6  generations: a queued entry holds a pixel traced in this generation
+ *       whose ray is not yet resolved, and no pixel is queued twice (a ray is
+ *       in one queue at a time); a candidate flag appears only in the
+ *       primary generation, on a pixel whose hit record holds a triangle;
+ *       resolved[p] <= 1; rays started = rays resolved + rays queued.
+ * check_generation adds the end-of-generation condition: queues empty and
+ * every wanted pixel resolved exactly once.
+ *
  * Images are bit-identical to the recursive tracer's: the same camera rays,
  * the same closest hit (ties to the lower triangle index), the same shadow
  * test (the shadow segment is intersected as the ray from the offset hit
@@ -39,7 +83,10 @@
  * shading rule applied to the per-light visibility.
  */
 #include "dynamic.h"
-#include "hilbert.h"
+#include "camera.h"
+#include "regions.h"
+#include "shade.h"
+#include "stats.h"
 #include "tracer.h"
 
 #include <inttypes.h>
@@ -55,17 +102,6 @@
 
 int rt_dyn_subtree_geometry(const rt_kdtree *kd, uint32_t ntri, uint64_t *g, rt_err *e)
 {
-    /* The distinct-triangle sizes cost O(references x depth); a sweep
-     * schedules the same tree for many cache sizes, so the last result is
-     * kept (keyed by the tree's identity and shape). */
-    static const rt_kdtree *last_kd;
-    static uint32_t last_nnodes, last_nidx;
-    static double last_build;
-    static uint64_t *last_g;
-    if (last_g && last_kd == kd && last_nnodes == kd->nnodes && last_nidx == kd->nidx && last_build == kd->build_sec) {
-        memcpy(g, last_g, sizeof *g * kd->nnodes);
-        return 0;
-    }
     rt_kd_subsize *z = rt_calloc(kd->nnodes, sizeof *z, e);
     if (!z || rt_kd_subtree_sizes(kd, ntri, z, e) < 0) {
         free(z);
@@ -73,16 +109,6 @@ int rt_dyn_subtree_geometry(const rt_kdtree *kd, uint32_t ntri, uint64_t *g, rt_
     }
     for (uint32_t i = 0; i < kd->nnodes; i++) g[i] = rt_kd_subsize_bytes(&z[i]);
     free(z);
-    uint64_t *copy = malloc(sizeof *copy * (kd->nnodes ? kd->nnodes : 1));
-    if (copy) {
-        memcpy(copy, g, sizeof *g * kd->nnodes);
-        free(last_g);
-        last_g = copy;
-        last_kd = kd;
-        last_nnodes = kd->nnodes;
-        last_nidx = kd->nidx;
-        last_build = kd->build_sec;
-    }
     return 0;
 }
 
@@ -157,6 +183,86 @@ uint64_t rt_dyn_derive_gmax(const rt_kdtree *kd, const uint64_t *g, uint64_t cac
     return gm;
 }
 
+/* ---- the plan: queue points and tree top for one tree and budget ------- */
+
+typedef struct dplan {
+    uint64_t gmax;     /* geometry budget of a subtree (bytes) */
+    int fallback;      /* top could not be resident: half-cache rule used */
+    uint32_t nq;       /* queue points */
+    uint32_t ntop;     /* top interior nodes (above the queue points) */
+    uint32_t ntopent;  /* entries of the packed top (region dyn.top) */
+    uint64_t *g;       /* subtree geometry per node */
+    int32_t *qp;       /* queue point of node, or -1 */
+    uint32_t *qnode;   /* node of queue point (at least one entry) */
+    int32_t *topid;    /* packed tree-top entry per node, -1 below queue points */
+    uint8_t *hastris;  /* subtree holds triangles */
+} dplan;
+
+static uint64_t raybuf_bytes(const rt_render_opts *o) { return 2ull * (uint64_t)o->threads * 32; }
+
+static void dyn_plan_free(void *p)
+{
+    dplan *P = p;
+    if (!P) return;
+    free(P->g);
+    free(P->qp);
+    free(P->qnode);
+    free(P->topid);
+    free(P->hastris);
+    free(P);
+}
+
+/* The tree top (interior nodes above the queue points, the queue points and
+ * the roots of empty subtrees) is packed depth first into its own region,
+ * dyn.top: it is the structure that routes rays to queues and is kept apart
+ * from the subtrees so it can stay in cache. */
+static void pack_top(const rt_kdtree *kd, dplan *P)
+{
+    for (uint32_t i = kd->nnodes; i-- > 0;) {
+        const rt_kdnode *n = &kd->nodes[i];
+        P->topid[i] = -1;
+        P->hastris[i] = rt_kd_is_leaf(n) ? rt_kd_ntri(n) > 0 : (P->hastris[i + 1] || P->hastris[rt_kd_above(n)]);
+    }
+    uint32_t stack[RT_KD_STACK * 2 + 8], id = 0;
+    int sp = 0;
+    stack[sp++] = 0;
+    while (sp) {
+        uint32_t i = stack[--sp];
+        P->topid[i] = (int32_t)id++;
+        const rt_kdnode *n = &kd->nodes[i];
+        if (P->qp[i] >= 0 || !P->hastris[i] || rt_kd_is_leaf(n)) continue;
+        stack[sp++] = rt_kd_above(n);
+        stack[sp++] = i + 1;
+    }
+    P->ntopent = id;
+}
+
+static int dyn_plan(const rt_tracer_ctx *ctx, void **out, rt_err *e)
+{
+    const rt_kdtree *kd = ctx->kd;
+    size_t nn = kd->nnodes ? kd->nnodes : 1;
+    *out = NULL;
+    dplan *P = rt_calloc(1, sizeof *P, e);
+    if (!P || !(P->g = rt_calloc(nn, sizeof *P->g, e)) || !(P->qp = rt_calloc(nn, sizeof *P->qp, e)) ||
+        !(P->topid = rt_calloc(nn, sizeof *P->topid, e)) || !(P->hastris = rt_calloc(nn, 1, e)) ||
+        rt_dyn_subtree_geometry(kd, ctx->sc->ntri, P->g, e) < 0) {
+        dyn_plan_free(P);
+        return -1;
+    }
+    P->gmax = ctx->opt->gmax ? ctx->opt->gmax
+                             : rt_dyn_derive_gmax(kd, P->g, ctx->opt->cache_size, raybuf_bytes(ctx->opt), &P->fallback);
+    P->nq = rt_dyn_select(kd, P->g, P->gmax, P->qp, &P->ntop);
+    if (!(P->qnode = rt_calloc(P->nq ? P->nq : 1, sizeof *P->qnode, e))) {
+        dyn_plan_free(P);
+        return -1;
+    }
+    for (uint32_t n = 0; n < kd->nnodes; n++)
+        if (P->qp[n] >= 0) P->qnode[P->qp[n]] = n;
+    pack_top(kd, P);
+    *out = P;
+    return 0;
+}
+
 /* ---- scheduler state ------------------------------------------------------ */
 
 typedef struct qent {
@@ -164,22 +270,23 @@ typedef struct qent {
     float t0, t1;  /* interval within the queue point's cell */
 } qent;
 
-typedef struct dyn {
+struct rt_dyn {
     const rt_tracer_ctx *ctx;
     const rt_scene *sc;
     const rt_kdtree *kd;
     const rt_layout *L;
+    const dplan *P;      /* the schedule (I1, I2) */
     rt_rec *rec;
     rt_trav tv;
     int reg_shade, reg_ray, reg_fb, reg_hits, reg_qt, reg_q, reg_box, reg_rb, reg_top;
-    int32_t *topid;      /* entry of a node in the packed tree top, or -1 */
-    uint8_t *hastris;    /* subtree holds triangles */
-    uint64_t gmax;
-    int32_t *qp;         /* queue point of node, or -1 */
-    uint32_t *qnode;     /* node of queue point */
-    uint32_t nq, ntop;
-    uint32_t oversized;  /* leaf queue points whose geometry exceeds gmax */
-    /* queues: chains of blocks */
+    const int32_t *topid;   /* = P->topid */
+    const uint8_t *hastris; /* = P->hastris */
+    uint64_t gmax;          /* = P->gmax */
+    const int32_t *qp;      /* = P->qp */
+    const uint32_t *qnode;  /* = P->qnode */
+    uint32_t nq, ntop;      /* = P->nq, P->ntop */
+    size_t npix;         /* W x H */
+    /* queues: chains of blocks (I3, I4) */
     qent *blk;           /* nblk * QBLK entries */
     int32_t *bnext;      /* next block in chain / free list */
     uint32_t nblk;
@@ -188,16 +295,17 @@ typedef struct dyn {
     uint32_t *qheadpos;  /* read position in head block */
     uint32_t *qcount;    /* rays queued */
     uint64_t queued, peak_queued;
-    /* fullest-first buckets */
+    /* fullest-first buckets (I5) */
     int32_t *bk_head, *bk_next, *bk_prev;
     uint32_t bk_max, bk_cap;
-    /* per-pixel state */
+    /* per-pixel state (I6) */
     rt_cam_frame cam;
     float *hit_t;
     uint32_t *hit_tri;
     float *hit_u, *hit_v; /* barycentrics of the final hit */
     uint8_t *vis;        /* bit i: light i visible */
     uint8_t *resolved;   /* rays of this generation resolved per pixel */
+    uint8_t *want;       /* pixel has a ray in this generation */
     int shadow;          /* current generation: 0 primary, 1 shadow */
     int light;           /* light of the shadow generation */
     uint32_t rbslot, rbslots;
@@ -207,8 +315,10 @@ typedef struct dyn {
     uint8_t *mark;
     rt_image *img;
     rt_run_stats *st;
-    int err;
-} dyn;
+    rt_err *e;           /* receives a broken invariant's message */
+    int err;             /* 1: block pool exhausted; 2: invariant broken (message in e) */
+};
+typedef struct rt_dyn dyn;
 
 /* Rays of the current generation are made from the pixel id alone, so the
  * queues need not hold their 32-byte contents in host memory (they are
@@ -217,14 +327,14 @@ static void make_rays(dyn *D, uint32_t pix, rt_ray *trav, rt_ray *test)
 {
     int x = (int)(pix % (uint32_t)D->cam.W), y = (int)(pix / (uint32_t)D->cam.W);
     rt_ray eye;
-    rt_camera_ray(&D->cam, x, y, &eye);
+    rt_cam_ray(&D->cam, x, y, &eye);
     if (!D->shadow) {
         *trav = eye;
         *test = eye;
         return;
     }
     rt_hit h = {D->hit_t[pix], D->hit_tri[pix], D->hit_u[pix], D->hit_v[pix]};
-    rt_shadow_ray(D->sc, &eye, &h, D->light, test);
+    rt_shade_ray(D->sc, &eye, &h, D->light, test);
     rt_ray_init(trav, D->sc->light[D->light], rt_sub(test->o, D->sc->light[D->light]));
     trav->tmin = 0.0f;
     trav->tmax = 1.0f;
@@ -432,7 +542,7 @@ static void resolve_primary(dyn *D, uint32_t pix, float t, uint32_t tri, int tri
          * gives the same t, u, v as during traversal */
         rt_ray eye;
         float tt;
-        rt_camera_ray(&D->cam, (int)(pix % (uint32_t)D->cam.W), (int)(pix / (uint32_t)D->cam.W), &eye);
+        rt_cam_ray(&D->cam, (int)(pix % (uint32_t)D->cam.W), (int)(pix / (uint32_t)D->cam.W), &eye);
         rt_isect_tri(&eye, &D->sc->tri[tri], &tt, &D->hit_u[pix], &D->hit_v[pix]);
     }
     if (tri == RT_NO_HIT) {
@@ -646,6 +756,16 @@ static void drain(dyn *D, uint32_t q)
     }
 }
 
+static int check_state(const dyn *D, rt_err *e);
+
+/* Test mode: verifies the invariants at a step boundary, all of them
+ * (I1-I6) when a generation's rays have started, the run's state (I3-I6)
+ * after each drained queue. */
+static void step_check(dyn *D, int all)
+{
+    if (D->ctx->check && !D->err && (all ? rt_dyn_check(D, D->e) : check_state(D, D->e)) < 0) D->err = 2;
+}
+
 static void run_queues(dyn *D)
 {
     if (D->ctx->opt->qorder == RT_QORDER_FULLEST) {
@@ -653,10 +773,15 @@ static void run_queues(dyn *D)
             while (D->bk_max > 0 && D->bk_head[D->bk_max] < 0) D->bk_max--;
             if (!D->bk_max) break;
             drain(D, (uint32_t)D->bk_head[D->bk_max]);
+            step_check(D, 0);
         }
     } else {
         while (D->queued && !D->err)
-            for (uint32_t q = 0; q < D->nq && !D->err; q++) drain(D, q);
+            for (uint32_t q = 0; q < D->nq && !D->err; q++) {
+                uint32_t had = D->qcount[q];
+                drain(D, q);
+                if (had) step_check(D, 0);
+            }
     }
 }
 
@@ -693,6 +818,7 @@ static void start(dyn *D, uint32_t pix)
 
 static int check_generation(dyn *D, const uint8_t *want, size_t npix, rt_err *e)
 {
+    if (D->err == 2) return -1;
     if (D->err) return rt_errf(e, "dynamic: queue block pool exhausted (internal error)");
     if (D->queued) return rt_errf(e, "dynamic: %" PRIu64 " rays left in queues (internal error)", D->queued);
     for (size_t p = 0; p < npix; p++)
@@ -702,85 +828,179 @@ static int check_generation(dyn *D, const uint8_t *want, size_t npix, rt_err *e)
     return 0;
 }
 
-/* ---- tracer interface --------------------------------------------------------- */
 
-static uint64_t raybuf_bytes(const rt_render_opts *o) { return 2ull * (uint64_t)o->threads * 32; }
+/* ---- invariant checker ---------------------------------------------------- */
 
-typedef struct sched {
-    uint64_t gmax;
-    int fallback; /* top could not be resident: half-cache rule used */
-    uint32_t nq, ntop;
-    int32_t *qp;
-    int32_t *topid;    /* packed tree-top entry per node, -1 below queue points */
-    uint8_t *hastris;  /* subtree holds triangles */
-    uint32_t ntopent;  /* entries of the packed top */
-} sched;
-
-static void sched_free(sched *s)
+static int check_plan(const dyn *D, rt_err *e)
 {
-    free(s->qp);
-    free(s->topid);
-    free(s->hastris);
-}
-
-static int schedule(const rt_tracer_ctx *ctx, sched *s, rt_err *e)
-{
-    const rt_kdtree *kd = ctx->kd;
-    uint64_t *g = rt_calloc(kd->nnodes, sizeof *g, e);
-    s->qp = g ? rt_calloc(kd->nnodes, sizeof *s->qp, e) : NULL;
-    if (!s->qp) {
-        free(g);
-        return -1;
-    }
-    if (rt_dyn_subtree_geometry(kd, ctx->sc->ntri, g, e) < 0) {
-        free(g);
-        free(s->qp);
-        s->qp = NULL;
-        return -1;
-    }
-    s->fallback = 0;
-    s->gmax = ctx->opt->gmax ? ctx->opt->gmax
-                             : rt_dyn_derive_gmax(kd, g, ctx->opt->cache_size, raybuf_bytes(ctx->opt), &s->fallback);
-    s->nq = rt_dyn_select(kd, g, s->gmax, s->qp, &s->ntop);
-    free(g);
-    /* The tree top (interior nodes above the queue points, the queue points
-     * and the roots of empty subtrees) is packed depth first into its own
-     * region, dyn.top: it is the structure that routes rays to queues and is
-     * kept apart from the subtrees so it can stay in cache. */
-    s->topid = rt_calloc(kd->nnodes, sizeof *s->topid, e);
-    s->hastris = s->topid ? rt_calloc(kd->nnodes, 1, e) : NULL;
-    if (!s->hastris) {
-        sched_free(s);
-        return -1;
-    }
-    for (uint32_t i = kd->nnodes; i-- > 0;) {
+    const rt_kdtree *kd = D->kd;
+    const dplan *P = D->P;
+    uint32_t nq = 0, ntop = 0, ntopent = 0;
+    for (uint32_t i = 0; i < kd->nnodes; i++) {
         const rt_kdnode *n = &kd->nodes[i];
-        s->topid[i] = -1;
-        s->hastris[i] = rt_kd_is_leaf(n) ? rt_kd_ntri(n) > 0 : (s->hastris[i + 1] || s->hastris[rt_kd_above(n)]);
+        int leaf = rt_kd_is_leaf(n);
+        int any = leaf ? rt_kd_ntri(n) > 0 : (P->hastris[i + 1] || P->hastris[rt_kd_above(n)]);
+        if (!P->hastris[i] != !any) return rt_errf(e, "dynamic I1: node %u hastris %u, subtree says %d", i, P->hastris[i], any);
+        if (P->qp[i] >= 0) {
+            if ((uint32_t)P->qp[i] != nq || P->qnode[nq] != i)
+                return rt_errf(e, "dynamic I1: node %u is queue point %d, expected %u in node order", i, P->qp[i], nq);
+            if (!any || (!leaf && P->g[i] > P->gmax))
+                return rt_errf(e, "dynamic I1: queue point at node %u (g %" PRIu64 ", gmax %" PRIu64 ", triangles %d)", i,
+                               P->g[i], P->gmax, any);
+            nq++;
+        } else if (P->qp[i] != -1) {
+            return rt_errf(e, "dynamic I1: node %u has queue-point mark %d", i, P->qp[i]);
+        }
+        if (P->topid[i] >= 0) ntopent++;
     }
-    uint32_t stack[RT_KD_STACK * 2 + 8], id = 0;
+    if (nq != P->nq) return rt_errf(e, "dynamic I1: %u queue points marked, plan says %u", nq, P->nq);
+    if (ntopent != P->ntopent) return rt_errf(e, "dynamic I2: %u top entries, plan says %u", ntopent, P->ntopent);
+    if (kd->nnodes && P->topid[0] != 0) return rt_errf(e, "dynamic I2: the root is top entry %d", P->topid[0]);
+    /* Walk the top from the root: interior top nodes route to both children. */
+    uint32_t stack[RT_KD_STACK * 2 + 8];
     int sp = 0;
-    stack[sp++] = 0;
+    if (kd->nnodes) stack[sp++] = 0;
     while (sp) {
         uint32_t i = stack[--sp];
-        s->topid[i] = (int32_t)id++;
         const rt_kdnode *n = &kd->nodes[i];
-        if (s->qp[i] >= 0 || !s->hastris[i] || rt_kd_is_leaf(n)) continue;
+        if (P->topid[i] < 0) return rt_errf(e, "dynamic I2: node %u reached through the top has no top entry", i);
+        if (P->qp[i] >= 0 || !P->hastris[i] || rt_kd_is_leaf(n)) continue;
+        if (P->g[i] <= P->gmax)
+            return rt_errf(e, "dynamic I2: top node %u fits (g %" PRIu64 " <= gmax %" PRIu64 ") but is no queue point", i,
+                           P->g[i], P->gmax);
+        ntop++;
+        if (P->topid[i + 1] != P->topid[i] + 1)
+            return rt_errf(e, "dynamic I2: top node %u (entry %d) not followed by its below child", i, P->topid[i]);
+        if (sp + 2 > (int)(sizeof stack / sizeof stack[0])) return rt_errf(e, "dynamic I2: top deeper than the stack");
         stack[sp++] = rt_kd_above(n);
         stack[sp++] = i + 1;
     }
-    s->ntopent = id;
+    if (ntop != P->ntop) return rt_errf(e, "dynamic I2: %u top interior nodes, plan says %u", ntop, P->ntop);
     return 0;
 }
 
+static int check_queues(const dyn *D, uint8_t *seen_blk, rt_err *e)
+{
+    uint64_t total = 0;
+    for (uint32_t q = 0; q < D->nq; q++) {
+        if (D->qhead[q] < 0) {
+            if (D->qtail[q] >= 0 || D->qcount[q] || D->qheadpos[q])
+                return rt_errf(e, "dynamic I3: queue %u has no head but tail %d, %u rays, position %u", q, D->qtail[q],
+                               D->qcount[q], D->qheadpos[q]);
+            continue;
+        }
+        if (D->qheadpos[q] >= QBLK) return rt_errf(e, "dynamic I3: queue %u reads at %u", q, D->qheadpos[q]);
+        uint32_t want = (D->qheadpos[q] + D->qcount[q] + QBLK - 1) / QBLK, nb = 0;
+        int32_t b = D->qhead[q], last = -1;
+        while (b >= 0 && nb <= want) {
+            if ((uint32_t)b >= D->nblk || seen_blk[b]) return rt_errf(e, "dynamic I4: block %d reached twice (queue %u)", b, q);
+            seen_blk[b] = 1;
+            nb++;
+            last = b;
+            b = D->bnext[b];
+        }
+        if (nb != want || last != D->qtail[q])
+            return rt_errf(e, "dynamic I3: queue %u holds %u rays in %u blocks ending at %d, expected %u ending at %d", q,
+                           D->qcount[q], nb, last, want, D->qtail[q]);
+        total += D->qcount[q];
+    }
+    if (total != D->queued || D->queued > D->peak_queued)
+        return rt_errf(e, "dynamic I3: queues hold %" PRIu64 " rays, %" PRIu64 " counted, peak %" PRIu64, total, D->queued,
+                       D->peak_queued);
+    uint32_t nfree = 0;
+    for (int32_t b = D->freelist; b >= 0; b = D->bnext[b]) {
+        if ((uint32_t)b >= D->nblk || seen_blk[b]) return rt_errf(e, "dynamic I4: free block %d also in use or listed twice", b);
+        seen_blk[b] = 1;
+        nfree++;
+    }
+    for (uint32_t b = 0; b < D->nblk; b++)
+        if (!seen_blk[b]) return rt_errf(e, "dynamic I4: block %u is in no queue and not free", b);
+    return 0;
+}
+
+static int check_buckets(const dyn *D, uint8_t *seen_q, rt_err *e)
+{
+    uint32_t listed = 0;
+    for (size_t c = 0; c <= D->bk_max && c <= D->bk_cap; c++) { /* all nq found here: none above bk_max */
+        int32_t prev = -1;
+        for (int32_t q = D->bk_head[c]; q >= 0; q = D->bk_next[q]) {
+            if ((uint32_t)q >= D->nq || seen_q[q]) return rt_errf(e, "dynamic I5: queue %d listed twice", q);
+            seen_q[q] = 1;
+            listed++;
+            if (D->qcount[q] != c) return rt_errf(e, "dynamic I5: queue %d with %u rays in bucket %zu", q, D->qcount[q], c);
+            if (D->bk_prev[q] != prev) return rt_errf(e, "dynamic I5: queue %d links back to %d, not %d", q, D->bk_prev[q], prev);
+            if (D->qcount[q] > D->bk_max) return rt_errf(e, "dynamic I5: queue %d holds %u rays above the fullest bound %u", q,
+                                                        D->qcount[q], D->bk_max);
+            prev = q;
+        }
+    }
+    if (listed != D->nq) return rt_errf(e, "dynamic I5: %u of %u queues in buckets", listed, D->nq);
+    return 0;
+}
+
+static int check_rays(const dyn *D, uint8_t *seen_pix, rt_err *e)
+{
+    for (uint32_t q = 0; q < D->nq; q++) {
+        int32_t b = D->qhead[q];
+        uint32_t pos = D->qheadpos[q];
+        for (uint32_t k = 0; k < D->qcount[q]; k++) {
+            const qent *qe = &D->blk[(size_t)b * QBLK + pos];
+            uint32_t pix = qe->pix & ~CAND_FLAG;
+            if (pix >= D->npix || !D->want[pix] || D->resolved[pix] || seen_pix[pix])
+                return rt_errf(e, "dynamic I6: queue %u holds pixel %u (wanted %d, resolved %d, queued before %d)", q, pix,
+                               pix < D->npix ? D->want[pix] : -1, pix < D->npix ? D->resolved[pix] : -1,
+                               pix < D->npix ? seen_pix[pix] : -1);
+            seen_pix[pix] = 1;
+            if ((qe->pix & CAND_FLAG) && (D->shadow || D->hit_tri[pix] == RT_NO_HIT))
+                return rt_errf(e, "dynamic I6: pixel %u flagged with a candidate hit it lacks", pix);
+            if (++pos == QBLK) {
+                b = D->bnext[b];
+                pos = 0;
+            }
+        }
+    }
+    for (size_t p = 0; p < D->npix; p++)
+        if (D->resolved[p] > 1) return rt_errf(e, "dynamic I6: pixel %zu resolved %u times", p, D->resolved[p]);
+    if (D->created != D->done + D->queued)
+        return rt_errf(e, "dynamic I6: %" PRIu64 " rays started, %" PRIu64 " resolved, %" PRIu64 " queued", D->created,
+                       D->done, D->queued);
+    return 0;
+}
+
+/* I3-I6: the run's state (the plan does not change during a run). */
+static int check_state(const dyn *D, rt_err *e)
+{
+    size_t n = D->nblk > D->nq ? D->nblk : D->nq;
+    if (D->npix > n) n = D->npix;
+    uint8_t *seen = rt_calloc(n ? n : 1, 1, e);
+    if (!seen) return -1;
+    int rc = check_queues(D, seen, e);
+    if (rc == 0 && D->ctx->opt->qorder == RT_QORDER_FULLEST) {
+        memset(seen, 0, n);
+        rc = check_buckets(D, seen, e);
+    }
+    if (rc == 0) {
+        memset(seen, 0, n);
+        rc = check_rays(D, seen, e);
+    }
+    free(seen);
+    return rc;
+}
+
+int rt_dyn_check(const rt_dyn *D, rt_err *e)
+{
+    return check_plan(D, e) < 0 ? -1 : check_state(D, e);
+}
+
+/* ---- tracer interface --------------------------------------------------------- */
+
 static int dyn_layout(const rt_tracer_ctx *ctx, rt_layout *L, rt_err *e)
 {
+    const dplan *P = ctx->plan;
+    if (!P) return rt_errf(e, "dynamic: layout without a plan (internal error)");
     size_t npix = (size_t)ctx->opt->W * (size_t)ctx->opt->H;
-    sched s;
-    if (schedule(ctx, &s, e) < 0) return -1;
-    uint64_t nq = s.nq ? s.nq : 1, ntop = s.ntopent;
-    sched_free(&s);
-    if (rt_layout_geometry(ctx, L, 1, e) < 0) return -1;
+    uint64_t nq = P->nq ? P->nq : 1, ntop = P->ntopent;
+    if (rt_reg_geometry(ctx, L, 1, e) < 0) return -1;
     if (rt_mm_add(L, "rays.primary", RT_CLS_RAY, 32, npix, e) < 0) return -1;
     if (rt_mm_add(L, "dyn.raybuf", RT_CLS_RAY, 32, 2ull * (uint64_t)ctx->opt->threads, e) < 0) return -1;
     if (rt_mm_add(L, "dyn.qtable", RT_CLS_QTABLE, 8, nq, e) < 0) return -1;
@@ -792,174 +1012,197 @@ static int dyn_layout(const rt_tracer_ctx *ctx, rt_layout *L, rt_err *e)
     return 0;
 }
 
-static int dyn_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_err *e)
+static void dyn_free(dyn *D)
 {
-    const rt_scene *sc = ctx->sc;
+    free(D->blk);
+    free(D->bnext);
+    free(D->qhead);
+    free(D->qtail);
+    free(D->qheadpos);
+    free(D->qcount);
+    free(D->qtimes);
+    free(D->bk_head);
+    free(D->bk_next);
+    free(D->bk_prev);
+    free(D->hit_t);
+    free(D->hit_tri);
+    free(D->hit_u);
+    free(D->hit_v);
+    free(D->vis);
+    free(D->resolved);
+    free(D->want);
+    free(D->mark);
+}
+
+/* Sets up the run's state: regions, the plan, an empty block pool on the
+ * free list, empty queues in bucket 0. 0 or -1 (D freed by the caller). */
+static int dyn_init(dyn *D, const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_err *e)
+{
     const rt_render_opts *o = ctx->opt;
-    const size_t npix = (size_t)o->W * (size_t)o->H;
-    dyn D;
-    memset(&D, 0, sizeof D);
-    D.ctx = ctx;
-    D.sc = sc;
-    D.kd = ctx->kd;
-    D.L = ctx->L;
-    D.rec = ctx->rec;
-    D.img = img;
-    D.st = st;
-    rt_trav_init(&D.tv, ctx);
     const rt_layout *L = ctx->L;
-    D.reg_shade = rt_mm_find(L, "tri.shade");
-    D.reg_ray = rt_mm_find(L, "rays.primary");
-    D.reg_fb = rt_mm_find(L, "fb");
-    D.reg_hits = rt_mm_find(L, "dyn.hits");
-    D.reg_qt = rt_mm_find(L, "dyn.qtable");
-    D.reg_q = rt_mm_find(L, "dyn.queues");
-    D.reg_box = rt_mm_find(L, "dyn.qpbox");
-    D.reg_rb = rt_mm_find(L, "dyn.raybuf");
-    D.rbslots = (uint32_t)(2 * o->threads);
-    rt_cam_setup(&D.cam, sc, o->W, o->H);
-    int rc = -1;
-    sched s = {0, 0, 0, 0, NULL, NULL, NULL, 0};
-    uint32_t *order = NULL;
-    uint8_t *want = NULL;
-    if (schedule(ctx, &s, e) < 0) return -1;
-    D.qp = s.qp;
-    D.topid = s.topid;
-    D.hastris = s.hastris;
-    D.reg_top = rt_mm_find(L, "dyn.top");
-    D.gmax = s.gmax;
-    D.nq = s.nq;
-    D.ntop = s.ntop;
-    uint32_t nq = D.nq ? D.nq : 1;
-    D.nblk = (uint32_t)(npix / QBLK + nq + 2);
-    if (!(D.qnode = rt_calloc(nq, sizeof *D.qnode, e)) || !(D.blk = rt_calloc((size_t)D.nblk * QBLK, sizeof *D.blk, e)) ||
-        !(D.bnext = rt_calloc(D.nblk, sizeof *D.bnext, e)) || !(D.qhead = rt_calloc(nq, sizeof *D.qhead, e)) ||
-        !(D.qtail = rt_calloc(nq, sizeof *D.qtail, e)) || !(D.qheadpos = rt_calloc(nq, sizeof *D.qheadpos, e)) ||
-        !(D.qcount = rt_calloc(nq, sizeof *D.qcount, e)) || !(D.qtimes = rt_calloc(nq, sizeof *D.qtimes, e)) ||
-        !(D.bk_head = rt_calloc(npix + 2, sizeof *D.bk_head, e)) || !(D.bk_next = rt_calloc(nq, sizeof *D.bk_next, e)) ||
-        !(D.bk_prev = rt_calloc(nq, sizeof *D.bk_prev, e)) || !(D.hit_t = rt_calloc(npix, sizeof *D.hit_t, e)) ||
-        !(D.hit_tri = rt_calloc(npix, sizeof *D.hit_tri, e)) ||
-        !(D.hit_u = rt_calloc(npix, sizeof *D.hit_u, e)) || !(D.hit_v = rt_calloc(npix, sizeof *D.hit_v, e)) || !(D.vis = rt_calloc(npix, 1, e)) ||
-        !(D.resolved = rt_calloc(npix, 1, e)) || !(D.mark = rt_calloc(sc->ntri ? sc->ntri : 1, 1, e)) ||
-        !(order = rt_calloc(npix, sizeof *order, e)) || !(want = rt_calloc(npix, 1, e)))
-        goto done;
-    for (uint32_t i = 0; i < D.nblk; i++) D.bnext[i] = i + 1 < D.nblk ? (int32_t)(i + 1) : -1;
-    D.freelist = 0;
-    for (uint32_t q = 0; q < nq; q++) D.qhead[q] = D.qtail[q] = -1;
-    for (size_t c = 0; c < npix + 2; c++) D.bk_head[c] = -1;
-    D.bk_cap = (uint32_t)(npix + 1);
-    for (uint32_t n = 0; n < D.kd->nnodes; n++)
-        if (D.qp[n] >= 0) D.qnode[D.qp[n]] = n;
-    for (uint32_t q = 0; q < D.nq; q++) bk_link(&D, q);
-    D.tv.mark = D.mark;
-    const size_t ntr = rt_pixel_order(o, order); /* traced pixels (all unless subsampling) */
+    const dplan *P = ctx->plan;
+    const size_t npix = (size_t)o->W * (size_t)o->H;
+    memset(D, 0, sizeof *D);
+    if (!P) return rt_errf(e, "dynamic: run without a plan (internal error)");
+    D->ctx = ctx;
+    D->sc = ctx->sc;
+    D->kd = ctx->kd;
+    D->L = L;
+    D->P = P;
+    D->rec = ctx->rec;
+    D->img = img;
+    D->st = st;
+    D->e = e;
+    D->npix = npix;
+    rt_reg_trav(&D->tv, ctx);
+    D->reg_shade = rt_mm_find(L, "tri.shade");
+    D->reg_ray = rt_mm_find(L, "rays.primary");
+    D->reg_fb = rt_mm_find(L, "fb");
+    D->reg_hits = rt_mm_find(L, "dyn.hits");
+    D->reg_qt = rt_mm_find(L, "dyn.qtable");
+    D->reg_q = rt_mm_find(L, "dyn.queues");
+    D->reg_box = rt_mm_find(L, "dyn.qpbox");
+    D->reg_rb = rt_mm_find(L, "dyn.raybuf");
+    D->reg_top = rt_mm_find(L, "dyn.top");
+    D->rbslots = (uint32_t)(2 * o->threads);
+    rt_cam_setup(&D->cam, D->sc, o->W, o->H);
+    D->qp = P->qp;
+    D->qnode = P->qnode;
+    D->topid = P->topid;
+    D->hastris = P->hastris;
+    D->gmax = P->gmax;
+    D->nq = P->nq;
+    D->ntop = P->ntop;
+    uint32_t nq = D->nq ? D->nq : 1;
+    D->nblk = (uint32_t)(npix / QBLK + nq + 2);
+    if (!(D->blk = rt_calloc((size_t)D->nblk * QBLK, sizeof *D->blk, e)) ||
+        !(D->bnext = rt_calloc(D->nblk, sizeof *D->bnext, e)) || !(D->qhead = rt_calloc(nq, sizeof *D->qhead, e)) ||
+        !(D->qtail = rt_calloc(nq, sizeof *D->qtail, e)) || !(D->qheadpos = rt_calloc(nq, sizeof *D->qheadpos, e)) ||
+        !(D->qcount = rt_calloc(nq, sizeof *D->qcount, e)) || !(D->qtimes = rt_calloc(nq, sizeof *D->qtimes, e)) ||
+        !(D->bk_head = rt_calloc(npix + 2, sizeof *D->bk_head, e)) || !(D->bk_next = rt_calloc(nq, sizeof *D->bk_next, e)) ||
+        !(D->bk_prev = rt_calloc(nq, sizeof *D->bk_prev, e)) || !(D->hit_t = rt_calloc(npix, sizeof *D->hit_t, e)) ||
+        !(D->hit_tri = rt_calloc(npix, sizeof *D->hit_tri, e)) || !(D->hit_u = rt_calloc(npix, sizeof *D->hit_u, e)) ||
+        !(D->hit_v = rt_calloc(npix, sizeof *D->hit_v, e)) || !(D->vis = rt_calloc(npix, 1, e)) ||
+        !(D->resolved = rt_calloc(npix, 1, e)) || !(D->want = rt_calloc(npix, 1, e)) ||
+        !(D->mark = rt_calloc(D->sc->ntri ? D->sc->ntri : 1, 1, e)))
+        return -1;
+    for (uint32_t i = 0; i < D->nblk; i++) D->bnext[i] = i + 1 < D->nblk ? (int32_t)(i + 1) : -1;
+    D->freelist = 0;
+    for (uint32_t q = 0; q < nq; q++) D->qhead[q] = D->qtail[q] = -1;
+    for (size_t c = 0; c < npix + 2; c++) D->bk_head[c] = -1;
+    D->bk_cap = (uint32_t)(npix + 1);
+    for (uint32_t q = 0; q < D->nq; q++) bk_link(D, q);
+    D->tv.mark = D->mark;
+    return 0;
+}
 
-    /* generation 0: primary rays */
-    D.shadow = 0;
-    D.tv.mark_bit = 1;
+/* Generation 0: a primary ray per traced pixel, then the queues. */
+static int primary_generation(dyn *D, const uint32_t *order, size_t ntr, rt_err *e)
+{
+    D->shadow = 0;
+    D->tv.mark_bit = 1;
+    for (size_t k = 0; k < ntr; k++) D->want[order[k]] = 1;
     for (size_t k = 0; k < ntr; k++) {
-        RT_REC(D.rec, rt_mm_addr(L, D.reg_ray, order[k]), 32, 0, RT_CLS_RAY);
-        start(&D, order[k]);
+        RT_REC(D->rec, rt_mm_addr(D->L, D->reg_ray, order[k]), 32, 0, RT_CLS_RAY);
+        start(D, order[k]);
     }
-    st->rays_primary = ntr;
-    run_queues(&D);
-    for (size_t k = 0; k < ntr; k++) want[order[k]] = 1;
-    if (check_generation(&D, want, npix, e) < 0) goto done;
+    D->st->rays_primary = ntr;
+    step_check(D, 1);
+    run_queues(D);
+    return check_generation(D, D->want, D->npix, e);
+}
 
-    /* shadow generations, one per light, from the light toward the hits */
-    D.shadow = 1;
-    D.tv.mark_bit = 2;
-    for (int li = 0; li < RT_NLIGHTS; li++) {
-        if (!(o->lights & (1u << li))) continue;
-        D.light = li;
-        memset(D.resolved, 0, npix);
-        for (size_t k = 0; k < ntr; k++) {
-            uint32_t pix = order[k];
-            want[pix] = 0;
-            RT_REC(D.rec, rt_mm_addr(L, D.reg_hits, pix), 24, 0, RT_CLS_HIT);
-            if (D.hit_tri[pix] == RT_NO_HIT) continue;
-            rt_ray eye, sr;
-            rt_camera_ray(&D.cam, (int)(pix % (uint32_t)o->W), (int)(pix / (uint32_t)o->W), &eye);
-            rt_hit h = {D.hit_t[pix], D.hit_tri[pix], D.hit_u[pix], D.hit_v[pix]};
-            if (!rt_shadow_ray(sc, &eye, &h, li, &sr)) continue;
-            want[pix] = 1;
-            st->rays_shadow++;
-            start(&D, pix);
-        }
-        run_queues(&D);
-        if (check_generation(&D, want, npix, e) < 0) goto done;
+/* A shadow generation for light li: from the light toward each lit hit. */
+static int shadow_generation(dyn *D, int li, const uint32_t *order, size_t ntr, rt_err *e)
+{
+    const int W = D->ctx->opt->W;
+    D->light = li;
+    memset(D->resolved, 0, D->npix);
+    for (size_t k = 0; k < ntr; k++) {
+        uint32_t pix = order[k];
+        D->want[pix] = 0;
+        RT_REC(D->rec, rt_mm_addr(D->L, D->reg_hits, pix), 24, 0, RT_CLS_HIT);
+        if (D->hit_tri[pix] == RT_NO_HIT) continue;
+        rt_ray eye, sr;
+        rt_cam_ray(&D->cam, (int)(pix % (uint32_t)W), (int)(pix / (uint32_t)W), &eye);
+        rt_hit h = {D->hit_t[pix], D->hit_tri[pix], D->hit_u[pix], D->hit_v[pix]};
+        if (!rt_shade_ray(D->sc, &eye, &h, li, &sr)) continue;
+        D->want[pix] = 1;
+        D->st->rays_shadow++;
+        start(D, pix);
     }
+    step_check(D, 1);
+    run_queues(D);
+    return check_generation(D, D->want, D->npix, e);
+}
 
-    /* final image: the shared shading rule on the per-light visibility */
-    for (size_t p = 0; p < npix; p++) {
-        float rgb[3];
+/* The final image: the shared shading rule on the per-light visibility. */
+static void shade_image(dyn *D)
+{
+    const rt_render_opts *o = D->ctx->opt;
+    for (size_t p = 0; p < D->npix; p++) {
+        int x = (int)(p % (size_t)o->W), y = (int)(p / (size_t)o->W);
+        if (!rt_pixel_kept(o, x, y)) continue; /* not traced */
         rt_ray eye;
-        if (!rt_pixel_kept(o, (int)(p % (size_t)o->W), (int)(p / (size_t)o->W))) continue; /* not traced */
-        rt_camera_ray(&D.cam, (int)(p % (size_t)o->W), (int)(p / (size_t)o->W), &eye);
-        if (D.hit_tri[p] != RT_NO_HIT) {
-            rt_hit h = {D.hit_t[p], D.hit_tri[p], D.hit_u[p], D.hit_v[p]};
-            int vis[RT_NLIGHTS];
-            for (int i = 0; i < RT_NLIGHTS; i++) vis[i] = (D.vis[p] >> i) & 1;
-            rt_shade_hit(sc, &eye, &h, vis, o->lights, rgb);
-            img->depth[p] = h.t * rt_len(eye.d);
-        } else {
-            rgb[0] = sc->background.x;
-            rgb[1] = sc->background.y;
-            rgb[2] = sc->background.z;
-            img->depth[p] = INFINITY;
+        rt_cam_ray(&D->cam, x, y, &eye);
+        if (D->hit_tri[p] == RT_NO_HIT) {
+            rt_shade_pixel(D->sc, &eye, NULL, NULL, o->lights, D->img, p);
+            continue;
         }
-        img->rgb[3 * p] = rgb[0];
-        img->rgb[3 * p + 1] = rgb[1];
-        img->rgb[3 * p + 2] = rgb[2];
+        rt_hit h = {D->hit_t[p], D->hit_tri[p], D->hit_u[p], D->hit_v[p]};
+        int vis[RT_NLIGHTS];
+        for (int i = 0; i < RT_NLIGHTS; i++) vis[i] = (D->vis[p] >> i) & 1;
+        rt_shade_pixel(D->sc, &eye, &h, vis, o->lights, D->img, p);
     }
-    st->nodes = D.tv.nodes;
-    st->tests = D.tv.tests;
-    for (uint32_t i = 0; i < sc->ntri; i++) {
-        st->pv_primary += D.mark[i] & 1;
-        st->pv_all += D.mark[i] != 0;
-    }
+}
+
+static void report(const dyn *D, rt_run_stats *st)
+{
+    const rt_render_opts *o = D->ctx->opt;
+    rt_stats_finish(st, &D->tv, D->mark, D->sc->ntri);
     uint32_t qmax = 0, oversized = 0;
-    for (uint32_t q = 0; q < D.nq; q++) {
-        if (D.qtimes[q] > qmax) qmax = D.qtimes[q];
-        const rt_kdnode *nd = &D.kd->nodes[D.qnode[q]];
-        oversized += rt_kd_is_leaf(nd) && 40ull * rt_kd_ntri(nd) > D.gmax;
+    for (uint32_t q = 0; q < D->nq; q++) {
+        if (D->qtimes[q] > qmax) qmax = D->qtimes[q];
+        const rt_kdnode *nd = &D->kd->nodes[D->qnode[q]];
+        oversized += rt_kd_is_leaf(nd) && 40ull * rt_kd_ntri(nd) > D->gmax;
     }
     snprintf(st->extra, sizeof st->extra,
              "gmax=%" PRIu64 " gmax_rule=%s queue_points=%u top_nodes=%u oversized_leaves=%u enqueues=%" PRIu64
              " queue_events=%" PRIu64 " rays_per_event_mean=%.1f rays_per_event_max=%" PRIu64
              " peak_queued_bytes=%" PRIu64 " events_per_queue_mean=%.2f events_per_queue_max=%u rays=%" PRIu64
              " resolved=%" PRIu64,
-             D.gmax, o->gmax ? "given" : (s.fallback ? "top-first" : "resident-top"), D.nq, D.ntop, oversized, D.enq, D.events, D.events ? (double)D.ev_rays / (double)D.events : 0.0,
-             D.ev_max, D.peak_queued * 32, D.nq ? (double)D.events / D.nq : 0.0, qmax, D.created, D.done);
+             D->gmax, o->gmax ? "given" : (D->P->fallback ? "top-first" : "resident-top"), D->nq, D->ntop, oversized,
+             D->enq, D->events, D->events ? (double)D->ev_rays / (double)D->events : 0.0, D->ev_max, D->peak_queued * 32,
+             D->nq ? (double)D->events / D->nq : 0.0, qmax, D->created, D->done);
+}
+
+static int dyn_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_err *e)
+{
+    const rt_render_opts *o = ctx->opt;
+    dyn D;
+    int rc = -1;
+    uint32_t *order = NULL;
+    if (dyn_init(&D, ctx, img, st, e) < 0 || !(order = rt_calloc(D.npix, sizeof *order, e))) goto done;
+    const size_t ntr = rt_pixel_order(o, order); /* traced pixels (all unless subsampling) */
+    if (primary_generation(&D, order, ntr, e) < 0) goto done;
+    D.shadow = 1;
+    D.tv.mark_bit = 2;
+    for (int li = 0; li < RT_NLIGHTS; li++)
+        if ((o->lights & (1u << li)) && shadow_generation(&D, li, order, ntr, e) < 0) goto done;
+    shade_image(&D);
+    report(&D, st);
     rc = 0;
 done:
-    sched_free(&s);
-    free(D.qnode);
-    free(D.blk);
-    free(D.bnext);
-    free(D.qhead);
-    free(D.qtail);
-    free(D.qheadpos);
-    free(D.qcount);
-    free(D.qtimes);
-    free(D.bk_head);
-    free(D.bk_next);
-    free(D.bk_prev);
-    free(D.hit_t);
-    free(D.hit_tri);
-    free(D.hit_u);
-    free(D.hit_v);
-    free(D.vis);
-    free(D.resolved);
-    free(D.mark);
+    dyn_free(&D);
     free(order);
-    free(want);
     return rc;
 }
 
 const rt_tracer rt_tracer_dynamic = {
-    "dynamic",
-    "dynamically scheduled rays queued at cache-sized subtrees (Navratil et al. 2007)",
-    dyn_layout,
-    dyn_run,
+    .name = "dynamic",
+    .desc = "dynamically scheduled rays queued at cache-sized subtrees (Navratil et al. 2007)",
+    .layout = dyn_layout,
+    .run = dyn_run,
+    .plan = dyn_plan,
+    .plan_free = dyn_plan_free,
 };

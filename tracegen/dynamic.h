@@ -1,6 +1,7 @@
 /*
  * dynamic.h -- dynamic ray scheduling (Navrátil, Fussell, Lin 2007, sec. 2):
- * queue-point selection, exposed for tests and reports.
+ * queue-point selection, exposed for tests and reports, and the scheduler's
+ * invariant checker (prefix rt_dyn_).
  *
  * Subtree geometry g(n) is the geometry, in bytes, that processing the
  * subtree rooted at n can bring into the cache: 8 bytes per node of the
@@ -40,5 +41,13 @@ uint32_t rt_dyn_select(const rt_kdtree *kd, const uint64_t *g, uint64_t gmax, in
  * *fallback is then set. */
 uint64_t rt_dyn_derive_gmax(const rt_kdtree *kd, const uint64_t *g, uint64_t cache_bytes, uint64_t raybuf_bytes,
                             int *fallback);
+
+/* The scheduler's state during a run (dynamic.c). */
+typedef struct rt_dyn rt_dyn;
+
+/* Verifies the invariants I1-I6 documented at the top of dynamic.c. The
+ * tracer calls it at every step boundary when its job is in test mode
+ * (rt_job.check). 0, or -1 naming the broken invariant in e. */
+int rt_dyn_check(const rt_dyn *D, rt_err *e);
 
 #endif

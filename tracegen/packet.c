@@ -16,6 +16,10 @@
  * 8 B) live in a P*P-entry packet buffer that is rewritten for every packet
  * and read back for shading and shadow-ray setup.
  */
+#include "camera.h"
+#include "regions.h"
+#include "shade.h"
+#include "stats.h"
 #include "tracer.h"
 
 #include <math.h>
@@ -143,7 +147,7 @@ static int pk_layout(const rt_tracer_ctx *ctx, rt_layout *L, rt_err *e)
 {
     size_t npix = (size_t)ctx->opt->W * (size_t)ctx->opt->H;
     int P = ctx->opt->packet;
-    if (rt_layout_geometry(ctx, L, 1, e) < 0) return -1;
+    if (rt_reg_geometry(ctx, L, 1, e) < 0) return -1;
     if (rt_mm_add(L, "rays.primary", RT_CLS_RAY, 32, npix, e) < 0) return -1;
     if (rt_mm_add(L, "packet.hits", RT_CLS_HIT, 8, (uint64_t)P * P, e) < 0) return -1;
     if (rt_mm_add(L, "fb", RT_CLS_FB, 12, npix, e) < 0) return -1;
@@ -166,7 +170,7 @@ static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_
     int reg_ray = rt_mm_find(L, "rays.primary"), reg_fb = rt_mm_find(L, "fb");
     int reg_shade = rt_mm_find(L, "tri.shade"), reg_hits = rt_mm_find(L, "packet.hits");
     rt_trav tv;
-    rt_trav_init(&tv, ctx);
+    rt_reg_trav(&tv, ctx);
     pstate ps = {&tv, ctx->kd, sc, rec, L, tv.reg_node, tv.reg_idx, tv.reg_tri, NULL, NULL, NULL, 0, NULL, NULL, NULL, 0};
     ps.maxdepth = (int)ctx->kd->maxdepth + 2;
     int rc = -1;
@@ -210,7 +214,7 @@ static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_
                 int x = px + k % pw, y = py + k / pw;
                 uint32_t pix = (uint32_t)y * (uint32_t)W + (uint32_t)x;
                 RT_REC(rec, rt_mm_addr(L, reg_ray, pix), 32, 0, RT_CLS_RAY);
-                rt_camera_ray(&cam, x, y, &eye[k]);
+                rt_cam_ray(&cam, x, y, &eye[k]);
                 hit[k].tri = RT_NO_HIT;
                 hit[k].t = INFINITY;
                 pn[k] = pt[k] = 0;
@@ -236,7 +240,7 @@ static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_
                     want[k] = 0;
                     done[k] = 0;
                     if (hit[k].tri == RT_NO_HIT) continue;
-                    if (!rt_shadow_ray(sc, &eye[k], &hit[k], li, &sray[k])) continue;
+                    if (!rt_shade_ray(sc, &eye[k], &hit[k], li, &sray[k])) continue;
                     want[k] = 1;
                     st->rays_shadow++;
                     float t0, t1;
@@ -254,33 +258,20 @@ static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_
             for (int k = 0; k < n; k++) {
                 int x = px + k % pw, y = py + k / pw;
                 uint32_t pix = (uint32_t)y * (uint32_t)W + (uint32_t)x;
-                float rgb[3];
                 RT_REC(rec, rt_mm_addr(L, reg_hits, k), 8, 0, RT_CLS_HIT);
                 if (hit[k].tri != RT_NO_HIT) {
                     RT_REC(rec, rt_mm_addr(L, reg_shade, hit[k].tri), 16, 0, RT_CLS_SHADE);
-                    rt_shade_hit(sc, &eye[k], &hit[k], &vis[k * RT_NLIGHTS], o->lights, rgb);
-                    img->depth[pix] = hit[k].t * rt_len(eye[k].d);
+                    rt_shade_pixel(sc, &eye[k], &hit[k], &vis[k * RT_NLIGHTS], o->lights, img, pix);
                 } else {
-                    rgb[0] = sc->background.x;
-                    rgb[1] = sc->background.y;
-                    rgb[2] = sc->background.z;
-                    img->depth[pix] = INFINITY;
+                    rt_shade_pixel(sc, &eye[k], NULL, NULL, o->lights, img, pix);
                 }
-                img->rgb[3 * pix] = rgb[0];
-                img->rgb[3 * pix + 1] = rgb[1];
-                img->rgb[3 * pix + 2] = rgb[2];
                 img->nodes[pix] = pn[k];
                 img->tests[pix] = pt[k];
                 RT_REC(rec, rt_mm_addr(L, reg_fb, pix), 12, 1, RT_CLS_FB);
             }
         }
     }
-    st->nodes = tv.nodes;
-    st->tests = tv.tests;
-    for (uint32_t i = 0; i < sc->ntri; i++) {
-        st->pv_primary += mark[i] & 1;
-        st->pv_all += mark[i] != 0;
-    }
+    rt_stats_finish(st, &tv, mark, sc->ntri);
     snprintf(st->extra, sizeof st->extra, "packet=%d nodes=packet node visits tests=ray-triangle tests", P);
     rc = 0;
 done:
@@ -299,8 +290,8 @@ done:
 }
 
 const rt_tracer rt_tracer_packet = {
-    "packet",
-    "P x P ray packets tiled over the image, shadow packets per light",
-    pk_layout,
-    pk_run,
+    .name = "packet",
+    .desc = "P x P ray packets tiled over the image, shadow packets per light",
+    .layout = pk_layout,
+    .run = pk_run,
 };

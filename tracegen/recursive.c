@@ -9,7 +9,10 @@
  * finish before the next pixel starts, which is what keeps ray traffic
  * minimal and lets geometry thrash when the cache is small.
  */
-#include "hilbert.h"
+#include "camera.h"
+#include "regions.h"
+#include "shade.h"
+#include "stats.h"
 #include "tracer.h"
 
 #include <math.h>
@@ -18,7 +21,7 @@
 static int rec_layout(const rt_tracer_ctx *ctx, rt_layout *L, rt_err *e)
 {
     size_t npix = (size_t)ctx->opt->W * (size_t)ctx->opt->H;
-    if (rt_layout_geometry(ctx, L, 1, e) < 0) return -1;
+    if (rt_reg_geometry(ctx, L, 1, e) < 0) return -1;
     if (rt_mm_add(L, "rays.primary", RT_CLS_RAY, 32, npix, e) < 0) return -1;
     if (rt_mm_add(L, "fb", RT_CLS_FB, 12, npix, e) < 0) return -1;
     return 0;
@@ -43,7 +46,7 @@ static int rec_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
     rt_cam_frame cam;
     rt_cam_setup(&cam, sc, W, H);
     rt_trav tv;
-    rt_trav_init(&tv, ctx);
+    rt_reg_trav(&tv, ctx);
     tv.mark = mark;
 
     for (size_t k = 0; k < npix; k++) {
@@ -52,9 +55,8 @@ static int rec_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
         uint64_t n0 = tv.nodes, t0 = tv.tests;
         rt_ray ray;
         rt_hit h;
-        float rgb[3];
         RT_REC(rec, rt_mm_addr(L, reg_ray, pix), 32, 0, RT_CLS_RAY);
-        rt_camera_ray(&cam, x, y, &ray);
+        rt_cam_ray(&cam, x, y, &ray);
         tv.mark_bit = 1;
         st->rays_primary++;
         if (rt_kd_closest(&tv, &ray, &h)) {
@@ -63,39 +65,27 @@ static int rec_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
             tv.mark_bit = 2;
             for (int i = 0; i < RT_NLIGHTS; i++) {
                 rt_ray sr;
-                if (!(o->lights & (1u << i)) || !rt_shadow_ray(sc, &ray, &h, i, &sr)) continue;
+                if (!(o->lights & (1u << i)) || !rt_shade_ray(sc, &ray, &h, i, &sr)) continue;
                 st->rays_shadow++;
                 vis[i] = !rt_kd_occluded(&tv, &sr);
             }
-            rt_shade_hit(sc, &ray, &h, vis, o->lights, rgb);
-            img->depth[pix] = h.t * rt_len(ray.d);
+            rt_shade_pixel(sc, &ray, &h, vis, o->lights, img, pix);
         } else {
-            rgb[0] = sc->background.x;
-            rgb[1] = sc->background.y;
-            rgb[2] = sc->background.z;
-            img->depth[pix] = INFINITY;
+            rt_shade_pixel(sc, &ray, NULL, NULL, o->lights, img, pix);
         }
-        img->rgb[3 * pix] = rgb[0];
-        img->rgb[3 * pix + 1] = rgb[1];
-        img->rgb[3 * pix + 2] = rgb[2];
         img->nodes[pix] = (float)(tv.nodes - n0);
         img->tests[pix] = (float)(tv.tests - t0);
         RT_REC(rec, rt_mm_addr(L, reg_fb, pix), 12, 1, RT_CLS_FB);
     }
-    st->nodes = tv.nodes;
-    st->tests = tv.tests;
-    for (uint32_t i = 0; i < sc->ntri; i++) {
-        st->pv_primary += mark[i] & 1;
-        st->pv_all += mark[i] != 0;
-    }
+    rt_stats_finish(st, &tv, mark, sc->ntri);
     free(order);
     free(mark);
     return 0;
 }
 
 const rt_tracer rt_tracer_recursive = {
-    "recursive",
-    "single rays in Hilbert-curve order, shadow rays depth first (Whitted)",
-    rec_layout,
-    rec_run,
+    .name = "recursive",
+    .desc = "single rays in Hilbert-curve order, shadow rays depth first (Whitted)",
+    .layout = rec_layout,
+    .run = rec_run,
 };

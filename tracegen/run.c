@@ -5,11 +5,17 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* The tracer's plan, then its regions. On failure the plan is freed. */
 static int layout(rt_job *j, rt_err *e)
 {
-    rt_tracer_ctx ctx = {j->sc, j->kd, &j->opt, &j->L, NULL};
+    rt_tracer_ctx ctx = {j->sc, j->kd, &j->opt, &j->L, NULL, NULL, 0};
     rt_mm_init(&j->L);
-    return j->tr->layout(&ctx, &j->L, e);
+    if (j->tr->plan && j->tr->plan(&ctx, &j->plan, e) < 0) return -1;
+    ctx.plan = j->plan;
+    if (j->tr->layout(&ctx, &j->L, e) == 0) return 0;
+    if (j->tr->plan_free) j->tr->plan_free(j->plan);
+    j->plan = NULL;
+    return -1;
 }
 
 static int check_opts(const rt_render_opts *o, rt_err *e)
@@ -26,8 +32,8 @@ int rt_job_setup_borrowed(rt_job *j, rt_scene *sc, rt_kdtree *kd, const char *tr
     memset(j, 0, sizeof *j);
     j->tr = rt_tracer_find(tracer);
     if (!j->tr) return rt_errf(e, "unknown tracer '%s'", tracer);
-    if (rt_check_subsample(o, tracer, e) < 0) return -1;
     if (check_opts(o, e) < 0) return -1;
+    if (rt_pixel_check(o, tracer, e) < 0) return -1;
     j->sc = sc;
     j->kd = kd;
     j->opt = *o;
@@ -41,8 +47,8 @@ int rt_job_setup(rt_job *j, const char *scene_spec, const char *tracer, const rt
     memset(j, 0, sizeof *j);
     j->tr = rt_tracer_find(tracer);
     if (!j->tr) return rt_errf(e, "unknown tracer '%s'", tracer);
-    if (rt_check_subsample(o, tracer, e) < 0) return -1;
     if (check_opts(o, e) < 0) return -1;
+    if (rt_pixel_check(o, tracer, e) < 0) return -1;
     j->opt = *o;
     j->sc = rt_scene_load(scene_spec, e);
     if (!j->sc) return -1;
@@ -68,7 +74,7 @@ int rt_job_run(rt_job *j, rt_sink *sink, rt_image *img, rt_run_stats *st, rt_err
     if (img->W != j->opt.W || img->H != j->opt.H)
         return rt_errf(e, "image is %dx%d, job wants %dx%d", img->W, img->H, j->opt.W, j->opt.H);
     if (sink && !(rec = rt_rec_new(sink, e))) return -1;
-    rt_tracer_ctx ctx = {j->sc, j->kd, &j->opt, &j->L, rec};
+    rt_tracer_ctx ctx = {j->sc, j->kd, &j->opt, &j->L, rec, j->plan, j->check};
     double t0 = rt_now();
     int rc = j->tr->run(&ctx, img, st, e);
     if (rec) {
@@ -102,13 +108,14 @@ void rt_job_meta(const rt_job *j, const char *command, rt_tr_meta *m)
     } else if (!strcmp(j->tr->name, "packet")) {
         snprintf(m->params, sizeof m->params, "packet=%d", j->opt.packet);
     }
-    rt_subsample_params(&j->opt, m->params + strlen(m->params), sizeof m->params - strlen(m->params));
+    rt_pixel_params(&j->opt, m->params + strlen(m->params), sizeof m->params - strlen(m->params));
     m->layout = j->L;
 }
 
 void rt_job_free(rt_job *j)
 {
     if (!j) return;
+    if (j->plan && j->tr && j->tr->plan_free) j->tr->plan_free(j->plan);
     if (!j->borrowed) {
         rt_kd_free(j->kd);
         rt_scene_free(j->sc);

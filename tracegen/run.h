@@ -2,8 +2,11 @@
  * run.h -- one rendering job: scene + tree + tracer + options, traced or not.
  *
  * Used by `render`, `trace`, `bench` and `sweep` so that they all set up a
- * run the same way: load the scene from its spec, build the k-d tree, let
- * the tracer declare its regions, then run with or without a sink.
+ * run the same way: load the scene from its spec, build the k-d tree, check
+ * the options (a run that would trace no pixel is refused), let the tracer
+ * compute its plan (once per job: the dynamic scheduler's queue points for
+ * this tree and budget) and declare its regions, then run with or without a
+ * sink.
  */
 #ifndef RT_RUN_H
 #define RT_RUN_H
@@ -21,6 +24,9 @@ typedef struct rt_job {
     rt_layout L;           /* regions declared by the tracer */
     double kd_sec;         /* tree build time */
     int borrowed;          /* scene and tree belong to the caller */
+    void *plan;            /* the tracer's plan for this tree and options (owned), or NULL */
+    int check;             /* test mode: set before rt_job_run to have the tracer verify its
+                            * invariants at every step (slow; an error names the one broken) */
 } rt_job;
 
 /* Loads the scene, builds the tree and the layout. 0 or -1 (job freed). */
@@ -33,6 +39,7 @@ int rt_job_setup_borrowed(rt_job *j, rt_scene *sc, rt_kdtree *kd, const char *tr
 int rt_job_run(rt_job *j, rt_sink *sink, rt_image *img, rt_run_stats *st, rt_err *e);
 /* Fills trace metadata from the job (command line from rt_cmd_line()). */
 void rt_job_meta(const rt_job *j, const char *command, rt_tr_meta *m);
+/* Frees what the job owns (not a borrowed scene and tree); accepts NULL. */
 void rt_job_free(rt_job *j);
 
 #endif

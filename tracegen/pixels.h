@@ -1,0 +1,46 @@
+/*
+ * pixels.h -- which pixels a run traces, and in what order (prefix
+ * rt_pixel_).
+ *
+ * Pixel subsampling, a reduced experiment: the image is cut into square
+ * tiles of o->subtile pixels and a tile is traced iff a fixed hash of its
+ * coordinates is 0 mod o->subsample, so about 1/K of the tiles are traced,
+ * the same ones on every machine and for every tracer. Tiles keep the
+ * locality of neighbouring rays (a tile of 8 is one packet, and two rays
+ * per ray-record line); tile 1 samples single pixels. Untraced pixels
+ * keep the image's initial zeros and are never referenced, so their ray
+ * records and framebuffer lines never enter the cache. Traffic of the
+ * full image is estimated as traffic x (pixels / traced pixels).
+ */
+#ifndef RT_PIXELS_H
+#define RT_PIXELS_H
+
+#include "options.h"
+
+#include <stddef.h>
+
+/* 1 when pixel (x, y) is traced under o's subsampling, else 0. */
+int rt_pixel_kept(const rt_render_opts *o, int x, int y);
+/* Writes the traced pixels (y * W + x) in Hilbert-curve order to order[]
+ * (room for W * H) and returns how many there are. */
+size_t rt_pixel_order(const rt_render_opts *o, uint32_t *order);
+/* Number of subsampling tiles of the image (partial tiles at the right and
+ * bottom edges count). */
+uint64_t rt_pixel_tiles(const rt_render_opts *o);
+/* Checks subsample/subtile for a run of tracer (NULL: any): K >= 1, tile
+ * >= 1, K no larger than the tile count and at least one tile kept (else
+ * the run would trace nothing), and packet tiles holding whole packets.
+ * 0, or -1 with the reason in e. */
+int rt_pixel_check(const rt_render_opts *o, const char *tracer, rt_err *e);
+/* Writes " subsample=K tile=T" (nothing when K = 1) to buf for the run
+ * parameters. */
+void rt_pixel_params(const rt_render_opts *o, char *buf, size_t n);
+
+/* Former names, kept for the front end. */
+static inline int rt_check_subsample(const rt_render_opts *o, const char *tracer, rt_err *e)
+{
+    return rt_pixel_check(o, tracer, e);
+}
+static inline void rt_subsample_params(const rt_render_opts *o, char *buf, size_t n) { rt_pixel_params(o, buf, n); }
+
+#endif

@@ -1,0 +1,25 @@
+/*
+ * regions.h -- the recorder glue every tracer shares (prefix rt_reg_): the
+ * geometry regions of the memory model and a traversal context that
+ * records into them.
+ *
+ * Every tracer reads the same tree and triangles, so they are declared once
+ * here, first and in a fixed order, and get the same modeled addresses in
+ * every run of a scene (docs/memory-model.md).
+ */
+#ifndef RT_REGIONS_H
+#define RT_REGIONS_H
+
+#include "tracer.h"
+
+/* Adds the geometry regions, in this order: kd.nodes (8 B x nodes),
+ * kd.index (4 B x entries), tri.verts (36 B x triangles) and, when
+ * want_shade, tri.shade (16 B x triangles). Look them up with rt_mm_find.
+ * 0, or -1 when the layout is full. */
+int rt_reg_geometry(const rt_tracer_ctx *ctx, rt_layout *L, int want_shade, rt_err *e);
+
+/* Initialises a traversal context for ctx: its tree, scene and recorder,
+ * with the geometry regions looked up in ctx->L. */
+void rt_reg_trav(rt_trav *tv, const rt_tracer_ctx *ctx);
+
+#endif
