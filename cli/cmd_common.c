@@ -75,7 +75,7 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
             rt_cmd_error(cmd, "--cache-size: '%s' is not a size like 64K (>= 64)", arg);
             return -1;
         }
-        o->cache_size = u;
+        o->sched_size = u;
         return 1;
     case RT_OPT_GMAX:
         if (rt_parse_size(arg, &u) < 0 || u == 0) {

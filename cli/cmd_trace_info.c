@@ -53,7 +53,7 @@ static void print_text(const char *path, const rt_tr_reader *r)
     printf("scene:         %s%s%s%s, %" PRIu32 " triangles, hash %016" PRIx64 "\n", m->scene,
            m->scene_params[0] ? " (" : "", m->scene_params, m->scene_params[0] ? ")" : "", m->ntri, m->scene_hash);
     printf("tracer:        %s, %dx%d, lights %s", m->tracer, (int)m->W, (int)m->H, lights);
-    if (m->cache_size) printf(", cache size %" PRIu64, m->cache_size);
+    if (m->sched_size) printf(", scheduled for cache size %" PRIu64, m->sched_size);
     if (m->gmax) printf(", gmax %" PRIu64, m->gmax);
     if (m->params[0]) printf(", %s", m->params);
     printf("\n\nregions (%d):\n", m->layout.n);
@@ -100,9 +100,9 @@ static void print_json(const char *path, const rt_tr_reader *r)
     json_str(stdout, m->scene_params);
     printf(", \"scene_hash\": \"%016" PRIx64 "\", \"triangles\": %" PRIu32 ", \"tracer\": ", m->scene_hash, m->ntri);
     json_str(stdout, m->tracer);
-    printf(", \"width\": %d, \"height\": %d, \"lights\": %" PRIu32 ", \"cache_size\": %" PRIu64
+    printf(", \"width\": %d, \"height\": %d, \"lights\": %" PRIu32 ", \"sched_size\": %" PRIu64
            ", \"gmax\": %" PRIu64 ", \"params\": ",
-           (int)m->W, (int)m->H, m->lights, m->cache_size, m->gmax);
+           (int)m->W, (int)m->H, m->lights, m->sched_size, m->gmax);
     json_str(stdout, m->params);
     printf(", \"regions\": [");
     for (int i = 0; i < m->layout.n; i++) {

@@ -79,7 +79,7 @@ rt_render_opts rt_exp_job_opts(const rt_exp_config *c, const rt_exp_job *jb)
 {
     rt_render_opts ro = c->ro;
     ro.lights = c->lightings[jb->lighting].mask;
-    ro.cache_size = jb->sched ? jb->sched : ro.cache_size;
+    ro.sched_size = jb->sched ? jb->sched : ro.sched_size;
     if (jb->proxy >= 0) {
         const rt_exp_proxy *p = &c->proxies[jb->proxy];
         if (p->W) {
@@ -99,17 +99,7 @@ rt_render_opts rt_exp_job_opts(const rt_exp_config *c, const rt_exp_job *jb)
 
 const char *rt_exp_tracer_params(const char *tracer, const rt_render_opts *ro, int all_sizes, char *buf, size_t n)
 {
-    if (!n) return buf;
-    if (!strcmp(tracer, "dynamic"))
-        snprintf(buf, n, "qorder=%s threads=%d%s", ro->qorder == RT_QORDER_TREE ? "tree" : "fullest", ro->threads,
-                 all_sizes ? " sim=all-sizes" : "");
-    else if (!strcmp(tracer, "packet"))
-        snprintf(buf, n, "packet=%d", ro->packet);
-    else
-        buf[0] = 0;
-    size_t l = strlen(buf);
-    rt_subsample_params(ro, buf + l, n - l);
-    return buf;
+    return rt_job_params(tracer, ro, all_sizes ? "sim=all-sizes" : NULL, buf, n);
 }
 
 void rt_exp_job_key(const rt_exp_config *c, const rt_exp_job *jb, const rt_scene *sc, uint64_t scene_hash,
@@ -127,7 +117,7 @@ void rt_exp_job_key(const rt_exp_config *c, const rt_exp_job *jb, const rt_scene
     r->W = ro.W;
     r->H = ro.H;
     r->lights = ro.lights;
-    r->sched_size = dynamic ? ro.cache_size : 0;
+    r->sched_size = dynamic ? ro.sched_size : 0;
     r->gmax = dynamic ? ro.gmax : 0;
     r->params = rt_exp_tracer_params(jb->tracer, &ro, dynamic && c->dyn_all, k->params, sizeof k->params);
     r->sim_method = "exact";
@@ -151,7 +141,7 @@ void rt_exp_run_from_meta(const rt_tr_meta *m, rt_db_run *r)
     r->W = m->W;
     r->H = m->H;
     r->lights = m->lights;
-    r->sched_size = m->cache_size;
+    r->sched_size = m->sched_size;
     r->gmax = m->gmax;
     r->params = m->params;
     r->sim_method = "exact";

@@ -36,7 +36,7 @@
  * Header payload (version 1): u32 chunk_records, u8 zlib level (for
  * information), str tool_version, str git_rev, str command, str scene,
  * str scene_params, u64 scene_hash, u32 ntri, str tracer, u32 W, u32 H,
- * u32 lights, u64 cache_size, u64 gmax, str params, then the region table:
+ * u32 lights, u64 sched_size, u64 gmax, str params, then the region table:
  * u32 nregions (<= RT_MM_MAX_REGIONS), u64 layout.next, and per region
  * str name, u8 class, u32 recsize, u64 count, u64 base. Every str must fit
  * its rt_tr_meta field with its NUL and may not contain NUL bytes; the
@@ -366,7 +366,7 @@ static int encode_header(hbuf *h, const rt_tr_meta *m, uint32_t chunk_records, i
     hb_u32(h, (uint32_t)m->W);
     hb_u32(h, (uint32_t)m->H);
     hb_u32(h, m->lights);
-    hb_u64(h, m->cache_size);
+    hb_u64(h, m->sched_size);
     hb_u64(h, m->gmax);
     hb_str(h, m->params, sizeof m->params);
     const rt_layout *L = &m->layout;
@@ -578,7 +578,7 @@ static int parse_header(rt_tr_reader *r, hbuf *h)
     m->W = (int32_t)W;
     m->H = (int32_t)H;
     m->lights = hg_u32(h);
-    m->cache_size = hg_u64(h);
+    m->sched_size = hg_u64(h);
     m->gmax = hg_u64(h);
     STR(params)
     uint32_t nreg = hg_u32(h);

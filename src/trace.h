@@ -36,7 +36,7 @@ typedef struct rt_tr_meta {
     char tracer[32];        /* "recursive", "packet", "dynamic", ... */
     int32_t W, H;           /* image size */
     uint32_t lights;        /* enabled-light mask */
-    uint64_t cache_size;    /* dynamic: cache size scheduled for (0 = n/a) */
+    uint64_t sched_size;    /* dynamic: cache size scheduled for (0 = n/a) */
     uint64_t gmax;          /* dynamic: geometry budget (0 = n/a) */
     char params[512];       /* other tracer parameters, "k=v k=v" */
     rt_layout layout;       /* the region table */

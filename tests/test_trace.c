@@ -50,7 +50,7 @@ static void fill_meta(rt_tr_meta *m)
     m->W = 1024;
     m->H = 768;
     m->lights = 5;
-    m->cache_size = 65536;
+    m->sched_size = 65536;
     m->gmax = 12345;
     snprintf(m->params, sizeof m->params, "qorder=fullest threads=4");
     rt_mm_init(&m->layout);
@@ -66,7 +66,7 @@ static int meta_equal(const rt_tr_meta *a, const rt_tr_meta *b)
     if (strcmp(a->tool_version, b->tool_version) || strcmp(a->git_rev, b->git_rev) ||
         strcmp(a->command, b->command) || strcmp(a->scene, b->scene) || strcmp(a->scene_params, b->scene_params) ||
         a->scene_hash != b->scene_hash || a->ntri != b->ntri || strcmp(a->tracer, b->tracer) || a->W != b->W ||
-        a->H != b->H || a->lights != b->lights || a->cache_size != b->cache_size || a->gmax != b->gmax ||
+        a->H != b->H || a->lights != b->lights || a->sched_size != b->sched_size || a->gmax != b->gmax ||
         strcmp(a->params, b->params) || a->layout.n != b->layout.n || a->layout.next != b->layout.next)
         return 0;
     for (int i = 0; i < a->layout.n; i++) {

@@ -83,7 +83,7 @@ static void same_images(const char *spec, int W, int H)
     static const uint64_t caches[] = {1024, 16384, 262144, 4u << 20};
     for (int qo = 0; qo < 2; qo++) {
         for (size_t c = 0; c < sizeof caches / sizeof caches[0]; c++) {
-            o.cache_size = caches[c];
+            o.sched_size = caches[c];
             o.qorder = qo;
             /* invariants checked at every step on the small trees and the larger budgets */
             quick = caches[c] < 262144 && strcmp(spec, "cornell") && strcmp(spec, "knot");
@@ -108,7 +108,7 @@ static void same_images(const char *spec, int W, int H)
             rt_image_free(dy);
         }
     }
-    o.cache_size = 65536;
+    o.sched_size = 65536;
     o.qorder = 0;
     o.gmax = 200; /* forces oversized leaves processed in blocks */
     quick = strcmp(spec, "cornell") && strcmp(spec, "knot"); /* a queue per leaf */
@@ -242,7 +242,7 @@ static void subsampling(const char *spec, int W, int H, uint32_t K, int tile)
     o.W = W;
     o.H = H;
     o.lights = 7;
-    o.cache_size = 4096;
+    o.sched_size = 4096;
     rt_run_stats st;
     rt_image *full = render(sc, kd, "recursive", &o, NULL, &st);
     o.subsample = K;
@@ -605,7 +605,7 @@ static void golden(const char *name, const char *spec, const char *tracer, const
     char text[4096];
     size_t n = 0;
     n += (size_t)snprintf(text + n, sizeof text - n, "# %s %s %dx%d lights=%u cache=%" PRIu64 " qorder=%d (RT_REDO_GOLDEN=1 rewrites)\n",
-                          spec, tracer, o->W, o->H, o->lights, o->cache_size, o->qorder);
+                          spec, tracer, o->W, o->H, o->lights, o->sched_size, o->qorder);
     n += (size_t)snprintf(text + n, sizeof text - n, "accesses %" PRIu64 "\nstream_fnv1a %016" PRIx64 "\n", t->n, t->hash);
     for (int c = 0; c < RT_NCLASS; c++)
         if (t->cls_refs[c])
@@ -648,7 +648,7 @@ static void traffic(const char *spec, int W, int H, const char *gold)
     o.W = W;
     o.H = H;
     o.lights = 7;
-    o.cache_size = 4096;
+    o.sched_size = 4096;
     static const char *tracers[] = {"recursive", "packet", "dynamic"};
     for (int t = 0; t < 3; t++) {
         tally tl;
@@ -668,14 +668,14 @@ static void traffic(const char *spec, int W, int H, const char *gold)
     for (int qo = 0; qo < 2; qo++)
         for (size_t c = 0; c < sizeof caches / sizeof caches[0]; c++) {
             tally tl;
-            o.cache_size = caches[c];
+            o.sched_size = caches[c];
             o.qorder = qo;
             o.lights = c == 1 ? 5 : 7;
             traffic_run(sc, kd, spec, "dynamic", &o, &tl);
         }
     o.lights = 0;
     o.qorder = 0;
-    o.cache_size = 2048;
+    o.sched_size = 2048;
     for (int t = 0; t < 3; t++) {
         tally tl;
         traffic_run(sc, kd, spec, tracers[t], &o, &tl);

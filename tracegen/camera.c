@@ -1,29 +1,17 @@
 /* camera.c -- the shared pinhole camera (see camera.h). */
 #include "camera.h"
 
-/* sin and cos by Taylor series in double for |x| <= pi/2: only + - * /, so
- * the result is the same on every IEEE machine (libm's last bit is not). */
-static void dsincos(double x, double *s, double *c)
-{
-    double term = x, sum = x;
-    for (int k = 1; k < 30; k++) {
-        term *= -x * x / ((2.0 * k) * (2.0 * k + 1.0));
-        sum += term;
-    }
-    *s = sum;
-    term = 1.0;
-    sum = 1.0;
-    for (int k = 1; k < 30; k++) {
-        term *= -x * x / ((2.0 * k - 1.0) * (2.0 * k));
-        sum += term;
-    }
-    *c = sum;
-}
-
 double rt_cam_tan(double x)
 {
     double s, c;
-    dsincos(x, &s, &c);
+    rt_dsincos_deg(x * (180.0 / 3.14159265358979323846), &s, &c);
+    return s / c;
+}
+
+double rt_cam_tan_deg(double deg)
+{
+    double s, c;
+    rt_dsincos_deg(deg, &s, &c);
     return s / c;
 }
 
@@ -33,7 +21,7 @@ void rt_cam_setup(rt_cam_frame *f, const rt_scene *sc, int W, int H)
     rt_vec3 dir = rt_norm(rt_sub(c->at, c->eye));
     rt_vec3 right = rt_norm(rt_cross(dir, c->up));
     rt_vec3 up = rt_cross(right, dir);
-    double half_h = rt_cam_tan(0.5 * (double)c->fovy_deg * 3.14159265358979323846 / 180.0);
+    double half_h = rt_cam_tan_deg(0.5 * (double)c->fovy_deg);
     double half_w = half_h * (double)W / (double)H;
     f->eye = c->eye;
     f->dir = dir;

@@ -23,6 +23,8 @@ void rt_cam_setup(rt_cam_frame *f, const rt_scene *sc, int W, int H);
 void rt_cam_ray(const rt_cam_frame *f, int x, int y, rt_ray *r);
 /* Deterministic double-precision tangent for |x| < pi/2 (series; no libm). */
 double rt_cam_tan(double x);
+/* The same for an angle in degrees (no conversion rounding). */
+double rt_cam_tan_deg(double deg);
 
 /* Former name, kept for the core tests. */
 static inline double rt_dtan(double x) { return rt_cam_tan(x); }

@@ -250,7 +250,7 @@ static int dyn_plan(const rt_tracer_ctx *ctx, void **out, rt_err *e)
         return -1;
     }
     P->gmax = ctx->opt->gmax ? ctx->opt->gmax
-                             : rt_dyn_derive_gmax(kd, P->g, ctx->opt->cache_size, raybuf_bytes(ctx->opt), &P->fallback);
+                             : rt_dyn_derive_gmax(kd, P->g, ctx->opt->sched_size, raybuf_bytes(ctx->opt), &P->fallback);
     P->nq = rt_dyn_select(kd, P->g, P->gmax, P->qp, &P->ntop);
     if (!(P->qnode = rt_calloc(P->nq ? P->nq : 1, sizeof *P->qnode, e))) {
         dyn_plan_free(P);

@@ -11,7 +11,7 @@ void rt_render_default_opts(rt_render_opts *o)
     o->H = 512;
     o->lights = 0;
     o->packet = 8;
-    o->cache_size = 64 * 1024;
+    o->sched_size = 64 * 1024;
     o->gmax = 0;
     o->qorder = RT_QORDER_FULLEST;
     o->threads = 4;

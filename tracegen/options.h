@@ -22,7 +22,7 @@ typedef struct rt_render_opts {
     int W, H;            /* image size */
     unsigned lights;     /* bit i set: light i enabled */
     int packet;          /* packet edge in pixels (packet tracer), 8 */
-    uint64_t cache_size; /* dynamic: cache size the schedule targets (bytes) */
+    uint64_t sched_size; /* dynamic: cache size the schedule targets (bytes) */
     uint64_t gmax;       /* dynamic: explicit geometry budget, 0 = derive */
     int qorder;          /* dynamic: rt_qorder */
     int threads;         /* dynamic: modeled threads (ray buffer = 2 rays each) */

@@ -101,15 +101,28 @@ void rt_job_meta(const rt_job *j, const char *command, rt_tr_meta *m)
     m->H = j->opt.H;
     m->lights = j->opt.lights;
     if (!strcmp(j->tr->name, "dynamic")) {
-        m->cache_size = j->opt.cache_size;
+        m->sched_size = j->opt.sched_size;
         m->gmax = j->opt.gmax;
-        snprintf(m->params, sizeof m->params, "qorder=%s threads=%d",
-                 j->opt.qorder == RT_QORDER_TREE ? "tree" : "fullest", j->opt.threads);
-    } else if (!strcmp(j->tr->name, "packet")) {
-        snprintf(m->params, sizeof m->params, "packet=%d", j->opt.packet);
     }
-    rt_pixel_params(&j->opt, m->params + strlen(m->params), sizeof m->params - strlen(m->params));
+    rt_job_params(j->tr->name, &j->opt, NULL, m->params, sizeof m->params);
     m->layout = j->L;
+}
+
+const char *rt_job_params(const char *tracer, const rt_render_opts *o, const char *extra, char *buf, size_t n)
+{
+    if (!n) return buf;
+    const char *sep = extra && *extra ? " " : "";
+    if (!extra) extra = "";
+    if (!strcmp(tracer, "dynamic"))
+        snprintf(buf, n, "qorder=%s threads=%d%s%s", o->qorder == RT_QORDER_TREE ? "tree" : "fullest", o->threads,
+                 sep, extra);
+    else if (!strcmp(tracer, "packet"))
+        snprintf(buf, n, "packet=%d%s%s", o->packet, sep, extra);
+    else
+        snprintf(buf, n, "%s", extra);
+    size_t l = strlen(buf);
+    rt_pixel_params(o, buf + l, n - l);
+    return buf;
 }
 
 void rt_job_free(rt_job *j)

@@ -37,6 +37,12 @@ int rt_job_setup_borrowed(rt_job *j, rt_scene *sc, rt_kdtree *kd, const char *tr
                           rt_err *e);
 /* Renders into img (W x H); sink NULL = untraced. Fills st. 0 or -1. */
 int rt_job_run(rt_job *j, rt_sink *sink, rt_image *img, rt_run_stats *st, rt_err *e);
+/* The tracer-parameter string that identifies a run ("qorder=fullest
+ * threads=4", "packet=8", "" ...; then the subsampling parameters), the
+ * one formatter for trace headers and database keys. extra, if non-empty,
+ * is inserted before the subsampling parameters (sweep: "sim=all-sizes").
+ * Returns buf. */
+const char *rt_job_params(const char *tracer, const rt_render_opts *o, const char *extra, char *buf, size_t n);
 /* Fills trace metadata from the job (command line from rt_cmd_line()). */
 void rt_job_meta(const rt_job *j, const char *command, rt_tr_meta *m);
 /* Frees what the job owns (not a borrowed scene and tree); accepts NULL. */
