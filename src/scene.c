@@ -43,6 +43,13 @@ rt_scene *rt_scene_new(uint32_t ntri, rt_err *e)
     s->cam.at = rt_v3(0, 0, 0);
     s->cam.eye = rt_v3(0, -1, 0);
     s->cam.fovy_deg = 45.0f;
+    s->mat = rt_calloc(1, sizeof *s->mat, e);
+    if (!s->mat) {
+        rt_scene_free(s);
+        return NULL;
+    }
+    s->mat[0].ior = 1.0f;
+    s->nmat = 1;
     if (rt_scene_reserve(s, ntri ? ntri : 16, e) < 0) {
         rt_scene_free(s);
         return NULL;
@@ -64,8 +71,9 @@ int rt_scene_reserve(rt_scene *s, uint32_t ntri, rt_err *e)
     return 0;
 }
 
-int rt_scene_add_tri(rt_scene *s, rt_vec3 a, rt_vec3 b, rt_vec3 c, const float rgb[3], rt_err *e)
+int rt_scene_add_tri_mat(rt_scene *s, rt_vec3 a, rt_vec3 b, rt_vec3 c, const float rgb[3], uint32_t mat, rt_err *e)
 {
+    if (mat >= s->nmat) return rt_errf(e, "%s: material %u of %u does not exist", s->name, (unsigned)mat, (unsigned)s->nmat);
     scene_priv *p = (scene_priv *)s;
     uint32_t n = s->ntri;
     if (n >= p->cap) {
@@ -81,9 +89,50 @@ int rt_scene_add_tri(rt_scene *s, rt_vec3 a, rt_vec3 b, rt_vec3 c, const float r
     h->rgb[0] = col[0];
     h->rgb[1] = col[1];
     h->rgb[2] = col[2];
-    h->flags = 0;
+    h->mat = mat;
     s->ntri = n + 1;
     return 0;
+}
+
+int rt_scene_add_tri(rt_scene *s, rt_vec3 a, rt_vec3 b, rt_vec3 c, const float rgb[3], rt_err *e)
+{
+    return rt_scene_add_tri_mat(s, a, b, c, rgb, 0, e);
+}
+
+static int bad_term(float v) { return !(v >= 0.0f) || v > 1e30f; }
+
+int rt_scene_add_material(rt_scene *s, const rt_material *m, rt_err *e)
+{
+    const char *nm = m->name[0] ? m->name : "(unnamed)";
+    for (int k = 0; k < 3; k++)
+        if (bad_term(m->ks[k]) || bad_term(m->kt[k]) || bad_term(m->ke[k]))
+            return rt_errf(e, "%s: material '%s': a term is negative, NaN or infinite", s->name, nm);
+    if (!(m->ior >= 1.0f && m->ior <= 100.0f))
+        return rt_errf(e, "%s: material '%s': index of refraction %g outside [1, 100]", s->name, nm, (double)m->ior);
+    if (s->nmat >= 65536) return rt_errf(e, "%s: more than 65536 materials", s->name);
+    rt_material *t = rt_reallocarray(s->mat, s->nmat + 1, sizeof *t, e);
+    if (!t) return -1;
+    s->mat = t;
+    rt_material *d = &t[s->nmat];
+    *d = *m;
+    d->name[sizeof d->name - 1] = 0;
+    d->flags = 0;
+    for (int k = 0; k < 3; k++) {
+        if (m->ks[k] > 0) d->flags |= RT_MAT_SPECULAR;
+        if (m->kt[k] > 0) d->flags |= RT_MAT_TRANSMIT;
+        if (m->ke[k] > 0) d->flags |= RT_MAT_EMIT;
+    }
+    return (int)s->nmat++;
+}
+
+uint32_t rt_scene_material_flags(const rt_scene *s)
+{
+    uint32_t used = 0;
+    for (uint32_t m = 1; m < s->nmat; m++) used |= s->mat[m].flags;
+    if (!used) return 0;
+    used = 0;
+    for (uint32_t i = 0; i < s->ntri; i++) used |= s->mat[s->shade[i].mat].flags;
+    return used;
 }
 
 void rt_scene_free(rt_scene *s)
@@ -91,6 +140,7 @@ void rt_scene_free(rt_scene *s)
     if (!s) return;
     free(s->tri);
     free(s->shade);
+    free(s->mat);
     free(s);
 }
 
@@ -202,7 +252,14 @@ uint64_t rt_scene_hash(const rt_scene *s)
         for (int k = 0; k < 3; k++) h = hash_v(h, s->tri[i].p[k]);
     for (uint32_t i = 0; i < s->ntri; i++) {
         for (int k = 0; k < 3; k++) h = hash_f(h, s->shade[i].rgb[k]);
-        h = hash_u32(h, s->shade[i].flags);
+        h = hash_u32(h, s->shade[i].mat);
+    }
+    /* The table enters the hash only when a scene has materials beyond the
+     * plain one, so scenes made before materials keep their hashes. */
+    for (uint32_t m = 1; m < s->nmat; m++) {
+        const rt_material *t = &s->mat[m];
+        for (int k = 0; k < 3; k++) h = hash_f(hash_f(hash_f(h, t->ks[k]), t->kt[k]), t->ke[k]);
+        h = hash_f(h, t->ior);
     }
     h = hash_v(h, s->cam.eye);
     h = hash_v(h, s->cam.at);

@@ -28,8 +28,35 @@ typedef struct rt_tri {
 
 typedef struct rt_shade {
     float rgb[3];   /* diffuse albedo, linear */
-    uint32_t flags; /* reserved (material bits); record is 16 bytes */
+    uint32_t mat;   /* index into rt_scene.mat (0 = plain diffuse); record is 16 bytes */
 } rt_shade;
+
+/*
+ * Materials. The diffuse colour stays per triangle (rt_shade.rgb, the
+ * record every shaded hit reads); what only secondary rays need lives in a
+ * small table indexed by rt_shade.mat, modeled as its own region and read
+ * once per shaded hit only when the mode follows secondary rays, so a scene
+ * or a mode that needs no more than diffuse shading pays nothing for it.
+ * Entry 0 is the plain diffuse material (all terms zero, ior 1).
+ */
+enum {
+    RT_MAT_SPECULAR = 1u << 0, /* ks non-zero: mirror reflection */
+    RT_MAT_TRANSMIT = 1u << 1, /* kt non-zero: refraction with ior */
+    RT_MAT_EMIT = 1u << 2      /* ke non-zero: emits light */
+};
+
+typedef struct rt_material {
+    char name[32];  /* from the MTL file or the generator ("" for entry 0) */
+    float ks[3];    /* mirror reflectance rho (linear) */
+    float kt[3];    /* transmittance of a dielectric (linear) */
+    float ior;      /* index of refraction (1 = none) */
+    float ke[3];    /* emitted radiance */
+    uint32_t flags; /* RT_MAT_* bits, derived from the terms by rt_scene_add_material */
+} rt_material;
+
+/* Bytes of one material record in the modeled memory (ks, kt, ior, ke,
+ * flags, padding to 48). */
+#define RT_MAT_RECSIZE 48
 
 typedef struct rt_camera {
     rt_vec3 eye, at, up; /* look-at frame */
@@ -44,6 +71,8 @@ typedef struct rt_scene {
     uint32_t ntri;          /* triangles */
     rt_tri *tri;            /* ntri triangles */
     rt_shade *shade;        /* ntri shading records */
+    uint32_t nmat;          /* materials in mat (>= 1) */
+    rt_material *mat;       /* material table; mat[0] is plain diffuse */
     rt_camera cam;          /* default view */
     rt_vec3 light[RT_NLIGHTS]; /* point lights 0..2 */
     float light_power;      /* radiance scale of each light */
@@ -71,6 +100,15 @@ rt_scene *rt_scene_new(uint32_t ntri, rt_err *e);
 int rt_scene_reserve(rt_scene *s, uint32_t ntri, rt_err *e);
 /* Appends a triangle with a colour; returns 0 or -1. */
 int rt_scene_add_tri(rt_scene *s, rt_vec3 a, rt_vec3 b, rt_vec3 c, const float rgb[3], rt_err *e);
+/* Appends a material (flags are derived from its terms; name copied,
+ * truncated). Returns its index, or -1 (bad value: NaN, infinite or
+ * negative terms, ior < 1; too many materials). */
+int rt_scene_add_material(rt_scene *s, const rt_material *m, rt_err *e);
+/* Appends a triangle with a colour and a material index (< nmat). */
+int rt_scene_add_tri_mat(rt_scene *s, rt_vec3 a, rt_vec3 b, rt_vec3 c, const float rgb[3], uint32_t mat, rt_err *e);
+/* The union of the RT_MAT_* flags of the materials triangles use: 0 when
+ * diffuse shading is all the scene needs. */
+uint32_t rt_scene_material_flags(const rt_scene *s);
 /* Recomputes bounds; rejects NaN/Inf coordinates. Returns 0 or -1. */
 int rt_scene_finish(rt_scene *s, rt_err *e);
 /* Frames the camera on the bounds and places three default lights. The
