@@ -62,6 +62,30 @@ int rt_mm_add(rt_layout *L, const char *name, rt_class cls, uint32_t recsize, ui
     return L->n++;
 }
 
+int rt_mm_check(const rt_layout *L, rt_err *e)
+{
+    if (L->n < 0 || L->n > RT_MM_MAX_REGIONS) return rt_errf(e, "memory model: %d regions", L->n);
+    uint64_t end = RT_MM_BASE;
+    for (int i = 0; i < L->n; i++) {
+        const rt_region *r = &L->r[i];
+        if (!r->name[0] || memchr(r->name, 0, RT_MM_NAME_LEN) == NULL)
+            return rt_errf(e, "memory model: region %d has no terminated name", i);
+        for (int j = 0; j < i; j++)
+            if (!strcmp(L->r[j].name, r->name)) return rt_errf(e, "memory model: region %s named twice", r->name);
+        if (r->cls >= RT_NCLASS) return rt_errf(e, "memory model: region %s has class %u", r->name, r->cls);
+        if (!r->recsize) return rt_errf(e, "memory model: region %s has zero record size", r->name);
+        if (i == 0 && r->base != RT_MM_BASE)
+            return rt_errf(e, "memory model: first region %s does not start at the base", r->name);
+        if (r->base % RT_MM_ALIGN) return rt_errf(e, "memory model: region %s is not aligned", r->name);
+        if (r->base < end) return rt_errf(e, "memory model: region %s overlaps the one before it", r->name);
+        if (r->count > (UINT64_MAX / 4) / r->recsize || r->base > UINT64_MAX / 2)
+            return rt_errf(e, "memory model: region %s overflows the address space", r->name);
+        end = r->base + (uint64_t)r->recsize * (r->count ? r->count : 1);
+    }
+    if (L->n && L->next < end) return rt_errf(e, "memory model: next free address inside the last region");
+    return 0;
+}
+
 int rt_mm_find(const rt_layout *L, const char *name)
 {
     for (int i = 0; i < L->n; i++)

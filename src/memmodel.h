@@ -90,6 +90,13 @@ void rt_mm_init(rt_layout *L);
 /* Adds a region and returns its index (>= 0), or -1 if the table is full or
  * the region would overflow the 64-bit address space. */
 int rt_mm_add(rt_layout *L, const char *name, rt_class cls, uint32_t recsize, uint64_t count, rt_err *e);
+/* Checks the invariants above on a layout (one read from a trace header
+ * too): region count in range; region 0 at RT_MM_BASE; every base aligned
+ * to RT_MM_ALIGN and at or after the end of the previous region (bases in
+ * order, no overlap); record sizes non-zero; classes known; names non-empty,
+ * terminated and unique; next at or after the last region's end. 0, or -1
+ * naming the first violation. */
+int rt_mm_check(const rt_layout *L, rt_err *e);
 /* Index of the region with this name, or -1. */
 int rt_mm_find(const rt_layout *L, const char *name);
 static inline uint64_t rt_mm_addr(const rt_layout *L, int reg, uint64_t rec)

@@ -599,6 +599,8 @@ static int parse_header(rt_tr_reader *r, hbuf *h)
 #undef STR
     if (h->bad) return r_fail(r, base + h->len, "header: payload too short");
     if (h->n != h->len) return r_fail(r, base + h->n, "header: %zu unparsed payload bytes", h->len - h->n);
+    rt_err me;
+    if (rt_mm_check(&m->layout, &me) < 0) return r_fail(r, base, "header: %s", me.msg);
     return 0;
 }
 

@@ -117,6 +117,29 @@ static void test_memmodel(void)
               rt_class_group(RT_CLS_FB) == RT_GROUP_OTHER,
           "groups");
     for (int k = 0; k < RT_NCLASS; k++) CHECK(rt_class_from_name(rt_class_name(k)) == k, "class name %d", k);
+    /* the checker accepts what rt_mm_add builds and names each broken invariant */
+    CHECK(rt_mm_check(&L, &e) == 0, "check: %s", e.msg);
+    static const struct {
+        const char *what;
+        int reg;
+        int field; /* 0 base += 8, 1 base = previous base, 2 recsize 0, 3 class, 4 name = "a", 5 next */
+    } bad[] = {{"aligned", 1, 0, }, {"overlaps", 2, 1}, {"zero record size", 1, 2}, {"class", 2, 3},
+               {"named twice", 2, 4}, {"does not start", 0, 0}, {"next free", 0, 5}};
+    for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
+        rt_layout M = L;
+        rt_region *r = &M.r[bad[k].reg];
+        switch (bad[k].field) {
+        case 0: r->base += 8; break;
+        case 1: r->base = M.r[bad[k].reg - 1].base; break;
+        case 2: r->recsize = 0; break;
+        case 3: r->cls = RT_NCLASS; break;
+        case 4: strcpy(r->name, "a"); break;
+        default: M.next = M.r[M.n - 1].base; break;
+        }
+        e.msg[0] = 0;
+        CHECK(rt_mm_check(&M, &e) < 0 && strstr(e.msg, bad[k].what), "broken layout (%s) accepted: %s", bad[k].what,
+              e.msg);
+    }
 }
 
 static void test_parsers(void)
