@@ -55,6 +55,8 @@ typedef struct sweep_opts {
     int list;         /* --list-jobs */
     long only;        /* --job K, -1 = all */
     long stop_after;  /* RT_SWEEP_STOP_AFTER (tests only), 0 = never */
+    long fail_job;    /* RT_SWEEP_FAIL_JOB=K:MARKER (tests only): job K fails once, -1 = never */
+    const char *fail_marker; /* file whose creation marks that failure as done */
     int W, H;         /* -W/-H, 0 = from the preset */
     char *lists[5];   /* own copies of --scenes, --tracers, --lights, --approx, --proxy */
     const char *sizes_arg;
@@ -231,6 +233,20 @@ static void maybe_stop(const sweep_opts *o, shared *sh)
     if (o->stop_after > 0 && atomic_load(&sh->stored) >= o->stop_after) raise(SIGKILL);
 }
 
+/* Test-only hook: RT_SWEEP_FAIL_JOB=K:MARKER makes job K fail in the middle
+ * of storing its run (as a node dying or a full disk would) the first time,
+ * i.e. when MARKER can be created; reruns then succeed. Shows that a failed
+ * job leaves no partial row and that resubmitting the same job list
+ * completes it. Not for users. */
+static void maybe_fail(const sweep_opts *o, long i)
+{
+    if (o->fail_job != i) return;
+    FILE *f = fopen(o->fail_marker, "wx"); /* exclusive: once, even across processes */
+    if (!f) return;
+    fclose(f);
+    rt_db_fail_row_after = 2;
+}
+
 static int worker_loop(const sweep_opts *o, const rt_exp_job *J, long nj, shared *sh, int tty)
 {
     rt_err e = {""};
@@ -249,6 +265,7 @@ static int worker_loop(const sweep_opts *o, const rt_exp_job *J, long nj, shared
         long i = o->only >= 0 ? (atomic_fetch_add(&sh->next, 1) == 0 ? o->only : nj) : atomic_fetch_add(&sh->next, 1);
         if (i >= nj) break;
         double t0 = rt_now();
+        maybe_fail(o, i);
         int r = rt_exp_run_job(w, &J[i], i, &e);
         char label[256];
         job_label(&o->x, &J[i], label, sizeof label);
@@ -604,6 +621,17 @@ static int parse_args(int argc, char **argv, sweep_opts *o)
     if (stop && *stop && rt_cmd_parse_long(stop, 0, 1L << 30, &o->stop_after) < 0) {
         rt_cmd_error("sweep", "RT_SWEEP_STOP_AFTER: '%s' is not a count", stop);
         return -1;
+    }
+    o->fail_job = -1;
+    const char *fj = getenv("RT_SWEEP_FAIL_JOB"), *colon = fj ? strchr(fj, ':') : NULL;
+    if (fj && *fj) {
+        char num[32];
+        snprintf(num, sizeof num, "%.*s", colon ? (int)(colon - fj) : 0, fj);
+        if (!colon || !colon[1] || rt_cmd_parse_long(num, 0, 1L << 30, &o->fail_job) < 0) {
+            rt_cmd_error("sweep", "RT_SWEEP_FAIL_JOB: '%s' is not K:MARKER-FILE", fj);
+            return -1;
+        }
+        o->fail_marker = colon + 1;
     }
     int c;
     optind = 1;
