@@ -53,7 +53,13 @@ typedef struct rt_report {
     int nsizes;                       /* cache sizes with fully associative 64-byte wb-wa traffic */
     uint64_t sizes[RT_REPORT_MAXSIZES]; /* ascending, bytes */
     int nscenes;                      /* scenes with runs at W x H (0: nothing to report) */
-    char scenes[RT_REPORT_MAXSCENES][128]; /* room, grove, sphereflake first, then by name */
+    char scenes[RT_REPORT_MAXSCENES][128]; /* labels: room, grove, sphereflake first, then by name */
+    /* Scenes are told apart by (name, content hash): two meshes both named
+     * mesh.obj are two scenes, labelled "mesh.obj (a/mesh.obj)" and
+     * "mesh.obj (b/mesh.obj)" (path as given; else parameters or hash). */
+    char scene_name[RT_REPORT_MAXSCENES][128];     /* scenes.name of each label */
+    char scene_hash[RT_REPORT_MAXSCENES][17];      /* scenes.hash of each label */
+    char scene_abspath[RT_REPORT_MAXSCENES][1024]; /* mesh file to re-render, '' = built-in or unknown */
     int packet;                       /* packet edge of the packet runs (default 8) */
 } rt_report;
 
@@ -70,7 +76,8 @@ int rt_report_db_open(const char *path, sqlite3 **ph, rt_err *e);
  * the caller decides whether an empty report is one. */
 int rt_report_init(rt_report *R, sqlite3 *h, const char *dbpath, const rt_report_opts *o, rt_err *e);
 
-/* Geometry and ray traffic (MB) of tracer on scene at cache size `size`
+/* Geometry and ray traffic (MB) of tracer on scene (a label of R->scenes,
+ * or a bare scene name: then any scene of that name) at cache size `size`
  * with light mask `lights`; the dynamic tracer's run is the one scheduled
  * for that size. Returns 1 and sets *geom, *ray when the run exists, 0
  * when it does not, -1 on a database error. */
@@ -137,9 +144,10 @@ int rt_plot_quote_path(FILE *f, const char *path);
 int rt_plot_traffic(const rt_report *R, const rt_plot_opts *p, rt_err *e);
 
 /* DIR/scenes.png: every scene rendered at 256x256 (recursive tracer, all
- * lights), side by side. A scene that cannot be rebuilt (e.g. a mesh file
- * no longer where the database says) is an error naming it; nothing is
- * written then. */
+ * lights), side by side; a mesh is re-read from the absolute path the
+ * database recorded, so this works from any folder. A scene that cannot be
+ * rebuilt (e.g. a mesh file no longer where the database says) is an error
+ * naming it; nothing is written then. */
 int rt_plot_scenes(const rt_report *R, const rt_plot_opts *p, rt_err *e);
 
 /* ---- approximate and reduced experiments ------------------------------------- */

@@ -19,6 +19,15 @@ int rt_report_done(sqlite3_stmt *st, int rc, const char *context, rt_err *e);
  * with "write error: reason". */
 int rt_report_flush(FILE *out, rt_err *e);
 
+/* Index in R->scenes of a scene label, or of the first scene named so
+ * when label is a bare name; -1 if none. */
+int rt_report_scene_index(const rt_report *R, const char *label);
+
+/* sql with every "@LABEL@" replaced by the SQL expression of a scene's
+ * report label (scenes aliased s; see rt_report.scenes), for databases
+ * with or without the scene paths of schema 3. malloc'd; NULL on error. */
+char *rt_report_label_sql(sqlite3 *h, const char *sql, rt_err *e);
+
 /* Creates dir unless it exists. */
 int rt_plot_mkdir(const char *dir, rt_err *e);
 

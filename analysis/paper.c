@@ -171,12 +171,14 @@ static int stat_of(const char *stats, const char *key, double *v)
 static int run_stats(const rt_report *R, const char *scene, const char *tracer, unsigned lights, char *out, size_t n,
                      rt_err *e)
 {
+    int i = rt_report_scene_index(R, scene);
     sqlite3_stmt *st = rt_report_stmt(
         R->h,
-        "SELECT r.stats FROM runs r JOIN scenes s ON s.id = r.scene_id WHERE s.name = ?1 AND r.tracer = ?2 AND "
-        "r.lights = ?3 AND r.W = ?4 AND r.H = ?5 AND r.sim_method = 'exact' AND r.params NOT LIKE '%subsample=%' "
-        "ORDER BY r.id LIMIT 1",
-        R->dbpath, e, "ssIii", scene, tracer, (int64_t)lights, R->W, R->H);
+        "SELECT r.stats FROM runs r JOIN scenes s ON s.id = r.scene_id WHERE s.name = ?1 AND (?6 = '' OR s.hash = ?6)"
+        " AND r.tracer = ?2 AND r.lights = ?3 AND r.W = ?4 AND r.H = ?5 AND r.sim_method = 'exact'"
+        " AND r.params NOT LIKE '%subsample=%' ORDER BY r.id LIMIT 1",
+        R->dbpath, e, "ssIiis", i >= 0 ? R->scene_name[i] : scene, tracer, (int64_t)lights, R->W, R->H,
+        i >= 0 ? R->scene_hash[i] : "");
     if (!st) return -1;
     int rc = sqlite3_step(st), found = 0;
     if (rc == SQLITE_ROW && sqlite3_column_text(st, 0)) {
@@ -197,8 +199,8 @@ int rt_report_scenes(const rt_report *R, FILE *out, rt_err *e)
                 R->W, R->H);
     for (int i = 0; i < R->nscenes; i++) {
         const char *sc = R->scenes[i];
-        sqlite3_stmt *st =
-            rt_report_stmt(R->h, "SELECT triangles FROM scenes WHERE name = ?1 ORDER BY id LIMIT 1", R->dbpath, e, "s", sc);
+        sqlite3_stmt *st = rt_report_stmt(R->h, "SELECT triangles FROM scenes WHERE name = ?1 AND hash = ?2 ORDER BY id LIMIT 1",
+                                          R->dbpath, e, "ss", R->scene_name[i], R->scene_hash[i]);
         if (!st) return -1;
         int64_t tri = 0;
         int rc = sqlite3_step(st);

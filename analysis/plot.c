@@ -303,7 +303,10 @@ int rt_plot_scenes(const rt_report *R, const rt_plot_opts *p, rt_err *e)
         o.lights = 7;
         rt_job j;
         rt_run_stats st;
-        if (rt_job_setup(&j, R->scenes[i], "recursive", &o, e) < 0) {
+        /* a mesh from where the database last saw it (works from any
+         * folder); a built-in by its name */
+        const char *spec = R->scene_abspath[i][0] ? R->scene_abspath[i] : R->scene_name[i];
+        if (rt_job_setup(&j, spec, "recursive", &o, e) < 0) {
             /* e names the scene file that could not be loaded */
             if (e) {
                 char m[RT_ERR_LEN];

@@ -17,7 +17,9 @@
  * Axes: the resolution (the largest exact run's unless asked), the cache
  * sizes with fully associative 64-byte write-back write-allocate traffic,
  * the scenes at that resolution (the paper's room, grove, sphereflake
- * first), and the packet edge of the packet runs, which decides where
+ * first; a scene is a (name, content hash) pair, so two different meshes of
+ * one file name stay two scenes, each labelled with the path it was given
+ * as), and the packet edge of the packet runs, which decides where
  * packets are not reported (a cache that cannot hold one packet of rays).
  */
 #include "analysis_int.h"
@@ -124,6 +126,58 @@ fail:
     return -1;
 }
 
+/* A scene's label: its name, and when another scene has that name but
+ * other content, the path it was given as (else its parameters, else its
+ * hash), plus the hash if that path is shared too. P is s's path column
+ * and O another scene's ('' before schema 3, which had no paths). */
+#define LABEL_EXPR(P, O)                                                                                      \
+    "(CASE WHEN EXISTS(SELECT 1 FROM scenes o WHERE o.name = s.name AND o.hash <> s.hash) THEN s.name || ' (' " \
+    "|| CASE WHEN " P " <> '' THEN " P " WHEN s.params <> '' THEN s.params ELSE substr(s.hash, 1, 8) END "     \
+    "|| CASE WHEN " P " <> '' AND EXISTS(SELECT 1 FROM scenes o WHERE o.name = s.name AND o.hash <> s.hash "    \
+    "AND " O " = " P ") THEN ' #' || substr(s.hash, 1, 8) ELSE '' END || ')' ELSE s.name END)"
+
+/* 1 if the scenes table has the paths of schema 3. */
+static int has_paths(sqlite3 *h)
+{
+    sqlite3_stmt *st;
+    int r = 0;
+    if (sqlite3_prepare_v2(h, "SELECT 1 FROM pragma_table_info('scenes') WHERE name = 'abspath'", -1, &st, NULL) ==
+        SQLITE_OK)
+        r = sqlite3_step(st) == SQLITE_ROW;
+    sqlite3_finalize(st);
+    return r;
+}
+
+char *rt_report_label_sql(sqlite3 *h, const char *sql, rt_err *e)
+{
+    const char *lab = has_paths(h) ? LABEL_EXPR("s.path", "o.path") : LABEL_EXPR("''", "''");
+    size_t n = strlen(sql) + 1, ll = strlen(lab);
+    for (const char *p = sql; (p = strstr(p, "@LABEL@")); p += 7) n += ll;
+    char *out = rt_calloc(n, 1, e), *w = out;
+    if (!out) return NULL;
+    for (const char *p = sql, *q; *p; p = q + 7) {
+        if (!(q = strstr(p, "@LABEL@"))) {
+            strcpy(w, p);
+            break;
+        }
+        memcpy(w, p, (size_t)(q - p));
+        w += q - p;
+        memcpy(w, lab, ll);
+        w += ll;
+        *w = 0;
+    }
+    return out;
+}
+
+int rt_report_scene_index(const rt_report *R, const char *label)
+{
+    for (int i = 0; i < R->nscenes; i++)
+        if (!strcmp(R->scenes[i], label)) return i;
+    for (int i = 0; i < R->nscenes; i++)
+        if (!strcmp(R->scene_name[i], label)) return i;
+    return -1;
+}
+
 int rt_report_init(rt_report *R, sqlite3 *h, const char *dbpath, const rt_report_opts *o, rt_err *e)
 {
     memset(R, 0, sizeof *R);
@@ -154,17 +208,31 @@ int rt_report_init(rt_report *R, sqlite3 *h, const char *dbpath, const rt_report
     while ((rc = sqlite3_step(st)) == SQLITE_ROW && R->nsizes < RT_REPORT_MAXSIZES)
         R->sizes[R->nsizes++] = (uint64_t)sqlite3_column_int64(st, 0);
     if (rt_report_done(st, rc, dbpath, e) < 0) return -1;
-    /* scenes in the paper's order first, then the rest by name */
-    st = rt_report_stmt(h,
-                        "SELECT DISTINCT s.name FROM runs r JOIN scenes s ON s.id = r.scene_id WHERE r.W = ?1 AND "
-                        "r.H = ?2 ORDER BY CASE s.name WHEN 'room' THEN 0 WHEN 'grove' THEN 1 WHEN 'sphereflake' "
-                        "THEN 2 ELSE 3 END, s.name",
-                        dbpath, e, "ii", R->W, R->H);
+    /* scenes, one per (name, content hash), in the paper's order first,
+     * then the rest by label; the latest known place of a mesh file */
+    char *sql = rt_report_label_sql(
+        h,
+        has_paths(h)
+            ? "SELECT @LABEL@ AS label, s.name, s.hash, MAX(s.abspath) FROM runs r JOIN scenes s ON s.id = r.scene_id"
+              " WHERE r.W = ?1 AND r.H = ?2 GROUP BY s.name, s.hash ORDER BY CASE s.name WHEN 'room' THEN 0 WHEN"
+              " 'grove' THEN 1 WHEN 'sphereflake' THEN 2 ELSE 3 END, label"
+            : "SELECT @LABEL@ AS label, s.name, s.hash, '' FROM runs r JOIN scenes s ON s.id = r.scene_id"
+              " WHERE r.W = ?1 AND r.H = ?2 GROUP BY s.name, s.hash ORDER BY CASE s.name WHEN 'room' THEN 0 WHEN"
+              " 'grove' THEN 1 WHEN 'sphereflake' THEN 2 ELSE 3 END, label",
+        e);
+    if (!sql) return -1;
+    st = rt_report_stmt(h, sql, dbpath, e, "ii", R->W, R->H);
+    free(sql);
     if (!st) return -1;
     while ((rc = sqlite3_step(st)) == SQLITE_ROW && R->nscenes < RT_REPORT_MAXSCENES) {
-        const char *n = (const char *)sqlite3_column_text(st, 0);
-        if (o->scene && strcmp(n, o->scene)) continue;
-        snprintf(R->scenes[R->nscenes++], sizeof R->scenes[0], "%s", n);
+        const char *lab = (const char *)sqlite3_column_text(st, 0), *n = (const char *)sqlite3_column_text(st, 1);
+        /* --scene picks a label, or every scene of a name */
+        if (o->scene && strcmp(lab, o->scene) && strcmp(n, o->scene)) continue;
+        int k = R->nscenes++;
+        snprintf(R->scenes[k], sizeof R->scenes[0], "%s", lab);
+        snprintf(R->scene_name[k], sizeof R->scene_name[0], "%s", n);
+        snprintf(R->scene_hash[k], sizeof R->scene_hash[0], "%s", (const char *)sqlite3_column_text(st, 2));
+        snprintf(R->scene_abspath[k], sizeof R->scene_abspath[0], "%s", (const char *)sqlite3_column_text(st, 3));
     }
     if (rt_report_done(st, rc, dbpath, e) < 0) return -1;
     st = rt_report_stmt(h, "SELECT params FROM runs WHERE tracer = 'packet' LIMIT 1", dbpath, e, "");
@@ -187,11 +255,17 @@ int rt_report_value(const rt_report *R, const char *scene, const char *tracer, u
 {
     /* the dynamic tracer's value at a size is its run scheduled for that size */
     int64_t sched = strcmp(tracer, "dynamic") ? 0 : (int64_t)size;
+    /* v_paper's rows, of the one scene (name, hash) the label stands for */
+    int i = rt_report_scene_index(R, scene);
+    const char *name = i >= 0 ? R->scene_name[i] : scene, *hash = i >= 0 ? R->scene_hash[i] : "";
     sqlite3_stmt *st = rt_report_stmt(
         R->h,
-        "SELECT geometry_mb, ray_mb FROM v_paper WHERE scene = ?1 AND tracer = ?2 AND lights = ?3"
-        " AND sched_size = ?4 AND cache_size = ?5 AND W = ?6 AND H = ?7 ORDER BY geometry_mb LIMIT 1",
-        R->dbpath, e, "ssIIIii", scene, tracer, (int64_t)lights, sched, (int64_t)size, R->W, R->H);
+        "SELECT g.geometry_mb, g.ray_mb FROM v_traffic_group g JOIN runs r ON r.id = g.run_id"
+        " JOIN scenes s ON s.id = r.scene_id WHERE g.line = 64 AND g.assoc = 0 AND g.policy = 'wb-wa'"
+        " AND r.sim_method = 'exact' AND r.params NOT LIKE '%subsample=%' AND s.name = ?1 AND (?8 = '' OR s.hash = ?8)"
+        " AND r.tracer = ?2 AND r.lights = ?3 AND r.sched_size = ?4 AND g.cache_size = ?5 AND r.W = ?6 AND r.H = ?7"
+        " ORDER BY g.geometry_mb LIMIT 1",
+        R->dbpath, e, "ssIIIiis", name, tracer, (int64_t)lights, sched, (int64_t)size, R->W, R->H, hash);
     if (!st) return -1;
     int rc = sqlite3_step(st), found = rc == SQLITE_ROW;
     if (found) {

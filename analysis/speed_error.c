@@ -43,7 +43,7 @@ static const char *pairs_sql =
     "  FROM traffic t JOIN cache_configs c ON c.id = t.config_id JOIN classes k ON k.name = t.class"
     "  WHERE c.line = 64 AND c.assoc = 0 AND k.grp IN ('geometry', 'ray')"
     "  GROUP BY t.run_id, c.size, k.grp)"
-    " SELECT s.name, a.tracer, a.W, a.H, a.lights, a.sched_size, a.sim_method, a.sim_params, a.id, x.id,"
+    " SELECT @LABEL@, a.tracer, a.W, a.H, a.lights, a.sched_size, a.sim_method, a.sim_params, a.id, x.id,"
     "   a.wall_time, x.wall_time, ga.grp, ga.size,"
     "   CASE WHEN ga.acc > 0 THEN 1.0 * ga.miss / ga.acc ELSE 0 END,"
     "   CASE WHEN gx.acc > 0 THEN 1.0 * gx.miss / gx.acc ELSE 0 END,"
@@ -54,7 +54,7 @@ static const char *pairs_sql =
     " JOIN scenes s ON s.id = a.scene_id"
     " JOIN g ga ON ga.run_id = a.id JOIN g gx ON gx.run_id = x.id AND gx.size = ga.size AND gx.grp = ga.grp"
     " WHERE a.sim_method <> 'exact'"
-    " ORDER BY s.name, a.tracer, a.lights, a.sched_size, a.sim_method, a.sim_params, a.id, ga.grp, ga.size";
+    " ORDER BY s.name, s.hash, a.tracer, a.lights, a.sched_size, a.sim_method, a.sim_params, a.id, ga.grp, ga.size";
 
 /* Pairs (reduced run, full exact run) with per-size group figures. */
 static const char *proxy_sql =
@@ -68,7 +68,7 @@ static const char *proxy_sql =
     "   AND r.W * r.H = (SELECT MAX(q.W * q.H) FROM runs q WHERE q.scene_id = r.scene_id AND q.tracer = r.tracer"
     "     AND q.lights = r.lights AND q.sched_size = r.sched_size AND q.gmax = r.gmax"
     "     AND q.params = r.params AND q.sim_method = 'exact'))"
-    " SELECT s.name, a.tracer, a.W, a.H, a.lights, a.sched_size, a.params, a.id, x.id, x.W, x.H,"
+    " SELECT @LABEL@, a.tracer, a.W, a.H, a.lights, a.sched_size, a.params, a.id, x.id, x.W, x.H,"
     "   a.wall_time, x.wall_time - COALESCE((SELECT SUM(y.wall_time) FROM runs y WHERE y.scene_id = x.scene_id"
     "     AND y.tracer = x.tracer AND y.W = x.W AND y.H = x.H AND y.lights = x.lights"
     "     AND y.sched_size = x.sched_size AND y.gmax = x.gmax AND y.params = x.params"
@@ -83,7 +83,7 @@ static const char *proxy_sql =
     " JOIN scenes s ON s.id = a.scene_id"
     " JOIN g ga ON ga.run_id = a.id JOIN g gx ON gx.run_id = x.id AND gx.size = ga.size AND gx.grp = ga.grp"
     " WHERE a.sim_method = 'exact' AND (a.W * a.H < x.W * x.H OR a.params LIKE '%subsample=%')"
-    " ORDER BY s.name, a.tracer, a.lights, a.sched_size, a.W * a.H DESC, a.params, a.id, ga.grp, ga.size";
+    " ORDER BY s.name, s.hash, a.tracer, a.lights, a.sched_size, a.W * a.H DESC, a.params, a.id, ga.grp, ga.size";
 
 /* A "key=" number from a stats string, or NAN. */
 static double stat_num(const char *stats, const char *key)
@@ -116,7 +116,7 @@ static void acc_add(acc *a, double mra, double mrx, double ba, double bx)
 
 /* Summary per scene and method/parameters over the runs (tracers, lights). */
 typedef struct summ {
-    char scene[64], method[32], params[192];
+    char scene[192], method[32], params[192];
     int n, minsizes;          /* runs; fewest sizes compared in one of them */
     double secs, xsecs;       /* summed over the runs */
     double mr_mean[2], mr_max[2], rel_mean[2], rel_max[2]; /* geometry, ray: mean of the runs' means, max of maxima */
@@ -240,7 +240,10 @@ static void pair_row(se_ctx *C, const char *hdr, long id, long xid, double secs,
 
 static int report_approx(se_ctx *C, rt_err *e)
 {
-    sqlite3_stmt *st = rt_report_stmt(C->h, pairs_sql, "speed-error query", e, "");
+    char *sql = rt_report_label_sql(C->h, pairs_sql, e);
+    if (!sql) return -1;
+    sqlite3_stmt *st = rt_report_stmt(C->h, sql, "speed-error query", e, "");
+    free(sql);
     if (!st) return -1;
     FILE *out = C->out;
     if (C->csv)
@@ -258,7 +261,7 @@ static int report_approx(se_ctx *C, rt_err *e)
                      "ray traffic err %% mean / max |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     int rows = 0, series_cur = 0, rc;
     long cur = -1, xid = 0;
-    char hdr[1024] = "", cur_scene[64] = "", cur_method[32] = "", cur_params[192] = "";
+    char hdr[1024] = "", cur_scene[192] = "", cur_method[32] = "", cur_params[192] = "";
     double secs = 0, xsecs = 0;
     acc A[2];
     memset(A, 0, sizeof A);
@@ -327,9 +330,16 @@ static void proxies_dynamic(const se_ctx *C, const ppair *dyn, size_t ndyn)
             "|---|---|---|---|---|---|---|---|\n");
     for (size_t i = 0; i < ndyn; i++) {
         const ppair *p = &dyn[i];
-        char scene[128] = "", lights[32] = "", sched[32] = "";
-        /* hdr is "| scene | tracer | lights | sched | method | desc" */
-        sscanf(p->hdr, "| %127s | %*s | %31s | %31s |", scene, lights, sched);
+        /* hdr is "| scene | tracer | lights | sched | method | desc"; a
+         * scene label may hold spaces ("mesh.obj (a/mesh.obj)") */
+        char f[4][192] = {"", "", "", ""}, *scene = f[0], *lights = f[2], *sched = f[3];
+        const char *q = p->hdr + (strncmp(p->hdr, "| ", 2) ? 0 : 2);
+        for (int k = 0; k < 4 && *q; k++) {
+            const char *end = strstr(q, " | ");
+            size_t len = end ? (size_t)(end - q) : strlen(q);
+            snprintf(f[k], sizeof f[k], "%.*s", (int)(len < sizeof f[k] ? len : sizeof f[k] - 1), q);
+            q = end ? end + 3 : q + len;
+        }
         fprintf(C->out, "| %s | %s | %s | %s | %.4f | %.1f | %.1f | %.3f |\n", scene, lights, sched, p->desc,
                 p->scale > 0 ? 1.0 / p->scale : NAN, p->xdens, p->dens, p->xdens > 0 ? p->dens / p->xdens : NAN);
     }
@@ -337,7 +347,10 @@ static void proxies_dynamic(const se_ctx *C, const ppair *dyn, size_t ndyn)
 
 static int report_proxies(se_ctx *C, rt_err *e)
 {
-    sqlite3_stmt *st = rt_report_stmt(C->h, proxy_sql, "reduced-experiment query", e, "");
+    char *sql = rt_report_label_sql(C->h, proxy_sql, e);
+    if (!sql) return -1;
+    sqlite3_stmt *st = rt_report_stmt(C->h, sql, "reduced-experiment query", e, "");
+    free(sql);
     if (!st) return -1;
     ppair cur, *dyn = NULL;
     size_t ndyn = 0, capdyn = 0;

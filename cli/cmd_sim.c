@@ -27,6 +27,7 @@ typedef struct sim_opts {
     int outfmt;         /* FMT_* */
     rt_approx_config ac;/* --method etc.; RT_APPROX_EXACT = the exact simulator */
     int rate_given;     /* --rate seen */
+    unsigned given;     /* bit (1 << O_x) for every option seen, to refuse those that do not apply */
 } sim_opts;
 
 static void usage(FILE *f)
@@ -158,6 +159,11 @@ static int store(rt_db *db, const char *path, const rt_approx *ap, const rt_tr_m
     r.command = rt_cmd_line();
     r.wall_time = secs;
     int64_t id = 0;
+    /* an empty trace measured nothing: storing it would look like a result */
+    if (in->refs == 0) {
+        free(rows);
+        return rt_errf(e, "%s: no references in the trace; nothing stored", path);
+    }
     int rc = rt_db_store_run(db, &r, rows, n, &id, e);
     free(rows);
     if (rc == 0)
@@ -262,6 +268,44 @@ static int parse_opt(sim_opts *o, int ch, const char *arg, const char *argv_opt)
     }
 }
 
+/* Options that apply only to some methods, and which. */
+static const struct {
+    int opt;
+    unsigned methods; /* bit (1 << RT_APPROX_x) */
+    const char *which;
+} method_opts[] = {
+    {O_RATE, 1u << RT_APPROX_SHARDS_RATE | 1u << RT_APPROX_STATSTACK | 1u << RT_APPROX_HYBRID,
+     "shards, statstack and hybrid"},
+    {O_SMAX, 1u << RT_APPROX_SHARDS_FIXED, "shards-fixed"},
+    {O_SEED, ~(1u << RT_APPROX_EXACT), "the sampled methods"},
+    {O_EXACT_BELOW, ~(1u << RT_APPROX_EXACT), "the sampled methods"},
+    {O_WINDOW_BELOW, 1u << RT_APPROX_HYBRID, "hybrid"},
+    {O_PERIOD, 1u << RT_APPROX_HYBRID, "hybrid"},
+    {O_WINDOW, 1u << RT_APPROX_HYBRID, "hybrid"},
+};
+
+/* An option given that the run would ignore is a usage error naming it.
+ * 0 or -1 (printed). */
+static int check_applies(const sim_opts *o)
+{
+    for (size_t i = 0; i < sizeof method_opts / sizeof method_opts[0]; i++)
+        if ((o->given >> method_opts[i].opt & 1) && !(method_opts[i].methods >> o->ac.method & 1)) {
+            rt_cmd_error("sim", "--%s does not apply to --method %s (only to %s)",
+                         longopts[method_opts[i].opt - O_SIZES].name, rt_approx_method_name(o->ac.method),
+                         method_opts[i].which);
+            return -1;
+        }
+    if (o->db && (o->given >> O_FMT & 1)) {
+        rt_cmd_error("sim", "--format applies to printed output, not to --db (which stores runs)");
+        return -1;
+    }
+    if (o->infmt == 1 && (o->given >> O_DINCLS & 1)) { /* RT_SIM_IN_RTT */
+        rt_cmd_error("sim", "--din-class does not apply to --input-format rtt");
+        return -1;
+    }
+    return 0;
+}
+
 /* Parses argv; optind is left at the first trace. 0 ok, -1 usage error. */
 static int parse_args(int argc, char **argv, sim_opts *o)
 {
@@ -274,8 +318,11 @@ static int parse_args(int argc, char **argv, sim_opts *o)
     optind = 1;
     opterr = 0;
     int ch;
-    while ((ch = getopt_long(argc, argv, "h", longopts, NULL)) != -1)
+    while ((ch = getopt_long(argc, argv, "h", longopts, NULL)) != -1) {
         if (parse_opt(o, ch, optarg, argv[optind - 1]) < 0) return -1;
+        if (ch > 0 && ch < 32) o->given |= 1u << ch;
+    }
+    if (check_applies(o) < 0) return -1;
     if (!o->rate_given) o->ac.rate = rt_approx_default_rate(o->ac.method);
     if (optind >= argc) {
         rt_cmd_error("sim", "no trace given (see --help)");

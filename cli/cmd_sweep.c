@@ -15,7 +15,15 @@
  * shared counter; each worker keeps the current scene and its k-d tree.
  * --list-jobs prints one self-contained command per job, each writing its
  * own database, for GNU parallel or a Slurm array; `raytraffic db merge`
- * joins the shards.
+ * joins the shards. Each line names the running binary and every file by
+ * its absolute path and quotes every word for a POSIX shell, so it runs
+ * from any folder under sh -c.
+ *
+ * Workers never outlive the sweep: SIGTERM, SIGINT or SIGHUP to the parent
+ * is forwarded to every worker and waited for (the sweep then exits 1; a
+ * killed worker's open transaction leaves no row, and a rerun resumes), and
+ * a worker whose parent dies without forwarding (SIGKILL) gets SIGTERM from
+ * the kernel (PR_SET_PDEATHSIG, Linux).
  */
 #include "cmd.h"
 #include "experiment.h"
@@ -31,6 +39,9 @@
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
+#ifdef __linux__
+#include <sys/prctl.h>
+#endif
 
 #define MAX_LIST RT_EXP_MAXLIST
 
@@ -44,9 +55,13 @@ typedef struct sweep_opts {
     int list;         /* --list-jobs */
     long only;        /* --job K, -1 = all */
     long stop_after;  /* RT_SWEEP_STOP_AFTER (tests only), 0 = never */
+    long fail_job;    /* RT_SWEEP_FAIL_JOB=K:MARKER (tests only): job K fails once, -1 = never */
+    const char *fail_marker; /* file whose creation marks that failure as done */
     int W, H;         /* -W/-H, 0 = from the preset */
     char *lists[5];   /* own copies of --scenes, --tracers, --lights, --approx, --proxy */
     const char *sizes_arg;
+    const char *dyn_opt;    /* a dynamic-only option given (its name), or NULL */
+    int packet_given;       /* --packet given */
 } sweep_opts;
 
 typedef struct shared {
@@ -218,6 +233,20 @@ static void maybe_stop(const sweep_opts *o, shared *sh)
     if (o->stop_after > 0 && atomic_load(&sh->stored) >= o->stop_after) raise(SIGKILL);
 }
 
+/* Test-only hook: RT_SWEEP_FAIL_JOB=K:MARKER makes job K fail in the middle
+ * of storing its run (as a node dying or a full disk would) the first time,
+ * i.e. when MARKER can be created; reruns then succeed. Shows that a failed
+ * job leaves no partial row and that resubmitting the same job list
+ * completes it. Not for users. */
+static void maybe_fail(const sweep_opts *o, long i)
+{
+    if (o->fail_job != i) return;
+    FILE *f = fopen(o->fail_marker, "wx"); /* exclusive: once, even across processes */
+    if (!f) return;
+    fclose(f);
+    rt_db_fail_row_after = 2;
+}
+
 static int worker_loop(const sweep_opts *o, const rt_exp_job *J, long nj, shared *sh, int tty)
 {
     rt_err e = {""};
@@ -236,6 +265,7 @@ static int worker_loop(const sweep_opts *o, const rt_exp_job *J, long nj, shared
         long i = o->only >= 0 ? (atomic_fetch_add(&sh->next, 1) == 0 ? o->only : nj) : atomic_fetch_add(&sh->next, 1);
         if (i >= nj) break;
         double t0 = rt_now();
+        maybe_fail(o, i);
         int r = rt_exp_run_job(w, &J[i], i, &e);
         char label[256];
         job_label(&o->x, &J[i], label, sizeof label);
@@ -259,6 +289,41 @@ static int worker_loop(const sweep_opts *o, const rt_exp_job *J, long nj, shared
     return rc;
 }
 
+/* The signal that asked the sweep to stop (0 = none); set by the handler
+ * the parent installs while it has workers. */
+static volatile sig_atomic_t stop_signal;
+
+static void on_stop_signal(int sig) { stop_signal = sig; }
+
+static const int stop_signals[] = {SIGTERM, SIGINT, SIGHUP};
+
+/* Installs (on = 1) or restores (on = 0) the parent's handlers for the
+ * stop signals. No SA_RESTART: waitpid returns EINTR so the parent acts. */
+static void catch_stop_signals(int on, struct sigaction *saved)
+{
+    for (int i = 0; i < 3; i++) {
+        if (on) {
+            struct sigaction sa;
+            memset(&sa, 0, sizeof sa);
+            sa.sa_handler = on_stop_signal;
+            sigemptyset(&sa.sa_mask);
+            sigaction(stop_signals[i], &sa, &saved[i]);
+        } else {
+            sigaction(stop_signals[i], &saved[i], NULL);
+        }
+    }
+}
+
+/* In a new worker: default signal handling, and death with the parent. */
+static void worker_init(pid_t parent, const struct sigaction *saved)
+{
+    for (int i = 0; i < 3; i++) sigaction(stop_signals[i], &saved[i], NULL);
+#ifdef __linux__
+    prctl(PR_SET_PDEATHSIG, SIGTERM);
+#endif
+    if (getppid() != parent) _exit(1); /* the parent died before prctl took effect */
+}
+
 static void progress(shared *sh, long nj, double t0)
 {
     long d = atomic_load(&sh->done), s = atomic_load(&sh->skipped);
@@ -268,28 +333,6 @@ static void progress(shared *sh, long nj, double t0)
     int width = 30, fill = nj ? (int)(width * d / nj) : width;
     fprintf(stderr, "\r[%.*s%*s] %ld/%ld runs, %.0f s elapsed, ETA %.0f s ", fill,
             "##############################", width - fill, "", d, nj, el, d > s ? eta : 0.0);
-}
-
-static void print_jobs(const sweep_opts *o, long nj, int argc, char **argv)
-{
-    char base[4096];
-    snprintf(base, sizeof base, "%s", o->db);
-    size_t bl = strlen(base);
-    if (bl > 3 && !strcmp(base + bl - 3, ".db")) base[bl - 3] = 0;
-    for (long i = 0; i < nj; i++) {
-        printf("raytraffic sweep");
-        for (int a = 1; a < argc; a++) {
-            if (!strcmp(argv[a], "--list-jobs")) continue;
-            if (!strcmp(argv[a], "--db") || !strcmp(argv[a], "--jobs") || !strcmp(argv[a], "--job")) {
-                a++;
-                continue;
-            }
-            if (!strncmp(argv[a], "--db=", 5) || !strncmp(argv[a], "--jobs=", 7) || !strncmp(argv[a], "--job=", 6))
-                continue;
-            printf(" '%s'", argv[a]);
-        }
-        printf(" --job %ld --db '%s.job%04ld.db'\n", i, base, i);
-    }
 }
 
 enum { O_PRESET = 1, O_SCENES, O_TRACERS, O_LIGHTS, O_SIZES, O_LINE, O_DB, O_JOBS, O_KEEP, O_DYNALL, O_LIST, O_JOB,
@@ -321,6 +364,102 @@ static const struct option sweep_longopts[] = {
     {NULL, 0, NULL, 0},
 };
 
+/* Writes s as one word for a POSIX shell: in single quotes, a quote as '\''. */
+static void sh_quote(FILE *f, const char *s)
+{
+    fputc('\'', f);
+    for (; *s; s++) {
+        if (*s == '\'') fputs("'\\''", f);
+        else fputc(*s, f);
+    }
+    fputc('\'', f);
+}
+
+/* An absolute form of path: itself if absolute, its realpath if it exists,
+ * else the current folder joined to it. Into buf (n bytes). */
+static const char *absolute(const char *path, char *buf, size_t n)
+{
+    char cwd[4096], *r;
+    if (path[0] == '/') snprintf(buf, n, "%s", path);
+    else if ((r = realpath(path, NULL))) {
+        snprintf(buf, n, "%s", r);
+        free(r);
+    } else if (getcwd(cwd, sizeof cwd)) snprintf(buf, n, "%s/%s", cwd, path);
+    else snprintf(buf, n, "%s", path);
+    return buf;
+}
+
+/* A scene spec that names a mesh file (as rt_scene_load decides). */
+static int is_mesh(const char *s)
+{
+    size_t n = strlen(s);
+    return n >= 4 && (!strcasecmp(s + n - 4, ".obj") || !strcasecmp(s + n - 4, ".ply"));
+}
+
+/* The options of this sweep as words of a command line, each quoted, with
+ * every file absolute; --db, --jobs, --job and --list-jobs left out. argv
+ * is parsed again (getopt_long) so abbreviations and --opt=value forms are
+ * all caught. Written to f with a leading space per word. */
+static void print_words(FILE *f, int argc, char **argv)
+{
+    char buf[8192];
+    int c, idx;
+    optind = 1;
+    opterr = 0;
+    while ((c = getopt_long(argc, argv, "hW:H:", sweep_longopts, &idx)) != -1) {
+        if (c == O_DB || c == O_JOBS || c == O_JOB || c == O_LIST || c == '?') continue;
+        const char *name = NULL;
+        for (int k = 0; sweep_longopts[k].name; k++)
+            if (sweep_longopts[k].val == c) {
+                name = sweep_longopts[k].name;
+                break;
+            }
+        if (c == 'W' || c == 'H') {
+            fprintf(f, " -%c", c);
+        } else {
+            snprintf(buf, sizeof buf, "--%s", name ? name : "?");
+            fputc(' ', f);
+            sh_quote(f, buf);
+        }
+        if (!optarg) continue;
+        fputc(' ', f);
+        if (c == O_KEEP) {
+            sh_quote(f, absolute(optarg, buf, sizeof buf));
+        } else if (c == O_SCENES) { /* each mesh of the list made absolute */
+            char *list = strdup(optarg), *save = NULL, out[8192] = "", one[4096];
+            for (char *t = list ? strtok_r(list, ",", &save) : NULL; t; t = strtok_r(NULL, ",", &save)) {
+                size_t l = strlen(out);
+                snprintf(out + l, sizeof out - l, "%s%s", l ? "," : "", is_mesh(t) ? absolute(t, one, sizeof one) : t);
+            }
+            sh_quote(f, list ? out : optarg);
+            free(list);
+        } else {
+            sh_quote(f, optarg);
+        }
+    }
+}
+
+static void print_jobs(const sweep_opts *o, long nj, int argc, char **argv)
+{
+    char exe[4096], base[4096], word[4200];
+    ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
+    if (n > 0) exe[n] = 0;
+    else snprintf(exe, sizeof exe, "raytraffic"); /* no /proc: PATH decides */
+    absolute(o->db, base, sizeof base);
+    size_t bl = strlen(base);
+    if (bl > 3 && !strcmp(base + bl - 3, ".db")) base[bl - 3] = 0;
+    for (long i = 0; i < nj; i++) {
+        sh_quote(stdout, exe);
+        fputs(" sweep", stdout);
+        print_words(stdout, argc, argv);
+        snprintf(word, sizeof word, "%s.job%04ld.db", base, i);
+        printf(" --job %ld --db ", i);
+        sh_quote(stdout, word);
+        putchar('\n');
+    }
+}
+
+
 /* Keeps a copy of a list argument (lists are split in place, and argv is
  * reprinted by --list-jobs). */
 static char *keep_copy(sweep_opts *o, int k, const char *arg)
@@ -341,6 +480,9 @@ static int parse_opt(sweep_opts *o, int c, const char *arg)
         if (c == 'W') o->W = tmp.W; else o->H = tmp.H;
         return 0;
     }
+    if (c == RT_OPT_QORDER) o->dyn_opt = "--qorder";
+    if (c == RT_OPT_THREADS) o->dyn_opt = "--threads";
+    if (c == RT_OPT_PACKET) o->packet_given = 1;
     int r = rt_cmd_render_opt("sweep", c, arg, &o->x.ro, &dummy);
     if (r != 0) return r < 0 ? -1 : 0;
     switch (c) {
@@ -419,6 +561,26 @@ static int finish_opts(sweep_opts *o)
             rt_cmd_error("sweep", "--tracers: unknown tracer '%s'", x->tracers[t]);
             return -1;
         }
+    /* options of one tracer are an error when that tracer is not swept */
+    int has_dyn = 0, has_packet = 0, has_all = 0;
+    for (int t = 0; t < x->ntracers; t++) {
+        has_dyn |= !strcmp(x->tracers[t], "dynamic");
+        has_packet |= !strcmp(x->tracers[t], "packet");
+        has_all |= strcmp(x->tracers[t], "dynamic") != 0;
+    }
+    const char *unused = !has_dyn && o->dyn_opt ? o->dyn_opt
+                         : !has_dyn && x->dyn_all ? "--dynamic-all-sizes"
+                         : !has_packet && o->packet_given ? "--packet" : NULL;
+    if (unused) {
+        rt_cmd_error("sweep", "%s does not apply: --tracers has no %s tracer", unused,
+                     strcmp(unused, "--packet") ? "dynamic" : "packet");
+        return -1;
+    }
+    if (x->napprox && !has_all && !x->dyn_all) {
+        rt_cmd_error("sweep", "--approx does not apply: it runs on jobs simulated at every size (recursive, packet, "
+                              "or dynamic with --dynamic-all-sizes)");
+        return -1;
+    }
     for (int p = 0; p < x->nproxies; p++)
         for (int t = 0; t < x->ntracers; t++) {
             rt_render_opts ro = x->ro;
@@ -460,6 +622,17 @@ static int parse_args(int argc, char **argv, sweep_opts *o)
         rt_cmd_error("sweep", "RT_SWEEP_STOP_AFTER: '%s' is not a count", stop);
         return -1;
     }
+    o->fail_job = -1;
+    const char *fj = getenv("RT_SWEEP_FAIL_JOB"), *colon = fj ? strchr(fj, ':') : NULL;
+    if (fj && *fj) {
+        char num[32];
+        snprintf(num, sizeof num, "%.*s", colon ? (int)(colon - fj) : 0, fj);
+        if (!colon || !colon[1] || rt_cmd_parse_long(num, 0, 1L << 30, &o->fail_job) < 0) {
+            rt_cmd_error("sweep", "RT_SWEEP_FAIL_JOB: '%s' is not K:MARKER-FILE", fj);
+            return -1;
+        }
+        o->fail_marker = colon + 1;
+    }
     int c;
     optind = 1;
     while ((c = getopt_long(argc, argv, "hW:H:", sweep_longopts, NULL)) != -1) {
@@ -482,10 +655,16 @@ static int run_workers(const sweep_opts *o, const rt_exp_job *J, long nj, shared
     if (nw <= 1 && !tty) return worker_loop(o, J, nj, sh, 0);
     /* a terminal: even one worker is a child, so the bar is drawn here */
     if (nw < 1) nw = 1;
-    pid_t pids[256];
+    pid_t pids[256], parent = getpid();
+    struct sigaction saved[3];
+    stop_signal = 0;
+    catch_stop_signals(1, saved);
     for (int k = 0; k < nw; k++) {
         pids[k] = fork();
-        if (pids[k] == 0) _exit(worker_loop(o, J, nj, sh, tty) < 0 ? 1 : 0);
+        if (pids[k] == 0) {
+            worker_init(parent, saved);
+            _exit(worker_loop(o, J, nj, sh, tty) < 0 ? 1 : 0);
+        }
         if (pids[k] < 0) {
             rt_cmd_error("sweep", "fork: %s", strerror(errno));
             atomic_store(&sh->failed, 1);
@@ -494,12 +673,23 @@ static int run_workers(const sweep_opts *o, const rt_exp_job *J, long nj, shared
             break;
         }
     }
-    int alive = nw;
+    int alive = nw, forwarded = 0;
     while (alive > 0) {
         int status;
+        if (stop_signal && !forwarded) {
+            /* stop: no new job is claimed, running ones are killed (their
+             * open transaction leaves nothing); wait for every worker */
+            atomic_store(&sh->failed, 1);
+            for (int k = 0; k < nw; k++)
+                if (pids[k] > 0) kill(pids[k], SIGTERM);
+            forwarded = 1;
+            rc = -1;
+        }
         pid_t p = tty ? waitpid(-1, &status, WNOHANG) : waitpid(-1, &status, 0);
         if (p > 0) {
             alive--;
+            for (int k = 0; k < nw; k++)
+                if (pids[k] == p) pids[k] = 0;
             if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) rc = -1;
         } else if (p == 0) {
             progress(sh, total, t0);
@@ -508,10 +698,14 @@ static int run_workers(const sweep_opts *o, const rt_exp_job *J, long nj, shared
             break;
         }
     }
+    catch_stop_signals(0, saved);
     if (tty) {
         progress(sh, total, t0);
         fputc('\n', stderr);
     }
+    if (stop_signal)
+        rt_cmd_error("sweep", "stopped by signal %d: workers stopped; rerun the same command to resume",
+                     (int)stop_signal);
     return rc;
 }
 

@@ -2,8 +2,9 @@
  * db.c -- the SQLite results database (see db.h and docs/database.md).
  *
  * The schema lives in one string below (documented column by column in
- * docs/database.md). Version 2; a version-1 file is upgraded in place when
- * opened (migrate_v1, one transaction). Unsigned 64-bit hashes are stored
+ * docs/database.md). Version 3; older files are upgraded in place when
+ * opened, one step after the other in one transaction (migrate_v1: the
+ * sched_size rename; migrate_v2: where a mesh scene was found). Unsigned 64-bit hashes are stored
  * as 16 lowercase hex digits, counters as INTEGER (they stay far below
  * 2^63).
  *
@@ -12,6 +13,12 @@
  * the *simulated* size. Version 1 called the former sched_cache_size; that
  * name survives only as a read-only alias (a generated column of runs and
  * a column of v_paper) so queries written against version 1 keep working.
+ *
+ * Opening is race-free for processes starting together on a file that does
+ * not exist yet: the busy timeout is set first, the switch to WAL (which
+ * needs the file to itself and may answer SQLITE_BUSY without waiting) and
+ * the schema transaction (BEGIN IMMEDIATE, version re-read under the lock)
+ * are retried on SQLITE_BUSY with a bounded exponential backoff.
  */
 #include "db.h"
 #include "memmodel.h"
@@ -20,6 +27,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
+#include <unistd.h>
 
 long rt_db_fail_row_after = 0;
 
@@ -34,6 +43,8 @@ static const char schema_sql[] =
     "  params TEXT NOT NULL DEFAULT '',    -- canonical scene parameters\n"
     "  hash TEXT NOT NULL,                 -- rt_scene_hash, 16 hex digits\n"
     "  triangles INTEGER NOT NULL DEFAULT 0,\n"
+    "  path TEXT NOT NULL DEFAULT '',      -- mesh file as given on the command line ('' built-in)\n"
+    "  abspath TEXT NOT NULL DEFAULT '',   -- that file's absolute path, where it was last seen\n"
     "  UNIQUE(name, params, hash));\n"
     "CREATE TABLE IF NOT EXISTS runs(\n"
     "  id INTEGER PRIMARY KEY,\n"
@@ -98,6 +109,7 @@ struct rt_db {
     sqlite3 *h;        /* connection */
     char *path;        /* for messages */
     sqlite3_stmt *st[16]; /* prepared statements, see enum */
+    int busy;          /* the last failure was SQLITE_BUSY / SQLITE_LOCKED (open retries it) */
 };
 
 enum {
@@ -108,7 +120,9 @@ enum {
 static const char *const stmt_sql[S_NSTMT] = {
     "INSERT OR IGNORE INTO scenes(name, params, hash, triangles) VALUES(?1, ?2, ?3, ?4)",
     "SELECT id FROM scenes WHERE name = ?1 AND params = ?2 AND hash = ?3",
-    "UPDATE scenes SET triangles = ?2 WHERE id = ?1 AND ?2 > 0",
+    "UPDATE scenes SET triangles = CASE WHEN ?2 > 0 THEN ?2 ELSE triangles END,"
+    " path = CASE WHEN ?4 <> '' THEN ?3 ELSE path END, abspath = CASE WHEN ?4 <> '' THEN ?4 ELSE abspath END"
+    " WHERE id = ?1",
     "SELECT r.id FROM runs r JOIN scenes s ON s.id = r.scene_id WHERE s.name = ?1 AND s.params = ?2 AND s.hash = ?3"
     " AND r.tracer = ?4 AND r.W = ?5 AND r.H = ?6 AND r.lights = ?7 AND r.sched_size = ?8 AND r.gmax = ?9"
     " AND r.params = ?10 AND r.sim_method = ?11 AND r.sim_params = ?12",
@@ -127,8 +141,16 @@ static const char *const stmt_sql[S_NSTMT] = {
 const char *rt_db_schema_sql(void) { return schema_sql; }
 void *rt_db_handle(rt_db *db) { return db->h; }
 
+/* The connection's last error was a lock conflict (worth retrying). */
+static int is_busy(rt_db *db)
+{
+    int c = sqlite3_errcode(db->h) & 0xff;
+    return c == SQLITE_BUSY || c == SQLITE_LOCKED;
+}
+
 static int dberr(rt_db *db, rt_err *e, const char *what)
 {
+    db->busy = is_busy(db);
     return rt_errf(e, "%s: %s%s%s", db->path, what ? what : "", what ? ": " : "", sqlite3_errmsg(db->h));
 }
 
@@ -136,6 +158,7 @@ static int exec(rt_db *db, const char *sql, rt_err *e)
 {
     char *msg = NULL;
     if (sqlite3_exec(db->h, sql, NULL, NULL, &msg) != SQLITE_OK) {
+        db->busy = is_busy(db);
         rt_errf(e, "%s: %s", db->path, msg ? msg : sqlite3_errmsg(db->h));
         sqlite3_free(msg);
         return -1;
@@ -190,6 +213,20 @@ static int migrate_v1(rt_db *db, rt_err *e)
            exec(db, schema_sql, e);
 }
 
+/* Version 2 -> 3: scenes learn where a mesh file was (path as given,
+ * absolute path); existing scenes get ''. Views rebuilt. Runs inside the
+ * caller's transaction. */
+static int migrate_v2(rt_db *db, rt_err *e)
+{
+    return exec(db,
+                "ALTER TABLE scenes ADD COLUMN path TEXT NOT NULL DEFAULT '';\n"
+                "ALTER TABLE scenes ADD COLUMN abspath TEXT NOT NULL DEFAULT '';\n"
+                "DROP VIEW IF EXISTS v_paper;\n"
+                "DROP VIEW IF EXISTS v_traffic_group;\n",
+                e) ||
+           exec(db, schema_sql, e);
+}
+
 /* The name of a table that is not raytraffic's, or "" (none); for refusing
  * to add tables to an unrelated file. */
 static int foreign_table(rt_db *db, char *name, size_t n, rt_err *e)
@@ -230,7 +267,7 @@ static int check_foreign(rt_db *db, rt_err *e)
 }
 
 /* Brings the file to RT_DB_SCHEMA_VERSION in one transaction: creates the
- * schema of an empty file, upgrades a version-1 one. */
+ * schema of an empty file, upgrades an older one step by step. */
 static int create_schema(rt_db *db, rt_err *e)
 {
     int64_t ver = 0;
@@ -241,8 +278,9 @@ static int create_schema(rt_db *db, rt_err *e)
     /* re-read under the lock: another process may have done it meanwhile */
     if (ver == 0) {
         if (create_tables(db, e)) goto fail;
-    } else if (ver == 1) {
-        if (migrate_v1(db, e)) goto fail;
+    } else {
+        if (ver == 1 && migrate_v1(db, e)) goto fail;
+        if (ver <= 2 && migrate_v2(db, e)) goto fail;
     }
     if (ver < RT_DB_SCHEMA_VERSION) {
         char sql[64];
@@ -254,6 +292,38 @@ static int create_schema(rt_db *db, rt_err *e)
 fail:
     sqlite3_exec(db->h, "ROLLBACK", NULL, NULL, NULL);
     return -1;
+}
+
+/* journal_mode = WAL (it returns a row; a non-database file fails here). */
+static int set_wal(rt_db *db, rt_err *e)
+{
+    sqlite3_stmt *st;
+    if (sqlite3_prepare_v2(db->h, "PRAGMA journal_mode = WAL", -1, &st, NULL) != SQLITE_OK) return dberr(db, e, NULL);
+    int rc = sqlite3_step(st);
+    sqlite3_finalize(st);
+    if (rc != SQLITE_ROW && rc != SQLITE_DONE) return dberr(db, e, NULL);
+    return 0;
+}
+
+/* Runs step until it succeeds or fails for another reason than a lock
+ * held by another process; lock conflicts are retried after 1, 2, 4 ... ms
+ * (at most 250 ms apart, a little jitter so that processes started together
+ * do not collide again), for at most 120 s in all. */
+static int retry_busy(rt_db *db, int (*step)(rt_db *, rt_err *), rt_err *e)
+{
+    long wait_us = 1000, total_us = 0;
+    unsigned jitter = (unsigned)getpid() * 2654435761u;
+    for (;;) {
+        db->busy = 0;
+        if (step(db, e) == 0) return 0;
+        if (!db->busy || total_us > 120L * 1000000) return -1;
+        jitter = jitter * 1103515245u + 12345u;
+        long us = wait_us + (long)(jitter % (unsigned)(wait_us / 2 + 1));
+        struct timespec ts = {us / 1000000, (us % 1000000) * 1000};
+        nanosleep(&ts, NULL);
+        total_us += us;
+        if (wait_us < 250000) wait_us *= 2;
+    }
 }
 
 rt_db *rt_db_open(const char *path, rt_err *e)
@@ -276,23 +346,9 @@ rt_db *rt_db_open(const char *path, rt_err *e)
         rt_errf(e, "%s: database is not writable", path);
         goto fail;
     }
-    if (check_foreign(db, e)) goto fail;
+    if (retry_busy(db, check_foreign, e)) goto fail;
     if (exec(db, "PRAGMA foreign_keys = ON", e)) goto fail;
-    /* journal_mode returns a row; a non-database file fails here */
-    {
-        sqlite3_stmt *st;
-        if (sqlite3_prepare_v2(db->h, "PRAGMA journal_mode = WAL", -1, &st, NULL) != SQLITE_OK) {
-            dberr(db, e, NULL);
-            goto fail;
-        }
-        int rc = sqlite3_step(st);
-        sqlite3_finalize(st);
-        if (rc != SQLITE_ROW && rc != SQLITE_DONE) {
-            dberr(db, e, NULL);
-            goto fail;
-        }
-    }
-    if (create_schema(db, e)) goto fail;
+    if (retry_busy(db, set_wal, e) || retry_busy(db, create_schema, e)) goto fail;
     for (int i = 0; i < S_NSTMT; i++)
         if (sqlite3_prepare_v2(db->h, stmt_sql[i], -1, &db->st[i], NULL) != SQLITE_OK) {
             dberr(db, e, "schema mismatch");
@@ -349,7 +405,8 @@ int rt_db_has_run(rt_db *db, const rt_db_run *key, rt_err *e)
     return step_id(db, db->st[S_RUN_GET], NULL, e);
 }
 
-/* Inserts the run's scene if new (or fills in its triangle count); its id. */
+/* Inserts the run's scene if new (or fills in its triangle count and,
+ * when the run knows it, where the mesh file is now); its id. */
 static int store_scene(rt_db *db, const rt_db_run *r, int64_t *scene_id, rt_err *e)
 {
     char hash[17];
@@ -366,6 +423,8 @@ static int store_scene(rt_db *db, const rt_db_run *r, int64_t *scene_id, rt_err 
     if (step_id(db, st[S_SCENE_GET], scene_id, e) != 1) return rt_errf(e, "%s: scene row vanished", db->path);
     sqlite3_bind_int64(st[S_SCENE_TRI], 1, *scene_id);
     sqlite3_bind_int64(st[S_SCENE_TRI], 2, r->ntri);
+    sqlite3_bind_text(st[S_SCENE_TRI], 3, nz(r->scene_path), -1, SQLITE_TRANSIENT);
+    sqlite3_bind_text(st[S_SCENE_TRI], 4, nz(r->scene_abspath), -1, SQLITE_TRANSIENT);
     return step_id(db, st[S_SCENE_TRI], NULL, e) < 0 ? -1 : 0;
 }
 
@@ -511,7 +570,8 @@ static int count_col(const shard *sh, sqlite3_stmt *st, int i, const char *row, 
 }
 
 /* Opens a shard read-only and checks it is a raytraffic database of a
- * version this build reads (1 or 2; older column name for 1). */
+ * version this build reads (1 to 3; older column name for 1, no scene
+ * paths before 3). */
 static int shard_open(shard *sh, const char *path, rt_err *e)
 {
     memset(sh, 0, sizeof *sh);
@@ -531,12 +591,12 @@ static int shard_open(shard *sh, const char *path, rt_err *e)
         return rt_errf(e, "%s: database schema version %lld is newer than this raytraffic supports (%d)", path,
                        (long long)ver, RT_DB_SCHEMA_VERSION);
     if (ver < 1) return rt_errf(e, "%s: not a raytraffic database (schema version %lld)", path, (long long)ver);
-    char runs_sql[600];
+    char runs_sql[700];
     snprintf(runs_sql, sizeof runs_sql,
              "SELECT r.id, s.name, s.params, s.hash, s.triangles, r.tracer, r.W, r.H, r.lights, r.%s, r.gmax,"
              " r.params, r.sim_method, r.sim_params, r.trace_hash, r.refs, r.tool_version, r.git_rev, r.command,"
-             " r.wall_time, r.stats FROM runs r JOIN scenes s ON s.id = r.scene_id ORDER BY r.id",
-             ver == 1 ? "sched_cache_size" : "sched_size");
+             " r.wall_time, r.stats, %s FROM runs r JOIN scenes s ON s.id = r.scene_id ORDER BY r.id",
+             ver == 1 ? "sched_cache_size" : "sched_size", ver >= 3 ? "s.path, s.abspath" : "'', ''");
     static const char rows_sql[] =
         "SELECT c.size, c.line, c.assoc, c.policy, t.class, t.accesses, t.read_misses, t.write_misses, t.writebacks,"
         " t.wt_bytes, t.traffic_bytes FROM traffic t JOIN cache_configs c ON c.id = t.config_id WHERE t.run_id = ?1"
@@ -591,6 +651,8 @@ static int read_run(const shard *sh, rt_db_run *r, int64_t *id, rt_err *e)
     r->command = txt(st, 18);
     r->wall_time = sqlite3_column_double(st, 19);
     r->stats = txt(st, 20);
+    r->scene_path = txt(st, 21);
+    r->scene_abspath = txt(st, 22);
     return 0;
 }
 

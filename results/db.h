@@ -28,7 +28,7 @@
 
 #include <stdint.h>
 
-#define RT_DB_SCHEMA_VERSION 2
+#define RT_DB_SCHEMA_VERSION 3
 
 typedef struct rt_db rt_db;
 
@@ -56,6 +56,10 @@ typedef struct rt_db_run {
     const char *command;      /* command line */
     double wall_time;         /* seconds spent producing the results */
     const char *stats;        /* tracer statistics "k=v k=v" (rays, nodes, tests, ...) */
+    /* where the scene's mesh file is (not identity: the content hash is;
+     * '' = unknown or built-in, and '' never overwrites a known place) */
+    const char *scene_path;    /* as given on the command line, e.g. "a/mesh.obj" */
+    const char *scene_abspath; /* resolved absolute path, used to re-render it */
 } rt_db_run;
 
 /* One traffic row: counters of one class in one cache configuration. */
@@ -74,8 +78,9 @@ typedef struct rt_db_traffic {
 } rt_db_traffic;
 
 /* Opens (creating if needed) the database at path and ensures the schema.
- * A version-1 file is upgraded to RT_DB_SCHEMA_VERSION in place, in one
- * transaction. Fails with "PATH: message", leaving the file untouched, if
+ * A version-1 or -2 file is upgraded to RT_DB_SCHEMA_VERSION in place, in
+ * one transaction. Safe for many processes opening a new file at once
+ * (lock conflicts while creating it are waited out, up to 2 minutes). Fails with "PATH: message", leaving the file untouched, if
  * it cannot be created or written, is not a SQLite database, has a newer
  * schema version, or is an unrelated SQLite file (schema version 0 with
  * tables of its own: raytraffic adds none to it). */
@@ -96,7 +101,7 @@ int rt_db_store_run(rt_db *db, const rt_db_run *run, const rt_db_traffic *rows, 
  * statistics and traffic rows) into out through rt_db_store_run: a run
  * whose key is already in out is replaced, never duplicated; each run in
  * its own transaction. inpath is opened read-only and never written. It
- * must be a raytraffic database of schema version 1 or 2; a newer version,
+ * must be a raytraffic database of schema version 1 to 3; a newer version,
  * a foreign file, or a value that is not a non-negative integer where a
  * count belongs (negative counts, text) is refused with a message naming
  * inpath and the offending run / traffic row, and nothing of that run is

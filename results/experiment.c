@@ -14,6 +14,7 @@
 #include "run.h"
 
 #include <inttypes.h>
+#include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -102,6 +103,22 @@ const char *rt_exp_tracer_params(const char *tracer, const rt_render_opts *ro, i
     return rt_job_params(tracer, ro, all_sizes ? "sim=all-sizes" : NULL, buf, n);
 }
 
+/* A spec naming a mesh file (what rt_scene_load reads as a file). */
+static int is_mesh_spec(const char *s)
+{
+    size_t n = strlen(s);
+    return n >= 4 && (!strcasecmp(s + n - 4, ".obj") || !strcasecmp(s + n - 4, ".ply"));
+}
+
+/* Absolute path of an existing file into buf (PATH_MAX), '' if unknown. */
+static const char *abs_path(const char *path, char *buf)
+{
+    char tmp[PATH_MAX];
+    if (!realpath(path, tmp)) tmp[0] = 0;
+    snprintf(buf, 4096, "%s", tmp);
+    return buf;
+}
+
 void rt_exp_job_key(const rt_exp_config *c, const rt_exp_job *jb, const rt_scene *sc, uint64_t scene_hash,
                     rt_exp_key *k)
 {
@@ -122,6 +139,10 @@ void rt_exp_job_key(const rt_exp_config *c, const rt_exp_job *jb, const rt_scene
     r->params = rt_exp_tracer_params(jb->tracer, &ro, dynamic && c->dyn_all, k->params, sizeof k->params);
     r->sim_method = "exact";
     r->sim_params = "";
+    if (is_mesh_spec(c->scenes[jb->scene])) {
+        r->scene_path = c->scenes[jb->scene];
+        r->scene_abspath = abs_path(c->scenes[jb->scene], k->abspath);
+    }
 }
 
 void rt_exp_key_method(rt_exp_key *k, const rt_approx_config *ac)
@@ -160,6 +181,8 @@ void rt_exp_run_from_din(const char *path, int din_class, uint64_t file_hash, rt
     k->run.params = k->params;
     k->run.sim_method = "exact";
     k->run.sim_params = "";
+    k->run.scene_path = path;
+    k->run.scene_abspath = abs_path(path, k->abspath);
 }
 
 /* ---- running jobs ------------------------------------------------------ */

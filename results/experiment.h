@@ -131,10 +131,12 @@ typedef struct rt_exp_key {
     char params[RT_EXP_PARAMS]; /* run.params points here */
     char sim_params[160];      /* run.sim_params points here */
     char scene[300];           /* run.scene points here (din keys) */
+    char abspath[4096];        /* run.scene_abspath points here (mesh and din files) */
 } rt_exp_key;
 
 /* The key of an in-process job of scene sc (whose rt_scene_hash is
- * scene_hash), exact method. A dynamic job simulated at every size carries
+ * scene_hash), exact method. A mesh scene (a .obj/.ply spec) also records
+ * its path as given and its absolute path (realpath; '' if it fails). A dynamic job simulated at every size carries
  * " sim=all-sizes" in its params. */
 void rt_exp_job_key(const rt_exp_config *c, const rt_exp_job *jb, const rt_scene *sc, uint64_t scene_hash,
                     rt_exp_key *k);
@@ -145,7 +147,8 @@ void rt_exp_key_method(rt_exp_key *k, const rt_approx_config *ac);
  * which must outlive r. Exact method. */
 void rt_exp_run_from_meta(const rt_tr_meta *m, rt_db_run *r);
 /* The key of a replayed din file: scene "din:BASENAME", tracer "din",
- * params "din_class=CLASS", scene hash = the file's content hash. */
+ * params "din_class=CLASS", scene hash = the file's content hash; the
+ * file's path as given and absolute path recorded with the scene. */
 void rt_exp_run_from_din(const char *path, int din_class, uint64_t file_hash, rt_exp_key *k);
 
 /* ---- running jobs ------------------------------------------------------ */

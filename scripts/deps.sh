@@ -1,7 +1,11 @@
 #!/usr/bin/env bash
 # Installs the Debian packages raytraffic needs, only those missing.
+# --engines: also the optional test dependencies of tests/engines.sh (the
+# job list on GNU parallel and a private Slurm; long tier only), which the
+# build never needs: parallel, slurm-wlm, munge.
 set -euo pipefail
 pkgs="build-essential autoconf automake pkg-config libsqlite3-dev zlib1g-dev libopenexr-dev sqlite3 gnuplot-nox"
+if [ "${1:-}" = --engines ]; then pkgs="parallel slurm-wlm munge"; fi
 missing=""
 for p in $pkgs; do
     dpkg -s "$p" >/dev/null 2>&1 || missing="$missing $p"

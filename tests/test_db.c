@@ -164,6 +164,178 @@ static int make_file(const char *path, const char *sql)
 
 /* A version-1 file is upgraded in place: column renamed, key and views
  * follow, the old name still reads, and the run is found by its key. */
+/* Version 2's schema and one run, as raytraffic 2 wrote them (sqlite3
+ * .dump of `sim --db` on a din file): the input of the v2 -> v3 upgrade. */
+static const char v2_file_sql[] =
+    "CREATE TABLE scenes(\n"
+    "  id INTEGER PRIMARY KEY,\n"
+    "  name TEXT NOT NULL,                 -- scene spec (built-in name or file)\n"
+    "  params TEXT NOT NULL DEFAULT '',    -- canonical scene parameters\n"
+    "  hash TEXT NOT NULL,                 -- rt_scene_hash, 16 hex digits\n"
+    "  triangles INTEGER NOT NULL DEFAULT 0,\n"
+    "  UNIQUE(name, params, hash));\n"
+    "INSERT INTO scenes VALUES(1,'din:w1.din','','8919f9225eb6d004',0);\n"
+    "CREATE TABLE runs(\n"
+    "  id INTEGER PRIMARY KEY,\n"
+    "  scene_id INTEGER NOT NULL REFERENCES scenes(id),\n"
+    "  tracer TEXT NOT NULL,\n"
+    "  W INTEGER NOT NULL,\n"
+    "  H INTEGER NOT NULL,\n"
+    "  lights INTEGER NOT NULL,            -- enabled-light mask\n"
+    "  sched_size INTEGER NOT NULL DEFAULT 0, -- cache size the trace was scheduled for (0 = n/a)\n"
+    "  gmax INTEGER NOT NULL DEFAULT 0,    -- geometry budget (0 = n/a)\n"
+    "  params TEXT NOT NULL DEFAULT '',    -- other tracer parameters\n"
+    "  sim_method TEXT NOT NULL DEFAULT 'exact',\n"
+    "  sim_params TEXT NOT NULL DEFAULT '',\n"
+    "  trace_hash TEXT NOT NULL DEFAULT '', -- 16 hex digits; '' for in-process streams\n"
+    "  refs INTEGER NOT NULL DEFAULT 0,    -- references simulated\n"
+    "  tool_version TEXT NOT NULL DEFAULT '',\n"
+    "  git_rev TEXT NOT NULL DEFAULT '',\n"
+    "  command TEXT NOT NULL DEFAULT '',\n"
+    "  wall_time REAL NOT NULL DEFAULT 0,  -- seconds\n"
+    "  stats TEXT NOT NULL DEFAULT '',     -- tracer statistics, k=v k=v\n"
+    "  created TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%SZ','now')),\n"
+    "  sched_cache_size INTEGER GENERATED ALWAYS AS (sched_size) VIRTUAL,\n"
+    "  UNIQUE(scene_id, tracer, W, H, lights, sched_size, gmax, params, sim_method, sim_params));\n"
+    "INSERT INTO runs VALUES(1,1,'din',0,0,0,0,0,'din_class=fb','exact','','8919f9225eb6d004',1704,'0.1.0','b91ca29ca6b7','/tmp/build-jobs/raytraffic sim --db v2.db w1.din',0.00015235199953167466446,'','2026-12-01T18:39:24Z');\n"
+    "CREATE TABLE cache_configs(\n"
+    "  id INTEGER PRIMARY KEY,\n"
+    "  size INTEGER NOT NULL,              -- bytes\n"
+    "  line INTEGER NOT NULL,              -- bytes\n"
+    "  assoc INTEGER NOT NULL,             -- ways; 0 = fully associative\n"
+    "  policy TEXT NOT NULL,               -- wb-wa | wb-nwa | wt-wa | wt-nwa\n"
+    "  UNIQUE(size, line, assoc, policy));\n"
+    "INSERT INTO cache_configs VALUES(1,1024,64,0,'wb-wa');\n"
+    "INSERT INTO cache_configs VALUES(2,2048,64,0,'wb-wa');\n"
+    "INSERT INTO cache_configs VALUES(3,4096,64,0,'wb-wa');\n"
+    "INSERT INTO cache_configs VALUES(4,8192,64,0,'wb-wa');\n"
+    "INSERT INTO cache_configs VALUES(5,16384,64,0,'wb-wa');\n"
+    "INSERT INTO cache_configs VALUES(6,32768,64,0,'wb-wa');\n"
+    "INSERT INTO cache_configs VALUES(7,65536,64,0,'wb-wa');\n"
+    "INSERT INTO cache_configs VALUES(8,131072,64,0,'wb-wa');\n"
+    "INSERT INTO cache_configs VALUES(9,262144,64,0,'wb-wa');\n"
+    "INSERT INTO cache_configs VALUES(10,524288,64,0,'wb-wa');\n"
+    "INSERT INTO cache_configs VALUES(11,1048576,64,0,'wb-wa');\n"
+    "INSERT INTO cache_configs VALUES(12,2097152,64,0,'wb-wa');\n"
+    "INSERT INTO cache_configs VALUES(13,4194304,64,0,'wb-wa');\n"
+    "CREATE TABLE classes(\n"
+    "  name TEXT PRIMARY KEY,              -- memory-model class\n"
+    "  grp TEXT NOT NULL);\n"
+    "INSERT INTO classes VALUES('node','geometry');\n"
+    "INSERT INTO classes VALUES('index','geometry');\n"
+    "INSERT INTO classes VALUES('tri','geometry');\n"
+    "INSERT INTO classes VALUES('shade','geometry');\n"
+    "INSERT INTO classes VALUES('ray','ray');\n"
+    "INSERT INTO classes VALUES('queue','ray');\n"
+    "INSERT INTO classes VALUES('qtable','ray');\n"
+    "INSERT INTO classes VALUES('hit','ray');\n"
+    "INSERT INTO classes VALUES('stream','ray');\n"
+    "INSERT INTO classes VALUES('fb','other');\n"
+    "CREATE TABLE traffic(\n"
+    "  run_id INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE,\n"
+    "  config_id INTEGER NOT NULL REFERENCES cache_configs(id),\n"
+    "  class TEXT NOT NULL REFERENCES classes(name),\n"
+    "  accesses INTEGER NOT NULL,          -- line touches\n"
+    "  read_misses INTEGER NOT NULL,\n"
+    "  write_misses INTEGER NOT NULL,\n"
+    "  writebacks INTEGER NOT NULL,\n"
+    "  wt_bytes INTEGER NOT NULL DEFAULT 0, -- write-through / write-around bytes\n"
+    "  traffic_bytes INTEGER NOT NULL,     -- (fetches + writebacks) * line + wt_bytes\n"
+    "  UNIQUE(run_id, config_id, class));\n"
+    "INSERT INTO traffic VALUES(1,1,'fb',1704,249,45,43,0,21568);\n"
+    "INSERT INTO traffic VALUES(1,2,'fb',1704,100,26,19,0,9280);\n"
+    "INSERT INTO traffic VALUES(1,3,'fb',1704,79,18,6,0,6592);\n"
+    "INSERT INTO traffic VALUES(1,4,'fb',1704,76,12,0,0,5632);\n"
+    "INSERT INTO traffic VALUES(1,5,'fb',1704,76,12,0,0,5632);\n"
+    "INSERT INTO traffic VALUES(1,6,'fb',1704,76,12,0,0,5632);\n"
+    "INSERT INTO traffic VALUES(1,7,'fb',1704,76,12,0,0,5632);\n"
+    "INSERT INTO traffic VALUES(1,8,'fb',1704,76,12,0,0,5632);\n"
+    "INSERT INTO traffic VALUES(1,9,'fb',1704,76,12,0,0,5632);\n"
+    "INSERT INTO traffic VALUES(1,10,'fb',1704,76,12,0,0,5632);\n"
+    "INSERT INTO traffic VALUES(1,11,'fb',1704,76,12,0,0,5632);\n"
+    "INSERT INTO traffic VALUES(1,12,'fb',1704,76,12,0,0,5632);\n"
+    "INSERT INTO traffic VALUES(1,13,'fb',1704,76,12,0,0,5632);\n"
+    "CREATE INDEX traffic_config ON traffic(config_id);\n"
+    "CREATE VIEW v_traffic_group AS\n"
+    "  SELECT t.run_id, t.config_id, c.size AS cache_size, c.line, c.assoc, c.policy,\n"
+    "    SUM(CASE WHEN k.grp = 'geometry' THEN t.traffic_bytes ELSE 0 END) / 1048576.0 AS geometry_mb,\n"
+    "    SUM(CASE WHEN k.grp = 'ray' THEN t.traffic_bytes ELSE 0 END) / 1048576.0 AS ray_mb,\n"
+    "    SUM(CASE WHEN k.grp = 'other' THEN t.traffic_bytes ELSE 0 END) / 1048576.0 AS other_mb,\n"
+    "    SUM(t.traffic_bytes) / 1048576.0 AS total_mb\n"
+    "  FROM traffic t JOIN cache_configs c ON c.id = t.config_id JOIN classes k ON k.name = t.class\n"
+    "  GROUP BY t.run_id, t.config_id;\n"
+    "CREATE VIEW v_paper AS\n"
+    "  SELECT s.name AS scene, r.tracer, r.lights, r.W, r.H, r.sched_size, g.cache_size,\n"
+    "    g.geometry_mb, g.ray_mb, r.sched_size AS sched_cache_size\n"
+    "  FROM v_traffic_group g JOIN runs r ON r.id = g.run_id JOIN scenes s ON s.id = r.scene_id\n"
+    "  WHERE g.line = 64 AND g.assoc = 0 AND g.policy = 'wb-wa' AND r.sim_method = 'exact'\n"
+    "    AND r.params NOT LIKE '%subsample=%';\n"
+    "PRAGMA user_version = 2;\n";
+
+/* Column names of a table, comma-separated, in order. */
+static void columns(rt_db *db, const char *table, char *buf, size_t n)
+{
+    char sql[160];
+    sqlite3_stmt *st;
+    snprintf(sql, sizeof sql, "SELECT group_concat(name) FROM pragma_table_info('%s')", table);
+    buf[0] = 0;
+    if (sqlite3_prepare_v2(rt_db_handle(db), sql, -1, &st, NULL) == SQLITE_OK && sqlite3_step(st) == SQLITE_ROW)
+        snprintf(buf, n, "%s", (const char *)sqlite3_column_text(st, 0));
+    sqlite3_finalize(st);
+}
+
+/* A version-2 file is upgraded in place: its run kept, scenes gain path
+ * and abspath ('' for old rows) in the layout of a fresh file; storing a
+ * run with a mesh path fills them in without making a new scene or run. */
+static void test_upgrade_v2(const char *dir)
+{
+    char path[300], fresh[300], a[512], b[512];
+    rt_err e = {{0}};
+    snprintf(path, sizeof path, "%s/v2.db", dir);
+    snprintf(fresh, sizeof fresh, "%s/v3fresh.db", dir);
+    CHECK(make_file(path, v2_file_sql) == 0, "create v2 file");
+    rt_db *db = rt_db_open(path, &e), *f = rt_db_open(fresh, &e);
+    CHECK(db && f, "open v2: %s", e.msg);
+    if (!db || !f) return;
+    CHECK(count(db, "PRAGMA user_version") == 3, "v2 upgraded to 3");
+    CHECK(count(db, "SELECT count(*) FROM runs") == 1 && count(db, "SELECT count(*) FROM traffic") == 13,
+          "v2 run kept (13 sizes x class fb)");
+    CHECK(count(db, "SELECT count(*) FROM scenes WHERE path = '' AND abspath = ''") == 1, "old scene has no path");
+    const char *tables[] = {"scenes", "runs", "traffic", "v_paper", "v_traffic_group"};
+    for (int i = 0; i < 5; i++) {
+        columns(db, tables[i], a, sizeof a);
+        columns(f, tables[i], b, sizeof b);
+        CHECK(!strcmp(a, b), "%s: upgraded columns %s, fresh %s", tables[i], a, b);
+    }
+    /* the v2 run again, now with the place of its (din) file */
+    sqlite3_stmt *st;
+    sqlite3_prepare_v2(rt_db_handle(db),
+                       "SELECT s.name, s.hash, r.params FROM runs r JOIN scenes s ON s.id = r.scene_id", -1, &st,
+                       NULL);
+    CHECK(sqlite3_step(st) == SQLITE_ROW, "v2 run row");
+    rt_db_run r;
+    memset(&r, 0, sizeof r);
+    r.scene = (const char *)sqlite3_column_text(st, 0);
+    r.scene_hash = strtoull((const char *)sqlite3_column_text(st, 1), NULL, 16);
+    r.tracer = "din";
+    r.params = (const char *)sqlite3_column_text(st, 2);
+    r.scene_path = "x/w1.din";
+    r.scene_abspath = "/data/x/w1.din";
+    rt_db_traffic t = {1024, 64, 0, "wb-wa", RT_CLS_FB, 10, 1, 0, 0, 0, 64};
+    CHECK(rt_db_has_run(db, &r, &e) == 1, "v2 run found by its key");
+    CHECK(rt_db_store_run(db, &r, &t, 1, NULL, &e) == 0, "store into upgraded: %s", e.msg);
+    sqlite3_finalize(st);
+    CHECK(count(db, "SELECT count(*) FROM runs") == 1 && count(db, "SELECT count(*) FROM scenes") == 1,
+          "paths are not identity: still one scene and one run");
+    CHECK(count(db, "SELECT count(*) FROM scenes WHERE path = 'x/w1.din' AND abspath = '/data/x/w1.din'") == 1,
+          "path and abspath stored");
+    r.scene_path = r.scene_abspath = NULL; /* a replayed trace does not know: the place stays */
+    CHECK(rt_db_store_run(db, &r, &t, 1, NULL, &e) == 0, "store without path");
+    CHECK(count(db, "SELECT count(*) FROM scenes WHERE abspath = '/data/x/w1.din'") == 1, "abspath kept");
+    rt_db_close(db);
+    rt_db_close(f);
+}
+
 static void test_upgrade_v1(const char *dir)
 {
     char path[300];
@@ -173,7 +345,7 @@ static void test_upgrade_v1(const char *dir)
     rt_db *db = rt_db_open(path, &e);
     CHECK(db, "open v1: %s", e.msg);
     if (!db) return;
-    CHECK(count(db, "PRAGMA user_version") == 2, "upgraded to version 2");
+    CHECK(count(db, "PRAGMA user_version") == RT_DB_SCHEMA_VERSION, "upgraded to the current version");
     CHECK(count(db, "SELECT sched_size FROM runs") == 65536, "sched_size carries the old value");
     CHECK(count(db, "SELECT sched_cache_size FROM runs") == 65536, "old name reads as an alias");
     CHECK(count(db, "SELECT sched_size FROM v_paper WHERE cache_size = 4096") == 65536, "v_paper has sched_size");
@@ -228,7 +400,7 @@ static void test_foreign(const char *dir)
     sqlite3_close(h);
     /* a newer schema version is refused too */
     snprintf(path, sizeof path, "%s/newer.db", dir);
-    CHECK(make_file(path, "PRAGMA user_version = 3;") == 0, "create newer");
+    CHECK(make_file(path, "PRAGMA user_version = 4;") == 0, "create newer");
     CHECK(!rt_db_open(path, &e) && strstr(e.msg, "newer"), "newer schema: %s", e.msg);
 }
 
@@ -275,10 +447,63 @@ static void test_merge(const char *dir, const rt_db_traffic *rows, size_t n)
     /* a newer shard is refused without reading it */
     sqlite3 *h;
     sqlite3_open(in, &h);
-    sqlite3_exec(h, "PRAGMA user_version = 3", NULL, NULL, NULL);
+    sqlite3_exec(h, "PRAGMA user_version = 4", NULL, NULL, NULL);
     sqlite3_close(h);
     CHECK(rt_db_merge(db, in, &nr, &e) < 0 && strstr(e.msg, in) && strstr(e.msg, "newer"), "newer shard: %s", e.msg);
     rt_db_close(db);
+}
+
+
+/* W processes open a database that does not exist yet at the same instant
+ * (released together through a pipe) and each stores one run, R rounds on
+ * a fresh file each: creating the schema and switching to WAL must not
+ * fail with "database is locked", and no run may be lost or duplicated. */
+static void test_fresh_concurrent(const char *dir, int W, int R, const rt_db_traffic *rows, size_t n)
+{
+    int bad = 0;
+    for (int round = 0; round < R; round++) {
+        char path[300];
+        snprintf(path, sizeof path, "%s/fresh%d.db", dir, round);
+        int go[2];
+        if (pipe(go) < 0) return;
+        pid_t kids[16];
+        for (int c = 0; c < W; c++) {
+            kids[c] = fork();
+            if (kids[c] == 0) {
+                char b;
+                close(go[1]);
+                if (read(go[0], &b, 1) < 0) _exit(4); /* EOF when the parent closes: all start together */
+                rt_err e = {{0}};
+                rt_db *d = rt_db_open(path, &e);
+                rt_db_run k;
+                run_key(&k, "recursive", 0, 0);
+                k.lights = (uint32_t)c;
+                if (!d || rt_db_store_run(d, &k, rows, n, NULL, &e)) {
+                    fprintf(stderr, "round %d writer %d: %s\n", round, c, e.msg);
+                    _exit(3);
+                }
+                rt_db_close(d);
+                _exit(0);
+            }
+        }
+        close(go[0]);
+        close(go[1]);
+        for (int c = 0; c < W; c++) {
+            int status = 0;
+            waitpid(kids[c], &status, 0);
+            if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) bad++;
+        }
+        rt_err e = {{0}};
+        rt_db *db = rt_db_open(path, &e);
+        CHECK(db, "reopen fresh: %s", e.msg);
+        if (!db) return;
+        CHECK(count(db, "SELECT count(*) FROM runs") == W, "round %d: %lld runs of %d", round,
+              count(db, "SELECT count(*) FROM runs"), W);
+        CHECK(count(db, "SELECT count(*) FROM traffic") == W * (long long)n, "round %d: traffic rows", round);
+        CHECK(count(db, "SELECT count(*) FROM scenes") == 1, "round %d: one scene", round);
+        rt_db_close(db);
+    }
+    CHECK(bad == 0, "%d of %d writers failed on a fresh database", bad, W * R);
 }
 
 int main(void)
@@ -415,7 +640,11 @@ int main(void)
         CHECK(!rt_db_open(bad, &e) && strstr(e.msg, bad), "read-only: %s", e.msg);
     }
 
+    if (check_long()) test_fresh_concurrent(dir, 8, 5, rows, n);
+    else test_fresh_concurrent(dir, 4, 2, rows, n);
+    if (getenv("RT_DB_STRESS")) test_fresh_concurrent(dir, 8, atoi(getenv("RT_DB_STRESS")), rows, n);
     test_upgrade_v1(dir);
+    test_upgrade_v2(dir);
     test_foreign(dir);
     test_merge(dir, rows, n);
 
