@@ -27,7 +27,7 @@
  * float pipeline resolves (rt_scene_check_range) is rejected; input quoted
  * in a message is escaped (rt_esc).
  * MTL files get the same treatment: "lib.mtl:LINE: what" for bad or
- * NaN/Inf/negative numbers, Ni < 1, d or Tr outside [0, 1], unknown illum
+ * NaN/Inf/negative numbers, Ni < 1, d, Tr or Tf outside [0, 1], unknown illum
  * models; keywords we do not use (Ka, Ns, map_Kd, ...) are ignored.
  * Loaded meshes get an auto-framed camera and default lights
  * (rt_scene_autoframe).
@@ -262,7 +262,11 @@ static int load_mtl(objload *L, const char *mpath)
 {
     char *buf = NULL;
     size_t n = 0;
-    if (rt_slurp(mpath, &buf, &n, L->e) < 0) return -1;
+    if (rt_slurp(mpath, &buf, &n, L->e) < 0) {
+        char m[RT_ERR_LEN];
+        snprintf(m, sizeof m, "%s", L->e ? L->e->msg : "");
+        return rt_errf(L->e, "%s:%lu: material library %s", L->path, L->line, m);
+    }
     mtlread R = {L, mpath, 0};
     mtlraw raw;
     raw_init(&raw);
@@ -306,7 +310,13 @@ static int load_mtl(objload *L, const char *mpath)
             else if (kw_is(q, kl, "Kd")) rc = mtl_colour(&R, kw, arg, raw.kd);
             else if (kw_is(q, kl, "Ks")) rc = mtl_colour(&R, kw, arg, raw.ks);
             else if (kw_is(q, kl, "Ke")) rc = mtl_colour(&R, kw, arg, raw.ke);
-            else if (kw_is(q, kl, "Tf")) rc = mtl_colour(&R, kw, arg, raw.tf);
+            else if (kw_is(q, kl, "Tf")) {
+                /* A filter: more than 1 would make glass amplify light. */
+                rc = mtl_colour(&R, kw, arg, raw.tf);
+                for (int k = 0; k < 3 && rc == 0; k++)
+                    if (raw.tf[k] > 1)
+                        rc = rt_errf(L->e, "%s:%lu: Tf %g outside [0, 1]", mpath, R.line, (double)raw.tf[k]);
+            }
             else if ((rc = mtl_scalar(&R, kw, arg, &v)) == 0) {
                 if (kw_is(q, kl, "Ni")) {
                     if (!(v >= 1.0f && v <= 100.0f))
