@@ -1,8 +1,10 @@
 /*
  * scene.c -- the scene container: allocation and growth, bounds and
  * validation, the default camera and lights for loaded meshes, the identity
- * hash, OBJ export, and the spec dispatcher (rt_scene_load) that picks a
- * loader by suffix or falls back to the built-in generators.
+ * hash, OBJ (and MTL) export, the material presets and the material listing,
+ * and the spec dispatcher (rt_scene_load) that picks a loader by suffix or
+ * falls back to the built-in generators, and applies a material=PRESET
+ * parameter to any of them.
  *
  * Everything here is deterministic and machine independent: the hash reads
  * every float as its IEEE-754 bit pattern in little-endian byte order, and
@@ -133,6 +135,67 @@ uint32_t rt_scene_material_flags(const rt_scene *s)
     used = 0;
     for (uint32_t i = 0; i < s->ntri; i++) used |= s->mat[s->shade[i].mat].flags;
     return used;
+}
+
+const char *const rt_material_preset_names[] = {"diffuse", "mirror", "glass", NULL};
+
+int rt_scene_set_material(rt_scene *s, const char *name, rt_err *e)
+{
+    rt_material m;
+    memset(&m, 0, sizeof m);
+    m.ior = 1.0f;
+    if (!strcmp(name, "mirror")) {
+        m.ks[0] = m.ks[1] = m.ks[2] = 0.8f;
+    } else if (!strcmp(name, "glass")) {
+        m.kt[0] = m.kt[1] = m.kt[2] = 1.0f;
+        m.ior = 1.5f;
+    } else if (strcmp(name, "diffuse") != 0) {
+        char q[48];
+        return rt_errf(e, "%s: unknown material '%s' (known: diffuse, mirror, glass)", s->name,
+                       rt_esc(q, sizeof q, name, 32));
+    }
+    snprintf(m.name, sizeof m.name, "%s", name);
+    /* Drop the table but entry 0; the preset (if not plain) becomes 1. */
+    s->nmat = 1;
+    uint32_t idx = 0;
+    if (strcmp(name, "diffuse") != 0) {
+        int r = rt_scene_add_material(s, &m, e);
+        if (r < 0) return -1;
+        idx = (uint32_t)r;
+    }
+    for (uint32_t i = 0; i < s->ntri; i++) s->shade[i].mat = idx;
+    return 0;
+}
+
+int rt_scene_describe_materials(const rt_scene *s, FILE *f)
+{
+    uint32_t *use = calloc(s->nmat, sizeof *use);
+    if (use)
+        for (uint32_t i = 0; i < s->ntri; i++)
+            if (s->shade[i].mat < s->nmat) use[s->shade[i].mat]++;
+    fprintf(f, "%-4s %-20s %10s %-15s %-26s %-26s %-6s %s\n", "mat", "name", "triangles", "flags", "ks", "kt",
+            "ior", "ke");
+    for (uint32_t m = 0; m < s->nmat; m++) {
+        const rt_material *t = &s->mat[m];
+        char fl[32] = "";
+        if (t->flags & RT_MAT_SPECULAR) strcat(fl, "specular,");
+        if (t->flags & RT_MAT_TRANSMIT) strcat(fl, "transmit,");
+        if (t->flags & RT_MAT_EMIT) strcat(fl, "emit,");
+        if (fl[0]) fl[strlen(fl) - 1] = 0;
+        else strcpy(fl, "diffuse");
+        char ks[48], kt[48], ke[48], tri[16];
+        snprintf(ks, sizeof ks, "%g %g %g", (double)t->ks[0], (double)t->ks[1], (double)t->ks[2]);
+        snprintf(kt, sizeof kt, "%g %g %g", (double)t->kt[0], (double)t->kt[1], (double)t->kt[2]);
+        snprintf(ke, sizeof ke, "%g %g %g", (double)t->ke[0], (double)t->ke[1], (double)t->ke[2]);
+        if (use) snprintf(tri, sizeof tri, "%u", (unsigned)use[m]);
+        else snprintf(tri, sizeof tri, "?");
+        char nm[40];
+        rt_esc(nm, sizeof nm, m ? t->name : "(plain)", sizeof t->name);
+        fprintf(f, "%-4u %-20s %10s %-15s %-26s %-26s %-6g %s\n", (unsigned)m, nm, tri, fl, ks, kt, (double)t->ior,
+                ke);
+    }
+    free(use);
+    return ferror(f) ? -1 : 0;
 }
 
 void rt_scene_free(rt_scene *s)
@@ -272,11 +335,139 @@ uint64_t rt_scene_hash(const rt_scene *s)
     return h;
 }
 
+/* One MTL material per distinct (material, colour) pair, since MTL keeps
+ * the diffuse colour in the material while the scene keeps it per triangle. */
+typedef struct mtlkey {
+    uint32_t mat;    /* index into s->mat */
+    float rgb[3];    /* Kd */
+} mtlkey;
+
+typedef struct mtlset {
+    mtlkey *key;     /* distinct pairs in order of first use */
+    uint32_t n, cap; /* used, allocated */
+    uint32_t *slot;  /* open-addressing hash: 1 + index into key, 0 = empty */
+    uint32_t nslot;  /* power of two, > 2 n */
+} mtlset;
+
+static uint32_t mtlkey_hash(const mtlkey *k)
+{
+    uint64_t h = hash_u32(RT_FNV_INIT, k->mat);
+    for (int i = 0; i < 3; i++) h = hash_f(h, k->rgb[i]);
+    return (uint32_t)(h ^ (h >> 32));
+}
+
+/* Index of the pair (mat, rgb), added when new; -1 when out of memory. */
+static long mtlset_find(mtlset *t, uint32_t mat, const float rgb[3], rt_err *e)
+{
+    mtlkey k = {mat, {rgb[0], rgb[1], rgb[2]}};
+    if (2 * (t->n + 1) >= t->nslot) {
+        uint32_t ns = t->nslot ? 2 * t->nslot : 64;
+        uint32_t *sl = rt_calloc(ns, sizeof *sl, e);
+        if (!sl) return -1;
+        for (uint32_t i = 0; i < t->n; i++) {
+            uint32_t h = mtlkey_hash(&t->key[i]) & (ns - 1);
+            while (sl[h]) h = (h + 1) & (ns - 1);
+            sl[h] = i + 1;
+        }
+        free(t->slot);
+        t->slot = sl;
+        t->nslot = ns;
+    }
+    uint32_t h = mtlkey_hash(&k) & (t->nslot - 1);
+    while (t->slot[h]) {
+        const mtlkey *o = &t->key[t->slot[h] - 1];
+        if (o->mat == mat && !memcmp(o->rgb, k.rgb, sizeof k.rgb)) return (long)t->slot[h] - 1;
+        h = (h + 1) & (t->nslot - 1);
+    }
+    if (t->n == t->cap) {
+        uint32_t nc = t->cap ? 2 * t->cap : 16;
+        mtlkey *nk = rt_reallocarray(t->key, nc, sizeof *nk, e);
+        if (!nk) return -1;
+        t->key = nk;
+        t->cap = nc;
+    }
+    t->key[t->n] = k;
+    t->slot[h] = t->n + 1;
+    return (long)t->n++;
+}
+
+/* The MTL name of pair i: the material's name (characters outside
+ * [A-Za-z0-9_.-] replaced by '_', "plain" for entry 0) and the pair index. */
+static void mtl_name(const rt_scene *s, const mtlkey *k, uint32_t i, char *buf, size_t n)
+{
+    char nm[sizeof s->mat[0].name];
+    snprintf(nm, sizeof nm, "%s", k->mat && s->mat[k->mat].name[0] ? s->mat[k->mat].name : "plain");
+    for (char *p = nm; *p; p++) {
+        char c = *p;
+        if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '.' ||
+              c == '-'))
+            *p = '_';
+    }
+    snprintf(buf, n, "%s_%u", nm, (unsigned)i);
+}
+
+/* Writes the MTL for the pairs: terms chosen so that the OBJ loader's
+ * illum mapping (docs/scenes.md) gives back the same ks, kt, ior and ke. */
+static void write_mtl(FILE *f, const rt_scene *s, const mtlset *t)
+{
+    fprintf(f, "# raytraffic %s material export\n# scene %s%s%s\n", rt_version(), s->name, s->params[0] ? ":" : "",
+            s->params);
+    for (uint32_t i = 0; i < t->n; i++) {
+        const mtlkey *k = &t->key[i];
+        const rt_material *m = &s->mat[k->mat];
+        char nm[64];
+        mtl_name(s, k, i, nm, sizeof nm);
+        fprintf(f, "\nnewmtl %s\nKd %.9g %.9g %.9g\n", nm, (double)k->rgb[0], (double)k->rgb[1], (double)k->rgb[2]);
+        int illum = (m->flags & RT_MAT_TRANSMIT) ? 7 : (m->flags & RT_MAT_SPECULAR) ? 3 : 2;
+        fprintf(f, "illum %d\n", illum);
+        if (illum != 2)
+            fprintf(f, "Ks %.9g %.9g %.9g\n", (double)m->ks[0], (double)m->ks[1], (double)m->ks[2]);
+        if (illum == 7)
+            fprintf(f, "Tr 1\nTf %.9g %.9g %.9g\nNi %.9g\n", (double)m->kt[0], (double)m->kt[1], (double)m->kt[2],
+                    (double)m->ior);
+        if (m->flags & RT_MAT_EMIT)
+            fprintf(f, "Ke %.9g %.9g %.9g\n", (double)m->ke[0], (double)m->ke[1], (double)m->ke[2]);
+    }
+}
+
 int rt_scene_export_obj(const rt_scene *s, const char *path, rt_err *e)
 {
     rt_out *o = rt_out_open(path, e);
     if (!o) return -1;
     FILE *f = rt_out_stream(o);
+    /* With materials, the pairs are numbered before anything is written. */
+    mtlset mt = {NULL, 0, 0, NULL, 0};
+    uint32_t *pair = NULL;
+    rt_out *om = NULL;
+    char *mpath = NULL;
+    if (s->nmat > 1) {
+        size_t n = strlen(path);
+        mpath = rt_calloc(n + 8, 1, e);
+        pair = rt_calloc(s->ntri ? s->ntri : 1, sizeof *pair, e);
+        int ok = mpath && pair;
+        for (uint32_t i = 0; ok && i < s->ntri; i++) {
+            long k = mtlset_find(&mt, s->shade[i].mat, s->shade[i].rgb, e);
+            if (k < 0) ok = 0;
+            else pair[i] = (uint32_t)k;
+        }
+        if (ok) {
+            memcpy(mpath, path, n + 1);
+            if (n >= 4 && mpath[n - 4] == '.' && (mpath[n - 3] | 32) == 'o' && (mpath[n - 2] | 32) == 'b' &&
+                (mpath[n - 1] | 32) == 'j')
+                n -= 4;
+            memcpy(mpath + n, ".mtl", 5);
+            om = rt_out_open(mpath, e);
+        }
+        if (!om) {
+            rt_out_abort(o);
+            free(mt.key);
+            free(mt.slot);
+            free(pair);
+            free(mpath);
+            return -1;
+        }
+        write_mtl(rt_out_stream(om), s, &mt);
+    }
     fprintf(f, "# raytraffic %s scene export\n# scene %s%s%s\n# triangles %u\n", rt_version(), s->name,
             s->params[0] ? ":" : "", s->params, s->ntri);
     fprintf(f, "# camera eye %.9g %.9g %.9g at %.9g %.9g %.9g up %.9g %.9g %.9g fovy %.9g\n",
@@ -286,20 +477,43 @@ int rt_scene_export_obj(const rt_scene *s, const char *path, rt_err *e)
     for (int i = 0; i < RT_NLIGHTS; i++)
         fprintf(f, "# light %d %.9g %.9g %.9g\n", i, (double)s->light[i].x, (double)s->light[i].y,
                 (double)s->light[i].z);
+    if (om) {
+        const char *base = strrchr(mpath, '/');
+        fprintf(f, "mtllib %s\n", base ? base + 1 : mpath);
+    }
     /* Vertices: three per triangle, %.9g round-trips a float exactly. */
     for (uint32_t i = 0; i < s->ntri; i++)
         for (int k = 0; k < 3; k++)
             fprintf(f, "v %.9g %.9g %.9g\n", (double)s->tri[i].p[k].x, (double)s->tri[i].p[k].y,
                     (double)s->tri[i].p[k].z);
-    /* Faces, one group per run of equal colour, named by a comment. */
+    /* Faces, one group per run of equal colour (and material), named by a
+     * comment (and a usemtl). */
     for (uint32_t i = 0; i < s->ntri; i++) {
         const float *c = s->shade[i].rgb;
-        if (i == 0 || memcmp(c, s->shade[i - 1].rgb, sizeof s->shade[i].rgb) != 0)
-            fprintf(f, "# rgb %.9g %.9g %.9g\n", (double)c[0], (double)c[1], (double)c[2]);
+        int newrun = i == 0 || memcmp(c, s->shade[i - 1].rgb, sizeof s->shade[i].rgb) != 0;
+        if (newrun) fprintf(f, "# rgb %.9g %.9g %.9g\n", (double)c[0], (double)c[1], (double)c[2]);
+        if (om && (newrun || pair[i] != pair[i - 1])) {
+            char nm[64];
+            mtl_name(s, &mt.key[pair[i]], pair[i], nm, sizeof nm);
+            fprintf(f, "usemtl %s\n", nm);
+        }
         unsigned long v = 3ul * i + 1;
         fprintf(f, "f %lu %lu %lu\n", v, v + 1, v + 2);
     }
-    return rt_out_commit(o, e); /* complete, or no file and an error */
+    free(mt.key);
+    free(mt.slot);
+    free(pair);
+    /* The MTL first; if the OBJ then fails, the MTL goes too, so a failed
+     * export leaves neither. */
+    if (om && rt_out_commit(om, e) < 0) {
+        rt_out_abort(o);
+        free(mpath);
+        return -1;
+    }
+    int rc = rt_out_commit(o, e); /* complete, or no file and an error */
+    if (rc < 0 && mpath) remove(mpath);
+    free(mpath);
+    return rc;
 }
 
 static int has_suffix(const char *s, const char *suf)
@@ -314,22 +528,106 @@ static int has_suffix(const char *s, const char *suf)
     return 1;
 }
 
+/* Loads a spec without its material=PRESET item. */
+static rt_scene *load_base(const char *spec, const char *params, rt_err *e)
+{
+    char name[64];
+    size_t fn = strlen(spec);
+    if (has_suffix(spec, ".obj") || has_suffix(spec, ".ply")) {
+        if (params[0]) {
+            rt_errf(e, "%s: unknown parameter '%s' (known for mesh files: material)", spec, params);
+            return NULL;
+        }
+        return has_suffix(spec, ".obj") ? rt_scene_load_obj(spec, e) : rt_scene_load_ply(spec, e);
+    }
+    if (fn >= sizeof name) {
+        rt_errf(e, "unknown scene '%.40s...' (not .obj/.ply, not a built-in; see 'raytraffic scene list')", spec);
+        return NULL;
+    }
+    memcpy(name, spec, fn);
+    name[fn] = 0;
+    return rt_scene_builtin(name, params, e);
+}
+
 rt_scene *rt_scene_load(const char *spec, rt_err *e)
 {
     if (!spec || !*spec) {
         rt_errf(e, "empty scene spec");
         return NULL;
     }
-    if (has_suffix(spec, ".obj")) return rt_scene_load_obj(spec, e);
-    if (has_suffix(spec, ".ply")) return rt_scene_load_ply(spec, e);
-    char name[64];
-    const char *colon = strchr(spec, ':');
-    size_t n = colon ? (size_t)(colon - spec) : strlen(spec);
-    if (n >= sizeof name) {
-        rt_errf(e, "unknown scene '%.40s...' (not .obj/.ply, not a built-in; see 'raytraffic scene list')", spec);
-        return NULL;
+    /* Split "base:params". A mesh file is a spec ending in .obj/.ply, or
+     * one whose last ':' follows such a suffix; a built-in's name ends at
+     * the first ':'. */
+    size_t n = strlen(spec), fn = n;
+    int file = has_suffix(spec, ".obj") || has_suffix(spec, ".ply");
+    if (!file)
+        for (size_t i = n; i-- > 4;)
+            if (spec[i] == ':') {
+                char suf[5];
+                memcpy(suf, spec + i - 4, 4);
+                suf[4] = 0;
+                if (has_suffix(suf, ".obj") || has_suffix(suf, ".ply")) {
+                    file = 1;
+                    fn = i;
+                }
+                break;
+            }
+    if (!file) {
+        const char *colon = strchr(spec, ':');
+        if (colon) fn = (size_t)(colon - spec);
     }
-    memcpy(name, spec, n);
-    name[n] = 0;
-    return rt_scene_builtin(name, colon ? colon + 1 : "", e);
+    char *base = rt_calloc(n + 1, 1, e), *rest = rt_calloc(n + 1, 1, e);
+    rt_scene *s = NULL;
+    if (!base || !rest) goto done;
+    memcpy(base, spec, fn);
+    /* Take material=NAME out of the parameters; pass the rest on. */
+    const char *mat = NULL;
+    size_t matlen = 0, nr = 0;
+    const char *p = fn < n ? spec + fn + 1 : spec + n;
+    int first = 1;
+    while (fn < n) {
+        const char *end = strchr(p, ',');
+        size_t len = end ? (size_t)(end - p) : strlen(p);
+        if (len >= 9 && !memcmp(p, "material=", 9)) {
+            if (mat) {
+                rt_errf(e, "%s: parameter 'material' given twice", base);
+                goto done;
+            }
+            mat = p + 9;
+            matlen = len - 9;
+        } else {
+            if (!first) rest[nr++] = ',';
+            memcpy(rest + nr, p, len);
+            nr += len;
+            first = 0;
+        }
+        if (!end) break;
+        p = end + 1;
+    }
+    rest[nr] = 0;
+    char preset[16];
+    if (mat) {
+        if (matlen == 0 || matlen >= sizeof preset) {
+            char q[48];
+            rt_errf(e, "%s: unknown material '%s' (known: diffuse, mirror, glass)", base,
+                    rt_esc(q, sizeof q, mat, matlen));
+            goto done;
+        }
+        memcpy(preset, mat, matlen);
+        preset[matlen] = 0;
+    }
+    s = load_base(base, rest, e);
+    if (s && mat) {
+        if (rt_scene_set_material(s, preset, e) < 0) {
+            rt_scene_free(s);
+            s = NULL;
+            goto done;
+        }
+        size_t k = strlen(s->params);
+        snprintf(s->params + k, sizeof s->params - k, "%smaterial=%s", k ? "," : "", preset);
+    }
+done:
+    free(base);
+    free(rest);
+    return s;
 }

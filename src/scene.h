@@ -12,7 +12,9 @@
  *
  * Scene specs: a built-in name with optional parameters, e.g.
  *   "sphereflake", "sphereflake:level=2,tess=3", "grove:trees=4",
- * or a path ending in .obj or .ply.
+ * or a path ending in .obj or .ply. Any spec may end in material=PRESET
+ * ("knot:material=diffuse", "bun_zipper.ply:material=mirror"), which gives
+ * every triangle that preset (rt_scene_set_material).
  */
 #ifndef RT_SCENE_H
 #define RT_SCENE_H
@@ -21,6 +23,7 @@
 #include "rt_math.h"
 
 #include <stdint.h>
+#include <stdio.h>
 
 typedef struct rt_tri {
     rt_vec3 p[3]; /* vertices; 36 bytes, the modeled triangle record */
@@ -79,6 +82,7 @@ typedef struct rt_scene {
     float ambient;          /* ambient term */
     rt_vec3 background;     /* colour of rays that leave the scene */
     rt_bounds bounds;       /* of all vertices */
+    char warning[256];      /* first load warning ("" if none; the library never prints it) */
 } rt_scene;
 
 /* Built-in scene names, NULL-terminated. */
@@ -109,6 +113,18 @@ int rt_scene_add_tri_mat(rt_scene *s, rt_vec3 a, rt_vec3 b, rt_vec3 c, const flo
 /* The union of the RT_MAT_* flags of the materials triangles use: 0 when
  * diffuse shading is all the scene needs. */
 uint32_t rt_scene_material_flags(const rt_scene *s);
+/* Material presets for the spec parameter material=NAME, NULL-terminated:
+ * "diffuse" (the plain material), "mirror" (ks 0.8), "glass" (kt 1,
+ * ior 1.5). */
+extern const char *const rt_material_preset_names[];
+/* Gives every triangle the preset `name` (colours unchanged): the table
+ * becomes entry 0 plus the preset ("diffuse": entry 0 alone, so a scene
+ * without materials keeps its hash). 0, or -1 for an unknown name. */
+int rt_scene_set_material(rt_scene *s, const char *name, rt_err *e);
+/* Writes the material table, one line per material (index, name,
+ * triangles using it, RT_MAT_* flags, ks, kt, ior, ke), after a header
+ * line. Returns 0, or -1 if the stream reports a write error. */
+int rt_scene_describe_materials(const rt_scene *s, FILE *f);
 /* Recomputes bounds; rejects NaN/Inf coordinates. Returns 0 or -1. */
 int rt_scene_finish(rt_scene *s, rt_err *e);
 /* Frames the camera on the bounds and places three default lights. The
@@ -135,7 +151,11 @@ void rt_scene_fit_aspect(rt_scene *s, int W, int H);
 int rt_scene_check_range(const rt_scene *s, const char *where, rt_err *e);
 /* Identity hash over triangles, shading, camera and lights. */
 uint64_t rt_scene_hash(const rt_scene *s);
-/* Writes the scene as OBJ (with a usemtl-free colour comment per group). */
+/* Writes the scene as OBJ with a colour comment per group. A scene with
+ * materials (nmat > 1) also gets an MTL file beside it (path with .obj
+ * replaced by .mtl, or .mtl appended), one MTL material per run of equal
+ * colour and material, named by `mtllib` and `usemtl`; on failure neither
+ * file is left. */
 int rt_scene_export_obj(const rt_scene *s, const char *path, rt_err *e);
 
 /* Parameters a built-in scene accepts, as one human-readable line

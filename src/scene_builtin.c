@@ -2,6 +2,10 @@
  * scene_builtin.c -- the deterministic built-in scenes: sphereflake (Haines'
  * SPD `balls`), grove (SPD `tree`-style recursive trees), room (a furnished
  * multi-room interior), cornell (a Cornell box) and knot (a torus-knot tube).
+ * Materials follow the sources: sphereflake's balls and the knot are grey
+ * mirrors, cornell has a glass sphere (glass=0 gives the plain box); grove
+ * and room are plain diffuse. Diffuse colours do not depend on materials, so
+ * images of primary and shadow rays are the same with or without them.
  *
  * Determinism is the point of this file: the same spec must give
  * bit-identical triangles on every machine, because the scene hash is
@@ -45,12 +49,14 @@ static dv3 dnorm(dv3 a)
 }
 static rt_vec3 tof(dv3 a) { return rt_v3((float)a.x, (float)a.y, (float)a.z); }
 
-/* Emission context: the scene, the current colour, the first error. */
+/* Emission context: the scene, the current colour, the first error, the
+ * current material. */
 typedef struct gen {
     rt_scene *s;
     float col[3];
     int failed;
     rt_err *e;
+    uint32_t mat; /* index into s->mat for the triangles emitted next */
 } gen;
 
 /* A built-in scene's view: z-up camera, three point lights, shading. */
@@ -87,7 +93,24 @@ static void colour(gen *g, double r, double gg, double b)
 static void tri(gen *g, dv3 a, dv3 b, dv3 c)
 {
     if (g->failed) return;
-    if (rt_scene_add_tri(g->s, tof(a), tof(b), tof(c), g->col, g->e) < 0) g->failed = 1;
+    if (rt_scene_add_tri_mat(g->s, tof(a), tof(b), tof(c), g->col, g->mat, g->e) < 0) g->failed = 1;
+}
+
+/* Adds a material (grey mirror reflectance ks, grey transmittance kt,
+ * ior) and makes it current; 0 or -1. Material 0, the plain one, is
+ * current until this is called. */
+static int material(gen *g, const char *name, double ks, double kt, double ior)
+{
+    rt_material m;
+    memset(&m, 0, sizeof m);
+    snprintf(m.name, sizeof m.name, "%s", name);
+    m.ks[0] = m.ks[1] = m.ks[2] = (float)ks;
+    m.kt[0] = m.kt[1] = m.kt[2] = (float)kt;
+    m.ior = (float)ior;
+    int r = rt_scene_add_material(g->s, &m, g->e);
+    if (r < 0) return -1;
+    g->mat = (uint32_t)r;
+    return 0;
 }
 
 /* Quad a b c d (counter-clockwise seen from outside) as two triangles. */
@@ -401,11 +424,16 @@ static int gen_sphereflake(gen *g, const int *pv)
         rt_dsincos_deg(45.0 + 120.0 * k, &sn, &cs);
         F.dirs[6 + k] = d3(hr * cs, hr * sn, zr);
     }
+    /* SPD balls.c: the spheres "shiny", lib_output_color(..., ka 0, kd 0.5,
+     * ks 0.5, shine 0.5, phong 37, kt 0, ior 1): a grey mirror of 0.5; the
+     * floor (ks 0) stays plain diffuse. */
+    if (material(g, "balls", 0.5, 0, 1) < 0) return -1;
     dv3 *tmpl = sphere_template(tess, g->e);
     if (!tmpl) return -1;
     F.tmpl = tmpl;
     flake_rec(&F, d3(0, 0, 0), 0.5, d3(0, 0, 1), level, 0);
     free(tmpl);
+    g->mat = 0;
     colour(g, 0.55, 0.55, 0.50);
     quad(g, d3(-12, -12, -0.5), d3(12, -12, -0.5), d3(12, 12, -0.5), d3(-12, 12, -0.5));
     view v = {rt_v3(2.1f, 1.3f, 1.7f), rt_v3(0, 0, 0), 45.0f,
@@ -865,6 +893,7 @@ static int gen_room(gen *g, const int *pv)
 /* cornell                                                                   */
 
 static const param cornell_params[] = {
+    {"glass", 1, 0, 1, "a glass sphere in the front left (0: the plain 36-triangle box)"},
     {NULL, 0, 0, 0, NULL},
 };
 
@@ -877,7 +906,7 @@ static void cbox(gen *g, double x, double y, double w, double d, double h, doubl
 
 static int gen_cornell(gen *g, const int *pv)
 {
-    (void)pv;
+    int glass = pv[0];
     /* Unit box x, y, z in [0, 1], open at y = 0 (front), z up. */
     colour(g, 0.73, 0.73, 0.73);
     quad(g, d3(0, 0, 0), d3(1, 0, 0), d3(1, 1, 0), d3(0, 1, 0)); /* floor */
@@ -892,6 +921,18 @@ static int gen_cornell(gen *g, const int *pv)
     colour(g, 0.73, 0.73, 0.73);
     cbox(g, 0.33, 0.62, 0.30, 0.30, 0.60, 17);  /* tall box */
     cbox(g, 0.66, 0.32, 0.30, 0.30, 0.30, -17); /* short box */
+    if (glass) {
+        /* Glass sphere (ior 1.5, clear; Fresnel reflection is the tracer's)
+         * on the floor between the tall block and the open side, clear of
+         * both blocks; its colour is what diffuse-only modes show. */
+        if (material(g, "glass", 0, 1, 1.5) < 0) return -1;
+        dv3 *tmpl = sphere_template(4, g->e);
+        if (!tmpl) return -1;
+        colour(g, 0.85, 0.90, 0.95);
+        sphere_from(g, tmpl, 4, d3(0.25, 0.22, 0.12), 0.12);
+        free(tmpl);
+        g->mat = 0;
+    }
     view v = {rt_v3(0.5f, -1.35f, 0.5f), rt_v3(0.5f, 0.5f, 0.5f), 40.0f,
               {rt_v3(0.5f, -0.9f, 0.55f) /* near the camera */, rt_v3(0.5f, 0.5f, 0.95f) /* under the lamp */,
                rt_v3(0.85f, 0.15f, 0.80f)},
@@ -937,6 +978,15 @@ static int gen_knot(gen *g, const int *pv)
         for (int j = 0; j < sides; j++)
             ring[(size_t)i * sides + j] = dadd(C, dmul(dadd(dmul(N, cs[2 * j]), dmul(B, cs[2 * j + 1])), tube));
     }
+    /* Ralovich & Magdics, Fig. 1c: the "Torus Knot" scene "with reflections
+     * and shadows from a single light source"; the paper gives no
+     * reflectivity (rho in its Eq. 1), so the knot is a grey mirror of 0.5,
+     * the sphereflake's SPD value. */
+    if (material(g, "knot", 0.5, 0, 1) < 0) {
+        free(ring);
+        free(cs);
+        return -1;
+    }
     for (int i = 0; i < segs; i++) {
         int i2 = (i + 1) % segs;
         /* Colour runs once around the spectrum along the curve. */
@@ -968,13 +1018,14 @@ typedef struct builtin {
 } builtin;
 
 static const builtin builtins[] = {
-    {"sphereflake", "Haines' SPD sphereflake (balls): 7,381 spheres, 797,150 triangles at level 4",
+    {"sphereflake", "Haines' SPD sphereflake (balls): 7,381 mirror spheres, 797,150 triangles at level 4",
      sphereflake_params, gen_sphereflake},
     {"grove", "five SPD-style recursive trees on a ground plane, 168,302 triangles", grove_params, gen_grove},
     {"room", "furnished flat of six rooms with doorways, bookcases and lamps, ~47K triangles", room_params,
      gen_room},
-    {"cornell", "Cornell box with two blocks, 36 triangles", cornell_params, gen_cornell},
-    {"knot", "(2,3) torus-knot tube, 1,024 triangles", knot_params, gen_knot},
+    {"cornell", "Cornell box with two blocks and a glass sphere, 228 triangles (glass=0: 36)", cornell_params,
+     gen_cornell},
+    {"knot", "(2,3) torus-knot tube, mirror 0.5, 1,024 triangles", knot_params, gen_knot},
 };
 
 #define NBUILTIN (sizeof builtins / sizeof builtins[0])
@@ -1021,7 +1072,7 @@ rt_scene *rt_scene_builtin(const char *name, const char *params, rt_err *e)
     if (!s) return NULL;
     snprintf(s->name, sizeof s->name, "%s", name);
     snprintf(s->params, sizeof s->params, "%s", canon);
-    gen g = {s, {0.7f, 0.7f, 0.7f}, 0, e};
+    gen g = {s, {0.7f, 0.7f, 0.7f}, 0, e, 0};
     if (b->fn(&g, vals) < 0 || g.failed || rt_scene_finish(s, e) < 0) {
         rt_scene_free(s);
         return NULL;

@@ -5,9 +5,20 @@
  * `v`, `v/vt`, `v//vn` or `v/vt/vn`, with positive (1-based) or negative
  * (relative to the vertices read so far) indices. Triangles, quads and
  * n-gons are fan-triangulated from the first corner: (0,1,2), (0,2,3), ...
- * Every other statement (vt, vn, g, o, s, usemtl, mtllib, l, p, ...) and
- * comments are ignored; CRLF line ends are accepted. Faces must refer to
- * vertices defined above them.
+ * `mtllib` reads MTL material libraries (several names per line, relative
+ * to the OBJ's folder) and `usemtl` gives the faces after it that
+ * material: its Kd becomes the triangles' colour, and Ks, Ke, Ni, d/Tr, Tf
+ * and illum become a material table entry (mapping in docs/scenes.md).
+ * Faces before any usemtl get the default grey and material 0. Every other
+ * statement (vt, vn, g, o, s, l, p, ...) and comments are ignored; CRLF
+ * line ends are accepted. Faces must refer to vertices defined above them,
+ * and usemtl to a library named above it.
+ *
+ * A library that does not exist does not stop the load (meshes are often
+ * shared without theirs): its faces get the default material and the scene
+ * records a warning in s->warning, which the front end prints. A usemtl
+ * naming a material no library defines is an error -- unless a library is
+ * missing or none was named, when it is the same warning.
  *
  * Malformed input never crashes and never reads outside the file buffer:
  * the first problem ends the load with one line "FILE:LINE: what", e.g.
@@ -15,8 +26,11 @@
  * faces, with a NaN/Inf coordinate, or outside the coordinate range the
  * float pipeline resolves (rt_scene_check_range) is rejected; input quoted
  * in a message is escaped (rt_esc).
- * Loaded meshes get a default grey, an auto-framed camera and default
- * lights (rt_scene_autoframe).
+ * MTL files get the same treatment: "lib.mtl:LINE: what" for bad or
+ * NaN/Inf/negative numbers, Ni < 1, d, Tr or Tf outside [0, 1], unknown illum
+ * models; keywords we do not use (Ka, Ns, map_Kd, ...) are ignored.
+ * Loaded meshes get an auto-framed camera and default lights
+ * (rt_scene_autoframe).
  */
 #include "config.h"
 #include "scene.h"
@@ -24,6 +38,7 @@
 #include <errno.h>
 #include <float.h>
 #include <math.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -61,6 +76,14 @@ static int token_len(const char *p)
     return n;
 }
 
+/* A material read from an MTL file, with the illum mapping applied. */
+typedef struct mtldef {
+    char name[256];  /* as written after newmtl */
+    float kd[3];     /* diffuse colour for the triangles' rgb */
+    rt_material m;   /* ks, kt, ior, ke for the scene's table */
+    long table;      /* index in s->mat once a usemtl used it, else -1 */
+} mtldef;
+
 typedef struct objload {
     const char *path;
     unsigned long line;
@@ -69,7 +92,333 @@ typedef struct objload {
     uint32_t *face; /* corner indices of the current face */
     size_t cf;
     rt_err *e;
+    rt_scene *s;        /* the scene being built (for warnings) */
+    mtldef *mtl;        /* materials of all libraries read, in file order */
+    size_t nmtl, cmtl;  /* used, allocated */
+    int nlib;           /* mtllib names seen */
+    int libmissing;     /* one of them did not exist */
+    unsigned nwarn;     /* warnings (the first is kept in s->warning) */
+    uint32_t cur_mat;   /* material of the faces that follow */
+    const float *cur_rgb; /* their colour (NULL: default grey) */
+    float cur_kd[3];    /* storage for cur_rgb */
 } objload;
+
+static void warn(objload *L, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 2, 3)))
+#endif
+    ;
+
+static void warn(objload *L, const char *fmt, ...)
+{
+    if (L->nwarn++ == 0) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(L->s->warning, sizeof L->s->warning, fmt, ap);
+        va_end(ap);
+    }
+}
+
+/* ------------------------------------------------------------------------ */
+/* MTL                                                                       */
+
+static int kw_is(const char *p, size_t n, const char *kw)
+{
+    if (strlen(kw) != n) return 0;
+    for (size_t i = 0; i < n; i++) {
+        char a = p[i], b = kw[i];
+        if (a >= 'A' && a <= 'Z') a = (char)(a - 'A' + 'a');
+        if (b >= 'A' && b <= 'Z') b = (char)(b - 'A' + 'a');
+        if (a != b) return 0;
+    }
+    return 1;
+}
+
+/* Terms of the material being read, before the illum mapping. */
+typedef struct mtlraw {
+    float kd[3], ks[3], ke[3], tf[3];
+    float ni;        /* Ni, default 1 */
+    float t;         /* transmittance from d (1 - d) or Tr; < 0 = not given */
+    int illum;       /* default 2 */
+} mtlraw;
+
+static void raw_init(mtlraw *r)
+{
+    for (int k = 0; k < 3; k++) {
+        r->kd[k] = 0.7f; /* the loaders' default grey */
+        r->ks[k] = r->ke[k] = 0;
+        r->tf[k] = 1;
+    }
+    r->ni = 1;
+    r->t = -1;
+    r->illum = 2;
+}
+
+/* The illum mapping (docs/scenes.md: Materials): 0-2 and 10 diffuse (Ks
+ * ignored), 3, 5, 8 mirror with Ks, 4, 6, 7, 9 glass: Ks reflection and
+ * transmittance t*Tf (t = 1 when neither d nor Tr is given) with index Ni. */
+static void raw_finish(const mtlraw *r, mtldef *d)
+{
+    rt_material *m = &d->m;
+    memset(m, 0, sizeof *m);
+    size_t nl = strlen(d->name);
+    if (nl >= sizeof m->name) nl = sizeof m->name - 1; /* the table keeps a prefix */
+    memcpy(m->name, d->name, nl);
+    m->ior = 1;
+    int mirror = r->illum == 3 || r->illum == 5 || r->illum == 8;
+    int glass = r->illum == 4 || r->illum == 6 || r->illum == 7 || r->illum == 9;
+    float t = r->t < 0 ? 1.0f : r->t;
+    int clear = 0;
+    for (int k = 0; k < 3; k++) {
+        d->kd[k] = r->kd[k];
+        m->ke[k] = r->ke[k];
+        if (mirror || glass) m->ks[k] = r->ks[k];
+        if (glass) m->kt[k] = t * r->tf[k];
+        if (m->kt[k] > 0) clear = 1;
+    }
+    if (clear) m->ior = r->ni;
+    d->table = -1;
+}
+
+typedef struct mtlread {
+    objload *L;
+    const char *path;    /* of the MTL file, for messages */
+    unsigned long line;
+} mtlread;
+
+/* Parses the numbers after a keyword into v (at most nmax); 0 or -1 with
+ * a message naming the MTL file and line. */
+static int mtl_numbers(mtlread *R, const char *kw, const char *p, float *v, int nmax, int *nout)
+{
+    int n = 0;
+    for (;;) {
+        p = skip_space(p);
+        if (!*p) break;
+        const char *tok = p;
+        char *end;
+        double x = strtod(p, &end);
+        char q[64];
+        if (end == p || (*end && !is_space(*end)))
+            return rt_errf(R->L->e, "%s:%lu: %s: bad number '%s'", R->path, R->line, kw,
+                           rt_esc(q, sizeof q, tok, (size_t)token_len(tok)));
+        if (!isfinite(x) || fabs(x) > 1e30)
+            return rt_errf(R->L->e, "%s:%lu: %s: '%s' is not a finite number", R->path, R->line, kw,
+                           rt_esc(q, sizeof q, tok, (size_t)token_len(tok)));
+        if (x < 0)
+            return rt_errf(R->L->e, "%s:%lu: %s: negative value '%s'", R->path, R->line, kw,
+                           rt_esc(q, sizeof q, tok, (size_t)token_len(tok)));
+        if (n == nmax) return rt_errf(R->L->e, "%s:%lu: %s: more than %d numbers", R->path, R->line, kw, nmax);
+        v[n++] = (float)x;
+        p = end;
+    }
+    if (n == 0) return rt_errf(R->L->e, "%s:%lu: %s without a value", R->path, R->line, kw);
+    *nout = n;
+    return 0;
+}
+
+/* "K? r [g b]": one number stands for grey. */
+static int mtl_colour(mtlread *R, const char *kw, const char *p, float out[3])
+{
+    float v[3];
+    int n;
+    if (mtl_numbers(R, kw, p, v, 3, &n) < 0) return -1;
+    if (n == 2) return rt_errf(R->L->e, "%s:%lu: %s: 2 numbers (need 1 or 3)", R->path, R->line, kw);
+    for (int k = 0; k < 3; k++) out[k] = v[n == 1 ? 0 : k];
+    return 0;
+}
+
+static int mtl_scalar(mtlread *R, const char *kw, const char *p, float *out)
+{
+    int n;
+    return mtl_numbers(R, kw, p, out, 1, &n);
+}
+
+static int mtl_add(objload *L, const char *name, size_t len)
+{
+    if (L->nmtl == L->cmtl) {
+        size_t nc = L->cmtl ? 2 * L->cmtl : 16;
+        mtldef *nm = rt_reallocarray(L->mtl, nc, sizeof *nm, L->e);
+        if (!nm) return -1;
+        L->mtl = nm;
+        L->cmtl = nc;
+    }
+    mtldef *d = &L->mtl[L->nmtl++];
+    memset(d, 0, sizeof *d);
+    memcpy(d->name, name, len);
+    d->name[len] = 0;
+    d->table = -1;
+    return 0;
+}
+
+/* Trims a statement's argument: leading and trailing blanks. */
+static size_t rest_len(const char *p)
+{
+    size_t n = strlen(p);
+    while (n && is_space(p[n - 1])) n--;
+    return n;
+}
+
+static int load_mtl(objload *L, const char *mpath)
+{
+    char *buf = NULL;
+    size_t n = 0;
+    if (rt_slurp(mpath, &buf, &n, L->e) < 0) {
+        char m[RT_ERR_LEN];
+        snprintf(m, sizeof m, "%s", L->e ? L->e->msg : "");
+        return rt_errf(L->e, "%s:%lu: material library %s", L->path, L->line, m);
+    }
+    mtlread R = {L, mpath, 0};
+    mtlraw raw;
+    raw_init(&raw);
+    int open = 0, rc = 0;
+    char *p = buf, *end = buf + n;
+    while (p < end && rc == 0) {
+        char *nl = memchr(p, '\n', (size_t)(end - p));
+        char *le = nl ? nl : end;
+        R.line++;
+        if (memchr(p, 0, (size_t)(le - p))) {
+            rc = rt_errf(L->e, "%s:%lu: NUL byte in text", mpath, R.line);
+            break;
+        }
+        *le = 0;
+        char *hash = strchr(p, '#');
+        if (hash) *hash = 0;
+        const char *q = skip_space(p);
+        size_t kl = 0;
+        while (q[kl] && !is_space(q[kl])) kl++;
+        const char *arg = skip_space(q + kl);
+        char kw[16];
+        snprintf(kw, sizeof kw, "%.*s", (int)(kl < 15 ? kl : 15), q);
+        if (kl == 0) {
+            /* blank or comment */
+        } else if (kw_is(q, kl, "newmtl")) {
+            size_t len = rest_len(arg);
+            if (len == 0) rc = rt_errf(L->e, "%s:%lu: newmtl without a name", mpath, R.line);
+            else if (len >= sizeof L->mtl[0].name)
+                rc = rt_errf(L->e, "%s:%lu: material name longer than %zu bytes", mpath, R.line,
+                             sizeof L->mtl[0].name - 1);
+            else {
+                if (open) raw_finish(&raw, &L->mtl[L->nmtl - 1]);
+                raw_init(&raw);
+                rc = mtl_add(L, arg, len);
+                open = 1;
+            }
+        } else if (kw_is(q, kl, "Kd") || kw_is(q, kl, "Ks") || kw_is(q, kl, "Ke") || kw_is(q, kl, "Tf") ||
+                   kw_is(q, kl, "Ni") || kw_is(q, kl, "d") || kw_is(q, kl, "Tr") || kw_is(q, kl, "illum")) {
+            float v;
+            if (!open) rc = rt_errf(L->e, "%s:%lu: %s before any newmtl", mpath, R.line, kw);
+            else if (kw_is(q, kl, "Kd")) rc = mtl_colour(&R, kw, arg, raw.kd);
+            else if (kw_is(q, kl, "Ks")) rc = mtl_colour(&R, kw, arg, raw.ks);
+            else if (kw_is(q, kl, "Ke")) rc = mtl_colour(&R, kw, arg, raw.ke);
+            else if (kw_is(q, kl, "Tf")) {
+                /* A filter: more than 1 would make glass amplify light. */
+                rc = mtl_colour(&R, kw, arg, raw.tf);
+                for (int k = 0; k < 3 && rc == 0; k++)
+                    if (raw.tf[k] > 1)
+                        rc = rt_errf(L->e, "%s:%lu: Tf %g outside [0, 1]", mpath, R.line, (double)raw.tf[k]);
+            }
+            else if ((rc = mtl_scalar(&R, kw, arg, &v)) == 0) {
+                if (kw_is(q, kl, "Ni")) {
+                    if (!(v >= 1.0f && v <= 100.0f))
+                        rc = rt_errf(L->e, "%s:%lu: Ni %g outside [1, 100] (index of refraction)", mpath, R.line,
+                                     (double)v);
+                    raw.ni = v;
+                } else if (kw_is(q, kl, "illum")) {
+                    if (v > 10 || v != (float)(int)v)
+                        rc = rt_errf(L->e, "%s:%lu: illum %g is not an illumination model 0..10", mpath, R.line,
+                                     (double)v);
+                    raw.illum = (int)v;
+                } else {
+                    if (v > 1) rc = rt_errf(L->e, "%s:%lu: %s %g outside [0, 1]", mpath, R.line, kw, (double)v);
+                    raw.t = kw_is(q, kl, "d") ? 1.0f - v : v;
+                }
+            }
+        }
+        /* Other keywords (Ka, Ns, map_Kd, bump, ...) do not affect the
+         * rays; ignored. */
+        p = le + 1;
+    }
+    if (rc == 0 && open) raw_finish(&raw, &L->mtl[L->nmtl - 1]);
+    free(buf);
+    return rc;
+}
+
+/* mtllib NAME...: each relative to the OBJ's folder. */
+static int mtllib_line(objload *L, const char *p)
+{
+    const char *slash = strrchr(L->path, '/');
+    size_t dl = slash ? (size_t)(slash - L->path) + 1 : 0;
+    int any = 0;
+    for (;;) {
+        p = skip_space(p);
+        if (!*p) break;
+        size_t tl = 0;
+        while (p[tl] && !is_space(p[tl])) tl++;
+        any = 1;
+        L->nlib++;
+        size_t pre = p[0] == '/' ? 0 : dl;
+        char *mp = rt_calloc(pre + tl + 1, 1, L->e);
+        if (!mp) return -1;
+        memcpy(mp, L->path, pre);
+        memcpy(mp + pre, p, tl);
+        FILE *f = fopen(mp, "rb");
+        int rc = 0;
+        char q[160];
+        if (!f && errno == ENOENT) {
+            L->libmissing = 1;
+            warn(L, "%s:%lu: material library %s not found; its materials are the default", L->path, L->line,
+                 rt_esc(q, sizeof q, mp, 4096));
+        } else if (!f) {
+            rc = rt_errf(L->e, "%s:%lu: material library %s: %s", L->path, L->line, rt_esc(q, sizeof q, mp, 4096),
+                         strerror(errno));
+        } else {
+            fclose(f);
+            rc = load_mtl(L, mp);
+        }
+        free(mp);
+        if (rc < 0) return -1;
+        p += tl;
+    }
+    if (!any) return rt_errf(L->e, "%s:%lu: mtllib without a file name", L->path, L->line);
+    return 0;
+}
+
+static int usemtl_line(objload *L, const char *p)
+{
+    p = skip_space(p);
+    size_t len = rest_len(p);
+    char q[64];
+    if (len == 0) return rt_errf(L->e, "%s:%lu: usemtl without a name", L->path, L->line);
+    for (size_t i = 0; i < L->nmtl; i++) {
+        mtldef *d = &L->mtl[i];
+        if (strlen(d->name) != len || memcmp(d->name, p, len) != 0) continue;
+        if (d->table < 0) {
+            int r = rt_scene_add_material(L->s, &d->m, L->e);
+            if (r < 0) {
+                char m[RT_ERR_LEN];
+                snprintf(m, sizeof m, "%s", L->e ? L->e->msg : "");
+                return rt_errf(L->e, "%s:%lu: %s", L->path, L->line, m);
+            }
+            d->table = r;
+        }
+        L->cur_mat = (uint32_t)d->table;
+        memcpy(L->cur_kd, d->kd, sizeof L->cur_kd);
+        L->cur_rgb = L->cur_kd;
+        return 0;
+    }
+    rt_esc(q, sizeof q, p, len);
+    if (L->nlib == 0 || L->libmissing) {
+        warn(L, "%s:%lu: usemtl %s: %s; default material", L->path, L->line, q,
+             L->nlib ? "not in the libraries found" : "no mtllib names a library");
+        L->cur_mat = 0;
+        L->cur_rgb = NULL;
+        return 0;
+    }
+    return rt_errf(L->e, "%s:%lu: usemtl %s: no such material in the libraries named above", L->path, L->line, q);
+}
+
+/* ------------------------------------------------------------------------ */
+/* OBJ                                                                       */
 
 static int vertex_line(objload *L, const char *p)
 {
@@ -161,7 +510,8 @@ static int face_line(objload *L, rt_scene *s, const char *p)
     }
     if (n < 3) return rt_errf(L->e, "%s:%lu: face has %zu vertices (need at least 3)", L->path, L->line, n);
     for (size_t k = 1; k + 1 < n; k++) {
-        if (rt_scene_add_tri(s, L->v[L->face[0]], L->v[L->face[k]], L->v[L->face[k + 1]], NULL, L->e) < 0) {
+        if (rt_scene_add_tri_mat(s, L->v[L->face[0]], L->v[L->face[k]], L->v[L->face[k + 1]], L->cur_rgb,
+                                 L->cur_mat, L->e) < 0) {
             /* Put the position in front of the allocator's message. */
             char m[RT_ERR_LEN];
             snprintf(m, sizeof m, "%s", L->e ? L->e->msg : "");
@@ -183,7 +533,11 @@ rt_scene *rt_scene_load_obj(const char *path, rt_err *e)
     }
     const char *base = strrchr(path, '/');
     snprintf(s->name, sizeof s->name, "%s", base ? base + 1 : path);
-    objload L = {path, 0, NULL, 0, 0, NULL, 0, e};
+    objload L;
+    memset(&L, 0, sizeof L);
+    L.path = path;
+    L.e = e;
+    L.s = s;
     int rc = 0;
     char *p = buf, *end = buf + n;
     while (p < end && rc == 0) {
@@ -202,6 +556,10 @@ rt_scene *rt_scene_load_obj(const char *path, rt_err *e)
             rc = face_line(&L, s, q + 2);
         else if ((q[0] == 'v' || q[0] == 'f') && q[1] == 0)
             rc = rt_errf(e, "%s:%lu: '%c' without data", path, L.line, q[0]);
+        else if (!strncmp(q, "mtllib", 6) && (is_space(q[6]) || !q[6]))
+            rc = mtllib_line(&L, q + 6);
+        else if (!strncmp(q, "usemtl", 6) && (is_space(q[6]) || !q[6]))
+            rc = usemtl_line(&L, q + 6);
         /* Anything else (comments, vt, vn, g, o, s, usemtl, ...) is ignored. */
         p = le + 1;
     }
@@ -210,6 +568,15 @@ rt_scene *rt_scene_load_obj(const char *path, rt_err *e)
     free(buf);
     free(L.v);
     free(L.face);
+    free(L.mtl);
+    if (rc == 0 && L.nwarn > 1) {
+        /* Keep the first warning whole if it fits with the count. */
+        char more[48];
+        int m = snprintf(more, sizeof more, " (+%u more warnings)", L.nwarn - 1);
+        size_t room = sizeof s->warning - 1 - (size_t)m;
+        if (strlen(s->warning) > room) s->warning[room] = 0;
+        strcat(s->warning, more);
+    }
     if (rc == 0) {
         rt_err fe;
         if (rt_scene_finish(s, &fe) < 0) rc = rt_errf(e, "%s: %s", path, fe.msg);

@@ -16,6 +16,8 @@
  * not be read). Every read is bounds-checked against the file buffer;
  * element counts are checked against the bytes remaining before anything is
  * allocated, so a lying header cannot make us allocate gigabytes.
+ * PLY carries no materials: every triangle gets the default grey and the
+ * plain material (a spec's material=PRESET can change that).
  */
 #include "config.h"
 #include "scene.h"

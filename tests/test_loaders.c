@@ -6,15 +6,21 @@
  * point of a binary PLY, bad tokens, out-of-range and zero indices, short
  * faces, NaN/Inf, bad headers, empty meshes, random corruption), which must
  * be rejected with a one-line message naming the file -- or, for random
- * corruption, at least never crash. Exit status 0 = all passed.
+ * corruption, at least never crash. MTL material libraries: a Cornell box
+ * in the format of McGuire's CornellBox-Original, the illum mapping, the
+ * missing-library warning and malformed MTL named by file and line. Mesh
+ * files without materials keep their golden hashes.
+ * Exit status 0 = all passed.
  */
 #include "config.h"
 #include "check.h"
 #include "scene.h"
 
+#include <inttypes.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 static char tmpdir[256];
@@ -36,6 +42,8 @@ static void write_file(const char *path, const void *data, size_t n)
         exit(1);
     }
 }
+
+static void write_text(const char *path, const char *text) { write_file(path, text, strlen(text)); }
 
 static const char *datafile(const char *name)
 {
@@ -427,6 +435,312 @@ static void test_ply_malformed(void)
     rt_scene_free(s);
 }
 
+/* ------------------------------------------------------------------------ */
+/* MTL                                                                       */
+
+/* In the format of McGuire's CornellBox-Original.mtl (Williams College,
+ * public domain): Ns/Ni/d/Tr/Tf/illum/Ka/Kd/Ks/Ke per material, trailing
+ * comments, the light emitting through Ke. */
+static const char cb_mtl[] =
+    "# The original Cornell Box in OBJ format.\n"
+    "# Note that the real box is not a perfect cube, so\n"
+    "# the faces are imperfect in this data set.\n"
+    "\n"
+    "newmtl leftWall\n"
+    "Ns 10.0000\nNi 1.5000\nd 1.0000\nTr 0.0000\nTf 1.0000 1.0000 1.0000\nillum 2\n"
+    "Ka 0.63 0.065 0.05   # Dummy ambient color\n"
+    "Kd 0.63 0.065 0.05\nKs 0 0 0\nKe 0 0 0\n"
+    "\n"
+    "newmtl rightWall\n"
+    "Ns 10.0000\nNi 1.5000\nd 1.0000\nTr 0.0000\nTf 1.0000 1.0000 1.0000\nillum 2\n"
+    "Ka 0.14 0.45 0.091   # Dummy ambient color\n"
+    "Kd 0.14 0.45 0.091\nKs 0 0 0\nKe 0 0 0\n"
+    "\n"
+    "newmtl floor\n"
+    "Ns 10.0000\nNi 1.0000\nd 1.0000\nTr 0.0000\nTf 1.0000 1.0000 1.0000\nillum 2\n"
+    "Ka 0.725 0.71 0.68   # Dummy ambient color\n"
+    "Kd 0.725 0.71 0.68\nKs 0 0 0\nKe 0 0 0\n"
+    "\n"
+    "newmtl light\n"
+    "Ns 10.0000\nNi 1.5000\nd 1.0000\nTr 0.0000\nTf 1.0000 1.0000 1.0000\nillum 2\n"
+    "Ka 0.78 0.78 0.78   # Dummy ambient color\n"
+    "Kd 0.78 0.78 0.78\nKs 0 0 0\nKe 17 12 4\n";
+
+static const char cb_obj[] =
+    "# The original Cornell Box in OBJ format.\n"
+    "mtllib CornellBox-Original.mtl\n"
+    "\n"
+    "o stray\n" /* before any usemtl: the default material */
+    "v 0.5 0.5 0.5\nv 0.6 0.5 0.5\nv 0.5 0.6 0.5\n"
+    "f -3 -2 -1\n"
+    "o floor\n"
+    "usemtl floor\n"
+    "v -1.01 0.00 0.99\nv 1.00 0.00 0.99\nv 1.00 0.00 -1.04\nv -0.99 0.00 -1.04\n"
+    "g floor\n"
+    "f -4 -3 -2 -1\n"
+    "o leftWall\n"
+    "usemtl leftWall\n"
+    "v -1.02 1.99 0.99\nv -1.02 1.99 -1.04\nv -0.99 0.00 -1.04\nv -1.01 0.00 0.99\n"
+    "f -4 -3 -2 -1\n"
+    "o rightWall\n"
+    "usemtl rightWall\n"
+    "v 1.00 0.00 -1.04\nv 1.00 0.00 0.99\nv 0.99 1.99 0.99\nv 0.99 1.99 -1.04\n"
+    "f -4 -3 -2 -1\n"
+    "usemtl floor\n" /* switching back mid-file reuses the table entry */
+    "f 4 5 6\n"
+    "o light\n"
+    "usemtl light\n"
+    "v -0.24 1.98 0.16\nv -0.24 1.98 -0.22\nv 0.23 1.98 -0.22\nv 0.23 1.98 0.16\n"
+    "f -4 -3 -2 -1\n";
+
+static int rgb_is(const float *c, float r, float g, float b) { return c[0] == r && c[1] == g && c[2] == b; }
+
+static void test_mtl_cornell(void)
+{
+    char dir[600], obj[700];
+    snprintf(dir, sizeof dir, "%s/cb", tmpdir);
+    mkdir(dir, 0700);
+    snprintf(obj, sizeof obj, "%s/CornellBox-Original.obj", dir);
+    write_file(tpath("cb/CornellBox-Original.mtl"), cb_mtl, strlen(cb_mtl));
+    write_file(obj, cb_obj, strlen(cb_obj));
+    rt_err e = {""};
+    rt_scene *s = rt_scene_load(obj, &e); /* the MTL is found beside the OBJ, not in the working folder */
+    CHECK(s != NULL, "CornellBox-Original: %s", e.msg);
+    if (!s) return;
+    CHECK(s->ntri == 1 + 2 * 4 + 1, "%u triangles", s->ntri);
+    CHECK(s->warning[0] == 0, "warning '%s'", s->warning);
+    /* Materials enter the table in order of first use. */
+    CHECK(s->nmat == 5, "nmat %u", s->nmat);
+    if (s->ntri == 10 && s->nmat == 5) {
+        CHECK(s->shade[0].mat == 0 && rgb_is(s->shade[0].rgb, 0.7f, 0.7f, 0.7f), "face before usemtl");
+        CHECK(s->shade[1].mat == 1 && s->shade[2].mat == 1 && rgb_is(s->shade[1].rgb, 0.725f, 0.71f, 0.68f),
+              "floor");
+        CHECK(s->shade[3].mat == 2 && rgb_is(s->shade[3].rgb, 0.63f, 0.065f, 0.05f), "left wall red");
+        CHECK(s->shade[5].mat == 3 && rgb_is(s->shade[5].rgb, 0.14f, 0.45f, 0.091f), "right wall green");
+        CHECK(s->shade[7].mat == 1 && rgb_is(s->shade[7].rgb, 0.725f, 0.71f, 0.68f), "usemtl floor again");
+        CHECK(s->shade[8].mat == 4 && s->shade[9].mat == 4 && rgb_is(s->shade[8].rgb, 0.78f, 0.78f, 0.78f),
+              "light");
+        CHECK(!strcmp(s->mat[2].name, "leftWall") && !strcmp(s->mat[4].name, "light"), "names");
+        const rt_material *l = &s->mat[4];
+        CHECK(l->ke[0] == 17 && l->ke[1] == 12 && l->ke[2] == 4 && l->flags == RT_MAT_EMIT, "light Ke");
+        /* illum 2: Ni 1.5 and Tf do not make a wall glass; ior stays 1. */
+        CHECK(s->mat[2].flags == 0 && s->mat[2].ior == 1.0f && s->mat[2].kt[0] == 0, "walls plain");
+    }
+    CHECK(rt_scene_material_flags(s) == RT_MAT_EMIT, "flags %u", (unsigned)rt_scene_material_flags(s));
+    rt_scene_free(s);
+}
+
+/* Loads MTL text (as lib.mtl beside an OBJ using material m) and returns
+ * the scene, or NULL with the message in e. */
+static rt_scene *load_mtl_text(const char *name, const char *mtl, rt_err *e)
+{
+    char mname[64], oname[64], obj[256];
+    snprintf(mname, sizeof mname, "%s.mtl", name);
+    snprintf(oname, sizeof oname, "%s.obj", name);
+    write_file(tpath(mname), mtl, strlen(mtl));
+    snprintf(obj, sizeof obj, "mtllib %s\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl m\nf 1 2 3\n", mname);
+    write_file(tpath(oname), obj, strlen(obj));
+    return rt_scene_load(tpath(oname), e);
+}
+
+static void test_mtl_mapping(void)
+{
+    static const struct {
+        const char *name, *mtl;
+        float ks, kt, ior, ke;
+        uint32_t flags;
+    } cases[] = {
+        {"ill0", "newmtl m\nillum 0\nKs 0.5 0.5 0.5\n", 0, 0, 1, 0, 0},
+        {"ill1", "newmtl m\nillum 1\nKs 0.5\n", 0, 0, 1, 0, 0},
+        {"ill2", "newmtl m\nKs 0.5\nNi 1.3\nd 0.5\n", 0, 0, 1, 0, 0}, /* default illum 2 */
+        {"ill3", "newmtl m\nillum 3\nKs 0.75\n", 0.75f, 0, 1, 0, RT_MAT_SPECULAR},
+        {"ill5", "newmtl m\nillum 5\nKs 0.25 0.25 0.25\n", 0.25f, 0, 1, 0, RT_MAT_SPECULAR},
+        {"ill4", "newmtl m\nillum 4\nKs 0.1\nd 0.25\nNi 1.33\n", 0.1f, 0.75f, 1.33f, 0,
+         RT_MAT_SPECULAR | RT_MAT_TRANSMIT},
+        {"ill6", "newmtl m\nillum 6\nTr 0.5\nNi 1.5\n", 0, 0.5f, 1.5f, 0, RT_MAT_TRANSMIT},
+        {"ill7", "newmtl m\nillum 7\nNi 1.5\nTf 0.5\n", 0, 0.5f, 1.5f, 0, RT_MAT_TRANSMIT}, /* no d: t = 1 */
+        {"ill7d", "newmtl m\nillum 7\nd 1\nKs 0.5\nNi 2\n", 0.5f, 0, 1, 0, RT_MAT_SPECULAR}, /* opaque */
+        {"emit", "newmtl m\nillum 1\nKe 2 2 2\nfoo bar baz\nmap_Kd tex.png\n", 0, 0, 1, 2, RT_MAT_EMIT},
+        {"crlf", "newmtl m\r\nillum 3\r\nKs 1\r\n", 1, 0, 1, 0, RT_MAT_SPECULAR},
+        {"case", "newmtl m\nILLUM 3\nks 0.5\n", 0.5f, 0, 1, 0, RT_MAT_SPECULAR},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        rt_err e = {""};
+        rt_scene *s = load_mtl_text(cases[i].name, cases[i].mtl, &e);
+        CHECK(s != NULL, "%s: %s", cases[i].name, e.msg);
+        if (!s) continue;
+        const rt_material *m = &s->mat[s->shade[0].mat];
+        CHECK(s->shade[0].mat == 1 && m->ks[1] == cases[i].ks && m->kt[2] == cases[i].kt && m->ior == cases[i].ior &&
+                  m->ke[0] == cases[i].ke && m->flags == cases[i].flags,
+              "%s: ks %g kt %g ior %g ke %g flags %u", cases[i].name, (double)m->ks[1], (double)m->kt[2],
+              (double)m->ior, (double)m->ke[0], (unsigned)m->flags);
+        rt_scene_free(s);
+    }
+    /* Tf colours the transmittance; Kd with one number is grey. */
+    rt_err e = {""};
+    rt_scene *s = load_mtl_text("tf", "newmtl m\nillum 7\nTf 1 0.5 0.25\nd 0.5\nKd 0.25\n", &e);
+    CHECK(s != NULL, "tf: %s", e.msg);
+    if (s) {
+        const rt_material *m = &s->mat[1];
+        CHECK(m->kt[0] == 0.5f && m->kt[1] == 0.25f && m->kt[2] == 0.125f, "Tf: kt %g %g %g", (double)m->kt[0],
+              (double)m->kt[1], (double)m->kt[2]);
+        CHECK(rgb_is(s->shade[0].rgb, 0.25f, 0.25f, 0.25f), "Kd grey");
+        rt_scene_free(s);
+    }
+    /* Several libraries on one mtllib line; a later one defines m. */
+    write_text(tpath("a.mtl"), "newmtl x\nKd 1 0 0\n");
+    write_text(tpath("b.mtl"), "newmtl m\nKd 0 0 1\nillum 3\nKs 0.5\n");
+    const char two[] = "mtllib a.mtl   b.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl x\nf 1 2 3\nusemtl m\nf 1 2 3\n";
+    s = expect_ok_text("two.obj", two, 2);
+    if (s && s->ntri == 2) {
+        CHECK(rgb_is(s->shade[0].rgb, 1, 0, 0) && rgb_is(s->shade[1].rgb, 0, 0, 1), "colours from two libraries");
+        CHECK(s->shade[0].mat == 1 && s->shade[1].mat == 2 && s->mat[2].ks[0] == 0.5f, "materials from two libraries");
+    }
+    rt_scene_free(s);
+}
+
+static void test_mtl_errors(void)
+{
+    /* Malformed MTL: one line naming the MTL file and its line. */
+    static const struct {
+        const char *name, *mtl, *needle;
+    } bad[] = {
+        {"e_num", "newmtl m\nKd 0.5 x 0.5\n", "e_num.mtl:2: Kd: bad number 'x'"},
+        {"e_nan", "# c\nnewmtl m\nKs nan 0 0\n", "e_nan.mtl:3: Ks: 'nan' is not a finite number"},
+        {"e_inf", "newmtl m\nKe 1 1 inf\n", "e_inf.mtl:2: Ke: 'inf' is not a finite number"},
+        {"e_big", "newmtl m\nKe 1 1 1e39\n", "e_big.mtl:2: Ke:"},
+        {"e_neg", "newmtl m\n\nKd -0.1 0 0\n", "e_neg.mtl:3: Kd: negative value '-0.1'"},
+        {"e_ni", "newmtl m\nNi 0.5\n", "e_ni.mtl:2: Ni 0.5 outside [1, 100]"},
+        {"e_ni0", "newmtl m\nillum 2\nNi 0\n", "e_ni0.mtl:3: Ni 0 outside"},
+        {"e_d", "newmtl m\nd 1.5\n", "e_d.mtl:2: d 1.5 outside [0, 1]"},
+        {"e_tr", "newmtl m\nTr 2\n", "e_tr.mtl:2: Tr 2 outside [0, 1]"},
+        {"e_ill", "newmtl m\nillum 11\n", "e_ill.mtl:2: illum 11 is not"},
+        {"e_ill2", "newmtl m\nillum 2.5\n", "e_ill2.mtl:2: illum 2.5 is not"},
+        {"e_two", "newmtl m\nKd 1 1\n", "e_two.mtl:2: Kd: 2 numbers"},
+        {"e_four", "newmtl m\nKd 1 1 1 1\n", "e_four.mtl:2: Kd: more than 3 numbers"},
+        {"e_empty", "newmtl m\nKs\n", "e_empty.mtl:2: Ks without a value"},
+        {"e_before", "Kd 1 1 1\nnewmtl m\n", "e_before.mtl:1: Kd before any newmtl"},
+        {"e_noname", "newmtl\n", "e_noname.mtl:1: newmtl without a name"},
+        {"e_tf", "newmtl m\nTf 1 nan 1\n", "e_tf.mtl:2: Tf:"},
+        {"e_tf2", "newmtl m\nTf 1 1.5 1\n", "e_tf2.mtl:2: Tf 1.5 outside [0, 1]"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        rt_err e = {""};
+        rt_scene *s = load_mtl_text(bad[i].name, bad[i].mtl, &e);
+        CHECK(s == NULL && strstr(e.msg, bad[i].needle) && !strchr(e.msg, '\n'), "%s: '%s' (want '%s')",
+              bad[i].name, e.msg, bad[i].needle);
+        rt_scene_free(s);
+    }
+    /* OBJ side: usemtl of an undefined material, names missing. */
+    write_text(tpath("ok.mtl"), "newmtl m\nKd 1 0 0\n");
+    static const struct {
+        const char *name, *text, *needle;
+    } obad[] = {
+        {"undef.obj", "mtllib ok.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nusemtl mm\nf 1 2 3\n",
+         "undef.obj:6: usemtl mm: no such material"},
+        {"noname.obj", "mtllib ok.mtl\nusemtl   \n", "noname.obj:2: usemtl without a name"},
+        {"nolib.obj", "mtllib\n", "nolib.obj:1: mtllib without a file name"},
+        /* a library used before it is named */
+        {"late.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nmtllib ok.mtl\nusemtl x\nf 1 2 3\n", "late.obj:5: usemtl x"},
+    };
+    for (size_t i = 0; i < sizeof obad / sizeof obad[0]; i++) expect_fail_text(obad[i].name, obad[i].text, obad[i].needle);
+    /* Random corruption of an MTL: loads, or fails naming the OBJ or the
+     * MTL; never a crash. */
+    static const char good[] = "newmtl m\nKd 0.5 0.5 0.5\nKs 0.2\nNi 1.5\nd 0.5\nTf 1 1 1\nillum 7\nKe 0 0 0\n";
+    static const char alphabet[] = "0123456789-+. \n\r\t#xnaiNdKsTf";
+    uint32_t st = 4242;
+    char buf[sizeof good];
+    for (int it = 0; it < 800; it++) {
+        memcpy(buf, good, sizeof good);
+        for (int k = 0; k < 1 + it % 3; k++) {
+            st = st * 1664525u + 1013904223u;
+            size_t at = (st >> 8) % (sizeof good - 1);
+            st = st * 1664525u + 1013904223u;
+            buf[at] = alphabet[(st >> 24) % (sizeof alphabet - 1)];
+        }
+        rt_err e = {""};
+        rt_scene *s = load_mtl_text("fz", buf, &e);
+        if (s) {
+            const rt_material *m = &s->mat[s->shade[0].mat];
+            CHECK(m->ior >= 1 && m->kt[0] >= 0 && m->kt[0] <= 1, "fuzz: ior %g kt %g", (double)m->ior, (double)m->kt[0]);
+        } else CHECK(strstr(e.msg, "fz.mtl:") || strstr(e.msg, "fz.obj:"), "fuzz: message '%s'", e.msg);
+        rt_scene_free(s);
+    }
+    /* A library that is a folder, not a file: an error, not a warning. */
+    mkdir(tpath("dir.mtl"), 0700);
+    expect_fail_text("dirlib.obj", "mtllib dir.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+                     "dirlib.obj:1: material library ");
+}
+
+/* A missing library loads with the default material and a warning; so does
+ * a usemtl with no library named at all. */
+static void test_mtl_missing(void)
+{
+    const char text[] = "v 0 0 0\nv 1 0 0\nv 0 1 0\nmtllib gone.mtl ok2.mtl\nusemtl m\nf 1 2 3\nusemtl x\nf 1 2 3\n";
+    write_text(tpath("ok2.mtl"), "newmtl x\nillum 3\nKs 0.5\nKd 0 1 0\n");
+    rt_scene *s = expect_ok_text("missing.obj", text, 2);
+    if (s) {
+        CHECK(strstr(s->warning, "missing.obj:4: material library ") && strstr(s->warning, "gone.mtl not found") &&
+                  strstr(s->warning, "(+1 more warnings)"),
+              "warning '%s'", s->warning);
+        CHECK(s->ntri == 2 && s->shade[0].mat == 0 && rgb_is(s->shade[0].rgb, 0.7f, 0.7f, 0.7f),
+              "undefined material m: default");
+        CHECK(s->ntri == 2 && s->shade[1].mat == 1 && rgb_is(s->shade[1].rgb, 0, 1, 0), "x from the library found");
+        rt_scene_free(s);
+    }
+    s = expect_ok_text("nomtllib.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl red\nf 1 2 3\n", 1);
+    if (s) {
+        CHECK(strstr(s->warning, "nomtllib.obj:4: usemtl red: no mtllib") != NULL, "warning '%s'", s->warning);
+        CHECK(s->nmat == 1 && s->shade[0].mat == 0, "default material");
+        rt_scene_free(s);
+    }
+}
+
+/* Meshes without materials keep the hashes they had before materials;
+ * material=PRESET works on mesh files. */
+static void test_mesh_hashes(void)
+{
+    /* cube.obj says "usemtl grey" without a library, forms.obj names a
+     * library that does not exist: both load as before, with a warning. */
+    static const struct {
+        const char *file, *params;
+        uint64_t hash;
+        uint32_t flags;
+        const char *warning;
+    } golden[] = {
+        {"cube.obj", "", UINT64_C(0x3566215f5c38233e), 0, "cube.obj:12: usemtl grey: no mtllib names a library"},
+        {"forms.obj", "", UINT64_C(0x389091ddc7b3a129), 0, "forms.obj:2: material library "},
+        {"tetra_ascii.ply", "", UINT64_C(0xc5ddf801132c1a07), 0, NULL},
+        {"tetra_ascii.ply", ":material=diffuse", UINT64_C(0xc5ddf801132c1a07), 0, NULL},
+        {"tetra_ascii.ply", ":material=mirror", 0, RT_MAT_SPECULAR, NULL},
+        {"cube.obj", ":material=glass", 0, RT_MAT_TRANSMIT, "usemtl grey"},
+    };
+    for (size_t i = 0; i < sizeof golden / sizeof golden[0]; i++) {
+        char spec[700];
+        snprintf(spec, sizeof spec, "%s%s", datafile(golden[i].file), golden[i].params);
+        rt_err e = {""};
+        rt_scene *s = rt_scene_load(spec, &e);
+        CHECK(s != NULL, "%s: %s", spec, e.msg);
+        if (!s) continue;
+        if (golden[i].hash)
+            CHECK(rt_scene_hash(s) == golden[i].hash, "%s%s: hash %016" PRIx64 ", golden %016" PRIx64,
+                  golden[i].file, golden[i].params, rt_scene_hash(s), golden[i].hash);
+        CHECK(rt_scene_material_flags(s) == golden[i].flags, "%s%s: flags %u", golden[i].file, golden[i].params,
+              (unsigned)rt_scene_material_flags(s));
+        CHECK(s->nmat == (golden[i].flags ? 2u : 1u), "%s%s: nmat %u", golden[i].file, golden[i].params, s->nmat);
+        CHECK(golden[i].warning ? strstr(s->warning, golden[i].warning) != NULL : s->warning[0] == 0,
+              "%s%s: warning '%s'", golden[i].file, golden[i].params, s->warning);
+        CHECK(!strcmp(s->params, golden[i].params[0] ? golden[i].params + 1 : ""), "params '%s'", s->params);
+        rt_scene_free(s);
+    }
+    rt_err e = {""};
+    char spec[700];
+    snprintf(spec, sizeof spec, "%s:scale=2", datafile("cube.obj"));
+    rt_scene *s = rt_scene_load(spec, &e);
+    CHECK(s == NULL && strstr(e.msg, "unknown parameter 'scale=2'"), "mesh parameter: '%s'", e.msg);
+    rt_scene_free(s);
+}
+
 int main(void)
 {
     const char *td = getenv("TMPDIR");
@@ -438,6 +752,11 @@ int main(void)
     test_obj();
     test_ply_formats();
     test_ply_malformed();
+    test_mtl_cornell();
+    test_mtl_mapping();
+    test_mtl_errors();
+    test_mtl_missing();
+    test_mesh_hashes();
     char cmd[600];
     snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmpdir);
     if (system(cmd) != 0) fprintf(stderr, "warning: could not remove %s\n", tmpdir);

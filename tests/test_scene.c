@@ -2,11 +2,13 @@
  * test_scene.c -- tests for the built-in scenes and the scene container:
  * exact triangle counts, parameter parsing, determinism (golden hashes that
  * catch drift across machines and libm versions), watertight spheres, OBJ
- * export -> import round trip, and out-of-memory paths.
+ * export -> import round trip (with its MTL), the built-ins' materials and
+ * the material=PRESET parameter, and out-of-memory paths.
  * Exit status 0 = all passed.
  */
 #include "config.h"
 #include "check.h"
+#include "outfile.h"
 #include "scene.h"
 
 #include <inttypes.h>
@@ -31,7 +33,8 @@ static void test_counts(void)
     } exact[] = {
         {"sphereflake", 797150},          {"sphereflake:level=0", 110}, {"sphereflake:level=1", 1082},
         {"sphereflake:level=2", 9830},    {"sphereflake:tess=1,level=1", 10 * 12 + 2},
-        {"knot", 1024},                   {"knot:segs=10,sides=4", 80}, {"cornell", 36},
+        {"knot", 1024},                   {"knot:segs=10,sides=4", 80}, {"cornell:glass=0", 36},
+        {"cornell", 36 + 12 * 4 * 4}, /* the glass sphere: a cube sphere with tess 4 */
         {"grove:trees=1,depth=0,tess=1", 22},
     };
     for (size_t i = 0; i < sizeof exact / sizeof exact[0]; i++) {
@@ -106,13 +109,21 @@ static void test_params(void)
  * in docs/scenes.md. */
 static void test_determinism(void)
 {
+    /* The scenes as they were before materials keep their hashes: grove,
+     * room and mesh files have none, cornell:glass=0 is the old cornell and
+     * material=diffuse takes the mirrors off sphereflake and knot. */
     static const struct {
         const char *spec;
         uint64_t hash;
     } golden[] = {
-        {"sphereflake:level=1", UINT64_C(0xa732da7c33ae6fa0)},
-        {"knot", UINT64_C(0x97f7f72f2020f483)},
-        {"cornell", UINT64_C(0x2ad0a3a6fc13cbc1)},
+        {"sphereflake:level=1", UINT64_C(0x5f0744b7c20e81f8)},
+        {"knot", UINT64_C(0xd1e3d5dafa3c6623)},
+        {"cornell", UINT64_C(0xf300c26a09a52be5)},
+        {"sphereflake:level=1,material=diffuse", UINT64_C(0xa732da7c33ae6fa0)},
+        {"knot:material=diffuse", UINT64_C(0x97f7f72f2020f483)},
+        {"cornell:glass=0", UINT64_C(0x2ad0a3a6fc13cbc1)},
+        {"room", UINT64_C(0xc77149f3d2c548a0)},
+        {"grove:trees=1,depth=2", UINT64_C(0x1fc227feea7e44e9)},
     };
     for (size_t i = 0; i < sizeof golden / sizeof golden[0]; i++) {
         rt_scene *a = load(golden[i].spec), *b = load(golden[i].spec);
@@ -226,12 +237,126 @@ static void test_colours_and_lights(void)
     }
 }
 
+/* The built-ins' materials: which triangles carry which terms, and that the
+ * colours (what primary and shadow rays shade) did not change. */
+static void test_builtin_materials(void)
+{
+    static const struct {
+        const char *spec;
+        uint32_t flags;
+    } want[] = {
+        {"sphereflake:level=1", RT_MAT_SPECULAR}, {"knot", RT_MAT_SPECULAR},
+        {"cornell", RT_MAT_TRANSMIT},             {"cornell:glass=0", 0},
+        {"room", 0},                              {"grove:trees=1,depth=2", 0},
+        {"knot:material=glass", RT_MAT_TRANSMIT}, {"cornell:material=mirror", RT_MAT_SPECULAR},
+        {"knot:material=diffuse", 0},
+    };
+    for (size_t i = 0; i < sizeof want / sizeof want[0]; i++) {
+        rt_scene *s = load(want[i].spec);
+        if (!s) continue;
+        CHECK(rt_scene_material_flags(s) == want[i].flags, "%s: flags %u, want %u", want[i].spec,
+              (unsigned)rt_scene_material_flags(s), (unsigned)want[i].flags);
+        rt_scene_free(s);
+    }
+    /* sphereflake: every sphere a grey mirror of 0.5 (SPD balls' Ks), the
+     * floor (the last 2 triangles) plain; colours as without materials. */
+    rt_scene *s = load("sphereflake:level=1"), *d = load("sphereflake:level=1,material=diffuse");
+    if (s && d) {
+        CHECK(s->nmat == 2 && d->nmat == 1, "nmat %u, %u", s->nmat, d->nmat);
+        int bad = 0;
+        for (uint32_t i = 0; i < s->ntri; i++) {
+            const rt_material *m = &s->mat[s->shade[i].mat];
+            int floor = i >= s->ntri - 2;
+            if (floor ? s->shade[i].mat != 0 : (m->ks[0] != 0.5f || m->ks[2] != 0.5f || m->kt[0] != 0))
+                bad++;
+            if (memcmp(s->shade[i].rgb, d->shade[i].rgb, sizeof s->shade[i].rgb)) bad++;
+        }
+        CHECK(bad == 0, "sphereflake: %d triangles with the wrong material or colour", bad);
+        CHECK(!strcmp(d->params, "level=1,tess=3,material=diffuse"), "params '%s'", d->params);
+    }
+    rt_scene_free(s);
+    rt_scene_free(d);
+    /* cornell: the old 36 triangles first, unchanged, then the glass
+     * sphere (kt 1, ior 1.5, no ks: Fresnel is the tracer's). */
+    s = load("cornell");
+    d = load("cornell:glass=0");
+    if (s && d && s->ntri == 228 && d->ntri == 36) {
+        CHECK(!memcmp(s->tri, d->tri, 36 * sizeof *s->tri) && !memcmp(s->shade, d->shade, 36 * sizeof *s->shade),
+              "cornell: the box changed under the glass sphere");
+        const rt_material *g = &s->mat[s->shade[100].mat];
+        CHECK(s->shade[100].mat == 1 && s->shade[227].mat == 1 && g->kt[1] == 1.0f && g->ior == 1.5f &&
+                  g->ks[0] == 0 && g->flags == RT_MAT_TRANSMIT,
+              "cornell glass: mat %u kt %g ior %g", (unsigned)s->shade[100].mat, (double)g->kt[1], (double)g->ior);
+        /* The sphere stays clear of the walls and both blocks (x, y within
+         * [0.13, 0.37], z within [0, 0.24]). */
+        rt_bounds b = rt_bounds_empty();
+        for (uint32_t i = 36; i < 228; i++)
+            for (int k = 0; k < 3; k++) rt_bounds_grow(&b, s->tri[i].p[k]);
+        CHECK(b.lo.x >= 0.129f && b.hi.x <= 0.371f && b.lo.y >= 0.099f && b.hi.y <= 0.341f && b.lo.z >= 0 &&
+                  b.hi.z <= 0.241f, "glass sphere bounds (%g %g %g)-(%g %g %g)", (double)b.lo.x, (double)b.lo.y,
+              (double)b.lo.z, (double)b.hi.x, (double)b.hi.y, (double)b.hi.z);
+        CHECK(!strcmp(s->params, "glass=1") && !strcmp(d->params, "glass=0"), "params '%s' '%s'", s->params,
+              d->params);
+    } else CHECK(0, "cornell: %u and %u triangles", s ? s->ntri : 0, d ? d->ntri : 0);
+    rt_scene_free(s);
+    rt_scene_free(d);
+    /* Presets: mirror 0.8, glass kt 1 ior 1.5 on every triangle. */
+    s = load("knot:material=mirror");
+    if (s) {
+        int bad = 0;
+        for (uint32_t i = 0; i < s->ntri; i++) bad += s->shade[i].mat != 1;
+        CHECK(bad == 0 && s->nmat == 2 && s->mat[1].ks[1] == 0.8f && s->mat[1].kt[0] == 0 && s->mat[1].ior == 1.0f,
+              "knot:material=mirror");
+        rt_scene_free(s);
+    }
+    static const struct {
+        const char *spec, *needle;
+    } bad[] = {
+        {"knot:material=chrome", "unknown material 'chrome'"},
+        {"knot:material=", "unknown material ''"},
+        {"knot:material=glass,material=mirror", "twice"},
+        {"knot:material=glass,foo=1", "unknown parameter 'foo'"},
+        {"cornell:glass=2", "out of range"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        rt_err e = {""};
+        rt_scene *t = rt_scene_load(bad[i].spec, &e);
+        CHECK(t == NULL && strstr(e.msg, bad[i].needle), "%s: '%s' (want '%s')", bad[i].spec, e.msg, bad[i].needle);
+        rt_scene_free(t);
+    }
+}
+
+/* The material listing: one line per material with its use count. */
+static void test_describe_materials(void)
+{
+    rt_scene *s = load("cornell");
+    if (!s) return;
+    FILE *f = tmpfile();
+    CHECK(f != NULL, "tmpfile");
+    if (f) {
+        CHECK(rt_scene_describe_materials(s, f) == 0, "describe_materials");
+        rewind(f);
+        char line[4][256] = {"", "", "", ""};
+        int n = 0;
+        while (n < 4 && fgets(line[n], sizeof line[n], f)) n++;
+        CHECK(n == 3, "%d lines, want a header and 2 materials", n);
+        CHECK(!strncmp(line[0], "mat ", 4), "header '%s'", line[0]);
+        CHECK(strstr(line[1], "(plain)") && strstr(line[1], " 36 ") && strstr(line[1], "diffuse"), "line 1 '%s'",
+              line[1]);
+        CHECK(strstr(line[2], "glass") && strstr(line[2], " 192 ") && strstr(line[2], "transmit") &&
+                  strstr(line[2], "1 1 1") && strstr(line[2], "1.5"),
+              "line 2 '%s'", line[2]);
+        fclose(f);
+    }
+    rt_scene_free(s);
+}
+
 static char tmpdir[256];
 
 static void test_export_roundtrip(void)
 {
-    const char *specs[] = {"knot", "cornell", "sphereflake:level=1"};
-    for (size_t i = 0; i < 3; i++) {
+    const char *specs[] = {"knot", "cornell", "sphereflake:level=1", "room"};
+    for (size_t i = 0; i < 4; i++) {
         rt_scene *s = load(specs[i]);
         if (!s) continue;
         char path[512];
@@ -245,11 +370,47 @@ static void test_export_roundtrip(void)
             if (t->ntri == s->ntri)
                 CHECK(!memcmp(t->tri, s->tri, sizeof *s->tri * s->ntri), "%s: coordinates changed", specs[i]);
             CHECK(!strcmp(t->name, strrchr(path, '/') + 1), "name '%s'", t->name);
+            /* Through the MTL: each triangle keeps its colour and its
+             * material's terms (the table may be split per colour). */
+            int bad = 0;
+            for (uint32_t k = 0; s->nmat > 1 && k < s->ntri && t->ntri == s->ntri; k++) {
+                const rt_material *a = &s->mat[s->shade[k].mat], *b = &t->mat[t->shade[k].mat];
+                if (memcmp(s->shade[k].rgb, t->shade[k].rgb, sizeof s->shade[k].rgb) ||
+                    memcmp(a->ks, b->ks, sizeof a->ks) || memcmp(a->kt, b->kt, sizeof a->kt) ||
+                    memcmp(a->ke, b->ke, sizeof a->ke) || a->ior != b->ior || a->flags != b->flags)
+                    bad++;
+            }
+            CHECK(bad == 0, "%s: %d triangles changed colour or material in the round trip", specs[i], bad);
+            CHECK(rt_scene_material_flags(t) == rt_scene_material_flags(s), "%s: flags", specs[i]);
+            char mpath[512];
+            snprintf(mpath, sizeof mpath, "%s/export%zu.mtl", tmpdir, i);
+            CHECK((access(mpath, F_OK) == 0) == (s->nmat > 1), "%s: MTL beside the OBJ: %s", specs[i],
+                  s->nmat > 1 ? "missing" : "written without materials");
         }
         rt_scene_free(t);
         rt_scene_free(s);
     }
-    rt_scene *s = load("cornell");
+    /* A scene without materials gets no MTL, and its OBJ names none. */
+    char mpath[512];
+    snprintf(mpath, sizeof mpath, "%s/export3.mtl", tmpdir);
+    CHECK(access(mpath, F_OK) != 0, "room: an MTL was written");
+    /* A failing OBJ takes its MTL with it. */
+    rt_scene *s = load("knot");
+    if (s) {
+        char path[512];
+        snprintf(path, sizeof path, "%s/fail.obj", tmpdir);
+        snprintf(mpath, sizeof mpath, "%s/fail.mtl", tmpdir);
+        rt_err e = {""};
+        rt_out_fail_after = 5000; /* the MTL (~9 KB) fails too: try one that passes it */
+        int rc = rt_scene_export_obj(s, path, &e);
+        rt_out_fail_after = 20000; /* MTL fits, OBJ (~100 KB) does not */
+        int rc2 = rt_scene_export_obj(s, path, &e);
+        rt_out_fail_after = -1;
+        CHECK(rc < 0 && rc2 < 0, "export under a failing disk succeeded");
+        CHECK(access(path, F_OK) != 0 && access(mpath, F_OK) != 0, "a failed export left a file");
+        rt_scene_free(s);
+    }
+    s = load("cornell");
     if (s) {
         rt_err e = {""};
         CHECK(rt_scene_export_obj(s, "/nonexistent-dir/x.obj", &e) < 0, "export to a bad path succeeded");
@@ -314,6 +475,8 @@ int main(void)
     test_determinism();
     test_sphereflake_geometry();
     test_colours_and_lights();
+    test_builtin_materials();
+    test_describe_materials();
     test_export_roundtrip();
     test_container();
     test_oom();
