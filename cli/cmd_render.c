@@ -106,6 +106,7 @@ int main_render(int argc, char **argv)
         rt_cmd_error("render", "%s", e.msg);
         return RT_EXIT_FAIL;
     }
+    if (j.sc->warning[0]) rt_cmd_error("render", "warning: %s", j.sc->warning);
     rt_scene_fit_aspect(j.sc, o.W, o.H); /* tall images: keep the whole mesh in view */
     if (!(img = rt_image_new(o.W, o.H, &e)) || rt_job_run(&j, NULL, img, &st, &e) < 0) goto fail;
     char hash[32], params[128];

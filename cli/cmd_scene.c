@@ -93,6 +93,7 @@ static int cmd_info(int argc, char **argv)
         return RT_EXIT_FAIL;
     }
     double load_sec = rt_now() - t0;
+    if (s->warning[0]) rt_cmd_error("scene", "warning: %s", s->warning);
     rt_kdtree *kd = NULL;
     if (tree) {
         rt_kd_params kp;
@@ -148,6 +149,7 @@ static int cmd_info(int argc, char **argv)
             printf("light %d      (%.6g, %.6g, %.6g)\n", i, (double)s->light[i].x, (double)s->light[i].y,
                    (double)s->light[i].z);
         printf("shading      light_power %.6g, ambient %.6g\n", (double)s->light_power, (double)s->ambient);
+        if (s->nmat > 1) rt_scene_describe_materials(s, stdout);
         printf("load time    %.3f s\n", load_sec);
         if (kd) {
             printf("kd nodes     %u\n", kd->nnodes);

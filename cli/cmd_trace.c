@@ -95,6 +95,7 @@ int main_trace(int argc, char **argv)
         rt_cmd_error("trace", "%s", e.msg);
         return RT_EXIT_FAIL;
     }
+    if (j.sc->warning[0]) rt_cmd_error("trace", "warning: %s", j.sc->warning);
     rt_scene_fit_aspect(j.sc, o.W, o.H); /* tall images: keep the whole mesh in view */
     if (!(m = rt_calloc(1, sizeof *m, &e))) goto fail;
     rt_job_meta(&j, rt_cmd_line(), m);

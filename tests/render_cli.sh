@@ -66,9 +66,9 @@ expect_px() {
     done
 }
 
-# --- render cornell 16x16, lights none ---------------------------------------
-"$bin" render cornell -W 16 -H 16 -o "$tmp/c.exr" --png "$tmp/c.png" --ppm "$tmp/c.ppm" --json \
-    > "$tmp/c.json" 2> "$tmp/c.err" || err "render cornell exited $?: $(cat "$tmp/c.err")"
+# --- render cornell:glass=0 16x16, lights none ---------------------------------------
+"$bin" render cornell:glass=0 -W 16 -H 16 -o "$tmp/c.exr" --png "$tmp/c.png" --ppm "$tmp/c.ppm" --json \
+    > "$tmp/c.json" 2> "$tmp/c.err" || err "render cornell:glass=0 exited $?: $(cat "$tmp/c.err")"
 for f in '"width": 16, "height": 16, "lights": 0, "triangles": 36, "rays_primary": 256, "rays_shadow": 0'; do
     grep -q "$f" "$tmp/c.json" || err "render --json lacks $f: $(cat "$tmp/c.json")"
 done
@@ -122,11 +122,11 @@ fi
 
 # --- the other tracers render the same image; one light ----------------------
 for t in packet dynamic; do
-    "$bin" render cornell -t $t -W 16 -H 16 -o "$tmp/$t.exr" --ppm "$tmp/$t.ppm" 2>/dev/null || err "render -t $t"
+    "$bin" render cornell:glass=0 -t $t -W 16 -H 16 -o "$tmp/$t.exr" --ppm "$tmp/$t.ppm" 2>/dev/null || err "render -t $t"
     cmp -s "$tmp/c.ppm" "$tmp/$t.ppm" || err "-t $t renders a different image from -t recursive"
 done
 # light 1, under the ceiling lamp, sees the centre of the back wall
-"$bin" render cornell -W 16 -H 16 --lights 1 -o "$tmp/l1.exr" --json > "$tmp/l1.json" 2>/dev/null \
+"$bin" render cornell:glass=0 -W 16 -H 16 --lights 1 -o "$tmp/l1.exr" --json > "$tmp/l1.json" 2>/dev/null \
     || err "render --lights 1"
 grep -q '"rays_shadow": [1-9]' "$tmp/l1.json" || err "--lights 1 traced no shadow rays: $(cat "$tmp/l1.json")"
 expect_px "$tmp/l1.exr" 8 8 "$(wall 8 8 1 1 0.73 0.73 0.73 0.5 0.5 0.95)" "cornell back wall, light 1"
@@ -137,7 +137,7 @@ expect_px "$tmp/k.exr" 0 0 "0.1 0.1 0.12 inf" "knot background"
 "$exr" --exr-pixel "$tmp/k.exr" 0 0 | grep -q ' inf 0 0$' || err "a background pixel visits k-d nodes"
 
 # --- usage and failure exits ---------------------------------------------------
-"$bin" render cornell > /dev/null 2>&1; [ $? -eq 2 ] || err "render without -o should exit 2"
+"$bin" render cornell:glass=0 > /dev/null 2>&1; [ $? -eq 2 ] || err "render without -o should exit 2"
 "$bin" render no-such-scene -o "$tmp/x.exr" > /dev/null 2>&1; [ $? -eq 1 ] || err "render of a bad scene should exit 1"
 [ ! -e "$tmp/x.exr" ] || err "a failed render left its EXR"
 
@@ -153,10 +153,11 @@ check_info() { # SCENE TRIANGLES BOUNDS
 check_info sphereflake $((7381 * 108 + 2)) "(-12, -12, -0.5) - (12, 12, 0.829978)"
 check_info grove 168302 "(-50, -50, 0) - (50, 50, 3.06208)"
 check_info room 46588 "(-0.06, -0.06, 0) - (15.06, 8.06, 2.6)"
-check_info cornell 36 "(0, 0, 0) - (1, 1, 1)"
+check_info cornell:glass=0 36 "(0, 0, 0) - (1, 1, 1)"
+check_info cornell 228 "(0, 0, 0) - (1, 1, 1)"
 check_info knot 1024 "(-1.24557, -1.44274, -0.52) - (1.52, 1.44274, 0.52)"
 check_info "knot:segs=10,sides=4" 80 ""
-"$bin" scene info cornell --json > "$tmp/info.json" || err "scene info --json"
+"$bin" scene info cornell:glass=0 --json > "$tmp/info.json" || err "scene info --json"
 grep -q '"triangles": 36,' "$tmp/info.json" && grep -q '"bounds_lo": \[0, 0, 0\],' "$tmp/info.json" \
     && grep -q '"bounds_hi": \[1, 1, 1\],' "$tmp/info.json" || err "scene info --json: $(cat "$tmp/info.json")"
 grep -q '"kd": {"nodes": 75, "leaves": 38, "empty_leaves": 1, "depth": 10, "index_entries": 222,' "$tmp/info.json" \
@@ -166,7 +167,7 @@ for s in sphereflake grove room cornell knot; do grep -q "$s" "$tmp/list" || err
 "$bin" scene info no-such-scene > /dev/null 2>&1; [ $? -eq 1 ] || err "scene info of a bad scene should exit 1"
 
 # --- bench, smallest settings -----------------------------------------------------
-"$bin" bench --scene cornell -W 8 -H 8 --what tracers,trace,sim,approx --sim-refs 100000 --tmpdir "$tmp" \
+"$bin" bench --scene cornell:glass=0 -W 8 -H 8 --what tracers,trace,sim,approx --sim-refs 100000 --tmpdir "$tmp" \
     > "$tmp/bench" 2> "$tmp/bench.err" || err "bench exited $?: $(cat "$tmp/bench.err")"
 for t in recursive packet dynamic; do
     for m in "untraced" "recording (null sink)" "trace file" "in-process 13-size simulation"; do

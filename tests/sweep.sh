@@ -10,7 +10,7 @@ golden="$src/tests/golden/sweep_report.md"
 tmp=$(mktemp -d /tmp/rt-sweep-XXXXXX)
 trap 'rm -rf "$tmp"' EXIT
 fail=0
-args="--scenes cornell,knot --lights primary,0,all -W 24 -H 20 --sizes 1K,4K,64K"
+args="--scenes cornell:glass=0,knot --lights primary,0,all -W 24 -H 20 --sizes 1K,4K,64K"
 contents() { # the database's results, without volatile provenance
     sqlite3 "$1" "SELECT s.name, s.hash, r.tracer, r.W, r.H, r.lights, r.sched_size, r.params, r.refs, r.stats,
         c.size, t.class, t.accesses, t.read_misses, t.write_misses, t.writebacks, t.traffic_bytes
@@ -59,7 +59,7 @@ cmp -s "$tmp/a.txt" "$tmp/m.txt" || { echo "FAIL: merged shards differ from a on
 contents "$tmp/j.db" > "$tmp/j.txt"
 cmp -s "$tmp/a.txt" "$tmp/j.txt" || { echo "FAIL: --jobs 2 differs from --jobs 1"; fail=1; }
 # 6. --keep-traces gives the same numbers as streaming
-"$bin" sweep --scenes cornell --lights all --tracers dynamic -W 16 -H 16 --sizes 4K --db "$tmp/t.db" --keep-traces "$tmp/tr" 2>/dev/null || { echo "FAIL: keep-traces"; fail=1; }
+"$bin" sweep --scenes cornell:glass=0 --lights all --tracers dynamic -W 16 -H 16 --sizes 4K --db "$tmp/t.db" --keep-traces "$tmp/tr" 2>/dev/null || { echo "FAIL: keep-traces"; fail=1; }
 tr=$(ls "$tmp"/tr/*.rtt 2>/dev/null | head -n1)
 if [ -n "$tr" ]; then
     "$bin" sim "$tr" --sizes 4K --format csv > "$tmp/sim.csv" || { echo "FAIL: sim on kept trace"; fail=1; }
@@ -73,7 +73,7 @@ else
 fi
 # 8. reduced experiments: --proxy runs res:16 and sub:4 of every job; the
 # report pairs each with its full run and its figures match a direct query
-"$bin" sweep --scenes cornell --lights primary --tracers recursive,dynamic -W 32 -H 32 --sizes 4K,64K \
+"$bin" sweep --scenes cornell:glass=0 --lights primary --tracers recursive,dynamic -W 32 -H 32 --sizes 4K,64K \
     --proxy res:16,sub:4:2 --db "$tmp/p.db" 2>/dev/null || { echo "FAIL: sweep --proxy"; fail=1; }
 n=$(sqlite3 "$tmp/p.db" "SELECT COUNT(*) FROM runs")
 [ "$n" = 9 ] || { echo "FAIL: --proxy stored $n runs, want 3 full + 6 reduced"; fail=1; }
