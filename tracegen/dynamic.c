@@ -1201,6 +1201,7 @@ done:
 const rt_tracer rt_tracer_dynamic = {
     .name = "dynamic",
     .desc = "dynamically scheduled rays queued at cache-sized subtrees (Navratil et al. 2007)",
+    .modes = RT_TRACER_PRIMARY_MODES,
     .layout = dyn_layout,
     .run = dyn_run,
     .plan = dyn_plan,

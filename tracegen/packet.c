@@ -292,6 +292,7 @@ done:
 const rt_tracer rt_tracer_packet = {
     .name = "packet",
     .desc = "P x P ray packets tiled over the image, shadow packets per light",
+    .modes = RT_TRACER_PRIMARY_MODES,
     .layout = pk_layout,
     .run = pk_run,
 };

@@ -69,6 +69,7 @@ typedef struct rt_tracer_ctx {
 typedef struct rt_tracer {
     const char *name;  /* "recursive", "packet", "dynamic" */
     const char *desc;  /* one line */
+    unsigned modes;    /* bit m set: can run rt_mode m (RT_TRACER_ALL_MODES) */
     /* Declares the regions this run touches (in a fixed order). 0 or -1. */
     int (*layout)(const rt_tracer_ctx *ctx, rt_layout *L, rt_err *e);
     /* Renders into img (allocated by the caller at opt->W x opt->H). 0 or -1. */
@@ -79,6 +80,10 @@ typedef struct rt_tracer {
     /* Frees a plan; accepts NULL. Required when plan is set. */
     void (*plan_free)(void *plan);
 } rt_tracer;
+
+#define RT_TRACER_ALL_MODES                                                                  \
+    ((1u << RT_MODE_RAYCAST) | (1u << RT_MODE_SHADOW) | (1u << RT_MODE_WHITTED) | (1u << RT_MODE_PATH))
+#define RT_TRACER_PRIMARY_MODES ((1u << RT_MODE_RAYCAST) | (1u << RT_MODE_SHADOW))
 
 /* Registered tracers, NULL-terminated, and lookup by name (NULL if none). */
 extern const rt_tracer *const rt_tracer_all[];
