@@ -170,6 +170,7 @@ static void child(rt_shade_out *out, const rt_path *p, rt_vec3 o, rt_vec3 d, con
     for (int k = 0; k < 3; k++) c->w[k] = w[k];
     c->depth = (uint16_t)(p->depth + 1);
     c->from_tri = tri;
+    c->kind = 0;
 }
 
 static float mat_ior(const rt_scene *sc, uint16_t m) { return m < sc->nmat ? sc->mat[m].ior : 1.0f; }
@@ -288,7 +289,10 @@ void rt_shade_step(const rt_scene *sc, const rt_render_opts *o, const rt_path *p
         if (nonzero(wt) && !refr) /* total internal reflection: the refracted weight reflects */
             for (int k = 0; k < 3; k++) wr[k] = p->w[k] * (M->ks[k] + M->kt[k]);
         child(out, p, so, refl, wr, h->tri);
-        if (refr) child(out, &c, rt_shade_offset(T, h->u, h->v, n, -1), tdir, wt, h->tri);
+        if (refr) {
+            child(out, &c, rt_shade_offset(T, h->u, h->v, n, -1), tdir, wt, h->tri);
+            out->child[out->nchild - 1].kind = RT_PATH_REFRACT;
+        }
         return;
     }
 

@@ -63,10 +63,14 @@ typedef struct rt_path {
     uint32_t sample;    /* path sample (0 in whitted mode) */
     uint16_t depth;     /* generation: 0 for the primary ray */
     uint8_t nmed;       /* entries of med[] in use (the innermost last) */
-    uint8_t pad;
+    uint8_t kind;       /* RT_PATH_REFRACT for a refracted ray, else 0 */
     uint16_t med[RT_PATH_MEDIA]; /* materials of the dielectrics the ray is inside */
     uint32_t from_tri;  /* triangle it left (RT_NO_HIT for primary rays) */
 } rt_path;
+
+#define RT_PATH_REFRACT 1
+/* Bytes of a secondary ray record in the modeled memory (docs/memory-model.md). */
+#define RT_SREC_SIZE 64
 
 /* What one ray's hit or miss produces. */
 typedef struct rt_shade_out {
