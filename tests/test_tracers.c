@@ -325,7 +325,8 @@ static const struct {
     {"tri.shade", RT_CLS_SHADE, 16},   {"rays.primary", RT_CLS_RAY, 32},  {"packet.hits", RT_CLS_HIT, 8},
     {"dyn.raybuf", RT_CLS_RAY, 32},    {"dyn.qtable", RT_CLS_QTABLE, 8},  {"dyn.qpbox", RT_CLS_QTABLE, 24},
     {"dyn.top", RT_CLS_NODE, 8},       {"dyn.hits", RT_CLS_HIT, 24},      {"fb", RT_CLS_FB, 12},
-    {"dyn.queues", RT_CLS_QUEUE, 32},
+    {"dyn.queues", RT_CLS_QUEUE, 32},  {"mat", RT_CLS_SHADE, 48},         {"packet.rays", RT_CLS_RAY, 64},
+    {"dyn.spawn", RT_CLS_RAY, 64},
 };
 
 /* Per-region tallies of one run's record stream, plus structural facts. */
@@ -1028,8 +1029,84 @@ static void modes_vs_reference(const char *spec, int W, int H)
     rt_scene_free(sc);
 }
 
+/* Traffic of the secondary modes on a scene with hand-made materials: every
+ * access lies in a region of the table; every tracer shades the same hits
+ * (tri.shade reads agree) and reads one material record per shaded hit; the
+ * stored secondary rays are written once and read once each; and a shadow
+ * run of the same scene touches no material record: its stream is the one
+ * of the scene without materials, access for access. */
+static void traffic_modes(const char *spec, int W, int H)
+{
+    rt_err e = {""};
+    rt_scene *sc = rt_scene_load(spec, &e), *plain = rt_scene_load(spec, &e);
+    CHECK(sc && plain, "%s: %s", spec, e.msg);
+    if (!sc || !plain) return;
+    add_materials(sc);
+    rt_kd_params kp;
+    rt_kd_default_params(&kp);
+    rt_kdtree *kd = rt_kd_build(sc, &kp, &e), *kdp = rt_kd_build(plain, &kp, &e);
+    for (int t = 0; mode_tracers[t]; t++) {
+        rt_render_opts o;
+        rt_render_default_opts(&o);
+        o.W = W, o.H = H, o.lights = 7, o.sched_size = 4096;
+        tally *a = calloc(2, sizeof *a);
+        traffic_run(sc, kd, spec, mode_tracers[t], &o, &a[0]);
+        traffic_run(plain, kdp, spec, mode_tracers[t], &o, &a[1]);
+        CHECK(a[0].hash == a[1].hash && a[0].n == a[1].n, "%s %s: materials change the shadow-mode stream", spec,
+              mode_tracers[t]);
+        free(a);
+    }
+    for (int mode = RT_MODE_WHITTED; mode <= RT_MODE_PATH; mode++) {
+        uint64_t shade0 = 0;
+        for (int t = 0; mode_tracers[t]; t++) {
+            rt_render_opts o;
+            rt_render_default_opts(&o);
+            o.W = W, o.H = H, o.lights = 7, o.sched_size = 4096, o.mode = mode, o.depth = 4, o.spp = 2, o.bounces = 3;
+            rt_job j;
+            rt_run_stats st;
+            const char *tr = mode_tracers[t];
+            if (rt_job_setup_borrowed(&j, sc, kd, tr, &o, &e) < 0) {
+                CHECK(0, "%s %s: %s", spec, tr, e.msg);
+                continue;
+            }
+            tally *ty = calloc(1, sizeof *ty);
+            ty->L = &j.L;
+            ty->kd = kd;
+            ty->tri_prefix = -1;
+            rt_sink sink = {tally_put, ty};
+            rt_image *im = rt_image_new(W, H, &e);
+            CHECK(im && rt_job_run(&j, &sink, im, &st, &e) == 0, "%s %s: %s", spec, tr, e.msg);
+            const char *m = rt_render_mode_name(mode);
+            CHECK(ty->bad == 0, "%s %s %s: %zu accesses break the region table; first: %s", spec, tr, m, ty->bad, ty->why);
+            CHECK(reads(ty, "mat") == reads(ty, "tri.shade") && reads(ty, "mat") > 0 && !writes(ty, "mat"),
+                  "%s %s %s: %" PRIu64 " material reads for %" PRIu64 " shaded hits", spec, tr, m, reads(ty, "mat"),
+                  reads(ty, "tri.shade"));
+            if (!shade0) shade0 = reads(ty, "tri.shade");
+            CHECK(reads(ty, "tri.shade") == shade0, "%s %s %s: %" PRIu64 " shaded hits, recursive %" PRIu64, spec, tr, m,
+                  reads(ty, "tri.shade"), shade0);
+            uint64_t nsec = extra_u64(&st, "rays_secondary");
+            CHECK(nsec > 0, "%s %s %s: no secondary rays (%s)", spec, tr, m, st.extra);
+            const char *store = !strcmp(tr, "packet") ? "packet.rays" : !strcmp(tr, "dynamic") ? "dyn.spawn" : NULL;
+            if (store)
+                CHECK(writes(ty, store) == nsec && reads(ty, store) == nsec,
+                      "%s %s %s: %s written %" PRIu64 ", read %" PRIu64 " times for %" PRIu64 " rays", spec, tr, m, store,
+                      writes(ty, store), reads(ty, store), nsec);
+            if (!strcmp(tr, "packet")) printf("%s packet %s: %s\n", spec, m, st.extra);
+            rt_image_free(im);
+            free(ty);
+            rt_job_free(&j);
+        }
+    }
+    rt_kd_free(kd);
+    rt_kd_free(kdp);
+    rt_scene_free(sc);
+    rt_scene_free(plain);
+}
+
 int main(void)
 {
+    traffic_modes("cornell", 16, 16);
+    traffic_modes("sphereflake:level=1", 16, 16);
     modes_vs_reference("cornell", 24, 20);
     modes_vs_reference("knot", 20, 20);
     modes_vs_reference("sphereflake:level=1", 20, 20);
