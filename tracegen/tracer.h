@@ -14,13 +14,16 @@
  *
  * Adding a tracer:
  *   1. write tracegen/NAME.c defining `const rt_tracer rt_tracer_NAME` with
- *      designated initialisers; keep everything else in the file static;
+ *      designated initialisers (.modes lists the rt_mode values it runs);
+ *      keep everything else in the file static;
  *   2. layout(): call rt_reg_geometry first (regions.h: the tree and
  *      triangles keep their addresses across tracers), then add your own
  *      regions with rt_mm_add, in a fixed order;
  *   3. run(): trace the pixels rt_pixel_order (pixels.h) returns, rays from
  *      rt_cam_ray (camera.h), shadow rays from rt_shade_ray, pixels written
- *      with rt_shade_pixel (shade.h); record every access with RT_REC
+ *      with rt_shade_pixel (shade.h); in the whitted and path modes every
+ *      ray goes through rt_shade_step and pixels are summed in an rt_acc
+ *      (shade.h), so the order rays are traced in does not matter; record every access with RT_REC
  *      (memmodel.h) into a region of your layout; count node visits and
  *      triangle tests in an rt_trav set up by rt_reg_trav and finish the
  *      statistics with rt_stats_finish (stats.h); put tracer-specific
