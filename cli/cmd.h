@@ -69,7 +69,11 @@ enum {
     RT_OPT_PACKET,
     RT_OPT_QORDER,
     RT_OPT_THREADS,
-    RT_OPT_SUBSAMPLE
+    RT_OPT_SUBSAMPLE,
+    RT_OPT_MODE,
+    RT_OPT_DEPTH,
+    RT_OPT_SPP,
+    RT_OPT_BOUNCES
 };
 
 /* The shared long options ({"lights",...}, {"cache-size",...}, ...);
@@ -87,7 +91,12 @@ extern const struct option rt_render_longopts[];
     "  --subsample K[:T]  reduced experiment: trace 1 in K tiles of TxT pixels (T default 8;\n" \
     "                     1 = single pixels; packet tracer: T a multiple of the packet)\n" \
     "  --qorder O         dynamic: queue order, fullest | tree (default fullest)\n"          \
-    "  --threads N        dynamic: modeled threads, 2 rays buffered each (default 4)\n"
+    "  --threads N        dynamic: modeled threads, 2 rays buffered each (default 4)\n"      \
+    "  --mode M           raycast | shadow | whitted | path (default shadow with lights,\n" \
+    "                     else raycast)\n"                                                    \
+    "  --depth N          whitted: ray generations per path, primary included (1..64, 5)\n" \
+    "  --spp N            path: samples per pixel (default 1)\n"                             \
+    "  --bounces B        path: bounces after the primary hit (0..1000, default 4)\n"
 
 /* Appends the shared options to a command's own NULL-terminated table;
  * returns a malloc'd table (caller frees) or NULL. */

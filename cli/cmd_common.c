@@ -16,6 +16,10 @@ const struct option rt_render_longopts[] = {
     {"qorder", required_argument, NULL, RT_OPT_QORDER},
     {"threads", required_argument, NULL, RT_OPT_THREADS},
     {"subsample", required_argument, NULL, RT_OPT_SUBSAMPLE},
+    {"mode", required_argument, NULL, RT_OPT_MODE},
+    {"depth", required_argument, NULL, RT_OPT_DEPTH},
+    {"spp", required_argument, NULL, RT_OPT_SPP},
+    {"bounces", required_argument, NULL, RT_OPT_BOUNCES},
     {"tracer", required_argument, NULL, 't'},
     {"width", required_argument, NULL, 'W'},
     {"height", required_argument, NULL, 'H'},
@@ -54,7 +58,46 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
             rt_cmd_error(cmd, "unknown tracer '%s' (recursive, packet, dynamic)", arg);
             return -1;
         }
+        if (o->mode != RT_MODE_DEFAULT && !(rt_tracer_find(arg)->modes & (1u << o->mode))) {
+            rt_cmd_error(cmd, "--mode: the %s tracer cannot run mode %s", arg, rt_render_mode_name(o->mode));
+            return -1;
+        }
         *tracer = arg;
+        return 1;
+    case RT_OPT_MODE: {
+        int m = rt_render_mode_from_name(arg);
+        const rt_tracer *tr = rt_tracer_find(*tracer ? *tracer : "recursive");
+        if (m < 0) {
+            rt_cmd_error(cmd, "--mode: '%s' is not raycast, shadow, whitted or path", arg);
+            return -1;
+        }
+        if (tr && !(tr->modes & (1u << m))) {
+            rt_cmd_error(cmd, "--mode: the %s tracer cannot run mode %s", tr->name, arg);
+            return -1;
+        }
+        o->mode = m;
+        return 1;
+    }
+    case RT_OPT_DEPTH:
+        if (rt_cmd_parse_long(arg, 1, RT_DEPTH_MAX, &v) < 0) {
+            rt_cmd_error(cmd, "--depth: '%s' is not in 1..%d", arg, RT_DEPTH_MAX);
+            return -1;
+        }
+        o->depth = (int)v;
+        return 1;
+    case RT_OPT_SPP:
+        if (rt_cmd_parse_long(arg, 1, RT_SPP_MAX, &v) < 0) {
+            rt_cmd_error(cmd, "--spp: '%s' is not in 1..%d", arg, RT_SPP_MAX);
+            return -1;
+        }
+        o->spp = (int)v;
+        return 1;
+    case RT_OPT_BOUNCES:
+        if (rt_cmd_parse_long(arg, 0, RT_BOUNCES_MAX, &v) < 0) {
+            rt_cmd_error(cmd, "--bounces: '%s' is not in 0..%d", arg, RT_BOUNCES_MAX);
+            return -1;
+        }
+        o->bounces = (int)v;
         return 1;
     case 'W':
     case 'H':

@@ -10,7 +10,10 @@
  * per-region reference counts follow from the run's statistics and a
  * single-ray reference render; golden files (tests/golden/tracer_*.txt,
  * rewritten only with RT_REDO_GOLDEN=1) hold a hash of each full record
- * stream so a reordering is caught. */
+ * stream so a reordering is caught. The render modes: every mode of every
+ * tracer matches an independent brute-force renderer (within a derived
+ * tolerance) and the tracers agree bit for bit, with materials added to
+ * the built-in scenes; the secondary modes' traffic follows the table. */
 #include "camera.h"
 #include "check.h"
 #include "dynamic.h"
@@ -325,7 +328,8 @@ static const struct {
     {"tri.shade", RT_CLS_SHADE, 16},   {"rays.primary", RT_CLS_RAY, 32},  {"packet.hits", RT_CLS_HIT, 8},
     {"dyn.raybuf", RT_CLS_RAY, 32},    {"dyn.qtable", RT_CLS_QTABLE, 8},  {"dyn.qpbox", RT_CLS_QTABLE, 24},
     {"dyn.top", RT_CLS_NODE, 8},       {"dyn.hits", RT_CLS_HIT, 24},      {"fb", RT_CLS_FB, 12},
-    {"dyn.queues", RT_CLS_QUEUE, 32},
+    {"dyn.queues", RT_CLS_QUEUE, 32},  {"mat", RT_CLS_SHADE, 48},         {"packet.rays", RT_CLS_RAY, 64},
+    {"dyn.spawn", RT_CLS_RAY, 64},
 };
 
 /* Per-region tallies of one run's record stream, plus structural facts. */
@@ -727,8 +731,388 @@ static void subsample_refused(void)
     rt_scene_free(sc);
 }
 
+/* ---- secondary modes against an independent brute-force renderer -------
+ *
+ * ref_* below is written apart from tracegen/shade.c from the rules in
+ * docs/tracers.md ("Modes"): real recursion instead of a ray stack, brute
+ * force over all triangles instead of the k-d tree, and a double-precision
+ * running sum in recursion order instead of the fixed-point accumulator.
+ * Each contribution is computed with the same float operations, so the two
+ * differ only in summation: the tracer rounds every contribution to 2^-32
+ * (error <= 2^-33 each) and rounds the final sum to float once, the
+ * reference sums in double (error ~ N 2^-53 |sum|) and rounds once; with N
+ * contributions the results differ by at most N 2^-33 + 2 ulp(|v|), the
+ * tolerance checked (per channel, after dividing by spp for both). */
+
+typedef struct refr {
+    const rt_scene *sc;
+    const rt_render_opts *o;
+    double acc[3];
+    long n;       /* contributions added */
+    long self;    /* rays that hit the triangle they left */
+} refr;
+
+static float ref_rand(uint32_t pix, uint32_t s, uint32_t b, uint32_t dim)
+{
+    uint64_t h = rt_mix64(((uint64_t)pix << 32) ^ s ^ 0x9e3779b97f4a7c15ULL);
+    h = rt_mix64(h ^ ((uint64_t)b << 32) ^ dim ^ 0xd1b54a32d192ed03ULL);
+    return (float)(h >> 40) * (1.0f / 16777216.0f);
+}
+
+static void ref_add(refr *R, float r, float g, float b)
+{
+    R->acc[0] += r;
+    R->acc[1] += g;
+    R->acc[2] += b;
+    R->n++;
+}
+
+/* pbrt-v3 OffsetRayOrigin for the point at (u, v) of T. */
+static rt_vec3 ref_offset(const rt_tri *T, float u, float v, rt_vec3 n, int side)
+{
+    const float g7 = (7 * 0x1p-24f) / (1 - 7 * 0x1p-24f);
+    rt_vec3 e1 = rt_sub(T->p[1], T->p[0]), e2 = rt_sub(T->p[2], T->p[0]);
+    rt_vec3 p = rt_add(T->p[0], rt_add(rt_mul(e1, u), rt_mul(e2, v)));
+    const float g16 = (16 * 0x1p-24f) / (1 - 16 * 0x1p-24f);
+    float c[3] = {p.x, p.y, p.z}, nn[3] = {n.x, n.y, n.z}, d = 0, ext = 0;
+    float p0[3] = {T->p[0].x, T->p[0].y, T->p[0].z}, p1[3] = {T->p[1].x, T->p[1].y, T->p[1].z},
+          p2[3] = {T->p[2].x, T->p[2].y, T->p[2].z};
+    for (int k = 0; k < 3; k++) {
+        float a0 = fabsf(p0[k]);
+        d += fabsf(nn[k]) * (g7 * (a0 + fabsf(u) * (a0 + fabsf(p1[k])) + fabsf(v) * (a0 + fabsf(p2[k]))));
+        ext = fmaxf(ext, fmaxf(fabsf(p0[k] - c[k]), fmaxf(fabsf(p1[k] - c[k]), fabsf(p2[k] - c[k]))));
+    }
+    d = d + g16 * ext;
+    for (int k = 0; k < 3; k++) {
+        float off = nn[k] * (side > 0 ? d : -d);
+        c[k] = c[k] + off;
+        if (off > 0) c[k] = nextafterf(c[k], INFINITY);
+        if (off < 0) c[k] = nextafterf(c[k], -INFINITY);
+    }
+    return rt_v3(c[0], c[1], c[2]);
+}
+
+static float ref_ior(const rt_scene *sc, int m) { return m >= 0 ? sc->mat[m].ior : 1.0f; }
+
+static void ref_trace(refr *R, rt_vec3 o, rt_vec3 dir, const float w[3], int depth, uint32_t pix, uint32_t s,
+                      const uint16_t *med, int nmed, uint32_t from, rt_hit *first)
+{
+    const rt_scene *sc = R->sc;
+    const rt_render_opts *op = R->o;
+    const int path = op->mode == RT_MODE_PATH;
+    rt_ray r;
+    rt_hit h;
+    rt_ray_init(&r, o, dir);
+    if (!rt_brute_closest(sc, &r, &h)) {
+        ref_add(R, w[0] * sc->background.x, w[1] * sc->background.y, w[2] * sc->background.z);
+        if (first) first->tri = RT_NO_HIT;
+        return;
+    }
+    if (first) *first = h;
+    R->self += h.tri == from;
+    const rt_tri *T = &sc->tri[h.tri];
+    const float *alb = sc->shade[h.tri].rgb;
+    int mi = (int)sc->shade[h.tri].mat;
+    const rt_material *M = &sc->mat[mi];
+    rt_vec3 n = rt_norm(rt_tri_normal(T));
+    if (rt_dot(n, r.d) > 0) n = rt_mul(n, -1.0f);
+    rt_vec3 d = rt_norm(r.d), ph = rt_tri_point(T, h.u, h.v);
+    float loc[3];
+    for (int k = 0; k < 3; k++) {
+        loc[k] = path ? 0.0f : alb[k] * sc->ambient;
+        if (!path && !op->lights) loc[k] = alb[k] * (sc->ambient + -rt_dot(n, d) * sc->light_power);
+    }
+    ref_add(R, w[0] * (loc[0] + M->ke[0]), w[1] * (loc[1] + M->ke[1]), w[2] * (loc[2] + M->ke[2]));
+    rt_vec3 so = ref_offset(T, h.u, h.v, n, 1);
+    for (int i = 0; i < RT_NLIGHTS; i++) {
+        if (!(op->lights & (1u << i))) continue;
+        rt_vec3 l = rt_norm(rt_sub(sc->light[i], ph));
+        float ndl = rt_dot(n, l);
+        if (!(ndl > 0)) continue;
+        float f = ndl * sc->light_power, c[3];
+        for (int k = 0; k < 3; k++) c[k] = w[k] * (alb[k] * f);
+        if (c[0] == 0 && c[1] == 0 && c[2] == 0) continue;
+        rt_ray sr;
+        rt_ray_init(&sr, so, rt_sub(sc->light[i], so));
+        sr.tmin = 0;
+        sr.tmax = 1;
+        if (!rt_brute_occluded(sc, &sr)) ref_add(R, c[0], c[1], c[2]);
+    }
+    rt_vec3 refl = rt_sub(d, rt_mul(n, 2.0f * rt_dot(d, n)));
+    /* refraction through material mi with the media stack */
+    uint16_t cm[RT_PATH_MEDIA];
+    int cn = nmed;
+    memcpy(cm, med, sizeof cm);
+    int inside = nmed && med[nmed - 1] == mi;
+    float ei = inside ? ref_ior(sc, mi) : ref_ior(sc, nmed ? med[nmed - 1] : -1);
+    float et = inside ? ref_ior(sc, nmed >= 2 ? med[nmed - 2] : -1) : ref_ior(sc, mi);
+    float eta = ei / et, cosi = -rt_dot(d, n), kk = 1.0f - eta * eta * (1.0f - cosi * cosi);
+    int tir = kk < 0.0f;
+    rt_vec3 tdir = tir ? d : rt_add(rt_mul(d, eta), rt_mul(n, eta * cosi - sqrtf(kk)));
+    if (inside) cn--;
+    else {
+        if (cn == RT_PATH_MEDIA) {
+            memmove(cm, cm + 1, sizeof cm[0] * (RT_PATH_MEDIA - 1));
+            cn--;
+        }
+        cm[cn++] = (uint16_t)mi;
+    }
+    if (!path) {
+        if (depth + 1 >= op->depth) return;
+        float wr[3], wt[3];
+        int anyt = 0, anyr = 0;
+        for (int k = 0; k < 3; k++) {
+            wr[k] = w[k] * M->ks[k];
+            wt[k] = w[k] * M->kt[k];
+            anyt |= wt[k] != 0;
+        }
+        if (anyt && tir)
+            for (int k = 0; k < 3; k++) wr[k] = w[k] * (M->ks[k] + M->kt[k]);
+        for (int k = 0; k < 3; k++) anyr |= wr[k] != 0;
+        if (anyr) ref_trace(R, so, refl, wr, depth + 1, pix, s, med, nmed, h.tri, NULL);
+        if (anyt && !tir) ref_trace(R, ref_offset(T, h.u, h.v, n, -1), tdir, wt, depth + 1, pix, s, cm, cn, h.tri, NULL);
+        return;
+    }
+    if (depth >= op->bounces) return;
+    float pd = (alb[0] + alb[1] + alb[2]) * (1.0f / 3.0f), ps = (M->ks[0] + M->ks[1] + M->ks[2]) * (1.0f / 3.0f);
+    float pt = (M->kt[0] + M->kt[1] + M->kt[2]) * (1.0f / 3.0f), sum = pd + ps + pt;
+    if (!(sum > 0)) return;
+    float u = ref_rand(pix, s, (uint32_t)depth, 0) * sum, nw[3];
+    int any = 0;
+    if ((u < pd && pd > 0) || (!(ps > 0) && !(pt > 0))) {
+        for (int k = 0; k < 3; k++) any |= (nw[k] = w[k] * (alb[k] * (sum / pd))) != 0;
+        float x = 0, y = 0;
+        for (uint32_t j = 0; j < 16; j++) {
+            float a = 2.0f * ref_rand(pix, s, (uint32_t)depth, 1 + 2 * j) - 1.0f;
+            float b = 2.0f * ref_rand(pix, s, (uint32_t)depth, 2 + 2 * j) - 1.0f;
+            if (a * a + b * b < 1.0f) {
+                x = a, y = b;
+                break;
+            }
+        }
+        float z = sqrtf(fmaxf(0.0f, 1.0f - x * x - y * y));
+        float sg = copysignf(1.0f, n.z), aa = -1.0f / (sg + n.z), bb = n.x * n.y * aa;
+        rt_vec3 t1 = rt_v3(1.0f + sg * n.x * n.x * aa, sg * bb, -sg * n.x), t2 = rt_v3(bb, sg + n.y * n.y * aa, -n.y);
+        rt_vec3 nd = rt_add(rt_add(rt_mul(t1, x), rt_mul(t2, y)), rt_mul(n, z));
+        if (any) ref_trace(R, so, nd, nw, depth + 1, pix, s, med, nmed, h.tri, NULL);
+    } else if ((u < pd + ps && ps > 0) || !(pt > 0)) {
+        for (int k = 0; k < 3; k++) any |= (nw[k] = w[k] * (M->ks[k] * (sum / ps))) != 0;
+        if (any) ref_trace(R, so, refl, nw, depth + 1, pix, s, med, nmed, h.tri, NULL);
+    } else {
+        for (int k = 0; k < 3; k++) any |= (nw[k] = w[k] * (M->kt[k] * (sum / pt))) != 0;
+        if (!any) return;
+        if (tir) ref_trace(R, so, refl, nw, depth + 1, pix, s, med, nmed, h.tri, NULL);
+        else ref_trace(R, ref_offset(T, h.u, h.v, n, -1), tdir, nw, depth + 1, pix, s, cm, cn, h.tri, NULL);
+    }
+}
+
+/* Compares img with the reference, pixel by pixel; returns the number of
+ * values that are not bit-identical (all must lie within the tolerance). */
+static size_t ref_compare(const rt_scene *sc, const rt_render_opts *o, const rt_image *img, const char *what,
+                          long *self)
+{
+    rt_cam_frame cam;
+    rt_cam_setup(&cam, sc, o->W, o->H);
+    size_t inexact = 0;
+    int bad = 0;
+    for (int y = 0; y < o->H; y++)
+        for (int x = 0; x < o->W; x++) {
+            size_t pix = (size_t)y * o->W + x;
+            rt_ray eye;
+            rt_cam_ray(&cam, x, y, &eye);
+            float v[3];
+            long n = 1;
+            if (o->mode == RT_MODE_RAYCAST || o->mode == RT_MODE_SHADOW) {
+                rt_hit h;
+                int vis[RT_NLIGHTS] = {0};
+                unsigned lights = o->mode == RT_MODE_RAYCAST ? 0 : o->lights;
+                if (rt_brute_closest(sc, &eye, &h)) {
+                    for (int i = 0; i < RT_NLIGHTS; i++) {
+                        rt_ray sr;
+                        if ((lights & (1u << i)) && rt_shade_ray(sc, &eye, &h, i, &sr)) vis[i] = !rt_brute_occluded(sc, &sr);
+                    }
+                    rt_shade_hit(sc, &eye, &h, vis, lights, v);
+                } else {
+                    v[0] = sc->background.x, v[1] = sc->background.y, v[2] = sc->background.z;
+                }
+            } else {
+                int spp = o->mode == RT_MODE_PATH ? o->spp : 1;
+                refr R = {sc, o, {0, 0, 0}, 0, 0};
+                float w[3] = {1, 1, 1};
+                uint16_t med[RT_PATH_MEDIA] = {0};
+                for (int s = 0; s < spp; s++) ref_trace(&R, eye.o, eye.d, w, 0, (uint32_t)pix, (uint32_t)s, med, 0, RT_NO_HIT, NULL);
+                for (int k = 0; k < 3; k++) v[k] = (float)(R.acc[k] / spp);
+                n = R.n;
+                *self += R.self;
+            }
+            for (int k = 0; k < 3; k++) {
+                float a = img->rgb[3 * pix + k];
+                double tol = (double)n * 0x1p-33 + 2.0 * (nextafterf(fabsf(v[k]), INFINITY) - fabsf(v[k]));
+                if (o->mode == RT_MODE_RAYCAST || o->mode == RT_MODE_SHADOW) tol = 0;
+                if (memcmp(&a, &v[k], sizeof a)) inexact++;
+                if (!(fabs((double)a - v[k]) <= tol) && bad++ < 3)
+                    CHECK(0, "%s: pixel (%d,%d) channel %d: %.9g, reference %.9g (%ld contributions)", what, x, y, k, a,
+                          v[k], n);
+            }
+        }
+    return inexact;
+}
+
+/* Adds hand-made materials to a built-in scene: mirrors, glass (ior 1.5,
+ * a little mirror), emitters and a glossy mix on every 7th triangle. */
+static void add_materials(rt_scene *sc)
+{
+    rt_err e = {""};
+    rt_material m[4];
+    memset(m, 0, sizeof m);
+    for (int k = 0; k < 3; k++) {
+        m[0].ks[k] = 0.8f;
+        m[1].kt[k] = 0.9f, m[1].ks[k] = 0.05f;
+        m[2].ke[k] = 0.5f;
+        m[3].ks[k] = 0.3f;
+    }
+    m[1].kt[2] = 0.7f;
+    for (int i = 0; i < 4; i++) m[i].ior = i == 1 ? 1.5f : 1.0f;
+    int id[4];
+    for (int i = 0; i < 4; i++) {
+        id[i] = rt_scene_add_material(sc, &m[i], &e);
+        CHECK(id[i] > 0, "add material: %s", e.msg);
+    }
+    for (uint32_t t = 0; t < sc->ntri; t++)
+        if (t % 7 < 4 && id[t % 7] > 0) sc->shade[t].mat = (uint32_t)id[t % 7];
+}
+
+static const char *const mode_tracers[] = {"recursive", "packet", "dynamic", NULL};
+
+/* Every mode of every tracer that runs it against the reference, and the
+ * tracers against each other bit for bit. */
+static void modes_vs_reference(const char *spec, int W, int H)
+{
+    rt_err e = {""};
+    rt_scene *sc = rt_scene_load(spec, &e);
+    CHECK(sc != NULL, "%s: %s", spec, e.msg);
+    if (!sc) return;
+    add_materials(sc);
+    rt_kd_params kp;
+    rt_kd_default_params(&kp);
+    rt_kdtree *kd = rt_kd_build(sc, &kp, &e);
+    CHECK(kd != NULL, "%s: %s", spec, e.msg);
+    for (int mode = RT_MODE_RAYCAST; mode <= RT_MODE_PATH; mode++) {
+        rt_render_opts o;
+        rt_render_default_opts(&o);
+        o.W = W, o.H = H, o.lights = 7, o.mode = mode;
+        o.depth = 4, o.spp = 2, o.bounces = 3;
+        o.sched_size = 4096;
+        rt_image *first = NULL;
+        for (int t = 0; mode_tracers[t]; t++) {
+            const rt_tracer *tr = rt_tracer_find(mode_tracers[t]);
+            if (!(tr->modes & (1u << mode))) continue;
+            rt_run_stats st;
+            rt_image *im = render(sc, kd, mode_tracers[t], &o, NULL, &st);
+            if (!im) continue;
+            char what[128];
+            snprintf(what, sizeof what, "%s %s mode %s", spec, mode_tracers[t], rt_render_mode_name(mode));
+            if (!first) {
+                long self = 0;
+                size_t inexact = ref_compare(sc, &o, im, what, &self);
+                printf("%s: %zu of %d values not bit-identical to the reference (within tolerance)\n", what, inexact,
+                       3 * W * H);
+                CHECK(self == 0, "%s: %ld reference rays hit the triangle they left", what, self);
+                const char *p = strstr(st.extra, "self_hits=");
+                if (p) CHECK(strtoull(p + 10, NULL, 10) == 0, "%s: %s", what, st.extra);
+                first = im;
+            } else {
+                CHECK(count_diff(first, im) == 0, "%s differs from recursive in %zu values", what, count_diff(first, im));
+                rt_image_free(im);
+            }
+        }
+        rt_image_free(first);
+    }
+    rt_kd_free(kd);
+    rt_scene_free(sc);
+}
+
+/* Traffic of the secondary modes on a scene with hand-made materials: every
+ * access lies in a region of the table; every tracer shades the same hits
+ * (tri.shade reads agree) and reads one material record per shaded hit; the
+ * stored secondary rays are written once and read once each; and a shadow
+ * run of the same scene touches no material record: its stream is the one
+ * of the scene without materials, access for access. */
+static void traffic_modes(const char *spec, int W, int H)
+{
+    rt_err e = {""};
+    rt_scene *sc = rt_scene_load(spec, &e), *plain = rt_scene_load(spec, &e);
+    CHECK(sc && plain, "%s: %s", spec, e.msg);
+    if (!sc || !plain) return;
+    add_materials(sc);
+    rt_kd_params kp;
+    rt_kd_default_params(&kp);
+    rt_kdtree *kd = rt_kd_build(sc, &kp, &e), *kdp = rt_kd_build(plain, &kp, &e);
+    for (int t = 0; mode_tracers[t]; t++) {
+        rt_render_opts o;
+        rt_render_default_opts(&o);
+        o.W = W, o.H = H, o.lights = 7, o.sched_size = 4096;
+        tally *a = calloc(2, sizeof *a);
+        traffic_run(sc, kd, spec, mode_tracers[t], &o, &a[0]);
+        traffic_run(plain, kdp, spec, mode_tracers[t], &o, &a[1]);
+        CHECK(a[0].hash == a[1].hash && a[0].n == a[1].n, "%s %s: materials change the shadow-mode stream", spec,
+              mode_tracers[t]);
+        free(a);
+    }
+    for (int mode = RT_MODE_WHITTED; mode <= RT_MODE_PATH; mode++) {
+        uint64_t shade0 = 0;
+        for (int t = 0; mode_tracers[t]; t++) {
+            rt_render_opts o;
+            rt_render_default_opts(&o);
+            o.W = W, o.H = H, o.lights = 7, o.sched_size = 4096, o.mode = mode, o.depth = 4, o.spp = 2, o.bounces = 3;
+            rt_job j;
+            rt_run_stats st;
+            const char *tr = mode_tracers[t];
+            if (rt_job_setup_borrowed(&j, sc, kd, tr, &o, &e) < 0) {
+                CHECK(0, "%s %s: %s", spec, tr, e.msg);
+                continue;
+            }
+            tally *ty = calloc(1, sizeof *ty);
+            ty->L = &j.L;
+            ty->kd = kd;
+            ty->tri_prefix = -1;
+            rt_sink sink = {tally_put, ty};
+            rt_image *im = rt_image_new(W, H, &e);
+            CHECK(im && rt_job_run(&j, &sink, im, &st, &e) == 0, "%s %s: %s", spec, tr, e.msg);
+            const char *m = rt_render_mode_name(mode);
+            CHECK(ty->bad == 0, "%s %s %s: %zu accesses break the region table; first: %s", spec, tr, m, ty->bad, ty->why);
+            CHECK(reads(ty, "mat") == reads(ty, "tri.shade") && reads(ty, "mat") > 0 && !writes(ty, "mat"),
+                  "%s %s %s: %" PRIu64 " material reads for %" PRIu64 " shaded hits", spec, tr, m, reads(ty, "mat"),
+                  reads(ty, "tri.shade"));
+            if (!shade0) shade0 = reads(ty, "tri.shade");
+            CHECK(reads(ty, "tri.shade") == shade0, "%s %s %s: %" PRIu64 " shaded hits, recursive %" PRIu64, spec, tr, m,
+                  reads(ty, "tri.shade"), shade0);
+            uint64_t nsec = extra_u64(&st, "rays_secondary");
+            CHECK(nsec > 0, "%s %s %s: no secondary rays (%s)", spec, tr, m, st.extra);
+            const char *store = !strcmp(tr, "packet") ? "packet.rays" : !strcmp(tr, "dynamic") ? "dyn.spawn" : NULL;
+            if (store)
+                CHECK(writes(ty, store) == nsec && reads(ty, store) == nsec,
+                      "%s %s %s: %s written %" PRIu64 ", read %" PRIu64 " times for %" PRIu64 " rays", spec, tr, m, store,
+                      writes(ty, store), reads(ty, store), nsec);
+            if (!strcmp(tr, "packet")) printf("%s packet %s: %s\n", spec, m, st.extra);
+            rt_image_free(im);
+            free(ty);
+            rt_job_free(&j);
+        }
+    }
+    rt_kd_free(kd);
+    rt_kd_free(kdp);
+    rt_scene_free(sc);
+    rt_scene_free(plain);
+}
+
 int main(void)
 {
+    traffic_modes("cornell", 16, 16);
+    traffic_modes("sphereflake:level=1", 16, 16);
+    modes_vs_reference("cornell", 24, 20);
+    modes_vs_reference("knot", 20, 20);
+    modes_vs_reference("sphereflake:level=1", 20, 20);
     subsample_refused();
     traffic("cornell:glass=0", 16, 16, "cornell");
     traffic("knot", 16, 16, "knot");

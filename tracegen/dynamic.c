@@ -317,14 +317,41 @@ struct rt_dyn {
     rt_run_stats *st;
     rt_err *e;           /* receives a broken invariant's message */
     int err;             /* 1: block pool exhausted; 2: invariant broken (message in e) */
+    /* secondary modes: a batch of rays in slots 0..nb-1 (slot ids take the
+     * place of pixel ids in the queues, hit records and checks) */
+    int secondary;       /* whitted or path mode */
+    rt_ray *bray;        /* ray per slot (NULL: slot = pixel, camera rays) */
+    rt_ray *bsray;       /* shadow ray per slot for the current light */
+    uint32_t *bpix;      /* pixel per slot */
+    rt_shade_out *out;   /* step result per slot */
+    rt_acc *acc;         /* pixel sums */
+    rt_hit *h0;          /* primary hit per pixel (depth channel) */
+    rt_path **lvl;       /* batch stack: level l holds up to npix rays */
+    uint32_t *lvlen;     /* rays per level */
+    int nlvl, reg_spawn;
+    uint64_t batches, nsec, self_hits;
 };
 typedef struct rt_dyn dyn;
+
+/* The pixel a ray slot belongs to. */
+static inline uint32_t PIX(const dyn *D, uint32_t slot) { return D->bpix ? D->bpix[slot] : slot; }
 
 /* Rays of the current generation are made from the pixel id alone, so the
  * queues need not hold their 32-byte contents in host memory (they are
  * modeled in dyn.queues). */
 static void make_rays(dyn *D, uint32_t pix, rt_ray *trav, rt_ray *test)
 {
+    if (D->bray) {
+        if (!D->shadow) {
+            *trav = *test = D->bray[pix];
+            return;
+        }
+        *test = D->bsray[pix];
+        rt_ray_init(trav, D->sc->light[D->light], rt_sub(test->o, D->sc->light[D->light]));
+        trav->tmin = 0.0f;
+        trav->tmax = 1.0f;
+        return;
+    }
     int x = (int)(pix % (uint32_t)D->cam.W), y = (int)(pix / (uint32_t)D->cam.W);
     rt_ray eye;
     rt_cam_ray(&D->cam, x, y, &eye);
@@ -542,8 +569,23 @@ static void resolve_primary(dyn *D, uint32_t pix, float t, uint32_t tri, int tri
          * gives the same t, u, v as during traversal */
         rt_ray eye;
         float tt;
-        rt_cam_ray(&D->cam, (int)(pix % (uint32_t)D->cam.W), (int)(pix / (uint32_t)D->cam.W), &eye);
+        if (D->bray) eye = D->bray[pix];
+        else rt_cam_ray(&D->cam, (int)(pix % (uint32_t)D->cam.W), (int)(pix / (uint32_t)D->cam.W), &eye);
         rt_isect_tri(&eye, &D->sc->tri[tri], &tt, &D->hit_u[pix], &D->hit_v[pix]);
+    }
+    if (D->secondary) {
+        /* the pixel sum is read, added to and written back per ray */
+        uint32_t px = PIX(D, pix);
+        if (tri == RT_NO_HIT) {
+            RT_REC(D->rec, rt_mm_addr(D->L, D->reg_hits, pix), 4, 1, RT_CLS_HIT);
+        } else {
+            if (!tri_cached) RT_REC(D->rec, rt_mm_addr(D->L, D->tv.reg_tri, tri), 36, 0, RT_CLS_TRI);
+            rt_reg_shade(D->ctx, D->rec, tri);
+            RT_REC(D->rec, rt_mm_addr(D->L, D->reg_hits, pix), 24, 1, RT_CLS_HIT);
+        }
+        RT_REC(D->rec, rt_mm_addr(D->L, D->reg_fb, px), 12, 0, RT_CLS_FB);
+        RT_REC(D->rec, rt_mm_addr(D->L, D->reg_fb, px), 12, 1, RT_CLS_FB);
+        return;
     }
     if (tri == RT_NO_HIT) {
         RT_REC(D->rec, rt_mm_addr(D->L, D->reg_hits, pix), 4, 1, RT_CLS_HIT);
@@ -565,8 +607,9 @@ static void resolve_shadow(dyn *D, uint32_t pix, int visible)
     D->done++;
     if (!visible) return;
     D->vis[pix] |= (uint8_t)(1u << D->light);
-    RT_REC(D->rec, rt_mm_addr(D->L, D->reg_fb, pix), 12, 0, RT_CLS_FB);
-    RT_REC(D->rec, rt_mm_addr(D->L, D->reg_fb, pix), 12, 1, RT_CLS_FB);
+    if (D->secondary) rt_acc_add(&D->acc[PIX(D, pix)], D->out[pix].lc[D->light]);
+    RT_REC(D->rec, rt_mm_addr(D->L, D->reg_fb, PIX(D, pix)), 12, 0, RT_CLS_FB);
+    RT_REC(D->rec, rt_mm_addr(D->L, D->reg_fb, PIX(D, pix)), 12, 1, RT_CLS_FB);
 }
 
 /* Moves a ray on from tmin: to its next queue point, or resolves it. */
@@ -584,7 +627,7 @@ static void advance(dyn *D, uint32_t pixf, const rt_ray *trav, float tmin, float
         if (lim < tmax) tmax = lim;
     }
     int32_t q = tmax > tmin ? to_queue_point(D, trav, tmin, tmax, skip, &qa, &qb) : -1;
-    D->img->nodes[pix] += (float)(D->tv.nodes - n0);
+    D->img->nodes[PIX(D, pix)] += (float)(D->tv.nodes - n0);
     if (q >= 0) {
         if (from_buffer) RT_REC(D->rec, rt_mm_addr(D->L, D->reg_rb, D->rbslot % D->rbslots), 32, 0, RT_CLS_RAY);
         enqueue(D, (uint32_t)q, pixf, qa, qb);
@@ -610,8 +653,8 @@ static void process(dyn *D, uint32_t q, const qent *e)
     uint32_t root = D->qnode[q];
     uint64_t n0 = D->tv.nodes, k0 = D->tv.tests;
     int occluded = subtree(D, root, &trav, &test, e->t0, e->t1, &best_t, &best_tri);
-    D->img->nodes[pix] += (float)(D->tv.nodes - n0);
-    D->img->tests[pix] += (float)(D->tv.tests - k0);
+    D->img->nodes[PIX(D, pix)] += (float)(D->tv.nodes - n0);
+    D->img->tests[PIX(D, pix)] += (float)(D->tv.tests - k0);
     if (D->shadow) {
         if (occluded) {
             resolve_shadow(D, pix, 0);
@@ -675,7 +718,7 @@ static void process_oversized(dyn *D, uint32_t q, const qent *es, uint32_t n)
                 }
                 float t, u, v;
                 D->tv.tests++;
-                D->img->tests[es[i].pix & ~CAND_FLAG] += 1;
+                D->img->tests[PIX(D, es[i].pix & ~CAND_FLAG)] += 1;
                 if (!rt_isect_tri(&test[i], &D->sc->tri[tri], &t, &u, &v)) continue;
                 if (D->shadow) occl[i] = 1;
                 else if (btri[i] == RT_NO_HIT || t < bt[i] || (t == bt[i] && tri < btri[i])) {
@@ -809,8 +852,8 @@ static void start(dyn *D, uint32_t pix)
             uint32_t btri = RT_NO_HIT;
             resolve_shadow(D, pix, !subtree(D, 0, &trav, &test, t0, t1, &bt, &btri));
         }
-        D->img->nodes[pix] += (float)(D->tv.nodes - n0);
-        D->img->tests[pix] += (float)(D->tv.tests - k0);
+        D->img->nodes[PIX(D, pix)] += (float)(D->tv.nodes - n0);
+        D->img->tests[PIX(D, pix)] += (float)(D->tv.tests - k0);
         return;
     }
     advance(D, pix, &trav, t0, t1, -1, INFINITY, RT_NO_HIT, 0);
@@ -994,6 +1037,9 @@ int rt_dyn_check(const rt_dyn *D, rt_err *e)
 
 /* ---- tracer interface --------------------------------------------------------- */
 
+/* Batch-stack levels of the secondary modes (see secondary_run). */
+static int dyn_levels(const rt_render_opts *o) { return o->mode == RT_MODE_PATH ? 2 : o->depth + 1; }
+
 static int dyn_layout(const rt_tracer_ctx *ctx, rt_layout *L, rt_err *e)
 {
     const dplan *P = ctx->plan;
@@ -1008,6 +1054,9 @@ static int dyn_layout(const rt_tracer_ctx *ctx, rt_layout *L, rt_err *e)
     if (rt_mm_add(L, "dyn.top", RT_CLS_NODE, 8, ntop, e) < 0) return -1;
     if (rt_mm_add(L, "dyn.hits", RT_CLS_HIT, 24, npix, e) < 0) return -1;
     if (rt_mm_add(L, "fb", RT_CLS_FB, 12, npix, e) < 0) return -1;
+    if (rt_render_secondary(ctx->opt) &&
+        rt_mm_add(L, "dyn.spawn", RT_CLS_RAY, RT_SREC_SIZE, (uint64_t)npix * (uint64_t)dyn_levels(ctx->opt), e) < 0)
+        return -1;
     if (rt_mm_add(L, "dyn.queues", RT_CLS_QUEUE, 32, ((uint64_t)npix / QBLK + nq + 2) * QBLK, e) < 0) return -1;
     return 0;
 }
@@ -1032,6 +1081,15 @@ static void dyn_free(dyn *D)
     free(D->resolved);
     free(D->want);
     free(D->mark);
+    free(D->bray);
+    free(D->bsray);
+    free(D->bpix);
+    free(D->out);
+    free(D->acc);
+    free(D->h0);
+    for (int l = 0; D->lvl && l < D->nlvl; l++) free(D->lvl[l]);
+    free(D->lvl);
+    free(D->lvlen);
 }
 
 /* Sets up the run's state: regions, the plan, an empty block pool on the
@@ -1093,6 +1151,18 @@ static int dyn_init(dyn *D, const rt_tracer_ctx *ctx, rt_image *img, rt_run_stat
     D->bk_cap = (uint32_t)(npix + 1);
     for (uint32_t q = 0; q < D->nq; q++) bk_link(D, q);
     D->tv.mark = D->mark;
+    D->secondary = rt_render_secondary(o);
+    D->reg_spawn = rt_mm_find(L, "dyn.spawn");
+    if (D->secondary) {
+        D->nlvl = dyn_levels(o);
+        if (!(D->bray = rt_calloc(npix, sizeof *D->bray, e)) || !(D->bsray = rt_calloc(npix, sizeof *D->bsray, e)) ||
+            !(D->bpix = rt_calloc(npix, sizeof *D->bpix, e)) || !(D->out = rt_calloc(npix, sizeof *D->out, e)) ||
+            !(D->acc = rt_calloc(npix, sizeof *D->acc, e)) || !(D->h0 = rt_calloc(npix, sizeof *D->h0, e)) ||
+            !(D->lvl = rt_calloc((size_t)D->nlvl, sizeof *D->lvl, e)) ||
+            !(D->lvlen = rt_calloc((size_t)D->nlvl, sizeof *D->lvlen, e)))
+            return -1;
+        for (size_t p = 0; p < npix; p++) D->h0[p].tri = RT_NO_HIT;
+    }
     return 0;
 }
 
@@ -1174,6 +1244,135 @@ static void report(const dyn *D, rt_run_stats *st)
              D->gmax, o->gmax ? "given" : (D->P->fallback ? "top-first" : "resident-top"), D->nq, D->ntop, oversized,
              D->enq, D->events, D->events ? (double)D->ev_rays / (double)D->events : 0.0, D->ev_max, D->peak_queued * 32,
              D->nq ? (double)D->events / D->nq : 0.0, qmax, D->created, D->done);
+    if (D->secondary) {
+        size_t l = strlen(st->extra);
+        snprintf(st->extra + l, sizeof st->extra - l, " batches=%" PRIu64 " rays_secondary=%" PRIu64 " self_hits=%" PRIu64,
+                 D->batches, D->nsec, D->self_hits);
+    }
+}
+
+/* ---- secondary modes: generations of batches ------------------------------
+ *
+ * A batch is up to npix rays in slots 0..n-1 (slot ids stand where pixel ids
+ * stand in the primary-only run). Per batch, as in section 2.1.2: its
+ * closest-hit generation (every ray started at the root and queued at the
+ * queue point holding its origin's path), then its shadow rays, one
+ * generation per light, traced from the light; then its newly spawned rays.
+ * Those form the next generation: the refracted rays one batch, the others
+ * (reflected rays, path continuations) another, pushed on a stack of
+ * levels so at most depth + 1 batches wait (region dyn.spawn, one level of
+ * npix 64-byte records each: written when spawned, read when started).
+ * After every generation check_generation verifies that each ray was
+ * resolved exactly once, and in test mode rt_dyn_check runs at every step. */
+
+static int batch_closest(dyn *D, int lv, uint32_t n, rt_err *e)
+{
+    const rt_path *rays = D->lvl[lv];
+    D->shadow = 0;
+    D->tv.mark_bit = rays[0].depth ? 4 : 1;
+    memset(D->want, 0, D->npix);
+    memset(D->resolved, 0, D->npix);
+    for (uint32_t k = 0; k < n; k++) {
+        rt_shade_path_ray(&rays[k], &D->bray[k]);
+        D->bpix[k] = rays[k].pix;
+        D->want[k] = 1;
+    }
+    for (uint32_t k = 0; k < n; k++) {
+        if (rays[k].depth) {
+            RT_REC(D->rec, rt_mm_addr(D->L, D->reg_spawn, (uint64_t)lv * D->npix + k), RT_SREC_SIZE, 0, RT_CLS_RAY);
+            D->nsec++;
+        } else {
+            RT_REC(D->rec, rt_mm_addr(D->L, D->reg_ray, rays[k].pix), 32, 0, RT_CLS_RAY);
+            D->st->rays_primary++;
+        }
+        start(D, k);
+    }
+    step_check(D, 1);
+    run_queues(D);
+    return check_generation(D, D->want, D->npix, e);
+}
+
+static int batch_shadow(dyn *D, int li, uint32_t n, rt_err *e)
+{
+    D->shadow = 1;
+    D->light = li;
+    D->tv.mark_bit = 2;
+    memset(D->resolved, 0, D->npix);
+    for (uint32_t k = 0; k < n; k++) {
+        D->want[k] = 0;
+        RT_REC(D->rec, rt_mm_addr(D->L, D->reg_hits, k), 24, 0, RT_CLS_HIT);
+        if (!D->out[k].want[li]) continue;
+        D->bsray[k] = D->out[k].sray[li];
+        D->want[k] = 1;
+        D->st->rays_shadow++;
+        start(D, k);
+    }
+    step_check(D, 1);
+    run_queues(D);
+    return check_generation(D, D->want, D->npix, e);
+}
+
+/* Traces the batch on top of the stack and pushes its children. */
+static int batch_run(dyn *D, int *height, rt_err *e)
+{
+    const rt_render_opts *o = D->ctx->opt;
+    const int lv = --*height;
+    const uint32_t n = D->lvlen[lv];
+    const rt_path *rays = D->lvl[lv];
+    D->batches++;
+    if (batch_closest(D, lv, n, e) < 0) return -1;
+    for (uint32_t k = 0; k < n; k++) {
+        rt_hit h = {D->hit_t[k], D->hit_tri[k], D->hit_u[k], D->hit_v[k]};
+        const rt_hit *hp = h.tri != RT_NO_HIT ? &h : NULL;
+        if (!rays[k].depth && !rays[k].sample) D->h0[rays[k].pix] = h;
+        rt_shade_step(D->sc, o, &rays[k], &D->bray[k], hp, &D->out[k]);
+        D->self_hits += (uint64_t)D->out[k].self_hit;
+        rt_acc_add(&D->acc[rays[k].pix], D->out[k].c);
+    }
+    for (int li = 0; li < RT_NLIGHTS; li++)
+        if ((o->lights & (1u << li)) && batch_shadow(D, li, n, e) < 0) return -1;
+    /* children: refracted rays into this level, the others above it */
+    for (int kind = RT_PATH_REFRACT; kind >= 0; kind--) {
+        int dst = *height;
+        uint32_t m = 0;
+        if (dst >= D->nlvl) return rt_errf(e, "dynamic: batch stack overflow (internal error)");
+        if (!D->lvl[dst] && !(D->lvl[dst] = rt_calloc(D->npix, sizeof *D->lvl[dst], e))) return -1;
+        rt_path *d = D->lvl[dst];
+        for (uint32_t k = 0; k < n; k++)
+            for (int c = 0; c < D->out[k].nchild; c++) {
+                if (D->out[k].child[c].kind != kind) continue;
+                d[m] = D->out[k].child[c];
+                RT_REC(D->rec, rt_mm_addr(D->L, D->reg_spawn, (uint64_t)dst * D->npix + m), RT_SREC_SIZE, 1, RT_CLS_RAY);
+                m++;
+            }
+        if (m) D->lvlen[(*height)++] = m;
+    }
+    return 0;
+}
+
+static int secondary_run(dyn *D, const uint32_t *order, size_t ntr, rt_err *e)
+{
+    const rt_render_opts *o = D->ctx->opt;
+    const int spp = o->mode == RT_MODE_PATH ? o->spp : 1;
+    if (!D->lvl[0] && !(D->lvl[0] = rt_calloc(D->npix, sizeof *D->lvl[0], e))) return -1;
+    for (int s = 0; s < spp; s++) {
+        for (size_t k = 0; k < ntr; k++) {
+            rt_ray eye;
+            rt_cam_ray(&D->cam, (int)(order[k] % (uint32_t)o->W), (int)(order[k] / (uint32_t)o->W), &eye);
+            rt_shade_path_start(&D->lvl[0][k], &eye, order[k], (uint32_t)s);
+        }
+        D->lvlen[0] = (uint32_t)ntr;
+        int height = 1;
+        while (height)
+            if (batch_run(D, &height, e) < 0) return -1;
+    }
+    for (size_t k = 0; k < ntr; k++) {
+        uint32_t p = order[k];
+        rt_ray eye;
+        rt_cam_ray(&D->cam, (int)(p % (uint32_t)o->W), (int)(p / (uint32_t)o->W), &eye);
+        rt_acc_pixel(&D->acc[p], spp, &eye, D->h0[p].tri != RT_NO_HIT ? &D->h0[p] : NULL, D->img, p);
+    }
+    return 0;
 }
 
 static int dyn_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_err *e)
@@ -1184,6 +1383,12 @@ static int dyn_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
     uint32_t *order = NULL;
     if (dyn_init(&D, ctx, img, st, e) < 0 || !(order = rt_calloc(D.npix, sizeof *order, e))) goto done;
     const size_t ntr = rt_pixel_order(o, order); /* traced pixels (all unless subsampling) */
+    if (D.secondary) {
+        if (secondary_run(&D, order, ntr, e) < 0) goto done;
+        report(&D, st);
+        rc = 0;
+        goto done;
+    }
     if (primary_generation(&D, order, ntr, e) < 0) goto done;
     D.shadow = 1;
     D.tv.mark_bit = 2;
@@ -1201,6 +1406,7 @@ done:
 const rt_tracer rt_tracer_dynamic = {
     .name = "dynamic",
     .desc = "dynamically scheduled rays queued at cache-sized subtrees (Navratil et al. 2007)",
+    .modes = RT_TRACER_ALL_MODES,
     .layout = dyn_layout,
     .run = dyn_run,
     .plan = dyn_plan,

@@ -17,6 +17,41 @@ void rt_render_default_opts(rt_render_opts *o)
     o->threads = 4;
     o->subsample = 1;
     o->subtile = 8;
+    o->mode = RT_MODE_DEFAULT;
+    o->depth = 5;
+    o->spp = 1;
+    o->bounces = 4;
+}
+
+static const char *const mode_names[] = {"default", "raycast", "shadow", "whitted", "path"};
+
+int rt_render_mode(const rt_render_opts *o)
+{
+    if (o->mode != RT_MODE_DEFAULT) return o->mode;
+    return o->lights ? RT_MODE_SHADOW : RT_MODE_RAYCAST;
+}
+
+const char *rt_render_mode_name(int mode)
+{
+    return mode >= 0 && mode <= RT_MODE_PATH ? mode_names[mode] : NULL;
+}
+
+int rt_render_mode_from_name(const char *name)
+{
+    for (int m = RT_MODE_RAYCAST; m <= RT_MODE_PATH; m++)
+        if (!strcmp(name, mode_names[m])) return m;
+    return -1;
+}
+
+int rt_render_check_mode(const rt_render_opts *o, rt_err *e)
+{
+    if (o->mode < RT_MODE_DEFAULT || o->mode > RT_MODE_PATH) return rt_errf(e, "--mode: unknown mode %d", o->mode);
+    if (o->depth < 1 || o->depth > RT_DEPTH_MAX)
+        return rt_errf(e, "--depth: %d is not in 1..%d", o->depth, RT_DEPTH_MAX);
+    if (o->spp < 1 || o->spp > RT_SPP_MAX) return rt_errf(e, "--spp: %d is not in 1..%d", o->spp, RT_SPP_MAX);
+    if (o->bounces < 0 || o->bounces > RT_BOUNCES_MAX)
+        return rt_errf(e, "--bounces: %d is not in 0..%d", o->bounces, RT_BOUNCES_MAX);
+    return 0;
 }
 
 int rt_render_parse_lights(const char *s, unsigned *mask)

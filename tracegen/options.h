@@ -18,6 +18,19 @@ typedef enum rt_qorder {
     RT_QORDER_TREE = 1     /* dynamic: queue points in tree (depth-first) order */
 } rt_qorder;
 
+/* What a run traces (docs/tracers.md, "Modes"). */
+typedef enum rt_mode {
+    RT_MODE_DEFAULT = 0, /* SHADOW when lights are enabled, else RAYCAST */
+    RT_MODE_RAYCAST = 1, /* primary rays only, headlight shading */
+    RT_MODE_SHADOW = 2,  /* primary rays and shadow rays to the enabled lights */
+    RT_MODE_WHITTED = 3, /* plus mirror reflection and refraction, depth generations */
+    RT_MODE_PATH = 4     /* spp paths per pixel, one continuation per bounce */
+} rt_mode;
+
+#define RT_DEPTH_MAX 64    /* largest --depth */
+#define RT_BOUNCES_MAX 1000 /* largest --bounces (path records count depth in 16 bits) */
+#define RT_SPP_MAX 65536    /* largest --spp */
+
 typedef struct rt_render_opts {
     int W, H;            /* image size */
     unsigned lights;     /* bit i set: light i enabled */
@@ -28,11 +41,32 @@ typedef struct rt_render_opts {
     int threads;         /* dynamic: modeled threads (ray buffer = 2 rays each) */
     uint32_t subsample;  /* reduced experiment: trace 1 in K tiles (1 = all) */
     int subtile;         /* subsampling tile edge in pixels (default 8) */
+    int mode;            /* rt_mode; RT_MODE_DEFAULT resolves by lights (rt_render_mode) */
+    int depth;           /* whitted: ray generations along a path, primary included (1..64, 5) */
+    int spp;             /* path: samples per pixel (1) */
+    int bounces;         /* path: bounces after the primary hit (>= 0, 4) */
 } rt_render_opts;
 
 /* Fills o with the defaults: 512 x 512, no lights, packet 8, a 64 KiB
- * schedule, fullest-first queues, 4 threads, no subsampling (tile 8). */
+ * schedule, fullest-first queues, 4 threads, no subsampling (tile 8), the
+ * default mode, depth 5, 1 sample, 4 bounces. */
 void rt_render_default_opts(rt_render_opts *o);
+
+/* The mode a run traces: o->mode, or for RT_MODE_DEFAULT SHADOW when a
+ * light is enabled and RAYCAST otherwise (today's behaviour). */
+int rt_render_mode(const rt_render_opts *o);
+/* Mode name ("raycast", "shadow", "whitted", "path"), or NULL. */
+const char *rt_render_mode_name(int mode);
+/* Mode from its name, or -1. */
+int rt_render_mode_from_name(const char *name);
+/* 1 when the mode follows secondary rays (whitted, path). */
+static inline int rt_render_secondary(const rt_render_opts *o)
+{
+    int m = o->mode;
+    return m == RT_MODE_WHITTED || m == RT_MODE_PATH;
+}
+/* Checks mode, depth, spp and bounces. 0, or -1 naming the option in e. */
+int rt_render_check_mode(const rt_render_opts *o, rt_err *e);
 
 /* Parses "all", "none" (or ""), or a comma list of light indices "0,2" into
  * a light mask. 0, or -1 on a malformed list (*mask untouched). */

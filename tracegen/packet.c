@@ -15,6 +15,19 @@
  * each primary ray record once (32 B); per-ray hit records (t, triangle:
  * 8 B) live in a P*P-entry packet buffer that is rewritten for every packet
  * and read back for shading and shadow-ray setup.
+ *
+ * Secondary modes (whitted, path): per packet and sample, rays travel in
+ * chunks of at most P*P rays. The primary chunk is the packet's camera
+ * rays; a chunk is traced as one packet, its hits are shaded, its shadow
+ * rays go out as one packet per light, and its surviving rays' children
+ * form new chunks: the reflected rays one chunk, the refracted rays another
+ * (a path's single continuation one chunk), so each new packet is formed
+ * from one packet's hits and holds only rays that are still alive (the
+ * active mask shrinks as rays terminate). Chunks wait on a stack (depth
+ * first: at most depth + 1 of them), and their rays are stored as 64-byte
+ * records (docs/memory-model.md) in packet.rays, one P*P slot per stack
+ * level: written when spawned, read when the chunk is traced. Statistics:
+ * secondary packets traced and their mean fill (rays / (P*P)).
  */
 #include "camera.h"
 #include "regions.h"
@@ -22,6 +35,7 @@
 #include "stats.h"
 #include "tracer.h"
 
+#include <inttypes.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -143,6 +157,10 @@ static void visit(pstate *ps, uint32_t node, plist *l, int depth)
     if (second->n) visit(ps, child_second, second, depth + 1);
 }
 
+/* Chunk-stack levels of the secondary modes: a Whitted chunk leaves up to
+ * two children on the stack per generation, a path chunk one. */
+static int pk_levels(const rt_render_opts *o) { return o->mode == RT_MODE_PATH ? 2 : o->depth + 1; }
+
 static int pk_layout(const rt_tracer_ctx *ctx, rt_layout *L, rt_err *e)
 {
     size_t npix = (size_t)ctx->opt->W * (size_t)ctx->opt->H;
@@ -150,6 +168,9 @@ static int pk_layout(const rt_tracer_ctx *ctx, rt_layout *L, rt_err *e)
     if (rt_reg_geometry(ctx, L, 1, e) < 0) return -1;
     if (rt_mm_add(L, "rays.primary", RT_CLS_RAY, 32, npix, e) < 0) return -1;
     if (rt_mm_add(L, "packet.hits", RT_CLS_HIT, 8, (uint64_t)P * P, e) < 0) return -1;
+    if (rt_render_secondary(ctx->opt) &&
+        rt_mm_add(L, "packet.rays", RT_CLS_RAY, RT_SREC_SIZE, (uint64_t)P * P * (uint64_t)pk_levels(ctx->opt), e) < 0)
+        return -1;
     if (rt_mm_add(L, "fb", RT_CLS_FB, 12, npix, e) < 0) return -1;
     return 0;
 }
@@ -158,6 +179,146 @@ static int pk_layout(const rt_tracer_ctx *ctx, rt_layout *L, rt_err *e)
 static void trace_packet(pstate *ps, plist *l)
 {
     if (l->n) visit(ps, 0, l, 0);
+}
+
+/* Buffers of the secondary modes. */
+typedef struct psec {
+    rt_path *chunk;       /* levels * NP rays: the chunk stack */
+    int *clen;            /* rays per stacked chunk */
+    rt_shade_out *out;    /* NP step results */
+    rt_acc *acc;          /* NP pixel sums (packet-local index) */
+    rt_hit *h0;           /* NP primary hits (depth channel) */
+    uint64_t packets, rays, self_hits;
+} psec;
+
+/* Packet-local index of pixel pix in the packet at (px, py), pw wide. */
+static int pk_local(const rt_render_opts *o, uint32_t pix, int px, int py, int pw)
+{
+    return (int)(pix % (uint32_t)o->W) - px + ((int)(pix / (uint32_t)o->W) - py) * pw;
+}
+
+/* Pops the chunk on top of the stack (*height levels) and traces it as a
+ * packet: closest hits, shading, shadow packets per light; its children
+ * are pushed as new chunks (refracted rays below, reflected rays on top). */
+static void pk_chunk(pstate *ps, const rt_tracer_ctx *ctx, psec *S, int *height, plist *top, rt_ray *eye, rt_hit *hit,
+                     rt_ray *sray, uint8_t *want, rt_image *img, rt_run_stats *st, int px, int py, int pw)
+{
+    const rt_scene *sc = ctx->sc;
+    const rt_render_opts *o = ctx->opt;
+    const rt_layout *L = ctx->L;
+    rt_rec *rec = ctx->rec;
+    const int NP = o->packet * o->packet;
+    const int reg_hits = rt_mm_find(L, "packet.hits"), reg_pr = rt_mm_find(L, "packet.rays");
+    const int reg_ray = rt_mm_find(L, "rays.primary");
+    const int lv = --*height;
+    rt_path *rays = &S->chunk[(size_t)lv * NP];
+    const int n = S->clen[lv];
+    top->n = 0;
+    for (int k = 0; k < n; k++) {
+        if (rays[k].depth) RT_REC(rec, rt_mm_addr(L, reg_pr, (uint64_t)lv * NP + k), RT_SREC_SIZE, 0, RT_CLS_RAY);
+        else RT_REC(rec, rt_mm_addr(L, reg_ray, rays[k].pix), 32, 0, RT_CLS_RAY);
+        rt_shade_path_ray(&rays[k], &eye[k]);
+        hit[k].tri = RT_NO_HIT;
+        hit[k].t = INFINITY;
+        ps->pnodes[k] = ps->ptests[k] = 0;
+        float t0, t1;
+        if (rt_kd_clip(ctx->kd, &eye[k], &t0, &t1)) {
+            top->idx[top->n] = (uint16_t)k, top->t0[top->n] = t0, top->t1[top->n++] = t1;
+        }
+    }
+    if (rays[0].depth) {
+        S->packets++;
+        S->rays += (uint64_t)n;
+    } else {
+        st->rays_primary += (uint64_t)n;
+    }
+    ps->ray = eye;
+    ps->hit = hit;
+    ps->shadow = 0;
+    ps->tv->mark_bit = rays[0].depth ? 4 : 1;
+    if (top->n) visit(ps, 0, top, 0);
+    for (int k = 0; k < n; k++) RT_REC(rec, rt_mm_addr(L, reg_hits, k), 8, 1, RT_CLS_HIT);
+    for (int k = 0; k < n; k++) {
+        const rt_path *p = &rays[k];
+        int h = hit[k].tri != RT_NO_HIT, li = pk_local(o, p->pix, px, py, pw);
+        RT_REC(rec, rt_mm_addr(L, reg_hits, k), 8, 0, RT_CLS_HIT);
+        if (h) rt_reg_shade(ctx, rec, hit[k].tri);
+        if (!p->depth && !p->sample) S->h0[li] = hit[k];
+        rt_shade_step(sc, o, p, &eye[k], h ? &hit[k] : NULL, &S->out[k]);
+        S->self_hits += (uint64_t)S->out[k].self_hit;
+        rt_acc_add(&S->acc[li], S->out[k].c);
+    }
+    ps->shadow = 1;
+    ps->tv->mark_bit = 2;
+    for (int i = 0; i < RT_NLIGHTS; i++) {
+        if (!(o->lights & (1u << i))) continue;
+        top->n = 0;
+        for (int k = 0; k < n; k++) {
+            want[k] = S->out[k].want[i];
+            ps->done[k] = 0;
+            if (!want[k]) continue;
+            RT_REC(rec, rt_mm_addr(L, reg_hits, k), 8, 0, RT_CLS_HIT);
+            sray[k] = S->out[k].sray[i];
+            st->rays_shadow++;
+            float t0, t1;
+            if (rt_kd_clip(ctx->kd, &sray[k], &t0, &t1)) {
+                top->idx[top->n] = (uint16_t)k, top->t0[top->n] = t0, top->t1[top->n++] = t1;
+            }
+        }
+        ps->ray = sray;
+        if (top->n) visit(ps, 0, top, 0);
+        for (int k = 0; k < n; k++)
+            if (want[k] && !ps->done[k]) rt_acc_add(&S->acc[pk_local(o, rays[k].pix, px, py, pw)], S->out[k].lc[i]);
+    }
+    for (int k = 0; k < n; k++) {
+        img->nodes[rays[k].pix] += ps->pnodes[k];
+        img->tests[rays[k].pix] += ps->ptests[k];
+    }
+    /* children (their parents' data now lives in out[]): refracted rays
+     * into this level, reflected rays (or a path's continuation) above */
+    for (int kind = RT_PATH_REFRACT; kind >= 0; kind--) {
+        int m = 0, dst = *height;
+        rt_path *d = &S->chunk[(size_t)dst * NP];
+        for (int k = 0; k < n; k++)
+            for (int c = 0; c < S->out[k].nchild; c++) {
+                if (S->out[k].child[c].kind != kind) continue;
+                d[m] = S->out[k].child[c];
+                RT_REC(rec, rt_mm_addr(L, reg_pr, (uint64_t)dst * NP + m), RT_SREC_SIZE, 1, RT_CLS_RAY);
+                m++;
+            }
+        if (m) S->clen[(*height)++] = m;
+    }
+}
+
+/* One packet in a secondary mode: for each sample the primary chunk, then
+ * chunks until the stack is empty; then the pixels. */
+static void pk_secondary(pstate *ps, const rt_tracer_ctx *ctx, psec *S, plist *top, rt_ray *eye, rt_hit *hit,
+                         rt_ray *sray, uint8_t *want, rt_image *img, rt_run_stats *st, int px, int py, int pw, int ph)
+{
+    const rt_render_opts *o = ctx->opt;
+    const int n = pw * ph, spp = o->mode == RT_MODE_PATH ? o->spp : 1;
+    rt_cam_frame cam;
+    rt_cam_setup(&cam, ctx->sc, o->W, o->H);
+    memset(S->acc, 0, sizeof *S->acc * (size_t)n);
+    for (int s = 0; s < spp; s++) {
+        for (int k = 0; k < n; k++) {
+            int x = px + k % pw, y = py + k / pw;
+            rt_ray r;
+            rt_cam_ray(&cam, x, y, &r);
+            rt_shade_path_start(&S->chunk[k], &r, (uint32_t)y * (uint32_t)o->W + (uint32_t)x, (uint32_t)s);
+        }
+        S->clen[0] = n;
+        int height = 1;
+        while (height) pk_chunk(ps, ctx, S, &height, top, eye, hit, sray, want, img, st, px, py, pw);
+    }
+    for (int k = 0; k < n; k++) {
+        int x = px + k % pw, y = py + k / pw;
+        uint32_t pix = (uint32_t)y * (uint32_t)o->W + (uint32_t)x;
+        rt_ray r;
+        rt_cam_ray(&cam, x, y, &r);
+        rt_acc_pixel(&S->acc[k], spp, &r, &S->h0[k], img, pix);
+        RT_REC(ctx->rec, rt_mm_addr(ctx->L, rt_mm_find(ctx->L, "fb"), pix), 12, 1, RT_CLS_FB);
+    }
 }
 
 static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_err *e)
@@ -185,6 +346,16 @@ static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_
     uint8_t *mark = pt ? rt_calloc(sc->ntri ? sc->ntri : 1, 1, e) : NULL;
     plist *store = mark ? rt_calloc((size_t)2 * (ps.maxdepth + 1) + 1, sizeof *store, e) : NULL;
     void *pool = store ? rt_calloc(((size_t)2 * (ps.maxdepth + 1) + 1) * NP, 12, e) : NULL;
+    const int secondary = rt_render_secondary(o);
+    psec S;
+    memset(&S, 0, sizeof S);
+    if (pool && secondary) {
+        size_t lv = (size_t)pk_levels(o);
+        if (!(S.chunk = rt_calloc(lv * NP, sizeof *S.chunk, e)) || !(S.clen = rt_calloc(lv, sizeof *S.clen, e)) ||
+            !(S.out = rt_calloc(NP, sizeof *S.out, e)) || !(S.acc = rt_calloc(NP, sizeof *S.acc, e)) ||
+            !(S.h0 = rt_calloc(NP, sizeof *S.h0, e)))
+            goto done;
+    }
     if (!pool) goto done;
     {
         unsigned char *p = pool;
@@ -208,6 +379,10 @@ static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_
             if (!rt_pixel_kept(o, px, py)) continue; /* subsampling: tiles hold whole packets */
             int pw = W - px < P ? W - px : P, ph = H - py < P ? H - py : P;
             int n = pw * ph;
+            if (secondary) {
+                pk_secondary(&ps, ctx, &S, top, eye, hit, sray, want, img, st, px, py, pw, ph);
+                continue;
+            }
             /* primary rays */
             top->n = 0;
             for (int k = 0; k < n; k++) {
@@ -272,9 +447,19 @@ static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_
         }
     }
     rt_stats_finish(st, &tv, mark, sc->ntri);
-    snprintf(st->extra, sizeof st->extra, "packet=%d nodes=packet node visits tests=ray-triangle tests", P);
+    if (secondary)
+        snprintf(st->extra, sizeof st->extra,
+                 "packet=%d rays_secondary=%" PRIu64 " secondary_packets=%" PRIu64 " secondary_fill=%.3f self_hits=%" PRIu64,
+                 P, S.rays, S.packets, S.packets ? (double)S.rays / ((double)S.packets * NP) : 0.0, S.self_hits);
+    else
+        snprintf(st->extra, sizeof st->extra, "packet=%d nodes=packet node visits tests=ray-triangle tests", P);
     rc = 0;
 done:
+    free(S.chunk);
+    free(S.clen);
+    free(S.out);
+    free(S.acc);
+    free(S.h0);
     free(pool);
     free(store);
     free(mark);
@@ -292,6 +477,7 @@ done:
 const rt_tracer rt_tracer_packet = {
     .name = "packet",
     .desc = "P x P ray packets tiled over the image, shadow packets per light",
+    .modes = RT_TRACER_ALL_MODES,
     .layout = pk_layout,
     .run = pk_run,
 };

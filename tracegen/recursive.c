@@ -8,6 +8,12 @@
  * rays are never stored), shade, and write the pixel. All of a pixel's rays
  * finish before the next pixel starts, which is what keeps ray traffic
  * minimal and lets geometry thrash when the cache is small.
+ *
+ * Secondary modes (whitted, path): per pixel and sample, the rays of the
+ * Whitted tree or the path are followed depth first from a small stack
+ * (reflection before refraction); each hit reads its shading and material
+ * records and traces its shadow rays at once. Secondary rays live in
+ * registers like shadow rays, so they add no ray-record traffic here.
  */
 #include "camera.h"
 #include "regions.h"
@@ -15,7 +21,9 @@
 #include "stats.h"
 #include "tracer.h"
 
+#include <inttypes.h>
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 
 static int rec_layout(const rt_tracer_ctx *ctx, rt_layout *L, rt_err *e)
@@ -25,6 +33,52 @@ static int rec_layout(const rt_tracer_ctx *ctx, rt_layout *L, rt_err *e)
     if (rt_mm_add(L, "rays.primary", RT_CLS_RAY, 32, npix, e) < 0) return -1;
     if (rt_mm_add(L, "fb", RT_CLS_FB, 12, npix, e) < 0) return -1;
     return 0;
+}
+
+/* Whitted and path modes: depth first per pixel (see the top). */
+static void rec_secondary(const rt_tracer_ctx *ctx, rt_trav *tv, const rt_cam_frame *cam, uint32_t pix,
+                          rt_image *img, rt_run_stats *st, uint64_t *nsec, uint64_t *nself)
+{
+    const rt_scene *sc = ctx->sc;
+    const rt_render_opts *o = ctx->opt;
+    const int W = o->W, spp = o->mode == RT_MODE_PATH ? o->spp : 1;
+    int x = (int)(pix % (uint32_t)W), y = (int)(pix / (uint32_t)W);
+    int reg_ray = rt_mm_find(ctx->L, "rays.primary");
+    rt_path stack[2 * RT_DEPTH_MAX + 4];
+    rt_acc acc = {{0, 0, 0}};
+    rt_ray eye;
+    rt_hit h0;
+    rt_shade_out out;
+    h0.tri = RT_NO_HIT;
+    rt_cam_ray(cam, x, y, &eye);
+    for (int s = 0; s < spp; s++) {
+        int sp = 0;
+        RT_REC(ctx->rec, rt_mm_addr(ctx->L, reg_ray, pix), 32, 0, RT_CLS_RAY);
+        st->rays_primary++;
+        rt_shade_path_start(&stack[sp++], &eye, pix, (uint32_t)s);
+        while (sp) {
+            rt_path p = stack[--sp];
+            rt_ray r;
+            rt_hit h;
+            rt_shade_path_ray(&p, &r);
+            tv->mark_bit = p.depth ? 4 : 1;
+            int hit = rt_kd_closest(tv, &r, &h);
+            if (!p.depth && !s) h0 = h;
+            if (p.depth) (*nsec)++;
+            if (hit) rt_reg_shade(ctx, ctx->rec, h.tri);
+            rt_shade_step(sc, o, &p, &r, hit ? &h : NULL, &out);
+            *nself += (uint64_t)out.self_hit;
+            rt_acc_add(&acc, out.c);
+            tv->mark_bit = 2;
+            for (int i = 0; i < RT_NLIGHTS; i++) {
+                if (!out.want[i]) continue;
+                st->rays_shadow++;
+                if (!rt_kd_occluded(tv, &out.sray[i])) rt_acc_add(&acc, out.lc[i]);
+            }
+            for (int c = out.nchild; c-- > 0;) stack[sp++] = out.child[c];
+        }
+    }
+    rt_acc_pixel(&acc, spp, &eye, h0.tri != RT_NO_HIT ? &h0 : NULL, img, pix);
 }
 
 static int rec_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_err *e)
@@ -48,11 +102,20 @@ static int rec_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
     rt_trav tv;
     rt_reg_trav(&tv, ctx);
     tv.mark = mark;
+    const int secondary = rt_render_secondary(o);
+    uint64_t nsec = 0, nself = 0;
 
     for (size_t k = 0; k < npix; k++) {
         uint32_t pix = order[k];
         int x = (int)(pix % (uint32_t)W), y = (int)(pix / (uint32_t)W);
         uint64_t n0 = tv.nodes, t0 = tv.tests;
+        if (secondary) {
+            rec_secondary(ctx, &tv, &cam, pix, img, st, &nsec, &nself);
+            img->nodes[pix] = (float)(tv.nodes - n0);
+            img->tests[pix] = (float)(tv.tests - t0);
+            RT_REC(rec, rt_mm_addr(L, reg_fb, pix), 12, 1, RT_CLS_FB);
+            continue;
+        }
         rt_ray ray;
         rt_hit h;
         RT_REC(rec, rt_mm_addr(L, reg_ray, pix), 32, 0, RT_CLS_RAY);
@@ -78,6 +141,8 @@ static int rec_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
         RT_REC(rec, rt_mm_addr(L, reg_fb, pix), 12, 1, RT_CLS_FB);
     }
     rt_stats_finish(st, &tv, mark, sc->ntri);
+    if (secondary)
+        snprintf(st->extra, sizeof st->extra, "rays_secondary=%" PRIu64 " self_hits=%" PRIu64, nsec, nself);
     free(order);
     free(mark);
     return 0;
@@ -86,6 +151,7 @@ static int rec_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
 const rt_tracer rt_tracer_recursive = {
     .name = "recursive",
     .desc = "single rays in Hilbert-curve order, shadow rays depth first (Whitted)",
+    .modes = RT_TRACER_ALL_MODES,
     .layout = rec_layout,
     .run = rec_run,
 };

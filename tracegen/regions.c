@@ -11,7 +11,24 @@ int rt_reg_geometry(const rt_tracer_ctx *ctx, rt_layout *L, int want_shade, rt_e
     if (rt_mm_add(L, "kd.index", RT_CLS_INDEX, 4, kd->nidx, e) < 0) return -1;
     if (rt_mm_add(L, "tri.verts", RT_CLS_TRI, 36, ctx->sc->ntri, e) < 0) return -1;
     if (want_shade && rt_mm_add(L, "tri.shade", RT_CLS_SHADE, 16, ctx->sc->ntri, e) < 0) return -1;
+    if (want_shade && rt_reg_wants_mat(ctx) &&
+        rt_mm_add(L, "mat", RT_CLS_SHADE, RT_MAT_RECSIZE, ctx->sc->nmat, e) < 0)
+        return -1;
     return 0;
+}
+
+int rt_reg_wants_mat(const rt_tracer_ctx *ctx)
+{
+    return rt_render_secondary(ctx->opt) && rt_scene_material_flags(ctx->sc) != 0;
+}
+
+void rt_reg_shade(const rt_tracer_ctx *ctx, rt_rec *rec, uint32_t tri)
+{
+    if (!rec) return;
+    const rt_layout *L = ctx->L;
+    int rs = rt_mm_find(L, "tri.shade"), rm = rt_mm_find(L, "mat");
+    RT_REC(rec, rt_mm_addr(L, rs, tri), 16, 0, RT_CLS_SHADE);
+    if (rm >= 0) RT_REC(rec, rt_mm_addr(L, rm, ctx->sc->shade[tri].mat), RT_MAT_RECSIZE, 0, RT_CLS_SHADE);
 }
 
 void rt_reg_trav(rt_trav *tv, const rt_tracer_ctx *ctx)

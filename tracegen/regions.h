@@ -14,9 +14,18 @@
 
 /* Adds the geometry regions, in this order: kd.nodes (8 B x nodes),
  * kd.index (4 B x entries), tri.verts (36 B x triangles) and, when
- * want_shade, tri.shade (16 B x triangles). Look them up with rt_mm_find.
+ * want_shade, tri.shade (16 B x triangles) and, when rt_reg_wants_mat, mat. Look them up with rt_mm_find.
  * 0, or -1 when the layout is full. */
 int rt_reg_geometry(const rt_tracer_ctx *ctx, rt_layout *L, int want_shade, rt_err *e);
+
+/* 1 when the run reads material records: a secondary mode (whitted, path)
+ * on a scene whose triangles use a non-diffuse material. Then
+ * rt_reg_geometry adds the region mat (RT_MAT_RECSIZE B x materials,
+ * class shade) right after tri.shade. */
+int rt_reg_wants_mat(const rt_tracer_ctx *ctx);
+/* Records the reads of one shaded hit on triangle tri: its 16-byte tri.shade
+ * record and, when the region mat exists, its material record. */
+void rt_reg_shade(const rt_tracer_ctx *ctx, rt_rec *rec, uint32_t tri);
 
 /* Initialises a traversal context for ctx: its tree, scene and recorder,
  * with the geometry regions looked up in ctx->L. */

@@ -23,6 +23,15 @@ static int check_opts(const rt_render_opts *o, rt_err *e)
     if (o->W <= 0 || o->H <= 0 || o->W > 65536 || o->H > 65536)
         return rt_errf(e, "image size %dx%d out of range (1..65536)", o->W, o->H);
     if (o->packet <= 0 || o->packet > 256) return rt_errf(e, "packet size %d out of range (1..256)", o->packet);
+    return rt_render_check_mode(o, e);
+}
+
+/* The tracer must be able to run the mode. */
+static int check_tracer_mode(const rt_tracer *tr, const rt_render_opts *o, rt_err *e)
+{
+    int m = rt_render_mode(o);
+    if (!(tr->modes & (1u << m)))
+        return rt_errf(e, "--mode: the %s tracer cannot run mode %s", tr->name, rt_render_mode_name(m));
     return 0;
 }
 
@@ -32,11 +41,12 @@ int rt_job_setup_borrowed(rt_job *j, rt_scene *sc, rt_kdtree *kd, const char *tr
     memset(j, 0, sizeof *j);
     j->tr = rt_tracer_find(tracer);
     if (!j->tr) return rt_errf(e, "unknown tracer '%s'", tracer);
-    if (check_opts(o, e) < 0) return -1;
+    if (check_opts(o, e) < 0 || check_tracer_mode(j->tr, o, e) < 0) return -1;
     if (rt_pixel_check(o, tracer, e) < 0) return -1;
     j->sc = sc;
     j->kd = kd;
     j->opt = *o;
+    if (rt_render_mode(o) == RT_MODE_RAYCAST) j->opt.lights = 0; /* primary rays only */
     j->kd_sec = kd->build_sec;
     j->borrowed = 1;
     return layout(j, e);
@@ -47,9 +57,10 @@ int rt_job_setup(rt_job *j, const char *scene_spec, const char *tracer, const rt
     memset(j, 0, sizeof *j);
     j->tr = rt_tracer_find(tracer);
     if (!j->tr) return rt_errf(e, "unknown tracer '%s'", tracer);
-    if (check_opts(o, e) < 0) return -1;
+    if (check_opts(o, e) < 0 || check_tracer_mode(j->tr, o, e) < 0) return -1;
     if (rt_pixel_check(o, tracer, e) < 0) return -1;
     j->opt = *o;
+    if (rt_render_mode(o) == RT_MODE_RAYCAST) j->opt.lights = 0; /* primary rays only */
     j->sc = rt_scene_load(scene_spec, e);
     if (!j->sc) return -1;
     rt_kd_params kp;
@@ -108,19 +119,39 @@ void rt_job_meta(const rt_job *j, const char *command, rt_tr_meta *m)
     m->layout = j->L;
 }
 
+/* " mode=..." and that mode's parameters, only when the mode is not the one
+ * the lights select by default, so existing run keys stay as they were. */
+static void mode_params(const rt_render_opts *o, char *buf, size_t n)
+{
+    int m = rt_render_mode(o);
+    rt_render_opts d = *o;
+    d.mode = RT_MODE_DEFAULT;
+    buf[0] = 0;
+    if (m == rt_render_mode(&d)) return;
+    if (m == RT_MODE_WHITTED) snprintf(buf, n, "mode=whitted depth=%d", o->depth);
+    else if (m == RT_MODE_PATH) snprintf(buf, n, "mode=path spp=%d bounces=%d", o->spp, o->bounces);
+    else snprintf(buf, n, "mode=%s", rt_render_mode_name(m));
+}
+
 const char *rt_job_params(const char *tracer, const rt_render_opts *o, const char *extra, char *buf, size_t n)
 {
     if (!n) return buf;
-    const char *sep = extra && *extra ? " " : "";
+    char tp[128] = "", mp[96];
     if (!extra) extra = "";
     if (!strcmp(tracer, "dynamic"))
-        snprintf(buf, n, "qorder=%s threads=%d%s%s", o->qorder == RT_QORDER_TREE ? "tree" : "fullest", o->threads,
-                 sep, extra);
+        snprintf(tp, sizeof tp, "qorder=%s threads=%d", o->qorder == RT_QORDER_TREE ? "tree" : "fullest", o->threads);
     else if (!strcmp(tracer, "packet"))
-        snprintf(buf, n, "packet=%d%s%s", o->packet, sep, extra);
-    else
-        snprintf(buf, n, "%s", extra);
-    size_t l = strlen(buf);
+        snprintf(tp, sizeof tp, "packet=%d", o->packet);
+    mode_params(o, mp, sizeof mp);
+    /* tracer parameters, mode, extra: space-separated, empty parts left out */
+    const char *part[3] = {tp, mp, extra};
+    size_t l = 0;
+    buf[0] = 0;
+    for (int i = 0; i < 3; i++) {
+        if (!*part[i]) continue;
+        snprintf(buf + l, n - l, "%s%s", l ? " " : "", part[i]);
+        l = strlen(buf);
+    }
     rt_pixel_params(o, buf + l, n - l);
     return buf;
 }

@@ -4,6 +4,7 @@
 #include "shade.h"
 
 #include <math.h>
+#include <string.h>
 
 /* Unit geometric normal facing the side the eye ray came from. */
 static rt_vec3 facing_normal(const rt_scene *sc, const rt_ray *eye, const rt_hit *h)
@@ -72,4 +73,247 @@ void rt_shade_pixel(const rt_scene *sc, const rt_ray *eye, const rt_hit *h, cons
     img->rgb[3 * pix] = rgb[0];
     img->rgb[3 * pix + 1] = rgb[1];
     img->rgb[3 * pix + 2] = rgb[2];
+}
+
+/* ---- secondary modes (whitted, path) ---------------------------------------- */
+
+void rt_shade_path_start(rt_path *p, const rt_ray *eye, uint32_t pix, uint32_t sample)
+{
+    memset(p, 0, sizeof *p);
+    p->o = eye->o;
+    p->d = eye->d;
+    p->w[0] = p->w[1] = p->w[2] = 1.0f;
+    p->pix = pix;
+    p->sample = sample;
+    p->from_tri = RT_NO_HIT;
+}
+
+void rt_shade_path_ray(const rt_path *p, rt_ray *r) { rt_ray_init(r, p->o, p->d); }
+
+float rt_shade_rand(uint32_t pix, uint32_t sample, uint32_t bounce, uint32_t dim)
+{
+    /* counter-based: two rounds of the murmur3 finalizer over the counters */
+    uint64_t h = rt_mix64(((uint64_t)pix << 32) ^ sample ^ 0x9e3779b97f4a7c15ULL);
+    h = rt_mix64(h ^ ((uint64_t)bounce << 32) ^ dim ^ 0xd1b54a32d192ed03ULL);
+    return (float)(h >> 40) * (1.0f / 16777216.0f);
+}
+
+#define ACC_ONE 4294967296.0           /* 2^32: fixed-point scale */
+#define ACC_LIM 2305843009213693952LL  /* 2^61: saturation bound */
+
+void rt_acc_add(rt_acc *a, const float c[3])
+{
+    for (int k = 0; k < 3; k++) {
+        double x = (double)c[k] * ACC_ONE;
+        if (!(x == x)) continue;
+        if (x > (double)ACC_LIM) x = (double)ACC_LIM;
+        if (x < -(double)ACC_LIM) x = -(double)ACC_LIM;
+        int64_t v = a->v[k] + (int64_t)floor(x + 0.5);
+        a->v[k] = v > ACC_LIM ? ACC_LIM : v < -ACC_LIM ? -ACC_LIM : v;
+    }
+}
+
+void rt_acc_pixel(const rt_acc *a, int spp, const rt_ray *eye, const rt_hit *h, rt_image *img, size_t pix)
+{
+    for (int k = 0; k < 3; k++) img->rgb[3 * pix + k] = (float)((double)a->v[k] / ACC_ONE / (double)spp);
+    img->depth[pix] = h && h->tri != RT_NO_HIT ? h->t * rt_len(eye->d) : INFINITY;
+}
+
+static float gamma_n(int n)
+{
+    const float eps = 0x1p-24f;
+    return (n * eps) / (1 - n * eps);
+}
+
+rt_vec3 rt_shade_offset(const rt_tri *tri, float u, float v, rt_vec3 n, int side)
+{
+    rt_vec3 p = rt_tri_point(tri, u, v);
+    /* p = p0 + (u (p1 - p0) + v (p2 - p0)): five roundings on terms bounded
+     * by |p0|, |u| (|p0| + |p1|), |v| (|p0| + |p2|); gamma(7) covers them
+     * with margin (pbrt bounds its barycentric sum the same way). */
+    const float *P = (const float *)(const void *)tri->p;
+    const float *pp = (const float *)(const void *)&p;
+    float err[3], fu = fabsf(u), fv = fabsf(v), ext = 0.0f;
+    for (int k = 0; k < 3; k++) {
+        float a0 = fabsf(P[k]), a1 = fabsf(P[3 + k]), a2 = fabsf(P[6 + k]);
+        err[k] = gamma_n(7) * (a0 + fu * (a0 + a1) + fv * (a0 + a2));
+        for (int i = 0; i < 3; i++) ext = fmaxf(ext, fabsf(P[3 * i + k] - pp[k]));
+    }
+    /* pbrt's triangle test also rejects hits with t below its own error
+     * bound (deltaT); rt_isect_tri does not, so the offset covers that
+     * error too: the watertight test misjudges a point's depth by at most a
+     * few roundings of the vertices' distances from the origin, at most the
+     * triangle's extent about p (a plane at x = 0 has no point error, yet a
+     * ray leaving it finds its own triangle at t ~ 1e-8 without this). */
+    float d = fabsf(n.x) * err[0] + fabsf(n.y) * err[1] + fabsf(n.z) * err[2] + gamma_n(16) * ext;
+    rt_vec3 off = rt_mul(n, side > 0 ? d : -d);
+    float *po = (float *)(void *)&p;
+    const float *of = (const float *)(const void *)&off;
+    for (int k = 0; k < 3; k++) {
+        po[k] = po[k] + of[k];
+        if (of[k] > 0) po[k] = nextafterf(po[k], INFINITY);
+        else if (of[k] < 0) po[k] = nextafterf(po[k], -INFINITY);
+    }
+    return p;
+}
+
+static int nonzero(const float w[3]) { return w[0] != 0.0f || w[1] != 0.0f || w[2] != 0.0f; }
+
+/* A child ray: the parent's record with a new origin, direction, weight. */
+static void child(rt_shade_out *out, const rt_path *p, rt_vec3 o, rt_vec3 d, const float w[3], uint32_t tri)
+{
+    if (!nonzero(w)) return;
+    rt_path *c = &out->child[out->nchild++];
+    *c = *p;
+    c->o = o;
+    c->d = d;
+    for (int k = 0; k < 3; k++) c->w[k] = w[k];
+    c->depth = (uint16_t)(p->depth + 1);
+    c->from_tri = tri;
+    c->kind = 0;
+}
+
+static float mat_ior(const rt_scene *sc, uint16_t m) { return m < sc->nmat ? sc->mat[m].ior : 1.0f; }
+
+/* Snell refraction of unit d at facing unit normal n (n.d < 0) through the
+ * surface of material m, with the ray's media stack in c (updated). Returns
+ * 0 on total internal reflection. */
+static int refract_dir(const rt_scene *sc, rt_vec3 d, rt_vec3 n, uint16_t m, rt_path *c, rt_vec3 *t)
+{
+    int inside = c->nmed && c->med[c->nmed - 1] == m;
+    float eta_i, eta_t;
+    if (inside) {
+        eta_i = mat_ior(sc, m);
+        eta_t = c->nmed >= 2 ? mat_ior(sc, c->med[c->nmed - 2]) : 1.0f;
+    } else {
+        eta_i = c->nmed ? mat_ior(sc, c->med[c->nmed - 1]) : 1.0f;
+        eta_t = mat_ior(sc, m);
+    }
+    float eta = eta_i / eta_t, cosi = -rt_dot(d, n);
+    float k = 1.0f - eta * eta * (1.0f - cosi * cosi);
+    if (k < 0.0f) return 0;
+    *t = rt_add(rt_mul(d, eta), rt_mul(n, eta * cosi - sqrtf(k)));
+    if (inside) {
+        c->nmed--;
+    } else {
+        if (c->nmed == RT_PATH_MEDIA) { /* deeper nesting: forget the outermost */
+            memmove(c->med, c->med + 1, sizeof c->med[0] * (RT_PATH_MEDIA - 1));
+            c->nmed--;
+        }
+        c->med[c->nmed++] = m;
+    }
+    return 1;
+}
+
+static rt_vec3 reflect_dir(rt_vec3 d, rt_vec3 n) { return rt_sub(d, rt_mul(n, 2.0f * rt_dot(d, n))); }
+
+/* Cosine-weighted direction about unit n from the path's random numbers;
+ * the disk point is drawn by rejection (no trigonometry, so the same bits
+ * on every machine). */
+static rt_vec3 cosine_dir(rt_vec3 n, const rt_path *p)
+{
+    float x = 0.0f, y = 0.0f;
+    for (uint32_t k = 0; k < 16; k++) {
+        float a = 2.0f * rt_shade_rand(p->pix, p->sample, p->depth, 1 + 2 * k) - 1.0f;
+        float b = 2.0f * rt_shade_rand(p->pix, p->sample, p->depth, 2 + 2 * k) - 1.0f;
+        if (a * a + b * b < 1.0f) {
+            x = a;
+            y = b;
+            break;
+        }
+    }
+    float z = sqrtf(fmaxf(0.0f, 1.0f - x * x - y * y));
+    /* Duff et al. (JCGT 2017) orthonormal basis */
+    float sign = copysignf(1.0f, n.z), a = -1.0f / (sign + n.z), b = n.x * n.y * a;
+    rt_vec3 t = rt_v3(1.0f + sign * n.x * n.x * a, sign * b, -sign * n.x);
+    rt_vec3 s = rt_v3(b, sign + n.y * n.y * a, -n.y);
+    return rt_add(rt_add(rt_mul(t, x), rt_mul(s, y)), rt_mul(n, z));
+}
+
+static float avg3(const float v[3]) { return (v[0] + v[1] + v[2]) * (1.0f / 3.0f); }
+
+void rt_shade_step(const rt_scene *sc, const rt_render_opts *o, const rt_path *p, const rt_ray *r, const rt_hit *h,
+                   rt_shade_out *out)
+{
+    memset(out, 0, sizeof *out);
+    if (!h || h->tri == RT_NO_HIT) {
+        out->c[0] = p->w[0] * sc->background.x;
+        out->c[1] = p->w[1] * sc->background.y;
+        out->c[2] = p->w[2] * sc->background.z;
+        return;
+    }
+    const int path = o->mode == RT_MODE_PATH;
+    const rt_tri *T = &sc->tri[h->tri];
+    const rt_shade *S = &sc->shade[h->tri];
+    const uint16_t m = (uint16_t)(S->mat < sc->nmat ? S->mat : 0);
+    const rt_material *M = &sc->mat[m];
+    const float *alb = S->rgb;
+    out->self_hit = h->tri == p->from_tri;
+    rt_vec3 n = facing_normal(sc, r, h);
+    rt_vec3 d = rt_norm(r->d);
+    rt_vec3 ph = hit_point(sc, h);
+
+    /* what needs no visibility: ambient (whitted) or nothing, plus emission */
+    for (int k = 0; k < 3; k++) {
+        float local = path ? 0.0f : alb[k] * sc->ambient;
+        if (!path && !o->lights) local = alb[k] * (sc->ambient + -rt_dot(n, d) * sc->light_power);
+        out->c[k] = p->w[k] * (local + M->ke[k]);
+    }
+    /* shadow rays: next-event estimation to the point lights */
+    rt_vec3 so = rt_shade_offset(T, h->u, h->v, n, 1);
+    for (int i = 0; i < RT_NLIGHTS; i++) {
+        if (!(o->lights & (1u << i))) continue;
+        rt_vec3 l = rt_norm(rt_sub(sc->light[i], ph));
+        float ndl = rt_dot(n, l);
+        if (!(ndl > 0)) continue;
+        float s = ndl * sc->light_power;
+        for (int k = 0; k < 3; k++) out->lc[i][k] = p->w[k] * (alb[k] * s);
+        if (!nonzero(out->lc[i])) continue;
+        out->want[i] = 1;
+        rt_ray_init(&out->sray[i], so, rt_sub(sc->light[i], so));
+        out->sray[i].tmin = 0.0f;
+        out->sray[i].tmax = 1.0f;
+    }
+
+    rt_vec3 refl = reflect_dir(d, n);
+    if (!path) {
+        if (p->depth + 1 >= o->depth) return;
+        float wr[3], wt[3];
+        for (int k = 0; k < 3; k++) {
+            wr[k] = p->w[k] * M->ks[k];
+            wt[k] = p->w[k] * M->kt[k];
+        }
+        rt_path c = *p;
+        rt_vec3 tdir;
+        int refr = nonzero(wt) && refract_dir(sc, d, n, m, &c, &tdir);
+        if (nonzero(wt) && !refr) /* total internal reflection: the refracted weight reflects */
+            for (int k = 0; k < 3; k++) wr[k] = p->w[k] * (M->ks[k] + M->kt[k]);
+        child(out, p, so, refl, wr, h->tri);
+        if (refr) {
+            child(out, &c, rt_shade_offset(T, h->u, h->v, n, -1), tdir, wt, h->tri);
+            out->child[out->nchild - 1].kind = RT_PATH_REFRACT;
+        }
+        return;
+    }
+
+    /* path: one continuation, chosen with probability proportional to the
+     * mean of each term */
+    if (p->depth >= o->bounces) return;
+    float pd = avg3(alb), ps = avg3(M->ks), pt = avg3(M->kt), sum = pd + ps + pt;
+    if (!(sum > 0.0f)) return;
+    float u = rt_shade_rand(p->pix, p->sample, p->depth, 0) * sum;
+    float w[3];
+    if ((u < pd && pd > 0.0f) || (!(ps > 0.0f) && !(pt > 0.0f))) {
+        for (int k = 0; k < 3; k++) w[k] = p->w[k] * (alb[k] * (sum / pd));
+        child(out, p, so, cosine_dir(n, p), w, h->tri);
+    } else if ((u < pd + ps && ps > 0.0f) || !(pt > 0.0f)) {
+        for (int k = 0; k < 3; k++) w[k] = p->w[k] * (M->ks[k] * (sum / ps));
+        child(out, p, so, refl, w, h->tri);
+    } else {
+        rt_path c = *p;
+        rt_vec3 tdir;
+        for (int k = 0; k < 3; k++) w[k] = p->w[k] * (M->kt[k] * (sum / pt));
+        if (refract_dir(sc, d, n, m, &c, &tdir)) child(out, &c, rt_shade_offset(T, h->u, h->v, n, -1), tdir, w, h->tri);
+        else child(out, p, so, refl, w, h->tri); /* total internal reflection */
+    }
 }

@@ -12,12 +12,26 @@
  *
  * Tracers differ only in the order they trace rays: each finds a pixel's
  * closest hit and per-light visibility and hands them to rt_shade_pixel.
+ *
+ * Secondary modes (whitted, path; docs/tracers.md "Modes"). Every ray of a
+ * Whitted tree or a path is an rt_path: the ray, its throughput, pixel,
+ * sample and generation, and the stack of dielectric media it travels in.
+ * rt_shade_step turns one such ray and its closest hit (or miss) into an
+ * rt_shade_out: a contribution that needs no visibility (ambient, emission,
+ * background), one shadow ray per enabled light with the contribution it
+ * adds when unoccluded, and zero to two children for the next generation.
+ * The step is a pure function of (scene, options, ray, hit), and random
+ * numbers come from a hash of (pixel, sample, bounce, dimension), so a
+ * tracer may trace the rays in any order. Contributions are summed in
+ * 32.32 fixed point (rt_acc): integer addition is associative, so the sum
+ * and hence the image is bit-identical whatever order a tracer adds them.
  */
 #ifndef RT_SHADE_H
 #define RT_SHADE_H
 
 #include "image.h"
 #include "kdtrav.h"
+#include "options.h"
 #include "scene.h"
 
 /* Shades one primary hit exactly as documented above. vis[i] != 0 when light
@@ -35,5 +49,65 @@ void rt_shade_pixel(const rt_scene *sc, const rt_ray *eye, const rt_hit *h, cons
  * (0, 1). Returns 0 when the light is behind the surface (no ray needed:
  * not lit), else 1. */
 int rt_shade_ray(const rt_scene *sc, const rt_ray *eye, const rt_hit *h, int light, rt_ray *sr);
+
+/* ---- secondary modes ------------------------------------------------------ */
+
+#define RT_PATH_MEDIA 4 /* nesting depth of dielectrics a ray remembers */
+
+/* One ray of a Whitted tree or a path. Modeled as the 64-byte record of
+ * docs/memory-model.md ("secondary ray records"). */
+typedef struct rt_path {
+    rt_vec3 o, d;       /* origin (offset off the surface) and direction */
+    float w[3];         /* throughput: weight of everything this ray brings back */
+    uint32_t pix;       /* pixel */
+    uint32_t sample;    /* path sample (0 in whitted mode) */
+    uint16_t depth;     /* generation: 0 for the primary ray */
+    uint8_t nmed;       /* entries of med[] in use (the innermost last) */
+    uint8_t kind;       /* RT_PATH_REFRACT for a refracted ray, else 0 */
+    uint16_t med[RT_PATH_MEDIA]; /* materials of the dielectrics the ray is inside */
+    uint32_t from_tri;  /* triangle it left (RT_NO_HIT for primary rays) */
+} rt_path;
+
+#define RT_PATH_REFRACT 1
+/* Bytes of a secondary ray record in the modeled memory (docs/memory-model.md). */
+#define RT_SREC_SIZE 64
+
+/* What one ray's hit or miss produces. */
+typedef struct rt_shade_out {
+    float c[3];                      /* contribution needing no visibility */
+    uint8_t want[RT_NLIGHTS];        /* shadow ray i to trace */
+    rt_ray sray[RT_NLIGHTS];         /* shadow rays, interval (0, 1) */
+    float lc[RT_NLIGHTS][3];         /* added when shadow ray i is unoccluded */
+    int nchild;                      /* children in child[] (0..2: reflection first) */
+    rt_path child[2];
+    int self_hit;                    /* the ray hit the triangle it left (never expected) */
+} rt_shade_out;
+
+/* The primary ray of pixel pix, sample s: throughput 1, generation 0. */
+void rt_shade_path_start(rt_path *p, const rt_ray *eye, uint32_t pix, uint32_t sample);
+/* The traceable ray of p (rt_ray_init of its origin and direction). */
+void rt_shade_path_ray(const rt_path *p, rt_ray *r);
+/* The step documented above for mode o->mode (RT_MODE_WHITTED or
+ * RT_MODE_PATH); h NULL or h->tri == RT_NO_HIT for a miss. */
+void rt_shade_step(const rt_scene *sc, const rt_render_opts *o, const rt_path *p, const rt_ray *r, const rt_hit *h,
+                   rt_shade_out *out);
+/* The path sampler: uniform float in [0, 1) from a hash of the counters. */
+float rt_shade_rand(uint32_t pix, uint32_t sample, uint32_t bounce, uint32_t dim);
+
+/* Order-independent pixel accumulator: 32.32 fixed point per channel
+ * (resolution 2^-32, saturating at +-2^30; NaN adds 0). */
+typedef struct rt_acc {
+    int64_t v[3];
+} rt_acc;
+void rt_acc_add(rt_acc *a, const float c[3]);
+/* Writes acc / spp as the pixel's RGB and depth (the primary hit's distance
+ * along eye, INFINITY when h is NULL). */
+void rt_acc_pixel(const rt_acc *a, int spp, const rt_ray *eye, const rt_hit *h, rt_image *img, size_t pix);
+
+/* pbrt-v3's robust origin (Pharr, Jakob, Humphreys, 3rd ed., 3.9): the
+ * point at barycentrics (u, v) of tri, with its rounding-error bound
+ * pbrt-style, offset along n (unit) by |n|.err and rounded one more ULP away
+ * from the surface, to the side of n when side > 0, else the other side. */
+rt_vec3 rt_shade_offset(const rt_tri *tri, float u, float v, rt_vec3 n, int side);
 
 #endif

@@ -14,13 +14,16 @@
  *
  * Adding a tracer:
  *   1. write tracegen/NAME.c defining `const rt_tracer rt_tracer_NAME` with
- *      designated initialisers; keep everything else in the file static;
+ *      designated initialisers (.modes lists the rt_mode values it runs);
+ *      keep everything else in the file static;
  *   2. layout(): call rt_reg_geometry first (regions.h: the tree and
  *      triangles keep their addresses across tracers), then add your own
  *      regions with rt_mm_add, in a fixed order;
  *   3. run(): trace the pixels rt_pixel_order (pixels.h) returns, rays from
  *      rt_cam_ray (camera.h), shadow rays from rt_shade_ray, pixels written
- *      with rt_shade_pixel (shade.h); record every access with RT_REC
+ *      with rt_shade_pixel (shade.h); in the whitted and path modes every
+ *      ray goes through rt_shade_step and pixels are summed in an rt_acc
+ *      (shade.h), so the order rays are traced in does not matter; record every access with RT_REC
  *      (memmodel.h) into a region of your layout; count node visits and
  *      triangle tests in an rt_trav set up by rt_reg_trav and finish the
  *      statistics with rt_stats_finish (stats.h); put tracer-specific
@@ -69,6 +72,7 @@ typedef struct rt_tracer_ctx {
 typedef struct rt_tracer {
     const char *name;  /* "recursive", "packet", "dynamic" */
     const char *desc;  /* one line */
+    unsigned modes;    /* bit m set: can run rt_mode m (RT_TRACER_ALL_MODES) */
     /* Declares the regions this run touches (in a fixed order). 0 or -1. */
     int (*layout)(const rt_tracer_ctx *ctx, rt_layout *L, rt_err *e);
     /* Renders into img (allocated by the caller at opt->W x opt->H). 0 or -1. */
@@ -79,6 +83,10 @@ typedef struct rt_tracer {
     /* Frees a plan; accepts NULL. Required when plan is set. */
     void (*plan_free)(void *plan);
 } rt_tracer;
+
+#define RT_TRACER_ALL_MODES                                                                  \
+    ((1u << RT_MODE_RAYCAST) | (1u << RT_MODE_SHADOW) | (1u << RT_MODE_WHITTED) | (1u << RT_MODE_PATH))
+#define RT_TRACER_PRIMARY_MODES ((1u << RT_MODE_RAYCAST) | (1u << RT_MODE_SHADOW))
 
 /* Registered tracers, NULL-terminated, and lookup by name (NULL if none). */
 extern const rt_tracer *const rt_tracer_all[];
