@@ -631,6 +631,33 @@ static void test_generations(void)
     free(b1);
     free(b2);
 
+    /* a recorder stamps its current generation on every access, across
+     * buffer flushes, into the writer and back out of the reader */
+    m.generations = 255;
+    w = rt_tr_create(p = check_path("rec.rtt"), &m, &e);
+    rt_rec *rc = w ? rt_rec_new(rt_tr_sink(w), &e) : NULL;
+    CHECK(rc && rc->gen == 0, "recorder: %s", e.msg);
+    enum { NR = 3 * RT_REC_BUF + 7 };
+    static uint8_t want[NR];
+    for (int i = 0; i < NR; i++) {
+        int g = i % 500 == 0 ? (i / 500) % 7 - 1 : -2; /* -1 and 300 are clamped */
+        if (i == 1000) g = 300;
+        if (g != -2) rt_rec_set_gen(rc, g);
+        want[i] = rc->gen;
+        RT_REC(rc, RT_MM_BASE + 8u * (unsigned)(i % 77), 8, i & 1, RT_CLS_NODE);
+    }
+    rt_rec_set_gen(NULL, 3); /* recording off: a no-op */
+    CHECK(want[0] == 0 && want[1000] == 255 && want[1500] == 2, "clamping: %u %u %u", want[0], want[1000], want[1500]);
+    CHECK(rt_rec_flush(rc) == 0 && rt_tr_finish(w, &e) == 0, "recorded trace: %s", e.msg);
+    rt_rec_free(rc);
+    rt_tr_reader *rr = rt_tr_open(p, &e);
+    static rt_access back[NR + 1];
+    long nb = rr ? rt_tr_read(rr, back, NR + 1, &e) : -1;
+    int bad = 0;
+    for (long i = 0; i < nb && i < NR; i++) bad += back[i].gen != want[i];
+    CHECK(nb == NR && bad == 0, "recorded generations: %ld records, %d wrong (%s)", nb, bad, e.msg);
+    rt_tr_close(rr);
+
     /* version-1 bytes are those of the writer before version 2 (the
      * synthetic trace, stored zlib blocks so only the format matters) */
     p = check_path("syn0.rtt");
