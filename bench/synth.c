@@ -32,22 +32,22 @@ void rt_synth_fill(rt_synth *g, rt_access *a, size_t n)
         int p = g->phase++;
         uint64_t ray = g->ray;
         if (p == 0) { /* read the ray */
-            a[i] = (rt_access){RAY_BASE + (ray % NRAY) * 32, 32, 0, RT_CLS_RAY};
+            a[i] = (rt_access){RAY_BASE + (ray % NRAY) * 32, 32, 0, RT_CLS_RAY, 0};
             g->node = 1;
         } else if (p <= DEPTH) { /* one level down: coherent choice */
             int sh = 14 - p > 0 ? 14 - p : 0;
             uint64_t bit = rt_mix64(((ray >> sh) << 5) ^ (uint64_t)p) & 1;
             g->node = g->node * 2 + bit;
-            a[i] = (rt_access){NODE_BASE + g->node * 8, 8, 0, RT_CLS_NODE};
+            a[i] = (rt_access){NODE_BASE + g->node * 8, 8, 0, RT_CLS_NODE, 0};
         } else if (p == DEPTH + 1 || p == DEPTH + 6) { /* leaf index list */
             uint64_t leaf = g->node ^ (p == DEPTH + 6 ? 1 : 0);
             g->leaf = rt_mix64(leaf) % (NTRI - 4);
-            a[i] = (rt_access){INDEX_BASE + (leaf & 0xfffff) * 16, 16, 0, RT_CLS_INDEX};
+            a[i] = (rt_access){INDEX_BASE + (leaf & 0xfffff) * 16, 16, 0, RT_CLS_INDEX, 0};
         } else if (p <= DEPTH + 10) { /* four triangles per leaf */
             uint64_t t = g->leaf + (uint64_t)((p - DEPTH - 2) % 5);
-            a[i] = (rt_access){TRI_BASE + t * 36, 36, 0, RT_CLS_TRI};
+            a[i] = (rt_access){TRI_BASE + t * 36, 36, 0, RT_CLS_TRI, 0};
         } else { /* write the hit back into the ray record; next ray */
-            a[i] = (rt_access){RAY_BASE + (ray % NRAY) * 32 + 16, 16, 1, RT_CLS_RAY};
+            a[i] = (rt_access){RAY_BASE + (ray % NRAY) * 32 + 16, 16, 1, RT_CLS_RAY, 0};
             g->phase = 0;
             g->ray++;
         }

@@ -32,6 +32,10 @@
  * the remedy (exact_below). Accesses are always counted exactly; misses and
  * write-backs are estimates scaled back to full-trace units.
  *
+ * Ray generations (rt_access.gen) are accepted and ignored: every estimate
+ * is summed over the generations. Per-generation figures are exact-only
+ * (rt_sim_get_gen).
+ *
  * Usage: rt_approx_new, feed references through rt_approx_sink /
  * rt_approx_put or rt_approx_replay, call rt_approx_finish, then
  * rt_approx_get. Return conventions as in rt.h: 0 / non-NULL on success,

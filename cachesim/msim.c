@@ -13,7 +13,8 @@
  * (in lines) we do not need the exact depth, only which interval it falls
  * in (Kim, Hill and Wood 1991). The stack is a doubly linked list threaded
  * through an index array of 16-byte hot records (nodes[]: 32-bit prev/next
- * links, NIL = UINT32_MAX, dirty mask, group, last-writer class), head =
+ * links, NIL = UINT32_MAX, dirty mask, group, last writer's class and
+ * generation), head =
  * most recently used; node i's line number is kept apart in lines[i]. Each
  * node carries its *group* g: the node is at depth in (C_{g-1}, C_g]
  * (C_{-1} = 0). There is one *marker* per group pointing at the group's
@@ -29,9 +30,11 @@
  * A REFERENCE to line L:
  *   1. look L up; if present its group g says it hits in sizes g..k-1 and
  *      misses in 0..g-1; if absent g = k (misses everywhere). We count the
- *      reference once, in hist[class][write][g]; the misses of size i are
- *      the sum of hist over g > i, computed when results are read. So the
- *      per-reference counting cost does not depend on k;
+ *      touch once, in hist[cg][write][g] (cg: the reference's class and
+ *      ray generation folded into one index, sim_int.h); the misses of size
+ *      i are the sum of hist over g > i, computed when results are read. So
+ *      the per-reference counting cost depends on neither k nor the number
+ *      of generations;
  *   2. unlink L (fixing its group's marker and count) or, on a miss with a
  *      full stack, evict the bottom node (it leaves cache k-1) and reuse it;
  *   3. push L on top as group 0; then cascade: while group j holds more than
@@ -52,9 +55,10 @@
  * A write sets all k bits (write-allocate: after the write every cache
  * holds the line, modified). When a node crosses from group j to j+1 it
  * leaves cache j: if bit j is set, cache j writes it back; the bit is
- * cleared. Write-backs are charged to the class of the reference that last
- * wrote the line (wcls), which is the same reference for every size in
- * which the line is dirty, since every write dirties all sizes.
+ * cleared. Write-backs are charged to the class and generation of the
+ * reference that last wrote the line (wcg), which is the same reference for
+ * every size in which the line is dirty, since every write dirties all
+ * sizes.
  *
  * INVARIANTS (checked by rt_msim_check):
  *   - the list from head follows next links to tail, prev links mirror
@@ -65,7 +69,10 @@
  *   - if cnt[j] < cap[j] then every group after j is empty (the stack fills
  *     from the top), hence nused <= C_{k-1};
  *   - a node in group g has no dirty bit below g (it is in no cache smaller
- *     than C_g);
+ *     than C_g); a dirty node's wcg is a valid (class, generation) index;
+ *   - for every size i and index cg, wb[i][cg] is at most the write touches
+ *     counted for cg (each write-back from cache i needs its own last write
+ *     since the line's previous write-back from cache i);
  *   - mru_line is the line of the head node;
  *   - every slot's fingerprint is the top half of lines[node] * PHI, and
  *     full is set iff nused == C_{k-1} >= 2.
@@ -86,6 +93,7 @@
  * only; results do not depend on them.
  */
 #include "msim.h"
+#include "sim_int.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -106,7 +114,7 @@ typedef struct msnode {
     uint32_t next;  /* towards the bottom; NIL at tail */
     uint32_t dirty; /* bit i: dirty in the cache of size i */
     uint8_t grp;    /* size interval the node's depth is in */
-    uint8_t wcls;   /* class of the last write to the line */
+    uint8_t wcg;    /* (class, generation) index of the last write to the line */
     uint16_t pad;
 } msnode;
 
@@ -130,8 +138,8 @@ struct rt_msim {
     uint32_t cap[RT_SIM_MAXSIZES + 1];       /* group capacities in lines */
     uint32_t marker[RT_SIM_MAXSIZES + 1];    /* last node of each group */
     int full;                                /* nused == cmax >= 2: steady state */
-    uint64_t hist[RT_NCLASS][2][RT_SIM_MAXSIZES + 1]; /* touches by class, write, group */
-    uint64_t wb[RT_SIM_MAXSIZES][RT_NCLASS]; /* write-backs by size, class */
+    uint64_t hist[RT_SIM_NCG][2][RT_SIM_MAXSIZES + 1]; /* touches by (class, gen), write, group */
+    uint64_t wb[RT_SIM_MAXSIZES][RT_SIM_NCG]; /* write-backs by size, (class, gen) */
     uint64_t sizes[RT_SIM_MAXSIZES];         /* sizes in bytes */
 };
 
@@ -243,7 +251,7 @@ void rt_msim_free(rt_msim *m)
 /* Generic touch, used while the stack is filling (and for a one-line
  * largest cache): group counts change, the cascade stops at the first group
  * that does not overflow. x is L's node or NIL. */
-static void touch_fill(rt_msim *restrict m, uint64_t L, uint32_t x, unsigned w, unsigned cls)
+static void touch_fill(rt_msim *restrict m, uint64_t L, uint32_t x, unsigned w, unsigned cg)
 {
     msnode *restrict nd = m->nodes;
     unsigned g;
@@ -262,7 +270,7 @@ static void touch_fill(rt_msim *restrict m, uint64_t L, uint32_t x, unsigned w, 
             /* evict the bottom line: it leaves the largest cache */
             unsigned kk = (unsigned)m->k - 1;
             x = m->tail;
-            if (nd[x].dirty & (1u << kk)) m->wb[kk][nd[x].wcls]++;
+            if (nd[x].dirty & (1u << kk)) m->wb[kk][nd[x].wcg]++;
             m->marker[kk] = m->cnt[kk] > 1 ? nd[x].prev : NIL;
             m->cnt[kk]--;
             m->tail = nd[x].prev;
@@ -276,7 +284,7 @@ static void touch_fill(rt_msim *restrict m, uint64_t L, uint32_t x, unsigned w, 
         nd[x].dirty = 0;
         h_insert(m, L, x);
     }
-    m->hist[cls][w][g]++;
+    m->hist[cg][w][g]++;
     /* push on top as group 0 */
     nd[x].prev = NIL;
     nd[x].next = m->head;
@@ -287,7 +295,7 @@ static void touch_fill(rt_msim *restrict m, uint64_t L, uint32_t x, unsigned w, 
     nd[x].grp = 0;
     if (w) {
         nd[x].dirty = m->allmask;
-        nd[x].wcls = (uint8_t)cls;
+        nd[x].wcg = (uint8_t)cg;
     }
     if (++m->cnt[0] == 1) m->marker[0] = x;
     /* cascade: overflowing groups hand their last node down */
@@ -295,7 +303,7 @@ static void touch_fill(rt_msim *restrict m, uint64_t L, uint32_t x, unsigned w, 
         uint32_t y = m->marker[j];
         nd[y].grp = (uint8_t)(j + 1);
         if (nd[y].dirty & (1u << j)) {
-            m->wb[j][nd[y].wcls]++;
+            m->wb[j][nd[y].wcg]++;
             nd[y].dirty &= ~(1u << j);
         }
         m->marker[j] = nd[y].prev;
@@ -306,16 +314,16 @@ static void touch_fill(rt_msim *restrict m, uint64_t L, uint32_t x, unsigned w, 
 }
 
 /* One line touch. L is the line, h = L * PHI, hint a node that may hold L
- * (or NIL). */
+ * (or NIL), cg the reference's (class, generation) index. */
 static inline __attribute__((always_inline)) void touch(rt_msim *restrict m, uint64_t L, uint64_t h, uint32_t hint,
-                                                         unsigned w, unsigned cls)
+                                                         unsigned w, unsigned cg)
 {
     msnode *restrict nd = m->nodes;
     if (L == m->mru_line && m->head != NIL) { /* fast path: top of stack */
-        m->hist[cls][w][0]++;
+        m->hist[cg][w][0]++;
         if (w) {
             nd[m->head].dirty = m->allmask;
-            nd[m->head].wcls = (uint8_t)cls;
+            nd[m->head].wcg = (uint8_t)cg;
         }
         return;
     }
@@ -335,7 +343,7 @@ static inline __attribute__((always_inline)) void touch(rt_msim *restrict m, uin
         }
     }
     if (__builtin_expect(!m->full, 0)) {
-        touch_fill(m, L, x, w, cls);
+        touch_fill(m, L, x, w, cg);
         return;
     }
     /* Steady state: the stack holds cmax lines, every group is full and
@@ -359,7 +367,7 @@ static inline __attribute__((always_inline)) void touch(rt_msim *restrict m, uin
         ncas = kk;
         x = m->tail;
         uint32_t p = nd[x].prev; /* not NIL: cmax >= 2 */
-        if (nd[x].dirty & (1u << kk)) m->wb[kk][nd[x].wcls]++;
+        if (nd[x].dirty & (1u << kk)) m->wb[kk][nd[x].wcg]++;
         m->marker[kk] = p; /* as above */
         m->tail = p;
         nd[p].next = NIL;
@@ -375,7 +383,7 @@ static inline __attribute__((always_inline)) void touch(rt_msim *restrict m, uin
         while ((uint32_t)m->ht[i] != NIL) i = (i + 1) & m->hmask;
         m->ht[i] = (h & 0xFFFFFFFF00000000ULL) | x;
     }
-    m->hist[cls][w][g]++;
+    m->hist[cg][w][g]++;
     uint32_t hd = m->head;
     nd[x].prev = NIL;
     nd[x].next = hd;
@@ -385,7 +393,7 @@ static inline __attribute__((always_inline)) void touch(rt_msim *restrict m, uin
     nd[x].grp = 0;
     if (w) {
         nd[x].dirty = m->allmask;
-        nd[x].wcls = (uint8_t)cls;
+        nd[x].wcg = (uint8_t)cg;
     }
     uint32_t *restrict mk = m->marker;
     for (unsigned j = 0; j < ncas; j++) {
@@ -394,7 +402,7 @@ static inline __attribute__((always_inline)) void touch(rt_msim *restrict m, uin
         ny->grp = (uint8_t)(j + 1);
         uint32_t d = ny->dirty;
         if (__builtin_expect(d & (1u << j), 0)) {
-            m->wb[j][ny->wcls]++;
+            m->wb[j][ny->wcg]++;
             ny->dirty = d & ~(1u << j);
         }
         uint32_t p = ny->prev; /* not NIL: group j holds cap[j] + 1 >= 2 nodes now */
@@ -472,13 +480,13 @@ static inline void put_batch(rt_msim *restrict m, const rt_access *a, size_t n, 
         if (m->full) /* the slot of the next victim */
             __builtin_prefetch(&m->ht[hslot(m, m->lines[m->tail])]);
         const pfent *e = &ring[i & (RING - 1)];
-        unsigned cls = a[i].cls < RT_NCLASS ? a[i].cls : RT_CLS_FB;
+        unsigned cg = rt_sim_cg(&a[i]);
         unsigned w = a[i].write ? 1 : 0;
         uint64_t first = e->f, last = e->l;
-        touch(m, first, e->hf, e->xf, w, cls);
+        touch(m, first, e->hf, e->xf, w, cg);
         if (last > first) { /* (an end past 2^64 - 1 touches the first line only) */
-            for (uint64_t L = first + 1; L < last; L++) touch(m, L, L * PHI, NIL, w, cls);
-            touch(m, last, e->hl, e->xl, w, cls);
+            for (uint64_t L = first + 1; L < last; L++) touch(m, L, L * PHI, NIL, w, cg);
+            touch(m, last, e->hl, e->xl, w, cg);
         }
     }
 #undef STAGE_SLOT
@@ -491,20 +499,25 @@ void rt_msim_put(rt_msim *m, const rt_access *a, size_t n)
     else put_batch(m, a, n, 0);
 }
 
-void rt_msim_get(const rt_msim *m, int i, int cls, rt_sim_counts *out)
+void rt_msim_get_gen(const rt_msim *m, int i, int cls, int gen, rt_sim_counts *out)
 {
     memset(out, 0, sizeof *out);
-    if (i < 0 || i >= m->k || cls < 0 || cls >= RT_NCLASS) return;
-    for (int g = 0; g <= m->k; g++) {
-        out->accesses += m->hist[cls][0][g] + m->hist[cls][1][g];
-        if (g > i) {
-            out->read_misses += m->hist[cls][0][g];
-            out->write_misses += m->hist[cls][1][g];
+    if (i < 0 || i >= m->k || cls < 0 || cls >= RT_NCLASS || gen >= RT_MAXGEN) return;
+    for (int b = gen < 0 ? 0 : gen; b < (gen < 0 ? RT_MAXGEN : gen + 1); b++) {
+        int cg = b * RT_NCLASS + cls;
+        for (int g = 0; g <= m->k; g++) {
+            out->accesses += m->hist[cg][0][g] + m->hist[cg][1][g];
+            if (g > i) {
+                out->read_misses += m->hist[cg][0][g];
+                out->write_misses += m->hist[cg][1][g];
+            }
         }
+        out->writebacks += m->wb[i][cg];
     }
-    out->writebacks = m->wb[i][cls];
     out->traffic_bytes = (out->read_misses + out->write_misses + out->writebacks) * m->line;
 }
+
+void rt_msim_get(const rt_msim *m, int i, int cls, rt_sim_counts *out) { rt_msim_get_gen(m, i, cls, -1, out); }
 
 int rt_msim_check(const rt_msim *m, rt_err *e)
 {
@@ -526,6 +539,7 @@ int rt_msim_check(const rt_msim *m, rt_err *e)
         last[g] = x;
         if (nd[x].dirty & ~m->allmask) return rt_errf(e, "msim: node %u has dirty bits beyond k", x);
         if (nd[x].dirty & ((1u << g) - 1)) return rt_errf(e, "msim: node %u (group %u) dirty in a smaller cache", x, g);
+        if (nd[x].dirty && nd[x].wcg >= RT_SIM_NCG) return rt_errf(e, "msim: node %u has writer index %u", x, nd[x].wcg);
         if (h_find(m, m->lines[x]) != x) return rt_errf(e, "msim: node %u not found in hash table", x);
         prev = x;
     }
@@ -550,6 +564,15 @@ int rt_msim_check(const rt_msim *m, rt_err *e)
         }
     if (m->full != (m->nused == m->cmax && m->cmax > 1)) return rt_errf(e, "msim: steady-state flag wrong");
     if (inhash != m->nused) return rt_errf(e, "msim: hash holds %llu lines, stack %u", (unsigned long long)inhash, m->nused);
+    for (int cg = 0; cg < RT_SIM_NCG; cg++) {
+        uint64_t writes = 0;
+        for (int g = 0; g <= m->k; g++) writes += m->hist[cg][1][g];
+        for (int i = 0; i < m->k; i++)
+            if (m->wb[i][cg] > writes)
+                return rt_errf(e, "msim: size %d: %llu write-backs charged to class %s generation %d, which wrote %llu times",
+                               i, (unsigned long long)m->wb[i][cg], rt_class_name(cg % RT_NCLASS), cg / RT_NCLASS,
+                               (unsigned long long)writes);
+    }
     return 0;
 }
 

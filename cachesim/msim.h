@@ -14,10 +14,13 @@ typedef struct rt_msim rt_msim;
 rt_msim *rt_msim_new(const uint64_t *sizes, int k, uint32_t line, rt_err *e);
 void rt_msim_free(rt_msim *m);
 void rt_msim_put(rt_msim *m, const rt_access *a, size_t n);
-/* Counters of size index i, class cls (traffic_bytes filled in). */
+/* Counters of size index i, class cls, summed over the generations
+ * (traffic_bytes filled in). */
 void rt_msim_get(const rt_msim *m, int i, int cls, rt_sim_counts *out);
+/* The same for generation bucket gen (0..RT_MAXGEN-1); gen < 0 sums them. */
+void rt_msim_get_gen(const rt_msim *m, int i, int cls, int gen, rt_sim_counts *out);
 int rt_msim_check(const rt_msim *m, rt_err *e);
-/* Test hook: adds n touches of (cls, write) at stack group g (0..k, k =
+/* Test hook: adds n generation-0 touches of (cls, write) at stack group g (0..k, k =
  * missed everywhere) to the counters, without simulating them; lets tests
  * check that counters and their sums are 64-bit without 2^32 references. */
 void rt_msim_test_add(rt_msim *m, int cls, int write, int g, uint64_t n);

@@ -13,16 +13,22 @@
  * Policies (Dinero IV semantics, docs/cachesim.md):
  *   write-back     a write hit or allocated write miss marks the line dirty;
  *                  evicting a dirty line costs one line (a write-back),
- *                  charged to the class of the last write to the line;
+ *                  charged to the class and ray generation of the last
+ *                  write to the line;
  *   write-through  each write touch sends the bytes it covers inside that
  *                  line to memory (wt_bytes); lines are never dirty;
  *   write-allocate a write miss fetches the line like a read miss;
  *   no-write-allocate a write miss leaves the cache unchanged and sends its
  *                  bytes to memory (wt_bytes), whatever the hit policy.
+ * Counters are kept per (class, generation) index (sim_int.h); per-class
+ * figures are sums over the generations.
  * Invariants (rt_sa_check): each set's list has used[s] <= assoc slots, all
- * inside the set, each in the hash table under its line, whose set is s.
+ * inside the set, each in the hash table under its line, whose set is s; a
+ * dirty slot's writer index is valid; per index, misses <= accesses and
+ * write-backs <= write touches.
  */
 #include "setassoc.h"
+#include "sim_int.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -34,7 +40,7 @@ typedef struct saslot {
     uint32_t prev;  /* more recent slot in the set, NIL at head */
     uint32_t next;  /* less recent, NIL at tail */
     uint8_t dirty;  /* write-back: modified since fetched */
-    uint8_t wcls;   /* class of the last write */
+    uint8_t wcg;    /* (class, generation) index of the last write */
 } saslot;
 
 typedef struct saset {
@@ -58,7 +64,9 @@ struct rt_sa {
     sahash *ht;          /* line -> slot */
     uint64_t hmask;      /* table size - 1 */
     int hshift;          /* 64 - log2(table size) */
-    uint64_t acc[RT_NCLASS], rm[RT_NCLASS], wm[RT_NCLASS], wb[RT_NCLASS], wtb[RT_NCLASS]; /* counters */
+    /* counters per (class, generation) index */
+    uint64_t acc[RT_SIM_NCG], rm[RT_SIM_NCG], wm[RT_SIM_NCG], wb[RT_SIM_NCG], wtb[RT_SIM_NCG];
+    uint64_t wr[RT_SIM_NCG]; /* write touches (for rt_sa_check) */
 };
 
 static inline uint64_t hs(const rt_sa *c, uint64_t line) { return (line * 0x9E3779B97F4A7C15ULL) >> c->hshift; }
@@ -158,11 +166,12 @@ static inline void push_head(rt_sa *c, saset *s, uint32_t x)
 }
 
 /* One line touch; bytes = bytes of the reference inside this line. */
-static void touch(rt_sa *c, uint64_t L, int w, unsigned cls, uint32_t bytes)
+static void touch(rt_sa *c, uint64_t L, int w, unsigned cg, uint32_t bytes)
 {
     saset *s = &c->sets[L % c->nsets];
     saslot *sl = c->slots;
-    c->acc[cls]++;
+    c->acc[cg]++;
+    c->wr[cg] += (unsigned)w;
     uint32_t x = (s->head != NIL && sl[s->head].line == L) ? s->head : h_find(c, L);
     if (x != NIL) {
         if (x != s->head) {
@@ -170,10 +179,10 @@ static void touch(rt_sa *c, uint64_t L, int w, unsigned cls, uint32_t bytes)
             push_head(c, s, x);
         }
     } else {
-        if (w) c->wm[cls]++;
-        else c->rm[cls]++;
+        if (w) c->wm[cg]++;
+        else c->rm[cg]++;
         if (w && c->nwa) { /* write around the cache */
-            c->wtb[cls] += bytes;
+            c->wtb[cg] += bytes;
             return;
         }
         uint64_t set = L % c->nsets;
@@ -181,7 +190,7 @@ static void touch(rt_sa *c, uint64_t L, int w, unsigned cls, uint32_t bytes)
             x = (uint32_t)(set * c->assoc + s->used++);
         } else {
             x = s->tail;
-            if (sl[x].dirty) c->wb[sl[x].wcls]++;
+            if (sl[x].dirty) c->wb[sl[x].wcg]++;
             unlink_slot(c, s, x);
             h_delete(c, sl[x].line);
         }
@@ -192,10 +201,10 @@ static void touch(rt_sa *c, uint64_t L, int w, unsigned cls, uint32_t bytes)
     }
     if (w) {
         if (c->wt) {
-            c->wtb[cls] += bytes;
+            c->wtb[cg] += bytes;
         } else {
             sl[x].dirty = 1;
-            sl[x].wcls = (uint8_t)cls;
+            sl[x].wcg = (uint8_t)cg;
         }
     }
 }
@@ -206,29 +215,34 @@ void rt_sa_put(rt_sa *c, const rt_access *a, size_t n)
     for (size_t i = 0; i < n; i++) {
         uint64_t addr = a[i].addr;
         uint32_t sz = a[i].size ? a[i].size : 1;
-        unsigned cls = a[i].cls < RT_NCLASS ? a[i].cls : RT_CLS_FB;
+        unsigned cg = rt_sim_cg(&a[i]);
         uint64_t end = addr + sz; /* exclusive */
         uint64_t first = addr / ls, last = (end - 1) / ls;
         for (uint64_t L = first; L <= last; L++) {
             uint64_t lo = L == first ? addr : L * ls;
             uint64_t hi = L == last ? end : (L + 1) * ls;
-            touch(c, L, a[i].write != 0, cls, (uint32_t)(hi - lo));
+            touch(c, L, a[i].write != 0, cg, (uint32_t)(hi - lo));
         }
     }
 }
 
-void rt_sa_get(const rt_sa *c, int cls, rt_sim_counts *out)
+void rt_sa_get_gen(const rt_sa *c, int cls, int gen, rt_sim_counts *out)
 {
     memset(out, 0, sizeof *out);
-    if (cls < 0 || cls >= RT_NCLASS) return;
-    out->accesses = c->acc[cls];
-    out->read_misses = c->rm[cls];
-    out->write_misses = c->wm[cls];
-    out->writebacks = c->wb[cls];
-    out->wt_bytes = c->wtb[cls];
-    uint64_t fetches = c->rm[cls] + (c->nwa ? 0 : c->wm[cls]);
-    out->traffic_bytes = (fetches + c->wb[cls]) * c->line + c->wtb[cls];
+    if (cls < 0 || cls >= RT_NCLASS || gen >= RT_MAXGEN) return;
+    for (int b = gen < 0 ? 0 : gen; b < (gen < 0 ? RT_MAXGEN : gen + 1); b++) {
+        int cg = b * RT_NCLASS + cls;
+        out->accesses += c->acc[cg];
+        out->read_misses += c->rm[cg];
+        out->write_misses += c->wm[cg];
+        out->writebacks += c->wb[cg];
+        out->wt_bytes += c->wtb[cg];
+    }
+    uint64_t fetches = out->read_misses + (c->nwa ? 0 : out->write_misses);
+    out->traffic_bytes = (fetches + out->writebacks) * c->line + out->wt_bytes;
 }
+
+void rt_sa_get(const rt_sa *c, int cls, rt_sim_counts *out) { rt_sa_get_gen(c, cls, -1, out); }
 
 int rt_sa_check(const rt_sa *c, rt_err *e)
 {
@@ -244,6 +258,8 @@ int rt_sa_check(const rt_sa *c, rt_err *e)
             if (c->slots[x].line % c->nsets != s) return rt_errf(e, "setassoc: line in wrong set");
             if (h_find(c, c->slots[x].line) != x) return rt_errf(e, "setassoc: slot %u missing from hash", x);
             if (c->wt && c->slots[x].dirty) return rt_errf(e, "setassoc: dirty line in write-through cache");
+            if (c->slots[x].dirty && c->slots[x].wcg >= RT_SIM_NCG)
+                return rt_errf(e, "setassoc: slot %u has writer index %u", x, c->slots[x].wcg);
             prev = x;
         }
         if (n != st->used || st->tail != prev) return rt_errf(e, "setassoc: set %llu count/tail mismatch", (unsigned long long)s);
@@ -253,5 +269,9 @@ int rt_sa_check(const rt_sa *c, rt_err *e)
     for (uint64_t i = 0; i <= c->hmask; i++) inhash += c->ht[i].val != NIL;
     if (inhash != total) return rt_errf(e, "setassoc: hash has %llu entries, sets %llu", (unsigned long long)inhash,
                                         (unsigned long long)total);
+    for (int cg = 0; cg < RT_SIM_NCG; cg++)
+        if (c->rm[cg] + c->wm[cg] > c->acc[cg] || c->wm[cg] > c->wr[cg] || c->wb[cg] > c->wr[cg])
+            return rt_errf(e, "setassoc: counters of class %s generation %d inconsistent", rt_class_name(cg % RT_NCLASS),
+                           cg / RT_NCLASS);
     return 0;
 }

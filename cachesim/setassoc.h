@@ -15,7 +15,10 @@ rt_sa *rt_sa_new(uint64_t size, uint32_t line, uint32_t assoc, int write_through
                  rt_err *e);
 void rt_sa_free(rt_sa *c);
 void rt_sa_put(rt_sa *c, const rt_access *a, size_t n);
+/* Counters of class cls summed over the generations; _gen: of generation
+ * bucket gen (0..RT_MAXGEN-1), gen < 0 sums them. */
 void rt_sa_get(const rt_sa *c, int cls, rt_sim_counts *out);
+void rt_sa_get_gen(const rt_sa *c, int cls, int gen, rt_sim_counts *out);
 int rt_sa_check(const rt_sa *c, rt_err *e);
 
 #endif

@@ -133,35 +133,72 @@ int rt_sim_put(rt_sim *s, const rt_access *a, size_t n)
     return 0;
 }
 
-void rt_sim_get(const rt_sim *s, int i, int cls, rt_sim_counts *out)
+/* Counters of one class, generation bucket gen or all of them (gen < 0). */
+static void get_cg(const rt_sim *s, int i, int cls, int gen, rt_sim_counts *out)
 {
     memset(out, 0, sizeof *out);
     if (i < 0 || i >= s->cfg.nsizes) return;
-    if (s->ms) rt_msim_get(s->ms, i, cls, out);
-    else rt_sa_get(s->sa[i], cls, out);
+    if (s->ms) rt_msim_get_gen(s->ms, i, cls, gen, out);
+    else rt_sa_get_gen(s->sa[i], cls, gen, out);
 }
 
-void rt_sim_get_group(const rt_sim *s, int i, int group, rt_sim_counts *out)
+static void add_counts(rt_sim_counts *out, const rt_sim_counts *t)
+{
+    out->accesses += t->accesses;
+    out->read_misses += t->read_misses;
+    out->write_misses += t->write_misses;
+    out->writebacks += t->writebacks;
+    out->wt_bytes += t->wt_bytes;
+    out->traffic_bytes += t->traffic_bytes;
+}
+
+static void get_group(const rt_sim *s, int i, int group, int gen, rt_sim_counts *out)
 {
     memset(out, 0, sizeof *out);
     for (int c = 0; c < RT_NCLASS; c++) {
         if ((int)rt_class_group(c) != group) continue;
         rt_sim_counts t;
-        rt_sim_get(s, i, c, &t);
-        out->accesses += t.accesses;
-        out->read_misses += t.read_misses;
-        out->write_misses += t.write_misses;
-        out->writebacks += t.writebacks;
-        out->wt_bytes += t.wt_bytes;
-        out->traffic_bytes += t.traffic_bytes;
+        get_cg(s, i, c, gen, &t);
+        add_counts(out, &t);
     }
+}
+
+void rt_sim_get(const rt_sim *s, int i, int cls, rt_sim_counts *out) { get_cg(s, i, cls, -1, out); }
+void rt_sim_get_group(const rt_sim *s, int i, int group, rt_sim_counts *out) { get_group(s, i, group, -1, out); }
+
+void rt_sim_get_gen(const rt_sim *s, int i, int cls, int gen, rt_sim_counts *out)
+{
+    if (gen < 0) memset(out, 0, sizeof *out);
+    else get_cg(s, i, cls, gen, out);
+}
+
+void rt_sim_get_group_gen(const rt_sim *s, int i, int group, int gen, rt_sim_counts *out)
+{
+    if (gen < 0) memset(out, 0, sizeof *out);
+    else get_group(s, i, group, gen, out);
 }
 
 int rt_sim_check(const rt_sim *s, rt_err *e)
 {
-    if (s->ms) return rt_msim_check(s->ms, e);
+    if (s->ms) {
+        if (rt_msim_check(s->ms, e)) return -1;
+    } else {
+        for (int i = 0; i < s->cfg.nsizes; i++)
+            if (rt_sa_check(s->sa[i], e)) return -1;
+    }
     for (int i = 0; i < s->cfg.nsizes; i++)
-        if (rt_sa_check(s->sa[i], e)) return -1;
+        for (int c = 0; c < RT_NCLASS; c++) {
+            rt_sim_counts all, sum, t;
+            rt_sim_get(s, i, c, &all);
+            memset(&sum, 0, sizeof sum);
+            for (int g = 0; g < RT_MAXGEN; g++) {
+                rt_sim_get_gen(s, i, c, g, &t);
+                add_counts(&sum, &t);
+            }
+            if (memcmp(&all, &sum, sizeof all))
+                return rt_errf(e, "sim: size %llu class %s: generations do not sum to the class counters",
+                               (unsigned long long)s->cfg.sizes[i], rt_class_name(c));
+        }
     return 0;
 }
 

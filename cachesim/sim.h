@@ -5,7 +5,8 @@
  * an associativity and a write policy, and differ only in total size. It
  * consumes memory references (rt_access) through an rt_sink, so a tracer can
  * stream into it in-process, or replays a trace file (.rtt) or a Dinero IV
- * din text file. Results are 64-bit counters per (size, class).
+ * din text file. Results are 64-bit counters per (size, class, ray
+ * generation); per-class figures are sums over the generations.
  *
  * Engines (chosen by rt_sim_new, see docs/cachesim.md):
  *   - fully associative, write-back, write-allocate (the paper's setting):
@@ -23,8 +24,13 @@
  *     also a write miss; with no-write-allocate a write miss does not
  *     allocate and its bytes go to memory;
  *   - write-back: an evicted dirty line costs one line of traffic, charged
- *     to the class of the reference that last wrote the line; lines still
- *     resident at the end are not flushed (Dinero IV does not flush either);
+ *     to the class and generation of the reference that last wrote the
+ *     line; lines still resident at the end are not flushed (Dinero IV does
+ *     not flush either);
+ *   - generations: every touch counts for its reference's generation
+ *     (rt_access.gen, generations >= RT_MAXGEN-1 pooled in the last
+ *     bucket); only these exact engines keep them, the approximate
+ *     simulators (approx.h) accept the field and ignore it;
  *   - write-through: every write touch sends its bytes (the part of the
  *     reference inside that line) to memory; lines are never dirty;
  *   - traffic_bytes = (fetches + write-backs) x line + write-through bytes.
@@ -94,7 +100,7 @@ const char *rt_sim_engine(const rt_sim *s);
 
 /* Simulates n references. Never fails (returns 0); references with size 0
  * are treated as size 1. Class values >= RT_NCLASS are counted as RT_CLS_FB
- * ("other"). */
+ * ("other"), generations >= RT_MAXGEN-1 as RT_MAXGEN-1. */
 int rt_sim_put(rt_sim *s, const rt_access *a, size_t n);
 
 /* An rt_sink feeding s; owned by s, valid until rt_sim_free. */
@@ -104,14 +110,23 @@ rt_sink *rt_sim_sink(rt_sim *s);
 uint64_t rt_sim_refs(const rt_sim *s);
 
 /* Counters of size index i (0..nsizes-1) for class cls (0..RT_NCLASS-1),
- * with traffic_bytes computed. */
+ * summed over all generations, with traffic_bytes computed. Out-of-range
+ * arguments give zeros. */
 void rt_sim_get(const rt_sim *s, int i, int cls, rt_sim_counts *out);
 /* Sum over the classes of a group (rt_group). */
 void rt_sim_get_group(const rt_sim *s, int i, int group, rt_sim_counts *out);
+/* The same restricted to generation gen (0..RT_MAXGEN-1; RT_MAXGEN-1 holds
+ * every later generation too): misses of the generation's references and
+ * the write-backs of lines it wrote last. Summed over gen they equal
+ * rt_sim_get / rt_sim_get_group. gen out of range gives zeros. */
+void rt_sim_get_gen(const rt_sim *s, int i, int cls, int gen, rt_sim_counts *out);
+void rt_sim_get_group_gen(const rt_sim *s, int i, int group, int gen, rt_sim_counts *out);
 
 /* Checks the simulator's internal invariants (stack markers, group sizes,
- * hash table, dirty bits). 0 if consistent, -1 with a message. Slow; for
- * tests. */
+ * hash table, dirty bits, write-backs per (class, generation) bounded by
+ * that pair's writes) and that, for every size and class, the
+ * per-generation counters sum to the class counters. 0 if consistent, -1
+ * with a message. Slow; for tests. */
 int rt_sim_check(const rt_sim *s, rt_err *e);
 
 /* ---- input files ------------------------------------------------------ */

@@ -170,7 +170,7 @@ static void window_begin(rt_twin *t)
             if (!set[i]) { /* new: this is its most recent touch */
                 set[i] = L + 1;
                 setidx[i] = seen;
-                stk[seen++] = (rt_access){L * line, 1, (uint8_t)tc.w, (uint8_t)tc.cls};
+                stk[seen++] = (rt_access){L * line, 1, (uint8_t)tc.w, (uint8_t)tc.cls, 0};
             } else if (tc.w && !stk[setidx[i]].write) { /* its latest write */
                 stk[setidx[i]].write = 1;
                 stk[setidx[i]].cls = (uint8_t)tc.cls;

@@ -20,8 +20,8 @@
  *   - the address of record i of region r is base[r] + i * recsize[r];
  *     sub-record accesses add a byte offset within the record.
  *
- * An access is (address, size, read|write, class). Tracers report accesses
- * in program order through an rt_rec recorder. The recorder buffers
+ * An access is (address, size, read|write, class, ray generation). Tracers
+ * report accesses in program order through an rt_rec recorder. The recorder buffers
  * accesses and hands full buffers to a sink (trace file writer, in-process
  * cache simulator, counter, ...). When recording is off the tracer holds a
  * NULL recorder and every RT_REC() is a single predictable branch, so the
@@ -104,13 +104,30 @@ static inline uint64_t rt_mm_addr(const rt_layout *L, int reg, uint64_t rec)
     return L->r[reg].base + rec * L->r[reg].recsize;
 }
 
-/* One memory reference. */
+/*
+ * Ray generations: 0 = primary rays (and their shadow rays), 1 = the first
+ * bounce, and so on. An access carries the generation of the ray the tracer
+ * was working on (0..255, as stored in traces). Per-generation counters
+ * (the exact simulators) keep RT_MAXGEN buckets: generations 0..RT_MAXGEN-2
+ * each have their own, every generation >= RT_MAXGEN-1 is counted in the
+ * last bucket (rt_gen_bucket).
+ */
+#define RT_MAXGEN 8
+
+static inline unsigned rt_gen_bucket(unsigned gen) { return gen < RT_MAXGEN - 1 ? gen : RT_MAXGEN - 1; }
+
+/* One memory reference. 16 bytes: gen lives in what was padding, so
+ * buffers of accesses keep their size. C zeroes the members a positional
+ * initializer {addr, size, write, cls} omits, so such literals mean
+ * generation 0 (gcc -Wextra asks for the fifth value: {..., cls, 0}). */
 typedef struct rt_access {
     uint64_t addr;  /* modeled byte address */
     uint32_t size;  /* bytes, >= 1 */
     uint8_t write;  /* 0 read, 1 write */
     uint8_t cls;    /* rt_class */
+    uint8_t gen;    /* ray generation (0 = primary), see RT_MAXGEN */
 } rt_access;
+_Static_assert(sizeof(rt_access) == 16, "rt_access must stay 16 bytes");
 
 /*
  * A sink consumes batches of accesses. put() returns 0 or -1 (with the
@@ -131,13 +148,24 @@ typedef struct rt_rec {
     rt_sink *sink;             /* receives full buffers; never NULL */
     uint64_t total;            /* accesses recorded so far */
     int failed;                /* a put() failed; later accesses are dropped */
+    uint8_t gen;               /* generation stamped on each access (rt_rec_set_gen) */
 } rt_rec;
 
-/* Creates a recorder feeding sink; NULL on out of memory. */
+/* Creates a recorder feeding sink, at generation 0; NULL on out of memory. */
 rt_rec *rt_rec_new(rt_sink *sink, rt_err *e);
 /* Hands the pending buffer to the sink. Returns 0, or -1 if any put failed. */
 int rt_rec_flush(rt_rec *r);
 void rt_rec_free(rt_rec *r);
+
+/* Sets the generation stamped on every later access: a tracer calls it
+ * when it starts on rays of another generation (the recursive tracer per
+ * ray, a breadth-first tracer per wave). Pending accesses keep the
+ * generation they were recorded with. gen is clamped to 0..255. Like
+ * RT_REC, a NULL recorder (recording off) is fine. */
+static inline void rt_rec_set_gen(rt_rec *r, int gen)
+{
+    if (r) r->gen = (uint8_t)(gen < 0 ? 0 : gen > 255 ? 255 : gen);
+}
 
 static inline void rt_rec_push(rt_rec *r, uint64_t addr, uint32_t size, int write, int cls)
 {
@@ -146,6 +174,7 @@ static inline void rt_rec_push(rt_rec *r, uint64_t addr, uint32_t size, int writ
     a->size = size;
     a->write = (uint8_t)write;
     a->cls = (uint8_t)cls;
+    a->gen = r->gen;
     if (r->n == RT_REC_BUF) rt_rec_flush(r);
 }
 

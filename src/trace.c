@@ -2,7 +2,8 @@
  * trace.c -- the raytraffic trace file (.rtt): writer and streaming reader.
  *
  * WHAT IT IS. A trace is the complete, ordered stream of memory references
- * (address, size, read|write, class) one tracer made while rendering one
+ * (address, size, read|write, class, ray generation) one tracer made while
+ * rendering one
  * image, plus everything needed to say where it came from. Traces are big
  * (tens to hundreds of millions of references), are read many times (one
  * pass per cache configuration), and are kept as evidence for published
@@ -14,8 +15,8 @@
  * fixed-width; "str" is a u16 length followed by that many bytes (no NUL).
  *
  *   header   "RTTRACE\0"              8 bytes magic
- *            u32 format version       1; a reader rejects versions it does
- *                                     not know (message names both versions)
+ *            u32 format version       1 or 2; a reader rejects versions it
+ *                                     does not know (message names both)
  *            u32 P                    payload length (<= 64 KiB)
  *            P bytes payload          see below
  *            u32 CRC-32               of all header bytes before it
@@ -23,6 +24,7 @@
  *            u32 chunk index          0, 1, 2, ... (detects lost/reordered chunks)
  *            u32 n                    records, 1..chunk_records
  *            u32 U                    encoded (uncompressed) length, n..16n
+ *                                     (version 2: n..17n)
  *            u32 C                    compressed length, 1..compressBound(U)+64
  *            u32 CRC-32               of the 20 bytes above, then the C bytes
  *            C bytes                  one complete zlib stream inflating to U bytes
@@ -38,18 +40,31 @@
  * str scene_params, u64 scene_hash, u32 ntri, str tracer, u32 W, u32 H,
  * u32 lights, u64 sched_size, u64 gmax, str params, then the region table:
  * u32 nregions (<= RT_MM_MAX_REGIONS), u64 layout.next, and per region
- * str name, u8 class, u32 recsize, u64 count, u64 base. Every str must fit
- * its rt_tr_meta field with its NUL and may not contain NUL bytes; the
- * payload must be consumed exactly.
+ * str name, u8 class, u32 recsize, u64 count, u64 base. Version 2 appends
+ * u32 generations (1..255, the highest generation a record may carry).
+ * Every str must fit its rt_tr_meta field with its NUL and may not contain
+ * NUL bytes; the payload must be consumed exactly.
  *
  * RECORD ENCODING (inside a chunk, before zlib). Per class c the coder
  * keeps the previous address A[c] and size S[c], both 0 at the start of
  * every chunk (chunks decode independently). A record is:
  *
  *   tag byte   bits 0-3 class, bit 4 write, bit 5 size == S[c],
- *              bit 6 address == A[c] + S[c] ("sequential"), bit 7 zero
+ *              bit 6 address == A[c] + S[c] ("sequential"), bit 7 version
+ *              1: zero; version 2: the generation changes
+ *   [u8]       version 2, if bit 7: the record's generation G, which must
+ *              differ from the current one and be <= the header's
+ *              generations; it stays current for the records after it
  *   [varint]   unless bit 6: zigzag(address - A[c]) as LEB128, <= 10 bytes
  *   [varint]   unless bit 5: size as LEB128, 1..2^32-1, <= 5 bytes
+ *
+ * The current generation is 0 at the start of every chunk. Tracers work on
+ * one generation for many references in a row (the recursive tracer per
+ * ray, breadth-first tracers per wave), so a generation costs one byte
+ * per change, nothing per record, and a version-2 chunk whose records are
+ * all generation 0 is byte for byte a version-1 chunk. The writer picks
+ * version 1 when the metadata declares no generations, so traces of runs
+ * without secondary rays stay exactly what they were.
  *
  * Address arithmetic wraps modulo 2^64, so every address 0..2^64-1 has an
  * encoding. A k-d traversal revisits the same node sequences for
@@ -61,7 +76,9 @@
  *   - magic, version and header CRC; chunk magic, index, bounds on n/U/C,
  *     chunk CRC; the zlib stream ends exactly at C bytes and inflates to
  *     exactly U bytes; the records consume exactly U bytes;
- *   - class < RT_NCLASS, bit 7 clear, varints not overlong, size >= 1;
+ *   - class < RT_NCLASS, bit 7 clear (version 1), a generation byte that
+ *     changes the generation and stays <= the header's (version 2),
+ *     varints not overlong, size >= 1;
  *   - the footer's CRC is valid, and its totals equal the totals of the
  *     records actually read; nothing follows the footer.
  *   Every byte of the file is covered by a CRC or checked against a magic,
@@ -98,7 +115,8 @@ static const unsigned char CHUNK_MAGIC[4] = {'R', 'T', 'C', 'K'};
 static const unsigned char FOOT_MAGIC[4] = {'R', 'T', 'N', 'D'};
 
 #define MAX_HDR_PAYLOAD 65536u
-#define MAX_REC_BYTES 16u /* tag + 10-byte address varint + 5-byte size varint */
+#define MAX_REC_BYTES_V1 16u /* tag + 10-byte address varint + 5-byte size varint */
+#define MAX_REC_BYTES 17u    /* version 2: + generation byte */
 #define CHUNK_HDR 24u
 #define FOOT_LEN (4u + 4u + 16u + 24u * RT_NCLASS + 4u)
 
@@ -106,7 +124,7 @@ static const unsigned char FOOT_MAGIC[4] = {'R', 'T', 'N', 'D'};
 #define TAG_WRITE 0x10u
 #define TAG_SAMESIZE 0x20u
 #define TAG_SEQ 0x40u
-#define TAG_RESERVED 0x80u
+#define TAG_GEN 0x80u /* version 2; reserved (zero) in version 1 */
 
 /* ---- little-endian helpers ------------------------------------------------ */
 
@@ -247,6 +265,8 @@ struct rt_tr_writer {
     int zinit;              /* zs initialised */
     uint64_t prev_addr[16]; /* per-class coder state */
     uint32_t prev_size[16];
+    unsigned prev_gen;      /* current generation in the chunk */
+    unsigned maxgen;        /* meta.generations: 0 = version 1 */
     rt_tr_totals tot;       /* totals so far */
     uint64_t written;       /* bytes written to the file */
     int failed;             /* a put failed; err holds why */
@@ -294,6 +314,7 @@ static int w_flush_chunk(rt_tr_writer *w, rt_err *e)
     w->rawlen = 0;
     memset(w->prev_addr, 0, sizeof w->prev_addr);
     memset(w->prev_size, 0, sizeof w->prev_size);
+    w->prev_gen = 0;
     return 0;
 }
 
@@ -312,18 +333,28 @@ static int w_put(rt_sink *s, const rt_access *a, size_t n)
     rt_tr_writer *w = s->ctx;
     if (w->failed) return -1;
     for (size_t i = 0; i < n; i++) {
-        unsigned cls = a[i].cls;
+        unsigned cls = a[i].cls, gen = a[i].gen;
         uint64_t addr = a[i].addr;
         uint32_t size = a[i].size;
-        if (cls >= RT_NCLASS || size == 0) {
-            rt_errf(&w->err, "%s: record %llu: %s", w->path, (unsigned long long)w->tot.nrefs,
-                    cls >= RT_NCLASS ? "class out of range" : "size 0");
+        if (cls >= RT_NCLASS || size == 0 || gen > w->maxgen) {
+            if (gen > w->maxgen)
+                rt_errf(&w->err, "%s: record %llu: generation %u above the %u declared in the header%s", w->path,
+                        (unsigned long long)w->tot.nrefs, gen, w->maxgen,
+                        w->maxgen ? "" : " (set rt_tr_meta.generations for a run with secondary rays)");
+            else
+                rt_errf(&w->err, "%s: record %llu: %s", w->path, (unsigned long long)w->tot.nrefs,
+                        cls >= RT_NCLASS ? "class out of range" : "size 0");
             w->failed = 1;
             return -1;
         }
         unsigned char *p = w->raw + w->rawlen;
         unsigned char *tag = p++;
         unsigned t = cls | (a[i].write ? TAG_WRITE : 0);
+        if (gen != w->prev_gen) { /* only possible in version 2 */
+            t |= TAG_GEN;
+            *p++ = (unsigned char)gen;
+            w->prev_gen = gen;
+        }
         uint64_t pa = w->prev_addr[cls];
         uint32_t ps = w->prev_size[cls];
         if (addr == pa + ps) t |= TAG_SEQ;
@@ -382,6 +413,8 @@ static int encode_header(hbuf *h, const rt_tr_meta *m, uint32_t chunk_records, i
         hb_u64(h, r->count);
         hb_u64(h, r->base);
     }
+    if (m->generations > RT_TR_MAX_GENERATION) return -1;
+    if (m->generations) hb_u32(h, m->generations); /* version 2 */
     return h->bad ? -1 : 0;
 }
 
@@ -401,8 +434,8 @@ rt_tr_writer *rt_tr_create_opts(const char *path, const rt_tr_meta *m, const rt_
     if (!h) return NULL;
     if (m->W < 0 || m->H < 0 || encode_header(h, m, o->chunk_records, o->level) < 0) {
         free(h);
-        return rt_errf(e, "%s: trace metadata does not fit the format (string too long, bad region table)",
-                       path), NULL;
+        return rt_errf(e, "%s: trace metadata does not fit the format (string too long, bad region table, "
+                       "more than %d generations)", path, RT_TR_MAX_GENERATION), NULL;
     }
     rt_tr_writer *w = rt_calloc(1, sizeof *w, e);
     if (!w) {
@@ -412,6 +445,7 @@ rt_tr_writer *rt_tr_create_opts(const char *path, const rt_tr_meta *m, const rt_
     w->sink.put = w_put;
     w->sink.ctx = w;
     w->chunk_records = o->chunk_records;
+    w->maxgen = m->generations;
     size_t plen = strlen(path);
     w->path = rt_calloc(plen + 1, 1, e);
     w->raw = w->path ? rt_calloc(o->chunk_records, MAX_REC_BYTES, e) : NULL;
@@ -428,7 +462,7 @@ rt_tr_writer *rt_tr_create_opts(const char *path, const rt_tr_meta *m, const rt_
     w->f = rt_out_stream(w->of);
     unsigned char pre[16];
     memcpy(pre, HDR_MAGIC, 8);
-    put32(pre + 8, RT_TR_FORMAT_VERSION);
+    put32(pre + 8, m->generations ? 2 : 1);
     put32(pre + 12, (uint32_t)h->n);
     unsigned char c[4];
     put32(c, crc(crc(0, pre, 16), h->b, h->n));
@@ -509,7 +543,8 @@ struct rt_tr_reader {
     rt_tr_totals got;       /* totals of records decoded */
     rt_tr_totals foot;      /* footer totals (valid when state == RS_DONE) */
     unsigned char *raw;     /* current chunk, inflated */
-    size_t rawcap;          /* capacity: chunk_records * MAX_REC_BYTES */
+    size_t rawcap;          /* capacity: chunk_records * maxrec */
+    uint32_t maxrec;        /* largest encoded record: 16 (version 1), 17 */
     unsigned char *cbuf;    /* current chunk, compressed */
     size_t ccap;            /* capacity */
     size_t rpos, rlen;      /* decode position and length in raw */
@@ -518,6 +553,7 @@ struct rt_tr_reader {
     uint64_t chunk_off;     /* file offset of the current chunk */
     uint64_t prev_addr[16]; /* per-class decoder state */
     uint32_t prev_size[16];
+    unsigned prev_gen;      /* current generation in the chunk */
     z_stream zs;            /* inflate state */
     int zinit;              /* zs initialised */
     int state;              /* RS_* */
@@ -597,6 +633,12 @@ static int parse_header(rt_tr_reader *r, hbuf *h)
         g->base = hg_u64(h);
     }
 #undef STR
+    if (r->version >= 2) {
+        m->generations = hg_u32(h);
+        if (!h->bad && (m->generations < 1 || m->generations > RT_TR_MAX_GENERATION))
+            return r_fail(r, base + h->n - 4, "header: %u generations not in 1..%d", m->generations,
+                          RT_TR_MAX_GENERATION);
+    }
     if (h->bad) return r_fail(r, base + h->len, "header: payload too short");
     if (h->n != h->len) return r_fail(r, base + h->n, "header: %zu unparsed payload bytes", h->len - h->n);
     rt_err me;
@@ -648,7 +690,8 @@ rt_tr_reader *rt_tr_open(const char *path, rt_err *e)
     if (parse_header(r, h) < 0) goto fail;
     free(h);
     h = NULL;
-    r->rawcap = (size_t)r->chunk_records * MAX_REC_BYTES;
+    r->maxrec = r->version >= 2 ? MAX_REC_BYTES : MAX_REC_BYTES_V1;
+    r->rawcap = (size_t)r->chunk_records * r->maxrec;
     r->ccap = (size_t)bound_compressed(r->rawcap);
     if (!(r->raw = rt_calloc(r->rawcap, 1, e)) || !(r->cbuf = rt_calloc(r->ccap, 1, e))) goto fail_quiet;
     if (inflateInit(&r->zs) != Z_OK) {
@@ -685,7 +728,7 @@ static int read_chunk(rt_tr_reader *r)
                       (unsigned long long)r->got.nchunks);
     if (n < 1 || n > r->chunk_records)
         return r_fail(r, at + 8, "chunk %u: record count %u not in 1..%u", idx, n, r->chunk_records);
-    if (U < n || (uint64_t)U > (uint64_t)n * MAX_REC_BYTES)
+    if (U < n || (uint64_t)U > (uint64_t)n * r->maxrec)
         return r_fail(r, at + 12, "chunk %u: encoded length %u impossible for %u records", idx, U, n);
     if (C < 1 || C > bound_compressed(U) || C > r->ccap)
         return r_fail(r, at + 16, "chunk %u: compressed length %u impossible for %u bytes", idx, C, U);
@@ -705,6 +748,7 @@ static int read_chunk(rt_tr_reader *r)
     r->rleft = r->rnum = n;
     memset(r->prev_addr, 0, sizeof r->prev_addr);
     memset(r->prev_size, 0, sizeof r->prev_size);
+    r->prev_gen = 0;
     r->got.nchunks++;
     return 0;
 }
@@ -790,8 +834,14 @@ long rt_tr_read(rt_tr_reader *r, rt_access *buf, size_t cap, rt_err *e)
         const unsigned char *p = r->raw + r->rpos, *end = r->raw + r->rlen;
         if (p == end) goto short_rec;
         unsigned t = *p++;
-        unsigned cls = t & TAG_CLASS;
-        if (t & TAG_RESERVED) goto bad_tag;
+        unsigned cls = t & TAG_CLASS, gen = r->prev_gen;
+        if (t & TAG_GEN) {
+            if (!r->meta.generations) goto bad_tag; /* version 1: reserved */
+            if (p == end) goto short_rec;
+            gen = *p++;
+            if (gen == r->prev_gen) goto same_gen;
+            if (gen > r->meta.generations) goto bad_gen;
+        }
         if (cls >= RT_NCLASS) goto bad_class;
         uint64_t addr = r->prev_addr[cls];
         uint32_t size = r->prev_size[cls];
@@ -821,6 +871,7 @@ long rt_tr_read(rt_tr_reader *r, rt_access *buf, size_t cap, rt_err *e)
         if (size == 0) goto zero_size;
         r->prev_addr[cls] = addr;
         r->prev_size[cls] = size;
+        r->prev_gen = gen;
         r->rpos = (size_t)(p - r->raw);
         r->rleft--;
         rt_access *a = &buf[n++];
@@ -828,6 +879,7 @@ long rt_tr_read(rt_tr_reader *r, rt_access *buf, size_t cap, rt_err *e)
         a->size = size;
         a->write = (t & TAG_WRITE) != 0;
         a->cls = (uint8_t)cls;
+        a->gen = (uint8_t)gen;
         r->got.refs[cls]++;
         r->got.bytes[cls] += size;
         r->got.writes[cls] += a->write;
@@ -838,6 +890,12 @@ long rt_tr_read(rt_tr_reader *r, rt_access *buf, size_t cap, rt_err *e)
         return rt_errf(e, "%s", r->err.msg);
     bad_class:
         dec_fail(r, "class out of range");
+        return rt_errf(e, "%s", r->err.msg);
+    same_gen:
+        dec_fail(r, "generation byte repeats the current generation");
+        return rt_errf(e, "%s", r->err.msg);
+    bad_gen:
+        dec_fail(r, "generation above the header's");
         return rt_errf(e, "%s", r->err.msg);
     short_rec:
         dec_fail(r, "record runs past the end of the chunk");

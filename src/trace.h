@@ -40,6 +40,10 @@ typedef struct rt_tr_meta {
     uint64_t gmax;          /* dynamic: geometry budget (0 = n/a) */
     char params[512];       /* other tracer parameters, "k=v k=v" */
     rt_layout layout;       /* the region table */
+    uint32_t generations;   /* highest ray generation a record may carry, 0..255;
+                               0 (primary rays only): written as format
+                               version 1, every record generation 0; > 0:
+                               version 2, a generation per record */
 } rt_tr_meta;
 
 /* Per-class totals, kept by the writer and stored in the footer. */
@@ -51,8 +55,12 @@ typedef struct rt_tr_totals {
     uint64_t nchunks;          /* chunks written */
 } rt_tr_totals;
 
-/* Format constants (layout in trace.c and docs/trace-format.md). */
-#define RT_TR_FORMAT_VERSION 1        /* written; the reader accepts 1..this */
+/* Format constants (layout in trace.c and docs/trace-format.md). The
+ * writer writes version 1 when meta.generations == 0 (the bytes of every
+ * trace without generations are those of a version-1 writer) and version 2
+ * otherwise; the reader accepts 1..RT_TR_FORMAT_VERSION. */
+#define RT_TR_FORMAT_VERSION 2        /* newest version; the reader accepts 1..this */
+#define RT_TR_MAX_GENERATION 255      /* largest meta.generations / record generation */
 #define RT_TR_DEFAULT_LEVEL 3         /* zlib level (3: ~2x faster than 6, +30% size) */
 #define RT_TR_DEFAULT_CHUNK 65536     /* records per chunk */
 #define RT_TR_MAX_CHUNK (1u << 20)    /* largest records-per-chunk accepted */
@@ -66,13 +74,14 @@ void rt_tr_default_wopts(rt_tr_wopts *o);
 
 typedef struct rt_tr_writer rt_tr_writer;
 /* Opens PATH.tmp and writes the header. NULL on failure (bad metadata,
- * I/O error, out of memory). rt_tr_create uses the default options. */
+ * e.g. generations > RT_TR_MAX_GENERATION; I/O error; out of memory).
+ * rt_tr_create uses the default options. */
 rt_tr_writer *rt_tr_create(const char *path, const rt_tr_meta *m, rt_err *e);
 rt_tr_writer *rt_tr_create_opts(const char *path, const rt_tr_meta *m, const rt_tr_wopts *o, rt_err *e);
 /* Totals of the records accepted so far (owned by w). */
 const rt_tr_totals *rt_tr_writer_totals(const rt_tr_writer *w);
 /* Message of the first failed put() (I/O error, class out of range, size
- * 0), or "" if none. Owned by w. */
+ * 0, generation above meta.generations), or "" if none. Owned by w. */
 const char *rt_tr_writer_error(const rt_tr_writer *w);
 rt_sink *rt_tr_sink(rt_tr_writer *w);
 /* Finishes and renames into place. Frees w in every case. 0 or -1. */
@@ -85,13 +94,15 @@ rt_tr_reader *rt_tr_open(const char *path, rt_err *e);
 const rt_tr_meta *rt_tr_get_meta(const rt_tr_reader *r);
 /* Totals from the footer; valid only after rt_tr_read returned 0. */
 const rt_tr_totals *rt_tr_get_totals(const rt_tr_reader *r);
+/* Records carry their generation (version 1: always 0). */
 long rt_tr_read(rt_tr_reader *r, rt_access *buf, size_t cap, rt_err *e);
 /* Byte size of the file (known from rt_tr_open) and a 64-bit FNV-1a hash
  * (rt_fnv1a) of all its bytes (computed while reading; valid after
  * rt_tr_read returned 0). */
 uint64_t rt_tr_file_bytes(const rt_tr_reader *r);
 uint64_t rt_tr_file_hash(const rt_tr_reader *r);
-/* Format version of the open file and its records-per-chunk limit. */
+/* Format version of the open file (1 or 2) and its records-per-chunk
+ * limit. meta.generations is 0 for version 1, 1..255 for version 2. */
 uint32_t rt_tr_get_version(const rt_tr_reader *r);
 uint32_t rt_tr_get_chunk_records(const rt_tr_reader *r);
 void rt_tr_close(rt_tr_reader *r);

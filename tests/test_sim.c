@@ -4,15 +4,20 @@
  * The reference is a plain array kept in recency order (move-to-front by
  * linear scan), one independent cache per size and, for set-associative
  * caches, one such array per set. It is run separately for every size and
- * compared counter by counter (per class: accesses, read/write misses,
- * write-backs, write-through bytes, traffic) with the one-pass simulator,
- * whose invariant checker also runs every few thousand references.
+ * compared counter by counter (per class and per ray generation: accesses,
+ * read/write misses, write-backs charged to the last writer's class and
+ * generation, write-through bytes, traffic) with both engines, whose
+ * invariant checkers also run every few thousand references. Random
+ * streams carry random generations 0..9, so the pooling of generations >=
+ * RT_MAXGEN-1 is exercised too; traces of both format versions are
+ * replayed and must give what the stream gives in-process.
  */
 #include "check.h"
 #include "bench.h"
 #include "msim.h"
 #include "setassoc.h"
 #include "sim.h"
+#include "trace.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -25,9 +30,9 @@ typedef struct naive {
     uint64_t line, nsets, ways;
     int wt, nwa;
     uint64_t *tag;    /* nsets * ways, MRU first */
-    uint8_t *dirty, *wcls;
+    uint8_t *dirty, *wcls, *wgen; /* per line: modified, last writer's class and generation */
     uint64_t *used;   /* per set */
-    rt_sim_counts c[RT_NCLASS];
+    rt_sim_counts c[RT_NCLASS][RT_MAXGEN]; /* per class and generation bucket */
 } naive;
 
 static naive *naive_new(uint64_t size, uint64_t line, uint64_t assoc, int wt, int nwa)
@@ -42,6 +47,7 @@ static naive *naive_new(uint64_t size, uint64_t line, uint64_t assoc, int wt, in
     n->tag = calloc(lines, sizeof *n->tag);
     n->dirty = calloc(lines, 1);
     n->wcls = calloc(lines, 1);
+    n->wgen = calloc(lines, 1);
     n->used = calloc(n->nsets, sizeof *n->used);
     return n;
 }
@@ -51,51 +57,59 @@ static void naive_free(naive *n)
     free(n->tag);
     free(n->dirty);
     free(n->wcls);
+    free(n->wgen);
     free(n->used);
     free(n);
 }
 
-static void naive_touch(naive *n, uint64_t L, int w, int cls, uint64_t bytes)
+/* g: the generation bucket */
+static void naive_touch(naive *n, uint64_t L, int w, int cls, int g, uint64_t bytes)
 {
     uint64_t s = L % n->nsets;
     uint64_t *t = n->tag + s * n->ways;
-    uint8_t *d = n->dirty + s * n->ways, *wc = n->wcls + s * n->ways;
-    n->c[cls].accesses++;
+    uint8_t *d = n->dirty + s * n->ways, *wc = n->wcls + s * n->ways, *wg = n->wgen + s * n->ways;
+    rt_sim_counts *c = &n->c[cls][g];
+    c->accesses++;
     uint64_t i;
     for (i = 0; i < n->used[s]; i++)
         if (t[i] == L) break;
-    uint8_t dd, ww;
+    uint8_t dd, ww, gg;
     if (i < n->used[s]) { /* hit: rotate to front */
         dd = d[i];
         ww = wc[i];
+        gg = wg[i];
         memmove(t + 1, t, i * sizeof *t);
         memmove(d + 1, d, i);
         memmove(wc + 1, wc, i);
+        memmove(wg + 1, wg, i);
     } else {
-        if (w) n->c[cls].write_misses++;
-        else n->c[cls].read_misses++;
+        if (w) c->write_misses++;
+        else c->read_misses++;
         if (w && n->nwa) {
-            n->c[cls].wt_bytes += bytes;
+            c->wt_bytes += bytes;
             return;
         }
         if (n->used[s] == n->ways) { /* evict the last */
             uint64_t l = n->ways - 1;
-            if (d[l]) n->c[wc[l]].writebacks++;
+            if (d[l]) n->c[wc[l]][wg[l]].writebacks++;
             n->used[s]--;
         }
         uint64_t u = n->used[s]++;
         memmove(t + 1, t, u * sizeof *t);
         memmove(d + 1, d, u);
         memmove(wc + 1, wc, u);
+        memmove(wg + 1, wg, u);
         dd = 0;
         ww = 0;
+        gg = 0;
     }
     t[0] = L;
     d[0] = dd;
     wc[0] = ww;
+    wg[0] = gg;
     if (w) {
-        if (n->wt) n->c[cls].wt_bytes += bytes;
-        else d[0] = 1, wc[0] = (uint8_t)cls;
+        if (n->wt) c->wt_bytes += bytes;
+        else d[0] = 1, wc[0] = (uint8_t)cls, wg[0] = (uint8_t)g;
     }
 }
 
@@ -107,14 +121,25 @@ static void naive_put(naive *n, const rt_access *a, size_t cnt)
         for (uint64_t L = a[i].addr / n->line; L * n->line < end; L++) {
             uint64_t lo = L * n->line > a[i].addr ? L * n->line : a[i].addr;
             uint64_t hi = (L + 1) * n->line < end ? (L + 1) * n->line : end;
-            naive_touch(n, L, a[i].write, a[i].cls, hi - lo);
+            int g = a[i].gen < RT_MAXGEN - 1 ? a[i].gen : RT_MAXGEN - 1;
+            naive_touch(n, L, a[i].write, a[i].cls, g, hi - lo);
         }
     }
 }
 
-static void naive_get(const naive *n, int cls, rt_sim_counts *o)
+/* Counters of class cls, generation bucket gen (-1: all of them). */
+static void naive_get(const naive *n, int cls, int gen, rt_sim_counts *o)
 {
-    *o = n->c[cls];
+    memset(o, 0, sizeof *o);
+    for (int g = 0; g < RT_MAXGEN; g++) {
+        if (gen >= 0 && g != gen) continue;
+        const rt_sim_counts *c = &n->c[cls][g];
+        o->accesses += c->accesses;
+        o->read_misses += c->read_misses;
+        o->write_misses += c->write_misses;
+        o->writebacks += c->writebacks;
+        o->wt_bytes += c->wt_bytes;
+    }
     uint64_t fetch = o->read_misses + (n->nwa ? 0 : o->write_misses);
     o->traffic_bytes = (fetch + o->writebacks) * n->line + o->wt_bytes;
 }
@@ -152,6 +177,7 @@ static void gen(rt_access *a, size_t n, int kind, uint64_t footprint)
         a[i].size = sizes_pool[(r >> 48) % 10];
         a[i].write = ((r >> 52) & 7) < 3;
         a[i].cls = (uint8_t)((r >> 56) % RT_NCLASS);
+        a[i].gen = (uint8_t)((r >> 20) % 10); /* 0..9: 7, 8, 9 share the last bucket */
     }
 }
 
@@ -182,22 +208,27 @@ static void compare(const char *name, const rt_sim_config *c, const rt_access *a
     }
     CHECK(rt_sim_check(s, &e) == 0, "%s: invariant: %s", name, e.msg);
     CHECK(rt_sim_refs(s) == n, "%s: refs", name);
+    uint64_t wbgen = 0; /* write-backs outside generation 0: the test must see some */
     for (int i = 0; i < c->nsizes; i++) {
         naive *nv = naive_new(c->sizes[i], c->line, c->assoc, c->write_through, c->no_write_allocate);
         naive_put(nv, a, n);
-        for (int k = 0; k < RT_NCLASS; k++) {
-            rt_sim_counts x, y;
-            rt_sim_get(s, i, k, &x);
-            naive_get(nv, k, &y);
-            if (!same(&x, &y)) {
-                CHECK(0, "%s: size %llu class %s differs (engine %s)", name, (unsigned long long)c->sizes[i],
-                      rt_class_name(k), rt_sim_engine(s));
-                show("sim  ", &x);
-                show("naive", &y);
+        for (int k = 0; k < RT_NCLASS; k++)
+            for (int g = -1; g < RT_MAXGEN; g++) {
+                rt_sim_counts x, y;
+                if (g < 0) rt_sim_get(s, i, k, &x);
+                else rt_sim_get_gen(s, i, k, g, &x);
+                naive_get(nv, k, g, &y);
+                if (g > 0) wbgen += x.writebacks;
+                if (!same(&x, &y)) {
+                    CHECK(0, "%s: size %llu class %s generation %d differs (engine %s)", name,
+                          (unsigned long long)c->sizes[i], rt_class_name(k), g, rt_sim_engine(s));
+                    show("sim  ", &x);
+                    show("naive", &y);
+                }
             }
-        }
         naive_free(nv);
     }
+    CHECK(wbgen > 0 || c->write_through, "%s: no write-back of a later generation", name);
     rt_sim_free(s);
 }
 
@@ -216,7 +247,7 @@ static void test_cycles(void)
      * below; in 32 lines only the first pass misses */
     for (int pass = 0; pass < 10; pass++)
         for (int l = 0; l < 17; l++) {
-            a = (rt_access){0x1000 + (uint64_t)l * 64, 8, 0, RT_CLS_TRI};
+            a = (rt_access){0x1000 + (uint64_t)l * 64, 8, 0, RT_CLS_TRI, 0};
             rt_sim_put(s, &a, 1);
         }
     rt_sim_counts r;
@@ -233,7 +264,7 @@ static void test_cycles(void)
     s = rt_sim_new(&c, NULL);
     for (int pass = 0; pass < 5; pass++)
         for (int l = 0; l < 16; l++) {
-            a = (rt_access){0x1000 + (uint64_t)l * 64, 64, pass & 1, RT_CLS_NODE};
+            a = (rt_access){0x1000 + (uint64_t)l * 64, 64, pass & 1, RT_CLS_NODE, 0};
             rt_sim_put(s, &a, 1);
         }
     rt_sim_get(s, 1, RT_CLS_NODE, &r);
@@ -254,8 +285,8 @@ static void test_writebacks_by_hand(void)
     c.nsizes = 2;
     c.sizes[0] = 64, c.sizes[1] = 128;
     const rt_access seq[5] = {
-        {0x000, 4, 1, RT_CLS_NODE}, {0x040, 4, 0, RT_CLS_RAY}, {0x000, 4, 0, RT_CLS_NODE},
-        {0x080, 4, 1, RT_CLS_TRI}, {0x040, 4, 0, RT_CLS_RAY},
+        {0x000, 4, 1, RT_CLS_NODE, 0}, {0x040, 4, 0, RT_CLS_RAY, 0}, {0x000, 4, 0, RT_CLS_NODE, 0},
+        {0x080, 4, 1, RT_CLS_TRI, 0}, {0x040, 4, 0, RT_CLS_RAY, 0},
     };
     for (int engine = 0; engine < 2; engine++) {
         c.assoc = engine ? 1 : 0; /* 1 way: direct-mapped 1 set = same as full for 1 line */
@@ -283,12 +314,126 @@ static void test_writebacks_by_hand(void)
     /* a reference spanning three lines touches three lines */
     rt_sim_config_default(&c);
     rt_sim *s = rt_sim_new(&c, NULL);
-    rt_access big = {0x1030, 100, 0, RT_CLS_TRI}; /* 0x1030..0x1093: lines 0x40, 0x41, 0x42 */
+    rt_access big = {0x1030, 100, 0, RT_CLS_TRI, 0}; /* 0x1030..0x1093: lines 0x40, 0x41, 0x42 */
     rt_sim_put(s, &big, 1);
     rt_sim_counts t;
     rt_sim_get(s, 0, RT_CLS_TRI, &t);
     CHECK(t.accesses == 3 && t.read_misses == 3, "spanning reference: %llu touches", (unsigned long long)t.accesses);
     rt_sim_free(s);
+}
+
+/* Per-generation accounting by hand: a one-line cache (both engines) and,
+ * for the one-pass engine, a two-line cache beside it. */
+static void test_generations_by_hand(void)
+{
+    const rt_access seq[6] = {
+        {0x000, 4, 1, RT_CLS_NODE, 2}, /* W x: write miss of generation 2 */
+        {0x008, 4, 1, RT_CLS_NODE, 0}, /* W x: hit; generation 0 wrote x last */
+        {0x040, 4, 0, RT_CLS_RAY, 1},  /* R y: miss; x written back, charged to (node, 0) */
+        {0x044, 4, 1, RT_CLS_RAY, 3},  /* W y: hit, by generation 3 */
+        {0x010, 4, 0, RT_CLS_NODE, 1}, /* R x: miss; y written back, charged to (ray, 3) */
+        {0x080, 4, 0, RT_CLS_TRI, 200}, /* R z: miss, counted in the last bucket */
+    };
+    rt_sim_config c;
+    rt_sim_config_default(&c);
+    for (int engine = 0; engine < 2; engine++) {
+        c.nsizes = engine ? 1 : 2;
+        c.sizes[0] = 64, c.sizes[1] = 128;
+        c.assoc = engine ? 1 : 0;
+        rt_sim *s = rt_sim_new(&c, NULL);
+        rt_sim_put(s, seq, 6);
+        rt_err e = {{0}};
+        CHECK(rt_sim_check(s, &e) == 0, "by hand: %s", e.msg);
+        rt_sim_counts n0, n1, n2, r1, r3, t7, all;
+        rt_sim_get_gen(s, 0, RT_CLS_NODE, 0, &n0);
+        rt_sim_get_gen(s, 0, RT_CLS_NODE, 1, &n1);
+        rt_sim_get_gen(s, 0, RT_CLS_NODE, 2, &n2);
+        rt_sim_get_gen(s, 0, RT_CLS_RAY, 1, &r1);
+        rt_sim_get_gen(s, 0, RT_CLS_RAY, 3, &r3);
+        rt_sim_get_gen(s, 0, RT_CLS_TRI, RT_MAXGEN - 1, &t7);
+        const char *en = rt_sim_engine(s);
+        CHECK(n2.accesses == 1 && n2.write_misses == 1 && n2.read_misses == 0 && n2.writebacks == 0, "%s: node gen 2", en);
+        CHECK(n0.accesses == 1 && n0.write_misses + n0.read_misses == 0 && n0.writebacks == 1 &&
+                  n0.traffic_bytes == 64, "%s: node gen 0: write-back of its last write", en);
+        CHECK(n1.accesses == 1 && n1.read_misses == 1 && n1.writebacks == 0, "%s: node gen 1", en);
+        CHECK(r1.accesses == 1 && r1.read_misses == 1 && r1.writebacks == 0, "%s: ray gen 1", en);
+        CHECK(r3.accesses == 1 && r3.read_misses + r3.write_misses == 0 && r3.writebacks == 1, "%s: ray gen 3", en);
+        CHECK(t7.accesses == 1 && t7.read_misses == 1, "%s: generation 200 in the last bucket", en);
+        rt_sim_get(s, 0, RT_CLS_NODE, &all);
+        CHECK(all.accesses == 3 && all.read_misses == 1 && all.write_misses == 1 && all.writebacks == 1 &&
+                  all.traffic_bytes == 3 * 64, "%s: node over all generations", en);
+        rt_sim_get_group_gen(s, 0, RT_GROUP_RAY, 3, &all);
+        CHECK(all.accesses == 1 && all.writebacks == 1, "%s: ray group, gen 3", en);
+        rt_sim_get_group_gen(s, 0, RT_GROUP_GEOMETRY, 1, &all);
+        CHECK(all.accesses == 1 && all.read_misses == 1, "%s: geometry group, gen 1", en);
+        rt_sim_get_gen(s, 0, RT_CLS_NODE, RT_MAXGEN, &all);
+        CHECK(all.accesses == 0, "%s: generation out of range", en);
+        rt_sim_get_gen(s, 0, RT_CLS_NODE, -1, &all);
+        CHECK(all.accesses == 0, "%s: negative generation", en);
+        if (!engine) { /* two lines: x stays; z evicts y, dirty from (ray, 3) */
+            rt_sim_get_gen(s, 1, RT_CLS_NODE, 0, &n0);
+            rt_sim_get_gen(s, 1, RT_CLS_NODE, 1, &n1);
+            rt_sim_get_gen(s, 1, RT_CLS_RAY, 3, &r3);
+            CHECK(n0.writebacks == 0 && n1.read_misses == 0 && r3.writebacks == 1, "2 lines by generation");
+        }
+        rt_sim_free(s);
+    }
+}
+
+/* Writes a to a trace whose header declares `generations`, replays it, and
+ * compares every counter with the stream simulated in-process. */
+static void replay_compare(const char *name, const rt_access *a, size_t n, unsigned generations)
+{
+    rt_tr_meta m;
+    memset(&m, 0, sizeof m);
+    snprintf(m.tracer, sizeof m.tracer, "test");
+    rt_mm_init(&m.layout);
+    m.generations = generations;
+    rt_err e = {{0}};
+    const char *p = check_path("gen.rtt");
+    rt_tr_writer *w = rt_tr_create(p, &m, &e);
+    CHECK(w, "%s: %s", name, e.msg);
+    if (!w) return;
+    rt_sink *sk = rt_tr_sink(w);
+    CHECK(sk->put(sk, a, n) == 0 && rt_tr_finish(w, &e) == 0, "%s: write: %s %s", name, rt_tr_writer_error(w), e.msg);
+    rt_tr_reader *r = rt_tr_open(p, &e);
+    CHECK(r && rt_tr_get_version(r) == (generations ? 2u : 1u), "%s: version", name);
+    rt_tr_close(r);
+    rt_sim_config c;
+    rt_sim_config_default(&c);
+    rt_sim *direct = rt_sim_new(&c, NULL), *replayed = rt_sim_new(&c, NULL);
+    rt_sim_put(direct, a, n);
+    rt_tr_meta got;
+    rt_sim_input in;
+    CHECK(rt_sim_replay(replayed, p, RT_SIM_IN_AUTO, 0, &got, &in, &e) == 0, "%s: replay: %s", name, e.msg);
+    CHECK(in.refs == n && got.generations == generations, "%s: %llu refs, %u generations", name,
+          (unsigned long long)in.refs, got.generations);
+    CHECK(rt_sim_check(replayed, &e) == 0, "%s: %s", name, e.msg);
+    uint64_t later = 0;
+    for (int i = 0; i < c.nsizes; i++)
+        for (int k = 0; k < RT_NCLASS; k++)
+            for (int g = -1; g < RT_MAXGEN; g++) {
+                rt_sim_counts x, y;
+                if (g < 0) rt_sim_get(direct, i, k, &x), rt_sim_get(replayed, i, k, &y);
+                else rt_sim_get_gen(direct, i, k, g, &x), rt_sim_get_gen(replayed, i, k, g, &y);
+                CHECK(same(&x, &y), "%s: size %d class %d generation %d differs after replay", name, i, k, g);
+                if (g > 0) later += y.accesses;
+            }
+    CHECK(generations ? later > 0 : later == 0, "%s: %llu touches of later generations", name,
+          (unsigned long long)later);
+    rt_sim_free(direct);
+    rt_sim_free(replayed);
+}
+
+static void test_replay_generations(void)
+{
+    enum { N = 60000 };
+    rt_access *a = malloc(N * sizeof *a);
+    gen(a, N, GEN_ZIPF, 4000); /* generations 0..9 */
+    replay_compare("version 2", a, N, 9);
+    for (size_t i = 0; i < N; i++) a[i].gen = 0;
+    replay_compare("version 1", a, N, 0);
+    free(a);
 }
 
 static void test_counters_64bit(void)
@@ -314,7 +459,7 @@ static void test_counters_64bit(void)
     cf.line = 1u << 30;
     rt_sim *s = rt_sim_new(&cf, NULL);
     for (int i = 0; i < 6; i++) {
-        rt_access a = {(uint64_t)i << 30, 8, 1, RT_CLS_HIT};
+        rt_access a = {(uint64_t)i << 30, 8, 1, RT_CLS_HIT, 0};
         rt_sim_put(s, &a, 1);
     }
     rt_sim_get(s, 0, RT_CLS_HIT, &c);
@@ -335,7 +480,7 @@ static void test_din(void)
     for (int i = 0; i < N; i++) {
         uint64_t r = rnd();
         int label = (int)(r % 3);
-        a[i] = (rt_access){(r >> 8) % 200000, 1, label == 1, RT_CLS_FB};
+        a[i] = (rt_access){(r >> 8) % 200000, 1, label == 1, RT_CLS_FB, 0};
         fprintf(f, i % 2 ? "%d %llx\n" : "%d 0x%llx trailing\n", label, (unsigned long long)a[i].addr);
         if (i == 5) fprintf(f, "\n");
     }
@@ -348,6 +493,7 @@ static void test_din(void)
     rt_din *d = rt_din_open(path, RT_CLS_FB, &e);
     CHECK(d, "din open: %s", e.msg);
     rt_access buf[1000];
+    memset(buf, 0, sizeof buf); /* the din reader leaves gen as it finds it */
     long n, total = 0;
     while ((n = rt_din_read(d, buf, 1000, &e)) > 0) {
         rt_sim_put(s2, buf, (size_t)n);
@@ -405,9 +551,12 @@ int main(void)
 {
     enum { N = 150000 };
     rt_access *a = malloc(N * sizeof *a);
+    if (!check_tmpdir("test_sim")) return perror("mkdtemp"), 1;
     test_parse();
     test_cycles();
     test_writebacks_by_hand();
+    test_generations_by_hand();
+    test_replay_generations();
     test_counters_64bit();
     test_din();
 
@@ -452,12 +601,14 @@ int main(void)
             pc.assoc = (uint32_t)(c.sizes[i] / 64); /* one set = fully associative */
             per[i] = rt_sim_new(&pc, NULL);
             rt_sim_put(per[i], b, NB);
-            for (int k = 0; k < RT_NCLASS; k++) {
-                rt_sim_counts x, y;
-                rt_sim_get(one, i, k, &x);
-                rt_sim_get(per[i], 0, k, &y);
-                CHECK(same(&x, &y), "13 sizes: size %llu class %d differs", (unsigned long long)c.sizes[i], k);
-            }
+            for (int k = 0; k < RT_NCLASS; k++)
+                for (int g = 0; g < RT_MAXGEN; g++) {
+                    rt_sim_counts x, y;
+                    rt_sim_get_gen(one, i, k, g, &x);
+                    rt_sim_get_gen(per[i], 0, k, g, &y);
+                    CHECK(same(&x, &y), "13 sizes: size %llu class %d generation %d differs",
+                          (unsigned long long)c.sizes[i], k, g);
+                }
             rt_sim_free(per[i]);
         }
         rt_sim_free(one);
@@ -506,6 +657,7 @@ int main(void)
     CHECK(rt_sim_bench_n(devnull, 100000) == 0, "bench");
     fclose(devnull);
 
+    check_rmdir();
     if (failures) fprintf(stderr, "test_sim: %d failures\n", failures);
     else printf("test_sim: ok\n");
     return failures ? 1 : 0;

@@ -1,7 +1,10 @@
 /* test_trace.c -- the .rtt trace format: exact round trips of random record
- * streams, rejection of every truncation and of corrupted bytes, version and
- * magic checks, interrupted writes, determinism, out-of-memory paths. The
- * quick tier cuts a 500-record file at every byte and skips the 300,000-
+ * streams (version 1, and version 2 with ray generations), rejection of
+ * every truncation and of corrupted bytes in both versions, hand-made
+ * chunks with bad generation bytes, version and magic checks, interrupted
+ * writes, determinism, the bytes of version-1 files against those of the
+ * writer before version 2 existed, out-of-memory paths. The quick tier cuts
+ * a 500-record file of each version at every byte and skips the 300,000-
  * record round trips; the long tier (RT_TEST_LONG=1) uses 3,000 and runs them.
  *
  * `test_trace --synthetic PATH` writes the small deterministic trace that
@@ -67,7 +70,8 @@ static int meta_equal(const rt_tr_meta *a, const rt_tr_meta *b)
         strcmp(a->command, b->command) || strcmp(a->scene, b->scene) || strcmp(a->scene_params, b->scene_params) ||
         a->scene_hash != b->scene_hash || a->ntri != b->ntri || strcmp(a->tracer, b->tracer) || a->W != b->W ||
         a->H != b->H || a->lights != b->lights || a->sched_size != b->sched_size || a->gmax != b->gmax ||
-        strcmp(a->params, b->params) || a->layout.n != b->layout.n || a->layout.next != b->layout.next)
+        strcmp(a->params, b->params) || a->layout.n != b->layout.n || a->layout.next != b->layout.next ||
+        a->generations != b->generations)
         return 0;
     for (int i = 0; i < a->layout.n; i++) {
         const rt_region *x = &a->layout.r[i], *y = &b->layout.r[i];
@@ -127,6 +131,18 @@ static rt_access *random_stream(size_t n)
     return a;
 }
 
+/* Gives a's records generations 0..maxgen: mostly runs (as tracers record
+ * them), sometimes a change at every record. */
+static void add_gens(rt_access *a, size_t n, unsigned maxgen)
+{
+    size_t i = 0;
+    while (i < n) {
+        size_t run = rnd64() % 4 ? 1 + (size_t)(rnd64() % 300) : 1 + (size_t)(rnd64() % 3);
+        uint8_t g = (uint8_t)(rnd64() % (maxgen + 1));
+        for (size_t k = 0; k < run && i < n; k++, i++) a[i].gen = g;
+    }
+}
+
 static int write_trace(const char *path, const rt_tr_meta *m, const rt_access *a, size_t n, int level,
                        uint32_t chunk, rt_err *e)
 {
@@ -162,7 +178,7 @@ static long read_all(const char *path, size_t cap, const rt_access *want, size_t
             for (long i = 0; i < k; i++) {
                 size_t j = (size_t)total + (size_t)i;
                 if (j >= nwant || buf[i].addr != want[j].addr || buf[i].size != want[j].size ||
-                    buf[i].write != want[j].write || buf[i].cls != want[j].cls) {
+                    buf[i].write != want[j].write || buf[i].cls != want[j].cls || buf[i].gen != want[j].gen) {
                     if (!*mismatch)
                         fprintf(stderr, "  first mismatch at record %zu\n", j);
                     *mismatch = 1;
@@ -177,10 +193,11 @@ static long read_all(const char *path, size_t cap, const rt_access *want, size_t
     return k < 0 ? -1 : total;
 }
 
-static void test_round_trip(void)
+static void test_round_trip(unsigned generations)
 {
     rt_tr_meta m, *mm = &m;
     fill_meta(mm);
+    mm->generations = generations;
     static const size_t ns[] = {0, 1, 2, 1000, 65535, 65536, 65537, 300000};
     static const uint32_t chunks[] = {1, 7, 1000, 65536};
     /* the chunk-boundary sizes stay in the quick tier; 300,000 is long only */
@@ -188,6 +205,7 @@ static void test_round_trip(void)
     for (size_t t = 0; t < nns; t++) {
         size_t n = ns[t];
         rt_access *a = random_stream(n);
+        if (generations) add_gens(a, n, generations);
         for (size_t c = 0; c < 4; c++) {
             if (chunks[c] == 1 && n > 70000) continue;
             rt_err e = {""};
@@ -215,7 +233,7 @@ static void test_round_trip(void)
             rt_tr_reader *r = rt_tr_open(p, &e);
             CHECK(r && meta_equal(rt_tr_get_meta(r), mm), "metadata round trip");
             if (r) {
-                CHECK(rt_tr_get_version(r) == RT_TR_FORMAT_VERSION, "version");
+                CHECK(rt_tr_get_version(r) == (generations ? 2u : 1u), "version %u", rt_tr_get_version(r));
                 CHECK(rt_tr_get_chunk_records(r) == chunks[c], "chunk records");
             }
             rt_tr_close(r);
@@ -225,6 +243,7 @@ static void test_round_trip(void)
     /* per-class totals against a direct count */
     size_t n = 50000;
     rt_access *a = random_stream(n);
+    if (generations) add_gens(a, n, generations);
     rt_tr_totals want;
     memset(&want, 0, sizeof want);
     for (size_t i = 0; i < n; i++) {
@@ -279,12 +298,14 @@ static int rejected(const char *p, char *msg, size_t msgcap)
     return 1;
 }
 
-static void test_corruption(void)
+static void test_corruption(unsigned generations)
 {
     rt_tr_meta m;
     fill_meta(&m);
+    m.generations = generations;
     size_t n = check_long() ? 3000 : 500; /* every truncation: one file per byte */
     rt_access *a = random_stream(n);
+    if (generations) add_gens(a, n, generations);
     rt_err e = {""};
     const char *good = check_path("good.rtt"), *bad = check_path("bad.rtt");
     CHECK(write_trace(good, &m, a, n, 6, 700, &e) == 0, "%s", e.msg);
@@ -339,15 +360,24 @@ static void test_corruption(void)
     free(b2);
     CHECK(rejected(bad, msg, sizeof msg) && strstr(msg, "trailing"), "trailing message: %s", msg);
     /* a newer format version, with a valid header CRC */
-    b[8] = 2;
+    unsigned char v = b[8];
+    CHECK(v == (generations ? 2 : 1), "written as version %u", v);
+    b[8] = 3;
     uint32_t c = (uint32_t)crc32(0, b, hlen - 4);
     unsigned char save[4];
     memcpy(save, b + hlen - 4, 4);
     for (int i = 0; i < 4; i++) b[hlen - 4 + i] = (unsigned char)(c >> (8 * i));
     spit(bad, b, len);
-    CHECK(rejected(bad, msg, sizeof msg) && strstr(msg, "version 2") && strstr(msg, "newer"), "version message: %s",
+    CHECK(rejected(bad, msg, sizeof msg) && strstr(msg, "version 3") && strstr(msg, "newer"), "version message: %s",
           msg);
-    b[8] = 1;
+    /* the other known version, with a valid header CRC: the payload's
+     * generations field is missing (1 read as 2) or left over (2 read as 1) */
+    b[8] = v == 1 ? 2 : 1;
+    c = (uint32_t)crc32(0, b, hlen - 4);
+    for (int i = 0; i < 4; i++) b[hlen - 4 + i] = (unsigned char)(c >> (8 * i));
+    spit(bad, b, len);
+    CHECK(rejected(bad, msg, sizeof msg) && strstr(msg, "header"), "version swap message: %s", msg);
+    b[8] = v;
     memcpy(b + hlen - 4, save, 4);
     /* the restored bytes read fine again */
     spit(bad, b, len);
@@ -381,7 +411,7 @@ static void test_interrupted(void)
     /* a bad record makes put fail and finish fail, leaving nothing */
     w = rt_tr_create(p, &m, &e);
     s = rt_tr_sink(w);
-    rt_access badrec = {RT_MM_BASE, 8, 0, RT_NCLASS};
+    rt_access badrec = {RT_MM_BASE, 8, 0, RT_NCLASS, 0};
     CHECK(s->put(s, a, 10) == 0 && s->put(s, &badrec, 1) < 0, "class out of range accepted");
     CHECK(strstr(rt_tr_writer_error(w), "class"), "writer error: %s", rt_tr_writer_error(w));
     CHECK(rt_tr_finish(w, &e) < 0 && strstr(e.msg, "class"), "finish after failed put: %s", e.msg);
@@ -441,7 +471,7 @@ static void test_oom(void)
     rt_tr_meta m;
     fill_meta(&m);
     rt_access a[100];
-    for (int i = 0; i < 100; i++) a[i] = (rt_access){RT_MM_BASE + 8u * (unsigned)i, 8, 0, RT_CLS_NODE};
+    for (int i = 0; i < 100; i++) a[i] = (rt_access){RT_MM_BASE + 8u * (unsigned)i, 8, 0, RT_CLS_NODE, 0};
     rt_err e = {""};
     const char *p = check_path("oom.rtt");
     CHECK(write_trace(p, &m, a, 100, 6, 65536, &e) == 0, "%s", e.msg);
@@ -458,22 +488,205 @@ static void test_oom(void)
     }
 }
 
+static void le32(unsigned char *p, uint32_t v)
+{
+    for (int i = 0; i < 4; i++) p[i] = (unsigned char)(v >> (8 * i));
+}
+
+static size_t header_len(const unsigned char *b)
+{
+    return 16 + (b[12] | b[13] << 8 | (uint32_t)b[14] << 16 | (uint32_t)b[15] << 24) + 4;
+}
+
+/* Writes hdr (a whole file header) and one chunk of n records encoded as
+ * raw[0..rlen), with valid lengths and CRC; no footer. */
+static void handmade(const char *path, const unsigned char *hdr, size_t hlen, const unsigned char *raw, size_t rlen,
+                     uint32_t n)
+{
+    uLong clen = compressBound((uLong)rlen);
+    unsigned char *f = malloc(hlen + 24 + clen);
+    memcpy(f, hdr, hlen);
+    unsigned char *ck = f + hlen;
+    compress2(ck + 24, &clen, raw, (uLong)rlen, 6);
+    memcpy(ck, "RTCK", 4);
+    le32(ck + 4, 0);
+    le32(ck + 8, n);
+    le32(ck + 12, (uint32_t)rlen);
+    le32(ck + 16, (uint32_t)clen);
+    le32(ck + 20, (uint32_t)crc32(crc32(0, ck, 20), ck + 24, (uInt)clen));
+    spit(path, f, hlen + 24 + clen);
+    free(f);
+}
+
+/* Reads the first record of path with a one-record buffer; returns what
+ * rt_tr_read returned. */
+static long first_record(const char *path, rt_access *a, rt_err *e)
+{
+    rt_tr_reader *r = rt_tr_open(path, e);
+    if (!r) return -1;
+    long k = rt_tr_read(r, a, 1, e);
+    rt_tr_close(r);
+    return k;
+}
+
+static int synthetic_level(const char *path, int level);
+
+static void test_generations(void)
+{
+    rt_tr_meta m;
+    fill_meta(&m);
+    rt_err e = {""};
+    const char *p = check_path("gen.rtt");
+    /* the writer keeps generations within what the header declares */
+    rt_access rec = {RT_MM_BASE, 8, 0, RT_CLS_NODE, 1};
+    rt_tr_writer *w = rt_tr_create(p, &m, &e);
+    rt_sink *s = rt_tr_sink(w);
+    CHECK(s->put(s, &rec, 1) < 0 && strstr(rt_tr_writer_error(w), "generation 1"),
+          "generation in a version-1 trace: %s", rt_tr_writer_error(w));
+    rt_tr_abort(w);
+    m.generations = 3;
+    w = rt_tr_create(p, &m, &e);
+    s = rt_tr_sink(w);
+    rec.gen = 3;
+    CHECK(s->put(s, &rec, 1) == 0, "generation 3 of 3: %s", rt_tr_writer_error(w));
+    rec.gen = 4;
+    CHECK(s->put(s, &rec, 1) < 0 && strstr(rt_tr_writer_error(w), "generation 4 above the 3"),
+          "generation 4 of 3: %s", rt_tr_writer_error(w));
+    rt_tr_abort(w);
+    m.generations = RT_TR_MAX_GENERATION + 1;
+    CHECK(!rt_tr_create(p, &m, &e) && strstr(e.msg, "generations"), "256 generations accepted: %s", e.msg);
+    m.generations = RT_TR_MAX_GENERATION;
+    w = rt_tr_create(p, &m, &e);
+    s = rt_tr_sink(w);
+    rec.gen = 255;
+    CHECK(w && s->put(s, &rec, 1) == 0 && rt_tr_finish(w, &e) == 0, "generation 255: %s", e.msg);
+    rt_access got;
+    CHECK(first_record(p, &got, &e) == 1 && got.gen == 255, "generation 255 read back: %s", e.msg);
+
+    /* a generation costs one byte per change and nothing per record: four
+     * sequential records, generations 0 1 1 0 (tag, 5-byte address, size,
+     * then a tag each) */
+    rt_access four[4];
+    for (int i = 0; i < 4; i++) four[i] = (rt_access){RT_MM_BASE + 8u * (unsigned)i, 8, 0, RT_CLS_NODE, 0};
+    size_t l1, l2;
+    m.generations = 0;
+    CHECK(write_trace(check_path("g1.rtt"), &m, four, 4, 0, 100, &e) == 0, "%s", e.msg);
+    four[1].gen = four[2].gen = 1;
+    m.generations = 1;
+    CHECK(write_trace(check_path("g2.rtt"), &m, four, 4, 0, 100, &e) == 0, "%s", e.msg);
+    unsigned char *b1 = slurp(check_path("g1.rtt"), &l1), *b2 = slurp(check_path("g2.rtt"), &l2);
+    size_t h1 = header_len(b1), h2 = header_len(b2);
+    uint32_t u1 = b1[h1 + 12], u2 = b2[h2 + 12];
+    CHECK(h2 == h1 + 4 && u1 == 1 + 5 + 1 + 3 && u2 == u1 + 2, "encoded lengths: header %zu/%zu, chunk %u/%u", h1,
+          h2, u1, u2);
+    free(b1);
+    free(b2);
+
+    /* a version-2 trace whose records are all generation 0 differs from the
+     * version-1 trace only in its header */
+    rt_access *a = random_stream(20000);
+    m.generations = 0;
+    CHECK(write_trace(check_path("g1.rtt"), &m, a, 20000, 6, 3000, &e) == 0, "%s", e.msg);
+    m.generations = 7;
+    CHECK(write_trace(check_path("g2.rtt"), &m, a, 20000, 6, 3000, &e) == 0, "%s", e.msg);
+    b1 = slurp(check_path("g1.rtt"), &l1);
+    b2 = slurp(check_path("g2.rtt"), &l2);
+    h1 = header_len(b1);
+    h2 = header_len(b2);
+    CHECK(b1[8] == 1 && b2[8] == 2 && l1 - h1 == l2 - h2 && !memcmp(b1 + h1, b2 + h2, l1 - h1),
+          "generation-0 chunks differ between versions");
+    free(a);
+
+    /* hand-made chunks: generation bytes a writer never produces */
+    const unsigned char *hv2 = b2, *hv1 = b1; /* headers: generations 7, none */
+    struct {
+        const unsigned char *hdr;
+        size_t hlen;
+        unsigned char raw[12];
+        size_t rlen;
+        uint32_t n;
+        const char *msg; /* NULL: valid, first record has generation 2 */
+    } cases[] = {
+        {hv2, h2, {0x80 | RT_CLS_NODE, 2, 0x10, 0x08}, 4, 1, NULL},
+        {hv2, h2, {0x80 | RT_CLS_NODE, 0, 0x10, 0x08}, 4, 1, "record 0: generation byte repeats"},
+        {hv2, h2, {0x80 | RT_CLS_NODE, 2, 0x10, 0x08, 0x80 | RT_CLS_NODE, 2, 0x10}, 7, 2,
+         "record 1: generation byte repeats"},
+        {hv2, h2, {0x80 | RT_CLS_NODE, 8, 0x10, 0x08}, 4, 1, "generation above the header"},
+        {hv2, h2, {0x80 | RT_CLS_NODE}, 1, 1, "runs past the end"},
+        {hv2, h2, {0x80 | 0x0f, 2, 0x10, 0x08}, 4, 1, "class out of range"},
+        {hv1, h1, {0x80 | RT_CLS_NODE, 0x10, 0x08}, 3, 1, "reserved tag bit"},
+    };
+    const char *hm = check_path("hand.rtt");
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        handmade(hm, cases[i].hdr, cases[i].hlen, cases[i].raw, cases[i].rlen, cases[i].n);
+        long k = first_record(hm, &got, &e);
+        if (!cases[i].msg)
+            CHECK(k == 1 && got.gen == 2 && got.addr == 8 && got.size == 8 && got.cls == RT_CLS_NODE,
+                  "hand-made case %zu: %ld records, generation %u (%s)", i, k, got.gen, e.msg);
+        else {
+            char msg[RT_ERR_LEN];
+            CHECK(rejected(hm, msg, sizeof msg) && strstr(msg, cases[i].msg), "hand-made case %zu: %s", i, msg);
+        }
+    }
+    free(b1);
+    free(b2);
+
+    /* a recorder stamps its current generation on every access, across
+     * buffer flushes, into the writer and back out of the reader */
+    m.generations = 255;
+    w = rt_tr_create(p = check_path("rec.rtt"), &m, &e);
+    rt_rec *rc = w ? rt_rec_new(rt_tr_sink(w), &e) : NULL;
+    CHECK(rc && rc->gen == 0, "recorder: %s", e.msg);
+    enum { NR = 3 * RT_REC_BUF + 7 };
+    static uint8_t want[NR];
+    for (int i = 0; i < NR; i++) {
+        int g = i % 500 == 0 ? (i / 500) % 7 - 1 : -2; /* -1 and 300 are clamped */
+        if (i == 1000) g = 300;
+        if (g != -2) rt_rec_set_gen(rc, g);
+        want[i] = rc->gen;
+        RT_REC(rc, RT_MM_BASE + 8u * (unsigned)(i % 77), 8, i & 1, RT_CLS_NODE);
+    }
+    rt_rec_set_gen(NULL, 3); /* recording off: a no-op */
+    CHECK(want[0] == 0 && want[1000] == 255 && want[1500] == 2, "clamping: %u %u %u", want[0], want[1000], want[1500]);
+    CHECK(rt_rec_flush(rc) == 0 && rt_tr_finish(w, &e) == 0, "recorded trace: %s", e.msg);
+    rt_rec_free(rc);
+    rt_tr_reader *rr = rt_tr_open(p, &e);
+    static rt_access back[NR + 1];
+    long nb = rr ? rt_tr_read(rr, back, NR + 1, &e) : -1;
+    int bad = 0;
+    for (long i = 0; i < nb && i < NR; i++) bad += back[i].gen != want[i];
+    CHECK(nb == NR && bad == 0, "recorded generations: %ld records, %d wrong (%s)", nb, bad, e.msg);
+    rt_tr_close(rr);
+
+    /* version-1 bytes are those of the writer before version 2 (the
+     * synthetic trace, stored zlib blocks so only the format matters) */
+    p = check_path("syn0.rtt");
+    CHECK(synthetic_level(p, 0) == 0, "synthetic trace");
+    b1 = slurp(p, &l1);
+    CHECK(b1 && l1 == 846 && rt_fnv1a(RT_FNV_INIT, b1, l1) == 0x5f1614d05baafcf3ULL,
+          "version-1 bytes changed: %zu bytes, hash %016llx", l1,
+          b1 ? (unsigned long long)rt_fnv1a(RT_FNV_INIT, b1, l1) : 0ULL);
+    free(b1);
+}
+
 /* The deterministic synthetic trace for the din golden file. */
-static int synthetic(const char *path)
+static int synthetic(const char *path) { return synthetic_level(path, 6); }
+
+static int synthetic_level(const char *path, int level)
 {
     rt_tr_meta m;
     fill_meta(&m);
     snprintf(m.git_rev, sizeof m.git_rev, "synthetic");
     rt_access a[] = {
-        {0x10000000, 8, 0, RT_CLS_NODE},   {0x10000008, 8, 0, RT_CLS_NODE},  {0x10000038, 8, 0, RT_CLS_NODE},
-        {0x10001000, 4, 0, RT_CLS_INDEX},  {0x10001004, 4, 0, RT_CLS_INDEX}, {0x10002020, 36, 0, RT_CLS_TRI},
-        {0x10002044, 36, 0, RT_CLS_TRI},   {0x10003000, 32, 0, RT_CLS_RAY},  {0x10003000, 32, 1, RT_CLS_RAY},
-        {0x1000303c, 8, 1, RT_CLS_HIT},    {0x10004000, 200, 0, RT_CLS_QUEUE}, {0x1000403f, 1, 1, RT_CLS_FB},
-        {0x1000403f, 2, 1, RT_CLS_FB},     {0xffffffffffffffc0ULL, 64, 0, RT_CLS_STREAM},
-        {0xfffffffffffffff0ULL, 100, 1, RT_CLS_STREAM},
+        {0x10000000, 8, 0, RT_CLS_NODE, 0},   {0x10000008, 8, 0, RT_CLS_NODE, 0},  {0x10000038, 8, 0, RT_CLS_NODE, 0},
+        {0x10001000, 4, 0, RT_CLS_INDEX, 0},  {0x10001004, 4, 0, RT_CLS_INDEX, 0}, {0x10002020, 36, 0, RT_CLS_TRI, 0},
+        {0x10002044, 36, 0, RT_CLS_TRI, 0},   {0x10003000, 32, 0, RT_CLS_RAY, 0},  {0x10003000, 32, 1, RT_CLS_RAY, 0},
+        {0x1000303c, 8, 1, RT_CLS_HIT, 0},    {0x10004000, 200, 0, RT_CLS_QUEUE, 0}, {0x1000403f, 1, 1, RT_CLS_FB, 0},
+        {0x1000403f, 2, 1, RT_CLS_FB, 0},     {0xffffffffffffffc0ULL, 64, 0, RT_CLS_STREAM, 0},
+        {0xfffffffffffffff0ULL, 100, 1, RT_CLS_STREAM, 0},
     };
     rt_err e = {""};
-    rt_tr_wopts o = {6, 4};
+    rt_tr_wopts o = {level, 4};
     rt_tr_writer *w = rt_tr_create_opts(path, &m, &o, &e);
     if (!w) return fprintf(stderr, "%s\n", e.msg), 1;
     rt_sink *s = rt_tr_sink(w);
@@ -487,8 +700,12 @@ int main(int argc, char **argv)
     if (argc == 3 && !strcmp(argv[1], "--synthetic")) return synthetic(argv[2]);
     if (!check_tmpdir("test_trace")) return perror("mkdtemp"), 1;
     double t0 = rt_now();
-    test_round_trip();
-    test_corruption();
+    test_round_trip(0);
+    test_round_trip(5);
+    test_round_trip(RT_TR_MAX_GENERATION);
+    test_corruption(0);
+    test_corruption(3);
+    test_generations();
     test_interrupted();
     test_deterministic();
     test_oom();
