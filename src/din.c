@@ -84,6 +84,7 @@ long rt_din_read(rt_din *d, rt_access *buf, size_t cap, rt_err *e)
         buf[n].size = 1;
         buf[n].write = label == 1;
         buf[n].cls = (uint8_t)d->cls;
+        buf[n].gen = 0;
         n++;
     }
     return (long)n;

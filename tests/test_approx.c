@@ -53,6 +53,7 @@ static void mixed_stream(rt_access *a, size_t n, uint64_t nlines)
         a[i].size = (uint32_t)(1 + ((r >> 50) % 100));
         a[i].write = ((r >> 20) % 5) == 0;
         a[i].cls = (uint8_t)(line % 7 == 0 ? RT_CLS_RAY : line % 3 == 0 ? RT_CLS_TRI : RT_CLS_NODE);
+        a[i].gen = 0;
     }
 }
 
@@ -207,7 +208,7 @@ static void test_exact_below_and_replay(void)
     FILE *f = fdopen(fd, "w");
     rt_access *d = malloc(n * sizeof *d);
     for (size_t i = 0; i < n; i++) {
-        d[i] = (rt_access){a[i].addr, 1, a[i].write, RT_CLS_FB};
+        d[i] = (rt_access){a[i].addr, 1, a[i].write, RT_CLS_FB, 0};
         fprintf(f, "%d %llx\n", a[i].write, (unsigned long long)a[i].addr);
     }
     fclose(f);
@@ -237,11 +238,11 @@ static void test_exact_below_and_replay(void)
 /* Stream generators with a known curve. */
 static void cyclic(rt_access *a, size_t n, uint64_t W)
 {
-    for (size_t i = 0; i < n; i++) a[i] = (rt_access){0x10000000ULL + (i % W) * 64, 8, (i % 3) == 0, RT_CLS_NODE};
+    for (size_t i = 0; i < n; i++) a[i] = (rt_access){0x10000000ULL + (i % W) * 64, 8, (i % 3) == 0, RT_CLS_NODE, 0};
 }
 static void uniform(rt_access *a, size_t n, uint64_t W)
 {
-    for (size_t i = 0; i < n; i++) a[i] = (rt_access){0x10000000ULL + (rnd64() % W) * 64, 8, 0, RT_CLS_TRI};
+    for (size_t i = 0; i < n; i++) a[i] = (rt_access){0x10000000ULL + (rnd64() % W) * 64, 8, 0, RT_CLS_TRI, 0};
 }
 
 /* Mean and max absolute miss-ratio error of an estimator against rt_sim
@@ -432,7 +433,7 @@ static void test_golden_stratified(void)
     rt_access *a = malloc(N * sizeof *a);
     for (uint64_t seed = 1; seed <= 5; seed++) {
         uint64_t start = rnd64() >> 30;
-        for (uint64_t i = 0; i < N; i++) a[i] = (rt_access){(start + i) * 64, 8, 0, RT_CLS_RAY};
+        for (uint64_t i = 0; i < N; i++) a[i] = (rt_access){(start + i) * 64, 8, 0, RT_CLS_RAY, 0};
         rt_approx_config ac;
         hybrid_config(&ac, 1.0 / 64, 0);
         ac.seed = seed;

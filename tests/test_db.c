@@ -607,7 +607,7 @@ int main(void)
         rt_sim_config_default(&c);
         rt_sim *s = rt_sim_new(&c, NULL);
         for (uint64_t i = 0; i < (1u << 20); i++) {
-            rt_access a = {0x20000000ULL + i * 32, 32, 0, RT_CLS_RAY};
+            rt_access a = {0x20000000ULL + i * 32, 32, 0, RT_CLS_RAY, 0};
             rt_sim_put(s, &a, 1);
         }
         rt_db_traffic *sr = calloc((size_t)c.nsizes * RT_NCLASS, sizeof *sr);

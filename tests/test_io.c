@@ -226,7 +226,7 @@ static void test_writers_faults(void)
                 rt_tr_writer *tw = rt_tr_create(tpath(names[w]), &m, &e);
                 rc = tw ? 0 : -1;
                 rt_access a[100];
-                for (int i = 0; i < 100; i++) a[i] = (rt_access){(uint64_t)i * 4099u, 4, 0, 0};
+                for (int i = 0; i < 100; i++) a[i] = (rt_access){(uint64_t)i * 4099u, 4, 0, 0, 0};
                 if (tw && rt_tr_sink(tw)->put(rt_tr_sink(tw), a, 100) < 0) rc = -1;
                 if (tw) rc = rt_tr_finish(tw, &e) < 0 ? -1 : rc;
             }
