@@ -106,4 +106,11 @@ struct option *rt_cmd_merge_opts(const struct option *own);
  * option, -1 on a bad value (message printed for cmd). */
 int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o, const char **tracer);
 
+/* --material NAME for render and trace: checks NAME against the scene
+ * library's presets and returns SPEC with ":material=NAME" (or
+ * ",material=NAME" after existing parameters) in buf; SPEC itself when
+ * name is NULL; NULL (message printed for cmd) for an unknown preset or a
+ * spec too long. */
+const char *rt_cmd_scene_material(const char *cmd, const char *spec, const char *name, char *buf, size_t n);
+
 #endif

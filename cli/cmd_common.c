@@ -2,6 +2,7 @@
  * subcommands, so the same option is spelled and checked the same way
  * everywhere and JSON strings are escaped one way. */
 #include "cmd.h"
+#include "scene.h"
 
 #include <errno.h>
 #include <limits.h>
@@ -210,4 +211,24 @@ void rt_cmd_json_str(FILE *f, const char *s)
         else fputc(c, f);
     }
     fputc('"', f);
+}
+
+const char *rt_cmd_scene_material(const char *cmd, const char *spec, const char *name, char *buf, size_t n)
+{
+    if (!name) return spec;
+    int known = 0;
+    for (int i = 0; rt_material_preset_names[i]; i++) known |= !strcmp(name, rt_material_preset_names[i]);
+    if (!known) {
+        rt_cmd_error(cmd, "--material: unknown preset '%s' (diffuse, mirror, glass)", name);
+        return NULL;
+    }
+    /* a built-in name or a mesh path, then ':' and k=v parameters */
+    const char *colon = strrchr(spec, ':');
+    const char *slash = strrchr(spec, '/');
+    int has_params = colon && (!slash || colon > slash) && strchr(colon, '=');
+    if ((size_t)snprintf(buf, n, "%s%smaterial=%s", spec, has_params ? "," : ":", name) >= n) {
+        rt_cmd_error(cmd, "--material: scene spec too long");
+        return NULL;
+    }
+    return buf;
 }

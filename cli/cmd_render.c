@@ -17,6 +17,8 @@ static void usage(FILE *f)
             "and write a float OpenEXR with channels R, G, B, Z (depth), nodes and tests\n"
             "(per-pixel k-d nodes visited and triangles tested).\n\n"
             "Options:\n"
+            "  --material M       give every triangle the preset M: diffuse, mirror or glass\n"
+            "                     (same as the scene parameter :material=M)\n"
             "  -o FILE            output EXR (required)\n"
             "  --png FILE         also write an 8-bit gamma-2.2 preview PNG\n"
             "  --ppm FILE         same as a binary PPM\n"
@@ -34,17 +36,23 @@ void rt_print_run_stats(FILE *f, const rt_job *j, const rt_run_stats *st, int js
     uint64_t rays = st->rays_primary + st->rays_shadow;
     double per = rays ? 1.0 / (double)rays : 0;
     if (json) {
+        /* names and the statistics string come from files: escaped */
+        fputs("{\"scene\": ", f);
+        rt_cmd_json_str(f, j->sc->name);
         fprintf(f,
-                "{\"scene\": \"%s\", \"tracer\": \"%s\", \"width\": %d, \"height\": %d, \"lights\": %u, "
+                ", \"tracer\": \"%s\", \"width\": %d, \"height\": %d, \"lights\": %u, "
                 "\"triangles\": %" PRIu32 ", \"rays_primary\": %" PRIu64 ", \"rays_shadow\": %" PRIu64
                 ", \"nodes\": %" PRIu64 ", \"tests\": %" PRIu64 ", \"nodes_per_ray\": %.3f, \"tests_per_ray\": %.3f"
                 ", \"pv_primary\": %" PRIu64 ", \"pv_all\": %" PRIu64 ", \"kd_build_seconds\": %.3f"
-                ", \"render_seconds\": %.3f, \"mrays_per_second\": %.3f%s%s%s}\n",
-                j->sc->name, j->tr->name, j->opt.W, j->opt.H, j->opt.lights, j->sc->ntri, st->rays_primary,
-                st->rays_shadow, st->nodes, st->tests, (double)st->nodes * per, (double)st->tests * per,
-                st->pv_primary, st->pv_all, j->kd_sec, st->seconds,
-                st->seconds > 0 ? (double)rays / st->seconds * 1e-6 : 0.0, st->extra[0] ? ", \"extra\": \"" : "",
-                st->extra, st->extra[0] ? "\"" : "");
+                ", \"render_seconds\": %.3f, \"mrays_per_second\": %.3f",
+                j->tr->name, j->opt.W, j->opt.H, j->opt.lights, j->sc->ntri, st->rays_primary, st->rays_shadow,
+                st->nodes, st->tests, (double)st->nodes * per, (double)st->tests * per, st->pv_primary, st->pv_all,
+                j->kd_sec, st->seconds, st->seconds > 0 ? (double)rays / st->seconds * 1e-6 : 0.0);
+        if (st->extra[0]) {
+            fputs(", \"extra\": ", f);
+            rt_cmd_json_str(f, st->extra);
+        }
+        fputs("}\n", f);
         return;
     }
     fprintf(f, "scene %s (%" PRIu32 " triangles), tracer %s, %dx%d, lights %u\n", j->sc->name, j->sc->ntri,
@@ -65,11 +73,13 @@ int main_render(int argc, char **argv)
         {"ppm", required_argument, NULL, 'p'},
         {"png", required_argument, NULL, 'g'},
         {"json", no_argument, NULL, 'j'},
+        {"material", required_argument, NULL, 'M'},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0},
     };
     rt_render_opts o;
     rt_render_default_opts(&o);
+    const char *material = NULL;
     const char *tracer = "recursive", *out = NULL, *ppm = NULL, *png = NULL;
     int json = 0, c, rc = RT_EXIT_FAIL;
     struct option *lo = rt_cmd_merge_opts(own);
@@ -81,6 +91,7 @@ int main_render(int argc, char **argv)
         if (r > 0) continue;
         switch (c) {
         case 'o': out = optarg; break;
+        case 'M': material = optarg; break;
         case 'p': ppm = optarg; break;
         case 'g': png = optarg; break;
         case 'j': json = 1; break;
@@ -102,7 +113,10 @@ int main_render(int argc, char **argv)
     rt_job j;
     rt_image *img = NULL;
     rt_run_stats st;
-    if (rt_job_setup(&j, argv[optind], tracer, &o, &e) < 0) {
+    char specbuf[4200];
+    const char *spec = rt_cmd_scene_material("render", argv[optind], material, specbuf, sizeof specbuf);
+    if (!spec) return RT_EXIT_USAGE;
+    if (rt_job_setup(&j, spec, tracer, &o, &e) < 0) {
         rt_cmd_error("render", "%s", e.msg);
         return RT_EXIT_FAIL;
     }

@@ -24,6 +24,8 @@ static void usage(FILE *f)
             "is left.\n"
             "Inspect it with trace-info and trace-dump, replay it with sim.\n\n"
             "Options:\n"
+            "  --material M       give every triangle the preset M: diffuse, mirror or glass\n"
+            "                     (same as the scene parameter :material=M)\n"
             "  -o FILE            output trace (required)\n"
             "  --level N          zlib level 0..9 (default %d)\n" RT_RENDER_OPTS_HELP
             "                     (trace defaults: -W 512 -H 512, --lights none)\n"
@@ -38,6 +40,7 @@ int main_trace(int argc, char **argv)
     static const struct option own[] = {
         {"output", required_argument, NULL, 'o'},
         {"level", required_argument, NULL, OPT_LEVEL},
+        {"material", required_argument, NULL, 'M'},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0},
     };
@@ -47,6 +50,7 @@ int main_trace(int argc, char **argv)
     o.lights = 0;
     rt_tr_wopts wo;
     rt_tr_default_wopts(&wo);
+    const char *material = NULL;
     const char *tracer = "recursive", *out = NULL;
     int c;
     if (argc == 1) {
@@ -62,6 +66,7 @@ int main_trace(int argc, char **argv)
         if (r > 0) continue;
         switch (c) {
         case 'o': out = optarg; break;
+        case 'M': material = optarg; break;
         case OPT_LEVEL:
             if (strlen(optarg) != 1 || optarg[0] < '0' || optarg[0] > '9') {
                 rt_cmd_error("trace", "--level: '%s' is not a zlib level 0..9", optarg);
@@ -91,7 +96,10 @@ int main_trace(int argc, char **argv)
     rt_run_stats st;
     rt_tr_meta *m = NULL;
     int rc = RT_EXIT_FAIL;
-    if (rt_job_setup(&j, argv[optind], tracer, &o, &e) < 0) {
+    char specbuf[4200];
+    const char *spec = rt_cmd_scene_material("trace", argv[optind], material, specbuf, sizeof specbuf);
+    if (!spec) return RT_EXIT_USAGE;
+    if (rt_job_setup(&j, spec, tracer, &o, &e) < 0) {
         rt_cmd_error("trace", "%s", e.msg);
         return RT_EXIT_FAIL;
     }
