@@ -1,0 +1,12 @@
+/*
+ * fuzz_obj.c -- fuzz target for the OBJ loader (rt_scene_load_obj,
+ * src/scene_obj.c). The input is the file; the checks are in fuzz_scene.h.
+ */
+#include "fuzz_scene.h"
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    rt_err e = {{0}};
+    rt_fuzz_check_scene(rt_scene_load_obj(rt_fuzz_file(data, size), &e), &e);
+    return 0;
+}

@@ -1,0 +1,98 @@
+#!/bin/sh
+# make_corpus.sh -- regenerates the seed corpora in tests/fuzz/corpus/.
+#
+# Usage: tests/fuzz/make_corpus.sh RAYTRAFFIC_BINARY
+#
+# Names: ok-* must be accepted by their harness, bad-* refused
+# (tests/fuzz_replay.sh checks both). Every trace and din seed starts with
+# the harness's selector byte (fuzz_trace.c, fuzz_din.c). Needs python3
+# for the byte surgery. The seeds are committed; run this only when the
+# formats change.
+set -eu
+bin=$1
+here=$(cd "$(dirname "$0")" && pwd)
+c=$here/corpus
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+rm -rf "$c"
+mkdir -p "$c/trace" "$c/din" "$c/obj" "$c/ply" "$c/cli"
+
+# Traces at 4x4: each tracer, with and without writes from shadow rays.
+"$bin" trace cornell -W 4 -H 4 -o "$tmp/cornell.rtt" >/dev/null 2>&1
+"$bin" trace sphereflake:level=0 -W 4 -H 4 --lights all -t packet --packet 2 -o "$tmp/flake.rtt" >/dev/null 2>&1
+"$bin" trace knot:segs=8,sides=3 -W 4 -H 4 -t dynamic --cache-size 1K -o "$tmp/knot.rtt" >/dev/null 2>&1
+"$bin" trace-dump --din "$tmp/cornell.rtt" | head -n 40 > "$tmp/cornell.din"
+python3 - "$tmp" "$c" <<'EOF'
+import struct, sys, zlib
+tmp, c = sys.argv[1], sys.argv[2]
+def plain(f):
+    """Mode 2 of fuzz_trace.c: each chunk body uncompressed."""
+    P = struct.unpack_from('<I', f, 12)[0]
+    out, i = bytearray(f[:20 + P]), 20 + P
+    while f[i:i + 4] == b'RTCK':
+        C = struct.unpack_from('<I', f, i + 16)[0]
+        body = zlib.decompress(f[i + 24:i + 24 + C])
+        h = bytearray(f[i:i + 24])
+        struct.pack_into('<I', h, 16, len(body))
+        out += h + body
+        i += 24 + C
+    return bytes(out + f[i:])
+def put(name, data):
+    open(f'{c}/{name}', 'wb').write(data)
+for name in ('cornell', 'flake', 'knot'):
+    f = open(f'{tmp}/{name}.rtt', 'rb').read()
+    put(f'trace/ok-{name}-raw', bytes([0x40]) + f)          # mode 0, buffer 65
+    put(f'trace/ok-{name}-crc', bytes([0x01]) + f)          # mode 1, buffer 1
+    put(f'trace/ok-{name}-plain', bytes([0xfe]) + plain(f)) # mode 2, buffer 253
+f = open(f'{tmp}/cornell.rtt', 'rb').read()
+put('trace/bad-truncated', bytes([0x40]) + f[:len(f) // 2])
+put('trace/bad-magic', bytes([0x40]) + b'RTTRACX' + f[7:])
+flip = bytearray(f); flip[40] ^= 4
+put('trace/bad-bitflip', bytes([0x40]) + bytes(flip))
+put('trace/bad-trailing', bytes([0x40]) + f + b'\0')
+put('trace/bad-empty', bytes([0x00]))
+d = open(f'{tmp}/cornell.din', 'rb').read()
+put('din/ok-cornell', bytes([0x23]) + d)
+put('din/ok-forms', bytes([0x00]) + b'0 10\n1 0x1f\n\n2 ffffffffffffffff trailing words\r\n  0\t0\n')
+put('din/bad-label', bytes([0x10]) + b'0 10\n3 20\n')
+put('din/bad-address', bytes([0x10]) + b'0 10\n1 0x\n')
+put('din/bad-overflow', bytes([0x10]) + b'0 10000000000000000\n')
+put('din/bad-nul', bytes([0x10]) + b'0 10\n0 2\x003\n')
+EOF
+cp "$here/../../data/meshes/cube.obj" "$c/obj/ok-cube.obj"
+cp "$here/../../data/meshes/forms.obj" "$c/obj/ok-forms.obj"
+printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1 1\nvt 0 0\nvn 0 0 1\nf 1/1/1 2//1 3\r\nf -1 -2 -3 -4\n' > "$c/obj/ok-negative"
+printf 'v 0 0 0\nv 1 0 0\nf 1 2 3\n' > "$c/obj/bad-index"
+printf 'v 0 0 0\nv 1 0 nan\nv 0 1 0\nf 1 2 3\n' > "$c/obj/bad-nan"
+printf 'v 0 0 0\nv 1e30 0 0\nv 0 1 0\nf 1 2 3\n' > "$c/obj/bad-range"
+printf '# no faces\nv 0 0 0\n' > "$c/obj/bad-nofaces"
+cp "$here/../../data/meshes/tetra_ascii.ply" "$c/ply/ok-tetra-ascii.ply"
+python3 - "$c" <<'EOF'
+import struct, sys
+c = sys.argv[1]
+V = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)]
+F = [(0, 1, 2), (0, 1, 3), (0, 2, 3), (1, 2, 3)]
+def binply(fmt, e, vtype='float', ctype='uchar', itype='int', extra=b''):
+    h = (f'ply\nformat {fmt} 1.0\ncomment seed\nelement vertex 4\nproperty {vtype} x\nproperty {vtype} y\n'
+         f'property {vtype} z\nproperty uchar red\nelement face 4\nproperty list {ctype} {itype} vertex_indices\n'
+         'end_header\n').encode()
+    vt = {'float': 'f', 'double': 'd', 'short': 'h'}[vtype]
+    ct = {'uchar': 'B', 'ushort': 'H'}[ctype]
+    it = {'int': 'i', 'uint': 'I', 'short': 'h'}[itype]
+    b = b''.join(struct.pack(e + vt * 3 + 'B', *v, 200) for v in V)
+    b += b''.join(struct.pack(e + ct + it * 3, 3, *f) for f in F)
+    return h + b + extra
+open(f'{c}/ply/ok-tetra-le', 'wb').write(binply('binary_little_endian', '<'))
+open(f'{c}/ply/ok-tetra-be', 'wb').write(binply('binary_big_endian', '>', 'double', 'ushort', 'short'))
+open(f'{c}/ply/bad-short', 'wb').write(binply('binary_little_endian', '<')[:-7])
+open(f'{c}/ply/bad-count', 'wb').write(binply('binary_little_endian', '<').replace(b'vertex 4', b'vertex 9999999'))
+open(f'{c}/ply/bad-format', 'wb').write(b'ply\nformat binary_middle_endian 1.0\nend_header\n')
+EOF
+printf -- '-t\npacket\n-W\n4\n-H\n4\n--packet\n2\n--lights\n0,2' > "$c/cli/ok-packet"
+printf -- '--tracer=dynamic\n--cache-size\n64K\n--gmax=1M\n--threads\n8\n--qorder\ntree\n--line\n4K\n--rate\n1/64' > "$c/cli/ok-dynamic"
+printf -- '--subsample\n16:4\n--width=65536\n-H1\n--lights=all\n-h\n--\nscene.obj' > "$c/cli/ok-subsample"
+printf -- '-W\n0' > "$c/cli/bad-width"
+printf -- '--subsample\n0:99999\n--cache-size\n63' > "$c/cli/bad-subsample"
+printf -- '--line\n2M\n--rate\n2\n--lights\n3' > "$c/cli/bad-line"
+printf -- '--cache-size\n18446744073709551615K\n-t\nwhitted' > "$c/cli/bad-overflow"
+du -sh "$c"
