@@ -102,7 +102,7 @@ static void check_opts(const rt_render_opts *o, const char *tracer)
     if (o->W < 1 || o->W > 65536 || o->H < 1 || o->H > 65536) rt_fuzz_fail("image size %dx%d", o->W, o->H);
     if (o->packet < 1 || o->packet > 256) rt_fuzz_fail("packet %d", o->packet);
     if (o->threads < 1 || o->threads > 1024) rt_fuzz_fail("threads %d", o->threads);
-    if (o->cache_size < 64) rt_fuzz_fail("cache size %llu", (unsigned long long)o->cache_size);
+    if (o->sched_size < 64) rt_fuzz_fail("sched size %llu", (unsigned long long)o->sched_size);
     if (o->subsample < 1 || o->subsample > (1u << 20) || o->subtile < 1 || o->subtile > 4096)
         rt_fuzz_fail("subsample %u:%d", o->subsample, o->subtile);
     if (o->lights > 7) rt_fuzz_fail("lights mask %u", o->lights);
