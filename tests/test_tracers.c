@@ -1072,6 +1072,7 @@ static void traffic_modes(const char *spec, int W, int H)
                 CHECK(0, "%s %s: %s", spec, tr, e.msg);
                 continue;
             }
+            j.check = 1;
             tally *ty = calloc(1, sizeof *ty);
             ty->L = &j.L;
             ty->kd = kd;
