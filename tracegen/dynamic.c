@@ -30,7 +30,11 @@
  *     modeled thread (region dyn.raybuf), written on load and read when the
  *     ray moves on to another queue;
  *   - when the root is the only queue point (everything fits), rays are
- *     traced straight away without queueing: recursive order.
+ *     traced straight away without queueing: recursive order; so is a ray
+ *     whose interval clipped to the scene's box is empty (no queue point is
+ *     entered with an empty interval, yet the single-ray traversal tests
+ *     the triangles of the cells at that point, where rounding can place a
+ *     hit).
  *
  * Representation. The schedule (the plan, computed once per job from the
  * tree and the budget, and shared read-only by the layout and the run)
@@ -73,6 +77,9 @@
  *       in one queue at a time); a candidate flag appears only in the
  *       primary generation, on a pixel whose hit record holds a triangle;
  *       resolved[p] <= 1; rays started = rays resolved + rays queued.
+ *   I7  resolution (checked as each ray resolves, not between steps): a
+ *       ray's closest hit (triangle and t), or a shadow ray's visibility,
+ *       is the one the single-ray traversal finds for the same ray.
  * check_generation adds the end-of-generation condition: queues empty and
  * every wanted pixel resolved exactly once.
  *
