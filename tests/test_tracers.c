@@ -1032,9 +1032,12 @@ static void modes_vs_reference(const char *spec, int W, int H)
     rt_scene_free(sc);
 }
 
-/* Traffic of the secondary modes on a scene with hand-made materials: every
- * access lies in a region of the table; every tracer shades the same hits
- * (tri.shade reads agree) and reads one material record per shaded hit; the
+/* Traffic of the render modes on a scene with hand-made materials, the
+ * tracers' invariant checks on (the dynamic tracer's I7: every ray resolved
+ * as the single-ray traversal resolves it): every access lies in a region
+ * of the table; in every mode every tracer shades the same hits (tri.shade
+ * reads agree) into a bit-identical image; in the secondary modes each
+ * reads one material record per shaded hit (none in the others); the
  * stored secondary rays are written once and read once each; and a shadow
  * run of the same scene touches no material record: its stream is the one
  * of the scene without materials, access for access. */
@@ -1059,8 +1062,10 @@ static void traffic_modes(const char *spec, int W, int H)
               mode_tracers[t]);
         free(a);
     }
-    for (int mode = RT_MODE_WHITTED; mode <= RT_MODE_PATH; mode++) {
+    for (int mode = RT_MODE_RAYCAST; mode <= RT_MODE_PATH; mode++) {
+        const int secondary = mode >= RT_MODE_WHITTED;
         uint64_t shade0 = 0;
+        rt_image *first = NULL;
         for (int t = 0; mode_tracers[t]; t++) {
             rt_render_opts o;
             rt_render_default_opts(&o);
@@ -1072,6 +1077,7 @@ static void traffic_modes(const char *spec, int W, int H)
                 CHECK(0, "%s %s: %s", spec, tr, e.msg);
                 continue;
             }
+            j.check = 1;
             tally *ty = calloc(1, sizeof *ty);
             ty->L = &j.L;
             ty->kd = kd;
@@ -1081,12 +1087,23 @@ static void traffic_modes(const char *spec, int W, int H)
             CHECK(im && rt_job_run(&j, &sink, im, &st, &e) == 0, "%s %s: %s", spec, tr, e.msg);
             const char *m = rt_render_mode_name(mode);
             CHECK(ty->bad == 0, "%s %s %s: %zu accesses break the region table; first: %s", spec, tr, m, ty->bad, ty->why);
-            CHECK(reads(ty, "mat") == reads(ty, "tri.shade") && reads(ty, "mat") > 0 && !writes(ty, "mat"),
+            /* the same hits shaded the same way: bit-identical images */
+            if (!first) first = im;
+            else if (im) CHECK(count_diff(first, im) == 0, "%s %s %s: image differs from recursive in %zu values", spec, tr, m,
+                               count_diff(first, im));
+            if (!secondary) CHECK(reads(ty, "mat") == 0, "%s %s %s: %" PRIu64 " material reads", spec, tr, m, reads(ty, "mat"));
+            else CHECK(reads(ty, "mat") == reads(ty, "tri.shade") && reads(ty, "mat") > 0 && !writes(ty, "mat"),
                   "%s %s %s: %" PRIu64 " material reads for %" PRIu64 " shaded hits", spec, tr, m, reads(ty, "mat"),
                   reads(ty, "tri.shade"));
             if (!shade0) shade0 = reads(ty, "tri.shade");
             CHECK(reads(ty, "tri.shade") == shade0, "%s %s %s: %" PRIu64 " shaded hits, recursive %" PRIu64, spec, tr, m,
                   reads(ty, "tri.shade"), shade0);
+            if (!secondary) {
+                if (im != first) rt_image_free(im);
+                free(ty);
+                rt_job_free(&j);
+                continue;
+            }
             uint64_t nsec = extra_u64(&st, "rays_secondary");
             CHECK(nsec > 0, "%s %s %s: no secondary rays (%s)", spec, tr, m, st.extra);
             const char *store = !strcmp(tr, "packet") ? "packet.rays" : !strcmp(tr, "dynamic") ? "dyn.spawn" : NULL;
@@ -1095,10 +1112,11 @@ static void traffic_modes(const char *spec, int W, int H)
                       "%s %s %s: %s written %" PRIu64 ", read %" PRIu64 " times for %" PRIu64 " rays", spec, tr, m, store,
                       writes(ty, store), reads(ty, store), nsec);
             if (!strcmp(tr, "packet")) printf("%s packet %s: %s\n", spec, m, st.extra);
-            rt_image_free(im);
+            if (im != first) rt_image_free(im);
             free(ty);
             rt_job_free(&j);
         }
+        rt_image_free(first);
     }
     rt_kd_free(kd);
     rt_kd_free(kdp);

@@ -30,7 +30,11 @@
  *     modeled thread (region dyn.raybuf), written on load and read when the
  *     ray moves on to another queue;
  *   - when the root is the only queue point (everything fits), rays are
- *     traced straight away without queueing: recursive order.
+ *     traced straight away without queueing: recursive order; so is a ray
+ *     whose interval clipped to the scene's box is empty (no queue point is
+ *     entered with an empty interval, yet the single-ray traversal tests
+ *     the triangles of the cells at that point, where rounding can place a
+ *     hit).
  *
  * Representation. The schedule (the plan, computed once per job from the
  * tree and the budget, and shared read-only by the layout and the run)
@@ -73,6 +77,9 @@
  *       in one queue at a time); a candidate flag appears only in the
  *       primary generation, on a pixel whose hit record holds a triangle;
  *       resolved[p] <= 1; rays started = rays resolved + rays queued.
+ *   I7  resolution (checked as each ray resolves, not between steps): a
+ *       ray's closest hit (triangle and t), or a shadow ray's visibility,
+ *       is the one the single-ray traversal finds for the same ray.
  * check_generation adds the end-of-generation condition: queues empty and
  * every wanted pixel resolved exactly once.
  *
@@ -558,8 +565,38 @@ static int subtree(dyn *D, uint32_t root, const rt_ray *trav, const rt_ray *test
 
 /* ---- resolution ------------------------------------------------------------ */
 
+/* Test mode: the closest hit (or the visibility) a ray is resolved with
+ * must be the one the single-ray traversal finds for the same ray (I7).
+ * The reference runs unrecorded and uncounted. */
+static void check_resolution(dyn *D, uint32_t pix, uint32_t tri, float t, int visible)
+{
+    if (!D->ctx->check || D->err) return;
+    rt_ray trav, test;
+    make_rays(D, pix, &trav, &test);
+    rt_trav ref = D->tv;
+    ref.rec = NULL;
+    ref.mark = NULL;
+    if (D->shadow) {
+        int vis = !rt_kd_occluded(&ref, &test);
+        if (vis != visible) {
+            rt_errf(D->e, "dynamic I7: shadow ray %u resolved %s, the single-ray traversal finds it %s", pix,
+                    visible ? "visible" : "occluded", vis ? "visible" : "occluded");
+            D->err = 2;
+        }
+        return;
+    }
+    rt_hit h;
+    rt_kd_closest(&ref, &test, &h);
+    if (h.tri != tri || (tri != RT_NO_HIT && h.t != t)) {
+        rt_errf(D->e, "dynamic I7: ray %u resolved with triangle %d at t %a, the single-ray traversal finds %d at %a", pix,
+                tri == RT_NO_HIT ? -1 : (int)tri, t, h.tri == RT_NO_HIT ? -1 : (int)h.tri, h.t);
+        D->err = 2;
+    }
+}
+
 static void resolve_primary(dyn *D, uint32_t pix, float t, uint32_t tri, int tri_cached)
 {
+    check_resolution(D, pix, tri, t, 0);
     D->resolved[pix]++;
     D->done++;
     D->hit_t[pix] = t;
@@ -603,6 +640,7 @@ static void resolve_primary(dyn *D, uint32_t pix, float t, uint32_t tri, int tri
 
 static void resolve_shadow(dyn *D, uint32_t pix, int visible)
 {
+    check_resolution(D, pix, RT_NO_HIT, 0.0f, visible);
     D->resolved[pix]++;
     D->done++;
     if (!visible) return;
@@ -840,8 +878,15 @@ static void start(dyn *D, uint32_t pix)
         else resolve_primary(D, pix, INFINITY, RT_NO_HIT, 0);
         return;
     }
-    if (D->nq == 1 && D->qnode[0] == 0) {
-        /* Everything fits: no queues, recursive order. */
+    if ((D->nq == 1 && D->qnode[0] == 0) || !(t1 > t0)) {
+        /* Everything fits: no queues, recursive order. So too a ray whose
+         * clipped interval is empty (its origin on a face of the scene's
+         * box, leaving through it, or a ray touching the box at one point):
+         * it has no extent to schedule, and no queue point is entered with
+         * an empty interval, yet the single-ray traversal still visits the
+         * cells at that point and tests their triangles against the ray's
+         * own interval, where rounding can place a hit (a reflected ray
+         * leaving a box's corner finds the adjacent wall at t ~ 1e-9). */
         uint64_t n0 = D->tv.nodes, k0 = D->tv.tests;
         if (!D->shadow) {
             rt_hit h;
