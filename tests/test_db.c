@@ -315,10 +315,13 @@ static void test_upgrade_v2(const char *dir)
     CHECK(sqlite3_step(st) == SQLITE_ROW, "v2 run row");
     rt_db_run r;
     memset(&r, 0, sizeof r);
-    r.scene = (const char *)sqlite3_column_text(st, 0);
+    /* copies: the column texts die with the statement, finalized below */
+    char *scene = strdup((const char *)sqlite3_column_text(st, 0));
+    char *params = strdup((const char *)sqlite3_column_text(st, 2));
+    r.scene = scene;
     r.scene_hash = strtoull((const char *)sqlite3_column_text(st, 1), NULL, 16);
     r.tracer = "din";
-    r.params = (const char *)sqlite3_column_text(st, 2);
+    r.params = params;
     r.scene_path = "x/w1.din";
     r.scene_abspath = "/data/x/w1.din";
     rt_db_traffic t = {1024, 64, 0, "wb-wa", RT_CLS_FB, 10, 1, 0, 0, 0, 64};
@@ -332,6 +335,8 @@ static void test_upgrade_v2(const char *dir)
     r.scene_path = r.scene_abspath = NULL; /* a replayed trace does not know: the place stays */
     CHECK(rt_db_store_run(db, &r, &t, 1, NULL, &e) == 0, "store without path");
     CHECK(count(db, "SELECT count(*) FROM scenes WHERE abspath = '/data/x/w1.din'") == 1, "abspath kept");
+    free(scene);
+    free(params);
     rt_db_close(db);
     rt_db_close(f);
 }
