@@ -159,4 +159,14 @@ int rt_plot_scenes(const rt_report *R, const rt_plot_opts *p, rt_err *e);
  * gnuplot, DIR/speed-error.png (mean miss-ratio error against speedup). */
 int rt_report_speed_error(sqlite3 *h, int csv, const rt_plot_opts *plot, FILE *out, rt_err *e);
 
+/* Secondary rays (analysis/secondary.c): per scene, mode (with its
+ * parameters), lighting, resolution and cache size, the reduction of
+ * dynamic against recursive (rt_report_reduction) in geometry and in total
+ * traffic per ray generation (view v_gen; the dynamic run scheduled for the
+ * size), then, in Markdown, one sentence per scene: at how many points
+ * dynamic moves less geometry / total traffic over generations >= 1. With
+ * plot, DIR/secondary-SCENE-MODE-lLIGHTS-WxH.{dat,gp,png}. A database
+ * without such pairs is an error naming the sweep that makes them. */
+int rt_report_secondary(sqlite3 *h, const char *dbpath, int csv, const rt_plot_opts *plot, FILE *out, rt_err *e);
+
 #endif

@@ -302,6 +302,14 @@ int rt_approx_get(const rt_approx *a, int i, int cls, rt_sim_counts *out, rt_err
     return 0;
 }
 
+int rt_approx_get_gen(const rt_approx *a, int i, int cls, int gen, rt_sim_counts *out, rt_err *e)
+{
+    memset(out, 0, sizeof *out);
+    if (i < 0 || i >= a->nexact) return rt_errf(e, "size index %d is not simulated exactly: no generations", i);
+    rt_sim_get_gen(a->exact, i, cls, gen, out);
+    return 0;
+}
+
 int rt_approx_get_group(const rt_approx *a, int i, int group, rt_sim_counts *out, rt_err *e)
 {
     memset(out, 0, sizeof *out);

@@ -155,6 +155,11 @@ int rt_approx_available(const rt_approx *a, int i, rt_err *e);
 int rt_approx_get(const rt_approx *a, int i, int cls, rt_sim_counts *out, rt_err *e);
 /* Sum over the classes of a group (rt_group). Same returns. */
 int rt_approx_get_group(const rt_approx *a, int i, int group, rt_sim_counts *out, rt_err *e);
+/* Counters of size index i, class cls, generation gen (as rt_sim_get_gen)
+ * for a size simulated exactly (every size of RT_APPROX_EXACT, sizes below
+ * exact_below otherwise). -1 with a message for an estimated size: the
+ * estimators keep no generations. */
+int rt_approx_get_gen(const rt_approx *a, int i, int cls, int gen, rt_sim_counts *out, rt_err *e);
 
 /* Sampling statistics of the last rt_approx_finish. */
 typedef struct rt_approx_stats {

@@ -164,8 +164,19 @@ static int store(rt_db *db, const char *path, const rt_approx *ap, const rt_tr_m
         free(rows);
         return rt_errf(e, "%s: no references in the trace; nothing stored", path);
     }
-    int rc = rt_db_store_run(db, &r, rows, n, &id, e);
+    /* a trace with generations, simulated exactly: per-generation rows too */
+    rt_db_gen *grows = NULL;
+    size_t ng = 0;
+    if (in->has_meta && m->generations > 0 && rt_approx_get_approx_config(ap)->method == RT_APPROX_EXACT) {
+        if (!(grows = calloc((size_t)c->nsizes * RT_NCLASS * RT_MAXGEN, sizeof *grows))) {
+            free(rows);
+            return rt_errf(e, "out of memory");
+        }
+        ng = rt_approx_db_gen_rows(ap, grows);
+    }
+    int rc = rt_db_store_run_gen(db, &r, rows, n, grows, ng, &id, e);
     free(rows);
+    free(grows);
     if (rc == 0)
         fprintf(stderr, "raytraffic sim: %s: %llu refs in %.2f s (%.1f M refs/s), %zu rows, run %lld\n", path,
                 (unsigned long long)in->refs, secs, secs > 0 ? (double)in->refs / secs / 1e6 : 0.0, n,

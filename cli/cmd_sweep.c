@@ -1,8 +1,12 @@
 /*
  * cmd_sweep.c -- `raytraffic sweep`: the paper's experiment as one command.
  *
- * The matrix is scene x lighting x tracer (x scheduled cache size for the
- * dynamic tracer). Each job renders in-process with its accesses streamed
+ * The matrix is scene x mode x lighting x tracer (x scheduled cache size
+ * for the dynamic tracer). --modes shadow (the default) is the paper's
+ * matrix: the lighting list decides, `primary` being the raycast run;
+ * raycast adds the runs without lights (unless `primary` is swept anyway);
+ * whitted and path run every lighting with lights and skip `primary`
+ * (rt_exp_matrix). Each job renders in-process with its accesses streamed
  * straight into the cache simulator (optionally also into a trace file) and
  * stores one run in the database in one transaction:
  *   - recursive, packet: one run simulated at every size in one pass;
@@ -58,10 +62,11 @@ typedef struct sweep_opts {
     long fail_job;    /* RT_SWEEP_FAIL_JOB=K:MARKER (tests only): job K fails once, -1 = never */
     const char *fail_marker; /* file whose creation marks that failure as done */
     int W, H;         /* -W/-H, 0 = from the preset */
-    char *lists[5];   /* own copies of --scenes, --tracers, --lights, --approx, --proxy */
+    char *lists[6];   /* own copies of --scenes, --tracers, --lights, --approx, --proxy, --modes */
     const char *sizes_arg;
     const char *dyn_opt;    /* a dynamic-only option given (its name), or NULL */
     int packet_given;       /* --packet given */
+    const char *mode_opt[2]; /* --depth (whitted only), --spp/--bounces (path only) given: the option's name */
 } sweep_opts;
 
 typedef struct shared {
@@ -84,6 +89,10 @@ static void usage(FILE *f)
             "  --scenes LIST      comma list of scene specs (overrides the preset)\n"
             "  --tracers LIST     comma list of tracers\n"
             "  --lights LIST      comma list of lightings: primary, 0, 1, 2, all\n"
+            "  --modes LIST       comma list of render modes: raycast, shadow (default: the\n"
+            "                     lighting list as it is, primary = raycast), whitted, path\n"
+            "                     (these two run the lightings with lights, primary skipped)\n"
+            "  --depth N, --spp N, --bounces B  whitted / path parameters (see render --help)\n"
             "  --sizes LIST       cache sizes: 1K-4M (powers of two) or 1K,64K,...\n"
             "  --line N           line size in bytes (default 64)\n"
             "  -W N, -H N         image size (overrides the preset)\n"
@@ -140,6 +149,48 @@ static int parse_lightings(char *s, sweep_opts *o)
         }
     }
     o->x.nlightings = n;
+    return 0;
+}
+
+/* --modes into x.modes (default: shadow alone, the paper's matrix); the
+ * mode options must have a mode they apply to. 0 or -1 (printed). */
+static int parse_modes(sweep_opts *o)
+{
+    char *items[MAX_LIST];
+    int n = o->lists[5] ? split_list(o->lists[5], items, MAX_LIST) : 0, has[RT_MODE_PATH + 1] = {0};
+    if (o->lists[5] && (n <= 0 || n > RT_EXP_MAXMODES)) {
+        rt_cmd_error("sweep", "--modes: expected a comma list of raycast, shadow, whitted, path");
+        return -1;
+    }
+    for (int i = 0; i < n; i++) {
+        int m = rt_render_mode_from_name(items[i]);
+        if (m < 0) {
+            rt_cmd_error("sweep", "--modes: '%s' is not raycast, shadow, whitted or path", items[i]);
+            return -1;
+        }
+        if (has[m]++) {
+            rt_cmd_error("sweep", "--modes: '%s' given twice", items[i]);
+            return -1;
+        }
+        o->x.modes[i] = m;
+    }
+    o->x.nmodes = n;
+    if (!n) has[RT_MODE_SHADOW] = 1;
+    int whitted = has[RT_MODE_WHITTED], path = has[RT_MODE_PATH];
+    if ((o->mode_opt[0] && !whitted) || (o->mode_opt[1] && !path)) {
+        const char *opt = o->mode_opt[0] && !whitted ? o->mode_opt[0] : o->mode_opt[1];
+        rt_cmd_error("sweep", "%s does not apply: --modes has no %s mode", opt, opt == o->mode_opt[0] ? "whitted" : "path");
+        return -1;
+    }
+    if (whitted || path) {
+        int lit = 0;
+        for (int l = 0; l < o->x.nlightings; l++) lit |= o->x.lightings[l].mask != 0;
+        if (!lit) {
+            rt_cmd_error("sweep", "--modes %s: --lights has only primary; whitted and path need a lighting with lights",
+                         whitted ? "whitted" : "path");
+            return -1;
+        }
+    }
     return 0;
 }
 
@@ -218,11 +269,16 @@ static void job_label(const rt_exp_config *o, const rt_exp_job *jb, char *buf, s
         if (p->W) snprintf(px, sizeof px, " [res:%d]", p->W);
         else snprintf(px, sizeof px, " [sub:%u:%d]", (unsigned)p->subsample, p->subtile);
     }
-    if (jb->sched)
-        snprintf(buf, n, "%s %s %s @%" PRIu64 "K%s", o->scenes[jb->scene], o->lightings[jb->lighting].label, jb->tracer,
-                 jb->sched / 1024, px);
+    char li[64];
+    const char *lab = jb->lighting >= 0 ? o->lightings[jb->lighting].label : "primary";
+    if (jb->mode == RT_MODE_WHITTED || jb->mode == RT_MODE_PATH)
+        snprintf(li, sizeof li, "%s %s", rt_render_mode_name(jb->mode), lab);
     else
-        snprintf(buf, n, "%s %s %s%s", o->scenes[jb->scene], o->lightings[jb->lighting].label, jb->tracer, px);
+        snprintf(li, sizeof li, "%s", lab);
+    if (jb->sched)
+        snprintf(buf, n, "%s %s %s @%" PRIu64 "K%s", o->scenes[jb->scene], li, jb->tracer, jb->sched / 1024, px);
+    else
+        snprintf(buf, n, "%s %s %s%s", o->scenes[jb->scene], li, jb->tracer, px);
 }
 
 /* Test-only hook: RT_SWEEP_STOP_AFTER=N kills the sweep (SIGKILL, as a
@@ -336,7 +392,7 @@ static void progress(shared *sh, long nj, double t0)
 }
 
 enum { O_PRESET = 1, O_SCENES, O_TRACERS, O_LIGHTS, O_SIZES, O_LINE, O_DB, O_JOBS, O_KEEP, O_DYNALL, O_LIST, O_JOB,
-       O_APPROX, O_PROXY };
+       O_APPROX, O_PROXY, O_MODES };
 
 /* The command's own options, then the shared render options it takes
  * (-W/-H and the dynamic ones; --lights is its own, a list of lightings). */
@@ -355,7 +411,11 @@ static const struct option sweep_longopts[] = {
     {"job", required_argument, NULL, O_JOB},
     {"approx", required_argument, NULL, O_APPROX},
     {"proxy", required_argument, NULL, O_PROXY},
+    {"modes", required_argument, NULL, O_MODES},
     {"help", no_argument, NULL, 'h'},
+    {"depth", required_argument, NULL, RT_OPT_DEPTH},
+    {"spp", required_argument, NULL, RT_OPT_SPP},
+    {"bounces", required_argument, NULL, RT_OPT_BOUNCES},
     {"qorder", required_argument, NULL, RT_OPT_QORDER},
     {"threads", required_argument, NULL, RT_OPT_THREADS},
     {"packet", required_argument, NULL, RT_OPT_PACKET},
@@ -483,6 +543,9 @@ static int parse_opt(sweep_opts *o, int c, const char *arg)
     if (c == RT_OPT_QORDER) o->dyn_opt = "--qorder";
     if (c == RT_OPT_THREADS) o->dyn_opt = "--threads";
     if (c == RT_OPT_PACKET) o->packet_given = 1;
+    if (c == RT_OPT_DEPTH) o->mode_opt[0] = "--depth";
+    if (c == RT_OPT_SPP) o->mode_opt[1] = "--spp";
+    if (c == RT_OPT_BOUNCES) o->mode_opt[1] = "--bounces";
     int r = rt_cmd_render_opt("sweep", c, arg, &o->x.ro, &dummy);
     if (r != 0) return r < 0 ? -1 : 0;
     switch (c) {
@@ -496,6 +559,7 @@ static int parse_opt(sweep_opts *o, int c, const char *arg)
     case O_SCENES: return keep_copy(o, 0, arg) ? 0 : -1;
     case O_TRACERS: return keep_copy(o, 1, arg) ? 0 : -1;
     case O_LIGHTS: return keep_copy(o, 2, arg) ? 0 : -1;
+    case O_MODES: return keep_copy(o, 5, arg) ? 0 : -1;
     case O_SIZES: o->sizes_arg = arg; return 0;
     case O_LINE: return rt_cmd_parse_line("sweep", arg, &o->x.sim.line);
     case O_DB: o->db = arg; return 0;
@@ -595,6 +659,7 @@ static int finish_opts(sweep_opts *o)
         rt_cmd_error("sweep", "--lights: expected a comma list of primary, 0, 1, 2, all");
         return -1;
     }
+    if (parse_modes(o) < 0) return -1;
     if (o->sizes_arg && rt_sim_parse_sizes(o->sizes_arg, &x->sim, &e) < 0) {
         rt_cmd_error("sweep", "--sizes: %s", e.msg);
         return -1;
@@ -774,6 +839,6 @@ int main_sweep(int argc, char **argv)
         rc = sweep_run(&o, J, nj);
     }
     free(J);
-    for (int i = 0; i < 5; i++) free(o.lists[i]);
+    for (int i = 0; i < 6; i++) free(o.lists[i]);
     return rc;
 }

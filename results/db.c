@@ -2,9 +2,10 @@
  * db.c -- the SQLite results database (see db.h and docs/database.md).
  *
  * The schema lives in one string below (documented column by column in
- * docs/database.md). Version 3; older files are upgraded in place when
+ * docs/database.md). Version 4; older files are upgraded in place when
  * opened, one step after the other in one transaction (migrate_v1: the
- * sched_size rename; migrate_v2: where a mesh scene was found). Unsigned 64-bit hashes are stored
+ * sched_size rename; migrate_v2: where a mesh scene was found; migrate_v3:
+ * the per-generation table traffic_gen and its view v_gen). Unsigned 64-bit hashes are stored
  * as 16 lowercase hex digits, counters as INTEGER (they stay far below
  * 2^63).
  *
@@ -103,7 +104,33 @@ static const char schema_sql[] =
     "    g.geometry_mb, g.ray_mb, r.sched_size AS sched_cache_size\n"
     "  FROM v_traffic_group g JOIN runs r ON r.id = g.run_id JOIN scenes s ON s.id = r.scene_id\n"
     "  WHERE g.line = 64 AND g.assoc = 0 AND g.policy = 'wb-wa' AND r.sim_method = 'exact'\n"
-    "    AND r.params NOT LIKE '%subsample=%';\n";
+    "    AND r.params NOT LIKE '%subsample=%';\n"
+    "CREATE TABLE IF NOT EXISTS traffic_gen(\n"
+    "  run_id INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE,\n"
+    "  config_id INTEGER NOT NULL REFERENCES cache_configs(id),\n"
+    "  class TEXT NOT NULL REFERENCES classes(name),\n"
+    "  gen INTEGER NOT NULL,               -- ray generation 0..7 (7: 7 and later)\n"
+    "  accesses INTEGER NOT NULL,          -- line touches of this generation's references\n"
+    "  read_misses INTEGER NOT NULL,\n"
+    "  write_misses INTEGER NOT NULL,\n"
+    "  writebacks INTEGER NOT NULL,        -- of lines this generation wrote last\n"
+    "  traffic_bytes INTEGER NOT NULL,\n"
+    "  UNIQUE(run_id, config_id, class, gen));\n"
+    "CREATE VIEW IF NOT EXISTS v_gen AS\n"
+    "  SELECT r.id AS run_id, s.name AS scene, r.tracer, r.lights, r.W, r.H,\n"
+    "    CASE WHEN r.params LIKE '%mode=whitted%' THEN 'whitted' WHEN r.params LIKE '%mode=path%' THEN 'path'\n"
+    "      WHEN r.params LIKE '%mode=raycast%' OR (r.lights = 0 AND r.params NOT LIKE '%mode=%') THEN 'raycast'\n"
+    "      ELSE 'shadow' END AS mode,\n"
+    "    r.params, r.sched_size, c.size AS cache_size, t.gen,\n"
+    "    SUM(CASE WHEN k.grp = 'geometry' THEN t.traffic_bytes ELSE 0 END) / 1048576.0 AS geometry_mb,\n"
+    "    SUM(CASE WHEN k.grp = 'ray' THEN t.traffic_bytes ELSE 0 END) / 1048576.0 AS ray_mb,\n"
+    "    SUM(CASE WHEN k.grp = 'other' THEN t.traffic_bytes ELSE 0 END) / 1048576.0 AS other_mb,\n"
+    "    SUM(t.traffic_bytes) / 1048576.0 AS total_mb\n"
+    "  FROM traffic_gen t JOIN cache_configs c ON c.id = t.config_id JOIN classes k ON k.name = t.class\n"
+    "    JOIN runs r ON r.id = t.run_id JOIN scenes s ON s.id = r.scene_id\n"
+    "  WHERE c.line = 64 AND c.assoc = 0 AND c.policy = 'wb-wa' AND r.sim_method = 'exact'\n"
+    "    AND r.params NOT LIKE '%subsample=%'\n"
+    "  GROUP BY t.run_id, t.config_id, t.gen;\n";
 
 struct rt_db {
     sqlite3 *h;        /* connection */
@@ -114,7 +141,7 @@ struct rt_db {
 
 enum {
     S_SCENE_INS, S_SCENE_GET, S_SCENE_TRI, S_RUN_GET, S_RUN_INS, S_RUN_UPD, S_CFG_INS, S_CFG_GET, S_TR_DEL,
-    S_TR_INS, S_NSTMT
+    S_TR_INS, S_GEN_DEL, S_GEN_INS, S_NSTMT
 };
 
 static const char *const stmt_sql[S_NSTMT] = {
@@ -135,6 +162,9 @@ static const char *const stmt_sql[S_NSTMT] = {
     "SELECT id FROM cache_configs WHERE size = ?1 AND line = ?2 AND assoc = ?3 AND policy = ?4",
     "DELETE FROM traffic WHERE run_id = ?1 AND config_id = ?2",
     "INSERT INTO traffic(run_id, config_id, class, accesses, read_misses, write_misses, writebacks, wt_bytes,"
+    " traffic_bytes) VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)",
+    "DELETE FROM traffic_gen WHERE run_id = ?1 AND config_id = ?2",
+    "INSERT INTO traffic_gen(run_id, config_id, class, accesses, read_misses, write_misses, writebacks, gen,"
     " traffic_bytes) VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)",
 };
 
@@ -227,6 +257,11 @@ static int migrate_v2(rt_db *db, rt_err *e)
            exec(db, schema_sql, e);
 }
 
+/* Version 3 -> 4: the per-generation table traffic_gen and the view
+ * v_gen (nothing else changes: existing runs simply have no generation
+ * rows). Runs inside the caller's transaction. */
+static int migrate_v3(rt_db *db, rt_err *e) { return exec(db, schema_sql, e); }
+
 /* The name of a table that is not raytraffic's, or "" (none); for refusing
  * to add tables to an unrelated file. */
 static int foreign_table(rt_db *db, char *name, size_t n, rt_err *e)
@@ -236,7 +271,7 @@ static int foreign_table(rt_db *db, char *name, size_t n, rt_err *e)
     if (sqlite3_prepare_v2(db->h,
                            "SELECT name FROM sqlite_master WHERE name NOT LIKE 'sqlite_%' AND name NOT IN "
                            "('scenes', 'runs', 'cache_configs', 'classes', 'traffic', 'traffic_config', "
-                           "'v_traffic_group', 'v_paper') ORDER BY name LIMIT 1",
+                           "'v_traffic_group', 'v_paper', 'traffic_gen', 'v_gen') ORDER BY name LIMIT 1",
                            -1, &st, NULL) != SQLITE_OK)
         return dberr(db, e, NULL);
     int rc = sqlite3_step(st);
@@ -281,6 +316,7 @@ static int create_schema(rt_db *db, rt_err *e)
     } else {
         if (ver == 1 && migrate_v1(db, e)) goto fail;
         if (ver <= 2 && migrate_v2(db, e)) goto fail;
+        if (ver <= 3 && migrate_v3(db, e)) goto fail;
     }
     if (ver < RT_DB_SCHEMA_VERSION) {
         char sql[64];
@@ -428,7 +464,72 @@ static int store_scene(rt_db *db, const rt_db_run *r, int64_t *scene_id, rt_err 
     return step_id(db, st[S_SCENE_TRI], NULL, e) < 0 ? -1 : 0;
 }
 
-static int store(rt_db *db, const rt_db_run *r, const rt_db_traffic *rows, size_t n, int64_t *run_id, rt_err *e)
+/* Binds a row's configuration to S_CFG_INS / S_CFG_GET and gets its id. */
+static int config_id(rt_db *db, const rt_db_traffic *t, int64_t *cfg_id, rt_err *e)
+{
+    sqlite3_stmt **st = db->st;
+    for (int k = S_CFG_INS; k <= S_CFG_GET; k++) {
+        sqlite3_bind_int64(st[k], 1, (sqlite3_int64)t->size);
+        sqlite3_bind_int64(st[k], 2, t->line);
+        sqlite3_bind_int64(st[k], 3, t->assoc);
+        sqlite3_bind_text(st[k], 4, t->policy ? t->policy : "wb-wa", -1, SQLITE_TRANSIENT);
+    }
+    if (step_id(db, st[S_CFG_INS], NULL, e) < 0) return -1;
+    if (step_id(db, st[S_CFG_GET], cfg_id, e) != 1) return rt_errf(e, "%s: config row vanished", db->path);
+    return 0;
+}
+
+static int del_rows(rt_db *db, int s, int64_t rid, int64_t cfg_id, rt_err *e)
+{
+    sqlite3_bind_int64(db->st[s], 1, rid);
+    sqlite3_bind_int64(db->st[s], 2, cfg_id);
+    return step_id(db, db->st[s], NULL, e) < 0 ? -1 : 0;
+}
+
+/* One pass over one table's rows of run rid: pass 0 deletes the run's old
+ * rows of each configuration met (traffic rows: in both tables, so no stale
+ * generation row outlives a re-store; generation rows: in traffic_gen),
+ * pass 1 inserts. tab 0: rt_db_traffic rows; 1: rt_db_gen rows (stride
+ * bytes apart, the counters first in each). */
+static int store_rows(rt_db *db, int64_t rid, int pass, int tab, const void *base, size_t n, size_t stride, rt_err *e)
+{
+    int64_t cfg_id = -1;
+    const rt_db_traffic *prev = NULL;
+    for (size_t i = 0; i < n; i++) {
+        const rt_db_traffic *t = (const rt_db_traffic *)((const char *)base + i * stride);
+        const char *cname = rt_class_name(t->cls);
+        if (!cname) return rt_errf(e, "%s: %s row %zu has bad class %d", db->path, tab ? "generation" : "traffic", i, t->cls);
+        int gen = tab ? ((const rt_db_gen *)t)->gen : 0;
+        if (gen < 0 || gen >= RT_MAXGEN)
+            return rt_errf(e, "%s: generation row %zu has generation %d (0..%d)", db->path, i, gen, RT_MAXGEN - 1);
+        if (!prev || prev->size != t->size || prev->line != t->line || prev->assoc != t->assoc ||
+            strcmp(nz(prev->policy), nz(t->policy))) {
+            if (config_id(db, t, &cfg_id, e) < 0) return -1;
+            if (pass == 0 && (del_rows(db, S_GEN_DEL, rid, cfg_id, e) < 0 ||
+                              (tab == 0 && del_rows(db, S_TR_DEL, rid, cfg_id, e) < 0)))
+                return -1;
+            prev = t;
+        }
+        if (pass == 0) continue;
+        if (tab == 0 && rt_db_fail_row_after > 0 && --rt_db_fail_row_after == 0)
+            return rt_errf(e, "%s: injected failure at traffic row %zu", db->path, i);
+        sqlite3_stmt *in = db->st[tab ? S_GEN_INS : S_TR_INS];
+        sqlite3_bind_int64(in, 1, rid);
+        sqlite3_bind_int64(in, 2, cfg_id);
+        sqlite3_bind_text(in, 3, cname, -1, SQLITE_STATIC);
+        sqlite3_bind_int64(in, 4, (sqlite3_int64)t->accesses);
+        sqlite3_bind_int64(in, 5, (sqlite3_int64)t->read_misses);
+        sqlite3_bind_int64(in, 6, (sqlite3_int64)t->write_misses);
+        sqlite3_bind_int64(in, 7, (sqlite3_int64)t->writebacks);
+        sqlite3_bind_int64(in, 8, tab ? (sqlite3_int64)gen : (sqlite3_int64)t->wt_bytes);
+        sqlite3_bind_int64(in, 9, (sqlite3_int64)t->traffic_bytes);
+        if (step_id(db, in, NULL, e) < 0) return -1;
+    }
+    return 0;
+}
+
+static int store(rt_db *db, const rt_db_run *r, const rt_db_traffic *rows, size_t n, const rt_db_gen *grows,
+                 size_t ng, int64_t *run_id, rt_err *e)
 {
     char hash[17], thash[17];
     sqlite3_stmt **st = db->st;
@@ -477,56 +578,27 @@ static int store(rt_db *db, const rt_db_run *r, const rt_db_traffic *rows, size_
         rid = sqlite3_last_insert_rowid(db->h);
     }
     /* configurations: first drop this run's old rows of every configuration
-     * being stored, then insert (rows of one configuration are adjacent) */
-    for (int pass = 0; pass < 2; pass++) {
-        int64_t cfg_id = -1;
-        const rt_db_traffic *prev = NULL;
-        for (size_t i = 0; i < n; i++) {
-            const rt_db_traffic *t = &rows[i];
-            const char *cname = rt_class_name(t->cls);
-            if (!cname) return rt_errf(e, "%s: traffic row %zu has bad class %d", db->path, i, t->cls);
-            if (!prev || prev->size != t->size || prev->line != t->line || prev->assoc != t->assoc ||
-                strcmp(nz(prev->policy), nz(t->policy))) {
-                for (int k = S_CFG_INS; k <= S_CFG_GET; k++) {
-                    sqlite3_bind_int64(st[k], 1, (sqlite3_int64)t->size);
-                    sqlite3_bind_int64(st[k], 2, t->line);
-                    sqlite3_bind_int64(st[k], 3, t->assoc);
-                    sqlite3_bind_text(st[k], 4, t->policy ? t->policy : "wb-wa", -1, SQLITE_TRANSIENT);
-                }
-                if (step_id(db, st[S_CFG_INS], NULL, e) < 0) return -1;
-                if (step_id(db, st[S_CFG_GET], &cfg_id, e) != 1)
-                    return rt_errf(e, "%s: config row vanished", db->path);
-                if (pass == 0) {
-                    sqlite3_bind_int64(st[S_TR_DEL], 1, rid);
-                    sqlite3_bind_int64(st[S_TR_DEL], 2, cfg_id);
-                    if (step_id(db, st[S_TR_DEL], NULL, e) < 0) return -1;
-                }
-                prev = t;
-            }
-            if (pass == 0) continue;
-            if (rt_db_fail_row_after > 0 && --rt_db_fail_row_after == 0)
-                return rt_errf(e, "%s: injected failure at traffic row %zu", db->path, i);
-            sqlite3_stmt *in = st[S_TR_INS];
-            sqlite3_bind_int64(in, 1, rid);
-            sqlite3_bind_int64(in, 2, cfg_id);
-            sqlite3_bind_text(in, 3, cname, -1, SQLITE_STATIC);
-            sqlite3_bind_int64(in, 4, (sqlite3_int64)t->accesses);
-            sqlite3_bind_int64(in, 5, (sqlite3_int64)t->read_misses);
-            sqlite3_bind_int64(in, 6, (sqlite3_int64)t->write_misses);
-            sqlite3_bind_int64(in, 7, (sqlite3_int64)t->writebacks);
-            sqlite3_bind_int64(in, 8, (sqlite3_int64)t->wt_bytes);
-            sqlite3_bind_int64(in, 9, (sqlite3_int64)t->traffic_bytes);
-            if (step_id(db, in, NULL, e) < 0) return -1;
-        }
-    }
+     * being stored (traffic rows: both tables; generation rows: traffic_gen),
+     * then insert (rows of one configuration are adjacent) */
+    for (int pass = 0; pass < 2; pass++)
+        for (int tab = 0; tab < 2; tab++)
+            if (store_rows(db, rid, pass, tab, tab ? (const void *)grows : rows, tab ? ng : n,
+                           tab ? sizeof *grows : sizeof *rows, e) < 0)
+                return -1;
     if (run_id) *run_id = rid;
     return 0;
 }
 
 int rt_db_store_run(rt_db *db, const rt_db_run *run, const rt_db_traffic *rows, size_t n, int64_t *run_id, rt_err *e)
 {
+    return rt_db_store_run_gen(db, run, rows, n, NULL, 0, run_id, e);
+}
+
+int rt_db_store_run_gen(rt_db *db, const rt_db_run *run, const rt_db_traffic *rows, size_t n, const rt_db_gen *grows,
+                        size_t ng, int64_t *run_id, rt_err *e)
+{
     if (exec(db, "BEGIN IMMEDIATE", e)) return -1;
-    if (store(db, run, rows, n, run_id, e) < 0) {
+    if (store(db, run, rows, n, grows, ng, run_id, e) < 0) {
         for (int i = 0; i < S_NSTMT; i++) {
             sqlite3_reset(db->st[i]);
             sqlite3_clear_bindings(db->st[i]);
@@ -543,11 +615,12 @@ int rt_db_store_run(rt_db *db, const rt_db_run *run, const rt_db_traffic *rows, 
 
 /* ---- merge ------------------------------------------------------------- */
 
-/* A shard being merged: its connection and the two reading statements. */
+/* A shard being merged: its connection and the reading statements. */
 typedef struct shard {
     const char *path; /* for messages */
     sqlite3 *h;
     sqlite3_stmt *runs, *rows;
+    sqlite3_stmt *gens; /* generation rows (version 4), or NULL */
 } shard;
 
 static const char *txt(sqlite3_stmt *st, int i)
@@ -570,8 +643,8 @@ static int count_col(const shard *sh, sqlite3_stmt *st, int i, const char *row, 
 }
 
 /* Opens a shard read-only and checks it is a raytraffic database of a
- * version this build reads (1 to 3; older column name for 1, no scene
- * paths before 3). */
+ * version this build reads (1 to 4; older column name for 1, no scene
+ * paths before 3, no generation rows before 4). */
 static int shard_open(shard *sh, const char *path, rt_err *e)
 {
     memset(sh, 0, sizeof *sh);
@@ -604,6 +677,12 @@ static int shard_open(shard *sh, const char *path, rt_err *e)
     if (sqlite3_prepare_v2(sh->h, runs_sql, -1, &sh->runs, NULL) != SQLITE_OK ||
         sqlite3_prepare_v2(sh->h, rows_sql, -1, &sh->rows, NULL) != SQLITE_OK)
         return rt_errf(e, "%s: not a raytraffic database: %s", path, sqlite3_errmsg(sh->h));
+    static const char gens_sql[] =
+        "SELECT c.size, c.line, c.assoc, c.policy, t.class, t.accesses, t.read_misses, t.write_misses, t.writebacks,"
+        " t.gen, t.traffic_bytes FROM traffic_gen t JOIN cache_configs c ON c.id = t.config_id WHERE t.run_id = ?1"
+        " ORDER BY c.size, c.line, c.assoc, c.policy, t.class, t.gen";
+    if (ver >= 4 && sqlite3_prepare_v2(sh->h, gens_sql, -1, &sh->gens, NULL) != SQLITE_OK)
+        return rt_errf(e, "%s: not a raytraffic database: %s", path, sqlite3_errmsg(sh->h));
     return 0;
 }
 
@@ -611,6 +690,7 @@ static void shard_close(shard *sh)
 {
     sqlite3_finalize(sh->runs);
     sqlite3_finalize(sh->rows);
+    sqlite3_finalize(sh->gens);
     sqlite3_close(sh->h);
 }
 
@@ -656,13 +736,18 @@ static int read_run(const shard *sh, rt_db_run *r, int64_t *id, rt_err *e)
     return 0;
 }
 
-/* The current row of sh->rows as a traffic row (policy strdup'd). */
-static int read_row(const shard *sh, int64_t id, rt_db_traffic *t, rt_err *e)
+/* The current row of st (sh->rows, or sh->gens when gen is non-NULL:
+ * column 9 is the generation, no wt_bytes) as a traffic row (policy
+ * strdup'd). */
+static int read_row(const shard *sh, sqlite3_stmt *st, int64_t id, rt_db_traffic *t, int *gen, rt_err *e)
 {
-    sqlite3_stmt *st = sh->rows;
     char row[160];
     uint64_t v[9];
-    snprintf(row, sizeof row, "run %lld, traffic row (size %s, class %s)", (long long)id, txt(st, 0), txt(st, 4));
+    if (gen)
+        snprintf(row, sizeof row, "run %lld, generation row (size %s, class %s, gen %s)", (long long)id, txt(st, 0),
+                 txt(st, 4), txt(st, 9));
+    else
+        snprintf(row, sizeof row, "run %lld, traffic row (size %s, class %s)", (long long)id, txt(st, 0), txt(st, 4));
     static const int cols[9] = {0, 1, 2, 5, 6, 7, 8, 9, 10};
     for (int k = 0; k < 9; k++)
         if (count_col(sh, st, cols[k], row, &v[k], e)) return -1;
@@ -677,35 +762,42 @@ static int read_row(const shard *sh, int64_t id, rt_db_traffic *t, rt_err *e)
     t->read_misses = v[4];
     t->write_misses = v[5];
     t->writebacks = v[6];
-    t->wt_bytes = v[7];
+    t->wt_bytes = gen ? 0 : v[7];
     t->traffic_bytes = v[8];
+    if (gen) {
+        if (v[7] >= RT_MAXGEN) return rt_errf(e, "%s: %s: generation out of range (0..%d)", sh->path, row, RT_MAXGEN - 1);
+        *gen = (int)v[7];
+    }
     if (!(t->policy = strdup(txt(st, 3)))) return rt_errf(e, "%s: out of memory", sh->path);
     return 0;
 }
 
-/* Reads run id's rows into *rows (grown as needed); the row count, or -1. */
-static long read_rows(const shard *sh, int64_t id, rt_db_traffic **rows, size_t *cap, rt_err *e)
+/* Reads run id's rows of st (sh->rows: rt_db_traffic, or sh->gens:
+ * rt_db_gen, elements of size elem) into *rows (grown as needed); the row
+ * count, or -1. */
+static long read_rows(const shard *sh, sqlite3_stmt *st, int64_t id, void **rows, size_t *cap, size_t elem, rt_err *e)
 {
     size_t n = 0;
     int step;
-    sqlite3_reset(sh->rows);
-    sqlite3_bind_int64(sh->rows, 1, id);
-    while ((step = sqlite3_step(sh->rows)) == SQLITE_ROW) {
+    sqlite3_reset(st);
+    sqlite3_bind_int64(st, 1, id);
+    while ((step = sqlite3_step(st)) == SQLITE_ROW) {
         if (n == *cap) {
             size_t nc = *cap ? 2 * *cap : 256;
-            rt_db_traffic *r2 = rt_reallocarray(*rows, nc, sizeof **rows, e);
+            void *r2 = rt_reallocarray(*rows, nc, elem, e);
             if (!r2) goto fail;
             *rows = r2;
             *cap = nc;
         }
-        (*rows)[n].policy = NULL;
-        if (read_row(sh, id, &(*rows)[n], e)) goto fail;
+        rt_db_traffic *t = (rt_db_traffic *)((char *)*rows + n * elem);
+        t->policy = NULL;
+        if (read_row(sh, st, id, t, st == sh->gens ? &((rt_db_gen *)t)->gen : NULL, e)) goto fail;
         n++;
     }
     if (step == SQLITE_DONE) return (long)n;
     rt_errf(e, "%s: %s", sh->path, sqlite3_errmsg(sh->h));
 fail:
-    for (size_t k = 0; k < n; k++) free((char *)(*rows)[k].policy);
+    for (size_t k = 0; k < n; k++) free((char *)((rt_db_traffic *)((char *)*rows + k * elem))->policy);
     return -1;
 }
 
@@ -713,7 +805,8 @@ int rt_db_merge(rt_db *out, const char *inpath, long *nruns, rt_err *e)
 {
     shard sh;
     rt_db_traffic *rows = NULL;
-    size_t cap = 0;
+    rt_db_gen *gens = NULL;
+    size_t cap = 0, gcap = 0;
     int rc = -1, step;
     *nruns = 0;
     if (shard_open(&sh, inpath, e)) goto done;
@@ -722,10 +815,15 @@ int rt_db_merge(rt_db *out, const char *inpath, long *nruns, rt_err *e)
         int64_t id;
         memset(&run, 0, sizeof run);
         if (read_run(&sh, &run, &id, e)) goto done;
-        long n = read_rows(&sh, id, &rows, &cap, e);
+        long n = read_rows(&sh, sh.rows, id, (void **)&rows, &cap, sizeof *rows, e), ng = 0;
         if (n < 0) goto done;
-        int st = rt_db_store_run(out, &run, rows, (size_t)n, NULL, e);
+        if (sh.gens && (ng = read_rows(&sh, sh.gens, id, (void **)&gens, &gcap, sizeof *gens, e)) < 0) {
+            for (long k = 0; k < n; k++) free((char *)rows[k].policy);
+            goto done;
+        }
+        int st = rt_db_store_run_gen(out, &run, rows, (size_t)n, gens, (size_t)ng, NULL, e);
         for (long k = 0; k < n; k++) free((char *)rows[k].policy);
+        for (long k = 0; k < ng; k++) free((char *)gens[k].t.policy);
         if (st < 0) goto done;
         (*nruns)++;
     }
@@ -736,6 +834,7 @@ int rt_db_merge(rt_db *out, const char *inpath, long *nruns, rt_err *e)
     rc = 0;
 done:
     free(rows);
+    free(gens);
     shard_close(&sh);
     return rc;
 }

@@ -2,8 +2,10 @@
  * db.h -- the SQLite results database (module prefix rt_db_).
  *
  * One file (default raytraffic.db) holds scenes, runs (one per simulated
- * trace or in-process stream), cache configurations and per-class traffic
- * rows; views give the paper's geometry / ray traffic in MB (2^20 bytes).
+ * trace or in-process stream), cache configurations, per-class traffic
+ * rows and, for runs whose access stream carried ray generations (exact
+ * simulation only), per-(class, generation) rows; views give the paper's
+ * geometry / ray traffic in MB (2^20 bytes), in all and per generation.
  * The schema is documented in docs/database.md and created on first open
  * (PRAGMA user_version = RT_DB_SCHEMA_VERSION).
  *
@@ -28,7 +30,7 @@
 
 #include <stdint.h>
 
-#define RT_DB_SCHEMA_VERSION 3
+#define RT_DB_SCHEMA_VERSION 4
 
 typedef struct rt_db rt_db;
 
@@ -77,8 +79,17 @@ typedef struct rt_db_traffic {
     uint64_t traffic_bytes; /* (fetches + writebacks) * line + wt_bytes */
 } rt_db_traffic;
 
+/* One per-generation row: the counters of class t.cls in configuration
+ * (t.size, t.line, t.assoc, t.policy) restricted to the references of ray
+ * generation gen (rt_sim_get_gen). t.wt_bytes is not stored (it is part of
+ * t.traffic_bytes). Summed over gen they equal the run's traffic row. */
+typedef struct rt_db_gen {
+    rt_db_traffic t; /* configuration, class and counters */
+    int gen;         /* generation bucket 0..RT_MAXGEN-1 (the last one pools later generations) */
+} rt_db_gen;
+
 /* Opens (creating if needed) the database at path and ensures the schema.
- * A version-1 or -2 file is upgraded to RT_DB_SCHEMA_VERSION in place, in
+ * A version-1, -2 or -3 file is upgraded to RT_DB_SCHEMA_VERSION in place, in
  * one transaction. Safe for many processes opening a new file at once
  * (lock conflicts while creating it are waited out, up to 2 minutes). Fails with "PATH: message", leaving the file untouched, if
  * it cannot be created or written, is not a SQLite database, has a newer
@@ -96,15 +107,23 @@ int rt_db_has_run(rt_db *db, const rt_db_run *key, rt_err *e);
  * store is left in the database. */
 int rt_db_store_run(rt_db *db, const rt_db_run *run, const rt_db_traffic *rows, size_t n, int64_t *run_id,
                     rt_err *e);
+/* The same with ng per-generation rows (table traffic_gen). For every
+ * configuration in rows the run's old traffic and generation rows are
+ * replaced (a run stored again without generations keeps none); for every
+ * configuration in grows its old generation rows are. rt_db_store_run is
+ * this with ng = 0. */
+int rt_db_store_run_gen(rt_db *db, const rt_db_run *run, const rt_db_traffic *rows, size_t n, const rt_db_gen *grows,
+                        size_t ng, int64_t *run_id, rt_err *e);
 
 /* Copies every run of the database at inpath (with its scene, provenance,
- * statistics and traffic rows) into out through rt_db_store_run: a run
+ * statistics, traffic rows and generation rows) into out through rt_db_store_run: a run
  * whose key is already in out is replaced, never duplicated; each run in
  * its own transaction. inpath is opened read-only and never written. It
- * must be a raytraffic database of schema version 1 to 3; a newer version,
+ * must be a raytraffic database of schema version 1 to 4; a newer version,
  * a foreign file, or a value that is not a non-negative integer where a
- * count belongs (negative counts, text) is refused with a message naming
- * inpath and the offending run / traffic row, and nothing of that run is
+ * count belongs (negative counts, text; a generation outside
+ * 0..RT_MAXGEN-1) is refused with a message naming inpath and the
+ * offending run / traffic row / generation row, and nothing of that run is
  * stored (runs copied before it stay). Returns 0 and the runs copied in
  * *nruns, or -1. */
 int rt_db_merge(rt_db *out, const char *inpath, long *nruns, rt_err *e);

@@ -51,21 +51,44 @@ rt_sink *rt_exp_fan_sink(rt_exp_fan *f) { return &f->self; }
 
 /* ---- matrix ------------------------------------------------------------ */
 
+/* 1 if the sweep has a shadow-or-default mode and a lighting without
+ * lights: it already holds the raycast runs. */
+static int has_primary_lighting(const rt_exp_config *c, int nm, const int *modes)
+{
+    int def = 0;
+    for (int m = 0; m < nm; m++) def |= modes[m] == RT_MODE_DEFAULT || modes[m] == RT_MODE_SHADOW;
+    for (int l = 0; l < c->nlightings && def; l++)
+        if (!c->lightings[l].mask) return 1;
+    return 0;
+}
+
 long rt_exp_matrix(const rt_exp_config *c, rt_exp_job **out, rt_err *e)
 {
-    size_t cap = (size_t)c->nscenes * c->nlightings * c->ntracers * (c->sim.nsizes + 1) * (c->nproxies + 1), n = 0;
+    static const int def_mode[1] = {RT_MODE_DEFAULT};
+    const int nm = c->nmodes > 0 ? c->nmodes : 1, *modes = c->nmodes > 0 ? c->modes : def_mode;
+    size_t cap = (size_t)c->nscenes * nm * (c->nlightings + 1) * c->ntracers * (c->sim.nsizes + 1) *
+                 (c->nproxies + 1), n = 0;
     rt_exp_job *J = rt_calloc(cap ? cap : 1, sizeof *J, e);
     if (!J) return -1;
+    const int raycast_done = has_primary_lighting(c, nm, modes);
     for (int s = 0; s < c->nscenes; s++)
-        for (int l = 0; l < c->nlightings; l++)
-            for (int t = 0; t < c->ntracers; t++) {
-                if (!strcmp(c->tracers[t], "dynamic")) {
-                    for (int k = 0; k < c->sim.nsizes; k++)
-                        J[n++] = (rt_exp_job){s, l, c->tracers[t], c->sim.sizes[k], -1};
-                } else {
-                    J[n++] = (rt_exp_job){s, l, c->tracers[t], 0, -1};
+        for (int m = 0; m < nm; m++) {
+            int mode = modes[m] == RT_MODE_SHADOW ? RT_MODE_DEFAULT : modes[m];
+            if (mode == RT_MODE_RAYCAST && raycast_done) continue;
+            for (int l = mode == RT_MODE_RAYCAST ? -1 : 0; l < (mode == RT_MODE_RAYCAST ? 0 : c->nlightings); l++) {
+                if ((mode == RT_MODE_WHITTED || mode == RT_MODE_PATH) && !c->lightings[l].mask) continue;
+                for (int t = 0; t < c->ntracers; t++) {
+                    const rt_tracer *tr = rt_tracer_find(c->tracers[t]);
+                    if (mode != RT_MODE_DEFAULT && tr && !(tr->modes & (1u << mode))) continue;
+                    if (!strcmp(c->tracers[t], "dynamic")) {
+                        for (int k = 0; k < c->sim.nsizes; k++)
+                            J[n++] = (rt_exp_job){s, l, c->tracers[t], c->sim.sizes[k], -1, mode};
+                    } else {
+                        J[n++] = (rt_exp_job){s, l, c->tracers[t], 0, -1, mode};
+                    }
                 }
             }
+        }
     size_t nbase = n;
     for (int p = 0; p < c->nproxies; p++)
         for (size_t i = 0; i < nbase; i++) {
@@ -79,7 +102,9 @@ long rt_exp_matrix(const rt_exp_config *c, rt_exp_job **out, rt_err *e)
 rt_render_opts rt_exp_job_opts(const rt_exp_config *c, const rt_exp_job *jb)
 {
     rt_render_opts ro = c->ro;
-    ro.lights = c->lightings[jb->lighting].mask;
+    ro.lights = jb->lighting >= 0 ? c->lightings[jb->lighting].mask : 0;
+    /* a raycast job is the run without lights: the default mode keeps its key */
+    ro.mode = jb->mode == RT_MODE_RAYCAST ? RT_MODE_DEFAULT : jb->mode;
     ro.sched_size = jb->sched ? jb->sched : ro.sched_size;
     if (jb->proxy >= 0) {
         const rt_exp_proxy *p = &c->proxies[jb->proxy];
@@ -275,8 +300,10 @@ static int open_trace(rt_exp_worker *w, jobrun *r, const rt_exp_job *jb, long in
 {
     const rt_exp_config *c = w->c;
     char path[4096];
-    snprintf(path, sizeof path, "%s/job%04ld-%s-%s-%s%s%" PRIu64 "%s.rtt", c->keep, index, c->scenes[jb->scene],
-             c->lightings[jb->lighting].label, jb->tracer, jb->sched ? "-" : "", jb->sched,
+    const int sec = jb->mode == RT_MODE_WHITTED || jb->mode == RT_MODE_PATH;
+    snprintf(path, sizeof path, "%s/job%04ld-%s-%s%s%s-%s%s%" PRIu64 "%s.rtt", c->keep, index, c->scenes[jb->scene],
+             jb->lighting >= 0 ? c->lightings[jb->lighting].label : "primary", sec ? "-" : "",
+             sec ? rt_render_mode_name(jb->mode) : "", jb->tracer, jb->sched ? "-" : "", jb->sched,
              jb->proxy >= 0 ? "-proxy" : "");
     for (char *p = path + strlen(c->keep) + 1; *p; p++)
         if (*p == '/' || *p == ':' || *p == ',' || *p == '=') *p = '_';
@@ -335,7 +362,26 @@ static int store_job(rt_exp_worker *w, jobrun *r, rt_exp_key *key, double t0, rt
     run.command = w->c->command;
     run.wall_time = rt_now() - t0;
     run.stats = stats;
-    int rc = rt_db_store_run(w->db, &run, rows, k, NULL, e);
+    /* per-generation rows when the stream carried generations (exact only) */
+    rt_tr_meta *m = rt_calloc(1, sizeof *m, e);
+    rt_db_gen *grows = NULL;
+    size_t ng = 0;
+    if (!m) {
+        free(rows);
+        return -1;
+    }
+    rt_job_meta(&r->j, NULL, m);
+    if (m->generations > 0) {
+        if (!(grows = rt_calloc(nrows * RT_MAXGEN, sizeof *grows, e))) {
+            free(m);
+            free(rows);
+            return -1;
+        }
+        ng = rt_sim_db_gen_rows(r->sim, grows);
+    }
+    free(m);
+    int rc = rt_db_store_run_gen(w->db, &run, rows, k, grows, ng, NULL, e);
+    free(grows);
     for (int a = 0; a < r->napprox && rc == 0; a++) {
         double t0a = rt_now();
         if ((rc = rt_approx_finish(r->ap[a], e)) < 0) break;

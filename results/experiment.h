@@ -60,6 +60,7 @@ rt_sink *rt_exp_fan_sink(rt_exp_fan *f);
 #define RT_EXP_MAXLIST 32
 #define RT_EXP_MAXAPPROX 8
 #define RT_EXP_MAXPROXY 8
+#define RT_EXP_MAXMODES 4
 
 typedef struct rt_exp_lighting {
     const char *label; /* "primary", "0", "1", "2", "all" */
@@ -84,7 +85,9 @@ typedef struct rt_exp_config {
     rt_exp_lighting lightings[RT_EXP_MAXLIST];
     int nlightings;
     rt_sim_config sim;                          /* cache sizes, line, policy */
-    rt_render_opts ro;                          /* image size, dynamic options, ... */
+    rt_render_opts ro;                          /* image size, dynamic options, depth, spp, bounces, ... */
+    int modes[RT_EXP_MAXMODES];                 /* render modes swept (rt_mode), see rt_exp_matrix */
+    int nmodes;                                 /* 0: one mode, RT_MODE_DEFAULT */
     int dyn_all;                                /* simulate each dynamic schedule at every size */
     rt_approx_config approx[RT_EXP_MAXAPPROX];  /* estimators run beside the exact simulator */
     int napprox;
@@ -94,19 +97,32 @@ typedef struct rt_exp_config {
     const char *command;                        /* command line recorded as provenance */
 } rt_exp_config;
 
-/* One job of the matrix: scene x lighting x tracer (x scheduled size for
- * the dynamic tracer) (x proxy). */
+/* One job of the matrix: scene x mode x lighting x tracer (x scheduled
+ * size for the dynamic tracer) (x proxy). */
 typedef struct rt_exp_job {
     int scene;          /* index into config scenes */
-    int lighting;       /* index into config lightings */
+    int lighting;       /* index into config lightings; -1 = no light (a raycast job) */
     const char *tracer; /* borrowed from the config */
     uint64_t sched;     /* dynamic: scheduled cache size; 0 otherwise */
     int proxy;          /* index into config proxies, -1 = the full experiment */
+    int mode;           /* rt_mode: RT_MODE_DEFAULT (the lighting decides), RAYCAST, WHITTED, PATH */
 } rt_exp_job;
 
 /* The matrix in run order: every full job, then each proxy's copies (so a
  * partial sweep has the references first). Returns the number of jobs and
- * a malloc'd array in *out (caller frees), or -1. */
+ * a malloc'd array in *out (caller frees), or -1.
+ *
+ * Modes and lightings: per scene, per mode of c->modes (in order), per
+ * lighting, per tracer:
+ *   - RT_MODE_DEFAULT or RT_MODE_SHADOW: every lighting as it always was
+ *     (`primary` is a raycast run, the others shadow runs; job mode
+ *     RT_MODE_DEFAULT, so run keys are unchanged);
+ *   - RT_MODE_RAYCAST: one job per scene and tracer, without lights
+ *     (lighting -1; the same run as the `primary` lighting, so it is left
+ *     out when a shadow mode with a `primary` lighting is swept too);
+ *   - RT_MODE_WHITTED, RT_MODE_PATH: each lighting with lights (`primary`
+ *     is skipped), with c->ro's depth, spp and bounces.
+ * A tracer that cannot run a mode gets no job of it. */
 long rt_exp_matrix(const rt_exp_config *c, rt_exp_job **out, rt_err *e);
 
 /* The render options of a job: the config's, with its lighting, scheduled

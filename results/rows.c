@@ -3,54 +3,72 @@
  *
  * Exact and approximate simulators differ only in how a (size, class)
  * counter is fetched and whether a size has an estimate; one loop writes
- * the rows for both.
+ * the rows for both, per class or per (class, generation).
  */
 #include "rows.h"
 
-/* Fetches size i, class c into t; 0 ok, -1 when the size has no value. */
-typedef int (*get_fn)(const void *sim, int i, int c, rt_sim_counts *t);
+/* Fetches size i, class c (generation g, or all when g < 0) into t; 0 ok,
+ * -1 when the size has no value. */
+typedef int (*get_fn)(const void *sim, int i, int c, int g, rt_sim_counts *t);
 
-static size_t fill_rows(const rt_sim_config *cfg, const void *sim, get_fn get, rt_db_traffic *rows)
+/* Rows of every (size, class) (gens = 0) or every (size, class,
+ * generation) (gens = RT_MAXGEN) with accesses, elem bytes apart (the
+ * counters first in each element); returns the rows written. */
+static size_t fill(const rt_sim_config *cfg, const void *sim, get_fn get, int gens, void *out, size_t elem)
 {
     size_t n = 0;
     for (int i = 0; i < cfg->nsizes; i++)
-        for (int c = 0; c < RT_NCLASS; c++) {
-            rt_sim_counts t;
-            if (get(sim, i, c, &t) || !t.accesses) continue;
-            rt_db_traffic *r = &rows[n++];
-            r->size = cfg->sizes[i];
-            r->line = cfg->line;
-            r->assoc = cfg->assoc;
-            r->policy = rt_sim_policy_name(cfg);
-            r->cls = c;
-            r->accesses = t.accesses;
-            r->read_misses = t.read_misses;
-            r->write_misses = t.write_misses;
-            r->writebacks = t.writebacks;
-            r->wt_bytes = t.wt_bytes;
-            r->traffic_bytes = t.traffic_bytes;
-        }
+        for (int c = 0; c < RT_NCLASS; c++)
+            for (int g = gens ? 0 : -1; g < gens; g++) {
+                rt_sim_counts t;
+                if (get(sim, i, c, g, &t) || !t.accesses) continue;
+                rt_db_traffic *r = (rt_db_traffic *)((char *)out + elem * n++);
+                if (gens) ((rt_db_gen *)r)->gen = g;
+                r->size = cfg->sizes[i];
+                r->line = cfg->line;
+                r->assoc = cfg->assoc;
+                r->policy = rt_sim_policy_name(cfg);
+                r->cls = c;
+                r->accesses = t.accesses;
+                r->read_misses = t.read_misses;
+                r->write_misses = t.write_misses;
+                r->writebacks = t.writebacks;
+                r->wt_bytes = t.wt_bytes;
+                r->traffic_bytes = t.traffic_bytes;
+            }
     return n;
 }
 
-static int get_exact(const void *sim, int i, int c, rt_sim_counts *t)
+static int get_exact(const void *sim, int i, int c, int g, rt_sim_counts *t)
 {
-    rt_sim_get(sim, i, c, t);
+    if (g < 0) rt_sim_get(sim, i, c, t);
+    else rt_sim_get_gen(sim, i, c, g, t);
     return 0;
 }
 
-static int get_approx(const void *sim, int i, int c, rt_sim_counts *t)
+static int get_approx(const void *sim, int i, int c, int g, rt_sim_counts *t)
 {
     if (!rt_approx_available(sim, i, NULL)) return -1;
+    if (g >= 0) return rt_approx_get_gen(sim, i, c, g, t, NULL) ? -1 : 0;
     return rt_approx_get(sim, i, c, t, NULL) ? -1 : 0;
 }
 
 size_t rt_sim_db_rows(const rt_sim *s, rt_db_traffic *rows)
 {
-    return fill_rows(rt_sim_get_config(s), s, get_exact, rows);
+    return fill(rt_sim_get_config(s), s, get_exact, 0, rows, sizeof *rows);
 }
 
 size_t rt_approx_db_rows(const rt_approx *a, rt_db_traffic *rows)
 {
-    return fill_rows(rt_approx_get_config(a), a, get_approx, rows);
+    return fill(rt_approx_get_config(a), a, get_approx, 0, rows, sizeof *rows);
+}
+
+size_t rt_sim_db_gen_rows(const rt_sim *s, rt_db_gen *grows)
+{
+    return fill(rt_sim_get_config(s), s, get_exact, RT_MAXGEN, grows, sizeof *grows);
+}
+
+size_t rt_approx_db_gen_rows(const rt_approx *a, rt_db_gen *grows)
+{
+    return fill(rt_approx_get_config(a), a, get_approx, RT_MAXGEN, grows, sizeof *grows);
 }

@@ -1,7 +1,9 @@
 /*
  * test_db.c -- the results database: schema, idempotent stores, rollback of
  * a failed store, concurrent writers (fork), views, error messages, the
- * upgrade of a version-1 file, refusal of foreign files, merge checks.
+ * upgrade of a version-1 file, refusal of foreign files, merge checks,
+ * per-generation rows (they sum to the traffic rows; the v3 -> v4 upgrade;
+ * merge copies and checks them).
  */
 #include "check.h"
 #include "rows.h"
@@ -297,7 +299,7 @@ static void test_upgrade_v2(const char *dir)
     rt_db *db = rt_db_open(path, &e), *f = rt_db_open(fresh, &e);
     CHECK(db && f, "open v2: %s", e.msg);
     if (!db || !f) return;
-    CHECK(count(db, "PRAGMA user_version") == 3, "v2 upgraded to 3");
+    CHECK(count(db, "PRAGMA user_version") == RT_DB_SCHEMA_VERSION, "v2 upgraded to the current version");
     CHECK(count(db, "SELECT count(*) FROM runs") == 1 && count(db, "SELECT count(*) FROM traffic") == 13,
           "v2 run kept (13 sizes x class fb)");
     CHECK(count(db, "SELECT count(*) FROM scenes WHERE path = '' AND abspath = ''") == 1, "old scene has no path");
@@ -405,8 +407,146 @@ static void test_foreign(const char *dir)
     sqlite3_close(h);
     /* a newer schema version is refused too */
     snprintf(path, sizeof path, "%s/newer.db", dir);
-    CHECK(make_file(path, "PRAGMA user_version = 4;") == 0, "create newer");
+    CHECK(make_file(path, "PRAGMA user_version = 5;") == 0, "create newer");
     CHECK(!rt_db_open(path, &e) && strstr(e.msg, "newer"), "newer schema: %s", e.msg);
+}
+
+/* A simulator fed a random stream of several generations: its generation
+ * rows sum to its traffic rows in every field, once stored (SQL sums) and
+ * per generation the accesses equal a plain count of the line touches. */
+static void test_gen_rows(const char *dir)
+{
+    char path[300];
+    rt_err e = {{0}};
+    snprintf(path, sizeof path, "%s/gen.db", dir);
+    rt_sim_config c;
+    rt_sim_config_default(&c);
+    rt_sim *s = rt_sim_new(&c, NULL);
+    uint64_t touches[RT_MAXGEN] = {0};
+    rnd_seed(7);
+    for (int i = 0; i < 200000; i++) {
+        /* 1 MiB of addresses: misses at small sizes, hits at large */
+        int gen = (int)(rnd64() % 10), cls = (int)(rnd64() % RT_NCLASS);
+        uint32_t size = 1 + (uint32_t)(rnd64() % 100);
+        uint64_t addr = 0x10000000ULL + rnd64() % (1u << 20);
+        rt_access a = {addr, size, (uint8_t)(rnd64() % 3 == 0), (uint8_t)cls, (uint8_t)gen};
+        touches[rt_gen_bucket((unsigned)gen)] += (addr + size - 1) / 64 - addr / 64 + 1;
+        rt_sim_put(s, &a, 1);
+    }
+    rt_db_traffic *tr = calloc((size_t)c.nsizes * RT_NCLASS, sizeof *tr);
+    rt_db_gen *gr = calloc((size_t)c.nsizes * RT_NCLASS * RT_MAXGEN, sizeof *gr);
+    size_t n = rt_sim_db_rows(s, tr), ng = rt_sim_db_gen_rows(s, gr);
+    CHECK(n == (size_t)c.nsizes * RT_NCLASS, "traffic rows %zu", n);
+    CHECK(ng == (size_t)c.nsizes * RT_NCLASS * RT_MAXGEN, "generation rows %zu (every bucket used)", ng);
+    uint64_t got[RT_MAXGEN] = {0};
+    for (size_t k = 0; k < ng; k++)
+        if (gr[k].t.size == c.sizes[0]) got[gr[k].gen] += gr[k].t.accesses;
+    for (int g = 0; g < RT_MAXGEN; g++) CHECK(got[g] == touches[g], "gen %d: %llu accesses, counted %llu", g,
+                                              (unsigned long long)got[g], (unsigned long long)touches[g]);
+    rt_db *db = rt_db_open(path, &e);
+    rt_db_run r;
+    run_key(&r, "stream", 7, 0);
+    CHECK(db && rt_db_store_run_gen(db, &r, tr, n, gr, ng, NULL, &e) == 0, "store gen rows: %s", e.msg);
+    CHECK(count(db, "SELECT count(*) FROM traffic_gen") == (long long)ng, "all generation rows stored");
+    static const char sum_sql[] =
+        "SELECT count(*) FROM traffic t JOIN (SELECT run_id, config_id, class, sum(accesses) a, sum(read_misses) rm,"
+        " sum(write_misses) wm, sum(writebacks) wb, sum(traffic_bytes) tb FROM traffic_gen GROUP BY 1, 2, 3) g"
+        " USING (run_id, config_id, class) WHERE g.a = t.accesses AND g.rm = t.read_misses AND"
+        " g.wm = t.write_misses AND g.wb = t.writebacks AND g.tb = t.traffic_bytes";
+    CHECK(count(db, sum_sql) == (long long)n, "generation rows sum to every traffic row (%lld of %zu)",
+          count(db, sum_sql), n);
+    CHECK(count(db, "SELECT count(*) FROM traffic_gen WHERE writebacks > 0 AND gen = 7") > 0, "pooled bucket has data");
+    /* v_gen: per generation, its group sums */
+    CHECK(getd(db, "SELECT sum(total_mb) FROM v_gen WHERE cache_size = 1024") * 1048576.0 ==
+              (double)count(db, "SELECT sum(traffic_bytes) FROM traffic t JOIN cache_configs c ON c.id = t.config_id"
+                                " WHERE c.size = 1024"),
+          "v_gen totals");
+    CHECK(count(db, "SELECT count(*) FROM v_gen WHERE mode = 'shadow'") == (long long)c.nsizes * RT_MAXGEN,
+          "v_gen: one row per size and generation, mode shadow");
+    /* storing again without generations leaves no stale generation rows */
+    CHECK(rt_db_store_run(db, &r, tr, n, NULL, &e) == 0, "store again without generations");
+    CHECK(count(db, "SELECT count(*) FROM traffic_gen") == 0, "stale generation rows removed");
+    CHECK(rt_db_store_run_gen(db, &r, tr, n, gr, ng, NULL, &e) == 0, "store with generations again");
+    /* a bad generation is refused and rolled back */
+    gr[3].gen = RT_MAXGEN;
+    run_key(&r, "stream", 3, 0);
+    CHECK(rt_db_store_run_gen(db, &r, tr, n, gr, ng, NULL, &e) < 0 && strstr(e.msg, "generation"), "bad gen: %s",
+          e.msg);
+    CHECK(count(db, "SELECT count(*) FROM runs WHERE lights = 3") == 0, "bad gen run rolled back");
+    gr[3].gen = 0;
+    rt_db_close(db);
+
+    /* merge copies the generation rows; a shard's bad generation is refused */
+    char out[300];
+    long nr = 0;
+    snprintf(out, sizeof out, "%s/genm.db", dir);
+    rt_db *m = rt_db_open(out, &e);
+    CHECK(m && rt_db_merge(m, path, &nr, &e) == 0 && nr == 1, "merge gen shard: %s", e.msg);
+    CHECK(count(m, "SELECT count(*) FROM traffic_gen") == (long long)ng, "merged generation rows");
+    CHECK(count(m, sum_sql) == (long long)n, "merged generation rows still sum");
+    sqlite3 *h;
+    sqlite3_open(path, &h);
+    sqlite3_exec(h, "UPDATE traffic_gen SET gen = 9 WHERE rowid = 2", NULL, NULL, NULL);
+    sqlite3_close(h);
+    sqlite3_exec(rt_db_handle(m), "DELETE FROM runs", NULL, NULL, NULL);
+    CHECK(rt_db_merge(m, path, &nr, &e) < 0 && strstr(e.msg, path) && strstr(e.msg, "generation row") &&
+              strstr(e.msg, "out of range"), "bad shard generation: %s", e.msg);
+    CHECK(count(m, "SELECT count(*) FROM runs") == 0, "nothing of the bad run stored");
+    sqlite3_open(path, &h);
+    sqlite3_exec(h, "UPDATE traffic_gen SET gen = 1, accesses = -1 WHERE rowid = 2", NULL, NULL, NULL);
+    sqlite3_close(h);
+    CHECK(rt_db_merge(m, path, &nr, &e) < 0 && strstr(e.msg, "accesses is negative"), "negative gen count: %s",
+          e.msg);
+    rt_db_close(m);
+    free(tr);
+    free(gr);
+    rt_sim_free(s);
+}
+
+/* A version-3 file (today's schema without traffic_gen and v_gen, which is
+ * all version 4 adds) is upgraded in place: its run and rows kept, the new
+ * table and view in the layout of a fresh file, generation rows storable. */
+static void test_upgrade_v3(const char *dir, const rt_db_traffic *rows, size_t n)
+{
+    char path[300], fresh[300], a[1024], b[1024];
+    rt_err e = {{0}};
+    snprintf(path, sizeof path, "%s/v3.db", dir);
+    snprintf(fresh, sizeof fresh, "%s/v4fresh.db", dir);
+    rt_db *db = rt_db_open(path, &e);
+    rt_db_run r;
+    run_key(&r, "recursive", 1, 0);
+    CHECK(db && rt_db_store_run(db, &r, rows, n, NULL, &e) == 0, "v3 run: %s", e.msg);
+    rt_db_close(db);
+    sqlite3 *h;
+    sqlite3_open(path, &h);
+    CHECK(sqlite3_exec(h, "DROP VIEW v_gen; DROP TABLE traffic_gen; PRAGMA user_version = 3", NULL, NULL, NULL) ==
+              SQLITE_OK, "make a v3 file");
+    sqlite3_close(h);
+    db = rt_db_open(path, &e);
+    rt_db *f = rt_db_open(fresh, &e);
+    CHECK(db && f, "open v3: %s", e.msg);
+    if (!db || !f) return;
+    CHECK(count(db, "PRAGMA user_version") == 4, "v3 upgraded to 4");
+    CHECK(count(db, "SELECT count(*) FROM runs") == 1 && count(db, "SELECT count(*) FROM traffic") == (long long)n,
+          "v3 run kept");
+    const char *tables[] = {"traffic_gen", "v_gen", "runs", "traffic", "v_paper"};
+    for (int i = 0; i < 5; i++) {
+        columns(db, tables[i], a, sizeof a);
+        columns(f, tables[i], b, sizeof b);
+        CHECK(a[0] && !strcmp(a, b), "%s: upgraded columns %s, fresh %s", tables[i], a, b);
+    }
+    rt_db_gen g[2];
+    memset(g, 0, sizeof g);
+    for (int k = 0; k < 2; k++) {
+        g[k].t = rows[0];
+        g[k].t.accesses = rows[0].accesses / 2;
+        g[k].gen = k;
+    }
+    CHECK(rt_db_store_run_gen(db, &r, rows, n, g, 2, NULL, &e) == 0, "store generation rows after upgrade: %s", e.msg);
+    CHECK(count(db, "SELECT sum(accesses) FROM traffic_gen") == (long long)rows[0].accesses, "generation rows stored");
+    CHECK(count(db, "SELECT count(*) FROM runs") == 1, "same run");
+    rt_db_close(db);
+    rt_db_close(f);
 }
 
 /* Merge copies runs, refuses newer shards and bad values with the shard
@@ -452,7 +592,7 @@ static void test_merge(const char *dir, const rt_db_traffic *rows, size_t n)
     /* a newer shard is refused without reading it */
     sqlite3 *h;
     sqlite3_open(in, &h);
-    sqlite3_exec(h, "PRAGMA user_version = 4", NULL, NULL, NULL);
+    sqlite3_exec(h, "PRAGMA user_version = 5", NULL, NULL, NULL);
     sqlite3_close(h);
     CHECK(rt_db_merge(db, in, &nr, &e) < 0 && strstr(e.msg, in) && strstr(e.msg, "newer"), "newer shard: %s", e.msg);
     rt_db_close(db);
@@ -652,6 +792,8 @@ int main(void)
     test_upgrade_v2(dir);
     test_foreign(dir);
     test_merge(dir, rows, n);
+    test_gen_rows(dir);
+    test_upgrade_v3(dir, rows, n);
 
     char cmd[400];
     snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);

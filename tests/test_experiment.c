@@ -4,10 +4,15 @@
  * it through rt_sim_replay and turn the counters into rows. The stored rows
  * must equal the replayed ones, the key built from the trace header must
  * find the stored run (one identity formatter), a rerun must skip, and a
- * store that fails must leave nothing. Also the fan-out sink on its own.
+ * store that fails must leave nothing. Also the fan-out sink on its own,
+ * and the render modes: the matrix of --modes, and per-generation rows of
+ * whitted and path jobs (they sum to the traffic rows; their accesses equal
+ * a plain per-generation count of the job's line touches; a kept trace
+ * replayed gives the same rows; shadow jobs have none).
  */
 #include "experiment.h"
 #include "rows.h"
+#include "run.h"
 #include "check.h"
 
 #include <dirent.h>
@@ -221,6 +226,140 @@ static void test_failing_store(const char *dir)
     free(J);
 }
 
+/* Line touches (64-byte lines) per generation bucket, the plain way. */
+typedef struct gencount {
+    rt_sink s;
+    uint64_t touches[RT_MAXGEN];
+    unsigned maxgen;
+} gencount;
+
+static int gencount_put(rt_sink *s, const rt_access *a, size_t n)
+{
+    gencount *g = s->ctx;
+    for (size_t i = 0; i < n; i++) {
+        uint32_t sz = a[i].size ? a[i].size : 1;
+        g->touches[rt_gen_bucket(a[i].gen)] += (a[i].addr + sz - 1) / 64 - a[i].addr / 64 + 1;
+        if (a[i].gen > g->maxgen) g->maxgen = a[i].gen;
+    }
+    return 0;
+}
+
+static void test_modes(const char *dir)
+{
+    char keep[512], path[600];
+    snprintf(keep, sizeof keep, "%s/mtraces", dir);
+    snprintf(path, sizeof path, "%s/m.db", dir);
+    CHECK(mkdir(keep, 0777) == 0, "mkdir %s", keep);
+    rt_exp_config c;
+    config(&c, keep);
+    c.tracers[1] = tracers[2]; /* recursive, dynamic */
+    c.ntracers = 2;
+    c.lightings[0] = (rt_exp_lighting){"primary", 0};
+    c.lightings[1] = (rt_exp_lighting){"all", 7};
+    c.nlightings = 2;
+    c.ro.depth = 3;
+    c.ro.bounces = 2;
+    rt_sim_parse_sizes("1K,64K", &c.sim, NULL);
+    rt_err e = {""};
+    rt_exp_job *J = NULL;
+    /* raycast alone: one lightless job per tracer (1 + 2 sizes) */
+    c.modes[0] = RT_MODE_RAYCAST;
+    c.nmodes = 1;
+    long nj = rt_exp_matrix(&c, &J, &e);
+    CHECK(nj == 3 && J[0].lighting == -1 && rt_exp_job_opts(&c, &J[0]).lights == 0 &&
+              rt_exp_job_opts(&c, &J[0]).mode == RT_MODE_DEFAULT, "raycast matrix: %ld jobs", nj);
+    free(J);
+    /* shadow (both lightings, primary holds the raycast runs), whitted and
+     * path (the lit lighting only), raycast (already swept: no job) */
+    int modes[4] = {RT_MODE_SHADOW, RT_MODE_WHITTED, RT_MODE_PATH, RT_MODE_RAYCAST};
+    memcpy(c.modes, modes, sizeof modes);
+    c.nmodes = 4;
+    nj = rt_exp_matrix(&c, &J, &e);
+    CHECK(nj == 2 * 3 + 3 + 3, "modes matrix has %ld jobs, want 12", nj);
+    if (nj != 12) return;
+    CHECK(J[0].mode == RT_MODE_DEFAULT && J[6].mode == RT_MODE_WHITTED && J[6].lighting == 1 &&
+              J[9].mode == RT_MODE_PATH, "job modes in order");
+    rt_db *db = rt_db_open(path, &e);
+    rt_exp_worker *w = db ? rt_exp_worker_new(&c, db, &e) : NULL;
+    CHECK(w != NULL, "worker: %s", e.msg);
+    if (!w) return;
+    for (long i = 0; i < nj; i++) CHECK(rt_exp_run_job(w, &J[i], i, &e) == 1, "job %ld: %s", i, e.msg);
+    CHECK(count(db, "SELECT COUNT(*) FROM runs") == 12, "12 runs stored");
+    CHECK(count(db, "SELECT COUNT(*) FROM traffic_gen t JOIN runs r ON r.id = t.run_id WHERE r.params NOT LIKE "
+                    "'%mode=%'") == 0, "shadow and raycast runs have no generation rows");
+    CHECK(count(db, "SELECT COUNT(DISTINCT run_id) FROM traffic_gen") == 6, "every whitted and path run has them");
+    CHECK(count(db, "SELECT COUNT(*) FROM runs WHERE params LIKE '%mode=whitted depth=3%'") == 3 &&
+              count(db, "SELECT COUNT(*) FROM runs WHERE params LIKE '%mode=path spp=1 bounces=2%'") == 3,
+          "mode parameters in the run keys");
+    static const char sum_sql[] =
+        "SELECT count(*) FROM traffic t JOIN (SELECT run_id, config_id, class, sum(accesses) a, sum(read_misses) rm,"
+        " sum(write_misses) wm, sum(writebacks) wb, sum(traffic_bytes) tb FROM traffic_gen GROUP BY 1, 2, 3) g"
+        " USING (run_id, config_id, class) WHERE g.a = t.accesses AND g.rm = t.read_misses AND"
+        " g.wm = t.write_misses AND g.wb = t.writebacks AND g.tb = t.traffic_bytes";
+    CHECK(count(db, sum_sql) == count(db, "SELECT count(*) FROM traffic WHERE run_id IN (SELECT run_id FROM traffic_gen)"),
+          "generation rows sum to the traffic rows of their runs");
+    CHECK(count(db, "SELECT max(gen) FROM traffic_gen") == 2, "highest generation = depth - 1 = bounces = 2");
+    /* each secondary job: per-generation accesses = a plain count of its stream */
+    for (long i = 6; i < nj; i++) {
+        rt_render_opts ro = rt_exp_job_opts(&c, &J[i]);
+        rt_job j;
+        gencount g;
+        memset(&g, 0, sizeof g);
+        g.s.put = gencount_put;
+        g.s.ctx = &g;
+        rt_run_stats st;
+        rt_image *img = rt_image_new(ro.W, ro.H, &e);
+        CHECK(img && rt_job_setup(&j, "knot", J[i].tracer, &ro, &e) == 0, "setup: %s", e.msg);
+        CHECK(rt_job_run(&j, &g.s, img, &st, &e) == 0, "run: %s", e.msg);
+        rt_tr_meta *m = calloc(1, sizeof *m);
+        rt_job_meta(&j, NULL, m);
+        CHECK(m->generations == 2 && g.maxgen == 2, "job %ld: meta generations %u, stream reaches %u", i,
+              m->generations, g.maxgen);
+        free(m);
+        for (int gen = 0; gen < RT_MAXGEN; gen++) {
+            char sql[400];
+            snprintf(sql, sizeof sql,
+                     "SELECT coalesce(sum(t.accesses), 0) FROM traffic_gen t JOIN runs r ON r.id = t.run_id JOIN "
+                     "cache_configs c ON c.id = t.config_id WHERE r.tracer = '%s' AND r.sched_size = %llu AND "
+                     "r.params LIKE '%%mode=%s%%' AND c.size = %llu AND t.gen = %d",
+                     J[i].tracer, (unsigned long long)J[i].sched, i < 9 ? "whitted" : "path",
+                     (unsigned long long)(J[i].sched ? J[i].sched : 1024), gen);
+            CHECK((uint64_t)count(db, sql) == g.touches[gen], "job %ld gen %d: stored %lld accesses, counted %llu", i,
+                  gen, count(db, sql), (unsigned long long)g.touches[gen]);
+        }
+        rt_job_free(&j);
+        rt_image_free(img);
+    }
+    /* a kept trace (version 2) replayed gives the stored generation rows */
+    char tp[1200] = "";
+    DIR *d = opendir(keep);
+    for (struct dirent *de; d && (de = readdir(d));)
+        if (strstr(de->d_name, "job0006")) snprintf(tp, sizeof tp, "%s/%s", keep, de->d_name);
+    if (d) closedir(d);
+    rt_sim *s = rt_sim_new(&c.sim, &e);
+    rt_tr_meta *m = calloc(1, sizeof *m);
+    rt_sim_input in;
+    CHECK(tp[0] && strstr(tp, "-whitted-") && s && rt_sim_replay(s, tp, RT_SIM_IN_AUTO, 0, m, &in, &e) == 0,
+          "replay %s: %s", tp, e.msg);
+    CHECK(m->generations == 2, "trace header: generations %u", m->generations);
+    rt_db_gen *gr = calloc((size_t)c.sim.nsizes * RT_NCLASS * RT_MAXGEN, sizeof *gr);
+    size_t ng = rt_sim_db_gen_rows(s, gr);
+    long long stored = count(db, "SELECT count(*) FROM traffic_gen t JOIN runs r ON r.id = t.run_id WHERE "
+                                 "r.tracer = 'recursive' AND r.params LIKE '%mode=whitted%'");
+    CHECK(ng > 0 && (long long)ng == stored, "replayed %zu generation rows, stored %lld", ng, stored);
+    uint64_t tb = 0;
+    for (size_t k = 0; k < ng; k++) tb += gr[k].t.traffic_bytes * (uint64_t)(gr[k].gen + 1);
+    CHECK((long long)tb == count(db, "SELECT sum(t.traffic_bytes * (t.gen + 1)) FROM traffic_gen t JOIN runs r ON "
+                                     "r.id = t.run_id WHERE r.tracer = 'recursive' AND r.params LIKE '%mode=whitted%'"),
+          "replayed generation rows match the stored ones");
+    free(gr);
+    free(m);
+    rt_sim_free(s);
+    rt_exp_worker_free(w);
+    rt_db_close(db);
+    free(J);
+}
+
 int main(void)
 {
     char dir[] = "/tmp/rt-exp-XXXXXX";
@@ -228,6 +367,7 @@ int main(void)
     test_fan();
     test_run_job(dir);
     test_failing_store(dir);
+    test_modes(dir);
     char cmd[64];
     snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
     if (system(cmd) != 0) fprintf(stderr, "cannot remove %s\n", dir);

@@ -1365,6 +1365,7 @@ static int batch_run(dyn *D, int *height, rt_err *e)
     const uint32_t n = D->lvlen[lv];
     const rt_path *rays = D->lvl[lv];
     D->batches++;
+    rt_rec_set_gen(D->rec, rays[0].depth); /* a batch is one generation */
     if (batch_closest(D, lv, n, e) < 0) return -1;
     for (uint32_t k = 0; k < n; k++) {
         rt_hit h = {D->hit_t[k], D->hit_tri[k], D->hit_u[k], D->hit_v[k]};

@@ -214,6 +214,7 @@ static void pk_chunk(pstate *ps, const rt_tracer_ctx *ctx, psec *S, int *height,
     rt_path *rays = &S->chunk[(size_t)lv * NP];
     const int n = S->clen[lv];
     top->n = 0;
+    rt_rec_set_gen(rec, rays[0].depth); /* a chunk is one generation */
     for (int k = 0; k < n; k++) {
         if (rays[k].depth) RT_REC(rec, rt_mm_addr(L, reg_pr, (uint64_t)lv * NP + k), RT_SREC_SIZE, 0, RT_CLS_RAY);
         else RT_REC(rec, rt_mm_addr(L, reg_ray, rays[k].pix), 32, 0, RT_CLS_RAY);
@@ -311,6 +312,7 @@ static void pk_secondary(pstate *ps, const rt_tracer_ctx *ctx, psec *S, plist *t
         int height = 1;
         while (height) pk_chunk(ps, ctx, S, &height, top, eye, hit, sray, want, img, st, px, py, pw);
     }
+    rt_rec_set_gen(ctx->rec, 0); /* the pixel writes: the primary rays' */
     for (int k = 0; k < n; k++) {
         int x = px + k % pw, y = py + k / pw;
         uint32_t pix = (uint32_t)y * (uint32_t)o->W + (uint32_t)x;

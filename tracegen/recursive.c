@@ -53,6 +53,7 @@ static void rec_secondary(const rt_tracer_ctx *ctx, rt_trav *tv, const rt_cam_fr
     rt_cam_ray(cam, x, y, &eye);
     for (int s = 0; s < spp; s++) {
         int sp = 0;
+        rt_rec_set_gen(ctx->rec, 0);
         RT_REC(ctx->rec, rt_mm_addr(ctx->L, reg_ray, pix), 32, 0, RT_CLS_RAY);
         st->rays_primary++;
         rt_shade_path_start(&stack[sp++], &eye, pix, (uint32_t)s);
@@ -61,6 +62,7 @@ static void rec_secondary(const rt_tracer_ctx *ctx, rt_trav *tv, const rt_cam_fr
             rt_ray r;
             rt_hit h;
             rt_shade_path_ray(&p, &r);
+            rt_rec_set_gen(ctx->rec, p.depth); /* this ray, its shading and shadow rays */
             tv->mark_bit = p.depth ? 4 : 1;
             int hit = rt_kd_closest(tv, &r, &h);
             if (!p.depth && !s) h0 = h;
@@ -79,6 +81,7 @@ static void rec_secondary(const rt_tracer_ctx *ctx, rt_trav *tv, const rt_cam_fr
         }
     }
     rt_acc_pixel(&acc, spp, &eye, h0.tri != RT_NO_HIT ? &h0 : NULL, img, pix);
+    rt_rec_set_gen(ctx->rec, 0); /* the pixel write: the primary ray's */
 }
 
 static int rec_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_err *e)

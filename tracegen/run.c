@@ -116,6 +116,9 @@ void rt_job_meta(const rt_job *j, const char *command, rt_tr_meta *m)
         m->gmax = j->opt.gmax;
     }
     rt_job_params(j->tr->name, &j->opt, NULL, m->params, sizeof m->params);
+    /* the highest generation the run can stamp: whitted depth-1, path bounces */
+    if (rt_render_mode(&j->opt) == RT_MODE_WHITTED) m->generations = (uint32_t)(j->opt.depth - 1);
+    else if (rt_render_mode(&j->opt) == RT_MODE_PATH) m->generations = (uint32_t)j->opt.bounces;
     m->layout = j->L;
 }
 
