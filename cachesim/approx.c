@@ -104,6 +104,9 @@ int rt_approx_config_check(const rt_sim_config *c, const rt_approx_config *ac, r
     if (rt_sim_config_check(c, e)) return -1;
     if (!rt_approx_method_name(ac->method)) return rt_errf(e, "unknown approximation method %d", ac->method);
     if (ac->method == RT_APPROX_EXACT) return 0;
+    if (c->flush || c->write_miss_fullline)
+        return rt_errf(e, "sampled simulation (%s) does not model %s: use the exact method",
+                       rt_approx_method_name(ac->method), rt_sim_policy_name(c));
     if (c->assoc || c->write_through || c->no_write_allocate)
         return rt_errf(e, "sampled simulation (%s) supports only fully associative write-back write-allocate "
                           "caches, not %s assoc %u",
@@ -220,6 +223,7 @@ int rt_approx_finish(rt_approx *a, rt_err *e)
 {
     a->finished = 0;
     memset(&a->est, 0, sizeof a->est);
+    if (a->exact) rt_sim_finish(a->exact); /* the end-of-run flush, if configured */
     /* est index j is size nexact + j: SHARDS' sizes follow the windowed ones */
     if (a->sh && rt_shards_estimate(a->sh, &a->est, a->nwin, e)) return -1;
     if (a->ss && rt_sstack_estimate(a->ss, (const uint64_t(*)[2])a->acc, &a->est, e)) return -1;
@@ -323,6 +327,7 @@ int rt_approx_get_group(const rt_approx *a, int i, int group, rt_sim_counts *out
         out->writebacks += t.writebacks;
         out->wt_bytes += t.wt_bytes;
         out->traffic_bytes += t.traffic_bytes;
+        out->nofetch += t.nofetch;
     }
     return 0;
 }

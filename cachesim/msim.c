@@ -30,8 +30,10 @@
  * A REFERENCE to line L:
  *   1. look L up; if present its group g says it hits in sizes g..k-1 and
  *      misses in 0..g-1; if absent g = k (misses everywhere). We count the
- *      touch once, in hist[cg][write][g] (cg: the reference's class and
- *      ray generation folded into one index, sim_int.h); the misses of size
+ *      touch once, in hist[cg][kind][g] (cg: the reference's class and
+ *      ray generation folded into one index, sim_int.h; kind 0 read, 1
+ *      write, 2 a write covering the whole line when write_miss_fullline
+ *      asks for those apart: they miss without a fetch); the misses of size
  *      i are the sum of hist over g > i, computed when results are read. So
  *      the per-reference counting cost depends on neither k nor the number
  *      of generations;
@@ -58,7 +60,9 @@
  * cleared. Write-backs are charged to the class and generation of the
  * reference that last wrote the line (wcg), which is the same reference for
  * every size in which the line is dirty, since every write dirties all
- * sizes.
+ * sizes. FLUSH (rt_msim_flush, Dinero IV's end of run): every node's set
+ * dirty bits are exactly the caches that hold it modified, so each set bit
+ * i is one write-back from cache i; the bits are then cleared.
  *
  * INVARIANTS (checked by rt_msim_check):
  *   - the list from head follows next links to tail, prev links mirror
@@ -138,7 +142,8 @@ struct rt_msim {
     uint32_t cap[RT_SIM_MAXSIZES + 1];       /* group capacities in lines */
     uint32_t marker[RT_SIM_MAXSIZES + 1];    /* last node of each group */
     int full;                                /* nused == cmax >= 2: steady state */
-    uint64_t hist[RT_SIM_NCG][2][RT_SIM_MAXSIZES + 1]; /* touches by (class, gen), write, group */
+    int fullline;                            /* count whole-line writes apart (kind 2) */
+    uint64_t hist[RT_SIM_NCG][3][RT_SIM_MAXSIZES + 1]; /* touches by (class, gen), kind, group */
     uint64_t wb[RT_SIM_MAXSIZES][RT_SIM_NCG]; /* write-backs by size, (class, gen) */
     uint64_t sizes[RT_SIM_MAXSIZES];         /* sizes in bytes */
 };
@@ -483,10 +488,21 @@ static inline void put_batch(rt_msim *restrict m, const rt_access *a, size_t n, 
         unsigned cg = rt_sim_cg(&a[i]);
         unsigned w = a[i].write ? 1 : 0;
         uint64_t first = e->f, last = e->l;
-        touch(m, first, e->hf, e->xf, w, cg);
+        /* kinds of the first, middle and last lines' touches: a write that
+         * covers a whole line is kind 2 when those are counted apart */
+        unsigned wf = w, wm = w, wl = w;
+        if (w && m->fullline) {
+            uint64_t lo = a[i].addr, end = lo + (a[i].size ? a[i].size : 1); /* exclusive */
+            if (end > lo) {
+                wm = 2;
+                if (first * ls == lo && (first + 1) * ls <= end) wf = 2;
+                if ((last + 1) * ls == end) wl = 2;
+            }
+        }
+        touch(m, first, e->hf, e->xf, wf, cg);
         if (last > first) { /* (an end past 2^64 - 1 touches the first line only) */
-            for (uint64_t L = first + 1; L < last; L++) touch(m, L, L * PHI, NIL, w, cg);
-            touch(m, last, e->hl, e->xl, w, cg);
+            for (uint64_t L = first + 1; L < last; L++) touch(m, L, L * PHI, NIL, wm, cg);
+            touch(m, last, e->hl, e->xl, wl, cg);
         }
     }
 #undef STAGE_SLOT
@@ -506,18 +522,31 @@ void rt_msim_get_gen(const rt_msim *m, int i, int cls, int gen, rt_sim_counts *o
     for (int b = gen < 0 ? 0 : gen; b < (gen < 0 ? RT_MAXGEN : gen + 1); b++) {
         int cg = b * RT_NCLASS + cls;
         for (int g = 0; g <= m->k; g++) {
-            out->accesses += m->hist[cg][0][g] + m->hist[cg][1][g];
+            out->accesses += m->hist[cg][0][g] + m->hist[cg][1][g] + m->hist[cg][2][g];
             if (g > i) {
                 out->read_misses += m->hist[cg][0][g];
-                out->write_misses += m->hist[cg][1][g];
+                out->write_misses += m->hist[cg][1][g] + m->hist[cg][2][g];
+                out->nofetch += m->hist[cg][2][g];
             }
         }
         out->writebacks += m->wb[i][cg];
     }
-    out->traffic_bytes = (out->read_misses + out->write_misses + out->writebacks) * m->line;
+    out->traffic_bytes = (out->read_misses + out->write_misses - out->nofetch + out->writebacks) * m->line;
 }
 
 void rt_msim_get(const rt_msim *m, int i, int cls, rt_sim_counts *out) { rt_msim_get_gen(m, i, cls, -1, out); }
+
+void rt_msim_set_fullline(rt_msim *m, int on) { m->fullline = on != 0; }
+
+void rt_msim_flush(rt_msim *m)
+{
+    /* a node dirty in cache i (bit i) is resident there: write it back */
+    for (uint32_t x = 0; x < m->nused; x++) {
+        msnode *nd = &m->nodes[x];
+        for (uint32_t d = nd->dirty; d; d &= d - 1) m->wb[__builtin_ctz(d)][nd->wcg]++;
+        nd->dirty = 0;
+    }
+}
 
 int rt_msim_check(const rt_msim *m, rt_err *e)
 {
@@ -566,7 +595,7 @@ int rt_msim_check(const rt_msim *m, rt_err *e)
     if (inhash != m->nused) return rt_errf(e, "msim: hash holds %llu lines, stack %u", (unsigned long long)inhash, m->nused);
     for (int cg = 0; cg < RT_SIM_NCG; cg++) {
         uint64_t writes = 0;
-        for (int g = 0; g <= m->k; g++) writes += m->hist[cg][1][g];
+        for (int g = 0; g <= m->k; g++) writes += m->hist[cg][1][g] + m->hist[cg][2][g];
         for (int i = 0; i < m->k; i++)
             if (m->wb[i][cg] > writes)
                 return rt_errf(e, "msim: size %d: %llu write-backs charged to class %s generation %d, which wrote %llu times",

@@ -12,6 +12,9 @@ typedef struct rt_msim rt_msim;
 /* k sizes (bytes, strictly increasing, each a multiple of line, k <=
  * RT_SIM_MAXSIZES), line size in bytes (any; powers of two are faster). */
 rt_msim *rt_msim_new(const uint64_t *sizes, int k, uint32_t line, rt_err *e);
+/* on: from now on a write miss covering its whole line fetches nothing
+ * (rt_sim_config.write_miss_fullline); set before the first reference. */
+void rt_msim_set_fullline(rt_msim *m, int on);
 void rt_msim_free(rt_msim *m);
 void rt_msim_put(rt_msim *m, const rt_access *a, size_t n);
 /* Counters of size index i, class cls, summed over the generations
@@ -20,6 +23,9 @@ void rt_msim_get(const rt_msim *m, int i, int cls, rt_sim_counts *out);
 /* The same for generation bucket gen (0..RT_MAXGEN-1); gen < 0 sums them. */
 void rt_msim_get_gen(const rt_msim *m, int i, int cls, int gen, rt_sim_counts *out);
 int rt_msim_check(const rt_msim *m, rt_err *e);
+/* Writes back every dirty line of every size (counted as write-backs of
+ * the line's last writer) and leaves them clean and resident. */
+void rt_msim_flush(rt_msim *m);
 /* Test hook: adds n generation-0 touches of (cls, write) at stack group g (0..k, k =
  * missed everywhere) to the counters, without simulating them; lets tests
  * check that counters and their sums are 64-bit without 2^32 references. */

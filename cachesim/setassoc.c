@@ -19,13 +19,19 @@
  *                  line to memory (wt_bytes); lines are never dirty;
  *   write-allocate a write miss fetches the line like a read miss;
  *   no-write-allocate a write miss leaves the cache unchanged and sends its
- *                  bytes to memory (wt_bytes), whatever the hit policy.
+ *                  bytes to memory (wt_bytes), whatever the hit policy;
+ *   full-line writes (rt_sa_set_fullline, Dinero IV's rule) an allocating
+ *                  write miss whose bytes cover the whole line fetches
+ *                  nothing (counted in nofetch);
+ *   flush          (rt_sa_flush, Dinero IV's end of run) every dirty line
+ *                  is written back, charged to its last writer.
  * Counters are kept per (class, generation) index (sim_int.h); per-class
  * figures are sums over the generations.
  * Invariants (rt_sa_check): each set's list has used[s] <= assoc slots, all
  * inside the set, each in the hash table under its line, whose set is s; a
- * dirty slot's writer index is valid; per index, misses <= accesses and
- * write-backs <= write touches.
+ * dirty slot's writer index is valid; per index, misses <= accesses,
+ * write-backs <= write touches, no-fetch misses <= write misses (and none
+ * unless full-line writes are on with write-allocate).
  */
 #include "setassoc.h"
 #include "sim_int.h"
@@ -59,6 +65,7 @@ struct rt_sa {
     uint32_t assoc;      /* ways per set */
     uint64_t nsets;      /* sets */
     int wt, nwa;         /* write-through, no-write-allocate */
+    int fullline;        /* an allocating write miss covering its line fetches nothing */
     saslot *slots;       /* nsets * assoc */
     saset *sets;         /* nsets */
     sahash *ht;          /* line -> slot */
@@ -66,6 +73,7 @@ struct rt_sa {
     int hshift;          /* 64 - log2(table size) */
     /* counters per (class, generation) index */
     uint64_t acc[RT_SIM_NCG], rm[RT_SIM_NCG], wm[RT_SIM_NCG], wb[RT_SIM_NCG], wtb[RT_SIM_NCG];
+    uint64_t nf[RT_SIM_NCG]; /* write misses allocated without a fetch */
     uint64_t wr[RT_SIM_NCG]; /* write touches (for rt_sa_check) */
 };
 
@@ -185,6 +193,7 @@ static void touch(rt_sa *c, uint64_t L, int w, unsigned cg, uint32_t bytes)
             c->wtb[cg] += bytes;
             return;
         }
+        if (w && c->fullline && bytes == c->line) c->nf[cg]++; /* Dinero: nothing to fetch */
         uint64_t set = L % c->nsets;
         if (s->used < c->assoc) {
             x = (uint32_t)(set * c->assoc + s->used++);
@@ -237,12 +246,25 @@ void rt_sa_get_gen(const rt_sa *c, int cls, int gen, rt_sim_counts *out)
         out->write_misses += c->wm[cg];
         out->writebacks += c->wb[cg];
         out->wt_bytes += c->wtb[cg];
+        out->nofetch += c->nf[cg];
     }
-    uint64_t fetches = out->read_misses + (c->nwa ? 0 : out->write_misses);
+    uint64_t fetches = out->read_misses + (c->nwa ? 0 : out->write_misses - out->nofetch);
     out->traffic_bytes = (fetches + out->writebacks) * c->line + out->wt_bytes;
 }
 
 void rt_sa_get(const rt_sa *c, int cls, rt_sim_counts *out) { rt_sa_get_gen(c, cls, -1, out); }
+
+void rt_sa_set_fullline(rt_sa *c, int on) { c->fullline = on != 0; }
+
+void rt_sa_flush(rt_sa *c)
+{
+    for (uint64_t s = 0; s < c->nsets; s++)
+        for (uint32_t x = c->sets[s].head; x != NIL; x = c->slots[x].next)
+            if (c->slots[x].dirty) {
+                c->wb[c->slots[x].wcg]++;
+                c->slots[x].dirty = 0;
+            }
+}
 
 int rt_sa_check(const rt_sa *c, rt_err *e)
 {
@@ -270,7 +292,8 @@ int rt_sa_check(const rt_sa *c, rt_err *e)
     if (inhash != total) return rt_errf(e, "setassoc: hash has %llu entries, sets %llu", (unsigned long long)inhash,
                                         (unsigned long long)total);
     for (int cg = 0; cg < RT_SIM_NCG; cg++)
-        if (c->rm[cg] + c->wm[cg] > c->acc[cg] || c->wm[cg] > c->wr[cg] || c->wb[cg] > c->wr[cg])
+        if (c->rm[cg] + c->wm[cg] > c->acc[cg] || c->wm[cg] > c->wr[cg] || c->wb[cg] > c->wr[cg] ||
+            c->nf[cg] > c->wm[cg] || (c->nf[cg] && (c->nwa || !c->fullline)))
             return rt_errf(e, "setassoc: counters of class %s generation %d inconsistent", rt_class_name(cg % RT_NCLASS),
                            cg / RT_NCLASS);
     return 0;

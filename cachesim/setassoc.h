@@ -20,5 +20,11 @@ void rt_sa_put(rt_sa *c, const rt_access *a, size_t n);
 void rt_sa_get(const rt_sa *c, int cls, rt_sim_counts *out);
 void rt_sa_get_gen(const rt_sa *c, int cls, int gen, rt_sim_counts *out);
 int rt_sa_check(const rt_sa *c, rt_err *e);
+/* on: an allocating write miss covering its whole line fetches nothing
+ * (rt_sim_config.write_miss_fullline); set before the first reference. */
+void rt_sa_set_fullline(rt_sa *c, int on);
+/* Writes back every dirty line (charged to its last writer), leaving it
+ * clean and resident. */
+void rt_sa_flush(rt_sa *c);
 
 #endif

@@ -67,8 +67,13 @@ int rt_sim_parse_sizes(const char *s, rt_sim_config *c, rt_err *e)
 
 const char *rt_sim_policy_name(const rt_sim_config *c)
 {
-    static const char *const names[4] = {"wb-wa", "wb-nwa", "wt-wa", "wt-nwa"};
-    return names[(c->write_through ? 2 : 0) + (c->no_write_allocate ? 1 : 0)];
+    static const char *const names[16] = {
+        "wb-wa",          "wb-nwa",          "wt-wa",          "wt-nwa",
+        "wb-wa+flush",    "wb-nwa+flush",    "wt-wa+flush",    "wt-nwa+flush",
+        "wb-wa+fullline", "wb-nwa+fullline", "wt-wa+fullline", "wt-nwa+fullline",
+        "wb-wa+flush+fullline", "wb-nwa+flush+fullline", "wt-wa+flush+fullline", "wt-nwa+flush+fullline"};
+    return names[(c->write_through ? 2 : 0) + (c->no_write_allocate ? 1 : 0) + (c->flush ? 4 : 0) +
+                 (c->write_miss_fullline ? 8 : 0)];
 }
 
 int rt_sim_config_check(const rt_sim_config *c, rt_err *e)
@@ -99,10 +104,12 @@ rt_sim *rt_sim_new(const rt_sim_config *c, rt_err *e)
     if (c->assoc == 0 && !c->write_through && !c->no_write_allocate) {
         s->ms = rt_msim_new(c->sizes, c->nsizes, c->line, e);
         if (!s->ms) goto fail;
+        rt_msim_set_fullline(s->ms, c->write_miss_fullline);
     } else {
         for (int i = 0; i < c->nsizes; i++) {
             s->sa[i] = rt_sa_new(c->sizes[i], c->line, c->assoc, c->write_through, c->no_write_allocate, e);
             if (!s->sa[i]) goto fail;
+            rt_sa_set_fullline(s->sa[i], c->write_miss_fullline);
         }
     }
     return s;
@@ -133,6 +140,15 @@ int rt_sim_put(rt_sim *s, const rt_access *a, size_t n)
     return 0;
 }
 
+int rt_sim_finish(rt_sim *s)
+{
+    if (!s->cfg.flush) return 0;
+    if (s->ms) rt_msim_flush(s->ms);
+    else
+        for (int i = 0; i < s->cfg.nsizes; i++) rt_sa_flush(s->sa[i]);
+    return 0;
+}
+
 /* Counters of one class, generation bucket gen or all of them (gen < 0). */
 static void get_cg(const rt_sim *s, int i, int cls, int gen, rt_sim_counts *out)
 {
@@ -150,6 +166,7 @@ static void add_counts(rt_sim_counts *out, const rt_sim_counts *t)
     out->writebacks += t->writebacks;
     out->wt_bytes += t->wt_bytes;
     out->traffic_bytes += t->traffic_bytes;
+    out->nofetch += t->nofetch;
 }
 
 static void get_group(const rt_sim *s, int i, int group, int gen, rt_sim_counts *out)

@@ -25,15 +25,21 @@
  *     allocate and its bytes go to memory;
  *   - write-back: an evicted dirty line costs one line of traffic, charged
  *     to the class and generation of the reference that last wrote the
- *     line; lines still resident at the end are not flushed (Dinero IV does
- *     not flush either);
+ *     line. Lines still dirty at the end are written back only with
+ *     cfg.flush, by rt_sim_finish (Dinero IV's command-line simulator
+ *     flushes at the end and counts them; the default keeps the earlier
+ *     figures);
+ *   - with cfg.write_miss_fullline, an allocating write miss whose
+ *     reference covers the whole line fetches nothing (Dinero IV's rule); it
+ *     is still a write miss, counted in nofetch too;
  *   - generations: every touch counts for its reference's generation
  *     (rt_access.gen, generations >= RT_MAXGEN-1 pooled in the last
  *     bucket); only these exact engines keep them, the approximate
  *     simulators (approx.h) accept the field and ignore it;
  *   - write-through: every write touch sends its bytes (the part of the
  *     reference inside that line) to memory; lines are never dirty;
- *   - traffic_bytes = (fetches + write-backs) x line + write-through bytes.
+ *   - traffic_bytes = (fetches + write-backs) x line + write-through bytes,
+ *     fetches = read misses + allocating write misses - nofetch.
  */
 #ifndef RT_SIM_H
 #define RT_SIM_H
@@ -58,6 +64,8 @@ typedef struct rt_sim_config {
     uint32_t assoc;                  /* ways per set; 0 = fully associative */
     int write_through;               /* 1: write-through, 0: write-back */
     int no_write_allocate;           /* 1: write misses do not allocate */
+    int flush;                       /* 1: rt_sim_finish writes back every dirty line */
+    int write_miss_fullline;         /* 1: a write miss covering its whole line fetches nothing */
 } rt_sim_config;
 
 /* One size's counters for one class (64-bit). */
@@ -68,6 +76,7 @@ typedef struct rt_sim_counts {
     uint64_t writebacks;   /* dirty lines evicted (charged to the last writer's class) */
     uint64_t wt_bytes;     /* bytes written through / around the cache to memory */
     uint64_t traffic_bytes;/* (fetches + writebacks) * line + wt_bytes */
+    uint64_t nofetch;      /* write misses that fetched nothing (write_miss_fullline) */
 } rt_sim_counts;
 
 /* Fills c with the paper's configuration: 13 sizes 1K..4M, 64-byte lines,
@@ -78,7 +87,10 @@ void rt_sim_config_default(rt_sim_config *c);
  * single size. Returns 0, or -1 with a message. */
 int rt_sim_parse_sizes(const char *s, rt_sim_config *c, rt_err *e);
 
-/* Policy label used in the database: "wb-wa", "wb-nwa", "wt-wa", "wt-nwa". */
+/* Policy label used in the database: "wb-wa", "wb-nwa", "wt-wa", "wt-nwa",
+ * followed by "+flush" (cfg.flush) and "+fullline" (write_miss_fullline)
+ * when set, e.g. "wb-wa+flush+fullline"; the defaults keep the bare
+ * labels, so rows of different accounting never share a label. */
 const char *rt_sim_policy_name(const rt_sim_config *c);
 
 /* Checks a configuration: sizes increasing, each a multiple of
@@ -105,6 +117,14 @@ int rt_sim_put(rt_sim *s, const rt_access *a, size_t n);
 
 /* An rt_sink feeding s; owned by s, valid until rt_sim_free. */
 rt_sink *rt_sim_sink(rt_sim *s);
+
+/* Ends a simulation: with cfg.flush, every line still dirty in any size is
+ * written back (counted in writebacks and traffic, charged to its last
+ * writer's class and generation) and left clean and resident; without it
+ * nothing happens. Call it after the last reference and before reading
+ * results; more references may follow, and a second call writes back only
+ * what they dirtied. Returns 0. */
+int rt_sim_finish(rt_sim *s);
 
 /* References (rt_access records, not line touches) seen so far. */
 uint64_t rt_sim_refs(const rt_sim *s);

@@ -43,6 +43,10 @@ static void usage(FILE *f)
             "  --assoc full|N         fully associative (default) or N ways; 1 = direct-mapped\n"
             "  --write-through        write-through instead of write-back\n"
             "  --no-write-allocate    write misses do not allocate (write around)\n"
+            "  --flush                write back the lines still dirty at the end, as\n"
+            "                         Dinero IV does (policy label +flush)\n"
+            "  --write-fullline       a write miss covering its whole line fetches nothing,\n"
+            "                         as in Dinero IV (policy label +fullline)\n"
             "  --input-format F       auto | rtt | din (default auto: sniff the content)\n"
             "  --din-class C          class of din records (default fb, group 'other')\n"
             "  --db FILE              store one run per trace in this SQLite database and\n"
@@ -185,7 +189,7 @@ static int store(rt_db *db, const char *path, const rt_approx *ap, const rt_tr_m
 }
 
 enum { O_SIZES = 1, O_LINE, O_ASSOC, O_WT, O_NWA, O_INFMT, O_DINCLS, O_DB, O_FMT, O_METHOD, O_RATE, O_SMAX,
-       O_SEED, O_EXACT_BELOW, O_WINDOW_BELOW, O_PERIOD, O_WINDOW };
+       O_SEED, O_EXACT_BELOW, O_WINDOW_BELOW, O_PERIOD, O_WINDOW, O_FLUSH, O_FULLLINE };
 static const struct option longopts[] = {
     {"sizes", required_argument, NULL, O_SIZES},
     {"line", required_argument, NULL, O_LINE},
@@ -204,6 +208,8 @@ static const struct option longopts[] = {
     {"window-below", required_argument, NULL, O_WINDOW_BELOW},
     {"period", required_argument, NULL, O_PERIOD},
     {"window", required_argument, NULL, O_WINDOW},
+    {"flush", no_argument, NULL, O_FLUSH},
+    {"write-fullline", no_argument, NULL, O_FULLLINE},
     {"help", no_argument, NULL, 'h'},
     {NULL, 0, NULL, 0},
 };
@@ -240,6 +246,8 @@ static int parse_opt(sim_opts *o, int ch, const char *arg, const char *argv_opt)
         return 0;
     case O_WT: o->cfg.write_through = 1; return 0;
     case O_NWA: o->cfg.no_write_allocate = 1; return 0;
+    case O_FLUSH: o->cfg.flush = 1; return 0;
+    case O_FULLLINE: o->cfg.write_miss_fullline = 1; return 0;
     case O_INFMT: /* RT_SIM_IN_AUTO, _RTT, _DIN are 0, 1, 2 */
         return (o->infmt = pick("input-format", arg, infmts, "auto, rtt or din")) < 0 ? -1 : 0;
     case O_DINCLS:
@@ -293,6 +301,8 @@ static const struct {
     {O_WINDOW_BELOW, 1u << RT_APPROX_HYBRID, "hybrid"},
     {O_PERIOD, 1u << RT_APPROX_HYBRID, "hybrid"},
     {O_WINDOW, 1u << RT_APPROX_HYBRID, "hybrid"},
+    {O_FLUSH, 1u << RT_APPROX_EXACT, "exact"},
+    {O_FULLLINE, 1u << RT_APPROX_EXACT, "exact"},
 };
 
 /* An option given that the run would ignore is a usage error naming it.

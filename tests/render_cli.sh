@@ -151,8 +151,10 @@ check_info() { # SCENE TRIANGLES BOUNDS
     echo "$out" | grep -qF "bounds       $3" || err "scene info $1: bounds, want $3: $out"
 }
 check_info sphereflake $((7381 * 108 + 2)) "(-12, -12, -0.5) - (12, 12, 0.829978)"
-check_info grove 168302 "(-50, -50, 0) - (50, 50, 3.06208)"
+check_info grove 163722 "(-50, -50, 0) - (50, 50, 3.11465)"
+check_info grove:v=1 168302 "(-50, -50, 0) - (50, 50, 3.06208)"
 check_info room 46588 "(-0.06, -0.06, 0) - (15.06, 8.06, 2.6)"
+check_info room:v=1 46588 "(-0.06, -0.06, 0) - (15.06, 8.06, 2.6)"
 check_info cornell:glass=0 36 "(0, 0, 0) - (1, 1, 1)"
 check_info cornell 228 "(0, 0, 0) - (1, 1, 1)"
 check_info knot 1024 "(-1.24557, -1.44274, -0.52) - (1.52, 1.44274, 0.52)"

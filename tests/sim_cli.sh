@@ -27,6 +27,13 @@ grep -E '^ +2048 +64 +full other +68 +0 +17 +0 +0 +1088$' "$tmp/out.txt" >/dev/n
 "$bin" sim --format json --sizes 1K "$tmp/cyc.din" | grep -q '"traffic_bytes": 5440' || die "json"
 "$bin" sim --input-format din --din-class tri --sizes 1K "$tmp/cyc.din" | grep -q ' geometry ' || die "--din-class"
 "$bin" sim --assoc 1 --line 48 --sizes 48K "$tmp/cyc.din" >/dev/null || die "direct-mapped 48-byte lines"
+# --flush: the 17 lines written on the first pass stay dirty in 2K (32
+# lines); the flush writes them back (17 x 64 more bytes)
+"$bin" sim --flush --sizes 2K "$tmp/cyc.din" > "$tmp/fl.txt" || die "sim --flush exit $?"
+grep -q 'policy wb-wa+flush,' "$tmp/fl.txt" || { die "--flush label"; cat "$tmp/fl.txt"; }
+grep -E '^ +2048 +64 +full fb +68 +0 +17 +17 +0 +2176$' "$tmp/fl.txt" >/dev/null || { die "--flush row"; cat "$tmp/fl.txt"; }
+"$bin" sim --write-fullline --flush --sizes 2K "$tmp/cyc.din" | grep -q 'policy wb-wa+flush+fullline,' || die "--write-fullline label"
+"$bin" sim --method shards --flush "$tmp/cyc.din" >/dev/null 2>&1; [ $? -eq 2 ] || die "--flush with a sampled method must be a usage error"
 
 # database: storing twice keeps one run
 "$bin" sim --db "$tmp/r.db" "$tmp/cyc.din" 2>"$tmp/err" || die "sim --db exit"

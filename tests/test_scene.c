@@ -35,7 +35,10 @@ static void test_counts(void)
         {"sphereflake:level=2", 9830},    {"sphereflake:tess=1,level=1", 10 * 12 + 2},
         {"knot", 1024},                   {"knot:segs=10,sides=4", 80}, {"cornell:glass=0", 36},
         {"cornell", 36 + 12 * 4 * 4}, /* the glass sphere: a cube sphere with tess 4 */
-        {"grove:trees=1,depth=0,tess=1", 22},
+        {"grove:v=1,trees=1,depth=0,tess=1", 22},
+        {"grove:trees=1,depth=0,tess=1,leaves=10", 8 + 10 + 2},
+        {"grove:v=1", 168302}, {"grove", 163722},
+        {"room:v=1", 46588}, {"room", 46588},
     };
     for (size_t i = 0; i < sizeof exact / sizeof exact[0]; i++) {
         double t0 = rt_now();
@@ -122,8 +125,11 @@ static void test_determinism(void)
         {"sphereflake:level=1,material=diffuse", UINT64_C(0xa732da7c33ae6fa0)},
         {"knot:material=diffuse", UINT64_C(0x97f7f72f2020f483)},
         {"cornell:glass=0", UINT64_C(0x2ad0a3a6fc13cbc1)},
-        {"room", UINT64_C(0xc77149f3d2c548a0)},
-        {"grove:trees=1,depth=2", UINT64_C(0x1fc227feea7e44e9)},
+        /* version 1 of room and grove is the scene before version 2 */
+        {"room:v=1", UINT64_C(0xc77149f3d2c548a0)},
+        {"grove:v=1,trees=1,depth=2", UINT64_C(0x1fc227feea7e44e9)},
+        {"room", UINT64_C(0x24cb83bc22b1b46d)},
+        {"grove:trees=1,depth=2", UINT64_C(0x93339bd8bdef411e)},
     };
     for (size_t i = 0; i < sizeof golden / sizeof golden[0]; i++) {
         rt_scene *a = load(golden[i].spec), *b = load(golden[i].spec);

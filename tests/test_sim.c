@@ -29,6 +29,7 @@
 typedef struct naive {
     uint64_t line, nsets, ways;
     int wt, nwa;
+    int fullline;     /* an allocating write miss covering its line fetches nothing */
     uint64_t *tag;    /* nsets * ways, MRU first */
     uint8_t *dirty, *wcls, *wgen; /* per line: modified, last writer's class and generation */
     uint64_t *used;   /* per set */
@@ -89,6 +90,7 @@ static void naive_touch(naive *n, uint64_t L, int w, int cls, int g, uint64_t by
             c->wt_bytes += bytes;
             return;
         }
+        if (w && n->fullline && bytes == n->line) c->nofetch++;
         if (n->used[s] == n->ways) { /* evict the last */
             uint64_t l = n->ways - 1;
             if (d[l]) n->c[wc[l]][wg[l]].writebacks++;
@@ -127,6 +129,18 @@ static void naive_put(naive *n, const rt_access *a, size_t cnt)
     }
 }
 
+/* The end-of-run flush: every dirty line is written back, charged to its
+ * last writer. */
+static void naive_flush(naive *n)
+{
+    for (uint64_t s = 0; s < n->nsets; s++)
+        for (uint64_t i = 0; i < n->used[s]; i++) {
+            uint64_t k = s * n->ways + i;
+            if (n->dirty[k]) n->c[n->wcls[k]][n->wgen[k]].writebacks++;
+            n->dirty[k] = 0;
+        }
+}
+
 /* Counters of class cls, generation bucket gen (-1: all of them). */
 static void naive_get(const naive *n, int cls, int gen, rt_sim_counts *o)
 {
@@ -139,8 +153,9 @@ static void naive_get(const naive *n, int cls, int gen, rt_sim_counts *o)
         o->write_misses += c->write_misses;
         o->writebacks += c->writebacks;
         o->wt_bytes += c->wt_bytes;
+        o->nofetch += c->nofetch;
     }
-    uint64_t fetch = o->read_misses + (n->nwa ? 0 : o->write_misses);
+    uint64_t fetch = o->read_misses + (n->nwa ? 0 : o->write_misses - o->nofetch);
     o->traffic_bytes = (fetch + o->writebacks) * n->line + o->wt_bytes;
 }
 
@@ -184,14 +199,16 @@ static void gen(rt_access *a, size_t n, int kind, uint64_t footprint)
 static int same(const rt_sim_counts *x, const rt_sim_counts *y)
 {
     return x->accesses == y->accesses && x->read_misses == y->read_misses && x->write_misses == y->write_misses &&
-           x->writebacks == y->writebacks && x->wt_bytes == y->wt_bytes && x->traffic_bytes == y->traffic_bytes;
+           x->writebacks == y->writebacks && x->wt_bytes == y->wt_bytes && x->traffic_bytes == y->traffic_bytes &&
+           x->nofetch == y->nofetch;
 }
 
 static void show(const char *what, const rt_sim_counts *c)
 {
-    fprintf(stderr, "  %s acc %llu rm %llu wm %llu wb %llu wt %llu traffic %llu\n", what,
+    fprintf(stderr, "  %s acc %llu rm %llu wm %llu wb %llu wt %llu traffic %llu nofetch %llu\n", what,
             (unsigned long long)c->accesses, (unsigned long long)c->read_misses, (unsigned long long)c->write_misses,
-            (unsigned long long)c->writebacks, (unsigned long long)c->wt_bytes, (unsigned long long)c->traffic_bytes);
+            (unsigned long long)c->writebacks, (unsigned long long)c->wt_bytes, (unsigned long long)c->traffic_bytes,
+            (unsigned long long)c->nofetch);
 }
 
 /* Runs a through a simulator with config c and through one naive cache per
@@ -207,11 +224,29 @@ static void compare(const char *name, const rt_sim_config *c, const rt_access *a
         if ((i / 4096) % 16 == 0) CHECK(rt_sim_check(s, &e) == 0, "%s: invariant: %s", name, e.msg);
     }
     CHECK(rt_sim_check(s, &e) == 0, "%s: invariant: %s", name, e.msg);
+    CHECK(rt_sim_finish(s) == 0, "%s: finish", name);
+    CHECK(rt_sim_check(s, &e) == 0, "%s: invariant after finish: %s", name, e.msg);
     CHECK(rt_sim_refs(s) == n, "%s: refs", name);
     uint64_t wbgen = 0; /* write-backs outside generation 0: the test must see some */
+    uint64_t nofetch = 0, flushed = 0; /* full-line write misses; flush write-backs */
     for (int i = 0; i < c->nsizes; i++) {
         naive *nv = naive_new(c->sizes[i], c->line, c->assoc, c->write_through, c->no_write_allocate);
+        nv->fullline = c->write_miss_fullline;
         naive_put(nv, a, n);
+        if (c->flush) {
+            rt_sim_counts before, t;
+            memset(&before, 0, sizeof before);
+            for (int k = 0; k < RT_NCLASS; k++) {
+                naive_get(nv, k, -1, &t);
+                before.writebacks += t.writebacks;
+            }
+            naive_flush(nv);
+            for (int k = 0; k < RT_NCLASS; k++) {
+                naive_get(nv, k, -1, &t);
+                flushed += t.writebacks;
+            }
+            flushed -= before.writebacks;
+        }
         for (int k = 0; k < RT_NCLASS; k++)
             for (int g = -1; g < RT_MAXGEN; g++) {
                 rt_sim_counts x, y;
@@ -219,6 +254,7 @@ static void compare(const char *name, const rt_sim_config *c, const rt_access *a
                 else rt_sim_get_gen(s, i, k, g, &x);
                 naive_get(nv, k, g, &y);
                 if (g > 0) wbgen += x.writebacks;
+                if (g < 0) nofetch += x.nofetch;
                 if (!same(&x, &y)) {
                     CHECK(0, "%s: size %llu class %s generation %d differs (engine %s)", name,
                           (unsigned long long)c->sizes[i], rt_class_name(k), g, rt_sim_engine(s));
@@ -229,6 +265,9 @@ static void compare(const char *name, const rt_sim_config *c, const rt_access *a
         naive_free(nv);
     }
     CHECK(wbgen > 0 || c->write_through, "%s: no write-back of a later generation", name);
+    /* the options must have had something to do, or the comparison proves nothing */
+    CHECK(!c->write_miss_fullline || c->no_write_allocate || nofetch > 0, "%s: no full-line write miss", name);
+    CHECK(!c->flush || c->write_through || c->no_write_allocate || flushed > 0, "%s: the flush wrote nothing back", name);
     rt_sim_free(s);
 }
 
@@ -275,6 +314,91 @@ static void test_cycles(void)
      * evicted dirty by the next pass: 32 write-backs */
     CHECK(r.writebacks == 32, "write-backs in 8-line cache: %llu", (unsigned long long)r.writebacks);
     rt_sim_free(s);
+}
+
+/* The end-of-run flush and full-line writes by hand, both engines. */
+static void test_flush_fullline_by_hand(void)
+{
+    /* 2-line cache: W a(node), W b(ray), W c(tri) -- c evicts a (1
+     * write-back, node), the flush writes back b and c (ray, tri) */
+    const rt_access seq[3] = {{0x000, 4, 1, RT_CLS_NODE, 0}, {0x040, 4, 1, RT_CLS_RAY, 1}, {0x080, 4, 1, RT_CLS_TRI, 2}};
+    for (int engine = 0; engine < 2; engine++) {
+        rt_sim_config c;
+        rt_sim_config_default(&c);
+        c.nsizes = 1;
+        c.sizes[0] = 128;
+        c.assoc = engine ? 2 : 0; /* 2 ways, one set: the per-size engine */
+        c.flush = 1;
+        rt_sim *s = rt_sim_new(&c, NULL);
+        CHECK(!strcmp(rt_sim_engine(s), engine ? "exact-persize" : "exact-stack"), "flush: engine");
+        rt_sim_put(s, seq, 3);
+        rt_sim_counts n, r, t;
+        rt_sim_get(s, 0, RT_CLS_NODE, &n);
+        rt_sim_get(s, 0, RT_CLS_TRI, &t);
+        CHECK(n.writebacks == 1 && t.writebacks == 0, "before the flush: %llu node, %llu tri write-backs",
+              (unsigned long long)n.writebacks, (unsigned long long)t.writebacks);
+        rt_sim_finish(s);
+        rt_sim_finish(s); /* a second finish finds nothing dirty */
+        rt_err e = {{0}};
+        CHECK(rt_sim_check(s, &e) == 0, "flush: invariant: %s", e.msg);
+        rt_sim_get(s, 0, RT_CLS_NODE, &n);
+        rt_sim_get(s, 0, RT_CLS_RAY, &r);
+        rt_sim_get(s, 0, RT_CLS_TRI, &t);
+        CHECK(n.writebacks == 1 && r.writebacks == 1 && t.writebacks == 1, "flush: 1 eviction + 2 flush write-backs");
+        CHECK(t.traffic_bytes == 2 * 64, "flush: tri traffic %llu", (unsigned long long)t.traffic_bytes);
+        rt_sim_get_gen(s, 0, RT_CLS_RAY, 1, &r);
+        CHECK(r.writebacks == 1, "flush: charged to the writer's generation");
+        rt_sim_get_gen(s, 0, RT_CLS_TRI, 1, &t);
+        CHECK(t.writebacks == 0, "flush: not charged to another generation");
+        rt_sim_free(s);
+    }
+    /* the two-size stack: a line evicted from the 1-line cache but still
+     * dirty in the 2-line one is flushed there only */
+    {
+        rt_sim_config c;
+        rt_sim_config_default(&c);
+        c.nsizes = 2;
+        c.sizes[0] = 64, c.sizes[1] = 128;
+        c.flush = 1;
+        rt_sim *s = rt_sim_new(&c, NULL);
+        rt_sim_put(s, seq, 2); /* W a, W b: a evicted dirty from 1 line, both dirty in 2 lines */
+        rt_sim_finish(s);
+        rt_sim_counts n, r;
+        rt_sim_get(s, 0, RT_CLS_NODE, &n);
+        rt_sim_get(s, 0, RT_CLS_RAY, &r);
+        CHECK(n.writebacks == 1 && r.writebacks == 1, "1 line: a evicted, b flushed");
+        rt_sim_get(s, 1, RT_CLS_NODE, &n);
+        rt_sim_get(s, 1, RT_CLS_RAY, &r);
+        CHECK(n.writebacks == 1 && r.writebacks == 1, "2 lines: a and b flushed");
+        rt_sim_free(s);
+    }
+    /* full-line writes: a 64-byte aligned write misses without a fetch, a
+     * 100-byte write at 0x1030 covers line 0x41 only, a 4-byte write fetches */
+    const rt_access w[3] = {{0x2000, 64, 1, RT_CLS_RAY, 0}, {0x1030, 100, 1, RT_CLS_RAY, 0}, {0x3000, 4, 1, RT_CLS_RAY, 0}};
+    for (int engine = 0; engine < 2; engine++) {
+        rt_sim_config c;
+        rt_sim_config_default(&c);
+        c.nsizes = 1;
+        c.sizes[0] = 4096;
+        c.assoc = engine ? 4 : 0;
+        c.write_miss_fullline = 1;
+        CHECK(!strcmp(rt_sim_policy_name(&c), "wb-wa+fullline"), "label %s", rt_sim_policy_name(&c));
+        rt_sim *s = rt_sim_new(&c, NULL);
+        rt_sim_put(s, w, 3);
+        rt_sim_counts r;
+        rt_sim_get(s, 0, RT_CLS_RAY, &r);
+        CHECK(r.write_misses == 5 && r.nofetch == 2, "full-line: %llu write misses, %llu without fetch",
+              (unsigned long long)r.write_misses, (unsigned long long)r.nofetch);
+        CHECK(r.traffic_bytes == 3 * 64, "full-line: traffic %llu", (unsigned long long)r.traffic_bytes);
+        rt_sim_free(s);
+    }
+    rt_sim_config c;
+    rt_sim_config_default(&c);
+    CHECK(!strcmp(rt_sim_policy_name(&c), "wb-wa"), "default label");
+    c.flush = 1;
+    CHECK(!strcmp(rt_sim_policy_name(&c), "wb-wa+flush"), "flush label");
+    c.write_miss_fullline = 1, c.no_write_allocate = 1;
+    CHECK(!strcmp(rt_sim_policy_name(&c), "wb-nwa+flush+fullline"), "both labels");
 }
 
 static void test_writebacks_by_hand(void)
@@ -555,6 +679,7 @@ int main(void)
     test_parse();
     test_cycles();
     test_writebacks_by_hand();
+    test_flush_fullline_by_hand();
     test_generations_by_hand();
     test_replay_generations();
     test_counters_64bit();
@@ -571,6 +696,16 @@ int main(void)
         char name[64];
         snprintf(name, sizeof name, "full/%s", kinds[k]);
         compare(name, &c, a, N);
+    }
+    /* Dinero accounting: end-of-run flush, full-line writes, and both */
+    for (int v = 1; v <= 3; v++) {
+        rt_sim_config d = c;
+        d.flush = v & 1;
+        d.write_miss_fullline = v >> 1 & 1;
+        gen(a, N / 3, GEN_ZIPF, 3000);
+        char name[64];
+        snprintf(name, sizeof name, "full/%s", rt_sim_policy_name(&d));
+        compare(name, &d, a, N / 3);
     }
     /* odd sizes and line size (non-power-of-two path) */
     rt_sim_config odd = c;
@@ -621,15 +756,21 @@ int main(void)
         uint32_t line, assoc;
         int wt, nwa;
         const char *sizes;
+        int flush, fullline;
     } sa[] = {
-        {"direct-mapped 64", 64, 1, 0, 0, "1K,4K,16K"},
-        {"2-way 64", 64, 2, 0, 0, "1K,8K"},
-        {"4-way 32 wt", 32, 4, 1, 0, "2K,8K"},
-        {"8-way 64 nwa", 64, 8, 0, 1, "4K,32K"},
-        {"4-way 64 wt nwa", 64, 4, 1, 1, "4K"},
-        {"full wt", 64, 0, 1, 0, "1K,4K"},
-        {"direct-mapped 48 (Purcell)", 48, 1, 0, 0, "48K,96K"},
-        {"texture 64K direct 48B", 48, 1, 0, 0, "64K"},
+        {"direct-mapped 64", 64, 1, 0, 0, "1K,4K,16K", 0, 0},
+        {"2-way 64", 64, 2, 0, 0, "1K,8K", 0, 0},
+        {"4-way 32 wt", 32, 4, 1, 0, "2K,8K", 0, 0},
+        {"8-way 64 nwa", 64, 8, 0, 1, "4K,32K", 0, 0},
+        {"4-way 64 wt nwa", 64, 4, 1, 1, "4K", 0, 0},
+        {"full wt", 64, 0, 1, 0, "1K,4K", 0, 0},
+        {"direct-mapped 48 (Purcell)", 48, 1, 0, 0, "48K,96K", 0, 0},
+        {"texture 64K direct 48B", 48, 1, 0, 0, "64K", 0, 0},
+        {"2-way 64 flush fullline", 64, 2, 0, 0, "1K,8K", 1, 1},
+        {"direct-mapped 32 flush", 32, 1, 0, 0, "2K", 1, 0},
+        {"4-way 64 wt fullline", 64, 4, 1, 0, "4K", 0, 1},
+        {"8-way 64 nwa flush fullline", 64, 8, 0, 1, "4K", 1, 1},
+        {"full wt flush", 64, 0, 1, 0, "1K,4K", 1, 0},
     };
     for (size_t t = 0; t < sizeof sa / sizeof sa[0]; t++) {
         rt_sim_config_default(&c);
@@ -638,6 +779,8 @@ int main(void)
         c.assoc = sa[t].assoc;
         c.write_through = sa[t].wt;
         c.no_write_allocate = sa[t].nwa;
+        c.flush = sa[t].flush;
+        c.write_miss_fullline = sa[t].fullline;
         if (c.sizes[0] == 65536 && c.line == 48) {
             /* 64 KB is not a multiple of 48: the texture cache holds
              * floor(65536 / 48) = 1365 lines; model it as 1365 * 48 bytes */
