@@ -113,6 +113,12 @@ int main_render(int argc, char **argv)
     rt_job j;
     rt_image *img = NULL;
     rt_run_stats st;
+    /* subsampling that would trace nothing is a usage error, found
+     * before the scene is loaded */
+    if (rt_pixel_check(&o, tracer, &e) < 0) {
+        rt_cmd_error("render", "%s", e.msg);
+        return RT_EXIT_USAGE;
+    }
     char specbuf[4200];
     const char *spec = rt_cmd_scene_material("render", argv[optind], material, specbuf, sizeof specbuf);
     if (!spec) return RT_EXIT_USAGE;

@@ -470,6 +470,21 @@ static int read_data(plyload *L, const plyelem *el, int nel, const plyneed *N, r
                                                : read_scalar(L, el, N, i, k, r, verts);
                 if (rc < 0) return -1;
             }
+    /* The header's counts must account for the whole body: data after the
+     * last element means a count that is too small, and dropping it would
+     * silently lose geometry. ASCII may end in white space. */
+    if (L->fmt == F_ASCII) {
+        while (L->pos < L->n && strchr(" \t\r\n\f\v", L->buf[L->pos]) && L->buf[L->pos]) {
+            if (L->buf[L->pos] == '\n') L->line++;
+            L->pos++;
+        }
+        if (L->pos < L->n)
+            return rt_errf(L->e, "%s:%lu: data after the last element (the header's counts are too small)", L->path,
+                           L->line);
+    } else if (L->pos < L->n) {
+        return rt_errf(L->e, "%s: byte %zu: %zu bytes after the last element (the header's counts are too small)",
+                       L->path, L->pos, L->n - L->pos);
+    }
     return 0;
 }
 

@@ -128,4 +128,16 @@ for v in " -64" "-64" "+64K" " 64"; do
     "$bin" trace "$cube" $small -t dynamic --cache-size "$v" -o "$tmp/c.rtt" 2>/dev/null && err "--cache-size '$v' accepted"
 done
 
+# --- defects the reliability probes found (docs/reliability.md) -------------
+# a PLY header whose counts are too small, or data after the last element
+for f in face-count-short trailing-data; do
+    out=$("$bin" scene info "$src/tests/probes/$f.ply" 2>&1 >/dev/null); rc=$?
+    [ $rc -eq 1 ] || err "$f.ply: exit $rc, expected 1"
+    case $out in *"after the last element"*) ;; *) err "$f.ply: message '$out'" ;; esac
+done
+# subsampling that traces nothing is a usage error, before any work
+"$bin" trace cornell --subsample 4:16 -W 8 -H 8 -o "$tmp/s.rtt" > /dev/null 2>&1; rc=$?
+[ $rc -eq 2 ] || err "trace --subsample 4:16 -W 8 -H 8: exit $rc, expected 2"
+[ ! -e "$tmp/s.rtt" ] || err "refused trace left a file"
+
 exit $fail
