@@ -586,51 +586,60 @@ float rt_grid_ttol(const rt_grid *g, const rt_ray *r)
     return m > 0.0f ? 0.5f * g->eps / m : 0.0f;
 }
 
+int rt_grid_cell_closest(const rt_grid *g, const rt_scene *s, const rt_ray *r, const rt_grid_cell *c, float tol,
+                         rt_hit *h, uint64_t *tests)
+{
+    const uint32_t w = g->cells[c->id];
+    if (w == RT_GRID_NULL) return h->tri != RT_NO_HIT;
+    const float lo = c->t0 - tol, hi = c->t1 + tol, rtmin = r->tmin, rtmax = r->tmax;
+    const rt_tri *tris = s->tri;
+    int found = h->tri != RT_NO_HIT;
+    float best = found ? h->t : rtmax, bu = h->u, bv = h->v;
+    uint32_t besttri = found ? h->tri : 0, n = 0;
+    for (const uint32_t *p = g->list + w; *p != RT_GRID_NULL; p++) {
+        const uint32_t tri = *p;
+        float t, u, v;
+        n++;
+        if (!rt_isect_core(r, &tris[tri], &t, &u, &v)) continue;
+        if (!(t > rtmin && t < rtmax && t >= lo && t <= hi)) continue;
+        if (t < best || (t == best && tri < besttri)) {
+            found = 1;
+            best = t;
+            besttri = tri;
+            bu = u;
+            bv = v;
+        }
+    }
+    if (tests) *tests += n;
+    if (found) {
+        h->t = best;
+        h->tri = besttri;
+        h->u = bu;
+        h->v = bv;
+    }
+    return found;
+}
+
 int rt_grid_closest(const rt_grid *g, const rt_scene *s, const rt_ray *rp, rt_hit *h, rt_grid_count *cnt)
 {
     const rt_ray ray = *rp, *r = &ray;
     rt_hit_none(h);
     rt_grid_iter it;
     if (!rt_grid_iter_init(&it, g, r, r->tmin, r->tmax)) return 0;
-    const float tol = rt_grid_ttol(g, r), rtmin = r->tmin, rtmax = r->tmax;
-    const rt_tri *tris = s->tri;
-    int found = 0;
-    float best = rtmax, bu = 0.0f, bv = 0.0f;
-    uint32_t besttri = 0;
+    const float tol = rt_grid_ttol(g, r);
     uint64_t ncell = 0, ntest = 0;
+    int found = 0;
     rt_grid_cell c;
     while (rt_grid_iter_next(&it, &c)) {
         ncell++;
-        const uint32_t w = g->cells[c.id];
-        if (w != RT_GRID_NULL) {
-            const float lo = c.t0 - tol, hi = c.t1 + tol;
-            for (const uint32_t *p = g->list + w; *p != RT_GRID_NULL; p++) {
-                const uint32_t tri = *p;
-                float t, u, v;
-                ntest++;
-                if (!rt_isect_core(r, &tris[tri], &t, &u, &v)) continue;
-                if (!(t > rtmin && t < rtmax && t >= lo && t <= hi)) continue;
-                if (t < best || (t == best && tri < besttri)) {
-                    found = 1;
-                    best = t;
-                    besttri = tri;
-                    bu = u;
-                    bv = v;
-                }
-            }
-        }
-        if (found && best < c.t1 - tol) break;
+        found = rt_grid_cell_closest(g, s, r, &c, tol, h, &ntest);
+        if (found && h->t < c.t1 - tol) break;
     }
     if (cnt) {
         cnt->cells += ncell;
         cnt->tests += ntest;
     }
-    if (!found) return 0;
-    h->t = best;
-    h->tri = besttri;
-    h->u = bu;
-    h->v = bv;
-    return 1;
+    return found;
 }
 
 int rt_grid_any(const rt_grid *g, const rt_scene *s, const rt_ray *rp, rt_grid_count *cnt)

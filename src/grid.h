@@ -152,6 +152,14 @@ float rt_grid_ttol(const rt_grid *g, const rt_ray *r);
  * wins, as in kdtrav.h, so the result equals rt_kd_closest and
  * rt_brute_closest. Returns 1 and fills *h, or 0 with rt_hit_none(h). */
 int rt_grid_closest(const rt_grid *g, const rt_scene *s, const rt_ray *r, rt_hit *h, rt_grid_count *cnt);
+/* One step of it (the paper's intersection kernel for one ray-voxel pair):
+ * tests the triangles listed in cell c, accepting hits in (r->tmin,
+ * r->tmax) that lie in [c->t0 - tol, c->t1 + tol]. *h is in/out: set
+ * rt_hit_none(h) before the first cell; a hit already in it is replaced
+ * only by a closer one (equal t: lower triangle index). Adds the tests made
+ * to *tests (may be NULL). Returns 1 when *h holds a hit afterwards. */
+int rt_grid_cell_closest(const rt_grid *g, const rt_scene *s, const rt_ray *r, const rt_grid_cell *c, float tol,
+                         rt_hit *h, uint64_t *tests);
 /* Any hit in (r->tmin, r->tmax) (shadow rays); the cell window does not
  * apply. Returns 1 if occluded. */
 int rt_grid_any(const rt_grid *g, const rt_scene *s, const rt_ray *r, rt_grid_count *cnt);

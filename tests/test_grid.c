@@ -602,6 +602,24 @@ static void test_hand_counts(void)
           (double)h.t);
     CHECK(cnt.cells == 4 && cnt.tests == 7, "hand: %llu cells %llu tests", (unsigned long long)cnt.cells,
           (unsigned long long)cnt.tests);
+    /* The same, cell by cell: the hit is rejected in cells 1 and 2, where
+     * T1 is listed but its t lies outside the cell, and taken in cell 3. */
+    rt_grid_iter it;
+    rt_grid_cell gc;
+    rt_hit hc;
+    rt_hit_none(&hc);
+    uint64_t ntest = 0;
+    float tol = rt_grid_ttol(g, &r);
+    CHECK(tol > 0 && tol < 1e-3f, "hand: tol %g", (double)tol);
+    CHECK(rt_grid_iter_init(&it, g, &r, r.tmin, r.tmax), "hand: iter");
+    for (int j = 0; j < 4; j++) {
+        CHECK(rt_grid_iter_next(&it, &gc) && gc.ix == (uint32_t)j && gc.t0 == (j ? j - 0.5f : 0.0f) &&
+                  gc.t1 == j + 0.5f,
+              "hand: cell %d", j);
+        int got = rt_grid_cell_closest(g, s, &r, &gc, tol, &hc, &ntest);
+        CHECK(got == (j == 3) && (j < 3 || (hc.tri == 1 && hc.t == 3.0f)), "hand: cell %d found %d", j, got);
+    }
+    CHECK(ntest == 7, "hand: %llu tests", (unsigned long long)ntest);
     /* Above T1's top (y = 1.5: T1 ends at y = 1): T2 at t = 5 in cell 5. */
     rt_ray_init(&r, rt_v3(0.5f, 1.5f, 0.5f), rt_v3(1, 0, 0));
     cnt.cells = cnt.tests = 0;
