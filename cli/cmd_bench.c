@@ -279,6 +279,7 @@ int main_bench(int argc, char **argv)
         }
     }
     rt_mode_bench mb = {NULL, tracers, 0, 0, (int)refspp, o};
+    int blank = !(do_sim || do_approx); /* the output so far ends with a blank line */
     if (do_perr) {
         rt_err e = {""};
         char gp[4096];
@@ -290,31 +291,33 @@ int main_bench(int argc, char **argv)
         mb.scenes = scenes ? scenes : "cornell";
         mb.W = W0 ? W0 : 64;
         mb.H = H0 ? H0 : 64;
-        printf("Path tracing, error against time:\n\n");
+        printf("%sPath tracing, error against time:\n\n", blank ? "" : "\n");
         fflush(stdout);
         if (rt_mode_bench_path_error(stdout, &mb, plotdir ? &po : NULL, &e) < 0) {
             rt_cmd_error("bench", "%s", e.msg);
             return RT_EXIT_FAIL;
         }
+        blank = 1;
     }
     if (do_modes) {
         rt_err e = {""};
         mb.scenes = scenes ? scenes : "sphereflake,cornell";
         mb.W = W0 ? W0 : 512;
         mb.H = H0 ? H0 : 512;
-        printf("\n");
+        if (!blank) printf("\n");
         fflush(stdout);
         if (rt_mode_bench_modes(stdout, &mb, &e) < 0) {
             rt_cmd_error("bench", "%s", e.msg);
             return RT_EXIT_FAIL;
         }
+        blank = 0;
     }
     if (do_ident) {
         rt_err e = {""};
         mb.scenes = scenes ? scenes : "cornell,knot,sphereflake";
         mb.W = W0 ? W0 : 1024;
         mb.H = H0 ? H0 : 1024;
-        printf("\n");
+        if (!blank) printf("\n");
         fflush(stdout);
         int nd = rt_mode_bench_identical(stdout, &mb, &e);
         if (nd < 0) {
