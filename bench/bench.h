@@ -1,11 +1,13 @@
 /*
  * bench.h -- benchmark code behind `raytraffic bench` (module prefixes
- * rt_sim_bench, rt_approx_bench). Not part of the library.
+ * rt_sim_bench, rt_approx_bench, rt_mode_bench). Not part of the library.
  */
 #ifndef RT_BENCH_H
 #define RT_BENCH_H
 
+#include "analysis.h"
 #include "approx.h"
+#include "options.h"
 #include "sim.h"
 
 #include <stdint.h>
@@ -33,5 +35,39 @@ int rt_sim_bench_n(FILE *out, uint64_t nrefs);
 int rt_approx_bench(FILE *out, const char *trace_path, rt_err *e);
 /* Same with a chosen synthetic length (tests use a short one). */
 int rt_approx_bench_n(FILE *out, const char *trace_path, uint64_t nrefs, rt_err *e);
+
+/* ---- render modes (mode_bench.c) ---------------------------------------- */
+
+/* What the mode benchmarks run on. Every run copies base (packet edge,
+ * dynamic schedule, threads...) and sets its own size, lights and mode. */
+typedef struct rt_mode_bench {
+    const char *scenes;  /* comma list of scene specs */
+    const char *tracers; /* comma list of tracers (modes, identical) */
+    int W, H;            /* image size */
+    int ref_spp;         /* path error: samples per pixel of the reference */
+    rt_render_opts base; /* the other render options */
+} rt_mode_bench;
+
+/* Path tracing on each scene (recursive tracer, all lights, base.bounces):
+ * a reference of ref_spp samples, then spp = 1, 4, 16, 64, each as a
+ * Markdown table row: spp, seconds, RMSE over all pixels and linear RGB
+ * channels against the reference, seconds and RMSE as ratios to spp = 1,
+ * and 1/sqrt(spp). With plot non-NULL, also DIR/path-error-SCENE.dat, .gp
+ * and with gnuplot .png (RMSE against seconds, log-log), one "wrote" line
+ * per scene to plot->log. 0 or -1 (message in e). */
+int rt_mode_bench_path_error(FILE *out, const rt_mode_bench *b, const rt_plot_opts *plot, rt_err *e);
+
+/* Rays/s (primary + secondary + shadow) of each tracer on each scene in
+ * shadow, whitted (depth 5) and path (spp 4, bounces 4) mode, all lights,
+ * untraced and into a counting sink (references per ray), each beside its
+ * ratio to the recursive tracer and to the untraced run; then per scene the
+ * recursive tracer's whitted rays/s over its shadow rays/s. 0 or -1. */
+int rt_mode_bench_modes(FILE *out, const rt_mode_bench *b, rt_err *e);
+
+/* Each tracer but recursive against the recursive tracer on each scene in
+ * the four modes (raycast without lights; shadow, whitted depth 5 and path
+ * spp 1 with all lights): one row per case, OK when the RGB planes are
+ * bit-identical, else DIFF. Returns the number of DIFF cases, or -1. */
+int rt_mode_bench_identical(FILE *out, const rt_mode_bench *b, rt_err *e);
 
 #endif

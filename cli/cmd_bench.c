@@ -4,7 +4,12 @@
  * tracer untraced, recording into a null sink (the cost of recording), into
  * a trace file (recording + encoding + zlib), and streaming into the
  * one-pass 13-size cache simulator; and the simulator's own throughput on a
- * synthetic trace. Results go to stdout as a Markdown table (or TSV). */
+ * synthetic trace. Results go to stdout as a Markdown table (or TSV).
+ *
+ * The render modes (bench/mode_bench.c): path tracing's error against time,
+ * rays/s per tracer and mode, and the tracers' images compared bit for bit.
+ * Each item has its own default image size; -W/-H override them all. */
+#include "analysis.h"
 #include "bench.h"
 #include "cmd.h"
 #include "run.h"
@@ -25,13 +30,23 @@ static void usage(FILE *f)
             "Measures tracer, trace and simulator throughput on one core.\n\n"
             "Options:\n"
             "  --scene SPEC       scene (default sphereflake)\n"
-            "  -W N, -H N         image size (default 1024x1024)\n"
+            "  -W N, -H N         image size (default 1024x1024; path-error 64x64,\n"
+            "                     modes 512x512, identical 1024x1024)\n"
             "  --lights L         lights for the tracer runs (default none: primary rays)\n"
             "  --tracers LIST     comma list (default recursive,packet,dynamic)\n"
             "  --cache-size S     dynamic tracer's schedule (default 64K)\n"
-            "  --what LIST        tracers,trace,sim,approx (default tracers,trace,sim);\n"
-            "                     approx: sampled simulators against exact\n"
-            "                     (docs/approx.md) on --trace or the synthetic trace\n"
+            "  --what LIST        tracers,trace,sim,approx,path-error,modes,identical\n"
+            "                     (default tracers,trace,sim); approx: sampled simulators\n"
+            "                     against exact (docs/approx.md) on --trace or the synthetic\n"
+            "                     trace; path-error: path-mode RMSE against a --ref-spp\n"
+            "                     reference for spp 1, 4, 16, 64; modes: rays/s per tracer in\n"
+            "                     shadow, whitted and path mode; identical: every tracer's\n"
+            "                     image against the recursive one in every mode (exit 1 on\n"
+            "                     a difference)\n"
+            "  --scenes LIST      scenes of path-error, modes, identical (defaults cornell;\n"
+            "                     sphereflake,cornell; cornell,knot,sphereflake)\n"
+            "  --ref-spp N        path-error reference samples per pixel (default 1024)\n"
+            "  --plot DIR         path-error: DIR/path-error-SCENE.png (gnuplot), .dat, .gp\n"
             "  --trace FILE       .rtt or din trace for --what approx\n"
             "  --sim-refs N       synthetic simulator trace length (default 20000000)\n"
             "  --tmpdir DIR       where trace files are written (default /tmp)\n"
@@ -127,12 +142,17 @@ int main_bench(int argc, char **argv)
         {"sim-refs", required_argument, NULL, 'n'},
         {"tmpdir", required_argument, NULL, 'd'},
         {"trace", required_argument, NULL, 1100},
+        {"scenes", required_argument, NULL, 1101},
+        {"ref-spp", required_argument, NULL, 1102},
+        {"plot", required_argument, NULL, 1103},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0},
     };
     rt_render_opts o;
     rt_render_default_opts(&o);
-    o.W = o.H = 1024;
+    o.W = o.H = 0; /* 0: the item's own default size */
+    const char *scenes = NULL, *plotdir = NULL;
+    long refspp = 1024;
     const char *scene = "sphereflake", *tracers = "recursive,packet,dynamic", *what = "tracers,trace,sim";
     const char *tmpdir = "/tmp", *dummy = NULL, *trace = NULL;
     uint64_t simrefs = 20000000;
@@ -153,6 +173,15 @@ int main_bench(int argc, char **argv)
         case 'w': what = optarg; break;
         case 'd': tmpdir = optarg; break;
         case 1100: trace = optarg; break;
+        case 1101: scenes = optarg; break;
+        case 1103: plotdir = optarg; break;
+        case 1102:
+            if (rt_cmd_parse_long(optarg, 1, RT_SPP_MAX, &refspp) < 0) {
+                rt_cmd_error("bench", "--ref-spp: '%s' is not a sample count in 1..%d", optarg, RT_SPP_MAX);
+                free(lo);
+                return RT_EXIT_USAGE;
+            }
+            break;
         case 'n':
             if (rt_parse_size(optarg, &simrefs) < 0 || simrefs == 0) {
                 rt_cmd_error("bench", "--sim-refs: '%s' is not a positive count", optarg);
@@ -169,7 +198,7 @@ int main_bench(int argc, char **argv)
         rt_cmd_error("bench", "unexpected argument '%s'", argv[optind]);
         return RT_EXIT_USAGE;
     }
-    int do_tr = 0, do_trace = 0, do_sim = 0, do_approx = 0;
+    int do_tr = 0, do_trace = 0, do_sim = 0, do_approx = 0, do_perr = 0, do_modes = 0, do_ident = 0;
     {
         char *list = strdup(what), *save = NULL;
         for (char *t = strtok_r(list, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
@@ -177,16 +206,26 @@ int main_bench(int argc, char **argv)
             else if (!strcmp(t, "trace")) do_trace = 1;
             else if (!strcmp(t, "sim")) do_sim = 1;
             else if (!strcmp(t, "approx")) do_approx = 1;
+            else if (!strcmp(t, "path-error")) do_perr = 1;
+            else if (!strcmp(t, "modes")) do_modes = 1;
+            else if (!strcmp(t, "identical")) do_ident = 1;
             else {
-                rt_cmd_error("bench", "--what: unknown item '%s' (tracers, trace, sim, approx)", t);
+                rt_cmd_error("bench", "--what: unknown item '%s' (tracers, trace, sim, approx, path-error, modes, "
+                             "identical)", t);
                 free(list);
                 return RT_EXIT_USAGE;
             }
         }
         free(list);
     }
-    printf("raytraffic %s (%s) bench: scene %s, %dx%d, lights %u, one core\n\n", rt_version(), rt_git_rev(), scene,
-           o.W, o.H, o.lights);
+    int W0 = o.W, H0 = o.H; /* as given; 0 = each item's default */
+    o.W = W0 ? W0 : 1024;
+    o.H = H0 ? H0 : 1024;
+    if (do_tr || do_trace || do_sim || do_approx)
+        printf("raytraffic %s (%s) bench: scene %s, %dx%d, lights %u, one core\n\n", rt_version(), rt_git_rev(),
+               scene, o.W, o.H, o.lights);
+    else
+        printf("raytraffic %s (%s) bench, one core\n\n", rt_version(), rt_git_rev());
     if (do_tr || do_trace) {
         rt_err e = {""};
         rt_scene *sc = rt_scene_load(scene, &e);
@@ -236,6 +275,58 @@ int main_bench(int argc, char **argv)
         fflush(stdout);
         if (rt_approx_bench_n(stdout, trace, simrefs, &e) < 0) {
             rt_cmd_error("bench", "%s", e.msg);
+            return RT_EXIT_FAIL;
+        }
+    }
+    rt_mode_bench mb = {NULL, tracers, 0, 0, (int)refspp, o};
+    int blank = !(do_sim || do_approx); /* the output so far ends with a blank line */
+    if (do_perr) {
+        rt_err e = {""};
+        char gp[4096];
+        rt_plot_opts po = {plotdir, NULL, stdout};
+        if (plotdir) {
+            if (rt_plot_find_gnuplot(gp, sizeof gp) == 0) po.gnuplot = gp;
+            else rt_cmd_error("bench", "gnuplot not found (apt-get install gnuplot-nox): writing data files only");
+        }
+        mb.scenes = scenes ? scenes : "cornell";
+        mb.W = W0 ? W0 : 64;
+        mb.H = H0 ? H0 : 64;
+        printf("%sPath tracing, error against time:\n\n", blank ? "" : "\n");
+        fflush(stdout);
+        if (rt_mode_bench_path_error(stdout, &mb, plotdir ? &po : NULL, &e) < 0) {
+            rt_cmd_error("bench", "%s", e.msg);
+            return RT_EXIT_FAIL;
+        }
+        blank = 1;
+    }
+    if (do_modes) {
+        rt_err e = {""};
+        mb.scenes = scenes ? scenes : "sphereflake,cornell";
+        mb.W = W0 ? W0 : 512;
+        mb.H = H0 ? H0 : 512;
+        if (!blank) printf("\n");
+        fflush(stdout);
+        if (rt_mode_bench_modes(stdout, &mb, &e) < 0) {
+            rt_cmd_error("bench", "%s", e.msg);
+            return RT_EXIT_FAIL;
+        }
+        blank = 0;
+    }
+    if (do_ident) {
+        rt_err e = {""};
+        mb.scenes = scenes ? scenes : "cornell,knot,sphereflake";
+        mb.W = W0 ? W0 : 1024;
+        mb.H = H0 ? H0 : 1024;
+        if (!blank) printf("\n");
+        fflush(stdout);
+        int nd = rt_mode_bench_identical(stdout, &mb, &e);
+        if (nd < 0) {
+            rt_cmd_error("bench", "%s", e.msg);
+            return RT_EXIT_FAIL;
+        }
+        if (nd > 0) {
+            rt_cmd_error("bench", "%d image%s differ%s from the recursive tracer's", nd, nd == 1 ? "" : "s",
+                         nd == 1 ? "s" : "");
             return RT_EXIT_FAIL;
         }
     }

@@ -10,7 +10,9 @@
 # is its background colour at infinite depth; the nodes and tests channels
 # sum to the --json counters; the packet and dynamic tracers give the
 # recursive tracer's image. scene info: triangle counts and bounds of the
-# built-ins. bench: its smallest settings print every table and exit 0.
+# built-ins. bench: its smallest settings print every table and exit 0;
+# the render-mode items at 8x8 and 16x16 (path-error's RMSE recomputed from
+# render's EXRs, modes' ray counts from render --json, identical's OK lines).
 set -u
 bin=${RT_BIN:-./raytraffic}
 build=${RT_BUILDDIR:-.}
@@ -185,4 +187,70 @@ grep -q "^| exact | | [0-9.]* | 1.0 | 13 | 0 | 0 | 0 | 0 | 0 |" "$tmp/bench" || 
 for m in shards shards-fixed statstack hybrid; do grep -q "^| $m | " "$tmp/bench" || err "bench lacks $m rows"; done
 ls "$tmp"/rt-bench-* > /dev/null 2>&1 && err "bench left trace files in --tmpdir"
 "$bin" bench --sim-refs 0 > /dev/null 2>&1; [ $? -eq 2 ] || err "bench --sim-refs 0 should exit 2"
+
+# --- bench, the render modes at tiny sizes -------------------------------------------
+# path-error: the RMSE of the 8x8 spp-1 and spp-4 images against the spp-16
+# reference, computed here from the EXRs of `render`; spp 16 draws the
+# reference's own samples, so its error is exactly 0
+"$bin" bench --what path-error -W 8 -H 8 --ref-spp 16 --plot "$tmp/plot" > "$tmp/perr" 2> "$tmp/perr.err" \
+    || err "bench --what path-error exited $?: $(cat "$tmp/perr.err")"
+for s in 1 4 16; do
+    "$bin" render cornell --mode path --spp $s --lights all -W 8 -H 8 -o "$tmp/p$s.exr" 2>/dev/null \
+        || err "render --mode path --spp $s"
+done
+pix() { # every pixel's R G B, one line each
+    for y in 0 1 2 3 4 5 6 7; do for x in 0 1 2 3 4 5 6 7; do "$exr" --exr-pixel "$1" $x $y | cut -d' ' -f1-3; done; done
+}
+pix "$tmp/p16.exr" > "$tmp/p16.px"
+for s in 1 4; do
+    pix "$tmp/p$s.exr" > "$tmp/p$s.px"
+    want=$(paste -d' ' "$tmp/p$s.px" "$tmp/p16.px" | awk '{ for (i = 1; i <= 3; i++) { d = $i - $(i + 3); t += d * d } }
+        END { printf "%.5f", sqrt(t / (NR * 3)) }')
+    got=$(sed -n "s/^| $s | [0-9.]* | \([0-9.]*\) | .*/\1/p" "$tmp/perr")
+    near "${got:-x}" "$want" || err "bench path-error: RMSE at spp $s is '$got', want $want"
+done
+grep -q "^| 1 | [0-9.]* | [0-9.]* | 1.00 | 1.000 | 1.000 |$" "$tmp/perr" || err "bench path-error spp 1 row"
+grep -q "^| 4 | [0-9.]* | [0-9.]* | [0-9.]* | [0-9.]* | 0.500 |$" "$tmp/perr" || err "bench path-error spp 4 row"
+grep -q "^| 16 | [0-9.]* | 0.00000 | [0-9.]* | 0.000 | 0.250 |$" "$tmp/perr" || err "bench path-error spp 16 row"
+grep -q "^| 64 | [0-9.]* | [0-9.]* | [0-9.]* | [0-9.]* | 0.125 |$" "$tmp/perr" || err "bench path-error spp 64 row"
+[ "$(grep -cv '^#' "$tmp/plot/path-error-cornell.dat" 2>/dev/null)" = 4 ] || err "bench --plot: path-error-cornell.dat"
+if command -v gnuplot > /dev/null 2>&1; then
+    [ -s "$tmp/plot/path-error-cornell.png" ] || err "bench --plot wrote no path-error-cornell.png"
+fi
+# modes: every tracer traces the rays `render --json` counts (primary +
+# secondary + shadow), and the ratio line divides the table's figures
+"$bin" bench --what modes --scenes cornell -W 16 -H 16 > "$tmp/modes" 2> "$tmp/modes.err" \
+    || err "bench --what modes exited $?: $(cat "$tmp/modes.err")"
+for m in "shadow" "whitted depth 5" "path spp 4 bounces 4"; do
+    case $m in
+    shadow) args="--mode shadow" ;;
+    whitted*) args="--mode whitted --depth 5" ;;
+    *) args="--mode path --spp 4 --bounces 4" ;;
+    esac
+    want=$("$bin" render cornell $args --lights all -W 16 -H 16 -o "$tmp/m.exr" --json | awk '{
+        n = 0; for (i = 1; i <= NF; i++) if ($i ~ /"rays_(primary|shadow)":/ || $i ~ /rays_secondary=/) {
+            v = $($i ~ /=/ ? i : i + 1); sub(/.*=/, "", v); gsub(/[^0-9]/, "", v); n += v } print n }')
+    for t in recursive packet dynamic; do
+        grep -q "^| cornell | $m | $t | $want | [0-9.]* | [0-9.]* | [0-9.]* | [0-9.]* | [0-9.]* | [0-9.]*[1-9][0-9.]* | [0-9.]* |$" \
+            "$tmp/modes" || err "bench modes: no row cornell / $m / $t with $want rays"
+    done
+done
+# (the ratio is of the unrounded figures: equal within the rounding of the table's)
+awk -F' *[|] *' '$2 == "cornell" && $4 == "recursive" { r[$3] = $7; tr[$3] = $10 }
+    function chk(a, b, q) { return q != "" && (q - a / b) ^ 2 <= (0.02 * q + 0.006) ^ 2 }
+    /^whitted\/shadow cornell:/ { n = split($0, f, /[ ,=\/]+/)
+        # f: whitted shadow cornell: untraced A B Q traced A B Q (...)
+        ok = f[5] == r["whitted depth 5"] && f[6] == r["shadow"] && chk(f[5], f[6], f[7]) &&
+             f[9] == tr["whitted depth 5"] && f[10] == tr["shadow"] && chk(f[9], f[10], f[11]) }
+    END { exit !ok }' "$tmp/modes" || err "bench modes: whitted/shadow ratio line: $(grep '^whitted' "$tmp/modes")"
+# identical: the two other tracers give the recursive tracer's image in every mode
+"$bin" bench --what identical --scenes cornell,knot -W 16 -H 16 > "$tmp/ident" 2> "$tmp/ident.err" \
+    || err "bench --what identical exited $?: $(cat "$tmp/ident.err")"
+for s in cornell knot; do for m in raycast shadow whitted path; do for t in packet dynamic; do
+    grep -q "^| $s | $m | $t | OK | " "$tmp/ident" || err "bench identical: no OK line for $s / $m / $t"
+done; done; done
+[ "$(grep -c '| OK |' "$tmp/ident")" = 16 ] && grep -q "^0 cases differ" "$tmp/ident" \
+    || err "bench identical: $(grep -c '| OK |' "$tmp/ident") OK lines, want 16 and no DIFF"
+"$bin" bench --what path-error --ref-spp 0 > /dev/null 2>&1; [ $? -eq 2 ] || err "bench --ref-spp 0 should exit 2"
+"$bin" bench --what nothing > /dev/null 2>&1; [ $? -eq 2 ] || err "bench --what nothing should exit 2"
 exit $fail
