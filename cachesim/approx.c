@@ -37,7 +37,7 @@ struct rt_approx {
     int nexact;                 /* sizes simulated exactly */
     rt_shards *sh;              /* SHARDS estimator, or NULL */
     rt_sstack *ss;              /* StatStack estimator, or NULL */
-    rt_twin *tw;                /* hybrid: windowed sizes nexact..nexact+nwin-1, or NULL */
+    rt_window *tw;                /* hybrid: windowed sizes nexact..nexact+nwin-1, or NULL */
     int nwin;                   /* sizes on windows */
     uint64_t acc[RT_NCLASS][2]; /* exact touches by class, write */
     rt_approx_est est;          /* estimates of the last finish */
@@ -151,7 +151,7 @@ rt_approx *rt_approx_new(const rt_sim_config *c, const rt_approx_config *ac, rt_
     if (ac->method == RT_APPROX_HYBRID) {
         while (a->nexact + a->nwin < c->nsizes && c->sizes[a->nexact + a->nwin] < ac->window_below) a->nwin++;
         if (a->nwin) {
-            a->tw = rt_twin_new(c->sizes + a->nexact, a->nwin, c->line, ac->period, ac->window, ac->seed, e);
+            a->tw = rt_window_new(c->sizes + a->nexact, a->nwin, c->line, ac->period, ac->window, ac->seed, e);
             if (!a->tw) goto fail;
         }
     }
@@ -177,7 +177,7 @@ void rt_approx_free(rt_approx *a)
     rt_sim_free(a->exact);
     rt_shards_free(a->sh);
     rt_sstack_free(a->ss);
-    rt_twin_free(a->tw);
+    rt_window_free(a->tw);
     free(a);
 }
 
@@ -201,7 +201,7 @@ int rt_approx_put(rt_approx *a, const rt_access *acc, size_t n)
 {
     a->refs += n;
     if (a->exact) rt_sim_put(a->exact, acc, n);
-    if (a->tw) rt_twin_put(a->tw, acc, n);
+    if (a->tw) rt_window_put(a->tw, acc, n);
     if (a->sh) rt_shards_put(a->sh, acc, n, a->acc);
     else if (a->tw) count_touches(a, acc, n); /* no estimator counts them */
     if (a->ss) rt_sstack_put(a->ss, acc, n, a->acc);
@@ -227,7 +227,7 @@ int rt_approx_finish(rt_approx *a, rt_err *e)
     /* est index j is size nexact + j: SHARDS' sizes follow the windowed ones */
     if (a->sh && rt_shards_estimate(a->sh, &a->est, a->nwin, e)) return -1;
     if (a->ss && rt_sstack_estimate(a->ss, (const uint64_t(*)[2])a->acc, &a->est, e)) return -1;
-    if (a->tw && rt_twin_estimate(a->tw, (const uint64_t(*)[2])a->acc, &a->est, 0, e)) return -1;
+    if (a->tw && rt_window_estimate(a->tw, (const uint64_t(*)[2])a->acc, &a->est, 0, e)) return -1;
     a->finished = 1;
     a->fin_refs = a->refs;
     return 0;
@@ -249,7 +249,7 @@ int rt_approx_available(const rt_approx *a, int i, rt_err *e)
         return rt_errf(e, "rt_approx_finish was not called after the last references"), 0;
     if (i < a->nexact + a->nwin) {
         uint64_t nw, ns, fed;
-        rt_twin_stats(a->tw, &nw, &ns, &fed);
+        rt_window_stats(a->tw, &nw, &ns, &fed);
         if (nw < RT_APPROX_MIN_SAMPLES) {
             rt_errf(e, "trace too short for windows every %llu references: %llu windows (need %d)",
                     (unsigned long long)a->ac.period, (unsigned long long)nw, RT_APPROX_MIN_SAMPLES);
@@ -351,6 +351,6 @@ void rt_approx_get_stats(const rt_approx *a, rt_approx_stats *st)
     st->sampled_touches = a->est.sampled_touches;
     st->sampled_lines = a->est.sampled_lines;
     st->rate = a->est.rate;
-    if (a->tw) rt_twin_stats(a->tw, &st->windows, &st->short_warmups, &st->window_refs);
+    if (a->tw) rt_window_stats(a->tw, &st->windows, &st->short_warmups, &st->window_refs);
 }
 

@@ -87,16 +87,16 @@ void rt_shards_put(rt_shards *s, const rt_access *a, size_t n, uint64_t acc[RT_N
 int rt_shards_estimate(const rt_shards *s, rt_approx_est *est, int off, rt_err *e);
 
 /* ---- time-sampled exact windows (window.c) ---- */
-typedef struct rt_twin rt_twin;
+typedef struct rt_window rt_window;
 /* sizes[0..k-1] in bytes, increasing; a window of `window` references
  * every `period` (period > window >= 1), placed by seed. */
-rt_twin *rt_twin_new(const uint64_t *sizes, int k, uint32_t line, uint64_t period, uint64_t window, uint64_t seed,
+rt_window *rt_window_new(const uint64_t *sizes, int k, uint32_t line, uint64_t period, uint64_t window, uint64_t seed,
                      rt_err *e);
-void rt_twin_free(rt_twin *t);
-void rt_twin_put(rt_twin *t, const rt_access *a, size_t n);
+void rt_window_free(rt_window *t);
+void rt_window_put(rt_window *t, const rt_access *a, size_t n);
 /* Writes sizes off..off+k-1 of est, scaled per class by acc (exact touches). */
-int rt_twin_estimate(const rt_twin *t, const uint64_t acc[RT_NCLASS][2], rt_approx_est *est, int off, rt_err *e);
-void rt_twin_stats(const rt_twin *t, uint64_t *windows, uint64_t *short_warmups, uint64_t *fed);
+int rt_window_estimate(const rt_window *t, const uint64_t acc[RT_NCLASS][2], rt_approx_est *est, int off, rt_err *e);
+void rt_window_stats(const rt_window *t, uint64_t *windows, uint64_t *short_warmups, uint64_t *fed);
 
 /* ---- StatStack (statstack.c) ---- */
 typedef struct rt_sstack rt_sstack;

@@ -59,7 +59,7 @@
  * nothing, less makes more short warm-ups. */
 #define RT_TWIN_HIST_PER_LINE 128
 
-struct rt_twin {
+struct rt_window {
     int k;                          /* windowed sizes */
     uint64_t sizes[RT_SIM_MAXSIZES]; /* bytes */
     uint32_t line;
@@ -83,7 +83,7 @@ struct rt_twin {
     int oom;
 };
 
-rt_twin *rt_twin_new(const uint64_t *sizes, int k, uint32_t line, uint64_t period, uint64_t window, uint64_t seed,
+rt_window *rt_window_new(const uint64_t *sizes, int k, uint32_t line, uint64_t period, uint64_t window, uint64_t seed,
                      rt_err *e)
 {
     if (k < 1 || k > RT_SIM_MAXSIZES) return rt_errf(e, "windows: %d sizes", k), NULL;
@@ -91,7 +91,7 @@ rt_twin *rt_twin_new(const uint64_t *sizes, int k, uint32_t line, uint64_t perio
         return rt_errf(e, "windows: window %llu must be 1..period - 1 (%llu)", (unsigned long long)window,
                        (unsigned long long)period),
                NULL;
-    rt_twin *t = rt_calloc(1, sizeof *t, e);
+    rt_window *t = rt_calloc(1, sizeof *t, e);
     if (!t) return NULL;
     t->k = k;
     memcpy(t->sizes, sizes, (size_t)k * sizeof *sizes);
@@ -115,13 +115,13 @@ rt_twin *rt_twin_new(const uint64_t *sizes, int k, uint32_t line, uint64_t perio
     t->stk = rt_calloc(t->cmax, sizeof *t->stk, e);
     t->hist = t->H ? rt_calloc(t->H, sizeof *t->hist, e) : NULL;
     if (!t->set || !t->setidx || !t->stk || (t->H && !t->hist)) {
-        rt_twin_free(t);
+        rt_window_free(t);
         return NULL;
     }
     return t;
 }
 
-void rt_twin_free(rt_twin *t)
+void rt_window_free(rt_window *t)
 {
     if (!t) return;
     rt_msim_free(t->cur);
@@ -138,7 +138,7 @@ void rt_twin_free(rt_twin *t)
  * simulator's stack exactly as the full simulation's top C_max; a line is
  * replayed as a write (dirty in every size, charged to the writer's class)
  * if the scan saw it written. */
-static void window_begin(rt_twin *t)
+static void window_begin(rt_window *t)
 {
     rt_err e;
     t->cur = rt_msim_new(t->sizes, t->k, t->line, &e);
@@ -185,7 +185,7 @@ static void window_begin(rt_twin *t)
         for (int c = 0; c < RT_NCLASS; c++) rt_msim_get(t->cur, i, c, &t->base[i][c]);
 }
 
-static void window_end(rt_twin *t)
+static void window_end(rt_window *t)
 {
     for (int c = 0; c < RT_NCLASS; c++) {
         rt_sim_counts x;
@@ -205,7 +205,7 @@ static void window_end(rt_twin *t)
     t->next += t->P;
 }
 
-void rt_twin_put(rt_twin *t, const rt_access *a, size_t n)
+void rt_window_put(rt_window *t, const rt_access *a, size_t n)
 {
     if (t->oom) return;
     uint64_t end = t->pos + n;
@@ -234,7 +234,7 @@ void rt_twin_put(rt_twin *t, const rt_access *a, size_t n)
     }
 }
 
-int rt_twin_estimate(const rt_twin *t, const uint64_t acc[RT_NCLASS][2], rt_approx_est *est, int off, rt_err *e)
+int rt_window_estimate(const rt_window *t, const uint64_t acc[RT_NCLASS][2], rt_approx_est *est, int off, rt_err *e)
 {
     if (t->oom) return rt_errf(e, "windows: out of memory");
     uint64_t tall = 0, mall = 0;
@@ -255,7 +255,7 @@ int rt_twin_estimate(const rt_twin *t, const uint64_t acc[RT_NCLASS][2], rt_appr
     return 0;
 }
 
-void rt_twin_stats(const rt_twin *t, uint64_t *windows, uint64_t *short_warmups, uint64_t *fed)
+void rt_window_stats(const rt_window *t, uint64_t *windows, uint64_t *short_warmups, uint64_t *fed)
 {
     *windows = t->nwin;
     *short_warmups = t->nshort;
