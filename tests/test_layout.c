@@ -9,7 +9,8 @@
  * (ray-buffer reads are re-entries, 8-byte hit-record reads are candidate
  * visits), and leave the statistics unchanged when off.
  *
- * `test_layout --queue-stats SPEC W H [CACHE]` instead prints the dynamic
+ * `test_layout --queue-stats SPEC W H [CACHE [LIGHTS]]` (lights: all by
+ * default, none for primary rays only) instead prints the dynamic
  * tracer's statistics with the counters (docs/results.md). */
 #include "check.h"
 #include "mesh.h"
@@ -331,7 +332,7 @@ static void queue_counters(const char *spec, uint64_t cache, int mode)
 static int queue_stats_main(int argc, char **argv)
 {
     if (argc < 5) {
-        fprintf(stderr, "usage: test_layout --queue-stats SPEC W H [CACHE]\n");
+        fprintf(stderr, "usage: test_layout --queue-stats SPEC W H [CACHE [LIGHTS]]\n");
         return 2;
     }
     rt_render_opts o;
@@ -341,6 +342,10 @@ static int queue_stats_main(int argc, char **argv)
     o.lights = 7;
     o.queue_stats = 1;
     if (argc > 5) o.sched_size = strtoull(argv[5], NULL, 10);
+    if (argc > 6 && rt_render_parse_lights(argv[6], &o.lights) < 0) {
+        fprintf(stderr, "test_layout: bad light list '%s'\n", argv[6]);
+        return 2;
+    }
     rt_err e = {""};
     rt_job j;
     rt_run_stats st;

@@ -692,7 +692,8 @@ static void advance(dyn *D, uint32_t pixf, const rt_ray *trav, float tmin, float
     D->img->nodes[PIX(D, pix)] += (float)(D->tv.nodes - n0);
     if (q >= 0) {
         qstat *S = &D->qs;
-        if (from_buffer) S->cand += (pixf & CAND_FLAG) != 0, S->exit += !(pixf & CAND_FLAG);
+        if (from_buffer && (pixf & CAND_FLAG)) S->cand++;
+        else if (from_buffer) S->exit++;
         else if (D->shadow) S->first_shadow++;
         else if (D->tv.mark_bit == 1) S->first_primary++;
         else S->first_secondary++;
@@ -725,7 +726,10 @@ static void process(dyn *D, uint32_t q, const qent *e)
     int occluded = subtree(D, root, &trav, &test, e->t0, e->t1, &best_t, &best_tri);
     D->qs.visits++;
     D->qs.v_notest += D->tv.tests == k0;
-    if (e->pix & CAND_FLAG) D->qs.v_cand++, D->qs.v_cand_kept += best_tri == cand_tri;
+    if (e->pix & CAND_FLAG) {
+        D->qs.v_cand++;
+        D->qs.v_cand_kept += best_tri == cand_tri;
+    }
     D->img->nodes[PIX(D, pix)] += (float)(D->tv.nodes - n0);
     D->img->tests[PIX(D, pix)] += (float)(D->tv.tests - k0);
     if (D->shadow) {
@@ -804,7 +808,10 @@ static void process_oversized(dyn *D, uint32_t q, const qent *es, uint32_t n)
     for (uint32_t i = 0; i < n; i++) {
         uint32_t pix = es[i].pix & ~CAND_FLAG;
         D->qs.visits++;
-        if (es[i].pix & CAND_FLAG) D->qs.v_cand++, D->qs.v_cand_kept += btri[i] == D->hit_tri[pix];
+        if (es[i].pix & CAND_FLAG) {
+            D->qs.v_cand++;
+            D->qs.v_cand_kept += btri[i] == D->hit_tri[pix];
+        }
         if (D->shadow && occl[i]) {
             resolve_shadow(D, pix, 0);
             continue;
