@@ -73,7 +73,9 @@ enum {
     RT_OPT_MODE,
     RT_OPT_DEPTH,
     RT_OPT_SPP,
-    RT_OPT_BOUNCES
+    RT_OPT_BOUNCES,
+    RT_OPT_LAYOUT,
+    RT_OPT_QUEUE_STORES
 };
 
 /* The shared long options ({"lights",...}, {"cache-size",...}, ...);
@@ -96,7 +98,11 @@ extern const struct option rt_render_longopts[];
     "                     else raycast)\n"                                                    \
     "  --depth N          whitted: ray generations per path, primary included (1..64, 5)\n" \
     "  --spp N            path: samples per pixel (default 1)\n"                             \
-    "  --bounces B        path: bounces after the primary hit (0..1000, default 4)\n"
+    "  --bounces B        path: bounces after the primary hit (0..1000, default 4)\n"        \
+    "  --layout L         geometry layout, compact | mesh (pbrt-style shared vertices;\n"  \
+    "                     default compact)\n"                                               \
+    "  --queue-stores S   dynamic: queue writes, write-allocate | stream (default\n"        \
+    "                     write-allocate)\n"
 
 /* Appends the shared options to a command's own NULL-terminated table;
  * returns a malloc'd table (caller frees) or NULL. */

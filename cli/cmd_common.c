@@ -21,6 +21,8 @@ const struct option rt_render_longopts[] = {
     {"depth", required_argument, NULL, RT_OPT_DEPTH},
     {"spp", required_argument, NULL, RT_OPT_SPP},
     {"bounces", required_argument, NULL, RT_OPT_BOUNCES},
+    {"layout", required_argument, NULL, RT_OPT_LAYOUT},
+    {"queue-stores", required_argument, NULL, RT_OPT_QUEUE_STORES},
     {"tracer", required_argument, NULL, 't'},
     {"width", required_argument, NULL, 'W'},
     {"height", required_argument, NULL, 'H'},
@@ -169,6 +171,20 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         o->subtile = (int)t;
         return 1;
     }
+    case RT_OPT_LAYOUT:
+        if ((v = rt_render_geom_from_name(arg)) < 0) {
+            rt_cmd_error(cmd, "--layout: '%s' is not compact or mesh", arg);
+            return -1;
+        }
+        o->geom = (int)v;
+        return 1;
+    case RT_OPT_QUEUE_STORES:
+        if ((v = rt_render_qstores_from_name(arg)) < 0) {
+            rt_cmd_error(cmd, "--queue-stores: '%s' is not write-allocate or stream", arg);
+            return -1;
+        }
+        o->qstores = (int)v;
+        return 1;
     default:
         return 0;
     }

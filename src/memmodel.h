@@ -116,6 +116,13 @@ static inline uint64_t rt_mm_addr(const rt_layout *L, int reg, uint64_t rec)
 
 static inline unsigned rt_gen_bucket(unsigned gen) { return gen < RT_MAXGEN - 1 ? gen : RT_MAXGEN - 1; }
 
+/* A streaming store (rt_access.write): a write to lines the program fills
+ * whole before it reads them again (the dynamic tracer's queue blocks with
+ * --queue-stores stream), so a miss allocates the line without fetching it;
+ * it still becomes dirty and is written back. Simulators that know only
+ * read/write treat it as a write (any non-zero value is a write). */
+#define RT_WRITE_STREAM 2
+
 /* One memory reference. 16 bytes: gen lives in what was padding, so
  * buffers of accesses keep their size. C zeroes the members a positional
  * initializer {addr, size, write, cls} omits, so such literals mean
@@ -123,7 +130,7 @@ static inline unsigned rt_gen_bucket(unsigned gen) { return gen < RT_MAXGEN - 1 
 typedef struct rt_access {
     uint64_t addr;  /* modeled byte address */
     uint32_t size;  /* bytes, >= 1 */
-    uint8_t write;  /* 0 read, 1 write */
+    uint8_t write;  /* 0 read, 1 write, RT_WRITE_STREAM streaming store */
     uint8_t cls;    /* rt_class */
     uint8_t gen;    /* ray generation (0 = primary), see RT_MAXGEN */
 } rt_access;

@@ -329,7 +329,8 @@ static const struct {
     {"dyn.raybuf", RT_CLS_RAY, 32},    {"dyn.qtable", RT_CLS_QTABLE, 8},  {"dyn.qpbox", RT_CLS_QTABLE, 24},
     {"dyn.top", RT_CLS_NODE, 8},       {"dyn.hits", RT_CLS_HIT, 24},      {"fb", RT_CLS_FB, 12},
     {"dyn.queues", RT_CLS_QUEUE, 32},  {"mat", RT_CLS_SHADE, 48},         {"packet.rays", RT_CLS_RAY, 64},
-    {"dyn.spawn", RT_CLS_RAY, 64},
+    {"dyn.spawn", RT_CLS_RAY, 64},     {"tri.vidx", RT_CLS_TRI, 12},      {"mesh.pos", RT_CLS_TRI, 12},
+    {"mesh.normal", RT_CLS_SHADE, 12},
 };
 
 /* Per-region tallies of one run's record stream, plus structural facts. */
@@ -346,7 +347,41 @@ typedef struct tally {
     int tri_prefix;                   /* tri reads after an index read follow its list (-1: not checked) */
     uint32_t list_first, list_n, list_pos; /* the last index list read, tri reads since */
     size_t bad_order;
+    /* mesh layout: a tri.vidx read is followed by the three positions it
+     * names (a triangle test) or by the three normals and the tri.shade
+     * record of the same triangle (shading) */
+    const rt_mesh *mesh;              /* NULL: compact layout */
+    uint32_t mtri;                    /* triangle of the last tri.vidx read */
+    int mpend, mkind;                 /* vertex records still expected; 0 positions, 1 normals */
+    int mshade;                       /* a tri.shade read of mtri is expected next */
+    size_t bad_mesh;
+    char why_mesh[160];
 } tally;
+
+/* One access against the mesh expansion rule (region name rn, record rec). */
+static void mesh_order(tally *t, const char *rn, uint64_t rec)
+{
+    const char *why = NULL;
+    int pos = !strcmp(rn, "mesh.pos"), nrm = !strcmp(rn, "mesh.normal");
+    if (t->mpend) {
+        int k = 3 - t->mpend;
+        if (!pos && !nrm) why = "a triangle index record not followed by three vertex records";
+        else if (k > 0 && t->mkind != nrm) why = "positions and normals mixed";
+        else if (rec != t->mesh->vidx[3 * (size_t)t->mtri + (size_t)k]) why = "vertex record is not the triangle's vertex";
+        t->mkind = nrm;
+        if (!--t->mpend && nrm) t->mshade = 1;
+    } else if (t->mshade) {
+        if (strcmp(rn, "tri.shade") || rec != t->mtri) why = "normals not followed by the triangle's shading record";
+        t->mshade = 0;
+    } else if (pos || nrm) {
+        why = "vertex record without a triangle index record";
+    }
+    if (!strcmp(rn, "tri.vidx")) {
+        t->mtri = (uint32_t)rec;
+        t->mpend = 3;
+    }
+    if (why && !t->bad_mesh++) snprintf(t->why_mesh, sizeof t->why_mesh, "access %" PRIu64 " (%s %" PRIu64 "): %s", t->n, rn, rec, why);
+}
 
 static void fnv(uint64_t *h, uint64_t v, int nbytes)
 {
@@ -387,6 +422,12 @@ static int tally_put(rt_sink *s, const rt_access *a, size_t n)
         }
         a[i].write ? t->writes[r]++ : t->reads[r]++;
         t->bytes[r] += a[i].size;
+        if (t->mesh) mesh_order(t, L->r[r].name, rec);
+        /* the list-order check below sees a mesh triangle test at its first
+         * position read (a tri.vidx read followed by normals is shading) */
+        int tri_test = !strcmp(L->r[r].name, "tri.verts") ||
+                       (t->mesh && !strcmp(L->r[r].name, "mesh.pos") && t->mpend == 2);
+        if (t->mesh && tri_test) rec = t->mtri;
         if (!strcmp(L->r[r].name, "dyn.hits"))
             t->by_size[r][a[i].write][a[i].size == 4 ? 0 : a[i].size == 8 ? 1 : a[i].size == 24 ? 2 : 3]++;
         if (!strcmp(L->r[r].name, "kd.nodes") && rec < t->kd->nnodes) {
@@ -400,10 +441,10 @@ static int tally_put(rt_sink *s, const rt_access *a, size_t n)
             t->list_first = (uint32_t)rec;
             t->list_n = a[i].size / 4;
             t->list_pos = 0;
-        } else if (!strcmp(L->r[r].name, "tri.verts") && t->tri_prefix >= 0) {
+        } else if (tri_test && t->tri_prefix >= 0) {
             if (t->list_pos >= t->list_n || t->kd->idx[t->list_first + t->list_pos] != rec) t->bad_order++;
             t->list_pos++;
-        } else if (t->tri_prefix >= 0) {
+        } else if (t->tri_prefix >= 0 && strcmp(L->r[r].name, "tri.vidx") && strcmp(L->r[r].name, "mesh.pos")) {
             t->list_n = 0;
         }
     }
@@ -509,6 +550,11 @@ static void traffic_run(rt_scene *sc, rt_kdtree *kd, const char *spec, const cha
     t->kd = kd;
     t->hash = 0xcbf29ce484222325ULL;
     t->tri_prefix = strcmp(tracer, "dynamic") ? 1 : -1;
+    t->mesh = j.mesh;
+    const int mesh = o->geom == RT_GEOM_MESH;
+    if (mesh) tag = !strcmp(tracer, "recursive") ? "recursive/mesh" : !strcmp(tracer, "packet") ? "packet/mesh" : "dynamic/mesh";
+    CHECK(!mesh == (j.mesh == NULL) && !mesh == (rt_mm_find(&j.L, "tri.verts") >= 0),
+          "%s %s: the job's mesh and regions do not follow the layout", spec, tag);
     rt_sink sink = {tally_put, t};
     rt_image *im = rt_image_new(o->W, o->H, &e);
     if (!im || rt_job_run(&j, &sink, im, &st, &e) < 0) {
@@ -519,6 +565,22 @@ static void traffic_run(rt_scene *sc, rt_kdtree *kd, const char *spec, const cha
     }
     reference R = single_ray(sc, kd, o);
     const uint64_t P = st.rays_primary, H = R.hits, NL = (uint64_t)nlights(o->lights);
+    /* triangle reads: 36-byte records, or (mesh) the index records not read for shading */
+    const uint64_t TRI = mesh ? reads(t, "tri.vidx") - reads(t, "tri.shade") : reads(t, "tri.verts");
+    const uint64_t TRIB = mesh ? TRI * 36 : bytes_of(t, "tri.verts");
+    if (mesh) {
+        int pr = rt_mm_find(&j.L, "mesh.pos"), nr = rt_mm_find(&j.L, "mesh.normal");
+        CHECK(pr >= 0 && j.L.r[pr].count == j.mesh->nvert && (nr < 0 || j.L.r[nr].count == j.mesh->nvert),
+              "%s %s: vertex arrays do not hold the mesh's %u vertices", spec, tag, j.mesh->nvert);
+        CHECK(t->bad_mesh == 0, "%s %s: %zu accesses break the mesh expansion; first: %s", spec, tag, t->bad_mesh,
+              t->why_mesh);
+        CHECK(reads(t, "mesh.pos") == 3 * TRI && bytes_of(t, "mesh.pos") == 36 * TRI && !writes(t, "mesh.pos"),
+              "%s %s: %" PRIu64 " position reads for %" PRIu64 " triangle reads", spec, tag, reads(t, "mesh.pos"), TRI);
+        CHECK(reads(t, "mesh.normal") == 3 * H && bytes_of(t, "mesh.normal") == 36 * H && !writes(t, "mesh.normal"),
+              "%s %s: %" PRIu64 " normal reads for %" PRIu64 " hits", spec, tag, reads(t, "mesh.normal"), H);
+        CHECK(bytes_of(t, "tri.vidx") == 12 * reads(t, "tri.vidx") && !writes(t, "tri.vidx") && reads(t, "tri.vidx") >= H,
+              "%s %s: %" PRIu64 " index-record reads, %" PRIu64 " B", spec, tag, reads(t, "tri.vidx"), bytes_of(t, "tri.vidx"));
+    }
     CHECK(t->bad == 0, "%s %s: %zu accesses break the region table; first: %s", spec, tag, t->bad, t->why);
     CHECK(t->n == st.accesses, "%s %s: %" PRIu64 " accesses seen, %" PRIu64 " reported", spec, tag, t->n, st.accesses);
     CHECK(P == R.pixels && st.rays_shadow == R.shadow, "%s %s: %" PRIu64 "/%" PRIu64 " rays, reference %" PRIu64 "/%" PRIu64,
@@ -533,8 +595,7 @@ static void traffic_run(rt_scene *sc, rt_kdtree *kd, const char *spec, const cha
               bytes_of(t, "kd.index") == t->leaf_bytes,
           "%s %s: %" PRIu64 " index reads (%" PRIu64 " B) for %" PRIu64 " visits of non-empty leaves (%" PRIu64 " B)", spec,
           tag, reads(t, "kd.index"), bytes_of(t, "kd.index"), t->leaf_visits, t->leaf_bytes);
-    CHECK(bytes_of(t, "tri.verts") == 36 * reads(t, "tri.verts") && !writes(t, "tri.verts"), "%s %s: triangle bytes %" PRIu64,
-          spec, tag, bytes_of(t, "tri.verts"));
+    CHECK(TRIB == 36 * TRI && !writes(t, "tri.verts"), "%s %s: triangle bytes %" PRIu64, spec, tag, TRIB);
     CHECK(reads(t, "rays.primary") == P && bytes_of(t, "rays.primary") == 32 * P && !writes(t, "rays.primary"),
           "%s %s: %" PRIu64 " primary ray reads for %" PRIu64 " rays", spec, tag, reads(t, "rays.primary"), P);
     /* the tests channel sums to the tests; the nodes channel counts per-ray
@@ -547,16 +608,15 @@ static void traffic_run(rt_scene *sc, rt_kdtree *kd, const char *spec, const cha
     if (!strcmp(tracer, "recursive")) {
         CHECK(reads(t, "kd.nodes") == st.nodes && bytes_of(t, "kd.nodes") == 8 * st.nodes,
               "%s %s: %" PRIu64 " node reads, %" PRIu64 " visits", spec, tag, reads(t, "kd.nodes"), st.nodes);
-        CHECK(bytes_of(t, "tri.verts") == 36 * st.tests, "%s %s: %" PRIu64 " triangle bytes for %" PRIu64 " tests", spec, tag,
-              bytes_of(t, "tri.verts"), st.tests);
+        CHECK(TRIB == 36 * st.tests, "%s %s: %" PRIu64 " triangle bytes for %" PRIu64 " tests", spec, tag, TRIB, st.tests);
         CHECK(writes(t, "fb") == P && !reads(t, "fb") && bytes_of(t, "fb") == 12 * P, "%s %s: framebuffer %" PRIu64 "w/%" PRIu64
               "r", spec, tag, writes(t, "fb"), reads(t, "fb"));
         CHECK(t->bad_order == 0, "%s %s: %zu triangle reads not in their leaf's list order", spec, tag, t->bad_order);
     } else if (!strcmp(tracer, "packet")) {
         CHECK(reads(t, "kd.nodes") == st.nodes, "%s %s: %" PRIu64 " node reads, %" PRIu64 " packet visits", spec, tag,
               reads(t, "kd.nodes"), st.nodes);
-        CHECK(reads(t, "tri.verts") <= st.tests && reads(t, "tri.verts") > 0, "%s %s: %" PRIu64 " triangle reads, %" PRIu64
-              " ray tests", spec, tag, reads(t, "tri.verts"), st.tests);
+        CHECK(TRI <= st.tests && TRI > 0, "%s %s: %" PRIu64 " triangle reads, %" PRIu64
+              " ray tests", spec, tag, TRI, st.tests);
         CHECK(writes(t, "packet.hits") == P && reads(t, "packet.hits") == P * (1 + NL) && bytes_of(t, "packet.hits") == 8 * P * (2 + NL),
               "%s %s: hit buffer %" PRIu64 "w/%" PRIu64 "r", spec, tag, writes(t, "packet.hits"), reads(t, "packet.hits"));
         CHECK(writes(t, "fb") == P && !reads(t, "fb") && bytes_of(t, "fb") == 12 * P, "%s %s: framebuffer %" PRIu64 "w/%" PRIu64
@@ -589,12 +649,12 @@ static void traffic_run(rt_scene *sc, rt_kdtree *kd, const char *spec, const cha
                   " visits", spec, tag, reads(t, "kd.nodes"), reads(t, "dyn.top"), st.nodes);
             /* one read per test, plus one when a hit settled outside its
              * subtree is shaded (its vertices are not in cache then) */
-            CHECK(reads(t, "tri.verts") >= st.tests && reads(t, "tri.verts") <= st.tests + H,
+            CHECK(TRI >= st.tests && TRI <= st.tests + H,
                   "%s %s: %" PRIu64 " triangle reads for %" PRIu64 " tests and %" PRIu64 " hits", spec, tag,
-                  reads(t, "tri.verts"), st.tests, H);
+                  TRI, st.tests, H);
             if (extra_u64(&st, "queue_points") == 1)
-                CHECK(reads(t, "tri.verts") == st.tests, "%s %s: root only: %" PRIu64 " triangle reads, %" PRIu64 " tests",
-                      spec, tag, reads(t, "tri.verts"), st.tests);
+                CHECK(TRI == st.tests, "%s %s: root only: %" PRIu64 " triangle reads, %" PRIu64 " tests",
+                      spec, tag, TRI, st.tests);
         }
     }
     t->L = NULL;
@@ -654,19 +714,48 @@ static void traffic(const char *spec, int W, int H, const char *gold)
     o.lights = 7;
     o.sched_size = 4096;
     static const char *tracers[] = {"recursive", "packet", "dynamic"};
+    tally ctl[3];
+    uint64_t ctri[3];
     for (int t = 0; t < 3; t++) {
         tally tl;
         traffic_run(sc, kd, spec, tracers[t], &o, &tl);
-        if (gold) {
-            rt_job j;
-            char name[128];
-            snprintf(name, sizeof name, "%s_%s", tracers[t], gold);
-            if (rt_job_setup_borrowed(&j, sc, kd, tracers[t], &o, &e) == 0) {
+        ctl[t] = tl;
+        rt_job j;
+        if (rt_job_setup_borrowed(&j, sc, kd, tracers[t], &o, &e) == 0) {
+            tl.L = &j.L;
+            ctri[t] = reads(&tl, "tri.verts");
+            if (gold) {
+                char name[128];
+                snprintf(name, sizeof name, "%s_%s", tracers[t], gold);
                 golden(name, spec, tracers[t], &o, &tl, &j.L);
-                rt_job_free(&j);
             }
+            rt_job_free(&j);
         }
     }
+    /* the mesh layout: the same stream but for the triangle and shading
+     * reads, each expanded (mesh.h); the dynamic tracer also with
+     * oversized leaves (a 1 KiB schedule) */
+    o.geom = RT_GEOM_MESH;
+    for (int t = 0; t < 4; t++) {
+        tally tl;
+        if (t == 3) o.sched_size = 1024;
+        traffic_run(sc, kd, spec, tracers[t < 3 ? t : 2], &o, &tl);
+        if (t == 3) break;
+        rt_job j;
+        if (rt_job_setup_borrowed(&j, sc, kd, tracers[t], &o, &e) < 0) continue;
+        tl.L = &j.L;
+        uint64_t tri = reads(&tl, "tri.vidx") - reads(&tl, "tri.shade");
+        CHECK(tri == ctri[t], "%s %s: %" PRIu64 " triangle reads in the mesh layout, %" PRIu64 " in the compact one", spec,
+              tracers[t], tri, ctri[t]);
+        for (int c = 0; c < RT_NCLASS; c++)
+            if (c != RT_CLS_TRI && c != RT_CLS_SHADE)
+                CHECK(tl.cls_refs[c] == ctl[t].cls_refs[c] && tl.cls_bytes[c] == ctl[t].cls_bytes[c],
+                      "%s %s: class %s: %" PRIu64 " refs in the mesh layout, %" PRIu64 " in the compact one", spec, tracers[t],
+                      rt_class_name(c), tl.cls_refs[c], ctl[t].cls_refs[c]);
+        rt_job_free(&j);
+    }
+    o.geom = RT_GEOM_COMPACT;
+    o.sched_size = 4096;
     /* the dynamic tracer at other budgets and orders, and with light subsets */
     static const uint64_t caches[] = {1024, 16384, 1u << 24};
     for (int qo = 0; qo < 2; qo++)

@@ -277,6 +277,26 @@ typedef struct qent {
     float t0, t1;  /* interval within the queue point's cell */
 } qent;
 
+/* Why rays enter queue points: every enqueue is counted once among the
+ * first four causes (first_* for a ray's first queue point, exit and cand
+ * for re-entries), and independently by the queue point it enters (small,
+ * leaf); visits are rays processed in a queue point's subtree. Appended to
+ * the statistics only with opt->queue_stats (docs/results.md). */
+typedef struct qstat {
+    uint64_t first_primary;   /* first queue point of a primary (generation 0) ray */
+    uint64_t first_secondary; /* first queue point of a reflected, refracted or path ray */
+    uint64_t first_shadow;    /* first queue point of a shadow ray (traced from its light) */
+    uint64_t exit;            /* re-entry: left a subtree with no hit (or not occluded) */
+    uint64_t cand;            /* re-entry: a hit found beyond the subtree's exit (a triangle
+                               * in several cells) must be settled further on */
+    uint64_t small;           /* into a queue point holding at most gmax/8 bytes of geometry */
+    uint64_t leaf;            /* into a queue point that is a leaf */
+    uint64_t visits;          /* rays processed in a subtree */
+    uint64_t v_notest;        /* ... that tested no triangle there (crossed only empty cells) */
+    uint64_t v_cand;          /* ... that carried a candidate hit */
+    uint64_t v_cand_kept;     /* ... whose candidate stayed the best (visit only settled it) */
+} qstat;
+
 struct rt_dyn {
     const rt_tracer_ctx *ctx;
     const rt_scene *sc;
@@ -337,6 +357,7 @@ struct rt_dyn {
     uint32_t *lvlen;     /* rays per level */
     int nlvl, reg_spawn;
     uint64_t batches, nsec, self_hits;
+    qstat qs;            /* why rays enter queue points (opt->queue_stats) */
 };
 typedef struct rt_dyn dyn;
 
@@ -436,7 +457,10 @@ static void enqueue(dyn *D, uint32_t q, uint32_t pix, float t0, float t1)
     e->pix = pix;
     e->t0 = t0;
     e->t1 = t1;
-    RT_REC(D->rec, qaddr(D, tb, inblk), 32, 1, RT_CLS_QUEUE);
+    /* streaming stores: a block's lines are filled whole (two records each)
+     * before the queue is drained, so they need not be fetched */
+    RT_REC(D->rec, qaddr(D, tb, inblk), 32, D->ctx->opt->qstores == RT_QSTORES_STREAM ? RT_WRITE_STREAM : 1,
+           RT_CLS_QUEUE);
     RT_REC(D->rec, rt_mm_addr(D->L, D->reg_qt, q), 8, 1, RT_CLS_QTABLE);
     if (D->ctx->opt->qorder == RT_QORDER_FULLEST) bk_unlink(D, q);
     D->qcount[q]++;
@@ -667,6 +691,14 @@ static void advance(dyn *D, uint32_t pixf, const rt_ray *trav, float tmin, float
     int32_t q = tmax > tmin ? to_queue_point(D, trav, tmin, tmax, skip, &qa, &qb) : -1;
     D->img->nodes[PIX(D, pix)] += (float)(D->tv.nodes - n0);
     if (q >= 0) {
+        qstat *S = &D->qs;
+        if (from_buffer && (pixf & CAND_FLAG)) S->cand++;
+        else if (from_buffer) S->exit++;
+        else if (D->shadow) S->first_shadow++;
+        else if (D->tv.mark_bit == 1) S->first_primary++;
+        else S->first_secondary++;
+        S->small += D->P->g[D->qnode[q]] <= D->gmax / 8;
+        S->leaf += rt_kd_is_leaf(&D->kd->nodes[D->qnode[q]]);
         if (from_buffer) RT_REC(D->rec, rt_mm_addr(D->L, D->reg_rb, D->rbslot % D->rbslots), 32, 0, RT_CLS_RAY);
         enqueue(D, (uint32_t)q, pixf, qa, qb);
         return;
@@ -690,7 +722,14 @@ static void process(dyn *D, uint32_t q, const qent *e)
     }
     uint32_t root = D->qnode[q];
     uint64_t n0 = D->tv.nodes, k0 = D->tv.tests;
+    const uint32_t cand_tri = best_tri;
     int occluded = subtree(D, root, &trav, &test, e->t0, e->t1, &best_t, &best_tri);
+    D->qs.visits++;
+    D->qs.v_notest += D->tv.tests == k0;
+    if (e->pix & CAND_FLAG) {
+        D->qs.v_cand++;
+        D->qs.v_cand_kept += best_tri == cand_tri;
+    }
     D->img->nodes[PIX(D, pix)] += (float)(D->tv.nodes - n0);
     D->img->tests[PIX(D, pix)] += (float)(D->tv.tests - k0);
     if (D->shadow) {
@@ -768,6 +807,11 @@ static void process_oversized(dyn *D, uint32_t q, const qent *es, uint32_t n)
     }
     for (uint32_t i = 0; i < n; i++) {
         uint32_t pix = es[i].pix & ~CAND_FLAG;
+        D->qs.visits++;
+        if (es[i].pix & CAND_FLAG) {
+            D->qs.v_cand++;
+            D->qs.v_cand_kept += btri[i] == D->hit_tri[pix];
+        }
         if (D->shadow && occl[i]) {
             resolve_shadow(D, pix, 0);
             continue;
@@ -1293,6 +1337,16 @@ static void report(const dyn *D, rt_run_stats *st)
         size_t l = strlen(st->extra);
         snprintf(st->extra + l, sizeof st->extra - l, " batches=%" PRIu64 " rays_secondary=%" PRIu64 " self_hits=%" PRIu64,
                  D->batches, D->nsec, D->self_hits);
+    }
+    if (o->queue_stats) {
+        const qstat *S = &D->qs;
+        size_t l = strlen(st->extra);
+        snprintf(st->extra + l, sizeof st->extra - l,
+                 " q_first_pri=%" PRIu64 " q_first_sec=%" PRIu64 " q_first_shadow=%" PRIu64 " q_exit=%" PRIu64
+                 " q_cand=%" PRIu64 " q_small=%" PRIu64 " q_leaf=%" PRIu64 " v=%" PRIu64 " v_notest=%" PRIu64
+                 " v_cand=%" PRIu64 " v_cand_kept=%" PRIu64,
+                 S->first_primary, S->first_secondary, S->first_shadow, S->exit, S->cand, S->small, S->leaf, S->visits,
+                 S->v_notest, S->v_cand, S->v_cand_kept);
     }
 }
 

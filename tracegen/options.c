@@ -21,6 +21,33 @@ void rt_render_default_opts(rt_render_opts *o)
     o->depth = 5;
     o->spp = 1;
     o->bounces = 4;
+    o->geom = RT_GEOM_COMPACT;
+    o->qstores = RT_QSTORES_WRITE_ALLOCATE;
+    o->queue_stats = 0;
+}
+
+static const char *const geom_names[] = {"compact", "mesh"};
+static const char *const qstores_names[] = {"write-allocate", "stream"};
+
+const char *rt_render_geom_name(int geom) { return geom >= 0 && geom <= RT_GEOM_MESH ? geom_names[geom] : NULL; }
+
+int rt_render_geom_from_name(const char *name)
+{
+    for (int g = 0; g <= RT_GEOM_MESH; g++)
+        if (!strcmp(name, geom_names[g])) return g;
+    return -1;
+}
+
+const char *rt_render_qstores_name(int qs)
+{
+    return qs >= 0 && qs <= RT_QSTORES_STREAM ? qstores_names[qs] : NULL;
+}
+
+int rt_render_qstores_from_name(const char *name)
+{
+    for (int q = 0; q <= RT_QSTORES_STREAM; q++)
+        if (!strcmp(name, qstores_names[q])) return q;
+    return -1;
 }
 
 static const char *const mode_names[] = {"default", "raycast", "shadow", "whitted", "path"};
@@ -51,6 +78,8 @@ int rt_render_check_mode(const rt_render_opts *o, rt_err *e)
     if (o->spp < 1 || o->spp > RT_SPP_MAX) return rt_errf(e, "--spp: %d is not in 1..%d", o->spp, RT_SPP_MAX);
     if (o->bounces < 0 || o->bounces > RT_BOUNCES_MAX)
         return rt_errf(e, "--bounces: %d is not in 0..%d", o->bounces, RT_BOUNCES_MAX);
+    if (!rt_render_geom_name(o->geom)) return rt_errf(e, "--layout: unknown layout %d", o->geom);
+    if (!rt_render_qstores_name(o->qstores)) return rt_errf(e, "--queue-stores: unknown value %d", o->qstores);
     return 0;
 }
 

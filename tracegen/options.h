@@ -18,6 +18,19 @@ typedef enum rt_qorder {
     RT_QORDER_TREE = 1     /* dynamic: queue points in tree (depth-first) order */
 } rt_qorder;
 
+/* How triangles are stored in the modeled memory (docs/memory-model.md,
+ * "Geometry layouts"). Only what is recorded differs: images are the same. */
+typedef enum rt_geom_layout {
+    RT_GEOM_COMPACT = 0, /* 36-byte triangle records (three vertices), 16-byte shading records */
+    RT_GEOM_MESH = 1     /* pbrt-style mesh: 12-byte vertex indices, shared positions and normals */
+} rt_geom_layout;
+
+/* How the dynamic tracer writes ray-queue records (docs/memory-model.md). */
+typedef enum rt_qstores {
+    RT_QSTORES_WRITE_ALLOCATE = 0, /* ordinary stores: a missing line is fetched first */
+    RT_QSTORES_STREAM = 1          /* streaming stores (RT_WRITE_STREAM): queue lines are not fetched */
+} rt_qstores;
+
 /* What a run traces (docs/tracers.md, "Modes"). */
 typedef enum rt_mode {
     RT_MODE_DEFAULT = 0, /* SHADOW when lights are enabled, else RAYCAST */
@@ -45,11 +58,16 @@ typedef struct rt_render_opts {
     int depth;           /* whitted: ray generations along a path, primary included (1..64, 5) */
     int spp;             /* path: samples per pixel (1) */
     int bounces;         /* path: bounces after the primary hit (>= 0, 4) */
+    int geom;            /* rt_geom_layout (compact) */
+    int qstores;         /* dynamic: rt_qstores (write-allocate) */
+    int queue_stats;     /* dynamic, test/bench only: append the per-cause queue counters to the
+                          * statistics (off, so existing statistics stay as they were) */
 } rt_render_opts;
 
 /* Fills o with the defaults: 512 x 512, no lights, packet 8, a 64 KiB
  * schedule, fullest-first queues, 4 threads, no subsampling (tile 8), the
- * default mode, depth 5, 1 sample, 4 bounces. */
+ * default mode, depth 5, 1 sample, 4 bounces, the compact geometry
+ * layout, write-allocate queue stores, no queue statistics. */
 void rt_render_default_opts(rt_render_opts *o);
 
 /* The mode a run traces: o->mode, or for RT_MODE_DEFAULT SHADOW when a
@@ -65,8 +83,15 @@ static inline int rt_render_secondary(const rt_render_opts *o)
     int m = o->mode;
     return m == RT_MODE_WHITTED || m == RT_MODE_PATH;
 }
-/* Checks mode, depth, spp and bounces. 0, or -1 naming the option in e. */
+/* Checks mode, depth, spp, bounces, layout and queue stores. 0, or -1 naming the option in e. */
 int rt_render_check_mode(const rt_render_opts *o, rt_err *e);
+
+/* Layout name ("compact", "mesh") or NULL; from its name, or -1. */
+const char *rt_render_geom_name(int geom);
+int rt_render_geom_from_name(const char *name);
+/* Queue-store name ("write-allocate", "stream") or NULL; from its name, or -1. */
+const char *rt_render_qstores_name(int qs);
+int rt_render_qstores_from_name(const char *name);
 
 /* Parses "all", "none" (or ""), or a comma list of light indices "0,2" into
  * a light mask. 0, or -1 on a malformed list (*mask untouched). */

@@ -1,6 +1,7 @@
 /* regions.c -- geometry regions and the recording traversal context (see
  * regions.h). */
 #include "regions.h"
+#include "mesh.h"
 
 #include <string.h>
 
@@ -9,8 +10,18 @@ int rt_reg_geometry(const rt_tracer_ctx *ctx, rt_layout *L, int want_shade, rt_e
     const rt_kdtree *kd = ctx->kd;
     if (rt_mm_add(L, "kd.nodes", RT_CLS_NODE, 8, kd->nnodes, e) < 0) return -1;
     if (rt_mm_add(L, "kd.index", RT_CLS_INDEX, 4, kd->nidx, e) < 0) return -1;
-    if (rt_mm_add(L, "tri.verts", RT_CLS_TRI, 36, ctx->sc->ntri, e) < 0) return -1;
-    if (want_shade && rt_mm_add(L, "tri.shade", RT_CLS_SHADE, 16, ctx->sc->ntri, e) < 0) return -1;
+    if (ctx->opt->geom == RT_GEOM_MESH) {
+        if (!ctx->mesh) return rt_errf(e, "mesh layout without a vertex index (internal error)");
+        if (rt_mm_add(L, "tri.vidx", RT_CLS_TRI, RT_MESH_VIDX_SIZE, ctx->sc->ntri, e) < 0 ||
+            rt_mm_add(L, "mesh.pos", RT_CLS_TRI, RT_MESH_POS_SIZE, ctx->mesh->nvert, e) < 0)
+            return -1;
+        if (want_shade && (rt_mm_add(L, "tri.shade", RT_CLS_SHADE, 16, ctx->sc->ntri, e) < 0 ||
+                           rt_mm_add(L, "mesh.normal", RT_CLS_SHADE, RT_MESH_NRM_SIZE, ctx->mesh->nvert, e) < 0))
+            return -1;
+    } else {
+        if (rt_mm_add(L, "tri.verts", RT_CLS_TRI, 36, ctx->sc->ntri, e) < 0) return -1;
+        if (want_shade && rt_mm_add(L, "tri.shade", RT_CLS_SHADE, 16, ctx->sc->ntri, e) < 0) return -1;
+    }
     if (want_shade && rt_reg_wants_mat(ctx) &&
         rt_mm_add(L, "mat", RT_CLS_SHADE, RT_MAT_RECSIZE, ctx->sc->nmat, e) < 0)
         return -1;
@@ -40,5 +51,7 @@ void rt_reg_trav(rt_trav *tv, const rt_tracer_ctx *ctx)
     tv->L = ctx->L;
     tv->reg_node = rt_mm_find(ctx->L, "kd.nodes");
     tv->reg_idx = rt_mm_find(ctx->L, "kd.index");
-    tv->reg_tri = rt_mm_find(ctx->L, "tri.verts");
+    /* the mesh layout's triangle reads land on the index records and are
+     * expanded by the mesh recorder (mesh.h) */
+    tv->reg_tri = rt_mm_find(ctx->L, ctx->opt->geom == RT_GEOM_MESH ? "tri.vidx" : "tri.verts");
 }

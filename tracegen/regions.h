@@ -14,8 +14,11 @@
 
 /* Adds the geometry regions, in this order: kd.nodes (8 B x nodes),
  * kd.index (4 B x entries), tri.verts (36 B x triangles) and, when
- * want_shade, tri.shade (16 B x triangles) and, when rt_reg_wants_mat, mat. Look them up with rt_mm_find.
- * 0, or -1 when the layout is full. */
+ * want_shade, tri.shade (16 B x triangles) and, when rt_reg_wants_mat, mat.
+ * In the mesh layout (ctx->opt->geom, ctx->mesh) tri.verts is replaced by
+ * tri.vidx (12 B x triangles) and mesh.pos (12 B x vertices), and
+ * tri.shade is followed by mesh.normal (12 B x vertices). Look them up
+ * with rt_mm_find. 0, or -1 when the layout is full. */
 int rt_reg_geometry(const rt_tracer_ctx *ctx, rt_layout *L, int want_shade, rt_err *e);
 
 /* 1 when the run reads material records: a secondary mode (whitted, path)

@@ -8,8 +8,10 @@
 /* The tracer's plan, then its regions. On failure the plan is freed. */
 static int layout(rt_job *j, rt_err *e)
 {
-    rt_tracer_ctx ctx = {j->sc, j->kd, &j->opt, &j->L, NULL, NULL, 0};
+    rt_tracer_ctx ctx = {j->sc, j->kd, &j->opt, &j->L, NULL, NULL, 0, NULL};
     rt_mm_init(&j->L);
+    if (j->opt.geom == RT_GEOM_MESH && !j->mesh && !(j->mesh = rt_mesh_build(j->sc, e))) return -1;
+    ctx.mesh = j->mesh;
     if (j->tr->plan && j->tr->plan(&ctx, &j->plan, e) < 0) return -1;
     ctx.plan = j->plan;
     if (j->tr->layout(&ctx, &j->L, e) == 0) return 0;
@@ -49,7 +51,11 @@ int rt_job_setup_borrowed(rt_job *j, rt_scene *sc, rt_kdtree *kd, const char *tr
     if (rt_render_mode(o) == RT_MODE_RAYCAST) j->opt.lights = 0; /* primary rays only */
     j->kd_sec = kd->build_sec;
     j->borrowed = 1;
-    return layout(j, e);
+    if (layout(j, e) < 0) {
+        rt_job_free(j);
+        return -1;
+    }
+    return 0;
 }
 
 int rt_job_setup(rt_job *j, const char *scene_spec, const char *tracer, const rt_render_opts *o, rt_err *e)
@@ -85,9 +91,20 @@ int rt_job_run(rt_job *j, rt_sink *sink, rt_image *img, rt_run_stats *st, rt_err
     if (img->W != j->opt.W || img->H != j->opt.H)
         return rt_errf(e, "image is %dx%d, job wants %dx%d", img->W, img->H, j->opt.W, j->opt.H);
     if (sink && !(rec = rt_rec_new(sink, e))) return -1;
-    rt_tracer_ctx ctx = {j->sc, j->kd, &j->opt, &j->L, rec, j->plan, j->check};
+    /* mesh layout: the tracer records into the translating recorder, which
+     * feeds rec (mesh.h) */
+    rt_rec *trec = rec;
+    if (rec && j->opt.geom == RT_GEOM_MESH && !(trec = rt_mesh_rec_new(j->mesh, &j->L, rec, e))) {
+        rt_rec_free(rec);
+        return -1;
+    }
+    rt_tracer_ctx ctx = {j->sc, j->kd, &j->opt, &j->L, trec, j->plan, j->check, j->mesh};
     double t0 = rt_now();
     int rc = j->tr->run(&ctx, img, st, e);
+    if (trec != rec) {
+        rt_rec_flush(trec);
+        rt_mesh_rec_free(trec);
+    }
     if (rec) {
         if (rt_rec_flush(rec) < 0 && rc == 0) rc = rt_errf(e, "trace sink failed");
         st->accesses = rec->total;
@@ -136,16 +153,30 @@ static void mode_params(const rt_render_opts *o, char *buf, size_t n)
     else snprintf(buf, n, "mode=%s", rt_render_mode_name(m));
 }
 
+/* The memory-layout choices, each only when not the default, so existing
+ * run keys stay as they were: " layout=mesh", " queue_stores=stream"
+ * (dynamic only: the other tracers keep no queues). */
+static void layout_params(const char *tracer, const rt_render_opts *o, char *buf, size_t n)
+{
+    size_t l = strlen(buf);
+    if (o->geom != RT_GEOM_COMPACT)
+        snprintf(buf + l, n - l, "%slayout=%s", l ? " " : "", rt_render_geom_name(o->geom));
+    l = strlen(buf);
+    if (!strcmp(tracer, "dynamic") && o->qstores != RT_QSTORES_WRITE_ALLOCATE)
+        snprintf(buf + l, n - l, "%squeue_stores=%s", l ? " " : "", rt_render_qstores_name(o->qstores));
+}
+
 const char *rt_job_params(const char *tracer, const rt_render_opts *o, const char *extra, char *buf, size_t n)
 {
     if (!n) return buf;
-    char tp[128] = "", mp[96];
+    char tp[128] = "", mp[160];
     if (!extra) extra = "";
     if (!strcmp(tracer, "dynamic"))
         snprintf(tp, sizeof tp, "qorder=%s threads=%d", o->qorder == RT_QORDER_TREE ? "tree" : "fullest", o->threads);
     else if (!strcmp(tracer, "packet"))
         snprintf(tp, sizeof tp, "packet=%d", o->packet);
     mode_params(o, mp, sizeof mp);
+    layout_params(tracer, o, mp, sizeof mp);
     /* tracer parameters, mode, extra: space-separated, empty parts left out */
     const char *part[3] = {tp, mp, extra};
     size_t l = 0;
@@ -163,6 +194,7 @@ void rt_job_free(rt_job *j)
 {
     if (!j) return;
     if (j->plan && j->tr && j->tr->plan_free) j->tr->plan_free(j->plan);
+    rt_mesh_free(j->mesh);
     if (!j->borrowed) {
         rt_kd_free(j->kd);
         rt_scene_free(j->sc);

@@ -27,6 +27,7 @@ typedef struct rt_job {
     void *plan;            /* the tracer's plan for this tree and options (owned), or NULL */
     int check;             /* test mode: set before rt_job_run to have the tracer verify its
                             * invariants at every step (slow; an error names the one broken) */
+    rt_mesh *mesh;         /* vertex index for the mesh layout (owned), NULL in the compact one */
 } rt_job;
 
 /* Loads the scene, builds the tree and the layout. 0 or -1 (job freed). */

@@ -43,6 +43,7 @@
 #include "image.h"
 #include "kdtrav.h"
 #include "memmodel.h"
+#include "mesh.h"
 #include "options.h"
 #include "pixels.h"
 #include "scene.h"
@@ -67,6 +68,7 @@ typedef struct rt_tracer_ctx {
     rt_rec *rec;       /* NULL: not recording */
     const void *plan;  /* the tracer's plan (NULL before plan() or without one) */
     int check;         /* test mode: verify the tracer's invariants as it runs */
+    const rt_mesh *mesh; /* vertex index of the mesh layout (NULL in the compact one) */
 } rt_tracer_ctx;
 
 typedef struct rt_tracer {
