@@ -18,8 +18,9 @@
  *   not part of the input and is never hashed);
  *   nul is the offset of the first NUL byte at or after pos, or SIZE_MAX.
  * So the scanner never looks past a '\n' and needs no bounds checks inside
- * a line. The accepted syntax is exactly that of the sscanf-free reference
- * it replaces (strtoul/strtoull): label digits saturate to ULONG_MAX, an
+ * a line. The accepted syntax, the messages and the hash are exactly those
+ * of the getline + strtoul/strtoull reader it replaced (kept as the
+ * reference in tests/test_sim.c): label digits saturate to ULONG_MAX, an
  * address above 2^64-1 is an error, "0x" needs a hex digit after it.
  */
 #include "din.h"
