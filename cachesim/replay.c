@@ -1,22 +1,58 @@
 /*
  * replay.c -- feed a trace file (.rtt through the trace reader, or din)
- * into any rt_sink: the one trace-replay loop (rt_sim_replay_sink, see
+ * into any rt_sink: the one trace-replay loop (rt_sim_replay_threads, see
  * sim.h), used by the exact and the approximate simulators alike. Kept
  * apart from sim.c so programs that only stream in-process do not link the
  * trace reader.
+ *
+ * With two threads, decoding (inflate, record decoding or din parsing)
+ * runs on a reader thread and the sink on the calling thread, joined by a
+ * ring of PIPE_SLOTS buffers of PIPE_CHUNK records, a mutex and two
+ * condition variables. Ring invariants (head and tail only grow; both are
+ * read and written under mu):
+ *   0 <= tail - head <= PIPE_SLOTS;
+ *   slots head .. tail-1 (mod PIPE_SLOTS) are filled and owned by the
+ *   consumer, the others by the reader;
+ *   count[slot] is what the reader's next() returned for it: > 0 records,
+ *   0 end of input, -1 error (message in err); the reader stops after
+ *   publishing a slot with count <= 0, so such a slot is the last one;
+ *   stop, set by the consumer, makes the reader quit at its next wait.
+ * The consumer sees exactly the batches the single-threaded loop would
+ * hand to the sink, in the same order, so every counter is the same; a
+ * decode error reaches the caller after the records decoded before it,
+ * as in the single-threaded loop.
  */
 #include "sim.h"
 #include "trace.h"
 
 #include <errno.h>
 #include <ctype.h>
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 
 #define REPLAY_BUF 4096 /* 64 KB: small enough to stay in L2 beside the simulator */
+#define PIPE_SLOTS 4    /* ring of 4 x 64 KB: the pair stays in L2 while it moves */
+#define PIPE_CHUNK REPLAY_BUF
+
+typedef long (*next_fn)(void *, rt_access *, size_t, rt_err *);
+
+typedef struct pipe_ring {
+    pthread_mutex_t mu;       /* guards head, tail, stop and count */
+    pthread_cond_t filled;    /* the reader published a slot */
+    pthread_cond_t freed;     /* the consumer released a slot or set stop */
+    rt_access *slot[PIPE_SLOTS]; /* PIPE_CHUNK records each */
+    long count[PIPE_SLOTS];   /* next()'s result for the slot */
+    unsigned long head;       /* slots consumed */
+    unsigned long tail;       /* slots published */
+    int stop;                 /* consumer gave up: reader must quit */
+    next_fn next;             /* decoder */
+    void *src;                /* its state, touched only by the reader until join */
+    rt_err err;               /* the reader's message when count is -1 */
+} pipe_ring;
 
 /* Reads the whole input through next() into sink, counting references. */
-static long pump(long (*next)(void *, rt_access *, size_t, rt_err *), void *src, rt_sink *sink, rt_access *buf,
+static long pump(next_fn next, void *src, rt_sink *sink, rt_access *buf,
                  rt_sim_input *info, rt_err *e)
 {
     long n;
@@ -27,12 +63,103 @@ static long pump(long (*next)(void *, rt_access *, size_t, rt_err *), void *src,
     return n;
 }
 
+static void *reader_main(void *arg)
+{
+    pipe_ring *q = arg;
+    for (;;) {
+        pthread_mutex_lock(&q->mu);
+        while (q->tail - q->head == PIPE_SLOTS && !q->stop) pthread_cond_wait(&q->freed, &q->mu);
+        int stop = q->stop;
+        unsigned long t = q->tail;
+        pthread_mutex_unlock(&q->mu);
+        if (stop) break;
+        unsigned i = (unsigned)(t % PIPE_SLOTS);
+        long n = q->next(q->src, q->slot[i], PIPE_CHUNK, &q->err);
+        pthread_mutex_lock(&q->mu);
+        q->count[i] = n < 0 ? -1 : n;
+        q->tail = t + 1;
+        pthread_cond_signal(&q->filled);
+        pthread_mutex_unlock(&q->mu);
+        if (n <= 0) break;
+    }
+    return NULL;
+}
+
+/* pump() with the decoder on a second thread. Falls back to pump() when
+ * the thread cannot be started (nothing has been read then). */
+static long pump2(next_fn next, void *src, rt_sink *sink, rt_access *buf, rt_sim_input *info, rt_err *e)
+{
+    pipe_ring *q = rt_calloc(1, sizeof *q, e);
+    if (!q) return -1;
+    rt_access *mem = rt_calloc((size_t)PIPE_SLOTS * PIPE_CHUNK, sizeof *mem, e);
+    if (!mem) {
+        free(q);
+        return -1;
+    }
+    for (int i = 0; i < PIPE_SLOTS; i++) q->slot[i] = mem + (size_t)i * PIPE_CHUNK;
+    q->next = next;
+    q->src = src;
+    pthread_t th;
+    int inited = !pthread_mutex_init(&q->mu, NULL);
+    inited += inited == 1 && !pthread_cond_init(&q->filled, NULL);
+    inited += inited == 2 && !pthread_cond_init(&q->freed, NULL);
+    if (inited < 3 || pthread_create(&th, NULL, reader_main, q)) {
+        if (inited > 2) pthread_cond_destroy(&q->freed);
+        if (inited > 1) pthread_cond_destroy(&q->filled);
+        if (inited > 0) pthread_mutex_destroy(&q->mu);
+        free(mem);
+        free(q);
+        return pump(next, src, sink, buf, info, e);
+    }
+    long rc;
+    for (;;) {
+        pthread_mutex_lock(&q->mu);
+        while (q->tail == q->head) pthread_cond_wait(&q->filled, &q->mu);
+        pthread_mutex_unlock(&q->mu);
+        unsigned i = (unsigned)(q->head % PIPE_SLOTS);
+        long n = q->count[i];
+        if (n <= 0) {
+            rc = n < 0 ? rt_errf(e, "%s", q->err.msg) : 0;
+            break;
+        }
+        if (sink->put(sink, q->slot[i], (size_t)n) < 0) {
+            rc = rt_errf(e, "the simulator rejected references");
+            break;
+        }
+        info->refs += (uint64_t)n;
+        pthread_mutex_lock(&q->mu);
+        q->head++;
+        pthread_cond_signal(&q->freed);
+        pthread_mutex_unlock(&q->mu);
+    }
+    pthread_mutex_lock(&q->mu);
+    q->stop = 1;
+    pthread_cond_signal(&q->freed);
+    pthread_mutex_unlock(&q->mu);
+    pthread_join(th, NULL);
+    pthread_cond_destroy(&q->freed);
+    pthread_cond_destroy(&q->filled);
+    pthread_mutex_destroy(&q->mu);
+    free(mem);
+    free(q);
+    return rc;
+}
+
 static long din_next(void *d, rt_access *b, size_t n, rt_err *e) { return rt_din_read(d, b, n, e); }
 static long rtt_next(void *r, rt_access *b, size_t n, rt_err *e) { return rt_tr_read(r, b, n, e); }
 
 int rt_sim_replay_sink(rt_sink *sink, const char *path, int fmt, int din_class, rt_tr_meta *meta,
                        rt_sim_input *info, rt_err *e)
 {
+    return rt_sim_replay_threads(sink, path, fmt, din_class, 1, meta, info, e);
+}
+
+int rt_sim_replay_threads(rt_sink *sink, const char *path, int fmt, int din_class, int nthreads, rt_tr_meta *meta,
+                          rt_sim_input *info, rt_err *e)
+{
+    if (nthreads < 1 || nthreads > RT_SIM_MAXTHREADS)
+        return rt_errf(e, "%d replay threads: 1 to %d are supported", nthreads, RT_SIM_MAXTHREADS);
+    long (*run)(next_fn, void *, rt_sink *, rt_access *, rt_sim_input *, rt_err *) = nthreads > 1 ? pump2 : pump;
     rt_sim_input loc;
     if (!info) info = &loc;
     memset(info, 0, sizeof *info);
@@ -47,7 +174,7 @@ int rt_sim_replay_sink(rt_sink *sink, const char *path, int fmt, int din_class, 
     if (fmt == RT_SIM_IN_DIN) {
         rt_din *d = rt_din_open(path, din_class, e);
         if (d) {
-            n = pump(din_next, d, sink, buf, info, e);
+            n = run(din_next, d, sink, buf, info, e);
             info->file_bytes = rt_din_file_bytes(d);
             info->file_hash = rt_din_file_hash(d);
             rt_din_close(d);
@@ -57,7 +184,7 @@ int rt_sim_replay_sink(rt_sink *sink, const char *path, int fmt, int din_class, 
         if (r) {
             if (meta) *meta = *rt_tr_get_meta(r);
             info->has_meta = 1;
-            n = pump(rtt_next, r, sink, buf, info, e);
+            n = run(rtt_next, r, sink, buf, info, e);
             if (n == 0) {
                 info->file_bytes = rt_tr_file_bytes(r);
                 info->file_hash = rt_tr_file_hash(r);

@@ -179,4 +179,16 @@ int rt_sim_replay(rt_sim *s, const char *path, int fmt, int din_class, rt_tr_met
 int rt_sim_replay_sink(rt_sink *sink, const char *path, int fmt, int din_class, rt_tr_meta *meta,
                        rt_sim_input *info, rt_err *e);
 
+/* Most threads rt_sim_replay_threads uses: one decodes, one simulates. */
+#define RT_SIM_MAXTHREADS 2
+
+/* rt_sim_replay_sink on nthreads threads (1..RT_SIM_MAXTHREADS; anything
+ * else is an error). With 2, the file is decoded on a second thread while
+ * the calling thread runs the sink, so the sink needs no locking; the
+ * results, info, meta and messages are those of the one-thread replay,
+ * the reader's error included (after the references decoded before it).
+ * If the thread cannot be started, the replay runs on one thread. */
+int rt_sim_replay_threads(rt_sink *sink, const char *path, int fmt, int din_class, int nthreads, rt_tr_meta *meta,
+                          rt_sim_input *info, rt_err *e);
+
 #endif

@@ -16,6 +16,7 @@
 #include <getopt.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 enum { FMT_TEXT, FMT_CSV, FMT_JSON };
 
@@ -27,6 +28,7 @@ typedef struct sim_opts {
     int outfmt;         /* FMT_* */
     rt_approx_config ac;/* --method etc.; RT_APPROX_EXACT = the exact simulator */
     int rate_given;     /* --rate seen */
+    int threads;        /* replay threads: 1, or 2 to decode beside the simulator */
     unsigned given;     /* bit (1 << O_x) for every option seen, to refuse those that do not apply */
 } sim_opts;
 
@@ -62,6 +64,9 @@ static void usage(FILE *f)
             "  --window N             hybrid: references per window (default 1024)\n"
             "  --smax N               sampled lines kept by shards-fixed (default 8192)\n"
             "  --seed S               sampling seed (default 1)\n"
+            "  --threads N            1, or 2 to decode the trace on a second thread beside\n"
+            "                         the simulator (same results; default 2 on a machine\n"
+            "                         with 2 or more CPUs, else 1)\n"
             "  --exact-below SIZE     simulate sizes below SIZE exactly (default 0 = none);\n"
             "                         sizes without an estimate are left out (text: a\n"
             "                         '#' line gives the reason)\n"
@@ -189,7 +194,7 @@ static int store(rt_db *db, const char *path, const rt_approx *ap, const rt_tr_m
 }
 
 enum { O_SIZES = 1, O_LINE, O_ASSOC, O_WT, O_NWA, O_INFMT, O_DINCLS, O_DB, O_FMT, O_METHOD, O_RATE, O_SMAX,
-       O_SEED, O_EXACT_BELOW, O_WINDOW_BELOW, O_PERIOD, O_WINDOW, O_FLUSH, O_FULLLINE };
+       O_SEED, O_EXACT_BELOW, O_WINDOW_BELOW, O_PERIOD, O_WINDOW, O_FLUSH, O_FULLLINE, O_THREADS };
 static const struct option longopts[] = {
     {"sizes", required_argument, NULL, O_SIZES},
     {"line", required_argument, NULL, O_LINE},
@@ -210,6 +215,7 @@ static const struct option longopts[] = {
     {"window", required_argument, NULL, O_WINDOW},
     {"flush", no_argument, NULL, O_FLUSH},
     {"write-fullline", no_argument, NULL, O_FULLLINE},
+    {"threads", required_argument, NULL, O_THREADS},
     {"help", no_argument, NULL, 'h'},
     {NULL, 0, NULL, 0},
 };
@@ -248,6 +254,13 @@ static int parse_opt(sim_opts *o, int ch, const char *arg, const char *argv_opt)
     case O_NWA: o->cfg.no_write_allocate = 1; return 0;
     case O_FLUSH: o->cfg.flush = 1; return 0;
     case O_FULLLINE: o->cfg.write_miss_fullline = 1; return 0;
+    case O_THREADS:
+        if (rt_parse_size(arg, &v) || v < 1 || v > RT_SIM_MAXTHREADS) {
+            rt_cmd_error("sim", "--threads: '%s' is not 1 or %d", arg, RT_SIM_MAXTHREADS);
+            return -1;
+        }
+        o->threads = (int)v;
+        return 0;
     case O_INFMT: /* RT_SIM_IN_AUTO, _RTT, _DIN are 0, 1, 2 */
         return (o->infmt = pick("input-format", arg, infmts, "auto, rtt or din")) < 0 ? -1 : 0;
     case O_DINCLS:
@@ -333,6 +346,7 @@ static int parse_args(int argc, char **argv, sim_opts *o)
     memset(o, 0, sizeof *o);
     rt_sim_config_default(&o->cfg);
     o->din_class = RT_CLS_FB;
+    o->threads = sysconf(_SC_NPROCESSORS_ONLN) >= 2 ? 2 : 1;
     rt_approx_config_default(&o->ac);
     o->ac.method = RT_APPROX_EXACT;
     rt_err err = {{0}};
@@ -365,7 +379,8 @@ static int sim_one(const sim_opts *o, rt_db *db, const char *path, rt_tr_meta *m
     double t0 = rt_now();
     int rc = -1;
     memset(meta, 0, sizeof *meta);
-    if (ap && !rt_approx_replay(ap, path, o->infmt, o->din_class, meta, &in, &err) && !rt_approx_finish(ap, &err)) {
+    if (ap && !rt_sim_replay_threads(rt_approx_sink(ap), path, o->infmt, o->din_class, o->threads, meta, &in, &err) &&
+        !rt_approx_finish(ap, &err)) {
         if (!db) print_results(stdout, o->outfmt, path, ap, first);
         rc = db ? store(db, path, ap, meta, &in, rt_now() - t0, o->din_class, &err) : 0;
     }

@@ -78,6 +78,41 @@ cmp -s "$tmp/h1.txt" "$tmp/h2.txt" || die "hybrid: same seed, different output"
 "$bin" sim --method hybrid --sizes 1K,64K "$tmp/mix.din" | grep -q '^# 1024: trace too short for windows every 65536 references: 0 windows (need 32)' \
     || die "hybrid too-short reason"
 
+# --threads: 1 and 2 print the same; a truncated or corrupted trace fails
+# alike on both (exit 1, same message, nothing stored), no hang
+"$bin" trace sphereflake -W 32 -H 32 -o "$tmp/t.rtt" >/dev/null 2>&1 || die "trace for --threads"
+for f in "$tmp/t.rtt" "$tmp/cyc.din"; do
+    "$bin" sim --threads 1 "$f" > "$tmp/t1.txt" || die "--threads 1 exit $?"
+    "$bin" sim --threads 2 "$f" > "$tmp/t2.txt" || die "--threads 2 exit $?"
+    cmp -s "$tmp/t1.txt" "$tmp/t2.txt" || die "--threads 1 and 2 differ on $f"
+    "$bin" sim "$f" | cmp -s - "$tmp/t1.txt" || die "default --threads differs on $f"
+done
+size=$(wc -c < "$tmp/t.rtt")
+head -c $((size / 2)) "$tmp/t.rtt" > "$tmp/cut.rtt"
+cp "$tmp/t.rtt" "$tmp/flip.rtt"
+printf 'Z' | dd of="$tmp/flip.rtt" bs=1 seek=$((size / 3)) conv=notrunc 2>/dev/null
+cmp -s "$tmp/t.rtt" "$tmp/flip.rtt" && die "flip.rtt unchanged"
+for f in cut flip; do
+    for t in 1 2; do
+        "$bin" sim --threads $t --db "$tmp/thr.db" "$tmp/$f.rtt" 2>"$tmp/err$t"; st=$?
+        [ $st -eq 1 ] || die "$f.rtt --threads $t exit $st"
+        grep -q "$f.rtt: byte [0-9]*: " "$tmp/err$t" || die "$f.rtt --threads $t message: $(cat "$tmp/err$t")"
+    done
+    cmp -s "$tmp/err1" "$tmp/err2" || die "$f.rtt: messages differ: $(cat "$tmp/err1" "$tmp/err2")"
+    if command -v sqlite3 >/dev/null 2>&1; then
+        n=$(sqlite3 "$tmp/thr.db" 'SELECT count(*) FROM runs')
+        [ "$n" = 0 ] || die "$f.rtt stored $n runs"
+    fi
+done
+for t in 1 2; do
+    "$bin" sim --threads $t --db "$tmp/thr.db" "$tmp/bad.din" 2>"$tmp/err$t"; st=$?
+    [ $st -eq 1 ] && grep -q 'bad.din:2: unsupported din label 9' "$tmp/err$t" || die "bad din --threads $t: $st"
+done
+for a in 0 3 x; do
+    "$bin" sim --threads $a "$tmp/cyc.din" >/dev/null 2>"$tmp/err"; st=$?
+    [ $st -eq 2 ] && grep -q -- '--threads' "$tmp/err" || die "--threads $a: exit $st $(cat "$tmp/err")"
+done
+
 # usage errors
 for args in "" "--sizes x f" "--assoc zero f" "--format xml f" "--input-format foo f" "--nope f" "--line 0 f" \
     "--method hybrid --rate 2 f" "--method hybrid --rate 1/0 f" "--method hybrid --window 0 f" "--method hybrid --period x f"; do

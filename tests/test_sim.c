@@ -19,6 +19,8 @@
 #include "sim.h"
 #include "trace.h"
 
+#include <ctype.h>
+#include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -671,6 +673,277 @@ static void test_parse(void)
     CHECK(rt_sim_config_check(&c, NULL) < 0, "64K / 48-byte lines rejected");
 }
 
+/* ---- din reader against the getline + strtoull reader it replaced ------- */
+
+/* The previous reader, kept as the reference: one line at a time. Returns
+ * records, 0 at the end, -1 with "path:line: message". */
+typedef struct ref_din {
+    FILE *f;
+    const char *path;
+    uint64_t lineno, hash, bytes;
+    char *buf;
+    size_t cap;
+} ref_din;
+
+static long ref_din_read(ref_din *d, rt_access *buf, size_t cap, rt_err *e)
+{
+    size_t n = 0;
+    while (n < cap) {
+        ssize_t len = getline(&d->buf, &d->cap, d->f);
+        if (len < 0) break;
+        d->lineno++;
+        d->bytes += (uint64_t)len;
+        d->hash = rt_fnv1a(d->hash, d->buf, (size_t)len);
+        unsigned long long ln = (unsigned long long)d->lineno;
+        if (memchr(d->buf, 0, (size_t)len)) return rt_errf(e, "%s:%llu: NUL byte in line", d->path, ln);
+        const char *p = d->buf;
+        while (*p == ' ' || *p == '\t') p++;
+        if (*p == '\n' || *p == '\r' || *p == 0) continue;
+        if (!isdigit((unsigned char)*p)) return rt_errf(e, "%s:%llu: expected 'label address'", d->path, ln);
+        char *end;
+        unsigned long label = strtoul(p, &end, 10);
+        if (end == p || (*end != ' ' && *end != '\t'))
+            return rt_errf(e, "%s:%llu: expected 'label address'", d->path, ln);
+        if (label > 2)
+            return rt_errf(e, "%s:%llu: unsupported din label %lu (0 read, 1 write, 2 fetch)", d->path, ln, label);
+        p = end;
+        while (*p == ' ' || *p == '\t') p++;
+        if (!isxdigit((unsigned char)*p)) return rt_errf(e, "%s:%llu: missing hexadecimal address", d->path, ln);
+        errno = 0;
+        unsigned long long addr = strtoull(p, &end, 16);
+        if (errno || (*end && !isspace((unsigned char)*end)))
+            return rt_errf(e, "%s:%llu: bad hexadecimal address", d->path, ln);
+        buf[n++] = (rt_access){addr, 1, label == 1, RT_CLS_FB, 0};
+    }
+    return (long)n;
+}
+
+/* Reads path with both readers in batches of cap records and compares the
+ * records, the outcome, the message and, at the end, bytes and hash. */
+static void din_compare(const char *name, const char *path, size_t cap)
+{
+    rt_err e1 = {{0}}, e2 = {{0}};
+    ref_din r = {fopen(path, "rb"), path, 0, RT_FNV_INIT, 0, NULL, 0};
+    rt_din *d = rt_din_open(path, RT_CLS_FB, &e2);
+    CHECK(r.f && d, "%s: open: %s", name, e2.msg);
+    if (!r.f || !d) return;
+    rt_access *b1 = calloc(cap, sizeof *b1), *b2 = calloc(cap, sizeof *b2);
+    long n1, n2;
+    uint64_t recs = 0;
+    int bad = 0;
+    do {
+        n1 = ref_din_read(&r, b1, cap, &e1);
+        n2 = rt_din_read(d, b2, cap, &e2);
+        if (n1 != n2) {
+            CHECK(0, "%s: after %llu records: %ld records, reference %ld ('%s' / '%s')", name,
+                  (unsigned long long)recs, n2, n1, e2.msg, e1.msg);
+            bad = 1;
+            break;
+        }
+        for (long i = 0; i < n1 && !bad; i++)
+            if (b1[i].addr != b2[i].addr || b1[i].write != b2[i].write || b2[i].size != 1 || b2[i].cls != RT_CLS_FB) {
+                CHECK(0, "%s: record %llu: %llx/%u, reference %llx/%u", name, (unsigned long long)recs + (size_t)i,
+                      (unsigned long long)b2[i].addr, b2[i].write, (unsigned long long)b1[i].addr, b1[i].write);
+                bad = 1;
+            }
+        if (n1 > 0) recs += (uint64_t)n1;
+    } while (n1 > 0 && !bad);
+    if (!bad && n1 < 0) CHECK(!strcmp(e1.msg, e2.msg), "%s: message '%s', reference '%s'", name, e2.msg, e1.msg);
+    if (!bad && n1 == 0) {
+        CHECK(rt_din_file_bytes(d) == r.bytes && rt_din_file_hash(d) == r.hash, "%s: %llu bytes, reference %llu",
+              name, (unsigned long long)rt_din_file_bytes(d), (unsigned long long)r.bytes);
+        CHECK(rt_din_read(d, b2, cap, &e2) == 0, "%s: read after the end", name);
+    }
+    free(b1);
+    free(b2);
+    free(r.buf);
+    fclose(r.f);
+    rt_din_close(d);
+}
+
+static void test_din_reference(void)
+{
+    static const char *const forms[] = {
+        "0 %llx\n", "1 0x%llx\n", "2 0X%llX\n", "\t 1\t%llx  trailing words\n", "0 %llx\r\n", "\n", "   \r junk\n",
+        " \t \n", "00 %llx\f\n", "1 %llx\v\n", "0 0000000000000000000000%llx\n",
+    };
+    static const char *const bad[] = {
+        "3 100\n", "99999999999999999999999 1\n", "1x 5\n", "0 \n", "0 0x\n", "0 0xg\n", "0 1ffffffffffffffff\n",
+        "0 12z\n", "x 1\n", "0 1\0 2\n", "\0\n", "0 ffffffffffffffff 1\0\n", "0 -1\n", "+1 2\n", "0 0x0x1\n",
+    };
+    const char *path = check_path("ref.din");
+    for (int t = 0; t < 400; t++) {
+        FILE *f = fopen(path, "wb");
+        int lines = 1 + (int)(rnd() % 60), broken = t % 3 == 0;
+        int at = broken ? (int)(rnd() % (unsigned)lines) : -1;
+        for (int i = 0; i < lines; i++) {
+            if (i == at) {
+                const char *b = bad[rnd() % (sizeof bad / sizeof bad[0])];
+                size_t len = strlen(b);
+                if (len == 0 || b[len - 1] != '\n') len += strlen(b + len + 1) + 1; /* lines holding a NUL */
+                fwrite(b, 1, len, f);
+                continue;
+            }
+            unsigned long long a = rnd() >> (rnd() % 64);
+            fprintf(f, forms[rnd() % (sizeof forms / sizeof forms[0])], a);
+        }
+        if (t % 7 == 1) fprintf(f, "1 %llx", (unsigned long long)rnd()); /* no final newline */
+        if (t % 11 == 2) fprintf(f, "   ");
+        fclose(f);
+        char name[64];
+        snprintf(name, sizeof name, "din file %d", t);
+        din_compare(name, path, 1 + rnd() % 40);
+    }
+    /* lines across block boundaries, a line longer than the first block,
+     * a bad line near the end */
+    for (int v = 0; v < 3; v++) {
+        FILE *f = fopen(path, "wb");
+        for (int i = 0; i < 120000; i++) {
+            if (i == 70000 && v >= 1) {
+                fputs("0 10 ", f);
+                for (int k = 0; k < 300000; k++) fputc('a' + k % 26, f);
+                fputc('\n', f);
+            }
+            if (i == 119990 && v == 2) fputs("0 0xq\n", f);
+            fprintf(f, i % 5 ? "%d %llx\n" : "%d 0x%llx\n", (int)(rnd() % 3), (unsigned long long)(rnd() >> 20));
+        }
+        fclose(f);
+        char name[64];
+        snprintf(name, sizeof name, "large din %d", v);
+        din_compare(name, path, 4096);
+    }
+}
+
+/* ---- two-thread replay ---------------------------------------------------- */
+
+/* A sink that refuses its third batch. */
+static int refuse_put(rt_sink *s, const rt_access *a, size_t n)
+{
+    int *calls = s->ctx;
+    return ++*calls >= 3 ? -1 : 0;
+}
+
+/* Replays path on 1 and 2 threads; everything must match: status,
+ * message, references, input facts and every counter. */
+static void threads_compare(const char *name, const char *path, int want_ok)
+{
+    rt_sim_config c;
+    rt_sim_config_default(&c);
+    rt_sim *s[2];
+    rt_sim_input in[2];
+    rt_err e[2] = {{{0}}, {{0}}};
+    int rc[2];
+    rt_tr_meta *m = calloc(2, sizeof *m);
+    for (int t = 0; t < 2; t++) {
+        s[t] = rt_sim_new(&c, NULL);
+        rc[t] = rt_sim_replay_threads(rt_sim_sink(s[t]), path, RT_SIM_IN_AUTO, RT_CLS_FB, t + 1, &m[t], &in[t], &e[t]);
+    }
+    CHECK(rc[0] == rc[1] && rc[0] == (want_ok ? 0 : -1), "%s: status %d / %d ('%s')", name, rc[0], rc[1], e[0].msg);
+    CHECK(rc[0] == 0 || !strcmp(e[0].msg, e[1].msg), "%s: messages '%s' / '%s'", name, e[0].msg, e[1].msg);
+    CHECK(in[0].refs == in[1].refs && in[0].format == in[1].format && in[0].has_meta == in[1].has_meta &&
+              in[0].file_bytes == in[1].file_bytes && in[0].file_hash == in[1].file_hash,
+          "%s: input %llu / %llu refs", name, (unsigned long long)in[0].refs, (unsigned long long)in[1].refs);
+    CHECK(!in[0].has_meta || !memcmp(&m[0], &m[1], sizeof m[0]), "%s: headers differ", name);
+    CHECK(rt_sim_refs(s[0]) == in[0].refs && rt_sim_refs(s[1]) == in[1].refs, "%s: simulated refs", name);
+    for (int i = 0; i < c.nsizes; i++)
+        for (int k = 0; k < RT_NCLASS; k++)
+            for (int g = 0; g < RT_MAXGEN; g++) {
+                rt_sim_counts x, y;
+                rt_sim_get_gen(s[0], i, k, g, &x);
+                rt_sim_get_gen(s[1], i, k, g, &y);
+                CHECK(same(&x, &y), "%s: size %d class %d generation %d differs between 1 and 2 threads", name, i, k, g);
+            }
+    rt_sim_free(s[0]);
+    rt_sim_free(s[1]);
+    free(m);
+}
+
+static void test_replay_threads(void)
+{
+    enum { N = 300000 }; /* several trace chunks, many more ring slots */
+    rt_access *a = malloc(N * sizeof *a);
+    gen(a, N, GEN_ZIPF, 20000);
+    rt_tr_meta m;
+    memset(&m, 0, sizeof m);
+    snprintf(m.tracer, sizeof m.tracer, "test");
+    rt_mm_init(&m.layout);
+    m.generations = 9;
+    rt_err e = {{0}};
+    const char *p = check_path("thr.rtt");
+    rt_tr_writer *w = rt_tr_create(p, &m, &e);
+    CHECK(w, "threads: %s", e.msg);
+    if (!w) return;
+    rt_sink *sk = rt_tr_sink(w);
+    CHECK(sk->put(sk, a, N) == 0 && rt_tr_finish(w, &e) == 0, "threads: write: %s", e.msg);
+    threads_compare("rtt", p, 1);
+    /* the two-thread replay equals the stream simulated in-process */
+    {
+        rt_sim_config c;
+        rt_sim_config_default(&c);
+        rt_sim *direct = rt_sim_new(&c, NULL), *two = rt_sim_new(&c, NULL);
+        rt_sim_put(direct, a, N);
+        rt_sim_input in;
+        CHECK(rt_sim_replay_threads(rt_sim_sink(two), p, RT_SIM_IN_RTT, 0, 2, NULL, &in, &e) == 0 && in.refs == N,
+              "threads: replay: %s", e.msg);
+        for (int i = 0; i < c.nsizes; i++)
+            for (int k = 0; k < RT_NCLASS; k++) {
+                rt_sim_counts x, y;
+                rt_sim_get(direct, i, k, &x);
+                rt_sim_get(two, i, k, &y);
+                CHECK(same(&x, &y), "threads: size %d class %d differs from the stream", i, k);
+            }
+        rt_sim_free(direct);
+        rt_sim_free(two);
+    }
+    /* truncated and bit-flipped copies: same error, same partial counters */
+    FILE *f = fopen(p, "rb");
+    fseek(f, 0, SEEK_END);
+    long size = ftell(f);
+    rewind(f);
+    unsigned char *bytes = malloc((size_t)size);
+    CHECK(fread(bytes, 1, (size_t)size, f) == (size_t)size, "threads: read back");
+    fclose(f);
+    const char *q = check_path("thr-bad.rtt");
+    for (int v = 0; v < 12; v++) {
+        long cut = v < 6 ? size * (v + 1) / 7 : size;
+        f = fopen(q, "wb");
+        if (v >= 6) bytes[size * (v - 5) / 7] ^= (unsigned char)(1u << v % 8);
+        fwrite(bytes, 1, (size_t)cut, f);
+        if (v >= 6) bytes[size * (v - 5) / 7] ^= (unsigned char)(1u << v % 8);
+        fclose(f);
+        char name[64];
+        snprintf(name, sizeof name, v < 6 ? "rtt cut at %ld" : "rtt bit flip %ld", v < 6 ? cut : size * (v - 5) / 7);
+        threads_compare(name, q, 0);
+    }
+    free(bytes);
+    /* din: whole, and with a bad line near the end */
+    const char *dp = check_path("thr.din");
+    for (int v = 0; v < 2; v++) {
+        f = fopen(dp, "w");
+        for (int i = 0; i < N; i++) {
+            if (v && i == N - 100) fputs("1 0xfoo\n", f);
+            fprintf(f, "%d %llx\n", (int)(a[i].addr % 3), (unsigned long long)a[i].addr);
+        }
+        fclose(f);
+        threads_compare(v ? "din with a bad line" : "din", dp, !v);
+    }
+    /* a sink that fails: both stop with the same message, no hang */
+    for (int t = 1; t <= 2; t++) {
+        int calls = 0;
+        rt_sink bad = {refuse_put, &calls};
+        rt_sim_input in;
+        CHECK(rt_sim_replay_threads(&bad, p, RT_SIM_IN_AUTO, 0, t, NULL, &in, &e) < 0 &&
+                  !strcmp(e.msg, "the simulator rejected references") && in.refs == 2 * 4096,
+              "threads %d: refusing sink: '%s', %llu refs", t, e.msg, (unsigned long long)in.refs);
+    }
+    int calls = -100;
+    rt_sink none = {refuse_put, &calls};
+    CHECK(rt_sim_replay_threads(&none, p, 0, 0, 0, NULL, NULL, &e) < 0 && strstr(e.msg, "threads") && calls == -100,
+          "0 threads");
+    CHECK(rt_sim_replay_threads(&none, p, 0, 0, 3, NULL, NULL, &e) < 0 && calls == -100, "3 threads");
+    free(a);
+}
+
 int main(void)
 {
     enum { N = 150000 };
@@ -799,6 +1072,9 @@ int main(void)
     FILE *devnull = fopen("/dev/null", "w");
     CHECK(rt_sim_bench_n(devnull, 100000) == 0, "bench");
     fclose(devnull);
+
+    test_din_reference();
+    test_replay_threads();
 
     check_rmdir();
     if (failures) fprintf(stderr, "test_sim: %d failures\n", failures);
