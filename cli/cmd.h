@@ -73,7 +73,10 @@ enum {
     RT_OPT_MODE,
     RT_OPT_DEPTH,
     RT_OPT_SPP,
-    RT_OPT_BOUNCES
+    RT_OPT_BOUNCES,
+    RT_OPT_ACCEL,
+    RT_OPT_GRID_MIN,
+    RT_OPT_VB_SIZE
 };
 
 /* The shared long options ({"lights",...}, {"cache-size",...}, ...);
@@ -82,7 +85,7 @@ enum {
 extern const struct option rt_render_longopts[];
 #define RT_RENDER_SHORTOPTS "t:W:H:"
 #define RT_RENDER_OPTS_HELP                                                                  \
-    "  -t TRACER          recursive | packet | dynamic (default recursive)\n"               \
+    "  -t TRACER          recursive | packet | dynamic | feedback (default recursive)\n"    \
     "  -W N, -H N         image size in pixels\n"                                            \
     "  --lights L         all | none | comma list of lights 0,1,2 (default none)\n"         \
     "  --packet N         packet edge in pixels for -t packet (default 8)\n"                 \
@@ -96,7 +99,10 @@ extern const struct option rt_render_longopts[];
     "                     else raycast)\n"                                                    \
     "  --depth N          whitted: ray generations per path, primary included (1..64, 5)\n" \
     "  --spp N            path: samples per pixel (default 1)\n"                             \
-    "  --bounces B        path: bounces after the primary hit (0..1000, default 4)\n"
+    "  --bounces B        path: bounces after the primary hit (0..1000, default 4)\n"        \
+    "  --accel A          feedback: grid | naive (every triangle) (default grid)\n"        \
+    "  --grid-min N       uniform grid: cells along the smallest axis (1..4096, default 64)\n" \
+    "  --vb-size S        feedback: limit of one vertex buffer, e.g. 512M (default 2G)\n"
 
 /* Appends the shared options to a command's own NULL-terminated table;
  * returns a malloc'd table (caller frees) or NULL. */

@@ -21,6 +21,21 @@ void rt_render_default_opts(rt_render_opts *o)
     o->depth = 5;
     o->spp = 1;
     o->bounces = 4;
+    o->accel = RT_ACCEL_GRID;
+    o->grid_min = 64; /* RT_GRID_MIN_DEFAULT */
+    o->vb_size = 0;
+}
+
+const char *rt_render_accel_name(int accel)
+{
+    return accel == RT_ACCEL_GRID ? "grid" : accel == RT_ACCEL_NAIVE ? "naive" : NULL;
+}
+
+int rt_render_accel_from_name(const char *name)
+{
+    if (!strcmp(name, "grid")) return RT_ACCEL_GRID;
+    if (!strcmp(name, "naive")) return RT_ACCEL_NAIVE;
+    return -1;
 }
 
 static const char *const mode_names[] = {"default", "raycast", "shadow", "whitted", "path"};
@@ -51,6 +66,9 @@ int rt_render_check_mode(const rt_render_opts *o, rt_err *e)
     if (o->spp < 1 || o->spp > RT_SPP_MAX) return rt_errf(e, "--spp: %d is not in 1..%d", o->spp, RT_SPP_MAX);
     if (o->bounces < 0 || o->bounces > RT_BOUNCES_MAX)
         return rt_errf(e, "--bounces: %d is not in 0..%d", o->bounces, RT_BOUNCES_MAX);
+    if (!rt_render_accel_name(o->accel)) return rt_errf(e, "--accel: unknown accelerator %d", o->accel);
+    if (o->grid_min < 1 || o->grid_min > RT_GRID_MIN_MAX)
+        return rt_errf(e, "--grid-min: %d is not in 1..%d", o->grid_min, RT_GRID_MIN_MAX);
     return 0;
 }
 

@@ -18,6 +18,14 @@ typedef enum rt_qorder {
     RT_QORDER_TREE = 1     /* dynamic: queue points in tree (depth-first) order */
 } rt_qorder;
 
+/* How the feedback tracer finds hits. */
+typedef enum rt_accel {
+    RT_ACCEL_GRID = 0, /* uniform grid, 3D-DDA (default) */
+    RT_ACCEL_NAIVE = 1 /* every triangle (the paper's Figure 1d) */
+} rt_accel;
+
+#define RT_GRID_MIN_MAX 4096 /* largest --grid-min */
+
 /* What a run traces (docs/tracers.md, "Modes"). */
 typedef enum rt_mode {
     RT_MODE_DEFAULT = 0, /* SHADOW when lights are enabled, else RAYCAST */
@@ -45,6 +53,9 @@ typedef struct rt_render_opts {
     int depth;           /* whitted: ray generations along a path, primary included (1..64, 5) */
     int spp;             /* path: samples per pixel (1) */
     int bounces;         /* path: bounces after the primary hit (>= 0, 4) */
+    int accel;           /* feedback: rt_accel, how rays find their hits (grid) */
+    int grid_min;        /* uniform grid: cells along the smallest axis (64) */
+    uint64_t vb_size;    /* feedback: limit of one vertex buffer in bytes, 0 = 2 GiB */
 } rt_render_opts;
 
 /* Fills o with the defaults: 512 x 512, no lights, packet 8, a 64 KiB
@@ -65,8 +76,13 @@ static inline int rt_render_secondary(const rt_render_opts *o)
     int m = o->mode;
     return m == RT_MODE_WHITTED || m == RT_MODE_PATH;
 }
-/* Checks mode, depth, spp and bounces. 0, or -1 naming the option in e. */
+/* Checks mode, depth, spp, bounces, accel and grid_min. 0, or -1 naming
+ * the option in e. */
 int rt_render_check_mode(const rt_render_opts *o, rt_err *e);
+
+/* Name of an rt_accel ("grid", "naive") or NULL; and back (-1 if none). */
+const char *rt_render_accel_name(int accel);
+int rt_render_accel_from_name(const char *name);
 
 /* Parses "all", "none" (or ""), or a comma list of light indices "0,2" into
  * a light mask. 0, or -1 on a malformed list (*mask untouched). */
