@@ -518,9 +518,24 @@ static void images(void)
         rt_image_free(fb);
         rt_image_free(nv);
     }
-    /* the tests channel sums to the counter */
+    /* subsampling: the same tiles, the same pixels */
     rt_render_opts o;
     rt_run_stats st;
+    rt_render_default_opts(&o);
+    o.W = o.H = 32;
+    o.lights = 7;
+    o.subsample = 3;
+    o.subtile = 4;
+    o.mode = RT_MODE_WHITTED;
+    o.depth = 3;
+    rt_image *a = render_spec("cornell:material=mirror", "recursive", &o, &st);
+    rt_image *b = render_spec("cornell:material=mirror", "feedback", &o, &st);
+    double md;
+    CHECK(a && b && diff(a, b, &md) == 0, "subsampled images differ");
+    CHECK(st.rays_primary > 0 && st.rays_primary < 1024 / 2, "subsampled: %" PRIu64 " eye rays", st.rays_primary);
+    rt_image_free(a);
+    rt_image_free(b);
+    /* the tests channel sums to the counter */
     rt_render_default_opts(&o);
     o.W = o.H = 16;
     o.lights = 1;
