@@ -75,7 +75,10 @@ enum {
     RT_OPT_SPP,
     RT_OPT_BOUNCES,
     RT_OPT_LAYOUT,
-    RT_OPT_QUEUE_STORES
+    RT_OPT_QUEUE_STORES,
+    RT_OPT_ACCEL,
+    RT_OPT_GRID_MIN,
+    RT_OPT_VB_SIZE
 };
 
 /* The shared long options ({"lights",...}, {"cache-size",...}, ...);
@@ -84,7 +87,7 @@ enum {
 extern const struct option rt_render_longopts[];
 #define RT_RENDER_SHORTOPTS "t:W:H:"
 #define RT_RENDER_OPTS_HELP                                                                  \
-    "  -t TRACER          recursive | packet | dynamic (default recursive)\n"               \
+    "  -t TRACER          recursive | packet | dynamic | feedback (default recursive)\n"    \
     "  -W N, -H N         image size in pixels\n"                                            \
     "  --lights L         all | none | comma list of lights 0,1,2 (default none)\n"         \
     "  --packet N         packet edge in pixels for -t packet (default 8)\n"                 \
@@ -102,7 +105,10 @@ extern const struct option rt_render_longopts[];
     "  --layout L         geometry layout, compact | mesh (pbrt-style shared vertices;\n"  \
     "                     default compact)\n"                                               \
     "  --queue-stores S   dynamic: queue writes, write-allocate | stream (default\n"        \
-    "                     write-allocate)\n"
+    "                     write-allocate)\n"                                               \
+    "  --accel A          feedback: grid | naive (every triangle) (default grid)\n"        \
+    "  --grid-min N       uniform grid: cells along the smallest axis (1..4096, default 64)\n" \
+    "  --vb-size S        feedback: limit of one vertex buffer, e.g. 512M (default 2G)\n"
 
 /* Appends the shared options to a command's own NULL-terminated table;
  * returns a malloc'd table (caller frees) or NULL. */

@@ -2,6 +2,7 @@
  * subcommands, so the same option is spelled and checked the same way
  * everywhere and JSON strings are escaped one way. */
 #include "cmd.h"
+#include "feedback.h"
 #include "scene.h"
 
 #include <errno.h>
@@ -23,6 +24,9 @@ const struct option rt_render_longopts[] = {
     {"bounces", required_argument, NULL, RT_OPT_BOUNCES},
     {"layout", required_argument, NULL, RT_OPT_LAYOUT},
     {"queue-stores", required_argument, NULL, RT_OPT_QUEUE_STORES},
+    {"accel", required_argument, NULL, RT_OPT_ACCEL},
+    {"grid-min", required_argument, NULL, RT_OPT_GRID_MIN},
+    {"vb-size", required_argument, NULL, RT_OPT_VB_SIZE},
     {"tracer", required_argument, NULL, 't'},
     {"width", required_argument, NULL, 'W'},
     {"height", required_argument, NULL, 'H'},
@@ -58,7 +62,7 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
     switch (c) {
     case 't':
         if (!rt_tracer_find(arg)) {
-            rt_cmd_error(cmd, "unknown tracer '%s' (recursive, packet, dynamic)", arg);
+            rt_cmd_error(cmd, "unknown tracer '%s' (recursive, packet, dynamic, feedback)", arg);
             return -1;
         }
         if (o->mode != RT_MODE_DEFAULT && !(rt_tracer_find(arg)->modes & (1u << o->mode))) {
@@ -87,6 +91,29 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
             return -1;
         }
         o->depth = (int)v;
+        return 1;
+    case RT_OPT_ACCEL: {
+        int a = rt_render_accel_from_name(arg);
+        if (a < 0) {
+            rt_cmd_error(cmd, "--accel: '%s' is not grid or naive", arg);
+            return -1;
+        }
+        o->accel = a;
+        return 1;
+    }
+    case RT_OPT_GRID_MIN:
+        if (rt_cmd_parse_long(arg, 1, RT_GRID_MIN_MAX, &v) < 0) {
+            rt_cmd_error(cmd, "--grid-min: '%s' is not in 1..%d", arg, RT_GRID_MIN_MAX);
+            return -1;
+        }
+        o->grid_min = (int)v;
+        return 1;
+    case RT_OPT_VB_SIZE:
+        if (rt_parse_size(arg, &u) < 0 || u < RT_FB_REC_SIZE) {
+            rt_cmd_error(cmd, "--vb-size: '%s' is not a size like 512M (>= 64)", arg);
+            return -1;
+        }
+        o->vb_size = u;
         return 1;
     case RT_OPT_SPP:
         if (rt_cmd_parse_long(arg, 1, RT_SPP_MAX, &v) < 0) {

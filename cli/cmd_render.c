@@ -1,6 +1,7 @@
 /* cmd_render.c -- `raytraffic render`: render a scene with a tracer to an
  * OpenEXR image (RGB + cost channels + depth) and print render statistics. */
 #include "cmd.h"
+#include "feedback.h"
 #include "image.h"
 #include "run.h"
 
@@ -21,6 +22,8 @@ static void usage(FILE *f)
             "                     (same as the scene parameter :material=M)\n"
             "  -o FILE            output EXR (required)\n"
             "  --png FILE         also write an 8-bit gamma-2.2 preview PNG\n"
+            "  --heatmap FILE     also write the triangle tests per pixel as a heat-map PNG\n"
+            "                     (log scale up to 4 x triangles: grid and naive comparable)\n"
             "  --ppm FILE         same as a binary PPM\n"
             "  --json             print statistics as JSON on stdout\n" RT_RENDER_OPTS_HELP
             "  -h, --help         this help\n\n"
@@ -74,13 +77,14 @@ int main_render(int argc, char **argv)
         {"png", required_argument, NULL, 'g'},
         {"json", no_argument, NULL, 'j'},
         {"material", required_argument, NULL, 'M'},
+        {"heatmap", required_argument, NULL, 'K'},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0},
     };
     rt_render_opts o;
     rt_render_default_opts(&o);
     const char *material = NULL;
-    const char *tracer = "recursive", *out = NULL, *ppm = NULL, *png = NULL;
+    const char *tracer = "recursive", *out = NULL, *ppm = NULL, *png = NULL, *heat = NULL;
     int json = 0, c, rc = RT_EXIT_FAIL;
     struct option *lo = rt_cmd_merge_opts(own);
     if (!lo) return RT_EXIT_FAIL;
@@ -94,6 +98,7 @@ int main_render(int argc, char **argv)
         case 'M': material = optarg; break;
         case 'p': ppm = optarg; break;
         case 'g': png = optarg; break;
+        case 'K': heat = optarg; break;
         case 'j': json = 1; break;
         case 'h': usage(stdout); free(lo); return RT_EXIT_OK;
         default: goto usage_err;
@@ -124,7 +129,7 @@ int main_render(int argc, char **argv)
     if (!spec) return RT_EXIT_USAGE;
     if (rt_job_setup(&j, spec, tracer, &o, &e) < 0) {
         rt_cmd_error("render", "%s", e.msg);
-        return RT_EXIT_FAIL;
+        return rt_fb_refused(&e) ? RT_EXIT_USAGE : RT_EXIT_FAIL; /* options asking too much */
     }
     if (j.sc->warning[0]) rt_cmd_error("render", "warning: %s", j.sc->warning);
     rt_scene_fit_aspect(j.sc, o.W, o.H); /* tall images: keep the whole mesh in view */
@@ -141,6 +146,14 @@ int main_render(int argc, char **argv)
     if (rt_exr_write(out, img, attrs, (int)(sizeof attrs / sizeof attrs[0]), &e) < 0) goto fail;
     if (ppm && rt_ppm_write(ppm, img, &e) < 0) goto fail;
     if (png && rt_png_write(png, img, &e) < 0) goto fail;
+    if (heat) {
+        unsigned char *rgb = rt_calloc((size_t)o.W * (size_t)o.H, 3, &e);
+        if (!rgb) goto fail;
+        rt_fb_heatmap(img, j.sc->ntri, rgb);
+        int hr = rt_png_write_rgb8(heat, o.W, o.H, rgb, &e);
+        free(rgb);
+        if (hr < 0) goto fail;
+    }
     rt_print_run_stats(json ? stdout : stderr, &j, &st, json);
     fprintf(stderr, "wrote %s\n", out);
     rc = RT_EXIT_OK;

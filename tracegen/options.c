@@ -24,6 +24,9 @@ void rt_render_default_opts(rt_render_opts *o)
     o->geom = RT_GEOM_COMPACT;
     o->qstores = RT_QSTORES_WRITE_ALLOCATE;
     o->queue_stats = 0;
+    o->accel = RT_ACCEL_GRID;
+    o->grid_min = 64; /* RT_GRID_MIN_DEFAULT */
+    o->vb_size = 0;
 }
 
 static const char *const geom_names[] = {"compact", "mesh"};
@@ -47,6 +50,18 @@ int rt_render_qstores_from_name(const char *name)
 {
     for (int q = 0; q <= RT_QSTORES_STREAM; q++)
         if (!strcmp(name, qstores_names[q])) return q;
+    return -1;
+}
+
+const char *rt_render_accel_name(int accel)
+{
+    return accel == RT_ACCEL_GRID ? "grid" : accel == RT_ACCEL_NAIVE ? "naive" : NULL;
+}
+
+int rt_render_accel_from_name(const char *name)
+{
+    if (!strcmp(name, "grid")) return RT_ACCEL_GRID;
+    if (!strcmp(name, "naive")) return RT_ACCEL_NAIVE;
     return -1;
 }
 
@@ -80,6 +95,9 @@ int rt_render_check_mode(const rt_render_opts *o, rt_err *e)
         return rt_errf(e, "--bounces: %d is not in 0..%d", o->bounces, RT_BOUNCES_MAX);
     if (!rt_render_geom_name(o->geom)) return rt_errf(e, "--layout: unknown layout %d", o->geom);
     if (!rt_render_qstores_name(o->qstores)) return rt_errf(e, "--queue-stores: unknown value %d", o->qstores);
+    if (!rt_render_accel_name(o->accel)) return rt_errf(e, "--accel: unknown accelerator %d", o->accel);
+    if (o->grid_min < 1 || o->grid_min > RT_GRID_MIN_MAX)
+        return rt_errf(e, "--grid-min: %d is not in 1..%d", o->grid_min, RT_GRID_MIN_MAX);
     return 0;
 }
 

@@ -30,6 +30,13 @@ typedef enum rt_qstores {
     RT_QSTORES_WRITE_ALLOCATE = 0, /* ordinary stores: a missing line is fetched first */
     RT_QSTORES_STREAM = 1          /* streaming stores (RT_WRITE_STREAM): queue lines are not fetched */
 } rt_qstores;
+/* How the feedback tracer finds hits. */
+typedef enum rt_accel {
+    RT_ACCEL_GRID = 0, /* uniform grid, 3D-DDA (default) */
+    RT_ACCEL_NAIVE = 1 /* every triangle (the paper's Figure 1d) */
+} rt_accel;
+
+#define RT_GRID_MIN_MAX 4096 /* largest --grid-min */
 
 /* What a run traces (docs/tracers.md, "Modes"). */
 typedef enum rt_mode {
@@ -62,6 +69,9 @@ typedef struct rt_render_opts {
     int qstores;         /* dynamic: rt_qstores (write-allocate) */
     int queue_stats;     /* dynamic, test/bench only: append the per-cause queue counters to the
                           * statistics (off, so existing statistics stay as they were) */
+    int accel;           /* feedback: rt_accel, how rays find their hits (grid) */
+    int grid_min;        /* uniform grid: cells along the smallest axis (64) */
+    uint64_t vb_size;    /* feedback: limit of one vertex buffer in bytes, 0 = 2 GiB */
 } rt_render_opts;
 
 /* Fills o with the defaults: 512 x 512, no lights, packet 8, a 64 KiB
@@ -83,7 +93,8 @@ static inline int rt_render_secondary(const rt_render_opts *o)
     int m = o->mode;
     return m == RT_MODE_WHITTED || m == RT_MODE_PATH;
 }
-/* Checks mode, depth, spp, bounces, layout and queue stores. 0, or -1 naming the option in e. */
+/* Checks mode, depth, spp, bounces, layout, queue stores, accel and
+ * grid_min. 0, or -1 naming the option in e. */
 int rt_render_check_mode(const rt_render_opts *o, rt_err *e);
 
 /* Layout name ("compact", "mesh") or NULL; from its name, or -1. */
@@ -92,6 +103,10 @@ int rt_render_geom_from_name(const char *name);
 /* Queue-store name ("write-allocate", "stream") or NULL; from its name, or -1. */
 const char *rt_render_qstores_name(int qs);
 int rt_render_qstores_from_name(const char *name);
+
+/* Name of an rt_accel ("grid", "naive") or NULL; and back (-1 if none). */
+const char *rt_render_accel_name(int accel);
+int rt_render_accel_from_name(const char *name);
 
 /* Parses "all", "none" (or ""), or a comma list of light indices "0,2" into
  * a light mask. 0, or -1 on a malformed list (*mask untouched). */

@@ -1,6 +1,7 @@
 /* run.c -- set up and run one rendering job (see run.h). */
 #include "run.h"
 
+#include <inttypes.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -166,6 +167,19 @@ static void layout_params(const char *tracer, const rt_render_opts *o, char *buf
         snprintf(buf + l, n - l, "%squeue_stores=%s", l ? " " : "", rt_render_qstores_name(o->qstores));
 }
 
+/* The feedback tracer's options, only those that differ from the defaults
+ * ("accel=naive grid-min=N vb-size=B"), so a default run's key is empty. */
+static void feedback_params(const rt_render_opts *o, char *buf, size_t n)
+{
+    size_t l = 0;
+    buf[0] = 0;
+    if (o->accel != RT_ACCEL_GRID) snprintf(buf, n, "accel=%s", rt_render_accel_name(o->accel));
+    l = strlen(buf);
+    if (o->grid_min != 64) snprintf(buf + l, n - l, "%sgrid-min=%d", l ? " " : "", o->grid_min);
+    l = strlen(buf);
+    if (o->vb_size) snprintf(buf + l, n - l, "%svb-size=%" PRIu64, l ? " " : "", o->vb_size);
+}
+
 const char *rt_job_params(const char *tracer, const rt_render_opts *o, const char *extra, char *buf, size_t n)
 {
     if (!n) return buf;
@@ -175,6 +189,8 @@ const char *rt_job_params(const char *tracer, const rt_render_opts *o, const cha
         snprintf(tp, sizeof tp, "qorder=%s threads=%d", o->qorder == RT_QORDER_TREE ? "tree" : "fullest", o->threads);
     else if (!strcmp(tracer, "packet"))
         snprintf(tp, sizeof tp, "packet=%d", o->packet);
+    else if (!strcmp(tracer, "feedback"))
+        feedback_params(o, tp, sizeof tp);
     mode_params(o, mp, sizeof mp);
     layout_params(tracer, o, mp, sizeof mp);
     /* tracer parameters, mode, extra: space-separated, empty parts left out */
