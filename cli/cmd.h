@@ -73,7 +73,12 @@ enum {
     RT_OPT_MODE,
     RT_OPT_DEPTH,
     RT_OPT_SPP,
-    RT_OPT_BOUNCES
+    RT_OPT_BOUNCES,
+    RT_OPT_GRID_MIN,
+    RT_OPT_ORACLE,
+    RT_OPT_ORACLE_FRACTION,
+    RT_OPT_UNROLL,
+    RT_OPT_UNROLL_SUPPRESS
 };
 
 /* The shared long options ({"lights",...}, {"cache-size",...}, ...);
@@ -82,7 +87,8 @@ enum {
 extern const struct option rt_render_longopts[];
 #define RT_RENDER_SHORTOPTS "t:W:H:"
 #define RT_RENDER_OPTS_HELP                                                                  \
-    "  -t TRACER          recursive | packet | dynamic (default recursive)\n"               \
+    "  -t TRACER          recursive | packet | dynamic | stream-branching |\n"               \
+    "                     stream-multipass (default recursive)\n"                           \
     "  -W N, -H N         image size in pixels\n"                                            \
     "  --lights L         all | none | comma list of lights 0,1,2 (default none)\n"         \
     "  --packet N         packet edge in pixels for -t packet (default 8)\n"                 \
@@ -96,7 +102,14 @@ extern const struct option rt_render_longopts[];
     "                     else raycast)\n"                                                    \
     "  --depth N          whitted: ray generations per path, primary included (1..64, 5)\n" \
     "  --spp N            path: samples per pixel (default 1)\n"                             \
-    "  --bounces B        path: bounces after the primary hit (0..1000, default 4)\n"
+    "  --bounces B        path: bounces after the primary hit (0..1000, default 4)\n"      \
+    "  --grid-min N       stream tracers: grid cells along the smallest axis (default 64,\n" \
+    "                     halved until the grid fits the cell limit)\n"                     \
+    "  --oracle O         stream-multipass: naive | threshold (default threshold)\n"        \
+    "  --oracle-fraction F  stream-multipass: intersect once F of the active rays need it\n" \
+    "                     (0 < F <= 1, default 0.2)\n"                                      \
+    "  --unroll T,I       stream-multipass: traversal steps, intersection tests per pass (1,1)\n" \
+    "  --unroll-suppress  stream-multipass: no texel reads for rays done mid-pass\n"
 
 /* Appends the shared options to a command's own NULL-terminated table;
  * returns a malloc'd table (caller frees) or NULL. */

@@ -21,6 +21,12 @@ void rt_render_default_opts(rt_render_opts *o)
     o->depth = 5;
     o->spp = 1;
     o->bounces = 4;
+    o->grid_min = 0;
+    o->oracle = RT_ORACLE_THRESHOLD;
+    o->oracle_frac = 0.2;
+    o->unroll_t = 1;
+    o->unroll_i = 1;
+    o->unroll_suppress = 0;
 }
 
 static const char *const mode_names[] = {"default", "raycast", "shadow", "whitted", "path"};

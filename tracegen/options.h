@@ -45,11 +45,23 @@ typedef struct rt_render_opts {
     int depth;           /* whitted: ray generations along a path, primary included (1..64, 5) */
     int spp;             /* path: samples per pixel (1) */
     int bounces;         /* path: bounces after the primary hit (>= 0, 4) */
+    uint32_t grid_min;   /* grid tracers: cells along the smallest axis; 0 = the tracer's default */
+    int oracle;          /* stream-multipass: rt_oracle */
+    double oracle_frac;  /* stream-multipass: threshold oracle's fraction, (0, 1] (0.2) */
+    int unroll_t;        /* stream-multipass: traversal steps per pass (>= 1, 1) */
+    int unroll_i;        /* stream-multipass: intersection tests per pass (>= 1, 1) */
+    int unroll_suppress; /* stream-multipass: no texel reads for rays that finish mid-pass */
 } rt_render_opts;
+
+typedef enum rt_oracle {
+    RT_ORACLE_THRESHOLD = 0, /* intersect once oracle_frac of the active rays need it */
+    RT_ORACLE_NAIVE = 1      /* intersect as soon as any ray needs it */
+} rt_oracle;
 
 /* Fills o with the defaults: 512 x 512, no lights, packet 8, a 64 KiB
  * schedule, fullest-first queues, 4 threads, no subsampling (tile 8), the
- * default mode, depth 5, 1 sample, 4 bounces. */
+ * default mode, depth 5, 1 sample, 4 bounces; grid_min 0 (tracer's
+ * default), the threshold oracle at 0.2, no unrolling. */
 void rt_render_default_opts(rt_render_opts *o);
 
 /* The mode a run traces: o->mode, or for RT_MODE_DEFAULT SHADOW when a

@@ -136,6 +136,26 @@ static void mode_params(const rt_render_opts *o, char *buf, size_t n)
     else snprintf(buf, n, "mode=%s", rt_render_mode_name(m));
 }
 
+/* The stream tracers' parameters that differ from their defaults, so a
+ * default run's key is just the tracer name. */
+static void stream_params(const char *tracer, const rt_render_opts *o, char *buf, size_t n)
+{
+    size_t l = 0;
+    buf[0] = 0;
+    if (o->grid_min) l += (size_t)snprintf(buf + l, n - l, " grid_min=%u", (unsigned)o->grid_min);
+    if (strcmp(tracer, "stream-multipass") || l >= n) {
+        if (l) memmove(buf, buf + 1, strlen(buf));
+        return;
+    }
+    if (o->oracle == RT_ORACLE_NAIVE && l < n) l += (size_t)snprintf(buf + l, n - l, " oracle=naive");
+    if (o->oracle != RT_ORACLE_NAIVE && o->oracle_frac != 0.2 && l < n)
+        l += (size_t)snprintf(buf + l, n - l, " oracle_fraction=%g", o->oracle_frac);
+    if ((o->unroll_t != 1 || o->unroll_i != 1) && l < n)
+        l += (size_t)snprintf(buf + l, n - l, " unroll=%d,%d", o->unroll_t, o->unroll_i);
+    if (o->unroll_suppress && l < n) l += (size_t)snprintf(buf + l, n - l, " unroll_suppress=1");
+    if (buf[0]) memmove(buf, buf + 1, strlen(buf));
+}
+
 const char *rt_job_params(const char *tracer, const rt_render_opts *o, const char *extra, char *buf, size_t n)
 {
     if (!n) return buf;
@@ -145,6 +165,8 @@ const char *rt_job_params(const char *tracer, const rt_render_opts *o, const cha
         snprintf(tp, sizeof tp, "qorder=%s threads=%d", o->qorder == RT_QORDER_TREE ? "tree" : "fullest", o->threads);
     else if (!strcmp(tracer, "packet"))
         snprintf(tp, sizeof tp, "packet=%d", o->packet);
+    else if (!strncmp(tracer, "stream-", 7))
+        stream_params(tracer, o, tp, sizeof tp);
     mode_params(o, mp, sizeof mp);
     /* tracer parameters, mode, extra: space-separated, empty parts left out */
     const char *part[3] = {tp, mp, extra};

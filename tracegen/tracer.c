@@ -11,11 +11,15 @@
 extern const rt_tracer rt_tracer_recursive;
 extern const rt_tracer rt_tracer_packet;
 extern const rt_tracer rt_tracer_dynamic;
+extern const rt_tracer rt_tracer_stream_branching;
+extern const rt_tracer rt_tracer_stream_multipass;
 
 const rt_tracer *const rt_tracer_all[] = {
     &rt_tracer_recursive,
     &rt_tracer_packet,
     &rt_tracer_dynamic,
+    &rt_tracer_stream_branching,
+    &rt_tracer_stream_multipass,
     NULL,
 };
 
