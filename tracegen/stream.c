@@ -125,9 +125,11 @@ static int st_plan_make(const rt_tracer_ctx *ctx, void **plan, rt_err *e)
         }
     }
     if (!pl->g) {
-        if (o->grid_min)
-            rt_errf(e, "--grid-min %u: %s (limit %u cells)", (unsigned)o->grid_min, e->msg,
-                    (unsigned)RT_GRID_MAX_CELLS);
+        if (o->grid_min) {
+            char msg[sizeof e->msg];
+            snprintf(msg, sizeof msg, "%s", e->msg);
+            rt_errf(e, "--grid-min %u: %s (at most %u cells)", (unsigned)o->grid_min, msg, (unsigned)RT_GRID_MAX_CELLS);
+        }
         free(pl);
         return -1;
     }
