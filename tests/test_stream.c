@@ -237,14 +237,19 @@ static void test_scene(const char *spec, const char *mat, int W, int H)
                 CHECK(kb[RT_SK_STEP] == 4 * s1.nodes, "%s %s: branching step bytes %" PRIu64, spec, mn, kb[RT_SK_STEP]);
                 CHECK(kb[RT_SK_ISECT] == 40 * s1.tests, "%s %s: branching isect bytes", spec, mn);
                 CHECK(d[RT_SD_STENCIL] == 0, "%s %s: branching has no stencil", spec, mn);
-            } else {
-                uint64_t pt = (uint64_t)xval(&s2, "pass_trav"), n = s2.rays_primary * 0 + (uint64_t)W * H;
-                (void)n;
-                /* step: (14 + 9) state words + 1 stencil write per step, 1 grid word, plus the
-                 * stencil reads of the traversal passes (one per ray in the stream) */
-                uint64_t stencil_trav = kb[RT_SK_STEP] - s1.nodes * (4 * (14 + 9) + 1 + 4);
-                CHECK(kb[RT_SK_STEP] >= s1.nodes * (4 * (14 + 9) + 1 + 4) && stencil_trav >= pt,
-                      "%s %s: multipass step bytes %" PRIu64, spec, mn, kb[RT_SK_STEP]);
+            } else if (modes[m] == RT_MODE_RAYCAST) {
+                /* one stream of n rays: Table 1's words per call (4 bytes each,
+                 * WS one byte) plus one stencil byte per ray per pass */
+                const uint64_t n = (uint64_t)W * H, hits = (uint64_t)(xval(&s1, "s") * n + 0.5);
+                const uint64_t pt = (uint64_t)xval(&s2, "pass_trav"), pi = (uint64_t)xval(&s2, "pass_isect");
+                CHECK(kb[RT_SK_EYE] == n * (4 * 5 + 1) + n, "%s: eye bytes %" PRIu64, spec, kb[RT_SK_EYE]);
+                CHECK(kb[RT_SK_SETUP] == kx[RT_SK_SETUP] * 4 * (11 + 12) + 2 * n, "%s: setup bytes", spec);
+                CHECK(kb[RT_SK_STEP] == s1.nodes * (4 * (14 + 9 + 1) + 1) + n * pt, "%s: step bytes %" PRIu64, spec,
+                      kb[RT_SK_STEP]);
+                CHECK(kb[RT_SK_ISECT] == s1.tests * (4 * (14 + 5 + 10) + 1) + n * pi, "%s: intersect bytes", spec);
+                CHECK(kb[RT_SK_COLOR] == hits * 4 * (10 + 3 + 21) + n, "%s: color bytes", spec);
+                CHECK(xval(&s2, "passes") == pt + pi + 4 && d[RT_SD_STENCIL] == n * (pt + pi + 4) + n + s1.nodes + s1.tests,
+                      "%s: stencil bytes %" PRIu64, spec, d[RT_SD_STENCIL]);
             }
         }
         if (modes[m] == RT_MODE_RAYCAST) {
@@ -489,12 +494,34 @@ static void test_errors(void)
     rt_scene_free(sc);
 }
 
+/* The bunny: all its triangles, the paper's resolution rule at 64, and a
+ * camera that has about 82% of the primary rays hit (s = 0.82). */
+static void test_bunny(void)
+{
+    rt_err e = {""};
+    rt_scene *sc = rt_scene_load("bunny", &e);
+    CHECK(sc != NULL && sc->ntri == 69451, "bunny: %s", e.msg);
+    if (!sc) return;
+    rt_kdtree *kd = tree(sc);
+    rt_render_opts o;
+    rt_render_default_opts(&o);
+    o.W = o.H = 64;
+    o.mode = RT_MODE_RAYCAST;
+    rt_run_stats st;
+    rt_image *im = run(sc, kd, "stream-branching", &o, NULL, &st, NULL);
+    CHECK(strstr(st.extra, "grid=83x64x82 ") && fabs(xval(&st, "s") - 0.82) < 0.01, "bunny: %s", st.extra);
+    rt_image_free(im);
+    rt_kd_free(kd);
+    rt_scene_free(sc);
+}
+
 int main(void)
 {
     test_table1();
     test_passes();
     test_cost();
     test_errors();
+    test_bunny();
     test_scene("cornell", "mirror", 20, 16);
     test_scene("knot", NULL, 20, 16);
     test_scene("sphereflake:level=1", "glass", 16, 16);
