@@ -169,4 +169,14 @@ int rt_report_speed_error(sqlite3 *h, int csv, const rt_plot_opts *plot, FILE *o
  * without such pairs is an error naming the sweep that makes them. */
 int rt_report_secondary(sqlite3 *h, const char *dbpath, int csv, const rt_plot_opts *plot, FILE *out, rt_err *e);
 
+/* Purcell et al. 2002 (analysis/purcell.c): the runs of stream-branching
+ * and stream-multipass (of scene, or all when NULL) beside the paper's
+ * bunny values (data/purcell_bunny.csv): Figure 6 (v, t, s), Table 2
+ * (passes, per-ray maxima, SIMD efficiency), Figure 7 (instructions and
+ * bandwidth per kernel), Figure 8 (bandwidth by data type), Figure 9
+ * (traffic at the simulated cache nearest 64 KB direct-mapped with 48-byte
+ * lines over the bytes referenced, by data type). Markdown, or CSV. 0, or
+ * -1 when there are no such runs or the paper's file is missing. */
+int rt_report_purcell(sqlite3 *h, const char *scene, int csv, FILE *out, rt_err *e);
+
 #endif

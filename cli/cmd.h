@@ -78,7 +78,11 @@ enum {
     RT_OPT_QUEUE_STORES,
     RT_OPT_ACCEL,
     RT_OPT_GRID_MIN,
-    RT_OPT_VB_SIZE
+    RT_OPT_VB_SIZE,
+    RT_OPT_ORACLE,
+    RT_OPT_ORACLE_FRACTION,
+    RT_OPT_UNROLL,
+    RT_OPT_UNROLL_SUPPRESS
 };
 
 /* The shared long options ({"lights",...}, {"cache-size",...}, ...);
@@ -87,7 +91,8 @@ enum {
 extern const struct option rt_render_longopts[];
 #define RT_RENDER_SHORTOPTS "t:W:H:"
 #define RT_RENDER_OPTS_HELP                                                                  \
-    "  -t TRACER          recursive | packet | dynamic | feedback (default recursive)\n"    \
+    "  -t TRACER          recursive | packet | dynamic | stream-branching |\n"               \
+    "                     stream-multipass | feedback (default recursive)\n"                \
     "  -W N, -H N         image size in pixels\n"                                            \
     "  --lights L         all | none | comma list of lights 0,1,2 (default none)\n"         \
     "  --packet N         packet edge in pixels for -t packet (default 8)\n"                 \
@@ -107,8 +112,14 @@ extern const struct option rt_render_longopts[];
     "  --queue-stores S   dynamic: queue writes, write-allocate | stream (default\n"        \
     "                     write-allocate)\n"                                               \
     "  --accel A          feedback: grid | naive (every triangle) (default grid)\n"        \
-    "  --grid-min N       uniform grid: cells along the smallest axis (1..4096, default 64)\n" \
-    "  --vb-size S        feedback: limit of one vertex buffer, e.g. 512M (default 2G)\n"
+    "  --vb-size S        feedback: limit of one vertex buffer, e.g. 512M (default 2G)\n" \
+    "  --grid-min N       grid tracers: grid cells along the smallest axis (default 64,\n" \
+    "                     halved until the grid fits the cell limit)\n"                     \
+    "  --oracle O         stream-multipass: naive | threshold (default threshold)\n"        \
+    "  --oracle-fraction F  stream-multipass: intersect once F of the active rays need it\n" \
+    "                     (0 < F <= 1, default 0.2)\n"                                      \
+    "  --unroll T,I       stream-multipass: traversal steps, intersection tests per pass (1,1)\n" \
+    "  --unroll-suppress  stream-multipass: no texel reads for rays done mid-pass\n"
 
 /* Appends the shared options to a command's own NULL-terminated table;
  * returns a malloc'd table (caller frees) or NULL. */

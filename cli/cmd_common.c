@@ -3,6 +3,7 @@
  * everywhere and JSON strings are escaped one way. */
 #include "cmd.h"
 #include "feedback.h"
+#include "grid.h"
 #include "scene.h"
 
 #include <errno.h>
@@ -27,6 +28,10 @@ const struct option rt_render_longopts[] = {
     {"accel", required_argument, NULL, RT_OPT_ACCEL},
     {"grid-min", required_argument, NULL, RT_OPT_GRID_MIN},
     {"vb-size", required_argument, NULL, RT_OPT_VB_SIZE},
+    {"oracle", required_argument, NULL, RT_OPT_ORACLE},
+    {"oracle-fraction", required_argument, NULL, RT_OPT_ORACLE_FRACTION},
+    {"unroll", required_argument, NULL, RT_OPT_UNROLL},
+    {"unroll-suppress", no_argument, NULL, RT_OPT_UNROLL_SUPPRESS},
     {"tracer", required_argument, NULL, 't'},
     {"width", required_argument, NULL, 'W'},
     {"height", required_argument, NULL, 'H'},
@@ -62,7 +67,7 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
     switch (c) {
     case 't':
         if (!rt_tracer_find(arg)) {
-            rt_cmd_error(cmd, "unknown tracer '%s' (recursive, packet, dynamic, feedback)", arg);
+            rt_cmd_error(cmd, "unknown tracer '%s' (recursive, packet, dynamic, stream-branching, stream-multipass, feedback)", arg);
             return -1;
         }
         if (o->mode != RT_MODE_DEFAULT && !(rt_tracer_find(arg)->modes & (1u << o->mode))) {
@@ -101,13 +106,6 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         o->accel = a;
         return 1;
     }
-    case RT_OPT_GRID_MIN:
-        if (rt_cmd_parse_long(arg, 1, RT_GRID_MIN_MAX, &v) < 0) {
-            rt_cmd_error(cmd, "--grid-min: '%s' is not in 1..%d", arg, RT_GRID_MIN_MAX);
-            return -1;
-        }
-        o->grid_min = (int)v;
-        return 1;
     case RT_OPT_VB_SIZE:
         if (rt_parse_size(arg, &u) < 0 || u < RT_FB_REC_SIZE) {
             rt_cmd_error(cmd, "--vb-size: '%s' is not a size like 512M (>= 64)", arg);
@@ -128,6 +126,48 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
             return -1;
         }
         o->bounces = (int)v;
+        return 1;
+    case RT_OPT_GRID_MIN:
+        if (rt_cmd_parse_long(arg, 1, RT_GRID_MAX_CELLS, &v) < 0) {
+            rt_cmd_error(cmd, "--grid-min: '%s' is not in 1..%u (the grid holds at most %u cells)", arg,
+                         (unsigned)RT_GRID_MAX_CELLS, (unsigned)RT_GRID_MAX_CELLS);
+            return -1;
+        }
+        o->grid_min = (uint32_t)v;
+        return 1;
+    case RT_OPT_ORACLE:
+        if (!strcmp(arg, "naive")) o->oracle = RT_ORACLE_NAIVE;
+        else if (!strcmp(arg, "threshold")) o->oracle = RT_ORACLE_THRESHOLD;
+        else {
+            rt_cmd_error(cmd, "--oracle: '%s' is not naive or threshold", arg);
+            return -1;
+        }
+        return 1;
+    case RT_OPT_ORACLE_FRACTION: {
+        char *end;
+        double f = strtod(arg, &end);
+        if (end == arg || *end || !(f > 0) || f > 1) {
+            rt_cmd_error(cmd, "--oracle-fraction: '%s' is not in (0, 1]", arg);
+            return -1;
+        }
+        o->oracle_frac = f;
+        return 1;
+    }
+    case RT_OPT_UNROLL: {
+        char buf[64], *comma;
+        long t, i;
+        snprintf(buf, sizeof buf, "%s", arg);
+        if (!(comma = strchr(buf, ',')) || (*comma = 0, rt_cmd_parse_long(buf, 1, 1 << 20, &t) < 0) ||
+            rt_cmd_parse_long(comma + 1, 1, 1 << 20, &i) < 0) {
+            rt_cmd_error(cmd, "--unroll: '%s' is not T,I with both in 1..1048576", arg);
+            return -1;
+        }
+        o->unroll_t = (int)t;
+        o->unroll_i = (int)i;
+        return 1;
+    }
+    case RT_OPT_UNROLL_SUPPRESS:
+        o->unroll_suppress = 1;
         return 1;
     case 'W':
     case 'H':

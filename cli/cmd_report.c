@@ -23,7 +23,9 @@ static void usage(FILE *f)
             "  --db FILE          results database (default raytraffic.db)\n"
             "  --figure F         4|5|6 (primary), 7|8|9 (shadows), scenes, or all (default all);\n"
             "                     secondary: dynamic vs recursive per ray generation (whitted,\n"
-            "                     path runs), with --plot one picture per scene and mode\n"
+            "                     path runs), with --plot one picture per scene and mode;\n"
+            "                     purcell: stream-* runs beside Purcell et al. 2002 (Figure 6,\n"
+            "                     Table 2, Figures 7-9)\n"
             "  --scene NAME       only this scene (figures 4-9 map room, grove, sphereflake)\n"
             "  --format md|csv    Markdown tables (default) or CSV\n"
             "  -W N, -H N         resolution to report (default: the largest in the database)\n"
@@ -52,9 +54,9 @@ int main_report(int argc, char **argv)
         switch (c) {
         case 'd': dbpath = optarg; break;
         case 'f':
-            if (strcmp(optarg, "all") && strcmp(optarg, "scenes") && strcmp(optarg, "secondary") &&
+            if (strcmp(optarg, "all") && strcmp(optarg, "scenes") && strcmp(optarg, "secondary") && strcmp(optarg, "purcell") &&
                 !(strlen(optarg) == 1 && optarg[0] >= '4' && optarg[0] <= '9')) {
-                rt_cmd_error("report", "--figure: '%s' is not 4..9, scenes, secondary or all", optarg);
+                rt_cmd_error("report", "--figure: '%s' is not 4..9, scenes, secondary, purcell or all", optarg);
                 return RT_EXIT_USAGE;
             }
             figure = optarg;
@@ -98,6 +100,8 @@ int main_report(int argc, char **argv)
     int rc = rt_report_init(&R, h, dbpath, &o, &e);
     if (rc == 0 && speed) {
         rc = rt_report_speed_error(h, o.csv, plotdir ? &po : NULL, stdout, &e);
+    } else if (rc == 0 && !strcmp(figure, "purcell")) {
+        rc = rt_report_purcell(h, o.scene, o.csv, stdout, &e);
     } else if (rc == 0 && !strcmp(figure, "secondary")) {
         rc = rt_report_secondary(h, dbpath, o.csv, plotdir ? &po : NULL, stdout, &e);
     } else if (rc == 0 && !R.nscenes) {

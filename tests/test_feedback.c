@@ -8,6 +8,7 @@
  */
 #include "check.h"
 #include "feedback.h"
+#include "grid.h"
 #include "kdtree.h"
 #include "run.h"
 
@@ -569,15 +570,17 @@ static void options(void)
     o.accel = 7;
     CHECK(rt_render_check_mode(&o, &e) < 0 && strstr(e.msg, "--accel"), "accel 7: %s", e.msg);
     o.accel = RT_ACCEL_GRID;
-    o.grid_min = 0;
-    CHECK(rt_render_check_mode(&o, &e) < 0 && strstr(e.msg, "--grid-min"), "grid-min 0: %s", e.msg);
+    o.grid_min = RT_GRID_MAX_CELLS + 1u;
+    CHECK(rt_render_check_mode(&o, &e) < 0 && strstr(e.msg, "--grid-min"), "grid-min too large: %s", e.msg);
+    o.grid_min = 0; /* the tracer's default, 64 */
+    CHECK(!strcmp(rt_job_params("feedback", &o, NULL, buf, sizeof buf), ""), "default key '%s'", buf);
     o.grid_min = 64;
     CHECK(!strcmp(rt_job_params("feedback", &o, NULL, buf, sizeof buf), ""), "default key '%s'", buf);
     CHECK(!strcmp(rt_job_params("recursive", &o, NULL, buf, sizeof buf), ""), "recursive key '%s'", buf);
     o.accel = RT_ACCEL_NAIVE;
     o.grid_min = 32;
     o.vb_size = 1 << 20;
-    CHECK(!strcmp(rt_job_params("feedback", &o, NULL, buf, sizeof buf), "accel=naive grid-min=32 vb-size=1048576"),
+    CHECK(!strcmp(rt_job_params("feedback", &o, NULL, buf, sizeof buf), "accel=naive grid_min=32 vb-size=1048576"),
           "key '%s'", buf);
     CHECK(!strcmp(rt_job_params("packet", &o, NULL, buf, sizeof buf), "packet=8"), "packet key '%s'", buf);
     rt_render_default_opts(&o);

@@ -243,7 +243,7 @@ static int fb_plan_make(const rt_tracer_ctx *ctx, void **out, rt_err *e)
                                                   fmaxf(fabsf(b.lo.z), fabsf(b.hi.z)))) + 1e-30f;
     pl->box.lo = rt_sub(b.lo, rt_v3(pad, pad, pad));
     pl->box.hi = rt_add(b.hi, rt_v3(pad, pad, pad));
-    if (o->accel == RT_ACCEL_GRID && !(pl->grid = rt_grid_build(sc, (uint32_t)o->grid_min, e))) goto fail;
+    if (o->accel == RT_ACCEL_GRID && !(pl->grid = rt_grid_build(sc, o->grid_min ? o->grid_min : 64, e))) goto fail;
     *out = pl;
     return 0;
 fail:

@@ -1,5 +1,6 @@
 /* options.c -- defaults and parsing of the render options (see options.h). */
 #include "options.h"
+#include "grid.h"
 #include "scene.h"
 
 #include <string.h>
@@ -25,8 +26,13 @@ void rt_render_default_opts(rt_render_opts *o)
     o->qstores = RT_QSTORES_WRITE_ALLOCATE;
     o->queue_stats = 0;
     o->accel = RT_ACCEL_GRID;
-    o->grid_min = 64; /* RT_GRID_MIN_DEFAULT */
     o->vb_size = 0;
+    o->grid_min = 0;
+    o->oracle = RT_ORACLE_THRESHOLD;
+    o->oracle_frac = 0.2;
+    o->unroll_t = 1;
+    o->unroll_i = 1;
+    o->unroll_suppress = 0;
 }
 
 static const char *const geom_names[] = {"compact", "mesh"};
@@ -96,8 +102,8 @@ int rt_render_check_mode(const rt_render_opts *o, rt_err *e)
     if (!rt_render_geom_name(o->geom)) return rt_errf(e, "--layout: unknown layout %d", o->geom);
     if (!rt_render_qstores_name(o->qstores)) return rt_errf(e, "--queue-stores: unknown value %d", o->qstores);
     if (!rt_render_accel_name(o->accel)) return rt_errf(e, "--accel: unknown accelerator %d", o->accel);
-    if (o->grid_min < 1 || o->grid_min > RT_GRID_MIN_MAX)
-        return rt_errf(e, "--grid-min: %d is not in 1..%d", o->grid_min, RT_GRID_MIN_MAX);
+    if (o->grid_min > RT_GRID_MAX_CELLS) /* 0 = the tracer's default */
+        return rt_errf(e, "--grid-min: %u is not in 1..%u", (unsigned)o->grid_min, (unsigned)RT_GRID_MAX_CELLS);
     return 0;
 }
 

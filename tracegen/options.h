@@ -36,7 +36,6 @@ typedef enum rt_accel {
     RT_ACCEL_NAIVE = 1 /* every triangle (the paper's Figure 1d) */
 } rt_accel;
 
-#define RT_GRID_MIN_MAX 4096 /* largest --grid-min */
 
 /* What a run traces (docs/tracers.md, "Modes"). */
 typedef enum rt_mode {
@@ -70,14 +69,25 @@ typedef struct rt_render_opts {
     int queue_stats;     /* dynamic, test/bench only: append the per-cause queue counters to the
                           * statistics (off, so existing statistics stay as they were) */
     int accel;           /* feedback: rt_accel, how rays find their hits (grid) */
-    int grid_min;        /* uniform grid: cells along the smallest axis (64) */
     uint64_t vb_size;    /* feedback: limit of one vertex buffer in bytes, 0 = 2 GiB */
+    uint32_t grid_min;   /* grid tracers: cells along the smallest axis; 0 = the tracer's default */
+    int oracle;          /* stream-multipass: rt_oracle */
+    double oracle_frac;  /* stream-multipass: threshold oracle's fraction, (0, 1] (0.2) */
+    int unroll_t;        /* stream-multipass: traversal steps per pass (>= 1, 1) */
+    int unroll_i;        /* stream-multipass: intersection tests per pass (>= 1, 1) */
+    int unroll_suppress; /* stream-multipass: no texel reads for rays that finish mid-pass */
 } rt_render_opts;
+
+typedef enum rt_oracle {
+    RT_ORACLE_THRESHOLD = 0, /* intersect once oracle_frac of the active rays need it */
+    RT_ORACLE_NAIVE = 1      /* intersect as soon as any ray needs it */
+} rt_oracle;
 
 /* Fills o with the defaults: 512 x 512, no lights, packet 8, a 64 KiB
  * schedule, fullest-first queues, 4 threads, no subsampling (tile 8), the
  * default mode, depth 5, 1 sample, 4 bounces, the compact geometry
- * layout, write-allocate queue stores, no queue statistics. */
+ * layout, write-allocate queue stores, no queue statistics; grid_min 0
+ * (the tracer's default), the threshold oracle at 0.2, no unrolling. */
 void rt_render_default_opts(rt_render_opts *o);
 
 /* The mode a run traces: o->mode, or for RT_MODE_DEFAULT SHADOW when a

@@ -168,16 +168,36 @@ static void layout_params(const char *tracer, const rt_render_opts *o, char *buf
 }
 
 /* The feedback tracer's options, only those that differ from the defaults
- * ("accel=naive grid-min=N vb-size=B"), so a default run's key is empty. */
+ * ("accel=naive grid_min=N vb-size=B"), so a default run's key is empty. */
 static void feedback_params(const rt_render_opts *o, char *buf, size_t n)
 {
     size_t l = 0;
     buf[0] = 0;
     if (o->accel != RT_ACCEL_GRID) snprintf(buf, n, "accel=%s", rt_render_accel_name(o->accel));
     l = strlen(buf);
-    if (o->grid_min != 64) snprintf(buf + l, n - l, "%sgrid-min=%d", l ? " " : "", o->grid_min);
+    if (o->grid_min && o->grid_min != 64) snprintf(buf + l, n - l, "%sgrid_min=%u", l ? " " : "", (unsigned)o->grid_min);
     l = strlen(buf);
     if (o->vb_size) snprintf(buf + l, n - l, "%svb-size=%" PRIu64, l ? " " : "", o->vb_size);
+}
+
+/* The stream tracers' parameters that differ from their defaults, so a
+ * default run's key is just the tracer name. */
+static void stream_params(const char *tracer, const rt_render_opts *o, char *buf, size_t n)
+{
+    size_t l = 0;
+    buf[0] = 0;
+    if (o->grid_min) l += (size_t)snprintf(buf + l, n - l, " grid_min=%u", (unsigned)o->grid_min);
+    if (strcmp(tracer, "stream-multipass") || l >= n) {
+        if (l) memmove(buf, buf + 1, strlen(buf));
+        return;
+    }
+    if (o->oracle == RT_ORACLE_NAIVE && l < n) l += (size_t)snprintf(buf + l, n - l, " oracle=naive");
+    if (o->oracle != RT_ORACLE_NAIVE && o->oracle_frac != 0.2 && l < n)
+        l += (size_t)snprintf(buf + l, n - l, " oracle_fraction=%g", o->oracle_frac);
+    if ((o->unroll_t != 1 || o->unroll_i != 1) && l < n)
+        l += (size_t)snprintf(buf + l, n - l, " unroll=%d,%d", o->unroll_t, o->unroll_i);
+    if (o->unroll_suppress && l < n) l += (size_t)snprintf(buf + l, n - l, " unroll_suppress=1");
+    if (buf[0]) memmove(buf, buf + 1, strlen(buf));
 }
 
 const char *rt_job_params(const char *tracer, const rt_render_opts *o, const char *extra, char *buf, size_t n)
@@ -191,6 +211,8 @@ const char *rt_job_params(const char *tracer, const rt_render_opts *o, const cha
         snprintf(tp, sizeof tp, "packet=%d", o->packet);
     else if (!strcmp(tracer, "feedback"))
         feedback_params(o, tp, sizeof tp);
+    else if (!strncmp(tracer, "stream-", 7))
+        stream_params(tracer, o, tp, sizeof tp);
     mode_params(o, mp, sizeof mp);
     layout_params(tracer, o, mp, sizeof mp);
     /* tracer parameters, mode, extra: space-separated, empty parts left out */

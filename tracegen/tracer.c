@@ -11,12 +11,16 @@
 extern const rt_tracer rt_tracer_recursive;
 extern const rt_tracer rt_tracer_packet;
 extern const rt_tracer rt_tracer_dynamic;
+extern const rt_tracer rt_tracer_stream_branching;
+extern const rt_tracer rt_tracer_stream_multipass;
 extern const rt_tracer rt_tracer_feedback;
 
 const rt_tracer *const rt_tracer_all[] = {
     &rt_tracer_recursive,
     &rt_tracer_packet,
     &rt_tracer_dynamic,
+    &rt_tracer_stream_branching,
+    &rt_tracer_stream_multipass,
     &rt_tracer_feedback,
     NULL,
 };
