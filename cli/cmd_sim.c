@@ -73,8 +73,9 @@ static void usage(FILE *f)
             "  -h, --help             this help\n\n"
             "Output columns: size_bytes line assoc class accesses read_misses write_misses\n"
             "writebacks wt_bytes traffic_bytes; one row per size and class, then group rows\n"
-            "(geometry, ray, other). assoc 0 = fully associative. Accounting and units:\n"
-            "docs/cachesim.md. Exit status 0 ok, 1 a trace failed, 2 usage error.\n");
+            "(geometry, ray, other). accesses counts line touches (a reference spanning k\n"
+            "lines is k accesses), not references. assoc 0 = fully associative. Accounting\n"
+            "and units: docs/cachesim.md. Exit status 0 ok, 1 a trace failed, 2 usage error.\n");
 }
 
 static void print_row(FILE *f, int fmt, const char *trace, const rt_sim_config *c, int i, const char *name,
@@ -109,7 +110,7 @@ static void print_header(FILE *f, const char *trace, const rt_approx *ap)
     const rt_approx_config *ac = rt_approx_get_approx_config(ap);
     char params[160];
     rt_approx_params(ac, params, sizeof params);
-    fprintf(f, "# %s: %llu references, policy %s, engine %s%s%s\n", trace, (unsigned long long)rt_approx_refs(ap),
+    fprintf(f, "# %s: %llu references (accesses below are line touches), policy %s, engine %s%s%s\n", trace, (unsigned long long)rt_approx_refs(ap),
             rt_sim_policy_name(c), rt_approx_engine(ap), ac->method == RT_APPROX_EXACT ? "" : " ", params);
     if (ac->method != RT_APPROX_EXACT) {
         rt_approx_stats st;
