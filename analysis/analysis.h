@@ -105,7 +105,8 @@ typedef struct rt_report_agree {
     int nsizes, dyn_less;    /* sizes compared (primary rays), where dynamic moves less geometry than recursive */
     int ray_more, paper_ray_more; /* sizes where dynamic moves more ray data than recursive: ours, the paper's */
     int ray_both;            /* of the paper's sizes, those where ours does too */
-    int turn_kb, paper_turn_kb; /* first size (KB) whose total traffic reduction vs recursive is negative; 0 = none */
+    int turn_kb, paper_turn_kb; /* size (KB) from which the total traffic reduction vs recursive is negative and
+                                 * never again positive; 0 = none */
 } rt_report_agree;
 
 /* Within 2x: same sign (or both zero) and the larger magnitude at most

@@ -455,7 +455,10 @@ static int agreement(const rt_report *R, const char *sc, const paper_tables *t, 
     for (int k = 0; k < t->np; k++) {
         const paper_row *pr = &t->prim[k];
         if (strcmp(pr->scene, sc)) continue;
-        if (!a->paper_turn_kb && pr->v[8] < 0) a->paper_turn_kb = pr->kb; /* over all of the paper's sizes */
+        /* the turn: the size from which the total reduction stays <= 0,
+         * over all of the paper's sizes (a positive one starts over) */
+        if (pr->v[8] > 0) a->paper_turn_kb = 0;
+        else if (!a->paper_turn_kb && pr->v[8] < 0) a->paper_turn_kb = pr->kb;
         double g[3], r[3];
         int h[3];
         if (values3(R, sc, 0, (uint64_t)pr->kb * 1024, g, r, h, e) < 0) return -1;
@@ -473,7 +476,8 @@ static int agreement(const rt_report *R, const char *sc, const paper_tables *t, 
         a->ray_more += mine;
         a->paper_ray_more += theirs;
         a->ray_both += mine && theirs;
-        if (!a->turn_kb && tot < 0) a->turn_kb = pr->kb;
+        if (tot > 0) a->turn_kb = 0;
+        else if (!a->turn_kb && tot < 0) a->turn_kb = pr->kb;
     }
     for (int k = 0; k < t->ns; k++) {
         const paper_row *pr = &t->shad[k];
@@ -534,7 +538,8 @@ static int agreement_table(const rt_report *R, const paper_tables *t, FILE *out,
         fprintf(out, "\n### Agreement with the paper, %dx%d (paper at 1024x1024)\n\nCells within 2x of the paper's (same "
                      "sign, ratio 1/2..2); findings: dynamic moves less geometry than recursive at every size; dynamic "
                      "moves more ray data than recursive wherever the paper's does; total traffic turns against "
-                     "dynamic within one power of two of the paper's size.\n\n| model | scene | Fig. 4-6 cells within 2x "
+                     "dynamic (stays at or below zero reduction from that size on) within one power of two of the "
+                     "paper's size.\n\n| model | scene | Fig. 4-6 cells within 2x "
                      "| Fig. 7-9 cells within 2x | less geometry at every size | ray overhead | turns against dynamic "
                      "at (paper) |\n|---|---|---|---|---|---|---|\n",
                 R->W, R->H);
