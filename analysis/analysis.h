@@ -42,6 +42,7 @@ typedef struct rt_report_opts {
     int total;         /* figures 7-9 (and their comparison) on total instead of geometry traffic */
     int W, H;          /* resolution to report; 0 = the largest exact run's */
     const char *scene; /* only this scene; NULL = every scene at that resolution */
+    const char *model; /* only runs of this model ("lean", "paper"); NULL = as before: wb-wa runs, any model */
 } rt_report_opts;
 
 /* A report's axes, read from the database by rt_report_init. */
@@ -61,6 +62,14 @@ typedef struct rt_report {
     char scene_hash[RT_REPORT_MAXSCENES][17];      /* scenes.hash of each label */
     char scene_abspath[RT_REPORT_MAXSCENES][1024]; /* mesh file to re-render, '' = built-in or unknown */
     int packet;                       /* packet edge of the packet runs (default 8) */
+    /* The model the values are read for (rt_report_set_model): -1 = none,
+     * every exact wb-wa run (the lowest geometry when several match);
+     * else only that model's runs: its policy label, its sim_params, and
+     * tracer parameters with (or without) its layout and queue stores. */
+    int model;                        /* RT_EXP_MODEL_* or -1 */
+    char policy[64];                  /* cache_configs.policy read ("wb-wa" with no model) */
+    char sim_params[160];             /* the model's exact sim_params (rt_exp_sim_params) */
+    int mesh, stream;                 /* the model's layout is mesh / queue stores stream */
 } rt_report;
 
 /* Opens the results database at path read-only (no file is ever created
@@ -76,6 +85,11 @@ int rt_report_db_open(const char *path, sqlite3 **ph, rt_err *e);
  * the caller decides whether an empty report is one. */
 int rt_report_init(rt_report *R, sqlite3 *h, const char *dbpath, const rt_report_opts *o, rt_err *e);
 
+/* Restricts R's values to model (RT_EXP_MODEL_*, or -1 for no model, as
+ * rt_report_init leaves it) and re-reads the cache sizes of that model's
+ * policy. 0, or -1 with a message (unknown model, database error). */
+int rt_report_set_model(rt_report *R, int model, rt_err *e);
+
 /* Geometry and ray traffic (MB) of tracer on scene (a label of R->scenes,
  * or a bare scene name: then any scene of that name) at cache size `size`
  * with light mask `lights`; the dynamic tracer's run is the one scheduled
@@ -83,6 +97,25 @@ int rt_report_init(rt_report *R, sqlite3 *h, const char *dbpath, const rt_report
  * when it does not, -1 on a database error. */
 int rt_report_value(const rt_report *R, const char *scene, const char *tracer, unsigned lights, uint64_t size,
                     double *geom, double *ray, rt_err *e);
+
+/* The agreement of one scene's values with the paper's, for R's model
+ * (rt_report_compare_paper prints it per scene and model). */
+typedef struct rt_report_agree {
+    int cells[2], within[2]; /* Figures 4-6 (0) and 7-9 (1): cells compared, of them within 2x of the paper's */
+    int nsizes, dyn_less;    /* sizes compared (primary rays), where dynamic moves less geometry than recursive */
+    int ray_more, paper_ray_more; /* sizes where dynamic moves more ray data than recursive: ours, the paper's */
+    int ray_both;            /* of the paper's sizes, those where ours does too */
+    int turn_kb, paper_turn_kb; /* size (KB) from which the total traffic reduction vs recursive is negative and
+                                 * never again positive; 0 = none */
+} rt_report_agree;
+
+/* Within 2x: same sign (or both zero) and the larger magnitude at most
+ * twice the smaller. */
+int rt_report_within2(double ours, double paper);
+
+/* Computes a's fields for scene sc from the paper's tables
+ * (data/paper_*.csv). 0, or -1 with a message. */
+int rt_report_agreement(const rt_report *R, const char *sc, rt_report_agree *a, rt_err *e);
 
 /* The paper's reduction in percent: 100 (base / dyn - 1) when dyn <= base,
  * else -100 (dyn / base - 1); NAN unless both are positive. */

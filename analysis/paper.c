@@ -22,6 +22,7 @@
  * rt_report_flush at the end of each public function.
  */
 #include "analysis_int.h"
+#include "experiment.h"
 
 #include <inttypes.h>
 #include <math.h>
@@ -416,6 +417,163 @@ static int compare_shadows(const rt_report *R, const char *sc, const paper_row *
     return 0;
 }
 
+/* ---- agreement with the paper ------------------------------------------ */
+
+int rt_report_within2(double ours, double paper)
+{
+    if (isnan(ours) || isnan(paper)) return 0;
+    if (ours == 0 || paper == 0) return ours == paper;
+    if ((ours > 0) != (paper > 0)) return 0;
+    double a = fabs(ours), b = fabs(paper);
+    return a <= 2 * b && b <= 2 * a;
+}
+
+/* Both tables of the paper, read once per call. */
+typedef struct paper_tables {
+    paper_row prim[MAX_PAPER_ROWS], shad[MAX_PAPER_ROWS];
+    int np, ns;
+} paper_tables;
+
+static int load_tables(paper_tables *t, rt_err *e)
+{
+    char p1[4096], p2[4096];
+    if ((t->np = load_csv(data_path("paper_primary.csv", p1, sizeof p1), t->prim, MAX_PAPER_ROWS, 10, e)) < 0) return -1;
+    if ((t->ns = load_csv(data_path("paper_shadows.csv", p2, sizeof p2), t->shad, MAX_PAPER_ROWS, 8, e)) < 0) return -1;
+    return 0;
+}
+
+static void count_cell(rt_report_agree *a, int fig, double ours, double paper)
+{
+    if (isnan(ours) || isnan(paper)) return;
+    a->cells[fig]++;
+    a->within[fig] += rt_report_within2(ours, paper);
+}
+
+static int agreement(const rt_report *R, const char *sc, const paper_tables *t, rt_report_agree *a, rt_err *e)
+{
+    memset(a, 0, sizeof *a);
+    for (int k = 0; k < t->np; k++) {
+        const paper_row *pr = &t->prim[k];
+        if (strcmp(pr->scene, sc)) continue;
+        /* the turn: the size from which the total reduction stays <= 0,
+         * over all of the paper's sizes (a positive one starts over) */
+        if (pr->v[8] > 0) a->paper_turn_kb = 0;
+        else if (!a->paper_turn_kb && pr->v[8] < 0) a->paper_turn_kb = pr->kb;
+        double g[3], r[3];
+        int h[3];
+        if (values3(R, sc, 0, (uint64_t)pr->kb * 1024, g, r, h, e) < 0) return -1;
+        /* the paper's columns: geometry and ray MB of the three tracers,
+         * geometry and total reduction vs recursive and vs packet */
+        const double ours[10] = {g[0], g[1], g[2], r[0], r[1], r[2], rt_report_reduction(g[0], g[2]),
+                                 rt_report_reduction(g[1], g[2]), rt_report_reduction(g[0] + r[0], g[2] + r[2]),
+                                 rt_report_reduction(g[1] + r[1], g[2] + r[2])};
+        for (int c = 0; c < 10; c++) count_cell(a, 0, ours[c], pr->v[c]);
+        double red = ours[6], tot = ours[8];
+        if (isnan(red) || isnan(tot)) continue;
+        a->nsizes++;
+        a->dyn_less += red > 0;
+        int mine = r[2] > r[0], theirs = pr->v[5] > pr->v[3];
+        a->ray_more += mine;
+        a->paper_ray_more += theirs;
+        a->ray_both += mine && theirs;
+        if (tot > 0) a->turn_kb = 0;
+        else if (!a->turn_kb && tot < 0) a->turn_kb = pr->kb;
+    }
+    for (int k = 0; k < t->ns; k++) {
+        const paper_row *pr = &t->shad[k];
+        if (strcmp(pr->scene, sc)) continue;
+        for (int l = 0; l < 4; l++) {
+            double g[3], r[3];
+            int h[3];
+            if (values3(R, sc, masks4[l], (uint64_t)pr->kb * 1024, g, r, h, e) < 0) return -1;
+            for (int c = 0; c < 2; c++) count_cell(a, 1, h[c] && h[2] ? red_vs(R, g, r, c) : NAN, pr->v[2 * l + c]);
+        }
+    }
+    return 0;
+}
+
+int rt_report_agreement(const rt_report *R, const char *sc, rt_report_agree *a, rt_err *e)
+{
+    paper_tables *t = rt_calloc(1, sizeof *t, e);
+    if (!t) return -1;
+    int rc = load_tables(t, e) < 0 ? -1 : agreement(R, sc, t, a, e);
+    free(t);
+    return rc;
+}
+
+/* The turn sizes agree when within one power of two of each other. */
+static int turn_agrees(const rt_report_agree *a)
+{
+    return a->turn_kb && a->paper_turn_kb && a->turn_kb <= 2 * a->paper_turn_kb && a->paper_turn_kb <= 2 * a->turn_kb;
+}
+
+static void pct(FILE *out, int n, int d)
+{
+    if (d) fprintf(out, "%d/%d (%.0f%%)", n, d, 100.0 * n / d);
+    else fputs("—", out);
+}
+
+/* Whether the database holds runs of a named model other than lean (then
+ * --compare-paper adds the agreement table for every model): 1, 0, -1. */
+static int has_named_model(const rt_report *R, rt_err *e)
+{
+    sqlite3_stmt *st = rt_report_stmt(
+        R->h, "SELECT 1 FROM runs WHERE sim_method = 'exact' AND sim_params LIKE 'model=%' LIMIT 1", R->dbpath, e, "");
+    if (!st) return -1;
+    int rc = sqlite3_step(st), found = rc == SQLITE_ROW;
+    if (rt_report_done(st, rc, R->dbpath, e) < 0) return -1;
+    return found;
+}
+
+/* The agreement table: per model (R's, or every model) and paper scene,
+ * the share of Figure 4-9 cells within 2x of the paper's and whether each
+ * of the paper's findings holds. */
+static int agreement_table(const rt_report *R, const paper_tables *t, FILE *out, rt_err *e)
+{
+    static const char *const sc3[3] = {"room", "grove", "sphereflake"};
+    if (R->csv)
+        fprintf(out, "model,scene,fig4_6_cells,fig4_6_within2,fig7_9_cells,fig7_9_within2,sizes,dynamic_less_geometry,"
+                     "ray_more,paper_ray_more,ray_more_where_paper,turn_kb,paper_turn_kb\n");
+    else
+        fprintf(out, "\n### Agreement with the paper, %dx%d (paper at 1024x1024)\n\nCells within 2x of the paper's (same "
+                     "sign, ratio 1/2..2); findings: dynamic moves less geometry than recursive at every size; dynamic "
+                     "moves more ray data than recursive wherever the paper's does; total traffic turns against "
+                     "dynamic (stays at or below zero reduction from that size on) within one power of two of the "
+                     "paper's size.\n\n| model | scene | Fig. 4-6 cells within 2x "
+                     "| Fig. 7-9 cells within 2x | less geometry at every size | ray overhead | turns against dynamic "
+                     "at (paper) |\n|---|---|---|---|---|---|---|\n",
+                R->W, R->H);
+    rt_report M = *R;
+    for (int m = 0; m < RT_EXP_NMODELS; m++) {
+        if (R->model >= 0 && m != R->model) continue;
+        if (rt_report_set_model(&M, m, e) < 0) return -1;
+        for (int si = 0; si < 3; si++) {
+            if (!has_scene(R, sc3[si])) continue;
+            rt_report_agree a;
+            if (agreement(&M, sc3[si], t, &a, e) < 0) return -1;
+            if (!a.cells[0] && !a.cells[1]) continue;
+            const char *mn = rt_exp_model_get(m)->name;
+            if (R->csv) {
+                fprintf(out, "%s,%s,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d\n", mn, sc3[si], a.cells[0], a.within[0], a.cells[1],
+                        a.within[1], a.nsizes, a.dyn_less, a.ray_more, a.paper_ray_more, a.ray_both, a.turn_kb,
+                        a.paper_turn_kb);
+                continue;
+            }
+            fprintf(out, "| %s | %s | ", mn, sc3[si]);
+            pct(out, a.within[0], a.cells[0]);
+            fputs(" | ", out);
+            pct(out, a.within[1], a.cells[1]);
+            fprintf(out, " | %s (%d of %d) | %s (%d of %d; paper %d) | ", a.nsizes && a.dyn_less == a.nsizes ? "yes" : "no",
+                    a.dyn_less, a.nsizes, a.paper_ray_more && a.ray_both == a.paper_ray_more ? "yes" : "no", a.ray_more,
+                    a.nsizes, a.paper_ray_more);
+            if (a.turn_kb) fprintf(out, "%s: %d K", turn_agrees(&a) ? "yes" : "no", a.turn_kb);
+            else fputs("no: never", out);
+            fprintf(out, " (%d K) |\n", a.paper_turn_kb);
+        }
+    }
+    return 0;
+}
+
 int rt_report_compare_paper(const rt_report *R, FILE *out, rt_err *e)
 {
     char p1[4096], p2[4096];
@@ -437,5 +595,16 @@ int rt_report_compare_paper(const rt_report *R, FILE *out, rt_err *e)
                      "leaf size, which moves queue points and so ray traffic; our memory model counts shading reads, "
                      "hit records and the ray buffer explicitly; quick-preset runs use fewer pixels than the paper's "
                      "1024x1024.\n");
+    /* the agreement table: asked for a model, or the database holds a
+     * named model's runs (a database of default runs prints as before) */
+    int named = R->model >= 0 ? 1 : has_named_model(R, e);
+    if (named < 0) return -1;
+    if (named) {
+        paper_tables *t = rt_calloc(1, sizeof *t, e);
+        if (!t) return -1;
+        int rc = load_tables(t, e) < 0 ? -1 : agreement_table(R, t, out, e);
+        free(t);
+        if (rc < 0) return -1;
+    }
     return rt_report_flush(out, e);
 }

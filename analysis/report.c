@@ -24,6 +24,7 @@
  */
 #include "analysis_int.h"
 #include "db.h"
+#include "experiment.h"
 
 #include <ctype.h>
 #include <errno.h>
@@ -188,8 +189,13 @@ int rt_report_init(rt_report *R, sqlite3 *h, const char *dbpath, const rt_report
     R->W = o->W;
     R->H = o->H;
     R->packet = 8;
+    R->model = -1;
+    snprintf(R->policy, sizeof R->policy, "wb-wa");
     sqlite3_stmt *st;
     int rc;
+    int model = -1;
+    if (o->model && (model = rt_exp_model_find(o->model)) < 0)
+        return rt_errf(e, "model '%s' is not lean or paper", o->model);
     if (!R->W) {
         st = rt_report_stmt(h, "SELECT W, H FROM runs WHERE sim_method = 'exact' ORDER BY W * H DESC LIMIT 1", dbpath,
                             e, "");
@@ -200,14 +206,7 @@ int rt_report_init(rt_report *R, sqlite3 *h, const char *dbpath, const rt_report
         }
         if (rt_report_done(st, rc, dbpath, e) < 0) return -1;
     }
-    st = rt_report_stmt(h,
-                        "SELECT DISTINCT c.size FROM traffic t JOIN cache_configs c ON c.id = t.config_id WHERE "
-                        "c.line = 64 AND c.assoc = 0 AND c.policy = 'wb-wa' ORDER BY c.size",
-                        dbpath, e, "");
-    if (!st) return -1;
-    while ((rc = sqlite3_step(st)) == SQLITE_ROW && R->nsizes < RT_REPORT_MAXSIZES)
-        R->sizes[R->nsizes++] = (uint64_t)sqlite3_column_int64(st, 0);
-    if (rt_report_done(st, rc, dbpath, e) < 0) return -1;
+    if (rt_report_set_model(R, model, e) < 0) return -1;
     /* scenes, one per (name, content hash), in the paper's order first,
      * then the rest by label; the latest known place of a mesh file */
     char *sql = rt_report_label_sql(
@@ -244,6 +243,37 @@ int rt_report_init(rt_report *R, sqlite3 *h, const char *dbpath, const rt_report
     return rt_report_done(st, rc, dbpath, e);
 }
 
+int rt_report_set_model(rt_report *R, int model, rt_err *e)
+{
+    const rt_exp_model *m = rt_exp_model_get(model);
+    if (model != -1 && !m) return rt_errf(e, "model %d unknown", model);
+    R->model = model;
+    R->mesh = R->stream = 0;
+    R->sim_params[0] = 0;
+    snprintf(R->policy, sizeof R->policy, "wb-wa");
+    if (m) {
+        rt_sim_config sc;
+        rt_render_opts ro;
+        rt_sim_config_default(&sc);
+        rt_render_default_opts(&ro);
+        rt_exp_model_apply(m, &ro, &sc);
+        snprintf(R->policy, sizeof R->policy, "%s", rt_sim_policy_name(&sc));
+        rt_exp_sim_params(model, &sc, R->sim_params, sizeof R->sim_params);
+        R->mesh = ro.geom == RT_GEOM_MESH;
+        R->stream = ro.qstores == RT_QSTORES_STREAM;
+    }
+    R->nsizes = 0;
+    sqlite3_stmt *st = rt_report_stmt(R->h,
+                                      "SELECT DISTINCT c.size FROM traffic t JOIN cache_configs c ON c.id = t.config_id "
+                                      "WHERE c.line = 64 AND c.assoc = 0 AND c.policy = ?1 ORDER BY c.size",
+                                      R->dbpath, e, "s", R->policy);
+    if (!st) return -1;
+    int rc;
+    while ((rc = sqlite3_step(st)) == SQLITE_ROW && R->nsizes < RT_REPORT_MAXSIZES)
+        R->sizes[R->nsizes++] = (uint64_t)sqlite3_column_int64(st, 0);
+    return rt_report_done(st, rc, R->dbpath, e);
+}
+
 double rt_report_reduction(double base, double dyn)
 {
     if (!(base > 0) || !(dyn > 0)) return NAN;
@@ -258,14 +288,29 @@ int rt_report_value(const rt_report *R, const char *scene, const char *tracer, u
     /* v_paper's rows, of the one scene (name, hash) the label stands for */
     int i = rt_report_scene_index(R, scene);
     const char *name = i >= 0 ? R->scene_name[i] : scene, *hash = i >= 0 ? R->scene_hash[i] : "";
-    sqlite3_stmt *st = rt_report_stmt(
-        R->h,
-        "SELECT g.geometry_mb, g.ray_mb FROM v_traffic_group g JOIN runs r ON r.id = g.run_id"
-        " JOIN scenes s ON s.id = r.scene_id WHERE g.line = 64 AND g.assoc = 0 AND g.policy = 'wb-wa'"
-        " AND r.sim_method = 'exact' AND r.params NOT LIKE '%subsample=%' AND s.name = ?1 AND (?8 = '' OR s.hash = ?8)"
-        " AND r.tracer = ?2 AND r.lights = ?3 AND r.sched_size = ?4 AND g.cache_size = ?5 AND r.W = ?6 AND r.H = ?7"
-        " ORDER BY g.geometry_mb LIMIT 1",
-        R->dbpath, e, "ssIIIiis", name, tracer, (int64_t)lights, sched, (int64_t)size, R->W, R->H, hash);
+    sqlite3_stmt *st =
+        R->model < 0
+            ? rt_report_stmt(
+                  R->h,
+                  "SELECT g.geometry_mb, g.ray_mb FROM v_traffic_group g JOIN runs r ON r.id = g.run_id"
+                  " JOIN scenes s ON s.id = r.scene_id WHERE g.line = 64 AND g.assoc = 0 AND g.policy = 'wb-wa'"
+                  " AND r.sim_method = 'exact' AND r.params NOT LIKE '%subsample=%' AND s.name = ?1 AND (?8 = '' OR"
+                  " s.hash = ?8) AND r.tracer = ?2 AND r.lights = ?3 AND r.sched_size = ?4 AND g.cache_size = ?5 AND"
+                  " r.W = ?6 AND r.H = ?7 ORDER BY g.geometry_mb LIMIT 1",
+                  R->dbpath, e, "ssIIIiis", name, tracer, (int64_t)lights, sched, (int64_t)size, R->W, R->H, hash)
+            /* one model: its accounting, its key, its layout and queue stores */
+            : rt_report_stmt(
+                  R->h,
+                  "SELECT g.geometry_mb, g.ray_mb FROM v_traffic_group g JOIN runs r ON r.id = g.run_id"
+                  " JOIN scenes s ON s.id = r.scene_id WHERE g.line = 64 AND g.assoc = 0 AND g.policy = ?9"
+                  " AND r.sim_method = 'exact' AND r.sim_params = ?10 AND r.params NOT LIKE '%subsample=%'"
+                  " AND (instr(r.params, 'layout=mesh') > 0) = ?11"
+                  " AND (r.tracer != 'dynamic' OR (instr(r.params, 'queue_stores=stream') > 0) = ?12)"
+                  " AND s.name = ?1 AND (?8 = '' OR s.hash = ?8) AND r.tracer = ?2 AND r.lights = ?3"
+                  " AND r.sched_size = ?4 AND g.cache_size = ?5 AND r.W = ?6 AND r.H = ?7"
+                  " ORDER BY g.geometry_mb LIMIT 1",
+                  R->dbpath, e, "ssIIIiisssii", name, tracer, (int64_t)lights, sched, (int64_t)size, R->W, R->H, hash,
+                  R->policy, R->sim_params, R->mesh, R->stream);
     if (!st) return -1;
     int rc = sqlite3_step(st), found = rc == SQLITE_ROW;
     if (found) {

@@ -32,8 +32,10 @@
  *      misses in 0..g-1; if absent g = k (misses everywhere). We count the
  *      touch once, in hist[cg][kind][g] (cg: the reference's class and
  *      ray generation folded into one index, sim_int.h; kind 0 read, 1
- *      write, 2 a write covering the whole line when write_miss_fullline
- *      asks for those apart: they miss without a fetch); the misses of size
+ *      write, 2 a write that misses without a fetch: a streaming store
+ *      (rt_access.write == RT_WRITE_STREAM) on every line it touches, and
+ *      a write covering the whole line when write_miss_fullline asks for
+ *      those apart; a kind-2 hit is an ordinary write); the misses of size
  *      i are the sum of hist over g > i, computed when results are read. So
  *      the per-reference counting cost depends on neither k nor the number
  *      of generations;
@@ -75,8 +77,12 @@
  *   - a node in group g has no dirty bit below g (it is in no cache smaller
  *     than C_g); a dirty node's wcg is a valid (class, generation) index;
  *   - for every size i and index cg, wb[i][cg] is at most the write touches
- *     counted for cg (each write-back from cache i needs its own last write
- *     since the line's previous write-back from cache i);
+ *     counted for cg, kinds 1 and 2 (each write-back from cache i needs its
+ *     own last write since the line's previous write-back from cache i);
+ *   - without write_miss_fullline, kind-2 touches come only from streaming
+ *     stores, so their count per cg is at most the streaming touches
+ *     recorded in nstream[cg] (counted per reference, off the hot path of
+ *     ordinary writes);
  *   - mru_line is the line of the head node;
  *   - every slot's fingerprint is the top half of lines[node] * PHI, and
  *     full is set iff nused == C_{k-1} >= 2.
@@ -145,6 +151,7 @@ struct rt_msim {
     int fullline;                            /* count whole-line writes apart (kind 2) */
     uint64_t hist[RT_SIM_NCG][3][RT_SIM_MAXSIZES + 1]; /* touches by (class, gen), kind, group */
     uint64_t wb[RT_SIM_MAXSIZES][RT_SIM_NCG]; /* write-backs by size, (class, gen) */
+    uint64_t nstream[RT_SIM_NCG];            /* line touches of streaming stores, by (class, gen) */
     uint64_t sizes[RT_SIM_MAXSIZES];         /* sizes in bytes */
 };
 
@@ -488,10 +495,14 @@ static inline void put_batch(rt_msim *restrict m, const rt_access *a, size_t n, 
         unsigned cg = rt_sim_cg(&a[i]);
         unsigned w = a[i].write ? 1 : 0;
         uint64_t first = e->f, last = e->l;
-        /* kinds of the first, middle and last lines' touches: a write that
-         * covers a whole line is kind 2 when those are counted apart */
+        /* kinds of the first, middle and last lines' touches: a streaming
+         * store is kind 2 on every line it touches, and a write that covers
+         * a whole line is kind 2 when those are counted apart */
         unsigned wf = w, wm = w, wl = w;
-        if (w && m->fullline) {
+        if (a[i].write == RT_WRITE_STREAM) {
+            wf = wm = wl = 2;
+            m->nstream[cg] += last > first ? last - first + 1 : 1;
+        } else if (w && m->fullline) {
             uint64_t lo = a[i].addr, end = lo + (a[i].size ? a[i].size : 1); /* exclusive */
             if (end > lo) {
                 wm = 2;
@@ -595,7 +606,12 @@ int rt_msim_check(const rt_msim *m, rt_err *e)
     if (inhash != m->nused) return rt_errf(e, "msim: hash holds %llu lines, stack %u", (unsigned long long)inhash, m->nused);
     for (int cg = 0; cg < RT_SIM_NCG; cg++) {
         uint64_t writes = 0;
-        for (int g = 0; g <= m->k; g++) writes += m->hist[cg][1][g] + m->hist[cg][2][g];
+        uint64_t kind2 = 0;
+        for (int g = 0; g <= m->k; g++) writes += m->hist[cg][1][g] + m->hist[cg][2][g], kind2 += m->hist[cg][2][g];
+        if (!m->fullline && kind2 > m->nstream[cg])
+            return rt_errf(e, "msim: %llu no-fetch write touches for class %s generation %d, %llu streaming",
+                           (unsigned long long)kind2, rt_class_name(cg % RT_NCLASS), cg / RT_NCLASS,
+                           (unsigned long long)m->nstream[cg]);
         for (int i = 0; i < m->k; i++)
             if (m->wb[i][cg] > writes)
                 return rt_errf(e, "msim: size %d: %llu write-backs charged to class %s generation %d, which wrote %llu times",

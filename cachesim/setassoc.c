@@ -23,6 +23,11 @@
  *   full-line writes (rt_sa_set_fullline, Dinero IV's rule) an allocating
  *                  write miss whose bytes cover the whole line fetches
  *                  nothing (counted in nofetch);
+ *   streaming stores (rt_access.write == RT_WRITE_STREAM) an allocating
+ *                  miss fetches nothing on any line, whole or not (the
+ *                  same no-fetch path, counted in nofetch); a hit is an
+ *                  ordinary write; with no-write-allocate they write
+ *                  around the cache like any write;
  *   flush          (rt_sa_flush, Dinero IV's end of run) every dirty line
  *                  is written back, charged to its last writer.
  * Counters are kept per (class, generation) index (sim_int.h); per-class
@@ -30,8 +35,9 @@
  * Invariants (rt_sa_check): each set's list has used[s] <= assoc slots, all
  * inside the set, each in the hash table under its line, whose set is s; a
  * dirty slot's writer index is valid; per index, misses <= accesses,
- * write-backs <= write touches, no-fetch misses <= write misses (and none
- * unless full-line writes are on with write-allocate).
+ * write-backs <= write touches, no-fetch misses <= write misses (none with
+ * no-write-allocate, and without full-line writes at most the streaming
+ * touches).
  */
 #include "setassoc.h"
 #include "sim_int.h"
@@ -75,6 +81,7 @@ struct rt_sa {
     uint64_t acc[RT_SIM_NCG], rm[RT_SIM_NCG], wm[RT_SIM_NCG], wb[RT_SIM_NCG], wtb[RT_SIM_NCG];
     uint64_t nf[RT_SIM_NCG]; /* write misses allocated without a fetch */
     uint64_t wr[RT_SIM_NCG]; /* write touches (for rt_sa_check) */
+    uint64_t sw[RT_SIM_NCG]; /* streaming-store touches (for rt_sa_check) */
 };
 
 static inline uint64_t hs(const rt_sa *c, uint64_t line) { return (line * 0x9E3779B97F4A7C15ULL) >> c->hshift; }
@@ -173,13 +180,15 @@ static inline void push_head(rt_sa *c, saset *s, uint32_t x)
     s->head = x;
 }
 
-/* One line touch; bytes = bytes of the reference inside this line. */
+/* One line touch; w = 0 read, 1 write, RT_WRITE_STREAM streaming store;
+ * bytes = bytes of the reference inside this line. */
 static void touch(rt_sa *c, uint64_t L, int w, unsigned cg, uint32_t bytes)
 {
     saset *s = &c->sets[L % c->nsets];
     saslot *sl = c->slots;
     c->acc[cg]++;
-    c->wr[cg] += (unsigned)w;
+    c->wr[cg] += w != 0;
+    c->sw[cg] += w == RT_WRITE_STREAM;
     uint32_t x = (s->head != NIL && sl[s->head].line == L) ? s->head : h_find(c, L);
     if (x != NIL) {
         if (x != s->head) {
@@ -193,7 +202,8 @@ static void touch(rt_sa *c, uint64_t L, int w, unsigned cg, uint32_t bytes)
             c->wtb[cg] += bytes;
             return;
         }
-        if (w && c->fullline && bytes == c->line) c->nf[cg]++; /* Dinero: nothing to fetch */
+        if (w == RT_WRITE_STREAM || (w && c->fullline && bytes == c->line))
+            c->nf[cg]++; /* streaming store, or Dinero's full-line write: nothing to fetch */
         uint64_t set = L % c->nsets;
         if (s->used < c->assoc) {
             x = (uint32_t)(set * c->assoc + s->used++);
@@ -230,7 +240,7 @@ void rt_sa_put(rt_sa *c, const rt_access *a, size_t n)
         for (uint64_t L = first; L <= last; L++) {
             uint64_t lo = L == first ? addr : L * ls;
             uint64_t hi = L == last ? end : (L + 1) * ls;
-            touch(c, L, a[i].write != 0, cg, (uint32_t)(hi - lo));
+            touch(c, L, a[i].write == RT_WRITE_STREAM ? RT_WRITE_STREAM : a[i].write != 0, cg, (uint32_t)(hi - lo));
         }
     }
 }
@@ -293,7 +303,7 @@ int rt_sa_check(const rt_sa *c, rt_err *e)
                                         (unsigned long long)total);
     for (int cg = 0; cg < RT_SIM_NCG; cg++)
         if (c->rm[cg] + c->wm[cg] > c->acc[cg] || c->wm[cg] > c->wr[cg] || c->wb[cg] > c->wr[cg] ||
-            c->nf[cg] > c->wm[cg] || (c->nf[cg] && (c->nwa || !c->fullline)))
+            c->nf[cg] > c->wm[cg] || (c->nf[cg] && c->nwa) || (!c->fullline && c->nf[cg] > c->sw[cg]))
             return rt_errf(e, "setassoc: counters of class %s generation %d inconsistent", rt_class_name(cg % RT_NCLASS),
                            cg / RT_NCLASS);
     return 0;

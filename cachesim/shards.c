@@ -54,6 +54,9 @@
  * rt_sim do not flush), but a dirty line that has since fallen out of a
  * cache has been; rt_shards_estimate adds these with y = the line's final
  * depth - 1.
+ * A streaming store (RT_WRITE_STREAM) is an ordinary write here: its
+ * misses are charged a fetch, as in every approximate method (the exact
+ * engines do not).
  *
  * FIXED SIZE. With smax > 0 at most smax lines are kept: when a new line
  * makes the sample larger, the lines with the largest hash are dropped (a

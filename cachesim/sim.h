@@ -32,6 +32,12 @@
  *   - with cfg.write_miss_fullline, an allocating write miss whose
  *     reference covers the whole line fetches nothing (Dinero IV's rule); it
  *     is still a write miss, counted in nofetch too;
+ *   - a streaming store (rt_access.write == RT_WRITE_STREAM) that misses
+ *     allocates the line, dirty, without a fetch on every line it touches,
+ *     whatever write_miss_fullline says (the same no-fetch path, counted in
+ *     nofetch); a hit is an ordinary write; with no-write-allocate it writes
+ *     around like any write. The approximate simulators count it as an
+ *     ordinary write;
  *   - generations: every touch counts for its reference's generation
  *     (rt_access.gen, generations >= RT_MAXGEN-1 pooled in the last
  *     bucket); only these exact engines keep them, the approximate

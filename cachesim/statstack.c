@@ -56,7 +56,9 @@
  * same residency; those write-backs are not seen, so the estimate is a
  * lower bound, exact for lines that are only read, or written on their
  * last touch before each eviction (ray records: read, then the hit written
- * back), and low for read-modify-read patterns.
+ * back), and low for read-modify-read patterns. A streaming store
+ * (RT_WRITE_STREAM) is an ordinary write here: its misses are charged a
+ * fetch, as in every approximate method (the exact engines do not).
  *
  * SCALING. All counts are multiplied by touches / samples (the realized
  * inverse rate). Counters are 64-bit, scaling in double; a sample count

@@ -35,6 +35,10 @@
  * every windowed size (even if a small cache evicted and refetched it since
  * the write), a line written before the scanned history starts clean.
  * Misses are exact per window; write-backs of the windowed sizes are not.
+ * A streaming store (RT_WRITE_STREAM) reaches the window's msim as it is,
+ * but the estimate takes its write misses and charges a fetch for each
+ * (approx.c adds no no-fetch term): like every approximate method it is
+ * counted as an ordinary write.
  *
  * ESTIMATE. Per class, measured misses and write-backs are scaled by
  * (exact touches of the class in the whole trace) / (its touches inside the

@@ -8,6 +8,7 @@
  * read-only.
  */
 #include "analysis.h"
+#include "experiment.h"
 #include "cmd.h"
 
 #include <stdio.h>
@@ -30,7 +31,10 @@ static void usage(FILE *f)
             "  --format md|csv    Markdown tables (default) or CSV\n"
             "  -W N, -H N         resolution to report (default: the largest in the database)\n"
             "  --total            figures 7-9 on total instead of geometry traffic\n"
-            "  --compare-paper    our values beside the paper's, with ratios and findings\n"
+            "  --compare-paper    our values beside the paper's, with ratios and findings, and\n"
+            "                     (with --model, or when the database holds --model paper runs)\n"
+            "                     the agreement table per scene and model\n"
+            "  --model M          only runs of model M (lean, paper; see sweep --help)\n"
             "  --plot DIR         traffic-vs-cache-size plots (PNG, SVG; gnuplot) and scenes.png\n"
             "  --speed-error      speed against error of approximate simulation\n"
             "  -h, --help         this help\n");
@@ -44,6 +48,7 @@ int main_report(int argc, char **argv)
         {"total", no_argument, NULL, 't'},          {"compare-paper", no_argument, NULL, 'c'},
         {"plot", required_argument, NULL, 'p'},     {"speed-error", no_argument, NULL, 'e'},
         {"width", required_argument, NULL, 'W'},    {"height", required_argument, NULL, 'H'},
+        {"model", required_argument, NULL, 'm'},
         {"help", no_argument, NULL, 'h'},           {NULL, 0, NULL, 0},
     };
     rt_report_opts o = {0};
@@ -62,6 +67,13 @@ int main_report(int argc, char **argv)
             figure = optarg;
             break;
         case 's': o.scene = optarg; break;
+        case 'm':
+            if (rt_exp_model_find(optarg) < 0) {
+                rt_cmd_error("report", "--model: '%s' is not lean or paper", optarg);
+                return RT_EXIT_USAGE;
+            }
+            o.model = optarg;
+            break;
         case 'F':
             if (!strcmp(optarg, "csv")) o.csv = 1;
             else if (strcmp(optarg, "md")) {

@@ -23,6 +23,13 @@
  * its absolute path and quotes every word for a POSIX shell, so it runs
  * from any folder under sh -c.
  *
+ * --model lean|paper (results/experiment.h, docs/results.md "Models") sets
+ * the defaults of --layout, --queue-stores, --flush and --write-fullline;
+ * those given explicitly override it. The model and any non-default
+ * accounting go into the exact runs' sim_params ("model=paper
+ * policy=wb-wa+flush+fullline"), the layout and queue stores into the
+ * tracer parameters, so runs of different models never share a key.
+ *
  * Workers never outlive the sweep: SIGTERM, SIGINT or SIGHUP to the parent
  * is forwarded to every worker and waited for (the sweep then exits 1; a
  * killed worker's open transaction leaves no row, and a rerun resumes), and
@@ -67,6 +74,8 @@ typedef struct sweep_opts {
     const char *dyn_opt;    /* a dynamic-only option given (its name), or NULL */
     int packet_given;       /* --packet given */
     const char *mode_opt[2]; /* --depth (whitted only), --spp/--bounces (path only) given: the option's name */
+    int geom_given, qs_given; /* --layout / --queue-stores given (they override the model) */
+    int flush, fullline;      /* --flush / --write-fullline: -1 = the model's, else 0/1 */
 } sweep_opts;
 
 typedef struct shared {
@@ -110,6 +119,14 @@ static void usage(FILE *f)
             "                     list of res:N (N pixels wide, same aspect) and sub:K[:T]\n"
             "                     (trace 1 in K tiles of TxT pixels, T default 8)\n"
             "  --qorder O, --threads N  dynamic scheduler options (see render --help)\n"
+            "  --model M          lean (default: compact layout, write-allocate queue stores,\n"
+            "                     no flush, no full-line rule) or paper (Dinero IV's printed\n"
+            "                     accounting: flush + full-line writes); sets the defaults of:\n"
+            "  --layout L         geometry layout, compact | mesh\n"
+            "  --queue-stores S   dynamic: write-allocate | stream (streaming stores)\n"
+            "  --flush, --no-flush  write back the dirty lines at the end (Dinero IV)\n"
+            "  --write-fullline, --no-write-fullline  a write miss covering its line fetches\n"
+            "                     nothing (Dinero IV)\n"
             "  --list-jobs        print one self-contained command per job and exit\n"
             "  --job K            run only job K (0-based) of the matrix\n"
             "  -h, --help         this help\n\n"
@@ -392,7 +409,7 @@ static void progress(shared *sh, long nj, double t0)
 }
 
 enum { O_PRESET = 1, O_SCENES, O_TRACERS, O_LIGHTS, O_SIZES, O_LINE, O_DB, O_JOBS, O_KEEP, O_DYNALL, O_LIST, O_JOB,
-       O_APPROX, O_PROXY, O_MODES };
+       O_APPROX, O_PROXY, O_MODES, O_MODEL, O_FLUSH, O_NOFLUSH, O_FULLLINE, O_NOFULLLINE };
 
 /* The command's own options, then the shared render options it takes
  * (-W/-H and the dynamic ones; --lights is its own, a list of lightings). */
@@ -412,6 +429,13 @@ static const struct option sweep_longopts[] = {
     {"approx", required_argument, NULL, O_APPROX},
     {"proxy", required_argument, NULL, O_PROXY},
     {"modes", required_argument, NULL, O_MODES},
+    {"model", required_argument, NULL, O_MODEL},
+    {"flush", no_argument, NULL, O_FLUSH},
+    {"no-flush", no_argument, NULL, O_NOFLUSH},
+    {"write-fullline", no_argument, NULL, O_FULLLINE},
+    {"no-write-fullline", no_argument, NULL, O_NOFULLLINE},
+    {"layout", required_argument, NULL, RT_OPT_LAYOUT},
+    {"queue-stores", required_argument, NULL, RT_OPT_QUEUE_STORES},
     {"help", no_argument, NULL, 'h'},
     {"depth", required_argument, NULL, RT_OPT_DEPTH},
     {"spp", required_argument, NULL, RT_OPT_SPP},
@@ -546,6 +570,8 @@ static int parse_opt(sweep_opts *o, int c, const char *arg)
     if (c == RT_OPT_DEPTH) o->mode_opt[0] = "--depth";
     if (c == RT_OPT_SPP) o->mode_opt[1] = "--spp";
     if (c == RT_OPT_BOUNCES) o->mode_opt[1] = "--bounces";
+    if (c == RT_OPT_LAYOUT) o->geom_given = 1;
+    if (c == RT_OPT_QUEUE_STORES) o->qs_given = 1, o->dyn_opt = "--queue-stores";
     int r = rt_cmd_render_opt("sweep", c, arg, &o->x.ro, &dummy);
     if (r != 0) return r < 0 ? -1 : 0;
     switch (c) {
@@ -561,6 +587,16 @@ static int parse_opt(sweep_opts *o, int c, const char *arg)
     case O_LIGHTS: return keep_copy(o, 2, arg) ? 0 : -1;
     case O_MODES: return keep_copy(o, 5, arg) ? 0 : -1;
     case O_SIZES: o->sizes_arg = arg; return 0;
+    case O_MODEL:
+        if ((o->x.model = rt_exp_model_find(arg)) < 0) {
+            rt_cmd_error("sweep", "--model: '%s' is not lean or paper", arg);
+            return -1;
+        }
+        return 0;
+    case O_FLUSH:
+    case O_NOFLUSH: o->flush = c == O_FLUSH; return 0;
+    case O_FULLLINE:
+    case O_NOFULLLINE: o->fullline = c == O_FULLLINE; return 0;
     case O_LINE: return rt_cmd_parse_line("sweep", arg, &o->x.sim.line);
     case O_DB: o->db = arg; return 0;
     case O_JOBS:
@@ -640,6 +676,18 @@ static int finish_opts(sweep_opts *o)
                      strcmp(unused, "--packet") ? "dynamic" : "packet");
         return -1;
     }
+    /* the model's defaults, then the options given explicitly */
+    rt_render_opts given = x->ro;
+    rt_exp_model_apply(rt_exp_model_get(x->model), &x->ro, &x->sim);
+    if (o->geom_given) x->ro.geom = given.geom;
+    if (o->qs_given) x->ro.qstores = given.qstores;
+    if (o->flush >= 0) x->sim.flush = o->flush;
+    if (o->fullline >= 0) x->sim.write_miss_fullline = o->fullline;
+    if (x->napprox && (x->model != RT_EXP_MODEL_LEAN || x->sim.flush || x->sim.write_miss_fullline)) {
+        rt_cmd_error("sweep", "--approx does not apply: the sampled methods support neither --model paper nor the "
+                              "flush or full-line rule");
+        return -1;
+    }
     if (x->napprox && !has_all && !x->dyn_all) {
         rt_cmd_error("sweep", "--approx does not apply: it runs on jobs simulated at every size (recursive, packet, "
                               "or dynamic with --dynamic-all-sizes)");
@@ -688,6 +736,7 @@ static int parse_args(int argc, char **argv, sweep_opts *o)
         return -1;
     }
     o->fail_job = -1;
+    o->flush = o->fullline = -1;
     const char *fj = getenv("RT_SWEEP_FAIL_JOB"), *colon = fj ? strchr(fj, ':') : NULL;
     if (fj && *fj) {
         char num[32];

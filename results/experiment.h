@@ -55,6 +55,44 @@ int rt_exp_fan_add(rt_exp_fan *f, rt_sink *to, rt_err *e);
  * after still feeding the others. Valid as long as f. */
 rt_sink *rt_exp_fan_sink(rt_exp_fan *f);
 
+/* ---- named models ------------------------------------------------------ */
+
+/* A model names one set of modeling choices (docs/results.md, "Models"):
+ * the geometry layout and queue stores the tracers record, and the
+ * simulator's accounting. It sets the defaults of those options; options
+ * given explicitly override them. `lean` is the toolkit's default
+ * (compact layout, write-allocate queue stores, no flush, no full-line
+ * rule: every earlier run is a lean run); `paper` is what the paper's text
+ * supports (Dinero IV's defaults as printed: the end-of-run flush and
+ * full-line writes without a fetch; compact layout and write-allocate
+ * queue stores, for the reasons given in docs/results.md). */
+typedef struct rt_exp_model {
+    const char *name; /* "lean", "paper" */
+    int geom;         /* rt_geom_layout */
+    int qstores;      /* rt_qstores (dynamic tracer) */
+    int flush;        /* rt_sim_config.flush */
+    int fullline;     /* rt_sim_config.write_miss_fullline */
+} rt_exp_model;
+
+#define RT_EXP_NMODELS 2
+enum { RT_EXP_MODEL_LEAN = 0, RT_EXP_MODEL_PAPER = 1 };
+
+/* Model i (0..RT_EXP_NMODELS-1), or NULL. */
+const rt_exp_model *rt_exp_model_get(int i);
+/* The index of the model called name, or -1. */
+int rt_exp_model_find(const char *name);
+/* Sets ro's layout and queue stores and sc's flush and full-line rule to
+ * model m's (the caller then applies explicit options on top). */
+void rt_exp_model_apply(const rt_exp_model *m, rt_render_opts *ro, rt_sim_config *sc);
+
+/* The sim_params of an exact run: "" for the lean model with the default
+ * accounting (so earlier keys are unchanged), else "model=NAME" (model
+ * other than lean) followed by " policy=LABEL" when the accounting is not
+ * the default ("policy=wb-wa+flush+fullline"). Runs of different models,
+ * or of different accounting, therefore never share a key, even where
+ * the tracer parameters agree. Writes at most n bytes; returns buf. */
+const char *rt_exp_sim_params(int model, const rt_sim_config *sc, char *buf, size_t n);
+
 /* ---- the experiment's settings and its matrix of jobs ------------------ */
 
 #define RT_EXP_MAXLIST 32
@@ -93,6 +131,7 @@ typedef struct rt_exp_config {
     int napprox;
     rt_exp_proxy proxies[RT_EXP_MAXPROXY];      /* reduced experiments of every job */
     int nproxies;
+    int model;                                  /* RT_EXP_MODEL_*: recorded in exact runs' sim_params */
     const char *keep;                           /* directory for every job's trace, or NULL */
     const char *command;                        /* command line recorded as provenance */
 } rt_exp_config;
@@ -146,12 +185,14 @@ typedef struct rt_exp_key {
     rt_db_run run;             /* identity (provenance fields zero) */
     char params[RT_EXP_PARAMS]; /* run.params points here */
     char sim_params[160];      /* run.sim_params points here */
+    char exact_sim_params[160]; /* the exact run's sim_params (kept when the key switches method) */
     char scene[300];           /* run.scene points here (din keys) */
     char abspath[4096];        /* run.scene_abspath points here (mesh and din files) */
 } rt_exp_key;
 
 /* The key of an in-process job of scene sc (whose rt_scene_hash is
- * scene_hash), exact method. A mesh scene (a .obj/.ply spec) also records
+ * scene_hash), exact method; sim_params from rt_exp_sim_params (the
+ * model and a non-default accounting). A mesh scene (a .obj/.ply spec) also records
  * its path as given and its absolute path (realpath; '' if it fails). A dynamic job simulated at every size carries
  * " sim=all-sizes" in its params. */
 void rt_exp_job_key(const rt_exp_config *c, const rt_exp_job *jb, const rt_scene *sc, uint64_t scene_hash,
@@ -184,7 +225,9 @@ void rt_exp_worker_free(rt_exp_worker *w); /* NULL is fine; frees scene and tree
  * job without dyn_all), the approximate simulators (only for jobs simulated
  * at every size, never for proxies) and, with c->keep, a trace file
  * KEEP/jobNNNN-SCENE-LIGHT-TRACER[-SIZE][-proxy].rtt, then stores the exact
- * run and each approximate run, each in its own transaction. Returns 1 if
+ * run and each approximate run, each in its own transaction; the exact
+ * simulator is finished first (rt_sim_finish: with cfg.flush the dirty
+ * lines are written back and counted). Returns 1 if
  * run and stored, 0 if skipped, -1 on error (a failed store leaves no row
  * of that run; runs stored before it stay). */
 int rt_exp_run_job(rt_exp_worker *w, const rt_exp_job *jb, long index, rt_err *e);

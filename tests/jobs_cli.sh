@@ -128,5 +128,27 @@ case "$line" in "'$bin' sweep "*) ;; *) die "job line does not start with the qu
 sqlite3 "$tmp/lj/shard's.job0000.db" "SELECT abspath FROM scenes" | grep -qx "$tmp/lj/sub dir/it's.obj" ||
     die "mesh path of the job"
 
+# ---- 5. models: --list-jobs passes them through; the job stores its model --
+"$bin" sweep --model paper --layout mesh --no-write-fullline --scenes cornell --lights primary --tracers recursive \
+    -W 16 -H 16 --sizes 1K,64K --db "$tmp/md.db" --list-jobs > "$tmp/mjobs.txt" || die "--list-jobs with --model"
+for w in "'--model' 'paper'" "'--layout' 'mesh'" "'--no-write-fullline'"; do
+    grep -qF -- "$w" "$tmp/mjobs.txt" || die "--list-jobs dropped $w: $(cat "$tmp/mjobs.txt")"
+done
+sh -c "$(head -n 1 "$tmp/mjobs.txt")" 2>/dev/null || die "model job failed"
+got=$(sqlite3 "$tmp/md.job0000.db" "SELECT r.params || '|' || r.sim_params || '|' || c.policy FROM runs r
+    JOIN traffic t ON t.run_id = r.id JOIN cache_configs c ON c.id = t.config_id GROUP BY c.policy")
+[ "$got" = "layout=mesh|model=paper policy=wb-wa+flush|wb-wa+flush" ] || die "model run stored as: $got"
+# the same job under the lean model is a new run, and a rerun of either skips
+"$bin" sweep --scenes cornell --lights primary --tracers recursive -W 16 -H 16 --sizes 1K,64K --layout mesh \
+    --db "$tmp/md.job0000.db" 2>/dev/null || die "lean sweep"
+[ "$(runs "$tmp/md.job0000.db")" = 2 ] || die "lean and paper runs share a key"
+"$bin" sweep --model paper --layout mesh --no-write-fullline --scenes cornell --lights primary --tracers recursive \
+    -W 16 -H 16 --sizes 1K,64K --db "$tmp/md.job0000.db" 2>&1 | grep -q "1 already in the database" ||
+    die "paper rerun not skipped"
+"$bin" sweep --model nonsense 2>/dev/null; [ $? = 2 ] || die "--model nonsense accepted"
+"$bin" sweep --model paper --approx hybrid 2>/dev/null; [ $? = 2 ] || die "--model paper --approx accepted"
+"$bin" sweep --queue-stores stream --tracers recursive 2>/dev/null; [ $? = 2 ] ||
+    die "--queue-stores without the dynamic tracer accepted"
+
 [ $fail = 0 ] && echo "jobs_cli: ok"
 exit $fail

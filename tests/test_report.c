@@ -13,13 +13,18 @@
  * write errors on the output, and the gnuplot string quoting, round-tripped
  * through gnuplot itself when it is installed. And the secondary-ray
  * report: per-generation rows of hand-made whitted runs, the reductions
- * and the finding sentence worked out by hand.
+ * and the finding sentence worked out by hand. And the agreement table of
+ * --compare-paper: sphereflake runs of two models whose values are the
+ * paper's (model paper) or chosen off by hand-known factors (model lean),
+ * with a lean mesh-layout run the model filter must not pick.
  */
 #include "analysis.h"
 #include "db.h"
+#include "experiment.h"
 #include "memmodel.h"
 #include "check.h"
 
+#include <math.h>
 #include <sqlite3.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -380,6 +385,144 @@ static void test_secondary(const char *dir)
     rt_db_close(db);
 }
 
+/* ---- the agreement table ------------------------------------------------ */
+
+/* One sphereflake run at 1024x1024 with geometry and ray MB at one size. */
+static int store_m(rt_db *db, const char *tracer, unsigned lights, uint64_t size, double geom, double ray,
+                   const char *policy, const char *sim_params, const char *params, rt_err *e)
+{
+    rt_db_traffic rows[2];
+    for (int g = 0; g < 2; g++) {
+        rt_db_traffic *t = &rows[g];
+        memset(t, 0, sizeof *t);
+        t->size = size;
+        t->line = 64;
+        t->policy = policy;
+        t->cls = g ? RT_CLS_RAY : RT_CLS_TRI;
+        t->traffic_bytes = MB(g ? ray : geom);
+        t->accesses = t->traffic_bytes / 64 + 1;
+        t->read_misses = t->traffic_bytes / 64;
+    }
+    rt_db_run r;
+    memset(&r, 0, sizeof r);
+    r.scene = "sphereflake";
+    r.scene_hash = 0x5678;
+    r.tracer = tracer;
+    r.W = r.H = 1024;
+    r.lights = lights;
+    r.sched_size = strcmp(tracer, "dynamic") ? 0 : size;
+    r.params = params;
+    r.sim_params = sim_params;
+    r.command = "test_report";
+    r.stats = "";
+    return rt_db_store_run(db, &r, rows, 2, NULL, e);
+}
+
+/* The paper's sphereflake (Figure 6) at 16K, 32K, 64K: geometry recursive,
+ * dynamic, ray dynamic (ray recursive is 32.00 MB at every size). */
+static const double sf_kb[3] = {16, 32, 64}, sf_g0[3] = {339.72, 122.87, 97.58}, sf_g2[3] = {110.64, 78.10, 73.60},
+                    sf_r2[3] = {132.35, 128.85, 134.33};
+
+static void test_agreement(const char *dir)
+{
+    char path[300];
+    snprintf(path, sizeof path, "%s/agree.db", dir);
+    rt_err e = {""};
+    rt_db *db = rt_db_open(path, &e);
+    CHECK(db, "agree db: %s", e.msg);
+    if (!db) return;
+    rt_sim_config sc;
+    rt_sim_config_default(&sc);
+    sc.flush = sc.write_miss_fullline = 1;
+    char pp[160];
+    const char *ppol = rt_sim_policy_name(&sc), *psp = rt_exp_sim_params(RT_EXP_MODEL_PAPER, &sc, pp, sizeof pp);
+    CHECK(!strcmp(psp, "model=paper policy=wb-wa+flush+fullline"), "paper sim_params '%s'", psp);
+    char lp[160];
+    rt_sim_config_default(&sc);
+    CHECK(!strcmp(rt_exp_sim_params(RT_EXP_MODEL_LEAN, &sc, lp, sizeof lp), ""), "lean sim_params '%s'", lp);
+    sc.flush = 1; /* lean with an explicit flush: its own key */
+    CHECK(!strcmp(rt_exp_sim_params(RT_EXP_MODEL_LEAN, &sc, lp, sizeof lp), "policy=wb-wa+flush"), "lean+flush '%s'", lp);
+    for (int i = 0; i < 3; i++) {
+        uint64_t sz = (uint64_t)sf_kb[i] * 1024;
+        /* paper model: the paper's values exactly */
+        CHECK(store_m(db, "recursive", 0, sz, sf_g0[i], 32.00, ppol, psp, "", &e) == 0, "%s", e.msg);
+        CHECK(store_m(db, "dynamic", 0, sz, sf_g2[i], sf_r2[i], ppol, psp, "qorder=fullest threads=4", &e) == 0, "%s",
+              e.msg);
+        /* lean: recursive geometry a quarter of the paper's, dynamic ray 3x */
+        CHECK(store_m(db, "recursive", 0, sz, sf_g0[i] / 4, 32.00, "wb-wa", "", "", &e) == 0, "%s", e.msg);
+        CHECK(store_m(db, "dynamic", 0, sz, sf_g2[i], 3 * sf_r2[i], "wb-wa", "", "qorder=fullest threads=4", &e) == 0,
+              "%s", e.msg);
+    }
+    /* a lean run in the mesh layout with less geometry: without a model
+     * the report takes it (lowest geometry), the lean model must not */
+    CHECK(store_m(db, "dynamic", 0, 16384, 1.0, 1.0, "wb-wa", "", "qorder=fullest threads=4 layout=mesh", &e) == 0, "%s",
+          e.msg);
+    /* shadows, all three lights at 16K (paper: 577.2% vs recursive):
+     * paper model 672.2 / 100 - 1 = 572.2% (within), lean 50% (not) */
+    CHECK(store_m(db, "recursive", 7, 16384, 672.2, 40, ppol, psp, "", &e) == 0, "%s", e.msg);
+    CHECK(store_m(db, "dynamic", 7, 16384, 100, 200, ppol, psp, "qorder=fullest threads=4", &e) == 0, "%s", e.msg);
+    CHECK(store_m(db, "recursive", 7, 16384, 150, 40, "wb-wa", "", "", &e) == 0, "%s", e.msg);
+    CHECK(store_m(db, "dynamic", 7, 16384, 100, 200, "wb-wa", "", "qorder=fullest threads=4", &e) == 0, "%s", e.msg);
+    rt_db_close(db);
+
+    sqlite3 *h = NULL;
+    CHECK(rt_report_db_open(path, &h, &e) == 0, "open: %s", e.msg);
+    if (!h) return;
+    rt_report R;
+    rt_report_opts o = {0};
+    CHECK(rt_report_init(&R, h, path, &o, &e) == 0, "init: %s", e.msg);
+    double g = 0, r = 0;
+    CHECK(rt_report_value(&R, "sphereflake", "dynamic", 0, 16384, &g, &r, &e) == 1 && g == 1.0,
+          "no model: the lowest geometry, %.2f", g);
+    CHECK(rt_report_set_model(&R, RT_EXP_MODEL_LEAN, &e) == 0 && R.nsizes == 3, "lean: %d sizes", R.nsizes);
+    CHECK(rt_report_value(&R, "sphereflake", "dynamic", 0, 16384, &g, &r, &e) == 1 && fabs(g - 110.64) < 0.005 &&
+              fabs(r - 3 * 132.35) < 0.005,
+          "lean: the compact run, %.2f / %.2f", g, r);
+    rt_report_agree a;
+    CHECK(rt_report_agreement(&R, "sphereflake", &a, &e) == 0, "agreement: %s", e.msg);
+    /* lean, per size 6 cells (geometry and ray of recursive and dynamic,
+     * geometry and total reduction vs recursive), within: dynamic
+     * geometry and recursive ray only; the shadow cell 50% vs 577.2% not */
+    CHECK(a.cells[0] == 18 && a.within[0] == 6 && a.cells[1] == 1 && a.within[1] == 0, "lean cells %d/%d, %d/%d",
+          a.within[0], a.cells[0], a.within[1], a.cells[1]);
+    /* dynamic moves more geometry everywhere (e.g. 110.64 > 339.72 / 4);
+     * its ray traffic exceeds 32 MB everywhere; total turns at 16K */
+    CHECK(a.nsizes == 3 && a.dyn_less == 0 && a.ray_more == 3 && a.paper_ray_more == 3 && a.ray_both == 3 &&
+              a.turn_kb == 16 && a.paper_turn_kb == 32,
+          "lean findings %d %d %d %d %d %d %d", a.nsizes, a.dyn_less, a.ray_more, a.paper_ray_more, a.ray_both, a.turn_kb,
+          a.paper_turn_kb);
+    CHECK(rt_report_set_model(&R, RT_EXP_MODEL_PAPER, &e) == 0 && R.nsizes == 3 && !strcmp(R.policy, ppol),
+          "paper: %d sizes, policy %s", R.nsizes, R.policy);
+    CHECK(rt_report_agreement(&R, "sphereflake", &a, &e) == 0, "agreement: %s", e.msg);
+    CHECK(a.cells[0] == 18 && a.within[0] == 18 && a.cells[1] == 1 && a.within[1] == 1, "paper cells %d/%d, %d/%d",
+          a.within[0], a.cells[0], a.within[1], a.cells[1]);
+    CHECK(a.dyn_less == 3 && a.ray_both == 3 && a.turn_kb == 32 && a.paper_turn_kb == 32, "paper findings %d %d %d",
+          a.dyn_less, a.ray_both, a.turn_kb);
+
+    /* the table, printed because the database holds model=paper runs */
+    rt_report_set_model(&R, -1, &e);
+    mem m;
+    mem_open(&m);
+    CHECK(rt_report_compare_paper(&R, m.f, &e) == 0, "compare-paper: %s", e.msg);
+    char *got = mem_close(&m);
+    static const char *const want[] = {
+        "### Agreement with the paper, 1024x1024",
+        "| lean | sphereflake | 6/18 (33%) | 0/1 (0%) | no (0 of 3) | yes (3 of 3; paper 3) | yes: 16 K (32 K) |\n",
+        "| paper | sphereflake | 18/18 (100%) | 1/1 (100%) | yes (3 of 3) | yes (3 of 3; paper 3) | yes: 32 K (32 K) |\n",
+    };
+    for (size_t i = 0; i < sizeof want / sizeof want[0]; i++)
+        CHECK(got && strstr(got, want[i]), "compare-paper lacks \"%s\":\n%s", want[i], got);
+    free(got);
+    CHECK(rt_report_within2(1, 2) && rt_report_within2(-3, -1.5) && !rt_report_within2(1, 2.01) &&
+              !rt_report_within2(-1, 1) && rt_report_within2(0, 0) && !rt_report_within2(0, 0.1) &&
+              !rt_report_within2(NAN, 1),
+          "within2");
+    o.model = "nonsense";
+    CHECK(rt_report_init(&R, h, path, &o, &e) < 0 && strstr(e.msg, "nonsense"), "bad model: %s", e.msg);
+    sqlite3_close(h);
+    unlink(path);
+}
+
 int main(void)
 {
     char dir[] = "/tmp/rt_test_report_XXXXXX";
@@ -388,6 +531,7 @@ int main(void)
     snprintf(path, sizeof path, "%s/r.db", dir);
     build(path);
     test_secondary(dir);
+    test_agreement(dir);
 
     /* read-only: the file and the folder made read-only (as root this does
      * not stop writes, so what is checked is that no side file appears) */

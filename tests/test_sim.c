@@ -92,7 +92,9 @@ static void naive_touch(naive *n, uint64_t L, int w, int cls, int g, uint64_t by
             c->wt_bytes += bytes;
             return;
         }
-        if (w && n->fullline && bytes == n->line) c->nofetch++;
+        /* a streaming store never fetches; an ordinary write only when it
+         * covers the line and full-line writes are on */
+        if (w == RT_WRITE_STREAM || (w && n->fullline && bytes == n->line)) c->nofetch++;
         if (n->used[s] == n->ways) { /* evict the last */
             uint64_t l = n->ways - 1;
             if (d[l]) n->c[wc[l]][wg[l]].writebacks++;
@@ -176,6 +178,9 @@ enum { GEN_RANDOM, GEN_ZIPF, GEN_CYCLIC };
 
 static const uint32_t sizes_pool[] = {1, 4, 8, 8, 8, 32, 36, 36, 64, 100};
 
+/* 1: gen() makes about a third of its writes streaming stores (write = 2) */
+static int gen_stream;
+
 /* footprint in 64-byte units; addresses get a random offset and size */
 static void gen(rt_access *a, size_t n, int kind, uint64_t footprint)
 {
@@ -193,6 +198,7 @@ static void gen(rt_access *a, size_t n, int kind, uint64_t footprint)
         a[i].addr = 0x10000000ULL + unit * 64 + ((r >> 40) & 63);
         a[i].size = sizes_pool[(r >> 48) % 10];
         a[i].write = ((r >> 52) & 7) < 3;
+        if (gen_stream && a[i].write && (r >> 4) % 3 == 0) a[i].write = RT_WRITE_STREAM;
         a[i].cls = (uint8_t)((r >> 56) % RT_NCLASS);
         a[i].gen = (uint8_t)((r >> 20) % 10); /* 0..9: 7, 8, 9 share the last bucket */
     }
@@ -230,7 +236,9 @@ static void compare(const char *name, const rt_sim_config *c, const rt_access *a
     CHECK(rt_sim_check(s, &e) == 0, "%s: invariant after finish: %s", name, e.msg);
     CHECK(rt_sim_refs(s) == n, "%s: refs", name);
     uint64_t wbgen = 0; /* write-backs outside generation 0: the test must see some */
-    uint64_t nofetch = 0, flushed = 0; /* full-line write misses; flush write-backs */
+    uint64_t nofetch = 0, flushed = 0; /* write misses without a fetch; flush write-backs */
+    int streams = 0;                   /* the stream has streaming stores */
+    for (size_t i = 0; i < n && !streams; i++) streams = a[i].write == RT_WRITE_STREAM;
     for (int i = 0; i < c->nsizes; i++) {
         naive *nv = naive_new(c->sizes[i], c->line, c->assoc, c->write_through, c->no_write_allocate);
         nv->fullline = c->write_miss_fullline;
@@ -268,7 +276,8 @@ static void compare(const char *name, const rt_sim_config *c, const rt_access *a
     }
     CHECK(wbgen > 0 || c->write_through, "%s: no write-back of a later generation", name);
     /* the options must have had something to do, or the comparison proves nothing */
-    CHECK(!c->write_miss_fullline || c->no_write_allocate || nofetch > 0, "%s: no full-line write miss", name);
+    CHECK(!(c->write_miss_fullline || streams) || c->no_write_allocate || nofetch > 0, "%s: no write miss without a fetch",
+          name);
     CHECK(!c->flush || c->write_through || c->no_write_allocate || flushed > 0, "%s: the flush wrote nothing back", name);
     rt_sim_free(s);
 }
@@ -401,6 +410,62 @@ static void test_flush_fullline_by_hand(void)
     CHECK(!strcmp(rt_sim_policy_name(&c), "wb-wa+flush"), "flush label");
     c.write_miss_fullline = 1, c.no_write_allocate = 1;
     CHECK(!strcmp(rt_sim_policy_name(&c), "wb-nwa+flush+fullline"), "both labels");
+}
+
+/* Streaming stores, by hand, in both exact engines: one 2-line cache,
+ * queue class throughout.
+ *   1. S line 0 (32 B)      miss, no fetch, dirty            wm 1 nf 1
+ *   2. R line 0             hit
+ *   3. S lines 1, 2 (128 B) two misses, no fetch; line 2 evicts dirty
+ *                           line 0                           wm 3 nf 3 wb 1
+ *   4. W line 3 (8 B)       miss, fetched; evicts dirty 1    wm 4 nf 3 wb 2
+ *   5. S line 2             hit: an ordinary write, no miss
+ *   6. R line 0             miss; evicts dirty line 3         rm 1 wb 3
+ * accesses 7, traffic (rm 1 + wm 4 - nf 3 + wb 3) x 64 = 320 B; the flush
+ * then writes back line 2 (dirty): wb 4, 384 B. With no-write-allocate
+ * every write misses and writes around (1: 32 B, 3: 2 x 64 B, 4: 8 B, 5:
+ * 8 B; wm 5, 176 B), line 0 is read into the cache at 2 (miss) and hits
+ * at 6: traffic 64 + 176 B, no write-back, nothing without a fetch. */
+static void test_stream_by_hand(void)
+{
+    const rt_access seq[6] = {{0x000, 32, RT_WRITE_STREAM, RT_CLS_QUEUE, 0}, {0x020, 4, 0, RT_CLS_QUEUE, 0},
+                              {0x040, 128, RT_WRITE_STREAM, RT_CLS_QUEUE, 0}, {0x0c0, 8, 1, RT_CLS_QUEUE, 0},
+                              {0x080, 8, RT_WRITE_STREAM, RT_CLS_QUEUE, 0}, {0x000, 4, 0, RT_CLS_QUEUE, 0}};
+    for (int engine = 0; engine < 3; engine++) {
+        rt_sim_config c;
+        rt_sim_config_default(&c);
+        c.nsizes = 1;
+        c.sizes[0] = 128;
+        c.assoc = engine ? 2 : 0; /* 2 ways, one set: the per-size engine */
+        c.no_write_allocate = engine == 2;
+        c.flush = 1;
+        rt_sim *s = rt_sim_new(&c, NULL);
+        CHECK(!strcmp(rt_sim_engine(s), engine ? "exact-persize" : "exact-stack"), "stream: engine");
+        rt_sim_put(s, seq, 6);
+        rt_err e = {{0}};
+        CHECK(rt_sim_check(s, &e) == 0, "stream: invariant: %s", e.msg);
+        rt_sim_counts q;
+        rt_sim_get(s, 0, RT_CLS_QUEUE, &q);
+        if (engine < 2) {
+            CHECK(q.accesses == 7 && q.read_misses == 1 && q.write_misses == 4 && q.nofetch == 3 && q.writebacks == 3 &&
+                      q.traffic_bytes == 320,
+                  "stream (engine %d): acc %llu rm %llu wm %llu nf %llu wb %llu traffic %llu", engine,
+                  (unsigned long long)q.accesses, (unsigned long long)q.read_misses, (unsigned long long)q.write_misses,
+                  (unsigned long long)q.nofetch, (unsigned long long)q.writebacks, (unsigned long long)q.traffic_bytes);
+            rt_sim_finish(s);
+            rt_sim_get(s, 0, RT_CLS_QUEUE, &q);
+            CHECK(q.writebacks == 4 && q.traffic_bytes == 384, "stream (engine %d) flushed: wb %llu traffic %llu",
+                  engine, (unsigned long long)q.writebacks, (unsigned long long)q.traffic_bytes);
+        } else {
+            CHECK(q.accesses == 7 && q.read_misses == 1 && q.write_misses == 5 && q.nofetch == 0 && q.writebacks == 0 &&
+                      q.wt_bytes == 32 + 128 + 8 + 8 && q.traffic_bytes == 64 + 176,
+                  "stream, no-write-allocate: acc %llu rm %llu wm %llu nf %llu wb %llu wt %llu", (unsigned long long)q.accesses,
+                  (unsigned long long)q.read_misses, (unsigned long long)q.write_misses, (unsigned long long)q.nofetch,
+                  (unsigned long long)q.writebacks, (unsigned long long)q.wt_bytes);
+        }
+        CHECK(rt_sim_check(s, &e) == 0, "stream: invariant after finish: %s", e.msg);
+        rt_sim_free(s);
+    }
 }
 
 static void test_writebacks_by_hand(void)
@@ -953,6 +1018,7 @@ int main(void)
     test_cycles();
     test_writebacks_by_hand();
     test_flush_fullline_by_hand();
+    test_stream_by_hand();
     test_generations_by_hand();
     test_replay_generations();
     test_counters_64bit();
@@ -980,6 +1046,19 @@ int main(void)
         snprintf(name, sizeof name, "full/%s", rt_sim_policy_name(&d));
         compare(name, &d, a, N / 3);
     }
+    /* streaming stores mixed with reads and writes: plain, with the flush,
+     * with full-line writes, and both */
+    gen_stream = 1;
+    for (int v = 0; v <= 3; v++) {
+        rt_sim_config d = c;
+        d.flush = v & 1;
+        d.write_miss_fullline = v >> 1 & 1;
+        gen(a, N / 3, v == 2 ? GEN_CYCLIC : GEN_ZIPF, 3000);
+        char name[64];
+        snprintf(name, sizeof name, "full/stream/%s", rt_sim_policy_name(&d));
+        compare(name, &d, a, N / 3);
+    }
+    gen_stream = 0;
     /* odd sizes and line size (non-power-of-two path) */
     rt_sim_config odd = c;
     odd.line = 48;
@@ -1065,6 +1144,13 @@ int main(void)
             snprintf(name, sizeof name, "%s/%s", sa[t].name, kinds[k]);
             compare(name, &c, a, N / 3);
         }
+        /* and with streaming stores among the writes */
+        gen_stream = 1;
+        gen(a, N / 4, GEN_ZIPF, fp[1] * 2);
+        char name[96];
+        snprintf(name, sizeof name, "%s/stream", sa[t].name);
+        compare(name, &c, a, N / 4);
+        gen_stream = 0;
     }
     free(a);
 
