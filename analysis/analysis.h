@@ -212,4 +212,19 @@ int rt_report_secondary(sqlite3 *h, const char *dbpath, int csv, const rt_plot_o
  * -1 when there are no such runs or the paper's file is missing. */
 int rt_report_purcell(sqlite3 *h, const char *scene, int csv, FILE *out, rt_err *e);
 
+/* The feedback tracer (analysis/feedback.c): per feedback run (of scene,
+ * or all when NULL; exact, not subsampled) and cache configuration, the
+ * traffic per class (stream = the vertex buffers, node = grid, index =
+ * lists, tri, shade, fb), then the ray-state bytes per traced ray and per
+ * ray generation of three designs on the same scene, resolution, lights
+ * and mode: the dynamic run scheduled for the size (classes ray, queue,
+ * qtable, hit), a stream-multipass run (class stream; the one with the
+ * feedback run's grid_min if several) and the feedback run (class
+ * stream), each over its own rays traced (rays_primary + rays_shadow +
+ * rays_secondary) and the mode's generations (whitted depth D: D; path
+ * B bounces: B + 1; else 1); a missing design is a dash. Markdown with a
+ * finding per run at its largest configuration, or CSV (bytes). With plot,
+ * DIR/feedback-LABEL.{dat,gp,png}. -1 when there is no feedback run. */
+int rt_report_feedback(sqlite3 *h, const char *scene, int csv, const rt_plot_opts *plot, FILE *out, rt_err *e);
+
 #endif

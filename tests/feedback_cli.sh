@@ -2,7 +2,10 @@
 # The feedback tracer end to end: usage errors (exit 2) for an unknown
 # --accel, the path mode and a vertex buffer too small (the message gives
 # the size needed); a run prints its passes, S_VB and stage shares in the
-# --json statistics; --heatmap writes a PNG.
+# --json statistics; --heatmap writes a PNG. A tiny sweep of the tracer
+# (knot 32x32, whitted depth 2, one light): one run per option set, the
+# feedback options in the run key only when not the default, the same run
+# through --list-jobs, and no run added on a rerun.
 set -u
 bin=${RT_BIN:-./raytraffic}
 tmp=$(mktemp -d /tmp/rt_feedback_cli.XXXXXX) || exit 1
@@ -32,4 +35,37 @@ grep -q '"tracer": "feedback"' "$tmp/j" || err "json: $(cat "$tmp/j")"
 grep -q 'passes=3 composite=eq1 svb=49152 G=2 G2=1' "$tmp/j" || err "json extra: $(cat "$tmp/j")"
 grep -q 'share_vs=' "$tmp/j" || err "no stage shares"
 [ "$(head -c 8 "$tmp/h.png" | od -An -c | tr -d ' ')" = "211PNG\r\n032\n" ] || err "heat map is not a PNG"
+
+# sweep: one run per accel/grid-min choice, keys as rt_job_params writes them
+sw="--scenes knot --tracers feedback --modes whitted --depth 2 --lights 0 -W 32 -H 32 --sizes 4K,64K"
+"$bin" sweep $sw --db "$tmp/s.db" 2>"$tmp/s1" || err "sweep: $(cat "$tmp/s1")"
+grep -q "1 run(s) (1 scenes x 1 lightings x 1 tracers, 2 sizes)" "$tmp/s1" || err "sweep matrix: $(cat "$tmp/s1")"
+"$bin" sweep $sw --accel naive --db "$tmp/s.db" 2>/dev/null || err "sweep --accel naive"
+"$bin" sweep $sw --grid-min 16 --db "$tmp/s.db" 2>/dev/null || err "sweep --grid-min 16"
+"$bin" sweep $sw --grid-min 16 --db "$tmp/s.db" 2>"$tmp/s2" || err "sweep rerun"
+grep -q "(1 already in the database)" "$tmp/s2" || err "rerun did not skip: $(cat "$tmp/s2")"
+keys=$(sqlite3 "$tmp/s.db" "SELECT params FROM runs WHERE tracer = 'feedback' ORDER BY id" | tr '\n' '|')
+[ "$keys" = "mode=whitted depth=2|accel=naive mode=whitted depth=2|grid_min=16 mode=whitted depth=2|" ] ||
+    err "sweep run keys: '$keys'"
+# 32 x 32 pixels, E = 1, 2, 1: S_VB = 1024 * 3 * 64; passes and records as the render prints them
+n=$(sqlite3 "$tmp/s.db" "SELECT COUNT(*) FROM runs WHERE stats LIKE '%passes=3 composite=eq1 svb=196608 G=2 G2=1 E=1,2,1 %'")
+[ "$n" = 3 ] || err "sweep stats: $n of 3 runs with passes=3 svb=196608"
+"$bin" render knot -t feedback --mode whitted --depth 2 --lights 0 -W 32 -H 32 --grid-min 16 --json \
+    -o "$tmp/k.exr" >"$tmp/kj" 2>/dev/null || err "render knot"
+rin=$(sed -n 's/.*\(records_in=[0-9,]* records_out=[0-9,]*\).*/\1/p' "$tmp/kj")
+[ -n "$rin" ] && [ "$(sqlite3 "$tmp/s.db" "SELECT COUNT(*) FROM runs WHERE params LIKE 'grid_min=16%' AND stats LIKE '%$rin %'")" = 1 ] ||
+    err "sweep and render disagree on records ($rin)"
+# the naive run tests every triangle: more tests than the grid's
+t=$(sqlite3 "$tmp/s.db" "SELECT (SELECT refs FROM runs WHERE params LIKE 'accel=naive%') > 10 * (SELECT refs FROM runs WHERE params = 'mode=whitted depth=2')")
+[ "$t" = 1 ] || err "naive run not heavier than the grid run"
+# every class of the tracer at both sizes, traffic of the 64-byte records in class stream
+c=$(sqlite3 "$tmp/s.db" "SELECT group_concat(class) FROM (SELECT DISTINCT t.class FROM traffic t JOIN runs r ON r.id = t.run_id WHERE r.params = 'mode=whitted depth=2' ORDER BY t.class)")
+[ "$c" = "fb,index,node,shade,stream,tri" ] || err "sweep classes: '$c'"
+# --list-jobs: one command carrying the feedback options; it stores the same run
+"$bin" sweep $sw --grid-min 16 --accel naive --db "$tmp/l.db" --list-jobs >"$tmp/jobs" || err "list-jobs"
+[ "$(wc -l <"$tmp/jobs")" = 1 ] || err "list-jobs: $(cat "$tmp/jobs")"
+grep -q "'--grid-min' '16' '--accel' 'naive'" "$tmp/jobs" || err "list-jobs lost the options: $(cat "$tmp/jobs")"
+sh "$tmp/jobs" 2>/dev/null || err "running the listed job" # names the binary by its absolute path
+k=$(sqlite3 "$tmp/l.job0000.db" "SELECT params FROM runs" 2>/dev/null)
+[ "$k" = "accel=naive grid_min=16 mode=whitted depth=2" ] || err "listed job's key: '$k'"
 exit $fail
