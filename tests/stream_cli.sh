@@ -1,6 +1,7 @@
 #!/bin/sh
 # The stream tracers from the command line: their options' usage errors
-# (exit 2, naming the option or the grid's cell limit), a sweep of both
+# (exit 2, naming the option or the grid's cell limit, also when only the
+# scene reveals that the grid is too large), a sweep of both
 # tracers into a database and `report --figure purcell` printing the
 # paper's bunny values and each run's statistics (v, t, s, passes) as
 # stored, in Markdown and CSV; a tiny sweep of the bunny at 32x32 whose
@@ -32,11 +33,20 @@ usage_err "--oracle-fraction" -t stream-multipass --oracle-fraction 1.5
 usage_err "--oracle" -t stream-multipass --oracle best
 usage_err "--unroll" -t stream-multipass --unroll 0,1
 usage_err "--unroll" -t stream-multipass --unroll 4
-# a grid within the option's range but over the cell limit: refused, naming the limit
-"$bin" render cornell -t stream-branching --grid-min 1024 -W 8 -H 8 -o "$tmp/x.exr" > "$tmp/out" 2>&1
-rc=$?
-[ $rc -ne 0 ] || err "grid over the cell limit accepted"
-grep -q "134217728" "$tmp/out" || err "over the limit: message lacks the limit: $(cat "$tmp/out")"
+# a grid within the option's range but over the cell limit (only the scene
+# tells): a usage error naming the limit, for render and trace, for the
+# stream tracers and the feedback tracer's grid
+for cmd in render trace; do
+    for t in stream-branching stream-multipass feedback; do
+        "$bin" $cmd cornell -t $t --accel grid --grid-min 1024 -W 8 -H 8 -o "$tmp/x.out" > "$tmp/out" 2>&1
+        rc=$?
+        [ $rc -eq 2 ] || err "$cmd -t $t: grid over the cell limit: exit $rc, want 2"
+        grep -q "at most 134217728 cells" "$tmp/out" || err "$cmd -t $t: message lacks the limit: $(cat "$tmp/out")"
+    done
+done
+# a grid within the limit is not refused
+"$bin" trace cornell -t feedback --accel grid --grid-min 16 -W 8 -H 8 -o "$tmp/x.rtt" > "$tmp/out" 2>&1 ||
+    err "trace -t feedback --grid-min 16 failed: $(cat "$tmp/out")"
 
 # sweep both tracers, then the report
 "$bin" sweep --scenes knot --tracers stream-branching,stream-multipass -W 16 -H 16 --modes raycast \
