@@ -7,7 +7,7 @@
 # stored, in Markdown and CSV; a tiny sweep of the bunny at 32x32 whose
 # report (with the texture cache's Figure 9) matches
 # tests/golden/purcell_report.md (RT_REDO_GOLDEN=1 rewrites it); and the
-# report's stacked-bar plots.
+# report's stacked-bar plots; bench --what stream.
 set -u
 bin=${RT_BIN:-./raytraffic}
 src=${RT_SRCDIR:-.}
@@ -87,4 +87,15 @@ done
 st=$(sed -n '/^### Figure 8/,/^### Figure 9/p' "$tmp/g.md" | grep '^| bunny multipass' | cut -d'|' -f4 | tr -d ' ')
 dat=$(awk '/multipass/ { printf "%.2f", $5 }' "$tmp/plots/purcell-fig8.dat")
 [ -n "$st" ] && [ "$st" = "$dat" ] || err "fig8.dat state '$dat' differs from the table's '$st'"
+
+# bench --what stream: the three runs, the traced one's reference count as
+# a traced render counts it (trace-info of the same run's trace)
+"$bin" bench --what stream --scene cornell -W 16 -H 16 > "$tmp/bench" 2> "$tmp/bench.err" ||
+    err "bench --what stream exited $?: $(cat "$tmp/bench.err")"
+for r in "| recursive | untraced |" "| stream-branching | untraced |" "| stream-multipass | traced: 13 sizes + texture cache |"; do
+    grep -qF "$r" "$tmp/bench" || err "bench --what stream lacks '$r': $(cat "$tmp/bench")"
+done
+"$bin" trace cornell -t stream-multipass --mode raycast -W 16 -H 16 -o "$tmp/m.rtt" > /dev/null 2>&1
+nref=$("$bin" trace-info "$tmp/m.rtt" 2>/dev/null | awk '$1 == "total" { print $2 }')
+grep -q "^Traced multipass: $nref references" "$tmp/bench" || err "bench references differ from the trace's ($nref)"
 exit $fail
