@@ -207,10 +207,15 @@ int rt_report_secondary(sqlite3 *h, const char *dbpath, int csv, const rt_plot_o
  * bunny values (data/purcell_bunny.csv): Figure 6 (v, t, s), Table 2
  * (passes, per-ray maxima, SIMD efficiency), Figure 7 (instructions and
  * bandwidth per kernel), Figure 8 (bandwidth by data type), Figure 9
- * (traffic at the simulated cache nearest 64 KB direct-mapped with 48-byte
- * lines over the bytes referenced, by data type). Markdown, or CSV. 0, or
- * -1 when there are no such runs or the paper's file is missing. */
-int rt_report_purcell(sqlite3 *h, const char *scene, int csv, FILE *out, rt_err *e);
+ * (traffic with the texture cache the sweep simulates beside these runs,
+ * 1365 direct-mapped 48-byte lines, or else the simulated cache nearest 64
+ * KB, over the bytes referenced, by data type, and the triangle reads' hit
+ * rate). Markdown, or CSV. With plot non-NULL also writes stacked-bar
+ * charts in the paper's form, DIR/purcell-{fig7-instructions,
+ * fig7-bandwidth,fig8,fig9}.{dat,gp} and, with gnuplot, .png (fig9 only
+ * when some run has a cache). 0, or -1 when there are no such runs, the
+ * paper's file is missing or a plot cannot be written. */
+int rt_report_purcell(sqlite3 *h, const char *scene, int csv, const rt_plot_opts *plot, FILE *out, rt_err *e);
 
 /* The feedback tracer (analysis/feedback.c): per feedback run (of scene,
  * or all when NULL; exact, not subsampled) and cache configuration, the

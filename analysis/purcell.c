@@ -11,9 +11,10 @@
  * which tests/test_stream.c checks against data/purcell_table1.csv).
  * Tables are Markdown, or CSV with --format csv.
  */
-#include "analysis.h"
+#include "analysis_int.h"
 #include "stream.h"
 
+#include <errno.h>
 #include <inttypes.h>
 #include <math.h>
 #include <stdio.h>
@@ -111,19 +112,35 @@ static void head(FILE *o, int csv, const char *title, const char *cols, int ncol
 static void row_start(FILE *o, int csv, const char *label) { fprintf(o, csv ? "\"%s\"" : "| %s", label); }
 static void row_end(FILE *o, int csv) { fputs(csv ? "\n" : " |\n", o); }
 
-/* Figure 9: per class, traffic with the cache nearest 64 KB / 48 B / direct
- * mapped over the bytes referenced. Prints nothing for runs without rows. */
-static int fig9_row(sqlite3 *h, const prun *r, int csv, FILE *o, rt_err *e)
+/* Figure 9 data of one run: the cache simulated beside it that is nearest
+ * the paper's (exactly 1365 direct-mapped 48-byte lines when the sweep ran
+ * the texture cache, see results/experiment.h; otherwise the size nearest
+ * 64 KB), its traffic per data type and the triangle reads' hit rate. */
+typedef struct fig9 {
+    int have;          /* a cache was simulated beside the run */
+    char cache[96];    /* its description */
+    double got[6];     /* traffic per class with the cache, bytes */
+    double ref[6];     /* bytes referenced per class (the run's dbytes) */
+    double rtot;       /* sum of ref */
+    double tri_hit;    /* 1 - triangle misses / triangle line touches */
+} fig9;
+
+static const char *const f9cls[6] = {"node", "index", "tri", "shade", "stream", "fb"};
+static const char *const f9names = "grid,lists,triangles,shading,state,stencil+framebuffer";
+
+static int fig9_data(sqlite3 *h, const prun *r, fig9 *f, rt_err *e)
 {
-    static const char *const cls[] = {"node", "index", "tri", "shade", "stream", "fb"};
     double d[RT_SD_N];
+    memset(f, 0, sizeof *f);
+    f->tri_hit = NAN;
     stat_vec(r->stats, "dbytes", d, RT_SD_N);
     const double ref[6] = {d[RT_SD_GRID], d[RT_SD_LIST], d[RT_SD_TRI], d[RT_SD_SHADE], d[RT_SD_STATE],
                            d[RT_SD_STENCIL] + d[RT_SD_FB]};
     sqlite3_stmt *st;
     const char *sql = "SELECT c.id, c.size, c.line, c.assoc FROM traffic t JOIN cache_configs c ON c.id = t.config_id"
                       " WHERE t.run_id = ?1 GROUP BY c.id"
-                      " ORDER BY abs(c.size - 65536), c.line <> 48, c.assoc <> 1, c.id LIMIT 1";
+                      " ORDER BY NOT (c.size = 65520 AND c.line = 48 AND c.assoc = 1),"
+                      " abs(c.size - 65536), c.line <> 48, c.assoc <> 1, c.id LIMIT 1";
     if (sqlite3_prepare_v2(h, sql, -1, &st, NULL) != SQLITE_OK) return rt_errf(e, "figure 9: %s", sqlite3_errmsg(h));
     sqlite3_bind_int64(st, 1, r->id);
     long long cfg = -1, size = 0, line = 0, assoc = 0;
@@ -135,33 +152,155 @@ static int fig9_row(sqlite3 *h, const prun *r, int csv, FILE *o, rt_err *e)
     }
     sqlite3_finalize(st);
     if (cfg < 0) return 0;
-    double got[6] = {0, 0, 0, 0, 0, 0}, tot = 0, rtot = 0;
-    if (sqlite3_prepare_v2(h, "SELECT class, traffic_bytes FROM traffic WHERE run_id = ?1 AND config_id = ?2", -1, &st,
-                           NULL) != SQLITE_OK)
+    if (sqlite3_prepare_v2(h,
+                           "SELECT class, traffic_bytes, accesses, read_misses + write_misses FROM traffic"
+                           " WHERE run_id = ?1 AND config_id = ?2",
+                           -1, &st, NULL) != SQLITE_OK)
         return rt_errf(e, "figure 9: %s", sqlite3_errmsg(h));
     sqlite3_bind_int64(st, 1, r->id);
     sqlite3_bind_int64(st, 2, cfg);
     while (sqlite3_step(st) == SQLITE_ROW) {
         const char *c = (const char *)sqlite3_column_text(st, 0);
         for (int i = 0; i < 6; i++)
-            if (c && !strcmp(c, cls[i])) got[i] += sqlite3_column_double(st, 1);
+            if (c && !strcmp(c, f9cls[i])) f->got[i] += sqlite3_column_double(st, 1);
+        if (c && !strcmp(c, "tri") && sqlite3_column_double(st, 2) > 0)
+            f->tri_hit = 1.0 - sqlite3_column_double(st, 3) / sqlite3_column_double(st, 2);
     }
     sqlite3_finalize(st);
-    char cache[96];
-    snprintf(cache, sizeof cache, "%lld B, %lld B lines, %s", size, line, assoc ? (assoc == 1 ? "direct" : "set-assoc.") : "fully assoc.");
-    row_start(o, csv, r->label);
-    cell(o, csv, cache);
+    f->have = 1;
+    snprintf(f->cache, sizeof f->cache, "%lld B, %lld B lines, %s", size, line,
+             assoc ? (assoc == 1 ? "direct" : "set-assoc.") : "fully assoc.");
     for (int i = 0; i < 6; i++) {
-        celld(o, csv, "%.3f", ref[i] > 0 ? got[i] / ref[i] : NAN);
-        tot += got[i];
-        rtot += ref[i];
+        f->ref[i] = ref[i];
+        f->rtot += ref[i];
     }
-    celld(o, csv, "%.3f", rtot > 0 ? tot / rtot : NAN);
-    row_end(o, csv);
     return 0;
 }
 
-int rt_report_purcell(sqlite3 *h, const char *scene, int csv, FILE *o, rt_err *e)
+/* Figure 9 row: per class, traffic with the cache over the bytes referenced
+ * of that class, the total, and the triangle hit rate. */
+static void fig9_row(const prun *r, const fig9 *f, int csv, FILE *o)
+{
+    double tot = 0;
+    row_start(o, csv, r->label);
+    cell(o, csv, f->cache);
+    for (int i = 0; i < 6; i++) {
+        celld(o, csv, "%.3f", f->ref[i] > 0 ? f->got[i] / f->ref[i] : NAN);
+        tot += f->got[i];
+    }
+    celld(o, csv, "%.3f", f->rtot > 0 ? tot / f->rtot : NAN);
+    celld(o, csv, "%.3f", f->tri_hit);
+    row_end(o, csv);
+}
+
+/* ---- plots ------------------------------------------------------------------- */
+
+/* One stacked-bar chart in the paper's form: a bar per run (x labels are
+ * the run labels), one stacked block per component. v holds n rows of nc
+ * values; names is the comma-separated component list. Writes
+ * DIR/purcell-NAME.dat and .gp and, with gnuplot, .png. */
+static int stacked_plot(const rt_plot_opts *p, const char *name, const char *title, const char *ylabel,
+                        const char *names, int nc, const prun *runs, size_t n, const double *v, rt_err *e)
+{
+    char dat[4200], gpf[4200], png[4200];
+    snprintf(dat, sizeof dat, "%s/purcell-%s.dat", p->dir, name);
+    snprintf(gpf, sizeof gpf, "%s/purcell-%s.gp", p->dir, name);
+    snprintf(png, sizeof png, "%s/purcell-%s.png", p->dir, name);
+    FILE *f = fopen(dat, "w");
+    if (!f) return rt_errf(e, "%s: %s", dat, strerror(errno));
+    /* header row: column names for the key; labels quoted, quotes dropped */
+    char c[512];
+    snprintf(c, sizeof c, "%s", names);
+    fputs("run", f);
+    for (char *t = strtok(c, ","); t; t = strtok(NULL, ",")) fprintf(f, " \"%s\"", t);
+    fputc('\n', f);
+    for (size_t i = 0; i < n; i++) {
+        fputc('"', f);
+        for (const char *q = runs[i].label; *q; q++) fputc(*q == '"' || *q == '\n' ? '\'' : *q, f);
+        fputc('"', f);
+        for (int k = 0; k < nc; k++) {
+            double x = v[i * nc + k];
+            fprintf(f, isnan(x) ? " 0" : " %.6g", isnan(x) ? 0.0 : x);
+        }
+        fputc('\n', f);
+    }
+    int bad = ferror(f);
+    if (fclose(f) != 0 || bad) return rt_errf(e, "%s: write error", dat);
+    if (!(f = fopen(gpf, "w"))) return rt_errf(e, "%s: %s", gpf, strerror(errno));
+    fprintf(f, "set terminal pngcairo size %d,520\nset output ", 360 + 90 * (int)n);
+    rt_plot_quote_path(f, png);
+    fputs("\nset title ", f);
+    rt_plot_quote(f, title);
+    fputs(" noenhanced\nset ylabel ", f);
+    rt_plot_quote(f, ylabel);
+    fputs(" noenhanced\nset style data histograms\nset style histogram rowstacked\nset style fill solid 0.85 border -1\n"
+          "set boxwidth 0.6\nset key outside right top vertical noenhanced reverse Left\nset grid ytics\n"
+          "set yrange [0:*]\nset xtics rotate by -30 noenhanced\nset bmargin 9\n",
+          f);
+    static const char *const col[] = {"#0072b2", "#e69f00", "#009e73", "#d55e00",
+                                      "#cc79a7", "#56b4e9", "#f0e442", "#000000"};
+    fprintf(f, "plot for [i=2:%d] ", nc + 1);
+    rt_plot_quote_path(f, dat);
+    fputs(" u i:xtic(1) t columnheader(i) lc rgb word(\"", f);
+    for (int k = 0; k < nc; k++) fprintf(f, "%s%s", k ? " " : "", col[k % 8]);
+    fputs("\", i-1)\n", f);
+    bad = ferror(f);
+    if (fclose(f) != 0 || bad) return rt_errf(e, "%s: write error", gpf);
+    if (!p->gnuplot) return 0;
+    if (rt_plot_run(p->gnuplot, gpf, e) < 0) return -1;
+    if (p->log) fprintf(p->log, "wrote %s\n", png);
+    return 0;
+}
+
+/* Figures 7 (instructions and bandwidth per kernel), 8 (bandwidth by data
+ * type) and 9 (cached traffic per data type over all uncached bytes,
+ * stacked as in the paper, for the runs with a cache). */
+static int purcell_plots(const rt_plot_opts *p, const prun *runs, const fig9 *f9, size_t n, const char *kcols,
+                         rt_err *e)
+{
+    if (rt_plot_mkdir(p->dir, e) < 0) return -1;
+    double *v = calloc(n ? n * 8 : 1, sizeof *v);
+    prun *r9 = calloc(n ? n : 1, sizeof *r9);
+    int rc = 0;
+    if (!v || !r9) rc = rt_errf(e, "out of memory");
+    for (int pass = 0; pass < 2 && rc == 0; pass++) {
+        for (size_t i = 0; i < n; i++) {
+            stat_vec(runs[i].stats, "kexec", v + i * RT_SK_N, RT_SK_N);
+            for (int k = 0; k < RT_SK_N; k++)
+                v[i * RT_SK_N + k] *= pass ? 0 : rt_stream_table(runs[i].mp)[k].instr / 1e6;
+            if (pass) {
+                stat_vec(runs[i].stats, "kbytes", v + i * RT_SK_N, RT_SK_N);
+                for (int k = 0; k < RT_SK_N; k++) v[i * RT_SK_N + k] /= 1048576.0;
+            }
+        }
+        rc = stacked_plot(p, pass ? "fig7-bandwidth" : "fig7-instructions",
+                          pass ? "Figure 7: bandwidth per kernel" : "Figure 7: instructions per kernel",
+                          pass ? "MB (2^20 bytes)" : "millions of instructions", kcols, RT_SK_N, runs, n, v, e);
+    }
+    if (rc == 0) {
+        for (size_t i = 0; i < n; i++) {
+            stat_vec(runs[i].stats, "dbytes", v + i * RT_SD_N, RT_SD_N);
+            for (int k = 0; k < RT_SD_N; k++) v[i * RT_SD_N + k] /= 1048576.0;
+        }
+        rc = stacked_plot(p, "fig8", "Figure 8: bandwidth by data type", "MB (2^20 bytes)",
+                          "stencil,state,grid,lists,triangles,shading,framebuffer", RT_SD_N, runs, n, v, e);
+    }
+    size_t m = 0;
+    for (size_t i = 0; i < n && rc == 0; i++) {
+        if (!f9[i].have || !(f9[i].rtot > 0)) continue;
+        r9[m] = runs[i];
+        for (int k = 0; k < 6; k++) v[m * 6 + k] = f9[i].got[k] / f9[i].rtot;
+        m++;
+    }
+    if (rc == 0 && m)
+        rc = stacked_plot(p, "fig9", "Figure 9: bandwidth with the cache / bandwidth without",
+                          "ratio to the uncached total", f9names, 6, r9, m, v, e);
+    free(v);
+    free(r9);
+    return rc;
+}
+
+int rt_report_purcell(sqlite3 *h, const char *scene, int csv, const rt_plot_opts *plot, FILE *o, rt_err *e)
 {
     double pv[NPAPER];
     if (read_paper(pv, e) < 0) return -1;
@@ -172,6 +311,7 @@ int rt_report_purcell(sqlite3 *h, const char *scene, int csv, FILE *o, rt_err *e
     if (sqlite3_prepare_v2(h, sql, -1, &st, NULL) != SQLITE_OK) return rt_errf(e, "purcell: %s", sqlite3_errmsg(h));
     if (scene) sqlite3_bind_text(st, 1, scene, -1, SQLITE_TRANSIENT);
     prun *runs = NULL;
+    fig9 *f9 = NULL;
     size_t n = 0;
     int rc = 0;
     while (sqlite3_step(st) == SQLITE_ROW) {
@@ -278,10 +418,14 @@ int rt_report_purcell(sqlite3 *h, const char *scene, int csv, FILE *o, rt_err *e
         celld(o, csv, "%.2f", tot / 1048576.0);
         row_end(o, csv);
     }
-    head(o, csv, "Figure 9: traffic with the cache / bytes referenced",
-         "cache,grid,lists,triangles,shading,state,stencil+framebuffer,total", 8);
-    for (size_t i = 0; i < n && rc == 0; i++) rc = fig9_row(h, &runs[i], csv, o, e);
+    head(o, csv, "Figure 9: traffic with the cache / bytes referenced, and the triangle reads' hit rate",
+         "cache,grid,lists,triangles,shading,state,stencil+framebuffer,total,triangle hit rate", 9);
+    if (!(f9 = calloc(n, sizeof *f9))) rc = rt_errf(e, "out of memory");
+    for (size_t i = 0; i < n && rc == 0; i++)
+        if ((rc = fig9_data(h, &runs[i], &f9[i], e)) == 0 && f9[i].have) fig9_row(&runs[i], &f9[i], csv, o);
+    if (rc == 0 && plot) rc = purcell_plots(plot, runs, f9, n, cols, e);
 out:
+    free(f9);
     for (size_t i = 0; i < n; i++) free(runs[i].stats);
     free(runs);
     return rc;

@@ -70,4 +70,14 @@ int rt_mode_bench_modes(FILE *out, const rt_mode_bench *b, rt_err *e);
  * bit-identical, else DIFF. Returns the number of DIFF cases, or -1. */
 int rt_mode_bench_identical(FILE *out, const rt_mode_bench *b, rt_err *e);
 
+/* ---- streaming tracers (stream_bench.c) ------------------------------------ */
+
+/* On scene with base's size and options (raycast, no lights): the
+ * recursive and stream-branching tracers' untraced primary rays/s, then a
+ * stream-multipass run fed to the exact 13-size simulator and the texture
+ * cache (RT_EXP_TEXCACHE_*), timed from job setup to the end, as a
+ * Markdown table with each rays/s over the recursive tracer's, and a line
+ * splitting the traced run's time. 0 or -1 (message in e). */
+int rt_stream_bench(FILE *out, const char *scene, const rt_render_opts *base, rt_err *e);
+
 #endif

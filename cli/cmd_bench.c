@@ -8,6 +8,9 @@
  *
  * The render modes (bench/mode_bench.c): path tracing's error against time,
  * rays/s per tracer and mode, and the tracers' images compared bit for bit.
+ * The streaming tracers (bench/stream_bench.c, --what stream): stream-branching
+ * against recursive untraced, and a traced stream-multipass run into the
+ * sweep's simulators, on the bunny.
  * Each item has its own default image size; -W/-H override them all. */
 #include "analysis.h"
 #include "bench.h"
@@ -42,7 +45,9 @@ static void usage(FILE *f)
             "                     reference for spp 1, 4, 16, 64; modes: rays/s per tracer in\n"
             "                     shadow, whitted and path mode; identical: every tracer's\n"
             "                     image against the recursive one in every mode (exit 1 on\n"
-            "                     a difference)\n"
+            "                     a difference); stream: stream-branching rays/s against\n"
+            "                     recursive and a traced stream-multipass run with the 13-size\n"
+            "                     simulator and the texture cache (scene bunny unless --scene)\n"
             "  --scenes LIST      scenes of path-error, modes, identical (defaults cornell;\n"
             "                     sphereflake,cornell; cornell,knot,sphereflake)\n"
             "  --ref-spp N        path-error reference samples per pixel (default 1024)\n"
@@ -153,7 +158,7 @@ int main_bench(int argc, char **argv)
     o.W = o.H = 0; /* 0: the item's own default size */
     const char *scenes = NULL, *plotdir = NULL;
     long refspp = 1024;
-    const char *scene = "sphereflake", *tracers = "recursive,packet,dynamic", *what = "tracers,trace,sim";
+    const char *scene = NULL, *tracers = "recursive,packet,dynamic", *what = "tracers,trace,sim";
     const char *tmpdir = "/tmp", *dummy = NULL, *trace = NULL;
     uint64_t simrefs = 20000000;
     struct option *lo = rt_cmd_merge_opts(own);
@@ -198,7 +203,7 @@ int main_bench(int argc, char **argv)
         rt_cmd_error("bench", "unexpected argument '%s'", argv[optind]);
         return RT_EXIT_USAGE;
     }
-    int do_tr = 0, do_trace = 0, do_sim = 0, do_approx = 0, do_perr = 0, do_modes = 0, do_ident = 0;
+    int do_tr = 0, do_trace = 0, do_sim = 0, do_approx = 0, do_perr = 0, do_modes = 0, do_ident = 0, do_stream = 0;
     {
         char *list = strdup(what), *save = NULL;
         for (char *t = strtok_r(list, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
@@ -209,15 +214,18 @@ int main_bench(int argc, char **argv)
             else if (!strcmp(t, "path-error")) do_perr = 1;
             else if (!strcmp(t, "modes")) do_modes = 1;
             else if (!strcmp(t, "identical")) do_ident = 1;
+            else if (!strcmp(t, "stream")) do_stream = 1;
             else {
                 rt_cmd_error("bench", "--what: unknown item '%s' (tracers, trace, sim, approx, path-error, modes, "
-                             "identical)", t);
+                             "identical, stream)", t);
                 free(list);
                 return RT_EXIT_USAGE;
             }
         }
         free(list);
     }
+    const char *stream_scene = scene ? scene : "bunny"; /* the paper's scene */
+    if (!scene) scene = "sphereflake";
     int W0 = o.W, H0 = o.H; /* as given; 0 = each item's default */
     o.W = W0 ? W0 : 1024;
     o.H = H0 ? H0 : 1024;
@@ -327,6 +335,15 @@ int main_bench(int argc, char **argv)
         if (nd > 0) {
             rt_cmd_error("bench", "%d image%s differ%s from the recursive tracer's", nd, nd == 1 ? "" : "s",
                          nd == 1 ? "s" : "");
+            return RT_EXIT_FAIL;
+        }
+    }
+    if (do_stream) {
+        rt_err e = {""};
+        if (!blank) printf("\n");
+        fflush(stdout);
+        if (rt_stream_bench(stdout, stream_scene, &o, &e) < 0) {
+            rt_cmd_error("bench", "%s", e.msg);
             return RT_EXIT_FAIL;
         }
     }

@@ -26,7 +26,7 @@ static void usage(FILE *f)
             "                     secondary: dynamic vs recursive per ray generation (whitted,\n"
             "                     path runs), with --plot one picture per scene and mode;\n"
             "                     purcell: stream-* runs beside Purcell et al. 2002 (Figure 6,\n"
-            "                     Table 2, Figures 7-9)\n"
+            "                     Table 2, Figures 7-9; with --plot their stacked bars)\n"
             "                     feedback: feedback runs' traffic per class and ray-state\n"
             "                     bytes per ray beside dynamic and stream-multipass (--plot)\n"
             "  --scene NAME       only this scene (figures 4-9 map room, grove, sphereflake)\n"
@@ -115,7 +115,7 @@ int main_report(int argc, char **argv)
     if (rc == 0 && speed) {
         rc = rt_report_speed_error(h, o.csv, plotdir ? &po : NULL, stdout, &e);
     } else if (rc == 0 && !strcmp(figure, "purcell")) {
-        rc = rt_report_purcell(h, o.scene, o.csv, stdout, &e);
+        rc = rt_report_purcell(h, o.scene, o.csv, plotdir ? &po : NULL, stdout, &e);
     } else if (rc == 0 && !strcmp(figure, "feedback")) {
         rc = rt_report_feedback(h, o.scene, o.csv, plotdir ? &po : NULL, stdout, &e);
     } else if (rc == 0 && !strcmp(figure, "secondary")) {

@@ -132,6 +132,8 @@ static void usage(FILE *f)
             "  --list-jobs        print one self-contained command per job and exit\n"
             "  --job K            run only job K (0-based) of the matrix\n"
             "  -h, --help         this help\n\n"
+            "Jobs of the stream and feedback tracers also simulate the texture cache of\n"
+            "Purcell et al. 2002 (65520 B, 48-byte lines, direct-mapped; report --figure purcell).\n"
             "Rerunning with the same arguments skips finished runs. A progress bar with ETA\n"
             "is drawn on stderr when it is a terminal, else one line per finished run.\n");
 }

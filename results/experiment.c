@@ -319,6 +319,7 @@ typedef struct jobrun {
     rt_job j;                          /* scene, tree, tracer, options */
     int have_job;                      /* j needs rt_job_free */
     rt_sim *sim;                       /* the exact simulator */
+    rt_sim *tex;                       /* the texture cache of a GPU tracer (add_texture_cache), or NULL */
     rt_approx *ap[RT_EXP_MAXAPPROX];   /* approximate simulators */
     int napprox;
     rt_tr_writer *tw;                  /* trace writer, or NULL */
@@ -334,6 +335,7 @@ static void jobrun_free(jobrun *r)
     if (r->tw) rt_tr_abort(r->tw);
     rt_image_free(r->img);
     rt_sim_free(r->sim);
+    rt_sim_free(r->tex);
     if (r->have_job) rt_job_free(&r->j);
 }
 
@@ -352,6 +354,24 @@ static int open_trace(rt_exp_worker *w, jobrun *r, const rt_exp_job *jb, long in
     rt_job_meta(&r->j, c->command, &m);
     if (!(r->tw = rt_tr_create(path, &m, e))) return -1;
     return rt_exp_fan_add(&r->fan, rt_tr_sink(r->tw), e) < 0 ? -1 : 0;
+}
+
+/* Purcell et al. 2002 simulate every run of their GPU tracers also with a
+ * 64 KB direct-mapped texture cache of 48-byte lines (1365 lines, 65520
+ * bytes): the jobs of the stream and feedback tracers feed one more exact
+ * simulator of that cache (the sweep's write policy), whose rows carry
+ * line 48 and associativity 1, so they never mix with the sweep's fully
+ * associative rows. Other tracers get none (r->tex stays NULL). */
+static int add_texture_cache(const rt_exp_config *c, jobrun *r, const rt_exp_job *jb, rt_err *e)
+{
+    if (strncmp(jb->tracer, "stream-", 7) && strcmp(jb->tracer, "feedback")) return 0;
+    rt_sim_config tc = c->sim;
+    tc.nsizes = 1;
+    tc.sizes[0] = RT_EXP_TEXCACHE_SIZE;
+    tc.line = RT_EXP_TEXCACHE_LINE;
+    tc.assoc = 1;
+    if (!(r->tex = rt_sim_new(&tc, e))) return -1;
+    return rt_exp_fan_add(&r->fan, rt_sim_sink(r->tex), e) < 0 ? -1 : 0;
 }
 
 /* Sets up the simulators, the fan-out and the trace, then renders. */
@@ -374,6 +394,7 @@ static int render_job(rt_exp_worker *w, jobrun *r, const rt_exp_job *jb, long in
         r->napprox = a + 1;
         if (rt_exp_fan_add(&r->fan, rt_approx_sink(r->ap[a]), e) < 0) return -1;
     }
+    if (add_texture_cache(c, r, jb, e) < 0) return -1;
     if (c->keep && open_trace(w, r, jb, index, e) < 0) return -1;
     if (rt_job_run(&r->j, rt_exp_fan_sink(&r->fan), r->img, &r->st, e) < 0) return -1;
     if (r->tw) {
@@ -387,11 +408,12 @@ static int render_job(rt_exp_worker *w, jobrun *r, const rt_exp_job *jb, long in
 /* Stores the exact run, then each approximate run. */
 static int store_job(rt_exp_worker *w, jobrun *r, rt_exp_key *key, double t0, rt_err *e)
 {
-    size_t nrows = (size_t)r->sc.nsizes * RT_NCLASS;
+    size_t nrows = (size_t)(r->sc.nsizes + 1) * RT_NCLASS; /* + the texture cache's */
     rt_db_traffic *rows = rt_calloc(nrows, sizeof *rows, e);
     if (!rows) return -1;
     rt_sim_finish(r->sim); /* the flush, when the accounting asks for it */
     size_t k = rt_sim_db_rows(r->sim, rows);
+    if (r->tex) k += rt_sim_db_rows(r->tex, rows + k);
     char stats[768];
     const rt_run_stats *st = &r->st;
     snprintf(stats, sizeof stats,

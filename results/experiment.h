@@ -210,6 +210,12 @@ void rt_exp_run_from_din(const char *path, int din_class, uint64_t file_hash, rt
 
 /* ---- running jobs ------------------------------------------------------ */
 
+/* The texture cache of Purcell et al. 2002 that every job of the stream
+ * and feedback tracers also simulates: 1365 direct-mapped lines of 48
+ * bytes (64 KB). */
+#define RT_EXP_TEXCACHE_LINE 48
+#define RT_EXP_TEXCACHE_SIZE (1365 * RT_EXP_TEXCACHE_LINE)
+
 /* A worker runs jobs one after the other into one database, keeping the
  * current scene and its k-d tree between jobs of the same scene. */
 typedef struct rt_exp_worker rt_exp_worker;
@@ -222,7 +228,9 @@ void rt_exp_worker_free(rt_exp_worker *w); /* NULL is fine; frees scene and tree
  * trace): skips it if its exact run and every approximate run are already
  * stored; otherwise renders it in-process streaming into the exact
  * simulator (at every size, or at the scheduled size alone for a dynamic
- * job without dyn_all), the approximate simulators (only for jobs simulated
+ * job without dyn_all), for the stream and feedback tracers also the
+ * texture cache (RT_EXP_TEXCACHE_*; its rows are stored with the exact
+ * run's), the approximate simulators (only for jobs simulated
  * at every size, never for proxies) and, with c->keep, a trace file
  * KEEP/jobNNNN-SCENE-LIGHT-TRACER[-SIZE][-proxy].rtt, then stores the exact
  * run and each approximate run, each in its own transaction; the exact

@@ -1,11 +1,17 @@
 #!/bin/sh
 # The stream tracers from the command line: their options' usage errors
-# (exit 2, naming the option or the grid's cell limit), a sweep of both
+# (exit 2, naming the option or the grid's cell limit, also when only the
+# scene reveals that the grid is too large), a sweep of both
 # tracers into a database and `report --figure purcell` printing the
 # paper's bunny values and each run's statistics (v, t, s, passes) as
-# stored, in Markdown and CSV.
+# stored, in Markdown and CSV; a tiny sweep of the bunny at 32x32 whose
+# report (with the texture cache's Figure 9) matches
+# tests/golden/purcell_report.md (RT_REDO_GOLDEN=1 rewrites it); and the
+# report's stacked-bar plots; bench --what stream.
 set -u
 bin=${RT_BIN:-./raytraffic}
+src=${RT_SRCDIR:-.}
+golden="$src/tests/golden/purcell_report.md"
 tmp=$(mktemp -d /tmp/rt_stream_cli.XXXXXX) || exit 1
 trap 'rm -rf "$tmp"' EXIT
 fail=0
@@ -27,11 +33,20 @@ usage_err "--oracle-fraction" -t stream-multipass --oracle-fraction 1.5
 usage_err "--oracle" -t stream-multipass --oracle best
 usage_err "--unroll" -t stream-multipass --unroll 0,1
 usage_err "--unroll" -t stream-multipass --unroll 4
-# a grid within the option's range but over the cell limit: refused, naming the limit
-"$bin" render cornell -t stream-branching --grid-min 1024 -W 8 -H 8 -o "$tmp/x.exr" > "$tmp/out" 2>&1
-rc=$?
-[ $rc -ne 0 ] || err "grid over the cell limit accepted"
-grep -q "134217728" "$tmp/out" || err "over the limit: message lacks the limit: $(cat "$tmp/out")"
+# a grid within the option's range but over the cell limit (only the scene
+# tells): a usage error naming the limit, for render and trace, for the
+# stream tracers and the feedback tracer's grid
+for cmd in render trace; do
+    for t in stream-branching stream-multipass feedback; do
+        "$bin" $cmd cornell -t $t --accel grid --grid-min 1024 -W 8 -H 8 -o "$tmp/x.out" > "$tmp/out" 2>&1
+        rc=$?
+        [ $rc -eq 2 ] || err "$cmd -t $t: grid over the cell limit: exit $rc, want 2"
+        grep -q "at most 134217728 cells" "$tmp/out" || err "$cmd -t $t: message lacks the limit: $(cat "$tmp/out")"
+    done
+done
+# a grid within the limit is not refused
+"$bin" trace cornell -t feedback --accel grid --grid-min 16 -W 8 -H 8 -o "$tmp/x.rtt" > "$tmp/out" 2>&1 ||
+    err "trace -t feedback --grid-min 16 failed: $(cat "$tmp/out")"
 
 # sweep both tracers, then the report
 "$bin" sweep --scenes knot --tracers stream-branching,stream-multipass -W 16 -H 16 --modes raycast \
@@ -51,4 +66,36 @@ fi
 grep -q '^"paper: bunny ray cast 1024x1024",1085,610,471,4,221,328,0.105$' "$tmp/r.csv" || err "csv table 2 paper row"
 "$bin" report --db "$tmp/s.db" --figure purcell --scene cornell > "$tmp/out" 2>&1 && err "report on a scene without runs succeeded"
 grep -q "no runs of the stream tracers" "$tmp/out" || err "no-runs message: $(cat "$tmp/out")"
+
+# golden report: bunny 32x32, both tracers, raycast; every stream run also
+# simulates the texture cache, so Figure 9 reports 65520 B direct-mapped
+"$bin" sweep --scenes bunny --tracers stream-branching,stream-multipass -W 32 -H 32 --modes raycast \
+    --sizes 64K --db "$tmp/g.db" > /dev/null 2>&1 || err "golden sweep failed"
+# timing columns masked (the report prints none today; keep it so)
+"$bin" report --db "$tmp/g.db" --figure purcell --plot "$tmp/plots" 2> "$tmp/plot.log" |
+    sed -E 's/[a-z_]*seconds=[0-9.e+-]*//g' > "$tmp/g.md" || err "golden report failed"
+if [ "${RT_REDO_GOLDEN:-0}" = 1 ]; then cp "$tmp/g.md" "$golden"; echo "regenerated $golden"; fi
+diff -u "$golden" "$tmp/g.md" || err "report differs from $golden"
+grep -q "| bunny multipass 32x32 | 65520 B, 48 B lines, direct |" "$tmp/g.md" || err "figure 9 not on the texture cache"
+for f in fig7-instructions fig7-bandwidth fig8 fig9; do
+    [ -s "$tmp/plots/purcell-$f.dat" ] && [ -s "$tmp/plots/purcell-$f.gp" ] || err "plot $f: no data or script"
+    if grep -q "^wrote " "$tmp/plot.log"; then
+        [ -s "$tmp/plots/purcell-$f.png" ] || err "plot $f: no png: $(cat "$tmp/plot.log")"
+    fi
+done
+# the stacked data equal the tables: the multipass state MB of figure 8
+st=$(sed -n '/^### Figure 8/,/^### Figure 9/p' "$tmp/g.md" | grep '^| bunny multipass' | cut -d'|' -f4 | tr -d ' ')
+dat=$(awk '/multipass/ { printf "%.2f", $5 }' "$tmp/plots/purcell-fig8.dat")
+[ -n "$st" ] && [ "$st" = "$dat" ] || err "fig8.dat state '$dat' differs from the table's '$st'"
+
+# bench --what stream: the three runs, the traced one's reference count as
+# a traced render counts it (trace-info of the same run's trace)
+"$bin" bench --what stream --scene cornell -W 16 -H 16 > "$tmp/bench" 2> "$tmp/bench.err" ||
+    err "bench --what stream exited $?: $(cat "$tmp/bench.err")"
+for r in "| recursive | untraced |" "| stream-branching | untraced |" "| stream-multipass | traced: 13 sizes + texture cache |"; do
+    grep -qF "$r" "$tmp/bench" || err "bench --what stream lacks '$r': $(cat "$tmp/bench")"
+done
+"$bin" trace cornell -t stream-multipass --mode raycast -W 16 -H 16 -o "$tmp/m.rtt" > /dev/null 2>&1
+nref=$("$bin" trace-info "$tmp/m.rtt" 2>/dev/null | awk '$1 == "total" { print $2 }')
+grep -q "^Traced multipass: $nref references" "$tmp/bench" || err "bench references differ from the trace's ($nref)"
 exit $fail

@@ -9,6 +9,9 @@
  * words per kernel follow Table 1; the cost model equals the exact counts
  * when every ray enters the grid; bad options are refused. */
 #include "camera.h"
+#include "db.h"
+#include "experiment.h"
+#include "sim.h"
 #include "check.h"
 #include "grid.h"
 #include "run.h"
@@ -16,9 +19,11 @@
 #include "stream.h"
 
 #include <inttypes.h>
+#include <sqlite3.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 /* ---- Table 1, typed from the paper's text ------------------------------- */
 
@@ -515,8 +520,104 @@ static void test_bunny(void)
     rt_scene_free(sc);
 }
 
+/* ---- the texture cache in a sweep ------------------------------------------------ */
+
+/* A swept stream job stores, beside its fully associative rows, the rows of
+ * the paper's texture cache (65520 B, 48 B lines, direct-mapped): equal,
+ * class by class, to a simulator of that cache fed by the same job run on
+ * its own; a recursive job stores none. */
+static void test_sweep_texture_cache(void)
+{
+    char dir[] = "/tmp/rt-stream-XXXXXX", path[64];
+    if (!mkdtemp(dir)) return;
+    snprintf(path, sizeof path, "%s/s.db", dir);
+    rt_err e = {""};
+    rt_exp_config c;
+    memset(&c, 0, sizeof c);
+    char *scene = "cornell", *tracers[2] = {"stream-multipass", "recursive"};
+    c.scenes[0] = scene;
+    c.nscenes = 1;
+    c.tracers[0] = tracers[0];
+    c.tracers[1] = tracers[1];
+    c.ntracers = 2;
+    c.lightings[0] = (rt_exp_lighting){"primary", 0};
+    c.nlightings = 1;
+    rt_sim_config_default(&c.sim);
+    c.sim.nsizes = 1;
+    c.sim.sizes[0] = 65536;
+    rt_render_default_opts(&c.ro);
+    c.ro.W = 24;
+    c.ro.H = 16;
+    c.command = "test";
+    rt_exp_job *J = NULL;
+    long nj = rt_exp_matrix(&c, &J, &e);
+    rt_db *db = nj == 2 ? rt_db_open(path, &e) : NULL;
+    rt_exp_worker *w = db ? rt_exp_worker_new(&c, db, &e) : NULL;
+    CHECK(w != NULL, "sweep setup (%ld jobs): %s", nj, e.msg);
+    for (long i = 0; w && i < nj; i++) CHECK(rt_exp_run_job(w, &J[i], i, &e) == 1, "job %ld: %s", i, e.msg);
+    /* the reference: the same job into a lone simulator of the texture cache */
+    rt_sim_config tc = c.sim;
+    tc.sizes[0] = 65520;
+    tc.line = 48;
+    tc.assoc = 1;
+    rt_sim *ref = rt_sim_new(&tc, &e);
+    rt_scene *sc = rt_scene_load(scene, &e);
+    rt_kdtree *kd = sc ? tree(sc) : NULL;
+    rt_job j;
+    rt_image *im = rt_image_new(c.ro.W, c.ro.H, &e);
+    rt_run_stats st;
+    rt_render_opts ro = rt_exp_job_opts(&c, &J[0]);
+    int ok = ref && kd && im && rt_job_setup_borrowed(&j, sc, kd, "stream-multipass", &ro, &e) == 0;
+    if (ok) {
+        ok = rt_job_run(&j, rt_sim_sink(ref), im, &st, &e) == 0;
+        rt_job_free(&j);
+    }
+    CHECK(ok, "reference run: %s", e.msg);
+    sqlite3 *h = w ? rt_db_handle(db) : NULL;
+    sqlite3_stmt *q = NULL;
+    int nrows = 0, nrec = -1;
+    if (ok && h && sqlite3_prepare_v2(h,
+                                      "SELECT t.class, t.accesses, t.read_misses, t.write_misses, t.writebacks, "
+                                      "t.traffic_bytes, r.tracer FROM traffic t JOIN runs r ON r.id = t.run_id JOIN "
+                                      "cache_configs c ON c.id = t.config_id WHERE c.size = 65520 AND c.line = 48 AND "
+                                      "c.assoc = 1",
+                                      -1, &q, NULL) == SQLITE_OK) {
+        nrec = 0;
+        while (sqlite3_step(q) == SQLITE_ROW) {
+            const char *cls = (const char *)sqlite3_column_text(q, 0);
+            nrec += !strcmp((const char *)sqlite3_column_text(q, 6), "recursive");
+            int k = 0;
+            while (k < RT_NCLASS && strcmp(rt_class_name(k), cls)) k++;
+            rt_sim_counts sc0;
+            CHECK(k < RT_NCLASS, "class %s", cls);
+            if (k == RT_NCLASS) continue;
+            rt_sim_get(ref, 0, k, &sc0);
+            CHECK((uint64_t)sqlite3_column_int64(q, 1) == sc0.accesses &&
+                      (uint64_t)sqlite3_column_int64(q, 2) == sc0.read_misses &&
+                      (uint64_t)sqlite3_column_int64(q, 3) == sc0.write_misses &&
+                      (uint64_t)sqlite3_column_int64(q, 4) == sc0.writebacks &&
+                      (uint64_t)sqlite3_column_int64(q, 5) == sc0.traffic_bytes,
+                  "texture cache row %s differs from the lone simulator", cls);
+            nrows++;
+        }
+        sqlite3_finalize(q);
+    }
+    CHECK(nrows >= 5 && nrec == 0, "%d texture-cache rows of the stream run (want >= 5), %d of the recursive", nrows,
+          nrec);
+    rt_image_free(im);
+    rt_kd_free(kd);
+    rt_scene_free(sc);
+    rt_sim_free(ref);
+    rt_exp_worker_free(w);
+    rt_db_close(db);
+    free(J);
+    unlink(path);
+    rmdir(dir);
+}
+
 int main(void)
 {
+    test_sweep_texture_cache();
     test_table1();
     test_passes();
     test_cost();
