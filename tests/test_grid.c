@@ -19,6 +19,7 @@
  */
 #include "config.h"
 #include "check.h"
+#include "check_scene.h"
 #include "grid.h"
 #include "kdtrav.h"
 #include "kdtree.h"
@@ -29,25 +30,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-static const float grey[3] = {0.5f, 0.5f, 0.5f};
-
-static void add(rt_scene *s, rt_vec3 a, rt_vec3 b, rt_vec3 c)
-{
-    rt_err e = {{0}};
-    if (rt_scene_add_tri(s, a, b, c, grey, &e) < 0) {
-        fprintf(stderr, "add_tri: %s\n", e.msg);
-        exit(1);
-    }
-}
-
-static void finish(rt_scene *s)
-{
-    rt_err e = {{0}};
-    if (rt_scene_finish(s, &e) < 0) {
-        fprintf(stderr, "finish: %s\n", e.msg);
-        exit(1);
-    }
-}
 
 static rt_scene *new_scene(uint32_t n)
 {

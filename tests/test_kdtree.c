@@ -16,6 +16,7 @@
  */
 #include "config.h"
 #include "check.h"
+#include "check_scene.h"
 #include "kdtrav.h"
 #include "kdtree.h"
 #include "memmodel.h"
@@ -27,25 +28,6 @@
 #include <string.h>
 
 
-static const float grey[3] = {0.5f, 0.5f, 0.5f};
-
-static void add(rt_scene *s, rt_vec3 a, rt_vec3 b, rt_vec3 c)
-{
-    rt_err e = {{0}};
-    if (rt_scene_add_tri(s, a, b, c, grey, &e) < 0) {
-        fprintf(stderr, "add_tri: %s\n", e.msg);
-        exit(1);
-    }
-}
-
-static void finish(rt_scene *s)
-{
-    rt_err e = {{0}};
-    if (rt_scene_finish(s, &e) < 0) {
-        fprintf(stderr, "finish: %s\n", e.msg);
-        exit(1);
-    }
-}
 
 /* A soup of n triangles in [0,1]^3 with awkward members mixed in. */
 static rt_scene *make_soup(uint32_t n)
