@@ -27,6 +27,11 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <dirent.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #define CHECK_MAX_FAILURES 20
@@ -116,13 +121,52 @@ static inline char *check_path(const char *name)
     return p;
 }
 
+/* Removes dir and everything in it, without a shell (depth first, links
+ * removed, not followed). 0, or -1 if something could not be removed. */
+static inline int check_rm_tree(const char *dir)
+{
+    struct stat st;
+    if (lstat(dir, &st) != 0) return -1;
+    if (!S_ISDIR(st.st_mode)) return unlink(dir) == 0 ? 0 : -1;
+    DIR *d = opendir(dir);
+    if (!d) return -1;
+    int rc = 0;
+    struct dirent *de;
+    while ((de = readdir(d))) {
+        if (!strcmp(de->d_name, ".") || !strcmp(de->d_name, "..")) continue;
+        char sub[4096];
+        if ((size_t)snprintf(sub, sizeof sub, "%s/%s", dir, de->d_name) >= sizeof sub || check_rm_tree(sub) != 0)
+            rc = -1;
+    }
+    closedir(d);
+    return rmdir(dir) == 0 ? rc : -1;
+}
+
 /* Removes the directory made by check_tmpdir and everything in it. */
 static inline void check_rmdir(void)
 {
-    char cmd[600];
-    if (!check_dir[0]) return;
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", check_dir);
-    if (system(cmd) != 0) fprintf(stderr, "could not remove %s\n", check_dir);
+    if (check_dir[0] && check_rm_tree(check_dir) != 0) fprintf(stderr, "could not remove %s\n", check_dir);
+}
+
+/* Runs argv (argv[0] looked up by execvp, never through a shell) with
+ * stdout and stderr sent to the files out and err (NULL = /dev/null);
+ * returns the wait status, or -1 if it could not be started. */
+static inline int check_run(char *const argv[], const char *out, const char *err)
+{
+    fflush(NULL);
+    pid_t pid = fork();
+    if (pid < 0) return -1;
+    if (pid == 0) {
+        int fo = open(out ? out : "/dev/null", O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        int fe = err && out && !strcmp(err, out) ? fo : open(err ? err : "/dev/null", O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        if (fo < 0 || fe < 0 || dup2(fo, 1) < 0 || dup2(fe, 2) < 0) _exit(126);
+        execvp(argv[0], argv);
+        _exit(127);
+    }
+    int status;
+    while (waitpid(pid, &status, 0) < 0)
+        if (errno != EINTR) return -1;
+    return status;
 }
 
 #endif

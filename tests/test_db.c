@@ -795,9 +795,7 @@ int main(void)
     test_gen_rows(dir);
     test_upgrade_v3(dir, rows, n);
 
-    char cmd[400];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
-    if (system(cmd) != 0) fprintf(stderr, "warning: could not remove %s\n", dir);
+    if (check_rm_tree(dir) != 0) fprintf(stderr, "warning: could not remove %s\n", dir);
     if (failures) fprintf(stderr, "test_db: %d failures\n", failures);
     else printf("test_db: ok\n");
     return failures ? 1 : 0;

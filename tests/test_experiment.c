@@ -433,9 +433,7 @@ int main(void)
     test_failing_store(dir);
     test_modes(dir);
     test_models(dir);
-    char cmd[64];
-    snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
-    if (system(cmd) != 0) fprintf(stderr, "cannot remove %s\n", dir);
+    if (check_rm_tree(dir) != 0) fprintf(stderr, "cannot remove %s\n", dir);
     if (failures) fprintf(stderr, "%d failure(s)\n", failures);
     else printf("experiment tests passed\n");
     return failures ? 1 : 0;

@@ -18,7 +18,7 @@
 /* ---- helpers ------------------------------------------------------------- */
 
 /* A number from the statistics string ("key=value"), or -1. */
-static double stat(const rt_run_stats *st, const char *key)
+static double stat_of(const rt_run_stats *st, const char *key)
 {
     char k[64];
     snprintf(k, sizeof k, " %s=", key);
@@ -303,8 +303,8 @@ static void passes(void)
     for (int D = 1; D <= 6; D++) {
         o.depth = D;
         rt_image *im = render_sc(pair, "feedback", &o, &st, NULL, NULL);
-        CHECK(stat(&st, "passes") == D, "depth %d: %g passes (%s)", D, stat(&st, "passes"), st.extra);
-        CHECK(stat(&st, "rays_secondary") == N * (D - 1), "depth %d: secondary %g", D, stat(&st, "rays_secondary"));
+        CHECK(stat_of(&st, "passes") == D, "depth %d: %g passes (%s)", D, stat_of(&st, "passes"), st.extra);
+        CHECK(stat_of(&st, "rays_secondary") == N * (D - 1), "depth %d: secondary %g", D, stat_of(&st, "rays_secondary"));
         for (int p = 0; p < D; p++)
             CHECK(stat_at(&st, "records_in", p) == (p ? 2 * N : N), "depth %d pass %d: %g records", D, p,
                   stat_at(&st, "records_in", p));
@@ -315,8 +315,8 @@ static void passes(void)
     o.lights = 1;
     o.depth = 4;
     rt_image *im = render_sc(pair, "feedback", &o, &st, NULL, NULL);
-    CHECK(stat(&st, "passes") == 5 && stat(&st, "G") == 2 && stat(&st, "G2") == 2, "light: %s", st.extra);
-    CHECK(stat(&st, "occupancy") > 0.4 && stat(&st, "occupancy") <= 1.0, "occupancy %g", stat(&st, "occupancy"));
+    CHECK(stat_of(&st, "passes") == 5 && stat_of(&st, "G") == 2 && stat_of(&st, "G2") == 2, "light: %s", st.extra);
+    CHECK(stat_of(&st, "occupancy") > 0.4 && stat_of(&st, "occupancy") <= 1.0, "occupancy %g", stat_of(&st, "occupancy"));
     CHECK(st.rays_shadow == 4 * N, "shadow rays %" PRIu64, st.rays_shadow);
     rt_image_free(im);
     rt_scene_free(pair);
@@ -332,9 +332,9 @@ static void passes(void)
         for (int a = 0; a < 2; a++) {
             o.accel = a ? RT_ACCEL_NAIVE : RT_ACCEL_GRID;
             im = render_sc(none, "feedback", &o, &st, NULL, NULL);
-            CHECK(stat(&st, "passes") == 1 && stat_at(&st, "records_out", 0) == 0 && st.tests == 0,
+            CHECK(stat_of(&st, "passes") == 1 && stat_at(&st, "records_out", 0) == 0 && st.tests == 0,
                   "mode %d accel %d: %s", modes[i], a, st.extra);
-            CHECK(stat(&st, "vs_box_out") == N, "box test rejects all: %g", stat(&st, "vs_box_out"));
+            CHECK(stat_of(&st, "vs_box_out") == N, "box test rejects all: %g", stat_of(&st, "vs_box_out"));
             rt_image_free(im);
         }
     }
@@ -412,7 +412,7 @@ static void order(void)
         CHECK(shade[1] == 0 && shade[2] > 0 && shade[3] > 0, "shading reads %d %d %d: shadow, reflected, refracted",
               shade[1], shade[2], shade[3]);
     }
-    CHECK(stat(&st, "passes") == 3, "passes %g", stat(&st, "passes"));
+    CHECK(stat_of(&st, "passes") == 3, "passes %g", stat_of(&st, "passes"));
     free(cap.a);
     rt_image_free(im);
     rt_scene_free(sc);
@@ -511,7 +511,7 @@ static void images(void)
         if (nv && c[i].mode == RT_MODE_RAYCAST) {
             rt_err e = {""};
             rt_scene *sc = rt_scene_load(c[i].spec, &e);
-            double want_t = sc ? (double)sc->ntri * (double)(s2.rays_primary - (uint64_t)stat(&s2, "vs_box_out")) : -1;
+            double want_t = sc ? (double)sc->ntri * (double)(s2.rays_primary - (uint64_t)stat_of(&s2, "vs_box_out")) : -1;
             CHECK((double)s2.tests == want_t, "naive raycast: %" PRIu64 " tests, want %g", s2.tests, want_t);
             rt_scene_free(sc);
         }

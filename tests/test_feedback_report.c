@@ -202,8 +202,6 @@ int main(void)
     if (f) fclose(f);
 
     rt_db_close(db);
-    char cmd[400];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
-    if (system(cmd) != 0) fprintf(stderr, "could not remove %s\n", dir);
+    if (check_rm_tree(dir) != 0) fprintf(stderr, "could not remove %s\n", dir);
     return failures ? 1 : 0;
 }

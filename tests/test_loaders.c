@@ -757,9 +757,7 @@ int main(void)
     test_mtl_errors();
     test_mtl_missing();
     test_mesh_hashes();
-    char cmd[600];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmpdir);
-    if (system(cmd) != 0) fprintf(stderr, "warning: could not remove %s\n", tmpdir);
+    if (check_rm_tree(tmpdir) != 0) fprintf(stderr, "warning: could not remove %s\n", tmpdir);
     if (failures) fprintf(stderr, "%d failure(s)\n", failures);
     else printf("test_loaders: all passed\n");
     return failures ? 1 : 0;

@@ -86,26 +86,36 @@ static void cli(void)
         {"render cornell -o /dev/null --mode mirror", "--mode"}, {"trace cornell -o /dev/null --mode x", "--mode"},
         {"bench --depth 0", "--depth"},
     };
-    char cmd[1024], msg[512];
+    char args[512], msg[512];
     const char *dir = check_tmpdir("modes");
     CHECK(dir != NULL, "no temporary directory");
     if (!dir) return;
+    char err[600], out[600];
+    snprintf(err, sizeof err, "%s/err", dir);
+    snprintf(out, sizeof out, "%s/out", dir);
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
-        snprintf(cmd, sizeof cmd, "%s %s 2>%s/err >/dev/null", bin, bad[i].args, dir);
-        int rc = system(cmd);
-        CHECK(WIFEXITED(rc) && WEXITSTATUS(rc) == 2, "'%s' exited %d, not 2", bad[i].args, WEXITSTATUS(rc));
-        snprintf(cmd, sizeof cmd, "%s/err", dir);
-        FILE *f = fopen(cmd, "r");
+        /* the fixed argument string split at spaces: no shell involved */
+        char *argv[32];
+        int argc = 0;
+        snprintf(args, sizeof args, "%s", bad[i].args);
+        argv[argc++] = (char *)bin;
+        for (char *t = strtok(args, " "); t && argc < 31; t = strtok(NULL, " ")) argv[argc++] = t;
+        argv[argc] = NULL;
+        int rc = check_run(argv, NULL, err);
+        CHECK(rc >= 0 && WIFEXITED(rc) && WEXITSTATUS(rc) == 2, "'%s' exited %d, not 2", bad[i].args, WEXITSTATUS(rc));
+        FILE *f = fopen(err, "r");
         size_t n = f ? fread(msg, 1, sizeof msg - 1, f) : 0;
         if (f) fclose(f);
         msg[n] = 0;
         CHECK(strstr(msg, bad[i].opt) != NULL, "'%s': message does not name %s: %s", bad[i].args, bad[i].opt, msg);
     }
     /* a secondary mode renders, and its statistics report no self-hits */
-    snprintf(cmd, sizeof cmd, "%s render cornell -W 16 -H 16 --lights all --mode whitted -t dynamic -o %s/w.exr --json >%s/out 2>&1",
-             bin, dir, dir);
-    int rc = system(cmd);
-    CHECK(WIFEXITED(rc) && WEXITSTATUS(rc) == 0, "whitted render exited %d", WEXITSTATUS(rc));
+    char exr[600];
+    snprintf(exr, sizeof exr, "%s/w.exr", dir);
+    char *wargv[] = {(char *)bin, "render", "cornell", "-W", "16", "-H", "16", "--lights", "all", "--mode", "whitted",
+                     "-t", "dynamic", "-o", exr, "--json", NULL};
+    int rc = check_run(wargv, out, out);
+    CHECK(rc >= 0 && WIFEXITED(rc) && WEXITSTATUS(rc) == 0, "whitted render exited %d", WEXITSTATUS(rc));
     check_rmdir();
 }
 

@@ -486,9 +486,7 @@ int main(void)
     test_export_roundtrip();
     test_container();
     test_oom();
-    char cmd[600];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmpdir);
-    if (system(cmd) != 0) fprintf(stderr, "warning: could not remove %s\n", tmpdir);
+    if (check_rm_tree(tmpdir) != 0) fprintf(stderr, "warning: could not remove %s\n", tmpdir);
     if (failures) fprintf(stderr, "%d failure(s)\n", failures);
     else printf("test_scene: all passed\n");
     return failures ? 1 : 0;
