@@ -8,7 +8,13 @@
  *
  * The render modes (bench/mode_bench.c): path tracing's error against time,
  * rays/s per tracer and mode, and the tracers' images compared bit for bit.
- * Each item has its own default image size; -W/-H override them all. */
+ * Each item has its own default image size; -W/-H override them all.
+ *
+ * Absolute figures depend on the machine, so the output opens with the CPU
+ * model, the online CPUs, the version, the git revision and the date, and
+ * every figure stands beside a ratio to a reference measured in the same
+ * run: tracer rows against the untraced recursive tracer, simulator rows
+ * against a naive per-size LRU (bench/sim_bench.c). */
 #include "analysis.h"
 #include "bench.h"
 #include "cmd.h"
@@ -21,6 +27,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 #include <unistd.h>
 
 static void usage(FILE *f)
@@ -53,6 +60,36 @@ static void usage(FILE *f)
             "  -h, --help         this help\n");
 }
 
+/* The "model name" of /proc/cpuinfo into buf ("unknown" without one). */
+static void cpu_model(char *buf, size_t n)
+{
+    snprintf(buf, n, "unknown");
+    FILE *f = fopen("/proc/cpuinfo", "r");
+    if (!f) return;
+    char line[512];
+    while (fgets(line, sizeof line, f)) {
+        char *colon = strchr(line, ':');
+        if (strncmp(line, "model name", 10) || !colon) continue;
+        colon += 1 + (colon[1] == ' ');
+        colon[strcspn(colon, "\n")] = 0;
+        snprintf(buf, n, "%s", colon);
+        break;
+    }
+    fclose(f);
+}
+
+/* The provenance lines under the title: machine and date. */
+static void print_machine(void)
+{
+    char cpu[256], date[64];
+    time_t now = time(NULL);
+    struct tm tmv;
+    cpu_model(cpu, sizeof cpu);
+    if (!gmtime_r(&now, &tmv) || !strftime(date, sizeof date, "%Y-%m-%d %H:%M:%S UTC", &tmv))
+        snprintf(date, sizeof date, "unknown");
+    printf("machine: %s, %ld online CPUs\ndate: %s\n\n", cpu, sysconf(_SC_NPROCESSORS_ONLN), date);
+}
+
 static int null_put(rt_sink *s, const rt_access *a, size_t n)
 {
     (void)a;
@@ -60,8 +97,10 @@ static int null_put(rt_sink *s, const rt_access *a, size_t n)
     return 0;
 }
 
-static int bench_tracer(rt_job *j, const char *tmpdir, int do_trace, int do_sim)
-/* do_sim here: also stream the tracer into the simulator in-process */
+/* One tracer's rows. do_sim here: also stream the tracer into the
+ * simulator in-process. *ref: the untraced recursive tracer's rays/s, the
+ * reference of the last column; 0 = this run is it (set here). */
+static int bench_tracer(rt_job *j, const char *tmpdir, int do_trace, int do_sim, int untraced_only, double *ref)
 {
     rt_err e = {""};
     rt_image *img = rt_image_new(j->opt.W, j->opt.H, &e);
@@ -73,14 +112,18 @@ static int bench_tracer(rt_job *j, const char *tmpdir, int do_trace, int do_sim)
     if (rt_job_run(j, NULL, img, &st, &e) < 0) goto fail;
     rays = st.rays_primary + st.rays_shadow;
     double base = st.seconds;
-    printf("| %s | untraced | %.2f | %.2f | | |\n", name, st.seconds, (double)rays / st.seconds * 1e-6);
+    if (*ref == 0) *ref = (double)rays / st.seconds;
+#define VSREF(sec) ((double)rays / (sec) / *ref)
+    printf("| %s | untraced%s | %.2f | %.2f | | 1.00 | %.2f |\n", name, untraced_only ? " (reference)" : "", st.seconds,
+           (double)rays / st.seconds * 1e-6, VSREF(st.seconds));
     fflush(stdout);
+    if (untraced_only) goto done;
     /* recording into a null sink */
     uint64_t cnt = 0;
     rt_sink ns = {null_put, &cnt};
     if (rt_job_run(j, &ns, img, &st, &e) < 0) goto fail;
-    printf("| %s | recording (null sink) | %.2f | %.2f | %.1f | %.2f |\n", name, st.seconds,
-           (double)rays / st.seconds * 1e-6, (double)st.accesses / (double)rays, st.seconds / base);
+    printf("| %s | recording (null sink) | %.2f | %.2f | %.1f | %.2f | %.2f |\n", name, st.seconds,
+           (double)rays / st.seconds * 1e-6, (double)st.accesses / (double)rays, st.seconds / base, VSREF(st.seconds));
     fflush(stdout);
     if (do_trace) {
         char path[4096];
@@ -103,9 +146,9 @@ static int bench_tracer(rt_job *j, const char *tmpdir, int do_trace, int do_sim)
             bytes = ftell(f);
             fclose(f);
         }
-        printf("| %s | trace file (%.2f B/ref, %.1f MB) | %.2f | %.2f | %.1f | %.2f |\n", name,
+        printf("| %s | trace file (%.2f B/ref, %.1f MB) | %.2f | %.2f | %.1f | %.2f | %.2f |\n", name,
                st.accesses ? (double)bytes / (double)st.accesses : 0.0, bytes / 1048576.0, sec,
-               (double)rays / sec * 1e-6, (double)st.accesses / (double)rays, sec / base);
+               (double)rays / sec * 1e-6, (double)st.accesses / (double)rays, sec / base, VSREF(sec));
         fflush(stdout);
         unlink(path);
     }
@@ -120,11 +163,13 @@ static int bench_tracer(rt_job *j, const char *tmpdir, int do_trace, int do_sim)
             goto fail;
         }
         double sec = rt_now() - t0;
-        printf("| %s | in-process 13-size simulation | %.2f | %.2f | %.1f | %.2f |\n", name, sec,
-               (double)rays / sec * 1e-6, (double)st.accesses / (double)rays, sec / base);
+        printf("| %s | in-process 13-size simulation | %.2f | %.2f | %.1f | %.2f | %.2f |\n", name, sec,
+               (double)rays / sec * 1e-6, (double)st.accesses / (double)rays, sec / base, VSREF(sec));
         fflush(stdout);
         rt_sim_free(s);
     }
+#undef VSREF
+done:
     rt_image_free(img);
     return 0;
 fail:
@@ -226,6 +271,7 @@ int main_bench(int argc, char **argv)
                scene, o.W, o.H, o.lights);
     else
         printf("raytraffic %s (%s) bench, one core\n\n", rt_version(), rt_git_rev());
+    print_machine();
     if (do_tr || do_trace) {
         rt_err e = {""};
         rt_scene *sc = rt_scene_load(scene, &e);
@@ -244,9 +290,22 @@ int main_bench(int argc, char **argv)
         printf("k-d tree: %" PRIu32 " triangles, %" PRIu32 " nodes, %" PRIu32 " leaves, depth %" PRIu32
                ", %.2f triangles per non-empty leaf, built in %.2f s\n\n",
                sc->ntri, kd->nnodes, kd->nleaves, kd->maxdepth, rt_kd_mean_leaf_tris(kd), kd->build_sec);
-        printf("| tracer | mode | seconds | Mrays/s | refs/ray | time vs untraced |\n|---|---|---|---|---|---|\n");
+        printf("| tracer | mode | seconds | Mrays/s | refs/ray | time vs untraced | rays/s vs recursive untraced "
+               "|\n|---|---|---|---|---|---|---|\n");
         char *list = strdup(tracers), *save = NULL;
         int rc = 0;
+        double ref = 0; /* untraced recursive rays/s; measured first when the list does not start with it */
+        if (strncmp(tracers, "recursive", 9) || (tracers[9] && tracers[9] != ',')) {
+            rt_job j;
+            rt_err e2 = {""};
+            if (rt_job_setup_borrowed(&j, sc, kd, "recursive", &o, &e2) < 0) {
+                rt_cmd_error("bench", "%s", e2.msg);
+                rc = -1;
+            } else {
+                rc = bench_tracer(&j, tmpdir, 0, 0, 1, &ref);
+                rt_job_free(&j);
+            }
+        }
         for (char *t = strtok_r(list, ",", &save); t && rc == 0; t = strtok_r(NULL, ",", &save)) {
             rt_job j;
             rt_err e2 = {""};
@@ -255,7 +314,7 @@ int main_bench(int argc, char **argv)
                 rc = -1;
                 break;
             }
-            rc = bench_tracer(&j, tmpdir, do_trace, do_sim);
+            rc = bench_tracer(&j, tmpdir, do_trace, do_sim, 0, &ref);
             rt_job_free(&j);
         }
         free(list);
@@ -267,7 +326,10 @@ int main_bench(int argc, char **argv)
     if (do_sim) {
         printf("Cache simulator on a synthetic trace:\n\n");
         fflush(stdout);
-        if (rt_sim_bench_n(stdout, simrefs) < 0) return RT_EXIT_FAIL;
+        if (rt_sim_bench_n(stdout, simrefs) < 0) {
+            rt_cmd_error("bench", "simulator benchmark: out of memory, or the naive LRU disagrees with the simulator");
+            return RT_EXIT_FAIL;
+        }
     }
     if (do_approx) {
         rt_err e = {""};
