@@ -8,6 +8,7 @@
 #include "analysis.h"
 #include "approx.h"
 #include "options.h"
+#include "scene.h"
 #include "sim.h"
 
 #include <stdint.h>
@@ -73,5 +74,22 @@ int rt_mode_bench_modes(FILE *out, const rt_mode_bench *b, rt_err *e);
  * spp 1 with all lights): one row per case, OK when the RGB planes are
  * bit-identical, else DIFF. Returns the number of DIFF cases, or -1. */
 int rt_mode_bench_identical(FILE *out, const rt_mode_bench *b, rt_err *e);
+
+/* ---- Embree comparison (embree_bench.c) --------------------------------- */
+
+typedef struct rt_embree_result {
+    char version[32]; /* Embree's version, "" when not built */
+    double build_sec; /* Embree scene build (not in sec) */
+    double sec;       /* the ray loop */
+    uint64_t rays;    /* W * H */
+    uint64_t hits;    /* rays that hit a triangle */
+} rt_embree_result;
+
+/* 1 when configure found Embree 3 (HAVE_EMBREE), else 0. */
+int rt_embree_built(void);
+/* W x H primary rays of sc's camera (rt_cam_ray), in Hilbert order, one
+ * rtcIntersect1 each on a one-thread Embree device holding sc's triangles.
+ * 0, or -1 with e set (without Embree: "embree: not built ..."). */
+int rt_embree_bench(const rt_scene *sc, int W, int H, rt_embree_result *out, rt_err *e);
 
 #endif

@@ -42,14 +42,16 @@ static void usage(FILE *f)
             "  --lights L         lights for the tracer runs (default none: primary rays)\n"
             "  --tracers LIST     comma list (default recursive,packet,dynamic)\n"
             "  --cache-size S     dynamic tracer's schedule (default 64K)\n"
-            "  --what LIST        tracers,trace,sim,approx,path-error,modes,identical\n"
+            "  --what LIST        tracers,trace,sim,approx,path-error,modes,identical,embree\n"
             "                     (default tracers,trace,sim); approx: sampled simulators\n"
             "                     against exact (docs/approx.md) on --trace or the synthetic\n"
             "                     trace; path-error: path-mode RMSE against a --ref-spp\n"
             "                     reference for spp 1, 4, 16, 64; modes: rays/s per tracer in\n"
             "                     shadow, whitted and path mode; identical: every tracer's\n"
             "                     image against the recursive one in every mode (exit 1 on\n"
-            "                     a difference)\n"
+            "                     a difference); embree: Embree's rtcIntersect1 on the same\n"
+            "                     primary rays (one thread), against the untraced recursive\n"
+            "                     tracer (needs a build with libembree-dev)\n"
             "  --scenes LIST      scenes of path-error, modes, identical (defaults cornell;\n"
             "                     sphereflake,cornell; cornell,knot,sphereflake)\n"
             "  --ref-spp N        path-error reference samples per pixel (default 1024)\n"
@@ -178,6 +180,49 @@ fail:
     return -1;
 }
 
+/* Embree's rtcIntersect1 on the primary rays of scene at o's size, beside
+ * the untraced recursive tracer measured here on the same rays (no lights). */
+static int bench_embree(const char *scene, const rt_render_opts *o0)
+{
+    if (!rt_embree_built()) {
+        printf("embree: not built (libembree-dev missing)\n\n");
+        return 0;
+    }
+    rt_err e = {""};
+    rt_render_opts o = *o0;
+    o.lights = 0;
+    rt_scene *sc = rt_scene_load(scene, &e);
+    rt_kdtree *kd = NULL;
+    rt_image *img = NULL;
+    rt_job j;
+    int have_job = 0, rc = -1;
+    rt_run_stats st;
+    rt_embree_result r;
+    rt_kd_params kp;
+    rt_kd_default_params(&kp);
+    if (!sc || !(kd = rt_kd_build(sc, &kp, &e)) || !(img = rt_image_new(o.W, o.H, &e)) ||
+        rt_job_setup_borrowed(&j, sc, kd, "recursive", &o, &e) < 0)
+        goto out;
+    have_job = 1;
+    if (rt_job_run(&j, NULL, img, &st, &e) < 0 || rt_embree_bench(sc, o.W, o.H, &r, &e) < 0) goto out;
+    double ours = (double)st.rays_primary / st.seconds, theirs = (double)r.rays / r.sec;
+    printf("Embree %s, rtcIntersect1, one thread, the same %dx%d primary rays in Hilbert order (Embree scene built in "
+           "%.2f s, not timed):\n\n",
+           r.version, o.W, o.H, r.build_sec);
+    printf("| tracer | seconds | Mrays/s | hits | recursive untraced rays/s over this |\n|---|---|---|---|---|\n");
+    printf("| recursive (untraced) | %.2f | %.2f | | 1.00 |\n", st.seconds, ours * 1e-6);
+    printf("| embree rtcIntersect1 | %.2f | %.2f | %" PRIu64 " | %.2f |\n\n", r.sec, theirs * 1e-6, r.hits,
+           ours / theirs);
+    rc = 0;
+out:
+    if (rc < 0) rt_cmd_error("bench", "%s", e.msg);
+    if (have_job) rt_job_free(&j);
+    rt_image_free(img);
+    rt_kd_free(kd);
+    rt_scene_free(sc);
+    return rc;
+}
+
 int main_bench(int argc, char **argv)
 {
     static const struct option own[] = {
@@ -243,7 +288,7 @@ int main_bench(int argc, char **argv)
         rt_cmd_error("bench", "unexpected argument '%s'", argv[optind]);
         return RT_EXIT_USAGE;
     }
-    int do_tr = 0, do_trace = 0, do_sim = 0, do_approx = 0, do_perr = 0, do_modes = 0, do_ident = 0;
+    int do_tr = 0, do_trace = 0, do_sim = 0, do_approx = 0, do_perr = 0, do_modes = 0, do_ident = 0, do_embree = 0;
     {
         char *list = strdup(what), *save = NULL;
         for (char *t = strtok_r(list, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
@@ -254,9 +299,10 @@ int main_bench(int argc, char **argv)
             else if (!strcmp(t, "path-error")) do_perr = 1;
             else if (!strcmp(t, "modes")) do_modes = 1;
             else if (!strcmp(t, "identical")) do_ident = 1;
+            else if (!strcmp(t, "embree")) do_embree = 1;
             else {
                 rt_cmd_error("bench", "--what: unknown item '%s' (tracers, trace, sim, approx, path-error, modes, "
-                             "identical)", t);
+                             "identical, embree)", t);
                 free(list);
                 return RT_EXIT_USAGE;
             }
@@ -266,7 +312,7 @@ int main_bench(int argc, char **argv)
     int W0 = o.W, H0 = o.H; /* as given; 0 = each item's default */
     o.W = W0 ? W0 : 1024;
     o.H = H0 ? H0 : 1024;
-    if (do_tr || do_trace || do_sim || do_approx)
+    if (do_tr || do_trace || do_sim || do_approx || do_embree)
         printf("raytraffic %s (%s) bench: scene %s, %dx%d, lights %u, one core\n\n", rt_version(), rt_git_rev(),
                scene, o.W, o.H, o.lights);
     else
@@ -323,6 +369,7 @@ int main_bench(int argc, char **argv)
         if (rc < 0) return RT_EXIT_FAIL;
         printf("\n");
     }
+    if (do_embree && bench_embree(scene, &o) < 0) return RT_EXIT_FAIL;
     if (do_sim) {
         printf("Cache simulator on a synthetic trace:\n\n");
         fflush(stdout);

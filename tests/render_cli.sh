@@ -211,6 +211,16 @@ grep -q "^cachesim: 13 sizes one by one: .* M refs/s  *[0-9.]*x naive LRU (" "$t
 [ "$(grep -c '^| ' "$tmp/bench2")" = 4 ] && grep -q "^| recursive | untraced (reference) | [0-9.]* | [0-9.]* | | 1.00 | 1.00 |$" \
     "$tmp/bench2" && grep -q "^| packet | recording (null sink) |" "$tmp/bench2" || err "bench reference run: $(cat "$tmp/bench2")"
 "$bin" bench --sim-refs 0 > /dev/null 2>&1; [ $? -eq 2 ] || err "bench --sim-refs 0 should exit 2"
+# Embree (optional): either the build says it lacks it, or both rows come out of the same
+# run on the same rays, and every primary ray in the closed Cornell box hits
+"$bin" bench --what embree --scene cornell:glass=0 -W 8 -H 8 > "$tmp/emb" 2> "$tmp/emb.err" ||
+    err "bench --what embree exited $?: $(cat "$tmp/emb.err")"
+if ! grep -qx "embree: not built (libembree-dev missing)" "$tmp/emb"; then
+    grep -q "^Embree [0-9.]*, rtcIntersect1, one thread, the same 8x8 primary rays in Hilbert order" "$tmp/emb" &&
+        grep -q "^| recursive (untraced) | [0-9.]* | [0-9.]* | | 1.00 |$" "$tmp/emb" &&
+        grep -q "^| embree rtcIntersect1 | [0-9.]* | [0-9.]* | 64 | [0-9]*\.[0-9][0-9] |$" "$tmp/emb" ||
+        err "bench --what embree: $(cat "$tmp/emb")"
+fi
 
 # --- bench, the render modes at tiny sizes -------------------------------------------
 # path-error: the RMSE of the 8x8 spp-1 and spp-4 images against the spp-16
