@@ -8,6 +8,7 @@
 #include "analysis.h"
 #include "approx.h"
 #include "options.h"
+#include "scene.h"
 #include "sim.h"
 
 #include <stdint.h>
@@ -18,7 +19,11 @@
 /* Generates a 20-million-reference synthetic trace (hot tree-top lines,
  * streaming triangles, ray records) and reports to out the references/s of
  * the one-pass 13-size simulation and the time of simulating the 13 sizes
- * one at a time. Returns 0 or -1 (out of memory). */
+ * one at a time, each beside its ratio to a naive per-size LRU measured in
+ * the same call on the first 100000 references (the one-pass simulator's
+ * speed on that same prefix is printed too). Returns 0, or -1 when out of
+ * memory or when the naive LRU's miss counts differ from the simulator's
+ * (the lines are printed first, marked DIFFER). */
 int rt_sim_bench(FILE *out);
 /* Same with a chosen trace length (tests use a short one). */
 int rt_sim_bench_n(FILE *out, uint64_t nrefs);
@@ -79,5 +84,22 @@ int rt_mode_bench_identical(FILE *out, const rt_mode_bench *b, rt_err *e);
  * Markdown table with each rays/s over the recursive tracer's, and a line
  * splitting the traced run's time. 0 or -1 (message in e). */
 int rt_stream_bench(FILE *out, const char *scene, const rt_render_opts *base, rt_err *e);
+
+/* ---- Embree comparison (embree_bench.c) --------------------------------- */
+
+typedef struct rt_embree_result {
+    char version[32]; /* Embree's version, "" when not built */
+    double build_sec; /* Embree scene build (not in sec) */
+    double sec;       /* the ray loop */
+    uint64_t rays;    /* W * H */
+    uint64_t hits;    /* rays that hit a triangle */
+} rt_embree_result;
+
+/* 1 when configure found Embree 3 (HAVE_EMBREE), else 0. */
+int rt_embree_built(void);
+/* W x H primary rays of sc's camera (rt_cam_ray), in Hilbert order, one
+ * rtcIntersect1 each on a one-thread Embree device holding sc's triangles.
+ * 0, or -1 with e set (without Embree: "embree: not built ..."). */
+int rt_embree_bench(const rt_scene *sc, int W, int H, rt_embree_result *out, rt_err *e);
 
 #endif

@@ -11,7 +11,13 @@
  * The streaming tracers (bench/stream_bench.c, --what stream): stream-branching
  * against recursive untraced, and a traced stream-multipass run into the
  * sweep's simulators, on the bunny.
- * Each item has its own default image size; -W/-H override them all. */
+ * Each item has its own default image size; -W/-H override them all.
+ *
+ * Absolute figures depend on the machine, so the output opens with the CPU
+ * model, the online CPUs, the version, the git revision and the date, and
+ * every figure stands beside a ratio to a reference measured in the same
+ * run: tracer rows against the untraced recursive tracer, simulator rows
+ * against a naive per-size LRU (bench/sim_bench.c). */
 #include "analysis.h"
 #include "bench.h"
 #include "cmd.h"
@@ -24,6 +30,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 #include <unistd.h>
 
 static void usage(FILE *f)
@@ -38,7 +45,7 @@ static void usage(FILE *f)
             "  --lights L         lights for the tracer runs (default none: primary rays)\n"
             "  --tracers LIST     comma list (default recursive,packet,dynamic)\n"
             "  --cache-size S     dynamic tracer's schedule (default 64K)\n"
-            "  --what LIST        tracers,trace,sim,approx,path-error,modes,identical\n"
+            "  --what LIST        tracers,trace,sim,approx,path-error,modes,identical,embree\n"
             "                     (default tracers,trace,sim); approx: sampled simulators\n"
             "                     against exact (docs/approx.md) on --trace or the synthetic\n"
             "                     trace; path-error: path-mode RMSE against a --ref-spp\n"
@@ -47,7 +54,10 @@ static void usage(FILE *f)
             "                     image against the recursive one in every mode (exit 1 on\n"
             "                     a difference); stream: stream-branching rays/s against\n"
             "                     recursive and a traced stream-multipass run with the 13-size\n"
-            "                     simulator and the texture cache (scene bunny unless --scene)\n"
+            "                     simulator and the texture cache (scene bunny unless --scene);\n"
+            "                     embree: Embree's rtcIntersect1 on the same\n"
+            "                     primary rays (one thread), against the untraced recursive\n"
+            "                     tracer (needs a build with libembree-dev)\n"
             "  --scenes LIST      scenes of path-error, modes, identical (defaults cornell;\n"
             "                     sphereflake,cornell; cornell,knot,sphereflake)\n"
             "  --ref-spp N        path-error reference samples per pixel (default 1024)\n"
@@ -58,6 +68,36 @@ static void usage(FILE *f)
             "  -h, --help         this help\n");
 }
 
+/* The "model name" of /proc/cpuinfo into buf ("unknown" without one). */
+static void cpu_model(char *buf, size_t n)
+{
+    snprintf(buf, n, "unknown");
+    FILE *f = fopen("/proc/cpuinfo", "r");
+    if (!f) return;
+    char line[512];
+    while (fgets(line, sizeof line, f)) {
+        char *colon = strchr(line, ':');
+        if (strncmp(line, "model name", 10) || !colon) continue;
+        colon += 1 + (colon[1] == ' ');
+        colon[strcspn(colon, "\n")] = 0;
+        snprintf(buf, n, "%s", colon);
+        break;
+    }
+    fclose(f);
+}
+
+/* The provenance lines under the title: machine and date. */
+static void print_machine(void)
+{
+    char cpu[256], date[64];
+    time_t now = time(NULL);
+    struct tm tmv;
+    cpu_model(cpu, sizeof cpu);
+    if (!gmtime_r(&now, &tmv) || !strftime(date, sizeof date, "%Y-%m-%d %H:%M:%S UTC", &tmv))
+        snprintf(date, sizeof date, "unknown");
+    printf("machine: %s, %ld online CPUs\ndate: %s\n\n", cpu, sysconf(_SC_NPROCESSORS_ONLN), date);
+}
+
 static int null_put(rt_sink *s, const rt_access *a, size_t n)
 {
     (void)a;
@@ -65,8 +105,10 @@ static int null_put(rt_sink *s, const rt_access *a, size_t n)
     return 0;
 }
 
-static int bench_tracer(rt_job *j, const char *tmpdir, int do_trace, int do_sim)
-/* do_sim here: also stream the tracer into the simulator in-process */
+/* One tracer's rows. do_sim here: also stream the tracer into the
+ * simulator in-process. *ref: the untraced recursive tracer's rays/s, the
+ * reference of the last column; 0 = this run is it (set here). */
+static int bench_tracer(rt_job *j, const char *tmpdir, int do_trace, int do_sim, int untraced_only, double *ref)
 {
     rt_err e = {""};
     rt_image *img = rt_image_new(j->opt.W, j->opt.H, &e);
@@ -78,14 +120,18 @@ static int bench_tracer(rt_job *j, const char *tmpdir, int do_trace, int do_sim)
     if (rt_job_run(j, NULL, img, &st, &e) < 0) goto fail;
     rays = st.rays_primary + st.rays_shadow;
     double base = st.seconds;
-    printf("| %s | untraced | %.2f | %.2f | | |\n", name, st.seconds, (double)rays / st.seconds * 1e-6);
+    if (*ref == 0) *ref = (double)rays / st.seconds;
+#define VSREF(sec) ((double)rays / (sec) / *ref)
+    printf("| %s | untraced%s | %.2f | %.2f | | 1.00 | %.2f |\n", name, untraced_only ? " (reference)" : "", st.seconds,
+           (double)rays / st.seconds * 1e-6, VSREF(st.seconds));
     fflush(stdout);
+    if (untraced_only) goto done;
     /* recording into a null sink */
     uint64_t cnt = 0;
     rt_sink ns = {null_put, &cnt};
     if (rt_job_run(j, &ns, img, &st, &e) < 0) goto fail;
-    printf("| %s | recording (null sink) | %.2f | %.2f | %.1f | %.2f |\n", name, st.seconds,
-           (double)rays / st.seconds * 1e-6, (double)st.accesses / (double)rays, st.seconds / base);
+    printf("| %s | recording (null sink) | %.2f | %.2f | %.1f | %.2f | %.2f |\n", name, st.seconds,
+           (double)rays / st.seconds * 1e-6, (double)st.accesses / (double)rays, st.seconds / base, VSREF(st.seconds));
     fflush(stdout);
     if (do_trace) {
         char path[4096];
@@ -108,9 +154,9 @@ static int bench_tracer(rt_job *j, const char *tmpdir, int do_trace, int do_sim)
             bytes = ftell(f);
             fclose(f);
         }
-        printf("| %s | trace file (%.2f B/ref, %.1f MB) | %.2f | %.2f | %.1f | %.2f |\n", name,
+        printf("| %s | trace file (%.2f B/ref, %.1f MB) | %.2f | %.2f | %.1f | %.2f | %.2f |\n", name,
                st.accesses ? (double)bytes / (double)st.accesses : 0.0, bytes / 1048576.0, sec,
-               (double)rays / sec * 1e-6, (double)st.accesses / (double)rays, sec / base);
+               (double)rays / sec * 1e-6, (double)st.accesses / (double)rays, sec / base, VSREF(sec));
         fflush(stdout);
         unlink(path);
     }
@@ -125,17 +171,62 @@ static int bench_tracer(rt_job *j, const char *tmpdir, int do_trace, int do_sim)
             goto fail;
         }
         double sec = rt_now() - t0;
-        printf("| %s | in-process 13-size simulation | %.2f | %.2f | %.1f | %.2f |\n", name, sec,
-               (double)rays / sec * 1e-6, (double)st.accesses / (double)rays, sec / base);
+        printf("| %s | in-process 13-size simulation | %.2f | %.2f | %.1f | %.2f | %.2f |\n", name, sec,
+               (double)rays / sec * 1e-6, (double)st.accesses / (double)rays, sec / base, VSREF(sec));
         fflush(stdout);
         rt_sim_free(s);
     }
+#undef VSREF
+done:
     rt_image_free(img);
     return 0;
 fail:
     rt_cmd_error("bench", "%s", e.msg);
     rt_image_free(img);
     return -1;
+}
+
+/* Embree's rtcIntersect1 on the primary rays of scene at o's size, beside
+ * the untraced recursive tracer measured here on the same rays (no lights). */
+static int bench_embree(const char *scene, const rt_render_opts *o0)
+{
+    if (!rt_embree_built()) {
+        printf("embree: not built (libembree-dev missing)\n\n");
+        return 0;
+    }
+    rt_err e = {""};
+    rt_render_opts o = *o0;
+    o.lights = 0;
+    rt_scene *sc = rt_scene_load(scene, &e);
+    rt_kdtree *kd = NULL;
+    rt_image *img = NULL;
+    rt_job j;
+    int have_job = 0, rc = -1;
+    rt_run_stats st;
+    rt_embree_result r;
+    rt_kd_params kp;
+    rt_kd_default_params(&kp);
+    if (!sc || !(kd = rt_kd_build(sc, &kp, &e)) || !(img = rt_image_new(o.W, o.H, &e)) ||
+        rt_job_setup_borrowed(&j, sc, kd, "recursive", &o, &e) < 0)
+        goto out;
+    have_job = 1;
+    if (rt_job_run(&j, NULL, img, &st, &e) < 0 || rt_embree_bench(sc, o.W, o.H, &r, &e) < 0) goto out;
+    double ours = (double)st.rays_primary / st.seconds, theirs = (double)r.rays / r.sec;
+    printf("Embree %s, rtcIntersect1, one thread, the same %dx%d primary rays in Hilbert order (Embree scene built in "
+           "%.2f s, not timed):\n\n",
+           r.version, o.W, o.H, r.build_sec);
+    printf("| tracer | seconds | Mrays/s | hits | recursive untraced rays/s over this |\n|---|---|---|---|---|\n");
+    printf("| recursive (untraced) | %.2f | %.2f | | 1.00 |\n", st.seconds, ours * 1e-6);
+    printf("| embree rtcIntersect1 | %.2f | %.2f | %" PRIu64 " | %.2f |\n\n", r.sec, theirs * 1e-6, r.hits,
+           ours / theirs);
+    rc = 0;
+out:
+    if (rc < 0) rt_cmd_error("bench", "%s", e.msg);
+    if (have_job) rt_job_free(&j);
+    rt_image_free(img);
+    rt_kd_free(kd);
+    rt_scene_free(sc);
+    return rc;
 }
 
 int main_bench(int argc, char **argv)
@@ -203,7 +294,7 @@ int main_bench(int argc, char **argv)
         rt_cmd_error("bench", "unexpected argument '%s'", argv[optind]);
         return RT_EXIT_USAGE;
     }
-    int do_tr = 0, do_trace = 0, do_sim = 0, do_approx = 0, do_perr = 0, do_modes = 0, do_ident = 0, do_stream = 0;
+    int do_tr = 0, do_trace = 0, do_sim = 0, do_approx = 0, do_perr = 0, do_modes = 0, do_ident = 0, do_stream = 0, do_embree = 0;
     {
         char *list = strdup(what), *save = NULL;
         for (char *t = strtok_r(list, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
@@ -215,9 +306,10 @@ int main_bench(int argc, char **argv)
             else if (!strcmp(t, "modes")) do_modes = 1;
             else if (!strcmp(t, "identical")) do_ident = 1;
             else if (!strcmp(t, "stream")) do_stream = 1;
+            else if (!strcmp(t, "embree")) do_embree = 1;
             else {
                 rt_cmd_error("bench", "--what: unknown item '%s' (tracers, trace, sim, approx, path-error, modes, "
-                             "identical, stream)", t);
+                             "identical, stream, embree)", t);
                 free(list);
                 return RT_EXIT_USAGE;
             }
@@ -229,11 +321,12 @@ int main_bench(int argc, char **argv)
     int W0 = o.W, H0 = o.H; /* as given; 0 = each item's default */
     o.W = W0 ? W0 : 1024;
     o.H = H0 ? H0 : 1024;
-    if (do_tr || do_trace || do_sim || do_approx)
+    if (do_tr || do_trace || do_sim || do_approx || do_embree)
         printf("raytraffic %s (%s) bench: scene %s, %dx%d, lights %u, one core\n\n", rt_version(), rt_git_rev(),
                scene, o.W, o.H, o.lights);
     else
         printf("raytraffic %s (%s) bench, one core\n\n", rt_version(), rt_git_rev());
+    print_machine();
     if (do_tr || do_trace) {
         rt_err e = {""};
         rt_scene *sc = rt_scene_load(scene, &e);
@@ -252,9 +345,22 @@ int main_bench(int argc, char **argv)
         printf("k-d tree: %" PRIu32 " triangles, %" PRIu32 " nodes, %" PRIu32 " leaves, depth %" PRIu32
                ", %.2f triangles per non-empty leaf, built in %.2f s\n\n",
                sc->ntri, kd->nnodes, kd->nleaves, kd->maxdepth, rt_kd_mean_leaf_tris(kd), kd->build_sec);
-        printf("| tracer | mode | seconds | Mrays/s | refs/ray | time vs untraced |\n|---|---|---|---|---|---|\n");
+        printf("| tracer | mode | seconds | Mrays/s | refs/ray | time vs untraced | rays/s vs recursive untraced "
+               "|\n|---|---|---|---|---|---|---|\n");
         char *list = strdup(tracers), *save = NULL;
         int rc = 0;
+        double ref = 0; /* untraced recursive rays/s; measured first when the list does not start with it */
+        if (strncmp(tracers, "recursive", 9) || (tracers[9] && tracers[9] != ',')) {
+            rt_job j;
+            rt_err e2 = {""};
+            if (rt_job_setup_borrowed(&j, sc, kd, "recursive", &o, &e2) < 0) {
+                rt_cmd_error("bench", "%s", e2.msg);
+                rc = -1;
+            } else {
+                rc = bench_tracer(&j, tmpdir, 0, 0, 1, &ref);
+                rt_job_free(&j);
+            }
+        }
         for (char *t = strtok_r(list, ",", &save); t && rc == 0; t = strtok_r(NULL, ",", &save)) {
             rt_job j;
             rt_err e2 = {""};
@@ -263,7 +369,7 @@ int main_bench(int argc, char **argv)
                 rc = -1;
                 break;
             }
-            rc = bench_tracer(&j, tmpdir, do_trace, do_sim);
+            rc = bench_tracer(&j, tmpdir, do_trace, do_sim, 0, &ref);
             rt_job_free(&j);
         }
         free(list);
@@ -272,10 +378,14 @@ int main_bench(int argc, char **argv)
         if (rc < 0) return RT_EXIT_FAIL;
         printf("\n");
     }
+    if (do_embree && bench_embree(scene, &o) < 0) return RT_EXIT_FAIL;
     if (do_sim) {
         printf("Cache simulator on a synthetic trace:\n\n");
         fflush(stdout);
-        if (rt_sim_bench_n(stdout, simrefs) < 0) return RT_EXIT_FAIL;
+        if (rt_sim_bench_n(stdout, simrefs) < 0) {
+            rt_cmd_error("bench", "simulator benchmark: out of memory, or the naive LRU disagrees with the simulator");
+            return RT_EXIT_FAIL;
+        }
     }
     if (do_approx) {
         rt_err e = {""};

@@ -84,6 +84,7 @@ typedef struct shared {
     atomic_long skipped;  /* of which skipped */
     atomic_long stored;   /* of which run and stored */
     atomic_int failed;    /* a worker failed */
+    atomic_llong stage_us[4]; /* rt_exp_stages summed over workers, microseconds: scene, tracing, simulation, database */
 } shared;
 
 static void usage(FILE *f)
@@ -361,6 +362,10 @@ static int worker_loop(const sweep_opts *o, const rt_exp_job *J, long nj, shared
         if (o->only >= 0) break;
     }
     maybe_stop(o, sh);
+    rt_exp_stages t;
+    rt_exp_worker_stages(w, &t);
+    double sec[4] = {t.scene, t.tracing, t.simulation, t.database};
+    for (int k = 0; k < 4; k++) atomic_fetch_add(&sh->stage_us[k], (long long)(sec[k] * 1e6));
     rt_exp_worker_free(w);
     rt_db_close(db);
     return rc;
@@ -860,6 +865,7 @@ static int sweep_run(const sweep_opts *o, const rt_exp_job *J, long nj)
     atomic_init(&sh->skipped, 0);
     atomic_init(&sh->stored, 0);
     atomic_init(&sh->failed, 0);
+    for (int k = 0; k < 4; k++) atomic_init(&sh->stage_us[k], 0);
     const rt_exp_config *x = &o->x;
     long total = o->only >= 0 ? 1 : nj;
     double t0 = rt_now();
@@ -867,8 +873,12 @@ static int sweep_run(const sweep_opts *o, const rt_exp_job *J, long nj)
             total, x->nscenes, x->nlightings, x->ntracers, x->sim.nsizes, x->ro.W, x->ro.H, o->db, o->jobs);
     int rc = run_workers(o, J, nj, sh, total, t0);
     long skipped = atomic_load(&sh->skipped), done = atomic_load(&sh->done);
-    fprintf(stderr, "sweep: %ld run(s) finished (%ld already in the database) in %.1f s; results in %s\n", done, skipped,
-            rt_now() - t0, o->db);
+    double us[4];
+    for (int k = 0; k < 4; k++) us[k] = (double)atomic_load(&sh->stage_us[k]) * 1e-6;
+    fprintf(stderr,
+            "sweep: %ld run(s) finished (%ld already in the database) in %.1f s wall; results in %s; stages: scene %.1f s, "
+            "tracing %.1f s, simulation %.1f s, database %.1f s (summed over workers)\n",
+            done, skipped, rt_now() - t0, o->db, us[0], us[1], us[2], us[3]);
     munmap(sh, sizeof *sh);
     return rc < 0 || done < total ? RT_EXIT_FAIL : RT_EXIT_OK;
 }

@@ -260,7 +260,10 @@ struct rt_exp_worker {
     rt_scene *sc;           /* current scene, or NULL */
     rt_kdtree *kd;          /* its tree, built on the first job that runs */
     uint64_t scene_hash;    /* rt_scene_hash(sc) */
+    rt_exp_stages t;        /* stage times, summed over jobs */
 };
+
+void rt_exp_worker_stages(const rt_exp_worker *w, rt_exp_stages *out) { *out = w->t; }
 
 rt_exp_worker *rt_exp_worker_new(const rt_exp_config *c, rt_db *db, rt_err *e)
 {
@@ -287,7 +290,9 @@ static int load_scene(rt_exp_worker *w, int s, rt_err *e)
     rt_scene_free(w->sc);
     w->kd = NULL;
     w->cur_scene = -1;
+    double t0 = rt_now();
     w->sc = rt_scene_load(w->c->scenes[s], e);
+    w->t.scene += rt_now() - t0;
     if (!w->sc) return -1;
     w->scene_hash = rt_scene_hash(w->sc);
     w->cur_scene = s;
@@ -396,7 +401,13 @@ static int render_job(rt_exp_worker *w, jobrun *r, const rt_exp_job *jb, long in
     }
     if (add_texture_cache(c, r, jb, e) < 0) return -1;
     if (c->keep && open_trace(w, r, jb, index, e) < 0) return -1;
-    if (rt_job_run(&r->j, rt_exp_fan_sink(&r->fan), r->img, &r->st, e) < 0) return -1;
+    double t0 = rt_now();
+    int rrc = rt_job_run(&r->j, rt_exp_fan_sink(&r->fan), r->img, &r->st, e);
+    double sim = 0;
+    for (int i = 0; i < 1 + r->napprox; i++) sim += r->fan.sec[i];
+    w->t.tracing += rt_now() - t0 - sim;
+    w->t.simulation += sim;
+    if (rrc < 0) return -1;
     if (r->tw) {
         int rc = rt_tr_finish(r->tw, e);
         r->tw = NULL;
@@ -411,9 +422,11 @@ static int store_job(rt_exp_worker *w, jobrun *r, rt_exp_key *key, double t0, rt
     size_t nrows = (size_t)(r->sc.nsizes + 1) * RT_NCLASS; /* + the texture cache's */
     rt_db_traffic *rows = rt_calloc(nrows, sizeof *rows, e);
     if (!rows) return -1;
+    double ts = rt_now();
     rt_sim_finish(r->sim); /* the flush, when the accounting asks for it */
     size_t k = rt_sim_db_rows(r->sim, rows);
     if (r->tex) k += rt_sim_db_rows(r->tex, rows + k);
+    w->t.simulation += rt_now() - ts;
     char stats[768];
     const rt_run_stats *st = &r->st;
     snprintf(stats, sizeof stats,
@@ -444,13 +457,16 @@ static int store_job(rt_exp_worker *w, jobrun *r, rt_exp_key *key, double t0, rt
         ng = rt_sim_db_gen_rows(r->sim, grows);
     }
     free(m);
+    double td = rt_now();
     int rc = rt_db_store_run_gen(w->db, &run, rows, k, grows, ng, NULL, e);
+    w->t.database += rt_now() - td;
     free(grows);
     for (int a = 0; a < r->napprox && rc == 0; a++) {
         double t0a = rt_now();
         if ((rc = rt_approx_finish(r->ap[a], e)) < 0) break;
         double sec = r->fan.sec[1 + a] + (rt_now() - t0a);
         size_t na = rt_approx_db_rows(r->ap[a], rows);
+        w->t.simulation += rt_now() - t0a;
         char astats[sizeof stats + 64];
         rt_exp_key_method(key, &w->c->approx[a]);
         rt_db_run ra = run;
@@ -459,7 +475,9 @@ static int store_job(rt_exp_worker *w, jobrun *r, rt_exp_key *key, double t0, rt
         ra.wall_time = sec;
         snprintf(astats, sizeof astats, "sim_seconds=%.3f exact_sim_seconds=%.3f", sec, r->fan.sec[0]);
         ra.stats = astats;
+        td = rt_now();
         rc = rt_db_store_run(w->db, &ra, rows, na, NULL, e);
+        w->t.database += rt_now() - td;
     }
     free(rows);
     return rc;
@@ -470,12 +488,17 @@ int rt_exp_run_job(rt_exp_worker *w, const rt_exp_job *jb, long index, rt_err *e
     if (load_scene(w, jb->scene, e) < 0) return -1;
     rt_exp_key key;
     rt_exp_job_key(w->c, jb, w->sc, w->scene_hash, &key);
+    double td = rt_now();
     int has = job_stored(w, jb, &key, e);
+    w->t.database += rt_now() - td;
     if (has != 0) return has < 0 ? -1 : 0;
     if (!w->kd) {
         rt_kd_params kp;
         rt_kd_default_params(&kp);
-        if (!(w->kd = rt_kd_build(w->sc, &kp, e))) return -1;
+        double tk = rt_now();
+        w->kd = rt_kd_build(w->sc, &kp, e);
+        w->t.scene += rt_now() - tk;
+        if (!w->kd) return -1;
     }
     double t0 = rt_now();
     jobrun r;

@@ -224,6 +224,18 @@ typedef struct rt_exp_worker rt_exp_worker;
 rt_exp_worker *rt_exp_worker_new(const rt_exp_config *c, rt_db *db, rt_err *e);
 void rt_exp_worker_free(rt_exp_worker *w); /* NULL is fine; frees scene and tree, not db */
 
+/* Where a worker's time went, summed over the jobs it ran (skipped jobs
+ * count their database lookups only). */
+typedef struct rt_exp_stages {
+    double scene;      /* scene load and k-d tree build */
+    double tracing;    /* rendering, less the time inside the simulators (a kept trace's writing counts here) */
+    double simulation; /* exact and approximate simulators, their flush and finish */
+    double database;   /* lookups of stored runs and the stores */
+} rt_exp_stages;
+
+/* The worker's stage times so far. */
+void rt_exp_worker_stages(const rt_exp_worker *w, rt_exp_stages *out);
+
 /* Runs job jb (index is its place in the matrix, used to name a kept
  * trace): skips it if its exact run and every approximate run are already
  * stored; otherwise renders it in-process streaming into the exact

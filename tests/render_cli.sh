@@ -186,7 +186,41 @@ grep -q "^cachesim: (check) tri read misses 1K 21203, 4M 15727" "$tmp/bench" || 
 grep -q "^| exact | | [0-9.]* | 1.0 | 13 | 0 | 0 | 0 | 0 | 0 |" "$tmp/bench" || err "bench approx exact row"
 for m in shards shards-fixed statstack hybrid; do grep -q "^| $m | " "$tmp/bench" || err "bench lacks $m rows"; done
 ls "$tmp"/rt-bench-* > /dev/null 2>&1 && err "bench left trace files in --tmpdir"
+# provenance header: the machine's CPU model and online CPUs, the revision, today's date
+grep -q "^raytraffic [0-9][^ ]* ([^)]*) bench: scene cornell:glass=0, 8x8" "$tmp/bench" || err "bench title line"
+cpu=$(sed -n 's/^model name[^:]*: *//p' /proc/cpuinfo 2>/dev/null | head -n 1)
+ncpu=$(getconf _NPROCESSORS_ONLN)
+grep -qxF "machine: ${cpu:-unknown}, $ncpu online CPUs" "$tmp/bench" || err "bench machine line: $(grep '^machine' "$tmp/bench")"
+grep -q "^date: $(date -u +%Y-%m-%d) [0-9:]* UTC$" "$tmp/bench" || err "bench date line: $(grep '^date' "$tmp/bench")"
+# ratio column: every tracer row ends with its rays/s over the untraced recursive tracer's, which is 1.00 itself
+grep -q "^| tracer | mode | seconds | Mrays/s | refs/ray | time vs untraced | rays/s vs recursive untraced |$" "$tmp/bench" ||
+    err "bench tracer table header"
+grep -q "^| recursive | untraced | [0-9.]* | [0-9.]* | | 1.00 | 1.00 |$" "$tmp/bench" || err "bench reference row"
+[ "$(grep -cE '^\| (recursive|packet|dynamic) \| .* \| [0-9]+\.[0-9]+ \| [0-9]+\.[0-9]{2} \|$' "$tmp/bench")" = 12 ] ||
+    err "bench: not every tracer row has both ratio columns"
+# simulator rows: against the naive per-size LRU, which agrees on the misses of the same prefix
+grep -q "^cachesim: naive per-size LRU: .* M refs/s on the first 100000 refs, 13 sizes (the reference)$" "$tmp/bench" ||
+    err "bench naive LRU line"
+grep -q "^cachesim: one pass, same refs: .* M refs/s  *[0-9.]*x naive LRU (misses agree)$" "$tmp/bench" ||
+    err "bench: naive LRU and simulator disagree, or no ratio: $(grep 'same refs' "$tmp/bench")"
+grep -q "^cachesim: one pass, 13 sizes: .* M refs/s  *[0-9.]*x naive LRU$" "$tmp/bench" || err "bench one-pass ratio"
+grep -q "^cachesim: 13 sizes one by one: .* M refs/s  *[0-9.]*x naive LRU (" "$tmp/bench" || err "bench one-by-one ratio"
+# without the recursive tracer first, its untraced run is measured as the reference
+"$bin" bench --scene cornell:glass=0 -W 8 -H 8 --what tracers --tracers packet > "$tmp/bench2" 2>&1 ||
+    err "bench --tracers packet exited $?"
+[ "$(grep -c '^| ' "$tmp/bench2")" = 4 ] && grep -q "^| recursive | untraced (reference) | [0-9.]* | [0-9.]* | | 1.00 | 1.00 |$" \
+    "$tmp/bench2" && grep -q "^| packet | recording (null sink) |" "$tmp/bench2" || err "bench reference run: $(cat "$tmp/bench2")"
 "$bin" bench --sim-refs 0 > /dev/null 2>&1; [ $? -eq 2 ] || err "bench --sim-refs 0 should exit 2"
+# Embree (optional): either the build says it lacks it, or both rows come out of the same
+# run on the same rays, and every primary ray in the closed Cornell box hits
+"$bin" bench --what embree --scene cornell:glass=0 -W 8 -H 8 > "$tmp/emb" 2> "$tmp/emb.err" ||
+    err "bench --what embree exited $?: $(cat "$tmp/emb.err")"
+if ! grep -qx "embree: not built (libembree-dev missing)" "$tmp/emb"; then
+    grep -q "^Embree [0-9.]*, rtcIntersect1, one thread, the same 8x8 primary rays in Hilbert order" "$tmp/emb" &&
+        grep -q "^| recursive (untraced) | [0-9.]* | [0-9.]* | | 1.00 |$" "$tmp/emb" &&
+        grep -q "^| embree rtcIntersect1 | [0-9.]* | [0-9.]* | 64 | [0-9]*\.[0-9][0-9] |$" "$tmp/emb" ||
+        err "bench --what embree: $(cat "$tmp/emb")"
+fi
 
 # --- bench, the render modes at tiny sizes -------------------------------------------
 # path-error: the RMSE of the 8x8 spp-1 and spp-4 images against the spp-16

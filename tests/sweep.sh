@@ -32,6 +32,17 @@ n1=$(sqlite3 "$tmp/a.db" "SELECT COUNT(*) FROM runs; SELECT COUNT(*) FROM traffi
 n2=$(sqlite3 "$tmp/a.db" "SELECT COUNT(*) FROM runs; SELECT COUNT(*) FROM traffic" | tr '\n' ' ')
 [ "$n1" = "$n2" ] || { echo "FAIL: rerun changed row counts: $n1 -> $n2"; fail=1; }
 grep -q "already in the database" "$tmp/log2" || { echo "FAIL: rerun did not skip"; fail=1; }
+# the last line: wall time and the per-stage split, summed over workers; the
+# stages of one worker fit in its wall time (of two, in twice), and a rerun
+# that skips every job neither traces nor simulates
+stages() { # prints "wall scene tracing simulation database" of the sweep's last line
+    sed -n 's/^sweep: [0-9]* run(s) finished ([0-9]* already in the database) in \([0-9.]*\) s wall; results in .*; stages: scene \([0-9.]*\) s, tracing \([0-9.]*\) s, simulation \([0-9.]*\) s, database \([0-9.]*\) s (summed over workers)$/\1 \2 \3 \4 \5/p' "$1"
+}
+set -- $(stages "$tmp/log")
+[ $# = 5 ] && awk -v w="$1" -v a="$2" -v b="$3" -v c="$4" -v d="$5" 'BEGIN { exit !(a + b + c + d <= w + 0.25) }' ||
+    { echo "FAIL: sweep's stage line: $(tail -n 1 "$tmp/log")"; fail=1; }
+set -- $(stages "$tmp/log2")
+[ $# = 5 ] && [ "$3 $4" = "0.0 0.0" ] || { echo "FAIL: rerun's stage line: $(tail -n 1 "$tmp/log2")"; fail=1; }
 contents "$tmp/a.db" > "$tmp/a.txt"
 # 3. interrupted for certain, then rerun: RT_SWEEP_STOP_AFTER (a test-only
 # hook) kills the sweep with SIGKILL after 5 stored runs, as a kill would
@@ -55,7 +66,10 @@ njobs=$(wc -l < "$tmp/jobs")
 contents "$tmp/m.db" > "$tmp/m.txt"
 cmp -s "$tmp/a.txt" "$tmp/m.txt" || { echo "FAIL: merged shards differ from a one-process sweep"; fail=1; }
 # 5. --jobs 2
-"$bin" sweep $args --db "$tmp/j.db" --jobs 2 2>/dev/null || { echo "FAIL: --jobs 2"; fail=1; }
+"$bin" sweep $args --db "$tmp/j.db" --jobs 2 2>"$tmp/log5" || { echo "FAIL: --jobs 2"; fail=1; }
+set -- $(stages "$tmp/log5")
+[ $# = 5 ] && awk -v w="$1" -v a="$2" -v b="$3" -v c="$4" -v d="$5" 'BEGIN { exit !(a + b + c + d <= 2 * w + 0.25) }' ||
+    { echo "FAIL: --jobs 2 stage line: $(tail -n 1 "$tmp/log5")"; fail=1; }
 contents "$tmp/j.db" > "$tmp/j.txt"
 cmp -s "$tmp/a.txt" "$tmp/j.txt" || { echo "FAIL: --jobs 2 differs from --jobs 1"; fail=1; }
 # 6. --keep-traces gives the same numbers as streaming

@@ -1,0 +1,136 @@
+/*
+ * embree_bench.c -- the Embree comparison row of `raytraffic bench`
+ * (rt_embree_bench, see bench.h).
+ *
+ * An outside yardstick for the tracers' speed: the scene's triangles in an
+ * Embree 3 scene (default build quality, one-thread device), and the same
+ * primary rays our tracers shoot -- rt_cam_ray of every pixel, in the
+ * Hilbert order of rt_pixel_order -- each through rtcIntersect1, one ray at
+ * a time as the recursive tracer does. Only the ray loop is timed; the
+ * Embree scene's build is reported apart. Built only when configure found
+ * Embree (HAVE_EMBREE); otherwise rt_embree_bench says so and does nothing.
+ */
+#include "config.h"
+
+#include "bench.h"
+#include "camera.h"
+#include "hilbert.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#ifdef HAVE_EMBREE
+#include <embree3/rtcore.h>
+
+/* Builds the Embree scene of sc's triangles on dev; NULL with e set. */
+static RTCScene build(RTCDevice dev, const rt_scene *sc, rt_err *e)
+{
+    RTCScene s = rtcNewScene(dev);
+    RTCGeometry g = s ? rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE) : NULL;
+    float *v = g ? rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float),
+                                           3 * (size_t)sc->ntri)
+                 : NULL;
+    unsigned *ix = v ? rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned),
+                                               sc->ntri)
+                     : NULL;
+    if (!ix) {
+        rt_errf(e, "embree: cannot create the scene (%d)", (int)rtcGetDeviceError(dev));
+        if (g) rtcReleaseGeometry(g);
+        if (s) rtcReleaseScene(s);
+        return NULL;
+    }
+    for (uint32_t t = 0; t < sc->ntri; t++)
+        for (int k = 0; k < 3; k++) {
+            const rt_vec3 *p = &sc->tri[t].p[k];
+            v[9 * (size_t)t + 3 * (size_t)k] = p->x;
+            v[9 * (size_t)t + 3 * (size_t)k + 1] = p->y;
+            v[9 * (size_t)t + 3 * (size_t)k + 2] = p->z;
+            ix[3 * (size_t)t + (size_t)k] = 3 * t + (unsigned)k;
+        }
+    rtcCommitGeometry(g);
+    rtcAttachGeometry(s, g);
+    rtcReleaseGeometry(g);
+    rtcCommitScene(s);
+    if (rtcGetDeviceError(dev) != RTC_ERROR_NONE) {
+        rt_errf(e, "embree: scene build failed");
+        rtcReleaseScene(s);
+        return NULL;
+    }
+    return s;
+}
+
+int rt_embree_bench(const rt_scene *sc, int W, int H, rt_embree_result *out, rt_err *e)
+{
+    memset(out, 0, sizeof *out);
+    snprintf(out->version, sizeof out->version, "%d.%d.%d", RTC_VERSION_MAJOR, RTC_VERSION_MINOR, RTC_VERSION_PATCH);
+    uint32_t *order = malloc((size_t)W * (size_t)H * sizeof *order);
+    RTCDevice dev = rtcNewDevice("threads=1");
+    if (!order || !dev) {
+        rt_errf(e, order ? "embree: cannot create a device" : "out of memory");
+        free(order);
+        if (dev) rtcReleaseDevice(dev);
+        return -1;
+    }
+    double t0 = rt_now();
+    RTCScene s = build(dev, sc, e);
+    out->build_sec = rt_now() - t0;
+    if (!s) {
+        free(order);
+        rtcReleaseDevice(dev);
+        return -1;
+    }
+    rt_hilbert_order(W, H, order);
+    rt_cam_frame cam;
+    rt_cam_setup(&cam, sc, W, H);
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    uint64_t hits = 0;
+    size_t npix = (size_t)W * (size_t)H;
+    t0 = rt_now();
+    for (size_t k = 0; k < npix; k++) {
+        uint32_t pix = order[k];
+        rt_ray r;
+        rt_cam_ray(&cam, (int)(pix % (uint32_t)W), (int)(pix / (uint32_t)W), &r);
+        struct RTCRayHit rh;
+        rh.ray.org_x = r.o.x;
+        rh.ray.org_y = r.o.y;
+        rh.ray.org_z = r.o.z;
+        rh.ray.dir_x = r.d.x;
+        rh.ray.dir_y = r.d.y;
+        rh.ray.dir_z = r.d.z;
+        rh.ray.tnear = r.tmin;
+        rh.ray.tfar = r.tmax;
+        rh.ray.time = 0;
+        rh.ray.mask = 0xffffffffu;
+        rh.ray.id = 0;
+        rh.ray.flags = 0;
+        rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+        rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+        rtcIntersect1(s, &ctx, &rh);
+        hits += rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
+    }
+    out->sec = rt_now() - t0;
+    out->rays = npix;
+    out->hits = hits;
+    rtcReleaseScene(s);
+    rtcReleaseDevice(dev);
+    free(order);
+    return 0;
+}
+
+int rt_embree_built(void) { return 1; }
+
+#else
+
+int rt_embree_bench(const rt_scene *sc, int W, int H, rt_embree_result *out, rt_err *e)
+{
+    (void)sc, (void)W, (void)H;
+    memset(out, 0, sizeof *out);
+    rt_errf(e, "embree: not built (libembree-dev missing)");
+    return -1;
+}
+
+int rt_embree_built(void) { return 0; }
+
+#endif
