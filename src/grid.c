@@ -528,6 +528,13 @@ int rt_grid_iter_init(rt_grid_iter *it, const rt_grid *g, const rt_ray *r, float
     return 1;
 }
 
+/* fminf(a, b) without the library call: the same value for every pair
+ * with at most one NaN (the other operand), including which zero of an
+ * equal pair of zeros (b, as glibc's minss-based fminf returns); two NaNs
+ * give a NaN, as fminf does. The walk only compares the minimum, so even a
+ * NaN's payload cannot show. */
+static inline float min_num(float a, float b) { return (a < b || b != b) ? a : b; }
+
 int rt_grid_iter_next(rt_grid_iter *it, rt_grid_cell *c)
 {
     if (!it->live) return 0;
@@ -537,7 +544,7 @@ int rt_grid_iter_next(rt_grid_iter *it, rt_grid_cell *c)
     c->iz = it->i[2];
     c->id = rt_grid_cell_id(g, it->i[0], it->i[1], it->i[2]);
     c->t0 = it->t;
-    float tx = fminf(it->tnext[0], fminf(it->tnext[1], it->tnext[2]));
+    float tx = min_num(it->tnext[0], min_num(it->tnext[1], it->tnext[2]));
     if (!(tx < it->tend)) { /* the segment ends in this cell */
         c->t1 = it->tend;
         it->live = 0;

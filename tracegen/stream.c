@@ -189,6 +189,7 @@ typedef struct st_ray {
     uint8_t gen;       /* generation (mark bit and recorder) */
     uint8_t primary;   /* eye ray of sample 0 (sets the pixel's depth) */
     uint8_t cidx;      /* multipass child: 0 reflection / path, 1 refraction */
+    uint8_t ready;     /* it already holds rt_grid_iter_init of r (the eye kernel's bounds test) */
     uint32_t parent;   /* multipass: stream slot of the ray that spawned it */
 } st_ray;
 
@@ -277,21 +278,24 @@ static void ray_advance(st_ray *r)
     r->state = rt_grid_iter_next(&r->it, &r->c) ? ST_TRAV : ST_DONE;
 }
 
-/* Traversal setup: clip to the grid, first cell. */
+/* Traversal setup: clip to the grid, first cell. An eye ray's iterator
+ * was already initialised by the eye kernel's bounds test with the same
+ * arguments (rt_grid_iter_init is a pure function of them), so it is not
+ * computed twice. */
 static void k_setup(st_run *S, st_ray *r)
 {
     rt_hit_none(&r->h);
     r->state = ST_DONE;
-    if (!rt_grid_iter_init(&r->it, S->g, &r->r, r->r.tmin, r->r.tmax)) return;
+    if (!r->ready && !rt_grid_iter_init(&r->it, S->g, &r->r, r->r.tmin, r->r.tmax)) return;
+    r->ready = 0;
     r->tol = rt_grid_ttol(S->g, &r->r);
     ray_advance(r);
 }
 
-/* One traversal step: the grid word of the current cell. */
-static void k_step(st_run *S, st_ray *r)
+/* One traversal step without its texel accounting (k_step charges it). */
+static inline void k_step_body(st_run *S, st_ray *r)
 {
     const uint32_t w = S->g->cells[r->c.id];
-    acc_rd(S, RT_SK_STEP, RT_SD_GRID, S->reg_cells, r->c.id, 0, RT_GRID_WORD, RT_CLS_NODE, 0);
     r->nstep++;
     S->steps++;
     if (w != RT_GRID_NULL) {
@@ -306,13 +310,18 @@ static void k_step(st_run *S, st_ray *r)
     ray_advance(r);
 }
 
-/* One intersection test: list word, then the triangle's 9 vertex words. */
-static void k_isect(st_run *S, st_ray *r)
+/* One traversal step: the grid word of the current cell. */
+static void k_step(st_run *S, st_ray *r)
+{
+    acc_rd(S, RT_SK_STEP, RT_SD_GRID, S->reg_cells, r->c.id, 0, RT_GRID_WORD, RT_CLS_NODE, 0);
+    k_step_body(S, r);
+}
+
+/* One intersection test without its texel accounting (k_isect charges it). */
+static inline void k_isect_body(st_run *S, st_ray *r)
 {
     const rt_grid *g = S->g;
     const uint32_t tri = g->list[r->lpos];
-    acc_rd(S, RT_SK_ISECT, RT_SD_LIST, S->reg_lists, r->lpos, 0, RT_GRID_WORD, RT_CLS_INDEX, 0);
-    acc_rd(S, RT_SK_ISECT, RT_SD_TRI, S->reg_verts, tri, 0, RT_GRID_VERT_BYTES, RT_CLS_TRI, 0);
     r->ntest++;
     r->last_tri = tri;
     S->tests++;
@@ -336,6 +345,15 @@ static void k_isect(st_run *S, st_ray *r)
     if (g->list[r->lpos] != RT_GRID_NULL) return;
     if (r->kind == ST_CLOSEST && r->h.tri != RT_NO_HIT && r->h.t < r->c.t1 - r->tol) r->state = ST_DONE;
     else ray_advance(r);
+}
+
+/* One intersection test: list word, then the triangle's 9 vertex words. */
+static void k_isect(st_run *S, st_ray *r)
+{
+    const uint32_t tri = S->g->list[r->lpos];
+    acc_rd(S, RT_SK_ISECT, RT_SD_LIST, S->reg_lists, r->lpos, 0, RT_GRID_WORD, RT_CLS_INDEX, 0);
+    acc_rd(S, RT_SK_ISECT, RT_SD_TRI, S->reg_verts, tri, 0, RT_GRID_VERT_BYTES, RT_CLS_TRI, 0);
+    k_isect_body(S, r);
 }
 
 /* ---- rays in, results out ------------------------------------------------------ */
@@ -441,11 +459,43 @@ static void finish_shadow(st_run *S, st_ray *r)
 
 /* ---- branching: one ray at a time ----------------------------------------------- */
 
+/* Untraced: the step and intersection kernels' counts are gathered in
+ * locals and turned into bytes once per ray. charge() and the kernels'
+ * acc_rd add the same fixed amounts per invocation (branching has no
+ * stencil), so the totals are the same integers. */
+static void br_trace_counted(st_run *S, st_ray *r)
+{
+    const rt_stream_cost_row *ks = &table_br[RT_SK_STEP], *ki = &table_br[RT_SK_ISECT];
+    const uint64_t sb = 4u * (uint64_t)(ks->R + ks->W), ib = 4u * (uint64_t)(ki->R + ki->W);
+    uint64_t ns = 0, ni = 0;
+    while (r->state != ST_DONE) {
+        if (r->state == ST_TRAV) {
+            ns++;
+            k_step_body(S, r);
+        } else {
+            ni++;
+            k_isect_body(S, r);
+        }
+    }
+    S->kexec[RT_SK_STEP] += ns;
+    S->kexec[RT_SK_ISECT] += ni;
+    S->kbytes[RT_SK_STEP] += ns * (sb + RT_GRID_WORD);
+    S->kbytes[RT_SK_ISECT] += ni * (ib + RT_GRID_WORD + RT_GRID_VERT_BYTES);
+    S->dbytes[RT_SD_STATE] += ns * sb + ni * ib;
+    S->dbytes[RT_SD_GRID] += ns * RT_GRID_WORD;
+    S->dbytes[RT_SD_LIST] += ni * RT_GRID_WORD;
+    S->dbytes[RT_SD_TRI] += ni * RT_GRID_VERT_BYTES;
+}
+
 static void br_trace(st_run *S, st_ray *r, uint32_t slot)
 {
     rt_rec_set_gen(S->rec, r->gen);
     charge(S, RT_SK_SETUP, slot);
     k_setup(S, r);
+    if (!S->rec) {
+        br_trace_counted(S, r);
+        return;
+    }
     while (r->state != ST_DONE) {
         if (r->state == ST_TRAV) {
             charge(S, RT_SK_STEP, slot);
@@ -471,11 +521,11 @@ static void br_pixel(st_run *S, uint32_t pix, uint32_t sample, st_vec *stack, st
     S->rays_eye++;
     rt_rec_set_gen(S->rec, 0);
     charge(S, RT_SK_EYE, pix);
-    rt_grid_iter bb;
-    if (!rt_grid_iter_init(&bb, S->g, &r.r, r.r.tmin, r.r.tmax)) { /* outside the scene box: done */
+    if (!rt_grid_iter_init(&r.it, S->g, &r.r, r.r.tmin, r.r.tmax)) { /* outside the scene box: done */
         rt_hit_none(&r.h);
         finish_closest(S, &r, pix, shadows, stack, 1);
     } else {
+        r.ready = 1; /* the setup kernel reuses the iterator */
         stack->n = 0;
         vec_push(S, stack, &r);
         while (stack->n && !S->err) {
@@ -582,9 +632,9 @@ static void mp_closest(st_run *S, st_ray *a, size_t n, int first, st_vec *shadow
     if (first) {
         mp_pass(S, RT_SK_EYE, ST_PASS_OTHER, n, n);
         for (size_t i = 0; i < n; i++) {
-            rt_grid_iter bb;
             charge(S, RT_SK_EYE, (uint32_t)i);
-            a[i].state = rt_grid_iter_init(&bb, S->g, &a[i].r, a[i].r.tmin, a[i].r.tmax) ? ST_TRAV : ST_DONE;
+            a[i].state = rt_grid_iter_init(&a[i].it, S->g, &a[i].r, a[i].r.tmin, a[i].r.tmax) ? ST_TRAV : ST_DONE;
+            a[i].ready = a[i].state == ST_TRAV; /* the setup kernel reuses the iterator */
             if (a[i].state == ST_DONE) rt_hit_none(&a[i].h);
         }
     }
