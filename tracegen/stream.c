@@ -293,7 +293,7 @@ static void k_setup(st_run *S, st_ray *r)
 }
 
 /* One traversal step without its texel accounting (k_step charges it). */
-static inline void k_step_body(st_run *S, st_ray *r)
+static RT_ALWAYS_INLINE void k_step_body(st_run *S, st_ray *r)
 {
     const uint32_t w = S->g->cells[r->c.id];
     r->nstep++;
@@ -318,7 +318,7 @@ static void k_step(st_run *S, st_ray *r)
 }
 
 /* One intersection test without its texel accounting (k_isect charges it). */
-static inline void k_isect_body(st_run *S, st_ray *r)
+static RT_ALWAYS_INLINE void k_isect_body(st_run *S, st_ray *r)
 {
     const rt_grid *g = S->g;
     const uint32_t tri = g->list[r->lpos];
