@@ -6,8 +6,9 @@
  * ray; pass counts, per-ray maxima and SIMD efficiency on a hand-built
  * scene are computed by hand; every recorded access lies in its region and
  * the recorded bytes equal the per-kernel and per-data-type counters; the
- * words per kernel follow Table 1; the cost model equals the exact counts
- * when every ray enters the grid; bad options are refused. */
+ * words per kernel follow Table 1; untraced branching runs (per-ray
+ * counters) give the traced runs' statistics; the cost model equals the
+ * exact counts when every ray enters the grid; bad options are refused. */
 #include "camera.h"
 #include "db.h"
 #include "experiment.h"
@@ -200,6 +201,17 @@ static void test_scene(const char *spec, const char *mat, int W, int H)
         rt_image *mp = run(sc, kd, "stream-multipass", &o, &c2, &s2, &L2);
         const char *mn = rt_render_mode_name(modes[m]);
         CHECK(same_rgb(ref, br), "%s %s: branching image differs", spec, mn);
+        {
+            /* untraced, branching counts kernels per ray instead of per
+             * access: every statistic must be the traced run's */
+            rt_run_stats su;
+            rt_image *bu = run(sc, kd, "stream-branching", &o, NULL, &su, NULL);
+            CHECK(same_rgb(ref, bu), "%s %s: untraced branching image differs", spec, mn);
+            CHECK(!strcmp(su.extra, s1.extra) && su.nodes == s1.nodes && su.tests == s1.tests &&
+                      su.rays_primary == s1.rays_primary && su.rays_shadow == s1.rays_shadow,
+                  "%s %s: untraced branching statistics differ:\n  %s\n  %s", spec, mn, su.extra, s1.extra);
+            rt_image_free(bu);
+        }
         CHECK(same_rgb(ref, mp), "%s %s: multipass image differs", spec, mn);
         CHECK(s1.rays_primary == s0.rays_primary && s1.rays_shadow == s0.rays_shadow, "%s %s: rays %" PRIu64 "+%" PRIu64 " vs %" PRIu64 "+%" PRIu64,
               spec, mn, s1.rays_primary, s1.rays_shadow, s0.rays_primary, s0.rays_shadow);
