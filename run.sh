@@ -21,19 +21,31 @@ db="$out/raytraffic.db"
 # Reduced experiments of the primary-ray runs (half resolution, 1 in 4 tiles
 # of 8x8 pixels), compared with the full runs by report --speed-error.
 "$rt" sweep --preset quick --lights primary --jobs "$(nproc)" --db "$db" --proxy res:128,sub:4
+# The other two papers' tracers, small and quick: Purcell et al.'s streaming
+# tracers ray-cast the bunny; the knot with a mirror finish and one light,
+# Whitted depth 2 (Ralovich & Magdics' Figure 1c), through the recursive,
+# dynamic, feedback and multipass tracers for the ray-state comparison.
+"$rt" sweep --scenes bunny --tracers stream-branching,stream-multipass --lights primary -W 256 -H 256 \
+    --jobs "$(nproc)" --db "$db"
+"$rt" sweep --scenes knot --tracers recursive,dynamic,feedback,stream-multipass --modes whitted --depth 2 \
+    --lights 0 -W 256 -H 256 --jobs "$(nproc)" --db "$db"
 plots="no plots (gnuplot missing)"
 plotarg=()
 if command -v gnuplot >/dev/null 2>&1; then
     "$rt" report --db "$db" --figure scenes --plot "$out/plots" > /dev/null && plots="$out/plots/"
     plotarg=(--plot "$out/plots")
 fi
-{ "$rt" report --db "$db" --compare-paper; echo; "$rt" report --db "$db" --speed-error "${plotarg[@]}"; } > "$out/report.md"
+{ "$rt" report --db "$db" --compare-paper; echo; "$rt" report --db "$db" --speed-error "${plotarg[@]}"
+  echo; "$rt" report --db "$db" --figure purcell --compare-paper "${plotarg[@]}"
+  echo; "$rt" report --db "$db" --figure feedback "${plotarg[@]}"
+  echo; "$rt" report --db "$db" --figure secondary "${plotarg[@]}"; } > "$out/report.md"
 "$rt" render sphereflake -W 1024 -H 1024 --lights all -o "$out/sphereflake.exr" --png "$out/sphereflake.png" 2>/dev/null
 cat <<EOT
 
 raytraffic main job done:
   database  $db   (sqlite3 $db 'SELECT * FROM v_paper LIMIT 5')
-  report    $out/report.md   (Figures 3-9 and the comparison with the paper)
+  report    $out/report.md   (Figures 3-9 and the comparison with the paper; Purcell's
+            figures on the bunny; feedback records and secondary rays on the knot)
   plots     $plots
   image     $out/sphereflake.exr (preview $out/sphereflake.png)
 EOT

@@ -179,6 +179,10 @@ int rt_report_scene_index(const rt_report *R, const char *label)
     return -1;
 }
 
+/* Runs that belong in the paper's figures: its three tracers, primary and
+ * shadow rays only (no mode= parameter). */
+#define PAPER_RUNS "r.tracer IN ('recursive', 'packet', 'dynamic') AND r.params NOT LIKE '%mode=%'"
+
 int rt_report_init(rt_report *R, sqlite3 *h, const char *dbpath, const rt_report_opts *o, rt_err *e)
 {
     memset(R, 0, sizeof *R);
@@ -197,7 +201,8 @@ int rt_report_init(rt_report *R, sqlite3 *h, const char *dbpath, const rt_report
     if (o->model && (model = rt_exp_model_find(o->model)) < 0)
         return rt_errf(e, "model '%s' is not lean or paper", o->model);
     if (!R->W) {
-        st = rt_report_stmt(h, "SELECT W, H FROM runs WHERE sim_method = 'exact' ORDER BY W * H DESC LIMIT 1", dbpath,
+        st = rt_report_stmt(h, "SELECT W, H FROM runs WHERE sim_method = 'exact' AND tracer IN ('recursive', 'packet', 'dynamic')"
+                            " ORDER BY W * H DESC LIMIT 1", dbpath,
                             e, "");
         if (!st) return -1;
         if ((rc = sqlite3_step(st)) == SQLITE_ROW) {
@@ -208,15 +213,17 @@ int rt_report_init(rt_report *R, sqlite3 *h, const char *dbpath, const rt_report
     }
     if (rt_report_set_model(R, model, e) < 0) return -1;
     /* scenes, one per (name, content hash), in the paper's order first,
+     * of runs of the paper's tracers in its modes (render modes of other
+     * papers' tracers have reports of their own: --figure purcell, ...),
      * then the rest by label; the latest known place of a mesh file */
     char *sql = rt_report_label_sql(
         h,
         has_paths(h)
             ? "SELECT @LABEL@ AS label, s.name, s.hash, MAX(s.abspath) FROM runs r JOIN scenes s ON s.id = r.scene_id"
-              " WHERE r.W = ?1 AND r.H = ?2 GROUP BY s.name, s.hash ORDER BY CASE s.name WHEN 'room' THEN 0 WHEN"
+              " WHERE r.W = ?1 AND r.H = ?2 AND " PAPER_RUNS " GROUP BY s.name, s.hash ORDER BY CASE s.name WHEN 'room' THEN 0 WHEN"
               " 'grove' THEN 1 WHEN 'sphereflake' THEN 2 ELSE 3 END, label"
             : "SELECT @LABEL@ AS label, s.name, s.hash, '' FROM runs r JOIN scenes s ON s.id = r.scene_id"
-              " WHERE r.W = ?1 AND r.H = ?2 GROUP BY s.name, s.hash ORDER BY CASE s.name WHEN 'room' THEN 0 WHEN"
+              " WHERE r.W = ?1 AND r.H = ?2 AND " PAPER_RUNS " GROUP BY s.name, s.hash ORDER BY CASE s.name WHEN 'room' THEN 0 WHEN"
               " 'grove' THEN 1 WHEN 'sphereflake' THEN 2 ELSE 3 END, label",
         e);
     if (!sql) return -1;
