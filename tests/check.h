@@ -121,6 +121,17 @@ static inline char *check_path(const char *name)
     return p;
 }
 
+/* Writes n bytes of data to path (created or truncated); exits on
+ * failure (a test that cannot write its input cannot check anything). */
+static inline void check_write_file(const char *path, const void *data, size_t n)
+{
+    FILE *f = fopen(path, "wb");
+    if (!f || fwrite(data, 1, n, f) != n || fclose(f) != 0) {
+        perror(path);
+        exit(1);
+    }
+}
+
 /* Removes dir and everything in it, without a shell (depth first, links
  * removed, not followed). 0, or -1 if something could not be removed. */
 static inline int check_rm_tree(const char *dir)

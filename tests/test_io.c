@@ -29,25 +29,6 @@
 
 
 
-static char tmpdir[256];
-
-static const char *tpath(const char *name)
-{
-    static char buf[8][600];
-    static int k;
-    k = (k + 1) & 7;
-    snprintf(buf[k], sizeof buf[k], "%s/%s", tmpdir, name);
-    return buf[k];
-}
-
-static void write_file(const char *path, const void *data, size_t n)
-{
-    FILE *f = fopen(path, "wb");
-    if (!f || fwrite(data, 1, n, f) != n || fclose(f) != 0) {
-        perror(path);
-        exit(1);
-    }
-}
 
 /* Whole file as a NUL-terminated string (caller frees), or NULL. */
 static char *read_all(const char *path, size_t *pn)
@@ -60,10 +41,10 @@ static char *read_all(const char *path, size_t *pn)
     return b;
 }
 
-/* Names in tmpdir (besides "." and ".."), to catch leftover temporaries. */
+/* Names in check_dir (besides "." and ".."), to catch leftover temporaries. */
 static int count_entries(void)
 {
-    DIR *d = opendir(tmpdir);
+    DIR *d = opendir(check_dir);
     int n = 0;
     struct dirent *de;
     while (d && (de = readdir(d)))
@@ -74,11 +55,11 @@ static int count_entries(void)
 
 static void clean_dir(void)
 {
-    DIR *d = opendir(tmpdir);
+    DIR *d = opendir(check_dir);
     struct dirent *de;
     while (d && (de = readdir(d))) {
         if (!strcmp(de->d_name, ".") || !strcmp(de->d_name, "..")) continue;
-        const char *p = tpath(de->d_name);
+        const char *p = check_path(de->d_name);
         if (unlink(p) != 0) rmdir(p);
     }
     if (d) closedir(d);
@@ -101,64 +82,64 @@ static void test_outfile_rules(void)
     clean_dir();
 
     /* missing target: created whole, with the umask's mode, nothing else */
-    CHECK(write_text(tpath("a.txt"), "hello\n", &e) == 0, "write: %s", e.msg);
-    char *b = read_all(tpath("a.txt"), NULL);
+    CHECK(write_text(check_path("a.txt"), "hello\n", &e) == 0, "write: %s", e.msg);
+    char *b = read_all(check_path("a.txt"), NULL);
     CHECK(b && !strcmp(b, "hello\n"), "content '%s'", b ? b : "(none)");
     free(b);
     mode_t um = umask(022);
     umask(um);
-    CHECK(stat(tpath("a.txt"), &st) == 0 && (st.st_mode & 0777) == (0666 & ~um), "mode %o",
+    CHECK(stat(check_path("a.txt"), &st) == 0 && (st.st_mode & 0777) == (0666 & ~um), "mode %o",
           (unsigned)(st.st_mode & 0777));
     CHECK(count_entries() == 1, "%d entries after one write", count_entries());
 
     /* existing regular target: replaced, its mode kept */
-    chmod(tpath("a.txt"), 0640);
-    CHECK(write_text(tpath("a.txt"), "second\n", &e) == 0, "rewrite: %s", e.msg);
-    b = read_all(tpath("a.txt"), NULL);
+    chmod(check_path("a.txt"), 0640);
+    CHECK(write_text(check_path("a.txt"), "second\n", &e) == 0, "rewrite: %s", e.msg);
+    b = read_all(check_path("a.txt"), NULL);
     CHECK(b && !strcmp(b, "second\n"), "content '%s'", b ? b : "(none)");
     free(b);
-    CHECK(stat(tpath("a.txt"), &st) == 0 && (st.st_mode & 0777) == 0640, "mode %o not kept",
+    CHECK(stat(check_path("a.txt"), &st) == 0 && (st.st_mode & 0777) == 0640, "mode %o not kept",
           (unsigned)(st.st_mode & 0777));
 
     /* symlink to a regular file: the link stays a link, the file changes */
-    CHECK(symlink("a.txt", tpath("link")) == 0, "symlink");
-    CHECK(write_text(tpath("link"), "via link\n", &e) == 0, "via link: %s", e.msg);
-    CHECK(lstat(tpath("link"), &st) == 0 && S_ISLNK(st.st_mode), "the link was replaced");
-    b = read_all(tpath("a.txt"), NULL);
+    CHECK(symlink("a.txt", check_path("link")) == 0, "symlink");
+    CHECK(write_text(check_path("link"), "via link\n", &e) == 0, "via link: %s", e.msg);
+    CHECK(lstat(check_path("link"), &st) == 0 && S_ISLNK(st.st_mode), "the link was replaced");
+    b = read_all(check_path("a.txt"), NULL);
     CHECK(b && !strcmp(b, "via link\n"), "target content '%s'", b ? b : "(none)");
     free(b);
 
     /* dangling symlink (and a chain of two): creates the target */
-    CHECK(symlink("new.txt", tpath("dangle")) == 0 && symlink("dangle", tpath("chain")) == 0, "symlink");
-    CHECK(write_text(tpath("chain"), "new\n", &e) == 0, "dangling: %s", e.msg);
-    CHECK(lstat(tpath("chain"), &st) == 0 && S_ISLNK(st.st_mode), "chain link replaced");
-    CHECK(lstat(tpath("new.txt"), &st) == 0 && S_ISREG(st.st_mode), "target not created");
+    CHECK(symlink("new.txt", check_path("dangle")) == 0 && symlink("dangle", check_path("chain")) == 0, "symlink");
+    CHECK(write_text(check_path("chain"), "new\n", &e) == 0, "dangling: %s", e.msg);
+    CHECK(lstat(check_path("chain"), &st) == 0 && S_ISLNK(st.st_mode), "chain link replaced");
+    CHECK(lstat(check_path("new.txt"), &st) == 0 && S_ISREG(st.st_mode), "target not created");
 
     /* directory: a clear error, nothing left inside */
-    CHECK(mkdir(tpath("d"), 0755) == 0, "mkdir");
+    CHECK(mkdir(check_path("d"), 0755) == 0, "mkdir");
     int before = count_entries();
-    CHECK(write_text(tpath("d"), "x", &e) < 0 && strstr(e.msg, "is a directory"), "directory: '%s'", e.msg);
+    CHECK(write_text(check_path("d"), "x", &e) < 0 && strstr(e.msg, "is a directory"), "directory: '%s'", e.msg);
     CHECK(count_entries() == before, "entries changed");
-    CHECK(rmdir(tpath("d")) == 0, "directory not empty: a temporary was left in it");
+    CHECK(rmdir(check_path("d")) == 0, "directory not empty: a temporary was left in it");
 
     /* symlink loop */
-    CHECK(symlink("loop2", tpath("loop1")) == 0 && symlink("loop1", tpath("loop2")) == 0, "symlink");
-    CHECK(write_text(tpath("loop1"), "x", &e) < 0 && strstr(e.msg, "symbolic links"), "loop: '%s'", e.msg);
+    CHECK(symlink("loop2", check_path("loop1")) == 0 && symlink("loop1", check_path("loop2")) == 0, "symlink");
+    CHECK(write_text(check_path("loop1"), "x", &e) < 0 && strstr(e.msg, "symbolic links"), "loop: '%s'", e.msg);
 
     /* devices through a link: written in place, the link and device stay */
-    CHECK(symlink("/dev/null", tpath("null")) == 0, "symlink");
-    CHECK(write_text(tpath("null"), "gone\n", &e) == 0, "/dev/null: %s", e.msg);
-    CHECK(lstat(tpath("null"), &st) == 0 && S_ISLNK(st.st_mode), "link to /dev/null replaced");
+    CHECK(symlink("/dev/null", check_path("null")) == 0, "symlink");
+    CHECK(write_text(check_path("null"), "gone\n", &e) == 0, "/dev/null: %s", e.msg);
+    CHECK(lstat(check_path("null"), &st) == 0 && S_ISLNK(st.st_mode), "link to /dev/null replaced");
     CHECK(stat("/dev/null", &st) == 0 && S_ISCHR(st.st_mode), "/dev/null is no longer a device");
     if (stat("/dev/full", &st) == 0 && S_ISCHR(st.st_mode)) {
-        CHECK(symlink("/dev/full", tpath("full")) == 0, "symlink");
-        CHECK(write_text(tpath("full"), "x\n", &e) < 0 && strstr(e.msg, "No space left"), "/dev/full: '%s'",
+        CHECK(symlink("/dev/full", check_path("full")) == 0, "symlink");
+        CHECK(write_text(check_path("full"), "x\n", &e) < 0 && strstr(e.msg, "No space left"), "/dev/full: '%s'",
               e.msg);
     }
 
     /* abort: no file, no temporary */
     before = count_entries();
-    rt_out *o = rt_out_open(tpath("aborted"), &e);
+    rt_out *o = rt_out_open(check_path("aborted"), &e);
     CHECK(o != NULL, "open: %s", e.msg);
     if (o) fputs("partial", rt_out_stream(o));
     rt_out_abort(o);
@@ -173,18 +154,18 @@ static void test_outfile_faults(void)
 {
     rt_err e = {""};
     clean_dir();
-    write_file(tpath("keep.txt"), "old\n", 4);
+    check_write_file(check_path("keep.txt"), "old\n", 4);
     for (long long k = 0; k < 12; k++) {
         rt_out_fail_after = k;
-        int rc = write_text(tpath("keep.txt"), "0123456789ab", &e);
+        int rc = write_text(check_path("keep.txt"), "0123456789ab", &e);
         CHECK(rc < 0 && strstr(e.msg, "No space left"), "fail after %lld: rc %d '%s'", k, rc, e.msg);
-        char *b = read_all(tpath("keep.txt"), NULL);
+        char *b = read_all(check_path("keep.txt"), NULL);
         CHECK(b && !strcmp(b, "old\n"), "after %lld: target changed to '%s'", k, b ? b : "(none)");
         free(b);
         CHECK(count_entries() == 1, "after %lld: %d entries", k, count_entries());
     }
     rt_out_fail_after = 12; /* exactly enough */
-    CHECK(write_text(tpath("keep.txt"), "0123456789ab", &e) == 0, "12 bytes allowed: %s", e.msg);
+    CHECK(write_text(check_path("keep.txt"), "0123456789ab", &e) == 0, "12 bytes allowed: %s", e.msg);
     rt_out_fail_after = -1;
     clean_dir();
 }
@@ -211,19 +192,19 @@ static void test_writers_faults(void)
         for (int pass = 0; pass < 2; pass++) {
             size_t full = 0;
             if (pass == 1) {
-                char *b = read_all(tpath(names[w]), &full);
+                char *b = read_all(check_path(names[w]), &full);
                 free(b);
-                unlink(tpath(names[w]));
+                unlink(check_path(names[w]));
                 rt_out_fail_after = (long long)(full / 2);
             }
             int rc;
             e.msg[0] = 0;
-            if (w == 0) rc = rt_png_write(tpath(names[w]), im, &e);
-            else if (w == 1) rc = rt_ppm_write(tpath(names[w]), im, &e);
-            else if (w == 2) rc = rt_exr_write(tpath(names[w]), im, NULL, 0, &e);
-            else if (w == 3) rc = s ? rt_scene_export_obj(s, tpath(names[w]), &e) : -1;
+            if (w == 0) rc = rt_png_write(check_path(names[w]), im, &e);
+            else if (w == 1) rc = rt_ppm_write(check_path(names[w]), im, &e);
+            else if (w == 2) rc = rt_exr_write(check_path(names[w]), im, NULL, 0, &e);
+            else if (w == 3) rc = s ? rt_scene_export_obj(s, check_path(names[w]), &e) : -1;
             else {
-                rt_tr_writer *tw = rt_tr_create(tpath(names[w]), &m, &e);
+                rt_tr_writer *tw = rt_tr_create(check_path(names[w]), &m, &e);
                 rc = tw ? 0 : -1;
                 rt_access a[100];
                 for (int i = 0; i < 100; i++) a[i] = (rt_access){(uint64_t)i * 4099u, 4, 0, 0, 0};
@@ -233,15 +214,15 @@ static void test_writers_faults(void)
             rt_out_fail_after = -1;
             struct stat st;
             if (pass == 0) {
-                CHECK(rc == 0 && stat(tpath(names[w]), &st) == 0 && st.st_size > 0, "%s: %s", names[w], e.msg);
+                CHECK(rc == 0 && stat(check_path(names[w]), &st) == 0 && st.st_size > 0, "%s: %s", names[w], e.msg);
             } else {
                 CHECK(rc < 0, "%s: failed write reported as success", names[w]);
                 CHECK(strstr(e.msg, "No space left") != NULL, "%s: message '%s'", names[w], e.msg);
-                CHECK(stat(tpath(names[w]), &st) != 0, "%s: half-written file left", names[w]);
+                CHECK(stat(check_path(names[w]), &st) != 0, "%s: half-written file left", names[w]);
                 CHECK(count_entries() == w, "%s: %d entries, temporary left?", names[w], count_entries());
             }
         }
-        write_file(tpath(names[w]), "x", 1); /* keep the count of entries simple */
+        check_write_file(check_path(names[w]), "x", 1); /* keep the count of entries simple */
     }
     rt_scene_free(s);
     rt_image_free(im);
@@ -252,10 +233,10 @@ static void test_writers_faults(void)
 
 static void ply_refused(const char *name, const char *text, const char *needle)
 {
-    write_file(tpath(name), text, strlen(text));
+    check_write_file(check_path(name), text, strlen(text));
     rt_err e = {""};
     double t0 = rt_now();
-    rt_scene *s = rt_scene_load_ply(tpath(name), &e);
+    rt_scene *s = rt_scene_load_ply(check_path(name), &e);
     double dt = rt_now() - t0;
     CHECK(s == NULL, "%s: accepted", name);
     CHECK(!needle || strstr(e.msg, needle), "%s: message '%s' lacks '%s'", name, e.msg, needle);
@@ -315,9 +296,9 @@ static void test_ply_counts(void)
     /* the well-formed file these were made from loads */
     const char *good = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
                        "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n" TRI_DATA;
-    write_file(tpath("good.ply"), good, strlen(good));
+    check_write_file(check_path("good.ply"), good, strlen(good));
     rt_err e = {""};
-    rt_scene *s = rt_scene_load_ply(tpath("good.ply"), &e);
+    rt_scene *s = rt_scene_load_ply(check_path("good.ply"), &e);
     CHECK(s && s->ntri == 1, "good.ply: %s", e.msg);
     rt_scene_free(s);
 }
@@ -338,8 +319,8 @@ static rt_scene *load_cube(const char *name, double scale, double off, rt_err *e
                       off + z * scale);
     }
     snprintf(text + k, sizeof text - (size_t)k, "%s", cube_faces);
-    write_file(tpath(name), text, strlen(text));
-    return rt_scene_load_obj(tpath(name), e);
+    check_write_file(check_path(name), text, strlen(text));
+    return rt_scene_load_obj(check_path(name), e);
 }
 
 static void cube_refused(const char *name, double scale, double off, const char *needle)
@@ -362,12 +343,12 @@ static void test_coord_range(void)
     /* within 1e13 but too small for its offset */
     cube_refused("off1e8.obj", 1, 1e8, "below 1/8192 of its largest coordinate");
     /* NaN and Inf with file:line */
-    write_file(tpath("nan.obj"), "v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n", 33);
-    rt_scene *s = rt_scene_load_obj(tpath("nan.obj"), &e);
+    check_write_file(check_path("nan.obj"), "v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n", 33);
+    rt_scene *s = rt_scene_load_obj(check_path("nan.obj"), &e);
     CHECK(!s && strstr(e.msg, "nan.obj:3: coordinate is not a finite number"), "nan: '%s'", e.msg);
     rt_scene_free(s);
-    write_file(tpath("inf.obj"), "v 0 0 0\nv -inf 0 0\nv 0 1 0\nf 1 2 3\n", 33);
-    s = rt_scene_load_obj(tpath("inf.obj"), &e);
+    check_write_file(check_path("inf.obj"), "v 0 0 0\nv -inf 0 0\nv 0 1 0\nf 1 2 3\n", 33);
+    s = rt_scene_load_obj(check_path("inf.obj"), &e);
     CHECK(!s && strstr(e.msg, "inf.obj:2: coordinate is not a finite number"), "inf: '%s'", e.msg);
     rt_scene_free(s);
     /* inside the range: accepted (largest extent, offset at the ratio) */
@@ -381,8 +362,8 @@ static void test_coord_range(void)
     const char *ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
                       "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
                       "0 0 0\n1e20 0 0\n0 1 0\n3 0 1 2\n";
-    write_file(tpath("far.ply"), ply, strlen(ply));
-    s = rt_scene_load_ply(tpath("far.ply"), &e);
+    check_write_file(check_path("far.ply"), ply, strlen(ply));
+    s = rt_scene_load_ply(check_path("far.ply"), &e);
     CHECK(!s && strstr(e.msg, "far.ply:11: vertex 1: coordinate 1e+20 out of range"), "far.ply: '%s'", e.msg);
     rt_scene_free(s);
     /* the built-in scenes are inside it */
@@ -451,9 +432,9 @@ static void test_small(void)
     CHECK(strlen(q) < 12 && strstr(q, "..."), "esc truncation '%s'", q);
 
     /* din: garbage after a NUL byte is refused with file:line */
-    write_file(tpath("nul.din"), "0 1000\n1 2000\0garbage\n", 22);
+    check_write_file(check_path("nul.din"), "0 1000\n1 2000\0garbage\n", 22);
     rt_err e = {""};
-    rt_din *d = rt_din_open(tpath("nul.din"), 0, &e);
+    rt_din *d = rt_din_open(check_path("nul.din"), 0, &e);
     CHECK(d != NULL, "din open: %s", e.msg);
     if (d) {
         rt_access a[8];
@@ -466,8 +447,7 @@ static void test_small(void)
 int main(void)
 {
     alarm(10); /* a spinning loader ends the test instead of hanging it */
-    snprintf(tmpdir, sizeof tmpdir, "/tmp/rt_test_io.XXXXXX");
-    if (!mkdtemp(tmpdir)) {
+    if (!check_tmpdir("test_io")) {
         perror("mkdtemp");
         return 1;
     }
@@ -480,7 +460,7 @@ int main(void)
     test_fit_aspect();
     test_small();
     clean_dir();
-    rmdir(tmpdir);
+    rmdir(check_dir);
     if (failures) fprintf(stderr, "%d failure(s)\n", failures);
     return failures ? 1 : 0;
 }

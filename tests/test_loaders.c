@@ -23,27 +23,8 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-static char tmpdir[256];
 
-static const char *tpath(const char *name)
-{
-    static char buf[4][600];
-    static int k;
-    k = (k + 1) & 3;
-    snprintf(buf[k], sizeof buf[k], "%s/%s", tmpdir, name);
-    return buf[k];
-}
-
-static void write_file(const char *path, const void *data, size_t n)
-{
-    FILE *f = fopen(path, "wb");
-    if (!f || fwrite(data, 1, n, f) != n || fclose(f) != 0) {
-        perror(path);
-        exit(1);
-    }
-}
-
-static void write_text(const char *path, const char *text) { write_file(path, text, strlen(text)); }
+static void write_text(const char *path, const char *text) { check_write_file(path, text, strlen(text)); }
 
 static const char *datafile(const char *name)
 {
@@ -62,8 +43,8 @@ static int veq(rt_vec3 a, float x, float y, float z) { return a.x == x && a.y ==
  * the file name and `needle`. */
 static void expect_fail_text(const char *name, const char *text, const char *needle)
 {
-    const char *p = tpath(name);
-    write_file(p, text, strlen(text));
+    const char *p = check_path(name);
+    check_write_file(p, text, strlen(text));
     rt_err e = {""};
     rt_scene *s = rt_scene_load(p, &e);
     CHECK(s == NULL, "%s accepted:\n%s", name, text);
@@ -75,8 +56,8 @@ static void expect_fail_text(const char *name, const char *text, const char *nee
 
 static rt_scene *expect_ok_text(const char *name, const char *text, uint32_t ntri)
 {
-    const char *p = tpath(name);
-    write_file(p, text, strlen(text));
+    const char *p = check_path(name);
+    check_write_file(p, text, strlen(text));
     rt_err e = {""};
     rt_scene *s = rt_scene_load(p, &e);
     CHECK(s != NULL, "%s rejected: %s", name, e.msg);
@@ -144,9 +125,9 @@ static void test_obj(void)
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) expect_fail_text(bad[i].name, bad[i].text, bad[i].needle);
     /* Embedded NUL byte. */
     const char nul[] = "v 0 0 0\nv 1 0\0 0\nv 0 1 0\nf 1 2 3\n";
-    write_file(tpath("nul.obj"), nul, sizeof nul - 1);
+    check_write_file(check_path("nul.obj"), nul, sizeof nul - 1);
     rt_err e2 = {""};
-    s = rt_scene_load(tpath("nul.obj"), &e2);
+    s = rt_scene_load(check_path("nul.obj"), &e2);
     CHECK(s == NULL && strstr(e2.msg, "nul.obj:2:"), "NUL byte: '%s'", e2.msg);
     rt_scene_free(s);
     /* Random corruption of an OBJ: any outcome but a crash. */
@@ -163,14 +144,14 @@ static void test_obj(void)
             st = st * 1664525u + 1013904223u;
             buf[at] = alphabet[(st >> 24) % (sizeof alphabet - 1)];
         }
-        write_file(tpath("fuzz.obj"), buf, sizeof good - 1 - (it % 7 == 0 ? it % 11 : 0));
+        check_write_file(check_path("fuzz.obj"), buf, sizeof good - 1 - (it % 7 == 0 ? it % 11 : 0));
         rt_err fe = {""};
-        rt_scene *t = rt_scene_load(tpath("fuzz.obj"), &fe);
+        rt_scene *t = rt_scene_load(check_path("fuzz.obj"), &fe);
         if (!t) CHECK(strstr(fe.msg, "fuzz.obj") != NULL, "fuzz: message '%s'", fe.msg);
         rt_scene_free(t);
     }
     /* Missing file. */
-    s = rt_scene_load(tpath("missing.obj"), &e2);
+    s = rt_scene_load(check_path("missing.obj"), &e2);
     CHECK(s == NULL && strstr(e2.msg, "missing.obj"), "missing file: '%s'", e2.msg);
     rt_scene_free(s);
 }
@@ -275,9 +256,9 @@ static void test_ply_formats(void)
         make_ply(&w, fmts[i]);
         char name[64];
         snprintf(name, sizeof name, "pyr_%d.ply", i);
-        write_file(tpath(name), w.d, w.n);
+        check_write_file(check_path(name), w.d, w.n);
         rt_err e = {""};
-        sc[i] = rt_scene_load(tpath(name), &e);
+        sc[i] = rt_scene_load(check_path(name), &e);
         CHECK(sc[i] != NULL, "%s: %s", fmts[i], e.msg);
         if (sc[i]) CHECK(sc[i]->ntri == 6, "%s: %u triangles", fmts[i], sc[i]->ntri);
     }
@@ -304,10 +285,10 @@ static void test_ply_formats(void)
         make_ply(&w, fmts[f]);
         int bad = 0;
         for (size_t n = 0; n < w.n; n++) {
-            write_file(tpath("trunc.ply"), w.d, n);
+            check_write_file(check_path("trunc.ply"), w.d, n);
             rt_err te = {""};
-            rt_scene *t = rt_scene_load(tpath("trunc.ply"), &te);
-            if (t || !strstr(te.msg, tpath("trunc.ply")) || strchr(te.msg, '\n')) {
+            rt_scene *t = rt_scene_load(check_path("trunc.ply"), &te);
+            if (t || !strstr(te.msg, check_path("trunc.ply")) || strchr(te.msg, '\n')) {
                 if (!bad) fprintf(stderr, "truncation at %zu of %zu: %s\n", n, w.n, t ? "accepted" : te.msg);
                 bad++;
             }
@@ -320,9 +301,9 @@ static void test_ply_formats(void)
     int bad = 0;
     for (size_t n = 0; n < w.n; n++) {
         if (n && w.d[n - 1] != '\n') continue;
-        write_file(tpath("trunc_a.ply"), w.d, n);
+        check_write_file(check_path("trunc_a.ply"), w.d, n);
         rt_err te = {""};
-        rt_scene *t = rt_scene_load(tpath("trunc_a.ply"), &te);
+        rt_scene *t = rt_scene_load(check_path("trunc_a.ply"), &te);
         if (t || !strstr(te.msg, "trunc_a.ply")) bad++;
         rt_scene_free(t);
     }
@@ -341,9 +322,9 @@ static void test_ply_formats(void)
             st = st * 1664525u + 1013904223u;
             c.d[at] = (unsigned char)(st >> 24);
         }
-        write_file(tpath("fuzz.ply"), c.d, c.n);
+        check_write_file(check_path("fuzz.ply"), c.d, c.n);
         rt_err fe = {""};
-        rt_scene *t = rt_scene_load(tpath("fuzz.ply"), &fe);
+        rt_scene *t = rt_scene_load(check_path("fuzz.ply"), &fe);
         if (!t) CHECK(strstr(fe.msg, "fuzz.ply") != NULL, "fuzz: message '%s'", fe.msg);
         rt_scene_free(t);
     }
@@ -420,16 +401,16 @@ static void test_ply_malformed(void)
     put(&w, &three, 1, 0);
     int32_t idx[3] = {0, 1, 5};
     for (int i = 0; i < 3; i++) put(&w, &idx[i], 4, swap);
-    write_file(tpath("b_range.ply"), w.d, w.n);
+    check_write_file(check_path("b_range.ply"), w.d, w.n);
     rt_err e = {""};
-    rt_scene *s = rt_scene_load(tpath("b_range.ply"), &e);
+    rt_scene *s = rt_scene_load(check_path("b_range.ply"), &e);
     char want[64];
     snprintf(want, sizeof want, "byte %zu: face 0: vertex index 5 out of range", hl + 36 + 1 + 8);
     CHECK(s == NULL && strstr(e.msg, want), "binary range: '%s' (want '%s')", e.msg, want);
     rt_scene_free(s);
     w.d[hl + 4] = 0, w.d[hl + 5] = 0, w.d[hl + 6] = 0xc0, w.d[hl + 7] = 0x7f; /* y of vertex 0: NaN (LE) */
-    write_file(tpath("b_nan.ply"), w.d, w.n);
-    s = rt_scene_load(tpath("b_nan.ply"), &e);
+    check_write_file(check_path("b_nan.ply"), w.d, w.n);
+    s = rt_scene_load(check_path("b_nan.ply"), &e);
     snprintf(want, sizeof want, "byte %zu: vertex 0: coordinate is not a finite", hl + 4);
     CHECK(s == NULL && strstr(e.msg, want), "binary NaN: '%s' (want '%s')", e.msg, want);
     rt_scene_free(s);
@@ -498,11 +479,11 @@ static int rgb_is(const float *c, float r, float g, float b) { return c[0] == r 
 static void test_mtl_cornell(void)
 {
     char dir[600], obj[700];
-    snprintf(dir, sizeof dir, "%s/cb", tmpdir);
+    snprintf(dir, sizeof dir, "%s/cb", check_dir);
     mkdir(dir, 0700);
     snprintf(obj, sizeof obj, "%s/CornellBox-Original.obj", dir);
-    write_file(tpath("cb/CornellBox-Original.mtl"), cb_mtl, strlen(cb_mtl));
-    write_file(obj, cb_obj, strlen(cb_obj));
+    check_write_file(check_path("cb/CornellBox-Original.mtl"), cb_mtl, strlen(cb_mtl));
+    check_write_file(obj, cb_obj, strlen(cb_obj));
     rt_err e = {""};
     rt_scene *s = rt_scene_load(obj, &e); /* the MTL is found beside the OBJ, not in the working folder */
     CHECK(s != NULL, "CornellBox-Original: %s", e.msg);
@@ -537,10 +518,10 @@ static rt_scene *load_mtl_text(const char *name, const char *mtl, rt_err *e)
     char mname[64], oname[64], obj[256];
     snprintf(mname, sizeof mname, "%s.mtl", name);
     snprintf(oname, sizeof oname, "%s.obj", name);
-    write_file(tpath(mname), mtl, strlen(mtl));
+    check_write_file(check_path(mname), mtl, strlen(mtl));
     snprintf(obj, sizeof obj, "mtllib %s\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl m\nf 1 2 3\n", mname);
-    write_file(tpath(oname), obj, strlen(obj));
-    return rt_scene_load(tpath(oname), e);
+    check_write_file(check_path(oname), obj, strlen(obj));
+    return rt_scene_load(check_path(oname), e);
 }
 
 static void test_mtl_mapping(void)
@@ -588,8 +569,8 @@ static void test_mtl_mapping(void)
         rt_scene_free(s);
     }
     /* Several libraries on one mtllib line; a later one defines m. */
-    write_text(tpath("a.mtl"), "newmtl x\nKd 1 0 0\n");
-    write_text(tpath("b.mtl"), "newmtl m\nKd 0 0 1\nillum 3\nKs 0.5\n");
+    write_text(check_path("a.mtl"), "newmtl x\nKd 1 0 0\n");
+    write_text(check_path("b.mtl"), "newmtl m\nKd 0 0 1\nillum 3\nKs 0.5\n");
     const char two[] = "mtllib a.mtl   b.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl x\nf 1 2 3\nusemtl m\nf 1 2 3\n";
     s = expect_ok_text("two.obj", two, 2);
     if (s && s->ntri == 2) {
@@ -632,7 +613,7 @@ static void test_mtl_errors(void)
         rt_scene_free(s);
     }
     /* OBJ side: usemtl of an undefined material, names missing. */
-    write_text(tpath("ok.mtl"), "newmtl m\nKd 1 0 0\n");
+    write_text(check_path("ok.mtl"), "newmtl m\nKd 1 0 0\n");
     static const struct {
         const char *name, *text, *needle;
     } obad[] = {
@@ -667,7 +648,7 @@ static void test_mtl_errors(void)
         rt_scene_free(s);
     }
     /* A library that is a folder, not a file: an error, not a warning. */
-    mkdir(tpath("dir.mtl"), 0700);
+    mkdir(check_path("dir.mtl"), 0700);
     expect_fail_text("dirlib.obj", "mtllib dir.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
                      "dirlib.obj:1: material library ");
 }
@@ -677,7 +658,7 @@ static void test_mtl_errors(void)
 static void test_mtl_missing(void)
 {
     const char text[] = "v 0 0 0\nv 1 0 0\nv 0 1 0\nmtllib gone.mtl ok2.mtl\nusemtl m\nf 1 2 3\nusemtl x\nf 1 2 3\n";
-    write_text(tpath("ok2.mtl"), "newmtl x\nillum 3\nKs 0.5\nKd 0 1 0\n");
+    write_text(check_path("ok2.mtl"), "newmtl x\nillum 3\nKs 0.5\nKd 0 1 0\n");
     rt_scene *s = expect_ok_text("missing.obj", text, 2);
     if (s) {
         CHECK(strstr(s->warning, "missing.obj:4: material library ") && strstr(s->warning, "gone.mtl not found") &&
@@ -743,9 +724,7 @@ static void test_mesh_hashes(void)
 
 int main(void)
 {
-    const char *td = getenv("TMPDIR");
-    snprintf(tmpdir, sizeof tmpdir, "%s/rt_test_loaders.XXXXXX", td && *td ? td : "/tmp");
-    if (!mkdtemp(tmpdir)) {
+    if (!check_tmpdir("test_loaders")) {
         perror("mkdtemp");
         return 1;
     }
@@ -757,7 +736,7 @@ int main(void)
     test_mtl_errors();
     test_mtl_missing();
     test_mesh_hashes();
-    if (check_rm_tree(tmpdir) != 0) fprintf(stderr, "warning: could not remove %s\n", tmpdir);
+    if (check_rm_tree(check_dir) != 0) fprintf(stderr, "warning: could not remove %s\n", check_dir);
     if (failures) fprintf(stderr, "%d failure(s)\n", failures);
     else printf("test_loaders: all passed\n");
     return failures ? 1 : 0;
