@@ -400,6 +400,22 @@ static const char *nz(const char *s) { return s ? s : ""; }
 
 static void hex64(char out[17], uint64_t v) { snprintf(out, 17, "%016llx", (unsigned long long)v); }
 
+/* Binds the run's own identity columns (tracer, W, H, lights, sched_size,
+ * gmax, params, sim_method, sim_params) to parameters first..first+8: the
+ * same columns, in the same order, in S_RUN_GET and S_RUN_INS. */
+static void bind_run_cols(sqlite3_stmt *st, int first, const rt_db_run *r)
+{
+    sqlite3_bind_text(st, first, nz(r->tracer), -1, SQLITE_TRANSIENT);
+    sqlite3_bind_int(st, first + 1, r->W);
+    sqlite3_bind_int(st, first + 2, r->H);
+    sqlite3_bind_int64(st, first + 3, r->lights);
+    sqlite3_bind_int64(st, first + 4, (sqlite3_int64)r->sched_size);
+    sqlite3_bind_int64(st, first + 5, (sqlite3_int64)r->gmax);
+    sqlite3_bind_text(st, first + 6, nz(r->params), -1, SQLITE_TRANSIENT);
+    sqlite3_bind_text(st, first + 7, r->sim_method ? r->sim_method : "exact", -1, SQLITE_TRANSIENT);
+    sqlite3_bind_text(st, first + 8, nz(r->sim_params), -1, SQLITE_TRANSIENT);
+}
+
 /* Binds the 12 identity parameters of S_RUN_GET. */
 static void bind_key(sqlite3_stmt *st, const rt_db_run *r, char *hash)
 {
@@ -407,15 +423,7 @@ static void bind_key(sqlite3_stmt *st, const rt_db_run *r, char *hash)
     sqlite3_bind_text(st, 1, nz(r->scene), -1, SQLITE_TRANSIENT);
     sqlite3_bind_text(st, 2, nz(r->scene_params), -1, SQLITE_TRANSIENT);
     sqlite3_bind_text(st, 3, hash, -1, SQLITE_TRANSIENT);
-    sqlite3_bind_text(st, 4, nz(r->tracer), -1, SQLITE_TRANSIENT);
-    sqlite3_bind_int(st, 5, r->W);
-    sqlite3_bind_int(st, 6, r->H);
-    sqlite3_bind_int64(st, 7, r->lights);
-    sqlite3_bind_int64(st, 8, (sqlite3_int64)r->sched_size);
-    sqlite3_bind_int64(st, 9, (sqlite3_int64)r->gmax);
-    sqlite3_bind_text(st, 10, nz(r->params), -1, SQLITE_TRANSIENT);
-    sqlite3_bind_text(st, 11, r->sim_method ? r->sim_method : "exact", -1, SQLITE_TRANSIENT);
-    sqlite3_bind_text(st, 12, nz(r->sim_params), -1, SQLITE_TRANSIENT);
+    bind_run_cols(st, 4, r);
 }
 
 /* Runs a statement expecting at most one integer row. 1 = row, 0 = none, -1 = error. */
@@ -558,15 +566,7 @@ static int store(rt_db *db, const rt_db_run *r, const rt_db_traffic *rows, size_
     } else {
         sqlite3_stmt *in = st[S_RUN_INS];
         sqlite3_bind_int64(in, 1, scene_id);
-        sqlite3_bind_text(in, 2, nz(r->tracer), -1, SQLITE_TRANSIENT);
-        sqlite3_bind_int(in, 3, r->W);
-        sqlite3_bind_int(in, 4, r->H);
-        sqlite3_bind_int64(in, 5, r->lights);
-        sqlite3_bind_int64(in, 6, (sqlite3_int64)r->sched_size);
-        sqlite3_bind_int64(in, 7, (sqlite3_int64)r->gmax);
-        sqlite3_bind_text(in, 8, nz(r->params), -1, SQLITE_TRANSIENT);
-        sqlite3_bind_text(in, 9, r->sim_method ? r->sim_method : "exact", -1, SQLITE_TRANSIENT);
-        sqlite3_bind_text(in, 10, nz(r->sim_params), -1, SQLITE_TRANSIENT);
+        bind_run_cols(in, 2, r);
         sqlite3_bind_text(in, 11, thash, -1, SQLITE_TRANSIENT);
         sqlite3_bind_int64(in, 12, (sqlite3_int64)r->refs);
         sqlite3_bind_text(in, 13, ver, -1, SQLITE_TRANSIENT);
