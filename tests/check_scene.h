@@ -2,11 +2,14 @@
  * check_scene.h -- building small scenes by hand in the tests: a grey
  * triangle appended, a scene finished, each exiting with the library's
  * message on failure (a test that cannot build its input cannot check
- * anything). Static inline, like check.h.
+ * anything), and the random triangle soup and the SPD-style sphere the
+ * k-d tree and grid tests compare against brute force. Static inline, like
+ * check.h.
  */
 #ifndef RT_CHECK_SCENE_H
 #define RT_CHECK_SCENE_H
 
+#include "check.h"
 #include "scene.h"
 
 #include <stdio.h>
@@ -32,6 +35,71 @@ static inline void finish(rt_scene *s)
         fprintf(stderr, "finish: %s\n", e.msg);
         exit(1);
     }
+}
+
+/* A soup of n triangles in [0,1]^3 with awkward members mixed in. */
+static inline rt_scene *make_soup(uint32_t n)
+{
+    rt_scene *s = rt_scene_new(n, NULL);
+    if (!s) exit(1);
+    for (uint32_t i = 0; i < n; i++) {
+        int kind = (int)(rnd64() % 16);
+        rt_vec3 c = rt_v3(uf(0, 1), uf(0, 1), uf(0, 1));
+        float sz = kind == 0 ? 0.5f : (kind < 4 ? 0.002f : 0.05f);
+        if (kind == 4 || kind == 5) {
+            /* Axis-aligned flat triangle on a coarse grid: split planes
+             * coincide with it and with neighbours. */
+            int ax = (int)(rnd64() % 3);
+            float g = (float)(rnd64() % 9) / 8.0f;
+            rt_vec3 p[3];
+            for (int k = 0; k < 3; k++) {
+                p[k] = rt_v3((float)(rnd64() % 9) / 8.0f, (float)(rnd64() % 9) / 8.0f,
+                             (float)(rnd64() % 9) / 8.0f);
+                rt_set_axis(&p[k], ax, g);
+            }
+            add(s, p[0], p[1], p[2]);
+        } else if (kind == 6) {
+            /* Degenerate: repeated vertex or exactly collinear. */
+            rt_vec3 a = c, b = rt_add(c, rt_v3(0.125f, 0.25f, 0.0625f));
+            if (rnd64() & 1) add(s, a, b, b);
+            else add(s, a, b, rt_add(c, rt_v3(0.25f, 0.5f, 0.125f)));
+        } else {
+            add(s, rt_add(c, rt_mul(rand_dir(), sz)), rt_add(c, rt_mul(rand_dir(), sz)),
+                rt_add(c, rt_mul(rand_dir(), sz)));
+        }
+    }
+    finish(s);
+    return s;
+}
+
+/* SPD-style sphere: 6 cube faces, r x r cells, 2 triangles each; shared
+ * vertices computed from the same integer grid point, so bit-identical. */
+static inline rt_vec3 cube_pt(int face, int i, int j, int r)
+{
+    double a = -1.0 + 2.0 * i / r, b = -1.0 + 2.0 * j / r, p[3];
+    int ax = face % 3;
+    double sgn = face < 3 ? 1.0 : -1.0;
+    p[ax] = sgn;
+    p[(ax + 1) % 3] = a;
+    p[(ax + 2) % 3] = b;
+    double l = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+    return rt_v3((float)(p[0] / l), (float)(p[1] / l), (float)(p[2] / l));
+}
+
+static inline rt_scene *make_sphere(int r)
+{
+    rt_scene *s = rt_scene_new((uint32_t)(12 * r * r), NULL);
+    if (!s) exit(1);
+    for (int f = 0; f < 6; f++)
+        for (int i = 0; i < r; i++)
+            for (int j = 0; j < r; j++) {
+                rt_vec3 a = cube_pt(f, i, j, r), b = cube_pt(f, i + 1, j, r), c = cube_pt(f, i + 1, j + 1, r),
+                        d = cube_pt(f, i, j + 1, r);
+                add(s, a, b, c);
+                add(s, a, c, d);
+            }
+    finish(s);
+    return s;
 }
 
 #endif
