@@ -2,7 +2,8 @@
  * check_scene.h -- building small scenes by hand in the tests: a grey
  * triangle appended, a scene finished, each exiting with the library's
  * message on failure (a test that cannot build its input cannot check
- * anything), and the random triangle soup and the SPD-style sphere the
+ * anything), materials and quads for hand-made mirror and glass scenes,
+ * and the random triangle soup and the SPD-style sphere the
  * k-d tree and grid tests compare against brute force. Static inline, like
  * check.h.
  */
@@ -35,6 +36,31 @@ static inline void finish(rt_scene *s)
         fprintf(stderr, "finish: %s\n", e.msg);
         exit(1);
     }
+}
+
+/* Appends a material with mirror reflectance ks and transmittance kt
+ * (grey) and index of refraction ior; its index. */
+static inline int add_mat(rt_scene *sc, float ks, float kt, float ior)
+{
+    rt_err e = {""};
+    rt_material m;
+    memset(&m, 0, sizeof m);
+    for (int k = 0; k < 3; k++) m.ks[k] = ks, m.kt[k] = kt;
+    m.ior = ior;
+    int id = rt_scene_add_material(sc, &m, &e);
+    CHECK(id > 0, "material: %s", e.msg);
+    return id;
+}
+
+/* Appends the quad abcd (triangles abc, acd) with colour rgb and material
+ * mat; 0, or -1 (a failed check). */
+static inline int add_quad(rt_scene *sc, rt_vec3 a, rt_vec3 b, rt_vec3 c, rt_vec3 d, const float rgb[3], int mat)
+{
+    rt_err e = {""};
+    int r = rt_scene_add_tri_mat(sc, a, b, c, rgb, (uint32_t)mat, &e);
+    r |= rt_scene_add_tri_mat(sc, a, c, d, rgb, (uint32_t)mat, &e);
+    CHECK(r == 0, "add quad: %s", e.msg);
+    return r;
 }
 
 /* A soup of n triangles in [0,1]^3 with awkward members mixed in. */

@@ -7,6 +7,7 @@
  * the grid and with every triangle.
  */
 #include "check.h"
+#include "check_scene.h"
 #include "feedback.h"
 #include "grid.h"
 #include "kdtree.h"
@@ -111,26 +112,6 @@ static rt_image *render_spec(const char *spec, const char *tracer, const rt_rend
     }
     rt_job_free(&j);
     return im;
-}
-
-static int add_mat(rt_scene *sc, float ks, float kt, float ior)
-{
-    rt_err e = {""};
-    rt_material m;
-    memset(&m, 0, sizeof m);
-    for (int k = 0; k < 3; k++) m.ks[k] = ks, m.kt[k] = kt;
-    m.ior = ior;
-    int id = rt_scene_add_material(sc, &m, &e);
-    CHECK(id > 0, "material: %s", e.msg);
-    return id;
-}
-
-static void add_quad(rt_scene *sc, rt_vec3 a, rt_vec3 b, rt_vec3 c, rt_vec3 d, const float rgb[3], int mat)
-{
-    rt_err e = {""};
-    int r = rt_scene_add_tri_mat(sc, a, b, c, rgb, (uint32_t)mat, &e);
-    r |= rt_scene_add_tri_mat(sc, a, c, d, rgb, (uint32_t)mat, &e);
-    CHECK(r == 0, "add quad: %s", e.msg);
 }
 
 /* Two facing mirrors z = -1 and z = +1, 10 wide; the camera between them

@@ -8,6 +8,7 @@
  * leaving glass at the critical angle, a sphere of one dielectric inside a
  * sphere of another, reflection off the edge two triangles share). */
 #include "check.h"
+#include "check_scene.h"
 #include "run.h"
 #include "shade.h"
 
@@ -140,27 +141,6 @@ static void accumulator(void)
 }
 
 /* ---- scenes by hand -------------------------------------------------------- */
-
-static int add_quad(rt_scene *sc, rt_vec3 a, rt_vec3 b, rt_vec3 c, rt_vec3 d, const float rgb[3], int mat)
-{
-    rt_err e = {""};
-    int r = rt_scene_add_tri_mat(sc, a, b, c, rgb, (uint32_t)mat, &e);
-    r |= rt_scene_add_tri_mat(sc, a, c, d, rgb, (uint32_t)mat, &e);
-    CHECK(r == 0, "add quad: %s", e.msg);
-    return r;
-}
-
-static int add_mat(rt_scene *sc, float ks, float kt, float ior)
-{
-    rt_err e = {""};
-    rt_material m;
-    memset(&m, 0, sizeof m);
-    for (int k = 0; k < 3; k++) m.ks[k] = ks, m.kt[k] = kt;
-    m.ior = ior;
-    int id = rt_scene_add_material(sc, &m, &e);
-    CHECK(id > 0, "material: %s", e.msg);
-    return id;
-}
 
 /* A closed box [-s, s]^3 of mirrors (ks 0.7, albedo 0.3 tinted per face)
  * seen from inside, lights inside; everything scales with s. */
