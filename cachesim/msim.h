@@ -23,6 +23,13 @@ void rt_msim_get(const rt_msim *m, int i, int cls, rt_sim_counts *out);
 /* The same for generation bucket gen (0..RT_MAXGEN-1); gen < 0 sums them. */
 void rt_msim_get_gen(const rt_msim *m, int i, int cls, int gen, rt_sim_counts *out);
 int rt_msim_check(const rt_msim *m, rt_err *e);
+/* How rt_msim_put walks a batch (results are the same either way):
+ * RT_MSIM_AUTO (default) picks per batch from the previous one's depth
+ * profile; the others force one way, for tests and benchmarks. */
+enum { RT_MSIM_AUTO = 0, RT_MSIM_PLAIN = 1, RT_MSIM_PIPELINED = 2 };
+void rt_msim_set_engine(rt_msim *m, int engine);
+/* Batches walked so far: out[0] plainly, out[1] through the pipeline. */
+void rt_msim_engine_batches(const rt_msim *m, uint64_t out[2]);
 /* Writes back every dirty line of every size (counted as write-backs of
  * the line's last writer) and leaves them clean and resident. */
 void rt_msim_flush(rt_msim *m);

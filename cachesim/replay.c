@@ -32,7 +32,13 @@
 #include <string.h>
 
 #define REPLAY_BUF 4096 /* 64 KB: small enough to stay in L2 beside the simulator */
-#define PIPE_SLOTS 4    /* ring of 4 x 64 KB: the pair stays in L2 while it moves */
+#ifndef PIPE_SLOTS
+#define PIPE_SLOTS 8    /* ring of 8 x 64 KB */
+#endif
+/* The reader, once it found the ring full, is woken only when this many
+ * slots are free again, so it decodes them in one burst instead of paying a
+ * sleep and a wake-up per slot (the decoder is the faster side). */
+#define PIPE_WAKE (PIPE_SLOTS / 2)
 #define PIPE_CHUNK REPLAY_BUF
 
 typedef long (*next_fn)(void *, rt_access *, size_t, rt_err *);
@@ -46,6 +52,8 @@ typedef struct pipe_ring {
     unsigned long head;       /* slots consumed */
     unsigned long tail;       /* slots published */
     int stop;                 /* consumer gave up: reader must quit */
+    int rwait;                /* the reader sleeps on freed */
+    int cwait;                /* the consumer sleeps on filled */
     next_fn next;             /* decoder */
     void *src;                /* its state, touched only by the reader until join */
     rt_err err;               /* the reader's message when count is -1 */
@@ -68,7 +76,10 @@ static void *reader_main(void *arg)
     pipe_ring *q = arg;
     for (;;) {
         pthread_mutex_lock(&q->mu);
-        while (q->tail - q->head == PIPE_SLOTS && !q->stop) pthread_cond_wait(&q->freed, &q->mu);
+        if (q->tail - q->head == PIPE_SLOTS && !q->stop) {
+            q->rwait = 1;
+            while (q->rwait && !q->stop) pthread_cond_wait(&q->freed, &q->mu);
+        }
         int stop = q->stop;
         unsigned long t = q->tail;
         pthread_mutex_unlock(&q->mu);
@@ -78,7 +89,10 @@ static void *reader_main(void *arg)
         pthread_mutex_lock(&q->mu);
         q->count[i] = n < 0 ? -1 : n;
         q->tail = t + 1;
-        pthread_cond_signal(&q->filled);
+        if (q->cwait) {
+            q->cwait = 0;
+            pthread_cond_signal(&q->filled);
+        }
         pthread_mutex_unlock(&q->mu);
         if (n <= 0) break;
     }
@@ -114,7 +128,10 @@ static long pump2(next_fn next, void *src, rt_sink *sink, rt_access *buf, rt_sim
     long rc;
     for (;;) {
         pthread_mutex_lock(&q->mu);
-        while (q->tail == q->head) pthread_cond_wait(&q->filled, &q->mu);
+        while (q->tail == q->head) {
+            q->cwait = 1;
+            pthread_cond_wait(&q->filled, &q->mu);
+        }
         pthread_mutex_unlock(&q->mu);
         unsigned i = (unsigned)(q->head % PIPE_SLOTS);
         long n = q->count[i];
@@ -129,7 +146,10 @@ static long pump2(next_fn next, void *src, rt_sink *sink, rt_access *buf, rt_sim
         info->refs += (uint64_t)n;
         pthread_mutex_lock(&q->mu);
         q->head++;
-        pthread_cond_signal(&q->freed);
+        if (q->rwait && PIPE_SLOTS - (q->tail - q->head) >= PIPE_WAKE) {
+            q->rwait = 0;
+            pthread_cond_signal(&q->freed);
+        }
         pthread_mutex_unlock(&q->mu);
     }
     pthread_mutex_lock(&q->mu);

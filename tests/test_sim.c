@@ -658,6 +658,65 @@ static void test_counters_64bit(void)
     rt_sim_free(s);
 }
 
+/* The plain and the pipelined walk of a batch, and the automatic choice
+ * between them batch by batch, give the same counters (every size, class,
+ * generation) and keep the invariants; the automatic choice must have used
+ * both on a stream that alternates a small and a large working set. */
+static void test_msim_engines(void)
+{
+    enum { N = 120000 };
+    rt_access *a = malloc(N * sizeof *a);
+    uint64_t sz[6] = {1024, 4096, 16384, 65536, 262144, 1048576};
+    for (int kind = 0; kind < 4; kind++) {
+        gen_stream = kind >= 2; /* streaming stores in the last two */
+        if (kind < 3) {
+            gen(a, N, kind, kind == 1 ? 20000 : 3000);
+        } else { /* phases of 8192: a 20-line loop, then random over 30000 lines */
+            for (size_t i = 0; i < N; i += 8192) {
+                size_t m = N - i < 8192 ? N - i : 8192;
+                gen(a + i, m, (i / 8192) % 2 ? GEN_RANDOM : GEN_CYCLIC, (i / 8192) % 2 ? 30000 : 20);
+            }
+        }
+        rt_msim *m[3];
+        for (int v = 0; v < 3; v++) {
+            m[v] = rt_msim_new(sz, 6, 64, NULL);
+            rt_msim_set_engine(m[v], v);
+        }
+        uint64_t rs0 = rs;
+        for (int v = 0; v < 3; v++) {
+            rs = rs0; /* the same batch sizes for all three */
+            for (size_t i = 0; i < N;) {
+                size_t b = 1 + rnd() % 4096;
+                if (b > N - i) b = N - i;
+                rt_msim_put(m[v], a + i, b);
+                i += b;
+            }
+            rt_err e = {{0}};
+            CHECK(rt_msim_check(m[v], &e) == 0, "engines: kind %d engine %d: %s", kind, v, e.msg);
+            rt_msim_flush(m[v]);
+        }
+        int diff = 0;
+        for (int i = 0; i < 6; i++)
+            for (int k = 0; k < RT_NCLASS; k++)
+                for (int g = 0; g < RT_MAXGEN; g++) {
+                    rt_sim_counts x[3];
+                    for (int v = 0; v < 3; v++) rt_msim_get_gen(m[v], i, k, g, &x[v]);
+                    diff += !same(&x[0], &x[1]) || !same(&x[1], &x[2]);
+                }
+        CHECK(diff == 0, "engines: kind %d: %d counter sets differ between the plain and the pipelined walk", kind,
+              diff);
+        uint64_t nb[3][2];
+        for (int v = 0; v < 3; v++) rt_msim_engine_batches(m[v], nb[v]);
+        CHECK(nb[1][1] == 0 && nb[2][0] == 0, "engines: forced engines were not used");
+        if (kind == 3)
+            CHECK(nb[0][0] > 0 && nb[0][1] > 0, "engines: the automatic choice used only one walk (%llu plain, %llu "
+                  "pipelined)", (unsigned long long)nb[0][0], (unsigned long long)nb[0][1]);
+        for (int v = 0; v < 3; v++) rt_msim_free(m[v]);
+    }
+    gen_stream = 0;
+    free(a);
+}
+
 /* ---- din reader --------------------------------------------------------- */
 
 static void test_din(void)
@@ -1022,6 +1081,7 @@ int main(void)
     test_generations_by_hand();
     test_replay_generations();
     test_counters_64bit();
+    test_msim_engines();
     test_din();
 
     /* one-pass fully associative vs naive, sizes 1K..64K */
