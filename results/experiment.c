@@ -440,23 +440,15 @@ static int store_job(rt_exp_worker *w, jobrun *r, rt_exp_key *key, double t0, rt
     run.wall_time = rt_now() - t0;
     run.stats = stats;
     /* per-generation rows when the stream carried generations (exact only) */
-    rt_tr_meta *m = rt_calloc(1, sizeof *m, e);
     rt_db_gen *grows = NULL;
     size_t ng = 0;
-    if (!m) {
-        free(rows);
-        return -1;
-    }
-    rt_job_meta(&r->j, NULL, m);
-    if (m->generations > 0) {
+    if (rt_job_generations(&r->j) > 0) {
         if (!(grows = rt_calloc(nrows * RT_MAXGEN, sizeof *grows, e))) {
-            free(m);
             free(rows);
             return -1;
         }
         ng = rt_sim_db_gen_rows(r->sim, grows);
     }
-    free(m);
     double td = rt_now();
     int rc = rt_db_store_run_gen(w->db, &run, rows, k, grows, ng, NULL, e);
     w->t.database += rt_now() - td;

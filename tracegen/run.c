@@ -115,6 +115,14 @@ int rt_job_run(rt_job *j, rt_sink *sink, rt_image *img, rt_run_stats *st, rt_err
     return rc;
 }
 
+uint32_t rt_job_generations(const rt_job *j)
+{
+    /* the highest generation the run can stamp: whitted depth-1, path bounces */
+    if (rt_render_mode(&j->opt) == RT_MODE_WHITTED) return (uint32_t)(j->opt.depth - 1);
+    if (rt_render_mode(&j->opt) == RT_MODE_PATH) return (uint32_t)j->opt.bounces;
+    return 0;
+}
+
 void rt_job_meta(const rt_job *j, const char *command, rt_tr_meta *m)
 {
     memset(m, 0, sizeof *m);
@@ -134,9 +142,7 @@ void rt_job_meta(const rt_job *j, const char *command, rt_tr_meta *m)
         m->gmax = j->opt.gmax;
     }
     rt_job_params(j->tr->name, &j->opt, NULL, m->params, sizeof m->params);
-    /* the highest generation the run can stamp: whitted depth-1, path bounces */
-    if (rt_render_mode(&j->opt) == RT_MODE_WHITTED) m->generations = (uint32_t)(j->opt.depth - 1);
-    else if (rt_render_mode(&j->opt) == RT_MODE_PATH) m->generations = (uint32_t)j->opt.bounces;
+    m->generations = rt_job_generations(j);
     m->layout = j->L;
 }
 

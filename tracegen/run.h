@@ -46,6 +46,9 @@ int rt_job_run(rt_job *j, rt_sink *sink, rt_image *img, rt_run_stats *st, rt_err
 const char *rt_job_params(const char *tracer, const rt_render_opts *o, const char *extra, char *buf, size_t n);
 /* Fills trace metadata from the job (command line from rt_cmd_line()). */
 void rt_job_meta(const rt_job *j, const char *command, rt_tr_meta *m);
+/* The highest ray generation the job can stamp on a reference (0: primary
+ * and shadow rays only); rt_job_meta's generations, without hashing the scene. */
+uint32_t rt_job_generations(const rt_job *j);
 /* Frees what the job owns (not a borrowed scene and tree); accepts NULL. */
 void rt_job_free(rt_job *j);
 
