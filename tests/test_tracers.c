@@ -168,6 +168,63 @@ static void figure1(void)
     }
 }
 
+/* The derivation of g_max as it was first written, through rt_dyn_select
+ * alone: the reference for rt_dyn_derive_gmax's counting walk. */
+static uint64_t derive_ref(const rt_kdtree *kd, const uint64_t *g, uint64_t cache, uint64_t raybuf, int *fallback)
+{
+    *fallback = 0;
+    if (cache <= raybuf) return 0;
+    int32_t *qp = malloc(sizeof *qp * kd->nnodes);
+    uint64_t gm = cache - raybuf;
+    for (int it = 0; it < 64; it++) {
+        uint32_t ntop = 0, nq = rt_dyn_select(kd, g, gm, qp, &ntop);
+        uint64_t resident = raybuf + 8ull * ntop + 8ull * nq;
+        uint64_t next = cache > resident ? cache - resident : 0;
+        if (next >= gm) break;
+        gm = next;
+        if (gm == 0) break;
+    }
+    if (gm == 0) {
+        uint64_t budget = (cache - raybuf) / 2, lo = 1, hi = g[0];
+        while (lo < hi) {
+            uint64_t mid = lo + (hi - lo) / 2;
+            uint32_t ntop = 0, nq = rt_dyn_select(kd, g, mid, qp, &ntop);
+            if (8ull * ntop + 8ull * nq <= budget) hi = mid;
+            else lo = mid + 1;
+        }
+        gm = lo;
+        *fallback = 1;
+    }
+    free(qp);
+    return gm;
+}
+
+static void derive_gmax(void)
+{
+    rt_err e = {""};
+    rt_scene *sc = rt_scene_load("sphereflake:level=2", &e);
+    rt_kd_params kp;
+    rt_kd_default_params(&kp);
+    rt_kdtree *kd = sc ? rt_kd_build(sc, &kp, &e) : NULL;
+    CHECK(kd != NULL, "scene: %s", e.msg);
+    if (!kd) return;
+    uint64_t *g = malloc(sizeof *g * kd->nnodes);
+    CHECK(rt_dyn_subtree_geometry(kd, sc->ntri, g, &e) == 0, "subtree geometry: %s", e.msg);
+    int fallbacks = 0, n = 0;
+    for (uint64_t cache = 64; cache <= (8u << 20); cache = cache * 3 / 2 + 7, n++) {
+        int f0 = -1, f1 = -1;
+        uint64_t a = rt_dyn_derive_gmax(kd, g, cache, 128, &f0), b = derive_ref(kd, g, cache, 128, &f1);
+        CHECK(a == b && f0 == f1, "cache %" PRIu64 ": g_max %" PRIu64 " (fallback %d), reference %" PRIu64 " (%d)",
+              cache, a, f0, b, f1);
+        fallbacks += f1;
+    }
+    CHECK(fallbacks > 0 && fallbacks < n, "the cases must include the fallback and the normal rule (%d of %d)",
+          fallbacks, n);
+    free(g);
+    rt_kd_free(kd);
+    rt_scene_free(sc);
+}
+
 /* Collects geometry-class accesses. */
 typedef struct collect {
     rt_access *a;
@@ -1227,6 +1284,7 @@ int main(void)
     subsampling("cornell:glass=0", 64, 48, 4, 8);
     subsampling("sphereflake:level=2", 48, 48, 3, 1);
     figure1();
+    derive_gmax();
     degenerate();
     same_images("cornell:glass=0", 48, 40);
     same_images("cornell", 32, 24); /* with the glass sphere */

@@ -153,16 +153,53 @@ uint32_t rt_dyn_select(const rt_kdtree *kd, const uint64_t *g, uint64_t gmax, in
     return nq;
 }
 
+/* hastris[i] = 1 iff node i's subtree holds a triangle (children have
+ * larger indices: one backward pass). */
+static void mark_hastris(const rt_kdtree *kd, uint8_t *hastris)
+{
+    for (uint32_t i = kd->nnodes; i-- > 0;) {
+        const rt_kdnode *n = &kd->nodes[i];
+        hastris[i] = rt_kd_is_leaf(n) ? rt_kd_ntri(n) > 0 : (hastris[i + 1] || hastris[rt_kd_above(n)]);
+    }
+}
+
+/* rt_dyn_select's counts alone: the same walk from the root, touching
+ * only the nodes it visits (the derivation below tries many budgets on
+ * trees of millions of nodes). */
+static uint32_t select_count(const rt_kdtree *kd, const uint64_t *g, const uint8_t *hastris, uint64_t gmax,
+                             uint32_t *ntop)
+{
+    uint32_t nq = 0, top = 0;
+    uint32_t stack[RT_KD_STACK * 2 + 8];
+    int sp = 0;
+    stack[sp++] = 0;
+    while (sp) {
+        uint32_t i = stack[--sp];
+        const rt_kdnode *nd = &kd->nodes[i];
+        if (!hastris[i]) continue;
+        if (g[i] <= gmax || rt_kd_is_leaf(nd)) {
+            nq++;
+            continue;
+        }
+        top++;
+        stack[sp++] = rt_kd_above(nd);
+        stack[sp++] = i + 1;
+    }
+    *ntop = top;
+    return nq;
+}
+
 uint64_t rt_dyn_derive_gmax(const rt_kdtree *kd, const uint64_t *g, uint64_t cache_bytes, uint64_t raybuf_bytes,
                             int *fallback)
 {
     if (fallback) *fallback = 0;
     if (cache_bytes <= raybuf_bytes) return 0;
-    int32_t *qp = malloc(sizeof *qp * (kd->nnodes ? kd->nnodes : 1));
-    if (!qp) return 0;
+    uint8_t *hastris = malloc(kd->nnodes ? kd->nnodes : 1);
+    if (!hastris) return 0;
+    mark_hastris(kd, hastris);
     uint64_t gm = cache_bytes - raybuf_bytes;
     for (int it = 0; it < 64; it++) {
-        uint32_t ntop = 0, nq = rt_dyn_select(kd, g, gm, qp, &ntop);
+        uint32_t ntop = 0, nq = select_count(kd, g, hastris, gm, &ntop);
         uint64_t resident = raybuf_bytes + 8ull * ntop + 8ull * nq;
         uint64_t next = cache_bytes > resident ? cache_bytes - resident : 0;
         if (next >= gm) break; /* the selection for gm fits */
@@ -179,14 +216,14 @@ uint64_t rt_dyn_derive_gmax(const rt_kdtree *kd, const uint64_t *g, uint64_t cac
         uint64_t budget = (cache_bytes - raybuf_bytes) / 2, lo = 1, hi = g[0];
         while (lo < hi) {
             uint64_t mid = lo + (hi - lo) / 2;
-            uint32_t ntop = 0, nq = rt_dyn_select(kd, g, mid, qp, &ntop);
+            uint32_t ntop = 0, nq = select_count(kd, g, hastris, mid, &ntop);
             if (8ull * ntop + 8ull * nq <= budget) hi = mid;
             else lo = mid + 1;
         }
         gm = lo;
         if (fallback) *fallback = 1;
     }
-    free(qp);
+    free(hastris);
     return gm;
 }
 
@@ -225,11 +262,8 @@ static void dyn_plan_free(void *p)
  * from the subtrees so it can stay in cache. */
 static void pack_top(const rt_kdtree *kd, dplan *P)
 {
-    for (uint32_t i = kd->nnodes; i-- > 0;) {
-        const rt_kdnode *n = &kd->nodes[i];
-        P->topid[i] = -1;
-        P->hastris[i] = rt_kd_is_leaf(n) ? rt_kd_ntri(n) > 0 : (P->hastris[i + 1] || P->hastris[rt_kd_above(n)]);
-    }
+    mark_hastris(kd, P->hastris);
+    for (uint32_t i = 0; i < kd->nnodes; i++) P->topid[i] = -1;
     uint32_t stack[RT_KD_STACK * 2 + 8], id = 0;
     int sp = 0;
     stack[sp++] = 0;
