@@ -16,7 +16,13 @@
  *   count[slot] is what the reader's next() returned for it: > 0 records,
  *   0 end of input, -1 error (message in err); the reader stops after
  *   publishing a slot with count <= 0, so such a slot is the last one;
- *   stop, set by the consumer, makes the reader quit at its next wait.
+ *   stop, set by the consumer, makes the reader quit at its next wait;
+ *   rwait (cwait) is set only by the reader (consumer) just before it
+ *   sleeps and cleared only by the side that wakes it, under mu.
+ * Wake-ups are batched: the reader, once it found the ring full, sleeps
+ * until PIPE_WAKE slots are free, so it decodes in bursts. Waking it per
+ * slot cost a sleep and a wake-up per 4096 records (13,600 context
+ * switches and 0.2 s of a 1.2 s replay of a 64.7 M-record trace).
  * The consumer sees exactly the batches the single-threaded loop would
  * hand to the sink, in the same order, so every counter is the same; a
  * decode error reaches the caller after the records decoded before it,
