@@ -27,6 +27,12 @@
 int rt_sim_bench(FILE *out);
 /* Same with a chosen trace length (tests use a short one). */
 int rt_sim_bench_n(FILE *out, uint64_t nrefs);
+/* Replays the .rtt or din file at path through the exact 13-size simulator
+ * reps times (1..15) on one and on two threads, whole replay timed
+ * (decoding included), and prints the medians beside the naive per-size
+ * LRU on the file's first 100000 references and beside --threads 1. 0, or
+ * -1 (file error, or the two replays' counters differ) with e set. */
+int rt_replay_bench(FILE *out, const char *path, int reps, rt_err *e);
 
 /* ---- benchmark -------------------------------------------------------- */
 

@@ -167,3 +167,106 @@ int rt_sim_bench_n(FILE *out, uint64_t nrefs)
 }
 
 int rt_sim_bench(FILE *out) { return rt_sim_bench_n(out, 20000000ULL); }
+
+/* ---- replay of a trace file ----------------------------------------------- */
+
+/* Keeps the first NAIVE_REFS references of a replay and drops the rest. */
+typedef struct prefix {
+    rt_access *a;
+    size_t n;
+} prefix;
+
+static int prefix_put(rt_sink *s, const rt_access *a, size_t n)
+{
+    prefix *p = s->ctx;
+    size_t take = n < NAIVE_REFS - p->n ? n : NAIVE_REFS - p->n;
+    memcpy(p->a + p->n, a, take * sizeof *a);
+    p->n += take;
+    return 0;
+}
+
+static int dcmp(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* One exact 13-size replay of path on nthreads; seconds, or -1. *out
+ * keeps the simulator (caller frees). */
+static double replay_once(const char *path, int nthreads, rt_sim **out, uint64_t *refs, rt_err *e)
+{
+    rt_sim_config c;
+    rt_sim_config_default(&c);
+    double t0 = rt_now();
+    rt_sim *s = rt_sim_new(&c, e);
+    rt_sim_input in;
+    if (!s || rt_sim_replay_threads(rt_sim_sink(s), path, RT_SIM_IN_AUTO, 0, nthreads, NULL, &in, e) < 0 ||
+        rt_sim_finish(s) < 0) {
+        rt_sim_free(s);
+        return -1;
+    }
+    double t = rt_now() - t0;
+    *refs = in.refs;
+    *out = s;
+    return t;
+}
+
+int rt_replay_bench(FILE *out, const char *path, int reps, rt_err *e)
+{
+    if (reps < 1) reps = 1;
+    if (reps > 15) reps = 15;
+    /* the reference: the naive LRU on the file's first references */
+    prefix p = {malloc(NAIVE_REFS * sizeof *p.a), 0};
+    if (!p.a) return rt_errf(e, "out of memory");
+    rt_sink ps = {prefix_put, &p};
+    naive nv;
+    rt_sim_config c;
+    rt_sim_config_default(&c);
+    if (rt_sim_replay_threads(&ps, path, RT_SIM_IN_AUTO, 0, 1, NULL, NULL, e) < 0) {
+        free(p.a);
+        return -1;
+    }
+    if (naive_init(&nv, c.sizes, c.nsizes, c.line) < 0) {
+        free(p.a);
+        return rt_errf(e, "out of memory");
+    }
+    double t0 = rt_now();
+    naive_put(&nv, p.a, p.n);
+    double tnaive = rt_now() - t0;
+    naive_free(&nv);
+    free(p.a);
+    double rn = (double)p.n / tnaive;
+
+    double t[2][15];
+    uint64_t refs = 0;
+    int agree = 1;
+    for (int r = 0; r < reps; r++) {
+        rt_sim *s[2] = {NULL, NULL};
+        for (int k = 0; k < 2; k++) /* alternate, so load drifts hit both alike */
+            if ((t[k][r] = replay_once(path, k + 1, &s[k], &refs, e)) < 0) {
+                rt_sim_free(s[0]);
+                return -1;
+            }
+        for (int i = 0; i < c.nsizes; i++)
+            for (int k = 0; k < RT_NCLASS; k++) {
+                rt_sim_counts x, y;
+                rt_sim_get(s[0], i, k, &x);
+                rt_sim_get(s[1], i, k, &y);
+                agree &= !memcmp(&x, &y, sizeof x);
+            }
+        rt_sim_free(s[0]);
+        rt_sim_free(s[1]);
+    }
+    qsort(t[0], (size_t)reps, sizeof t[0][0], dcmp);
+    qsort(t[1], (size_t)reps, sizeof t[1][0], dcmp);
+    double m1 = t[0][reps / 2], m2 = t[1][reps / 2];
+    fprintf(out, "replay: %s, %llu references, exact 13 sizes 1K..4M, whole replay (decoding included), median of %d\n",
+            path, (unsigned long long)refs, reps);
+    fprintf(out, "replay: naive per-size LRU:  %8.3f s  %7.3f M refs/s on the first %zu refs (the reference)\n", tnaive,
+            rn / 1e6, p.n);
+    fprintf(out, "replay: --threads 1:         %8.3f s  %7.1f M refs/s  %8.1fx naive LRU  1.00\n", m1,
+            (double)refs / m1 / 1e6, (double)refs / m1 / rn);
+    fprintf(out, "replay: --threads 2:         %8.3f s  %7.1f M refs/s  %8.1fx naive LRU  %.2fx --threads 1 (counters %s)\n",
+            m2, (double)refs / m2 / 1e6, (double)refs / m2 / rn, m1 / m2, agree ? "agree" : "DIFFER");
+    return agree ? 0 : rt_errf(e, "the two-thread replay's counters differ from the one-thread replay's");
+}

@@ -45,8 +45,11 @@ static void usage(FILE *f)
             "  --lights L         lights for the tracer runs (default none: primary rays)\n"
             "  --tracers LIST     comma list (default recursive,packet,dynamic)\n"
             "  --cache-size S     dynamic tracer's schedule (default 64K)\n"
-            "  --what LIST        tracers,trace,sim,approx,path-error,modes,identical,embree\n"
-            "                     (default tracers,trace,sim); approx: sampled simulators\n"
+            "  --what LIST        tracers,trace,sim,replay,approx,path-error,modes,identical,\n"
+            "                     embree\n"
+            "                     (default tracers,trace,sim); replay: the exact simulator\n"
+            "                     on --trace FILE, one and two threads, decoding included;\n"
+            "                     approx: sampled simulators\n"
             "                     against exact (docs/approx.md) on --trace or the synthetic\n"
             "                     trace; path-error: path-mode RMSE against a --ref-spp\n"
             "                     reference for spp 1, 4, 16, 64; modes: rays/s per tracer in\n"
@@ -62,7 +65,8 @@ static void usage(FILE *f)
             "                     sphereflake,cornell; cornell,knot,sphereflake)\n"
             "  --ref-spp N        path-error reference samples per pixel (default 1024)\n"
             "  --plot DIR         path-error: DIR/path-error-SCENE.png (gnuplot), .dat, .gp\n"
-            "  --trace FILE       .rtt or din trace for --what approx\n"
+            "  --trace FILE       .rtt or din trace for --what approx (required by replay)\n"
+            "  --reps N           replay: runs per thread count, median printed (default 3)\n"
             "  --sim-refs N       synthetic simulator trace length (default 20000000)\n"
             "  --tmpdir DIR       where trace files are written (default /tmp)\n"
             "  -h, --help         this help\n");
@@ -238,6 +242,7 @@ int main_bench(int argc, char **argv)
         {"sim-refs", required_argument, NULL, 'n'},
         {"tmpdir", required_argument, NULL, 'd'},
         {"trace", required_argument, NULL, 1100},
+        {"reps", required_argument, NULL, 1110},
         {"scenes", required_argument, NULL, 1101},
         {"ref-spp", required_argument, NULL, 1102},
         {"plot", required_argument, NULL, 1103},
@@ -248,7 +253,7 @@ int main_bench(int argc, char **argv)
     rt_render_default_opts(&o);
     o.W = o.H = 0; /* 0: the item's own default size */
     const char *scenes = NULL, *plotdir = NULL;
-    long refspp = 1024;
+    long refspp = 1024, reps = 3;
     const char *scene = NULL, *tracers = "recursive,packet,dynamic", *what = "tracers,trace,sim";
     const char *tmpdir = "/tmp", *dummy = NULL, *trace = NULL;
     uint64_t simrefs = 20000000;
@@ -269,6 +274,13 @@ int main_bench(int argc, char **argv)
         case 'w': what = optarg; break;
         case 'd': tmpdir = optarg; break;
         case 1100: trace = optarg; break;
+        case 1110:
+            if (rt_cmd_parse_long(optarg, 1, 15, &reps) < 0) {
+                rt_cmd_error("bench", "--reps: '%s' is not a count in 1..15", optarg);
+                free(lo);
+                return RT_EXIT_USAGE;
+            }
+            break;
         case 1101: scenes = optarg; break;
         case 1103: plotdir = optarg; break;
         case 1102:
@@ -294,13 +306,15 @@ int main_bench(int argc, char **argv)
         rt_cmd_error("bench", "unexpected argument '%s'", argv[optind]);
         return RT_EXIT_USAGE;
     }
-    int do_tr = 0, do_trace = 0, do_sim = 0, do_approx = 0, do_perr = 0, do_modes = 0, do_ident = 0, do_stream = 0, do_embree = 0;
+    int do_tr = 0, do_trace = 0, do_sim = 0, do_approx = 0, do_perr = 0, do_modes = 0, do_ident = 0, do_stream = 0, do_embree = 0,
+        do_replay = 0;
     {
         char *list = strdup(what), *save = NULL;
         for (char *t = strtok_r(list, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
             if (!strcmp(t, "tracers")) do_tr = 1;
             else if (!strcmp(t, "trace")) do_trace = 1;
             else if (!strcmp(t, "sim")) do_sim = 1;
+            else if (!strcmp(t, "replay")) do_replay = 1;
             else if (!strcmp(t, "approx")) do_approx = 1;
             else if (!strcmp(t, "path-error")) do_perr = 1;
             else if (!strcmp(t, "modes")) do_modes = 1;
@@ -308,13 +322,17 @@ int main_bench(int argc, char **argv)
             else if (!strcmp(t, "stream")) do_stream = 1;
             else if (!strcmp(t, "embree")) do_embree = 1;
             else {
-                rt_cmd_error("bench", "--what: unknown item '%s' (tracers, trace, sim, approx, path-error, modes, "
-                             "identical, stream, embree)", t);
+                rt_cmd_error("bench", "--what: unknown item '%s' (tracers, trace, sim, replay, approx, path-error, "
+                             "modes, identical, stream, embree)", t);
                 free(list);
                 return RT_EXIT_USAGE;
             }
         }
         free(list);
+    }
+    if (do_replay && !trace) {
+        rt_cmd_error("bench", "--what replay needs --trace FILE");
+        return RT_EXIT_USAGE;
     }
     const char *stream_scene = scene ? scene : "bunny"; /* the paper's scene */
     if (!scene) scene = "sphereflake";
@@ -384,6 +402,15 @@ int main_bench(int argc, char **argv)
         fflush(stdout);
         if (rt_sim_bench_n(stdout, simrefs) < 0) {
             rt_cmd_error("bench", "simulator benchmark: out of memory, or the naive LRU disagrees with the simulator");
+            return RT_EXIT_FAIL;
+        }
+    }
+    if (do_replay) {
+        rt_err e = {""};
+        printf("%sReplay of a trace file:\n\n", do_sim ? "\n" : "");
+        fflush(stdout);
+        if (rt_replay_bench(stdout, trace, (int)reps, &e) < 0) {
+            rt_cmd_error("bench", "%s", e.msg);
             return RT_EXIT_FAIL;
         }
     }

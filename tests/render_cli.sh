@@ -186,6 +186,20 @@ grep -q "^cachesim: (check) tri read misses 1K 21203, 4M 15727" "$tmp/bench" || 
 grep -q "^| exact | | [0-9.]* | 1.0 | 13 | 0 | 0 | 0 | 0 | 0 |" "$tmp/bench" || err "bench approx exact row"
 for m in shards shards-fixed statstack hybrid; do grep -q "^| $m | " "$tmp/bench" || err "bench lacks $m rows"; done
 ls "$tmp"/rt-bench-* > /dev/null 2>&1 && err "bench left trace files in --tmpdir"
+# replay of a trace file: one and two threads, the same counters, ratios to the naive LRU and to one thread
+"$bin" trace cornell:glass=0 -W 16 -H 16 --lights all -o "$tmp/rb.rtt" > /dev/null 2>&1 || err "trace for bench replay"
+"$bin" bench --what replay --trace "$tmp/rb.rtt" --reps 1 > "$tmp/rbench" 2> "$tmp/rbench.err" ||
+    err "bench --what replay exited $?: $(cat "$tmp/rbench.err")"
+grep -q "^replay: .*rb.rtt, [0-9]* references, exact 13 sizes" "$tmp/rbench" || err "bench replay header"
+grep -q "^replay: --threads 1: .* M refs/s .*x naive LRU  1.00$" "$tmp/rbench" || err "bench replay one-thread row"
+grep -q "^replay: --threads 2: .*x --threads 1 (counters agree)$" "$tmp/rbench" || err "bench replay two-thread row"
+"$bin" bench --what replay > /dev/null 2> "$tmp/rbench.err"; rc=$?
+[ $rc -eq 2 ] && grep -qx "raytraffic bench: --what replay needs --trace FILE" "$tmp/rbench.err" ||
+    err "bench --what replay without --trace: exit $rc, $(cat "$tmp/rbench.err")"
+"$bin" bench --what replay --trace "$tmp/rb.rtt" --reps 0 > /dev/null 2>&1; [ $? -eq 2 ] || err "bench --reps 0 should be a usage error"
+head -c 300 "$tmp/rb.rtt" > "$tmp/rbcut.rtt"
+"$bin" bench --what replay --trace "$tmp/rbcut.rtt" > /dev/null 2> "$tmp/rbench.err"; rc=$?
+[ $rc -eq 1 ] && grep -q "rbcut.rtt" "$tmp/rbench.err" || err "bench replay of a cut trace: exit $rc, $(cat "$tmp/rbench.err")"
 # provenance header: the machine's CPU model and online CPUs, the revision, today's date
 grep -q "^raytraffic [0-9][^ ]* ([^)]*) bench: scene cornell:glass=0, 8x8" "$tmp/bench" || err "bench title line"
 cpu=$(sed -n 's/^model name[^:]*: *//p' /proc/cpuinfo 2>/dev/null | head -n 1)
