@@ -214,6 +214,26 @@ int rt_approx_replay(rt_approx *a, const char *path, int fmt, int din_class, rt_
     return rt_sim_replay_sink(&a->sink, path, fmt, din_class, meta, info, e);
 }
 
+static void approx_add_repeats(void *ctx, const uint64_t *cnt)
+{
+    rt_approx *a = ctx;
+    rt_repeats r;
+    rt_sim_repeats(a->exact, &r);
+    for (int cg = 0; cg < RT_NCLASS * RT_MAXGEN; cg++) a->refs += cnt[cg];
+    r.add(r.ctx, cnt);
+}
+
+void rt_approx_repeats(rt_approx *a, rt_repeats *out)
+{
+    memset(out, 0, sizeof *out);
+    /* only the exact method, whose one engine may count them */
+    if (a->ac.method != RT_APPROX_EXACT || !a->exact || a->tw || a->sh || a->ss) return;
+    rt_sim_repeats(a->exact, out);
+    if (!out->line) return;
+    out->add = approx_add_repeats;
+    out->ctx = a;
+}
+
 const char *rt_approx_engine(const rt_approx *a)
 {
     return a->ac.method == RT_APPROX_EXACT ? rt_sim_engine(a->exact) : method_names[a->ac.method];

@@ -125,6 +125,10 @@ const rt_approx_config *rt_approx_get_approx_config(const rt_approx *a);
 int rt_approx_put(rt_approx *a, const rt_access *acc, size_t n);
 /* An rt_sink feeding a; owned by a, valid until rt_approx_free. */
 rt_sink *rt_approx_sink(rt_approx *a);
+/* The repeat filter of a's sink for two-thread replays (sim.h,
+ * rt_repeats): that of the exact simulator for the exact method, none
+ * (line 0) for the sampled ones. */
+void rt_approx_repeats(rt_approx *a, rt_repeats *out);
 /* References seen so far. */
 uint64_t rt_approx_refs(const rt_approx *a);
 /* The engine: for RT_APPROX_EXACT the exact simulator's (rt_sim_engine:

@@ -108,7 +108,7 @@
  * 13 sizes 1.04 s pipelined vs 0.87 s plain, one 16 KB size 0.87 vs 0.52 s),
  * while on a trace with little locality the pipeline is up to 2.5x faster.
  * So rt_msim_put picks the walk per batch: the pipeline when more than one
- * reference in 20 of the previous batch touched a group below the top
+ * reference in 10 of the previous batch touched a group below the top
  * DEEP_LINES lines (or missed), the plain walk otherwise. Both walks call the same
  * touch(), so the choice changes no counter (tested with each forced).
  */
@@ -123,6 +123,9 @@
 #define PF_SLOT 16 /* hash slot prefetch distance, in references */
 #define PF_NODE 5  /* node prefetch distance (its slot should be cached by then) */
 #define DEEP_LINES 512 /* stack depth whose nodes, lines and slots (~40 B each) fill a 32 KB L1 */
+#ifndef DEEP_SHARE
+#define DEEP_SHARE 10 /* the pipeline for a batch after one with more than 1 in DEEP_SHARE deep touches */
+#endif
 #ifndef PF_NEIGH
 #define PF_NEIGH 2 /* neighbour prefetch distance (the node should be cached by then) */
 #endif
@@ -587,13 +590,18 @@ void rt_msim_put(rt_msim *m, const rt_access *a, size_t n)
     int pipe = m->engine == RT_MSIM_PIPELINED || (m->engine == RT_MSIM_AUTO && m->pipe);
     if (pipe) deep = m->shift >= 0 ? put_batch(m, a, n, 1) : put_batch(m, a, n, 0);
     else deep = m->shift >= 0 ? put_plain(m, a, n, 1) : put_plain(m, a, n, 0);
-    /* the next batch takes the pipeline when more than 1 in 20 of these
+    /* the next batch takes the pipeline when more than 1 in DEEP_SHARE of these
      * references went below the L1-sized top of the stack */
-    m->pipe = deep * 20 > n;
+    m->pipe = deep * DEEP_SHARE > n;
     m->nbatch[pipe]++;
 }
 
 void rt_msim_set_engine(rt_msim *m, int engine) { m->engine = engine; }
+
+void rt_msim_add_repeats(rt_msim *m, const uint64_t *cnt)
+{
+    for (int cg = 0; cg < RT_SIM_NCG; cg++) m->hist[cg][0][0] += cnt[cg];
+}
 
 void rt_msim_engine_batches(const rt_msim *m, uint64_t out[2])
 {

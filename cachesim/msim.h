@@ -33,6 +33,8 @@ void rt_msim_engine_batches(const rt_msim *m, uint64_t out[2]);
 /* Writes back every dirty line of every size (counted as write-backs of
  * the line's last writer) and leaves them clean and resident. */
 void rt_msim_flush(rt_msim *m);
+/* Counts cnt[cg] reads that hit the top of the stack (rt_repeats). */
+void rt_msim_add_repeats(rt_msim *m, const uint64_t *cnt);
 /* Test hook: adds n generation-0 touches of (cls, write) at stack group g (0..k, k =
  * missed everywhere) to the counters, without simulating them; lets tests
  * check that counters and their sums are 64-bit without 2^32 references. */

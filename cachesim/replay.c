@@ -29,6 +29,7 @@
  * as in the single-threaded loop.
  */
 #include "sim.h"
+#include "sim_int.h"
 #include "trace.h"
 
 #include <errno.h>
@@ -63,7 +64,55 @@ typedef struct pipe_ring {
     next_fn next;             /* decoder */
     void *src;                /* its state, touched only by the reader until join */
     rt_err err;               /* the reader's message when count is -1 */
+    /* repeat filter (rt_repeats), NULL if none; the rest is the reader's
+     * until the slot is published */
+    const rt_repeats *rp;
+    long kept[PIPE_SLOTS];    /* records left in the slot after filtering */
+    uint64_t (*rep)[RT_SIM_NCG]; /* per slot: reads dropped, by (class, generation) */
+    uint64_t last;            /* line the previous reference ended on */
+    int have_last;            /* a reference has been seen */
 } pipe_ring;
+
+/* Drops from a[0..n) the one-line reads of the line the previous reference
+ * ended on, counting them in rep; returns the records kept (compacted in
+ * place, in order). The previous reference's end is its last line, or its
+ * first when its end wraps past 2^64 (the simulators touch only that).
+ * Branch-free (a third of the records are dropped, at random), with four
+ * count rows in turn so that neighbours, which mostly share a (class,
+ * generation), do not wait on each other's increment. */
+static inline __attribute__((always_inline)) long drop_run(pipe_ring *q, rt_access *a, long n, uint64_t *rep,
+                                                              const int sh)
+{
+    const uint64_t ls = q->rp->line;
+    uint64_t last = q->last;
+    unsigned have = (unsigned)q->have_last;
+    uint32_t cnt[4][RT_SIM_NCG];
+    memset(cnt, 0, sizeof cnt);
+    long k = 0;
+    for (long i = 0; i < n; i++) {
+        const rt_access *r = &a[i];
+        const uint64_t addr = r->addr, end = addr + (r->size ? r->size : 1) - 1;
+        const uint64_t f = sh >= 0 ? addr >> sh : addr / ls, l = sh >= 0 ? end >> sh : end / ls;
+        const unsigned drop = have & (r->write == 0) & (f == l) & (f == last);
+        cnt[i & 3][rt_sim_cg(r)] += drop;
+        memcpy(&a[k], r, sizeof *r); /* k <= i: never ahead of the reads */
+        k += 1 - (long)drop;
+        last = l > f ? l : f; /* unchanged by a dropped one: f == l == last */
+        have = 1;
+    }
+    for (int cg = 0; cg < RT_SIM_NCG; cg++) rep[cg] = (uint64_t)cnt[0][cg] + cnt[1][cg] + cnt[2][cg] + cnt[3][cg];
+    q->last = last;
+    q->have_last = (int)have;
+    return k;
+}
+
+static long drop_repeats(pipe_ring *q, rt_access *a, long n, uint64_t *rep)
+{
+    const uint64_t ls = q->rp->line;
+    if (ls == 64) return drop_run(q, a, n, rep, 6); /* the default, with a constant shift */
+    if ((ls & (ls - 1)) == 0) return drop_run(q, a, n, rep, __builtin_ctzll(ls));
+    return drop_run(q, a, n, rep, -1);
+}
 
 /* Reads the whole input through next() into sink, counting references. */
 static long pump(next_fn next, void *src, rt_sink *sink, rt_access *buf,
@@ -92,6 +141,7 @@ static void *reader_main(void *arg)
         if (stop) break;
         unsigned i = (unsigned)(t % PIPE_SLOTS);
         long n = q->next(q->src, q->slot[i], PIPE_CHUNK, &q->err);
+        q->kept[i] = n > 0 && q->rp ? drop_repeats(q, q->slot[i], n, q->rep[i]) : n;
         pthread_mutex_lock(&q->mu);
         q->count[i] = n < 0 ? -1 : n;
         q->tail = t + 1;
@@ -107,15 +157,21 @@ static void *reader_main(void *arg)
 
 /* pump() with the decoder on a second thread. Falls back to pump() when
  * the thread cannot be started (nothing has been read then). */
-static long pump2(next_fn next, void *src, rt_sink *sink, rt_access *buf, rt_sim_input *info, rt_err *e)
+static long pump2(next_fn next, void *src, rt_sink *sink, const rt_repeats *rp, rt_access *buf,
+                  rt_sim_input *info, rt_err *e)
 {
     pipe_ring *q = rt_calloc(1, sizeof *q, e);
     if (!q) return -1;
     rt_access *mem = rt_calloc((size_t)PIPE_SLOTS * PIPE_CHUNK, sizeof *mem, e);
+    if (rp && rp->line && !(q->rep = rt_calloc(PIPE_SLOTS, sizeof *q->rep, e))) {
+        free(mem);
+        mem = NULL;
+    }
     if (!mem) {
         free(q);
         return -1;
     }
+    if (q->rep) q->rp = rp;
     for (int i = 0; i < PIPE_SLOTS; i++) q->slot[i] = mem + (size_t)i * PIPE_CHUNK;
     q->next = next;
     q->src = src;
@@ -127,6 +183,7 @@ static long pump2(next_fn next, void *src, rt_sink *sink, rt_access *buf, rt_sim
         if (inited > 2) pthread_cond_destroy(&q->freed);
         if (inited > 1) pthread_cond_destroy(&q->filled);
         if (inited > 0) pthread_mutex_destroy(&q->mu);
+        free(q->rep);
         free(mem);
         free(q);
         return pump(next, src, sink, buf, info, e);
@@ -145,11 +202,14 @@ static long pump2(next_fn next, void *src, rt_sink *sink, rt_access *buf, rt_sim
             rc = n < 0 ? rt_errf(e, "%s", q->err.msg) : 0;
             break;
         }
-        if (sink->put(sink, q->slot[i], (size_t)n) < 0) {
+        long k = q->kept[i];
+        if (k < n) q->rp->add(q->rp->ctx, q->rep[i]);
+        if (k > 0 && sink->put(sink, q->slot[i], (size_t)k) < 0) {
             rc = rt_errf(e, "the simulator rejected references");
             break;
         }
         info->refs += (uint64_t)n;
+        info->repeats += (uint64_t)(n - k);
         pthread_mutex_lock(&q->mu);
         q->head++;
         if (q->rwait && PIPE_SLOTS - (q->tail - q->head) >= PIPE_WAKE) {
@@ -166,6 +226,7 @@ static long pump2(next_fn next, void *src, rt_sink *sink, rt_access *buf, rt_sim
     pthread_cond_destroy(&q->freed);
     pthread_cond_destroy(&q->filled);
     pthread_mutex_destroy(&q->mu);
+    free(q->rep);
     free(mem);
     free(q);
     return rc;
@@ -183,9 +244,15 @@ int rt_sim_replay_sink(rt_sink *sink, const char *path, int fmt, int din_class, 
 int rt_sim_replay_threads(rt_sink *sink, const char *path, int fmt, int din_class, int nthreads, rt_tr_meta *meta,
                           rt_sim_input *info, rt_err *e)
 {
+    return rt_sim_replay_filtered(sink, NULL, path, fmt, din_class, nthreads, meta, info, e);
+}
+
+int rt_sim_replay_filtered(rt_sink *sink, const rt_repeats *rp, const char *path, int fmt, int din_class,
+                           int nthreads, rt_tr_meta *meta, rt_sim_input *info, rt_err *e)
+{
     if (nthreads < 1 || nthreads > RT_SIM_MAXTHREADS)
         return rt_errf(e, "%d replay threads: 1 to %d are supported", nthreads, RT_SIM_MAXTHREADS);
-    long (*run)(next_fn, void *, rt_sink *, rt_access *, rt_sim_input *, rt_err *) = nthreads > 1 ? pump2 : pump;
+
     rt_sim_input loc;
     if (!info) info = &loc;
     memset(info, 0, sizeof *info);
@@ -200,7 +267,7 @@ int rt_sim_replay_threads(rt_sink *sink, const char *path, int fmt, int din_clas
     if (fmt == RT_SIM_IN_DIN) {
         rt_din *d = rt_din_open(path, din_class, e);
         if (d) {
-            n = run(din_next, d, sink, buf, info, e);
+            n = nthreads > 1 ? pump2(din_next, d, sink, rp, buf, info, e) : pump(din_next, d, sink, buf, info, e);
             info->file_bytes = rt_din_file_bytes(d);
             info->file_hash = rt_din_file_hash(d);
             rt_din_close(d);
@@ -210,7 +277,7 @@ int rt_sim_replay_threads(rt_sink *sink, const char *path, int fmt, int din_clas
         if (r) {
             if (meta) *meta = *rt_tr_get_meta(r);
             info->has_meta = 1;
-            n = run(rtt_next, r, sink, buf, info, e);
+            n = nthreads > 1 ? pump2(rtt_next, r, sink, rp, buf, info, e) : pump(rtt_next, r, sink, buf, info, e);
             if (n == 0) {
                 info->file_bytes = rt_tr_file_bytes(r);
                 info->file_hash = rt_tr_file_hash(r);

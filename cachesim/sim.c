@@ -129,6 +129,22 @@ void rt_sim_free(rt_sim *s)
 const rt_sim_config *rt_sim_get_config(const rt_sim *s) { return &s->cfg; }
 const char *rt_sim_engine(const rt_sim *s) { return s->ms ? "exact-stack" : "exact-persize"; }
 rt_sink *rt_sim_sink(rt_sim *s) { return &s->sink; }
+
+static void sim_add_repeats(void *ctx, const uint64_t *cnt)
+{
+    rt_sim *s = ctx;
+    for (int cg = 0; cg < RT_NCLASS * RT_MAXGEN; cg++) s->refs += cnt[cg];
+    rt_msim_add_repeats(s->ms, cnt);
+}
+
+void rt_sim_repeats(rt_sim *s, rt_repeats *out)
+{
+    memset(out, 0, sizeof *out);
+    if (!s->ms) return; /* set-associative or write-through/no-allocate: per-size engines */
+    out->line = s->cfg.line;
+    out->add = sim_add_repeats;
+    out->ctx = s;
+}
 uint64_t rt_sim_refs(const rt_sim *s) { return s->refs; }
 
 int rt_sim_put(rt_sim *s, const rt_access *a, size_t n)

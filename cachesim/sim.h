@@ -171,6 +171,8 @@ typedef struct rt_sim_input {
     uint64_t file_bytes; /* size of the input */
     uint64_t file_hash;  /* 64-bit content hash (rt_tr_file_hash for .rtt,
                             FNV-1a of the bytes for din) */
+    uint64_t repeats;    /* of refs, how many a repeat filter counted on the
+                            reader thread instead of the sink (rt_sim_repeats) */
 } rt_sim_input;
 
 /* Replays a whole file through s. fmt is RT_SIM_IN_AUTO/RTT/DIN; din_class
@@ -196,5 +198,30 @@ int rt_sim_replay_sink(rt_sink *sink, const char *path, int fmt, int din_class, 
  * If the thread cannot be started, the replay runs on one thread. */
 int rt_sim_replay_threads(rt_sink *sink, const char *path, int fmt, int din_class, int nthreads, rt_tr_meta *meta,
                           rt_sim_input *info, rt_err *e);
+
+/*
+ * Repeat filter. In a fully associative LRU cache with write-allocate, a
+ * read that touches exactly one line, the line the previous reference
+ * ended on, is a hit at the top of the recency stack in every cache size:
+ * it changes no state, only the read-hit counts (about 30% of a k-d
+ * tracer's references: neighbouring nodes share a line). A sink that
+ * simulates only such caches may offer a filter; a two-thread replay then
+ * drops those reads on the reader thread and hands the sink, with each
+ * batch, their counts per (generation bucket, class), so the simulating
+ * thread, the slower one, does less. Results are identical (tested).
+ */
+typedef struct rt_repeats {
+    uint32_t line; /* the sink's line size in bytes; 0 = no filter */
+    /* cnt[rt_gen_bucket(gen) * RT_NCLASS + class]: reads dropped */
+    void (*add)(void *ctx, const uint64_t *cnt);
+    void *ctx;
+} rt_repeats;
+/* s's filter: line 0 unless s is the one-pass fully associative
+ * write-back write-allocate engine. */
+void rt_sim_repeats(rt_sim *s, rt_repeats *out);
+/* rt_sim_replay_threads with a repeat filter rp for sink (NULL, or line 0:
+ * none; used only with two threads). */
+int rt_sim_replay_filtered(rt_sink *sink, const rt_repeats *rp, const char *path, int fmt, int din_class,
+                           int nthreads, rt_tr_meta *meta, rt_sim_input *info, rt_err *e);
 
 #endif

@@ -380,7 +380,10 @@ static int sim_one(const sim_opts *o, rt_db *db, const char *path, rt_tr_meta *m
     double t0 = rt_now();
     int rc = -1;
     memset(meta, 0, sizeof *meta);
-    if (ap && !rt_sim_replay_threads(rt_approx_sink(ap), path, o->infmt, o->din_class, o->threads, meta, &in, &err) &&
+    rt_repeats rp;
+    if (ap) rt_approx_repeats(ap, &rp);
+    if (ap && !rt_sim_replay_filtered(rt_approx_sink(ap), &rp, path, o->infmt, o->din_class, o->threads, meta, &in,
+                                      &err) &&
         !rt_approx_finish(ap, &err)) {
         if (!db) print_results(stdout, o->outfmt, path, ap, first);
         rc = db ? store(db, path, ap, meta, &in, rt_now() - t0, o->din_class, &err) : 0;

@@ -14,6 +14,7 @@
  */
 #include "check.h"
 #include "bench.h"
+#include "approx.h"
 #include "msim.h"
 #include "setassoc.h"
 #include "sim.h"
@@ -1068,6 +1069,108 @@ static void test_replay_threads(void)
     free(a);
 }
 
+/* The repeat filter of two-thread replays (sim.h, rt_repeats): on a stream
+ * where a third of the references re-read the line the previous one ended
+ * on, every counter of the filtered two-thread replay equals the plain
+ * one-thread replay's, for several line sizes, size lists and write
+ * rules; the filter did drop references; engines that may not use it offer
+ * none. */
+static void test_repeat_filter(void)
+{
+    enum { N = 200000 };
+    rt_access *a = malloc(N * sizeof *a);
+    gen_stream = 1;
+    gen(a, N, GEN_ZIPF, 30000);
+    gen_stream = 0;
+    for (size_t i = 1; i < N; i++) {
+        uint64_t r = rnd();
+        if (r % 3) continue;
+        /* a one-line reference within the line the previous one ended on
+         * (at 64-byte lines; at 48 bytes some straddle, which the filter
+         * must leave alone); mostly reads, some writes */
+        uint64_t end = a[i - 1].addr + a[i - 1].size - 1;
+        a[i].addr = (end & ~63ULL) + (r >> 8) % 60;
+        a[i].size = 1 + (uint32_t)((r >> 16) % 4);
+        a[i].write = (r >> 24) % 8 == 0;
+    }
+    rt_tr_meta m;
+    memset(&m, 0, sizeof m);
+    snprintf(m.tracer, sizeof m.tracer, "test");
+    rt_mm_init(&m.layout);
+    m.generations = 9;
+    rt_err e = {{0}};
+    const char *p = check_path("rep.rtt");
+    rt_tr_writer *w = rt_tr_create(p, &m, &e);
+    CHECK(w, "repeats: %s", e.msg);
+    if (!w) return;
+    rt_sink *sk = rt_tr_sink(w);
+    CHECK(sk->put(sk, a, N) == 0 && rt_tr_finish(w, &e) == 0, "repeats: write: %s", e.msg);
+    for (int v = 0; v < 5; v++) {
+        rt_sim_config c;
+        rt_sim_config_default(&c);
+        if (v == 1) c.line = 48, rt_sim_parse_sizes("1536,3072,6144,49152,393216", &c, NULL);
+        if (v == 2) rt_sim_parse_sizes("16K", &c, NULL);
+        if (v == 3) c.flush = 1, c.write_miss_fullline = 1;
+        if (v == 4) c.line = 32;
+        rt_sim *s1 = rt_sim_new(&c, &e), *s2 = rt_sim_new(&c, &e);
+        CHECK(s1 && s2, "repeats %d: %s", v, e.msg);
+        rt_repeats rp;
+        rt_sim_repeats(s2, &rp);
+        CHECK(rp.line == c.line && rp.add, "repeats %d: the stack engine offers no filter", v);
+        rt_sim_input in1, in2;
+        CHECK(rt_sim_replay_threads(rt_sim_sink(s1), p, RT_SIM_IN_AUTO, 0, 1, NULL, &in1, &e) == 0, "repeats %d: %s", v,
+              e.msg);
+        CHECK(rt_sim_replay_filtered(rt_sim_sink(s2), &rp, p, RT_SIM_IN_AUTO, 0, 2, NULL, &in2, &e) == 0,
+              "repeats %d: filtered: %s", v, e.msg);
+        CHECK(in1.refs == N && in2.refs == N && in1.repeats == 0, "repeats %d: refs", v);
+        CHECK(in2.repeats > N / 10 && in2.repeats < N / 2, "repeats %d: %llu references dropped", v,
+              (unsigned long long)in2.repeats);
+        CHECK(rt_sim_refs(s1) == N && rt_sim_refs(s2) == N, "repeats %d: simulated refs", v);
+        rt_sim_finish(s1);
+        rt_sim_finish(s2);
+        int diff = 0;
+        for (int i = 0; i < c.nsizes; i++)
+            for (int k = 0; k < RT_NCLASS; k++)
+                for (int g = 0; g < RT_MAXGEN; g++) {
+                    rt_sim_counts x, y;
+                    rt_sim_get_gen(s1, i, k, g, &x);
+                    rt_sim_get_gen(s2, i, k, g, &y);
+                    diff += !same(&x, &y);
+                }
+        CHECK(diff == 0, "repeats %d: %d counter sets differ from the unfiltered replay", v, diff);
+        CHECK(rt_sim_check(s2, &e) == 0, "repeats %d: invariant: %s", v, e.msg);
+        rt_sim_free(s1);
+        rt_sim_free(s2);
+    }
+    /* engines that may not drop them: set-associative, no-write-allocate */
+    for (int v = 0; v < 2; v++) {
+        rt_sim_config c;
+        rt_sim_config_default(&c);
+        if (v == 0) c.assoc = 4;
+        else c.no_write_allocate = 1, c.write_through = 1;
+        rt_sim *s = rt_sim_new(&c, &e);
+        rt_repeats rp;
+        rt_sim_repeats(s, &rp);
+        CHECK(rp.line == 0, "repeats: per-size engine %d offers a filter", v);
+        rt_sim_free(s);
+    }
+    /* through rt_approx: the exact method forwards the filter, sampled ones offer none */
+    rt_sim_config c;
+    rt_sim_config_default(&c);
+    for (int meth = 0; meth < 2; meth++) {
+        rt_approx_config ac;
+        rt_approx_config_default(&ac);
+        ac.method = meth ? RT_APPROX_HYBRID : RT_APPROX_EXACT;
+        rt_approx *ap = rt_approx_new(&c, &ac, &e);
+        CHECK(ap, "repeats: approx: %s", e.msg);
+        rt_repeats rp;
+        rt_approx_repeats(ap, &rp);
+        CHECK(meth ? rp.line == 0 : rp.line == 64, "repeats: approx method %d filter line %u", meth, rp.line);
+        rt_approx_free(ap);
+    }
+    free(a);
+}
+
 int main(void)
 {
     enum { N = 150000 };
@@ -1082,6 +1185,7 @@ int main(void)
     test_replay_generations();
     test_counters_64bit();
     test_msim_engines();
+    test_repeat_filter();
     test_din();
 
     /* one-pass fully associative vs naive, sizes 1K..64K */
