@@ -22,6 +22,7 @@
  */
 #include "approx.h"
 #include "approx_int.h"
+#include "sim_int.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -212,6 +213,94 @@ int rt_approx_replay(rt_approx *a, const char *path, int fmt, int din_class, rt_
                      rt_sim_input *info, rt_err *e)
 {
     return rt_sim_replay_sink(&a->sink, path, fmt, din_class, meta, info, e);
+}
+
+int rt_approx_sample_fits(const rt_approx *a, const rt_tr_sample_params *sp, char *why, size_t n)
+{
+    const rt_approx_config *ac = &a->ac;
+    if (ac->method != RT_APPROX_HYBRID)
+        return snprintf(why, n, "the sample stream serves the hybrid method, not %s", method_names[ac->method]), 0;
+    if (a->refs) return snprintf(why, n, "references were already fed"), 0;
+    if (a->nexact) return snprintf(why, n, "sizes below exact_below need every reference"), 0;
+    if (a->cfg.line != sp->line)
+        return snprintf(why, n, "the sample stream has %u-byte lines, not %u", sp->line, a->cfg.line), 0;
+    if (ac->seed != sp->seed)
+        return snprintf(why, n, "the sample stream has seed %llu, not %llu", (unsigned long long)sp->seed,
+                        (unsigned long long)ac->seed), 0;
+    if (a->sh && sp->shift > 0) { /* golden samples: the lines under T64 (shards.c), nested in T64 */
+        double T = floor(ac->rate * 0x1p64 + 0.5);
+        if (T >= 0x1p64 || T > ldexp(1, 64 - (int)sp->shift))
+            return snprintf(why, n, "rate %g is above the sample stream's 1/%llu", ac->rate,
+                            1ULL << sp->shift), 0;
+    }
+    if (a->tw) {
+        uint64_t cmax = a->cfg.sizes[a->nexact + a->nwin - 1] / a->cfg.line;
+        if (ac->period != sp->period || ac->window != sp->window || cmax != sp->cmax ||
+            rt_window_hist(a->tw) != sp->hist)
+            return snprintf(why, n, "windows of %llu every %llu warmed for %llu lines are not the sample stream's "
+                            "(%llu every %llu for %llu lines)",
+                            (unsigned long long)ac->window, (unsigned long long)ac->period, (unsigned long long)cmax,
+                            (unsigned long long)sp->window, (unsigned long long)sp->period,
+                            (unsigned long long)sp->cmax), 0;
+    }
+    if (n) why[0] = 0;
+    return 1;
+}
+
+int rt_approx_put_side(rt_approx *a, const rt_tr_side *s)
+{
+    a->refs += s->nrefs;
+    for (int c = 0; c < RT_NCLASS; c++)
+        for (int w = 0; w < 2; w++) a->acc[c][w] += s->touches[c][w];
+    if (a->sh) { /* the touches were counted by the writer; these are the sampled ones again */
+        uint64_t scratch[RT_NCLASS][2];
+        rt_shards_put(a->sh, s->sampled, (size_t)s->nsampled, scratch);
+    }
+    for (uint32_t j = 0; a->tw && j < s->nwin; j++) {
+        const rt_tr_window *w = &s->win[j];
+        rt_window_put_warm(a->tw, w->warm, w->nwarm, w->scanned, w->short_warmup, w->recs, w->nrecs);
+    }
+    return 0;
+}
+
+int rt_approx_replay_file(rt_approx *a, const char *path, int fmt, int din_class, int nthreads, rt_tr_meta *meta,
+                          rt_sim_input *info, char *note, size_t n, rt_err *e)
+{
+    if (n) note[0] = 0;
+    if (a->ac.method == RT_APPROX_HYBRID) {
+        if (fmt == RT_SIM_IN_AUTO && (fmt = rt_sim_sniff(path, e)) < 0) return -1;
+        rt_tr_reader *r = fmt == RT_SIM_IN_RTT ? rt_tr_open(path, e) : NULL;
+        if (fmt == RT_SIM_IN_RTT && !r) return -1;
+        rt_tr_sample_params sp;
+        char why[200];
+        if (r && !rt_tr_get_sample_params(r, &sp))
+            snprintf(note, n, "%s: format version %u has no sample stream; decoding every record", path,
+                     rt_tr_get_version(r));
+        else if (r && !rt_approx_sample_fits(a, &sp, why, sizeof why))
+            snprintf(note, n, "%s: %s; decoding every record", path, why);
+        else if (r) {
+            rt_sim_input loc;
+            if (!info) info = &loc;
+            memset(info, 0, sizeof *info);
+            info->format = RT_SIM_IN_RTT;
+            info->has_meta = 1;
+            if (meta) *meta = *rt_tr_get_meta(r);
+            rt_tr_side sd;
+            int k;
+            while ((k = rt_tr_read_side(r, &sd, e)) > 0) {
+                rt_approx_put_side(a, &sd);
+                info->refs += sd.nrefs;
+            }
+            if (k == 0) {
+                info->file_bytes = rt_tr_file_bytes(r);
+                info->file_hash = rt_tr_file_hash(r);
+            }
+            rt_tr_close(r);
+            return k == 0 ? 0 : -1;
+        }
+        rt_tr_close(r);
+    }
+    return rt_sim_replay_threads(&a->sink, path, fmt, din_class, nthreads, meta, info, e);
 }
 
 const char *rt_approx_engine(const rt_approx *a)

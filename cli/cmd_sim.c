@@ -379,9 +379,13 @@ static int sim_one(const sim_opts *o, rt_db *db, const char *path, rt_tr_meta *m
     rt_sim_input in;
     double t0 = rt_now();
     int rc = -1;
+    char note[RT_ERR_LEN];
     memset(meta, 0, sizeof *meta);
-    if (ap && !rt_sim_replay_threads(rt_approx_sink(ap), path, o->infmt, o->din_class, o->threads, meta, &in, &err) &&
-        !rt_approx_finish(ap, &err)) {
+    int replayed = ap ? rt_approx_replay_file(ap, path, o->infmt, o->din_class, o->threads, meta, &in, note,
+                                              sizeof note, &err)
+                      : -1;
+    if (ap && note[0]) fprintf(stderr, "raytraffic sim: note: %s\n", note);
+    if (ap && !replayed && !rt_approx_finish(ap, &err)) {
         if (!db) print_results(stdout, o->outfmt, path, ap, first);
         rc = db ? store(db, path, ap, meta, &in, rt_now() - t0, o->din_class, &err) : 0;
     }
