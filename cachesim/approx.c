@@ -25,6 +25,7 @@
 #include "sim_int.h"
 
 #include <math.h>
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -263,10 +264,158 @@ int rt_approx_put_side(rt_approx *a, const rt_tr_side *s)
     return 0;
 }
 
+/* ---- sample-stream replay on two threads ----
+ * The reader thread reads, hashes, CRC-checks, inflates and decodes side
+ * chunks (rt_tr_read_side) and copies each into a free slot; the calling
+ * thread feeds the slots to the estimator in order. Ring invariants as in
+ * replay.c: head <= tail <= head + SIDE_SLOTS, slots head..tail-1 are
+ * filled and the consumer's; rc of a slot is rt_tr_read_side's result, the
+ * reader stops after publishing one <= 0; stop makes it quit. */
+#define SIDE_SLOTS 4
+
+typedef struct side_slot {
+    rt_tr_side s;       /* the copy, pointing into rec and win */
+    rt_access *rec;     /* sampled records, then each window's warm-up and records */
+    size_t reccap;      /* capacity */
+    rt_tr_window *win;  /* windows */
+    uint32_t wincap;    /* capacity */
+    int rc;             /* 1 side chunk, 0 end, -1 error (message in the ring's err) */
+} side_slot;
+
+typedef struct side_ring {
+    pthread_mutex_t mu;          /* guards head, tail, stop, rc */
+    pthread_cond_t filled, freed;
+    side_slot slot[SIDE_SLOTS];
+    unsigned long head, tail;    /* slots consumed, published */
+    int stop;                    /* the consumer gave up */
+    rt_tr_reader *r;             /* touched by the reader thread only until join */
+    rt_err err;                  /* the reader's message */
+} side_ring;
+
+/* Deep copy of s into x; 0 or -1 (out of memory). */
+static int side_copy(side_slot *x, const rt_tr_side *s)
+{
+    size_t need = (size_t)s->nsampled;
+    for (uint32_t j = 0; j < s->nwin; j++) need += s->win[j].nwarm + (size_t)s->win[j].nrecs;
+    if (need > x->reccap) {
+        rt_access *p = realloc(x->rec, need * sizeof *p);
+        if (!p) return -1;
+        x->rec = p;
+        x->reccap = need;
+    }
+    if (s->nwin > x->wincap) {
+        rt_tr_window *p = realloc(x->win, s->nwin * sizeof *p);
+        if (!p) return -1;
+        x->win = p;
+        x->wincap = s->nwin;
+    }
+    x->s = *s;
+    rt_access *q = x->rec;
+    memcpy(q, s->sampled, (size_t)s->nsampled * sizeof *q);
+    x->s.sampled = q;
+    q += s->nsampled;
+    for (uint32_t j = 0; j < s->nwin; j++) {
+        x->win[j] = s->win[j];
+        memcpy(q, s->win[j].warm, s->win[j].nwarm * sizeof *q);
+        x->win[j].warm = q;
+        q += s->win[j].nwarm;
+        memcpy(q, s->win[j].recs, s->win[j].nrecs * sizeof *q);
+        x->win[j].recs = q;
+        q += s->win[j].nrecs;
+    }
+    x->s.win = x->win;
+    return 0;
+}
+
+static void *side_reader(void *arg)
+{
+    side_ring *q = arg;
+    for (;;) {
+        pthread_mutex_lock(&q->mu);
+        while (q->tail - q->head == SIDE_SLOTS && !q->stop) pthread_cond_wait(&q->freed, &q->mu);
+        int stop = q->stop;
+        unsigned long t = q->tail;
+        pthread_mutex_unlock(&q->mu);
+        if (stop) break;
+        side_slot *x = &q->slot[t % SIDE_SLOTS];
+        rt_tr_side sd;
+        int k = rt_tr_read_side(q->r, &sd, &q->err);
+        if (k > 0 && side_copy(x, &sd) < 0) k = rt_errf(&q->err, "out of memory");
+        pthread_mutex_lock(&q->mu);
+        x->rc = k;
+        q->tail = t + 1;
+        pthread_cond_signal(&q->filled);
+        pthread_mutex_unlock(&q->mu);
+        if (k <= 0) break;
+    }
+    return NULL;
+}
+
+/* Feeds every side chunk of r to a: 0 at the verified end, -1 (e). */
+static int side_pump(rt_approx *a, rt_tr_reader *r, int nthreads, uint64_t *refs, rt_err *e)
+{
+    side_ring *q = nthreads > 1 ? calloc(1, sizeof *q) : NULL;
+    pthread_t th;
+    int inited = 0;
+    if (q) {
+        q->r = r;
+        inited = !pthread_mutex_init(&q->mu, NULL);
+        inited += inited == 1 && !pthread_cond_init(&q->filled, NULL);
+        inited += inited == 2 && !pthread_cond_init(&q->freed, NULL);
+        inited += inited == 3 && !pthread_create(&th, NULL, side_reader, q);
+    }
+    if (inited < 4) { /* one thread: read and feed in turn */
+        if (inited > 2) pthread_cond_destroy(&q->freed);
+        if (inited > 1) pthread_cond_destroy(&q->filled);
+        if (inited > 0) pthread_mutex_destroy(&q->mu);
+        free(q);
+        rt_tr_side sd;
+        int k;
+        while ((k = rt_tr_read_side(r, &sd, e)) > 0) {
+            rt_approx_put_side(a, &sd);
+            *refs += sd.nrefs;
+        }
+        return k;
+    }
+    int rc;
+    for (;;) {
+        pthread_mutex_lock(&q->mu);
+        while (q->tail == q->head) pthread_cond_wait(&q->filled, &q->mu);
+        pthread_mutex_unlock(&q->mu);
+        side_slot *x = &q->slot[q->head % SIDE_SLOTS];
+        if (x->rc <= 0) {
+            rc = x->rc < 0 ? rt_errf(e, "%s", q->err.msg) : 0;
+            break;
+        }
+        rt_approx_put_side(a, &x->s);
+        *refs += x->s.nrefs;
+        pthread_mutex_lock(&q->mu);
+        q->head++;
+        pthread_cond_signal(&q->freed);
+        pthread_mutex_unlock(&q->mu);
+    }
+    pthread_mutex_lock(&q->mu);
+    q->stop = 1;
+    pthread_cond_signal(&q->freed);
+    pthread_mutex_unlock(&q->mu);
+    pthread_join(th, NULL);
+    pthread_cond_destroy(&q->freed);
+    pthread_cond_destroy(&q->filled);
+    pthread_mutex_destroy(&q->mu);
+    for (int i = 0; i < SIDE_SLOTS; i++) {
+        free(q->slot[i].rec);
+        free(q->slot[i].win);
+    }
+    free(q);
+    return rc;
+}
+
 int rt_approx_replay_file(rt_approx *a, const char *path, int fmt, int din_class, int nthreads, rt_tr_meta *meta,
                           rt_sim_input *info, char *note, size_t n, rt_err *e)
 {
     if (n) note[0] = 0;
+    if (nthreads < 1 || nthreads > RT_SIM_MAXTHREADS)
+        return rt_errf(e, "%d replay threads: 1 to %d are supported", nthreads, RT_SIM_MAXTHREADS);
     if (a->ac.method == RT_APPROX_HYBRID) {
         if (fmt == RT_SIM_IN_AUTO && (fmt = rt_sim_sniff(path, e)) < 0) return -1;
         rt_tr_reader *r = fmt == RT_SIM_IN_RTT ? rt_tr_open(path, e) : NULL;
@@ -285,12 +434,7 @@ int rt_approx_replay_file(rt_approx *a, const char *path, int fmt, int din_class
             info->format = RT_SIM_IN_RTT;
             info->has_meta = 1;
             if (meta) *meta = *rt_tr_get_meta(r);
-            rt_tr_side sd;
-            int k;
-            while ((k = rt_tr_read_side(r, &sd, e)) > 0) {
-                rt_approx_put_side(a, &sd);
-                info->refs += sd.nrefs;
-            }
+            int k = side_pump(a, r, nthreads, &info->refs, e);
             if (k == 0) {
                 info->file_bytes = rt_tr_file_bytes(r);
                 info->file_hash = rt_tr_file_hash(r);
