@@ -548,48 +548,75 @@ static int sb_close_window(sbuild *b)
     return 0;
 }
 
-/* Feeds n valid records. 0 or -1 (out of memory). */
+/* Feeds n valid records. 0 or -1 (out of memory). The hot loop keeps its
+ * state in locals (the history stores would otherwise make the compiler
+ * reload it) and counts into four interleaved tables, so consecutive
+ * records of one class do not wait on each other's store. */
 static int sb_put(sbuild *b, const rt_access *a, size_t n)
 {
     const int sh = b->shift;
-    const uint64_t T = b->T64, off = b->goff;
+    const uint64_t T = b->T64, off = b->goff, H = b->p.hist;
     if (bb_room(&b->samp, n * MAX_REC_BYTES)) return -1;
     unsigned char *sq = b->samp.b + b->samp.n;
+    uint64_t cnt[4][RT_NCLASS][2], tch[4][RT_NCLASS][2], byt[4][RT_NCLASS];
+    memset(cnt, 0, sizeof cnt);
+    memset(tch, 0, sizeof tch);
+    memset(byt, 0, sizeof byt);
+    rt_access *restrict hist = b->hist;
+    uint64_t pos = b->pos, next = b->next, hhead = b->hhead, hn = b->hn;
+    int rc = 0;
     for (size_t i = 0; i < n; i++) {
         const rt_access *r = &a[i];
-        unsigned cls = r->cls, w = r->write ? 1 : 0;
+        unsigned cls = r->cls, w = r->write ? 1 : 0, k = i & 3;
         uint64_t f = r->addr >> sh, l = (r->addr + r->size - 1) >> sh;
-        b->touch[cls][w] += l - f + 1;
-        b->refs[cls]++;
-        b->bytes[cls] += r->size;
-        b->writes[cls] += w;
-        for (uint64_t L = f; L <= l; L++)
-            if (!T || L * GOLD + off < T) {
-                sq = enc_rec(&b->cs, sq, r);
-                b->ns++;
-                break;
-            }
-        if (b->pos < b->next) { /* before a window: keep the last hist records */
-            if (b->p.hist) {
-                b->hist[b->hhead] = *r;
-                b->hhead = b->hhead + 1 == b->p.hist ? 0 : b->hhead + 1;
-                if (b->hn < b->p.hist) b->hn++;
+        cnt[k][cls][w]++;
+        tch[k][cls][w] += l - f + 1;
+        byt[k][cls] += r->size;
+        int hit = f <= l && (!T || f * GOLD + off < T || l * GOLD + off < T);
+        for (uint64_t L = f + 1; !hit && L < l; L++) hit = L * GOLD + off < T; /* wider than two lines */
+        if (hit) {
+            sq = enc_rec(&b->cs, sq, r);
+            b->ns++;
+        }
+        if (pos < next) { /* before a window: keep the last hist records */
+            if (pos + H >= next && H) {
+                hist[hhead] = *r;
+                hhead = hhead + 1 == H ? 0 : hhead + 1;
+                hn += hn < H;
             }
         } else {
-            if (b->wn == 0 && sb_begin(b)) return -1;
-            if (bb_room(&b->wcur, MAX_REC_BYTES)) return -1;
+            b->hhead = hhead;
+            b->hn = hn;
+            if (b->wn == 0 && sb_begin(b)) rc = -1;
+            if (!rc && bb_room(&b->wcur, MAX_REC_BYTES)) rc = -1;
+            if (rc) break;
             b->wcur.n = (size_t)(enc_rec(&b->cw, b->wcur.b + b->wcur.n, r) - b->wcur.b);
             if (++b->wn == b->p.window) {
-                if (sb_close_window(b)) return -1;
+                if (sb_close_window(b)) {
+                    rc = -1;
+                    break;
+                }
                 b->wn = 0;
-                b->hn = 0;
-                b->next += b->p.period;
+                hn = 0;
+                next = b->next += b->p.period;
             }
         }
-        b->pos++;
+        pos++;
     }
+    b->pos = pos;
+    b->hhead = hhead;
+    b->hn = hn;
     b->samp.n = (size_t)(sq - b->samp.b);
-    return 0;
+    for (int k = 0; k < 4; k++)
+        for (int c = 0; c < RT_NCLASS; c++) {
+            for (int w = 0; w < 2; w++) {
+                b->touch[c][w] += tch[k][c][w];
+                b->refs[c] += cnt[k][c][w];
+            }
+            b->writes[c] += cnt[k][c][1];
+            b->bytes[c] += byt[k][c];
+        }
+    return rc;
 }
 
 /* Makes the side payload of the chunk just ended into b->out and starts
