@@ -218,7 +218,8 @@ int rt_approx_bench_n(FILE *out, const char *trace_path, uint64_t nrefs, rt_err 
         {RT_APPROX_STATSTACK, 0.01, 0, 0, 0},        {RT_APPROX_STATSTACK, 0.001, 0, 0, 0},
         {RT_APPROX_STATSTACK, 0.0001, 0, 0, 0},      {RT_APPROX_STATSTACK, 0.001, 0, 16384, 0},
         {RT_APPROX_HYBRID, 1.0 / 64, 0, 0, 32768},   {RT_APPROX_HYBRID, 1.0 / 64, 0, 0, 8192},
-        {RT_APPROX_HYBRID, 1.0 / 128, 0, 0, 32768},  {RT_APPROX_HYBRID, 1.0 / 64, 0, 0, 0},
+        {RT_APPROX_HYBRID, 1.0 / 128, 0, 0, 32768},  {RT_APPROX_HYBRID, 1.0 / 128, 0, 0, 8192},
+        {RT_APPROX_HYBRID, 1.0 / 64, 0, 0, 0},
     };
     rt_access *buf = rt_calloc(CHUNK, sizeof *buf, e);
     result *ex = rt_calloc(1, sizeof *ex, e), *r = rt_calloc(1, sizeof *r, e);

@@ -15,7 +15,7 @@
  * fixed-width; "str" is a u16 length followed by that many bytes (no NUL).
  *
  *   header   "RTTRACE\0"              8 bytes magic
- *            u32 format version       1 or 2; a reader rejects versions it
+ *            u32 format version       1, 2 or 3; a reader rejects versions it
  *                                     does not know (message names both)
  *            u32 P                    payload length (<= 64 KiB)
  *            P bytes payload          see below
@@ -28,6 +28,9 @@
  *            u32 C                    compressed length, 1..compressBound(U)+64
  *            u32 CRC-32               of the 20 bytes above, then the C bytes
  *            C bytes                  one complete zlib stream inflating to U bytes
+ *   [side]   version 3, after every chunk: the same 24-byte layout with
+ *            magic "RTSM", the index and n of its chunk, and a payload
+ *            (below) of at most side_bound(n) bytes
  *   footer   "RTND"                   footer magic
  *            u32 nclass               10 (RT_NCLASS)
  *            u64 nrefs, u64 nchunks
@@ -42,7 +45,9 @@
  * u32 nregions (<= RT_MM_MAX_REGIONS), u64 layout.next, and per region
  * str name, u8 class, u32 recsize, u64 count, u64 base. Version 2 appends
  * u32 generations (1..255, the highest generation a record may carry).
- * Every str must fit its rt_tr_meta field with its NUL and may not contain
+ * Version 3 appends u32 generations (0..255: 0 = no generation bytes) and
+ * the sample stream's parameters (rt_tr_sample_params): u32 line, u8
+ * shift, u64 seed, period, window, cmax, hist. Every str must fit its rt_tr_meta field with its NUL and may not contain
  * NUL bytes; the payload must be consumed exactly.
  *
  * RECORD ENCODING (inside a chunk, before zlib). Per class c the coder
@@ -66,6 +71,17 @@
  * version 1 when the metadata declares no generations, so traces of runs
  * without secondary rays stay exactly what they were.
  *
+ * SIDE CHUNKS (version 3; docs/trace-format.md has the table). The payload
+ * of chunk k's side chunk: u8 flags (bit 0: the last chunk); per class 5
+ * varints (line touches by reads and by writes, refs, bytes, writes of
+ * chunk k); varint ns and the ns records of chunk k that touch a sampled
+ * line; varint nw and per window ending in chunk k (plus, in the last
+ * chunk, the one the trace ends in): varints nwarm, scanned, u8 short,
+ * varint nrecs, then nwarm warm-up records and nrecs window records. Each
+ * record group is coded as a chunk is, from a reset coder. The builder
+ * (sbuild, below) makes these bytes from the records; the writer stores
+ * them and rt_tr_read re-makes and compares them.
+ *
  * Address arithmetic wraps modulo 2^64, so every address 0..2^64-1 has an
  * encoding. A k-d traversal revisits the same node sequences for
  * neighbouring rays, so the byte stream repeats itself and zlib removes the
@@ -80,14 +96,27 @@
  *     changes the generation and stays <= the header's (version 2),
  *     varints not overlong, size >= 1;
  *   - the footer's CRC is valid, and its totals equal the totals of the
- *     records actually read; nothing follows the footer.
+ *     records actually read; nothing follows the footer;
+ *   - version 3: each chunk is followed by its side chunk (magic, index,
+ *     n, bounds, CRC, exact inflate) whose payload equals, byte for byte,
+ *     the one the builder makes from the chunk's records; only the last is
+ *     marked last.
  *   Every byte of the file is covered by a CRC or checked against a magic,
  *   so any single flipped bit and any truncation is detected. rt_tr_read
  *   returns 0 only after all of this has been verified.
  *
+ *   rt_tr_read_side (the sampled read) checks every magic, header, bound
+ *   and CRC, data chunks included, and the side payloads' structure and
+ *   record encoding, and the footer against the side chunks' totals; it
+ *   does not inflate data chunks, so it cannot see a side chunk that
+ *   disagrees with valid-CRC records (a forged file or a writer bug).
+ *
  * WRITER. Records are encoded as they arrive (through the rt_sink) into a
- * buffer of one chunk; a full buffer is deflated and written. Memory is one
- * chunk's raw and compressed buffers (~2 MiB at the default 64K records).
+ * buffer of one chunk; a full buffer is deflated and written when the next
+ * record arrives (or at rt_tr_finish, which so knows the last chunk), then
+ * its side chunk (version 3). Memory is one chunk's raw and compressed
+ * buffers (~2 MiB at the default 64K records), plus for version 3 the
+ * builder's history (512 KiB) and one side payload.
  * The file goes through outfile.c: a unique temporary beside PATH, renamed
  * to PATH only by rt_tr_finish after the footer is flushed and synced;
  * rt_tr_abort removes the temporary. So a file at PATH is always complete,
@@ -95,7 +124,7 @@
  *
  * READER. Reads sequentially through stdio, keeps one chunk in memory and
  * decodes records into the caller's buffer on demand; it hashes every byte
- * (FNV-1a 64) for provenance.
+ * (FNV-1a 64) for provenance, in both read modes.
  */
 #include "trace.h"
 #include "outfile.h"
