@@ -768,7 +768,7 @@ static rt_approx *replay_with(const rt_sim_config *c, const rt_approx_config *ac
     return x;
 }
 
-/* On a synthetic ray-tracer stream long enough for 40 windows: the exact
+/* On a synthetic ray-tracer stream of 39 windows and part of a 40th: the exact
  * simulator gives the same counters from the version-3 and the version-1
  * file; the hybrid estimate from the sample stream equals, counter for
  * counter and statistic for statistic, the one from every record (file or
@@ -777,7 +777,7 @@ static rt_approx *replay_with(const rt_sim_config *c, const rt_approx_config *ac
  * records with a note and the same results. */
 static void test_sample_stream(void)
 {
-    const size_t n = 40u * 65536 + 12345;
+    const size_t n = 40u * 65536 - 500; /* 39 windows, and the trace ends inside the 40th */
     rt_access *a = malloc(n * sizeof *a);
     rt_synth g;
     rt_synth_init(&g);
@@ -825,7 +825,7 @@ static void test_sample_stream(void)
     approx_same("side vs memory", side1, mem);
     rt_approx_stats st;
     rt_approx_get_stats(side1, &st);
-    CHECK(st.windows == 40 && st.sampled_touches > 0, "side: %llu windows", (unsigned long long)st.windows);
+    CHECK(st.windows == 39 && st.sampled_touches > 0, "side: %llu windows", (unsigned long long)st.windows);
     /* accuracy against the exact simulator (the bench's definition: |miss
      * ratio error| per size, geometry group). The synthetic tracer is
      * harder than the real ones (measured MAE 0.0025, max 0.0036 here;
