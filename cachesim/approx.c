@@ -13,6 +13,14 @@
  * kind, rounds to the nearest integer and recomputes traffic as the exact
  * simulator does, so (rm + wm + wb) * line == traffic_bytes holds here too.
  *
+ * Sample stream: a version-3 trace stores, per chunk, the exact touch
+ * counts, the records touching its golden-ratio line sample and the
+ * hybrid's windows with their warm-up (trace.h). rt_approx_replay_file
+ * feeds those instead of the records when rt_approx_sample_fits says they
+ * give the same estimates (hybrid, no exact sizes, the stream's line, seed
+ * and windows, a rate at most the stream's), on a second thread that
+ * reads and decodes; otherwise it replays every record and says why.
+ *
  * Availability: a size has no estimate if the sample is smaller than
  * RT_APPROX_MIN_SAMPLES (too few sampled lines or references: the trace is
  * too short for the rate; not checked at rate 1, where nothing is left
@@ -284,8 +292,9 @@ typedef struct side_slot {
 
 typedef struct side_ring {
     pthread_mutex_t mu;          /* guards head, tail, stop, rc */
-    pthread_cond_t filled, freed;
-    side_slot slot[SIDE_SLOTS];
+    pthread_cond_t filled;       /* the reader published a slot */
+    pthread_cond_t freed;        /* the consumer released a slot or set stop */
+    side_slot slot[SIDE_SLOTS];  /* the ring */
     unsigned long head, tail;    /* slots consumed, published */
     int stop;                    /* the consumer gave up */
     rt_tr_reader *r;             /* touched by the reader thread only until join */

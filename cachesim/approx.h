@@ -37,8 +37,9 @@
  * (rt_sim_get_gen).
  *
  * Usage: rt_approx_new, feed references through rt_approx_sink /
- * rt_approx_put or rt_approx_replay, call rt_approx_finish, then
- * rt_approx_get. Return conventions as in rt.h: 0 / non-NULL on success,
+ * rt_approx_put, rt_approx_replay or rt_approx_replay_file (which reads a
+ * version-3 trace's sample stream instead of its records when it can),
+ * call rt_approx_finish, then rt_approx_get. Return conventions as in rt.h: 0 / non-NULL on success,
  * -1 / NULL with one line in e.
  */
 #ifndef RT_APPROX_H

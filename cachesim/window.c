@@ -47,6 +47,11 @@
  * window is scaled by the overall touch ratio (its measured misses are
  * then 0). Fewer than RT_APPROX_MIN_SAMPLES windows: no estimate.
  *
+ * FROM A TRACE. A version-3 trace's writer runs the same placement and
+ * backward scan and stores each window's warm-up lines and records
+ * (trace.h); rt_window_put_warm replays one such window: same warm-up,
+ * same counters, same statistics, without the history.
+ *
  * INVARIANTS: pos = references seen; next = s_j of the window in progress
  * or to come; nhist = references of [max(next - H, 0), next) kept so far
  * (hist holds them in order); cur != NULL iff next <= pos < next + M.

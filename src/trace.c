@@ -47,8 +47,9 @@
  * u32 generations (1..255, the highest generation a record may carry).
  * Version 3 appends u32 generations (0..255: 0 = no generation bytes) and
  * the sample stream's parameters (rt_tr_sample_params): u32 line, u8
- * shift, u64 seed, period, window, cmax, hist. Every str must fit its rt_tr_meta field with its NUL and may not contain
- * NUL bytes; the payload must be consumed exactly.
+ * shift, u64 seed, period, window, cmax, hist. Every str must fit its
+ * rt_tr_meta field with its NUL and may not contain NUL bytes; the payload
+ * must be consumed exactly.
  *
  * RECORD ENCODING (inside a chunk, before zlib). Per class c the coder
  * keeps the previous address A[c] and size S[c], both 0 at the start of
