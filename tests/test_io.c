@@ -713,6 +713,23 @@ static void test_v3_corrupt(void)
             v3_both_fail(bad, "cut in a side chunk", off[c] + i, NULL);
         }
     }
+    /* impossible sample-stream parameters in a header with a valid CRC:
+     * the line size (first field after generations) not a power of two */
+    {
+        size_t P = b[12] | b[13] << 8 | b[14] << 16 | (size_t)b[15] << 24, at = 16 + P - (4 + 1 + 5 * 8);
+        unsigned char *x = malloc(len);
+        memcpy(x, b, len);
+        CHECK(x[at] == RT_TR_SAMPLE_LINE && x[at + 1] == 0, "sample line field not where expected");
+        x[at] = 48;
+        uint32_t c = (uint32_t)crc32(0, x, (uInt)(16 + P));
+        for (int i = 0; i < 4; i++) x[16 + P + i] = (unsigned char)(c >> (8 * i));
+        check_write_file(bad, x, len);
+        free(x);
+        rt_tr_reader *r = rt_tr_open(bad, &e);
+        CHECK(!r && strstr(e.msg, "impossible sample stream (line 48") && strstr(e.msg, "byte "),
+              "bad sample line accepted: %s", e.msg);
+        rt_tr_close(r);
+    }
     /* a side chunk dropped: the next data chunk comes where it should be */
     if (nc >= 4) {
         size_t cut = off[1], next = off[2];
