@@ -320,12 +320,12 @@ static int side_copy(side_slot *x, const rt_tr_side *s)
     }
     x->s = *s;
     rt_access *q = x->rec;
-    memcpy(q, s->sampled, (size_t)s->nsampled * sizeof *q);
+    if (s->nsampled) memcpy(q, s->sampled, (size_t)s->nsampled * sizeof *q);
     x->s.sampled = q;
     q += s->nsampled;
     for (uint32_t j = 0; j < s->nwin; j++) {
         x->win[j] = s->win[j];
-        memcpy(q, s->win[j].warm, s->win[j].nwarm * sizeof *q);
+        if (s->win[j].nwarm) memcpy(q, s->win[j].warm, s->win[j].nwarm * sizeof *q);
         x->win[j].warm = q;
         q += s->win[j].nwarm;
         memcpy(q, s->win[j].recs, s->win[j].nrecs * sizeof *q);

@@ -572,7 +572,7 @@ static int sb_close_window(sbuild *b)
     q = put_varint(q, b->wscanned);
     *q++ = (unsigned char)b->wshort;
     q = put_varint(q, b->wn);
-    memcpy(q, b->wcur.b, b->wcur.n);
+    if (b->wcur.n) memcpy(q, b->wcur.b, b->wcur.n);
     b->wins.n = (size_t)(q - b->wins.b) + b->wcur.n;
     b->nw++;
     return 0;
@@ -586,6 +586,7 @@ static int sb_put(sbuild *b, const rt_access *a, size_t n)
 {
     const int sh = b->shift;
     const uint64_t T = b->T64, off = b->goff, H = b->p.hist;
+    if (n == 0) return 0;
     if (bb_room(&b->samp, n * MAX_REC_BYTES)) return -1;
     unsigned char *sq = b->samp.b + b->samp.n;
     uint64_t cnt[4][RT_NCLASS][2], tch[4][RT_NCLASS][2], byt[4][RT_NCLASS];
@@ -667,10 +668,10 @@ static int sb_chunk(sbuild *b, int last)
         q = put_varint(q, b->writes[c]);
     }
     q = put_varint(q, b->ns);
-    memcpy(q, b->samp.b, b->samp.n);
+    if (b->samp.n) memcpy(q, b->samp.b, b->samp.n); /* (a buffer never grown is NULL) */
     q += b->samp.n;
     q = put_varint(q, b->nw);
-    memcpy(q, b->wins.b, b->wins.n);
+    if (b->wins.n) memcpy(q, b->wins.b, b->wins.n);
     q += b->wins.n;
     b->out.n = (size_t)(q - b->out.b);
     memset(b->touch, 0, sizeof b->touch);
