@@ -122,6 +122,9 @@ done
 "$bin" trace-info "$tmp/s3.rtt" | grep -q '^format: *rtt version 3' || die "trace-info: version 3"
 "$bin" trace-info "$tmp/s3.rtt" | grep -q '^sample stream: 64-byte lines at rate 1/64' || die "trace-info: sample stream"
 "$bin" trace-info "$tmp/s1.rtt" | grep -q '^format: *rtt version 1' || die "trace --no-sample: version 1"
+"$bin" trace-info --json "$tmp/s3.rtt" | grep -q '"format_version": 3,.*"sample_stream": {"line": 64, "rate": 0.015625' ||
+    die "trace-info --json: sample stream"
+"$bin" trace-info --json "$tmp/s1.rtt" | grep -q 'sample_stream' && die "trace-info --json: sample stream in version 1"
 cmp -s "$tmp/s3.rtt" "$tmp/s1.rtt" && die "the two formats are the same bytes"
 for t in 1 2; do
     "$bin" sim --method hybrid --threads $t "$tmp/s3.rtt" > "$tmp/h3.txt" 2> "$tmp/h3.err" || die "hybrid v3 --threads $t"
