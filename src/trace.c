@@ -1142,10 +1142,12 @@ static int parse_header(rt_tr_reader *r, hbuf *h)
         sp->window = hg_u64(h);
         sp->cmax = hg_u64(h);
         sp->hist = hg_u64(h);
+        /* the upper bounds keep a side chunk's bound (side_bound) within
+         * ~50 MiB even at 2^20 records per chunk */
         if (!h->bad && (sp->line < 2 || sp->line > 65536 || (sp->line & (sp->line - 1)) || sp->shift > 32 ||
-                        sp->period < 2 || sp->period > (1ULL << 40) || sp->window < 1 ||
-                        sp->window > sp->period / 2 || sp->cmax < 1 || sp->cmax > 65536 ||
-                        sp->hist > sp->period - sp->window))
+                        sp->period < 4096 || sp->period > (1ULL << 40) || sp->window < 1 ||
+                        sp->window > sp->period / 2 || sp->window > 16384 || sp->cmax < 1 || sp->cmax > 4096 ||
+                        sp->hist > sp->period - sp->window || sp->hist > (1u << 20)))
             return r_fail(r, base + at,
                           "header: impossible sample stream (line %u, rate 2^-%u, period %llu, window %llu, "
                           "%llu lines, history %llu)",

@@ -94,10 +94,10 @@ typedef struct rt_tr_sample_params {
     uint32_t line;          /* line size in bytes, a power of two */
     uint32_t shift;         /* line sample rate 2^-shift (0..32) */
     uint64_t seed;          /* sampling seed: golden offset and window placement */
-    uint64_t period;        /* one window every period records */
-    uint64_t window;        /* records per window, 1..period/2 */
-    uint64_t cmax;          /* lines rebuilt at a window start, 1..65536 */
-    uint64_t hist;          /* records scanned back at most, <= period - window */
+    uint64_t period;        /* one window every period records, 4096..2^40 */
+    uint64_t window;        /* records per window, 1..min(period/2, 16384) */
+    uint64_t cmax;          /* lines rebuilt at a window start, 1..4096 */
+    uint64_t hist;          /* records scanned back at most, <= min(period - window, 2^20) */
 } rt_tr_sample_params;
 
 /* Writer options: zlib level 0..9, records per chunk 1..RT_TR_MAX_CHUNK,
