@@ -13,6 +13,14 @@
  * kind, rounds to the nearest integer and recomputes traffic as the exact
  * simulator does, so (rm + wm + wb) * line == traffic_bytes holds here too.
  *
+ * Sample stream: a version-3 trace stores, per chunk, the exact touch
+ * counts, the records touching its golden-ratio line sample and the
+ * hybrid's windows with their warm-up (trace.h). rt_approx_replay_file
+ * feeds those instead of the records when rt_approx_sample_fits says they
+ * give the same estimates (hybrid, no exact sizes, the stream's line, seed
+ * and windows, a rate at most the stream's), on a second thread that
+ * reads and decodes; otherwise it replays every record and says why.
+ *
  * Availability: a size has no estimate if the sample is smaller than
  * RT_APPROX_MIN_SAMPLES (too few sampled lines or references: the trace is
  * too short for the rate; not checked at rate 1, where nothing is left
@@ -22,8 +30,10 @@
  */
 #include "approx.h"
 #include "approx_int.h"
+#include "sim_int.h"
 
 #include <math.h>
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -232,6 +242,240 @@ void rt_approx_repeats(rt_approx *a, rt_repeats *out)
     if (!out->line) return;
     out->add = approx_add_repeats;
     out->ctx = a;
+}
+
+int rt_approx_sample_fits(const rt_approx *a, const rt_tr_sample_params *sp, char *why, size_t n)
+{
+    const rt_approx_config *ac = &a->ac;
+    if (ac->method != RT_APPROX_HYBRID)
+        return snprintf(why, n, "the sample stream serves the hybrid method, not %s", method_names[ac->method]), 0;
+    if (a->refs) return snprintf(why, n, "references were already fed"), 0;
+    if (a->nexact) return snprintf(why, n, "sizes below exact_below need every reference"), 0;
+    if (a->cfg.line != sp->line)
+        return snprintf(why, n, "the sample stream has %u-byte lines, not %u", sp->line, a->cfg.line), 0;
+    if (ac->seed != sp->seed)
+        return snprintf(why, n, "the sample stream has seed %llu, not %llu", (unsigned long long)sp->seed,
+                        (unsigned long long)ac->seed), 0;
+    if (a->sh && sp->shift > 0) { /* golden samples: the lines under T64 (shards.c), nested in T64 */
+        double T = floor(ac->rate * 0x1p64 + 0.5);
+        if (T >= 0x1p64 || T > ldexp(1, 64 - (int)sp->shift))
+            return snprintf(why, n, "rate %g is above the sample stream's 1/%llu", ac->rate,
+                            1ULL << sp->shift), 0;
+    }
+    if (a->tw) {
+        uint64_t cmax = a->cfg.sizes[a->nexact + a->nwin - 1] / a->cfg.line;
+        if (ac->period != sp->period || ac->window != sp->window || cmax != sp->cmax ||
+            rt_window_hist(a->tw) != sp->hist)
+            return snprintf(why, n, "windows of %llu every %llu warmed for %llu lines are not the sample stream's "
+                            "(%llu every %llu for %llu lines)",
+                            (unsigned long long)ac->window, (unsigned long long)ac->period, (unsigned long long)cmax,
+                            (unsigned long long)sp->window, (unsigned long long)sp->period,
+                            (unsigned long long)sp->cmax), 0;
+    }
+    if (n) why[0] = 0;
+    return 1;
+}
+
+int rt_approx_put_side(rt_approx *a, const rt_tr_side *s)
+{
+    a->refs += s->nrefs;
+    for (int c = 0; c < RT_NCLASS; c++)
+        for (int w = 0; w < 2; w++) a->acc[c][w] += s->touches[c][w];
+    if (a->sh) { /* the touches were counted by the writer; these are the sampled ones again */
+        uint64_t scratch[RT_NCLASS][2];
+        rt_shards_put(a->sh, s->sampled, (size_t)s->nsampled, scratch);
+    }
+    for (uint32_t j = 0; a->tw && j < s->nwin; j++) {
+        const rt_tr_window *w = &s->win[j];
+        rt_window_put_warm(a->tw, w->warm, w->nwarm, w->scanned, w->short_warmup, w->recs, w->nrecs);
+    }
+    return 0;
+}
+
+/* ---- sample-stream replay on two threads ----
+ * The reader thread reads, hashes, CRC-checks, inflates and decodes side
+ * chunks (rt_tr_read_side) and copies each into a free slot; the calling
+ * thread feeds the slots to the estimator in order. Ring invariants as in
+ * replay.c: head <= tail <= head + SIDE_SLOTS, slots head..tail-1 are
+ * filled and the consumer's; rc of a slot is rt_tr_read_side's result, the
+ * reader stops after publishing one <= 0; stop makes it quit. */
+#define SIDE_SLOTS 4
+
+typedef struct side_slot {
+    rt_tr_side s;       /* the copy, pointing into rec and win */
+    rt_access *rec;     /* sampled records, then each window's warm-up and records */
+    size_t reccap;      /* capacity */
+    rt_tr_window *win;  /* windows */
+    uint32_t wincap;    /* capacity */
+    int rc;             /* 1 side chunk, 0 end, -1 error (message in the ring's err) */
+} side_slot;
+
+typedef struct side_ring {
+    pthread_mutex_t mu;          /* guards head, tail, stop, rc */
+    pthread_cond_t filled;       /* the reader published a slot */
+    pthread_cond_t freed;        /* the consumer released a slot or set stop */
+    side_slot slot[SIDE_SLOTS];  /* the ring */
+    unsigned long head, tail;    /* slots consumed, published */
+    int stop;                    /* the consumer gave up */
+    rt_tr_reader *r;             /* touched by the reader thread only until join */
+    rt_err err;                  /* the reader's message */
+} side_ring;
+
+/* Deep copy of s into x; 0 or -1 (out of memory). */
+static int side_copy(side_slot *x, const rt_tr_side *s)
+{
+    size_t need = (size_t)s->nsampled;
+    for (uint32_t j = 0; j < s->nwin; j++) need += s->win[j].nwarm + (size_t)s->win[j].nrecs;
+    if (need > x->reccap) {
+        rt_access *p = realloc(x->rec, need * sizeof *p);
+        if (!p) return -1;
+        x->rec = p;
+        x->reccap = need;
+    }
+    if (s->nwin > x->wincap) {
+        rt_tr_window *p = realloc(x->win, s->nwin * sizeof *p);
+        if (!p) return -1;
+        x->win = p;
+        x->wincap = s->nwin;
+    }
+    x->s = *s;
+    rt_access *q = x->rec;
+    if (s->nsampled) memcpy(q, s->sampled, (size_t)s->nsampled * sizeof *q);
+    x->s.sampled = q;
+    q += s->nsampled;
+    for (uint32_t j = 0; j < s->nwin; j++) {
+        x->win[j] = s->win[j];
+        if (s->win[j].nwarm) memcpy(q, s->win[j].warm, s->win[j].nwarm * sizeof *q);
+        x->win[j].warm = q;
+        q += s->win[j].nwarm;
+        memcpy(q, s->win[j].recs, s->win[j].nrecs * sizeof *q);
+        x->win[j].recs = q;
+        q += s->win[j].nrecs;
+    }
+    x->s.win = x->win;
+    return 0;
+}
+
+static void *side_reader(void *arg)
+{
+    side_ring *q = arg;
+    for (;;) {
+        pthread_mutex_lock(&q->mu);
+        while (q->tail - q->head == SIDE_SLOTS && !q->stop) pthread_cond_wait(&q->freed, &q->mu);
+        int stop = q->stop;
+        unsigned long t = q->tail;
+        pthread_mutex_unlock(&q->mu);
+        if (stop) break;
+        side_slot *x = &q->slot[t % SIDE_SLOTS];
+        rt_tr_side sd;
+        int k = rt_tr_read_side(q->r, &sd, &q->err);
+        if (k > 0 && side_copy(x, &sd) < 0) k = rt_errf(&q->err, "out of memory");
+        pthread_mutex_lock(&q->mu);
+        x->rc = k;
+        q->tail = t + 1;
+        pthread_cond_signal(&q->filled);
+        pthread_mutex_unlock(&q->mu);
+        if (k <= 0) break;
+    }
+    return NULL;
+}
+
+/* Feeds every side chunk of r to a: 0 at the verified end, -1 (e). */
+static int side_pump(rt_approx *a, rt_tr_reader *r, int nthreads, uint64_t *refs, rt_err *e)
+{
+    side_ring *q = nthreads > 1 ? calloc(1, sizeof *q) : NULL;
+    pthread_t th;
+    int inited = 0;
+    if (q) {
+        q->r = r;
+        inited = !pthread_mutex_init(&q->mu, NULL);
+        inited += inited == 1 && !pthread_cond_init(&q->filled, NULL);
+        inited += inited == 2 && !pthread_cond_init(&q->freed, NULL);
+        inited += inited == 3 && !pthread_create(&th, NULL, side_reader, q);
+    }
+    if (inited < 4) { /* one thread: read and feed in turn */
+        if (inited > 2) pthread_cond_destroy(&q->freed);
+        if (inited > 1) pthread_cond_destroy(&q->filled);
+        if (inited > 0) pthread_mutex_destroy(&q->mu);
+        free(q);
+        rt_tr_side sd;
+        int k;
+        while ((k = rt_tr_read_side(r, &sd, e)) > 0) {
+            rt_approx_put_side(a, &sd);
+            *refs += sd.nrefs;
+        }
+        return k;
+    }
+    int rc;
+    for (;;) {
+        pthread_mutex_lock(&q->mu);
+        while (q->tail == q->head) pthread_cond_wait(&q->filled, &q->mu);
+        pthread_mutex_unlock(&q->mu);
+        side_slot *x = &q->slot[q->head % SIDE_SLOTS];
+        if (x->rc <= 0) {
+            rc = x->rc < 0 ? rt_errf(e, "%s", q->err.msg) : 0;
+            break;
+        }
+        rt_approx_put_side(a, &x->s);
+        *refs += x->s.nrefs;
+        pthread_mutex_lock(&q->mu);
+        q->head++;
+        pthread_cond_signal(&q->freed);
+        pthread_mutex_unlock(&q->mu);
+    }
+    pthread_mutex_lock(&q->mu);
+    q->stop = 1;
+    pthread_cond_signal(&q->freed);
+    pthread_mutex_unlock(&q->mu);
+    pthread_join(th, NULL);
+    pthread_cond_destroy(&q->freed);
+    pthread_cond_destroy(&q->filled);
+    pthread_mutex_destroy(&q->mu);
+    for (int i = 0; i < SIDE_SLOTS; i++) {
+        free(q->slot[i].rec);
+        free(q->slot[i].win);
+    }
+    free(q);
+    return rc;
+}
+
+int rt_approx_replay_file(rt_approx *a, const char *path, int fmt, int din_class, int nthreads, rt_tr_meta *meta,
+                          rt_sim_input *info, char *note, size_t n, rt_err *e)
+{
+    if (n) note[0] = 0;
+    if (nthreads < 1 || nthreads > RT_SIM_MAXTHREADS)
+        return rt_errf(e, "%d replay threads: 1 to %d are supported", nthreads, RT_SIM_MAXTHREADS);
+    if (a->ac.method == RT_APPROX_HYBRID) {
+        if (fmt == RT_SIM_IN_AUTO && (fmt = rt_sim_sniff(path, e)) < 0) return -1;
+        rt_tr_reader *r = fmt == RT_SIM_IN_RTT ? rt_tr_open(path, e) : NULL;
+        if (fmt == RT_SIM_IN_RTT && !r) return -1;
+        rt_tr_sample_params sp;
+        char why[200];
+        if (r && !rt_tr_get_sample_params(r, &sp))
+            snprintf(note, n, "%s: format version %u has no sample stream; decoding every record", path,
+                     rt_tr_get_version(r));
+        else if (r && !rt_approx_sample_fits(a, &sp, why, sizeof why))
+            snprintf(note, n, "%s: %s; decoding every record", path, why);
+        else if (r) {
+            rt_sim_input loc;
+            if (!info) info = &loc;
+            memset(info, 0, sizeof *info);
+            info->format = RT_SIM_IN_RTT;
+            info->has_meta = 1;
+            if (meta) *meta = *rt_tr_get_meta(r);
+            int k = side_pump(a, r, nthreads, &info->refs, e);
+            if (k == 0) {
+                info->file_bytes = rt_tr_file_bytes(r);
+                info->file_hash = rt_tr_file_hash(r);
+            }
+            rt_tr_close(r);
+            return k == 0 ? 0 : -1;
+        }
+        rt_tr_close(r);
+    }
+    rt_repeats rp;
+    rt_approx_repeats(a, &rp);
+    return rt_sim_replay_filtered(&a->sink, &rp, path, fmt, din_class, nthreads, meta, info, e);
 }
 
 const char *rt_approx_engine(const rt_approx *a)

@@ -26,4 +26,18 @@ static inline unsigned rt_sim_cg(const rt_access *a)
     return rt_gen_bucket(a->gen) * RT_NCLASS + cls;
 }
 
+/* ---- the hybrid's windows fed from a trace's sample stream (window.c,
+ * approx.c) ---- */
+struct rt_window;
+/* One window whose warm-up was computed by the trace writer: the warm-up
+ * touches (least recent first), the records its backward scan read and
+ * whether it was short (for the statistics), then its records; fewer than
+ * the window length: the trace ended inside it (no counters, as when the
+ * stream ends inside a window). Same counters as rt_window_put on the
+ * records around it. Not to be mixed with rt_window_put. */
+void rt_window_put_warm(struct rt_window *t, const rt_access *warm, size_t nwarm, uint64_t scanned, int short_warmup,
+                        const rt_access *recs, size_t nrecs);
+/* History records kept before a window (its warm-up scans at most these). */
+uint64_t rt_window_hist(const struct rt_window *t);
+
 #endif

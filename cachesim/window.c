@@ -47,12 +47,18 @@
  * window is scaled by the overall touch ratio (its measured misses are
  * then 0). Fewer than RT_APPROX_MIN_SAMPLES windows: no estimate.
  *
+ * FROM A TRACE. A version-3 trace's writer runs the same placement and
+ * backward scan and stores each window's warm-up lines and records
+ * (trace.h); rt_window_put_warm replays one such window: same warm-up,
+ * same counters, same statistics, without the history.
+ *
  * INVARIANTS: pos = references seen; next = s_j of the window in progress
  * or to come; nhist = references of [max(next - H, 0), next) kept so far
  * (hist holds them in order); cur != NULL iff next <= pos < next + M.
  */
 #include "approx_int.h"
 #include "msim.h"
+#include "sim_int.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -136,6 +142,13 @@ void rt_window_free(rt_window *t)
     free(t);
 }
 
+/* The warm-up is done: the window's counters start here. */
+static void window_mark(rt_window *t)
+{
+    for (int i = 0; i < t->k; i++)
+        for (int c = 0; c < RT_NCLASS; c++) rt_msim_get(t->cur, i, c, &t->base[i][c]);
+}
+
 /* Window start: rebuilds the top of the LRU stack from the history. The
  * backward scan meets lines in recency order, so the first C_max distinct
  * lines it meets, replayed least recent first as one touch each, leave the
@@ -185,8 +198,7 @@ static void window_begin(rt_window *t)
     if (seen < t->cmax && t->next - t->nhist > 0) t->nshort++;
     for (uint32_t i = seen; i-- > 0;) rt_msim_put(t->cur, &t->stk[i], 1);
     t->fed += t->nhist - s;
-    for (int i = 0; i < t->k; i++)
-        for (int c = 0; c < RT_NCLASS; c++) rt_msim_get(t->cur, i, c, &t->base[i][c]);
+    window_mark(t);
 }
 
 static void window_end(rt_window *t)
@@ -237,6 +249,29 @@ void rt_window_put(rt_window *t, const rt_access *a, size_t n)
         if (stop == t->next + t->M) window_end(t);
     }
 }
+
+void rt_window_put_warm(rt_window *t, const rt_access *warm, size_t nwarm, uint64_t scanned, int short_warmup,
+                        const rt_access *recs, size_t nrecs)
+{
+    if (t->oom) return;
+    rt_msim_free(t->cur); /* a partial window can only be the last one */
+    rt_err e;
+    if (!(t->cur = rt_msim_new(t->sizes, t->k, t->line, &e))) {
+        t->oom = 1;
+        return;
+    }
+    rt_msim_put(t->cur, warm, nwarm);
+    t->nshort += short_warmup != 0;
+    t->fed += scanned;
+    window_mark(t);
+    if (nrecs > t->M) nrecs = (size_t)t->M;
+    rt_msim_put(t->cur, recs, nrecs);
+    t->fed += nrecs;
+    t->pos += nrecs;
+    if (nrecs == t->M) window_end(t);
+}
+
+uint64_t rt_window_hist(const rt_window *t) { return t->H; }
 
 int rt_window_estimate(const rt_window *t, const uint64_t acc[RT_NCLASS][2], rt_approx_est *est, int off, rt_err *e)
 {

@@ -38,19 +38,23 @@ static void usage(FILE *f)
             "  --material M       give every triangle the preset M: diffuse, mirror or glass\n"
             "                     (same as the scene parameter :material=M)\n"
             "  -o FILE            output trace (required)\n"
-            "  --level N          zlib level 0..9 (default %d)\n" RT_RENDER_OPTS_HELP
+            "  --level N          zlib level 0..9 (default %d)\n"
+            "  --no-sample        write format version 1/2, without the sample stream that\n"
+            "                     lets `sim --method hybrid` skip the records (about 10%%\n"
+            "                     smaller; docs/trace-format.md)\n" RT_RENDER_OPTS_HELP
             "                     (trace defaults: -W 512 -H 512, --lights none)\n"
             "  -h, --help         this help\n",
             RT_TR_DEFAULT_LEVEL);
 }
 
-enum { OPT_LEVEL = 2000 };
+enum { OPT_LEVEL = 2000, OPT_NO_SAMPLE };
 
 int main_trace(int argc, char **argv)
 {
     static const struct option own[] = {
         {"output", required_argument, NULL, 'o'},
         {"level", required_argument, NULL, OPT_LEVEL},
+        {"no-sample", no_argument, NULL, OPT_NO_SAMPLE},
         {"material", required_argument, NULL, 'M'},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0},
@@ -85,6 +89,7 @@ int main_trace(int argc, char **argv)
             }
             wo.level = optarg[0] - '0';
             break;
+        case OPT_NO_SAMPLE: wo.sample = 0; break;
         case 'h': usage(stdout); free(lo); return RT_EXIT_OK;
         default: goto usage_err;
         }

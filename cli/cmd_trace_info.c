@@ -74,7 +74,15 @@ static void print_text(const char *path, const rt_tr_reader *r)
     uint64_t bytes = 0, writes = 0;
     for (int c = 0; c < RT_NCLASS; c++) bytes += t->bytes[c], writes += t->writes[c];
     printf("  %-7s %-8s %14" PRIu64 " %16" PRIu64 " %14" PRIu64 "\n", "total", "", t->nrefs, bytes, writes);
-    printf("\n%" PRIu64 " chunks; verified: CRCs and footer totals match\n", t->nchunks);
+    rt_tr_sample_params sp;
+    if (rt_tr_get_sample_params(r, &sp)) {
+        printf("\nsample stream: %" PRIu32 "-byte lines at rate 1/%llu (seed %" PRIu64 "); a window of %" PRIu64
+               " records every %" PRIu64 ", warmed for %" PRIu64 " lines from at most %" PRIu64 " records\n",
+               sp.line, 1ULL << sp.shift, sp.seed, sp.window, sp.period, sp.cmax, sp.hist);
+        printf("\n%" PRIu64 " chunks; verified: CRCs, footer totals and sample stream match\n", t->nchunks);
+    } else {
+        printf("\n%" PRIu64 " chunks; verified: CRCs and footer totals match\n", t->nchunks);
+    }
 }
 
 static void print_json(const char *path, const rt_tr_reader *r)
@@ -123,7 +131,14 @@ static void print_json(const char *path, const rt_tr_reader *r)
                t->writes[c]);
         first = 0;
     }
-    printf("}, \"refs\": %" PRIu64 ", \"chunks\": %" PRIu64 "}\n", t->nrefs, t->nchunks);
+    printf("}, \"refs\": %" PRIu64 ", \"chunks\": %" PRIu64, t->nrefs, t->nchunks);
+    rt_tr_sample_params sp;
+    if (rt_tr_get_sample_params(r, &sp))
+        printf(", \"sample_stream\": {\"line\": %" PRIu32 ", \"rate\": %.10g, \"seed\": %" PRIu64
+               ", \"period\": %" PRIu64 ", \"window\": %" PRIu64 ", \"warm_lines\": %" PRIu64
+               ", \"history\": %" PRIu64 "}",
+               sp.line, 1.0 / (double)(1ULL << sp.shift), sp.seed, sp.period, sp.window, sp.cmax, sp.hist);
+    printf("}\n");
 }
 
 int main_trace_info(int argc, char **argv)

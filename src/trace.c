@@ -15,7 +15,7 @@
  * fixed-width; "str" is a u16 length followed by that many bytes (no NUL).
  *
  *   header   "RTTRACE\0"              8 bytes magic
- *            u32 format version       1 or 2; a reader rejects versions it
+ *            u32 format version       1, 2 or 3; a reader rejects versions it
  *                                     does not know (message names both)
  *            u32 P                    payload length (<= 64 KiB)
  *            P bytes payload          see below
@@ -28,6 +28,9 @@
  *            u32 C                    compressed length, 1..compressBound(U)+64
  *            u32 CRC-32               of the 20 bytes above, then the C bytes
  *            C bytes                  one complete zlib stream inflating to U bytes
+ *   [side]   version 3, after every chunk: the same 24-byte layout with
+ *            magic "RTSM", the index and n of its chunk, and a payload
+ *            (below) of at most side_bound(n) bytes
  *   footer   "RTND"                   footer magic
  *            u32 nclass               10 (RT_NCLASS)
  *            u64 nrefs, u64 nchunks
@@ -42,8 +45,11 @@
  * u32 nregions (<= RT_MM_MAX_REGIONS), u64 layout.next, and per region
  * str name, u8 class, u32 recsize, u64 count, u64 base. Version 2 appends
  * u32 generations (1..255, the highest generation a record may carry).
- * Every str must fit its rt_tr_meta field with its NUL and may not contain
- * NUL bytes; the payload must be consumed exactly.
+ * Version 3 appends u32 generations (0..255: 0 = no generation bytes) and
+ * the sample stream's parameters (rt_tr_sample_params): u32 line, u8
+ * shift, u64 seed, period, window, cmax, hist. Every str must fit its
+ * rt_tr_meta field with its NUL and may not contain NUL bytes; the payload
+ * must be consumed exactly.
  *
  * RECORD ENCODING (inside a chunk, before zlib). Per class c the coder
  * keeps the previous address A[c] and size S[c], both 0 at the start of
@@ -66,6 +72,17 @@
  * version 1 when the metadata declares no generations, so traces of runs
  * without secondary rays stay exactly what they were.
  *
+ * SIDE CHUNKS (version 3; docs/trace-format.md has the table). The payload
+ * of chunk k's side chunk: u8 flags (bit 0: the last chunk); per class 5
+ * varints (line touches by reads and by writes, refs, bytes, writes of
+ * chunk k); varint ns and the ns records of chunk k that touch a sampled
+ * line; varint nw and per window ending in chunk k (plus, in the last
+ * chunk, the one the trace ends in): varints nwarm, scanned, u8 short,
+ * varint nrecs, then nwarm warm-up records and nrecs window records. Each
+ * record group is coded as a chunk is, from a reset coder. The builder
+ * (sbuild, below) makes these bytes from the records; the writer stores
+ * them and rt_tr_read re-makes and compares them.
+ *
  * Address arithmetic wraps modulo 2^64, so every address 0..2^64-1 has an
  * encoding. A k-d traversal revisits the same node sequences for
  * neighbouring rays, so the byte stream repeats itself and zlib removes the
@@ -80,14 +97,27 @@
  *     changes the generation and stays <= the header's (version 2),
  *     varints not overlong, size >= 1;
  *   - the footer's CRC is valid, and its totals equal the totals of the
- *     records actually read; nothing follows the footer.
+ *     records actually read; nothing follows the footer;
+ *   - version 3: each chunk is followed by its side chunk (magic, index,
+ *     n, bounds, CRC, exact inflate) whose payload equals, byte for byte,
+ *     the one the builder makes from the chunk's records; only the last is
+ *     marked last.
  *   Every byte of the file is covered by a CRC or checked against a magic,
  *   so any single flipped bit and any truncation is detected. rt_tr_read
  *   returns 0 only after all of this has been verified.
  *
+ *   rt_tr_read_side (the sampled read) checks every magic, header, bound
+ *   and CRC, data chunks included, and the side payloads' structure and
+ *   record encoding, and the footer against the side chunks' totals; it
+ *   does not inflate data chunks, so it cannot see a side chunk that
+ *   disagrees with valid-CRC records (a forged file or a writer bug).
+ *
  * WRITER. Records are encoded as they arrive (through the rt_sink) into a
- * buffer of one chunk; a full buffer is deflated and written. Memory is one
- * chunk's raw and compressed buffers (~2 MiB at the default 64K records).
+ * buffer of one chunk; a full buffer is deflated and written when the next
+ * record arrives (or at rt_tr_finish, which so knows the last chunk), then
+ * its side chunk (version 3). Memory is one chunk's raw and compressed
+ * buffers (~2 MiB at the default 64K records), plus for version 3 the
+ * builder's history (512 KiB) and one side payload.
  * The file goes through outfile.c: a unique temporary beside PATH, renamed
  * to PATH only by rt_tr_finish after the footer is flushed and synced;
  * rt_tr_abort removes the temporary. So a file at PATH is always complete,
@@ -95,10 +125,11 @@
  *
  * READER. Reads sequentially through stdio, keeps one chunk in memory and
  * decodes records into the caller's buffer on demand; it hashes every byte
- * (FNV-1a 64) for provenance.
+ * (FNV-1a 64) for provenance, in both read modes.
  */
 #include "trace.h"
 #include "outfile.h"
+#include "rt_math.h"
 
 #include <errno.h>
 #include <limits.h>
@@ -113,6 +144,7 @@
 static const unsigned char HDR_MAGIC[8] = {'R', 'T', 'T', 'R', 'A', 'C', 'E', 0};
 static const unsigned char CHUNK_MAGIC[4] = {'R', 'T', 'C', 'K'};
 static const unsigned char FOOT_MAGIC[4] = {'R', 'T', 'N', 'D'};
+static const unsigned char SIDE_MAGIC[4] = {'R', 'T', 'S', 'M'};
 
 #define MAX_HDR_PAYLOAD 65536u
 #define MAX_REC_BYTES_V1 16u /* tag + 10-byte address varint + 5-byte size varint */
@@ -248,75 +280,16 @@ static int hg_str(hbuf *h, char *dst, size_t cap)
     return 0;
 }
 
-/* ---- writer ---------------------------------------------------------------- */
+/* ---- record coder ---------------------------------------------------------- */
 
-struct rt_tr_writer {
-    rt_sink sink;           /* handed to recorders; ctx = this */
-    rt_out *of;             /* the output (a temporary until finished) */
-    FILE *f;                /* its stream */
-    char *path;             /* final path, for messages */
-    uint32_t chunk_records; /* records per chunk */
-    unsigned char *raw;     /* encoded records of the current chunk */
-    size_t rawlen;          /* bytes in raw */
-    uint32_t nrec;          /* records in raw */
-    unsigned char *out;     /* compressed chunk (header + payload) */
-    size_t outcap;          /* its capacity */
-    z_stream zs;            /* deflate state, reset per chunk */
-    int zinit;              /* zs initialised */
-    uint64_t prev_addr[16]; /* per-class coder state */
-    uint32_t prev_size[16];
-    unsigned prev_gen;      /* current generation in the chunk */
-    unsigned maxgen;        /* meta.generations: 0 = version 1 */
-    rt_tr_totals tot;       /* totals so far */
-    uint64_t written;       /* bytes written to the file */
-    int failed;             /* a put failed; err holds why */
-    rt_err err;             /* first failure */
-};
-
-void rt_tr_default_wopts(rt_tr_wopts *o)
-{
-    o->level = RT_TR_DEFAULT_LEVEL;
-    o->chunk_records = RT_TR_DEFAULT_CHUNK;
-}
-
-static int w_write(rt_tr_writer *w, const void *p, size_t n, rt_err *e)
-{
-    if (fwrite(p, 1, n, w->f) != n)
-        return rt_errf(e, "%s: byte %llu: write failed: %s", w->path, (unsigned long long)w->written,
-                       strerror(errno ? errno : EIO));
-    w->written += n;
-    return 0;
-}
-
-static int w_flush_chunk(rt_tr_writer *w, rt_err *e)
-{
-    if (w->nrec == 0) return 0;
-    if (w->tot.nchunks >= UINT32_MAX) return rt_errf(e, "%s: more than 2^32-1 chunks", w->path);
-    unsigned char *h = w->out;
-    w->zs.next_in = w->raw;
-    w->zs.avail_in = (uInt)w->rawlen;
-    w->zs.next_out = w->out + CHUNK_HDR;
-    w->zs.avail_out = (uInt)(w->outcap - CHUNK_HDR);
-    int zr = deflate(&w->zs, Z_FINISH);
-    if (zr != Z_STREAM_END) return rt_errf(e, "%s: zlib deflate failed (%d)", w->path, zr);
-    size_t clen = w->outcap - CHUNK_HDR - w->zs.avail_out;
-    if (deflateReset(&w->zs) != Z_OK) return rt_errf(e, "%s: zlib deflateReset failed", w->path);
-    memcpy(h, CHUNK_MAGIC, 4);
-    put32(h + 4, (uint32_t)w->tot.nchunks);
-    put32(h + 8, w->nrec);
-    put32(h + 12, (uint32_t)w->rawlen);
-    put32(h + 16, (uint32_t)clen);
-    uint32_t c = crc(crc(0, h, 20), h + CHUNK_HDR, clen);
-    put32(h + 20, c);
-    if (w_write(w, h, CHUNK_HDR + clen, e) < 0) return -1;
-    w->tot.nchunks++;
-    w->nrec = 0;
-    w->rawlen = 0;
-    memset(w->prev_addr, 0, sizeof w->prev_addr);
-    memset(w->prev_size, 0, sizeof w->prev_size);
-    w->prev_gen = 0;
-    return 0;
-}
+/* Per-class coder state: previous address and size per class and the
+ * current generation, all 0 at the start of a chunk (and of every record
+ * group of a side chunk). */
+typedef struct coder {
+    uint64_t addr[16]; /* previous address per class */
+    uint32_t size[16]; /* previous size per class */
+    unsigned gen;      /* current generation */
+} coder;
 
 static inline unsigned char *put_varint(unsigned char *p, uint64_t v)
 {
@@ -328,15 +301,502 @@ static inline unsigned char *put_varint(unsigned char *p, uint64_t v)
     return p;
 }
 
+/* Encodes one valid record (class < RT_NCLASS, size >= 1, generation
+ * allowed by the header) at p; returns the end (at most MAX_REC_BYTES). */
+static inline unsigned char *enc_rec(coder *c, unsigned char *p, const rt_access *a)
+{
+    unsigned cls = a->cls, gen = a->gen;
+    unsigned char *tag = p++;
+    unsigned t = cls | (a->write ? TAG_WRITE : 0);
+    if (gen != c->gen) { /* only possible with generations (version >= 2) */
+        t |= TAG_GEN;
+        *p++ = (unsigned char)gen;
+        c->gen = gen;
+    }
+    uint64_t pa = c->addr[cls];
+    uint32_t ps = c->size[cls];
+    if (a->addr == pa + ps) t |= TAG_SEQ;
+    else {
+        uint64_t d = a->addr - pa;
+        p = put_varint(p, (d << 1) ^ (0 - (d >> 63)));
+    }
+    if (a->size == ps) t |= TAG_SAMESIZE;
+    else p = put_varint(p, a->size);
+    *tag = (unsigned char)t;
+    c->addr[cls] = a->addr;
+    c->size[cls] = a->size;
+    return p;
+}
+
+/* Decoding errors, in the words of the chunk decoder in rt_tr_read. */
+enum { DEC_OK = 0, DEC_TAG, DEC_CLASS, DEC_SAMEGEN, DEC_GEN, DEC_SHORT, DEC_OVERFLOW, DEC_SIZE0 };
+static const char *const dec_msg[] = {"", "reserved tag bit set", "class out of range",
+                                      "generation byte repeats the current generation", "generation above the header's",
+                                      "record runs past the end of the chunk", "varint overflow", "size 0"};
+
+/* Decodes one record from *pp (< end) with the checks of rt_tr_read;
+ * maxgen 0 = no generations (bit 7 reserved). DEC_OK or the error. */
+static int dec_rec(const unsigned char **pp, const unsigned char *end, coder *c, unsigned maxgen, rt_access *out)
+{
+    const unsigned char *p = *pp;
+    if (p == end) return DEC_SHORT;
+    unsigned t = *p++;
+    unsigned cls = t & TAG_CLASS, gen = c->gen;
+    if (t & TAG_GEN) {
+        if (!maxgen) return DEC_TAG;
+        if (p == end) return DEC_SHORT;
+        gen = *p++;
+        if (gen == c->gen) return DEC_SAMEGEN;
+        if (gen > maxgen) return DEC_GEN;
+    }
+    if (cls >= RT_NCLASS) return DEC_CLASS;
+    uint64_t addr = c->addr[cls];
+    uint32_t size = c->size[cls];
+    if (t & TAG_SEQ) addr += size;
+    else {
+        uint64_t z = 0;
+        for (int sh = 0;; sh += 7) {
+            if (p == end) return DEC_SHORT;
+            unsigned b = *p++;
+            if (sh == 63 && b > 1) return DEC_OVERFLOW;
+            z |= (uint64_t)(b & 0x7f) << sh;
+            if (!(b & 0x80)) break;
+        }
+        addr += (z >> 1) ^ (0 - (z & 1));
+    }
+    if (!(t & TAG_SAMESIZE)) {
+        uint64_t v = 0;
+        for (int sh = 0;; sh += 7) {
+            if (p == end) return DEC_SHORT;
+            unsigned b = *p++;
+            if (sh == 28 && b > 0x0f) return DEC_OVERFLOW;
+            v |= (uint64_t)(b & 0x7f) << sh;
+            if (!(b & 0x80)) break;
+        }
+        size = (uint32_t)v;
+    }
+    if (size == 0) return DEC_SIZE0;
+    c->addr[cls] = addr;
+    c->size[cls] = size;
+    c->gen = gen;
+    out->addr = addr;
+    out->size = size;
+    out->write = (t & TAG_WRITE) != 0;
+    out->cls = (uint8_t)cls;
+    out->gen = (uint8_t)gen;
+    *pp = p;
+    return DEC_OK;
+}
+
+/* A LEB128 varint of at most 10 bytes (the last holding one bit) from *pp;
+ * -1 if it runs past end or overflows. */
+static int get_varint(const unsigned char **pp, const unsigned char *end, uint64_t *v)
+{
+    const unsigned char *p = *pp;
+    uint64_t z = 0;
+    for (int sh = 0;; sh += 7) {
+        if (p == end) return -1;
+        unsigned b = *p++;
+        if (sh == 63 && b > 1) return -1;
+        z |= (uint64_t)(b & 0x7f) << sh;
+        if (!(b & 0x80)) break;
+    }
+    *v = z;
+    *pp = p;
+    return 0;
+}
+
+/* ---- growable byte buffer ---------------------------------------------------- */
+
+typedef struct bbuf {
+    unsigned char *b; /* bytes */
+    size_t n, cap;    /* used, allocated */
+} bbuf;
+
+/* Room for `more` bytes at b->b + b->n; 0 or -1 (out of memory). */
+static int bb_room(bbuf *b, size_t more)
+{
+    if (more <= b->cap - b->n) return 0;
+    size_t nc = b->cap ? b->cap : 4096;
+    while (nc - b->n < more) nc *= 2;
+    unsigned char *x = realloc(b->b, nc);
+    if (!x) return -1;
+    b->b = x;
+    b->cap = nc;
+    return 0;
+}
+
+/* ---- sample stream: what a side chunk holds ----------------------------------
+ *
+ * The builder sees every record in order (the writer as it encodes them,
+ * the verifying reader as it decodes them) and makes each chunk's side
+ * payload, so writer and reader produce the same bytes from the same
+ * records and the reader checks a side chunk with one memcmp. Its window
+ * logic is that of cachesim/window.c at its default placement (seed 1:
+ * window j measures records [s_j, s_j + M), s_j = (j + 1) P - M - o), with
+ * the same backward scan, so a window replayed from the side chunk gives
+ * the counters the hybrid method computes from the whole stream.
+ *
+ * INVARIANTS: pos = records seen; next = s_j of the window in progress or
+ * to come; hn = records of [max(next - hist, 0), next) kept in the ring
+ * (while no window runs); wn = records of the current window seen (0 when
+ * none runs); wdone = bytes of wins holding complete windows. */
+
+typedef struct sbuild {
+    rt_tr_sample_params p;          /* parameters */
+    int shift;                      /* log2(p.line) */
+    uint64_t T64, goff;             /* sampled iff L * GOLD + goff < T64 (T64 0: every line) */
+    unsigned maxgen;                /* header generations (0: none) */
+    uint64_t pos, next;             /* see INVARIANTS */
+    rt_access *hist;                /* ring of p.hist records */
+    uint64_t hn, hhead;             /* records kept, next slot */
+    uint64_t wn;                    /* records of the current window */
+    uint64_t wscanned;              /* its warm-up: records scanned */
+    uint32_t wnwarm;                /*   lines found */
+    int wshort;                     /*   short warm-up */
+    uint64_t *set;                  /* distinct-line set of the scan (L + 1; 0 empty) */
+    uint32_t *setidx;               /* index in stk of each set entry */
+    uint64_t setmask;               /* set size - 1 */
+    int setshift;                   /* 64 - log2(set size) */
+    rt_access *stk;                 /* lines found, most recent first */
+    uint64_t touch[RT_NCLASS][2];   /* chunk: line touches by class, write */
+    uint64_t refs[RT_NCLASS], bytes[RT_NCLASS], writes[RT_NCLASS]; /* chunk: totals */
+    bbuf samp;                      /* chunk: sampled records, encoded */
+    uint64_t ns;                    /* their count */
+    coder cs;                       /* their coder */
+    bbuf wcur;                      /* current window: warm-up then records, encoded */
+    coder cw;                       /* its coder */
+    bbuf wins;                      /* windows ended in this chunk (header + wcur each), then nothing */
+    uint64_t nw;                    /* their count */
+    bbuf out;                       /* the last payload made */
+} sbuild;
+
+#define GOLD 0x9e3779b97f4a7c15ULL
+
+static void sb_free(sbuild *b)
+{
+    if (!b) return;
+    free(b->hist);
+    free(b->set);
+    free(b->setidx);
+    free(b->stk);
+    free(b->samp.b);
+    free(b->wcur.b);
+    free(b->wins.b);
+    free(b->out.b);
+    free(b);
+}
+
+/* The first window's start: as window.c, (P - M) - ((seed - 1) G mod (P - M)). */
+static uint64_t first_window(const rt_tr_sample_params *p)
+{
+    uint64_t pm = p->period - p->window;
+    return pm - ((p->seed - 1) * GOLD) % pm;
+}
+
+static sbuild *sb_new(const rt_tr_sample_params *p, unsigned maxgen, rt_err *e)
+{
+    sbuild *b = rt_calloc(1, sizeof *b, e);
+    if (!b) return NULL;
+    b->p = *p;
+    while ((1u << b->shift) != p->line) b->shift++;
+    b->T64 = p->shift == 0 ? 0 : 1ULL << (64 - p->shift);
+    b->goff = rt_mix64(p->seed ^ GOLD);
+    b->maxgen = maxgen;
+    b->next = first_window(p);
+    uint64_t ss = 16;
+    while (ss < 4 * p->cmax) ss <<= 1;
+    b->setmask = ss - 1;
+    b->setshift = 64;
+    for (uint64_t q = ss; q > 1; q >>= 1) b->setshift--;
+    b->set = rt_calloc(ss, sizeof *b->set, e);
+    b->setidx = b->set ? rt_calloc(ss, sizeof *b->setidx, e) : NULL;
+    b->stk = b->setidx ? rt_calloc(p->cmax, sizeof *b->stk, e) : NULL;
+    b->hist = b->stk && p->hist ? rt_calloc(p->hist, sizeof *b->hist, e) : NULL;
+    if (!b->stk || (p->hist && !b->hist)) {
+        sb_free(b);
+        return NULL;
+    }
+    return b;
+}
+
+/* Window start: the backward scan of window.c's window_begin over the
+ * ring; the lines found go to wcur, least recent first. */
+static int sb_begin(sbuild *b)
+{
+    memset(b->set, 0, (b->setmask + 1) * sizeof *b->set);
+    const uint64_t cmax = b->p.cmax, mask = b->setmask;
+    uint32_t seen = 0;
+    uint64_t s = b->hn, prev = UINT64_MAX;
+    while (s > 0 && seen < cmax) {
+        --s;
+        uint64_t at = b->hhead + (b->p.hist - b->hn) + s; /* < 2 hist: oldest kept is s = 0 */
+        const rt_access *r = &b->hist[at >= b->p.hist ? at - b->p.hist : at];
+        uint64_t f = r->addr >> b->shift, l = (r->addr + r->size - 1) >> b->shift;
+        unsigned w = r->write ? 1 : 0, cls = r->cls;
+        if (f == l && f == prev && !w) continue; /* a read of the line just met: nothing new */
+        prev = f;
+        for (uint64_t L = l + 1; L-- > f && seen < cmax;) {
+            uint64_t i = (L * GOLD) >> b->setshift;
+            while (b->set[i] && b->set[i] != L + 1) i = (i + 1) & mask;
+            if (!b->set[i]) {
+                b->set[i] = L + 1;
+                b->setidx[i] = seen;
+                b->stk[seen++] = (rt_access){L << b->shift, 1, (uint8_t)w, (uint8_t)cls, 0};
+            } else if (w && !b->stk[b->setidx[i]].write) {
+                b->stk[b->setidx[i]].write = 1;
+                b->stk[b->setidx[i]].cls = (uint8_t)cls;
+            }
+        }
+    }
+    b->wscanned = b->hn - s;
+    b->wnwarm = seen;
+    b->wshort = seen < cmax && b->next - b->hn > 0;
+    b->wcur.n = 0;
+    if (bb_room(&b->wcur, (size_t)seen * MAX_REC_BYTES)) return -1;
+    memset(&b->cw, 0, sizeof b->cw);
+    unsigned char *q = b->wcur.b;
+    for (uint32_t i = seen; i-- > 0;) q = enc_rec(&b->cw, q, &b->stk[i]);
+    b->wcur.n = (size_t)(q - b->wcur.b);
+    memset(&b->cw, 0, sizeof b->cw); /* the window's records: a group of their own */
+    return 0;
+}
+
+/* Appends the current window (complete, or the partial one at the end of
+ * the trace) to wins. */
+static int sb_close_window(sbuild *b)
+{
+    if (bb_room(&b->wins, 4 * 10 + 1 + b->wcur.n)) return -1;
+    unsigned char *q = b->wins.b + b->wins.n;
+    q = put_varint(q, b->wnwarm);
+    q = put_varint(q, b->wscanned);
+    *q++ = (unsigned char)b->wshort;
+    q = put_varint(q, b->wn);
+    if (b->wcur.n) memcpy(q, b->wcur.b, b->wcur.n);
+    b->wins.n = (size_t)(q - b->wins.b) + b->wcur.n;
+    b->nw++;
+    return 0;
+}
+
+/* Feeds n valid records. 0 or -1 (out of memory). The hot loop keeps its
+ * state in locals (the history stores would otherwise make the compiler
+ * reload it) and counts into four interleaved tables, so consecutive
+ * records of one class do not wait on each other's store. */
+static int sb_put(sbuild *b, const rt_access *a, size_t n)
+{
+    const int sh = b->shift;
+    const uint64_t T = b->T64, off = b->goff, H = b->p.hist;
+    if (n == 0) return 0;
+    if (bb_room(&b->samp, n * MAX_REC_BYTES)) return -1;
+    unsigned char *sq = b->samp.b + b->samp.n;
+    uint64_t cnt[4][RT_NCLASS][2], tch[4][RT_NCLASS][2], byt[4][RT_NCLASS];
+    memset(cnt, 0, sizeof cnt);
+    memset(tch, 0, sizeof tch);
+    memset(byt, 0, sizeof byt);
+    rt_access *restrict hist = b->hist;
+    uint64_t pos = b->pos, next = b->next, hhead = b->hhead, hn = b->hn;
+    int rc = 0;
+    for (size_t i = 0; i < n; i++) {
+        const rt_access *r = &a[i];
+        unsigned cls = r->cls, w = r->write ? 1 : 0, k = i & 3;
+        uint64_t f = r->addr >> sh, l = (r->addr + r->size - 1) >> sh;
+        cnt[k][cls][w]++;
+        tch[k][cls][w] += l - f + 1;
+        byt[k][cls] += r->size;
+        int hit = f <= l && (!T || f * GOLD + off < T || l * GOLD + off < T);
+        for (uint64_t L = f + 1; !hit && L < l; L++) hit = L * GOLD + off < T; /* wider than two lines */
+        if (hit) {
+            sq = enc_rec(&b->cs, sq, r);
+            b->ns++;
+        }
+        if (pos < next) { /* before a window: keep the last hist records */
+            if (pos + H >= next && H) {
+                hist[hhead] = *r;
+                hhead = hhead + 1 == H ? 0 : hhead + 1;
+                hn += hn < H;
+            }
+        } else {
+            b->hhead = hhead;
+            b->hn = hn;
+            if (b->wn == 0 && sb_begin(b)) rc = -1;
+            if (!rc && bb_room(&b->wcur, MAX_REC_BYTES)) rc = -1;
+            if (rc) break;
+            b->wcur.n = (size_t)(enc_rec(&b->cw, b->wcur.b + b->wcur.n, r) - b->wcur.b);
+            if (++b->wn == b->p.window) {
+                if (sb_close_window(b)) {
+                    rc = -1;
+                    break;
+                }
+                b->wn = 0;
+                hn = 0;
+                next = b->next += b->p.period;
+            }
+        }
+        pos++;
+    }
+    b->pos = pos;
+    b->hhead = hhead;
+    b->hn = hn;
+    b->samp.n = (size_t)(sq - b->samp.b);
+    for (int k = 0; k < 4; k++)
+        for (int c = 0; c < RT_NCLASS; c++) {
+            for (int w = 0; w < 2; w++) {
+                b->touch[c][w] += tch[k][c][w];
+                b->refs[c] += cnt[k][c][w];
+            }
+            b->writes[c] += cnt[k][c][1];
+            b->bytes[c] += byt[k][c];
+        }
+    return rc;
+}
+
+/* Makes the side payload of the chunk just ended into b->out and starts
+ * the next chunk; last: the trace ends here (a window in progress is
+ * stored as it is). 0 or -1 (out of memory). */
+static int sb_chunk(sbuild *b, int last)
+{
+    if (last && b->wn && sb_close_window(b)) return -1;
+    b->out.n = 0;
+    if (bb_room(&b->out, 1 + RT_NCLASS * 5 * 10 + 2 * 10 + b->samp.n + b->wins.n)) return -1;
+    unsigned char *q = b->out.b;
+    *q++ = (unsigned char)(last ? 1 : 0);
+    for (int c = 0; c < RT_NCLASS; c++) {
+        q = put_varint(q, b->touch[c][0]);
+        q = put_varint(q, b->touch[c][1]);
+        q = put_varint(q, b->refs[c]);
+        q = put_varint(q, b->bytes[c]);
+        q = put_varint(q, b->writes[c]);
+    }
+    q = put_varint(q, b->ns);
+    if (b->samp.n) memcpy(q, b->samp.b, b->samp.n); /* (a buffer never grown is NULL) */
+    q += b->samp.n;
+    q = put_varint(q, b->nw);
+    if (b->wins.n) memcpy(q, b->wins.b, b->wins.n);
+    q += b->wins.n;
+    b->out.n = (size_t)(q - b->out.b);
+    memset(b->touch, 0, sizeof b->touch);
+    memset(b->refs, 0, sizeof b->refs);
+    memset(b->bytes, 0, sizeof b->bytes);
+    memset(b->writes, 0, sizeof b->writes);
+    memset(&b->cs, 0, sizeof b->cs);
+    b->samp.n = 0;
+    b->ns = 0;
+    b->wins.n = 0;
+    b->nw = 0;
+    return 0;
+}
+
+/* Largest side payload of a chunk of n records (windows end at least
+ * period records apart, so at most n / period + 1 end in it, plus the
+ * partial one of the last chunk). */
+static uint64_t side_bound(const rt_tr_sample_params *p, uint64_t n)
+{
+    uint64_t nw = n / p->period + 2;
+    return 1 + RT_NCLASS * 5 * 10 + 2 * 10 + n * MAX_REC_BYTES + nw * (31 + (p->cmax + p->window) * MAX_REC_BYTES);
+}
+
+/* ---- writer ---------------------------------------------------------------- */
+
+struct rt_tr_writer {
+    rt_sink sink;           /* handed to recorders; ctx = this */
+    rt_out *of;             /* the output (a temporary until finished) */
+    FILE *f;                /* its stream */
+    char *path;             /* final path, for messages */
+    uint32_t chunk_records; /* records per chunk */
+    unsigned char *raw;     /* encoded records of the current chunk */
+    size_t rawlen;          /* bytes in raw */
+    uint32_t nrec;          /* records in raw */
+    unsigned char *out;     /* compressed chunk (header + payload), data or side */
+    size_t outcap;          /* its capacity */
+    z_stream zs;            /* deflate state, reset per chunk */
+    int zinit;              /* zs initialised */
+    coder cd;               /* record coder of the current chunk */
+    unsigned maxgen;        /* meta.generations: 0 = no generation bytes */
+    sbuild *sb;             /* sample stream builder (version 3), or NULL */
+    rt_tr_totals tot;       /* totals so far */
+    uint64_t written;       /* bytes written to the file */
+    int failed;             /* a put failed; err holds why */
+    rt_err err;             /* first failure */
+};
+
+void rt_tr_default_wopts(rt_tr_wopts *o)
+{
+    o->level = RT_TR_DEFAULT_LEVEL;
+    o->chunk_records = RT_TR_DEFAULT_CHUNK;
+    o->sample = 1;
+}
+
+/* The sample stream a version-3 writer stores. */
+static void default_sample(rt_tr_sample_params *p)
+{
+    p->line = RT_TR_SAMPLE_LINE;
+    p->shift = RT_TR_SAMPLE_SHIFT;
+    p->seed = RT_TR_SAMPLE_SEED;
+    p->period = RT_TR_SAMPLE_PERIOD;
+    p->window = RT_TR_SAMPLE_WINDOW;
+    p->cmax = RT_TR_SAMPLE_CMAX;
+    p->hist = RT_TR_SAMPLE_HIST;
+}
+
+static int w_write(rt_tr_writer *w, const void *p, size_t n, rt_err *e)
+{
+    if (fwrite(p, 1, n, w->f) != n)
+        return rt_errf(e, "%s: byte %llu: write failed: %s", w->path, (unsigned long long)w->written,
+                       strerror(errno ? errno : EIO));
+    w->written += n;
+    return 0;
+}
+
+/* Deflates len bytes into w->out after a 24-byte chunk header with magic,
+ * index, n, U, C and CRC, and writes it. */
+static int w_deflate(rt_tr_writer *w, const unsigned char *magic, uint32_t n, const unsigned char *src, size_t len,
+                     rt_err *e)
+{
+    unsigned char *h = w->out;
+    w->zs.next_in = (unsigned char *)src;
+    w->zs.avail_in = (uInt)len;
+    w->zs.next_out = w->out + CHUNK_HDR;
+    w->zs.avail_out = (uInt)(w->outcap - CHUNK_HDR);
+    int zr = deflate(&w->zs, Z_FINISH);
+    if (zr != Z_STREAM_END) return rt_errf(e, "%s: zlib deflate failed (%d)", w->path, zr);
+    size_t clen = w->outcap - CHUNK_HDR - w->zs.avail_out;
+    if (deflateReset(&w->zs) != Z_OK) return rt_errf(e, "%s: zlib deflateReset failed", w->path);
+    memcpy(h, magic, 4);
+    put32(h + 4, (uint32_t)w->tot.nchunks);
+    put32(h + 8, n);
+    put32(h + 12, (uint32_t)len);
+    put32(h + 16, (uint32_t)clen);
+    uint32_t c = crc(crc(0, h, 20), h + CHUNK_HDR, clen);
+    put32(h + 20, c);
+    return w_write(w, h, CHUNK_HDR + clen, e);
+}
+
+/* Writes the current chunk (and its side chunk); last: the trace ends
+ * with it. */
+static int w_flush_chunk(rt_tr_writer *w, int last, rt_err *e)
+{
+    if (w->nrec == 0) return 0;
+    if (w->tot.nchunks >= UINT32_MAX) return rt_errf(e, "%s: more than 2^32-1 chunks", w->path);
+    if (w_deflate(w, CHUNK_MAGIC, w->nrec, w->raw, w->rawlen, e) < 0) return -1;
+    if (w->sb) {
+        if (sb_chunk(w->sb, last) < 0) return rt_errf(e, "%s: out of memory", w->path);
+        if (w_deflate(w, SIDE_MAGIC, w->nrec, w->sb->out.b, w->sb->out.n, e) < 0) return -1;
+    }
+    w->tot.nchunks++;
+    w->nrec = 0;
+    w->rawlen = 0;
+    memset(&w->cd, 0, sizeof w->cd);
+    return 0;
+}
+
 static int w_put(rt_sink *s, const rt_access *a, size_t n)
 {
     rt_tr_writer *w = s->ctx;
     if (w->failed) return -1;
+    size_t fed = 0; /* a[0..fed) are in the sample stream builder */
     for (size_t i = 0; i < n; i++) {
         unsigned cls = a[i].cls, gen = a[i].gen;
-        uint64_t addr = a[i].addr;
-        uint32_t size = a[i].size;
-        if (cls >= RT_NCLASS || size == 0 || gen > w->maxgen) {
+        if (cls >= RT_NCLASS || a[i].size == 0 || gen > w->maxgen) {
             if (gen > w->maxgen)
                 rt_errf(&w->err, "%s: record %llu: generation %u above the %u declared in the header%s", w->path,
                         (unsigned long long)w->tot.nrefs, gen, w->maxgen,
@@ -347,40 +807,38 @@ static int w_put(rt_sink *s, const rt_access *a, size_t n)
             w->failed = 1;
             return -1;
         }
-        unsigned char *p = w->raw + w->rawlen;
-        unsigned char *tag = p++;
-        unsigned t = cls | (a[i].write ? TAG_WRITE : 0);
-        if (gen != w->prev_gen) { /* only possible in version 2 */
-            t |= TAG_GEN;
-            *p++ = (unsigned char)gen;
-            w->prev_gen = gen;
+        /* a full chunk is written when the next record comes, so that
+         * rt_tr_finish knows which chunk is the last */
+        if (w->nrec == w->chunk_records) {
+            if (w->sb && sb_put(w->sb, a + fed, i - fed) < 0) {
+                rt_errf(&w->err, "%s: out of memory", w->path);
+                w->failed = 1;
+                return -1;
+            }
+            fed = i;
+            if (w_flush_chunk(w, 0, &w->err) < 0) {
+                w->failed = 1;
+                return -1;
+            }
         }
-        uint64_t pa = w->prev_addr[cls];
-        uint32_t ps = w->prev_size[cls];
-        if (addr == pa + ps) t |= TAG_SEQ;
-        else {
-            uint64_t d = addr - pa;
-            p = put_varint(p, (d << 1) ^ (0 - (d >> 63)));
-        }
-        if (size == ps) t |= TAG_SAMESIZE;
-        else p = put_varint(p, size);
-        *tag = (unsigned char)t;
-        w->rawlen = (size_t)(p - w->raw);
-        w->prev_addr[cls] = addr;
-        w->prev_size[cls] = size;
+        w->rawlen = (size_t)(enc_rec(&w->cd, w->raw + w->rawlen, &a[i]) - w->raw);
         w->tot.refs[cls]++;
-        w->tot.bytes[cls] += size;
+        w->tot.bytes[cls] += a[i].size;
         w->tot.writes[cls] += a[i].write != 0;
         w->tot.nrefs++;
-        if (++w->nrec == w->chunk_records && w_flush_chunk(w, &w->err) < 0) {
-            w->failed = 1;
-            return -1;
-        }
+        w->nrec++;
+    }
+    if (w->sb && sb_put(w->sb, a + fed, n - fed) < 0) {
+        rt_errf(&w->err, "%s: out of memory", w->path);
+        w->failed = 1;
+        return -1;
     }
     return 0;
 }
 
-static int encode_header(hbuf *h, const rt_tr_meta *m, uint32_t chunk_records, int level)
+/* sp non-NULL: version 3 with that sample stream. */
+static int encode_header(hbuf *h, const rt_tr_meta *m, uint32_t chunk_records, int level,
+                         const rt_tr_sample_params *sp)
 {
     h->n = 0;
     h->bad = 0;
@@ -414,7 +872,18 @@ static int encode_header(hbuf *h, const rt_tr_meta *m, uint32_t chunk_records, i
         hb_u64(h, r->base);
     }
     if (m->generations > RT_TR_MAX_GENERATION) return -1;
-    if (m->generations) hb_u32(h, m->generations); /* version 2 */
+    if (sp) { /* version 3 */
+        hb_u32(h, m->generations);
+        hb_u32(h, sp->line);
+        hb_u8(h, sp->shift);
+        hb_u64(h, sp->seed);
+        hb_u64(h, sp->period);
+        hb_u64(h, sp->window);
+        hb_u64(h, sp->cmax);
+        hb_u64(h, sp->hist);
+    } else if (m->generations) {
+        hb_u32(h, m->generations); /* version 2 */
+    }
     return h->bad ? -1 : 0;
 }
 
@@ -422,6 +891,7 @@ rt_tr_writer *rt_tr_create(const char *path, const rt_tr_meta *m, rt_err *e)
 {
     rt_tr_wopts o;
     rt_tr_default_wopts(&o);
+    o.sample = 0;
     return rt_tr_create_opts(path, m, &o, e);
 }
 
@@ -432,7 +902,9 @@ rt_tr_writer *rt_tr_create_opts(const char *path, const rt_tr_meta *m, const rt_
         return rt_errf(e, "%s: %u records per chunk not in 1..%u", path, o->chunk_records, RT_TR_MAX_CHUNK), NULL;
     hbuf *h = rt_calloc(1, sizeof *h, e);
     if (!h) return NULL;
-    if (m->W < 0 || m->H < 0 || encode_header(h, m, o->chunk_records, o->level) < 0) {
+    rt_tr_sample_params sp;
+    default_sample(&sp);
+    if (m->W < 0 || m->H < 0 || encode_header(h, m, o->chunk_records, o->level, o->sample ? &sp : NULL) < 0) {
         free(h);
         return rt_errf(e, "%s: trace metadata does not fit the format (string too long, bad region table, "
                        "more than %d generations)", path, RT_TR_MAX_GENERATION), NULL;
@@ -456,13 +928,18 @@ rt_tr_writer *rt_tr_create_opts(const char *path, const rt_tr_meta *m, const rt_
         goto fail;
     }
     w->zinit = 1;
-    w->outcap = CHUNK_HDR + deflateBound(&w->zs, (uLong)o->chunk_records * MAX_REC_BYTES);
+    uint64_t ulen = (uint64_t)o->chunk_records * MAX_REC_BYTES;
+    if (o->sample) {
+        if (!(w->sb = sb_new(&sp, m->generations, e))) goto fail;
+        ulen = side_bound(&sp, o->chunk_records); /* > the records' bound */
+    }
+    w->outcap = CHUNK_HDR + deflateBound(&w->zs, (uLong)ulen);
     if (!(w->out = rt_calloc(w->outcap, 1, e))) goto fail;
     if (!(w->of = rt_out_open(path, e))) goto fail;
     w->f = rt_out_stream(w->of);
     unsigned char pre[16];
     memcpy(pre, HDR_MAGIC, 8);
-    put32(pre + 8, m->generations ? 2 : 1);
+    put32(pre + 8, o->sample ? 3 : m->generations ? 2 : 1);
     put32(pre + 12, (uint32_t)h->n);
     unsigned char c[4];
     put32(c, crc(crc(0, pre, 16), h->b, h->n));
@@ -482,6 +959,7 @@ const char *rt_tr_writer_error(const rt_tr_writer *w) { return w->err.msg; }
 static void w_free(rt_tr_writer *w)
 {
     if (w->zinit) deflateEnd(&w->zs);
+    sb_free(w->sb);
     free(w->raw);
     free(w->out);
     free(w->path);
@@ -496,7 +974,7 @@ int rt_tr_finish(rt_tr_writer *w, rt_err *e)
         rt_tr_abort(w);
         return -1;
     }
-    if (w_flush_chunk(w, e) < 0) goto fail;
+    if (w_flush_chunk(w, 1, e) < 0) goto fail;
     unsigned char f[FOOT_LEN];
     memcpy(f, FOOT_MAGIC, 4);
     put32(f + 4, RT_NCLASS);
@@ -530,6 +1008,7 @@ void rt_tr_abort(rt_tr_writer *w)
 /* ---- reader ---------------------------------------------------------------- */
 
 enum { RS_CHUNKS = 0, RS_DONE = 1, RS_FAILED = -1 };
+enum { RM_NONE = 0, RM_RECORDS = 1, RM_SIDE = 2 };
 
 struct rt_tr_reader {
     FILE *f;                /* the file */
@@ -551,6 +1030,19 @@ struct rt_tr_reader {
     uint32_t rleft;         /* records left in the current chunk */
     uint32_t rnum;          /* records in the current chunk */
     uint64_t chunk_off;     /* file offset of the current chunk */
+    int has_sample;         /* version 3: a side chunk follows every data chunk */
+    rt_tr_sample_params sp; /* its parameters */
+    int mode;               /* RM_*: which read function this reader serves */
+    uint32_t data_n;        /* records of the last data chunk */
+    int side_pending;       /* records mode: the side chunk of the current data chunk is unread */
+    int last_seen;          /* a side chunk marked last has been read */
+    sbuild *vb;             /* records mode: rebuilds each side chunk to check it */
+    unsigned char *sraw;    /* side payload, inflated */
+    size_t srawcap;         /* its capacity: side_bound(chunk_records) */
+    rt_access *srec;        /* side mode: decoded side records */
+    size_t sreccap;         /* capacity */
+    rt_tr_window *swin;     /* side mode: its windows */
+    uint32_t swincap;       /* capacity */
     uint64_t prev_addr[16]; /* per-class decoder state */
     uint32_t prev_size[16];
     unsigned prev_gen;      /* current generation in the chunk */
@@ -634,10 +1126,34 @@ static int parse_header(rt_tr_reader *r, hbuf *h)
     }
 #undef STR
     if (r->version >= 2) {
+        uint32_t lo = r->version == 2 ? 1 : 0; /* version 3 also holds traces without generations */
         m->generations = hg_u32(h);
-        if (!h->bad && (m->generations < 1 || m->generations > RT_TR_MAX_GENERATION))
-            return r_fail(r, base + h->n - 4, "header: %u generations not in 1..%d", m->generations,
+        if (!h->bad && (m->generations < lo || m->generations > RT_TR_MAX_GENERATION))
+            return r_fail(r, base + h->n - 4, "header: %u generations not in %u..%d", m->generations, lo,
                           RT_TR_MAX_GENERATION);
+    }
+    if (r->version >= 3) {
+        rt_tr_sample_params *sp = &r->sp;
+        size_t at = h->n;
+        sp->line = hg_u32(h);
+        sp->shift = hg_u8(h);
+        sp->seed = hg_u64(h);
+        sp->period = hg_u64(h);
+        sp->window = hg_u64(h);
+        sp->cmax = hg_u64(h);
+        sp->hist = hg_u64(h);
+        /* the upper bounds keep a side chunk's bound (side_bound) within
+         * ~50 MiB even at 2^20 records per chunk */
+        if (!h->bad && (sp->line < 2 || sp->line > 65536 || (sp->line & (sp->line - 1)) || sp->shift > 32 ||
+                        sp->period < 4096 || sp->period > (1ULL << 40) || sp->window < 1 ||
+                        sp->window > sp->period / 2 || sp->window > 16384 || sp->cmax < 1 || sp->cmax > 4096 ||
+                        sp->hist > sp->period - sp->window || sp->hist > (1u << 20)))
+            return r_fail(r, base + at,
+                          "header: impossible sample stream (line %u, rate 2^-%u, period %llu, window %llu, "
+                          "%llu lines, history %llu)",
+                          sp->line, sp->shift, (unsigned long long)sp->period, (unsigned long long)sp->window,
+                          (unsigned long long)sp->cmax, (unsigned long long)sp->hist);
+        r->has_sample = 1;
     }
     if (h->bad) return r_fail(r, base + h->len, "header: payload too short");
     if (h->n != h->len) return r_fail(r, base + h->n, "header: %zu unparsed payload bytes", h->len - h->n);
@@ -693,6 +1209,11 @@ rt_tr_reader *rt_tr_open(const char *path, rt_err *e)
     r->maxrec = r->version >= 2 ? MAX_REC_BYTES : MAX_REC_BYTES_V1;
     r->rawcap = (size_t)r->chunk_records * r->maxrec;
     r->ccap = (size_t)bound_compressed(r->rawcap);
+    if (r->has_sample) {
+        r->srawcap = (size_t)side_bound(&r->sp, r->chunk_records);
+        r->ccap = (size_t)bound_compressed(r->srawcap); /* side chunks are the larger */
+        if (!(r->sraw = rt_calloc(r->srawcap, 1, e))) goto fail_quiet;
+    }
     if (!(r->raw = rt_calloc(r->rawcap, 1, e)) || !(r->cbuf = rt_calloc(r->ccap, 1, e))) goto fail_quiet;
     if (inflateInit(&r->zs) != Z_OK) {
         rt_errf(e, "%s: zlib inflateInit failed", path);
@@ -715,41 +1236,125 @@ uint64_t rt_tr_file_hash(const rt_tr_reader *r) { return r->hash; }
 uint32_t rt_tr_get_version(const rt_tr_reader *r) { return r->version; }
 uint32_t rt_tr_get_chunk_records(const rt_tr_reader *r) { return r->chunk_records; }
 
-/* Reads the rest of a chunk whose magic has been consumed at r->chunk_off. */
-static int read_chunk(rt_tr_reader *r)
+int rt_tr_get_sample_params(const rt_tr_reader *r, rt_tr_sample_params *p)
+{
+    if (!r->has_sample) return 0;
+    *p = r->sp;
+    return 1;
+}
+
+/* Reads the header and compressed bytes of a chunk whose magic has been
+ * consumed at r->chunk_off, checks its bounds and CRC; *U and *C are its
+ * lengths, the bytes are in r->cbuf. A side chunk (side = 1) must follow
+ * the data chunk of its index and repeat its record count. */
+static int read_chunk_bytes(rt_tr_reader *r, int side, uint32_t *Up, uint32_t *Cp)
 {
     unsigned char h[CHUNK_HDR];
     uint64_t at = r->chunk_off;
-    memcpy(h, CHUNK_MAGIC, 4);
-    if (r_read(r, h + 4, CHUNK_HDR - 4, "a chunk header") < 0) return -1;
+    memcpy(h, side ? SIDE_MAGIC : CHUNK_MAGIC, 4);
+    if (r_read(r, h + 4, CHUNK_HDR - 4, side ? "a side chunk header" : "a chunk header") < 0) return -1;
     uint32_t idx = get32(h + 4), n = get32(h + 8), U = get32(h + 12), C = get32(h + 16);
-    if (idx != r->got.nchunks)
-        return r_fail(r, at + 4, "chunk %u found where chunk %llu was expected", idx,
-                      (unsigned long long)r->got.nchunks);
-    if (n < 1 || n > r->chunk_records)
-        return r_fail(r, at + 8, "chunk %u: record count %u not in 1..%u", idx, n, r->chunk_records);
-    if (U < n || (uint64_t)U > (uint64_t)n * r->maxrec)
-        return r_fail(r, at + 12, "chunk %u: encoded length %u impossible for %u records", idx, U, n);
+    uint64_t want = side ? r->got.nchunks - 1 : r->got.nchunks;
+    const char *what = side ? "side chunk" : "chunk";
+    if (idx != want)
+        return r_fail(r, at + 4, "%s %u found where %s %llu was expected", what, idx, what, (unsigned long long)want);
+    if (side) {
+        if (n != r->data_n)
+            return r_fail(r, at + 8, "side chunk %u: %u records, its data chunk has %u", idx, n, r->data_n);
+        if (U < 1 || (uint64_t)U > side_bound(&r->sp, n))
+            return r_fail(r, at + 12, "side chunk %u: payload length %u impossible for %u records", idx, U, n);
+    } else {
+        if (n < 1 || n > r->chunk_records)
+            return r_fail(r, at + 8, "chunk %u: record count %u not in 1..%u", idx, n, r->chunk_records);
+        if (U < n || (uint64_t)U > (uint64_t)n * r->maxrec)
+            return r_fail(r, at + 12, "chunk %u: encoded length %u impossible for %u records", idx, U, n);
+    }
     if (C < 1 || C > bound_compressed(U) || C > r->ccap)
-        return r_fail(r, at + 16, "chunk %u: compressed length %u impossible for %u bytes", idx, C, U);
-    if (r_read(r, r->cbuf, C, "a chunk's data") < 0) return -1;
-    if (crc(crc(0, h, 20), r->cbuf, C) != get32(h + 20)) return r_fail(r, at, "chunk %u CRC mismatch", idx);
-    if (inflateReset(&r->zs) != Z_OK) return r_fail(r, at, "chunk %u: zlib inflateReset failed", idx);
+        return r_fail(r, at + 16, "%s %u: compressed length %u impossible for %u bytes", what, idx, C, U);
+    if (r_read(r, r->cbuf, C, side ? "a side chunk's data" : "a chunk's data") < 0) return -1;
+    if (crc(crc(0, h, 20), r->cbuf, C) != get32(h + 20)) return r_fail(r, at, "%s %u CRC mismatch", what, idx);
+    *Up = U;
+    *Cp = C;
+    if (!side) {
+        if (r->last_seen)
+            return r_fail(r, at, "chunk %u follows the side chunk marked last", idx);
+        r->data_n = n;
+        r->got.nchunks++;
+    }
+    return 0;
+}
+
+/* Inflates r->cbuf (C bytes) into dst, which must receive exactly U bytes. */
+static int inflate_exact(rt_tr_reader *r, unsigned char *dst, uint32_t U, uint32_t C, const char *what)
+{
+    uint64_t idx = r->got.nchunks - 1;
+    if (inflateReset(&r->zs) != Z_OK) return r_fail(r, r->chunk_off, "%s %llu: zlib inflateReset failed", what,
+                                                     (unsigned long long)idx);
     r->zs.next_in = r->cbuf;
     r->zs.avail_in = C;
-    r->zs.next_out = r->raw;
+    r->zs.next_out = dst;
     r->zs.avail_out = U;
     int zr = inflate(&r->zs, Z_FINISH);
     if (zr != Z_STREAM_END || r->zs.avail_in != 0 || r->zs.avail_out != 0)
-        return r_fail(r, at + CHUNK_HDR, "chunk %u: zlib data does not inflate to %u bytes (%s)", idx, U,
+        return r_fail(r, r->chunk_off + CHUNK_HDR, "%s %llu: zlib data does not inflate to %u bytes (%s)", what,
+                      (unsigned long long)idx, U,
                       r->zs.msg ? r->zs.msg : zr == Z_STREAM_END ? "length mismatch" : "stream error");
+    return 0;
+}
+
+/* Reads the rest of a data chunk whose magic has been consumed at
+ * r->chunk_off and makes its records current. */
+static int read_chunk(rt_tr_reader *r)
+{
+    uint32_t U, C;
+    if (read_chunk_bytes(r, 0, &U, &C) < 0 || inflate_exact(r, r->raw, U, C, "chunk") < 0) return -1;
     r->rpos = 0;
     r->rlen = U;
-    r->rleft = r->rnum = n;
+    r->rleft = r->rnum = r->data_n;
     memset(r->prev_addr, 0, sizeof r->prev_addr);
     memset(r->prev_size, 0, sizeof r->prev_size);
     r->prev_gen = 0;
-    r->got.nchunks++;
+    r->side_pending = r->has_sample;
+    return 0;
+}
+
+/* Reads the side chunk that must follow the data chunk just read (its
+ * magic not yet consumed) into r->sraw; *U is its payload length. */
+static int read_side_chunk(rt_tr_reader *r, uint32_t *U)
+{
+    unsigned char m[4];
+    uint64_t idx = r->got.nchunks - 1;
+    r->chunk_off = r->off;
+    if (r_read(r, m, 4, "a side chunk magic") < 0) return -1;
+    if (memcmp(m, SIDE_MAGIC, 4) != 0)
+        return r_fail(r, r->chunk_off, "chunk %llu: its side chunk is missing (found %02x %02x %02x %02x)",
+                      (unsigned long long)idx, m[0], m[1], m[2], m[3]);
+    uint32_t C;
+    if (read_chunk_bytes(r, 1, U, &C) < 0 || inflate_exact(r, r->sraw, *U, C, "side chunk") < 0) return -1;
+    if (r->sraw[0] > 1)
+        return r_fail(r, r->chunk_off + CHUNK_HDR, "side chunk %llu: unknown flags %#x", (unsigned long long)idx,
+                      r->sraw[0]);
+    r->last_seen = r->sraw[0] & 1;
+    r->side_pending = 0;
+    return 0;
+}
+
+/* Records mode: the side chunk of the data chunk whose records have all
+ * been decoded (and fed to r->vb) must be the one the records make. */
+static int check_side(rt_tr_reader *r)
+{
+    uint32_t U;
+    if (read_side_chunk(r, &U) < 0) return -1;
+    uint64_t idx = r->got.nchunks - 1;
+    if (sb_chunk(r->vb, r->last_seen) < 0) return r_fail(r, r->chunk_off, "out of memory");
+    const sbuild *b = r->vb;
+    if (b->out.n != U || memcmp(b->out.b, r->sraw, U) != 0) {
+        size_t k = 0;
+        while (k < U && k < b->out.n && b->out.b[k] == r->sraw[k]) k++;
+        return r_fail(r, r->chunk_off, "side chunk %llu does not match the records of chunk %llu (payload byte %zu "
+                      "of %u differs from the sample stream the records make)",
+                      (unsigned long long)idx, (unsigned long long)idx, k, U);
+    }
     return 0;
 }
 
@@ -769,6 +1374,8 @@ static int read_footer(rt_tr_reader *r)
         t->bytes[c] = get64(f + 32 + 24 * c);
         t->writes[c] = get64(f + 40 + 24 * c);
     }
+    if (r->has_sample && r->got.nchunks > 0 && !r->last_seen)
+        return r_fail(r, at, "footer follows a side chunk not marked last");
     if (t->nchunks != r->got.nchunks)
         return r_fail(r, at, "footer says %llu chunks, file has %llu", (unsigned long long)t->nchunks,
                       (unsigned long long)r->got.nchunks);
@@ -805,6 +1412,9 @@ static int advance(rt_tr_reader *r)
     }
     if (!memcmp(m, CHUNK_MAGIC, 4)) return read_chunk(r);
     if (!memcmp(m, FOOT_MAGIC, 4)) return read_footer(r);
+    if (!memcmp(m, SIDE_MAGIC, 4))
+        return r_fail(r, r->chunk_off, r->has_sample ? "side chunk where a chunk or the footer was expected"
+                                                      : "side chunk in a trace of format version %u", r->version);
     return r_fail(r, r->chunk_off, "bad chunk magic %02x %02x %02x %02x", m[0], m[1], m[2], m[3]);
 }
 
@@ -820,12 +1430,24 @@ long rt_tr_read(rt_tr_reader *r, rt_access *buf, size_t cap, rt_err *e)
     if (r->state == RS_DONE) return 0;
     if (cap == 0) return rt_errf(e, "%s: rt_tr_read called with an empty buffer", r->path);
     if (cap > (size_t)LONG_MAX) cap = (size_t)LONG_MAX;
-    size_t n = 0;
+    if (r->mode == RM_SIDE) return rt_errf(e, "%s: rt_tr_read after rt_tr_read_side", r->path);
+    r->mode = RM_RECORDS;
+    if (r->has_sample && !r->vb && !(r->vb = sb_new(&r->sp, r->meta.generations, e))) return -1;
+    size_t n = 0, fed = 0; /* buf[0..fed) went to the side chunk check */
     while (n < cap) {
         if (r->rleft == 0) {
             if (r->rpos != r->rlen) {
                 dec_fail(r, "encoded bytes left over after the last record");
                 return rt_errf(e, "%s", r->err.msg);
+            }
+            if (r->side_pending) {
+                if (sb_put(r->vb, buf + fed, n - fed) < 0) {
+                    r_fail(r, r->off, "out of memory");
+                    return rt_errf(e, "%s", r->err.msg);
+                }
+                fed = n;
+                if (check_side(r) < 0) return rt_errf(e, "%s", r->err.msg);
+                continue;
             }
             if (advance(r) < 0) return rt_errf(e, "%s", r->err.msg);
             if (r->state == RS_DONE) break;
@@ -907,7 +1529,131 @@ long rt_tr_read(rt_tr_reader *r, rt_access *buf, size_t cap, rt_err *e)
         dec_fail(r, "size 0");
         return rt_errf(e, "%s", r->err.msg);
     }
+    if (r->vb && sb_put(r->vb, buf + fed, n - fed) < 0) {
+        r_fail(r, r->off, "out of memory");
+        return rt_errf(e, "%s", r->err.msg);
+    }
     return (long)n;
+}
+
+/* Side mode: parses the side payload (U bytes in r->sraw) of data chunk
+ * idx into s, checking its structure and its totals against the chunk. */
+static int parse_side(rt_tr_reader *r, uint32_t U, rt_tr_side *s)
+{
+    const unsigned char *p = r->sraw + 1, *end = r->sraw + U;
+    uint64_t idx = r->got.nchunks - 1, at = r->chunk_off + CHUNK_HDR, n = r->data_n;
+    const rt_tr_sample_params *sp = &r->sp;
+    memset(s, 0, sizeof *s);
+    s->nrefs = n;
+    uint64_t sum = 0, v[5];
+    const char *bad = NULL;
+    for (int c = 0; c < RT_NCLASS && !bad; c++) {
+        for (int k = 0; k < 5 && !bad; k++)
+            if (get_varint(&p, end, &v[k]) < 0) bad = "bad class totals";
+        if (bad) break;
+        if (v[2] > n || v[4] > v[2] || v[3] < v[2]) {
+            bad = "impossible class totals";
+            break;
+        }
+        s->touches[c][0] = v[0];
+        s->touches[c][1] = v[1];
+        r->got.refs[c] += v[2];
+        r->got.bytes[c] += v[3];
+        r->got.writes[c] += v[4];
+        sum += v[2];
+    }
+    if (!bad && sum != n) bad = "class totals do not add up to the chunk's records";
+    uint64_t ns = 0, nw = 0, nwmax = n / sp->period + 2;
+    if (!bad && (get_varint(&p, end, &ns) < 0 || ns > n)) bad = "bad sampled record count";
+    /* the records: ns sampled, then per window up to cmax + window */
+    uint64_t need = ns + nwmax * (sp->cmax + sp->window);
+    if (!bad && need > r->sreccap) {
+        rt_access *x = realloc(r->srec, (size_t)need * sizeof *x);
+        if (!x) return r_fail(r, at, "out of memory");
+        r->srec = x;
+        r->sreccap = (size_t)need;
+    }
+    if (!bad && nwmax > r->swincap) {
+        rt_tr_window *x = realloc(r->swin, (size_t)nwmax * sizeof *x);
+        if (!x) return r_fail(r, at, "out of memory");
+        r->swin = x;
+        r->swincap = (uint32_t)nwmax;
+    }
+    rt_access *q = r->srec;
+    coder cd;
+    int dr = DEC_OK;
+    if (!bad) {
+        memset(&cd, 0, sizeof cd);
+        for (uint64_t i = 0; i < ns && !dr; i++) dr = dec_rec(&p, end, &cd, r->meta.generations, q++);
+    }
+    if (!bad && !dr && (get_varint(&p, end, &nw) < 0 || nw > nwmax)) bad = "bad window count";
+    for (uint64_t j = 0; j < nw && !bad && !dr; j++) {
+        rt_tr_window *w = &r->swin[j];
+        uint64_t nwarm, scanned, nrecs;
+        if (get_varint(&p, end, &nwarm) < 0 || nwarm > sp->cmax || get_varint(&p, end, &scanned) < 0 ||
+            scanned > sp->hist || p == end || *p > 1) {
+            bad = "bad window warm-up";
+            break;
+        }
+        w->short_warmup = *p++;
+        if (get_varint(&p, end, &nrecs) < 0 || nrecs < 1 || nrecs > sp->window ||
+            (nrecs < sp->window && !r->last_seen)) {
+            bad = "bad window length";
+            break;
+        }
+        w->nwarm = (uint32_t)nwarm;
+        w->scanned = scanned;
+        w->nrecs = (uint32_t)nrecs;
+        w->warm = q;
+        memset(&cd, 0, sizeof cd);
+        for (uint64_t i = 0; i < nwarm && !dr; i++) dr = dec_rec(&p, end, &cd, r->meta.generations, q++);
+        w->recs = q;
+        memset(&cd, 0, sizeof cd);
+        for (uint64_t i = 0; i < nrecs && !dr; i++) dr = dec_rec(&p, end, &cd, r->meta.generations, q++);
+    }
+    if (!bad && dr) bad = dec_msg[dr];
+    if (!bad && p != end) bad = "bytes left over after the last window";
+    if (bad) return r_fail(r, r->chunk_off, "side chunk %llu: %s", (unsigned long long)idx, bad);
+    r->got.nrefs += n;
+    s->sampled = r->srec;
+    s->nsampled = ns;
+    s->win = r->swin;
+    s->nwin = (uint32_t)nw;
+    return 0;
+}
+
+int rt_tr_read_side(rt_tr_reader *r, rt_tr_side *s, rt_err *e)
+{
+    memset(s, 0, sizeof *s);
+    if (r->state == RS_FAILED) return rt_errf(e, "%s", r->err.msg);
+    if (!r->has_sample)
+        return rt_errf(e, "%s: no sample stream (format version %u; version 3 has one)", r->path, r->version);
+    if (r->mode == RM_RECORDS) return rt_errf(e, "%s: rt_tr_read_side after rt_tr_read", r->path);
+    r->mode = RM_SIDE;
+    if (r->state == RS_DONE) return 0;
+    unsigned char m[4];
+    r->chunk_off = r->off;
+    size_t got = fread(m, 1, 4, r->f);
+    r->hash = rt_fnv1a(r->hash, m, got);
+    r->off += got;
+    if (got != 4) {
+        if (ferror(r->f)) r_fail(r, r->off, "read error: %s", strerror(errno ? errno : EIO));
+        else if (got == 0)
+            r_fail(r, r->off, "file ends before the footer (truncated trace: %llu chunks read)",
+                   (unsigned long long)r->got.nchunks);
+        else r_fail(r, r->off, "file ends inside a chunk magic (truncated trace)");
+        return rt_errf(e, "%s", r->err.msg);
+    }
+    if (!memcmp(m, FOOT_MAGIC, 4)) return read_footer(r) < 0 ? rt_errf(e, "%s", r->err.msg) : 0;
+    if (memcmp(m, CHUNK_MAGIC, 4)) {
+        r_fail(r, r->chunk_off, "bad chunk magic %02x %02x %02x %02x", m[0], m[1], m[2], m[3]);
+        return rt_errf(e, "%s", r->err.msg);
+    }
+    uint32_t U, C;
+    /* the data chunk: CRC-checked and hashed, not inflated */
+    if (read_chunk_bytes(r, 0, &U, &C) < 0 || read_side_chunk(r, &U) < 0 || parse_side(r, U, s) < 0)
+        return rt_errf(e, "%s", r->err.msg);
+    return 1;
 }
 
 void rt_tr_close(rt_tr_reader *r)
@@ -915,6 +1661,10 @@ void rt_tr_close(rt_tr_reader *r)
     if (!r) return;
     if (r->f) fclose(r->f);
     if (r->zinit) inflateEnd(&r->zs);
+    sb_free(r->vb);
+    free(r->sraw);
+    free(r->srec);
+    free(r->swin);
     free(r->raw);
     free(r->cbuf);
     free(r->path);
