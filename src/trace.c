@@ -1031,6 +1031,7 @@ struct rt_tr_reader {
     uint32_t rnum;          /* records in the current chunk */
     uint64_t chunk_off;     /* file offset of the current chunk */
     int has_sample;         /* version 3: a side chunk follows every data chunk */
+    int no_side_check;      /* records mode: side chunks read but not rebuilt (rt_tr_set_side_check) */
     rt_tr_sample_params sp; /* its parameters */
     int mode;               /* RM_*: which read function this reader serves */
     uint32_t data_n;        /* records of the last data chunk */
@@ -1424,6 +1425,8 @@ static int dec_fail(rt_tr_reader *r, const char *what)
                   r->rnum - r->rleft, what);
 }
 
+void rt_tr_set_side_check(rt_tr_reader *r, int on) { r->no_side_check = !on; }
+
 long rt_tr_read(rt_tr_reader *r, rt_access *buf, size_t cap, rt_err *e)
 {
     if (r->state == RS_FAILED) return rt_errf(e, "%s", r->err.msg);
@@ -1432,13 +1435,19 @@ long rt_tr_read(rt_tr_reader *r, rt_access *buf, size_t cap, rt_err *e)
     if (cap > (size_t)LONG_MAX) cap = (size_t)LONG_MAX;
     if (r->mode == RM_SIDE) return rt_errf(e, "%s: rt_tr_read after rt_tr_read_side", r->path);
     r->mode = RM_RECORDS;
-    if (r->has_sample && !r->vb && !(r->vb = sb_new(&r->sp, r->meta.generations, e))) return -1;
+    if (r->has_sample && !r->no_side_check && !r->vb && !(r->vb = sb_new(&r->sp, r->meta.generations, e)))
+        return -1;
     size_t n = 0, fed = 0; /* buf[0..fed) went to the side chunk check */
     while (n < cap) {
         if (r->rleft == 0) {
             if (r->rpos != r->rlen) {
                 dec_fail(r, "encoded bytes left over after the last record");
                 return rt_errf(e, "%s", r->err.msg);
+            }
+            if (r->side_pending && !r->vb) { /* rt_tr_set_side_check(r, 0) */
+                uint32_t U;
+                if (read_side_chunk(r, &U) < 0) return rt_errf(e, "%s", r->err.msg);
+                continue;
             }
             if (r->side_pending) {
                 if (sb_put(r->vb, buf + fed, n - fed) < 0) {

@@ -139,6 +139,12 @@ const rt_tr_meta *rt_tr_get_meta(const rt_tr_reader *r);
 const rt_tr_totals *rt_tr_get_totals(const rt_tr_reader *r);
 /* Records carry their generation (version 1: always 0). */
 long rt_tr_read(rt_tr_reader *r, rt_access *buf, size_t cap, rt_err *e);
+/* on = 0, before the first rt_tr_read: version-3 side chunks are still
+ * read, CRC-checked and inflated, but not rebuilt from the records and
+ * compared (the default, on, does that). For readers whose results do not
+ * depend on the side chunks: an exact replay spends a third of its
+ * decoding time on the rebuild otherwise. */
+void rt_tr_set_side_check(rt_tr_reader *r, int on);
 /* Byte size of the file (known from rt_tr_open) and a 64-bit FNV-1a hash
  * (rt_fnv1a) of all its bytes (computed while reading; valid after
  * rt_tr_read returned 0). */

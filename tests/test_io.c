@@ -497,10 +497,13 @@ static int v3_write(const char *path, const rt_access *a, size_t n, int sample, 
 }
 
 /* Reads every record (rt_tr_read); the count, or -1 with e. */
+static int v3_side_check = 1; /* rt_tr_set_side_check for v3_read_all */
+
 static long v3_read_all(const char *path, rt_access *out, size_t cap, rt_err *e)
 {
     rt_tr_reader *r = rt_tr_open(path, e);
     if (!r) return -1;
+    rt_tr_set_side_check(r, v3_side_check);
     long n = 0, k;
     while ((k = rt_tr_read(r, out + n, cap - (size_t)n, e)) > 0) n += k;
     rt_tr_close(r);
@@ -676,6 +679,12 @@ static void v3_both_fail(const char *path, const char *what, size_t where, const
           "records reader, %s at %zu: %ld, %s", what, where, n, e1.msg);
     CHECK(k < 0 && strstr(e2.msg, path) && strstr(e2.msg, "byte ") && (!needle || strstr(e2.msg, needle)),
           "side reader, %s at %zu: %d, %s", what, where, k, e2.msg);
+    /* the records reader that only CRC-checks the side chunks (exact replays) */
+    v3_side_check = 0;
+    n = v3_read_all(path, buf, V3_N + 1, &e1);
+    v3_side_check = 1;
+    CHECK(n < 0 && strstr(e1.msg, path) && strstr(e1.msg, "byte ") && (!needle || strstr(e1.msg, needle)),
+          "records reader without the side rebuild, %s at %zu: %ld, %s", what, where, n, e1.msg);
 }
 
 /* Bit flips and cuts in the side chunks (and in the data chunks, which the
@@ -771,6 +780,13 @@ static void test_v3_corrupt(void)
               "re-made side chunk under the records reader: %s", e.msg);
         /* the side reader cannot know; what it checks still holds */
         CHECK(v3_read_side(bad, &e) == 0, "re-made side chunk under the side reader: %s", e.msg);
+        /* nor can the records reader told not to rebuild them, whose records are all there */
+        static rt_access good[V3_N + 1];
+        v3_side_check = 0;
+        n = v3_read_all(bad, buf, V3_N + 1, &e);
+        v3_side_check = 1;
+        CHECK(n == V3_N && v3_read_all(p3, good, V3_N + 1, &e) == V3_N && !memcmp(buf, good, sizeof *buf * V3_N),
+              "re-made side chunk, records without the side rebuild: %ld, %s", n, e.msg);
         free(raw);
         free(x);
         free(z);
