@@ -334,9 +334,12 @@ static const char *const dec_msg[] = {"", "reserved tag bit set", "class out of 
                                       "generation byte repeats the current generation", "generation above the header's",
                                       "record runs past the end of the chunk", "varint overflow", "size 0"};
 
-/* Decodes one record from *pp (< end) with the checks of rt_tr_read;
+/* Decodes one record from *pp (< end) with every check, for rt_tr_read and
+ * the side chunks alike;
  * maxgen 0 = no generations (bit 7 reserved). DEC_OK or the error. */
-static int dec_rec(const unsigned char **pp, const unsigned char *end, coder *c, unsigned maxgen, rt_access *out)
+static inline __attribute__((always_inline)) int dec_rec(const unsigned char **pp, const unsigned char *end,
+                                                         coder *restrict c, unsigned maxgen,
+                                                         rt_access *restrict out)
 {
     const unsigned char *p = *pp;
     if (p == end) return DEC_SHORT;
@@ -1044,9 +1047,7 @@ struct rt_tr_reader {
     size_t sreccap;         /* capacity */
     rt_tr_window *swin;     /* side mode: its windows */
     uint32_t swincap;       /* capacity */
-    uint64_t prev_addr[16]; /* per-class decoder state */
-    uint32_t prev_size[16];
-    unsigned prev_gen;      /* current generation in the chunk */
+    coder cd;               /* decoder state of the current chunk */
     z_stream zs;            /* inflate state */
     int zinit;              /* zs initialised */
     int state;              /* RS_* */
@@ -1312,9 +1313,7 @@ static int read_chunk(rt_tr_reader *r)
     r->rpos = 0;
     r->rlen = U;
     r->rleft = r->rnum = r->data_n;
-    memset(r->prev_addr, 0, sizeof r->prev_addr);
-    memset(r->prev_size, 0, sizeof r->prev_size);
-    r->prev_gen = 0;
+    memset(&r->cd, 0, sizeof r->cd);
     r->side_pending = r->has_sample;
     return 0;
 }
@@ -1463,80 +1462,19 @@ long rt_tr_read(rt_tr_reader *r, rt_access *buf, size_t cap, rt_err *e)
             continue;
         }
         const unsigned char *p = r->raw + r->rpos, *end = r->raw + r->rlen;
-        if (p == end) goto short_rec;
-        unsigned t = *p++;
-        unsigned cls = t & TAG_CLASS, gen = r->prev_gen;
-        if (t & TAG_GEN) {
-            if (!r->meta.generations) goto bad_tag; /* version 1: reserved */
-            if (p == end) goto short_rec;
-            gen = *p++;
-            if (gen == r->prev_gen) goto same_gen;
-            if (gen > r->meta.generations) goto bad_gen;
+        rt_access *a = &buf[n];
+        int dr = dec_rec(&p, end, &r->cd, r->meta.generations, a);
+        if (dr != DEC_OK) {
+            dec_fail(r, dec_msg[dr]);
+            return rt_errf(e, "%s", r->err.msg);
         }
-        if (cls >= RT_NCLASS) goto bad_class;
-        uint64_t addr = r->prev_addr[cls];
-        uint32_t size = r->prev_size[cls];
-        if (t & TAG_SEQ) addr += size;
-        else {
-            uint64_t z = 0;
-            for (int sh = 0;; sh += 7) {
-                if (p == end) goto short_rec;
-                unsigned b = *p++;
-                if (sh == 63 && b > 1) goto overflow;
-                z |= (uint64_t)(b & 0x7f) << sh;
-                if (!(b & 0x80)) break;
-            }
-            addr += (z >> 1) ^ (0 - (z & 1));
-        }
-        if (!(t & TAG_SAMESIZE)) {
-            uint64_t v = 0;
-            for (int sh = 0;; sh += 7) {
-                if (p == end) goto short_rec;
-                unsigned b = *p++;
-                if (sh == 28 && b > 0x0f) goto overflow;
-                v |= (uint64_t)(b & 0x7f) << sh;
-                if (!(b & 0x80)) break;
-            }
-            size = (uint32_t)v;
-        }
-        if (size == 0) goto zero_size;
-        r->prev_addr[cls] = addr;
-        r->prev_size[cls] = size;
-        r->prev_gen = gen;
+        n++;
         r->rpos = (size_t)(p - r->raw);
         r->rleft--;
-        rt_access *a = &buf[n++];
-        a->addr = addr;
-        a->size = size;
-        a->write = (t & TAG_WRITE) != 0;
-        a->cls = (uint8_t)cls;
-        a->gen = (uint8_t)gen;
-        r->got.refs[cls]++;
-        r->got.bytes[cls] += size;
-        r->got.writes[cls] += a->write;
+        r->got.refs[a->cls]++;
+        r->got.bytes[a->cls] += a->size;
+        r->got.writes[a->cls] += a->write;
         r->got.nrefs++;
-        continue;
-    bad_tag:
-        dec_fail(r, "reserved tag bit set");
-        return rt_errf(e, "%s", r->err.msg);
-    bad_class:
-        dec_fail(r, "class out of range");
-        return rt_errf(e, "%s", r->err.msg);
-    same_gen:
-        dec_fail(r, "generation byte repeats the current generation");
-        return rt_errf(e, "%s", r->err.msg);
-    bad_gen:
-        dec_fail(r, "generation above the header's");
-        return rt_errf(e, "%s", r->err.msg);
-    short_rec:
-        dec_fail(r, "record runs past the end of the chunk");
-        return rt_errf(e, "%s", r->err.msg);
-    overflow:
-        dec_fail(r, "varint overflow");
-        return rt_errf(e, "%s", r->err.msg);
-    zero_size:
-        dec_fail(r, "size 0");
-        return rt_errf(e, "%s", r->err.msg);
     }
     if (r->vb && sb_put(r->vb, buf + fed, n - fed) < 0) {
         r_fail(r, r->off, "out of memory");
