@@ -30,10 +30,10 @@
  */
 #include "approx.h"
 #include "approx_int.h"
+#include "pipe.h"
 #include "sim_int.h"
 
 #include <math.h>
-#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -294,11 +294,8 @@ int rt_approx_put_side(rt_approx *a, const rt_tr_side *s)
 
 /* ---- sample-stream replay on two threads ----
  * The reader thread reads, hashes, CRC-checks, inflates and decodes side
- * chunks (rt_tr_read_side) and copies each into a free slot; the calling
- * thread feeds the slots to the estimator in order. Ring invariants as in
- * replay.c: head <= tail <= head + SIDE_SLOTS, slots head..tail-1 are
- * filled and the consumer's; rc of a slot is rt_tr_read_side's result, the
- * reader stops after publishing one <= 0; stop makes it quit. */
+ * chunks (rt_tr_read_side) and copies each into a slot of the pipeline
+ * (pipe.c); the calling thread feeds the slots to the estimator in order. */
 #define SIDE_SLOTS 4
 
 typedef struct side_slot {
@@ -307,18 +304,13 @@ typedef struct side_slot {
     size_t reccap;      /* capacity */
     rt_tr_window *win;  /* windows */
     uint32_t wincap;    /* capacity */
-    int rc;             /* 1 side chunk, 0 end, -1 error (message in the ring's err) */
 } side_slot;
 
 typedef struct side_ring {
-    pthread_mutex_t mu;          /* guards head, tail, stop, rc */
-    pthread_cond_t filled;       /* the reader published a slot */
-    pthread_cond_t freed;        /* the consumer released a slot or set stop */
-    side_slot slot[SIDE_SLOTS];  /* the ring */
-    unsigned long head, tail;    /* slots consumed, published */
-    int stop;                    /* the consumer gave up */
-    rt_tr_reader *r;             /* touched by the reader thread only until join */
-    rt_err err;                  /* the reader's message */
+    side_slot slot[SIDE_SLOTS];
+    rt_tr_reader *r;    /* the reader thread's until the pipeline ends */
+    rt_approx *a;       /* the consumer's */
+    uint64_t *refs;
 } side_ring;
 
 /* Deep copy of s into x; 0 or -1 (out of memory). */
@@ -356,87 +348,53 @@ static int side_copy(side_slot *x, const rt_tr_side *s)
     return 0;
 }
 
-static void *side_reader(void *arg)
+static long side_produce(void *ctx, unsigned i, rt_err *e)
 {
-    side_ring *q = arg;
-    for (;;) {
-        pthread_mutex_lock(&q->mu);
-        while (q->tail - q->head == SIDE_SLOTS && !q->stop) pthread_cond_wait(&q->freed, &q->mu);
-        int stop = q->stop;
-        unsigned long t = q->tail;
-        pthread_mutex_unlock(&q->mu);
-        if (stop) break;
-        side_slot *x = &q->slot[t % SIDE_SLOTS];
-        rt_tr_side sd;
-        int k = rt_tr_read_side(q->r, &sd, &q->err);
-        if (k > 0 && side_copy(x, &sd) < 0) k = rt_errf(&q->err, "out of memory");
-        pthread_mutex_lock(&q->mu);
-        x->rc = k;
-        q->tail = t + 1;
-        pthread_cond_signal(&q->filled);
-        pthread_mutex_unlock(&q->mu);
-        if (k <= 0) break;
-    }
-    return NULL;
+    side_ring *q = ctx;
+    rt_tr_side sd;
+    int k = rt_tr_read_side(q->r, &sd, e);
+    if (k > 0 && side_copy(&q->slot[i], &sd) < 0) return rt_errf(e, "out of memory");
+    return k;
+}
+
+static int side_consume(void *ctx, unsigned i, long n, rt_err *e)
+{
+    side_ring *q = ctx;
+    (void)n;
+    (void)e;
+    rt_approx_put_side(q->a, &q->slot[i].s);
+    *q->refs += q->slot[i].s.nrefs;
+    return 0;
 }
 
 /* Feeds every side chunk of r to a: 0 at the verified end, -1 (e). */
 static int side_pump(rt_approx *a, rt_tr_reader *r, int nthreads, uint64_t *refs, rt_err *e)
 {
-    side_ring *q = nthreads > 1 ? calloc(1, sizeof *q) : NULL;
-    pthread_t th;
-    int inited = 0;
-    if (q) {
-        q->r = r;
-        inited = !pthread_mutex_init(&q->mu, NULL);
-        inited += inited == 1 && !pthread_cond_init(&q->filled, NULL);
-        inited += inited == 2 && !pthread_cond_init(&q->freed, NULL);
-        inited += inited == 3 && !pthread_create(&th, NULL, side_reader, q);
-    }
-    if (inited < 4) { /* one thread: read and feed in turn */
-        if (inited > 2) pthread_cond_destroy(&q->freed);
-        if (inited > 1) pthread_cond_destroy(&q->filled);
-        if (inited > 0) pthread_mutex_destroy(&q->mu);
-        free(q);
-        rt_tr_side sd;
-        int k;
-        while ((k = rt_tr_read_side(r, &sd, e)) > 0) {
-            rt_approx_put_side(a, &sd);
-            *refs += sd.nrefs;
+    int rc = 1;
+    if (nthreads > 1) {
+        side_ring *q = calloc(1, sizeof *q);
+        if (q) {
+            q->r = r;
+            q->a = a;
+            q->refs = refs;
+            rt_pipe_ops ops = {side_produce, side_consume, q, SIDE_SLOTS};
+            rc = rt_pipe_run(&ops, e);
+            for (int i = 0; i < SIDE_SLOTS; i++) {
+                free(q->slot[i].rec);
+                free(q->slot[i].win);
+            }
+            free(q);
         }
-        return k;
     }
-    int rc;
-    for (;;) {
-        pthread_mutex_lock(&q->mu);
-        while (q->tail == q->head) pthread_cond_wait(&q->filled, &q->mu);
-        pthread_mutex_unlock(&q->mu);
-        side_slot *x = &q->slot[q->head % SIDE_SLOTS];
-        if (x->rc <= 0) {
-            rc = x->rc < 0 ? rt_errf(e, "%s", q->err.msg) : 0;
-            break;
-        }
-        rt_approx_put_side(a, &x->s);
-        *refs += x->s.nrefs;
-        pthread_mutex_lock(&q->mu);
-        q->head++;
-        pthread_cond_signal(&q->freed);
-        pthread_mutex_unlock(&q->mu);
+    if (rc <= 0) return rc;
+    /* one thread: read and feed in turn */
+    rt_tr_side sd;
+    int k;
+    while ((k = rt_tr_read_side(r, &sd, e)) > 0) {
+        rt_approx_put_side(a, &sd);
+        *refs += sd.nrefs;
     }
-    pthread_mutex_lock(&q->mu);
-    q->stop = 1;
-    pthread_cond_signal(&q->freed);
-    pthread_mutex_unlock(&q->mu);
-    pthread_join(th, NULL);
-    pthread_cond_destroy(&q->freed);
-    pthread_cond_destroy(&q->filled);
-    pthread_mutex_destroy(&q->mu);
-    for (int i = 0; i < SIDE_SLOTS; i++) {
-        free(q->slot[i].rec);
-        free(q->slot[i].win);
-    }
-    free(q);
-    return rc;
+    return k;
 }
 
 int rt_approx_replay_file(rt_approx *a, const char *path, int fmt, int din_class, int nthreads, rt_tr_meta *meta,

@@ -6,71 +6,42 @@
  * trace reader.
  *
  * With two threads, decoding (inflate, record decoding or din parsing)
- * runs on a reader thread and the sink on the calling thread, joined by a
- * ring of PIPE_SLOTS buffers of PIPE_CHUNK records, a mutex and two
- * condition variables. Ring invariants (head and tail only grow; both are
- * read and written under mu):
- *   0 <= tail - head <= PIPE_SLOTS;
- *   slots head .. tail-1 (mod PIPE_SLOTS) are filled and owned by the
- *   consumer, the others by the reader;
- *   count[slot] is what the reader's next() returned for it: > 0 records,
- *   0 end of input, -1 error (message in err); the reader stops after
- *   publishing a slot with count <= 0, so such a slot is the last one;
- *   stop, set by the consumer, makes the reader quit at its next wait;
- *   rwait (cwait) is set only by the reader (consumer) just before it
- *   sleeps and cleared only by the side that wakes it, under mu.
- * Wake-ups are batched: the reader, once it found the ring full, sleeps
- * until PIPE_WAKE slots are free, so it decodes in bursts. Waking it per
- * slot cost a sleep and a wake-up per 4096 records (13,600 context
- * switches and 0.2 s of a 1.2 s replay of a 64.7 M-record trace).
+ * runs on a reader thread and the sink on the calling thread, through the
+ * pipeline of pipe.c: a ring of PIPE_SLOTS buffers of PIPE_CHUNK records.
  * The consumer sees exactly the batches the single-threaded loop would
  * hand to the sink, in the same order, so every counter is the same; a
  * decode error reaches the caller after the records decoded before it,
- * as in the single-threaded loop.
+ * as in the single-threaded loop. A repeat filter (sim.h, rt_repeats), if
+ * the sink has one, runs on the reader thread after the decoder.
  */
+#include "pipe.h"
 #include "sim.h"
 #include "sim_int.h"
 #include "trace.h"
 
 #include <errno.h>
 #include <ctype.h>
-#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 
 #define REPLAY_BUF 4096 /* 64 KB: small enough to stay in L2 beside the simulator */
-#ifndef PIPE_SLOTS
 #define PIPE_SLOTS 8    /* ring of 8 x 64 KB */
-#endif
-/* The reader, once it found the ring full, is woken only when this many
- * slots are free again, so it decodes them in one burst instead of paying a
- * sleep and a wake-up per slot (the decoder is the faster side). */
-#define PIPE_WAKE (PIPE_SLOTS / 2)
 #define PIPE_CHUNK REPLAY_BUF
 
 typedef long (*next_fn)(void *, rt_access *, size_t, rt_err *);
 
 typedef struct pipe_ring {
-    pthread_mutex_t mu;       /* guards head, tail, stop and count */
-    pthread_cond_t filled;    /* the reader published a slot */
-    pthread_cond_t freed;     /* the consumer released a slot or set stop */
     rt_access *slot[PIPE_SLOTS]; /* PIPE_CHUNK records each */
-    long count[PIPE_SLOTS];   /* next()'s result for the slot */
-    unsigned long head;       /* slots consumed */
-    unsigned long tail;       /* slots published */
-    int stop;                 /* consumer gave up: reader must quit */
-    int rwait;                /* the reader sleeps on freed */
-    int cwait;                /* the consumer sleeps on filled */
-    next_fn next;             /* decoder */
-    void *src;                /* its state, touched only by the reader until join */
-    rt_err err;               /* the reader's message when count is -1 */
-    /* repeat filter (rt_repeats), NULL if none; the rest is the reader's
-     * until the slot is published */
-    const rt_repeats *rp;
     long kept[PIPE_SLOTS];    /* records left in the slot after filtering */
+    next_fn next;             /* decoder */
+    void *src;                /* its state, touched only by the reader until the pipeline ends */
+    /* repeat filter (rt_repeats), NULL if none; its state is the reader's */
+    const rt_repeats *rp;
     uint64_t (*rep)[RT_SIM_NCG]; /* per slot: reads dropped, by (class, generation) */
     uint64_t last;            /* line the previous reference ended on */
     int have_last;            /* a reference has been seen */
+    rt_sink *sink;            /* the consumer's */
+    rt_sim_input *info;
 } pipe_ring;
 
 /* Drops from a[0..n) the one-line reads of the line the previous reference
@@ -126,33 +97,24 @@ static long pump(next_fn next, void *src, rt_sink *sink, rt_access *buf,
     return n;
 }
 
-static void *reader_main(void *arg)
+static long ring_produce(void *ctx, unsigned i, rt_err *e)
 {
-    pipe_ring *q = arg;
-    for (;;) {
-        pthread_mutex_lock(&q->mu);
-        if (q->tail - q->head == PIPE_SLOTS && !q->stop) {
-            q->rwait = 1;
-            while (q->rwait && !q->stop) pthread_cond_wait(&q->freed, &q->mu);
-        }
-        int stop = q->stop;
-        unsigned long t = q->tail;
-        pthread_mutex_unlock(&q->mu);
-        if (stop) break;
-        unsigned i = (unsigned)(t % PIPE_SLOTS);
-        long n = q->next(q->src, q->slot[i], PIPE_CHUNK, &q->err);
-        q->kept[i] = n > 0 && q->rp ? drop_repeats(q, q->slot[i], n, q->rep[i]) : n;
-        pthread_mutex_lock(&q->mu);
-        q->count[i] = n < 0 ? -1 : n;
-        q->tail = t + 1;
-        if (q->cwait) {
-            q->cwait = 0;
-            pthread_cond_signal(&q->filled);
-        }
-        pthread_mutex_unlock(&q->mu);
-        if (n <= 0) break;
-    }
-    return NULL;
+    pipe_ring *q = ctx;
+    long n = q->next(q->src, q->slot[i], PIPE_CHUNK, e);
+    q->kept[i] = n > 0 && q->rp ? drop_repeats(q, q->slot[i], n, q->rep[i]) : n;
+    return n;
+}
+
+static int ring_consume(void *ctx, unsigned i, long n, rt_err *e)
+{
+    pipe_ring *q = ctx;
+    long k = q->kept[i];
+    if (k < n) q->rp->add(q->rp->ctx, q->rep[i]);
+    if (k > 0 && q->sink->put(q->sink, q->slot[i], (size_t)k) < 0)
+        return rt_errf(e, "the simulator rejected references");
+    q->info->refs += (uint64_t)n;
+    q->info->repeats += (uint64_t)(n - k);
+    return 0;
 }
 
 /* pump() with the decoder on a second thread. Falls back to pump() when
@@ -175,60 +137,14 @@ static long pump2(next_fn next, void *src, rt_sink *sink, const rt_repeats *rp, 
     for (int i = 0; i < PIPE_SLOTS; i++) q->slot[i] = mem + (size_t)i * PIPE_CHUNK;
     q->next = next;
     q->src = src;
-    pthread_t th;
-    int inited = !pthread_mutex_init(&q->mu, NULL);
-    inited += inited == 1 && !pthread_cond_init(&q->filled, NULL);
-    inited += inited == 2 && !pthread_cond_init(&q->freed, NULL);
-    if (inited < 3 || pthread_create(&th, NULL, reader_main, q)) {
-        if (inited > 2) pthread_cond_destroy(&q->freed);
-        if (inited > 1) pthread_cond_destroy(&q->filled);
-        if (inited > 0) pthread_mutex_destroy(&q->mu);
-        free(q->rep);
-        free(mem);
-        free(q);
-        return pump(next, src, sink, buf, info, e);
-    }
-    long rc;
-    for (;;) {
-        pthread_mutex_lock(&q->mu);
-        while (q->tail == q->head) {
-            q->cwait = 1;
-            pthread_cond_wait(&q->filled, &q->mu);
-        }
-        pthread_mutex_unlock(&q->mu);
-        unsigned i = (unsigned)(q->head % PIPE_SLOTS);
-        long n = q->count[i];
-        if (n <= 0) {
-            rc = n < 0 ? rt_errf(e, "%s", q->err.msg) : 0;
-            break;
-        }
-        long k = q->kept[i];
-        if (k < n) q->rp->add(q->rp->ctx, q->rep[i]);
-        if (k > 0 && sink->put(sink, q->slot[i], (size_t)k) < 0) {
-            rc = rt_errf(e, "the simulator rejected references");
-            break;
-        }
-        info->refs += (uint64_t)n;
-        info->repeats += (uint64_t)(n - k);
-        pthread_mutex_lock(&q->mu);
-        q->head++;
-        if (q->rwait && PIPE_SLOTS - (q->tail - q->head) >= PIPE_WAKE) {
-            q->rwait = 0;
-            pthread_cond_signal(&q->freed);
-        }
-        pthread_mutex_unlock(&q->mu);
-    }
-    pthread_mutex_lock(&q->mu);
-    q->stop = 1;
-    pthread_cond_signal(&q->freed);
-    pthread_mutex_unlock(&q->mu);
-    pthread_join(th, NULL);
-    pthread_cond_destroy(&q->freed);
-    pthread_cond_destroy(&q->filled);
-    pthread_mutex_destroy(&q->mu);
+    q->sink = sink;
+    q->info = info;
+    rt_pipe_ops ops = {ring_produce, ring_consume, q, PIPE_SLOTS};
+    int rc = rt_pipe_run(&ops, e);
     free(q->rep);
     free(mem);
     free(q);
+    if (rc > 0) return pump(next, src, sink, buf, info, e);
     return rc;
 }
 
