@@ -119,37 +119,58 @@ int rt_dyn_subtree_geometry(const rt_kdtree *kd, uint32_t ntri, uint64_t *g, rt_
     return 0;
 }
 
-uint32_t rt_dyn_select(const rt_kdtree *kd, const uint64_t *g, uint64_t gmax, int32_t *qp, uint32_t *ntop)
+/* mark[i] = -2 where node i's subtree holds triangles, -3 where it is
+ * empty (children have larger indices: one backward pass). */
+static void mark_subtrees(const rt_kdtree *kd, int32_t *mark)
 {
-    uint32_t nq = 0, top = 0;
-    /* qp doubles as scratch: -2 where the subtree holds triangles, -3 where
-     * it is empty (children have larger indices: one backward pass); the
-     * walk below overwrites what it visits and the rest becomes -1. */
     for (uint32_t i = kd->nnodes; i-- > 0;) {
         const rt_kdnode *n = &kd->nodes[i];
-        int any = rt_kd_is_leaf(n) ? rt_kd_ntri(n) > 0 : (qp[i + 1] == -2 || qp[rt_kd_above(n)] == -2);
-        qp[i] = any ? -2 : -3;
+        int any = rt_kd_is_leaf(n) ? rt_kd_ntri(n) > 0 : (mark[i + 1] == -2 || mark[rt_kd_above(n)] == -2);
+        mark[i] = any ? -2 : -3;
     }
+}
+
+/* The queue-point walk from the root (marks from mark_subtrees): empty
+ * subtrees are crossed in the top; a subtree with triangles whose geometry
+ * fits gmax, or a leaf, is the next queue point (depth-first numbers); the
+ * nodes above are the top. With qp non-NULL the visited nodes get their
+ * queue point or -1 there (qp may be mark itself: a node's mark is read
+ * before its qp is written, and only its children, with larger indices,
+ * are read after). Touches only the visited nodes. */
+static uint32_t select_walk(const rt_kdtree *kd, const uint64_t *g, const int32_t *mark, uint64_t gmax, int32_t *qp,
+                            uint32_t *ntop)
+{
+    uint32_t nq = 0, top = 0;
     uint32_t stack[RT_KD_STACK * 2 + 8];
     int sp = 0;
     stack[sp++] = 0;
     while (sp) {
         uint32_t i = stack[--sp];
         const rt_kdnode *nd = &kd->nodes[i];
-        int has_tris = qp[i] == -2;
-        qp[i] = -1;
-        if (!has_tris) continue; /* empty subtrees: crossed in the top */
+        int has_tris = mark[i] == -2;
+        if (qp) qp[i] = -1;
+        if (!has_tris) continue;
         if (g[i] <= gmax || rt_kd_is_leaf(nd)) {
-            qp[i] = (int32_t)nq++;
+            if (qp) qp[i] = (int32_t)nq;
+            nq++;
             continue;
         }
         top++;
         stack[sp++] = rt_kd_above(nd); /* below first: depth-first order */
         stack[sp++] = i + 1;
     }
+    if (ntop) *ntop = top;
+    return nq;
+}
+
+uint32_t rt_dyn_select(const rt_kdtree *kd, const uint64_t *g, uint64_t gmax, int32_t *qp, uint32_t *ntop)
+{
+    /* qp doubles as the marks; the walk overwrites what it visits and the
+     * rest becomes -1 */
+    mark_subtrees(kd, qp);
+    uint32_t nq = select_walk(kd, g, qp, gmax, qp, ntop);
     for (uint32_t i = 0; i < kd->nnodes; i++)
         if (qp[i] < -1) qp[i] = -1;
-    if (ntop) *ntop = top;
     return nq;
 }
 
@@ -163,43 +184,17 @@ static void mark_hastris(const rt_kdtree *kd, uint8_t *hastris)
     }
 }
 
-/* rt_dyn_select's counts alone: the same walk from the root, touching
- * only the nodes it visits (the derivation below tries many budgets on
- * trees of millions of nodes). */
-static uint32_t select_count(const rt_kdtree *kd, const uint64_t *g, const uint8_t *hastris, uint64_t gmax,
-                             uint32_t *ntop)
-{
-    uint32_t nq = 0, top = 0;
-    uint32_t stack[RT_KD_STACK * 2 + 8];
-    int sp = 0;
-    stack[sp++] = 0;
-    while (sp) {
-        uint32_t i = stack[--sp];
-        const rt_kdnode *nd = &kd->nodes[i];
-        if (!hastris[i]) continue;
-        if (g[i] <= gmax || rt_kd_is_leaf(nd)) {
-            nq++;
-            continue;
-        }
-        top++;
-        stack[sp++] = rt_kd_above(nd);
-        stack[sp++] = i + 1;
-    }
-    *ntop = top;
-    return nq;
-}
-
 uint64_t rt_dyn_derive_gmax(const rt_kdtree *kd, const uint64_t *g, uint64_t cache_bytes, uint64_t raybuf_bytes,
                             int *fallback)
 {
     if (fallback) *fallback = 0;
     if (cache_bytes <= raybuf_bytes) return 0;
-    uint8_t *hastris = malloc(kd->nnodes ? kd->nnodes : 1);
-    if (!hastris) return 0;
-    mark_hastris(kd, hastris);
+    int32_t *mark = malloc(sizeof *mark * (kd->nnodes ? kd->nnodes : 1));
+    if (!mark) return 0;
+    mark_subtrees(kd, mark);
     uint64_t gm = cache_bytes - raybuf_bytes;
     for (int it = 0; it < 64; it++) {
-        uint32_t ntop = 0, nq = select_count(kd, g, hastris, gm, &ntop);
+        uint32_t ntop = 0, nq = select_walk(kd, g, mark, gm, NULL, &ntop);
         uint64_t resident = raybuf_bytes + 8ull * ntop + 8ull * nq;
         uint64_t next = cache_bytes > resident ? cache_bytes - resident : 0;
         if (next >= gm) break; /* the selection for gm fits */
@@ -216,14 +211,14 @@ uint64_t rt_dyn_derive_gmax(const rt_kdtree *kd, const uint64_t *g, uint64_t cac
         uint64_t budget = (cache_bytes - raybuf_bytes) / 2, lo = 1, hi = g[0];
         while (lo < hi) {
             uint64_t mid = lo + (hi - lo) / 2;
-            uint32_t ntop = 0, nq = select_count(kd, g, hastris, mid, &ntop);
+            uint32_t ntop = 0, nq = select_walk(kd, g, mark, mid, NULL, &ntop);
             if (8ull * ntop + 8ull * nq <= budget) hi = mid;
             else lo = mid + 1;
         }
         gm = lo;
         if (fallback) *fallback = 1;
     }
-    free(hastris);
+    free(mark);
     return gm;
 }
 
