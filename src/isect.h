@@ -65,8 +65,10 @@ int rt_isect_degenerate(const rt_tri *tri);
  */
 #if defined(__GNUC__)
 #define RT_ALWAYS_INLINE inline __attribute__((always_inline))
+#define RT_NOINLINE __attribute__((noinline))
 #else
 #define RT_ALWAYS_INLINE inline
+#define RT_NOINLINE
 #endif
 static RT_ALWAYS_INLINE int rt_isect_core(const rt_ray *r, const rt_tri *tri, float *t_out, float *u, float *v)
 {

@@ -25,6 +25,9 @@
 
 #include <float.h>
 #include <math.h>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 /* pbrt's gamma(3): relative bound on three roundings. */
 #define GAMMA3 ((3.0f * FLT_EPSILON * 0.5f) / (1.0f - 3.0f * FLT_EPSILON * 0.5f))
@@ -71,8 +74,8 @@ typedef struct todo {
  * by a closer one (equal t: lower triangle index). Returns 1 when *h holds
  * a hit (closest) or the ray is occluded (any).
  */
-static RT_ALWAYS_INLINE int traverse(rt_trav *tv, const rt_ray *rp, uint32_t node, float tMin, float tMax, rt_hit *h,
-                           const int any)
+static RT_ALWAYS_INLINE int traverse_plain(rt_trav *tv, const rt_ray *rp, uint32_t node, float tMin, float tMax,
+                                           rt_hit *h, const int any)
 {
     /* A local copy: stores through mark[] (a char pointer) and into the
      * recorder could alias *rp and force reloads in the inner loop. */
@@ -183,6 +186,289 @@ done:
     return found;
 }
 
+#if defined(__SSE2__)
+/*
+ * Four ray/triangle tests of one quad (kdtree.h), lane by lane the
+ * arithmetic of rt_isect_core: the same IEEE single-precision operations
+ * in the same order (SSE2 has no FMA and divps is exact), so each lane's
+ * t, u, v are bit-identical to the scalar test. Returns in *hit the lanes
+ * that passed the float test (finite t, triangle not degenerate) and in
+ * *fb the live lanes with an edge function exactly 0, which the caller
+ * sends through the scalar core (its double-precision branch).
+ */
+typedef struct quad_ray {
+    __m128 ox, oy, oz; /* origin in the permuted axes kx, ky, kz */
+    __m128 Sx, Sy, Sz; /* shear */
+    int kx, ky, kz;
+} quad_ray;
+
+static RT_ALWAYS_INLINE void quad_isect(const quad_ray *qr, const rt_kd_quad *q, __m128 *t_out, __m128 *u_out,
+                                        __m128 *v_out, unsigned *hit, unsigned *fb)
+{
+    const __m128 zero = _mm_setzero_ps();
+    const __m128 Ax0 = _mm_sub_ps(_mm_loadu_ps(q->p[qr->kx]), qr->ox);
+    const __m128 Ay0 = _mm_sub_ps(_mm_loadu_ps(q->p[qr->ky]), qr->oy);
+    const __m128 Az0 = _mm_sub_ps(_mm_loadu_ps(q->p[qr->kz]), qr->oz);
+    const __m128 Bx0 = _mm_sub_ps(_mm_loadu_ps(q->p[3 + qr->kx]), qr->ox);
+    const __m128 By0 = _mm_sub_ps(_mm_loadu_ps(q->p[3 + qr->ky]), qr->oy);
+    const __m128 Bz0 = _mm_sub_ps(_mm_loadu_ps(q->p[3 + qr->kz]), qr->oz);
+    const __m128 Cx0 = _mm_sub_ps(_mm_loadu_ps(q->p[6 + qr->kx]), qr->ox);
+    const __m128 Cy0 = _mm_sub_ps(_mm_loadu_ps(q->p[6 + qr->ky]), qr->oy);
+    const __m128 Cz0 = _mm_sub_ps(_mm_loadu_ps(q->p[6 + qr->kz]), qr->oz);
+    const __m128 Ax = _mm_sub_ps(Ax0, _mm_mul_ps(qr->Sx, Az0)), Ay = _mm_sub_ps(Ay0, _mm_mul_ps(qr->Sy, Az0));
+    const __m128 Bx = _mm_sub_ps(Bx0, _mm_mul_ps(qr->Sx, Bz0)), By = _mm_sub_ps(By0, _mm_mul_ps(qr->Sy, Bz0));
+    const __m128 Cx = _mm_sub_ps(Cx0, _mm_mul_ps(qr->Sx, Cz0)), Cy = _mm_sub_ps(Cy0, _mm_mul_ps(qr->Sy, Cz0));
+    const __m128 U = _mm_sub_ps(_mm_mul_ps(Cx, By), _mm_mul_ps(Cy, Bx));
+    const __m128 V = _mm_sub_ps(_mm_mul_ps(Ax, Cy), _mm_mul_ps(Ay, Cx));
+    const __m128 W = _mm_sub_ps(_mm_mul_ps(Bx, Ay), _mm_mul_ps(By, Ax));
+    /* live: not degenerate and not padding (both have the top bit set) */
+    const unsigned live = ~(unsigned)_mm_movemask_ps(_mm_castsi128_ps(_mm_loadu_si128((const __m128i *)(const void *)q->tri))) & 15u;
+    const __m128 z = _mm_or_ps(_mm_or_ps(_mm_cmpeq_ps(U, zero), _mm_cmpeq_ps(V, zero)), _mm_cmpeq_ps(W, zero));
+    const __m128 neg = _mm_or_ps(_mm_or_ps(_mm_cmplt_ps(U, zero), _mm_cmplt_ps(V, zero)), _mm_cmplt_ps(W, zero));
+    const __m128 pos = _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(U, zero), _mm_cmpgt_ps(V, zero)), _mm_cmpgt_ps(W, zero));
+    const __m128 det = _mm_add_ps(_mm_add_ps(U, V), W);
+    const __m128 T = _mm_add_ps(_mm_add_ps(_mm_mul_ps(U, _mm_mul_ps(qr->Sz, Az0)), _mm_mul_ps(V, _mm_mul_ps(qr->Sz, Bz0))),
+                                _mm_mul_ps(W, _mm_mul_ps(qr->Sz, Cz0)));
+    const __m128 inv = _mm_div_ps(_mm_set1_ps(1.0f), det);
+    const __m128 t = _mm_mul_ps(T, inv);
+    const __m128 inf = _mm_set1_ps(INFINITY);
+    /* the scalar test's accept: no zero edge, signs agree, det != 0
+     * (NaN passes, as in the scalar code), t finite */
+    __m128 ok = _mm_andnot_ps(_mm_or_ps(z, _mm_and_ps(neg, pos)), _mm_cmpneq_ps(det, zero));
+    ok = _mm_and_ps(ok, _mm_and_ps(_mm_cmpgt_ps(t, _mm_sub_ps(zero, inf)), _mm_cmplt_ps(t, inf)));
+    *hit = (unsigned)_mm_movemask_ps(ok) & live;
+    *fb = (unsigned)_mm_movemask_ps(z) & live;
+    *t_out = t;
+    *u_out = _mm_mul_ps(V, inv);
+    *v_out = _mm_mul_ps(W, inv);
+}
+
+/* The per-ray state a leaf needs, set up once per ray. */
+typedef struct leaf_ctx {
+    quad_ray qr;          /* the ray for quad_isect */
+    const rt_ray *r;      /* the ray (scalar fallback, interval) */
+    const rt_tri *tris;   /* scene triangles (scalar fallback) */
+    uint8_t *mark;        /* rt_trav's mark array, or NULL */
+    uint8_t mbit;         /* its bit */
+    rt_rec *rec;          /* recorder (recording walk only) */
+    const rt_layout *L;   /* modeled layout (recording walk only) */
+    int reg_tri;          /* triangle region in L */
+} leaf_ctx;
+
+/* The closest-hit state carried through the leaves. */
+typedef struct best_hit {
+    float t, u, v; /* best hit so far; t starts at the ray's tmax */
+    uint32_t tri;  /* its triangle; 0 while no hit, so an equal t never wins */
+    int found;     /* a hit is held */
+} best_hit;
+
+/*
+ * Tests the n entries of one leaf (its quads from q on) with the outcome
+ * of the plain walk's entry-by-entry loop: any = 0 updates *b (all entries
+ * tested); any = 1 returns 1 at the first entry hit inside (tmin, tmax),
+ * and entries past it are neither counted, marked nor recorded. *ntest
+ * grows by the entries tested. Hits are rare, so lanes are resolved one
+ * by one in entry order only when the quad reports some.
+ */
+static RT_ALWAYS_INLINE int leaf_test(const leaf_ctx *c, const rt_kd_quad *q, uint32_t n, best_hit *b,
+                                      uint64_t *ntest, const int any, const int recording)
+{
+    const float rtmin = c->r->tmin, rtmax = c->r->tmax;
+    int occluded = 0;
+    for (uint32_t base = 0; base < n; base += 4, q++) {
+        unsigned lanes = n - base < 4 ? n - base : 4; /* entries of this quad tested */
+        __m128 t4, u4, v4;
+        unsigned hit, fb;
+        quad_isect(&c->qr, q, &t4, &u4, &v4, &hit, &fb);
+        unsigned todo_m = hit | fb; /* padding lanes are never live */
+        if (todo_m) {
+            float ts[4], us[4], vs[4];
+            _mm_storeu_ps(ts, t4);
+            _mm_storeu_ps(us, u4);
+            _mm_storeu_ps(vs, v4);
+            do {
+                const unsigned j = (unsigned)__builtin_ctz(todo_m);
+                todo_m &= todo_m - 1u;
+                const uint32_t tri = q->tri[j] & ~RT_KD_QUAD_DEGEN;
+                float t = ts[j], u = us[j], v = vs[j];
+                if (!(hit >> j & 1u) && !rt_isect_core(c->r, &c->tris[tri], &t, &u, &v)) continue;
+                if (any) {
+                    if (t > rtmin && t < rtmax) {
+                        occluded = 1;
+                        lanes = j + 1;
+                        break;
+                    }
+                } else if (t > rtmin && (t < b->t || (t == b->t && tri < b->tri))) {
+                    b->found = 1;
+                    b->t = t;
+                    b->tri = tri;
+                    b->u = u;
+                    b->v = v;
+                }
+            } while (todo_m);
+        }
+        *ntest += lanes;
+        if (c->mark || recording)
+            for (unsigned j = 0; j < lanes; j++) {
+                const uint32_t tri = q->tri[j] & ~RT_KD_QUAD_DEGEN;
+                if (c->mark) c->mark[tri] |= c->mbit;
+                if (recording) RT_REC(c->rec, rt_mm_addr(c->L, c->reg_tri, tri), 36, 0, RT_CLS_TRI);
+            }
+        if (any && occluded) return 1;
+    }
+    return 0;
+}
+
+/* The untraced walk calls its leaves out of line: the node loop then keeps
+ * its few values in registers (measured faster than inlining). */
+static RT_NOINLINE void leaf_closest(const leaf_ctx *c, const rt_kd_quad *q, uint32_t n, best_hit *b, uint64_t *ntest)
+{
+    leaf_test(c, q, n, b, ntest, 0, 0);
+}
+
+static RT_NOINLINE int leaf_any(const leaf_ctx *c, const rt_kd_quad *q, uint32_t n, uint64_t *ntest)
+{
+    return leaf_test(c, q, n, NULL, ntest, 1, 0);
+}
+
+/*
+ * The traversal on the host-side copy (kdtree.h): the node walk of
+ * traverse_plain on hnodes, leaves tested four triangles at a time. The
+ * order of everything observable is the plain one: nodes visited, tests
+ * counted, triangles marked and accesses recorded entry by entry, and an
+ * any-hit walk stops after the same entry. `recording` is a constant at
+ * every call site, so the untraced walk carries no recorder branches.
+ * The early-exit test (rt_kd_past) runs where tMin or the best hit can
+ * change -- at entry and after each pop -- since a descent changes
+ * neither; the ray is read field by field (copying the struct whole
+ * stalls on the caller's fresh field-wise stores).
+ */
+static RT_ALWAYS_INLINE int traverse_fast(rt_trav *tv, const rt_ray *r, uint32_t node, float tMin, float tMax,
+                                          rt_hit *h, const int any, const int recording)
+{
+    const rt_kdnode *nodes = tv->kd->hnodes;
+    const rt_kd_quad *quads = tv->kd->quads;
+    const float o[3] = {r->o.x, r->o.y, r->o.z};
+    const float inv[3] = {r->inv_d.x, r->inv_d.y, r->inv_d.z};
+    const uint8_t dle0[3] = {r->d.x <= 0.0f, r->d.y <= 0.0f, r->d.z <= 0.0f};
+    leaf_ctx c;
+    c.r = r;
+    c.tris = tv->sc->tri;
+    c.mark = tv->mark;
+    c.mbit = tv->mark_bit;
+    c.rec = recording ? tv->rec : NULL;
+    c.L = tv->L;
+    c.reg_tri = tv->reg_tri;
+    c.qr.kx = r->kx;
+    c.qr.ky = r->ky;
+    c.qr.kz = r->kz;
+    c.qr.ox = _mm_set1_ps(o[r->kx]);
+    c.qr.oy = _mm_set1_ps(o[r->ky]);
+    c.qr.oz = _mm_set1_ps(o[r->kz]);
+    c.qr.Sx = _mm_set1_ps(r->Sx);
+    c.qr.Sy = _mm_set1_ps(r->Sy);
+    c.qr.Sz = _mm_set1_ps(r->Sz);
+
+    best_hit b = {r->tmax, 0.0f, 0.0f, 0, 0};
+    if (!any && h->tri != RT_NO_HIT) {
+        b.found = 1;
+        b.t = h->t;
+        b.tri = h->tri;
+        b.u = h->u;
+        b.v = h->v;
+    }
+    todo stack[RT_KD_STACK];
+    int sp = 0;
+    uint64_t nvisit = 0, ntest = 0;
+    int occluded = 0;
+
+    if (!any && rt_kd_past(b.t, tMin)) goto done;
+    for (;;) {
+        const rt_kdnode *nd = &nodes[node];
+        nvisit++;
+        if (recording) RT_REC(c.rec, rt_mm_addr(tv->L, tv->reg_node, node), 8, 0, RT_CLS_NODE);
+        uint32_t w1 = nd->w1;
+        while ((w1 & 3u) != 3u) { /* descend to a leaf */
+            const uint32_t axis = w1 & 3u;
+            const float split = rt_kd_split(nd);
+            const float oa = o[axis];
+            const float tPlane = (split - oa) * inv[axis];
+            const int belowFirst = oa < split || (oa == split && dle0[axis]);
+            const uint32_t above = w1 >> 2;
+            const uint32_t first = belowFirst ? node + 1 : above;
+            const uint32_t second = belowFirst ? above : node + 1;
+            if (tPlane > tMax || tPlane <= 0.0f) {
+                node = first;
+            } else if (tPlane < tMin) {
+                node = second;
+            } else {
+                stack[sp].node = second;
+                stack[sp].tmax = tMax;
+                if (tPlane == tPlane) {
+                    stack[sp].tmin = tPlane;
+                    tMax = tPlane;
+                } else { /* NaN: the ray lies in the split plane */
+                    stack[sp].tmin = tMin;
+                }
+                sp++;
+                node = first;
+            }
+            nd = &nodes[node];
+            nvisit++;
+            if (recording) RT_REC(c.rec, rt_mm_addr(tv->L, tv->reg_node, node), 8, 0, RT_CLS_NODE);
+            w1 = nd->w1;
+        }
+        const uint32_t n = w1 >> 2;
+        if (n > 0) {
+            const rt_kd_quad *q = quads + nd->w0;
+            if (recording) {
+                RT_REC(c.rec, rt_mm_addr(tv->L, tv->reg_idx, tv->kd->nodes[node].w0), 4u * n, 0, RT_CLS_INDEX);
+                if (leaf_test(&c, q, n, &b, &ntest, any, 1)) {
+                    occluded = 1;
+                    break;
+                }
+            } else if (any) {
+                if (leaf_any(&c, q, n, &ntest)) {
+                    occluded = 1;
+                    break;
+                }
+            } else {
+                leaf_closest(&c, q, n, &b, &ntest);
+            }
+        }
+        if (sp == 0) break;
+        --sp;
+        node = stack[sp].node;
+        tMin = stack[sp].tmin;
+        tMax = stack[sp].tmax;
+        if (!any && rt_kd_past(b.t, tMin)) break;
+    }
+done:
+    tv->nodes += nvisit;
+    tv->tests += ntest;
+    if (any) return occluded;
+    if (b.found) {
+        h->t = b.t;
+        h->tri = b.tri;
+        h->u = b.u;
+        h->v = b.v;
+    }
+    return b.found;
+}
+
+/* Picks the walk: the host copy when the tree has one, with or without
+ * the recorder; the plain walk otherwise. */
+static RT_ALWAYS_INLINE int traverse(rt_trav *tv, const rt_ray *r, uint32_t node, float t0, float t1, rt_hit *h,
+                                     const int any)
+{
+    if (!tv->kd->hnodes) return traverse_plain(tv, r, node, t0, t1, h, any);
+    if (tv->rec) return traverse_fast(tv, r, node, t0, t1, h, any, 1);
+    return traverse_fast(tv, r, node, t0, t1, h, any, 0);
+}
+#else
+#define traverse traverse_plain
+#endif
+
 int rt_kd_closest(rt_trav *tv, const rt_ray *r, rt_hit *h)
 {
     rt_hit_none(h);
@@ -206,6 +492,11 @@ int rt_kd_closest_sub(rt_trav *tv, const rt_ray *r, uint32_t node, float t0, flo
 int rt_kd_occluded_sub(rt_trav *tv, const rt_ray *r, uint32_t node, float t0, float t1)
 {
     return traverse(tv, r, node, t0, t1, NULL, 1);
+}
+
+int rt_kd_plain_sub(rt_trav *tv, const rt_ray *r, uint32_t node, float t0, float t1, rt_hit *h, int any)
+{
+    return any ? traverse_plain(tv, r, node, t0, t1, NULL, 1) : traverse_plain(tv, r, node, t0, t1, h, 0);
 }
 
 int rt_brute_closest(const rt_scene *sc, const rt_ray *rp, rt_hit *h)

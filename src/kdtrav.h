@@ -75,6 +75,16 @@ int rt_kd_occluded(rt_trav *tv, const rt_ray *r);
 int rt_kd_closest_sub(rt_trav *tv, const rt_ray *r, uint32_t node, float t0, float t1, rt_hit *h);
 int rt_kd_occluded_sub(rt_trav *tv, const rt_ray *r, uint32_t node, float t0, float t1);
 
+/*
+ * The plain walk: the subtree-restricted traversal above (any = 0: closest,
+ * *h in/out; any = 1: occlusion, h unused) on the modeled nodes only,
+ * one scalar test per entry. The entry points above take the same walk on
+ * the tree's host-side copy when it has one (kdtree.h), four triangles per
+ * test, with identical results, counts, marks and recorded accesses; this
+ * one is kept as their reference (tests) and for trees without the copy.
+ */
+int rt_kd_plain_sub(rt_trav *tv, const rt_ray *r, uint32_t node, float t0, float t1, rt_hit *h, int any);
+
 static inline void rt_hit_none(rt_hit *h)
 {
     h->t = INFINITY;
