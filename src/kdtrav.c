@@ -255,6 +255,27 @@ typedef struct leaf_ctx {
     int reg_tri;          /* triangle region in L */
 } leaf_ctx;
 
+static RT_ALWAYS_INLINE void leaf_setup(leaf_ctx *c, const rt_trav *tv, const rt_ray *r, const float *o,
+                                        const int recording)
+{
+    c->r = r;
+    c->tris = tv->sc->tri;
+    c->mark = tv->mark;
+    c->mbit = tv->mark_bit;
+    c->rec = recording ? tv->rec : NULL;
+    c->L = tv->L;
+    c->reg_tri = tv->reg_tri;
+    c->qr.kx = r->kx;
+    c->qr.ky = r->ky;
+    c->qr.kz = r->kz;
+    c->qr.ox = _mm_set1_ps(o[r->kx]);
+    c->qr.oy = _mm_set1_ps(o[r->ky]);
+    c->qr.oz = _mm_set1_ps(o[r->kz]);
+    c->qr.Sx = _mm_set1_ps(r->Sx);
+    c->qr.Sy = _mm_set1_ps(r->Sy);
+    c->qr.Sz = _mm_set1_ps(r->Sz);
+}
+
 /* The closest-hit state carried through the leaves. */
 typedef struct best_hit {
     float t, u, v; /* best hit so far; t starts at the ray's tmax */
@@ -271,7 +292,7 @@ typedef struct best_hit {
  * by one in entry order only when the quad reports some.
  */
 static RT_ALWAYS_INLINE int leaf_test(const leaf_ctx *c, const rt_kd_quad *q, uint32_t n, best_hit *b,
-                                      uint64_t *ntest, const int any, const int recording)
+                                      uint64_t *ntest, const int any, const int recording, const int strict)
 {
     const float rtmin = c->r->tmin, rtmax = c->r->tmax;
     int occluded = 0;
@@ -291,14 +312,16 @@ static RT_ALWAYS_INLINE int leaf_test(const leaf_ctx *c, const rt_kd_quad *q, ui
                 todo_m &= todo_m - 1u;
                 const uint32_t tri = q->tri[j] & ~RT_KD_QUAD_DEGEN;
                 float t = ts[j], u = us[j], v = vs[j];
-                if (!(hit >> j & 1u) && !rt_isect_core(c->r, &c->tris[tri], &t, &u, &v)) continue;
+                /* the fallback lane's triangle is live: not degenerate */
+                if (!(hit >> j & 1u) && !rt_isect_core_nd(c->r, &c->tris[tri], &t, &u, &v)) continue;
                 if (any) {
                     if (t > rtmin && t < rtmax) {
                         occluded = 1;
                         lanes = j + 1;
                         break;
                     }
-                } else if (t > rtmin && (t < b->t || (t == b->t && tri < b->tri))) {
+                } else if (strict ? t > rtmin && t < rtmax && (!b->found || t < b->t || (t == b->t && tri < b->tri))
+                                  : t > rtmin && (t < b->t || (t == b->t && tri < b->tri))) {
                     b->found = 1;
                     b->t = t;
                     b->tri = tri;
@@ -323,12 +346,12 @@ static RT_ALWAYS_INLINE int leaf_test(const leaf_ctx *c, const rt_kd_quad *q, ui
  * its few values in registers (measured faster than inlining). */
 static RT_NOINLINE void leaf_closest(const leaf_ctx *c, const rt_kd_quad *q, uint32_t n, best_hit *b, uint64_t *ntest)
 {
-    leaf_test(c, q, n, b, ntest, 0, 0);
+    leaf_test(c, q, n, b, ntest, 0, 0, 0);
 }
 
 static RT_NOINLINE int leaf_any(const leaf_ctx *c, const rt_kd_quad *q, uint32_t n, uint64_t *ntest)
 {
-    return leaf_test(c, q, n, NULL, ntest, 1, 0);
+    return leaf_test(c, q, n, NULL, ntest, 1, 0, 0);
 }
 
 /*
@@ -352,22 +375,7 @@ static RT_ALWAYS_INLINE int traverse_fast(rt_trav *tv, const rt_ray *r, uint32_t
     const float inv[3] = {r->inv_d.x, r->inv_d.y, r->inv_d.z};
     const uint8_t dle0[3] = {r->d.x <= 0.0f, r->d.y <= 0.0f, r->d.z <= 0.0f};
     leaf_ctx c;
-    c.r = r;
-    c.tris = tv->sc->tri;
-    c.mark = tv->mark;
-    c.mbit = tv->mark_bit;
-    c.rec = recording ? tv->rec : NULL;
-    c.L = tv->L;
-    c.reg_tri = tv->reg_tri;
-    c.qr.kx = r->kx;
-    c.qr.ky = r->ky;
-    c.qr.kz = r->kz;
-    c.qr.ox = _mm_set1_ps(o[r->kx]);
-    c.qr.oy = _mm_set1_ps(o[r->ky]);
-    c.qr.oz = _mm_set1_ps(o[r->kz]);
-    c.qr.Sx = _mm_set1_ps(r->Sx);
-    c.qr.Sy = _mm_set1_ps(r->Sy);
-    c.qr.Sz = _mm_set1_ps(r->Sz);
+    leaf_setup(&c, tv, r, o, recording);
 
     best_hit b = {r->tmax, 0.0f, 0.0f, 0, 0};
     if (!any && h->tri != RT_NO_HIT) {
@@ -423,7 +431,7 @@ static RT_ALWAYS_INLINE int traverse_fast(rt_trav *tv, const rt_ray *r, uint32_t
             const rt_kd_quad *q = quads + nd->w0;
             if (recording) {
                 RT_REC(c.rec, rt_mm_addr(tv->L, tv->reg_idx, tv->kd->nodes[node].w0), 4u * n, 0, RT_CLS_INDEX);
-                if (leaf_test(&c, q, n, &b, &ntest, any, 1)) {
+                if (leaf_test(&c, q, n, &b, &ntest, any, 1, 0)) {
                     occluded = 1;
                     break;
                 }
@@ -492,6 +500,59 @@ int rt_kd_closest_sub(rt_trav *tv, const rt_ray *r, uint32_t node, float t0, flo
 int rt_kd_occluded_sub(rt_trav *tv, const rt_ray *r, uint32_t node, float t0, float t1)
 {
     return traverse(tv, r, node, t0, t1, NULL, 1);
+}
+
+int rt_kd_leaf(rt_trav *tv, const rt_ray *r, uint32_t node, rt_hit *h, int any)
+{
+    const rt_kdnode *nd = &tv->kd->nodes[node];
+    const uint32_t n = rt_kd_ntri(nd), first = rt_kd_first(nd);
+    if (n == 0) return 0;
+    RT_REC(tv->rec, rt_mm_addr(tv->L, tv->reg_idx, first), 4u * n, 0, RT_CLS_INDEX);
+#if defined(__SSE2__)
+    if (tv->kd->hnodes) {
+        const float o[3] = {r->o.x, r->o.y, r->o.z};
+        const rt_kd_quad *q = tv->kd->quads + tv->kd->hnodes[node].w0;
+        leaf_ctx c;
+        best_hit b = {h ? h->t : 0.0f, h ? h->u : 0.0f, h ? h->v : 0.0f, h ? h->tri : 0, h && h->tri != RT_NO_HIT};
+        uint64_t ntest = 0;
+        int rc;
+        if (tv->rec) {
+            leaf_setup(&c, tv, r, o, 1);
+            rc = any ? leaf_test(&c, q, n, NULL, &ntest, 1, 1, 1) : leaf_test(&c, q, n, &b, &ntest, 0, 1, 1);
+        } else {
+            leaf_setup(&c, tv, r, o, 0);
+            rc = any ? leaf_test(&c, q, n, NULL, &ntest, 1, 0, 1) : leaf_test(&c, q, n, &b, &ntest, 0, 0, 1);
+        }
+        tv->tests += ntest;
+        if (any) return rc;
+        const int changed = b.found && (b.tri != h->tri || !(b.t == h->t) || h->tri == RT_NO_HIT);
+        if (changed) {
+            h->t = b.t;
+            h->tri = b.tri;
+            h->u = b.u;
+            h->v = b.v;
+        }
+        return changed;
+    }
+#endif
+    int changed = 0;
+    for (uint32_t k = 0; k < n; k++) {
+        const uint32_t tri = tv->kd->idx[first + k];
+        RT_REC(tv->rec, rt_mm_addr(tv->L, tv->reg_tri, tri), 36, 0, RT_CLS_TRI);
+        tv->tests++;
+        if (tv->mark) tv->mark[tri] |= tv->mark_bit;
+        float t, u, v;
+        if (!rt_isect_core(r, &tv->sc->tri[tri], &t, &u, &v) || !(t > r->tmin && t < r->tmax)) continue;
+        if (any) return 1;
+        if (h->tri == RT_NO_HIT || t < h->t || (t == h->t && tri < h->tri)) {
+            h->t = t;
+            h->tri = tri;
+            h->u = u;
+            h->v = v;
+            changed = 1;
+        }
+    }
+    return changed;
 }
 
 int rt_kd_plain_sub(rt_trav *tv, const rt_ray *r, uint32_t node, float t0, float t1, rt_hit *h, int any)

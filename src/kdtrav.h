@@ -76,6 +76,19 @@ int rt_kd_closest_sub(rt_trav *tv, const rt_ray *r, uint32_t node, float t0, flo
 int rt_kd_occluded_sub(rt_trav *tv, const rt_ray *r, uint32_t node, float t0, float t1);
 
 /*
+ * One leaf's tests, for tracers that walk the tree themselves (the dynamic
+ * scheduler): the entries of leaf `node` against r in list order, as that
+ * leaf's part of the traversal does -- the index-list read and one
+ * triangle read per entry recorded on tv->rec, tv->tests counted, tv->mark
+ * set -- accepting a hit whose t lies in (r->tmin, r->tmax) and beats *h
+ * (any hit when h->tri == RT_NO_HIT; equal t: the lower triangle index).
+ * any = 1 (h unused): returns 1 at the first such hit, the entries after
+ * it untested, uncounted and unrecorded. any = 0: returns 1 when *h was
+ * replaced. Uses the host copy's quads when the tree has them.
+ */
+int rt_kd_leaf(rt_trav *tv, const rt_ray *r, uint32_t node, rt_hit *h, int any);
+
+/*
  * The plain walk: the subtree-restricted traversal above (any = 0: closest,
  * *h in/out; any = 1: occlusion, h unused) on the modeled nodes only,
  * one scalar test per entry. The entry points above take the same walk on
