@@ -251,8 +251,8 @@ typedef struct leaf_ctx {
     uint8_t *mark;        /* rt_trav's mark array, or NULL */
     uint8_t mbit;         /* its bit */
     rt_rec *rec;          /* recorder (recording walk only) */
-    const rt_layout *L;   /* modeled layout (recording walk only) */
-    int reg_tri;          /* triangle region in L */
+    uint64_t tri_base;    /* triangle region: base and record size (rt_mm_addr, */
+    uint64_t tri_size;    /* hoisted: the recorder's stores may alias the layout) */
 } leaf_ctx;
 
 static RT_ALWAYS_INLINE void leaf_setup(leaf_ctx *c, const rt_trav *tv, const rt_ray *r, const float *o,
@@ -263,8 +263,8 @@ static RT_ALWAYS_INLINE void leaf_setup(leaf_ctx *c, const rt_trav *tv, const rt
     c->mark = tv->mark;
     c->mbit = tv->mark_bit;
     c->rec = recording ? tv->rec : NULL;
-    c->L = tv->L;
-    c->reg_tri = tv->reg_tri;
+    c->tri_base = recording ? tv->L->r[tv->reg_tri].base : 0;
+    c->tri_size = recording ? tv->L->r[tv->reg_tri].recsize : 0;
     c->qr.kx = r->kx;
     c->qr.ky = r->ky;
     c->qr.kz = r->kz;
@@ -335,7 +335,7 @@ static RT_ALWAYS_INLINE int leaf_test(const leaf_ctx *c, const rt_kd_quad *q, ui
             for (unsigned j = 0; j < lanes; j++) {
                 const uint32_t tri = q->tri[j] & ~RT_KD_QUAD_DEGEN;
                 if (c->mark) c->mark[tri] |= c->mbit;
-                if (recording) RT_REC(c->rec, rt_mm_addr(c->L, c->reg_tri, tri), 36, 0, RT_CLS_TRI);
+                if (recording) RT_REC(c->rec, c->tri_base + tri * c->tri_size, 36, 0, RT_CLS_TRI);
             }
         if (any && occluded) return 1;
     }
@@ -385,6 +385,10 @@ static RT_ALWAYS_INLINE int traverse_fast(rt_trav *tv, const rt_ray *r, uint32_t
         b.u = h->u;
         b.v = h->v;
     }
+    const uint64_t node_base = recording ? tv->L->r[tv->reg_node].base : 0;
+    const uint64_t idx_base = recording ? tv->L->r[tv->reg_idx].base : 0;
+    const uint64_t node_size = recording ? tv->L->r[tv->reg_node].recsize : 0;
+    const uint64_t idx_size = recording ? tv->L->r[tv->reg_idx].recsize : 0;
     todo stack[RT_KD_STACK];
     int sp = 0;
     uint64_t nvisit = 0, ntest = 0;
@@ -394,7 +398,7 @@ static RT_ALWAYS_INLINE int traverse_fast(rt_trav *tv, const rt_ray *r, uint32_t
     for (;;) {
         const rt_kdnode *nd = &nodes[node];
         nvisit++;
-        if (recording) RT_REC(c.rec, rt_mm_addr(tv->L, tv->reg_node, node), 8, 0, RT_CLS_NODE);
+        if (recording) RT_REC(c.rec, node_base + node * node_size, 8, 0, RT_CLS_NODE);
         uint32_t w1 = nd->w1;
         while ((w1 & 3u) != 3u) { /* descend to a leaf */
             const uint32_t axis = w1 & 3u;
@@ -423,14 +427,14 @@ static RT_ALWAYS_INLINE int traverse_fast(rt_trav *tv, const rt_ray *r, uint32_t
             }
             nd = &nodes[node];
             nvisit++;
-            if (recording) RT_REC(c.rec, rt_mm_addr(tv->L, tv->reg_node, node), 8, 0, RT_CLS_NODE);
+            if (recording) RT_REC(c.rec, node_base + node * node_size, 8, 0, RT_CLS_NODE);
             w1 = nd->w1;
         }
         const uint32_t n = w1 >> 2;
         if (n > 0) {
             const rt_kd_quad *q = quads + nd->w0;
             if (recording) {
-                RT_REC(c.rec, rt_mm_addr(tv->L, tv->reg_idx, tv->kd->nodes[node].w0), 4u * n, 0, RT_CLS_INDEX);
+                RT_REC(c.rec, idx_base + tv->kd->nodes[node].w0 * idx_size, 4u * n, 0, RT_CLS_INDEX);
                 if (leaf_test(&c, q, n, &b, &ntest, any, 1, 0)) {
                     occluded = 1;
                     break;
