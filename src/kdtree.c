@@ -468,8 +468,8 @@ fail:
 }
 
 /* Fills lane j of a quad with triangle tri (or padding when tri is
- * RT_KD_QUAD_PAD). */
-static void quad_lane(rt_kd_quad *q, int j, const rt_scene *s, uint32_t tri)
+ * RT_KD_QUAD_PAD); degen: whether the triangle is degenerate. */
+static void quad_lane(rt_kd_quad *q, int j, const rt_scene *s, uint32_t tri, int degen)
 {
     if (tri == RT_KD_QUAD_PAD) {
         for (int c = 0; c < 9; c++) q->p[c][j] = 0.0f;
@@ -478,7 +478,7 @@ static void quad_lane(rt_kd_quad *q, int j, const rt_scene *s, uint32_t tri)
     }
     const float *p = (const float *)(const void *)&s->tri[tri];
     for (int c = 0; c < 9; c++) q->p[c][j] = p[c];
-    q->tri[j] = tri | (rt_isect_degenerate(&s->tri[tri]) ? RT_KD_QUAD_DEGEN : 0u);
+    q->tri[j] = tri | (degen ? RT_KD_QUAD_DEGEN : 0u);
 }
 
 /* Builds the host-side copy (I7). 0, or -1 on out of memory (the tree is
@@ -491,21 +491,27 @@ static int build_host(rt_kdtree *t, const rt_scene *s, rt_err *e)
     if (nq > UINT32_MAX) return rt_errf(e, "k-d tree: too many leaf entries for the host copy");
     rt_kdnode *hn = rt_calloc(t->nnodes ? t->nnodes : 1, sizeof *hn, e);
     rt_kd_quad *q = rt_calloc(nq ? nq : 1, sizeof *q, e);
-    if (!hn || !q) {
+    uint8_t *degen = rt_calloc(s->ntri ? s->ntri : 1, 1, e); /* once per triangle, not per entry */
+    if (!hn || !q || !degen) {
         free(hn);
         free(q);
+        free(degen);
         return -1;
     }
+    for (uint32_t i = 0; i < s->ntri; i++) degen[i] = (uint8_t)rt_isect_degenerate(&s->tri[i]);
     uint32_t next = 0;
     for (uint32_t i = 0; i < t->nnodes; i++) {
         hn[i] = t->nodes[i];
         if (!rt_kd_is_leaf(&t->nodes[i])) continue;
         const uint32_t n = rt_kd_ntri(&t->nodes[i]), first = rt_kd_first(&t->nodes[i]);
         hn[i].w0 = next;
-        for (uint32_t k = 0; k < (n + 3) / 4 * 4; k++)
-            quad_lane(&q[next + k / 4], (int)(k % 4), s, k < n ? t->idx[first + k] : RT_KD_QUAD_PAD);
+        for (uint32_t k = 0; k < (n + 3) / 4 * 4; k++) {
+            const uint32_t tri = k < n ? t->idx[first + k] : RT_KD_QUAD_PAD;
+            quad_lane(&q[next + k / 4], (int)(k % 4), s, tri, k < n && degen[tri]);
+        }
         next += (n + 3) / 4;
     }
+    free(degen);
     t->hnodes = hn;
     t->quads = q;
     t->nquads = next;
@@ -530,7 +536,8 @@ static int check_host(const rt_kdtree *t, const rt_scene *s, rt_err *e)
             const rt_kd_quad *q = &t->quads[next + k / 4];
             const int j = (int)(k % 4);
             rt_kd_quad want;
-            quad_lane(&want, j, s, k < n ? t->idx[first + k] : RT_KD_QUAD_PAD);
+            const uint32_t tri = k < n ? t->idx[first + k] : RT_KD_QUAD_PAD;
+            quad_lane(&want, j, s, tri, k < n && rt_isect_degenerate(&s->tri[tri]));
             int same = q->tri[j] == want.tri[j];
             for (int c = 0; c < 9; c++) same &= memcmp(&q->p[c][j], &want.p[c][j], sizeof(float)) == 0;
             if (!same) return rt_errf(e, "k-d tree: leaf %u lane %u of its quads differs from its entry", i, k);
