@@ -19,6 +19,20 @@
  * 4n bytes of kd.index at its first entry; one 36-byte read of tri.verts per
  * triangle tested. No mailboxing. tv->nodes and tv->tests count the same
  * events whether or not recording is on.
+ *
+ * Two walks produce that one behaviour. traverse_plain is the walk as
+ * written above, on the modeled nodes, one scalar test per entry; it is
+ * the reference (rt_kd_plain_sub) and serves trees without a host copy.
+ * traverse_fast runs the same node decisions on the host copy (kdtree.h)
+ * and tests a leaf's quads four triangles at a time (quad_isect); lanes
+ * whose edge function is exactly 0 go through the scalar core for its
+ * double-precision branch, and an any-hit walk counts, marks and records
+ * entries only up to the one that stops it, so every observable -- hit
+ * bits, counts, marks, recorded stream -- equals the plain walk's
+ * (tests/test_kdtree.c compares them on random and adversarial rays).
+ * The fast walk is specialised by inlining for closest/any and for
+ * recording or not; without recording its node loop keeps its state in
+ * registers and calls the leaf tests out of line.
  */
 #include "config.h"
 #include "kdtrav.h"

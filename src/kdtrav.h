@@ -9,6 +9,15 @@
  * tracers the paper measured. The recorder may be NULL (no recording).
  * Ties: among hits at the same t the lower triangle index wins, in both
  * the tree traversal and the brute-force reference, so they agree exactly.
+ *
+ * What is modeled and what runs are separate: the accesses above describe
+ * the modeled walk, while the host walks the tree's host-side copy
+ * (kdtree.h: the same nodes, leaf triangles four to a quad) and tests a
+ * leaf's triangles four per SSE2 computation, each lane the scalar test's
+ * arithmetic. Hits (t, u, v, triangle), node and test counts, marks and the
+ * recorded stream are those of the plain scalar walk, which stays
+ * (rt_kd_plain_sub) as the reference the tests compare against and as the
+ * walk of trees without the copy.
  */
 #ifndef RT_KDTRAV_H
 #define RT_KDTRAV_H
