@@ -80,20 +80,16 @@ static void prune(const pstate *ps, plist *l)
     l->n = k;
 }
 
-/* The leaf's triangles against the active rays, triangle by triangle. The
- * test is rt_isect_tri's, inline; the tree's host copy (kdtree.h) says
- * which triangles are degenerate (never hit), so the double-precision
- * area check runs once per triangle at build, not on every hit. */
+/* The leaf's triangles against the active rays, triangle by triangle, with
+ * rt_isect_tri's test inline (rt_isect_core and the interval). */
 static void leaf(pstate *ps, const rt_kdnode *nd, plist *l)
 {
     uint32_t n = rt_kd_ntri(nd), first = rt_kd_first(nd);
     if (n == 0) return;
     RT_REC(ps->rec, rt_mm_addr(ps->L, ps->reg_idx, first), 4 * n, 0, RT_CLS_INDEX);
-    const rt_kd_quad *q = ps->kd->hnodes ? ps->kd->quads + ps->kd->hnodes[nd - ps->kd->nodes].w0 : NULL;
     for (uint32_t k = 0; k < n && l->n > 0; k++) {
         uint32_t tri = ps->kd->idx[first + k];
         const rt_tri *T = &ps->sc->tri[tri];
-        const int degen = q ? (q[k / 4].tri[k % 4] & RT_KD_QUAD_DEGEN) != 0 : rt_isect_degenerate(T);
         RT_REC(ps->rec, rt_mm_addr(ps->L, ps->reg_tri, tri), 36, 0, RT_CLS_TRI);
         if (ps->tv->mark) ps->tv->mark[tri] |= ps->tv->mark_bit;
         for (int j = 0; j < l->n; j++) {
@@ -102,7 +98,7 @@ static void leaf(pstate *ps, const rt_kdnode *nd, plist *l)
             float t, u, v;
             ps->tv->tests++;
             ps->ptests[i] += 1;
-            if (degen || !rt_isect_core_nd(r, T, &t, &u, &v) || !(t > r->tmin && t < r->tmax)) continue;
+            if (!rt_isect_core(r, T, &t, &u, &v) || !(t > r->tmin && t < r->tmax)) continue;
             if (ps->shadow) {
                 ps->done[i] = 1;
             } else {
