@@ -257,6 +257,45 @@ static RT_ALWAYS_INLINE void quad_isect(const quad_ray *qr, const rt_kd_quad *q,
     *v_out = _mm_mul_ps(W, inv);
 }
 
+/*
+ * The recording walk's writer: rt_rec_push with the buffer count and the
+ * generation held in this (non-escaping) struct instead of reloaded from
+ * the recorder after every byte store. It writes the same fields and hands
+ * the buffer to the sink at the same fill level, so the sink sees the very
+ * batches rt_rec_push would give it; recw_done writes the count back.
+ */
+typedef struct recw {
+    rt_rec *rec;    /* the recorder */
+    rt_access *buf; /* rec->buf */
+    size_t n;       /* entries in buf (rec->n is stale until recw_done) */
+    uint8_t gen;    /* rec->gen, constant during a walk */
+} recw;
+
+static RT_ALWAYS_INLINE void recw_init(recw *w, rt_rec *rec)
+{
+    w->rec = rec;
+    w->buf = rec->buf;
+    w->n = rec->n;
+    w->gen = rec->gen;
+}
+
+static RT_ALWAYS_INLINE void recw_put(recw *w, uint64_t addr, uint32_t size, uint8_t cls)
+{
+    rt_access *a = &w->buf[w->n++];
+    a->addr = addr;
+    a->size = size;
+    a->write = 0;
+    a->cls = cls;
+    a->gen = w->gen;
+    if (w->n == RT_REC_BUF) {
+        w->rec->n = w->n;
+        rt_rec_flush(w->rec);
+        w->n = w->rec->n;
+    }
+}
+
+static RT_ALWAYS_INLINE void recw_done(recw *w) { w->rec->n = w->n; }
+
 /* The per-ray state a leaf needs, set up once per ray. */
 typedef struct leaf_ctx {
     quad_ray qr;          /* the ray for quad_isect */
@@ -264,7 +303,7 @@ typedef struct leaf_ctx {
     const rt_tri *tris;   /* scene triangles (scalar fallback) */
     uint8_t *mark;        /* rt_trav's mark array, or NULL */
     uint8_t mbit;         /* its bit */
-    rt_rec *rec;          /* recorder (recording walk only) */
+    recw w;               /* recorder's writer (recording walk only) */
     uint64_t tri_base;    /* triangle region: base and record size (rt_mm_addr, */
     uint64_t tri_size;    /* hoisted: the recorder's stores may alias the layout) */
 } leaf_ctx;
@@ -276,7 +315,7 @@ static RT_ALWAYS_INLINE void leaf_setup(leaf_ctx *c, const rt_trav *tv, const rt
     c->tris = tv->sc->tri;
     c->mark = tv->mark;
     c->mbit = tv->mark_bit;
-    c->rec = recording ? tv->rec : NULL;
+    if (recording) recw_init(&c->w, tv->rec);
     c->tri_base = recording ? tv->L->r[tv->reg_tri].base : 0;
     c->tri_size = recording ? tv->L->r[tv->reg_tri].recsize : 0;
     c->qr.kx = r->kx;
@@ -305,7 +344,7 @@ typedef struct best_hit {
  * grows by the entries tested. Hits are rare, so lanes are resolved one
  * by one in entry order only when the quad reports some.
  */
-static RT_ALWAYS_INLINE int leaf_test(const leaf_ctx *c, const rt_kd_quad *q, uint32_t n, best_hit *b,
+static RT_ALWAYS_INLINE int leaf_test(leaf_ctx *c, const rt_kd_quad *q, uint32_t n, best_hit *b,
                                       uint64_t *ntest, const int any, const int recording, const int strict)
 {
     const float rtmin = c->r->tmin, rtmax = c->r->tmax;
@@ -349,7 +388,7 @@ static RT_ALWAYS_INLINE int leaf_test(const leaf_ctx *c, const rt_kd_quad *q, ui
             for (unsigned j = 0; j < lanes; j++) {
                 const uint32_t tri = q->tri[j] & ~RT_KD_QUAD_DEGEN;
                 if (c->mark) c->mark[tri] |= c->mbit;
-                if (recording) RT_REC(c->rec, c->tri_base + tri * c->tri_size, 36, 0, RT_CLS_TRI);
+                if (recording) recw_put(&c->w, c->tri_base + tri * c->tri_size, 36, RT_CLS_TRI);
             }
         if (any && occluded) return 1;
     }
@@ -358,12 +397,12 @@ static RT_ALWAYS_INLINE int leaf_test(const leaf_ctx *c, const rt_kd_quad *q, ui
 
 /* The untraced walk calls its leaves out of line: the node loop then keeps
  * its few values in registers (measured faster than inlining). */
-static RT_NOINLINE void leaf_closest(const leaf_ctx *c, const rt_kd_quad *q, uint32_t n, best_hit *b, uint64_t *ntest)
+static RT_NOINLINE void leaf_closest(leaf_ctx *c, const rt_kd_quad *q, uint32_t n, best_hit *b, uint64_t *ntest)
 {
     leaf_test(c, q, n, b, ntest, 0, 0, 0);
 }
 
-static RT_NOINLINE int leaf_any(const leaf_ctx *c, const rt_kd_quad *q, uint32_t n, uint64_t *ntest)
+static RT_NOINLINE int leaf_any(leaf_ctx *c, const rt_kd_quad *q, uint32_t n, uint64_t *ntest)
 {
     return leaf_test(c, q, n, NULL, ntest, 1, 0, 0);
 }
@@ -412,7 +451,7 @@ static RT_ALWAYS_INLINE int traverse_fast(rt_trav *tv, const rt_ray *r, uint32_t
     for (;;) {
         const rt_kdnode *nd = &nodes[node];
         nvisit++;
-        if (recording) RT_REC(c.rec, node_base + node * node_size, 8, 0, RT_CLS_NODE);
+        if (recording) recw_put(&c.w, node_base + node * node_size, 8, RT_CLS_NODE);
         uint32_t w1 = nd->w1;
         while ((w1 & 3u) != 3u) { /* descend to a leaf */
             const uint32_t axis = w1 & 3u;
@@ -441,14 +480,14 @@ static RT_ALWAYS_INLINE int traverse_fast(rt_trav *tv, const rt_ray *r, uint32_t
             }
             nd = &nodes[node];
             nvisit++;
-            if (recording) RT_REC(c.rec, node_base + node * node_size, 8, 0, RT_CLS_NODE);
+            if (recording) recw_put(&c.w, node_base + node * node_size, 8, RT_CLS_NODE);
             w1 = nd->w1;
         }
         const uint32_t n = w1 >> 2;
         if (n > 0) {
             const rt_kd_quad *q = quads + nd->w0;
             if (recording) {
-                RT_REC(c.rec, idx_base + tv->kd->nodes[node].w0 * idx_size, 4u * n, 0, RT_CLS_INDEX);
+                recw_put(&c.w, idx_base + tv->kd->nodes[node].w0 * idx_size, 4u * n, RT_CLS_INDEX);
                 if (leaf_test(&c, q, n, &b, &ntest, any, 1, 0)) {
                     occluded = 1;
                     break;
@@ -470,6 +509,7 @@ static RT_ALWAYS_INLINE int traverse_fast(rt_trav *tv, const rt_ray *r, uint32_t
         if (!any && rt_kd_past(b.t, tMin)) break;
     }
 done:
+    if (recording) recw_done(&c.w);
     tv->nodes += nvisit;
     tv->tests += ntest;
     if (any) return occluded;
@@ -537,6 +577,7 @@ int rt_kd_leaf(rt_trav *tv, const rt_ray *r, uint32_t node, rt_hit *h, int any)
         if (tv->rec) {
             leaf_setup(&c, tv, r, o, 1);
             rc = any ? leaf_test(&c, q, n, NULL, &ntest, 1, 1, 1) : leaf_test(&c, q, n, &b, &ntest, 0, 1, 1);
+            recw_done(&c.w);
         } else {
             leaf_setup(&c, tv, r, o, 0);
             rc = any ? leaf_test(&c, q, n, NULL, &ntest, 1, 0, 1) : leaf_test(&c, q, n, &b, &ntest, 0, 0, 1);
