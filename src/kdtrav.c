@@ -614,6 +614,56 @@ int rt_kd_leaf(rt_trav *tv, const rt_ray *r, uint32_t node, rt_hit *h, int any)
     return changed;
 }
 
+int rt_kd_leaf_scan(const rt_trav *tv, const rt_ray *r, uint32_t node, rt_hit *h, int any, uint32_t *ntested)
+{
+    const rt_kdnode *nd = &tv->kd->nodes[node];
+    const uint32_t n = rt_kd_ntri(nd), first = rt_kd_first(nd);
+    *ntested = 0;
+    if (n == 0) return 0;
+#if defined(__SSE2__)
+    if (tv->kd->hnodes) {
+        const float o[3] = {r->o.x, r->o.y, r->o.z};
+        leaf_ctx c;
+        leaf_setup(&c, tv, r, o, 0);
+        c.mark = NULL; /* the caller marks what it reads */
+        const rt_kd_quad *q = tv->kd->quads + tv->kd->hnodes[node].w0;
+        uint64_t ntest = 0;
+        if (any) {
+            const int rc = leaf_test(&c, q, n, NULL, &ntest, 1, 0, 1);
+            *ntested = (uint32_t)ntest;
+            return rc;
+        }
+        best_hit b = {h->t, h->u, h->v, h->tri, h->tri != RT_NO_HIT};
+        leaf_test(&c, q, n, &b, &ntest, 0, 0, 1);
+        *ntested = (uint32_t)ntest;
+        const int changed = b.found && (h->tri == RT_NO_HIT || b.tri != h->tri || b.t != h->t);
+        if (changed) {
+            h->t = b.t;
+            h->tri = b.tri;
+            h->u = b.u;
+            h->v = b.v;
+        }
+        return changed;
+    }
+#endif
+    int changed = 0;
+    for (uint32_t k = 0; k < n; k++) {
+        const uint32_t tri = tv->kd->idx[first + k];
+        float t, u, v;
+        *ntested = k + 1;
+        if (!rt_isect_core(r, &tv->sc->tri[tri], &t, &u, &v) || !(t > r->tmin && t < r->tmax)) continue;
+        if (any) return 1;
+        if (h->tri == RT_NO_HIT || t < h->t || (t == h->t && tri < h->tri)) {
+            h->t = t;
+            h->tri = tri;
+            h->u = u;
+            h->v = v;
+            changed = 1;
+        }
+    }
+    return changed;
+}
+
 int rt_kd_plain_sub(rt_trav *tv, const rt_ray *r, uint32_t node, float t0, float t1, rt_hit *h, int any)
 {
     return any ? traverse_plain(tv, r, node, t0, t1, NULL, 1) : traverse_plain(tv, r, node, t0, t1, h, 0);

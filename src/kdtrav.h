@@ -98,6 +98,15 @@ int rt_kd_occluded_sub(rt_trav *tv, const rt_ray *r, uint32_t node, float t0, fl
 int rt_kd_leaf(rt_trav *tv, const rt_ray *r, uint32_t node, rt_hit *h, int any);
 
 /*
+ * rt_kd_leaf's tests alone, for tracers that read, count and mark a leaf's
+ * triangles in their own order (the packet tracer): nothing is recorded,
+ * counted or marked here. Sets *ntested to the entries tested: all of them
+ * for any = 0, for any = 1 those up to and including the first hit (or
+ * all); the hit rule and return value are rt_kd_leaf's.
+ */
+int rt_kd_leaf_scan(const rt_trav *tv, const rt_ray *r, uint32_t node, rt_hit *h, int any, uint32_t *ntested);
+
+/*
  * The plain walk: the subtree-restricted traversal above (any = 0: closest,
  * *h in/out; any = 1: occlusion, h unused) on the modeled nodes only,
  * one scalar test per entry. The entry points above take the same walk on

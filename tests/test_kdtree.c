@@ -13,8 +13,9 @@
  * (host copy, four triangles per SSE2 test) equals the plain scalar walk
  * hit for hit and bit for bit -- t, u, v, triangle, node and test counts,
  * marks and the recorded access stream -- on the same rays plus rays along
- * split planes and through vertices and edges, and rt_kd_check rejects a
- * host copy that disagrees with the tree.
+ * split planes and through vertices and edges, so do single leaves
+ * (rt_kd_leaf, rt_kd_leaf_scan) against their scalar loops, and
+ * rt_kd_check rejects a host copy that disagrees with the tree.
  * The quick tier compares 20,000 rays per scene (3,000 on room); the long
  * tier (RT_TEST_LONG=1) 100,000. An optional argument multiplies both.
  * Exit 0 on success; failures are printed and exit 1.
@@ -521,6 +522,37 @@ static void compare_fast_plain(const char *name, const rt_scene *s, const rt_kdt
                 rp = rt_kd_plain_sub(&P.tv, &r, node, t0, t1, any ? NULL : &hp, any);
             }
             hits += rp;
+            if (i % 7 == 0) {
+                /* one leaf alone (rt_kd_leaf, rt_kd_leaf_scan): host copy on
+                 * the fast side, the scalar loop on a copy of the tree
+                 * without it on the plain side */
+                uint32_t lf = (uint32_t)(rnd64() % kd->nnodes);
+                while (!rt_kd_is_leaf(&kd->nodes[lf])) lf++; /* the below chain ends in a leaf */
+                rt_kdtree bare = *kd;
+                bare.hnodes = NULL;
+                bare.quads = NULL;
+                P.tv.kd = &bare;
+                rt_hit lh = hp, lp = hp;
+                if (lh.tri == RT_NO_HIT && (rnd64() & 1)) {
+                    lh.tri = lp.tri = (uint32_t)(rnd64() % (s->ntri ? s->ntri : 1));
+                    lh.t = lp.t = uf(0, 2);
+                }
+                int a1 = rt_kd_leaf(&F.tv, &r, lf, any ? NULL : &lh, any);
+                int a2 = rt_kd_leaf(&P.tv, &r, lf, any ? NULL : &lp, any);
+                rt_hit sh = lh, sp2 = lh;
+                uint32_t n1 = 0, n2 = 0;
+                int s1 = rt_kd_leaf_scan(&F.tv, &r, lf, any ? NULL : &sh, any, &n1);
+                int s2 = rt_kd_leaf_scan(&P.tv, &r, lf, any ? NULL : &sp2, any, &n2);
+                P.tv.kd = kd;
+                int lok = a1 == a2 && s1 == s2 && n1 == n2 && F.tv.tests == P.tv.tests;
+                if (!any)
+                    lok &= lh.tri == lp.tri && same_bits(lh.t, lp.t) && same_bits(lh.u, lp.u) && same_bits(lh.v, lp.v) &&
+                           sh.tri == sp2.tri && same_bits(sh.t, sp2.t) && same_bits(sh.u, sp2.u);
+                CHECK(lok, "%s ray %ld leaf %u (%s): fast %d/%d tested %u tri %u t %a, plain %d/%d tested %u tri %u t %a",
+                      name, i, lf, any ? "any" : "closest", a1, s1, n1, lh.tri, (double)lh.t, a2, s2, n2, lp.tri,
+                      (double)lp.t);
+                if (!lok) bad++;
+            }
             int ok = rf == rp && F.tv.nodes == P.tv.nodes && F.tv.tests == P.tv.tests;
             if (!any)
                 ok &= hf.tri == hp.tri && same_bits(hf.t, hp.t) && same_bits(hf.u, hp.u) && same_bits(hf.v, hp.v);
