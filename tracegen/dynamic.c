@@ -485,8 +485,9 @@ static inline uint32_t interior_step(const rt_kdnode *nd, uint32_t node, const r
 {
     int axis = rt_kd_axis(nd);
     float split = rt_kd_split(nd);
-    float o = rt_axis(r->o, axis), d = rt_axis(r->d, axis);
-    float tp = (split - o) * rt_axis(r->inv_d, axis);
+    /* the axis-th component by index, not rt_axis's branches */
+    const float o = ((const float *)(const void *)&r->o)[axis], d = ((const float *)(const void *)&r->d)[axis];
+    const float tp = (split - o) * ((const float *)(const void *)&r->inv_d)[axis];
     int below_first = o < split || (o == split && d <= 0);
     uint32_t nearc = below_first ? node + 1 : rt_kd_above(nd);
     uint32_t farc = below_first ? rt_kd_above(nd) : node + 1;
