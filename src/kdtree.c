@@ -449,10 +449,9 @@ rt_kdtree *rt_kd_build(const rt_scene *s, const rt_kd_params *params, rt_err *e)
         uint32_t *pi = realloc(t->idx, t->nidx * sizeof *pi);
         if (pi) t->idx = pi;
     }
-    if (build_host(t, s, e) < 0) {
-        rt_kd_free(t);
-        return NULL;
-    }
+    /* Without memory for the host copy the tree still works (plain walk). */
+    rt_err he = {""};
+    (void)build_host(t, s, &he);
     t->build_sec = rt_now() - t0;
     return t;
 fail:
@@ -481,14 +480,16 @@ static void quad_lane(rt_kd_quad *q, int j, const rt_scene *s, uint32_t tri, int
     q->tri[j] = tri | (degen ? RT_KD_QUAD_DEGEN : 0u);
 }
 
-/* Builds the host-side copy (I7). 0, or -1 on out of memory (the tree is
- * then still usable: the traversal takes the plain path). */
+/* Builds the host-side copy (I7) when it fits in RT_KD_HOST_MAX. 0 (built,
+ * or too large and skipped), or -1 on out of memory; either way without a
+ * copy the tree is still usable: the traversal takes the plain path. */
 static int build_host(rt_kdtree *t, const rt_scene *s, rt_err *e)
 {
     uint64_t nq = 0;
     for (uint32_t i = 0; i < t->nnodes; i++)
         if (rt_kd_is_leaf(&t->nodes[i])) nq += (rt_kd_ntri(&t->nodes[i]) + 3) / 4;
-    if (nq > UINT32_MAX) return rt_errf(e, "k-d tree: too many leaf entries for the host copy");
+    if (nq > UINT32_MAX || nq * sizeof(rt_kd_quad) + (uint64_t)t->nnodes * sizeof(rt_kdnode) > RT_KD_HOST_MAX)
+        return 0; /* too large to be worth it: the plain walk */
     rt_kdnode *hn = rt_calloc(t->nnodes ? t->nnodes : 1, sizeof *hn, e);
     rt_kd_quad *q = rt_calloc(nq ? nq : 1, sizeof *q, e);
     uint8_t *degen = rt_calloc(s->ntri ? s->ntri : 1, 1, e); /* once per triangle, not per entry */
