@@ -32,7 +32,7 @@
 
 void rt_ray_init(rt_ray *r, rt_vec3 o, rt_vec3 d)
 {
-    memset(r, 0, sizeof *r);
+    /* every field is assigned below (no memset: this runs once per ray) */
     r->o = o;
     r->d = d;
     r->tmin = 0.0f;

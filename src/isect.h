@@ -65,10 +65,28 @@ int rt_isect_degenerate(const rt_tri *tri);
  */
 #if defined(__GNUC__)
 #define RT_ALWAYS_INLINE inline __attribute__((always_inline))
+#define RT_NOINLINE __attribute__((noinline))
 #else
 #define RT_ALWAYS_INLINE inline
+#define RT_NOINLINE
 #endif
+static RT_ALWAYS_INLINE int rt_isect_core_nd(const rt_ray *r, const rt_tri *tri, float *t_out, float *u, float *v);
+
 static RT_ALWAYS_INLINE int rt_isect_core(const rt_ray *r, const rt_tri *tri, float *t_out, float *u, float *v)
+{
+    float t, b1, b2;
+    if (!rt_isect_core_nd(r, tri, &t, &b1, &b2)) return 0;
+    if (rt_isect_degenerate(tri)) return 0; /* rare: only on a hit */
+    *t_out = t;
+    *u = b1;
+    *v = b2;
+    return 1;
+}
+
+/* rt_isect_core without its last step, the degenerate-triangle rejection:
+ * for callers that know the triangle's area is not zero (a flag computed
+ * once per triangle, as in the k-d tree's host copy, kdtree.h). */
+static RT_ALWAYS_INLINE int rt_isect_core_nd(const rt_ray *r, const rt_tri *tri, float *t_out, float *u, float *v)
 {
     const float *p = (const float *)(const void *)tri; /* 9 floats */
     const float *o = (const float *)(const void *)&r->o;
@@ -107,7 +125,6 @@ static RT_ALWAYS_INLINE int rt_isect_core(const rt_ray *r, const rt_tri *tri, fl
         b2 = (float)(Wd / det);
     }
     if (!(t > -INFINITY && t < INFINITY)) return 0; /* NaN or overflow */
-    if (rt_isect_degenerate(tri)) return 0;          /* rare: only on a hit */
     *t_out = t;
     *u = b1;
     *v = b2;

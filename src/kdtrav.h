@@ -9,6 +9,15 @@
  * tracers the paper measured. The recorder may be NULL (no recording).
  * Ties: among hits at the same t the lower triangle index wins, in both
  * the tree traversal and the brute-force reference, so they agree exactly.
+ *
+ * What is modeled and what runs are separate: the accesses above describe
+ * the modeled walk, while the host walks the tree's host-side copy
+ * (kdtree.h: the same nodes, leaf triangles four to a quad) and tests a
+ * leaf's triangles four per SSE2 computation, each lane the scalar test's
+ * arithmetic. Hits (t, u, v, triangle), node and test counts, marks and the
+ * recorded stream are those of the plain scalar walk, which stays
+ * (rt_kd_plain_sub) as the reference the tests compare against and as the
+ * walk of trees without the copy.
  */
 #ifndef RT_KDTRAV_H
 #define RT_KDTRAV_H
@@ -74,6 +83,38 @@ int rt_kd_occluded(rt_trav *tv, const rt_ray *r);
  */
 int rt_kd_closest_sub(rt_trav *tv, const rt_ray *r, uint32_t node, float t0, float t1, rt_hit *h);
 int rt_kd_occluded_sub(rt_trav *tv, const rt_ray *r, uint32_t node, float t0, float t1);
+
+/*
+ * One leaf's tests, for tracers that walk the tree themselves (the dynamic
+ * scheduler): the entries of leaf `node` against r in list order, as that
+ * leaf's part of the traversal does -- the index-list read and one
+ * triangle read per entry recorded on tv->rec, tv->tests counted, tv->mark
+ * set -- accepting a hit whose t lies in (r->tmin, r->tmax) and beats *h
+ * (any hit when h->tri == RT_NO_HIT; equal t: the lower triangle index).
+ * any = 1 (h unused): returns 1 at the first such hit, the entries after
+ * it untested, uncounted and unrecorded. any = 0: returns 1 when *h was
+ * replaced. Uses the host copy's quads when the tree has them.
+ */
+int rt_kd_leaf(rt_trav *tv, const rt_ray *r, uint32_t node, rt_hit *h, int any);
+
+/*
+ * rt_kd_leaf's tests alone, for tracers that read, count and mark a leaf's
+ * triangles in their own order (the packet tracer): nothing is recorded,
+ * counted or marked here. Sets *ntested to the entries tested: all of them
+ * for any = 0, for any = 1 those up to and including the first hit (or
+ * all); the hit rule and return value are rt_kd_leaf's.
+ */
+int rt_kd_leaf_scan(const rt_trav *tv, const rt_ray *r, uint32_t node, rt_hit *h, int any, uint32_t *ntested);
+
+/*
+ * The plain walk: the subtree-restricted traversal above (any = 0: closest,
+ * *h in/out; any = 1: occlusion, h unused) on the modeled nodes only,
+ * one scalar test per entry. The entry points above take the same walk on
+ * the tree's host-side copy when it has one (kdtree.h), four triangles per
+ * test, with identical results, counts, marks and recorded accesses; this
+ * one is kept as their reference (tests) and for trees without the copy.
+ */
+int rt_kd_plain_sub(rt_trav *tv, const rt_ray *r, uint32_t node, float t0, float t1, rt_hit *h, int any);
 
 static inline void rt_hit_none(rt_hit *h)
 {

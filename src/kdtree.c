@@ -36,7 +36,14 @@
  *   I5  soundness: a triangle listed in a leaf has a box meeting the leaf's
  *       closed cell;
  *   I6  no leaf is deeper than the depth limit (<= RT_KD_DEPTH_CAP), so the
- *       traversal's fixed stack cannot overflow; statistics match the tree.
+ *       traversal's fixed stack cannot overflow; statistics match the tree;
+ *   I7  the host-side copy, when present, is exact: hnodes[i] == nodes[i]
+ *       but for leaf w0, which numbers the leaf's first quad, quads are
+ *       handed out to leaves in node order, ceil(n / 4) each, covering
+ *       quads[0, nquads); lane j of a leaf's quads carries idx[first + j],
+ *       its triangle's nine coordinates bit for bit, and the degenerate
+ *       flag exactly when rt_isect_degenerate holds; padding lanes are
+ *       RT_KD_QUAD_PAD with zero coordinates.
  *
  * Build. pbrt's SAH recursion: at each node, sweep the sorted bounding-box
  * edges along the axis of largest extent, cost = trav + isect * (1 - eb) *
@@ -63,6 +70,7 @@
  */
 #include "config.h"
 #include "kdtree.h"
+#include "isect.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -135,6 +143,8 @@ static void radix_sort64(uint64_t *a, uint64_t *tmp, size_t n, uint32_t *cnt /* 
     }
     if (src != a) memcpy(a, src, n * sizeof *a);
 }
+
+static int build_host(rt_kdtree *t, const rt_scene *s, rt_err *e);
 
 typedef struct build {
     const rt_kd_params *p; /* costs and limits */
@@ -439,6 +449,9 @@ rt_kdtree *rt_kd_build(const rt_scene *s, const rt_kd_params *params, rt_err *e)
         uint32_t *pi = realloc(t->idx, t->nidx * sizeof *pi);
         if (pi) t->idx = pi;
     }
+    /* Without memory for the host copy the tree still works (plain walk). */
+    rt_err he = {""};
+    (void)build_host(t, s, &he);
     t->build_sec = rt_now() - t0;
     return t;
 fail:
@@ -453,11 +466,96 @@ fail:
     return NULL;
 }
 
+/* Fills lane j of a quad with triangle tri (or padding when tri is
+ * RT_KD_QUAD_PAD); degen: whether the triangle is degenerate. */
+static void quad_lane(rt_kd_quad *q, int j, const rt_scene *s, uint32_t tri, int degen)
+{
+    if (tri == RT_KD_QUAD_PAD) {
+        for (int c = 0; c < 9; c++) q->p[c][j] = 0.0f;
+        q->tri[j] = RT_KD_QUAD_PAD;
+        return;
+    }
+    const float *p = (const float *)(const void *)&s->tri[tri];
+    for (int c = 0; c < 9; c++) q->p[c][j] = p[c];
+    q->tri[j] = tri | (degen ? RT_KD_QUAD_DEGEN : 0u);
+}
+
+/* Builds the host-side copy (I7) when it fits in RT_KD_HOST_MAX. 0 (built,
+ * or too large and skipped), or -1 on out of memory; either way without a
+ * copy the tree is still usable: the traversal takes the plain path. */
+static int build_host(rt_kdtree *t, const rt_scene *s, rt_err *e)
+{
+    uint64_t nq = 0;
+    for (uint32_t i = 0; i < t->nnodes; i++)
+        if (rt_kd_is_leaf(&t->nodes[i])) nq += (rt_kd_ntri(&t->nodes[i]) + 3) / 4;
+    if (nq > UINT32_MAX || nq * sizeof(rt_kd_quad) + (uint64_t)t->nnodes * sizeof(rt_kdnode) > RT_KD_HOST_MAX)
+        return 0; /* too large to be worth it: the plain walk */
+    rt_kdnode *hn = rt_calloc(t->nnodes ? t->nnodes : 1, sizeof *hn, e);
+    rt_kd_quad *q = rt_calloc(nq ? nq : 1, sizeof *q, e);
+    uint8_t *degen = rt_calloc(s->ntri ? s->ntri : 1, 1, e); /* once per triangle, not per entry */
+    if (!hn || !q || !degen) {
+        free(hn);
+        free(q);
+        free(degen);
+        return -1;
+    }
+    for (uint32_t i = 0; i < s->ntri; i++) degen[i] = (uint8_t)rt_isect_degenerate(&s->tri[i]);
+    uint32_t next = 0;
+    for (uint32_t i = 0; i < t->nnodes; i++) {
+        hn[i] = t->nodes[i];
+        if (!rt_kd_is_leaf(&t->nodes[i])) continue;
+        const uint32_t n = rt_kd_ntri(&t->nodes[i]), first = rt_kd_first(&t->nodes[i]);
+        hn[i].w0 = next;
+        for (uint32_t k = 0; k < (n + 3) / 4 * 4; k++) {
+            const uint32_t tri = k < n ? t->idx[first + k] : RT_KD_QUAD_PAD;
+            quad_lane(&q[next + k / 4], (int)(k % 4), s, tri, k < n && degen[tri]);
+        }
+        next += (n + 3) / 4;
+    }
+    free(degen);
+    t->hnodes = hn;
+    t->quads = q;
+    t->nquads = next;
+    return 0;
+}
+
+/* I7: the host copy agrees with nodes, idx and the scene. */
+static int check_host(const rt_kdtree *t, const rt_scene *s, rt_err *e)
+{
+    if (!t->hnodes && !t->quads) return 0;
+    if (!t->hnodes || !t->quads) return rt_errf(e, "k-d tree: host copy half present");
+    uint32_t next = 0;
+    for (uint32_t i = 0; i < t->nnodes; i++) {
+        const rt_kdnode *nd = &t->nodes[i], *hd = &t->hnodes[i];
+        if (hd->w1 != nd->w1 || (!rt_kd_is_leaf(nd) && hd->w0 != nd->w0))
+            return rt_errf(e, "k-d tree: host node %u differs from node %u", i, i);
+        if (!rt_kd_is_leaf(nd)) continue;
+        const uint32_t n = rt_kd_ntri(nd), first = rt_kd_first(nd), nq = (n + 3) / 4;
+        if (hd->w0 != next || (uint64_t)next + nq > t->nquads)
+            return rt_errf(e, "k-d tree: leaf %u has quads at %u, expected %u of %u", i, hd->w0, next, t->nquads);
+        for (uint32_t k = 0; k < nq * 4; k++) {
+            const rt_kd_quad *q = &t->quads[next + k / 4];
+            const int j = (int)(k % 4);
+            rt_kd_quad want;
+            const uint32_t tri = k < n ? t->idx[first + k] : RT_KD_QUAD_PAD;
+            quad_lane(&want, j, s, tri, k < n && rt_isect_degenerate(&s->tri[tri]));
+            int same = q->tri[j] == want.tri[j];
+            for (int c = 0; c < 9; c++) same &= memcmp(&q->p[c][j], &want.p[c][j], sizeof(float)) == 0;
+            if (!same) return rt_errf(e, "k-d tree: leaf %u lane %u of its quads differs from its entry", i, k);
+        }
+        next += nq;
+    }
+    if (next != t->nquads) return rt_errf(e, "k-d tree: leaves use %u quads of %u", next, t->nquads);
+    return 0;
+}
+
 void rt_kd_free(rt_kdtree *t)
 {
     if (!t) return;
     free(t->nodes);
     free(t->idx);
+    free(t->hnodes);
+    free(t->quads);
     free(t);
 }
 
@@ -619,6 +717,7 @@ int rt_kd_check(const rt_kdtree *t, const rt_scene *s, rt_err *e)
             goto out;
         }
     }
+    if (check_host(t, s, e) < 0) goto out;
     rc = 0;
 out:
     free(seen);

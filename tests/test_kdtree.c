@@ -9,7 +9,13 @@
  * bounds in random and axis-parallel directions, plus camera rays); two
  * builds are byte-identical; recorded accesses agree with the counters;
  * subtree sizes agree with a direct count; subtree-restricted traversal
- * composed over a cut of the tree equals the full traversal.
+ * composed over a cut of the tree equals the full traversal; the fast walk
+ * (host copy, four triangles per SSE2 test) equals the plain scalar walk
+ * hit for hit and bit for bit -- t, u, v, triangle, node and test counts,
+ * marks and the recorded access stream -- on the same rays plus rays along
+ * split planes and through vertices and edges, so do single leaves
+ * (rt_kd_leaf, rt_kd_leaf_scan) against their scalar loops, and
+ * rt_kd_check rejects a host copy that disagrees with the tree.
  * The quick tier compares 20,000 rays per scene (3,000 on room); the long
  * tier (RT_TEST_LONG=1) 100,000. An optional argument multiplies both.
  * Exit 0 on success; failures are printed and exit 1.
@@ -139,6 +145,8 @@ static long compare_rays(const char *name, const rt_scene *s, const rt_kdtree *k
     }
     return hits;
 }
+
+static void compare_fast_plain(const char *name, const rt_scene *s, const rt_kdtree *kd, long nrays);
 
 /* Subtree sizes against a direct count on every node. */
 static void check_subsizes(const rt_kdtree *kd, const rt_scene *s)
@@ -292,6 +300,7 @@ static void run_scene(const char *name, rt_scene *s, long nrays, long nextra, in
     long hits = compare_rays(name, s, kd, nrays);
     double t3 = rt_now();
     check_extras(name, s, kd, nextra);
+    compare_fast_plain(name, s, kd, nrays);
     if (subsizes) check_subsizes(kd, s);
     printf("%-22s tris %7u nodes %7u leaves %6u empty %6u depth %2u/%2u maxleaf %4u mean %.2f | build %.3fs "
            "check %.3fs rays %ld (%ld hit) %.2fs\n",
@@ -354,6 +363,279 @@ static void test_small_cases(void)
     rt_scene_free(s);
 }
 
+/* ---- the fast walk against the plain one -------------------------------- */
+
+/* A sink keeping every access, so two recorded streams can be compared. */
+typedef struct keep {
+    rt_access *a; /* accesses so far */
+    size_t n, cap;
+} keep;
+
+static int keep_put(rt_sink *sk, const rt_access *a, size_t n)
+{
+    keep *k = sk->ctx;
+    if (k->n + n > k->cap) {
+        size_t cap = 2 * (k->n + n);
+        rt_access *p = realloc(k->a, cap * sizeof *p);
+        if (!p) return -1;
+        k->a = p;
+        k->cap = cap;
+    }
+    memcpy(k->a + k->n, a, n * sizeof *a);
+    k->n += n;
+    return 0;
+}
+
+static int same_access(const rt_access *x, const rt_access *y)
+{
+    return x->addr == y->addr && x->size == y->size && x->write == y->write && x->cls == y->cls && x->gen == y->gen;
+}
+
+static int same_bits(float a, float b) { return memcmp(&a, &b, sizeof a) == 0; }
+
+/* One side of the comparison: a traversal context with its own marks and
+ * recorder (rec may stay NULL: the untraced walk). */
+typedef struct side {
+    rt_trav tv;
+    keep k;
+    rt_sink sink;
+    uint8_t *mark;
+} side;
+
+static void side_init(side *d, const rt_scene *s, const rt_kdtree *kd, const rt_layout *L, int record)
+{
+    rt_err e = {{0}};
+    memset(d, 0, sizeof *d);
+    d->tv.kd = kd;
+    d->tv.sc = s;
+    d->tv.L = L;
+    d->tv.reg_node = 0;
+    d->tv.reg_idx = 1;
+    d->tv.reg_tri = 2;
+    d->mark = calloc(s->ntri ? s->ntri : 1, 1);
+    d->tv.mark = d->mark;
+    d->sink.put = keep_put;
+    d->sink.ctx = &d->k;
+    if (record) d->tv.rec = rt_rec_new(&d->sink, &e);
+}
+
+static void side_free(side *d)
+{
+    rt_rec_free(d->tv.rec);
+    free(d->k.a);
+    free(d->mark);
+}
+
+/* A ray meant to hit the fast walk's special cases: from a point of the
+ * soups' 1/8 grid (so often in a split plane or on a flat triangle's
+ * plane) along an axis or a grid diagonal, or at a vertex or an edge
+ * midpoint of a random triangle (edge functions exactly 0). */
+static void gen_special(const rt_scene *s, rt_ray *r)
+{
+    int kind = (int)(rnd64() % 3);
+    rt_vec3 o = rt_v3((float)(rnd64() % 9) / 8.0f, (float)(rnd64() % 9) / 8.0f, (float)(rnd64() % 9) / 8.0f);
+    rt_vec3 d;
+    if (kind == 0) {
+        d = rt_v3(0, 0, 0);
+        rt_set_axis(&d, (int)(rnd64() % 3), (rnd64() & 1) ? -1.0f : 1.0f);
+    } else if (kind == 1 || s->ntri == 0) {
+        d = rt_v3((float)((int)(rnd64() % 3) - 1), (float)((int)(rnd64() % 3) - 1), (float)((int)(rnd64() % 3) - 1));
+        if (d.x == 0 && d.y == 0 && d.z == 0) d.z = 1;
+    } else {
+        const rt_tri *t = &s->tri[rnd64() % s->ntri];
+        int v = (int)(rnd64() % 3);
+        rt_vec3 target = (rnd64() & 1) ? t->p[v] : rt_mul(rt_add(t->p[v], t->p[(v + 1) % 3]), 0.5f);
+        o = rt_add(s->bounds.hi, rt_v3(0.5f, 0.25f, 0.125f));
+        if (rnd64() & 1) o = rt_sub(s->bounds.lo, rt_v3(0.25f, 0.5f, 0.75f));
+        d = rt_sub(target, o);
+    }
+    rt_ray_init(r, o, d);
+}
+
+/*
+ * The fast walk (host copy, SSE2 quads) against the plain one
+ * (rt_kd_plain_sub) on the same rays: same return, the same hit bit for bit
+ * (t, u, v, triangle), the same node and test counts, the same marks and,
+ * recording, the same access stream; closest and any hit, from the root
+ * and from random subtrees with a hit already held, recorded and not.
+ */
+static void compare_fast_plain(const char *name, const rt_scene *s, const rt_kdtree *kd, long nrays)
+{
+    CHECK(kd->hnodes && kd->quads, "%s: no host copy", name);
+    if (!kd->hnodes) return;
+    rt_err e = {{0}};
+    rt_layout L;
+    rt_mm_init(&L);
+    CHECK(rt_mm_add(&L, "kd.nodes", RT_CLS_NODE, 8, kd->nnodes, &e) == 0 &&
+              rt_mm_add(&L, "kd.index", RT_CLS_INDEX, 4, kd->nidx ? kd->nidx : 1, &e) == 1 &&
+              rt_mm_add(&L, "tri.verts", RT_CLS_TRI, 36, s->ntri ? s->ntri : 1, &e) == 2,
+          "%s: layout: %s", name, e.msg);
+    /* its own random stream: the scenes and rays of the other checks stay
+     * what they were before this comparison was added */
+    const uint64_t saved_rng = check_rng_state;
+    rnd_seed(saved_rng ^ 0xd1b54a32d192ed03ULL);
+    cam c;
+    cam_setup(&c, s);
+    long bad = 0, hits = 0;
+    for (int record = 0; record < 2; record++) {
+        side F, P;
+        side_init(&F, s, kd, &L, record);
+        side_init(&P, s, kd, &L, record);
+        for (long i = 0; i < nrays && bad < 10; i++) {
+            rt_ray r;
+            if (i % 4 == 3) gen_special(s, &r);
+            else gen_ray(s, &c, &r, (int)(i % 8));
+            const int any = (int)(i % 3 == 2);
+            const uint8_t bit = (uint8_t)(1u << (i % 3));
+            F.tv.mark_bit = P.tv.mark_bit = bit;
+            uint32_t node = 0;
+            float t0, t1;
+            int inside = rt_kd_clip(kd, &r, &t0, &t1), sub = 0;
+            rt_hit hf, hp;
+            rt_hit_none(&hp);
+            if (inside && (i % 5) == 4 && kd->nnodes > 1) {
+                sub = 1;
+                /* a random subtree over a random part of the interval, with
+                 * a hit already held (as the dynamic tracer resumes rays) */
+                node = (uint32_t)(rnd64() % kd->nnodes);
+                float a = uf(t0, t1), b = uf(t0, t1);
+                t0 = a < b ? a : b;
+                t1 = a < b ? b : a;
+                if (rnd64() & 1) {
+                    hp.t = uf(t0, t1 + (t1 - t0));
+                    hp.tri = (uint32_t)(rnd64() % (s->ntri ? s->ntri : 1));
+                    hp.u = 0.25f;
+                    hp.v = 0.5f;
+                }
+            }
+            hf = hp;
+            int rf, rp;
+            if (!inside) {
+                rf = any ? rt_kd_occluded(&F.tv, &r) : rt_kd_closest(&F.tv, &r, &hf);
+                rp = 0;
+                if (!any) rt_hit_none(&hp);
+            } else if (!sub && (i & 1)) {
+                rf = any ? rt_kd_occluded(&F.tv, &r) : rt_kd_closest(&F.tv, &r, &hf);
+                rp = rt_kd_plain_sub(&P.tv, &r, node, t0, t1, any ? NULL : &hp, any);
+            } else {
+                rf = any ? rt_kd_occluded_sub(&F.tv, &r, node, t0, t1) : rt_kd_closest_sub(&F.tv, &r, node, t0, t1, &hf);
+                rp = rt_kd_plain_sub(&P.tv, &r, node, t0, t1, any ? NULL : &hp, any);
+            }
+            hits += rp;
+            if (i % 7 == 0) {
+                /* one leaf alone (rt_kd_leaf, rt_kd_leaf_scan): host copy on
+                 * the fast side, the scalar loop on a copy of the tree
+                 * without it on the plain side */
+                uint32_t lf = (uint32_t)(rnd64() % kd->nnodes);
+                while (!rt_kd_is_leaf(&kd->nodes[lf])) lf++; /* the below chain ends in a leaf */
+                rt_kdtree bare = *kd;
+                bare.hnodes = NULL;
+                bare.quads = NULL;
+                P.tv.kd = &bare;
+                rt_hit lh = hp, lp = hp;
+                if (lh.tri == RT_NO_HIT && (rnd64() & 1)) {
+                    lh.tri = lp.tri = (uint32_t)(rnd64() % (s->ntri ? s->ntri : 1));
+                    lh.t = lp.t = uf(0, 2);
+                }
+                int a1 = rt_kd_leaf(&F.tv, &r, lf, any ? NULL : &lh, any);
+                int a2 = rt_kd_leaf(&P.tv, &r, lf, any ? NULL : &lp, any);
+                rt_hit sh = lh, sp2 = lh;
+                uint32_t n1 = 0, n2 = 0;
+                int s1 = rt_kd_leaf_scan(&F.tv, &r, lf, any ? NULL : &sh, any, &n1);
+                int s2 = rt_kd_leaf_scan(&P.tv, &r, lf, any ? NULL : &sp2, any, &n2);
+                P.tv.kd = kd;
+                int lok = a1 == a2 && s1 == s2 && n1 == n2 && F.tv.tests == P.tv.tests;
+                if (!any)
+                    lok &= lh.tri == lp.tri && same_bits(lh.t, lp.t) && same_bits(lh.u, lp.u) && same_bits(lh.v, lp.v) &&
+                           sh.tri == sp2.tri && same_bits(sh.t, sp2.t) && same_bits(sh.u, sp2.u);
+                CHECK(lok, "%s ray %ld leaf %u (%s): fast %d/%d tested %u tri %u t %a, plain %d/%d tested %u tri %u t %a",
+                      name, i, lf, any ? "any" : "closest", a1, s1, n1, lh.tri, (double)lh.t, a2, s2, n2, lp.tri,
+                      (double)lp.t);
+                if (!lok) bad++;
+            }
+            int ok = rf == rp && F.tv.nodes == P.tv.nodes && F.tv.tests == P.tv.tests;
+            if (!any)
+                ok &= hf.tri == hp.tri && same_bits(hf.t, hp.t) && same_bits(hf.u, hp.u) && same_bits(hf.v, hp.v);
+            if (record) {
+                ok &= rt_rec_flush(F.tv.rec) == 0 && rt_rec_flush(P.tv.rec) == 0 && F.k.n == P.k.n;
+                for (size_t k = 0; ok && k < F.k.n; k++) ok &= same_access(&F.k.a[k], &P.k.a[k]);
+                F.k.n = P.k.n = 0;
+            }
+            if (!ok) {
+                bad++;
+                CHECK(0, "%s ray %ld (%s, node %u, %s): fast %d tri %u t %a u %a v %a nodes %llu tests %llu; plain %d tri "
+                      "%u t %a u %a v %a nodes %llu tests %llu",
+                      name, i, any ? "any" : "closest", node, record ? "recorded" : "untraced", rf, hf.tri, (double)hf.t,
+                      (double)hf.u, (double)hf.v, (unsigned long long)F.tv.nodes, (unsigned long long)F.tv.tests, rp,
+                      hp.tri, (double)hp.t, (double)hp.u, (double)hp.v, (unsigned long long)P.tv.nodes,
+                      (unsigned long long)P.tv.tests);
+                F.tv.nodes = P.tv.nodes;
+                F.tv.tests = P.tv.tests;
+            }
+        }
+        CHECK(memcmp(F.mark, P.mark, s->ntri) == 0, "%s: marks differ (%s)", name, record ? "recorded" : "untraced");
+        side_free(&F);
+        side_free(&P);
+    }
+    CHECK(hits > 0, "%s: no ray hit: the comparison saw no hit", name);
+    check_rng_state = saved_rng;
+}
+
+/* rt_kd_check notices a host copy that disagrees with the tree (I7). */
+static void check_host_copy_checked(void)
+{
+    const uint64_t saved_rng = check_rng_state; /* as in compare_fast_plain */
+    rnd_seed(saved_rng ^ 0x94d049bb133111ebULL);
+    rt_err e = {{0}};
+    rt_scene *s = make_soup(300);
+    rt_kdtree *kd = rt_kd_build(s, NULL, &e);
+    CHECK(kd && kd->hnodes && kd->quads && rt_kd_check(kd, s, &e) == 0, "host copy: %s", e.msg);
+    if (kd && kd->nquads > 0) {
+        rt_kd_quad *q = &kd->quads[kd->nquads / 2];
+        float keepf = q->p[4][0];
+        q->p[4][0] = nextafterf(keepf, INFINITY);
+        CHECK(rt_kd_check(kd, s, &e) < 0, "a changed quad coordinate passes the check");
+        q->p[4][0] = keepf;
+        uint32_t kt = q->tri[0];
+        q->tri[0] ^= RT_KD_QUAD_DEGEN;
+        CHECK(rt_kd_check(kd, s, &e) < 0, "a flipped degenerate flag passes the check");
+        q->tri[0] = kt;
+        uint32_t leaf = 0;
+        while (leaf < kd->nnodes && !(rt_kd_is_leaf(&kd->nodes[leaf]) && rt_kd_ntri(&kd->nodes[leaf]) > 0)) leaf++;
+        if (leaf < kd->nnodes) {
+            kd->hnodes[leaf].w0++;
+            CHECK(rt_kd_check(kd, s, &e) < 0, "a moved leaf quad index passes the check");
+            kd->hnodes[leaf].w0--;
+        }
+        CHECK(rt_kd_check(kd, s, &e) == 0, "restored host copy: %s", e.msg);
+        /* Without the copy (a tree assembled by hand) the entry points take
+         * the plain walk: the same hits and counts. */
+        rt_trav a, b;
+        memset(&a, 0, sizeof a);
+        a.kd = kd;
+        a.sc = s;
+        b = a;
+        rt_kdtree bare = *kd;
+        bare.hnodes = NULL;
+        bare.quads = NULL;
+        b.kd = &bare;
+        cam c;
+        cam_setup(&c, s);
+        int same = 1;
+        for (int i = 0; i < 2000; i++) {
+            rt_ray r;
+            gen_ray(s, &c, &r, i % 8);
+            rt_hit ha, hb;
+            same &= rt_kd_closest(&a, &r, &ha) == rt_kd_closest(&b, &r, &hb) && ha.tri == hb.tri &&
+                    same_bits(ha.t, hb.t) && rt_kd_occluded(&a, &r) == rt_kd_occluded(&b, &r);
+        }
+        CHECK(same && a.nodes == b.nodes && a.tests == b.tests, "a tree without its host copy traverses differently");
+    }
+    rt_kd_free(kd);
+    rt_scene_free(s);
+    check_rng_state = saved_rng;
+}
+
 int main(int argc, char **argv)
 {
     rnd_seed(0x9e3779b97f4a7c15ULL);
@@ -363,6 +645,7 @@ int main(int argc, char **argv)
     int full = check_long();
     long rays = full ? 100000 : 20000;
     test_small_cases();
+    check_host_copy_checked();
 
     rt_scene *s = make_soup(300);
     run_scene("soup-300", s, rays * scale, 5000, 1);

@@ -514,8 +514,9 @@ static inline uint32_t interior_step(const rt_kdnode *nd, uint32_t node, const r
 {
     int axis = rt_kd_axis(nd);
     float split = rt_kd_split(nd);
-    float o = rt_axis(r->o, axis), d = rt_axis(r->d, axis);
-    float tp = (split - o) * rt_axis(r->inv_d, axis);
+    /* the axis-th component by index, not rt_axis's branches */
+    const float o = ((const float *)(const void *)&r->o)[axis], d = ((const float *)(const void *)&r->d)[axis];
+    const float tp = (split - o) * ((const float *)(const void *)&r->inv_d)[axis];
     int below_first = o < split || (o == split && d <= 0);
     uint32_t nearc = below_first ? node + 1 : rt_kd_above(nd);
     uint32_t farc = below_first ? rt_kd_above(nd) : node + 1;
@@ -564,26 +565,17 @@ static int32_t to_queue_point(dyn *D, const rt_ray *r, float t0, float t1, int32
     }
 }
 
-/* Tests the triangles of a leaf against one ray. Returns 1 when a shadow
- * ray is occluded. */
+/* Tests the triangles of a leaf against one ray (rt_kd_leaf: recorded,
+ * counted and marked through D->tv, whose recorder and marks are D's).
+ * Returns 1 when a shadow ray is occluded. */
 static int leaf_test(dyn *D, const rt_kdnode *nd, const rt_ray *test, float *best_t, uint32_t *best_tri)
 {
-    uint32_t n = rt_kd_ntri(nd), first = rt_kd_first(nd);
-    if (!n) return 0;
-    RT_REC(D->rec, rt_mm_addr(D->L, D->tv.reg_idx, first), 4 * n, 0, RT_CLS_INDEX);
-    for (uint32_t k = 0; k < n; k++) {
-        uint32_t tri = D->kd->idx[first + k];
-        float t, u, v;
-        RT_REC(D->rec, rt_mm_addr(D->L, D->tv.reg_tri, tri), 36, 0, RT_CLS_TRI);
-        D->tv.tests++;
-        if (D->mark) D->mark[tri] |= D->tv.mark_bit;
-        if (!rt_isect_tri(test, &D->sc->tri[tri], &t, &u, &v)) continue;
-        if (D->shadow) return 1;
-        if (*best_tri == RT_NO_HIT || t < *best_t || (t == *best_t && tri < *best_tri)) {
-            *best_t = t;
-            *best_tri = tri;
-        }
-    }
+    const uint32_t node = (uint32_t)(nd - D->kd->nodes);
+    if (D->shadow) return rt_kd_leaf(&D->tv, test, node, NULL, 1);
+    rt_hit h = {*best_t, *best_tri, 0.0f, 0.0f};
+    rt_kd_leaf(&D->tv, test, node, &h, 0);
+    *best_t = h.t;
+    *best_tri = h.tri;
     return 0;
 }
 
@@ -825,7 +817,8 @@ static void process_oversized(dyn *D, uint32_t q, const qent *es, uint32_t n)
                 float t, u, v;
                 D->tv.tests++;
                 D->img->tests[PIX(D, es[i].pix & ~CAND_FLAG)] += 1;
-                if (!rt_isect_tri(&test[i], &D->sc->tri[tri], &t, &u, &v)) continue;
+                if (!rt_isect_core(&test[i], &D->sc->tri[tri], &t, &u, &v) || !(t > test[i].tmin && t < test[i].tmax))
+                    continue;
                 if (D->shadow) occl[i] = 1;
                 else if (btri[i] == RT_NO_HIT || t < bt[i] || (t == bt[i] && tri < btri[i])) {
                     bt[i] = t;

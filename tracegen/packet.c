@@ -80,11 +80,46 @@ static void prune(const pstate *ps, plist *l)
     l->n = k;
 }
 
+/*
+ * The leaf's triangles against the active rays. The model is triangle by
+ * triangle: read triangle k (recorded, marked), test it against every ray
+ * still active, and in shadow mode drop the rays it occludes, stopping
+ * once none is left. The host runs it ray by ray instead (rt_kd_leaf_scan,
+ * four triangles per test on the tree's host copy) and then replays what
+ * the model observes, which does not depend on the order: a closest hit is
+ * the least (t, triangle) whatever the order; in shadow mode a ray is
+ * tested up to its first hit, so triangle k is read while some ray's first
+ * hit (or none) lies at or past k, and the surviving rays are the same.
+ */
 static void leaf(pstate *ps, const rt_kdnode *nd, plist *l)
 {
     uint32_t n = rt_kd_ntri(nd), first = rt_kd_first(nd);
     if (n == 0) return;
     RT_REC(ps->rec, rt_mm_addr(ps->L, ps->reg_idx, first), 4 * n, 0, RT_CLS_INDEX);
+    if (ps->kd->hnodes) {
+        if (l->n == 0) return;
+        const uint32_t node = (uint32_t)(nd - ps->kd->nodes);
+        uint32_t reads = ps->shadow ? 0 : n;
+        for (int j = 0; j < l->n; j++) {
+            const int i = l->idx[j];
+            uint32_t cnt;
+            if (ps->shadow) {
+                if (rt_kd_leaf_scan(ps->tv, &ps->ray[i], node, NULL, 1, &cnt)) ps->done[i] = 1;
+                if (cnt > reads) reads = cnt;
+            } else {
+                rt_kd_leaf_scan(ps->tv, &ps->ray[i], node, &ps->hit[i], 0, &cnt);
+            }
+            ps->tv->tests += cnt;
+            ps->ptests[i] += (float)cnt; /* exact: small integers */
+        }
+        for (uint32_t k = 0; k < reads; k++) {
+            const uint32_t tri = ps->kd->idx[first + k];
+            RT_REC(ps->rec, rt_mm_addr(ps->L, ps->reg_tri, tri), 36, 0, RT_CLS_TRI);
+            if (ps->tv->mark) ps->tv->mark[tri] |= ps->tv->mark_bit;
+        }
+        if (ps->shadow) prune(ps, l);
+        return;
+    }
     for (uint32_t k = 0; k < n && l->n > 0; k++) {
         uint32_t tri = ps->kd->idx[first + k];
         const rt_tri *T = &ps->sc->tri[tri];
@@ -92,10 +127,11 @@ static void leaf(pstate *ps, const rt_kdnode *nd, plist *l)
         if (ps->tv->mark) ps->tv->mark[tri] |= ps->tv->mark_bit;
         for (int j = 0; j < l->n; j++) {
             int i = l->idx[j];
+            const rt_ray *r = &ps->ray[i];
             float t, u, v;
             ps->tv->tests++;
             ps->ptests[i] += 1;
-            if (!rt_isect_tri(&ps->ray[i], T, &t, &u, &v)) continue;
+            if (!rt_isect_core(r, T, &t, &u, &v) || !(t > r->tmin && t < r->tmax)) continue;
             if (ps->shadow) {
                 ps->done[i] = 1;
             } else {
@@ -114,12 +150,22 @@ static void leaf(pstate *ps, const rt_kdnode *nd, plist *l)
 
 static void visit(pstate *ps, uint32_t node, plist *l, int depth)
 {
-    prune(ps, l);
+    /* prune() and the per-ray visit count in one pass over the rays */
+    int kept = 0;
+    for (int j = 0; j < l->n; j++) {
+        int i = l->idx[j];
+        if (ps->shadow ? ps->done[i] : (ps->hit[i].tri != RT_NO_HIT && rt_kd_past(ps->hit[i].t, l->t0[j]))) continue;
+        l->idx[kept] = l->idx[j];
+        l->t0[kept] = l->t0[j];
+        l->t1[kept] = l->t1[j];
+        kept++;
+        ps->pnodes[i] += 1;
+    }
+    l->n = kept;
     if (l->n == 0) return;
     const rt_kdnode *nd = &ps->kd->nodes[node];
     RT_REC(ps->rec, rt_mm_addr(ps->L, ps->reg_node, node), 8, 0, RT_CLS_NODE);
     ps->tv->nodes++;
-    for (int j = 0; j < l->n; j++) ps->pnodes[l->idx[j]] += 1;
     if (rt_kd_is_leaf(nd)) {
         leaf(ps, nd, l);
         return;
@@ -137,7 +183,9 @@ static void visit(pstate *ps, uint32_t node, plist *l, int depth)
     for (int j = 0; j < l->n; j++) {
         int i = l->idx[j];
         const rt_ray *r = &ps->ray[i];
-        float o = rt_axis(r->o, axis), d = rt_axis(r->d, axis), inv = rt_axis(r->inv_d, axis);
+        /* the axis-th component by index, not rt_axis's branches */
+        const float o = ((const float *)(const void *)&r->o)[axis], d = ((const float *)(const void *)&r->d)[axis];
+        const float inv = ((const float *)(const void *)&r->inv_d)[axis];
         float tp = (split - o) * inv;
         int below_first = o < split || (o == split && d <= 0);
         float t0 = l->t0[j], t1 = l->t1[j];
