@@ -200,7 +200,9 @@ static double replay_once(const char *path, int nthreads, rt_sim **out, uint64_t
     double t0 = rt_now();
     rt_sim *s = rt_sim_new(&c, e);
     rt_sim_input in;
-    if (!s || rt_sim_replay_threads(rt_sim_sink(s), path, RT_SIM_IN_AUTO, 0, nthreads, NULL, &in, e) < 0 ||
+    rt_repeats rp;
+    if (s) rt_sim_repeats(s, &rp); /* as `sim` does: used with two threads */
+    if (!s || rt_sim_replay_filtered(rt_sim_sink(s), &rp, path, RT_SIM_IN_AUTO, 0, nthreads, NULL, &in, e) < 0 ||
         rt_sim_finish(s) < 0) {
         rt_sim_free(s);
         return -1;

@@ -48,29 +48,33 @@ typedef struct pipe_ring {
  * ended on, counting them in rep; returns the records kept (compacted in
  * place, in order). The previous reference's end is its last line, or its
  * first when its end wraps past 2^64 (the simulators touch only that).
- * Branch-free (a third of the records are dropped, at random), with four
- * count rows in turn so that neighbours, which mostly share a (class,
- * generation), do not wait on each other's increment. */
+ * Branch-free (a third of the records are dropped, at random): the dropped
+ * ones' indices are collected first and counted after the loop. */
 static inline __attribute__((always_inline)) long drop_run(pipe_ring *q, rt_access *a, long n, uint64_t *rep,
                                                               const int sh)
 {
     const uint64_t ls = q->rp->line;
     uint64_t last = q->last;
     unsigned have = (unsigned)q->have_last;
-    uint32_t cnt[4][RT_SIM_NCG];
-    memset(cnt, 0, sizeof cnt);
-    long k = 0;
+    uint8_t dcg[PIPE_CHUNK]; /* the dropped ones' (class, generation) indices, in turn */
+    long k = 0, j = 0;
     for (long i = 0; i < n; i++) {
         const rt_access *r = &a[i];
         const uint64_t addr = r->addr, end = addr + (r->size ? r->size : 1) - 1;
         const uint64_t f = sh >= 0 ? addr >> sh : addr / ls, l = sh >= 0 ? end >> sh : end / ls;
         const unsigned drop = have & (r->write == 0) & (f == l) & (f == last);
-        cnt[i & 3][rt_sim_cg(r)] += drop;
+        dcg[j] = (uint8_t)rt_sim_cg(r);
+        j += drop;
         memcpy(&a[k], r, sizeof *r); /* k <= i: never ahead of the reads */
         k += 1 - (long)drop;
         last = l > f ? l : f; /* unchanged by a dropped one: f == l == last */
         have = 1;
     }
+    /* four count rows in turn, so that neighbours, which mostly share an
+     * index, do not wait on each other's increment */
+    uint32_t cnt[4][RT_SIM_NCG];
+    memset(cnt, 0, sizeof cnt);
+    for (long i = 0; i < j; i++) cnt[i & 3][dcg[i]]++;
     for (int cg = 0; cg < RT_SIM_NCG; cg++) rep[cg] = (uint64_t)cnt[0][cg] + cnt[1][cg] + cnt[2][cg] + cnt[3][cg];
     q->last = last;
     q->have_last = (int)have;
