@@ -1426,6 +1426,26 @@ static int dec_fail(rt_tr_reader *r, const char *what)
 
 void rt_tr_set_side_check(rt_tr_reader *r, int on) { r->no_side_check = !on; }
 
+/* Adds a[0..n) to the totals, on four rows in turn so that neighbours,
+ * which mostly share a class, do not wait on each other's increments. */
+static void tally(rt_tr_totals *t, const rt_access *a, size_t n)
+{
+    uint64_t refs[4][RT_NCLASS] = {{0}}, bytes[4][RT_NCLASS] = {{0}}, wr[4][RT_NCLASS] = {{0}};
+    for (size_t i = 0; i < n; i++) {
+        unsigned c = a[i].cls;
+        refs[i & 3][c]++;
+        bytes[i & 3][c] += a[i].size;
+        wr[i & 3][c] += a[i].write;
+    }
+    for (int c = 0; c < RT_NCLASS; c++)
+        for (int k = 0; k < 4; k++) {
+            t->refs[c] += refs[k][c];
+            t->bytes[c] += bytes[k][c];
+            t->writes[c] += wr[k][c];
+        }
+    t->nrefs += n;
+}
+
 long rt_tr_read(rt_tr_reader *r, rt_access *buf, size_t cap, rt_err *e)
 {
     if (r->state == RS_FAILED) return rt_errf(e, "%s", r->err.msg);
@@ -1461,20 +1481,24 @@ long rt_tr_read(rt_tr_reader *r, rt_access *buf, size_t cap, rt_err *e)
             if (r->state == RS_DONE) break;
             continue;
         }
+        /* a run of records in locals (the decoder state, the position,
+         * the totals), written back once */
         const unsigned char *p = r->raw + r->rpos, *end = r->raw + r->rlen;
-        rt_access *a = &buf[n];
-        int dr = dec_rec(&p, end, &r->cd, r->meta.generations, a);
+        const size_t m = r->rleft < cap - n ? r->rleft : cap - n;
+        const unsigned maxgen = r->meta.generations;
+        coder cd = r->cd;
+        size_t i = 0;
+        int dr = DEC_OK;
+        while (i < m && (dr = dec_rec(&p, end, &cd, maxgen, &buf[n + i])) == DEC_OK) i++;
+        tally(&r->got, buf + n, i);
+        r->cd = cd;
+        r->rpos = (size_t)(p - r->raw);
+        r->rleft -= (uint32_t)i;
+        n += i;
         if (dr != DEC_OK) {
             dec_fail(r, dec_msg[dr]);
             return rt_errf(e, "%s", r->err.msg);
         }
-        n++;
-        r->rpos = (size_t)(p - r->raw);
-        r->rleft--;
-        r->got.refs[a->cls]++;
-        r->got.bytes[a->cls] += a->size;
-        r->got.writes[a->cls] += a->write;
-        r->got.nrefs++;
     }
     if (r->vb && sb_put(r->vb, buf + fed, n - fed) < 0) {
         r_fail(r, r->off, "out of memory");
