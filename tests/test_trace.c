@@ -501,14 +501,26 @@ static size_t header_len(const unsigned char *b)
 
 /* Writes hdr (a whole file header) and one chunk of n records encoded as
  * raw[0..rlen), with valid lengths and CRC; no footer. */
+static void handmade_x(const char *path, const unsigned char *hdr, size_t hlen, const unsigned char *raw, size_t rlen,
+                       uint32_t n, long at, unsigned char x);
+
 static void handmade(const char *path, const unsigned char *hdr, size_t hlen, const unsigned char *raw, size_t rlen,
                      uint32_t n)
+{
+    handmade_x(path, hdr, hlen, raw, rlen, n, 0, 0);
+}
+
+/* The same with byte at of the zlib stream xor-ed with x before the CRC is
+ * computed (at < 0: counted from the stream's end). */
+static void handmade_x(const char *path, const unsigned char *hdr, size_t hlen, const unsigned char *raw, size_t rlen,
+                       uint32_t n, long at, unsigned char x)
 {
     uLong clen = compressBound((uLong)rlen);
     unsigned char *f = malloc(hlen + 24 + clen);
     memcpy(f, hdr, hlen);
     unsigned char *ck = f + hlen;
     compress2(ck + 24, &clen, raw, (uLong)rlen, 6);
+    ck[24 + (at < 0 ? (long)clen + at : at)] ^= x;
     memcpy(ck, "RTCK", 4);
     le32(ck + 4, 0);
     le32(ck + 8, n);
@@ -627,6 +639,31 @@ static void test_generations(void)
         else {
             char msg[RT_ERR_LEN];
             CHECK(rejected(hm, msg, sizeof msg) && strstr(msg, cases[i].msg), "hand-made case %zu: %s", i, msg);
+        }
+    }
+    /* the zlib wrapper of a chunk with a valid CRC: its header is checked
+     * (method, window, preset dictionary, check bits); its Adler-32 is
+     * covered by the chunk CRC alone and not recomputed */
+    {
+        const unsigned char one[4] = {0x80 | RT_CLS_NODE, 2, 0x10, 0x08};
+        struct {
+            long at;
+            unsigned char x;
+            const char *msg; /* NULL: read */
+        } zc[] = {{0, 0x01, "incorrect header check"},  /* method 9 */
+                  {0, 0x80, "incorrect header check"},  /* window 2^16 */
+                  {1, 0x20, "incorrect header check"},  /* preset dictionary */
+                  {1, 0x01, "incorrect header check"},  /* check bits */
+                  {2, 0xff, "does not inflate to 4 bytes"},
+                  {-1, 0x5a, NULL}};                    /* Adler-32 */
+        for (size_t i = 0; i < sizeof zc / sizeof zc[0]; i++) {
+            handmade_x(hm, hv2, h2, one, 4, 1, zc[i].at, zc[i].x);
+            char msg[RT_ERR_LEN] = "";
+            if (zc[i].msg)
+                CHECK(rejected(hm, msg, sizeof msg) && strstr(msg, zc[i].msg), "zlib case %zu: %s", i, msg);
+            else
+                CHECK(first_record(hm, &got, &e) == 1 && got.gen == 2 && got.addr == 8, "zlib case %zu: %s", i,
+                      e.msg);
         }
     }
     free(b1);
