@@ -560,6 +560,31 @@ int rt_kd_occluded_sub(rt_trav *tv, const rt_ray *r, uint32_t node, float t0, fl
     return traverse(tv, r, node, t0, t1, NULL, 1);
 }
 
+/* The leaf functions' hit rule: t (u, v) of triangle tri replaces *h when
+ * *h holds no hit, or t is closer, or equal with a lower index. 1 then. */
+static inline int take_hit(rt_hit *h, float t, float u, float v, uint32_t tri)
+{
+    if (!(h->tri == RT_NO_HIT || t < h->t || (t == h->t && tri < h->tri))) return 0;
+    h->t = t;
+    h->tri = tri;
+    h->u = u;
+    h->v = v;
+    return 1;
+}
+
+#if defined(__SSE2__)
+/* A quad walk's best hit b into *h (b started from *h): 1 when it changed. */
+static inline int take_best(rt_hit *h, const best_hit *b)
+{
+    if (!(b->found && (h->tri == RT_NO_HIT || b->tri != h->tri || b->t != h->t))) return 0;
+    h->t = b->t;
+    h->tri = b->tri;
+    h->u = b->u;
+    h->v = b->v;
+    return 1;
+}
+#endif
+
 int rt_kd_leaf(rt_trav *tv, const rt_ray *r, uint32_t node, rt_hit *h, int any)
 {
     const rt_kdnode *nd = &tv->kd->nodes[node];
@@ -583,15 +608,7 @@ int rt_kd_leaf(rt_trav *tv, const rt_ray *r, uint32_t node, rt_hit *h, int any)
             rc = any ? leaf_test(&c, q, n, NULL, &ntest, 1, 0, 1) : leaf_test(&c, q, n, &b, &ntest, 0, 0, 1);
         }
         tv->tests += ntest;
-        if (any) return rc;
-        const int changed = b.found && (b.tri != h->tri || !(b.t == h->t) || h->tri == RT_NO_HIT);
-        if (changed) {
-            h->t = b.t;
-            h->tri = b.tri;
-            h->u = b.u;
-            h->v = b.v;
-        }
-        return changed;
+        return any ? rc : take_best(h, &b);
     }
 #endif
     int changed = 0;
@@ -603,13 +620,7 @@ int rt_kd_leaf(rt_trav *tv, const rt_ray *r, uint32_t node, rt_hit *h, int any)
         float t, u, v;
         if (!rt_isect_core(r, &tv->sc->tri[tri], &t, &u, &v) || !(t > r->tmin && t < r->tmax)) continue;
         if (any) return 1;
-        if (h->tri == RT_NO_HIT || t < h->t || (t == h->t && tri < h->tri)) {
-            h->t = t;
-            h->tri = tri;
-            h->u = u;
-            h->v = v;
-            changed = 1;
-        }
+        changed |= take_hit(h, t, u, v, tri);
     }
     return changed;
 }
@@ -636,14 +647,7 @@ int rt_kd_leaf_scan(const rt_trav *tv, const rt_ray *r, uint32_t node, rt_hit *h
         best_hit b = {h->t, h->u, h->v, h->tri, h->tri != RT_NO_HIT};
         leaf_test(&c, q, n, &b, &ntest, 0, 0, 1);
         *ntested = (uint32_t)ntest;
-        const int changed = b.found && (h->tri == RT_NO_HIT || b.tri != h->tri || b.t != h->t);
-        if (changed) {
-            h->t = b.t;
-            h->tri = b.tri;
-            h->u = b.u;
-            h->v = b.v;
-        }
-        return changed;
+        return take_best(h, &b);
     }
 #endif
     int changed = 0;
@@ -653,13 +657,7 @@ int rt_kd_leaf_scan(const rt_trav *tv, const rt_ray *r, uint32_t node, rt_hit *h
         *ntested = k + 1;
         if (!rt_isect_core(r, &tv->sc->tri[tri], &t, &u, &v) || !(t > r->tmin && t < r->tmax)) continue;
         if (any) return 1;
-        if (h->tri == RT_NO_HIT || t < h->t || (t == h->t && tri < h->tri)) {
-            h->t = t;
-            h->tri = tri;
-            h->u = u;
-            h->v = v;
-            changed = 1;
-        }
+        changed |= take_hit(h, t, u, v, tri);
     }
     return changed;
 }
