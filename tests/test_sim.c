@@ -983,23 +983,33 @@ static void threads_compare(const char *name, const char *path, int want_ok)
     free(m);
 }
 
-static void test_replay_threads(void)
+/* Writes a[0..n) as a trace with generations up to 9 (version 2); 0, or
+ * -1 after a failed CHECK. */
+static int write_test_trace(const char *p, const rt_access *a, size_t n)
 {
-    enum { N = 300000 }; /* several trace chunks, many more ring slots */
-    rt_access *a = malloc(N * sizeof *a);
-    gen(a, N, GEN_ZIPF, 20000);
     rt_tr_meta m;
     memset(&m, 0, sizeof m);
     snprintf(m.tracer, sizeof m.tracer, "test");
     rt_mm_init(&m.layout);
     m.generations = 9;
     rt_err e = {{0}};
-    const char *p = check_path("thr.rtt");
     rt_tr_writer *w = rt_tr_create(p, &m, &e);
-    CHECK(w, "threads: %s", e.msg);
-    if (!w) return;
+    CHECK(w, "%s: %s", p, e.msg);
+    if (!w) return -1;
     rt_sink *sk = rt_tr_sink(w);
-    CHECK(sk->put(sk, a, N) == 0 && rt_tr_finish(w, &e) == 0, "threads: write: %s", e.msg);
+    int ok = sk->put(sk, a, n) == 0 && rt_tr_finish(w, &e) == 0;
+    CHECK(ok, "%s: write: %s", p, e.msg);
+    return ok ? 0 : -1;
+}
+
+static void test_replay_threads(void)
+{
+    enum { N = 300000 }; /* several trace chunks, many more ring slots */
+    rt_access *a = malloc(N * sizeof *a);
+    gen(a, N, GEN_ZIPF, 20000);
+    rt_err e = {{0}};
+    const char *p = check_path("thr.rtt");
+    if (write_test_trace(p, a, N) < 0) return;
     threads_compare("rtt", p, 1);
     /* the two-thread replay equals the stream simulated in-process */
     {
@@ -1093,18 +1103,9 @@ static void test_repeat_filter(void)
         a[i].size = 1 + (uint32_t)((r >> 16) % 4);
         a[i].write = (r >> 24) % 8 == 0;
     }
-    rt_tr_meta m;
-    memset(&m, 0, sizeof m);
-    snprintf(m.tracer, sizeof m.tracer, "test");
-    rt_mm_init(&m.layout);
-    m.generations = 9;
     rt_err e = {{0}};
     const char *p = check_path("rep.rtt");
-    rt_tr_writer *w = rt_tr_create(p, &m, &e);
-    CHECK(w, "repeats: %s", e.msg);
-    if (!w) return;
-    rt_sink *sk = rt_tr_sink(w);
-    CHECK(sk->put(sk, a, N) == 0 && rt_tr_finish(w, &e) == 0, "repeats: write: %s", e.msg);
+    if (write_test_trace(p, a, N) < 0) return;
     for (int v = 0; v < 5; v++) {
         rt_sim_config c;
         rt_sim_config_default(&c);
