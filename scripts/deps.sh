@@ -4,7 +4,8 @@
 # job list on GNU parallel and a private Slurm; long tier only), which the
 # build never needs: parallel, slurm-wlm, munge.
 set -euo pipefail
-pkgs="build-essential autoconf automake pkg-config libsqlite3-dev zlib1g-dev libopenexr-dev sqlite3 gnuplot-nox"
+# procps: pgrep in the tests; clang and libclang-rt-14-dev: the fuzz harnesses (check-long)
+pkgs="build-essential autoconf automake pkg-config libsqlite3-dev zlib1g-dev libopenexr-dev sqlite3 gnuplot-nox procps clang libclang-rt-14-dev"
 if [ "${1:-}" = --engines ]; then pkgs="parallel slurm-wlm munge"; fi
 missing=""
 for p in $pkgs; do
