@@ -128,6 +128,10 @@ struct option *rt_cmd_merge_opts(const struct option *own);
 /* Handles one shared option. Returns 1 if handled, 0 if c is not a shared
  * option, -1 on a bad value (message printed for cmd). */
 int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o, const char **tracer);
+/* Refuses, as a usage error printed for cmd, the options given in o that
+ * the tracer does not read, a structure it cannot run on, and values it
+ * cannot run (subsampling that traces nothing, partial packets). 0 or -1. */
+int rt_cmd_check_tracer_opts(const char *cmd, const char *tracer, const rt_render_opts *o);
 
 /* --material NAME for render and trace: checks NAME against the scene
  * library's presets and returns SPEC with ":material=NAME" (or

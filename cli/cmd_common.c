@@ -67,7 +67,7 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
     switch (c) {
     case 't':
         if (!rt_tracer_find(arg)) {
-            rt_cmd_error(cmd, "unknown tracer '%s' (recursive, packet, dynamic, stream-branching, stream-multipass, feedback)", arg);
+            rt_cmd_error(cmd, "unknown tracer '%s' (%s)", arg, rt_tracer_names());
             return -1;
         }
         if (o->mode != RT_MODE_DEFAULT && !(rt_tracer_find(arg)->modes & (1u << o->mode))) {
@@ -78,7 +78,7 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         return 1;
     case RT_OPT_MODE: {
         int m = rt_render_mode_from_name(arg);
-        const rt_tracer *tr = rt_tracer_find(*tracer ? *tracer : "recursive");
+        const rt_tracer *tr = *tracer ? rt_tracer_find(*tracer) : rt_tracer_reference();
         if (m < 0) {
             rt_cmd_error(cmd, "--mode: '%s' is not raycast, shadow, whitted or path", arg);
             return -1;
@@ -98,15 +98,17 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         o->depth = (int)v;
         return 1;
     case RT_OPT_ACCEL: {
-        int a = rt_render_accel_from_name(arg);
+        int a = rt_accel_from_name(arg);
         if (a < 0) {
-            rt_cmd_error(cmd, "--accel: '%s' is not grid or naive", arg);
+            rt_cmd_error(cmd, "--accel: unknown structure '%s' (%s)", arg, rt_accel_names());
             return -1;
         }
         o->accel = a;
+        o->given |= 1u << RT_RO_ACCEL;
         return 1;
     }
     case RT_OPT_VB_SIZE:
+        o->given |= 1u << RT_RO_VB_SIZE;
         if (rt_parse_size(arg, &u) < 0 || u < RT_FB_REC_SIZE) {
             rt_cmd_error(cmd, "--vb-size: '%s' is not a size like 512M (>= 64)", arg);
             return -1;
@@ -128,6 +130,7 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         o->bounces = (int)v;
         return 1;
     case RT_OPT_GRID_MIN:
+        o->given |= 1u << RT_RO_GRID_MIN;
         if (rt_cmd_parse_long(arg, 1, RT_GRID_MAX_CELLS, &v) < 0) {
             rt_cmd_error(cmd, "--grid-min: '%s' is not in 1..%u (the grid holds at most %u cells)", arg,
                          (unsigned)RT_GRID_MAX_CELLS, (unsigned)RT_GRID_MAX_CELLS);
@@ -136,6 +139,7 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         o->grid_min = (uint32_t)v;
         return 1;
     case RT_OPT_ORACLE:
+        o->given |= 1u << RT_RO_ORACLE;
         if (!strcmp(arg, "naive")) o->oracle = RT_ORACLE_NAIVE;
         else if (!strcmp(arg, "threshold")) o->oracle = RT_ORACLE_THRESHOLD;
         else {
@@ -144,6 +148,7 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         }
         return 1;
     case RT_OPT_ORACLE_FRACTION: {
+        o->given |= 1u << RT_RO_ORACLE_FRACTION;
         char *end;
         double f = strtod(arg, &end);
         if (end == arg || *end || !(f > 0) || f > 1) {
@@ -154,6 +159,7 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         return 1;
     }
     case RT_OPT_UNROLL: {
+        o->given |= 1u << RT_RO_UNROLL;
         char buf[64], *comma;
         long t, i;
         snprintf(buf, sizeof buf, "%s", arg);
@@ -167,6 +173,7 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         return 1;
     }
     case RT_OPT_UNROLL_SUPPRESS:
+        o->given |= 1u << RT_RO_UNROLL_SUPPRESS;
         o->unroll_suppress = 1;
         return 1;
     case 'W':
@@ -184,6 +191,7 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         }
         return 1;
     case RT_OPT_CACHE_SIZE:
+        o->given |= 1u << RT_RO_CACHE_SIZE;
         if (rt_parse_size(arg, &u) < 0 || u < 64) {
             rt_cmd_error(cmd, "--cache-size: '%s' is not a size like 64K (>= 64)", arg);
             return -1;
@@ -191,6 +199,7 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         o->sched_size = u;
         return 1;
     case RT_OPT_GMAX:
+        o->given |= 1u << RT_RO_GMAX;
         if (rt_parse_size(arg, &u) < 0 || u == 0) {
             rt_cmd_error(cmd, "--gmax: '%s' is not a positive byte count", arg);
             return -1;
@@ -198,6 +207,7 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         o->gmax = u;
         return 1;
     case RT_OPT_PACKET:
+        o->given |= 1u << RT_RO_PACKET;
         if (rt_cmd_parse_long(arg, 1, 256, &v) < 0) {
             rt_cmd_error(cmd, "--packet: '%s' is not in 1..256", arg);
             return -1;
@@ -205,6 +215,7 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         o->packet = (int)v;
         return 1;
     case RT_OPT_QORDER:
+        o->given |= 1u << RT_RO_QORDER;
         if (!strcmp(arg, "fullest")) o->qorder = RT_QORDER_FULLEST;
         else if (!strcmp(arg, "tree")) o->qorder = RT_QORDER_TREE;
         else {
@@ -213,6 +224,7 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         }
         return 1;
     case RT_OPT_THREADS:
+        o->given |= 1u << RT_RO_THREADS;
         if (rt_cmd_parse_long(arg, 1, 1024, &v) < 0) {
             rt_cmd_error(cmd, "--threads: '%s' is not in 1..1024", arg);
             return -1;
@@ -246,6 +258,7 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         o->geom = (int)v;
         return 1;
     case RT_OPT_QUEUE_STORES:
+        o->given |= 1u << RT_RO_QUEUE_STORES;
         if ((v = rt_render_qstores_from_name(arg)) < 0) {
             rt_cmd_error(cmd, "--queue-stores: '%s' is not write-allocate or stream", arg);
             return -1;
@@ -255,6 +268,21 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
     default:
         return 0;
     }
+}
+
+int rt_cmd_check_tracer_opts(const char *cmd, const char *tracer, const rt_render_opts *o)
+{
+    rt_err e = {""};
+    const rt_tracer *tr = tracer ? rt_tracer_find(tracer) : rt_tracer_reference();
+    if (!tr) {
+        rt_cmd_error(cmd, "unknown tracer '%s' (%s)", tracer, rt_tracer_names());
+        return -1;
+    }
+    if (rt_tracer_check_given(tr, o, &e) < 0 || rt_tracer_check_opts(tr, o, &e) < 0) {
+        rt_cmd_error(cmd, "%s", e.msg);
+        return -1;
+    }
+    return 0;
 }
 
 int rt_cmd_parse_rate(const char *s, double *out)

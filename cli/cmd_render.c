@@ -57,11 +57,12 @@ void rt_print_run_stats(FILE *f, const rt_job *j, const rt_run_stats *st, int js
                 ", \"tracer\": \"%s\", \"width\": %d, \"height\": %d, \"lights\": %u, "
                 "\"triangles\": %" PRIu32 ", \"rays_primary\": %" PRIu64 ", \"rays_shadow\": %" PRIu64
                 ", \"nodes\": %" PRIu64 ", \"tests\": %" PRIu64 ", \"nodes_per_ray\": %.3f, \"tests_per_ray\": %.3f"
-                ", \"pv_primary\": %" PRIu64 ", \"pv_all\": %" PRIu64 ", \"kd_build_seconds\": %.3f"
+                ", \"pv_primary\": %" PRIu64 ", \"pv_all\": %" PRIu64 ", \"%s_build_seconds\": %.3f"
                 ", \"render_seconds\": %.3f, \"mrays_per_second\": %.3f",
                 j->tr->name, j->opt.W, j->opt.H, j->opt.lights, j->sc->ntri, st->rays_primary, st->rays_shadow,
                 st->nodes, st->tests, (double)st->nodes * per, (double)st->tests * per, st->pv_primary, st->pv_all,
-                j->kd_sec, st->seconds, st->seconds > 0 ? (double)rays / st->seconds * 1e-6 : 0.0);
+                rt_accel_name(j->acc.kind), j->acc.build_sec, st->seconds,
+                st->seconds > 0 ? (double)rays / st->seconds * 1e-6 : 0.0);
         if (st->extra[0]) {
             fputs(", \"extra\": ", f);
             rt_cmd_json_str(f, st->extra);
@@ -75,7 +76,8 @@ void rt_print_run_stats(FILE *f, const rt_job *j, const rt_run_stats *st, int js
             st->rays_primary, st->rays_shadow, (double)st->nodes * per, (double)st->tests * per);
     fprintf(f, "potentially visible triangles: %" PRIu64 " primary, %" PRIu64 " primary+shadow\n", st->pv_primary,
             st->pv_all);
-    fprintf(f, "k-d build %.2f s, render %.2f s (%.2f Mrays/s)\n", j->kd_sec, st->seconds,
+    fprintf(f, "%s build %.2f s, render %.2f s (%.2f Mrays/s)\n", j->acc.kind == RT_ACCEL_KD ? "k-d" : rt_accel_name(j->acc.kind),
+            j->acc.build_sec, st->seconds,
             st->seconds > 0 ? (double)rays / st->seconds * 1e-6 : 0.0);
     if (st->extra[0]) fprintf(f, "%s\n", st->extra);
 }
@@ -129,12 +131,9 @@ int main_render(int argc, char **argv)
     rt_job j;
     rt_image *img = NULL;
     rt_run_stats st;
-    /* subsampling that would trace nothing is a usage error, found
-     * before the scene is loaded */
-    if (rt_pixel_check(&o, tracer, &e) < 0) {
-        rt_cmd_error("render", "%s", e.msg);
-        return RT_EXIT_USAGE;
-    }
+    /* options the tracer does not read, and subsampling that would trace
+     * nothing, are usage errors, found before the scene is loaded */
+    if (rt_cmd_check_tracer_opts("render", tracer, &o) < 0) return RT_EXIT_USAGE;
     char specbuf[4200];
     const char *spec = rt_cmd_scene_material("render", argv[optind], material, specbuf, sizeof specbuf);
     if (!spec) return RT_EXIT_USAGE;

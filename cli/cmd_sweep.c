@@ -71,8 +71,6 @@ typedef struct sweep_opts {
     int W, H;         /* -W/-H, 0 = from the preset */
     char *lists[6];   /* own copies of --scenes, --tracers, --lights, --approx, --proxy, --modes */
     const char *sizes_arg;
-    const char *dyn_opt;    /* a dynamic-only option given (its name), or NULL */
-    int packet_given;       /* --packet given */
     const char *mode_opt[2]; /* --depth (whitted only), --spp/--bounces (path only) given: the option's name */
     int geom_given, qs_given; /* --layout / --queue-stores given (they override the model) */
     int flush, fullline;      /* --flush / --write-fullline: -1 = the model's, else 0/1 */
@@ -576,14 +574,11 @@ static int parse_opt(sweep_opts *o, int c, const char *arg)
         if (c == 'W') o->W = tmp.W; else o->H = tmp.H;
         return 0;
     }
-    if (c == RT_OPT_QORDER) o->dyn_opt = "--qorder";
-    if (c == RT_OPT_THREADS) o->dyn_opt = "--threads";
-    if (c == RT_OPT_PACKET) o->packet_given = 1;
     if (c == RT_OPT_DEPTH) o->mode_opt[0] = "--depth";
     if (c == RT_OPT_SPP) o->mode_opt[1] = "--spp";
     if (c == RT_OPT_BOUNCES) o->mode_opt[1] = "--bounces";
     if (c == RT_OPT_LAYOUT) o->geom_given = 1;
-    if (c == RT_OPT_QUEUE_STORES) o->qs_given = 1, o->dyn_opt = "--queue-stores";
+    if (c == RT_OPT_QUEUE_STORES) o->qs_given = 1;
     int r = rt_cmd_render_opt("sweep", c, arg, &o->x.ro, &dummy);
     if (r != 0) return r < 0 ? -1 : 0;
     switch (c) {
@@ -673,19 +668,20 @@ static int finish_opts(sweep_opts *o)
             rt_cmd_error("sweep", "--tracers: unknown tracer '%s'", x->tracers[t]);
             return -1;
         }
-    /* options of one tracer are an error when that tracer is not swept */
-    int has_dyn = 0, has_packet = 0, has_all = 0;
+    /* options of one tracer are an error when no tracer swept reads them */
+    const rt_tracer *trs[MAX_LIST];
+    int has_sched = 0, has_all = 0;
     for (int t = 0; t < x->ntracers; t++) {
-        has_dyn |= !strcmp(x->tracers[t], "dynamic");
-        has_packet |= !strcmp(x->tracers[t], "packet");
-        has_all |= strcmp(x->tracers[t], "dynamic") != 0;
+        trs[t] = rt_tracer_find(x->tracers[t]);
+        has_sched |= rt_tracer_is(trs[t], RT_TR_SCHEDULED);
+        has_all |= !rt_tracer_is(trs[t], RT_TR_SCHEDULED);
     }
-    const char *unused = !has_dyn && o->dyn_opt ? o->dyn_opt
-                         : !has_dyn && x->dyn_all ? "--dynamic-all-sizes"
-                         : !has_packet && o->packet_given ? "--packet" : NULL;
-    if (unused) {
-        rt_cmd_error("sweep", "%s does not apply: --tracers has no %s tracer", unused,
-                     strcmp(unused, "--packet") ? "dynamic" : "packet");
+    if (rt_tracer_check_given_any(trs, x->ntracers, &x->ro, &e) < 0) {
+        rt_cmd_error("sweep", "%s", e.msg);
+        return -1;
+    }
+    if (!has_sched && x->dyn_all) {
+        rt_cmd_error("sweep", "--dynamic-all-sizes does not apply: --tracers has no scheduled tracer");
         return -1;
     }
     /* the model's defaults, then the options given explicitly */
@@ -701,8 +697,8 @@ static int finish_opts(sweep_opts *o)
         return -1;
     }
     if (x->napprox && !has_all && !x->dyn_all) {
-        rt_cmd_error("sweep", "--approx does not apply: it runs on jobs simulated at every size (recursive, packet, "
-                              "or dynamic with --dynamic-all-sizes)");
+        rt_cmd_error("sweep", "--approx does not apply: it runs on jobs simulated at every size (unscheduled "
+                              "tracers, or scheduled ones with --dynamic-all-sizes)");
         return -1;
     }
     for (int p = 0; p < x->nproxies; p++)
@@ -710,7 +706,8 @@ static int finish_opts(sweep_opts *o)
             rt_render_opts ro = x->ro;
             ro.subsample = x->proxies[p].subsample;
             ro.subtile = x->proxies[p].subtile;
-            if (rt_check_subsample(&ro, x->tracers[t], &e) < 0) {
+            if (!(trs[t]->accels & RT_ACCEL_BIT(rt_tracer_accel(trs[t], &ro)))) ro.accel = RT_ACCEL_DEFAULT;
+            if (rt_tracer_check_opts(trs[t], &ro, &e) < 0) {
                 rt_cmd_error("sweep", "--proxy: %s", e.msg);
                 return -1;
             }

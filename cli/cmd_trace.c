@@ -112,12 +112,9 @@ int main_trace(int argc, char **argv)
     rt_run_stats st;
     rt_tr_meta *m = NULL;
     int rc = RT_EXIT_FAIL;
-    /* subsampling that would trace nothing is a usage error, found
-     * before the scene is loaded */
-    if (rt_pixel_check(&o, tracer, &e) < 0) {
-        rt_cmd_error("trace", "%s", e.msg);
-        return RT_EXIT_USAGE;
-    }
+    /* options the tracer does not read, and subsampling that would trace
+     * nothing, are usage errors, found before the scene is loaded */
+    if (rt_cmd_check_tracer_opts("trace", tracer, &o) < 0) return RT_EXIT_USAGE;
     char specbuf[4200];
     const char *spec = rt_cmd_scene_material("trace", argv[optind], material, specbuf, sizeof specbuf);
     if (!spec) return RT_EXIT_USAGE;

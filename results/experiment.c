@@ -80,7 +80,7 @@ long rt_exp_matrix(const rt_exp_config *c, rt_exp_job **out, rt_err *e)
                 for (int t = 0; t < c->ntracers; t++) {
                     const rt_tracer *tr = rt_tracer_find(c->tracers[t]);
                     if (mode != RT_MODE_DEFAULT && tr && !(tr->modes & (1u << mode))) continue;
-                    if (!strcmp(c->tracers[t], "dynamic")) {
+                    if (rt_tracer_is(tr, RT_TR_SCHEDULED)) {
                         for (int k = 0; k < c->sim.nsizes; k++)
                             J[n++] = (rt_exp_job){s, l, c->tracers[t], c->sim.sizes[k], -1, mode};
                     } else {
@@ -106,6 +106,10 @@ rt_render_opts rt_exp_job_opts(const rt_exp_config *c, const rt_exp_job *jb)
     /* a raycast job is the run without lights: the default mode keeps its key */
     ro.mode = jb->mode == RT_MODE_RAYCAST ? RT_MODE_DEFAULT : jb->mode;
     ro.sched_size = jb->sched ? jb->sched : ro.sched_size;
+    /* a structure the tracer cannot run on (a sweep of several tracers):
+     * its own default */
+    const rt_tracer *tr = rt_tracer_find(jb->tracer);
+    if (tr && !(tr->accels & RT_ACCEL_BIT(rt_tracer_accel(tr, &ro)))) ro.accel = RT_ACCEL_DEFAULT;
     if (jb->proxy >= 0) {
         const rt_exp_proxy *p = &c->proxies[jb->proxy];
         if (p->W) {
@@ -189,7 +193,7 @@ void rt_exp_job_key(const rt_exp_config *c, const rt_exp_job *jb, const rt_scene
                     rt_exp_key *k)
 {
     rt_render_opts ro = rt_exp_job_opts(c, jb);
-    int dynamic = !strcmp(jb->tracer, "dynamic");
+    int dynamic = rt_tracer_is(rt_tracer_find(jb->tracer), RT_TR_SCHEDULED);
     memset(k, 0, sizeof *k);
     rt_db_run *r = &k->run;
     r->scene = sc->name;
@@ -371,7 +375,7 @@ static int open_trace(rt_exp_worker *w, jobrun *r, const rt_exp_job *jb, long in
  * associative rows. Other tracers get none (r->tex stays NULL). */
 static int add_texture_cache(const rt_exp_config *c, jobrun *r, const rt_exp_job *jb, rt_err *e)
 {
-    if (strncmp(jb->tracer, "stream-", 7) && strcmp(jb->tracer, "feedback")) return 0;
+    if (!rt_tracer_is(rt_tracer_find(jb->tracer), RT_TR_TEXCACHE)) return 0;
     rt_sim_config tc = c->sim;
     tc.nsizes = 1;
     tc.sizes[0] = RT_EXP_TEXCACHE_SIZE;
@@ -486,7 +490,11 @@ int rt_exp_run_job(rt_exp_worker *w, const rt_exp_job *jb, long index, rt_err *e
     int has = job_stored(w, jb, &key, e);
     w->t.database += rt_now() - td;
     if (has != 0) return has < 0 ? -1 : 0;
-    if (!w->kd) {
+    /* the worker keeps one k-d tree per scene for the tracers that run on
+     * it; a job on another structure builds its own (run.h) */
+    const rt_tracer *tr = rt_tracer_find(jb->tracer);
+    rt_render_opts jro = rt_exp_job_opts(w->c, jb);
+    if (!w->kd && tr && rt_tracer_accel(tr, &jro) == RT_ACCEL_KD) {
         rt_kd_params kp;
         rt_kd_default_params(&kp);
         double tk = rt_now();

@@ -1525,10 +1525,21 @@ done:
     return rc;
 }
 
+static void dyn_params(const rt_render_opts *o, char *buf, size_t n)
+{
+    snprintf(buf, n, "qorder=%s threads=%d", o->qorder == RT_QORDER_TREE ? "tree" : "fullest", o->threads);
+}
+
 const rt_tracer rt_tracer_dynamic = {
     .name = "dynamic",
     .desc = "dynamically scheduled rays queued at cache-sized subtrees (Navratil et al. 2007)",
     .modes = RT_TRACER_ALL_MODES,
+    .accels = RT_ACCEL_BIT(RT_ACCEL_KD),
+    .accel_default = RT_ACCEL_KD,
+    .opts = RT_OPTG_SCHED | RT_OPTG_QUEUES,
+    .traits = RT_TR_SCHEDULED | RT_TR_QUEUES,
+    .figures = RT_FIG_NAVRATIL | RT_FIG_FEEDBACK,
+    .params = dyn_params,
     .layout = dyn_layout,
     .run = dyn_run,
     .plan = dyn_plan,

@@ -195,7 +195,7 @@ enum { COMP_EQ1 = 0, COMP_LIGHTS = 1, COMP_GENS = 2 };
 static const char *const comp_names[] = {"eq1", "mrt-lights", "mrt-generations"};
 
 typedef struct fb_plan {
-    rt_grid *grid;   /* NULL with --accel naive */
+    const rt_grid *grid; /* the job's grid; NULL with --accel naive */
     rt_bounds box;   /* scene bounds, enlarged: the vertex stage's box test */
     rt_fb_sizes z;   /* buffer sizes */
     uint64_t cap;    /* records per buffer = W H (G + G') */
@@ -208,7 +208,6 @@ static void fb_plan_free(void *p)
 {
     fb_plan *pl = p;
     if (!pl) return;
-    rt_grid_free(pl->grid);
     free(pl);
 }
 
@@ -243,7 +242,7 @@ static int fb_plan_make(const rt_tracer_ctx *ctx, void **out, rt_err *e)
                                                   fmaxf(fabsf(b.lo.z), fabsf(b.hi.z)))) + 1e-30f;
     pl->box.lo = rt_sub(b.lo, rt_v3(pad, pad, pad));
     pl->box.hi = rt_add(b.hi, rt_v3(pad, pad, pad));
-    if (o->accel == RT_ACCEL_GRID && !(pl->grid = rt_grid_build(sc, o->grid_min ? o->grid_min : 64, e))) goto fail;
+    if (ctx->acc->kind == RT_ACCEL_GRID) pl->grid = ctx->acc->as;
     *out = pl;
     return 0;
 fail:
@@ -930,10 +929,26 @@ done:
     return rc;
 }
 
+/* The options that differ from the defaults ("grid_min=N vb-size=B"; the
+ * job puts "accel=naive" before them), so a default run's key is empty. */
+static void fb_params(const rt_render_opts *o, char *buf, size_t n)
+{
+    size_t l = 0;
+    buf[0] = 0;
+    if (o->grid_min && o->grid_min != 64) l += (size_t)snprintf(buf, n, "grid_min=%u", (unsigned)o->grid_min);
+    if (o->vb_size && l < n) snprintf(buf + l, n - l, "%svb-size=%" PRIu64, l ? " " : "", o->vb_size);
+}
+
 const rt_tracer rt_tracer_feedback = {
     .name = "feedback",
     .desc = "rays as points in ping-pong vertex buffers, one generation per pass, blend compositing",
     .modes = (1u << RT_MODE_RAYCAST) | (1u << RT_MODE_SHADOW) | (1u << RT_MODE_WHITTED),
+    .accels = RT_ACCEL_BIT(RT_ACCEL_GRID) | RT_ACCEL_BIT(RT_ACCEL_NAIVE),
+    .accel_default = RT_ACCEL_GRID,
+    .opts = RT_OPTG_GRID | RT_OPTG_VB,
+    .traits = RT_TR_TEXCACHE,
+    .figures = RT_FIG_FEEDBACK,
+    .params = fb_params,
     .layout = fb_layout,
     .run = fb_run_tracer,
     .plan = fb_plan_make,

@@ -25,7 +25,7 @@ void rt_render_default_opts(rt_render_opts *o)
     o->geom = RT_GEOM_COMPACT;
     o->qstores = RT_QSTORES_WRITE_ALLOCATE;
     o->queue_stats = 0;
-    o->accel = RT_ACCEL_GRID;
+    o->accel = RT_ACCEL_DEFAULT;
     o->vb_size = 0;
     o->grid_min = 0;
     o->oracle = RT_ORACLE_THRESHOLD;
@@ -59,17 +59,27 @@ int rt_render_qstores_from_name(const char *name)
     return -1;
 }
 
-const char *rt_render_accel_name(int accel)
-{
-    return accel == RT_ACCEL_GRID ? "grid" : accel == RT_ACCEL_NAIVE ? "naive" : NULL;
-}
+static const struct {
+    const char *name;
+    unsigned group;
+} opt_info[RT_RO_COUNT] = {
+    [RT_RO_PACKET] = {"--packet", RT_OPTG_PACKET},
+    [RT_RO_CACHE_SIZE] = {"--cache-size", RT_OPTG_SCHED},
+    [RT_RO_GMAX] = {"--gmax", RT_OPTG_SCHED},
+    [RT_RO_QORDER] = {"--qorder", RT_OPTG_SCHED},
+    [RT_RO_THREADS] = {"--threads", RT_OPTG_SCHED},
+    [RT_RO_QUEUE_STORES] = {"--queue-stores", RT_OPTG_QUEUES},
+    [RT_RO_GRID_MIN] = {"--grid-min", RT_OPTG_GRID},
+    [RT_RO_VB_SIZE] = {"--vb-size", RT_OPTG_VB},
+    [RT_RO_ORACLE] = {"--oracle", RT_OPTG_ORACLE},
+    [RT_RO_ORACLE_FRACTION] = {"--oracle-fraction", RT_OPTG_ORACLE},
+    [RT_RO_UNROLL] = {"--unroll", RT_OPTG_ORACLE},
+    [RT_RO_UNROLL_SUPPRESS] = {"--unroll-suppress", RT_OPTG_ORACLE},
+    [RT_RO_ACCEL] = {"--accel", 0},
+};
 
-int rt_render_accel_from_name(const char *name)
-{
-    if (!strcmp(name, "grid")) return RT_ACCEL_GRID;
-    if (!strcmp(name, "naive")) return RT_ACCEL_NAIVE;
-    return -1;
-}
+const char *rt_render_opt_name(int id) { return id >= 0 && id < RT_RO_COUNT ? opt_info[id].name : NULL; }
+unsigned rt_render_opt_group(int id) { return id >= 0 && id < RT_RO_COUNT ? opt_info[id].group : 0; }
 
 static const char *const mode_names[] = {"default", "raycast", "shadow", "whitted", "path"};
 
@@ -101,7 +111,8 @@ int rt_render_check_mode(const rt_render_opts *o, rt_err *e)
         return rt_errf(e, "--bounces: %d is not in 0..%d", o->bounces, RT_BOUNCES_MAX);
     if (!rt_render_geom_name(o->geom)) return rt_errf(e, "--layout: unknown layout %d", o->geom);
     if (!rt_render_qstores_name(o->qstores)) return rt_errf(e, "--queue-stores: unknown value %d", o->qstores);
-    if (!rt_render_accel_name(o->accel)) return rt_errf(e, "--accel: unknown accelerator %d", o->accel);
+    if (o->accel != RT_ACCEL_DEFAULT && !rt_accel_name(o->accel))
+        return rt_errf(e, "--accel: unknown acceleration structure %d", o->accel);
     if (o->grid_min > RT_GRID_MAX_CELLS) /* 0 = the tracer's default */
         return rt_errf(e, "--grid-min: %u is not in 1..%u", (unsigned)o->grid_min, (unsigned)RT_GRID_MAX_CELLS);
     return 0;

@@ -9,6 +9,7 @@
 #ifndef RT_OPTIONS_H
 #define RT_OPTIONS_H
 
+#include "accel.h"
 #include "rt.h"
 
 #include <stdint.h>
@@ -30,11 +31,31 @@ typedef enum rt_qstores {
     RT_QSTORES_WRITE_ALLOCATE = 0, /* ordinary stores: a missing line is fetched first */
     RT_QSTORES_STREAM = 1          /* streaming stores (RT_WRITE_STREAM): queue lines are not fetched */
 } rt_qstores;
-/* How the feedback tracer finds hits. */
-typedef enum rt_accel {
-    RT_ACCEL_GRID = 0, /* uniform grid, 3D-DDA (default) */
-    RT_ACCEL_NAIVE = 1 /* every triangle (the paper's Figure 1d) */
-} rt_accel;
+/*
+ * Render options that only some tracers read, each in one group; a tracer's
+ * traits (tracer.h, rt_tracer.opts) list the groups it reads, and an option
+ * given on the command line for a tracer that does not read it is refused
+ * (rt_tracer_check_given). The front end sets the option's bit in
+ * rt_render_opts.given (RT_RO_*); rt_render_opt_name names it.
+ */
+enum {
+    RT_OPTG_PACKET = 1u << 0,   /* --packet */
+    RT_OPTG_SCHED = 1u << 1,    /* --cache-size, --gmax, --qorder, --threads: scheduled tracers */
+    RT_OPTG_QUEUES = 1u << 2,   /* --queue-stores: tracers that keep ray queues */
+    RT_OPTG_GRID = 1u << 3,     /* --grid-min: tracers on the uniform grid */
+    RT_OPTG_VB = 1u << 4,       /* --vb-size: ping-pong vertex buffers */
+    RT_OPTG_ORACLE = 1u << 5    /* --oracle, --oracle-fraction, --unroll, --unroll-suppress */
+};
+/* The options of those groups, a bit each in rt_render_opts.given. */
+enum {
+    RT_RO_PACKET, RT_RO_CACHE_SIZE, RT_RO_GMAX, RT_RO_QORDER, RT_RO_THREADS, RT_RO_QUEUE_STORES,
+    RT_RO_GRID_MIN, RT_RO_VB_SIZE, RT_RO_ORACLE, RT_RO_ORACLE_FRACTION, RT_RO_UNROLL, RT_RO_UNROLL_SUPPRESS,
+    RT_RO_ACCEL, RT_RO_COUNT
+};
+/* "--packet" ... for an RT_RO_* id, and its group (0 for --accel, which is
+ * checked against the tracer's structures instead). */
+const char *rt_render_opt_name(int id);
+unsigned rt_render_opt_group(int id);
 
 
 /* What a run traces (docs/tracers.md, "Modes"). */
@@ -68,7 +89,7 @@ typedef struct rt_render_opts {
     int qstores;         /* dynamic: rt_qstores (write-allocate) */
     int queue_stats;     /* dynamic, test/bench only: append the per-cause queue counters to the
                           * statistics (off, so existing statistics stay as they were) */
-    int accel;           /* feedback: rt_accel, how rays find their hits (grid) */
+    int accel;           /* rt_accel_kind the tracer runs on; RT_ACCEL_DEFAULT = the tracer's default */
     uint64_t vb_size;    /* feedback: limit of one vertex buffer in bytes, 0 = 2 GiB */
     uint32_t grid_min;   /* grid tracers: cells along the smallest axis; 0 = the tracer's default */
     int oracle;          /* stream-multipass: rt_oracle */
@@ -76,6 +97,7 @@ typedef struct rt_render_opts {
     int unroll_t;        /* stream-multipass: traversal steps per pass (>= 1, 1) */
     int unroll_i;        /* stream-multipass: intersection tests per pass (>= 1, 1) */
     int unroll_suppress; /* stream-multipass: no texel reads for rays that finish mid-pass */
+    uint32_t given;      /* front end: bit RT_RO_x set when that option was given (never in a run key) */
 } rt_render_opts;
 
 typedef enum rt_oracle {
@@ -114,9 +136,6 @@ int rt_render_geom_from_name(const char *name);
 const char *rt_render_qstores_name(int qs);
 int rt_render_qstores_from_name(const char *name);
 
-/* Name of an rt_accel ("grid", "naive") or NULL; and back (-1 if none). */
-const char *rt_render_accel_name(int accel);
-int rt_render_accel_from_name(const char *name);
 
 /* Parses "all", "none" (or ""), or a comma list of light indices "0,2" into
  * a light mask. 0, or -1 on a malformed list (*mask untouched). */

@@ -524,10 +524,28 @@ done:
     return rc;
 }
 
+/* Subsampled runs trace or skip whole packets: the tile holds whole ones. */
+static int pk_check_opts(const rt_render_opts *o, rt_err *e)
+{
+    if (o->packet <= 0) return rt_errf(e, "--packet: %d is not a packet edge", o->packet);
+    if (o->subsample > 1 && o->subtile % o->packet)
+        return rt_errf(e, "packet tracer: subsampling tile %d is not a multiple of the packet edge %d (whole packets "
+                          "are traced or skipped)", o->subtile, o->packet);
+    return 0;
+}
+
+static void pk_params(const rt_render_opts *o, char *buf, size_t n) { snprintf(buf, n, "packet=%d", o->packet); }
+
 const rt_tracer rt_tracer_packet = {
     .name = "packet",
     .desc = "P x P ray packets tiled over the image, shadow packets per light",
     .modes = RT_TRACER_ALL_MODES,
+    .accels = RT_ACCEL_BIT(RT_ACCEL_KD),
+    .accel_default = RT_ACCEL_KD,
+    .opts = RT_OPTG_PACKET,
+    .figures = RT_FIG_NAVRATIL,
+    .check_opts = pk_check_opts,
+    .params = pk_params,
     .layout = pk_layout,
     .run = pk_run,
 };

@@ -38,12 +38,9 @@ uint64_t rt_pixel_tiles(const rt_render_opts *o)
     return tx * ty;
 }
 
-int rt_pixel_check(const rt_render_opts *o, const char *tracer, rt_err *e)
+int rt_pixel_check(const rt_render_opts *o, rt_err *e)
 {
     if (o->subsample < 1 || o->subtile < 1) return rt_errf(e, "subsampling needs K >= 1 and a tile of >= 1 pixel");
-    if (o->subsample > 1 && tracer && !strcmp(tracer, "packet") && o->subtile % o->packet)
-        return rt_errf(e, "packet tracer: subsampling tile %d is not a multiple of the packet edge %d (whole packets "
-                          "are traced or skipped)", o->subtile, o->packet);
     if (o->subsample <= 1 || o->W < 1 || o->H < 1) return 0; /* image size is checked by the job */
     uint64_t tiles = rt_pixel_tiles(o);
     if (o->subsample > tiles)

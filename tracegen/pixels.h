@@ -27,20 +27,16 @@ size_t rt_pixel_order(const rt_render_opts *o, uint32_t *order);
 /* Number of subsampling tiles of the image (partial tiles at the right and
  * bottom edges count). */
 uint64_t rt_pixel_tiles(const rt_render_opts *o);
-/* Checks subsample/subtile for a run of tracer (NULL: any): K >= 1, tile
- * >= 1, K no larger than the tile count and at least one tile kept (else
- * the run would trace nothing), and packet tiles holding whole packets.
- * 0, or -1 with the reason in e. */
-int rt_pixel_check(const rt_render_opts *o, const char *tracer, rt_err *e);
+/* Checks subsample/subtile: K >= 1, tile >= 1, K no larger than the tile
+ * count and at least one tile kept (else the run would trace nothing).
+ * Tracer-specific rules (whole packets per tile) are the tracer's
+ * check_opts. 0, or -1 with the reason in e. */
+int rt_pixel_check(const rt_render_opts *o, rt_err *e);
 /* Writes " subsample=K tile=T" (nothing when K = 1) to buf for the run
  * parameters. */
 void rt_pixel_params(const rt_render_opts *o, char *buf, size_t n);
 
 /* Former names, kept for the front end. */
-static inline int rt_check_subsample(const rt_render_opts *o, const char *tracer, rt_err *e)
-{
-    return rt_pixel_check(o, tracer, e);
-}
 static inline void rt_subsample_params(const rt_render_opts *o, char *buf, size_t n) { rt_pixel_params(o, buf, n); }
 
 #endif

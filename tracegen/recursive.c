@@ -155,6 +155,10 @@ const rt_tracer rt_tracer_recursive = {
     .name = "recursive",
     .desc = "single rays in Hilbert-curve order, shadow rays depth first (Whitted)",
     .modes = RT_TRACER_ALL_MODES,
+    .accels = RT_ACCEL_BIT(RT_ACCEL_KD),
+    .accel_default = RT_ACCEL_KD,
+    .traits = RT_TR_REFERENCE,
+    .figures = RT_FIG_NAVRATIL,
     .layout = rec_layout,
     .run = rec_run,
 };

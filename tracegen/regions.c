@@ -7,9 +7,7 @@
 
 int rt_reg_geometry(const rt_tracer_ctx *ctx, rt_layout *L, int want_shade, rt_err *e)
 {
-    const rt_kdtree *kd = ctx->kd;
-    if (rt_mm_add(L, "kd.nodes", RT_CLS_NODE, 8, kd->nnodes, e) < 0) return -1;
-    if (rt_mm_add(L, "kd.index", RT_CLS_INDEX, 4, kd->nidx, e) < 0) return -1;
+    if (rt_accel_regions(ctx->acc, ctx->sc, L, e) < 0) return -1;
     if (ctx->opt->geom == RT_GEOM_MESH) {
         if (!ctx->mesh) return rt_errf(e, "mesh layout without a vertex index (internal error)");
         if (rt_mm_add(L, "tri.vidx", RT_CLS_TRI, RT_MESH_VIDX_SIZE, ctx->sc->ntri, e) < 0 ||
@@ -44,13 +42,7 @@ void rt_reg_shade(const rt_tracer_ctx *ctx, rt_rec *rec, uint32_t tri)
 
 void rt_reg_trav(rt_trav *tv, const rt_tracer_ctx *ctx)
 {
-    memset(tv, 0, sizeof *tv);
-    tv->kd = ctx->kd;
-    tv->sc = ctx->sc;
-    tv->rec = ctx->rec;
-    tv->L = ctx->L;
-    tv->reg_node = rt_mm_find(ctx->L, "kd.nodes");
-    tv->reg_idx = rt_mm_find(ctx->L, "kd.index");
+    rt_accel_trav(ctx->acc, tv, ctx->sc, ctx->rec, ctx->L);
     /* the mesh layout's triangle reads land on the index records and are
      * expanded by the mesh recorder (mesh.h) */
     tv->reg_tri = rt_mm_find(ctx->L, ctx->opt->geom == RT_GEOM_MESH ? "tri.vidx" : "tri.verts");

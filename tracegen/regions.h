@@ -3,17 +3,20 @@
  * geometry regions of the memory model and a traversal context that
  * records into them.
  *
- * Every tracer reads the same tree and triangles, so they are declared once
- * here, first and in a fixed order, and get the same modeled addresses in
- * every run of a scene (docs/memory-model.md).
+ * Every tracer on the same structure reads the same nodes and triangles,
+ * so they are declared once here, first and in a fixed order, and get the
+ * same modeled addresses in every run of a scene on that structure
+ * (docs/memory-model.md).
  */
 #ifndef RT_REGIONS_H
 #define RT_REGIONS_H
 
 #include "tracer.h"
 
-/* Adds the geometry regions, in this order: kd.nodes (8 B x nodes),
- * kd.index (4 B x entries), tri.verts (36 B x triangles) and, when
+/* Adds the geometry regions, in this order: the structure's own
+ * (rt_accel_regions: kd.nodes 8 B x nodes and kd.index 4 B x entries for
+ * the k-d tree; grid.cells and grid.lists for the grid; none for naive),
+ * tri.verts (36 B x triangles) and, when
  * want_shade, tri.shade (16 B x triangles) and, when rt_reg_wants_mat, mat.
  * In the mesh layout (ctx->opt->geom, ctx->mesh) tri.verts is replaced by
  * tri.vidx (12 B x triangles) and mesh.pos (12 B x vertices), and

@@ -9,7 +9,7 @@
 /* The tracer's plan, then its regions. On failure the plan is freed. */
 static int layout(rt_job *j, rt_err *e)
 {
-    rt_tracer_ctx ctx = {j->sc, j->kd, &j->opt, &j->L, NULL, NULL, 0, NULL};
+    rt_tracer_ctx ctx = {j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, NULL, NULL, 0, NULL};
     rt_mm_init(&j->L);
     if (j->opt.geom == RT_GEOM_MESH && !j->mesh && !(j->mesh = rt_mesh_build(j->sc, e))) return -1;
     ctx.mesh = j->mesh;
@@ -21,6 +21,20 @@ static int layout(rt_job *j, rt_err *e)
     return -1;
 }
 
+/* The structure the tracer runs on: the caller's k-d tree when that is the
+ * one, else built here (owned). */
+static int build_accel(rt_job *j, rt_kdtree *kd, rt_err *e)
+{
+    int kind = j->opt.accel;
+    if (kind == RT_ACCEL_KD && kd) {
+        rt_accel_wrap(&j->acc, RT_ACCEL_KD, kd, kd->build_sec);
+        j->acc_borrowed = 1;
+        return 0;
+    }
+    rt_accel_params p = {j->opt.grid_min};
+    return rt_accel_build(&j->acc, kind, j->sc, &p, e);
+}
+
 static int check_opts(const rt_render_opts *o, rt_err *e)
 {
     if (o->W <= 0 || o->H <= 0 || o->W > 65536 || o->H > 65536)
@@ -29,30 +43,35 @@ static int check_opts(const rt_render_opts *o, rt_err *e)
     return rt_render_check_mode(o, e);
 }
 
-/* The tracer must be able to run the mode. */
-static int check_tracer_mode(const rt_tracer *tr, const rt_render_opts *o, rt_err *e)
+/* The tracer must be able to run the mode and the option values. */
+static int check_tracer(const rt_tracer *tr, const rt_render_opts *o, rt_err *e)
 {
     int m = rt_render_mode(o);
     if (!(tr->modes & (1u << m)))
         return rt_errf(e, "--mode: the %s tracer cannot run mode %s", tr->name, rt_render_mode_name(m));
+    return rt_tracer_check_opts(tr, o, e);
+}
+
+/* Options and tracer; the structure resolved (opt.accel never DEFAULT). */
+static int setup_opts(rt_job *j, const char *tracer, const rt_render_opts *o, rt_err *e)
+{
+    memset(j, 0, sizeof *j);
+    j->tr = rt_tracer_find(tracer);
+    if (!j->tr) return rt_errf(e, "unknown tracer '%s' (%s)", tracer, rt_tracer_names());
+    if (check_opts(o, e) < 0 || check_tracer(j->tr, o, e) < 0) return -1;
+    j->opt = *o;
+    j->opt.accel = rt_tracer_accel(j->tr, o);
+    if (rt_render_mode(o) == RT_MODE_RAYCAST) j->opt.lights = 0; /* primary rays only */
     return 0;
 }
 
 int rt_job_setup_borrowed(rt_job *j, rt_scene *sc, rt_kdtree *kd, const char *tracer, const rt_render_opts *o,
                           rt_err *e)
 {
-    memset(j, 0, sizeof *j);
-    j->tr = rt_tracer_find(tracer);
-    if (!j->tr) return rt_errf(e, "unknown tracer '%s'", tracer);
-    if (check_opts(o, e) < 0 || check_tracer_mode(j->tr, o, e) < 0) return -1;
-    if (rt_pixel_check(o, tracer, e) < 0) return -1;
+    if (setup_opts(j, tracer, o, e) < 0) return -1;
     j->sc = sc;
-    j->kd = kd;
-    j->opt = *o;
-    if (rt_render_mode(o) == RT_MODE_RAYCAST) j->opt.lights = 0; /* primary rays only */
-    j->kd_sec = kd->build_sec;
     j->borrowed = 1;
-    if (layout(j, e) < 0) {
+    if (build_accel(j, kd, e) < 0 || layout(j, e) < 0) {
         rt_job_free(j);
         return -1;
     }
@@ -61,24 +80,10 @@ int rt_job_setup_borrowed(rt_job *j, rt_scene *sc, rt_kdtree *kd, const char *tr
 
 int rt_job_setup(rt_job *j, const char *scene_spec, const char *tracer, const rt_render_opts *o, rt_err *e)
 {
-    memset(j, 0, sizeof *j);
-    j->tr = rt_tracer_find(tracer);
-    if (!j->tr) return rt_errf(e, "unknown tracer '%s'", tracer);
-    if (check_opts(o, e) < 0 || check_tracer_mode(j->tr, o, e) < 0) return -1;
-    if (rt_pixel_check(o, tracer, e) < 0) return -1;
-    j->opt = *o;
-    if (rt_render_mode(o) == RT_MODE_RAYCAST) j->opt.lights = 0; /* primary rays only */
+    if (setup_opts(j, tracer, o, e) < 0) return -1;
     j->sc = rt_scene_load(scene_spec, e);
     if (!j->sc) return -1;
-    rt_kd_params kp;
-    rt_kd_default_params(&kp);
-    j->kd = rt_kd_build(j->sc, &kp, e);
-    if (!j->kd) {
-        rt_job_free(j);
-        return -1;
-    }
-    j->kd_sec = j->kd->build_sec;
-    if (layout(j, e) < 0) {
+    if (build_accel(j, NULL, e) < 0 || layout(j, e) < 0) {
         rt_job_free(j);
         return -1;
     }
@@ -99,7 +104,7 @@ int rt_job_run(rt_job *j, rt_sink *sink, rt_image *img, rt_run_stats *st, rt_err
         rt_rec_free(rec);
         return -1;
     }
-    rt_tracer_ctx ctx = {j->sc, j->kd, &j->opt, &j->L, trec, j->plan, j->check, j->mesh};
+    rt_tracer_ctx ctx = {j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, trec, j->plan, j->check, j->mesh};
     double t0 = rt_now();
     int rc = j->tr->run(&ctx, img, st, e);
     if (trec != rec) {
@@ -137,7 +142,7 @@ void rt_job_meta(const rt_job *j, const char *command, rt_tr_meta *m)
     m->W = j->opt.W;
     m->H = j->opt.H;
     m->lights = j->opt.lights;
-    if (!strcmp(j->tr->name, "dynamic")) {
+    if (rt_tracer_is(j->tr, RT_TR_SCHEDULED)) {
         m->sched_size = j->opt.sched_size;
         m->gmax = j->opt.gmax;
     }
@@ -162,65 +167,33 @@ static void mode_params(const rt_render_opts *o, char *buf, size_t n)
 
 /* The memory-layout choices, each only when not the default, so existing
  * run keys stay as they were: " layout=mesh", " queue_stores=stream"
- * (dynamic only: the other tracers keep no queues). */
-static void layout_params(const char *tracer, const rt_render_opts *o, char *buf, size_t n)
+ * (only tracers that keep queues). */
+static void layout_params(const rt_tracer *tr, const rt_render_opts *o, char *buf, size_t n)
 {
     size_t l = strlen(buf);
     if (o->geom != RT_GEOM_COMPACT)
         snprintf(buf + l, n - l, "%slayout=%s", l ? " " : "", rt_render_geom_name(o->geom));
     l = strlen(buf);
-    if (!strcmp(tracer, "dynamic") && o->qstores != RT_QSTORES_WRITE_ALLOCATE)
+    if (rt_tracer_is(tr, RT_TR_QUEUES) && o->qstores != RT_QSTORES_WRITE_ALLOCATE)
         snprintf(buf + l, n - l, "%squeue_stores=%s", l ? " " : "", rt_render_qstores_name(o->qstores));
-}
-
-/* The feedback tracer's options, only those that differ from the defaults
- * ("accel=naive grid_min=N vb-size=B"), so a default run's key is empty. */
-static void feedback_params(const rt_render_opts *o, char *buf, size_t n)
-{
-    size_t l = 0;
-    buf[0] = 0;
-    if (o->accel != RT_ACCEL_GRID) snprintf(buf, n, "accel=%s", rt_render_accel_name(o->accel));
-    l = strlen(buf);
-    if (o->grid_min && o->grid_min != 64) snprintf(buf + l, n - l, "%sgrid_min=%u", l ? " " : "", (unsigned)o->grid_min);
-    l = strlen(buf);
-    if (o->vb_size) snprintf(buf + l, n - l, "%svb-size=%" PRIu64, l ? " " : "", o->vb_size);
-}
-
-/* The stream tracers' parameters that differ from their defaults, so a
- * default run's key is just the tracer name. */
-static void stream_params(const char *tracer, const rt_render_opts *o, char *buf, size_t n)
-{
-    size_t l = 0;
-    buf[0] = 0;
-    if (o->grid_min) l += (size_t)snprintf(buf + l, n - l, " grid_min=%u", (unsigned)o->grid_min);
-    if (strcmp(tracer, "stream-multipass") || l >= n) {
-        if (l) memmove(buf, buf + 1, strlen(buf));
-        return;
-    }
-    if (o->oracle == RT_ORACLE_NAIVE && l < n) l += (size_t)snprintf(buf + l, n - l, " oracle=naive");
-    if (o->oracle != RT_ORACLE_NAIVE && o->oracle_frac != 0.2 && l < n)
-        l += (size_t)snprintf(buf + l, n - l, " oracle_fraction=%g", o->oracle_frac);
-    if ((o->unroll_t != 1 || o->unroll_i != 1) && l < n)
-        l += (size_t)snprintf(buf + l, n - l, " unroll=%d,%d", o->unroll_t, o->unroll_i);
-    if (o->unroll_suppress && l < n) l += (size_t)snprintf(buf + l, n - l, " unroll_suppress=1");
-    if (buf[0]) memmove(buf, buf + 1, strlen(buf));
 }
 
 const char *rt_job_params(const char *tracer, const rt_render_opts *o, const char *extra, char *buf, size_t n)
 {
     if (!n) return buf;
-    char tp[128] = "", mp[160];
+    char tp[160] = "", own[128] = "", mp[160];
+    const rt_tracer *tr = rt_tracer_find(tracer);
     if (!extra) extra = "";
-    if (!strcmp(tracer, "dynamic"))
-        snprintf(tp, sizeof tp, "qorder=%s threads=%d", o->qorder == RT_QORDER_TREE ? "tree" : "fullest", o->threads);
-    else if (!strcmp(tracer, "packet"))
-        snprintf(tp, sizeof tp, "packet=%d", o->packet);
-    else if (!strcmp(tracer, "feedback"))
-        feedback_params(o, tp, sizeof tp);
-    else if (!strncmp(tracer, "stream-", 7))
-        stream_params(tracer, o, tp, sizeof tp);
+    /* the structure when not the tracer's default, then the tracer's own */
+    if (tr && o->accel != RT_ACCEL_DEFAULT && o->accel != tr->accel_default && rt_accel_name(o->accel))
+        snprintf(tp, sizeof tp, "accel=%s", rt_accel_name(o->accel));
+    if (tr && tr->params) tr->params(o, own, sizeof own);
+    if (own[0]) {
+        size_t l = strlen(tp);
+        snprintf(tp + l, sizeof tp - l, "%s%s", l ? " " : "", own);
+    }
     mode_params(o, mp, sizeof mp);
-    layout_params(tracer, o, mp, sizeof mp);
+    layout_params(tr, o, mp, sizeof mp);
     /* tracer parameters, mode, extra: space-separated, empty parts left out */
     const char *part[3] = {tp, mp, extra};
     size_t l = 0;
@@ -239,9 +212,7 @@ void rt_job_free(rt_job *j)
     if (!j) return;
     if (j->plan && j->tr && j->tr->plan_free) j->tr->plan_free(j->plan);
     rt_mesh_free(j->mesh);
-    if (!j->borrowed) {
-        rt_kd_free(j->kd);
-        rt_scene_free(j->sc);
-    }
+    if (!j->acc_borrowed) rt_accel_free(&j->acc);
+    if (!j->borrowed) rt_scene_free(j->sc);
     memset(j, 0, sizeof *j);
 }

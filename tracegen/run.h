@@ -2,7 +2,8 @@
  * run.h -- one rendering job: scene + tree + tracer + options, traced or not.
  *
  * Used by `render`, `trace`, `bench` and `sweep` so that they all set up a
- * run the same way: load the scene from its spec, build the k-d tree, check
+ * run the same way: load the scene from its spec, build the acceleration
+ * structure the tracer runs on (only that one: accel.h), check
  * the options (a run that would trace no pixel is refused), let the tracer
  * compute its plan (once per job: the dynamic scheduler's queue points for
  * this tree and budget) and declare its regions, then run with or without a
@@ -17,13 +18,13 @@
 #include "tracer.h"
 
 typedef struct rt_job {
-    rt_scene *sc;          /* owned */
-    rt_kdtree *kd;         /* owned */
+    rt_scene *sc;          /* owned unless borrowed */
+    rt_accel acc;          /* the structure the tracer runs on (owned unless acc_borrowed) */
     const rt_tracer *tr;   /* static */
-    rt_render_opts opt;    /* copy of the options */
+    rt_render_opts opt;    /* copy of the options, opt.accel resolved to acc.kind */
     rt_layout L;           /* regions declared by the tracer */
-    double kd_sec;         /* tree build time */
-    int borrowed;          /* scene and tree belong to the caller */
+    int borrowed;          /* the scene belongs to the caller */
+    int acc_borrowed;      /* acc wraps the caller's k-d tree */
     void *plan;            /* the tracer's plan for this tree and options (owned), or NULL */
     int check;             /* test mode: set before rt_job_run to have the tracer verify its
                             * invariants at every step (slow; an error names the one broken) */
@@ -32,8 +33,9 @@ typedef struct rt_job {
 
 /* Loads the scene, builds the tree and the layout. 0 or -1 (job freed). */
 int rt_job_setup(rt_job *j, const char *scene_spec, const char *tracer, const rt_render_opts *o, rt_err *e);
-/* Reuses an already loaded scene and tree (ownership stays with caller:
- * rt_job_free will not free them when borrowed). */
+/* Reuses an already loaded scene and, when the tracer runs on a k-d tree,
+ * the caller's tree kd (NULL: built here). Ownership of sc and kd stays
+ * with the caller; any other structure is built and owned by the job. */
 int rt_job_setup_borrowed(rt_job *j, rt_scene *sc, rt_kdtree *kd, const char *tracer, const rt_render_opts *o,
                           rt_err *e);
 /* Renders into img (W x H); sink NULL = untraced. Fills st. 0 or -1. */
@@ -51,5 +53,7 @@ void rt_job_meta(const rt_job *j, const char *command, rt_tr_meta *m);
 uint32_t rt_job_generations(const rt_job *j);
 /* Frees what the job owns (not a borrowed scene and tree); accepts NULL. */
 void rt_job_free(rt_job *j);
+/* The job's k-d tree, or NULL when it runs on another structure. */
+static inline rt_kdtree *rt_job_kd(const rt_job *j) { return j->acc.kind == RT_ACCEL_KD ? (rt_kdtree *)j->acc.as : NULL; }
 
 #endif

@@ -83,23 +83,14 @@ void rt_stream_cost(int multipass, double R, double v, double t, double s, doubl
 #undef KB
 }
 
-/* ---- plan: the grid ------------------------------------------------------- */
+/* ---- plan: the option checks; the grid is the job's (accel.h) ---------- */
 
 typedef struct st_plan {
-    rt_grid *g;
+    const rt_grid *g; /* the job's structure */
 } st_plan;
 
-static void st_plan_free(void *p)
-{
-    st_plan *pl = p;
-    if (!pl) return;
-    rt_grid_free(pl->g);
-    free(pl);
-}
+static void st_plan_free(void *p) { free(p); }
 
-/* Default resolution: 64 (the paper's bunny), halved while the grid would
- * exceed RT_GRID_MAX_CELLS (grove: 32). An explicit --grid-min is used as
- * given, and an oversized grid is an error naming the limit. */
 static int st_plan_make(const rt_tracer_ctx *ctx, void **plan, rt_err *e)
 {
     const rt_render_opts *o = ctx->opt;
@@ -110,29 +101,10 @@ static int st_plan_make(const rt_tracer_ctx *ctx, void **plan, rt_err *e)
         return rt_errf(e, "--oracle-fraction: %g is not in (0, 1]", o->oracle_frac);
     if (o->unroll_t < 1 || o->unroll_i < 1)
         return rt_errf(e, "--unroll: %d,%d: both must be at least 1", o->unroll_t, o->unroll_i);
+    if (ctx->acc->kind != RT_ACCEL_GRID || !ctx->acc->as) return rt_errf(e, "stream tracers run on the grid only");
     st_plan *pl = rt_calloc(1, sizeof *pl, e);
     if (!pl) return -1;
-    if (o->grid_min) {
-        pl->g = rt_grid_build(ctx->sc, o->grid_min, e);
-    } else {
-        for (uint32_t m = RT_GRID_MIN_DEFAULT; m >= 1 && !pl->g; m /= 2) {
-            rt_err e2 = {""};
-            pl->g = rt_grid_build(ctx->sc, m, &e2);
-            if (!pl->g && (m == 1 || !strstr(e2.msg, "cells"))) {
-                rt_errf(e, "%s", e2.msg);
-                break;
-            }
-        }
-    }
-    if (!pl->g) {
-        if (o->grid_min) {
-            char msg[sizeof e->msg];
-            snprintf(msg, sizeof msg, "%s", e->msg);
-            rt_errf(e, "--grid-min %u: %s (at most %u cells)", (unsigned)o->grid_min, msg, (unsigned)RT_GRID_MAX_CELLS);
-        }
-        free(pl);
-        return -1;
-    }
+    pl->g = ctx->acc->as;
     *plan = pl;
     return 0;
 }
@@ -148,9 +120,8 @@ static int st_layout(const rt_tracer_ctx *ctx, rt_layout *L, int multipass, rt_e
     const st_plan *pl = ctx->plan;
     const rt_grid *g = pl->g;
     uint64_t npix = st_npix(ctx->opt);
-    if (rt_reg_geometry(ctx, L, 0, e) < 0) return -1; /* kd.*, tri.verts: the shared addresses */
-    if (rt_mm_add(L, "grid.cells", RT_CLS_NODE, RT_GRID_WORD, g->ncells, e) < 0) return -1;
-    if (rt_mm_add(L, "grid.lists", RT_CLS_INDEX, RT_GRID_WORD, g->nlist ? g->nlist : 1, e) < 0) return -1;
+    (void)g;
+    if (rt_reg_geometry(ctx, L, 0, e) < 0) return -1; /* grid.cells, grid.lists, tri.verts */
     if (rt_mm_add(L, "grid.shade", RT_CLS_SHADE, 4u * (uint32_t)table_mp[RT_SK_COLOR].M, ctx->sc->ntri, e) < 0)
         return -1;
     if (rt_reg_wants_mat(ctx) && rt_mm_add(L, "mat", RT_CLS_SHADE, RT_MAT_RECSIZE, ctx->sc->nmat, e) < 0) return -1;
@@ -852,10 +823,36 @@ static int st_run_mp(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, 
     return st_run_common(ctx, img, st, 1, e);
 }
 
+/* The parameters that differ from their defaults, so a default run's key is
+ * just the tracer name; the multipass tracer adds its oracle and unrolling. */
+static void st_params(const rt_render_opts *o, char *buf, size_t n, int multipass)
+{
+    size_t l = 0;
+    buf[0] = 0;
+    if (o->grid_min) l += (size_t)snprintf(buf + l, n - l, " grid_min=%u", (unsigned)o->grid_min);
+    if (multipass && l < n) {
+        if (o->oracle == RT_ORACLE_NAIVE && l < n) l += (size_t)snprintf(buf + l, n - l, " oracle=naive");
+        if (o->oracle != RT_ORACLE_NAIVE && o->oracle_frac != 0.2 && l < n)
+            l += (size_t)snprintf(buf + l, n - l, " oracle_fraction=%g", o->oracle_frac);
+        if ((o->unroll_t != 1 || o->unroll_i != 1) && l < n)
+            l += (size_t)snprintf(buf + l, n - l, " unroll=%d,%d", o->unroll_t, o->unroll_i);
+        if (o->unroll_suppress && l < n) l += (size_t)snprintf(buf + l, n - l, " unroll_suppress=1");
+    }
+    if (buf[0]) memmove(buf, buf + 1, strlen(buf));
+}
+static void st_params_br(const rt_render_opts *o, char *buf, size_t n) { st_params(o, buf, n, 0); }
+static void st_params_mp(const rt_render_opts *o, char *buf, size_t n) { st_params(o, buf, n, 1); }
+
 const rt_tracer rt_tracer_stream_branching = {
     .name = "stream-branching",
     .desc = "Purcell et al. 2002, branching architecture: one ray at a time over the uniform grid",
     .modes = RT_TRACER_ALL_MODES,
+    .accels = RT_ACCEL_BIT(RT_ACCEL_GRID),
+    .accel_default = RT_ACCEL_GRID,
+    .opts = RT_OPTG_GRID,
+    .traits = RT_TR_TEXCACHE,
+    .figures = RT_FIG_PURCELL,
+    .params = st_params_br,
     .layout = st_layout_br,
     .run = st_run_br,
     .plan = st_plan_make,
@@ -866,6 +863,12 @@ const rt_tracer rt_tracer_stream_multipass = {
     .name = "stream-multipass",
     .desc = "Purcell et al. 2002, multipass architecture: one kernel over all rays per pass",
     .modes = RT_TRACER_ALL_MODES,
+    .accels = RT_ACCEL_BIT(RT_ACCEL_GRID),
+    .accel_default = RT_ACCEL_GRID,
+    .opts = RT_OPTG_GRID | RT_OPTG_ORACLE,
+    .traits = RT_TR_TEXCACHE | RT_TR_MULTIPASS,
+    .figures = RT_FIG_PURCELL | RT_FIG_FEEDBACK,
+    .params = st_params_mp,
     .layout = st_layout_mp,
     .run = st_run_mp,
     .plan = st_plan_make,

@@ -6,6 +6,7 @@
  */
 #include "tracer.h"
 
+#include <stdio.h>
 #include <string.h>
 
 extern const rt_tracer rt_tracer_recursive;
@@ -30,4 +31,90 @@ const rt_tracer *rt_tracer_find(const char *name)
     for (int i = 0; rt_tracer_all[i]; i++)
         if (!strcmp(rt_tracer_all[i]->name, name)) return rt_tracer_all[i];
     return NULL;
+}
+
+const char *rt_tracer_names(void)
+{
+    static char buf[256];
+    if (!buf[0]) {
+        size_t l = 0;
+        for (int i = 0; rt_tracer_all[i] && l < sizeof buf; i++)
+            l += (size_t)snprintf(buf + l, sizeof buf - l, "%s%s", i ? ", " : "", rt_tracer_all[i]->name);
+    }
+    return buf;
+}
+
+const rt_tracer *rt_tracer_reference(void)
+{
+    for (int i = 0; rt_tracer_all[i]; i++)
+        if (rt_tracer_all[i]->traits & RT_TR_REFERENCE) return rt_tracer_all[i];
+    return rt_tracer_all[0];
+}
+
+/* The names of the registered tracers that read group g (or run on
+ * structure kind k when g is 0), for the refusal's hint. */
+static void readers(unsigned g, int k, char *buf, size_t n)
+{
+    size_t l = 0;
+    buf[0] = 0;
+    for (int i = 0; rt_tracer_all[i] && l < n; i++) {
+        const rt_tracer *t = rt_tracer_all[i];
+        if (g ? (t->opts & g) != 0 : (t->accels & RT_ACCEL_BIT(k)) != 0)
+            l += (size_t)snprintf(buf + l, n - l, "%s%s", l ? ", " : "", t->name);
+    }
+}
+
+/* The structures tr runs on, "kd" or "grid, naive". */
+static void accels_of(const rt_tracer *tr, char *buf, size_t n)
+{
+    size_t l = 0;
+    buf[0] = 0;
+    for (int k = 1; k < RT_ACCEL_NKINDS && l < n; k++)
+        if (tr->accels & RT_ACCEL_BIT(k)) l += (size_t)snprintf(buf + l, n - l, "%s%s", l ? ", " : "", rt_accel_name(k));
+}
+
+int rt_tracer_check_given_any(const rt_tracer *const *trs, int ntr, const rt_render_opts *o, rt_err *e)
+{
+    unsigned opts = 0, accels = 0;
+    for (int i = 0; i < ntr; i++) {
+        opts |= trs[i]->opts;
+        accels |= trs[i]->accels;
+    }
+    const char *who = ntr == 1 ? trs[0]->name : NULL;
+    char hint[256];
+    for (int id = 0; id < RT_RO_COUNT; id++) {
+        if (!(o->given & (1u << id))) continue;
+        unsigned g = rt_render_opt_group(id);
+        if (!g || (opts & g)) continue;
+        readers(g, 0, hint, sizeof hint);
+        if (who) return rt_errf(e, "%s does not apply to the %s tracer (only to %s)", rt_render_opt_name(id), who, hint);
+        return rt_errf(e, "%s does not apply: no tracer given reads it (only %s)", rt_render_opt_name(id), hint);
+    }
+    if (o->accel != RT_ACCEL_DEFAULT && !(accels & RT_ACCEL_BIT(o->accel))) {
+        if (who) {
+            accels_of(trs[0], hint, sizeof hint);
+            return rt_errf(e, "--accel: the %s tracer runs on %s, not %s", who, hint, rt_accel_name(o->accel));
+        }
+        readers(0, o->accel, hint, sizeof hint);
+        return rt_errf(e, "--accel: no tracer given runs on %s (only %s)", rt_accel_name(o->accel), hint);
+    }
+    return 0;
+}
+
+int rt_tracer_check_opts(const rt_tracer *tr, const rt_render_opts *o, rt_err *e)
+{
+    if (rt_pixel_check(o, e) < 0) return -1;
+    int k = rt_tracer_accel(tr, o);
+    if (!(tr->accels & RT_ACCEL_BIT(k))) {
+        char hint[128];
+        accels_of(tr, hint, sizeof hint);
+        return rt_errf(e, "--accel: the %s tracer runs on %s, not %s", tr->name, hint,
+                       rt_accel_name(k) ? rt_accel_name(k) : "?");
+    }
+    return tr->check_opts ? tr->check_opts(o, e) : 0;
+}
+
+int rt_tracer_check_given(const rt_tracer *tr, const rt_render_opts *o, rt_err *e)
+{
+    return rt_tracer_check_given_any(&tr, 1, o, e);
 }

@@ -2,9 +2,10 @@
  * tracer.h -- the one interface every tracing algorithm implements (prefix
  * rt_tracer_).
  *
- * A tracer is given a scene, its k-d tree and render options. It may first
- * compute a plan that depends only on those (the dynamic scheduler's queue
- * points), then declares the modeled memory regions it will touch (layout),
+ * A tracer is given a scene, the acceleration structure it runs on
+ * (accel.h; built by the job, the one its traits ask for) and render
+ * options. It may first compute a plan that depends only on those (the
+ * dynamic scheduler's queue points), then declares the modeled memory regions it will touch (layout),
  * then renders (run): it produces an image (RGB, cost channels, depth) and,
  * when a recorder is attached, reports every memory access in program
  * order. With the same inputs every tracer must find the same closest hit
@@ -14,8 +15,9 @@
  *
  * Adding a tracer:
  *   1. write tracegen/NAME.c defining `const rt_tracer rt_tracer_NAME` with
- *      designated initialisers (.modes lists the rt_mode values it runs);
- *      keep everything else in the file static;
+ *      designated initialisers: its traits (.modes, .accels and
+ *      .accel_default, .opts, .traits, .figures) and, if it has knobs of
+ *      its own, .check_opts and .params; keep everything else static;
  *   2. layout(): call rt_reg_geometry first (regions.h: the tree and
  *      triangles keep their addresses across tracers), then add your own
  *      regions with rt_mm_add, in a fixed order;
@@ -31,9 +33,13 @@
  *   4. plan()/plan_free() only if something costly depends on the tree and
  *      options alone: the job computes it once and hands it to layout and
  *      run as ctx->plan;
- *   5. list it in rt_tracer_all (tracer.c), add it to tracegen/local.am and
- *      to tests/test_tracers.c (same images, traffic counts, golden file),
- *      and describe it in docs/tracers.md.
+ *   5. list it in rt_tracer_all (tracer.c) and tracegen/local.am, run
+ *      `RT_REDO_GOLDEN=1 make check TESTS=tests/test_conform` once for its
+ *      record-stream golden hashes (the conformance test covers every
+ *      registered tracer, mode and structure by itself), and describe it
+ *      in docs/tracers.md.
+ * Nothing outside this file and tracegen/NAME.c compares a tracer's name:
+ * what a tracer is, the rest of the toolkit learns from its traits.
  * Library rule: return -1 with rt_errf(e, ...) on failure; never print.
  */
 #ifndef RT_TRACER_H
@@ -41,6 +47,7 @@
 
 #include "camera.h" /* rt_dtan for the front end's tests */
 #include "image.h"
+#include "accel.h"
 #include "kdtrav.h"
 #include "memmodel.h"
 #include "mesh.h"
@@ -62,7 +69,8 @@ typedef struct rt_run_stats {
 
 typedef struct rt_tracer_ctx {
     const rt_scene *sc;
-    const rt_kdtree *kd;
+    const rt_accel *acc; /* the structure the run traces through (accel.h) */
+    const rt_kdtree *kd; /* acc's k-d tree when it is one, else NULL */
     const rt_render_opts *opt;
     rt_layout *L;      /* filled by layout(), read by run() */
     rt_rec *rec;       /* NULL: not recording */
@@ -71,10 +79,36 @@ typedef struct rt_tracer_ctx {
     const rt_mesh *mesh; /* vertex index of the mesh layout (NULL in the compact one) */
 } rt_tracer_ctx;
 
+/* Traits (rt_tracer.traits). */
+enum {
+    RT_TR_SCHEDULED = 1u << 0, /* scheduled for a cache size (sched_size): a sweep runs it once per size */
+    RT_TR_TEXCACHE = 1u << 1,  /* its jobs also simulate Purcell et al.'s texture cache */
+    RT_TR_QUEUES = 1u << 2,    /* keeps ray queues in memory (--queue-stores applies) */
+    RT_TR_REFERENCE = 1u << 3, /* the reference tracer other tracers' images are compared with */
+    RT_TR_MULTIPASS = 1u << 4  /* Purcell et al.'s multipass architecture (stencil passes) */
+};
+/* Report figures a tracer appears in (rt_tracer.figures), in registry order. */
+enum {
+    RT_FIG_NAVRATIL = 1u << 0, /* the paper's Figures 4-9: baseline, packet and scheduled columns */
+    RT_FIG_PURCELL = 1u << 1,  /* report --figure purcell */
+    RT_FIG_FEEDBACK = 1u << 2  /* report --figure feedback: the designs compared */
+};
+
 typedef struct rt_tracer {
-    const char *name;  /* "recursive", "packet", "dynamic" */
+    const char *name;  /* "recursive", "packet", "dynamic", ... */
     const char *desc;  /* one line */
     unsigned modes;    /* bit m set: can run rt_mode m (RT_TRACER_ALL_MODES) */
+    unsigned accels;   /* bit k set: runs on rt_accel_kind k (RT_ACCEL_BIT) */
+    int accel_default; /* the structure it runs on without --accel */
+    unsigned opts;     /* option groups it reads (RT_OPTG_*); others are refused */
+    unsigned traits;   /* RT_TR_* */
+    unsigned figures;  /* RT_FIG_* */
+    /* Optional: refuses option values this tracer cannot run (beyond the
+     * common checks). 0, or -1 naming the option in e. */
+    int (*check_opts)(const rt_render_opts *o, rt_err *e);
+    /* Optional: its part of the run key, only the parameters that shaped
+     * the run ("packet=8", "qorder=fullest threads=4"); buf is "" on entry. */
+    void (*params)(const rt_render_opts *o, char *buf, size_t n);
     /* Declares the regions this run touches (in a fixed order). 0 or -1. */
     int (*layout)(const rt_tracer_ctx *ctx, rt_layout *L, rt_err *e);
     /* Renders into img (allocated by the caller at opt->W x opt->H). 0 or -1. */
@@ -93,5 +127,26 @@ typedef struct rt_tracer {
 /* Registered tracers, NULL-terminated, and lookup by name (NULL if none). */
 extern const rt_tracer *const rt_tracer_all[];
 const rt_tracer *rt_tracer_find(const char *name);
+/* The registered names, comma separated, for messages. */
+const char *rt_tracer_names(void);
+/* The reference tracer (RT_TR_REFERENCE). */
+const rt_tracer *rt_tracer_reference(void);
+/* 1 when tr has every trait in mask; a NULL tr has none. */
+static inline int rt_tracer_is(const rt_tracer *tr, unsigned mask) { return tr && (tr->traits & mask) == mask; }
+/* The structure tr runs on under o (o->accel, or tr's default). */
+static inline int rt_tracer_accel(const rt_tracer *tr, const rt_render_opts *o)
+{
+    return o->accel != RT_ACCEL_DEFAULT ? o->accel : tr->accel_default;
+}
+/* The options given (o->given) that tr does not read, and a structure it
+ * cannot run on: -1 with "--X does not apply to the T tracer" in e. 0
+ * when all apply. */
+int rt_tracer_check_given(const rt_tracer *tr, const rt_render_opts *o, rt_err *e);
+/* The option values tr can run: the subsampling check (pixels.h), the
+ * structure (one of tr->accels) and tr->check_opts. 0, or -1 with e. */
+int rt_tracer_check_opts(const rt_tracer *tr, const rt_render_opts *o, rt_err *e);
+/* The same over a set of tracers (a sweep): an option applies when one of
+ * them reads it. ntr > 0. */
+int rt_tracer_check_given_any(const rt_tracer *const *trs, int ntr, const rt_render_opts *o, rt_err *e);
 
 #endif

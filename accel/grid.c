@@ -87,10 +87,12 @@
  */
 #include "config.h"
 #include "grid.h"
+#include "accel.h"
 
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>
+#include <stdio.h>
 #include <string.h>
 
 /* ---- resolution ----------------------------------------------------------- */
@@ -677,3 +679,92 @@ int rt_grid_any(const rt_grid *g, const rt_scene *s, const rt_ray *rp, rt_grid_c
     }
     return hit;
 }
+
+/* ---- the grid as a member of the acceleration layer (accel.h) ------------ */
+
+/* An explicit grid_min is used as given (an oversized grid is an error
+ * naming the limit); 0 means 64 (the paper's bunny), halved while the grid
+ * would exceed RT_GRID_MAX_CELLS (grove: 32). */
+static void *grid_build(const rt_scene *sc, const rt_accel_params *p, rt_err *e)
+{
+    rt_grid *g = NULL;
+    if (p->grid_min) {
+        if (!(g = rt_grid_build(sc, p->grid_min, e))) {
+            char msg[sizeof e->msg];
+            snprintf(msg, sizeof msg, "%s", e->msg);
+            rt_errf(e, "--grid-min %u: %s (at most %u cells)", (unsigned)p->grid_min, msg, (unsigned)RT_GRID_MAX_CELLS);
+        }
+        return g;
+    }
+    for (uint32_t m = RT_GRID_MIN_DEFAULT; m >= 1 && !g; m /= 2) {
+        rt_err e2 = {""};
+        g = rt_grid_build(sc, m, &e2);
+        if (!g && (m == 1 || !strstr(e2.msg, "cells"))) {
+            rt_errf(e, "%s", e2.msg);
+            break;
+        }
+    }
+    return g;
+}
+
+static void grid_free(void *as) { rt_grid_free(as); }
+
+/* grid.cells and grid.lists, one 4-byte texel each (Purcell et al.'s grid
+ * and list textures). */
+static int grid_regions(const void *as, const rt_scene *sc, rt_layout *L, rt_err *e)
+{
+    const rt_grid *g = as;
+    (void)sc;
+    if (rt_mm_add(L, "grid.cells", RT_CLS_NODE, RT_GRID_WORD, g->ncells, e) < 0) return -1;
+    return rt_mm_add(L, "grid.lists", RT_CLS_INDEX, RT_GRID_WORD, g->nlist ? g->nlist : 1, e) < 0 ? -1 : 0;
+}
+
+static void grid_trav_init(rt_trav *tv, const void *as, const rt_layout *L)
+{
+    tv->as = as;
+    tv->reg_node = rt_mm_find(L, "grid.cells");
+    tv->reg_idx = rt_mm_find(L, "grid.lists");
+}
+
+/* The single-ray walk counts cells as node visits and triangle tests; the
+ * grid tracers record their kernels' texel reads themselves (stream.c,
+ * feedback.c), so this walk records nothing. */
+static int grid_closest(rt_trav *tv, const rt_ray *r, rt_hit *h)
+{
+    rt_grid_count c = {0, 0};
+    int hit = rt_grid_closest(tv->as, tv->sc, r, h, &c);
+    tv->nodes += c.cells;
+    tv->tests += c.tests;
+    return hit;
+}
+
+static int grid_occluded(rt_trav *tv, const rt_ray *r)
+{
+    rt_grid_count c = {0, 0};
+    int hit = rt_grid_any(tv->as, tv->sc, r, &c);
+    tv->nodes += c.cells;
+    tv->tests += c.tests;
+    return hit;
+}
+
+static int grid_check(const void *as, const rt_scene *sc, rt_err *e) { return rt_grid_check(as, sc, e); }
+
+static void grid_info(const void *as, rt_accel_info *inf)
+{
+    const rt_grid *g = as;
+    inf->nodes = g->ncells;
+    inf->bytes = (uint64_t)RT_GRID_WORD * ((uint64_t)g->ncells + g->nlist);
+}
+
+const rt_accel_ops rt_accel_grid = {
+    .name = "grid",
+    .desc = "uniform grid, 3D-DDA (Purcell et al. 2002)",
+    .build = grid_build,
+    .free = grid_free,
+    .regions = grid_regions,
+    .trav_init = grid_trav_init,
+    .closest = grid_closest,
+    .occluded = grid_occluded,
+    .check = grid_check,
+    .info = grid_info,
+};

@@ -36,6 +36,7 @@
  */
 #include "config.h"
 #include "kdtrav.h"
+#include "accel.h"
 
 #include <float.h>
 #include <math.h>
@@ -667,41 +668,54 @@ int rt_kd_plain_sub(rt_trav *tv, const rt_ray *r, uint32_t node, float t0, float
     return any ? traverse_plain(tv, r, node, t0, t1, NULL, 1) : traverse_plain(tv, r, node, t0, t1, h, 0);
 }
 
-int rt_brute_closest(const rt_scene *sc, const rt_ray *rp, rt_hit *h)
+/* ---- the k-d tree as a member of the acceleration layer (accel.h) -------- */
+
+static void *kd_build(const rt_scene *sc, const rt_accel_params *p, rt_err *e)
 {
-    const rt_ray ray = *rp, *r = &ray;
-    const rt_tri *tris = sc->tri;
-    const uint32_t n = sc->ntri;
-    rt_hit best;
-    rt_hit_none(&best);
-    best.t = r->tmax;
-    for (uint32_t i = 0; i < n; i++) {
-        float t, u, v;
-        if (!rt_isect_core(r, &tris[i], &t, &u, &v)) continue;
-        /* Ascending i: an equal t never beats the earlier, lower index. */
-        if (t > r->tmin && t < best.t) {
-            best.t = t;
-            best.tri = i;
-            best.u = u;
-            best.v = v;
-        }
-    }
-    if (best.tri == RT_NO_HIT) {
-        rt_hit_none(h);
-        return 0;
-    }
-    *h = best;
-    return 1;
+    (void)p;
+    rt_kd_params kp;
+    rt_kd_default_params(&kp);
+    return rt_kd_build(sc, &kp, e);
 }
 
-int rt_brute_occluded(const rt_scene *sc, const rt_ray *rp)
+static void kd_free(void *as) { rt_kd_free(as); }
+
+/* kd.nodes (8-byte nodes) and kd.index (4-byte leaf entries): the
+ * addresses every k-d tracer shares. */
+static int kd_regions(const void *as, const rt_scene *sc, rt_layout *L, rt_err *e)
 {
-    const rt_ray ray = *rp, *r = &ray;
-    const rt_tri *tris = sc->tri;
-    const uint32_t n = sc->ntri;
-    for (uint32_t i = 0; i < n; i++) {
-        float t, u, v;
-        if (rt_isect_core(r, &tris[i], &t, &u, &v) && t > r->tmin && t < r->tmax) return 1;
-    }
-    return 0;
+    const rt_kdtree *kd = as;
+    (void)sc;
+    if (rt_mm_add(L, "kd.nodes", RT_CLS_NODE, 8, kd->nnodes, e) < 0) return -1;
+    return rt_mm_add(L, "kd.index", RT_CLS_INDEX, 4, kd->nidx, e) < 0 ? -1 : 0;
 }
+
+static void kd_trav_init(rt_trav *tv, const void *as, const rt_layout *L)
+{
+    tv->kd = as;
+    tv->reg_node = rt_mm_find(L, "kd.nodes");
+    tv->reg_idx = rt_mm_find(L, "kd.index");
+}
+
+static int kd_check(const void *as, const rt_scene *sc, rt_err *e) { return rt_kd_check(as, sc, e); }
+
+static void kd_info(const void *as, rt_accel_info *inf)
+{
+    const rt_kdtree *kd = as;
+    inf->nodes = kd->nnodes;
+    inf->bytes = 8 * (uint64_t)kd->nnodes + 4 * (uint64_t)kd->nidx;
+    inf->depth = kd->maxdepth;
+}
+
+const rt_accel_ops rt_accel_kd = {
+    .name = "kd",
+    .desc = "SAH k-d tree, 8-byte nodes (pbrt; Navratil et al. 2007)",
+    .build = kd_build,
+    .free = kd_free,
+    .regions = kd_regions,
+    .trav_init = kd_trav_init,
+    .closest = rt_kd_closest,
+    .occluded = rt_kd_occluded,
+    .check = kd_check,
+    .info = kd_info,
+};

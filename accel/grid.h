@@ -22,7 +22,7 @@
 #define RT_GRID_H
 
 #include "isect.h"
-#include "kdtrav.h"
+#include "hit.h"
 #include "rt.h"
 #include "rt_math.h"
 #include "scene.h"

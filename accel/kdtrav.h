@@ -22,32 +22,12 @@
 #ifndef RT_KDTRAV_H
 #define RT_KDTRAV_H
 
+#include "hit.h"
 #include "isect.h"
 #include "kdtree.h"
 #include "memmodel.h"
 
-typedef struct rt_hit {
-    float t;       /* parametric distance along the ray */
-    uint32_t tri;  /* triangle index, RT_NO_HIT when none */
-    float u, v;    /* barycentrics */
-} rt_hit;
-
-#define RT_NO_HIT UINT32_MAX
 #define RT_KD_STACK 64
-
-/* Shared state for traversing one tree of one scene. */
-typedef struct rt_trav {
-    const rt_kdtree *kd;
-    const rt_scene *sc;
-    rt_rec *rec;         /* NULL: not recording */
-    const rt_layout *L;  /* modeled layout (needed only when rec != NULL) */
-    int reg_node, reg_idx, reg_tri; /* region indices in L */
-    uint64_t nodes;      /* nodes visited (running count) */
-    uint64_t tests;      /* ray/triangle tests (running count) */
-    uint8_t *mark;       /* optional per-triangle flags: mark[tri] |= mark_bit
-                            on every test ("potentially visible" statistics) */
-    uint8_t mark_bit;
-} rt_trav;
 
 /*
  * Early exit of closest-hit traversal: stop before a node whose entry
@@ -115,16 +95,5 @@ int rt_kd_leaf_scan(const rt_trav *tv, const rt_ray *r, uint32_t node, rt_hit *h
  * one is kept as their reference (tests) and for trees without the copy.
  */
 int rt_kd_plain_sub(rt_trav *tv, const rt_ray *r, uint32_t node, float t0, float t1, rt_hit *h, int any);
-
-static inline void rt_hit_none(rt_hit *h)
-{
-    h->t = INFINITY;
-    h->tri = RT_NO_HIT;
-    h->u = h->v = 0.0f;
-}
-
-/* Brute force over all triangles: the obviously-correct reference. */
-int rt_brute_closest(const rt_scene *sc, const rt_ray *r, rt_hit *h);
-int rt_brute_occluded(const rt_scene *sc, const rt_ray *r);
 
 #endif
