@@ -5,6 +5,7 @@
 #define RT_ANALYSIS_INT_H
 
 #include "analysis.h"
+#include "tracer.h"
 
 /* Prepares sql on h and binds its parameters ?1, ?2, ... from the
  * variable arguments, one per character of types: 's' const char *,
@@ -35,5 +36,10 @@ int rt_plot_mkdir(const char *dir, rt_err *e);
  * is a series index into labels[0..n-1], and runs it when p->gnuplot is
  * set. */
 int rt_plot_speed_error(const rt_plot_opts *p, const char *datpath, const char (*labels)[128], int n, rt_err *e);
+
+/* The registered tracers that appear in figure fig (RT_FIG_*), in registry
+ * order, up to max; returns how many. The paper's Figures 4-9 take three:
+ * baseline, packet, scheduled. */
+int rt_report_fig_tracers(unsigned fig, const rt_tracer **out, int max);
 
 #endif

@@ -34,12 +34,33 @@
 static const char *const cls_name[NCLS] = {"stream", "node", "index", "tri", "shade", "fb"};
 static const char *const cls_title[NCLS] = {"stream (vb)", "node (grid)", "index (list)", "tri", "shade", "fb"};
 
-/* Ray-state classes of each design: dynamic, stream-multipass, feedback. */
+/* The designs compared: the tracers of RT_FIG_FEEDBACK in registry order
+ * (the scheduled tracer's queued rays, Purcell's multipass state, the
+ * feedback records), each with the classes that hold its ray state. */
 enum { D_NAV, D_PURCELL, D_FB, ND };
-static const char *const design_tracer[ND] = {"dynamic", "stream-multipass", "feedback"};
-static const char *const design_classes[ND] = {"ray,queue,qtable,hit", "stream", "stream"};
-static const char *const design_title[ND] = {"Navrátil queued rays (dynamic)", "Purcell state (stream-multipass)",
-                                             "feedback records"};
+static const char *design_tracer(int d)
+{
+    const rt_tracer *t[ND] = {NULL, NULL, NULL};
+    rt_report_fig_tracers(RT_FIG_FEEDBACK, t, ND);
+    return t[d] ? t[d]->name : "";
+}
+static const char *design_classes(int d)
+{
+    const rt_tracer *t[ND] = {NULL, NULL, NULL};
+    rt_report_fig_tracers(RT_FIG_FEEDBACK, t, ND);
+    return rt_tracer_is(t[d], RT_TR_QUEUES) ? "ray,queue,qtable,hit" : "stream";
+}
+static const char *design_title(int d)
+{
+    static char buf[ND][96];
+    const rt_tracer *t[ND] = {NULL, NULL, NULL};
+    rt_report_fig_tracers(RT_FIG_FEEDBACK, t, ND);
+    if (!t[d]) return "";
+    if (rt_tracer_is(t[d], RT_TR_QUEUES)) snprintf(buf[d], sizeof buf[d], "Navrátil queued rays (%s)", t[d]->name);
+    else if (rt_tracer_is(t[d], RT_TR_MULTIPASS)) snprintf(buf[d], sizeof buf[d], "Purcell state (%s)", t[d]->name);
+    else snprintf(buf[d], sizeof buf[d], "%s records", t[d]->name);
+    return buf[d];
+}
 
 /* One cache configuration of a feedback run and what was measured there. */
 typedef struct fcfg {
@@ -129,7 +150,7 @@ static int other_design(sqlite3 *h, const frun *f, fcfg *c, int d, rt_err *e)
         " AND s.name = ?2 AND s.hash = ?3 AND r.W = ?4 AND r.H = ?5 AND r.lights = ?6 AND r.sim_method = 'exact'"
         " AND r.params NOT LIKE '%subsample=%' AND r.params NOT LIKE '%sim=all-sizes%'"
         " AND (?1 <> 'dynamic' OR r.sched_size = ?7) ORDER BY r.id",
-        "feedback", e, "sssiiiI", design_tracer[d], f->scene, f->hash, f->W, f->H, f->lights, (int64_t)c->size);
+        "feedback", e, "sssiiiI", design_tracer(d), f->scene, f->hash, f->W, f->H, f->lights, (int64_t)c->size);
     if (!st) return -1;
     long long best = -1;
     int best_gm = 0, rc;
@@ -148,7 +169,7 @@ static int other_design(sqlite3 *h, const frun *f, fcfg *c, int d, rt_err *e)
     c->rays[d] = rays;
     if (best < 0) return 0;
     double b = 0;
-    int r = class_bytes(h, best, c->id, design_classes[d], &b, e);
+    int r = class_bytes(h, best, c->id, design_classes(d), &b, e);
     if (r < 0) return -1;
     if (r) c->state[d] = b;
     return 0;
@@ -270,14 +291,14 @@ static void run_tables(FILE *o, int csv, const frun *f, const fcfg *C, long n)
     }
     fprintf(o, "\n### %s: ray-state bytes per traced ray\n\nRays traced (primary + shadow + secondary): ", f->label);
     for (int d = 0; d < ND; d++) {
-        fprintf(o, "%s%s ", d ? ", " : "", design_tracer[d]);
+        fprintf(o, "%s%s ", d ? ", " : "", design_tracer(d));
         if (n && !isnan(C[n - 1].rays[d])) fprintf(o, "%.0f", C[n - 1].rays[d]);
         else fputs("—", o);
     }
     fprintf(o, "; %d generation%s, so per generation = per ray / %d.\n\n| cache", f->gens, f->gens == 1 ? "" : "s",
             f->gens);
-    for (int d = 0; d < ND; d++) fprintf(o, " | %s", design_title[d]);
-    for (int d = 0; d < ND; d++) fprintf(o, " | per gen. %s", design_tracer[d]);
+    for (int d = 0; d < ND; d++) fprintf(o, " | %s", design_title(d));
+    for (int d = 0; d < ND; d++) fprintf(o, " | per gen. %s", design_tracer(d));
     fputs(" |\n|---", o);
     for (int k = 0; k < 2 * ND; k++) fputs("|---:", o);
     fputs("|\n", o);
@@ -296,9 +317,9 @@ static void run_tables(FILE *o, int csv, const frun *f, const fcfg *C, long n)
             per_ray(c, D_FB, 0), c->total > 0 ? 100.0 * c->cls[0] / c->total : 0.0);
     for (int d = D_NAV; d <= D_PURCELL; d++) {
         double v = per_ray(c, d, 0), fb = per_ray(c, D_FB, 0);
-        if (isnan(v)) fprintf(o, "; no %s run to compare", design_tracer[d]);
-        else if (v > 0) fprintf(o, "; %.2fx the %.1f B of %s", fb / v, v, design_title[d]);
-        else fprintf(o, "; %s moves none", design_title[d]);
+        if (isnan(v)) fprintf(o, "; no %s run to compare", design_tracer(d));
+        else if (v > 0) fprintf(o, "; %.2fx the %.1f B of %s", fb / v, v, design_title(d));
+        else fprintf(o, "; %s moves none", design_title(d));
     }
     fputs(".\n", o);
 }
@@ -355,7 +376,7 @@ static int run_plot(const rt_plot_opts *po, const frun *f, const fcfg *C, long n
         if (d) fputs(", ''", fp);
         else rt_plot_quote_path(fp, dat);
         fprintf(fp, " u 1:%d w lp lc rgb \"%s\" pt 7 t ", 2 + NCLS + d, col[d]);
-        rt_plot_quote(fp, design_title[d]);
+        rt_plot_quote(fp, design_title(d));
     }
     fprintf(fp, "\nunset multiplot\n");
     if (close_file(fp, gpf, e) < 0) return -1;

@@ -44,12 +44,19 @@ static int packet_shown(const rt_report *R, uint64_t size) { return size > (uint
 /* The three tracers' geometry (g) and ray (r) MB at one size and light
  * mask, in the order recursive, packet, dynamic; has[k] = 0 (values NAN)
  * when the run is absent or, for packets, not reported at that size. */
-static const char *const tracers3[3] = {"recursive", "packet", "dynamic"};
+/* The figure's three columns: the Navratil tracers in registry order
+ * (baseline, packet, scheduled). */
+static const char *tracer3(int k)
+{
+    const rt_tracer *t[3] = {NULL, NULL, NULL};
+    rt_report_fig_tracers(RT_FIG_NAVRATIL, t, 3);
+    return t[k] ? t[k]->name : "";
+}
 static int values3(const rt_report *R, const char *scene, unsigned lights, uint64_t size, double g[3], double r[3],
                    int has[3], rt_err *e)
 {
     for (int k = 0; k < 3; k++) {
-        int f = rt_report_value(R, scene, tracers3[k], lights, size, &g[k], &r[k], e);
+        int f = rt_report_value(R, scene, tracer3(k), lights, size, &g[k], &r[k], e);
         if (f < 0) return -1;
         has[k] = f && (k != 1 || packet_shown(R, size));
         if (!has[k]) g[k] = r[k] = NAN;
@@ -209,11 +216,12 @@ int rt_report_scenes(const rt_report *R, FILE *out, rt_err *e)
         if (rt_report_done(st, rc, R->dbpath, e) < 0) return -1;
         char stats[1024];
         double pvp = NAN, pva = NAN;
-        int f = run_stats(R, sc, "recursive", 7, stats, sizeof stats, e);
+        const char *ref = rt_tracer_reference()->name;
+        int f = run_stats(R, sc, ref, 7, stats, sizeof stats, e);
         if (f > 0) {
             stat_of(stats, "pv_primary", &pvp);
             stat_of(stats, "pv_all", &pva);
-        } else if (f == 0 && (f = run_stats(R, sc, "recursive", 0, stats, sizeof stats, e)) > 0) {
+        } else if (f == 0 && (f = run_stats(R, sc, ref, 0, stats, sizeof stats, e)) > 0) {
             stat_of(stats, "pv_primary", &pvp);
         }
         if (f < 0) return -1;

@@ -205,9 +205,10 @@ int rt_plot_traffic(const rt_report *R, const rt_plot_opts *p, rt_err *e)
             uint64_t s = R->sizes[k];
             double v[6];
             int h[3];
-            static const char *const tr[3] = {"recursive", "packet", "dynamic"};
+            const rt_tracer *tr[3] = {NULL, NULL, NULL};
+            rt_report_fig_tracers(RT_FIG_NAVRATIL, tr, 3);
             for (int t = 0; t < 3; t++) {
-                h[t] = rt_report_value(R, sc, tr[t], 0, s, &v[t], &v[t + 3], e);
+                h[t] = tr[t] ? rt_report_value(R, sc, tr[t]->name, 0, s, &v[t], &v[t + 3], e) : 0;
                 if (h[t] < 0) {
                     fclose(f);
                     return -1;
@@ -306,7 +307,7 @@ int rt_plot_scenes(const rt_report *R, const rt_plot_opts *p, rt_err *e)
         /* a mesh from where the database last saw it (works from any
          * folder); a built-in by its name */
         const char *spec = R->scene_abspath[i][0] ? R->scene_abspath[i] : R->scene_name[i];
-        if (rt_job_setup(&j, spec, "recursive", &o, e) < 0) {
+        if (rt_job_setup(&j, spec, rt_tracer_reference()->name, &o, e) < 0) {
             /* e names the scene file that could not be loaded */
             if (e) {
                 char m[RT_ERR_LEN];

@@ -330,7 +330,7 @@ int rt_report_purcell(sqlite3 *h, const char *scene, int csv, const rt_plot_opts
         r->H = sqlite3_column_int(st, 4);
         snprintf(r->params, sizeof r->params, "%s", (const char *)sqlite3_column_text(st, 5));
         r->stats = strdup((const char *)sqlite3_column_text(st, 6));
-        r->mp = !strcmp(r->tracer, "stream-multipass");
+        r->mp = rt_tracer_is(rt_tracer_find(r->tracer), RT_TR_MULTIPASS);
         snprintf(r->label, sizeof r->label, "%s %s %dx%d%s%s", r->scene, r->mp ? "multipass" : "branching", r->W, r->H,
                  r->params[0] ? " " : "", r->params);
         n++;

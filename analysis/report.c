@@ -287,11 +287,19 @@ double rt_report_reduction(double base, double dyn)
     return base >= dyn ? 100.0 * (base / dyn - 1.0) : -100.0 * (dyn / base - 1.0);
 }
 
+int rt_report_fig_tracers(unsigned fig, const rt_tracer **out, int max)
+{
+    int n = 0;
+    for (int i = 0; rt_tracer_all[i] && n < max; i++)
+        if (rt_tracer_all[i]->figures & fig) out[n++] = rt_tracer_all[i];
+    return n;
+}
+
 int rt_report_value(const rt_report *R, const char *scene, const char *tracer, unsigned lights, uint64_t size,
                     double *geom, double *ray, rt_err *e)
 {
-    /* the dynamic tracer's value at a size is its run scheduled for that size */
-    int64_t sched = strcmp(tracer, "dynamic") ? 0 : (int64_t)size;
+    /* a scheduled tracer's value at a size is its run scheduled for that size */
+    int64_t sched = rt_tracer_is(rt_tracer_find(tracer), RT_TR_SCHEDULED) ? (int64_t)size : 0;
     /* v_paper's rows, of the one scene (name, hash) the label stands for */
     int i = rt_report_scene_index(R, scene);
     const char *name = i >= 0 ? R->scene_name[i] : scene, *hash = i >= 0 ? R->scene_hash[i] : "";

@@ -262,7 +262,7 @@ int rt_mode_bench_modes(FILE *out, const rt_mode_bench *b, rt_err *e)
                 uint64_t rays = rays_traced(&su);
                 double ru = su.seconds > 0 ? (double)rays / su.seconds * 1e-6 : 0;
                 double rt = sr.seconds > 0 ? (double)rays / sr.seconds * 1e-6 : 0;
-                if (!strcmp(t, "recursive")) {
+                if (rt_tracer_is(rt_tracer_find(t), RT_TR_REFERENCE)) {
                     rec_rate = ru;
                     if (si >= 0) {
                         rec[si][m][0] = ru;
@@ -344,7 +344,7 @@ int rt_mode_bench_identical(FILE *out, const rt_mode_bench *b, rt_err *e)
                 break;
             }
             for (char *t = strtok_r(tl, ",", &ts); t && rc == 0; t = strtok_r(NULL, ",", &ts)) {
-                if (!strcmp(t, "recursive")) continue;
+                if (rt_tracer_is(rt_tracer_find(t), RT_TR_REFERENCE)) continue;
                 /* poisoned (NaN bytes): a pixel the tracer never writes is a DIFF */
                 memset(img->rgb, 0xff, sizeof(float) * 3 * (size_t)b->W * (size_t)b->H);
                 if ((rc = run_one(&L, t, &o, NULL, img, &st, e)) < 0) break;

@@ -370,10 +370,12 @@ int main_bench(int argc, char **argv)
         char *list = strdup(tracers), *save = NULL;
         int rc = 0;
         double ref = 0; /* untraced recursive rays/s; measured first when the list does not start with it */
-        if (strncmp(tracers, "recursive", 9) || (tracers[9] && tracers[9] != ',')) {
+        const char *refname = rt_tracer_reference()->name;
+        size_t rl = strlen(refname);
+        if (strncmp(tracers, refname, rl) || (tracers[rl] && tracers[rl] != ',')) {
             rt_job j;
             rt_err e2 = {""};
-            if (rt_job_setup_borrowed(&j, sc, kd, "recursive", &o, &e2) < 0) {
+            if (rt_job_setup_borrowed(&j, sc, kd, refname, &o, &e2) < 0) {
                 rt_cmd_error("bench", "%s", e2.msg);
                 rc = -1;
             } else {

@@ -60,7 +60,7 @@ int rt_cmd_parse_long(const char *s, long lo, long hi, long *out)
     return 0;
 }
 
-int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o, const char **tracer)
+static int render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o, const char **tracer)
 {
     long v;
     uint64_t u;
@@ -104,11 +104,9 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
             return -1;
         }
         o->accel = a;
-        o->given |= 1u << RT_RO_ACCEL;
         return 1;
     }
     case RT_OPT_VB_SIZE:
-        o->given |= 1u << RT_RO_VB_SIZE;
         if (rt_parse_size(arg, &u) < 0 || u < RT_FB_REC_SIZE) {
             rt_cmd_error(cmd, "--vb-size: '%s' is not a size like 512M (>= 64)", arg);
             return -1;
@@ -130,7 +128,6 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         o->bounces = (int)v;
         return 1;
     case RT_OPT_GRID_MIN:
-        o->given |= 1u << RT_RO_GRID_MIN;
         if (rt_cmd_parse_long(arg, 1, RT_GRID_MAX_CELLS, &v) < 0) {
             rt_cmd_error(cmd, "--grid-min: '%s' is not in 1..%u (the grid holds at most %u cells)", arg,
                          (unsigned)RT_GRID_MAX_CELLS, (unsigned)RT_GRID_MAX_CELLS);
@@ -139,7 +136,6 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         o->grid_min = (uint32_t)v;
         return 1;
     case RT_OPT_ORACLE:
-        o->given |= 1u << RT_RO_ORACLE;
         if (!strcmp(arg, "naive")) o->oracle = RT_ORACLE_NAIVE;
         else if (!strcmp(arg, "threshold")) o->oracle = RT_ORACLE_THRESHOLD;
         else {
@@ -148,7 +144,6 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         }
         return 1;
     case RT_OPT_ORACLE_FRACTION: {
-        o->given |= 1u << RT_RO_ORACLE_FRACTION;
         char *end;
         double f = strtod(arg, &end);
         if (end == arg || *end || !(f > 0) || f > 1) {
@@ -159,7 +154,6 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         return 1;
     }
     case RT_OPT_UNROLL: {
-        o->given |= 1u << RT_RO_UNROLL;
         char buf[64], *comma;
         long t, i;
         snprintf(buf, sizeof buf, "%s", arg);
@@ -173,7 +167,6 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         return 1;
     }
     case RT_OPT_UNROLL_SUPPRESS:
-        o->given |= 1u << RT_RO_UNROLL_SUPPRESS;
         o->unroll_suppress = 1;
         return 1;
     case 'W':
@@ -191,7 +184,6 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         }
         return 1;
     case RT_OPT_CACHE_SIZE:
-        o->given |= 1u << RT_RO_CACHE_SIZE;
         if (rt_parse_size(arg, &u) < 0 || u < 64) {
             rt_cmd_error(cmd, "--cache-size: '%s' is not a size like 64K (>= 64)", arg);
             return -1;
@@ -199,7 +191,6 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         o->sched_size = u;
         return 1;
     case RT_OPT_GMAX:
-        o->given |= 1u << RT_RO_GMAX;
         if (rt_parse_size(arg, &u) < 0 || u == 0) {
             rt_cmd_error(cmd, "--gmax: '%s' is not a positive byte count", arg);
             return -1;
@@ -207,7 +198,6 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         o->gmax = u;
         return 1;
     case RT_OPT_PACKET:
-        o->given |= 1u << RT_RO_PACKET;
         if (rt_cmd_parse_long(arg, 1, 256, &v) < 0) {
             rt_cmd_error(cmd, "--packet: '%s' is not in 1..256", arg);
             return -1;
@@ -215,7 +205,6 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         o->packet = (int)v;
         return 1;
     case RT_OPT_QORDER:
-        o->given |= 1u << RT_RO_QORDER;
         if (!strcmp(arg, "fullest")) o->qorder = RT_QORDER_FULLEST;
         else if (!strcmp(arg, "tree")) o->qorder = RT_QORDER_TREE;
         else {
@@ -224,7 +213,6 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         }
         return 1;
     case RT_OPT_THREADS:
-        o->given |= 1u << RT_RO_THREADS;
         if (rt_cmd_parse_long(arg, 1, 1024, &v) < 0) {
             rt_cmd_error(cmd, "--threads: '%s' is not in 1..1024", arg);
             return -1;
@@ -258,7 +246,6 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         o->geom = (int)v;
         return 1;
     case RT_OPT_QUEUE_STORES:
-        o->given |= 1u << RT_RO_QUEUE_STORES;
         if ((v = rt_render_qstores_from_name(arg)) < 0) {
             rt_cmd_error(cmd, "--queue-stores: '%s' is not write-allocate or stream", arg);
             return -1;
@@ -268,6 +255,36 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
     default:
         return 0;
     }
+}
+
+/* The tracer-specific option behind a front-end option code, or -1. */
+static int given_id(int c)
+{
+    switch (c) {
+    case RT_OPT_PACKET: return RT_RO_PACKET;
+    case RT_OPT_CACHE_SIZE: return RT_RO_CACHE_SIZE;
+    case RT_OPT_GMAX: return RT_RO_GMAX;
+    case RT_OPT_QORDER: return RT_RO_QORDER;
+    case RT_OPT_THREADS: return RT_RO_THREADS;
+    case RT_OPT_QUEUE_STORES: return RT_RO_QUEUE_STORES;
+    case RT_OPT_GRID_MIN: return RT_RO_GRID_MIN;
+    case RT_OPT_VB_SIZE: return RT_RO_VB_SIZE;
+    case RT_OPT_ORACLE: return RT_RO_ORACLE;
+    case RT_OPT_ORACLE_FRACTION: return RT_RO_ORACLE_FRACTION;
+    case RT_OPT_UNROLL: return RT_RO_UNROLL;
+    case RT_OPT_UNROLL_SUPPRESS: return RT_RO_UNROLL_SUPPRESS;
+    case RT_OPT_ACCEL: return RT_RO_ACCEL;
+    default: return -1;
+    }
+}
+
+/* The option parsed as render_opt does; an accepted option of one tracer
+ * group is remembered in o->given, so the tracer can refuse it. */
+int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o, const char **tracer)
+{
+    int r = render_opt(cmd, c, arg, o, tracer), id = given_id(c);
+    if (r > 0 && id >= 0) o->given |= 1u << id;
+    return r;
 }
 
 int rt_cmd_check_tracer_opts(const char *cmd, const char *tracer, const rt_render_opts *o)

@@ -545,8 +545,8 @@ static void options(void)
     rt_err e = {""};
     char buf[256];
     rt_render_default_opts(&o);
-    CHECK(rt_render_accel_from_name("grid") == RT_ACCEL_GRID && rt_render_accel_from_name("naive") == RT_ACCEL_NAIVE &&
-              rt_render_accel_from_name("bvh") == -1,
+    CHECK(rt_accel_from_name("grid") == RT_ACCEL_GRID && rt_accel_from_name("naive") == RT_ACCEL_NAIVE &&
+              rt_accel_from_name("bvh") == -1,
           "accel names");
     o.accel = 7;
     CHECK(rt_render_check_mode(&o, &e) < 0 && strstr(e.msg, "--accel"), "accel 7: %s", e.msg);

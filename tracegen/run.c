@@ -185,7 +185,7 @@ const char *rt_job_params(const char *tracer, const rt_render_opts *o, const cha
     const rt_tracer *tr = rt_tracer_find(tracer);
     if (!extra) extra = "";
     /* the structure when not the tracer's default, then the tracer's own */
-    if (tr && o->accel != RT_ACCEL_DEFAULT && o->accel != tr->accel_default && rt_accel_name(o->accel))
+    if (tr && o->accel != RT_ACCEL_DEFAULT && o->accel != tr->accel_default && (tr->accels & RT_ACCEL_BIT(o->accel)))
         snprintf(tp, sizeof tp, "accel=%s", rt_accel_name(o->accel));
     if (tr && tr->params) tr->params(o, own, sizeof own);
     if (own[0]) {
