@@ -320,7 +320,7 @@ int rt_report_value(const rt_report *R, const char *scene, const char *tracer, u
                   " JOIN scenes s ON s.id = r.scene_id WHERE g.line = 64 AND g.assoc = 0 AND g.policy = ?9"
                   " AND r.sim_method = 'exact' AND r.sim_params = ?10 AND r.params NOT LIKE '%subsample=%'"
                   " AND (instr(r.params, 'layout=mesh') > 0) = ?11"
-                  " AND (r.tracer != 'dynamic' OR (instr(r.params, 'queue_stores=stream') > 0) = ?12)"
+                  " AND (r.sched_size = 0 OR (instr(r.params, 'queue_stores=stream') > 0) = ?12)"
                   " AND s.name = ?1 AND (?8 = '' OR s.hash = ?8) AND r.tracer = ?2 AND r.lights = ?3"
                   " AND r.sched_size = ?4 AND g.cache_size = ?5 AND r.W = ?6 AND r.H = ?7"
                   " ORDER BY g.geometry_mb LIMIT 1",

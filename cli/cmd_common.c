@@ -247,9 +247,11 @@ static int render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         return 1;
     case RT_OPT_QUEUE_STORES:
         if ((v = rt_render_qstores_from_name(arg)) < 0) {
-            rt_cmd_error(cmd, "--queue-stores: '%s' is not write-allocate or stream", arg);
+            rt_cmd_error(cmd, "--queue-stores: '%s' is not write-allocate or non-temporal", arg);
             return -1;
         }
+        if (!strcmp(arg, "stream"))
+            fprintf(stderr, "raytraffic %s: note: --queue-stores stream is now spelled non-temporal\n", cmd);
         o->qstores = (int)v;
         return 1;
     default:

@@ -295,8 +295,8 @@ static void job_label(const rt_exp_config *o, const rt_exp_job *jb, char *buf, s
         snprintf(li, sizeof li, "%s %s", rt_render_mode_name(jb->mode), lab);
     else
         snprintf(li, sizeof li, "%s", lab);
-    if (jb->sched)
-        snprintf(buf, n, "%s %s %s @%" PRIu64 "K%s", o->scenes[jb->scene], li, jb->tracer, jb->sched / 1024, px);
+    if (jb->sched_size)
+        snprintf(buf, n, "%s %s %s @%" PRIu64 "K%s", o->scenes[jb->scene], li, jb->tracer, jb->sched_size / 1024, px);
     else
         snprintf(buf, n, "%s %s %s%s", o->scenes[jb->scene], li, jb->tracer, px);
 }

@@ -105,7 +105,7 @@ rt_render_opts rt_exp_job_opts(const rt_exp_config *c, const rt_exp_job *jb)
     ro.lights = jb->lighting >= 0 ? c->lightings[jb->lighting].mask : 0;
     /* a raycast job is the run without lights: the default mode keeps its key */
     ro.mode = jb->mode == RT_MODE_RAYCAST ? RT_MODE_DEFAULT : jb->mode;
-    ro.sched_size = jb->sched ? jb->sched : ro.sched_size;
+    ro.sched_size = jb->sched_size ? jb->sched_size : ro.sched_size;
     /* a structure the tracer cannot run on (a sweep of several tracers):
      * its own default */
     const rt_tracer *tr = rt_tracer_find(jb->tracer);
@@ -307,7 +307,7 @@ static int load_scene(rt_exp_worker *w, int s, rt_err *e)
  * at every size (recursive, packet, --dynamic-all-sizes) run them. */
 static int job_napprox(const rt_exp_config *c, const rt_exp_job *jb)
 {
-    return (jb->sched && !c->dyn_all) || jb->proxy >= 0 ? 0 : c->napprox;
+    return (jb->sched_size && !c->dyn_all) || jb->proxy >= 0 ? 0 : c->napprox;
 }
 
 /* 1 if the job's exact run and all its approximate runs are stored. */
@@ -355,7 +355,7 @@ static int open_trace(rt_exp_worker *w, jobrun *r, const rt_exp_job *jb, long in
     const int sec = jb->mode == RT_MODE_WHITTED || jb->mode == RT_MODE_PATH;
     snprintf(path, sizeof path, "%s/job%04ld-%s-%s%s%s-%s%s%" PRIu64 "%s.rtt", c->keep, index, c->scenes[jb->scene],
              jb->lighting >= 0 ? c->lightings[jb->lighting].label : "primary", sec ? "-" : "",
-             sec ? rt_render_mode_name(jb->mode) : "", jb->tracer, jb->sched ? "-" : "", jb->sched,
+             sec ? rt_render_mode_name(jb->mode) : "", jb->tracer, jb->sched_size ? "-" : "", jb->sched_size,
              jb->proxy >= 0 ? "-proxy" : "");
     for (char *p = path + strlen(c->keep) + 1; *p; p++)
         if (*p == '/' || *p == ':' || *p == ',' || *p == '=') *p = '_';
@@ -391,9 +391,9 @@ static int render_job(rt_exp_worker *w, jobrun *r, const rt_exp_job *jb, long in
     const rt_exp_config *c = w->c;
     rt_render_opts ro = rt_exp_job_opts(c, jb);
     r->sc = c->sim;
-    if (jb->sched && !c->dyn_all) {
+    if (jb->sched_size && !c->dyn_all) {
         r->sc.nsizes = 1;
-        r->sc.sizes[0] = jb->sched;
+        r->sc.sizes[0] = jb->sched_size;
     }
     if (rt_job_setup_borrowed(&r->j, w->sc, w->kd, jb->tracer, &ro, e) < 0) return -1;
     r->have_job = 1;

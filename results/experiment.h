@@ -142,7 +142,7 @@ typedef struct rt_exp_job {
     int scene;          /* index into config scenes */
     int lighting;       /* index into config lightings; -1 = no light (a raycast job) */
     const char *tracer; /* borrowed from the config */
-    uint64_t sched;     /* dynamic: scheduled cache size; 0 otherwise */
+    uint64_t sched_size; /* scheduled tracers: the cache size the run is scheduled for; 0 otherwise */
     int proxy;          /* index into config proxies, -1 = the full experiment */
     int mode;           /* rt_mode: RT_MODE_DEFAULT (the lighting decides), RAYCAST, WHITTED, PATH */
 } rt_exp_job;

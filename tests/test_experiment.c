@@ -96,9 +96,9 @@ static void compare_with_replay(rt_db *db, const rt_exp_config *c, const rt_exp_
 {
     rt_err e = {""};
     rt_sim_config sc = c->sim;
-    if (jb->sched) {
+    if (jb->sched_size) {
         sc.nsizes = 1;
-        sc.sizes[0] = jb->sched;
+        sc.sizes[0] = jb->sched_size;
     }
     rt_sim *s = rt_sim_new(&sc, &e);
     rt_tr_meta m;
@@ -118,7 +118,7 @@ static void compare_with_replay(rt_db *db, const rt_exp_config *c, const rt_exp_
     char sql[256];
     snprintf(sql, sizeof sql, "SELECT r.refs, COUNT(*) FROM runs r JOIN traffic t ON t.run_id = r.id WHERE "
                               "r.tracer = '%s' AND r.sched_size = %llu AND r.sim_method = 'exact'",
-             jb->tracer, (unsigned long long)jb->sched);
+             jb->tracer, (unsigned long long)jb->sched_size);
     CHECK(sqlite3_prepare_v2(h, sql, -1, &st, NULL) == SQLITE_OK && sqlite3_step(st) == SQLITE_ROW, "%s", sql);
     CHECK((uint64_t)sqlite3_column_int64(st, 0) == in.refs, "%s: stored refs %lld, trace has %llu", trace,
           (long long)sqlite3_column_int64(st, 0), (unsigned long long)in.refs);
@@ -135,7 +135,7 @@ static void compare_with_replay(rt_db *db, const rt_exp_config *c, const rt_exp_
         const rt_db_traffic *r = &rows[i];
         sqlite3_reset(st);
         sqlite3_bind_text(st, 1, jb->tracer, -1, SQLITE_STATIC);
-        sqlite3_bind_int64(st, 2, (sqlite3_int64)jb->sched);
+        sqlite3_bind_int64(st, 2, (sqlite3_int64)jb->sched_size);
         sqlite3_bind_int64(st, 3, (sqlite3_int64)r->size);
         sqlite3_bind_int64(st, 4, r->line);
         sqlite3_bind_int64(st, 5, r->assoc);
@@ -386,8 +386,8 @@ static void test_modes(const char *dir)
                      "SELECT coalesce(sum(t.accesses), 0) FROM traffic_gen t JOIN runs r ON r.id = t.run_id JOIN "
                      "cache_configs c ON c.id = t.config_id WHERE r.tracer = '%s' AND r.sched_size = %llu AND "
                      "r.params LIKE '%%mode=%s%%' AND c.size = %llu AND t.gen = %d",
-                     J[i].tracer, (unsigned long long)J[i].sched, i < 9 ? "whitted" : "path",
-                     (unsigned long long)(J[i].sched ? J[i].sched : 1024), gen);
+                     J[i].tracer, (unsigned long long)J[i].sched_size, i < 9 ? "whitted" : "path",
+                     (unsigned long long)(J[i].sched_size ? J[i].sched_size : 1024), gen);
             CHECK((uint64_t)count(db, sql) == g.touches[gen], "job %ld gen %d: stored %lld accesses, counted %llu", i,
                   gen, count(db, sql), (unsigned long long)g.touches[gen]);
         }

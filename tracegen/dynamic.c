@@ -184,19 +184,19 @@ static void mark_hastris(const rt_kdtree *kd, uint8_t *hastris)
     }
 }
 
-uint64_t rt_dyn_derive_gmax(const rt_kdtree *kd, const uint64_t *g, uint64_t cache_bytes, uint64_t raybuf_bytes,
+uint64_t rt_dyn_derive_gmax(const rt_kdtree *kd, const uint64_t *g, uint64_t sched_size, uint64_t raybuf_bytes,
                             int *fallback)
 {
     if (fallback) *fallback = 0;
-    if (cache_bytes <= raybuf_bytes) return 0;
+    if (sched_size <= raybuf_bytes) return 0;
     int32_t *mark = malloc(sizeof *mark * (kd->nnodes ? kd->nnodes : 1));
     if (!mark) return 0;
     mark_subtrees(kd, mark);
-    uint64_t gm = cache_bytes - raybuf_bytes;
+    uint64_t gm = sched_size - raybuf_bytes;
     for (int it = 0; it < 64; it++) {
         uint32_t ntop = 0, nq = select_walk(kd, g, mark, gm, NULL, &ntop);
         uint64_t resident = raybuf_bytes + 8ull * ntop + 8ull * nq;
-        uint64_t next = cache_bytes > resident ? cache_bytes - resident : 0;
+        uint64_t next = sched_size > resident ? sched_size - resident : 0;
         if (next >= gm) break; /* the selection for gm fits */
         gm = next;
         if (gm == 0) break;
@@ -208,7 +208,7 @@ uint64_t rt_dyn_derive_gmax(const rt_kdtree *kd, const uint64_t *g, uint64_t cac
          * half the cache left by the ray buffer; subtree geometry then
          * streams through the other half (docs/tracers.md). g is monotone:
          * a larger g_max never selects more queue points. */
-        uint64_t budget = (cache_bytes - raybuf_bytes) / 2, lo = 1, hi = g[0];
+        uint64_t budget = (sched_size - raybuf_bytes) / 2, lo = 1, hi = g[0];
         while (lo < hi) {
             uint64_t mid = lo + (hi - lo) / 2;
             uint32_t ntop = 0, nq = select_walk(kd, g, mark, mid, NULL, &ntop);

@@ -32,14 +32,14 @@ int rt_dyn_subtree_geometry(const rt_kdtree *kd, uint32_t ntri, uint64_t *g, rt_
  * tree-top nodes (non-queue-point nodes above the queue points). */
 uint32_t rt_dyn_select(const rt_kdtree *kd, const uint64_t *g, uint64_t gmax, int32_t *qp, uint32_t *ntop);
 
-/* Derives g_max for a cache of cache_bytes: the geometry that fits after the
+/* Derives g_max for a cache of sched_size: the geometry that fits after the
  * resident tree top (8 B per node), the queue table (8 B per queue point)
  * and the ray buffer (raybuf_bytes), iterated to a fixed point. When no
  * fixed point above 0 exists (the top needed to make subtrees fit is itself
  * larger than the cache), the top is kept resident instead: the smallest
  * g_max whose top and table fit in half the cache after the ray buffer;
  * *fallback is then set. */
-uint64_t rt_dyn_derive_gmax(const rt_kdtree *kd, const uint64_t *g, uint64_t cache_bytes, uint64_t raybuf_bytes,
+uint64_t rt_dyn_derive_gmax(const rt_kdtree *kd, const uint64_t *g, uint64_t sched_size, uint64_t raybuf_bytes,
                             int *fallback);
 
 /* The scheduler's state during a run (dynamic.c). */

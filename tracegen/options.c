@@ -36,7 +36,10 @@ void rt_render_default_opts(rt_render_opts *o)
 }
 
 static const char *const geom_names[] = {"compact", "mesh"};
-static const char *const qstores_names[] = {"write-allocate", "stream"};
+/* "non-temporal" was called "stream" before (still accepted: rt_render_
+ * qstores_from_name; the run key keeps "queue_stores=stream" so databases
+ * written before stay comparable). */
+static const char *const qstores_names[] = {"write-allocate", "non-temporal"};
 
 const char *rt_render_geom_name(int geom) { return geom >= 0 && geom <= RT_GEOM_MESH ? geom_names[geom] : NULL; }
 
@@ -56,6 +59,7 @@ int rt_render_qstores_from_name(const char *name)
 {
     for (int q = 0; q <= RT_QSTORES_STREAM; q++)
         if (!strcmp(name, qstores_names[q])) return q;
+    if (!strcmp(name, "stream")) return RT_QSTORES_STREAM; /* the former name */
     return -1;
 }
 

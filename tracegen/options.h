@@ -29,7 +29,7 @@ typedef enum rt_geom_layout {
 /* How the dynamic tracer writes ray-queue records (docs/memory-model.md). */
 typedef enum rt_qstores {
     RT_QSTORES_WRITE_ALLOCATE = 0, /* ordinary stores: a missing line is fetched first */
-    RT_QSTORES_STREAM = 1          /* streaming stores (RT_WRITE_STREAM): queue lines are not fetched */
+    RT_QSTORES_STREAM = 1          /* non-temporal stores (RT_WRITE_STREAM): queue lines are not fetched */
 } rt_qstores;
 /*
  * Render options that only some tracers read, each in one group; a tracer's
@@ -132,7 +132,8 @@ int rt_render_check_mode(const rt_render_opts *o, rt_err *e);
 /* Layout name ("compact", "mesh") or NULL; from its name, or -1. */
 const char *rt_render_geom_name(int geom);
 int rt_render_geom_from_name(const char *name);
-/* Queue-store name ("write-allocate", "stream") or NULL; from its name, or -1. */
+/* Queue-store name ("write-allocate", "non-temporal") or NULL; from its
+ * name ("stream" is the former name of non-temporal), or -1. */
 const char *rt_render_qstores_name(int qs);
 int rt_render_qstores_from_name(const char *name);
 

@@ -175,7 +175,7 @@ static void layout_params(const rt_tracer *tr, const rt_render_opts *o, char *bu
         snprintf(buf + l, n - l, "%slayout=%s", l ? " " : "", rt_render_geom_name(o->geom));
     l = strlen(buf);
     if (rt_tracer_is(tr, RT_TR_QUEUES) && o->qstores != RT_QSTORES_WRITE_ALLOCATE)
-        snprintf(buf + l, n - l, "%squeue_stores=%s", l ? " " : "", rt_render_qstores_name(o->qstores));
+        snprintf(buf + l, n - l, "%squeue_stores=stream", l ? " " : ""); /* the key's spelling since version 1 */
 }
 
 const char *rt_job_params(const char *tracer, const rt_render_opts *o, const char *extra, char *buf, size_t n)
