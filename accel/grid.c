@@ -692,12 +692,17 @@ static void *grid_build(const rt_scene *sc, const rt_accel_params *p, rt_err *e)
         if (!(g = rt_grid_build(sc, p->grid_min, e))) {
             char msg[sizeof e->msg];
             snprintf(msg, sizeof msg, "%s", e->msg);
-            rt_errf(e, "--grid-min %u: %s (at most %u cells)", (unsigned)p->grid_min, msg, (unsigned)RT_GRID_MAX_CELLS);
+            /* a grid over the cell limit asks too much of the option */
+            if (strstr(msg, "above the limit of 2^27"))
+                rt_errf_usage(e, "--grid-min %u: %s (at most %u cells)", (unsigned)p->grid_min, msg,
+                              (unsigned)RT_GRID_MAX_CELLS);
+            else
+                rt_errf(e, "--grid-min %u: %s", (unsigned)p->grid_min, msg);
         }
         return g;
     }
     for (uint32_t m = RT_GRID_MIN_DEFAULT; m >= 1 && !g; m /= 2) {
-        rt_err e2 = {""};
+        rt_err e2 = {0};
         g = rt_grid_build(sc, m, &e2);
         if (!g && (m == 1 || !strstr(e2.msg, "cells"))) {
             rt_errf(e, "%s", e2.msg);

@@ -450,7 +450,7 @@ rt_kdtree *rt_kd_build(const rt_scene *s, const rt_kd_params *params, rt_err *e)
         if (pi) t->idx = pi;
     }
     /* Without memory for the host copy the tree still works (plain walk). */
-    rt_err he = {""};
+    rt_err he = {0};
     (void)build_host(t, s, &he);
     t->build_sec = rt_now() - t0;
     return t;

@@ -114,7 +114,7 @@ static int null_put(rt_sink *s, const rt_access *a, size_t n)
  * reference of the last column; 0 = this run is it (set here). */
 static int bench_tracer(rt_job *j, const char *tmpdir, int do_trace, int do_sim, int untraced_only, double *ref)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_image *img = rt_image_new(j->opt.W, j->opt.H, &e);
     rt_run_stats st;
     if (!img) return -1;
@@ -200,7 +200,7 @@ static int bench_embree(const char *scene, const rt_render_opts *o0)
         printf("embree: not built (libembree-dev missing)\n\n");
         return 0;
     }
-    rt_err e = {""};
+    rt_err e = {0};
     rt_render_opts o = *o0;
     o.lights = 0;
     rt_scene *sc = rt_scene_load(scene, &e);
@@ -348,7 +348,7 @@ int main_bench(int argc, char **argv)
         printf("raytraffic %s (%s) bench, one core\n\n", rt_version(), rt_git_rev());
     print_machine();
     if (do_tr || do_trace) {
-        rt_err e = {""};
+        rt_err e = {0};
         rt_scene *sc = rt_scene_load(scene, &e);
         if (!sc) {
             rt_cmd_error("bench", "%s", e.msg);
@@ -374,7 +374,7 @@ int main_bench(int argc, char **argv)
         size_t rl = strlen(refname);
         if (strncmp(tracers, refname, rl) || (tracers[rl] && tracers[rl] != ',')) {
             rt_job j;
-            rt_err e2 = {""};
+            rt_err e2 = {0};
             if (rt_job_setup_borrowed(&j, sc, kd, refname, &o, &e2) < 0) {
                 rt_cmd_error("bench", "%s", e2.msg);
                 rc = -1;
@@ -385,7 +385,7 @@ int main_bench(int argc, char **argv)
         }
         for (char *t = strtok_r(list, ",", &save); t && rc == 0; t = strtok_r(NULL, ",", &save)) {
             rt_job j;
-            rt_err e2 = {""};
+            rt_err e2 = {0};
             if (rt_job_setup_borrowed(&j, sc, kd, t, &o, &e2) < 0) {
                 rt_cmd_error("bench", "%s", e2.msg);
                 rc = -1;
@@ -410,7 +410,7 @@ int main_bench(int argc, char **argv)
         }
     }
     if (do_replay) {
-        rt_err e = {""};
+        rt_err e = {0};
         printf("%sReplay of a trace file:\n\n", do_sim ? "\n" : "");
         fflush(stdout);
         if (rt_replay_bench(stdout, trace, (int)reps, &e) < 0) {
@@ -419,7 +419,7 @@ int main_bench(int argc, char **argv)
         }
     }
     if (do_approx) {
-        rt_err e = {""};
+        rt_err e = {0};
         printf("\nSampled simulation against exact (time inside the simulators):\n\n");
         fflush(stdout);
         if (rt_approx_bench_n(stdout, trace, simrefs, &e) < 0) {
@@ -430,7 +430,7 @@ int main_bench(int argc, char **argv)
     rt_mode_bench mb = {NULL, tracers, 0, 0, (int)refspp, o};
     int blank = !(do_sim || do_approx); /* the output so far ends with a blank line */
     if (do_perr) {
-        rt_err e = {""};
+        rt_err e = {0};
         char gp[4096];
         rt_plot_opts po = {plotdir, NULL, stdout};
         if (plotdir) {
@@ -449,7 +449,7 @@ int main_bench(int argc, char **argv)
         blank = 1;
     }
     if (do_modes) {
-        rt_err e = {""};
+        rt_err e = {0};
         mb.scenes = scenes ? scenes : "sphereflake,cornell";
         mb.W = W0 ? W0 : 512;
         mb.H = H0 ? H0 : 512;
@@ -462,7 +462,7 @@ int main_bench(int argc, char **argv)
         blank = 0;
     }
     if (do_ident) {
-        rt_err e = {""};
+        rt_err e = {0};
         mb.scenes = scenes ? scenes : "cornell,knot,sphereflake";
         mb.W = W0 ? W0 : 1024;
         mb.H = H0 ? H0 : 1024;
@@ -480,7 +480,7 @@ int main_bench(int argc, char **argv)
         }
     }
     if (do_stream) {
-        rt_err e = {""};
+        rt_err e = {0};
         if (!blank) printf("\n");
         fflush(stdout);
         if (rt_stream_bench(stdout, stream_scene, &o, &e) < 0) {

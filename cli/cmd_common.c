@@ -291,7 +291,7 @@ int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
 
 int rt_cmd_check_tracer_opts(const char *cmd, const char *tracer, const rt_render_opts *o)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     const rt_tracer *tr = tracer ? rt_tracer_find(tracer) : rt_tracer_reference();
     if (!tr) {
         rt_cmd_error(cmd, "unknown tracer '%s' (%s)", tracer, rt_tracer_names());

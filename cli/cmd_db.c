@@ -37,7 +37,7 @@ int main_db(int argc, char **argv)
         rt_cmd_error("db", "merge needs OUT.db and at least one IN.db");
         return RT_EXIT_USAGE;
     }
-    rt_err e = {""};
+    rt_err e = {0};
     rt_db *out = rt_db_open(argv[2], &e);
     if (!out) {
         rt_cmd_error("db", "%s", e.msg);

@@ -1,6 +1,7 @@
 /* cmd_render.c -- `raytraffic render`: render a scene with a tracer to an
  * OpenEXR image (RGB + cost channels + depth) and print render statistics. */
 #include "cmd.h"
+#include "outfile.h"
 #include "grid.h"
 #include "feedback.h"
 #include "image.h"
@@ -11,15 +12,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* A --grid-min whose grid the scene cannot hold within the cell limit
- * (src/grid.c refuses it with "above the limit of 2^27", the stream
- * tracers add the limit in cells) asks too much of the options, as the
- * feedback tracer's refusals do: a usage error that names the limit. Only
- * the scene reveals it, so it is found when the job is set up. */
-static int grid_refused(const rt_render_opts *o, const rt_err *e)
-{
-    return o->grid_min && strstr(e->msg, "above the limit of 2^27");
-}
 
 static void usage(FILE *f)
 {
@@ -127,23 +119,28 @@ int main_render(int argc, char **argv)
         rt_cmd_error("render", "missing -o out.exr");
         return RT_EXIT_USAGE;
     }
-    rt_err e = {""};
+    rt_err e = {0};
     rt_job j;
     rt_image *img = NULL;
     rt_run_stats st;
     /* options the tracer does not read, and subsampling that would trace
      * nothing, are usage errors, found before the scene is loaded */
     if (rt_cmd_check_tracer_opts("render", tracer, &o) < 0) return RT_EXIT_USAGE;
+    /* every output writable before anything is rendered or written */
+    const char *outs[4] = {out, ppm, png, heat};
+    for (int k = 0; k < 4; k++)
+        if (outs[k] && rt_out_probe(outs[k], &e) < 0) {
+            rt_cmd_error("render", "%s", e.msg);
+            return RT_EXIT_FAIL;
+        }
     char specbuf[4200];
     const char *spec = rt_cmd_scene_material("render", argv[optind], material, specbuf, sizeof specbuf);
     if (!spec) return RT_EXIT_USAGE;
     if (rt_job_setup(&j, spec, tracer, &o, &e) < 0) {
-        if (grid_refused(&o, &e) && !strstr(e.msg, "cells)")) /* feedback: name the limit in cells */
-            rt_cmd_error("render", "--grid-min %u: %s (at most %u cells)", (unsigned)o.grid_min, e.msg,
-                         (unsigned)RT_GRID_MAX_CELLS);
-        else
-            rt_cmd_error("render", "%s", e.msg);
-        return rt_fb_refused(&e) || grid_refused(&o, &e) ? RT_EXIT_USAGE : RT_EXIT_FAIL; /* options asking too much */
+        rt_cmd_error("render", "%s", e.msg);
+        /* options asking too much (an S_VB overflow, a grid over its cell
+         * limit: only the scene reveals them) are usage errors */
+        return e.usage ? RT_EXIT_USAGE : RT_EXIT_FAIL;
     }
     if (j.sc->warning[0]) rt_cmd_error("render", "warning: %s", j.sc->warning);
     rt_scene_fit_aspect(j.sc, o.W, o.H); /* tall images: keep the whole mesh in view */

@@ -97,7 +97,7 @@ int main_report(int argc, char **argv)
         rt_cmd_error("report", "unexpected argument '%s'", argv[optind]);
         return RT_EXIT_USAGE;
     }
-    rt_err e = {""};
+    rt_err e = {0};
     sqlite3 *h;
     if (rt_report_db_open(dbpath, &h, &e) < 0) {
         rt_cmd_error("report", "%s", e.msg);

@@ -85,7 +85,7 @@ static int cmd_info(int argc, char **argv)
         rt_cmd_error("scene", "info: no scene given (see 'raytraffic scene --help')");
         return RT_EXIT_USAGE;
     }
-    rt_err e = {""};
+    rt_err e = {0};
     double t0 = rt_now();
     rt_scene *s = rt_scene_load(spec, &e);
     if (!s) {
@@ -191,7 +191,7 @@ static int cmd_export(int argc, char **argv)
         rt_cmd_error("scene", "export: need a scene and -o FILE.obj");
         return RT_EXIT_USAGE;
     }
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *s = rt_scene_load(spec, &e);
     if (!s) {
         rt_cmd_error("scene", "%s", e.msg);

@@ -82,6 +82,7 @@ typedef struct shared {
     atomic_long skipped;  /* of which skipped */
     atomic_long stored;   /* of which run and stored */
     atomic_int failed;    /* a worker failed */
+    atomic_int usage;     /* a job failed because its options ask too much (exit 2) */
     atomic_llong stage_us[4]; /* rt_exp_stages summed over workers, microseconds: scene, tracing, simulation, database */
 } shared;
 
@@ -325,7 +326,7 @@ static void maybe_fail(const sweep_opts *o, long i)
 
 static int worker_loop(const sweep_opts *o, const rt_exp_job *J, long nj, shared *sh, int tty)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_db *db = rt_db_open(o->db, &e);
     rt_exp_worker *w = db ? rt_exp_worker_new(&o->x, db, &e) : NULL;
     if (!w) {
@@ -347,6 +348,7 @@ static int worker_loop(const sweep_opts *o, const rt_exp_job *J, long nj, shared
         job_label(&o->x, &J[i], label, sizeof label);
         if (r < 0) {
             rt_cmd_error("sweep", "job %ld (%s): %s", i, label, e.msg);
+            if (e.usage) atomic_store(&sh->usage, 1);
             atomic_store(&sh->failed, 1);
             rc = -1;
             break;
@@ -565,7 +567,7 @@ static char *keep_copy(sweep_opts *o, int k, const char *arg)
 /* Handles one option. 0 ok, 1 = --help, -1 usage error (printed). */
 static int parse_opt(sweep_opts *o, int c, const char *arg)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     const char *dummy = NULL;
     long v;
     if (c == 'W' || c == 'H') {
@@ -640,7 +642,7 @@ static int parse_opt(sweep_opts *o, int c, const char *arg)
 static int finish_opts(sweep_opts *o)
 {
     rt_exp_config *x = &o->x;
-    rt_err e = {""};
+    rt_err e = {0};
     static char defscenes[] = "room,grove,sphereflake", deftracers[] = "recursive,packet,dynamic",
                 deflights[] = "primary,0,1,2,all";
     int paper = !strcmp(o->preset, "paper");
@@ -835,7 +837,7 @@ static int run_workers(const sweep_opts *o, const rt_exp_job *J, long nj, shared
 /* Creates the schema once before workers start, and the trace folder. */
 static int prepare_outputs(const sweep_opts *o)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     if (o->x.keep && mkdir(o->x.keep, 0777) < 0 && errno != EEXIST) {
         rt_cmd_error("sweep", "%s: %s", o->x.keep, strerror(errno));
         return -1;
@@ -862,6 +864,7 @@ static int sweep_run(const sweep_opts *o, const rt_exp_job *J, long nj)
     atomic_init(&sh->skipped, 0);
     atomic_init(&sh->stored, 0);
     atomic_init(&sh->failed, 0);
+    atomic_init(&sh->usage, 0);
     for (int k = 0; k < 4; k++) atomic_init(&sh->stage_us[k], 0);
     const rt_exp_config *x = &o->x;
     long total = o->only >= 0 ? 1 : nj;
@@ -876,14 +879,16 @@ static int sweep_run(const sweep_opts *o, const rt_exp_job *J, long nj)
             "sweep: %ld run(s) finished (%ld already in the database) in %.1f s wall; results in %s; stages: scene %.1f s, "
             "tracing %.1f s, simulation %.1f s, database %.1f s (summed over workers)\n",
             done, skipped, rt_now() - t0, o->db, us[0], us[1], us[2], us[3]);
+    int usage = atomic_load(&sh->usage);
     munmap(sh, sizeof *sh);
+    if (usage) return RT_EXIT_USAGE; /* as render and trace: the options ask too much */
     return rc < 0 || done < total ? RT_EXIT_FAIL : RT_EXIT_OK;
 }
 
 int main_sweep(int argc, char **argv)
 {
     sweep_opts o;
-    rt_err e = {""};
+    rt_err e = {0};
     rt_exp_job *J = NULL;
     int rc = parse_args(argc, argv, &o);
     long nj = 0;

@@ -14,15 +14,6 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-/* A --grid-min whose grid the scene cannot hold within the cell limit
- * (src/grid.c refuses it with "above the limit of 2^27", the stream
- * tracers add the limit in cells) asks too much of the options, as the
- * feedback tracer's refusals do: a usage error that names the limit. Only
- * the scene reveals it, so it is found when the job is set up. */
-static int grid_refused(const rt_render_opts *o, const rt_err *e)
-{
-    return o->grid_min && strstr(e->msg, "above the limit of 2^27");
-}
 
 static void usage(FILE *f)
 {
@@ -105,7 +96,7 @@ int main_trace(int argc, char **argv)
         return RT_EXIT_USAGE;
     }
 
-    rt_err e = {""};
+    rt_err e = {0};
     rt_job j;
     rt_image *img = NULL;
     rt_tr_writer *w = NULL;
@@ -119,12 +110,10 @@ int main_trace(int argc, char **argv)
     const char *spec = rt_cmd_scene_material("trace", argv[optind], material, specbuf, sizeof specbuf);
     if (!spec) return RT_EXIT_USAGE;
     if (rt_job_setup(&j, spec, tracer, &o, &e) < 0) {
-        if (grid_refused(&o, &e) && !strstr(e.msg, "cells)")) /* feedback: name the limit in cells */
-            rt_cmd_error("trace", "--grid-min %u: %s (at most %u cells)", (unsigned)o.grid_min, e.msg,
-                         (unsigned)RT_GRID_MAX_CELLS);
-        else
-            rt_cmd_error("trace", "%s", e.msg);
-        return grid_refused(&o, &e) ? RT_EXIT_USAGE : RT_EXIT_FAIL; /* options asking too much */
+        rt_cmd_error("trace", "%s", e.msg);
+        /* options asking too much (an S_VB overflow, a grid over its cell
+         * limit: only the scene reveals them) are usage errors */
+        return e.usage ? RT_EXIT_USAGE : RT_EXIT_FAIL;
     }
     if (j.sc->warning[0]) rt_cmd_error("trace", "warning: %s", j.sc->warning);
     rt_scene_fit_aspect(j.sc, o.W, o.H); /* tall images: keep the whole mesh in view */

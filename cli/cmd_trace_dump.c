@@ -95,7 +95,7 @@ int main_trace_dump(int argc, char **argv)
         return RT_EXIT_USAGE;
     }
     const char *path = argv[optind];
-    rt_err e = {""};
+    rt_err e = {0};
     rt_tr_reader *r = rt_tr_open(path, &e);
     if (!r) {
         rt_cmd_error("trace-dump", "%s", e.msg);

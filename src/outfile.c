@@ -284,3 +284,11 @@ int rt_out_commit(rt_out *o, rt_err *e)
     out_free(o);
     return 0;
 }
+
+int rt_out_probe(const char *path, rt_err *e)
+{
+    rt_out *o = rt_out_open(path, e);
+    if (!o) return -1;
+    rt_out_abort(o);
+    return 0;
+}

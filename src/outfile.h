@@ -35,6 +35,11 @@ int rt_out_commit(rt_out *o, rt_err *e);
  * in-place device or FIFO keeps what was written). Accepts NULL. */
 void rt_out_abort(rt_out *o);
 
+/* Checks, before any work, that path could be written as rt_out_open
+ * would (its folder takes a temporary; it is not a directory): opens and
+ * aborts one. 0, or -1 with e set. */
+int rt_out_probe(const char *path, rt_err *e);
+
 /* Unlinks the temporaries of all outputs still open. Async-signal-safe:
  * for a handler of SIGINT/SIGTERM that then re-raises the signal. */
 void rt_out_remove_temporaries(void);

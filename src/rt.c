@@ -12,16 +12,30 @@
 
 long rt_fail_alloc_after = 0;
 
+static void errv(rt_err *e, int usage, const char *fmt, va_list ap)
+{
+    if (!e) return;
+    vsnprintf(e->msg, sizeof e->msg, fmt, ap);
+    for (char *p = e->msg; *p; p++)
+        if (*p == '\n' || *p == '\r') *p = ' ';
+    e->usage = usage;
+}
+
 int rt_errf(rt_err *e, const char *fmt, ...)
 {
-    if (e) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(e->msg, sizeof e->msg, fmt, ap);
-        va_end(ap);
-        for (char *p = e->msg; *p; p++)
-            if (*p == '\n' || *p == '\r') *p = ' ';
-    }
+    va_list ap;
+    va_start(ap, fmt);
+    errv(e, 0, fmt, ap);
+    va_end(ap);
+    return -1;
+}
+
+int rt_errf_usage(rt_err *e, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    errv(e, 1, fmt, ap);
+    va_end(ap);
     return -1;
 }
 

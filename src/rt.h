@@ -22,11 +22,20 @@
 
 typedef struct rt_err {
     char msg[RT_ERR_LEN]; /* one line, no newline; empty when no error */
+    int usage;            /* 1: the options ask for what cannot be done (front ends exit 2) */
 } rt_err;
 
-/* Formats a message into e (if non-NULL). Always returns -1 so callers can
- * write `return rt_errf(e, ...)`. */
+/* Formats a message into e (if non-NULL) and clears e->usage. Always
+ * returns -1 so callers can write `return rt_errf(e, ...)`. */
 int rt_errf(rt_err *e, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 2, 3)))
+#endif
+    ;
+/* As rt_errf, and marks the error as the options' (e->usage = 1): the
+ * request itself cannot be run (an S_VB overflow, a grid over its cell
+ * limit), which the front ends report as a usage error (exit 2). */
+int rt_errf_usage(rt_err *e, const char *fmt, ...)
 #if defined(__GNUC__)
     __attribute__((format(printf, 2, 3)))
 #endif

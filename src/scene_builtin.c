@@ -1080,7 +1080,7 @@ static int gen_bunny(gen *g, const int *pv)
     static const char *const dirs[] = {RT_SRCDATADIR, RT_DATADIR};
     char path[1024];
     rt_scene *b = NULL;
-    rt_err e2 = {""};
+    rt_err e2 = {0};
     for (int i = 0; i < 2 && !b; i++) {
         snprintf(path, sizeof path, "%s/bunny/bun_zipper.ply", dirs[i]);
         FILE *f = fopen(path, "rb");

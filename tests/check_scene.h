@@ -42,7 +42,7 @@ static inline void finish(rt_scene *s)
  * (grey) and index of refraction ior; its index. */
 static inline int add_mat(rt_scene *sc, float ks, float kt, float ior)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_material m;
     memset(&m, 0, sizeof m);
     for (int k = 0; k < 3; k++) m.ks[k] = ks, m.kt[k] = kt;
@@ -56,7 +56,7 @@ static inline int add_mat(rt_scene *sc, float ks, float kt, float ior)
  * mat; 0, or -1 (a failed check). */
 static inline int add_quad(rt_scene *sc, rt_vec3 a, rt_vec3 b, rt_vec3 c, rt_vec3 d, const float rgb[3], int mat)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     int r = rt_scene_add_tri_mat(sc, a, b, c, rgb, (uint32_t)mat, &e);
     r |= rt_scene_add_tri_mat(sc, a, c, d, rgb, (uint32_t)mat, &e);
     CHECK(r == 0, "add quad: %s", e.msg);

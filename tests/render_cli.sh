@@ -301,4 +301,36 @@ done; done; done
     || err "bench identical: $(grep -c '| OK |' "$tmp/ident") OK lines, want 16 and no DIFF"
 "$bin" bench --what path-error --ref-spp 0 > /dev/null 2>&1; [ $? -eq 2 ] || err "bench --ref-spp 0 should exit 2"
 "$bin" bench --what nothing > /dev/null 2>&1; [ $? -eq 2 ] || err "bench --what nothing should exit 2"
+
+# tracer traits: an option of another tracer, or a structure the tracer
+# cannot run on, is a usage error naming both, before any output
+for args in "-t recursive --accel naive" "-t recursive --qorder tree" "-t packet --grid-min 32" \
+            "-t dynamic --oracle naive" "-t stream-branching --accel kd" "-t recursive --accel nonesuch"; do
+    # shellcheck disable=SC2086
+    "$bin" render knot -W 8 -H 8 $args -o "$tmp/t.exr" 2>"$tmp/t.err"
+    [ $? -eq 2 ] || err "render $args: want exit 2"
+    [ -e "$tmp/t.exr" ] && err "render $args wrote its output"
+    grep -q -- "--" "$tmp/t.err" || err "render $args: message '$(cat "$tmp/t.err")' names no option"
+done
+"$bin" render knot -W 8 -H 8 -t recursive --accel naive -o "$tmp/t.exr" 2>&1 | grep -q "recursive tracer runs on kd" \
+    || err "--accel naive: the message names the tracer and its structures"
+"$bin" render knot -W 8 -H 8 -t feedback --accel naive -o "$tmp/t.exr" 2>/dev/null || err "feedback --accel naive: want exit 0"
+# a job builds only the structure its tracer runs on
+"$bin" render knot -W 8 -H 8 -t stream-branching --json -o "$tmp/t.exr" > "$tmp/t.json" 2>/dev/null || err "stream-branching render"
+grep -q '"grid_build_seconds"' "$tmp/t.json" && ! grep -q '"kd_build_seconds"' "$tmp/t.json" \
+    || err "stream-branching --json: $(cat "$tmp/t.json")"
+"$bin" render knot -W 8 -H 8 --json -o "$tmp/t.exr" 2>/dev/null | grep -q '"kd_build_seconds"' || err "recursive --json: no k-d build"
+# an unwritable output fails before any output is written
+rm -f "$tmp/t.exr" "$tmp/t.png"
+"$bin" render knot -W 8 -H 8 -o "$tmp/t.exr" --png "$tmp/t.png" --heatmap "$tmp/nonesuch/h.png" 2>/dev/null
+[ $? -eq 1 ] || err "--heatmap into a missing folder: want exit 1"
+[ -e "$tmp/t.exr" ] || [ -e "$tmp/t.png" ] && err "--heatmap into a missing folder: the EXR or PNG was written first"
+# an S_VB overflow is a usage error in render, trace and sweep alike
+for c in render trace; do
+    "$bin" $c knot -t feedback -W 64 -H 64 --lights all --mode whitted --vb-size 49151 -o "$tmp/vb.$c" 2>/dev/null
+    [ $? -eq 2 ] || err "$c S_VB overflow: want exit 2"
+done
+"$bin" sweep --scenes knot --tracers feedback --lights all --modes whitted -W 64 -H 64 --vb-size 49151 \
+    --sizes 64K --db "$tmp/vb.db" 2>/dev/null
+[ $? -eq 2 ] || err "sweep S_VB overflow: want exit 2"
 exit $fail

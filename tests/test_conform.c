@@ -84,7 +84,7 @@ static int tally_put(rt_sink *s, const rt_access *a, size_t n)
 static rt_image *run(rt_scene *sc, const rt_tracer *tr, const rt_render_opts *o, tally *t, const char *path,
                      rt_run_stats *st, const rt_accel **acc_out, rt_job *j)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     if (rt_job_setup_borrowed(j, sc, NULL, tr->name, o, &e) < 0) {
         CHECK(0, "setup %s: %s", tr->name, e.msg);
         return NULL;
@@ -113,7 +113,7 @@ static rt_image *run(rt_scene *sc, const rt_tracer *tr, const rt_render_opts *o,
 /* Reads the trace back: same records, same per-class totals. */
 static void round_trip(const char *path, const tally *t, const char *what)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_tr_reader *r = rt_tr_open(path, &e);
     CHECK(r != NULL, "%s: open: %s", what, e.msg);
     if (!r) return;
@@ -145,7 +145,7 @@ int main(void)
     FILE *gf = open_memstream(&golden, &ng);
     int combos = 0;
     for (size_t s = 0; s < sizeof scenes / sizeof *scenes; s++) {
-        rt_err e = {""};
+        rt_err e = {0};
         rt_scene *sc = rt_scene_load(scenes[s], &e);
         CHECK(sc != NULL, "load %s: %s", scenes[s], e.msg);
         if (!sc) continue;

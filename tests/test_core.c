@@ -58,7 +58,7 @@ static void test_hilbert(void)
 
 static void test_exr(void)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_image *im = rt_image_new(37, 19, &e);
     CHECK(im != NULL, "image_new: %s", e.msg);
     if (!im) return;
@@ -163,7 +163,7 @@ static void test_parsers(void)
 /* The --exr-pixel and --exr-sums modes; exit 1 if the file does not read. */
 static int exr_query(int argc, char **argv)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_image *im = rt_exr_read(argv[2], &e);
     if (!im) return fprintf(stderr, "%s\n", e.msg), 1;
     int rc = 0;

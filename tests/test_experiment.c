@@ -54,7 +54,7 @@ static void test_fan(void)
 {
     counter c[3] = {{{counter_put, &c[0]}, 0, 0, 0}, {{counter_put, &c[1]}, 0, 0, 1}, {{counter_put, &c[2]}, 0, 0, 0}};
     rt_exp_fan f;
-    rt_err e = {""};
+    rt_err e = {0};
     rt_exp_fan_init(&f);
     for (int i = 0; i < 3; i++) CHECK(rt_exp_fan_add(&f, &c[i].s, &e) == i, "fan index");
     rt_access a[3] = {{.addr = 10}, {.addr = 20}, {.addr = 30}};
@@ -81,7 +81,7 @@ static void config(rt_exp_config *c, const char *keep)
     c->lightings[0] = (rt_exp_lighting){"all", 7};
     c->nlightings = 1;
     rt_sim_config_default(&c->sim);
-    rt_err e = {""};
+    rt_err e = {0};
     rt_sim_parse_sizes("1K,4K,64K", &c->sim, &e);
     rt_render_default_opts(&c->ro);
     c->ro.W = 32;
@@ -94,7 +94,7 @@ static void config(rt_exp_config *c, const char *keep)
  * those of replaying the trace. */
 static void compare_with_replay(rt_db *db, const rt_exp_config *c, const rt_exp_job *jb, const char *trace)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_sim_config sc = c->sim;
     if (jb->sched_size) {
         sc.nsizes = 1;
@@ -165,7 +165,7 @@ static void test_run_job(const char *dir)
     CHECK(mkdir(keep, 0777) == 0, "mkdir %s", keep);
     rt_exp_config c;
     config(&c, keep);
-    rt_err e = {""};
+    rt_err e = {0};
     rt_exp_job *J = NULL;
     long nj = rt_exp_matrix(&c, &J, &e);
     CHECK(nj == 5, "matrix of recursive, packet and dynamic at 3 sizes has %ld jobs, want 5", nj);
@@ -213,7 +213,7 @@ static void test_models(const char *dir)
     CHECK(rt_exp_model_find("paper") == RT_EXP_MODEL_PAPER && rt_exp_model_find("lean") == RT_EXP_MODEL_LEAN &&
               rt_exp_model_find("other") < 0,
           "model names");
-    rt_err e = {""};
+    rt_err e = {0};
     rt_db *db = rt_db_open(path, &e);
     CHECK(db != NULL, "%s", e.msg);
     if (!db) return;
@@ -268,7 +268,7 @@ static void test_failing_store(const char *dir)
     rt_exp_config c;
     config(&c, NULL);
     c.ntracers = 1;
-    rt_err e = {""};
+    rt_err e = {0};
     rt_exp_job *J = NULL;
     long nj = rt_exp_matrix(&c, &J, &e);
     rt_db *db = rt_db_open(path, &e);
@@ -324,7 +324,7 @@ static void test_modes(const char *dir)
     c.ro.depth = 3;
     c.ro.bounces = 2;
     rt_sim_parse_sizes("1K,64K", &c.sim, NULL);
-    rt_err e = {""};
+    rt_err e = {0};
     rt_exp_job *J = NULL;
     /* raycast alone: one lightless job per tracer (1 + 2 sizes) */
     c.modes[0] = RT_MODE_RAYCAST;

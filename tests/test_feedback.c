@@ -69,7 +69,7 @@ static int cap_put(rt_sink *s, const rt_access *a, size_t n)
 static rt_image *render_sc(rt_scene *sc, const char *tracer, const rt_render_opts *o, rt_run_stats *st, capture *cap,
                            rt_layout *L)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_kd_params kp;
     rt_kd_default_params(&kp);
     rt_kdtree *kd = rt_kd_build(sc, &kp, &e);
@@ -96,7 +96,7 @@ static rt_image *render_sc(rt_scene *sc, const char *tracer, const rt_render_opt
 
 static rt_image *render_spec(const char *spec, const char *tracer, const rt_render_opts *o, rt_run_stats *st)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_job j;
     rt_image *im = NULL;
     if (rt_job_setup(&j, spec, tracer, o, &e) < 0) {
@@ -119,7 +119,7 @@ static rt_image *render_spec(const char *spec, const char *tracer, const rt_rend
  * ever. Light 0 between the mirrors off the axis. */
 static rt_scene *mirror_pair(void)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *sc = rt_scene_new(4, &e);
     int m = add_mat(sc, 0.5f, 0.0f, 1.0f);
     const float grey[3] = {0.4f, 0.4f, 0.4f};
@@ -141,7 +141,7 @@ static rt_scene *mirror_pair(void)
 /* One triangle behind the camera, black background: no ray hits. */
 static rt_scene *nothing(void)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *sc = rt_scene_new(1, &e);
     const float grey[3] = {0.5f, 0.5f, 0.5f};
     CHECK(rt_scene_add_tri(sc, rt_v3(-1, -1, -5), rt_v3(1, -1, -5), rt_v3(0, 1, -5), grey, &e) == 0, "tri");
@@ -203,7 +203,7 @@ static void record(void)
 
 static void sizes(void)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_render_opts o;
     rt_fb_sizes z;
     rt_scene *pair = mirror_pair(), *diff = nothing();
@@ -231,7 +231,7 @@ static void sizes(void)
     o.depth = 64;
     CHECK(rt_fb_size(pair, &o, &z, &e) == 0 && z.G == 2 && z.G2 == 2, "depth 64 mirrors: %s", e.msg);
     /* glass and mirror: b = 2, E = 1, 1+2, 2+4, 4 at depth 3 */
-    rt_err e2 = {""};
+    rt_err e2 = {0};
     rt_scene *gl = rt_scene_new(2, &e2);
     int m = add_mat(gl, 0.2f, 0.7f, 1.5f);
     const float c[3] = {0.5f, 0.5f, 0.5f};
@@ -331,7 +331,7 @@ static void passes(void)
  * shades the two secondary rays. */
 static void order(void)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *sc = rt_scene_new(2, &e);
     int m = add_mat(sc, 0.3f, 0.6f, 1.5f);
     const float c[3] = {0.5f, 0.5f, 0.5f};
@@ -472,7 +472,7 @@ static void images(void)
             CHECK(nd == 0, "%s mode %d depth %d lights %u: %zu values differ (max %g)", c[i].spec, c[i].mode,
                   c[i].depth, c[i].lights, nd, md);
         } else {
-            rt_err e = {""};
+            rt_err e = {0};
             rt_scene *sc = rt_scene_load(c[i].spec, &e);
             double b = sc ? eq1_bound(sc, 0.8f) : 0;
             CHECK(sc && md <= b, "%s depth %d: max difference %g above the bound %g", c[i].spec, c[i].depth, md, b);
@@ -490,7 +490,7 @@ static void images(void)
         /* naive: every eye ray inside the box tests every triangle */
         CHECK(!nv || s2.tests > s1.tests, "%s: naive %" PRIu64 " tests, grid %" PRIu64, c[i].spec, s2.tests, s1.tests);
         if (nv && c[i].mode == RT_MODE_RAYCAST) {
-            rt_err e = {""};
+            rt_err e = {0};
             rt_scene *sc = rt_scene_load(c[i].spec, &e);
             double want_t = sc ? (double)sc->ntri * (double)(s2.rays_primary - (uint64_t)stat_of(&s2, "vs_box_out")) : -1;
             CHECK((double)s2.tests == want_t, "naive raycast: %" PRIu64 " tests, want %g", s2.tests, want_t);
@@ -542,7 +542,7 @@ static void images(void)
 static void options(void)
 {
     rt_render_opts o;
-    rt_err e = {""};
+    rt_err e = {0};
     char buf[256];
     rt_render_default_opts(&o);
     CHECK(rt_accel_from_name("grid") == RT_ACCEL_GRID && rt_accel_from_name("naive") == RT_ACCEL_NAIVE &&

@@ -32,7 +32,7 @@ static void store(rt_db *db, const char *scene, const char *tracer, int W, unsig
                   const char *params, const char *stats, const row *rows, size_t n)
 {
     rt_db_traffic t[16];
-    rt_err e = {""};
+    rt_err e = {0};
     for (size_t i = 0; i < n; i++) {
         memset(&t[i], 0, sizeof t[i]);
         t[i].size = rows[i].size;
@@ -119,7 +119,7 @@ int main(void)
     if (!mkdtemp(dir)) return 1;
     char path[256];
     snprintf(path, sizeof path, "%s/f.db", dir);
-    rt_err e = {""};
+    rt_err e = {0};
     rt_db *db = rt_db_open(path, &e);
     CHECK(db, "rt_db_open: %s", e.msg);
     if (!db) return 1;

@@ -77,7 +77,7 @@ static int write_text(const char *path, const char *text, rt_err *e)
 
 static void test_outfile_rules(void)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     struct stat st;
     clean_dir();
 
@@ -152,7 +152,7 @@ static void test_outfile_rules(void)
  * content and no temporary remains. */
 static void test_outfile_faults(void)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     clean_dir();
     check_write_file(check_path("keep.txt"), "old\n", 4);
     for (long long k = 0; k < 12; k++) {
@@ -174,7 +174,7 @@ static void test_outfile_faults(void)
 
 static void test_writers_faults(void)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     clean_dir();
     rt_image *im = rt_image_new(8, 6, &e);
     CHECK(im != NULL, "image: %s", e.msg);
@@ -234,7 +234,7 @@ static void test_writers_faults(void)
 static void ply_refused(const char *name, const char *text, const char *needle)
 {
     check_write_file(check_path(name), text, strlen(text));
-    rt_err e = {""};
+    rt_err e = {0};
     double t0 = rt_now();
     rt_scene *s = rt_scene_load_ply(check_path(name), &e);
     double dt = rt_now() - t0;
@@ -297,7 +297,7 @@ static void test_ply_counts(void)
     const char *good = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
                        "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n" TRI_DATA;
     check_write_file(check_path("good.ply"), good, strlen(good));
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *s = rt_scene_load_ply(check_path("good.ply"), &e);
     CHECK(s && s->ntri == 1, "good.ply: %s", e.msg);
     rt_scene_free(s);
@@ -325,7 +325,7 @@ static rt_scene *load_cube(const char *name, double scale, double off, rt_err *e
 
 static void cube_refused(const char *name, double scale, double off, const char *needle)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *s = load_cube(name, scale, off, &e);
     CHECK(s == NULL, "%s accepted", name);
     CHECK(strstr(e.msg, name) && strstr(e.msg, needle), "%s: message '%s' lacks '%s'", name, e.msg, needle);
@@ -334,7 +334,7 @@ static void cube_refused(const char *name, double scale, double off, const char 
 
 static void test_coord_range(void)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     /* the four probes: flat shading, background, camera at infinity, a point */
     cube_refused("scale1e10.obj", 1e10, 0, "scene extent 1.73205081e+10 above 1e+09");
     cube_refused("scale1e15.obj", 1e15, 0, ":2: coordinate 1e+15 out of range");
@@ -380,7 +380,7 @@ static void test_coord_range(void)
 
 static void test_fit_aspect(void)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *s = load_cube("frame.obj", 2, -1, &e);
     CHECK(s != NULL, "cube: %s", e.msg);
     if (!s) return;
@@ -433,7 +433,7 @@ static void test_small(void)
 
     /* din: garbage after a NUL byte is refused with file:line */
     check_write_file(check_path("nul.din"), "0 1000\n1 2000\0garbage\n", 22);
-    rt_err e = {""};
+    rt_err e = {0};
     rt_din *d = rt_din_open(check_path("nul.din"), 0, &e);
     CHECK(d != NULL, "din open: %s", e.msg);
     if (d) {

@@ -27,7 +27,7 @@ static int same(rt_vec3 a, rt_vec3 b) { return a.x == b.x && a.y == b.y && a.z =
 
 static void mesh_vs_reference(const rt_scene *sc, const char *what)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_mesh *m = rt_mesh_build(sc, &e);
     CHECK(m != NULL, "%s: %s", what, e.msg);
     if (!m) return;
@@ -55,14 +55,14 @@ static void mesh_index(void)
 {
     static const char *const specs[] = {"cornell", "knot", "sphereflake:level=1"};
     for (size_t i = 0; i < sizeof specs / sizeof specs[0]; i++) {
-        rt_err e = {""};
+        rt_err e = {0};
         rt_scene *sc = rt_scene_load(specs[i], &e);
         CHECK(sc != NULL, "%s: %s", specs[i], e.msg);
         if (sc) mesh_vs_reference(sc, specs[i]);
         rt_scene_free(sc);
     }
     /* by hand: a quad (4 vertices), -0 sharing with +0, a NaN never shared */
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *sc = rt_scene_new(4, &e);
     const float c[3] = {1, 1, 1};
     const float nan = NAN;
@@ -105,7 +105,7 @@ static void params(void)
               rt_render_qstores_from_name("write-allocate") == RT_QSTORES_WRITE_ALLOCATE &&
               rt_render_qstores_from_name("nt") == -1,
           "option names");
-    rt_err e = {""};
+    rt_err e = {0};
     o.geom = 7;
     CHECK(rt_render_check_mode(&o, &e) < 0 && strstr(e.msg, "--layout"), "layout 7 accepted: %s", e.msg);
     o.geom = 0;
@@ -140,7 +140,7 @@ static int rec_put(rt_sink *s, const rt_access *a, size_t n)
 static int run(rt_scene *sc, rt_kdtree *kd, const char *tracer, const rt_render_opts *o, rt_image **img,
                rt_run_stats *st, rec *r, rt_layout *L)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_job j;
     memset(r, 0, sizeof *r);
     *img = NULL;
@@ -160,7 +160,7 @@ static int run(rt_scene *sc, rt_kdtree *kd, const char *tracer, const rt_render_
 
 static rt_kdtree *load(const char *spec, rt_scene **sc)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     *sc = rt_scene_load(spec, &e);
     rt_kd_params kp;
     rt_kd_default_params(&kp);
@@ -346,7 +346,7 @@ static int queue_stats_main(int argc, char **argv)
         fprintf(stderr, "test_layout: bad light list '%s'\n", argv[6]);
         return 2;
     }
-    rt_err e = {""};
+    rt_err e = {0};
     rt_job j;
     rt_run_stats st;
     if (rt_job_setup(&j, argv[2], "dynamic", &o, &e) < 0) {

@@ -45,7 +45,7 @@ static void expect_fail_text(const char *name, const char *text, const char *nee
 {
     const char *p = check_path(name);
     check_write_file(p, text, strlen(text));
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *s = rt_scene_load(p, &e);
     CHECK(s == NULL, "%s accepted:\n%s", name, text);
     CHECK(strstr(e.msg, p) != NULL, "%s: message '%s' lacks the file name", name, e.msg);
@@ -58,7 +58,7 @@ static rt_scene *expect_ok_text(const char *name, const char *text, uint32_t ntr
 {
     const char *p = check_path(name);
     check_write_file(p, text, strlen(text));
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *s = rt_scene_load(p, &e);
     CHECK(s != NULL, "%s rejected: %s", name, e.msg);
     if (s) CHECK(s->ntri == ntri, "%s: %u triangles, want %u", name, s->ntri, ntri);
@@ -67,7 +67,7 @@ static rt_scene *expect_ok_text(const char *name, const char *text, uint32_t ntr
 
 static void test_obj(void)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *s = rt_scene_load(datafile("cube.obj"), &e);
     CHECK(s != NULL, "cube.obj: %s", e.msg);
     if (s) {
@@ -126,7 +126,7 @@ static void test_obj(void)
     /* Embedded NUL byte. */
     const char nul[] = "v 0 0 0\nv 1 0\0 0\nv 0 1 0\nf 1 2 3\n";
     check_write_file(check_path("nul.obj"), nul, sizeof nul - 1);
-    rt_err e2 = {""};
+    rt_err e2 = {0};
     s = rt_scene_load(check_path("nul.obj"), &e2);
     CHECK(s == NULL && strstr(e2.msg, "nul.obj:2:"), "NUL byte: '%s'", e2.msg);
     rt_scene_free(s);
@@ -145,7 +145,7 @@ static void test_obj(void)
             buf[at] = alphabet[(st >> 24) % (sizeof alphabet - 1)];
         }
         check_write_file(check_path("fuzz.obj"), buf, sizeof good - 1 - (it % 7 == 0 ? it % 11 : 0));
-        rt_err fe = {""};
+        rt_err fe = {0};
         rt_scene *t = rt_scene_load(check_path("fuzz.obj"), &fe);
         if (!t) CHECK(strstr(fe.msg, "fuzz.obj") != NULL, "fuzz: message '%s'", fe.msg);
         rt_scene_free(t);
@@ -257,7 +257,7 @@ static void test_ply_formats(void)
         char name[64];
         snprintf(name, sizeof name, "pyr_%d.ply", i);
         check_write_file(check_path(name), w.d, w.n);
-        rt_err e = {""};
+        rt_err e = {0};
         sc[i] = rt_scene_load(check_path(name), &e);
         CHECK(sc[i] != NULL, "%s: %s", fmts[i], e.msg);
         if (sc[i]) CHECK(sc[i]->ntri == 6, "%s: %u triangles", fmts[i], sc[i]->ntri);
@@ -272,7 +272,7 @@ static void test_ply_formats(void)
             CHECK(!memcmp(sc[0]->tri, sc[i]->tri, sizeof(rt_tri) * sc[0]->ntri), "%s differs from ascii", fmts[i]);
     for (int i = 0; i < 3; i++) rt_scene_free(sc[i]);
 
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *s = rt_scene_load(datafile("tetra_ascii.ply"), &e);
     CHECK(s != NULL, "tetra_ascii.ply: %s", e.msg);
     if (s) {
@@ -286,7 +286,7 @@ static void test_ply_formats(void)
         int bad = 0;
         for (size_t n = 0; n < w.n; n++) {
             check_write_file(check_path("trunc.ply"), w.d, n);
-            rt_err te = {""};
+            rt_err te = {0};
             rt_scene *t = rt_scene_load(check_path("trunc.ply"), &te);
             if (t || !strstr(te.msg, check_path("trunc.ply")) || strchr(te.msg, '\n')) {
                 if (!bad) fprintf(stderr, "truncation at %zu of %zu: %s\n", n, w.n, t ? "accepted" : te.msg);
@@ -302,7 +302,7 @@ static void test_ply_formats(void)
     for (size_t n = 0; n < w.n; n++) {
         if (n && w.d[n - 1] != '\n') continue;
         check_write_file(check_path("trunc_a.ply"), w.d, n);
-        rt_err te = {""};
+        rt_err te = {0};
         rt_scene *t = rt_scene_load(check_path("trunc_a.ply"), &te);
         if (t || !strstr(te.msg, "trunc_a.ply")) bad++;
         rt_scene_free(t);
@@ -323,7 +323,7 @@ static void test_ply_formats(void)
             c.d[at] = (unsigned char)(st >> 24);
         }
         check_write_file(check_path("fuzz.ply"), c.d, c.n);
-        rt_err fe = {""};
+        rt_err fe = {0};
         rt_scene *t = rt_scene_load(check_path("fuzz.ply"), &fe);
         if (!t) CHECK(strstr(fe.msg, "fuzz.ply") != NULL, "fuzz: message '%s'", fe.msg);
         rt_scene_free(t);
@@ -402,7 +402,7 @@ static void test_ply_malformed(void)
     int32_t idx[3] = {0, 1, 5};
     for (int i = 0; i < 3; i++) put(&w, &idx[i], 4, swap);
     check_write_file(check_path("b_range.ply"), w.d, w.n);
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *s = rt_scene_load(check_path("b_range.ply"), &e);
     char want[64];
     snprintf(want, sizeof want, "byte %zu: face 0: vertex index 5 out of range", hl + 36 + 1 + 8);
@@ -484,7 +484,7 @@ static void test_mtl_cornell(void)
     snprintf(obj, sizeof obj, "%s/CornellBox-Original.obj", dir);
     check_write_file(check_path("cb/CornellBox-Original.mtl"), cb_mtl, strlen(cb_mtl));
     check_write_file(obj, cb_obj, strlen(cb_obj));
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *s = rt_scene_load(obj, &e); /* the MTL is found beside the OBJ, not in the working folder */
     CHECK(s != NULL, "CornellBox-Original: %s", e.msg);
     if (!s) return;
@@ -546,7 +546,7 @@ static void test_mtl_mapping(void)
         {"case", "newmtl m\nILLUM 3\nks 0.5\n", 0.5f, 0, 1, 0, RT_MAT_SPECULAR},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
-        rt_err e = {""};
+        rt_err e = {0};
         rt_scene *s = load_mtl_text(cases[i].name, cases[i].mtl, &e);
         CHECK(s != NULL, "%s: %s", cases[i].name, e.msg);
         if (!s) continue;
@@ -558,7 +558,7 @@ static void test_mtl_mapping(void)
         rt_scene_free(s);
     }
     /* Tf colours the transmittance; Kd with one number is grey. */
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *s = load_mtl_text("tf", "newmtl m\nillum 7\nTf 1 0.5 0.25\nd 0.5\nKd 0.25\n", &e);
     CHECK(s != NULL, "tf: %s", e.msg);
     if (s) {
@@ -606,7 +606,7 @@ static void test_mtl_errors(void)
         {"e_tf2", "newmtl m\nTf 1 1.5 1\n", "e_tf2.mtl:2: Tf 1.5 outside [0, 1]"},
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
-        rt_err e = {""};
+        rt_err e = {0};
         rt_scene *s = load_mtl_text(bad[i].name, bad[i].mtl, &e);
         CHECK(s == NULL && strstr(e.msg, bad[i].needle) && !strchr(e.msg, '\n'), "%s: '%s' (want '%s')",
               bad[i].name, e.msg, bad[i].needle);
@@ -639,7 +639,7 @@ static void test_mtl_errors(void)
             st = st * 1664525u + 1013904223u;
             buf[at] = alphabet[(st >> 24) % (sizeof alphabet - 1)];
         }
-        rt_err e = {""};
+        rt_err e = {0};
         rt_scene *s = load_mtl_text("fz", buf, &e);
         if (s) {
             const rt_material *m = &s->mat[s->shade[0].mat];
@@ -699,7 +699,7 @@ static void test_mesh_hashes(void)
     for (size_t i = 0; i < sizeof golden / sizeof golden[0]; i++) {
         char spec[700];
         snprintf(spec, sizeof spec, "%s%s", datafile(golden[i].file), golden[i].params);
-        rt_err e = {""};
+        rt_err e = {0};
         rt_scene *s = rt_scene_load(spec, &e);
         CHECK(s != NULL, "%s: %s", spec, e.msg);
         if (!s) continue;
@@ -714,7 +714,7 @@ static void test_mesh_hashes(void)
         CHECK(!strcmp(s->params, golden[i].params[0] ? golden[i].params + 1 : ""), "params '%s'", s->params);
         rt_scene_free(s);
     }
-    rt_err e = {""};
+    rt_err e = {0};
     char spec[700];
     snprintf(spec, sizeof spec, "%s:scale=2", datafile("cube.obj"));
     rt_scene *s = rt_scene_load(spec, &e);

@@ -59,7 +59,7 @@ static void params(void)
         const char *opt;
     } bad[] = {{0, 1, 4, "--depth"}, {65, 1, 4, "--depth"}, {5, 0, 4, "--spp"}, {5, 1, -1, "--bounces"}};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
-        rt_err e = {""};
+        rt_err e = {0};
         rt_job j;
         rt_render_default_opts(&o);
         o.W = o.H = 8;
@@ -146,7 +146,7 @@ static void accumulator(void)
  * seen from inside, lights inside; everything scales with s. */
 static rt_scene *mirror_box(float s)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *sc = rt_scene_new(12, &e);
     int m = add_mat(sc, 0.7f, 0.0f, 1.0f);
     rt_vec3 P[8];
@@ -170,7 +170,7 @@ static rt_scene *mirror_box(float s)
 
 static rt_image *render(rt_scene *sc, const char *tracer, const rt_render_opts *o, rt_run_stats *st)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_kd_params kp;
     rt_kd_default_params(&kp);
     rt_kdtree *kd = rt_kd_build(sc, &kp, &e);
@@ -307,7 +307,7 @@ static const float grey[3] = {0.5f, 0.5f, 0.5f};
 static void grazing(void)
 {
     for (float s = 1e-3f; s < 2e3f; s *= 1000.0f) {
-        rt_err e = {""};
+        rt_err e = {0};
         rt_scene *sc = rt_scene_new(8, &e);
         int m = add_mat(sc, 0.9f, 0, 1);
         /* floor: two triangles sharing the diagonal; wall at x = 10 s */
@@ -336,7 +336,7 @@ static void grazing(void)
  * into the reflection) and stays inside. */
 static void critical(void)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *sc = rt_scene_new(12, &e);
     int g = add_mat(sc, 0.0f, 0.9f, 1.5f);
     rt_vec3 P[8];
@@ -395,7 +395,7 @@ static void sphere(rt_scene *sc, float rad, int mat)
                 double ph = 2 * 3.14159265358979 * u / NU, th = 3.14159265358979 * v / NV;
                 q[c] = rt_v3((float)(rad * sin(th) * cos(ph)), (float)(rad * sin(th) * sin(ph)), (float)(rad * cos(th)));
             }
-            rt_err e = {""};
+            rt_err e = {0};
             if (j > 0) rt_scene_add_tri_mat(sc, q[0], q[1], q[2], grey, (uint32_t)mat, &e);
             if (j < NV - 1) rt_scene_add_tri_mat(sc, q[0], q[2], q[3], grey, (uint32_t)mat, &e);
         }
@@ -415,7 +415,7 @@ static double snell_ratio(rt_vec3 di, rt_vec3 dt, rt_vec3 n)
  * on both sides (1/1.5, 1.5/1.33, 1.33/1.5, 1.5/1). */
 static void nested(void)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *sc = rt_scene_new(1200, &e);
     int glass = add_mat(sc, 0.0f, 1.0f, 1.5f), water = add_mat(sc, 0.0f, 1.0f, 1.33f);
     sphere(sc, 1.0f, glass);
@@ -454,7 +454,7 @@ static void shared_edge(void)
 {
     for (int ridge = 0; ridge < 2; ridge++)
         for (float s = 1e-3f; s < 2e3f; s *= 1000.0f) {
-            rt_err e = {""};
+            rt_err e = {0};
             rt_scene *sc = rt_scene_new(8, &e);
             int m = add_mat(sc, 0.9f, 0, 1);
             float hz = ridge ? 0.3f * s : 0.0f; /* crest height along the diagonal */

@@ -137,7 +137,7 @@ static int exists(const char *path)
 
 static void build(const char *path)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_db *db = rt_db_open(path, &e);
     CHECK(db, "rt_db_open: %s", e.msg);
     if (!db) exit(1);
@@ -163,7 +163,7 @@ static void build(const char *path)
 
 static void test_tables(sqlite3 *h)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_report R;
     rt_report_opts o = {0};
     CHECK(rt_report_init(&R, h, "DB", &o, &e) == 0, "init: %s", e.msg);
@@ -269,7 +269,7 @@ static void test_quote(const char *dir)
     rt_plot_quote(f, nasty);
     fprintf(f, "\n");
     fclose(f);
-    rt_err e = {""};
+    rt_err e = {0};
     CHECK(rt_plot_run(gp, script, &e) == 0, "gnuplot: %s", e.msg);
     char *back = NULL;
     size_t n = 0;
@@ -340,7 +340,7 @@ static int store_gen(rt_db *db, const char *tracer, uint64_t sched, const uint64
 static void test_secondary(const char *dir)
 {
     char path[300];
-    rt_err e = {""};
+    rt_err e = {0};
     snprintf(path, sizeof path, "%s/sec.db", dir);
     rt_db *db = rt_db_open(path, &e);
     CHECK(db, "%s", e.msg);
@@ -427,7 +427,7 @@ static void test_agreement(const char *dir)
 {
     char path[300];
     snprintf(path, sizeof path, "%s/agree.db", dir);
-    rt_err e = {""};
+    rt_err e = {0};
     rt_db *db = rt_db_open(path, &e);
     CHECK(db, "agree db: %s", e.msg);
     if (!db) return;
@@ -537,7 +537,7 @@ int main(void)
      * not stop writes, so what is checked is that no side file appears) */
     chmod(path, 0444);
     chmod(dir, 0555);
-    rt_err e = {""};
+    rt_err e = {0};
     sqlite3 *h = NULL;
     CHECK(rt_report_db_open(path, &h, &e) == 0, "open read-only: %s", e.msg);
     if (h) {

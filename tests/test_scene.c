@@ -19,7 +19,7 @@
 
 static rt_scene *load(const char *spec)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *s = rt_scene_load(spec, &e);
     CHECK(s != NULL, "%s: %s", spec, e.msg);
     return s;
@@ -93,7 +93,7 @@ static void test_params(void)
         {"", "empty"},
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
-        rt_err e = {""};
+        rt_err e = {0};
         rt_scene *t = rt_scene_load(bad[i].spec, &e);
         CHECK(t == NULL, "%s accepted", bad[i].spec);
         CHECK(strstr(e.msg, bad[i].needle) != NULL, "%s: message '%s' lacks '%s'", bad[i].spec, e.msg,
@@ -325,7 +325,7 @@ static void test_builtin_materials(void)
         {"cornell:glass=2", "out of range"},
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
-        rt_err e = {""};
+        rt_err e = {0};
         rt_scene *t = rt_scene_load(bad[i].spec, &e);
         CHECK(t == NULL && strstr(e.msg, bad[i].needle), "%s: '%s' (want '%s')", bad[i].spec, e.msg, bad[i].needle);
         rt_scene_free(t);
@@ -367,7 +367,7 @@ static void test_export_roundtrip(void)
         if (!s) continue;
         char path[512];
         snprintf(path, sizeof path, "%s/export%zu.obj", tmpdir, i);
-        rt_err e = {""};
+        rt_err e = {0};
         CHECK(rt_scene_export_obj(s, path, &e) == 0, "export: %s", e.msg);
         rt_scene *t = rt_scene_load(path, &e);
         CHECK(t != NULL, "re-import: %s", e.msg);
@@ -406,7 +406,7 @@ static void test_export_roundtrip(void)
         char path[512];
         snprintf(path, sizeof path, "%s/fail.obj", tmpdir);
         snprintf(mpath, sizeof mpath, "%s/fail.mtl", tmpdir);
-        rt_err e = {""};
+        rt_err e = {0};
         rt_out_fail_after = 5000; /* the MTL (~9 KB) fails too: try one that passes it */
         int rc = rt_scene_export_obj(s, path, &e);
         rt_out_fail_after = 20000; /* MTL fits, OBJ (~100 KB) does not */
@@ -418,7 +418,7 @@ static void test_export_roundtrip(void)
     }
     s = load("cornell");
     if (s) {
-        rt_err e = {""};
+        rt_err e = {0};
         CHECK(rt_scene_export_obj(s, "/nonexistent-dir/x.obj", &e) < 0, "export to a bad path succeeded");
         CHECK(strstr(e.msg, "/nonexistent-dir/x.obj") != NULL, "message '%s'", e.msg);
         rt_scene_free(s);
@@ -428,7 +428,7 @@ static void test_export_roundtrip(void)
 static void test_container(void)
 {
     rt_scene_free(NULL);
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *s = rt_scene_new(0, &e);
     CHECK(s != NULL, "new: %s", e.msg);
     if (!s) return;
@@ -456,7 +456,7 @@ static void test_oom(void)
     for (size_t i = 0; i < 4; i++) {
         int ok = 0;
         for (long n = 1; n < 200 && !ok; n++) {
-            rt_err e = {""};
+            rt_err e = {0};
             rt_fail_alloc_after = n;
             rt_scene *s = rt_scene_load(specs[i], &e);
             rt_fail_alloc_after = 0;

@@ -133,7 +133,7 @@ static void xvec(const rt_run_stats *st, const char *key, uint64_t *v, int n)
 static rt_image *run(rt_scene *sc, rt_kdtree *kd, const char *tracer, const rt_render_opts *o, count_sink *cs,
                      rt_run_stats *st, rt_layout *Lout)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_job j;
     if (rt_job_setup_borrowed(&j, sc, kd, tracer, o, &e) < 0) {
         CHECK(0, "setup %s: %s", tracer, e.msg);
@@ -163,7 +163,7 @@ static int same_rgb(const rt_image *a, const rt_image *b)
 
 static rt_kdtree *tree(rt_scene *sc)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_kd_params kp;
     rt_kd_default_params(&kp);
     rt_kdtree *kd = rt_kd_build(sc, &kp, &e);
@@ -175,7 +175,7 @@ static rt_kdtree *tree(rt_scene *sc)
 
 static void test_scene(const char *spec, const char *mat, int W, int H)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *sc = rt_scene_load(spec, &e);
     CHECK(sc != NULL, "%s: %s", spec, e.msg);
     if (!sc) return;
@@ -344,7 +344,7 @@ static void test_scene(const char *spec, const char *mat, int W, int H)
  * the far corner: bounds [0,4]^3, grid_min 4, unit voxels 4x4x4. */
 static rt_scene *hand_scene(float ex, float ey, float ez, float ax, float ay, float az)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *s = rt_scene_new(3, &e);
     if (!s) return NULL;
     const float v[3][9] = {{0, 0, 0, 4, 0, 0, 0, 4, 0}, {4, 0, 0, 4, 4, 0, 0, 4, 0}, {3.8f, 3.8f, 4, 3.9f, 3.8f, 4, 3.8f, 3.9f, 4}};
@@ -433,7 +433,7 @@ static void test_cost(void)
 {
     /* cornell's camera is inside the box: every eye ray enters the grid, so
      * the model's R C_r term is exact and so is the whole formula */
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *sc = rt_scene_load("cornell", &e);
     CHECK(sc != NULL, "cornell: %s", e.msg);
     if (!sc) return;
@@ -475,7 +475,7 @@ static void test_cost(void)
 
 static void test_errors(void)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *sc = rt_scene_load("cornell", &e);
     if (!sc) return;
     rt_kdtree *kd = tree(sc);
@@ -515,7 +515,7 @@ static void test_errors(void)
  * camera that has about 82% of the primary rays hit (s = 0.82). */
 static void test_bunny(void)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *sc = rt_scene_load("bunny", &e);
     CHECK(sc != NULL && sc->ntri == 69451, "bunny: %s", e.msg);
     if (!sc) return;
@@ -543,7 +543,7 @@ static void test_sweep_texture_cache(void)
     char dir[] = "/tmp/rt-stream-XXXXXX", path[64];
     if (!mkdtemp(dir)) return;
     snprintf(path, sizeof path, "%s/s.db", dir);
-    rt_err e = {""};
+    rt_err e = {0};
     rt_exp_config c;
     memset(&c, 0, sizeof c);
     char *scene = "cornell", *tracers[2] = {"stream-multipass", "recursive"};

@@ -208,7 +208,7 @@ static void test_round_trip(unsigned generations)
         if (generations) add_gens(a, n, generations);
         for (size_t c = 0; c < 4; c++) {
             if (chunks[c] == 1 && n > 70000) continue;
-            rt_err e = {""};
+            rt_err e = {0};
             const char *p = check_path("rt.rtt");
             int level = (int)(c * 3); /* 0, 3, 6, 9 */
             int rc = write_trace(p, mm, a, n, level, chunks[c], &e);
@@ -251,7 +251,7 @@ static void test_round_trip(unsigned generations)
         want.bytes[a[i].cls] += a[i].size;
         want.writes[a[i].cls] += a[i].write;
     }
-    rt_err e = {""};
+    rt_err e = {0};
     rt_tr_totals tot;
     int mis = 0;
     CHECK(write_trace(check_path("tot.rtt"), mm, a, n, 6, 4096, &e) == 0, "%s", e.msg);
@@ -287,7 +287,7 @@ static void spit(const char *p, const unsigned char *b, size_t n)
  * message naming the file and a byte offset. Returns 1 if rejected. */
 static int rejected(const char *p, char *msg, size_t msgcap)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     long got = read_all(p, 4096, NULL, 0, NULL, &e, NULL);
     if (msg) snprintf(msg, msgcap, "%s", e.msg);
     if (got != -1) return 0;
@@ -306,7 +306,7 @@ static void test_corruption(unsigned generations)
     size_t n = check_long() ? 3000 : 500; /* every truncation: one file per byte */
     rt_access *a = random_stream(n);
     if (generations) add_gens(a, n, generations);
-    rt_err e = {""};
+    rt_err e = {0};
     const char *good = check_path("good.rtt"), *bad = check_path("bad.rtt");
     CHECK(write_trace(good, &m, a, n, 6, 700, &e) == 0, "%s", e.msg);
     free(a);
@@ -386,7 +386,7 @@ static void test_corruption(unsigned generations)
     /* an empty file and a missing file */
     spit(bad, b, 0);
     CHECK(rejected(bad, NULL, 0), "empty file accepted");
-    rt_err e2 = {""};
+    rt_err e2 = {0};
     CHECK(!rt_tr_open(check_path("no-such.rtt"), &e2) && strstr(e2.msg, "no-such.rtt"), "missing file: %s", e2.msg);
     free(b);
 }
@@ -395,7 +395,7 @@ static void test_interrupted(void)
 {
     rt_tr_meta m;
     fill_meta(&m);
-    rt_err e = {""};
+    rt_err e = {0};
     const char *p = check_path("int.rtt");
     size_t n = 100000;
     rt_access *a = random_stream(n);
@@ -447,7 +447,7 @@ static void test_deterministic(void)
     fill_meta(&m);
     size_t n = 200000;
     rt_access *a = random_stream(n);
-    rt_err e = {""};
+    rt_err e = {0};
     rnd_seed(42); /* same batch sizes too */
     CHECK(write_trace(check_path("d1.rtt"), &m, a, n, 6, 65536, &e) == 0, "%s", e.msg);
     rnd_seed(4242); /* different batching must not matter */
@@ -473,7 +473,7 @@ static void test_oom(void)
     fill_meta(&m);
     rt_access a[100];
     for (int i = 0; i < 100; i++) a[i] = (rt_access){RT_MM_BASE + 8u * (unsigned)i, 8, 0, RT_CLS_NODE, 0};
-    rt_err e = {""};
+    rt_err e = {0};
     const char *p = check_path("oom.rtt");
     CHECK(write_trace(p, &m, a, 100, 6, 65536, &e) == 0, "%s", e.msg);
     for (long k = 1; k < 12; k++) {
@@ -548,7 +548,7 @@ static void test_generations(void)
 {
     rt_tr_meta m;
     fill_meta(&m);
-    rt_err e = {""};
+    rt_err e = {0};
     const char *p = check_path("gen.rtt");
     /* the writer keeps generations within what the header declares */
     rt_access rec = {RT_MM_BASE, 8, 0, RT_CLS_NODE, 1};
@@ -723,7 +723,7 @@ static int synthetic_level(const char *path, int level)
         {0x1000403f, 2, 1, RT_CLS_FB, 0},     {0xffffffffffffffc0ULL, 64, 0, RT_CLS_STREAM, 0},
         {0xfffffffffffffff0ULL, 100, 1, RT_CLS_STREAM, 0},
     };
-    rt_err e = {""};
+    rt_err e = {0};
     rt_tr_wopts o = {level, 4};
     rt_tr_writer *w = rt_tr_create_opts(path, &m, &o, &e);
     if (!w) return fprintf(stderr, "%s\n", e.msg), 1;

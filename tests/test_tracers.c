@@ -32,7 +32,7 @@ static int quick;
 static rt_image *render(rt_scene *sc, rt_kdtree *kd, const char *tracer, rt_render_opts *o, rt_sink *sink,
                         rt_run_stats *st)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_job j;
     if (rt_job_setup_borrowed(&j, sc, kd, tracer, o, &e) < 0) {
         CHECK(0, "setup %s: %s", tracer, e.msg);
@@ -58,7 +58,7 @@ static size_t count_diff(const rt_image *a, const rt_image *b)
 
 static void same_images(const char *spec, int W, int H)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *sc = rt_scene_load(spec, &e);
     CHECK(sc != NULL, "%s: %s", spec, e.msg);
     if (!sc) return;
@@ -201,7 +201,7 @@ static uint64_t derive_ref(const rt_kdtree *kd, const uint64_t *g, uint64_t cach
 
 static void derive_gmax(void)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *sc = rt_scene_load("sphereflake:level=2", &e);
     rt_kd_params kp;
     rt_kd_default_params(&kp);
@@ -247,7 +247,7 @@ static int collect_put(rt_sink *s, const rt_access *a, size_t n)
 
 static void degenerate(void)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *sc = rt_scene_load("sphereflake:level=1", &e);
     rt_kd_params kp;
     rt_kd_default_params(&kp);
@@ -287,7 +287,7 @@ static void degenerate(void)
  * never referenced; K = 1 is the full render. */
 static void subsampling(const char *spec, int W, int H, uint32_t K, int tile)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *sc = rt_scene_load(spec, &e);
     rt_kd_params kp;
     rt_kd_default_params(&kp);
@@ -581,7 +581,7 @@ static int nlights(unsigned m)
 static void traffic_run(rt_scene *sc, rt_kdtree *kd, const char *spec, const char *tracer, const rt_render_opts *o,
                         tally *out)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_job j;
     rt_run_stats st;
     memset(out, 0, sizeof *out);
@@ -754,7 +754,7 @@ static void golden(const char *name, const char *spec, const char *tracer, const
 
 static void traffic(const char *spec, int W, int H, const char *gold)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *sc = rt_scene_load(spec, &e);
     rt_kd_params kp;
     rt_kd_default_params(&kp);
@@ -838,7 +838,7 @@ static void traffic(const char *spec, int W, int H, const char *gold)
  * would trace nothing: the job refuses it, naming the option and the tiles. */
 static void subsample_refused(void)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *sc = rt_scene_load("cornell:glass=0", &e);
     rt_kd_params kp;
     rt_kd_default_params(&kp);
@@ -1108,7 +1108,7 @@ static size_t ref_compare(const rt_scene *sc, const rt_render_opts *o, const rt_
  * a little mirror), emitters and a glossy mix on every 7th triangle. */
 static void add_materials(rt_scene *sc)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_material m[4];
     memset(m, 0, sizeof m);
     for (int k = 0; k < 3; k++) {
@@ -1134,7 +1134,7 @@ static const char *const mode_tracers[] = {"recursive", "packet", "dynamic", NUL
  * tracers against each other bit for bit. */
 static void modes_vs_reference(const char *spec, int W, int H)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *sc = rt_scene_load(spec, &e);
     CHECK(sc != NULL, "%s: %s", spec, e.msg);
     if (!sc) return;
@@ -1189,7 +1189,7 @@ static void modes_vs_reference(const char *spec, int W, int H)
  * of the scene without materials, access for access. */
 static void traffic_modes(const char *spec, int W, int H)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *sc = rt_scene_load(spec, &e), *plain = rt_scene_load(spec, &e);
     CHECK(sc && plain, "%s: %s", spec, e.msg);
     if (!sc || !plain) return;

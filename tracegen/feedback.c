@@ -161,7 +161,7 @@ int rt_fb_size(const rt_scene *sc, const rt_render_opts *o, rt_fb_sizes *z, rt_e
     z->svb = (double)o->W * (double)o->H * (z->G + z->G2) * RT_FB_REC_SIZE;
     z->limit = o->vb_size ? o->vb_size : RT_FB_VB_DEFAULT;
     if (z->svb > (double)z->limit)
-        return rt_errf(e,
+        return rt_errf_usage(e,
                        REFUSED "a vertex buffer would need %.0f bytes (%d x %d pixels x (G %.0f + G' %.0f) x 64 B, "
                                "depth %d, %d light(s), branching %d), more than the limit of %" PRIu64
                                " bytes (--vb-size)",
@@ -169,7 +169,7 @@ int rt_fb_size(const rt_scene *sc, const rt_render_opts *o, rt_fb_sizes *z, rt_e
     return 0;
 }
 
-int rt_fb_refused(const rt_err *e) { return e && !strncmp(e->msg, REFUSED, strlen(REFUSED)); }
+int rt_fb_refused(const rt_err *e) { return e && e->usage && !strncmp(e->msg, REFUSED, strlen(REFUSED)); }
 
 /* ---- heat map ------------------------------------------------------------------ */
 
