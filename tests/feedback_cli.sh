@@ -33,7 +33,7 @@ grep -q "49152 bytes" "$tmp/e3" || err "--vb-size: message '$(cat "$tmp/e3")'"
 [ $? -eq 0 ] || err "--vb-size 49152: want exit 0"
 grep -q '"tracer": "feedback"' "$tmp/j" || err "json: $(cat "$tmp/j")"
 grep -q 'passes=3 composite=eq1 svb=49152 G=2 G2=1' "$tmp/j" || err "json extra: $(cat "$tmp/j")"
-grep -q 'share_vs=' "$tmp/j" || err "no stage shares"
+grep -q 'modeled_share_vs=' "$tmp/j" || err "no modeled stage shares"
 [ "$(head -c 8 "$tmp/h.png" | od -An -c | tr -d ' ')" = "211PNG\r\n032\n" ] || err "heat map is not a PNG"
 
 # sweep: one run per accel/grid-min choice, keys as rt_job_params writes them

@@ -824,7 +824,7 @@ static void finish_stats(fb_run *R, rt_run_stats *st)
              "passes=%d composite=%s svb=%.0f G=%.0f G2=%.0f E=%s records_in=%s records_out=%s occupancy=%.4f "
              "rays_secondary=%" PRIu64 " vs_records=%" PRIu64 " vs_box_out=%" PRIu64 " vs_steps=%" PRIu64
              " vs_tests=%" PRIu64 " gs_read=%" PRIu64 " gs_emitted=%" PRIu64 " gs_dropped=%" PRIu64
-             " fs_shaded=%" PRIu64 " fs_blended=%" PRIu64 " share_vs=%.2f share_gs=%.2f share_fs=%.2f",
+             " fs_shaded=%" PRIu64 " fs_blended=%" PRIu64 " modeled_share_vs=%.2f modeled_share_gs=%.2f modeled_share_fs=%.2f",
              s->passes, comp_names[pl->comp], pl->z.svb, pl->z.G, pl->z.G2, E, rin, rout,
              pl->cap ? (double)maxout / (double)pl->cap : 0.0, s->secondary, s->vs_records, s->vs_box_out,
              s->vs_steps, s->vs_tests, s->gs_records, s->gs_emitted, s->gs_drop_written + s->gs_drop_done,
