@@ -92,6 +92,7 @@
  * (exact_below). Caches of fewer than 1 / R lines cannot be estimated at
  * all (t < 1 sampled line); the glue reports them as unavailable.
  */
+#include "sample.h"
 #include "approx_int.h"
 
 #include <math.h>
@@ -354,7 +355,7 @@ rt_shards *rt_shards_new(const uint64_t *lines, int k, uint32_t line, double rat
         /* T64 = R 2^64 exactly representable for rates 2^-k; the rate is
          * then T64 / 2^64 (rate 1: T64 = 0 means every line). */
         s->golden = 1;
-        s->goff = rt_mix64(seed ^ 0x9e3779b97f4a7c15ULL);
+        s->goff = rt_sample_golden_offset(seed);
         double T = floor(rate * 0x1p64 + 0.5);
         if (T < 1) T = 1;
         s->T64 = T >= 0x1p64 ? 0 : (uint64_t)T;
@@ -475,7 +476,7 @@ void rt_shards_put(rt_shards *restrict s, const rt_access *a, size_t n, uint64_t
 
 /* ---- golden-ratio filter ---- */
 
-#define GOLD 0x9e3779b97f4a7c15ULL
+#define GOLD RT_SAMPLE_GOLD
 
 /* One reference, generic: any size, any line. */
 static inline void golden_ref(rt_shards *restrict s, const rt_access *r, uint64_t acc[RT_NCLASS][2])

@@ -56,6 +56,7 @@
  * or to come; nhist = references of [max(next - H, 0), next) kept so far
  * (hist holds them in order); cur != NULL iff next <= pos < next + M.
  */
+#include "sample.h"
 #include "approx_int.h"
 #include "msim.h"
 #include "sim_int.h"
@@ -114,7 +115,7 @@ rt_window *rt_window_new(const uint64_t *sizes, int k, uint32_t line, uint64_t p
     t->H = period - window < hmax ? period - window : hmax;
     /* the seed shifts every window by the same offset in [0, P - M): seed 1
      * (the default) by none, other seeds give other, independent placements */
-    t->next = period - window - ((seed - 1) * 0x9e3779b97f4a7c15ULL) % (period - window);
+    t->next = rt_sample_first_window(period, window, seed);
     uint64_t ss = 16;
     while (ss < 4 * t->cmax) ss <<= 1;
     t->setmask = ss - 1;

@@ -129,6 +129,7 @@
  * decodes records into the caller's buffer on demand; it hashes every byte
  * (FNV-1a 64) for provenance, in both read modes.
  */
+#include "sample.h"
 #include "trace.h"
 #include "outfile.h"
 #include "rt_math.h"
@@ -476,7 +477,7 @@ typedef struct sbuild {
     bbuf out;                       /* the last payload made */
 } sbuild;
 
-#define GOLD 0x9e3779b97f4a7c15ULL
+#define GOLD RT_SAMPLE_GOLD
 
 static void sb_free(sbuild *b)
 {
@@ -492,11 +493,10 @@ static void sb_free(sbuild *b)
     free(b);
 }
 
-/* The first window's start: as window.c, (P - M) - ((seed - 1) G mod (P - M)). */
+/* The first window's start, by the rule window.c follows (sample.h). */
 static uint64_t first_window(const rt_tr_sample_params *p)
 {
-    uint64_t pm = p->period - p->window;
-    return pm - ((p->seed - 1) * GOLD) % pm;
+    return rt_sample_first_window(p->period, p->window, p->seed);
 }
 
 static sbuild *sb_new(const rt_tr_sample_params *p, unsigned maxgen, rt_err *e)
@@ -506,7 +506,7 @@ static sbuild *sb_new(const rt_tr_sample_params *p, unsigned maxgen, rt_err *e)
     b->p = *p;
     while ((1u << b->shift) != p->line) b->shift++;
     b->T64 = p->shift == 0 ? 0 : 1ULL << (64 - p->shift);
-    b->goff = rt_mix64(p->seed ^ GOLD);
+    b->goff = rt_sample_golden_offset(p->seed);
     b->maxgen = maxgen;
     b->next = first_window(p);
     uint64_t ss = 16;
