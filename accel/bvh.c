@@ -8,14 +8,19 @@
  *   - Every triangle is a primitive record (box, centroid, scene index);
  *     records start in ascending scene-index order and every partition is
  *     stable, so each node's range stays in ascending index order.
- *   - At a node of n triangles: its box and the box of its centroids. On
- *     every axis where the centroids spread, they are put in RT_BVH_BINS
- *     (32) equal bins, bin = (int)((c - lo) * 32 / (hi - lo)) in double,
- *     clamped to 31; the 31 planes between bins are scored with
- *     cost = trav + isect * (A_L n_L + A_R n_R) / A (areas in double; ties
- *     keep the first axis and the lowest plane). A node of at most
+ *   - At a node of n triangles: its box and the box of its centroids
+ *     (centroid = 0.5 lo + 0.5 hi of the triangle's box; both boxes are
+ *     accumulated while the parent partitions). On every axis where the
+ *     centroids spread, they are put in RT_BVH_BINS (32) equal bins,
+ *     bin = (int)((c - lo) * scale) clamped to 0..31, scale = 32 / (hi - lo)
+ *     rounded to float (at most 1e30); the 31 planes between bins are
+ *     scored with cost = trav + isect * (A_L n_L + A_R n_R) / A, the areas
+ *     computed in float on boxes scaled by the power of two that brings
+ *     the node's largest extent into [0.5, 1) (exact, never overflowing);
+ *     ties keep the first axis and the lowest plane. A node of at most
  *     max_leaf triangles becomes a leaf when isect * n <= that cost; a
- *     larger one is always split.
+ *     larger one is always split. The box arithmetic runs four lanes at a
+ *     time (SSE2, or a scalar loop: the same IEEE operations).
  *   - When the centroids coincide on every axis (no plane separates them)
  *     or the node lies at depth RT_BVH_SAH_DEPTH (32) or deeper, the range
  *     is halved by count: the lower half in triangle index order goes left.
@@ -110,10 +115,55 @@
 
 /* ---- build ------------------------------------------------------------- */
 
+/* Four floats, one SSE2 register where there is one; the build's box
+ * arithmetic is min, max, +, - and * lane by lane, the same on every path. */
+#if defined(__SSE2__)
+typedef __m128 vf;
+static inline vf vload(const float *p) { return _mm_loadu_ps(p); }
+static inline void vstore(float *p, vf a) { _mm_storeu_ps(p, a); }
+static inline vf vmin(vf a, vf b) { return _mm_min_ps(a, b); }
+static inline vf vmax(vf a, vf b) { return _mm_max_ps(a, b); }
+static inline vf vadd(vf a, vf b) { return _mm_add_ps(a, b); }
+static inline vf vsub(vf a, vf b) { return _mm_sub_ps(a, b); }
+static inline vf vmul(vf a, vf b) { return _mm_mul_ps(a, b); }
+static inline vf vset1(float x) { return _mm_set1_ps(x); }
+#else
+typedef struct vf {
+    float v[4];
+} vf;
+static inline vf vload(const float *p)
+{
+    vf r;
+    memcpy(r.v, p, sizeof r.v);
+    return r;
+}
+static inline void vstore(float *p, vf a) { memcpy(p, a.v, sizeof a.v); }
+#define VF_OP(name, expr)                                  \
+    static inline vf name(vf a, vf b)                      \
+    {                                                      \
+        vf r;                                              \
+        for (int k = 0; k < 4; k++) r.v[k] = (expr);       \
+        return r;                                          \
+    }
+VF_OP(vmin, a.v[k] < b.v[k] ? a.v[k] : b.v[k])
+VF_OP(vmax, a.v[k] > b.v[k] ? a.v[k] : b.v[k])
+VF_OP(vadd, a.v[k] + b.v[k])
+VF_OP(vsub, a.v[k] - b.v[k])
+VF_OP(vmul, a.v[k] * b.v[k])
+static inline vf vset1(float x)
+{
+    vf r = {{x, x, x, x}};
+    return r;
+}
+#endif
+
+/* A triangle's box, 32 bytes; lane 3 of lo carries the scene index. Its
+ * centroid is 0.5 lo + 0.5 hi (computed where needed, always so). */
 typedef struct prim {
-    float lo[3], hi[3]; /* triangle box */
-    float c[3];         /* centroid (box centre) */
-    uint32_t idx;       /* scene index */
+    float lo[3];  /* box */
+    uint32_t idx; /* scene index */
+    float hi[3];
+    float pad;    /* 0 */
 } prim;
 
 typedef struct bnode {
@@ -126,12 +176,9 @@ typedef struct bnode {
 typedef struct task {
     uint32_t node, begin, end; /* node and its prim range */
     int depth;                 /* root = 0 */
+    float lo[4], hi[4];        /* box of the range (lanes 0..2) */
+    float clo[4], chi[4];      /* box of its centroids */
 } task;
-
-typedef struct bin {
-    float lo[3], hi[3]; /* box of the triangles in the bin */
-    uint32_t n;         /* triangles */
-} bin;
 
 void rt_bvh_default_params(rt_bvh_params *p, int width)
 {
@@ -214,110 +261,132 @@ typedef struct build {
     uint32_t ninner;  /* binary interior nodes */
 } build;
 
-/* Bin of centroid c on an axis of centroid range [lo, lo + 1/scale). */
-static inline int bin_of(float c, float lo, double scale)
+static inline vf centroid(const prim *q)
 {
-    double x = ((double)c - (double)lo) * scale;
-    int k = (int)x;
-    return k < 0 ? 0 : k >= RT_BVH_BINS ? RT_BVH_BINS - 1 : k;
+    const vf h = vset1(0.5f);
+    return vadd(vmul(vload(q->lo), h), vmul(vload(q->hi), h));
 }
 
-/* Stable partition of pr[begin, end): those with keep() first. */
-static uint32_t partition_bins(build *B, uint32_t begin, uint32_t end, int axis, float lo, double scale, int split)
+/* Bin of lane x = (c - clo) * scale (>= 0, maybe inf): 0..RT_BVH_BINS-1. */
+static inline int bin_of(float x) { return x < (float)(RT_BVH_BINS - 1) ? (int)x : RT_BVH_BINS - 1; }
+
+/* Accumulated boxes of one side of a partition. */
+typedef struct side {
+    vf lo, hi, clo, chi;
+} side;
+
+static inline void side_init(side *d)
 {
-    uint32_t l = begin, r = 0;
-    for (uint32_t i = begin; i < end; i++) {
-        if (bin_of(B->pr[i].c[axis], lo, scale) <= split) B->pr[l++] = B->pr[i];
-        else B->tmp[r++] = B->pr[i];
-    }
-    memcpy(B->pr + l, B->tmp, r * sizeof *B->pr);
-    return l;
+    d->lo = d->clo = vset1(INFINITY);
+    d->hi = d->chi = vset1(-INFINITY);
 }
 
-static void build_tree(build *B)
+static inline void side_add(side *d, const prim *q, vf c)
+{
+    d->lo = vmin(d->lo, vload(q->lo));
+    d->hi = vmax(d->hi, vload(q->hi));
+    d->clo = vmin(d->clo, c);
+    d->chi = vmax(d->chi, c);
+}
+
+static inline void side_task(const side *d, task *t)
+{
+    vstore(t->lo, d->lo);
+    vstore(t->hi, d->hi);
+    vstore(t->clo, d->clo);
+    vstore(t->chi, d->chi);
+}
+
+/* Half the surface area of the box [lo, hi] scaled by sc (lanes 0..2). */
+static inline float half_area(vf lo, vf hi, vf sc)
+{
+    float d[4];
+    vstore(d, vmul(vsub(hi, lo), sc));
+    return d[0] * d[1] + d[1] * d[2] + d[2] * d[0];
+}
+
+static void build_tree(build *B, const task *root)
 {
     const rt_bvh_params *p = B->p;
     task st[RT_BVH_MAX_DEPTH + 4];
     int sp = 0;
-    st[sp++] = (task){0, 0, B->bn[0].n, 0}; /* root's count parked in bn[0].n */
+    st[sp++] = *root;
     B->nb = 1;
+    vf blo[3][RT_BVH_BINS], bhi[3][RT_BVH_BINS];
+    uint32_t bcnt[3][RT_BVH_BINS];
     while (sp > 0) {
-        task t = st[--sp];
+        const task t = st[--sp];
         const uint32_t n = t.end - t.begin;
         bnode *nd = &B->bn[t.node];
-        rt_bounds box = rt_bounds_empty(), cb = rt_bounds_empty();
-        for (uint32_t i = t.begin; i < t.end; i++) {
-            const prim *q = &B->pr[i];
-            for (int k = 0; k < 3; k++) {
-                if (q->lo[k] < bget(&box.lo, k)) bset(&box.lo, k, q->lo[k]);
-                if (q->hi[k] > bget(&box.hi, k)) bset(&box.hi, k, q->hi[k]);
-                if (q->c[k] < bget(&cb.lo, k)) bset(&cb.lo, k, q->c[k]);
-                if (q->c[k] > bget(&cb.hi, k)) bset(&cb.hi, k, q->c[k]);
-            }
+        for (int k = 0; k < 3; k++) {
+            bset(&nd->box.lo, k, t.lo[k]);
+            bset(&nd->box.hi, k, t.hi[k]);
         }
-        nd->box = box;
         int leaf = n <= 1;
         int axis = -1, split = -1;
-        uint32_t mid = 0;
-        double scale[3] = {0, 0, 0};
+        float scale[4] = {0, 0, 0, 0};
         if (!leaf && t.depth < RT_BVH_SAH_DEPTH) {
-            bin bins[3][RT_BVH_BINS];
-            int live[3];
+            int live[3], any = 0;
             for (int k = 0; k < 3; k++) {
-                live[k] = bget(&cb.hi, k) > bget(&cb.lo, k);
-                if (live[k]) scale[k] = (double)RT_BVH_BINS / ((double)bget(&cb.hi, k) - (double)bget(&cb.lo, k));
+                const float ext = t.chi[k] - t.clo[k];
+                live[k] = ext > 0.0f;
+                if (live[k]) {
+                    const double sc = (double)RT_BVH_BINS / (double)ext;
+                    scale[k] = sc < 1e30 ? (float)sc : 1e30f;
+                    any = 1;
+                }
                 for (int j = 0; j < RT_BVH_BINS; j++) {
-                    bins[k][j].n = 0;
-                    for (int m = 0; m < 3; m++) {
-                        bins[k][j].lo[m] = INFINITY;
-                        bins[k][j].hi[m] = -INFINITY;
-                    }
+                    blo[k][j] = vset1(INFINITY);
+                    bhi[k][j] = vset1(-INFINITY);
+                    bcnt[k][j] = 0;
                 }
             }
-            if (live[0] || live[1] || live[2]) {
+            if (any) {
+                const vf clo = vload(t.clo), vs = vload(scale);
                 for (uint32_t i = t.begin; i < t.end; i++) {
                     const prim *q = &B->pr[i];
+                    float x[4];
+                    vstore(x, vmul(vsub(centroid(q), clo), vs));
+                    const vf lo = vload(q->lo), hi = vload(q->hi);
                     for (int k = 0; k < 3; k++) {
-                        if (!live[k]) continue;
-                        bin *b = &bins[k][bin_of(q->c[k], bget(&cb.lo, k), scale[k])];
-                        b->n++;
-                        for (int m = 0; m < 3; m++) {
-                            if (q->lo[m] < b->lo[m]) b->lo[m] = q->lo[m];
-                            if (q->hi[m] > b->hi[m]) b->hi[m] = q->hi[m];
-                        }
+                        const int j = bin_of(x[k]);
+                        blo[k][j] = vmin(blo[k][j], lo);
+                        bhi[k][j] = vmax(bhi[k][j], hi);
+                        bcnt[k][j]++;
                     }
                 }
-                double best = INFINITY;
+                /* Areas in float on boxes scaled by a power of two that
+                 * brings the node's largest extent near 1 (exact, and no
+                 * overflow); half areas, as only comparisons matter. */
+                float emax = 0.0f;
+                for (int k = 0; k < 3; k++)
+                    if (t.hi[k] - t.lo[k] > emax) emax = t.hi[k] - t.lo[k];
+                int ex = 0;
+                if (emax > 0.0f && emax < INFINITY) frexpf(emax, &ex);
+                const vf vsc = vset1(ldexpf(1.0f, -ex));
+                float best = INFINITY;
                 for (int k = 0; k < 3; k++) {
                     if (!live[k]) continue;
-                    double rcost[RT_BVH_BINS];
+                    float rcost[RT_BVH_BINS];
                     uint32_t rn[RT_BVH_BINS];
-                    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+                    vf lo = vset1(INFINITY), hi = vset1(-INFINITY);
                     uint32_t cnt = 0;
                     for (int j = RT_BVH_BINS - 1; j > 0; j--) {
-                        const bin *b = &bins[k][j];
-                        for (int m = 0; m < 3; m++) {
-                            if (b->lo[m] < lo[m]) lo[m] = b->lo[m];
-                            if (b->hi[m] > hi[m]) hi[m] = b->hi[m];
-                        }
-                        cnt += b->n;
+                        lo = vmin(lo, blo[k][j]);
+                        hi = vmax(hi, bhi[k][j]);
+                        cnt += bcnt[k][j];
                         rn[j] = cnt;
-                        rcost[j] = cnt ? area(lo, hi) * cnt : 0.0;
+                        rcost[j] = cnt ? half_area(lo, hi, vsc) * (float)cnt : 0.0f;
                     }
-                    for (int m = 0; m < 3; m++) {
-                        lo[m] = INFINITY;
-                        hi[m] = -INFINITY;
-                    }
+                    lo = vset1(INFINITY);
+                    hi = vset1(-INFINITY);
                     cnt = 0;
                     for (int j = 0; j < RT_BVH_BINS - 1; j++) {
-                        const bin *b = &bins[k][j];
-                        for (int m = 0; m < 3; m++) {
-                            if (b->lo[m] < lo[m]) lo[m] = b->lo[m];
-                            if (b->hi[m] > hi[m]) hi[m] = b->hi[m];
-                        }
-                        cnt += b->n;
+                        lo = vmin(lo, blo[k][j]);
+                        hi = vmax(hi, bhi[k][j]);
+                        cnt += bcnt[k][j];
                         if (cnt == 0 || rn[j + 1] == 0) continue;
-                        const double c = area(lo, hi) * cnt + rcost[j + 1];
+                        const float c = half_area(lo, hi, vsc) * (float)cnt + rcost[j + 1];
                         if (c < best) {
                             best = c;
                             axis = k;
@@ -326,28 +395,13 @@ static void build_tree(build *B)
                     }
                 }
                 if (axis >= 0) {
-                    const double A = barea(&box);
-                    const double splitc = (double)p->trav_cost * A + (double)p->isect_cost * best;
-                    if (n <= (uint32_t)p->max_leaf && (double)p->isect_cost * n * A <= splitc) leaf = 1;
+                    const float A = half_area(vload(t.lo), vload(t.hi), vsc);
+                    const float splitc = p->trav_cost * A + p->isect_cost * best;
+                    if (n <= (uint32_t)p->max_leaf && p->isect_cost * (float)n * A <= splitc) leaf = 1;
                 }
             }
         } else if (!leaf && n <= (uint32_t)p->max_leaf) {
             leaf = 1; /* below the SAH depth: only size decides */
-        }
-        if (!leaf && axis >= 0) {
-            mid = partition_bins(B, t.begin, t.end, axis, bget(&cb.lo, axis), scale[axis], split);
-        } else if (!leaf) {
-            /* halve by count: the ranges are in ascending index order */
-            mid = t.begin + n / 2;
-            float ext = -1.0f;
-            axis = 0;
-            for (int k = 0; k < 3; k++) {
-                const float x = bget(&cb.hi, k) - bget(&cb.lo, k);
-                if (x > ext) {
-                    ext = x;
-                    axis = k;
-                }
-            }
         }
         if (leaf) {
             nd->a = t.begin;
@@ -356,14 +410,55 @@ static void build_tree(build *B)
             B->nleaves++;
             continue;
         }
+        side L, R;
+        side_init(&L);
+        side_init(&R);
+        uint32_t mid;
+        if (axis >= 0) {
+            /* stable partition by bin: the lower bins go left */
+            const vf clo = vload(t.clo), vs = vload(scale);
+            uint32_t l = t.begin, r = 0;
+            for (uint32_t i = t.begin; i < t.end; i++) {
+                const prim q = B->pr[i];
+                const vf c = centroid(&q);
+                float x[4];
+                vstore(x, vmul(vsub(c, clo), vs));
+                if (bin_of(x[axis]) <= split) {
+                    side_add(&L, &q, c);
+                    B->pr[l++] = q;
+                } else {
+                    side_add(&R, &q, c);
+                    B->tmp[r++] = q;
+                }
+            }
+            memcpy(B->pr + l, B->tmp, r * sizeof *B->pr);
+            mid = l;
+        } else {
+            /* halve by count: the ranges are in ascending index order */
+            mid = t.begin + n / 2;
+            for (uint32_t i = t.begin; i < t.end; i++) side_add(i < mid ? &L : &R, &B->pr[i], centroid(&B->pr[i]));
+            float ext = -1.0f;
+            axis = 0;
+            for (int k = 0; k < 3; k++) {
+                const float x = t.chi[k] - t.clo[k];
+                if (x > ext) {
+                    ext = x;
+                    axis = k;
+                }
+            }
+        }
         const uint32_t l = B->nb;
         B->nb += 2;
         B->ninner++;
         nd->a = l;
         nd->n = 0;
         nd->axis = (uint8_t)axis;
-        st[sp++] = (task){l + 1, mid, t.end, t.depth + 1};
-        st[sp++] = (task){l, t.begin, mid, t.depth + 1};
+        task tl = {l, t.begin, mid, t.depth + 1, {0}, {0}, {0}, {0}};
+        task tr = {l + 1, mid, t.end, t.depth + 1, {0}, {0}, {0}, {0}};
+        side_task(&L, &tl);
+        side_task(&R, &tr);
+        st[sp++] = tr;
+        st[sp++] = tl;
     }
 }
 
@@ -694,17 +789,21 @@ rt_bvh *rt_bvh_build(const rt_scene *s, const rt_bvh_params *params, rt_err *e)
     B.tmp = rt_calloc(N, sizeof *B.tmp, e);
     B.bn = rt_calloc(2 * (size_t)N - 1, sizeof *B.bn, e);
     if (!B.pr || !B.tmp || !B.bn) goto fail;
+    side all;
+    side_init(&all);
     for (uint32_t i = 0; i < N; i++) {
         const rt_bounds tb = tri_box(&s->tri[i]);
         prim *q = &B.pr[i];
         memcpy(q->lo, &tb.lo, sizeof q->lo);
         memcpy(q->hi, &tb.hi, sizeof q->hi);
-        for (int k = 0; k < 3; k++) q->c[k] = 0.5f * q->lo[k] + 0.5f * q->hi[k];
         q->idx = i;
+        q->pad = 0.0f;
+        side_add(&all, q, centroid(q));
         box_union(&b->bounds, &tb);
     }
-    B.bn[0].n = N;
-    build_tree(&B);
+    task root = {0, 0, N, 0, {0}, {0}, {0}, {0}};
+    side_task(&all, &root);
+    build_tree(&B, &root);
     free(B.tmp);
     B.tmp = NULL;
 
