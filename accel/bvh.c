@@ -910,6 +910,14 @@ static int chk_leaf(chk *C, uint32_t where, uint32_t first, uint32_t n, uint32_t
     return 0;
 }
 
+/* Set bits of m below bit s: a bvh8 interior slot's rank. */
+static uint32_t bits_below(unsigned m, int s)
+{
+    uint32_t c = 0;
+    for (int k = 0; k < s; k++) c += m >> k & 1u;
+    return c;
+}
+
 static int chk_visit(chk *C, uint32_t i)
 {
     if (i >= C->b->nnodes) return rt_errf(C->e, "bvh%d: child %u beyond %u nodes", C->b->width, i, C->b->nnodes);
@@ -1073,7 +1081,13 @@ static int check_wide(chk *C)
         rt_errf(C->e, "bvh%d: %u nodes for %u leaves", W, b->nnodes, C->nleaves);
         goto out;
     }
-    /* Exact subtree boxes, children before parents (they follow them). */
+    for (uint32_t i = 0; i < b->nnodes; i++)
+        if (!C->seen[i]) {
+            rt_errf(C->e, "bvh%d: node %u unreachable", W, i);
+            goto out;
+        }
+    /* Exact subtree boxes, children before parents (they follow them; every
+     * reference was range-checked above, as every node is reachable). */
     for (uint32_t i = b->nnodes; i-- > 0;) {
         rt_bounds nb = rt_bounds_empty();
         for (int s = 0; s < W; s++) {
@@ -1096,16 +1110,11 @@ static int check_wide(chk *C)
                 }
             } else {
                 const rt_bvh8_node *n = &b->n8[i];
-                const rt_bvh8_host *h = &b->h8[i];
                 if (n->meta[s] == 0) continue;
-                if (h->ref[s] >= (n->imask >> s & 1u ? b->nnodes : b->ntri)) {
-                    rt_errf(C->e, "bvh8: node %u slot %d reference %u out of range", i, s, h->ref[s]);
-                    goto out;
-                }
                 inner = n->imask >> s & 1u;
-                if (inner) ex = C->nbox[h->ref[s]];
+                if (inner) ex = C->nbox[n->child_base + bits_below(n->imask, s)];
                 else
-                    for (uint32_t k = h->ref[s]; k < h->ref[s] + h->cnt[s]; k++) {
+                    for (uint32_t k = n->tri_base + (n->meta[s] & 31u); k < n->tri_base + (n->meta[s] & 31u) + (n->meta[s] >> 5u); k++) {
                         const rt_bounds tb = tri_box(&b->tri[k]);
                         box_union(&ex, &tb);
                     }
