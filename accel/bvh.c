@@ -1298,20 +1298,21 @@ static RT_ALWAYS_INLINE void wsse_init(wsse *q, const wray *w)
     q->scale = _mm_set1_ps(FAR_SCALE);
 }
 
-/* Four boxes (lanes of lo[a][0..3], hi[a][0..3] with row stride `stride`
- * floats): box_lane's operations lane by lane (maxps/minps are a > b ? a : b
- * and a < b ? a : b). Returns the hit lanes' mask; entry distances in tn. */
-static RT_ALWAYS_INLINE unsigned box4(const wray *w, const wsse *q, const float *lo, const float *hi, int stride,
-                                      float cull, float *tn_out)
+/* Four boxes at base (lanes of rows [axis][0..3]): box_lane's operations
+ * lane by lane (maxps/minps are a > b ? a : b and a < b ? a : b). nofs and
+ * fofs: per axis the float offset of the near and far row (wray_rows).
+ * Returns the hit lanes' mask; entry distances in tn_out. */
+static RT_ALWAYS_INLINE unsigned box4(const wsse *q, const float *base, const int *nofs, const int *fofs, float cull,
+                                      float *tn_out)
 {
-    __m128 tn = q->tmin, tf = q->inf;
-    for (int a = 0; a < 3; a++) {
-        const float *np = (w->neg[a] ? hi : lo) + a * stride, *fp = (w->neg[a] ? lo : hi) + a * stride;
-        const __m128 n = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(np), q->o[a]), q->inv[a]);
-        const __m128 f = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(fp), q->o[a]), q->inv[a]);
-        tn = _mm_max_ps(n, tn);
-        tf = _mm_min_ps(f, tf);
-    }
+    const __m128 n0 = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(base + nofs[0]), q->o[0]), q->inv[0]);
+    const __m128 f0 = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(base + fofs[0]), q->o[0]), q->inv[0]);
+    const __m128 n1 = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(base + nofs[1]), q->o[1]), q->inv[1]);
+    const __m128 f1 = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(base + fofs[1]), q->o[1]), q->inv[1]);
+    const __m128 n2 = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(base + nofs[2]), q->o[2]), q->inv[2]);
+    const __m128 f2 = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(base + fofs[2]), q->o[2]), q->inv[2]);
+    const __m128 tn = _mm_max_ps(n2, _mm_max_ps(n1, _mm_max_ps(n0, q->tmin)));
+    __m128 tf = _mm_min_ps(f2, _mm_min_ps(f1, _mm_min_ps(f0, q->inf)));
     tf = _mm_mul_ps(tf, q->scale);
     tf = _mm_min_ps(tf, _mm_set1_ps(cull));
     _mm_storeu_ps(tn_out, tn);
@@ -1444,7 +1445,14 @@ static RT_ALWAYS_INLINE int walk_wide(rt_bvh_trav *tv, const rt_ray *r, rt_hit *
     wray_init(&w, r);
 #if defined(__SSE2__)
     wsse q;
-    if (simd) wsse_init(&q, &w);
+    int nofs[3], fofs[3]; /* per axis: float offsets of the near and far rows */
+    if (simd) {
+        wsse_init(&q, &w);
+        for (int a = 0; a < 3; a++) {
+            nofs[a] = a * W + (w.neg[a] ? 3 * W : 0);
+            fofs[a] = a * W + (w.neg[a] ? 0 : 3 * W);
+        }
+    }
 #else
     (void)simd;
 #endif
@@ -1466,43 +1474,24 @@ static RT_ALWAYS_INLINE int walk_wide(rt_bvh_trav *tv, const rt_ray *r, rt_hit *
         }
         S.nvisit++;
         RT_REC(rec, nbase + (uint64_t)nsize * e.a, nsize, 0, RT_CLS_NODE);
+        /* the children's boxes: rows lo[axis][slot], then hi[axis][slot]
+         * (bvh4: the modeled node; bvh8: the dequantized host copy); an
+         * empty slot's box (+inf, -inf) is never hit */
+        const float *base = W == 4 ? &b->n4[e.a].lo[0][0] : &b->h8[e.a].lo[0][0];
         float tn[8];
-        uint32_t ref[8], cnt[8];
         unsigned mask = 0;
-        if (W == 4) {
-            const rt_bvh4_node *nd = &b->n4[e.a];
 #if defined(__SSE2__)
-            if (simd) mask = box4(&w, &q, &nd->lo[0][0], &nd->hi[0][0], 4, S.cull, tn);
-#endif
-            if (!simd)
-                for (int s = 0; s < 4; s++)
-                    mask |= (unsigned)box_lane(&w, nd->lo[0][s], nd->lo[1][s], nd->lo[2][s], nd->hi[0][s], nd->hi[1][s],
-                                               nd->hi[2][s], S.cull, &tn[s])
-                            << s;
-            for (int s = 0; s < 4; s++) {
-                const uint64_t c = nd->child[s];
-                if (c == RT_BVH4_EMPTY) mask &= ~(1u << s);
-                ref[s] = (uint32_t)c;
-                cnt[s] = rt_bvh4_is_leaf(c) ? rt_bvh4_count(c) : 0;
-            }
-        } else {
-            const rt_bvh8_host *nd = &b->h8[e.a];
-#if defined(__SSE2__)
-            if (simd)
-                mask = box4(&w, &q, &nd->lo[0][0], &nd->hi[0][0], 8, S.cull, tn) |
-                       box4(&w, &q, &nd->lo[0][4], &nd->hi[0][4], 8, S.cull, tn + 4) << 4;
-#endif
-            if (!simd)
-                for (int s = 0; s < 8; s++)
-                    mask |= (unsigned)box_lane(&w, nd->lo[0][s], nd->lo[1][s], nd->lo[2][s], nd->hi[0][s], nd->hi[1][s],
-                                               nd->hi[2][s], S.cull, &tn[s])
-                            << s;
-            for (int s = 0; s < 8; s++) {
-                if (nd->cnt[s] == RT_BVH8_NONE) mask &= ~(1u << s);
-                ref[s] = nd->ref[s];
-                cnt[s] = nd->cnt[s];
-            }
+        if (simd) {
+            mask = box4(&q, base, nofs, fofs, S.cull, tn);
+            if (W == 8) mask |= box4(&q, base + 4, nofs, fofs, S.cull, tn + 4) << 4;
         }
+#endif
+        if (!simd)
+            for (int s = 0; s < W; s++)
+                mask |= (unsigned)box_lane(&w, base[s], base[W + s], base[2 * W + s], base[3 * W + s], base[4 * W + s],
+                                           base[5 * W + s], S.cull, &tn[s])
+                        << s;
+        if (!mask) continue;
         /* order the hit children by (entry, slot), push the farthest first */
         int ord[8], k = 0;
         for (int s = 0; s < W; s++) {
@@ -1516,7 +1505,18 @@ static RT_ALWAYS_INLINE int walk_wide(rt_bvh_trav *tv, const rt_ray *r, rt_hit *
         }
         while (k > 0) {
             const int s = ord[--k];
-            st[sp++] = (sentry){ref[s], cnt[s], tn[s]};
+            uint32_t ra, rn;
+            if (W == 4) {
+                const uint64_t c = b->n4[e.a].child[s];
+                if (c == RT_BVH4_EMPTY) continue;
+                ra = (uint32_t)c;
+                rn = rt_bvh4_is_leaf(c) ? rt_bvh4_count(c) : 0;
+            } else {
+                ra = b->h8[e.a].ref[s];
+                rn = b->h8[e.a].cnt[s];
+                if (rn == RT_BVH8_NONE) continue;
+            }
+            st[sp++] = (sentry){ra, rn, tn[s]};
         }
     }
     return finish(tv, &S, h, any, occluded);
