@@ -108,4 +108,16 @@ int rt_embree_built(void);
  * 0, or -1 with e set (without Embree: "embree: not built ..."). */
 int rt_embree_bench(const rt_scene *sc, int W, int H, rt_embree_result *out, rt_err *e);
 
+/* ---- BVH widths against the k-d tree (bvh_bench.c) ----------------------- */
+
+/* W x H primary rays of sc's camera (rt_cam_ray, Hilbert order), untraced,
+ * through the k-d tree and bvh2, bvh4, bvh8 (default parameters), one
+ * closest-hit query each, the ray loop timed alone (best of reps); with
+ * Embree built, rtcIntersect1 on the same rays too. Writes a Markdown table
+ * to out: build time, nodes, modeled MB, seconds, Mrays/s, nodes and tests
+ * per ray, hits differing from the k-d tree's, the k-d tree's time over
+ * each row's and each row's rays/s over Embree's. 0, or -1 with e set (out
+ * of memory, or a BVH hit differs from the k-d tree's: printed first). */
+int rt_bvh_bench_primary(FILE *out, const rt_scene *sc, int W, int H, int reps, rt_err *e);
+
 #endif

@@ -46,7 +46,7 @@ static void usage(FILE *f)
             "  --tracers LIST     comma list (default recursive,packet,dynamic)\n"
             "  --cache-size S     dynamic tracer's schedule (default 64K)\n"
             "  --what LIST        tracers,trace,sim,replay,approx,path-error,modes,identical,\n"
-            "                     embree\n"
+            "                     embree,bvh\n"
             "                     (default tracers,trace,sim); replay: the exact simulator\n"
             "                     on --trace FILE, one and two threads, decoding included;\n"
             "                     approx: sampled simulators\n"
@@ -60,7 +60,9 @@ static void usage(FILE *f)
             "                     simulator and the texture cache (scene bunny unless --scene);\n"
             "                     embree: Embree's rtcIntersect1 on the same\n"
             "                     primary rays (one thread), against the untraced recursive\n"
-            "                     tracer (needs a build with libembree-dev)\n"
+            "                     tracer (needs a build with libembree-dev);\n"
+            "                     bvh: untraced primary rays through bvh2, bvh4 and bvh8\n"
+            "                     against the k-d tree (and Embree when built), --reps runs\n"
             "  --scenes LIST      scenes of path-error, modes, identical (defaults cornell;\n"
             "                     sphereflake,cornell; cornell,knot,sphereflake)\n"
             "  --ref-spp N        path-error reference samples per pixel (default 1024)\n"
@@ -308,7 +310,7 @@ int main_bench(int argc, char **argv)
         rt_cmd_error("bench", "unexpected argument '%s'", argv[optind]);
         return RT_EXIT_USAGE;
     }
-    int do_tr = 0, do_trace = 0, do_sim = 0, do_approx = 0, do_perr = 0, do_modes = 0, do_ident = 0, do_stream = 0, do_embree = 0,
+    int do_tr = 0, do_trace = 0, do_sim = 0, do_approx = 0, do_perr = 0, do_modes = 0, do_ident = 0, do_stream = 0, do_embree = 0, do_bvh = 0,
         do_replay = 0;
     {
         char *list = strdup(what), *save = NULL;
@@ -323,9 +325,10 @@ int main_bench(int argc, char **argv)
             else if (!strcmp(t, "identical")) do_ident = 1;
             else if (!strcmp(t, "stream")) do_stream = 1;
             else if (!strcmp(t, "embree")) do_embree = 1;
+            else if (!strcmp(t, "bvh")) do_bvh = 1;
             else {
                 rt_cmd_error("bench", "--what: unknown item '%s' (tracers, trace, sim, replay, approx, path-error, "
-                             "modes, identical, stream, embree)", t);
+                             "modes, identical, stream, embree, bvh)", t);
                 free(list);
                 return RT_EXIT_USAGE;
             }
@@ -341,7 +344,7 @@ int main_bench(int argc, char **argv)
     int W0 = o.W, H0 = o.H; /* as given; 0 = each item's default */
     o.W = W0 ? W0 : 1024;
     o.H = H0 ? H0 : 1024;
-    if (do_tr || do_trace || do_sim || do_approx || do_embree)
+    if (do_tr || do_trace || do_sim || do_approx || do_embree || do_bvh)
         printf("raytraffic %s (%s) bench: scene %s, %dx%d, lights %u, one core\n\n", rt_version(), rt_git_rev(),
                scene, o.W, o.H, o.lights);
     else
@@ -401,6 +404,17 @@ int main_bench(int argc, char **argv)
         printf("\n");
     }
     if (do_embree && bench_embree(scene, &o) < 0) return RT_EXIT_FAIL;
+    if (do_bvh) {
+        rt_err e = {""};
+        rt_scene *sc = rt_scene_load(scene, &e);
+        fflush(stdout);
+        int r = sc ? rt_bvh_bench_primary(stdout, sc, o.W, o.H, (int)reps, &e) : -1;
+        rt_scene_free(sc);
+        if (r < 0) {
+            rt_cmd_error("bench", "%s", e.msg);
+            return RT_EXIT_FAIL;
+        }
+    }
     if (do_sim) {
         printf("Cache simulator on a synthetic trace:\n\n");
         fflush(stdout);
