@@ -9,12 +9,16 @@
 
 extern const rt_accel_ops rt_accel_kd;
 extern const rt_accel_ops rt_accel_grid;
+extern const rt_accel_ops rt_accel_bvh2, rt_accel_bvh4, rt_accel_bvh8;
 static const rt_accel_ops rt_accel_naive;
 
 const rt_accel_ops *const rt_accel_table[RT_ACCEL_NKINDS] = {
     [RT_ACCEL_KD] = &rt_accel_kd,
     [RT_ACCEL_GRID] = &rt_accel_grid,
     [RT_ACCEL_NAIVE] = &rt_accel_naive,
+    [RT_ACCEL_BVH2] = &rt_accel_bvh2,
+    [RT_ACCEL_BVH4] = &rt_accel_bvh4,
+    [RT_ACCEL_BVH8] = &rt_accel_bvh8,
 };
 
 const char *rt_accel_name(int kind)

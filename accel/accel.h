@@ -13,6 +13,9 @@
  *   kd     SAH k-d tree with 8-byte nodes (kdtree.h, kdtrav.h; Navratil et al.)
  *   grid   uniform grid walked by 3D-DDA (grid.h; Purcell et al.)
  *   naive  no structure: every triangle against every ray (Purcell's Fig. 1d)
+ *   bvh2, bvh4, bvh8  bounding volume hierarchies: binary (pbrt's 32-byte
+ *          nodes), 4-wide (Embree's 128-byte nodes), 8-wide compressed
+ *          (Ylitie et al.'s 80-byte nodes); triangles in leaf order (bvh.h)
  * A tracer's traits (tracer.h) say which members it runs on and which is its
  * default; a job builds only that one.
  *
@@ -38,14 +41,27 @@ typedef enum rt_accel_kind {
     RT_ACCEL_KD = 1,      /* SAH k-d tree */
     RT_ACCEL_GRID = 2,    /* uniform grid */
     RT_ACCEL_NAIVE = 3,   /* every triangle */
-    RT_ACCEL_NKINDS = 4
+    RT_ACCEL_BVH2 = 4,    /* binary BVH, 32-byte nodes (pbrt) */
+    RT_ACCEL_BVH4 = 5,    /* 4-wide BVH, 128-byte nodes (Embree) */
+    RT_ACCEL_BVH8 = 6,    /* 8-wide compressed BVH, 80-byte nodes (Ylitie et al.) */
+    RT_ACCEL_NKINDS = 7
 } rt_accel_kind;
+
+#define RT_ACCEL_BVH_BITS (RT_ACCEL_BIT(RT_ACCEL_BVH2) | RT_ACCEL_BIT(RT_ACCEL_BVH4) | RT_ACCEL_BIT(RT_ACCEL_BVH8))
+
+/* rt_accel_ops.flags */
+enum {
+    RT_ACCEL_OWN_TRIS = 1u << 0 /* stores the triangle records itself, in its own order (its regions
+                                 * include them; tracers add no tri.verts and walks record into its
+                                 * region): compact 36-byte records only */
+};
 
 #define RT_ACCEL_BIT(k) (1u << (k))
 
 /* How to build: the knobs a structure reads (others ignore them). */
 typedef struct rt_accel_params {
     uint32_t grid_min; /* grid: cells along the smallest axis; 0 = 64, halved until the grid fits */
+    int max_leaf;      /* BVH: most triangles per leaf; 0 = the default (4) */
 } rt_accel_params;
 
 /* Footprint of a built structure, for `scene info` and `render --json`. */
@@ -56,8 +72,9 @@ typedef struct rt_accel_info {
 } rt_accel_info;
 
 typedef struct rt_accel_ops {
-    const char *name; /* "kd", "grid", "naive" */
+    const char *name; /* "kd", "grid", "naive", "bvh2", "bvh4", "bvh8" */
     const char *desc; /* one line */
+    unsigned flags;   /* RT_ACCEL_OWN_TRIS */
     /* Builds the structure over sc; NULL with e set on failure. NULL
      * member: nothing to build (the structure is the triangle array). */
     void *(*build)(const rt_scene *sc, const rt_accel_params *p, rt_err *e);

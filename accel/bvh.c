@@ -104,6 +104,7 @@
  */
 #include "config.h"
 #include "bvh.h"
+#include "accel.h"
 
 #include <float.h>
 #include <math.h>
@@ -1560,3 +1561,76 @@ void rt_bvh_trav_init(rt_bvh_trav *tv, const rt_bvh *b, const rt_scene *sc, rt_r
         tv->reg_tri = rt_mm_find(L, "bvh.tri");
     }
 }
+
+/* ---- the BVHs as members of the acceleration layer (accel.h) ------------- */
+
+static void *bvh_build_w(const rt_scene *sc, const rt_accel_params *p, int width, rt_err *e)
+{
+    rt_bvh_params bp;
+    rt_bvh_default_params(&bp, width);
+    if (p->max_leaf) bp.max_leaf = p->max_leaf;
+    return rt_bvh_build(sc, &bp, e);
+}
+static void *bvh2_build(const rt_scene *sc, const rt_accel_params *p, rt_err *e) { return bvh_build_w(sc, p, 2, e); }
+static void *bvh4_build(const rt_scene *sc, const rt_accel_params *p, rt_err *e) { return bvh_build_w(sc, p, 4, e); }
+static void *bvh8_build(const rt_scene *sc, const rt_accel_params *p, rt_err *e) { return bvh_build_w(sc, p, 8, e); }
+
+static void bvh_free_as(void *as) { rt_bvh_free(as); }
+
+static int bvh_regions(const void *as, const rt_scene *sc, rt_layout *L, rt_err *e)
+{
+    (void)sc;
+    return rt_bvh_layout(as, L, NULL, NULL, e);
+}
+
+static void bvh_trav_init(rt_trav *tv, const void *as, const rt_layout *L)
+{
+    const rt_bvh *b = as;
+    const char *nn = rt_bvh_node_region(b->width);
+    tv->bvh = b;
+    tv->width = b->width;
+    tv->reg_node = nn ? rt_mm_find(L, nn) : -1;
+    tv->reg_tri = rt_mm_find(L, "bvh.tri");
+}
+
+/* The walk on the BVH's own state, its counts carried back. */
+static int bvh_walk(rt_trav *tv, const rt_ray *r, rt_hit *h, int any)
+{
+    rt_bvh_trav b = {tv->bvh, tv->sc, tv->rec, tv->L, tv->reg_node, tv->reg_tri, tv->nodes, tv->tests, tv->mark,
+                     tv->mark_bit};
+    int hit = any ? rt_bvh_occluded(&b, r) : rt_bvh_closest(&b, r, h);
+    tv->nodes = b.nodes;
+    tv->tests = b.tests;
+    return hit;
+}
+static int bvh_closest_tv(rt_trav *tv, const rt_ray *r, rt_hit *h) { return bvh_walk(tv, r, h, 0); }
+static int bvh_occluded_tv(rt_trav *tv, const rt_ray *r) { return bvh_walk(tv, r, NULL, 1); }
+
+static int bvh_check_as(const void *as, const rt_scene *sc, rt_err *e) { return rt_bvh_check(as, sc, e); }
+
+static void bvh_info(const void *as, rt_accel_info *inf)
+{
+    rt_bvh_stat st;
+    rt_bvh_stats(as, &st);
+    inf->nodes = st.nodes;
+    inf->bytes = (uint64_t)st.nodes * rt_bvh_node_size(st.width);
+    inf->depth = st.depth;
+}
+
+#define BVH_OPS(W, DESC)                                                                                      \
+    const rt_accel_ops rt_accel_bvh##W = {                                                                    \
+        .name = "bvh" #W,                                                                                     \
+        .desc = DESC,                                                                                         \
+        .flags = RT_ACCEL_OWN_TRIS,                                                                           \
+        .build = bvh##W##_build,                                                                              \
+        .free = bvh_free_as,                                                                                  \
+        .regions = bvh_regions,                                                                               \
+        .trav_init = bvh_trav_init,                                                                           \
+        .closest = bvh_closest_tv,                                                                            \
+        .occluded = bvh_occluded_tv,                                                                          \
+        .check = bvh_check_as,                                                                                \
+        .info = bvh_info,                                                                                     \
+    }
+BVH_OPS(2, "binary BVH, 32-byte nodes in depth-first order (pbrt's LinearBVHNode)");
+BVH_OPS(4, "4-wide BVH, 128-byte nodes with SoA child boxes (Embree's BVH4)");
+BVH_OPS(8, "8-wide compressed BVH, 80-byte nodes, 8-bit child boxes (Ylitie, Karras, Laine 2017)");

@@ -117,7 +117,7 @@ int rt_bvh_bench_primary(FILE *out, const rt_scene *sc, int W, int H, int reps, 
 
     rt_embree_result er;
     memset(&er, 0, sizeof er);
-    rt_err ee = {""};
+    rt_err ee = {0};
     const int have_embree = rt_embree_built() && rt_embree_bench(sc, W, H, &er, &ee) == 0;
     fprintf(out,
             "Untraced primary rays, %dx%d in Hilbert order, one ray at a time, %u triangles (ray loop: best of %d; "

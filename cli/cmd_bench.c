@@ -405,7 +405,7 @@ int main_bench(int argc, char **argv)
     }
     if (do_embree && bench_embree(scene, &o) < 0) return RT_EXIT_FAIL;
     if (do_bvh) {
-        rt_err e = {""};
+        rt_err e = {0};
         rt_scene *sc = rt_scene_load(scene, &e);
         fflush(stdout);
         int r = sc ? rt_bvh_bench_primary(stdout, sc, o.W, o.H, (int)reps, &e) : -1;

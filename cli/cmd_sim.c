@@ -139,7 +139,7 @@ static void print_results(FILE *f, int fmt, const char *trace, const rt_approx *
     if (fmt == FMT_TEXT) print_header(f, trace, ap);
     for (int i = 0; i < c->nsizes; i++) {
         rt_sim_counts t;
-        rt_err e = {{0}};
+        rt_err e = {0};
         if (!rt_approx_available(ap, i, &e)) {
             if (fmt == FMT_TEXT) fprintf(f, "# %llu: %s\n", (unsigned long long)c->sizes[i], e.msg);
             continue;
@@ -238,7 +238,7 @@ static int pick(const char *opt, const char *arg, const char *const *names, cons
 static int parse_opt(sim_opts *o, int ch, const char *arg, const char *argv_opt)
 {
     static const char *const infmts[] = {"auto", "rtt", "din", NULL}, *const outfmts[] = {"text", "csv", "json", NULL};
-    rt_err err = {{0}};
+    rt_err err = {0};
     uint64_t v;
     switch (ch) {
     case O_SIZES:
@@ -354,7 +354,7 @@ static int parse_args(int argc, char **argv, sim_opts *o)
     o->threads = sysconf(_SC_NPROCESSORS_ONLN) >= 2 ? 2 : 1;
     rt_approx_config_default(&o->ac);
     o->ac.method = RT_APPROX_EXACT;
-    rt_err err = {{0}};
+    rt_err err = {0};
     optind = 1;
     opterr = 0;
     int ch;
@@ -378,7 +378,7 @@ static int parse_args(int argc, char **argv, sim_opts *o)
 /* Replays one trace and prints or stores its counters. 0 or -1 (printed). */
 static int sim_one(const sim_opts *o, rt_db *db, const char *path, rt_tr_meta *meta, int *first)
 {
-    rt_err err = {{0}};
+    rt_err err = {0};
     rt_approx *ap = rt_approx_new(&o->cfg, &o->ac, &err);
     rt_sim_input in;
     double t0 = rt_now();
@@ -406,7 +406,7 @@ int main_sim(int argc, char **argv)
     }
     sim_opts o;
     if (parse_args(argc, argv, &o) < 0) return RT_EXIT_USAGE;
-    rt_err err = {{0}};
+    rt_err err = {0};
     rt_db *db = NULL;
     if (o.db && !(db = rt_db_open(o.db, &err))) {
         rt_cmd_error("sim", "%s", err.msg);

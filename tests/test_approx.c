@@ -67,7 +67,7 @@ static rt_access *exact_run(rt_sim_config *c, uint64_t max, size_t n, uint64_t n
     rt_access *a = malloc(n * sizeof *a);
     rnd_seed(seed);
     mixed_stream(a, n, nlines);
-    rt_err e = {{0}};
+    rt_err e = {0};
     *s = rt_sim_new(c, &e);
     if (!a || !*s) {
         fprintf(stderr, "exact_run: out of memory (%s)\n", e.msg);
@@ -89,7 +89,7 @@ static void compare_exact(const char *what, const rt_sim *s, const rt_approx *a)
     for (int i = 0; i < c->nsizes; i++)
         for (int k = 0; k < RT_NCLASS; k++) {
             rt_sim_counts x, y;
-            rt_err e = {{0}};
+            rt_err e = {0};
             rt_sim_get(s, i, k, &x);
             int rc = rt_approx_get(a, i, k, &y, &e);
             CHECK(rc == 0, "%s: size %d class %d: %s", what, i, k, e.msg);
@@ -111,7 +111,7 @@ static void compare_exact_48(const char *what, const rt_access *a, size_t n, con
     c48.line = 48;
     c48.nsizes = 4;
     for (int i = 0; i < 4; i++) c48.sizes[i] = 48 * (32ULL << i);
-    rt_err e = {{0}};
+    rt_err e = {0};
     rt_sim *s = rt_sim_new(&c48, &e);
     rt_sim_put(s, a, n);
     rt_approx *x = rt_approx_new(&c48, ac, &e);
@@ -129,7 +129,7 @@ static void test_rate1_exact(void)
     size_t n = 300000;
     rt_sim *s;
     rt_access *a = exact_run(&c, 64 * 1024, n, 3000, 42, &s);
-    rt_err e = {{0}};
+    rt_err e = {0};
     rt_approx_config ac;
     rt_approx_config_default(&ac);
     ac.rate = 1;
@@ -182,7 +182,7 @@ static void test_exact_below_and_replay(void)
     size_t n = 200000;
     rt_sim *s;
     rt_access *a = exact_run(&c, 256 * 1024, n, 20000, 7, &s);
-    rt_err e = {{0}};
+    rt_err e = {0};
     rt_approx_config ac;
     rt_approx_config_default(&ac);
     ac.rate = 0.05;
@@ -252,7 +252,7 @@ static void uniform(rt_access *a, size_t n, uint64_t W)
 static int mr_error(const rt_sim_config *c, const rt_access *a, size_t n, const rt_approx_config *ac, double *mean,
                     double *mx)
 {
-    rt_err e = {{0}};
+    rt_err e = {0};
     rt_sim *s = rt_sim_new(c, &e);
     rt_approx *x = rt_approx_new(c, ac, &e);
     rt_sim_put(s, a, n);
@@ -289,7 +289,7 @@ static void test_known_curves(void)
         if (kind == 0) cyclic(a, n, W);
         else uniform(a, n, W);
         /* the exact curve is what the text book says */
-        rt_err e = {{0}};
+        rt_err e = {0};
         rt_sim *s = rt_sim_new(&c, &e);
         rt_sim_put(s, a, n);
         for (int i = 0; i < c.nsizes; i++) {
@@ -356,7 +356,7 @@ static void test_hybrid_rate1(void)
     rt_access *a = malloc(n * sizeof *a);
     rnd_seed(77);
     mixed_stream(a, n, 5000);
-    rt_err e = {{0}};
+    rt_err e = {0};
     rt_sim *s = rt_sim_new(&c, &e);
     rt_sim_put(s, a, n);
     rt_approx_config ac;
@@ -397,7 +397,7 @@ static void test_golden_simd(void)
             if (pass) setenv("RT_NO_SIMD", "1", 1);
             rt_approx_config ac;
             hybrid_config(&ac, rates[r], 0);
-            rt_err e = {{0}};
+            rt_err e = {0};
             rt_approx *x = rt_approx_new(&c, &ac, &e);
             unsetenv("RT_NO_SIMD");
             for (size_t i = 0, b = 1; i < n; i += b, b = b * 3 % 1000 + 1)
@@ -439,7 +439,7 @@ static void test_golden_stratified(void)
         rt_approx_config ac;
         hybrid_config(&ac, 1.0 / 64, 0);
         ac.seed = seed;
-        rt_err e = {{0}};
+        rt_err e = {0};
         rt_approx *x = rt_approx_new(&c, &ac, &e);
         rt_approx_put(x, a, N);
         rt_approx_finish(x, &e);
@@ -469,7 +469,7 @@ static void test_windows_exact_seed(uint64_t seed, uint64_t *misses1k)
     rt_access *a = malloc(n * sizeof *a);
     rnd_seed(31);
     mixed_stream(a, n, 3000);
-    rt_err e = {{0}};
+    rt_err e = {0};
     rt_sim *s = rt_sim_new(&c, &e);
     static double mrm[RT_SIM_MAXSIZES][RT_NCLASS], mwm[RT_SIM_MAXSIZES][RT_NCLASS];
     uint64_t macc[RT_NCLASS] = {0};
@@ -575,7 +575,7 @@ static void test_determinism(void)
         ac.seed = 1234;
         for (int pass = 0; pass < 3; pass++) {
             if (pass == 2) ac.seed = 4321;
-            rt_err e = {{0}};
+            rt_err e = {0};
             rt_approx *x = rt_approx_new(&c, &ac, &e);
             rt_approx_put(x, a, n / 2);
             rt_approx_put(x, a + n / 2, n - n / 2);
@@ -604,7 +604,7 @@ static void test_errors(void)
     rt_access *a = malloc(n * sizeof *a);
     rnd_seed(11);
     mixed_stream(a, n, 5000);
-    rt_err e = {{0}};
+    rt_err e = {0};
     rt_approx_config ac;
     rt_approx_config_default(&ac);
     for (int m = RT_APPROX_SHARDS_RATE; m <= RT_APPROX_STATSTACK; m += 2) {
@@ -698,7 +698,7 @@ static void test_errors(void)
 static void test_bench(void)
 {
     FILE *f = fopen("/dev/null", "w");
-    rt_err e = {{0}};
+    rt_err e = {0};
     CHECK(rt_approx_bench_n(f, NULL, 300000, &e) == 0, "bench: %s", e.msg);
     CHECK(rt_approx_bench_n(f, "/nonexistent.rtt", 1000, &e) == -1, "bench on a missing file succeeded");
     fclose(f);
@@ -761,7 +761,7 @@ static void approx_same(const char *what, const rt_approx *x, const rt_approx *y
 static rt_approx *replay_with(const rt_sim_config *c, const rt_approx_config *ac, const char *path, int threads,
                               char *note, rt_sim_input *in)
 {
-    rt_err e = {{0}};
+    rt_err e = {0};
     rt_approx *x = rt_approx_new(c, ac, &e);
     int rc = x ? rt_approx_replay_file(x, path, RT_SIM_IN_AUTO, 0, threads, NULL, in, note, RT_ERR_LEN, &e) : -1;
     CHECK(rc == 0 && rt_approx_finish(x, &e) == 0, "replay %s: %s", path, e.msg);
@@ -782,7 +782,7 @@ static void test_sample_stream(void)
     rt_synth g;
     rt_synth_init(&g);
     rt_synth_fill(&g, a, n);
-    rt_err e = {{0}};
+    rt_err e = {0};
     const char *p3 = check_path("s3.rtt"), *p1 = check_path("s1.rtt");
     CHECK(write_rtt(p3, a, n, 1, &e) == 0 && write_rtt(p1, a, n, 0, &e) == 0, "write: %s", e.msg);
     rt_sim_config c;

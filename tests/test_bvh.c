@@ -162,7 +162,7 @@ typedef struct wtree {
 
 static void run_scene(const char *name, const rt_scene *s, long nrays, long nbrute)
 {
-    rt_err e = {{0}};
+    rt_err e = {0};
     const double t0 = rt_now();
     rt_kdtree *kd = rt_kd_build(s, NULL, &e);
     CHECK(kd != NULL, "%s: kd build: %s", name, e.msg);
@@ -303,7 +303,7 @@ out:
 /* Build all widths, check, compare with brute force on n random rays. */
 static void small_scene(const char *name, const rt_scene *s, long n)
 {
-    rt_err e = {{0}};
+    rt_err e = {0};
     cam c;
     cam_setup(&c, s);
     for (int w = 0; w < 3; w++) {
@@ -328,7 +328,7 @@ static void small_scene(const char *name, const rt_scene *s, long n)
 
 static void test_small_cases(void)
 {
-    rt_err e = {{0}};
+    rt_err e = {0};
     /* Empty scene: no nodes; nothing hits. */
     rt_scene *s = rt_scene_new(0, NULL);
     for (int w = 0; w < 3; w++) {
@@ -479,7 +479,7 @@ static void test_small_cases(void)
     for (int w = 0; w < 3; w++) {
         long k;
         for (k = 1; k < 100; k++) {
-            rt_err fe = {{0}};
+            rt_err fe = {0};
             rt_fail_alloc_after = k;
             rt_bvh *b = build_w(s, widths[w], &fe);
             const int failed = b == NULL;
@@ -498,7 +498,7 @@ static void test_small_cases(void)
 
 static void test_corrupt(void)
 {
-    rt_err e = {{0}};
+    rt_err e = {0};
     rt_scene *s = make_soup(400);
     for (int w = 0; w < 3; w++) {
         rt_bvh *b = build_w(s, widths[w], &e);
@@ -634,7 +634,7 @@ int main(int argc, char **argv)
         {"bunny", 800},
     };
     for (size_t i = 0; i < sizeof bi / sizeof bi[0]; i++) {
-        rt_err e = {{0}};
+        rt_err e = {0};
         s = rt_scene_load(bi[i].spec, &e);
         CHECK(s != NULL, "scene %s: %s", bi[i].spec, e.msg);
         if (!s) continue;

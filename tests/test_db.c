@@ -292,7 +292,7 @@ static void columns(rt_db *db, const char *table, char *buf, size_t n)
 static void test_upgrade_v2(const char *dir)
 {
     char path[300], fresh[300], a[512], b[512];
-    rt_err e = {{0}};
+    rt_err e = {0};
     snprintf(path, sizeof path, "%s/v2.db", dir);
     snprintf(fresh, sizeof fresh, "%s/v3fresh.db", dir);
     CHECK(make_file(path, v2_file_sql) == 0, "create v2 file");
@@ -346,7 +346,7 @@ static void test_upgrade_v2(const char *dir)
 static void test_upgrade_v1(const char *dir)
 {
     char path[300];
-    rt_err e = {{0}};
+    rt_err e = {0};
     snprintf(path, sizeof path, "%s/v1.db", dir);
     CHECK(make_file(path, v1_schema_sql) == 0, "create v1 file");
     rt_db *db = rt_db_open(path, &e);
@@ -388,7 +388,7 @@ static void test_upgrade_v1(const char *dir)
 static void test_foreign(const char *dir)
 {
     char path[300];
-    rt_err e = {{0}};
+    rt_err e = {0};
     snprintf(path, sizeof path, "%s/other.db", dir);
     CHECK(make_file(path, "CREATE TABLE notes(x TEXT); INSERT INTO notes VALUES('keep me');") == 0, "create foreign");
     struct stat a, b;
@@ -417,7 +417,7 @@ static void test_foreign(const char *dir)
 static void test_gen_rows(const char *dir)
 {
     char path[300];
-    rt_err e = {{0}};
+    rt_err e = {0};
     snprintf(path, sizeof path, "%s/gen.db", dir);
     rt_sim_config c;
     rt_sim_config_default(&c);
@@ -509,7 +509,7 @@ static void test_gen_rows(const char *dir)
 static void test_upgrade_v3(const char *dir, const rt_db_traffic *rows, size_t n)
 {
     char path[300], fresh[300], a[1024], b[1024];
-    rt_err e = {{0}};
+    rt_err e = {0};
     snprintf(path, sizeof path, "%s/v3.db", dir);
     snprintf(fresh, sizeof fresh, "%s/v4fresh.db", dir);
     rt_db *db = rt_db_open(path, &e);
@@ -554,7 +554,7 @@ static void test_upgrade_v3(const char *dir, const rt_db_traffic *rows, size_t n
 static void test_merge(const char *dir, const rt_db_traffic *rows, size_t n)
 {
     char out[300], in[300], v1[300];
-    rt_err e = {{0}};
+    rt_err e = {0};
     long nr = -1;
     snprintf(out, sizeof out, "%s/m.db", dir);
     snprintf(in, sizeof in, "%s/shard.db", dir);
@@ -618,7 +618,7 @@ static void test_fresh_concurrent(const char *dir, int W, int R, const rt_db_tra
                 char b;
                 close(go[1]);
                 if (read(go[0], &b, 1) < 0) _exit(4); /* EOF when the parent closes: all start together */
-                rt_err e = {{0}};
+                rt_err e = {0};
                 rt_db *d = rt_db_open(path, &e);
                 rt_db_run k;
                 run_key(&k, "recursive", 0, 0);
@@ -638,7 +638,7 @@ static void test_fresh_concurrent(const char *dir, int W, int R, const rt_db_tra
             waitpid(kids[c], &status, 0);
             if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) bad++;
         }
-        rt_err e = {{0}};
+        rt_err e = {0};
         rt_db *db = rt_db_open(path, &e);
         CHECK(db, "reopen fresh: %s", e.msg);
         if (!db) return;
@@ -657,7 +657,7 @@ int main(void)
     if (!mkdtemp(dir)) return 1;
     char path[256], bad[300];
     snprintf(path, sizeof path, "%s/r.db", dir);
-    rt_err e = {{0}};
+    rt_err e = {0};
     rt_db *db = rt_db_open(path, &e);
     CHECK(db, "open: %s", e.msg);
     if (!db) return 1;

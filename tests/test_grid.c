@@ -40,7 +40,7 @@ static rt_scene *new_scene(uint32_t n)
 
 static rt_grid *build_ok(const char *name, const rt_scene *s, uint32_t gm)
 {
-    rt_err e = {{0}};
+    rt_err e = {0};
     rt_grid *g = rt_grid_build(s, gm, &e);
     CHECK(g != NULL, "%s: build at %u: %s", name, gm, e.msg);
     if (!g) exit(1);
@@ -52,7 +52,7 @@ static rt_grid *build_ok(const char *name, const rt_scene *s, uint32_t gm)
 
 static void test_resolution(void)
 {
-    rt_err e = {{0}};
+    rt_err e = {0};
     /* Box [0,2] x [0,1] x [0,4]: v = 1/4 on y, so 8 x 4 x 16. */
     rt_scene *s = new_scene(2);
     add(s, rt_v3(0, 0, 0), rt_v3(2, 1, 0), rt_v3(0, 0, 4));
@@ -223,7 +223,7 @@ static void test_overlap(long n)
 
 static void test_check_catches(void)
 {
-    rt_err e = {{0}};
+    rt_err e = {0};
     rt_scene *s = make_soup(300);
     rt_grid *g = build_ok("soup-300", s, 8);
     /* A cell with at least two entries. */
@@ -606,7 +606,7 @@ static void gen_ray(const rt_scene *s, const cam *c, rt_ray *r, int k)
 
 static void compare_rays(const char *name, const rt_scene *s, uint32_t gm, long nrays, long nbrute)
 {
-    rt_err e = {{0}};
+    rt_err e = {0};
     double t0 = rt_now();
     rt_grid *g = build_ok(name, s, gm);
     double t1 = rt_now();
@@ -665,7 +665,7 @@ static int stats(uint32_t gm)
     printf("| scene | triangles | grid | cells | non-empty | list words | mean tris/non-empty | max | build s |\n");
     printf("|---|---:|---|---:|---:|---:|---:|---:|---:|\n");
     for (int i = 0; rt_scene_builtin_names[i]; i++) {
-        rt_err e = {{0}};
+        rt_err e = {0};
         rt_scene *s = rt_scene_builtin(rt_scene_builtin_names[i], NULL, &e);
         if (!s) {
             fprintf(stderr, "%s: %s\n", rt_scene_builtin_names[i], e.msg);
@@ -720,7 +720,7 @@ int main(int argc, char **argv)
         {"room", NULL, 8, 32, 5000, 300},
     };
     for (size_t i = 0; i < sizeof bi / sizeof bi[0]; i++) {
-        rt_err e = {{0}};
+        rt_err e = {0};
         s = rt_scene_builtin(bi[i].name, bi[i].params, &e);
         CHECK(s != NULL, "builtin %s: %s", bi[i].name, e.msg);
         if (!s) continue;

@@ -572,7 +572,7 @@ static uint32_t ref_warm(const rt_access *a, uint64_t s, rt_access *warm, uint64
  * the reference filter of the records, chunk by chunk. */
 static void test_v3_roundtrip(void)
 {
-    rt_err e = {{0}};
+    rt_err e = {0};
     rt_access *a = v3_stream(V3_N), *b = malloc((V3_N + 1) * sizeof *b);
     CHECK(a && b, "out of memory");
     if (!a || !b) return;
@@ -672,7 +672,7 @@ static size_t v3_chunks(const unsigned char *b, size_t len, size_t *off, int *si
 static void v3_both_fail(const char *path, const char *what, size_t where, const char *needle)
 {
     static rt_access buf[V3_N + 1];
-    rt_err e1 = {{0}}, e2 = {{0}};
+    rt_err e1 = {0}, e2 = {{0}};
     long n = v3_read_all(path, buf, V3_N + 1, &e1);
     int k = v3_read_side(path, &e2);
     CHECK(n < 0 && strstr(e1.msg, path) && strstr(e1.msg, "byte ") && (!needle || strstr(e1.msg, needle)),
@@ -693,7 +693,7 @@ static void v3_both_fail(const char *path, const char *what, size_t where, const
  * fails the records reader. */
 static void test_v3_corrupt(void)
 {
-    rt_err e = {{0}};
+    rt_err e = {0};
     rt_access *a = v3_stream(V3_N);
     const char *p3 = check_path("v3c.rtt"), *bad = check_path("v3bad.rtt");
     CHECK(a && v3_write(p3, a, V3_N, 1, &e) == 0, "write: %s", e.msg);

@@ -153,7 +153,7 @@ static void check_subsizes(const rt_kdtree *kd, const rt_scene *s)
 {
     rt_kd_subsize *z = calloc(kd->nnodes, sizeof *z);
     uint8_t *seen = calloc(s->ntri, 1);
-    rt_err e = {{0}};
+    rt_err e = {0};
     CHECK(rt_kd_subtree_sizes(kd, s->ntri, z, &e) == 0, "subtree sizes: %s", e.msg);
     for (uint32_t i = 0; i < kd->nnodes; i++) {
         /* The subtree of i is the index range [i, i + nodes). */
@@ -211,7 +211,7 @@ static void cut_walk(rt_trav *tv, const rt_ray *r, uint32_t node, float t0, floa
 /* Recording, marks, determinism, subtree traversal. */
 static void check_extras(const char *name, const rt_scene *s, const rt_kdtree *kd, long nrays)
 {
-    rt_err e = {{0}};
+    rt_err e = {0};
     /* Determinism. */
     rt_kdtree *kd2 = rt_kd_build(s, NULL, &e);
     CHECK(kd2 != NULL, "%s rebuild: %s", name, e.msg);
@@ -289,7 +289,7 @@ static void check_extras(const char *name, const rt_scene *s, const rt_kdtree *k
 
 static void run_scene(const char *name, rt_scene *s, long nrays, long nextra, int subsizes)
 {
-    rt_err e = {{0}};
+    rt_err e = {0};
     double t0 = rt_now();
     rt_kdtree *kd = rt_kd_build(s, NULL, &e);
     CHECK(kd != NULL, "%s: build: %s", name, e.msg);
@@ -311,7 +311,7 @@ static void run_scene(const char *name, rt_scene *s, long nrays, long nextra, in
 
 static void test_small_cases(void)
 {
-    rt_err e = {{0}};
+    rt_err e = {0};
     /* Empty scene: one empty leaf; nothing hits. */
     rt_scene *s = rt_scene_new(0, NULL); /* not finished: finish rejects it */
     rt_kdtree *kd = rt_kd_build(s, NULL, &e);
@@ -404,7 +404,7 @@ typedef struct side {
 
 static void side_init(side *d, const rt_scene *s, const rt_kdtree *kd, const rt_layout *L, int record)
 {
-    rt_err e = {{0}};
+    rt_err e = {0};
     memset(d, 0, sizeof *d);
     d->tv.kd = kd;
     d->tv.sc = s;
@@ -463,7 +463,7 @@ static void compare_fast_plain(const char *name, const rt_scene *s, const rt_kdt
 {
     CHECK(kd->hnodes && kd->quads, "%s: no host copy", name);
     if (!kd->hnodes) return;
-    rt_err e = {{0}};
+    rt_err e = {0};
     rt_layout L;
     rt_mm_init(&L);
     CHECK(rt_mm_add(&L, "kd.nodes", RT_CLS_NODE, 8, kd->nnodes, &e) == 0 &&
@@ -586,7 +586,7 @@ static void check_host_copy_checked(void)
 {
     const uint64_t saved_rng = check_rng_state; /* as in compare_fast_plain */
     rnd_seed(saved_rng ^ 0x94d049bb133111ebULL);
-    rt_err e = {{0}};
+    rt_err e = {0};
     rt_scene *s = make_soup(300);
     rt_kdtree *kd = rt_kd_build(s, NULL, &e);
     CHECK(kd && kd->hnodes && kd->quads && rt_kd_check(kd, s, &e) == 0, "host copy: %s", e.msg);
@@ -669,7 +669,7 @@ int main(int argc, char **argv)
         {"room", NULL, 100000, 3000},
     };
     for (size_t i = 0; i < sizeof bi / sizeof bi[0]; i++) {
-        rt_err e = {{0}};
+        rt_err e = {0};
         s = rt_scene_builtin(bi[i].name, bi[i].params, &e);
         CHECK(s != NULL, "builtin %s: %s", bi[i].name, e.msg);
         if (!s) continue;

@@ -224,7 +224,7 @@ static void show(const char *what, const rt_sim_counts *c)
  * size; compares everything. */
 static void compare(const char *name, const rt_sim_config *c, const rt_access *a, size_t n)
 {
-    rt_err e = {{0}};
+    rt_err e = {0};
     rt_sim *s = rt_sim_new(c, &e);
     CHECK(s, "%s: rt_sim_new: %s", name, e.msg);
     if (!s) return;
@@ -351,7 +351,7 @@ static void test_flush_fullline_by_hand(void)
               (unsigned long long)n.writebacks, (unsigned long long)t.writebacks);
         rt_sim_finish(s);
         rt_sim_finish(s); /* a second finish finds nothing dirty */
-        rt_err e = {{0}};
+        rt_err e = {0};
         CHECK(rt_sim_check(s, &e) == 0, "flush: invariant: %s", e.msg);
         rt_sim_get(s, 0, RT_CLS_NODE, &n);
         rt_sim_get(s, 0, RT_CLS_RAY, &r);
@@ -443,7 +443,7 @@ static void test_stream_by_hand(void)
         rt_sim *s = rt_sim_new(&c, NULL);
         CHECK(!strcmp(rt_sim_engine(s), engine ? "exact-persize" : "exact-stack"), "stream: engine");
         rt_sim_put(s, seq, 6);
-        rt_err e = {{0}};
+        rt_err e = {0};
         CHECK(rt_sim_check(s, &e) == 0, "stream: invariant: %s", e.msg);
         rt_sim_counts q;
         rt_sim_get(s, 0, RT_CLS_QUEUE, &q);
@@ -534,7 +534,7 @@ static void test_generations_by_hand(void)
         c.assoc = engine ? 1 : 0;
         rt_sim *s = rt_sim_new(&c, NULL);
         rt_sim_put(s, seq, 6);
-        rt_err e = {{0}};
+        rt_err e = {0};
         CHECK(rt_sim_check(s, &e) == 0, "by hand: %s", e.msg);
         rt_sim_counts n0, n1, n2, r1, r3, t7, all;
         rt_sim_get_gen(s, 0, RT_CLS_NODE, 0, &n0);
@@ -581,7 +581,7 @@ static void replay_compare(const char *name, const rt_access *a, size_t n, unsig
     snprintf(m.tracer, sizeof m.tracer, "test");
     rt_mm_init(&m.layout);
     m.generations = generations;
-    rt_err e = {{0}};
+    rt_err e = {0};
     const char *p = check_path("gen.rtt");
     rt_tr_writer *w = rt_tr_create(p, &m, &e);
     CHECK(w, "%s: %s", name, e.msg);
@@ -692,7 +692,7 @@ static void test_msim_engines(void)
                 rt_msim_put(m[v], a + i, b);
                 i += b;
             }
-            rt_err e = {{0}};
+            rt_err e = {0};
             CHECK(rt_msim_check(m[v], &e) == 0, "engines: kind %d engine %d: %s", kind, v, e.msg);
             rt_msim_flush(m[v]);
         }
@@ -740,7 +740,7 @@ static void test_din(void)
     rt_sim_config_default(&c);
     rt_sim *s1 = rt_sim_new(&c, NULL), *s2 = rt_sim_new(&c, NULL);
     rt_sim_put(s1, a, N);
-    rt_err e = {{0}};
+    rt_err e = {0};
     rt_din *d = rt_din_open(path, RT_CLS_FB, &e);
     CHECK(d, "din open: %s", e.msg);
     rt_access buf[1000];
@@ -847,7 +847,7 @@ static long ref_din_read(ref_din *d, rt_access *buf, size_t cap, rt_err *e)
  * records, the outcome, the message and, at the end, bytes and hash. */
 static void din_compare(const char *name, const char *path, size_t cap)
 {
-    rt_err e1 = {{0}}, e2 = {{0}};
+    rt_err e1 = {0}, e2 = {{0}};
     ref_din r = {fopen(path, "rb"), path, 0, RT_FNV_INIT, 0, NULL, 0};
     rt_din *d = rt_din_open(path, RT_CLS_FB, &e2);
     CHECK(r.f && d, "%s: open: %s", name, e2.msg);
@@ -992,7 +992,7 @@ static int write_test_trace(const char *p, const rt_access *a, size_t n)
     snprintf(m.tracer, sizeof m.tracer, "test");
     rt_mm_init(&m.layout);
     m.generations = 9;
-    rt_err e = {{0}};
+    rt_err e = {0};
     rt_tr_writer *w = rt_tr_create(p, &m, &e);
     CHECK(w, "%s: %s", p, e.msg);
     if (!w) return -1;
@@ -1007,7 +1007,7 @@ static void test_replay_threads(void)
     enum { N = 300000 }; /* several trace chunks, many more ring slots */
     rt_access *a = malloc(N * sizeof *a);
     gen(a, N, GEN_ZIPF, 20000);
-    rt_err e = {{0}};
+    rt_err e = {0};
     const char *p = check_path("thr.rtt");
     if (write_test_trace(p, a, N) < 0) return;
     threads_compare("rtt", p, 1);
@@ -1103,7 +1103,7 @@ static void test_repeat_filter(void)
         a[i].size = 1 + (uint32_t)((r >> 16) % 4);
         a[i].write = (r >> 24) % 8 == 0;
     }
-    rt_err e = {{0}};
+    rt_err e = {0};
     const char *p = check_path("rep.rtt");
     if (write_test_trace(p, a, N) < 0) return;
     for (int v = 0; v < 5; v++) {
@@ -1245,7 +1245,7 @@ int main(void)
         /* per-size engine with the same policy: force by a 1-set "assoc" */
         rt_sim *per[RT_SIM_PAPER_NSIZES];
         rt_sim_put(one, b, NB);
-        rt_err e = {{0}};
+        rt_err e = {0};
         CHECK(rt_sim_check(one, &e) == 0, "13 sizes invariant: %s", e.msg);
         for (int i = 0; i < c.nsizes; i++) {
             pc.nsizes = 1;

@@ -64,7 +64,7 @@ static void rec_secondary(const rt_tracer_ctx *ctx, rt_trav *tv, const rt_cam_fr
             rt_shade_path_ray(&p, &r);
             rt_rec_set_gen(ctx->rec, p.depth); /* this ray, its shading and shadow rays */
             tv->mark_bit = p.depth ? 4 : 1;
-            int hit = rt_kd_closest(tv, &r, &h);
+            int hit = ctx->acc->ops->closest(tv, &r, &h);
             if (!p.depth && !s) h0 = h;
             if (p.depth) (*nsec)++;
             if (hit) rt_reg_shade(ctx, ctx->rec, h.tri);
@@ -75,7 +75,7 @@ static void rec_secondary(const rt_tracer_ctx *ctx, rt_trav *tv, const rt_cam_fr
             for (int i = 0; i < RT_NLIGHTS; i++) {
                 if (!out.want[i]) continue;
                 st->rays_shadow++;
-                if (!rt_kd_occluded(tv, &out.sray[i])) rt_acc_add(&acc, out.lc[i]);
+                if (!ctx->acc->ops->occluded(tv, &out.sray[i])) rt_acc_add(&acc, out.lc[i]);
             }
             for (int c = out.nchild; c-- > 0;) stack[sp++] = out.child[c];
         }
@@ -125,7 +125,7 @@ static int rec_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
         rt_cam_ray(&cam, x, y, &ray);
         tv.mark_bit = 1;
         st->rays_primary++;
-        if (rt_kd_closest(&tv, &ray, &h)) {
+        if (ctx->acc->ops->closest(&tv, &ray, &h)) {
             int vis[RT_NLIGHTS] = {0};
             RT_REC(rec, rt_mm_addr(L, reg_shade, h.tri), 16, 0, RT_CLS_SHADE);
             tv.mark_bit = 2;
@@ -133,7 +133,7 @@ static int rec_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
                 rt_ray sr;
                 if (!(o->lights & (1u << i)) || !rt_shade_ray(sc, &ray, &h, i, &sr)) continue;
                 st->rays_shadow++;
-                vis[i] = !rt_kd_occluded(&tv, &sr);
+                vis[i] = !ctx->acc->ops->occluded(&tv, &sr);
             }
             rt_shade_pixel(sc, &ray, &h, vis, o->lights, img, pix);
         } else {
@@ -155,7 +155,7 @@ const rt_tracer rt_tracer_recursive = {
     .name = "recursive",
     .desc = "single rays in Hilbert-curve order, shadow rays depth first (Whitted)",
     .modes = RT_TRACER_ALL_MODES,
-    .accels = RT_ACCEL_BIT(RT_ACCEL_KD),
+    .accels = RT_ACCEL_BIT(RT_ACCEL_KD) | RT_ACCEL_BVH_BITS,
     .accel_default = RT_ACCEL_KD,
     .traits = RT_TR_REFERENCE,
     .figures = RT_FIG_NAVRATIL,

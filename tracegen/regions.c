@@ -8,6 +8,7 @@
 int rt_reg_geometry(const rt_tracer_ctx *ctx, rt_layout *L, int want_shade, rt_err *e)
 {
     if (rt_accel_regions(ctx->acc, ctx->sc, L, e) < 0) return -1;
+    const int own = (ctx->acc->ops->flags & RT_ACCEL_OWN_TRIS) != 0; /* triangles in the structure's order */
     if (ctx->opt->geom == RT_GEOM_MESH) {
         if (!ctx->mesh) return rt_errf(e, "mesh layout without a vertex index (internal error)");
         if (rt_mm_add(L, "tri.vidx", RT_CLS_TRI, RT_MESH_VIDX_SIZE, ctx->sc->ntri, e) < 0 ||
@@ -17,7 +18,7 @@ int rt_reg_geometry(const rt_tracer_ctx *ctx, rt_layout *L, int want_shade, rt_e
                            rt_mm_add(L, "mesh.normal", RT_CLS_SHADE, RT_MESH_NRM_SIZE, ctx->mesh->nvert, e) < 0))
             return -1;
     } else {
-        if (rt_mm_add(L, "tri.verts", RT_CLS_TRI, 36, ctx->sc->ntri, e) < 0) return -1;
+        if (!own && rt_mm_add(L, "tri.verts", RT_CLS_TRI, 36, ctx->sc->ntri, e) < 0) return -1;
         if (want_shade && rt_mm_add(L, "tri.shade", RT_CLS_SHADE, 16, ctx->sc->ntri, e) < 0) return -1;
     }
     if (want_shade && rt_reg_wants_mat(ctx) &&
@@ -43,6 +44,7 @@ void rt_reg_shade(const rt_tracer_ctx *ctx, rt_rec *rec, uint32_t tri)
 void rt_reg_trav(rt_trav *tv, const rt_tracer_ctx *ctx)
 {
     rt_accel_trav(ctx->acc, tv, ctx->sc, ctx->rec, ctx->L);
+    if (ctx->acc->ops->flags & RT_ACCEL_OWN_TRIS) return; /* its own triangle region */
     /* the mesh layout's triangle reads land on the index records and are
      * expanded by the mesh recorder (mesh.h) */
     tv->reg_tri = rt_mm_find(ctx->L, ctx->opt->geom == RT_GEOM_MESH ? "tri.vidx" : "tri.verts");

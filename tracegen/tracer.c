@@ -111,6 +111,9 @@ int rt_tracer_check_opts(const rt_tracer *tr, const rt_render_opts *o, rt_err *e
         return rt_errf(e, "--accel: the %s tracer runs on %s, not %s", tr->name, hint,
                        rt_accel_name(k) ? rt_accel_name(k) : "?");
     }
+    if ((rt_accel_table[k]->flags & RT_ACCEL_OWN_TRIS) && o->geom != RT_GEOM_COMPACT)
+        return rt_errf(e, "--layout %s: the %s structure stores its triangles in leaf order as compact records",
+                       rt_render_geom_name(o->geom), rt_accel_name(k));
     return tr->check_opts ? tr->check_opts(o, e) : 0;
 }
 

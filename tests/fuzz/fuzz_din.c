@@ -33,7 +33,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     const uint8_t *text = data + 1;
     size_t n = size - 1;
     const char *path = rt_fuzz_file(text, n);
-    rt_err e = {{0}};
+    rt_err e = {0};
     rt_din *d = rt_din_open(path, cls, &e);
     if (!d) rt_fuzz_fail("open failed: %s", e.msg);
     rt_access buf[16];

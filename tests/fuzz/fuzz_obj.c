@@ -6,7 +6,7 @@
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    rt_err e = {{0}};
+    rt_err e = {0};
     rt_fuzz_check_scene(rt_scene_load_obj(rt_fuzz_file(data, size), &e), &e);
     return 0;
 }

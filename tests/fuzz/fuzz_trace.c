@@ -99,7 +99,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         in = file;
     }
     const char *path = rt_fuzz_file(in, n);
-    rt_err e = {{0}};
+    rt_err e = {0};
     rt_tr_reader *r = rt_tr_open(path, &e);
     if (!r) {
         if (!e.msg[0]) rt_fuzz_fail("open refused without a message");
@@ -136,7 +136,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         if (rt_tr_read(r, buf, cap, &e) != 0) rt_fuzz_fail("read after the end is not 0");
         rt_fuzz_accepted = 1;
     } else {
-        rt_err e2 = {{0}};
+        rt_err e2 = {0};
         if (!e.msg[0]) rt_fuzz_fail("error without a message");
         if (rt_tr_read(r, buf, cap, &e2) != -1 || strcmp(e.msg, e2.msg) != 0)
             rt_fuzz_fail("a second read after an error differs: '%s' then '%s'", e.msg, e2.msg);
