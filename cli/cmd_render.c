@@ -55,6 +55,10 @@ void rt_print_run_stats(FILE *f, const rt_job *j, const rt_run_stats *st, int js
                 st->nodes, st->tests, (double)st->nodes * per, (double)st->tests * per, st->pv_primary, st->pv_all,
                 rt_accel_name(j->acc.kind), j->acc.build_sec, st->seconds,
                 st->seconds > 0 ? (double)rays / st->seconds * 1e-6 : 0.0);
+        rt_accel_info ai;
+        rt_accel_info_of(&j->acc, &ai);
+        fprintf(f, ", \"accel\": \"%s\", \"accel_nodes\": %" PRIu64 ", \"accel_bytes\": %" PRIu64 ", \"accel_depth\": %" PRIu32,
+                rt_accel_name(j->acc.kind), ai.nodes, ai.bytes, ai.depth);
         if (st->extra[0]) {
             fputs(", \"extra\": ", f);
             rt_cmd_json_str(f, st->extra);

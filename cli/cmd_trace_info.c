@@ -56,6 +56,13 @@ static void print_text(const char *path, const rt_tr_reader *r)
     if (m->sched_size) printf(", scheduled for cache size %" PRIu64, m->sched_size);
     if (m->gmax) printf(", gmax %" PRIu64, m->gmax);
     if (m->params[0]) printf(", %s", m->params);
+    /* the structure: accel=X in the key, else the tracer's default */
+    const char *acc = strstr(m->params, "accel=");
+    const rt_tracer *tr = rt_tracer_find(m->tracer);
+    char aname[16] = "?";
+    if (acc) sscanf(acc + 6, "%15[a-z0-9]", aname);
+    else if (tr && rt_accel_name(tr->accel_default)) snprintf(aname, sizeof aname, "%s", rt_accel_name(tr->accel_default));
+    printf("\nstructure:     %s", aname);
     printf("\n\nregions (%d):\n", m->layout.n);
     printf("  %-20s %-7s %18s %8s %12s %14s\n", "name", "class", "base", "recsize", "count", "bytes");
     for (int i = 0; i < m->layout.n; i++) {
