@@ -49,6 +49,8 @@ int rt_job_setup_borrowed(rt_job *j, rt_scene *sc, rt_kdtree *kd, const char *tr
     j->sc = sc;
     j->kd = kd;
     j->opt = *o;
+    rt_render_apply_film(&j->opt, sc->film_w, sc->film_h);
+    if (rt_pixel_check(&j->opt, tracer, e) < 0) return -1;
     if (rt_render_mode(o) == RT_MODE_RAYCAST) j->opt.lights = 0; /* primary rays only */
     j->kd_sec = kd->build_sec;
     j->borrowed = 1;
@@ -70,6 +72,11 @@ int rt_job_setup(rt_job *j, const char *scene_spec, const char *tracer, const rt
     if (rt_render_mode(o) == RT_MODE_RAYCAST) j->opt.lights = 0; /* primary rays only */
     j->sc = rt_scene_load(scene_spec, e);
     if (!j->sc) return -1;
+    rt_render_apply_film(&j->opt, j->sc->film_w, j->sc->film_h); /* a pbrt Film: the default size */
+    if (check_opts(&j->opt, e) < 0 || rt_pixel_check(&j->opt, tracer, e) < 0) {
+        rt_job_free(j);
+        return -1;
+    }
     rt_kd_params kp;
     rt_kd_default_params(&kp);
     j->kd = rt_kd_build(j->sc, &kp, e);
