@@ -87,7 +87,7 @@ typedef struct rt_scene {
     float ambient;          /* ambient term */
     rt_vec3 background;     /* colour of rays that leave the scene */
     rt_bounds bounds;       /* of all vertices */
-    char warning[256];      /* first load warning ("" if none; the library never prints it) */
+    char warning[512];      /* first load warning(s) ("" if none; the library never prints it) */
     int film_w, film_h;     /* default image size from the file (pbrt Film), 0 = none */
     uint32_t ninst;         /* object instances flattened into tri (pbrt ObjectInstance), 0 = none */
     uint32_t ntri_unique;   /* with instances: triangles outside objects + each instanced object once */

@@ -1521,8 +1521,8 @@ done:
 static void count_light(pbrt *P, const token *t)
 {
     if (++P->nlights_all == RT_NLIGHTS + 1)
-        pwarn(P, t, "lights", "more than %d lights: the scene keeps the first point and spot lights, then area "
-                              "lights, %d in all", RT_NLIGHTS, RT_NLIGHTS);
+        pwarn(P, t, "lights", "more than %d lights: kept %d, point and spot lights first", RT_NLIGHTS,
+              RT_NLIGHTS);
 }
 
 /* Records an area-light shape (triangles from `start` on) for the lights. */
@@ -1663,7 +1663,7 @@ static int do_shape(pbrt *P, const token *d)
     } else {
         char key[48];
         snprintf(key, sizeof key, "Shape \"%.30s\"", type);
-        pwarn(P, &tt, key, "Shape \"%s\" skipped (outside the supported subset)", q);
+        pwarn(P, &tt, key, "Shape \"%s\" skipped", q);
     }
     if (rc == 0 && P->g.area && P->in_obj < 0 && P->s->ntri > start) rc = note_area_light(P, &tt, start);
     if (rc == 0 && P->in_obj < 0) P->nonobj += P->s->ntri - start;
@@ -1797,7 +1797,7 @@ static int do_light(pbrt *P, const token *d)
     } else {
         char key[48];
         snprintf(key, sizeof key, "LightSource \"%.30s\"", type);
-        pwarn(P, &tt, key, "LightSource \"%s\" skipped (outside the supported subset)", rt_esc(q, sizeof q, type, 40));
+        pwarn(P, &tt, key, "LightSource \"%s\" skipped", rt_esc(q, sizeof q, type, 40));
     }
     rc = 0;
 done:
@@ -2091,12 +2091,12 @@ static int directive(pbrt *P, const token *d)
         if (lex(P, &x) < 0) return -1;
         if (!word_is(&x, "StartTime") && !word_is(&x, "EndTime") && !word_is(&x, "All"))
             return perr(P, &x, "ActiveTransform: expected StartTime, EndTime or All, got %s", tq(b, sizeof b, &x));
-        pwarn(P, d, "ActiveTransform", "ActiveTransform skipped (motion blur is outside the supported subset)");
+        pwarn(P, d, "ActiveTransform", "ActiveTransform skipped");
         return 0;
     }
     for (int i = 0; skipped[i]; i++)
         if (!strcmp(dn, skipped[i])) {
-            pwarn(P, d, dn, "%s skipped (outside the supported subset)", dn);
+            pwarn(P, d, dn, "%s skipped", dn);
             return skip_args(P);
         }
     return perr(P, d, "unknown directive %s (not a pbrt directive)", tq(b, sizeof b, d));
@@ -2160,6 +2160,7 @@ static void set_camera(pbrt *P)
     for (int k = 0; k < 3; k++) f[k] = M.m[k][2], u[k] = M.m[k][1];
     double fl = sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]);
     double ul = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    for (int k = 0; k < 3; k++) e[k] += 0.0, f[k] += 0.0, u[k] += 0.0; /* -0 -> +0 */
     s->cam.eye = rt_v3((float)e[0], (float)e[1], (float)e[2]);
     s->cam.at = rt_v3((float)(e[0] + f[0] / fl), (float)(e[1] + f[1] / fl), (float)(e[2] + f[2] / fl));
     s->cam.up = rt_v3((float)(u[0] / ul), (float)(u[1] / ul), (float)(u[2] / ul));
