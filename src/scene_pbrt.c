@@ -1946,8 +1946,10 @@ static int do_object_end(pbrt *P, const token *d)
         P->oshade = ns;
         P->ocap = nc;
     }
-    memcpy(P->otri + P->on, P->s->tri + P->obj_start, n * sizeof *P->otri);
-    memcpy(P->oshade + P->on, P->s->shade + P->obj_start, n * sizeof *P->oshade);
+    if (n) {
+        memcpy(P->otri + P->on, P->s->tri + P->obj_start, n * sizeof *P->otri);
+        memcpy(P->oshade + P->on, P->s->shade + P->obj_start, n * sizeof *P->oshade);
+    }
     o->start = P->on;
     o->count = n;
     P->on += n;
