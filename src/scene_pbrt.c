@@ -94,6 +94,7 @@ typedef struct matdef {
     char name[32];          /* named material's name, or the type */
     float rgb[3];           /* diffuse colour of the triangles */
     float ks[3], kt[3], ior; /* the table terms (ke comes from the area light) */
+    long tab;               /* its table index without emission, -1 = not looked up yet */
 } matdef;
 
 typedef struct gstate {
@@ -537,7 +538,9 @@ static int rel_join(const char *dir, const char *path, char *out, size_t cap)
 }
 
 /* Opens a regular file without blocking (a FIFO or device is refused
- * before any read). 0 with *fd and *st, or -1 with "reason" in why. */
+ * before any read). 0 with *fd and *st, or -1 with "reason" in why. A
+ * static equivalent of the shared rt_open_regular (src/rt.c), kept here
+ * until the two are unified. */
 static int open_regular(const char *path, int *fd, struct stat *st, char *why, size_t nwhy)
 {
     int f = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
@@ -1119,6 +1122,7 @@ static int add_matdef(pbrt *P, const matdef *m)
         P->cmats = nc;
     }
     P->mats[P->nmats] = *m;
+    P->mats[P->nmats].tab = -1;
     return P->nmats++;
 }
 
@@ -1206,8 +1210,9 @@ static int make_matdef(pbrt *P, const token *tt, const char *type, plist *L, mat
 
 /* The table index for material md with emission ke (made on first use;
  * identical terms share an entry). */
-static int table_index(pbrt *P, const matdef *md, const float ke[3], int emit, uint32_t *out)
+static int table_index(pbrt *P, matdef *md, const float ke[3], int emit, uint32_t *out)
 {
+    if (!emit && md->tab >= 0) return *out = (uint32_t)md->tab, 0;
     rt_material m;
     memset(&m, 0, sizeof m);
     memcpy(m.ks, md->ks, sizeof m.ks);
@@ -1218,18 +1223,24 @@ static int table_index(pbrt *P, const matdef *md, const float ke[3], int emit, u
         if (emit) m.ke[k] = ke[k];
         if (m.ks[k] > 0 || m.kt[k] > 0 || m.ke[k] > 0) plain = 0;
     }
-    if (plain) return *out = 0, 0;
+    if (plain) {
+        if (!emit) md->tab = 0;
+        return *out = 0, 0;
+    }
     snprintf(m.name, sizeof m.name, "%s", md->name);
     if (emit && !strcmp(md->name, "diffuse")) snprintf(m.name, sizeof m.name, "light");
     rt_scene *s = P->s;
     for (uint32_t i = 1; i < s->nmat; i++) {
         const rt_material *t = &s->mat[i];
         if (!memcmp(t->ks, m.ks, sizeof m.ks) && !memcmp(t->kt, m.kt, sizeof m.kt) && t->ior == m.ior &&
-            !memcmp(t->ke, m.ke, sizeof m.ke) && !strcmp(t->name, m.name))
+            !memcmp(t->ke, m.ke, sizeof m.ke) && !strcmp(t->name, m.name)) {
+            if (!emit) md->tab = i;
             return *out = i, 0;
+        }
     }
     int r = rt_scene_add_material(s, &m, P->e);
     if (r < 0) return -1;
+    if (!emit) md->tab = r;
     *out = (uint32_t)r;
     return 0;
 }
@@ -1563,7 +1574,7 @@ static int do_shape(pbrt *P, const token *d)
     if (need_string(P, d, type, sizeof type, &tt) < 0 || parse_params(P, &L) < 0) goto fail;
     rt_esc(q, sizeof q, type, 40);
     /* colour and table entry of the state */
-    const matdef *md = &P->mats[P->g.mat];
+    matdef *md = &P->mats[P->g.mat];
     P->cur_rgb = md->rgb;
     if (table_index(P, md, P->g.ke, P->g.area, &P->cur_mat) < 0) goto fail;
     uint32_t start = P->s->ntri;
