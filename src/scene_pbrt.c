@@ -1361,10 +1361,10 @@ static double *sphere_template(int t, rt_err *e)
  * edge, at most one boundary fan per vertex). Output: *pv (3 * *pnv
  * doubles) and *pf (3 * *pnf indices), malloc'd. 0, or -1 with why. */
 typedef struct edgeent {
-    long a, b;   /* a < b */
-    long f[2];   /* faces on it (-1 none) */
-    long opp[2]; /* their third vertices */
-    long mid;    /* odd vertex index on the new level */
+    int32_t a, b;   /* a < b */
+    int32_t f[2];   /* faces on it (-1 none) */
+    int32_t opp[2]; /* their third vertices */
+    int32_t mid;    /* first use a < b (while counting), then the odd vertex's index */
 } edgeent;
 
 static int subdivide(const double *v0, long nv0, const long *f0, long nf0, int levels, double **pv, long *pnv,
@@ -1375,7 +1375,8 @@ static int subdivide(const double *v0, long nv0, const long *f0, long nf0, int l
     long nv = nv0, nf = nf0;
     int rc = -1;
     edgeent *E = NULL;
-    long *slot = NULL, *nb = NULL, *bcount = NULL;
+    uint32_t *slot = NULL; /* 1 + index into E, 0 = empty */
+    long *nb = NULL, *bcount = NULL;
     double *acc = NULL, *bacc = NULL;
     if (!v || !f) goto done;
     memcpy(v, v0, sizeof *v * 3 * (size_t)nv0);
@@ -1383,7 +1384,7 @@ static int subdivide(const double *v0, long nv0, const long *f0, long nf0, int l
     for (int level = 0;; level++) {
         /* edges: open hashing on the unordered pair */
         long ne = 0, nslot = 64;
-        while (nslot < 4 * 3 * nf) nslot *= 2;
+        while (nslot < 2 * 3 * nf) nslot *= 2;
         free(E);
         free(slot);
         E = rt_calloc((size_t)(3 * nf), sizeof *E, e);
@@ -1401,21 +1402,22 @@ static int subdivide(const double *v0, long nv0, const long *f0, long nf0, int l
                 while (slot[h] && !(E[slot[h] - 1].a == lo && E[slot[h] - 1].b == hi)) h = (h + 1) & (uint64_t)(nslot - 1);
                 if (!slot[h]) {
                     edgeent *x = &E[ne++];
-                    x->a = lo, x->b = hi, x->f[0] = i, x->f[1] = -1, x->opp[0] = c, x->opp[1] = -1;
-                    x->mid = (long)(a < b); /* remember the direction of the first use */
-                    slot[h] = ne;
+                    x->a = (int32_t)lo, x->b = (int32_t)hi, x->f[0] = (int32_t)i, x->f[1] = -1;
+                    x->opp[0] = (int32_t)c, x->opp[1] = -1;
+                    x->mid = a < b; /* remember the direction of the first use */
+                    slot[h] = (uint32_t)ne;
                 } else {
                     edgeent *x = &E[slot[h] - 1];
                     if (x->f[1] >= 0) {
                         snprintf(why, nwhy, "edge %ld-%ld is shared by more than two faces", lo, hi);
                         goto done;
                     }
-                    if (x->mid == (long)(a < b)) {
+                    if (x->mid == (a < b)) {
                         snprintf(why, nwhy, "faces %ld and %ld run along edge %ld-%ld the same way (orientation)",
-                                 x->f[0], i, lo, hi);
+                                 (long)x->f[0], i, lo, hi);
                         goto done;
                     }
-                    x->f[1] = i, x->opp[1] = c;
+                    x->f[1] = (int32_t)i, x->opp[1] = (int32_t)c;
                 }
             }
         /* per vertex: neighbour sums and counts, boundary neighbours */
@@ -1491,7 +1493,7 @@ static int subdivide(const double *v0, long nv0, const long *f0, long nf0, int l
                     o[d] = 0.375 * v[3 * x->a + d] + 0.375 * v[3 * x->b + d] + 0.125 * v[3 * x->opp[0] + d] +
                            0.125 * v[3 * x->opp[1] + d];
             }
-            x->mid = nv + i;
+            x->mid = (int32_t)(nv + i);
         }
         for (long i = 0; i < nf; i++) {
             long c[3], m[3];

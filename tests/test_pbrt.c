@@ -91,7 +91,8 @@ static void test_tokens(void)
                             "  \"rgb reflectance\" [ 0.25 # inside a list\n 0.5\n 0.75 ]\n"
                             "NamedMaterial \"a \\\"q\\\" b\"\n"
                             "Shape \"sphere\" \"float radius\" 2 \"bool flag\" true \"bool other\" \"false\"\n"
-                            "Shape \"trianglemesh\" \"point3 P\" [ 0 0 0 1e0 0 0 0 .5 0 ] \"integer indices\" [0 1 2]",
+                            "Shape \"trianglemesh\" \"point3 P\" [ 0 0 0 1e0 0 0 0 .5 0 ] \"integer indices\" [0 1 2]\n"
+                            "WorldEnd # pbrt-v3\n",
                             109);
     if (s) {
         CHECK(s->shade[0].rgb[0] == 0.25f && s->shade[0].rgb[1] == 0.5f && s->shade[0].rgb[2] == 0.75f,
