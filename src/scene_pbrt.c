@@ -60,6 +60,7 @@
 #define MAX_NEST 4096                       /* AttributeBegin nesting */
 #define DEFAULT_MAXTRI (1u << 26)
 #define MAX_WARN 32                         /* kinds of warnings kept */
+#define MAX_PARAMS 256                      /* parameters of one directive */
 
 typedef struct mat4 {
     double m[4][4]; /* row-major, applied to column vectors */
@@ -849,6 +850,7 @@ static int parse_params(pbrt *P, plist *L)
         if (k == (int)(sizeof ptypes / sizeof ptypes[0]))
             return perr(P, &t, "unknown parameter type '%s' (float, integer, bool, string, texture, point2, vector2, "
                                "point3, vector3, normal3, rgb, spectrum, blackbody)", ty);
+        if (L->n == MAX_PARAMS) return perr(P, &t, "more than %d parameters", MAX_PARAMS);
         for (size_t i = 0; i < L->n; i++)
             if (!strcmp(L->p[i].name, nm)) return perr(P, &t, "parameter \"%s\" given twice", nm);
         if (L->n == L->cap) {

@@ -518,6 +518,17 @@ static void test_errors(void)
          "expected true or false"},
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) expect_fail("e.pbrt", bad[i].text, bad[i].needle);
+    /* parameters of one directive are capped (duplicates are looked for) */
+    {
+        size_t cap = 300 * 24 + 64;
+        char *t = malloc(cap);
+        size_t k = (size_t)snprintf(t, cap, "WorldBegin\nShape \"sphere\"");
+        for (int i = 0; i < 300; i++) k += (size_t)snprintf(t + k, cap - k, " \"float p%d\" 1", i);
+        snprintf(t + k, cap - k, "\n");
+        expect_fail("params.pbrt", t, "params.pbrt:2:");
+        expect_fail("params.pbrt", t, "more than 256 parameters");
+        free(t);
+    }
     /* NUL byte */
     static const char nul[] = "WorldBegin\nShape \0 \"sphere\"\n";
     check_write_file(check_path("nul.pbrt"), nul, sizeof nul - 1);
