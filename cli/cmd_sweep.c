@@ -105,7 +105,7 @@ static void usage(FILE *f)
             "  --depth N, --spp N, --bounces B  whitted / path parameters (see render --help)\n"
             "  --sizes LIST       cache sizes: 1K-4M (powers of two) or 1K,64K,...\n"
             "  --line N           line size in bytes (default 64)\n"
-            "  -W N, -H N         image size (overrides the preset)\n"
+            "  -W N, -H N         image size (overrides the preset and a .pbrt scene's Film)\n"
             "  --db FILE          results database (default raytraffic.db)\n"
             "  --jobs N           worker processes (default 1)\n"
             "  --keep-traces DIR  also write every job's trace to DIR\n"
