@@ -93,7 +93,8 @@ extern const struct option rt_render_longopts[];
 #define RT_RENDER_OPTS_HELP                                                                  \
     "  -t TRACER          recursive | packet | dynamic | stream-branching |\n"               \
     "                     stream-multipass | feedback (default recursive)\n"                \
-    "  -W N, -H N         image size in pixels\n"                                            \
+    "  -W N, -H N         image size in pixels (a .pbrt scene: its Film's by default;\n"   \
+    "                     one of them alone keeps the Film's aspect ratio)\n"                \
     "  --lights L         all | none | comma list of lights 0,1,2 (default none)\n"         \
     "  --packet N         packet edge in pixels for -t packet (default 8)\n"                 \
     "  --cache-size S     dynamic: cache size to schedule for, e.g. 64K (default 64K)\n"    \

@@ -176,6 +176,7 @@ static int render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
             return -1;
         }
         if (c == 'W') o->W = (int)v; else o->H = (int)v;
+        o->film &= c == 'W' ? ~RT_FILM_W : ~RT_FILM_H; /* given: not from the scene's Film */
         return 1;
     case RT_OPT_LIGHTS:
         if (rt_parse_lights(arg, &o->lights) < 0) {

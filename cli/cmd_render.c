@@ -17,7 +17,7 @@ static void usage(FILE *f)
 {
     fprintf(f,
             "Usage: raytraffic render SCENE [options] -o out.exr\n\n"
-            "Render SCENE (a built-in name like sphereflake, name:k=v,... or an .obj/.ply file)\n"
+            "Render SCENE (a built-in name like sphereflake, name:k=v,... or an .obj/.ply/.pbrt file)\n"
             "and write a float OpenEXR with channels R, G, B, Z (depth), nodes and tests\n"
             "(per-pixel k-d nodes visited and triangles tested).\n\n"
             "Options:\n"
@@ -92,6 +92,7 @@ int main_render(int argc, char **argv)
     };
     rt_render_opts o;
     rt_render_default_opts(&o);
+    o.film = RT_FILM_W | RT_FILM_H; /* a pbrt scene's Film sets the size -W/-H do not */
     const char *material = NULL;
     const char *tracer = "recursive", *out = NULL, *ppm = NULL, *png = NULL, *heat = NULL;
     int json = 0, c, rc = RT_EXIT_FAIL;
@@ -147,6 +148,8 @@ int main_render(int argc, char **argv)
         return e.usage ? RT_EXIT_USAGE : RT_EXIT_FAIL;
     }
     if (j.sc->warning[0]) rt_cmd_error("render", "warning: %s", j.sc->warning);
+    o.W = j.opt.W; /* the scene's Film may have set them */
+    o.H = j.opt.H;
     rt_scene_fit_aspect(j.sc, o.W, o.H); /* tall images: keep the whole mesh in view */
     if (!(img = rt_image_new(o.W, o.H, &e)) || rt_job_run(&j, NULL, img, &st, &e) < 0) goto fail;
     char hash[32], params[128];

@@ -23,7 +23,7 @@ static void usage(FILE *f)
             "       raytraffic scene info SCENE [--json] [--no-tree]\n"
             "       raytraffic scene export SCENE -o FILE.obj\n\n"
             "SCENE is a built-in name with optional parameters (sphereflake:level=2,tess=3)\n"
-            "or a mesh file ending in .obj or .ply.\n\n"
+            "or a scene file ending in .obj, .ply or .pbrt.\n\n"
             "  list      built-in scenes, their parameters and one-line descriptions\n"
             "  info      triangles, bounds, scene hash, camera, lights and k-d tree statistics\n"
             "            --json     one JSON object on stdout\n"
@@ -51,6 +51,7 @@ static int cmd_list(int argc, char **argv)
     }
     printf("%-12s %s\n", "FILE.obj", "Wavefront OBJ mesh (auto-framed camera, default lights)");
     printf("%-12s %s\n", "FILE.ply", "Stanford PLY mesh, ascii or binary (auto-framed camera, default lights)");
+    printf("%-12s %s\n", "FILE.pbrt", "pbrt-v4 scene, geometry and view (params tess=3, maxtri=67108864)");
     return RT_EXIT_OK;
 }
 
@@ -114,6 +115,10 @@ static int cmd_info(int argc, char **argv)
         printf(",\n  \"params\": ");
         json_str(s->params);
         printf(",\n  \"triangles\": %u,\n", s->ntri);
+        if (s->ninst)
+            printf("  \"instances\": %u,\n  \"triangles_unique\": %u,\n  \"triangles_instanced\": %u,\n", s->ninst,
+                   s->ntri_unique, s->ntri_inst);
+        if (s->film_w) printf("  \"film\": [%d, %d],\n", s->film_w, s->film_h);
         printf("  \"hash\": \"%016" PRIx64 "\",\n", h);
         json_vec("bounds_lo", s->bounds.lo, 1);
         json_vec("bounds_hi", s->bounds.hi, 1);
@@ -137,6 +142,10 @@ static int cmd_info(int argc, char **argv)
     } else {
         printf("scene        %s%s%s\n", s->name, s->params[0] ? ":" : "", s->params);
         printf("triangles    %u\n", s->ntri);
+        if (s->ninst)
+            printf("instancing   %u unique triangles; %u instances give %u of the total\n", s->ntri_unique, s->ninst,
+                   s->ntri_inst);
+        if (s->film_w) printf("film         %dx%d (the default image size)\n", s->film_w, s->film_h);
         printf("hash         %016" PRIx64 "\n", h);
         printf("bounds       (%.6g, %.6g, %.6g) - (%.6g, %.6g, %.6g)\n", (double)s->bounds.lo.x,
                (double)s->bounds.lo.y, (double)s->bounds.lo.z, (double)s->bounds.hi.x, (double)s->bounds.hi.y,

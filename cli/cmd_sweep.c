@@ -104,7 +104,7 @@ static void usage(FILE *f)
             "  --depth N, --spp N, --bounces B  whitted / path parameters (see render --help)\n"
             "  --sizes LIST       cache sizes: 1K-4M (powers of two) or 1K,64K,...\n"
             "  --line N           line size in bytes (default 64)\n"
-            "  -W N, -H N         image size (overrides the preset)\n"
+            "  -W N, -H N         image size (overrides the preset and a .pbrt scene's Film)\n"
             "  --db FILE          results database (default raytraffic.db)\n"
             "  --jobs N           worker processes (default 1)\n"
             "  --keep-traces DIR  also write every job's trace to DIR\n"
@@ -489,7 +489,8 @@ static const char *absolute(const char *path, char *buf, size_t n)
 static int is_mesh(const char *s)
 {
     size_t n = strlen(s);
-    return n >= 4 && (!strcasecmp(s + n - 4, ".obj") || !strcasecmp(s + n - 4, ".ply"));
+    return (n >= 4 && (!strcasecmp(s + n - 4, ".obj") || !strcasecmp(s + n - 4, ".ply"))) ||
+           (n >= 5 && !strcasecmp(s + n - 5, ".pbrt"));
 }
 
 /* The options of this sweep as words of a command line, each quoted, with
@@ -648,6 +649,7 @@ static int finish_opts(sweep_opts *o)
     int paper = !strcmp(o->preset, "paper");
     x->ro.W = o->W ? o->W : (paper ? 1024 : 256);
     x->ro.H = o->H ? o->H : (paper ? 1024 : 256);
+    x->ro.film = (o->W ? 0 : RT_FILM_W) | (o->H ? 0 : RT_FILM_H); /* a .pbrt scene's Film */
     /* the defaults are split in place: copies, so a second sweep in one
      * process (tests) sees them whole */
     char *sc = o->lists[0] ? o->lists[0] : keep_copy(o, 0, defscenes);

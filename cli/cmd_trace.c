@@ -19,7 +19,7 @@ static void usage(FILE *f)
 {
     fprintf(f,
             "Usage: raytraffic trace SCENE [options] -o out.rtt\n\n"
-            "Render SCENE (a built-in name like sphereflake, name:k=v,... or an .obj/.ply file)\n"
+            "Render SCENE (a built-in name like sphereflake, name:k=v,... or an .obj/.ply/.pbrt file)\n"
             "with a tracer and record every modeled memory reference (address, size,\n"
             "read/write, class) into a compressed, self-describing trace file. The file is\n"
             "written to a temporary beside it and renamed when complete; on failure nothing\n"
@@ -52,6 +52,7 @@ int main_trace(int argc, char **argv)
     };
     rt_render_opts o;
     rt_render_default_opts(&o);
+    o.film = RT_FILM_W | RT_FILM_H; /* a pbrt scene's Film sets the size -W/-H do not */
     o.W = o.H = 512;
     o.lights = 0;
     rt_tr_wopts wo;
@@ -116,6 +117,8 @@ int main_trace(int argc, char **argv)
         return e.usage ? RT_EXIT_USAGE : RT_EXIT_FAIL;
     }
     if (j.sc->warning[0]) rt_cmd_error("trace", "warning: %s", j.sc->warning);
+    o.W = j.opt.W; /* the scene's Film may have set them */
+    o.H = j.opt.H;
     rt_scene_fit_aspect(j.sc, o.W, o.H); /* tall images: keep the whole mesh in view */
     if (!(m = rt_calloc(1, sizeof *m, &e))) goto fail;
     rt_job_meta(&j, rt_cmd_line(), m);

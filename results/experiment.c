@@ -115,6 +115,7 @@ rt_render_opts rt_exp_job_opts(const rt_exp_config *c, const rt_exp_job *jb)
         if (p->W) {
             ro.H = (int)(((int64_t)c->ro.H * p->W + c->ro.W / 2) / c->ro.W);
             ro.W = p->W;
+            ro.film &= ~RT_FILM_W; /* a Film's aspect still sets H */
             if (ro.H < 1) ro.H = 1;
         }
         if (p->subsample > 1) {
@@ -177,7 +178,8 @@ const char *rt_exp_tracer_params(const char *tracer, const rt_render_opts *ro, i
 static int is_mesh_spec(const char *s)
 {
     size_t n = strlen(s);
-    return n >= 4 && (!strcasecmp(s + n - 4, ".obj") || !strcasecmp(s + n - 4, ".ply"));
+    return (n >= 4 && (!strcasecmp(s + n - 4, ".obj") || !strcasecmp(s + n - 4, ".ply"))) ||
+           (n >= 5 && !strcasecmp(s + n - 5, ".pbrt"));
 }
 
 /* Absolute path of an existing file into buf (PATH_MAX), '' if unknown. */
@@ -193,6 +195,7 @@ void rt_exp_job_key(const rt_exp_config *c, const rt_exp_job *jb, const rt_scene
                     rt_exp_key *k)
 {
     rt_render_opts ro = rt_exp_job_opts(c, jb);
+    rt_render_apply_film(&ro, sc->film_w, sc->film_h);
     int dynamic = rt_tracer_is(rt_tracer_find(jb->tracer), RT_TR_SCHEDULED);
     memset(k, 0, sizeof *k);
     rt_db_run *r = &k->run;
@@ -390,6 +393,7 @@ static int render_job(rt_exp_worker *w, jobrun *r, const rt_exp_job *jb, long in
 {
     const rt_exp_config *c = w->c;
     rt_render_opts ro = rt_exp_job_opts(c, jb);
+    rt_render_apply_film(&ro, w->sc->film_w, w->sc->film_h);
     r->sc = c->sim;
     if (jb->sched_size && !c->dyn_all) {
         r->sc.nsizes = 1;

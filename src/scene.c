@@ -328,6 +328,7 @@ uint64_t rt_scene_hash(const rt_scene *s)
     h = hash_v(h, s->cam.at);
     h = hash_v(h, s->cam.up);
     h = hash_f(h, s->cam.fovy_deg);
+    if (s->cam.mirror) h = hash_u32(h, 1); /* only pbrt scenes set it: other hashes unchanged */
     for (int i = 0; i < RT_NLIGHTS; i++) h = hash_v(h, s->light[i]);
     h = hash_f(h, s->light_power);
     h = hash_f(h, s->ambient);
@@ -528,11 +529,15 @@ static int has_suffix(const char *s, const char *suf)
     return 1;
 }
 
+/* A spec (or its part before the parameters) naming a scene file. */
+static int is_file(const char *s) { return has_suffix(s, ".obj") || has_suffix(s, ".ply") || has_suffix(s, ".pbrt"); }
+
 /* Loads a spec without its material=PRESET item. */
 static rt_scene *load_base(const char *spec, const char *params, rt_err *e)
 {
     char name[64];
     size_t fn = strlen(spec);
+    if (has_suffix(spec, ".pbrt")) return rt_scene_load_pbrt(spec, params, e);
     if (has_suffix(spec, ".obj") || has_suffix(spec, ".ply")) {
         if (params[0]) {
             rt_errf(e, "%s: unknown parameter '%s' (known for mesh files: material)", spec, params);
@@ -555,18 +560,19 @@ rt_scene *rt_scene_load(const char *spec, rt_err *e)
         rt_errf(e, "empty scene spec");
         return NULL;
     }
-    /* Split "base:params". A mesh file is a spec ending in .obj/.ply, or
-     * one whose last ':' follows such a suffix; a built-in's name ends at
+    /* Split "base:params". A scene file is a spec ending in .obj/.ply/.pbrt,
+     * or one whose last ':' follows such a suffix; a built-in's name ends at
      * the first ':'. */
     size_t n = strlen(spec), fn = n;
-    int file = has_suffix(spec, ".obj") || has_suffix(spec, ".ply");
+    int file = is_file(spec);
     if (!file)
         for (size_t i = n; i-- > 4;)
             if (spec[i] == ':') {
-                char suf[5];
-                memcpy(suf, spec + i - 4, 4);
-                suf[4] = 0;
-                if (has_suffix(suf, ".obj") || has_suffix(suf, ".ply")) {
+                char suf[6];
+                size_t k = i < 5 ? i : 5;
+                memcpy(suf, spec + i - k, k);
+                suf[k] = 0;
+                if (is_file(suf)) {
                     file = 1;
                     fn = i;
                 }

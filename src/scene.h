@@ -6,13 +6,15 @@
  * (diffuse colour; kept apart because it is read only when a hit is shaded),
  * a pinhole camera and exactly three point lights (the paper's experiments
  * use lights 0, 1, 2). Scenes come from deterministic built-in generators
- * (scene_builtin.c) or from OBJ/PLY files (scene_obj.c, scene_ply.c); the
+ * (scene_builtin.c) or from OBJ/PLY files (scene_obj.c, scene_ply.c) and
+ * pbrt-v4 scene files (scene_pbrt.c, a geometry-and-view subset); the
  * same spec always yields bit-identical triangles on any machine, which the
  * scene hash (rt_scene_hash) certifies in every trace and result row.
  *
  * Scene specs: a built-in name with optional parameters, e.g.
  *   "sphereflake", "sphereflake:level=2,tess=3", "grove:trees=4",
- * or a path ending in .obj or .ply. Any spec may end in material=PRESET
+ * or a path ending in .obj, .ply or .pbrt (a .pbrt file takes the
+ * parameters tess and maxtri, "scene.pbrt:tess=4"). Any spec may end in material=PRESET
  * ("knot:material=diffuse", "bun_zipper.ply:material=mirror"), which gives
  * every triangle that preset (rt_scene_set_material).
  */
@@ -64,6 +66,9 @@ typedef struct rt_material {
 typedef struct rt_camera {
     rt_vec3 eye, at, up; /* look-at frame */
     float fovy_deg;      /* vertical field of view, degrees */
+    int mirror;          /* 0: image x runs along dir x up (right-handed); 1: along
+                          * up x dir, pbrt's left-handed screen (pbrt files only;
+                          * hashed only when set) */
 } rt_camera;
 
 #define RT_NLIGHTS 3
@@ -82,7 +87,11 @@ typedef struct rt_scene {
     float ambient;          /* ambient term */
     rt_vec3 background;     /* colour of rays that leave the scene */
     rt_bounds bounds;       /* of all vertices */
-    char warning[256];      /* first load warning ("" if none; the library never prints it) */
+    char warning[512];      /* first load warning(s) ("" if none; the library never prints it) */
+    int film_w, film_h;     /* default image size from the file (pbrt Film), 0 = none */
+    uint32_t ninst;         /* object instances flattened into tri (pbrt ObjectInstance), 0 = none */
+    uint32_t ntri_unique;   /* with instances: triangles outside objects + each instanced object once */
+    uint32_t ntri_inst;     /* with instances: triangles that came from instances */
 } rt_scene;
 
 /* Built-in scene names, NULL-terminated. */
@@ -96,6 +105,18 @@ rt_scene *rt_scene_load(const char *spec, rt_err *e);
 rt_scene *rt_scene_builtin(const char *name, const char *params, rt_err *e);
 rt_scene *rt_scene_load_obj(const char *path, rt_err *e);
 rt_scene *rt_scene_load_ply(const char *path, rt_err *e);
+/* A pbrt-v4 scene file (subset: docs/scenes.md, "pbrt"). params: "" or
+ * "tess=N" (sphere tessellation, 1..64, default 3) and "maxtri=N" (refuse
+ * scenes above N triangles, default 2^26). */
+rt_scene *rt_scene_load_pbrt(const char *path, const char *params, rt_err *e);
+/* Appends the triangles of the PLY file held in buf (n bytes, buf[n] = 0;
+ * path names it in messages) to s, every vertex mapped by the row-major
+ * 4x4 matrix m (homogeneous, NULL = identity), with colour rgb (NULL =
+ * default grey) and material mat. Same parsing and checks as
+ * rt_scene_load_ply; s is not finished. Returns the triangles appended, or
+ * -1 (s may hold part of them). */
+long rt_scene_append_ply(rt_scene *s, const char *path, const char *buf, size_t n, const double m[16],
+                         const float rgb[3], uint32_t mat, rt_err *e);
 void rt_scene_free(rt_scene *s);
 
 /* Allocates an empty scene with room for ntri triangles (ntri may grow via

@@ -18,6 +18,9 @@
  * allocated, so a lying header cannot make us allocate gigabytes.
  * PLY carries no materials: every triangle gets the default grey and the
  * plain material (a spec's material=PRESET can change that).
+ * rt_scene_append_ply runs the same parser on a buffer and appends the
+ * triangles under a transform, with a colour and material (the pbrt
+ * loader's "plymesh").
  */
 #include "config.h"
 #include "scene.h"
@@ -507,24 +510,63 @@ fail:
     return NULL;
 }
 
+/* Parses the PLY in buf into vertices (*pverts, caller frees) and triangle
+ * corner indices (tris). 0 or -1. */
+static int ply_read(const char *path, const char *buf, size_t n, rt_vec3 **pverts, idxbuf *tris, rt_err *e)
+{
+    plyload L = {path, (const unsigned char *)buf, n, 0, 0, F_ASCII, e};
+    plyelem *el = rt_calloc(MAXELEM, sizeof *el, e);
+    rt_vec3 *verts = NULL;
+    plyneed N;
+    int nel = 0, rc = -1;
+    if (el && parse_header(&L, el, &nel) == 0 && locate(&L, el, nel, &N) == 0 && check_counts(&L, el, nel) == 0 &&
+        (verts = rt_calloc(N.nvert, sizeof *verts, e)) && read_data(&L, el, nel, &N, verts, tris) == 0)
+        rc = 0;
+    free(el);
+    if (rc < 0) free(verts);
+    else *pverts = verts;
+    return rc;
+}
+
 rt_scene *rt_scene_load_ply(const char *path, rt_err *e)
 {
     char *buf = NULL;
     size_t n = 0;
     if (rt_slurp(path, &buf, &n, e) < 0) return NULL;
-    plyload L = {path, (const unsigned char *)buf, n, 0, 0, F_ASCII, e};
-    plyelem *el = rt_calloc(MAXELEM, sizeof *el, e);
     rt_vec3 *verts = NULL;
     idxbuf tris = {NULL, 0, 0};
     rt_scene *s = NULL;
-    plyneed N;
-    int nel = 0;
-    if (el && parse_header(&L, el, &nel) == 0 && locate(&L, el, nel, &N) == 0 && check_counts(&L, el, nel) == 0 &&
-        (verts = rt_calloc(N.nvert, sizeof *verts, e)) && read_data(&L, el, nel, &N, verts, &tris) == 0)
-        s = build(path, verts, &tris, e);
+    if (ply_read(path, buf, n, &verts, &tris, e) == 0) s = build(path, verts, &tris, e);
     free(buf);
-    free(el);
     free(verts);
     free(tris.v);
     return s;
+}
+
+static rt_vec3 map_point(const double *m, rt_vec3 p)
+{
+    if (!m) return p;
+    double x = p.x, y = p.y, z = p.z, r[4];
+    for (int i = 0; i < 4; i++) r[i] = m[4 * i] * x + m[4 * i + 1] * y + m[4 * i + 2] * z + m[4 * i + 3];
+    if (r[3] != 1.0) r[0] /= r[3], r[1] /= r[3], r[2] /= r[3];
+    return rt_v3((float)r[0], (float)r[1], (float)r[2]);
+}
+
+long rt_scene_append_ply(rt_scene *s, const char *path, const char *buf, size_t n, const double m[16],
+                         const float rgb[3], uint32_t mat, rt_err *e)
+{
+    rt_vec3 *verts = NULL;
+    idxbuf tris = {NULL, 0, 0};
+    long rc = -1;
+    if (ply_read(path, buf, n, &verts, &tris, e) == 0) {
+        rc = (long)(tris.n / 3);
+        if (tris.n / 3 > UINT32_MAX / 2 - s->ntri) rc = rt_errf(e, "%s: too many triangles", path);
+        for (size_t t = 0; rc >= 0 && t < tris.n; t += 3)
+            if (rt_scene_add_tri_mat(s, map_point(m, verts[tris.v[t]]), map_point(m, verts[tris.v[t + 1]]),
+                                     map_point(m, verts[tris.v[t + 2]]), rgb, mat, e) < 0)
+                rc = -1;
+    }
+    free(verts);
+    free(tris.v);
+    return rc;
 }

@@ -21,6 +21,7 @@ void rt_cam_setup(rt_cam_frame *f, const rt_scene *sc, int W, int H)
     rt_vec3 dir = rt_norm(rt_sub(c->at, c->eye));
     rt_vec3 right = rt_norm(rt_cross(dir, c->up));
     rt_vec3 up = rt_cross(right, dir);
+    if (c->mirror) right = rt_mul(right, -1.0f); /* pbrt's left-handed screen */
     double half_h = rt_cam_tan_deg(0.5 * (double)c->fovy_deg);
     double half_w = half_h * (double)W / (double)H;
     f->eye = c->eye;

@@ -35,6 +35,24 @@ void rt_render_default_opts(rt_render_opts *o)
     o->unroll_suppress = 0;
 }
 
+void rt_render_apply_film(rt_render_opts *o, int film_w, int film_h)
+{
+    unsigned f = o->film;
+    o->film = 0;
+    if (film_w <= 0 || film_h <= 0 || !f) return;
+    if (f == (RT_FILM_W | RT_FILM_H)) {
+        o->W = film_w;
+        o->H = film_h;
+        return;
+    }
+    int64_t v = f == RT_FILM_W ? ((int64_t)o->H * film_w + film_h / 2) / film_h
+                               : ((int64_t)o->W * film_h + film_w / 2) / film_w;
+    if (v < 1) v = 1;
+    if (v > 65536) v = 65536;
+    if (f == RT_FILM_W) o->W = (int)v;
+    else o->H = (int)v;
+}
+
 static const char *const geom_names[] = {"compact", "mesh"};
 /* "non-temporal" was called "stream" before (still accepted: rt_render_
  * qstores_from_name; the run key keeps "queue_stores=stream" so databases

@@ -98,7 +98,18 @@ typedef struct rt_render_opts {
     int unroll_i;        /* stream-multipass: intersection tests per pass (>= 1, 1) */
     int unroll_suppress; /* stream-multipass: no texel reads for rays that finish mid-pass */
     uint32_t given;      /* front end: bit RT_RO_x set when that option was given (never in a run key) */
+    unsigned film;       /* RT_FILM_W | RT_FILM_H: that size may come from the scene's default
+                          * image size (a pbrt Film); front ends set the bits of -W/-H not given (0) */
 } rt_render_opts;
+
+#define RT_FILM_W 1u
+#define RT_FILM_H 2u
+
+/* Applies a scene's default image size film_w x film_h (0 = none) to the
+ * sizes o->film marks: both marked, the film's size; one marked, it
+ * follows the film's aspect ratio from the other (rounded, 1..65536).
+ * Clears o->film, so applying twice changes nothing. */
+void rt_render_apply_film(rt_render_opts *o, int film_w, int film_h);
 
 typedef enum rt_oracle {
     RT_ORACLE_THRESHOLD = 0, /* intersect once oracle_frac of the active rays need it */

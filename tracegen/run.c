@@ -65,13 +65,22 @@ static int setup_opts(rt_job *j, const char *tracer, const rt_render_opts *o, rt
     return 0;
 }
 
+/* A scene with a default image size (a pbrt Film) sets the sizes the
+ * options left to it; the options are checked again with the final size. */
+static int apply_film(rt_job *j, rt_err *e)
+{
+    rt_render_apply_film(&j->opt, j->sc->film_w, j->sc->film_h);
+    if (check_opts(&j->opt, e) < 0 || rt_pixel_check(&j->opt, e) < 0) return -1;
+    return 0;
+}
+
 int rt_job_setup_borrowed(rt_job *j, rt_scene *sc, rt_kdtree *kd, const char *tracer, const rt_render_opts *o,
                           rt_err *e)
 {
     if (setup_opts(j, tracer, o, e) < 0) return -1;
     j->sc = sc;
     j->borrowed = 1;
-    if (build_accel(j, kd, e) < 0 || layout(j, e) < 0) {
+    if (apply_film(j, e) < 0 || build_accel(j, kd, e) < 0 || layout(j, e) < 0) {
         rt_job_free(j);
         return -1;
     }
@@ -83,7 +92,7 @@ int rt_job_setup(rt_job *j, const char *scene_spec, const char *tracer, const rt
     if (setup_opts(j, tracer, o, e) < 0) return -1;
     j->sc = rt_scene_load(scene_spec, e);
     if (!j->sc) return -1;
-    if (build_accel(j, NULL, e) < 0 || layout(j, e) < 0) {
+    if (apply_film(j, e) < 0 || build_accel(j, NULL, e) < 0 || layout(j, e) < 0) {
         rt_job_free(j);
         return -1;
     }

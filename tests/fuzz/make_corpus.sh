@@ -15,7 +15,7 @@ c=$here/corpus
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 rm -rf "$c"
-mkdir -p "$c/trace" "$c/din" "$c/obj" "$c/ply" "$c/cli"
+mkdir -p "$c/trace" "$c/din" "$c/obj" "$c/ply" "$c/cli" "$c/pbrt"
 
 # Traces at 4x4: each tracer, with and without writes from shadow rays.
 "$bin" trace cornell -W 4 -H 4 -o "$tmp/cornell.rtt" >/dev/null 2>&1
@@ -88,6 +88,49 @@ open(f'{c}/ply/bad-short', 'wb').write(binply('binary_little_endian', '<')[:-7])
 open(f'{c}/ply/bad-count', 'wb').write(binply('binary_little_endian', '<').replace(b'vertex 4', b'vertex 9999999'))
 open(f'{c}/ply/bad-format', 'wb').write(b'ply\nformat binary_middle_endian 1.0\nend_header\n')
 EOF
+cp "$here/../../data/pbrt/cornell.pbrt" "$c/pbrt/ok-cornell.pbrt"
+cat > "$c/pbrt/ok-features" <<'PBRT'
+# every shape and most directives of the subset, without files
+Scale -1 1 1
+LookAt 0 -4 1  0 0 0.5  0 0 1
+Camera "perspective" "float fov" [ 50 ] "float screenwindow" [ -1 1 -0.75 0.75 ]
+Film "rgb" "integer xresolution" 64 "integer yresolution" 48
+Sampler "halton"
+WorldBegin
+CoordinateSystem "origin"
+LightSource "point" "point3 from" [ 1 -3 4 ] "rgb I" [ 10 10 10 ]
+LightSource "spot" "point3 from" [ -1 -3 4 ] "point3 to" [ 0 0 0 ]
+MakeNamedMaterial "glass" "string type" "dielectric" "float eta" 1.5
+AttributeBegin
+  Material "conductor" "rgb eta" [ 0.2 0.9 1.1 ] "rgb k" [ 3.9 2.4 2.2 ]
+  Translate 0 0 1
+  Shape "sphere" "float radius" 0.5
+AttributeEnd
+TransformBegin
+  Rotate 30 0 0 1
+  NamedMaterial "glass"
+  Shape "loopsubdiv" "integer levels" 2 "point3 P" [ 1 1 1 1 -1 -1 -1 1 -1 -1 -1 1 ]
+      "integer indices" [ 0 1 2 0 2 3 0 3 1 1 3 2 ]
+TransformEnd
+ObjectBegin "quad"
+  Material "coateddiffuse" "rgb reflectance" [ 0.2 0.4 0.6 ]
+  Shape "bilinearmesh" "point3 P" [ 0 0 0 1 0 0 0 1 0 1 1 0 ]
+ObjectEnd
+ConcatTransform [ 1 0 0 0 0 1 0 0 0 0 1 0 2 0 0 1 ]
+ObjectInstance "quad"
+CoordSysTransform "origin"
+AttributeBegin
+  AreaLightSource "diffuse" "blackbody L" 5500 "float scale" 2
+  Shape "trianglemesh" "point3 P" [ -5 -5 3 5 -5 3 5 5 3 -5 5 3 ] "integer indices" [ 0 2 1 0 3 2 ]
+AttributeEnd
+Shape "trianglemesh" "point3 P" [ -5 -5 0 5 -5 0 5 5 0 -5 5 0 ] "integer indices" [ 0 1 2 0 2 3 ]
+Shape "disk"
+PBRT
+printf 'WorldBegin\nAttributeEnd\n' > "$c/pbrt/bad-unbalanced"
+printf 'WorldBegin\nShape "trianglemesh" "point3 P" [ 0 0 0 1 0 0 0 1 0 ] "integer indices" [ 0 1 3 ]\n' > "$c/pbrt/bad-index"
+printf 'WorldBegin\nInclude "../../etc/passwd"\n' > "$c/pbrt/bad-escape"
+printf 'WorldBegin\nShape "loopsubdiv" "integer levels" 30 "point3 P" [ 0 0 0 1 0 0 0 1 0 ] "integer indices" [ 0 1 2 ]\n' > "$c/pbrt/bad-levels"
+printf 'Frobnicate\n' > "$c/pbrt/bad-directive"
 printf -- '-t\npacket\n-W\n4\n-H\n4\n--packet\n2\n--lights\n0,2' > "$c/cli/ok-packet"
 printf -- '--tracer=dynamic\n--cache-size\n64K\n--gmax=1M\n--threads\n8\n--qorder\ntree\n--line\n4K\n--rate\n1/64' > "$c/cli/ok-dynamic"
 printf -- '--subsample\n16:4\n--width=65536\n-H1\n--lights=all\n-h\n--\nscene.obj' > "$c/cli/ok-subsample"

@@ -1,0 +1,2377 @@
+/*
+ * scene_pbrt.c -- pbrt-v4 scene files, the geometry-and-view subset.
+ *
+ * A pbrt file is a stream of directives (`Shape "trianglemesh" "point3 P"
+ * [...]`), each a bare word followed by positional arguments and a
+ * parameter list of `"type name" value` pairs, where a value is one token
+ * or a bracketed list. The loader reads it in one pass:
+ *
+ *   lexer     one token at a time from the file on top of an include
+ *             stack (comments, quoted strings with escapes, numbers,
+ *             brackets, bare words), with line and column; a file's end
+ *             is a token of its own, so no directive spans two files and a
+ *             file's buffer is freed when it is popped;
+ *   state     the graphics state of pbrt (current transformation matrix,
+ *             material, area light) with its AttributeBegin/TransformBegin/
+ *             ObjectBegin stack, named materials, named coordinate
+ *             systems and object definitions (name tables: open hashing);
+ *   output    triangles go straight into the rt_scene with the colour and
+ *             material table entry of the state. An object's triangles are
+ *             appended like any others and cut out into the object store at
+ *             ObjectEnd; ObjectInstance appends them again under the
+ *             instance's matrix (instances are flattened, the counts kept).
+ *
+ * What is mapped and what is skipped is listed in docs/scenes.md ("pbrt
+ * scene files"). Invariants: (I1) every triangle in the scene was made
+ * under the state current when its Shape was read (world vertices =
+ * CTM x object vertices, instances: CTM_instance x CTM_definition x
+ * vertices); (I2) the state stack returns to empty at the end of the top
+ * file, and every *End pops a frame of its own kind; (I3) memory is bounded
+ * by the bytes read (every value held comes from at least two bytes of
+ * input, files are capped one by one and in total) and by `maxtri`
+ * (checked before any shape, subdivision or instance is generated); (I4)
+ * every file read is a regular file inside the top-level file's folder,
+ * and no file is read while it is already open on the include stack.
+ *
+ * Errors are one line "FILE:LINE:COL: what was expected"; directives of
+ * pbrt outside the subset are skipped with one warning per kind naming the
+ * first FILE:LINE, collected in s->warning (the library never prints).
+ * Arithmetic is in double with + - * / and sqrt only (angles through
+ * rt_dsincos_deg), so the triangles are the same on every machine.
+ */
+#include "config.h"
+#include "scene.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <limits.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#define MAX_FILE_BYTES ((uint64_t)1 << 30)  /* one scene or PLY file */
+#define MAX_TOTAL_BYTES ((uint64_t)1 << 32) /* all files one load reads */
+#define MAX_FILES 4096                      /* files one load opens */
+#define MAX_DEPTH 32                        /* include nesting */
+#define MAX_NEST 4096                       /* AttributeBegin nesting */
+#define DEFAULT_MAXTRI (1u << 26)
+#define MAX_WARN 32                         /* kinds of warnings kept */
+#define MAX_PARAMS 256                      /* parameters of one directive */
+
+typedef struct mat4 {
+    double m[4][4]; /* row-major, applied to column vectors */
+} mat4;
+
+/* ------------------------------------------------------------------------ */
+/* Lexer                                                                     */
+
+enum { TK_EOF, TK_WORD, TK_STRING, TK_NUMBER, TK_LBRACK, TK_RBRACK };
+
+typedef struct token {
+    int kind;          /* TK_* */
+    const char *p;     /* text (strings: between the quotes, escapes raw) */
+    size_t n;          /* its bytes */
+    double num;        /* TK_NUMBER: the value */
+    uint32_t line, col; /* 1-based position of the first byte */
+} token;
+
+typedef struct srcfile {
+    char *path;        /* as shown in messages */
+    char *rel;         /* its folder relative to the top folder ("" = the top) */
+    char *buf;         /* whole file, NUL-terminated */
+    size_t n, pos;     /* size, read position */
+    uint32_t line, col; /* position of buf[pos] */
+    dev_t dev;         /* identity, for include cycles */
+    ino_t ino;
+    int has_peek;      /* peek holds the next token */
+    token peek;
+} srcfile;
+
+typedef struct matdef {
+    char name[32];          /* named material's name, or the type */
+    float rgb[3];           /* diffuse colour of the triangles */
+    float ks[3], kt[3], ior; /* the table terms (ke comes from the area light) */
+    long tab;               /* its table index without emission, -1 = not looked up yet */
+} matdef;
+
+typedef struct gstate {
+    mat4 ctm;     /* current transformation matrix */
+    int mat;      /* index into P->mats */
+    int area;     /* 1: shapes emit ke */
+    float ke[3];  /* their emitted radiance */
+} gstate;
+
+typedef struct frame {
+    gstate g;      /* state to restore */
+    char kind;     /* 'a' AttributeBegin, 't' TransformBegin, 'o' ObjectBegin */
+    char at[200];  /* "FILE:LINE:COL" of the directive that opened it */
+} frame;
+
+typedef struct namemap {
+    char **key;    /* slot keys (NULL = empty) */
+    int *val;      /* slot values */
+    size_t n, cap; /* keys held, slots (a power of two, > 2 n) */
+} namemap;
+
+typedef struct object {
+    uint32_t start, count; /* range in the object store */
+    int used;              /* instanced at least once */
+} object;
+
+typedef struct arealight {
+    double c[3], nsum[3]; /* area-weighted centroid sum, sum of edge cross products */
+    double area2;         /* sum of |cross| (twice the area) */
+    char at[200];         /* "FILE:LINE" of its Shape */
+} arealight;
+
+typedef struct warnent {
+    char key[48];  /* kind ("Sampler", "Shape \"disk\"") */
+    char msg[200]; /* "FILE:LINE: what" */
+} warnent;
+
+typedef struct pbrt {
+    rt_scene *s;
+    rt_err *e;
+    int tess;           /* sphere tessellation */
+    uint32_t maxtri;    /* triangle limit */
+    char *topdir;       /* folder of the top-level file ("." if none) */
+    char *rtop;         /* its realpath */
+    srcfile *f[MAX_DEPTH];
+    int depth;          /* files on the include stack */
+    uint64_t total;     /* bytes read so far */
+    int nfiles;         /* files opened so far */
+    gstate g;           /* current graphics state */
+    frame *stack;       /* AttributeBegin/TransformBegin/ObjectBegin frames */
+    int nstack, cstack;
+    int world;          /* WorldBegin seen */
+    int have_camera;
+    mat4 cam_ctm;       /* CTM at Camera: camera-from-world */
+    double fov;         /* perspective fov (degrees), pbrt's shorter image axis */
+    double sw[4];       /* screenwindow when have_sw */
+    int have_sw;
+    double frame_aspect; /* frameaspectratio, 0 = from the film */
+    int film_w, film_h; /* Film resolution (0 = no Film) */
+    matdef *mats;       /* material definitions; 0 is pbrt's default diffuse 0.5 */
+    int nmats, cmats;
+    namemap named_mat, named_cs, named_obj;
+    mat4 *cs;           /* named coordinate systems */
+    int ncs, ccs;
+    object *objs;       /* object definitions */
+    int nobjs, cobjs;
+    rt_tri *otri;       /* object store: triangles and their shading */
+    rt_shade *oshade;
+    uint32_t on, ocap;
+    int in_obj;         /* index of the object being defined, -1 if none */
+    uint32_t obj_start; /* its first triangle in the scene */
+    uint32_t nonobj;    /* triangles made outside objects and instances */
+    rt_vec3 plight[RT_NLIGHTS]; /* point and spot lights */
+    int nplight;        /* of them kept (<= RT_NLIGHTS) */
+    int nlights_all;    /* lights seen, area lights included */
+    arealight *al;      /* area-light shapes outside objects */
+    int nal, cal;
+    const float *cur_rgb; /* colour and table index of the shape being made */
+    uint32_t cur_mat;
+    warnent warn[MAX_WARN];
+    int nwarn;          /* kinds kept */
+    int nwarn_more;     /* kinds beyond MAX_WARN */
+} pbrt;
+
+static srcfile *cur(pbrt *P) { return P->f[P->depth - 1]; }
+
+static int perr(pbrt *P, const token *t, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+
+/* "FILE:LINE:COL: message" at token t of the current file. */
+static int perr(pbrt *P, const token *t, const char *fmt, ...)
+{
+    char m[RT_ERR_LEN];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(m, sizeof m, fmt, ap);
+    va_end(ap);
+    return rt_errf(P->e, "%s:%u:%u: %s", cur(P)->path, (unsigned)t->line, (unsigned)t->col, m);
+}
+
+static void pwarn(pbrt *P, const token *t, const char *key, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 4, 5)))
+#endif
+    ;
+
+/* Records a warning "FILE:LINE: message" once per key. */
+static void pwarn(pbrt *P, const token *t, const char *key, const char *fmt, ...)
+{
+    for (int i = 0; i < P->nwarn; i++)
+        if (!strcmp(P->warn[i].key, key)) return;
+    if (P->nwarn == MAX_WARN) {
+        P->nwarn_more++;
+        return;
+    }
+    warnent *w = &P->warn[P->nwarn++];
+    snprintf(w->key, sizeof w->key, "%s", key);
+    char m[160];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(m, sizeof m, fmt, ap);
+    va_end(ap);
+    snprintf(w->msg, sizeof w->msg, "%s:%u: %s", cur(P)->path, (unsigned)t->line, m);
+}
+
+/* A token quoted for a message (escaped, truncated). */
+static const char *tq(char *buf, size_t n, const token *t)
+{
+    if (t->kind == TK_EOF) return snprintf(buf, n, "the end of the file"), buf;
+    char q[64];
+    rt_esc(q, sizeof q, t->p, t->n < 40 ? t->n : 40);
+    snprintf(buf, n, t->kind == TK_STRING ? "\"%s\"" : "'%s'", q);
+    return buf;
+}
+
+static int is_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v'; }
+
+static int lex(pbrt *P, token *t)
+{
+    srcfile *F = cur(P);
+    if (F->has_peek) {
+        *t = F->peek;
+        F->has_peek = 0;
+        return 0;
+    }
+    for (;;) {
+        if (F->pos >= F->n) {
+            t->kind = TK_EOF;
+            t->p = "";
+            t->n = 0;
+            t->line = F->line;
+            t->col = F->col;
+            return 0;
+        }
+        char c = F->buf[F->pos];
+        if (c == '\n') {
+            F->pos++;
+            F->line++;
+            F->col = 1;
+        } else if (is_blank(c)) {
+            F->pos++;
+            F->col++;
+        } else if (c == '#') {
+            while (F->pos < F->n && F->buf[F->pos] != '\n' && F->buf[F->pos]) F->pos++;
+        } else
+            break;
+    }
+    const char *b = F->buf + F->pos;
+    size_t left = F->n - F->pos;
+    t->line = F->line;
+    t->col = F->col;
+    t->p = b;
+    t->num = 0;
+    if (*b == 0) {
+        t->n = 1;
+        return perr(P, t, "NUL byte in the text");
+    }
+    if (*b == '[' || *b == ']') {
+        t->kind = *b == '[' ? TK_LBRACK : TK_RBRACK;
+        t->n = 1;
+        F->pos++;
+        F->col++;
+        return 0;
+    }
+    if (*b == '"') {
+        size_t i = 1;
+        while (i < left && b[i] != '"') {
+            if (b[i] == '\n' || b[i] == 0) break;
+            if (b[i] == '\\' && i + 1 < left && b[i + 1] != '\n' && b[i + 1] != 0) i++;
+            i++;
+        }
+        if (i >= left || b[i] != '"') {
+            t->n = 1;
+            return perr(P, t, "string without its closing '\"' on the same line");
+        }
+        t->kind = TK_STRING;
+        t->p = b + 1;
+        t->n = i - 1;
+        F->pos += i + 1;
+        F->col += (uint32_t)(i + 1);
+        return 0;
+    }
+    size_t i = 0;
+    while (i < left && b[i] && b[i] != '\n' && !is_blank(b[i]) && b[i] != '"' && b[i] != '[' && b[i] != ']' &&
+           b[i] != '#')
+        i++;
+    t->n = i;
+    F->pos += i;
+    F->col += (uint32_t)i;
+    char c = *b;
+    if ((c >= '0' && c <= '9') || c == '-' || c == '+' || c == '.') {
+        char tmp[64], q[80], *end;
+        if (i >= sizeof tmp) return perr(P, t, "bad number %s", tq(q, sizeof q, t));
+        memcpy(tmp, b, i);
+        tmp[i] = 0;
+        double v = strtod(tmp, &end);
+        if (end != tmp + i) return perr(P, t, "bad number %s", tq(q, sizeof q, t));
+        if (!isfinite(v) || fabs(v) > 1e30) return perr(P, t, "number %s out of range (|x| <= 1e30)", tq(q, sizeof q, t));
+        t->kind = TK_NUMBER;
+        t->num = v;
+    } else {
+        t->kind = TK_WORD;
+    }
+    return 0;
+}
+
+static int peek(pbrt *P, const token **t)
+{
+    srcfile *F = cur(P);
+    if (!F->has_peek) {
+        if (lex(P, &F->peek) < 0) return -1;
+        F->has_peek = 1;
+    }
+    *t = &F->peek;
+    return 0;
+}
+
+static int word_is(const token *t, const char *w) { return t->kind == TK_WORD && strlen(w) == t->n && !memcmp(t->p, w, t->n); }
+
+/* The string token decoded (escapes \b \f \n \r \t, others: the character
+ * itself) into buf. 0, or -1 if longer than cap - 1 bytes. */
+static int tok_str(pbrt *P, const token *t, char *buf, size_t cap)
+{
+    size_t k = 0;
+    for (size_t i = 0; i < t->n; i++) {
+        char c = t->p[i];
+        if (c == '\\' && i + 1 < t->n) {
+            c = t->p[++i];
+            c = c == 'b' ? '\b' : c == 'f' ? '\f' : c == 'n' ? '\n' : c == 'r' ? '\r' : c == 't' ? '\t' : c;
+        }
+        if (k + 1 >= cap) return perr(P, t, "string longer than %zu bytes", cap - 1);
+        buf[k++] = c;
+    }
+    buf[k] = 0;
+    return 0;
+}
+
+/* ------------------------------------------------------------------------ */
+/* Name tables                                                               */
+
+static uint64_t str_hash(const char *s) { return rt_fnv1a(RT_FNV_INIT, s, strlen(s)); }
+
+static int nm_find(const namemap *m, const char *k)
+{
+    if (!m->cap) return -1;
+    for (size_t h = str_hash(k) & (m->cap - 1);; h = (h + 1) & (m->cap - 1)) {
+        if (!m->key[h]) return -1;
+        if (!strcmp(m->key[h], k)) return m->val[h];
+    }
+}
+
+/* Adds k -> v (k not present). 0 or -1. */
+static int nm_put(namemap *m, const char *k, int v, rt_err *e)
+{
+    if (2 * (m->n + 1) >= m->cap) {
+        size_t nc = m->cap ? 2 * m->cap : 64;
+        char **nk = rt_calloc(nc, sizeof *nk, e);
+        int *nv = rt_calloc(nc, sizeof *nv, e);
+        if (!nk || !nv) {
+            free(nk);
+            free(nv);
+            return -1;
+        }
+        for (size_t i = 0; i < m->cap; i++)
+            if (m->key[i]) {
+                size_t h = str_hash(m->key[i]) & (nc - 1);
+                while (nk[h]) h = (h + 1) & (nc - 1);
+                nk[h] = m->key[i];
+                nv[h] = m->val[i];
+            }
+        free(m->key);
+        free(m->val);
+        m->key = nk;
+        m->val = nv;
+        m->cap = nc;
+    }
+    size_t len = strlen(k);
+    char *c = rt_calloc(len + 1, 1, e);
+    if (!c) return -1;
+    memcpy(c, k, len);
+    size_t h = str_hash(k) & (m->cap - 1);
+    while (m->key[h]) h = (h + 1) & (m->cap - 1);
+    m->key[h] = c;
+    m->val[h] = v;
+    m->n++;
+    return 0;
+}
+
+static void nm_free(namemap *m)
+{
+    for (size_t i = 0; i < m->cap; i++) free(m->key[i]);
+    free(m->key);
+    free(m->val);
+}
+
+/* ------------------------------------------------------------------------ */
+/* Matrices                                                                  */
+
+static mat4 m_ident(void)
+{
+    mat4 r;
+    memset(&r, 0, sizeof r);
+    for (int i = 0; i < 4; i++) r.m[i][i] = 1;
+    return r;
+}
+
+static mat4 m_mul(const mat4 *a, const mat4 *b)
+{
+    mat4 r;
+    for (int i = 0; i < 4; i++)
+        for (int j = 0; j < 4; j++) {
+            double s = 0;
+            for (int k = 0; k < 4; k++) s += a->m[i][k] * b->m[k][j];
+            r.m[i][j] = s;
+        }
+    return r;
+}
+
+/* Inverse by Gauss-Jordan elimination with partial pivoting; -1 when
+ * singular. */
+static int m_inverse(const mat4 *a, mat4 *out)
+{
+    double w[4][8];
+    for (int i = 0; i < 4; i++)
+        for (int j = 0; j < 8; j++) w[i][j] = j < 4 ? a->m[i][j] : (j - 4 == i);
+    for (int c = 0; c < 4; c++) {
+        int p = c;
+        for (int r = c + 1; r < 4; r++)
+            if (fabs(w[r][c]) > fabs(w[p][c])) p = r;
+        if (!(fabs(w[p][c]) > 1e-300)) return -1;
+        for (int j = 0; j < 8; j++) {
+            double t = w[c][j];
+            w[c][j] = w[p][j];
+            w[p][j] = t;
+        }
+        double d = w[c][c];
+        for (int j = 0; j < 8; j++) w[c][j] /= d;
+        for (int r = 0; r < 4; r++)
+            if (r != c && w[r][c] != 0) {
+                double f = w[r][c];
+                for (int j = 0; j < 8; j++) w[r][j] -= f * w[c][j];
+            }
+    }
+    for (int i = 0; i < 4; i++)
+        for (int j = 0; j < 4; j++) {
+            out->m[i][j] = w[i][j + 4];
+            if (!isfinite(out->m[i][j])) return -1;
+        }
+    return 0;
+}
+
+static void m_apply(const mat4 *m, const double p[3], double out[3])
+{
+    double r[4];
+    for (int i = 0; i < 4; i++) r[i] = m->m[i][0] * p[0] + m->m[i][1] * p[1] + m->m[i][2] * p[2] + m->m[i][3];
+    if (r[3] != 1.0) r[0] /= r[3], r[1] /= r[3], r[2] /= r[3];
+    out[0] = r[0], out[1] = r[1], out[2] = r[2];
+}
+
+static rt_vec3 m_point(const mat4 *m, double x, double y, double z)
+{
+    double p[3] = {x, y, z}, q[3];
+    m_apply(m, p, q);
+    return rt_v3((float)q[0], (float)q[1], (float)q[2]);
+}
+
+static double det3(const mat4 *m)
+{
+    const double(*a)[4] = m->m;
+    return a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
+           a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
+}
+
+/* ------------------------------------------------------------------------ */
+/* Files                                                                     */
+
+/* Joins `dir` (relative to the top folder, "" = the top) and a relative
+ * `path` into the normalised relative path out ("." and ".." resolved);
+ * -1 when path is absolute or empty, or leaves the top folder. A static
+ * equivalent of the shared rt_path_within (src/rt.c), kept here until the
+ * two are unified. */
+static int rel_join(const char *dir, const char *path, char *out, size_t cap)
+{
+    if (!path[0] || path[0] == '/') return -1;
+    size_t dl = strlen(dir), pl = strlen(path);
+    char *tmp = malloc(dl + pl + 2);
+    if (!tmp) return -1;
+    snprintf(tmp, dl + pl + 2, "%s%s%s", dir, dl ? "/" : "", path);
+    size_t k = 0;
+    int rc = 0;
+    out[0] = 0;
+    for (char *p = tmp; *p && rc == 0;) {
+        char *s = strchr(p, '/');
+        size_t n = s ? (size_t)(s - p) : strlen(p);
+        if (n == 0 || (n == 1 && p[0] == '.')) {
+            /* nothing */
+        } else if (n == 2 && p[0] == '.' && p[1] == '.') {
+            if (k == 0) rc = -1;
+            else {
+                while (k > 0 && out[k - 1] != '/') k--;
+                if (k > 0) k--;
+                out[k] = 0;
+            }
+        } else {
+            if (k + n + 2 > cap) rc = -1;
+            else {
+                if (k) out[k++] = '/';
+                memcpy(out + k, p, n);
+                k += n;
+                out[k] = 0;
+            }
+        }
+        p = s ? s + 1 : p + n;
+    }
+    free(tmp);
+    if (rc == 0 && k == 0) rc = -1;
+    return rc;
+}
+
+/* Opens a regular file without blocking (a FIFO or device is refused
+ * before any read). 0 with *fd and *st, or -1 with "reason" in why. A
+ * static equivalent of the shared rt_open_regular (src/rt.c), kept here
+ * until the two are unified. */
+static int open_regular(const char *path, int *fd, struct stat *st, char *why, size_t nwhy)
+{
+    int f = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    if (f < 0) return snprintf(why, nwhy, "%s", strerror(errno)), -1;
+    if (fstat(f, st) < 0 || !S_ISREG(st->st_mode)) {
+        snprintf(why, nwhy, "%s", S_ISDIR(st->st_mode) ? "a folder, not a file" : "not a regular file");
+        close(f);
+        return -1;
+    }
+    *fd = f;
+    return 0;
+}
+
+/* Reads the open regular file (at most MAX_FILE_BYTES, and within the
+ * load's total) into a NUL-terminated buffer. Closes fd. 0 or -1 (why). */
+static int read_fd(pbrt *P, int fd, const struct stat *st, char **pbuf, size_t *pn, char *why, size_t nwhy)
+{
+    uint64_t size = (uint64_t)st->st_size;
+    if (size > MAX_FILE_BYTES) {
+        close(fd);
+        return snprintf(why, nwhy, "larger than %llu bytes", (unsigned long long)MAX_FILE_BYTES), -1;
+    }
+    if (P->total + size > MAX_TOTAL_BYTES || P->nfiles >= MAX_FILES) {
+        close(fd);
+        return snprintf(why, nwhy, "the files read exceed %llu bytes or %d files in all",
+                        (unsigned long long)MAX_TOTAL_BYTES, MAX_FILES), -1;
+    }
+    rt_err e2;
+    char *buf = rt_calloc((size_t)size + 1, 1, &e2);
+    if (!buf) {
+        close(fd);
+        return snprintf(why, nwhy, "%.150s", e2.msg), -1;
+    }
+    size_t n = 0;
+    while (n < size) {
+        ssize_t r = read(fd, buf + n, (size_t)size - n);
+        if (r < 0 && errno == EINTR) continue;
+        if (r < 0) {
+            snprintf(why, nwhy, "%s", strerror(errno));
+            free(buf);
+            close(fd);
+            return -1;
+        }
+        if (r == 0) break;
+        n += (size_t)r;
+    }
+    close(fd);
+    buf[n] = 0;
+    P->total += n;
+    P->nfiles++;
+    *pbuf = buf;
+    *pn = n;
+    return 0;
+}
+
+static void file_free(srcfile *F)
+{
+    if (!F) return;
+    free(F->path);
+    free(F->rel);
+    free(F->buf);
+    free(F);
+}
+
+/* A path of the top folder: "TOP/rel" (or rel when TOP is "."), malloc'd. */
+static char *top_path(pbrt *P, const char *rel)
+{
+    size_t n = strlen(P->topdir) + strlen(rel) + 2;
+    char *p = rt_calloc(n, 1, P->e);
+    if (p) {
+        if (!strcmp(P->topdir, ".")) snprintf(p, n, "%s", rel);
+        else snprintf(p, n, "%s/%s", P->topdir, rel);
+    }
+    return p;
+}
+
+/* Resolves a file named in a directive (token t, decoded name) against the
+ * current file's folder: *prel the normalised path relative to the top
+ * folder, *pfull the path to open (both malloc'd). Checks that it stays in
+ * the top folder, also through symbolic links. 0 or -1. */
+static int resolve(pbrt *P, const token *t, const char *what, const char *name, char **prel, char **pfull)
+{
+    char q[300];
+    rt_esc(q, sizeof q, name, 256);
+    size_t cap = strlen(cur(P)->rel) + strlen(name) + 2;
+    char *rel = rt_calloc(cap, 1, P->e);
+    if (!rel) return -1;
+    if (name[0] == '/') {
+        free(rel);
+        return perr(P, t, "%s \"%s\": absolute paths are not allowed (name it relative to %s)", what, q,
+                    cur(P)->path);
+    }
+    if (rel_join(cur(P)->rel, name, rel, cap) < 0) {
+        free(rel);
+        return perr(P, t, "%s \"%s\": the path leaves the scene's folder %s", what, q, P->topdir);
+    }
+    char *full = top_path(P, rel);
+    if (!full) {
+        free(rel);
+        return -1;
+    }
+    char *real = realpath(full, NULL);
+    if (!real) {
+        int err = errno;
+        free(rel);
+        free(full);
+        return perr(P, t, "%s \"%s\": %s", what, q, err == ENOENT ? "no such file" : strerror(err));
+    }
+    size_t tl = strlen(P->rtop);
+    int inside = !strncmp(real, P->rtop, tl) && (real[tl] == '/' || (tl == 1 && P->rtop[0] == '/'));
+    free(real);
+    if (!inside) {
+        free(rel);
+        free(full);
+        return perr(P, t, "%s \"%s\": the file lies outside the scene's folder %s (through a link)", what, q,
+                    P->topdir);
+    }
+    *prel = rel;
+    *pfull = full;
+    return 0;
+}
+
+/* Pushes a file; rel = its path relative to the top folder (taken over). */
+static int push_file(pbrt *P, char *shown, char *rel, char *buf, size_t n, const struct stat *st)
+{
+    srcfile *F = rt_calloc(1, sizeof *F, P->e);
+    if (!F) {
+        free(shown);
+        free(rel);
+        free(buf);
+        return -1;
+    }
+    F->path = shown;
+    /* the folder of rel */
+    char *slash = strrchr(rel, '/');
+    if (slash) *slash = 0;
+    else rel[0] = 0;
+    F->rel = rel;
+    F->buf = buf;
+    F->n = n;
+    F->line = F->col = 1;
+    F->dev = st->st_dev;
+    F->ino = st->st_ino;
+    P->f[P->depth++] = F;
+    return 0;
+}
+
+/* Include/Import "name": textual inclusion. */
+static int do_include(pbrt *P, const token *d)
+{
+    const token *t;
+    char name[4096], q[300], why[200];
+    if (peek(P, &t) < 0) return -1;
+    if (t->kind != TK_STRING) return perr(P, t, "%.*s: expected a file name in quotes", (int)d->n, d->p);
+    token nt = *t;
+    lex(P, &nt);
+    if (tok_str(P, &nt, name, sizeof name) < 0) return -1;
+    char what[16];
+    snprintf(what, sizeof what, "%.*s", (int)d->n, d->p);
+    rt_esc(q, sizeof q, name, 256);
+    if (P->depth >= MAX_DEPTH) return perr(P, &nt, "%s \"%s\": more than %d nested files", what, q, MAX_DEPTH);
+    char *rel, *full;
+    if (resolve(P, &nt, what, name, &rel, &full) < 0) return -1;
+    int fd;
+    struct stat st;
+    char *buf = NULL;
+    size_t n = 0;
+    if (open_regular(full, &fd, &st, why, sizeof why) < 0) {
+        free(rel);
+        free(full);
+        return perr(P, &nt, "%s \"%s\": %s", what, q, why);
+    }
+    for (int i = 0; i < P->depth; i++)
+        if (P->f[i]->dev == st.st_dev && P->f[i]->ino == st.st_ino) {
+            close(fd);
+            free(rel);
+            free(full);
+            if (i == P->depth - 1)
+                return perr(P, &nt, "%s \"%s\": a file cannot %s itself", what, q,
+                            what[1] == 'm' ? "import" : "include");
+            char q2[300];
+            rt_esc(q2, sizeof q2, P->f[i]->path, 256);
+            return perr(P, &nt, "%s \"%s\": include cycle (%s is already being read)", what, q, q2);
+        }
+    if (read_fd(P, fd, &st, &buf, &n, why, sizeof why) < 0) {
+        free(rel);
+        free(full);
+        return perr(P, &nt, "%s \"%s\": %s", what, q, why);
+    }
+    return push_file(P, full, rel, buf, n, &st);
+}
+
+/* ------------------------------------------------------------------------ */
+/* Parameter lists                                                           */
+
+enum { PT_FLOAT, PT_INT, PT_BOOL, PT_STRING, PT_TEXTURE, PT_POINT2, PT_VECTOR2, PT_POINT3, PT_VECTOR3, PT_NORMAL3,
+       PT_RGB, PT_SPECTRUM, PT_BLACKBODY };
+
+static const struct {
+    const char *name;
+    int type;
+} ptypes[] = {
+    {"float", PT_FLOAT},     {"integer", PT_INT},     {"bool", PT_BOOL},       {"string", PT_STRING},
+    {"texture", PT_TEXTURE}, {"point2", PT_POINT2},   {"vector2", PT_VECTOR2}, {"point3", PT_POINT3},
+    {"point", PT_POINT3},    {"vector3", PT_VECTOR3}, {"vector", PT_VECTOR3},  {"normal3", PT_NORMAL3},
+    {"normal", PT_NORMAL3},  {"rgb", PT_RGB},         {"color", PT_RGB},       {"spectrum", PT_SPECTRUM},
+    {"blackbody", PT_BLACKBODY},
+};
+
+typedef struct param {
+    token at;        /* the "type name" string */
+    int type;        /* PT_* */
+    char tname[16];  /* type as written */
+    char name[64];   /* parameter name */
+    double *v;       /* numbers (bools as 0/1) */
+    size_t nv, cv;
+    token *s;        /* strings */
+    size_t ns, cs;
+} param;
+
+typedef struct plist {
+    param *p;
+    size_t n, cap;
+} plist;
+
+static void plist_free(plist *L)
+{
+    for (size_t i = 0; i < L->n; i++) {
+        free(L->p[i].v);
+        free(L->p[i].s);
+    }
+    free(L->p);
+    memset(L, 0, sizeof *L);
+}
+
+static int pv_push(pbrt *P, param *q, double v)
+{
+    if (q->nv == q->cv) {
+        size_t nc = q->cv ? 2 * q->cv : 16;
+        double *nv = rt_reallocarray(q->v, nc, sizeof *nv, P->e);
+        if (!nv) return -1;
+        q->v = nv;
+        q->cv = nc;
+    }
+    q->v[q->nv++] = v;
+    return 0;
+}
+
+static int ps_push(pbrt *P, param *q, const token *t)
+{
+    if (q->ns == q->cs) {
+        size_t nc = q->cs ? 2 * q->cs : 4;
+        token *ns = rt_reallocarray(q->s, nc, sizeof *ns, P->e);
+        if (!ns) return -1;
+        q->s = ns;
+        q->cs = nc;
+    }
+    q->s[q->ns++] = *t;
+    return 0;
+}
+
+/* One value of parameter q. */
+static int param_value(pbrt *P, param *q, const token *t)
+{
+    char b[80];
+    int numeric = q->type != PT_BOOL && q->type != PT_STRING && q->type != PT_TEXTURE;
+    if (t->kind == TK_NUMBER) {
+        if (!numeric) return perr(P, t, "parameter \"%s %s\": expected a %s, got the number %s", q->tname, q->name,
+                                  q->type == PT_BOOL ? "bool (true or false)" : "string in quotes", tq(b, sizeof b, t));
+        if (q->type == PT_INT && (t->num != floor(t->num) || fabs(t->num) > 2147483647.0))
+            return perr(P, t, "parameter \"%s %s\": %s is not an integer", q->tname, q->name, tq(b, sizeof b, t));
+        if (q->ns) return perr(P, t, "parameter \"%s %s\": numbers mixed with strings", q->tname, q->name);
+        return pv_push(P, q, t->num);
+    }
+    if (q->type == PT_BOOL && (t->kind == TK_WORD || t->kind == TK_STRING)) {
+        int tr = t->n == 4 && !memcmp(t->p, "true", 4), fa = t->n == 5 && !memcmp(t->p, "false", 5);
+        if (!tr && !fa) return perr(P, t, "parameter \"bool %s\": expected true or false, got %s", q->name,
+                                    tq(b, sizeof b, t));
+        return pv_push(P, q, tr);
+    }
+    if (t->kind == TK_STRING && (q->type == PT_STRING || q->type == PT_TEXTURE || q->type == PT_SPECTRUM)) {
+        if (q->nv) return perr(P, t, "parameter \"%s %s\": strings mixed with numbers", q->tname, q->name);
+        return ps_push(P, q, t);
+    }
+    return perr(P, t, "parameter \"%s %s\": expected %s, got %s", q->tname, q->name,
+                numeric ? "a number" : "a string in quotes", tq(b, sizeof b, t));
+}
+
+/* Reads `"type name" value` pairs while the next token is a string. */
+static int parse_params(pbrt *P, plist *L)
+{
+    for (;;) {
+        const token *pt;
+        if (peek(P, &pt) < 0) return -1;
+        if (pt->kind != TK_STRING) return 0;
+        token t;
+        lex(P, &t);
+        char decl[128], ty[32], nm[80], b[80];
+        if (tok_str(P, &t, decl, sizeof decl) < 0) return -1;
+        int k = 0;
+        char extra[8];
+        if (sscanf(decl, "%31s %79s %7s", ty, nm, extra) != 2 || strlen(ty) >= 16 || strlen(nm) >= 64)
+            return perr(P, &t, "expected a parameter \"type name\", got %s", tq(b, sizeof b, &t));
+        for (k = 0; k < (int)(sizeof ptypes / sizeof ptypes[0]); k++)
+            if (!strcmp(ptypes[k].name, ty)) break;
+        if (k == (int)(sizeof ptypes / sizeof ptypes[0]))
+            return perr(P, &t, "unknown parameter type '%s' (float, integer, bool, string, texture, point2, vector2, "
+                               "point3, vector3, normal3, rgb, spectrum, blackbody)", ty);
+        if (L->n == MAX_PARAMS) return perr(P, &t, "more than %d parameters", MAX_PARAMS);
+        for (size_t i = 0; i < L->n; i++)
+            if (!strcmp(L->p[i].name, nm)) return perr(P, &t, "parameter \"%s\" given twice", nm);
+        if (L->n == L->cap) {
+            size_t nc = L->cap ? 2 * L->cap : 8;
+            param *np = rt_reallocarray(L->p, nc, sizeof *np, P->e);
+            if (!np) return -1;
+            L->p = np;
+            L->cap = nc;
+        }
+        param *q = &L->p[L->n++];
+        memset(q, 0, sizeof *q);
+        q->at = t;
+        q->type = ptypes[k].type;
+        snprintf(q->tname, sizeof q->tname, "%s", ty);
+        snprintf(q->name, sizeof q->name, "%s", nm);
+        token v;
+        if (lex(P, &v) < 0) return -1;
+        if (v.kind == TK_LBRACK) {
+            for (;;) {
+                if (lex(P, &v) < 0) return -1;
+                if (v.kind == TK_RBRACK) break;
+                if (v.kind == TK_EOF || v.kind == TK_LBRACK)
+                    return perr(P, &v, "parameter \"%s %s\": expected a value or ']', got %s", q->tname, q->name,
+                                tq(b, sizeof b, &v));
+                if (param_value(P, q, &v) < 0) return -1;
+            }
+        } else if (v.kind == TK_NUMBER || v.kind == TK_STRING || v.kind == TK_WORD) {
+            if (v.kind == TK_WORD && q->type != PT_BOOL)
+                return perr(P, &v, "parameter \"%s %s\": expected a value, got %s", q->tname, q->name,
+                            tq(b, sizeof b, &v));
+            if (param_value(P, q, &v) < 0) return -1;
+        } else {
+            return perr(P, &v, "parameter \"%s %s\": expected a value, got %s", q->tname, q->name, tq(b, sizeof b, &v));
+        }
+    }
+}
+
+static param *pfind(plist *L, const char *name)
+{
+    for (size_t i = 0; i < L->n; i++)
+        if (!strcmp(L->p[i].name, name)) return &L->p[i];
+    return NULL;
+}
+
+/* Numbers of parameter `name` whose type is in `types` (PT_ bits), a
+ * multiple of `mult` of them, at least `minn`. NULL with *n = 0 when
+ * absent; -1 (message) on a mismatch. */
+static int pnums(pbrt *P, plist *L, const char *name, unsigned types, const char *tnames, size_t mult, size_t minn,
+                 const double **v, size_t *n)
+{
+    param *q = pfind(L, name);
+    *v = NULL;
+    *n = 0;
+    if (!q) return 0;
+    if (!(types & (1u << q->type)))
+        return perr(P, &q->at, "parameter \"%s %s\": \"%s\" must be %s", q->tname, q->name, name, tnames);
+    if (q->ns) return perr(P, &q->at, "parameter \"%s %s\": expected numbers, got strings", q->tname, q->name);
+    if (q->nv % mult || q->nv < minn) {
+        if (mult == 1 && minn == 1)
+            return perr(P, &q->at, "parameter \"%s %s\": expected a value, got none", q->tname, q->name);
+        return perr(P, &q->at, "parameter \"%s %s\": %zu values, expected %s%zu", q->tname, q->name, q->nv,
+                    mult > 1 ? "a multiple of " : "at least ", mult > 1 ? mult : minn);
+    }
+    *v = q->v;
+    *n = q->nv;
+    return 1;
+}
+
+#define B(t) (1u << (t))
+
+/* One float (float or integer type); def when absent. */
+static int pfloat(pbrt *P, plist *L, const char *name, double def, double *out)
+{
+    const double *v;
+    size_t n;
+    int r = pnums(P, L, name, B(PT_FLOAT) | B(PT_INT), "float", 1, 1, &v, &n);
+    if (r < 0) return -1;
+    if (r && n != 1) return perr(P, &pfind(L, name)->at, "parameter \"%s\": %zu values, expected 1", name, n);
+    *out = r ? v[0] : def;
+    return 0;
+}
+
+static int pint(pbrt *P, plist *L, const char *name, long def, long *out)
+{
+    const double *v;
+    size_t n;
+    int r = pnums(P, L, name, B(PT_INT), "integer", 1, 1, &v, &n);
+    if (r < 0) return -1;
+    if (r && n != 1) return perr(P, &pfind(L, name)->at, "parameter \"%s\": %zu values, expected 1", name, n);
+    *out = r ? (long)v[0] : def;
+    return 0;
+}
+
+/* One string into buf; "" when absent. */
+static int pstring(pbrt *P, plist *L, const char *name, char *buf, size_t cap)
+{
+    param *q = pfind(L, name);
+    buf[0] = 0;
+    if (!q) return 0;
+    if (q->type != PT_STRING)
+        return perr(P, &q->at, "parameter \"%s %s\": \"%s\" must be string", q->tname, q->name, name);
+    if (q->ns != 1) return perr(P, &q->at, "parameter \"%s %s\": %zu strings, expected 1", q->tname, q->name, q->ns);
+    return tok_str(P, &q->s[0], buf, cap);
+}
+
+/* A colour: rgb (3 values), float (grey), spectrum (numbers: wavelength,
+ * value pairs -> the mean value as grey; a named spectrum -> def), blackbody
+ * (-> white) or a texture (-> def). *approx is set when the value was not
+ * taken as given. */
+static int pcolour(pbrt *P, plist *L, const char *name, const float def[3], float out[3], int *approx)
+{
+    param *q = pfind(L, name);
+    for (int k = 0; k < 3; k++) out[k] = def[k];
+    if (!q) return 0;
+    switch (q->type) {
+    case PT_RGB:
+        if (q->nv != 3) return perr(P, &q->at, "parameter \"rgb %s\": %zu values, expected 3", name, q->nv);
+        for (int k = 0; k < 3; k++) out[k] = (float)q->v[k];
+        break;
+    case PT_FLOAT:
+        if (q->nv != 1) return perr(P, &q->at, "parameter \"float %s\": %zu values, expected 1", name, q->nv);
+        out[0] = out[1] = out[2] = (float)q->v[0];
+        break;
+    case PT_SPECTRUM:
+        if (q->nv) {
+            if (q->nv % 2) return perr(P, &q->at, "parameter \"spectrum %s\": %zu values, expected wavelength-value pairs", name, q->nv);
+            double s = 0;
+            for (size_t i = 1; i < q->nv; i += 2) s += q->v[i];
+            out[0] = out[1] = out[2] = (float)(s / (double)(q->nv / 2));
+        }
+        *approx = 1;
+        break;
+    case PT_BLACKBODY:
+        out[0] = out[1] = out[2] = 1;
+        *approx = 1;
+        break;
+    case PT_TEXTURE:
+        *approx = 1;
+        break;
+    default:
+        return perr(P, &q->at, "parameter \"%s %s\": \"%s\" must be rgb, spectrum, blackbody, float or texture",
+                    q->tname, q->name, name);
+    }
+    for (int k = 0; k < 3; k++)
+        if (!(out[k] >= 0) || out[k] > 1e30f)
+            return perr(P, &q->at, "parameter \"%s %s\": negative value", q->tname, q->name);
+    return 0;
+}
+
+/* ------------------------------------------------------------------------ */
+/* Directives: helpers                                                       */
+
+static int need_number(pbrt *P, const token *d, double *out)
+{
+    token t;
+    char b[80];
+    if (lex(P, &t) < 0) return -1;
+    if (t.kind != TK_NUMBER)
+        return perr(P, &t, "%.*s: expected a number, got %s", (int)d->n, d->p, tq(b, sizeof b, &t));
+    *out = t.num;
+    return 0;
+}
+
+/* The next token as a decoded string. */
+static int need_string(pbrt *P, const token *d, char *buf, size_t cap, token *at)
+{
+    token t;
+    char b[80];
+    if (lex(P, &t) < 0) return -1;
+    if (t.kind != TK_STRING)
+        return perr(P, &t, "%.*s: expected a string in quotes, got %s", (int)d->n, d->p, tq(b, sizeof b, &t));
+    if (at) *at = t;
+    return tok_str(P, &t, buf, cap);
+}
+
+/* n numbers, optionally in brackets (Transform, ConcatTransform). */
+static int need_numbers(pbrt *P, const token *d, double *v, int n)
+{
+    const token *t;
+    if (peek(P, &t) < 0) return -1;
+    int br = t->kind == TK_LBRACK;
+    token x;
+    if (br) lex(P, &x);
+    for (int i = 0; i < n; i++)
+        if (need_number(P, d, &v[i]) < 0) return -1;
+    if (br) {
+        char b[80];
+        if (lex(P, &x) < 0) return -1;
+        if (x.kind != TK_RBRACK) return perr(P, &x, "%.*s: expected ']' after %d numbers, got %s", (int)d->n, d->p, n,
+                                           tq(b, sizeof b, &x));
+    }
+    return 0;
+}
+
+/* Skips a directive's arguments: every token up to the next bare word that
+ * is not true/false, or the end of the file. */
+static int skip_args(pbrt *P)
+{
+    for (;;) {
+        const token *t;
+        if (peek(P, &t) < 0) return -1;
+        if (t->kind == TK_EOF || (t->kind == TK_WORD && !word_is(t, "true") && !word_is(t, "false"))) return 0;
+        token x;
+        lex(P, &x);
+    }
+}
+
+static int need_world(pbrt *P, const token *d, int inside)
+{
+    if (inside && !P->world)
+        return perr(P, d, "%.*s before WorldBegin (shapes, lights and objects belong in the world block)", (int)d->n,
+                    d->p);
+    if (!inside && P->world)
+        return perr(P, d, "%.*s inside the world block (it must come before WorldBegin)", (int)d->n, d->p);
+    return 0;
+}
+
+static void where(pbrt *P, const token *t, char *buf, size_t n, int col)
+{
+    if (col) snprintf(buf, n, "%s:%u:%u", cur(P)->path, (unsigned)t->line, (unsigned)t->col);
+    else snprintf(buf, n, "%s:%u", cur(P)->path, (unsigned)t->line);
+}
+
+static int push_frame(pbrt *P, const token *d, char kind)
+{
+    if (P->nstack >= MAX_NEST) return perr(P, d, "more than %d nested blocks", MAX_NEST);
+    if (P->nstack == P->cstack) {
+        int nc = P->cstack ? 2 * P->cstack : 16;
+        frame *ns = rt_reallocarray(P->stack, (size_t)nc, sizeof *ns, P->e);
+        if (!ns) return -1;
+        P->stack = ns;
+        P->cstack = nc;
+    }
+    frame *f = &P->stack[P->nstack++];
+    f->g = P->g;
+    f->kind = kind;
+    where(P, d, f->at, sizeof f->at, 1);
+    return 0;
+}
+
+static const char *frame_name(char k)
+{
+    return k == 'a' ? "AttributeBegin" : k == 't' ? "TransformBegin" : "ObjectBegin";
+}
+
+static int pop_frame(pbrt *P, const token *d, char kind)
+{
+    if (!P->nstack) return perr(P, d, "%.*s without a matching %s", (int)d->n, d->p, frame_name(kind));
+    frame *f = &P->stack[P->nstack - 1];
+    if (f->kind != kind)
+        return perr(P, d, "%.*s closes the %s at %s (blocks must nest)", (int)d->n, d->p, frame_name(f->kind), f->at);
+    if (kind == 't') P->g.ctm = f->g.ctm;
+    else P->g = f->g;
+    P->nstack--;
+    return 0;
+}
+
+/* CTM = CTM x m. */
+static void concat(pbrt *P, const mat4 *m) { P->g.ctm = m_mul(&P->g.ctm, m); }
+
+/* ------------------------------------------------------------------------ */
+/* Materials                                                                 */
+
+static int add_matdef(pbrt *P, const matdef *m)
+{
+    if (P->nmats == P->cmats) {
+        int nc = P->cmats ? 2 * P->cmats : 16;
+        matdef *nm = rt_reallocarray(P->mats, (size_t)nc, sizeof *nm, P->e);
+        if (!nm) return -1;
+        P->mats = nm;
+        P->cmats = nc;
+    }
+    P->mats[P->nmats] = *m;
+    P->mats[P->nmats].tab = -1;
+    return P->nmats++;
+}
+
+/* The normal-incidence reflectance of a conductor, ((n-1)^2+k^2)/((n+1)^2+k^2). */
+static float f0_conductor(double n, double k) { return (float)(((n - 1) * (n - 1) + k * k) / ((n + 1) * (n + 1) + k * k)); }
+
+/* A material from its type (tok: for messages) and parameters
+ * (docs/scenes.md has the mapping). */
+static int make_matdef(pbrt *P, const token *tt, const char *type, plist *L, matdef *m)
+{
+    static const float half[3] = {0.5f, 0.5f, 0.5f}, copper[3] = {0.955f, 0.638f, 0.538f},
+                       glass_rgb[3] = {0.85f, 0.90f, 0.95f};
+    memset(m, 0, sizeof *m);
+    m->ior = 1;
+    snprintf(m->name, sizeof m->name, "%.31s", type);
+    int approx = 0;
+    char key[48];
+    if (!strcmp(type, "diffuse") || !strcmp(type, "coateddiffuse") || !strcmp(type, "diffusetransmission")) {
+        static const float quarter[3] = {0.25f, 0.25f, 0.25f};
+        if (pcolour(P, L, "reflectance", type[1] == 'i' && type[7] == 't' ? quarter : half, m->rgb, &approx) < 0)
+            return -1;
+        if (!strcmp(type, "coateddiffuse")) {
+            double eta;
+            const double *v;
+            size_t n;
+            int r = pnums(P, L, "eta", B(PT_FLOAT) | B(PT_SPECTRUM), "float or spectrum", 1, 1, &v, &n);
+            if (r < 0) return -1;
+            eta = r && n == 1 ? v[0] : 1.5;
+            if (!(eta > 0)) return perr(P, tt, "coateddiffuse: eta must be positive");
+            float f = (float)(((eta - 1) / (eta + 1)) * ((eta - 1) / (eta + 1)));
+            m->ks[0] = m->ks[1] = m->ks[2] = f;
+        }
+    } else if (!strcmp(type, "conductor") || !strcmp(type, "coatedconductor")) {
+        const char *pe = type[0] == 'c' && type[1] == 'o' && type[2] == 'a' ? "conductor.eta" : "eta";
+        const char *pk = pe[0] == 'c' ? "conductor.k" : "k";
+        param *refl = pfind(L, "reflectance");
+        if (refl) {
+            if (pcolour(P, L, "reflectance", copper, m->ks, &approx) < 0) return -1;
+        } else {
+            param *qe = pfind(L, pe), *qk = pfind(L, pk);
+            float ev[3], kv[3];
+            static const float one[3] = {1, 1, 1}, zero[3] = {0, 0, 0};
+            int ae = 0, ak = 0;
+            if (qe && qk && (qe->type == PT_RGB || qe->type == PT_FLOAT) && (qk->type == PT_RGB || qk->type == PT_FLOAT)) {
+                if (pcolour(P, L, pe, one, ev, &ae) < 0 || pcolour(P, L, pk, zero, kv, &ak) < 0) return -1;
+                for (int c = 0; c < 3; c++) m->ks[c] = f0_conductor(ev[c], kv[c]);
+            } else {
+                memcpy(m->ks, copper, sizeof m->ks);
+                if (qe || qk) approx = 1;
+            }
+        }
+        memcpy(m->rgb, m->ks, sizeof m->rgb);
+    } else if (!strcmp(type, "dielectric") || !strcmp(type, "thindielectric")) {
+        double eta = 1.5;
+        param *q = pfind(L, "eta");
+        if (q && q->type == PT_FLOAT) {
+            if (pfloat(P, L, "eta", 1.5, &eta) < 0) return -1;
+        } else if (q && q->type == PT_SPECTRUM && q->nv) {
+            if (q->nv % 2) return perr(P, &q->at, "parameter \"spectrum eta\": expected wavelength-value pairs");
+            double s = 0;
+            for (size_t i = 1; i < q->nv; i += 2) s += q->v[i];
+            eta = s / (double)(q->nv / 2);
+        } else if (q) {
+            approx = 1; /* a named spectrum: glass */
+        }
+        if (!(eta > 0) || eta > 100) return perr(P, q ? &q->at : tt, "%s: eta %g outside (0, 100]", type, eta);
+        if (eta < 1) eta = 1 / eta; /* an interface seen from the denser side: same rays */
+        m->kt[0] = m->kt[1] = m->kt[2] = 1;
+        m->ior = (float)eta;
+        memcpy(m->rgb, glass_rgb, sizeof m->rgb);
+    } else {
+        snprintf(key, sizeof key, "Material \"%.30s\"", type);
+        char q[64];
+        rt_esc(q, sizeof q, type, 32);
+        pwarn(P, tt, key, "Material \"%s\" not supported: plain diffuse 0.5", q);
+        memcpy(m->rgb, half, sizeof m->rgb);
+        return 0;
+    }
+    if (approx) {
+        snprintf(key, sizeof key, "approx %.30s", type);
+        pwarn(P, tt, key, "%s: a texture, named or spectral value was approximated (docs/scenes.md)", type);
+    }
+    return 0;
+}
+
+/* The table index for material md with emission ke (made on first use;
+ * identical terms share an entry). */
+static int table_index(pbrt *P, matdef *md, const float ke[3], int emit, uint32_t *out)
+{
+    if (!emit && md->tab >= 0) return *out = (uint32_t)md->tab, 0;
+    rt_material m;
+    memset(&m, 0, sizeof m);
+    memcpy(m.ks, md->ks, sizeof m.ks);
+    memcpy(m.kt, md->kt, sizeof m.kt);
+    m.ior = md->ior;
+    int plain = 1;
+    for (int k = 0; k < 3; k++) {
+        if (emit) m.ke[k] = ke[k];
+        if (m.ks[k] > 0 || m.kt[k] > 0 || m.ke[k] > 0) plain = 0;
+    }
+    if (plain) {
+        if (!emit) md->tab = 0;
+        return *out = 0, 0;
+    }
+    snprintf(m.name, sizeof m.name, "%s", md->name);
+    if (emit && !strcmp(md->name, "diffuse")) snprintf(m.name, sizeof m.name, "light");
+    rt_scene *s = P->s;
+    for (uint32_t i = 1; i < s->nmat; i++) {
+        const rt_material *t = &s->mat[i];
+        if (!memcmp(t->ks, m.ks, sizeof m.ks) && !memcmp(t->kt, m.kt, sizeof m.kt) && t->ior == m.ior &&
+            !memcmp(t->ke, m.ke, sizeof m.ke) && !strcmp(t->name, m.name)) {
+            if (!emit) md->tab = i;
+            return *out = i, 0;
+        }
+    }
+    int r = rt_scene_add_material(s, &m, P->e);
+    if (r < 0) return -1;
+    if (!emit) md->tab = r;
+    *out = (uint32_t)r;
+    return 0;
+}
+
+/* ------------------------------------------------------------------------ */
+/* Shapes                                                                    */
+
+static int room_for(pbrt *P, const token *t, uint64_t more)
+{
+    if ((uint64_t)P->s->ntri + more > P->maxtri)
+        return perr(P, t, "the scene would have %llu triangles, more than maxtri=%u (a spec parameter)",
+                    (unsigned long long)((uint64_t)P->s->ntri + more), (unsigned)P->maxtri);
+    return 0;
+}
+
+static int emit(pbrt *P, rt_vec3 a, rt_vec3 b, rt_vec3 c)
+{
+    return rt_scene_add_tri_mat(P->s, a, b, c, P->cur_rgb, P->cur_mat, P->e);
+}
+
+/* Triangles from world vertices w (nw) and corner indices idx (3 per
+ * triangle, checked). */
+static int emit_indexed(pbrt *P, const rt_vec3 *w, const long *idx, size_t nidx)
+{
+    for (size_t i = 0; i + 2 < nidx; i += 3)
+        if (emit(P, w[idx[i]], w[idx[i + 1]], w[idx[i + 2]]) < 0) return -1;
+    return 0;
+}
+
+/* Vertices "P" (point3) mapped by the CTM into a malloc'd array. */
+static int get_points(pbrt *P, const token *d, const char *shape, plist *L, rt_vec3 **out, size_t *nout)
+{
+    const double *v;
+    size_t n;
+    int r = pnums(P, L, "P", B(PT_POINT3), "point3", 3, 3, &v, &n);
+    if (r < 0) return -1;
+    if (!r) return perr(P, d, "Shape \"%s\": missing the vertices \"point3 P\"", shape);
+    rt_vec3 *w = rt_calloc(n / 3, sizeof *w, P->e);
+    if (!w) return -1;
+    for (size_t i = 0; i < n / 3; i++) w[i] = m_point(&P->g.ctm, v[3 * i], v[3 * i + 1], v[3 * i + 2]);
+    *out = w;
+    *nout = n / 3;
+    return 0;
+}
+
+/* Corner indices "indices" (k per face) into a malloc'd array, each below
+ * nv; when absent and nv == k, the one face 0..k-1. */
+static int get_indices(pbrt *P, const token *d, const char *shape, plist *L, size_t k, size_t nv, long **out,
+                       size_t *nout)
+{
+    const double *v;
+    size_t n;
+    int r = pnums(P, L, "indices", B(PT_INT), "integer", k, k, &v, &n);
+    if (r < 0) return -1;
+    if (!r && nv != k)
+        return perr(P, d, "Shape \"%s\": \"integer indices\" missing (optional only with exactly %zu vertices)", shape,
+                    k);
+    size_t m = r ? n : k;
+    long *idx = rt_calloc(m, sizeof *idx, P->e);
+    if (!idx) return -1;
+    for (size_t i = 0; i < m; i++) {
+        double x = r ? v[i] : (double)i;
+        if (x < 0 || x >= (double)nv) {
+            free(idx);
+            return perr(P, &pfind(L, "indices")->at, "Shape \"%s\": index %.0f (entry %zu) out of range (%zu vertices)",
+                        shape, x, i, nv);
+        }
+        idx[i] = (long)x;
+    }
+    *out = idx;
+    *nout = m;
+    return 0;
+}
+
+/* Cube-sphere template as in scene_builtin.c (sphere_template): 6 faces x
+ * t x t cells x 2 triangles of unit vectors, outward, watertight. */
+static double *sphere_template(int t, rt_err *e)
+{
+    double *v = rt_calloc((size_t)108 * t * t, sizeof *v, e);
+    if (!v) return NULL;
+    double grid[65];
+    for (int k = 0; k <= t; k++) grid[k] = 2 * k <= t ? -1.0 + 2.0 * k / t : 1.0 - 2.0 * (t - k) / t;
+    size_t k = 0;
+    for (int face = 0; face < 6; face++) {
+        int ax = face >> 1;
+        double sg = (face & 1) ? -1.0 : 1.0;
+        int a1 = (ax + 1) % 3, a2 = (ax + 2) % 3;
+        for (int i = 0; i < t; i++)
+            for (int j = 0; j < t; j++) {
+                double q[4][3];
+                for (int c = 0; c < 4; c++) {
+                    int ii = i + (c == 1 || c == 2), jj = j + (c >= 2);
+                    double p[3];
+                    p[ax] = sg;
+                    p[a1] = grid[ii];
+                    p[a2] = grid[jj] * sg;
+                    double l = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+                    for (int d = 0; d < 3; d++) q[c][d] = p[d] / l;
+                }
+                static const int order[6] = {0, 1, 2, 0, 2, 3};
+                for (int o = 0; o < 6; o++)
+                    for (int d = 0; d < 3; d++) v[k++] = q[order[o]][d];
+            }
+    }
+    return v;
+}
+
+/* Loop subdivision (pbrt-v4's LoopSubdivide rules, our own code): `levels`
+ * refinements of the triangle mesh (v: nv points, f: nf x 3 indices),
+ * then every vertex moved to its limit position. Even vertices: interior
+ * (1 - n beta) p + beta sum(ring), beta = 3/16 for valence 3 else 3/(8n);
+ * boundary 3/4 p + 1/8 (its two boundary neighbours). Odd (edge) vertices:
+ * interior 3/8 (a + b) + 1/8 (c + d), boundary (a + b) / 2. Limit:
+ * interior (1 - n g) p + g sum(ring), g = 1 / (n + 3 / (8 beta));
+ * boundary 3/5 p + 1/5 (its boundary neighbours). Faces split into four
+ * in pbrt's child order (corner 0, 1, 2, then the middle). The mesh must
+ * be an oriented manifold (each directed edge once, at most two faces per
+ * edge, at most one boundary fan per vertex). Output: *pv (3 * *pnv
+ * doubles) and *pf (3 * *pnf indices), malloc'd. 0, or -1 with why. */
+typedef struct edgeent {
+    int32_t a, b;   /* a < b */
+    int32_t f[2];   /* faces on it (-1 none) */
+    int32_t opp[2]; /* their third vertices */
+    int32_t mid;    /* first use a < b (while counting), then the odd vertex's index */
+} edgeent;
+
+static int subdivide(const double *v0, long nv0, const long *f0, long nf0, int levels, double **pv, long *pnv,
+                     long **pf, long *pnf, char *why, size_t nwhy, rt_err *e)
+{
+    double *v = rt_calloc((size_t)nv0 * 3, sizeof *v, e);
+    long *f = rt_calloc((size_t)nf0 * 3, sizeof *f, e);
+    long nv = nv0, nf = nf0;
+    int rc = -1;
+    edgeent *E = NULL;
+    uint32_t *slot = NULL; /* 1 + index into E, 0 = empty */
+    long *nb = NULL, *bcount = NULL;
+    double *acc = NULL, *bacc = NULL;
+    if (!v || !f) goto done;
+    memcpy(v, v0, sizeof *v * 3 * (size_t)nv0);
+    memcpy(f, f0, sizeof *f * 3 * (size_t)nf0);
+    for (int level = 0;; level++) {
+        /* edges: open hashing on the unordered pair */
+        long ne = 0, nslot = 64;
+        while (nslot < 2 * 3 * nf) nslot *= 2;
+        free(E);
+        free(slot);
+        E = rt_calloc((size_t)(3 * nf), sizeof *E, e);
+        slot = rt_calloc((size_t)nslot, sizeof *slot, e);
+        if (!E || !slot) goto done;
+        for (long i = 0; i < nf; i++)
+            for (int k = 0; k < 3; k++) {
+                long a = f[3 * i + k], b = f[3 * i + (k + 1) % 3], c = f[3 * i + (k + 2) % 3];
+                if (a == b) {
+                    snprintf(why, nwhy, "face %ld uses vertex %ld twice", i, a);
+                    goto done;
+                }
+                long lo = a < b ? a : b, hi = a < b ? b : a;
+                uint64_t h = rt_mix64((uint64_t)lo * 0x9e3779b97f4a7c15ULL ^ (uint64_t)hi) & (uint64_t)(nslot - 1);
+                while (slot[h] && !(E[slot[h] - 1].a == lo && E[slot[h] - 1].b == hi)) h = (h + 1) & (uint64_t)(nslot - 1);
+                if (!slot[h]) {
+                    edgeent *x = &E[ne++];
+                    x->a = (int32_t)lo, x->b = (int32_t)hi, x->f[0] = (int32_t)i, x->f[1] = -1;
+                    x->opp[0] = (int32_t)c, x->opp[1] = -1;
+                    x->mid = a < b; /* remember the direction of the first use */
+                    slot[h] = (uint32_t)ne;
+                } else {
+                    edgeent *x = &E[slot[h] - 1];
+                    if (x->f[1] >= 0) {
+                        snprintf(why, nwhy, "edge %ld-%ld is shared by more than two faces", lo, hi);
+                        goto done;
+                    }
+                    if (x->mid == (a < b)) {
+                        snprintf(why, nwhy, "faces %ld and %ld run along edge %ld-%ld the same way (orientation)",
+                                 (long)x->f[0], i, lo, hi);
+                        goto done;
+                    }
+                    x->f[1] = (int32_t)i, x->opp[1] = (int32_t)c;
+                }
+            }
+        /* per vertex: neighbour sums and counts, boundary neighbours */
+        free(acc);
+        free(bacc);
+        free(nb);
+        free(bcount);
+        acc = rt_calloc((size_t)nv * 3, sizeof *acc, e);
+        bacc = rt_calloc((size_t)nv * 3, sizeof *bacc, e);
+        nb = rt_calloc((size_t)nv, sizeof *nb, e);
+        bcount = rt_calloc((size_t)nv, sizeof *bcount, e);
+        if (!acc || !bacc || !nb || !bcount) goto done;
+        for (long i = 0; i < ne; i++) {
+            const edgeent *x = &E[i];
+            int bnd = x->f[1] < 0;
+            for (int s2 = 0; s2 < 2; s2++) {
+                long p = s2 ? x->b : x->a, q = s2 ? x->a : x->b;
+                nb[p]++;
+                for (int d = 0; d < 3; d++) acc[3 * p + d] += v[3 * q + d];
+                if (bnd) {
+                    bcount[p]++;
+                    for (int d = 0; d < 3; d++) bacc[3 * p + d] += v[3 * q + d];
+                }
+            }
+        }
+        for (long i = 0; i < nv; i++)
+            if (bcount[i] != 0 && bcount[i] != 2) {
+                snprintf(why, nwhy, "vertex %ld joins %ld boundary edges (not a manifold)", i, bcount[i]);
+                goto done;
+            }
+        if (level == levels) {
+            /* push to the limit surface (vertices in no face stay) */
+            for (long i = 0; i < nv; i++) {
+                double *p = &v[3 * i];
+                if (!nb[i]) continue;
+                if (bcount[i]) {
+                    for (int d = 0; d < 3; d++) p[d] = 0.6 * p[d] + 0.2 * bacc[3 * i + d];
+                } else {
+                    double n = (double)nb[i], beta = nb[i] == 3 ? 3.0 / 16.0 : 3.0 / (8.0 * n);
+                    double g = 1.0 / (n + 3.0 / (8.0 * beta));
+                    for (int d = 0; d < 3; d++) p[d] = (1 - n * g) * p[d] + g * acc[3 * i + d];
+                }
+            }
+            break;
+        }
+        /* refine: even vertices keep their indices, odd ones follow */
+        long nv2 = nv + ne, nf2 = 4 * nf;
+        double *v2 = rt_calloc((size_t)nv2 * 3, sizeof *v2, e);
+        long *f2 = rt_calloc((size_t)nf2 * 3, sizeof *f2, e);
+        if (!v2 || !f2) {
+            free(v2);
+            free(f2);
+            goto done;
+        }
+        for (long i = 0; i < nv; i++) {
+            const double *p = &v[3 * i];
+            double *o = &v2[3 * i];
+            if (!nb[i]) {
+                for (int d = 0; d < 3; d++) o[d] = p[d];
+            } else if (bcount[i]) {
+                for (int d = 0; d < 3; d++) o[d] = 0.75 * p[d] + 0.125 * bacc[3 * i + d];
+            } else {
+                double n = (double)nb[i], beta = nb[i] == 3 ? 3.0 / 16.0 : 3.0 / (8.0 * n);
+                for (int d = 0; d < 3; d++) o[d] = (1 - n * beta) * p[d] + beta * acc[3 * i + d];
+            }
+        }
+        for (long i = 0; i < ne; i++) {
+            edgeent *x = &E[i];
+            double *o = &v2[3 * (nv + i)];
+            for (int d = 0; d < 3; d++) {
+                if (x->f[1] < 0) o[d] = 0.5 * v[3 * x->a + d] + 0.5 * v[3 * x->b + d];
+                else
+                    o[d] = 0.375 * v[3 * x->a + d] + 0.375 * v[3 * x->b + d] + 0.125 * v[3 * x->opp[0] + d] +
+                           0.125 * v[3 * x->opp[1] + d];
+            }
+            x->mid = (int32_t)(nv + i);
+        }
+        for (long i = 0; i < nf; i++) {
+            long c[3], m[3];
+            for (int k = 0; k < 3; k++) {
+                long a = f[3 * i + k], b = f[3 * i + (k + 1) % 3];
+                long lo = a < b ? a : b, hi = a < b ? b : a;
+                uint64_t h = rt_mix64((uint64_t)lo * 0x9e3779b97f4a7c15ULL ^ (uint64_t)hi) & (uint64_t)(nslot - 1);
+                while (!(E[slot[h] - 1].a == lo && E[slot[h] - 1].b == hi)) h = (h + 1) & (uint64_t)(nslot - 1);
+                c[k] = a;
+                m[k] = E[slot[h] - 1].mid; /* on edge k -> k+1 */
+            }
+            long *o = &f2[12 * i];
+            long child[4][3] = {{c[0], m[0], m[2]}, {m[0], c[1], m[1]}, {m[2], m[1], c[2]}, {m[0], m[1], m[2]}};
+            for (int ch = 0; ch < 4; ch++)
+                for (int k = 0; k < 3; k++) o[3 * ch + k] = child[ch][k];
+        }
+        free(v);
+        free(f);
+        v = v2, f = f2, nv = nv2, nf = nf2;
+    }
+    *pv = v, *pnv = nv, *pf = f, *pnf = nf;
+    v = NULL, f = NULL;
+    rc = 0;
+done:
+    if (rc < 0 && !why[0]) snprintf(why, nwhy, "%.150s", e ? e->msg : "out of memory");
+    free(v);
+    free(f);
+    free(E);
+    free(slot);
+    free(acc);
+    free(bacc);
+    free(nb);
+    free(bcount);
+    return rc;
+}
+
+/* Counts a light; the fourth one gets the warning. */
+static void count_light(pbrt *P, const token *t)
+{
+    if (++P->nlights_all == RT_NLIGHTS + 1)
+        pwarn(P, t, "lights", "more than %d lights: kept %d, point and spot lights first", RT_NLIGHTS,
+              RT_NLIGHTS);
+}
+
+/* Records an area-light shape (triangles from `start` on) for the lights. */
+static int note_area_light(pbrt *P, const token *d, uint32_t start)
+{
+    if (P->nal == P->cal) {
+        int nc = P->cal ? 2 * P->cal : 8;
+        arealight *na = rt_reallocarray(P->al, (size_t)nc, sizeof *na, P->e);
+        if (!na) return -1;
+        P->al = na;
+        P->cal = nc;
+    }
+    arealight *a = &P->al[P->nal++];
+    memset(a, 0, sizeof *a);
+    where(P, d, a->at, sizeof a->at, 0);
+    for (uint32_t i = start; i < P->s->ntri; i++) {
+        const rt_vec3 *p = P->s->tri[i].p;
+        double e1[3] = {(double)p[1].x - p[0].x, (double)p[1].y - p[0].y, (double)p[1].z - p[0].z};
+        double e2[3] = {(double)p[2].x - p[0].x, (double)p[2].y - p[0].y, (double)p[2].z - p[0].z};
+        double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+        double w = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        a->area2 += w;
+        a->nsum[0] += n[0], a->nsum[1] += n[1], a->nsum[2] += n[2];
+        a->c[0] += w * ((double)p[0].x + p[1].x + p[2].x) / 3;
+        a->c[1] += w * ((double)p[0].y + p[1].y + p[2].y) / 3;
+        a->c[2] += w * ((double)p[0].z + p[1].z + p[2].z) / 3;
+    }
+    count_light(P, d);
+    return 0;
+}
+
+static int do_shape(pbrt *P, const token *d)
+{
+    if (need_world(P, d, 1) < 0) return -1;
+    char type[64], q[80];
+    token tt;
+    plist L = {NULL, 0, 0};
+    if (need_string(P, d, type, sizeof type, &tt) < 0 || parse_params(P, &L) < 0) goto fail;
+    rt_esc(q, sizeof q, type, 40);
+    /* colour and table entry of the state */
+    matdef *md = &P->mats[P->g.mat];
+    P->cur_rgb = md->rgb;
+    if (table_index(P, md, P->g.ke, P->g.area, &P->cur_mat) < 0) goto fail;
+    uint32_t start = P->s->ntri;
+    rt_vec3 *w = NULL;
+    long *idx = NULL;
+    size_t nw = 0, ni = 0;
+    int rc = 0;
+    if (!strcmp(type, "trianglemesh") || !strcmp(type, "bilinearmesh")) {
+        int bil = type[0] == 'b';
+        rc = get_points(P, &tt, type, &L, &w, &nw);
+        if (rc == 0) rc = get_indices(P, &tt, type, &L, bil ? 4 : 3, nw, &idx, &ni);
+        if (rc == 0) rc = room_for(P, &tt, bil ? ni / 2 : ni / 3);
+        if (rc == 0 && !bil) rc = emit_indexed(P, w, idx, ni);
+        for (size_t i = 0; rc == 0 && bil && i + 3 < ni; i += 4) /* p00 p10 p01 p11 */
+            if (emit(P, w[idx[i]], w[idx[i + 1]], w[idx[i + 3]]) < 0 || emit(P, w[idx[i]], w[idx[i + 3]], w[idx[i + 2]]) < 0)
+                rc = -1;
+    } else if (!strcmp(type, "sphere")) {
+        double r;
+        rc = pfloat(P, &L, "radius", 1.0, &r);
+        if (rc == 0 && !(r > 0)) rc = perr(P, &pfind(&L, "radius")->at, "Shape \"sphere\": radius must be positive");
+        if (rc == 0 && (pfind(&L, "zmin") || pfind(&L, "zmax") || pfind(&L, "phimax")))
+            pwarn(P, &tt, "sphere partial", "Shape \"sphere\": zmin, zmax and phimax ignored (whole spheres)");
+        if (rc == 0) rc = room_for(P, &tt, 12u * (uint64_t)P->tess * (uint64_t)P->tess);
+        double *tm = rc == 0 ? sphere_template(P->tess, P->e) : NULL;
+        if (rc == 0 && !tm) rc = -1;
+        for (size_t k = 0; rc == 0 && k < (size_t)108 * P->tess * P->tess; k += 9) {
+            rt_vec3 a = m_point(&P->g.ctm, r * tm[k], r * tm[k + 1], r * tm[k + 2]);
+            rt_vec3 b = m_point(&P->g.ctm, r * tm[k + 3], r * tm[k + 4], r * tm[k + 5]);
+            rt_vec3 c = m_point(&P->g.ctm, r * tm[k + 6], r * tm[k + 7], r * tm[k + 8]);
+            rc = emit(P, a, b, c);
+        }
+        free(tm);
+    } else if (!strcmp(type, "loopsubdiv")) {
+        long levels;
+        const double *pv;
+        size_t npv;
+        rc = pint(P, &L, "levels", 3, &levels);
+        if (rc == 0 && levels < 0) rc = perr(P, &pfind(&L, "levels")->at, "Shape \"loopsubdiv\": levels %ld is negative", levels);
+        if (rc == 0) {
+            int r = pnums(P, &L, "P", B(PT_POINT3), "point3", 3, 3, &pv, &npv);
+            rc = r < 0 ? -1 : r == 0 ? perr(P, &tt, "Shape \"loopsubdiv\": missing the vertices \"point3 P\"") : 0;
+        }
+        if (rc == 0) rc = get_indices(P, &tt, type, &L, 3, npv / 3, &idx, &ni);
+        uint64_t nt = ni / 3;
+        for (long l = 0; rc == 0 && l < levels; l++) {
+            nt *= 4;
+            if (nt > P->maxtri) break;
+        }
+        if (rc == 0) rc = room_for(P, &tt, nt);
+        if (rc == 0) {
+            double *ov = NULL;
+            long *of = NULL, onv = 0, onf = 0;
+            char why[160] = "";
+            if (subdivide(pv, (long)(npv / 3), idx, (long)(ni / 3), (int)levels, &ov, &onv, &of, &onf, why, sizeof why,
+                          P->e) < 0)
+                rc = perr(P, &tt, "Shape \"loopsubdiv\": %s", why);
+            for (long i = 0; rc == 0 && i < onf; i++) {
+                rt_vec3 c[3];
+                for (int k = 0; k < 3; k++) {
+                    const double *p = &ov[3 * of[3 * i + k]];
+                    c[k] = m_point(&P->g.ctm, p[0], p[1], p[2]);
+                }
+                rc = emit(P, c[0], c[1], c[2]);
+            }
+            free(ov);
+            free(of);
+        }
+    } else if (!strcmp(type, "plymesh")) {
+        char name[4096], why[200];
+        rc = pstring(P, &L, "filename", name, sizeof name);
+        if (rc == 0 && !name[0]) rc = perr(P, &tt, "Shape \"plymesh\": missing \"string filename\"");
+        char *rel = NULL, *full = NULL, *buf = NULL;
+        size_t n = 0;
+        int fd;
+        struct stat st;
+        if (rc == 0) rc = resolve(P, &pfind(&L, "filename")->at, "plymesh", name, &rel, &full);
+        if (rc == 0 && (open_regular(full, &fd, &st, why, sizeof why) < 0 || read_fd(P, fd, &st, &buf, &n, why, sizeof why) < 0)) {
+            char q2[300];
+            rc = perr(P, &pfind(&L, "filename")->at, "plymesh \"%s\": %s", rt_esc(q2, sizeof q2, name, 256), why);
+        }
+        if (rc == 0) {
+            double m[16];
+            for (int i = 0; i < 16; i++) m[i] = P->g.ctm.m[i / 4][i % 4];
+            rt_err pe;
+            long got = rt_scene_append_ply(P->s, full, buf, n, m, P->cur_rgb, P->cur_mat, &pe);
+            if (got < 0) rc = perr(P, &tt, "plymesh: %s", pe.msg);
+            else if (P->s->ntri > P->maxtri) {
+                P->s->ntri = start;
+                rc = room_for(P, &tt, (uint64_t)got);
+            }
+        }
+        if (rc == 0 && pfind(&L, "displacement"))
+            pwarn(P, &tt, "displacement", "Shape \"plymesh\": displacement ignored");
+        free(rel);
+        free(full);
+        free(buf);
+    } else {
+        char key[48];
+        snprintf(key, sizeof key, "Shape \"%.30s\"", type);
+        pwarn(P, &tt, key, "Shape \"%s\" skipped", q);
+    }
+    if (rc == 0 && P->g.area && P->in_obj < 0 && P->s->ntri > start) rc = note_area_light(P, &tt, start);
+    if (rc == 0 && P->in_obj < 0) P->nonobj += P->s->ntri - start;
+    free(w);
+    free(idx);
+    plist_free(&L);
+    return rc;
+fail:
+    plist_free(&L);
+    return -1;
+}
+
+/* Names the coordinate system m (a new name, or a redefinition). */
+static int name_cs(pbrt *P, const char *name, const mat4 *m)
+{
+    int k = nm_find(&P->named_cs, name);
+    if (k >= 0) {
+        P->cs[k] = *m;
+        return 0;
+    }
+    if (P->ncs == P->ccs) {
+        int nc = P->ccs ? 2 * P->ccs : 8;
+        mat4 *ns = rt_reallocarray(P->cs, (size_t)nc, sizeof *ns, P->e);
+        if (!ns) return -1;
+        P->cs = ns;
+        P->ccs = nc;
+    }
+    P->cs[P->ncs] = *m;
+    if (nm_put(&P->named_cs, name, P->ncs, P->e) < 0) return -1;
+    P->ncs++;
+    return 0;
+}
+
+/* ------------------------------------------------------------------------ */
+/* Other directives                                                          */
+
+static int do_camera(pbrt *P, const token *d)
+{
+    char type[64], q[80];
+    token tt;
+    plist L = {NULL, 0, 0};
+    int rc = -1;
+    if (need_world(P, d, 0) < 0 || need_string(P, d, type, sizeof type, &tt) < 0 || parse_params(P, &L) < 0)
+        goto done;
+    mat4 inv;
+    if (m_inverse(&P->g.ctm, &inv) < 0) {
+        perr(P, d, "Camera: the current transformation is singular");
+        goto done;
+    }
+    if (strcmp(type, "perspective")) {
+        char key[48];
+        snprintf(key, sizeof key, "Camera \"%.30s\"", type);
+        pwarn(P, &tt, key, "Camera \"%s\" rendered as a perspective camera", rt_esc(q, sizeof q, type, 40));
+    }
+    if (pfloat(P, &L, "fov", 90, &P->fov) < 0) goto done;
+    if (!(P->fov > 0 && P->fov < 180)) {
+        perr(P, &pfind(&L, "fov")->at, "Camera: fov %g outside (0, 180) degrees", P->fov);
+        goto done;
+    }
+    if (pfloat(P, &L, "frameaspectratio", 0, &P->frame_aspect) < 0) goto done;
+    if (P->frame_aspect < 0 || (pfind(&L, "frameaspectratio") && !(P->frame_aspect > 0))) {
+        perr(P, &pfind(&L, "frameaspectratio")->at, "Camera: frameaspectratio must be positive");
+        goto done;
+    }
+    const double *sw;
+    size_t n;
+    int r = pnums(P, &L, "screenwindow", B(PT_FLOAT), "float", 4, 4, &sw, &n);
+    if (r < 0) goto done;
+    P->have_sw = r > 0;
+    if (r) {
+        if (n != 4 || !(sw[1] > sw[0]) || !(sw[3] > sw[2])) {
+            perr(P, &pfind(&L, "screenwindow")->at, "Camera: screenwindow needs 4 values xmin < xmax, ymin < ymax");
+            goto done;
+        }
+        memcpy(P->sw, sw, sizeof P->sw);
+        if (sw[0] != -sw[1] || sw[2] != -sw[3])
+            pwarn(P, &tt, "screenwindow", "Camera: an off-centre screenwindow is rendered centred");
+    }
+    P->have_camera = 1;
+    P->cam_ctm = P->g.ctm;
+    if (name_cs(P, "camera", &inv) < 0) goto done;
+    rc = 0;
+done:
+    plist_free(&L);
+    return rc;
+}
+
+static int do_film(pbrt *P, const token *d)
+{
+    char type[64];
+    plist L = {NULL, 0, 0};
+    int rc = -1;
+    long w, h;
+    if (need_world(P, d, 0) < 0 || need_string(P, d, type, sizeof type, NULL) < 0 || parse_params(P, &L) < 0 ||
+        pint(P, &L, "xresolution", 1280, &w) < 0 || pint(P, &L, "yresolution", 720, &h) < 0)
+        goto done;
+    if (w < 1 || w > 65536 || h < 1 || h > 65536) {
+        perr(P, &pfind(&L, w < 1 || w > 65536 ? "xresolution" : "yresolution")->at,
+             "Film: resolution %ldx%ld outside 1..65536", w, h);
+        goto done;
+    }
+    P->film_w = (int)w;
+    P->film_h = (int)h;
+    rc = 0;
+done:
+    plist_free(&L);
+    return rc;
+}
+
+static int do_light(pbrt *P, const token *d)
+{
+    char type[64], q[80];
+    token tt;
+    plist L = {NULL, 0, 0};
+    int rc = -1;
+    if (need_world(P, d, 1) < 0 || need_string(P, d, type, sizeof type, &tt) < 0 || parse_params(P, &L) < 0)
+        goto done;
+    if (!strcmp(type, "point") || !strcmp(type, "spot")) {
+        const double *v;
+        size_t n;
+        double o[3] = {0, 0, 0};
+        int r = pnums(P, &L, "from", B(PT_POINT3), "point3", 3, 3, &v, &n);
+        if (r < 0) goto done;
+        if (r && n != 3) {
+            perr(P, &pfind(&L, "from")->at, "LightSource: \"from\" has %zu values, expected 3", n);
+            goto done;
+        }
+        if (r) memcpy(o, v, sizeof o);
+        if (P->nplight < RT_NLIGHTS) P->plight[P->nplight++] = m_point(&P->g.ctm, o[0], o[1], o[2]);
+        count_light(P, &tt);
+    } else {
+        char key[48];
+        snprintf(key, sizeof key, "LightSource \"%.30s\"", type);
+        pwarn(P, &tt, key, "LightSource \"%s\" skipped", rt_esc(q, sizeof q, type, 40));
+    }
+    rc = 0;
+done:
+    plist_free(&L);
+    return rc;
+}
+
+static int do_area_light(pbrt *P, const token *d)
+{
+    char type[64], q[80];
+    token tt;
+    plist L = {NULL, 0, 0};
+    int rc = -1;
+    if (need_world(P, d, 1) < 0 || need_string(P, d, type, sizeof type, &tt) < 0 || parse_params(P, &L) < 0)
+        goto done;
+    if (!strcmp(type, "diffuse")) {
+        static const float one[3] = {1, 1, 1};
+        float l[3];
+        double sc;
+        int approx = 0;
+        if (pcolour(P, &L, "L", one, l, &approx) < 0 || pfloat(P, &L, "scale", 1, &sc) < 0) goto done;
+        if (!(sc >= 0)) {
+            perr(P, &pfind(&L, "scale")->at, "AreaLightSource: negative scale");
+            goto done;
+        }
+        if (approx) pwarn(P, &tt, "approx L", "AreaLightSource: a spectral L was taken as white");
+        if (pfind(&L, "filename")) pwarn(P, &tt, "arealight image", "AreaLightSource: image ignored");
+        P->g.area = 1;
+        for (int k = 0; k < 3; k++) P->g.ke[k] = (float)(l[k] * sc);
+        if (!(P->g.ke[0] <= 1e30f && P->g.ke[1] <= 1e30f && P->g.ke[2] <= 1e30f)) {
+            perr(P, &tt, "AreaLightSource: L x scale out of range");
+            goto done;
+        }
+    } else {
+        char key[48];
+        snprintf(key, sizeof key, "AreaLightSource \"%.24s\"", type);
+        pwarn(P, &tt, key, "AreaLightSource \"%s\" skipped", rt_esc(q, sizeof q, type, 40));
+        P->g.area = 0;
+    }
+    rc = 0;
+done:
+    plist_free(&L);
+    return rc;
+}
+
+/* Material "type" params, or MakeNamedMaterial "name" params. */
+static int do_material(pbrt *P, const token *d, int named)
+{
+    char first[256], type[64], q[300];
+    token tt;
+    plist L = {NULL, 0, 0};
+    int rc = -1;
+    if (need_string(P, d, first, sizeof first, &tt) < 0 || parse_params(P, &L) < 0) goto done;
+    if (named) {
+        if (pstring(P, &L, "type", type, sizeof type) < 0) goto done;
+        if (!type[0]) {
+            perr(P, &tt, "MakeNamedMaterial \"%s\": missing \"string type\"", rt_esc(q, sizeof q, first, 200));
+            goto done;
+        }
+        if (nm_find(&P->named_mat, first) >= 0) {
+            perr(P, &tt, "MakeNamedMaterial \"%s\": defined twice", rt_esc(q, sizeof q, first, 200));
+            goto done;
+        }
+    } else {
+        snprintf(type, sizeof type, "%.63s", first);
+    }
+    matdef m;
+    if (make_matdef(P, &tt, type, &L, &m) < 0) goto done;
+    if (named) snprintf(m.name, sizeof m.name, "%.31s", first);
+    int k = add_matdef(P, &m);
+    if (k < 0) goto done;
+    if (named) {
+        if (nm_put(&P->named_mat, first, k, P->e) < 0) goto done;
+    } else {
+        P->g.mat = k;
+    }
+    rc = 0;
+done:
+    plist_free(&L);
+    return rc;
+}
+
+static int do_named_material(pbrt *P, const token *d)
+{
+    char name[256], q[300];
+    token tt;
+    if (need_string(P, d, name, sizeof name, &tt) < 0) return -1;
+    int k = nm_find(&P->named_mat, name);
+    if (k < 0)
+        return perr(P, &tt, "NamedMaterial \"%s\": no such material (MakeNamedMaterial must define it first)",
+                    rt_esc(q, sizeof q, name, 200));
+    P->g.mat = k;
+    return 0;
+}
+
+static int do_coordsys(pbrt *P, const token *d, int set)
+{
+    char name[256], q[300];
+    token tt;
+    if (need_string(P, d, name, sizeof name, &tt) < 0) return -1;
+    if (set) return name_cs(P, name, &P->g.ctm);
+    int k = nm_find(&P->named_cs, name);
+    if (k < 0) return perr(P, &tt, "CoordSysTransform \"%s\": no such coordinate system", rt_esc(q, sizeof q, name, 200));
+    P->g.ctm = P->cs[k];
+    return 0;
+}
+
+static int do_object_begin(pbrt *P, const token *d)
+{
+    char name[256], q[300];
+    token tt;
+    if (need_world(P, d, 1) < 0 || need_string(P, d, name, sizeof name, &tt) < 0) return -1;
+    rt_esc(q, sizeof q, name, 200);
+    if (P->in_obj >= 0) return perr(P, d, "ObjectBegin \"%s\" inside another ObjectBegin", q);
+    if (nm_find(&P->named_obj, name) >= 0) return perr(P, &tt, "ObjectBegin \"%s\": object defined twice", q);
+    if (P->nobjs == P->cobjs) {
+        int nc = P->cobjs ? 2 * P->cobjs : 8;
+        object *no = rt_reallocarray(P->objs, (size_t)nc, sizeof *no, P->e);
+        if (!no) return -1;
+        P->objs = no;
+        P->cobjs = nc;
+    }
+    if (nm_put(&P->named_obj, name, P->nobjs, P->e) < 0) return -1;
+    memset(&P->objs[P->nobjs], 0, sizeof P->objs[0]);
+    if (push_frame(P, d, 'o') < 0) return -1;
+    P->in_obj = P->nobjs++;
+    P->obj_start = P->s->ntri;
+    return 0;
+}
+
+static int do_object_end(pbrt *P, const token *d)
+{
+    if (P->in_obj < 0) return perr(P, d, "ObjectEnd without ObjectBegin");
+    if (pop_frame(P, d, 'o') < 0) return -1;
+    object *o = &P->objs[P->in_obj];
+    uint32_t n = P->s->ntri - P->obj_start;
+    if ((uint64_t)P->on + n > P->maxtri) return room_for(P, d, (uint64_t)P->on + n);
+    if (P->on + n > P->ocap) {
+        uint32_t nc = P->ocap ? P->ocap : 64;
+        while (nc < P->on + n) nc *= 2;
+        rt_tri *nt = rt_reallocarray(P->otri, nc, sizeof *nt, P->e);
+        if (!nt) return -1;
+        P->otri = nt;
+        rt_shade *ns = rt_reallocarray(P->oshade, nc, sizeof *ns, P->e);
+        if (!ns) return -1;
+        P->oshade = ns;
+        P->ocap = nc;
+    }
+    if (n) {
+        memcpy(P->otri + P->on, P->s->tri + P->obj_start, n * sizeof *P->otri);
+        memcpy(P->oshade + P->on, P->s->shade + P->obj_start, n * sizeof *P->oshade);
+    }
+    o->start = P->on;
+    o->count = n;
+    P->on += n;
+    P->s->ntri = P->obj_start; /* the definition itself is not rendered */
+    P->in_obj = -1;
+    return 0;
+}
+
+static int do_object_instance(pbrt *P, const token *d)
+{
+    char name[256], q[300];
+    token tt;
+    if (need_world(P, d, 1) < 0 || need_string(P, d, name, sizeof name, &tt) < 0) return -1;
+    rt_esc(q, sizeof q, name, 200);
+    if (P->in_obj >= 0) return perr(P, d, "ObjectInstance \"%s\" inside an ObjectBegin block", q);
+    int k = nm_find(&P->named_obj, name);
+    if (k < 0) return perr(P, &tt, "ObjectInstance \"%s\": no such object", q);
+    object *o = &P->objs[k];
+    if (room_for(P, &tt, o->count) < 0) return -1;
+    for (uint32_t i = 0; i < o->count; i++) {
+        const rt_tri *t = &P->otri[o->start + i];
+        const rt_shade *h = &P->oshade[o->start + i];
+        rt_vec3 c[3];
+        for (int j = 0; j < 3; j++) c[j] = m_point(&P->g.ctm, t->p[j].x, t->p[j].y, t->p[j].z);
+        if (rt_scene_add_tri_mat(P->s, c[0], c[1], c[2], h->rgb, h->mat, P->e) < 0) return -1;
+    }
+    if (!o->used) P->s->ntri_unique += o->count;
+    o->used = 1;
+    P->s->ninst++;
+    P->s->ntri_inst += o->count;
+    return 0;
+}
+
+/* ------------------------------------------------------------------------ */
+/* The directive loop                                                        */
+
+/* pbrt directives this loader skips with a warning. */
+static const char *const skipped[] = {"Accelerator", "Attribute", "ColorSpace", "Integrator", "MakeNamedMedium",
+                                      "MediumInterface", "Option", "PixelFilter", "ReverseOrientation", "Sampler",
+                                      "Texture", "TransformTimes", NULL};
+
+static int directive(pbrt *P, const token *d)
+{
+    char dn[32], b[80];
+    if (d->n >= sizeof dn) return perr(P, d, "unknown directive %s (not a pbrt directive)", tq(b, sizeof b, d));
+    memcpy(dn, d->p, d->n);
+    dn[d->n] = 0;
+    double v[16];
+    mat4 m;
+    if (!strcmp(dn, "Include") || !strcmp(dn, "Import")) return do_include(P, d);
+    if (!strcmp(dn, "Shape")) return do_shape(P, d);
+    if (!strcmp(dn, "LookAt")) {
+        if (need_numbers(P, d, v, 9) < 0) return -1;
+        double dir[3] = {v[3] - v[0], v[4] - v[1], v[5] - v[2]}, up[3] = {v[6], v[7], v[8]};
+        double dl = sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
+        double ul = sqrt(up[0] * up[0] + up[1] * up[1] + up[2] * up[2]);
+        if (!(dl > 0)) return perr(P, d, "LookAt: the eye and the point looked at coincide");
+        if (!(ul > 0)) return perr(P, d, "LookAt: the up vector is zero");
+        for (int k = 0; k < 3; k++) dir[k] /= dl, up[k] /= ul;
+        double r[3] = {up[1] * dir[2] - up[2] * dir[1], up[2] * dir[0] - up[0] * dir[2], up[0] * dir[1] - up[1] * dir[0]};
+        double rl = sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+        if (!(rl > 0)) return perr(P, d, "LookAt: the up vector is parallel to the viewing direction");
+        for (int k = 0; k < 3; k++) r[k] /= rl;
+        double nu[3] = {dir[1] * r[2] - dir[2] * r[1], dir[2] * r[0] - dir[0] * r[2], dir[0] * r[1] - dir[1] * r[0]};
+        /* camera-from-world: rows right, up, dir; translation -R eye */
+        const double *rows[3] = {r, nu, dir};
+        m = m_ident();
+        for (int i = 0; i < 3; i++) {
+            for (int j = 0; j < 3; j++) m.m[i][j] = rows[i][j];
+            m.m[i][3] = -(rows[i][0] * v[0] + rows[i][1] * v[1] + rows[i][2] * v[2]);
+        }
+        concat(P, &m);
+        return 0;
+    }
+    if (!strcmp(dn, "Translate") || !strcmp(dn, "Scale")) {
+        if (need_numbers(P, d, v, 3) < 0) return -1;
+        m = m_ident();
+        for (int k = 0; k < 3; k++) {
+            if (dn[0] == 'T') m.m[k][3] = v[k];
+            else m.m[k][k] = v[k];
+        }
+        concat(P, &m);
+        return 0;
+    }
+    if (!strcmp(dn, "Rotate")) {
+        if (need_numbers(P, d, v, 4) < 0) return -1;
+        double l = sqrt(v[1] * v[1] + v[2] * v[2] + v[3] * v[3]);
+        if (!(l > 0)) return perr(P, d, "Rotate: the axis is zero");
+        double x = v[1] / l, y = v[2] / l, z = v[3] / l, s, c;
+        rt_dsincos_deg(v[0], &s, &c);
+        m = m_ident();
+        m.m[0][0] = x * x + (1 - x * x) * c;
+        m.m[0][1] = x * y * (1 - c) - z * s;
+        m.m[0][2] = x * z * (1 - c) + y * s;
+        m.m[1][0] = x * y * (1 - c) + z * s;
+        m.m[1][1] = y * y + (1 - y * y) * c;
+        m.m[1][2] = y * z * (1 - c) - x * s;
+        m.m[2][0] = x * z * (1 - c) - y * s;
+        m.m[2][1] = y * z * (1 - c) + x * s;
+        m.m[2][2] = z * z + (1 - z * z) * c;
+        concat(P, &m);
+        return 0;
+    }
+    if (!strcmp(dn, "Transform") || !strcmp(dn, "ConcatTransform")) {
+        if (need_numbers(P, d, v, 16) < 0) return -1;
+        for (int i = 0; i < 4; i++)
+            for (int j = 0; j < 4; j++) m.m[i][j] = v[4 * j + i]; /* the file holds the transpose */
+        if (dn[0] == 'T') P->g.ctm = m;
+        else concat(P, &m);
+        return 0;
+    }
+    if (!strcmp(dn, "Identity")) {
+        P->g.ctm = m_ident();
+        return 0;
+    }
+    if (!strcmp(dn, "CoordinateSystem")) return do_coordsys(P, d, 1);
+    if (!strcmp(dn, "CoordSysTransform")) return do_coordsys(P, d, 0);
+    if (!strcmp(dn, "Camera")) return do_camera(P, d);
+    if (!strcmp(dn, "Film")) return do_film(P, d);
+    if (!strcmp(dn, "WorldBegin")) {
+        if (P->world) return perr(P, d, "WorldBegin given twice");
+        P->world = 1;
+        P->g.ctm = m_ident();
+        return name_cs(P, "world", &P->g.ctm);
+    }
+    if (!strcmp(dn, "WorldEnd")) return 0; /* pbrt-v3: the end of the world block */
+    if (!strcmp(dn, "AttributeBegin")) return push_frame(P, d, 'a');
+    if (!strcmp(dn, "AttributeEnd")) return pop_frame(P, d, 'a');
+    if (!strcmp(dn, "TransformBegin")) return push_frame(P, d, 't');
+    if (!strcmp(dn, "TransformEnd")) return pop_frame(P, d, 't');
+    if (!strcmp(dn, "ObjectBegin")) return do_object_begin(P, d);
+    if (!strcmp(dn, "ObjectEnd")) return do_object_end(P, d);
+    if (!strcmp(dn, "ObjectInstance")) return do_object_instance(P, d);
+    if (!strcmp(dn, "Material")) return do_material(P, d, 0);
+    if (!strcmp(dn, "MakeNamedMaterial")) return do_material(P, d, 1);
+    if (!strcmp(dn, "NamedMaterial")) return do_named_material(P, d);
+    if (!strcmp(dn, "LightSource")) return do_light(P, d);
+    if (!strcmp(dn, "AreaLightSource")) return do_area_light(P, d);
+    if (!strcmp(dn, "ActiveTransform")) {
+        token x;
+        if (lex(P, &x) < 0) return -1;
+        if (!word_is(&x, "StartTime") && !word_is(&x, "EndTime") && !word_is(&x, "All"))
+            return perr(P, &x, "ActiveTransform: expected StartTime, EndTime or All, got %s", tq(b, sizeof b, &x));
+        pwarn(P, d, "ActiveTransform", "ActiveTransform skipped");
+        return 0;
+    }
+    for (int i = 0; skipped[i]; i++)
+        if (!strcmp(dn, skipped[i])) {
+            pwarn(P, d, dn, "%s skipped", dn);
+            return skip_args(P);
+        }
+    return perr(P, d, "unknown directive %s (not a pbrt directive)", tq(b, sizeof b, d));
+}
+
+static int parse_all(pbrt *P)
+{
+    for (;;) {
+        token t;
+        char b[80];
+        if (lex(P, &t) < 0) return -1;
+        if (t.kind == TK_EOF) {
+            if (P->depth == 1) {
+                if (P->nstack) {
+                    const frame *f = &P->stack[P->nstack - 1];
+                    return perr(P, &t, "the %s at %s has no %s", frame_name(f->kind), f->at,
+                                f->kind == 'a' ? "AttributeEnd" : f->kind == 't' ? "TransformEnd" : "ObjectEnd");
+                }
+                return 0;
+            }
+            file_free(P->f[--P->depth]);
+            P->f[P->depth] = NULL;
+            continue;
+        }
+        if (t.kind != TK_WORD) return perr(P, &t, "expected a directive, got %s", tq(b, sizeof b, &t));
+        if (directive(P, &t) < 0) return -1;
+    }
+}
+
+/* ------------------------------------------------------------------------ */
+/* Finishing: camera, lights, warnings                                       */
+
+static double tan_half(double fov)
+{
+    double s, c;
+    rt_dsincos_deg(0.5 * fov, &s, &c);
+    return s / c;
+}
+
+/* 2 atan(t) in degrees, by bisection on tan_half (only + - * /). */
+static double fov_of(double t)
+{
+    double lo = 0, hi = 180;
+    for (int i = 0; i < 200 && hi - lo > 0; i++) {
+        double mid = 0.5 * (lo + hi);
+        if (mid == lo || mid == hi) break;
+        if (tan_half(mid) < t) lo = mid;
+        else hi = mid;
+    }
+    return 0.5 * (lo + hi);
+}
+
+static void set_camera(pbrt *P)
+{
+    rt_scene *s = P->s;
+    mat4 M;
+    m_inverse(&P->cam_ctm, &M); /* checked at Camera */
+    double o[3] = {0, 0, 0}, e[3];
+    m_apply(&M, o, e);
+    double f[3], u[3];
+    for (int k = 0; k < 3; k++) f[k] = M.m[k][2], u[k] = M.m[k][1];
+    double fl = sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]);
+    double ul = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    for (int k = 0; k < 3; k++) e[k] += 0.0, f[k] += 0.0, u[k] += 0.0; /* -0 -> +0 */
+    s->cam.eye = rt_v3((float)e[0], (float)e[1], (float)e[2]);
+    s->cam.at = rt_v3((float)(e[0] + f[0] / fl), (float)(e[1] + f[1] / fl), (float)(e[2] + f[2] / fl));
+    s->cam.up = rt_v3((float)(u[0] / ul), (float)(u[1] / ul), (float)(u[2] / ul));
+    s->cam.mirror = det3(&M) > 0;
+    /* pbrt's fov spans the shorter image axis; ours is vertical */
+    double W = P->film_w ? P->film_w : 1280, H = P->film_h ? P->film_h : 720;
+    double fa = P->frame_aspect > 0 ? P->frame_aspect : W / H;
+    double half = P->have_sw ? 0.5 * (P->sw[3] - P->sw[2]) : fa > 1 ? 1.0 : 1.0 / fa;
+    s->cam.fovy_deg = half == 1.0 ? (float)P->fov : (float)fov_of(tan_half(P->fov) * half);
+}
+
+static void set_lights(pbrt *P)
+{
+    rt_scene *s = P->s;
+    rt_bounds b = s->bounds;
+    double dx = (double)b.hi.x - b.lo.x, dy = (double)b.hi.y - b.lo.y, dz = (double)b.hi.z - b.lo.z;
+    double diag = sqrt(dx * dx + dy * dy + dz * dz);
+    int n = 0;
+    for (int i = 0; i < P->nplight && n < RT_NLIGHTS; i++) s->light[n++] = P->plight[i];
+    for (int i = 0; i < P->nal && n < RT_NLIGHTS; i++) {
+        const arealight *a = &P->al[i];
+        double nl = sqrt(a->nsum[0] * a->nsum[0] + a->nsum[1] * a->nsum[1] + a->nsum[2] * a->nsum[2]);
+        if (!(a->area2 > 0) || !(nl > 1e-6 * a->area2)) {
+            int j;
+            for (j = 0; j < P->nwarn; j++)
+                if (!strcmp(P->warn[j].key, "closed area light")) break;
+            if (j == P->nwarn && P->nwarn < MAX_WARN) {
+                snprintf(P->warn[j].key, sizeof P->warn[j].key, "closed area light");
+                snprintf(P->warn[j].msg, sizeof P->warn[j].msg,
+                         "%.100s: area light without a facing side (closed or degenerate): no point light for it", a->at);
+                P->nwarn++;
+            }
+            continue;
+        }
+        double off = 0.025 * diag / nl;
+        s->light[n++] = rt_v3((float)(a->c[0] / a->area2 + a->nsum[0] * off),
+                              (float)(a->c[1] / a->area2 + a->nsum[1] * off),
+                              (float)(a->c[2] / a->area2 + a->nsum[2] * off));
+    }
+    if (P->have_camera)
+        for (; n < RT_NLIGHTS; n++) s->light[n] = s->cam.eye;
+    /* auto-framed: the remaining lights stay where rt_scene_autoframe put them */
+}
+
+static void compose_warnings(pbrt *P)
+{
+    rt_scene *s = P->s;
+    s->warning[0] = 0;
+    size_t cap = sizeof s->warning;
+    int shown = 0;
+    for (int i = 0; i < P->nwarn; i++) {
+        size_t k = strlen(s->warning);
+        size_t need = strlen(P->warn[i].msg) + (k ? 2 : 0);
+        if (k + need + 24 >= cap) break;
+        snprintf(s->warning + k, cap - k, "%s%s", k ? "; " : "", P->warn[i].msg);
+        shown++;
+    }
+    int more = P->nwarn - shown + P->nwarn_more;
+    if (more > 0) {
+        size_t k = strlen(s->warning);
+        snprintf(s->warning + k, cap - k, "%s(+%d more warnings)", k ? " " : "", more);
+    }
+}
+
+/* tess=N,maxtri=N */
+static int parse_spec(const char *path, const char *params, int *tess, uint32_t *maxtri, rt_err *e)
+{
+    *tess = 3;
+    *maxtri = DEFAULT_MAXTRI;
+    int seen_t = 0, seen_m = 0;
+    const char *p = params ? params : "";
+    while (*p) {
+        const char *end = strchr(p, ',');
+        size_t len = end ? (size_t)(end - p) : strlen(p);
+        char item[64], *q;
+        if (len == 0 || len >= sizeof item)
+            return rt_errf(e, "%s: bad parameter list '%.60s' (known: tess, maxtri)", path, params);
+        memcpy(item, p, len);
+        item[len] = 0;
+        char *eq = strchr(item, '=');
+        if (!eq) return rt_errf(e, "%s: parameter '%s' is not key=value", path, item);
+        *eq = 0;
+        errno = 0;
+        long long v = strtoll(eq + 1, &q, 10);
+        int ok = *q == 0 && q != eq + 1 && eq[1] != ' ' && !errno;
+        if (!strcmp(item, "tess")) {
+            if (seen_t++) return rt_errf(e, "%s: parameter 'tess' given twice", path);
+            if (!ok || v < 1 || v > 64) return rt_errf(e, "%s: tess=%s out of range 1..64", path, eq + 1);
+            *tess = (int)v;
+        } else if (!strcmp(item, "maxtri")) {
+            if (seen_m++) return rt_errf(e, "%s: parameter 'maxtri' given twice", path);
+            if (!ok || v < 1 || v > (long long)(UINT32_MAX / 2))
+                return rt_errf(e, "%s: maxtri=%s out of range 1..%u", path, eq + 1, (unsigned)(UINT32_MAX / 2));
+            *maxtri = (uint32_t)v;
+        } else {
+            char q2[80];
+            return rt_errf(e, "%s: unknown parameter '%s' (known for .pbrt files: tess, maxtri, material)", path,
+                           rt_esc(q2, sizeof q2, item, 40));
+        }
+        p = end ? end + 1 : p + len;
+        if (end && !*p) return rt_errf(e, "%s: empty parameter in '%.60s'", path, params);
+    }
+    return 0;
+}
+
+rt_scene *rt_scene_load_pbrt(const char *path, const char *params, rt_err *e)
+{
+    pbrt *P = rt_calloc(1, sizeof *P, e);
+    if (!P) return NULL;
+    int rc = -1, tess;
+    uint32_t maxtri;
+    P->e = e;
+    P->in_obj = -1;
+    P->fov = 90;
+    if (parse_spec(path, params, &tess, &maxtri, e) < 0) goto done;
+    P->tess = tess;
+    P->maxtri = maxtri;
+    if (!(P->s = rt_scene_new(0, e))) goto done;
+    const char *base = strrchr(path, '/');
+    snprintf(P->s->name, sizeof P->s->name, "%s", base ? base + 1 : path);
+    snprintf(P->s->params, sizeof P->s->params, "tess=%d", tess);
+    /* the top folder */
+    size_t dl = base ? (size_t)(base - path) : 0;
+    if (!(P->topdir = rt_calloc(dl + 2, 1, e))) goto done;
+    if (base) memcpy(P->topdir, path, dl ? dl : 1);
+    else P->topdir[0] = '.';
+    if (!(P->rtop = realpath(P->topdir, NULL))) {
+        rt_errf(e, "%s: %s", path, strerror(errno));
+        goto done;
+    }
+    /* the top file */
+    int fd;
+    struct stat st;
+    char why[200], *buf = NULL;
+    size_t n = 0;
+    if (open_regular(path, &fd, &st, why, sizeof why) < 0 || read_fd(P, fd, &st, &buf, &n, why, sizeof why) < 0) {
+        rt_errf(e, "%s: %s", path, why);
+        goto done;
+    }
+    size_t pl = strlen(path);
+    char *shown = rt_calloc(pl + 1, 1, e), *rel = rt_calloc(pl + 1, 1, e);
+    if (!shown || !rel) {
+        free(shown);
+        free(rel);
+        free(buf);
+        goto done;
+    }
+    memcpy(shown, path, pl);
+    memcpy(rel, base ? base + 1 : path, strlen(base ? base + 1 : path)); /* folder "" after push_file */
+    if (push_file(P, shown, rel, buf, n, &st) < 0) goto done;
+    /* the default material and state */
+    matdef m0;
+    memset(&m0, 0, sizeof m0);
+    snprintf(m0.name, sizeof m0.name, "diffuse");
+    m0.rgb[0] = m0.rgb[1] = m0.rgb[2] = 0.5f;
+    m0.ior = 1;
+    if (add_matdef(P, &m0) < 0) goto done;
+    P->g.ctm = m_ident();
+    if (parse_all(P) < 0) goto done;
+    rt_scene *s = P->s;
+    s->ntri_unique += P->nonobj;
+    if (!s->ninst) s->ntri_unique = 0;
+    rt_err fe;
+    if (rt_scene_finish(s, &fe) < 0) {
+        rt_errf(e, "%s: %s", path, s->ntri ? fe.msg : "no triangles (no supported Shape in the world block)");
+        goto done;
+    }
+    if (rt_scene_check_range(s, path, e) < 0) goto done;
+    if (P->have_camera) set_camera(P);
+    else rt_scene_autoframe(s);
+    set_lights(P);
+    s->film_w = P->film_w;
+    s->film_h = P->film_h;
+    compose_warnings(P);
+    rc = 0;
+done:
+    for (int i = 0; i < P->depth; i++) file_free(P->f[i]);
+    free(P->topdir);
+    free(P->rtop);
+    free(P->stack);
+    free(P->mats);
+    nm_free(&P->named_mat);
+    nm_free(&P->named_cs);
+    nm_free(&P->named_obj);
+    free(P->cs);
+    free(P->objs);
+    free(P->otri);
+    free(P->oshade);
+    free(P->al);
+    rt_scene *out = P->s;
+    if (rc < 0) {
+        rt_scene_free(out);
+        out = NULL;
+    }
+    free(P);
+    return out;
+}
