@@ -38,7 +38,7 @@ unbind() {
 trap unbind EXIT
 
 if [ ! -f "$dir/minbase.tar" ]; then
-    command -v debootstrap >/dev/null 2>&1 || { apt-get update -qq && apt-get install -y -qq debootstrap >/dev/null; }
+    "$top/scripts/deps.sh" --fresh
     ! mounted || { echo "fresh-debian.sh: something is mounted below $root" >&2; exit 1; }
     rm -rf "$root"
     say "debootstrap --variant=minbase bookworm $root"
