@@ -8,7 +8,7 @@
 # bare system without downloading it again), copies the committed tree
 # (git archive HEAD: no .git, so the build must do without git) to
 # /root/raytraffic in it, and runs ./run.sh, then ./test.sh, in
-# `chroot DIR/root` (niced) with /proc, /dev and /sys bound. Every package they
+# `chroot DIR/root` (niced) with /proc, /dev, /dev/pts and /sys bound. Every package they
 # need is installed by scripts/deps.sh inside the chroot. Logs:
 # DIR/run.log, DIR/test.log; exit status 0 when both commands passed.
 #   RT_FRESH_MIRROR  Debian mirror (default http://deb.debian.org/debian)
@@ -31,7 +31,7 @@ say() { echo "== $* ($(( $(date +%s) - start )) s)"; }
 mounted() { awk -v r="$root/" 'index($2 "/", r) == 1 { found = 1 } END { exit !found }' /proc/mounts; }
 unbind() {
     local m
-    for m in sys dev proc; do
+    for m in sys dev/pts dev proc; do
         if awk -v p="$root/$m" '$2 == p { f = 1 } END { exit !f }' /proc/mounts; then umount -l "$root/$m"; fi
     done
 }
@@ -64,6 +64,7 @@ mkdir -p "$root/root/raytraffic"
 
 mount --bind /proc "$root/proc"
 mount --bind /dev "$root/dev"
+mount --bind /dev/pts "$root/dev/pts"
 mount --bind /sys "$root/sys"
 inchroot() {
     nice -n 10 chroot "$root" /usr/bin/env -i HOME=/root PATH=/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin \
