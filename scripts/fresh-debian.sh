@@ -15,6 +15,9 @@
 # Not part of `make check`: it downloads about 400 MB and takes 15-25
 # minutes on 2 cores. Results: docs/reliability.md, "Fresh machine".
 set -euo pipefail
+# (One function, called on the last line: bash reads it whole before it
+# runs, so editing the script during a run cannot change the run.)
+main() {
 top="$(cd "$(dirname "$0")/.." && pwd)"
 dir="${1:-/tmp/raytraffic-fresh}"
 mirror="${RT_FRESH_MIRROR:-http://deb.debian.org/debian}"
@@ -81,3 +84,5 @@ grep -E '^# (TOTAL|PASS|SKIP|XFAIL|FAIL|XPASS|ERROR):' "$dir/test.log" || true
 grep -h '^SKIP' "$root"/root/raytraffic/build/tests/*.log 2>/dev/null | sort | uniq -c || true
 echo "installed: $(chroot "$root" dpkg-query -W -f '${Package}\n' | wc -l) packages"
 exit $status
+}
+main "$@"
