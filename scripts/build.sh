@@ -2,15 +2,17 @@
 # What run.sh and test.sh share: installs missing dependencies, configures
 # raytraffic out of tree (once, and again when configure is newer than the
 # build) and builds it.
-#   scripts/build.sh BUILD_DIR   (relative to the source tree)
+#   scripts/build.sh [BUILD_DIR]   (relative to the source tree; default build)
 #   RT_SANITIZE=1  configure with --enable-sanitizers (ASan + UBSan)
 #   CFLAGS         default -O2 -g
 set -euo pipefail
 top="$(cd "$(dirname "$0")/.." && pwd)"
 cd "$top"
 "$top/scripts/deps.sh"
-[ -x configure ] || autoreconf -fi
-bdir="${1:?usage: scripts/build.sh BUILD_DIR}"
+# configure and Makefile.in together: an interrupted autoreconf can leave
+# one without the other.
+{ [ -x configure ] && [ -f Makefile.in ]; } || autoreconf -fi
+bdir="${1:-build}"
 mkdir -p "$bdir"
 cd "$bdir"
 flags=""

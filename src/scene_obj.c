@@ -6,7 +6,8 @@
  * (relative to the vertices read so far) indices. Triangles, quads and
  * n-gons are fan-triangulated from the first corner: (0,1,2), (0,2,3), ...
  * `mtllib` reads MTL material libraries (several names per line, relative
- * to the OBJ's folder) and `usemtl` gives the faces after it that
+ * to the OBJ's folder; regular files only, so a name like /dev/zero or a
+ * FIFO is refused rather than read forever) and `usemtl` gives the faces after it that
  * material: its Kd becomes the triangles' colour, and Ks, Ke, Ni, d/Tr, Tf
  * and illum become a material table entry (mapping in docs/scenes.md).
  * Faces before any usemtl get the default grey and material 0. Every other
@@ -42,6 +43,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 
 static int is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v'; }
@@ -361,9 +363,18 @@ static int mtllib_line(objload *L, const char *p)
         if (!mp) return -1;
         memcpy(mp, L->path, pre);
         memcpy(mp + pre, p, tl);
-        FILE *f = fopen(mp, "rb");
+        /* Only a regular file: the name comes from the file, and a FIFO
+         * would block the open, a device (/dev/zero) never end. */
+        struct stat st;
         int rc = 0;
         char q[160];
+        if (stat(mp, &st) == 0 && !S_ISREG(st.st_mode)) {
+            rc = rt_errf(L->e, "%s:%lu: material library %s is not a regular file", L->path, L->line,
+                         rt_esc(q, sizeof q, mp, 4096));
+            free(mp);
+            return rc;
+        }
+        FILE *f = fopen(mp, "rb");
         if (!f && errno == ENOENT) {
             L->libmissing = 1;
             warn(L, "%s:%lu: material library %s not found; its materials are the default", L->path, L->line,
