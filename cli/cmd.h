@@ -82,7 +82,10 @@ enum {
     RT_OPT_ORACLE,
     RT_OPT_ORACLE_FRACTION,
     RT_OPT_UNROLL,
-    RT_OPT_UNROLL_SUPPRESS
+    RT_OPT_UNROLL_SUPPRESS,
+    RT_OPT_LOOK_AT,
+    RT_OPT_FOV,
+    RT_OPT_LIGHT
 };
 
 /* The shared long options ({"lights",...}, {"cache-size",...}, ...);
@@ -96,6 +99,10 @@ extern const struct option rt_render_longopts[];
     "  -W N, -H N         image size in pixels (a .pbrt scene: its Film's by default;\n"   \
     "                     one of them alone keeps the Film's aspect ratio)\n"                \
     "  --lights L         all | none | comma list of lights 0,1,2 (default none)\n"         \
+    "  --look-at EX,EY,EZ,AX,AY,AZ[,UX,UY,UZ]  camera at E looking at A (up: the scene's)\n" \
+    "  --fov DEGREES      vertical field of view (default: the scene's)\n"                 \
+    "  --light X,Y,Z[,POWER]  a point light (repeat up to 3 times: lights 0, 1, 2 replace\n" \
+    "                     the scene's; POWER default: the scene's light power)\n"          \
     "  --packet N         packet edge in pixels for -t packet (default 8)\n"                 \
     "  --cache-size S     dynamic: cache size to schedule for, e.g. 64K (default 64K)\n"    \
     "  --gmax B           dynamic: explicit geometry budget in bytes (overrides derivation)\n" \

@@ -7,7 +7,9 @@
 #include "scene.h"
 
 #include <errno.h>
+#include <ctype.h>
 #include <limits.h>
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -32,6 +34,9 @@ const struct option rt_render_longopts[] = {
     {"oracle-fraction", required_argument, NULL, RT_OPT_ORACLE_FRACTION},
     {"unroll", required_argument, NULL, RT_OPT_UNROLL},
     {"unroll-suppress", no_argument, NULL, RT_OPT_UNROLL_SUPPRESS},
+    {"look-at", required_argument, NULL, RT_OPT_LOOK_AT},
+    {"fov", required_argument, NULL, RT_OPT_FOV},
+    {"light", required_argument, NULL, RT_OPT_LIGHT},
     {"tracer", required_argument, NULL, 't'},
     {"width", required_argument, NULL, 'W'},
     {"height", required_argument, NULL, 'H'},
@@ -58,6 +63,27 @@ int rt_cmd_parse_long(const char *s, long lo, long hi, long *out)
     if (errno || end == s || *end || v < lo || v > hi) return -1;
     *out = v;
     return 0;
+}
+
+/* Parses a comma list of finite numbers of magnitude at most 1e30 (the
+ * scene coordinate range), no spaces, into out[0..max). Returns how many,
+ * or -1. */
+static int parse_floats(const char *s, float *out, int max)
+{
+    int n = 0;
+    for (;;) {
+        char *end;
+        if (n == max || !*s || isspace((unsigned char)*s) || *s == ',') return -1;
+        errno = 0;
+        double v = strtod(s, &end);
+        if (end == s || errno || !isfinite(v) || fabs(v) > 1e30) return -1;
+        for (const char *q = s; q < end; q++) /* decimal only: no hex, inf or nan */
+            if (!strchr("0123456789+-.eE", *q)) return -1;
+        out[n++] = (float)v;
+        if (!*end) return n;
+        if (*end != ',') return -1;
+        s = end + 1;
+    }
 }
 
 static int render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o, const char **tracer)
@@ -169,6 +195,54 @@ static int render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
     case RT_OPT_UNROLL_SUPPRESS:
         o->unroll_suppress = 1;
         return 1;
+    case RT_OPT_LOOK_AT: {
+        float f[9];
+        int n = parse_floats(arg, f, 9);
+        if (n != 6 && n != 9) {
+            rt_cmd_error(cmd, "--look-at: '%s' is not EX,EY,EZ,AX,AY,AZ[,UX,UY,UZ] (numbers within 1e30)", arg);
+            return -1;
+        }
+        rt_vec3 d = rt_v3(f[3] - f[0], f[4] - f[1], f[5] - f[2]);
+        rt_vec3 up = n == 9 ? rt_v3(f[6], f[7], f[8]) : rt_v3(0, 0, 1), x = rt_cross(d, up);
+        if (!(rt_dot(d, d) > 0) || (n == 9 && !(rt_dot(x, x) > 0))) {
+            rt_cmd_error(cmd, "--look-at: '%s': the eye must differ from the point looked at, and up must not be zero "
+                              "or along the view direction", arg);
+            return -1;
+        }
+        o->view.look = 1;
+        o->view.up_set = n == 9;
+        memcpy(o->view.eye, f, sizeof o->view.eye);
+        memcpy(o->view.at, f + 3, sizeof o->view.at);
+        if (n == 9) memcpy(o->view.up, f + 6, sizeof o->view.up);
+        return 1;
+    }
+    case RT_OPT_FOV: {
+        float f;
+        if (parse_floats(arg, &f, 1) != 1 || !(f > 0 && f < 180)) {
+            rt_cmd_error(cmd, "--fov: '%s' is not a vertical field of view in (0, 180) degrees", arg);
+            return -1;
+        }
+        o->view.fov = f;
+        return 1;
+    }
+    case RT_OPT_LIGHT: {
+        float f[4] = {0, 0, 0, 0};
+        int n = parse_floats(arg, f, 4);
+        if (n != 3 && n != 4) {
+            rt_cmd_error(cmd, "--light: '%s' is not X,Y,Z[,POWER] (numbers within 1e30)", arg);
+            return -1;
+        }
+        if (n == 4 && !(f[3] > 0)) {
+            rt_cmd_error(cmd, "--light: power '%g' is not positive", (double)f[3]);
+            return -1;
+        }
+        if (o->view.nlights == RT_NLIGHTS) {
+            rt_cmd_error(cmd, "--light: at most %d lights (a scene has %d)", RT_NLIGHTS, RT_NLIGHTS);
+            return -1;
+        }
+        memcpy(o->view.light[o->view.nlights++], f, sizeof f);
+        return 1;
+    }
     case 'W':
     case 'H':
         if (rt_cmd_parse_long(arg, 1, 65536, &v) < 0) {

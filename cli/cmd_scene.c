@@ -20,8 +20,8 @@ static void usage(FILE *f)
 {
     fprintf(f,
             "Usage: raytraffic scene list\n"
-            "       raytraffic scene info SCENE [--json] [--no-tree]\n"
-            "       raytraffic scene export SCENE -o FILE.obj\n\n"
+            "       raytraffic scene info SCENE [--json] [--no-tree] [VIEW]\n"
+            "       raytraffic scene export SCENE -o FILE.obj [VIEW]\n\n"
             "SCENE is a built-in name with optional parameters (sphereflake:level=2,tess=3)\n"
             "or a scene file ending in .obj, .ply or .pbrt.\n\n"
             "  list      built-in scenes, their parameters and one-line descriptions\n"
@@ -29,7 +29,9 @@ static void usage(FILE *f)
             "            --json     one JSON object on stdout\n"
             "            --no-tree  skip building the k-d tree\n"
             "  export    write the scene's triangles as Wavefront OBJ\n"
-            "            -o FILE    output file (required)\n");
+            "            -o FILE    output file (required)\n\n"
+            "VIEW replaces the scene's camera and lights, as for render:\n"
+            "  --look-at EX,EY,EZ,AX,AY,AZ[,UX,UY,UZ]   --fov DEGREES   --light X,Y,Z[,POWER] (up to 3)\n");
 }
 
 static int cmd_list(int argc, char **argv)
@@ -63,6 +65,40 @@ static void json_vec(const char *key, rt_vec3 v, int comma)
     printf("  \"%s\": [%.9g, %.9g, %.9g]%s\n", key, (double)v.x, (double)v.y, (double)v.z, comma ? "," : "");
 }
 
+/* --look-at, --fov and --light (value in the next word): 1 taken (*i
+ * advanced), 0 not one of them, -1 usage error (printed). */
+static int view_opt(int argc, char **argv, int *i, rt_render_opts *o)
+{
+    static const struct {
+        const char *name;
+        int code;
+    } vo[] = {{"--look-at", RT_OPT_LOOK_AT}, {"--fov", RT_OPT_FOV}, {"--light", RT_OPT_LIGHT}};
+    for (size_t k = 0; k < sizeof vo / sizeof vo[0]; k++) {
+        if (strcmp(argv[*i], vo[k].name)) continue;
+        if (*i + 1 >= argc) {
+            rt_cmd_error("scene", "%s needs a value", vo[k].name);
+            return -1;
+        }
+        const char *tracer = NULL;
+        if (rt_cmd_render_opt("scene", vo[k].code, argv[++*i], o, &tracer) < 0) return -1;
+        return 1;
+    }
+    return 0;
+}
+
+/* Loads spec with the user's view applied; NULL (printed) on failure. */
+static rt_scene *load_viewed(const char *spec, const rt_render_opts *o)
+{
+    rt_err e = {0};
+    rt_scene *s = rt_scene_load(spec, &e);
+    if (s && rt_render_apply_view(o, s, &e) < 0) {
+        rt_scene_free(s);
+        s = NULL;
+    }
+    if (!s) rt_cmd_error("scene", "%s", e.msg);
+    return s;
+}
+
 static int cmd_info(int argc, char **argv)
 {
     if (rt_cmd_wants_help(argc, argv)) {
@@ -70,9 +106,13 @@ static int cmd_info(int argc, char **argv)
         return RT_EXIT_OK;
     }
     const char *spec = NULL;
-    int json = 0, tree = 1;
+    int json = 0, tree = 1, v;
+    rt_render_opts vo;
+    rt_render_default_opts(&vo);
     for (int i = 1; i < argc; i++) {
-        if (!strcmp(argv[i], "--json")) json = 1;
+        if ((v = view_opt(argc, argv, &i, &vo)) != 0) {
+            if (v < 0) return RT_EXIT_USAGE;
+        } else if (!strcmp(argv[i], "--json")) json = 1;
         else if (!strcmp(argv[i], "--no-tree")) tree = 0;
         else if (argv[i][0] == '-' && argv[i][1]) {
             rt_cmd_error("scene", "info: unknown option '%s'", argv[i]);
@@ -88,11 +128,8 @@ static int cmd_info(int argc, char **argv)
     }
     rt_err e = {0};
     double t0 = rt_now();
-    rt_scene *s = rt_scene_load(spec, &e);
-    if (!s) {
-        rt_cmd_error("scene", "%s", e.msg);
-        return RT_EXIT_FAIL;
-    }
+    rt_scene *s = load_viewed(spec, &vo);
+    if (!s) return RT_EXIT_FAIL;
     double load_sec = rt_now() - t0;
     if (s->warning[0]) rt_cmd_error("scene", "warning: %s", s->warning);
     rt_kdtree *kd = NULL;
@@ -181,7 +218,14 @@ static int cmd_export(int argc, char **argv)
         return RT_EXIT_OK;
     }
     const char *spec = NULL, *out = NULL;
+    rt_render_opts vo;
+    rt_render_default_opts(&vo);
+    int v;
     for (int i = 1; i < argc; i++) {
+        if ((v = view_opt(argc, argv, &i, &vo)) != 0) {
+            if (v < 0) return RT_EXIT_USAGE;
+            continue;
+        }
         if (!strcmp(argv[i], "-o") || !strcmp(argv[i], "--output")) {
             if (i + 1 >= argc) {
                 rt_cmd_error("scene", "export: %s needs a file name", argv[i]);
@@ -201,11 +245,8 @@ static int cmd_export(int argc, char **argv)
         return RT_EXIT_USAGE;
     }
     rt_err e = {0};
-    rt_scene *s = rt_scene_load(spec, &e);
-    if (!s) {
-        rt_cmd_error("scene", "%s", e.msg);
-        return RT_EXIT_FAIL;
-    }
+    rt_scene *s = load_viewed(spec, &vo);
+    if (!s) return RT_EXIT_FAIL;
     int rc = rt_scene_export_obj(s, out, &e);
     rt_scene_free(s);
     if (rc < 0) {

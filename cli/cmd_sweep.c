@@ -127,6 +127,9 @@ static void usage(FILE *f)
             "  --flush, --no-flush  write back the dirty lines at the end (Dinero IV)\n"
             "  --write-fullline, --no-write-fullline  a write miss covering its line fetches\n"
             "                     nothing (Dinero IV)\n"
+            "  --look-at EX,EY,EZ,AX,AY,AZ[,UX,UY,UZ], --fov DEGREES, --light X,Y,Z[,POWER]\n"
+            "                     every scene's camera and lights (see render --help; in the\n"
+            "                     run key when given)\n"
             "  --accel A, --grid-min N, --vb-size S  feedback / stream tracer options\n"
             "                     (see render --help; in the run key when not the default)\n"
             "  --list-jobs        print one self-contained command per job and exit\n"
@@ -455,6 +458,9 @@ static const struct option sweep_longopts[] = {
     {"accel", required_argument, NULL, RT_OPT_ACCEL},
     {"grid-min", required_argument, NULL, RT_OPT_GRID_MIN},
     {"vb-size", required_argument, NULL, RT_OPT_VB_SIZE},
+    {"look-at", required_argument, NULL, RT_OPT_LOOK_AT},
+    {"fov", required_argument, NULL, RT_OPT_FOV},
+    {"light", required_argument, NULL, RT_OPT_LIGHT},
     {"width", required_argument, NULL, 'W'},
     {"height", required_argument, NULL, 'H'},
     {NULL, 0, NULL, 0},

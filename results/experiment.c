@@ -103,6 +103,7 @@ rt_render_opts rt_exp_job_opts(const rt_exp_config *c, const rt_exp_job *jb)
 {
     rt_render_opts ro = c->ro;
     ro.lights = jb->lighting >= 0 ? c->lightings[jb->lighting].mask : 0;
+    ro.lights = rt_render_lights(&ro); /* with --light, only the lights given exist */
     /* a raycast job is the run without lights: the default mode keeps its key */
     ro.mode = jb->mode == RT_MODE_RAYCAST ? RT_MODE_DEFAULT : jb->mode;
     ro.sched_size = jb->sched_size ? jb->sched_size : ro.sched_size;
@@ -301,6 +302,11 @@ static int load_scene(rt_exp_worker *w, int s, rt_err *e)
     w->sc = rt_scene_load(w->c->scenes[s], e);
     w->t.scene += rt_now() - t0;
     if (!w->sc) return -1;
+    if (rt_render_apply_view(&w->c->ro, w->sc, e) < 0) { /* the user's camera and lights: every job's */
+        rt_scene_free(w->sc);
+        w->sc = NULL;
+        return -1;
+    }
     w->scene_hash = rt_scene_hash(w->sc);
     w->cur_scene = s;
     return 0;

@@ -39,6 +39,7 @@ rt_scene *rt_scene_new(uint32_t ntri, rt_err *e)
     rt_scene *s = &p->pub;
     s->bounds = rt_bounds_empty();
     s->light_power = 0.45f;
+    for (int i = 0; i < RT_NLIGHTS; i++) s->light_scale[i] = 1.0f;
     s->ambient = 0.1f;
     s->background = rt_v3(0.05f, 0.05f, 0.08f);
     s->cam.up = rt_v3(0, 0, 1);
@@ -285,6 +286,20 @@ static void frame(rt_scene *s, int W, int H)
 
 void rt_scene_autoframe(rt_scene *s) { frame(s, 1, 1); }
 
+int rt_scene_set_camera(rt_scene *s, rt_vec3 eye, rt_vec3 at, rt_vec3 up, float fovy_deg, rt_err *e)
+{
+    rt_vec3 d = rt_sub(at, eye), c = rt_cross(d, up);
+    if (!(rt_dot(d, d) > 0)) return rt_errf_usage(e, "--look-at: the eye and the point looked at coincide");
+    if (!(rt_dot(c, c) > 0)) return rt_errf_usage(e, "--look-at: the up vector is zero or along the view direction");
+    if (!(fovy_deg > 0 && fovy_deg < 180)) return rt_errf_usage(e, "--fov: %g is not in (0, 180) degrees", (double)fovy_deg);
+    s->cam.eye = eye;
+    s->cam.at = at;
+    s->cam.up = up;
+    s->cam.fovy_deg = fovy_deg;
+    ((scene_priv *)s)->framed = 0;
+    return 0;
+}
+
 void rt_scene_fit_aspect(rt_scene *s, int W, int H)
 {
     if (((scene_priv *)s)->framed && W > 0 && W < H) frame(s, W, H);
@@ -331,6 +346,8 @@ uint64_t rt_scene_hash(const rt_scene *s)
     if (s->cam.mirror) h = hash_u32(h, 1); /* only pbrt scenes set it: other hashes unchanged */
     for (int i = 0; i < RT_NLIGHTS; i++) h = hash_v(h, s->light[i]);
     h = hash_f(h, s->light_power);
+    for (int i = 0; i < RT_NLIGHTS; i++) /* only a light with its own power: other hashes unchanged */
+        if (s->light_scale[i] != 1.0f) h = hash_f(hash_u32(h, (uint32_t)i), s->light_scale[i]);
     h = hash_f(h, s->ambient);
     h = hash_v(h, s->background);
     return h;

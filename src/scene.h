@@ -84,6 +84,7 @@ typedef struct rt_scene {
     rt_camera cam;          /* default view */
     rt_vec3 light[RT_NLIGHTS]; /* point lights 0..2 */
     float light_power;      /* radiance scale of each light */
+    float light_scale[RT_NLIGHTS]; /* per-light factor on light_power (1; a --light POWER sets it) */
     float ambient;          /* ambient term */
     rt_vec3 background;     /* colour of rays that leave the scene */
     rt_bounds bounds;       /* of all vertices */
@@ -157,6 +158,10 @@ void rt_scene_autoframe(rt_scene *s);
  * narrower horizontal field. Does nothing for W >= H or a scene whose
  * camera was not auto-framed, so those stay bit-identical. */
 void rt_scene_fit_aspect(rt_scene *s, int W, int H);
+/* Sets the camera a user gave (it is then no longer auto-framed, so
+ * rt_scene_fit_aspect leaves it alone). eye != at, up not along at - eye,
+ * 0 < fovy < 180: 0, else -1 naming what is wrong. */
+int rt_scene_set_camera(rt_scene *s, rt_vec3 eye, rt_vec3 at, rt_vec3 up, float fovy_deg, rt_err *e);
 
 /* The coordinates the single-precision pipeline resolves (derivation in
  * docs/scenes.md): every |coordinate| <= RT_COORD_MAX, the bounding-box

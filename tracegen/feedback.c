@@ -519,7 +519,7 @@ static void light_term(const rt_scene *sc, const rt_ray *r, const rt_hit *h, int
     float ndl = rt_dot(n, rt_norm(rt_sub(sc->light[i], p)));
     out[0] = out[1] = out[2] = 0.0f;
     if (!(ndl > 0)) return;
-    float s = ndl * sc->light_power;
+    float s = ndl * (sc->light_power * sc->light_scale[i]);
     for (int k = 0; k < 3; k++) out[k] = alb[k] * s;
 }
 

@@ -3,6 +3,8 @@
 #include "grid.h"
 #include "scene.h"
 
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 void rt_render_default_opts(rt_render_opts *o)
@@ -165,4 +167,59 @@ int rt_render_parse_lights(const char *s, unsigned *mask)
     }
     *mask = m;
     return 0;
+}
+
+int rt_render_apply_view(const rt_render_opts *o, rt_scene *sc, rt_err *e)
+{
+    const rt_render_view *v = &o->view;
+    if (v->look || v->fov > 0) {
+        rt_vec3 eye = sc->cam.eye, at = sc->cam.at, up = sc->cam.up;
+        if (v->look) {
+            eye = rt_v3(v->eye[0], v->eye[1], v->eye[2]);
+            at = rt_v3(v->at[0], v->at[1], v->at[2]);
+            if (v->up_set) up = rt_v3(v->up[0], v->up[1], v->up[2]);
+        }
+        if (rt_scene_set_camera(sc, eye, at, up, v->fov > 0 ? v->fov : sc->cam.fovy_deg, e) < 0) return -1;
+    }
+    for (int i = 0; i < v->nlights && i < RT_NLIGHTS; i++) {
+        sc->light[i] = rt_v3(v->light[i][0], v->light[i][1], v->light[i][2]);
+        sc->light_scale[i] = v->light[i][3] > 0 ? v->light[i][3] / sc->light_power : 1.0f;
+    }
+    return 0;
+}
+
+unsigned rt_render_lights(const rt_render_opts *o)
+{
+    int n = o->view.nlights;
+    return n > 0 && n < RT_NLIGHTS ? o->lights & ((1u << n) - 1) : o->lights;
+}
+
+/* Appends the shortest decimal that reads back as the float f ("0.9", not
+ * "0.899999976"), after sep, at buf + *l. */
+static void put_float(char *buf, size_t n, size_t *l, const char *sep, float f)
+{
+    char t[32];
+    for (int p = 6; p <= 9; p++) {
+        snprintf(t, sizeof t, "%.*g", p, (double)f);
+        if (strtof(t, NULL) == f) break;
+    }
+    if (*l < n) *l += (size_t)snprintf(buf + *l, n - *l, "%s%s", sep, t);
+}
+
+void rt_render_view_params(const rt_render_opts *o, char *buf, size_t n)
+{
+    const rt_render_view *v = &o->view;
+    size_t l = strlen(buf);
+    if (v->look) {
+        for (int k = 0; k < 6; k++)
+            put_float(buf, n, &l, k ? "," : l ? " look_at=" : "look_at=", k < 3 ? v->eye[k] : v->at[k - 3]);
+        for (int k = 0; k < 3 && v->up_set; k++) put_float(buf, n, &l, ",", v->up[k]);
+    }
+    if (v->fov > 0) put_float(buf, n, &l, l ? " fov=" : "fov=", v->fov);
+    for (int i = 0; i < v->nlights; i++) {
+        char key[32];
+        snprintf(key, sizeof key, "%slight%d=", l ? " " : "", i);
+        for (int k = 0; k < 3; k++) put_float(buf, n, &l, k ? "," : key, v->light[i][k]);
+        if (v->light[i][3] > 0) put_float(buf, n, &l, ",", v->light[i][3]);
+    }
 }

@@ -71,6 +71,17 @@ typedef enum rt_mode {
 #define RT_BOUNCES_MAX 1000 /* largest --bounces (path records count depth in 16 bits) */
 #define RT_SPP_MAX 65536    /* largest --spp */
 
+/* A camera and lights given on the command line, replacing the scene's
+ * (every scene: built-in and file). Part of the run key when set. */
+typedef struct rt_render_view {
+    int look;            /* 1: eye/at (and up, when up_set) replace the scene's camera */
+    int up_set;          /* 1: up given; else the scene's up vector stays */
+    float eye[3], at[3], up[3];
+    float fov;           /* vertical field of view in degrees; 0 = the scene's */
+    int nlights;         /* lights given (0 = the scene's); lights >= nlights do not exist */
+    float light[RT_NLIGHTS][4]; /* x, y, z, power (0 = the scene's light power) */
+} rt_render_view;
+
 typedef struct rt_render_opts {
     int W, H;            /* image size */
     unsigned lights;     /* bit i set: light i enabled */
@@ -98,6 +109,7 @@ typedef struct rt_render_opts {
     int unroll_i;        /* stream-multipass: intersection tests per pass (>= 1, 1) */
     int unroll_suppress; /* stream-multipass: no texel reads for rays that finish mid-pass */
     uint32_t given;      /* front end: bit RT_RO_x set when that option was given (never in a run key) */
+    rt_render_view view; /* camera and lights the user set (--look-at, --fov, --light); none by default */
     unsigned film;       /* RT_FILM_W | RT_FILM_H: that size may come from the scene's default
                           * image size (a pbrt Film); front ends set the bits of -W/-H not given (0) */
 } rt_render_opts;
@@ -148,6 +160,17 @@ int rt_render_geom_from_name(const char *name);
 const char *rt_render_qstores_name(int qs);
 int rt_render_qstores_from_name(const char *name);
 
+
+/* Puts the view of o into sc: the camera (rt_scene_set_camera) and the
+ * lights (positions, and a power as a factor on the scene's light power).
+ * 0, or -1 (a usage-class error naming the option). */
+int rt_render_apply_view(const rt_render_opts *o, rt_scene *sc, rt_err *e);
+/* The light mask o asks for, limited to the lights that exist (with
+ * --light given, only that many). */
+unsigned rt_render_lights(const rt_render_opts *o);
+/* Appends the view's run-key parameters (" look_at=... fov=... light0=...")
+ * to buf (nothing when no view was given). */
+void rt_render_view_params(const rt_render_opts *o, char *buf, size_t n);
 
 /* Parses "all", "none" (or ""), or a comma list of light indices "0,2" into
  * a light mask. 0, or -1 on a malformed list (*mask untouched). */

@@ -69,6 +69,7 @@ static int setup_opts(rt_job *j, const char *tracer, const rt_render_opts *o, rt
  * options left to it; the options are checked again with the final size. */
 static int apply_film(rt_job *j, rt_err *e)
 {
+    j->opt.lights = rt_render_lights(&j->opt); /* with --light, only the lights given exist */
     rt_render_apply_film(&j->opt, j->sc->film_w, j->sc->film_h);
     if (check_opts(&j->opt, e) < 0 || rt_pixel_check(&j->opt, e) < 0) return -1;
     return 0;
@@ -92,7 +93,8 @@ int rt_job_setup(rt_job *j, const char *scene_spec, const char *tracer, const rt
     if (setup_opts(j, tracer, o, e) < 0) return -1;
     j->sc = rt_scene_load(scene_spec, e);
     if (!j->sc) return -1;
-    if (apply_film(j, e) < 0 || build_accel(j, NULL, e) < 0 || layout(j, e) < 0) {
+    if (rt_render_apply_view(&j->opt, j->sc, e) < 0 || apply_film(j, e) < 0 || build_accel(j, NULL, e) < 0 ||
+        layout(j, e) < 0) {
         rt_job_free(j);
         return -1;
     }
@@ -190,7 +192,7 @@ static void layout_params(const rt_tracer *tr, const rt_render_opts *o, char *bu
 const char *rt_job_params(const char *tracer, const rt_render_opts *o, const char *extra, char *buf, size_t n)
 {
     if (!n) return buf;
-    char tp[160] = "", own[128] = "", mp[160];
+    char tp[160] = "", own[128] = "", mp[480];
     const rt_tracer *tr = rt_tracer_find(tracer);
     if (!extra) extra = "";
     /* the structure when not the tracer's default, then the tracer's own */
@@ -203,6 +205,7 @@ const char *rt_job_params(const char *tracer, const rt_render_opts *o, const cha
     }
     mode_params(o, mp, sizeof mp);
     layout_params(tr, o, mp, sizeof mp);
+    rt_render_view_params(o, mp, sizeof mp);
     /* tracer parameters, mode, extra: space-separated, empty parts left out */
     const char *part[3] = {tp, mp, extra};
     size_t l = 0;

@@ -33,7 +33,8 @@ typedef struct rt_job {
 
 /* Loads the scene, builds the tree and the layout. 0 or -1 (job freed). */
 int rt_job_setup(rt_job *j, const char *scene_spec, const char *tracer, const rt_render_opts *o, rt_err *e);
-/* Reuses an already loaded scene and, when the tracer runs on a k-d tree,
+/* Reuses an already loaded scene (with the options' view already applied:
+ * rt_render_apply_view) and, when the tracer runs on a k-d tree,
  * the caller's tree kd (NULL: built here). Ownership of sc and kd stays
  * with the caller; any other structure is built and owned by the job. */
 int rt_job_setup_borrowed(rt_job *j, rt_scene *sc, rt_kdtree *kd, const char *tracer, const rt_render_opts *o,

@@ -52,7 +52,7 @@ void rt_shade_hit(const rt_scene *sc, const rt_ray *eye, const rt_hit *h, const 
         rt_vec3 l = rt_norm(rt_sub(sc->light[i], p));
         float ndl = rt_dot(n, l);
         if (!(ndl > 0)) continue;
-        float s = ndl * sc->light_power;
+        float s = ndl * (sc->light_power * sc->light_scale[i]);
         for (int k = 0; k < 3; k++) rgb[k] += alb[k] * s;
     }
 }
@@ -266,7 +266,7 @@ void rt_shade_step(const rt_scene *sc, const rt_render_opts *o, const rt_path *p
         rt_vec3 l = rt_norm(rt_sub(sc->light[i], ph));
         float ndl = rt_dot(n, l);
         if (!(ndl > 0)) continue;
-        float s = ndl * sc->light_power;
+        float s = ndl * (sc->light_power * sc->light_scale[i]);
         for (int k = 0; k < 3; k++) out->lc[i][k] = p->w[k] * (alb[k] * s);
         if (!nonzero(out->lc[i])) continue;
         out->want[i] = 1;
