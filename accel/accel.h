@@ -46,6 +46,7 @@ typedef enum rt_accel_kind {
 /* How to build: the knobs a structure reads (others ignore them). */
 typedef struct rt_accel_params {
     uint32_t grid_min; /* grid: cells along the smallest axis; 0 = 64, halved until the grid fits */
+    double grid_density; /* grid: > 0: cells ~ grid_density x triangles instead (rt_grid_density_min) */
 } rt_accel_params;
 
 /* Footprint of a built structure, for `scene info` and `render --json`. */

@@ -115,7 +115,7 @@ int main_report(int argc, char **argv)
     if (rc == 0 && speed) {
         rc = rt_report_speed_error(h, o.csv, plotdir ? &po : NULL, stdout, &e);
     } else if (rc == 0 && !strcmp(figure, "purcell")) {
-        rc = rt_report_purcell(h, o.scene, o.csv, plotdir ? &po : NULL, stdout, &e);
+        rc = rt_report_purcell(h, o.scene, o.csv, compare, plotdir ? &po : NULL, stdout, &e);
     } else if (rc == 0 && !strcmp(figure, "feedback")) {
         rc = rt_report_feedback(h, o.scene, o.csv, plotdir ? &po : NULL, stdout, &e);
     } else if (rc == 0 && !strcmp(figure, "secondary")) {

@@ -127,7 +127,8 @@ static void usage(FILE *f)
             "  --flush, --no-flush  write back the dirty lines at the end (Dinero IV)\n"
             "  --write-fullline, --no-write-fullline  a write miss covering its line fetches\n"
             "                     nothing (Dinero IV)\n"
-            "  --accel A, --grid-min N, --vb-size S  feedback / stream tracer options\n"
+            "  --accel A, --grid-min N, --grid-density L, --record-stores S, --vb-size S\n"
+            "                     feedback / stream tracer options\n"
             "                     (see render --help; in the run key when not the default)\n"
             "  --list-jobs        print one self-contained command per job and exit\n"
             "  --job K            run only job K (0-based) of the matrix\n"
@@ -454,6 +455,8 @@ static const struct option sweep_longopts[] = {
     {"packet", required_argument, NULL, RT_OPT_PACKET},
     {"accel", required_argument, NULL, RT_OPT_ACCEL},
     {"grid-min", required_argument, NULL, RT_OPT_GRID_MIN},
+    {"grid-density", required_argument, NULL, RT_OPT_GRID_DENSITY},
+    {"record-stores", required_argument, NULL, RT_OPT_RECORD_STORES},
     {"vb-size", required_argument, NULL, RT_OPT_VB_SIZE},
     {"width", required_argument, NULL, 'W'},
     {"height", required_argument, NULL, 'H'},

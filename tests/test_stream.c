@@ -83,6 +83,7 @@ typedef struct count_sink {
     rt_sink s;
     const rt_layout *L;
     uint64_t bytes[RT_MM_MAX_REGIONS];
+    uint64_t wplain[RT_MM_MAX_REGIONS], wstream[RT_MM_MAX_REGIONS]; /* writes per region: ordinary, streaming */
     uint64_t bad;
 } count_sink;
 
@@ -100,6 +101,8 @@ static int count_put(rt_sink *s, const rt_access *a, size_t n)
             continue;
         }
         c->bytes[r] += a[i].size;
+        if (a[i].write == RT_WRITE_STREAM) c->wstream[r]++;
+        else if (a[i].write) c->wplain[r]++;
     }
     return 0;
 }
@@ -627,8 +630,118 @@ static void test_sweep_texture_cache(void)
     rmdir(dir);
 }
 
+/* The ray state is written to render targets, whole texels the GPU does not
+ * read first: streaming stores by default, ordinary writes with
+ * --record-stores write-allocate; nothing else changes (the framebuffer's
+ * read-modify-writes stay ordinary, the statistics are the same). */
+static void test_stores(void)
+{
+    rt_err e = {0};
+    rt_scene *sc = rt_scene_load("cornell", &e);
+    CHECK(sc != NULL, "cornell: %s", e.msg);
+    if (!sc) return;
+    for (int mp = 0; mp < 2; mp++) {
+        const char *tr = mp ? "stream-multipass" : "stream-branching";
+        rt_run_stats st[2];
+        count_sink cs[2];
+        rt_layout L;
+        for (int wa = 0; wa < 2; wa++) {
+            rt_render_opts o;
+            rt_render_default_opts(&o);
+            o.W = o.H = 16;
+            o.mode = RT_MODE_SHADOW;
+            o.lights = 7;
+            o.rstores = wa ? RT_RSTORES_WRITE_ALLOCATE : RT_RSTORES_NON_TEMPORAL;
+            rt_image *im = run(sc, NULL, tr, &o, &cs[wa], &st[wa], &L);
+            CHECK(im != NULL && cs[wa].bad == 0, "%s: run", tr);
+            rt_image_free(im);
+        }
+        int rs = rt_mm_find(&L, "stream.state"), fb = rt_mm_find(&L, "fb");
+        uint64_t wa_stream = 0, nt_other = 0;
+        for (int k = 0; k < L.n; k++) {
+            wa_stream += cs[1].wstream[k];
+            if (k != rs) nt_other += cs[0].wstream[k];
+        }
+        CHECK(cs[0].wstream[rs] > 0 && cs[0].wplain[rs] == 0, "%s: state writes %" PRIu64 " streaming, %" PRIu64
+              " ordinary", tr, cs[0].wstream[rs], cs[0].wplain[rs]);
+        CHECK(cs[1].wplain[rs] == cs[0].wstream[rs] && wa_stream == 0, "%s: write-allocate: %" PRIu64
+              " ordinary state writes, %" PRIu64 " streaming", tr, cs[1].wplain[rs], wa_stream);
+        CHECK(nt_other == 0 && cs[0].wplain[fb] == cs[1].wplain[fb] && cs[0].wplain[fb] > 0,
+              "%s: only the state is streamed", tr);
+        CHECK(!strcmp(st[0].extra, st[1].extra), "%s: statistics differ", tr);
+        rt_render_opts o;
+        rt_render_default_opts(&o);
+        o.rstores = RT_RSTORES_WRITE_ALLOCATE;
+        char buf[256];
+        CHECK(!strcmp(rt_job_params(tr, &o, NULL, buf, sizeof buf), "record_stores=write-allocate"), "key '%s'", buf);
+    }
+    rt_scene_free(sc);
+}
+
+/* Adds the box [0,X] x [0,Y] x [0,Z] as two triangles along its diagonal
+ * plus (n - 2) copies of the first, so the bounds are the box. */
+static rt_scene *box_scene(float X, float Y, float Z, int n)
+{
+    rt_err e = {0};
+    rt_scene *s = rt_scene_new((uint32_t)n, &e);
+    const float rgb[3] = {0.5f, 0.5f, 0.5f};
+    for (int t = 0; t < n; t++) {
+        if (t % 2) CHECK(rt_scene_add_tri(s, rt_v3(X, Y, Z), rt_v3(X, 0, Z), rt_v3(0, Y, 0), rgb, &e) == 0, "add");
+        else CHECK(rt_scene_add_tri(s, rt_v3(0, 0, 0), rt_v3(X, 0, 0), rt_v3(X, Y, Z), rgb, &e) == 0, "add");
+    }
+    CHECK(rt_scene_finish(s, &e) == 0, "finish: %s", e.msg);
+    return s;
+}
+
+/* --grid-density L: cubic voxels, about L x triangles cells. Hand cases:
+ * bounds 1 x 2 x 4, 8 triangles, L = 8: edge (8 / 64)^(1/3) = 0.5, 2 cells
+ * on the smallest axis, 2 x 4 x 8 = 64 cells; flat 1 x 4 x 0 with 4
+ * triangles, L = 4: edge (4 / 16)^(1/2) = 0.5, 2 x 8 x 1 = 16 cells; the
+ * room (flat-ish) at L = 4 holds 2-8 cells per triangle, far below the
+ * grid-min 128 grid. */
+static void test_density(void)
+{
+    rt_err e = {0};
+    rt_scene *a = box_scene(1, 2, 4, 8), *b = box_scene(1, 4, 0, 4);
+    CHECK(rt_grid_density_min(a, 8) == 2 && rt_grid_density_min(b, 4) == 2, "hand cases: %u %u",
+          rt_grid_density_min(a, 8), rt_grid_density_min(b, 4));
+    CHECK(rt_grid_density_min(a, 1e-6) == 1, "tiny density: at least one cell");
+    rt_accel_params p = {0, 8.0};
+    rt_accel ac;
+    CHECK(rt_accel_build(&ac, RT_ACCEL_GRID, a, &p, &e) == 0, "build: %s", e.msg);
+    const rt_grid *g = ac.as;
+    CHECK(g && g->n[0] == 2 && g->n[1] == 4 && g->n[2] == 8 && rt_grid_check(g, a, &e) == 0, "density grid %ux%ux%u",
+          g ? g->n[0] : 0, g ? g->n[1] : 0, g ? g->n[2] : 0);
+    rt_accel_free(&ac);
+    p.grid_density = 4.0;
+    CHECK(rt_accel_build(&ac, RT_ACCEL_GRID, b, &p, &e) == 0, "build flat: %s", e.msg);
+    g = ac.as;
+    CHECK(g && g->n[0] == 2 && g->n[1] == 8 && g->n[2] == 1, "flat grid %ux%ux%u", g ? g->n[0] : 0, g ? g->n[1] : 0,
+          g ? g->n[2] : 0);
+    rt_accel_free(&ac);
+    rt_scene_free(a);
+    rt_scene_free(b);
+    rt_scene *room = rt_scene_load("room", &e);
+    CHECK(room != NULL, "room: %s", e.msg);
+    if (room) {
+        CHECK(rt_accel_build(&ac, RT_ACCEL_GRID, room, &p, &e) == 0, "build room: %s", e.msg);
+        g = ac.as;
+        double per = g ? (double)g->ncells / room->ntri : 0;
+        CHECK(per >= 2 && per <= 8 && rt_grid_check(g, room, &e) == 0, "room at density 4: %.2f cells per triangle", per);
+        rt_accel_free(&ac);
+        rt_scene_free(room);
+    }
+    rt_render_opts o;
+    rt_render_default_opts(&o);
+    o.grid_density = 2.5;
+    char buf[256];
+    CHECK(!strcmp(rt_job_params("stream-multipass", &o, NULL, buf, sizeof buf), "grid_density=2.5"), "key '%s'", buf);
+}
+
 int main(void)
 {
+    test_stores();
+    test_density();
     test_sweep_texture_cache();
     test_table1();
     test_passes();

@@ -476,7 +476,8 @@ static int emit(fb_run *R, int out, const rt_fb_ray *ray, rt_err *e)
         R->alloc[out] = na;
     }
     rt_rec_set_gen(R->rec, ray->gen);
-    RT_REC(R->rec, rt_mm_addr(R->L, R->reg_vb[out], R->n[out]), RT_FB_REC_SIZE, 1, RT_CLS_STREAM);
+    RT_REC(R->rec, rt_mm_addr(R->L, R->reg_vb[out], R->n[out]), RT_FB_REC_SIZE,
+           R->o->rstores == RT_RSTORES_WRITE_ALLOCATE ? 1 : RT_WRITE_STREAM, RT_CLS_STREAM);
     rt_fb_pack(ray, &R->vb[out][R->n[out]++]);
     R->s.gs_emitted++;
     if (R->perpix) R->perpix[ray->pix]++;
@@ -936,7 +937,10 @@ static void fb_params(const rt_render_opts *o, char *buf, size_t n)
     size_t l = 0;
     buf[0] = 0;
     if (o->grid_min && o->grid_min != 64) l += (size_t)snprintf(buf, n, "grid_min=%u", (unsigned)o->grid_min);
-    if (o->vb_size && l < n) snprintf(buf + l, n - l, "%svb-size=%" PRIu64, l ? " " : "", o->vb_size);
+    if (o->grid_density > 0 && l < n) l += (size_t)snprintf(buf + l, n - l, "%sgrid_density=%g", l ? " " : "", o->grid_density);
+    if (o->vb_size && l < n) l += (size_t)snprintf(buf + l, n - l, "%svb-size=%" PRIu64, l ? " " : "", o->vb_size);
+    if (o->rstores != RT_RSTORES_NON_TEMPORAL && l < n)
+        snprintf(buf + l, n - l, "%srecord_stores=%s", l ? " " : "", rt_render_rstores_name(o->rstores));
 }
 
 const rt_tracer rt_tracer_feedback = {
@@ -945,7 +949,7 @@ const rt_tracer rt_tracer_feedback = {
     .modes = (1u << RT_MODE_RAYCAST) | (1u << RT_MODE_SHADOW) | (1u << RT_MODE_WHITTED),
     .accels = RT_ACCEL_BIT(RT_ACCEL_GRID) | RT_ACCEL_BIT(RT_ACCEL_NAIVE),
     .accel_default = RT_ACCEL_GRID,
-    .opts = RT_OPTG_GRID | RT_OPTG_VB,
+    .opts = RT_OPTG_GRID | RT_OPTG_VB | RT_OPTG_RECORDS,
     .traits = RT_TR_TEXCACHE,
     .figures = RT_FIG_FEEDBACK,
     .params = fb_params,
