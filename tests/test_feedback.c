@@ -673,9 +673,52 @@ static void stores(void)
     rt_scene_free(sc);
 }
 
+/* ---- the modeled stage shares -------------------------------------------- */
+
+/* The shares follow from the stage counters and the per-operation costs
+ * counted from the paper's listings (docs/feedback.md, "The stage shares"):
+ * vertex 15 per record + 16 per box test + 28 per triangle test, geometry
+ * 8 per record + 8 per emit (+ 14 per child ray), fragment 10 per emitted
+ * record + 16 per shaded ray (blending 0). Ray casting with every triangle
+ * has no child rays, list reads or final pass, so the counters in the
+ * statistics give the shares by hand. On the paper's 36-triangle Cornell
+ * box the vertex share falls from ray casting to shadows to shadows with a
+ * mirror bounce, as the paper's Table 1 does (85.3 / 77.4 / 72.7%). */
+static void shares(void)
+{
+    double vs[3] = {0, 0, 0};
+    static const int modes[3] = {RT_MODE_RAYCAST, RT_MODE_SHADOW, RT_MODE_WHITTED};
+    for (int m = 0; m < 3; m++) {
+        rt_render_opts o;
+        rt_render_default_opts(&o);
+        o.W = o.H = 32;
+        o.accel = RT_ACCEL_NAIVE;
+        o.mode = modes[m];
+        o.lights = m ? 1 : 0;
+        o.depth = 2;
+        rt_run_stats st;
+        rt_image *im = render_spec("cornell:glass=0,material=mirror", "feedback", &o, &st);
+        CHECK(im != NULL, "render");
+        rt_image_free(im);
+        vs[m] = stat_of(&st, "modeled_share_vs");
+        if (m) continue;
+        const double R = stat_of(&st, "vs_records"), T = stat_of(&st, "vs_tests"), E = stat_of(&st, "gs_emitted"),
+                     S = stat_of(&st, "fs_shaded");
+        CHECK(R == 1024 && T == 36 * 1024 && E == 1024 && S == 1024, "raycast counters %.0f %.0f %.0f %.0f", R, T, E, S);
+        const double v = 15 * R + 16 * R + 28 * T, g = 8 * R + 8 * E, f = 10 * E + 16 * S, tot = v + g + f;
+        CHECK(fabs(stat_of(&st, "modeled_share_vs") - 100 * v / tot) < 0.006 &&
+                  fabs(stat_of(&st, "modeled_share_gs") - 100 * g / tot) < 0.006 &&
+                  fabs(stat_of(&st, "modeled_share_fs") - 100 * f / tot) < 0.006,
+              "raycast shares %s, want %.2f %.2f %.2f", st.extra, 100 * v / tot, 100 * g / tot, 100 * f / tot);
+    }
+    CHECK(vs[0] > vs[1] && vs[1] > vs[2], "vertex share %.2f / %.2f / %.2f does not fall as the paper's", vs[0], vs[1],
+          vs[2]);
+}
+
 int main(void)
 {
     record();
+    shares();
     stores();
     sizes();
     options();
