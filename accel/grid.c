@@ -18,7 +18,8 @@
  * the bounds); every other axis gets the fewest cells n with plane n >= the
  * bounds' upper face, i.e. ceil(extent / v). A flat axis (extent 0) gets one
  * cell of edge v; a scene flat on all axes gets v = max(1, |coord| / 1024);
- * an empty scene a 1x1x1 grid at the origin with v = 1. Planes are
+ * an empty scene a 1x1x1 grid at the origin with v = 1. (The density rule,
+ * rt_grid_density_min, only picks the grid_min this rule then uses.) Planes are
  * lo + i * v in float, one expression for boxes, clipping and crossings, so
  * the cells tile the grid bounds exactly. Errors: grid_min < 1, more than
  * RT_GRID_MAX_CELLS (2^27) cells, more than 2^32 - 2 list words, or a voxel
