@@ -14,7 +14,9 @@
  *                   finished rays, and appends to the other buffer, in the
  *                   fixed order input ray (passed through to be shaded),
  *                   shadow rays (light order), reflected ray, refracted ray
- *                   (stream-out: sequential writes only);
+ *                   (stream-out: sequential writes of whole 64-byte
+ *                   records, recorded as streaming stores, RT_WRITE_STREAM,
+ *                   unless --record-stores write-allocate);
  *   fragment stage  shades the passed-through rays with the one shading
  *                   model (shade.h) and blends them into the framebuffer in
  *                   buffer order.

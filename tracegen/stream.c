@@ -38,7 +38,10 @@
  * triangle, class tri), grid.shade (21 words per triangle, class shade:
  * Table 1's color kernel reads 21), mat (whitted/path with materials),
  * stream.state (16 words per stream slot, class stream: a kernel reads its
- * R state words and writes its W as one access each), stream.stencil (one
+ * R state words and writes its W as one access each; the writes go to
+ * render targets, which the GPU writes without reading, so they are
+ * streaming stores, RT_WRITE_STREAM, unless --record-stores
+ * write-allocate), stream.stencil (one
  * byte per slot, multipass only, class fb: the stencil plane of the
  * framebuffer), fb (12 B RGB per pixel). Every access is also counted per
  * kernel and per data type, so the statistics need no recorder.
