@@ -62,6 +62,7 @@ enum {
 typedef struct rt_accel_params {
     uint32_t grid_min; /* grid: cells along the smallest axis; 0 = 64, halved until the grid fits */
     int max_leaf;      /* BVH: most triangles per leaf; 0 = the default (4) */
+    double grid_density; /* grid: > 0: cells ~ grid_density x triangles instead (rt_grid_density_min) */
 } rt_accel_params;
 
 /* Footprint of a built structure, for `scene info` and `render --json`. */

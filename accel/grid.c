@@ -18,7 +18,8 @@
  * the bounds); every other axis gets the fewest cells n with plane n >= the
  * bounds' upper face, i.e. ceil(extent / v). A flat axis (extent 0) gets one
  * cell of edge v; a scene flat on all axes gets v = max(1, |coord| / 1024);
- * an empty scene a 1x1x1 grid at the origin with v = 1. Planes are
+ * an empty scene a 1x1x1 grid at the origin with v = 1. (The density rule,
+ * rt_grid_density_min, only picks the grid_min this rule then uses.) Planes are
  * lo + i * v in float, one expression for boxes, clipping and crossings, so
  * the cells tile the grid bounds exactly. Errors: grid_min < 1, more than
  * RT_GRID_MAX_CELLS (2^27) cells, more than 2^32 - 2 list words, or a voxel
@@ -682,12 +683,43 @@ int rt_grid_any(const rt_grid *g, const rt_scene *s, const rt_ray *rp, rt_grid_c
 
 /* ---- the grid as a member of the acceleration layer (accel.h) ------------ */
 
+uint32_t rt_grid_density_min(const rt_scene *s, double density)
+{
+    rt_bounds b = tri_bounds(s);
+    if (bounds_empty(&b) || !s->ntri || !(density > 0)) return 1;
+    const double ext[3] = {(double)b.hi.x - b.lo.x, (double)b.hi.y - b.lo.y, (double)b.hi.z - b.lo.z};
+    double vol = 1, emin = 0;
+    int d = 0;
+    for (int k = 0; k < 3; k++)
+        if (ext[k] > 0) {
+            vol *= ext[k];
+            emin = d++ ? fmin(emin, ext[k]) : ext[k];
+        }
+    if (!d) return 1;
+    double edge = pow(vol / (density * (double)s->ntri), 1.0 / d), m = floor(emin / edge + 0.5);
+    return m < 1 ? 1 : m > RT_GRID_MAX_CELLS ? RT_GRID_MAX_CELLS : (uint32_t)m;
+}
+
 /* An explicit grid_min is used as given (an oversized grid is an error
- * naming the limit); 0 means 64 (the paper's bunny), halved while the grid
- * would exceed RT_GRID_MAX_CELLS (grove: 32). */
+ * naming the limit); so is the grid_min of the density rule; 0 means 64
+ * (the paper's bunny), halved while the grid would exceed RT_GRID_MAX_CELLS
+ * (grove: 32). */
 static void *grid_build(const rt_scene *sc, const rt_accel_params *p, rt_err *e)
 {
     rt_grid *g = NULL;
+    if (p->grid_density > 0) {
+        const uint32_t m = rt_grid_density_min(sc, p->grid_density);
+        if (!(g = rt_grid_build(sc, m, e))) {
+            char msg[sizeof e->msg];
+            snprintf(msg, sizeof msg, "%s", e->msg);
+            if (strstr(msg, "above the limit of 2^27"))
+                rt_errf_usage(e, "--grid-density %g: %s (at most %u cells)", p->grid_density, msg,
+                              (unsigned)RT_GRID_MAX_CELLS);
+            else
+                rt_errf(e, "--grid-density %g: %s", p->grid_density, msg);
+        }
+        return g;
+    }
     if (p->grid_min) {
         if (!(g = rt_grid_build(sc, p->grid_min, e))) {
             char msg[sizeof e->msg];

@@ -34,6 +34,7 @@
 #define RT_GRID_VERT_BYTES 36u        /* vertex data per triangle */
 #define RT_GRID_MAX_CELLS (1u << 27)  /* 512 MiB of grid texture */
 #define RT_GRID_MIN_DEFAULT 64        /* the paper's bunny; 128 for its large scenes */
+#define RT_GRID_DENSITY_MAX 1024      /* largest --grid-density (cells per triangle) */
 
 typedef struct rt_grid {
     uint32_t n[3];      /* cells along x, y, z (each >= 1) */
@@ -59,6 +60,14 @@ typedef struct rt_grid {
  * list words, when the voxel falls below the float resolution of the
  * coordinates, or on out-of-memory. Free with rt_grid_free. */
 rt_grid *rt_grid_build(const rt_scene *s, uint32_t grid_min, rt_err *e);
+
+/* The density rule (--grid-density): the grid_min whose cubic voxels give
+ * about density x ntri cells over the triangles' bounds (the usual rule for
+ * uniform grids: the voxel edge is (product of the non-flat extents /
+ * (density ntri))^(1/d) over the d non-flat axes, and the smallest non-flat
+ * axis gets extent / edge cells, rounded, at least 1). 1 for an empty scene
+ * or one flat on every axis. density > 0. */
+uint32_t rt_grid_density_min(const rt_scene *s, double density);
 void rt_grid_free(rt_grid *g);
 
 /* Verifies the invariants G1-G5 of grid.c against the scene it was built

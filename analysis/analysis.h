@@ -213,9 +213,14 @@ int rt_report_secondary(sqlite3 *h, const char *dbpath, int csv, const rt_plot_o
  * rate). Markdown, or CSV. With plot non-NULL also writes stacked-bar
  * charts in the paper's form, DIR/purcell-{fig7-instructions,
  * fig7-bandwidth,fig8,fig9}.{dat,gp} and, with gnuplot, .png (fig9 only
- * when some run has a cache). 0, or -1 when there are no such runs, the
+ * when some run has a cache). With compare (--compare-paper), each value
+ * the paper gives (Figure 6, Table 2, Figure 9's triangle hit rate) is
+ * printed as ours / paper (ratio) for the runs of the paper's case (the
+ * bunny, ray cast; CSV: an extra _paper column), and every figure ends with
+ * an agreement line. 0, or -1 when there are no such runs, the
  * paper's file is missing or a plot cannot be written. */
-int rt_report_purcell(sqlite3 *h, const char *scene, int csv, const rt_plot_opts *plot, FILE *out, rt_err *e);
+int rt_report_purcell(sqlite3 *h, const char *scene, int csv, int compare, const rt_plot_opts *plot, FILE *out,
+                      rt_err *e);
 
 /* The feedback tracer (analysis/feedback.c): per feedback run (of scene,
  * or all when NULL; exact, not subsampled) and cache configuration, the

@@ -17,8 +17,8 @@
  *     raycast and shadow, D for whitted depth D: the eye rays and D - 1
  *     bounces, B + 1 for path with B bounces).
  * A design without a matching run shows a dash. Among several multipass
- * runs the one with the feedback run's grid_min key is taken, else the
- * first stored. With a plot folder, DIR/feedback-LABEL.{dat,gp,png}: the
+ * runs the one with the feedback run's grid_min and record-store keys is
+ * taken, else the first stored. With a plot folder, DIR/feedback-LABEL.{dat,gp,png}: the
  * classes and the three designs against cache size. Only exact runs
  * without subsampling are read.
  */
@@ -121,6 +121,14 @@ static int grid_min_of(const char *params)
     return p && (p == params || p[-1] == ' ') ? atoi(p + 9) : 0;
 }
 
+/* 1 when the run key records write-allocate record stores (the key names
+ * only the non-default). */
+static int wa_records(const char *params)
+{
+    const char *p = strstr(params, "record_stores=write-allocate");
+    return p && (p == params || p[-1] == ' ');
+}
+
 /* Bytes of the listed classes (comma list) of run at config cfg into *b.
  * 1 when the run has rows there, 0 when none, -1 on error. */
 static int class_bytes(sqlite3 *h, long long run, long long cfg, const char *classes, double *b, rt_err *e)
@@ -158,7 +166,7 @@ static int other_design(sqlite3 *h, const frun *f, fcfg *c, int d, rt_err *e)
     while ((rc = sqlite3_step(st)) == SQLITE_ROW) {
         const char *params = (const char *)sqlite3_column_text(st, 1);
         if (strcmp(mode_of(params ? params : ""), f->mode)) continue;
-        int gm = grid_min_of(params) == f->grid_min;
+        int gm = grid_min_of(params) == f->grid_min && wa_records(params) == wa_records(f->params);
         if (best >= 0 && (best_gm || !gm)) continue;
         best = sqlite3_column_int64(st, 0);
         best_gm = gm;

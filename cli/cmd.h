@@ -85,7 +85,9 @@ enum {
     RT_OPT_UNROLL_SUPPRESS,
     RT_OPT_LOOK_AT,
     RT_OPT_FOV,
-    RT_OPT_LIGHT
+    RT_OPT_LIGHT,
+    RT_OPT_GRID_DENSITY,
+    RT_OPT_RECORD_STORES
 };
 
 /* The shared long options ({"lights",...}, {"cache-size",...}, ...);
@@ -124,6 +126,9 @@ extern const struct option rt_render_longopts[];
     "  --vb-size S        feedback: limit of one vertex buffer, e.g. 512M (default 2G)\n" \
     "  --grid-min N       grid tracers: grid cells along the smallest axis (default 64,\n" \
     "                     halved until the grid fits the cell limit)\n"                     \
+    "  --grid-density L   grid tracers: about L cells per triangle instead (0 < L <= 1024)\n" \
+    "  --record-stores S  feedback, stream tracers: non-temporal (whole records, lines not\n" \
+    "                     fetched; default) | write-allocate\n"                               \
     "  --oracle O         stream-multipass: naive | threshold (default threshold)\n"        \
     "  --oracle-fraction F  stream-multipass: intersect once F of the active rays need it\n" \
     "                     (0 < F <= 1, default 0.2)\n"                                      \

@@ -29,6 +29,8 @@ const struct option rt_render_longopts[] = {
     {"queue-stores", required_argument, NULL, RT_OPT_QUEUE_STORES},
     {"accel", required_argument, NULL, RT_OPT_ACCEL},
     {"grid-min", required_argument, NULL, RT_OPT_GRID_MIN},
+    {"grid-density", required_argument, NULL, RT_OPT_GRID_DENSITY},
+    {"record-stores", required_argument, NULL, RT_OPT_RECORD_STORES},
     {"vb-size", required_argument, NULL, RT_OPT_VB_SIZE},
     {"oracle", required_argument, NULL, RT_OPT_ORACLE},
     {"oracle-fraction", required_argument, NULL, RT_OPT_ORACLE_FRACTION},
@@ -168,6 +170,23 @@ static int render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
             rt_cmd_error(cmd, "--oracle: '%s' is not naive or threshold", arg);
             return -1;
         }
+        return 1;
+    case RT_OPT_GRID_DENSITY: {
+        char *end;
+        double f = strtod(arg, &end);
+        if (end == arg || *end || !(f > 0) || f > RT_GRID_DENSITY_MAX) {
+            rt_cmd_error(cmd, "--grid-density: '%s' is not in (0, %d] (cells per triangle)", arg, RT_GRID_DENSITY_MAX);
+            return -1;
+        }
+        o->grid_density = f;
+        return 1;
+    }
+    case RT_OPT_RECORD_STORES:
+        if ((v = rt_render_rstores_from_name(arg)) < 0) {
+            rt_cmd_error(cmd, "--record-stores: '%s' is not non-temporal or write-allocate", arg);
+            return -1;
+        }
+        o->rstores = (int)v;
         return 1;
     case RT_OPT_ORACLE_FRACTION: {
         char *end;
@@ -348,6 +367,8 @@ static int given_id(int c)
     case RT_OPT_VB_SIZE: return RT_RO_VB_SIZE;
     case RT_OPT_ORACLE: return RT_RO_ORACLE;
     case RT_OPT_ORACLE_FRACTION: return RT_RO_ORACLE_FRACTION;
+    case RT_OPT_GRID_DENSITY: return RT_RO_GRID_DENSITY;
+    case RT_OPT_RECORD_STORES: return RT_RO_RECORD_STORES;
     case RT_OPT_UNROLL: return RT_RO_UNROLL;
     case RT_OPT_UNROLL_SUPPRESS: return RT_RO_UNROLL_SUPPRESS;
     case RT_OPT_ACCEL: return RT_RO_ACCEL;

@@ -35,7 +35,9 @@ static void usage(FILE *f)
             "  --total            figures 7-9 on total instead of geometry traffic\n"
             "  --compare-paper    our values beside the paper's, with ratios and findings, and\n"
             "                     (with --model, or when the database holds --model paper runs)\n"
-            "                     the agreement table per scene and model\n"
+            "                     the agreement table per scene and model; with --figure\n"
+            "                     purcell: ours / paper (ratio) per cell and an agreement\n"
+            "                     line per figure\n"
             "  --model M          only runs of model M (lean, paper; see sweep --help)\n"
             "  --plot DIR         traffic-vs-cache-size plots (PNG, SVG; gnuplot) and scenes.png\n"
             "  --speed-error      speed against error of approximate simulation\n"
@@ -115,7 +117,7 @@ int main_report(int argc, char **argv)
     if (rc == 0 && speed) {
         rc = rt_report_speed_error(h, o.csv, plotdir ? &po : NULL, stdout, &e);
     } else if (rc == 0 && !strcmp(figure, "purcell")) {
-        rc = rt_report_purcell(h, o.scene, o.csv, plotdir ? &po : NULL, stdout, &e);
+        rc = rt_report_purcell(h, o.scene, o.csv, compare, plotdir ? &po : NULL, stdout, &e);
     } else if (rc == 0 && !strcmp(figure, "feedback")) {
         rc = rt_report_feedback(h, o.scene, o.csv, plotdir ? &po : NULL, stdout, &e);
     } else if (rc == 0 && !strcmp(figure, "secondary")) {

@@ -130,7 +130,8 @@ static void usage(FILE *f)
             "  --look-at EX,EY,EZ,AX,AY,AZ[,UX,UY,UZ], --fov DEGREES, --light X,Y,Z[,POWER]\n"
             "                     every scene's camera and lights (see render --help; in the\n"
             "                     run key when given)\n"
-            "  --accel A, --grid-min N, --vb-size S  feedback / stream tracer options\n"
+            "  --accel A, --grid-min N, --grid-density L, --record-stores S, --vb-size S\n"
+            "                     feedback / stream tracer options\n"
             "                     (see render --help; in the run key when not the default)\n"
             "  --list-jobs        print one self-contained command per job and exit\n"
             "  --job K            run only job K (0-based) of the matrix\n"
@@ -457,6 +458,8 @@ static const struct option sweep_longopts[] = {
     {"packet", required_argument, NULL, RT_OPT_PACKET},
     {"accel", required_argument, NULL, RT_OPT_ACCEL},
     {"grid-min", required_argument, NULL, RT_OPT_GRID_MIN},
+    {"grid-density", required_argument, NULL, RT_OPT_GRID_DENSITY},
+    {"record-stores", required_argument, NULL, RT_OPT_RECORD_STORES},
     {"vb-size", required_argument, NULL, RT_OPT_VB_SIZE},
     {"look-at", required_argument, NULL, RT_OPT_LOOK_AT},
     {"fov", required_argument, NULL, RT_OPT_FOV},

@@ -4,7 +4,8 @@
 # the size needed); a run prints its passes, S_VB and stage shares in the
 # --json statistics; --heatmap writes a PNG. A tiny sweep of the tracer
 # (knot 32x32, whitted depth 2, one light): one run per option set, the
-# feedback options in the run key only when not the default, the same run
+# feedback options in the run key only when not the default (record stores:
+# write-allocate adds a fetch per record written), the same run
 # through --list-jobs, and no run added on a rerun.
 set -u
 bin=${RT_BIN:-./raytraffic}
@@ -17,6 +18,10 @@ err() { echo "FAIL: $*"; fail=1; }
 "$bin" render cornell -t feedback --accel bvh -W 8 -H 8 -o "$tmp/a.exr" 2>"$tmp/e1"
 [ $? -eq 2 ] || err "--accel bvh: want exit 2"
 grep -q "accel" "$tmp/e1" || err "--accel bvh: message '$(cat "$tmp/e1")'"
+
+"$bin" render cornell -t feedback --record-stores none -W 8 -H 8 -o "$tmp/a.exr" 2>"$tmp/e4"
+[ $? -eq 2 ] || err "--record-stores none: want exit 2"
+grep -q "record-stores" "$tmp/e4" || err "--record-stores: message '$(cat "$tmp/e4")'"
 
 "$bin" render cornell -t feedback --mode path -W 8 -H 8 -o "$tmp/a.exr" 2>"$tmp/e2"
 [ $? -eq 2 ] || err "--mode path: want exit 2"
@@ -43,13 +48,22 @@ grep -q "1 run(s) (1 scenes x 1 lightings x 1 tracers, 2 sizes)" "$tmp/s1" || er
 "$bin" sweep $sw --accel naive --db "$tmp/s.db" 2>/dev/null || err "sweep --accel naive"
 "$bin" sweep $sw --grid-min 16 --db "$tmp/s.db" 2>/dev/null || err "sweep --grid-min 16"
 "$bin" sweep $sw --grid-min 16 --db "$tmp/s.db" 2>"$tmp/s2" || err "sweep rerun"
+"$bin" sweep $sw --record-stores write-allocate --db "$tmp/s.db" 2>/dev/null || err "sweep --record-stores"
+"$bin" sweep $sw --grid-density 4 --db "$tmp/s.db" 2>/dev/null || err "sweep --grid-density"
 grep -q "(1 already in the database)" "$tmp/s2" || err "rerun did not skip: $(cat "$tmp/s2")"
 keys=$(sqlite3 "$tmp/s.db" "SELECT params FROM runs WHERE tracer = 'feedback' ORDER BY id" | tr '\n' '|')
-[ "$keys" = "mode=whitted depth=2|accel=naive mode=whitted depth=2|grid_min=16 mode=whitted depth=2|" ] ||
+[ "$keys" = "mode=whitted depth=2|accel=naive mode=whitted depth=2|grid_min=16 mode=whitted depth=2|record_stores=write-allocate mode=whitted depth=2|grid_density=4 mode=whitted depth=2|" ] ||
     err "sweep run keys: '$keys'"
+# the records' stores: write-allocate fetches a line per record written (64 B x writes more traffic),
+# non-temporal fetches none; same records, same statistics
+d=$(sqlite3 "$tmp/s.db" "SELECT (SELECT t.traffic_bytes FROM traffic t JOIN runs r ON r.id = t.run_id JOIN cache_configs c ON c.id = t.config_id WHERE r.params = 'record_stores=write-allocate mode=whitted depth=2' AND t.class = 'stream' AND c.size = 4096 AND c.assoc = 0) - (SELECT t.traffic_bytes FROM traffic t JOIN runs r ON r.id = t.run_id JOIN cache_configs c ON c.id = t.config_id WHERE r.params = 'mode=whitted depth=2' AND t.class = 'stream' AND c.size = 4096 AND c.assoc = 0)")
+w=$(sqlite3 "$tmp/s.db" "SELECT stats FROM runs WHERE params = 'mode=whitted depth=2'" | sed -n 's/.*gs_emitted=\([0-9]*\).*/\1/p')
+[ -n "$w" ] && [ "$d" = "$((64 * (w + 1024)))" ] || err "record stores: write-allocate adds $d bytes, want 64 x ($w + 1024)"
+[ "$(sqlite3 "$tmp/s.db" "SELECT stats FROM runs WHERE params IN ('mode=whitted depth=2', 'record_stores=write-allocate mode=whitted depth=2')" |
+      sed -E 's/[a-z_]*seconds=[0-9.e+-]*//g' | sort -u | wc -l)" = 1 ] || err "record stores changed the statistics"
 # 32 x 32 pixels, E = 1, 2, 1: S_VB = 1024 * 3 * 64; passes and records as the render prints them
 n=$(sqlite3 "$tmp/s.db" "SELECT COUNT(*) FROM runs WHERE stats LIKE '%passes=3 composite=eq1 svb=196608 G=2 G2=1 E=1,2,1 %'")
-[ "$n" = 3 ] || err "sweep stats: $n of 3 runs with passes=3 svb=196608"
+[ "$n" = 5 ] || err "sweep stats: $n of 5 runs with passes=3 svb=196608"
 "$bin" render knot -t feedback --mode whitted --depth 2 --lights 0 -W 32 -H 32 --grid-min 16 --json \
     -o "$tmp/k.exr" >"$tmp/kj" 2>/dev/null || err "render knot"
 rin=$(sed -n 's/.*\(records_in=[0-9,]* records_out=[0-9,]*\).*/\1/p' "$tmp/kj")

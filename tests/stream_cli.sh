@@ -6,7 +6,8 @@
 # paper's bunny values and each run's statistics (v, t, s, passes) as
 # stored, in Markdown and CSV; a tiny sweep of the bunny at 32x32 whose
 # report (with the texture cache's Figure 9) matches
-# tests/golden/purcell_report.md (RT_REDO_GOLDEN=1 rewrites it); and the
+# tests/golden/purcell_report.md (RT_REDO_GOLDEN=1 rewrites it) and, with
+# --compare-paper, ours beside the paper's values with agreement lines; the
 # report's stacked-bar plots; bench --what stream.
 set -u
 bin=${RT_BIN:-./raytraffic}
@@ -33,6 +34,16 @@ usage_err "--oracle-fraction" -t stream-multipass --oracle-fraction 1.5
 usage_err "--oracle" -t stream-multipass --oracle best
 usage_err "--unroll" -t stream-multipass --unroll 0,1
 usage_err "--unroll" -t stream-multipass --unroll 4
+usage_err "--grid-density" -t stream-branching --grid-density 0
+usage_err "--grid-density" -t stream-branching --grid-density 2000
+usage_err "--grid-density" -t stream-branching --grid-density 8 --grid-min 32
+usage_err "--record-stores" -t stream-multipass --record-stores fetch
+usage_err "--record-stores does not apply" -t recursive --record-stores write-allocate
+usage_err "--grid-density does not apply" -t recursive --grid-density 4
+# the density rule builds the grid it names; the run key says so
+"$bin" render knot -t stream-branching --grid-density 2 -W 8 -H 8 -o "$tmp/x.exr" --json > "$tmp/out" 2>&1 ||
+    err "render --grid-density 2 failed: $(cat "$tmp/out")"
+grep -q '"extra": "grid=19x20x7 ' "$tmp/out" || err "knot at density 2: $(grep extra "$tmp/out")"
 # a grid within the option's range but over the cell limit (only the scene
 # tells): a usage error naming the limit, for render and trace, for the
 # stream tracers and the feedback tracer's grid
@@ -67,10 +78,32 @@ grep -q '^"paper: bunny ray cast 1024x1024",1085,610,471,4,221,328,0.105$' "$tmp
 "$bin" report --db "$tmp/s.db" --figure purcell --scene cornell > "$tmp/out" 2>&1 && err "report on a scene without runs succeeded"
 grep -q "no runs of the stream tracers" "$tmp/out" || err "no-runs message: $(cat "$tmp/out")"
 
-# golden report: bunny 32x32, both tracers, raycast; every stream run also
-# simulates the texture cache, so Figure 9 reports 65520 B direct-mapped
+# --compare-paper: ours / the paper's (ratio) in the paper's case, an
+# agreement line per figure; without the flag the report is as before
 "$bin" sweep --scenes bunny --tracers stream-branching,stream-multipass -W 32 -H 32 --modes raycast \
     --sizes 64K --db "$tmp/g.db" > /dev/null 2>&1 || err "golden sweep failed"
+"$bin" report --db "$tmp/g.db" --figure purcell --compare-paper > "$tmp/c.md" 2>&1 || err "compare report failed"
+grep -q "^| bunny multipass 32x32 | 22.21 / 93.93 (0.24x) | 15.25 / 13.88 (1.10x) | 0.819 / 0.820 (1.00x) | 1024 |" \
+    "$tmp/c.md" || err "compare: figure 6 row"
+grep -q "^| bunny multipass 32x32 | 402 / 1085 (0.37x) | 172 / 610 (0.28x) |" "$tmp/c.md" || err "compare: table 2 row"
+grep -q "^Agreement, Figure 6: 2 of 4 values (v, t) within 2x; outside: v 0.24x .*s is matched by construction" \
+    "$tmp/c.md" || err "compare: figure 6 agreement"
+for f in "Table 2: 2 of 7 values" "Figure 7: .* at least 85.1% .* agrees" "Figure 8: .* agrees" "Figure 9: triangle hit rate in the paper's 0.96-0.99 for 0 of 2"; do
+    grep -q "^Agreement, $f" "$tmp/c.md" || err "compare: no agreement line '$f'"
+done
+[ "$(grep -c '^Agreement, ' "$tmp/c.md")" = 5 ] || err "compare: want 5 agreement lines"
+grep -q "| 0.483 / 0.96–0.99 (0.50x) |$" "$tmp/c.md" || err "compare: figure 9 hit rate"
+"$bin" report --db "$tmp/g.db" --figure purcell --compare-paper --format csv > "$tmp/c.csv" 2>&1 || err "compare csv failed"
+grep -q '^run,v,v_paper,t,t_paper,s,s_paper,rays,rays_paper$' "$tmp/c.csv" || err "compare csv header"
+grep -q '^"bunny branching 32x32",22.21,93.93,15.25,13.88,0.819,0.820,1024,$' "$tmp/c.csv" || err "compare csv row"
+grep -q '^# agreement, Figure 6: ' "$tmp/c.csv" || err "compare csv agreement"
+# the knot is not the paper's case: ours alone
+"$bin" report --db "$tmp/s.db" --figure purcell --compare-paper > "$tmp/k.md" 2>&1 || err "compare knot failed"
+grep -q "^| knot multipass 16x16 | [0-9.]* | [0-9.]* | [0-9.]* | 256 |" "$tmp/k.md" || err "compare: knot row has paper values"
+grep -q "^Agreement, Figure 6: no run is the paper's case" "$tmp/k.md" || err "compare: knot agreement"
+
+# golden report: bunny 32x32, both tracers, raycast; every stream run also
+# simulates the texture cache, so Figure 9 reports 65520 B direct-mapped
 # timing columns masked (the report prints none today; keep it so)
 "$bin" report --db "$tmp/g.db" --figure purcell --plot "$tmp/plots" 2> "$tmp/plot.log" |
     sed -E 's/[a-z_]*seconds=[0-9.e+-]*//g' > "$tmp/g.md" || err "golden report failed"

@@ -4,7 +4,8 @@
  * counts and buffer occupancy on hand-built scenes (a mirror pair, a
  * scene without hits), the fixed emit order seen in the trace, and images
  * against the recursive tracer in raycast, shadow and whitted modes, with
- * the grid and with every triangle.
+ * the grid and with every triangle; the record stores (non-temporal by
+ * default, write-allocate as an option) and their traffic.
  */
 #include "check.h"
 #include "check_scene.h"
@@ -12,6 +13,7 @@
 #include "grid.h"
 #include "kdtree.h"
 #include "run.h"
+#include "sim.h"
 
 #include <inttypes.h>
 #include <stddef.h>
@@ -564,15 +566,160 @@ static void options(void)
     CHECK(!strcmp(rt_job_params("feedback", &o, NULL, buf, sizeof buf), "accel=naive grid_min=32 vb-size=1048576"),
           "key '%s'", buf);
     CHECK(!strcmp(rt_job_params("packet", &o, NULL, buf, sizeof buf), "packet=8"), "packet key '%s'", buf);
+    o.rstores = RT_RSTORES_WRITE_ALLOCATE;
+    CHECK(!strcmp(rt_job_params("feedback", &o, NULL, buf, sizeof buf),
+                  "accel=naive grid_min=32 vb-size=1048576 record_stores=write-allocate"),
+          "key '%s'", buf);
+    o.accel = RT_ACCEL_GRID;
+    o.grid_min = 0;
+    o.grid_density = 4;
+    o.vb_size = 0;
+    o.rstores = RT_RSTORES_NON_TEMPORAL;
+    CHECK(!strcmp(rt_job_params("feedback", &o, NULL, buf, sizeof buf), "grid_density=4"), "key '%s'", buf);
+    CHECK(rt_render_check_mode(&o, &e) == 0, "density alone: %s", e.msg);
+    o.grid_min = 16;
+    CHECK(rt_render_check_mode(&o, &e) < 0 && e.usage && strstr(e.msg, "--grid-density"), "both rules: %s", e.msg);
+    o.grid_min = 0;
+    o.grid_density = RT_GRID_DENSITY_MAX * 2.0;
+    CHECK(rt_render_check_mode(&o, &e) < 0 && strstr(e.msg, "--grid-density"), "density too large: %s", e.msg);
+    o.grid_density = 0;
+    o.rstores = 5;
+    CHECK(rt_render_check_mode(&o, &e) < 0 && strstr(e.msg, "--record-stores"), "rstores 5: %s", e.msg);
+    CHECK(rt_render_rstores_from_name("non-temporal") == RT_RSTORES_NON_TEMPORAL &&
+              rt_render_rstores_from_name("write-allocate") == RT_RSTORES_WRITE_ALLOCATE &&
+              rt_render_rstores_from_name("stream") == -1,
+          "record-store names");
     rt_render_default_opts(&o);
     o.mode = RT_MODE_PATH;
     rt_job j;
     CHECK(rt_job_setup(&j, "cornell", "feedback", &o, &e) < 0 && strstr(e.msg, "path"), "path: %s", e.msg);
 }
 
+/* ---- record stores ------------------------------------------------------- */
+
+/* Stream-class traffic of captured accesses in one 1 KiB fully associative
+ * cache of 64-byte lines, flushed at the end. */
+static uint64_t stream_traffic(const capture *c)
+{
+    rt_err e = {0};
+    rt_sim_config cfg;
+    rt_sim_config_default(&cfg);
+    cfg.nsizes = 1;
+    cfg.sizes[0] = 1024;
+    cfg.flush = 1;
+    rt_sim *sim = rt_sim_new(&cfg, &e);
+    CHECK(sim != NULL, "sim: %s", e.msg);
+    if (!sim) return 0;
+    rt_sim_put(sim, c->a, c->n);
+    rt_sim_finish(sim);
+    rt_sim_counts k;
+    rt_sim_get(sim, 0, RT_CLS_STREAM, &k);
+    rt_sim_free(sim);
+    return k.traffic_bytes;
+}
+
+/* Stream-out writes whole 64-byte records without reading them: every
+ * vertex-buffer write is a streaming store by default (an ordinary write
+ * with --record-stores write-allocate), so at a cache the buffers never fit
+ * a record costs one line per read and one write-back per write, where
+ * write-allocate adds a fetch per write: 64 (R + W) against 64 (R + 2 W). */
+static void stores(void)
+{
+    rt_err e = {0};
+    rt_scene *sc = rt_scene_load("knot:material=mirror", &e);
+    CHECK(sc != NULL, "knot: %s", e.msg);
+    if (!sc) return;
+    uint64_t traffic[2] = {0, 0}, nr[2] = {0, 0}, nw[2] = {0, 0};
+    for (int wa = 0; wa < 2; wa++) {
+        rt_render_opts o;
+        rt_render_default_opts(&o);
+        o.W = o.H = 32;
+        o.mode = RT_MODE_WHITTED;
+        o.depth = 2;
+        o.lights = 1;
+        o.rstores = wa ? RT_RSTORES_WRITE_ALLOCATE : RT_RSTORES_NON_TEMPORAL;
+        rt_run_stats st;
+        capture cap = {NULL, 0, 0};
+        rt_layout L;
+        rt_image *im = render_sc(sc, "feedback", &o, &st, &cap, &L);
+        CHECK(im != NULL, "render");
+        int vb0 = rt_mm_find(&L, "vb.read"), vb1 = rt_mm_find(&L, "vb.write");
+        uint64_t lo = L.r[vb0].base, hi = L.r[vb1].base + L.r[vb1].recsize * L.r[vb1].count, bad = 0;
+        CHECK(L.r[vb0].base % 64 == 0 && L.r[vb1].base % 64 == 0, "buffers are line-aligned");
+        for (size_t i = 0; i < cap.n; i++) {
+            const rt_access *a = &cap.a[i];
+            if (a->cls != RT_CLS_STREAM) continue;
+            CHECK(a->addr >= lo && a->addr < hi && a->size == 64, "stream access outside the buffers");
+            if (a->write) {
+                nw[wa]++;
+                bad += a->write != (wa ? 1 : RT_WRITE_STREAM);
+            } else {
+                nr[wa]++;
+            }
+        }
+        CHECK(bad == 0, "%s: %" PRIu64 " record writes of the wrong kind", wa ? "write-allocate" : "non-temporal", bad);
+        CHECK(nr[wa] == (uint64_t)stat_of(&st, "vs_records"), "records read %" PRIu64 ", vs_records %.0f", nr[wa],
+              stat_of(&st, "vs_records"));
+        CHECK(nw[wa] == (uint64_t)stat_of(&st, "gs_emitted") + 32 * 32, "records written %" PRIu64, nw[wa]);
+        traffic[wa] = stream_traffic(&cap);
+        free(cap.a);
+        rt_image_free(im);
+    }
+    CHECK(nr[0] == nr[1] && nw[0] == nw[1] && nw[0] > 1024, "same records either way");
+    CHECK(traffic[0] == 64 * (nr[0] + nw[0]), "non-temporal: stream traffic %" PRIu64 ", want 64 (%" PRIu64 " + %" PRIu64 ")",
+          traffic[0], nr[0], nw[0]);
+    CHECK(traffic[1] == 64 * (nr[1] + 2 * nw[1]),
+          "write-allocate: stream traffic %" PRIu64 ", want 64 (%" PRIu64 " + 2 x %" PRIu64 ")", traffic[1], nr[1], nw[1]);
+    rt_scene_free(sc);
+}
+
+/* ---- the modeled stage shares -------------------------------------------- */
+
+/* The shares follow from the stage counters and the per-operation costs
+ * counted from the paper's listings (docs/feedback.md, "The stage shares"):
+ * vertex 15 per record + 16 per box test + 28 per triangle test, geometry
+ * 8 per record + 8 per emit (+ 14 per child ray), fragment 10 per emitted
+ * record + 16 per shaded ray (blending 0). Ray casting with every triangle
+ * has no child rays, list reads or final pass, so the counters in the
+ * statistics give the shares by hand. On the paper's 36-triangle Cornell
+ * box the vertex share falls from ray casting to shadows to shadows with a
+ * mirror bounce, as the paper's Table 1 does (85.3 / 77.4 / 72.7%). */
+static void shares(void)
+{
+    double vs[3] = {0, 0, 0};
+    static const int modes[3] = {RT_MODE_RAYCAST, RT_MODE_SHADOW, RT_MODE_WHITTED};
+    for (int m = 0; m < 3; m++) {
+        rt_render_opts o;
+        rt_render_default_opts(&o);
+        o.W = o.H = 32;
+        o.accel = RT_ACCEL_NAIVE;
+        o.mode = modes[m];
+        o.lights = m ? 1 : 0;
+        o.depth = 2;
+        rt_run_stats st;
+        rt_image *im = render_spec("cornell:glass=0,material=mirror", "feedback", &o, &st);
+        CHECK(im != NULL, "render");
+        rt_image_free(im);
+        vs[m] = stat_of(&st, "modeled_share_vs");
+        if (m) continue;
+        const double R = stat_of(&st, "vs_records"), T = stat_of(&st, "vs_tests"), E = stat_of(&st, "gs_emitted"),
+                     S = stat_of(&st, "fs_shaded");
+        CHECK(R == 1024 && T == 36 * 1024 && E == 1024 && S == 1024, "raycast counters %.0f %.0f %.0f %.0f", R, T, E, S);
+        const double v = 15 * R + 16 * R + 28 * T, g = 8 * R + 8 * E, f = 10 * E + 16 * S, tot = v + g + f;
+        CHECK(fabs(stat_of(&st, "modeled_share_vs") - 100 * v / tot) < 0.006 &&
+                  fabs(stat_of(&st, "modeled_share_gs") - 100 * g / tot) < 0.006 &&
+                  fabs(stat_of(&st, "modeled_share_fs") - 100 * f / tot) < 0.006,
+              "raycast shares %s, want %.2f %.2f %.2f", st.extra, 100 * v / tot, 100 * g / tot, 100 * f / tot);
+    }
+    CHECK(vs[0] > vs[1] && vs[1] > vs[2], "vertex share %.2f / %.2f / %.2f does not fall as the paper's", vs[0], vs[1],
+          vs[2]);
+}
+
 int main(void)
 {
     record();
+    shares();
+    stores();
     sizes();
     options();
     passes();

@@ -7,6 +7,8 @@
  * (and one of another depth that must not be paired); two stream-multipass
  * runs, grid_min=16 stored first, so the default-grid feedback run must
  * pick the second; a grid_min=16 feedback run that must pick the first; a
+ * multipass and a feedback run with write-allocate record stores, which
+ * pair with each other only; a
  * cornell raycast feedback run with nothing to compare. Checked: the class
  * table, bytes per ray and per generation of the three designs, the
  * finding sentence, CSV, the scene filter, the error without runs and the
@@ -99,6 +101,11 @@ static void build(rt_db *db)
     /* another mode: never paired */
     const row d3[] = {{K4, RT_CLS_RAY, 9999999}, {K64, RT_CLS_RAY, 9999999}};
     store(db, "knot", "dynamic", 16, 1, K4, "qorder=fullest threads=4 mode=whitted depth=3", rays400, d3, 2);
+    /* multipass with write-allocate record stores, stored before the others: only the
+     * write-allocate feedback run pairs with it: 4K 1200000 / 500 = 2400.0 */
+    const row mwa[] = {{K4, RT_CLS_STREAM, 1200000}};
+    store(db, "knot", "stream-multipass", 16, 1, 0, "record_stores=write-allocate mode=whitted depth=2", rays500, mwa,
+          1);
     /* multipass, grid_min=16 first: 4K 400000 / 500 = 800.0 */
     const row m16[] = {{K4, RT_CLS_STREAM, 400000}, {K4, RT_CLS_NODE, 5}};
     store(db, "knot", "stream-multipass", 16, 1, 0, "grid_min=16 mode=whitted depth=2", rays500, m16, 2);
@@ -108,6 +115,9 @@ static void build(rt_db *db)
     /* feedback grid_min=16 at 4K: 64000 / 400 = 160.0 */
     const row f16[] = {{K4, RT_CLS_STREAM, 64000}, {K4, RT_CLS_NODE, 64000}};
     store(db, "knot", "feedback", 16, 1, 0, "grid_min=16 mode=whitted depth=2", rays400, f16, 2);
+    /* feedback with write-allocate records at 4K: 96000 / 400 = 240.0 */
+    const row fwa[] = {{K4, RT_CLS_STREAM, 96000}};
+    store(db, "knot", "feedback", 16, 1, 0, "record_stores=write-allocate mode=whitted depth=2", rays400, fwa, 1);
     /* cornell raycast, 64 rays, one generation: 6400 / 64 = 100.0 */
     const row c[] = {{K4, RT_CLS_STREAM, 6400}};
     store(db, "cornell", "feedback", 8, 0, 0, "", "rays_primary=64", c, 1);
@@ -145,6 +155,8 @@ int main(void)
         "Navrátil queued rays (dynamic); 1.60x the 160.0 B of Purcell state (stream-multipass).\n",
         /* grid_min=16 pairs with the grid_min=16 multipass run: 160 / 150 = 1.07, 160 / 800 = 0.20 */
         "| 4 KB | 150.0 | 800.0 | 160.0 | 75.0 | 400.0 | 80.0 |\n",
+        /* record stores pair with record stores: 2400.0, half 1200.0 */
+        "| 4 KB | 150.0 | 2400.0 | 240.0 | 75.0 | 1200.0 | 120.0 |\n",
         "(50.0% of the run's traffic); 1.07x the 150.0 B of Navrátil queued rays (dynamic); 0.20x the 800.0 B",
         /* nothing to compare, one generation */
         "### cornell 8x8 lights 0: ray-state bytes per traced ray\n\nRays traced (primary + shadow + secondary): "

@@ -14,7 +14,9 @@
  *                   finished rays, and appends to the other buffer, in the
  *                   fixed order input ray (passed through to be shaded),
  *                   shadow rays (light order), reflected ray, refracted ray
- *                   (stream-out: sequential writes only);
+ *                   (stream-out: sequential writes of whole 64-byte
+ *                   records, recorded as streaming stores, RT_WRITE_STREAM,
+ *                   unless --record-stores write-allocate);
  *   fragment stage  shades the passed-through rays with the one shading
  *                   model (shade.h) and blends them into the framebuffer in
  *                   buffer order.
@@ -272,23 +274,33 @@ static int fb_layout(const rt_tracer_ctx *ctx, rt_layout *L, rt_err *e)
 
 /* ---- a run ------------------------------------------------------------------------ */
 
-/* Documented per-operation costs (GPU instructions, docs/feedback.md),
- * from which the stage shares of Table 1 are estimated. */
-#define COST_VS_RECORD 12 /* four vec4 fetches, unpack, output */
-#define COST_VS_BOX 20    /* slab test against the scene box */
-#define COST_VS_STEP 16   /* DDA step: grid texel fetch, compare, advance */
-#define COST_VS_LIST 2    /* list texel fetch */
-#define COST_VS_TEST 40   /* three vertex texel fetches and the triangle test */
-#define COST_GS_RECORD 6  /* state and hit tests */
-#define COST_GS_EMIT 8    /* pack and append one record */
-#define COST_GS_RAY 30    /* one child ray: normal and material fetch, direction */
-#define COST_FS_SHADE 35  /* normal and material fetch, lighting */
-#define COST_FS_BLEND 4   /* one blend (or final-pass term) */
+/* Per-operation costs, in GPU instructions counted as Purcell et al.'s
+ * Table 1 counts them (one vector instruction = 1, one texture fetch = 1,
+ * fixed-function blending = 0) over the paper's shaders (Listings 3-5,
+ * docs/feedback.md "The stage shares" shows every count). They give the
+ * modeled_share_* statistics: a model, not a measurement.
+ * Vertex stage (Listing 3): */
+#define COST_VS_RECORD 15 /* inVS: 4 attribute moves, 2 float->int; 2 state branches; outVS: 7 moves */
+#define COST_VS_BOX 16    /* slab test: 3 RCP, 2 x (ADD, MUL), 2 MIN/MAX, 2 x 2 component max/min, 1 compare */
+#define COST_VS_STEP 14   /* DDA step: 3 compares, 3 selects, 2 index, 2 tMax, 1 grid fetch, 1 empty test, 2 bounds */
+#define COST_VS_LIST 1    /* one list texel fetch */
+#define COST_VS_TEST 28   /* 3 vertex fetches; Moller-Trumbore: 2 edges, 2 crosses (2 each), 4 DP3, 1 RCP, 3 MUL, 1 SUB; 5 range compares, 3 hit-update selects, 2 loop */
+/* Geometry stage (Listing 4): */
+#define COST_GS_RECORD 8  /* inGS: 6 unpack; the state and the hit tests */
+#define COST_GS_EMIT 8    /* one EmitVertex: 7 output moves and the emit */
+#define COST_GS_RAY 14    /* one child ray: normal fetch and index (4), hit point (2 MAD), to-light or reflect, length (DP3, RSQ, MUL), normalise, state and type (2) */
+/* Fragment stage (Listing 5): every record the geometry stage emits is a
+ * point the rasteriser turns into one fragment, which unpacks and tests
+ * its state (most are discarded); a shaded one adds the Phong term. */
+#define COST_FS_FRAGMENT 10 /* 6 unpack, 2 state and 2 type branches */
+#define COST_FS_SHADE 16    /* hit point (MAD), light vector, normal fetch (4), normalise (3), N.L and MAX, colour fetch (3), MUL, output */
+#define COST_FS_BLEND 0     /* blending is fixed-function (Equation 1): no shader instruction */
+#define COST_FS_FINAL 2     /* the final blending pass: one target fetch and one ADD per term */
 
 typedef struct fb_stats {
     uint64_t vs_records, vs_box, vs_box_out, vs_steps, vs_list, vs_tests;
     uint64_t gs_records, gs_emitted, gs_drop_written, gs_drop_done, gs_rays;
-    uint64_t fs_shaded, fs_blends;
+    uint64_t fs_shaded, fs_blends, fs_final; /* fs_final: the final pass's terms (in fs_blends too) */
     uint64_t eye, shadow, secondary;
     uint64_t in[RT_DEPTH_MAX + 2], out[RT_DEPTH_MAX + 2];
     int passes;
@@ -476,7 +488,8 @@ static int emit(fb_run *R, int out, const rt_fb_ray *ray, rt_err *e)
         R->alloc[out] = na;
     }
     rt_rec_set_gen(R->rec, ray->gen);
-    RT_REC(R->rec, rt_mm_addr(R->L, R->reg_vb[out], R->n[out]), RT_FB_REC_SIZE, 1, RT_CLS_STREAM);
+    RT_REC(R->rec, rt_mm_addr(R->L, R->reg_vb[out], R->n[out]), RT_FB_REC_SIZE,
+           R->o->rstores == RT_RSTORES_WRITE_ALLOCATE ? 1 : RT_WRITE_STREAM, RT_CLS_STREAM);
     rt_fb_pack(ray, &R->vb[out][R->n[out]++]);
     R->s.gs_emitted++;
     if (R->perpix) R->perpix[ray->pix]++;
@@ -751,7 +764,10 @@ static void composite(fb_run *R, const uint8_t *kept)
                 RT_REC(R->rec, rt_mm_addr(R->L, R->reg_fb, (uint64_t)t * R->npix + pix), R->pl->texel, 0, RT_CLS_FB);
             RT_REC(R->rec, rt_mm_addr(R->L, R->reg_fb, pix), R->pl->texel, 1, RT_CLS_FB);
         }
-        if (R->pl->comp != COMP_EQ1) R->s.fs_blends += (uint64_t)nt;
+        if (R->pl->comp != COMP_EQ1) {
+            R->s.fs_blends += (uint64_t)nt;
+            R->s.fs_final += (uint64_t)nt;
+        }
         if (R->at) {
             rt_acc sum = R->at[pix];
             for (int t = 1; t < nt; t++)
@@ -812,7 +828,8 @@ static void finish_stats(fb_run *R, rt_run_stats *st)
                 (double)s->vs_tests * COST_VS_TEST;
     double gs = (double)s->gs_records * COST_GS_RECORD + (double)s->gs_emitted * COST_GS_EMIT +
                 (double)s->gs_rays * COST_GS_RAY;
-    double fs = (double)s->fs_shaded * COST_FS_SHADE + (double)s->fs_blends * COST_FS_BLEND;
+    double fs = (double)s->gs_emitted * COST_FS_FRAGMENT + (double)s->fs_shaded * COST_FS_SHADE +
+                (double)(s->fs_blends - s->fs_final) * COST_FS_BLEND + (double)s->fs_final * COST_FS_FINAL;
     double tot = vs + gs + fs > 0 ? vs + gs + fs : 1;
     uint64_t maxout = 0;
     for (int p = 0; p < s->passes; p++) maxout = s->out[p] > maxout ? s->out[p] : maxout;
@@ -936,7 +953,10 @@ static void fb_params(const rt_render_opts *o, char *buf, size_t n)
     size_t l = 0;
     buf[0] = 0;
     if (o->grid_min && o->grid_min != 64) l += (size_t)snprintf(buf, n, "grid_min=%u", (unsigned)o->grid_min);
-    if (o->vb_size && l < n) snprintf(buf + l, n - l, "%svb-size=%" PRIu64, l ? " " : "", o->vb_size);
+    if (o->grid_density > 0 && l < n) l += (size_t)snprintf(buf + l, n - l, "%sgrid_density=%g", l ? " " : "", o->grid_density);
+    if (o->vb_size && l < n) l += (size_t)snprintf(buf + l, n - l, "%svb-size=%" PRIu64, l ? " " : "", o->vb_size);
+    if (o->rstores != RT_RSTORES_NON_TEMPORAL && l < n)
+        snprintf(buf + l, n - l, "%srecord_stores=%s", l ? " " : "", rt_render_rstores_name(o->rstores));
 }
 
 const rt_tracer rt_tracer_feedback = {
@@ -945,7 +965,7 @@ const rt_tracer rt_tracer_feedback = {
     .modes = (1u << RT_MODE_RAYCAST) | (1u << RT_MODE_SHADOW) | (1u << RT_MODE_WHITTED),
     .accels = RT_ACCEL_BIT(RT_ACCEL_GRID) | RT_ACCEL_BIT(RT_ACCEL_NAIVE),
     .accel_default = RT_ACCEL_GRID,
-    .opts = RT_OPTG_GRID | RT_OPTG_VB,
+    .opts = RT_OPTG_GRID | RT_OPTG_VB | RT_OPTG_RECORDS,
     .traits = RT_TR_TEXCACHE,
     .figures = RT_FIG_FEEDBACK,
     .params = fb_params,

@@ -30,6 +30,8 @@ void rt_render_default_opts(rt_render_opts *o)
     o->accel = RT_ACCEL_DEFAULT;
     o->vb_size = 0;
     o->grid_min = 0;
+    o->grid_density = 0;
+    o->rstores = RT_RSTORES_NON_TEMPORAL;
     o->oracle = RT_ORACLE_THRESHOLD;
     o->oracle_frac = 0.2;
     o->unroll_t = 1;
@@ -60,6 +62,20 @@ static const char *const geom_names[] = {"compact", "mesh"};
  * qstores_from_name; the run key keeps "queue_stores=stream" so databases
  * written before stay comparable). */
 static const char *const qstores_names[] = {"write-allocate", "non-temporal"};
+
+static const char *const rstores_names[] = {"non-temporal", "write-allocate"};
+
+const char *rt_render_rstores_name(int rs)
+{
+    return rs >= 0 && rs <= RT_RSTORES_WRITE_ALLOCATE ? rstores_names[rs] : NULL;
+}
+
+int rt_render_rstores_from_name(const char *name)
+{
+    for (int r = 0; r <= RT_RSTORES_WRITE_ALLOCATE; r++)
+        if (!strcmp(name, rstores_names[r])) return r;
+    return -1;
+}
 
 const char *rt_render_geom_name(int geom) { return geom >= 0 && geom <= RT_GEOM_MESH ? geom_names[geom] : NULL; }
 
@@ -99,6 +115,8 @@ static const struct {
     [RT_RO_ORACLE_FRACTION] = {"--oracle-fraction", RT_OPTG_ORACLE},
     [RT_RO_UNROLL] = {"--unroll", RT_OPTG_ORACLE},
     [RT_RO_UNROLL_SUPPRESS] = {"--unroll-suppress", RT_OPTG_ORACLE},
+    [RT_RO_GRID_DENSITY] = {"--grid-density", RT_OPTG_GRID},
+    [RT_RO_RECORD_STORES] = {"--record-stores", RT_OPTG_RECORDS},
     [RT_RO_ACCEL] = {"--accel", 0},
 };
 
@@ -139,6 +157,11 @@ int rt_render_check_mode(const rt_render_opts *o, rt_err *e)
         return rt_errf(e, "--accel: unknown acceleration structure %d", o->accel);
     if (o->grid_min > RT_GRID_MAX_CELLS) /* 0 = the tracer's default */
         return rt_errf(e, "--grid-min: %u is not in 1..%u", (unsigned)o->grid_min, (unsigned)RT_GRID_MAX_CELLS);
+    if (!(o->grid_density >= 0) || o->grid_density > RT_GRID_DENSITY_MAX)
+        return rt_errf(e, "--grid-density: %g is not in (0, %g]", o->grid_density, (double)RT_GRID_DENSITY_MAX);
+    if (o->grid_density > 0 && o->grid_min)
+        return rt_errf_usage(e, "--grid-density and --grid-min are two rules for one grid: give one");
+    if (!rt_render_rstores_name(o->rstores)) return rt_errf(e, "--record-stores: unknown value %d", o->rstores);
     return 0;
 }
 

@@ -31,6 +31,14 @@ typedef enum rt_qstores {
     RT_QSTORES_WRITE_ALLOCATE = 0, /* ordinary stores: a missing line is fetched first */
     RT_QSTORES_STREAM = 1          /* non-temporal stores (RT_WRITE_STREAM): queue lines are not fetched */
 } rt_qstores;
+
+/* How the tracers whose ray records the GPU writes whole (the feedback
+ * tracer's vertex buffers, the stream tracers' render-target ray state)
+ * store them (docs/feedback.md, docs/purcell.md). */
+typedef enum rt_rstores {
+    RT_RSTORES_NON_TEMPORAL = 0,  /* full-line stores (RT_WRITE_STREAM): a missing line is not fetched */
+    RT_RSTORES_WRITE_ALLOCATE = 1 /* ordinary stores: a missing line is fetched first (the former model) */
+} rt_rstores;
 /*
  * Render options that only some tracers read, each in one group; a tracer's
  * traits (tracer.h, rt_tracer.opts) list the groups it reads, and an option
@@ -42,15 +50,16 @@ enum {
     RT_OPTG_PACKET = 1u << 0,   /* --packet */
     RT_OPTG_SCHED = 1u << 1,    /* --cache-size, --gmax, --qorder, --threads: scheduled tracers */
     RT_OPTG_QUEUES = 1u << 2,   /* --queue-stores: tracers that keep ray queues */
-    RT_OPTG_GRID = 1u << 3,     /* --grid-min: tracers on the uniform grid */
+    RT_OPTG_GRID = 1u << 3,     /* --grid-min, --grid-density: tracers on the uniform grid */
     RT_OPTG_VB = 1u << 4,       /* --vb-size: ping-pong vertex buffers */
-    RT_OPTG_ORACLE = 1u << 5    /* --oracle, --oracle-fraction, --unroll, --unroll-suppress */
+    RT_OPTG_ORACLE = 1u << 5,   /* --oracle, --oracle-fraction, --unroll, --unroll-suppress */
+    RT_OPTG_RECORDS = 1u << 6   /* --record-stores: tracers whose ray records the GPU writes whole */
 };
 /* The options of those groups, a bit each in rt_render_opts.given. */
 enum {
     RT_RO_PACKET, RT_RO_CACHE_SIZE, RT_RO_GMAX, RT_RO_QORDER, RT_RO_THREADS, RT_RO_QUEUE_STORES,
     RT_RO_GRID_MIN, RT_RO_VB_SIZE, RT_RO_ORACLE, RT_RO_ORACLE_FRACTION, RT_RO_UNROLL, RT_RO_UNROLL_SUPPRESS,
-    RT_RO_ACCEL, RT_RO_COUNT
+    RT_RO_GRID_DENSITY, RT_RO_RECORD_STORES, RT_RO_ACCEL, RT_RO_COUNT
 };
 /* "--packet" ... for an RT_RO_* id, and its group (0 for --accel, which is
  * checked against the tracer's structures instead). */
@@ -103,6 +112,8 @@ typedef struct rt_render_opts {
     int accel;           /* rt_accel_kind the tracer runs on; RT_ACCEL_DEFAULT = the tracer's default */
     uint64_t vb_size;    /* feedback: limit of one vertex buffer in bytes, 0 = 2 GiB */
     uint32_t grid_min;   /* grid tracers: cells along the smallest axis; 0 = the tracer's default */
+    double grid_density; /* grid tracers: cells ~ grid_density x triangles (accel/grid.c); 0 = by grid_min */
+    int rstores;         /* feedback, stream tracers: rt_rstores (non-temporal) */
     int oracle;          /* stream-multipass: rt_oracle */
     double oracle_frac;  /* stream-multipass: threshold oracle's fraction, (0, 1] (0.2) */
     int unroll_t;        /* stream-multipass: traversal steps per pass (>= 1, 1) */
@@ -132,7 +143,8 @@ typedef enum rt_oracle {
  * schedule, fullest-first queues, 4 threads, no subsampling (tile 8), the
  * default mode, depth 5, 1 sample, 4 bounces, the compact geometry
  * layout, write-allocate queue stores, no queue statistics; grid_min 0
- * (the tracer's default), the threshold oracle at 0.2, no unrolling. */
+ * (the tracer's default), no grid density, non-temporal record stores,
+ * the threshold oracle at 0.2, no unrolling. */
 void rt_render_default_opts(rt_render_opts *o);
 
 /* The mode a run traces: o->mode, or for RT_MODE_DEFAULT SHADOW when a
@@ -148,13 +160,18 @@ static inline int rt_render_secondary(const rt_render_opts *o)
     int m = o->mode;
     return m == RT_MODE_WHITTED || m == RT_MODE_PATH;
 }
-/* Checks mode, depth, spp, bounces, layout, queue stores, accel and
- * grid_min. 0, or -1 naming the option in e. */
+/* Checks mode, depth, spp, bounces, layout, queue and record stores,
+ * accel, grid_min and grid_density (not both). 0, or -1 naming the option
+ * in e. */
 int rt_render_check_mode(const rt_render_opts *o, rt_err *e);
 
 /* Layout name ("compact", "mesh") or NULL; from its name, or -1. */
 const char *rt_render_geom_name(int geom);
 int rt_render_geom_from_name(const char *name);
+/* Record-store name ("non-temporal", "write-allocate") or NULL; from its
+ * name, or -1. */
+const char *rt_render_rstores_name(int rs);
+int rt_render_rstores_from_name(const char *name);
 /* Queue-store name ("write-allocate", "non-temporal") or NULL; from its
  * name ("stream" is the former name of non-temporal), or -1. */
 const char *rt_render_qstores_name(int qs);

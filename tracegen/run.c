@@ -31,7 +31,7 @@ static int build_accel(rt_job *j, rt_kdtree *kd, rt_err *e)
         j->acc_borrowed = 1;
         return 0;
     }
-    rt_accel_params p = {j->opt.grid_min, 0};
+    rt_accel_params p = {j->opt.grid_min, 0, j->opt.grid_density};
     return rt_accel_build(&j->acc, kind, j->sc, &p, e);
 }
 

@@ -38,7 +38,10 @@
  * triangle, class tri), grid.shade (21 words per triangle, class shade:
  * Table 1's color kernel reads 21), mat (whitted/path with materials),
  * stream.state (16 words per stream slot, class stream: a kernel reads its
- * R state words and writes its W as one access each), stream.stencil (one
+ * R state words and writes its W as one access each; the writes go to
+ * render targets, which the GPU writes without reading, so they are
+ * streaming stores, RT_WRITE_STREAM, unless --record-stores
+ * write-allocate), stream.stencil (one
  * byte per slot, multipass only, class fb: the stencil plane of the
  * framebuffer), fb (12 B RGB per pixel). Every access is also counted per
  * kernel and per data type, so the statistics need no recorder.
@@ -177,6 +180,7 @@ typedef struct st_run {
     rt_rec *rec;
     const rt_layout *L;
     int multipass, secondary;
+    int wstate;          /* how state words are written: RT_WRITE_STREAM (render targets, default) or 1 */
     int reg_cells, reg_lists, reg_verts, reg_shade, reg_mat, reg_state, reg_stencil, reg_fb;
     rt_image *img;
     rt_cam_frame cam;
@@ -228,7 +232,8 @@ static void acc_rd(st_run *S, int kern, int dtype, int reg, uint64_t rec, uint64
 static void charge_state(st_run *S, int kern, uint32_t slot, int R, int W)
 {
     if (R) acc_rd(S, kern, RT_SD_STATE, S->reg_state, slot, 0, 4u * (uint32_t)R, RT_CLS_STREAM, 0);
-    if (W && kern != RT_SK_COLOR) acc_rd(S, kern, RT_SD_STATE, S->reg_state, slot, 0, 4u * (uint32_t)W, RT_CLS_STREAM, 1);
+    if (W && kern != RT_SK_COLOR)
+        acc_rd(S, kern, RT_SD_STATE, S->reg_state, slot, 0, 4u * (uint32_t)W, RT_CLS_STREAM, S->wstate);
 }
 
 /* One kernel invocation on a ray in slot: its state words, its stencil
@@ -710,6 +715,7 @@ static int st_run_common(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *
     S.img = img;
     S.multipass = multipass;
     S.secondary = rt_render_secondary(o);
+    S.wstate = o->rstores == RT_RSTORES_WRITE_ALLOCATE ? 1 : RT_WRITE_STREAM;
     S.reg_cells = rt_mm_find(S.L, "grid.cells");
     S.reg_lists = rt_mm_find(S.L, "grid.lists");
     S.reg_verts = rt_mm_find(S.L, "tri.verts");
@@ -830,6 +836,9 @@ static void st_params(const rt_render_opts *o, char *buf, size_t n, int multipas
     size_t l = 0;
     buf[0] = 0;
     if (o->grid_min) l += (size_t)snprintf(buf + l, n - l, " grid_min=%u", (unsigned)o->grid_min);
+    if (o->grid_density > 0 && l < n) l += (size_t)snprintf(buf + l, n - l, " grid_density=%g", o->grid_density);
+    if (o->rstores != RT_RSTORES_NON_TEMPORAL && l < n)
+        l += (size_t)snprintf(buf + l, n - l, " record_stores=%s", rt_render_rstores_name(o->rstores));
     if (multipass && l < n) {
         if (o->oracle == RT_ORACLE_NAIVE && l < n) l += (size_t)snprintf(buf + l, n - l, " oracle=naive");
         if (o->oracle != RT_ORACLE_NAIVE && o->oracle_frac != 0.2 && l < n)
@@ -849,7 +858,7 @@ const rt_tracer rt_tracer_stream_branching = {
     .modes = RT_TRACER_ALL_MODES,
     .accels = RT_ACCEL_BIT(RT_ACCEL_GRID),
     .accel_default = RT_ACCEL_GRID,
-    .opts = RT_OPTG_GRID,
+    .opts = RT_OPTG_GRID | RT_OPTG_RECORDS,
     .traits = RT_TR_TEXCACHE,
     .figures = RT_FIG_PURCELL,
     .params = st_params_br,
@@ -865,7 +874,7 @@ const rt_tracer rt_tracer_stream_multipass = {
     .modes = RT_TRACER_ALL_MODES,
     .accels = RT_ACCEL_BIT(RT_ACCEL_GRID),
     .accel_default = RT_ACCEL_GRID,
-    .opts = RT_OPTG_GRID | RT_OPTG_ORACLE,
+    .opts = RT_OPTG_GRID | RT_OPTG_ORACLE | RT_OPTG_RECORDS,
     .traits = RT_TR_TEXCACHE | RT_TR_MULTIPASS,
     .figures = RT_FIG_PURCELL | RT_FIG_FEEDBACK,
     .params = st_params_mp,
