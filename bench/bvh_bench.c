@@ -6,7 +6,7 @@
  * The rays are those the recursive tracer and the Embree row shoot:
  * rt_cam_ray of every pixel, in the Hilbert order of rt_hilbert_order.
  * Each structure is built from the same scene, then the ray loop is timed
- * alone (best of reps runs); every BVH hit is compared with the k-d tree's
+ * alone (best of reps runs, Embree's too); every BVH hit is compared with the k-d tree's
  * (triangle and t bit for bit) and the mismatches are reported, so a fast
  * but wrong row cannot pass unnoticed. With Embree built, its
  * rtcIntersect1 on the same rays is measured too (rt_embree_bench) and every
@@ -118,7 +118,12 @@ int rt_bvh_bench_primary(FILE *out, const rt_scene *sc, int W, int H, int reps, 
     rt_embree_result er;
     memset(&er, 0, sizeof er);
     rt_err ee = {""};
-    const int have_embree = rt_embree_built() && rt_embree_bench(sc, W, H, &er, &ee) == 0;
+    int have_embree = rt_embree_built();
+    for (int rep = 0; have_embree && rep < reps; rep++) {
+        rt_embree_result one;
+        if (rt_embree_bench(sc, W, H, &one, &ee) < 0) have_embree = 0;
+        else if (rep == 0 || one.sec < er.sec) er = one;
+    }
     fprintf(out,
             "Untraced primary rays, %dx%d in Hilbert order, one ray at a time, %u triangles (ray loop: best of %d; "
             "hits compared with the k-d tree's, triangle and t bit for bit)%s:\n\n",
