@@ -5,9 +5,10 @@
  * Build. One binary tree is built top-down by binned SAH, then emitted in
  * the requested width:
  *
- *   - Every triangle is a primitive record (box, centroid, scene index);
- *     records start in ascending scene-index order and every partition is
- *     stable, so each node's range stays in ascending index order.
+ *   - Every triangle is a 32-byte primitive record (its box and scene
+ *     index); records start in ascending scene-index order and every
+ *     partition is stable, so each node's range stays in ascending index
+ *     order.
  *   - At a node of n triangles: its box and the box of its centroids
  *     (centroid = 0.5 lo + 0.5 hi of the triangle's box; both boxes are
  *     accumulated while the parent partitions). On every axis where the
