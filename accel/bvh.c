@@ -5,9 +5,10 @@
  * Build. One binary tree is built top-down by binned SAH, then emitted in
  * the requested width:
  *
- *   - Every triangle is a primitive record (box, centroid, scene index);
- *     records start in ascending scene-index order and every partition is
- *     stable, so each node's range stays in ascending index order.
+ *   - Every triangle is a 32-byte primitive record (its box and scene
+ *     index); records start in ascending scene-index order and every
+ *     partition is stable, so each node's range stays in ascending index
+ *     order.
  *   - At a node of n triangles: its box and the box of its centroids
  *     (centroid = 0.5 lo + 0.5 hi of the triangle's box; both boxes are
  *     accumulated while the parent partitions). On every axis where the
@@ -1386,8 +1387,11 @@ static RT_ALWAYS_INLINE void wstate_init(wstate *S, const rt_bvh_trav *tv, const
 }
 
 /* bvh2: pbrt's walk. */
-static RT_ALWAYS_INLINE int walk2(rt_bvh_trav *tv, const rt_ray *r, rt_hit *h, const int any)
+static RT_ALWAYS_INLINE int walk2(rt_bvh_trav *tv, const rt_ray *rp, rt_hit *h, const int any)
 {
+    /* a local copy: stores through mark[] (a char pointer) and into the
+     * recorder could alias *rp and force reloads in the leaves */
+    const rt_ray ray = *rp, *r = &ray;
     const rt_bvh *b = tv->bvh;
     wstate S;
     wstate_init(&S, tv, r);
@@ -1427,6 +1431,18 @@ static RT_ALWAYS_INLINE int walk2(rt_bvh_trav *tv, const rt_ray *r, rt_hit *h, c
     return finish(tv, &S, h, any, occluded);
 }
 
+/* Index of the lowest set bit of m (m != 0). */
+static inline int lowest_bit(unsigned m)
+{
+#if defined(__GNUC__)
+    return __builtin_ctz(m);
+#else
+    int s = 0;
+    while (!(m >> s & 1u)) s++;
+    return s;
+#endif
+}
+
 typedef struct sentry {
     uint32_t a; /* interior: node index; leaf: first triangle record */
     uint32_t n; /* leaf: triangles; interior: 0 */
@@ -1435,9 +1451,10 @@ typedef struct sentry {
 
 /* bvh4 and bvh8: children's boxes tested together, hit ones visited
  * nearest first (ties: lower slot). simd: SSE2 box tests. */
-static RT_ALWAYS_INLINE int walk_wide(rt_bvh_trav *tv, const rt_ray *r, rt_hit *h, const int any, const int W,
+static RT_ALWAYS_INLINE int walk_wide(rt_bvh_trav *tv, const rt_ray *rp, rt_hit *h, const int any, const int W,
                                       const int simd)
 {
+    const rt_ray ray = *rp, *r = &ray; /* as in walk2 */
     const rt_bvh *b = tv->bvh;
     wstate S;
     wstate_init(&S, tv, r);
@@ -1495,8 +1512,8 @@ static RT_ALWAYS_INLINE int walk_wide(rt_bvh_trav *tv, const rt_ray *r, rt_hit *
         if (!mask) continue;
         /* order the hit children by (entry, slot), push the farthest first */
         int ord[8], k = 0;
-        for (int s = 0; s < W; s++) {
-            if (!(mask >> s & 1u)) continue;
+        for (unsigned m = mask; m; m &= m - 1u) {
+            const int s = lowest_bit(m);
             int j = k++;
             while (j > 0 && tn[ord[j - 1]] > tn[s]) {
                 ord[j] = ord[j - 1];

@@ -164,7 +164,7 @@ typedef struct rt_bvh {
 rt_bvh *rt_bvh_build(const rt_scene *s, const rt_bvh_params *p, rt_err *e);
 /* Frees a tree; accepts NULL. */
 void rt_bvh_free(rt_bvh *b);
-/* Verifies the invariants (bvh.c, B1-B8) against the scene; 0, or -1 with
+/* Verifies the invariants (bvh.c, B1-B7) against the scene; 0, or -1 with
  * the first violation described. For tests: O(nodes + triangles). */
 int rt_bvh_check(const rt_bvh *b, const rt_scene *s, rt_err *e);
 

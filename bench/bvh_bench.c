@@ -6,9 +6,10 @@
  * The rays are those the recursive tracer and the Embree row shoot:
  * rt_cam_ray of every pixel, in the Hilbert order of rt_hilbert_order.
  * Each structure is built from the same scene, then the ray loop is timed
- * alone (best of reps runs); every BVH hit is compared with the k-d tree's
- * (triangle and t bit for bit) and the mismatches are reported, so a fast
- * but wrong row cannot pass unnoticed. With Embree built, its
+ * alone (best of reps runs, Embree's too); every BVH hit is compared with
+ * the k-d tree's (triangle and t bit for bit), a mismatch decided by brute
+ * force, and the rays where the BVH differs from both are reported, so a
+ * fast but wrong row cannot pass unnoticed. With Embree built, its
  * rtcIntersect1 on the same rays is measured too (rt_embree_bench) and every
  * row gets its rays/s over Embree's.
  */
@@ -34,7 +35,8 @@ typedef struct row {
     uint64_t hits;    /* rays that hit */
     uint64_t visits;  /* nodes visited over all rays (one run) */
     uint64_t tests;   /* triangle tests over all rays (one run) */
-    uint64_t differ;  /* rays whose hit differs from the k-d tree's */
+    uint64_t differ;  /* rays whose hit differs from the k-d tree's and brute force's */
+    uint64_t kd_off;  /* rays where it equals brute force and the k-d tree does not */
 } row;
 
 int rt_bvh_bench_primary(FILE *out, const rt_scene *sc, int W, int H, int reps, rt_err *e)
@@ -42,6 +44,9 @@ int rt_bvh_bench_primary(FILE *out, const rt_scene *sc, int W, int H, int reps, 
     const size_t npix = (size_t)W * (size_t)H;
     uint32_t *order = rt_calloc(npix, sizeof *order, e);
     rt_hit *ref = rt_calloc(npix, sizeof *ref, e);
+    enum { NDIFF = 1000 }; /* differences brute force decides; more count as wrong */
+    uint32_t dpix[NDIFF];
+    rt_hit dhit[NDIFF];
     rt_kdtree *kd = NULL;
     row rows[4];
     memset(rows, 0, sizeof rows);
@@ -103,12 +108,32 @@ int rt_bvh_bench_primary(FILE *out, const rt_scene *sc, int W, int H, int reps, 
                 rt_cam_ray(&cam, (int)(pix % (uint32_t)W), (int)(pix / (uint32_t)W), &r);
                 rt_hit h;
                 hits += (uint64_t)rt_bvh_closest(&tv, &r, &h);
-                differ += h.tri != ref[k].tri || memcmp(&h.t, &ref[k].t, sizeof h.t) != 0;
+                if (h.tri != ref[k].tri || memcmp(&h.t, &ref[k].t, sizeof h.t) != 0) {
+                    if (differ < NDIFF) {
+                        dpix[differ] = (uint32_t)k;
+                        dhit[differ] = h;
+                    }
+                    differ++;
+                }
             }
             const double sec = rt_now() - t0;
             if (rep == 0 || sec < x->sec) x->sec = sec;
             x->hits = hits;
+            if (rep > 0) continue;
+            /* brute force decides each difference, outside the timed loop
+             * (the k-d tree has been seen to miss hits exactly at vertices) */
             x->differ = differ;
+            for (uint64_t i = 0; i < differ && i < NDIFF; i++) {
+                const uint32_t pix = order[dpix[i]];
+                rt_ray r;
+                rt_cam_ray(&cam, (int)(pix % (uint32_t)W), (int)(pix / (uint32_t)W), &r);
+                rt_hit hb;
+                rt_brute_closest(sc, &r, &hb);
+                if (hb.tri == dhit[i].tri && memcmp(&hb.t, &dhit[i].t, sizeof hb.t) == 0) {
+                    x->differ--;
+                    x->kd_off++;
+                }
+            }
             x->visits = tv.nodes;
             x->tests = tv.tests;
         }
@@ -118,10 +143,15 @@ int rt_bvh_bench_primary(FILE *out, const rt_scene *sc, int W, int H, int reps, 
     rt_embree_result er;
     memset(&er, 0, sizeof er);
     rt_err ee = {0};
-    const int have_embree = rt_embree_built() && rt_embree_bench(sc, W, H, &er, &ee) == 0;
+    int have_embree = rt_embree_built();
+    for (int rep = 0; have_embree && rep < reps; rep++) {
+        rt_embree_result one;
+        if (rt_embree_bench(sc, W, H, &one, &ee) < 0) have_embree = 0;
+        else if (rep == 0 || one.sec < er.sec) er = one;
+    }
     fprintf(out,
             "Untraced primary rays, %dx%d in Hilbert order, one ray at a time, %u triangles (ray loop: best of %d; "
-            "hits compared with the k-d tree's, triangle and t bit for bit)%s:\n\n",
+            "hits compared with the k-d tree's, triangle and t bit for bit, brute force deciding a difference)%s:\n\n",
             W, H, sc->ntri, reps, have_embree ? "" : "; Embree not built");
     fprintf(out, "| structure | build s | nodes | MB | seconds | Mrays/s | nodes/ray | tests/ray | differ | "
                  "k-d seconds over this | rays/s over Embree |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
@@ -137,6 +167,10 @@ int rt_bvh_bench_primary(FILE *out, const rt_scene *sc, int W, int H, int reps, 
     if (have_embree)
         fprintf(out, "| embree %s | %.2f | | | %.3f | %.2f | | | | %.2f | 1.00 |\n", er.version, er.build_sec, er.sec,
                 (double)er.rays / er.sec * 1e-6, rows[0].sec / er.sec);
+    for (int i = 1; i < 4; i++)
+        if (rows[i].kd_off)
+            fprintf(out, "%s: %" PRIu64 " hits differ from the k-d tree's and equal brute force's\n", rows[i].name,
+                    rows[i].kd_off);
     fprintf(out, "\n");
     rc = 0;
     for (int i = 1; i < 4; i++)

@@ -200,6 +200,13 @@ grep -q "^replay: --threads 2: .*x --threads 1 (counters agree)$" "$tmp/rbench" 
 head -c 300 "$tmp/rb.rtt" > "$tmp/rbcut.rtt"
 "$bin" bench --what replay --trace "$tmp/rbcut.rtt" > /dev/null 2> "$tmp/rbench.err"; rc=$?
 [ $rc -eq 1 ] && grep -q "rbcut.rtt" "$tmp/rbench.err" || err "bench replay of a cut trace: exit $rc, $(cat "$tmp/rbench.err")"
+# --what bvh: every width beside the k-d tree, every hit the k-d tree's (differ 0)
+"$bin" bench --scene cornell:glass=0 -W 8 -H 8 --what bvh --reps 1 > "$tmp/bbench" 2> "$tmp/bbench.err" ||
+    err "bench --what bvh exited $?: $(cat "$tmp/bbench.err")"
+for t in "k-d tree" bvh2 bvh4 bvh8; do
+    grep -q "^| $t | [0-9.]* | [0-9]* | [0-9.]* | [0-9.]* | [0-9.]* | [0-9.]* | [0-9.]* | 0 | " "$tmp/bbench" ||
+        err "bench --what bvh lacks the row $t (or its hits differ)"
+done
 # provenance header: the machine's CPU model and online CPUs, the revision, today's date
 grep -q "^raytraffic [0-9][^ ]* ([^)]*) bench: scene cornell:glass=0, 8x8" "$tmp/bench" || err "bench title line"
 cpu=$(sed -n 's/^model name[^:]*: *//p' /proc/cpuinfo 2>/dev/null | head -n 1)

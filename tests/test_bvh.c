@@ -23,7 +23,8 @@
  * whose BVH hit differs from the k-d tree's is always decided by brute
  * force (the k-d tree misses some hits at vertices on axis-parallel and
  * vertex-aimed rays; the count is printed). RT_TEST_LONG=1: 100,000 rays,
- * all against brute force. Exit 0 on success.
+ * all against brute force, and the full sphereflake (brute force on 200 of
+ * its rays). Exit 0 on success.
  */
 #include "config.h"
 #include "bvh.h"
@@ -639,6 +640,13 @@ int main(int argc, char **argv)
         CHECK(s != NULL, "scene %s: %s", bi[i].spec, e.msg);
         if (!s) continue;
         run_scene(bi[i].spec, s, rays, full ? rays : bi[i].brute_quick * scale);
+        rt_scene_free(s);
+    }
+    if (full) { /* the full sphereflake (797,150 triangles), brute force on 200 rays */
+        rt_err e = {{0}};
+        s = rt_scene_load("sphereflake", &e);
+        CHECK(s != NULL, "sphereflake: %s", e.msg);
+        if (s) run_scene("sphereflake", s, rays, 200);
         rt_scene_free(s);
     }
     if (failures) fprintf(stderr, "%d failures\n", failures);
