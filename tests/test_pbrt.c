@@ -53,7 +53,7 @@ static rt_scene *load_text(const char *name, const char *text, const char *param
 
 static rt_scene *expect_ok(const char *name, const char *text, uint32_t ntri)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *s = load_text(name, text, NULL, &e);
     CHECK(s != NULL, "%s refused: %s", name, e.msg);
     if (s) CHECK(s->ntri == ntri, "%s: %u triangles, expected %u", name, s->ntri, ntri);
@@ -62,7 +62,7 @@ static rt_scene *expect_ok(const char *name, const char *text, uint32_t ntri)
 
 static void expect_fail(const char *name, const char *text, const char *needle)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *s = load_text(name, text, NULL, &e);
     CHECK(s == NULL, "%s accepted:\n%s", name, text);
     CHECK(strstr(e.msg, needle) != NULL, "%s: message '%s' lacks '%s'", name, e.msg, needle);
@@ -182,7 +182,7 @@ static void test_instancing(void)
 
 static void test_includes(void)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *s = rt_scene_load(srcfile("tests/data/pbrt/main.pbrt"), &e);
     CHECK(s != NULL, "main.pbrt: %s", e.msg);
     if (!s) return;
@@ -249,7 +249,7 @@ static void test_loopsubdiv(void)
 
 static void test_shapes(void)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     /* sphere: tessellation from the spec, radius and placement from the file */
     rt_scene *s = load_text("sph.pbrt", "WorldBegin\nTranslate 0 0 5\nShape \"sphere\" \"float radius\" 2\n", "tess=2",
                             &e);
@@ -532,7 +532,7 @@ static void test_errors(void)
     /* NUL byte */
     static const char nul[] = "WorldBegin\nShape \0 \"sphere\"\n";
     check_write_file(check_path("nul.pbrt"), nul, sizeof nul - 1);
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *s = rt_scene_load(check_path("nul.pbrt"), &e);
     CHECK(!s && strstr(e.msg, "nul.pbrt:2:7: NUL byte"), "NUL: %s", e.msg);
     rt_scene_free(s);
@@ -583,7 +583,7 @@ static void test_truncations(void)
 {
     char *buf = NULL;
     size_t n = 0;
-    rt_err e = {""};
+    rt_err e = {0};
     if (rt_slurp(srcfile("data/pbrt/cornell.pbrt"), &buf, &n, &e) < 0) {
         CHECK(0, "%s", e.msg);
         return;
@@ -613,7 +613,7 @@ static size_t count_diff(const rt_image *a, const rt_image *b)
 
 static rt_image *render(rt_scene *sc, rt_kdtree *kd, const char *tracer, const rt_render_opts *o)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_job j;
     rt_run_stats st;
     if (rt_job_setup_borrowed(&j, sc, kd, tracer, o, &e) < 0) {
@@ -632,7 +632,7 @@ static rt_image *render(rt_scene *sc, rt_kdtree *kd, const char *tracer, const r
 
 static void test_cornell(void)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     rt_scene *s = rt_scene_load(srcfile("data/pbrt/cornell.pbrt"), &e);
     CHECK(s != NULL, "cornell.pbrt: %s", e.msg);
     if (!s) return;
