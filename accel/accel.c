@@ -112,13 +112,19 @@ static void naive_trav_init(rt_trav *tv, const void *as, const rt_layout *L)
     (void)tv;
 }
 
-/* Counts (and marks) every triangle as tested; the triangle reads are the
- * caller's to record (the naive structure has no layout of its own). */
+/* Counts, marks and (with a recorder and a triangle region) records every
+ * triangle as tested, in index order: one triangle-record read each. The
+ * naive structure has no regions of its own. */
 static void naive_count(rt_trav *tv)
 {
     tv->tests += tv->sc->ntri;
     if (tv->mark)
         for (uint32_t i = 0; i < tv->sc->ntri; i++) tv->mark[i] |= tv->mark_bit;
+    if (tv->rec && tv->reg_tri >= 0) {
+        const rt_region *g = &tv->L->r[tv->reg_tri];
+        for (uint32_t i = 0; i < tv->sc->ntri; i++)
+            RT_REC(tv->rec, rt_mm_addr(tv->L, tv->reg_tri, i), g->recsize, 0, RT_CLS_TRI);
+    }
 }
 
 static int naive_closest(rt_trav *tv, const rt_ray *r, rt_hit *h)

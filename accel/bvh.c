@@ -78,7 +78,16 @@
  *   B6  the bvh8 host copy equals the dequantized nodes;
  *   B7  depth <= RT_BVH_MAX_DEPTH; bvh2 nnodes = 2 leaves - 1, wide nnodes
  *       < leaves (or 1); statistics (leaves, depth) and the stored SAH cost
- *       equal a recomputation.
+ *       equal a recomputation;
+ *   B8  "a triangle's box" above is its exact box grown by pad on every
+ *       side, pad = 2^(e - 20) for the largest coordinate magnitude m (at
+ *       least 1) in [2^(e-1), 2^e): far more than the few coordinate ulps
+ *       by which the watertight test's computed hit point may miss the
+ *       triangle's plane. Without it a ray leaving a surface (a shadow ray
+ *       from a floor point rounded 5e-10 above z = 0) starts outside the
+ *       flat box, the slab test culls it, and a hit the triangle test
+ *       accepts at t ~ 2e-9 -- which the hit rule counts, and brute force
+ *       and the k-d tree find -- is lost.
  *
  * Traversal. Boxes are tested by the slab method with the ray's precomputed
  * reciprocal: per axis the near and far plane distances (chosen by the sign
@@ -211,12 +220,35 @@ static inline float max3f(float a, float b, float c)
     return m > c ? m : c;
 }
 
-static rt_bounds tri_box(const rt_tri *t)
+/* A triangle's box grown by pad on every side (B8). */
+static rt_bounds tri_box(const rt_tri *t, float pad)
 {
     const rt_vec3 *p = t->p;
-    rt_bounds b = {{min3f(p[0].x, p[1].x, p[2].x), min3f(p[0].y, p[1].y, p[2].y), min3f(p[0].z, p[1].z, p[2].z)},
-                   {max3f(p[0].x, p[1].x, p[2].x), max3f(p[0].y, p[1].y, p[2].y), max3f(p[0].z, p[1].z, p[2].z)}};
+    rt_bounds b = {{min3f(p[0].x, p[1].x, p[2].x) - pad, min3f(p[0].y, p[1].y, p[2].y) - pad,
+                    min3f(p[0].z, p[1].z, p[2].z) - pad},
+                   {max3f(p[0].x, p[1].x, p[2].x) + pad, max3f(p[0].y, p[1].y, p[2].y) + pad,
+                    max3f(p[0].z, p[1].z, p[2].z) + pad}};
     return b;
+}
+
+/* The pad of B8: 2^-20 of the largest coordinate magnitude (at least 1),
+ * rounded up to a power of two. The watertight triangle test, rounding
+ * in scaled coordinates, accepts hits whose computed point lies a few ulps
+ * of the coordinates off the triangle's plane -- a ray leaving a surface
+ * can hit it again at t ~ 1e-9 -- and the hit rule (hit.h) says such a hit
+ * counts; exact boxes would cull it (the ray starts outside the flat box
+ * and moves away), so every box is grown by far more than that error. */
+static float bvh_pad(const rt_scene *s)
+{
+    float m = 1.0f;
+    for (uint32_t i = 0; i < s->ntri; i++)
+        for (int k = 0; k < 3; k++) {
+            const rt_vec3 *p = &s->tri[i].p[k];
+            m = fmaxf(m, fmaxf(fabsf(p->x), fmaxf(fabsf(p->y), fabsf(p->z))));
+        }
+    int ex;
+    frexpf(m, &ex);
+    return ldexpf(1.0f, ex - 20);
 }
 
 static inline float bget(const rt_vec3 *v, int a) { return ((const float *)(const void *)v)[a]; }
@@ -777,6 +809,7 @@ rt_bvh *rt_bvh_build(const rt_scene *s, const rt_bvh_params *params, rt_err *e)
     b->isect_cost = params->isect_cost;
     b->ntri = N;
     b->bounds = rt_bounds_empty();
+    b->pad = bvh_pad(s);
     build B;
     memset(&B, 0, sizeof B);
     B.p = params;
@@ -794,7 +827,7 @@ rt_bvh *rt_bvh_build(const rt_scene *s, const rt_bvh_params *params, rt_err *e)
     side all;
     side_init(&all);
     for (uint32_t i = 0; i < N; i++) {
-        const rt_bounds tb = tri_box(&s->tri[i]);
+        const rt_bounds tb = tri_box(&s->tri[i], b->pad);
         prim *q = &B.pr[i];
         memcpy(q->lo, &tb.lo, sizeof q->lo);
         memcpy(q->hi, &tb.hi, sizeof q->hi);
@@ -904,7 +937,7 @@ static int chk_leaf(chk *C, uint32_t where, uint32_t first, uint32_t n, uint32_t
     for (uint32_t k = first; k < first + n; k++) {
         if (C->covered[k]++)
             return rt_errf(C->e, "bvh%d: triangle record %u is in two leaves", b->width, k);
-        const rt_bounds tb = tri_box(&b->tri[k]);
+        const rt_bounds tb = tri_box(&b->tri[k], b->pad);
         if (box && !box_inside(&tb, box))
             return rt_errf(C->e, "bvh%d: node %u: triangle %u pokes out of its leaf's box", b->width, where, b->orig[k]);
         if (exact) box_union(exact, &tb);
@@ -1103,7 +1136,7 @@ static int check_wide(chk *C)
                 if (inner) ex = C->nbox[(uint32_t)c];
                 else
                     for (uint32_t k = rt_bvh4_first(c); k < rt_bvh4_first(c) + rt_bvh4_count(c); k++) {
-                        const rt_bounds tb = tri_box(&b->tri[k]);
+                        const rt_bounds tb = tri_box(&b->tri[k], b->pad);
                         box_union(&ex, &tb);
                     }
                 for (int a = 0; a < 3; a++) {
@@ -1117,7 +1150,7 @@ static int check_wide(chk *C)
                 if (inner) ex = C->nbox[n->child_base + bits_below(n->imask, s)];
                 else
                     for (uint32_t k = n->tri_base + (n->meta[s] & 31u); k < n->tri_base + (n->meta[s] & 31u) + (n->meta[s] >> 5u); k++) {
-                        const rt_bounds tb = tri_box(&b->tri[k]);
+                        const rt_bounds tb = tri_box(&b->tri[k], b->pad);
                         box_union(&ex, &tb);
                     }
                 for (int a = 0; a < 3; a++) {
@@ -1174,7 +1207,7 @@ int rt_bvh_check(const rt_bvh *b, const rt_scene *s, rt_err *e)
         return rt_errf(e, "bvh%d: node array missing", W);
     rt_bounds tb = rt_bounds_empty();
     for (uint32_t i = 0; i < s->ntri; i++) {
-        const rt_bounds x = tri_box(&s->tri[i]);
+        const rt_bounds x = tri_box(&s->tri[i], b->pad);
         box_union(&tb, &x);
     }
     if (memcmp(&tb, &b->bounds, sizeof tb) != 0) return rt_errf(e, "bvh%d: bounds differ from the triangles'", W);

@@ -156,6 +156,7 @@ typedef struct rt_bvh {
     float trav_cost;        /* the SAH costs it was built with */
     float isect_cost;
     double build_sec;       /* wall time of rt_bvh_build */
+    float pad;              /* every box is its triangles' boxes grown by pad on each side (bvh.c, B8) */
 } rt_bvh;
 
 /* Builds a tree of p->width over all triangles of s (p NULL: width 4

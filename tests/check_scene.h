@@ -21,7 +21,7 @@ static const float check_grey[3] = {0.5f, 0.5f, 0.5f};
 /* Appends the grey triangle abc to s. */
 static inline void add(rt_scene *s, rt_vec3 a, rt_vec3 b, rt_vec3 c)
 {
-    rt_err e = {{0}};
+    rt_err e = {0};
     if (rt_scene_add_tri(s, a, b, c, check_grey, &e) < 0) {
         fprintf(stderr, "add_tri: %s\n", e.msg);
         exit(1);
@@ -31,7 +31,7 @@ static inline void add(rt_scene *s, rt_vec3 a, rt_vec3 b, rt_vec3 c)
 /* Computes s's bounds (rt_scene_finish). */
 static inline void finish(rt_scene *s)
 {
-    rt_err e = {{0}};
+    rt_err e = {0};
     if (rt_scene_finish(s, &e) < 0) {
         fprintf(stderr, "finish: %s\n", e.msg);
         exit(1);

@@ -643,7 +643,7 @@ int main(int argc, char **argv)
         rt_scene_free(s);
     }
     if (full) { /* the full sphereflake (797,150 triangles), brute force on 200 rays */
-        rt_err e = {{0}};
+        rt_err e = {0};
         s = rt_scene_load("sphereflake", &e);
         CHECK(s != NULL, "sphereflake: %s", e.msg);
         if (s) run_scene("sphereflake", s, rays, 200);

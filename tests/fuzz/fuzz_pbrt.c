@@ -12,7 +12,7 @@
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    rt_err e = {{0}};
+    rt_err e = {0};
     rt_scene *s = rt_scene_load_pbrt(rt_fuzz_file(data, size), "maxtri=200000", &e);
     if (s) {
         if (s->film_w < 0 || s->film_w > 65536 || s->film_h < 0 || s->film_h > 65536 || (!s->film_w != !s->film_h))

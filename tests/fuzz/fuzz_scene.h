@@ -27,7 +27,7 @@ static inline void rt_fuzz_check_scene(rt_scene *s, const rt_err *e)
             if (p.x < b->lo.x || p.x > b->hi.x || p.y < b->lo.y || p.y > b->hi.y || p.z < b->lo.z || p.z > b->hi.z)
                 rt_fuzz_fail("triangle %u: vertex outside the bounds", i);
         }
-    rt_err e2 = {{0}};
+    rt_err e2 = {0};
     if (rt_scene_check_range(s, "fuzz", &e2) < 0) rt_fuzz_fail("loaded scene out of range: %s", e2.msg);
     (void)rt_scene_hash(s);
     rt_fuzz_accepted = 1;
