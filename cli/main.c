@@ -8,6 +8,7 @@
 #include "rt.h"
 
 #include <errno.h>
+#include <limits.h>
 #include <signal.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -157,6 +158,13 @@ int main(int argc, char **argv)
         if (signal(sigs[i], on_signal) == SIG_IGN) signal(sigs[i], SIG_IGN); /* keep nohup's choice */
     /* Test hook: every output file fails with ENOSPC after N bytes. */
     const char *fa = getenv("RT_OUT_FAIL_AFTER");
-    if (fa && *fa) rt_out_fail_after = strtoll(fa, NULL, 10);
+    if (fa && *fa) {
+        long v;
+        if (rt_cmd_parse_long(fa, 0, LONG_MAX, &v) < 0) {
+            fprintf(stderr, "raytraffic: RT_OUT_FAIL_AFTER: '%s' is not a byte count\n", fa);
+            return RT_EXIT_USAGE;
+        }
+        rt_out_fail_after = v;
+    }
     return close_stdout(dispatch(argc, argv));
 }

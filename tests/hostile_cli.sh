@@ -1,0 +1,110 @@
+#!/bin/sh
+# Hostile use of the commands (docs/reliability.md §15-§26; the section
+# numbers below are those of the docs):
+# 15. control characters in scene names and paths never reach a job line;
+# 16. a mesh cannot make the loader read devices, FIFOs or files outside
+#     its folder, nor without end;
+# 17. a rerun of sweep with other --sizes or --line simulates what is missing;
+# 18. long mesh names stay whole and their labels distinct;
+# 19. report shows every scene, however many;
+# 20. report --plot into a folder whose name starts with '-';
+# 21. concurrent scene export to one name leaves a consistent pair;
+# 22. numeric options are parsed strictly;
+# 23. sizes checked against the work and the machine before allocating;
+# 24. a foreign SQLite file is refused untouched;
+# 25. --db is a path, never an SQLite URI;
+# 26. lesser ones (render -o '', CR line ends, hex floats, duplicated PLY
+#     properties, exact run counts, long names with --keep-traces).
+set -u
+bin=${RT_BIN:-./raytraffic}
+src=${RT_SRCDIR:-${srcdir:-.}}
+bin=$(cd "$(dirname "$bin")" && pwd)/$(basename "$bin")
+src=$(cd "$src" && pwd)
+tmp=$(mktemp -d /tmp/rt-hostile-XXXXXX) || exit 1
+trap 'rm -rf "$tmp"' EXIT
+fail=0
+die() { echo "FAIL: $*"; fail=1; }
+runs() { sqlite3 "$1" "SELECT COUNT(*) FROM runs" 2>/dev/null || echo 0; }
+cube=$src/data/meshes/cube.obj
+cd "$tmp" || exit 1
+NL='
+'
+
+# ---- 15. control characters in names and paths --------------------------------
+cp "$cube" "x${NL}touch PWNED;#.obj"
+"$bin" sweep --scenes "x${NL}touch PWNED;#.obj" --tracers recursive --lights primary --list-jobs \
+    > jobs.txt 2> err; rc=$?
+[ $rc = 2 ] || die "15: --scenes with a newline: exit $rc, want 2"
+grep -q -- "--scenes" err || die "15: message does not name --scenes: $(cat err)"
+[ -s jobs.txt ] && die "15: job lines printed for a scene with a newline"
+for opt in --db --keep-traces; do
+    "$bin" sweep --scenes cornell --tracers recursive --lights primary $opt "a${NL}touch PWNED;#" --list-jobs \
+        > jobs.txt 2> err; rc=$?
+    [ $rc = 2 ] && grep -q -- "$opt" err || die "15: $opt with a newline: exit $rc: $(cat err)"
+done
+# a newline in the working folder reaches the absolute paths: nothing printed
+mkdir "d${NL}x" && cp "$cube" "d${NL}x/cube.obj"
+(cd "d${NL}x" && "$bin" sweep --scenes cube.obj --tracers recursive --lights primary --list-jobs > ../jobs.txt 2> ../err)
+rc=$?
+[ $rc = 1 ] || die "15: a folder with a newline: exit $rc, want 1"
+[ -s jobs.txt ] && die "15: job lines printed with a newline in a path"
+while IFS= read -r line; do sh -c "$line" 2>/dev/null; done < jobs.txt
+[ -e PWNED ] && die "15: PWNED created"
+rm -rf "d${NL}x" "x${NL}touch PWNED;#.obj"
+
+# ---- 22. strict numbers -------------------------------------------------------
+"$bin" trace cornell -W 8 -H 8 -o t.rtt 2>/dev/null || die "22: trace failed"
+for v in abc "" 0x10 nan -1 1e999 " 5" "+5" 5x; do
+    for o in -W -H; do
+        "$bin" report --db none.db $o "$v" > /dev/null 2> err; rc=$?
+        [ $rc = 2 ] && grep -q -- "$o" err || die "22: report $o '$v': exit $rc: $(cat err)"
+    done
+done
+for v in " 0.5" "+0.5" 0x0.1 nan inf "1/ 64" "1/0x40" 0.5x; do
+    "$bin" sim --method shards --rate "$v" t.rtt > /dev/null 2> err; rc=$?
+    [ $rc = 2 ] && grep -q -- "--rate" err || die "22: sim --rate '$v': exit $rc: $(cat err)"
+done
+for v in " 2" "+2" "2 "; do
+    "$bin" trace cornell -W 8 -H 8 -t packet --packet "$v" -o p.rtt 2> err; rc=$?
+    [ $rc = 2 ] && grep -q -- "--packet" err || die "22: --packet '$v': exit $rc: $(cat err)"
+    "$bin" sweep --jobs "$v" --db j.db 2> err; rc=$?
+    [ $rc = 2 ] && grep -q -- "--jobs" err || die "22: --jobs '$v': exit $rc: $(cat err)"
+done
+for v in "res: 16" "res:+16" "sub: 4" "sub:4: 8" "sub:4:+8"; do
+    "$bin" sweep --proxy "$v" --db j.db 2> err; rc=$?
+    [ $rc = 2 ] && grep -q -- "--proxy" err || die "22: --proxy '$v': exit $rc: $(cat err)"
+done
+"$bin" trace cornell -W 8 -H 8 -t stream-multipass --oracle-fraction " 0.5" -o p.rtt 2> err; rc=$?
+[ $rc = 2 ] || die "22: --oracle-fraction ' 0.5': exit $rc"
+"$bin" sim --method shards --rate 1/64 t.rtt > /dev/null 2>&1 || die "22: --rate 1/64 refused"
+"$bin" sim --method shards --rate 0.5 t.rtt > /dev/null 2>&1 || die "22: --rate 0.5 refused"
+[ -e j.db ] && die "22: a usage error created the database"
+
+# ---- 24. a foreign SQLite file is left as it was -------------------------------
+sqlite3 f.db "CREATE TABLE foo(x); INSERT INTO foo VALUES(1); PRAGMA user_version = 4;"
+sum=$(cksum < f.db)
+"$bin" sim --db f.db t.rtt > /dev/null 2> err; rc=$?
+[ $rc = 1 ] && grep -q "not a raytraffic database" err || die "24: foreign file (version 4): exit $rc: $(cat err)"
+[ "$(cksum < f.db)" = "$sum" ] || die "24: the refused file was modified"
+[ "$(sqlite3 f.db 'PRAGMA journal_mode')" = delete ] || die "24: the refused file was switched to WAL"
+[ -e f.db-wal ] && die "24: a -wal file was left beside the refused file"
+sqlite3 g.db "CREATE TABLE runs(x); CREATE TABLE scenes(y); PRAGMA user_version = 2;"
+sum=$(cksum < g.db)
+"$bin" sim --db g.db t.rtt > /dev/null 2> err; rc=$?
+[ $rc = 1 ] || die "24: foreign file (version 2): exit $rc"
+[ "$(cksum < g.db)" = "$sum" ] || die "24: the refused version-2 file was modified"
+
+# ---- 25. --db is a path ----------------------------------------------------------
+mkdir uri && cd uri || exit 1
+"$bin" sim --db 'file:u.db?mode=memory' ../t.rtt > /dev/null 2> err || die "25: sim --db 'file:u.db?mode=memory' failed: $(cat err)"
+[ -f 'file:u.db?mode=memory' ] || die "25: no file 'file:u.db?mode=memory' (read as a URI)"
+[ "$(runs './file:u.db?mode=memory')" = 1 ] || die "25: the run is not in the file named"
+"$bin" sim --db file:other.db ../t.rtt > /dev/null 2>&1 || die "25: sim --db file:other.db failed"
+[ -e other.db ] && die "25: --db file:other.db wrote other.db"
+[ -f file:other.db ] || die "25: --db file:other.db did not write file:other.db"
+"$bin" report --db file:other.db --figure scenes > /dev/null 2> err || die "25: report --db file:other.db: $(cat err)"
+"$bin" db merge merged.db file:other.db > /dev/null 2> err || die "25: db merge of file:other.db: $(cat err)"
+[ "$(runs merged.db)" = 1 ] || die "25: merge of file:other.db copied $(runs merged.db) runs"
+cd "$tmp" || exit 1
+
+exit $fail
