@@ -156,6 +156,16 @@ int main(int argc, char **argv)
     static const int sigs[] = {SIGINT, SIGTERM, SIGHUP};
     for (size_t i = 0; i < sizeof sigs / sizeof sigs[0]; i++)
         if (signal(sigs[i], on_signal) == SIG_IGN) signal(sigs[i], SIG_IGN); /* keep nohup's choice */
+    /* The largest scene file the loaders read (docs/scenes.md). */
+    const char *sm = getenv("RT_SCENE_MAX_BYTES");
+    if (sm && *sm) {
+        uint64_t v;
+        if (rt_parse_size(sm, &v) < 0 || v == 0) {
+            fprintf(stderr, "raytraffic: RT_SCENE_MAX_BYTES: '%s' is not a size like 512M\n", sm);
+            return RT_EXIT_USAGE;
+        }
+        rt_scene_max_bytes = v;
+    }
     /* Test hook: every output file fails with ENOSPC after N bytes. */
     const char *fa = getenv("RT_OUT_FAIL_AFTER");
     if (fa && *fa) {

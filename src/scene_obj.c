@@ -6,7 +6,7 @@
  * (relative to the vertices read so far) indices. Triangles, quads and
  * n-gons are fan-triangulated from the first corner: (0,1,2), (0,2,3), ...
  * `mtllib` reads MTL material libraries (several names per line, relative
- * to the OBJ's folder) and `usemtl` gives the faces after it that
+ * to the OBJ's folder and inside it: rt_path_within) and `usemtl` gives the faces after it that
  * material: its Kd becomes the triangles' colour, and Ks, Ke, Ni, d/Tr, Tf
  * and illum become a material table entry (mapping in docs/scenes.md).
  * Faces before any usemtl get the default grey and material 0. Every other
@@ -258,11 +258,14 @@ static size_t rest_len(const char *p)
     return n;
 }
 
+/* Reads the material library at mpath. 0, -1 with a message, or -2 (no
+ * message) when the file does not exist. */
 static int load_mtl(objload *L, const char *mpath)
 {
     char *buf = NULL;
     size_t n = 0;
-    if (rt_slurp(mpath, &buf, &n, L->e) < 0) {
+    if (rt_slurp_regular(mpath, rt_scene_max_bytes, &buf, &n, L->e) < 0) {
+        if (errno == ENOENT) return -2;
         char m[RT_ERR_LEN];
         snprintf(m, sizeof m, "%s", L->e ? L->e->msg : "");
         return rt_errf(L->e, "%s:%lu: material library %s", L->path, L->line, m);
@@ -343,12 +346,15 @@ static int load_mtl(objload *L, const char *mpath)
     return rc;
 }
 
-/* mtllib NAME...: each relative to the OBJ's folder. */
+/* mtllib NAME...: each relative to the OBJ's folder, and inside it
+ * (rt_path_within: no absolute path, no '..' above the folder). */
 static int mtllib_line(objload *L, const char *p)
 {
-    const char *slash = strrchr(L->path, '/');
-    size_t dl = slash ? (size_t)(slash - L->path) + 1 : 0;
-    int any = 0;
+    size_t pl = strlen(L->path);
+    char *dir = rt_calloc(pl + 1, 1, L->e);
+    if (!dir) return -1;
+    rt_path_dir(L->path, dir, pl + 1);
+    int any = 0, rc = 0;
     for (;;) {
         p = skip_space(p);
         if (!*p) break;
@@ -356,29 +362,32 @@ static int mtllib_line(objload *L, const char *p)
         while (p[tl] && !is_space(p[tl])) tl++;
         any = 1;
         L->nlib++;
-        size_t pre = p[0] == '/' ? 0 : dl;
-        char *mp = rt_calloc(pre + tl + 1, 1, L->e);
-        if (!mp) return -1;
-        memcpy(mp, L->path, pre);
-        memcpy(mp + pre, p, tl);
-        FILE *f = fopen(mp, "rb");
-        int rc = 0;
+        size_t mn = pl + tl + 2;
+        char *name = rt_calloc(tl + 1, 1, L->e), *mp = name ? rt_calloc(mn, 1, L->e) : NULL;
+        if (!mp) {
+            free(name);
+            rc = -1;
+            break;
+        }
+        memcpy(name, p, tl);
+        rt_err pe;
         char q[160];
-        if (!f && errno == ENOENT) {
+        if (rt_path_within(dir, name, mp, mn, &pe) < 0) {
+            rc = rt_errf(L->e, "%s:%lu: material library %s (docs/scenes.md: files a scene names)", L->path, L->line,
+                         pe.msg);
+        } else if ((rc = load_mtl(L, mp)) == -2) {
             L->libmissing = 1;
             warn(L, "%s:%lu: material library %s not found; its materials are the default", L->path, L->line,
                  rt_esc(q, sizeof q, mp, 4096));
-        } else if (!f) {
-            rc = rt_errf(L->e, "%s:%lu: material library %s: %s", L->path, L->line, rt_esc(q, sizeof q, mp, 4096),
-                         strerror(errno));
-        } else {
-            fclose(f);
-            rc = load_mtl(L, mp);
+            rc = 0;
         }
+        free(name);
         free(mp);
-        if (rc < 0) return -1;
+        if (rc < 0) break;
         p += tl;
     }
+    free(dir);
+    if (rc < 0) return -1;
     if (!any) return rt_errf(L->e, "%s:%lu: mtllib without a file name", L->path, L->line);
     return 0;
 }
@@ -525,7 +534,7 @@ rt_scene *rt_scene_load_obj(const char *path, rt_err *e)
 {
     char *buf = NULL;
     size_t n = 0;
-    if (rt_slurp(path, &buf, &n, e) < 0) return NULL;
+    if (rt_slurp_regular(path, rt_scene_max_bytes, &buf, &n, e) < 0) return NULL;
     rt_scene *s = rt_scene_new(0, e);
     if (!s) {
         free(buf);

@@ -511,7 +511,7 @@ rt_scene *rt_scene_load_ply(const char *path, rt_err *e)
 {
     char *buf = NULL;
     size_t n = 0;
-    if (rt_slurp(path, &buf, &n, e) < 0) return NULL;
+    if (rt_slurp_regular(path, rt_scene_max_bytes, &buf, &n, e) < 0) return NULL;
     plyload L = {path, (const unsigned char *)buf, n, 0, 0, F_ASCII, e};
     plyelem *el = rt_calloc(MAXELEM, sizeof *el, e);
     rt_vec3 *verts = NULL;

@@ -52,6 +52,24 @@ while IFS= read -r line; do sh -c "$line" 2>/dev/null; done < jobs.txt
 [ -e PWNED ] && die "15: PWNED created"
 rm -rf "d${NL}x" "x${NL}touch PWNED;#.obj"
 
+# ---- 16. devices, FIFOs and files outside the mesh's folder -------------------
+mkdir -p m16/sub
+ln -s /dev/zero m16/zero.obj
+mkfifo m16/fifo.obj
+for f in m16/zero.obj m16/fifo.obj; do
+    timeout 20 "$bin" scene info "$f" > /dev/null 2> err; rc=$?
+    [ $rc = 1 ] && grep -q "not a regular file" err || die "16: scene info $f: exit $rc: $(cat err)"
+done
+for lib in /dev/zero /dev/urandom ../../../../etc/passwd ../x.mtl fifo.mtl; do
+    { echo "mtllib $lib"; cat "$cube"; } > m16/sub/t.obj
+    rm -f m16/sub/fifo.mtl && mkfifo m16/sub/fifo.mtl
+    timeout 20 "$bin" scene info m16/sub/t.obj > /dev/null 2> err; rc=$?
+    [ $rc = 1 ] && grep -q "t.obj:1: material library" err || die "16: mtllib $lib: exit $rc: $(cat err)"
+done
+RT_SCENE_MAX_BYTES=100 "$bin" scene info "$cube" > /dev/null 2> err; rc=$?
+[ $rc = 1 ] && grep -q "limit of 100 bytes" err || die "16: RT_SCENE_MAX_BYTES=100: exit $rc: $(cat err)"
+"$bin" scene info "$cube" > /dev/null 2> err || die "16: cube refused: $(cat err)"
+
 # ---- 22. strict numbers -------------------------------------------------------
 "$bin" trace cornell -W 8 -H 8 -o t.rtt 2>/dev/null || die "22: trace failed"
 for v in abc "" 0x10 nan -1 1e999 " 5" "+5" 5x; do
