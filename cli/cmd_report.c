@@ -138,6 +138,7 @@ int main_report(int argc, char **argv)
         if (rc == 0 && plotdir) rc = rt_plot_scenes(&R, &po, &e);
     }
     if (rc < 0) rt_cmd_error("report", "%s", e.msg);
+    rt_report_free(&R);
     sqlite3_close(h);
     return rc < 0 ? RT_EXIT_FAIL : RT_EXIT_OK;
 }

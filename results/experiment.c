@@ -347,9 +347,12 @@ static void jobrun_free(jobrun *r)
 static int open_trace(rt_exp_worker *w, jobrun *r, const rt_exp_job *jb, long index, rt_err *e)
 {
     const rt_exp_config *c = w->c;
-    char path[4096];
+    char path[4096], scene[161];
     const int sec = jb->mode == RT_MODE_WHITTED || jb->mode == RT_MODE_PATH;
-    snprintf(path, sizeof path, "%s/job%04ld-%s-%s%s%s-%s%s%" PRIu64 "%s.rtt", c->keep, index, c->scenes[jb->scene],
+    /* a long scene spec is cut and ends in its hash: the file name stays
+     * under NAME_MAX and distinct (the run keeps the whole name) */
+    rt_name_fit(scene, sizeof scene, c->scenes[jb->scene]);
+    snprintf(path, sizeof path, "%s/job%04ld-%s-%s%s%s-%s%s%" PRIu64 "%s.rtt", c->keep, index, scene,
              jb->lighting >= 0 ? c->lightings[jb->lighting].label : "primary", sec ? "-" : "",
              sec ? rt_render_mode_name(jb->mode) : "", jb->tracer, jb->sched ? "-" : "", jb->sched,
              jb->proxy >= 0 ? "-proxy" : "");

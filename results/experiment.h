@@ -244,7 +244,8 @@ void rt_exp_worker_stages(const rt_exp_worker *w, rt_exp_stages *out);
  * texture cache (RT_EXP_TEXCACHE_*; its rows are stored with the exact
  * run's), the approximate simulators (only for jobs simulated
  * at every size, never for proxies) and, with c->keep, a trace file
- * KEEP/jobNNNN-SCENE-LIGHT-TRACER[-SIZE][-proxy].rtt, then stores the exact
+ * KEEP/jobNNNN-SCENE-LIGHT-TRACER[-SIZE][-proxy].rtt (SCENE longer than 160
+ * bytes cut and ended by ~HASH, rt_name_fit), then stores the exact
  * run and each approximate run, each in its own transaction; the exact
  * simulator is finished first (rt_sim_finish: with cfg.flush the dirty
  * lines are written back and counted). Returns 1 if

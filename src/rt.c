@@ -357,3 +357,20 @@ int rt_path_within(const char *base_dir, const char *rel, char *out, size_t n, r
     memcpy(out + bl, rel, rl + 1);
     return 0;
 }
+
+const char *rt_name_fit(char *buf, size_t n, const char *name)
+{
+    size_t len = strlen(name);
+    if (len < n) {
+        memcpy(buf, name, len + 1);
+        return buf;
+    }
+    if (n < 24) {
+        if (n) buf[0] = 0;
+        return buf;
+    }
+    size_t keep = n - 18; /* '~', 16 digits, NUL */
+    memcpy(buf, name, keep);
+    snprintf(buf + keep, 18, "~%016llx", (unsigned long long)rt_fnv1a(RT_FNV_INIT, name, len));
+    return buf;
+}

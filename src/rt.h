@@ -175,4 +175,11 @@ int rt_path_within(const char *base_dir, const char *rel, char *out, size_t n, r
  * returns out ("" if it does not fit). */
 const char *rt_path_dir(const char *path, char *out, size_t n);
 
+/* Copies name into buf (n bytes, n >= 24) whole when it fits; else cuts it
+ * and ends it with "~" and the 16 hex digits of rt_fnv1a over the whole
+ * name, so that two long names differing anywhere stay two distinct
+ * strings, the same on every run. For fixed-size fields and file names
+ * (trace headers, plot and kept-trace file names). Returns buf. */
+const char *rt_name_fit(char *buf, size_t n, const char *name);
+
 #endif

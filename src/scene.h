@@ -69,7 +69,7 @@ typedef struct rt_camera {
 #define RT_NLIGHTS 3
 
 typedef struct rt_scene {
-    char name[64];          /* spec it was made from (built-in name or file) */
+    char name[256];         /* spec it was made from: built-in name or mesh file name, whole (NAME_MAX) */
     char params[128];       /* canonical parameter string, "" if none */
     uint32_t ntri;          /* triangles */
     rt_tri *tri;            /* ntri triangles */

@@ -70,6 +70,74 @@ RT_SCENE_MAX_BYTES=100 "$bin" scene info "$cube" > /dev/null 2> err; rc=$?
 [ $rc = 1 ] && grep -q "limit of 100 bytes" err || die "16: RT_SCENE_MAX_BYTES=100: exit $rc: $(cat err)"
 "$bin" scene info "$cube" > /dev/null 2> err || die "16: cube refused: $(cat err)"
 
+# ---- 18. long mesh names: stored whole, labels and plots distinct ------------
+mkdir r18 && cd r18 || exit 1
+L=$(printf 'm%.0s' $(seq 1 146))
+cp "$cube" "${L}a.obj"
+"$bin" scene export knot -o "${L}b.obj" 2> /dev/null || die "18: export"
+"$bin" sweep --scenes "${L}a.obj,${L}b.obj" --tracers recursive --lights primary -W 16 -H 16 --sizes 1K-4K \
+    --db r.db 2> err || die "18: sweep: $(cat err)"
+[ "$(sqlite3 r.db "SELECT COUNT(DISTINCT name) FROM scenes WHERE length(name) = 151")" = 2 ] ||
+    die "18: names not stored whole: $(sqlite3 r.db 'SELECT length(name) FROM scenes')"
+"$bin" report --db r.db --format csv > rep.csv 2> err || die "18: report: $(cat err)"
+for x in a b; do
+    want=$(sqlite3 r.db "SELECT printf('%.2f', g.geometry_mb) FROM v_traffic_group g JOIN runs r ON r.id = g.run_id
+        JOIN scenes s ON s.id = r.scene_id WHERE s.name = '${L}$x.obj' AND g.cache_size = 1024 AND g.line = 64
+        AND g.assoc = 0 AND g.policy = 'wb-wa'")
+    got=$(grep "^0,${L}$x.obj,1024," rep.csv | cut -d, -f4)
+    [ -n "$want" ] && [ "$got" = "$want" ] || die "18: scene $x: report says '$got', the database '$want'"
+    [ "$(grep -c "^${L}$x.obj," rep.csv)" = 1 ] || die "18: scene $x: not one row in the scene table"
+done
+havegp=0
+command -v gnuplot > /dev/null 2>&1 && havegp=1
+if [ $havegp = 1 ]; then
+    "$bin" report --db r.db --plot p > /dev/null 2> err || die "18: --plot: $(cat err)"
+    ls p | grep -q "${L}a.obj-traffic.png" && ls p | grep -q "${L}b.obj-traffic.png" ||
+        die "18: plots not distinct: $(ls p)"
+fi
+# names over the plot-file limit: cut, ended by a hash, still distinct
+L2=$(printf 'n%.0s' $(seq 1 240))
+cp "$cube" "${L2}a.obj" && cp "${L}b.obj" "${L2}b.obj" && cp "${L}b.mtl" "${L2}b.mtl" 2>/dev/null
+sed -i "s|^mtllib .*|mtllib ${L2}b.mtl|" "${L2}b.obj"
+"$bin" sweep --scenes "${L2}a.obj,${L2}b.obj" --tracers recursive --lights primary -W 16 -H 16 --sizes 1K-4K \
+    --db r2.db --keep-traces kept 2> err || die "26: sweep of 245-byte names with --keep-traces: $(cat err)"
+[ "$(ls kept | wc -l)" = 2 ] || die "26: kept traces: $(ls kept)"
+"$bin" report --db r2.db --format csv > rep2.csv 2> err || die "18: report of long names: $(cat err)"
+[ "$(grep -c "^${L2}[ab].obj," rep2.csv)" = 2 ] || die "18: 245-byte names: labels not whole and distinct"
+if [ $havegp = 1 ]; then
+    rm -rf p && "$bin" report --db r2.db --plot p > /dev/null 2> err || die "18: --plot of long names: $(cat err)"
+    [ "$(ls p | grep -c 'n~[0-9a-f]*-traffic.png$')" = 2 ] || die "18: 245-byte names: plots $(ls p)"
+fi
+cd "$tmp" || exit 1
+
+# ---- 19. every scene reported, however many -----------------------------------
+mkdir r19 && cd r19 || exit 1
+list=
+for i in $(seq -w 1 18); do cp "$cube" "c$i.obj"; list=$list${list:+,}c$i.obj; done
+"$bin" sweep --scenes "$list" --tracers recursive --lights primary -W 8 -H 8 --sizes 1K --db r.db 2> err ||
+    die "19: sweep: $(cat err)"
+"$bin" report --db r.db --format csv --figure scenes > rep.csv 2> err || die "19: report: $(cat err)"
+[ "$(grep -c '^c[0-9]*\.obj,' rep.csv)" = 18 ] || die "19: $(grep -c '^c[0-9]*\.obj,' rep.csv) of 18 scenes reported"
+grep -q '^c18\.obj,12,' rep.csv || die "19: the 18th scene is missing"
+cd "$tmp" || exit 1
+
+# ---- 20. plots into a folder whose name starts with '-' -------------------------
+cd r19 || exit 1
+RT_GNUPLOT=true "$bin" report --db r.db --plot -p > out 2> err; rc=$?
+[ $rc = 1 ] && grep -q "gnuplot wrote no picture" err || die "20: a gnuplot that draws nothing: exit $rc: $(cat err)"
+grep -q "^wrote .*traffic" err && die "20: 'wrote' printed for a picture that was not drawn"
+if command -v gnuplot > /dev/null 2>&1; then
+    rm -rf ./-p
+    "$bin" report --db r.db --scene c01.obj --plot -p > out 2> err || die "20: --plot -p: $(cat err)"
+    for f in c01.obj-traffic.png c01.obj-traffic.svg scenes.png; do
+        [ -s "./-p/$f" ] || die "20: --plot -p: no $f"
+    done
+    ls -A ./-p | grep -q '^\.' && die "20: temporaries left: $(ls -A ./-p)"
+else
+    echo "20: gnuplot not installed; the real drawing is not checked"
+fi
+cd "$tmp" || exit 1
+
 # ---- 22. strict numbers -------------------------------------------------------
 "$bin" trace cornell -W 8 -H 8 -o t.rtt 2>/dev/null || die "22: trace failed"
 for v in abc "" 0x10 nan -1 1e999 " 5" "+5" 5x; do
