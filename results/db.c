@@ -494,6 +494,43 @@ int rt_db_has_run(rt_db *db, const rt_db_run *key, rt_err *e)
     return step_id(db, db->st[S_RUN_GET], NULL, e);
 }
 
+int rt_db_missing_sizes(rt_db *db, const rt_db_run *key, const uint64_t *sizes, int n, uint32_t line, uint32_t assoc,
+                        const char *policy, int *have, rt_err *e)
+{
+    char hash[17];
+    int64_t rid = 0;
+    bind_key(db->st[S_RUN_GET], key, hash);
+    int r = step_id(db, db->st[S_RUN_GET], &rid, e);
+    if (r < 0) return -1;
+    for (int i = 0; i < n; i++) have[i] = 0;
+    if (r == 0) return n;
+    sqlite3_stmt *st;
+    if (sqlite3_prepare_v2(db->h,
+                           "SELECT 1 FROM traffic t JOIN cache_configs c ON c.id = t.config_id WHERE t.run_id = ?1"
+                           " AND c.size = ?2 AND c.line = ?3 AND c.assoc = ?4 AND c.policy = ?5 LIMIT 1",
+                           -1, &st, NULL) != SQLITE_OK)
+        return dberr(db, e, NULL);
+    int missing = 0;
+    for (int i = 0; i < n; i++) {
+        sqlite3_bind_int64(st, 1, rid);
+        sqlite3_bind_int64(st, 2, (sqlite3_int64)sizes[i]);
+        sqlite3_bind_int64(st, 3, line);
+        sqlite3_bind_int64(st, 4, assoc);
+        sqlite3_bind_text(st, 5, policy, -1, SQLITE_TRANSIENT);
+        int rc = sqlite3_step(st);
+        if (rc != SQLITE_ROW && rc != SQLITE_DONE) {
+            dberr(db, e, NULL);
+            sqlite3_finalize(st);
+            return -1;
+        }
+        have[i] = rc == SQLITE_ROW;
+        missing += !have[i];
+        sqlite3_reset(st);
+    }
+    sqlite3_finalize(st);
+    return missing;
+}
+
 /* Inserts the run's scene if new (or fills in its triangle count and,
  * when the run knows it, where the mesh file is now); its id. */
 static int store_scene(rt_db *db, const rt_db_run *r, int64_t *scene_id, rt_err *e)

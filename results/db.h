@@ -102,6 +102,14 @@ void rt_db_close(rt_db *db); /* NULL is fine */
  * the identity fields of key are used. */
 int rt_db_has_run(rt_db *db, const rt_db_run *key, rt_err *e);
 
+/* Which of the n cache sizes the run with this key has traffic rows for,
+ * in the configuration (size, line, assoc, policy): have[i] = 1 or 0. A
+ * missing run has none. Returns the number of sizes missing (0..n), or -1.
+ * For a rerun of a sweep with other --sizes or --line: what is missing is
+ * simulated and stored into the same run. */
+int rt_db_missing_sizes(rt_db *db, const rt_db_run *key, const uint64_t *sizes, int n, uint32_t line, uint32_t assoc,
+                        const char *policy, int *have, rt_err *e);
+
 /* Stores run and its n traffic rows in one transaction. On success returns
  * 0 and, if run_id is non-NULL, the run's id. On failure nothing of this
  * store is left in the database. */

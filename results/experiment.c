@@ -384,15 +384,30 @@ static int add_texture_cache(const rt_exp_config *c, jobrun *r, const rt_exp_job
     return rt_exp_fan_add(&r->fan, rt_sim_sink(r->tex), e) < 0 ? -1 : 0;
 }
 
-/* Sets up the simulators, the fan-out and the trace, then renders. */
-static int render_job(rt_exp_worker *w, jobrun *r, const rt_exp_job *jb, long index, rt_err *e)
+/* The sizes a job simulates: every size of the configuration, or its
+ * scheduled size alone (a dynamic job without dyn_all). */
+static rt_sim_config job_sizes(const rt_exp_config *c, const rt_exp_job *jb)
+{
+    rt_sim_config sc = c->sim;
+    if (jb->sched && !c->dyn_all) {
+        sc.nsizes = 1;
+        sc.sizes[0] = jb->sched;
+    }
+    return sc;
+}
+
+/* Sets up the simulators, the fan-out and the trace, then renders. have
+ * (NULL = none) marks sizes already stored, which are not simulated. */
+static int render_job(rt_exp_worker *w, jobrun *r, const rt_exp_job *jb, long index, const int *have, rt_err *e)
 {
     const rt_exp_config *c = w->c;
     rt_render_opts ro = rt_exp_job_opts(c, jb);
-    r->sc = c->sim;
-    if (jb->sched && !c->dyn_all) {
-        r->sc.nsizes = 1;
-        r->sc.sizes[0] = jb->sched;
+    r->sc = job_sizes(c, jb);
+    if (have) {
+        int k = 0;
+        for (int i = 0; i < r->sc.nsizes; i++)
+            if (!have[i]) r->sc.sizes[k++] = r->sc.sizes[i];
+        r->sc.nsizes = k;
     }
     if (rt_job_setup_borrowed(&r->j, w->sc, w->kd, jb->tracer, &ro, e) < 0) return -1;
     r->have_job = 1;
@@ -488,7 +503,20 @@ int rt_exp_run_job(rt_exp_worker *w, const rt_exp_job *jb, long index, rt_err *e
     double td = rt_now();
     int has = job_stored(w, jb, &key, e);
     w->t.database += rt_now() - td;
-    if (has != 0) return has < 0 ? -1 : 0;
+    if (has < 0) return -1;
+    /* a stored run may lack sizes or a line size asked for now (a rerun
+     * with other --sizes or --line): those are simulated and added to it */
+    rt_sim_config want = job_sizes(w->c, jb);
+    int have[RT_SIM_MAXSIZES], *hp = NULL;
+    if (has > 0) {
+        td = rt_now();
+        int missing = rt_db_missing_sizes(w->db, &key.run, want.sizes, want.nsizes, want.line, want.assoc,
+                                          rt_sim_policy_name(&want), have, e);
+        w->t.database += rt_now() - td;
+        if (missing < 0) return -1;
+        if (missing == 0) return 0;
+        hp = have;
+    }
     if (!w->kd) {
         rt_kd_params kp;
         rt_kd_default_params(&kp);
@@ -500,7 +528,7 @@ int rt_exp_run_job(rt_exp_worker *w, const rt_exp_job *jb, long index, rt_err *e
     double t0 = rt_now();
     jobrun r;
     memset(&r, 0, sizeof r);
-    int rc = render_job(w, &r, jb, index, e);
+    int rc = render_job(w, &r, jb, index, hp, e);
     if (rc == 0) rc = store_job(w, &r, &key, t0, e);
     jobrun_free(&r);
     return rc < 0 ? -1 : 1;

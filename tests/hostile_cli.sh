@@ -70,6 +70,27 @@ RT_SCENE_MAX_BYTES=100 "$bin" scene info "$cube" > /dev/null 2> err; rc=$?
 [ $rc = 1 ] && grep -q "limit of 100 bytes" err || die "16: RT_SCENE_MAX_BYTES=100: exit $rc: $(cat err)"
 "$bin" scene info "$cube" > /dev/null 2> err || die "16: cube refused: $(cat err)"
 
+# ---- 17. a rerun with other --sizes or --line simulates what is missing -------
+mkdir r17 && cd r17 || exit 1
+a="--scenes cornell --tracers recursive,dynamic --lights primary -W 16 -H 16"
+rows() { sqlite3 "$1" "SELECT r.tracer, r.sched_size, c.size, c.line, t.class, t.accesses, t.read_misses,
+    t.write_misses, t.writebacks, t.traffic_bytes FROM traffic t JOIN runs r ON r.id = t.run_id
+    JOIN cache_configs c ON c.id = t.config_id WHERE c.line = $2 ORDER BY 1, 2, 3, 4, 5"; }
+"$bin" sweep $a --sizes 1K-4K --db r.db 2> err || die "17: first sweep: $(cat err)"
+"$bin" sweep $a --sizes 1K-16K --db r.db 2> err || die "17: rerun with more sizes: $(cat err)"
+"$bin" sweep $a --sizes 1K-16K --db fresh.db 2> err || die "17: fresh sweep: $(cat err)"
+[ "$(runs r.db)" = "$(runs fresh.db)" ] || die "17: $(runs r.db) runs after the rerun, $(runs fresh.db) fresh"
+[ -n "$(rows fresh.db 64)" ] && [ "$(rows r.db 64)" = "$(rows fresh.db 64)" ] ||
+    die "17: rows after the rerun with more sizes differ from a fresh sweep's"
+"$bin" sweep $a --sizes 1K-16K --line 32 --db r.db 2> err || die "17: rerun with --line 32: $(cat err)"
+"$bin" sweep $a --sizes 1K-16K --line 32 --db fresh32.db 2> err || die "17: fresh --line 32: $(cat err)"
+[ -n "$(rows fresh32.db 32)" ] && [ "$(rows r.db 32)" = "$(rows fresh32.db 32)" ] ||
+    die "17: rows after the rerun with --line 32 differ from a fresh sweep's"
+[ "$(rows r.db 64)" = "$(rows fresh.db 64)" ] || die "17: the 64-byte rows changed"
+"$bin" sweep $a --sizes 1K-16K --line 32 --db r.db 2> err || die "17: third run: $(cat err)"
+grep -q "already in the database" err && ! grep -q ": done" err || die "17: third run simulated again: $(cat err)"
+cd "$tmp" || exit 1
+
 # ---- 18. long mesh names: stored whole, labels and plots distinct ------------
 mkdir r18 && cd r18 || exit 1
 L=$(printf 'm%.0s' $(seq 1 146))
