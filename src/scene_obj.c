@@ -10,8 +10,9 @@
  * material: its Kd becomes the triangles' colour, and Ks, Ke, Ni, d/Tr, Tf
  * and illum become a material table entry (mapping in docs/scenes.md).
  * Faces before any usemtl get the default grey and material 0. Every other
- * statement (vt, vn, g, o, s, l, p, ...) and comments are ignored; CRLF
- * line ends are accepted. Faces must refer to vertices defined above them,
+ * statement (vt, vn, g, o, s, l, p, ...) and comments are ignored; lines
+ * may end in LF, CRLF or CR alone. Numbers are decimal (hex floats, which
+ * strtod would take, are refused). Faces must refer to vertices defined above them,
  * and usemtl to a library named above it.
  *
  * A library that does not exist does not stop the load (meshes are often
@@ -52,6 +53,25 @@ static const char *skip_space(const char *p)
     return p;
 }
 
+/* The end of the line that starts at p (before end): its first '\n' or
+ * '\r' (LF, CRLF and CR-only files all work), or end. *next gets where the
+ * next line starts ("\r\n" is one line end). */
+static char *line_end(char *p, char *end, char **next)
+{
+    char *q = p;
+    while (q < end && *q != '\n' && *q != '\r') q++;
+    *next = q < end ? q + 1 + (*q == '\r' && q + 1 < end && q[1] == '\n') : end;
+    return q;
+}
+
+/* A hex float ("0x1p3"): strtod takes it, the formats do not. */
+static int is_hex_number(const char *p, size_t n)
+{
+    for (size_t i = 0; i < n && p[i]; i++)
+        if (p[i] == 'x' || p[i] == 'X') return 1;
+    return 0;
+}
+
 /* Parses one float coordinate at *pp (a whole whitespace-delimited token).
  * 0 on success, else 1 = not a number, 2 = NaN or infinite, 3 = beyond
  * RT_COORD_MAX (docs/scenes.md: coordinate range). */
@@ -61,7 +81,7 @@ static int parse_coord(const char **pp, float *out)
     char *end;
     errno = 0;
     double v = strtod(p, &end);
-    if (end == p || (*end && !is_space(*end))) return 1;
+    if (end == p || (*end && !is_space(*end)) || is_hex_number(p, (size_t)(end - p))) return 1;
     *pp = end;
     if (!isfinite(v)) return 2;
     if (fabs(v) > RT_COORD_MAX) return 3;
@@ -198,7 +218,7 @@ static int mtl_numbers(mtlread *R, const char *kw, const char *p, float *v, int 
         char *end;
         double x = strtod(p, &end);
         char q[64];
-        if (end == p || (*end && !is_space(*end)))
+        if (end == p || (*end && !is_space(*end)) || is_hex_number(p, (size_t)(end - p)))
             return rt_errf(R->L->e, "%s:%lu: %s: bad number '%s'", R->path, R->line, kw,
                            rt_esc(q, sizeof q, tok, (size_t)token_len(tok)));
         if (!isfinite(x) || fabs(x) > 1e30)
@@ -276,8 +296,7 @@ static int load_mtl(objload *L, const char *mpath)
     int open = 0, rc = 0;
     char *p = buf, *end = buf + n;
     while (p < end && rc == 0) {
-        char *nl = memchr(p, '\n', (size_t)(end - p));
-        char *le = nl ? nl : end;
+        char *next, *le = line_end(p, end, &next);
         R.line++;
         if (memchr(p, 0, (size_t)(le - p))) {
             rc = rt_errf(L->e, "%s:%lu: NUL byte in text", mpath, R.line);
@@ -339,7 +358,7 @@ static int load_mtl(objload *L, const char *mpath)
         }
         /* Other keywords (Ka, Ns, map_Kd, bump, ...) do not affect the
          * rays; ignored. */
-        p = le + 1;
+        p = next;
     }
     if (rc == 0 && open) raw_finish(&raw, &L->mtl[L->nmtl - 1]);
     free(buf);
@@ -550,8 +569,7 @@ rt_scene *rt_scene_load_obj(const char *path, rt_err *e)
     int rc = 0;
     char *p = buf, *end = buf + n;
     while (p < end && rc == 0) {
-        char *nl = memchr(p, '\n', (size_t)(end - p));
-        char *le = nl ? nl : end;
+        char *next, *le = line_end(p, end, &next);
         L.line++;
         if (memchr(p, 0, (size_t)(le - p))) {
             rc = rt_errf(e, "%s:%lu: NUL byte in text", path, L.line);
@@ -570,7 +588,7 @@ rt_scene *rt_scene_load_obj(const char *path, rt_err *e)
         else if (!strncmp(q, "usemtl", 6) && (is_space(q[6]) || !q[6]))
             rc = usemtl_line(&L, q + 6);
         /* Anything else (comments, vt, vn, g, o, s, usemtl, ...) is ignored. */
-        p = le + 1;
+        p = next;
     }
     if (rc == 0 && s->ntri == 0)
         rc = rt_errf(e, "%s:%lu: no faces (empty mesh)", path, L.line);

@@ -214,4 +214,15 @@ mkdir uri && cd uri || exit 1
 [ "$(runs merged.db)" = 1 ] || die "25: merge of file:other.db copied $(runs merged.db) runs"
 cd "$tmp" || exit 1
 
+# ---- 26. lesser ones ------------------------------------------------------------
+for c in "render cornell -W 8 -H 8 -o" "trace cornell -W 8 -H 8 -o" "scene export cornell -o"; do
+    # shellcheck disable=SC2086
+    "$bin" $c '' > /dev/null 2> err; rc=$?
+    [ $rc = 2 ] && grep -q "empty file name" err || die "26: $c '': exit $rc: $(cat err)"
+done
+if [ -w /dev/full ]; then
+    "$bin" render cornell -W 64 -H 64 -o /dev/full 2> err; rc=$?
+    [ $rc = 1 ] && grep -q "No space left on device" err || die "26: render -o /dev/full: exit $rc: $(cat err)"
+fi
+
 exit $fail

@@ -830,6 +830,48 @@ static void test_scene_files(void)
     rt_scene_free(s);
 }
 
+/* Line ends, hex floats, duplicated PLY properties (docs/reliability.md
+ * §26). Before: a CR-only file failed with "bad number 'v'", "0x1p0" was
+ * a coordinate, a second `x` property silently replaced the first. */
+static void test_lesser_formats(void)
+{
+    static const char *const ends[] = {"\n", "\r\n", "\r"};
+    uint64_t h0 = 0;
+    for (int k = 0; k < 3; k++) {
+        char text[512];
+        snprintf(text, sizeof text, "# tri%sv 0 0 0%sv 1 0 0%sv 0 1 0%sv 0 0 1%sf 1 2 3%sf 1 2 4%s", ends[k], ends[k],
+                 ends[k], ends[k], ends[k], ends[k], ends[k]);
+        rt_scene *s = expect_ok_text("ends.obj", text, 2);
+        if (s && k == 0) h0 = rt_scene_hash(s);
+        if (s) CHECK(rt_scene_hash(s) == h0, "line ends %d: another scene", k);
+        rt_scene_free(s);
+    }
+    /* a CR-only MTL beside it */
+    write_text(check_path("cr.mtl"), "newmtl red\rKd 1 0 0\r");
+    rt_scene *s = expect_ok_text("crm.obj", "mtllib cr.mtl\rv 0 0 0\rv 1 0 0\rv 0 1 0\rusemtl red\rf 1 2 3\r", 1);
+    if (s) CHECK(s->shade && s->shade[0].rgb[0] == 1.0f && s->shade[0].rgb[1] == 0.0f, "CR-only MTL: colour");
+    rt_scene_free(s);
+    /* the line number of a CR-only file counts CRs */
+    expect_fail_text("crbad.obj", "v 0 0 0\rv 1 0 0\rv 0 1 0\rf 1 2 9\r", "crbad.obj:4:");
+    expect_fail_text("hex.obj", "v 0 0 0\nv 0x1p0 0 0\nv 0 1 0\nf 1 2 3\n", "hex.obj:2: bad number '0x1p0'");
+    write_text(check_path("hex.mtl"), "newmtl a\nKd 0x1p-1 0 0\n");
+    write_text(check_path("hexm.obj"), "mtllib hex.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    rt_err e = {""};
+    s = rt_scene_load(check_path("hexm.obj"), &e);
+    CHECK(!s && strstr(e.msg, "hex.mtl:2: Kd: bad number '0x1p-1'"), "hex in MTL: %s", e.msg);
+    rt_scene_free(s);
+    expect_fail_text("hex.ply",
+                     "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                     "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n0x1p0 0 0\n0 1 0\n"
+                     "3 0 1 2\n",
+                     "bad number '0x1p0'");
+    expect_fail_text("dupx.ply",
+                     "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                     "property float x\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                     "0 0 0 5\n1 0 0 5\n0 1 0 5\n3 0 1 2\n",
+                     "dupx.ply:7: property 'x' given twice in element 'vertex'");
+}
+
 int main(void)
 {
     if (!check_tmpdir("test_loaders")) {
@@ -845,6 +887,7 @@ int main(void)
     test_mtl_missing();
     test_mesh_hashes();
     test_scene_files();
+    test_lesser_formats();
     if (check_rm_tree(check_dir) != 0) fprintf(stderr, "warning: could not remove %s\n", check_dir);
     if (failures) fprintf(stderr, "%d failure(s)\n", failures);
     else printf("test_loaders: all passed\n");
