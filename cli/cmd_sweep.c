@@ -328,6 +328,15 @@ static void maybe_fail(const sweep_opts *o, long i)
     rt_db_fail_row_after = 2;
 }
 
+/* rt_exp_config.on_stored: a job's exact run is in the database. Runs with
+ * the stop signals blocked, so the summary's count is the database's. */
+static void on_job_stored(void *arg)
+{
+    shared *sh = arg;
+    atomic_fetch_add(&sh->stored, 1);
+    atomic_fetch_add(&sh->done, 1);
+}
+
 static int worker_loop(const sweep_opts *o, const rt_exp_job *J, long nj, shared *sh, int tty)
 {
     rt_err e = {""};
@@ -356,8 +365,8 @@ static int worker_loop(const sweep_opts *o, const rt_exp_job *J, long nj, shared
             rc = -1;
             break;
         }
-        atomic_fetch_add(r ? &sh->stored : &sh->skipped, 1);
-        long d = atomic_fetch_add(&sh->done, 1) + 1;
+        /* a run job was counted by on_job_stored when its run was committed */
+        long d = r ? atomic_load(&sh->done) : (atomic_fetch_add(&sh->skipped, 1), atomic_fetch_add(&sh->done, 1) + 1);
         if (!tty) {
             fprintf(stderr, "[%ld/%ld] %s: %s (%.1f s)\n", d, o->only >= 0 ? 1 : nj, label, r ? "done" : "already in database",
                     rt_now() - t0);
@@ -894,7 +903,7 @@ static int prepare_outputs(const sweep_opts *o)
     return 0;
 }
 
-static int sweep_run(const sweep_opts *o, const rt_exp_job *J, long nj)
+static int sweep_run(sweep_opts *o, const rt_exp_job *J, long nj)
 {
     if (prepare_outputs(o) < 0) return RT_EXIT_FAIL;
     shared *sh = mmap(NULL, sizeof *sh, PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
@@ -908,6 +917,8 @@ static int sweep_run(const sweep_opts *o, const rt_exp_job *J, long nj)
     atomic_init(&sh->stored, 0);
     atomic_init(&sh->failed, 0);
     for (int k = 0; k < 4; k++) atomic_init(&sh->stage_us[k], 0);
+    o->x.on_stored = on_job_stored;
+    o->x.on_stored_arg = sh;
     const rt_exp_config *x = &o->x;
     long total = o->only >= 0 ? 1 : nj;
     double t0 = rt_now();

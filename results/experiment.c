@@ -14,6 +14,8 @@
 #include "run.h"
 
 #include <inttypes.h>
+#include <pthread.h>
+#include <signal.h>
 #include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -470,7 +472,16 @@ static int store_job(rt_exp_worker *w, jobrun *r, rt_exp_key *key, double t0, rt
         ng = rt_sim_db_gen_rows(r->sim, grows);
     }
     double td = rt_now();
+    /* the stop signals wait until the commit is counted (on_stored) */
+    sigset_t stop, old;
+    sigemptyset(&stop);
+    sigaddset(&stop, SIGTERM);
+    sigaddset(&stop, SIGINT);
+    sigaddset(&stop, SIGHUP);
+    pthread_sigmask(SIG_BLOCK, &stop, &old);
     int rc = rt_db_store_run_gen(w->db, &run, rows, k, grows, ng, NULL, e);
+    if (rc == 0 && w->c->on_stored) w->c->on_stored(w->c->on_stored_arg);
+    pthread_sigmask(SIG_SETMASK, &old, NULL);
     w->t.database += rt_now() - td;
     free(grows);
     for (int a = 0; a < r->napprox && rc == 0; a++) {

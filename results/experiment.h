@@ -134,6 +134,14 @@ typedef struct rt_exp_config {
     int model;                                  /* RT_EXP_MODEL_*: recorded in exact runs' sim_params */
     const char *keep;                           /* directory for every job's trace, or NULL */
     const char *command;                        /* command line recorded as provenance */
+    /* Called once per job that is run, right after its exact run is
+     * committed, with SIGTERM, SIGINT and SIGHUP blocked in the calling
+     * thread from before the COMMIT until it returns: a counter it bumps
+     * agrees with the database even when one of those signals ends the
+     * process at that moment (the signal is delivered right after). NULL =
+     * none. */
+    void (*on_stored)(void *arg);
+    void *on_stored_arg;                        /* its argument */
 } rt_exp_config;
 
 /* One job of the matrix: scene x mode x lighting x tracer (x scheduled

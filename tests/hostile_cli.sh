@@ -225,4 +225,18 @@ if [ -w /dev/full ]; then
     [ $rc = 1 ] && grep -q "No space left on device" err || die "26: render -o /dev/full: exit $rc: $(cat err)"
 fi
 
+# after SIGHUP the summary counts exactly the runs the database holds
+for trial in 1 2 3; do
+    db=$tmp/hup$trial.db
+    "$bin" sweep --scenes cornell,knot --lights primary,all --tracers recursive,dynamic -W 32 -H 32 --sizes 1K-64K \
+        --jobs 2 --db "$db" 2> hup.log &
+    pid=$!
+    i=0
+    while [ "$(runs "$db")" -lt $((trial * 3)) ] && [ $i -lt 300 ]; do sleep 0.02; i=$((i + 1)); done
+    kill -HUP $pid
+    wait $pid
+    said=$(sed -n 's/^sweep: \([0-9]*\) run(s) finished.*/\1/p' hup.log)
+    [ "$said" = "$(runs "$db")" ] || die "26: after SIGHUP the summary says '$said' runs, the database holds $(runs "$db")"
+done
+
 exit $fail
