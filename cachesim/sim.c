@@ -150,7 +150,7 @@ uint64_t rt_sim_refs(const rt_sim *s) { return s->refs; }
 int rt_sim_put(rt_sim *s, const rt_access *a, size_t n)
 {
     s->refs += n;
-    if (s->ms) rt_msim_put(s->ms, a, n);
+    if (s->ms) return rt_msim_put(s->ms, a, n);
     else
         for (int i = 0; i < s->cfg.nsizes; i++) rt_sa_put(s->sa[i], a, n);
     return 0;
