@@ -374,3 +374,18 @@ const char *rt_name_fit(char *buf, size_t n, const char *name)
     snprintf(buf + keep, 18, "~%016llx", (unsigned long long)rt_fnv1a(RT_FNV_INIT, name, len));
     return buf;
 }
+
+uint64_t rt_phys_memory(void)
+{
+    long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    if (pages <= 0 || page <= 0) return 0;
+    return (uint64_t)pages * (uint64_t)page;
+}
+
+int rt_mem_fits(uint64_t bytes, const char *what, rt_err *e)
+{
+    uint64_t phys = rt_phys_memory();
+    if (!phys || bytes <= phys) return 0;
+    return rt_errf(e, "%s needs %.0f MB, more than the %.0f MB of memory this machine has", what,
+                   (double)bytes / 1048576.0, (double)phys / 1048576.0);
+}

@@ -182,4 +182,13 @@ const char *rt_path_dir(const char *path, char *out, size_t n);
  * (trace headers, plot and kept-trace file names). Returns buf. */
 const char *rt_name_fit(char *buf, size_t n, const char *name);
 
+/* Physical memory of this machine in bytes (sysconf), 0 if unknown. */
+uint64_t rt_phys_memory(void);
+
+/* 0 when bytes of memory fit in the machine's physical memory (or it is
+ * unknown), else -1 with "WHAT needs N MB, more than the M MB of memory
+ * this machine has". For the checks made before allocating what an
+ * option asks for (an image, a cache simulator's state). */
+int rt_mem_fits(uint64_t bytes, const char *what, rt_err *e);
+
 #endif
