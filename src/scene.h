@@ -155,7 +155,9 @@ uint64_t rt_scene_hash(const rt_scene *s);
  * materials (nmat > 1) also gets an MTL file beside it (path with .obj
  * replaced by .mtl, or .mtl appended), one MTL material per run of equal
  * colour and material, named by `mtllib` and `usemtl`; on failure neither
- * file is left. */
+ * file is left. Both files are renamed into place under an exclusive
+ * flock of the target's folder, so concurrent exports to one name leave
+ * the OBJ and the MTL of one writer. */
 int rt_scene_export_obj(const rt_scene *s, const char *path, rt_err *e);
 
 /* Parameters a built-in scene accepts, as one human-readable line

@@ -159,6 +159,25 @@ else
 fi
 cd "$tmp" || exit 1
 
+# ---- 21. concurrent exports to one name leave a consistent OBJ/MTL pair ---------
+mkdir r21 && cd r21 || exit 1
+specs="cornell cornell:material=mirror cornell:material=glass knot:material=mirror"
+hashes=
+for sp in $specs; do
+    "$bin" scene export "$sp" -o one.obj 2> err || die "21: export $sp: $(cat err)"
+    hashes="$hashes $("$bin" scene info one.obj 2>/dev/null | sed -n 's/^hash *//p')"
+done
+for round in 1 2 3 4 5 6 7 8 9 10; do
+    pids=
+    for sp in $specs; do "$bin" scene export "$sp" -o same.obj 2>> err & pids="$pids $!"; done
+    for p in $pids; do wait "$p" || die "21: round $round: an export failed: $(cat err)"; done
+    h=$("$bin" scene info same.obj 2> err | sed -n 's/^hash *//p')
+    [ -n "$h" ] || die "21: round $round: same.obj does not load: $(cat err)"
+    case " $hashes " in *" $h "*) ;; *) die "21: round $round: same.obj ($h) is none of the exports ($hashes)" ;; esac
+    ls -A | grep -q '^\.' && die "21: round $round: temporaries left: $(ls -A)"
+done
+cd "$tmp" || exit 1
+
 # ---- 22. strict numbers -------------------------------------------------------
 "$bin" trace cornell -W 8 -H 8 -o t.rtt 2>/dev/null || die "22: trace failed"
 for v in abc "" 0x10 nan -1 1e999 " 5" "+5" 5x; do
