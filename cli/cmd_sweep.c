@@ -592,8 +592,12 @@ static int print_jobs(const sweep_opts *o, long nj, int argc, char **argv)
         rt_cmd_error("sweep", "--list-jobs: '%s' contains a control character; a job line cannot hold it", bad_word);
     else if (bad)
         rt_cmd_error("sweep", "--list-jobs: out of memory");
-    else
-        fwrite(mem, 1, memlen, stdout);
+    else /* line by line, so a failing stdout keeps its reason for close_stdout */
+        for (char *p = mem, *q; p < mem + memlen; p = q + 1) {
+            q = memchr(p, '\n', (size_t)(mem + memlen - p));
+            if (!q) q = mem + memlen;
+            fwrite(p, 1, (size_t)(q - p) + (q < mem + memlen), stdout);
+        }
     free(mem);
     return bad || bad_word ? -1 : 0;
 }
