@@ -94,7 +94,10 @@ typedef struct rt_db_gen {
  * (lock conflicts while creating it are waited out, up to 2 minutes). Fails with "PATH: message", leaving the file untouched, if
  * it cannot be created or written, is not a SQLite database, has a newer
  * schema version, or is an unrelated SQLite file (schema version 0 with
- * tables of its own: raytraffic adds none to it). */
+ * tables of its own, or a known version without raytraffic's tables or
+ * with tables the statements do not compile against): all checked before
+ * anything is written (no WAL switch, no upgrade). path is a file name,
+ * never an SQLite URI ("file:x.db?mode=memory" is a file of that name). */
 rt_db *rt_db_open(const char *path, rt_err *e);
 void rt_db_close(rt_db *db); /* NULL is fine */
 
