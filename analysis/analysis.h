@@ -33,7 +33,6 @@
 #include <stdio.h>
 
 #define RT_REPORT_MAXSIZES 32  /* cache sizes reported */
-#define RT_REPORT_MAXSCENES 16 /* scenes reported */
 
 /* What a report shows. Zero-initialised means: Markdown, geometry
  * reductions in figures 7-9, the largest resolution present, all scenes. */
@@ -53,14 +52,16 @@ typedef struct rt_report {
     int W, H;                         /* resolution reported (0x0 when the database has no exact runs) */
     int nsizes;                       /* cache sizes with fully associative 64-byte wb-wa traffic */
     uint64_t sizes[RT_REPORT_MAXSIZES]; /* ascending, bytes */
-    int nscenes;                      /* scenes with runs at W x H (0: nothing to report) */
-    char scenes[RT_REPORT_MAXSCENES][128]; /* labels: room, grove, sphereflake first, then by name */
+    int nscenes;                      /* scenes with runs at W x H (0: nothing to report); no limit */
+    char **scenes;                    /* nscenes labels: room, grove, sphereflake first, then by label */
     /* Scenes are told apart by (name, content hash): two meshes both named
      * mesh.obj are two scenes, labelled "mesh.obj (a/mesh.obj)" and
-     * "mesh.obj (b/mesh.obj)" (path as given; else parameters or hash). */
-    char scene_name[RT_REPORT_MAXSCENES][128];     /* scenes.name of each label */
-    char scene_hash[RT_REPORT_MAXSCENES][17];      /* scenes.hash of each label */
-    char scene_abspath[RT_REPORT_MAXSCENES][1024]; /* mesh file to re-render, '' = built-in or unknown */
+     * "mesh.obj (b/mesh.obj)" (path as given; else parameters or hash).
+     * Labels and names are whole (never cut), so they are as distinct as
+     * the scenes. */
+    char **scene_name;                /* scenes.name of each label */
+    char (*scene_hash)[17];           /* scenes.hash of each label */
+    char **scene_abspath;             /* mesh file to re-render, '' = built-in or unknown */
     int packet;                       /* packet edge of the packet runs (default 8) */
     /* The model the values are read for (rt_report_set_model): -1 = none,
      * every exact wb-wa run (the lowest geometry when several match);
@@ -82,8 +83,14 @@ int rt_report_db_open(const char *path, sqlite3 **ph, rt_err *e);
 
 /* Reads the report's axes (resolution, cache sizes, scenes, packet edge)
  * from h. dbpath is only used in texts. nscenes == 0 is not an error:
- * the caller decides whether an empty report is one. */
+ * the caller decides whether an empty report is one. Every scene is kept,
+ * however many. R owns its scene arrays: release them with rt_report_free
+ * (also after a failed init). */
 int rt_report_init(rt_report *R, sqlite3 *h, const char *dbpath, const rt_report_opts *o, rt_err *e);
+
+/* Frees what rt_report_init allocated in R (not the handle); R may be
+ * zeroed or freed already. */
+void rt_report_free(rt_report *R);
 
 /* Restricts R's values to model (RT_EXP_MODEL_*, or -1 for no model, as
  * rt_report_init leaves it) and re-reads the cache sizes of that model's

@@ -5,6 +5,7 @@
 #define RT_ANALYSIS_INT_H
 
 #include "analysis.h"
+#include "outfile.h"
 #include "tracer.h"
 
 /* Prepares sql on h and binds its parameters ?1, ?2, ... from the
@@ -28,6 +29,30 @@ int rt_report_scene_index(const rt_report *R, const char *label);
  * report label (scenes aliased s; see rt_report.scenes), for databases
  * with or without the scene paths of schema 3. malloc'd; NULL on error. */
 char *rt_report_label_sql(sqlite3 *h, const char *sql, rt_err *e);
+
+/* ---- plot outputs (plot.c) ---- */
+
+/* The path DIR/PREFIX NAME SUFFIX of a plot file, into buf (n bytes): '/'
+ * in NAME becomes '_' (a mesh given by its path still makes one file in
+ * DIR), and a NAME longer than RT_PLOT_NAME_MAX bytes is cut and ended
+ * with "~" and its hash (rt_name_fit), so two long names that differ only
+ * at the end give two files, and the file name stays under NAME_MAX. */
+#define RT_PLOT_NAME_MAX 160
+void rt_plot_path(char *buf, size_t n, const char *dir, const char *prefix, const char *name, const char *suffix);
+
+/* Opens a data or script file through src/outfile.c (unique temporary,
+ * renamed by rt_plot_commit): the stream, with *o its handle; NULL with
+ * "PATH: reason". */
+FILE *rt_plot_open(const char *path, struct rt_out **o, rt_err *e);
+/* Commits what rt_plot_open opened: 0, or -1 with "PATH: reason" and
+ * nothing left (rt_out_commit). */
+int rt_plot_commit(struct rt_out *o, rt_err *e);
+
+/* Runs script with p->gnuplot (nothing without one), then checks that
+ * every path of outs (NULL-terminated) is a non-empty regular file, so a
+ * picture gnuplot did not write is an error, never a "wrote" line; then
+ * logs "wrote WHAT" to p->log. 0 or -1. */
+int rt_plot_draw(const rt_plot_opts *p, const char *script, const char *const *outs, const char *what, rt_err *e);
 
 /* Creates dir unless it exists. */
 int rt_plot_mkdir(const char *dir, rt_err *e);

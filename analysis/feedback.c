@@ -76,7 +76,7 @@ typedef struct fcfg {
 
 typedef struct frun {
     long long id;
-    char scene[128], hash[17], params[160], mode[160], label[400];
+    char scene[300], hash[17], params[160], mode[160], label[800];
     int W, H, lights, gens, grid_min;
     double rays;
 } frun;
@@ -332,27 +332,21 @@ static void run_tables(FILE *o, int csv, const frun *f, const fcfg *C, long n)
     fputs(".\n", o);
 }
 
-static int close_file(FILE *f, const char *path, rt_err *e)
-{
-    int bad = ferror(f);
-    if (fclose(f) != 0 || bad) return rt_errf(e, "%s: write error", path);
-    return 0;
-}
-
 /* DIR/feedback-LABEL.{dat,gp,png}: classes (MB) and the designs' bytes per
  * ray against cache size. */
 static int run_plot(const rt_plot_opts *po, const frun *f, const fcfg *C, long n, rt_err *e)
 {
-    char base[4096], dat[4200], gpf[4200], png[4200];
-    int k = snprintf(base, sizeof base, "%s/feedback-", po->dir);
-    for (const char *s = f->label; *s && k + 1 < (int)sizeof base; s++)
-        base[k++] = (*s == '/' || *s == ' ' || *s == '=') ? (*s == '=' ? '-' : '_') : *s;
-    base[k] = 0;
+    char base[4096], dat[4200], gpf[4200], png[4200], name[sizeof f->label];
+    size_t k = 0;
+    for (const char *s = f->label; *s && k + 1 < sizeof name; s++) name[k++] = *s == ' ' ? '_' : *s == '=' ? '-' : *s;
+    name[k] = 0;
+    rt_plot_path(base, sizeof base, po->dir, "feedback-", name, "");
     snprintf(dat, sizeof dat, "%s.dat", base);
     snprintf(gpf, sizeof gpf, "%s.gp", base);
     snprintf(png, sizeof png, "%s.png", base);
-    FILE *fp = fopen(dat, "w");
-    if (!fp) return rt_errf(e, "%s: %s", dat, strerror(errno));
+    rt_out *o;
+    FILE *fp = rt_plot_open(dat, &o, e);
+    if (!fp) return -1;
     fprintf(fp, "# cache_kb, MB of stream node index tri shade fb, bytes per ray of dynamic multipass feedback\n");
     for (long i = 0; i < n; i++) {
         fprintf(fp, "%" PRIu64, C[i].size / 1024);
@@ -364,8 +358,8 @@ static int run_plot(const rt_plot_opts *po, const frun *f, const fcfg *C, long n
         }
         fputc('\n', fp);
     }
-    if (close_file(fp, dat, e) < 0) return -1;
-    if (!(fp = fopen(gpf, "w"))) return rt_errf(e, "%s: %s", gpf, strerror(errno));
+    if (rt_plot_commit(o, e) < 0) return -1;
+    if (!(fp = rt_plot_open(gpf, &o, e))) return -1;
     fprintf(fp, "set terminal pngcairo size 1000,420\nset output ");
     rt_plot_quote_path(fp, png);
     fprintf(fp, "\nset multiplot layout 1,2 title ");
@@ -387,11 +381,9 @@ static int run_plot(const rt_plot_opts *po, const frun *f, const fcfg *C, long n
         rt_plot_quote(fp, design_title(d));
     }
     fprintf(fp, "\nunset multiplot\n");
-    if (close_file(fp, gpf, e) < 0) return -1;
-    if (!po->gnuplot) return 0;
-    if (rt_plot_run(po->gnuplot, gpf, e) < 0) return -1;
-    if (po->log) fprintf(po->log, "wrote %s\n", png);
-    return 0;
+    if (rt_plot_commit(o, e) < 0) return -1;
+    const char *outs[] = {png, NULL};
+    return rt_plot_draw(po, gpf, outs, png, e);
 }
 
 int rt_report_feedback(sqlite3 *h, const char *scene, int csv, const rt_plot_opts *plot, FILE *out, rt_err *e)

@@ -20,6 +20,7 @@
  */
 #include "analysis_int.h"
 #include "image.h"
+#include "outfile.h"
 #include "run.h"
 
 #include <errno.h>
@@ -69,7 +70,11 @@ int rt_plot_run(const char *gnuplot, const char *script, rt_err *e)
         }
         dup2(fd[1], 2);
         close(fd[0]);
-        char *const argv[] = {(char *)gnuplot, (char *)script, NULL};
+        /* a relative script path as ./PATH: "-dir/x.gp" must not be an option */
+        char *arg = (char *)script;
+        if (script[0] != '/' && !(arg = malloc(strlen(script) + 3))) _exit(127);
+        if (arg != script) sprintf(arg, "./%s", script);
+        char *const argv[] = {(char *)gnuplot, arg, NULL};
         execvp(gnuplot, argv);
         dprintf(2, "cannot run %s: %s\n", gnuplot, strerror(errno));
         _exit(127);
@@ -130,30 +135,33 @@ int rt_plot_mkdir(const char *dir, rt_err *e)
     return 0;
 }
 
-/* DIR/NAME-SUFFIX with '/' in the scene name replaced: a mesh given by its
- * path ("data/meshes/bun_zipper.ply") still makes one file in DIR. */
-static void scene_file(char *buf, size_t n, const char *dir, const char *scene, const char *suffix)
+void rt_plot_path(char *buf, size_t n, const char *dir, const char *prefix, const char *name, const char *suffix)
 {
-    int k = snprintf(buf, n, "%s/", dir);
-    for (const char *p = scene; *p && k + 1 < (int)n; p++) buf[k++] = *p == '/' ? '_' : *p;
-    buf[k < (int)n ? k : (int)n - 1] = 0;
-    snprintf(buf + strlen(buf), n - strlen(buf), "%s", suffix);
+    char fit[RT_PLOT_NAME_MAX + 1];
+    rt_name_fit(fit, sizeof fit, name);
+    for (char *q = fit; *q; q++)
+        if (*q == '/') *q = '_';
+    snprintf(buf, n, "%s/%s%s%s", dir, prefix, fit, suffix);
 }
 
-/* Closes a script or data file, turning a failed write into an error. */
-static int close_file(FILE *f, const char *path, rt_err *e)
+FILE *rt_plot_open(const char *path, rt_out **o, rt_err *e)
 {
-    int bad = ferror(f);
-    if (fclose(f) != 0 || bad) return rt_errf(e, "%s: write error: %s", path, strerror(errno ? errno : EIO));
-    return 0;
+    *o = rt_out_open(path, e);
+    return *o ? rt_out_stream(*o) : NULL;
 }
 
-/* Runs the script when gnuplot is there; one "wrote" line per picture. */
-static int draw(const rt_plot_opts *p, const char *script, const char *wrote, rt_err *e)
+int rt_plot_commit(rt_out *o, rt_err *e) { return rt_out_commit(o, e); }
+
+int rt_plot_draw(const rt_plot_opts *p, const char *script, const char *const *outs, const char *what, rt_err *e)
 {
     if (!p->gnuplot) return 0;
     if (rt_plot_run(p->gnuplot, script, e) < 0) return -1;
-    if (p->log) fprintf(p->log, "wrote %s\n", wrote);
+    for (int i = 0; outs && outs[i]; i++) {
+        struct stat sb;
+        if (stat(outs[i], &sb) < 0 || !S_ISREG(sb.st_mode) || sb.st_size == 0)
+            return rt_errf(e, "%s: gnuplot wrote no picture %s", script, outs[i]);
+    }
+    if (p->log) fprintf(p->log, "wrote %s\n", what);
     return 0;
 }
 
@@ -193,12 +201,13 @@ int rt_plot_traffic(const rt_report *R, const rt_plot_opts *p, rt_err *e)
     if (rt_plot_mkdir(p->dir, e) < 0) return -1;
     for (int i = 0; i < R->nscenes; i++) {
         const char *sc = R->scenes[i];
-        char dat[4096], gpf[4096], base[4096], png[4200];
-        scene_file(dat, sizeof dat, p->dir, sc, "-traffic.dat");
-        scene_file(gpf, sizeof gpf, p->dir, sc, "-traffic.gp");
-        scene_file(base, sizeof base, p->dir, sc, "-traffic");
-        FILE *f = fopen(dat, "w");
-        if (!f) return rt_errf(e, "%s: %s", dat, strerror(errno));
+        char dat[4096], gpf[4096], base[4096], png[4200], svg[4200], what[4300];
+        rt_plot_path(dat, sizeof dat, p->dir, "", sc, "-traffic.dat");
+        rt_plot_path(gpf, sizeof gpf, p->dir, "", sc, "-traffic.gp");
+        rt_plot_path(base, sizeof base, p->dir, "", sc, "-traffic");
+        rt_out *o;
+        FILE *f = rt_plot_open(dat, &o, e);
+        if (!f) return -1;
         fprintf(f, "# cache_kb geom_recursive geom_packet geom_dynamic ray_recursive ray_packet ray_dynamic (MB, "
                    "primary rays)\n");
         for (int k = 0; k < R->nsizes; k++) {
@@ -210,7 +219,7 @@ int rt_plot_traffic(const rt_report *R, const rt_plot_opts *p, rt_err *e)
             for (int t = 0; t < 3; t++) {
                 h[t] = tr[t] ? rt_report_value(R, sc, tr[t]->name, 0, s, &v[t], &v[t + 3], e) : 0;
                 if (h[t] < 0) {
-                    fclose(f);
+                    rt_out_abort(o);
                     return -1;
                 }
             }
@@ -221,12 +230,15 @@ int rt_plot_traffic(const rt_report *R, const rt_plot_opts *p, rt_err *e)
                 else fprintf(f, " NaN");
             fprintf(f, "\n");
         }
-        if (close_file(f, dat, e) < 0) return -1;
-        if (!(f = fopen(gpf, "w"))) return rt_errf(e, "%s: %s", gpf, strerror(errno));
+        if (rt_plot_commit(o, e) < 0) return -1;
+        if (!(f = rt_plot_open(gpf, &o, e))) return -1;
         traffic_script(f, R, sc, dat, base);
-        if (close_file(f, gpf, e) < 0) return -1;
-        snprintf(png, sizeof png, "%s.png and .svg", base);
-        if (draw(p, gpf, png, e) < 0) return -1;
+        if (rt_plot_commit(o, e) < 0) return -1;
+        snprintf(png, sizeof png, "%s.png", base);
+        snprintf(svg, sizeof svg, "%s.svg", base);
+        snprintf(what, sizeof what, "%s.png and .svg", base);
+        const char *outs[] = {png, svg, NULL};
+        if (rt_plot_draw(p, gpf, outs, what, e) < 0) return -1;
     }
     return 0;
 }
@@ -246,8 +258,9 @@ int rt_plot_speed_error(const rt_plot_opts *p, const char *datpath, const char (
     char gpath[4096], png[4096];
     snprintf(gpath, sizeof gpath, "%s/speed-error.gp", p->dir);
     snprintf(png, sizeof png, "%s/speed-error.png", p->dir);
-    FILE *g = fopen(gpath, "w");
-    if (!g) return rt_errf(e, "%s: %s", gpath, strerror(errno));
+    rt_out *o;
+    FILE *g = rt_plot_open(gpath, &o, e);
+    if (!g) return -1;
     int ncol = (int)(sizeof colours / sizeof colours[0]);
     /* two plots on the top of the page, the key in its own band below the
      * x labels: two entries per row, as many rows as it needs */
@@ -283,8 +296,9 @@ int rt_plot_speed_error(const rt_plot_opts *p, const char *datpath, const char (
         rt_plot_quote(g, labels[i]);
     }
     fprintf(g, "\nunset multiplot\n");
-    if (close_file(g, gpath, e) < 0) return -1;
-    return draw(p, gpath, png, e);
+    if (rt_plot_commit(o, e) < 0) return -1;
+    const char *outs[] = {png, NULL};
+    return rt_plot_draw(p, gpath, outs, png, e);
 }
 
 /* ---- scene thumbnails --------------------------------------------------------------- */

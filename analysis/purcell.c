@@ -276,8 +276,9 @@ static int stacked_plot(const rt_plot_opts *p, const char *name, const char *tit
     snprintf(dat, sizeof dat, "%s/purcell-%s.dat", p->dir, name);
     snprintf(gpf, sizeof gpf, "%s/purcell-%s.gp", p->dir, name);
     snprintf(png, sizeof png, "%s/purcell-%s.png", p->dir, name);
-    FILE *f = fopen(dat, "w");
-    if (!f) return rt_errf(e, "%s: %s", dat, strerror(errno));
+    rt_out *o;
+    FILE *f = rt_plot_open(dat, &o, e);
+    if (!f) return -1;
     /* header row: column names for the key; labels quoted, quotes dropped */
     char c[512];
     snprintf(c, sizeof c, "%s", names);
@@ -294,9 +295,8 @@ static int stacked_plot(const rt_plot_opts *p, const char *name, const char *tit
         }
         fputc('\n', f);
     }
-    int bad = ferror(f);
-    if (fclose(f) != 0 || bad) return rt_errf(e, "%s: write error", dat);
-    if (!(f = fopen(gpf, "w"))) return rt_errf(e, "%s: %s", gpf, strerror(errno));
+    if (rt_plot_commit(o, e) < 0) return -1;
+    if (!(f = rt_plot_open(gpf, &o, e))) return -1;
     fprintf(f, "set terminal pngcairo size %d,520\nset output ", 360 + 90 * (int)n);
     rt_plot_quote_path(f, png);
     fputs("\nset title ", f);
@@ -314,12 +314,9 @@ static int stacked_plot(const rt_plot_opts *p, const char *name, const char *tit
     fputs(" u i:xtic(1) t columnheader(i) lc rgb word(\"", f);
     for (int k = 0; k < nc; k++) fprintf(f, "%s%s", k ? " " : "", col[k % 8]);
     fputs("\", i-1)\n", f);
-    bad = ferror(f);
-    if (fclose(f) != 0 || bad) return rt_errf(e, "%s: write error", gpf);
-    if (!p->gnuplot) return 0;
-    if (rt_plot_run(p->gnuplot, gpf, e) < 0) return -1;
-    if (p->log) fprintf(p->log, "wrote %s\n", png);
-    return 0;
+    if (rt_plot_commit(o, e) < 0) return -1;
+    const char *outs[] = {png, NULL};
+    return rt_plot_draw(p, gpf, outs, png, e);
 }
 
 /* Figures 7 (instructions and bandwidth per kernel), 8 (bandwidth by data

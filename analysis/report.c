@@ -230,15 +230,38 @@ int rt_report_init(rt_report *R, sqlite3 *h, const char *dbpath, const rt_report
     st = rt_report_stmt(h, sql, dbpath, e, "ii", R->W, R->H);
     free(sql);
     if (!st) return -1;
-    while ((rc = sqlite3_step(st)) == SQLITE_ROW && R->nscenes < RT_REPORT_MAXSCENES) {
+    int cap = 0;
+    while ((rc = sqlite3_step(st)) == SQLITE_ROW) {
         const char *lab = (const char *)sqlite3_column_text(st, 0), *n = (const char *)sqlite3_column_text(st, 1);
+        const char *hash = (const char *)sqlite3_column_text(st, 2), *abs = (const char *)sqlite3_column_text(st, 3);
         /* --scene picks a label, or every scene of a name */
         if (o->scene && strcmp(lab, o->scene) && strcmp(n, o->scene)) continue;
-        int k = R->nscenes++;
-        snprintf(R->scenes[k], sizeof R->scenes[0], "%s", lab);
-        snprintf(R->scene_name[k], sizeof R->scene_name[0], "%s", n);
-        snprintf(R->scene_hash[k], sizeof R->scene_hash[0], "%s", (const char *)sqlite3_column_text(st, 2));
-        snprintf(R->scene_abspath[k], sizeof R->scene_abspath[0], "%s", (const char *)sqlite3_column_text(st, 3));
+        if (R->nscenes == cap) {
+            int nc = cap ? 2 * cap : 16;
+            char **a = rt_reallocarray(R->scenes, (size_t)nc, sizeof *a, e);
+            if (a) R->scenes = a;
+            char **b = a ? rt_reallocarray(R->scene_name, (size_t)nc, sizeof *b, e) : NULL;
+            if (b) R->scene_name = b;
+            char(*c)[17] = b ? rt_reallocarray(R->scene_hash, (size_t)nc, sizeof *c, e) : NULL;
+            if (c) R->scene_hash = c;
+            char **d = c ? rt_reallocarray(R->scene_abspath, (size_t)nc, sizeof *d, e) : NULL;
+            if (d) R->scene_abspath = d;
+            if (!d) {
+                sqlite3_finalize(st);
+                return -1;
+            }
+            cap = nc;
+        }
+        int k = R->nscenes;
+        R->scenes[k] = strdup(lab);
+        R->scene_name[k] = strdup(n);
+        R->scene_abspath[k] = strdup(abs ? abs : "");
+        snprintf(R->scene_hash[k], sizeof R->scene_hash[0], "%s", hash ? hash : "");
+        R->nscenes++;
+        if (!R->scenes[k] || !R->scene_name[k] || !R->scene_abspath[k]) {
+            sqlite3_finalize(st);
+            return rt_errf(e, "%s: out of memory reading the scenes", dbpath);
+        }
     }
     if (rt_report_done(st, rc, dbpath, e) < 0) return -1;
     st = rt_report_stmt(h, "SELECT params FROM runs WHERE tracer = 'packet' LIMIT 1", dbpath, e, "");
@@ -248,6 +271,23 @@ int rt_report_init(rt_report *R, sqlite3 *h, const char *dbpath, const rt_report
         if (p) R->packet = atoi(p + 7);
     }
     return rt_report_done(st, rc, dbpath, e);
+}
+
+void rt_report_free(rt_report *R)
+{
+    if (!R) return;
+    for (int i = 0; i < R->nscenes; i++) {
+        if (R->scenes) free(R->scenes[i]);
+        if (R->scene_name) free(R->scene_name[i]);
+        if (R->scene_abspath) free(R->scene_abspath[i]);
+    }
+    free(R->scenes);
+    free(R->scene_name);
+    free(R->scene_hash);
+    free(R->scene_abspath);
+    R->scenes = R->scene_name = R->scene_abspath = NULL;
+    R->scene_hash = NULL;
+    R->nscenes = 0;
 }
 
 int rt_report_set_model(rt_report *R, int model, rt_err *e)

@@ -28,7 +28,7 @@
 
 /* One (scene, mode, lighting, resolution, size) point: MB per generation. */
 typedef struct point {
-    char scene[128], mode[16], params[160];
+    char scene[300], mode[16], params[160];
     int lights, W, H;
     uint64_t size;
     int ngen;                          /* generations present (max gen + 1) */
@@ -65,8 +65,8 @@ static long read_points(sqlite3 *h, const char *dbpath, point **pts, rt_err *e)
     point *P = NULL;
     int rc;
     while ((rc = sqlite3_step(st)) == SQLITE_ROW) {
-        char scene[128], mode[16], params[160];
-        snprintf(scene, sizeof scene, "%s", (const char *)sqlite3_column_text(st, 0));
+        char scene[300], mode[16], params[160];
+        rt_name_fit(scene, sizeof scene, (const char *)sqlite3_column_text(st, 0));
         snprintf(mode, sizeof mode, "%s", (const char *)sqlite3_column_text(st, 1));
         mode_params((const char *)sqlite3_column_text(st, 2), params, sizeof params);
         int lights = sqlite3_column_int(st, 3), W = sqlite3_column_int(st, 4), H = sqlite3_column_int(st, 5);
@@ -188,30 +188,22 @@ static void scene_sentence(FILE *out, const point *P, long a, long b)
             P[a].scene, geo, m, tot, m, g0, m, verdict);
 }
 
-static int close_file(FILE *f, const char *path, rt_err *e)
-{
-    int bad = ferror(f);
-    if (fclose(f) != 0 || bad) return rt_errf(e, "%s: write error: %s", path, strerror(errno ? errno : EIO));
-    return 0;
-}
-
 /* DIR/secondary-SCENE-MODE-lLIGHTS-WxH.{dat,gp,png}: data, script, picture. */
 static int group_plot(const rt_plot_opts *po, const point *P, long a, long b, rt_err *e)
 {
     char base[4096], dat[4200], gpf[4200], png[4200];
-    int k = snprintf(base, sizeof base, "%s/secondary-", po->dir);
-    char tail[400];
+    char tail[600];
     snprintf(tail, sizeof tail, "%s-%s-l%d-%dx%d", P[a].scene, P[a].mode, P[a].lights, P[a].W, P[a].H);
-    for (const char *s = tail; *s && k + 1 < (int)sizeof base; s++) base[k++] = *s == '/' ? '_' : *s;
-    base[k] = 0;
+    rt_plot_path(base, sizeof base, po->dir, "secondary-", tail, "");
     snprintf(dat, sizeof dat, "%s.dat", base);
     snprintf(gpf, sizeof gpf, "%s.gp", base);
     snprintf(png, sizeof png, "%s.png", base);
     int ng = 0;
     for (long i = a; i < b; i++)
         if (P[i].ngen > ng) ng = P[i].ngen;
-    FILE *f = fopen(dat, "w");
-    if (!f) return rt_errf(e, "%s: %s", dat, strerror(errno));
+    rt_out *o;
+    FILE *f = rt_plot_open(dat, &o, e);
+    if (!f) return -1;
     fprintf(f, "# cache_kb then per generation: geometry reduction %%, total reduction %%\n");
     for (long i = a; i < b; i++) {
         fprintf(f, "%" PRIu64, P[i].size / 1024);
@@ -224,9 +216,9 @@ static int group_plot(const rt_plot_opts *po, const point *P, long a, long b, rt
         }
         fprintf(f, "\n");
     }
-    if (close_file(f, dat, e) < 0) return -1;
-    if (!(f = fopen(gpf, "w"))) return rt_errf(e, "%s: %s", gpf, strerror(errno));
-    char title[600];
+    if (rt_plot_commit(o, e) < 0) return -1;
+    if (!(f = rt_plot_open(gpf, &o, e))) return -1;
+    char title[900];
     snprintf(title, sizeof title, "%s, %s (%s), lights %d, %dx%d: dynamic vs recursive per generation", P[a].scene,
              P[a].mode, P[a].params, P[a].lights, P[a].W, P[a].H);
     fprintf(f, "set terminal pngcairo size 1000,420\nset output ");
@@ -249,11 +241,9 @@ static int group_plot(const rt_plot_opts *po, const point *P, long a, long b, rt
         fprintf(f, "\n");
     }
     fprintf(f, "unset multiplot\n");
-    if (close_file(f, gpf, e) < 0) return -1;
-    if (!po->gnuplot) return 0;
-    if (rt_plot_run(po->gnuplot, gpf, e) < 0) return -1;
-    if (po->log) fprintf(po->log, "wrote %s\n", png);
-    return 0;
+    if (rt_plot_commit(o, e) < 0) return -1;
+    const char *outs[] = {png, NULL};
+    return rt_plot_draw(po, gpf, outs, png, e);
 }
 
 int rt_report_secondary(sqlite3 *h, const char *dbpath, int csv, const rt_plot_opts *plot, FILE *out, rt_err *e)

@@ -127,7 +127,8 @@ typedef struct se_ctx {
     sqlite3 *h;
     int csv;
     FILE *out;                        /* the tables */
-    FILE *dat;                        /* plot points, or NULL */
+    FILE *dat;                        /* plot points, or NULL (the stream of dato) */
+    rt_out *dato;                     /* its output file (src/outfile.c) */
     char series[MAX_SERIES][128];     /* plot series labels; a point's series is the dat file's last column */
     int nseries;
     summ summs[MAX_SUMM];
@@ -446,26 +447,20 @@ int rt_report_speed_error(sqlite3 *h, int csv, const rt_plot_opts *plot, FILE *o
     if (plot) {
         if (rt_plot_mkdir(plot->dir, e) < 0) goto done;
         snprintf(datpath, sizeof datpath, "%s/speed-error.dat", plot->dir);
-        if (!(C->dat = fopen(datpath, "w"))) {
-            rt_errf(e, "%s: %s", datpath, strerror(errno));
-            goto done;
-        }
+        if (!(C->dat = rt_plot_open(datpath, &C->dato, e))) goto done;
         fprintf(C->dat, "# run speedup geom_mean_abs_mr_err ray_mean_abs_mr_err series\n");
     }
     if (report_approx(C, e) < 0 || report_proxies(C, e) < 0 || rt_report_flush(out, e) < 0) goto done;
     if (C->dat) {
-        int bad = ferror(C->dat);
-        if (fclose(C->dat) != 0 || bad) {
-            C->dat = NULL;
-            rt_errf(e, "%s: write error: %s", datpath, strerror(errno ? errno : EIO));
-            goto done;
-        }
         C->dat = NULL;
+        rt_out *o = C->dato;
+        C->dato = NULL;
+        if (rt_plot_commit(o, e) < 0) goto done;
         if (rt_plot_speed_error(plot, datpath, (const char(*)[128])C->series, C->nseries, e) < 0) goto done;
     }
     rc = 0;
 done:
-    if (C->dat) fclose(C->dat);
+    rt_out_abort(C->dato);
     free(C);
     return rc;
 }

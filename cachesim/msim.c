@@ -90,6 +90,13 @@
  * SPEED. The costs are memory latency (at 4 MB: 1 MB of nodes, 0.5 MB of
  * lines, 1 MB of hash table, touched at random) and instructions. A repeat
  * of the most recently used line takes a fast path without hashing.
+ * Memory: nodes, lines[] and the table are sized for ncap nodes, 4096
+ * at first, and grown (doubled, the table rebuilt at twice the nodes)
+ * before a batch whose lines could outgrow them, never beyond cmax; a
+ * cache far larger than the lines a stream touches (sim --sizes 16G of a
+ * small trace) costs only those lines. Invariant: nused <= ncap <= cmax
+ * and the table has at least 2 * ncap slots (rt_msim_check).
+ *
  * Power-of-two lines use a shift, other sizes a division. rt_msim_put
  * pipelines each batch: a reference's lines are hashed and their slots
  * prefetched PF_SLOT references ahead, the slots are read and the nodes and
@@ -142,14 +149,19 @@ typedef struct msnode {
     uint16_t pad;
 } msnode;
 
+/* Nodes allocated at first; more as lines arrive (grow). */
+#define MSIM_INIT_NODES 4096u
+
 struct rt_msim {
     /* hot fields first */
     uint32_t head, tail;                     /* list ends */
     uint32_t nused;                          /* nodes in use (all in the list) */
     uint32_t cmax;                           /* lines of the largest cache */
+    uint32_t ncap;                           /* nodes allocated, nused <= ncap <= cmax (grown by rt_msim_put) */
+    int oom;                                 /* a growth failed: rt_msim_put refuses every batch */
     uint64_t mru_line;                       /* line of head (valid if head != NIL) */
-    msnode *nodes;                           /* cmax nodes */
-    uint64_t *lines;                         /* cmax line numbers (node i holds lines[i]) */
+    msnode *nodes;                           /* ncap nodes */
+    uint64_t *lines;                         /* ncap line numbers (node i holds lines[i]) */
     uint64_t *ht;                            /* hash slots: fingerprint << 32 | node, node NIL = empty */
     uint64_t hmask;                          /* table size - 1 */
     int hshift;                              /* 64 - log2(table size) */
@@ -218,6 +230,8 @@ static inline void h_delete(rt_msim *m, uint32_t x)
     ht[i] = UINT64_MAX;
 }
 
+static int set_table(rt_msim *m, uint32_t nodes, rt_err *e);
+
 rt_msim *rt_msim_new(const uint64_t *sizes, int k, uint32_t line, rt_err *e)
 {
     if (k < 1 || k > RT_SIM_MAXSIZES) return rt_errf(e, "msim: %d sizes (1..%d allowed)", k, RT_SIM_MAXSIZES), NULL;
@@ -260,21 +274,57 @@ rt_msim *rt_msim_new(const uint64_t *sizes, int k, uint32_t line, rt_err *e)
     m->allmask = k == 32 ? UINT32_MAX : ((1u << k) - 1);
     m->cmax = (uint32_t)c_prev;
     m->head = m->tail = NIL;
-    uint64_t tsize = 16;
-    int bits = 4;
-    while (tsize < 2 * (uint64_t)m->cmax) tsize <<= 1, bits++; /* bits <= 31 */
-    m->hmask = tsize - 1;
-    m->hshift = 64 - bits;
-    m->fpshift = 32 - bits;
-    m->nodes = rt_calloc(m->cmax, sizeof *m->nodes, e);
-    m->lines = rt_calloc(m->cmax, sizeof *m->lines, e);
-    m->ht = rt_calloc(tsize, sizeof *m->ht, e);
-    if (!m->nodes || !m->lines || !m->ht) {
+    /* the state grows with the lines seen (rt_msim_put), never beyond
+     * cmax: a 16 GB cache over a small trace costs what the trace touches */
+    m->ncap = m->cmax < MSIM_INIT_NODES ? m->cmax : MSIM_INIT_NODES;
+    m->nodes = rt_calloc(m->ncap, sizeof *m->nodes, e);
+    m->lines = rt_calloc(m->ncap, sizeof *m->lines, e);
+    if (!m->nodes || !m->lines || set_table(m, m->ncap, e) < 0) {
         rt_msim_free(m);
         return NULL;
     }
-    memset(m->ht, 0xFF, tsize * sizeof *m->ht);
     return m;
+}
+
+/* A hash table of at least 2 * nodes slots, with every node below nused
+ * inserted again (its fingerprints depend on the table size). */
+static int set_table(rt_msim *m, uint32_t nodes, rt_err *e)
+{
+    uint64_t tsize = 16;
+    int bits = 4;
+    while (tsize < 2 * (uint64_t)nodes) tsize <<= 1, bits++; /* bits <= 31 */
+    if (m->ht && tsize == m->hmask + 1) return 0;
+    uint64_t *ht = rt_calloc(tsize, sizeof *ht, e);
+    if (!ht) return -1;
+    free(m->ht);
+    m->ht = ht;
+    memset(m->ht, 0xFF, tsize * sizeof *m->ht);
+    m->hmask = tsize - 1;
+    m->hshift = 64 - bits;
+    m->fpshift = 32 - bits;
+    for (uint32_t x = 0; x < m->nused; x++) h_insert(m, m->lines[x], x);
+    return 0;
+}
+
+/* Room for need nodes (at most cmax): nodes and lines at least doubled,
+ * the table resized to match. 0, or -1 (out of memory; m unchanged but
+ * for larger arrays). */
+static int grow(rt_msim *m, uint64_t need)
+{
+    if (need > m->cmax) need = m->cmax;
+    if (need <= m->ncap) return 0;
+    uint64_t nc = 2 * (uint64_t)m->ncap;
+    if (nc < need) nc = need;
+    if (nc > m->cmax) nc = m->cmax;
+    msnode *nd = rt_reallocarray(m->nodes, nc, sizeof *nd, NULL);
+    if (!nd) return -1;
+    m->nodes = nd;
+    uint64_t *ln = rt_reallocarray(m->lines, nc, sizeof *ln, NULL);
+    if (!ln) return -1;
+    m->lines = ln;
+    if (set_table(m, (uint32_t)nc, NULL) < 0) return -1;
+    m->ncap = (uint32_t)nc;
+    return 0;
 }
 
 void rt_msim_free(rt_msim *m)
@@ -584,9 +634,22 @@ static inline size_t put_plain(rt_msim *restrict m, const rt_access *a, size_t n
     return deep;
 }
 
-void rt_msim_put(rt_msim *m, const rt_access *a, size_t n)
+int rt_msim_put(rt_msim *m, const rt_access *a, size_t n)
 {
     size_t deep;
+    if (m->oom) return -1;
+    if (m->ncap < m->cmax) {
+        /* room for every line this batch could add */
+        uint64_t need = m->nused;
+        for (size_t i = 0; i < n && need < m->cmax; i++) {
+            uint64_t lo = a[i].addr, hi = a[i].addr + (a[i].size ? a[i].size : 1) - 1;
+            need += m->shift >= 0 ? (hi >> m->shift) - (lo >> m->shift) + 1 : hi / m->line - lo / m->line + 1;
+        }
+        if (need > m->ncap && grow(m, need) < 0) {
+            m->oom = 1;
+            return -1;
+        }
+    }
     int pipe = m->engine == RT_MSIM_PIPELINED || (m->engine == RT_MSIM_AUTO && m->pipe);
     if (pipe) deep = m->shift >= 0 ? put_batch(m, a, n, 1) : put_batch(m, a, n, 0);
     else deep = m->shift >= 0 ? put_plain(m, a, n, 1) : put_plain(m, a, n, 0);
@@ -594,6 +657,7 @@ void rt_msim_put(rt_msim *m, const rt_access *a, size_t n)
      * references went below the L1-sized top of the stack */
     m->pipe = deep * DEEP_SHARE > n;
     m->nbatch[pipe]++;
+    return 0;
 }
 
 void rt_msim_set_engine(rt_msim *m, int engine) { m->engine = engine; }
@@ -644,6 +708,9 @@ void rt_msim_flush(rt_msim *m)
 
 int rt_msim_check(const rt_msim *m, rt_err *e)
 {
+    if (m->nused > m->ncap || m->ncap > m->cmax || m->hmask + 1 < 2 * (uint64_t)m->ncap)
+        return rt_errf(e, "msim: %u nodes used, %u allocated, %u at most, %llu hash slots", m->nused, m->ncap, m->cmax,
+                       (unsigned long long)(m->hmask + 1));
     const msnode *nd = m->nodes;
     uint32_t cnt[RT_SIM_MAXSIZES + 1] = {0};
     uint32_t last[RT_SIM_MAXSIZES + 1];

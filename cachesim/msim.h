@@ -16,7 +16,11 @@ rt_msim *rt_msim_new(const uint64_t *sizes, int k, uint32_t line, rt_err *e);
  * (rt_sim_config.write_miss_fullline); set before the first reference. */
 void rt_msim_set_fullline(rt_msim *m, int on);
 void rt_msim_free(rt_msim *m);
-void rt_msim_put(rt_msim *m, const rt_access *a, size_t n);
+/* Simulates n references. The state grows with the distinct lines seen
+ * (never beyond the largest cache's lines), before the batch that needs
+ * it: 0, or -1 when that growth ran out of memory (then every later batch
+ * is refused too and the counters stop at the batch before). */
+int rt_msim_put(rt_msim *m, const rt_access *a, size_t n);
 /* Counters of size index i, class cls, summed over the generations
  * (traffic_bytes filled in). */
 void rt_msim_get(const rt_msim *m, int i, int cls, rt_sim_counts *out);

@@ -117,6 +117,14 @@ static void h_delete(rt_sa *c, uint64_t line)
     c->ht[i].val = NIL;
 }
 
+uint64_t rt_sa_state_bytes(uint64_t size, uint32_t line, uint32_t assoc)
+{
+    uint64_t nlines = line ? size / line : 0, tsize = 16;
+    uint64_t nsets = assoc ? nlines / assoc : 1;
+    while (tsize < 2 * nlines) tsize <<= 1;
+    return sizeof(rt_sa) + nlines * sizeof(saslot) + nsets * sizeof(saset) + tsize * sizeof(uint64_t);
+}
+
 rt_sa *rt_sa_new(uint64_t size, uint32_t line, uint32_t assoc, int write_through, int no_write_allocate, rt_err *e)
 {
     if (line == 0 || size < line || size % line)

@@ -14,6 +14,9 @@ typedef struct rt_sa rt_sa;
 rt_sa *rt_sa_new(uint64_t size, uint32_t line, uint32_t assoc, int write_through, int no_write_allocate,
                  rt_err *e);
 void rt_sa_free(rt_sa *c);
+/* Bytes of state rt_sa_new allocates for that cache (slots, sets, table):
+ * it is all allocated up front, so it is checked before (rt_sim_config_check). */
+uint64_t rt_sa_state_bytes(uint64_t size, uint32_t line, uint32_t assoc);
 void rt_sa_put(rt_sa *c, const rt_access *a, size_t n);
 /* Counters of class cls summed over the generations; _gen: of generation
  * bucket gen (0..RT_MAXGEN-1), gen < 0 sums them. */

@@ -88,6 +88,16 @@ int rt_sim_config_check(const rt_sim_config *c, rt_err *e)
                            (unsigned long long)c->sizes[i], (unsigned long long)unit);
         if (c->sizes[i] / c->line >= (1u << 30)) return rt_errf(e, "cache size %llu too large", (unsigned long long)c->sizes[i]);
     }
+    /* the per-size engine allocates each cache's lines up front (the
+     * stack simulator grows with the lines seen): check before */
+    if (!(c->assoc == 0 && !c->write_through && !c->no_write_allocate)) {
+        uint64_t bytes = 0;
+        for (int i = 0; i < c->nsizes; i++) bytes += rt_sa_state_bytes(c->sizes[i], c->line, c->assoc);
+        char what[160];
+        snprintf(what, sizeof what, "simulating cache sizes up to %llu bytes (%u-way, per-size engine)",
+                 (unsigned long long)c->sizes[c->nsizes - 1], c->assoc);
+        if (rt_mem_fits(bytes, what, e) < 0) return -1;
+    }
     return 0;
 }
 
@@ -150,7 +160,7 @@ uint64_t rt_sim_refs(const rt_sim *s) { return s->refs; }
 int rt_sim_put(rt_sim *s, const rt_access *a, size_t n)
 {
     s->refs += n;
-    if (s->ms) rt_msim_put(s->ms, a, n);
+    if (s->ms) return rt_msim_put(s->ms, a, n);
     else
         for (int i = 0; i < s->cfg.nsizes; i++) rt_sa_put(s->sa[i], a, n);
     return 0;

@@ -47,8 +47,20 @@ int rt_cmd_wants_help(int argc, char **argv);
 /* A sampling rate: a number in (0, 1] or 1/N ("1/64"). 0 or -1. */
 int rt_cmd_parse_rate(const char *s, double *out);
 
-/* A decimal integer in lo..hi (nothing after it). 0 or -1 (no message). */
+/* A decimal integer in lo..hi: a digit first (or '-' and a digit), nothing
+ * after it; no white space, no '+'. 0 or -1 (no message). */
 int rt_cmd_parse_long(const char *s, long lo, long hi, long *out);
+
+/* A finite decimal number [-]D[.D][e[+-]D] (or [-].D...): no white space,
+ * no '+' in front, no hex, nan or inf, no overflow. 0 or -1 (no message).
+ * The one parser of non-integer option values. */
+int rt_cmd_parse_double(const char *s, double *out);
+
+/* Refuses a word that will be a scene name or a file name and contains a
+ * control character (bytes 0x01-0x1f, 0x7f): a newline there would end a
+ * line of `sweep --list-jobs` early and run the rest as a command.
+ * 0, or -1 with "OPT: 'ARG' contains a control character" printed for cmd. */
+int rt_cmd_check_text(const char *cmd, const char *opt, const char *arg);
 
 /* --line: a line size in bytes, 1..1M, as a number or with a K/M suffix
  * ("64", "4K"). 0, or -1 with the message printed for cmd. The one parser

@@ -60,6 +60,8 @@ struct option *rt_cmd_merge_opts(const struct option *own)
 int rt_cmd_parse_long(const char *s, long lo, long hi, long *out)
 {
     char *end;
+    /* strtol skips white space and takes '+': a digit first, or '-' and one */
+    if (!s || !((*s >= '0' && *s <= '9') || (*s == '-' && s[1] >= '0' && s[1] <= '9'))) return -1;
     errno = 0;
     long v = strtol(s, &end, 10);
     if (errno || end == s || *end || v < lo || v > hi) return -1;
@@ -86,6 +88,36 @@ static int parse_floats(const char *s, float *out, int max)
         if (*end != ',') return -1;
         s = end + 1;
     }
+}
+
+int rt_cmd_parse_double(const char *s, double *out)
+{
+    /* strtod also takes white space, '+', hex ("0x10"), "nan", "inf" and
+     * "infinity": only [-]digits[.digits][e[+-]digits] or [-].digits... */
+    if (!s) return -1;
+    const char *p = s;
+    if (*p == '-') p++;
+    if (!((*p >= '0' && *p <= '9') || (*p == '.' && p[1] >= '0' && p[1] <= '9'))) return -1;
+    for (const char *q = p; *q; q++)
+        if (!((*q >= '0' && *q <= '9') || *q == '.' || *q == 'e' || *q == 'E' || *q == '-' || *q == '+')) return -1;
+    char *end;
+    errno = 0;
+    double v = strtod(s, &end);
+    if (end == s || *end || errno == ERANGE || !isfinite(v)) return -1;
+    *out = v;
+    return 0;
+}
+
+int rt_cmd_check_text(const char *cmd, const char *opt, const char *arg)
+{
+    for (const unsigned char *p = (const unsigned char *)arg; *p; p++)
+        if (*p < 0x20 || *p == 0x7f) {
+            char q[128];
+            rt_cmd_error(cmd, "%s: '%s' contains a control character (\\x%02x); not allowed in scene names and "
+                              "file names", opt, rt_esc(q, sizeof q, arg, 4096), *p);
+            return -1;
+        }
+    return 0;
 }
 
 static int render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o, const char **tracer)
@@ -189,9 +221,8 @@ static int render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         o->rstores = (int)v;
         return 1;
     case RT_OPT_ORACLE_FRACTION: {
-        char *end;
-        double f = strtod(arg, &end);
-        if (end == arg || *end || !(f > 0) || f > 1) {
+        double f;
+        if (rt_cmd_parse_double(arg, &f) < 0 || !(f > 0) || f > 1) {
             rt_cmd_error(cmd, "--oracle-fraction: '%s' is not in (0, 1]", arg);
             return -1;
         }
@@ -402,16 +433,18 @@ int rt_cmd_check_tracer_opts(const char *cmd, const char *tracer, const rt_rende
 
 int rt_cmd_parse_rate(const char *s, double *out)
 {
-    char *end;
-    double v = strtod(s, &end);
-    if (end == s) return -1;
-    if (*end == '/') {
-        const char *d = end + 1;
-        double q = strtod(d, &end);
-        if (end == d || !(q >= 1)) return -1;
-        v /= q;
+    char buf[64];
+    double v, q = 1;
+    if (!s || strlen(s) >= sizeof buf) return -1;
+    snprintf(buf, sizeof buf, "%s", s);
+    char *slash = strchr(buf, '/');
+    if (slash) {
+        *slash = 0;
+        if (rt_cmd_parse_double(slash + 1, &q) < 0 || !(q >= 1)) return -1;
     }
-    if (*end || !(v > 0) || v > 1) return -1;
+    if (rt_cmd_parse_double(buf, &v) < 0) return -1;
+    v /= q;
+    if (!(v > 0) || v > 1) return -1;
     *out = v;
     return 0;
 }

@@ -104,7 +104,13 @@ int main_render(int argc, char **argv)
         if (r < 0) goto usage_err;
         if (r > 0) continue;
         switch (c) {
-        case 'o': out = optarg; break;
+        case 'o':
+            if (!*optarg) {
+                rt_cmd_error("render", "-o: empty file name");
+                goto usage_err;
+            }
+            out = optarg;
+            break;
         case 'M': material = optarg; break;
         case 'p': ppm = optarg; break;
         case 'g': png = optarg; break;

@@ -89,8 +89,16 @@ int main_report(int argc, char **argv)
         case 'c': compare = 1; break;
         case 'p': plotdir = optarg; break;
         case 'e': speed = 1; break;
-        case 'W': o.W = atoi(optarg); break;
-        case 'H': o.H = atoi(optarg); break;
+        case 'W':
+        case 'H': {
+            long v;
+            if (rt_cmd_parse_long(optarg, 1, 65536, &v) < 0) {
+                rt_cmd_error("report", "-%c: '%s' is not an image size in 1..65536", c, optarg);
+                return RT_EXIT_USAGE;
+            }
+            if (c == 'W') o.W = (int)v; else o.H = (int)v;
+            break;
+        }
         case 'h': usage(stdout); return RT_EXIT_OK;
         default: return RT_EXIT_USAGE;
         }
@@ -132,6 +140,7 @@ int main_report(int argc, char **argv)
         if (rc == 0 && plotdir) rc = rt_plot_scenes(&R, &po, &e);
     }
     if (rc < 0) rt_cmd_error("report", "%s", e.msg);
+    rt_report_free(&R);
     sqlite3_close(h);
     return rc < 0 ? RT_EXIT_FAIL : RT_EXIT_OK;
 }

@@ -232,6 +232,10 @@ static int cmd_export(int argc, char **argv)
                 return RT_EXIT_USAGE;
             }
             out = argv[++i];
+            if (!*out) {
+                rt_cmd_error("scene", "export: %s: empty file name", argv[i - 1]);
+                return RT_EXIT_USAGE;
+            }
         } else if (argv[i][0] == '-' && argv[i][1]) {
             rt_cmd_error("scene", "export: unknown option '%s'", argv[i]);
             return RT_EXIT_USAGE;

@@ -263,18 +263,21 @@ static int parse_proxies(char *s, sweep_opts *o, rt_err *e)
     if (n <= 0) return rt_errf(e, "--proxy: expected 1 to 8 comma-separated items res:N or sub:K[:T]");
     for (int i = 0; i < n; i++) {
         rt_exp_proxy *p = &o->x.proxies[i];
-        char *end;
         memset(p, 0, sizeof *p);
         p->subsample = 1;
         p->subtile = 8;
         if (!strncmp(items[i], "res:", 4)) {
-            long v = strtol(items[i] + 4, &end, 10);
-            if (*end || v < 8 || v > 65536) return rt_errf(e, "--proxy: '%s': res:N needs N in 8..65536", items[i]);
+            long v;
+            if (rt_cmd_parse_long(items[i] + 4, 8, 65536, &v) < 0)
+                return rt_errf(e, "--proxy: '%s': res:N needs N in 8..65536", items[i]);
             p->W = (int)v;
         } else if (!strncmp(items[i], "sub:", 4)) {
-            long k = strtol(items[i] + 4, &end, 10), t = 8;
-            if (*end == ':') t = strtol(end + 1, &end, 10);
-            if (*end || k < 2 || k > 1L << 20 || t < 1 || t > 4096)
+            char num[32], *colon;
+            long k, t = 8;
+            snprintf(num, sizeof num, "%s", items[i] + 4);
+            if ((colon = strchr(num, ':'))) *colon = 0;
+            if (strlen(items[i] + 4) >= sizeof num || rt_cmd_parse_long(num, 2, 1L << 20, &k) < 0 ||
+                (colon && rt_cmd_parse_long(colon + 1, 1, 4096, &t) < 0))
                 return rt_errf(e, "--proxy: '%s': sub:K[:T] needs K in 2..1048576 and T in 1..4096", items[i]);
             p->subsample = (uint32_t)k;
             p->subtile = (int)t;
@@ -328,6 +331,15 @@ static void maybe_fail(const sweep_opts *o, long i)
     rt_db_fail_row_after = 2;
 }
 
+/* rt_exp_config.on_stored: a job's exact run is in the database. Runs with
+ * the stop signals blocked, so the summary's count is the database's. */
+static void on_job_stored(void *arg)
+{
+    shared *sh = arg;
+    atomic_fetch_add(&sh->stored, 1);
+    atomic_fetch_add(&sh->done, 1);
+}
+
 static int worker_loop(const sweep_opts *o, const rt_exp_job *J, long nj, shared *sh, int tty)
 {
     rt_err e = {0};
@@ -357,8 +369,8 @@ static int worker_loop(const sweep_opts *o, const rt_exp_job *J, long nj, shared
             rc = -1;
             break;
         }
-        atomic_fetch_add(r ? &sh->stored : &sh->skipped, 1);
-        long d = atomic_fetch_add(&sh->done, 1) + 1;
+        /* a run job was counted by on_job_stored when its run was committed */
+        long d = r ? atomic_load(&sh->done) : (atomic_fetch_add(&sh->skipped, 1), atomic_fetch_add(&sh->done, 1) + 1);
         if (!tty) {
             fprintf(stderr, "[%ld/%ld] %s: %s (%.1f s)\n", d, o->only >= 0 ? 1 : nj, label, r ? "done" : "already in database",
                     rt_now() - t0);
@@ -469,13 +481,24 @@ static const struct option sweep_longopts[] = {
     {NULL, 0, NULL, 0},
 };
 
-/* Writes s as one word for a POSIX shell: in single quotes, a quote as '\''. */
+/* The first word sh_quote met with a control character (a newline there
+ * would end a job line early), or NULL. */
+static const char *bad_word;
+static char bad_buf[256];
+
+/* Writes s as one word for a POSIX shell: in single quotes, a quote as '\''.
+ * A control character cannot be quoted this way (a newline ends the line
+ * when the list is run line by line): noted in bad_word, and print_jobs
+ * then prints nothing. */
 static void sh_quote(FILE *f, const char *s)
 {
     fputc('\'', f);
-    for (; *s; s++) {
-        if (*s == '\'') fputs("'\\''", f);
-        else fputc(*s, f);
+    for (const char *p = s; *p; p++) {
+        if ((unsigned char)*p < 0x20 || *p == 0x7f) {
+            if (!bad_word) bad_word = rt_esc(bad_buf, sizeof bad_buf, s, 4096);
+        }
+        if (*p == '\'') fputs("'\\''", f);
+        else fputc(*p, f);
     }
     fputc('\'', f);
 }
@@ -545,9 +568,20 @@ static void print_words(FILE *f, int argc, char **argv)
     }
 }
 
-static void print_jobs(const sweep_opts *o, long nj, int argc, char **argv)
+/* Prints the job lines, all or nothing: 0, or -1 (printed) when a word
+ * (the binary's path, the working folder in a made-absolute path) holds a
+ * control character. */
+static int print_jobs(const sweep_opts *o, long nj, int argc, char **argv)
 {
     char exe[4096], base[4096], word[4200];
+    char *mem = NULL;
+    size_t memlen = 0;
+    FILE *out = open_memstream(&mem, &memlen);
+    if (!out) {
+        rt_cmd_error("sweep", "--list-jobs: %s", strerror(errno));
+        return -1;
+    }
+    bad_word = NULL;
     ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
     if (n > 0) exe[n] = 0;
     else snprintf(exe, sizeof exe, "raytraffic"); /* no /proc: PATH decides */
@@ -555,14 +589,27 @@ static void print_jobs(const sweep_opts *o, long nj, int argc, char **argv)
     size_t bl = strlen(base);
     if (bl > 3 && !strcmp(base + bl - 3, ".db")) base[bl - 3] = 0;
     for (long i = 0; i < nj; i++) {
-        sh_quote(stdout, exe);
-        fputs(" sweep", stdout);
-        print_words(stdout, argc, argv);
+        sh_quote(out, exe);
+        fputs(" sweep", out);
+        print_words(out, argc, argv);
         snprintf(word, sizeof word, "%s.job%04ld.db", base, i);
-        printf(" --job %ld --db ", i);
-        sh_quote(stdout, word);
-        putchar('\n');
+        fprintf(out, " --job %ld --db ", i);
+        sh_quote(out, word);
+        fputc('\n', out);
     }
+    int bad = fclose(out) != 0;
+    if (!bad && bad_word)
+        rt_cmd_error("sweep", "--list-jobs: '%s' contains a control character; a job line cannot hold it", bad_word);
+    else if (bad)
+        rt_cmd_error("sweep", "--list-jobs: out of memory");
+    else /* line by line, so a failing stdout keeps its reason for close_stdout */
+        for (char *p = mem, *q; p < mem + memlen; p = q + 1) {
+            q = memchr(p, '\n', (size_t)(mem + memlen - p));
+            if (!q) q = mem + memlen;
+            fwrite(p, 1, (size_t)(q - p) + (q < mem + memlen), stdout);
+        }
+    free(mem);
+    return bad || bad_word ? -1 : 0;
 }
 
 
@@ -601,7 +648,9 @@ static int parse_opt(sweep_opts *o, int c, const char *arg)
         }
         o->preset = arg;
         return 0;
-    case O_SCENES: return keep_copy(o, 0, arg) ? 0 : -1;
+    case O_SCENES:
+        if (rt_cmd_check_text("sweep", "--scenes", arg) < 0) return -1;
+        return keep_copy(o, 0, arg) ? 0 : -1;
     case O_TRACERS: return keep_copy(o, 1, arg) ? 0 : -1;
     case O_LIGHTS: return keep_copy(o, 2, arg) ? 0 : -1;
     case O_MODES: return keep_copy(o, 5, arg) ? 0 : -1;
@@ -617,7 +666,10 @@ static int parse_opt(sweep_opts *o, int c, const char *arg)
     case O_FULLLINE:
     case O_NOFULLLINE: o->fullline = c == O_FULLLINE; return 0;
     case O_LINE: return rt_cmd_parse_line("sweep", arg, &o->x.sim.line);
-    case O_DB: o->db = arg; return 0;
+    case O_DB:
+        if (rt_cmd_check_text("sweep", "--db", arg) < 0) return -1;
+        o->db = arg;
+        return 0;
     case O_JOBS:
         if (rt_cmd_parse_long(arg, 1, 256, &v) < 0) {
             rt_cmd_error("sweep", "--jobs: '%s' is not in 1..256", arg);
@@ -625,7 +677,10 @@ static int parse_opt(sweep_opts *o, int c, const char *arg)
         }
         o->jobs = (int)v;
         return 0;
-    case O_KEEP: o->x.keep = arg; return 0;
+    case O_KEEP:
+        if (rt_cmd_check_text("sweep", "--keep-traces", arg) < 0) return -1;
+        o->x.keep = arg;
+        return 0;
     case O_DYNALL: o->x.dyn_all = 1; return 0;
     case O_LIST: o->list = 1; return 0;
     case O_JOB:
@@ -862,7 +917,7 @@ static int prepare_outputs(const sweep_opts *o)
     return 0;
 }
 
-static int sweep_run(const sweep_opts *o, const rt_exp_job *J, long nj)
+static int sweep_run(sweep_opts *o, const rt_exp_job *J, long nj)
 {
     if (prepare_outputs(o) < 0) return RT_EXIT_FAIL;
     shared *sh = mmap(NULL, sizeof *sh, PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
@@ -877,6 +932,8 @@ static int sweep_run(const sweep_opts *o, const rt_exp_job *J, long nj)
     atomic_init(&sh->failed, 0);
     atomic_init(&sh->usage, 0);
     for (int k = 0; k < 4; k++) atomic_init(&sh->stage_us[k], 0);
+    o->x.on_stored = on_job_stored;
+    o->x.on_stored_arg = sh;
     const rt_exp_config *x = &o->x;
     long total = o->only >= 0 ? 1 : nj;
     double t0 = rt_now();
@@ -912,8 +969,7 @@ int main_sweep(int argc, char **argv)
         rt_cmd_error("sweep", "--job %ld: the matrix has %ld jobs (0..%ld)", o.only, nj, nj - 1);
         rc = RT_EXIT_USAGE;
     } else if (o.list) {
-        print_jobs(&o, nj, argc, argv);
-        rc = RT_EXIT_OK;
+        rc = print_jobs(&o, nj, argc, argv) < 0 ? RT_EXIT_FAIL : RT_EXIT_OK;
     } else {
         rc = sweep_run(&o, J, nj);
     }

@@ -72,7 +72,13 @@ int main_trace(int argc, char **argv)
         if (r < 0) goto usage_err;
         if (r > 0) continue;
         switch (c) {
-        case 'o': out = optarg; break;
+        case 'o':
+            if (!*optarg) {
+                rt_cmd_error("trace", "-o: empty file name");
+                goto usage_err;
+            }
+            out = optarg;
+            break;
         case 'M': material = optarg; break;
         case OPT_LEVEL:
             if (strlen(optarg) != 1 || optarg[0] < '0' || optarg[0] > '9') {

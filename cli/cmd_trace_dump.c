@@ -34,7 +34,7 @@ static int parse_u64(const char *s, uint64_t lo, uint64_t *out)
 {
     char *end;
     errno = 0;
-    if (!s || *s == '-' || !*s) return -1;
+    if (!s || *s < '0' || *s > '9') return -1; /* no space, sign or empty string */
     unsigned long long v = strtoull(s, &end, 10);
     if (errno || *end || v < lo) return -1;
     *out = v;

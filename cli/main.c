@@ -8,6 +8,7 @@
 #include "rt.h"
 
 #include <errno.h>
+#include <limits.h>
 #include <signal.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -155,8 +156,25 @@ int main(int argc, char **argv)
     static const int sigs[] = {SIGINT, SIGTERM, SIGHUP};
     for (size_t i = 0; i < sizeof sigs / sizeof sigs[0]; i++)
         if (signal(sigs[i], on_signal) == SIG_IGN) signal(sigs[i], SIG_IGN); /* keep nohup's choice */
+    /* The largest scene file the loaders read (docs/scenes.md). */
+    const char *sm = getenv("RT_SCENE_MAX_BYTES");
+    if (sm && *sm) {
+        uint64_t v;
+        if (rt_parse_size(sm, &v) < 0 || v == 0) {
+            fprintf(stderr, "raytraffic: RT_SCENE_MAX_BYTES: '%s' is not a size like 512M\n", sm);
+            return RT_EXIT_USAGE;
+        }
+        rt_scene_max_bytes = v;
+    }
     /* Test hook: every output file fails with ENOSPC after N bytes. */
     const char *fa = getenv("RT_OUT_FAIL_AFTER");
-    if (fa && *fa) rt_out_fail_after = strtoll(fa, NULL, 10);
+    if (fa && *fa) {
+        long v;
+        if (rt_cmd_parse_long(fa, 0, LONG_MAX, &v) < 0) {
+            fprintf(stderr, "raytraffic: RT_OUT_FAIL_AFTER: '%s' is not a byte count\n", fa);
+            return RT_EXIT_USAGE;
+        }
+        rt_out_fail_after = v;
+    }
     return close_stdout(dispatch(argc, argv));
 }

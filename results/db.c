@@ -297,7 +297,33 @@ static int check_foreign(rt_db *db, rt_err *e)
         if (other[0])
             return rt_errf(e, "%s: not a raytraffic database (it has a table or view '%s'); refusing to add tables "
                               "to it", db->path, other);
+        return 0;
     }
+    /* A version we know: the file must hold our tables (an unrelated file
+     * may use user_version too), and at the current version every
+     * statement must compile against them; checked before WAL or any
+     * upgrade, so a refused file is left exactly as it was. */
+    int64_t ntab = 0;
+    if (get_int(db,
+                "SELECT COUNT(*) FROM sqlite_master WHERE type = 'table' AND name IN ('scenes', 'runs', "
+                "'cache_configs', 'classes', 'traffic')",
+                &ntab, e))
+        return -1;
+    if (ntab != 5)
+        return rt_errf(e, "%s: not a raytraffic database (user_version %lld but not its tables); refusing to "
+                          "change it", db->path, (long long)ver);
+    if (ver == RT_DB_SCHEMA_VERSION)
+        for (int i = 0; i < S_NSTMT; i++) {
+            sqlite3_stmt *st = NULL;
+            int rc = sqlite3_prepare_v2(db->h, stmt_sql[i], -1, &st, NULL);
+            sqlite3_finalize(st);
+            if (rc != SQLITE_OK) {
+                db->busy = is_busy(db);
+                if (db->busy) return dberr(db, e, NULL);
+                return rt_errf(e, "%s: not a raytraffic database (schema mismatch: %s); refusing to change it",
+                               db->path, sqlite3_errmsg(db->h));
+            }
+        }
     return 0;
 }
 
@@ -362,6 +388,22 @@ static int retry_busy(rt_db *db, int (*step)(rt_db *, rt_err *), rt_err *e)
     }
 }
 
+/* The name to hand sqlite3_open_v2 for the file path: SQLite may be built
+ * to read any name starting with "file:" as a URI (SQLITE_USE_URI), and
+ * then "file:x.db?mode=memory" would be no file at all and "file:other.db"
+ * another one; such a relative name gets "./" in front, which SQLite takes
+ * literally. Others are returned unchanged. Malloc'd; NULL when out of
+ * memory. */
+static char *fs_name(const char *path)
+{
+    size_t n = strlen(path);
+    int pre = strncmp(path, "file:", 5) == 0;
+    char *s = malloc(n + 3);
+    if (!s) return NULL;
+    snprintf(s, n + 3, "%s%s", pre ? "./" : "", path);
+    return s;
+}
+
 rt_db *rt_db_open(const char *path, rt_err *e)
 {
     rt_db *db = rt_calloc(1, sizeof *db, e);
@@ -372,7 +414,10 @@ rt_db *rt_db_open(const char *path, rt_err *e)
         rt_errf(e, "%s: out of memory", path);
         return NULL;
     }
-    if (sqlite3_open_v2(path, &db->h, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, NULL) != SQLITE_OK) {
+    char *name = fs_name(path);
+    int orc = name ? sqlite3_open_v2(name, &db->h, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, NULL) : SQLITE_NOMEM;
+    free(name);
+    if (orc != SQLITE_OK) {
         if (db->h) dberr(db, e, "cannot open database");
         else rt_errf(e, "%s: cannot open database", path);
         goto fail;
@@ -447,6 +492,43 @@ int rt_db_has_run(rt_db *db, const rt_db_run *key, rt_err *e)
     char hash[17];
     bind_key(db->st[S_RUN_GET], key, hash);
     return step_id(db, db->st[S_RUN_GET], NULL, e);
+}
+
+int rt_db_missing_sizes(rt_db *db, const rt_db_run *key, const uint64_t *sizes, int n, uint32_t line, uint32_t assoc,
+                        const char *policy, int *have, rt_err *e)
+{
+    char hash[17];
+    int64_t rid = 0;
+    bind_key(db->st[S_RUN_GET], key, hash);
+    int r = step_id(db, db->st[S_RUN_GET], &rid, e);
+    if (r < 0) return -1;
+    for (int i = 0; i < n; i++) have[i] = 0;
+    if (r == 0) return n;
+    sqlite3_stmt *st;
+    if (sqlite3_prepare_v2(db->h,
+                           "SELECT 1 FROM traffic t JOIN cache_configs c ON c.id = t.config_id WHERE t.run_id = ?1"
+                           " AND c.size = ?2 AND c.line = ?3 AND c.assoc = ?4 AND c.policy = ?5 LIMIT 1",
+                           -1, &st, NULL) != SQLITE_OK)
+        return dberr(db, e, NULL);
+    int missing = 0;
+    for (int i = 0; i < n; i++) {
+        sqlite3_bind_int64(st, 1, rid);
+        sqlite3_bind_int64(st, 2, (sqlite3_int64)sizes[i]);
+        sqlite3_bind_int64(st, 3, line);
+        sqlite3_bind_int64(st, 4, assoc);
+        sqlite3_bind_text(st, 5, policy, -1, SQLITE_TRANSIENT);
+        int rc = sqlite3_step(st);
+        if (rc != SQLITE_ROW && rc != SQLITE_DONE) {
+            dberr(db, e, NULL);
+            sqlite3_finalize(st);
+            return -1;
+        }
+        have[i] = rc == SQLITE_ROW;
+        missing += !have[i];
+        sqlite3_reset(st);
+    }
+    sqlite3_finalize(st);
+    return missing;
 }
 
 /* Inserts the run's scene if new (or fills in its triangle count and,
@@ -652,7 +734,10 @@ static int shard_open(shard *sh, const char *path, rt_err *e)
     FILE *f = fopen(path, "rb");
     if (!f) return rt_errf(e, "%s: cannot open", path);
     fclose(f);
-    if (sqlite3_open_v2(path, &sh->h, SQLITE_OPEN_READONLY, NULL) != SQLITE_OK)
+    char *name = fs_name(path);
+    int orc = name ? sqlite3_open_v2(name, &sh->h, SQLITE_OPEN_READONLY, NULL) : SQLITE_NOMEM;
+    free(name);
+    if (orc != SQLITE_OK)
         return rt_errf(e, "%s: cannot open database: %s", path, sh->h ? sqlite3_errmsg(sh->h) : "out of memory");
     sqlite3_busy_timeout(sh->h, 60000);
     sqlite3_stmt *st;

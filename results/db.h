@@ -94,13 +94,24 @@ typedef struct rt_db_gen {
  * (lock conflicts while creating it are waited out, up to 2 minutes). Fails with "PATH: message", leaving the file untouched, if
  * it cannot be created or written, is not a SQLite database, has a newer
  * schema version, or is an unrelated SQLite file (schema version 0 with
- * tables of its own: raytraffic adds none to it). */
+ * tables of its own, or a known version without raytraffic's tables or
+ * with tables the statements do not compile against): all checked before
+ * anything is written (no WAL switch, no upgrade). path is a file name,
+ * never an SQLite URI ("file:x.db?mode=memory" is a file of that name). */
 rt_db *rt_db_open(const char *path, rt_err *e);
 void rt_db_close(rt_db *db); /* NULL is fine */
 
 /* 1 if a run with this key has been stored, 0 if not, -1 on error. Only
  * the identity fields of key are used. */
 int rt_db_has_run(rt_db *db, const rt_db_run *key, rt_err *e);
+
+/* Which of the n cache sizes the run with this key has traffic rows for,
+ * in the configuration (size, line, assoc, policy): have[i] = 1 or 0. A
+ * missing run has none. Returns the number of sizes missing (0..n), or -1.
+ * For a rerun of a sweep with other --sizes or --line: what is missing is
+ * simulated and stored into the same run. */
+int rt_db_missing_sizes(rt_db *db, const rt_db_run *key, const uint64_t *sizes, int n, uint32_t line, uint32_t assoc,
+                        const char *policy, int *have, rt_err *e);
 
 /* Stores run and its n traffic rows in one transaction. On success returns
  * 0 and, if run_id is non-NULL, the run's id. On failure nothing of this

@@ -14,6 +14,8 @@
 #include "run.h"
 
 #include <inttypes.h>
+#include <pthread.h>
+#include <signal.h>
 #include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -360,9 +362,12 @@ static void jobrun_free(jobrun *r)
 static int open_trace(rt_exp_worker *w, jobrun *r, const rt_exp_job *jb, long index, rt_err *e)
 {
     const rt_exp_config *c = w->c;
-    char path[4096];
+    char path[4096], scene[161];
     const int sec = jb->mode == RT_MODE_WHITTED || jb->mode == RT_MODE_PATH;
-    snprintf(path, sizeof path, "%s/job%04ld-%s-%s%s%s-%s%s%" PRIu64 "%s.rtt", c->keep, index, c->scenes[jb->scene],
+    /* a long scene spec is cut and ends in its hash: the file name stays
+     * under NAME_MAX and distinct (the run keeps the whole name) */
+    rt_name_fit(scene, sizeof scene, c->scenes[jb->scene]);
+    snprintf(path, sizeof path, "%s/job%04ld-%s-%s%s%s-%s%s%" PRIu64 "%s.rtt", c->keep, index, scene,
              jb->lighting >= 0 ? c->lightings[jb->lighting].label : "primary", sec ? "-" : "",
              sec ? rt_render_mode_name(jb->mode) : "", jb->tracer, jb->sched_size ? "-" : "", jb->sched_size,
              jb->proxy >= 0 ? "-proxy" : "");
@@ -394,16 +399,31 @@ static int add_texture_cache(const rt_exp_config *c, jobrun *r, const rt_exp_job
     return rt_exp_fan_add(&r->fan, rt_sim_sink(r->tex), e) < 0 ? -1 : 0;
 }
 
-/* Sets up the simulators, the fan-out and the trace, then renders. */
-static int render_job(rt_exp_worker *w, jobrun *r, const rt_exp_job *jb, long index, rt_err *e)
+/* The sizes a job simulates: every size of the configuration, or its
+ * scheduled size alone (a dynamic job without dyn_all). */
+static rt_sim_config job_sizes(const rt_exp_config *c, const rt_exp_job *jb)
+{
+    rt_sim_config sc = c->sim;
+    if (jb->sched_size && !c->dyn_all) {
+        sc.nsizes = 1;
+        sc.sizes[0] = jb->sched_size;
+    }
+    return sc;
+}
+
+/* Sets up the simulators, the fan-out and the trace, then renders. have
+ * (NULL = none) marks sizes already stored, which are not simulated. */
+static int render_job(rt_exp_worker *w, jobrun *r, const rt_exp_job *jb, long index, const int *have, rt_err *e)
 {
     const rt_exp_config *c = w->c;
     rt_render_opts ro = rt_exp_job_opts(c, jb);
     rt_render_apply_film(&ro, w->sc->film_w, w->sc->film_h);
-    r->sc = c->sim;
-    if (jb->sched_size && !c->dyn_all) {
-        r->sc.nsizes = 1;
-        r->sc.sizes[0] = jb->sched_size;
+    r->sc = job_sizes(c, jb);
+    if (have) {
+        int k = 0;
+        for (int i = 0; i < r->sc.nsizes; i++)
+            if (!have[i]) r->sc.sizes[k++] = r->sc.sizes[i];
+        r->sc.nsizes = k;
     }
     if (rt_job_setup_borrowed(&r->j, w->sc, w->kd, jb->tracer, &ro, e) < 0) return -1;
     r->have_job = 1;
@@ -466,7 +486,16 @@ static int store_job(rt_exp_worker *w, jobrun *r, rt_exp_key *key, double t0, rt
         ng = rt_sim_db_gen_rows(r->sim, grows);
     }
     double td = rt_now();
+    /* the stop signals wait until the commit is counted (on_stored) */
+    sigset_t stop, old;
+    sigemptyset(&stop);
+    sigaddset(&stop, SIGTERM);
+    sigaddset(&stop, SIGINT);
+    sigaddset(&stop, SIGHUP);
+    pthread_sigmask(SIG_BLOCK, &stop, &old);
     int rc = rt_db_store_run_gen(w->db, &run, rows, k, grows, ng, NULL, e);
+    if (rc == 0 && w->c->on_stored) w->c->on_stored(w->c->on_stored_arg);
+    pthread_sigmask(SIG_SETMASK, &old, NULL);
     w->t.database += rt_now() - td;
     free(grows);
     for (int a = 0; a < r->napprox && rc == 0; a++) {
@@ -499,7 +528,20 @@ int rt_exp_run_job(rt_exp_worker *w, const rt_exp_job *jb, long index, rt_err *e
     double td = rt_now();
     int has = job_stored(w, jb, &key, e);
     w->t.database += rt_now() - td;
-    if (has != 0) return has < 0 ? -1 : 0;
+    if (has < 0) return -1;
+    /* a stored run may lack sizes or a line size asked for now (a rerun
+     * with other --sizes or --line): those are simulated and added to it */
+    rt_sim_config want = job_sizes(w->c, jb);
+    int have[RT_SIM_MAXSIZES], *hp = NULL;
+    if (has > 0) {
+        td = rt_now();
+        int missing = rt_db_missing_sizes(w->db, &key.run, want.sizes, want.nsizes, want.line, want.assoc,
+                                          rt_sim_policy_name(&want), have, e);
+        w->t.database += rt_now() - td;
+        if (missing < 0) return -1;
+        if (missing == 0) return 0;
+        hp = have;
+    }
     /* the worker keeps one k-d tree per scene for the tracers that run on
      * it; a job on another structure builds its own (run.h) */
     const rt_tracer *tr = rt_tracer_find(jb->tracer);
@@ -515,7 +557,7 @@ int rt_exp_run_job(rt_exp_worker *w, const rt_exp_job *jb, long index, rt_err *e
     double t0 = rt_now();
     jobrun r;
     memset(&r, 0, sizeof r);
-    int rc = render_job(w, &r, jb, index, e);
+    int rc = render_job(w, &r, jb, index, hp, e);
     if (rc == 0) rc = store_job(w, &r, &key, t0, e);
     jobrun_free(&r);
     return rc < 0 ? -1 : 1;

@@ -134,6 +134,14 @@ typedef struct rt_exp_config {
     int model;                                  /* RT_EXP_MODEL_*: recorded in exact runs' sim_params */
     const char *keep;                           /* directory for every job's trace, or NULL */
     const char *command;                        /* command line recorded as provenance */
+    /* Called once per job that is run, right after its exact run is
+     * committed, with SIGTERM, SIGINT and SIGHUP blocked in the calling
+     * thread from before the COMMIT until it returns: a counter it bumps
+     * agrees with the database even when one of those signals ends the
+     * process at that moment (the signal is delivered right after). NULL =
+     * none. */
+    void (*on_stored)(void *arg);
+    void *on_stored_arg;                        /* its argument */
 } rt_exp_config;
 
 /* One job of the matrix: scene x mode x lighting x tracer (x scheduled
@@ -244,7 +252,8 @@ void rt_exp_worker_stages(const rt_exp_worker *w, rt_exp_stages *out);
  * texture cache (RT_EXP_TEXCACHE_*; its rows are stored with the exact
  * run's), the approximate simulators (only for jobs simulated
  * at every size, never for proxies) and, with c->keep, a trace file
- * KEEP/jobNNNN-SCENE-LIGHT-TRACER[-SIZE][-proxy].rtt, then stores the exact
+ * KEEP/jobNNNN-SCENE-LIGHT-TRACER[-SIZE][-proxy].rtt (SCENE longer than 160
+ * bytes cut and ended by ~HASH, rt_name_fit), then stores the exact
  * run and each approximate run, each in its own transaction; the exact
  * simulator is finished first (rt_sim_finish: with cfg.flush the dirty
  * lines are written back and counted). Returns 1 if

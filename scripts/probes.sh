@@ -597,6 +597,108 @@ cd "$src" || exit 1
 rm -rf "$tmp/p8"
 row "8. bad option values (exit 2 naming the option)" $n $crash $hang $silent - - $other
 
+# ---- 9. hostile use: job lines, scene files, reruns, names, reports, databases ----
+# docs/reliability.md §15-§26, one input (or condition) per defect found
+begin 9
+p9=$tmp/p9
+mkdir -p "$p9/m/sub" && cd "$p9" || exit 1
+cube=$meshes/cube.obj
+NL='
+'
+usage_err() { # OPTION: the last run must be a usage error naming OPTION
+    n=$((n + 1))
+    case $kind in
+    crash) crash=$((crash + 1)); note "$what: crash (exit $rc)" ;;
+    hang) hang=$((hang + 1)); note "$what: hang" ;;
+    ok) silent=$((silent + 1)); note "$what: accepted (exit 0)" ;;
+    *) [ $rc = 2 ] && grep -q -- "$1" "$tmp/err" || { other=$((other + 1)); note "$what: exit $rc, want 2 naming $1: $(head -c 200 "$tmp/err")"; } ;;
+    esac
+}
+check() { # CONDITION-EXIT-STATUS DESCRIPTION: count a yes/no check (0 = as it must be)
+    n=$((n + 1))
+    [ "$1" = 0 ] || { silent=$((silent + 1)); note "$2"; }
+}
+# §15 a newline in a scene name, --db, --keep-traces
+cp "$cube" "x${NL}touch PWNED;#.obj"
+what="--scenes with a newline"; run 30 "$bin" sweep --scenes "x${NL}touch PWNED;#.obj" --list-jobs; usage_err --scenes
+what="--db with a newline"; run 30 "$bin" sweep --db "a${NL}touch PWNED;#" --list-jobs; usage_err --db
+what="--keep-traces with a newline"; run 30 "$bin" sweep --keep-traces "a${NL}b" --list-jobs; usage_err --keep-traces
+[ -e PWNED ]; check $((1 - $?)) "PWNED created"
+rm -f "x${NL}touch PWNED;#.obj"
+# §16 devices, FIFOs, files outside the folder
+ln -s /dev/zero m/zero.obj
+mkfifo m/fifo.obj m/sub/fifo.mtl
+for f in m/zero.obj m/fifo.obj; do what="mesh $f"; run 10 "$bin" scene info "$f"; must_refuse "not a regular file"; done
+for lib in /dev/zero ../../../../etc/passwd fifo.mtl; do
+    { echo "mtllib $lib"; cat "$cube"; } > m/sub/t.obj
+    what="mtllib $lib"; run 10 "$bin" scene info m/sub/t.obj; must_refuse "t.obj:1: material library"
+done
+# §17 a rerun with more sizes simulates them
+a="--scenes cornell --tracers recursive --lights primary -W 16 -H 16 --db r17.db"
+run 60 "$bin" sweep $a --sizes 1K-4K
+run 60 "$bin" sweep $a --sizes 1K-16K
+[ "$(sqlite3 r17.db "SELECT COUNT(DISTINCT c.size) FROM traffic t JOIN cache_configs c ON c.id = t.config_id")" = 5 ]
+check $? "a rerun with --sizes 1K-16K left sizes unsimulated"
+# §18, §19 long names, many scenes
+L=$(printf 'm%.0s' $(seq 1 146))
+cp "$cube" "${L}a.obj" && "$bin" scene export knot -o "${L}b.obj" 2>/dev/null
+list=
+for i in $(seq -w 1 17); do cp "$cube" "c$i.obj"; list=$list,c$i.obj; done
+run 120 "$bin" sweep --scenes "${L}a.obj,${L}b.obj$list" --tracers recursive --lights primary -W 8 -H 8 --sizes 1K --db r18.db
+run 60 "$bin" report --db r18.db --format csv --figure scenes
+[ "$(grep -c "^${L}[ab].obj," "$tmp/out")" = 2 ]; check $? "two 151-byte names not reported whole and apart"
+[ "$(grep -c '^c[0-9]*\.obj,' "$tmp/out")" = 17 ]; check $? "report dropped scenes after the 16th"
+# §20 a gnuplot that draws nothing is an error
+what="report --plot -p with a gnuplot that draws nothing"
+RT_GNUPLOT=true run 60 "$bin" report --db r18.db --scene c01.obj --plot -p; must_refuse "gnuplot wrote no picture"
+# §21 concurrent exports leave a consistent pair
+for round in 1 2 3 4 5 6; do
+    for sp in cornell cornell:material=mirror cornell:material=glass knot:material=mirror; do
+        "$bin" scene export "$sp" -o same.obj 2>/dev/null &
+    done
+    wait
+    what="concurrent export round $round"; run 30 "$bin" scene info same.obj; must_accept
+done
+# §22 lenient numbers
+for v in abc 0x10 nan -1 1e999 " 5"; do what="report -W '$v'"; run 30 "$bin" report -W "$v"; usage_err -W; done
+"$bin" trace cornell -W 8 -H 8 -o t.rtt 2>/dev/null
+for v in " 0.5" 0x0.1 nan; do what="sim --rate '$v'"; run 30 "$bin" sim --method shards --rate "$v" t.rtt; usage_err --rate; done
+# §23 a huge cache of a small trace needs little memory; a huge image is refused before allocating
+vlim=1000000 # an ASan build cannot start in 1 GB of address space
+bash -c "ulimit -v $vlim; exec \"\$0\" version" "$bin" > /dev/null 2>&1 || vlim=unlimited
+what="sim --sizes 32G in 1 GB"; run 60 bash -c "ulimit -v $vlim; exec \"\$0\" sim --sizes 32G t.rtt" "$bin"; must_accept
+mem=$(awk '/^MemTotal:/ { print int($2 / 1024) }' /proc/meminfo 2>/dev/null || echo 0)
+if [ "${mem:-0}" -gt 0 ] && [ "$mem" -lt 98000 ]; then
+    what="render -W 65536 -H 65536"; run 30 "$bin" render cornell -W 65536 -H 65536 -o big.exr; usage_err "-W 65536"
+fi
+# §24 a foreign file is refused untouched
+sqlite3 f.db "CREATE TABLE foo(x); PRAGMA user_version = 4;"
+sum=$(cksum < f.db)
+what="foreign database"; run 30 "$bin" sim --db f.db t.rtt; must_refuse "not a raytraffic database"
+[ "$(cksum < f.db)" = "$sum" ] && [ ! -e f.db-wal ]; check $? "the refused foreign database was modified"
+# §25 --db is a path
+run 30 "$bin" sim --db 'file:u.db?mode=memory' t.rtt
+[ -f 'file:u.db?mode=memory' ]; check $? "--db 'file:u.db?mode=memory' read as a URI"
+run 30 "$bin" sim --db file:other.db t.rtt
+[ ! -e other.db ] && [ -f file:other.db ]; check $? "--db file:other.db wrote other.db"
+# §26 lesser ones
+what="render -o ''"; run 30 "$bin" render cornell -W 8 -H 8 -o ''; usage_err "-o"
+if [ -w /dev/full ]; then
+    what="render -o /dev/full"; run 30 "$bin" render cornell -W 64 -H 64 -o /dev/full; must_refuse "No space left"
+fi
+printf 'v 0 0 0\rv 1 0 0\rv 0 1 0\rf 1 2 3\r' > cr.obj
+what="CR-only OBJ"; run 10 "$bin" scene info cr.obj; must_accept
+printf 'v 0 0 0\nv 0x1p0 0 0\nv 0 1 0\nf 1 2 3\n' > hex.obj
+what="hex float in OBJ"; run 10 "$bin" scene info hex.obj; must_refuse "hex.obj:2"
+L2=$(printf 'n%.0s' $(seq 1 240))
+cp "$cube" "${L2}.obj"
+what="240-byte name with --keep-traces"
+run 60 "$bin" sweep --scenes "${L2}.obj" --tracers recursive --lights primary -W 8 -H 8 --sizes 1K --db k.db --keep-traces kept
+must_accept
+cd "$src" || exit 1
+rm -rf "$p9"
+row "9. hostile use: job lines, scene files, reruns, names, reports, exports, numbers, memory, databases" $n $crash $hang $silent - - $other
+
 end=$(date +%s)
 echo
 if [ -s "$notes" ]; then echo "Failures:"; cat "$notes"; echo; fi

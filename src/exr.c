@@ -98,6 +98,7 @@ int rt_exr_write(const char *path, const rt_image *im, const rt_exr_attr *attrs,
     exr_result_t rv;
     exr_last_msg[0] = 0;
 
+    if (!path[0]) return rt_errf(e, "empty output file name");
     rv = exr_start_write(&f, path, EXR_WRITE_FILE_DIRECTLY, &init);
     if (rv != EXR_ERR_SUCCESS) {
         free(mem.p);
@@ -170,8 +171,8 @@ done:
         rt_out *o = rt_out_open(path, e);
         if (!o) rc = -1;
         else {
-            fwrite(mem.p, 1, mem.n, rt_out_stream(o));
-            rc = rt_out_commit(o, e); /* catches a short fwrite through the error flag */
+            rt_out_write(o, mem.p, mem.n); /* a short write keeps its reason (ENOSPC) */
+            rc = rt_out_commit(o, e);      /* and fails here with it */
         }
     }
     free(mem.p);

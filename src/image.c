@@ -17,6 +17,9 @@ rt_image *rt_image_new(int W, int H, rt_err *e)
         return NULL;
     }
     size_t n = (size_t)W * (size_t)H;
+    char what[64];
+    snprintf(what, sizeof what, "an image of %dx%d pixels", W, H);
+    if (rt_mem_fits((uint64_t)n * RT_IMAGE_PIXEL_BYTES, what, e) < 0) return NULL;
     rt_image *im = rt_calloc(1, sizeof *im, e);
     if (!im) return NULL;
     im->W = W;

@@ -50,3 +50,8 @@ int rt_png_write_rgb8(const char *path, int W, int H, const unsigned char *rgb, 
 void rt_image_to_rgb8(const rt_image *im, unsigned char *out);
 
 #endif
+/* Bytes of one pixel (colour, depth, node and test counts: 6 floats);
+ * rt_image_new refuses an image larger than the machine's memory before
+ * allocating it (rt_mem_fits). */
+#define RT_IMAGE_PIXEL_BYTES (6 * sizeof(float))
+

@@ -260,6 +260,14 @@ void rt_out_abort(rt_out *o)
     out_free(o);
 }
 
+int rt_out_write(rt_out *o, const void *p, size_t n)
+{
+    errno = 0;
+    if (fwrite(p, 1, n, o->f) == n) return 0;
+    if (!o->werr) o->werr = errno ? errno : EIO;
+    return -1;
+}
+
 int rt_out_commit(rt_out *o, rt_err *e)
 {
     if (!o) return rt_errf(e, "rt_out_commit: no output");

@@ -23,6 +23,12 @@ rt_out *rt_out_open(const char *path, rt_err *e);
 /* The stream to write to (owned by o; do not fclose it). */
 FILE *rt_out_stream(rt_out *o);
 
+/* fwrite of n bytes to the output's stream that remembers why a short
+ * write failed (errno, e.g. ENOSPC), so rt_out_commit reports that reason
+ * rather than a generic I/O error when stdio has already dropped the
+ * buffer. 0, or -1 (the commit will fail too). */
+int rt_out_write(rt_out *o, const void *p, size_t n);
+
 /* The path given to rt_out_open, for messages. */
 const char *rt_out_path(const rt_out *o);
 

@@ -5,12 +5,16 @@
 #include "gitrev.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <time.h>
+#include <unistd.h>
 
 long rt_fail_alloc_after = 0;
+uint64_t rt_scene_max_bytes = RT_SCENE_MAX_BYTES_DEFAULT;
 
 static void errv(rt_err *e, int usage, const char *fmt, va_list ap)
 {
@@ -226,4 +230,176 @@ void rt_dsincos_deg(double deg, double *s, double *c)
     case 2: *s = -ss; *c = -cc; break;
     default: *s = -cc; *c = ss; break;
     }
+}
+
+/* ---- scene files ----------------------------------------------------------- */
+
+static const char *file_kind(mode_t m)
+{
+    if (S_ISDIR(m)) return "a directory";
+    if (S_ISCHR(m)) return "a character device";
+    if (S_ISBLK(m)) return "a block device";
+    if (S_ISFIFO(m)) return "a FIFO";
+    if (S_ISSOCK(m)) return "a socket";
+    return "not a regular file";
+}
+
+FILE *rt_open_regular(const char *path, uint64_t max_bytes, rt_err *e)
+{
+    char q[300];
+    rt_esc(q, sizeof q, path, 4096);
+    /* O_NONBLOCK: opening a FIFO for reading would otherwise wait for a
+     * writer for ever; O_NOCTTY: a terminal never becomes ours */
+    int fd = open(path, O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC);
+    if (fd < 0) {
+        int err = errno;
+        rt_errf(e, "%s: %s", q, strerror(err));
+        errno = err;
+        return NULL;
+    }
+    struct stat sb;
+    int err = 0;
+    if (fstat(fd, &sb) < 0) {
+        err = errno;
+        rt_errf(e, "%s: %s", q, strerror(err));
+    } else if (!S_ISREG(sb.st_mode)) {
+        err = EINVAL;
+        rt_errf(e, "%s: not a regular file (%s)", q, file_kind(sb.st_mode));
+    } else if ((uint64_t)sb.st_size > max_bytes) {
+        err = EFBIG;
+        rt_errf(e, "%s: %llu bytes is larger than the limit of %llu bytes (RT_SCENE_MAX_BYTES)", q,
+                (unsigned long long)sb.st_size, (unsigned long long)max_bytes);
+    } else {
+        int fl = fcntl(fd, F_GETFL);
+        if (fl < 0 || fcntl(fd, F_SETFL, fl & ~O_NONBLOCK) < 0) {
+            err = errno;
+            rt_errf(e, "%s: %s", q, strerror(err));
+        }
+    }
+    FILE *f = err ? NULL : fdopen(fd, "rb");
+    if (!f && !err) {
+        err = errno;
+        rt_errf(e, "%s: %s", q, strerror(err));
+    }
+    if (!f) {
+        close(fd);
+        errno = err;
+    }
+    return f;
+}
+
+int rt_slurp_regular(const char *path, uint64_t max_bytes, char **pbuf, size_t *pn, rt_err *e)
+{
+    FILE *f = rt_open_regular(path, max_bytes, e);
+    if (!f) return -1;
+    char q[300];
+    rt_esc(q, sizeof q, path, 4096);
+    struct stat sb;
+    size_t cap = 1 << 16, n = 0;
+    /* the size fstat saw, plus room to notice growth */
+    if (fstat(fileno(f), &sb) == 0 && (uint64_t)sb.st_size < SIZE_MAX - 2) cap = (size_t)sb.st_size + 2;
+    char *buf = rt_calloc(cap, 1, e);
+    if (!buf) {
+        fclose(f);
+        return -1;
+    }
+    for (;;) {
+        if (n + 1 >= cap) {
+            if (cap > SIZE_MAX / 2) break;
+            char *nb = rt_reallocarray(buf, cap * 2, 1, e);
+            if (!nb) {
+                free(buf);
+                fclose(f);
+                return -1;
+            }
+            buf = nb;
+            cap *= 2;
+        }
+        size_t got = fread(buf + n, 1, cap - 1 - n, f);
+        n += got;
+        if (got == 0 || (uint64_t)n > max_bytes) break;
+    }
+    int bad = ferror(f);
+    fclose(f);
+    if (bad || (uint64_t)n > max_bytes) {
+        free(buf);
+        errno = bad ? EIO : EFBIG;
+        if (bad) return rt_errf(e, "%s: read error", q);
+        return rt_errf(e, "%s: grew past the limit of %llu bytes while read (RT_SCENE_MAX_BYTES)", q,
+                       (unsigned long long)max_bytes);
+    }
+    buf[n] = 0;
+    *pbuf = buf;
+    *pn = n;
+    return 0;
+}
+
+const char *rt_path_dir(const char *path, char *out, size_t n)
+{
+    const char *slash = strrchr(path, '/');
+    size_t dl = slash ? (size_t)(slash - path) + 1 : 0;
+    if (n == 0) return out;
+    if (dl >= n) dl = 0;
+    memcpy(out, path, dl);
+    out[dl] = 0;
+    return out;
+}
+
+int rt_path_within(const char *base_dir, const char *rel, char *out, size_t n, rt_err *e)
+{
+    char q[200];
+    rt_esc(q, sizeof q, rel, 4096);
+    if (!rel[0]) return rt_errf(e, "'': empty name");
+    if (rel[0] == '/') return rt_errf(e, "'%s': absolute path (a file a scene names must be inside its folder)", q);
+    long depth = 0;
+    for (const char *p = rel; *p;) {
+        const char *s = strchr(p, '/');
+        size_t len = s ? (size_t)(s - p) : strlen(p);
+        if (len == 2 && p[0] == '.' && p[1] == '.') {
+            if (--depth < 0)
+                return rt_errf(e, "'%s': leaves the folder of the file naming it (no '..' above that folder)", q);
+        } else if (len && !(len == 1 && p[0] == '.')) {
+            depth++;
+        }
+        p += len;
+        if (*p == '/') p++;
+    }
+    if (depth == 0) return rt_errf(e, "'%s': names the folder itself, not a file", q);
+    size_t bl = strlen(base_dir), rl = strlen(rel);
+    if (bl + rl + 1 > n) return rt_errf(e, "'%s': path too long", q);
+    memcpy(out, base_dir, bl);
+    memcpy(out + bl, rel, rl + 1);
+    return 0;
+}
+
+const char *rt_name_fit(char *buf, size_t n, const char *name)
+{
+    size_t len = strlen(name);
+    if (len < n) {
+        memcpy(buf, name, len + 1);
+        return buf;
+    }
+    if (n < 24) {
+        if (n) buf[0] = 0;
+        return buf;
+    }
+    size_t keep = n - 18; /* '~', 16 digits, NUL */
+    memcpy(buf, name, keep);
+    snprintf(buf + keep, 18, "~%016llx", (unsigned long long)rt_fnv1a(RT_FNV_INIT, name, len));
+    return buf;
+}
+
+uint64_t rt_phys_memory(void)
+{
+    long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    if (pages <= 0 || page <= 0) return 0;
+    return (uint64_t)pages * (uint64_t)page;
+}
+
+int rt_mem_fits(uint64_t bytes, const char *what, rt_err *e)
+{
+    uint64_t phys = rt_phys_memory();
+    if (!phys || bytes <= phys) return 0;
+    return rt_errf(e, "%s needs %.0f MB, more than the %.0f MB of memory this machine has", what,
+                   (double)bytes / 1048576.0, (double)phys / 1048576.0);
 }

@@ -19,6 +19,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
+#include <sys/file.h>
+#include <fcntl.h>
 
 /* Light grey for meshes without colour. */
 static const float default_grey[3] = {0.7f, 0.7f, 0.7f};
@@ -522,14 +525,31 @@ int rt_scene_export_obj(const rt_scene *s, const char *path, rt_err *e)
     free(mt.slot);
     free(pair);
     /* The MTL first; if the OBJ then fails, the MTL goes too, so a failed
-     * export leaves neither. */
+     * export leaves neither. Both renames happen under an exclusive lock on
+     * the target's folder, so concurrent exports to one name leave the OBJ
+     * and the MTL of the same writer (the last one to take the lock). */
+    int lockfd = -1;
+    if (om) {
+        size_t pl = strlen(path);
+        char *dir = rt_calloc(pl + 2, 1, e);
+        if (dir) {
+            rt_path_dir(path, dir, pl + 2);
+            lockfd = open(dir[0] ? dir : ".", O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+            free(dir);
+        }
+        if (lockfd >= 0)
+            while (flock(lockfd, LOCK_EX) < 0 && errno == EINTR) {
+            }
+    }
     if (om && rt_out_commit(om, e) < 0) {
         rt_out_abort(o);
         free(mpath);
+        if (lockfd >= 0) close(lockfd);
         return -1;
     }
     int rc = rt_out_commit(o, e); /* complete, or no file and an error */
     if (rc < 0 && mpath) remove(mpath);
+    if (lockfd >= 0) close(lockfd); /* releases the lock */
     free(mpath);
     return rc;
 }

@@ -74,7 +74,7 @@ typedef struct rt_camera {
 #define RT_NLIGHTS 3
 
 typedef struct rt_scene {
-    char name[64];          /* spec it was made from (built-in name or file) */
+    char name[256];         /* spec it was made from: built-in name or mesh file name, whole (NAME_MAX) */
     char params[128];       /* canonical parameter string, "" if none */
     uint32_t ntri;          /* triangles */
     rt_tri *tri;            /* ntri triangles */
@@ -181,7 +181,9 @@ uint64_t rt_scene_hash(const rt_scene *s);
  * materials (nmat > 1) also gets an MTL file beside it (path with .obj
  * replaced by .mtl, or .mtl appended), one MTL material per run of equal
  * colour and material, named by `mtllib` and `usemtl`; on failure neither
- * file is left. */
+ * file is left. Both files are renamed into place under an exclusive
+ * flock of the target's folder, so concurrent exports to one name leave
+ * the OBJ and the MTL of one writer. */
 int rt_scene_export_obj(const rt_scene *s, const char *path, rt_err *e);
 
 /* Parameters a built-in scene accepts, as one human-readable line

@@ -6,13 +6,13 @@
  * (relative to the vertices read so far) indices. Triangles, quads and
  * n-gons are fan-triangulated from the first corner: (0,1,2), (0,2,3), ...
  * `mtllib` reads MTL material libraries (several names per line, relative
- * to the OBJ's folder; regular files only, so a name like /dev/zero or a
- * FIFO is refused rather than read forever) and `usemtl` gives the faces after it that
+ * to the OBJ's folder and inside it: rt_path_within) and `usemtl` gives the faces after it that
  * material: its Kd becomes the triangles' colour, and Ks, Ke, Ni, d/Tr, Tf
  * and illum become a material table entry (mapping in docs/scenes.md).
  * Faces before any usemtl get the default grey and material 0. Every other
- * statement (vt, vn, g, o, s, l, p, ...) and comments are ignored; CRLF
- * line ends are accepted. Faces must refer to vertices defined above them,
+ * statement (vt, vn, g, o, s, l, p, ...) and comments are ignored; lines
+ * may end in LF, CRLF or CR alone. Numbers are decimal (hex floats, which
+ * strtod would take, are refused). Faces must refer to vertices defined above them,
  * and usemtl to a library named above it.
  *
  * A library that does not exist does not stop the load (meshes are often
@@ -54,6 +54,25 @@ static const char *skip_space(const char *p)
     return p;
 }
 
+/* The end of the line that starts at p (before end): its first '\n' or
+ * '\r' (LF, CRLF and CR-only files all work), or end. *next gets where the
+ * next line starts ("\r\n" is one line end). */
+static char *line_end(char *p, char *end, char **next)
+{
+    char *q = p;
+    while (q < end && *q != '\n' && *q != '\r') q++;
+    *next = q < end ? q + 1 + (*q == '\r' && q + 1 < end && q[1] == '\n') : end;
+    return q;
+}
+
+/* A hex float ("0x1p3"): strtod takes it, the formats do not. */
+static int is_hex_number(const char *p, size_t n)
+{
+    for (size_t i = 0; i < n && p[i]; i++)
+        if (p[i] == 'x' || p[i] == 'X') return 1;
+    return 0;
+}
+
 /* Parses one float coordinate at *pp (a whole whitespace-delimited token).
  * 0 on success, else 1 = not a number, 2 = NaN or infinite, 3 = beyond
  * RT_COORD_MAX (docs/scenes.md: coordinate range). */
@@ -63,7 +82,7 @@ static int parse_coord(const char **pp, float *out)
     char *end;
     errno = 0;
     double v = strtod(p, &end);
-    if (end == p || (*end && !is_space(*end))) return 1;
+    if (end == p || (*end && !is_space(*end)) || is_hex_number(p, (size_t)(end - p))) return 1;
     *pp = end;
     if (!isfinite(v)) return 2;
     if (fabs(v) > RT_COORD_MAX) return 3;
@@ -200,7 +219,7 @@ static int mtl_numbers(mtlread *R, const char *kw, const char *p, float *v, int 
         char *end;
         double x = strtod(p, &end);
         char q[64];
-        if (end == p || (*end && !is_space(*end)))
+        if (end == p || (*end && !is_space(*end)) || is_hex_number(p, (size_t)(end - p)))
             return rt_errf(R->L->e, "%s:%lu: %s: bad number '%s'", R->path, R->line, kw,
                            rt_esc(q, sizeof q, tok, (size_t)token_len(tok)));
         if (!isfinite(x) || fabs(x) > 1e30)
@@ -260,11 +279,14 @@ static size_t rest_len(const char *p)
     return n;
 }
 
+/* Reads the material library at mpath. 0, -1 with a message, or -2 (no
+ * message) when the file does not exist. */
 static int load_mtl(objload *L, const char *mpath)
 {
     char *buf = NULL;
     size_t n = 0;
-    if (rt_slurp(mpath, &buf, &n, L->e) < 0) {
+    if (rt_slurp_regular(mpath, rt_scene_max_bytes, &buf, &n, L->e) < 0) {
+        if (errno == ENOENT) return -2;
         char m[RT_ERR_LEN];
         snprintf(m, sizeof m, "%s", L->e ? L->e->msg : "");
         return rt_errf(L->e, "%s:%lu: material library %s", L->path, L->line, m);
@@ -275,8 +297,7 @@ static int load_mtl(objload *L, const char *mpath)
     int open = 0, rc = 0;
     char *p = buf, *end = buf + n;
     while (p < end && rc == 0) {
-        char *nl = memchr(p, '\n', (size_t)(end - p));
-        char *le = nl ? nl : end;
+        char *next, *le = line_end(p, end, &next);
         R.line++;
         if (memchr(p, 0, (size_t)(le - p))) {
             rc = rt_errf(L->e, "%s:%lu: NUL byte in text", mpath, R.line);
@@ -338,19 +359,22 @@ static int load_mtl(objload *L, const char *mpath)
         }
         /* Other keywords (Ka, Ns, map_Kd, bump, ...) do not affect the
          * rays; ignored. */
-        p = le + 1;
+        p = next;
     }
     if (rc == 0 && open) raw_finish(&raw, &L->mtl[L->nmtl - 1]);
     free(buf);
     return rc;
 }
 
-/* mtllib NAME...: each relative to the OBJ's folder. */
+/* mtllib NAME...: each relative to the OBJ's folder, and inside it
+ * (rt_path_within: no absolute path, no '..' above the folder). */
 static int mtllib_line(objload *L, const char *p)
 {
-    const char *slash = strrchr(L->path, '/');
-    size_t dl = slash ? (size_t)(slash - L->path) + 1 : 0;
-    int any = 0;
+    size_t pl = strlen(L->path);
+    char *dir = rt_calloc(pl + 1, 1, L->e);
+    if (!dir) return -1;
+    rt_path_dir(L->path, dir, pl + 1);
+    int any = 0, rc = 0;
     for (;;) {
         p = skip_space(p);
         if (!*p) break;
@@ -358,38 +382,32 @@ static int mtllib_line(objload *L, const char *p)
         while (p[tl] && !is_space(p[tl])) tl++;
         any = 1;
         L->nlib++;
-        size_t pre = p[0] == '/' ? 0 : dl;
-        char *mp = rt_calloc(pre + tl + 1, 1, L->e);
-        if (!mp) return -1;
-        memcpy(mp, L->path, pre);
-        memcpy(mp + pre, p, tl);
-        /* Only a regular file: the name comes from the file, and a FIFO
-         * would block the open, a device (/dev/zero) never end. */
-        struct stat st;
-        int rc = 0;
-        char q[160];
-        if (stat(mp, &st) == 0 && !S_ISREG(st.st_mode)) {
-            rc = rt_errf(L->e, "%s:%lu: material library %s is not a regular file", L->path, L->line,
-                         rt_esc(q, sizeof q, mp, 4096));
-            free(mp);
-            return rc;
+        size_t mn = pl + tl + 2;
+        char *name = rt_calloc(tl + 1, 1, L->e), *mp = name ? rt_calloc(mn, 1, L->e) : NULL;
+        if (!mp) {
+            free(name);
+            rc = -1;
+            break;
         }
-        FILE *f = fopen(mp, "rb");
-        if (!f && errno == ENOENT) {
+        memcpy(name, p, tl);
+        rt_err pe;
+        char q[160];
+        if (rt_path_within(dir, name, mp, mn, &pe) < 0) {
+            rc = rt_errf(L->e, "%s:%lu: material library %s (docs/scenes.md: files a scene names)", L->path, L->line,
+                         pe.msg);
+        } else if ((rc = load_mtl(L, mp)) == -2) {
             L->libmissing = 1;
             warn(L, "%s:%lu: material library %s not found; its materials are the default", L->path, L->line,
                  rt_esc(q, sizeof q, mp, 4096));
-        } else if (!f) {
-            rc = rt_errf(L->e, "%s:%lu: material library %s: %s", L->path, L->line, rt_esc(q, sizeof q, mp, 4096),
-                         strerror(errno));
-        } else {
-            fclose(f);
-            rc = load_mtl(L, mp);
+            rc = 0;
         }
+        free(name);
         free(mp);
-        if (rc < 0) return -1;
+        if (rc < 0) break;
         p += tl;
     }
+    free(dir);
+    if (rc < 0) return -1;
     if (!any) return rt_errf(L->e, "%s:%lu: mtllib without a file name", L->path, L->line);
     return 0;
 }
@@ -536,7 +554,7 @@ rt_scene *rt_scene_load_obj(const char *path, rt_err *e)
 {
     char *buf = NULL;
     size_t n = 0;
-    if (rt_slurp(path, &buf, &n, e) < 0) return NULL;
+    if (rt_slurp_regular(path, rt_scene_max_bytes, &buf, &n, e) < 0) return NULL;
     rt_scene *s = rt_scene_new(0, e);
     if (!s) {
         free(buf);
@@ -552,8 +570,7 @@ rt_scene *rt_scene_load_obj(const char *path, rt_err *e)
     int rc = 0;
     char *p = buf, *end = buf + n;
     while (p < end && rc == 0) {
-        char *nl = memchr(p, '\n', (size_t)(end - p));
-        char *le = nl ? nl : end;
+        char *next, *le = line_end(p, end, &next);
         L.line++;
         if (memchr(p, 0, (size_t)(le - p))) {
             rc = rt_errf(e, "%s:%lu: NUL byte in text", path, L.line);
@@ -572,7 +589,7 @@ rt_scene *rt_scene_load_obj(const char *path, rt_err *e)
         else if (!strncmp(q, "usemtl", 6) && (is_space(q[6]) || !q[6]))
             rc = usemtl_line(&L, q + 6);
         /* Anything else (comments, vt, vn, g, o, s, usemtl, ...) is ignored. */
-        p = le + 1;
+        p = next;
     }
     if (rc == 0 && s->ntri == 0)
         rc = rt_errf(e, "%s:%lu: no faces (empty mesh)", path, L.line);

@@ -191,6 +191,10 @@ static int parse_header(plyload *L, plyelem *el, int *nel)
                                    rt_esc(q, sizeof q, tok[1], 40));
                 rt_esc(P->name, sizeof P->name, tok[2], 39);
             }
+            for (int k = 0; k < E->nprop; k++)
+                if (!strcmp(E->prop[k].name, P->name))
+                    return rt_errf(L->e, "%s:%lu: property '%s' given twice in element '%s'", L->path, L->line,
+                                   P->name, E->name);
             E->nprop++;
         } else if (!strcmp(tok[0], "end_header")) {
             if (nt != 1) return rt_errf(L->e, "%s:%lu: bad end_header line", L->path, L->line);
@@ -249,7 +253,7 @@ static int read_ascii(plyload *L, int type, const char *what, val *v)
         v->d = (double)x;
     } else {
         double x = strtod(buf, &end);
-        if (*end || end == buf)
+        if (*end || end == buf || strchr(buf, 'x') || strchr(buf, 'X')) /* no hex floats */
             return rt_errf(L->e, "%s:%lu: bad number '%s' in %s data", L->path, L->line, buf, what);
         v->d = x;
         v->i = 0;
@@ -532,7 +536,7 @@ rt_scene *rt_scene_load_ply(const char *path, rt_err *e)
 {
     char *buf = NULL;
     size_t n = 0;
-    if (rt_slurp(path, &buf, &n, e) < 0) return NULL;
+    if (rt_slurp_regular(path, rt_scene_max_bytes, &buf, &n, e) < 0) return NULL;
     rt_vec3 *verts = NULL;
     idxbuf tris = {NULL, 0, 0};
     rt_scene *s = NULL;

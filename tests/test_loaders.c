@@ -16,6 +16,7 @@
 #include "check.h"
 #include "scene.h"
 
+#include <errno.h>
 #include <inttypes.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -722,6 +723,155 @@ static void test_mesh_hashes(void)
     rt_scene_free(s);
 }
 
+/* Scene files: regular files only, a size cap, material libraries inside
+ * the OBJ's folder (docs/reliability.md §16). Before: `mtllib /dev/zero`
+ * read without end, a FIFO blocked for ever, ../../etc/passwd was read. */
+static void test_scene_files(void)
+{
+    rt_err e = {""};
+    char out[256];
+    /* rt_path_within: the rule on names */
+    static const struct { const char *rel; int ok; } cases[] = {
+        {"a.mtl", 1}, {"./a.mtl", 1}, {"sub/a.mtl", 1}, {"sub/../a.mtl", 1}, {"sub//a.mtl", 1},
+        {"a/b/../../c.mtl", 1}, {"..a.mtl", 1}, {"a..", 1},
+        {"", 0}, {"/etc/passwd", 0}, {"/dev/zero", 0}, {"../a.mtl", 0}, {"..", 0}, {".", 0},
+        {"sub/../../a.mtl", 0}, {"./../a.mtl", 0}, {"a/b/../../../c", 0}, {"../../../../etc/passwd", 0},
+        {"sub/..", 0},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        int r = rt_path_within("dir/", cases[i].rel, out, sizeof out, &e);
+        CHECK((r == 0) == cases[i].ok, "rt_path_within('%s') = %d (%s)", cases[i].rel, r, e.msg);
+        if (r == 0) {
+            char want[256];
+            snprintf(want, sizeof want, "dir/%s", cases[i].rel);
+            CHECK(!strcmp(out, want), "rt_path_within('%s') gave '%s'", cases[i].rel, out);
+        }
+    }
+    CHECK(rt_path_within("", "a.mtl", out, sizeof out, &e) == 0 && !strcmp(out, "a.mtl"), "no folder: '%s'", out);
+    CHECK(rt_path_within("d/", "abcdef", out, 5, &e) < 0 && strstr(e.msg, "too long"), "overflow: '%s'", e.msg);
+    CHECK(!strcmp(rt_path_dir("a/b/c.obj", out, sizeof out), "a/b/"), "rt_path_dir: '%s'", out);
+    CHECK(!strcmp(rt_path_dir("c.obj", out, sizeof out), ""), "rt_path_dir: '%s'", out);
+    CHECK(!strcmp(rt_path_dir("/c.obj", out, sizeof out), "/"), "rt_path_dir: '%s'", out);
+
+    /* rt_open_regular: devices, FIFOs, folders and big files refused */
+    FILE *f;
+    f = rt_open_regular("/dev/zero", 1 << 20, &e);
+    CHECK(!f && strstr(e.msg, "not a regular file") && strstr(e.msg, "character device"), "/dev/zero: %s", e.msg);
+    if (f) fclose(f);
+    const char *fifo = check_path("fifo.obj");
+    CHECK(mkfifo(fifo, 0600) == 0, "mkfifo");
+    f = rt_open_regular(fifo, 1 << 20, &e); /* must not block */
+    CHECK(!f && strstr(e.msg, "FIFO"), "FIFO: %s", e.msg);
+    if (f) fclose(f);
+    f = rt_open_regular(check_dir, 1 << 20, &e);
+    CHECK(!f && strstr(e.msg, "directory"), "folder: %s", e.msg);
+    if (f) fclose(f);
+    const char *big = check_path("big.obj");
+    write_text(big, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    f = rt_open_regular(big, 10, &e);
+    CHECK(!f && strstr(e.msg, "larger than the limit of 10 bytes"), "cap: %s", e.msg);
+    if (f) fclose(f);
+    f = rt_open_regular(big, 1000, &e);
+    CHECK(f != NULL, "regular file refused: %s", e.msg);
+    if (f) fclose(f);
+    f = rt_open_regular(check_path("none.obj"), 1000, &e);
+    CHECK(!f && errno == ENOENT, "missing file: errno %d", errno);
+    char *buf = NULL;
+    size_t n = 0;
+    CHECK(rt_slurp_regular(big, 1000, &buf, &n, &e) == 0 && n == 32 && buf[n] == 0, "slurp: %zu %s", n, e.msg);
+    free(buf);
+
+    /* the loaders: a mesh that is a FIFO or a link to /dev/zero, over the cap */
+    const char *zl = check_path("devzero.obj");
+    CHECK(symlink("/dev/zero", zl) == 0, "symlink");
+    rt_scene *s = rt_scene_load(zl, &e);
+    CHECK(!s && strstr(e.msg, "not a regular file"), "devzero.obj: %s", e.msg);
+    rt_scene_free(s);
+    s = rt_scene_load(fifo, &e);
+    CHECK(!s && strstr(e.msg, "FIFO"), "fifo.obj: %s", e.msg);
+    rt_scene_free(s);
+    const char *pfifo = check_path("fifo.ply");
+    CHECK(mkfifo(pfifo, 0600) == 0, "mkfifo");
+    s = rt_scene_load(pfifo, &e);
+    CHECK(!s && strstr(e.msg, "FIFO"), "fifo.ply: %s", e.msg);
+    rt_scene_free(s);
+    uint64_t keep = rt_scene_max_bytes;
+    rt_scene_max_bytes = 20;
+    s = rt_scene_load(big, &e);
+    CHECK(!s && strstr(e.msg, "larger than the limit"), "cap: %s", e.msg);
+    rt_scene_free(s);
+    rt_scene_max_bytes = keep;
+    s = rt_scene_load(big, &e);
+    CHECK(s && s->ntri == 1, "big.obj under the default cap: %s", e.msg);
+    rt_scene_free(s);
+
+    /* material libraries: outside the folder, devices and FIFOs refused */
+    const char *tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    char text[512];
+    static const char *const bad[] = {"/dev/zero", "/etc/passwd", "../x.mtl", "../../../../etc/passwd",
+                                      "sub/../../x.mtl"};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        snprintf(text, sizeof text, "mtllib %s\n%s", bad[i], tri);
+        expect_fail_text("lib.obj", text, "material library");
+    }
+    const char *mfifo = check_path("fifo.mtl");
+    CHECK(mkfifo(mfifo, 0600) == 0, "mkfifo");
+    snprintf(text, sizeof text, "mtllib fifo.mtl\n%s", tri);
+    expect_fail_text("lib.obj", text, "FIFO");
+    CHECK(symlink("/dev/zero", check_path("devzero.mtl")) == 0, "symlink");
+    snprintf(text, sizeof text, "mtllib devzero.mtl\n%s", tri);
+    expect_fail_text("lib.obj", text, "character device");
+    /* inside the folder: fine, also through a subfolder and back */
+    CHECK(mkdir(check_path("sub"), 0700) == 0, "mkdir");
+    write_text(check_path("red.mtl"), "newmtl red\nKd 1 0 0\n");
+    snprintf(text, sizeof text, "mtllib sub/../red.mtl\n%susemtl red\nf 1 2 3\n", tri);
+    s = expect_ok_text("lib.obj", text, 2);
+    CHECK(s && s->tri && s->shade, "load");
+    rt_scene_free(s);
+}
+
+/* Line ends, hex floats, duplicated PLY properties (docs/reliability.md
+ * §26). Before: a CR-only file failed with "bad number 'v'", "0x1p0" was
+ * a coordinate, a second `x` property silently replaced the first. */
+static void test_lesser_formats(void)
+{
+    static const char *const ends[] = {"\n", "\r\n", "\r"};
+    uint64_t h0 = 0;
+    for (int k = 0; k < 3; k++) {
+        char text[512];
+        snprintf(text, sizeof text, "# tri%sv 0 0 0%sv 1 0 0%sv 0 1 0%sv 0 0 1%sf 1 2 3%sf 1 2 4%s", ends[k], ends[k],
+                 ends[k], ends[k], ends[k], ends[k], ends[k]);
+        rt_scene *s = expect_ok_text("ends.obj", text, 2);
+        if (s && k == 0) h0 = rt_scene_hash(s);
+        if (s) CHECK(rt_scene_hash(s) == h0, "line ends %d: another scene", k);
+        rt_scene_free(s);
+    }
+    /* a CR-only MTL beside it */
+    write_text(check_path("cr.mtl"), "newmtl red\rKd 1 0 0\r");
+    rt_scene *s = expect_ok_text("crm.obj", "mtllib cr.mtl\rv 0 0 0\rv 1 0 0\rv 0 1 0\rusemtl red\rf 1 2 3\r", 1);
+    if (s) CHECK(s->shade && s->shade[0].rgb[0] == 1.0f && s->shade[0].rgb[1] == 0.0f, "CR-only MTL: colour");
+    rt_scene_free(s);
+    /* the line number of a CR-only file counts CRs */
+    expect_fail_text("crbad.obj", "v 0 0 0\rv 1 0 0\rv 0 1 0\rf 1 2 9\r", "crbad.obj:4:");
+    expect_fail_text("hex.obj", "v 0 0 0\nv 0x1p0 0 0\nv 0 1 0\nf 1 2 3\n", "hex.obj:2: bad number '0x1p0'");
+    write_text(check_path("hex.mtl"), "newmtl a\nKd 0x1p-1 0 0\n");
+    write_text(check_path("hexm.obj"), "mtllib hex.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    rt_err e = {""};
+    s = rt_scene_load(check_path("hexm.obj"), &e);
+    CHECK(!s && strstr(e.msg, "hex.mtl:2: Kd: bad number '0x1p-1'"), "hex in MTL: %s", e.msg);
+    rt_scene_free(s);
+    expect_fail_text("hex.ply",
+                     "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                     "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n0x1p0 0 0\n0 1 0\n"
+                     "3 0 1 2\n",
+                     "bad number '0x1p0'");
+    expect_fail_text("dupx.ply",
+                     "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                     "property float x\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                     "0 0 0 5\n1 0 0 5\n0 1 0 5\n3 0 1 2\n",
+                     "dupx.ply:7: property 'x' given twice in element 'vertex'");
+}
+
 int main(void)
 {
     if (!check_tmpdir("test_loaders")) {
@@ -736,6 +886,8 @@ int main(void)
     test_mtl_errors();
     test_mtl_missing();
     test_mesh_hashes();
+    test_scene_files();
+    test_lesser_formats();
     if (check_rm_tree(check_dir) != 0) fprintf(stderr, "warning: could not remove %s\n", check_dir);
     if (failures) fprintf(stderr, "%d failure(s)\n", failures);
     else printf("test_loaders: all passed\n");

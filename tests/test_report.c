@@ -232,6 +232,7 @@ static void test_tables(sqlite3 *h)
         CHECK(rt_report_tables(&R, "all", full, &e) < 0 && strstr(e.msg, "write error"), "/dev/full: %s", e.msg);
         fclose(full);
     }
+    rt_report_free(&R);
 }
 
 /* Escaping: the exact bytes, and (with gnuplot) the round trip. */
@@ -518,7 +519,9 @@ static void test_agreement(const char *dir)
               !rt_report_within2(NAN, 1),
           "within2");
     o.model = "nonsense";
+    rt_report_free(&R);
     CHECK(rt_report_init(&R, h, path, &o, &e) < 0 && strstr(e.msg, "nonsense"), "bad model: %s", e.msg);
+    rt_report_free(&R);
     sqlite3_close(h);
     unlink(path);
 }

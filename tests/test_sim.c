@@ -1224,6 +1224,15 @@ int main(void)
         compare(name, &d, a, N / 3);
     }
     gen_stream = 0;
+    /* the stack simulator's state grows with the lines seen (4096 nodes at
+     * first): 1K-1M (16384 lines) over 6000 distinct lines grows it and its
+     * hash table twice, mid-stream; still equal to naive */
+    {
+        rt_sim_config g = c;
+        CHECK(rt_sim_parse_sizes("1K-1M", &g, NULL) == 0, "sizes");
+        gen(a, N / 3, GEN_RANDOM, 6000);
+        compare("full/growing", &g, a, N / 3);
+    }
     /* odd sizes and line size (non-power-of-two path) */
     rt_sim_config odd = c;
     odd.line = 48;

@@ -1,5 +1,6 @@
 /* pixels.c -- pixel subsampling and the traced-pixel order (see pixels.h). */
 #include "pixels.h"
+#include "image.h"
 #include "hilbert.h"
 
 #include <inttypes.h>
@@ -40,6 +41,12 @@ uint64_t rt_pixel_tiles(const rt_render_opts *o)
 
 int rt_pixel_check(const rt_render_opts *o, rt_err *e)
 {
+    /* the image must fit in memory: refused here, before any work */
+    if (o->W >= 1 && o->H >= 1) {
+        char what[80];
+        snprintf(what, sizeof what, "-W %d -H %d: an image of %dx%d pixels", o->W, o->H, o->W, o->H);
+        if (rt_mem_fits((uint64_t)o->W * (uint64_t)o->H * RT_IMAGE_PIXEL_BYTES, what, e) < 0) return -1;
+    }
     if (o->subsample < 1 || o->subtile < 1) return rt_errf(e, "subsampling needs K >= 1 and a tile of >= 1 pixel");
     if (o->subsample <= 1 || o->W < 1 || o->H < 1) return 0; /* image size is checked by the job */
     uint64_t tiles = rt_pixel_tiles(o);

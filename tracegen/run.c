@@ -145,7 +145,7 @@ void rt_job_meta(const rt_job *j, const char *command, rt_tr_meta *m)
     snprintf(m->tool_version, sizeof m->tool_version, "%s", rt_version());
     snprintf(m->git_rev, sizeof m->git_rev, "%s", rt_git_rev());
     snprintf(m->command, sizeof m->command, "%s", command ? command : "");
-    snprintf(m->scene, sizeof m->scene, "%s", j->sc->name);
+    rt_name_fit(m->scene, sizeof m->scene, j->sc->name); /* a longer name: prefix~hash */
     snprintf(m->scene_params, sizeof m->scene_params, "%s", j->sc->params);
     m->scene_hash = rt_scene_hash(j->sc);
     m->ntri = j->sc->ntri;

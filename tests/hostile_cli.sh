@@ -1,0 +1,280 @@
+#!/bin/sh
+# Hostile use of the commands (docs/reliability.md §15-§26; the section
+# numbers below are those of the docs):
+# 15. control characters in scene names and paths never reach a job line;
+# 16. a mesh cannot make the loader read devices, FIFOs or files outside
+#     its folder, nor without end;
+# 17. a rerun of sweep with other --sizes or --line simulates what is missing;
+# 18. long mesh names stay whole and their labels distinct;
+# 19. report shows every scene, however many;
+# 20. report --plot into a folder whose name starts with '-';
+# 21. concurrent scene export to one name leaves a consistent pair;
+# 22. numeric options are parsed strictly;
+# 23. sizes checked against the work and the machine before allocating;
+# 24. a foreign SQLite file is refused untouched;
+# 25. --db is a path, never an SQLite URI;
+# 26. lesser ones (render -o '', CR line ends, hex floats, duplicated PLY
+#     properties, exact run counts, long names with --keep-traces).
+set -u
+bin=${RT_BIN:-./raytraffic}
+src=${RT_SRCDIR:-${srcdir:-.}}
+bin=$(cd "$(dirname "$bin")" && pwd)/$(basename "$bin")
+src=$(cd "$src" && pwd)
+tmp=$(mktemp -d /tmp/rt-hostile-XXXXXX) || exit 1
+trap 'rm -rf "$tmp"' EXIT
+fail=0
+die() { echo "FAIL: $*"; fail=1; }
+runs() { sqlite3 "$1" "SELECT COUNT(*) FROM runs" 2>/dev/null || echo 0; }
+cube=$src/data/meshes/cube.obj
+cd "$tmp" || exit 1
+NL='
+'
+
+# ---- 15. control characters in names and paths --------------------------------
+cp "$cube" "x${NL}touch PWNED;#.obj"
+"$bin" sweep --scenes "x${NL}touch PWNED;#.obj" --tracers recursive --lights primary --list-jobs \
+    > jobs.txt 2> err; rc=$?
+[ $rc = 2 ] || die "15: --scenes with a newline: exit $rc, want 2"
+grep -q -- "--scenes" err || die "15: message does not name --scenes: $(cat err)"
+[ -s jobs.txt ] && die "15: job lines printed for a scene with a newline"
+for opt in --db --keep-traces; do
+    "$bin" sweep --scenes cornell --tracers recursive --lights primary $opt "a${NL}touch PWNED;#" --list-jobs \
+        > jobs.txt 2> err; rc=$?
+    [ $rc = 2 ] && grep -q -- "$opt" err || die "15: $opt with a newline: exit $rc: $(cat err)"
+done
+# a newline in the working folder reaches the absolute paths: nothing printed
+mkdir "d${NL}x" && cp "$cube" "d${NL}x/cube.obj"
+(cd "d${NL}x" && "$bin" sweep --scenes cube.obj --tracers recursive --lights primary --list-jobs > ../jobs.txt 2> ../err)
+rc=$?
+[ $rc = 1 ] || die "15: a folder with a newline: exit $rc, want 1"
+[ -s jobs.txt ] && die "15: job lines printed with a newline in a path"
+while IFS= read -r line; do sh -c "$line" 2>/dev/null; done < jobs.txt
+[ -e PWNED ] && die "15: PWNED created"
+rm -rf "d${NL}x" "x${NL}touch PWNED;#.obj"
+
+# ---- 16. devices, FIFOs and files outside the mesh's folder -------------------
+mkdir -p m16/sub
+ln -s /dev/zero m16/zero.obj
+mkfifo m16/fifo.obj
+for f in m16/zero.obj m16/fifo.obj; do
+    timeout 20 "$bin" scene info "$f" > /dev/null 2> err; rc=$?
+    [ $rc = 1 ] && grep -q "not a regular file" err || die "16: scene info $f: exit $rc: $(cat err)"
+done
+for lib in /dev/zero /dev/urandom ../../../../etc/passwd ../x.mtl fifo.mtl; do
+    { echo "mtllib $lib"; cat "$cube"; } > m16/sub/t.obj
+    rm -f m16/sub/fifo.mtl && mkfifo m16/sub/fifo.mtl
+    timeout 20 "$bin" scene info m16/sub/t.obj > /dev/null 2> err; rc=$?
+    [ $rc = 1 ] && grep -q "t.obj:1: material library" err || die "16: mtllib $lib: exit $rc: $(cat err)"
+done
+RT_SCENE_MAX_BYTES=100 "$bin" scene info "$cube" > /dev/null 2> err; rc=$?
+[ $rc = 1 ] && grep -q "limit of 100 bytes" err || die "16: RT_SCENE_MAX_BYTES=100: exit $rc: $(cat err)"
+"$bin" scene info "$cube" > /dev/null 2> err || die "16: cube refused: $(cat err)"
+
+# ---- 17. a rerun with other --sizes or --line simulates what is missing -------
+mkdir r17 && cd r17 || exit 1
+a="--scenes cornell --tracers recursive,dynamic --lights primary -W 16 -H 16"
+rows() { sqlite3 "$1" "SELECT r.tracer, r.sched_size, c.size, c.line, t.class, t.accesses, t.read_misses,
+    t.write_misses, t.writebacks, t.traffic_bytes FROM traffic t JOIN runs r ON r.id = t.run_id
+    JOIN cache_configs c ON c.id = t.config_id WHERE c.line = $2 ORDER BY 1, 2, 3, 4, 5"; }
+"$bin" sweep $a --sizes 1K-4K --db r.db 2> err || die "17: first sweep: $(cat err)"
+"$bin" sweep $a --sizes 1K-16K --db r.db 2> err || die "17: rerun with more sizes: $(cat err)"
+"$bin" sweep $a --sizes 1K-16K --db fresh.db 2> err || die "17: fresh sweep: $(cat err)"
+[ "$(runs r.db)" = "$(runs fresh.db)" ] || die "17: $(runs r.db) runs after the rerun, $(runs fresh.db) fresh"
+[ -n "$(rows fresh.db 64)" ] && [ "$(rows r.db 64)" = "$(rows fresh.db 64)" ] ||
+    die "17: rows after the rerun with more sizes differ from a fresh sweep's"
+"$bin" sweep $a --sizes 1K-16K --line 32 --db r.db 2> err || die "17: rerun with --line 32: $(cat err)"
+"$bin" sweep $a --sizes 1K-16K --line 32 --db fresh32.db 2> err || die "17: fresh --line 32: $(cat err)"
+[ -n "$(rows fresh32.db 32)" ] && [ "$(rows r.db 32)" = "$(rows fresh32.db 32)" ] ||
+    die "17: rows after the rerun with --line 32 differ from a fresh sweep's"
+[ "$(rows r.db 64)" = "$(rows fresh.db 64)" ] || die "17: the 64-byte rows changed"
+"$bin" sweep $a --sizes 1K-16K --line 32 --db r.db 2> err || die "17: third run: $(cat err)"
+grep -q "already in the database" err && ! grep -q ": done" err || die "17: third run simulated again: $(cat err)"
+cd "$tmp" || exit 1
+
+# ---- 18. long mesh names: stored whole, labels and plots distinct ------------
+mkdir r18 && cd r18 || exit 1
+L=$(printf 'm%.0s' $(seq 1 146))
+cp "$cube" "${L}a.obj"
+"$bin" scene export knot -o "${L}b.obj" 2> /dev/null || die "18: export"
+"$bin" sweep --scenes "${L}a.obj,${L}b.obj" --tracers recursive --lights primary -W 16 -H 16 --sizes 1K-4K \
+    --db r.db 2> err || die "18: sweep: $(cat err)"
+[ "$(sqlite3 r.db "SELECT COUNT(DISTINCT name) FROM scenes WHERE length(name) = 151")" = 2 ] ||
+    die "18: names not stored whole: $(sqlite3 r.db 'SELECT length(name) FROM scenes')"
+"$bin" report --db r.db --format csv > rep.csv 2> err || die "18: report: $(cat err)"
+for x in a b; do
+    want=$(sqlite3 r.db "SELECT printf('%.2f', g.geometry_mb) FROM v_traffic_group g JOIN runs r ON r.id = g.run_id
+        JOIN scenes s ON s.id = r.scene_id WHERE s.name = '${L}$x.obj' AND g.cache_size = 1024 AND g.line = 64
+        AND g.assoc = 0 AND g.policy = 'wb-wa'")
+    got=$(grep "^0,${L}$x.obj,1024," rep.csv | cut -d, -f4)
+    [ -n "$want" ] && [ "$got" = "$want" ] || die "18: scene $x: report says '$got', the database '$want'"
+    [ "$(grep -c "^${L}$x.obj," rep.csv)" = 1 ] || die "18: scene $x: not one row in the scene table"
+done
+havegp=0
+command -v gnuplot > /dev/null 2>&1 && havegp=1
+if [ $havegp = 1 ]; then
+    "$bin" report --db r.db --plot p > /dev/null 2> err || die "18: --plot: $(cat err)"
+    ls p | grep -q "${L}a.obj-traffic.png" && ls p | grep -q "${L}b.obj-traffic.png" ||
+        die "18: plots not distinct: $(ls p)"
+fi
+# names over the plot-file limit: cut, ended by a hash, still distinct
+L2=$(printf 'n%.0s' $(seq 1 240))
+cp "$cube" "${L2}a.obj" && cp "${L}b.obj" "${L2}b.obj" && cp "${L}b.mtl" "${L2}b.mtl" 2>/dev/null
+sed -i "s|^mtllib .*|mtllib ${L2}b.mtl|" "${L2}b.obj"
+"$bin" sweep --scenes "${L2}a.obj,${L2}b.obj" --tracers recursive --lights primary -W 16 -H 16 --sizes 1K-4K \
+    --db r2.db --keep-traces kept 2> err || die "26: sweep of 245-byte names with --keep-traces: $(cat err)"
+[ "$(ls kept | wc -l)" = 2 ] || die "26: kept traces: $(ls kept)"
+"$bin" report --db r2.db --format csv > rep2.csv 2> err || die "18: report of long names: $(cat err)"
+[ "$(grep -c "^${L2}[ab].obj," rep2.csv)" = 2 ] || die "18: 245-byte names: labels not whole and distinct"
+if [ $havegp = 1 ]; then
+    rm -rf p && "$bin" report --db r2.db --plot p > /dev/null 2> err || die "18: --plot of long names: $(cat err)"
+    [ "$(ls p | grep -c 'n~[0-9a-f]*-traffic.png$')" = 2 ] || die "18: 245-byte names: plots $(ls p)"
+fi
+cd "$tmp" || exit 1
+
+# ---- 19. every scene reported, however many -----------------------------------
+mkdir r19 && cd r19 || exit 1
+list=
+for i in $(seq -w 1 18); do cp "$cube" "c$i.obj"; list=$list${list:+,}c$i.obj; done
+"$bin" sweep --scenes "$list" --tracers recursive --lights primary -W 8 -H 8 --sizes 1K --db r.db 2> err ||
+    die "19: sweep: $(cat err)"
+"$bin" report --db r.db --format csv --figure scenes > rep.csv 2> err || die "19: report: $(cat err)"
+[ "$(grep -c '^c[0-9]*\.obj,' rep.csv)" = 18 ] || die "19: $(grep -c '^c[0-9]*\.obj,' rep.csv) of 18 scenes reported"
+grep -q '^c18\.obj,12,' rep.csv || die "19: the 18th scene is missing"
+cd "$tmp" || exit 1
+
+# ---- 20. plots into a folder whose name starts with '-' -------------------------
+cd r19 || exit 1
+RT_GNUPLOT=true "$bin" report --db r.db --plot -p > out 2> err; rc=$?
+[ $rc = 1 ] && grep -q "gnuplot wrote no picture" err || die "20: a gnuplot that draws nothing: exit $rc: $(cat err)"
+grep -q "^wrote .*traffic" err && die "20: 'wrote' printed for a picture that was not drawn"
+if command -v gnuplot > /dev/null 2>&1; then
+    rm -rf ./-p
+    "$bin" report --db r.db --scene c01.obj --plot -p > out 2> err || die "20: --plot -p: $(cat err)"
+    for f in c01.obj-traffic.png c01.obj-traffic.svg scenes.png; do
+        [ -s "./-p/$f" ] || die "20: --plot -p: no $f"
+    done
+    ls -A ./-p | grep -q '^\.' && die "20: temporaries left: $(ls -A ./-p)"
+else
+    echo "20: gnuplot not installed; the real drawing is not checked"
+fi
+cd "$tmp" || exit 1
+
+# ---- 21. concurrent exports to one name leave a consistent OBJ/MTL pair ---------
+mkdir r21 && cd r21 || exit 1
+specs="cornell cornell:material=mirror cornell:material=glass knot:material=mirror"
+hashes=
+for sp in $specs; do
+    "$bin" scene export "$sp" -o one.obj 2> err || die "21: export $sp: $(cat err)"
+    hashes="$hashes $("$bin" scene info one.obj 2>/dev/null | sed -n 's/^hash *//p')"
+done
+for round in 1 2 3 4 5 6 7 8 9 10; do
+    pids=
+    for sp in $specs; do "$bin" scene export "$sp" -o same.obj 2>> err & pids="$pids $!"; done
+    for p in $pids; do wait "$p" || die "21: round $round: an export failed: $(cat err)"; done
+    h=$("$bin" scene info same.obj 2> err | sed -n 's/^hash *//p')
+    [ -n "$h" ] || die "21: round $round: same.obj does not load: $(cat err)"
+    case " $hashes " in *" $h "*) ;; *) die "21: round $round: same.obj ($h) is none of the exports ($hashes)" ;; esac
+    ls -A | grep -q '^\.' && die "21: round $round: temporaries left: $(ls -A)"
+done
+cd "$tmp" || exit 1
+
+# ---- 22. strict numbers -------------------------------------------------------
+"$bin" trace cornell -W 8 -H 8 -o t.rtt 2>/dev/null || die "22: trace failed"
+for v in abc "" 0x10 nan -1 1e999 " 5" "+5" 5x; do
+    for o in -W -H; do
+        "$bin" report --db none.db $o "$v" > /dev/null 2> err; rc=$?
+        [ $rc = 2 ] && grep -q -- "$o" err || die "22: report $o '$v': exit $rc: $(cat err)"
+    done
+done
+for v in " 0.5" "+0.5" 0x0.1 nan inf "1/ 64" "1/0x40" 0.5x; do
+    "$bin" sim --method shards --rate "$v" t.rtt > /dev/null 2> err; rc=$?
+    [ $rc = 2 ] && grep -q -- "--rate" err || die "22: sim --rate '$v': exit $rc: $(cat err)"
+done
+for v in " 2" "+2" "2 "; do
+    "$bin" trace cornell -W 8 -H 8 -t packet --packet "$v" -o p.rtt 2> err; rc=$?
+    [ $rc = 2 ] && grep -q -- "--packet" err || die "22: --packet '$v': exit $rc: $(cat err)"
+    "$bin" sweep --jobs "$v" --db j.db 2> err; rc=$?
+    [ $rc = 2 ] && grep -q -- "--jobs" err || die "22: --jobs '$v': exit $rc: $(cat err)"
+done
+for v in "res: 16" "res:+16" "sub: 4" "sub:4: 8" "sub:4:+8"; do
+    "$bin" sweep --proxy "$v" --db j.db 2> err; rc=$?
+    [ $rc = 2 ] && grep -q -- "--proxy" err || die "22: --proxy '$v': exit $rc: $(cat err)"
+done
+"$bin" trace cornell -W 8 -H 8 -t stream-multipass --oracle-fraction " 0.5" -o p.rtt 2> err; rc=$?
+[ $rc = 2 ] || die "22: --oracle-fraction ' 0.5': exit $rc"
+"$bin" sim --method shards --rate 1/64 t.rtt > /dev/null 2>&1 || die "22: --rate 1/64 refused"
+"$bin" sim --method shards --rate 0.5 t.rtt > /dev/null 2>&1 || die "22: --rate 0.5 refused"
+[ -e j.db ] && die "22: a usage error created the database"
+
+# ---- 23. sizes checked against the work and the machine before allocating ------
+# the stack simulator's state grows with the lines the trace touches: a
+# 16G / 32G cache of a small trace runs in a 1 GB address space
+# (an ASan build cannot start in 1 GB of address space: then without the limit)
+vlim=1000000
+sh -c 'ulimit -v "$1" 2>/dev/null; exec "$2" version' sh "$vlim" "$bin" > /dev/null 2>&1 || vlim=unlimited
+for sz in 16G 32G 1K-16G; do
+    (ulimit -v $vlim 2>/dev/null; "$bin" sim --sizes $sz t.rtt > out 2> err) || die "23: sim --sizes $sz: $(cat err)"
+    [ "$(grep -c ' full ' out)" -ge 1 ] || die "23: sim --sizes $sz printed no rows"
+done
+mem=$(awk '/^MemTotal:/ { print int($2 / 1024) }' /proc/meminfo 2>/dev/null || echo 0)
+if [ "${mem:-0}" -gt 0 ] && [ "$mem" -lt 98000 ]; then
+    for c in render trace; do
+        (ulimit -v $vlim 2>/dev/null; "$bin" $c cornell -W 65536 -H 65536 -o big.out > /dev/null 2> err); rc=$?
+        [ $rc = 2 ] && grep -q -- "-W 65536 -H 65536: an image of 65536x65536 pixels needs 98304 MB" err ||
+            die "23: $c -W 65536 -H 65536: exit $rc: $(cat err)"
+    done
+fi
+
+# ---- 24. a foreign SQLite file is left as it was -------------------------------
+sqlite3 f.db "CREATE TABLE foo(x); INSERT INTO foo VALUES(1); PRAGMA user_version = 4;"
+sum=$(cksum < f.db)
+"$bin" sim --db f.db t.rtt > /dev/null 2> err; rc=$?
+[ $rc = 1 ] && grep -q "not a raytraffic database" err || die "24: foreign file (version 4): exit $rc: $(cat err)"
+[ "$(cksum < f.db)" = "$sum" ] || die "24: the refused file was modified"
+[ "$(sqlite3 f.db 'PRAGMA journal_mode')" = delete ] || die "24: the refused file was switched to WAL"
+[ -e f.db-wal ] && die "24: a -wal file was left beside the refused file"
+sqlite3 g.db "CREATE TABLE runs(x); CREATE TABLE scenes(y); PRAGMA user_version = 2;"
+sum=$(cksum < g.db)
+"$bin" sim --db g.db t.rtt > /dev/null 2> err; rc=$?
+[ $rc = 1 ] || die "24: foreign file (version 2): exit $rc"
+[ "$(cksum < g.db)" = "$sum" ] || die "24: the refused version-2 file was modified"
+
+# ---- 25. --db is a path ----------------------------------------------------------
+mkdir uri && cd uri || exit 1
+"$bin" sim --db 'file:u.db?mode=memory' ../t.rtt > /dev/null 2> err || die "25: sim --db 'file:u.db?mode=memory' failed: $(cat err)"
+[ -f 'file:u.db?mode=memory' ] || die "25: no file 'file:u.db?mode=memory' (read as a URI)"
+[ "$(runs './file:u.db?mode=memory')" = 1 ] || die "25: the run is not in the file named"
+"$bin" sim --db file:other.db ../t.rtt > /dev/null 2>&1 || die "25: sim --db file:other.db failed"
+[ -e other.db ] && die "25: --db file:other.db wrote other.db"
+[ -f file:other.db ] || die "25: --db file:other.db did not write file:other.db"
+"$bin" report --db file:other.db --figure scenes > /dev/null 2> err || die "25: report --db file:other.db: $(cat err)"
+"$bin" db merge merged.db file:other.db > /dev/null 2> err || die "25: db merge of file:other.db: $(cat err)"
+[ "$(runs merged.db)" = 1 ] || die "25: merge of file:other.db copied $(runs merged.db) runs"
+cd "$tmp" || exit 1
+
+# ---- 26. lesser ones ------------------------------------------------------------
+for c in "render cornell -W 8 -H 8 -o" "trace cornell -W 8 -H 8 -o" "scene export cornell -o"; do
+    # shellcheck disable=SC2086
+    "$bin" $c '' > /dev/null 2> err; rc=$?
+    [ $rc = 2 ] && grep -q "empty file name" err || die "26: $c '': exit $rc: $(cat err)"
+done
+if [ -w /dev/full ]; then
+    "$bin" render cornell -W 64 -H 64 -o /dev/full 2> err; rc=$?
+    [ $rc = 1 ] && grep -q "No space left on device" err || die "26: render -o /dev/full: exit $rc: $(cat err)"
+fi
+
+# after SIGHUP the summary counts exactly the runs the database holds
+for trial in 1 2 3; do
+    db=$tmp/hup$trial.db
+    "$bin" sweep --scenes cornell,knot --lights primary,all --tracers recursive,dynamic -W 32 -H 32 --sizes 1K-64K \
+        --jobs 2 --db "$db" 2> hup.log &
+    pid=$!
+    i=0
+    while [ "$(runs "$db")" -lt $((trial * 3)) ] && [ $i -lt 300 ]; do sleep 0.02; i=$((i + 1)); done
+    kill -HUP $pid
+    wait $pid
+    said=$(sed -n 's/^sweep: \([0-9]*\) run(s) finished.*/\1/p' hup.log)
+    [ "$said" = "$(runs "$db")" ] || die "26: after SIGHUP the summary says '$said' runs, the database holds $(runs "$db")"
+done
+
+exit $fail
