@@ -311,15 +311,16 @@ done; done; done
 
 # tracer traits: an option of another tracer, or a structure the tracer
 # cannot run on, is a usage error naming both, before any output
-for args in "-t recursive --accel naive" "-t recursive --qorder tree" "-t packet --grid-min 32" \
+for args in "-t packet --accel naive" "-t recursive --qorder tree" "-t packet --grid-min 32" \
             "-t dynamic --oracle naive" "-t stream-branching --accel kd" "-t recursive --accel nonesuch"; do
+    rm -f "$tmp/t.exr"
     # shellcheck disable=SC2086
     "$bin" render knot -W 8 -H 8 $args -o "$tmp/t.exr" 2>"$tmp/t.err"
     [ $? -eq 2 ] || err "render $args: want exit 2"
     [ -e "$tmp/t.exr" ] && err "render $args wrote its output"
     grep -q -- "--" "$tmp/t.err" || err "render $args: message '$(cat "$tmp/t.err")' names no option"
 done
-"$bin" render knot -W 8 -H 8 -t recursive --accel naive -o "$tmp/t.exr" 2>&1 | grep -q "recursive tracer runs on kd" \
+"$bin" render knot -W 8 -H 8 -t packet --accel naive -o "$tmp/t.exr" 2>&1 | grep -q "packet tracer runs on kd" \
     || err "--accel naive: the message names the tracer and its structures"
 "$bin" render knot -W 8 -H 8 -t feedback --accel naive -o "$tmp/t.exr" 2>/dev/null || err "feedback --accel naive: want exit 0"
 # a job builds only the structure its tracer runs on
