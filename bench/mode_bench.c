@@ -21,6 +21,7 @@
  * expected error is then sigma sqrt(1/spp - 1/ref_spp), a few per cent
  * below sigma / sqrt(spp) at spp = 64 against 1024.
  */
+#include "scene_load.h"
 #include "analysis.h"
 #include "bench.h"
 #include "image.h"

@@ -11,6 +11,7 @@
  * sweep feeds, results/experiment.h), from job setup (grid build included)
  * to the last reference.
  */
+#include "scene_load.h"
 #include "bench.h"
 #include "experiment.h"
 #include "run.h"

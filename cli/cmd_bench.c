@@ -18,6 +18,7 @@
  * every figure stands beside a ratio to a reference measured in the same
  * run: tracer rows against the untraced recursive tracer, simulator rows
  * against a naive per-size LRU (bench/sim_bench.c). */
+#include "scene_load.h"
 #include "analysis.h"
 #include "bench.h"
 #include "cmd.h"

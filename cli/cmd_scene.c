@@ -11,6 +11,7 @@
 #include "cmd.h"
 #include "kdtree.h"
 #include "scene.h"
+#include "scene_load.h"
 
 #include <inttypes.h>
 #include <stdio.h>

@@ -36,6 +36,7 @@
  * a worker whose parent dies without forwarding (SIGKILL) gets SIGTERM from
  * the kernel (PR_SET_PDEATHSIG, Linux).
  */
+#include "scene_load.h"
 #include "cmd.h"
 #include "experiment.h"
 

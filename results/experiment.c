@@ -9,6 +9,7 @@
  * target, so the stored sim_seconds of each simulator is its own time on
  * the same stream.
  */
+#include "scene_load.h"
 #include "experiment.h"
 #include "rows.h"
 #include "run.h"

@@ -1,10 +1,9 @@
 /*
  * scene.c -- the scene container: allocation and growth, bounds and
  * validation, the default camera and lights for loaded meshes, the identity
- * hash, OBJ (and MTL) export, the material presets and the material listing,
- * and the spec dispatcher (rt_scene_load) that picks a loader by suffix or
- * falls back to the built-in generators, and applies a material=PRESET
- * parameter to any of them.
+ * hash, OBJ (and MTL) export, the material presets and the material listing.
+ * The loaders fill it; the dispatch over them (rt_scene_load) lives above
+ * them in scene_load.c, so the container includes no loader.
  *
  * Everything here is deterministic and machine independent: the hash reads
  * every float as its IEEE-754 bit pattern in little-endian byte order, and
@@ -552,125 +551,4 @@ int rt_scene_export_obj(const rt_scene *s, const char *path, rt_err *e)
     if (lockfd >= 0) close(lockfd); /* releases the lock */
     free(mpath);
     return rc;
-}
-
-static int has_suffix(const char *s, const char *suf)
-{
-    size_t n = strlen(s), m = strlen(suf);
-    if (n < m) return 0;
-    for (size_t i = 0; i < m; i++) {
-        char a = s[n - m + i], b = suf[i];
-        if (a >= 'A' && a <= 'Z') a = (char)(a - 'A' + 'a');
-        if (a != b) return 0;
-    }
-    return 1;
-}
-
-/* A spec (or its part before the parameters) naming a scene file. */
-static int is_file(const char *s) { return has_suffix(s, ".obj") || has_suffix(s, ".ply") || has_suffix(s, ".pbrt"); }
-
-/* Loads a spec without its material=PRESET item. */
-static rt_scene *load_base(const char *spec, const char *params, rt_err *e)
-{
-    char name[64];
-    size_t fn = strlen(spec);
-    if (has_suffix(spec, ".pbrt")) return rt_scene_load_pbrt(spec, params, e);
-    if (has_suffix(spec, ".obj") || has_suffix(spec, ".ply")) {
-        if (params[0]) {
-            rt_errf(e, "%s: unknown parameter '%s' (known for mesh files: material)", spec, params);
-            return NULL;
-        }
-        return has_suffix(spec, ".obj") ? rt_scene_load_obj(spec, e) : rt_scene_load_ply(spec, e);
-    }
-    if (fn >= sizeof name) {
-        rt_errf(e, "unknown scene '%.40s...' (not .obj/.ply, not a built-in; see 'raytraffic scene list')", spec);
-        return NULL;
-    }
-    memcpy(name, spec, fn);
-    name[fn] = 0;
-    return rt_scene_builtin(name, params, e);
-}
-
-rt_scene *rt_scene_load(const char *spec, rt_err *e)
-{
-    if (!spec || !*spec) {
-        rt_errf(e, "empty scene spec");
-        return NULL;
-    }
-    /* Split "base:params". A scene file is a spec ending in .obj/.ply/.pbrt,
-     * or one whose last ':' follows such a suffix; a built-in's name ends at
-     * the first ':'. */
-    size_t n = strlen(spec), fn = n;
-    int file = is_file(spec);
-    if (!file)
-        for (size_t i = n; i-- > 4;)
-            if (spec[i] == ':') {
-                char suf[6];
-                size_t k = i < 5 ? i : 5;
-                memcpy(suf, spec + i - k, k);
-                suf[k] = 0;
-                if (is_file(suf)) {
-                    file = 1;
-                    fn = i;
-                }
-                break;
-            }
-    if (!file) {
-        const char *colon = strchr(spec, ':');
-        if (colon) fn = (size_t)(colon - spec);
-    }
-    char *base = rt_calloc(n + 1, 1, e), *rest = rt_calloc(n + 1, 1, e);
-    rt_scene *s = NULL;
-    if (!base || !rest) goto done;
-    memcpy(base, spec, fn);
-    /* Take material=NAME out of the parameters; pass the rest on. */
-    const char *mat = NULL;
-    size_t matlen = 0, nr = 0;
-    const char *p = fn < n ? spec + fn + 1 : spec + n;
-    int first = 1;
-    while (fn < n) {
-        const char *end = strchr(p, ',');
-        size_t len = end ? (size_t)(end - p) : strlen(p);
-        if (len >= 9 && !memcmp(p, "material=", 9)) {
-            if (mat) {
-                rt_errf(e, "%s: parameter 'material' given twice", base);
-                goto done;
-            }
-            mat = p + 9;
-            matlen = len - 9;
-        } else {
-            if (!first) rest[nr++] = ',';
-            memcpy(rest + nr, p, len);
-            nr += len;
-            first = 0;
-        }
-        if (!end) break;
-        p = end + 1;
-    }
-    rest[nr] = 0;
-    char preset[16];
-    if (mat) {
-        if (matlen == 0 || matlen >= sizeof preset) {
-            char q[48];
-            rt_errf(e, "%s: unknown material '%s' (known: diffuse, mirror, glass)", base,
-                    rt_esc(q, sizeof q, mat, matlen));
-            goto done;
-        }
-        memcpy(preset, mat, matlen);
-        preset[matlen] = 0;
-    }
-    s = load_base(base, rest, e);
-    if (s && mat) {
-        if (rt_scene_set_material(s, preset, e) < 0) {
-            rt_scene_free(s);
-            s = NULL;
-            goto done;
-        }
-        size_t k = strlen(s->params);
-        snprintf(s->params + k, sizeof s->params - k, "%smaterial=%s", k ? "," : "", preset);
-    }
-done:
-    free(base);
-    free(rest);
-    return s;
 }

@@ -95,29 +95,6 @@ typedef struct rt_scene {
     uint32_t ntri_inst;     /* with instances: triangles that came from instances */
 } rt_scene;
 
-/* Built-in scene names, NULL-terminated. */
-extern const char *const rt_scene_builtin_names[];
-/* One-line description of a built-in scene, or NULL if unknown. */
-const char *rt_scene_describe(const char *name);
-
-/* Makes a scene from a spec (built-in name[:k=v,...] or .obj/.ply path).
- * Returns NULL with a one-line message on failure. Free with rt_scene_free. */
-rt_scene *rt_scene_load(const char *spec, rt_err *e);
-rt_scene *rt_scene_builtin(const char *name, const char *params, rt_err *e);
-rt_scene *rt_scene_load_obj(const char *path, rt_err *e);
-rt_scene *rt_scene_load_ply(const char *path, rt_err *e);
-/* A pbrt-v4 scene file (subset: docs/scenes.md, "pbrt"). params: "" or
- * "tess=N" (sphere tessellation, 1..64, default 3) and "maxtri=N" (refuse
- * scenes above N triangles, default 2^26). */
-rt_scene *rt_scene_load_pbrt(const char *path, const char *params, rt_err *e);
-/* Appends the triangles of the PLY file held in buf (n bytes, buf[n] = 0;
- * path names it in messages) to s, every vertex mapped by the row-major
- * 4x4 matrix m (homogeneous, NULL = identity), with colour rgb (NULL =
- * default grey) and material mat. Same parsing and checks as
- * rt_scene_load_ply; s is not finished. Returns the triangles appended, or
- * -1 (s may hold part of them). */
-long rt_scene_append_ply(rt_scene *s, const char *path, const char *buf, size_t n, const double m[16],
-                         const float rgb[3], uint32_t mat, rt_err *e);
 void rt_scene_free(rt_scene *s);
 
 /* Allocates an empty scene with room for ntri triangles (ntri may grow via

@@ -23,6 +23,7 @@
  */
 #include "config.h"
 #include "scene.h"
+#include "scene_load.h"
 
 #include <limits.h>
 #include <stdio.h>

@@ -35,6 +35,7 @@
  */
 #include "config.h"
 #include "scene.h"
+#include "scene_load.h"
 
 #include <errno.h>
 #include <float.h>

@@ -41,6 +41,7 @@
  */
 #include "config.h"
 #include "scene.h"
+#include "scene_load.h"
 
 #include <errno.h>
 #include <fcntl.h>

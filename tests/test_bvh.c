@@ -34,6 +34,7 @@
 #include "kdtree.h"
 #include "memmodel.h"
 #include "scene.h"
+#include "scene_load.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -15,6 +15,7 @@
  * A tracer added to the registry is covered without editing this file;
  * only the golden file gains its lines.
  */
+#include "scene_load.h"
 #include "check.h"
 #include "run.h"
 #include "trace.h"

@@ -7,6 +7,7 @@
  * the grid and with every triangle; the record stores (non-temporal by
  * default, write-allocate as an option) and their traffic.
  */
+#include "scene_load.h"
 #include "check.h"
 #include "check_scene.h"
 #include "feedback.h"

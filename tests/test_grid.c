@@ -24,6 +24,7 @@
 #include "kdtrav.h"
 #include "kdtree.h"
 #include "scene.h"
+#include "scene_load.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -15,6 +15,7 @@
 #include "image.h"
 #include "outfile.h"
 #include "scene.h"
+#include "scene_load.h"
 #include "trace.h"
 #include "check.h"
 

@@ -12,6 +12,7 @@
  * `test_layout --queue-stats SPEC W H [CACHE [LIGHTS]]` (lights: all by
  * default, none for primary rays only) instead prints the dynamic
  * tracer's statistics with the counters (docs/results.md). */
+#include "scene_load.h"
 #include "check.h"
 #include "mesh.h"
 #include "run.h"

@@ -15,6 +15,7 @@
 #include "config.h"
 #include "check.h"
 #include "scene.h"
+#include "scene_load.h"
 
 #include <errno.h>
 #include <inttypes.h>

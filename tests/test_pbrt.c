@@ -17,6 +17,7 @@
 #include "kdtree.h"
 #include "run.h"
 #include "scene.h"
+#include "scene_load.h"
 
 #include <inttypes.h>
 #include <stdio.h>

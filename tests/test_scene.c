@@ -10,6 +10,7 @@
 #include "check.h"
 #include "outfile.h"
 #include "scene.h"
+#include "scene_load.h"
 
 #include <inttypes.h>
 #include <stdio.h>

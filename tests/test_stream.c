@@ -9,6 +9,7 @@
  * words per kernel follow Table 1; untraced branching runs (per-ray
  * counters) give the traced runs' statistics; the cost model equals the
  * exact counts when every ray enters the grid; bad options are refused. */
+#include "scene_load.h"
 #include "camera.h"
 #include "db.h"
 #include "experiment.h"

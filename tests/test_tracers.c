@@ -14,6 +14,7 @@
  * tracer matches an independent brute-force renderer (within a derived
  * tolerance) and the tracers agree bit for bit, with materials added to
  * the built-in scenes; the secondary modes' traffic follows the table. */
+#include "scene_load.h"
 #include "camera.h"
 #include "check.h"
 #include "dynamic.h"

@@ -1,4 +1,5 @@
 /* run.c -- set up and run one rendering job (see run.h). */
+#include "scene_load.h"
 #include "run.h"
 
 #include <inttypes.h>

@@ -2,6 +2,7 @@
  * fuzz_obj.c -- fuzz target for the OBJ loader (rt_scene_load_obj,
  * src/scene_obj.c). The input is the file; the checks are in fuzz_scene.h.
  */
+#include "scene_load.h"
 #include "fuzz_scene.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)

@@ -8,6 +8,7 @@
  * size (0 or 1..65536), instancing counts that add up, and a warning that
  * fits its buffer.
  */
+#include "scene_load.h"
 #include "fuzz_scene.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
