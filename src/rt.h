@@ -141,49 +141,6 @@ const char *rt_path_dir(const char *path, char *out, size_t n);
 #define RT_SCENE_MAX_BYTES_DEFAULT (4ULL << 30)
 extern uint64_t rt_scene_max_bytes;
 
-/* Opens path for reading ("rb") only if it is a regular file of at most
- * max_bytes bytes (symlinks are followed; what counts is the target).
- * The open is non-blocking so that a FIFO cannot block it; the file is
- * then checked with fstat and O_NONBLOCK cleared before it is handed
- * back. Refused with a one-line message in e, NULL returned and errno
- * set:
- *   - "PATH: No such file or directory" (ENOENT) and other open errors;
- *   - "PATH: not a regular file (a FIFO / character device / directory /
- *     ...)" (EINVAL): devices like /dev/zero, FIFOs, sockets, folders;
- *   - "PATH: N bytes is larger than the limit of M bytes (RT_SCENE_MAX_BYTES)"
- *     (EFBIG).
- * The caller must still stop reading after max_bytes (the file may grow
- * while read): rt_slurp_regular does. Every loader of a scene file opens
- * it here (OBJ, MTL, PLY; a scene-description loader should too). */
-FILE *rt_open_regular(const char *path, uint64_t max_bytes, rt_err *e);
-
-/* rt_slurp through rt_open_regular: the whole regular file of at most
- * max_bytes bytes into a malloc'd NUL-terminated buffer (*pbuf, length
- * *pn, caller frees). A file that grows past max_bytes while read is
- * refused too. 0, or -1 with a message (errno as rt_open_regular's, or
- * EIO for a read error). */
-int rt_slurp_regular(const char *path, uint64_t max_bytes, char **pbuf, size_t *pn, rt_err *e);
-
-/* The path of a file a scene file names (a material library, an included
- * file, a texture), checked against the rule of docs/scenes.md ("Files a
- * scene names"): rel must be relative (no leading '/'), non-empty, and
- * must not climb out of base_dir: its components are walked, "." and
- * empty ones skipped, ".." goes up one level and may never go above
- * base_dir itself ("a/../b.mtl" is fine, "../b.mtl" and "a/../../b.mtl"
- * are not). The rule is on names only: a symlink inside base_dir is
- * followed. base_dir is the folder of the referring file as a prefix:
- * "" (the current folder) or a string ending in '/' ("scenes/",
- * "/data/mesh/"); rt_path_dir gives it. Writes base_dir followed by rel as
- * written into out (n bytes). 0, or -1 with "'REL': absolute path" /
- * "'REL': leaves the folder of the file naming it" / "'REL': empty name" /
- * "'REL': path too long" in e (the caller adds file and line). */
-int rt_path_within(const char *base_dir, const char *rel, char *out, size_t n, rt_err *e);
-
-/* The folder prefix of path for rt_path_within: everything up to and
- * including its last '/', or "" when it has none. Into out (n bytes);
- * returns out ("" if it does not fit). */
-const char *rt_path_dir(const char *path, char *out, size_t n);
-
 /* Copies name into buf (n bytes, n >= 24) whole when it fits; else cuts it
  * and ends it with "~" and the 16 hex digits of rt_fnv1a over the whole
  * name, so that two long names differing anywhere stay two distinct
