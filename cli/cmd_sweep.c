@@ -15,8 +15,9 @@
  *     mis-tuned schedule costs).
  * Jobs whose run key is already in the database are skipped, so an
  * interrupted sweep rerun with the same arguments finishes the rest and
- * loses nothing. --jobs N forks N workers that claim jobs in order from a
- * shared counter; each worker keeps the current scene and its k-d tree.
+ * loses nothing. --jobs N runs the worker pool (results/pool.c): N forked
+ * workers claim jobs in order from a shared counter; each keeps the current
+ * scene and its k-d tree. This file parses, calls and prints.
  * --list-jobs prints one self-contained command per job, each writing its
  * own database, for GNU parallel or a Slurm array; `raytraffic db merge`
  * joins the shards. Each line names the running binary and every file by
@@ -30,7 +31,7 @@
  * policy=wb-wa+flush+fullline"), the layout and queue stores into the
  * tracer parameters, so runs of different models never share a key.
  *
- * Workers never outlive the sweep: SIGTERM, SIGINT or SIGHUP to the parent
+ * Workers never outlive the sweep (pool.h): SIGTERM, SIGINT or SIGHUP to the parent
  * is forwarded to every worker and waited for (the sweep then exits 1; a
  * killed worker's open transaction leaves no row, and a rerun resumes), and
  * a worker whose parent dies without forwarding (SIGKILL) gets SIGTERM from
@@ -39,21 +40,15 @@
 #include "scene_load.h"
 #include "cmd.h"
 #include "experiment.h"
+#include "pool.h"
 
 #include <errno.h>
 #include <inttypes.h>
-#include <signal.h>
-#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/mman.h>
 #include <sys/stat.h>
-#include <sys/wait.h>
 #include <unistd.h>
-#ifdef __linux__
-#include <sys/prctl.h>
-#endif
 
 #define MAX_LIST RT_EXP_MAXLIST
 
@@ -77,15 +72,6 @@ typedef struct sweep_opts {
     int flush, fullline;      /* --flush / --write-fullline: -1 = the model's, else 0/1 */
 } sweep_opts;
 
-typedef struct shared {
-    atomic_long next;     /* next job to claim */
-    atomic_long done;     /* jobs finished (run or skipped) */
-    atomic_long skipped;  /* of which skipped */
-    atomic_long stored;   /* of which run and stored */
-    atomic_int failed;    /* a worker failed */
-    atomic_int usage;     /* a job failed because its options ask too much (exit 2) */
-    atomic_llong stage_us[4]; /* rt_exp_stages summed over workers, microseconds: scene, tracing, simulation, database */
-} shared;
 
 static void usage(FILE *f)
 {
@@ -290,142 +276,24 @@ static int parse_proxies(char *s, sweep_opts *o, rt_err *e)
     return 0;
 }
 
-static void job_label(const rt_exp_config *o, const rt_exp_job *jb, char *buf, size_t n)
+/* The pool's reports (results/pool.h): a line per job when stderr is not
+ * a terminal, a progress bar when it is, a failed job's message. */
+static void on_job_done(void *ctx, long d, long total, const char *label, int stored, double sec)
 {
-    char px[64] = "";
-    if (jb->proxy >= 0) {
-        const rt_exp_proxy *p = &o->proxies[jb->proxy];
-        if (p->W) snprintf(px, sizeof px, " [res:%d]", p->W);
-        else snprintf(px, sizeof px, " [sub:%u:%d]", (unsigned)p->subsample, p->subtile);
-    }
-    char li[64];
-    const char *lab = jb->lighting >= 0 ? o->lightings[jb->lighting].label : "primary";
-    if (jb->mode == RT_MODE_WHITTED || jb->mode == RT_MODE_PATH)
-        snprintf(li, sizeof li, "%s %s", rt_render_mode_name(jb->mode), lab);
-    else
-        snprintf(li, sizeof li, "%s", lab);
-    if (jb->sched_size)
-        snprintf(buf, n, "%s %s %s @%" PRIu64 "K%s", o->scenes[jb->scene], li, jb->tracer, jb->sched_size / 1024, px);
-    else
-        snprintf(buf, n, "%s %s %s%s", o->scenes[jb->scene], li, jb->tracer, px);
+    (void)ctx;
+    fprintf(stderr, "[%ld/%ld] %s: %s (%.1f s)\n", d, total, label, stored ? "done" : "already in database", sec);
 }
 
-/* Test-only hook: RT_SWEEP_STOP_AFTER=N kills the sweep (SIGKILL, as a
- * kill from outside would) once N runs have been stored, so the resume
- * test interrupts for certain. Not for users. */
-static void maybe_stop(const sweep_opts *o, shared *sh)
+static void on_job_failed(void *ctx, long i, const char *label, const rt_err *e)
 {
-    if (o->stop_after > 0 && atomic_load(&sh->stored) >= o->stop_after) raise(SIGKILL);
+    (void)ctx;
+    if (i >= 0) rt_cmd_error("sweep", "job %ld (%s): %s", i, label, e->msg);
+    else rt_cmd_error("sweep", "%s", e->msg);
 }
 
-/* Test-only hook: RT_SWEEP_FAIL_JOB=K:MARKER makes job K fail in the middle
- * of storing its run (as a node dying or a full disk would) the first time,
- * i.e. when MARKER can be created; reruns then succeed. Shows that a failed
- * job leaves no partial row and that resubmitting the same job list
- * completes it. Not for users. */
-static void maybe_fail(const sweep_opts *o, long i)
+static void on_progress(void *ctx, long d, long s, long nj, double t0)
 {
-    if (o->fail_job != i) return;
-    FILE *f = fopen(o->fail_marker, "wx"); /* exclusive: once, even across processes */
-    if (!f) return;
-    fclose(f);
-    rt_db_fail_row_after = 2;
-}
-
-/* rt_exp_config.on_stored: a job's exact run is in the database. Runs with
- * the stop signals blocked, so the summary's count is the database's. */
-static void on_job_stored(void *arg)
-{
-    shared *sh = arg;
-    atomic_fetch_add(&sh->stored, 1);
-    atomic_fetch_add(&sh->done, 1);
-}
-
-static int worker_loop(const sweep_opts *o, const rt_exp_job *J, long nj, shared *sh, int tty)
-{
-    rt_err e = {0};
-    rt_db *db = rt_db_open(o->db, &e);
-    rt_exp_worker *w = db ? rt_exp_worker_new(&o->x, db, &e) : NULL;
-    if (!w) {
-        rt_cmd_error("sweep", "%s", e.msg);
-        atomic_store(&sh->failed, 1);
-        rt_db_close(db);
-        return -1;
-    }
-    int rc = 0;
-    for (;;) {
-        if (atomic_load(&sh->failed)) break;
-        maybe_stop(o, sh);
-        long i = o->only >= 0 ? (atomic_fetch_add(&sh->next, 1) == 0 ? o->only : nj) : atomic_fetch_add(&sh->next, 1);
-        if (i >= nj) break;
-        double t0 = rt_now();
-        maybe_fail(o, i);
-        int r = rt_exp_run_job(w, &J[i], i, &e);
-        char label[256];
-        job_label(&o->x, &J[i], label, sizeof label);
-        if (r < 0) {
-            rt_cmd_error("sweep", "job %ld (%s): %s", i, label, e.msg);
-            if (e.usage) atomic_store(&sh->usage, 1);
-            atomic_store(&sh->failed, 1);
-            rc = -1;
-            break;
-        }
-        /* a run job was counted by on_job_stored when its run was committed */
-        long d = r ? atomic_load(&sh->done) : (atomic_fetch_add(&sh->skipped, 1), atomic_fetch_add(&sh->done, 1) + 1);
-        if (!tty) {
-            fprintf(stderr, "[%ld/%ld] %s: %s (%.1f s)\n", d, o->only >= 0 ? 1 : nj, label, r ? "done" : "already in database",
-                    rt_now() - t0);
-        }
-        if (o->only >= 0) break;
-    }
-    maybe_stop(o, sh);
-    rt_exp_stages t;
-    rt_exp_worker_stages(w, &t);
-    double sec[4] = {t.scene, t.tracing, t.simulation, t.database};
-    for (int k = 0; k < 4; k++) atomic_fetch_add(&sh->stage_us[k], (long long)(sec[k] * 1e6));
-    rt_exp_worker_free(w);
-    rt_db_close(db);
-    return rc;
-}
-
-/* The signal that asked the sweep to stop (0 = none); set by the handler
- * the parent installs while it has workers. */
-static volatile sig_atomic_t stop_signal;
-
-static void on_stop_signal(int sig) { stop_signal = sig; }
-
-static const int stop_signals[] = {SIGTERM, SIGINT, SIGHUP};
-
-/* Installs (on = 1) or restores (on = 0) the parent's handlers for the
- * stop signals. No SA_RESTART: waitpid returns EINTR so the parent acts. */
-static void catch_stop_signals(int on, struct sigaction *saved)
-{
-    for (int i = 0; i < 3; i++) {
-        if (on) {
-            struct sigaction sa;
-            memset(&sa, 0, sizeof sa);
-            sa.sa_handler = on_stop_signal;
-            sigemptyset(&sa.sa_mask);
-            sigaction(stop_signals[i], &sa, &saved[i]);
-        } else {
-            sigaction(stop_signals[i], &saved[i], NULL);
-        }
-    }
-}
-
-/* In a new worker: default signal handling, and death with the parent. */
-static void worker_init(pid_t parent, const struct sigaction *saved)
-{
-    for (int i = 0; i < 3; i++) sigaction(stop_signals[i], &saved[i], NULL);
-#ifdef __linux__
-    prctl(PR_SET_PDEATHSIG, SIGTERM);
-#endif
-    if (getppid() != parent) _exit(1); /* the parent died before prctl took effect */
-}
-
-static void progress(shared *sh, long nj, double t0)
-{
-    long d = atomic_load(&sh->done), s = atomic_load(&sh->skipped);
+    (void)ctx;
     double el = rt_now() - t0;
     double rate = d > s ? el / (double)(d - s) : 0;
     double eta = rate * (double)(nj - d);
@@ -840,67 +708,6 @@ static int parse_args(int argc, char **argv, sweep_opts *o)
 
 /* Runs the workers (this process alone, or forked ones) until every job is
  * claimed; draws the progress bar on a terminal. 0 or -1. */
-static int run_workers(const sweep_opts *o, const rt_exp_job *J, long nj, shared *sh, long total, double t0)
-{
-    int tty = isatty(2), rc = 0;
-    int nw = o->jobs < total ? o->jobs : (int)total;
-    if (nw <= 1 && !tty) return worker_loop(o, J, nj, sh, 0);
-    /* a terminal: even one worker is a child, so the bar is drawn here */
-    if (nw < 1) nw = 1;
-    pid_t pids[256], parent = getpid();
-    struct sigaction saved[3];
-    stop_signal = 0;
-    catch_stop_signals(1, saved);
-    for (int k = 0; k < nw; k++) {
-        pids[k] = fork();
-        if (pids[k] == 0) {
-            worker_init(parent, saved);
-            _exit(worker_loop(o, J, nj, sh, tty) < 0 ? 1 : 0);
-        }
-        if (pids[k] < 0) {
-            rt_cmd_error("sweep", "fork: %s", strerror(errno));
-            atomic_store(&sh->failed, 1);
-            nw = k;
-            rc = -1;
-            break;
-        }
-    }
-    int alive = nw, forwarded = 0;
-    while (alive > 0) {
-        int status;
-        if (stop_signal && !forwarded) {
-            /* stop: no new job is claimed, running ones are killed (their
-             * open transaction leaves nothing); wait for every worker */
-            atomic_store(&sh->failed, 1);
-            for (int k = 0; k < nw; k++)
-                if (pids[k] > 0) kill(pids[k], SIGTERM);
-            forwarded = 1;
-            rc = -1;
-        }
-        pid_t p = tty ? waitpid(-1, &status, WNOHANG) : waitpid(-1, &status, 0);
-        if (p > 0) {
-            alive--;
-            for (int k = 0; k < nw; k++)
-                if (pids[k] == p) pids[k] = 0;
-            if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) rc = -1;
-        } else if (p == 0) {
-            progress(sh, total, t0);
-            usleep(250000);
-        } else if (errno != EINTR) {
-            break;
-        }
-    }
-    catch_stop_signals(0, saved);
-    if (tty) {
-        progress(sh, total, t0);
-        fputc('\n', stderr);
-    }
-    if (stop_signal)
-        rt_cmd_error("sweep", "stopped by signal %d: workers stopped; rerun the same command to resume",
-                     (int)stop_signal);
-    return rc;
-}
-
 /* Creates the schema once before workers start, and the trace folder. */
 static int prepare_outputs(const sweep_opts *o)
 {
@@ -921,37 +728,26 @@ static int prepare_outputs(const sweep_opts *o)
 static int sweep_run(sweep_opts *o, const rt_exp_job *J, long nj)
 {
     if (prepare_outputs(o) < 0) return RT_EXIT_FAIL;
-    shared *sh = mmap(NULL, sizeof *sh, PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
-    if (sh == MAP_FAILED) {
-        rt_cmd_error("sweep", "mmap: %s", strerror(errno));
-        return RT_EXIT_FAIL;
-    }
-    atomic_init(&sh->next, 0);
-    atomic_init(&sh->done, 0);
-    atomic_init(&sh->skipped, 0);
-    atomic_init(&sh->stored, 0);
-    atomic_init(&sh->failed, 0);
-    atomic_init(&sh->usage, 0);
-    for (int k = 0; k < 4; k++) atomic_init(&sh->stage_us[k], 0);
-    o->x.on_stored = on_job_stored;
-    o->x.on_stored_arg = sh;
     const rt_exp_config *x = &o->x;
     long total = o->only >= 0 ? 1 : nj;
+    rt_pool_opts po = {o->db, o->jobs, o->only, isatty(2), o->stop_after, o->fail_job, o->fail_marker,
+                       on_job_done, on_job_failed, on_progress, NULL};
+    rt_pool_result r;
+    rt_err e = {0};
     double t0 = rt_now();
     fprintf(stderr, "sweep: %ld run(s) (%d scenes x %d lightings x %d tracers, %d sizes) at %dx%d into %s, %d worker(s)\n",
             total, x->nscenes, x->nlightings, x->ntracers, x->sim.nsizes, x->ro.W, x->ro.H, o->db, o->jobs);
-    int rc = run_workers(o, J, nj, sh, total, t0);
-    long skipped = atomic_load(&sh->skipped), done = atomic_load(&sh->done);
-    double us[4];
-    for (int k = 0; k < 4; k++) us[k] = (double)atomic_load(&sh->stage_us[k]) * 1e-6;
+    int rc = rt_pool_run(&o->x, J, nj, &po, &r, &e);
+    if (po.tty) fputc('\n', stderr);
+    if (e.msg[0]) rt_cmd_error("sweep", "%s", e.msg);
+    if (r.stop_signal)
+        rt_cmd_error("sweep", "stopped by signal %d: workers stopped; rerun the same command to resume", r.stop_signal);
     fprintf(stderr,
             "sweep: %ld run(s) finished (%ld already in the database) in %.1f s wall; results in %s; stages: scene %.1f s, "
             "tracing %.1f s, simulation %.1f s, database %.1f s (summed over workers)\n",
-            done, skipped, rt_now() - t0, o->db, us[0], us[1], us[2], us[3]);
-    int usage = atomic_load(&sh->usage);
-    munmap(sh, sizeof *sh);
-    if (usage) return RT_EXIT_USAGE; /* as render and trace: the options ask too much */
-    return rc < 0 || done < total ? RT_EXIT_FAIL : RT_EXIT_OK;
+            r.done, r.skipped, rt_now() - t0, o->db, r.stage_sec[0], r.stage_sec[1], r.stage_sec[2], r.stage_sec[3]);
+    if (r.usage) return RT_EXIT_USAGE; /* as render and trace: the options ask too much */
+    return rc < 0 ? RT_EXIT_FAIL : RT_EXIT_OK;
 }
 
 int main_sweep(int argc, char **argv)
