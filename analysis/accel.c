@@ -210,7 +210,7 @@ static void group_table(FILE *o, int csv, const arun *g, int n, const uint64_t *
             }
         return;
     }
-    fprintf(o, "\n### %s\n\n| structure | nodes | KB | nodes/ray | tests/ray", lab);
+    fprintf(o, "\n### %s\n\n| structure | nodes | struct. KB | nodes/ray | tests/ray", lab);
     for (int k = 0; k < ns; k++) fprintf(o, " | %" PRIu64 " KB", sz[k] / 1024);
     fputs(" |\n|---", o);
     for (int k = 0; k < ns + 4; k++) fputs("|---:", o);
@@ -348,7 +348,7 @@ int rt_report_accel(sqlite3 *h, const char *scene, int csv, const rt_plot_opts *
     if (csv) fputs("group,structure,nodes,bytes,nodes_per_ray,tests_per_ray,cache_bytes,geometry_bytes\n", out);
     else
         fputs("## Acceleration structures: footprint, work per ray and geometry traffic\n\n"
-              "Runs of one tracer that differ only in their structure. nodes, KB: the structure's node records "
+              "Runs of one tracer that differ only in their structure. nodes, struct. KB: the structure's node records "
               "and index lists (not triangles); nodes/ray, tests/ray: node visits and triangle tests over rays "
               "traced (packet: a node counted once per packet visit); then geometry traffic in MB (2^20 bytes) "
               "per cache size (64-byte lines, fully associative).\n",

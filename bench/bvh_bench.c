@@ -11,6 +11,11 @@
  * but wrong row cannot pass unnoticed. With Embree built, its
  * rtcIntersect1 on the same rays is measured too (rt_embree_bench) and every
  * row gets its rays/s over Embree's.
+ *
+ * A second table runs the recursive tracer itself (rt_job, no lights: camera
+ * rays, the walk through the structure's ops, shading, the image) on each
+ * structure, untraced and recording into a null sink, best of reps each:
+ * its rays/s over Embree's and the recording run's time over the untraced.
  */
 #include "config.h"
 
@@ -20,6 +25,7 @@
 #include "hilbert.h"
 #include "kdtrav.h"
 #include "kdtree.h"
+#include "run.h"
 
 #include <inttypes.h>
 #include <stdlib.h>
@@ -36,6 +42,47 @@ typedef struct row {
     uint64_t tests;   /* triangle tests over all rays (one run) */
     uint64_t differ;  /* rays whose hit differs from the k-d tree's */
 } row;
+
+static int null_put(rt_sink *s, const rt_access *a, size_t n)
+{
+    (void)a;
+    *(uint64_t *)s->ctx += n;
+    return 0;
+}
+
+/* The recursive tracer on structure kind: best untraced and best recording
+ * seconds of reps runs each, alternating. 0 or -1. */
+static int tracer_row(const rt_scene *sc, int kind, int W, int H, int reps, double *untraced, double *recorded,
+                      double *refs_per_ray, rt_err *e)
+{
+    rt_render_opts o;
+    rt_render_default_opts(&o);
+    o.W = W;
+    o.H = H;
+    o.lights = 0;
+    o.accel = kind;
+    rt_job j;
+    rt_image *img = rt_image_new(W, H, e);
+    if (!img) return -1;
+    if (rt_job_setup_borrowed(&j, (rt_scene *)sc, NULL, "recursive", &o, e) < 0) {
+        rt_image_free(img);
+        return -1;
+    }
+    int rc = 0;
+    for (int rep = 0; rep < reps && rc == 0; rep++) {
+        rt_run_stats st;
+        uint64_t cnt = 0;
+        rt_sink ns = {null_put, &cnt};
+        if ((rc = rt_job_run(&j, NULL, img, &st, e)) < 0) break;
+        if (rep == 0 || st.seconds < *untraced) *untraced = st.seconds;
+        if ((rc = rt_job_run(&j, &ns, img, &st, e)) < 0) break;
+        if (rep == 0 || st.seconds < *recorded) *recorded = st.seconds;
+        *refs_per_ray = (double)st.accesses / (double)(st.rays_primary ? st.rays_primary : 1);
+    }
+    rt_job_free(&j);
+    rt_image_free(img);
+    return rc;
+}
 
 int rt_bvh_bench_primary(FILE *out, const rt_scene *sc, int W, int H, int reps, rt_err *e)
 {
@@ -137,6 +184,22 @@ int rt_bvh_bench_primary(FILE *out, const rt_scene *sc, int W, int H, int reps, 
     if (have_embree)
         fprintf(out, "| embree %s | %.2f | | | %.3f | %.2f | | | | %.2f | 1.00 |\n", er.version, er.build_sec, er.sec,
                 (double)er.rays / er.sec * 1e-6, rows[0].sec / er.sec);
+    fprintf(out, "\n");
+    /* the recursive tracer on each structure */
+    static const int kinds[4] = {RT_ACCEL_KD, RT_ACCEL_BVH2, RT_ACCEL_BVH4, RT_ACCEL_BVH8};
+    double tu[4] = {0}, trc[4] = {0}, rpr[4] = {0};
+    for (int i = 0; i < 4; i++)
+        if (tracer_row(sc, kinds[i], W, H, reps, &tu[i], &trc[i], &rpr[i], e) < 0) goto out;
+    fprintf(out, "The recursive tracer on each structure, the same primary rays, no lights (untraced and recording "
+                 "into a null sink, best of %d each):\n\n", reps);
+    fprintf(out, "| structure | untraced s | Mrays/s | recording s | recording over untraced | refs/ray | "
+                 "untraced k-d seconds over this | untraced rays/s over Embree |\n|---|---|---|---|---|---|---|---|\n");
+    for (int i = 0; i < 4; i++) {
+        char emb[32] = "";
+        if (have_embree) snprintf(emb, sizeof emb, "%.2f", ((double)npix / tu[i]) / ((double)er.rays / er.sec));
+        fprintf(out, "| %s | %.3f | %.2f | %.3f | %.2f | %.1f | %.2f | %s |\n", rt_accel_name(kinds[i]), tu[i],
+                (double)npix / tu[i] * 1e-6, trc[i], trc[i] / tu[i], rpr[i], tu[0] / tu[i], emb);
+    }
     fprintf(out, "\n");
     rc = 0;
     for (int i = 1; i < 4; i++)
