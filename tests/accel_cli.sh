@@ -7,8 +7,9 @@
 #    its job's rows;
 # 2. the report on that sweep matches a golden file; its plot data hold one
 #    column per structure;
-# 3. bad lists are usage errors (exit 2); a database without a structure
-#    sweep is a reported error.
+# 3. `bench --what bvh` runs (walks agree with the k-d tree, the tracer on
+#    every structure); bad lists are usage errors (exit 2); a database
+#    without a structure sweep is a reported error.
 # Set RT_REDO_GOLDEN=1 to regenerate the golden report.
 set -u
 bin=${RT_BIN:-./raytraffic}
@@ -75,6 +76,13 @@ RT_GNUPLOT=/bin/true "$bin" report --db "$db" --figure accel --scene knot --plot
 dat="$tmp/plots/accel-knot_24x20_lights_7__recursive.dat"
 [ -f "$dat" ] && [ -f "${dat%.dat}.gp" ] || die "plot files missing: $(ls "$tmp/plots" 2>&1)"
 awk '!/^#/ && NF == 5 { n++ } END { exit n != 3 }' "$dat" 2>/dev/null || die "plot data: $(cat "$dat" 2>&1)"
+
+# ---- bench --what bvh, smallest settings: the walks agree with the k-d tree,
+# and the tracer runs on every structure
+"$bin" bench --what bvh --scene knot -W 12 -H 10 --reps 1 > "$tmp/bench" 2>&1 || die "bench --what bvh: $(cat "$tmp/bench")"
+[ "$(grep -cE '^\| bvh[248] \|' "$tmp/bench")" = 6 ] || die "bench --what bvh: rows: $(cat "$tmp/bench")"
+awk -F'|' '/^\| bvh[248] \|/ && NF == 16 && $13 + 0 != 0 { bad = 1 } END { exit bad }' "$tmp/bench" \
+    || die "bench --what bvh: hits differ: $(cat "$tmp/bench")"
 
 # ---- 3. errors ------------------------------------------------------------------
 for bad in "--accels bvh4 --accel kd" "--accels nope" "--accels kd,kd" "--accels grid"; do
