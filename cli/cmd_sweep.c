@@ -919,8 +919,10 @@ static int sweep_run(const sweep_opts *o, const rt_exp_job *J, long nj)
     const rt_exp_config *x = &o->x;
     long total = o->only >= 0 ? 1 : nj;
     double t0 = rt_now();
-    fprintf(stderr, "sweep: %ld run(s) (%d scenes x %d lightings x %d tracers, %d sizes) at %dx%d into %s, %d worker(s)\n",
-            total, x->nscenes, x->nlightings, x->ntracers, x->sim.nsizes, x->ro.W, x->ro.H, o->db, o->jobs);
+    char nacc[48] = "";
+    if (x->naccels) snprintf(nacc, sizeof nacc, " x %d structures", x->naccels);
+    fprintf(stderr, "sweep: %ld run(s) (%d scenes x %d lightings x %d tracers%s, %d sizes) at %dx%d into %s, %d worker(s)\n",
+            total, x->nscenes, x->nlightings, x->ntracers, nacc, x->sim.nsizes, x->ro.W, x->ro.H, o->db, o->jobs);
     int rc = run_workers(o, J, nj, sh, total, t0);
     long skipped = atomic_load(&sh->skipped), done = atomic_load(&sh->done);
     double us[4];
