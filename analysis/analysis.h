@@ -199,6 +199,17 @@ int rt_plot_scenes(const rt_report *R, const rt_plot_opts *p, rt_err *e);
  * gnuplot, DIR/speed-error.png (mean miss-ratio error against speedup). */
 int rt_report_speed_error(sqlite3 *h, int csv, const rt_plot_opts *plot, FILE *out, rt_err *e);
 
+/* Acceleration structures (analysis/accel.c): per group of runs of one
+ * tracer that differ only in their structure (scene, resolution, lights,
+ * run key without accel=, simulator parameters; exact, full-frame,
+ * unscheduled), one row per structure: footprint (the stats' accel_nodes,
+ * accel_bytes), node visits and triangle tests per ray traced, geometry
+ * traffic at every 64-byte fully associative cache size; Markdown adds the
+ * structure with the least geometry at the smallest and largest size.
+ * scene NULL: every scene. With plot, DIR/accel-LABEL.{dat,gp,png}. No
+ * group of two structures or more is an error naming the sweep to run. */
+int rt_report_accel(sqlite3 *h, const char *scene, int csv, const rt_plot_opts *plot, FILE *out, rt_err *e);
+
 /* Secondary rays (analysis/secondary.c): per scene, mode (with its
  * parameters), lighting, resolution and cache size, the reduction of
  * dynamic against recursive (rt_report_reduction) in geometry and in total

@@ -96,7 +96,8 @@ int rt_stream_bench(FILE *out, const char *scene, const rt_render_opts *base, rt
 typedef struct rt_embree_result {
     char version[32]; /* Embree's version, "" when not built */
     double build_sec; /* Embree scene build (not in sec) */
-    double sec;       /* the ray loop */
+    double sec;       /* the ray loop (wall; best of the reps) */
+    double cpu_sec;   /* the ray loop's CPU time of the calling thread (best of the reps) */
     uint64_t rays;    /* W * H */
     uint64_t hits;    /* rays that hit a triangle */
 } rt_embree_result;
@@ -107,6 +108,11 @@ int rt_embree_built(void);
  * rtcIntersect1 each on a one-thread Embree device holding sc's triangles.
  * 0, or -1 with e set (without Embree: "embree: not built ..."). */
 int rt_embree_bench(const rt_scene *sc, int W, int H, rt_embree_result *out, rt_err *e);
+/* The same with the ray loop run reps times (>= 1) on one Embree scene. */
+int rt_embree_bench_reps(const rt_scene *sc, int W, int H, int reps, rt_embree_result *out, rt_err *e);
+/* CPU seconds of the calling thread (CLOCK_THREAD_CPUTIME_ID): a time that
+ * other processes on a loaded machine do not stretch. */
+double rt_bench_thread_cpu(void);
 
 /* ---- BVH widths against the k-d tree (bvh_bench.c) ----------------------- */
 

@@ -12,6 +12,11 @@
  * fast but wrong row cannot pass unnoticed. With Embree built, its
  * rtcIntersect1 on the same rays is measured too (rt_embree_bench) and every
  * row gets its rays/s over Embree's.
+ *
+ * A second table runs the recursive tracer itself (rt_job, no lights: camera
+ * rays, the walk through the structure's ops, shading, the image) on each
+ * structure, untraced and recording into a null sink, best of reps each:
+ * its rays/s over Embree's and the recording run's time over the untraced.
  */
 #include "config.h"
 
@@ -21,6 +26,7 @@
 #include "hilbert.h"
 #include "kdtrav.h"
 #include "kdtree.h"
+#include "run.h"
 
 #include <inttypes.h>
 #include <stdlib.h>
@@ -29,15 +35,63 @@
 typedef struct row {
     char name[16];    /* "k-d tree", "bvh2", ... */
     double build_sec; /* build wall time */
+    double build_cpu; /* build CPU time (one thread) */
     uint64_t bytes;   /* modeled bytes of nodes (+ index) + triangles */
     uint32_t nodes;   /* nodes of the structure */
     double sec;       /* best ray loop */
+    double cpu;       /* best ray loop, CPU time of the thread */
     uint64_t hits;    /* rays that hit */
     uint64_t visits;  /* nodes visited over all rays (one run) */
     uint64_t tests;   /* triangle tests over all rays (one run) */
     uint64_t differ;  /* rays whose hit differs from the k-d tree's and brute force's */
     uint64_t kd_off;  /* rays where it equals brute force and the k-d tree does not */
 } row;
+
+static int null_put(rt_sink *s, const rt_access *a, size_t n)
+{
+    (void)a;
+    *(uint64_t *)s->ctx += n;
+    return 0;
+}
+
+/* The recursive tracer on structure kind: best untraced and best recording
+ * seconds of reps runs each, alternating. 0 or -1. */
+static int tracer_row(const rt_scene *sc, int kind, int W, int H, int reps, double *untraced, double *recorded,
+                      double *refs_per_ray, rt_err *e)
+/* (times: CPU seconds of the thread, best of reps) */
+{
+    rt_render_opts o;
+    rt_render_default_opts(&o);
+    o.W = W;
+    o.H = H;
+    o.lights = 0;
+    o.accel = kind;
+    rt_job j;
+    rt_image *img = rt_image_new(W, H, e);
+    if (!img) return -1;
+    if (rt_job_setup_borrowed(&j, (rt_scene *)sc, NULL, "recursive", &o, e) < 0) {
+        rt_image_free(img);
+        return -1;
+    }
+    int rc = 0;
+    for (int rep = 0; rep < reps && rc == 0; rep++) {
+        rt_run_stats st;
+        uint64_t cnt = 0;
+        rt_sink ns = {null_put, &cnt};
+        double c0 = rt_bench_thread_cpu();
+        if ((rc = rt_job_run(&j, NULL, img, &st, e)) < 0) break;
+        double c = rt_bench_thread_cpu() - c0;
+        if (rep == 0 || c < *untraced) *untraced = c;
+        c0 = rt_bench_thread_cpu();
+        if ((rc = rt_job_run(&j, &ns, img, &st, e)) < 0) break;
+        c = rt_bench_thread_cpu() - c0;
+        if (rep == 0 || c < *recorded) *recorded = c;
+        *refs_per_ray = (double)st.accesses / (double)(st.rays_primary ? st.rays_primary : 1);
+    }
+    rt_job_free(&j);
+    rt_image_free(img);
+    return rc;
+}
 
 int rt_bvh_bench_primary(FILE *out, const rt_scene *sc, int W, int H, int reps, rt_err *e)
 {
@@ -57,10 +111,11 @@ int rt_bvh_bench_primary(FILE *out, const rt_scene *sc, int W, int H, int reps, 
     rt_cam_frame cam;
     rt_cam_setup(&cam, sc, W, H);
 
-    double t0 = rt_now();
+    double t0 = rt_now(), c0 = rt_bench_thread_cpu();
     if (!(kd = rt_kd_build(sc, NULL, e))) goto out;
     snprintf(rows[0].name, sizeof rows[0].name, "k-d tree");
     rows[0].build_sec = rt_now() - t0;
+    rows[0].build_cpu = rt_bench_thread_cpu() - c0;
     rows[0].nodes = kd->nnodes;
     rows[0].bytes = 8ull * kd->nnodes + 4ull * kd->nidx + 36ull * sc->ntri;
     for (int rep = 0; rep < reps; rep++) {
@@ -70,14 +125,16 @@ int rt_bvh_bench_primary(FILE *out, const rt_scene *sc, int W, int H, int reps, 
         tv.sc = sc;
         uint64_t hits = 0;
         t0 = rt_now();
+        c0 = rt_bench_thread_cpu();
         for (size_t k = 0; k < npix; k++) {
             const uint32_t pix = order[k];
             rt_ray r;
             rt_cam_ray(&cam, (int)(pix % (uint32_t)W), (int)(pix / (uint32_t)W), &r);
             hits += (uint64_t)rt_kd_closest(&tv, &r, &ref[k]);
         }
-        const double sec = rt_now() - t0;
+        const double sec = rt_now() - t0, cpu = rt_bench_thread_cpu() - c0;
         if (rep == 0 || sec < rows[0].sec) rows[0].sec = sec;
+        if (rep == 0 || cpu < rows[0].cpu) rows[0].cpu = cpu;
         rows[0].hits = hits;
         rows[0].visits = tv.nodes;
         rows[0].tests = tv.tests;
@@ -89,8 +146,10 @@ int rt_bvh_bench_primary(FILE *out, const rt_scene *sc, int W, int H, int reps, 
         row *x = &rows[1 + w];
         rt_bvh_params p;
         rt_bvh_default_params(&p, 2 << w);
+        c0 = rt_bench_thread_cpu();
         rt_bvh *b = rt_bvh_build(sc, &p, e);
         if (!b) goto out;
+        x->build_cpu = rt_bench_thread_cpu() - c0;
         rt_bvh_stat st;
         rt_bvh_stats(b, &st);
         snprintf(x->name, sizeof x->name, "bvh%d", 2 << w);
@@ -102,6 +161,7 @@ int rt_bvh_bench_primary(FILE *out, const rt_scene *sc, int W, int H, int reps, 
             rt_bvh_trav_init(&tv, b, sc, NULL, NULL);
             uint64_t hits = 0, differ = 0;
             t0 = rt_now();
+            c0 = rt_bench_thread_cpu();
             for (size_t k = 0; k < npix; k++) {
                 const uint32_t pix = order[k];
                 rt_ray r;
@@ -116,8 +176,9 @@ int rt_bvh_bench_primary(FILE *out, const rt_scene *sc, int W, int H, int reps, 
                     differ++;
                 }
             }
-            const double sec = rt_now() - t0;
+            const double sec = rt_now() - t0, cpu = rt_bench_thread_cpu() - c0;
             if (rep == 0 || sec < x->sec) x->sec = sec;
+            if (rep == 0 || cpu < x->cpu) x->cpu = cpu;
             x->hits = hits;
             if (rep > 0) continue;
             /* brute force decides each difference, outside the timed loop
@@ -143,34 +204,49 @@ int rt_bvh_bench_primary(FILE *out, const rt_scene *sc, int W, int H, int reps, 
     rt_embree_result er;
     memset(&er, 0, sizeof er);
     rt_err ee = {0};
-    int have_embree = rt_embree_built();
-    for (int rep = 0; have_embree && rep < reps; rep++) {
-        rt_embree_result one;
-        if (rt_embree_bench(sc, W, H, &one, &ee) < 0) have_embree = 0;
-        else if (rep == 0 || one.sec < er.sec) er = one;
-    }
+    const int have_embree = rt_embree_built() && rt_embree_bench_reps(sc, W, H, reps, &er, &ee) == 0;
     fprintf(out,
-            "Untraced primary rays, %dx%d in Hilbert order, one ray at a time, %u triangles (ray loop: best of %d; "
-            "hits compared with the k-d tree's, triangle and t bit for bit, brute force deciding a difference)%s:\n\n",
+            "Untraced primary rays, %dx%d in Hilbert order, one ray at a time, %u triangles (ray loop: best of %d, "
+            "wall and CPU time of the thread apart; hits compared with the k-d tree's, triangle and t bit for bit; "
+            "ratios on CPU time, which a loaded machine does not stretch)%s:\n\n",
             W, H, sc->ntri, reps, have_embree ? "" : "; Embree not built");
-    fprintf(out, "| structure | build s | nodes | MB | seconds | Mrays/s | nodes/ray | tests/ray | differ | "
-                 "k-d seconds over this | rays/s over Embree |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
+    fprintf(out, "| structure | build s | build CPU s | build CPU over k-d | nodes | MB | seconds | CPU s | Mrays/s (CPU) "
+                 "| nodes/ray | tests/ray | differ | k-d CPU over this | rays/s over Embree (CPU) |\n"
+                 "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (int i = 0; i < 4; i++) {
         const row *x = &rows[i];
-        const double rps = (double)npix / x->sec;
         char emb[32] = "";
-        if (have_embree) snprintf(emb, sizeof emb, "%.2f", rps / ((double)er.rays / er.sec));
-        fprintf(out, "| %s | %.2f | %" PRIu32 " | %.1f | %.3f | %.2f | %.1f | %.2f | %" PRIu64 " | %.2f | %s |\n", x->name,
-                x->build_sec, x->nodes, (double)x->bytes / 1048576.0, x->sec, rps * 1e-6, (double)x->visits / (double)npix,
-                (double)x->tests / (double)npix, x->differ, rows[0].sec / x->sec, emb);
+        if (have_embree) snprintf(emb, sizeof emb, "%.2f", er.cpu_sec / x->cpu);
+        fprintf(out,
+                "| %s | %.2f | %.2f | %.2f | %" PRIu32 " | %.1f | %.3f | %.3f | %.2f | %.1f | %.2f | %" PRIu64
+                " | %.2f | %s |\n",
+                x->name, x->build_sec, x->build_cpu, x->build_cpu / rows[0].build_cpu, x->nodes,
+                (double)x->bytes / 1048576.0, x->sec, x->cpu, (double)npix / x->cpu * 1e-6,
+                (double)x->visits / (double)npix, (double)x->tests / (double)npix, x->differ, rows[0].cpu / x->cpu, emb);
     }
     if (have_embree)
-        fprintf(out, "| embree %s | %.2f | | | %.3f | %.2f | | | | %.2f | 1.00 |\n", er.version, er.build_sec, er.sec,
-                (double)er.rays / er.sec * 1e-6, rows[0].sec / er.sec);
+        fprintf(out, "| embree %s | %.2f | | | | | %.3f | %.3f | %.2f | | | | %.2f | 1.00 |\n", er.version, er.build_sec,
+                er.sec, er.cpu_sec, (double)er.rays / er.cpu_sec * 1e-6, rows[0].cpu / er.cpu_sec);
     for (int i = 1; i < 4; i++)
         if (rows[i].kd_off)
             fprintf(out, "%s: %" PRIu64 " hits differ from the k-d tree's and equal brute force's\n", rows[i].name,
                     rows[i].kd_off);
+    fprintf(out, "\n");
+    /* the recursive tracer on each structure */
+    static const int kinds[4] = {RT_ACCEL_KD, RT_ACCEL_BVH2, RT_ACCEL_BVH4, RT_ACCEL_BVH8};
+    double tu[4] = {0}, trc[4] = {0}, rpr[4] = {0};
+    for (int i = 0; i < 4; i++)
+        if (tracer_row(sc, kinds[i], W, H, reps, &tu[i], &trc[i], &rpr[i], e) < 0) goto out;
+    fprintf(out, "The recursive tracer on each structure, the same primary rays, no lights (untraced and recording "
+                 "into a null sink; CPU time of the thread, best of %d each):\n\n", reps);
+    fprintf(out, "| structure | untraced CPU s | Mrays/s | recording CPU s | recording over untraced | refs/ray | "
+                 "untraced k-d CPU over this | untraced rays/s over Embree (CPU) |\n|---|---|---|---|---|---|---|---|\n");
+    for (int i = 0; i < 4; i++) {
+        char emb[32] = "";
+        if (have_embree) snprintf(emb, sizeof emb, "%.2f", er.cpu_sec / tu[i]);
+        fprintf(out, "| %s | %.3f | %.2f | %.3f | %.2f | %.1f | %.2f | %s |\n", rt_accel_name(kinds[i]), tu[i],
+                (double)npix / tu[i] * 1e-6, trc[i], trc[i] / tu[i], rpr[i], tu[0] / tu[i], emb);
+    }
     fprintf(out, "\n");
     rc = 0;
     for (int i = 1; i < 4; i++)

@@ -133,8 +133,8 @@ extern const struct option rt_render_longopts[];
     "                     default compact)\n"                                               \
     "  --queue-stores S   dynamic: queue writes, write-allocate | stream (default\n"        \
     "                     write-allocate)\n"                                               \
-    "  --accel A          acceleration structure: kd | bvh2 | bvh4 | bvh8 (recursive;\n"  \
-    "                     default kd), grid | naive (feedback; default grid)\n"          \
+    "  --accel A          acceleration structure: kd | bvh2 | bvh4 | bvh8 (recursive,\n"  \
+    "                     packet; default kd), grid | naive (feedback; default grid)\n"  \
     "  --vb-size S        feedback: limit of one vertex buffer, e.g. 512M (default 2G)\n" \
     "  --grid-min N       grid tracers: grid cells along the smallest axis (default 64,\n" \
     "                     halved until the grid fits the cell limit)\n"                     \

@@ -29,6 +29,9 @@ static void usage(FILE *f)
             "                     Table 2, Figures 7-9; with --plot their stacked bars)\n"
             "                     feedback: feedback runs' traffic per class and ray-state\n"
             "                     bytes per ray beside dynamic and stream-multipass (--plot)\n"
+            "                     accel: the structures of each tracer side by side: footprint,\n"
+            "                     nodes and tests per ray, geometry traffic per cache size\n"
+            "                     (runs of sweep --accels; --plot: traffic against cache size)\n"
             "  --scene NAME       only this scene (figures 4-9 map room, grove, sphereflake)\n"
             "  --format md|csv    Markdown tables (default) or CSV\n"
             "  -W N, -H N         resolution to report (default: the largest in the database)\n"
@@ -64,8 +67,9 @@ int main_report(int argc, char **argv)
         case 'd': dbpath = optarg; break;
         case 'f':
             if (strcmp(optarg, "all") && strcmp(optarg, "scenes") && strcmp(optarg, "secondary") && strcmp(optarg, "purcell") && strcmp(optarg, "feedback") &&
+                strcmp(optarg, "accel") &&
                 !(strlen(optarg) == 1 && optarg[0] >= '4' && optarg[0] <= '9')) {
-                rt_cmd_error("report", "--figure: '%s' is not 4..9, scenes, secondary, purcell, feedback or all", optarg);
+                rt_cmd_error("report", "--figure: '%s' is not 4..9, scenes, secondary, purcell, feedback, accel or all", optarg);
                 return RT_EXIT_USAGE;
             }
             figure = optarg;
@@ -128,6 +132,8 @@ int main_report(int argc, char **argv)
         rc = rt_report_purcell(h, o.scene, o.csv, compare, plotdir ? &po : NULL, stdout, &e);
     } else if (rc == 0 && !strcmp(figure, "feedback")) {
         rc = rt_report_feedback(h, o.scene, o.csv, plotdir ? &po : NULL, stdout, &e);
+    } else if (rc == 0 && !strcmp(figure, "accel")) {
+        rc = rt_report_accel(h, o.scene, o.csv, plotdir ? &po : NULL, stdout, &e);
     } else if (rc == 0 && !strcmp(figure, "secondary")) {
         rc = rt_report_secondary(h, dbpath, o.csv, plotdir ? &po : NULL, stdout, &e);
     } else if (rc == 0 && !R.nscenes) {

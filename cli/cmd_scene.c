@@ -1,13 +1,15 @@
 /*
  * cmd_scene.c -- `raytraffic scene`: list the built-in scenes, describe a
  * scene (triangles, bounds, identity hash, camera, lights and the statistics
- * of its SAH k-d tree), and export a scene as OBJ.
+ * of its SAH k-d tree; the build time and footprint of each acceleration
+ * structure), and export a scene as OBJ.
  *
  *   raytraffic scene list
- *   raytraffic scene info SCENE [--json] [--no-tree]
+ *   raytraffic scene info SCENE [--json] [--no-tree] [--accel A]
  *   raytraffic scene export SCENE -o FILE.obj
  */
 #include "config.h"
+#include "accel.h"
 #include "cmd.h"
 #include "kdtree.h"
 #include "scene.h"
@@ -21,14 +23,17 @@ static void usage(FILE *f)
 {
     fprintf(f,
             "Usage: raytraffic scene list\n"
-            "       raytraffic scene info SCENE [--json] [--no-tree] [VIEW]\n"
+            "       raytraffic scene info SCENE [--json] [--no-tree] [--accel A] [VIEW]\n"
             "       raytraffic scene export SCENE -o FILE.obj [VIEW]\n\n"
             "SCENE is a built-in name with optional parameters (sphereflake:level=2,tess=3)\n"
             "or a scene file ending in .obj, .ply or .pbrt.\n\n"
             "  list      built-in scenes, their parameters and one-line descriptions\n"
             "  info      triangles, bounds, scene hash, camera, lights and k-d tree statistics\n"
             "            --json     one JSON object on stdout\n"
-            "            --no-tree  skip building the k-d tree\n"
+            "            and per acceleration structure (kd, bvh2, bvh4, bvh8) its build\n"
+            "            time, nodes, modeled bytes (nodes and index lists) and depth\n"
+            "            --accel A  only structure A (kd, bvh2, bvh4, bvh8, grid, naive)\n"
+            "            --no-tree  build no structure\n"
             "  export    write the scene's triangles as Wavefront OBJ\n"
             "            -o FILE    output file (required)\n\n"
             "VIEW replaces the scene's camera and lights, as for render:\n"
@@ -107,13 +112,24 @@ static int cmd_info(int argc, char **argv)
         return RT_EXIT_OK;
     }
     const char *spec = NULL;
-    int json = 0, tree = 1, v;
+    int json = 0, tree = 1, only = 0, v;
     rt_render_opts vo;
     rt_render_default_opts(&vo);
     for (int i = 1; i < argc; i++) {
         if ((v = view_opt(argc, argv, &i, &vo)) != 0) {
             if (v < 0) return RT_EXIT_USAGE;
         } else if (!strcmp(argv[i], "--json")) json = 1;
+        else if (!strcmp(argv[i], "--accel")) {
+            if (i + 1 >= argc) {
+                rt_cmd_error("scene", "info: --accel needs a structure (%s)", rt_accel_names());
+                return RT_EXIT_USAGE;
+            }
+            only = rt_accel_from_name(argv[++i]);
+            if (only <= 0) {
+                rt_cmd_error("scene", "info: --accel: unknown structure '%s' (%s)", argv[i], rt_accel_names());
+                return RT_EXIT_USAGE;
+            }
+        }
         else if (!strcmp(argv[i], "--no-tree")) tree = 0;
         else if (argv[i][0] == '-' && argv[i][1]) {
             rt_cmd_error("scene", "info: unknown option '%s'", argv[i]);
@@ -134,7 +150,7 @@ static int cmd_info(int argc, char **argv)
     double load_sec = rt_now() - t0;
     if (s->warning[0]) rt_cmd_error("scene", "warning: %s", s->warning);
     rt_kdtree *kd = NULL;
-    if (tree) {
+    if (tree && (!only || only == RT_ACCEL_KD)) {
         rt_kd_params kp;
         rt_kd_default_params(&kp);
         kd = rt_kd_build(s, &kp, &e);
@@ -143,6 +159,25 @@ static int cmd_info(int argc, char **argv)
             rt_scene_free(s);
             return RT_EXIT_FAIL;
         }
+    }
+    /* the structures: kd (built above) and the BVHs, or the one asked for */
+    static const int kinds[] = {RT_ACCEL_KD, RT_ACCEL_BVH2, RT_ACCEL_BVH4, RT_ACCEL_BVH8};
+    rt_accel acc[RT_ACCEL_NKINDS];
+    rt_accel_info inf[RT_ACCEL_NKINDS];
+    int nacc = 0;
+    for (int k = 0; tree && k < (only ? 1 : 4); k++) {
+        const int kind = only ? only : kinds[k];
+        if (kind == RT_ACCEL_KD) rt_accel_wrap(&acc[nacc], kind, kd, kd->build_sec);
+        else if (rt_accel_build(&acc[nacc], kind, s, NULL, &e) < 0) {
+            rt_cmd_error("scene", "%s: %s: %s", spec, rt_accel_name(kind), e.msg);
+            for (int j = 0; j < nacc; j++)
+                if (acc[j].kind != RT_ACCEL_KD) rt_accel_free(&acc[j]);
+            rt_kd_free(kd);
+            rt_scene_free(s);
+            return RT_EXIT_FAIL;
+        }
+        rt_accel_info_of(&acc[nacc], &inf[nacc]);
+        nacc++;
     }
     uint64_t h = rt_scene_hash(s);
     if (json) {
@@ -176,6 +211,15 @@ static int cmd_info(int argc, char **argv)
                    kd->nnodes, kd->nleaves, kd->nempty, kd->maxdepth, kd->nidx, rt_kd_mean_leaf_tris(kd),
                    kd->maxleaf, kd->build_sec);
         }
+        if (nacc) {
+            printf(",\n  \"accel\": [");
+            for (int j = 0; j < nacc; j++)
+                printf("%s\n    {\"name\": \"%s\", \"build_sec\": %.6f, \"nodes\": %" PRIu64 ", \"bytes\": %" PRIu64
+                       ", \"depth\": %u}",
+                       j ? "," : "", rt_accel_name(acc[j].kind), acc[j].build_sec, inf[j].nodes, inf[j].bytes,
+                       inf[j].depth);
+            printf("\n  ]");
+        }
         printf("\n}\n");
     } else {
         printf("scene        %s%s%s\n", s->name, s->params[0] ? ":" : "", s->params);
@@ -206,7 +250,13 @@ static int cmd_info(int argc, char **argv)
             printf("kd leaf tris mean %.2f (non-empty leaves), max %u\n", rt_kd_mean_leaf_tris(kd), kd->maxleaf);
             printf("kd build     %.3f s\n", kd->build_sec);
         }
+        if (nacc) printf("structure    build s        nodes          bytes  depth\n");
+        for (int j = 0; j < nacc; j++)
+            printf("  %-8s %9.3f %12" PRIu64 " %14" PRIu64 " %6u\n", rt_accel_name(acc[j].kind), acc[j].build_sec,
+                   inf[j].nodes, inf[j].bytes, inf[j].depth);
     }
+    for (int j = 0; j < nacc; j++)
+        if (acc[j].kind != RT_ACCEL_KD) rt_accel_free(&acc[j]);
     rt_kd_free(kd);
     rt_scene_free(s);
     return RT_EXIT_OK;

@@ -65,7 +65,7 @@ typedef struct sweep_opts {
     long fail_job;    /* RT_SWEEP_FAIL_JOB=K:MARKER (tests only): job K fails once, -1 = never */
     const char *fail_marker; /* file whose creation marks that failure as done */
     int W, H;         /* -W/-H, 0 = from the preset */
-    char *lists[6];   /* own copies of --scenes, --tracers, --lights, --approx, --proxy, --modes */
+    char *lists[7];   /* own copies of --scenes, --tracers, --lights, --approx, --proxy, --modes, --accels */
     const char *sizes_arg;
     const char *mode_opt[2]; /* --depth (whitted only), --spp/--bounces (path only) given: the option's name */
     int geom_given, qs_given; /* --layout / --queue-stores given (they override the model) */
@@ -118,8 +118,11 @@ static void usage(FILE *f)
             "                     every scene's camera and lights (see render --help; in the\n"
             "                     run key when given)\n"
             "  --accel A, --grid-min N, --grid-density L, --record-stores S, --vb-size S\n"
-            "                     feedback / stream tracer options\n"
-            "                     (see render --help; in the run key when not the default)\n"
+            "                     acceleration structure, feedback / stream tracer options\n"
+            "                     (see render --help; in the run key when not the tracer's default)\n"
+            "  --accels LIST      sweep structures too: comma list of kd, bvh2, bvh4, bvh8,\n"
+            "                     grid, naive; each tracer runs on those of the list it can\n"
+            "                     (its default structure keeps the run key of a plain run)\n"
             "  --list-jobs        print one self-contained command per job and exit\n"
             "  --job K            run only job K (0-based) of the matrix\n"
             "  -h, --help         this help\n\n"
@@ -284,6 +287,44 @@ static void on_job_done(void *ctx, long d, long total, const char *label, int st
     fprintf(stderr, "[%ld/%ld] %s: %s (%.1f s)\n", d, total, label, stored ? "done" : "already in database", sec);
 }
 
+/* --accels into x.accels: known names, none twice, each run by some
+ * tracer of the sweep; not with --accel. 0 or -1 (printed). */
+static int parse_accels(sweep_opts *o, const rt_tracer *const *trs)
+{
+    rt_exp_config *x = &o->x;
+    char *items[MAX_LIST];
+    if (!o->lists[6]) return 0;
+    if (x->ro.given & (1u << RT_RO_ACCEL)) {
+        rt_cmd_error("sweep", "--accel and --accels together: give the structures in --accels");
+        return -1;
+    }
+    int n = split_list(o->lists[6], items, MAX_LIST);
+    if (n <= 0 || n > RT_ACCEL_NKINDS) {
+        rt_cmd_error("sweep", "--accels: expected a comma list of %s", rt_accel_names());
+        return -1;
+    }
+    for (int i = 0; i < n; i++) {
+        int k = rt_accel_from_name(items[i]), used = 0;
+        if (k <= 0) {
+            rt_cmd_error("sweep", "--accels: unknown structure '%s' (%s)", items[i], rt_accel_names());
+            return -1;
+        }
+        for (int j = 0; j < i; j++)
+            if (x->accels[j] == k) {
+                rt_cmd_error("sweep", "--accels: '%s' given twice", items[i]);
+                return -1;
+            }
+        for (int t = 0; t < x->ntracers; t++) used |= (trs[t]->accels & RT_ACCEL_BIT(k)) != 0;
+        if (!used) {
+            rt_cmd_error("sweep", "--accels: no tracer of the sweep runs on %s", items[i]);
+            return -1;
+        }
+        x->accels[i] = k;
+    }
+    x->naccels = n;
+    return 0;
+}
+
 static void on_job_failed(void *ctx, long i, const char *label, const rt_err *e)
 {
     (void)ctx;
@@ -303,7 +344,7 @@ static void on_progress(void *ctx, long d, long s, long nj, double t0)
 }
 
 enum { O_PRESET = 1, O_SCENES, O_TRACERS, O_LIGHTS, O_SIZES, O_LINE, O_DB, O_JOBS, O_KEEP, O_DYNALL, O_LIST, O_JOB,
-       O_APPROX, O_PROXY, O_MODES, O_MODEL, O_FLUSH, O_NOFLUSH, O_FULLLINE, O_NOFULLLINE };
+       O_APPROX, O_PROXY, O_MODES, O_MODEL, O_FLUSH, O_NOFLUSH, O_FULLLINE, O_NOFULLLINE, O_ACCELS };
 
 /* The command's own options, then the shared render options it takes
  * (-W/-H and the dynamic ones; --lights is its own, a list of lightings). */
@@ -323,6 +364,7 @@ static const struct option sweep_longopts[] = {
     {"approx", required_argument, NULL, O_APPROX},
     {"proxy", required_argument, NULL, O_PROXY},
     {"modes", required_argument, NULL, O_MODES},
+    {"accels", required_argument, NULL, O_ACCELS},
     {"model", required_argument, NULL, O_MODEL},
     {"flush", no_argument, NULL, O_FLUSH},
     {"no-flush", no_argument, NULL, O_NOFLUSH},
@@ -523,6 +565,7 @@ static int parse_opt(sweep_opts *o, int c, const char *arg)
     case O_TRACERS: return keep_copy(o, 1, arg) ? 0 : -1;
     case O_LIGHTS: return keep_copy(o, 2, arg) ? 0 : -1;
     case O_MODES: return keep_copy(o, 5, arg) ? 0 : -1;
+    case O_ACCELS: return keep_copy(o, 6, arg) ? 0 : -1;
     case O_SIZES: o->sizes_arg = arg; return 0;
     case O_MODEL:
         if ((o->x.model = rt_exp_model_find(arg)) < 0) {
@@ -613,6 +656,7 @@ static int finish_opts(sweep_opts *o)
         has_sched |= rt_tracer_is(trs[t], RT_TR_SCHEDULED);
         has_all |= !rt_tracer_is(trs[t], RT_TR_SCHEDULED);
     }
+    if (parse_accels(o, trs) < 0) return -1;
     if (rt_tracer_check_given_any(trs, x->ntracers, &x->ro, &e) < 0) {
         rt_cmd_error("sweep", "%s", e.msg);
         return -1;
@@ -735,8 +779,10 @@ static int sweep_run(sweep_opts *o, const rt_exp_job *J, long nj)
     rt_pool_result r;
     rt_err e = {0};
     double t0 = rt_now();
-    fprintf(stderr, "sweep: %ld run(s) (%d scenes x %d lightings x %d tracers, %d sizes) at %dx%d into %s, %d worker(s)\n",
-            total, x->nscenes, x->nlightings, x->ntracers, x->sim.nsizes, x->ro.W, x->ro.H, o->db, o->jobs);
+    char nacc[48] = "";
+    if (x->naccels) snprintf(nacc, sizeof nacc, " x %d structures", x->naccels);
+    fprintf(stderr, "sweep: %ld run(s) (%d scenes x %d lightings x %d tracers%s, %d sizes) at %dx%d into %s, %d worker(s)\n",
+            total, x->nscenes, x->nlightings, x->ntracers, nacc, x->sim.nsizes, x->ro.W, x->ro.H, o->db, o->jobs);
     int rc = rt_pool_run(&o->x, J, nj, &po, &r, &e);
     if (po.tty) fputc('\n', stderr);
     if (e.msg[0]) rt_cmd_error("sweep", "%s", e.msg);
@@ -771,6 +817,6 @@ int main_sweep(int argc, char **argv)
         rc = sweep_run(&o, J, nj);
     }
     free(J);
-    for (int i = 0; i < 6; i++) free(o.lists[i]);
+    for (int i = 0; i < 7; i++) free(o.lists[i]);
     return rc;
 }

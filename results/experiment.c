@@ -69,7 +69,9 @@ long rt_exp_matrix(const rt_exp_config *c, rt_exp_job **out, rt_err *e)
 {
     static const int def_mode[1] = {RT_MODE_DEFAULT};
     const int nm = c->nmodes > 0 ? c->nmodes : 1, *modes = c->nmodes > 0 ? c->modes : def_mode;
-    size_t cap = (size_t)c->nscenes * nm * (c->nlightings + 1) * c->ntracers * (c->sim.nsizes + 1) *
+    static const int def_accel[1] = {RT_ACCEL_DEFAULT};
+    const int na = c->naccels > 0 ? c->naccels : 1, *accels = c->naccels > 0 ? c->accels : def_accel;
+    size_t cap = (size_t)c->nscenes * nm * (c->nlightings + 1) * c->ntracers * na * (c->sim.nsizes + 1) *
                  (c->nproxies + 1), n = 0;
     rt_exp_job *J = rt_calloc(cap ? cap : 1, sizeof *J, e);
     if (!J) return -1;
@@ -83,11 +85,16 @@ long rt_exp_matrix(const rt_exp_config *c, rt_exp_job **out, rt_err *e)
                 for (int t = 0; t < c->ntracers; t++) {
                     const rt_tracer *tr = rt_tracer_find(c->tracers[t]);
                     if (mode != RT_MODE_DEFAULT && tr && !(tr->modes & (1u << mode))) continue;
-                    if (rt_tracer_is(tr, RT_TR_SCHEDULED)) {
-                        for (int k = 0; k < c->sim.nsizes; k++)
-                            J[n++] = (rt_exp_job){s, l, c->tracers[t], c->sim.sizes[k], -1, mode};
-                    } else {
-                        J[n++] = (rt_exp_job){s, l, c->tracers[t], 0, -1, mode};
+                    /* the swept structures the tracer runs on (its traits) */
+                    for (int a = 0; a < na; a++) {
+                        const int acc = accels[a];
+                        if (acc != RT_ACCEL_DEFAULT && tr && !(tr->accels & RT_ACCEL_BIT(acc))) continue;
+                        if (rt_tracer_is(tr, RT_TR_SCHEDULED)) {
+                            for (int k = 0; k < c->sim.nsizes; k++)
+                                J[n++] = (rt_exp_job){s, l, c->tracers[t], c->sim.sizes[k], -1, mode, acc};
+                        } else {
+                            J[n++] = (rt_exp_job){s, l, c->tracers[t], 0, -1, mode, acc};
+                        }
                     }
                 }
             }
@@ -110,6 +117,7 @@ rt_render_opts rt_exp_job_opts(const rt_exp_config *c, const rt_exp_job *jb)
     /* a raycast job is the run without lights: the default mode keeps its key */
     ro.mode = jb->mode == RT_MODE_RAYCAST ? RT_MODE_DEFAULT : jb->mode;
     ro.sched_size = jb->sched_size ? jb->sched_size : ro.sched_size;
+    if (jb->accel != RT_ACCEL_DEFAULT) ro.accel = jb->accel;
     /* a structure the tracer cannot run on (a sweep of several tracers):
      * its own default */
     const rt_tracer *tr = rt_tracer_find(jb->tracer);
@@ -348,6 +356,7 @@ typedef struct jobrun {
     rt_image *img;
     rt_sim_config sc;                  /* sizes simulated */
     rt_run_stats st;                   /* tracer statistics */
+    int accel_stats;                   /* a job of a structure sweep: its stats name the structure's footprint */
 } jobrun;
 
 static void jobrun_free(jobrun *r)
@@ -368,10 +377,11 @@ static int open_trace(rt_exp_worker *w, jobrun *r, const rt_exp_job *jb, long in
     /* a long scene spec is cut and ends in its hash: the file name stays
      * under NAME_MAX and distinct (the run keeps the whole name) */
     rt_name_fit(scene, sizeof scene, c->scenes[jb->scene]);
-    snprintf(path, sizeof path, "%s/job%04ld-%s-%s%s%s-%s%s%" PRIu64 "%s.rtt", c->keep, index, scene,
+    const char *acc = jb->accel != RT_ACCEL_DEFAULT ? rt_accel_name(jb->accel) : NULL;
+    snprintf(path, sizeof path, "%s/job%04ld-%s-%s%s%s-%s%s%s%s%" PRIu64 "%s.rtt", c->keep, index, scene,
              jb->lighting >= 0 ? c->lightings[jb->lighting].label : "primary", sec ? "-" : "",
-             sec ? rt_render_mode_name(jb->mode) : "", jb->tracer, jb->sched_size ? "-" : "", jb->sched_size,
-             jb->proxy >= 0 ? "-proxy" : "");
+             sec ? rt_render_mode_name(jb->mode) : "", jb->tracer, acc ? "-" : "", acc ? acc : "",
+             jb->sched_size ? "-" : "", jb->sched_size, jb->proxy >= 0 ? "-proxy" : "");
     for (char *p = path + strlen(c->keep) + 1; *p; p++)
         if (*p == '/' || *p == ':' || *p == ',' || *p == '=') *p = '_';
     rt_tr_meta m;
@@ -428,6 +438,7 @@ static int render_job(rt_exp_worker *w, jobrun *r, const rt_exp_job *jb, long in
     }
     if (rt_job_setup_borrowed(&r->j, w->sc, w->kd, jb->tracer, &ro, e) < 0) return -1;
     r->have_job = 1;
+    r->accel_stats = jb->accel != RT_ACCEL_DEFAULT;
     if (!(r->sim = rt_sim_new(&r->sc, e)) || !(r->img = rt_image_new(ro.W, ro.H, e))) return -1;
     rt_exp_fan_init(&r->fan);
     rt_exp_fan_add(&r->fan, rt_sim_sink(r->sim), e);
@@ -464,13 +475,19 @@ static int store_job(rt_exp_worker *w, jobrun *r, rt_exp_key *key, double t0, rt
     size_t k = rt_sim_db_rows(r->sim, rows);
     if (r->tex) k += rt_sim_db_rows(r->tex, rows + k);
     w->t.simulation += rt_now() - ts;
-    char stats[768];
+    char stats[896], acc[128] = "";
     const rt_run_stats *st = &r->st;
+    if (r->accel_stats) { /* the structure swept: its footprint (report --figure accel) */
+        rt_accel_info inf;
+        rt_accel_info_of(&r->j.acc, &inf);
+        snprintf(acc, sizeof acc, " accel=%s accel_nodes=%" PRIu64 " accel_bytes=%" PRIu64 " accel_build_seconds=%.3f",
+                 rt_accel_name(r->j.acc.kind), inf.nodes, inf.bytes, r->j.acc.build_sec);
+    }
     snprintf(stats, sizeof stats,
              "rays_primary=%" PRIu64 " rays_shadow=%" PRIu64 " nodes=%" PRIu64 " tests=%" PRIu64 " pv_primary=%" PRIu64
-             " pv_all=%" PRIu64 " render_seconds=%.3f sim_seconds=%.3f%s%s",
+             " pv_all=%" PRIu64 " render_seconds=%.3f sim_seconds=%.3f%s%s%s",
              st->rays_primary, st->rays_shadow, st->nodes, st->tests, st->pv_primary, st->pv_all, st->seconds,
-             r->fan.sec[0], st->extra[0] ? " " : "", st->extra);
+             r->fan.sec[0], st->extra[0] ? " " : "", st->extra, acc);
     rt_db_run run = key->run;
     run.refs = rt_sim_refs(r->sim);
     run.command = w->c->command;

@@ -126,6 +126,8 @@ typedef struct rt_exp_config {
     rt_render_opts ro;                          /* image size, dynamic options, depth, spp, bounces, ... */
     int modes[RT_EXP_MAXMODES];                 /* render modes swept (rt_mode), see rt_exp_matrix */
     int nmodes;                                 /* 0: one mode, RT_MODE_DEFAULT */
+    int accels[RT_ACCEL_NKINDS];                /* structures swept (rt_accel_kind), see rt_exp_matrix */
+    int naccels;                                /* 0: one structure, ro.accel */
     int dyn_all;                                /* simulate each dynamic schedule at every size */
     rt_approx_config approx[RT_EXP_MAXAPPROX];  /* estimators run beside the exact simulator */
     int napprox;
@@ -153,6 +155,7 @@ typedef struct rt_exp_job {
     uint64_t sched_size; /* scheduled tracers: the cache size the run is scheduled for; 0 otherwise */
     int proxy;          /* index into config proxies, -1 = the full experiment */
     int mode;           /* rt_mode: RT_MODE_DEFAULT (the lighting decides), RAYCAST, WHITTED, PATH */
+    int accel;          /* rt_accel_kind the job runs on; RT_ACCEL_DEFAULT: the config's ro.accel */
 } rt_exp_job;
 
 /* The matrix in run order: every full job, then each proxy's copies (so a

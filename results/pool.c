@@ -41,10 +41,13 @@ void rt_pool_job_label(const rt_exp_config *o, const rt_exp_job *jb, char *buf, 
         snprintf(li, sizeof li, "%s %s", rt_render_mode_name(jb->mode), lab);
     else
         snprintf(li, sizeof li, "%s", lab);
+    char tr[96];
+    snprintf(tr, sizeof tr, "%s%s%s", jb->tracer, jb->accel != RT_ACCEL_DEFAULT ? "/" : "",
+             jb->accel != RT_ACCEL_DEFAULT ? rt_accel_name(jb->accel) : "");
     if (jb->sched_size)
-        snprintf(buf, n, "%s %s %s @%" PRIu64 "K%s", o->scenes[jb->scene], li, jb->tracer, jb->sched_size / 1024, px);
+        snprintf(buf, n, "%s %s %s @%" PRIu64 "K%s", o->scenes[jb->scene], li, tr, jb->sched_size / 1024, px);
     else
-        snprintf(buf, n, "%s %s %s%s", o->scenes[jb->scene], li, jb->tracer, px);
+        snprintf(buf, n, "%s %s %s%s", o->scenes[jb->scene], li, tr, px);
 }
 
 /* Test hook: stop_after stored runs, die as a kill from outside would. */

@@ -166,6 +166,19 @@ grep -q '"triangles": 36,' "$tmp/info.json" && grep -q '"bounds_lo": \[0, 0, 0\]
     && grep -q '"bounds_hi": \[1, 1, 1\],' "$tmp/info.json" || err "scene info --json: $(cat "$tmp/info.json")"
 grep -q '"kd": {"nodes": 75, "leaves": 38, "empty_leaves": 1, "depth": 10, "index_entries": 222,' "$tmp/info.json" \
     || err "scene info --json: cornell's k-d tree"
+# the structures' footprints: kd = 8 B x 75 nodes + 4 B x 222 index entries;
+# a BVH's bytes are its nodes x 32, 128 or 80; a binary tree of L leaves has
+# 2L - 1 nodes (odd); --accel shows one structure, an unknown one exits 2
+grep -q '{"name": "kd", "build_sec": [0-9.]*, "nodes": 75, "bytes": 1488, "depth": 10}' "$tmp/info.json" \
+    || err "scene info --json: kd footprint: $(cat "$tmp/info.json")"
+"$bin" scene info cornell:glass=0 > "$tmp/info.txt" || err "scene info cornell"
+awk '$1 == "bvh2" && $3 % 2 == 1 && $4 == 32 * $3 { n++ } $1 == "bvh4" && $4 == 128 * $3 { n++ }
+     $1 == "bvh8" && $4 == 80 * $3 && $3 > 1 { n++ } $1 == "kd" && $3 == 75 && $4 == 1488 { n++ }
+     END { exit n != 4 }' "$tmp/info.txt" || err "scene info: structure table: $(cat "$tmp/info.txt")"
+"$bin" scene info cornell:glass=0 --accel bvh4 > "$tmp/info4.txt" || err "scene info --accel bvh4"
+[ "$(grep -c '^  bvh' "$tmp/info4.txt")" = 1 ] && grep -q '^  bvh4 ' "$tmp/info4.txt" && ! grep -q '^kd nodes' "$tmp/info4.txt" \
+    || err "scene info --accel bvh4: $(cat "$tmp/info4.txt")"
+"$bin" scene info cornell:glass=0 --accel nope > /dev/null 2>&1; [ $? -eq 2 ] || err "scene info --accel nope should exit 2"
 "$bin" scene list > "$tmp/list" || err "scene list"
 for s in sphereflake grove room cornell knot; do grep -q "$s" "$tmp/list" || err "scene list lacks $s"; done
 "$bin" scene info no-such-scene > /dev/null 2>&1; [ $? -eq 1 ] || err "scene info of a bad scene should exit 1"
@@ -204,7 +217,8 @@ head -c 300 "$tmp/rb.rtt" > "$tmp/rbcut.rtt"
 "$bin" bench --scene cornell:glass=0 -W 8 -H 8 --what bvh --reps 1 > "$tmp/bbench" 2> "$tmp/bbench.err" ||
     err "bench --what bvh exited $?: $(cat "$tmp/bbench.err")"
 for t in "k-d tree" bvh2 bvh4 bvh8; do
-    grep -q "^| $t | [0-9.]* | [0-9]* | [0-9.]* | [0-9.]* | [0-9.]* | [0-9.]* | [0-9.]* | 0 | " "$tmp/bbench" ||
+    # columns: build s, build CPU s, over k-d, nodes, MB, seconds, CPU s, Mrays/s, nodes/ray, tests/ray, differ
+    grep -Eq "^\| $t( \| [0-9.]+){10} \| 0 \| " "$tmp/bbench" ||
         err "bench --what bvh lacks the row $t (or its hits differ)"
 done
 # provenance header: the machine's CPU model and online CPUs, the revision, today's date

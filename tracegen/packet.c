@@ -29,12 +29,14 @@
  * level: written when spawned, read when the chunk is traced. Statistics:
  * secondary packets traced and their mean fill (rays / (P*P)).
  */
+#include "bvh.h"
 #include "camera.h"
 #include "regions.h"
 #include "shade.h"
 #include "stats.h"
 #include "tracer.h"
 
+#include <float.h>
 #include <inttypes.h>
 #include <math.h>
 #include <stdio.h>
@@ -62,6 +64,11 @@ typedef struct pstate {
     float *ptests;   /* per-ray triangle tests */
     plist *store;    /* 2 lists per depth */
     int maxdepth;
+    /* BVH packets (NULL bvh: the k-d tree) */
+    const rt_bvh *bvh;
+    struct bvlevel *lv; /* per depth: the rays entering a node */
+    float *cull;     /* per ray: visit bound of its best hit so far */
+    int np;          /* P * P */
 } pstate;
 
 /* Drops rays that no longer need this node: occluded shadow rays, or rays
@@ -205,6 +212,238 @@ static void visit(pstate *ps, uint32_t node, plist *l, int depth)
     if (second->n) visit(ps, child_second, second, depth + 1);
 }
 
+/* ---- BVH packets ---------------------------------------------------------
+ *
+ * The same packet discipline on a bounding volume hierarchy (bvh.h). A
+ * packet visits a node when one of its rays still needs it; the node
+ * record is read once per packet visit (32, 128 or 80 bytes) and counted
+ * once in tv->nodes, and every ray present is counted in its cost channel.
+ * Each ray then tests the node's box (bvh2) or its children's boxes (bvh4,
+ * bvh8) by itself, with the single-ray walk's slab test and visit bound
+ * (bvh.c: cull_bound of the ray's best hit), so a ray is pruned exactly
+ * where its own walk would stop descending. bvh2 visits the children in
+ * the order the packet's first active ray would (its direction's sign on
+ * the split axis, pbrt); a wide node's hit children go nearest first by the
+ * least entry distance among the packet's rays (ties: lower slot), and a
+ * child is entered by the rays whose box test hit it and whose entry still
+ * lies within their bound. A leaf (bvh2 leaf node, or a wide node's leaf
+ * child) is tested triangle by triangle: each of its 36-byte bvh.tri
+ * records is read once per packet visit and tested against every active
+ * ray; in shadow mode an occluded ray leaves, and reading stops once no
+ * ray is left -- the k-d packets' accounting. Each ray finds the hit the
+ * hit rule (hit.h) defines: nothing that could beat its best hit is
+ * skipped, and the order of tests does not change the least (t, index).
+ */
+typedef struct bvlevel {
+    int n;          /* rays entering the node */
+    uint16_t *idx;  /* their indices within the packet */
+    float *tin;     /* their entry distances (wide: the parent's box test) */
+    float *tn;      /* wide: tn[slot * NP + j], ray j's entry into slot */
+    uint8_t *mask;  /* wide: mask[j], the slots ray j hits */
+} bvlevel;
+
+static inline float pb_cull_bound(float x) { return x + fabsf(x) * (1.0f / 65536.0f); }
+
+/* bvh.c's slab test of one box (box_lane), for ray r. */
+#define PB_GAMMA3 ((3.0f * FLT_EPSILON * 0.5f) / (1.0f - 3.0f * FLT_EPSILON * 0.5f))
+static inline int pb_box(const rt_ray *r, const float lo[3], const float hi[3], float cull, float *tnear)
+{
+    const float o[3] = {r->o.x, r->o.y, r->o.z}, inv[3] = {r->inv_d.x, r->inv_d.y, r->inv_d.z};
+    float tn = r->tmin, tf = INFINITY;
+    for (int a = 0; a < 3; a++) {
+        const int neg = signbit(inv[a]) != 0;
+        const float np = neg ? hi[a] : lo[a], fp = neg ? lo[a] : hi[a];
+        const float n = (np - o[a]) * inv[a];
+        const float f = (fp - o[a]) * inv[a];
+        tn = n > tn ? n : tn;
+        tf = f < tf ? f : tf;
+    }
+    tf = tf * (1.0f + 2.0f * PB_GAMMA3);
+    tf = tf < cull ? tf : cull;
+    *tnear = tn;
+    return tn <= tf;
+}
+
+/* Drops the shadow rays already occluded. */
+static void pb_drop_done(const pstate *ps, bvlevel *l)
+{
+    int k = 0;
+    for (int j = 0; j < l->n; j++)
+        if (!ps->done[l->idx[j]]) l->idx[k] = l->idx[j], l->tin[k++] = l->tin[j];
+    l->n = k;
+}
+
+/* Leaf records [first, first + n) against the rays of l. */
+static void pb_leaf(pstate *ps, uint32_t first, uint32_t n, bvlevel *l)
+{
+    const rt_bvh *b = ps->bvh;
+    for (uint32_t k = first; k < first + n && l->n > 0; k++) {
+        const uint32_t o = b->orig[k];
+        RT_REC(ps->rec, rt_mm_addr(ps->L, ps->reg_tri, k), 36, 0, RT_CLS_TRI);
+        if (ps->tv->mark) ps->tv->mark[o] |= ps->tv->mark_bit;
+        for (int j = 0; j < l->n; j++) {
+            const int i = l->idx[j];
+            const rt_ray *r = &ps->ray[i];
+            float t, u, v;
+            ps->tv->tests++;
+            ps->ptests[i] += 1;
+            if (!rt_isect_core(r, &b->tri[k], &t, &u, &v) || !(t > r->tmin && t < r->tmax)) continue;
+            if (ps->shadow) {
+                ps->done[i] = 1;
+            } else if (rt_hit_better(&ps->hit[i], t, o)) {
+                rt_hit *h = &ps->hit[i];
+                h->t = t;
+                h->tri = o;
+                h->u = u;
+                h->v = v;
+                ps->cull[i] = pb_cull_bound(t);
+            }
+        }
+        if (ps->shadow) pb_drop_done(ps, l);
+    }
+}
+
+/* Counts and records a packet visit of node (every ray of l present). */
+static void pb_read(pstate *ps, uint32_t node, const bvlevel *l)
+{
+    RT_REC(ps->rec, rt_mm_addr(ps->L, ps->reg_node, node), rt_bvh_node_size(ps->bvh->width), 0, RT_CLS_NODE);
+    ps->tv->nodes++;
+    for (int j = 0; j < l->n; j++) ps->pnodes[l->idx[j]] += 1;
+}
+
+/* bvh2: node with the rays of ps->lv[d]. */
+static void pb_visit2(pstate *ps, uint32_t node, int d)
+{
+    bvlevel *l = &ps->lv[d];
+    if (ps->shadow) pb_drop_done(ps, l);
+    if (l->n == 0) return;
+    const rt_bvh2_node *nd = &ps->bvh->n2[node];
+    pb_read(ps, node, l);
+    int k = 0;
+    for (int j = 0; j < l->n; j++) {
+        const int i = l->idx[j];
+        float tn;
+        if (pb_box(&ps->ray[i], nd->lo, nd->hi, ps->cull[i], &tn)) l->idx[k] = (uint16_t)i, l->tin[k++] = tn;
+    }
+    l->n = k;
+    if (k == 0) return;
+    if (nd->ntri) {
+        pb_leaf(ps, nd->offset, nd->ntri, l);
+        return;
+    }
+    const rt_ray *r0 = &ps->ray[l->idx[0]];
+    const int neg = signbit(((const float *)(const void *)&r0->inv_d)[nd->axis]) != 0;
+    const uint32_t c[2] = {neg ? nd->offset : node + 1, neg ? node + 1 : nd->offset};
+    bvlevel *nx = &ps->lv[d + 1];
+    for (int ci = 0; ci < 2; ci++) {
+        nx->n = l->n;
+        memcpy(nx->idx, l->idx, sizeof *l->idx * (size_t)l->n);
+        memcpy(nx->tin, l->tin, sizeof *l->tin * (size_t)l->n);
+        pb_visit2(ps, c[ci], d + 1);
+    }
+}
+
+/* bvh4, bvh8: node with the rays of ps->lv[d]. */
+static void pb_visitw(pstate *ps, uint32_t node, int d)
+{
+    const rt_bvh *b = ps->bvh;
+    const int W = b->width, NP = ps->np;
+    bvlevel *l = &ps->lv[d];
+    int k = 0;
+    for (int j = 0; j < l->n; j++) {
+        const int i = l->idx[j];
+        if (ps->shadow ? ps->done[i] : l->tin[j] > ps->cull[i]) continue;
+        l->idx[k] = (uint16_t)i, l->tin[k++] = l->tin[j];
+    }
+    l->n = k;
+    if (k == 0) return;
+    pb_read(ps, node, l);
+    const float *base = W == 4 ? &b->n4[node].lo[0][0] : &b->h8[node].lo[0][0];
+    float key[8];
+    unsigned any = 0;
+    for (int s = 0; s < W; s++) key[s] = INFINITY;
+    for (int j = 0; j < l->n; j++) {
+        const int i = l->idx[j];
+        unsigned m = 0;
+        for (int s = 0; s < W; s++) {
+            const float lo[3] = {base[s], base[W + s], base[2 * W + s]};
+            const float hi[3] = {base[3 * W + s], base[4 * W + s], base[5 * W + s]};
+            float tn;
+            if (!pb_box(&ps->ray[i], lo, hi, ps->cull[i], &tn)) continue;
+            m |= 1u << s;
+            l->tn[s * NP + j] = tn;
+            if (tn < key[s]) key[s] = tn;
+        }
+        l->mask[j] = (uint8_t)m;
+        any |= m;
+    }
+    /* hit children by (least entry, slot) */
+    int ord[8], no = 0;
+    for (int s = 0; s < W; s++) {
+        if (!(any >> s & 1u)) continue;
+        int j = no++;
+        while (j > 0 && key[ord[j - 1]] > key[s]) {
+            ord[j] = ord[j - 1];
+            j--;
+        }
+        ord[j] = s;
+    }
+    bvlevel *nx = &ps->lv[d + 1];
+    for (int oi = 0; oi < no; oi++) {
+        const int s = ord[oi];
+        uint32_t ra, rn;
+        if (W == 4) {
+            const uint64_t c = b->n4[node].child[s];
+            if (c == RT_BVH4_EMPTY) continue;
+            ra = (uint32_t)c;
+            rn = rt_bvh4_is_leaf(c) ? rt_bvh4_count(c) : 0;
+        } else {
+            ra = b->h8[node].ref[s];
+            rn = b->h8[node].cnt[s];
+            if (rn == RT_BVH8_NONE) continue;
+        }
+        nx->n = 0;
+        for (int j = 0; j < l->n; j++) {
+            const int i = l->idx[j];
+            if (!(l->mask[j] >> s & 1u)) continue;
+            const float tn = l->tn[s * NP + j];
+            if (ps->shadow ? ps->done[i] : tn > ps->cull[i]) continue;
+            nx->idx[nx->n] = (uint16_t)i, nx->tin[nx->n++] = tn;
+        }
+        if (!nx->n) continue;
+        if (rn) pb_leaf(ps, ra, rn, nx);
+        else pb_visitw(ps, ra, d + 1);
+    }
+}
+
+/* Traces the rays of l through the BVH from its root. */
+static void pb_trace(pstate *ps, const plist *l)
+{
+    bvlevel *l0 = &ps->lv[0];
+    if (!ps->bvh->nnodes) return;
+    l0->n = l->n;
+    for (int j = 0; j < l->n; j++) {
+        const int i = l->idx[j];
+        const rt_ray *r = &ps->ray[i];
+        l0->idx[j] = (uint16_t)i;
+        l0->tin[j] = r->tmin;
+        ps->cull[i] = pb_cull_bound(!ps->shadow && ps->hit[i].tri != RT_NO_HIT ? ps->hit[i].t : r->tmax);
+    }
+    if (ps->bvh->width == 2) pb_visit2(ps, 0, 0);
+    else pb_visitw(ps, 0, 0);
+}
+
+/* The packet's rays from the root: their interval in the k-d tree's box
+ * (0: the ray misses it), or the ray's own on a BVH (whose root box test
+ * clips). */
+static int pk_clip(const rt_tracer_ctx *ctx, const rt_ray *r, float *t0, float *t1)
+{
+    if (ctx->kd) return rt_kd_clip(ctx->kd, r, t0, t1);
+    *t0 = r->tmin;
+    *t1 = r->tmax;
+    return 1;
+}
+
 /* Chunk-stack levels of the secondary modes: a Whitted chunk leaves up to
  * two children on the stack per generation, a path chunk one. */
 static int pk_levels(const rt_render_opts *o) { return o->mode == RT_MODE_PATH ? 2 : o->depth + 1; }
@@ -226,7 +465,9 @@ static int pk_layout(const rt_tracer_ctx *ctx, rt_layout *L, rt_err *e)
 /* Traces the packet's active rays (list l, intervals already clipped). */
 static void trace_packet(pstate *ps, plist *l)
 {
-    if (l->n) visit(ps, 0, l, 0);
+    if (!l->n) return;
+    if (ps->bvh) pb_trace(ps, l);
+    else visit(ps, 0, l, 0);
 }
 
 /* Buffers of the secondary modes. */
@@ -271,7 +512,7 @@ static void pk_chunk(pstate *ps, const rt_tracer_ctx *ctx, psec *S, int *height,
         hit[k].t = INFINITY;
         ps->pnodes[k] = ps->ptests[k] = 0;
         float t0, t1;
-        if (rt_kd_clip(ctx->kd, &eye[k], &t0, &t1)) {
+        if (pk_clip(ctx, &eye[k], &t0, &t1)) {
             top->idx[top->n] = (uint16_t)k, top->t0[top->n] = t0, top->t1[top->n++] = t1;
         }
     }
@@ -285,7 +526,7 @@ static void pk_chunk(pstate *ps, const rt_tracer_ctx *ctx, psec *S, int *height,
     ps->hit = hit;
     ps->shadow = 0;
     ps->tv->mark_bit = rays[0].depth ? 4 : 1;
-    if (top->n) visit(ps, 0, top, 0);
+    trace_packet(ps, top);
     for (int k = 0; k < n; k++) RT_REC(rec, rt_mm_addr(L, reg_hits, k), 8, 1, RT_CLS_HIT);
     for (int k = 0; k < n; k++) {
         const rt_path *p = &rays[k];
@@ -310,12 +551,12 @@ static void pk_chunk(pstate *ps, const rt_tracer_ctx *ctx, psec *S, int *height,
             sray[k] = S->out[k].sray[i];
             st->rays_shadow++;
             float t0, t1;
-            if (rt_kd_clip(ctx->kd, &sray[k], &t0, &t1)) {
+            if (pk_clip(ctx, &sray[k], &t0, &t1)) {
                 top->idx[top->n] = (uint16_t)k, top->t0[top->n] = t0, top->t1[top->n++] = t1;
             }
         }
         ps->ray = sray;
-        if (top->n) visit(ps, 0, top, 0);
+        trace_packet(ps, top);
         for (int k = 0; k < n; k++)
             if (want[k] && !ps->done[k]) rt_acc_add(&S->acc[pk_local(o, rays[k].pix, px, py, pw)], S->out[k].lc[i]);
     }
@@ -382,8 +623,11 @@ static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_
     int reg_shade = rt_mm_find(L, "tri.shade"), reg_hits = rt_mm_find(L, "packet.hits");
     rt_trav tv;
     rt_reg_trav(&tv, ctx);
-    pstate ps = {&tv, ctx->kd, sc, rec, L, tv.reg_node, tv.reg_idx, tv.reg_tri, NULL, NULL, NULL, 0, NULL, NULL, NULL, 0};
-    ps.maxdepth = (int)ctx->kd->maxdepth + 2;
+    pstate ps = {&tv, ctx->kd, sc, rec, L, tv.reg_node, tv.reg_idx, tv.reg_tri, NULL, NULL, NULL, 0, NULL, NULL, NULL, 0, NULL, NULL, NULL, 0};
+    const rt_bvh *bvh = tv.width ? tv.bvh : NULL; /* a BVH, else the k-d tree */
+    ps.maxdepth = bvh ? (int)bvh->depth + 2 : (int)ctx->kd->maxdepth + 2;
+    ps.bvh = bvh;
+    ps.np = NP;
     int rc = -1;
     rt_ray *eye = rt_calloc(NP, sizeof *eye, e);
     rt_ray *sray = eye ? rt_calloc(NP, sizeof *sray, e) : NULL;
@@ -396,9 +640,24 @@ static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_
     uint8_t *mark = pt ? rt_calloc(sc->ntri ? sc->ntri : 1, 1, e) : NULL;
     plist *store = mark ? rt_calloc((size_t)2 * (ps.maxdepth + 1) + 1, sizeof *store, e) : NULL;
     void *pool = store ? rt_calloc(((size_t)2 * (ps.maxdepth + 1) + 1) * NP, 12, e) : NULL;
-    const int secondary = rt_render_secondary(o);
     psec S;
     memset(&S, 0, sizeof S);
+    /* BVH packets: per level the rays (idx, tin) and, wide, their slots */
+    const size_t nlv = (size_t)ps.maxdepth + 1, lvb = ((size_t)NP * (4 + 4 * 8 + 2 + 1) + 7) & ~(size_t)7;
+    bvlevel *bl = pool && bvh ? rt_calloc(nlv, sizeof *bl, e) : NULL;
+    unsigned char *lvpool = bl ? rt_calloc(nlv, lvb, e) : NULL;
+    float *cull = lvpool ? rt_calloc(NP, sizeof *cull, e) : NULL;
+    if (bvh && !cull) goto done;
+    for (size_t k = 0; bvh && k < nlv; k++) {
+        unsigned char *p = lvpool + k * lvb;
+        bl[k].tin = (float *)(void *)p, p += 4 * (size_t)NP;
+        bl[k].tn = (float *)(void *)p, p += 4 * 8 * (size_t)NP;
+        bl[k].idx = (uint16_t *)(void *)p, p += 2 * (size_t)NP;
+        bl[k].mask = p;
+    }
+    ps.lv = bl;
+    ps.cull = cull;
+    const int secondary = rt_render_secondary(o);
     if (pool && secondary) {
         size_t lv = (size_t)pk_levels(o);
         if (!(S.chunk = rt_calloc(lv * NP, sizeof *S.chunk, e)) || !(S.clen = rt_calloc(lv, sizeof *S.clen, e)) ||
@@ -444,7 +703,7 @@ static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_
                 hit[k].t = INFINITY;
                 pn[k] = pt[k] = 0;
                 float t0, t1;
-                if (rt_kd_clip(ctx->kd, &eye[k], &t0, &t1)) {
+                if (pk_clip(ctx, &eye[k], &t0, &t1)) {
                     top->idx[top->n] = (uint16_t)k, top->t0[top->n] = t0, top->t1[top->n++] = t1;
                 }
             }
@@ -469,7 +728,7 @@ static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_
                     want[k] = 1;
                     st->rays_shadow++;
                     float t0, t1;
-                    if (rt_kd_clip(ctx->kd, &sray[k], &t0, &t1)) {
+                    if (pk_clip(ctx, &sray[k], &t0, &t1)) {
                         top->idx[top->n] = (uint16_t)k, top->t0[top->n] = t0, top->t1[top->n++] = t1;
                     }
                 }
@@ -505,6 +764,9 @@ static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_
         snprintf(st->extra, sizeof st->extra, "packet=%d nodes=packet node visits tests=ray-triangle tests", P);
     rc = 0;
 done:
+    free(cull);
+    free(lvpool);
+    free(bl);
     free(S.chunk);
     free(S.clen);
     free(S.out);
@@ -540,7 +802,7 @@ const rt_tracer rt_tracer_packet = {
     .name = "packet",
     .desc = "P x P ray packets tiled over the image, shadow packets per light",
     .modes = RT_TRACER_ALL_MODES,
-    .accels = RT_ACCEL_BIT(RT_ACCEL_KD),
+    .accels = RT_ACCEL_BIT(RT_ACCEL_KD) | RT_ACCEL_BVH_BITS,
     .accel_default = RT_ACCEL_KD,
     .opts = RT_OPTG_PACKET,
     .figures = RT_FIG_NAVRATIL,
