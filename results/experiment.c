@@ -302,6 +302,37 @@ void rt_exp_worker_free(rt_exp_worker *w)
     free(w);
 }
 
+static int load_scene(rt_exp_worker *w, int s, rt_err *e);
+
+/* The worker keeps one k-d tree per scene for the tracers that run on it;
+ * a job on another structure builds its own (run.h). */
+static int worker_kd(rt_exp_worker *w, const rt_exp_job *jb, rt_err *e)
+{
+    const rt_tracer *tr = rt_tracer_find(jb->tracer);
+    rt_render_opts jro = rt_exp_job_opts(w->c, jb);
+    if (w->kd || !tr || rt_tracer_accel(tr, &jro) != RT_ACCEL_KD) return 0;
+    rt_kd_params kp;
+    rt_kd_default_params(&kp);
+    double tk = rt_now();
+    w->kd = rt_kd_build(w->sc, &kp, e);
+    w->t.scene += rt_now() - tk;
+    return w->kd ? 0 : -1;
+}
+
+int rt_exp_worker_preload(rt_exp_worker *w, const rt_exp_job *J, long nj, rt_err *e)
+{
+    if (nj < 1) return 0;
+    for (long i = 1; i < nj; i++)
+        if (J[i].scene != J[0].scene) return 0;
+    if (load_scene(w, J[0].scene, e) < 0) return -1;
+    for (long i = 0; i < nj && !w->kd; i++)
+        if (worker_kd(w, &J[i], e) < 0) return -1;
+    memset(&w->t, 0, sizeof w->t); /* the caller counts the preload once, not per worker */
+    return 1;
+}
+
+void rt_exp_worker_set_db(rt_exp_worker *w, rt_db *db) { w->db = db; }
+
 static int load_scene(rt_exp_worker *w, int s, rt_err *e)
 {
     if (w->cur_scene == s) return 0;
@@ -560,18 +591,7 @@ int rt_exp_run_job(rt_exp_worker *w, const rt_exp_job *jb, long index, rt_err *e
         if (missing == 0) return 0;
         hp = have;
     }
-    /* the worker keeps one k-d tree per scene for the tracers that run on
-     * it; a job on another structure builds its own (run.h) */
-    const rt_tracer *tr = rt_tracer_find(jb->tracer);
-    rt_render_opts jro = rt_exp_job_opts(w->c, jb);
-    if (!w->kd && tr && rt_tracer_accel(tr, &jro) == RT_ACCEL_KD) {
-        rt_kd_params kp;
-        rt_kd_default_params(&kp);
-        double tk = rt_now();
-        w->kd = rt_kd_build(w->sc, &kp, e);
-        w->t.scene += rt_now() - tk;
-        if (!w->kd) return -1;
-    }
+    if (worker_kd(w, jb, e) < 0) return -1;
     double t0 = rt_now();
     jobrun r;
     memset(&r, 0, sizeof r);

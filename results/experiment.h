@@ -234,6 +234,14 @@ typedef struct rt_exp_worker rt_exp_worker;
 /* c and db are borrowed and must outlive the worker. NULL on out of memory. */
 rt_exp_worker *rt_exp_worker_new(const rt_exp_config *c, rt_db *db, rt_err *e);
 void rt_exp_worker_free(rt_exp_worker *w); /* NULL is fine; frees scene and tree, not db */
+/* Before a pool forks: when every job of J[0..nj) is of one scene, loads
+ * it into w (a worker made with db NULL) and, when a job runs on the k-d
+ * tree, builds the tree, so that forked workers share both (pages nobody
+ * writes stay shared) instead of each building its own. 1 preloaded, 0
+ * nothing to share (several scenes), -1 with e. */
+int rt_exp_worker_preload(rt_exp_worker *w, const rt_exp_job *J, long nj, rt_err *e);
+/* Gives a worker made before a fork its database connection. */
+void rt_exp_worker_set_db(rt_exp_worker *w, rt_db *db);
 
 /* Where a worker's time went, summed over the jobs it ran (skipped jobs
  * count their database lookups only). */

@@ -76,16 +76,19 @@ static void on_job_stored(void *arg)
     atomic_fetch_add(&sh->done, 1);
 }
 
+/* pre: a worker made and preloaded before the fork (its scene and tree
+ * shared by all workers), or NULL: each worker loads its own. */
 static int worker_loop(const rt_exp_config *c, const rt_exp_job *J, long nj, const rt_pool_opts *o, shared *sh,
-                       rt_err *e)
+                       rt_exp_worker *pre, rt_err *e)
 {
     rt_db *db = rt_db_open(o->db, e);
-    rt_exp_worker *w = db ? rt_exp_worker_new(c, db, e) : NULL;
+    rt_exp_worker *w = !db ? NULL : pre ? pre : rt_exp_worker_new(c, db, e);
     if (!w) {
         atomic_store(&sh->failed, 1);
         rt_db_close(db);
         return -1;
     }
+    if (pre) rt_exp_worker_set_db(w, db);
     int rc = 0;
     const long total = o->only >= 0 ? 1 : nj;
     for (;;) {
@@ -116,7 +119,7 @@ static int worker_loop(const rt_exp_config *c, const rt_exp_job *J, long nj, con
     rt_exp_worker_stages(w, &t);
     double sec[4] = {t.scene, t.tracing, t.simulation, t.database};
     for (int k = 0; k < 4; k++) atomic_fetch_add(&sh->stage_us[k], (long long)(sec[k] * 1e6));
-    rt_exp_worker_free(w);
+    if (!pre) rt_exp_worker_free(w); /* the shared one is the parent's to free */
     rt_db_close(db);
     return rc;
 }
@@ -161,10 +164,28 @@ static int run_workers(const rt_exp_config *c, const rt_exp_job *J, long nj, con
 {
     int tty = o->tty, rc = 0;
     int nw = o->jobs < total ? o->jobs : (int)total;
-    if (nw <= 1 && !tty) return worker_loop(c, J, nj, o, sh, e);
+    if (nw <= 1 && !tty) return worker_loop(c, J, nj, o, sh, NULL, e);
     /* a terminal: even one worker is a child, so progress is reported here */
     if (nw < 1) nw = 1;
     if (nw > 256) nw = 256;
+    /* one scene for every job: load it and its tree once, here, so the
+     * workers share their pages instead of each building a copy */
+    rt_exp_worker *pre = NULL;
+    if (nw > 1 && o->only < 0) {
+        double ts = rt_now();
+        pre = rt_exp_worker_new(c, NULL, e);
+        int pr = pre ? rt_exp_worker_preload(pre, J, nj, e) : -1;
+        if (pr <= 0) {
+            rt_exp_worker_free(pre);
+            pre = NULL;
+            if (pr < 0) {
+                atomic_store(&sh->failed, 1);
+                return -1;
+            }
+        } else {
+            atomic_fetch_add(&sh->stage_us[0], (long long)((rt_now() - ts) * 1e6));
+        }
+    }
     pid_t pids[256], parent = getpid();
     struct sigaction saved[3];
     stop_signal = 0;
@@ -174,7 +195,7 @@ static int run_workers(const rt_exp_config *c, const rt_exp_job *J, long nj, con
         if (pids[k] == 0) {
             worker_init(parent, saved);
             rt_err we = {0};
-            int wr = worker_loop(c, J, nj, o, sh, &we);
+            int wr = worker_loop(c, J, nj, o, sh, pre, &we);
             if (wr < 0 && we.msg[0] && o->job_failed) o->job_failed(o->ctx, -1, "", &we);
             _exit(wr < 0 ? 1 : 0);
         }
@@ -212,6 +233,7 @@ static int run_workers(const rt_exp_config *c, const rt_exp_job *J, long nj, con
         }
     }
     catch_stop_signals(0, saved);
+    rt_exp_worker_free(pre);
     if (tty && o->progress) o->progress(o->ctx, atomic_load(&sh->done), atomic_load(&sh->skipped), total, t0);
     return rc;
 }
