@@ -107,8 +107,9 @@ extern const struct option rt_render_longopts[];
     "  --depth N          whitted: ray generations per path, primary included (1..64, 5)\n" \
     "  --spp N            path: samples per pixel (default 1)\n"                             \
     "  --bounces B        path: bounces after the primary hit (0..1000, default 4)\n"        \
-    "  --layout L         geometry layout, compact | mesh (pbrt-style shared vertices;\n"  \
-    "                     default compact)\n"                                               \
+    "  --layout L         geometry layout, compact | mesh (pbrt-style shared vertices)\n" \
+    "                     | pbrt | pbrt64 (pbrt-v1's k-d tree objects and mailboxes,\n"    \
+    "                     4- or 8-byte pointers) (default compact)\n"                      \
     "  --queue-stores S   dynamic: queue writes, write-allocate | stream (default\n"        \
     "                     write-allocate)\n"                                               \
     "  --accel A          feedback: grid | naive (every triangle) (default grid)\n"        \

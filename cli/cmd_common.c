@@ -240,7 +240,7 @@ static int render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
     }
     case RT_OPT_LAYOUT:
         if ((v = rt_render_geom_from_name(arg)) < 0) {
-            rt_cmd_error(cmd, "--layout: '%s' is not compact or mesh", arg);
+            rt_cmd_error(cmd, "--layout: '%s' is not compact, mesh, pbrt or pbrt64", arg);
             return -1;
         }
         o->geom = (int)v;

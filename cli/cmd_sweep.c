@@ -122,7 +122,7 @@ static void usage(FILE *f)
             "  --model M          lean (default: compact layout, write-allocate queue stores,\n"
             "                     no flush, no full-line rule) or paper (Dinero IV's printed\n"
             "                     accounting: flush + full-line writes); sets the defaults of:\n"
-            "  --layout L         geometry layout, compact | mesh\n"
+            "  --layout L         geometry layout, compact | mesh | pbrt | pbrt64\n"
             "  --queue-stores S   dynamic: write-allocate | stream (streaming stores)\n"
             "  --flush, --no-flush  write back the dirty lines at the end (Dinero IV)\n"
             "  --write-fullline, --no-write-fullline  a write miss covering its line fetches\n"

@@ -35,17 +35,17 @@ void rt_render_default_opts(rt_render_opts *o)
     o->unroll_suppress = 0;
 }
 
-static const char *const geom_names[] = {"compact", "mesh"};
+static const char *const geom_names[] = {"compact", "mesh", "pbrt", "pbrt64"};
 /* "non-temporal" was called "stream" before (still accepted: rt_render_
  * qstores_from_name; the run key keeps "queue_stores=stream" so databases
  * written before stay comparable). */
 static const char *const qstores_names[] = {"write-allocate", "non-temporal"};
 
-const char *rt_render_geom_name(int geom) { return geom >= 0 && geom <= RT_GEOM_MESH ? geom_names[geom] : NULL; }
+const char *rt_render_geom_name(int geom) { return geom >= 0 && geom <= RT_GEOM_PBRT64 ? geom_names[geom] : NULL; }
 
 int rt_render_geom_from_name(const char *name)
 {
-    for (int g = 0; g <= RT_GEOM_MESH; g++)
+    for (int g = 0; g <= RT_GEOM_PBRT64; g++)
         if (!strcmp(name, geom_names[g])) return g;
     return -1;
 }

@@ -23,8 +23,15 @@ typedef enum rt_qorder {
  * "Geometry layouts"). Only what is recorded differs: images are the same. */
 typedef enum rt_geom_layout {
     RT_GEOM_COMPACT = 0, /* 36-byte triangle records (three vertices), 16-byte shading records */
-    RT_GEOM_MESH = 1     /* pbrt-style mesh: 12-byte vertex indices, shared positions and normals */
+    RT_GEOM_MESH = 1,    /* pbrt-style mesh: 12-byte vertex indices, shared positions and normals */
+    RT_GEOM_PBRT = 2,    /* pbrt-v1's objects on a 32-bit machine: the mesh plus mailboxes, primitives,
+                          * shapes and leaf pointer lists (pbrtlayout.h) */
+    RT_GEOM_PBRT64 = 3   /* the same with 64-bit pointers */
 } rt_geom_layout;
+/* 1 for the layouts built on the mesh's vertex index (mesh, pbrt, pbrt64). */
+static inline int rt_geom_uses_mesh(int geom) { return geom == RT_GEOM_MESH || geom == RT_GEOM_PBRT || geom == RT_GEOM_PBRT64; }
+/* 1 for pbrt-v1's object layouts (pbrt, pbrt64). */
+static inline int rt_geom_is_pbrt(int geom) { return geom == RT_GEOM_PBRT || geom == RT_GEOM_PBRT64; }
 
 /* How the dynamic tracer writes ray-queue records (docs/memory-model.md). */
 typedef enum rt_qstores {
@@ -129,7 +136,7 @@ static inline int rt_render_secondary(const rt_render_opts *o)
  * grid_min. 0, or -1 naming the option in e. */
 int rt_render_check_mode(const rt_render_opts *o, rt_err *e);
 
-/* Layout name ("compact", "mesh") or NULL; from its name, or -1. */
+/* Layout name ("compact", "mesh", "pbrt", "pbrt64") or NULL; from its name, or -1. */
 const char *rt_render_geom_name(int geom);
 int rt_render_geom_from_name(const char *name);
 /* Queue-store name ("write-allocate", "non-temporal") or NULL; from its

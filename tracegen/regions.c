@@ -2,16 +2,22 @@
  * regions.h). */
 #include "regions.h"
 #include "mesh.h"
+#include "pbrtlayout.h"
 
 #include <string.h>
 
 int rt_reg_geometry(const rt_tracer_ctx *ctx, rt_layout *L, int want_shade, rt_err *e)
 {
     if (rt_accel_regions(ctx->acc, ctx->sc, L, e) < 0) return -1;
-    if (ctx->opt->geom == RT_GEOM_MESH) {
+    if (rt_geom_uses_mesh(ctx->opt->geom)) {
         if (!ctx->mesh) return rt_errf(e, "mesh layout without a vertex index (internal error)");
+        if (rt_geom_is_pbrt(ctx->opt->geom) && !ctx->kd)
+            return rt_errf_usage(e, "--layout %s: models pbrt's k-d tree; this run traces a %s",
+                                 rt_render_geom_name(ctx->opt->geom), rt_accel_name(ctx->acc->kind));
         if (rt_mm_add(L, "tri.vidx", RT_CLS_TRI, RT_MESH_VIDX_SIZE, ctx->sc->ntri, e) < 0 ||
             rt_mm_add(L, "mesh.pos", RT_CLS_TRI, RT_MESH_POS_SIZE, ctx->mesh->nvert, e) < 0)
+            return -1;
+        if (rt_geom_is_pbrt(ctx->opt->geom) && rt_pbrt_regions(L, ctx->kd, ctx->sc->ntri, ctx->opt->geom, e) < 0)
             return -1;
         if (want_shade && (rt_mm_add(L, "tri.shade", RT_CLS_SHADE, 16, ctx->sc->ntri, e) < 0 ||
                            rt_mm_add(L, "mesh.normal", RT_CLS_SHADE, RT_MESH_NRM_SIZE, ctx->mesh->nvert, e) < 0))
@@ -43,7 +49,7 @@ void rt_reg_shade(const rt_tracer_ctx *ctx, rt_rec *rec, uint32_t tri)
 void rt_reg_trav(rt_trav *tv, const rt_tracer_ctx *ctx)
 {
     rt_accel_trav(ctx->acc, tv, ctx->sc, ctx->rec, ctx->L);
-    /* the mesh layout's triangle reads land on the index records and are
-     * expanded by the mesh recorder (mesh.h) */
-    tv->reg_tri = rt_mm_find(ctx->L, ctx->opt->geom == RT_GEOM_MESH ? "tri.vidx" : "tri.verts");
+    /* the mesh and pbrt layouts' triangle reads land on the index records
+     * and are expanded by their recorders (mesh.h, pbrtlayout.h) */
+    tv->reg_tri = rt_mm_find(ctx->L, rt_geom_uses_mesh(ctx->opt->geom) ? "tri.vidx" : "tri.verts");
 }
