@@ -100,7 +100,9 @@ typedef struct prec {
     uint32_t *off;          /* index entry -> byte offset in pbrt.plist (UINT32_MAX: in the node) */
     uint32_t *mbid;         /* lastMailboxId per triangle (0: never tested) */
     uint32_t rayid;         /* the current walk's id (>= 1) */
+    const uint32_t *idx;    /* the tree's index lists */
     int in_leaf;            /* since the last kd.index read only triangle reads came */
+    uint64_t cur, end;      /* the entries [cur, end) of that read not yet tested */
     uint64_t tests, skips;
     uint64_t node0;                 /* kd.nodes base (the root's record) */
     uint64_t idx0, idx1;            /* kd.index [base, end) */
@@ -166,6 +168,8 @@ static int prec_put(rt_sink *s, const rt_access *a, size_t n)
             if (x->addr >= P->idx0 && x->addr < P->idx1 && x->cls == RT_CLS_INDEX) {
                 uint64_t e0 = (x->addr - P->idx0) / 4, k = x->size / 4;
                 P->in_leaf = 1;
+                P->cur = e0;
+                P->end = e0 + k;
                 if (P->off[e0] != UINT32_MAX)
                     rt_rec_push(o, P->pl0 + P->off[e0], (uint32_t)(k * P->z.ptr), 0, RT_CLS_INDEX);
                 continue;
@@ -173,7 +177,12 @@ static int prec_put(rt_sink *s, const rt_access *a, size_t n)
             if (x->cls == RT_CLS_TRI && x->size == 36 && x->addr >= P->vidx0 && x->addr < P->vidx1 &&
                 (x->addr - P->vidx0) % RT_MESH_VIDX_SIZE == 0) {
                 uint32_t t = (uint32_t)((x->addr - P->vidx0) / RT_MESH_VIDX_SIZE);
-                if (P->in_leaf) {
+                /* a test reads the next entries of the list in order; a
+                 * triangle not among them is read for another reason */
+                uint64_t j = P->cur;
+                while (P->in_leaf && j < P->end && P->idx[j] != t) j++;
+                if (P->in_leaf && j < P->end) {
+                    P->cur = j + 1;
                     test(P, t);
                 } else {
                     shape(P, t, P->z.mesh_p, 1, RT_CLS_TRI);
@@ -226,6 +235,7 @@ rt_rec *rt_pbrt_rec_new(const rt_mesh *m, const rt_kdtree *kd, const rt_layout *
     P->m = m;
     P->ntri = m->ntri;
     P->rayid = 1;
+    P->idx = kd->idx;
     P->node0 = L->r[rn].base;
     P->idx0 = L->r[ri].base;
     P->idx1 = region_end(&L->r[ri]);

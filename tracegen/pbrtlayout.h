@@ -45,11 +45,14 @@
  *     entries' pointers in pbrt.plist, or into nothing when the entries
  *     belong to a one-primitive leaf (its pointer is in the node);
  *   - a triangle read (36 bytes at record t of tri.vidx) that follows a
- *     kd.index read with only triangle reads in between -- a test -- into
- *     the mailbox check and, unless the mailbox skips it, the write of the
+ *     kd.index read with only triangle reads in between and names one of
+ *     that read's entries after the last one tested (every tracer tests a
+ *     leaf's entries in list order, each once) -- a test -- into the
+ *     mailbox check and, unless the mailbox skips it, the write of the
  *     mailbox and the reads above; any other triangle read (the dynamic
- *     tracer computing a hit found in an earlier visit) into the Triangle's
- *     mesh and v, the mesh's p, the indices and positions;
+ *     tracer computing a hit found in an earlier visit) into the
+ *     Triangle's vtable pointer, mesh and v, the mesh's p, the indices and
+ *     positions;
  *   - a shading read (16 bytes at record t of tri.shade) into the
  *     GeometricPrimitive (GetBSDF: shape, material), the Triangle's
  *     vtable, mesh and v, the mesh's normal pointers, the indices, the
