@@ -68,6 +68,8 @@ enum {
     RT_OPT_GMAX,
     RT_OPT_PACKET,
     RT_OPT_QORDER,
+    RT_OPT_HIT_RULE,
+    RT_OPT_QP_MEASURE,
     RT_OPT_THREADS,
     RT_OPT_SUBSAMPLE,
     RT_OPT_MODE,
@@ -101,6 +103,10 @@ extern const struct option rt_render_longopts[];
     "  --subsample K[:T]  reduced experiment: trace 1 in K tiles of TxT pixels (T default 8;\n" \
     "                     1 = single pixels; packet tracer: T a multiple of the packet)\n" \
     "  --qorder O         dynamic: queue order, fullest | tree (default fullest)\n"          \
+    "  --hit-rule R       dynamic: a hit beyond the subtree's exit, exact (settled in\n"    \
+    "                     later queue points) | first (taken; images may differ)\n"        \
+    "  --qp-measure M     dynamic: subtree size for queue points, all (nodes, lists,\n"    \
+    "                     triangles) | triangles (default all)\n"                          \
     "  --threads N        dynamic: modeled threads, 2 rays buffered each (default 4)\n"      \
     "  --mode M           raycast | shadow | whitted | path (default shadow with lights,\n" \
     "                     else raycast)\n"                                                    \

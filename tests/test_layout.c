@@ -640,8 +640,86 @@ static void pbrt_writebacks(const char *spec)
         rt_job_free(&j);
         rt_sim_free(sim);
     }
+    /* the pbrt layouts model the k-d tree: a tracer on the grid is refused */
+    rt_render_opts o;
+    rt_render_default_opts(&o);
+    o.geom = RT_GEOM_PBRT;
+    rt_err e = {0};
+    rt_job j;
+    CHECK(rt_job_setup_borrowed(&j, sc, kd, "stream-branching", &o, &e) < 0 && e.usage && strstr(e.msg, "k-d tree"),
+          "pbrt layout on the grid: %s", e.msg);
     CHECK(wb[0] == 0 && wr[0] == 0 && wb[1] > 0, "%s at 4 KB: triangle write-backs compact %" PRIu64 ", pbrt %" PRIu64, spec,
           wb[0], wb[1]);
+    rt_kd_free(kd);
+    rt_scene_free(sc);
+}
+
+
+/* ---- the dynamic tracer's hypothesis options -------------------------------------- */
+
+/* --hit-rule first ends a ray in the subtree where it found a hit: no
+ * candidate re-entries, fewer enqueues, never a closer hit than the exact
+ * rule's; --qp-measure triangles changes only the schedule, never the
+ * image; both are in the run key and refused by the other tracers. */
+static void dyn_hypotheses(const char *spec)
+{
+    rt_render_opts o;
+    rt_render_default_opts(&o);
+    char b[256];
+    o.hit_rule = RT_HIT_FIRST;
+    o.qp_measure = RT_QPM_TRIANGLES;
+    CHECK(!strcmp(rt_job_params("dynamic", &o, NULL, b, sizeof b), "qorder=fullest threads=4 hit_rule=first qp_measure=triangles"),
+          "hypotheses' key: '%s'", b);
+    CHECK(!strcmp(rt_job_params("recursive", &o, NULL, b, sizeof b), ""), "recursive with hypotheses: '%s'", b);
+    CHECK(rt_render_hit_rule_from_name("first") == RT_HIT_FIRST && rt_render_qp_measure_from_name("triangles") == RT_QPM_TRIANGLES &&
+              rt_render_hit_rule_from_name("closest") == -1 && !strcmp(rt_render_qp_measure_name(RT_QPM_ALL), "all") &&
+              rt_render_opt_group(RT_RO_HIT_RULE) == RT_OPTG_SCHED && !strcmp(rt_render_opt_name(RT_RO_QP_MEASURE), "--qp-measure"),
+          "hypotheses' names");
+    rt_err e = {0};
+    o.given = 1u << RT_RO_HIT_RULE;
+    CHECK(rt_tracer_check_given(rt_tracer_find("recursive"), &o, &e) < 0 && strstr(e.msg, "--hit-rule"),
+          "--hit-rule accepted by the recursive tracer: %s", e.msg);
+    o.hit_rule = 2;
+    CHECK(rt_render_check_mode(&o, &e) < 0 && strstr(e.msg, "--hit-rule"), "hit rule 2 accepted: %s", e.msg);
+
+    rt_scene *sc;
+    rt_kdtree *kd = load(spec, &sc);
+    if (!kd) return;
+    rt_render_default_opts(&o);
+    o.W = 40;
+    o.H = 32;
+    o.sched_size = 4096;
+    o.queue_stats = 1;
+    rt_image *a, *f, *t;
+    rt_run_stats sa, sf, st;
+    rec ra, rf, rt;
+    rt_layout La, Lf, Lt;
+    run(sc, kd, "dynamic", &o, &a, &sa, &ra, &La);
+    o.hit_rule = RT_HIT_FIRST;
+    run(sc, kd, "dynamic", &o, &f, &sf, &rf, &Lf);
+    o.hit_rule = RT_HIT_EXACT;
+    o.qp_measure = RT_QPM_TRIANGLES;
+    run(sc, kd, "dynamic", &o, &t, &st, &rt, &Lt);
+    if (a && f && t) {
+        size_t closer = 0, lost = 0, differ = 0;
+        for (int p = 0; p < o.W * o.H; p++) {
+            closer += f->depth[p] < a->depth[p];
+            lost += isfinite(a->depth[p]) && !isfinite(f->depth[p]);
+            differ += f->depth[p] != a->depth[p];
+        }
+        CHECK(closer == 0 && lost == 0, "%s first hit: %zu pixels closer, %zu lost (%zu differ)", spec, closer, lost, differ);
+        CHECK(key(sf.extra, "q_cand") == 0 && key(sa.extra, "q_cand") > 0 &&
+                  key(sf.extra, "enqueues") < key(sa.extra, "enqueues") && sf.tests < sa.tests,
+              "%s first hit: %s / exact: %s", spec, sf.extra, sa.extra);
+        CHECK(!memcmp(a->rgb, t->rgb, sizeof(float) * 3 * 40 * 32) && key(st.extra, "gmax") != key(sa.extra, "gmax"),
+              "%s qp-measure triangles: image differs or the same budget: %s / %s", spec, st.extra, sa.extra);
+    }
+    rt_image_free(a);
+    rt_image_free(f);
+    rt_image_free(t);
+    free(ra.a);
+    free(rf.a);
+    free(rt.a);
     rt_kd_free(kd);
     rt_scene_free(sc);
 }
@@ -703,6 +781,7 @@ int main(int argc, char **argv)
         CHECK(0, "temporary directory: %s", strerror(errno));
     }
     pbrt_writebacks("sphereflake:level=1");
+    dyn_hypotheses("sphereflake:level=2");
     if (failures) fprintf(stderr, "%d failure(s)\n", failures);
     return failures ? 1 : 0;
 }

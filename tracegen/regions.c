@@ -12,8 +12,7 @@ int rt_reg_geometry(const rt_tracer_ctx *ctx, rt_layout *L, int want_shade, rt_e
     if (rt_geom_uses_mesh(ctx->opt->geom)) {
         if (!ctx->mesh) return rt_errf(e, "mesh layout without a vertex index (internal error)");
         if (rt_geom_is_pbrt(ctx->opt->geom) && !ctx->kd)
-            return rt_errf_usage(e, "--layout %s: models pbrt's k-d tree; this run traces a %s",
-                                 rt_render_geom_name(ctx->opt->geom), rt_accel_name(ctx->acc->kind));
+            return rt_errf(e, "--layout %s without a k-d tree (internal error)", rt_render_geom_name(ctx->opt->geom));
         if (rt_mm_add(L, "tri.vidx", RT_CLS_TRI, RT_MESH_VIDX_SIZE, ctx->sc->ntri, e) < 0 ||
             rt_mm_add(L, "mesh.pos", RT_CLS_TRI, RT_MESH_POS_SIZE, ctx->mesh->nvert, e) < 0)
             return -1;

@@ -62,6 +62,9 @@ static int setup_opts(rt_job *j, const char *tracer, const rt_render_opts *o, rt
     if (check_opts(o, e) < 0 || check_tracer(j->tr, o, e) < 0) return -1;
     j->opt = *o;
     j->opt.accel = rt_tracer_accel(j->tr, o);
+    if (rt_geom_is_pbrt(o->geom) && j->opt.accel != RT_ACCEL_KD)
+        return rt_errf_usage(e, "--layout %s: models pbrt's k-d tree; the %s tracer runs on %s", rt_render_geom_name(o->geom),
+                             j->tr->name, rt_accel_name(j->opt.accel));
     if (rt_render_mode(o) == RT_MODE_RAYCAST) j->opt.lights = 0; /* primary rays only */
     return 0;
 }
