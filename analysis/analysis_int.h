@@ -29,6 +29,11 @@ int rt_report_scene_index(const rt_report *R, const char *label);
  * with or without the scene paths of schema 3. malloc'd; NULL on error. */
 char *rt_report_label_sql(sqlite3 *h, const char *sql, rt_err *e);
 
+/* The run-key part that selects a layout's runs: "" for compact (no
+ * layout= in the key), else "layout=NAME " (matched against the key with a
+ * space appended, so pbrt does not match pbrt64). Returns buf. */
+const char *rt_report_layout_key(int geom, char *buf, size_t n);
+
 /* Creates dir unless it exists. */
 int rt_plot_mkdir(const char *dir, rt_err *e);
 
