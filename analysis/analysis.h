@@ -43,6 +43,8 @@ typedef struct rt_report_opts {
     int W, H;          /* resolution to report; 0 = the largest exact run's */
     const char *scene; /* only this scene; NULL = every scene at that resolution */
     const char *model; /* only runs of this model ("lean", "paper"); NULL = as before: wb-wa runs, any model */
+    const char *layout; /* with model: that model's runs in this layout ("compact", "mesh", "pbrt",
+                         * "pbrt64") instead of the model's own; NULL = the model's */
 } rt_report_opts;
 
 /* A report's axes, read from the database by rt_report_init. */

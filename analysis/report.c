@@ -212,6 +212,11 @@ int rt_report_init(rt_report *R, sqlite3 *h, const char *dbpath, const rt_report
         if (rt_report_done(st, rc, dbpath, e) < 0) return -1;
     }
     if (rt_report_set_model(R, model, e) < 0) return -1;
+    if (o->layout) {
+        int g = rt_render_geom_from_name(o->layout);
+        if (g < 0 || model < 0) return rt_errf(e, "layout '%s' needs a model and one of compact, mesh, pbrt, pbrt64", o->layout);
+        R->geom = g;
+    }
     /* scenes, one per (name, content hash), in the paper's order first,
      * of runs of the paper's tracers in its modes (render modes of other
      * papers' tracers have reports of their own: --figure purcell, ...),
