@@ -110,6 +110,9 @@ rt_render_opts rt_exp_job_opts(const rt_exp_config *c, const rt_exp_job *jb)
      * its own default */
     const rt_tracer *tr = rt_tracer_find(jb->tracer);
     if (tr && !(tr->accels & RT_ACCEL_BIT(rt_tracer_accel(tr, &ro)))) ro.accel = RT_ACCEL_DEFAULT;
+    /* the pbrt layouts model pbrt's k-d tree: a tracer on another
+     * structure keeps the compact layout (and its key) */
+    if (tr && rt_geom_is_pbrt(ro.geom) && rt_tracer_accel(tr, &ro) != RT_ACCEL_KD) ro.geom = RT_GEOM_COMPACT;
     if (jb->proxy >= 0) {
         const rt_exp_proxy *p = &c->proxies[jb->proxy];
         if (p->W) {

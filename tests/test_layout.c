@@ -20,6 +20,7 @@
  * default, none for primary rays only) instead prints the dynamic
  * tracer's statistics with the counters (docs/results.md). */
 #include "check.h"
+#include "experiment.h"
 #include "mesh.h"
 #include "pbrtlayout.h"
 #include "run.h"
@@ -648,6 +649,15 @@ static void pbrt_writebacks(const char *spec)
     rt_job j;
     CHECK(rt_job_setup_borrowed(&j, sc, kd, "stream-branching", &o, &e) < 0 && e.usage && strstr(e.msg, "k-d tree"),
           "pbrt layout on the grid: %s", e.msg);
+    /* ... and a sweep's job of such a tracer keeps the compact layout */
+    rt_exp_config xc;
+    memset(&xc, 0, sizeof xc);
+    rt_render_default_opts(&xc.ro);
+    xc.ro.geom = RT_GEOM_PBRT;
+    rt_exp_job jr = {0, -1, "recursive", 0, -1, RT_MODE_DEFAULT}, js = jr;
+    js.tracer = "stream-branching";
+    CHECK(rt_exp_job_opts(&xc, &jr).geom == RT_GEOM_PBRT && rt_exp_job_opts(&xc, &js).geom == RT_GEOM_COMPACT,
+          "pbrt layout in a sweep of k-d and grid tracers");
     CHECK(wb[0] == 0 && wr[0] == 0 && wb[1] > 0, "%s at 4 KB: triangle write-backs compact %" PRIu64 ", pbrt %" PRIu64, spec,
           wb[0], wb[1]);
     rt_kd_free(kd);
