@@ -42,6 +42,8 @@ typedef struct rt_report_opts {
     int W, H;          /* resolution to report; 0 = the largest exact run's */
     const char *scene; /* only this scene; NULL = every scene at that resolution */
     const char *model; /* only runs of this model ("lean", "paper"); NULL = as before: wb-wa runs, any model */
+    const char *layout; /* with model: that model's runs in this layout ("compact", "mesh", "pbrt",
+                         * "pbrt64") instead of the model's own; NULL = the model's */
 } rt_report_opts;
 
 /* A report's axes, read from the database by rt_report_init. */
@@ -70,7 +72,9 @@ typedef struct rt_report {
     int model;                        /* RT_EXP_MODEL_* or -1 */
     char policy[64];                  /* cache_configs.policy read ("wb-wa" with no model) */
     char sim_params[160];             /* the model's exact sim_params (rt_exp_sim_params) */
-    int mesh, stream;                 /* the model's layout is mesh / queue stores stream */
+    int geom;                         /* the layout read (rt_geom_layout): the model's, or set after
+                                       * rt_report_set_model to read another layout's runs */
+    int stream;                       /* the model's queue stores are stream */
 } rt_report;
 
 /* Opens the results database at path read-only (no file is ever created

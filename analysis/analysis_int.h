@@ -53,6 +53,10 @@ int rt_plot_commit(struct rt_out *o, rt_err *e);
  * picture gnuplot did not write is an error, never a "wrote" line; then
  * logs "wrote WHAT" to p->log. 0 or -1. */
 int rt_plot_draw(const rt_plot_opts *p, const char *script, const char *const *outs, const char *what, rt_err *e);
+/* The run-key part that selects a layout's runs: "" for compact (no
+ * layout= in the key), else "layout=NAME " (matched against the key with a
+ * space appended, so pbrt does not match pbrt64). Returns buf. */
+const char *rt_report_layout_key(int geom, char *buf, size_t n);
 
 /* Creates dir unless it exists. */
 int rt_plot_mkdir(const char *dir, rt_err *e);

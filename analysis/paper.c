@@ -533,12 +533,60 @@ static int has_named_model(const rt_report *R, rt_err *e)
     return found;
 }
 
-/* The agreement table: per model (R's, or every model) and paper scene,
- * the share of Figure 4-9 cells within 2x of the paper's and whether each
- * of the paper's findings holds. */
-static int agreement_table(const rt_report *R, const paper_tables *t, FILE *out, rt_err *e)
+/* Whether the database holds exact runs of R's model (its sim_params) in
+ * layout geom: 1, 0, -1. */
+static int has_layout(const rt_report *R, int geom, rt_err *e)
+{
+    char lay[48];
+    rt_report_layout_key(geom, lay, sizeof lay);
+    sqlite3_stmt *st = rt_report_stmt(R->h,
+                                      "SELECT 1 FROM runs r WHERE r.sim_method = 'exact' AND r.sim_params = ?1 AND (CASE "
+                                      "WHEN ?2 = '' THEN instr(r.params, 'layout=') = 0 ELSE instr(r.params || ' ', ?2) > 0 "
+                                      "END) LIMIT 1",
+                                      R->dbpath, e, "ss", R->sim_params, lay);
+    if (!st) return -1;
+    int rc = sqlite3_step(st), found = rc == SQLITE_ROW;
+    if (rt_report_done(st, rc, R->dbpath, e) < 0) return -1;
+    return found;
+}
+
+/* The agreement table's rows of one model and layout (M), labelled mn. */
+static int agreement_rows(const rt_report *R, const rt_report *M, const char *mn, const paper_tables *t, FILE *out,
+                          rt_err *e)
 {
     static const char *const sc3[3] = {"room", "grove", "sphereflake"};
+    for (int si = 0; si < 3; si++) {
+        if (!has_scene(R, sc3[si])) continue;
+        rt_report_agree a;
+        if (agreement(M, sc3[si], t, &a, e) < 0) return -1;
+        if (!a.cells[0] && !a.cells[1]) continue;
+        if (R->csv) {
+            fprintf(out, "%s,%s,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d\n", mn, sc3[si], a.cells[0], a.within[0], a.cells[1],
+                    a.within[1], a.nsizes, a.dyn_less, a.ray_more, a.paper_ray_more, a.ray_both, a.turn_kb,
+                    a.paper_turn_kb);
+            continue;
+        }
+        fprintf(out, "| %s | %s | ", mn, sc3[si]);
+        pct(out, a.within[0], a.cells[0]);
+        fputs(" | ", out);
+        pct(out, a.within[1], a.cells[1]);
+        fprintf(out, " | %s (%d of %d) | %s (%d of %d; paper %d) | ", a.nsizes && a.dyn_less == a.nsizes ? "yes" : "no",
+                a.dyn_less, a.nsizes, a.paper_ray_more && a.ray_both == a.paper_ray_more ? "yes" : "no", a.ray_more,
+                a.nsizes, a.paper_ray_more);
+        if (a.turn_kb) fprintf(out, "%s: %d K", turn_agrees(&a) ? "yes" : "no", a.turn_kb);
+        else fputs("no: never", out);
+        fprintf(out, " (%d K) |\n", a.paper_turn_kb);
+    }
+    return 0;
+}
+
+/* The agreement table: per model (R's, or every model), per layout the
+ * database holds runs of under that model (the model's own first, so the
+ * models' layouts are side by side) and per paper scene, the share of
+ * Figure 4-9 cells within 2x of the paper's and whether each of the
+ * paper's findings holds. */
+static int agreement_table(const rt_report *R, const paper_tables *t, FILE *out, rt_err *e)
+{
     if (R->csv)
         fprintf(out, "model,scene,fig4_6_cells,fig4_6_within2,fig7_9_cells,fig7_9_within2,sizes,dynamic_less_geometry,"
                      "ray_more,paper_ray_more,ray_more_where_paper,turn_kb,paper_turn_kb\n");
@@ -555,28 +603,18 @@ static int agreement_table(const rt_report *R, const paper_tables *t, FILE *out,
     for (int m = 0; m < RT_EXP_NMODELS; m++) {
         if (R->model >= 0 && m != R->model) continue;
         if (rt_report_set_model(&M, m, e) < 0) return -1;
-        for (int si = 0; si < 3; si++) {
-            if (!has_scene(R, sc3[si])) continue;
-            rt_report_agree a;
-            if (agreement(&M, sc3[si], t, &a, e) < 0) return -1;
-            if (!a.cells[0] && !a.cells[1]) continue;
-            const char *mn = rt_exp_model_get(m)->name;
-            if (R->csv) {
-                fprintf(out, "%s,%s,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d\n", mn, sc3[si], a.cells[0], a.within[0], a.cells[1],
-                        a.within[1], a.nsizes, a.dyn_less, a.ray_more, a.paper_ray_more, a.ray_both, a.turn_kb,
-                        a.paper_turn_kb);
-                continue;
-            }
-            fprintf(out, "| %s | %s | ", mn, sc3[si]);
-            pct(out, a.within[0], a.cells[0]);
-            fputs(" | ", out);
-            pct(out, a.within[1], a.cells[1]);
-            fprintf(out, " | %s (%d of %d) | %s (%d of %d; paper %d) | ", a.nsizes && a.dyn_less == a.nsizes ? "yes" : "no",
-                    a.dyn_less, a.nsizes, a.paper_ray_more && a.ray_both == a.paper_ray_more ? "yes" : "no", a.ray_more,
-                    a.nsizes, a.paper_ray_more);
-            if (a.turn_kb) fprintf(out, "%s: %d K", turn_agrees(&a) ? "yes" : "no", a.turn_kb);
-            else fputs("no: never", out);
-            fprintf(out, " (%d K) |\n", a.paper_turn_kb);
+        const int own = M.geom;
+        /* the model's own layout, then every other layout it has runs in */
+        for (int li = -1; li <= RT_GEOM_PBRT64; li++) {
+            if (li == own) continue;
+            M.geom = li < 0 ? own : li;
+            int has = li < 0 ? 1 : has_layout(&M, M.geom, e);
+            if (has < 0) return -1;
+            if (!has) continue;
+            char mn[64];
+            if (li < 0) snprintf(mn, sizeof mn, "%s", rt_exp_model_get(m)->name);
+            else snprintf(mn, sizeof mn, "%s (layout %s)", rt_exp_model_get(m)->name, rt_render_geom_name(li));
+            if (agreement_rows(R, &M, mn, t, out, e) < 0) return -1;
         }
     }
     return 0;

@@ -212,6 +212,11 @@ int rt_report_init(rt_report *R, sqlite3 *h, const char *dbpath, const rt_report
         if (rt_report_done(st, rc, dbpath, e) < 0) return -1;
     }
     if (rt_report_set_model(R, model, e) < 0) return -1;
+    if (o->layout) {
+        int g = rt_render_geom_from_name(o->layout);
+        if (g < 0 || model < 0) return rt_errf(e, "layout '%s' needs a model and one of compact, mesh, pbrt, pbrt64", o->layout);
+        R->geom = g;
+    }
     /* scenes, one per (name, content hash), in the paper's order first,
      * of runs of the paper's tracers in its modes (render modes of other
      * papers' tracers have reports of their own: --figure purcell, ...),
@@ -295,7 +300,8 @@ int rt_report_set_model(rt_report *R, int model, rt_err *e)
     const rt_exp_model *m = rt_exp_model_get(model);
     if (model != -1 && !m) return rt_errf(e, "model %d unknown", model);
     R->model = model;
-    R->mesh = R->stream = 0;
+    R->geom = RT_GEOM_COMPACT;
+    R->stream = 0;
     R->sim_params[0] = 0;
     snprintf(R->policy, sizeof R->policy, "wb-wa");
     if (m) {
@@ -306,7 +312,7 @@ int rt_report_set_model(rt_report *R, int model, rt_err *e)
         rt_exp_model_apply(m, &ro, &sc);
         snprintf(R->policy, sizeof R->policy, "%s", rt_sim_policy_name(&sc));
         rt_exp_sim_params(model, &sc, R->sim_params, sizeof R->sim_params);
-        R->mesh = ro.geom == RT_GEOM_MESH;
+        R->geom = ro.geom;
         R->stream = ro.qstores == RT_QSTORES_STREAM;
     }
     R->nsizes = 0;
@@ -335,11 +341,20 @@ int rt_report_fig_tracers(unsigned fig, const rt_tracer **out, int max)
     return n;
 }
 
+const char *rt_report_layout_key(int geom, char *buf, size_t n)
+{
+    if (geom == RT_GEOM_COMPACT || !rt_render_geom_name(geom)) snprintf(buf, n, "%s", "");
+    else snprintf(buf, n, "layout=%s ", rt_render_geom_name(geom));
+    return buf;
+}
+
 int rt_report_value(const rt_report *R, const char *scene, const char *tracer, unsigned lights, uint64_t size,
                     double *geom, double *ray, rt_err *e)
 {
     /* a scheduled tracer's value at a size is its run scheduled for that size */
     int64_t sched = rt_tracer_is(rt_tracer_find(tracer), RT_TR_SCHEDULED) ? (int64_t)size : 0;
+    char lay[48];
+    rt_report_layout_key(R->geom, lay, sizeof lay);
     /* v_paper's rows, of the one scene (name, hash) the label stands for */
     int i = rt_report_scene_index(R, scene);
     const char *name = i >= 0 ? R->scene_name[i] : scene, *hash = i >= 0 ? R->scene_hash[i] : "";
@@ -359,13 +374,13 @@ int rt_report_value(const rt_report *R, const char *scene, const char *tracer, u
                   "SELECT g.geometry_mb, g.ray_mb FROM v_traffic_group g JOIN runs r ON r.id = g.run_id"
                   " JOIN scenes s ON s.id = r.scene_id WHERE g.line = 64 AND g.assoc = 0 AND g.policy = ?9"
                   " AND r.sim_method = 'exact' AND r.sim_params = ?10 AND r.params NOT LIKE '%subsample=%'"
-                  " AND (instr(r.params, 'layout=mesh') > 0) = ?11"
+                  " AND (CASE WHEN ?11 = '' THEN instr(r.params, 'layout=') = 0 ELSE instr(r.params || ' ', ?11) > 0 END)"
                   " AND (r.sched_size = 0 OR (instr(r.params, 'queue_stores=stream') > 0) = ?12)"
                   " AND s.name = ?1 AND (?8 = '' OR s.hash = ?8) AND r.tracer = ?2 AND r.lights = ?3"
                   " AND r.sched_size = ?4 AND g.cache_size = ?5 AND r.W = ?6 AND r.H = ?7"
                   " ORDER BY g.geometry_mb LIMIT 1",
-                  R->dbpath, e, "ssIIIiisssii", name, tracer, (int64_t)lights, sched, (int64_t)size, R->W, R->H, hash,
-                  R->policy, R->sim_params, R->mesh, R->stream);
+                  R->dbpath, e, "ssIIIiissssi", name, tracer, (int64_t)lights, sched, (int64_t)size, R->W, R->H, hash,
+                  R->policy, R->sim_params, lay, R->stream);
     if (!st) return -1;
     int rc = sqlite3_step(st), found = rc == SQLITE_ROW;
     if (found) {

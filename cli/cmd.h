@@ -80,6 +80,8 @@ enum {
     RT_OPT_GMAX,
     RT_OPT_PACKET,
     RT_OPT_QORDER,
+    RT_OPT_HIT_RULE,
+    RT_OPT_QP_MEASURE,
     RT_OPT_THREADS,
     RT_OPT_SUBSAMPLE,
     RT_OPT_MODE,
@@ -123,14 +125,19 @@ extern const struct option rt_render_longopts[];
     "  --subsample K[:T]  reduced experiment: trace 1 in K tiles of TxT pixels (T default 8;\n" \
     "                     1 = single pixels; packet tracer: T a multiple of the packet)\n" \
     "  --qorder O         dynamic: queue order, fullest | tree (default fullest)\n"          \
+    "  --hit-rule R       dynamic: a hit beyond the subtree's exit, exact (settled in\n"    \
+    "                     later queue points) | first (taken; images may differ)\n"        \
+    "  --qp-measure M     dynamic: subtree size for queue points, all (nodes, lists,\n"    \
+    "                     triangles) | triangles (default all)\n"                          \
     "  --threads N        dynamic: modeled threads, 2 rays buffered each (default 4)\n"      \
     "  --mode M           raycast | shadow | whitted | path (default shadow with lights,\n" \
     "                     else raycast)\n"                                                    \
     "  --depth N          whitted: ray generations per path, primary included (1..64, 5)\n" \
     "  --spp N            path: samples per pixel (default 1)\n"                             \
     "  --bounces B        path: bounces after the primary hit (0..1000, default 4)\n"        \
-    "  --layout L         geometry layout, compact | mesh (pbrt-style shared vertices;\n"  \
-    "                     default compact)\n"                                               \
+    "  --layout L         geometry layout, compact | mesh (pbrt-style shared vertices)\n" \
+    "                     | pbrt | pbrt64 (pbrt-v1's k-d tree objects and mailboxes,\n"    \
+    "                     4- or 8-byte pointers) (default compact)\n"                      \
     "  --queue-stores S   dynamic: queue writes, write-allocate | stream (default\n"        \
     "                     write-allocate)\n"                                               \
     "  --accel A          acceleration structure: kd | bvh2 | bvh4 | bvh8 (recursive,\n"  \

@@ -19,6 +19,8 @@ const struct option rt_render_longopts[] = {
     {"gmax", required_argument, NULL, RT_OPT_GMAX},
     {"packet", required_argument, NULL, RT_OPT_PACKET},
     {"qorder", required_argument, NULL, RT_OPT_QORDER},
+    {"hit-rule", required_argument, NULL, RT_OPT_HIT_RULE},
+    {"qp-measure", required_argument, NULL, RT_OPT_QP_MEASURE},
     {"threads", required_argument, NULL, RT_OPT_THREADS},
     {"subsample", required_argument, NULL, RT_OPT_SUBSAMPLE},
     {"mode", required_argument, NULL, RT_OPT_MODE},
@@ -337,6 +339,20 @@ static int render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
             return -1;
         }
         return 1;
+    case RT_OPT_HIT_RULE:
+        if ((v = rt_render_hit_rule_from_name(arg)) < 0) {
+            rt_cmd_error(cmd, "--hit-rule: '%s' is not exact or first", arg);
+            return -1;
+        }
+        o->hit_rule = (int)v;
+        return 1;
+    case RT_OPT_QP_MEASURE:
+        if ((v = rt_render_qp_measure_from_name(arg)) < 0) {
+            rt_cmd_error(cmd, "--qp-measure: '%s' is not all or triangles", arg);
+            return -1;
+        }
+        o->qp_measure = (int)v;
+        return 1;
     case RT_OPT_THREADS:
         if (rt_cmd_parse_long(arg, 1, 1024, &v) < 0) {
             rt_cmd_error(cmd, "--threads: '%s' is not in 1..1024", arg);
@@ -365,7 +381,7 @@ static int render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
     }
     case RT_OPT_LAYOUT:
         if ((v = rt_render_geom_from_name(arg)) < 0) {
-            rt_cmd_error(cmd, "--layout: '%s' is not compact or mesh", arg);
+            rt_cmd_error(cmd, "--layout: '%s' is not compact, mesh, pbrt or pbrt64", arg);
             return -1;
         }
         o->geom = (int)v;
@@ -392,6 +408,8 @@ static int given_id(int c)
     case RT_OPT_CACHE_SIZE: return RT_RO_CACHE_SIZE;
     case RT_OPT_GMAX: return RT_RO_GMAX;
     case RT_OPT_QORDER: return RT_RO_QORDER;
+    case RT_OPT_HIT_RULE: return RT_RO_HIT_RULE;
+    case RT_OPT_QP_MEASURE: return RT_RO_QP_MEASURE;
     case RT_OPT_THREADS: return RT_RO_THREADS;
     case RT_OPT_QUEUE_STORES: return RT_RO_QUEUE_STORES;
     case RT_OPT_GRID_MIN: return RT_RO_GRID_MIN;

@@ -42,6 +42,8 @@ static void usage(FILE *f)
             "                     purcell: ours / paper (ratio) per cell and an agreement\n"
             "                     line per figure\n"
             "  --model M          only runs of model M (lean, paper; see sweep --help)\n"
+            "  --layout L         with --model: that model's runs in layout L (compact, mesh,\n"
+            "                     pbrt, pbrt64) instead of the model's own\n"
             "  --plot DIR         traffic-vs-cache-size plots (PNG, SVG; gnuplot) and scenes.png\n"
             "  --speed-error      speed against error of approximate simulation\n"
             "  -h, --help         this help\n");
@@ -55,7 +57,7 @@ int main_report(int argc, char **argv)
         {"total", no_argument, NULL, 't'},          {"compare-paper", no_argument, NULL, 'c'},
         {"plot", required_argument, NULL, 'p'},     {"speed-error", no_argument, NULL, 'e'},
         {"width", required_argument, NULL, 'W'},    {"height", required_argument, NULL, 'H'},
-        {"model", required_argument, NULL, 'm'},
+        {"model", required_argument, NULL, 'm'},    {"layout", required_argument, NULL, 'L'},
         {"help", no_argument, NULL, 'h'},           {NULL, 0, NULL, 0},
     };
     rt_report_opts o = {0};
@@ -81,6 +83,13 @@ int main_report(int argc, char **argv)
                 return RT_EXIT_USAGE;
             }
             o.model = optarg;
+            break;
+        case 'L':
+            if (rt_render_geom_from_name(optarg) < 0) {
+                rt_cmd_error("report", "--layout: '%s' is not compact, mesh, pbrt or pbrt64", optarg);
+                return RT_EXIT_USAGE;
+            }
+            o.layout = optarg;
             break;
         case 'F':
             if (!strcmp(optarg, "csv")) o.csv = 1;
@@ -109,6 +118,10 @@ int main_report(int argc, char **argv)
     }
     if (optind != argc) {
         rt_cmd_error("report", "unexpected argument '%s'", argv[optind]);
+        return RT_EXIT_USAGE;
+    }
+    if (o.layout && !o.model) {
+        rt_cmd_error("report", "--layout needs --model");
         return RT_EXIT_USAGE;
     }
     rt_err e = {0};

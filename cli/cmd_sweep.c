@@ -105,11 +105,13 @@ static void usage(FILE *f)
             "                     compared with the full run by report --speed-error): comma\n"
             "                     list of res:N (N pixels wide, same aspect) and sub:K[:T]\n"
             "                     (trace 1 in K tiles of TxT pixels, T default 8)\n"
-            "  --qorder O, --threads N  dynamic scheduler options (see render --help)\n"
+            "  --qorder O, --threads N, --hit-rule R, --qp-measure M  dynamic scheduler options\n"
+            "                     (see render --help)\n"
             "  --model M          lean (default: compact layout, write-allocate queue stores,\n"
-            "                     no flush, no full-line rule) or paper (Dinero IV's printed\n"
-            "                     accounting: flush + full-line writes); sets the defaults of:\n"
-            "  --layout L         geometry layout, compact | mesh\n"
+            "                     no flush, no full-line rule) or paper (pbrt layout; Dinero\n"
+            "                     IV's printed accounting: flush + full-line writes); sets the\n"
+            "                     defaults of:\n"
+            "  --layout L         geometry layout, compact | mesh | pbrt | pbrt64\n"
             "  --queue-stores S   dynamic: write-allocate | stream (streaming stores)\n"
             "  --flush, --no-flush  write back the dirty lines at the end (Dinero IV)\n"
             "  --write-fullline, --no-write-fullline  a write miss covering its line fetches\n"
@@ -377,6 +379,8 @@ static const struct option sweep_longopts[] = {
     {"spp", required_argument, NULL, RT_OPT_SPP},
     {"bounces", required_argument, NULL, RT_OPT_BOUNCES},
     {"qorder", required_argument, NULL, RT_OPT_QORDER},
+    {"hit-rule", required_argument, NULL, RT_OPT_HIT_RULE},
+    {"qp-measure", required_argument, NULL, RT_OPT_QP_MEASURE},
     {"threads", required_argument, NULL, RT_OPT_THREADS},
     {"packet", required_argument, NULL, RT_OPT_PACKET},
     {"accel", required_argument, NULL, RT_OPT_ACCEL},

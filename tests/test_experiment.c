@@ -224,7 +224,8 @@ static void test_models(const char *dir)
         c.model = model;
         rt_exp_model_apply(rt_exp_model_get(model), &c.ro, &c.sim);
         CHECK(c.sim.flush == (model == RT_EXP_MODEL_PAPER) && c.sim.write_miss_fullline == c.sim.flush &&
-                  c.ro.geom == RT_GEOM_COMPACT && c.ro.qstores == RT_QSTORES_WRITE_ALLOCATE,
+                  c.ro.geom == (model == RT_EXP_MODEL_PAPER ? RT_GEOM_PBRT : RT_GEOM_COMPACT) &&
+                  c.ro.qstores == RT_QSTORES_WRITE_ALLOCATE,
               "model %d settings", model);
         rt_exp_job *J = NULL;
         nj = rt_exp_matrix(&c, &J, &e);

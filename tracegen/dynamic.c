@@ -22,7 +22,18 @@
  *   - a closest-hit candidate found beyond the subtree's exit (a triangle
  *     reaching into later cells) is kept in the pixel's hit record, flagged
  *     in the ray's pixel id, and settled in a later queue point, so the hit
- *     is exactly the one a single-ray traversal finds;
+ *     is exactly the one a single-ray traversal finds (--hit-rule exact);
+ *     --hit-rule first tests the hypothesis that the paper's tracer took
+ *     such a hit at once (section 2.1.1: a ray "is processed until either
+ *     a successful intersection is found or until the ray leaves the
+ *     bounds of the subtree"): the ray resolves in the subtree where it
+ *     found a hit, a closer hit in a later cell is missed (I7 is not
+ *     checked for primary rays then, and images may differ);
+ *   - a subtree fits when its nodes, index entries and distinct triangles
+ *     fit g_max (--qp-measure all), or, testing the hypothesis that the
+ *     paper counted only geometry against the cache because the nodes
+ *     stay resident (sections 2.1.1, 2.2), its triangles alone
+ *     (--qp-measure triangles);
  *   - queues are chains of 64-ray blocks (2 KB) from a pool with a LIFO
  *     free list; the queue table entry (8 B) is read and written on every
  *     enqueue and when a queue is processed;
@@ -107,16 +118,24 @@
 
 /* ---- queue-point selection ---------------------------------------------- */
 
-int rt_dyn_subtree_geometry(const rt_kdtree *kd, uint32_t ntri, uint64_t *g, rt_err *e)
+/* g[i] under a measure (rt_qp_measure): every byte of the subtree, or
+ * only its distinct triangles' (--qp-measure triangles). */
+static int subtree_measure(const rt_kdtree *kd, uint32_t ntri, int measure, uint64_t *g, rt_err *e)
 {
     rt_kd_subsize *z = rt_calloc(kd->nnodes, sizeof *z, e);
     if (!z || rt_kd_subtree_sizes(kd, ntri, z, e) < 0) {
         free(z);
         return -1;
     }
-    for (uint32_t i = 0; i < kd->nnodes; i++) g[i] = rt_kd_subsize_bytes(&z[i]);
+    for (uint32_t i = 0; i < kd->nnodes; i++)
+        g[i] = measure == RT_QPM_TRIANGLES ? 36ull * z[i].ntri : rt_kd_subsize_bytes(&z[i]);
     free(z);
     return 0;
+}
+
+int rt_dyn_subtree_geometry(const rt_kdtree *kd, uint32_t ntri, uint64_t *g, rt_err *e)
+{
+    return subtree_measure(kd, ntri, RT_QPM_ALL, g, e);
 }
 
 /* mark[i] = -2 where node i's subtree holds triangles, -3 where it is
@@ -281,7 +300,7 @@ static int dyn_plan(const rt_tracer_ctx *ctx, void **out, rt_err *e)
     dplan *P = rt_calloc(1, sizeof *P, e);
     if (!P || !(P->g = rt_calloc(nn, sizeof *P->g, e)) || !(P->qp = rt_calloc(nn, sizeof *P->qp, e)) ||
         !(P->topid = rt_calloc(nn, sizeof *P->topid, e)) || !(P->hastris = rt_calloc(nn, 1, e)) ||
-        rt_dyn_subtree_geometry(kd, ctx->sc->ntri, P->g, e) < 0) {
+        subtree_measure(kd, ctx->sc->ntri, ctx->opt->qp_measure, P->g, e) < 0) {
         dyn_plan_free(P);
         return -1;
     }
@@ -615,7 +634,8 @@ static int subtree(dyn *D, uint32_t root, const rt_ray *trav, const rt_ray *test
  * The reference runs unrecorded and uncounted. */
 static void check_resolution(dyn *D, uint32_t pix, uint32_t tri, float t, int visible)
 {
-    if (!D->ctx->check || D->err) return;
+    /* the first-hit rule gives up I7 for primary rays by design */
+    if (!D->ctx->check || D->err || (!D->shadow && D->ctx->opt->hit_rule == RT_HIT_FIRST)) return;
     rt_ray trav, test;
     make_rays(D, pix, &trav, &test);
     rt_trav ref = D->tv;
@@ -758,7 +778,7 @@ static void process(dyn *D, uint32_t q, const qent *e)
             resolve_shadow(D, pix, 0);
             return;
         }
-    } else if (best_tri != RT_NO_HIT && rt_kd_past(best_t, e->t1)) {
+    } else if (best_tri != RT_NO_HIT && (rt_kd_past(best_t, e->t1) || D->ctx->opt->hit_rule == RT_HIT_FIRST)) {
         resolve_primary(D, pix, best_t, best_tri, 1);
         return;
     }
@@ -838,7 +858,7 @@ static void process_oversized(dyn *D, uint32_t q, const qent *es, uint32_t n)
             resolve_shadow(D, pix, 0);
             continue;
         }
-        if (!D->shadow && btri[i] != RT_NO_HIT && rt_kd_past(bt[i], es[i].t1)) {
+        if (!D->shadow && btri[i] != RT_NO_HIT && (rt_kd_past(bt[i], es[i].t1) || D->ctx->opt->hit_rule == RT_HIT_FIRST)) {
             resolve_primary(D, pix, bt[i], btri[i], 0);
             continue;
         }
@@ -1528,6 +1548,12 @@ done:
 static void dyn_params(const rt_render_opts *o, char *buf, size_t n)
 {
     snprintf(buf, n, "qorder=%s threads=%d", o->qorder == RT_QORDER_TREE ? "tree" : "fullest", o->threads);
+    /* the hypotheses' options only when not the default: existing keys stay */
+    size_t l = strlen(buf);
+    if (o->hit_rule != RT_HIT_EXACT) snprintf(buf + l, n - l, " hit_rule=%s", rt_render_hit_rule_name(o->hit_rule));
+    l = strlen(buf);
+    if (o->qp_measure != RT_QPM_ALL)
+        snprintf(buf + l, n - l, " qp_measure=%s", rt_render_qp_measure_name(o->qp_measure));
 }
 
 const rt_tracer rt_tracer_dynamic = {

@@ -26,6 +26,8 @@ void rt_render_default_opts(rt_render_opts *o)
     o->bounces = 4;
     o->geom = RT_GEOM_COMPACT;
     o->qstores = RT_QSTORES_WRITE_ALLOCATE;
+    o->hit_rule = RT_HIT_EXACT;
+    o->qp_measure = RT_QPM_ALL;
     o->queue_stats = 0;
     o->accel = RT_ACCEL_DEFAULT;
     o->vb_size = 0;
@@ -57,7 +59,8 @@ void rt_render_apply_film(rt_render_opts *o, int film_w, int film_h)
     else o->H = (int)v;
 }
 
-static const char *const geom_names[] = {"compact", "mesh"};
+static const char *const geom_names[] = {"compact", "mesh", "pbrt", "pbrt64"};
+
 /* "non-temporal" was called "stream" before (still accepted: rt_render_
  * qstores_from_name; the run key keeps "queue_stores=stream" so databases
  * written before stay comparable). */
@@ -77,12 +80,33 @@ int rt_render_rstores_from_name(const char *name)
     return -1;
 }
 
-const char *rt_render_geom_name(int geom) { return geom >= 0 && geom <= RT_GEOM_MESH ? geom_names[geom] : NULL; }
+const char *rt_render_geom_name(int geom) { return geom >= 0 && geom <= RT_GEOM_PBRT64 ? geom_names[geom] : NULL; }
 
 int rt_render_geom_from_name(const char *name)
 {
-    for (int g = 0; g <= RT_GEOM_MESH; g++)
+    for (int g = 0; g <= RT_GEOM_PBRT64; g++)
         if (!strcmp(name, geom_names[g])) return g;
+    return -1;
+}
+
+static const char *const hit_rule_names[] = {"exact", "first"};
+static const char *const qp_measure_names[] = {"all", "triangles"};
+
+const char *rt_render_hit_rule_name(int r) { return r >= 0 && r <= RT_HIT_FIRST ? hit_rule_names[r] : NULL; }
+
+int rt_render_hit_rule_from_name(const char *name)
+{
+    for (int r = 0; r <= RT_HIT_FIRST; r++)
+        if (!strcmp(name, hit_rule_names[r])) return r;
+    return -1;
+}
+
+const char *rt_render_qp_measure_name(int m) { return m >= 0 && m <= RT_QPM_TRIANGLES ? qp_measure_names[m] : NULL; }
+
+int rt_render_qp_measure_from_name(const char *name)
+{
+    for (int m = 0; m <= RT_QPM_TRIANGLES; m++)
+        if (!strcmp(name, qp_measure_names[m])) return m;
     return -1;
 }
 
@@ -107,6 +131,8 @@ static const struct {
     [RT_RO_CACHE_SIZE] = {"--cache-size", RT_OPTG_SCHED},
     [RT_RO_GMAX] = {"--gmax", RT_OPTG_SCHED},
     [RT_RO_QORDER] = {"--qorder", RT_OPTG_SCHED},
+    [RT_RO_HIT_RULE] = {"--hit-rule", RT_OPTG_SCHED},
+    [RT_RO_QP_MEASURE] = {"--qp-measure", RT_OPTG_SCHED},
     [RT_RO_THREADS] = {"--threads", RT_OPTG_SCHED},
     [RT_RO_QUEUE_STORES] = {"--queue-stores", RT_OPTG_QUEUES},
     [RT_RO_GRID_MIN] = {"--grid-min", RT_OPTG_GRID},
@@ -153,6 +179,8 @@ int rt_render_check_mode(const rt_render_opts *o, rt_err *e)
         return rt_errf(e, "--bounces: %d is not in 0..%d", o->bounces, RT_BOUNCES_MAX);
     if (!rt_render_geom_name(o->geom)) return rt_errf(e, "--layout: unknown layout %d", o->geom);
     if (!rt_render_qstores_name(o->qstores)) return rt_errf(e, "--queue-stores: unknown value %d", o->qstores);
+    if (!rt_render_hit_rule_name(o->hit_rule)) return rt_errf(e, "--hit-rule: unknown value %d", o->hit_rule);
+    if (!rt_render_qp_measure_name(o->qp_measure)) return rt_errf(e, "--qp-measure: unknown value %d", o->qp_measure);
     if (o->accel != RT_ACCEL_DEFAULT && !rt_accel_name(o->accel))
         return rt_errf(e, "--accel: unknown acceleration structure %d", o->accel);
     if (o->grid_min > RT_GRID_MAX_CELLS) /* 0 = the tracer's default */

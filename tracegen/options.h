@@ -23,8 +23,31 @@ typedef enum rt_qorder {
  * "Geometry layouts"). Only what is recorded differs: images are the same. */
 typedef enum rt_geom_layout {
     RT_GEOM_COMPACT = 0, /* 36-byte triangle records (three vertices), 16-byte shading records */
-    RT_GEOM_MESH = 1     /* pbrt-style mesh: 12-byte vertex indices, shared positions and normals */
+    RT_GEOM_MESH = 1,    /* pbrt-style mesh: 12-byte vertex indices, shared positions and normals */
+    RT_GEOM_PBRT = 2,    /* pbrt-v1's objects on a 32-bit machine: the mesh plus mailboxes, primitives,
+                          * shapes and leaf pointer lists (pbrtlayout.h) */
+    RT_GEOM_PBRT64 = 3   /* the same with 64-bit pointers */
 } rt_geom_layout;
+/* 1 for the layouts built on the mesh's vertex index (mesh, pbrt, pbrt64). */
+static inline int rt_geom_uses_mesh(int geom) { return geom == RT_GEOM_MESH || geom == RT_GEOM_PBRT || geom == RT_GEOM_PBRT64; }
+/* 1 for pbrt-v1's object layouts (pbrt, pbrt64). */
+static inline int rt_geom_is_pbrt(int geom) { return geom == RT_GEOM_PBRT || geom == RT_GEOM_PBRT64; }
+
+/* What the dynamic tracer does with a hit found in a subtree that lies
+ * beyond the subtree's exit (docs/results.md, "Why rays visit N queue
+ * points"). */
+typedef enum rt_hit_rule {
+    RT_HIT_EXACT = 0, /* keep it as a candidate and settle it in later queue points: the closest hit */
+    RT_HIT_FIRST = 1  /* take it: the ray ends in the subtree where it found a hit (section 2.1.1 read
+                       * literally; a closer hit in a later cell is missed, images may differ) */
+} rt_hit_rule;
+
+/* How the dynamic tracer measures a subtree against the budget g_max when it
+ * selects queue points. */
+typedef enum rt_qp_measure {
+    RT_QPM_ALL = 0,      /* nodes (8 B) + index entries (4 B) + distinct triangles (36 B) */
+    RT_QPM_TRIANGLES = 1 /* distinct triangles only (36 B): the nodes are resident (section 2.2) */
+} rt_qp_measure;
 
 /* How the dynamic tracer writes ray-queue records (docs/memory-model.md). */
 typedef enum rt_qstores {
@@ -48,7 +71,8 @@ typedef enum rt_rstores {
  */
 enum {
     RT_OPTG_PACKET = 1u << 0,   /* --packet */
-    RT_OPTG_SCHED = 1u << 1,    /* --cache-size, --gmax, --qorder, --threads: scheduled tracers */
+    RT_OPTG_SCHED = 1u << 1,    /* --cache-size, --gmax, --qorder, --threads, --hit-rule, --qp-measure:
+                                 * scheduled tracers */
     RT_OPTG_QUEUES = 1u << 2,   /* --queue-stores: tracers that keep ray queues */
     RT_OPTG_GRID = 1u << 3,     /* --grid-min, --grid-density: tracers on the uniform grid */
     RT_OPTG_VB = 1u << 4,       /* --vb-size: ping-pong vertex buffers */
@@ -59,7 +83,7 @@ enum {
 enum {
     RT_RO_PACKET, RT_RO_CACHE_SIZE, RT_RO_GMAX, RT_RO_QORDER, RT_RO_THREADS, RT_RO_QUEUE_STORES,
     RT_RO_GRID_MIN, RT_RO_VB_SIZE, RT_RO_ORACLE, RT_RO_ORACLE_FRACTION, RT_RO_UNROLL, RT_RO_UNROLL_SUPPRESS,
-    RT_RO_GRID_DENSITY, RT_RO_RECORD_STORES, RT_RO_ACCEL, RT_RO_COUNT
+    RT_RO_GRID_DENSITY, RT_RO_RECORD_STORES, RT_RO_ACCEL, RT_RO_HIT_RULE, RT_RO_QP_MEASURE, RT_RO_COUNT
 };
 /* "--packet" ... for an RT_RO_* id, and its group (0 for --accel, which is
  * checked against the tracer's structures instead). */
@@ -107,6 +131,8 @@ typedef struct rt_render_opts {
     int bounces;         /* path: bounces after the primary hit (>= 0, 4) */
     int geom;            /* rt_geom_layout (compact) */
     int qstores;         /* dynamic: rt_qstores (write-allocate) */
+    int hit_rule;        /* dynamic: rt_hit_rule (exact) */
+    int qp_measure;      /* dynamic: rt_qp_measure (all) */
     int queue_stats;     /* dynamic, test/bench only: append the per-cause queue counters to the
                           * statistics (off, so existing statistics stay as they were) */
     int accel;           /* rt_accel_kind the tracer runs on; RT_ACCEL_DEFAULT = the tracer's default */
@@ -165,13 +191,19 @@ static inline int rt_render_secondary(const rt_render_opts *o)
  * in e. */
 int rt_render_check_mode(const rt_render_opts *o, rt_err *e);
 
-/* Layout name ("compact", "mesh") or NULL; from its name, or -1. */
+/* Layout name ("compact", "mesh", "pbrt", "pbrt64") or NULL; from its name, or -1. */
 const char *rt_render_geom_name(int geom);
 int rt_render_geom_from_name(const char *name);
 /* Record-store name ("non-temporal", "write-allocate") or NULL; from its
  * name, or -1. */
 const char *rt_render_rstores_name(int rs);
 int rt_render_rstores_from_name(const char *name);
+/* Hit-rule name ("exact", "first") and queue-point measure name ("all",
+ * "triangles") or NULL; from the name, or -1. */
+const char *rt_render_hit_rule_name(int r);
+int rt_render_hit_rule_from_name(const char *name);
+const char *rt_render_qp_measure_name(int m);
+int rt_render_qp_measure_from_name(const char *name);
 /* Queue-store name ("write-allocate", "non-temporal") or NULL; from its
  * name ("stream" is the former name of non-temporal), or -1. */
 const char *rt_render_qstores_name(int qs);

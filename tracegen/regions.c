@@ -2,6 +2,7 @@
  * regions.h). */
 #include "regions.h"
 #include "mesh.h"
+#include "pbrtlayout.h"
 
 #include <string.h>
 
@@ -9,10 +10,14 @@ int rt_reg_geometry(const rt_tracer_ctx *ctx, rt_layout *L, int want_shade, rt_e
 {
     if (rt_accel_regions(ctx->acc, ctx->sc, L, e) < 0) return -1;
     const int own = (ctx->acc->ops->flags & RT_ACCEL_OWN_TRIS) != 0; /* triangles in the structure's order */
-    if (ctx->opt->geom == RT_GEOM_MESH) {
+    if (rt_geom_uses_mesh(ctx->opt->geom)) {
         if (!ctx->mesh) return rt_errf(e, "mesh layout without a vertex index (internal error)");
+        if (rt_geom_is_pbrt(ctx->opt->geom) && !ctx->kd)
+            return rt_errf(e, "--layout %s without a k-d tree (internal error)", rt_render_geom_name(ctx->opt->geom));
         if (rt_mm_add(L, "tri.vidx", RT_CLS_TRI, RT_MESH_VIDX_SIZE, ctx->sc->ntri, e) < 0 ||
             rt_mm_add(L, "mesh.pos", RT_CLS_TRI, RT_MESH_POS_SIZE, ctx->mesh->nvert, e) < 0)
+            return -1;
+        if (rt_geom_is_pbrt(ctx->opt->geom) && rt_pbrt_regions(L, ctx->kd, ctx->sc->ntri, ctx->opt->geom, e) < 0)
             return -1;
         if (want_shade && (rt_mm_add(L, "tri.shade", RT_CLS_SHADE, 16, ctx->sc->ntri, e) < 0 ||
                            rt_mm_add(L, "mesh.normal", RT_CLS_SHADE, RT_MESH_NRM_SIZE, ctx->mesh->nvert, e) < 0))
@@ -45,7 +50,7 @@ void rt_reg_trav(rt_trav *tv, const rt_tracer_ctx *ctx)
 {
     rt_accel_trav(ctx->acc, tv, ctx->sc, ctx->rec, ctx->L);
     if (ctx->acc->ops->flags & RT_ACCEL_OWN_TRIS) return; /* its own triangle region */
-    /* the mesh layout's triangle reads land on the index records and are
-     * expanded by the mesh recorder (mesh.h) */
-    tv->reg_tri = rt_mm_find(ctx->L, ctx->opt->geom == RT_GEOM_MESH ? "tri.vidx" : "tri.verts");
+    /* the mesh and pbrt layouts' triangle reads land on the index records
+     * and are expanded by their recorders (mesh.h, pbrtlayout.h) */
+    tv->reg_tri = rt_mm_find(ctx->L, rt_geom_uses_mesh(ctx->opt->geom) ? "tri.vidx" : "tri.verts");
 }

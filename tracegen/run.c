@@ -1,6 +1,7 @@
 /* run.c -- set up and run one rendering job (see run.h). */
 #include "scene_load.h"
 #include "run.h"
+#include "pbrtlayout.h"
 
 #include <inttypes.h>
 #include <stdio.h>
@@ -12,7 +13,7 @@ static int layout(rt_job *j, rt_err *e)
 {
     rt_tracer_ctx ctx = {j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, NULL, NULL, 0, NULL};
     rt_mm_init(&j->L);
-    if (j->opt.geom == RT_GEOM_MESH && !j->mesh && !(j->mesh = rt_mesh_build(j->sc, e))) return -1;
+    if (rt_geom_uses_mesh(j->opt.geom) && !j->mesh && !(j->mesh = rt_mesh_build(j->sc, e))) return -1;
     ctx.mesh = j->mesh;
     if (j->tr->plan && j->tr->plan(&ctx, &j->plan, e) < 0) return -1;
     ctx.plan = j->plan;
@@ -62,6 +63,9 @@ static int setup_opts(rt_job *j, const char *tracer, const rt_render_opts *o, rt
     if (check_opts(o, e) < 0 || check_tracer(j->tr, o, e) < 0) return -1;
     j->opt = *o;
     j->opt.accel = rt_tracer_accel(j->tr, o);
+    if (rt_geom_is_pbrt(o->geom) && j->opt.accel != RT_ACCEL_KD)
+        return rt_errf_usage(e, "--layout %s: models pbrt's k-d tree; the %s tracer runs on %s", rt_render_geom_name(o->geom),
+                             j->tr->name, rt_accel_name(j->opt.accel));
     if (rt_render_mode(o) == RT_MODE_RAYCAST) j->opt.lights = 0; /* primary rays only */
     return 0;
 }
@@ -112,7 +116,13 @@ int rt_job_run(rt_job *j, rt_sink *sink, rt_image *img, rt_run_stats *st, rt_err
     /* mesh layout: the tracer records into the translating recorder, which
      * feeds rec (mesh.h) */
     rt_rec *trec = rec;
+    const int pbrt = rt_geom_is_pbrt(j->opt.geom);
     if (rec && j->opt.geom == RT_GEOM_MESH && !(trec = rt_mesh_rec_new(j->mesh, &j->L, rec, e))) {
+        rt_rec_free(rec);
+        return -1;
+    }
+    /* pbrt layouts: pbrt-v1's objects and mailboxes (pbrtlayout.h) */
+    if (rec && pbrt && !(trec = rt_pbrt_rec_new(j->mesh, rt_job_kd(j), &j->L, j->opt.geom, rec, e))) {
         rt_rec_free(rec);
         return -1;
     }
@@ -121,7 +131,16 @@ int rt_job_run(rt_job *j, rt_sink *sink, rt_image *img, rt_run_stats *st, rt_err
     int rc = j->tr->run(&ctx, img, st, e);
     if (trec != rec) {
         rt_rec_flush(trec);
-        rt_mesh_rec_free(trec);
+        if (pbrt) {
+            uint64_t nt, ns;
+            rt_pbrt_rec_counts(trec, &nt, &ns);
+            size_t l = strlen(st->extra);
+            snprintf(st->extra + l, sizeof st->extra - l, "%smbox_tests=%" PRIu64 " mbox_skips=%" PRIu64,
+                     l ? " " : "", nt, ns);
+            rt_pbrt_rec_free(trec);
+        } else {
+            rt_mesh_rec_free(trec);
+        }
     }
     if (rec) {
         if (rt_rec_flush(rec) < 0 && rc == 0) rc = rt_errf(e, "trace sink failed");
