@@ -82,7 +82,9 @@ enum {
     RT_OPT_ORACLE,
     RT_OPT_ORACLE_FRACTION,
     RT_OPT_UNROLL,
-    RT_OPT_UNROLL_SUPPRESS
+    RT_OPT_UNROLL_SUPPRESS,
+    RT_OPT_TREELET_TRIS,
+    RT_OPT_RAY_WINDOW
 };
 
 /* The shared long options ({"lights",...}, {"cache-size",...}, ...);
@@ -92,15 +94,16 @@ extern const struct option rt_render_longopts[];
 #define RT_RENDER_SHORTOPTS "t:W:H:"
 #define RT_RENDER_OPTS_HELP                                                                  \
     "  -t TRACER          recursive | packet | dynamic | stream-branching |\n"               \
-    "                     stream-multipass | feedback (default recursive)\n"                \
+    "                     stream-multipass | feedback | treelet (default recursive)\n"      \
     "  -W N, -H N         image size in pixels\n"                                            \
     "  --lights L         all | none | comma list of lights 0,1,2 (default none)\n"         \
     "  --packet N         packet edge in pixels for -t packet (default 8)\n"                 \
-    "  --cache-size S     dynamic: cache size to schedule for, e.g. 64K (default 64K)\n"    \
-    "  --gmax B           dynamic: explicit geometry budget in bytes (overrides derivation)\n" \
+    "  --cache-size S     dynamic, treelet: cache size to schedule for, e.g. 64K (default 64K)\n" \
+    "  --gmax B           dynamic: explicit geometry budget in bytes (overrides derivation);\n" \
+    "                     treelet: the treelet byte budget (default half the cache size)\n" \
     "  --subsample K[:T]  reduced experiment: trace 1 in K tiles of TxT pixels (T default 8;\n" \
     "                     1 = single pixels; packet tracer: T a multiple of the packet)\n" \
-    "  --qorder O         dynamic: queue order, fullest | tree (default fullest)\n"          \
+    "  --qorder O         dynamic, treelet: queue order, fullest | tree (default fullest)\n" \
     "  --threads N        dynamic: modeled threads, 2 rays buffered each (default 4)\n"      \
     "  --mode M           raycast | shadow | whitted | path (default shadow with lights,\n" \
     "                     else raycast)\n"                                                    \
@@ -120,7 +123,9 @@ extern const struct option rt_render_longopts[];
     "  --oracle-fraction F  stream-multipass: intersect once F of the active rays need it\n" \
     "                     (0 < F <= 1, default 0.2)\n"                                      \
     "  --unroll T,I       stream-multipass: traversal steps, intersection tests per pass (1,1)\n" \
-    "  --unroll-suppress  stream-multipass: no texel reads for rays done mid-pass\n"
+    "  --unroll-suppress  stream-multipass: no texel reads for rays done mid-pass\n"        \
+    "  --treelet-tris     treelet: leaves' triangles count against the treelet budget\n"   \
+    "  --ray-window N     treelet: rays in flight per generation, e.g. 64K (default all)\n"
 
 /* Appends the shared options to a command's own NULL-terminated table;
  * returns a malloc'd table (caller frees) or NULL. */
