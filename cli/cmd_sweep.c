@@ -119,6 +119,7 @@ static void usage(FILE *f)
             "                     list of res:N (N pixels wide, same aspect) and sub:K[:T]\n"
             "                     (trace 1 in K tiles of TxT pixels, T default 8)\n"
             "  --qorder O, --threads N  dynamic scheduler options (see render --help)\n"
+            "  --treelet-tris, --ray-window N  treelet scheduler options (see render --help)\n"
             "  --model M          lean (default: compact layout, write-allocate queue stores,\n"
             "                     no flush, no full-line rule) or paper (Dinero IV's printed\n"
             "                     accounting: flush + full-line writes); sets the defaults of:\n"
@@ -455,6 +456,8 @@ static const struct option sweep_longopts[] = {
     {"accel", required_argument, NULL, RT_OPT_ACCEL},
     {"grid-min", required_argument, NULL, RT_OPT_GRID_MIN},
     {"vb-size", required_argument, NULL, RT_OPT_VB_SIZE},
+    {"treelet-tris", no_argument, NULL, RT_OPT_TREELET_TRIS},
+    {"ray-window", required_argument, NULL, RT_OPT_RAY_WINDOW},
     {"width", required_argument, NULL, 'W'},
     {"height", required_argument, NULL, 'H'},
     {NULL, 0, NULL, 0},

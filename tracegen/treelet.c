@@ -121,9 +121,11 @@
 #include <string.h>
 
 #define QBLK 64        /* queue entries per block */
-#define RAY_REC 48     /* bytes of a ray-state record */
-#define RAY_SUSP_OFS 28 /* the hit and stack depth: the record's last 20 bytes */
+#define RAY_REC 64     /* bytes of a ray-state record: one line */
+#define RAY_STATE 48   /* ... of which the ray and its hit; then the short stack */
+#define RAY_SUSP_OFS 28 /* the hit and stack depth: 20 bytes */
 #define RAY_SUSP 20
+#define SHORT_STACK 16 /* bytes of stack entries kept in the ray record */
 
 /* ---- the plan: treelets of one tree and budget ---------------------------- */
 
@@ -597,12 +599,20 @@ static int leaf(tl_run *T, tray *R, uint32_t first, uint32_t n)
 /* Walks ray slot s inside treelet t. Returns 1 when it finished (stack
  * empty or occluded), 0 when it was suspended and queued at its next
  * treelet. */
+/* Modeled address of stack entry k of slot s: the first entries in the
+ * ray record's short stack, the others in the slot's area of tl.stack. */
+static uint64_t stack_addr(const tl_run *T, uint32_t s, uint32_t k)
+{
+    const uint32_t nin = SHORT_STACK / T->esize;
+    if (k < nin) return rt_mm_addr(T->L, T->reg_rays, s) + RAY_STATE + (uint64_t)k * T->esize;
+    return rt_mm_addr(T->L, T->reg_stack, (uint64_t)s * T->stack_bound + (k - nin));
+}
+
 static int walk(tl_run *T, uint32_t s, uint32_t t)
 {
     tray *R = &T->ray[s];
     const rt_bvh *b = T->b;
     const int W = b->width;
-    const uint64_t sbase = (uint64_t)s * T->stack_bound;
     R->dirty = 0;
     for (;;) {
         if (T->err) return 1;
@@ -613,7 +623,7 @@ static int walk(tl_run *T, uint32_t s, uint32_t t)
         if (!culled && e.tl != t) {
             /* suspend: spill what is only in registers, write the state */
             for (uint32_t k = R->mem; k < R->sp; k++) {
-                RT_REC(T->rec, rt_mm_addr(T->L, T->reg_stack, sbase + k), T->esize, 1, RT_CLS_STREAM);
+                RT_REC(T->rec, stack_addr(T, s, k), T->esize, 1, RT_CLS_STREAM);
                 T->stack_w++;
             }
             R->mem = R->sp;
@@ -623,7 +633,7 @@ static int walk(tl_run *T, uint32_t s, uint32_t t)
             return 0;
         }
         if (idx < R->mem) {
-            RT_REC(T->rec, rt_mm_addr(T->L, T->reg_stack, sbase + idx), T->esize, 0, RT_CLS_STREAM);
+            RT_REC(T->rec, stack_addr(T, s, idx), T->esize, 0, RT_CLS_STREAM);
             T->stack_r++;
             R->mem = idx;
         }
@@ -670,7 +680,7 @@ static int start(tl_run *T, uint32_t s, const rt_ray *r, int any)
     R->cull = rt_bvh_cull_bound(r->tmax);
     R->sp = R->mem = 0;
     T->started++;
-    RT_REC(T->rec, rt_mm_addr(T->L, T->reg_rays, s), RAY_REC, 1, RT_CLS_RAY);
+    RT_REC(T->rec, rt_mm_addr(T->L, T->reg_rays, s), RAY_STATE, 1, RT_CLS_RAY);
     if (!T->b->nnodes) return 1;
     rt_bvh_ref root = {0, 0, r->tmin};
     push(T, R, &root, 0);
@@ -886,7 +896,7 @@ static void process(tl_run *T, uint32_t q)
             T->freelist = b;
             b = nx;
         }
-        RT_REC(T->rec, rt_mm_addr(T->L, T->reg_rays, s), RAY_REC, 0, RT_CLS_RAY);
+        RT_REC(T->rec, rt_mm_addr(T->L, T->reg_rays, s), RAY_STATE, 0, RT_CLS_RAY);
         T->visits++;
         if (walk(T, s, q)) finish(T, s);
     }

@@ -1,0 +1,59 @@
+#!/bin/sh
+# The treelet tracer from the command line: usage errors (exit 2, the
+# option named) for a budget smaller than one node (from --cache-size or
+# --gmax), a structure it cannot run on, a ray window of 0 and its options
+# given to another tracer; render --json reports the treelets; a sweep
+# lists one job per scheduled size with the run key's parameters.
+set -u
+bin=${RT_BIN:-./raytraffic}
+tmp=$(mktemp -d /tmp/rt_treelet_cli.XXXXXX) || exit 1
+trap 'rm -rf "$tmp"' EXIT
+fail=0
+err() { echo "FAIL: $*"; fail=1; }
+[ -x "$bin" ] || { echo "FAIL: $bin is not an executable"; exit 1; }
+
+usage() { # name, option the message must name, arguments...
+    name=$1 opt=$2
+    shift 2
+    "$bin" render cornell -W 8 -H 8 -o "$tmp/a.exr" "$@" 2>"$tmp/e"
+    rc=$?
+    [ $rc -eq 2 ] || err "$name: exit $rc, want 2 ($(cat "$tmp/e"))"
+    grep -q -- "$opt" "$tmp/e" || err "$name: message does not name $opt: '$(cat "$tmp/e")'"
+    [ "$(wc -l <"$tmp/e")" -le 2 ] || err "$name: more than a line or two: $(cat "$tmp/e")"
+}
+usage "budget below a bvh4 node" --cache-size -t treelet --cache-size 200
+usage "budget below a bvh2 node" --gmax -t treelet --accel bvh2 --gmax 31
+usage "k-d tree" --accel -t treelet --accel kd
+usage "grid" --accel -t treelet --accel grid
+usage "window of 0" --ray-window -t treelet --ray-window 0
+usage "window not a number" --ray-window -t treelet --ray-window many
+usage "window for recursive" --ray-window --ray-window 64K
+usage "treelet-tris for dynamic" --treelet-tris -t dynamic --treelet-tris
+
+# the smallest budgets that hold a node run
+"$bin" render cornell -t treelet --accel bvh2 --gmax 32 -W 8 -H 8 -o "$tmp/a.exr" 2>"$tmp/e" ||
+    err "--gmax 32 on bvh2: $(cat "$tmp/e")"
+"$bin" render cornell -t treelet --cache-size 256 -W 8 -H 8 -o "$tmp/a.exr" 2>"$tmp/e" ||
+    err "--cache-size 256 on bvh4: $(cat "$tmp/e")"
+
+# render --json: the treelets in the statistics; a bounded window
+"$bin" render knot -t treelet --mode path --lights 0 --bounces 2 --ray-window 100 --cache-size 16K -W 16 -H 16 \
+    --json -o "$tmp/a.exr" >"$tmp/j" 2>"$tmp/e" || err "render --json: $(cat "$tmp/e")"
+for k in budget=8192 treelets= treelet_bytes_mean= treelet_bytes_max= treelet_depth= ray_window=100 \
+    '"accel": "bvh4"' enqueues= stack_writes=; do
+    grep -q -- "$k" "$tmp/j" || err "json lacks $k: $(cat "$tmp/j")"
+done
+
+# sweep: one job per size, the run key's parameters
+"$bin" sweep --scenes knot --tracers treelet,recursive --accel bvh4 --modes path --lights 0 --sizes 4K,64K \
+    -W 16 -H 16 --ray-window 64K --db "$tmp/s.db" --list-jobs >"$tmp/l" 2>"$tmp/e" || err "list-jobs: $(cat "$tmp/e")"
+# the recursive run and one treelet run per size, each carrying the window
+[ "$(grep -c -- "--ray-window' '64K' --job" "$tmp/l")" -eq 3 ] || err "jobs: $(cat "$tmp/l")"
+"$bin" sweep --scenes knot --tracers treelet,recursive --accel bvh4 --modes path --lights 0 --bounces 1 --sizes 4K,64K \
+    -W 16 -H 16 --ray-window 64K --db "$tmp/s.db" >/dev/null 2>"$tmp/e" || err "sweep: $(cat "$tmp/e")"
+n=$(sqlite3 "$tmp/s.db" "select count(*) from runs where tracer='treelet' and params like 'qorder=fullest ray_window=65536 mode=path%'" 2>/dev/null)
+[ "$n" = 2 ] || err "treelet runs with their key: $n ($(sqlite3 "$tmp/s.db" 'select tracer, sched_size, params from runs'))"
+s=$(sqlite3 "$tmp/s.db" "select count(*) from traffic t join runs r on r.id = t.run_id where r.tracer='treelet' and t.class = 'stream'")
+[ "$s" -gt 0 ] || err "no stack traffic (class stream) in the database"
+
+exit $fail
