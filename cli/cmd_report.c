@@ -29,6 +29,8 @@ static void usage(FILE *f)
             "                     Table 2, Figures 7-9; with --plot their stacked bars)\n"
             "                     feedback: feedback runs' traffic per class and ray-state\n"
             "                     bytes per ray beside dynamic and stream-multipass (--plot)\n"
+            "                     treelet: treelet vs recursive on the BVH, dynamic vs recursive\n"
+            "                     on the k-d tree, traffic split geometry/ray/stack/queue (--plot)\n"
             "  --scene NAME       only this scene (figures 4-9 map room, grove, sphereflake)\n"
             "  --format md|csv    Markdown tables (default) or CSV\n"
             "  -W N, -H N         resolution to report (default: the largest in the database)\n"
@@ -61,9 +63,9 @@ int main_report(int argc, char **argv)
         switch (c) {
         case 'd': dbpath = optarg; break;
         case 'f':
-            if (strcmp(optarg, "all") && strcmp(optarg, "scenes") && strcmp(optarg, "secondary") && strcmp(optarg, "purcell") && strcmp(optarg, "feedback") &&
+            if (strcmp(optarg, "all") && strcmp(optarg, "scenes") && strcmp(optarg, "secondary") && strcmp(optarg, "purcell") && strcmp(optarg, "feedback") && strcmp(optarg, "treelet") &&
                 !(strlen(optarg) == 1 && optarg[0] >= '4' && optarg[0] <= '9')) {
-                rt_cmd_error("report", "--figure: '%s' is not 4..9, scenes, secondary, purcell, feedback or all", optarg);
+                rt_cmd_error("report", "--figure: '%s' is not 4..9, scenes, secondary, purcell, feedback, treelet or all", optarg);
                 return RT_EXIT_USAGE;
             }
             figure = optarg;
@@ -118,6 +120,8 @@ int main_report(int argc, char **argv)
         rc = rt_report_purcell(h, o.scene, o.csv, plotdir ? &po : NULL, stdout, &e);
     } else if (rc == 0 && !strcmp(figure, "feedback")) {
         rc = rt_report_feedback(h, o.scene, o.csv, plotdir ? &po : NULL, stdout, &e);
+    } else if (rc == 0 && !strcmp(figure, "treelet")) {
+        rc = rt_report_treelet(h, dbpath, o.scene, o.csv, plotdir ? &po : NULL, stdout, &e);
     } else if (rc == 0 && !strcmp(figure, "secondary")) {
         rc = rt_report_secondary(h, dbpath, o.csv, plotdir ? &po : NULL, stdout, &e);
     } else if (rc == 0 && !R.nscenes) {

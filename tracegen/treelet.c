@@ -1315,6 +1315,7 @@ const rt_tracer rt_tracer_treelet = {
     .accel_default = RT_ACCEL_BVH4,
     .opts = RT_OPTG_SCHED | RT_OPTG_QUEUES | RT_OPTG_TREELET,
     .traits = RT_TR_SCHEDULED | RT_TR_QUEUES,
+    .figures = RT_FIG_TREELET,
     .check_opts = tl_check_opts,
     .params = tl_params,
     .layout = tl_layout,
