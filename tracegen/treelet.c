@@ -36,25 +36,34 @@
  * smaller than one node is refused (usage error naming the option).
  *
  * Memory modeled (regions, class):
- *   tl.rays   (ray)    48 B per ray slot: origin, direction, tmin, best t,
- *                      best triangle, barycentrics, stack depth. Written
- *                      whole when a ray starts; read whole when it is taken
- *                      from a queue; its last 20 bytes (hit and stack
- *                      depth) written when it is suspended.
- *   tl.stack  (stream) the rays' traversal stacks, one area per slot of
+ *   tl.rays   (ray)    64 B per ray slot (one line): origin, direction,
+ *                      tmin, best t, best triangle, barycentrics, stack
+ *                      depth (48 B), then a 16-byte short stack holding the
+ *                      ray's first stack entries. Written (48 B) when a
+ *                      ray starts; read whole when it is taken from a
+ *                      queue; when it is suspended, the hit and depth (20
+ *                      B at offset 28) and the short-stack entries not yet
+ *                      in memory are written in one access.
+ *   tl.stack  (stream) the deeper stack entries, one area per slot of
  *                      stack_bound entries (bvh2: 4 B node index; wide: 8 B
  *                      reference and entry distance). The walk's stack
  *                      lives in registers while a ray is inside a treelet;
  *                      when it is suspended the entries pushed since they
- *                      were last in memory are written, and an entry in
- *                      memory is read when it is popped. So every entry is
- *                      written at most once and read at most once. Stack
- *                      traffic is recorded in class stream (the traffic
- *                      class of ray state that is not a ray record), so the
- *                      database's class list is unchanged; this tracer is
- *                      its only user on a BVH.
- *   tl.qtable (qtable) 8 B per treelet: read and written per enqueue and
- *                      when the queue is taken.
+ *                      were last in memory are written (one access per
+ *                      suspension for the deep ones), and a deep entry is
+ *                      read when it is popped (a short-stack entry came
+ *                      with the record). So every entry is written at most
+ *                      once and read at most once. Stack traffic is
+ *                      recorded in class stream (the traffic class of ray
+ *                      state that is not a ray record), so the database's
+ *                      class list is unchanged; this tracer is its only
+ *                      user on a BVH. The short stack travels with the
+ *                      record and counts as ray traffic.
+ *   tl.qtable (qtable) 8 B per treelet: one read-modify-write per enqueue
+ *                      (the tail) and when the queue is taken (the reset),
+ *                      each recorded as one write: with write-allocate
+ *                      caches a read and a write of the same bytes move
+ *                      the same lines as the write alone.
  *   tl.queues (queue)  chains of 64-entry blocks (256 B) of 4-byte ray
  *                      slot numbers from a pool with a LIFO free list: one
  *                      entry written per enqueue, read when processed;
@@ -489,7 +498,7 @@ typedef struct tl_run {
     uint32_t *lvlen;
     int nlvl;
     /* statistics */
-    uint64_t enq, events, ev_max, visits, stack_w, stack_r, nsec, self_hits, batches, susp;
+    uint64_t enq, events, ev_max, visits, stack_w, stack_r, spills, nsec, self_hits, batches, susp;
     uint32_t max_sp;
     uint8_t *mark;
     rt_image *img;
@@ -522,7 +531,6 @@ static int fullest(const tl_run *T) { return T->ctx->opt->qorder == RT_QORDER_FU
 
 static void enqueue(tl_run *T, uint32_t q, uint32_t slot)
 {
-    RT_REC(T->rec, rt_mm_addr(T->L, T->reg_qt, q), 8, 0, RT_CLS_QTABLE);
     int32_t tb = T->qtail[q];
     const uint32_t pos = T->qcount[q] % QBLK;
     if (tb < 0 || pos == 0) {
@@ -621,20 +629,28 @@ static int walk(tl_run *T, uint32_t s, uint32_t t)
         const sent e = R->stk[idx];
         const int culled = W != 2 && e.t > R->cull;
         if (!culled && e.tl != t) {
-            /* suspend: spill what is only in registers, write the state */
-            for (uint32_t k = R->mem; k < R->sp; k++) {
-                RT_REC(T->rec, stack_addr(T, s, k), T->esize, 1, RT_CLS_STREAM);
-                T->stack_w++;
+            /* suspend: the hit and depth, with the short-stack entries
+             * not yet in memory, in one write to the record; the deeper
+             * entries not yet in memory in one write to tl.stack */
+            const uint32_t nin = SHORT_STACK / T->esize, top_in = R->sp < nin ? R->sp : nin;
+            const uint32_t end = R->mem < top_in ? RAY_STATE + top_in * T->esize : RAY_SUSP_OFS + RAY_SUSP;
+            RT_REC(T->rec, rt_mm_addr(T->L, T->reg_rays, s) + RAY_SUSP_OFS, end - RAY_SUSP_OFS, 1, RT_CLS_RAY);
+            const uint32_t lo = R->mem > nin ? R->mem : nin;
+            if (R->sp > lo) {
+                RT_REC(T->rec, stack_addr(T, s, lo), (R->sp - lo) * T->esize, 1, RT_CLS_STREAM);
+                T->stack_w += R->sp - lo;
+                T->spills++;
             }
             R->mem = R->sp;
-            RT_REC(T->rec, rt_mm_addr(T->L, T->reg_rays, s) + RAY_SUSP_OFS, RAY_SUSP, 1, RT_CLS_RAY);
             T->susp++;
             enqueue(T, e.tl, s);
             return 0;
         }
-        if (idx < R->mem) {
-            RT_REC(T->rec, stack_addr(T, s, idx), T->esize, 0, RT_CLS_STREAM);
-            T->stack_r++;
+        if (idx < R->mem) { /* the short stack came with the record */
+            if (idx >= SHORT_STACK / T->esize) {
+                RT_REC(T->rec, stack_addr(T, s, idx), T->esize, 0, RT_CLS_STREAM);
+                T->stack_r++;
+            }
             R->mem = idx;
         }
         R->sp = idx;
@@ -877,8 +893,7 @@ static void process(tl_run *T, uint32_t q)
 {
     const uint32_t n = T->qcount[q];
     int32_t b = T->qhead[q];
-    RT_REC(T->rec, rt_mm_addr(T->L, T->reg_qt, q), 8, 0, RT_CLS_QTABLE);
-    RT_REC(T->rec, rt_mm_addr(T->L, T->reg_qt, q), 8, 1, RT_CLS_QTABLE);
+    RT_REC(T->rec, rt_mm_addr(T->L, T->reg_qt, q), 8, 1, RT_CLS_QTABLE); /* taken: read and reset */
     if (fullest(T)) bk_unlink(T, q);
     T->qhead[q] = T->qtail[q] = -1;
     T->qcount[q] = 0;
@@ -896,7 +911,7 @@ static void process(tl_run *T, uint32_t q)
             T->freelist = b;
             b = nx;
         }
-        RT_REC(T->rec, rt_mm_addr(T->L, T->reg_rays, s), RAY_STATE, 0, RT_CLS_RAY);
+        RT_REC(T->rec, rt_mm_addr(T->L, T->reg_rays, s), RAY_REC, 0, RT_CLS_RAY);
         T->visits++;
         if (walk(T, s, q)) finish(T, s);
     }
@@ -1256,10 +1271,10 @@ static void report(const tl_run *T, rt_run_stats *st)
              "budget=%" PRIu64 " treelets=%u treelet_bytes_mean=%.1f treelet_bytes_max=%" PRIu64
              " treelet_depth=%u ray_window=%u enqueues=%" PRIu64 " visits=%" PRIu64 " queue_events=%" PRIu64
              " rays_per_event_mean=%.1f rays_per_event_max=%" PRIu64 " peak_queued=%" PRIu64 " suspends=%" PRIu64
-             " stack_writes=%" PRIu64 " stack_reads=%" PRIu64 " stack_max=%u",
+             " stack_writes=%" PRIu64 " stack_reads=%" PRIu64 " stack_spills=%" PRIu64 " stack_max=%u",
              P->budget, P->nt, P->nt ? (double)sum / P->nt : 0.0, P->bytes_max, P->maxdepth, T->slots, T->enq,
              T->visits, T->events, T->events ? (double)T->visits / (double)T->events : 0.0, T->ev_max, T->peak_queued,
-             T->susp, T->stack_w, T->stack_r, T->max_sp);
+             T->susp, T->stack_w, T->stack_r, T->spills, T->max_sp);
     if (T->secondary) {
         size_t l = strlen(st->extra);
         snprintf(st->extra + l, sizeof st->extra - l, " batches=%" PRIu64 " rays_secondary=%" PRIu64 " self_hits=%" PRIu64,
