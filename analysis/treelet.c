@@ -158,11 +158,12 @@ static const trow *find(const trow *R, long n, const trow *a, int role, int acce
     return NULL;
 }
 
-static double saved(const trow *base, const trow *s)
+static double saved_in(const trow *base, const trow *s, int c)
 {
-    if (!base || !s || !(base->mb[C_TOTAL] > 0)) return NAN;
-    return 100.0 * (1.0 - s->mb[C_TOTAL] / base->mb[C_TOTAL]);
+    if (!base || !s || !(base->mb[c] > 0)) return NAN;
+    return 100.0 * (1.0 - s->mb[c] / base->mb[c]);
 }
+static double saved(const trow *base, const trow *s) { return saved_in(base, s, C_TOTAL); }
 
 static void cell(FILE *out, int csv, double v, const char *fmt)
 {
@@ -277,6 +278,7 @@ int rt_report_treelet(sqlite3 *h, const char *dbpath, const char *scene, int csv
     if (csv)
         fprintf(out, "scene,mode,lights,W,H,accel,variant,cache_bytes,base_total_mb,base_geo_mb,base_ray_mb,"
                      "treelet_total_mb,treelet_geo_mb,treelet_ray_mb,treelet_stack_mb,treelet_queue_mb,treelet_saved_pct,"
+                     "treelet_geo_saved_pct,"
                      "kd_total_mb,dynamic_total_mb,dynamic_geo_mb,dynamic_ray_mb,dynamic_queue_mb,dynamic_saved_pct\n");
     else
         fprintf(out, "# Treelets against recursive order, beside the dynamic scheduler\n\nDatabase: %s. DRAM traffic in "
@@ -284,10 +286,10 @@ int rt_report_treelet(sqlite3 *h, const char *dbpath, const char *scene, int csv
                      "scheduled for. Split: geometry = node+index+tri+shade, ray = ray+hit, stack = spilled traversal "
                      "stacks (class stream), queue = queue+qtable. Saved = 100 (1 - scheduled / baseline): the "
                      "treelet run against the recursive run on the same BVH, dynamic against recursive on the k-d "
-                     "tree; negative when the scheduler moves more.\n", dbpath);
+                     "tree; negative when the scheduler moves more; geo saved: the same on geometry alone.\n", dbpath);
     int rc = 0;
-    double best = NAN;
-    const trow *bestp = NULL;
+    double best = NAN, bestg = NAN;
+    const trow *bestp = NULL, *bestgp = NULL;
     for (long i = 0; i < n && rc == 0; i++) {
         if (R[i].role != ROLE_TREELET || (scene && strcmp(R[i].scene, scene))) continue;
         int seen = 0;
@@ -301,9 +303,9 @@ int rt_report_treelet(sqlite3 *h, const char *dbpath, const char *scene, int csv
             fprintf(out, "\n### %s, %s, lights %d, %dx%d, %s%s%s\n\n", a->scene,
                     a->mode[0] ? a->mode : (a->lights ? "shadow" : "raycast"), a->lights, a->W, a->H,
                     rt_accel_name(a->accel), a->variant[0] ? ", " : "", a->variant);
-            fprintf(out, "| cache | recursive (BVH) | geo | ray | treelet | geo | ray | stack | queue | saved | "
+            fprintf(out, "| cache | recursive (BVH) | geo | ray | treelet | geo | ray | stack | queue | saved | geo saved | "
                          "recursive (k-d) | dynamic | geo | ray | queue | saved |\n"
-                         "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+                         "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
         }
         for (int k = 0; k < ng; k++) {
             const trow *t = g[k], *b = find(R, n, t, ROLE_BASE, t->accel), *d = find(R, n, t, ROLE_DYN, 0);
@@ -322,6 +324,12 @@ int rt_report_treelet(sqlite3 *h, const char *dbpath, const char *scene, int csv
             static const int tc[5] = {C_TOTAL, C_GEO, C_RAY, C_STACK, C_QUEUE};
             for (int c = 0; c < 5; c++) cell(out, csv, t->mb[tc[c]], "%.1f");
             cell(out, csv, st, csv ? "%.1f" : "%.1f%%");
+            const double sg = saved_in(b, t, C_GEO);
+            cell(out, csv, sg, csv ? "%.1f" : "%.1f%%");
+            if (!isnan(sg) && (isnan(bestg) || sg > bestg)) {
+                bestg = sg;
+                bestgp = t;
+            }
             cell(out, csv, bk ? bk->mb[C_TOTAL] : NAN, "%.1f");
             cell(out, csv, d ? d->mb[C_TOTAL] : NAN, "%.1f");
             cell(out, csv, d ? d->mb[C_GEO] : NAN, "%.1f");
@@ -336,6 +344,10 @@ int rt_report_treelet(sqlite3 *h, const char *dbpath, const char *scene, int csv
         fprintf(out, "\nLargest treelet saving: %.1f%% (%s, %s, lights %d, %dx%d, %s, %" PRIu64 "K).\n", best,
                 bestp->scene, bestp->mode[0] ? bestp->mode : "primary", bestp->lights, bestp->W, bestp->H,
                 rt_accel_name(bestp->accel), bestp->size / 1024);
+    if (!csv && rc == 0 && bestgp)
+        fprintf(out, "Largest treelet saving in geometry: %.1f%% (%s, %s, lights %d, %dx%d, %s, %" PRIu64 "K).\n", bestg,
+                bestgp->scene, bestgp->mode[0] ? bestgp->mode : "primary", bestgp->lights, bestgp->W, bestgp->H,
+                rt_accel_name(bestgp->accel), bestgp->size / 1024);
     free(g);
     free(R);
     if (rc < 0) return -1;

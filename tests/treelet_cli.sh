@@ -56,4 +56,24 @@ n=$(sqlite3 "$tmp/s.db" "select count(*) from runs where tracer='treelet' and pa
 s=$(sqlite3 "$tmp/s.db" "select count(*) from traffic t join runs r on r.id = t.run_id where r.tracer='treelet' and t.class = 'stream'")
 [ "$s" -gt 0 ] || err "no stack traffic (class stream) in the database"
 
+# report --figure treelet: one table row per size, values from the database
+"$bin" report --db "$tmp/s.db" --figure treelet >"$tmp/r" 2>"$tmp/e" || err "report: $(cat "$tmp/e")"
+[ "$(grep -c '^| [0-9]*K |' "$tmp/r")" -eq 2 ] || err "report rows: $(cat "$tmp/r")"
+grep -q "^### knot, mode=path spp=1 bounces=1, lights 1, 16x16, bvh4, qorder=fullest ray_window=65536" "$tmp/r" ||
+    err "report group: $(cat "$tmp/r")"
+grep -q "^Largest treelet saving: " "$tmp/r" || err "report summary: $(cat "$tmp/r")"
+base=$(sqlite3 "$tmp/s.db" "select round(sum(t.traffic_bytes) / 1048576.0, 1) from traffic t join runs r on r.id = t.run_id
+    join cache_configs c on c.id = t.config_id where r.tracer = 'recursive' and c.size = 4096 and c.line = 64 and c.assoc = 0
+    and c.policy = 'wb-wa'")
+grep -q "^| 4K | $base |" "$tmp/r" || err "report baseline at 4K is not $base: $(cat "$tmp/r")"
+"$bin" report --db "$tmp/s.db" --figure treelet --format csv >"$tmp/c" 2>"$tmp/e" || err "report csv: $(cat "$tmp/e")"
+[ "$(wc -l <"$tmp/c")" -eq 3 ] || err "report csv lines: $(cat "$tmp/c")"
+"$bin" report --db "$tmp/s.db" --figure treelet --plot "$tmp/plots" >/dev/null 2>"$tmp/e" || err "report --plot: $(cat "$tmp/e")"
+ls "$tmp/plots"/treelet-knot-path-l1-16x16-bvh4-*.dat >/dev/null 2>&1 || err "no plot data: $(ls "$tmp/plots")"
+sqlite3 "$tmp/s.db" "delete from traffic where run_id in (select id from runs where tracer = 'treelet');
+    delete from runs where tracer = 'treelet'"
+"$bin" report --db "$tmp/s.db" --figure treelet >/dev/null 2>"$tmp/e"
+[ $? -eq 1 ] || err "report without treelet runs: want exit 1"
+grep -q "no treelet runs" "$tmp/e" || err "report without treelet runs: '$(cat "$tmp/e")'"
+
 exit $fail
