@@ -72,7 +72,7 @@ static double kv(const char *s, const char *k)
 }
 
 typedef struct reg_count {
-    uint64_t rd, wr;              /* accesses of the region's own class */
+    uint64_t rd, wr, rb;          /* accesses of the region's own class, bytes read */
     uint64_t rd64, wr48;          /* ... by size (the ray records) */
     uint64_t srd, swr, srb, swb;  /* stack accesses (class stream) and their bytes */
 } reg_count;
@@ -99,6 +99,7 @@ static void per_region(const acc_list *l, const rt_layout *L, reg_count *c)
                 c[r].wr48 += a->size == 48;
             } else {
                 c[r].rd++;
+                c[r].rb += a->size;
                 c[r].rd64 += a->size == 64;
             }
             break;
@@ -182,8 +183,12 @@ static void test_checked(rt_scene *sc)
                 CHECK(rq >= 0 && rr >= 0 && rs >= 0 && rqt >= 0, "regions missing");
                 if (rq < 0 || rr < 0 || rs < 0 || rqt < 0) goto next;
                 CHECK(enq > 0 && enq == vis, "enqueues %.0f, visits %.0f", enq, vis);
-                CHECK((double)c[rq].wr == enq && (double)c[rq].rd == vis, "queue entries: %" PRIu64 " written, %" PRIu64
-                      " read; enqueues %.0f visits %.0f", c[rq].wr, c[rq].rd, enq, vis);
+                const double qbr = kv(st.extra, "queue_block_reads");
+                CHECK((double)c[rq].wr == enq && (double)c[rq].rd == qbr && (double)c[rq].rb == 4 * vis && qbr >= ev &&
+                          qbr <= ev + vis / 64,
+                      "queue entries: %" PRIu64 " written, %" PRIu64 " reads of %" PRIu64 " bytes; enqueues %.0f "
+                      "visits %.0f block reads %.0f events %.0f",
+                      c[rq].wr, c[rq].rd, c[rq].rb, enq, vis, qbr, ev);
                 CHECK(c[rqt].rd == 0 && (double)c[rqt].wr == enq + ev,
                       "queue table: %" PRIu64 " reads, %" PRIu64 " writes; enqueues %.0f events %.0f", c[rqt].rd,
                       c[rqt].wr, enq, ev);
@@ -194,8 +199,9 @@ static void test_checked(rt_scene *sc)
                       " suspensions written (%.0f)",
                       c[rr].wr48, started, c[rr].rd64, vis, c[rr].wr - c[rr].wr48, susp);
                 const double esz = k == 0 ? 4 : 8, spills = kv(st.extra, "stack_spills");
-                CHECK((double)c[rs].swb == esz * sw && (double)c[rs].swr == spills && (double)c[rs].srd == sr_ &&
-                          (double)c[rs].srb == esz * sr_ && sr_ <= sw && c[rs].rd + c[rs].wr == 0 &&
+                const double refills = kv(st.extra, "stack_refills");
+                CHECK((double)c[rs].swb == esz * sw && (double)c[rs].swr == spills && (double)c[rs].srd == refills &&
+                          (double)c[rs].srb == esz * sr_ && sr_ <= sw && refills <= sr_ && c[rs].rd + c[rs].wr == 0 &&
                           c[rr].srd + c[rr].swr == 0,
                       "stack: %" PRIu64 " writes of %" PRIu64 " bytes (%.0f entries, %.0f spills), %" PRIu64
                       " reads (%.0f)", c[rs].swr, c[rs].swb, sw, spills, c[rs].srd, sr_);

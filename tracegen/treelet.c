@@ -48,12 +48,15 @@
  *                      stack_bound entries (bvh2: 4 B node index; wide: 8 B
  *                      reference and entry distance). The walk's stack
  *                      lives in registers while a ray is inside a treelet;
- *                      when it is suspended the entries pushed since they
- *                      were last in memory are written (one access per
- *                      suspension for the deep ones), and a deep entry is
- *                      read when it is popped (a short-stack entry came
- *                      with the record). So every entry is written at most
- *                      once and read at most once. Stack traffic is
+ *                      when it is suspended the entries not in memory
+ *                      are written (one access per suspension for the
+ *                      deep ones); popping a deep entry that is in memory
+ *                      reads it with up to seven entries below it (one
+ *                      access; a short-stack entry came with the record),
+ *                      which are then in registers again. So an entry is
+ *                      read once per write, and every entry a suspension
+ *                      writes was pushed or refilled since the ray's last
+ *                      suspension. Stack traffic is
  *                      recorded in class stream (the traffic class of ray
  *                      state that is not a ray record), so the database's
  *                      class list is unchanged; this tracer is its only
@@ -66,10 +69,12 @@
  *                      the same lines as the write alone.
  *   tl.queues (queue)  chains of 64-entry blocks (256 B) of 4-byte ray
  *                      slot numbers from a pool with a LIFO free list: one
- *                      entry written per enqueue, read when processed;
+ *                      entry written per enqueue; the entries of a block
+ *                      read in one access when the queue is processed;
  *                      a block returns to the pool once read.
  *   tl.hits   (hit)    24 B per slot: the closest hit, written when a ray
- *                      is shaded and read by its shadow generation.
+ *                      is shaded (only when a light is enabled) and read
+ *                      by each shadow generation.
  *   tl.spawn  (ray)    whitted and path modes: 64-byte path records of the
  *                      rays waiting for their generation (as dynamic.c).
  *   rays.primary, fb   as the recursive tracer.
@@ -135,6 +140,7 @@
 #define RAY_SUSP_OFS 28 /* the hit and stack depth: 20 bytes */
 #define RAY_SUSP 20
 #define SHORT_STACK 16 /* bytes of stack entries kept in the ray record */
+#define REFILL 8       /* deep stack entries read back per access, at most */
 
 /* ---- the plan: treelets of one tree and budget ---------------------------- */
 
@@ -444,14 +450,19 @@ typedef struct sent {
     uint32_t tl;   /* treelet it is processed in */
 } sent;
 
+#define INL 8 /* stack entries held inside the host record (deeper ones: heap) */
+
+/* Host state of a ray slot, hot fields first (not modeled: tl.rays is). */
 typedef struct tray {
-    rt_ray r;         /* the traversal ray */
-    rt_bvh_wray w;    /* its slab-test form */
-    float best, bu, bv, cull; /* best hit so far (best starts at tmax), cull bound */
+    uint32_t sp, mem, cap; /* stack depth, entries in memory (the bottom mem), capacity */
+    float cull;       /* cull bound of the best hit */
+    sent *stk;        /* inl, or a heap array when deeper than INL */
+    sent inl[INL];
+    float best, bu, bv; /* best hit so far (best starts at tmax) */
     uint32_t btri;    /* best hit's scene index (0 while none) */
     uint8_t found, any, occluded, dirty; /* dirty: best changed in this visit */
-    uint32_t sp, mem, cap; /* stack depth, entries in memory (the bottom mem), capacity */
-    sent *stk;
+    rt_bvh_wray w;    /* the ray's slab-test form */
+    rt_ray r;         /* the traversal ray */
 } tray;
 
 typedef struct tl_run {
@@ -498,7 +509,7 @@ typedef struct tl_run {
     uint32_t *lvlen;
     int nlvl;
     /* statistics */
-    uint64_t enq, events, ev_max, visits, stack_w, stack_r, spills, nsec, self_hits, batches, susp;
+    uint64_t enq, events, ev_max, visits, stack_w, stack_r, spills, refills, nsec, self_hits, batches, susp, qreads;
     uint32_t max_sp;
     uint8_t *mark;
     rt_image *img;
@@ -563,8 +574,9 @@ static void enqueue(tl_run *T, uint32_t q, uint32_t slot)
 static void push(tl_run *T, tray *R, const rt_bvh_ref *x, uint32_t tl)
 {
     if (R->sp == R->cap) {
-        uint32_t nc = R->cap ? 2 * R->cap : 16;
-        sent *s = realloc(R->stk, sizeof *s * nc);
+        uint32_t nc = 2 * R->cap;
+        sent *s = R->stk == R->inl ? malloc(sizeof *s * nc) : realloc(R->stk, sizeof *s * nc);
+        if (s && R->stk == R->inl) memcpy(s, R->inl, sizeof R->inl);
         if (!s) {
             if (!T->err) rt_errf(T->e, "treelet: out of memory for a ray stack");
             T->err = 1;
@@ -646,12 +658,18 @@ static int walk(tl_run *T, uint32_t s, uint32_t t)
             enqueue(T, e.tl, s);
             return 0;
         }
-        if (idx < R->mem) { /* the short stack came with the record */
-            if (idx >= SHORT_STACK / T->esize) {
-                RT_REC(T->rec, stack_addr(T, s, idx), T->esize, 0, RT_CLS_STREAM);
-                T->stack_r++;
+        if (idx < R->mem) {
+            /* the short stack came with the record; a deep entry is read
+             * with up to REFILL - 1 entries below it, in one access */
+            const uint32_t nin = SHORT_STACK / T->esize;
+            uint32_t lo = idx;
+            if (idx >= nin) {
+                lo = idx + 1 >= nin + REFILL ? idx + 1 - REFILL : nin;
+                RT_REC(T->rec, stack_addr(T, s, lo), (idx + 1 - lo) * T->esize, 0, RT_CLS_STREAM);
+                T->stack_r += idx + 1 - lo;
+                T->refills++;
             }
-            R->mem = idx;
+            R->mem = lo;
         }
         R->sp = idx;
         if (culled) continue;
@@ -904,7 +922,19 @@ static void process(tl_run *T, uint32_t q)
     for (uint32_t k = 0; k < n && !T->err; k++) {
         const uint32_t pos = k % QBLK;
         const uint32_t s = T->blk[(size_t)b * QBLK + pos];
-        RT_REC(T->rec, rt_mm_addr(T->L, T->reg_q, (uint64_t)b * QBLK + pos), 4, 0, RT_CLS_QUEUE);
+#if defined(__GNUC__)
+        if (pos + 4 < QBLK && k + 4 < n) { /* the host record of a ray a few entries on */
+            const char *h = (const char *)&T->ray[T->blk[(size_t)b * QBLK + pos + 4]];
+            __builtin_prefetch(h);
+            __builtin_prefetch(h + 64);
+            __builtin_prefetch(h + 128);
+        }
+#endif
+        if (pos == 0) { /* a block's entries are read together */
+            const uint32_t m = n - k < QBLK ? n - k : QBLK;
+            RT_REC(T->rec, rt_mm_addr(T->L, T->reg_q, (uint64_t)b * QBLK), 4 * m, 0, RT_CLS_QUEUE);
+            T->qreads++;
+        }
         if (pos == QBLK - 1 || k == n - 1) { /* block read: back to the pool */
             int32_t nx = T->bnext[b];
             T->bnext[b] = T->freelist;
@@ -1003,7 +1033,7 @@ static int window_primary(tl_run *T, const uint32_t *pix, uint32_t n, rt_err *e)
     for (uint32_t s = 0; s < n; s++) {
         T->phit[pix[s]] = T->hit[s];
         if (T->hit[s].tri != RT_NO_HIT) RT_REC(T->rec, rt_mm_addr(T->L, T->reg_shade, T->hit[s].tri), 16, 0, RT_CLS_SHADE);
-        RT_REC(T->rec, rt_mm_addr(T->L, T->reg_hits, s), 24, 1, RT_CLS_HIT);
+        if (o->lights) RT_REC(T->rec, rt_mm_addr(T->L, T->reg_hits, s), 24, 1, RT_CLS_HIT);
     }
     T->tv.mark_bit = 2;
     for (int li = 0; li < RT_NLIGHTS; li++) {
@@ -1058,7 +1088,7 @@ static int batch_run(tl_run *T, int *height, rt_err *e)
         const uint32_t px = rays[s].pix;
         if (!rays[s].depth && !rays[s].sample) T->h0[px] = *h;
         if (hp) rt_reg_shade(T->ctx, T->rec, h->tri);
-        RT_REC(T->rec, rt_mm_addr(T->L, T->reg_hits, s), 24, 1, RT_CLS_HIT);
+        if (o->lights) RT_REC(T->rec, rt_mm_addr(T->L, T->reg_hits, s), 24, 1, RT_CLS_HIT);
         rt_shade_step(T->sc, o, &rays[s], &T->bray[s], hp, &T->out[s]);
         T->self_hits += (uint64_t)T->out[s].self_hit;
         rt_acc_add(&T->acc[px], T->out[s].c);
@@ -1171,7 +1201,8 @@ static int tl_layout(const rt_tracer_ctx *ctx, rt_layout *L, rt_err *e)
 
 static void tl_free(tl_run *T)
 {
-    for (uint32_t s = 0; T->ray && s < T->slots; s++) free(T->ray[s].stk);
+    for (uint32_t s = 0; T->ray && s < T->slots; s++)
+        if (T->ray[s].stk != T->ray[s].inl) free(T->ray[s].stk);
     free(T->ray);
     free(T->blk);
     free(T->bnext);
@@ -1241,6 +1272,10 @@ static int tl_init(tl_run *T, const rt_tracer_ctx *ctx, rt_image *img, rt_run_st
         !(T->bray = rt_calloc(ns, sizeof *T->bray, e)) || !(T->bsray = rt_calloc(ns, sizeof *T->bsray, e)) ||
         !(T->out = rt_calloc(ns, sizeof *T->out, e)) || !(T->mark = rt_calloc(T->sc->ntri ? T->sc->ntri : 1, 1, e)))
         return -1;
+    for (uint32_t s = 0; s < ns; s++) {
+        T->ray[s].stk = T->ray[s].inl;
+        T->ray[s].cap = INL;
+    }
     for (uint32_t i = 0; i < T->nblk; i++) T->bnext[i] = i + 1 < T->nblk ? (int32_t)(i + 1) : -1;
     T->freelist = 0;
     for (uint32_t q = 0; q < nt; q++) T->qhead[q] = T->qtail[q] = -1;
@@ -1271,10 +1306,10 @@ static void report(const tl_run *T, rt_run_stats *st)
              "budget=%" PRIu64 " treelets=%u treelet_bytes_mean=%.1f treelet_bytes_max=%" PRIu64
              " treelet_depth=%u ray_window=%u enqueues=%" PRIu64 " visits=%" PRIu64 " queue_events=%" PRIu64
              " rays_per_event_mean=%.1f rays_per_event_max=%" PRIu64 " peak_queued=%" PRIu64 " suspends=%" PRIu64
-             " stack_writes=%" PRIu64 " stack_reads=%" PRIu64 " stack_spills=%" PRIu64 " stack_max=%u",
+             " stack_writes=%" PRIu64 " stack_reads=%" PRIu64 " stack_spills=%" PRIu64 " stack_refills=%" PRIu64 " stack_max=%u queue_block_reads=%" PRIu64,
              P->budget, P->nt, P->nt ? (double)sum / P->nt : 0.0, P->bytes_max, P->maxdepth, T->slots, T->enq,
              T->visits, T->events, T->events ? (double)T->visits / (double)T->events : 0.0, T->ev_max, T->peak_queued,
-             T->susp, T->stack_w, T->stack_r, T->spills, T->max_sp);
+             T->susp, T->stack_w, T->stack_r, T->spills, T->refills, T->max_sp, T->qreads);
     if (T->secondary) {
         size_t l = strlen(st->extra);
         snprintf(st->extra + l, sizeof st->extra - l, " batches=%" PRIu64 " rays_secondary=%" PRIu64 " self_hits=%" PRIu64,
