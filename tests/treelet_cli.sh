@@ -45,7 +45,7 @@ for k in budget=8192 treelets= treelet_bytes_mean= treelet_bytes_max= treelet_de
 done
 
 # sweep: one job per size, the run key's parameters
-"$bin" sweep --scenes knot --tracers treelet,recursive --accel bvh4 --modes path --lights 0 --sizes 4K,64K \
+"$bin" sweep --scenes knot --tracers treelet,recursive --accel bvh4 --modes path --lights 0 --bounces 1 --sizes 4K,64K \
     -W 16 -H 16 --ray-window 64K --db "$tmp/s.db" --list-jobs >"$tmp/l" 2>"$tmp/e" || err "list-jobs: $(cat "$tmp/e")"
 # the recursive run and one treelet run per size, each carrying the window
 [ "$(grep -c -- "--ray-window' '64K' --job" "$tmp/l")" -eq 3 ] || err "jobs: $(cat "$tmp/l")"
@@ -55,6 +55,16 @@ n=$(sqlite3 "$tmp/s.db" "select count(*) from runs where tracer='treelet' and pa
 [ "$n" = 2 ] || err "treelet runs with their key: $n ($(sqlite3 "$tmp/s.db" 'select tracer, sched_size, params from runs'))"
 s=$(sqlite3 "$tmp/s.db" "select count(*) from traffic t join runs r on r.id = t.run_id where r.tracer='treelet' and t.class = 'stream'")
 [ "$s" -gt 0 ] || err "no stack traffic (class stream) in the database"
+
+# the listed jobs run as shards and merged: the same runs and traffic as the sweep
+while IFS= read -r line; do
+    eval "$line" >/dev/null 2>"$tmp/e" || err "job: $line: $(cat "$tmp/e")"
+done <"$tmp/l"
+"$bin" db merge "$tmp/m.db" "$tmp"/s.job*.db 2>"$tmp/e" || err "merge: $(cat "$tmp/e")"
+q="select r.tracer, r.sched_size, r.params, t.class, c.size, t.traffic_bytes from traffic t join runs r on r.id = t.run_id
+    join cache_configs c on c.id = t.config_id order by 1, 2, 3, 4, 5"
+[ -n "$(sqlite3 "$tmp/m.db" "$q")" ] || err "merged database is empty"
+[ "$(sqlite3 "$tmp/m.db" "$q")" = "$(sqlite3 "$tmp/s.db" "$q")" ] || err "merged shards differ from the sweep"
 
 # report --figure treelet: one table row per size, values from the database
 "$bin" report --db "$tmp/s.db" --figure treelet >"$tmp/r" 2>"$tmp/e" || err "report: $(cat "$tmp/e")"
