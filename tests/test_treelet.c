@@ -73,7 +73,7 @@ static double kv(const char *s, const char *k)
 
 typedef struct reg_count {
     uint64_t rd, wr, rb;          /* accesses of the region's own class, bytes read */
-    uint64_t rd64, wr48;          /* ... by size (the ray records) */
+    uint64_t rd64, wr52, wr56;    /* ... by size (the ray records) */
     uint64_t srd, swr, srb, swb;  /* stack accesses (class stream) and their bytes */
 } reg_count;
 
@@ -96,7 +96,8 @@ static void per_region(const acc_list *l, const rt_layout *L, reg_count *c)
                 }
             } else if (a->write) {
                 c[r].wr++;
-                c[r].wr48 += a->size == 48;
+                c[r].wr52 += a->size == 52;
+                c[r].wr56 += a->size == 56;
             } else {
                 c[r].rd++;
                 c[r].rb += a->size;
@@ -193,20 +194,21 @@ static void test_checked(rt_scene *sc)
                       "queue table: %" PRIu64 " reads, %" PRIu64 " writes; enqueues %.0f events %.0f", c[rqt].rd,
                       c[rqt].wr, enq, ev);
                 const double started = (double)(st.rays_primary + st.rays_shadow) + sec;
-                CHECK((double)c[rr].wr48 == started && (double)c[rr].rd64 == vis && c[rr].rd == c[rr].rd64 &&
-                          (double)(c[rr].wr - c[rr].wr48) == susp,
-                      "ray records: %" PRIu64 " written whole (rays %.0f), %" PRIu64 " read (visits %.0f), %" PRIu64
+                const uint64_t wst = k == 0 ? c[rr].wr52 : c[rr].wr56; /* state and root entry */
+                CHECK((double)wst == started && (double)c[rr].rd64 == vis && c[rr].rd == c[rr].rd64 &&
+                          (double)(c[rr].wr - wst) == susp,
+                      "ray records: %" PRIu64 " written at the start (rays %.0f), %" PRIu64 " read (visits %.0f), %" PRIu64
                       " suspensions written (%.0f)",
-                      c[rr].wr48, started, c[rr].rd64, vis, c[rr].wr - c[rr].wr48, susp);
+                      wst, started, c[rr].rd64, vis, c[rr].wr - wst, susp);
                 const double esz = k == 0 ? 4 : 8, spills = kv(st.extra, "stack_spills");
                 const double refills = kv(st.extra, "stack_refills");
                 CHECK((double)c[rs].swb == esz * sw && (double)c[rs].swr == spills && (double)c[rs].srd == refills &&
-                          (double)c[rs].srb == esz * sr_ && sr_ <= sw && refills <= sr_ && c[rs].rd + c[rs].wr == 0 &&
+                          (double)c[rs].srb == esz * sr_ && refills <= sr_ && c[rs].rd + c[rs].wr == 0 &&
                           c[rr].srd + c[rr].swr == 0,
                       "stack: %" PRIu64 " writes of %" PRIu64 " bytes (%.0f entries, %.0f spills), %" PRIu64
                       " reads (%.0f)", c[rs].swr, c[rs].swb, sw, spills, c[rs].srd, sr_);
                 if (modes[m] == RT_MODE_RAYCAST)
-                    CHECK(sw == sr_, "raycast: every spilled stack entry is read back (%.0f written, %.0f read)", sw, sr_);
+                    CHECK(sr_ >= sw, "raycast: every spilled stack entry is read back (%.0f written, %.0f read)", sw, sr_);
                 uint64_t nodes = 0, tris = 0;
                 for (size_t i = 0; i < l.n; i++) {
                     nodes += l.a[i].cls == RT_CLS_NODE;

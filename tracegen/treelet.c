@@ -39,8 +39,9 @@
  *   tl.rays   (ray)    64 B per ray slot (one line): origin, direction,
  *                      tmin, best t, best triangle, barycentrics, stack
  *                      depth (48 B), then a 16-byte short stack holding the
- *                      ray's first stack entries. Written (48 B) when a
- *                      ray starts; read whole when it is taken from a
+ *                      ray's first stack entries. Written when a ray
+ *                      starts (48 B and the root entry); read whole when
+ *                      it is taken from a
  *                      queue; when it is suspended, the hit and depth (20
  *                      B at offset 28) and the short-stack entries not yet
  *                      in memory are written in one access.
@@ -48,15 +49,15 @@
  *                      stack_bound entries (bvh2: 4 B node index; wide: 8 B
  *                      reference and entry distance). The walk's stack
  *                      lives in registers while a ray is inside a treelet;
- *                      when it is suspended the entries not in memory
- *                      are written (one access per suspension for the
- *                      deep ones); popping a deep entry that is in memory
- *                      reads it with up to seven entries below it (one
- *                      access; a short-stack entry came with the record),
- *                      which are then in registers again. So an entry is
- *                      read once per write, and every entry a suspension
- *                      writes was pushed or refilled since the ray's last
- *                      suspension. Stack traffic is
+ *                      when it is suspended the entries without a valid
+ *                      copy in memory are written (one access per
+ *                      suspension for the deep ones); popping a deep entry
+ *                      not in registers reads it with up to seven entries
+ *                      below it (one access; a short-stack entry came with
+ *                      the record), whose memory copies stay valid. So
+ *                      an entry is written at most once per push; an entry
+ *                      a refill brought back but the ray left unpopped is
+ *                      read again by a later refill. Stack traffic is
  *                      recorded in class stream (the traffic class of ray
  *                      state that is not a ray record), so the database's
  *                      class list is unchanged; this tracer is its only
@@ -108,8 +109,10 @@
  *   T3  rays: every ray of the generation is in exactly one queue or
  *       finished (started = finished + queued), and a queued ray is in the
  *       queue of the treelet of the entry on top of its stack;
- *   T4  stacks: spilled <= depth <= stack_bound; an entry's treelet is the
- *       treelet of its node (a leaf: of the node that pushed it);
+ *   T4  stacks: a queued ray's entries are all in memory and none in
+ *       registers (reg = mem = depth), depth <= stack_bound; an entry's
+ *       treelet is the treelet of its node (a leaf: of the node that
+ *       pushed it);
  *   T5  buckets (fullest-first order): every treelet in the bucket of its
  *       count, none above the fullest bound;
  *   T6  resolution (checked as each ray finishes): its closest hit or its
@@ -454,7 +457,9 @@ typedef struct sent {
 
 /* Host state of a ray slot, hot fields first (not modeled: tl.rays is). */
 typedef struct tray {
-    uint32_t sp, mem, cap; /* stack depth, entries in memory (the bottom mem), capacity */
+    uint32_t sp, cap; /* stack depth and capacity */
+    uint32_t mem, reg; /* entries [0, mem) have valid memory copies, [reg, sp) are in registers;
+                        * reg <= mem <= sp, and a queued ray has reg = mem = sp */
     float cull;       /* cull bound of the best hit */
     sent *stk;        /* inl, or a heap array when deeper than INL */
     sent inl[INL];
@@ -585,6 +590,7 @@ static void push(tl_run *T, tray *R, const rt_bvh_ref *x, uint32_t tl)
         R->stk = s;
         R->cap = nc;
     }
+    if (R->mem > R->sp) R->mem = R->sp; /* that position's memory copy is stale */
     R->stk[R->sp++] = (sent){x->a, x->n, x->t, tl};
     if (R->sp > T->max_sp) T->max_sp = R->sp;
 }
@@ -653,14 +659,15 @@ static int walk(tl_run *T, uint32_t s, uint32_t t)
                 T->stack_w += R->sp - lo;
                 T->spills++;
             }
-            R->mem = R->sp;
+            R->mem = R->reg = R->sp;
             T->susp++;
             enqueue(T, e.tl, s);
             return 0;
         }
-        if (idx < R->mem) {
-            /* the short stack came with the record; a deep entry is read
-             * with up to REFILL - 1 entries below it, in one access */
+        if (idx < R->reg) {
+            /* not in registers: the short stack came with the record; a
+             * deep entry is read with up to REFILL - 1 entries below it,
+             * in one access (their memory copies stay valid) */
             const uint32_t nin = SHORT_STACK / T->esize;
             uint32_t lo = idx;
             if (idx >= nin) {
@@ -669,14 +676,15 @@ static int walk(tl_run *T, uint32_t s, uint32_t t)
                 T->stack_r += idx + 1 - lo;
                 T->refills++;
             }
-            R->mem = lo;
+            R->reg = lo;
         }
         R->sp = idx;
+        if (R->mem > idx) R->mem = idx;
         if (culled) continue;
         if (e.n) { /* a wide node's leaf child */
             if (leaf(T, R, e.a, e.n)) {
                 R->occluded = 1;
-                R->sp = R->mem = 0;
+                R->sp = R->mem = R->reg = 0;
                 return 1;
             }
             continue;
@@ -688,7 +696,7 @@ static int walk(tl_run *T, uint32_t s, uint32_t t)
         if (W == 2 && k == 1) {
             if (leaf(T, R, out[0].a, out[0].n)) {
                 R->occluded = 1;
-                R->sp = R->mem = 0;
+                R->sp = R->mem = R->reg = 0;
                 return 1;
             }
             continue;
@@ -712,12 +720,14 @@ static int start(tl_run *T, uint32_t s, const rt_ray *r, int any)
     R->any = (uint8_t)any;
     R->occluded = 0;
     R->cull = rt_bvh_cull_bound(r->tmax);
-    R->sp = R->mem = 0;
+    R->sp = R->mem = R->reg = 0;
     T->started++;
-    RT_REC(T->rec, rt_mm_addr(T->L, T->reg_rays, s), RAY_STATE, 1, RT_CLS_RAY);
+    /* the state and the root as the first short-stack entry */
+    RT_REC(T->rec, rt_mm_addr(T->L, T->reg_rays, s), RAY_STATE + (T->b->nnodes ? T->esize : 0), 1, RT_CLS_RAY);
     if (!T->b->nnodes) return 1;
     rt_bvh_ref root = {0, 0, r->tmin};
     push(T, R, &root, 0);
+    R->mem = R->reg = 1;
     enqueue(T, 0, s);
     return 0;
 }
@@ -856,8 +866,9 @@ static int check_state(const tl_run *T, rt_err *e)
         }
         const tray *R = &T->ray[s];
         if (!inq[s]) continue;
-        if (R->mem > R->sp || R->sp > T->stack_bound) {
-            rt_errf(e, "treelet T4: ray %u has %u stack entries, %u in memory (bound %u)", s, R->sp, R->mem,
+        if (R->mem != R->sp || R->reg != R->sp || R->sp > T->stack_bound) {
+            rt_errf(e, "treelet T4: queued ray %u has %u stack entries, %u in memory, from %u in registers (bound %u)",
+                    s, R->sp, R->mem, R->reg,
                     T->stack_bound);
             goto done;
         }
