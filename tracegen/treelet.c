@@ -465,7 +465,7 @@ typedef struct tray {
     sent inl[INL];
     float best, bu, bv; /* best hit so far (best starts at tmax) */
     uint32_t btri;    /* best hit's scene index (0 while none) */
-    uint8_t found, any, occluded, dirty; /* dirty: best changed in this visit */
+    uint8_t found, any, occluded; /* a hit is held; any-hit (shadow) ray; its result */
     rt_bvh_wray w;    /* the ray's slab-test form */
     rt_ray r;         /* the traversal ray */
 } tray;
@@ -502,7 +502,6 @@ typedef struct tl_run {
     rt_hit *hit;      /* closest hit per slot */
     uint8_t *vis;     /* per pixel (primary modes): bit i light i visible */
     rt_hit *phit;     /* per pixel (primary modes): the primary hit */
-    uint32_t *bpix;   /* pixel per slot */
     rt_ray *bray;     /* closest ray per slot (camera or path ray) */
     rt_ray *bsray;    /* shadow ray per slot */
     /* secondary modes */
@@ -611,7 +610,6 @@ static int leaf(tl_run *T, tray *R, uint32_t first, uint32_t n)
             if (t > R->r.tmin && t < R->r.tmax) return 1;
         } else if (t > R->r.tmin && (t < R->best || (t == R->best && o < R->btri))) {
             R->found = 1;
-            R->dirty = 1;
             R->best = t;
             R->btri = o;
             R->bu = u;
@@ -639,7 +637,6 @@ static int walk(tl_run *T, uint32_t s, uint32_t t)
     tray *R = &T->ray[s];
     const rt_bvh *b = T->b;
     const int W = b->width;
-    R->dirty = 0;
     for (;;) {
         if (T->err) return 1;
         if (R->sp == 0) return 1;
@@ -1034,7 +1031,6 @@ static int window_primary(tl_run *T, const uint32_t *pix, uint32_t n, rt_err *e)
     rt_rec_set_gen(T->rec, 0);
     T->tv.mark_bit = 1;
     for (uint32_t s = 0; s < n; s++) {
-        T->bpix[s] = pix[s];
         RT_REC(T->rec, rt_mm_addr(T->L, T->reg_ray, pix[s]), 32, 0, RT_CLS_RAY);
         rt_cam_ray(&cam, (int)(pix[s] % (uint32_t)o->W), (int)(pix[s] / (uint32_t)o->W), &T->bray[s]);
     }
@@ -1083,7 +1079,6 @@ static int batch_run(tl_run *T, int *height, rt_err *e)
     T->tv.mark_bit = rays[0].depth ? 4 : 1;
     for (uint32_t s = 0; s < n; s++) {
         rt_shade_path_ray(&rays[s], &T->bray[s]);
-        T->bpix[s] = rays[s].pix;
         if (rays[s].depth) {
             RT_REC(T->rec, rt_mm_addr(T->L, T->reg_spawn, (uint64_t)lv * T->slots + s), RT_SREC_SIZE, 0, RT_CLS_RAY);
             T->nsec++;
@@ -1228,7 +1223,6 @@ static void tl_free(tl_run *T)
     free(T->hit);
     free(T->vis);
     free(T->phit);
-    free(T->bpix);
     free(T->bray);
     free(T->bsray);
     free(T->out);
@@ -1279,7 +1273,7 @@ static int tl_init(tl_run *T, const rt_tracer_ctx *ctx, rt_image *img, rt_run_st
         !(T->bk_head = rt_calloc((size_t)ns + 2, sizeof *T->bk_head, e)) ||
         !(T->bk_next = rt_calloc(nt, sizeof *T->bk_next, e)) || !(T->bk_prev = rt_calloc(nt, sizeof *T->bk_prev, e)) ||
         !(T->want = rt_calloc(2 * (size_t)ns, 1, e)) || !(T->done = rt_calloc(ns, 1, e)) ||
-        !(T->hit = rt_calloc(ns, sizeof *T->hit, e)) || !(T->bpix = rt_calloc(ns, sizeof *T->bpix, e)) ||
+        !(T->hit = rt_calloc(ns, sizeof *T->hit, e)) ||
         !(T->bray = rt_calloc(ns, sizeof *T->bray, e)) || !(T->bsray = rt_calloc(ns, sizeof *T->bsray, e)) ||
         !(T->out = rt_calloc(ns, sizeof *T->out, e)) || !(T->mark = rt_calloc(T->sc->ntri ? T->sc->ntri : 1, 1, e)))
         return -1;
@@ -1348,11 +1342,13 @@ done:
     return rc;
 }
 
+extern const rt_tracer rt_tracer_treelet;
+
 static int tl_check_opts(const rt_render_opts *o, rt_err *e)
 {
     const char *opt;
     const uint64_t budget = tl_budget(o, &opt);
-    const int k = o->accel != RT_ACCEL_DEFAULT ? o->accel : RT_ACCEL_BVH4;
+    const int k = rt_tracer_accel(&rt_tracer_treelet, o);
     const int width = k == RT_ACCEL_BVH2 ? 2 : k == RT_ACCEL_BVH8 ? 8 : 4;
     const uint32_t ns = rt_bvh_node_size(width);
     if (budget < ns)
