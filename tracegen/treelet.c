@@ -575,7 +575,7 @@ static void enqueue(tl_run *T, uint32_t q, uint32_t slot)
 
 /* ---- one ray in one treelet ---------------------------------------------------- */
 
-static void push(tl_run *T, tray *R, const rt_bvh_ref *x, uint32_t tl)
+static inline void push(tl_run *T, tray *R, const rt_bvh_ref *x, uint32_t tl)
 {
     if (R->sp == R->cap) {
         uint32_t nc = 2 * R->cap;
@@ -931,11 +931,25 @@ static void process(tl_run *T, uint32_t q)
         const uint32_t pos = k % QBLK;
         const uint32_t s = T->blk[(size_t)b * QBLK + pos];
 #if defined(__GNUC__)
-        if (pos + 4 < QBLK && k + 4 < n) { /* the host record of a ray a few entries on */
-            const char *h = (const char *)&T->ray[T->blk[(size_t)b * QBLK + pos + 4]];
+        /* host prefetches: the record of a ray eight entries on, the node
+         * on top of the stack of the ray four entries on */
+        if (pos + 8 < QBLK && k + 8 < n) {
+            const char *h = (const char *)&T->ray[T->blk[(size_t)b * QBLK + pos + 8]];
             __builtin_prefetch(h);
             __builtin_prefetch(h + 64);
             __builtin_prefetch(h + 128);
+        }
+        if (pos + 4 < QBLK && k + 4 < n) {
+            const tray *R4 = &T->ray[T->blk[(size_t)b * QBLK + pos + 4]];
+            if (R4->sp && !R4->stk[R4->sp - 1].n) {
+                const uint32_t a = R4->stk[R4->sp - 1].a;
+                const rt_bvh *bv = T->b;
+                const char *nd = bv->width == 2   ? (const char *)&bv->n2[a]
+                                 : bv->width == 4 ? (const char *)&bv->n4[a]
+                                                  : (const char *)&bv->h8[a];
+                __builtin_prefetch(nd);
+                __builtin_prefetch(nd + 64);
+            }
         }
 #endif
         if (pos == 0) { /* a block's entries are read together */
