@@ -2,12 +2,16 @@
  * test_treelet.c -- the treelet scheduler (tracegen/treelet.c) beyond the
  * conformance test's image identity:
  *   - its invariants (T1-T6) checked between steps (rt_job.check) on every
- *     width, in every mode, with both queue orders, a bounded ray window
- *     and the triangles counted in the budget;
- *   - per-region traffic derived from the statistics: queue entries
- *     written per enqueue and read per visit, ray records written per ray
- *     started and read per visit, suspensions, stack entries written and
- *     read, node and triangle reads per visit and test;
+ *     width, in every mode, with both queue orders, a bounded ray window,
+ *     pixel subsampling and the triangles counted in the budget, each
+ *     image equal to the recursive tracer's on the same BVH with the same
+ *     node visits and triangle tests;
+ *   - per-region traffic derived from the statistics: a queue entry
+ *     written per enqueue and a block read per 64 entries processed, the
+ *     queue table updated per enqueue and per queue event, ray records
+ *     written per ray started, read per visit and written per suspension,
+ *     stack bytes written and read as counted, node and triangle reads
+ *     per visit and test;
  *   - a budget larger than the tree: one treelet, and exactly the
  *     recursive tracer's geometry references (node and triangle reads) in
  *     another order (the same multiset).
@@ -136,7 +140,7 @@ static void test_checked(rt_scene *sc)
     int runs = 0;
     for (size_t k = 0; k < 3; k++)
         for (size_t m = 0; m < 4; m++)
-            for (int variant = 0; variant < 3; variant++) {
+            for (int variant = 0; variant < 4; variant++) {
                 rt_render_opts o;
                 rt_render_default_opts(&o);
                 o.W = o.H = IMG;
@@ -152,6 +156,10 @@ static void test_checked(rt_scene *sc)
                 } else if (variant == 2) {
                     o.treelet_tris = 1;
                     o.sched_size = 2048;
+                } else if (variant == 3) { /* pixel subsampling, windows of 5 traced pixels */
+                    o.subsample = 3;
+                    o.subtile = 4;
+                    o.ray_window = 5;
                 }
                 rt_run_stats st, sr;
                 rt_image *got = NULL, *want = NULL;
@@ -221,7 +229,7 @@ static void test_checked(rt_scene *sc)
                 rt_image_free(got);
                 rt_image_free(want);
             }
-    CHECK(runs == 36, "%d checked runs", runs);
+    CHECK(runs == 48, "%d checked runs", runs);
 }
 
 static void test_one_treelet(rt_scene *sc)
