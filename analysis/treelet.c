@@ -227,14 +227,14 @@ static int group_plot(const rt_plot_opts *po, const trow *R, long n, const trow 
     if (close_file(f, dat, e) < 0) return -1;
     if (!(f = fopen(gpf, "w"))) return rt_errf(e, "%s: %s", gpf, strerror(errno));
     char title[900];
-    snprintf(title, sizeof title, "%s, %s, lights %d, %dx%d, %s %s: DRAM traffic", a->scene,
+    snprintf(title, sizeof title, "%s, %s, lights %d, %dx%d, %s %s", a->scene,
              a->mode[0] ? a->mode : m, a->lights, a->W, a->H, rt_accel_name(a->accel), a->variant);
-    fprintf(f, "set terminal pngcairo size 800,500\nset output ");
+    fprintf(f, "set terminal pngcairo size 1100,520\nset output ");
     rt_plot_quote_path(f, png);
     fprintf(f, "\nset title ");
     rt_plot_quote(f, title);
     fprintf(f, " noenhanced\nset logscale x 2\nset logscale y\nset format y \"10^{%%L}\"\n"
-               "set xlabel \"cache size (KB)\"\nset ylabel \"traffic (MB)\"\nset grid\nset key top right\nplot ");
+               "set xlabel \"cache size (KB)\"\nset ylabel \"DRAM traffic (MB)\"\nset grid\nset key outside right top\nplot ");
     static const char *const name[4] = {"recursive (BVH)", "treelet", "recursive (k-d)", "dynamic (k-d)"};
     static const char *const col[4] = {"#0072b2", "#d55e00", "#56b4e9", "#e69f00"};
     for (int c = 0; c < 4; c++) {
