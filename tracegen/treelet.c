@@ -41,10 +41,10 @@
  *                      depth (48 B), then a 16-byte short stack holding the
  *                      ray's first stack entries. Written when a ray
  *                      starts (48 B and the root entry); read whole when
- *                      it is taken from a
- *                      queue; when it is suspended, the hit and depth (20
- *                      B at offset 28) and the short-stack entries not yet
- *                      in memory are written in one access.
+ *                      it is taken from a queue; when it is suspended,
+ *                      the hit and depth (20 B at offset 28) and the
+ *                      short-stack entries not yet in memory are written
+ *                      in one access.
  *   tl.stack  (stream) the deeper stack entries, one area per slot of
  *                      stack_bound entries (bvh2: 4 B node index; wide: 8 B
  *                      reference and entry distance). The walk's stack
@@ -96,7 +96,10 @@
  * dynamic.c), or tree order (treelets by number, repeated until empty).
  *
  * Invariants, holding between steps (after a generation's rays have been
- * started and after every queue processed; tl_check verifies them):
+ * started and after every queue processed; in test mode, ctx->check,
+ * check_plan verifies T1 once per run and check_state T2-T5 at every
+ * step, and tests/test_treelet_check.c shows both rejecting corrupted
+ * copies):
  *   T1  plan: every node lies in exactly one treelet; treelet 0 holds the
  *       root; a node's parent lies in the node's treelet unless the node
  *       is that treelet's root; a treelet's bytes are the sum of its
