@@ -1588,6 +1588,82 @@ static RT_ALWAYS_INLINE int walk(rt_bvh_trav *tv, const rt_ray *r, rt_hit *h, co
 #define FAST 0
 #endif
 
+/* One visited node (bvh.h): walk2's and walk_wide's step without the
+ * recording and counting. */
+void rt_bvh_wray_init(rt_bvh_wray *w, const rt_ray *r)
+{
+    _Static_assert(sizeof(rt_bvh_wray) == sizeof(wray), "rt_bvh_wray mirrors wray");
+    wray x;
+    wray_init(&x, r);
+    memcpy(w, &x, sizeof x);
+}
+
+int rt_bvh_step(const rt_bvh *b, const rt_bvh_wray *wr, uint32_t node, float cull, rt_bvh_ref out[8])
+{
+    wray w;
+    memcpy(&w, wr, sizeof w);
+    if (b->width == 2) {
+        const rt_bvh2_node *nd = &b->n2[node];
+        float tn;
+        if (!box_lane(&w, nd->lo[0], nd->lo[1], nd->lo[2], nd->hi[0], nd->hi[1], nd->hi[2], cull, &tn)) return 0;
+        if (nd->ntri) {
+            out[0] = (rt_bvh_ref){nd->offset, nd->ntri, tn};
+            return 1;
+        }
+        const uint32_t nearc = w.neg[nd->axis] ? nd->offset : node + 1;
+        const uint32_t farc = w.neg[nd->axis] ? node + 1 : nd->offset;
+        out[0] = (rt_bvh_ref){farc, 0, -INFINITY};
+        out[1] = (rt_bvh_ref){nearc, 0, -INFINITY};
+        return 2;
+    }
+    const int W = b->width;
+    const float *base = W == 4 ? &b->n4[node].lo[0][0] : &b->h8[node].lo[0][0];
+    float tn[8];
+    unsigned mask = 0;
+#if defined(__SSE2__)
+    wsse q;
+    int nofs[3], fofs[3];
+    wsse_init(&q, &w);
+    for (int a = 0; a < 3; a++) {
+        nofs[a] = a * W + (w.neg[a] ? 3 * W : 0);
+        fofs[a] = a * W + (w.neg[a] ? 0 : 3 * W);
+    }
+    mask = box4(&q, base, nofs, fofs, cull, tn);
+    if (W == 8) mask |= box4(&q, base + 4, nofs, fofs, cull, tn + 4) << 4;
+#else
+    for (int s = 0; s < W; s++)
+        mask |= (unsigned)box_lane(&w, base[s], base[W + s], base[2 * W + s], base[3 * W + s], base[4 * W + s],
+                                   base[5 * W + s], cull, &tn[s])
+                << s;
+#endif
+    int ord[8], k = 0, m = 0;
+    for (int s = 0; s < W; s++) {
+        if (!(mask >> s & 1u)) continue;
+        int j = k++;
+        while (j > 0 && tn[ord[j - 1]] > tn[s]) {
+            ord[j] = ord[j - 1];
+            j--;
+        }
+        ord[j] = s;
+    }
+    while (k > 0) {
+        const int s = ord[--k];
+        uint32_t ra, rn;
+        if (W == 4) {
+            const uint64_t c = b->n4[node].child[s];
+            if (c == RT_BVH4_EMPTY) continue;
+            ra = (uint32_t)c;
+            rn = rt_bvh4_is_leaf(c) ? rt_bvh4_count(c) : 0;
+        } else {
+            ra = b->h8[node].ref[s];
+            rn = b->h8[node].cnt[s];
+            if (rn == RT_BVH8_NONE) continue;
+        }
+        out[m++] = (rt_bvh_ref){ra, rn, tn[s]};
+    }
+    return m;
+}
+
 int rt_bvh_closest(rt_bvh_trav *tv, const rt_ray *r, rt_hit *h) { return walk(tv, r, h, 0, FAST); }
 
 int rt_bvh_occluded(rt_bvh_trav *tv, const rt_ray *r) { return walk(tv, r, NULL, 1, FAST); }

@@ -46,6 +46,7 @@
 #include "rt.h"
 #include "scene.h"
 
+#include <math.h>
 #include <stdint.h>
 
 /* Deepest node the builder makes (root = depth 0): SAH splits down to
@@ -224,5 +225,42 @@ int rt_bvh_occluded(rt_bvh_trav *tv, const rt_ray *r);
  * exactly; tests compare them.
  */
 int rt_bvh_plain(rt_bvh_trav *tv, const rt_ray *r, rt_hit *h, int any);
+
+
+/*
+ * One node at a time, for tracers that walk the tree themselves (the
+ * treelet scheduler suspends a walk between nodes). rt_bvh_step does what
+ * rt_bvh_closest does at one visited node, with the same box arithmetic,
+ * and neither records nor counts: the caller records the node read at
+ * rt_mm_addr(L, reg_node, node) and counts the visit.
+ *
+ *   bvh2: the node's own box is tested under cull; a miss returns 0; a hit
+ *         leaf returns its triangle range as out[0] (n > 0), to be tested
+ *         at once; a hit interior node returns its two children in push
+ *         order, out[0] the far one, out[1] the one visited next (t =
+ *         -inf: the binary walk culls no popped entry).
+ *   bvh4, bvh8: the children's boxes are tested under cull; the hit ones
+ *         are returned in push order (farthest entry first, ties: the
+ *         higher slot first), interior children with n = 0, leaves with
+ *         their range; a walk pops an entry, skips it when its t exceeds
+ *         the current cull bound, tests a leaf's triangles, visits a node.
+ * Returns the number of entries in out (0..8).
+ */
+typedef struct rt_bvh_wray {
+    float o[3], inv[3]; /* origin, 1/d */
+    int neg[3];         /* 1/d negative: the near plane is hi */
+    float tmin;         /* the ray's tmin */
+} rt_bvh_wray;
+
+typedef struct rt_bvh_ref {
+    uint32_t a; /* interior: node index; leaf: first triangle record */
+    uint32_t n; /* leaf: triangles; interior: 0 */
+    float t;    /* entry distance (bvh2 interior children: -inf) */
+} rt_bvh_ref;
+
+void rt_bvh_wray_init(rt_bvh_wray *w, const rt_ray *r);
+/* The visit bound of a best hit at x: x + |x| 2^-16 (the walk's margin). */
+static inline float rt_bvh_cull_bound(float x) { return x + fabsf(x) * (1.0f / 65536.0f); }
+int rt_bvh_step(const rt_bvh *b, const rt_bvh_wray *w, uint32_t node, float cull, rt_bvh_ref out[8]);
 
 #endif

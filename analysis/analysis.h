@@ -259,4 +259,18 @@ int rt_report_purcell(sqlite3 *h, const char *scene, int csv, int compare, const
  * DIR/feedback-LABEL.{dat,gp,png}. -1 when there is no feedback run. */
 int rt_report_feedback(sqlite3 *h, const char *scene, int csv, const rt_plot_opts *plot, FILE *out, rt_err *e);
 
+/* Treelets (analysis/treelet.c): per scene (or only scene when non-NULL),
+ * mode, lighting, resolution, treelet variant and cache size, total DRAM
+ * traffic (fully associative 64-byte lines, wb-wa, exact runs) split into
+ * geometry, ray, stack and queue of the reference tracer on the BVH, the
+ * treelet run scheduled for that size, the reference tracer on the k-d
+ * tree and the dynamic run scheduled for that size, and each scheduler's
+ * saving against its baseline, 100 (1 - scheduled / baseline). Roles come
+ * from the traits (reference, RT_FIG_TREELET, the scheduled tracer of
+ * RT_FIG_NAVRATIL). Markdown (with the largest saving) or CSV. With plot,
+ * DIR/treelet-SCENE-MODE-lLIGHTS-WxH-ACCEL[-VARIANT].{dat,gp,png}. 0, or
+ * -1 when there is no treelet run or a plot cannot be written. */
+int rt_report_treelet(sqlite3 *h, const char *dbpath, const char *scene, int csv, const rt_plot_opts *plot, FILE *out,
+                      rt_err *e);
+
 #endif

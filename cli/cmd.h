@@ -101,7 +101,9 @@ enum {
     RT_OPT_FOV,
     RT_OPT_LIGHT,
     RT_OPT_GRID_DENSITY,
-    RT_OPT_RECORD_STORES
+    RT_OPT_RECORD_STORES,
+    RT_OPT_TREELET_TRIS,
+    RT_OPT_RAY_WINDOW
 };
 
 /* The shared long options ({"lights",...}, {"cache-size",...}, ...);
@@ -111,7 +113,7 @@ extern const struct option rt_render_longopts[];
 #define RT_RENDER_SHORTOPTS "t:W:H:"
 #define RT_RENDER_OPTS_HELP                                                                  \
     "  -t TRACER          recursive | packet | dynamic | stream-branching |\n"               \
-    "                     stream-multipass | feedback (default recursive)\n"                \
+    "                     stream-multipass | feedback | treelet (default recursive)\n"                \
     "  -W N, -H N         image size in pixels (a .pbrt scene: its Film's by default;\n"   \
     "                     one of them alone keeps the Film's aspect ratio)\n"                \
     "  --lights L         all | none | comma list of lights 0,1,2 (default none)\n"         \
@@ -120,11 +122,12 @@ extern const struct option rt_render_longopts[];
     "  --light X,Y,Z[,POWER]  a point light (repeat up to 3 times: lights 0, 1, 2 replace\n" \
     "                     the scene's; POWER default: the scene's light power)\n"          \
     "  --packet N         packet edge in pixels for -t packet (default 8)\n"                 \
-    "  --cache-size S     dynamic: cache size to schedule for, e.g. 64K (default 64K)\n"    \
-    "  --gmax B           dynamic: explicit geometry budget in bytes (overrides derivation)\n" \
+    "  --cache-size S     dynamic, treelet: cache size to schedule for, e.g. 64K (default 64K)\n" \
+    "  --gmax B           dynamic: explicit geometry budget in bytes (overrides derivation);\n" \
+    "                     treelet: the treelet byte budget (default half the cache size)\n" \
     "  --subsample K[:T]  reduced experiment: trace 1 in K tiles of TxT pixels (T default 8;\n" \
     "                     1 = single pixels; packet tracer: T a multiple of the packet)\n" \
-    "  --qorder O         dynamic: queue order, fullest | tree (default fullest)\n"          \
+    "  --qorder O         dynamic, treelet: queue order, fullest | tree (default fullest)\n" \
     "  --hit-rule R       dynamic: a hit beyond the subtree's exit, exact (settled in\n"    \
     "                     later queue points) | first (taken; images may differ)\n"        \
     "  --qp-measure M     dynamic: subtree size for queue points, all (nodes, lists,\n"    \
@@ -152,7 +155,9 @@ extern const struct option rt_render_longopts[];
     "  --oracle-fraction F  stream-multipass: intersect once F of the active rays need it\n" \
     "                     (0 < F <= 1, default 0.2)\n"                                      \
     "  --unroll T,I       stream-multipass: traversal steps, intersection tests per pass (1,1)\n" \
-    "  --unroll-suppress  stream-multipass: no texel reads for rays done mid-pass\n"
+    "  --unroll-suppress  stream-multipass: no texel reads for rays done mid-pass\n"        \
+    "  --treelet-tris     treelet: leaves' triangles count against the treelet budget\n"   \
+    "  --ray-window N     treelet: rays in flight per generation, e.g. 64K (default all)\n"
 
 /* Appends the shared options to a command's own NULL-terminated table;
  * returns a malloc'd table (caller frees) or NULL. */

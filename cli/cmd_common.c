@@ -41,6 +41,8 @@ const struct option rt_render_longopts[] = {
     {"look-at", required_argument, NULL, RT_OPT_LOOK_AT},
     {"fov", required_argument, NULL, RT_OPT_FOV},
     {"light", required_argument, NULL, RT_OPT_LIGHT},
+    {"treelet-tris", no_argument, NULL, RT_OPT_TREELET_TRIS},
+    {"ray-window", required_argument, NULL, RT_OPT_RAY_WINDOW},
     {"tracer", required_argument, NULL, 't'},
     {"width", required_argument, NULL, 'W'},
     {"height", required_argument, NULL, 'H'},
@@ -295,6 +297,20 @@ static int render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         memcpy(o->view.light[o->view.nlights++], f, sizeof f);
         return 1;
     }
+    case RT_OPT_TREELET_TRIS:
+        o->treelet_tris = 1;
+        return 1;
+    case RT_OPT_RAY_WINDOW:
+        if (!strcmp(arg, "all")) {
+            o->ray_window = 0;
+            return 1;
+        }
+        if (rt_parse_size(arg, &u) < 0 || u < 1 || u > UINT32_MAX) {
+            rt_cmd_error(cmd, "--ray-window: '%s' is not a ray count like 64K (>= 1) or all", arg);
+            return -1;
+        }
+        o->ray_window = (uint32_t)u;
+        return 1;
     case 'W':
     case 'H':
         if (rt_cmd_parse_long(arg, 1, 65536, &v) < 0) {
@@ -421,6 +437,8 @@ static int given_id(int c)
     case RT_OPT_UNROLL: return RT_RO_UNROLL;
     case RT_OPT_UNROLL_SUPPRESS: return RT_RO_UNROLL_SUPPRESS;
     case RT_OPT_ACCEL: return RT_RO_ACCEL;
+    case RT_OPT_TREELET_TRIS: return RT_RO_TREELET_TRIS;
+    case RT_OPT_RAY_WINDOW: return RT_RO_RAY_WINDOW;
     default: return -1;
     }
 }

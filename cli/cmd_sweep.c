@@ -107,6 +107,7 @@ static void usage(FILE *f)
             "                     (trace 1 in K tiles of TxT pixels, T default 8)\n"
             "  --qorder O, --threads N, --hit-rule R, --qp-measure M  dynamic scheduler options\n"
             "                     (see render --help)\n"
+            "  --treelet-tris, --ray-window N  treelet scheduler options (see render --help)\n"
             "  --model M          lean (default: compact layout, write-allocate queue stores,\n"
             "                     no flush, no full-line rule) or paper (pbrt layout; Dinero\n"
             "                     IV's printed accounting: flush + full-line writes); sets the\n"
@@ -391,6 +392,8 @@ static const struct option sweep_longopts[] = {
     {"look-at", required_argument, NULL, RT_OPT_LOOK_AT},
     {"fov", required_argument, NULL, RT_OPT_FOV},
     {"light", required_argument, NULL, RT_OPT_LIGHT},
+    {"treelet-tris", no_argument, NULL, RT_OPT_TREELET_TRIS},
+    {"ray-window", required_argument, NULL, RT_OPT_RAY_WINDOW},
     {"width", required_argument, NULL, 'W'},
     {"height", required_argument, NULL, 'H'},
     {NULL, 0, NULL, 0},

@@ -144,6 +144,8 @@ static const struct {
     [RT_RO_GRID_DENSITY] = {"--grid-density", RT_OPTG_GRID},
     [RT_RO_RECORD_STORES] = {"--record-stores", RT_OPTG_RECORDS},
     [RT_RO_ACCEL] = {"--accel", 0},
+    [RT_RO_TREELET_TRIS] = {"--treelet-tris", RT_OPTG_TREELET},
+    [RT_RO_RAY_WINDOW] = {"--ray-window", RT_OPTG_TREELET},
 };
 
 const char *rt_render_opt_name(int id) { return id >= 0 && id < RT_RO_COUNT ? opt_info[id].name : NULL; }

@@ -77,13 +77,15 @@ enum {
     RT_OPTG_GRID = 1u << 3,     /* --grid-min, --grid-density: tracers on the uniform grid */
     RT_OPTG_VB = 1u << 4,       /* --vb-size: ping-pong vertex buffers */
     RT_OPTG_ORACLE = 1u << 5,   /* --oracle, --oracle-fraction, --unroll, --unroll-suppress */
-    RT_OPTG_RECORDS = 1u << 6   /* --record-stores: tracers whose ray records the GPU writes whole */
+    RT_OPTG_RECORDS = 1u << 6,  /* --record-stores: tracers whose ray records the GPU writes whole */
+    RT_OPTG_TREELET = 1u << 7   /* --treelet-tris, --ray-window: the treelet scheduler */
 };
 /* The options of those groups, a bit each in rt_render_opts.given. */
 enum {
     RT_RO_PACKET, RT_RO_CACHE_SIZE, RT_RO_GMAX, RT_RO_QORDER, RT_RO_THREADS, RT_RO_QUEUE_STORES,
     RT_RO_GRID_MIN, RT_RO_VB_SIZE, RT_RO_ORACLE, RT_RO_ORACLE_FRACTION, RT_RO_UNROLL, RT_RO_UNROLL_SUPPRESS,
-    RT_RO_GRID_DENSITY, RT_RO_RECORD_STORES, RT_RO_ACCEL, RT_RO_HIT_RULE, RT_RO_QP_MEASURE, RT_RO_COUNT
+    RT_RO_GRID_DENSITY, RT_RO_RECORD_STORES, RT_RO_ACCEL, RT_RO_HIT_RULE, RT_RO_QP_MEASURE, RT_RO_TREELET_TRIS,
+    RT_RO_RAY_WINDOW, RT_RO_COUNT
 };
 /* "--packet" ... for an RT_RO_* id, and its group (0 for --accel, which is
  * checked against the tracer's structures instead). */
@@ -145,6 +147,8 @@ typedef struct rt_render_opts {
     int unroll_t;        /* stream-multipass: traversal steps per pass (>= 1, 1) */
     int unroll_i;        /* stream-multipass: intersection tests per pass (>= 1, 1) */
     int unroll_suppress; /* stream-multipass: no texel reads for rays that finish mid-pass */
+    int treelet_tris;    /* treelet: the leaves' triangles count against the treelet budget (0: nodes only) */
+    uint32_t ray_window; /* treelet: rays in flight per generation, 0 = all rays of the frame */
     uint32_t given;      /* front end: bit RT_RO_x set when that option was given (never in a run key) */
     rt_render_view view; /* camera and lights the user set (--look-at, --fov, --light); none by default */
     unsigned film;       /* RT_FILM_W | RT_FILM_H: that size may come from the scene's default

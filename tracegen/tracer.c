@@ -15,6 +15,7 @@ extern const rt_tracer rt_tracer_dynamic;
 extern const rt_tracer rt_tracer_stream_branching;
 extern const rt_tracer rt_tracer_stream_multipass;
 extern const rt_tracer rt_tracer_feedback;
+extern const rt_tracer rt_tracer_treelet;
 
 const rt_tracer *const rt_tracer_all[] = {
     &rt_tracer_recursive,
@@ -23,6 +24,7 @@ const rt_tracer *const rt_tracer_all[] = {
     &rt_tracer_stream_branching,
     &rt_tracer_stream_multipass,
     &rt_tracer_feedback,
+    &rt_tracer_treelet,
     NULL,
 };
 

@@ -91,7 +91,8 @@ enum {
 enum {
     RT_FIG_NAVRATIL = 1u << 0, /* the paper's Figures 4-9: baseline, packet and scheduled columns */
     RT_FIG_PURCELL = 1u << 1,  /* report --figure purcell */
-    RT_FIG_FEEDBACK = 1u << 2  /* report --figure feedback: the designs compared */
+    RT_FIG_FEEDBACK = 1u << 2, /* report --figure feedback: the designs compared */
+    RT_FIG_TREELET = 1u << 3   /* report --figure treelet: the treelet schedulers */
 };
 
 typedef struct rt_tracer {

@@ -1,0 +1,1399 @@
+/*
+ * treelet.c -- treelet scheduling on a BVH (Aila and Karras, "Architecture
+ * considerations for tracing incoherent rays", HPG 2010), beside the
+ * k-d tree's dynamic scheduler (dynamic.c, Navrátil et al. 2007).
+ *
+ * The tree is cut into treelets, connected pieces of the BVH whose bytes
+ * fit a budget derived from the cache size the run is scheduled for. Each
+ * treelet has a ray queue. A ray walks the tree exactly as the single-ray
+ * walk does (rt_bvh_closest: the same nodes in the same order, the same
+ * stack), but only while the next node belongs to the treelet being
+ * processed; when the node on top of its stack lies in another treelet the
+ * ray is suspended and appended to that treelet's queue. Queues are
+ * processed one at a time until all are empty, so a treelet's nodes are
+ * read by many rays while they are in cache.
+ *
+ * Formation (the plan, once per job). Treelets grow greedily from a root:
+ * the frontier starts as the root; repeatedly the frontier node of largest
+ * surface area (the probability that a ray entering the treelet visits it;
+ * ties: the lower node index) is taken into the treelet and its interior
+ * children join the frontier, until the next node would take the treelet
+ * past the budget (a treelet always takes its root, so a node larger than
+ * the budget is a treelet of its own). The nodes left on the frontier
+ * become the roots of further treelets, formed in the order they were
+ * left (breadth first over treelets). A node's bytes are its modeled
+ * record (32, 128 or 80 bytes) and, with --treelet-tris, the 36-byte
+ * triangles of the leaves it holds (bvh2: the leaf node's own; wide trees:
+ * its leaf children's). A node's area is its box's: bvh2 the node's own,
+ * wide trees the slot box in its parent (the root: the scene's bounds).
+ *
+ * Budget. --gmax B gives it; otherwise it is half the scheduled cache size:
+ * while a treelet is processed the cache also holds the lines of the ray
+ * state, stack entries and queue entries streaming through it (each read
+ * once per visit), and with LRU replacement a treelet as large as the
+ * cache would be evicted by them before its rays are done; half the cache
+ * keeps the treelet's working set and a window of streaming lines. A budget
+ * smaller than one node is refused (usage error naming the option).
+ *
+ * Memory modeled (regions, class):
+ *   tl.rays   (ray)    64 B per ray slot (one line): origin, direction,
+ *                      tmin, best t, best triangle, barycentrics, stack
+ *                      depth (48 B), then a 16-byte short stack holding the
+ *                      ray's first stack entries. Written when a ray
+ *                      starts (48 B and the root entry); read whole when
+ *                      it is taken from a queue; when it is suspended,
+ *                      the hit and depth (20 B at offset 28) and the
+ *                      short-stack entries not yet in memory are written
+ *                      in one access.
+ *   tl.stack  (stream) the deeper stack entries, one area per slot of
+ *                      stack_bound entries (bvh2: 4 B node index; wide: 8 B
+ *                      reference and entry distance). The walk's stack
+ *                      lives in registers while a ray is inside a treelet;
+ *                      when it is suspended the entries without a valid
+ *                      copy in memory are written (one access per
+ *                      suspension for the deep ones); popping a deep entry
+ *                      not in registers reads it with up to seven entries
+ *                      below it (one access; a short-stack entry came with
+ *                      the record), whose memory copies stay valid. So
+ *                      an entry is written at most once per push; an entry
+ *                      a refill brought back but the ray left unpopped is
+ *                      read again by a later refill. Stack traffic is
+ *                      recorded in class stream (the traffic class of ray
+ *                      state that is not a ray record), so the database's
+ *                      class list is unchanged; this tracer is its only
+ *                      user on a BVH. The short stack travels with the
+ *                      record and counts as ray traffic.
+ *   tl.qtable (qtable) 8 B per treelet: one read-modify-write per enqueue
+ *                      (the tail) and when the queue is taken (the reset),
+ *                      each recorded as one write: with write-allocate
+ *                      caches a read and a write of the same bytes move
+ *                      the same lines as the write alone.
+ *   tl.queues (queue)  chains of 64-entry blocks (256 B) of 4-byte ray
+ *                      slot numbers from a pool with a LIFO free list: one
+ *                      entry written per enqueue; the entries of a block
+ *                      read in one access when the queue is processed;
+ *                      a block returns to the pool once read.
+ *   tl.hits   (hit)    24 B per slot: the closest hit, written when a ray
+ *                      is shaded (only when a light is enabled) and read
+ *                      by each shadow generation.
+ *   tl.spawn  (ray)    whitted and path modes: 64-byte path records of the
+ *                      rays waiting for their generation (as dynamic.c).
+ *   rays.primary, fb   as the recursive tracer.
+ * The geometry (the node region, bvh.tri, tri.shade) is the structure's, at
+ * the addresses every tracer on it shares; a node is recorded once per
+ * visit and a triangle once per test, as in the single-ray walk.
+ *
+ * Generations (as dynamic.c). Pixels are taken in rt_pixel_order in
+ * windows of --ray-window rays (default all of the frame). Per window: the
+ * closest-hit generation (every ray started at the root treelet, then the
+ * queues until empty), then one shadow generation per enabled light (from
+ * the hit toward the light). Whitted and path modes keep a stack of
+ * batches (refracted rays one level, reflected and path rays another) and
+ * shade each ray with rt_shade_step, summing contributions in an rt_acc,
+ * so the order of rays does not change the image.
+ *
+ * Queue order (--qorder): the fullest queue first (buckets by count, as
+ * dynamic.c), or tree order (treelets by number, repeated until empty).
+ *
+ * Invariants, holding between steps (after a generation's rays have been
+ * started and after every queue processed; in test mode, ctx->check,
+ * check_plan verifies T1 once per run and check_state T2-T5 at every
+ * step, and tests/test_treelet_check.c shows both rejecting corrupted
+ * copies):
+ *   T1  plan: every node lies in exactly one treelet; treelet 0 holds the
+ *       root; a node's parent lies in the node's treelet unless the node
+ *       is that treelet's root; a treelet's bytes are the sum of its
+ *       nodes' and at most the budget unless it is its root alone; the
+ *       greedy rule stopped correctly: the frontier node of largest area
+ *       would have taken the treelet past the budget;
+ *   T2  queue pool: every block lies in exactly one queue's chain or on
+ *       the free list; a queue of c rays is a chain of ceil(c / 64) blocks
+ *       ending at its tail; the counts sum to the rays queued;
+ *   T3  rays: every ray of the generation is in exactly one queue or
+ *       finished (started = finished + queued), and a queued ray is in the
+ *       queue of the treelet of the entry on top of its stack;
+ *   T4  stacks: a queued ray's entries are all in memory and none in
+ *       registers (reg = mem = depth), depth <= stack_bound; an entry's
+ *       treelet is the treelet of its node (a leaf: of the node that
+ *       pushed it);
+ *   T5  buckets (fullest-first order): every treelet in the bucket of its
+ *       count, none above the fullest bound;
+ *   T6  resolution (checked as each ray finishes): its closest hit or its
+ *       visibility is the one the single-ray walk finds.
+ * At the end of every generation: all queues empty, every wanted ray
+ * finished exactly once.
+ *
+ * Images are bit-identical to the recursive tracer's on the same BVH: each
+ * ray visits the same nodes and tests the same triangles in the same order
+ * as rt_bvh_closest / rt_bvh_occluded, so it ends with the same hit.
+ */
+#include "bvh.h"
+#include "camera.h"
+#include "regions.h"
+#include "shade.h"
+#include "stats.h"
+#include "tracer.h"
+
+#include <inttypes.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define QBLK 64        /* queue entries per block */
+#define RAY_REC 64     /* bytes of a ray-state record: one line */
+#define RAY_STATE 48   /* ... of which the ray and its hit; then the short stack */
+#define RAY_SUSP_OFS 28 /* the hit and stack depth: 20 bytes */
+#define RAY_SUSP 20
+#define SHORT_STACK 16 /* bytes of stack entries kept in the ray record */
+#define REFILL 8       /* deep stack entries read back per access, at most */
+
+/* ---- the plan: treelets of one tree and budget ---------------------------- */
+
+typedef struct tplan {
+    int width;          /* 2, 4, 8 */
+    uint64_t budget;    /* bytes per treelet */
+    int tris;           /* leaves' triangles count */
+    uint32_t nnodes;    /* nodes of the tree */
+    uint32_t nt;        /* treelets (>= 1; 1 for an empty tree) */
+    uint32_t *tl;       /* treelet of each node */
+    uint32_t *parent;   /* parent node (UINT32_MAX: the root) */
+    float *area;        /* surface area per node */
+    uint32_t *cost;     /* bytes per node */
+    uint32_t *troot;    /* root node per treelet */
+    uint64_t *tbytes;   /* bytes per treelet */
+    uint32_t *tdepth;   /* treelets on the path from the root, the treelet's own included */
+    uint32_t maxdepth;  /* deepest tdepth */
+    uint64_t bytes_max; /* largest treelet */
+} tplan;
+
+static void tl_plan_free(void *p)
+{
+    tplan *P = p;
+    if (!P) return;
+    free(P->tl);
+    free(P->parent);
+    free(P->area);
+    free(P->cost);
+    free(P->troot);
+    free(P->tbytes);
+    free(P->tdepth);
+    free(P);
+}
+
+static float box_area(float lx, float ly, float lz, float hx, float hy, float hz)
+{
+    float dx = hx - lx, dy = hy - ly, dz = hz - lz;
+    if (!(dx >= 0) || !(dy >= 0) || !(dz >= 0)) return 0.0f;
+    return 2.0f * (dx * dy + dy * dz + dz * dx);
+}
+
+/* The interior children of node i (nodes), and the triangles of its leaves. */
+static int children(const rt_bvh *b, uint32_t i, uint32_t kid[8], float karea[8], uint32_t *ntri)
+{
+    int k = 0;
+    *ntri = 0;
+    if (b->width == 2) {
+        const rt_bvh2_node *n = &b->n2[i];
+        if (n->ntri) {
+            *ntri = n->ntri;
+            return 0;
+        }
+        const uint32_t c[2] = {i + 1, n->offset};
+        for (int j = 0; j < 2; j++) {
+            const rt_bvh2_node *m = &b->n2[c[j]];
+            kid[k] = c[j];
+            karea[k++] = box_area(m->lo[0], m->lo[1], m->lo[2], m->hi[0], m->hi[1], m->hi[2]);
+        }
+        return k;
+    }
+    for (int s = 0; s < b->width; s++) {
+        uint32_t ref, cnt;
+        const float *lo, *hi;
+        int W = b->width;
+        if (W == 4) {
+            uint64_t c = b->n4[i].child[s];
+            if (c == RT_BVH4_EMPTY) continue;
+            ref = (uint32_t)c;
+            cnt = rt_bvh4_is_leaf(c) ? rt_bvh4_count(c) : 0;
+            lo = &b->n4[i].lo[0][0];
+            hi = &b->n4[i].hi[0][0];
+        } else {
+            cnt = b->h8[i].cnt[s];
+            if (cnt == RT_BVH8_NONE) continue;
+            ref = b->h8[i].ref[s];
+            lo = &b->h8[i].lo[0][0];
+            hi = &b->h8[i].hi[0][0];
+        }
+        if (cnt) {
+            *ntri += cnt;
+            continue;
+        }
+        kid[k] = ref;
+        karea[k++] = box_area(lo[s], lo[W + s], lo[2 * W + s], hi[s], hi[W + s], hi[2 * W + s]);
+    }
+    return k;
+}
+
+/* Max-heap of frontier nodes by (area, lower index). */
+typedef struct fheap {
+    uint32_t *v;
+    size_t n;
+    const float *area;
+} fheap;
+
+static int fh_above(const fheap *h, uint32_t a, uint32_t b)
+{
+    return h->area[a] > h->area[b] || (h->area[a] == h->area[b] && a < b);
+}
+
+static void fh_push(fheap *h, uint32_t x)
+{
+    size_t i = h->n++;
+    h->v[i] = x;
+    while (i > 0) {
+        size_t p = (i - 1) / 2;
+        if (!fh_above(h, h->v[i], h->v[p])) break;
+        uint32_t t = h->v[i];
+        h->v[i] = h->v[p];
+        h->v[p] = t;
+        i = p;
+    }
+}
+
+static uint32_t fh_pop(fheap *h)
+{
+    uint32_t top = h->v[0];
+    h->v[0] = h->v[--h->n];
+    size_t i = 0;
+    for (;;) {
+        size_t l = 2 * i + 1, r = l + 1, m = i;
+        if (l < h->n && fh_above(h, h->v[l], h->v[m])) m = l;
+        if (r < h->n && fh_above(h, h->v[r], h->v[m])) m = r;
+        if (m == i) break;
+        uint32_t t = h->v[i];
+        h->v[i] = h->v[m];
+        h->v[m] = t;
+        i = m;
+    }
+    return top;
+}
+
+/* The budget a run's options give (bytes), and the option that gave it. */
+static uint64_t tl_budget(const rt_render_opts *o, const char **opt)
+{
+    if (opt) *opt = o->gmax ? "--gmax" : "--cache-size";
+    return o->gmax ? o->gmax : o->sched_size / 2;
+}
+
+static int tl_plan(const rt_tracer_ctx *ctx, void **out, rt_err *e)
+{
+    const rt_bvh *b = ctx->acc->as;
+    *out = NULL;
+    if (!b || ctx->acc->kind < RT_ACCEL_BVH2 || ctx->acc->kind > RT_ACCEL_BVH8)
+        return rt_errf(e, "treelet: runs on a BVH only (internal error)");
+    tplan *P = rt_calloc(1, sizeof *P, e);
+    if (!P) return -1;
+    P->width = b->width;
+    P->budget = tl_budget(ctx->opt, NULL);
+    P->tris = ctx->opt->treelet_tris;
+    P->nnodes = b->nnodes;
+    size_t nn = b->nnodes ? b->nnodes : 1;
+    uint32_t *roots = NULL;
+    fheap H = {0};
+    if (!(P->tl = rt_calloc(nn, sizeof *P->tl, e)) || !(P->parent = rt_calloc(nn, sizeof *P->parent, e)) ||
+        !(P->area = rt_calloc(nn, sizeof *P->area, e)) || !(P->cost = rt_calloc(nn, sizeof *P->cost, e)) ||
+        !(P->troot = rt_calloc(nn, sizeof *P->troot, e)) || !(P->tbytes = rt_calloc(nn, sizeof *P->tbytes, e)) ||
+        !(P->tdepth = rt_calloc(nn, sizeof *P->tdepth, e)) || !(roots = rt_calloc(nn, sizeof *roots, e)) ||
+        !(H.v = rt_calloc(nn, sizeof *H.v, e)))
+        goto fail;
+    const uint32_t nsize = rt_bvh_node_size(b->width);
+    /* areas, parents and costs; children follow their parent in the array */
+    for (uint32_t i = 0; i < b->nnodes; i++) P->parent[i] = UINT32_MAX;
+    if (b->nnodes)
+        P->area[0] = box_area(b->bounds.lo.x, b->bounds.lo.y, b->bounds.lo.z, b->bounds.hi.x, b->bounds.hi.y,
+                              b->bounds.hi.z);
+    for (uint32_t i = 0; i < b->nnodes; i++) {
+        uint32_t kid[8], nt;
+        float ka[8];
+        int k = children(b, i, kid, ka, &nt);
+        P->cost[i] = nsize + (P->tris ? 36u * nt : 0u);
+        for (int j = 0; j < k; j++) {
+            P->parent[kid[j]] = i;
+            P->area[kid[j]] = ka[j];
+        }
+    }
+    if (b->width == 2)
+        for (uint32_t i = 0; i < b->nnodes; i++)
+            P->area[i] = box_area(b->n2[i].lo[0], b->n2[i].lo[1], b->n2[i].lo[2], b->n2[i].hi[0], b->n2[i].hi[1],
+                                  b->n2[i].hi[2]);
+    /* greedy formation, treelets breadth first */
+    H.area = P->area;
+    size_t rhead = 0, rtail = 0;
+    uint32_t nt = 0;
+    if (b->nnodes) roots[rtail++] = 0;
+    while (rhead < rtail) {
+        const uint32_t r = roots[rhead++], t = nt++;
+        uint64_t bytes = 0;
+        P->troot[t] = r;
+        P->tdepth[t] = r == 0 ? 1 : P->tdepth[P->tl[P->parent[r]]] + 1;
+        if (P->tdepth[t] > P->maxdepth) P->maxdepth = P->tdepth[t];
+        H.n = 0;
+        fh_push(&H, r);
+        while (H.n) {
+            const uint32_t n = H.v[0];
+            if (bytes && bytes + P->cost[n] > P->budget) break;
+            fh_pop(&H);
+            P->tl[n] = t;
+            bytes += P->cost[n];
+            uint32_t kid[8], ntr;
+            float ka[8];
+            int k = children(b, n, kid, ka, &ntr);
+            for (int j = 0; j < k; j++) fh_push(&H, kid[j]);
+        }
+        P->tbytes[t] = bytes;
+        if (bytes > P->bytes_max) P->bytes_max = bytes;
+        /* the frontier left, in node order, roots later treelets */
+        uint32_t *f = H.v;
+        size_t fn = H.n;
+        for (size_t i = 1; i < fn; i++) { /* insertion sort: frontiers are short */
+            uint32_t x = f[i];
+            size_t j = i;
+            while (j > 0 && f[j - 1] > x) {
+                f[j] = f[j - 1];
+                j--;
+            }
+            f[j] = x;
+        }
+        for (size_t i = 0; i < fn; i++) roots[rtail++] = f[i];
+    }
+    P->nt = nt ? nt : 1;
+    free(roots);
+    free(H.v);
+    *out = P;
+    return 0;
+fail:
+    free(roots);
+    free(H.v);
+    tl_plan_free(P);
+    return -1;
+}
+
+/* T1 on a plan against its tree. */
+static int check_plan(const tplan *P, const rt_bvh *b, rt_err *e)
+{
+    if (!b->nnodes) return 0;
+    uint64_t *sum = rt_calloc(P->nt, sizeof *sum, e);
+    uint32_t *cnt = rt_calloc(P->nt, sizeof *cnt, e);
+    int rc = -1;
+    if (!sum || !cnt) goto done;
+    if (P->tl[0] != 0 || P->troot[0] != 0) {
+        rt_errf(e, "treelet T1: the root lies in treelet %u, treelet 0's root is %u", P->tl[0], P->troot[0]);
+        goto done;
+    }
+    for (uint32_t i = 0; i < b->nnodes; i++) {
+        const uint32_t t = P->tl[i];
+        if (t >= P->nt) {
+            rt_errf(e, "treelet T1: node %u in treelet %u of %u", i, t, P->nt);
+            goto done;
+        }
+        sum[t] += P->cost[i];
+        cnt[t]++;
+        const int isroot = P->troot[t] == i;
+        if (i != 0 && !isroot && P->tl[P->parent[i]] != t) {
+            rt_errf(e, "treelet T1: node %u in treelet %u, its parent %u in treelet %u", i, t, P->parent[i],
+                    P->tl[P->parent[i]]);
+            goto done;
+        }
+        if (isroot && i != 0 && P->tl[P->parent[i]] == t) {
+            rt_errf(e, "treelet T1: treelet %u's root %u has its parent in the same treelet", t, i);
+            goto done;
+        }
+    }
+    for (uint32_t t = 0; t < P->nt; t++) {
+        if (P->tl[P->troot[t]] != t) {
+            rt_errf(e, "treelet T1: treelet %u's root %u lies in treelet %u", t, P->troot[t], P->tl[P->troot[t]]);
+            goto done;
+        }
+        if (sum[t] != P->tbytes[t] || (sum[t] > P->budget && cnt[t] != 1)) {
+            rt_errf(e, "treelet T1: treelet %u holds %u nodes of %" PRIu64 " bytes (plan %" PRIu64 ", budget %" PRIu64 ")",
+                    t, cnt[t], sum[t], P->tbytes[t], P->budget);
+            goto done;
+        }
+    }
+    /* the greedy stop: the largest-area frontier node would not fit */
+    {
+        uint32_t *fmax = rt_calloc(P->nt, sizeof *fmax, e);
+        if (!fmax) goto done;
+        for (uint32_t t = 0; t < P->nt; t++) fmax[t] = UINT32_MAX;
+        for (uint32_t i = 1; i < b->nnodes; i++) {
+            const uint32_t t = P->tl[P->parent[i]];
+            if (P->tl[i] == t) continue;
+            const uint32_t m = fmax[t];
+            if (m == UINT32_MAX || P->area[i] > P->area[m] || (P->area[i] == P->area[m] && i < m)) fmax[t] = i;
+        }
+        for (uint32_t t = 0; t < P->nt; t++)
+            if (fmax[t] != UINT32_MAX && P->tbytes[t] + P->cost[fmax[t]] <= P->budget) {
+                rt_errf(e, "treelet T1: treelet %u (%" PRIu64 " bytes) stopped before node %u (%u bytes) fits the budget %" PRIu64,
+                        t, P->tbytes[t], fmax[t], P->cost[fmax[t]], P->budget);
+                free(fmax);
+                goto done;
+            }
+        free(fmax);
+    }
+    rc = 0;
+done:
+    free(sum);
+    free(cnt);
+    return rc;
+}
+
+/* ---- the run's state --------------------------------------------------------- */
+
+typedef struct sent {
+    uint32_t a, n; /* rt_bvh_ref: node (n = 0) or leaf range */
+    float t;       /* entry distance */
+    uint32_t tl;   /* treelet it is processed in */
+} sent;
+
+#define INL 8 /* stack entries held inside the host record (deeper ones: heap) */
+
+/* Host state of a ray slot, hot fields first (not modeled: tl.rays is). */
+typedef struct tray {
+    uint32_t sp, cap; /* stack depth and capacity */
+    uint32_t mem, reg; /* entries [0, mem) have valid memory copies, [reg, sp) are in registers;
+                        * reg <= mem <= sp, and a queued ray has reg = mem = sp */
+    float cull;       /* cull bound of the best hit */
+    sent *stk;        /* inl, or a heap array when deeper than INL */
+    sent inl[INL];
+    float best, bu, bv; /* best hit so far (best starts at tmax) */
+    uint32_t btri;    /* best hit's scene index (0 while none) */
+    uint8_t found, any, occluded; /* a hit is held; any-hit (shadow) ray; its result */
+    rt_bvh_wray w;    /* the ray's slab-test form */
+    rt_ray r;         /* the traversal ray */
+} tray;
+
+typedef struct tl_run {
+    const rt_tracer_ctx *ctx;
+    const rt_scene *sc;
+    const rt_bvh *b;
+    const tplan *P;
+    const rt_layout *L;
+    rt_rec *rec;
+    rt_trav tv;       /* counts, marks, regions */
+    int reg_ray, reg_fb, reg_rays, reg_stack, reg_qt, reg_q, reg_hits, reg_spawn, reg_shade;
+    uint32_t nsize, esize, stack_bound;
+    uint32_t slots;   /* ray slots (the window) */
+    size_t npix;
+    tray *ray;
+    /* queues (T2) */
+    uint32_t *blk;    /* nblk * QBLK slot numbers */
+    int32_t *bnext;
+    uint32_t nblk;
+    int32_t freelist;
+    int32_t *qhead, *qtail;
+    uint32_t *qcount;
+    uint64_t queued, peak_queued;
+    /* fullest-first buckets (T5) */
+    int32_t *bk_head, *bk_next, *bk_prev;
+    uint32_t bk_max, bk_cap;
+    /* the generation (T3) */
+    uint8_t *want, *done; /* per slot */
+    uint64_t started, finished;
+    int shadow, light;
+    /* per slot results */
+    rt_hit *hit;      /* closest hit per slot */
+    uint8_t *vis;     /* per pixel (primary modes): bit i light i visible */
+    rt_hit *phit;     /* per pixel (primary modes): the primary hit */
+    rt_ray *bray;     /* closest ray per slot (camera or path ray) */
+    rt_ray *bsray;    /* shadow ray per slot */
+    /* secondary modes */
+    int secondary;
+    rt_shade_out *out;
+    rt_acc *acc;
+    rt_hit *h0;
+    rt_path **lvl;
+    uint32_t *lvlen;
+    int nlvl;
+    /* statistics */
+    uint64_t enq, events, ev_max, visits, stack_w, stack_r, spills, refills, nsec, self_hits, batches, susp, qreads;
+    uint32_t max_sp;
+    uint8_t *mark;
+    rt_image *img;
+    rt_run_stats *st;
+    rt_err *e;
+    int err;          /* 1: internal failure, 2: invariant broken (message in e) */
+} tl_run;
+
+/* ---- queues ------------------------------------------------------------------- */
+
+static void bk_unlink(tl_run *T, uint32_t q)
+{
+    uint32_t c = T->qcount[q];
+    if (T->bk_prev[q] >= 0) T->bk_next[T->bk_prev[q]] = T->bk_next[q];
+    else T->bk_head[c] = T->bk_next[q];
+    if (T->bk_next[q] >= 0) T->bk_prev[T->bk_next[q]] = T->bk_prev[q];
+}
+
+static void bk_link(tl_run *T, uint32_t q)
+{
+    uint32_t c = T->qcount[q];
+    T->bk_prev[q] = -1;
+    T->bk_next[q] = T->bk_head[c];
+    if (T->bk_head[c] >= 0) T->bk_prev[T->bk_head[c]] = (int32_t)q;
+    T->bk_head[c] = (int32_t)q;
+    if (c > T->bk_max) T->bk_max = c;
+}
+
+static int fullest(const tl_run *T) { return T->ctx->opt->qorder == RT_QORDER_FULLEST; }
+
+static void enqueue(tl_run *T, uint32_t q, uint32_t slot)
+{
+    int32_t tb = T->qtail[q];
+    const uint32_t pos = T->qcount[q] % QBLK;
+    if (tb < 0 || pos == 0) {
+        const int32_t nb = T->freelist;
+        if (nb < 0) {
+            if (!T->err) rt_errf(T->e, "treelet: queue pool exhausted (internal error)");
+            T->err = 1;
+            return;
+        }
+        T->freelist = T->bnext[nb];
+        T->bnext[nb] = -1;
+        if (tb < 0) T->qhead[q] = nb;
+        else T->bnext[tb] = nb;
+        T->qtail[q] = tb = nb;
+    }
+    T->blk[(size_t)tb * QBLK + pos] = slot;
+    RT_REC(T->rec, rt_mm_addr(T->L, T->reg_q, (uint64_t)tb * QBLK + pos), 4,
+           T->ctx->opt->qstores == RT_QSTORES_STREAM ? RT_WRITE_STREAM : 1, RT_CLS_QUEUE);
+    RT_REC(T->rec, rt_mm_addr(T->L, T->reg_qt, q), 8, 1, RT_CLS_QTABLE);
+    if (fullest(T)) bk_unlink(T, q);
+    T->qcount[q]++;
+    if (fullest(T)) bk_link(T, q);
+    T->queued++;
+    T->enq++;
+    if (T->queued > T->peak_queued) T->peak_queued = T->queued;
+}
+
+/* ---- one ray in one treelet ---------------------------------------------------- */
+
+static inline void push(tl_run *T, tray *R, const rt_bvh_ref *x, uint32_t tl)
+{
+    if (R->sp == R->cap) {
+        uint32_t nc = 2 * R->cap;
+        sent *s = R->stk == R->inl ? malloc(sizeof *s * nc) : realloc(R->stk, sizeof *s * nc);
+        if (s && R->stk == R->inl) memcpy(s, R->inl, sizeof R->inl);
+        if (!s) {
+            if (!T->err) rt_errf(T->e, "treelet: out of memory for a ray stack");
+            T->err = 1;
+            return;
+        }
+        R->stk = s;
+        R->cap = nc;
+    }
+    if (R->mem > R->sp) R->mem = R->sp; /* that position's memory copy is stale */
+    R->stk[R->sp++] = (sent){x->a, x->n, x->t, tl};
+    if (R->sp > T->max_sp) T->max_sp = R->sp;
+}
+
+/* Tests records [first, first + n) (bvh.c's leaf_tris). 1: occluded. */
+static int leaf(tl_run *T, tray *R, uint32_t first, uint32_t n)
+{
+    const rt_bvh *b = T->b;
+    const uint64_t tri_base = T->rec ? T->L->r[T->tv.reg_tri].base : 0;
+    for (uint32_t k = first; k < first + n; k++) {
+        const uint32_t o = b->orig[k];
+        T->tv.tests++;
+        T->mark[o] |= T->tv.mark_bit;
+        RT_REC(T->rec, tri_base + 36ull * k, 36, 0, RT_CLS_TRI);
+        float t, u, v;
+        if (!rt_isect_core(&R->r, &b->tri[k], &t, &u, &v)) continue;
+        if (R->any) {
+            if (t > R->r.tmin && t < R->r.tmax) return 1;
+        } else if (t > R->r.tmin && (t < R->best || (t == R->best && o < R->btri))) {
+            R->found = 1;
+            R->best = t;
+            R->btri = o;
+            R->bu = u;
+            R->bv = v;
+            R->cull = rt_bvh_cull_bound(t);
+        }
+    }
+    return 0;
+}
+
+/* Walks ray slot s inside treelet t. Returns 1 when it finished (stack
+ * empty or occluded), 0 when it was suspended and queued at its next
+ * treelet. */
+/* Modeled address of stack entry k of slot s: the first entries in the
+ * ray record's short stack, the others in the slot's area of tl.stack. */
+static uint64_t stack_addr(const tl_run *T, uint32_t s, uint32_t k)
+{
+    const uint32_t nin = SHORT_STACK / T->esize;
+    if (k < nin) return rt_mm_addr(T->L, T->reg_rays, s) + RAY_STATE + (uint64_t)k * T->esize;
+    return rt_mm_addr(T->L, T->reg_stack, (uint64_t)s * T->stack_bound + (k - nin));
+}
+
+static int walk(tl_run *T, uint32_t s, uint32_t t)
+{
+    tray *R = &T->ray[s];
+    const rt_bvh *b = T->b;
+    const int W = b->width;
+    for (;;) {
+        if (T->err) return 1;
+        if (R->sp == 0) return 1;
+        const uint32_t idx = R->sp - 1;
+        const sent e = R->stk[idx];
+        const int culled = W != 2 && e.t > R->cull;
+        if (!culled && e.tl != t) {
+            /* suspend: the hit and depth, with the short-stack entries
+             * not yet in memory, in one write to the record; the deeper
+             * entries not yet in memory in one write to tl.stack */
+            const uint32_t nin = SHORT_STACK / T->esize, top_in = R->sp < nin ? R->sp : nin;
+            const uint32_t end = R->mem < top_in ? RAY_STATE + top_in * T->esize : RAY_SUSP_OFS + RAY_SUSP;
+            RT_REC(T->rec, rt_mm_addr(T->L, T->reg_rays, s) + RAY_SUSP_OFS, end - RAY_SUSP_OFS, 1, RT_CLS_RAY);
+            const uint32_t lo = R->mem > nin ? R->mem : nin;
+            if (R->sp > lo) {
+                RT_REC(T->rec, stack_addr(T, s, lo), (R->sp - lo) * T->esize, 1, RT_CLS_STREAM);
+                T->stack_w += R->sp - lo;
+                T->spills++;
+            }
+            R->mem = R->reg = R->sp;
+            T->susp++;
+            enqueue(T, e.tl, s);
+            return 0;
+        }
+        if (idx < R->reg) {
+            /* not in registers: the short stack came with the record; a
+             * deep entry is read with up to REFILL - 1 entries below it,
+             * in one access (their memory copies stay valid) */
+            const uint32_t nin = SHORT_STACK / T->esize;
+            uint32_t lo = idx;
+            if (idx >= nin) {
+                lo = idx + 1 >= nin + REFILL ? idx + 1 - REFILL : nin;
+                RT_REC(T->rec, stack_addr(T, s, lo), (idx + 1 - lo) * T->esize, 0, RT_CLS_STREAM);
+                T->stack_r += idx + 1 - lo;
+                T->refills++;
+            }
+            R->reg = lo;
+        }
+        R->sp = idx;
+        if (R->mem > idx) R->mem = idx;
+        if (culled) continue;
+        if (e.n) { /* a wide node's leaf child */
+            if (leaf(T, R, e.a, e.n)) {
+                R->occluded = 1;
+                R->sp = R->mem = R->reg = 0;
+                return 1;
+            }
+            continue;
+        }
+        T->tv.nodes++;
+        RT_REC(T->rec, rt_mm_addr(T->L, T->tv.reg_node, e.a), T->nsize, 0, RT_CLS_NODE);
+        rt_bvh_ref out[8];
+        const int k = rt_bvh_step(b, &R->w, e.a, R->cull, out);
+        if (W == 2 && k == 1) {
+            if (leaf(T, R, out[0].a, out[0].n)) {
+                R->occluded = 1;
+                R->sp = R->mem = R->reg = 0;
+                return 1;
+            }
+            continue;
+        }
+        for (int j = 0; j < k; j++) push(T, R, &out[j], out[j].n ? t : T->P->tl[out[j].a]);
+    }
+}
+
+/* Starts slot s on ray r (closest, or any hit for a shadow ray): state
+ * written, the root on its stack, queued at the root's treelet. A tree
+ * without nodes finishes it at once (returns 1). */
+static int start(tl_run *T, uint32_t s, const rt_ray *r, int any)
+{
+    tray *R = &T->ray[s];
+    R->r = *r;
+    rt_bvh_wray_init(&R->w, r);
+    R->best = r->tmax;
+    R->bu = R->bv = 0.0f;
+    R->btri = 0;
+    R->found = 0;
+    R->any = (uint8_t)any;
+    R->occluded = 0;
+    R->cull = rt_bvh_cull_bound(r->tmax);
+    R->sp = R->mem = R->reg = 0;
+    T->started++;
+    /* the state and the root as the first short-stack entry */
+    RT_REC(T->rec, rt_mm_addr(T->L, T->reg_rays, s), RAY_STATE + (T->b->nnodes ? T->esize : 0), 1, RT_CLS_RAY);
+    if (!T->b->nnodes) return 1;
+    rt_bvh_ref root = {0, 0, r->tmin};
+    push(T, R, &root, 0);
+    R->mem = R->reg = 1;
+    enqueue(T, 0, s);
+    return 0;
+}
+
+/* ---- resolution -------------------------------------------------------------- */
+
+/* T6: the single-ray walk, unrecorded and uncounted, finds the same. */
+static void check_resolution(tl_run *T, uint32_t s)
+{
+    if (!T->ctx->check || T->err) return;
+    const tray *R = &T->ray[s];
+    rt_trav ref = T->tv;
+    ref.rec = NULL;
+    ref.mark = NULL;
+    if (R->any) {
+        int occ = T->ctx->acc->ops->occluded(&ref, &R->r);
+        if (occ != R->occluded) {
+            rt_errf(T->e, "treelet T6: shadow ray %u resolved %s, the single-ray walk finds it %s", s,
+                    R->occluded ? "occluded" : "visible", occ ? "occluded" : "visible");
+            T->err = 2;
+        }
+        return;
+    }
+    rt_hit h;
+    T->ctx->acc->ops->closest(&ref, &R->r, &h);
+    uint32_t tri = R->found ? R->btri : RT_NO_HIT;
+    if (h.tri != tri || (tri != RT_NO_HIT && (h.t != R->best || h.u != R->bu || h.v != R->bv))) {
+        rt_errf(T->e, "treelet T6: ray %u resolved with triangle %d at t %a, the single-ray walk finds %d at %a", s,
+                tri == RT_NO_HIT ? -1 : (int)tri, R->best, h.tri == RT_NO_HIT ? -1 : (int)h.tri, h.t);
+        T->err = 2;
+    }
+}
+
+/* A ray finished: its result into the slot's record. */
+static void finish(tl_run *T, uint32_t s)
+{
+    tray *R = &T->ray[s];
+    check_resolution(T, s);
+    if (T->done[s]) {
+        if (!T->err) rt_errf(T->e, "treelet T3: ray %u finished twice", s);
+        T->err = 2;
+    }
+    T->done[s]++;
+    T->finished++;
+    if (R->any) return;
+    rt_hit *h = &T->hit[s];
+    if (R->found) {
+        h->t = R->best;
+        h->tri = R->btri;
+        h->u = R->bu;
+        h->v = R->bv;
+    } else {
+        rt_hit_none(h);
+    }
+}
+
+/* ---- invariants (T2-T5) --------------------------------------------------------- */
+
+static int check_state(const tl_run *T, rt_err *e)
+{
+    const tplan *P = T->P;
+    uint32_t n = T->nblk > T->slots ? T->nblk : T->slots;
+    if (P->nt > n) n = P->nt;
+    uint8_t *seen = rt_calloc(n ? n : 1, 1, e);
+    uint8_t *inq = rt_calloc(T->slots ? T->slots : 1, 1, e);
+    int rc = -1;
+    if (!seen || !inq) goto done;
+    uint64_t total = 0;
+    for (uint32_t q = 0; q < P->nt; q++) {
+        if (T->qhead[q] < 0) {
+            if (T->qtail[q] >= 0 || T->qcount[q]) {
+                rt_errf(e, "treelet T2: queue %u has no head but tail %d, %u rays", q, T->qtail[q], T->qcount[q]);
+                goto done;
+            }
+            continue;
+        }
+        uint32_t want = (T->qcount[q] + QBLK - 1) / QBLK, nb = 0, k = 0;
+        int32_t b = T->qhead[q], last = -1;
+        while (b >= 0 && nb <= want) {
+            if ((uint32_t)b >= T->nblk || seen[b]) {
+                rt_errf(e, "treelet T2: block %d reached twice (queue %u)", b, q);
+                goto done;
+            }
+            seen[b] = 1;
+            for (uint32_t p = 0; p < QBLK && k < T->qcount[q]; p++, k++) {
+                const uint32_t s = T->blk[(size_t)b * QBLK + p];
+                const tray *R = s < T->slots ? &T->ray[s] : NULL;
+                if (!R || !T->want[s] || T->done[s] || inq[s]) {
+                    rt_errf(e, "treelet T3: queue %u holds ray %u (wanted %d, finished %d, queued before %d)", q, s,
+                            R ? T->want[s] : -1, R ? T->done[s] : -1, R ? inq[s] : -1);
+                    goto done;
+                }
+                inq[s] = 1;
+                if (!R->sp || R->stk[R->sp - 1].tl != q) {
+                    rt_errf(e, "treelet T3: ray %u queued at treelet %u, the top of its stack is in %d", s, q,
+                            R->sp ? (int)R->stk[R->sp - 1].tl : -1);
+                    goto done;
+                }
+            }
+            nb++;
+            last = b;
+            b = T->bnext[b];
+        }
+        if (nb != want || last != T->qtail[q]) {
+            rt_errf(e, "treelet T2: queue %u holds %u rays in %u blocks ending at %d, expected %u ending at %d", q,
+                    T->qcount[q], nb, last, want, T->qtail[q]);
+            goto done;
+        }
+        total += T->qcount[q];
+    }
+    if (total != T->queued) {
+        rt_errf(e, "treelet T2: queues hold %" PRIu64 " rays, %" PRIu64 " counted", total, T->queued);
+        goto done;
+    }
+    for (int32_t b = T->freelist; b >= 0; b = T->bnext[b]) {
+        if ((uint32_t)b >= T->nblk || seen[b]) {
+            rt_errf(e, "treelet T2: free block %d also in use or listed twice", b);
+            goto done;
+        }
+        seen[b] = 1;
+    }
+    for (uint32_t b = 0; b < T->nblk; b++)
+        if (!seen[b]) {
+            rt_errf(e, "treelet T2: block %u is in no queue and not free", b);
+            goto done;
+        }
+    if (T->started != T->finished + T->queued) {
+        rt_errf(e, "treelet T3: %" PRIu64 " rays started, %" PRIu64 " finished, %" PRIu64 " queued", T->started,
+                T->finished, T->queued);
+        goto done;
+    }
+    for (uint32_t s = 0; s < T->slots; s++) {
+        if (T->want[s] && !T->done[s] && !inq[s]) {
+            rt_errf(e, "treelet T3: ray %u is neither queued nor finished", s);
+            goto done;
+        }
+        const tray *R = &T->ray[s];
+        if (!inq[s]) continue;
+        if (R->mem != R->sp || R->reg != R->sp || R->sp > T->stack_bound) {
+            rt_errf(e, "treelet T4: queued ray %u has %u stack entries, %u in memory, from %u in registers (bound %u)",
+                    s, R->sp, R->mem, R->reg,
+                    T->stack_bound);
+            goto done;
+        }
+        for (uint32_t k = 0; k < R->sp; k++) {
+            const sent *x = &R->stk[k];
+            if (!x->n && (x->a >= T->b->nnodes || P->tl[x->a] != x->tl)) {
+                rt_errf(e, "treelet T4: ray %u stack entry %u: node %u in treelet %u, entry says %u", s, k, x->a,
+                        x->a < T->b->nnodes ? P->tl[x->a] : UINT32_MAX, x->tl);
+                goto done;
+            }
+        }
+    }
+    if (fullest(T)) {
+        memset(seen, 0, n);
+        uint32_t listed = 0;
+        for (size_t c = 0; c <= T->bk_max && c <= T->bk_cap; c++) {
+            int32_t prev = -1;
+            for (int32_t q = T->bk_head[c]; q >= 0; q = T->bk_next[q]) {
+                if ((uint32_t)q >= P->nt || seen[q] || T->qcount[q] != c || T->bk_prev[q] != prev) {
+                    rt_errf(e, "treelet T5: queue %d misplaced in bucket %zu", q, c);
+                    goto done;
+                }
+                seen[q] = 1;
+                listed++;
+                prev = q;
+            }
+        }
+        if (listed != P->nt) {
+            rt_errf(e, "treelet T5: %u of %u queues in buckets", listed, P->nt);
+            goto done;
+        }
+    }
+    rc = 0;
+done:
+    free(seen);
+    free(inq);
+    return rc;
+}
+
+/* Test mode: T2-T5 between steps. */
+static void step_check(tl_run *T)
+{
+    if (!T->ctx->check || T->err) return;
+    if (check_state(T, T->e) < 0) T->err = 2;
+}
+
+/* ---- processing ------------------------------------------------------------------ */
+
+/* Takes queue q whole and walks its rays in treelet q. */
+static void process(tl_run *T, uint32_t q)
+{
+    const uint32_t n = T->qcount[q];
+    int32_t b = T->qhead[q];
+    RT_REC(T->rec, rt_mm_addr(T->L, T->reg_qt, q), 8, 1, RT_CLS_QTABLE); /* taken: read and reset */
+    if (fullest(T)) bk_unlink(T, q);
+    T->qhead[q] = T->qtail[q] = -1;
+    T->qcount[q] = 0;
+    if (fullest(T)) bk_link(T, q);
+    T->queued -= n;
+    T->events++;
+    if (n > T->ev_max) T->ev_max = n;
+    for (uint32_t k = 0; k < n && !T->err; k++) {
+        const uint32_t pos = k % QBLK;
+        const uint32_t s = T->blk[(size_t)b * QBLK + pos];
+#if defined(__GNUC__)
+        /* host prefetches: the record of a ray eight entries on, the node
+         * on top of the stack of the ray four entries on */
+        if (pos + 8 < QBLK && k + 8 < n) {
+            const char *h = (const char *)&T->ray[T->blk[(size_t)b * QBLK + pos + 8]];
+            __builtin_prefetch(h);
+            __builtin_prefetch(h + 64);
+            __builtin_prefetch(h + 128);
+        }
+        if (pos + 4 < QBLK && k + 4 < n) {
+            const tray *R4 = &T->ray[T->blk[(size_t)b * QBLK + pos + 4]];
+            if (R4->sp && !R4->stk[R4->sp - 1].n) {
+                const uint32_t a = R4->stk[R4->sp - 1].a;
+                const rt_bvh *bv = T->b;
+                const char *nd = bv->width == 2   ? (const char *)&bv->n2[a]
+                                 : bv->width == 4 ? (const char *)&bv->n4[a]
+                                                  : (const char *)&bv->h8[a];
+                __builtin_prefetch(nd);
+                __builtin_prefetch(nd + 64);
+            }
+        }
+#endif
+        if (pos == 0) { /* a block's entries are read together */
+            const uint32_t m = n - k < QBLK ? n - k : QBLK;
+            RT_REC(T->rec, rt_mm_addr(T->L, T->reg_q, (uint64_t)b * QBLK), 4 * m, 0, RT_CLS_QUEUE);
+            T->qreads++;
+        }
+        if (pos == QBLK - 1 || k == n - 1) { /* block read: back to the pool */
+            int32_t nx = T->bnext[b];
+            T->bnext[b] = T->freelist;
+            T->freelist = b;
+            b = nx;
+        }
+        RT_REC(T->rec, rt_mm_addr(T->L, T->reg_rays, s), RAY_REC, 0, RT_CLS_RAY);
+        T->visits++;
+        if (walk(T, s, q)) finish(T, s);
+    }
+}
+
+/* Processes queues until all are empty. */
+static void run_queues(tl_run *T)
+{
+    const tplan *P = T->P;
+    while (T->queued && !T->err) {
+        if (fullest(T)) {
+            while (T->bk_max > 0 && T->bk_head[T->bk_max] < 0) T->bk_max--;
+            process(T, (uint32_t)T->bk_head[T->bk_max]);
+            step_check(T);
+            continue;
+        }
+        for (uint32_t q = 0; q < P->nt && !T->err; q++)
+            if (T->qcount[q]) {
+                process(T, q);
+                step_check(T);
+            }
+    }
+}
+
+/* End of a generation: queues empty, each wanted ray finished once. */
+static int end_generation(tl_run *T, uint32_t n, rt_err *e)
+{
+    if (T->err) return -1;
+    if (T->queued) return rt_errf(e, "treelet: %" PRIu64 " rays still queued after a generation", T->queued);
+    for (uint32_t s = 0; s < n; s++)
+        if (T->want[s] != T->done[s])
+            return rt_errf(e, "treelet T3: ray %u wanted %u times, finished %u times", s, T->want[s], T->done[s]);
+    return 0;
+}
+
+/* A generation of closest-hit rays in slots 0..n-1 (T->bray). */
+static int gen_closest(tl_run *T, uint32_t n, rt_err *e)
+{
+    T->shadow = 0;
+    memset(T->want, 0, T->slots);
+    memset(T->done, 0, T->slots);
+    T->started = T->finished = 0;
+    for (uint32_t s = 0; s < n; s++) {
+        T->want[s] = 1;
+        if (start(T, s, &T->bray[s], 0)) finish(T, s);
+    }
+    step_check(T);
+    run_queues(T);
+    return end_generation(T, n, e);
+}
+
+/* A shadow generation for light li: slots whose out/ray want it. */
+static int gen_shadow(tl_run *T, int li, uint32_t n, const uint8_t *wantli, rt_err *e)
+{
+    T->shadow = 1;
+    T->light = li;
+    memset(T->want, 0, T->slots);
+    memset(T->done, 0, T->slots);
+    T->started = T->finished = 0;
+    for (uint32_t s = 0; s < n; s++) {
+        RT_REC(T->rec, rt_mm_addr(T->L, T->reg_hits, s), 24, 0, RT_CLS_HIT);
+        if (!wantli[s]) continue;
+        T->want[s] = 1;
+        T->st->rays_shadow++;
+        if (start(T, s, &T->bsray[s], 1)) finish(T, s);
+    }
+    step_check(T);
+    run_queues(T);
+    return end_generation(T, n, e);
+}
+
+/* ---- primary modes ------------------------------------------------------------------ */
+
+static int window_primary(tl_run *T, const uint32_t *pix, uint32_t n, rt_err *e)
+{
+    const rt_render_opts *o = T->ctx->opt;
+    rt_cam_frame cam;
+    rt_cam_setup(&cam, T->sc, o->W, o->H);
+    rt_rec_set_gen(T->rec, 0);
+    T->tv.mark_bit = 1;
+    for (uint32_t s = 0; s < n; s++) {
+        RT_REC(T->rec, rt_mm_addr(T->L, T->reg_ray, pix[s]), 32, 0, RT_CLS_RAY);
+        rt_cam_ray(&cam, (int)(pix[s] % (uint32_t)o->W), (int)(pix[s] / (uint32_t)o->W), &T->bray[s]);
+    }
+    T->st->rays_primary += n;
+    if (gen_closest(T, n, e) < 0) return -1;
+    uint8_t *wl = T->want + T->slots; /* scratch beside want: n bytes */
+    for (uint32_t s = 0; s < n; s++) {
+        T->phit[pix[s]] = T->hit[s];
+        if (T->hit[s].tri != RT_NO_HIT) RT_REC(T->rec, rt_mm_addr(T->L, T->reg_shade, T->hit[s].tri), 16, 0, RT_CLS_SHADE);
+        if (o->lights) RT_REC(T->rec, rt_mm_addr(T->L, T->reg_hits, s), 24, 1, RT_CLS_HIT);
+    }
+    T->tv.mark_bit = 2;
+    for (int li = 0; li < RT_NLIGHTS; li++) {
+        if (!(o->lights & (1u << li))) continue;
+        for (uint32_t s = 0; s < n; s++)
+            wl[s] = T->hit[s].tri != RT_NO_HIT && rt_shade_ray(T->sc, &T->bray[s], &T->hit[s], li, &T->bsray[s]);
+        if (gen_shadow(T, li, n, wl, e) < 0) return -1;
+        for (uint32_t s = 0; s < n; s++)
+            if (wl[s] && !T->ray[s].occluded) T->vis[pix[s]] |= (uint8_t)(1u << li);
+    }
+    for (uint32_t s = 0; s < n; s++) {
+        const uint32_t p = pix[s];
+        const rt_hit *h = &T->phit[p];
+        if (h->tri == RT_NO_HIT) {
+            rt_shade_pixel(T->sc, &T->bray[s], NULL, NULL, o->lights, T->img, p);
+        } else {
+            int vis[RT_NLIGHTS];
+            for (int i = 0; i < RT_NLIGHTS; i++) vis[i] = (T->vis[p] >> i) & 1;
+            rt_shade_pixel(T->sc, &T->bray[s], h, vis, o->lights, T->img, p);
+        }
+        RT_REC(T->rec, rt_mm_addr(T->L, T->reg_fb, p), 12, 1, RT_CLS_FB);
+    }
+    return 0;
+}
+
+/* ---- secondary modes: batches of one generation (dynamic.c's scheme) ------------- */
+
+static int batch_run(tl_run *T, int *height, rt_err *e)
+{
+    const rt_render_opts *o = T->ctx->opt;
+    const int lv = --*height;
+    const uint32_t n = T->lvlen[lv];
+    const rt_path *rays = T->lvl[lv];
+    T->batches++;
+    rt_rec_set_gen(T->rec, rays[0].depth);
+    T->tv.mark_bit = rays[0].depth ? 4 : 1;
+    for (uint32_t s = 0; s < n; s++) {
+        rt_shade_path_ray(&rays[s], &T->bray[s]);
+        if (rays[s].depth) {
+            RT_REC(T->rec, rt_mm_addr(T->L, T->reg_spawn, (uint64_t)lv * T->slots + s), RT_SREC_SIZE, 0, RT_CLS_RAY);
+            T->nsec++;
+        } else {
+            RT_REC(T->rec, rt_mm_addr(T->L, T->reg_ray, rays[s].pix), 32, 0, RT_CLS_RAY);
+            T->st->rays_primary++;
+        }
+    }
+    if (gen_closest(T, n, e) < 0) return -1;
+    for (uint32_t s = 0; s < n; s++) {
+        const rt_hit *h = &T->hit[s];
+        const rt_hit *hp = h->tri != RT_NO_HIT ? h : NULL;
+        const uint32_t px = rays[s].pix;
+        if (!rays[s].depth && !rays[s].sample) T->h0[px] = *h;
+        if (hp) rt_reg_shade(T->ctx, T->rec, h->tri);
+        if (o->lights) RT_REC(T->rec, rt_mm_addr(T->L, T->reg_hits, s), 24, 1, RT_CLS_HIT);
+        rt_shade_step(T->sc, o, &rays[s], &T->bray[s], hp, &T->out[s]);
+        T->self_hits += (uint64_t)T->out[s].self_hit;
+        rt_acc_add(&T->acc[px], T->out[s].c);
+        RT_REC(T->rec, rt_mm_addr(T->L, T->reg_fb, px), 12, 0, RT_CLS_FB);
+        RT_REC(T->rec, rt_mm_addr(T->L, T->reg_fb, px), 12, 1, RT_CLS_FB);
+    }
+    uint8_t *wl = T->want + T->slots; /* scratch beside want: n bytes */
+    T->tv.mark_bit = 2;
+    for (int li = 0; li < RT_NLIGHTS; li++) {
+        if (!(o->lights & (1u << li))) continue;
+        for (uint32_t s = 0; s < n; s++) {
+            wl[s] = T->out[s].want[li];
+            if (wl[s]) T->bsray[s] = T->out[s].sray[li];
+        }
+        if (gen_shadow(T, li, n, wl, e) < 0) return -1;
+        for (uint32_t s = 0; s < n; s++)
+            if (wl[s] && !T->ray[s].occluded) {
+                const uint32_t px = rays[s].pix;
+                rt_acc_add(&T->acc[px], T->out[s].lc[li]);
+                RT_REC(T->rec, rt_mm_addr(T->L, T->reg_fb, px), 12, 0, RT_CLS_FB);
+                RT_REC(T->rec, rt_mm_addr(T->L, T->reg_fb, px), 12, 1, RT_CLS_FB);
+            }
+    }
+    /* children: refracted rays into this level, the others above it */
+    for (int kind = RT_PATH_REFRACT; kind >= 0; kind--) {
+        const int dst = *height;
+        uint32_t m = 0;
+        if (dst >= T->nlvl) return rt_errf(e, "treelet: batch stack overflow (internal error)");
+        if (!T->lvl[dst] && !(T->lvl[dst] = rt_calloc(T->slots, sizeof *T->lvl[dst], e))) return -1;
+        rt_path *d = T->lvl[dst];
+        for (uint32_t s = 0; s < n; s++)
+            for (int c = 0; c < T->out[s].nchild; c++) {
+                if (T->out[s].child[c].kind != kind) continue;
+                d[m] = T->out[s].child[c];
+                RT_REC(T->rec, rt_mm_addr(T->L, T->reg_spawn, (uint64_t)dst * T->slots + m), RT_SREC_SIZE, 1,
+                       RT_CLS_RAY);
+                m++;
+            }
+        if (m) T->lvlen[(*height)++] = m;
+    }
+    return 0;
+}
+
+static int window_secondary(tl_run *T, const uint32_t *pix, uint32_t n, rt_err *e)
+{
+    const rt_render_opts *o = T->ctx->opt;
+    const int spp = o->mode == RT_MODE_PATH ? o->spp : 1;
+    rt_cam_frame cam;
+    rt_cam_setup(&cam, T->sc, o->W, o->H);
+    if (!T->lvl[0] && !(T->lvl[0] = rt_calloc(T->slots, sizeof *T->lvl[0], e))) return -1;
+    for (int s = 0; s < spp; s++) {
+        for (uint32_t k = 0; k < n; k++) {
+            rt_ray eye;
+            rt_cam_ray(&cam, (int)(pix[k] % (uint32_t)o->W), (int)(pix[k] / (uint32_t)o->W), &eye);
+            rt_shade_path_start(&T->lvl[0][k], &eye, pix[k], (uint32_t)s);
+        }
+        T->lvlen[0] = n;
+        int height = 1;
+        while (height)
+            if (batch_run(T, &height, e) < 0) return -1;
+    }
+    rt_rec_set_gen(T->rec, 0);
+    for (uint32_t k = 0; k < n; k++) {
+        const uint32_t p = pix[k];
+        rt_ray eye;
+        rt_cam_ray(&cam, (int)(p % (uint32_t)o->W), (int)(p / (uint32_t)o->W), &eye);
+        rt_acc_pixel(&T->acc[p], spp, &eye, T->h0[p].tri != RT_NO_HIT ? &T->h0[p] : NULL, T->img, p);
+        RT_REC(T->rec, rt_mm_addr(T->L, T->reg_fb, p), 12, 1, RT_CLS_FB);
+    }
+    return 0;
+}
+
+/* ---- tracer interface ---------------------------------------------------------------- */
+
+static uint32_t slots_of(const rt_render_opts *o)
+{
+    const size_t npix = (size_t)o->W * (size_t)o->H;
+    return o->ray_window && o->ray_window < npix ? o->ray_window : (uint32_t)npix;
+}
+
+static int levels_of(const rt_render_opts *o) { return o->mode == RT_MODE_PATH ? 2 : o->depth + 1; }
+
+static uint32_t stack_bound_of(int width) { return (uint32_t)(width - 1) * RT_BVH_MAX_DEPTH + 2; }
+
+static uint32_t nblk_of(uint32_t slots, uint32_t nt)
+{
+    return slots / QBLK + (nt < slots ? nt : slots) + 3;
+}
+
+static int tl_layout(const rt_tracer_ctx *ctx, rt_layout *L, rt_err *e)
+{
+    const tplan *P = ctx->plan;
+    if (!P) return rt_errf(e, "treelet: layout without a plan (internal error)");
+    const size_t npix = (size_t)ctx->opt->W * (size_t)ctx->opt->H;
+    const uint32_t slots = slots_of(ctx->opt);
+    const uint32_t esize = P->width == 2 ? 4 : 8;
+    if (rt_reg_geometry(ctx, L, 1, e) < 0) return -1;
+    if (rt_mm_add(L, "rays.primary", RT_CLS_RAY, 32, npix, e) < 0) return -1;
+    if (rt_mm_add(L, "fb", RT_CLS_FB, 12, npix, e) < 0) return -1;
+    if (rt_mm_add(L, "tl.rays", RT_CLS_RAY, RAY_REC, slots, e) < 0) return -1;
+    if (rt_mm_add(L, "tl.stack", RT_CLS_STREAM, esize, (uint64_t)slots * stack_bound_of(P->width), e) < 0) return -1;
+    if (rt_mm_add(L, "tl.qtable", RT_CLS_QTABLE, 8, P->nt, e) < 0) return -1;
+    if (rt_mm_add(L, "tl.queues", RT_CLS_QUEUE, 4, (uint64_t)nblk_of(slots, P->nt) * QBLK, e) < 0) return -1;
+    if (rt_mm_add(L, "tl.hits", RT_CLS_HIT, 24, slots, e) < 0) return -1;
+    if (rt_render_secondary(ctx->opt) &&
+        rt_mm_add(L, "tl.spawn", RT_CLS_RAY, RT_SREC_SIZE, (uint64_t)slots * (uint64_t)levels_of(ctx->opt), e) < 0)
+        return -1;
+    return 0;
+}
+
+static void tl_free(tl_run *T)
+{
+    for (uint32_t s = 0; T->ray && s < T->slots; s++)
+        if (T->ray[s].stk != T->ray[s].inl) free(T->ray[s].stk);
+    free(T->ray);
+    free(T->blk);
+    free(T->bnext);
+    free(T->qhead);
+    free(T->qtail);
+    free(T->qcount);
+    free(T->bk_head);
+    free(T->bk_next);
+    free(T->bk_prev);
+    free(T->want);
+    free(T->done);
+    free(T->hit);
+    free(T->vis);
+    free(T->phit);
+    free(T->bray);
+    free(T->bsray);
+    free(T->out);
+    free(T->acc);
+    free(T->h0);
+    for (int l = 0; T->lvl && l < T->nlvl; l++) free(T->lvl[l]);
+    free(T->lvl);
+    free(T->lvlen);
+    free(T->mark);
+}
+
+static int tl_init(tl_run *T, const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_err *e)
+{
+    const rt_render_opts *o = ctx->opt;
+    const tplan *P = ctx->plan;
+    memset(T, 0, sizeof *T);
+    if (!P) return rt_errf(e, "treelet: run without a plan (internal error)");
+    T->ctx = ctx;
+    T->sc = ctx->sc;
+    T->b = ctx->acc->as;
+    T->P = P;
+    T->L = ctx->L;
+    T->rec = ctx->rec;
+    T->img = img;
+    T->st = st;
+    T->e = e;
+    T->npix = (size_t)o->W * (size_t)o->H;
+    T->slots = slots_of(o);
+    T->nsize = rt_bvh_node_size(P->width);
+    T->esize = P->width == 2 ? 4 : 8;
+    T->stack_bound = stack_bound_of(P->width);
+    rt_reg_trav(&T->tv, ctx);
+    T->reg_ray = rt_mm_find(T->L, "rays.primary");
+    T->reg_fb = rt_mm_find(T->L, "fb");
+    T->reg_rays = rt_mm_find(T->L, "tl.rays");
+    T->reg_stack = rt_mm_find(T->L, "tl.stack");
+    T->reg_qt = rt_mm_find(T->L, "tl.qtable");
+    T->reg_q = rt_mm_find(T->L, "tl.queues");
+    T->reg_hits = rt_mm_find(T->L, "tl.hits");
+    T->reg_spawn = rt_mm_find(T->L, "tl.spawn");
+    T->reg_shade = rt_mm_find(T->L, "tri.shade");
+    const uint32_t nt = P->nt, ns = T->slots;
+    T->nblk = nblk_of(ns, nt);
+    T->secondary = rt_render_secondary(o);
+    if (!(T->ray = rt_calloc(ns, sizeof *T->ray, e)) || !(T->blk = rt_calloc((size_t)T->nblk * QBLK, sizeof *T->blk, e)) ||
+        !(T->bnext = rt_calloc(T->nblk, sizeof *T->bnext, e)) || !(T->qhead = rt_calloc(nt, sizeof *T->qhead, e)) ||
+        !(T->qtail = rt_calloc(nt, sizeof *T->qtail, e)) || !(T->qcount = rt_calloc(nt, sizeof *T->qcount, e)) ||
+        !(T->bk_head = rt_calloc((size_t)ns + 2, sizeof *T->bk_head, e)) ||
+        !(T->bk_next = rt_calloc(nt, sizeof *T->bk_next, e)) || !(T->bk_prev = rt_calloc(nt, sizeof *T->bk_prev, e)) ||
+        !(T->want = rt_calloc(2 * (size_t)ns, 1, e)) || !(T->done = rt_calloc(ns, 1, e)) ||
+        !(T->hit = rt_calloc(ns, sizeof *T->hit, e)) ||
+        !(T->bray = rt_calloc(ns, sizeof *T->bray, e)) || !(T->bsray = rt_calloc(ns, sizeof *T->bsray, e)) ||
+        !(T->out = rt_calloc(ns, sizeof *T->out, e)) || !(T->mark = rt_calloc(T->sc->ntri ? T->sc->ntri : 1, 1, e)))
+        return -1;
+    for (uint32_t s = 0; s < ns; s++) {
+        T->ray[s].stk = T->ray[s].inl;
+        T->ray[s].cap = INL;
+    }
+    for (uint32_t i = 0; i < T->nblk; i++) T->bnext[i] = i + 1 < T->nblk ? (int32_t)(i + 1) : -1;
+    T->freelist = 0;
+    for (uint32_t q = 0; q < nt; q++) T->qhead[q] = T->qtail[q] = -1;
+    for (size_t c = 0; c < (size_t)ns + 2; c++) T->bk_head[c] = -1;
+    T->bk_cap = ns + 1;
+    for (uint32_t q = 0; q < nt; q++) bk_link(T, q);
+    T->tv.mark = T->mark;
+    if (T->secondary) {
+        T->nlvl = levels_of(o);
+        if (!(T->acc = rt_calloc(T->npix, sizeof *T->acc, e)) || !(T->h0 = rt_calloc(T->npix, sizeof *T->h0, e)) ||
+            !(T->lvl = rt_calloc((size_t)T->nlvl, sizeof *T->lvl, e)) ||
+            !(T->lvlen = rt_calloc((size_t)T->nlvl, sizeof *T->lvlen, e)))
+            return -1;
+        for (size_t p = 0; p < T->npix; p++) T->h0[p].tri = RT_NO_HIT;
+    } else if (!(T->vis = rt_calloc(T->npix, 1, e)) || !(T->phit = rt_calloc(T->npix, sizeof *T->phit, e))) {
+        return -1;
+    }
+    return 0;
+}
+
+static void report(const tl_run *T, rt_run_stats *st)
+{
+    const tplan *P = T->P;
+    rt_stats_finish(st, &T->tv, T->mark, T->sc->ntri);
+    uint64_t sum = 0;
+    for (uint32_t t = 0; t < P->nt; t++) sum += P->tbytes[t];
+    snprintf(st->extra, sizeof st->extra,
+             "budget=%" PRIu64 " treelets=%u treelet_bytes_mean=%.1f treelet_bytes_max=%" PRIu64
+             " treelet_depth=%u ray_window=%u enqueues=%" PRIu64 " visits=%" PRIu64 " queue_events=%" PRIu64
+             " rays_per_event_mean=%.1f rays_per_event_max=%" PRIu64 " peak_queued=%" PRIu64 " suspends=%" PRIu64
+             " stack_writes=%" PRIu64 " stack_reads=%" PRIu64 " stack_spills=%" PRIu64 " stack_refills=%" PRIu64 " stack_max=%u queue_block_reads=%" PRIu64,
+             P->budget, P->nt, P->nt ? (double)sum / P->nt : 0.0, P->bytes_max, P->maxdepth, T->slots, T->enq,
+             T->visits, T->events, T->events ? (double)T->visits / (double)T->events : 0.0, T->ev_max, T->peak_queued,
+             T->susp, T->stack_w, T->stack_r, T->spills, T->refills, T->max_sp, T->qreads);
+    if (T->secondary) {
+        size_t l = strlen(st->extra);
+        snprintf(st->extra + l, sizeof st->extra - l, " batches=%" PRIu64 " rays_secondary=%" PRIu64 " self_hits=%" PRIu64,
+                 T->batches, T->nsec, T->self_hits);
+    }
+}
+
+static int tl_run_fn(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_err *e)
+{
+    tl_run T;
+    int rc = -1;
+    uint32_t *order = NULL;
+    if (tl_init(&T, ctx, img, st, e) < 0 || !(order = rt_calloc(T.npix, sizeof *order, e))) goto done;
+    if (ctx->check && check_plan(T.P, T.b, e) < 0) goto done;
+    const size_t ntr = rt_pixel_order(ctx->opt, order);
+    for (size_t k = 0; k < ntr; k += T.slots) {
+        const uint32_t n = (uint32_t)(ntr - k < T.slots ? ntr - k : T.slots);
+        if ((T.secondary ? window_secondary(&T, order + k, n, e) : window_primary(&T, order + k, n, e)) < 0) goto done;
+    }
+    report(&T, st);
+    rc = 0;
+done:
+    tl_free(&T);
+    free(order);
+    return rc;
+}
+
+extern const rt_tracer rt_tracer_treelet;
+
+static int tl_check_opts(const rt_render_opts *o, rt_err *e)
+{
+    const char *opt;
+    const uint64_t budget = tl_budget(o, &opt);
+    const int k = rt_tracer_accel(&rt_tracer_treelet, o);
+    const int width = k == RT_ACCEL_BVH2 ? 2 : k == RT_ACCEL_BVH8 ? 8 : 4;
+    const uint32_t ns = rt_bvh_node_size(width);
+    if (budget < ns)
+        return rt_errf_usage(e, "%s: a treelet budget of %" PRIu64 " bytes%s is smaller than one %u-byte bvh%d node", opt,
+                             budget, o->gmax ? "" : " (half the cache size)", ns, width);
+    return 0;
+}
+
+static void tl_params(const rt_render_opts *o, char *buf, size_t n)
+{
+    int l = snprintf(buf, n, "qorder=%s", o->qorder == RT_QORDER_TREE ? "tree" : "fullest");
+    if (l > 0 && (size_t)l < n && o->treelet_tris) l += snprintf(buf + l, n - (size_t)l, " treelet_tris=1");
+    if (l > 0 && (size_t)l < n && o->ray_window) snprintf(buf + l, n - (size_t)l, " ray_window=%u", o->ray_window);
+}
+
+const rt_tracer rt_tracer_treelet = {
+    .name = "treelet",
+    .desc = "rays queued at cache-sized BVH treelets (Aila and Karras 2010)",
+    .modes = RT_TRACER_ALL_MODES,
+    .accels = RT_ACCEL_BVH_BITS,
+    .accel_default = RT_ACCEL_BVH4,
+    .opts = RT_OPTG_SCHED | RT_OPTG_QUEUES | RT_OPTG_TREELET,
+    .traits = RT_TR_SCHEDULED | RT_TR_QUEUES,
+    .figures = RT_FIG_TREELET,
+    .check_opts = tl_check_opts,
+    .params = tl_params,
+    .layout = tl_layout,
+    .run = tl_run_fn,
+    .plan = tl_plan,
+    .plan_free = tl_plan_free,
+};
