@@ -104,7 +104,7 @@ out:
 
 /* A whole-file replay as `raytraffic sim` does it (rt_approx_replay_file,
  * two threads: reading, checking and decoding included), timed; the
- * sample stream is used when it fits (note empty), else every record. */
+ * sample index is used when it fits (note empty), else every record. */
 static int run_file(const rt_sim_config *c, const rt_approx_config *ac, const char *path, result *res, char *note,
                     size_t nn, rt_err *e)
 {
@@ -196,7 +196,7 @@ static int end_to_end(FILE *out, const rt_sim_config *c, const char *path, rt_er
     fprintf(out, "|---|---|---:|---:|---:|---:|---:|\n");
     fprintf(out, "| exact | every record | %.3f | 1.0 | %d | 0 | 0 |\n", med[0], c->nsizes);
     fprintf(out, "| hybrid | %s | %.3f | %.1f | %d | %.4f | %.4f |\n",
-            note[1][0] ? "every record (no fitting sample stream)" : "the sample stream", med[1],
+            note[1][0] ? "every record (no fitting sample index)" : "the sample index", med[1],
             med[1] > 0 ? med[0] / med[1] : 0, nav, mean, mx);
     free(r);
     return 0;

@@ -13,7 +13,7 @@
  * kind, rounds to the nearest integer and recomputes traffic as the exact
  * simulator does, so (rm + wm + wb) * line == traffic_bytes holds here too.
  *
- * Sample stream: a version-3 trace stores, per chunk, the exact touch
+ * Sample index: a version-3 trace stores, per chunk, the exact touch
  * counts, the records touching its golden-ratio line sample and the
  * hybrid's windows with their warm-up (trace.h). rt_approx_replay_file
  * feeds those instead of the records when rt_approx_sample_fits says they
@@ -248,25 +248,25 @@ int rt_approx_sample_fits(const rt_approx *a, const rt_tr_sample_params *sp, cha
 {
     const rt_approx_config *ac = &a->ac;
     if (ac->method != RT_APPROX_HYBRID)
-        return snprintf(why, n, "the sample stream serves the hybrid method, not %s", method_names[ac->method]), 0;
+        return snprintf(why, n, "the sample index serves the hybrid method, not %s", method_names[ac->method]), 0;
     if (a->refs) return snprintf(why, n, "references were already fed"), 0;
     if (a->nexact) return snprintf(why, n, "sizes below exact_below need every reference"), 0;
     if (a->cfg.line != sp->line)
-        return snprintf(why, n, "the sample stream has %u-byte lines, not %u", sp->line, a->cfg.line), 0;
+        return snprintf(why, n, "the sample index has %u-byte lines, not %u", sp->line, a->cfg.line), 0;
     if (ac->seed != sp->seed)
-        return snprintf(why, n, "the sample stream has seed %llu, not %llu", (unsigned long long)sp->seed,
+        return snprintf(why, n, "the sample index has seed %llu, not %llu", (unsigned long long)sp->seed,
                         (unsigned long long)ac->seed), 0;
     if (a->sh && sp->shift > 0) { /* golden samples: the lines under T64 (shards.c), nested in T64 */
         double T = floor(ac->rate * 0x1p64 + 0.5);
         if (T >= 0x1p64 || T > ldexp(1, 64 - (int)sp->shift))
-            return snprintf(why, n, "rate %g is above the sample stream's 1/%llu", ac->rate,
+            return snprintf(why, n, "rate %g is above the sample index's 1/%llu", ac->rate,
                             1ULL << sp->shift), 0;
     }
     if (a->tw) {
         uint64_t cmax = a->cfg.sizes[a->nexact + a->nwin - 1] / a->cfg.line;
         if (ac->period != sp->period || ac->window != sp->window || cmax != sp->cmax ||
             rt_window_hist(a->tw) != sp->hist)
-            return snprintf(why, n, "windows of %llu every %llu warmed for %llu lines are not the sample stream's "
+            return snprintf(why, n, "windows of %llu every %llu warmed for %llu lines are not the sample index's "
                             "(%llu every %llu for %llu lines)",
                             (unsigned long long)ac->window, (unsigned long long)ac->period, (unsigned long long)cmax,
                             (unsigned long long)sp->window, (unsigned long long)sp->period,
@@ -292,7 +292,7 @@ int rt_approx_put_side(rt_approx *a, const rt_tr_side *s)
     return 0;
 }
 
-/* ---- sample-stream replay on two threads ----
+/* ---- sample-index replay on two threads ----
  * The reader thread reads, hashes, CRC-checks, inflates and decodes side
  * chunks (rt_tr_read_side) and copies each into a slot of the pipeline
  * (pipe.c); the calling thread feeds the slots to the estimator in order. */
@@ -410,7 +410,7 @@ int rt_approx_replay_file(rt_approx *a, const char *path, int fmt, int din_class
         rt_tr_sample_params sp;
         char why[200];
         if (r && !rt_tr_get_sample_params(r, &sp))
-            snprintf(note, n, "%s: format version %u has no sample stream; decoding every record", path,
+            snprintf(note, n, "%s: format version %u has no sample index; decoding every record", path,
                      rt_tr_get_version(r));
         else if (r && !rt_approx_sample_fits(a, &sp, why, sizeof why))
             snprintf(note, n, "%s: %s; decoding every record", path, why);

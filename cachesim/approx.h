@@ -38,7 +38,7 @@
  *
  * Usage: rt_approx_new, feed references through rt_approx_sink /
  * rt_approx_put, rt_approx_replay or rt_approx_replay_file (which reads a
- * version-3 trace's sample stream instead of its records when it can),
+ * version-3 trace's sample index instead of its records when it can),
  * call rt_approx_finish, then rt_approx_get. Return conventions as in rt.h: 0 / non-NULL on success,
  * -1 / NULL with one line in e.
  */
@@ -141,7 +141,7 @@ const char *rt_approx_engine(const rt_approx *a);
 int rt_approx_replay(rt_approx *a, const char *path, int fmt, int din_class, rt_tr_meta *meta,
                      rt_sim_input *info, rt_err *e);
 
-/* Whether a trace's sample stream (trace.h) can stand in for its records:
+/* Whether a trace's sample index (trace.h) can stand in for its records:
  * 1 if feeding a the stream's side chunks (rt_approx_put_side) gives the
  * estimates the records would, 0 with the reason in why (n bytes) if not.
  * It can for the hybrid method with no exact sizes, the stream's line size
@@ -149,14 +149,14 @@ int rt_approx_replay(rt_approx *a, const char *path, int fmt, int din_class, rt_
  * are subsets), and windows of the stream's period, length, warm-up depth
  * (largest windowed size) and history; a has seen no references. */
 int rt_approx_sample_fits(const rt_approx *a, const rt_tr_sample_params *sp, char *why, size_t n);
-/* Consumes the sample stream of one data chunk (rt_tr_read_side). Only
+/* Consumes the sample index of one data chunk (rt_tr_read_side). Only
  * after rt_approx_sample_fits said yes, and not mixed with rt_approx_put. */
 int rt_approx_put_side(rt_approx *a, const rt_tr_side *s);
 
-/* Replays one file into a, from its sample stream when it has one that
+/* Replays one file into a, from its sample index when it has one that
  * fits (rt_approx_sample_fits: only the side chunks are decoded), else
  * every record through rt_sim_replay_threads (same arguments). For the
- * hybrid method on an .rtt without a fitting sample stream, note (n bytes)
+ * hybrid method on an .rtt without a fitting sample index, note (n bytes)
  * gets one line saying why every record is decoded; otherwise it is "".
  * Results, meta and info (refs, file size, file hash) are the same either
  * way. 0, or -1 with the reader's message. Does not call rt_approx_finish. */

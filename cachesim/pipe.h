@@ -1,7 +1,7 @@
 /*
  * pipe.h -- the two-thread pipeline of the trace replays (private to
  * cachesim/): a reader thread fills slots, the calling thread consumes them
- * in order. Used by the record replay (replay.c) and the sample-stream
+ * in order. Used by the record replay (replay.c) and the sample-index
  * replay (approx.c). See the essay in pipe.c.
  */
 #ifndef RT_PIPE_H

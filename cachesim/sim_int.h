@@ -26,7 +26,7 @@ static inline unsigned rt_sim_cg(const rt_access *a)
     return rt_gen_bucket(a->gen) * RT_NCLASS + cls;
 }
 
-/* ---- the hybrid's windows fed from a trace's sample stream (window.c,
+/* ---- the hybrid's windows fed from a trace's sample index (window.c,
  * approx.c) ---- */
 struct rt_window;
 /* One window whose warm-up was computed by the trace writer: the warm-up

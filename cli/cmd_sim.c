@@ -57,7 +57,7 @@ static void usage(FILE *f)
             "  --method M             exact (default) | shards | shards-fixed | statstack |\n"
             "                         hybrid: sampled estimates (docs/approx.md); fully\n"
             "                         associative write-back write-allocate caches only.\n"
-            "                         hybrid reads only the sample stream of a trace\n"
+            "                         hybrid reads only the sample index of a trace\n"
             "                         written by `raytraffic trace` (format version 3) when\n"
             "                         it fits the settings (same results, ~15x faster);\n"
             "                         otherwise every record, with a note on stderr\n"

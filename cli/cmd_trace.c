@@ -30,7 +30,7 @@ static void usage(FILE *f)
             "                     (same as the scene parameter :material=M)\n"
             "  -o FILE            output trace (required)\n"
             "  --level N          zlib level 0..9 (default %d)\n"
-            "  --no-sample        write format version 1/2, without the sample stream that\n"
+            "  --no-sample        write format version 1/2, without the sample index that\n"
             "                     lets `sim --method hybrid` skip the records (about 10%%\n"
             "                     smaller; docs/trace-format.md)\n" RT_RENDER_OPTS_HELP
             "                     (trace defaults: -W 512 -H 512, --lights none)\n"

@@ -83,10 +83,10 @@ static void print_text(const char *path, const rt_tr_reader *r)
     printf("  %-7s %-8s %14" PRIu64 " %16" PRIu64 " %14" PRIu64 "\n", "total", "", t->nrefs, bytes, writes);
     rt_tr_sample_params sp;
     if (rt_tr_get_sample_params(r, &sp)) {
-        printf("\nsample stream: %" PRIu32 "-byte lines at rate 1/%llu (seed %" PRIu64 "); a window of %" PRIu64
+        printf("\nsample index: %" PRIu32 "-byte lines at rate 1/%llu (seed %" PRIu64 "); a window of %" PRIu64
                " records every %" PRIu64 ", warmed for %" PRIu64 " lines from at most %" PRIu64 " records\n",
                sp.line, 1ULL << sp.shift, sp.seed, sp.window, sp.period, sp.cmax, sp.hist);
-        printf("\n%" PRIu64 " chunks; verified: CRCs, footer totals and sample stream match\n", t->nchunks);
+        printf("\n%" PRIu64 " chunks; verified: CRCs, footer totals and sample index match\n", t->nchunks);
     } else {
         printf("\n%" PRIu64 " chunks; verified: CRCs and footer totals match\n", t->nchunks);
     }
@@ -140,11 +140,14 @@ static void print_json(const char *path, const rt_tr_reader *r)
     }
     printf("}, \"refs\": %" PRIu64 ", \"chunks\": %" PRIu64, t->nrefs, t->nchunks);
     rt_tr_sample_params sp;
-    if (rt_tr_get_sample_params(r, &sp))
-        printf(", \"sample_stream\": {\"line\": %" PRIu32 ", \"rate\": %.10g, \"seed\": %" PRIu64
+    /* "sample_index"; "sample_stream" repeats it under its former name
+     * for one release, for scripts written before */
+    for (int k = 0; k < 2 && rt_tr_get_sample_params(r, &sp); k++)
+        printf(", \"%s\": {\"line\": %" PRIu32 ", \"rate\": %.10g, \"seed\": %" PRIu64
                ", \"period\": %" PRIu64 ", \"window\": %" PRIu64 ", \"warm_lines\": %" PRIu64
                ", \"history\": %" PRIu64 "}",
-               sp.line, 1.0 / (double)(1ULL << sp.shift), sp.seed, sp.period, sp.window, sp.cmax, sp.hist);
+               k ? "sample_stream" : "sample_index", sp.line, 1.0 / (double)(1ULL << sp.shift), sp.seed, sp.period,
+               sp.window, sp.cmax, sp.hist);
     printf("}\n");
 }
 

@@ -422,7 +422,7 @@ static int open_trace(rt_exp_worker *w, jobrun *r, const rt_exp_job *jb, long in
         if (*p == '/' || *p == ':' || *p == ',' || *p == '=') *p = '_';
     rt_tr_meta m;
     rt_job_meta(&r->j, c->command, &m);
-    rt_tr_wopts wo; /* as `trace` writes them: version 3, with the sample stream */
+    rt_tr_wopts wo; /* as `trace` writes them: version 3, with the sample index */
     rt_tr_default_wopts(&wo);
     if (!(r->tw = rt_tr_create_opts(path, &m, &wo, e))) return -1;
     return rt_exp_fan_add(&r->fan, rt_tr_sink(r->tw), e) < 0 ? -1 : 0;

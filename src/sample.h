@@ -1,6 +1,6 @@
 /*
  * sample.h -- the sampling rules every sampled simulator and the trace's
- * sample stream share (prefix rt_sample_), so they are written once:
+ * sample index share (prefix rt_sample_), so they are written once:
  *
  *   - golden-ratio (stratified) line sampling: line L is sampled iff
  *     L * GOLD + off < T64 (mod 2^64), off = mix(seed ^ GOLD), T64 = R 2^64
@@ -12,7 +12,7 @@
  *     (the default) places every window at the end of its period.
  *
  * Users: cachesim/window.c (the hybrid method), cachesim/shards.c (golden
- * SHARDS), src/trace.c (the version-3 sample stream, which must give the
+ * SHARDS), src/trace.c (the version-3 sample index, which must give the
  * hybrid method's windows and samples bit for bit).
  */
 #ifndef RT_SAMPLE_H

@@ -46,7 +46,7 @@
  * str name, u8 class, u32 recsize, u64 count, u64 base. Version 2 appends
  * u32 generations (1..255, the highest generation a record may carry).
  * Version 3 appends u32 generations (0..255: 0 = no generation bytes) and
- * the sample stream's parameters (rt_tr_sample_params): u32 line, u8
+ * the sample index's parameters (rt_tr_sample_params): u32 line, u8
  * shift, u64 seed, period, window, cmax, hist. Every str must fit its
  * rt_tr_meta field with its NUL and may not contain NUL bytes; the payload
  * must be consumed exactly.
@@ -432,7 +432,7 @@ static int bb_room(bbuf *b, size_t more)
     return 0;
 }
 
-/* ---- sample stream: what a side chunk holds ----------------------------------
+/* ---- sample index: what a side chunk holds ----------------------------------
  *
  * The builder sees every record in order (the writer as it encodes them,
  * the verifying reader as it decodes them) and makes each chunk's side
@@ -717,7 +717,7 @@ struct rt_tr_writer {
     int zinit;              /* zs initialised */
     coder cd;               /* record coder of the current chunk */
     unsigned maxgen;        /* meta.generations: 0 = no generation bytes */
-    sbuild *sb;             /* sample stream builder (version 3), or NULL */
+    sbuild *sb;             /* sample index builder (version 3), or NULL */
     rt_tr_totals tot;       /* totals so far */
     uint64_t written;       /* bytes written to the file */
     int failed;             /* a put failed; err holds why */
@@ -731,7 +731,7 @@ void rt_tr_default_wopts(rt_tr_wopts *o)
     o->sample = 1;
 }
 
-/* The sample stream a version-3 writer stores. */
+/* The sample index a version-3 writer stores. */
 static void default_sample(rt_tr_sample_params *p)
 {
     p->line = RT_TR_SAMPLE_LINE;
@@ -798,7 +798,7 @@ static int w_put(rt_sink *s, const rt_access *a, size_t n)
 {
     rt_tr_writer *w = s->ctx;
     if (w->failed) return -1;
-    size_t fed = 0; /* a[0..fed) are in the sample stream builder */
+    size_t fed = 0; /* a[0..fed) are in the sample index builder */
     for (size_t i = 0; i < n; i++) {
         unsigned cls = a[i].cls, gen = a[i].gen;
         if (cls >= RT_NCLASS || a[i].size == 0 || gen > w->maxgen) {
@@ -841,7 +841,7 @@ static int w_put(rt_sink *s, const rt_access *a, size_t n)
     return 0;
 }
 
-/* sp non-NULL: version 3 with that sample stream. */
+/* sp non-NULL: version 3 with that sample index. */
 static int encode_header(hbuf *h, const rt_tr_meta *m, uint32_t chunk_records, int level,
                          const rt_tr_sample_params *sp)
 {
@@ -1153,7 +1153,7 @@ static int parse_header(rt_tr_reader *r, hbuf *h)
                         sp->window > sp->period / 2 || sp->window > 16384 || sp->cmax < 1 || sp->cmax > 4096 ||
                         sp->hist > sp->period - sp->window || sp->hist > (1u << 20)))
             return r_fail(r, base + at,
-                          "header: impossible sample stream (line %u, rate 2^-%u, period %llu, window %llu, "
+                          "header: impossible sample index (line %u, rate 2^-%u, period %llu, window %llu, "
                           "%llu lines, history %llu)",
                           sp->line, sp->shift, (unsigned long long)sp->period, (unsigned long long)sp->window,
                           (unsigned long long)sp->cmax, (unsigned long long)sp->hist);
@@ -1364,7 +1364,7 @@ static int check_side(rt_tr_reader *r)
         size_t k = 0;
         while (k < U && k < b->out.n && b->out.b[k] == r->sraw[k]) k++;
         return r_fail(r, r->chunk_off, "side chunk %llu does not match the records of chunk %llu (payload byte %zu "
-                      "of %u differs from the sample stream the records make)",
+                      "of %u differs from the sample index the records make)",
                       (unsigned long long)idx, (unsigned long long)idx, k, U);
     }
     return 0;
@@ -1610,7 +1610,7 @@ int rt_tr_read_side(rt_tr_reader *r, rt_tr_side *s, rt_err *e)
     memset(s, 0, sizeof *s);
     if (r->state == RS_FAILED) return rt_errf(e, "%s", r->err.msg);
     if (!r->has_sample)
-        return rt_errf(e, "%s: no sample stream (format version %u; version 3 has one)", r->path, r->version);
+        return rt_errf(e, "%s: no sample index (format version %u; version 3 has one)", r->path, r->version);
     if (r->mode == RM_RECORDS) return rt_errf(e, "%s: rt_tr_read_side after rt_tr_read", r->path);
     r->mode = RM_SIDE;
     if (r->state == RS_DONE) return 0;

@@ -17,7 +17,7 @@
  * by one chunk, independent of the trace's length. After -1 every later
  * call returns -1 with the same message; after 0, 0 again.
  *
- * Sample stream (format version 3): after every data chunk the writer
+ * Sample index (format version 3): after every data chunk the writer
  * stores a side chunk with what a sampled simulation needs of it -- the
  * chunk's line-touch counts per class, its records that touch a line of a
  * golden-ratio line sample, and the exact windows of the hybrid method
@@ -66,7 +66,7 @@ typedef struct rt_tr_totals {
 
 /* Format constants (layout in trace.c and docs/trace-format.md). With
  * rt_tr_wopts.sample set (rt_tr_default_wopts) the writer writes version 3,
- * records and sample stream; without it version 1 when meta.generations ==
+ * records and sample index; without it version 1 when meta.generations ==
  * 0 (the bytes of every trace without generations are those of a version-1
  * writer) and version 2 otherwise. The reader accepts 1..RT_TR_FORMAT_VERSION. */
 #define RT_TR_FORMAT_VERSION 3        /* newest version; the reader accepts 1..this */
@@ -75,7 +75,7 @@ typedef struct rt_tr_totals {
 #define RT_TR_DEFAULT_CHUNK 65536     /* records per chunk */
 #define RT_TR_MAX_CHUNK (1u << 20)    /* largest records-per-chunk accepted */
 
-/* The sample stream a version-3 writer stores (the defaults of the hybrid
+/* The sample index a version-3 writer stores (the defaults of the hybrid
  * method in cachesim/approx.h at 64-byte lines, seed 1): lines of
  * RT_TR_SAMPLE_LINE bytes sampled at rate 2^-RT_TR_SAMPLE_SHIFT; one
  * window of RT_TR_SAMPLE_WINDOW records every RT_TR_SAMPLE_PERIOD, its
@@ -89,7 +89,7 @@ typedef struct rt_tr_totals {
 #define RT_TR_SAMPLE_CMAX 256
 #define RT_TR_SAMPLE_HIST 32768
 
-/* Parameters of a trace's sample stream, as stored in its header. */
+/* Parameters of a trace's sample index, as stored in its header. */
 typedef struct rt_tr_sample_params {
     uint32_t line;          /* line size in bytes, a power of two */
     uint32_t shift;         /* line sample rate 2^-shift (0..32) */
@@ -101,14 +101,14 @@ typedef struct rt_tr_sample_params {
 } rt_tr_sample_params;
 
 /* Writer options: zlib level 0..9, records per chunk 1..RT_TR_MAX_CHUNK,
- * and whether to write version 3 with a sample stream (1, the default) or
+ * and whether to write version 3 with a sample index (1, the default) or
  * the version 1/2 format of earlier writers (0). A zeroed field keeps the
  * earlier format, so options built as {level, chunk} still mean what they
  * meant. */
 typedef struct rt_tr_wopts {
     int level;              /* zlib compression level, default 3 */
     uint32_t chunk_records; /* records per chunk, default 65536 */
-    int sample;             /* 1: version 3 with the sample stream (default); 0: version 1/2 */
+    int sample;             /* 1: version 3 with the sample index (default); 0: version 1/2 */
 } rt_tr_wopts;
 void rt_tr_default_wopts(rt_tr_wopts *o);
 
@@ -116,7 +116,7 @@ typedef struct rt_tr_writer rt_tr_writer;
 /* Opens PATH.tmp and writes the header. NULL on failure (bad metadata,
  * e.g. generations > RT_TR_MAX_GENERATION; I/O error; out of memory).
  * rt_tr_create uses the default level and chunk size and writes the
- * version 1/2 format (no sample stream): its bytes are those of the
+ * version 1/2 format (no sample index): its bytes are those of the
  * writers before version 3. rt_tr_create_opts with rt_tr_default_wopts
  * writes version 3. */
 rt_tr_writer *rt_tr_create(const char *path, const rt_tr_meta *m, rt_err *e);
@@ -157,11 +157,11 @@ uint32_t rt_tr_get_version(const rt_tr_reader *r);
 uint32_t rt_tr_get_chunk_records(const rt_tr_reader *r);
 void rt_tr_close(rt_tr_reader *r);
 
-/* 1 and the parameters in *p if the trace has a sample stream (version
+/* 1 and the parameters in *p if the trace has a sample index (version
  * 3), else 0. */
 int rt_tr_get_sample_params(const rt_tr_reader *r, rt_tr_sample_params *p);
 
-/* One exact window of the sample stream: the warm-up lines (one touch
+/* One exact window of the sample index: the warm-up lines (one touch
  * each, address line x line-size, size 1, least recent first, write set
  * if the scan saw the line written, class of that write or of the latest
  * touch), then the window's records. */
@@ -174,7 +174,7 @@ typedef struct rt_tr_window {
     uint32_t nrecs;         /* = params.window */
 } rt_tr_window;
 
-/* The sample stream of one data chunk. */
+/* The sample index of one data chunk. */
 typedef struct rt_tr_side {
     uint64_t nrefs;                      /* records of the data chunk */
     uint64_t touches[RT_NCLASS][2];      /* its line touches (params.line) by class, read/write */
@@ -184,14 +184,14 @@ typedef struct rt_tr_side {
     uint32_t nwin;
 } rt_tr_side;
 
-/* Reads the next chunk's sample stream into *s (pointers owned by r, valid
+/* Reads the next chunk's sample index into *s (pointers owned by r, valid
  * until the next call): 1, 0 at the verified end of the trace, -1 on an
  * error (message names file and byte offset). Every byte is read, hashed
  * (rt_tr_file_hash) and CRC-checked, but data chunks are not inflated
  * and their records not decoded; the footer's totals are checked against
  * the side chunks' (docs/trace-format.md). A reader serves either
  * rt_tr_read or rt_tr_read_side: the first call decides, the other then
- * fails. -1 also for a trace without a sample stream. */
+ * fails. -1 also for a trace without a sample index. */
 int rt_tr_read_side(rt_tr_reader *r, rt_tr_side *s, rt_err *e);
 
 #endif

@@ -113,30 +113,33 @@ for a in 0 3 x; do
     [ $st -eq 2 ] && grep -q -- '--threads' "$tmp/err" || die "--threads $a: exit $st $(cat "$tmp/err")"
 done
 
-# the sample stream: `trace` writes version 3; sim --method hybrid reads only
+# the sample index: `trace` writes version 3; sim --method hybrid reads only
 # its side chunks, silently, with the output and database row (trace hash
 # included) of the full decode of the same records in a version-1 file,
 # which falls back with a one-line note
 "$bin" trace cornell -W 96 -H 96 -o "$tmp/s3.rtt" 2>/dev/null || die "trace v3"
 "$bin" trace cornell -W 96 -H 96 --no-sample -o "$tmp/s1.rtt" 2>/dev/null || die "trace --no-sample"
 "$bin" trace-info "$tmp/s3.rtt" | grep -q '^format: *rtt version 3' || die "trace-info: version 3"
-"$bin" trace-info "$tmp/s3.rtt" | grep -q '^sample stream: 64-byte lines at rate 1/64' || die "trace-info: sample stream"
+"$bin" trace-info "$tmp/s3.rtt" | grep -q '^sample index: 64-byte lines at rate 1/64' || die "trace-info: sample index"
 "$bin" trace-info "$tmp/s1.rtt" | grep -q '^format: *rtt version 1' || die "trace --no-sample: version 1"
-"$bin" trace-info --json "$tmp/s3.rtt" | grep -q '"format_version": 3,.*"sample_stream": {"line": 64, "rate": 0.015625' ||
-    die "trace-info --json: sample stream"
-"$bin" trace-info --json "$tmp/s1.rtt" | grep -q 'sample_stream' && die "trace-info --json: sample stream in version 1"
+"$bin" trace-info --json "$tmp/s3.rtt" | grep -q '"format_version": 3,.*"sample_index": {"line": 64, "rate": 0.015625' ||
+    die "trace-info --json: sample index"
+# the former key, kept for one release
+"$bin" trace-info --json "$tmp/s3.rtt" | grep -q '"sample_stream": {"line": 64, "rate": 0.015625' ||
+    die "trace-info --json: the former key sample_stream"
+"$bin" trace-info --json "$tmp/s1.rtt" | grep -q 'sample_index\|sample_stream' && die "trace-info --json: sample index in version 1"
 cmp -s "$tmp/s3.rtt" "$tmp/s1.rtt" && die "the two formats are the same bytes"
 for t in 1 2; do
     "$bin" sim --method hybrid --threads $t "$tmp/s3.rtt" > "$tmp/h3.txt" 2> "$tmp/h3.err" || die "hybrid v3 --threads $t"
     "$bin" sim --method hybrid --threads $t "$tmp/s1.rtt" > "$tmp/h1.txt" 2> "$tmp/h1.err" || die "hybrid v1 --threads $t"
-    [ -s "$tmp/h3.err" ] && die "hybrid on the sample stream wrote to stderr: $(cat "$tmp/h3.err")"
-    [ "$(wc -l < "$tmp/h1.err")" -eq 1 ] && grep -q 'note: .*s1.rtt: format version 1 has no sample stream; decoding every record' \
+    [ -s "$tmp/h3.err" ] && die "hybrid on the sample index wrote to stderr: $(cat "$tmp/h3.err")"
+    [ "$(wc -l < "$tmp/h1.err")" -eq 1 ] && grep -q 'note: .*s1.rtt: format version 1 has no sample index; decoding every record' \
         "$tmp/h1.err" || die "fallback note: $(cat "$tmp/h1.err")"
     sed 1d "$tmp/h3.txt" > "$tmp/h3b.txt"
-    sed 1d "$tmp/h1.txt" | cmp -s - "$tmp/h3b.txt" || die "hybrid from the sample stream differs from the full decode"
+    sed 1d "$tmp/h1.txt" | cmp -s - "$tmp/h3b.txt" || die "hybrid from the sample index differs from the full decode"
 done
 "$bin" sim --method hybrid --rate 1/32 "$tmp/s3.rtt" > /dev/null 2> "$tmp/h.err" || die "hybrid 1/32"
-grep -q "rate 0.03125 is above the sample stream's 1/64; decoding every record" "$tmp/h.err" || die "rate note: $(cat "$tmp/h.err")"
+grep -q "rate 0.03125 is above the sample index's 1/64; decoding every record" "$tmp/h.err" || die "rate note: $(cat "$tmp/h.err")"
 "$bin" sim --method hybrid --db "$tmp/h.db" "$tmp/s3.rtt" 2>/dev/null || die "hybrid --db v3"
 h3=$("$bin" trace-info "$tmp/s3.rtt" | sed -n 's/^file hash: *//p')
 if command -v sqlite3 >/dev/null 2>&1; then

@@ -704,7 +704,7 @@ static void test_bench(void)
     fclose(f);
 }
 
-/* ---- the sample stream of a version-3 trace ---- */
+/* ---- the sample index of a version-3 trace ---- */
 
 /* Writes a[0..n) as a trace: version 3 (sample) or the version 1 format. */
 static int write_rtt(const char *path, const rt_access *a, size_t n, int sample, rt_err *e)
@@ -770,7 +770,7 @@ static rt_approx *replay_with(const rt_sim_config *c, const rt_approx_config *ac
 
 /* On a synthetic ray-tracer stream of 39 windows and part of a 40th: the exact
  * simulator gives the same counters from the version-3 and the version-1
- * file; the hybrid estimate from the sample stream equals, counter for
+ * file; the hybrid estimate from the sample index equals, counter for
  * counter and statistic for statistic, the one from every record (file or
  * in-process), on one and two threads, and stays within the accuracy
  * bound; traces or settings the stream cannot serve fall back to the
@@ -804,7 +804,7 @@ static void test_sample_stream(void)
             bad += !counts_equal(&x, &y) || !counts_equal(&x, &z);
         }
     CHECK(bad == 0 && i3.refs == n && i1.refs == n, "exact: %d counters differ between versions", bad);
-    /* hybrid: sample stream (1 and 2 threads), records, memory */
+    /* hybrid: sample index (1 and 2 threads), records, memory */
     rt_approx_config ac;
     hybrid_config(&ac, RT_APPROX_HYBRID_RATE, RT_APPROX_HYBRID_WINDOW_BELOW);
     char note[RT_ERR_LEN];
@@ -816,7 +816,7 @@ static void test_sample_stream(void)
     rt_approx *side2 = replay_with(&c, &ac, p3, 2, note, &in);
     CHECK(note[0] == 0 && in.refs == n, "side replay, 2 threads: note '%s'", note);
     rt_approx *rec = replay_with(&c, &ac, p1, 2, note, &in);
-    CHECK(strstr(note, "format version 1 has no sample stream") && strstr(note, p1), "fallback note: '%s'", note);
+    CHECK(strstr(note, "format version 1 has no sample index") && strstr(note, p1), "fallback note: '%s'", note);
     rt_approx *mem = rt_approx_new(&c, &ac, &e);
     rt_approx_put(mem, a, n);
     rt_approx_finish(mem, &e);
@@ -867,7 +867,7 @@ static void test_sample_stream(void)
         int method;
         const char *why;
     } fb[] = {
-        {1.0 / 32, 32768, 0, 1, 64, RT_APPROX_HYBRID, "above the sample stream's 1/64"},
+        {1.0 / 32, 32768, 0, 1, 64, RT_APPROX_HYBRID, "above the sample index's 1/64"},
         {1.0 / 64, 8192, 0, 1, 64, RT_APPROX_HYBRID, "windows of 1024 every 65536 warmed for 64 lines"},
         {1.0 / 64, 32768, 2048, 1, 64, RT_APPROX_HYBRID, "exact_below"},
         {1.0 / 64, 32768, 0, 2, 64, RT_APPROX_HYBRID, "seed 1, not 2"},

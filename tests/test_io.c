@@ -445,12 +445,12 @@ static void test_small(void)
     }
 }
 
-/* ---- format version 3: the sample stream ---------------------------------- */
+/* ---- format version 3: the sample index ---------------------------------- */
 
 #include "rt_math.h"
 #include <zlib.h>
 
-#define V3_N 327000u     /* records: four windows of the default sample stream, and 344 records of a fifth */
+#define V3_N 327000u     /* records: four windows of the default sample index, and 344 records of a fifth */
 #define V3_CHUNK 50000u  /* not the window period: windows straddle chunks */
 
 /* A deterministic stream with runs, jumps, lines straddled, writes, every
@@ -511,7 +511,7 @@ static long v3_read_all(const char *path, rt_access *out, size_t cap, rt_err *e)
     return k < 0 ? -1 : n;
 }
 
-/* Reads the whole sample stream; 0 at the verified end, -1 with e. */
+/* Reads the whole sample index; 0 at the verified end, -1 with e. */
 static int v3_read_side(const char *path, rt_err *e)
 {
     rt_tr_reader *r = rt_tr_open(path, e);
@@ -569,7 +569,7 @@ static uint32_t ref_warm(const rt_access *a, uint64_t s, rt_access *warm, uint64
 }
 
 /* Version 3 round trip: the records read back are those written, exactly
- * as from the version-2 file of the same stream; the sample stream equals
+ * as from the version-2 file of the same stream; the sample index equals
  * the reference filter of the records, chunk by chunk. */
 static void test_v3_roundtrip(void)
 {
@@ -595,7 +595,7 @@ static void test_v3_roundtrip(void)
               sp.window == RT_TR_SAMPLE_WINDOW && sp.cmax == RT_TR_SAMPLE_CMAX && sp.hist == RT_TR_SAMPLE_HIST,
           "sample parameters");
     rt_tr_side sd;
-    CHECK(r2 && rt_tr_read_side(r2, &sd, &e) < 0 && strstr(e.msg, "no sample stream"), "v2 side read: %s", e.msg);
+    CHECK(r2 && rt_tr_read_side(r2, &sd, &e) < 0 && strstr(e.msg, "no sample index"), "v2 side read: %s", e.msg);
     rt_tr_close(r2);
     /* chunk by chunk against the reference */
     static rt_access warm[RT_TR_SAMPLE_CMAX];
@@ -723,7 +723,7 @@ static void test_v3_corrupt(void)
             v3_both_fail(bad, "cut in a side chunk", off[c] + i, NULL);
         }
     }
-    /* impossible sample-stream parameters in a header with a valid CRC:
+    /* impossible sample-index parameters in a header with a valid CRC:
      * the line size (first field after generations) not a power of two */
     {
         size_t P = b[12] | b[13] << 8 | b[14] << 16 | (size_t)b[15] << 24, at = 16 + P - (4 + 1 + 5 * 8);
@@ -736,7 +736,7 @@ static void test_v3_corrupt(void)
         check_write_file(bad, x, len);
         free(x);
         rt_tr_reader *r = rt_tr_open(bad, &e);
-        CHECK(!r && strstr(e.msg, "impossible sample stream (line 48") && strstr(e.msg, "byte "),
+        CHECK(!r && strstr(e.msg, "impossible sample index (line 48") && strstr(e.msg, "byte "),
               "bad sample line accepted: %s", e.msg);
         rt_tr_close(r);
     }
