@@ -68,4 +68,22 @@ for bad in "--look-at 1,1,1,1,1,1" "--look-at 1,2,3" "--look-at 0,0,0,1,0,0,1,0,
 done
 "$bin" render cornell -W 8 -H 8 --light 1,1,1 --light 1,1,2 --light 1,1,3 --light 1,1,4 -o "$tmp/x.exr" 2>/dev/null
 [ $? -eq 2 ] || err "a fourth --light: want exit 2"
+
+# a pbrt file's LookAt/Camera and the same camera given by --look-at/--fov
+# (to another file with the same geometry) render the same image
+for f in a b; do
+    if [ $f = a ]; then cam="LookAt 0.5 -1.35 0.5  0.5 0.5 0.5  0 0 1
+Camera \"perspective\" \"float fov\" [ 40 ]"; else cam="LookAt 3 3 3  0 0 0  0 0 1
+Camera \"perspective\" \"float fov\" [ 70 ]"; fi
+    printf '%s\n%s\n%s\n' "$cam" 'Film "rgb" "integer xresolution" [ 24 ] "integer yresolution" [ 24 ]' 'WorldBegin' \
+        > "$tmp/$f.pbrt"
+    printf '%s\n' 'Shape "trianglemesh" "point3 P" [ 0 0 0  1 0 0  1 1 0  0 1 0  0 0 1  1 0 1 ]' \
+        '  "integer indices" [ 0 1 2  0 2 3  0 1 5  0 5 4 ]' >> "$tmp/$f.pbrt"
+done
+"$bin" render "$tmp/a.pbrt" -o "$tmp/pa.exr" --png "$tmp/pa.png" 2>/dev/null || err "render a.pbrt"
+"$bin" render "$tmp/b.pbrt" --look-at 0.5,-1.35,0.5,0.5,0.5,0.5,0,0,1 --fov 40 -o "$tmp/pb.exr" --png "$tmp/pb.png" \
+    2>/dev/null || err "render b.pbrt with a.pbrt's camera"
+cmp -s "$tmp/pa.png" "$tmp/pb.png" || err "a pbrt camera and the same camera on the command line give different images"
+"$bin" render "$tmp/b.pbrt" -o "$tmp/pc.exr" --png "$tmp/pc.png" 2>/dev/null || err "render b.pbrt"
+cmp -s "$tmp/pa.png" "$tmp/pc.png" && err "two different pbrt cameras give the same image"
 exit $fail
