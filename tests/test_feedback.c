@@ -263,7 +263,7 @@ static void sizes(void)
     rt_kdtree *kd = rt_kd_build(pair, &kp, &e);
     rt_job j;
     CHECK(kd && rt_job_setup_borrowed(&j, pair, kd, "feedback", &o, &e) < 0 && rt_fb_refused(&e), "setup: %s", e.msg);
-    rt_err other = {"unknown tracer"};
+    rt_err other = {"unknown tracer", 0};
     CHECK(!rt_fb_refused(&other), "other errors are not refusals");
     rt_kd_free(kd);
     rt_scene_free(gl);

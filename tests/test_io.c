@@ -673,7 +673,7 @@ static size_t v3_chunks(const unsigned char *b, size_t len, size_t *off, int *si
 static void v3_both_fail(const char *path, const char *what, size_t where, const char *needle)
 {
     static rt_access buf[V3_N + 1];
-    rt_err e1 = {0}, e2 = {{0}};
+    rt_err e1 = {0}, e2 = {0};
     long n = v3_read_all(path, buf, V3_N + 1, &e1);
     int k = v3_read_side(path, &e2);
     CHECK(n < 0 && strstr(e1.msg, path) && strstr(e1.msg, "byte ") && (!needle || strstr(e1.msg, needle)),

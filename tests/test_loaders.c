@@ -729,7 +729,7 @@ static void test_mesh_hashes(void)
  * read without end, a FIFO blocked for ever, ../../etc/passwd was read. */
 static void test_scene_files(void)
 {
-    rt_err e = {""};
+    rt_err e = {0};
     char out[256];
     /* rt_path_within: the rule on names */
     static const struct { const char *rel; int ok; } cases[] = {
@@ -857,7 +857,7 @@ static void test_lesser_formats(void)
     expect_fail_text("hex.obj", "v 0 0 0\nv 0x1p0 0 0\nv 0 1 0\nf 1 2 3\n", "hex.obj:2: bad number '0x1p0'");
     write_text(check_path("hex.mtl"), "newmtl a\nKd 0x1p-1 0 0\n");
     write_text(check_path("hexm.obj"), "mtllib hex.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
-    rt_err e = {""};
+    rt_err e = {0};
     s = rt_scene_load(check_path("hexm.obj"), &e);
     CHECK(!s && strstr(e.msg, "hex.mtl:2: Kd: bad number '0x1p-1'"), "hex in MTL: %s", e.msg);
     rt_scene_free(s);

@@ -847,7 +847,7 @@ static long ref_din_read(ref_din *d, rt_access *buf, size_t cap, rt_err *e)
  * records, the outcome, the message and, at the end, bytes and hash. */
 static void din_compare(const char *name, const char *path, size_t cap)
 {
-    rt_err e1 = {0}, e2 = {{0}};
+    rt_err e1 = {0}, e2 = {0};
     ref_din r = {fopen(path, "rb"), path, 0, RT_FNV_INIT, 0, NULL, 0};
     rt_din *d = rt_din_open(path, RT_CLS_FB, &e2);
     CHECK(r.f && d, "%s: open: %s", name, e2.msg);
@@ -956,7 +956,7 @@ static void threads_compare(const char *name, const char *path, int want_ok)
     rt_sim_config_default(&c);
     rt_sim *s[2];
     rt_sim_input in[2];
-    rt_err e[2] = {{{0}}, {{0}}};
+    rt_err e[2] = {{{0}, 0}, {{0}, 0}};
     int rc[2];
     rt_tr_meta *m = calloc(2, sizeof *m);
     for (int t = 0; t < 2; t++) {

@@ -21,7 +21,7 @@ static void test_plan(const rt_scene *sc, int kind)
 {
     rt_err e = {0};
     rt_accel acc;
-    rt_accel_params ap = {0, 0};
+    rt_accel_params ap = {0, 0, 0};
     CHECK(rt_accel_build(&acc, kind, sc, &ap, &e) == 0, "build: %s", e.msg);
     rt_render_opts o;
     rt_render_default_opts(&o);
@@ -65,7 +65,7 @@ static void test_state(const rt_scene *sc)
 {
     rt_err e = {0};
     rt_accel acc;
-    rt_accel_params ap = {0, 0};
+    rt_accel_params ap = {0, 0, 0};
     CHECK(rt_accel_build(&acc, RT_ACCEL_BVH4, sc, &ap, &e) == 0, "build: %s", e.msg);
     rt_render_opts o;
     rt_render_default_opts(&o);
