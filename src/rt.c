@@ -117,27 +117,26 @@ int rt_parse_size(const char *s, uint64_t *out)
     return 0;
 }
 
-int rt_slurp(const char *path, char **pbuf, size_t *pn, rt_err *e)
+/* Reads f to its end, or until more than max_bytes were read, into a
+ * malloc'd NUL-terminated buffer starting at cap bytes (*pbuf, *pn).
+ * *bad: a read error. 0, 1 when the buffer could not grow (more than
+ * SIZE_MAX / 2), or -1 out of memory (e set, nothing allocated). f stays
+ * open. */
+static int read_stream(FILE *f, size_t cap, uint64_t max_bytes, char **pbuf, size_t *pn, int *bad, rt_err *e)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f) return rt_errf(e, "%s: %s", path, strerror(errno));
-    size_t cap = 1 << 16, n = 0;
+    size_t n = 0;
+    int huge = 0;
     char *buf = rt_calloc(cap, 1, e);
-    if (!buf) {
-        fclose(f);
-        return -1;
-    }
+    if (!buf) return -1;
     for (;;) {
         if (n + 1 >= cap) {
             if (cap > SIZE_MAX / 2) {
-                free(buf);
-                fclose(f);
-                return rt_errf(e, "%s: file too large", path);
+                huge = 1;
+                break;
             }
             char *nb = rt_reallocarray(buf, cap * 2, 1, e);
             if (!nb) {
                 free(buf);
-                fclose(f);
                 return -1;
             }
             buf = nb;
@@ -145,15 +144,28 @@ int rt_slurp(const char *path, char **pbuf, size_t *pn, rt_err *e)
         }
         size_t got = fread(buf + n, 1, cap - 1 - n, f);
         n += got;
-        if (got == 0) break;
+        if (got == 0 || (uint64_t)n > max_bytes) break;
     }
-    int bad = ferror(f);
+    *bad = ferror(f);
+    buf[n < cap ? n : cap - 1] = 0;
+    *pbuf = buf;
+    *pn = n;
+    return huge;
+}
+
+int rt_slurp(const char *path, char **pbuf, size_t *pn, rt_err *e)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return rt_errf(e, "%s: %s", path, strerror(errno));
+    char *buf;
+    size_t n;
+    int bad, rc = read_stream(f, 1 << 16, UINT64_MAX, &buf, &n, &bad, e);
     fclose(f);
-    if (bad) {
+    if (rc < 0) return -1;
+    if (rc > 0 || bad) {
         free(buf);
-        return rt_errf(e, "%s: read error", path);
+        return rc > 0 ? rt_errf(e, "%s: file too large", path) : rt_errf(e, "%s: read error", path);
     }
-    buf[n] = 0;
     *pbuf = buf;
     *pn = n;
     return 0;
@@ -295,40 +307,20 @@ int rt_slurp_regular(const char *path, uint64_t max_bytes, char **pbuf, size_t *
     char q[300];
     rt_esc(q, sizeof q, path, 4096);
     struct stat sb;
-    size_t cap = 1 << 16, n = 0;
+    size_t cap = 1 << 16, n;
     /* the size fstat saw, plus room to notice growth */
     if (fstat(fileno(f), &sb) == 0 && (uint64_t)sb.st_size < SIZE_MAX - 2) cap = (size_t)sb.st_size + 2;
-    char *buf = rt_calloc(cap, 1, e);
-    if (!buf) {
-        fclose(f);
-        return -1;
-    }
-    for (;;) {
-        if (n + 1 >= cap) {
-            if (cap > SIZE_MAX / 2) break;
-            char *nb = rt_reallocarray(buf, cap * 2, 1, e);
-            if (!nb) {
-                free(buf);
-                fclose(f);
-                return -1;
-            }
-            buf = nb;
-            cap *= 2;
-        }
-        size_t got = fread(buf + n, 1, cap - 1 - n, f);
-        n += got;
-        if (got == 0 || (uint64_t)n > max_bytes) break;
-    }
-    int bad = ferror(f);
+    char *buf;
+    int bad, rc = read_stream(f, cap, max_bytes, &buf, &n, &bad, e);
     fclose(f);
-    if (bad || (uint64_t)n > max_bytes) {
+    if (rc < 0) return -1;
+    if (bad || rc > 0 || (uint64_t)n > max_bytes) {
         free(buf);
         errno = bad ? EIO : EFBIG;
         if (bad) return rt_errf(e, "%s: read error", q);
         return rt_errf(e, "%s: grew past the limit of %llu bytes while read (RT_SCENE_MAX_BYTES)", q,
                        (unsigned long long)max_bytes);
     }
-    buf[n] = 0;
     *pbuf = buf;
     *pn = n;
     return 0;
