@@ -1557,16 +1557,7 @@ static RT_ALWAYS_INLINE int walk_wide(rt_bvh_trav *tv, const rt_ray *rp, rt_hit 
         while (k > 0) {
             const int s = ord[--k];
             uint32_t ra, rn;
-            if (W == 4) {
-                const uint64_t c = b->n4[e.a].child[s];
-                if (c == RT_BVH4_EMPTY) continue;
-                ra = (uint32_t)c;
-                rn = rt_bvh4_is_leaf(c) ? rt_bvh4_count(c) : 0;
-            } else {
-                ra = b->h8[e.a].ref[s];
-                rn = b->h8[e.a].cnt[s];
-                if (rn == RT_BVH8_NONE) continue;
-            }
+            if (!rt_bvh_wide_child(W, b->n4, b->h8, e.a, s, &ra, &rn)) continue;
             st[sp++] = (sentry){ra, rn, tn[s]};
         }
     }
@@ -1649,16 +1640,7 @@ int rt_bvh_step(const rt_bvh *b, const rt_bvh_wray *wr, uint32_t node, float cul
     while (k > 0) {
         const int s = ord[--k];
         uint32_t ra, rn;
-        if (W == 4) {
-            const uint64_t c = b->n4[node].child[s];
-            if (c == RT_BVH4_EMPTY) continue;
-            ra = (uint32_t)c;
-            rn = rt_bvh4_is_leaf(c) ? rt_bvh4_count(c) : 0;
-        } else {
-            ra = b->h8[node].ref[s];
-            rn = b->h8[node].cnt[s];
-            if (rn == RT_BVH8_NONE) continue;
-        }
+        if (!rt_bvh_wide_child(W, b->n4, b->h8, node, s, &ra, &rn)) continue;
         out[m++] = (rt_bvh_ref){ra, rn, tn[s]};
     }
     return m;

@@ -128,6 +128,24 @@ static inline float rt_bvh8_dequant(const rt_bvh8_node *n, int a, unsigned q)
     return n->origin[a] + (float)q * s.f;
 }
 
+/* Child s of wide node `node` (width 4 or 8): 1 and its reference (*ra:
+ * the child node, or a leaf's first triangle record) and triangle count
+ * (*rn: 0 for an interior child), or 0 for an empty slot. */
+static inline int rt_bvh_wide_child(int W, const rt_bvh4_node *n4, const rt_bvh8_host *h8, uint32_t node, int s,
+                                    uint32_t *ra, uint32_t *rn)
+{
+    if (W == 4) {
+        const uint64_t c = n4[node].child[s];
+        if (c == RT_BVH4_EMPTY) return 0;
+        *ra = (uint32_t)c;
+        *rn = rt_bvh4_is_leaf(c) ? rt_bvh4_count(c) : 0;
+        return 1;
+    }
+    *ra = h8[node].ref[s];
+    *rn = h8[node].cnt[s];
+    return *rn != RT_BVH8_NONE;
+}
+
 typedef struct rt_bvh_params {
     int width;        /* 2, 4 or 8 */
     int max_leaf;     /* most triangles per leaf: 1..RT_BVH_MAX_LEAF (bvh8: 1..4); default 4 */

@@ -392,16 +392,7 @@ static void pb_visitw(pstate *ps, uint32_t node, int d)
     for (int oi = 0; oi < no; oi++) {
         const int s = ord[oi];
         uint32_t ra, rn;
-        if (W == 4) {
-            const uint64_t c = b->n4[node].child[s];
-            if (c == RT_BVH4_EMPTY) continue;
-            ra = (uint32_t)c;
-            rn = rt_bvh4_is_leaf(c) ? rt_bvh4_count(c) : 0;
-        } else {
-            ra = b->h8[node].ref[s];
-            rn = b->h8[node].cnt[s];
-            if (rn == RT_BVH8_NONE) continue;
-        }
+        if (!rt_bvh_wide_child(W, b->n4, b->h8, node, s, &ra, &rn)) continue;
         nx->n = 0;
         for (int j = 0; j < l->n; j++) {
             const int i = l->idx[j];

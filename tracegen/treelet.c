@@ -211,17 +211,11 @@ static int children(const rt_bvh *b, uint32_t i, uint32_t kid[8], float karea[8]
         uint32_t ref, cnt;
         const float *lo, *hi;
         int W = b->width;
+        if (!rt_bvh_wide_child(W, b->n4, b->h8, i, s, &ref, &cnt)) continue;
         if (W == 4) {
-            uint64_t c = b->n4[i].child[s];
-            if (c == RT_BVH4_EMPTY) continue;
-            ref = (uint32_t)c;
-            cnt = rt_bvh4_is_leaf(c) ? rt_bvh4_count(c) : 0;
             lo = &b->n4[i].lo[0][0];
             hi = &b->n4[i].hi[0][0];
         } else {
-            cnt = b->h8[i].cnt[s];
-            if (cnt == RT_BVH8_NONE) continue;
-            ref = b->h8[i].ref[s];
             lo = &b->h8[i].lo[0][0];
             hi = &b->h8[i].hi[0][0];
         }
