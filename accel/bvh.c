@@ -240,11 +240,14 @@ static rt_bounds tri_box(const rt_tri *t, float pad)
  * and moves away), so every box is grown by far more than that error. */
 static float bvh_pad(const rt_scene *s)
 {
-    float m = 1.0f;
+    float m = 1.0f; /* coordinates are finite: the loaders check their range */
     for (uint32_t i = 0; i < s->ntri; i++)
         for (int k = 0; k < 3; k++) {
             const rt_vec3 *p = &s->tri[i].p[k];
-            m = fmaxf(m, fmaxf(fabsf(p->x), fmaxf(fabsf(p->y), fabsf(p->z))));
+            const float ax = fabsf(p->x), ay = fabsf(p->y), az = fabsf(p->z);
+            if (ax > m) m = ax;
+            if (ay > m) m = ay;
+            if (az > m) m = az;
         }
     int ex;
     frexpf(m, &ex);
