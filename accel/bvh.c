@@ -1467,17 +1467,6 @@ static RT_ALWAYS_INLINE int walk2(rt_bvh_trav *tv, const rt_ray *rp, rt_hit *h, 
     return finish(tv, &S, h, any, occluded);
 }
 
-/* Index of the lowest set bit of m (m != 0). */
-static inline int lowest_bit(unsigned m)
-{
-#if defined(__GNUC__)
-    return __builtin_ctz(m);
-#else
-    int s = 0;
-    while (!(m >> s & 1u)) s++;
-    return s;
-#endif
-}
 
 typedef struct sentry {
     uint32_t a; /* interior: node index; leaf: first triangle record */
@@ -1547,16 +1536,7 @@ static RT_ALWAYS_INLINE int walk_wide(rt_bvh_trav *tv, const rt_ray *rp, rt_hit 
                         << s;
         if (!mask) continue;
         /* order the hit children by (entry, slot), push the farthest first */
-        int ord[8], k = 0;
-        for (unsigned m = mask; m; m &= m - 1u) {
-            const int s = lowest_bit(m);
-            int j = k++;
-            while (j > 0 && tn[ord[j - 1]] > tn[s]) {
-                ord[j] = ord[j - 1];
-                j--;
-            }
-            ord[j] = s;
-        }
+        int ord[8], k = rt_bvh_order_slots(mask, tn, ord);
         while (k > 0) {
             const int s = ord[--k];
             uint32_t ra, rn;
@@ -1630,16 +1610,7 @@ int rt_bvh_step(const rt_bvh *b, const rt_bvh_wray *wr, uint32_t node, float cul
                                    base[5 * W + s], cull, &tn[s])
                 << s;
 #endif
-    int ord[8], k = 0, m = 0;
-    for (int s = 0; s < W; s++) {
-        if (!(mask >> s & 1u)) continue;
-        int j = k++;
-        while (j > 0 && tn[ord[j - 1]] > tn[s]) {
-            ord[j] = ord[j - 1];
-            j--;
-        }
-        ord[j] = s;
-    }
+    int ord[8], k = rt_bvh_order_slots(mask, tn, ord), m = 0;
     while (k > 0) {
         const int s = ord[--k];
         uint32_t ra, rn;

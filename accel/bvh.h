@@ -128,6 +128,24 @@ static inline float rt_bvh8_dequant(const rt_bvh8_node *n, int a, unsigned q)
     return n->origin[a] + (float)q * s.f;
 }
 
+/* The slots set in mask (at most 8), ordered by key[slot] ascending, ties
+ * by the lower slot, into ord; returns how many. The visit order of a
+ * wide node's hit children (nearest entry first). */
+static inline int rt_bvh_order_slots(unsigned mask, const float *key, int ord[8])
+{
+    int k = 0;
+    for (int s = 0; s < 8; s++) {
+        if (!(mask >> s & 1u)) continue;
+        int j = k++;
+        while (j > 0 && key[ord[j - 1]] > key[s]) {
+            ord[j] = ord[j - 1];
+            j--;
+        }
+        ord[j] = s;
+    }
+    return k;
+}
+
 /* Child s of wide node `node` (width 4 or 8): 1 and its reference (*ra:
  * the child node, or a leaf's first triangle record) and triangle count
  * (*rn: 0 for an interior child), or 0 for an empty slot. */

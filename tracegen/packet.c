@@ -378,16 +378,7 @@ static void pb_visitw(pstate *ps, uint32_t node, int d)
         any |= m;
     }
     /* hit children by (least entry, slot) */
-    int ord[8], no = 0;
-    for (int s = 0; s < W; s++) {
-        if (!(any >> s & 1u)) continue;
-        int j = no++;
-        while (j > 0 && key[ord[j - 1]] > key[s]) {
-            ord[j] = ord[j - 1];
-            j--;
-        }
-        ord[j] = s;
-    }
+    int ord[8], no = rt_bvh_order_slots(any, key, ord);
     bvlevel *nx = &ps->lv[d + 1];
     for (int oi = 0; oi < no; oi++) {
         const int s = ord[oi];
