@@ -617,9 +617,6 @@ static int leaf(tl_run *T, tray *R, uint32_t first, uint32_t n)
     return 0;
 }
 
-/* Walks ray slot s inside treelet t. Returns 1 when it finished (stack
- * empty or occluded), 0 when it was suspended and queued at its next
- * treelet. */
 /* Modeled address of stack entry k of slot s: the first entries in the
  * ray record's short stack, the others in the slot's area of tl.stack. */
 static uint64_t stack_addr(const tl_run *T, uint32_t s, uint32_t k)
@@ -629,6 +626,9 @@ static uint64_t stack_addr(const tl_run *T, uint32_t s, uint32_t k)
     return rt_mm_addr(T->L, T->reg_stack, (uint64_t)s * T->stack_bound + (k - nin));
 }
 
+/* Walks ray slot s inside treelet t. Returns 1 when it finished (stack
+ * empty or occluded), 0 when it was suspended and queued at its next
+ * treelet. */
 static int walk(tl_run *T, uint32_t s, uint32_t t)
 {
     tray *R = &T->ray[s];
