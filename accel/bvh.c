@@ -209,25 +209,12 @@ const char *rt_bvh_node_region(int width)
     return width == 2 ? "bvh2.node" : width == 4 ? "bvh4.node" : width == 8 ? "bvh8.node" : NULL;
 }
 
-static inline float min3f(float a, float b, float c)
-{
-    float m = a < b ? a : b;
-    return m < c ? m : c;
-}
-static inline float max3f(float a, float b, float c)
-{
-    float m = a > b ? a : b;
-    return m > c ? m : c;
-}
-
 /* A triangle's box grown by pad on every side (B8). */
 static rt_bounds tri_box(const rt_tri *t, float pad)
 {
-    const rt_vec3 *p = t->p;
-    rt_bounds b = {{min3f(p[0].x, p[1].x, p[2].x) - pad, min3f(p[0].y, p[1].y, p[2].y) - pad,
-                    min3f(p[0].z, p[1].z, p[2].z) - pad},
-                   {max3f(p[0].x, p[1].x, p[2].x) + pad, max3f(p[0].y, p[1].y, p[2].y) + pad,
-                    max3f(p[0].z, p[1].z, p[2].z) + pad}};
+    rt_bounds b = rt_tri_bounds(t);
+    b.lo = rt_v3(b.lo.x - pad, b.lo.y - pad, b.lo.z - pad);
+    b.hi = rt_v3(b.hi.x + pad, b.hi.y + pad, b.hi.z + pad);
     return b;
 }
 
@@ -257,13 +244,6 @@ static float bvh_pad(const rt_scene *s)
 static inline float bget(const rt_vec3 *v, int a) { return ((const float *)(const void *)v)[a]; }
 static inline void bset(rt_vec3 *v, int a, float x) { ((float *)(void *)v)[a] = x; }
 
-static void box_union(rt_bounds *a, const rt_bounds *b)
-{
-    for (int k = 0; k < 3; k++) {
-        if (bget(&b->lo, k) < bget(&a->lo, k)) bset(&a->lo, k, bget(&b->lo, k));
-        if (bget(&b->hi, k) > bget(&a->hi, k)) bset(&a->hi, k, bget(&b->hi, k));
-    }
-}
 
 static int box_inside(const rt_bounds *in, const rt_bounds *out)
 {
@@ -837,7 +817,7 @@ rt_bvh *rt_bvh_build(const rt_scene *s, const rt_bvh_params *params, rt_err *e)
         q->idx = i;
         q->pad = 0.0f;
         side_add(&all, q, centroid(q));
-        box_union(&b->bounds, &tb);
+        rt_bounds_union(&b->bounds, &tb);
     }
     task root = {0, 0, N, 0, {0}, {0}, {0}, {0}};
     side_task(&all, &root);
@@ -943,7 +923,7 @@ static int chk_leaf(chk *C, uint32_t where, uint32_t first, uint32_t n, uint32_t
         const rt_bounds tb = tri_box(&b->tri[k], b->pad);
         if (box && !box_inside(&tb, box))
             return rt_errf(C->e, "bvh%d: node %u: triangle %u pokes out of its leaf's box", b->width, where, b->orig[k]);
-        if (exact) box_union(exact, &tb);
+        if (exact) rt_bounds_union(exact, &tb);
     }
     return 0;
 }
@@ -1140,7 +1120,7 @@ static int check_wide(chk *C)
                 else
                     for (uint32_t k = rt_bvh4_first(c); k < rt_bvh4_first(c) + rt_bvh4_count(c); k++) {
                         const rt_bounds tb = tri_box(&b->tri[k], b->pad);
-                        box_union(&ex, &tb);
+                        rt_bounds_union(&ex, &tb);
                     }
                 for (int a = 0; a < 3; a++) {
                     bset(&slot.lo, a, b->n4[i].lo[a][s]);
@@ -1154,7 +1134,7 @@ static int check_wide(chk *C)
                 else
                     for (uint32_t k = n->tri_base + (n->meta[s] & 31u); k < n->tri_base + (n->meta[s] & 31u) + (n->meta[s] >> 5u); k++) {
                         const rt_bounds tb = tri_box(&b->tri[k], b->pad);
-                        box_union(&ex, &tb);
+                        rt_bounds_union(&ex, &tb);
                     }
                 for (int a = 0; a < 3; a++) {
                     bset(&slot.lo, a, deq(n, a, n->qlo[a][s]));
@@ -1166,7 +1146,7 @@ static int check_wide(chk *C)
                         inner ? "subtree's triangles" : "triangles");
                 goto out;
             }
-            box_union(&nb, &ex);
+            rt_bounds_union(&nb, &ex);
         }
         C->nbox[i] = nb;
         if (W == 8) {
@@ -1211,7 +1191,7 @@ int rt_bvh_check(const rt_bvh *b, const rt_scene *s, rt_err *e)
     rt_bounds tb = rt_bounds_empty();
     for (uint32_t i = 0; i < s->ntri; i++) {
         const rt_bounds x = tri_box(&s->tri[i], b->pad);
-        box_union(&tb, &x);
+        rt_bounds_union(&tb, &x);
     }
     if (memcmp(&tb, &b->bounds, sizeof tb) != 0) return rt_errf(e, "bvh%d: bounds differ from the triangles'", W);
     chk C;

@@ -343,35 +343,6 @@ static int build_node(build *B, size_t base, uint32_t n, size_t top, rt_bounds c
     return build_node(B, rbase, nr, ntop, c1, depth + 1, bad);
 }
 
-static inline float min3(float a, float b, float c)
-{
-    float m = a < b ? a : b;
-    return m < c ? m : c;
-}
-static inline float max3(float a, float b, float c)
-{
-    float m = a > b ? a : b;
-    return m > c ? m : c;
-}
-
-/* Bounds of a triangle (scenes reject NaN, so plain compares suffice). */
-static rt_bounds tri_bounds(const rt_tri *t)
-{
-    const rt_vec3 *p = t->p;
-    rt_bounds b = {{min3(p[0].x, p[1].x, p[2].x), min3(p[0].y, p[1].y, p[2].y), min3(p[0].z, p[1].z, p[2].z)},
-                   {max3(p[0].x, p[1].x, p[2].x), max3(p[0].y, p[1].y, p[2].y), max3(p[0].z, p[1].z, p[2].z)}};
-    return b;
-}
-
-static void bounds_union(rt_bounds *a, const rt_bounds *b)
-{
-    if (b->lo.x < a->lo.x) a->lo.x = b->lo.x;
-    if (b->lo.y < a->lo.y) a->lo.y = b->lo.y;
-    if (b->lo.z < a->lo.z) a->lo.z = b->lo.z;
-    if (b->hi.x > a->hi.x) a->hi.x = b->hi.x;
-    if (b->hi.y > a->hi.y) a->hi.y = b->hi.y;
-    if (b->hi.z > a->hi.z) a->hi.z = b->hi.z;
-}
 
 rt_kdtree *rt_kd_build(const rt_scene *s, const rt_kd_params *params, rt_err *e)
 {
@@ -399,8 +370,8 @@ rt_kdtree *rt_kd_build(const rt_scene *s, const rt_kd_params *params, rt_err *e)
 
     rt_bounds tb = rt_bounds_empty();
     for (uint32_t i = 0; i < N; i++) {
-        rt_bounds b = tri_bounds(&s->tri[i]);
-        bounds_union(&tb, &b);
+        rt_bounds b = rt_tri_bounds(&s->tri[i]);
+        rt_bounds_union(&tb, &b);
     }
     t->bounds = tb;
 
@@ -420,7 +391,7 @@ rt_kdtree *rt_kd_build(const rt_scene *s, const rt_kd_params *params, rt_err *e)
     for (int a = 0; a < 3; a++) {
         uint64_t *ev = B.ev + 2 * (size_t)N * a;
         for (uint32_t i = 0; i < N; i++) {
-            rt_bounds b = tri_bounds(&s->tri[i]);
+            rt_bounds b = rt_tri_bounds(&s->tri[i]);
             ev[2 * (size_t)i] = ((uint64_t)f2key(rt_axis(b.lo, a)) << 32) | i;
             ev[2 * (size_t)i + 1] = ((uint64_t)f2key(rt_axis(b.hi, a)) << 32) | EV_END | i;
         }
@@ -607,8 +578,8 @@ int rt_kd_check(const rt_kdtree *t, const rt_scene *s, rt_err *e)
     if (t->max_depth > RT_KD_DEPTH_CAP) return rt_errf(e, "k-d tree: depth limit %u above cap %d", t->max_depth, RT_KD_DEPTH_CAP);
     rt_bounds tb = rt_bounds_empty();
     for (uint32_t i = 0; i < s->ntri; i++) {
-        rt_bounds b = tri_bounds(&s->tri[i]);
-        bounds_union(&tb, &b);
+        rt_bounds b = rt_tri_bounds(&s->tri[i]);
+        rt_bounds_union(&tb, &b);
     }
     if (memcmp(&tb, &t->bounds, sizeof tb) != 0) return rt_errf(e, "k-d tree: bounds differ from the triangles' bounds");
 
@@ -665,7 +636,7 @@ int rt_kd_check(const rt_kdtree *t, const rt_scene *s, rt_err *e)
                     rt_errf(e, "k-d tree: leaf %u list not strictly ascending", i);
                     goto out;
                 }
-                rt_bounds b = tri_bounds(&s->tri[tri]);
+                rt_bounds b = rt_tri_bounds(&s->tri[tri]);
                 for (int a = 0; a < 3; a++)
                     if (rt_axis(b.lo, a) > rt_axis(it.cell.hi, a) || rt_axis(b.hi, a) < rt_axis(it.cell.lo, a)) {
                         rt_errf(e, "k-d tree: leaf %u lists triangle %u whose box misses its cell", i, tri);
@@ -711,7 +682,7 @@ int rt_kd_check(const rt_kdtree *t, const rt_scene *s, rt_err *e)
         goto out;
     }
     for (uint32_t tri = 0; tri < s->ntri; tri++) {
-        rt_bounds b = tri_bounds(&s->tri[tri]);
+        rt_bounds b = rt_tri_bounds(&s->tri[tri]);
         if (!covers(t, 0, tri, &b, 0)) {
             rt_errf(e, "k-d tree: triangle %u missing from a leaf its box overlaps", tri);
             goto out;

@@ -56,6 +56,17 @@ static inline void rt_bounds_grow(rt_bounds *b, rt_vec3 p)
     b->hi = rt_vmax(b->hi, p);
 }
 
+/* a grown to hold b (plain compares: boxes hold no NaN). */
+static inline void rt_bounds_union(rt_bounds *a, const rt_bounds *b)
+{
+    if (b->lo.x < a->lo.x) a->lo.x = b->lo.x;
+    if (b->lo.y < a->lo.y) a->lo.y = b->lo.y;
+    if (b->lo.z < a->lo.z) a->lo.z = b->lo.z;
+    if (b->hi.x > a->hi.x) a->hi.x = b->hi.x;
+    if (b->hi.y > a->hi.y) a->hi.y = b->hi.y;
+    if (b->hi.z > a->hi.z) a->hi.z = b->hi.z;
+}
+
 /* The murmur3 64-bit finalizer: a cheap, well-mixed hash of a 64-bit key,
  * shared by the samplers and the synthetic benchmark trace. */
 static inline uint64_t rt_mix64(uint64_t x)

@@ -31,6 +31,26 @@ typedef struct rt_tri {
     rt_vec3 p[3]; /* vertices; 36 bytes, the modeled triangle record */
 } rt_tri;
 
+/* The smallest and largest of three floats (plain compares: scenes reject
+ * NaN), and the bounds of a triangle from them. */
+static inline float rt_min3f(float a, float b, float c)
+{
+    float m = a < b ? a : b;
+    return m < c ? m : c;
+}
+static inline float rt_max3f(float a, float b, float c)
+{
+    float m = a > b ? a : b;
+    return m > c ? m : c;
+}
+static inline rt_bounds rt_tri_bounds(const rt_tri *t)
+{
+    const rt_vec3 *p = t->p;
+    rt_bounds b = {{rt_min3f(p[0].x, p[1].x, p[2].x), rt_min3f(p[0].y, p[1].y, p[2].y), rt_min3f(p[0].z, p[1].z, p[2].z)},
+                   {rt_max3f(p[0].x, p[1].x, p[2].x), rt_max3f(p[0].y, p[1].y, p[2].y), rt_max3f(p[0].z, p[1].z, p[2].z)}};
+    return b;
+}
+
 typedef struct rt_shade {
     float rgb[3];   /* diffuse albedo, linear */
     uint32_t mat;   /* index into rt_scene.mat (0 = plain diffuse); record is 16 bytes */
