@@ -174,6 +174,11 @@ rt_approx *rt_approx_new(const rt_sim_config *c, const rt_approx_config *ac, rt_
             a->sh = rt_shards_new(lines, ns, c->line, ac->rate, ac->method == RT_APPROX_SHARDS_FIXED ? ac->smax : 0,
                                   ac->seed, ac->method == RT_APPROX_HYBRID, e);
         if (!a->ss && !a->sh) goto fail;
+        /* the hybrid's error: replicates of its golden sample (below rate 1,
+         * where the sample is not everything) */
+        if (a->sh && ac->method == RT_APPROX_HYBRID && ac->rate < 1 &&
+            rt_shards_split(a->sh, lines, RT_APPROX_SE_PARTS, e))
+            goto fail;
     }
     return a;
 fail:
@@ -441,15 +446,66 @@ const char *rt_approx_engine(const rt_approx *a)
     return a->ac.method == RT_APPROX_EXACT ? rt_sim_engine(a->exact) : method_names[a->ac.method];
 }
 
+/* Standard errors of the SHARDS sizes from the spread of the replicates'
+ * estimates (shards.c, REPLICATES): sqrt(sample variance / K). */
+static int shards_se(rt_approx *a, rt_err *e)
+{
+    int K = rt_shards_nparts(a->sh), first = a->nexact + a->nwin, ns = a->cfg.nsizes - first;
+    if (K == 0) { /* rate 1: the estimate is exact */
+        for (int i = 0; i < ns; i++)
+            for (int g = 0; g <= RT_NGROUP; g++) a->est.se[a->nwin + i][g] = a->est.rate >= 1 ? 0 : -1;
+        return 0;
+    }
+    rt_approx_est *pe = rt_calloc(1, sizeof *pe, e);
+    double (*x)[RT_SIM_MAXSIZES][RT_NGROUP + 1] = rt_calloc((size_t)K, sizeof *x, e);
+    if (!pe || !x) {
+        free(pe);
+        free(x);
+        return -1;
+    }
+    double prate = 0;
+    for (int p = 0; p < K; p++) {
+        memset(pe, 0, sizeof *pe);
+        if (rt_shards_estimate_part(a->sh, p, pe, 0, e)) {
+            free(pe);
+            free(x);
+            return -1;
+        }
+        prate = pe->rate;
+        for (int i = 0; i < ns; i++)
+            for (int c = 0; c < RT_NCLASS; c++) {
+                double t = pe->rm[i][c] + pe->wm[i][c] + pe->wb[i][c];
+                x[p][i][rt_class_group(c)] += t;
+                x[p][i][RT_NGROUP] += t;
+            }
+    }
+    for (int i = 0; i < ns; i++)
+        for (int g = 0; g <= RT_NGROUP; g++) {
+            double m = 0, v = 0;
+            for (int p = 0; p < K; p++) m += x[p][i][g];
+            m /= K;
+            for (int p = 0; p < K; p++) v += (x[p][i][g] - m) * (x[p][i][g] - m);
+            /* a part holding less than one sampled line of this cache says nothing */
+            int seen = prate * (double)(a->cfg.sizes[first + i] / a->cfg.line) >= 1;
+            a->est.se[a->nwin + i][g] = seen ? sqrt(v / (K - 1) / K) : -1;
+        }
+    free(pe);
+    free(x);
+    return 0;
+}
+
 int rt_approx_finish(rt_approx *a, rt_err *e)
 {
     a->finished = 0;
     memset(&a->est, 0, sizeof a->est);
+    for (int i = 0; i < RT_SIM_MAXSIZES; i++)
+        for (int g = 0; g <= RT_NGROUP; g++) a->est.se[i][g] = -1;
     if (a->exact) rt_sim_finish(a->exact); /* the end-of-run flush, if configured */
     /* est index j is size nexact + j: SHARDS' sizes follow the windowed ones */
     if (a->sh && rt_shards_estimate(a->sh, &a->est, a->nwin, e)) return -1;
     if (a->ss && rt_sstack_estimate(a->ss, (const uint64_t(*)[2])a->acc, &a->est, e)) return -1;
     if (a->tw && rt_window_estimate(a->tw, (const uint64_t(*)[2])a->acc, &a->est, 0, e)) return -1;
+    if (a->sh && a->ac.method == RT_APPROX_HYBRID && shards_se(a, e)) return -1;
     a->finished = 1;
     a->fin_refs = a->refs;
     return 0;
@@ -525,6 +581,26 @@ int rt_approx_get(const rt_approx *a, int i, int cls, rt_sim_counts *out, rt_err
     out->write_misses = rnd(a->est.wm[j][cls], a->acc[cls][1]);
     out->writebacks = rnd(a->est.wb[j][cls], UINT64_MAX / 2);
     out->traffic_bytes = (out->read_misses + out->write_misses + out->writebacks) * a->cfg.line;
+    return 0;
+}
+
+int rt_approx_traffic_se(const rt_approx *a, int i, int group, double *se, rt_err *e)
+{
+    *se = -1;
+    if (group < 0 || group > RT_NGROUP) return rt_errf(e, "group %d out of range", group);
+    if (!rt_approx_available(a, i, e)) return -1;
+    if (i < a->nexact) return *se = 0, 0;
+    if (a->ac.method != RT_APPROX_HYBRID)
+        return rt_errf(e, "the %s method has no error estimate (the hybrid method has)", method_names[a->ac.method]);
+    double v = a->est.se[i - a->nexact][group];
+    if (v < 0) {
+        char sz[32];
+        fmt_size(sz, sizeof sz, a->cfg.sizes[i]);
+        return rt_errf(e, "size %s: no error estimate (%s)", sz,
+                       i < a->nexact + a->nwin ? "fewer than two windows"
+                                               : "a replicate holds less than one sampled line of it");
+    }
+    *se = v * a->cfg.line;
     return 0;
 }
 

@@ -173,6 +173,19 @@ int rt_approx_finish(rt_approx *a, rt_err *e);
  * resolution, or finish not called). */
 int rt_approx_available(const rt_approx *a, int i, rt_err *e);
 
+/* Estimated standard error, in bytes, of the traffic estimate of size
+ * index i summed over the classes of a group (rt_group; RT_NGROUP: all
+ * classes), after rt_approx_finish. 0 for a size simulated exactly. The
+ * hybrid method estimates it: windowed sizes from the spread of the
+ * windows (window.c, ERROR), larger sizes from RT_APPROX_SE_PARTS
+ * interpenetrating sub-samples of the golden sample (shards.c,
+ * REPLICATES); it is a statistical error and does not see a bias shared
+ * by the whole sample (docs/approx.md has measured coverage). Other
+ * sampled methods have none: -1 with a message, as for an unavailable
+ * size. */
+#define RT_APPROX_SE_PARTS 8
+int rt_approx_traffic_se(const rt_approx *a, int i, int group, double *se, rt_err *e);
+
 /* Estimated counters of size index i for class cls, in full-trace units,
  * rounded to integers, with traffic_bytes = (read_misses + write_misses +
  * writebacks) * line and wt_bytes 0. Exact for sizes below exact_below.

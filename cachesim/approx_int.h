@@ -21,6 +21,9 @@ typedef struct rt_approx_est {
     uint64_t sampled_touches;              /* touches the estimator simulated */
     uint64_t sampled_lines;                /* SHARDS: lines in the sample; StatStack: sampled references */
     double rate;                           /* effective sampling rate at the end */
+    /* standard error of the traffic estimate (lines: misses + write-backs)
+     * per group, [RT_NGROUP] = all classes; < 0 where there is none */
+    double se[RT_SIM_MAXSIZES][RT_NGROUP + 1];
 } rt_approx_est;
 
 /* Splits references into line touches: line size as shift (power of two)
@@ -85,6 +88,15 @@ void rt_shards_put(rt_shards *s, const rt_access *a, size_t n, uint64_t acc[RT_N
 /* Writes sizes off..off+k-1 (and the sampling statistics) of est, which the
  * caller has zeroed. -1 if a table could not grow (out of memory) during put. */
 int rt_shards_estimate(const rt_shards *s, rt_approx_est *est, int off, rt_err *e);
+/* Splits a fresh golden sample (rate < 1, nothing fed yet) into nparts
+ * interpenetrating sub-samples at rate R / nparts, each estimated on its
+ * own (the replicates of the error estimate; shards.c). lines as given to
+ * rt_shards_new. 0, or -1 (out of memory, or not a fresh golden sample). */
+#define RT_SHARDS_MAXPARTS 8
+int rt_shards_split(rt_shards *s, const uint64_t *lines, int nparts, rt_err *e);
+int rt_shards_nparts(const rt_shards *s);
+/* rt_shards_estimate of part p. */
+int rt_shards_estimate_part(const rt_shards *s, int p, rt_approx_est *est, int off, rt_err *e);
 
 /* ---- time-sampled exact windows (window.c) ---- */
 typedef struct rt_window rt_window;
@@ -94,7 +106,8 @@ rt_window *rt_window_new(const uint64_t *sizes, int k, uint32_t line, uint64_t p
                      rt_err *e);
 void rt_window_free(rt_window *t);
 void rt_window_put(rt_window *t, const rt_access *a, size_t n);
-/* Writes sizes off..off+k-1 of est, scaled per class by acc (exact touches). */
+/* Writes sizes off..off+k-1 of est, scaled per class by acc (exact touches),
+ * with their standard errors (se). */
 int rt_window_estimate(const rt_window *t, const uint64_t acc[RT_NCLASS][2], rt_approx_est *est, int off, rt_err *e);
 void rt_window_stats(const rt_window *t, uint64_t *windows, uint64_t *short_warmups, uint64_t *fed);
 

@@ -86,6 +86,19 @@
  * filter, with an AVX-512 version chosen at run time that gives the same
  * touches in the same order.
  *
+ * REPLICATES (the error estimate). rt_shards_split(s, K) divides a
+ * golden sample into K interpenetrating sub-samples: part p holds the
+ * sampled lines with L * G + c in [p T64 / K, (p + 1) T64 / K), itself a
+ * golden sample at rate R / K (offset c - p T64 / K). Each part runs its
+ * own SHARDS on its own lines, fed by sample() as the touches pass, so
+ * the parts cost one more sample() per sampled touch and no second pass
+ * over the stream, and a trace's sample index (which holds the rate-R
+ * sample) feeds them as well as the records do. Their K estimates, each
+ * with about K times the full sample's variance, give the standard error
+ * of the full estimate as sqrt(var(part estimates) / K) (approx.c). What
+ * they cannot see is a bias shared by all parts (the resolution of the
+ * smallest sizes).
+ *
  * WEAK CASES: a few very hot lines (the top of a k-d tree) carry much of the
  * traffic; whether they fall in the sample changes the estimate of small
  * caches by a lot, so small sizes need large R or exact simulation
@@ -151,6 +164,9 @@ struct rt_shards {
     double wb[RT_NCLASS][RT_SIM_MAXSIZES];          /* write-back weight / R */
     uint64_t sampled_touches;                       /* touches of sampled lines */
     int oom;                                        /* a table failed to grow */
+    struct rt_shards *part[RT_SHARDS_MAXPARTS];     /* replicates (rt_shards_split), or none */
+    int nparts;
+    uint64_t pw;                                    /* golden width of a part: T64 / nparts */
 };
 
 static void set_rate(rt_shards *s, uint64_t T)
@@ -379,6 +395,7 @@ rt_shards *rt_shards_new(const uint64_t *lines, int k, uint32_t line, double rat
 void rt_shards_free(rt_shards *s)
 {
     if (!s) return;
+    for (int p = 0; p < s->nparts; p++) rt_shards_free(s->part[p]);
     free(s->sl);
     free(s->ht);
     free(s->fw);
@@ -483,8 +500,13 @@ static inline void golden_ref(rt_shards *restrict s, const rt_access *r, uint64_
 {
     rt_approx_touch t = rt_approx_touch_of(&s->ln, r);
     acc[t.cls][t.w] += t.last - t.first + 1;
-    for (uint64_t L = t.first; L <= t.last; L++)
-        if (!s->T64 || L * GOLD + s->goff < s->T64) sample(s, L, hash_of(s, L), t.w, t.cls);
+    for (uint64_t L = t.first; L <= t.last; L++) {
+        uint64_t x = L * GOLD + s->goff;
+        if (s->T64 && x >= s->T64) continue;
+        uint64_t hv = hash_of(s, L);
+        sample(s, L, hv, t.w, t.cls);
+        if (s->nparts) sample(s->part[((hv >> 32) * (uint64_t)s->nparts) >> 32], L, hv, t.w, t.cls);
+    }
 }
 
 /* Scalar filter for 64-byte-style power-of-two lines: the common reference
@@ -612,9 +634,40 @@ static void put_golden(rt_shards *restrict s, const rt_access *a, size_t n, uint
     put_golden_scalar(s, a, n, acc);
 }
 
+int rt_shards_split(rt_shards *s, const uint64_t *lines, int nparts, rt_err *e)
+{
+    if (!s->golden || !s->T64 || s->now || s->nparts || nparts < 2 || nparts > RT_SHARDS_MAXPARTS || s->T64 / (uint64_t)nparts == 0)
+        return rt_errf(e, "shards: only a fresh golden sample below rate 1 splits into 2..%d parts", RT_SHARDS_MAXPARTS);
+    uint64_t pw = s->T64 / (uint64_t)nparts;
+    for (int p = 0; p < nparts; p++) {
+        rt_shards *q = rt_shards_new(lines, s->k, s->ln.line, 0.5, 0, 1, 1, e);
+        if (!q) return -1;
+        q->seedmix = s->seedmix;
+        q->simd = 0;
+        q->T64 = pw;
+        q->goff = s->goff - (uint64_t)p * pw;
+        q->R = (double)pw * 0x1p-64;
+        q->invR = 1 / q->R;
+        for (int i = 0; i < q->k; i++) q->t[i] = q->R * q->cm1[i];
+        s->part[s->nparts++] = q;
+    }
+    s->pw = pw;
+    return 0;
+}
+
+int rt_shards_nparts(const rt_shards *s) { return s->nparts; }
+
+int rt_shards_estimate_part(const rt_shards *s, int p, rt_approx_est *est, int off, rt_err *e)
+{
+    if (p < 0 || p >= s->nparts) return rt_errf(e, "shards: no part %d", p);
+    return rt_shards_estimate(s->part[p], est, off, e);
+}
+
 int rt_shards_estimate(const rt_shards *s, rt_approx_est *est, int off, rt_err *e)
 {
     if (s->oom) return rt_errf(e, "shards: out of memory while growing the sample");
+    for (int p = 0; p < s->nparts; p++)
+        if (s->part[p]->oom) return rt_errf(e, "shards: out of memory while growing the sample");
     for (int i = 0; i < s->k; i++)
         for (int c = 0; c < RT_NCLASS; c++) {
             est->rm[off + i][c] = s->m[0][c][i];

@@ -47,6 +47,15 @@
  * window is scaled by the overall touch ratio (its measured misses are
  * then 0). Fewer than RT_APPROX_MIN_SAMPLES windows: no estimate.
  *
+ * ERROR. Each window j gives, per size and group of classes (and for all
+ * classes), d_j = its misses + write-backs and n_j = its touches; the
+ * estimate is a ratio T sum(d) / sum(n). Treating the windows as a sample,
+ * its standard error is T sqrt(sum (d_j - r n_j)^2 / (J (J - 1))) / mean(n)
+ * with r = sum(d) / sum(n) (the linearised ratio estimator; Cochran,
+ * Sampling Techniques, 6.3). Evenly spaced windows usually vary less than
+ * a random sample of windows would, so this tends to overstate the error;
+ * the per-class scaling of the estimate itself is not modelled in it.
+ *
  * FROM A TRACE. A version-3 trace's writer runs the same placement and
  * backward scan and stores each window's warm-up lines and records
  * (trace.h); rt_window_put_warm replays one such window: same warm-up,
@@ -61,6 +70,7 @@
 #include "msim.h"
 #include "sim_int.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -90,6 +100,11 @@ struct rt_window {
     rt_sim_counts base[RT_SIM_MAXSIZES][RT_NCLASS]; /* its counters at the window start */
     double rm[RT_SIM_MAXSIZES][RT_NCLASS], wm[RT_SIM_MAXSIZES][RT_NCLASS], wb[RT_SIM_MAXSIZES][RT_NCLASS];
     uint64_t macc[RT_NCLASS];       /* touches inside windows, by class */
+    /* per-window sums for the error (ERROR above), group RT_NGROUP = all:
+     * d = misses + write-backs of the window, n = its touches */
+    double sd[RT_SIM_MAXSIZES][RT_NGROUP + 1], sdd[RT_SIM_MAXSIZES][RT_NGROUP + 1],
+        sdn[RT_SIM_MAXSIZES][RT_NGROUP + 1];
+    double sn[RT_NGROUP + 1], snn[RT_NGROUP + 1];
     uint64_t nwin, nshort, fed;     /* windows done, with short warm-up, references scanned or simulated */
     int oom;
 };
@@ -204,15 +219,34 @@ static void window_begin(rt_window *t)
 
 static void window_end(rt_window *t)
 {
+    double d[RT_SIM_MAXSIZES][RT_NGROUP + 1] = {{0}}, nt[RT_NGROUP + 1] = {0};
     for (int c = 0; c < RT_NCLASS; c++) {
         rt_sim_counts x;
+        int g = (int)rt_class_group(c);
         for (int i = 0; i < t->k; i++) {
             rt_msim_get(t->cur, i, c, &x);
             const rt_sim_counts *b = &t->base[i][c];
-            t->rm[i][c] += (double)(x.read_misses - b->read_misses);
-            t->wm[i][c] += (double)(x.write_misses - b->write_misses);
-            t->wb[i][c] += (double)(x.writebacks - b->writebacks);
-            if (i == 0) t->macc[c] += x.accesses - b->accesses;
+            double rm = (double)(x.read_misses - b->read_misses), wm = (double)(x.write_misses - b->write_misses),
+                   wb = (double)(x.writebacks - b->writebacks);
+            t->rm[i][c] += rm;
+            t->wm[i][c] += wm;
+            t->wb[i][c] += wb;
+            d[i][g] += rm + wm + wb;
+            d[i][RT_NGROUP] += rm + wm + wb;
+            if (i == 0) {
+                t->macc[c] += x.accesses - b->accesses;
+                nt[g] += (double)(x.accesses - b->accesses);
+                nt[RT_NGROUP] += (double)(x.accesses - b->accesses);
+            }
+        }
+    }
+    for (int g = 0; g <= RT_NGROUP; g++) {
+        t->sn[g] += nt[g];
+        t->snn[g] += nt[g] * nt[g];
+        for (int i = 0; i < t->k; i++) {
+            t->sd[i][g] += d[i][g];
+            t->sdd[i][g] += d[i][g] * d[i][g];
+            t->sdn[i][g] += d[i][g] * nt[g];
         }
     }
     rt_msim_free(t->cur);
@@ -290,6 +324,24 @@ int rt_window_estimate(const rt_window *t, const uint64_t acc[RT_NCLASS][2], rt_
             est->rm[off + i][c] = t->rm[i][c] * f;
             est->wm[off + i][c] = t->wm[i][c] * f;
             est->wb[off + i][c] = t->wb[i][c] * f;
+        }
+    }
+    /* the standard errors (ERROR above) */
+    double J = (double)t->nwin;
+    for (int gr = 0; gr <= RT_NGROUP; gr++) {
+        double T = 0;
+        for (int c = 0; c < RT_NCLASS; c++)
+            if (gr == RT_NGROUP || (int)rt_class_group(c) == gr) T += (double)(acc[c][0] + acc[c][1]);
+        for (int i = 0; i < t->k; i++) {
+            double *se = &est->se[off + i][gr];
+            if (T == 0) *se = 0; /* nothing of this group anywhere: exactly none */
+            else if (t->nwin < 2 || t->sn[gr] <= 0) *se = -1;
+            else {
+                double r = t->sd[i][gr] / t->sn[gr];
+                double ss = t->sdd[i][gr] - 2 * r * t->sdn[i][gr] + r * r * t->snn[gr];
+                if (ss < 0) ss = 0; /* rounding */
+                *se = T * sqrt(ss / (J * (J - 1))) / (t->sn[gr] / J);
+            }
         }
     }
     return 0;

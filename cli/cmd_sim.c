@@ -82,27 +82,36 @@ static void usage(FILE *f)
             "and units: docs/cachesim.md. Exit status 0 ok, 1 a trace failed, 2 usage error.\n");
 }
 
+/* se: the row's estimated standard error of traffic_bytes (hybrid, group
+ * rows), -1 where there is none; with_se: the format has that column. */
 static void print_row(FILE *f, int fmt, const char *trace, const rt_sim_config *c, int i, const char *name,
-                      const rt_sim_counts *t, int *first)
+                      const rt_sim_counts *t, int with_se, double se, int *first)
 {
     unsigned long long v[6] = {t->accesses, t->read_misses, t->write_misses, t->writebacks, t->wt_bytes,
                                t->traffic_bytes};
+    char sec[32] = "";
+    if (with_se) {
+        if (se >= 0) snprintf(sec, sizeof sec, "%.0f", se);
+        else snprintf(sec, sizeof sec, "%s", fmt == FMT_TEXT ? "-" : fmt == FMT_JSON ? "null" : "");
+    }
     if (fmt == FMT_TEXT) {
         char assoc[16];
         if (c->assoc) snprintf(assoc, sizeof assoc, "%u", c->assoc);
         else strcpy(assoc, "full");
-        fprintf(f, "%12llu %5u %5s %-9s %14llu %12llu %12llu %12llu %12llu %16llu\n",
-                (unsigned long long)c->sizes[i], c->line, assoc, name, v[0], v[1], v[2], v[3], v[4], v[5]);
+        fprintf(f, "%12llu %5u %5s %-9s %14llu %12llu %12llu %12llu %12llu %16llu%s%*s\n",
+                (unsigned long long)c->sizes[i], c->line, assoc, name, v[0], v[1], v[2], v[3], v[4], v[5],
+                with_se ? " " : "", with_se ? 16 : 0, sec);
     } else if (fmt == FMT_CSV) {
-        fprintf(f, "%s,%llu,%u,%u,%s,%llu,%llu,%llu,%llu,%llu,%llu\n", trace, (unsigned long long)c->sizes[i],
-                c->line, c->assoc, name, v[0], v[1], v[2], v[3], v[4], v[5]);
+        fprintf(f, "%s,%llu,%u,%u,%s,%llu,%llu,%llu,%llu,%llu,%llu%s%s\n", trace, (unsigned long long)c->sizes[i],
+                c->line, c->assoc, name, v[0], v[1], v[2], v[3], v[4], v[5], with_se ? "," : "", sec);
     } else {
         fprintf(f,
                 "%s\n  {\"trace\": \"%s\", \"size_bytes\": %llu, \"line\": %u, \"assoc\": %u, \"policy\": \"%s\", "
                 "\"class\": \"%s\", \"accesses\": %llu, \"read_misses\": %llu, \"write_misses\": %llu, "
-                "\"writebacks\": %llu, \"wt_bytes\": %llu, \"traffic_bytes\": %llu}",
+                "\"writebacks\": %llu, \"wt_bytes\": %llu, \"traffic_bytes\": %llu%s%s}",
                 *first ? "" : ",", trace, (unsigned long long)c->sizes[i], c->line, c->assoc,
-                rt_sim_policy_name(c), name, v[0], v[1], v[2], v[3], v[4], v[5]);
+                rt_sim_policy_name(c), name, v[0], v[1], v[2], v[3], v[4], v[5],
+                with_se ? ", \"traffic_se_bytes\": " : "", sec);
         *first = 0;
     }
 }
@@ -127,8 +136,10 @@ static void print_header(FILE *f, const char *trace, const rt_approx *ap)
                     (unsigned long long)st.window_refs);
         fputc('\n', f);
     }
-    fprintf(f, "%12s %5s %5s %-9s %14s %12s %12s %12s %12s %16s\n", "size_bytes", "line", "assoc", "class",
-            "accesses", "read_misses", "write_misses", "writebacks", "wt_bytes", "traffic_bytes");
+    int with_se = ac->method == RT_APPROX_HYBRID;
+    fprintf(f, "%12s %5s %5s %-9s %14s %12s %12s %12s %12s %16s%s%*s\n", "size_bytes", "line", "assoc", "class",
+            "accesses", "read_misses", "write_misses", "writebacks", "wt_bytes", "traffic_bytes", with_se ? " " : "",
+            with_se ? 16 : 0, with_se ? "traffic_se" : "");
 }
 
 /* Per-class rows (those with accesses), then group rows, for every size;
@@ -136,6 +147,7 @@ static void print_header(FILE *f, const char *trace, const rt_approx *ap)
 static void print_results(FILE *f, int fmt, const char *trace, const rt_approx *ap, int *first)
 {
     const rt_sim_config *c = rt_approx_get_config(ap);
+    int with_se = rt_approx_get_approx_config(ap)->method == RT_APPROX_HYBRID;
     if (fmt == FMT_TEXT) print_header(f, trace, ap);
     for (int i = 0; i < c->nsizes; i++) {
         rt_sim_counts t;
@@ -144,11 +156,49 @@ static void print_results(FILE *f, int fmt, const char *trace, const rt_approx *
             if (fmt == FMT_TEXT) fprintf(f, "# %llu: %s\n", (unsigned long long)c->sizes[i], e.msg);
             continue;
         }
+        double se;
+        uint64_t all = 0;
         for (int k = 0; k < RT_NCLASS; k++)
-            if (!rt_approx_get(ap, i, k, &t, NULL) && t.accesses) print_row(f, fmt, trace, c, i, rt_class_name(k), &t, first);
+            if (!rt_approx_get(ap, i, k, &t, NULL) && t.accesses)
+                print_row(f, fmt, trace, c, i, rt_class_name(k), &t, with_se, -1, first);
         for (int g = 0; g < RT_NGROUP; g++)
-            if (!rt_approx_get_group(ap, i, g, &t, NULL)) print_row(f, fmt, trace, c, i, rt_group_name(g), &t, first);
+            if (!rt_approx_get_group(ap, i, g, &t, NULL)) {
+                if (rt_approx_traffic_se(ap, i, g, &se, NULL)) se = -1;
+                print_row(f, fmt, trace, c, i, rt_group_name(g), &t, with_se, se, first);
+                all += t.traffic_bytes;
+            }
+        /* the whole traffic and its error, in words */
+        if (fmt == FMT_TEXT && with_se) {
+            if (rt_approx_traffic_se(ap, i, RT_NGROUP, &se, &e) == 0)
+                fprintf(f, "# %llu: traffic %llu bytes, standard error %.0f bytes (%.2f%%)\n",
+                        (unsigned long long)c->sizes[i], (unsigned long long)all, se,
+                        all ? 100 * se / (double)all : 0.0);
+            else
+                fprintf(f, "# %llu: %s\n", (unsigned long long)c->sizes[i], e.msg);
+        }
     }
+}
+
+/* The largest relative standard error of the whole traffic over the sizes
+ * that have one (hybrid), for the one-line summary; -1 if none. */
+static double worst_se(const rt_approx *ap, int *at)
+{
+    const rt_sim_config *c = rt_approx_get_config(ap);
+    double worst = -1;
+    for (int i = 0; i < c->nsizes; i++) {
+        double se;
+        rt_sim_counts t;
+        uint64_t all = 0;
+        if (rt_approx_traffic_se(ap, i, RT_NGROUP, &se, NULL)) continue;
+        for (int g = 0; g < RT_NGROUP; g++)
+            if (!rt_approx_get_group(ap, i, g, &t, NULL)) all += t.traffic_bytes;
+        double r = all ? se / (double)all : 0;
+        if (r > worst) {
+            worst = r;
+            *at = i;
+        }
+    }
+    return worst;
 }
 
 /* Stores one replayed trace as a run; prints a summary line to stderr. */
@@ -191,10 +241,17 @@ static int store(rt_db *db, const char *path, const rt_approx *ap, const rt_tr_m
     int rc = rt_db_store_run_gen(db, &r, rows, n, grows, ng, &id, e);
     free(rows);
     free(grows);
-    if (rc == 0)
-        fprintf(stderr, "raytraffic sim: %s: %llu refs in %.2f s (%.1f M refs/s), %zu rows, run %lld\n", path,
+    if (rc == 0) {
+        char err[96] = "";
+        int at = 0;
+        double w = worst_se(ap, &at);
+        if (w >= 0)
+            snprintf(err, sizeof err, ", largest standard error %.2f%% of traffic (%llu bytes)", 100 * w,
+                     (unsigned long long)c->sizes[at]);
+        fprintf(stderr, "raytraffic sim: %s: %llu refs in %.2f s (%.1f M refs/s), %zu rows, run %lld%s\n", path,
                 (unsigned long long)in->refs, secs, secs > 0 ? (double)in->refs / secs / 1e6 : 0.0, n,
-                (long long)id);
+                (long long)id, err);
+    }
     return rc;
 }
 
@@ -421,7 +478,7 @@ int main_sim(int argc, char **argv)
     int status = RT_EXIT_OK, first = 1;
     if (!db && o.outfmt == FMT_CSV)
         printf("trace,size_bytes,line,assoc,class,accesses,read_misses,write_misses,writebacks,wt_bytes,"
-               "traffic_bytes\n");
+               "traffic_bytes%s\n", o.ac.method == RT_APPROX_HYBRID ? ",traffic_se_bytes" : "");
     if (!db && o.outfmt == FMT_JSON) printf("[");
     for (int a = optind; a < argc; a++)
         if (sim_one(&o, db, argv[a], meta, &first) < 0) status = RT_EXIT_FAIL;

@@ -138,9 +138,25 @@ for t in 1 2; do
     sed 1d "$tmp/h3.txt" > "$tmp/h3b.txt"
     sed 1d "$tmp/h1.txt" | cmp -s - "$tmp/h3b.txt" || die "hybrid from the sample index differs from the full decode"
 done
+# the hybrid's standard errors: a column on group rows, a line per size with
+# the whole traffic; CSV and JSON carry them; the exact method has none
+grep -Eq '^ +size_bytes .* traffic_bytes +traffic_se$' "$tmp/h3.txt" || die "hybrid header: no traffic_se column"
+grep -Eq '^ +65536 +64 +full node +[0-9]+( +[0-9]+){5} +-$' "$tmp/h3.txt" || die "hybrid class row: $(grep ' 65536 ' "$tmp/h3.txt" | head -2)"
+grep -Eq '^ +65536 +64 +full geometry +[0-9]+( +[0-9]+){5} +[0-9]+$' "$tmp/h3.txt" || die "hybrid group row without an error"
+grep -Eq '^# 65536: traffic [0-9]+ bytes, standard error [0-9]+ bytes \([0-9.]+%\)$' "$tmp/h3.txt" || die "hybrid error line"
+[ "$(grep -c 'standard error' "$tmp/h3.txt")" -eq 8 ] || die "hybrid: not one error line per estimated size (32K-4M)"
+"$bin" sim --method hybrid --format csv "$tmp/s3.rtt" > "$tmp/h.csv" || die "hybrid csv"
+head -1 "$tmp/h.csv" | grep -q ',traffic_bytes,traffic_se_bytes$' || die "hybrid csv header: $(head -1 "$tmp/h.csv")"
+grep -Eq ',geometry,([0-9]+,){6}[0-9]+$' "$tmp/h.csv" && grep -Eq ',node,([0-9]+,){6}$' "$tmp/h.csv" || die "hybrid csv rows"
+"$bin" sim --method hybrid --format json "$tmp/s3.rtt" > "$tmp/h.json" || die "hybrid json"
+grep -q '"class": "geometry".*"traffic_se_bytes": [0-9]' "$tmp/h.json" && grep -q '"class": "node".*"traffic_se_bytes": null' "$tmp/h.json" ||
+    die "hybrid json errors"
+"$bin" sim --format csv "$tmp/s3.rtt" | grep -q 'traffic_se' && die "exact csv has an error column"
+"$bin" sim "$tmp/s3.rtt" | grep -q 'traffic_se\|standard error' && die "exact text has an error column"
 "$bin" sim --method hybrid --rate 1/32 "$tmp/s3.rtt" > /dev/null 2> "$tmp/h.err" || die "hybrid 1/32"
 grep -q "rate 0.03125 is above the sample index's 1/64; decoding every record" "$tmp/h.err" || die "rate note: $(cat "$tmp/h.err")"
-"$bin" sim --method hybrid --db "$tmp/h.db" "$tmp/s3.rtt" 2>/dev/null || die "hybrid --db v3"
+"$bin" sim --method hybrid --db "$tmp/h.db" "$tmp/s3.rtt" 2>"$tmp/h.err" || die "hybrid --db v3"
+grep -Eq 'run 1, largest standard error [0-9.]+% of traffic \([0-9]+ bytes\)$' "$tmp/h.err" || die "hybrid --db summary: $(cat "$tmp/h.err")"
 h3=$("$bin" trace-info "$tmp/s3.rtt" | sed -n 's/^file hash: *//p')
 if command -v sqlite3 >/dev/null 2>&1; then
     got=$(sqlite3 "$tmp/h.db" "select trace_hash from runs order by id limit 1")

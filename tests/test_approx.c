@@ -20,12 +20,20 @@
  *     references (the exact warm-up), so the windowed estimate is the exact
  *     per-window count scaled per class; golden sampling holds within
  *     O(log N) of R N lines in any run of N consecutive lines;
+ *   - the hybrid's standard errors: on a stream whose windows alternate
+ *     between all misses and all hits, the windowed size's error is the
+ *     hand-computed T / (2 sqrt(J - 1)) lines; the golden sample's
+ *     replicates partition it, and the SHARDS sizes' errors equal
+ *     sqrt(var / K) of the replicates' own estimates; on a synthetic
+ *     ray-tracer stream every size's estimate is within 3 errors of the
+ *     exact count; the sample index gives the same errors as the records;
  *   - the benchmark runs on a short synthetic trace.
  */
 #include "check.h"
 #include "bench.h"
 #include "approx.h"
 #include "approx_int.h"
+#include "sample.h"
 #include "sim.h"
 #include "synth.h"
 #include "trace.h"
@@ -743,6 +751,12 @@ static void approx_same(const char *what, const rt_approx *x, const rt_approx *y
             bad += !counts_equal(&p, &q);
         }
     }
+    for (int i = 0; i < c->nsizes; i++)
+        for (int g = 0; g <= RT_NGROUP; g++) {
+            double u, v;
+            int rx = rt_approx_traffic_se(x, i, g, &u, NULL), ry = rt_approx_traffic_se(y, i, g, &v, NULL);
+            bad += rx != ry || u != v;
+        }
     rt_approx_stats s1, s2;
     rt_approx_get_stats(x, &s1);
     rt_approx_get_stats(y, &s2);
@@ -895,6 +909,151 @@ static void test_sample_stream(void)
     free(a);
 }
 
+/* ---- the hybrid's standard errors ---- */
+
+/* Windows: period 2048, window 1024, 40 windows. Between windows every
+ * reference reads one hot line; inside window j, even j reads 1024 fresh
+ * lines (1024 misses at 1K), odd j the hot line (no miss: it tops the
+ * warmed stack). d_j = 1024 or 0, n_j = 1024, r = 1/2, so the error of
+ * the total T r is T sqrt(40 * 512^2 / (40 * 39)) / 1024 = T / (2 sqrt 39)
+ * lines. */
+static void test_se_windows(void)
+{
+    const uint64_t P = 2048, M = 1024, J = 40;
+    size_t n = (size_t)(J * P);
+    rt_access *a = calloc(n, sizeof *a);
+    uint64_t fresh = 1000;
+    for (size_t i = 0; i < n; i++) {
+        uint64_t first = rt_sample_first_window(P, M, 1);
+        uint64_t j = i < first ? 0 : (i - first) / P, in = i >= first && (i - first) % P < M;
+        uint64_t line = in && j % 2 == 0 ? fresh++ : 7;
+        a[i] = (rt_access){line * 64, 8, 0, RT_CLS_NODE, 0};
+    }
+    rt_sim_config c;
+    config(&c, 1024);
+    c.sizes[c.nsizes++] = 64 * 1024; /* and one SHARDS size */
+    rt_approx_config ac;
+    hybrid_config(&ac, 1.0 / 4, 2048);
+    ac.period = P;
+    ac.window = M;
+    rt_err e = {0};
+    rt_approx *x = rt_approx_new(&c, &ac, &e);
+    CHECK(x, "new: %s", e.msg);
+    rt_approx_put(x, a, n);
+    CHECK(rt_approx_finish(x, &e) == 0, "finish: %s", e.msg);
+    double se = 0, want = (double)n / (2 * sqrt(39.0)) * 64, g_ray = -1;
+    rt_sim_counts t;
+    CHECK(rt_approx_traffic_se(x, 0, RT_NGROUP, &se, &e) == 0, "se: %s", e.msg);
+    CHECK(fabs(se - want) <= 1e-9 * want, "windowed error %.6f bytes, hand-computed %.6f", se, want);
+    CHECK(rt_approx_traffic_se(x, 0, RT_GROUP_GEOMETRY, &se, &e) == 0 && fabs(se - want) <= 1e-9 * want,
+          "geometry group error %.6f bytes, want %.6f", se, want);
+    CHECK(rt_approx_traffic_se(x, 0, RT_GROUP_RAY, &g_ray, &e) == 0 && g_ray == 0,
+          "a group without touches has error %g, want 0", g_ray);
+    rt_approx_get(x, 0, RT_CLS_NODE, &t, NULL);
+    CHECK(t.read_misses == n / 2, "windowed estimate %llu misses, want %zu", (unsigned long long)t.read_misses,
+          n / 2);
+    CHECK(rt_approx_traffic_se(x, 0, RT_NGROUP + 1, &se, &e) == -1, "group out of range accepted");
+    rt_approx_free(x);
+    /* other methods have no error estimate; exact sizes have error 0 */
+    rt_approx_config_default(&ac);
+    ac.exact_below = 2048;
+    x = rt_approx_new(&c, &ac, &e);
+    CHECK(x, "new: %s", e.msg);
+    rt_approx_put(x, a, n);
+    CHECK(rt_approx_finish(x, &e) == 0, "finish: %s", e.msg);
+    se = -1;
+    CHECK(rt_approx_traffic_se(x, 0, RT_NGROUP, &se, &e) == 0 && se == 0, "exact size: error %g", se);
+    CHECK(rt_approx_traffic_se(x, 1, RT_NGROUP, &se, &e) == -1 && strstr(e.msg, "no error estimate"),
+          "shards: error estimate given (%s)", e.msg);
+    rt_approx_free(x);
+    free(a);
+}
+
+/* Replicates: they partition the golden sample, and the glue's error is
+ * sqrt(var / K) of their estimates; on a synthetic ray-tracer stream every
+ * size's estimate is within 3 standard errors of the exact count. */
+static void test_se_replicates(void)
+{
+    const size_t n = 40u * 65536;
+    rt_access *a = malloc(n * sizeof *a);
+    rt_synth g;
+    rt_synth_init(&g);
+    rt_synth_fill(&g, a, n);
+    rt_sim_config c;
+    config(&c, 4u << 20);
+    rt_approx_config ac;
+    hybrid_config(&ac, RT_APPROX_HYBRID_RATE, RT_APPROX_HYBRID_WINDOW_BELOW);
+    rt_err e = {0};
+    rt_approx *x = rt_approx_new(&c, &ac, &e);
+    rt_sim *s = rt_sim_new(&c, &e);
+    CHECK(x && s, "new: %s", e.msg);
+    for (size_t i = 0; i < n; i += 4096) rt_approx_put(x, a + i, n - i < 4096 ? n - i : 4096);
+    rt_sim_put(s, a, n);
+    CHECK(rt_approx_finish(x, &e) == 0, "finish: %s", e.msg);
+    /* the same golden sample, split, by hand */
+    int first = 0;
+    while (c.sizes[first] < ac.window_below) first++;
+    uint64_t lines[RT_SIM_MAXSIZES];
+    int ns = c.nsizes - first;
+    for (int i = 0; i < ns; i++) lines[i] = c.sizes[first + i] / c.line;
+    rt_shards *sh = rt_shards_new(lines, ns, c.line, ac.rate, 0, ac.seed, 1, &e);
+    CHECK(sh && rt_shards_split(sh, lines, RT_APPROX_SE_PARTS, &e) == 0, "split: %s", e.msg);
+    CHECK(rt_shards_split(sh, lines, 2, &e) == -1, "a second split accepted");
+    uint64_t acc[RT_NCLASS][2] = {{0}};
+    rt_shards_put(sh, a, n, acc);
+    rt_approx_est *full = calloc(1, sizeof *full), *pe = calloc(RT_APPROX_SE_PARTS, sizeof *pe);
+    CHECK(rt_shards_estimate(sh, full, 0, &e) == 0, "estimate: %s", e.msg);
+    uint64_t lsum = 0, tsum = 0;
+    for (int p = 0; p < RT_APPROX_SE_PARTS; p++) {
+        CHECK(rt_shards_estimate_part(sh, p, &pe[p], 0, &e) == 0, "part %d: %s", p, e.msg);
+        lsum += pe[p].sampled_lines;
+        tsum += pe[p].sampled_touches;
+        CHECK(pe[p].rate == ac.rate / RT_APPROX_SE_PARTS, "part %d rate %g", p, pe[p].rate);
+    }
+    CHECK(lsum == full->sampled_lines && tsum == full->sampled_touches && lsum > 100,
+          "replicates hold %llu lines / %llu touches, the sample %llu / %llu", (unsigned long long)lsum,
+          (unsigned long long)tsum, (unsigned long long)full->sampled_lines,
+          (unsigned long long)full->sampled_touches);
+    int bad = 0, within1 = 0;
+    for (int i = 0; i < c.nsizes; i++) {
+        double se;
+        CHECK(rt_approx_traffic_se(x, i, RT_NGROUP, &se, &e) == 0, "size %d: %s", i, e.msg);
+        if (i >= first) {
+            double m = 0, v = 0, y[RT_APPROX_SE_PARTS];
+            for (int p = 0; p < RT_APPROX_SE_PARTS; p++) {
+                y[p] = 0;
+                for (int k = 0; k < RT_NCLASS; k++)
+                    y[p] += pe[p].rm[i - first][k] + pe[p].wm[i - first][k] + pe[p].wb[i - first][k];
+                m += y[p] / RT_APPROX_SE_PARTS;
+            }
+            for (int p = 0; p < RT_APPROX_SE_PARTS; p++) v += (y[p] - m) * (y[p] - m);
+            double want = sqrt(v / (RT_APPROX_SE_PARTS - 1) / RT_APPROX_SE_PARTS) * c.line;
+            bad += fabs(se - want) > 1e-9 * want;
+        }
+        uint64_t est = 0, ex = 0;
+        for (int k = 0; k < RT_NCLASS; k++) {
+            rt_sim_counts p, q;
+            rt_approx_get(x, i, k, &p, NULL);
+            rt_sim_get(s, i, k, &q);
+            est += p.traffic_bytes;
+            ex += q.traffic_bytes;
+        }
+        double z = ((double)est - (double)ex) / se;
+        CHECK(se > 0 && fabs(z) <= 3, "size %llu: estimate %llu bytes, exact %llu, error %.0f: %.2f errors off",
+              (unsigned long long)c.sizes[i], (unsigned long long)est, (unsigned long long)ex, se, z);
+        within1 += fabs(z) <= 1;
+    }
+    CHECK(bad == 0, "%d sizes' errors differ from the replicates' spread", bad);
+    /* an error that is never exceeded would be a useless one */
+    CHECK(within1 < c.nsizes, "all %d estimates within one error: the errors look too large", c.nsizes);
+    free(full);
+    free(pe);
+    rt_shards_free(sh);
+    rt_sim_free(s);
+    rt_approx_free(x);
+    free(a);
+}
+
 int main(void)
 {
     if (!check_tmpdir("test_approx")) {
@@ -910,6 +1069,8 @@ int main(void)
     test_golden_simd();
     test_golden_stratified();
     test_windows_exact();
+    test_se_windows();
+    test_se_replicates();
     test_errors();
     test_bench();
     check_rm_tree(check_dir);
