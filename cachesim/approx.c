@@ -176,7 +176,7 @@ rt_approx *rt_approx_new(const rt_sim_config *c, const rt_approx_config *ac, rt_
         if (!a->ss && !a->sh) goto fail;
         /* the hybrid's error: replicates of its golden sample (below rate 1,
          * where the sample is not everything) */
-        if (a->sh && ac->method == RT_APPROX_HYBRID && ac->rate < 1 &&
+        if (a->sh && ac->method == RT_APPROX_HYBRID && ac->errors && ac->rate < 1 &&
             rt_shards_split(a->sh, lines, RT_APPROX_SE_PARTS, e))
             goto fail;
     }
@@ -505,7 +505,7 @@ int rt_approx_finish(rt_approx *a, rt_err *e)
     if (a->sh && rt_shards_estimate(a->sh, &a->est, a->nwin, e)) return -1;
     if (a->ss && rt_sstack_estimate(a->ss, (const uint64_t(*)[2])a->acc, &a->est, e)) return -1;
     if (a->tw && rt_window_estimate(a->tw, (const uint64_t(*)[2])a->acc, &a->est, 0, e)) return -1;
-    if (a->sh && a->ac.method == RT_APPROX_HYBRID && shards_se(a, e)) return -1;
+    if (a->sh && a->ac.method == RT_APPROX_HYBRID && a->ac.errors && shards_se(a, e)) return -1;
     a->finished = 1;
     a->fin_refs = a->refs;
     return 0;
@@ -592,6 +592,7 @@ int rt_approx_traffic_se(const rt_approx *a, int i, int group, double *se, rt_er
     if (i < a->nexact) return *se = 0, 0;
     if (a->ac.method != RT_APPROX_HYBRID)
         return rt_errf(e, "the %s method has no error estimate (the hybrid method has)", method_names[a->ac.method]);
+    if (!a->ac.errors) return rt_errf(e, "standard errors were not asked for (rt_approx_config.errors)");
     double v = a->est.se[i - a->nexact][group];
     if (v < 0) {
         char sz[32];

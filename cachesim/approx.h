@@ -75,6 +75,9 @@ typedef struct rt_approx_config {
     uint64_t window_below; /* HYBRID: sizes (bytes) below this (and >= exact_below) on windows */
     uint64_t period;       /* HYBRID: one window every period references */
     uint64_t window;       /* HYBRID: references measured per window (1..period) */
+    int errors;            /* HYBRID: also estimate standard errors (rt_approx_traffic_se); the
+                              estimates are the same either way, the sampled part costs about
+                              twice as much; default 0 */
 } rt_approx_config;
 
 /* Defaults of the hybrid method (docs/approx.md has the measurements). */
@@ -178,11 +181,10 @@ int rt_approx_available(const rt_approx *a, int i, rt_err *e);
  * classes), after rt_approx_finish. 0 for a size simulated exactly. The
  * hybrid method estimates it: windowed sizes from the spread of the
  * windows (window.c, ERROR), larger sizes from RT_APPROX_SE_PARTS
- * interpenetrating sub-samples of the golden sample (shards.c,
- * REPLICATES); it is a statistical error and does not see a bias shared
+ * random replicates of the golden sample (shards.c, REPLICATES); it is a statistical error and does not see a bias shared
  * by the whole sample (docs/approx.md has measured coverage). Other
  * sampled methods have none: -1 with a message, as for an unavailable
- * size. */
+ * size, or when ac->errors was 0. */
 #define RT_APPROX_SE_PARTS 8
 int rt_approx_traffic_se(const rt_approx *a, int i, int group, double *se, rt_err *e);
 

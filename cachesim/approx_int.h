@@ -89,8 +89,8 @@ void rt_shards_put(rt_shards *s, const rt_access *a, size_t n, uint64_t acc[RT_N
  * caller has zeroed. -1 if a table could not grow (out of memory) during put. */
 int rt_shards_estimate(const rt_shards *s, rt_approx_est *est, int off, rt_err *e);
 /* Splits a fresh golden sample (rate < 1, nothing fed yet) into nparts
- * interpenetrating sub-samples at rate R / nparts, each estimated on its
- * own (the replicates of the error estimate; shards.c). lines as given to
+ * random replicates at rate R / nparts, each estimated on its own (the
+ * error estimate; shards.c, REPLICATES). lines as given to
  * rt_shards_new. 0, or -1 (out of memory, or not a fresh golden sample). */
 #define RT_SHARDS_MAXPARTS 8
 int rt_shards_split(rt_shards *s, const uint64_t *lines, int nparts, rt_err *e);

@@ -87,16 +87,18 @@
  * touches in the same order.
  *
  * REPLICATES (the error estimate). rt_shards_split(s, K) divides a
- * golden sample into K interpenetrating sub-samples: part p holds the
- * sampled lines with L * G + c in [p T64 / K, (p + 1) T64 / K), itself a
- * golden sample at rate R / K (offset c - p T64 / K). Each part runs its
- * own SHARDS on its own lines, fed by sample() as the touches pass, so
- * the parts cost one more sample() per sampled touch and no second pass
- * over the stream, and a trace's sample index (which holds the rate-R
- * sample) feeds them as well as the records do. Their K estimates, each
- * with about K times the full sample's variance, give the standard error
- * of the full estimate as sqrt(var(part estimates) / K) (approx.c). What
- * they cannot see is a bias shared by all parts (the resolution of the
+ * golden sample into K random replicates: a sampled line goes to part
+ * floor(K h / 2^32), h the high 32 bits of its hash, so each part is a
+ * random 1/K of the sample (rate R / K in expectation) and runs its own
+ * SHARDS on its own lines, fed by sample() as the touches pass: one more
+ * sample() per sampled touch and no second pass over the stream, and a
+ * trace's sample index (which holds the rate-R sample) feeds them as well
+ * as the records do. Their K estimates, each with about K times the full
+ * sample's variance, give the standard error of the full estimate as
+ * sqrt(var(part estimates) / K) (approx.c). Contiguous slices of the
+ * golden interval would be golden samples themselves, but they are
+ * stratified alike and vary too little (docs/approx.md). What the parts
+ * cannot see is a bias shared by all of them (the resolution of the
  * smallest sizes).
  *
  * WEAK CASES: a few very hot lines (the top of a k-d tree) carry much of the
@@ -166,7 +168,6 @@ struct rt_shards {
     int oom;                                        /* a table failed to grow */
     struct rt_shards *part[RT_SHARDS_MAXPARTS];     /* replicates (rt_shards_split), or none */
     int nparts;
-    uint64_t pw;                                    /* golden width of a part: T64 / nparts */
 };
 
 static void set_rate(rt_shards *s, uint64_t T)
@@ -644,14 +645,12 @@ int rt_shards_split(rt_shards *s, const uint64_t *lines, int nparts, rt_err *e)
         if (!q) return -1;
         q->seedmix = s->seedmix;
         q->simd = 0;
-        q->T64 = pw;
-        q->goff = s->goff - (uint64_t)p * pw;
+        q->T64 = pw; /* parts are fed by sample(), never filtered: T64 sets their rate */
         q->R = (double)pw * 0x1p-64;
         q->invR = 1 / q->R;
         for (int i = 0; i < q->k; i++) q->t[i] = q->R * q->cm1[i];
         s->part[s->nparts++] = q;
     }
-    s->pw = pw;
     return 0;
 }
 

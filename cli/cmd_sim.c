@@ -66,6 +66,8 @@ static void usage(FILE *f)
             "  --window-below SIZE    hybrid: sizes below SIZE on exact windows (default 32K)\n"
             "  --period N             hybrid: one window every N references (default 65536)\n"
             "  --window N             hybrid: references per window (default 1024)\n"
+            "  --no-error             hybrid: no standard errors (column traffic_se; they\n"
+            "                         cost about as much again as the sampled part)\n"
             "  --smax N               sampled lines kept by shards-fixed (default 8192)\n"
             "  --seed S               sampling seed (default 1)\n"
             "  --threads N            1, or 2 to decode the trace on a second thread beside\n"
@@ -136,7 +138,7 @@ static void print_header(FILE *f, const char *trace, const rt_approx *ap)
                     (unsigned long long)st.window_refs);
         fputc('\n', f);
     }
-    int with_se = ac->method == RT_APPROX_HYBRID;
+    int with_se = ac->method == RT_APPROX_HYBRID && ac->errors;
     fprintf(f, "%12s %5s %5s %-9s %14s %12s %12s %12s %12s %16s%s%*s\n", "size_bytes", "line", "assoc", "class",
             "accesses", "read_misses", "write_misses", "writebacks", "wt_bytes", "traffic_bytes", with_se ? " " : "",
             with_se ? 16 : 0, with_se ? "traffic_se" : "");
@@ -147,7 +149,8 @@ static void print_header(FILE *f, const char *trace, const rt_approx *ap)
 static void print_results(FILE *f, int fmt, const char *trace, const rt_approx *ap, int *first)
 {
     const rt_sim_config *c = rt_approx_get_config(ap);
-    int with_se = rt_approx_get_approx_config(ap)->method == RT_APPROX_HYBRID;
+    const rt_approx_config *ac = rt_approx_get_approx_config(ap);
+    int with_se = ac->method == RT_APPROX_HYBRID && ac->errors;
     if (fmt == FMT_TEXT) print_header(f, trace, ap);
     for (int i = 0; i < c->nsizes; i++) {
         rt_sim_counts t;
@@ -256,7 +259,7 @@ static int store(rt_db *db, const char *path, const rt_approx *ap, const rt_tr_m
 }
 
 enum { O_SIZES = 1, O_LINE, O_ASSOC, O_WT, O_NWA, O_INFMT, O_DINCLS, O_DB, O_FMT, O_METHOD, O_RATE, O_SMAX,
-       O_SEED, O_EXACT_BELOW, O_WINDOW_BELOW, O_PERIOD, O_WINDOW, O_FLUSH, O_FULLLINE, O_THREADS };
+       O_SEED, O_EXACT_BELOW, O_WINDOW_BELOW, O_PERIOD, O_WINDOW, O_FLUSH, O_FULLLINE, O_THREADS, O_NOERR };
 static const struct option longopts[] = {
     {"sizes", required_argument, NULL, O_SIZES},
     {"line", required_argument, NULL, O_LINE},
@@ -278,6 +281,7 @@ static const struct option longopts[] = {
     {"flush", no_argument, NULL, O_FLUSH},
     {"write-fullline", no_argument, NULL, O_FULLLINE},
     {"threads", required_argument, NULL, O_THREADS},
+    {"no-error", no_argument, NULL, O_NOERR},
     {"help", no_argument, NULL, 'h'},
     {NULL, 0, NULL, 0},
 };
@@ -315,6 +319,7 @@ static int parse_opt(sim_opts *o, int ch, const char *arg, const char *argv_opt)
     case O_WT: o->cfg.write_through = 1; return 0;
     case O_NWA: o->cfg.no_write_allocate = 1; return 0;
     case O_FLUSH: o->cfg.flush = 1; return 0;
+    case O_NOERR: o->ac.errors = 0; return 0;
     case O_FULLLINE: o->cfg.write_miss_fullline = 1; return 0;
     case O_THREADS:
         if (rt_parse_size(arg, &v) || v < 1 || v > RT_SIM_MAXTHREADS) {
@@ -376,6 +381,7 @@ static const struct {
     {O_WINDOW_BELOW, 1u << RT_APPROX_HYBRID, "hybrid"},
     {O_PERIOD, 1u << RT_APPROX_HYBRID, "hybrid"},
     {O_WINDOW, 1u << RT_APPROX_HYBRID, "hybrid"},
+    {O_NOERR, 1u << RT_APPROX_HYBRID, "hybrid"},
     {O_FLUSH, 1u << RT_APPROX_EXACT, "exact"},
     {O_FULLLINE, 1u << RT_APPROX_EXACT, "exact"},
 };
@@ -411,6 +417,7 @@ static int parse_args(int argc, char **argv, sim_opts *o)
     o->threads = sysconf(_SC_NPROCESSORS_ONLN) >= 2 ? 2 : 1;
     rt_approx_config_default(&o->ac);
     o->ac.method = RT_APPROX_EXACT;
+    o->ac.errors = 1; /* sim prints them (hybrid) unless --no-error */
     rt_err err = {0};
     optind = 1;
     opterr = 0;
@@ -478,7 +485,7 @@ int main_sim(int argc, char **argv)
     int status = RT_EXIT_OK, first = 1;
     if (!db && o.outfmt == FMT_CSV)
         printf("trace,size_bytes,line,assoc,class,accesses,read_misses,write_misses,writebacks,wt_bytes,"
-               "traffic_bytes%s\n", o.ac.method == RT_APPROX_HYBRID ? ",traffic_se_bytes" : "");
+               "traffic_bytes%s\n", o.ac.method == RT_APPROX_HYBRID && o.ac.errors ? ",traffic_se_bytes" : "");
     if (!db && o.outfmt == FMT_JSON) printf("[");
     for (int a = optind; a < argc; a++)
         if (sim_one(&o, db, argv[a], meta, &first) < 0) status = RT_EXIT_FAIL;

@@ -152,6 +152,12 @@ grep -Eq ',geometry,([0-9]+,){6}[0-9]+$' "$tmp/h.csv" && grep -Eq ',node,([0-9]+
 grep -q '"class": "geometry".*"traffic_se_bytes": [0-9]' "$tmp/h.json" && grep -q '"class": "node".*"traffic_se_bytes": null' "$tmp/h.json" ||
     die "hybrid json errors"
 "$bin" sim --format csv "$tmp/s3.rtt" | grep -q 'traffic_se' && die "exact csv has an error column"
+"$bin" sim --method hybrid --no-error "$tmp/s3.rtt" > "$tmp/hn.txt" || die "hybrid --no-error"
+grep -q 'traffic_se\|standard error' "$tmp/hn.txt" && die "--no-error printed errors"
+# the estimates are the same with and without errors
+sed -E 's/ +([0-9]+|-|traffic_se)$//' "$tmp/h3.txt" | grep -v 'standard error' | sed 1d > "$tmp/h3s.txt"
+sed 1d "$tmp/hn.txt" | cmp -s - "$tmp/h3s.txt" || die "--no-error changed the estimates"
+"$bin" sim --method shards --no-error "$tmp/s3.rtt" > /dev/null 2>&1; [ $? -eq 2 ] || die "--no-error with shards: not a usage error"
 "$bin" sim "$tmp/s3.rtt" | grep -q 'traffic_se\|standard error' && die "exact text has an error column"
 "$bin" sim --method hybrid --rate 1/32 "$tmp/s3.rtt" > /dev/null 2> "$tmp/h.err" || die "hybrid 1/32"
 grep -q "rate 0.03125 is above the sample index's 1/64; decoding every record" "$tmp/h.err" || die "rate note: $(cat "$tmp/h.err")"

@@ -352,6 +352,7 @@ static void hybrid_config(rt_approx_config *ac, double rate, uint64_t window_bel
 {
     rt_approx_config_default(ac);
     ac->method = RT_APPROX_HYBRID;
+    ac->errors = 1;
     ac->rate = rate;
     ac->window_below = window_below;
 }
@@ -953,6 +954,17 @@ static void test_se_windows(void)
     CHECK(t.read_misses == n / 2, "windowed estimate %llu misses, want %zu", (unsigned long long)t.read_misses,
           n / 2);
     CHECK(rt_approx_traffic_se(x, 0, RT_NGROUP + 1, &se, &e) == -1, "group out of range accepted");
+    rt_approx_free(x);
+    /* not asked for: none, and the same estimates */
+    ac.errors = 0;
+    x = rt_approx_new(&c, &ac, &e);
+    CHECK(x, "new: %s", e.msg);
+    rt_approx_put(x, a, n);
+    rt_sim_counts t0;
+    CHECK(rt_approx_finish(x, &e) == 0 && rt_approx_get(x, 0, RT_CLS_NODE, &t0, NULL) == 0 && counts_equal(&t, &t0),
+          "without errors: other estimates");
+    CHECK(rt_approx_traffic_se(x, 1, RT_NGROUP, &se, &e) == -1 && strstr(e.msg, "not asked for"),
+          "errors given though not asked for");
     rt_approx_free(x);
     /* other methods have no error estimate; exact sizes have error 0 */
     rt_approx_config_default(&ac);
