@@ -16,6 +16,7 @@
 #include "outfile.h"
 #include "scene.h"
 #include "scene_load.h"
+#include "sindex.h"
 #include "trace.h"
 #include "check.h"
 
@@ -482,9 +483,9 @@ static int v3_write(const char *path, const rt_access *a, size_t n, int sample, 
     rt_mm_init(&m.layout);
     m.generations = 3;
     rt_tr_wopts o;
-    rt_tr_default_wopts(&o);
+    rt_si_wopts(&o);
     o.chunk_records = V3_CHUNK;
-    o.sample = sample;
+    if (!sample) o.payload = NULL;
     rt_tr_writer *w = rt_tr_create_opts(path, &m, &o, e);
     if (!w) return -1;
     rt_sink *s = rt_tr_sink(w);
@@ -502,7 +503,7 @@ static int v3_side_check = 1; /* rt_tr_set_side_check for v3_read_all */
 
 static long v3_read_all(const char *path, rt_access *out, size_t cap, rt_err *e)
 {
-    rt_tr_reader *r = rt_tr_open(path, e);
+    rt_tr_reader *r = rt_si_open(path, e);
     if (!r) return -1;
     rt_tr_set_side_check(r, v3_side_check);
     long n = 0, k;
@@ -516,10 +517,12 @@ static int v3_read_side(const char *path, rt_err *e)
 {
     rt_tr_reader *r = rt_tr_open(path, e);
     if (!r) return -1;
-    rt_tr_side sd;
-    int k;
-    while ((k = rt_tr_read_side(r, &sd, e)) > 0) {
+    rt_si_reader *d = rt_si_reader_new(r, e);
+    rt_si_side sd;
+    int k = -1;
+    while (d && (k = rt_si_read(d, &sd, e)) > 0) {
     }
+    rt_si_reader_free(d);
     rt_tr_close(r);
     return k;
 }
@@ -534,28 +537,28 @@ static int acc_eq(const rt_access *x, const rt_access *y)
  * (mod 2^64), as in shards.c's golden filter. */
 static int ref_sampled(const rt_access *r)
 {
-    const uint64_t G = 0x9e3779b97f4a7c15ULL, off = rt_mix64(RT_TR_SAMPLE_SEED ^ G);
-    for (uint64_t L = r->addr / RT_TR_SAMPLE_LINE; L <= (r->addr + r->size - 1) / RT_TR_SAMPLE_LINE; L++)
-        if (L * G + off < (1ULL << (64 - RT_TR_SAMPLE_SHIFT))) return 1;
+    const uint64_t G = 0x9e3779b97f4a7c15ULL, off = rt_mix64(RT_SI_SEED ^ G);
+    for (uint64_t L = r->addr / RT_SI_LINE; L <= (r->addr + r->size - 1) / RT_SI_LINE; L++)
+        if (L * G + off < (1ULL << (64 - RT_SI_SHIFT))) return 1;
     return 0;
 }
 
 /* The reference warm-up of the window starting at s: walk back from s - 1
- * over at most RT_TR_SAMPLE_HIST records, listing distinct lines (linear
- * search) until RT_TR_SAMPLE_CMAX; a line is written if a write to it is
+ * over at most RT_SI_HIST records, listing distinct lines (linear
+ * search) until RT_SI_CMAX; a line is written if a write to it is
  * met before the walk stops. warm[] least recent first. */
 static uint32_t ref_warm(const rt_access *a, uint64_t s, rt_access *warm, uint64_t *scanned, int *shrt)
 {
-    static rt_access found[RT_TR_SAMPLE_CMAX]; /* most recent first */
+    static rt_access found[RT_SI_CMAX]; /* most recent first */
     uint32_t k = 0;
-    uint64_t lo = s > RT_TR_SAMPLE_HIST ? s - RT_TR_SAMPLE_HIST : 0, i = s;
-    while (i > lo && k < RT_TR_SAMPLE_CMAX) {
+    uint64_t lo = s > RT_SI_HIST ? s - RT_SI_HIST : 0, i = s;
+    while (i > lo && k < RT_SI_CMAX) {
         const rt_access *r = &a[--i];
-        uint64_t f = r->addr / RT_TR_SAMPLE_LINE, l = (r->addr + r->size - 1) / RT_TR_SAMPLE_LINE;
-        for (uint64_t L = l + 1; L-- > f && k < RT_TR_SAMPLE_CMAX;) {
+        uint64_t f = r->addr / RT_SI_LINE, l = (r->addr + r->size - 1) / RT_SI_LINE;
+        for (uint64_t L = l + 1; L-- > f && k < RT_SI_CMAX;) {
             uint32_t j = 0;
-            while (j < k && found[j].addr != L * RT_TR_SAMPLE_LINE) j++;
-            if (j == k) found[k++] = (rt_access){L * RT_TR_SAMPLE_LINE, 1, r->write != 0, r->cls, 0};
+            while (j < k && found[j].addr != L * RT_SI_LINE) j++;
+            if (j == k) found[k++] = (rt_access){L * RT_SI_LINE, 1, r->write != 0, r->cls, 0};
             else if (r->write && !found[j].write) {
                 found[j].write = 1;
                 found[j].cls = r->cls;
@@ -563,7 +566,7 @@ static uint32_t ref_warm(const rt_access *a, uint64_t s, rt_access *warm, uint64
         }
     }
     *scanned = s - i;
-    *shrt = k < RT_TR_SAMPLE_CMAX && lo > 0;
+    *shrt = k < RT_SI_CMAX && lo > 0;
     for (uint32_t j = 0; j < k; j++) warm[j] = found[k - 1 - j];
     return k;
 }
@@ -591,17 +594,19 @@ static void test_v3_roundtrip(void)
     CHECK(r && r2 && rt_tr_get_version(r) == 3 && rt_tr_get_version(r2) == 2 && rt_tr_get_sample_params(r, &sp) &&
               !rt_tr_get_sample_params(r2, &sp),
           "versions: %s", e.msg);
-    CHECK(sp.line == RT_TR_SAMPLE_LINE && sp.shift == RT_TR_SAMPLE_SHIFT && sp.period == RT_TR_SAMPLE_PERIOD &&
-              sp.window == RT_TR_SAMPLE_WINDOW && sp.cmax == RT_TR_SAMPLE_CMAX && sp.hist == RT_TR_SAMPLE_HIST,
+    CHECK(sp.line == RT_SI_LINE && sp.shift == RT_SI_SHIFT && sp.period == RT_SI_PERIOD &&
+              sp.window == RT_SI_WINDOW && sp.cmax == RT_SI_CMAX && sp.hist == RT_SI_HIST,
           "sample parameters");
-    rt_tr_side sd;
-    CHECK(r2 && rt_tr_read_side(r2, &sd, &e) < 0 && strstr(e.msg, "no sample index"), "v2 side read: %s", e.msg);
+    rt_si_side sd;
+    rt_si_reader *d2 = r2 ? rt_si_reader_new(r2, &e) : NULL, *d = r ? rt_si_reader_new(r, &e) : NULL;
+    CHECK(d2 && rt_si_read(d2, &sd, &e) < 0 && strstr(e.msg, "no side payloads"), "v2 side read: %s", e.msg);
+    rt_si_reader_free(d2);
     rt_tr_close(r2);
     /* chunk by chunk against the reference */
-    static rt_access warm[RT_TR_SAMPLE_CMAX];
-    uint64_t start = 0, nextwin = RT_TR_SAMPLE_PERIOD - RT_TR_SAMPLE_WINDOW, nwin = 0, badc = 0, chunks = 0;
+    static rt_access warm[RT_SI_CMAX];
+    uint64_t start = 0, nextwin = RT_SI_PERIOD - RT_SI_WINDOW, nwin = 0, badc = 0, chunks = 0;
     int k = -1;
-    while (r && (k = rt_tr_read_side(r, &sd, &e)) > 0) {
+    while (d && (k = rt_si_read(d, &sd, &e)) > 0) {
         uint64_t end = start + sd.nrefs, touch[RT_NCLASS][2] = {{0}}, ns = 0, sbad = 0;
         for (uint64_t i = start; i < end; i++) {
             const rt_access *x = &a[i];
@@ -615,14 +620,14 @@ static void test_v3_roundtrip(void)
               (unsigned long long)sbad);
         /* windows whose last record is in this chunk */
         uint32_t w = 0;
-        for (; nextwin + RT_TR_SAMPLE_WINDOW <= end; nextwin += RT_TR_SAMPLE_PERIOD, w++, nwin++) {
+        for (; nextwin + RT_SI_WINDOW <= end; nextwin += RT_SI_PERIOD, w++, nwin++) {
             uint64_t scanned;
             int shrt;
             uint32_t nw = ref_warm(a, nextwin, warm, &scanned, &shrt);
             if (w >= sd.nwin) break;
-            const rt_tr_window *x = &sd.win[w];
+            const rt_si_window *x = &sd.win[w];
             int ok = x->nwarm == nw && x->scanned == scanned && x->short_warmup == shrt &&
-                     x->nrecs == RT_TR_SAMPLE_WINDOW;
+                     x->nrecs == RT_SI_WINDOW;
             for (uint32_t j = 0; ok && j < nw; j++) ok = acc_eq(&x->warm[j], &warm[j]);
             for (uint32_t j = 0; ok && j < x->nrecs; j++) ok = acc_eq(&x->recs[j], &a[nextwin + j]);
             CHECK(ok, "window at %llu: %u warm lines (reference %u), %llu scanned (%llu)",
@@ -643,12 +648,15 @@ static void test_v3_roundtrip(void)
           (unsigned long long)nwin, (unsigned long long)badc, e.msg);
     /* the same provenance hash either way */
     uint64_t h_side = r ? rt_tr_file_hash(r) : 0;
+    rt_si_reader_free(d);
     rt_tr_close(r);
-    r = rt_tr_open(p3, &e);
+    r = rt_si_open(p3, &e);
     while (r && rt_tr_read(r, b, V3_N + 1, &e) > 0) {
     }
     CHECK(r && rt_tr_file_hash(r) == h_side && h_side != 0, "file hash differs between the readers");
-    CHECK(r && rt_tr_read_side(r, &sd, &e) < 0, "side read after record read accepted");
+    d = r ? rt_si_reader_new(r, &e) : NULL;
+    CHECK(d && rt_si_read(d, &sd, &e) < 0, "side read after record read accepted");
+    rt_si_reader_free(d);
     rt_tr_close(r);
     free(a);
     free(b);
@@ -729,7 +737,7 @@ static void test_v3_corrupt(void)
         size_t P = b[12] | b[13] << 8 | b[14] << 16 | (size_t)b[15] << 24, at = 16 + P - (4 + 1 + 5 * 8);
         unsigned char *x = malloc(len);
         memcpy(x, b, len);
-        CHECK(x[at] == RT_TR_SAMPLE_LINE && x[at + 1] == 0, "sample line field not where expected");
+        CHECK(x[at] == RT_SI_LINE && x[at + 1] == 0, "sample line field not where expected");
         x[at] = 48;
         uint32_t c = (uint32_t)crc32(0, x, (uInt)(16 + P));
         for (int i = 0; i < 4; i++) x[16 + P + i] = (unsigned char)(c >> (8 * i));

@@ -146,7 +146,7 @@ static void add_gens(rt_access *a, size_t n, unsigned maxgen)
 static int write_trace(const char *path, const rt_tr_meta *m, const rt_access *a, size_t n, int level,
                        uint32_t chunk, rt_err *e)
 {
-    rt_tr_wopts o = {level, chunk, 0};
+    rt_tr_wopts o = {level, chunk, NULL};
     rt_tr_writer *w = rt_tr_create_opts(path, m, &o, e);
     if (!w) return -1;
     rt_sink *s = rt_tr_sink(w);
@@ -430,7 +430,7 @@ static void test_interrupted(void)
     m2 = m;
     memset(m2.scene, 'x', sizeof m2.scene); /* no NUL */
     CHECK(!rt_tr_create(p, &m2, &e), "unterminated string accepted");
-    rt_tr_wopts o = {10, 100, 0};
+    rt_tr_wopts o = {10, 100, NULL};
     CHECK(!rt_tr_create_opts(p, &m, &o, &e), "level 10 accepted");
     o.level = 6;
     o.chunk_records = 0;
@@ -724,7 +724,7 @@ static int synthetic_level(const char *path, int level)
         {0xfffffffffffffff0ULL, 100, 1, RT_CLS_STREAM, 0},
     };
     rt_err e = {0};
-    rt_tr_wopts o = {level, 4, 0};
+    rt_tr_wopts o = {level, 4, NULL};
     rt_tr_writer *w = rt_tr_create_opts(path, &m, &o, &e);
     if (!w) return fprintf(stderr, "%s\n", e.msg), 1;
     rt_sink *s = rt_tr_sink(w);

@@ -22,6 +22,7 @@
  * message.
  */
 #include "fuzz.h"
+#include "sindex.h"
 #include "trace.h"
 
 #include <zlib.h>
@@ -100,7 +101,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     }
     const char *path = rt_fuzz_file(in, n);
     rt_err e = {0};
-    rt_tr_reader *r = rt_tr_open(path, &e);
+    rt_tr_reader *r = rt_si_open(path, &e);
     if (!r) {
         if (!e.msg[0]) rt_fuzz_fail("open refused without a message");
         free(file);
