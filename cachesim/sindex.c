@@ -21,7 +21,7 @@
  * record group is coded as a chunk is (src/trace_rec.h), from a reset
  * coder.
  *
- * THE MAKER (sbuild) sees every record in order (the writer as it encodes
+ * THE MAKER (rt_si_maker, sindex_int.h) sees every record in order (the writer as it encodes
  * them, the verifying reader as it decodes them) and makes each chunk's
  * payload, so writer and reader produce the same bytes from the same
  * records and the reader checks a payload with one memcmp. The sampling
@@ -55,22 +55,16 @@
  * totals to the trace reader for its footer check, and fails through
  * rt_tr_payload_fail so its messages name the file and the byte offset.
  */
-#include "sindex.h"
+#include "sindex_int.h"
 #include "sample.h"
-#include "trace_rec.h"
 
 #include <stdlib.h>
 #include <string.h>
 
 /* ---- growable byte buffer ---------------------------------------------------- */
 
-typedef struct bbuf {
-    unsigned char *b; /* bytes */
-    size_t n, cap;    /* used, allocated */
-} bbuf;
-
 /* Room for `more` bytes at b->b + b->n; 0 or -1 (out of memory). */
-static int bb_room(bbuf *b, size_t more)
+static int bb_room(rt_si_buf *b, size_t more)
 {
     if (more <= b->cap - b->n) return 0;
     size_t nc = b->cap ? b->cap : 4096;
@@ -84,40 +78,9 @@ static int bb_room(bbuf *b, size_t more)
 
 /* ---- the maker ------------------------------------------------------------ */
 
-typedef struct sbuild {
-    rt_tr_sample_params p;          /* parameters */
-    int shift;                      /* log2(p.line) */
-    uint64_t T64, goff;             /* sampled iff L * GOLD + goff < T64 (T64 0: every line) */
-    unsigned maxgen;                /* header generations (0: none) */
-    uint64_t pos, next;             /* records seen; start of the window in progress or to come (I3, I4) */
-    uint64_t cpos;                  /* pos at the start of the current chunk (I6) */
-    rt_access *hist;                /* ring of p.hist records */
-    uint64_t hn, hhead;             /* records kept, next slot */
-    uint64_t wn;                    /* records of the current window */
-    uint64_t wscanned;              /* its warm-up: records scanned */
-    uint32_t wnwarm;                /*   lines found */
-    int wshort;                     /*   short warm-up */
-    uint64_t *set;                  /* distinct-line set of the scan (L + 1; 0 empty) */
-    uint32_t *setidx;               /* index in stk of each set entry */
-    uint64_t setmask;               /* set size - 1 */
-    int setshift;                   /* 64 - log2(set size) */
-    rt_access *stk;                 /* lines found, most recent first */
-    uint64_t touch[RT_NCLASS][2];   /* chunk: line touches by class, write */
-    uint64_t refs[RT_NCLASS], bytes[RT_NCLASS], writes[RT_NCLASS]; /* chunk: totals */
-    bbuf samp;                      /* chunk: sampled records, encoded */
-    uint64_t ns;                    /* their count */
-    rt_trc_coder cs;                /* their coder */
-    bbuf wcur;                      /* current window: warm-up then records, encoded */
-    rt_trc_coder cw;                /* its coder */
-    bbuf wins;                      /* windows ended in this chunk (header + wcur each), then nothing */
-    uint64_t nw;                    /* their count */
-    bbuf out;                       /* the last payload made */
-    uint64_t setfill;               /* check: capacity of set, setidx, stk as allocated */
-} sbuild;
-
 #define GOLD RT_SAMPLE_GOLD
 
-static void sb_free(sbuild *b)
+static void sb_free(rt_si_maker *b)
 {
     if (!b) return;
     free(b->hist);
@@ -137,9 +100,9 @@ static uint64_t first_window(const rt_tr_sample_params *p)
     return rt_sample_first_window(p->period, p->window, p->seed);
 }
 
-static sbuild *sb_new(const rt_tr_sample_params *p, unsigned maxgen, rt_err *e)
+static rt_si_maker *sb_new(const rt_tr_sample_params *p, unsigned maxgen, rt_err *e)
 {
-    sbuild *b = rt_calloc(1, sizeof *b, e);
+    rt_si_maker *b = rt_calloc(1, sizeof *b, e);
     if (!b) return NULL;
     b->p = *p;
     while ((1u << b->shift) != p->line) b->shift++;
@@ -166,7 +129,7 @@ static sbuild *sb_new(const rt_tr_sample_params *p, unsigned maxgen, rt_err *e)
 
 /* Window start: the backward scan of window.c's window_begin over the
  * ring; the lines found go to wcur, least recent first. */
-static int sb_begin(sbuild *b)
+static int sb_begin(rt_si_maker *b)
 {
     memset(b->set, 0, (b->setmask + 1) * sizeof *b->set);
     const uint64_t cmax = b->p.cmax, mask = b->setmask;
@@ -208,7 +171,7 @@ static int sb_begin(sbuild *b)
 
 /* Appends the current window (complete, or the partial one at the end of
  * the trace) to wins. */
-static int sb_close_window(sbuild *b)
+static int sb_close_window(rt_si_maker *b)
 {
     if (bb_room(&b->wins, 4 * 10 + 1 + b->wcur.n)) return -1;
     unsigned char *q = b->wins.b + b->wins.n;
@@ -226,7 +189,7 @@ static int sb_close_window(sbuild *b)
  * state in locals (the history stores would otherwise make the compiler
  * reload it) and counts into four interleaved tables, so consecutive
  * records of one class do not wait on each other's store. */
-static int sb_put(sbuild *b, const rt_access *a, size_t n)
+static int sb_put(rt_si_maker *b, const rt_access *a, size_t n)
 {
     const int sh = b->shift;
     const uint64_t T = b->T64, off = b->goff, H = b->p.hist;
@@ -297,7 +260,7 @@ static int sb_put(sbuild *b, const rt_access *a, size_t n)
 /* Makes the side payload of the chunk just ended into b->out and starts
  * the next chunk; last: the trace ends here (a window in progress is
  * stored as it is). 0 or -1 (out of memory). */
-static int sb_chunk(sbuild *b, int last)
+static int sb_chunk(rt_si_maker *b, int last)
 {
     if (last && b->wn && sb_close_window(b)) return -1;
     b->out.n = 0;
@@ -340,7 +303,7 @@ static void *si_open(const rt_tr_sample_params *p, unsigned generations, rt_err 
 static int si_put(void *ctx, const rt_access *a, size_t n) { return sb_put(ctx, a, n); }
 static int si_chunk(void *ctx, int last, const unsigned char **bytes, size_t *len)
 {
-    sbuild *b = ctx;
+    rt_si_maker *b = ctx;
     if (sb_chunk(b, last) < 0) return -1;
     *bytes = b->out.b;
     *len = b->out.n;
@@ -373,7 +336,7 @@ rt_tr_reader *rt_si_open(const char *path, rt_err *e)
 
 int rt_si_check(const void *maker, rt_err *e)
 {
-    const sbuild *b = maker;
+    const rt_si_maker *b = maker;
     const rt_tr_sample_params *p = &b->p;
     const uint64_t P = p->period, M = p->window, H = p->hist;
     if (p->line < 2 || (p->line & (p->line - 1)) || (1u << b->shift) != p->line || M < 1 || M > P / 2 ||

@@ -17,6 +17,7 @@
 #include "scene.h"
 #include "scene_load.h"
 #include "sindex.h"
+#include "sindex_int.h"
 #include "trace.h"
 #include "check.h"
 
@@ -803,6 +804,80 @@ static void test_v3_corrupt(void)
     free(b);
 }
 
+/* The sample index's maker: its invariants (rt_si_check) hold after every
+ * batch and every chunk end of a stream fed in uneven batches, and each
+ * corrupted copy of its state fails the invariant it breaks. */
+static void test_si_check(void)
+{
+    rt_err e = {0};
+    rt_access *a = v3_stream(V3_N);
+    rt_si_maker *m = a ? rt_si_payload.open(&rt_si_payload.params, 3, &e) : NULL;
+    CHECK(m, "maker: %s", e.msg);
+    if (!m) {
+        free(a);
+        return;
+    }
+    size_t i = 0, chunk_end = V3_CHUNK, bad = 0, checks = 0;
+    uint64_t seed = 7;
+    while (i < V3_N) {
+        seed = seed * 6364136223846793005ULL + 1442695040888963407ULL;
+        size_t k = 1 + (size_t)(seed >> 33) % 9000;
+        if (k > V3_N - i) k = V3_N - i;
+        if (k > chunk_end - i) k = chunk_end - i;
+        CHECK(rt_si_payload.put(m, a + i, k) == 0, "put: out of memory");
+        i += k;
+        bad += rt_si_check(m, &e) < 0;
+        checks++;
+        if (i == chunk_end || i == V3_N) {
+            const unsigned char *pb;
+            size_t pn;
+            CHECK(rt_si_payload.chunk(m, i == V3_N, &pb, &pn) == 0 && pn > 0 && pb[0] == (i == V3_N),
+                  "chunk at %zu", i);
+            bad += rt_si_check(m, &e) < 0;
+            checks++;
+            chunk_end += V3_CHUNK;
+        }
+        if (bad) break;
+    }
+    CHECK(bad == 0 && checks > 60, "maker invariants after %zu records (%zu checks): %s", i, checks, e.msg);
+    /* mid-window: a state where a window runs and history is kept */
+    rt_si_payload.close(m);
+    m = rt_si_payload.open(&rt_si_payload.params, 3, &e);
+    if (!m) {
+        free(a);
+        return;
+    }
+    size_t mid = RT_SI_PERIOD - RT_SI_WINDOW + 100;
+    CHECK(rt_si_payload.put(m, a, mid) == 0 && rt_si_check(m, &e) == 0 && m->wn == 100 &&
+              m->hn == RT_SI_HIST, "mid-window state: wn %llu hn %llu: %s", (unsigned long long)m->wn,
+          (unsigned long long)m->hn, e.msg);
+    struct {
+        const char *inv;
+        int what;
+    } cases[] = {{"I1", 0}, {"I2", 1}, {"I3", 2}, {"I4", 3}, {"I5", 4}, {"I5", 5}, {"I6", 6}, {"I6", 7}, {"I7", 8}, {"I7", 9}};
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        rt_si_maker x = *m; /* shares m's buffers; rt_si_check only reads them */
+        switch (cases[c].what) {
+        case 0: x.shift++; break;                    /* shift is not log2(line) */
+        case 1: x.wn = x.p.window; break;            /* a full window left open */
+        case 2: x.next += 1; break;                  /* off the window grid */
+        case 3: x.wn = 0; break;                     /* records past next, no window */
+        case 4: x.hn -= 1; break;                    /* the ring lost a record */
+        case 5: x.hhead = x.p.hist; break;           /* head outside the ring */
+        case 6: x.refs[RT_CLS_NODE]++; break;        /* tallies above the chunk's records */
+        case 7: x.writes[RT_CLS_TRI] = x.refs[RT_CLS_TRI] + 1; break; /* more writes than refs */
+        case 8: x.setmask = 2 * x.setmask + 1; break; /* set size not as allocated */
+        case 9: x.samp.n = x.samp.cap + 1; break;    /* encoded bytes past the buffer */
+        }
+        int rc = rt_si_check(&x, &e);
+        CHECK(rc < 0 && strstr(e.msg, cases[c].inv), "corruption %d: %s expected, got %d: %s", cases[c].what,
+              cases[c].inv, rc, e.msg);
+    }
+    CHECK(rt_si_check(m, &e) == 0, "the original still checks: %s", e.msg);
+    rt_si_payload.close(m);
+    free(a);
+}
+
 int main(void)
 {
     alarm(120); /* a spinning loader ends the test instead of hanging it (generous: the
@@ -822,6 +897,7 @@ int main(void)
     clean_dir();
     test_v3_roundtrip();
     test_v3_corrupt();
+    test_si_check();
     clean_dir();
     rmdir(check_dir);
     if (failures) fprintf(stderr, "%d failure(s)\n", failures);
