@@ -72,16 +72,16 @@
  * version 1 when the metadata declares no generations, so traces of runs
  * without secondary rays stay exactly what they were.
  *
- * SIDE CHUNKS (version 3; docs/trace-format.md has the table). The payload
- * of chunk k's side chunk: u8 flags (bit 0: the last chunk); per class 5
- * varints (line touches by reads and by writes, refs, bytes, writes of
- * chunk k); varint ns and the ns records of chunk k that touch a sampled
- * line; varint nw and per window ending in chunk k (plus, in the last
- * chunk, the one the trace ends in): varints nwarm, scanned, u8 short,
- * varint nrecs, then nwarm warm-up records and nrecs window records. Each
- * record group is coded as a chunk is, from a reset rt_trc_coder. The builder
- * (sbuild, below) makes these bytes from the records; the writer stores
- * them and rt_tr_read re-makes and compares them.
+ * SIDE CHUNKS (version 3). The payload of chunk k's side chunk is opaque
+ * to the format: bytes a payload maker (rt_tr_payload_ops, trace.h) made
+ * from chunk k's records. The format reads one byte of it, byte 0, the
+ * flags (bit 0: the last chunk; other bits zero), and bounds its length
+ * by the header's parameters (side_bound). raytraffic's maker is the
+ * sample index, cachesim/sindex.c, which documents the rest of the bytes
+ * (and docs/trace-format.md). The writer stores what its maker makes;
+ * rt_tr_read re-makes each payload with the maker set by
+ * rt_tr_set_payload_check and compares the bytes; rt_tr_read_payload
+ * hands the payloads to a decoder without touching the records.
  *
  * Address arithmetic wraps modulo 2^64, so every address 0..2^64-1 has an
  * encoding. A k-d traversal revisits the same node sequences for
@@ -101,25 +101,29 @@
  *   - the footer's CRC is valid, and its totals equal the totals of the
  *     records actually read; nothing follows the footer;
  *   - version 3: each chunk is followed by its side chunk (magic, index,
- *     n, bounds, CRC, exact inflate) whose payload equals, byte for byte,
- *     the one the builder makes from the chunk's records; only the last is
- *     marked last.
+ *     n, bounds, CRC, exact inflate, flags); only the last is marked last;
+ *     with a payload check set (rt_tr_set_payload_check), the payload
+ *     equals, byte for byte, the one the maker makes from the chunk's
+ *     records.
  *   Every byte of the file is covered by a CRC or checked against a magic,
  *   so any single flipped bit and any truncation is detected. rt_tr_read
  *   returns 0 only after all of this has been verified.
  *
- *   rt_tr_read_side (the sampled read) checks every magic, header, bound
- *   and CRC, data chunks included, and the side payloads' structure and
- *   record encoding, and the footer against the side chunks' totals; it
- *   does not inflate data chunks, so it cannot see a side chunk that
- *   disagrees with valid-CRC records (a forged file or a writer bug).
+ *   rt_tr_read_payload (the sampled read) checks every magic, header, bound
+ *   and CRC, data chunks included, and the footer's chunk and record
+ *   counts, and its class totals against those the payload decoder
+ *   reports (rt_tr_payload_tally); the decoder checks the payloads'
+ *   structure and record encoding (cachesim/sindex.c). It does not
+ *   inflate data chunks, so it cannot see a side chunk that disagrees
+ *   with valid-CRC records (a forged file or a writer bug).
  *
  * WRITER. Records are encoded as they arrive (through the rt_sink) into a
  * buffer of one chunk; a full buffer is deflated and written when the next
  * record arrives (or at rt_tr_finish, which so knows the last chunk), then
  * its side chunk (version 3). Memory is one chunk's raw and compressed
- * buffers (~2 MiB at the default 64K records), plus for version 3 the
- * builder's history (512 KiB) and one side payload.
+ * buffers (~2 MiB at the default 64K records), plus for version 3 what
+ * the payload maker keeps (the sample index: a 512 KiB history and one
+ * payload).
  * The file goes through outfile.c: a unique temporary beside PATH, renamed
  * to PATH only by rt_tr_finish after the footer is flushed and synced;
  * rt_tr_abort removes the temporary. So a file at PATH is always complete,
@@ -393,7 +397,7 @@ static int w_put(rt_sink *s, const rt_access *a, size_t n)
 {
     rt_tr_writer *w = s->ctx;
     if (w->failed) return -1;
-    size_t fed = 0; /* a[0..fed) are in the sample index builder */
+    size_t fed = 0; /* a[0..fed) went to the payload maker */
     for (size_t i = 0; i < n; i++) {
         unsigned cls = a[i].cls, gen = a[i].gen;
         if (cls >= RT_NCLASS || a[i].size == 0 || gen > w->maxgen) {
