@@ -51,7 +51,7 @@
  * rt_tr_meta field with its NUL and may not contain NUL bytes; the payload
  * must be consumed exactly.
  *
- * RECORD ENCODING (inside a chunk, before zlib). Per class c the rt_trc_coder
+ * RECORD ENCODING (inside a chunk, before zlib). Per class c the coder
  * keeps the previous address A[c] and size S[c], both 0 at the start of
  * every chunk (chunks decode independently). A record is:
  *
@@ -653,7 +653,7 @@ struct rt_tr_reader {
     unsigned char *sraw;    /* side payload, inflated */
     size_t srawcap;         /* its capacity: side_bound(chunk_records) */
     int tallied;            /* side mode: rt_tr_payload_tally was called */
-    rt_trc_coder cd;               /* decoder state of the current chunk */
+    rt_trc_coder cd;        /* decoder state of the current chunk */
     z_stream zs;            /* inflate state */
     int zinit;              /* zs initialised */
     int state;              /* RS_* */
