@@ -296,8 +296,16 @@ static int sb_chunk(rt_si_maker *b, int last)
 
 /* ---- the maker as the trace format's payload maker ------------------------- */
 
+/* The trace format hands over only parameters in its ranges; the
+ * maker's own needs (I1) are checked again for any other caller. */
 static void *si_open(const rt_tr_sample_params *p, unsigned generations, rt_err *e)
 {
+    if (p->line < 2 || p->line > (1u << 30) || (p->line & (p->line - 1)) || p->shift > 32 || p->window < 1 ||
+        p->window > p->period / 2 || p->hist > p->period - p->window || p->cmax < 1 || p->cmax > (1u << 20))
+        return rt_errf(e, "sample index: impossible parameters (line %u, rate 2^-%u, period %llu, window %llu, "
+                       "%llu lines, history %llu)", p->line, p->shift, (unsigned long long)p->period,
+                       (unsigned long long)p->window, (unsigned long long)p->cmax, (unsigned long long)p->hist),
+               NULL;
     return sb_new(p, generations, e);
 }
 static int si_put(void *ctx, const rt_access *a, size_t n) { return sb_put(ctx, a, n); }

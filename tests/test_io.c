@@ -817,6 +817,10 @@ static void test_si_check(void)
         free(a);
         return;
     }
+    rt_tr_sample_params bp = rt_si_payload.params;
+    bp.line = 48;
+    CHECK(!rt_si_payload.open(&bp, 3, &e) && strstr(e.msg, "impossible parameters (line 48"),
+          "maker with line 48: %s", e.msg);
     size_t i = 0, chunk_end = V3_CHUNK, bad = 0, checks = 0;
     uint64_t seed = 7;
     while (i < V3_N) {
