@@ -15,6 +15,7 @@
  * (all classes, then the geometry and ray groups).
  */
 #include "bench.h"
+#include "sindex.h"
 #include "synth.h"
 
 #include <math.h>
@@ -47,7 +48,7 @@ static int src_open(source *s, const char *path, uint64_t nrefs, rt_err *e)
     s->fmt = rt_sim_sniff(path, e);
     if (s->fmt < 0) return -1;
     if (s->fmt == RT_SIM_IN_DIN) s->din = rt_din_open(path, RT_CLS_FB, e);
-    else s->tr = rt_tr_open(path, e);
+    else s->tr = rt_si_open(path, e);
     return s->din || s->tr ? 0 : -1;
 }
 

@@ -15,7 +15,7 @@
  *
  * Sample index: a version-3 trace stores, per chunk, the exact touch
  * counts, the records touching its golden-ratio line sample and the
- * hybrid's windows with their warm-up (trace.h). rt_approx_replay_file
+ * hybrid's windows with their warm-up (sindex.h). rt_approx_replay_file
  * feeds those instead of the records when rt_approx_sample_fits says they
  * give the same estimates (hybrid, no exact sizes, the stream's line, seed
  * and windows, a rate at most the stream's), on a second thread that
@@ -281,7 +281,7 @@ int rt_approx_sample_fits(const rt_approx *a, const rt_tr_sample_params *sp, cha
     return 1;
 }
 
-int rt_approx_put_side(rt_approx *a, const rt_tr_side *s)
+int rt_approx_put_side(rt_approx *a, const rt_si_side *s)
 {
     a->refs += s->nrefs;
     for (int c = 0; c < RT_NCLASS; c++)
@@ -291,7 +291,7 @@ int rt_approx_put_side(rt_approx *a, const rt_tr_side *s)
         rt_shards_put(a->sh, s->sampled, (size_t)s->nsampled, scratch);
     }
     for (uint32_t j = 0; a->tw && j < s->nwin; j++) {
-        const rt_tr_window *w = &s->win[j];
+        const rt_si_window *w = &s->win[j];
         rt_window_put_warm(a->tw, w->warm, w->nwarm, w->scanned, w->short_warmup, w->recs, w->nrecs);
     }
     return 0;
@@ -299,27 +299,27 @@ int rt_approx_put_side(rt_approx *a, const rt_tr_side *s)
 
 /* ---- sample-index replay on two threads ----
  * The reader thread reads, hashes, CRC-checks, inflates and decodes side
- * chunks (rt_tr_read_side) and copies each into a slot of the pipeline
+ * chunks (rt_si_read) and copies each into a slot of the pipeline
  * (pipe.c); the calling thread feeds the slots to the estimator in order. */
 #define SIDE_SLOTS 4
 
 typedef struct side_slot {
-    rt_tr_side s;       /* the copy, pointing into rec and win */
+    rt_si_side s;       /* the copy, pointing into rec and win */
     rt_access *rec;     /* sampled records, then each window's warm-up and records */
     size_t reccap;      /* capacity */
-    rt_tr_window *win;  /* windows */
+    rt_si_window *win;  /* windows */
     uint32_t wincap;    /* capacity */
 } side_slot;
 
 typedef struct side_ring {
     side_slot slot[SIDE_SLOTS];
-    rt_tr_reader *r;    /* the reader thread's until the pipeline ends */
+    rt_si_reader *r;    /* the reader thread's until the pipeline ends */
     rt_approx *a;       /* the consumer's */
     uint64_t *refs;
 } side_ring;
 
 /* Deep copy of s into x; 0 or -1 (out of memory). */
-static int side_copy(side_slot *x, const rt_tr_side *s)
+static int side_copy(side_slot *x, const rt_si_side *s)
 {
     size_t need = (size_t)s->nsampled;
     for (uint32_t j = 0; j < s->nwin; j++) need += s->win[j].nwarm + (size_t)s->win[j].nrecs;
@@ -330,7 +330,7 @@ static int side_copy(side_slot *x, const rt_tr_side *s)
         x->reccap = need;
     }
     if (s->nwin > x->wincap) {
-        rt_tr_window *p = realloc(x->win, s->nwin * sizeof *p);
+        rt_si_window *p = realloc(x->win, s->nwin * sizeof *p);
         if (!p) return -1;
         x->win = p;
         x->wincap = s->nwin;
@@ -356,8 +356,8 @@ static int side_copy(side_slot *x, const rt_tr_side *s)
 static long side_produce(void *ctx, unsigned i, rt_err *e)
 {
     side_ring *q = ctx;
-    rt_tr_side sd;
-    int k = rt_tr_read_side(q->r, &sd, e);
+    rt_si_side sd;
+    int k = rt_si_read(q->r, &sd, e);
     if (k > 0 && side_copy(&q->slot[i], &sd) < 0) return rt_errf(e, "out of memory");
     return k;
 }
@@ -373,8 +373,10 @@ static int side_consume(void *ctx, unsigned i, long n, rt_err *e)
 }
 
 /* Feeds every side chunk of r to a: 0 at the verified end, -1 (e). */
-static int side_pump(rt_approx *a, rt_tr_reader *r, int nthreads, uint64_t *refs, rt_err *e)
+static int side_pump(rt_approx *a, rt_tr_reader *tr, int nthreads, uint64_t *refs, rt_err *e)
 {
+    rt_si_reader *r = rt_si_reader_new(tr, e);
+    if (!r) return -1;
     int rc = 1;
     if (nthreads > 1) {
         side_ring *q = calloc(1, sizeof *q);
@@ -391,14 +393,18 @@ static int side_pump(rt_approx *a, rt_tr_reader *r, int nthreads, uint64_t *refs
             free(q);
         }
     }
-    if (rc <= 0) return rc;
+    if (rc <= 0) {
+        rt_si_reader_free(r);
+        return rc;
+    }
     /* one thread: read and feed in turn */
-    rt_tr_side sd;
+    rt_si_side sd;
     int k;
-    while ((k = rt_tr_read_side(r, &sd, e)) > 0) {
+    while ((k = rt_si_read(r, &sd, e)) > 0) {
         rt_approx_put_side(a, &sd);
         *refs += sd.nrefs;
     }
+    rt_si_reader_free(r);
     return k;
 }
 

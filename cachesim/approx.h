@@ -48,6 +48,7 @@
 #include "memmodel.h"
 #include "rt.h"
 #include "sim.h"
+#include "sindex.h"
 #include "trace.h"
 
 #include <stdint.h>
@@ -152,9 +153,9 @@ int rt_approx_replay(rt_approx *a, const char *path, int fmt, int din_class, rt_
  * are subsets), and windows of the stream's period, length, warm-up depth
  * (largest windowed size) and history; a has seen no references. */
 int rt_approx_sample_fits(const rt_approx *a, const rt_tr_sample_params *sp, char *why, size_t n);
-/* Consumes the sample index of one data chunk (rt_tr_read_side). Only
+/* Consumes the sample index of one data chunk (rt_si_read). Only
  * after rt_approx_sample_fits said yes, and not mixed with rt_approx_put. */
-int rt_approx_put_side(rt_approx *a, const rt_tr_side *s);
+int rt_approx_put_side(rt_approx *a, const rt_si_side *s);
 
 /* Replays one file into a, from its sample index when it has one that
  * fits (rt_approx_sample_fits: only the side chunks are decoded), else

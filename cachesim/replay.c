@@ -17,6 +17,7 @@
 #include "pipe.h"
 #include "sim.h"
 #include "sim_int.h"
+#include "sindex.h"
 #include "trace.h"
 
 #include <errno.h>
@@ -193,7 +194,7 @@ int rt_sim_replay_filtered(rt_sink *sink, const rt_repeats *rp, const char *path
             rt_din_close(d);
         }
     } else {
-        rt_tr_reader *r = rt_tr_open(path, e);
+        rt_tr_reader *r = rt_si_open(path, e);
         if (r) {
             rt_tr_set_side_check(r, 0); /* the records alone make the results: side chunks CRC-checked only */
             if (meta) *meta = *rt_tr_get_meta(r);

@@ -25,6 +25,7 @@
 #include "run.h"
 #include "approx.h"
 #include "sim.h"
+#include "sindex.h"
 #include "trace.h"
 
 #include <inttypes.h>
@@ -146,7 +147,7 @@ static int bench_tracer(rt_job *j, const char *tmpdir, int do_trace, int do_sim,
         rt_tr_meta m;
         rt_job_meta(j, rt_cmd_line(), &m);
         rt_tr_wopts wo; /* as `trace` writes them: version 3, with the sample index */
-        rt_tr_default_wopts(&wo);
+        rt_si_wopts(&wo);
         rt_tr_writer *w = rt_tr_create_opts(path, &m, &wo, &e);
         if (!w) goto fail;
         double t0 = rt_now();

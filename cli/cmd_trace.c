@@ -4,6 +4,7 @@
 #include "grid.h"
 #include "image.h"
 #include "run.h"
+#include "sindex.h"
 #include "trace.h"
 
 #include <errno.h>
@@ -56,7 +57,7 @@ int main_trace(int argc, char **argv)
     o.W = o.H = 512;
     o.lights = 0;
     rt_tr_wopts wo;
-    rt_tr_default_wopts(&wo);
+    rt_si_wopts(&wo);
     const char *material = NULL;
     const char *tracer = "recursive", *out = NULL;
     int c;
@@ -87,7 +88,7 @@ int main_trace(int argc, char **argv)
             }
             wo.level = optarg[0] - '0';
             break;
-        case OPT_NO_SAMPLE: wo.sample = 0; break;
+        case OPT_NO_SAMPLE: wo.payload = NULL; break;
         case 'h': usage(stdout); free(lo); return RT_EXIT_OK;
         default: goto usage_err;
         }

@@ -1,6 +1,7 @@
 /* cmd_trace_dump.c -- `raytraffic trace-dump`: print a trace's records as
  * text or as Dinero IV din, verifying the file as it goes. */
 #include "cmd.h"
+#include "sindex.h"
 #include "trace.h"
 
 #include <errno.h>
@@ -96,7 +97,7 @@ int main_trace_dump(int argc, char **argv)
     }
     const char *path = argv[optind];
     rt_err e = {0};
-    rt_tr_reader *r = rt_tr_open(path, &e);
+    rt_tr_reader *r = rt_si_open(path, &e);
     if (!r) {
         rt_cmd_error("trace-dump", "%s", e.msg);
         return RT_EXIT_FAIL;

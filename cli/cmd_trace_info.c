@@ -1,6 +1,7 @@
 /* cmd_trace_info.c -- `raytraffic trace-info`: describe a trace file (header,
  * region table, per-class totals) after verifying all of it. */
 #include "cmd.h"
+#include "sindex.h"
 #include "trace.h"
 
 #include <inttypes.h>
@@ -177,7 +178,7 @@ int main_trace_info(int argc, char **argv)
     }
     const char *path = argv[optind];
     rt_err e = {0};
-    rt_tr_reader *r = rt_tr_open(path, &e);
+    rt_tr_reader *r = rt_si_open(path, &e);
     if (!r) {
         rt_cmd_error("trace-info", "%s", e.msg);
         return RT_EXIT_FAIL;

@@ -13,6 +13,7 @@
 #include "experiment.h"
 #include "rows.h"
 #include "run.h"
+#include "sindex.h"
 
 #include <inttypes.h>
 #include <pthread.h>
@@ -423,7 +424,7 @@ static int open_trace(rt_exp_worker *w, jobrun *r, const rt_exp_job *jb, long in
     rt_tr_meta m;
     rt_job_meta(&r->j, c->command, &m);
     rt_tr_wopts wo; /* as `trace` writes them: version 3, with the sample index */
-    rt_tr_default_wopts(&wo);
+    rt_si_wopts(&wo);
     if (!(r->tw = rt_tr_create_opts(path, &m, &wo, e))) return -1;
     return rt_exp_fan_add(&r->fan, rt_tr_sink(r->tw), e) < 0 ? -1 : 0;
 }

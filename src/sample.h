@@ -12,8 +12,8 @@
  *     (the default) places every window at the end of its period.
  *
  * Users: cachesim/window.c (the hybrid method), cachesim/shards.c (golden
- * SHARDS), src/trace.c (the version-3 sample index, which must give the
- * hybrid method's windows and samples bit for bit).
+ * SHARDS), cachesim/sindex.c (the version-3 trace's sample index, which
+ * must give the hybrid method's windows and samples bit for bit).
  */
 #ifndef RT_SAMPLE_H
 #define RT_SAMPLE_H

@@ -72,16 +72,16 @@
  * version 1 when the metadata declares no generations, so traces of runs
  * without secondary rays stay exactly what they were.
  *
- * SIDE CHUNKS (version 3; docs/trace-format.md has the table). The payload
- * of chunk k's side chunk: u8 flags (bit 0: the last chunk); per class 5
- * varints (line touches by reads and by writes, refs, bytes, writes of
- * chunk k); varint ns and the ns records of chunk k that touch a sampled
- * line; varint nw and per window ending in chunk k (plus, in the last
- * chunk, the one the trace ends in): varints nwarm, scanned, u8 short,
- * varint nrecs, then nwarm warm-up records and nrecs window records. Each
- * record group is coded as a chunk is, from a reset coder. The builder
- * (sbuild, below) makes these bytes from the records; the writer stores
- * them and rt_tr_read re-makes and compares them.
+ * SIDE CHUNKS (version 3). The payload of chunk k's side chunk is opaque
+ * to the format: bytes a payload maker (rt_tr_payload_ops, trace.h) made
+ * from chunk k's records. The format reads one byte of it, byte 0, the
+ * flags (bit 0: the last chunk; other bits zero), and bounds its length
+ * by the header's parameters (side_bound). raytraffic's maker is the
+ * sample index, cachesim/sindex.c, which documents the rest of the bytes
+ * (and docs/trace-format.md). The writer stores what its maker makes;
+ * rt_tr_read re-makes each payload with the maker set by
+ * rt_tr_set_payload_check and compares the bytes; rt_tr_read_payload
+ * hands the payloads to a decoder without touching the records.
  *
  * Address arithmetic wraps modulo 2^64, so every address 0..2^64-1 has an
  * encoding. A k-d traversal revisits the same node sequences for
@@ -101,25 +101,29 @@
  *   - the footer's CRC is valid, and its totals equal the totals of the
  *     records actually read; nothing follows the footer;
  *   - version 3: each chunk is followed by its side chunk (magic, index,
- *     n, bounds, CRC, exact inflate) whose payload equals, byte for byte,
- *     the one the builder makes from the chunk's records; only the last is
- *     marked last.
+ *     n, bounds, CRC, exact inflate, flags); only the last is marked last;
+ *     with a payload check set (rt_tr_set_payload_check), the payload
+ *     equals, byte for byte, the one the maker makes from the chunk's
+ *     records.
  *   Every byte of the file is covered by a CRC or checked against a magic,
  *   so any single flipped bit and any truncation is detected. rt_tr_read
  *   returns 0 only after all of this has been verified.
  *
- *   rt_tr_read_side (the sampled read) checks every magic, header, bound
- *   and CRC, data chunks included, and the side payloads' structure and
- *   record encoding, and the footer against the side chunks' totals; it
- *   does not inflate data chunks, so it cannot see a side chunk that
- *   disagrees with valid-CRC records (a forged file or a writer bug).
+ *   rt_tr_read_payload (the sampled read) checks every magic, header, bound
+ *   and CRC, data chunks included, and the footer's chunk and record
+ *   counts, and its class totals against those the payload decoder
+ *   reports (rt_tr_payload_tally); the decoder checks the payloads'
+ *   structure and record encoding (cachesim/sindex.c). It does not
+ *   inflate data chunks, so it cannot see a side chunk that disagrees
+ *   with valid-CRC records (a forged file or a writer bug).
  *
  * WRITER. Records are encoded as they arrive (through the rt_sink) into a
  * buffer of one chunk; a full buffer is deflated and written when the next
  * record arrives (or at rt_tr_finish, which so knows the last chunk), then
  * its side chunk (version 3). Memory is one chunk's raw and compressed
- * buffers (~2 MiB at the default 64K records), plus for version 3 the
- * builder's history (512 KiB) and one side payload.
+ * buffers (~2 MiB at the default 64K records), plus for version 3 what
+ * the payload maker keeps (the sample index: a 512 KiB history and one
+ * payload).
  * The file goes through outfile.c: a unique temporary beside PATH, renamed
  * to PATH only by rt_tr_finish after the footer is flushed and synced;
  * rt_tr_abort removes the temporary. So a file at PATH is always complete,
@@ -129,8 +133,8 @@
  * decodes records into the caller's buffer on demand; it hashes every byte
  * (FNV-1a 64) for provenance, in both read modes.
  */
-#include "sample.h"
 #include "trace.h"
+#include "trace_rec.h"
 #include "outfile.h"
 #include "rt_math.h"
 
@@ -150,16 +154,8 @@ static const unsigned char FOOT_MAGIC[4] = {'R', 'T', 'N', 'D'};
 static const unsigned char SIDE_MAGIC[4] = {'R', 'T', 'S', 'M'};
 
 #define MAX_HDR_PAYLOAD 65536u
-#define MAX_REC_BYTES_V1 16u /* tag + 10-byte address varint + 5-byte size varint */
-#define MAX_REC_BYTES 17u    /* version 2: + generation byte */
 #define CHUNK_HDR 24u
 #define FOOT_LEN (4u + 4u + 16u + 24u * RT_NCLASS + 4u)
-
-#define TAG_CLASS 0x0fu
-#define TAG_WRITE 0x10u
-#define TAG_SAMESIZE 0x20u
-#define TAG_SEQ 0x40u
-#define TAG_GEN 0x80u /* version 2; reserved (zero) in version 1 */
 
 /* ---- little-endian helpers ------------------------------------------------ */
 
@@ -283,421 +279,29 @@ static int hg_str(hbuf *h, char *dst, size_t cap)
     return 0;
 }
 
-/* ---- record coder ---------------------------------------------------------- */
+/* ---- side payload parameters ------------------------------------------------ */
 
-/* Per-class coder state: previous address and size per class and the
- * current generation, all 0 at the start of a chunk (and of every record
- * group of a side chunk). */
-typedef struct coder {
-    uint64_t addr[16]; /* previous address per class */
-    uint32_t size[16]; /* previous size per class */
-    unsigned gen;      /* current generation */
-} coder;
-
-static inline unsigned char *put_varint(unsigned char *p, uint64_t v)
-{
-    while (v >= 0x80) {
-        *p++ = (unsigned char)(v | 0x80);
-        v >>= 7;
-    }
-    *p++ = (unsigned char)v;
-    return p;
-}
-
-/* Encodes one valid record (class < RT_NCLASS, size >= 1, generation
- * allowed by the header) at p; returns the end (at most MAX_REC_BYTES). */
-static inline unsigned char *enc_rec(coder *c, unsigned char *p, const rt_access *a)
-{
-    unsigned cls = a->cls, gen = a->gen;
-    unsigned char *tag = p++;
-    unsigned t = cls | (a->write ? TAG_WRITE : 0);
-    if (gen != c->gen) { /* only possible with generations (version >= 2) */
-        t |= TAG_GEN;
-        *p++ = (unsigned char)gen;
-        c->gen = gen;
-    }
-    uint64_t pa = c->addr[cls];
-    uint32_t ps = c->size[cls];
-    if (a->addr == pa + ps) t |= TAG_SEQ;
-    else {
-        uint64_t d = a->addr - pa;
-        p = put_varint(p, (d << 1) ^ (0 - (d >> 63)));
-    }
-    if (a->size == ps) t |= TAG_SAMESIZE;
-    else p = put_varint(p, a->size);
-    *tag = (unsigned char)t;
-    c->addr[cls] = a->addr;
-    c->size[cls] = a->size;
-    return p;
-}
-
-/* Decoding errors, in the words of the chunk decoder in rt_tr_read. */
-enum { DEC_OK = 0, DEC_TAG, DEC_CLASS, DEC_SAMEGEN, DEC_GEN, DEC_SHORT, DEC_OVERFLOW, DEC_SIZE0 };
-static const char *const dec_msg[] = {"", "reserved tag bit set", "class out of range",
-                                      "generation byte repeats the current generation", "generation above the header's",
-                                      "record runs past the end of the chunk", "varint overflow", "size 0"};
-
-/* Decodes one record from *pp (< end) with every check, for rt_tr_read and
- * the side chunks alike;
- * maxgen 0 = no generations (bit 7 reserved). DEC_OK or the error. */
-static inline __attribute__((always_inline)) int dec_rec(const unsigned char **pp, const unsigned char *end,
-                                                         coder *restrict c, unsigned maxgen,
-                                                         rt_access *restrict out)
-{
-    const unsigned char *p = *pp;
-    if (p == end) return DEC_SHORT;
-    unsigned t = *p++;
-    unsigned cls = t & TAG_CLASS, gen = c->gen;
-    if (t & TAG_GEN) {
-        if (!maxgen) return DEC_TAG;
-        if (p == end) return DEC_SHORT;
-        gen = *p++;
-        if (gen == c->gen) return DEC_SAMEGEN;
-        if (gen > maxgen) return DEC_GEN;
-    }
-    if (cls >= RT_NCLASS) return DEC_CLASS;
-    uint64_t addr = c->addr[cls];
-    uint32_t size = c->size[cls];
-    if (t & TAG_SEQ) addr += size;
-    else {
-        uint64_t z = 0;
-        for (int sh = 0;; sh += 7) {
-            if (p == end) return DEC_SHORT;
-            unsigned b = *p++;
-            if (sh == 63 && b > 1) return DEC_OVERFLOW;
-            z |= (uint64_t)(b & 0x7f) << sh;
-            if (!(b & 0x80)) break;
-        }
-        addr += (z >> 1) ^ (0 - (z & 1));
-    }
-    if (!(t & TAG_SAMESIZE)) {
-        uint64_t v = 0;
-        for (int sh = 0;; sh += 7) {
-            if (p == end) return DEC_SHORT;
-            unsigned b = *p++;
-            if (sh == 28 && b > 0x0f) return DEC_OVERFLOW;
-            v |= (uint64_t)(b & 0x7f) << sh;
-            if (!(b & 0x80)) break;
-        }
-        size = (uint32_t)v;
-    }
-    if (size == 0) return DEC_SIZE0;
-    c->addr[cls] = addr;
-    c->size[cls] = size;
-    c->gen = gen;
-    out->addr = addr;
-    out->size = size;
-    out->write = (t & TAG_WRITE) != 0;
-    out->cls = (uint8_t)cls;
-    out->gen = (uint8_t)gen;
-    *pp = p;
-    return DEC_OK;
-}
-
-/* A LEB128 varint of at most 10 bytes (the last holding one bit) from *pp;
- * -1 if it runs past end or overflows. */
-static int get_varint(const unsigned char **pp, const unsigned char *end, uint64_t *v)
-{
-    const unsigned char *p = *pp;
-    uint64_t z = 0;
-    for (int sh = 0;; sh += 7) {
-        if (p == end) return -1;
-        unsigned b = *p++;
-        if (sh == 63 && b > 1) return -1;
-        z |= (uint64_t)(b & 0x7f) << sh;
-        if (!(b & 0x80)) break;
-    }
-    *v = z;
-    *pp = p;
-    return 0;
-}
-
-/* ---- growable byte buffer ---------------------------------------------------- */
-
-typedef struct bbuf {
-    unsigned char *b; /* bytes */
-    size_t n, cap;    /* used, allocated */
-} bbuf;
-
-/* Room for `more` bytes at b->b + b->n; 0 or -1 (out of memory). */
-static int bb_room(bbuf *b, size_t more)
-{
-    if (more <= b->cap - b->n) return 0;
-    size_t nc = b->cap ? b->cap : 4096;
-    while (nc - b->n < more) nc *= 2;
-    unsigned char *x = realloc(b->b, nc);
-    if (!x) return -1;
-    b->b = x;
-    b->cap = nc;
-    return 0;
-}
-
-/* ---- sample index: what a side chunk holds ----------------------------------
- *
- * The builder sees every record in order (the writer as it encodes them,
- * the verifying reader as it decodes them) and makes each chunk's side
- * payload, so writer and reader produce the same bytes from the same
- * records and the reader checks a side chunk with one memcmp. Its window
- * logic is that of cachesim/window.c at its default placement (seed 1:
- * window j measures records [s_j, s_j + M), s_j = (j + 1) P - M - o), with
- * the same backward scan, so a window replayed from the side chunk gives
- * the counters the hybrid method computes from the whole stream.
- *
- * INVARIANTS: pos = records seen; next = s_j of the window in progress or
- * to come; hn = records of [max(next - hist, 0), next) kept in the ring
- * (while no window runs); wn = records of the current window seen (0 when
- * none runs); wdone = bytes of wins holding complete windows. */
-
-typedef struct sbuild {
-    rt_tr_sample_params p;          /* parameters */
-    int shift;                      /* log2(p.line) */
-    uint64_t T64, goff;             /* sampled iff L * GOLD + goff < T64 (T64 0: every line) */
-    unsigned maxgen;                /* header generations (0: none) */
-    uint64_t pos, next;             /* see INVARIANTS */
-    rt_access *hist;                /* ring of p.hist records */
-    uint64_t hn, hhead;             /* records kept, next slot */
-    uint64_t wn;                    /* records of the current window */
-    uint64_t wscanned;              /* its warm-up: records scanned */
-    uint32_t wnwarm;                /*   lines found */
-    int wshort;                     /*   short warm-up */
-    uint64_t *set;                  /* distinct-line set of the scan (L + 1; 0 empty) */
-    uint32_t *setidx;               /* index in stk of each set entry */
-    uint64_t setmask;               /* set size - 1 */
-    int setshift;                   /* 64 - log2(set size) */
-    rt_access *stk;                 /* lines found, most recent first */
-    uint64_t touch[RT_NCLASS][2];   /* chunk: line touches by class, write */
-    uint64_t refs[RT_NCLASS], bytes[RT_NCLASS], writes[RT_NCLASS]; /* chunk: totals */
-    bbuf samp;                      /* chunk: sampled records, encoded */
-    uint64_t ns;                    /* their count */
-    coder cs;                       /* their coder */
-    bbuf wcur;                      /* current window: warm-up then records, encoded */
-    coder cw;                       /* its coder */
-    bbuf wins;                      /* windows ended in this chunk (header + wcur each), then nothing */
-    uint64_t nw;                    /* their count */
-    bbuf out;                       /* the last payload made */
-} sbuild;
-
-#define GOLD RT_SAMPLE_GOLD
-
-static void sb_free(sbuild *b)
-{
-    if (!b) return;
-    free(b->hist);
-    free(b->set);
-    free(b->setidx);
-    free(b->stk);
-    free(b->samp.b);
-    free(b->wcur.b);
-    free(b->wins.b);
-    free(b->out.b);
-    free(b);
-}
-
-/* The first window's start, by the rule window.c follows (sample.h). */
-static uint64_t first_window(const rt_tr_sample_params *p)
-{
-    return rt_sample_first_window(p->period, p->window, p->seed);
-}
-
-static sbuild *sb_new(const rt_tr_sample_params *p, unsigned maxgen, rt_err *e)
-{
-    sbuild *b = rt_calloc(1, sizeof *b, e);
-    if (!b) return NULL;
-    b->p = *p;
-    while ((1u << b->shift) != p->line) b->shift++;
-    b->T64 = p->shift == 0 ? 0 : 1ULL << (64 - p->shift);
-    b->goff = rt_sample_golden_offset(p->seed);
-    b->maxgen = maxgen;
-    b->next = first_window(p);
-    uint64_t ss = 16;
-    while (ss < 4 * p->cmax) ss <<= 1;
-    b->setmask = ss - 1;
-    b->setshift = 64;
-    for (uint64_t q = ss; q > 1; q >>= 1) b->setshift--;
-    b->set = rt_calloc(ss, sizeof *b->set, e);
-    b->setidx = b->set ? rt_calloc(ss, sizeof *b->setidx, e) : NULL;
-    b->stk = b->setidx ? rt_calloc(p->cmax, sizeof *b->stk, e) : NULL;
-    b->hist = b->stk && p->hist ? rt_calloc(p->hist, sizeof *b->hist, e) : NULL;
-    if (!b->stk || (p->hist && !b->hist)) {
-        sb_free(b);
-        return NULL;
-    }
-    return b;
-}
-
-/* Window start: the backward scan of window.c's window_begin over the
- * ring; the lines found go to wcur, least recent first. */
-static int sb_begin(sbuild *b)
-{
-    memset(b->set, 0, (b->setmask + 1) * sizeof *b->set);
-    const uint64_t cmax = b->p.cmax, mask = b->setmask;
-    uint32_t seen = 0;
-    uint64_t s = b->hn, prev = UINT64_MAX;
-    while (s > 0 && seen < cmax) {
-        --s;
-        uint64_t at = b->hhead + (b->p.hist - b->hn) + s; /* < 2 hist: oldest kept is s = 0 */
-        const rt_access *r = &b->hist[at >= b->p.hist ? at - b->p.hist : at];
-        uint64_t f = r->addr >> b->shift, l = (r->addr + r->size - 1) >> b->shift;
-        unsigned w = r->write ? 1 : 0, cls = r->cls;
-        if (f == l && f == prev && !w) continue; /* a read of the line just met: nothing new */
-        prev = f;
-        for (uint64_t L = l + 1; L-- > f && seen < cmax;) {
-            uint64_t i = (L * GOLD) >> b->setshift;
-            while (b->set[i] && b->set[i] != L + 1) i = (i + 1) & mask;
-            if (!b->set[i]) {
-                b->set[i] = L + 1;
-                b->setidx[i] = seen;
-                b->stk[seen++] = (rt_access){L << b->shift, 1, (uint8_t)w, (uint8_t)cls, 0};
-            } else if (w && !b->stk[b->setidx[i]].write) {
-                b->stk[b->setidx[i]].write = 1;
-                b->stk[b->setidx[i]].cls = (uint8_t)cls;
-            }
-        }
-    }
-    b->wscanned = b->hn - s;
-    b->wnwarm = seen;
-    b->wshort = seen < cmax && b->next - b->hn > 0;
-    b->wcur.n = 0;
-    if (bb_room(&b->wcur, (size_t)seen * MAX_REC_BYTES)) return -1;
-    memset(&b->cw, 0, sizeof b->cw);
-    unsigned char *q = b->wcur.b;
-    for (uint32_t i = seen; i-- > 0;) q = enc_rec(&b->cw, q, &b->stk[i]);
-    b->wcur.n = (size_t)(q - b->wcur.b);
-    memset(&b->cw, 0, sizeof b->cw); /* the window's records: a group of their own */
-    return 0;
-}
-
-/* Appends the current window (complete, or the partial one at the end of
- * the trace) to wins. */
-static int sb_close_window(sbuild *b)
-{
-    if (bb_room(&b->wins, 4 * 10 + 1 + b->wcur.n)) return -1;
-    unsigned char *q = b->wins.b + b->wins.n;
-    q = put_varint(q, b->wnwarm);
-    q = put_varint(q, b->wscanned);
-    *q++ = (unsigned char)b->wshort;
-    q = put_varint(q, b->wn);
-    if (b->wcur.n) memcpy(q, b->wcur.b, b->wcur.n);
-    b->wins.n = (size_t)(q - b->wins.b) + b->wcur.n;
-    b->nw++;
-    return 0;
-}
-
-/* Feeds n valid records. 0 or -1 (out of memory). The hot loop keeps its
- * state in locals (the history stores would otherwise make the compiler
- * reload it) and counts into four interleaved tables, so consecutive
- * records of one class do not wait on each other's store. */
-static int sb_put(sbuild *b, const rt_access *a, size_t n)
-{
-    const int sh = b->shift;
-    const uint64_t T = b->T64, off = b->goff, H = b->p.hist;
-    if (n == 0) return 0;
-    if (bb_room(&b->samp, n * MAX_REC_BYTES)) return -1;
-    unsigned char *sq = b->samp.b + b->samp.n;
-    uint64_t cnt[4][RT_NCLASS][2], tch[4][RT_NCLASS][2], byt[4][RT_NCLASS];
-    memset(cnt, 0, sizeof cnt);
-    memset(tch, 0, sizeof tch);
-    memset(byt, 0, sizeof byt);
-    rt_access *restrict hist = b->hist;
-    uint64_t pos = b->pos, next = b->next, hhead = b->hhead, hn = b->hn;
-    int rc = 0;
-    for (size_t i = 0; i < n; i++) {
-        const rt_access *r = &a[i];
-        unsigned cls = r->cls, w = r->write ? 1 : 0, k = i & 3;
-        uint64_t f = r->addr >> sh, l = (r->addr + r->size - 1) >> sh;
-        cnt[k][cls][w]++;
-        tch[k][cls][w] += l - f + 1;
-        byt[k][cls] += r->size;
-        int hit = f <= l && (!T || f * GOLD + off < T || l * GOLD + off < T);
-        for (uint64_t L = f + 1; !hit && L < l; L++) hit = L * GOLD + off < T; /* wider than two lines */
-        if (hit) {
-            sq = enc_rec(&b->cs, sq, r);
-            b->ns++;
-        }
-        if (pos < next) { /* before a window: keep the last hist records */
-            if (pos + H >= next && H) {
-                hist[hhead] = *r;
-                hhead = hhead + 1 == H ? 0 : hhead + 1;
-                hn += hn < H;
-            }
-        } else {
-            b->hhead = hhead;
-            b->hn = hn;
-            if (b->wn == 0 && sb_begin(b)) rc = -1;
-            if (!rc && bb_room(&b->wcur, MAX_REC_BYTES)) rc = -1;
-            if (rc) break;
-            b->wcur.n = (size_t)(enc_rec(&b->cw, b->wcur.b + b->wcur.n, r) - b->wcur.b);
-            if (++b->wn == b->p.window) {
-                if (sb_close_window(b)) {
-                    rc = -1;
-                    break;
-                }
-                b->wn = 0;
-                hn = 0;
-                next = b->next += b->p.period;
-            }
-        }
-        pos++;
-    }
-    b->pos = pos;
-    b->hhead = hhead;
-    b->hn = hn;
-    b->samp.n = (size_t)(sq - b->samp.b);
-    for (int k = 0; k < 4; k++)
-        for (int c = 0; c < RT_NCLASS; c++) {
-            for (int w = 0; w < 2; w++) {
-                b->touch[c][w] += tch[k][c][w];
-                b->refs[c] += cnt[k][c][w];
-            }
-            b->writes[c] += cnt[k][c][1];
-            b->bytes[c] += byt[k][c];
-        }
-    return rc;
-}
-
-/* Makes the side payload of the chunk just ended into b->out and starts
- * the next chunk; last: the trace ends here (a window in progress is
- * stored as it is). 0 or -1 (out of memory). */
-static int sb_chunk(sbuild *b, int last)
-{
-    if (last && b->wn && sb_close_window(b)) return -1;
-    b->out.n = 0;
-    if (bb_room(&b->out, 1 + RT_NCLASS * 5 * 10 + 2 * 10 + b->samp.n + b->wins.n)) return -1;
-    unsigned char *q = b->out.b;
-    *q++ = (unsigned char)(last ? 1 : 0);
-    for (int c = 0; c < RT_NCLASS; c++) {
-        q = put_varint(q, b->touch[c][0]);
-        q = put_varint(q, b->touch[c][1]);
-        q = put_varint(q, b->refs[c]);
-        q = put_varint(q, b->bytes[c]);
-        q = put_varint(q, b->writes[c]);
-    }
-    q = put_varint(q, b->ns);
-    if (b->samp.n) memcpy(q, b->samp.b, b->samp.n); /* (a buffer never grown is NULL) */
-    q += b->samp.n;
-    q = put_varint(q, b->nw);
-    if (b->wins.n) memcpy(q, b->wins.b, b->wins.n);
-    q += b->wins.n;
-    b->out.n = (size_t)(q - b->out.b);
-    memset(b->touch, 0, sizeof b->touch);
-    memset(b->refs, 0, sizeof b->refs);
-    memset(b->bytes, 0, sizeof b->bytes);
-    memset(b->writes, 0, sizeof b->writes);
-    memset(&b->cs, 0, sizeof b->cs);
-    b->samp.n = 0;
-    b->ns = 0;
-    b->wins.n = 0;
-    b->nw = 0;
-    return 0;
-}
-
-/* Largest side payload of a chunk of n records (windows end at least
- * period records apart, so at most n / period + 1 end in it, plus the
- * partial one of the last chunk). */
+/* Largest side payload of a chunk of n records: the format's bound, from
+ * the header's parameters (trace.h). It is the largest sample index
+ * (cachesim/sindex.c) of a chunk: flags, 50 class totals and two counts,
+ * every record sampled, and the windows that can end in it (they end at
+ * least period records apart, so at most n / period + 1, plus the partial
+ * one of the last chunk), each with its header and cmax + window records. */
 static uint64_t side_bound(const rt_tr_sample_params *p, uint64_t n)
 {
     uint64_t nw = n / p->period + 2;
-    return 1 + RT_NCLASS * 5 * 10 + 2 * 10 + n * MAX_REC_BYTES + nw * (31 + (p->cmax + p->window) * MAX_REC_BYTES);
+    return 1 + RT_NCLASS * 5 * 10 + 2 * 10 + n * RT_TRC_MAX_REC + nw * (31 + (p->cmax + p->window) * RT_TRC_MAX_REC);
+}
+
+/* 1 if the parameters are in the ranges the format allows (trace.h). The
+ * upper bounds keep a side chunk's bound (side_bound) within ~50 MiB even
+ * at 2^20 records per chunk. */
+static int sample_params_ok(const rt_tr_sample_params *sp)
+{
+    return !(sp->line < 2 || sp->line > 65536 || (sp->line & (sp->line - 1)) || sp->shift > 32 ||
+             sp->period < 4096 || sp->period > (1ULL << 40) || sp->window < 1 || sp->window > sp->period / 2 ||
+             sp->window > 16384 || sp->cmax < 1 || sp->cmax > 4096 || sp->hist > sp->period - sp->window ||
+             sp->hist > (1u << 20));
 }
 
 /* ---- writer ---------------------------------------------------------------- */
@@ -715,9 +319,11 @@ struct rt_tr_writer {
     size_t outcap;          /* its capacity */
     z_stream zs;            /* deflate state, reset per chunk */
     int zinit;              /* zs initialised */
-    coder cd;               /* record coder of the current chunk */
+    rt_trc_coder cd;        /* record coder of the current chunk */
     unsigned maxgen;        /* meta.generations: 0 = no generation bytes */
-    sbuild *sb;             /* sample index builder (version 3), or NULL */
+    const rt_tr_payload_ops *pops; /* side payload maker (version 3), or NULL */
+    void *pctx;             /* its state */
+    rt_tr_sample_params sp; /* its parameters, as in the header */
     rt_tr_totals tot;       /* totals so far */
     uint64_t written;       /* bytes written to the file */
     int failed;             /* a put failed; err holds why */
@@ -728,19 +334,7 @@ void rt_tr_default_wopts(rt_tr_wopts *o)
 {
     o->level = RT_TR_DEFAULT_LEVEL;
     o->chunk_records = RT_TR_DEFAULT_CHUNK;
-    o->sample = 1;
-}
-
-/* The sample index a version-3 writer stores. */
-static void default_sample(rt_tr_sample_params *p)
-{
-    p->line = RT_TR_SAMPLE_LINE;
-    p->shift = RT_TR_SAMPLE_SHIFT;
-    p->seed = RT_TR_SAMPLE_SEED;
-    p->period = RT_TR_SAMPLE_PERIOD;
-    p->window = RT_TR_SAMPLE_WINDOW;
-    p->cmax = RT_TR_SAMPLE_CMAX;
-    p->hist = RT_TR_SAMPLE_HIST;
+    o->payload = NULL;
 }
 
 static int w_write(rt_tr_writer *w, const void *p, size_t n, rt_err *e)
@@ -783,9 +377,14 @@ static int w_flush_chunk(rt_tr_writer *w, int last, rt_err *e)
     if (w->nrec == 0) return 0;
     if (w->tot.nchunks >= UINT32_MAX) return rt_errf(e, "%s: more than 2^32-1 chunks", w->path);
     if (w_deflate(w, CHUNK_MAGIC, w->nrec, w->raw, w->rawlen, e) < 0) return -1;
-    if (w->sb) {
-        if (sb_chunk(w->sb, last) < 0) return rt_errf(e, "%s: out of memory", w->path);
-        if (w_deflate(w, SIDE_MAGIC, w->nrec, w->sb->out.b, w->sb->out.n, e) < 0) return -1;
+    if (w->pops) {
+        const unsigned char *pb = NULL;
+        size_t plen = 0;
+        if (w->pops->chunk(w->pctx, last, &pb, &plen) < 0) return rt_errf(e, "%s: out of memory", w->path);
+        if (plen < 1 || plen > side_bound(&w->sp, w->nrec) || pb[0] != (last ? 1 : 0))
+            return rt_errf(e, "%s: chunk %llu: the side payload made (%zu bytes, flags %#x) does not fit the format",
+                           w->path, (unsigned long long)w->tot.nchunks, plen, plen ? pb[0] : 0u);
+        if (w_deflate(w, SIDE_MAGIC, w->nrec, pb, plen, e) < 0) return -1;
     }
     w->tot.nchunks++;
     w->nrec = 0;
@@ -798,7 +397,7 @@ static int w_put(rt_sink *s, const rt_access *a, size_t n)
 {
     rt_tr_writer *w = s->ctx;
     if (w->failed) return -1;
-    size_t fed = 0; /* a[0..fed) are in the sample index builder */
+    size_t fed = 0; /* a[0..fed) went to the payload maker */
     for (size_t i = 0; i < n; i++) {
         unsigned cls = a[i].cls, gen = a[i].gen;
         if (cls >= RT_NCLASS || a[i].size == 0 || gen > w->maxgen) {
@@ -815,7 +414,7 @@ static int w_put(rt_sink *s, const rt_access *a, size_t n)
         /* a full chunk is written when the next record comes, so that
          * rt_tr_finish knows which chunk is the last */
         if (w->nrec == w->chunk_records) {
-            if (w->sb && sb_put(w->sb, a + fed, i - fed) < 0) {
+            if (w->pops && w->pops->put(w->pctx, a + fed, i - fed) < 0) {
                 rt_errf(&w->err, "%s: out of memory", w->path);
                 w->failed = 1;
                 return -1;
@@ -826,14 +425,14 @@ static int w_put(rt_sink *s, const rt_access *a, size_t n)
                 return -1;
             }
         }
-        w->rawlen = (size_t)(enc_rec(&w->cd, w->raw + w->rawlen, &a[i]) - w->raw);
+        w->rawlen = (size_t)(rt_trc_enc(&w->cd, w->raw + w->rawlen, &a[i]) - w->raw);
         w->tot.refs[cls]++;
         w->tot.bytes[cls] += a[i].size;
         w->tot.writes[cls] += a[i].write != 0;
         w->tot.nrefs++;
         w->nrec++;
     }
-    if (w->sb && sb_put(w->sb, a + fed, n - fed) < 0) {
+    if (w->pops && w->pops->put(w->pctx, a + fed, n - fed) < 0) {
         rt_errf(&w->err, "%s: out of memory", w->path);
         w->failed = 1;
         return -1;
@@ -896,7 +495,6 @@ rt_tr_writer *rt_tr_create(const char *path, const rt_tr_meta *m, rt_err *e)
 {
     rt_tr_wopts o;
     rt_tr_default_wopts(&o);
-    o.sample = 0;
     return rt_tr_create_opts(path, m, &o, e);
 }
 
@@ -907,9 +505,15 @@ rt_tr_writer *rt_tr_create_opts(const char *path, const rt_tr_meta *m, const rt_
         return rt_errf(e, "%s: %u records per chunk not in 1..%u", path, o->chunk_records, RT_TR_MAX_CHUNK), NULL;
     hbuf *h = rt_calloc(1, sizeof *h, e);
     if (!h) return NULL;
-    rt_tr_sample_params sp;
-    default_sample(&sp);
-    if (m->W < 0 || m->H < 0 || encode_header(h, m, o->chunk_records, o->level, o->sample ? &sp : NULL) < 0) {
+    const rt_tr_payload_ops *po = o->payload;
+    if (po && (!sample_params_ok(&po->params) || !po->open || !po->put || !po->chunk || !po->close)) {
+        free(h);
+        return rt_errf(e, "%s: side payload maker with impossible parameters (line %u, rate 2^-%u, period %llu, "
+                       "window %llu, %llu lines, history %llu) or functions missing", path, po->params.line,
+                       po->params.shift, (unsigned long long)po->params.period, (unsigned long long)po->params.window,
+                       (unsigned long long)po->params.cmax, (unsigned long long)po->params.hist), NULL;
+    }
+    if (m->W < 0 || m->H < 0 || encode_header(h, m, o->chunk_records, o->level, po ? &po->params : NULL) < 0) {
         free(h);
         return rt_errf(e, "%s: trace metadata does not fit the format (string too long, bad region table, "
                        "more than %d generations)", path, RT_TR_MAX_GENERATION), NULL;
@@ -925,7 +529,7 @@ rt_tr_writer *rt_tr_create_opts(const char *path, const rt_tr_meta *m, const rt_
     w->maxgen = m->generations;
     size_t plen = strlen(path);
     w->path = rt_calloc(plen + 1, 1, e);
-    w->raw = w->path ? rt_calloc(o->chunk_records, MAX_REC_BYTES, e) : NULL;
+    w->raw = w->path ? rt_calloc(o->chunk_records, RT_TRC_MAX_REC, e) : NULL;
     if (!w->raw) goto fail;
     memcpy(w->path, path, plen + 1);
     if (deflateInit(&w->zs, o->level) != Z_OK) {
@@ -933,10 +537,12 @@ rt_tr_writer *rt_tr_create_opts(const char *path, const rt_tr_meta *m, const rt_
         goto fail;
     }
     w->zinit = 1;
-    uint64_t ulen = (uint64_t)o->chunk_records * MAX_REC_BYTES;
-    if (o->sample) {
-        if (!(w->sb = sb_new(&sp, m->generations, e))) goto fail;
-        ulen = side_bound(&sp, o->chunk_records); /* > the records' bound */
+    uint64_t ulen = (uint64_t)o->chunk_records * RT_TRC_MAX_REC;
+    if (po) {
+        w->sp = po->params;
+        if (!(w->pctx = po->open(&w->sp, m->generations, e))) goto fail;
+        w->pops = po;
+        ulen = side_bound(&w->sp, o->chunk_records); /* > the records' bound */
     }
     w->outcap = CHUNK_HDR + deflateBound(&w->zs, (uLong)ulen);
     if (!(w->out = rt_calloc(w->outcap, 1, e))) goto fail;
@@ -944,7 +550,7 @@ rt_tr_writer *rt_tr_create_opts(const char *path, const rt_tr_meta *m, const rt_
     w->f = rt_out_stream(w->of);
     unsigned char pre[16];
     memcpy(pre, HDR_MAGIC, 8);
-    put32(pre + 8, o->sample ? 3 : m->generations ? 2 : 1);
+    put32(pre + 8, po ? 3 : m->generations ? 2 : 1);
     put32(pre + 12, (uint32_t)h->n);
     unsigned char c[4];
     put32(c, crc(crc(0, pre, 16), h->b, h->n));
@@ -964,7 +570,7 @@ const char *rt_tr_writer_error(const rt_tr_writer *w) { return w->err.msg; }
 static void w_free(rt_tr_writer *w)
 {
     if (w->zinit) deflateEnd(&w->zs);
-    sb_free(w->sb);
+    if (w->pops) w->pops->close(w->pctx);
     free(w->raw);
     free(w->out);
     free(w->path);
@@ -1042,14 +648,12 @@ struct rt_tr_reader {
     uint32_t data_n;        /* records of the last data chunk */
     int side_pending;       /* records mode: the side chunk of the current data chunk is unread */
     int last_seen;          /* a side chunk marked last has been read */
-    sbuild *vb;             /* records mode: rebuilds each side chunk to check it */
+    const rt_tr_payload_ops *vops; /* records mode: the maker that re-makes each side payload to check it */
+    void *vctx;             /* its state, once rt_tr_read started (NULL: no check) */
     unsigned char *sraw;    /* side payload, inflated */
     size_t srawcap;         /* its capacity: side_bound(chunk_records) */
-    rt_access *srec;        /* side mode: decoded side records */
-    size_t sreccap;         /* capacity */
-    rt_tr_window *swin;     /* side mode: its windows */
-    uint32_t swincap;       /* capacity */
-    coder cd;               /* decoder state of the current chunk */
+    int tallied;            /* side mode: rt_tr_payload_tally was called */
+    rt_trc_coder cd;        /* decoder state of the current chunk */
     z_stream zs;            /* inflate state */
     int zinit;              /* zs initialised */
     int state;              /* RS_* */
@@ -1146,12 +750,7 @@ static int parse_header(rt_tr_reader *r, hbuf *h)
         sp->window = hg_u64(h);
         sp->cmax = hg_u64(h);
         sp->hist = hg_u64(h);
-        /* the upper bounds keep a side chunk's bound (side_bound) within
-         * ~50 MiB even at 2^20 records per chunk */
-        if (!h->bad && (sp->line < 2 || sp->line > 65536 || (sp->line & (sp->line - 1)) || sp->shift > 32 ||
-                        sp->period < 4096 || sp->period > (1ULL << 40) || sp->window < 1 ||
-                        sp->window > sp->period / 2 || sp->window > 16384 || sp->cmax < 1 || sp->cmax > 4096 ||
-                        sp->hist > sp->period - sp->window || sp->hist > (1u << 20)))
+        if (!h->bad && !sample_params_ok(sp))
             return r_fail(r, base + at,
                           "header: impossible sample index (line %u, rate 2^-%u, period %llu, window %llu, "
                           "%llu lines, history %llu)",
@@ -1210,7 +809,7 @@ rt_tr_reader *rt_tr_open(const char *path, rt_err *e)
     if (parse_header(r, h) < 0) goto fail;
     free(h);
     h = NULL;
-    r->maxrec = r->version >= 2 ? MAX_REC_BYTES : MAX_REC_BYTES_V1;
+    r->maxrec = r->version >= 2 ? RT_TRC_MAX_REC : RT_TRC_MAX_REC_V1;
     r->rawcap = (size_t)r->chunk_records * r->maxrec;
     r->ccap = (size_t)bound_compressed(r->rawcap);
     if (r->has_sample) {
@@ -1352,17 +951,18 @@ static int read_side_chunk(rt_tr_reader *r, uint32_t *U)
 }
 
 /* Records mode: the side chunk of the data chunk whose records have all
- * been decoded (and fed to r->vb) must be the one the records make. */
+ * been decoded (and fed to r->vctx) must be the one the records make. */
 static int check_side(rt_tr_reader *r)
 {
     uint32_t U;
     if (read_side_chunk(r, &U) < 0) return -1;
     uint64_t idx = r->got.nchunks - 1;
-    if (sb_chunk(r->vb, r->last_seen) < 0) return r_fail(r, r->chunk_off, "out of memory");
-    const sbuild *b = r->vb;
-    if (b->out.n != U || memcmp(b->out.b, r->sraw, U) != 0) {
+    const unsigned char *mb = NULL;
+    size_t mn = 0;
+    if (r->vops->chunk(r->vctx, r->last_seen, &mb, &mn) < 0) return r_fail(r, r->chunk_off, "out of memory");
+    if (mn != U || memcmp(mb, r->sraw, U) != 0) {
         size_t k = 0;
-        while (k < U && k < b->out.n && b->out.b[k] == r->sraw[k]) k++;
+        while (k < U && k < mn && mb[k] == r->sraw[k]) k++;
         return r_fail(r, r->chunk_off, "side chunk %llu does not match the records of chunk %llu (payload byte %zu "
                       "of %u differs from the sample index the records make)",
                       (unsigned long long)idx, (unsigned long long)idx, k, U);
@@ -1394,7 +994,7 @@ static int read_footer(rt_tr_reader *r)
     if (t->nrefs != r->got.nrefs)
         return r_fail(r, at, "footer says %llu references, file has %llu", (unsigned long long)t->nrefs,
                       (unsigned long long)r->got.nrefs);
-    for (int c = 0; c < RT_NCLASS; c++)
+    for (int c = 0; c < RT_NCLASS && (r->mode != RM_SIDE || r->tallied); c++)
         if (t->refs[c] != r->got.refs[c] || t->bytes[c] != r->got.bytes[c] || t->writes[c] != r->got.writes[c])
             return r_fail(r, at, "footer totals of class %s do not match the records", rt_class_name(c));
     int ch = fgetc(r->f);
@@ -1437,6 +1037,10 @@ static int dec_fail(rt_tr_reader *r, const char *what)
 }
 
 void rt_tr_set_side_check(rt_tr_reader *r, int on) { r->no_side_check = !on; }
+void rt_tr_set_payload_check(rt_tr_reader *r, const rt_tr_payload_ops *ops)
+{
+    if (r->mode == RM_NONE) r->vops = ops;
+}
 
 /* Adds a[0..n) to the totals, on four rows in turn so that neighbours,
  * which mostly share a class, do not wait on each other's increments. */
@@ -1464,9 +1068,10 @@ long rt_tr_read(rt_tr_reader *r, rt_access *buf, size_t cap, rt_err *e)
     if (r->state == RS_DONE) return 0;
     if (cap == 0) return rt_errf(e, "%s: rt_tr_read called with an empty buffer", r->path);
     if (cap > (size_t)LONG_MAX) cap = (size_t)LONG_MAX;
-    if (r->mode == RM_SIDE) return rt_errf(e, "%s: rt_tr_read after rt_tr_read_side", r->path);
+    if (r->mode == RM_SIDE) return rt_errf(e, "%s: rt_tr_read after rt_tr_read_payload", r->path);
     r->mode = RM_RECORDS;
-    if (r->has_sample && !r->no_side_check && !r->vb && !(r->vb = sb_new(&r->sp, r->meta.generations, e)))
+    if (r->has_sample && !r->no_side_check && r->vops && !r->vctx &&
+        !(r->vctx = r->vops->open(&r->sp, r->meta.generations, e)))
         return -1;
     size_t n = 0, fed = 0; /* buf[0..fed) went to the side chunk check */
     while (n < cap) {
@@ -1475,13 +1080,13 @@ long rt_tr_read(rt_tr_reader *r, rt_access *buf, size_t cap, rt_err *e)
                 dec_fail(r, "encoded bytes left over after the last record");
                 return rt_errf(e, "%s", r->err.msg);
             }
-            if (r->side_pending && !r->vb) { /* rt_tr_set_side_check(r, 0) */
+            if (r->side_pending && !r->vctx) { /* no payload check, or rt_tr_set_side_check(r, 0) */
                 uint32_t U;
                 if (read_side_chunk(r, &U) < 0) return rt_errf(e, "%s", r->err.msg);
                 continue;
             }
             if (r->side_pending) {
-                if (sb_put(r->vb, buf + fed, n - fed) < 0) {
+                if (r->vops->put(r->vctx, buf + fed, n - fed) < 0) {
                     r_fail(r, r->off, "out of memory");
                     return rt_errf(e, "%s", r->err.msg);
                 }
@@ -1498,120 +1103,34 @@ long rt_tr_read(rt_tr_reader *r, rt_access *buf, size_t cap, rt_err *e)
         const unsigned char *p = r->raw + r->rpos, *end = r->raw + r->rlen;
         const size_t m = r->rleft < cap - n ? r->rleft : cap - n;
         const unsigned maxgen = r->meta.generations;
-        coder cd = r->cd;
+        rt_trc_coder cd = r->cd;
         size_t i = 0;
-        int dr = DEC_OK;
-        while (i < m && (dr = dec_rec(&p, end, &cd, maxgen, &buf[n + i])) == DEC_OK) i++;
+        int dr = RT_TRC_OK;
+        while (i < m && (dr = rt_trc_dec(&p, end, &cd, maxgen, &buf[n + i])) == RT_TRC_OK) i++;
         tally(&r->got, buf + n, i);
         r->cd = cd;
         r->rpos = (size_t)(p - r->raw);
         r->rleft -= (uint32_t)i;
         n += i;
-        if (dr != DEC_OK) {
-            dec_fail(r, dec_msg[dr]);
+        if (dr != RT_TRC_OK) {
+            dec_fail(r, rt_trc_msg(dr));
             return rt_errf(e, "%s", r->err.msg);
         }
     }
-    if (r->vb && sb_put(r->vb, buf + fed, n - fed) < 0) {
+    if (r->vctx && r->vops->put(r->vctx, buf + fed, n - fed) < 0) {
         r_fail(r, r->off, "out of memory");
         return rt_errf(e, "%s", r->err.msg);
     }
     return (long)n;
 }
 
-/* Side mode: parses the side payload (U bytes in r->sraw) of data chunk
- * idx into s, checking its structure and its totals against the chunk. */
-static int parse_side(rt_tr_reader *r, uint32_t U, rt_tr_side *s)
-{
-    const unsigned char *p = r->sraw + 1, *end = r->sraw + U;
-    uint64_t idx = r->got.nchunks - 1, at = r->chunk_off + CHUNK_HDR, n = r->data_n;
-    const rt_tr_sample_params *sp = &r->sp;
-    memset(s, 0, sizeof *s);
-    s->nrefs = n;
-    uint64_t sum = 0, v[5];
-    const char *bad = NULL;
-    for (int c = 0; c < RT_NCLASS && !bad; c++) {
-        for (int k = 0; k < 5 && !bad; k++)
-            if (get_varint(&p, end, &v[k]) < 0) bad = "bad class totals";
-        if (bad) break;
-        if (v[2] > n || v[4] > v[2] || v[3] < v[2]) {
-            bad = "impossible class totals";
-            break;
-        }
-        s->touches[c][0] = v[0];
-        s->touches[c][1] = v[1];
-        r->got.refs[c] += v[2];
-        r->got.bytes[c] += v[3];
-        r->got.writes[c] += v[4];
-        sum += v[2];
-    }
-    if (!bad && sum != n) bad = "class totals do not add up to the chunk's records";
-    uint64_t ns = 0, nw = 0, nwmax = n / sp->period + 2;
-    if (!bad && (get_varint(&p, end, &ns) < 0 || ns > n)) bad = "bad sampled record count";
-    /* the records: ns sampled, then per window up to cmax + window */
-    uint64_t need = ns + nwmax * (sp->cmax + sp->window);
-    if (!bad && need > r->sreccap) {
-        rt_access *x = realloc(r->srec, (size_t)need * sizeof *x);
-        if (!x) return r_fail(r, at, "out of memory");
-        r->srec = x;
-        r->sreccap = (size_t)need;
-    }
-    if (!bad && nwmax > r->swincap) {
-        rt_tr_window *x = realloc(r->swin, (size_t)nwmax * sizeof *x);
-        if (!x) return r_fail(r, at, "out of memory");
-        r->swin = x;
-        r->swincap = (uint32_t)nwmax;
-    }
-    rt_access *q = r->srec;
-    coder cd;
-    int dr = DEC_OK;
-    if (!bad) {
-        memset(&cd, 0, sizeof cd);
-        for (uint64_t i = 0; i < ns && !dr; i++) dr = dec_rec(&p, end, &cd, r->meta.generations, q++);
-    }
-    if (!bad && !dr && (get_varint(&p, end, &nw) < 0 || nw > nwmax)) bad = "bad window count";
-    for (uint64_t j = 0; j < nw && !bad && !dr; j++) {
-        rt_tr_window *w = &r->swin[j];
-        uint64_t nwarm, scanned, nrecs;
-        if (get_varint(&p, end, &nwarm) < 0 || nwarm > sp->cmax || get_varint(&p, end, &scanned) < 0 ||
-            scanned > sp->hist || p == end || *p > 1) {
-            bad = "bad window warm-up";
-            break;
-        }
-        w->short_warmup = *p++;
-        if (get_varint(&p, end, &nrecs) < 0 || nrecs < 1 || nrecs > sp->window ||
-            (nrecs < sp->window && !r->last_seen)) {
-            bad = "bad window length";
-            break;
-        }
-        w->nwarm = (uint32_t)nwarm;
-        w->scanned = scanned;
-        w->nrecs = (uint32_t)nrecs;
-        w->warm = q;
-        memset(&cd, 0, sizeof cd);
-        for (uint64_t i = 0; i < nwarm && !dr; i++) dr = dec_rec(&p, end, &cd, r->meta.generations, q++);
-        w->recs = q;
-        memset(&cd, 0, sizeof cd);
-        for (uint64_t i = 0; i < nrecs && !dr; i++) dr = dec_rec(&p, end, &cd, r->meta.generations, q++);
-    }
-    if (!bad && dr) bad = dec_msg[dr];
-    if (!bad && p != end) bad = "bytes left over after the last window";
-    if (bad) return r_fail(r, r->chunk_off, "side chunk %llu: %s", (unsigned long long)idx, bad);
-    r->got.nrefs += n;
-    s->sampled = r->srec;
-    s->nsampled = ns;
-    s->win = r->swin;
-    s->nwin = (uint32_t)nw;
-    return 0;
-}
-
-int rt_tr_read_side(rt_tr_reader *r, rt_tr_side *s, rt_err *e)
+int rt_tr_read_payload(rt_tr_reader *r, rt_tr_payload *s, rt_err *e)
 {
     memset(s, 0, sizeof *s);
     if (r->state == RS_FAILED) return rt_errf(e, "%s", r->err.msg);
     if (!r->has_sample)
-        return rt_errf(e, "%s: no sample index (format version %u; version 3 has one)", r->path, r->version);
-    if (r->mode == RM_RECORDS) return rt_errf(e, "%s: rt_tr_read_side after rt_tr_read", r->path);
+        return rt_errf(e, "%s: no side payloads (format version %u; version 3 has them)", r->path, r->version);
+    if (r->mode == RM_RECORDS) return rt_errf(e, "%s: rt_tr_read_payload after rt_tr_read", r->path);
     r->mode = RM_SIDE;
     if (r->state == RS_DONE) return 0;
     unsigned char m[4];
@@ -1634,9 +1153,37 @@ int rt_tr_read_side(rt_tr_reader *r, rt_tr_side *s, rt_err *e)
     }
     uint32_t U, C;
     /* the data chunk: CRC-checked and hashed, not inflated */
-    if (read_chunk_bytes(r, 0, &U, &C) < 0 || read_side_chunk(r, &U) < 0 || parse_side(r, U, s) < 0)
-        return rt_errf(e, "%s", r->err.msg);
+    if (read_chunk_bytes(r, 0, &U, &C) < 0 || read_side_chunk(r, &U) < 0) return rt_errf(e, "%s", r->err.msg);
+    r->got.nrefs += r->data_n;
+    s->bytes = r->sraw;
+    s->len = U;
+    s->last = r->last_seen;
+    s->nrefs = r->data_n;
+    s->index = r->got.nchunks - 1;
+    s->offset = r->chunk_off;
     return 1;
+}
+
+void rt_tr_payload_tally(rt_tr_reader *r, const rt_tr_totals *t)
+{
+    for (int c = 0; c < RT_NCLASS; c++) {
+        r->got.refs[c] += t->refs[c];
+        r->got.bytes[c] += t->bytes[c];
+        r->got.writes[c] += t->writes[c];
+    }
+    r->tallied = 1;
+}
+
+int rt_tr_payload_fail(rt_tr_reader *r, rt_err *e, const char *fmt, ...)
+{
+    char msg[RT_ERR_LEN];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    if (r->state != RS_FAILED)
+        r_fail(r, r->chunk_off, "side chunk %llu: %s", (unsigned long long)(r->got.nchunks - 1), msg);
+    return rt_errf(e, "%s", r->err.msg);
 }
 
 void rt_tr_close(rt_tr_reader *r)
@@ -1644,10 +1191,8 @@ void rt_tr_close(rt_tr_reader *r)
     if (!r) return;
     if (r->f) fclose(r->f);
     if (r->zinit) inflateEnd(&r->zs);
-    sb_free(r->vb);
+    if (r->vctx) r->vops->close(r->vctx);
     free(r->sraw);
-    free(r->srec);
-    free(r->swin);
     free(r->raw);
     free(r->cbuf);
     free(r->path);

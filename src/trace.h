@@ -17,14 +17,16 @@
  * by one chunk, independent of the trace's length. After -1 every later
  * call returns -1 with the same message; after 0, 0 again.
  *
- * Sample index (format version 3): after every data chunk the writer
- * stores a side chunk with what a sampled simulation needs of it -- the
- * chunk's line-touch counts per class, its records that touch a line of a
- * golden-ratio line sample, and the exact windows of the hybrid method
- * (cachesim/approx.h) that end in it. rt_tr_read_side returns those
- * instead of the records and reads no record (docs/trace-format.md says
- * what it verifies and what it does not); rt_tr_read checks each side
- * chunk against the records it decodes.
+ * Side payloads (format version 3): after every data chunk the writer
+ * stores a side chunk whose payload is opaque to the format: bytes a
+ * payload maker (rt_tr_payload_ops, handed to the writer in rt_tr_wopts)
+ * makes from the chunk's records, compressed and CRC-checked like a chunk.
+ * The maker raytraffic uses is the sample index of cachesim/sindex.h; the
+ * header stores its parameters (rt_tr_sample_params), which bound a
+ * payload's length. A reader returns the payloads raw
+ * (rt_tr_read_payload) without reading any record, or, while it decodes
+ * the records (rt_tr_read), re-makes each payload with a maker set by
+ * rt_tr_set_payload_check and compares the bytes.
  */
 #ifndef RT_TRACE_H
 #define RT_TRACE_H
@@ -65,33 +67,23 @@ typedef struct rt_tr_totals {
 } rt_tr_totals;
 
 /* Format constants (layout in trace.c and docs/trace-format.md). With
- * rt_tr_wopts.sample set (rt_tr_default_wopts) the writer writes version 3,
- * records and sample index; without it version 1 when meta.generations ==
- * 0 (the bytes of every trace without generations are those of a version-1
- * writer) and version 2 otherwise. The reader accepts 1..RT_TR_FORMAT_VERSION. */
+ * rt_tr_wopts.payload set the writer writes version 3, records and side
+ * payloads; without it version 1 when meta.generations == 0 (the bytes of
+ * every trace without generations are those of a version-1 writer) and
+ * version 2 otherwise. The reader accepts 1..RT_TR_FORMAT_VERSION. */
 #define RT_TR_FORMAT_VERSION 3        /* newest version; the reader accepts 1..this */
 #define RT_TR_MAX_GENERATION 255      /* largest meta.generations / record generation */
 #define RT_TR_DEFAULT_LEVEL 3         /* zlib level (3: ~2x faster than 6, +30% size) */
 #define RT_TR_DEFAULT_CHUNK 65536     /* records per chunk */
 #define RT_TR_MAX_CHUNK (1u << 20)    /* largest records-per-chunk accepted */
 
-/* The sample index a version-3 writer stores (the defaults of the hybrid
- * method in cachesim/approx.h at 64-byte lines, seed 1): lines of
- * RT_TR_SAMPLE_LINE bytes sampled at rate 2^-RT_TR_SAMPLE_SHIFT; one
- * window of RT_TR_SAMPLE_WINDOW records every RT_TR_SAMPLE_PERIOD, its
- * warm-up rebuilding the RT_TR_SAMPLE_CMAX most recent lines from at most
- * RT_TR_SAMPLE_HIST records before it. */
-#define RT_TR_SAMPLE_LINE 64
-#define RT_TR_SAMPLE_SHIFT 6
-#define RT_TR_SAMPLE_SEED 1
-#define RT_TR_SAMPLE_PERIOD 65536
-#define RT_TR_SAMPLE_WINDOW 1024
-#define RT_TR_SAMPLE_CMAX 256
-#define RT_TR_SAMPLE_HIST 32768
-
-/* Parameters of a trace's sample index, as stored in its header. */
+/* Parameters of a version-3 trace's side payloads, as stored in its header
+ * (the meaning of each is the payload maker's: cachesim/sindex.h). The
+ * format checks their ranges and bounds a side payload of a chunk of n
+ * records by them: at most 1 + 520 + 17 n + (n / period + 2) (31 + 17
+ * (cmax + window)) bytes (docs/trace-format.md). */
 typedef struct rt_tr_sample_params {
-    uint32_t line;          /* line size in bytes, a power of two */
+    uint32_t line;          /* line size in bytes, a power of two, 2..65536 */
     uint32_t shift;         /* line sample rate 2^-shift (0..32) */
     uint64_t seed;          /* sampling seed: golden offset and window placement */
     uint64_t period;        /* one window every period records, 4096..2^40 */
@@ -100,31 +92,50 @@ typedef struct rt_tr_sample_params {
     uint64_t hist;          /* records scanned back at most, <= min(period - window, 2^20) */
 } rt_tr_sample_params;
 
+/* A maker of side payloads: given every record of a trace in order, it
+ * makes one payload per data chunk, a deterministic function of the
+ * records (so a reader can re-make and compare it). open starts a maker
+ * for the header's parameters and generation limit (NULL with e on
+ * failure); put feeds n valid records (0, or -1: out of memory); chunk
+ * ends the data chunk whose records were fed since the last call and sets
+ * *bytes (owned by the maker, valid until its next call) and *len to its
+ * payload, whose byte 0 must be 1 if last (the trace ends with this
+ * chunk) and 0 if not, and whose length must be 1..the bound above (0, or
+ * -1: out of memory); close frees it (NULL is fine). */
+typedef struct rt_tr_payload_ops {
+    rt_tr_sample_params params; /* what a writer stores in the header and opens the maker with */
+    void *(*open)(const rt_tr_sample_params *p, unsigned generations, rt_err *e);
+    int (*put)(void *ctx, const rt_access *a, size_t n);
+    int (*chunk)(void *ctx, int last, const unsigned char **bytes, size_t *len);
+    void (*close)(void *ctx);
+} rt_tr_payload_ops;
+
 /* Writer options: zlib level 0..9, records per chunk 1..RT_TR_MAX_CHUNK,
- * and whether to write version 3 with a sample index (1, the default) or
- * the version 1/2 format of earlier writers (0). A zeroed field keeps the
- * earlier format, so options built as {level, chunk} still mean what they
- * meant. */
+ * and the maker of side payloads (version 3; cachesim/sindex.h
+ * rt_si_wopts sets the sample index's) or NULL for the version 1/2
+ * format of earlier writers. rt_tr_default_wopts sets the default level
+ * and chunk size and no payload; a zeroed payload keeps the earlier
+ * format, so options built as {level, chunk} still mean what they meant. */
 typedef struct rt_tr_wopts {
     int level;              /* zlib compression level, default 3 */
     uint32_t chunk_records; /* records per chunk, default 65536 */
-    int sample;             /* 1: version 3 with the sample index (default); 0: version 1/2 */
+    const rt_tr_payload_ops *payload; /* non-NULL: version 3 with its side payloads; NULL: version 1/2 */
 } rt_tr_wopts;
 void rt_tr_default_wopts(rt_tr_wopts *o);
 
 typedef struct rt_tr_writer rt_tr_writer;
 /* Opens PATH.tmp and writes the header. NULL on failure (bad metadata,
- * e.g. generations > RT_TR_MAX_GENERATION; I/O error; out of memory).
- * rt_tr_create uses the default level and chunk size and writes the
- * version 1/2 format (no sample index): its bytes are those of the
- * writers before version 3. rt_tr_create_opts with rt_tr_default_wopts
- * writes version 3. */
+ * e.g. generations > RT_TR_MAX_GENERATION; bad options or payload
+ * parameters; I/O error; out of memory). rt_tr_create uses
+ * rt_tr_default_wopts: the version 1/2 format, whose bytes are those of
+ * the writers before version 3. */
 rt_tr_writer *rt_tr_create(const char *path, const rt_tr_meta *m, rt_err *e);
 rt_tr_writer *rt_tr_create_opts(const char *path, const rt_tr_meta *m, const rt_tr_wopts *o, rt_err *e);
 /* Totals of the records accepted so far (owned by w). */
 const rt_tr_totals *rt_tr_writer_totals(const rt_tr_writer *w);
 /* Message of the first failed put() (I/O error, class out of range, size
- * 0, generation above meta.generations), or "" if none. Owned by w. */
+ * 0, generation above meta.generations, a payload maker's failure), or ""
+ * if none. Owned by w. */
 const char *rt_tr_writer_error(const rt_tr_writer *w);
 rt_sink *rt_tr_sink(rt_tr_writer *w);
 /* Finishes and renames into place. Frees w in every case. 0 or -1. */
@@ -139,11 +150,19 @@ const rt_tr_meta *rt_tr_get_meta(const rt_tr_reader *r);
 const rt_tr_totals *rt_tr_get_totals(const rt_tr_reader *r);
 /* Records carry their generation (version 1: always 0). */
 long rt_tr_read(rt_tr_reader *r, rt_access *buf, size_t cap, rt_err *e);
-/* on = 0, before the first rt_tr_read: version-3 side chunks are still
- * read, CRC-checked and inflated, but not rebuilt from the records and
- * compared (the default, on, does that). For readers whose results do not
- * depend on the side chunks: an exact replay spends a third of its
- * decoding time on the rebuild otherwise. */
+/* Before the first rt_tr_read of a version-3 trace: the maker whose
+ * payloads the trace is meant to hold (cachesim/sindex.h rt_si_open sets
+ * the sample index's). rt_tr_read then feeds it every record it decodes
+ * and fails, naming the file and the side chunk's offset, when a side
+ * payload is not byte for byte what it makes; without one (the default),
+ * side chunks are read, CRC-checked and inflated but not compared. Ignored
+ * for versions 1 and 2. */
+void rt_tr_set_payload_check(rt_tr_reader *r, const rt_tr_payload_ops *ops);
+/* on = 0, before the first rt_tr_read: the payload check set above is
+ * not made (side chunks still read, CRC-checked and inflated). For
+ * readers whose results do not depend on the side chunks: an exact replay
+ * spends a third of its decoding time on the rebuild otherwise. on = 1
+ * (the default) makes it again. */
 void rt_tr_set_side_check(rt_tr_reader *r, int on);
 /* Byte size of the file (known from rt_tr_open) and a 64-bit FNV-1a hash
  * (rt_fnv1a) of all its bytes (computed while reading; valid after
@@ -157,41 +176,40 @@ uint32_t rt_tr_get_version(const rt_tr_reader *r);
 uint32_t rt_tr_get_chunk_records(const rt_tr_reader *r);
 void rt_tr_close(rt_tr_reader *r);
 
-/* 1 and the parameters in *p if the trace has a sample index (version
- * 3), else 0. */
+/* 1 and the parameters in *p if the trace has side payloads (version 3),
+ * else 0. */
 int rt_tr_get_sample_params(const rt_tr_reader *r, rt_tr_sample_params *p);
 
-/* One exact window of the sample index: the warm-up lines (one touch
- * each, address line x line-size, size 1, least recent first, write set
- * if the scan saw the line written, class of that write or of the latest
- * touch), then the window's records. */
-typedef struct rt_tr_window {
-    const rt_access *warm;  /* warm-up touches, least recent first */
-    uint32_t nwarm;         /* <= cmax */
-    int short_warmup;       /* fewer than cmax lines found, history not from the trace start */
-    uint64_t scanned;       /* history records the backward scan read */
-    const rt_access *recs;  /* the window's records */
-    uint32_t nrecs;         /* = params.window */
-} rt_tr_window;
+/* One side payload, as rt_tr_read_payload returns it. */
+typedef struct rt_tr_payload {
+    const unsigned char *bytes; /* the inflated payload (owned by the reader, valid until its next call) */
+    uint32_t len;               /* its length, >= 1 */
+    int last;                   /* its byte 0: 1 for the last data chunk, else 0 */
+    uint32_t nrefs;             /* records of its data chunk */
+    uint64_t index;             /* its data chunk's index, 0, 1, ... */
+    uint64_t offset;            /* file offset of the side chunk, for messages */
+} rt_tr_payload;
 
-/* The sample index of one data chunk. */
-typedef struct rt_tr_side {
-    uint64_t nrefs;                      /* records of the data chunk */
-    uint64_t touches[RT_NCLASS][2];      /* its line touches (params.line) by class, read/write */
-    const rt_access *sampled;            /* its records touching a sampled line, in order */
-    uint64_t nsampled;
-    const rt_tr_window *win;             /* windows that end in this chunk, in order */
-    uint32_t nwin;
-} rt_tr_side;
-
-/* Reads the next chunk's sample index into *s (pointers owned by r, valid
- * until the next call): 1, 0 at the verified end of the trace, -1 on an
- * error (message names file and byte offset). Every byte is read, hashed
- * (rt_tr_file_hash) and CRC-checked, but data chunks are not inflated
- * and their records not decoded; the footer's totals are checked against
- * the side chunks' (docs/trace-format.md). A reader serves either
- * rt_tr_read or rt_tr_read_side: the first call decides, the other then
- * fails. -1 also for a trace without a sample index. */
-int rt_tr_read_side(rt_tr_reader *r, rt_tr_side *s, rt_err *e);
+/* Reads the next data chunk's side payload into *p: 1, 0 at the verified
+ * end of the trace, -1 on an error (message names file and byte offset).
+ * Every byte is read, hashed (rt_tr_file_hash) and CRC-checked, and side
+ * chunks are inflated, but data chunks are not inflated and their records
+ * not decoded; the footer's chunk and record counts are checked, and its
+ * per-class totals against what rt_tr_payload_tally reported, if anything
+ * was (docs/trace-format.md). A reader serves either rt_tr_read or
+ * rt_tr_read_payload: the first call decides, the other then fails. -1
+ * also for a trace without side payloads. */
+int rt_tr_read_payload(rt_tr_reader *r, rt_tr_payload *p, rt_err *e);
+/* The per-class totals (refs, bytes, writes; nrefs and nchunks ignored)
+ * a payload decoder found in the payload just read, for the footer check
+ * at the end of rt_tr_read_payload. */
+void rt_tr_payload_tally(rt_tr_reader *r, const rt_tr_totals *t);
+/* A payload decoder's verdict on the payload just read: the reader fails
+ * from now on with "FILE: byte OFFSET: side chunk INDEX: " and the
+ * message; returns -1 with that message in e. */
+#if defined(__GNUC__)
+__attribute__((format(printf, 3, 4)))
+#endif
+int rt_tr_payload_fail(rt_tr_reader *r, rt_err *e, const char *fmt, ...);
 
 #endif

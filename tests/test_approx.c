@@ -36,6 +36,7 @@
 #include "sample.h"
 #include "sim.h"
 #include "synth.h"
+#include "sindex.h"
 #include "trace.h"
 
 #include <math.h>
@@ -723,8 +724,8 @@ static int write_rtt(const char *path, const rt_access *a, size_t n, int sample,
     snprintf(m.tracer, sizeof m.tracer, "test");
     rt_mm_init(&m.layout);
     rt_tr_wopts o;
-    rt_tr_default_wopts(&o);
-    o.sample = sample;
+    rt_si_wopts(&o);
+    if (!sample) o.payload = NULL;
     rt_tr_writer *w = rt_tr_create_opts(path, &m, &o, e);
     if (!w) return -1;
     rt_sink *s = rt_tr_sink(w);

@@ -18,6 +18,7 @@
 #include "scene_load.h"
 #include "check.h"
 #include "run.h"
+#include "sindex.h"
 #include "trace.h"
 
 #include <inttypes.h>
@@ -106,7 +107,7 @@ static rt_image *run(rt_scene *sc, const rt_tracer *tr, const rt_render_opts *o,
     rt_tr_meta m;
     rt_job_meta(j, "test_conform", &m);
     rt_tr_wopts wo;
-    rt_tr_default_wopts(&wo);
+    rt_si_wopts(&wo);
     rt_tr_writer *w = rt_tr_create_opts(path, &m, &wo, &e);
     CHECK(w != NULL, "trace create: %s", e.msg);
     t->L = &j->L;
@@ -122,7 +123,7 @@ static rt_image *run(rt_scene *sc, const rt_tracer *tr, const rt_render_opts *o,
 static void round_trip(const char *path, const tally *t, const char *what)
 {
     rt_err e = {0};
-    rt_tr_reader *r = rt_tr_open(path, &e);
+    rt_tr_reader *r = rt_si_open(path, &e);
     CHECK(r != NULL, "%s: open: %s", what, e.msg);
     if (!r) return;
     tally b;

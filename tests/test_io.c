@@ -16,6 +16,8 @@
 #include "outfile.h"
 #include "scene.h"
 #include "scene_load.h"
+#include "sindex.h"
+#include "sindex_int.h"
 #include "trace.h"
 #include "check.h"
 
@@ -482,9 +484,9 @@ static int v3_write(const char *path, const rt_access *a, size_t n, int sample, 
     rt_mm_init(&m.layout);
     m.generations = 3;
     rt_tr_wopts o;
-    rt_tr_default_wopts(&o);
+    rt_si_wopts(&o);
     o.chunk_records = V3_CHUNK;
-    o.sample = sample;
+    if (!sample) o.payload = NULL;
     rt_tr_writer *w = rt_tr_create_opts(path, &m, &o, e);
     if (!w) return -1;
     rt_sink *s = rt_tr_sink(w);
@@ -502,7 +504,7 @@ static int v3_side_check = 1; /* rt_tr_set_side_check for v3_read_all */
 
 static long v3_read_all(const char *path, rt_access *out, size_t cap, rt_err *e)
 {
-    rt_tr_reader *r = rt_tr_open(path, e);
+    rt_tr_reader *r = rt_si_open(path, e);
     if (!r) return -1;
     rt_tr_set_side_check(r, v3_side_check);
     long n = 0, k;
@@ -516,10 +518,12 @@ static int v3_read_side(const char *path, rt_err *e)
 {
     rt_tr_reader *r = rt_tr_open(path, e);
     if (!r) return -1;
-    rt_tr_side sd;
-    int k;
-    while ((k = rt_tr_read_side(r, &sd, e)) > 0) {
+    rt_si_reader *d = rt_si_reader_new(r, e);
+    rt_si_side sd;
+    int k = -1;
+    while (d && (k = rt_si_read(d, &sd, e)) > 0) {
     }
+    rt_si_reader_free(d);
     rt_tr_close(r);
     return k;
 }
@@ -534,28 +538,28 @@ static int acc_eq(const rt_access *x, const rt_access *y)
  * (mod 2^64), as in shards.c's golden filter. */
 static int ref_sampled(const rt_access *r)
 {
-    const uint64_t G = 0x9e3779b97f4a7c15ULL, off = rt_mix64(RT_TR_SAMPLE_SEED ^ G);
-    for (uint64_t L = r->addr / RT_TR_SAMPLE_LINE; L <= (r->addr + r->size - 1) / RT_TR_SAMPLE_LINE; L++)
-        if (L * G + off < (1ULL << (64 - RT_TR_SAMPLE_SHIFT))) return 1;
+    const uint64_t G = 0x9e3779b97f4a7c15ULL, off = rt_mix64(RT_SI_SEED ^ G);
+    for (uint64_t L = r->addr / RT_SI_LINE; L <= (r->addr + r->size - 1) / RT_SI_LINE; L++)
+        if (L * G + off < (1ULL << (64 - RT_SI_SHIFT))) return 1;
     return 0;
 }
 
 /* The reference warm-up of the window starting at s: walk back from s - 1
- * over at most RT_TR_SAMPLE_HIST records, listing distinct lines (linear
- * search) until RT_TR_SAMPLE_CMAX; a line is written if a write to it is
+ * over at most RT_SI_HIST records, listing distinct lines (linear
+ * search) until RT_SI_CMAX; a line is written if a write to it is
  * met before the walk stops. warm[] least recent first. */
 static uint32_t ref_warm(const rt_access *a, uint64_t s, rt_access *warm, uint64_t *scanned, int *shrt)
 {
-    static rt_access found[RT_TR_SAMPLE_CMAX]; /* most recent first */
+    static rt_access found[RT_SI_CMAX]; /* most recent first */
     uint32_t k = 0;
-    uint64_t lo = s > RT_TR_SAMPLE_HIST ? s - RT_TR_SAMPLE_HIST : 0, i = s;
-    while (i > lo && k < RT_TR_SAMPLE_CMAX) {
+    uint64_t lo = s > RT_SI_HIST ? s - RT_SI_HIST : 0, i = s;
+    while (i > lo && k < RT_SI_CMAX) {
         const rt_access *r = &a[--i];
-        uint64_t f = r->addr / RT_TR_SAMPLE_LINE, l = (r->addr + r->size - 1) / RT_TR_SAMPLE_LINE;
-        for (uint64_t L = l + 1; L-- > f && k < RT_TR_SAMPLE_CMAX;) {
+        uint64_t f = r->addr / RT_SI_LINE, l = (r->addr + r->size - 1) / RT_SI_LINE;
+        for (uint64_t L = l + 1; L-- > f && k < RT_SI_CMAX;) {
             uint32_t j = 0;
-            while (j < k && found[j].addr != L * RT_TR_SAMPLE_LINE) j++;
-            if (j == k) found[k++] = (rt_access){L * RT_TR_SAMPLE_LINE, 1, r->write != 0, r->cls, 0};
+            while (j < k && found[j].addr != L * RT_SI_LINE) j++;
+            if (j == k) found[k++] = (rt_access){L * RT_SI_LINE, 1, r->write != 0, r->cls, 0};
             else if (r->write && !found[j].write) {
                 found[j].write = 1;
                 found[j].cls = r->cls;
@@ -563,7 +567,7 @@ static uint32_t ref_warm(const rt_access *a, uint64_t s, rt_access *warm, uint64
         }
     }
     *scanned = s - i;
-    *shrt = k < RT_TR_SAMPLE_CMAX && lo > 0;
+    *shrt = k < RT_SI_CMAX && lo > 0;
     for (uint32_t j = 0; j < k; j++) warm[j] = found[k - 1 - j];
     return k;
 }
@@ -591,17 +595,19 @@ static void test_v3_roundtrip(void)
     CHECK(r && r2 && rt_tr_get_version(r) == 3 && rt_tr_get_version(r2) == 2 && rt_tr_get_sample_params(r, &sp) &&
               !rt_tr_get_sample_params(r2, &sp),
           "versions: %s", e.msg);
-    CHECK(sp.line == RT_TR_SAMPLE_LINE && sp.shift == RT_TR_SAMPLE_SHIFT && sp.period == RT_TR_SAMPLE_PERIOD &&
-              sp.window == RT_TR_SAMPLE_WINDOW && sp.cmax == RT_TR_SAMPLE_CMAX && sp.hist == RT_TR_SAMPLE_HIST,
+    CHECK(sp.line == RT_SI_LINE && sp.shift == RT_SI_SHIFT && sp.period == RT_SI_PERIOD &&
+              sp.window == RT_SI_WINDOW && sp.cmax == RT_SI_CMAX && sp.hist == RT_SI_HIST,
           "sample parameters");
-    rt_tr_side sd;
-    CHECK(r2 && rt_tr_read_side(r2, &sd, &e) < 0 && strstr(e.msg, "no sample index"), "v2 side read: %s", e.msg);
+    rt_si_side sd;
+    rt_si_reader *d2 = r2 ? rt_si_reader_new(r2, &e) : NULL, *d = r ? rt_si_reader_new(r, &e) : NULL;
+    CHECK(d2 && rt_si_read(d2, &sd, &e) < 0 && strstr(e.msg, "no side payloads"), "v2 side read: %s", e.msg);
+    rt_si_reader_free(d2);
     rt_tr_close(r2);
     /* chunk by chunk against the reference */
-    static rt_access warm[RT_TR_SAMPLE_CMAX];
-    uint64_t start = 0, nextwin = RT_TR_SAMPLE_PERIOD - RT_TR_SAMPLE_WINDOW, nwin = 0, badc = 0, chunks = 0;
+    static rt_access warm[RT_SI_CMAX];
+    uint64_t start = 0, nextwin = RT_SI_PERIOD - RT_SI_WINDOW, nwin = 0, badc = 0, chunks = 0;
     int k = -1;
-    while (r && (k = rt_tr_read_side(r, &sd, &e)) > 0) {
+    while (d && (k = rt_si_read(d, &sd, &e)) > 0) {
         uint64_t end = start + sd.nrefs, touch[RT_NCLASS][2] = {{0}}, ns = 0, sbad = 0;
         for (uint64_t i = start; i < end; i++) {
             const rt_access *x = &a[i];
@@ -615,14 +621,14 @@ static void test_v3_roundtrip(void)
               (unsigned long long)sbad);
         /* windows whose last record is in this chunk */
         uint32_t w = 0;
-        for (; nextwin + RT_TR_SAMPLE_WINDOW <= end; nextwin += RT_TR_SAMPLE_PERIOD, w++, nwin++) {
+        for (; nextwin + RT_SI_WINDOW <= end; nextwin += RT_SI_PERIOD, w++, nwin++) {
             uint64_t scanned;
             int shrt;
             uint32_t nw = ref_warm(a, nextwin, warm, &scanned, &shrt);
             if (w >= sd.nwin) break;
-            const rt_tr_window *x = &sd.win[w];
+            const rt_si_window *x = &sd.win[w];
             int ok = x->nwarm == nw && x->scanned == scanned && x->short_warmup == shrt &&
-                     x->nrecs == RT_TR_SAMPLE_WINDOW;
+                     x->nrecs == RT_SI_WINDOW;
             for (uint32_t j = 0; ok && j < nw; j++) ok = acc_eq(&x->warm[j], &warm[j]);
             for (uint32_t j = 0; ok && j < x->nrecs; j++) ok = acc_eq(&x->recs[j], &a[nextwin + j]);
             CHECK(ok, "window at %llu: %u warm lines (reference %u), %llu scanned (%llu)",
@@ -643,12 +649,15 @@ static void test_v3_roundtrip(void)
           (unsigned long long)nwin, (unsigned long long)badc, e.msg);
     /* the same provenance hash either way */
     uint64_t h_side = r ? rt_tr_file_hash(r) : 0;
+    rt_si_reader_free(d);
     rt_tr_close(r);
-    r = rt_tr_open(p3, &e);
+    r = rt_si_open(p3, &e);
     while (r && rt_tr_read(r, b, V3_N + 1, &e) > 0) {
     }
     CHECK(r && rt_tr_file_hash(r) == h_side && h_side != 0, "file hash differs between the readers");
-    CHECK(r && rt_tr_read_side(r, &sd, &e) < 0, "side read after record read accepted");
+    d = r ? rt_si_reader_new(r, &e) : NULL;
+    CHECK(d && rt_si_read(d, &sd, &e) < 0, "side read after record read accepted");
+    rt_si_reader_free(d);
     rt_tr_close(r);
     free(a);
     free(b);
@@ -729,7 +738,7 @@ static void test_v3_corrupt(void)
         size_t P = b[12] | b[13] << 8 | b[14] << 16 | (size_t)b[15] << 24, at = 16 + P - (4 + 1 + 5 * 8);
         unsigned char *x = malloc(len);
         memcpy(x, b, len);
-        CHECK(x[at] == RT_TR_SAMPLE_LINE && x[at + 1] == 0, "sample line field not where expected");
+        CHECK(x[at] == RT_SI_LINE && x[at + 1] == 0, "sample line field not where expected");
         x[at] = 48;
         uint32_t c = (uint32_t)crc32(0, x, (uInt)(16 + P));
         for (int i = 0; i < 4; i++) x[16 + P + i] = (unsigned char)(c >> (8 * i));
@@ -795,6 +804,84 @@ static void test_v3_corrupt(void)
     free(b);
 }
 
+/* The sample index's maker: its invariants (rt_si_check) hold after every
+ * batch and every chunk end of a stream fed in uneven batches, and each
+ * corrupted copy of its state fails the invariant it breaks. */
+static void test_si_check(void)
+{
+    rt_err e = {0};
+    rt_access *a = v3_stream(V3_N);
+    rt_si_maker *m = a ? rt_si_payload.open(&rt_si_payload.params, 3, &e) : NULL;
+    CHECK(m, "maker: %s", e.msg);
+    if (!m) {
+        free(a);
+        return;
+    }
+    rt_tr_sample_params bp = rt_si_payload.params;
+    bp.line = 48;
+    CHECK(!rt_si_payload.open(&bp, 3, &e) && strstr(e.msg, "impossible parameters (line 48"),
+          "maker with line 48: %s", e.msg);
+    size_t i = 0, chunk_end = V3_CHUNK, bad = 0, checks = 0;
+    uint64_t seed = 7;
+    while (i < V3_N) {
+        seed = seed * 6364136223846793005ULL + 1442695040888963407ULL;
+        size_t k = 1 + (size_t)(seed >> 33) % 9000;
+        if (k > V3_N - i) k = V3_N - i;
+        if (k > chunk_end - i) k = chunk_end - i;
+        CHECK(rt_si_payload.put(m, a + i, k) == 0, "put: out of memory");
+        i += k;
+        bad += rt_si_check(m, &e) < 0;
+        checks++;
+        if (i == chunk_end || i == V3_N) {
+            const unsigned char *pb;
+            size_t pn;
+            CHECK(rt_si_payload.chunk(m, i == V3_N, &pb, &pn) == 0 && pn > 0 && pb[0] == (i == V3_N),
+                  "chunk at %zu", i);
+            bad += rt_si_check(m, &e) < 0;
+            checks++;
+            chunk_end += V3_CHUNK;
+        }
+        if (bad) break;
+    }
+    CHECK(bad == 0 && checks > 60, "maker invariants after %zu records (%zu checks): %s", i, checks, e.msg);
+    /* mid-window: a state where a window runs and history is kept */
+    rt_si_payload.close(m);
+    m = rt_si_payload.open(&rt_si_payload.params, 3, &e);
+    if (!m) {
+        free(a);
+        return;
+    }
+    size_t mid = RT_SI_PERIOD - RT_SI_WINDOW + 100;
+    CHECK(rt_si_payload.put(m, a, mid) == 0 && rt_si_check(m, &e) == 0 && m->wn == 100 &&
+              m->hn == RT_SI_HIST, "mid-window state: wn %llu hn %llu: %s", (unsigned long long)m->wn,
+          (unsigned long long)m->hn, e.msg);
+    struct {
+        const char *inv;
+        int what;
+    } cases[] = {{"I1", 0}, {"I2", 1}, {"I3", 2}, {"I4", 3}, {"I5", 4}, {"I5", 5}, {"I6", 6}, {"I6", 7}, {"I7", 8}, {"I7", 9}};
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        rt_si_maker x = *m; /* shares m's buffers; rt_si_check only reads them */
+        switch (cases[c].what) {
+        case 0: x.shift++; break;                    /* shift is not log2(line) */
+        case 1: x.wn = x.p.window; break;            /* a full window left open */
+        case 2: x.next += 1; break;                  /* off the window grid */
+        case 3: x.wn = 0; break;                     /* records past next, no window */
+        case 4: x.hn -= 1; break;                    /* the ring lost a record */
+        case 5: x.hhead = x.p.hist; break;           /* head outside the ring */
+        case 6: x.refs[RT_CLS_NODE]++; break;        /* tallies above the chunk's records */
+        case 7: x.writes[RT_CLS_TRI] = x.refs[RT_CLS_TRI] + 1; break; /* more writes than refs */
+        case 8: x.setmask = 2 * x.setmask + 1; break; /* set size not as allocated */
+        case 9: x.samp.n = x.samp.cap + 1; break;    /* encoded bytes past the buffer */
+        }
+        int rc = rt_si_check(&x, &e);
+        CHECK(rc < 0 && strstr(e.msg, cases[c].inv), "corruption %d: %s expected, got %d: %s", cases[c].what,
+              cases[c].inv, rc, e.msg);
+    }
+    CHECK(rt_si_check(m, &e) == 0, "the original still checks: %s", e.msg);
+    rt_si_payload.close(m);
+    free(a);
+}
+
 int main(void)
 {
     alarm(120); /* a spinning loader ends the test instead of hanging it (generous: the
@@ -814,6 +901,7 @@ int main(void)
     clean_dir();
     test_v3_roundtrip();
     test_v3_corrupt();
+    test_si_check();
     clean_dir();
     rmdir(check_dir);
     if (failures) fprintf(stderr, "%d failure(s)\n", failures);

@@ -143,11 +143,20 @@ static void add_gens(rt_access *a, size_t n, unsigned maxgen)
     }
 }
 
+static int write_trace_opts(const char *path, const rt_tr_meta *m, const rt_access *a, size_t n,
+                            const rt_tr_wopts *o, rt_err *e);
 static int write_trace(const char *path, const rt_tr_meta *m, const rt_access *a, size_t n, int level,
                        uint32_t chunk, rt_err *e)
 {
-    rt_tr_wopts o = {level, chunk, 0};
-    rt_tr_writer *w = rt_tr_create_opts(path, m, &o, e);
+    rt_tr_wopts o = {level, chunk, NULL};
+    return write_trace_opts(path, m, a, n, &o, e);
+}
+
+/* Writes a[0..n) with options o in batches of varying size; 0 or -1 (e). */
+static int write_trace_opts(const char *path, const rt_tr_meta *m, const rt_access *a, size_t n,
+                            const rt_tr_wopts *o, rt_err *e)
+{
+    rt_tr_writer *w = rt_tr_create_opts(path, m, o, e);
     if (!w) return -1;
     rt_sink *s = rt_tr_sink(w);
     size_t i = 0;
@@ -430,7 +439,7 @@ static void test_interrupted(void)
     m2 = m;
     memset(m2.scene, 'x', sizeof m2.scene); /* no NUL */
     CHECK(!rt_tr_create(p, &m2, &e), "unterminated string accepted");
-    rt_tr_wopts o = {10, 100, 0};
+    rt_tr_wopts o = {10, 100, NULL};
     CHECK(!rt_tr_create_opts(p, &m, &o, &e), "level 10 accepted");
     o.level = 6;
     o.chunk_records = 0;
@@ -724,13 +733,122 @@ static int synthetic_level(const char *path, int level)
         {0xfffffffffffffff0ULL, 100, 1, RT_CLS_STREAM, 0},
     };
     rt_err e = {0};
-    rt_tr_wopts o = {level, 4, 0};
+    rt_tr_wopts o = {level, 4, NULL};
     rt_tr_writer *w = rt_tr_create_opts(path, &m, &o, &e);
     if (!w) return fprintf(stderr, "%s\n", e.msg), 1;
     rt_sink *s = rt_tr_sink(w);
     if (s->put(s, a, sizeof a / sizeof a[0]) < 0) return fprintf(stderr, "%s\n", rt_tr_writer_error(w)), 1;
     if (rt_tr_finish(w, &e) < 0) return fprintf(stderr, "%s\n", e.msg), 1;
     return 0;
+}
+
+/* ---- side payloads are opaque to the format ---- */
+
+/* A toy payload maker: per chunk, the flags byte, then the chunk's record
+ * count and the sum of its sizes as two u32 (toy_mode 1: a byte more on
+ * the reader's side, so the payload check must fail; 2: the flags byte
+ * wrong, so the writer must refuse it). */
+typedef struct toy {
+    uint32_t n, sum;            /* of the chunk so far */
+    unsigned char out[16];      /* the payload made */
+} toy;
+static int toy_mode;
+static void *toy_open(const rt_tr_sample_params *p, unsigned gens, rt_err *e)
+{
+    (void)p;
+    (void)gens;
+    return rt_calloc(1, sizeof(toy), e);
+}
+static int toy_put(void *ctx, const rt_access *a, size_t n)
+{
+    toy *t = ctx;
+    for (size_t i = 0; i < n; i++) t->sum += a[i].size;
+    t->n += (uint32_t)n;
+    return 0;
+}
+static int toy_chunk(void *ctx, int last, const unsigned char **bytes, size_t *len)
+{
+    toy *t = ctx;
+    t->out[0] = (unsigned char)((last ? 1 : 0) ^ (toy_mode == 2));
+    for (int i = 0; i < 4; i++) {
+        t->out[1 + i] = (unsigned char)(t->n >> (8 * i));
+        t->out[5 + i] = (unsigned char)(t->sum >> (8 * i));
+    }
+    *bytes = t->out;
+    *len = 9 + (toy_mode == 1);
+    t->n = t->sum = 0;
+    return 0;
+}
+static void toy_close(void *ctx) { free(ctx); }
+static const rt_tr_payload_ops toy_ops = {
+    {64, 6, 1, 65536, 1024, 256, 32768}, toy_open, toy_put, toy_chunk, toy_close};
+
+/* The format stores whatever a maker makes (version 3), hands it back raw
+ * (rt_tr_read_payload), re-makes and compares it with a maker set by
+ * rt_tr_set_payload_check, and enforces its own two rules (the flags
+ * byte; the parameters' ranges). */
+static void test_opaque_payload(void)
+{
+    rt_tr_meta m;
+    fill_meta(&m);
+    const size_t N = 1000;
+    rt_access *a = random_stream(N);
+    const char *p = check_path("toy.rtt");
+    rt_err e = {0};
+    rt_tr_wopts o = {1, 300, &toy_ops};
+    toy_mode = 0;
+    CHECK(write_trace_opts(p, &m, a, N, &o, &e) == 0, "toy write: %s", e.msg);
+    /* raw payloads: 4 chunks, each the toy's 9 bytes, the last marked */
+    rt_tr_reader *r = rt_tr_open(p, &e);
+    CHECK(r && rt_tr_get_version(r) == 3, "toy trace: version");
+    rt_tr_payload pl;
+    int k, nch = 0, bad = 0;
+    uint32_t total = 0;
+    while (r && (k = rt_tr_read_payload(r, &pl, &e)) > 0) {
+        uint32_t n = pl.bytes[1] | pl.bytes[2] << 8 | pl.bytes[3] << 16 | (uint32_t)pl.bytes[4] << 24;
+        bad += pl.len != 9 || n != pl.nrefs || pl.index != (uint64_t)nch || pl.last != (nch == 3) ||
+               pl.bytes[0] != (nch == 3);
+        total += n;
+        nch++;
+    }
+    CHECK(r && k == 0 && nch == 4 && bad == 0 && total == N, "raw payloads: %d chunks, %d bad, %u records: %s", nch,
+          bad, total, e.msg);
+    rt_tr_close(r);
+    /* the records with the payload check: every payload is what the toy makes */
+    static rt_access back[1000];
+    r = rt_tr_open(p, &e);
+    if (r) rt_tr_set_payload_check(r, &toy_ops);
+    long got = 0, g;
+    while (r && (g = rt_tr_read(r, back + got, N - (size_t)got + 1, &e)) > 0) got += g;
+    CHECK(r && got == (long)N && !memcmp(a, back, N * sizeof *a), "toy records with the check: %ld: %s", got, e.msg);
+    rt_tr_close(r);
+    /* a maker that makes other bytes than the file holds: the check fails */
+    toy_mode = 1;
+    r = rt_tr_open(p, &e);
+    if (r) rt_tr_set_payload_check(r, &toy_ops);
+    got = 0;
+    while (r && (g = rt_tr_read(r, back, N + 1, &e)) > 0) got += g;
+    CHECK(r && g < 0 && strstr(e.msg, "side chunk 0 does not match the records of chunk 0") && strstr(e.msg, p) &&
+              strstr(e.msg, "byte "), "toy payload mismatch: %s", e.msg);
+    rt_tr_close(r);
+    /* ... and without the check (plain rt_tr_open) the file reads */
+    r = rt_tr_open(p, &e);
+    got = 0;
+    while (r && (g = rt_tr_read(r, back, N + 1, &e)) > 0) got += g;
+    CHECK(r && g == 0 && got == (long)N, "toy file without the check: %ld: %s", got, e.msg);
+    rt_tr_close(r);
+    /* the writer refuses a payload with a wrong flags byte */
+    toy_mode = 2;
+    CHECK(write_trace_opts(p, &m, a, N, &o, &e) < 0 && strstr(e.msg, "does not fit the format"),
+          "wrong flags byte accepted: %s", e.msg);
+    toy_mode = 0;
+    /* and a maker whose parameters the header cannot hold */
+    rt_tr_payload_ops badp = toy_ops;
+    badp.params.line = 48;
+    o.payload = &badp;
+    CHECK(!rt_tr_create_opts(p, &m, &o, &e) && strstr(e.msg, "impossible parameters (line 48"),
+          "impossible parameters accepted: %s", e.msg);
+    free(a);
 }
 
 int main(int argc, char **argv)
@@ -747,6 +865,7 @@ int main(int argc, char **argv)
     test_interrupted();
     test_deterministic();
     test_oom();
+    test_opaque_payload();
     check_rmdir();
     fprintf(stderr, "test_trace: %d failures (%.1f s)\n", failures, rt_now() - t0);
     return failures ? 1 : 0;

@@ -1,5 +1,6 @@
 /*
- * fuzz_trace.c -- fuzz target for the .rtt trace reader (src/trace.c).
+ * fuzz_trace.c -- fuzz target for the .rtt trace reader (src/trace.c) and
+ * the decoder of its sample index (cachesim/sindex.c).
  *
  * Every byte of a trace is covered by a CRC and every chunk is a zlib
  * stream, so random mutations of a file are almost all refused at the
@@ -12,16 +13,24 @@
  *      parsing, chunk bounds, inflate errors;
  *   2  like 1, but each chunk's body is the record bytes before zlib: the
  *      harness compresses them and fills in U, C and the CRC, so the
- *      record decoder sees arbitrary records.
+ *      record decoder sees arbitrary records (and, for side chunks, the
+ *      sample-index decoder arbitrary payloads).
+ *
+ * Each file is read twice: its records (rt_tr_read, with the sample
+ * index's payload check) and its sample index (rt_si_read).
  *
  * Contracts checked: metadata strings are terminated; no read returns
  * more than asked; every record has class < RT_NCLASS, size >= 1, write
  * 0 or 1; a 0 (verified end) comes only with footer totals equal to the
  * records returned, after every byte (file size and FNV-1a hash of the
  * file match), and stays 0; a -1 has a message and repeats with the same
- * message.
+ * message. The sample-index read: each chunk's sampled records and
+ * windows are valid records within the header's bounds, a 0 comes after
+ * every byte with the footer's count equal to the chunks' records, -1 as
+ * above.
  */
 #include "fuzz.h"
+#include "sindex.h"
 #include "trace.h"
 
 #include <zlib.h>
@@ -47,7 +56,7 @@ static size_t rebuild(const uint8_t *in, size_t n, int plain, uint8_t *out, size
     memcpy(out, in, 16 + P);
     wr32(out + 16 + P, crc(0, out, 16 + P));
     i = o = 20 + P;
-    while (i + CHUNK_HDR <= n && memcmp(in + i, "RTCK", 4) == 0) {
+    while (i + CHUNK_HDR <= n && (memcmp(in + i, "RTCK", 4) == 0 || memcmp(in + i, "RTSM", 4) == 0)) {
         size_t C = rd32(in + i + 16);
         if (i + CHUNK_HDR + C > n) break;
         uint8_t *h = out + o;
@@ -83,6 +92,54 @@ static int meta_ok(const rt_tr_meta *m)
 #undef T
 }
 
+static int rec_ok(const rt_access *a) { return a->cls < RT_NCLASS && a->size >= 1 && a->write <= 1; }
+
+/* The sample-index read of the file at path (n bytes, in). */
+static void side_read(const char *path, const uint8_t *in, size_t n)
+{
+    rt_err e = {0};
+    rt_tr_reader *r = rt_tr_open(path, &e);
+    if (!r) return;
+    rt_si_reader *d = rt_si_reader_new(r, &e);
+    if (!d) rt_fuzz_fail("no sample-index decoder: %s", e.msg);
+    rt_tr_sample_params sp;
+    int has = rt_tr_get_sample_params(r, &sp);
+    rt_si_side sd;
+    uint64_t nrefs = 0;
+    int k;
+    while ((k = rt_si_read(d, &sd, &e)) > 0) {
+        if (!has) rt_fuzz_fail("a sample index read from a trace without one");
+        if (sd.nsampled > sd.nrefs) rt_fuzz_fail("%llu sampled of %llu records", (unsigned long long)sd.nsampled,
+                                                 (unsigned long long)sd.nrefs);
+        for (uint64_t i = 0; i < sd.nsampled; i++)
+            if (!rec_ok(&sd.sampled[i])) rt_fuzz_fail("bad sampled record");
+        for (uint32_t j = 0; j < sd.nwin; j++) {
+            const rt_si_window *w = &sd.win[j];
+            if (w->nwarm > sp.cmax || w->nrecs < 1 || w->nrecs > sp.window || w->scanned > sp.hist)
+                rt_fuzz_fail("window %u: %u warm-up lines, %u records, %llu scanned", j, w->nwarm, w->nrecs,
+                             (unsigned long long)w->scanned);
+            for (uint32_t i = 0; i < w->nwarm; i++)
+                if (!rec_ok(&w->warm[i])) rt_fuzz_fail("bad warm-up record");
+            for (uint32_t i = 0; i < w->nrecs; i++)
+                if (!rec_ok(&w->recs[i])) rt_fuzz_fail("bad window record");
+        }
+        nrefs += sd.nrefs;
+    }
+    if (k == 0) {
+        if (rt_tr_get_totals(r)->nrefs != nrefs) rt_fuzz_fail("footer count differs from the side chunks'");
+        if (rt_tr_file_bytes(r) != n || rt_tr_file_hash(r) != rt_fnv1a(RT_FNV_INIT, in, n))
+            rt_fuzz_fail("sample-index read ended before every byte");
+        if (rt_si_read(d, &sd, &e) != 0) rt_fuzz_fail("sample-index read after the end is not 0");
+    } else {
+        rt_err e2 = {0};
+        if (!e.msg[0]) rt_fuzz_fail("sample-index error without a message");
+        if (rt_si_read(d, &sd, &e2) != -1 || strcmp(e.msg, e2.msg) != 0)
+            rt_fuzz_fail("a second sample-index read after an error differs: '%s' then '%s'", e.msg, e2.msg);
+    }
+    rt_si_reader_free(d);
+    rt_tr_close(r);
+}
+
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     if (size < 1) return 0;
@@ -100,7 +157,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     }
     const char *path = rt_fuzz_file(in, n);
     rt_err e = {0};
-    rt_tr_reader *r = rt_tr_open(path, &e);
+    rt_tr_reader *r = rt_si_open(path, &e);
     if (!r) {
         if (!e.msg[0]) rt_fuzz_fail("open refused without a message");
         free(file);
@@ -142,6 +199,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             rt_fuzz_fail("a second read after an error differs: '%s' then '%s'", e.msg, e2.msg);
     }
     rt_tr_close(r);
+    side_read(path, in, n);
     free(file);
     return 0;
 }

@@ -17,10 +17,13 @@ trap 'rm -rf "$tmp"' EXIT
 rm -rf "$c"
 mkdir -p "$c/trace" "$c/din" "$c/obj" "$c/ply" "$c/cli" "$c/pbrt"
 
-# Traces at 4x4: each tracer, with and without writes from shadow rays.
-"$bin" trace cornell -W 4 -H 4 -o "$tmp/cornell.rtt" >/dev/null 2>&1
-"$bin" trace sphereflake:level=0 -W 4 -H 4 --lights all -t packet --packet 2 -o "$tmp/flake.rtt" >/dev/null 2>&1
-"$bin" trace knot:segs=8,sides=3 -W 4 -H 4 -t dynamic --cache-size 1K -o "$tmp/knot.rtt" >/dev/null 2>&1
+# Traces at 4x4: each tracer, with and without writes from shadow rays
+# (version 1), and version 3 with its sample index (a chunk and its side
+# chunk).
+"$bin" trace cornell -W 4 -H 4 --no-sample -o "$tmp/cornell.rtt" >/dev/null 2>&1
+"$bin" trace sphereflake:level=0 -W 4 -H 4 --lights all -t packet --packet 2 --no-sample -o "$tmp/flake.rtt" >/dev/null 2>&1
+"$bin" trace knot:segs=8,sides=3 -W 4 -H 4 -t dynamic --cache-size 1K --no-sample -o "$tmp/knot.rtt" >/dev/null 2>&1
+"$bin" trace cornell -W 4 -H 4 -o "$tmp/cornell3.rtt" >/dev/null 2>&1
 "$bin" trace-dump --din "$tmp/cornell.rtt" | head -n 40 > "$tmp/cornell.din"
 python3 - "$tmp" "$c" <<'EOF'
 import struct, sys, zlib
@@ -29,7 +32,7 @@ def plain(f):
     """Mode 2 of fuzz_trace.c: each chunk body uncompressed."""
     P = struct.unpack_from('<I', f, 12)[0]
     out, i = bytearray(f[:20 + P]), 20 + P
-    while f[i:i + 4] == b'RTCK':
+    while f[i:i + 4] in (b'RTCK', b'RTSM'):
         C = struct.unpack_from('<I', f, i + 16)[0]
         body = zlib.decompress(f[i + 24:i + 24 + C])
         h = bytearray(f[i:i + 24])
@@ -39,7 +42,7 @@ def plain(f):
     return bytes(out + f[i:])
 def put(name, data):
     open(f'{c}/{name}', 'wb').write(data)
-for name in ('cornell', 'flake', 'knot'):
+for name in ('cornell', 'flake', 'knot', 'cornell3'):
     f = open(f'{tmp}/{name}.rtt', 'rb').read()
     put(f'trace/ok-{name}-raw', bytes([0x40]) + f)          # mode 0, buffer 65
     put(f'trace/ok-{name}-crc', bytes([0x01]) + f)          # mode 1, buffer 1
