@@ -796,7 +796,7 @@ rt_bvh *rt_bvh_build(const rt_scene *s, const rt_bvh_params *params, rt_err *e)
     build B;
     memset(&B, 0, sizeof B);
     B.p = params;
-    b->tri = rt_calloc(N ? N : 1, sizeof *b->tri, e);
+    b->tri = rt_calloc_aligned(N ? N : 1, sizeof *b->tri, 64, e);
     b->orig = rt_calloc(N ? N : 1, sizeof *b->orig, e);
     if (!b->tri || !b->orig) goto fail;
     if (N == 0) {
@@ -833,11 +833,11 @@ rt_bvh *rt_bvh_build(const rt_scene *s, const rt_bvh_params *params, rt_err *e)
     } else {
         const uint32_t cap = B.ninner ? B.ninner : 1;
         if (W == 4) {
-            b->n4 = rt_calloc(cap, sizeof *b->n4, e);
+            b->n4 = rt_calloc_aligned(cap, sizeof *b->n4, 64, e);
             if (!b->n4) goto fail;
         } else {
             b->n8 = rt_calloc(cap, sizeof *b->n8, e);
-            b->h8 = rt_calloc(cap, sizeof *b->h8, e);
+            b->h8 = rt_calloc_aligned(cap, sizeof *b->h8, 64, e);
             if (!b->n8 || !b->h8) goto fail;
         }
         if (emit_wide(&E, e) < 0) goto fail;
@@ -1527,8 +1527,91 @@ static RT_ALWAYS_INLINE int walk_wide(rt_bvh_trav *tv, const rt_ray *rp, rt_hit 
     return finish(tv, &S, h, any, occluded);
 }
 
+#if defined(__SSE2__)
+/* The unrecorded wide walk (rt_bvh_closest and rt_bvh_occluded without a
+ * recorder): walk_wide's visits in walk_wide's order, with the same counts,
+ * marks and hits, in fewer instructions. Of a node's hit children the
+ * nearest is entered at once instead of being pushed and popped (it passes
+ * the pop's cull test: a hit box's entry is <= its clipped far distance <=
+ * the cull bound, which nothing changes in between); the others are pushed
+ * farthest first as walk_wide pushes them, so every later pop, cull test
+ * and leaf happens exactly as there. */
+static RT_ALWAYS_INLINE int walk_fast(rt_bvh_trav *tv, const rt_ray *rp, rt_hit *h, const int any, const int W)
+{
+    const rt_ray ray = *rp, *r = &ray; /* as in walk2 */
+    const rt_bvh *b = tv->bvh;
+    wstate S;
+    wstate_init(&S, tv, r);
+    wray w;
+    wray_init(&w, r);
+    /* walk_wide pops the root with its entry t = tmin */
+    if (!b->nnodes || w.tmin > S.cull) return finish(tv, &S, h, any, 0);
+    wsse q;
+    wsse_init(&q, &w);
+    int nofs[3], fofs[3];
+    for (int a = 0; a < 3; a++) {
+        nofs[a] = a * W + (w.neg[a] ? 3 * W : 0);
+        fofs[a] = a * W + (w.neg[a] ? 0 : 3 * W);
+    }
+    const rt_bvh4_node *n4 = b->n4;
+    const rt_bvh8_host *h8 = b->h8;
+    sentry st[RT_BVH_STACK];
+    int sp = 0, occluded = 0;
+    uint32_t node = 0;
+    for (;;) {
+        S.nvisit++;
+        const float *base = W == 4 ? &n4[node].lo[0][0] : &h8[node].lo[0][0];
+        float tn[8];
+        unsigned mask = box4(&q, base, nofs, fofs, S.cull, tn);
+        if (W == 8) mask |= box4(&q, base + 4, nofs, fofs, S.cull, tn + 4) << 4;
+        if (mask) {
+            int s0 = __builtin_ctz(mask);
+            if (mask & (mask - 1)) {
+                int ord[8], k = rt_bvh_order_slots(mask, tn, ord);
+                while (--k > 0) {
+                    const int s = ord[k];
+                    uint32_t ra, rn;
+                    if (rt_bvh_wide_child(W, n4, h8, node, s, &ra, &rn)) st[sp++] = (sentry){ra, rn, tn[s]};
+                }
+                s0 = ord[0];
+            }
+            uint32_t ra, rn;
+            if (rt_bvh_wide_child(W, n4, h8, node, s0, &ra, &rn)) {
+                if (!rn) {
+                    node = ra;
+                    continue;
+                }
+                if (leaf_tris(tv, r, ra, rn, &S, any)) {
+                    occluded = 1;
+                    break;
+                }
+            }
+        }
+        /* the next entry that survives the cull bound: leaves are tested
+         * as they come off the stack, a node is visited */
+        for (;;) {
+            if (sp == 0) return finish(tv, &S, h, any, occluded);
+            const sentry e = st[--sp];
+            if (e.t > S.cull) continue;
+            if (!e.n) {
+                node = e.a;
+                break;
+            }
+            if (leaf_tris(tv, r, e.a, e.n, &S, any)) return finish(tv, &S, h, any, 1);
+        }
+    }
+    return finish(tv, &S, h, any, occluded);
+}
+#endif
+
 static RT_ALWAYS_INLINE int walk(rt_bvh_trav *tv, const rt_ray *r, rt_hit *h, const int any, const int simd)
 {
+#if defined(__SSE2__)
+    if (simd && !tv->rec) {
+        if (tv->bvh->width == 4) return walk_fast(tv, r, h, any, 4);
+        if (tv->bvh->width == 8) return walk_fast(tv, r, h, any, 8);
+    }
+#endif
     switch (tv->bvh->width) {
     case 2: return walk2(tv, r, h, any);
     case 4: return walk_wide(tv, r, h, any, 4, simd);

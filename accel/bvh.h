@@ -134,8 +134,8 @@ static inline float rt_bvh8_dequant(const rt_bvh8_node *n, int a, unsigned q)
 static inline int rt_bvh_order_slots(unsigned mask, const float *key, int ord[8])
 {
     int k = 0;
-    for (int s = 0; s < 8; s++) {
-        if (!(mask >> s & 1u)) continue;
+    for (; mask; mask &= mask - 1) {
+        const int s = __builtin_ctz(mask);
         int j = k++;
         while (j > 0 && key[ord[j - 1]] > key[s]) {
             ord[j] = ord[j - 1];

@@ -98,6 +98,9 @@ typedef struct rt_embree_result {
     double build_sec; /* Embree scene build (not in sec) */
     double sec;       /* the ray loop (wall; best of the reps) */
     double cpu_sec;   /* the ray loop's CPU time of the calling thread (best of the reps) */
+    double cpu_med;   /* the same, median of the reps */
+    double job_cpu_sec; /* the tracer's job around rtcIntersect1 (below): CPU time, best of the reps */
+    double job_cpu_med; /* the same, median of the reps */
     uint64_t rays;    /* W * H */
     uint64_t hits;    /* rays that hit a triangle */
 } rt_embree_result;
@@ -108,11 +111,23 @@ int rt_embree_built(void);
  * rtcIntersect1 each on a one-thread Embree device holding sc's triangles.
  * 0, or -1 with e set (without Embree: "embree: not built ..."). */
 int rt_embree_bench(const rt_scene *sc, int W, int H, rt_embree_result *out, rt_err *e);
-/* The same with the ray loop run reps times (>= 1) on one Embree scene. */
+/* The same with the ray loop run reps times (>= 1, at most RT_BENCH_MAX_REPS)
+ * on one Embree scene; then reps runs of the untraced recursive tracer's job
+ * (no lights) with rtcIntersect1 as its walk: the pixel order computed
+ * (rt_pixel_order, its array allocated) and the camera set up inside the
+ * timed region, then per pixel rt_cam_ray, rtcIntersect1, rt_shade_pixel of
+ * the hit (or the miss) into a W x H image and the pixel's two cost
+ * channels written (0: Embree counts nothing). What the tracer does and this
+ * loop does not: the per-triangle marks, the node and test counters and the
+ * statistics at the end (rt_stats_finish). */
 int rt_embree_bench_reps(const rt_scene *sc, int W, int H, int reps, rt_embree_result *out, rt_err *e);
 /* CPU seconds of the calling thread (CLOCK_THREAD_CPUTIME_ID): a time that
  * other processes on a loaded machine do not stretch. */
 double rt_bench_thread_cpu(void);
+/* The median of v[0..n) (n >= 1; the mean of the middle two for even n);
+ * sorts v. */
+double rt_bench_median(double *v, int n);
+#define RT_BENCH_MAX_REPS 15
 
 /* ---- BVH widths against the k-d tree (bvh_bench.c) ----------------------- */
 

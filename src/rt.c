@@ -395,3 +395,20 @@ int rt_mem_fits(uint64_t bytes, const char *what, rt_err *e)
     return rt_errf(e, "%s needs %.0f MB, more than the %.0f MB of memory this machine has", what,
                    (double)bytes / 1048576.0, (double)phys / 1048576.0);
 }
+
+void *rt_calloc_aligned(size_t n, size_t size, size_t align, rt_err *e)
+{
+    if (size && n > SIZE_MAX / size) {
+        rt_errf(e, "allocation of %zu x %zu bytes overflows", n, size);
+        return NULL;
+    }
+    const size_t bytes = (n ? n : 1) * (size ? size : 1);
+    void *p = NULL;
+    if (alloc_should_fail() || posix_memalign(&p, align, bytes) != 0) p = NULL;
+    if (!p) {
+        rt_errf(e, "out of memory allocating %zu bytes", bytes);
+        return NULL;
+    }
+    memset(p, 0, bytes);
+    return p;
+}

@@ -53,6 +53,9 @@ double rt_now(void);
  * Returns NULL (and sets e) when n*size overflows or memory is exhausted. */
 void *rt_calloc(size_t n, size_t size, rt_err *e);
 void *rt_reallocarray(void *p, size_t n, size_t size, rt_err *e);
+/* rt_calloc on an address that is a multiple of align (a power of two, a
+ * multiple of sizeof(void *)), for arrays walked by cache line; free() it. */
+void *rt_calloc_aligned(size_t n, size_t size, size_t align, rt_err *e);
 
 /* Test hook: when > 0, the n-th following rt_calloc/rt_reallocarray call
  * fails (counts down; 0 disables). Lets tests exercise out-of-memory paths. */

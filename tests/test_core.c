@@ -37,6 +37,25 @@ static void test_hilbert(void)
         free(order);
         free(seen);
     }
+    /* The blocked order equals rt_hilbert_d2xy of every d, pixels outside
+     * the image skipped (the definition), on squares, strips and odd sizes. */
+    static const int ref_sizes[][2] = {{1, 1}, {1, 2}, {2, 1}, {3, 3},   {4, 4},    {5, 17},  {16, 16}, {17, 16},
+                                       {31, 33}, {64, 1}, {100, 37}, {1, 257}, {513, 2}, {256, 256}, {1024, 1024},
+                                       {1000, 3}, {2048, 24}};
+    for (size_t s = 0; s < sizeof ref_sizes / sizeof ref_sizes[0]; s++) {
+        const int W = ref_sizes[s][0], H = ref_sizes[s][1];
+        uint32_t *order = calloc((size_t)W * H, sizeof *order), n = 1;
+        rt_hilbert_order(W, H, order);
+        while (n < (uint32_t)W || n < (uint32_t)H) n *= 2;
+        size_t k = 0, bad = 0;
+        for (uint64_t d = 0; d < (uint64_t)n * n; d++) {
+            uint32_t x, y;
+            rt_hilbert_d2xy(n, d, &x, &y);
+            if (x < (uint32_t)W && y < (uint32_t)H) bad += order[k++] != y * (uint32_t)W + x;
+        }
+        CHECK(k == (size_t)W * H && bad == 0, "hilbert %dx%d: %zu of %zu pixels out of d2xy's order", W, H, bad, k);
+        free(order);
+    }
     /* On a power-of-two square consecutive pixels are 4-neighbours. */
     int W = 32;
     uint32_t order[32 * 32];

@@ -20,6 +20,7 @@
 #include "dynamic.h"
 #include "run.h"
 #include "shade.h"
+#include "stats.h"
 
 #include <inttypes.h>
 #include <stdio.h>
@@ -224,6 +225,37 @@ static void derive_gmax(void)
     free(g);
     rt_kd_free(kd);
     rt_scene_free(sc);
+}
+
+/* rt_stats_finish counts marks eight at a time: against a byte loop on
+ * random marks (every bit value, runs of zeros) of every length and offset
+ * around a word. */
+static void stats_marks(void)
+{
+    uint8_t mark[80];
+    uint64_t x = 0x9e3779b97f4a7c15ull;
+    for (int round = 0; round < 200; round++) {
+        for (int i = 0; i < 80; i++) {
+            x = x * 6364136223846793005ull + 1442695040888963407ull;
+            const unsigned r = (unsigned)(x >> 56);
+            mark[i] = round % 3 == 0 ? (uint8_t)r : r < 128 ? 0 : (uint8_t)(1u << (r & 7));
+        }
+        for (uint32_t off = 0; off < 9; off++)
+            for (uint32_t n = 0; n + off <= 80; n += 7) {
+                rt_run_stats st;
+                rt_trav tv;
+                memset(&st, 0, sizeof st);
+                memset(&tv, 0, sizeof tv);
+                rt_stats_finish(&st, &tv, mark + off, n);
+                uint64_t p = 0, a = 0;
+                for (uint32_t i = 0; i < n; i++) {
+                    p += mark[off + i] & 1;
+                    a += mark[off + i] != 0;
+                }
+                CHECK(st.pv_primary == p && st.pv_all == a, "stats: %u marks at %u: %" PRIu64 "/%" PRIu64
+                      ", byte loop %" PRIu64 "/%" PRIu64, n, off, st.pv_primary, st.pv_all, p, a);
+            }
+    }
 }
 
 /* Collects geometry-class accesses. */
@@ -1286,6 +1318,7 @@ int main(void)
     subsampling("sphereflake:level=2", 48, 48, 3, 1);
     figure1();
     derive_gmax();
+    stats_marks();
     degenerate();
     same_images("cornell:glass=0", 48, 40);
     same_images("cornell", 32, 24); /* with the glass sphere */
