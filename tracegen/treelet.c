@@ -139,6 +139,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
 
 #define QBLK 64        /* queue entries per block */
 #define RAY_REC 64     /* bytes of a ray-state record: one line */
@@ -147,6 +150,21 @@
 #define RAY_SUSP 20
 #define SHORT_STACK 16 /* bytes of stack entries kept in the ray record */
 #define REFILL 8       /* deep stack entries read back per access, at most */
+
+/* Asks the kernel to back the whole 2 MiB pages inside [p, p + n) with huge
+ * pages (one page fault per 2 MiB of host ray records instead of 512); a
+ * hint, without effect where it is not offered. */
+static void hint_huge(void *p, size_t n)
+{
+#if defined(MADV_HUGEPAGE)
+    const uintptr_t H = (uintptr_t)2 << 20;
+    const uintptr_t lo = ((uintptr_t)p + H - 1) & ~(H - 1), hi = ((uintptr_t)p + n) & ~(H - 1);
+    if (hi > lo) (void)madvise((void *)lo, hi - lo, MADV_HUGEPAGE);
+#else
+    (void)p;
+    (void)n;
+#endif
+}
 
 /* ---- the plan: treelets of one tree and budget ---------------------------- */
 
@@ -450,22 +468,36 @@ typedef struct sent {
     uint32_t tl;   /* treelet it is processed in */
 } sent;
 
-#define INL 8 /* stack entries held inside the host record (deeper ones: heap) */
+#define INL 9 /* stack entries held inside the host record (deeper ones: the run's stack arena) */
+#define TRAY_SIZE 256 /* bytes of a host record: four lines */
 
-/* Host state of a ray slot, hot fields first (not modeled: tl.rays is). */
+/* Host state of a ray slot (not modeled: tl.rays is), TRAY_SIZE bytes on
+ * a line boundary: a visit reads the first two lines (the ray, the cull
+ * bound, the stack's depth and place) and the line of its stack top; with
+ * up to INL entries the stack lies in the same record. The slab form of
+ * the ray (rt_bvh_wray) is derived from r at each visit, not kept. */
 typedef struct tray {
-    uint32_t sp, cap; /* stack depth and capacity */
-    uint32_t mem, reg; /* entries [0, mem) have valid memory copies, [reg, sp) are in registers;
-                        * reg <= mem <= sp, and a queued ray has reg = mem = sp */
+    rt_ray r;         /* the traversal ray: o, inv_d, tmin for the boxes, the rest for triangles */
     float cull;       /* cull bound of the best hit */
-    sent *stk;        /* inl, or a heap array when deeper than INL */
-    sent inl[INL];
+    uint16_t sp, cap; /* stack depth and capacity (both <= stack_bound < 2^16) */
+    uint16_t mem, reg; /* entries [0, mem) have valid memory copies, [reg, sp) are in registers;
+                        * reg <= mem <= sp, and a queued ray has reg = mem = sp */
+    sent *stk;        /* inl, or an array from the stack arena when deeper than INL */
     float best, bu, bv; /* best hit so far (best starts at tmax) */
     uint32_t btri;    /* best hit's scene index (0 while none) */
     uint8_t found, any, occluded; /* a hit is held; any-hit (shadow) ray; its result */
-    rt_bvh_wray w;    /* the ray's slab-test form */
-    rt_ray r;         /* the traversal ray */
+    sent inl[INL];    /* the first INL stack entries */
 } tray;
+_Static_assert(sizeof(tray) == TRAY_SIZE, "a host ray record is four lines");
+
+/* The stack arena: slabs from which deep stacks are carved (bump
+ * allocation, all freed at the end of the run). */
+typedef struct tslab {
+    struct tslab *next; /* the slab allocated before */
+    size_t used, cap;   /* entries carved, entries held */
+    sent v[];
+} tslab;
+#define SLAB_ENTRIES 65536
 
 typedef struct tl_run {
     const rt_tracer_ctx *ctx;
@@ -479,7 +511,9 @@ typedef struct tl_run {
     uint32_t nsize, esize, stack_bound;
     uint32_t slots;   /* ray slots (the window) */
     size_t npix;
-    tray *ray;
+    tray *ray;        /* slots records of TRAY_SIZE bytes, line-aligned inside ray_mem */
+    void *ray_mem;    /* the allocation holding ray */
+    tslab *slab;      /* the stack arena's newest slab */
     /* queues (T2) */
     uint32_t *blk;    /* nblk * QBLK slot numbers */
     int32_t *bnext;
@@ -572,20 +606,37 @@ static void enqueue(tl_run *T, uint32_t q, uint32_t slot)
 
 /* ---- one ray in one treelet ---------------------------------------------------- */
 
-static inline void push(tl_run *T, tray *R, const rt_bvh_ref *x, uint32_t tl)
+/* Moves R's stack to an arena array of twice its capacity (the old array,
+ * if from the arena, stays carved: stacks only grow within a run). 0, or
+ * -1 out of memory (T->err set). */
+static int grow(tl_run *T, tray *R)
 {
-    if (R->sp == R->cap) {
-        uint32_t nc = 2 * R->cap;
-        sent *s = R->stk == R->inl ? malloc(sizeof *s * nc) : realloc(R->stk, sizeof *s * nc);
-        if (s && R->stk == R->inl) memcpy(s, R->inl, sizeof R->inl);
-        if (!s) {
+    const size_t nc = 2 * (size_t)R->cap;
+    tslab *sl = T->slab;
+    if (!sl || sl->cap - sl->used < nc) {
+        const size_t cap = nc > SLAB_ENTRIES ? nc : SLAB_ENTRIES;
+        tslab *n = malloc(sizeof *n + cap * sizeof n->v[0]);
+        if (!n) {
             if (!T->err) rt_errf(T->e, "treelet: out of memory for a ray stack");
             T->err = 1;
-            return;
+            return -1;
         }
-        R->stk = s;
-        R->cap = nc;
+        n->next = sl;
+        n->used = 0;
+        n->cap = cap;
+        T->slab = sl = n;
     }
+    sent *v = sl->v + sl->used;
+    sl->used += nc;
+    memcpy(v, R->stk, sizeof *v * R->sp);
+    R->stk = v;
+    R->cap = (uint16_t)nc;
+    return 0;
+}
+
+static inline void push(tl_run *T, tray *R, const rt_bvh_ref *x, uint32_t tl)
+{
+    if (R->sp == R->cap && grow(T, R) < 0) return;
     if (R->mem > R->sp) R->mem = R->sp; /* that position's memory copy is stale */
     R->stk[R->sp++] = (sent){x->a, x->n, x->t, tl};
     if (R->sp > T->max_sp) T->max_sp = R->sp;
@@ -634,6 +685,8 @@ static int walk(tl_run *T, uint32_t s, uint32_t t)
     tray *R = &T->ray[s];
     const rt_bvh *b = T->b;
     const int W = b->width;
+    rt_bvh_wray w;
+    rt_bvh_wray_init(&w, &R->r);
     for (;;) {
         if (T->err) return 1;
         if (R->sp == 0) return 1;
@@ -686,7 +739,7 @@ static int walk(tl_run *T, uint32_t s, uint32_t t)
         T->tv.nodes++;
         RT_REC(T->rec, rt_mm_addr(T->L, T->tv.reg_node, e.a), T->nsize, 0, RT_CLS_NODE);
         rt_bvh_ref out[8];
-        const int k = rt_bvh_step(b, &R->w, e.a, R->cull, out);
+        const int k = rt_bvh_step(b, &w, e.a, R->cull, out);
         if (W == 2 && k == 1) {
             if (leaf(T, R, out[0].a, out[0].n)) {
                 R->occluded = 1;
@@ -706,7 +759,6 @@ static int start(tl_run *T, uint32_t s, const rt_ray *r, int any)
 {
     tray *R = &T->ray[s];
     R->r = *r;
-    rt_bvh_wray_init(&R->w, r);
     R->best = r->tmax;
     R->bu = R->bv = 0.0f;
     R->btri = 0;
@@ -935,6 +987,7 @@ static void process(tl_run *T, uint32_t q)
             __builtin_prefetch(h);
             __builtin_prefetch(h + 64);
             __builtin_prefetch(h + 128);
+            __builtin_prefetch(h + 192);
         }
         if (pos + 4 < QBLK && k + 4 < n) {
             const tray *R4 = &T->ray[T->blk[(size_t)b * QBLK + pos + 4]];
@@ -1218,9 +1271,12 @@ static int tl_layout(const rt_tracer_ctx *ctx, rt_layout *L, rt_err *e)
 
 static void tl_free(tl_run *T)
 {
-    for (uint32_t s = 0; T->ray && s < T->slots; s++)
-        if (T->ray[s].stk != T->ray[s].inl) free(T->ray[s].stk);
-    free(T->ray);
+    while (T->slab) {
+        tslab *n = T->slab->next;
+        free(T->slab);
+        T->slab = n;
+    }
+    free(T->ray_mem);
     free(T->blk);
     free(T->bnext);
     free(T->qhead);
@@ -1278,7 +1334,7 @@ static int tl_init(tl_run *T, const rt_tracer_ctx *ctx, rt_image *img, rt_run_st
     const uint32_t nt = P->nt, ns = T->slots;
     T->nblk = nblk_of(ns, nt);
     T->secondary = rt_render_secondary(o);
-    if (!(T->ray = rt_calloc(ns, sizeof *T->ray, e)) || !(T->blk = rt_calloc((size_t)T->nblk * QBLK, sizeof *T->blk, e)) ||
+    if (!(T->ray_mem = rt_calloc((size_t)ns + 1, TRAY_SIZE, e)) || !(T->blk = rt_calloc((size_t)T->nblk * QBLK, sizeof *T->blk, e)) ||
         !(T->bnext = rt_calloc(T->nblk, sizeof *T->bnext, e)) || !(T->qhead = rt_calloc(nt, sizeof *T->qhead, e)) ||
         !(T->qtail = rt_calloc(nt, sizeof *T->qtail, e)) || !(T->qcount = rt_calloc(nt, sizeof *T->qcount, e)) ||
         !(T->bk_head = rt_calloc((size_t)ns + 2, sizeof *T->bk_head, e)) ||
@@ -1288,9 +1344,12 @@ static int tl_init(tl_run *T, const rt_tracer_ctx *ctx, rt_image *img, rt_run_st
         !(T->bray = rt_calloc(ns, sizeof *T->bray, e)) || !(T->bsray = rt_calloc(ns, sizeof *T->bsray, e)) ||
         !(T->out = rt_calloc(ns, sizeof *T->out, e)) || !(T->mark = rt_calloc(T->sc->ntri ? T->sc->ntri : 1, 1, e)))
         return -1;
+    T->ray = (tray *)(void *)((char *)T->ray_mem + (64 - (uintptr_t)T->ray_mem % 64) % 64);
+    hint_huge(T->ray_mem, ((size_t)ns + 1) * TRAY_SIZE);
     for (uint32_t s = 0; s < ns; s++) {
-        T->ray[s].stk = T->ray[s].inl;
-        T->ray[s].cap = INL;
+        tray *R = &T->ray[s];
+        R->stk = R->inl;
+        R->cap = INL;
     }
     for (uint32_t i = 0; i < T->nblk; i++) T->bnext[i] = i + 1 < T->nblk ? (int32_t)(i + 1) : -1;
     T->freelist = 0;
