@@ -642,27 +642,40 @@ static inline void push(tl_run *T, tray *R, const rt_bvh_ref *x, uint32_t tl)
     if (R->sp > T->max_sp) T->max_sp = R->sp;
 }
 
-/* Tests records [first, first + n) (bvh.c's leaf_tris). 1: occluded. */
-static int leaf(tl_run *T, tray *R, uint32_t first, uint32_t n)
+/* The walk's working copy of a ray's hit state (locals while a ray is
+ * inside a treelet, stored back into its record when it leaves). */
+typedef struct thit {
+    float best, bu, bv; /* best hit so far (best starts at tmax) */
+    float cull;         /* rt_bvh_cull_bound(best) */
+    uint32_t btri;      /* best hit's scene index (0 while none) */
+    int found;          /* a hit is held */
+} thit;
+
+/* Tests records [first, first + n) (bvh.c's leaf_tris) of ray r. 1: an
+ * any-hit ray is occluded. Counts tests in *ntest. */
+static RT_ALWAYS_INLINE int leaf(const tl_run *T, const rt_ray *r, int any, thit *H, uint32_t first, uint32_t n,
+                                 uint64_t tri_base, uint64_t *ntest)
 {
     const rt_bvh *b = T->b;
-    const uint64_t tri_base = T->rec ? T->L->r[T->tv.reg_tri].base : 0;
+    rt_rec *rec = T->rec;
+    uint8_t *mark = T->mark;
+    const uint8_t bit = T->tv.mark_bit;
     for (uint32_t k = first; k < first + n; k++) {
         const uint32_t o = b->orig[k];
-        T->tv.tests++;
-        T->mark[o] |= T->tv.mark_bit;
-        RT_REC(T->rec, tri_base + 36ull * k, 36, 0, RT_CLS_TRI);
+        ++*ntest;
+        mark[o] |= bit;
+        RT_REC(rec, tri_base + 36ull * k, 36, 0, RT_CLS_TRI);
         float t, u, v;
-        if (!rt_isect_core(&R->r, &b->tri[k], &t, &u, &v)) continue;
-        if (R->any) {
-            if (t > R->r.tmin && t < R->r.tmax) return 1;
-        } else if (t > R->r.tmin && (t < R->best || (t == R->best && o < R->btri))) {
-            R->found = 1;
-            R->best = t;
-            R->btri = o;
-            R->bu = u;
-            R->bv = v;
-            R->cull = rt_bvh_cull_bound(t);
+        if (!rt_isect_core(r, &b->tri[k], &t, &u, &v)) continue;
+        if (any) {
+            if (t > r->tmin && t < r->tmax) return 1;
+        } else if (t > r->tmin && (t < H->best || (t == H->best && o < H->btri))) {
+            H->found = 1;
+            H->best = t;
+            H->btri = o;
+            H->bu = u;
+            H->bv = v;
+            H->cull = rt_bvh_cull_bound(t);
         }
     }
     return 0;
@@ -679,77 +692,116 @@ static uint64_t stack_addr(const tl_run *T, uint32_t s, uint32_t k)
 
 /* Walks ray slot s inside treelet t. Returns 1 when it finished (stack
  * empty or occluded), 0 when it was suspended and queued at its next
- * treelet. */
+ * treelet. The ray's stack depths, hit state and counters live in locals
+ * while it is inside the treelet (stores through the mark bytes and the
+ * recorder would otherwise reload them at every node) and go back into
+ * its record when it leaves. */
 static int walk(tl_run *T, uint32_t s, uint32_t t)
 {
     tray *R = &T->ray[s];
     const rt_bvh *b = T->b;
     const int W = b->width;
+    const rt_ray ray = R->r;
+    const int any = R->any;
     rt_bvh_wray w;
-    rt_bvh_wray_init(&w, &R->r);
+    rt_bvh_wray_init(&w, &ray, W);
+    rt_rec *rec = T->rec;
+    const uint32_t *ptl = T->P->tl;
+    const uint32_t esize = T->esize, nin = SHORT_STACK / esize, nsize = T->nsize;
+    const uint64_t nbase = rec ? T->L->r[T->tv.reg_node].base : 0;
+    const uint64_t tri_base = rec ? T->L->r[T->tv.reg_tri].base : 0;
+    thit H = {R->best, R->bu, R->bv, R->cull, R->btri, R->found};
+    sent *stk = R->stk;
+    uint32_t sp = R->sp, mem = R->mem, reg = R->reg, cap = R->cap, max_sp = T->max_sp;
+    uint64_t nodes = 0, tests = 0;
+    int ret = 1, occluded = 0;
     for (;;) {
-        if (T->err) return 1;
-        if (R->sp == 0) return 1;
-        const uint32_t idx = R->sp - 1;
-        const sent e = R->stk[idx];
-        const int culled = W != 2 && e.t > R->cull;
+        if (sp == 0) break;
+        const uint32_t idx = sp - 1;
+        const sent e = stk[idx];
+        const int culled = W != 2 && e.t > H.cull;
         if (!culled && e.tl != t) {
             /* suspend: the hit and depth, with the short-stack entries
              * not yet in memory, in one write to the record; the deeper
              * entries not yet in memory in one write to tl.stack */
-            const uint32_t nin = SHORT_STACK / T->esize, top_in = R->sp < nin ? R->sp : nin;
-            const uint32_t end = R->mem < top_in ? RAY_STATE + top_in * T->esize : RAY_SUSP_OFS + RAY_SUSP;
-            RT_REC(T->rec, rt_mm_addr(T->L, T->reg_rays, s) + RAY_SUSP_OFS, end - RAY_SUSP_OFS, 1, RT_CLS_RAY);
-            const uint32_t lo = R->mem > nin ? R->mem : nin;
-            if (R->sp > lo) {
-                RT_REC(T->rec, stack_addr(T, s, lo), (R->sp - lo) * T->esize, 1, RT_CLS_STREAM);
-                T->stack_w += R->sp - lo;
+            const uint32_t top_in = sp < nin ? sp : nin;
+            const uint32_t end = mem < top_in ? RAY_STATE + top_in * esize : RAY_SUSP_OFS + RAY_SUSP;
+            RT_REC(rec, rt_mm_addr(T->L, T->reg_rays, s) + RAY_SUSP_OFS, end - RAY_SUSP_OFS, 1, RT_CLS_RAY);
+            const uint32_t lo = mem > nin ? mem : nin;
+            if (sp > lo) {
+                RT_REC(rec, stack_addr(T, s, lo), (sp - lo) * esize, 1, RT_CLS_STREAM);
+                T->stack_w += sp - lo;
                 T->spills++;
             }
-            R->mem = R->reg = R->sp;
+            mem = reg = sp;
             T->susp++;
             enqueue(T, e.tl, s);
-            return 0;
+            ret = 0;
+            break;
         }
-        if (idx < R->reg) {
+        if (idx < reg) {
             /* not in registers: the short stack came with the record; a
              * deep entry is read with up to REFILL - 1 entries below it,
              * in one access (their memory copies stay valid) */
-            const uint32_t nin = SHORT_STACK / T->esize;
             uint32_t lo = idx;
             if (idx >= nin) {
                 lo = idx + 1 >= nin + REFILL ? idx + 1 - REFILL : nin;
-                RT_REC(T->rec, stack_addr(T, s, lo), (idx + 1 - lo) * T->esize, 0, RT_CLS_STREAM);
+                RT_REC(rec, stack_addr(T, s, lo), (idx + 1 - lo) * esize, 0, RT_CLS_STREAM);
                 T->stack_r += idx + 1 - lo;
                 T->refills++;
             }
-            R->reg = lo;
+            reg = lo;
         }
-        R->sp = idx;
-        if (R->mem > idx) R->mem = idx;
+        sp = idx;
+        if (mem > idx) mem = idx;
         if (culled) continue;
         if (e.n) { /* a wide node's leaf child */
-            if (leaf(T, R, e.a, e.n)) {
-                R->occluded = 1;
-                R->sp = R->mem = R->reg = 0;
-                return 1;
+            if (leaf(T, &ray, any, &H, e.a, e.n, tri_base, &tests)) {
+                occluded = 1;
+                break;
             }
             continue;
         }
-        T->tv.nodes++;
-        RT_REC(T->rec, rt_mm_addr(T->L, T->tv.reg_node, e.a), T->nsize, 0, RT_CLS_NODE);
+        nodes++;
+        RT_REC(rec, nbase + (uint64_t)nsize * e.a, nsize, 0, RT_CLS_NODE);
         rt_bvh_ref out[8];
-        const int k = rt_bvh_step(b, &w, e.a, R->cull, out);
+        const int k = rt_bvh_step(b, &w, e.a, H.cull, out);
         if (W == 2 && k == 1) {
-            if (leaf(T, R, out[0].a, out[0].n)) {
-                R->occluded = 1;
-                R->sp = R->mem = R->reg = 0;
-                return 1;
+            if (leaf(T, &ray, any, &H, out[0].a, out[0].n, tri_base, &tests)) {
+                occluded = 1;
+                break;
             }
             continue;
         }
-        for (int j = 0; j < k; j++) push(T, R, &out[j], out[j].n ? t : T->P->tl[out[j].a]);
+        if (!k) continue;
+        if (sp + (uint32_t)k > cap) {
+            R->sp = (uint16_t)sp;
+            if (grow(T, R) < 0) break;
+            stk = R->stk;
+            cap = R->cap;
+        }
+        if (mem > sp) mem = sp; /* the memory copies from sp up are stale */
+        for (int j = 0; j < k; j++)
+            stk[sp++] = (sent){out[j].a, out[j].n, out[j].t, out[j].n ? t : ptl[out[j].a]};
+        if (sp > max_sp) max_sp = sp;
     }
+    if (occluded) {
+        R->occluded = 1;
+        sp = mem = reg = 0;
+    }
+    R->sp = (uint16_t)sp;
+    R->mem = (uint16_t)mem;
+    R->reg = (uint16_t)reg;
+    R->best = H.best;
+    R->bu = H.bu;
+    R->bv = H.bv;
+    R->cull = H.cull;
+    R->btri = H.btri;
+    R->found = (uint8_t)H.found;
+    T->max_sp = max_sp;
+    T->tv.nodes += nodes;
+    T->tv.tests += tests;
+    return ret;
 }
 
 /* Starts slot s on ray r (closest, or any hit for a shadow ray): state
