@@ -102,7 +102,9 @@
  * copies):
  *   T1  plan: every node lies in exactly one treelet; treelet 0 holds the
  *       root; a node's parent lies in the node's treelet unless the node
- *       is that treelet's root; a treelet's bytes are the sum of its
+ *       is that treelet's root, and a node's root bit is set exactly when
+ *       it is its treelet's root (so a walk in treelet t pushes a child
+ *       with treelet t unless its root bit says to look it up); a treelet's bytes are the sum of its
  *       nodes' and at most the budget unless it is its root alone; the
  *       greedy rule stopped correctly: the frontier node of largest area
  *       would have taken the treelet past the budget;
@@ -179,6 +181,7 @@ typedef struct tplan {
     float *area;        /* surface area per node */
     uint32_t *cost;     /* bytes per node */
     uint32_t *troot;    /* root node per treelet */
+    uint64_t *rootbit;  /* bit i: node i is its treelet's root (the walk looks up tl[] only for those) */
     uint64_t *tbytes;   /* bytes per treelet */
     uint32_t *tdepth;   /* treelets on the path from the root, the treelet's own included */
     uint32_t maxdepth;  /* deepest tdepth */
@@ -194,6 +197,7 @@ static void tl_plan_free(void *p)
     free(P->area);
     free(P->cost);
     free(P->troot);
+    free(P->rootbit);
     free(P->tbytes);
     free(P->tdepth);
     free(P);
@@ -316,7 +320,8 @@ static int tl_plan(const rt_tracer_ctx *ctx, void **out, rt_err *e)
     if (!(P->tl = rt_calloc(nn, sizeof *P->tl, e)) || !(P->parent = rt_calloc(nn, sizeof *P->parent, e)) ||
         !(P->area = rt_calloc(nn, sizeof *P->area, e)) || !(P->cost = rt_calloc(nn, sizeof *P->cost, e)) ||
         !(P->troot = rt_calloc(nn, sizeof *P->troot, e)) || !(P->tbytes = rt_calloc(nn, sizeof *P->tbytes, e)) ||
-        !(P->tdepth = rt_calloc(nn, sizeof *P->tdepth, e)) || !(roots = rt_calloc(nn, sizeof *roots, e)) ||
+        !(P->tdepth = rt_calloc(nn, sizeof *P->tdepth, e)) ||
+        !(P->rootbit = rt_calloc(nn / 64 + 1, sizeof *P->rootbit, e)) || !(roots = rt_calloc(nn, sizeof *roots, e)) ||
         !(H.v = rt_calloc(nn, sizeof *H.v, e)))
         goto fail;
     const uint32_t nsize = rt_bvh_node_size(b->width);
@@ -348,6 +353,7 @@ static int tl_plan(const rt_tracer_ctx *ctx, void **out, rt_err *e)
         const uint32_t r = roots[rhead++], t = nt++;
         uint64_t bytes = 0;
         P->troot[t] = r;
+        P->rootbit[r / 64] |= (uint64_t)1 << (r % 64);
         P->tdepth[t] = r == 0 ? 1 : P->tdepth[P->tl[P->parent[r]]] + 1;
         if (P->tdepth[t] > P->maxdepth) P->maxdepth = P->tdepth[t];
         H.n = 0;
@@ -412,6 +418,11 @@ static int check_plan(const tplan *P, const rt_bvh *b, rt_err *e)
         sum[t] += P->cost[i];
         cnt[t]++;
         const int isroot = P->troot[t] == i;
+        if (isroot != (int)(P->rootbit[i / 64] >> (i % 64) & 1)) {
+            rt_errf(e, "treelet T1: node %u is%s its treelet's root, its root bit says%s", i, isroot ? "" : " not",
+                    isroot ? " not" : " so");
+            goto done;
+        }
         if (i != 0 && !isroot && P->tl[P->parent[i]] != t) {
             rt_errf(e, "treelet T1: node %u in treelet %u, its parent %u in treelet %u", i, t, P->parent[i],
                     P->tl[P->parent[i]]);
@@ -707,6 +718,7 @@ static int walk(tl_run *T, uint32_t s, uint32_t t)
     rt_bvh_wray_init(&w, &ray, W);
     rt_rec *rec = T->rec;
     const uint32_t *ptl = T->P->tl;
+    const uint64_t *rootbit = T->P->rootbit;
     const uint32_t esize = T->esize, nin = SHORT_STACK / esize, nsize = T->nsize;
     const uint64_t nbase = rec ? T->L->r[T->tv.reg_node].base : 0;
     const uint64_t tri_base = rec ? T->L->r[T->tv.reg_tri].base : 0;
@@ -781,8 +793,12 @@ static int walk(tl_run *T, uint32_t s, uint32_t t)
             cap = R->cap;
         }
         if (mem > sp) mem = sp; /* the memory copies from sp up are stale */
-        for (int j = 0; j < k; j++)
-            stk[sp++] = (sent){out[j].a, out[j].n, out[j].t, out[j].n ? t : ptl[out[j].a]};
+        /* a child lies in this treelet unless it is a treelet's root (T1) */
+        for (int j = 0; j < k; j++) {
+            const uint32_t a = out[j].a;
+            const uint32_t tl = !out[j].n && (rootbit[a / 64] >> (a % 64) & 1) ? ptl[a] : t;
+            stk[sp++] = (sent){a, out[j].n, out[j].t, tl};
+        }
         if (sp > max_sp) max_sp = sp;
     }
     if (occluded) {
