@@ -493,7 +493,7 @@ typedef struct tray {
     uint16_t sp, cap; /* stack depth and capacity (both <= stack_bound < 2^16) */
     uint16_t mem, reg; /* entries [0, mem) have valid memory copies, [reg, sp) are in registers;
                         * reg <= mem <= sp, and a queued ray has reg = mem = sp */
-    sent *stk;        /* inl, or an array from the stack arena when deeper than INL */
+    sent *stk;        /* NULL before the slot's first ray, then inl, or an array from the stack arena when deeper than INL */
     float best, bu, bv; /* best hit so far (best starts at tmax) */
     uint32_t btri;    /* best hit's scene index (0 while none) */
     uint8_t found, any, occluded; /* a hit is held; any-hit (shadow) ray; its result */
@@ -826,6 +826,10 @@ static int walk(tl_run *T, uint32_t s, uint32_t t)
 static int start(tl_run *T, uint32_t s, const rt_ray *r, int any)
 {
     tray *R = &T->ray[s];
+    if (!R->stk) { /* the slot's first ray */
+        R->stk = R->inl;
+        R->cap = INL;
+    }
     R->r = *r;
     R->best = r->tmax;
     R->bu = R->bv = 0.0f;
@@ -1413,12 +1417,7 @@ static int tl_init(tl_run *T, const rt_tracer_ctx *ctx, rt_image *img, rt_run_st
         !(T->out = rt_calloc(ns, sizeof *T->out, e)) || !(T->mark = rt_calloc(T->sc->ntri ? T->sc->ntri : 1, 1, e)))
         return -1;
     T->ray = (tray *)(void *)((char *)T->ray_mem + (64 - (uintptr_t)T->ray_mem % 64) % 64);
-    hint_huge(T->ray_mem, ((size_t)ns + 1) * TRAY_SIZE);
-    for (uint32_t s = 0; s < ns; s++) {
-        tray *R = &T->ray[s];
-        R->stk = R->inl;
-        R->cap = INL;
-    }
+    hint_huge(T->ray_mem, ((size_t)ns + 1) * TRAY_SIZE); /* records: set up by start(), at their first touch */
     for (uint32_t i = 0; i < T->nblk; i++) T->bnext[i] = i + 1 < T->nblk ? (int32_t)(i + 1) : -1;
     T->freelist = 0;
     for (uint32_t q = 0; q < nt; q++) T->qhead[q] = T->qtail[q] = -1;
