@@ -1373,6 +1373,12 @@ static void tl_free(tl_run *T)
     free(T->mark);
 }
 
+/* An array whose entries are all written before they are read (queue
+ * blocks, per-slot hits and rays, the secondary modes' shading results,
+ * the primary hits per pixel): not zeroed, which would cost a pass over
+ * memory the run then writes anyway. */
+static void *uninit(size_t n, size_t size, rt_err *e) { return rt_reallocarray(NULL, n, size, e); }
+
 static int tl_init(tl_run *T, const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_err *e)
 {
     const rt_render_opts *o = ctx->opt;
@@ -1406,15 +1412,14 @@ static int tl_init(tl_run *T, const rt_tracer_ctx *ctx, rt_image *img, rt_run_st
     const uint32_t nt = P->nt, ns = T->slots;
     T->nblk = nblk_of(ns, nt);
     T->secondary = rt_render_secondary(o);
-    if (!(T->ray_mem = rt_calloc((size_t)ns + 1, TRAY_SIZE, e)) || !(T->blk = rt_calloc((size_t)T->nblk * QBLK, sizeof *T->blk, e)) ||
+    if (!(T->ray_mem = rt_calloc((size_t)ns + 1, TRAY_SIZE, e)) || !(T->blk = uninit(T->nblk * (size_t)QBLK, sizeof *T->blk, e)) ||
         !(T->bnext = rt_calloc(T->nblk, sizeof *T->bnext, e)) || !(T->qhead = rt_calloc(nt, sizeof *T->qhead, e)) ||
         !(T->qtail = rt_calloc(nt, sizeof *T->qtail, e)) || !(T->qcount = rt_calloc(nt, sizeof *T->qcount, e)) ||
         !(T->bk_head = rt_calloc((size_t)ns + 2, sizeof *T->bk_head, e)) ||
         !(T->bk_next = rt_calloc(nt, sizeof *T->bk_next, e)) || !(T->bk_prev = rt_calloc(nt, sizeof *T->bk_prev, e)) ||
         !(T->want = rt_calloc(2 * (size_t)ns, 1, e)) || !(T->done = rt_calloc(ns, 1, e)) ||
-        !(T->hit = rt_calloc(ns, sizeof *T->hit, e)) ||
-        !(T->bray = rt_calloc(ns, sizeof *T->bray, e)) || !(T->bsray = rt_calloc(ns, sizeof *T->bsray, e)) ||
-        !(T->out = rt_calloc(ns, sizeof *T->out, e)) || !(T->mark = rt_calloc(T->sc->ntri ? T->sc->ntri : 1, 1, e)))
+        !(T->hit = uninit(ns, sizeof *T->hit, e)) || !(T->bray = uninit(ns, sizeof *T->bray, e)) ||
+        !(T->bsray = uninit(ns, sizeof *T->bsray, e)) || !(T->mark = rt_calloc(T->sc->ntri ? T->sc->ntri : 1, 1, e)))
         return -1;
     T->ray = (tray *)(void *)((char *)T->ray_mem + (64 - (uintptr_t)T->ray_mem % 64) % 64);
     hint_huge(T->ray_mem, ((size_t)ns + 1) * TRAY_SIZE); /* records: set up by start(), at their first touch */
@@ -1427,12 +1432,12 @@ static int tl_init(tl_run *T, const rt_tracer_ctx *ctx, rt_image *img, rt_run_st
     T->tv.mark = T->mark;
     if (T->secondary) {
         T->nlvl = levels_of(o);
-        if (!(T->acc = rt_calloc(T->npix, sizeof *T->acc, e)) || !(T->h0 = rt_calloc(T->npix, sizeof *T->h0, e)) ||
+        if (!(T->out = uninit(ns, sizeof *T->out, e)) || !(T->acc = rt_calloc(T->npix, sizeof *T->acc, e)) || !(T->h0 = rt_calloc(T->npix, sizeof *T->h0, e)) ||
             !(T->lvl = rt_calloc((size_t)T->nlvl, sizeof *T->lvl, e)) ||
             !(T->lvlen = rt_calloc((size_t)T->nlvl, sizeof *T->lvlen, e)))
             return -1;
         for (size_t p = 0; p < T->npix; p++) T->h0[p].tri = RT_NO_HIT;
-    } else if (!(T->vis = rt_calloc(T->npix, 1, e)) || !(T->phit = rt_calloc(T->npix, sizeof *T->phit, e))) {
+    } else if (!(T->vis = rt_calloc(T->npix, 1, e)) || !(T->phit = uninit(T->npix, sizeof *T->phit, e))) {
         return -1;
     }
     return 0;
