@@ -141,9 +141,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#if defined(__linux__)
-#include <sys/mman.h>
-#endif
 
 #define QBLK 64        /* queue entries per block */
 #define RAY_REC 64     /* bytes of a ray-state record: one line */
@@ -152,21 +149,6 @@
 #define RAY_SUSP 20
 #define SHORT_STACK 16 /* bytes of stack entries kept in the ray record */
 #define REFILL 8       /* deep stack entries read back per access, at most */
-
-/* Asks the kernel to back the whole 2 MiB pages inside [p, p + n) with huge
- * pages (one page fault per 2 MiB of host ray records instead of 512); a
- * hint, without effect where it is not offered. */
-static void hint_huge(void *p, size_t n)
-{
-#if defined(MADV_HUGEPAGE)
-    const uintptr_t H = (uintptr_t)2 << 20;
-    const uintptr_t lo = ((uintptr_t)p + H - 1) & ~(H - 1), hi = ((uintptr_t)p + n) & ~(H - 1);
-    if (hi > lo) (void)madvise((void *)lo, hi - lo, MADV_HUGEPAGE);
-#else
-    (void)p;
-    (void)n;
-#endif
-}
 
 /* ---- the plan: treelets of one tree and budget ---------------------------- */
 
@@ -1422,7 +1404,7 @@ static int tl_init(tl_run *T, const rt_tracer_ctx *ctx, rt_image *img, rt_run_st
         !(T->bsray = uninit(ns, sizeof *T->bsray, e)) || !(T->mark = rt_calloc(T->sc->ntri ? T->sc->ntri : 1, 1, e)))
         return -1;
     T->ray = (tray *)(void *)((char *)T->ray_mem + (64 - (uintptr_t)T->ray_mem % 64) % 64);
-    hint_huge(T->ray_mem, ((size_t)ns + 1) * TRAY_SIZE); /* records: set up by start(), at their first touch */
+    /* the records are set up by start(), at their first touch */
     for (uint32_t i = 0; i < T->nblk; i++) T->bnext[i] = i + 1 < T->nblk ? (int32_t)(i + 1) : -1;
     T->freelist = 0;
     for (uint32_t q = 0; q < nt; q++) T->qhead[q] = T->qtail[q] = -1;
