@@ -525,8 +525,7 @@ typedef struct tl_run {
     /* per slot results */
     rt_hit *hit;      /* closest hit per slot */
     uint8_t *vis;     /* per pixel (primary modes): bit i light i visible */
-    rt_hit *phit;     /* per pixel (primary modes): the primary hit */
-    rt_ray *bray;     /* closest ray per slot (camera or path ray) */
+    rt_ray *bray;     /* closest ray per slot (secondary modes: the path ray; primary modes derive the camera ray) */
     rt_ray *bsray;    /* shadow ray per slot */
     /* secondary modes */
     int secondary;
@@ -1103,16 +1102,27 @@ static int end_generation(tl_run *T, uint32_t n, rt_err *e)
     return 0;
 }
 
-/* A generation of closest-hit rays in slots 0..n-1 (T->bray). */
-static int gen_closest(tl_run *T, uint32_t n, rt_err *e)
+/* The camera ray of pixel p (primary modes derive it where it is needed
+ * rather than keep one per slot). */
+static void eye_ray(const tl_run *T, const rt_cam_frame *cam, uint32_t p, rt_ray *r)
+{
+    const uint32_t W = (uint32_t)T->ctx->opt->W;
+    rt_cam_ray(cam, (int)(p % W), (int)(p / W), r);
+}
+
+/* A generation of closest-hit rays in slots 0..n-1: with cam, the camera
+ * rays of pixels pix[0..n-1]; without, T->bray. */
+static int gen_closest(tl_run *T, uint32_t n, const rt_cam_frame *cam, const uint32_t *pix, rt_err *e)
 {
     T->shadow = 0;
     memset(T->want, 0, T->slots);
     memset(T->done, 0, T->slots);
     T->started = T->finished = 0;
     for (uint32_t s = 0; s < n; s++) {
+        rt_ray eye;
+        if (cam) eye_ray(T, cam, pix[s], &eye);
         T->want[s] = 1;
-        if (start(T, s, &T->bray[s], 0)) finish(T, s);
+        if (start(T, s, cam ? &eye : &T->bray[s], 0)) finish(T, s);
     }
     step_check(T);
     run_queues(T);
@@ -1148,36 +1158,39 @@ static int window_primary(tl_run *T, const uint32_t *pix, uint32_t n, rt_err *e)
     rt_cam_setup(&cam, T->sc, o->W, o->H);
     rt_rec_set_gen(T->rec, 0);
     T->tv.mark_bit = 1;
-    for (uint32_t s = 0; s < n; s++) {
-        RT_REC(T->rec, rt_mm_addr(T->L, T->reg_ray, pix[s]), 32, 0, RT_CLS_RAY);
-        rt_cam_ray(&cam, (int)(pix[s] % (uint32_t)o->W), (int)(pix[s] / (uint32_t)o->W), &T->bray[s]);
-    }
+    for (uint32_t s = 0; s < n; s++) RT_REC(T->rec, rt_mm_addr(T->L, T->reg_ray, pix[s]), 32, 0, RT_CLS_RAY);
     T->st->rays_primary += n;
-    if (gen_closest(T, n, e) < 0) return -1;
+    if (gen_closest(T, n, &cam, pix, e) < 0) return -1;
     uint8_t *wl = T->want + T->slots; /* scratch beside want: n bytes */
     for (uint32_t s = 0; s < n; s++) {
-        T->phit[pix[s]] = T->hit[s];
         if (T->hit[s].tri != RT_NO_HIT) RT_REC(T->rec, rt_mm_addr(T->L, T->reg_shade, T->hit[s].tri), 16, 0, RT_CLS_SHADE);
         if (o->lights) RT_REC(T->rec, rt_mm_addr(T->L, T->reg_hits, s), 24, 1, RT_CLS_HIT);
     }
     T->tv.mark_bit = 2;
     for (int li = 0; li < RT_NLIGHTS; li++) {
         if (!(o->lights & (1u << li))) continue;
-        for (uint32_t s = 0; s < n; s++)
-            wl[s] = T->hit[s].tri != RT_NO_HIT && rt_shade_ray(T->sc, &T->bray[s], &T->hit[s], li, &T->bsray[s]);
+        for (uint32_t s = 0; s < n; s++) {
+            wl[s] = 0;
+            if (T->hit[s].tri == RT_NO_HIT) continue;
+            rt_ray eye;
+            eye_ray(T, &cam, pix[s], &eye);
+            wl[s] = rt_shade_ray(T->sc, &eye, &T->hit[s], li, &T->bsray[s]) != 0;
+        }
         if (gen_shadow(T, li, n, wl, e) < 0) return -1;
         for (uint32_t s = 0; s < n; s++)
             if (wl[s] && !T->ray[s].occluded) T->vis[pix[s]] |= (uint8_t)(1u << li);
     }
     for (uint32_t s = 0; s < n; s++) {
         const uint32_t p = pix[s];
-        const rt_hit *h = &T->phit[p];
+        const rt_hit *h = &T->hit[s];
+        rt_ray eye;
+        eye_ray(T, &cam, p, &eye);
         if (h->tri == RT_NO_HIT) {
-            rt_shade_pixel(T->sc, &T->bray[s], NULL, NULL, o->lights, T->img, p);
+            rt_shade_pixel(T->sc, &eye, NULL, NULL, o->lights, T->img, p);
         } else {
             int vis[RT_NLIGHTS];
             for (int i = 0; i < RT_NLIGHTS; i++) vis[i] = (T->vis[p] >> i) & 1;
-            rt_shade_pixel(T->sc, &T->bray[s], h, vis, o->lights, T->img, p);
+            rt_shade_pixel(T->sc, &eye, h, vis, o->lights, T->img, p);
         }
         RT_REC(T->rec, rt_mm_addr(T->L, T->reg_fb, p), 12, 1, RT_CLS_FB);
     }
@@ -1205,7 +1218,7 @@ static int batch_run(tl_run *T, int *height, rt_err *e)
             T->st->rays_primary++;
         }
     }
-    if (gen_closest(T, n, e) < 0) return -1;
+    if (gen_closest(T, n, NULL, NULL, e) < 0) return -1;
     for (uint32_t s = 0; s < n; s++) {
         const rt_hit *h = &T->hit[s];
         const rt_hit *hp = h->tri != RT_NO_HIT ? h : NULL;
@@ -1343,7 +1356,6 @@ static void tl_free(tl_run *T)
     free(T->done);
     free(T->hit);
     free(T->vis);
-    free(T->phit);
     free(T->bray);
     free(T->bsray);
     free(T->out);
@@ -1356,9 +1368,9 @@ static void tl_free(tl_run *T)
 }
 
 /* An array whose entries are all written before they are read (queue
- * blocks, per-slot hits and rays, the secondary modes' shading results,
- * the primary hits per pixel): not zeroed, which would cost a pass over
- * memory the run then writes anyway. */
+ * blocks, per-slot hits and rays, the secondary modes' shading results):
+ * not zeroed, which would cost a pass over memory the run then writes
+ * anyway. */
 static void *uninit(size_t n, size_t size, rt_err *e) { return rt_reallocarray(NULL, n, size, e); }
 
 static int tl_init(tl_run *T, const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_err *e)
@@ -1400,8 +1412,7 @@ static int tl_init(tl_run *T, const rt_tracer_ctx *ctx, rt_image *img, rt_run_st
         !(T->bk_head = rt_calloc((size_t)ns + 2, sizeof *T->bk_head, e)) ||
         !(T->bk_next = rt_calloc(nt, sizeof *T->bk_next, e)) || !(T->bk_prev = rt_calloc(nt, sizeof *T->bk_prev, e)) ||
         !(T->want = rt_calloc(2 * (size_t)ns, 1, e)) || !(T->done = rt_calloc(ns, 1, e)) ||
-        !(T->hit = uninit(ns, sizeof *T->hit, e)) || !(T->bray = uninit(ns, sizeof *T->bray, e)) ||
-        !(T->bsray = uninit(ns, sizeof *T->bsray, e)) || !(T->mark = rt_calloc(T->sc->ntri ? T->sc->ntri : 1, 1, e)))
+        !(T->hit = uninit(ns, sizeof *T->hit, e)) || !(T->bsray = uninit(ns, sizeof *T->bsray, e)) || !(T->mark = rt_calloc(T->sc->ntri ? T->sc->ntri : 1, 1, e)))
         return -1;
     T->ray = (tray *)(void *)((char *)T->ray_mem + (64 - (uintptr_t)T->ray_mem % 64) % 64);
     /* the records are set up by start(), at their first touch */
@@ -1414,12 +1425,13 @@ static int tl_init(tl_run *T, const rt_tracer_ctx *ctx, rt_image *img, rt_run_st
     T->tv.mark = T->mark;
     if (T->secondary) {
         T->nlvl = levels_of(o);
-        if (!(T->out = uninit(ns, sizeof *T->out, e)) || !(T->acc = rt_calloc(T->npix, sizeof *T->acc, e)) || !(T->h0 = rt_calloc(T->npix, sizeof *T->h0, e)) ||
+        if (!(T->out = uninit(ns, sizeof *T->out, e)) || !(T->bray = uninit(ns, sizeof *T->bray, e)) ||
+            !(T->acc = rt_calloc(T->npix, sizeof *T->acc, e)) || !(T->h0 = rt_calloc(T->npix, sizeof *T->h0, e)) ||
             !(T->lvl = rt_calloc((size_t)T->nlvl, sizeof *T->lvl, e)) ||
             !(T->lvlen = rt_calloc((size_t)T->nlvl, sizeof *T->lvlen, e)))
             return -1;
         for (size_t p = 0; p < T->npix; p++) T->h0[p].tri = RT_NO_HIT;
-    } else if (!(T->vis = rt_calloc(T->npix, 1, e)) || !(T->phit = uninit(T->npix, sizeof *T->phit, e))) {
+    } else if (!(T->vis = rt_calloc(T->npix, 1, e))) {
         return -1;
     }
     return 0;
