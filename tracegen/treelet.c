@@ -104,8 +104,9 @@
  *       root; a node's parent lies in the node's treelet unless the node
  *       is that treelet's root, and a node's root bit is set exactly when
  *       it is its treelet's root (so a walk in treelet t pushes a child
- *       with treelet t unless its root bit says to look it up); a treelet's bytes are the sum of its
- *       nodes' and at most the budget unless it is its root alone; the
+ *       with treelet t unless its root bit says to look it up); a
+ *       treelet's bytes are the sum of its nodes' and at most the budget
+ *       unless it is its root alone; the
  *       greedy rule stopped correctly: the frontier node of largest area
  *       would have taken the treelet past the budget;
  *   T2  queue pool: every block lies in exactly one queue's chain or on
@@ -475,7 +476,8 @@ typedef struct tray {
     uint16_t sp, cap; /* stack depth and capacity (both <= stack_bound < 2^16) */
     uint16_t mem, reg; /* entries [0, mem) have valid memory copies, [reg, sp) are in registers;
                         * reg <= mem <= sp, and a queued ray has reg = mem = sp */
-    sent *stk;        /* NULL before the slot's first ray, then inl, or an array from the stack arena when deeper than INL */
+    sent *stk;        /* NULL before the slot's first ray, then inl, or an arena array (cap doubles
+                       * from INL while sp <= stack_bound <= 443, so cap stays below 2^10) */
     float best, bu, bv; /* best hit so far (best starts at tmax) */
     uint32_t btri;    /* best hit's scene index (0 while none) */
     uint8_t found, any, occluded; /* a hit is held; any-hit (shadow) ray; its result */
