@@ -106,9 +106,9 @@
  *       it is its treelet's root (so a walk in treelet t pushes a child
  *       with treelet t unless its root bit says to look it up); a
  *       treelet's bytes are the sum of its nodes' and at most the budget
- *       unless it is its root alone; the
- *       greedy rule stopped correctly: the frontier node of largest area
- *       would have taken the treelet past the budget;
+ *       unless it is its root alone; the greedy rule stopped correctly:
+ *       the frontier node of largest area would have taken the treelet
+ *       past the budget;
  *   T2  queue pool: every block lies in exactly one queue's chain or on
  *       the free list; a queue of c rays is a chain of ceil(c / 64) blocks
  *       ending at its tail; the counts sum to the rays queued;
@@ -520,6 +520,8 @@ typedef struct tl_run {
     /* fullest-first buckets (T5) */
     int32_t *bk_head, *bk_next, *bk_prev;
     uint32_t bk_max, bk_cap;
+    int qfull;        /* the fullest queue first (--qorder fullest), else tree order */
+    int qwrite;       /* the write kind of a queue entry's store (--queue-stores) */
     /* the generation (T3) */
     uint8_t *want, *done; /* per slot */
     uint64_t started, finished;
@@ -549,7 +551,7 @@ typedef struct tl_run {
 
 /* ---- queues ------------------------------------------------------------------- */
 
-static void bk_unlink(tl_run *T, uint32_t q)
+static inline void bk_unlink(tl_run *T, uint32_t q)
 {
     uint32_t c = T->qcount[q];
     if (T->bk_prev[q] >= 0) T->bk_next[T->bk_prev[q]] = T->bk_next[q];
@@ -557,7 +559,7 @@ static void bk_unlink(tl_run *T, uint32_t q)
     if (T->bk_next[q] >= 0) T->bk_prev[T->bk_next[q]] = T->bk_prev[q];
 }
 
-static void bk_link(tl_run *T, uint32_t q)
+static inline void bk_link(tl_run *T, uint32_t q)
 {
     uint32_t c = T->qcount[q];
     T->bk_prev[q] = -1;
@@ -567,7 +569,7 @@ static void bk_link(tl_run *T, uint32_t q)
     if (c > T->bk_max) T->bk_max = c;
 }
 
-static int fullest(const tl_run *T) { return T->ctx->opt->qorder == RT_QORDER_FULLEST; }
+static int fullest(const tl_run *T) { return T->qfull; }
 
 static void enqueue(tl_run *T, uint32_t q, uint32_t slot)
 {
@@ -587,8 +589,7 @@ static void enqueue(tl_run *T, uint32_t q, uint32_t slot)
         T->qtail[q] = tb = nb;
     }
     T->blk[(size_t)tb * QBLK + pos] = slot;
-    RT_REC(T->rec, rt_mm_addr(T->L, T->reg_q, (uint64_t)tb * QBLK + pos), 4,
-           T->ctx->opt->qstores == RT_QSTORES_STREAM ? RT_WRITE_STREAM : 1, RT_CLS_QUEUE);
+    RT_REC(T->rec, rt_mm_addr(T->L, T->reg_q, (uint64_t)tb * QBLK + pos), 4, T->qwrite, RT_CLS_QUEUE);
     RT_REC(T->rec, rt_mm_addr(T->L, T->reg_qt, q), 8, 1, RT_CLS_QTABLE);
     if (fullest(T)) bk_unlink(T, q);
     T->qcount[q]++;
@@ -1408,6 +1409,8 @@ static int tl_init(tl_run *T, const rt_tracer_ctx *ctx, rt_image *img, rt_run_st
     const uint32_t nt = P->nt, ns = T->slots;
     T->nblk = nblk_of(ns, nt);
     T->secondary = rt_render_secondary(o);
+    T->qfull = o->qorder == RT_QORDER_FULLEST;
+    T->qwrite = o->qstores == RT_QSTORES_STREAM ? RT_WRITE_STREAM : 1;
     if (!(T->ray_mem = rt_calloc((size_t)ns + 1, TRAY_SIZE, e)) || !(T->blk = uninit(T->nblk * (size_t)QBLK, sizeof *T->blk, e)) ||
         !(T->bnext = rt_calloc(T->nblk, sizeof *T->bnext, e)) || !(T->qhead = rt_calloc(nt, sizeof *T->qhead, e)) ||
         !(T->qtail = rt_calloc(nt, sizeof *T->qtail, e)) || !(T->qcount = rt_calloc(nt, sizeof *T->qcount, e)) ||
