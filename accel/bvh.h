@@ -134,15 +134,8 @@ static inline float rt_bvh8_dequant(const rt_bvh8_node *n, int a, unsigned q)
 static inline int rt_bvh_order_slots(unsigned mask, const float *key, int ord[8])
 {
     int k = 0;
-    mask &= 0xffu;
-    while (mask) { /* the set slots, lowest first */
-#if defined(__GNUC__)
-        const int s = __builtin_ctz(mask);
-#else
-        int s = 0;
-        while (!(mask >> s & 1u)) s++;
-#endif
-        mask &= mask - 1u;
+    for (int s = 0; s < 8; s++) {
+        if (!(mask >> s & 1u)) continue;
         int j = k++;
         while (j > 0 && key[ord[j - 1]] > key[s]) {
             ord[j] = ord[j - 1];

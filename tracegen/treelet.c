@@ -1019,6 +1019,40 @@ static void step_check(tl_run *T)
 
 /* ---- processing ------------------------------------------------------------------ */
 
+#define PF_REC 8  /* queue entries ahead whose ray record is prefetched */
+#define PF_NODE 4 /* ... whose next node is prefetched */
+
+/* Host prefetch of slot s's record (all its lines). */
+static inline void prefetch_rec(const tl_run *T, uint32_t s)
+{
+#if defined(__GNUC__)
+    const char *h = (const char *)&T->ray[s];
+    for (int l = 0; l < TRAY_SIZE; l += 64) __builtin_prefetch(h + l);
+#else
+    (void)T;
+    (void)s;
+#endif
+}
+
+/* Host prefetch of the node on top of R's stack (R's record was
+ * prefetched PF_REC - PF_NODE entries earlier). */
+static inline void prefetch_top(const tl_run *T, const tray *R)
+{
+#if defined(__GNUC__)
+    if (!R->sp || R->stk[R->sp - 1].n) return;
+    const uint32_t a = R->stk[R->sp - 1].a;
+    const rt_bvh *bv = T->b;
+    const char *nd = bv->width == 2   ? (const char *)&bv->n2[a]
+                     : bv->width == 4 ? (const char *)&bv->n4[a]
+                                      : (const char *)&bv->h8[a];
+    __builtin_prefetch(nd);
+    if (bv->width != 2) __builtin_prefetch(nd + 64);
+#else
+    (void)T;
+    (void)R;
+#endif
+}
+
 /* Takes queue q whole and walks its rays in treelet q. */
 static void process(tl_run *T, uint32_t q)
 {
@@ -1032,32 +1066,30 @@ static void process(tl_run *T, uint32_t q)
     T->queued -= n;
     T->events++;
     if (n > T->ev_max) T->ev_max = n;
+    /* host prefetches (no modeled traffic): the record of the ray PF_REC
+     * entries on and the node on top of the stack of the ray PF_NODE
+     * entries on, through the block chain (cursors ra/pa and rn/pn run
+     * ahead of k and read a block's link before that block is freed); the
+     * first PF_REC records at once, so a short queue's misses overlap */
+    int32_t ba = b, bn = b;
+    uint32_t pa = 0, pn = 0;
+    for (uint32_t j = 0; j < n && j < PF_REC; j++) {
+        prefetch_rec(T, T->blk[(size_t)ba * QBLK + pa]);
+        if (++pa == QBLK) pa = 0, ba = T->bnext[ba];
+    }
+    for (uint32_t j = 0; j < n && j < PF_NODE; j++)
+        if (++pn == QBLK) pn = 0, bn = T->bnext[bn];
     for (uint32_t k = 0; k < n && !T->err; k++) {
         const uint32_t pos = k % QBLK;
         const uint32_t s = T->blk[(size_t)b * QBLK + pos];
-#if defined(__GNUC__)
-        /* host prefetches: the record of a ray eight entries on, the node
-         * on top of the stack of the ray four entries on */
-        if (pos + 8 < QBLK && k + 8 < n) {
-            const char *h = (const char *)&T->ray[T->blk[(size_t)b * QBLK + pos + 8]];
-            __builtin_prefetch(h);
-            __builtin_prefetch(h + 64);
-            __builtin_prefetch(h + 128);
-            __builtin_prefetch(h + 192);
+        if (k + PF_REC < n) {
+            prefetch_rec(T, T->blk[(size_t)ba * QBLK + pa]);
+            if (++pa == QBLK) pa = 0, ba = T->bnext[ba];
         }
-        if (pos + 4 < QBLK && k + 4 < n) {
-            const tray *R4 = &T->ray[T->blk[(size_t)b * QBLK + pos + 4]];
-            if (R4->sp && !R4->stk[R4->sp - 1].n) {
-                const uint32_t a = R4->stk[R4->sp - 1].a;
-                const rt_bvh *bv = T->b;
-                const char *nd = bv->width == 2   ? (const char *)&bv->n2[a]
-                                 : bv->width == 4 ? (const char *)&bv->n4[a]
-                                                  : (const char *)&bv->h8[a];
-                __builtin_prefetch(nd);
-                __builtin_prefetch(nd + 64);
-            }
+        if (k + PF_NODE < n) {
+            prefetch_top(T, &T->ray[T->blk[(size_t)bn * QBLK + pn]]);
+            if (++pn == QBLK) pn = 0, bn = T->bnext[bn];
         }
-#endif
         if (pos == 0) { /* a block's entries are read together */
             const uint32_t m = n - k < QBLK ? n - k : QBLK;
             RT_REC(T->rec, rt_mm_addr(T->L, T->reg_q, (uint64_t)b * QBLK), 4 * m, 0, RT_CLS_QUEUE);
