@@ -142,6 +142,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
 
 #define QBLK 64        /* queue entries per block */
 #define RAY_REC 64     /* bytes of a ray-state record: one line */
@@ -150,6 +153,23 @@
 #define RAY_SUSP 20
 #define SHORT_STACK 16 /* bytes of stack entries kept in the ray record */
 #define REFILL 8       /* deep stack entries read back per access, at most */
+
+/* Asks the kernel to back the whole 2 MiB pages inside [p, p + n) with huge
+ * pages: one page fault per 2 MiB of host ray records instead of 512. The
+ * caller writes the memory before it reads it, so each fault takes a fresh
+ * huge page rather than first mapping the shared zero page and copying it
+ * at the first write. A hint, without effect where it is not offered. */
+static void hint_huge(void *p, size_t n)
+{
+#if defined(MADV_HUGEPAGE)
+    const uintptr_t H = (uintptr_t)2 << 20;
+    const uintptr_t lo = ((uintptr_t)p + H - 1) & ~(H - 1), hi = ((uintptr_t)p + n) & ~(H - 1);
+    if (hi > lo) (void)madvise((void *)lo, hi - lo, MADV_HUGEPAGE);
+#else
+    (void)p;
+    (void)n;
+#endif
+}
 
 /* ---- the plan: treelets of one tree and budget ---------------------------- */
 
@@ -476,7 +496,7 @@ typedef struct tray {
     uint16_t sp, cap; /* stack depth and capacity (both <= stack_bound < 2^16) */
     uint16_t mem, reg; /* entries [0, mem) have valid memory copies, [reg, sp) are in registers;
                         * reg <= mem <= sp, and a queued ray has reg = mem = sp */
-    sent *stk;        /* NULL before the slot's first ray, then inl, or an arena array (cap doubles
+    sent *stk;        /* inl, or an arena array (cap doubles
                        * from INL while sp <= stack_bound <= 443, so cap stays below 2^10) */
     float best, bu, bv; /* best hit so far (best starts at tmax) */
     uint32_t btri;    /* best hit's scene index (0 while none) */
@@ -810,10 +830,6 @@ static int walk(tl_run *T, uint32_t s, uint32_t t)
 static int start(tl_run *T, uint32_t s, const rt_ray *r, int any)
 {
     tray *R = &T->ray[s];
-    if (!R->stk) { /* the slot's first ray */
-        R->stk = R->inl;
-        R->cap = INL;
-    }
     R->r = *r;
     R->best = r->tmax;
     R->bu = R->bv = 0.0f;
@@ -1452,7 +1468,11 @@ static int tl_init(tl_run *T, const rt_tracer_ctx *ctx, rt_image *img, rt_run_st
         !(T->hit = uninit(ns, sizeof *T->hit, e)) || !(T->bsray = uninit(ns, sizeof *T->bsray, e)) || !(T->mark = rt_calloc(T->sc->ntri ? T->sc->ntri : 1, 1, e)))
         return -1;
     T->ray = (tray *)(void *)((char *)T->ray_mem + (64 - (uintptr_t)T->ray_mem % 64) % 64);
-    /* the records are set up by start(), at their first touch */
+    hint_huge(T->ray_mem, ((size_t)ns + 1) * TRAY_SIZE);
+    for (uint32_t s = 0; s < ns; s++) { /* written first (hint_huge) */
+        T->ray[s].stk = T->ray[s].inl;
+        T->ray[s].cap = INL;
+    }
     for (uint32_t i = 0; i < T->nblk; i++) T->bnext[i] = i + 1 < T->nblk ? (int32_t)(i + 1) : -1;
     T->freelist = 0;
     for (uint32_t q = 0; q < nt; q++) T->qhead[q] = T->qtail[q] = -1;
