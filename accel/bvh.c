@@ -117,6 +117,7 @@
 #include "accel.h"
 
 #include <float.h>
+#include <stddef.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -1627,47 +1628,39 @@ static RT_ALWAYS_INLINE int walk(rt_bvh_trav *tv, const rt_ray *r, rt_hit *h, co
 
 /* One visited node (bvh.h): walk2's and walk_wide's step without the
  * recording and counting. */
-void rt_bvh_wray_init(rt_bvh_wray *w, const rt_ray *r)
+void rt_bvh_wray_init(rt_bvh_wray *w, const rt_ray *r, int width)
 {
-    _Static_assert(sizeof(rt_bvh_wray) == sizeof(wray), "rt_bvh_wray mirrors wray");
+    _Static_assert(offsetof(rt_bvh_wray, nofs) == sizeof(wray), "rt_bvh_wray opens with wray");
     wray x;
     wray_init(&x, r);
     memcpy(w, &x, sizeof x);
+    for (int a = 0; a < 3; a++) {
+        w->nofs[a] = a * width + (x.neg[a] ? 3 * width : 0);
+        w->fofs[a] = a * width + (x.neg[a] ? 0 : 3 * width);
+    }
 }
 
-int rt_bvh_step(const rt_bvh *b, const rt_bvh_wray *wr, uint32_t node, float cull, rt_bvh_ref out[8])
+/* rt_bvh_step on a wide node, W a constant after inlining. */
+static RT_ALWAYS_INLINE int step_wide(const rt_bvh *b, const rt_bvh_wray *wr, uint32_t node, float cull,
+                                      rt_bvh_ref out[8], const int W)
 {
-    wray w;
-    memcpy(&w, wr, sizeof w);
-    if (b->width == 2) {
-        const rt_bvh2_node *nd = &b->n2[node];
-        float tn;
-        if (!box_lane(&w, nd->lo[0], nd->lo[1], nd->lo[2], nd->hi[0], nd->hi[1], nd->hi[2], cull, &tn)) return 0;
-        if (nd->ntri) {
-            out[0] = (rt_bvh_ref){nd->offset, nd->ntri, tn};
-            return 1;
-        }
-        const uint32_t nearc = w.neg[nd->axis] ? nd->offset : node + 1;
-        const uint32_t farc = w.neg[nd->axis] ? node + 1 : nd->offset;
-        out[0] = (rt_bvh_ref){farc, 0, -INFINITY};
-        out[1] = (rt_bvh_ref){nearc, 0, -INFINITY};
-        return 2;
-    }
-    const int W = b->width;
     const float *base = W == 4 ? &b->n4[node].lo[0][0] : &b->h8[node].lo[0][0];
     float tn[8];
     unsigned mask = 0;
 #if defined(__SSE2__)
     wsse q;
-    int nofs[3], fofs[3];
-    wsse_init(&q, &w);
     for (int a = 0; a < 3; a++) {
-        nofs[a] = a * W + (w.neg[a] ? 3 * W : 0);
-        fofs[a] = a * W + (w.neg[a] ? 0 : 3 * W);
+        q.o[a] = _mm_set1_ps(wr->o[a]);
+        q.inv[a] = _mm_set1_ps(wr->inv[a]);
     }
-    mask = box4(&q, base, nofs, fofs, cull, tn);
-    if (W == 8) mask |= box4(&q, base + 4, nofs, fofs, cull, tn + 4) << 4;
+    q.tmin = _mm_set1_ps(wr->tmin);
+    q.inf = _mm_set1_ps(INFINITY);
+    q.scale = _mm_set1_ps(FAR_SCALE);
+    mask = box4(&q, base, wr->nofs, wr->fofs, cull, tn);
+    if (W == 8) mask |= box4(&q, base + 4, wr->nofs, wr->fofs, cull, tn + 4) << 4;
 #else
+    wray w;
+    memcpy(&w, wr, sizeof w);
     for (int s = 0; s < W; s++)
         mask |= (unsigned)box_lane(&w, base[s], base[W + s], base[2 * W + s], base[3 * W + s], base[4 * W + s],
                                    base[5 * W + s], cull, &tn[s])
@@ -1681,6 +1674,26 @@ int rt_bvh_step(const rt_bvh *b, const rt_bvh_wray *wr, uint32_t node, float cul
         out[m++] = (rt_bvh_ref){ra, rn, tn[s]};
     }
     return m;
+}
+
+int rt_bvh_step(const rt_bvh *b, const rt_bvh_wray *wr, uint32_t node, float cull, rt_bvh_ref out[8])
+{
+    if (b->width == 4) return step_wide(b, wr, node, cull, out, 4);
+    if (b->width == 8) return step_wide(b, wr, node, cull, out, 8);
+    wray w;
+    memcpy(&w, wr, sizeof w);
+    const rt_bvh2_node *nd = &b->n2[node];
+    float tn;
+    if (!box_lane(&w, nd->lo[0], nd->lo[1], nd->lo[2], nd->hi[0], nd->hi[1], nd->hi[2], cull, &tn)) return 0;
+    if (nd->ntri) {
+        out[0] = (rt_bvh_ref){nd->offset, nd->ntri, tn};
+        return 1;
+    }
+    const uint32_t nearc = w.neg[nd->axis] ? nd->offset : node + 1;
+    const uint32_t farc = w.neg[nd->axis] ? node + 1 : nd->offset;
+    out[0] = (rt_bvh_ref){farc, 0, -INFINITY};
+    out[1] = (rt_bvh_ref){nearc, 0, -INFINITY};
+    return 2;
 }
 
 int rt_bvh_closest(rt_bvh_trav *tv, const rt_ray *r, rt_hit *h) { return walk(tv, r, h, 0, FAST); }

@@ -286,6 +286,7 @@ typedef struct rt_bvh_wray {
     float o[3], inv[3]; /* origin, 1/d */
     int neg[3];         /* 1/d negative: the near plane is hi */
     float tmin;         /* the ray's tmin */
+    int nofs[3], fofs[3]; /* wide trees: per axis the float offsets of the near and far box rows */
 } rt_bvh_wray;
 
 typedef struct rt_bvh_ref {
@@ -294,7 +295,9 @@ typedef struct rt_bvh_ref {
     float t;    /* entry distance (bvh2 interior children: -inf) */
 } rt_bvh_ref;
 
-void rt_bvh_wray_init(rt_bvh_wray *w, const rt_ray *r);
+/* The slab form of r for rt_bvh_step on trees of width `width` (computed
+ * once per ray, or once per stretch of steps, not per node). */
+void rt_bvh_wray_init(rt_bvh_wray *w, const rt_ray *r, int width);
 /* The visit bound of a best hit at x: x + |x| 2^-16 (the walk's margin). */
 static inline float rt_bvh_cull_bound(float x) { return x + fabsf(x) * (1.0f / 65536.0f); }
 int rt_bvh_step(const rt_bvh *b, const rt_bvh_wray *w, uint32_t node, float cull, rt_bvh_ref out[8]);

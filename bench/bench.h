@@ -143,4 +143,16 @@ double rt_bench_median(double *v, int n);
  * -1 with e set (out of memory, or a BVH hit wrong: printed first). */
 int rt_bvh_bench_primary(FILE *out, const rt_scene *sc, int W, int H, int reps, rt_err *e);
 
+/* ---- the treelet tracer against the recursive one (treelet_bench.c) ------ */
+
+/* base's primary rays (W x H, base's lights) on sc through bvh4 and bvh8
+ * (base->accel, when set, alone: a BVH), the recursive and the treelet
+ * tracer back to back per repetition: untraced, recording into a null sink
+ * and writing a version-3 trace file in tmpdir (removed; command goes into
+ * its header). A Markdown table to out: wall and thread CPU seconds of
+ * both, the ratios treelet over recursive, references per ray, one row per
+ * repetition and the medians (of times and of ratios). 0, or -1 with e set. */
+int rt_treelet_bench(FILE *out, rt_scene *sc, const rt_render_opts *base, int reps, const char *tmpdir,
+                     const char *command, rt_err *e);
+
 #endif

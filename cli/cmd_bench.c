@@ -10,7 +10,9 @@
  * rays/s per tracer and mode, and the tracers' images compared bit for bit.
  * The streaming tracers (bench/stream_bench.c, --what stream): stream-branching
  * against recursive untraced, and a traced stream-multipass run into the
- * sweep's simulators, on the bunny.
+ * sweep's simulators, on the bunny. The treelet tracer (bench/treelet_bench.c,
+ * --what treelet): traced and untraced against the recursive tracer on the
+ * same BVH, each repetition's ratio and the medians.
  * Each item has its own default image size; -W/-H override them all.
  *
  * Absolute figures depend on the machine, so the output opens with the CPU
@@ -48,7 +50,7 @@ static void usage(FILE *f)
             "  --tracers LIST     comma list (default recursive,packet,dynamic)\n"
             "  --cache-size S     dynamic tracer's schedule (default 64K)\n"
             "  --what LIST        tracers,trace,sim,replay,approx,path-error,modes,identical,\n"
-            "                     embree,bvh\n"
+            "                     embree,bvh,treelet\n"
             "                     (default tracers,trace,sim); replay: the exact simulator\n"
             "                     on --trace FILE, one and two threads, decoding included;\n"
             "                     approx: sampled simulators\n"
@@ -64,13 +66,16 @@ static void usage(FILE *f)
             "                     primary rays (one thread), against the untraced recursive\n"
             "                     tracer (needs a build with libembree-dev);\n"
             "                     bvh: untraced primary rays through bvh2, bvh4 and bvh8\n"
-            "                     against the k-d tree (and Embree when built), --reps runs\n"
+            "                     against the k-d tree (and Embree when built), --reps runs;\n"
+            "                     treelet: the treelet tracer against the recursive one on\n"
+            "                     bvh4 and bvh8 (--accel: one BVH), untraced, into a null\n"
+            "                     sink and into a trace file, --reps runs, medians\n"
             "  --scenes LIST      scenes of path-error, modes, identical (defaults cornell;\n"
             "                     sphereflake,cornell; cornell,knot,sphereflake)\n"
             "  --ref-spp N        path-error reference samples per pixel (default 1024)\n"
             "  --plot DIR         path-error: DIR/path-error-SCENE.png (gnuplot), .dat, .gp\n"
             "  --trace FILE       .rtt or din trace for --what approx (required by replay)\n"
-            "  --reps N           replay: runs per thread count, median printed (default 3)\n"
+            "  --reps N           replay, bvh, treelet: runs, median or best printed (default 3)\n"
             "  --sim-refs N       synthetic simulator trace length (default 20000000)\n"
             "  --tmpdir DIR       where trace files are written (default /tmp)\n"
             "  -h, --help         this help\n");
@@ -313,7 +318,7 @@ int main_bench(int argc, char **argv)
         return RT_EXIT_USAGE;
     }
     int do_tr = 0, do_trace = 0, do_sim = 0, do_approx = 0, do_perr = 0, do_modes = 0, do_ident = 0, do_stream = 0, do_embree = 0, do_bvh = 0,
-        do_replay = 0;
+        do_replay = 0, do_treelet = 0;
     {
         char *list = strdup(what), *save = NULL;
         for (char *t = strtok_r(list, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
@@ -328,9 +333,10 @@ int main_bench(int argc, char **argv)
             else if (!strcmp(t, "stream")) do_stream = 1;
             else if (!strcmp(t, "embree")) do_embree = 1;
             else if (!strcmp(t, "bvh")) do_bvh = 1;
+            else if (!strcmp(t, "treelet")) do_treelet = 1;
             else {
                 rt_cmd_error("bench", "--what: unknown item '%s' (tracers, trace, sim, replay, approx, path-error, "
-                             "modes, identical, stream, embree, bvh)", t);
+                             "modes, identical, stream, embree, bvh, treelet)", t);
                 free(list);
                 return RT_EXIT_USAGE;
             }
@@ -346,7 +352,7 @@ int main_bench(int argc, char **argv)
     int W0 = o.W, H0 = o.H; /* as given; 0 = each item's default */
     o.W = W0 ? W0 : 1024;
     o.H = H0 ? H0 : 1024;
-    if (do_tr || do_trace || do_sim || do_approx || do_embree || do_bvh)
+    if (do_tr || do_trace || do_sim || do_approx || do_embree || do_bvh || do_treelet)
         printf("raytraffic %s (%s) bench: scene %s, %dx%d, lights %u, one core\n\n", rt_version(), rt_git_rev(),
                scene, o.W, o.H, o.lights);
     else
@@ -411,6 +417,17 @@ int main_bench(int argc, char **argv)
         rt_scene *sc = rt_scene_load(scene, &e);
         fflush(stdout);
         int r = sc ? rt_bvh_bench_primary(stdout, sc, o.W, o.H, (int)reps, &e) : -1;
+        rt_scene_free(sc);
+        if (r < 0) {
+            rt_cmd_error("bench", "%s", e.msg);
+            return RT_EXIT_FAIL;
+        }
+    }
+    if (do_treelet) {
+        rt_err e = {0};
+        rt_scene *sc = rt_scene_load(scene, &e);
+        fflush(stdout);
+        int r = sc ? rt_treelet_bench(stdout, sc, &o, (int)reps, tmpdir, rt_cmd_line(), &e) : -1;
         rt_scene_free(sc);
         if (r < 0) {
             rt_cmd_error("bench", "%s", e.msg);

@@ -47,6 +47,15 @@ static void test_plan(const rt_scene *sc, int kind)
         expect_fail(check_plan(P, b, &e), &e, "T1", "node in a foreign treelet");
         P->tl[i] = keep;
     }
+    /* a node's root bit wrong (the walk would keep a crossing child in its treelet) */
+    if (i < b->nnodes) {
+        P->rootbit[i / 64] ^= (uint64_t)1 << (i % 64);
+        expect_fail(check_plan(P, b, &e), &e, "T1", "root bit of a non-root");
+        P->rootbit[i / 64] ^= (uint64_t)1 << (i % 64);
+    }
+    P->rootbit[P->troot[1] / 64] ^= (uint64_t)1 << (P->troot[1] % 64);
+    expect_fail(check_plan(P, b, &e), &e, "T1", "root bit of a root cleared");
+    P->rootbit[P->troot[1] / 64] ^= (uint64_t)1 << (P->troot[1] % 64);
     /* a treelet's bytes miscounted */
     P->tbytes[0] += 1;
     expect_fail(check_plan(P, b, &e), &e, "T1", "bytes miscounted");

@@ -86,4 +86,30 @@ sqlite3 "$tmp/s.db" "delete from traffic where run_id in (select id from runs wh
 [ $? -eq 1 ] || err "report without treelet runs: want exit 1"
 grep -q "no treelet runs" "$tmp/e" || err "report without treelet runs: '$(cat "$tmp/e")'"
 
+# bench --what treelet, smallest settings: per structure three ways a
+# repetition, then their medians; the references per ray of both tracers
+# are the counts a recording run of each gives; no trace file left behind
+"$bin" bench --what treelet --scene knot -W 12 -H 10 --reps 2 --tmpdir "$tmp" >"$tmp/b" 2>"$tmp/e" ||
+    err "bench --what treelet: $(cat "$tmp/e")"
+[ "$(grep -cE '^\| bvh[48] \| (untraced|null sink|trace file) \| [12] \|' "$tmp/b")" -eq 12 ] ||
+    err "bench --what treelet rows: $(cat "$tmp/b")"
+[ "$(grep -cE '^\| bvh[48] \| (untraced|null sink|trace file) \| median \|' "$tmp/b")" -eq 6 ] ||
+    err "bench --what treelet medians: $(cat "$tmp/b")"
+for acc in bvh4 bvh8; do
+    "$bin" trace knot -W 12 -H 10 --accel $acc -o "$tmp/br.rtt" >/dev/null 2>&1 || err "trace recursive $acc"
+    "$bin" trace knot -W 12 -H 10 --accel $acc -t treelet -o "$tmp/bt.rtt" >/dev/null 2>&1 || err "trace treelet $acc"
+    nr=$("$bin" trace-dump "$tmp/br.rtt" | wc -l)
+    nt=$("$bin" trace-dump "$tmp/bt.rtt" | wc -l)
+    want=$(awk -v r="$nr" -v t="$nt" 'BEGIN { printf "%.1f | %.1f", r / 120, t / 120 }')
+    grep -qE "^\| $acc \| null sink \| 1 \| .* \| $want \|\$" "$tmp/b" ||
+        err "bench --what treelet $acc refs/ray not $want: $(grep "$acc | null sink | 1" "$tmp/b")"
+done
+ls "$tmp"/rt-bench-treelet-* >/dev/null 2>&1 && err "bench --what treelet left a trace file in --tmpdir"
+"$bin" bench --what treelet --scene knot -W 12 -H 10 --reps 1 --accel kd >/dev/null 2>"$tmp/e"
+[ $? -eq 1 ] && grep -q "runs on a BVH" "$tmp/e" || err "bench --what treelet --accel kd: '$(cat "$tmp/e")'"
+"$bin" bench --what treelet --scene knot -W 12 -H 10 --reps 1 --accel bvh2 >"$tmp/b" 2>"$tmp/e" ||
+    err "bench --what treelet --accel bvh2: $(cat "$tmp/e")"
+[ "$(grep -cE '^\| bvh2 \|' "$tmp/b")" -eq 6 ] && ! grep -qE '^\| bvh[48] \|' "$tmp/b" ||
+    err "bench --what treelet --accel bvh2 rows: $(cat "$tmp/b")"
+
 exit $fail

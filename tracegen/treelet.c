@@ -102,10 +102,13 @@
  * copies):
  *   T1  plan: every node lies in exactly one treelet; treelet 0 holds the
  *       root; a node's parent lies in the node's treelet unless the node
- *       is that treelet's root; a treelet's bytes are the sum of its
- *       nodes' and at most the budget unless it is its root alone; the
- *       greedy rule stopped correctly: the frontier node of largest area
- *       would have taken the treelet past the budget;
+ *       is that treelet's root, and a node's root bit is set exactly when
+ *       it is its treelet's root (so a walk in treelet t pushes a child
+ *       with treelet t unless its root bit says to look it up); a
+ *       treelet's bytes are the sum of its nodes' and at most the budget
+ *       unless it is its root alone; the greedy rule stopped correctly:
+ *       the frontier node of largest area would have taken the treelet
+ *       past the budget;
  *   T2  queue pool: every block lies in exactly one queue's chain or on
  *       the free list; a queue of c rays is a chain of ceil(c / 64) blocks
  *       ending at its tail; the counts sum to the rays queued;
@@ -139,6 +142,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
 
 #define QBLK 64        /* queue entries per block */
 #define RAY_REC 64     /* bytes of a ray-state record: one line */
@@ -147,6 +153,23 @@
 #define RAY_SUSP 20
 #define SHORT_STACK 16 /* bytes of stack entries kept in the ray record */
 #define REFILL 8       /* deep stack entries read back per access, at most */
+
+/* Asks the kernel to back the whole 2 MiB pages inside [p, p + n) with huge
+ * pages: one page fault per 2 MiB of host ray records instead of 512. The
+ * caller writes the memory before it reads it, so each fault takes a fresh
+ * huge page rather than first mapping the shared zero page and copying it
+ * at the first write. A hint, without effect where it is not offered. */
+static void hint_huge(void *p, size_t n)
+{
+#if defined(MADV_HUGEPAGE)
+    const uintptr_t H = (uintptr_t)2 << 20;
+    const uintptr_t lo = ((uintptr_t)p + H - 1) & ~(H - 1), hi = ((uintptr_t)p + n) & ~(H - 1);
+    if (hi > lo) (void)madvise((void *)lo, hi - lo, MADV_HUGEPAGE);
+#else
+    (void)p;
+    (void)n;
+#endif
+}
 
 /* ---- the plan: treelets of one tree and budget ---------------------------- */
 
@@ -161,6 +184,7 @@ typedef struct tplan {
     float *area;        /* surface area per node */
     uint32_t *cost;     /* bytes per node */
     uint32_t *troot;    /* root node per treelet */
+    uint64_t *rootbit;  /* bit i: node i is its treelet's root (the walk looks up tl[] only for those) */
     uint64_t *tbytes;   /* bytes per treelet */
     uint32_t *tdepth;   /* treelets on the path from the root, the treelet's own included */
     uint32_t maxdepth;  /* deepest tdepth */
@@ -176,6 +200,7 @@ static void tl_plan_free(void *p)
     free(P->area);
     free(P->cost);
     free(P->troot);
+    free(P->rootbit);
     free(P->tbytes);
     free(P->tdepth);
     free(P);
@@ -298,7 +323,8 @@ static int tl_plan(const rt_tracer_ctx *ctx, void **out, rt_err *e)
     if (!(P->tl = rt_calloc(nn, sizeof *P->tl, e)) || !(P->parent = rt_calloc(nn, sizeof *P->parent, e)) ||
         !(P->area = rt_calloc(nn, sizeof *P->area, e)) || !(P->cost = rt_calloc(nn, sizeof *P->cost, e)) ||
         !(P->troot = rt_calloc(nn, sizeof *P->troot, e)) || !(P->tbytes = rt_calloc(nn, sizeof *P->tbytes, e)) ||
-        !(P->tdepth = rt_calloc(nn, sizeof *P->tdepth, e)) || !(roots = rt_calloc(nn, sizeof *roots, e)) ||
+        !(P->tdepth = rt_calloc(nn, sizeof *P->tdepth, e)) ||
+        !(P->rootbit = rt_calloc(nn / 64 + 1, sizeof *P->rootbit, e)) || !(roots = rt_calloc(nn, sizeof *roots, e)) ||
         !(H.v = rt_calloc(nn, sizeof *H.v, e)))
         goto fail;
     const uint32_t nsize = rt_bvh_node_size(b->width);
@@ -330,6 +356,7 @@ static int tl_plan(const rt_tracer_ctx *ctx, void **out, rt_err *e)
         const uint32_t r = roots[rhead++], t = nt++;
         uint64_t bytes = 0;
         P->troot[t] = r;
+        P->rootbit[r / 64] |= (uint64_t)1 << (r % 64);
         P->tdepth[t] = r == 0 ? 1 : P->tdepth[P->tl[P->parent[r]]] + 1;
         if (P->tdepth[t] > P->maxdepth) P->maxdepth = P->tdepth[t];
         H.n = 0;
@@ -394,6 +421,11 @@ static int check_plan(const tplan *P, const rt_bvh *b, rt_err *e)
         sum[t] += P->cost[i];
         cnt[t]++;
         const int isroot = P->troot[t] == i;
+        if (isroot != (int)(P->rootbit[i / 64] >> (i % 64) & 1)) {
+            rt_errf(e, "treelet T1: node %u is%s its treelet's root, its root bit says%s", i, isroot ? "" : " not",
+                    isroot ? " not" : " so");
+            goto done;
+        }
         if (i != 0 && !isroot && P->tl[P->parent[i]] != t) {
             rt_errf(e, "treelet T1: node %u in treelet %u, its parent %u in treelet %u", i, t, P->parent[i],
                     P->tl[P->parent[i]]);
@@ -450,22 +482,37 @@ typedef struct sent {
     uint32_t tl;   /* treelet it is processed in */
 } sent;
 
-#define INL 8 /* stack entries held inside the host record (deeper ones: heap) */
+#define INL 9 /* stack entries held inside the host record (deeper ones: the run's stack arena) */
+#define TRAY_SIZE 256 /* bytes of a host record: four lines */
 
-/* Host state of a ray slot, hot fields first (not modeled: tl.rays is). */
+/* Host state of a ray slot (not modeled: tl.rays is), TRAY_SIZE bytes on
+ * a line boundary: a visit reads the first two lines (the ray, the cull
+ * bound, the stack's depth and place) and the line of its stack top; with
+ * up to INL entries the stack lies in the same record. The slab form of
+ * the ray (rt_bvh_wray) is derived from r at each visit, not kept. */
 typedef struct tray {
-    uint32_t sp, cap; /* stack depth and capacity */
-    uint32_t mem, reg; /* entries [0, mem) have valid memory copies, [reg, sp) are in registers;
-                        * reg <= mem <= sp, and a queued ray has reg = mem = sp */
+    rt_ray r;         /* the traversal ray: o, inv_d, tmin for the boxes, the rest for triangles */
     float cull;       /* cull bound of the best hit */
-    sent *stk;        /* inl, or a heap array when deeper than INL */
-    sent inl[INL];
+    uint16_t sp, cap; /* stack depth and capacity (both <= stack_bound < 2^16) */
+    uint16_t mem, reg; /* entries [0, mem) have valid memory copies, [reg, sp) are in registers;
+                        * reg <= mem <= sp, and a queued ray has reg = mem = sp */
+    sent *stk;        /* inl, or an arena array (cap doubles
+                       * from INL while sp <= stack_bound <= 443, so cap stays below 2^10) */
     float best, bu, bv; /* best hit so far (best starts at tmax) */
     uint32_t btri;    /* best hit's scene index (0 while none) */
     uint8_t found, any, occluded; /* a hit is held; any-hit (shadow) ray; its result */
-    rt_bvh_wray w;    /* the ray's slab-test form */
-    rt_ray r;         /* the traversal ray */
+    sent inl[INL];    /* the first INL stack entries */
 } tray;
+_Static_assert(sizeof(tray) == TRAY_SIZE, "a host ray record is four lines");
+
+/* The stack arena: slabs from which deep stacks are carved (bump
+ * allocation, all freed at the end of the run). */
+typedef struct tslab {
+    struct tslab *next; /* the slab allocated before */
+    size_t used, cap;   /* entries carved, entries held */
+    sent v[];
+} tslab;
+#define SLAB_ENTRIES 65536
 
 typedef struct tl_run {
     const rt_tracer_ctx *ctx;
@@ -479,7 +526,9 @@ typedef struct tl_run {
     uint32_t nsize, esize, stack_bound;
     uint32_t slots;   /* ray slots (the window) */
     size_t npix;
-    tray *ray;
+    tray *ray;        /* slots records of TRAY_SIZE bytes, line-aligned inside ray_mem */
+    void *ray_mem;    /* the allocation holding ray */
+    tslab *slab;      /* the stack arena's newest slab */
     /* queues (T2) */
     uint32_t *blk;    /* nblk * QBLK slot numbers */
     int32_t *bnext;
@@ -491,6 +540,8 @@ typedef struct tl_run {
     /* fullest-first buckets (T5) */
     int32_t *bk_head, *bk_next, *bk_prev;
     uint32_t bk_max, bk_cap;
+    int qfull;        /* the fullest queue first (--qorder fullest), else tree order */
+    int qwrite;       /* the write kind of a queue entry's store (--queue-stores) */
     /* the generation (T3) */
     uint8_t *want, *done; /* per slot */
     uint64_t started, finished;
@@ -498,8 +549,7 @@ typedef struct tl_run {
     /* per slot results */
     rt_hit *hit;      /* closest hit per slot */
     uint8_t *vis;     /* per pixel (primary modes): bit i light i visible */
-    rt_hit *phit;     /* per pixel (primary modes): the primary hit */
-    rt_ray *bray;     /* closest ray per slot (camera or path ray) */
+    rt_ray *bray;     /* closest ray per slot (secondary modes: the path ray; primary modes derive the camera ray) */
     rt_ray *bsray;    /* shadow ray per slot */
     /* secondary modes */
     int secondary;
@@ -521,7 +571,7 @@ typedef struct tl_run {
 
 /* ---- queues ------------------------------------------------------------------- */
 
-static void bk_unlink(tl_run *T, uint32_t q)
+static inline void bk_unlink(tl_run *T, uint32_t q)
 {
     uint32_t c = T->qcount[q];
     if (T->bk_prev[q] >= 0) T->bk_next[T->bk_prev[q]] = T->bk_next[q];
@@ -529,7 +579,7 @@ static void bk_unlink(tl_run *T, uint32_t q)
     if (T->bk_next[q] >= 0) T->bk_prev[T->bk_next[q]] = T->bk_prev[q];
 }
 
-static void bk_link(tl_run *T, uint32_t q)
+static inline void bk_link(tl_run *T, uint32_t q)
 {
     uint32_t c = T->qcount[q];
     T->bk_prev[q] = -1;
@@ -539,7 +589,7 @@ static void bk_link(tl_run *T, uint32_t q)
     if (c > T->bk_max) T->bk_max = c;
 }
 
-static int fullest(const tl_run *T) { return T->ctx->opt->qorder == RT_QORDER_FULLEST; }
+static int fullest(const tl_run *T) { return T->qfull; }
 
 static void enqueue(tl_run *T, uint32_t q, uint32_t slot)
 {
@@ -559,8 +609,7 @@ static void enqueue(tl_run *T, uint32_t q, uint32_t slot)
         T->qtail[q] = tb = nb;
     }
     T->blk[(size_t)tb * QBLK + pos] = slot;
-    RT_REC(T->rec, rt_mm_addr(T->L, T->reg_q, (uint64_t)tb * QBLK + pos), 4,
-           T->ctx->opt->qstores == RT_QSTORES_STREAM ? RT_WRITE_STREAM : 1, RT_CLS_QUEUE);
+    RT_REC(T->rec, rt_mm_addr(T->L, T->reg_q, (uint64_t)tb * QBLK + pos), 4, T->qwrite, RT_CLS_QUEUE);
     RT_REC(T->rec, rt_mm_addr(T->L, T->reg_qt, q), 8, 1, RT_CLS_QTABLE);
     if (fullest(T)) bk_unlink(T, q);
     T->qcount[q]++;
@@ -572,46 +621,76 @@ static void enqueue(tl_run *T, uint32_t q, uint32_t slot)
 
 /* ---- one ray in one treelet ---------------------------------------------------- */
 
-static inline void push(tl_run *T, tray *R, const rt_bvh_ref *x, uint32_t tl)
+/* Moves R's stack to an arena array of twice its capacity (the old array,
+ * if from the arena, stays carved: stacks only grow within a run). 0, or
+ * -1 out of memory (T->err set). */
+static int grow(tl_run *T, tray *R)
 {
-    if (R->sp == R->cap) {
-        uint32_t nc = 2 * R->cap;
-        sent *s = R->stk == R->inl ? malloc(sizeof *s * nc) : realloc(R->stk, sizeof *s * nc);
-        if (s && R->stk == R->inl) memcpy(s, R->inl, sizeof R->inl);
-        if (!s) {
+    const size_t nc = 2 * (size_t)R->cap;
+    tslab *sl = T->slab;
+    if (!sl || sl->cap - sl->used < nc) {
+        const size_t cap = nc > SLAB_ENTRIES ? nc : SLAB_ENTRIES;
+        tslab *n = malloc(sizeof *n + cap * sizeof n->v[0]);
+        if (!n) {
             if (!T->err) rt_errf(T->e, "treelet: out of memory for a ray stack");
             T->err = 1;
-            return;
+            return -1;
         }
-        R->stk = s;
-        R->cap = nc;
+        n->next = sl;
+        n->used = 0;
+        n->cap = cap;
+        T->slab = sl = n;
     }
+    sent *v = sl->v + sl->used;
+    sl->used += nc;
+    memcpy(v, R->stk, sizeof *v * R->sp);
+    R->stk = v;
+    R->cap = (uint16_t)nc;
+    return 0;
+}
+
+static inline void push(tl_run *T, tray *R, const rt_bvh_ref *x, uint32_t tl)
+{
+    if (R->sp == R->cap && grow(T, R) < 0) return;
     if (R->mem > R->sp) R->mem = R->sp; /* that position's memory copy is stale */
     R->stk[R->sp++] = (sent){x->a, x->n, x->t, tl};
     if (R->sp > T->max_sp) T->max_sp = R->sp;
 }
 
-/* Tests records [first, first + n) (bvh.c's leaf_tris). 1: occluded. */
-static int leaf(tl_run *T, tray *R, uint32_t first, uint32_t n)
+/* The walk's working copy of a ray's hit state (locals while a ray is
+ * inside a treelet, stored back into its record when it leaves). */
+typedef struct thit {
+    float best, bu, bv; /* best hit so far (best starts at tmax) */
+    float cull;         /* rt_bvh_cull_bound(best) */
+    uint32_t btri;      /* best hit's scene index (0 while none) */
+    int found;          /* a hit is held */
+} thit;
+
+/* Tests records [first, first + n) (bvh.c's leaf_tris) of ray r. 1: an
+ * any-hit ray is occluded. Counts tests in *ntest. */
+static RT_ALWAYS_INLINE int leaf(const tl_run *T, const rt_ray *r, int any, thit *H, uint32_t first, uint32_t n,
+                                 uint64_t tri_base, uint64_t *ntest)
 {
     const rt_bvh *b = T->b;
-    const uint64_t tri_base = T->rec ? T->L->r[T->tv.reg_tri].base : 0;
+    rt_rec *rec = T->rec;
+    uint8_t *mark = T->mark;
+    const uint8_t bit = T->tv.mark_bit;
     for (uint32_t k = first; k < first + n; k++) {
         const uint32_t o = b->orig[k];
-        T->tv.tests++;
-        T->mark[o] |= T->tv.mark_bit;
-        RT_REC(T->rec, tri_base + 36ull * k, 36, 0, RT_CLS_TRI);
+        ++*ntest;
+        mark[o] |= bit;
+        RT_REC(rec, tri_base + 36ull * k, 36, 0, RT_CLS_TRI);
         float t, u, v;
-        if (!rt_isect_core(&R->r, &b->tri[k], &t, &u, &v)) continue;
-        if (R->any) {
-            if (t > R->r.tmin && t < R->r.tmax) return 1;
-        } else if (t > R->r.tmin && (t < R->best || (t == R->best && o < R->btri))) {
-            R->found = 1;
-            R->best = t;
-            R->btri = o;
-            R->bu = u;
-            R->bv = v;
-            R->cull = rt_bvh_cull_bound(t);
+        if (!rt_isect_core(r, &b->tri[k], &t, &u, &v)) continue;
+        if (any) {
+            if (t > r->tmin && t < r->tmax) return 1;
+        } else if (t > r->tmin && (t < H->best || (t == H->best && o < H->btri))) {
+            H->found = 1;
+            H->best = t;
+            H->btri = o;
+            H->bu = u;
+            H->bv = v;
+            H->cull = rt_bvh_cull_bound(t);
         }
     }
     return 0;
@@ -628,75 +707,121 @@ static uint64_t stack_addr(const tl_run *T, uint32_t s, uint32_t k)
 
 /* Walks ray slot s inside treelet t. Returns 1 when it finished (stack
  * empty or occluded), 0 when it was suspended and queued at its next
- * treelet. */
+ * treelet. The ray's stack depths, hit state and counters live in locals
+ * while it is inside the treelet (stores through the mark bytes and the
+ * recorder would otherwise reload them at every node) and go back into
+ * its record when it leaves. */
 static int walk(tl_run *T, uint32_t s, uint32_t t)
 {
     tray *R = &T->ray[s];
     const rt_bvh *b = T->b;
     const int W = b->width;
+    const rt_ray ray = R->r;
+    const int any = R->any;
+    rt_bvh_wray w;
+    rt_bvh_wray_init(&w, &ray, W);
+    rt_rec *rec = T->rec;
+    const uint32_t *ptl = T->P->tl;
+    const uint64_t *rootbit = T->P->rootbit;
+    const uint32_t esize = T->esize, nin = SHORT_STACK / esize, nsize = T->nsize;
+    const uint64_t nbase = rec ? T->L->r[T->tv.reg_node].base : 0;
+    const uint64_t tri_base = rec ? T->L->r[T->tv.reg_tri].base : 0;
+    thit H = {R->best, R->bu, R->bv, R->cull, R->btri, R->found};
+    sent *stk = R->stk;
+    uint32_t sp = R->sp, mem = R->mem, reg = R->reg, cap = R->cap, max_sp = T->max_sp;
+    uint64_t nodes = 0, tests = 0;
+    int ret = 1, occluded = 0;
     for (;;) {
-        if (T->err) return 1;
-        if (R->sp == 0) return 1;
-        const uint32_t idx = R->sp - 1;
-        const sent e = R->stk[idx];
-        const int culled = W != 2 && e.t > R->cull;
+        if (sp == 0) break;
+        const uint32_t idx = sp - 1;
+        const sent e = stk[idx];
+        const int culled = W != 2 && e.t > H.cull;
         if (!culled && e.tl != t) {
             /* suspend: the hit and depth, with the short-stack entries
              * not yet in memory, in one write to the record; the deeper
              * entries not yet in memory in one write to tl.stack */
-            const uint32_t nin = SHORT_STACK / T->esize, top_in = R->sp < nin ? R->sp : nin;
-            const uint32_t end = R->mem < top_in ? RAY_STATE + top_in * T->esize : RAY_SUSP_OFS + RAY_SUSP;
-            RT_REC(T->rec, rt_mm_addr(T->L, T->reg_rays, s) + RAY_SUSP_OFS, end - RAY_SUSP_OFS, 1, RT_CLS_RAY);
-            const uint32_t lo = R->mem > nin ? R->mem : nin;
-            if (R->sp > lo) {
-                RT_REC(T->rec, stack_addr(T, s, lo), (R->sp - lo) * T->esize, 1, RT_CLS_STREAM);
-                T->stack_w += R->sp - lo;
+            const uint32_t top_in = sp < nin ? sp : nin;
+            const uint32_t end = mem < top_in ? RAY_STATE + top_in * esize : RAY_SUSP_OFS + RAY_SUSP;
+            RT_REC(rec, rt_mm_addr(T->L, T->reg_rays, s) + RAY_SUSP_OFS, end - RAY_SUSP_OFS, 1, RT_CLS_RAY);
+            const uint32_t lo = mem > nin ? mem : nin;
+            if (sp > lo) {
+                RT_REC(rec, stack_addr(T, s, lo), (sp - lo) * esize, 1, RT_CLS_STREAM);
+                T->stack_w += sp - lo;
                 T->spills++;
             }
-            R->mem = R->reg = R->sp;
+            mem = reg = sp;
             T->susp++;
             enqueue(T, e.tl, s);
-            return 0;
+            ret = 0;
+            break;
         }
-        if (idx < R->reg) {
+        if (idx < reg) {
             /* not in registers: the short stack came with the record; a
              * deep entry is read with up to REFILL - 1 entries below it,
              * in one access (their memory copies stay valid) */
-            const uint32_t nin = SHORT_STACK / T->esize;
             uint32_t lo = idx;
             if (idx >= nin) {
                 lo = idx + 1 >= nin + REFILL ? idx + 1 - REFILL : nin;
-                RT_REC(T->rec, stack_addr(T, s, lo), (idx + 1 - lo) * T->esize, 0, RT_CLS_STREAM);
+                RT_REC(rec, stack_addr(T, s, lo), (idx + 1 - lo) * esize, 0, RT_CLS_STREAM);
                 T->stack_r += idx + 1 - lo;
                 T->refills++;
             }
-            R->reg = lo;
+            reg = lo;
         }
-        R->sp = idx;
-        if (R->mem > idx) R->mem = idx;
+        sp = idx;
+        if (mem > idx) mem = idx;
         if (culled) continue;
         if (e.n) { /* a wide node's leaf child */
-            if (leaf(T, R, e.a, e.n)) {
-                R->occluded = 1;
-                R->sp = R->mem = R->reg = 0;
-                return 1;
+            if (leaf(T, &ray, any, &H, e.a, e.n, tri_base, &tests)) {
+                occluded = 1;
+                break;
             }
             continue;
         }
-        T->tv.nodes++;
-        RT_REC(T->rec, rt_mm_addr(T->L, T->tv.reg_node, e.a), T->nsize, 0, RT_CLS_NODE);
+        nodes++;
+        RT_REC(rec, nbase + (uint64_t)nsize * e.a, nsize, 0, RT_CLS_NODE);
         rt_bvh_ref out[8];
-        const int k = rt_bvh_step(b, &R->w, e.a, R->cull, out);
+        const int k = rt_bvh_step(b, &w, e.a, H.cull, out);
         if (W == 2 && k == 1) {
-            if (leaf(T, R, out[0].a, out[0].n)) {
-                R->occluded = 1;
-                R->sp = R->mem = R->reg = 0;
-                return 1;
+            if (leaf(T, &ray, any, &H, out[0].a, out[0].n, tri_base, &tests)) {
+                occluded = 1;
+                break;
             }
             continue;
         }
-        for (int j = 0; j < k; j++) push(T, R, &out[j], out[j].n ? t : T->P->tl[out[j].a]);
+        if (!k) continue;
+        if (sp + (uint32_t)k > cap) {
+            R->sp = (uint16_t)sp;
+            if (grow(T, R) < 0) break;
+            stk = R->stk;
+            cap = R->cap;
+        }
+        if (mem > sp) mem = sp; /* the memory copies from sp up are stale */
+        /* a child lies in this treelet unless it is a treelet's root (T1) */
+        for (int j = 0; j < k; j++) {
+            const uint32_t a = out[j].a;
+            const uint32_t tl = !out[j].n && (rootbit[a / 64] >> (a % 64) & 1) ? ptl[a] : t;
+            stk[sp++] = (sent){a, out[j].n, out[j].t, tl};
+        }
+        if (sp > max_sp) max_sp = sp;
     }
+    if (occluded) {
+        R->occluded = 1;
+        sp = mem = reg = 0;
+    }
+    R->sp = (uint16_t)sp;
+    R->mem = (uint16_t)mem;
+    R->reg = (uint16_t)reg;
+    R->best = H.best;
+    R->bu = H.bu;
+    R->bv = H.bv;
+    R->cull = H.cull;
+    R->btri = H.btri;
+    R->found = (uint8_t)H.found;
+    T->max_sp = max_sp;
+    T->tv.nodes += nodes;
+    T->tv.tests += tests;
+    return ret;
 }
 
 /* Starts slot s on ray r (closest, or any hit for a shadow ray): state
@@ -706,7 +831,6 @@ static int start(tl_run *T, uint32_t s, const rt_ray *r, int any)
 {
     tray *R = &T->ray[s];
     R->r = *r;
-    rt_bvh_wray_init(&R->w, r);
     R->best = r->tmax;
     R->bu = R->bv = 0.0f;
     R->btri = 0;
@@ -911,6 +1035,40 @@ static void step_check(tl_run *T)
 
 /* ---- processing ------------------------------------------------------------------ */
 
+#define PF_REC 8  /* queue entries ahead whose ray record is prefetched */
+#define PF_NODE 4 /* ... whose next node is prefetched */
+
+/* Host prefetch of slot s's record (all its lines). */
+static inline void prefetch_rec(const tl_run *T, uint32_t s)
+{
+#if defined(__GNUC__)
+    const char *h = (const char *)&T->ray[s];
+    for (int l = 0; l < TRAY_SIZE; l += 64) __builtin_prefetch(h + l);
+#else
+    (void)T;
+    (void)s;
+#endif
+}
+
+/* Host prefetch of the node on top of R's stack (R's record was
+ * prefetched PF_REC - PF_NODE entries earlier). */
+static inline void prefetch_top(const tl_run *T, const tray *R)
+{
+#if defined(__GNUC__)
+    if (!R->sp || R->stk[R->sp - 1].n) return;
+    const uint32_t a = R->stk[R->sp - 1].a;
+    const rt_bvh *bv = T->b;
+    const char *nd = bv->width == 2   ? (const char *)&bv->n2[a]
+                     : bv->width == 4 ? (const char *)&bv->n4[a]
+                                      : (const char *)&bv->h8[a];
+    __builtin_prefetch(nd);
+    if (bv->width != 2) __builtin_prefetch(nd + 64);
+#else
+    (void)T;
+    (void)R;
+#endif
+}
+
 /* Takes queue q whole and walks its rays in treelet q. */
 static void process(tl_run *T, uint32_t q)
 {
@@ -924,31 +1082,30 @@ static void process(tl_run *T, uint32_t q)
     T->queued -= n;
     T->events++;
     if (n > T->ev_max) T->ev_max = n;
+    /* host prefetches (no modeled traffic): the record of the ray PF_REC
+     * entries on and the node on top of the stack of the ray PF_NODE
+     * entries on, through the block chain (cursors ra/pa and rn/pn run
+     * ahead of k and read a block's link before that block is freed); the
+     * first PF_REC records at once, so a short queue's misses overlap */
+    int32_t ba = b, bn = b;
+    uint32_t pa = 0, pn = 0;
+    for (uint32_t j = 0; j < n && j < PF_REC; j++) {
+        prefetch_rec(T, T->blk[(size_t)ba * QBLK + pa]);
+        if (++pa == QBLK) pa = 0, ba = T->bnext[ba];
+    }
+    for (uint32_t j = 0; j < n && j < PF_NODE; j++)
+        if (++pn == QBLK) pn = 0, bn = T->bnext[bn];
     for (uint32_t k = 0; k < n && !T->err; k++) {
         const uint32_t pos = k % QBLK;
         const uint32_t s = T->blk[(size_t)b * QBLK + pos];
-#if defined(__GNUC__)
-        /* host prefetches: the record of a ray eight entries on, the node
-         * on top of the stack of the ray four entries on */
-        if (pos + 8 < QBLK && k + 8 < n) {
-            const char *h = (const char *)&T->ray[T->blk[(size_t)b * QBLK + pos + 8]];
-            __builtin_prefetch(h);
-            __builtin_prefetch(h + 64);
-            __builtin_prefetch(h + 128);
+        if (k + PF_REC < n) {
+            prefetch_rec(T, T->blk[(size_t)ba * QBLK + pa]);
+            if (++pa == QBLK) pa = 0, ba = T->bnext[ba];
         }
-        if (pos + 4 < QBLK && k + 4 < n) {
-            const tray *R4 = &T->ray[T->blk[(size_t)b * QBLK + pos + 4]];
-            if (R4->sp && !R4->stk[R4->sp - 1].n) {
-                const uint32_t a = R4->stk[R4->sp - 1].a;
-                const rt_bvh *bv = T->b;
-                const char *nd = bv->width == 2   ? (const char *)&bv->n2[a]
-                                 : bv->width == 4 ? (const char *)&bv->n4[a]
-                                                  : (const char *)&bv->h8[a];
-                __builtin_prefetch(nd);
-                __builtin_prefetch(nd + 64);
-            }
+        if (k + PF_NODE < n) {
+            prefetch_top(T, &T->ray[T->blk[(size_t)bn * QBLK + pn]]);
+            if (++pn == QBLK) pn = 0, bn = T->bnext[bn];
         }
-#endif
         if (pos == 0) { /* a block's entries are read together */
             const uint32_t m = n - k < QBLK ? n - k : QBLK;
             RT_REC(T->rec, rt_mm_addr(T->L, T->reg_q, (uint64_t)b * QBLK), 4 * m, 0, RT_CLS_QUEUE);
@@ -996,16 +1153,27 @@ static int end_generation(tl_run *T, uint32_t n, rt_err *e)
     return 0;
 }
 
-/* A generation of closest-hit rays in slots 0..n-1 (T->bray). */
-static int gen_closest(tl_run *T, uint32_t n, rt_err *e)
+/* The camera ray of pixel p (primary modes derive it where it is needed
+ * rather than keep one per slot). */
+static void eye_ray(const tl_run *T, const rt_cam_frame *cam, uint32_t p, rt_ray *r)
+{
+    const uint32_t W = (uint32_t)T->ctx->opt->W;
+    rt_cam_ray(cam, (int)(p % W), (int)(p / W), r);
+}
+
+/* A generation of closest-hit rays in slots 0..n-1: with cam, the camera
+ * rays of pixels pix[0..n-1]; without, T->bray. */
+static int gen_closest(tl_run *T, uint32_t n, const rt_cam_frame *cam, const uint32_t *pix, rt_err *e)
 {
     T->shadow = 0;
     memset(T->want, 0, T->slots);
     memset(T->done, 0, T->slots);
     T->started = T->finished = 0;
     for (uint32_t s = 0; s < n; s++) {
+        rt_ray eye;
+        if (cam) eye_ray(T, cam, pix[s], &eye);
         T->want[s] = 1;
-        if (start(T, s, &T->bray[s], 0)) finish(T, s);
+        if (start(T, s, cam ? &eye : &T->bray[s], 0)) finish(T, s);
     }
     step_check(T);
     run_queues(T);
@@ -1041,36 +1209,39 @@ static int window_primary(tl_run *T, const uint32_t *pix, uint32_t n, rt_err *e)
     rt_cam_setup(&cam, T->sc, o->W, o->H);
     rt_rec_set_gen(T->rec, 0);
     T->tv.mark_bit = 1;
-    for (uint32_t s = 0; s < n; s++) {
-        RT_REC(T->rec, rt_mm_addr(T->L, T->reg_ray, pix[s]), 32, 0, RT_CLS_RAY);
-        rt_cam_ray(&cam, (int)(pix[s] % (uint32_t)o->W), (int)(pix[s] / (uint32_t)o->W), &T->bray[s]);
-    }
+    for (uint32_t s = 0; s < n; s++) RT_REC(T->rec, rt_mm_addr(T->L, T->reg_ray, pix[s]), 32, 0, RT_CLS_RAY);
     T->st->rays_primary += n;
-    if (gen_closest(T, n, e) < 0) return -1;
+    if (gen_closest(T, n, &cam, pix, e) < 0) return -1;
     uint8_t *wl = T->want + T->slots; /* scratch beside want: n bytes */
     for (uint32_t s = 0; s < n; s++) {
-        T->phit[pix[s]] = T->hit[s];
         if (T->hit[s].tri != RT_NO_HIT) RT_REC(T->rec, rt_mm_addr(T->L, T->reg_shade, T->hit[s].tri), 16, 0, RT_CLS_SHADE);
         if (o->lights) RT_REC(T->rec, rt_mm_addr(T->L, T->reg_hits, s), 24, 1, RT_CLS_HIT);
     }
     T->tv.mark_bit = 2;
     for (int li = 0; li < RT_NLIGHTS; li++) {
         if (!(o->lights & (1u << li))) continue;
-        for (uint32_t s = 0; s < n; s++)
-            wl[s] = T->hit[s].tri != RT_NO_HIT && rt_shade_ray(T->sc, &T->bray[s], &T->hit[s], li, &T->bsray[s]);
+        for (uint32_t s = 0; s < n; s++) {
+            wl[s] = 0;
+            if (T->hit[s].tri == RT_NO_HIT) continue;
+            rt_ray eye;
+            eye_ray(T, &cam, pix[s], &eye);
+            wl[s] = rt_shade_ray(T->sc, &eye, &T->hit[s], li, &T->bsray[s]) != 0;
+        }
         if (gen_shadow(T, li, n, wl, e) < 0) return -1;
         for (uint32_t s = 0; s < n; s++)
             if (wl[s] && !T->ray[s].occluded) T->vis[pix[s]] |= (uint8_t)(1u << li);
     }
     for (uint32_t s = 0; s < n; s++) {
         const uint32_t p = pix[s];
-        const rt_hit *h = &T->phit[p];
+        const rt_hit *h = &T->hit[s];
+        rt_ray eye;
+        eye_ray(T, &cam, p, &eye);
         if (h->tri == RT_NO_HIT) {
-            rt_shade_pixel(T->sc, &T->bray[s], NULL, NULL, o->lights, T->img, p);
+            rt_shade_pixel(T->sc, &eye, NULL, NULL, o->lights, T->img, p);
         } else {
             int vis[RT_NLIGHTS];
             for (int i = 0; i < RT_NLIGHTS; i++) vis[i] = (T->vis[p] >> i) & 1;
-            rt_shade_pixel(T->sc, &T->bray[s], h, vis, o->lights, T->img, p);
+            rt_shade_pixel(T->sc, &eye, h, vis, o->lights, T->img, p);
         }
         RT_REC(T->rec, rt_mm_addr(T->L, T->reg_fb, p), 12, 1, RT_CLS_FB);
     }
@@ -1098,7 +1269,7 @@ static int batch_run(tl_run *T, int *height, rt_err *e)
             T->st->rays_primary++;
         }
     }
-    if (gen_closest(T, n, e) < 0) return -1;
+    if (gen_closest(T, n, NULL, NULL, e) < 0) return -1;
     for (uint32_t s = 0; s < n; s++) {
         const rt_hit *h = &T->hit[s];
         const rt_hit *hp = h->tri != RT_NO_HIT ? h : NULL;
@@ -1218,9 +1389,12 @@ static int tl_layout(const rt_tracer_ctx *ctx, rt_layout *L, rt_err *e)
 
 static void tl_free(tl_run *T)
 {
-    for (uint32_t s = 0; T->ray && s < T->slots; s++)
-        if (T->ray[s].stk != T->ray[s].inl) free(T->ray[s].stk);
-    free(T->ray);
+    while (T->slab) {
+        tslab *n = T->slab->next;
+        free(T->slab);
+        T->slab = n;
+    }
+    free(T->ray_mem);
     free(T->blk);
     free(T->bnext);
     free(T->qhead);
@@ -1233,7 +1407,6 @@ static void tl_free(tl_run *T)
     free(T->done);
     free(T->hit);
     free(T->vis);
-    free(T->phit);
     free(T->bray);
     free(T->bsray);
     free(T->out);
@@ -1244,6 +1417,12 @@ static void tl_free(tl_run *T)
     free(T->lvlen);
     free(T->mark);
 }
+
+/* An array whose entries are all written before they are read (queue
+ * blocks, per-slot hits and rays, the secondary modes' shading results):
+ * not zeroed, which would cost a pass over memory the run then writes
+ * anyway. */
+static void *uninit(size_t n, size_t size, rt_err *e) { return rt_reallocarray(NULL, n, size, e); }
 
 static int tl_init(tl_run *T, const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_err *e)
 {
@@ -1278,17 +1457,19 @@ static int tl_init(tl_run *T, const rt_tracer_ctx *ctx, rt_image *img, rt_run_st
     const uint32_t nt = P->nt, ns = T->slots;
     T->nblk = nblk_of(ns, nt);
     T->secondary = rt_render_secondary(o);
-    if (!(T->ray = rt_calloc(ns, sizeof *T->ray, e)) || !(T->blk = rt_calloc((size_t)T->nblk * QBLK, sizeof *T->blk, e)) ||
+    T->qfull = o->qorder == RT_QORDER_FULLEST;
+    T->qwrite = o->qstores == RT_QSTORES_STREAM ? RT_WRITE_STREAM : 1;
+    if (!(T->ray_mem = rt_calloc((size_t)ns + 1, TRAY_SIZE, e)) || !(T->blk = uninit(T->nblk * (size_t)QBLK, sizeof *T->blk, e)) ||
         !(T->bnext = rt_calloc(T->nblk, sizeof *T->bnext, e)) || !(T->qhead = rt_calloc(nt, sizeof *T->qhead, e)) ||
         !(T->qtail = rt_calloc(nt, sizeof *T->qtail, e)) || !(T->qcount = rt_calloc(nt, sizeof *T->qcount, e)) ||
         !(T->bk_head = rt_calloc((size_t)ns + 2, sizeof *T->bk_head, e)) ||
         !(T->bk_next = rt_calloc(nt, sizeof *T->bk_next, e)) || !(T->bk_prev = rt_calloc(nt, sizeof *T->bk_prev, e)) ||
         !(T->want = rt_calloc(2 * (size_t)ns, 1, e)) || !(T->done = rt_calloc(ns, 1, e)) ||
-        !(T->hit = rt_calloc(ns, sizeof *T->hit, e)) ||
-        !(T->bray = rt_calloc(ns, sizeof *T->bray, e)) || !(T->bsray = rt_calloc(ns, sizeof *T->bsray, e)) ||
-        !(T->out = rt_calloc(ns, sizeof *T->out, e)) || !(T->mark = rt_calloc(T->sc->ntri ? T->sc->ntri : 1, 1, e)))
+        !(T->hit = uninit(ns, sizeof *T->hit, e)) || !(T->bsray = uninit(ns, sizeof *T->bsray, e)) || !(T->mark = rt_calloc(T->sc->ntri ? T->sc->ntri : 1, 1, e)))
         return -1;
-    for (uint32_t s = 0; s < ns; s++) {
+    T->ray = (tray *)(void *)((char *)T->ray_mem + (64 - (uintptr_t)T->ray_mem % 64) % 64);
+    hint_huge(T->ray_mem, ((size_t)ns + 1) * TRAY_SIZE);
+    for (uint32_t s = 0; s < ns; s++) { /* written first (hint_huge) */
         T->ray[s].stk = T->ray[s].inl;
         T->ray[s].cap = INL;
     }
@@ -1301,12 +1482,13 @@ static int tl_init(tl_run *T, const rt_tracer_ctx *ctx, rt_image *img, rt_run_st
     T->tv.mark = T->mark;
     if (T->secondary) {
         T->nlvl = levels_of(o);
-        if (!(T->acc = rt_calloc(T->npix, sizeof *T->acc, e)) || !(T->h0 = rt_calloc(T->npix, sizeof *T->h0, e)) ||
+        if (!(T->out = uninit(ns, sizeof *T->out, e)) || !(T->bray = uninit(ns, sizeof *T->bray, e)) ||
+            !(T->acc = rt_calloc(T->npix, sizeof *T->acc, e)) || !(T->h0 = rt_calloc(T->npix, sizeof *T->h0, e)) ||
             !(T->lvl = rt_calloc((size_t)T->nlvl, sizeof *T->lvl, e)) ||
             !(T->lvlen = rt_calloc((size_t)T->nlvl, sizeof *T->lvlen, e)))
             return -1;
         for (size_t p = 0; p < T->npix; p++) T->h0[p].tri = RT_NO_HIT;
-    } else if (!(T->vis = rt_calloc(T->npix, 1, e)) || !(T->phit = rt_calloc(T->npix, sizeof *T->phit, e))) {
+    } else if (!(T->vis = rt_calloc(T->npix, 1, e))) {
         return -1;
     }
     return 0;
