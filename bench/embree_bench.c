@@ -214,54 +214,6 @@ int rt_embree_bench(const rt_scene *sc, int W, int H, rt_embree_result *out, rt_
     return rt_embree_bench_reps(sc, W, H, 1, out, e);
 }
 
-/* One run of the untraced recursive tracer's job (recursive.c, no lights)
- * with rtcIntersect1 as the walk, into img (bench.h). 0 or -1. */
-static int job(RTCScene s, struct RTCIntersectContext *ctx, const rt_scene *sc, rt_image *img, rt_err *e)
-{
-    const int W = img->W, H = img->H;
-    rt_render_opts o;
-    rt_render_default_opts(&o);
-    o.W = W;
-    o.H = H;
-    o.lights = 0;
-    uint32_t *order = rt_calloc((size_t)W * H, sizeof *order, e);
-    if (!order) return -1;
-    const size_t npix = rt_pixel_order(&o, order);
-    rt_cam_frame cam;
-    rt_cam_setup(&cam, sc, W, H);
-    for (size_t k = 0; k < npix; k++) {
-        const uint32_t pix = order[k];
-        rt_ray r;
-        rt_cam_ray(&cam, (int)(pix % (uint32_t)W), (int)(pix / (uint32_t)W), &r);
-        struct RTCRayHit rh;
-        rh.ray.org_x = r.o.x;
-        rh.ray.org_y = r.o.y;
-        rh.ray.org_z = r.o.z;
-        rh.ray.dir_x = r.d.x;
-        rh.ray.dir_y = r.d.y;
-        rh.ray.dir_z = r.d.z;
-        rh.ray.tnear = r.tmin;
-        rh.ray.tfar = r.tmax;
-        rh.ray.time = 0;
-        rh.ray.mask = 0xffffffffu;
-        rh.ray.id = 0;
-        rh.ray.flags = 0;
-        rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-        rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-        rtcIntersect1(s, ctx, &rh);
-        if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
-            const rt_hit h = {rh.ray.tfar, rh.hit.primID, rh.hit.u, rh.hit.v};
-            rt_shade_pixel(sc, &r, &h, NULL, 0, img, pix);
-        } else {
-            rt_shade_pixel(sc, &r, NULL, NULL, 0, img, pix);
-        }
-        img->nodes[pix] = 0.0f;
-        img->tests[pix] = 0.0f;
-    }
-    free(order);
-    return 0;
-}
-
 int rt_embree_bench_reps(const rt_scene *sc, int W, int H, int reps, rt_embree_result *out, rt_err *e)
 {
     (void)reps;
