@@ -31,7 +31,10 @@
 #include <string.h>
 #include <time.h>
 
-#ifdef HAVE_EMBREE
+/* RT_NO_EMBREE: the branch without Embree, which tests/test_noembree builds
+ * on every machine (a developer with Embree installed never compiles it
+ * otherwise) */
+#if defined(HAVE_EMBREE) && !defined(RT_NO_EMBREE)
 #include <embree3/rtcore.h>
 
 /* Builds the Embree scene of sc's triangles on dev; NULL with e set. */
