@@ -79,6 +79,25 @@ int rt_embree_bench(const rt_scene *sc, int W, int H, rt_embree_result *out, rt_
     return rt_embree_bench_reps(sc, W, H, 1, out, e);
 }
 
+/* Embree's ray for r, with no hit yet. */
+static void rayhit(struct RTCRayHit *rh, const rt_ray *r)
+{
+    rh->ray.org_x = r->o.x;
+    rh->ray.org_y = r->o.y;
+    rh->ray.org_z = r->o.z;
+    rh->ray.dir_x = r->d.x;
+    rh->ray.dir_y = r->d.y;
+    rh->ray.dir_z = r->d.z;
+    rh->ray.tnear = r->tmin;
+    rh->ray.tfar = r->tmax;
+    rh->ray.time = 0;
+    rh->ray.mask = 0xffffffffu;
+    rh->ray.id = 0;
+    rh->ray.flags = 0;
+    rh->hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh->hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+}
+
 /* One run of the untraced recursive tracer's job (recursive.c, no lights)
  * with rtcIntersect1 as the walk, into img (bench.h). 0 or -1. */
 static int job(RTCScene s, struct RTCIntersectContext *ctx, const rt_scene *sc, rt_image *img, rt_err *e)
@@ -99,20 +118,7 @@ static int job(RTCScene s, struct RTCIntersectContext *ctx, const rt_scene *sc, 
         rt_ray r;
         rt_cam_ray(&cam, (int)(pix % (uint32_t)W), (int)(pix / (uint32_t)W), &r);
         struct RTCRayHit rh;
-        rh.ray.org_x = r.o.x;
-        rh.ray.org_y = r.o.y;
-        rh.ray.org_z = r.o.z;
-        rh.ray.dir_x = r.d.x;
-        rh.ray.dir_y = r.d.y;
-        rh.ray.dir_z = r.d.z;
-        rh.ray.tnear = r.tmin;
-        rh.ray.tfar = r.tmax;
-        rh.ray.time = 0;
-        rh.ray.mask = 0xffffffffu;
-        rh.ray.id = 0;
-        rh.ray.flags = 0;
-        rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-        rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+        rayhit(&rh, &r);
         rtcIntersect1(s, ctx, &rh);
         if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
             const rt_hit h = {rh.ray.tfar, rh.hit.primID, rh.hit.u, rh.hit.v};
@@ -166,20 +172,7 @@ int rt_embree_bench_reps(const rt_scene *sc, int W, int H, int reps, rt_embree_r
             rt_ray r;
             rt_cam_ray(&cam, (int)(pix % (uint32_t)W), (int)(pix / (uint32_t)W), &r);
             struct RTCRayHit rh;
-            rh.ray.org_x = r.o.x;
-            rh.ray.org_y = r.o.y;
-            rh.ray.org_z = r.o.z;
-            rh.ray.dir_x = r.d.x;
-            rh.ray.dir_y = r.d.y;
-            rh.ray.dir_z = r.d.z;
-            rh.ray.tnear = r.tmin;
-            rh.ray.tfar = r.tmax;
-            rh.ray.time = 0;
-            rh.ray.mask = 0xffffffffu;
-            rh.ray.id = 0;
-            rh.ray.flags = 0;
-            rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-            rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+            rayhit(&rh, &r);
             rtcIntersect1(s, &ctx, &rh);
             hits += rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
         }

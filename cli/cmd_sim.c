@@ -84,6 +84,10 @@ static void usage(FILE *f)
             "and units: docs/cachesim.md. Exit status 0 ok, 1 a trace failed, 2 usage error.\n");
 }
 
+/* Whether the output has the traffic_se column: the hybrid method, errors
+ * asked for (the default; --no-error). */
+static int has_se(const rt_approx_config *ac) { return ac->method == RT_APPROX_HYBRID && ac->errors; }
+
 /* se: the row's estimated standard error of traffic_bytes (hybrid, group
  * rows), -1 where there is none; with_se: the format has that column. */
 static void print_row(FILE *f, int fmt, const char *trace, const rt_sim_config *c, int i, const char *name,
@@ -138,10 +142,20 @@ static void print_header(FILE *f, const char *trace, const rt_approx *ap)
                     (unsigned long long)st.window_refs);
         fputc('\n', f);
     }
-    int with_se = ac->method == RT_APPROX_HYBRID && ac->errors;
+    int with_se = has_se(ac);
     fprintf(f, "%12s %5s %5s %-9s %14s %12s %12s %12s %12s %16s%s%*s\n", "size_bytes", "line", "assoc", "class",
             "accesses", "read_misses", "write_misses", "writebacks", "wt_bytes", "traffic_bytes", with_se ? " " : "",
             with_se ? 16 : 0, with_se ? "traffic_se" : "");
+}
+
+/* Traffic of size i over all classes (the sum of the group rows). */
+static uint64_t total_traffic(const rt_approx *ap, int i)
+{
+    rt_sim_counts t;
+    uint64_t all = 0;
+    for (int g = 0; g < RT_NGROUP; g++)
+        if (!rt_approx_get_group(ap, i, g, &t, NULL)) all += t.traffic_bytes;
+    return all;
 }
 
 /* Per-class rows (those with accesses), then group rows, for every size;
@@ -150,7 +164,7 @@ static void print_results(FILE *f, int fmt, const char *trace, const rt_approx *
 {
     const rt_sim_config *c = rt_approx_get_config(ap);
     const rt_approx_config *ac = rt_approx_get_approx_config(ap);
-    int with_se = ac->method == RT_APPROX_HYBRID && ac->errors;
+    int with_se = has_se(ac);
     if (fmt == FMT_TEXT) print_header(f, trace, ap);
     for (int i = 0; i < c->nsizes; i++) {
         rt_sim_counts t;
@@ -160,7 +174,6 @@ static void print_results(FILE *f, int fmt, const char *trace, const rt_approx *
             continue;
         }
         double se;
-        uint64_t all = 0;
         for (int k = 0; k < RT_NCLASS; k++)
             if (!rt_approx_get(ap, i, k, &t, NULL) && t.accesses)
                 print_row(f, fmt, trace, c, i, rt_class_name(k), &t, with_se, -1, first);
@@ -168,10 +181,10 @@ static void print_results(FILE *f, int fmt, const char *trace, const rt_approx *
             if (!rt_approx_get_group(ap, i, g, &t, NULL)) {
                 if (rt_approx_traffic_se(ap, i, g, &se, NULL)) se = -1;
                 print_row(f, fmt, trace, c, i, rt_group_name(g), &t, with_se, se, first);
-                all += t.traffic_bytes;
             }
         /* the whole traffic and its error, in words */
         if (fmt == FMT_TEXT && with_se) {
+            uint64_t all = total_traffic(ap, i);
             if (rt_approx_traffic_se(ap, i, RT_NGROUP, &se, &e) == 0)
                 fprintf(f, "# %llu: traffic %llu bytes, standard error %.0f bytes (%.2f%%)\n",
                         (unsigned long long)c->sizes[i], (unsigned long long)all, se,
@@ -190,11 +203,8 @@ static double worst_se(const rt_approx *ap, int *at)
     double worst = -1;
     for (int i = 0; i < c->nsizes; i++) {
         double se;
-        rt_sim_counts t;
-        uint64_t all = 0;
         if (rt_approx_traffic_se(ap, i, RT_NGROUP, &se, NULL)) continue;
-        for (int g = 0; g < RT_NGROUP; g++)
-            if (!rt_approx_get_group(ap, i, g, &t, NULL)) all += t.traffic_bytes;
+        uint64_t all = total_traffic(ap, i);
         double r = all ? se / (double)all : 0;
         if (r > worst) {
             worst = r;
@@ -485,7 +495,7 @@ int main_sim(int argc, char **argv)
     int status = RT_EXIT_OK, first = 1;
     if (!db && o.outfmt == FMT_CSV)
         printf("trace,size_bytes,line,assoc,class,accesses,read_misses,write_misses,writebacks,wt_bytes,"
-               "traffic_bytes%s\n", o.ac.method == RT_APPROX_HYBRID && o.ac.errors ? ",traffic_se_bytes" : "");
+               "traffic_bytes%s\n", has_se(&o.ac) ? ",traffic_se_bytes" : "");
     if (!db && o.outfmt == FMT_JSON) printf("[");
     for (int a = optind; a < argc; a++)
         if (sim_one(&o, db, argv[a], meta, &first) < 0) status = RT_EXIT_FAIL;

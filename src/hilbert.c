@@ -1,32 +1,9 @@
 /* hilbert.c -- Hilbert-curve pixel order (see hilbert.h). */
 #include "hilbert.h"
 
-void rt_hilbert_d2xy(uint32_t n, uint64_t d, uint32_t *xo, uint32_t *yo)
-{
-    uint32_t x = 0, y = 0;
-    uint64_t t = d;
-    for (uint32_t s = 1; s < n; s *= 2) {
-        uint32_t rx = 1u & (uint32_t)(t / 2);
-        uint32_t ry = 1u & (uint32_t)(t ^ rx);
-        if (ry == 0) { /* rotate the quadrant */
-            if (rx == 1) {
-                x = s - 1 - x;
-                y = s - 1 - y;
-            }
-            uint32_t tmp = x;
-            x = y;
-            y = tmp;
-        }
-        x += s * rx;
-        y += s * ry;
-        t /= 4;
-    }
-    *xo = x;
-    *yo = y;
-}
-
-/* rt_hilbert_d2xy's levels from side b up to n (t: the digits of d above
- * b's), applied to a point (x, y) of the b x b block. */
+/* The curve's levels from side b up to n (t: the digits of d above b's),
+ * applied to a point (x, y) of the b x b block; from b = 1 and (0, 0),
+ * the point of d itself. */
 static void upper_levels(uint32_t n, uint32_t b, uint64_t t, uint32_t *xo, uint32_t *yo)
 {
     uint32_t x = *xo, y = *yo;
@@ -48,6 +25,12 @@ static void upper_levels(uint32_t n, uint32_t b, uint64_t t, uint32_t *xo, uint3
     }
     *xo = x;
     *yo = y;
+}
+
+void rt_hilbert_d2xy(uint32_t n, uint64_t d, uint32_t *xo, uint32_t *yo)
+{
+    *xo = *yo = 0; /* every level from side 1: the whole curve */
+    upper_levels(n, 1, d, xo, yo);
 }
 
 /*
