@@ -178,6 +178,15 @@ static void set_rate(rt_shards *s, uint64_t T)
     for (int i = 0; i < s->k; i++) s->t[i] = s->R * s->cm1[i];
 }
 
+/* Golden rate T64 / 2^64 (T64 0: every line, rate 1) and the thresholds. */
+static void set_golden(rt_shards *s, uint64_t T64)
+{
+    s->T64 = T64;
+    s->R = T64 ? (double)T64 * 0x1p-64 : 1;
+    s->invR = 1 / s->R;
+    for (int i = 0; i < s->k; i++) s->t[i] = s->R * s->cm1[i];
+}
+
 static inline uint64_t hash_of(const rt_shards *s, uint64_t L) { return rt_mix64(L ^ s->seedmix); }
 
 /* ---- Fenwick tree over timestamps ---- */
@@ -375,10 +384,7 @@ rt_shards *rt_shards_new(const uint64_t *lines, int k, uint32_t line, double rat
         s->goff = rt_sample_golden_offset(seed);
         double T = floor(rate * 0x1p64 + 0.5);
         if (T < 1) T = 1;
-        s->T64 = T >= 0x1p64 ? 0 : (uint64_t)T;
-        s->R = s->T64 ? (double)s->T64 * 0x1p-64 : 1;
-        s->invR = 1 / s->R;
-        for (int i = 0; i < k; i++) s->t[i] = s->R * s->cm1[i];
+        set_golden(s, T >= 0x1p64 ? 0 : (uint64_t)T);
         s->simd = rt_shards_simd_available() && !getenv("RT_NO_SIMD");
     }
     s->freeslot = NIL;
@@ -645,10 +651,7 @@ int rt_shards_split(rt_shards *s, const uint64_t *lines, int nparts, rt_err *e)
         if (!q) return -1;
         q->seedmix = s->seedmix;
         q->simd = 0;
-        q->T64 = pw; /* parts are fed by sample(), never filtered: T64 sets their rate */
-        q->R = (double)pw * 0x1p-64;
-        q->invR = 1 / q->R;
-        for (int i = 0; i < q->k; i++) q->t[i] = q->R * q->cm1[i];
+        set_golden(q, pw); /* fed by sample(), never filtered: T64 only sets the rate */
         s->part[s->nparts++] = q;
     }
     return 0;
