@@ -67,7 +67,7 @@
  *       cover every record exactly once; bvh8 leaf offsets < 32, counts < 8;
  *   B3  orig[] is a permutation of the scene's indices and tri[i] is scene
  *       triangle orig[i] bit for bit -- with B2: every triangle in exactly
- *       one leaf;
+ *       one leaf; bit i of degen[] is rt_isect_degenerate(&tri[i]);
  *   B4  boxes (bvh2, bvh4): every box contains the boxes of its triangles
  *       and lies inside its parent's box (the root's: bounds, the union of
  *       all triangle boxes); empty bvh4 slots have lo = +inf, hi = -inf;
@@ -495,6 +495,7 @@ static void emit_leaf_tris(emit *E, const bnode *nd)
         const uint32_t idx = E->B->pr[nd->a + k].idx;
         E->b->tri[E->tpos] = E->s->tri[idx];
         E->b->orig[E->tpos] = idx;
+        if (rt_isect_degenerate(&E->b->tri[E->tpos])) E->b->degen[E->tpos >> 5] |= 1u << (E->tpos & 31);
         E->tpos++;
     }
 }
@@ -799,7 +800,8 @@ rt_bvh *rt_bvh_build(const rt_scene *s, const rt_bvh_params *params, rt_err *e)
     B.p = params;
     b->tri = rt_calloc_aligned(N ? N : 1, sizeof *b->tri, 64, e);
     b->orig = rt_calloc(N ? N : 1, sizeof *b->orig, e);
-    if (!b->tri || !b->orig) goto fail;
+    b->degen = rt_calloc(N / 32 + 1, sizeof *b->degen, e);
+    if (!b->tri || !b->orig || !b->degen) goto fail;
     if (N == 0) {
         b->build_sec = rt_now() - t0;
         return b;
@@ -865,6 +867,7 @@ void rt_bvh_free(rt_bvh *b)
     free(b->h8);
     free(b->tri);
     free(b->orig);
+    free(b->degen);
     free(b);
 }
 
@@ -1217,6 +1220,11 @@ int rt_bvh_check(const rt_bvh *b, const rt_scene *s, rt_err *e)
             rt_errf(e, "bvh%d: record %u differs from scene triangle %u", W, i, o);
             goto out;
         }
+        if (rt_bvh_degenerate(b, i) != rt_isect_degenerate(&b->tri[i])) {
+            rt_errf(e, "bvh%d: record %u: degenerate flag %d, the triangle's %d", W, i, rt_bvh_degenerate(b, i),
+                    rt_isect_degenerate(&b->tri[i]));
+            goto out;
+        }
     }
     if (b->nnodes) {
         if ((W == 2 ? check2(&C) : check_wide(&C)) < 0) goto out;
@@ -1347,6 +1355,9 @@ typedef struct wstate {
     float cull;         /* cull_bound(best) */
     uint64_t nvisit, ntest;
     uint64_t tri_base;  /* bvh.tri base address (recording) */
+#if defined(__SSE2__)
+    rt_isect_sse iq;    /* the ray for the triangle test */
+#endif
 } wstate;
 
 /* Tests records [first, first + n). any: 1 at the first hit in (tmin, tmax). */
@@ -1361,7 +1372,11 @@ static RT_ALWAYS_INLINE int leaf_tris(rt_bvh_trav *tv, const rt_ray *r, uint32_t
         if (tv->mark) tv->mark[o] |= tv->mark_bit;
         RT_REC(rec, S->tri_base + 36ull * k, 36, 0, RT_CLS_TRI);
         float t, u, v;
-        if (!rt_isect_core(r, &b->tri[k], &t, &u, &v)) continue;
+#if defined(__SSE2__)
+        if (!rt_isect_core_nd_sse(&S->iq, r, &b->tri[k], &t, &u, &v) || rt_bvh_degenerate(b, k)) continue;
+#else
+        if (!rt_isect_core_nd(r, &b->tri[k], &t, &u, &v) || rt_bvh_degenerate(b, k)) continue;
+#endif
         if (any) {
             if (t > r->tmin && t < r->tmax) return 1;
         } else if (t > r->tmin && (t < S->best || (t == S->best && o < S->btri))) {
@@ -1401,6 +1416,9 @@ static RT_ALWAYS_INLINE void wstate_init(wstate *S, const rt_bvh_trav *tv, const
     S->cull = cull_bound(r->tmax);
     S->nvisit = S->ntest = 0;
     S->tri_base = tv->rec ? tv->L->r[tv->reg_tri].base : 0;
+#if defined(__SSE2__)
+    rt_isect_sse_init(&S->iq, r);
+#endif
 }
 
 /* bvh2: pbrt's walk. */
@@ -1567,7 +1585,19 @@ static RT_ALWAYS_INLINE int walk_fast(rt_bvh_trav *tv, const rt_ray *rp, rt_hit 
         if (W == 8) mask |= box4(&q, base + 4, nofs, fofs, S.cull, tn + 4) << 4;
         if (mask) {
             int s0 = __builtin_ctz(mask);
-            if (mask & (mask - 1)) {
+            const unsigned rest = mask & (mask - 1);
+            if (rest && !(rest & (rest - 1))) {
+                /* two hit children, the most common case of several: the
+                 * far one pushed (ties: the higher slot), the near entered */
+                int s1 = __builtin_ctz(rest);
+                if (tn[s1] < tn[s0]) {
+                    const int x = s0;
+                    s0 = s1;
+                    s1 = x;
+                }
+                uint32_t ra, rn;
+                if (rt_bvh_wide_child(W, n4, h8, node, s1, &ra, &rn)) st[sp++] = (sentry){ra, rn, tn[s1]};
+            } else if (rest) {
                 int ord[8], k = rt_bvh_order_slots(mask, tn, ord);
                 while (--k > 0) {
                     const int s = ord[k];

@@ -185,6 +185,8 @@ typedef struct rt_bvh {
     uint32_t ntri;          /* triangles (the scene's) */
     rt_tri *tri;            /* triangles in leaf order */
     uint32_t *orig;         /* orig[i]: scene index of tri[i] */
+    uint32_t *degen;        /* bit i: tri[i] is degenerate (rt_isect_degenerate), so it never
+                               hits: tested once at build, not on every hit (host only, not modeled) */
     rt_bounds bounds;       /* of all triangles (the root's box) */
     /* statistics (rt_bvh_check recomputes them) */
     uint32_t nleaves;       /* leaves */
@@ -195,6 +197,9 @@ typedef struct rt_bvh {
     double build_sec;       /* wall time of rt_bvh_build */
     float pad;              /* every box is its triangles' boxes grown by pad on each side (bvh.c, B8) */
 } rt_bvh;
+
+/* 1 when record i (leaf order) is a degenerate triangle. */
+static inline int rt_bvh_degenerate(const rt_bvh *b, uint32_t i) { return (int)(b->degen[i >> 5] >> (i & 31)) & 1; }
 
 /* Builds a tree of p->width over all triangles of s (p NULL: width 4
  * defaults). NULL with e set on failure: bad parameters, more than

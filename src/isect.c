@@ -101,6 +101,11 @@ int rt_isect_degenerate(const rt_tri *tri)
     return !(cc > 1e-24 * l1 * l2);
 }
 
+int rt_isect_core_nd_out(const rt_ray *r, const rt_tri *tri, float *t_out, float *u, float *v)
+{
+    return rt_isect_core_nd(r, tri, t_out, u, v);
+}
+
 rt_vec3 rt_tri_normal(const rt_tri *tri)
 {
     return rt_cross(rt_sub(tri->p[1], tri->p[0]), rt_sub(tri->p[2], tri->p[0]));

@@ -596,6 +596,12 @@ static void test_corrupt(void)
                 done = 1;
             }
         CHECK(rt_bvh_check(b, s, &e) == 0, "bvh%d restored: %s", widths[w], e.msg);
+        /* a degenerate flag that disagrees with its triangle */
+        b->degen[0] ^= 1u;
+        CHECK(rt_bvh_check(b, s, &e) < 0 && strstr(e.msg, "degenerate flag"), "bvh%d: a wrong degenerate flag passes: %s",
+              widths[w], e.msg);
+        b->degen[0] ^= 1u;
+        CHECK(rt_bvh_check(b, s, &e) == 0, "bvh%d restored: %s", widths[w], e.msg);
         /* a wrong statistic */
         b->sah *= 1.0 + 1e-12;
         CHECK(rt_bvh_check(b, s, &e) < 0 && strstr(e.msg, "SAH"), "bvh%d: a wrong SAH cost passes", widths[w]);

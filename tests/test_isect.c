@@ -94,12 +94,35 @@ static mesh make_mesh(int r, int sphere, double scale, double shift)
 }
 
 /* Closest hit over the array (brute force, same core as the tree). */
+/* The vector core (isect.h, SSE2) against the scalar one: the same
+ * answer and the same bits of t, u, v on every pair it is given. */
+static long core_pairs, core_differ;
+static void core_agree(const rt_ray *r, const rt_tri *tri)
+{
+#if defined(__SSE2__)
+    rt_isect_sse q;
+    rt_isect_sse_init(&q, r);
+    float t0 = 0, u0 = 0, v0 = 0, t1 = 0, u1 = 0, v1 = 0;
+    const int a = rt_isect_core_nd(r, tri, &t0, &u0, &v0), b = rt_isect_core_nd_sse(&q, r, tri, &t1, &u1, &v1);
+    core_pairs++;
+    if (a != b || (a && (memcmp(&t0, &t1, sizeof t0) || memcmp(&u0, &u1, sizeof u0) || memcmp(&v0, &v1, sizeof v0)))) {
+        if (core_differ++ < 8)
+            fprintf(stderr, "vector core differs: hit %d/%d t %.9g/%.9g u %.9g/%.9g v %.9g/%.9g\n", a, b, (double)t0,
+                    (double)t1, (double)u0, (double)u1, (double)v0, (double)v1);
+    }
+#else
+    (void)r;
+    (void)tri;
+#endif
+}
+
 static int closest(const mesh *m, const rt_ray *r, float *t, int *which)
 {
     int hit = 0;
     float best = r->tmax;
     for (int i = 0; i < m->n; i++) {
         float tt, u, v;
+        core_agree(r, &m->t[i]);
         if (rt_isect_tri(r, &m->t[i], &tt, &u, &v)) {
             CHECK(isfinite(tt) && isfinite(u) && isfinite(v), "non-finite hit");
             if (tt < best) {
@@ -327,9 +350,47 @@ static void test_offset(double scale, double shift)
           tried);
 }
 
+/* Random and hostile pairs for core_agree: triangles with shared and
+ * repeated vertices, collinear and tiny ones, coordinates from 1e-30 to
+ * 1e30; rays through vertices and edge points (edge functions exactly 0),
+ * axis-parallel and signed-zero directions, origins on the triangle. */
+static void test_vector_core(void)
+{
+    static const float mag[] = {1e-30f, 1e-6f, 1.0f, 3.0f, 1e6f, 1e30f};
+    for (int k = 0; k < 200000; k++) {
+        const float m = mag[rnd64() % 6];
+        rt_tri tri;
+        for (int i = 0; i < 3; i++) {
+            tri.p[i] = rt_mul(rt_v3((float)(unif() * 2 - 1), (float)(unif() * 2 - 1), (float)(unif() * 2 - 1)), m);
+            if (k % 7 == 0) tri.p[i] = rt_v3(floorf(tri.p[i].x), floorf(tri.p[i].y), 0.0f); /* on a grid, coplanar */
+        }
+        if (k % 11 == 0) tri.p[2] = tri.p[(int)(rnd64() % 2)];                          /* repeated vertex */
+        if (k % 13 == 0) tri.p[2] = rt_add(tri.p[0], rt_mul(rt_sub(tri.p[1], tri.p[0]), 2.0f)); /* collinear */
+        rt_vec3 target;
+        switch (k % 4) {
+        case 0: target = tri.p[rnd64() % 3]; break;                                         /* a vertex */
+        case 1: target = rt_mul(rt_add(tri.p[0], tri.p[1]), 0.5f); break;                   /* an edge */
+        default: {
+            const float a = (float)unif(), b = (float)unif() * (1 - a);
+            target = rt_add(tri.p[0], rt_add(rt_mul(rt_sub(tri.p[1], tri.p[0]), a), rt_mul(rt_sub(tri.p[2], tri.p[0]), b)));
+        }
+        }
+        rt_vec3 d = rand_dir();
+        if (k % 5 == 0) {
+            d = rt_v3((rnd64() & 1) ? -0.0f : 0.0f, (rnd64() & 1) ? -0.0f : 0.0f, (rnd64() & 1) ? -0.0f : 0.0f);
+            rt_set_axis(&d, (int)(rnd64() % 3), (rnd64() & 1) ? -1.0f : 1.0f);
+        }
+        const rt_vec3 o = k % 9 == 0 ? target : rt_sub(target, rt_mul(d, m * (float)(0.5 + unif())));
+        rt_ray r;
+        rt_ray_init(&r, o, d);
+        core_agree(&r, &tri);
+    }
+}
+
 int main(void)
 {
     rnd_seed(0x243f6a8885a308d3ULL);
+    test_vector_core();
     test_signed_zero();
     test_degenerate();
     test_grazing();
@@ -350,6 +411,10 @@ int main(void)
         mesh_free(&m);
         test_offset(sc[i].scale, sc[i].shift);
     }
+    CHECK(core_differ == 0, "vector core differs from the scalar core on %ld of %ld pairs", core_differ, core_pairs);
+#if defined(__SSE2__)
+    CHECK(core_pairs > 1000000, "vector core compared on only %ld pairs", core_pairs);
+#endif
     if (failures) {
         fprintf(stderr, "%d failures\n", failures);
         return 1;
