@@ -7,7 +7,8 @@
 # --no-error; report --speed-error counts the estimates within 1, 2, 3
 # standard errors of the exact traffic as a direct query does (Markdown and
 # CSV); a version-4 database (no error table) reports and is upgraded;
-# bad input is a one-line error.
+# shards of --list-jobs merge to the same errors; bad input is a one-line
+# error.
 set -u
 bin=${RT_BIN:-./raytraffic}
 tmp=$(mktemp -d /tmp/rt-sweepse-XXXXXX)
@@ -107,6 +108,15 @@ head -n 1 "$tmp/se.csv" | grep -q ',sizes,se_sizes,within_1se,within_2se,within_
 set -- $(within total 1 | tr '|' ' ') $(within total 2 | tr '|' ' ') $(within total 3 | tr '|' ' ')
 grep -q ",$hid,$xid,.*,5,$2,$1,$3,$5\$" "$tmp/se.csv" || die "csv row: $(grep ",$hid,$xid," "$tmp/se.csv")"
 grep -q ",$nid,$xid,.*,5,,,,\$" "$tmp/se.csv" || die "csv row without errors: $(grep ",$nid,$xid," "$tmp/se.csv")"
+
+# shards of --list-jobs merged: the same errors, to the bit
+"$bin" sweep $args --approx hybrid:1/4:4K:2048 --db "$tmp/sh.db" --list-jobs > "$tmp/jobs" || die "list-jobs"
+(cd "$tmp" && sh jobs 2>/dev/null) || die "running the shard commands"
+"$bin" db merge "$tmp/m.db" "$tmp"/sh.job*.db 2>/dev/null || die "db merge"
+errs() { sqlite3 "$1" "SELECT c.size, quote(e.geometry_se), quote(e.ray_se), quote(e.other_se), quote(e.total_se)
+    FROM traffic_se e JOIN cache_configs c ON c.id = e.config_id ORDER BY c.size"; }
+[ -n "$(errs "$tmp/m.db")" ] && [ "$(errs "$tmp/m.db")" = "$(errs "$tmp/a.db")" ] ||
+    die "merged errors differ: $(errs "$tmp/m.db")"
 
 # 4. a version-4 database (as this one without the error table): read by
 # report as it is, upgraded in place by the next sweep, rows intact
