@@ -18,6 +18,9 @@
  * loses nothing. --jobs N runs the worker pool (results/pool.c): N forked
  * workers claim jobs in order from a shared counter; each keeps the current
  * scene and its k-d tree. This file parses, calls and prints.
+ * --approx runs sampled estimators on the same stream and stores each as a
+ * run of its own; a hybrid one also stores its standard errors (table
+ * traffic_se, " errors=1" in its sim_params) unless --no-error.
  * --list-jobs prints one self-contained command per job, each writing its
  * own database, for GNU parallel or a Slurm array; `raytraffic db merge`
  * joins the shards. Each line names the running binary and every file by

@@ -171,8 +171,9 @@ struct rt_db {
 
 enum {
     S_SCENE_INS, S_SCENE_GET, S_SCENE_TRI, S_RUN_GET, S_RUN_INS, S_RUN_UPD, S_CFG_INS, S_CFG_GET, S_TR_DEL,
-    S_TR_INS, S_GEN_DEL, S_GEN_INS, S_SE_DEL, S_SE_INS, S_NSTMT
+    S_TR_INS, S_GEN_DEL, S_GEN_INS, S_SE_DEL, S_SE_INS, S_TR_HAS, S_NSTMT
 };
+_Static_assert(S_NSTMT <= 16, "struct rt_db holds 16 statements");
 
 static const char *const stmt_sql[S_NSTMT] = {
     "INSERT OR IGNORE INTO scenes(name, params, hash, triangles) VALUES(?1, ?2, ?3, ?4)",
@@ -198,6 +199,7 @@ static const char *const stmt_sql[S_NSTMT] = {
     " traffic_bytes) VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)",
     "DELETE FROM traffic_se WHERE run_id = ?1 AND config_id = ?2",
     "INSERT INTO traffic_se(run_id, config_id, geometry_se, ray_se, other_se, total_se) VALUES(?1, ?2, ?3, ?4, ?5, ?6)",
+    "SELECT 1 FROM traffic WHERE run_id = ?1 AND config_id = ?2 LIMIT 1",
 };
 
 const char *rt_db_schema_sql(void) { return schema_sql; }
@@ -662,7 +664,8 @@ static int store_rows(rt_db *db, int64_t rid, int pass, int tab, const void *bas
 
 /* One pass over the standard-error rows of run rid: pass 0 checks each
  * value and deletes the run's old row of each configuration, pass 1
- * inserts (a negative error as NULL). */
+ * (after the traffic rows) inserts, a negative error as NULL, refusing a
+ * configuration without traffic rows (the invariant of the file comment). */
 static int store_se(rt_db *db, int64_t rid, int pass, const rt_db_se *se, size_t n, rt_err *e)
 {
     for (size_t i = 0; i < n; i++) {
@@ -678,6 +681,13 @@ static int store_se(rt_db *db, int64_t rid, int pass, const rt_db_se *se, size_t
             if (del_rows(db, S_SE_DEL, rid, cfg_id, e) < 0) return -1;
             continue;
         }
+        sqlite3_bind_int64(db->st[S_TR_HAS], 1, rid);
+        sqlite3_bind_int64(db->st[S_TR_HAS], 2, cfg_id);
+        int has = step_id(db, db->st[S_TR_HAS], NULL, e);
+        if (has < 0) return -1;
+        if (!has)
+            return rt_errf(e, "%s: standard-error row %zu (size %llu) has no traffic row", db->path, i,
+                           (unsigned long long)x->size);
         sqlite3_stmt *in = db->st[S_SE_INS];
         sqlite3_bind_int64(in, 1, rid);
         sqlite3_bind_int64(in, 2, cfg_id);

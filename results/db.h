@@ -163,7 +163,8 @@ int rt_db_store_run_gen(rt_db *db, const rt_db_run *run, const rt_db_traffic *ro
  * keeps none for those configurations); for every configuration in
  * rows->gen its old generation rows are, in rows->se its old
  * standard-error rows. A standard error that is not a finite number is
- * refused (nothing stored). Same returns. */
+ * refused, and so is one of a configuration the run has no traffic rows
+ * for (nothing stored). Same returns. */
 int rt_db_store(rt_db *db, const rt_db_run *run, const rt_db_rows *rows, int64_t *run_id, rt_err *e);
 
 /* Copies every run of the database at inpath (with its scene, provenance,

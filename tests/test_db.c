@@ -768,6 +768,12 @@ static void test_se_rows(const char *dir)
     CHECK(rt_db_store(db, &r, &RB, NULL, &e) < 0 && strstr(e.msg, path) && strstr(e.msg, "not a number"),
           "NaN refused: %s", e.msg);
     CHECK(count(db, "SELECT count(*) FROM runs") == 1, "refused store left a run");
+    /* an error row of a size without traffic rows: refused */
+    rt_db_se lone = se[0];
+    lone.size = 4096;
+    rt_db_rows RL = {t, 3, NULL, 0, &lone, 1};
+    CHECK(rt_db_store(db, &r, &RL, NULL, &e) < 0 && strstr(e.msg, "has no traffic row"), "lone error row: %s", e.msg);
+    CHECK(count(db, "SELECT count(*) FROM runs") == 1, "refused store left a run");
     /* a store failing at its second error row (the same configuration
      * twice) leaves nothing: not the run, not its first error row */
     rt_db_se twice[2] = {se[0], se[0]};
@@ -790,6 +796,10 @@ static void test_se_rows(const char *dir)
     CHECK(rt_db_store(db, &r, &R2, NULL, &e) == 0, "re-store 1K: %s", e.msg);
     CHECK(count(db, "SELECT count(*) FROM traffic_se") == 1 && count(db, "SELECT count(*) FROM traffic") == 3,
           "1K's error row replaced by none, 2K's kept");
+    /* the invariant: every error row's (run, configuration) has traffic rows */
+    CHECK(count(db, "SELECT count(*) FROM traffic_se e WHERE NOT EXISTS (SELECT 1 FROM traffic t WHERE "
+                    "t.run_id = e.run_id AND t.config_id = e.config_id)") == 0,
+          "an error row without traffic rows");
     /* a shard with an error that is not a number is refused, naming it */
     sqlite3_exec(rt_db_handle(db), "UPDATE traffic_se SET ray_se = 'big'", NULL, NULL, NULL);
     rt_db_close(db);
