@@ -360,9 +360,9 @@ static void se_print(const se_ctx *C)
     if (!C->nser) return;
     FILE *out = C->out;
     fprintf(out,
-            "\n## Standard errors\n\nApproximate runs that estimated their own error (hybrid with errors: errors=1 in "
-            "params) store a standard error per cache size and group (table traffic_se, view v_traffic_se). Per run: of "
-            "the sizes with an error and an exact value (the exact run in parentheses), how many estimates lie within "
+            "\n## Standard errors\n\nApproximate runs that estimated their own error (hybrid with errors: errors=1 "
+            "in params) store a standard error per cache size and group (table traffic_se, view v_traffic_se). Per "
+            "run: of the sizes with an error and an exact value (the exact run in parentheses), how many estimates lie within "
             "1, 2 and 3 standard errors of the exact traffic; an error of normal shape would put about 68%%, 95%% and "
             "99.7%% of them there. The error is statistical: it does not see a bias the whole sample shares "
             "(docs/approx.md).\n\n"

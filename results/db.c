@@ -7,9 +7,9 @@
  * sched_size rename; migrate_v2: where a mesh scene was found; migrate_v3:
  * the per-generation table traffic_gen and its view v_gen; migrate_v4: the
  * standard errors of approximate runs, table traffic_se and view
- * v_traffic_se). Unsigned 64-bit hashes are stored
- * as 16 lowercase hex digits, counters as INTEGER (they stay far below
- * 2^63); standard errors as REAL (bytes, NULL = none).
+ * v_traffic_se). Unsigned 64-bit hashes are stored as 16 lowercase hex
+ * digits, counters as INTEGER (they stay far below 2^63), standard errors
+ * as REAL (bytes, NULL = none).
  *
  * Standard errors: an approximate run that estimated its own error (the
  * hybrid method with errors on; "errors=1" in its sim_params, so it never
@@ -622,8 +622,8 @@ static int del_rows(rt_db *db, int s, int64_t rid, int64_t cfg_id, rt_err *e)
 /* One pass over one table's rows of run rid: pass 0 deletes the run's old
  * rows of each configuration met (traffic rows: in all three tables, so no
  * stale generation or standard-error row outlives a re-store; generation
- * rows: in traffic_gen), pass 1 inserts. tab 0: rt_db_traffic rows; 1: rt_db_gen rows (stride
- * bytes apart, the counters first in each). */
+ * rows: in traffic_gen), pass 1 inserts. tab 0: rt_db_traffic rows; 1:
+ * rt_db_gen rows (stride bytes apart, the counters first in each). */
 static int store_rows(rt_db *db, int64_t rid, int pass, int tab, const void *base, size_t n, size_t stride, rt_err *e)
 {
     int64_t cfg_id = -1;
