@@ -198,7 +198,10 @@ int rt_plot_scenes(const rt_report *R, const rt_plot_opts *p, rt_err *e);
 
 /* Speed against error: every approximate run against the exact run of the
  * same identity, every reduced experiment against its full exact run
- * (tables and summary in analysis/speed_error.c). csv selects CSV. With
+ * (tables and summary in analysis/speed_error.c), and for the runs that
+ * stored standard errors (schema 5) how many estimates lie within 1, 2, 3
+ * of them and every size's estimate beside its error (Markdown; CSV: four
+ * more columns per pair, empty without errors). csv selects CSV. With
  * plot non-NULL also writes DIR/speed-error.dat and .gp and, with
  * gnuplot, DIR/speed-error.png (mean miss-ratio error against speedup). */
 int rt_report_speed_error(sqlite3 *h, int csv, const rt_plot_opts *plot, FILE *out, rt_err *e);

@@ -23,6 +23,15 @@
  * reduced experiment changes: fewer rays per pixel of geometry means each
  * queue holds fewer rays when it is processed.
  *
+ * Standard errors (schema 5): an approximate run that estimated its error
+ * (hybrid with errors, "errors=1" in its sim_params) has one per cache
+ * size and group (traffic_se). A section after the table lists, per such
+ * run, how many of its estimates lie within 1, 2 and 3 standard errors of
+ * the exact run's traffic (geometry, ray, all classes), then every size's
+ * estimate beside its standard error and the exact value; the CSV pairs
+ * carry the whole traffic's counts as four more columns (empty for runs
+ * without errors). A database older than version 5 has none.
+ *
  * The plot data (DIR/speed-error.dat) has one point per compared pair:
  * speedup, geometry and ray mean miss-ratio error, and a series index (one
  * series per method and parameter set, one per kind of reduced
@@ -85,6 +94,23 @@ static const char *proxy_sql =
     " WHERE a.sim_method = 'exact' AND (a.W * a.H < x.W * x.H OR a.params LIKE '%subsample=%')"
     " ORDER BY s.name, s.hash, a.tracer, a.lights, a.sched_size, a.W * a.H DESC, a.params, a.id, ga.grp, ga.size";
 
+/* Per size of every run with standard errors (line 64, fully associative,
+ * as above): its group estimates and their errors (MB, exact multiples of
+ * 2^-20 bytes, so comparisons are those of the bytes), the exact run of
+ * the same identity and accounting (sim_params '', at most one by the
+ * runs' UNIQUE key) and its traffic in the same configuration, or NULL. */
+static const char *se_sql =
+    "SELECT @LABEL@, a.tracer, a.lights, a.sched_size, a.sim_method, a.sim_params, a.id, x.id, v.cache_size,"
+    "   v.geometry_mb, v.geometry_se_mb, v.ray_mb, v.ray_se_mb, v.total_mb, v.total_se_mb,"
+    "   gx.geometry_mb, gx.ray_mb, gx.total_mb"
+    " FROM runs a JOIN scenes s ON s.id = a.scene_id JOIN v_traffic_se v ON v.run_id = a.id"
+    " LEFT JOIN runs x ON x.scene_id = a.scene_id AND x.tracer = a.tracer AND x.W = a.W AND x.H = a.H"
+    "   AND x.lights = a.lights AND x.sched_size = a.sched_size AND x.gmax = a.gmax AND x.params = a.params"
+    "   AND x.sim_method = 'exact' AND x.sim_params = ''"
+    " LEFT JOIN v_traffic_group gx ON gx.run_id = x.id AND gx.config_id = v.config_id"
+    " WHERE v.line = 64 AND v.assoc = 0 AND a.id IN (SELECT run_id FROM traffic_se)"
+    " ORDER BY s.name, s.hash, a.tracer, a.lights, a.sched_size, a.sim_method, a.sim_params, a.id, v.cache_size";
+
 /* A "key=" number from a stats string, or NAN. */
 static double stat_num(const char *stats, const char *key)
 {
@@ -122,6 +148,15 @@ typedef struct summ {
     double mr_mean[2], mr_max[2], rel_mean[2], rel_max[2]; /* geometry, ray: mean of the runs' means, max of maxima */
 } summ;
 
+/* The standard errors of one approximate run, over its sizes. */
+#define SE_GROUPS 3 /* geometry, ray, all classes */
+typedef struct serun {
+    long id, xid;                /* the run; its exact run, 0 if none */
+    char hdr[512];               /* "| scene | tracer | lights | sched | method | params" */
+    int n[SE_GROUPS];            /* sizes with an error and an exact value */
+    int within[SE_GROUPS][3];    /* of which within 1, 2, 3 standard errors */
+} serun;
+
 /* One report's state. */
 typedef struct se_ctx {
     sqlite3 *h;
@@ -133,6 +168,10 @@ typedef struct se_ctx {
     int nseries;
     summ summs[MAX_SUMM];
     int nsumm;
+    serun *ser;                       /* runs with standard errors (se_collect), in report order */
+    int nser;
+    char *sizes_md;                   /* their per-size table rows (Markdown), or NULL */
+    size_t sizes_len;
 } se_ctx;
 
 static int series_id(se_ctx *C, const char *label)
@@ -213,6 +252,150 @@ static void summ_print(const se_ctx *C)
     }
 }
 
+/* 1 if the database has the standard-error table (schema 5). */
+static int has_se_table(sqlite3 *h)
+{
+    sqlite3_stmt *st;
+    int r = 0;
+    if (sqlite3_prepare_v2(h, "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'traffic_se'", -1, &st,
+                           NULL) == SQLITE_OK)
+        r = sqlite3_step(st) == SQLITE_ROW;
+    sqlite3_finalize(st);
+    return r;
+}
+
+/* "0.0688 ± 0.0055" (MB), or the estimate alone with "± -" when it has no
+ * error. */
+static void fmt_est(char *buf, size_t n, sqlite3_stmt *st, int col)
+{
+    if (sqlite3_column_type(st, col + 1) == SQLITE_NULL)
+        snprintf(buf, n, "%.4f ± -", sqlite3_column_double(st, col));
+    else
+        snprintf(buf, n, "%.4f ± %.4f", sqlite3_column_double(st, col), sqlite3_column_double(st, col + 1));
+}
+
+/* Reads every run with standard errors (se_sql) into C->ser, counting per
+ * group how many estimates lie within 1, 2, 3 errors of the exact value,
+ * and writes the per-size Markdown rows into C->sizes_md. A database
+ * without the table has none (0). */
+static int se_collect(se_ctx *C, rt_err *e)
+{
+    if (!has_se_table(C->h)) return 0;
+    char *sql = rt_report_label_sql(C->h, se_sql, e);
+    if (!sql) return -1;
+    sqlite3_stmt *st = rt_report_stmt(C->h, sql, "standard-error query", e, "");
+    free(sql);
+    if (!st) return -1;
+    FILE *md = open_memstream(&C->sizes_md, &C->sizes_len);
+    if (!md) {
+        sqlite3_finalize(st);
+        return rt_errf(e, "standard-error table: out of memory");
+    }
+    int rc, cap = 0;
+    while ((rc = sqlite3_step(st)) == SQLITE_ROW) {
+        long id = sqlite3_column_int64(st, 6);
+        if (!C->nser || C->ser[C->nser - 1].id != id) {
+            if (C->nser == cap) {
+                serun *t = rt_reallocarray(C->ser, (size_t)(cap = cap ? 2 * cap : 16), sizeof *t, e);
+                if (!t) break;
+                C->ser = t;
+            }
+            serun *u = &C->ser[C->nser++];
+            memset(u, 0, sizeof *u);
+            u->id = id;
+            u->xid = sqlite3_column_int64(st, 7);
+            const char *p = (const char *)sqlite3_column_text(st, 5);
+            snprintf(u->hdr, sizeof u->hdr, "| %s | %s | %d | %lld | %s | %s", sqlite3_column_text(st, 0),
+                     sqlite3_column_text(st, 1), sqlite3_column_int(st, 2), (long long)sqlite3_column_int64(st, 3),
+                     sqlite3_column_text(st, 4), p ? p : "");
+        }
+        serun *u = &C->ser[C->nser - 1];
+        /* groups: estimate, error, exact columns */
+        static const int est[SE_GROUPS] = {9, 11, 13}, exa[SE_GROUPS] = {15, 16, 17};
+        char cell[SE_GROUPS][64], xcell[SE_GROUPS][32], dev[32] = "-";
+        for (int g = 0; g < SE_GROUPS; g++) {
+            fmt_est(cell[g], sizeof cell[g], st, est[g]);
+            int has_x = sqlite3_column_type(st, exa[g]) != SQLITE_NULL;
+            int has_se = sqlite3_column_type(st, est[g] + 1) != SQLITE_NULL;
+            snprintf(xcell[g], sizeof xcell[g], has_x ? "%.4f" : "-", sqlite3_column_double(st, exa[g]));
+            if (!has_x || !has_se) continue;
+            double d = sqlite3_column_double(st, est[g]) - sqlite3_column_double(st, exa[g]);
+            double se = sqlite3_column_double(st, est[g] + 1);
+            u->n[g]++;
+            for (int k = 0; k < 3; k++) u->within[g][k] += fabs(d) <= (k + 1) * se;
+            if (g == SE_GROUPS - 1 && se > 0) snprintf(dev, sizeof dev, "%+.2f", d / se);
+        }
+        char run[48];
+        snprintf(run, sizeof run, u->xid ? "%ld (%ld)" : "%ld (-)", u->id, u->xid);
+        fprintf(md, "| %s | %lld | %s | %s | %s | %s | %s | %s | %s |\n", run, (long long)sqlite3_column_int64(st, 8),
+                cell[0], xcell[0], cell[1], xcell[1], cell[2], xcell[2], dev);
+    }
+    int bad = fclose(md) != 0;
+    if (rc == SQLITE_ROW) { /* out of memory above */
+        sqlite3_finalize(st);
+        return -1;
+    }
+    if (rt_report_done(st, rc, "standard-error query", e) < 0) return -1;
+    return bad ? rt_errf(e, "standard-error table: out of memory") : 0;
+}
+
+/* The run's standard-error record, or NULL. */
+static const serun *se_find(const se_ctx *C, long id)
+{
+    for (int i = 0; i < C->nser; i++)
+        if (C->ser[i].id == id) return &C->ser[i];
+    return NULL;
+}
+
+/* "a / b / c of n" for group g of u, or "-" when no size compares. */
+static void fmt_within(char *buf, size_t n, const serun *u, int g)
+{
+    if (u->n[g]) snprintf(buf, n, "%d / %d / %d of %d", u->within[g][0], u->within[g][1], u->within[g][2], u->n[g]);
+    else snprintf(buf, n, "-");
+}
+
+/* The Markdown section of the runs with standard errors. */
+static void se_print(const se_ctx *C)
+{
+    if (!C->nser) return;
+    FILE *out = C->out;
+    fprintf(out,
+            "\n## Standard errors\n\nApproximate runs that estimated their own error (hybrid with errors: errors=1 "
+            "in params) store a standard error per cache size and group (table traffic_se, view v_traffic_se). Per "
+            "run: of the sizes with an error and an exact value (the exact run in parentheses), how many estimates lie within "
+            "1, 2 and 3 standard errors of the exact traffic; an error of normal shape would put about 68%%, 95%% and "
+            "99.7%% of them there. The error is statistical: it does not see a bias the whole sample shares "
+            "(docs/approx.md).\n\n"
+            "| scene | tracer | lights | sched | method | params | run (exact run) | geometry within 1 / 2 / 3 SE | "
+            "ray within 1 / 2 / 3 SE | total within 1 / 2 / 3 SE |\n|---|---|---|---|---|---|---|---|---|---|\n");
+    int n[SE_GROUPS] = {0}, w[SE_GROUPS][3] = {{0}};
+    for (int i = 0; i < C->nser; i++) {
+        const serun *u = &C->ser[i];
+        char cell[SE_GROUPS][48], run[48];
+        for (int g = 0; g < SE_GROUPS; g++) {
+            fmt_within(cell[g], sizeof cell[g], u, g);
+            n[g] += u->n[g];
+            for (int k = 0; k < 3; k++) w[g][k] += u->within[g][k];
+        }
+        snprintf(run, sizeof run, u->xid ? "%ld (%ld)" : "%ld (-)", u->id, u->xid);
+        fprintf(out, "%s | %s | %s | %s | %s |\n", u->hdr, run, cell[0], cell[1], cell[2]);
+    }
+    static const char *const gname[SE_GROUPS] = {"geometry", "ray", "total"};
+    fprintf(out, "\nOver all runs:");
+    for (int g = 0; g < SE_GROUPS; g++) {
+        if (n[g])
+            fprintf(out, "%s %s %d / %d / %d of %d (%.0f%% / %.0f%% / %.0f%%)", g ? ";" : "", gname[g], w[g][0],
+                    w[g][1], w[g][2], n[g], 100.0 * w[g][0] / n[g], 100.0 * w[g][1] / n[g], 100.0 * w[g][2] / n[g]);
+        else
+            fprintf(out, "%s %s no exact value to compare", g ? ";" : "", gname[g]);
+    }
+    fprintf(out, ".\n\nPer size: estimate ± standard error beside the exact value (MB = 2^20 bytes; - where there is "
+                 "none); the last column is (estimate - exact) / standard error of the total.\n\n"
+                 "| run (exact run) | cache size | geometry MB | exact | ray MB | exact | total MB | exact | "
+                 "total error / SE |\n|---|---|---|---|---|---|---|---|---|\n");
+    if (C->sizes_len) fwrite(C->sizes_md, 1, C->sizes_len, out);
+}
+
 /* One compared pair, as a table row (Markdown or CSV) and a plot point:
  * the run, its reference, both times, the speedup, how many sizes were
  * compared, and the geometry and ray errors. The point's label is the
@@ -225,10 +408,16 @@ static void pair_row(se_ctx *C, const char *hdr, long id, long xid, double secs,
     const acc *G = &A[0], *Y = &A[1];
     double gm = G->n ? G->mr_sum / G->n : NAN, gr = G->n ? G->rel_sum / G->n : NAN;
     double ym = Y->n ? Y->mr_sum / Y->n : NAN, yr = Y->n ? Y->rel_sum / Y->n : NAN;
-    if (C->csv)
-        fprintf(C->out, "%s,%ld,%ld,%.3f,%.3f,%.2f,%.5f,%.5f,%.3f,%.3f,%.5f,%.5f,%.3f,%.3f,%d\n", hdr, id, xid, secs,
-                xsecs, sp, gm, G->mr_max, gr, G->rel_max, ym, Y->mr_max, yr, Y->rel_max, G->n);
-    else
+    if (C->csv) {
+        /* the whole traffic's standard-error counts, when the run has errors */
+        const serun *u = se_find(C, id);
+        char sec[64] = ",,,";
+        if (u && u->n[SE_GROUPS - 1])
+            snprintf(sec, sizeof sec, "%d,%d,%d,%d", u->n[SE_GROUPS - 1], u->within[SE_GROUPS - 1][0],
+                     u->within[SE_GROUPS - 1][1], u->within[SE_GROUPS - 1][2]);
+        fprintf(C->out, "%s,%ld,%ld,%.3f,%.3f,%.2f,%.5f,%.5f,%.3f,%.3f,%.5f,%.5f,%.3f,%.3f,%d,%s\n", hdr, id, xid,
+                secs, xsecs, sp, gm, G->mr_max, gr, G->rel_max, ym, Y->mr_max, yr, Y->rel_max, G->n, sec);
+    } else
         fprintf(C->out, "%s | %ld (%ld) | %.2f (%.2f) | %.1fx | %d | %.4f / %.4f | %.2f / %.2f | %.4f / %.4f | %.2f / %.2f |\n",
                 hdr, id, xid, secs, xsecs, sp, G->n, gm, G->mr_max, gr, G->rel_max, ym, Y->mr_max, yr, Y->rel_max);
     if (C->dat) {
@@ -250,7 +439,7 @@ static int report_approx(se_ctx *C, rt_err *e)
     if (C->csv)
         fprintf(out, "scene,tracer,W,H,lights,sched,method,params,run,exact_run,seconds,exact_seconds,speedup,"
                      "geom_mr_mean,geom_mr_max,geom_rel_mean_pct,geom_rel_max_pct,ray_mr_mean,ray_mr_max,"
-                     "ray_rel_mean_pct,ray_rel_max_pct,sizes\n");
+                     "ray_rel_mean_pct,ray_rel_max_pct,sizes,se_sizes,within_1se,within_2se,within_3se\n");
     else
         fprintf(out, "# Speed against error (approximate vs exact simulation)\n\n"
                      "Miss ratio = fetch misses / line accesses per group; errors are absolute (miss ratio) and relative "
@@ -308,6 +497,7 @@ static int report_approx(se_ctx *C, rt_err *e)
         fprintf(out, "(no approximate runs in the database: run `raytraffic sim --method ...` or the sweep with "
                      "--approx)\n");
     if (!C->csv) summ_print(C);
+    if (!C->csv) se_print(C);
     return 0;
 }
 
@@ -450,7 +640,8 @@ int rt_report_speed_error(sqlite3 *h, int csv, const rt_plot_opts *plot, FILE *o
         if (!(C->dat = rt_plot_open(datpath, &C->dato, e))) goto done;
         fprintf(C->dat, "# run speedup geom_mean_abs_mr_err ray_mean_abs_mr_err series\n");
     }
-    if (report_approx(C, e) < 0 || report_proxies(C, e) < 0 || rt_report_flush(out, e) < 0) goto done;
+    if (se_collect(C, e) < 0 || report_approx(C, e) < 0 || report_proxies(C, e) < 0 || rt_report_flush(out, e) < 0)
+        goto done;
     if (C->dat) {
         C->dat = NULL;
         rt_out *o = C->dato;
@@ -461,6 +652,8 @@ int rt_report_speed_error(sqlite3 *h, int csv, const rt_plot_opts *plot, FILE *o
     rc = 0;
 done:
     rt_out_abort(C->dato);
+    free(C->ser);
+    free(C->sizes_md);
     free(C);
     return rc;
 }

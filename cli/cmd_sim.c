@@ -251,9 +251,17 @@ static int store(rt_db *db, const char *path, const rt_approx *ap, const rt_tr_m
         }
         ng = rt_approx_db_gen_rows(ap, grows);
     }
-    int rc = rt_db_store_run_gen(db, &r, rows, n, grows, ng, &id, e);
+    /* the hybrid's standard errors (sim_params says errors=1) */
+    rt_db_se *se = calloc((size_t)c->nsizes, sizeof *se);
+    int rc = -1;
+    if (!se) rt_errf(e, "out of memory");
+    else {
+        rt_db_rows R = {rows, n, grows, ng, se, rt_approx_db_se_rows(ap, se)};
+        rc = rt_db_store(db, &r, &R, &id, e);
+    }
     free(rows);
     free(grows);
+    free(se);
     if (rc == 0) {
         char err[96] = "";
         int at = 0;

@@ -2,12 +2,25 @@
  * db.c -- the SQLite results database (see db.h and docs/database.md).
  *
  * The schema lives in one string below (documented column by column in
- * docs/database.md). Version 4; older files are upgraded in place when
+ * docs/database.md). Version 5; older files are upgraded in place when
  * opened, one step after the other in one transaction (migrate_v1: the
  * sched_size rename; migrate_v2: where a mesh scene was found; migrate_v3:
- * the per-generation table traffic_gen and its view v_gen). Unsigned 64-bit hashes are stored
- * as 16 lowercase hex digits, counters as INTEGER (they stay far below
- * 2^63).
+ * the per-generation table traffic_gen and its view v_gen; migrate_v4: the
+ * standard errors of approximate runs, table traffic_se and view
+ * v_traffic_se). Unsigned 64-bit hashes are stored as 16 lowercase hex
+ * digits, counters as INTEGER (they stay far below 2^63), standard errors
+ * as REAL (bytes, NULL = none).
+ *
+ * Standard errors: an approximate run that estimated its own error (the
+ * hybrid method with errors on; "errors=1" in its sim_params, so it never
+ * shares a key with one that did not) has one traffic_se row per cache
+ * configuration it has traffic rows for, holding the standard error of
+ * the traffic summed over each class group and over all classes. A
+ * standard error does not sum over groups (the groups' estimates are
+ * correlated), hence a column per group and one for the whole. Every other
+ * run (exact, other methods, --no-error) has no traffic_se rows; the view
+ * v_traffic_se shows NULL for them. Invariant: a traffic_se row's (run,
+ * configuration) has traffic rows (a store replaces both together).
  *
  * Names: sched_size is the cache size a dynamic trace was *scheduled* for
  * (a property of the run); cache_size (views) and cache_configs.size are
@@ -24,6 +37,7 @@
 #include "db.h"
 #include "memmodel.h"
 
+#include <math.h>
 #include <sqlite3.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -32,6 +46,8 @@
 #include <unistd.h>
 
 long rt_db_fail_row_after = 0;
+
+_Static_assert(RT_DB_SE_N == RT_NGROUP + 1, "rt_db_se holds one error per group and one for all classes");
 
 /* Version 1's name of sched_size, kept as a generated read-only alias
  * (last column of runs, so fresh and upgraded files have the same layout). */
@@ -130,19 +146,34 @@ static const char schema_sql[] =
     "    JOIN runs r ON r.id = t.run_id JOIN scenes s ON s.id = r.scene_id\n"
     "  WHERE c.line = 64 AND c.assoc = 0 AND c.policy = 'wb-wa' AND r.sim_method = 'exact'\n"
     "    AND r.params NOT LIKE '%subsample=%'\n"
-    "  GROUP BY t.run_id, t.config_id, t.gen;\n";
+    "  GROUP BY t.run_id, t.config_id, t.gen;\n"
+    "CREATE TABLE IF NOT EXISTS traffic_se(\n"
+    "  run_id INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE,\n"
+    "  config_id INTEGER NOT NULL REFERENCES cache_configs(id),\n"
+    "  geometry_se REAL,                   -- bytes: standard error of the geometry classes' traffic estimate\n"
+    "  ray_se REAL,                        -- bytes: of the ray classes' (NULL: the estimator has none)\n"
+    "  other_se REAL,                      -- bytes: of the other classes'\n"
+    "  total_se REAL,                      -- bytes: of all classes' traffic (not a sum of the three)\n"
+    "  UNIQUE(run_id, config_id));\n"
+    "CREATE VIEW IF NOT EXISTS v_traffic_se AS\n"
+    "  SELECT g.run_id, g.config_id, r.sim_method, g.cache_size, g.line, g.assoc, g.policy,\n"
+    "    g.geometry_mb, e.geometry_se / 1048576.0 AS geometry_se_mb, g.ray_mb, e.ray_se / 1048576.0 AS ray_se_mb,\n"
+    "    g.other_mb, e.other_se / 1048576.0 AS other_se_mb, g.total_mb, e.total_se / 1048576.0 AS total_se_mb\n"
+    "  FROM v_traffic_group g JOIN runs r ON r.id = g.run_id\n"
+    "    LEFT JOIN traffic_se e ON e.run_id = g.run_id AND e.config_id = g.config_id;\n";
 
 struct rt_db {
     sqlite3 *h;        /* connection */
     char *path;        /* for messages */
-    sqlite3_stmt *st[16]; /* prepared statements, see enum */
+    sqlite3_stmt *st[16]; /* prepared statements, see enum (S_NSTMT of them) */
     int busy;          /* the last failure was SQLITE_BUSY / SQLITE_LOCKED (open retries it) */
 };
 
 enum {
     S_SCENE_INS, S_SCENE_GET, S_SCENE_TRI, S_RUN_GET, S_RUN_INS, S_RUN_UPD, S_CFG_INS, S_CFG_GET, S_TR_DEL,
-    S_TR_INS, S_GEN_DEL, S_GEN_INS, S_NSTMT
+    S_TR_INS, S_GEN_DEL, S_GEN_INS, S_SE_DEL, S_SE_INS, S_TR_HAS, S_NSTMT
 };
+_Static_assert(S_NSTMT <= 16, "struct rt_db holds 16 statements");
 
 static const char *const stmt_sql[S_NSTMT] = {
     "INSERT OR IGNORE INTO scenes(name, params, hash, triangles) VALUES(?1, ?2, ?3, ?4)",
@@ -166,6 +197,9 @@ static const char *const stmt_sql[S_NSTMT] = {
     "DELETE FROM traffic_gen WHERE run_id = ?1 AND config_id = ?2",
     "INSERT INTO traffic_gen(run_id, config_id, class, accesses, read_misses, write_misses, writebacks, gen,"
     " traffic_bytes) VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)",
+    "DELETE FROM traffic_se WHERE run_id = ?1 AND config_id = ?2",
+    "INSERT INTO traffic_se(run_id, config_id, geometry_se, ray_se, other_se, total_se) VALUES(?1, ?2, ?3, ?4, ?5, ?6)",
+    "SELECT 1 FROM traffic WHERE run_id = ?1 AND config_id = ?2 LIMIT 1",
 };
 
 const char *rt_db_schema_sql(void) { return schema_sql; }
@@ -262,6 +296,12 @@ static int migrate_v2(rt_db *db, rt_err *e)
  * rows). Runs inside the caller's transaction. */
 static int migrate_v3(rt_db *db, rt_err *e) { return exec(db, schema_sql, e); }
 
+/* Version 4 -> 5: the standard errors of approximate runs, table
+ * traffic_se and view v_traffic_se (nothing else changes: runs stored
+ * before have none, and their view rows show NULL). Runs inside the
+ * caller's transaction. */
+static int migrate_v4(rt_db *db, rt_err *e) { return exec(db, schema_sql, e); }
+
 /* The name of a table that is not raytraffic's, or "" (none); for refusing
  * to add tables to an unrelated file. */
 static int foreign_table(rt_db *db, char *name, size_t n, rt_err *e)
@@ -271,7 +311,8 @@ static int foreign_table(rt_db *db, char *name, size_t n, rt_err *e)
     if (sqlite3_prepare_v2(db->h,
                            "SELECT name FROM sqlite_master WHERE name NOT LIKE 'sqlite_%' AND name NOT IN "
                            "('scenes', 'runs', 'cache_configs', 'classes', 'traffic', 'traffic_config', "
-                           "'v_traffic_group', 'v_paper', 'traffic_gen', 'v_gen') ORDER BY name LIMIT 1",
+                           "'v_traffic_group', 'v_paper', 'traffic_gen', 'v_gen', 'traffic_se', 'v_traffic_se') "
+                           "ORDER BY name LIMIT 1",
                            -1, &st, NULL) != SQLITE_OK)
         return dberr(db, e, NULL);
     int rc = sqlite3_step(st);
@@ -343,6 +384,7 @@ static int create_schema(rt_db *db, rt_err *e)
         if (ver == 1 && migrate_v1(db, e)) goto fail;
         if (ver <= 2 && migrate_v2(db, e)) goto fail;
         if (ver <= 3 && migrate_v3(db, e)) goto fail;
+        if (ver <= 4 && migrate_v4(db, e)) goto fail;
     }
     if (ver < RT_DB_SCHEMA_VERSION) {
         char sql[64];
@@ -554,15 +596,16 @@ static int store_scene(rt_db *db, const rt_db_run *r, int64_t *scene_id, rt_err 
     return step_id(db, st[S_SCENE_TRI], NULL, e) < 0 ? -1 : 0;
 }
 
-/* Binds a row's configuration to S_CFG_INS / S_CFG_GET and gets its id. */
-static int config_id(rt_db *db, const rt_db_traffic *t, int64_t *cfg_id, rt_err *e)
+/* Binds a configuration to S_CFG_INS / S_CFG_GET and gets its id. */
+static int config_id(rt_db *db, uint64_t size, uint32_t line, uint32_t assoc, const char *policy, int64_t *cfg_id,
+                     rt_err *e)
 {
     sqlite3_stmt **st = db->st;
     for (int k = S_CFG_INS; k <= S_CFG_GET; k++) {
-        sqlite3_bind_int64(st[k], 1, (sqlite3_int64)t->size);
-        sqlite3_bind_int64(st[k], 2, t->line);
-        sqlite3_bind_int64(st[k], 3, t->assoc);
-        sqlite3_bind_text(st[k], 4, t->policy ? t->policy : "wb-wa", -1, SQLITE_TRANSIENT);
+        sqlite3_bind_int64(st[k], 1, (sqlite3_int64)size);
+        sqlite3_bind_int64(st[k], 2, line);
+        sqlite3_bind_int64(st[k], 3, assoc);
+        sqlite3_bind_text(st[k], 4, policy ? policy : "wb-wa", -1, SQLITE_TRANSIENT);
     }
     if (step_id(db, st[S_CFG_INS], NULL, e) < 0) return -1;
     if (step_id(db, st[S_CFG_GET], cfg_id, e) != 1) return rt_errf(e, "%s: config row vanished", db->path);
@@ -577,10 +620,10 @@ static int del_rows(rt_db *db, int s, int64_t rid, int64_t cfg_id, rt_err *e)
 }
 
 /* One pass over one table's rows of run rid: pass 0 deletes the run's old
- * rows of each configuration met (traffic rows: in both tables, so no stale
- * generation row outlives a re-store; generation rows: in traffic_gen),
- * pass 1 inserts. tab 0: rt_db_traffic rows; 1: rt_db_gen rows (stride
- * bytes apart, the counters first in each). */
+ * rows of each configuration met (traffic rows: in all three tables, so no
+ * stale generation or standard-error row outlives a re-store; generation
+ * rows: in traffic_gen), pass 1 inserts. tab 0: rt_db_traffic rows; 1:
+ * rt_db_gen rows (stride bytes apart, the counters first in each). */
 static int store_rows(rt_db *db, int64_t rid, int pass, int tab, const void *base, size_t n, size_t stride, rt_err *e)
 {
     int64_t cfg_id = -1;
@@ -594,9 +637,10 @@ static int store_rows(rt_db *db, int64_t rid, int pass, int tab, const void *bas
             return rt_errf(e, "%s: generation row %zu has generation %d (0..%d)", db->path, i, gen, RT_MAXGEN - 1);
         if (!prev || prev->size != t->size || prev->line != t->line || prev->assoc != t->assoc ||
             strcmp(nz(prev->policy), nz(t->policy))) {
-            if (config_id(db, t, &cfg_id, e) < 0) return -1;
+            if (config_id(db, t->size, t->line, t->assoc, t->policy, &cfg_id, e) < 0) return -1;
             if (pass == 0 && (del_rows(db, S_GEN_DEL, rid, cfg_id, e) < 0 ||
-                              (tab == 0 && del_rows(db, S_TR_DEL, rid, cfg_id, e) < 0)))
+                              (tab == 0 && (del_rows(db, S_TR_DEL, rid, cfg_id, e) < 0 ||
+                                            del_rows(db, S_SE_DEL, rid, cfg_id, e) < 0))))
                 return -1;
             prev = t;
         }
@@ -618,8 +662,45 @@ static int store_rows(rt_db *db, int64_t rid, int pass, int tab, const void *bas
     return 0;
 }
 
-static int store(rt_db *db, const rt_db_run *r, const rt_db_traffic *rows, size_t n, const rt_db_gen *grows,
-                 size_t ng, int64_t *run_id, rt_err *e)
+/* One pass over the standard-error rows of run rid: pass 0 checks each
+ * value and deletes the run's old row of each configuration, pass 1
+ * (after the traffic rows) inserts, a negative error as NULL, refusing a
+ * configuration without traffic rows (the invariant of the file comment). */
+static int store_se(rt_db *db, int64_t rid, int pass, const rt_db_se *se, size_t n, rt_err *e)
+{
+    for (size_t i = 0; i < n; i++) {
+        const rt_db_se *x = &se[i];
+        int64_t cfg_id = -1;
+        if (pass == 0)
+            for (int g = 0; g < RT_DB_SE_N; g++)
+                if (!isfinite(x->se[g]))
+                    return rt_errf(e, "%s: standard-error row %zu (size %llu) is not a number", db->path, i,
+                                   (unsigned long long)x->size);
+        if (config_id(db, x->size, x->line, x->assoc, x->policy, &cfg_id, e) < 0) return -1;
+        if (pass == 0) {
+            if (del_rows(db, S_SE_DEL, rid, cfg_id, e) < 0) return -1;
+            continue;
+        }
+        sqlite3_bind_int64(db->st[S_TR_HAS], 1, rid);
+        sqlite3_bind_int64(db->st[S_TR_HAS], 2, cfg_id);
+        int has = step_id(db, db->st[S_TR_HAS], NULL, e);
+        if (has < 0) return -1;
+        if (!has)
+            return rt_errf(e, "%s: standard-error row %zu (size %llu) has no traffic row", db->path, i,
+                           (unsigned long long)x->size);
+        sqlite3_stmt *in = db->st[S_SE_INS];
+        sqlite3_bind_int64(in, 1, rid);
+        sqlite3_bind_int64(in, 2, cfg_id);
+        for (int g = 0; g < RT_DB_SE_N; g++) {
+            if (x->se[g] >= 0) sqlite3_bind_double(in, 3 + g, x->se[g]);
+            else sqlite3_bind_null(in, 3 + g);
+        }
+        if (step_id(db, in, NULL, e) < 0) return -1;
+    }
+    return 0;
+}
+
+static int store(rt_db *db, const rt_db_run *r, const rt_db_rows *R, int64_t *run_id, rt_err *e)
 {
     char hash[17], thash[17];
     sqlite3_stmt **st = db->st;
@@ -660,13 +741,16 @@ static int store(rt_db *db, const rt_db_run *r, const rt_db_traffic *rows, size_
         rid = sqlite3_last_insert_rowid(db->h);
     }
     /* configurations: first drop this run's old rows of every configuration
-     * being stored (traffic rows: both tables; generation rows: traffic_gen),
-     * then insert (rows of one configuration are adjacent) */
-    for (int pass = 0; pass < 2; pass++)
+     * being stored (traffic rows: all three tables; generation rows:
+     * traffic_gen; standard-error rows: traffic_se), then insert (rows of
+     * one configuration are adjacent) */
+    for (int pass = 0; pass < 2; pass++) {
         for (int tab = 0; tab < 2; tab++)
-            if (store_rows(db, rid, pass, tab, tab ? (const void *)grows : rows, tab ? ng : n,
-                           tab ? sizeof *grows : sizeof *rows, e) < 0)
+            if (store_rows(db, rid, pass, tab, tab ? (const void *)R->gen : R->traffic, tab ? R->ngen : R->ntraffic,
+                           tab ? sizeof *R->gen : sizeof *R->traffic, e) < 0)
                 return -1;
+        if (store_se(db, rid, pass, R->se, R->nse, e) < 0) return -1;
+    }
     if (run_id) *run_id = rid;
     return 0;
 }
@@ -679,8 +763,14 @@ int rt_db_store_run(rt_db *db, const rt_db_run *run, const rt_db_traffic *rows, 
 int rt_db_store_run_gen(rt_db *db, const rt_db_run *run, const rt_db_traffic *rows, size_t n, const rt_db_gen *grows,
                         size_t ng, int64_t *run_id, rt_err *e)
 {
+    rt_db_rows R = {rows, n, grows, ng, NULL, 0};
+    return rt_db_store(db, run, &R, run_id, e);
+}
+
+int rt_db_store(rt_db *db, const rt_db_run *run, const rt_db_rows *rows, int64_t *run_id, rt_err *e)
+{
     if (exec(db, "BEGIN IMMEDIATE", e)) return -1;
-    if (store(db, run, rows, n, grows, ng, run_id, e) < 0) {
+    if (store(db, run, rows, run_id, e) < 0) {
         for (int i = 0; i < S_NSTMT; i++) {
             sqlite3_reset(db->st[i]);
             sqlite3_clear_bindings(db->st[i]);
@@ -703,6 +793,7 @@ typedef struct shard {
     sqlite3 *h;
     sqlite3_stmt *runs, *rows;
     sqlite3_stmt *gens; /* generation rows (version 4), or NULL */
+    sqlite3_stmt *ses;  /* standard-error rows (version 5), or NULL */
 } shard;
 
 static const char *txt(sqlite3_stmt *st, int i)
@@ -725,8 +816,9 @@ static int count_col(const shard *sh, sqlite3_stmt *st, int i, const char *row, 
 }
 
 /* Opens a shard read-only and checks it is a raytraffic database of a
- * version this build reads (1 to 4; older column name for 1, no scene
- * paths before 3, no generation rows before 4). */
+ * version this build reads (1 to 5; older column name for 1, no scene
+ * paths before 3, no generation rows before 4, no standard errors before
+ * 5). */
 static int shard_open(shard *sh, const char *path, rt_err *e)
 {
     memset(sh, 0, sizeof *sh);
@@ -768,6 +860,11 @@ static int shard_open(shard *sh, const char *path, rt_err *e)
         " ORDER BY c.size, c.line, c.assoc, c.policy, t.class, t.gen";
     if (ver >= 4 && sqlite3_prepare_v2(sh->h, gens_sql, -1, &sh->gens, NULL) != SQLITE_OK)
         return rt_errf(e, "%s: not a raytraffic database: %s", path, sqlite3_errmsg(sh->h));
+    static const char ses_sql[] =
+        "SELECT c.size, c.line, c.assoc, c.policy, e.geometry_se, e.ray_se, e.other_se, e.total_se FROM traffic_se e"
+        " JOIN cache_configs c ON c.id = e.config_id WHERE e.run_id = ?1 ORDER BY c.size, c.line, c.assoc, c.policy";
+    if (ver >= 5 && sqlite3_prepare_v2(sh->h, ses_sql, -1, &sh->ses, NULL) != SQLITE_OK)
+        return rt_errf(e, "%s: not a raytraffic database: %s", path, sqlite3_errmsg(sh->h));
     return 0;
 }
 
@@ -776,6 +873,7 @@ static void shard_close(shard *sh)
     sqlite3_finalize(sh->runs);
     sqlite3_finalize(sh->rows);
     sqlite3_finalize(sh->gens);
+    sqlite3_finalize(sh->ses);
     sqlite3_close(sh->h);
 }
 
@@ -886,12 +984,68 @@ fail:
     return -1;
 }
 
+/* Reads run id's standard-error rows (sh->ses) into *ses (grown as needed;
+ * policies strdup'd): each error NULL (stored back as none) or a
+ * non-negative number. The row count, or -1. */
+static long read_ses(const shard *sh, int64_t id, rt_db_se **ses, size_t *cap, rt_err *e)
+{
+    size_t n = 0;
+    int step;
+    sqlite3_stmt *st = sh->ses;
+    sqlite3_reset(st);
+    sqlite3_bind_int64(st, 1, id);
+    while ((step = sqlite3_step(st)) == SQLITE_ROW) {
+        if (n == *cap) {
+            size_t nc = *cap ? 2 * *cap : 64;
+            rt_db_se *r2 = rt_reallocarray(*ses, nc, sizeof *r2, e);
+            if (!r2) goto fail;
+            *ses = r2;
+            *cap = nc;
+        }
+        rt_db_se *x = &(*ses)[n];
+        char row[96];
+        uint64_t v[3];
+        snprintf(row, sizeof row, "run %lld, standard-error row (size %s)", (long long)id, txt(st, 0));
+        for (int k = 0; k < 3; k++)
+            if (count_col(sh, st, k, row, &v[k], e)) goto fail;
+        if (v[1] == 0 || v[1] > UINT32_MAX || v[2] > UINT32_MAX) {
+            rt_errf(e, "%s: %s: line or assoc out of range", sh->path, row);
+            goto fail;
+        }
+        for (int g = 0; g < RT_DB_SE_N; g++) {
+            int t = sqlite3_column_type(st, 4 + g);
+            double d = sqlite3_column_double(st, 4 + g);
+            if (t == SQLITE_NULL) d = -1;
+            else if ((t != SQLITE_FLOAT && t != SQLITE_INTEGER) || !(d >= 0) || !isfinite(d)) {
+                rt_errf(e, "%s: %s: %s is '%s', not a standard error in bytes", sh->path, row,
+                        sqlite3_column_name(st, 4 + g), txt(st, 4 + g));
+                goto fail;
+            }
+            x->se[g] = d;
+        }
+        x->size = v[0];
+        x->line = (uint32_t)v[1];
+        x->assoc = (uint32_t)v[2];
+        if (!(x->policy = strdup(txt(st, 3)))) {
+            rt_errf(e, "%s: out of memory", sh->path);
+            goto fail;
+        }
+        n++;
+    }
+    if (step == SQLITE_DONE) return (long)n;
+    rt_errf(e, "%s: %s", sh->path, sqlite3_errmsg(sh->h));
+fail:
+    for (size_t k = 0; k < n; k++) free((char *)(*ses)[k].policy);
+    return -1;
+}
+
 int rt_db_merge(rt_db *out, const char *inpath, long *nruns, rt_err *e)
 {
     shard sh;
     rt_db_traffic *rows = NULL;
     rt_db_gen *gens = NULL;
-    size_t cap = 0, gcap = 0;
+    rt_db_se *ses = NULL;
+    size_t cap = 0, gcap = 0, scap = 0;
     int rc = -1, step;
     *nruns = 0;
     if (shard_open(&sh, inpath, e)) goto done;
@@ -900,15 +1054,18 @@ int rt_db_merge(rt_db *out, const char *inpath, long *nruns, rt_err *e)
         int64_t id;
         memset(&run, 0, sizeof run);
         if (read_run(&sh, &run, &id, e)) goto done;
-        long n = read_rows(&sh, sh.rows, id, (void **)&rows, &cap, sizeof *rows, e), ng = 0;
+        long n = read_rows(&sh, sh.rows, id, (void **)&rows, &cap, sizeof *rows, e), ng = 0, ns = 0;
         if (n < 0) goto done;
-        if (sh.gens && (ng = read_rows(&sh, sh.gens, id, (void **)&gens, &gcap, sizeof *gens, e)) < 0) {
-            for (long k = 0; k < n; k++) free((char *)rows[k].policy);
-            goto done;
+        if (sh.gens && (ng = read_rows(&sh, sh.gens, id, (void **)&gens, &gcap, sizeof *gens, e)) < 0) ng = -1;
+        else if (sh.ses && (ns = read_ses(&sh, id, &ses, &scap, e)) < 0) ns = -1;
+        int st = -1;
+        if (ng >= 0 && ns >= 0) {
+            rt_db_rows R = {rows, (size_t)n, gens, (size_t)ng, ses, (size_t)ns};
+            st = rt_db_store(out, &run, &R, NULL, e);
         }
-        int st = rt_db_store_run_gen(out, &run, rows, (size_t)n, gens, (size_t)ng, NULL, e);
         for (long k = 0; k < n; k++) free((char *)rows[k].policy);
         for (long k = 0; k < ng; k++) free((char *)gens[k].t.policy);
+        for (long k = 0; k < ns; k++) free((char *)ses[k].policy);
         if (st < 0) goto done;
         (*nruns)++;
     }
@@ -920,6 +1077,7 @@ int rt_db_merge(rt_db *out, const char *inpath, long *nruns, rt_err *e)
 done:
     free(rows);
     free(gens);
+    free(ses);
     shard_close(&sh);
     return rc;
 }

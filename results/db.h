@@ -3,9 +3,12 @@
  *
  * One file (default raytraffic.db) holds scenes, runs (one per simulated
  * trace or in-process stream), cache configurations, per-class traffic
- * rows and, for runs whose access stream carried ray generations (exact
- * simulation only), per-(class, generation) rows; views give the paper's
- * geometry / ray traffic in MB (2^20 bytes), in all and per generation.
+ * rows, for runs whose access stream carried ray generations (exact
+ * simulation only) per-(class, generation) rows, and for approximate runs
+ * that estimated their error (the hybrid method with errors on) the
+ * standard errors per cache size; views give the paper's geometry / ray
+ * traffic in MB (2^20 bytes), in all and per generation, and every run's
+ * traffic per group beside its standard error (NULL where there is none).
  * The schema is documented in docs/database.md and created on first open
  * (PRAGMA user_version = RT_DB_SCHEMA_VERSION).
  *
@@ -30,7 +33,7 @@
 
 #include <stdint.h>
 
-#define RT_DB_SCHEMA_VERSION 4
+#define RT_DB_SCHEMA_VERSION 5
 
 typedef struct rt_db rt_db;
 
@@ -88,15 +91,44 @@ typedef struct rt_db_gen {
     int gen;         /* generation bucket 0..RT_MAXGEN-1 (the last one pools later generations) */
 } rt_db_gen;
 
+/* One standard-error row of an approximate run (table traffic_se): the
+ * estimated standard errors, in bytes, of the traffic estimate of one
+ * cache configuration summed over the classes of each group (se[g], g in
+ * rt_group order: geometry, ray, other) and over all classes (se[3]; not
+ * a sum of the others), as rt_approx_traffic_se gives them. A negative
+ * value means the estimator has none for that sum: stored as NULL. */
+#define RT_DB_SE_N 4
+typedef struct rt_db_se {
+    uint64_t size;         /* cache size, bytes */
+    uint32_t line;         /* line size, bytes */
+    uint32_t assoc;        /* ways, 0 = fully associative */
+    const char *policy;    /* "wb-wa", ... (NULL = "wb-wa") */
+    double se[RT_DB_SE_N]; /* geometry, ray, other, all classes; bytes, < 0 = none */
+} rt_db_se;
+
+/* Everything stored with one run: its traffic rows, its per-generation
+ * rows (exact runs whose stream carried generations) and its
+ * standard-error rows (approximate runs with errors). Rows of one
+ * configuration are adjacent in each array; any array may be empty. */
+typedef struct rt_db_rows {
+    const rt_db_traffic *traffic; /* per (configuration, class) */
+    size_t ntraffic;
+    const rt_db_gen *gen;         /* per (configuration, class, generation) */
+    size_t ngen;
+    const rt_db_se *se;           /* per configuration */
+    size_t nse;
+} rt_db_rows;
+
 /* Opens (creating if needed) the database at path and ensures the schema.
- * A version-1, -2 or -3 file is upgraded to RT_DB_SCHEMA_VERSION in place, in
+ * A version-1 to -4 file is upgraded to RT_DB_SCHEMA_VERSION in place, in
  * one transaction. Safe for many processes opening a new file at once
  * (lock conflicts while creating it are waited out, up to 2 minutes). Fails with "PATH: message", leaving the file untouched, if
  * it cannot be created or written, is not a SQLite database, has a newer
  * schema version, or is an unrelated SQLite file (schema version 0 with
  * tables of its own, or a known version without raytraffic's tables or
  * with tables the statements do not compile against): all checked before
- * anything is written (no WAL switch, no upgrade). path is a file name,
+ * anything is written (no WAL switch, no upgrade). An older raytraffic
+ * refuses a file of this version (newer than it supports). path is a file name,
  * never an SQLite URI ("file:x.db?mode=memory" is a file of that name). */
 rt_db *rt_db_open(const char *path, rt_err *e);
 void rt_db_close(rt_db *db); /* NULL is fine */
@@ -125,16 +157,26 @@ int rt_db_store_run(rt_db *db, const rt_db_run *run, const rt_db_traffic *rows, 
  * this with ng = 0. */
 int rt_db_store_run_gen(rt_db *db, const rt_db_run *run, const rt_db_traffic *rows, size_t n, const rt_db_gen *grows,
                         size_t ng, int64_t *run_id, rt_err *e);
+/* The general store, of which the two above are cases: for every
+ * configuration in rows->traffic the run's old traffic, generation and
+ * standard-error rows are replaced (a run stored again without errors
+ * keeps none for those configurations); for every configuration in
+ * rows->gen its old generation rows are, in rows->se its old
+ * standard-error rows. A standard error that is not a finite number is
+ * refused, and so is one of a configuration the run has no traffic rows
+ * for (nothing stored). Same returns. */
+int rt_db_store(rt_db *db, const rt_db_run *run, const rt_db_rows *rows, int64_t *run_id, rt_err *e);
 
 /* Copies every run of the database at inpath (with its scene, provenance,
- * statistics, traffic rows and generation rows) into out through rt_db_store_run: a run
- * whose key is already in out is replaced, never duplicated; each run in
- * its own transaction. inpath is opened read-only and never written. It
- * must be a raytraffic database of schema version 1 to 4; a newer version,
- * a foreign file, or a value that is not a non-negative integer where a
- * count belongs (negative counts, text; a generation outside
- * 0..RT_MAXGEN-1) is refused with a message naming inpath and the
- * offending run / traffic row / generation row, and nothing of that run is
+ * statistics, traffic rows, generation rows and standard-error rows) into
+ * out through rt_db_store: a run whose key is already in out is replaced,
+ * never duplicated; each run in its own transaction. inpath is opened
+ * read-only and never written. It must be a raytraffic database of schema version 1
+ * to 5; a newer version, a foreign file, or a value that is not a
+ * non-negative integer where a count belongs (negative counts, text; a
+ * generation outside 0..RT_MAXGEN-1), or a standard error that is neither
+ * NULL nor a non-negative number, is refused with a message naming inpath and the
+ * offending run / traffic row / generation row / standard-error row, and nothing of that run is
  * stored (runs copied before it stay). Returns 0 and the runs copied in
  * *nruns, or -1. */
 int rt_db_merge(rt_db *out, const char *inpath, long *nruns, rt_err *e);

@@ -240,6 +240,10 @@ void rt_exp_key_method(rt_exp_key *k, const rt_approx_config *ac)
 {
     k->run.sim_method = rt_approx_method_name(ac->method);
     k->run.sim_params = rt_approx_params(ac, k->sim_params, sizeof k->sim_params);
+    if (rt_approx_db_has_se(ac)) {
+        size_t n = strlen(k->sim_params);
+        snprintf(k->sim_params + n, sizeof k->sim_params - n, " errors=1");
+    }
 }
 
 void rt_exp_run_from_meta(const rt_tr_meta *m, rt_db_run *r)
@@ -506,7 +510,11 @@ static int store_job(rt_exp_worker *w, jobrun *r, rt_exp_key *key, double t0, rt
 {
     size_t nrows = (size_t)(r->sc.nsizes + 1) * RT_NCLASS; /* + the texture cache's */
     rt_db_traffic *rows = rt_calloc(nrows, sizeof *rows, e);
-    if (!rows) return -1;
+    rt_db_se *se = rows ? rt_calloc((size_t)r->sc.nsizes + 1, sizeof *se, e) : NULL;
+    if (!se) {
+        free(rows);
+        return -1;
+    }
     double ts = rt_now();
     rt_sim_finish(r->sim); /* the flush, when the accounting asks for it */
     size_t k = rt_sim_db_rows(r->sim, rows);
@@ -536,6 +544,7 @@ static int store_job(rt_exp_worker *w, jobrun *r, rt_exp_key *key, double t0, rt
     if (rt_job_generations(&r->j) > 0) {
         if (!(grows = rt_calloc(nrows * RT_MAXGEN, sizeof *grows, e))) {
             free(rows);
+            free(se);
             return -1;
         }
         ng = rt_sim_db_gen_rows(r->sim, grows);
@@ -558,6 +567,7 @@ static int store_job(rt_exp_worker *w, jobrun *r, rt_exp_key *key, double t0, rt
         if ((rc = rt_approx_finish(r->ap[a], e)) < 0) break;
         double sec = r->fan.sec[1 + a] + (rt_now() - t0a);
         size_t na = rt_approx_db_rows(r->ap[a], rows);
+        size_t nse = rt_approx_db_se_rows(r->ap[a], se);
         w->t.simulation += rt_now() - t0a;
         char astats[sizeof stats + 64];
         rt_exp_key_method(key, &w->c->approx[a]);
@@ -568,10 +578,12 @@ static int store_job(rt_exp_worker *w, jobrun *r, rt_exp_key *key, double t0, rt
         snprintf(astats, sizeof astats, "sim_seconds=%.3f exact_sim_seconds=%.3f", sec, r->fan.sec[0]);
         ra.stats = astats;
         td = rt_now();
-        rc = rt_db_store_run(w->db, &ra, rows, na, NULL, e);
+        rt_db_rows R = {rows, na, NULL, 0, se, nse};
+        rc = rt_db_store(w->db, &ra, &R, NULL, e);
         w->t.database += rt_now() - td;
     }
     free(rows);
+    free(se);
     return rc;
 }
 

@@ -129,7 +129,8 @@ typedef struct rt_exp_config {
     int accels[RT_ACCEL_NKINDS];                /* structures swept (rt_accel_kind), see rt_exp_matrix */
     int naccels;                                /* 0: one structure, ro.accel */
     int dyn_all;                                /* simulate each dynamic schedule at every size */
-    rt_approx_config approx[RT_EXP_MAXAPPROX];  /* estimators run beside the exact simulator */
+    rt_approx_config approx[RT_EXP_MAXAPPROX];  /* estimators run beside the exact simulator (a hybrid one
+                                                   with errors set also stores its standard errors) */
     int napprox;
     rt_exp_proxy proxies[RT_EXP_MAXPROXY];      /* reduced experiments of every job */
     int nproxies;
@@ -209,7 +210,11 @@ typedef struct rt_exp_key {
 void rt_exp_job_key(const rt_exp_config *c, const rt_exp_job *jb, const rt_scene *sc, uint64_t scene_hash,
                     rt_exp_key *k);
 /* Switches k to an approximate method (ac->method != RT_APPROX_EXACT for
- * an approximate run; RT_APPROX_EXACT gives the exact key back). */
+ * an approximate run; RT_APPROX_EXACT gives the exact key back). sim_params
+ * is rt_approx_params, then " errors=1" when the run stores standard
+ * errors (rt_approx_db_has_se: hybrid with ac->errors), so a run with
+ * errors and one without (or one stored before errors were stored) never
+ * share a key. */
 void rt_exp_key_method(rt_exp_key *k, const rt_approx_config *ac);
 /* The key of a replayed .rtt trace, from its header; strings point into m,
  * which must outlive r. Exact method. */
@@ -265,7 +270,10 @@ void rt_exp_worker_stages(const rt_exp_worker *w, rt_exp_stages *out);
  * at every size, never for proxies) and, with c->keep, a trace file
  * KEEP/jobNNNN-SCENE-LIGHT-TRACER[-SIZE][-proxy].rtt (SCENE longer than 160
  * bytes cut and ended by ~HASH, rt_name_fit), then stores the exact
- * run and each approximate run, each in its own transaction; the exact
+ * run and each approximate run (with its standard errors when it
+ * estimated them, rt_approx_db_se_rows; its wall_time is the seconds
+ * spent in its estimator, puts and rt_approx_finish, which include the
+ * cost of the errors), each in its own transaction; the exact
  * simulator is finished first (rt_sim_finish: with cfg.flush the dirty
  * lines are written back and counted). Returns 1 if
  * run and stored, 0 if skipped, -1 on error (a failed store leaves no row

@@ -3,7 +3,8 @@
  *
  * Exact and approximate simulators differ only in how a (size, class)
  * counter is fetched and whether a size has an estimate; one loop writes
- * the rows for both, per class or per (class, generation).
+ * the rows for both, per class or per (class, generation). Standard errors
+ * (hybrid estimators only) are per size and group.
  */
 #include "rows.h"
 
@@ -71,4 +72,29 @@ size_t rt_sim_db_gen_rows(const rt_sim *s, rt_db_gen *grows)
 size_t rt_approx_db_gen_rows(const rt_approx *a, rt_db_gen *grows)
 {
     return fill(rt_approx_get_config(a), a, get_approx, RT_MAXGEN, grows, sizeof *grows);
+}
+
+int rt_approx_db_has_se(const rt_approx_config *ac) { return ac->method == RT_APPROX_HYBRID && ac->errors; }
+
+size_t rt_approx_db_se_rows(const rt_approx *a, rt_db_se *se)
+{
+    const rt_sim_config *cfg = rt_approx_get_config(a);
+    size_t n = 0;
+    if (!rt_approx_db_has_se(rt_approx_get_approx_config(a))) return 0;
+    for (int i = 0; i < cfg->nsizes; i++) {
+        uint64_t acc = 0; /* a size without traffic rows gets no error row either */
+        for (int c = 0; c < RT_NCLASS; c++) {
+            rt_sim_counts t;
+            if (get_approx(a, i, c, -1, &t) == 0) acc += t.accesses;
+        }
+        if (!acc) continue;
+        rt_db_se *x = &se[n++];
+        x->size = cfg->sizes[i];
+        x->line = cfg->line;
+        x->assoc = cfg->assoc;
+        x->policy = rt_sim_policy_name(cfg);
+        for (int g = 0; g <= RT_NGROUP; g++)
+            if (rt_approx_traffic_se(a, i, g, &x->se[g], NULL)) x->se[g] = -1;
+    }
+    return n;
 }

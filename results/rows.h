@@ -5,7 +5,8 @@
  * one row per (size, class) with at least one access, sizes in order; and
  * rt_db_gen rows: one per (size, class, generation bucket) with at least
  * one access, from the exact simulators only (the estimators keep no
- * generations).
+ * generations); and rt_db_se rows: one per size with an estimate, from an
+ * estimator that estimated its error (rt_approx_db_has_se).
  */
 #ifndef RT_ROWS_H
 #define RT_ROWS_H
@@ -25,5 +26,15 @@ size_t rt_approx_db_rows(const rt_approx *a, rt_db_traffic *rows);
  * simulates exactly have rows (all of them for RT_APPROX_EXACT). */
 size_t rt_sim_db_gen_rows(const rt_sim *s, rt_db_gen *grows);
 size_t rt_approx_db_gen_rows(const rt_approx *a, rt_db_gen *grows);
+
+/* Whether an approximate run of this configuration has standard errors to
+ * store: the hybrid method with ac->errors set. The one test of it, for
+ * the rows below and for the run key (rt_exp_key_method). */
+int rt_approx_db_has_se(const rt_approx_config *ac);
+/* Standard-error rows (after rt_approx_finish): one per size that has an
+ * estimate, se[g] = rt_approx_traffic_se of group g (RT_NGROUP: all
+ * classes), -1 where it has none; none at all unless rt_approx_db_has_se.
+ * se must hold nsizes entries; returns the rows written. */
+size_t rt_approx_db_se_rows(const rt_approx *a, rt_db_se *se);
 
 #endif

@@ -168,7 +168,16 @@ if command -v sqlite3 >/dev/null 2>&1; then
     got=$(sqlite3 "$tmp/h.db" "select trace_hash from runs order by id limit 1")
     [ "$got" = "$h3" ] || die "trace_hash $got, trace-info says $h3"
     [ "$(sqlite3 "$tmp/h.db" "select sim_method, sim_params from runs")" = \
-      "hybrid|rate=0.015625 seed=1 window_below=32768 period=65536 window=1024 exact_below=0" ] || die "hybrid run identity"
+      "hybrid|rate=0.015625 seed=1 window_below=32768 period=65536 window=1024 exact_below=0 errors=1" ] || die "hybrid run identity"
+    # the stored errors are those printed: one row per estimated size
+    sqlite3 "$tmp/h.db" "select '# ' || c.size || ': standard error ' || printf('%.0f', e.total_se) from traffic_se e
+        join cache_configs c on c.id = e.config_id order by c.size" > "$tmp/hse.db.txt"
+    sed -n 's/^\(# [0-9]*: \)traffic [0-9]* bytes, \(standard error [0-9]*\) bytes .*/\1\2/p' "$tmp/h3.txt" > "$tmp/hse.txt"
+    [ -s "$tmp/hse.txt" ] && cmp -s "$tmp/hse.txt" "$tmp/hse.db.txt" || die "stored errors differ from printed: $(diff "$tmp/hse.txt" "$tmp/hse.db.txt")"
+    # --no-error: another run (the key without errors=1), no error rows
+    "$bin" sim --method hybrid --no-error --db "$tmp/h.db" "$tmp/s3.rtt" 2>/dev/null || die "hybrid --no-error --db"
+    [ "$(sqlite3 "$tmp/h.db" "select count(*) from runs where sim_params not like '%errors=1'; select count(*) from traffic_se")" = \
+      "$(printf '1\n8')" ] || die "--no-error --db: $(sqlite3 "$tmp/h.db" "select id, sim_params from runs")"
 fi
 # a damaged side chunk: the sampled read names the file and the offset
 cp "$tmp/s3.rtt" "$tmp/bad3.rtt"

@@ -3,13 +3,16 @@
  * a failed store, concurrent writers (fork), views, error messages, the
  * upgrade of a version-1 file, refusal of foreign files, merge checks,
  * per-generation rows (they sum to the traffic rows; the v3 -> v4 upgrade;
- * merge copies and checks them).
+ * merge copies and checks them), standard-error rows (the v4 -> v5 upgrade
+ * from version 4's own schema; stored, replaced, rolled back, refused when
+ * not a number, merged).
  */
 #include "check.h"
 #include "rows.h"
 #include "memmodel.h"
 #include "sim.h"
 
+#include <math.h>
 #include <sqlite3.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -407,7 +410,9 @@ static void test_foreign(const char *dir)
     sqlite3_close(h);
     /* a newer schema version is refused too */
     snprintf(path, sizeof path, "%s/newer.db", dir);
-    CHECK(make_file(path, "PRAGMA user_version = 5;") == 0, "create newer");
+    char newer[64];
+    snprintf(newer, sizeof newer, "PRAGMA user_version = %d;", RT_DB_SCHEMA_VERSION + 1);
+    CHECK(make_file(path, newer) == 0, "create newer");
     CHECK(!rt_db_open(path, &e) && strstr(e.msg, "newer"), "newer schema: %s", e.msg);
 }
 
@@ -526,7 +531,7 @@ static void test_upgrade_v3(const char *dir, const rt_db_traffic *rows, size_t n
     rt_db *f = rt_db_open(fresh, &e);
     CHECK(db && f, "open v3: %s", e.msg);
     if (!db || !f) return;
-    CHECK(count(db, "PRAGMA user_version") == 4, "v3 upgraded to 4");
+    CHECK(count(db, "PRAGMA user_version") == RT_DB_SCHEMA_VERSION, "v3 upgraded to the current version");
     CHECK(count(db, "SELECT count(*) FROM runs") == 1 && count(db, "SELECT count(*) FROM traffic") == (long long)n,
           "v3 run kept");
     const char *tables[] = {"traffic_gen", "v_gen", "runs", "traffic", "v_paper"};
@@ -547,6 +552,261 @@ static void test_upgrade_v3(const char *dir, const rt_db_traffic *rows, size_t n
     CHECK(count(db, "SELECT count(*) FROM runs") == 1, "same run");
     rt_db_close(db);
     rt_db_close(f);
+}
+
+/* Version 4's schema as raytraffic 4 created it (the string of db.c, kept
+ * here verbatim) and two runs of one job, exact and hybrid (a hybrid run
+ * of version 4 stored no errors): the input of the v4 -> v5 upgrade. */
+static const char v4_file_sql[] =
+    "CREATE TABLE IF NOT EXISTS scenes(\n"
+    "  id INTEGER PRIMARY KEY,\n"
+    "  name TEXT NOT NULL,                 -- scene spec (built-in name or file)\n"
+    "  params TEXT NOT NULL DEFAULT '',    -- canonical scene parameters\n"
+    "  hash TEXT NOT NULL,                 -- rt_scene_hash, 16 hex digits\n"
+    "  triangles INTEGER NOT NULL DEFAULT 0,\n"
+    "  path TEXT NOT NULL DEFAULT '',      -- mesh file as given on the command line ('' built-in)\n"
+    "  abspath TEXT NOT NULL DEFAULT '',   -- that file's absolute path, where it was last seen\n"
+    "  UNIQUE(name, params, hash));\n"
+    "CREATE TABLE IF NOT EXISTS runs(\n"
+    "  id INTEGER PRIMARY KEY,\n"
+    "  scene_id INTEGER NOT NULL REFERENCES scenes(id),\n"
+    "  tracer TEXT NOT NULL,\n"
+    "  W INTEGER NOT NULL,\n"
+    "  H INTEGER NOT NULL,\n"
+    "  lights INTEGER NOT NULL,            -- enabled-light mask\n"
+    "  sched_size INTEGER NOT NULL DEFAULT 0, -- cache size the trace was scheduled for (0 = n/a)\n"
+    "  gmax INTEGER NOT NULL DEFAULT 0,    -- geometry budget (0 = n/a)\n"
+    "  params TEXT NOT NULL DEFAULT '',    -- other tracer parameters\n"
+    "  sim_method TEXT NOT NULL DEFAULT 'exact',\n"
+    "  sim_params TEXT NOT NULL DEFAULT '',\n"
+    "  trace_hash TEXT NOT NULL DEFAULT '', -- 16 hex digits; '' for in-process streams\n"
+    "  refs INTEGER NOT NULL DEFAULT 0,    -- references simulated\n"
+    "  tool_version TEXT NOT NULL DEFAULT '',\n"
+    "  git_rev TEXT NOT NULL DEFAULT '',\n"
+    "  command TEXT NOT NULL DEFAULT '',\n"
+    "  wall_time REAL NOT NULL DEFAULT 0,  -- seconds\n"
+    "  stats TEXT NOT NULL DEFAULT '',     -- tracer statistics, k=v k=v\n"
+    "  created TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%SZ','now')),\n"
+    "  sched_cache_size INTEGER GENERATED ALWAYS AS (sched_size) VIRTUAL,\n"
+    "  UNIQUE(scene_id, tracer, W, H, lights, sched_size, gmax, params, sim_method, sim_params));\n"
+    "CREATE TABLE IF NOT EXISTS cache_configs(\n"
+    "  id INTEGER PRIMARY KEY,\n"
+    "  size INTEGER NOT NULL,              -- bytes\n"
+    "  line INTEGER NOT NULL,              -- bytes\n"
+    "  assoc INTEGER NOT NULL,             -- ways; 0 = fully associative\n"
+    "  policy TEXT NOT NULL,               -- wb-wa | wb-nwa | wt-wa | wt-nwa\n"
+    "  UNIQUE(size, line, assoc, policy));\n"
+    "CREATE TABLE IF NOT EXISTS classes(\n"
+    "  name TEXT PRIMARY KEY,              -- memory-model class\n"
+    "  grp TEXT NOT NULL);                 -- geometry | ray | other\n"
+    "CREATE TABLE IF NOT EXISTS traffic(\n"
+    "  run_id INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE,\n"
+    "  config_id INTEGER NOT NULL REFERENCES cache_configs(id),\n"
+    "  class TEXT NOT NULL REFERENCES classes(name),\n"
+    "  accesses INTEGER NOT NULL,          -- line touches\n"
+    "  read_misses INTEGER NOT NULL,\n"
+    "  write_misses INTEGER NOT NULL,\n"
+    "  writebacks INTEGER NOT NULL,\n"
+    "  wt_bytes INTEGER NOT NULL DEFAULT 0, -- write-through / write-around bytes\n"
+    "  traffic_bytes INTEGER NOT NULL,     -- (fetches + writebacks) * line + wt_bytes\n"
+    "  UNIQUE(run_id, config_id, class));\n"
+    "CREATE INDEX IF NOT EXISTS traffic_config ON traffic(config_id);\n"
+    "CREATE VIEW IF NOT EXISTS v_traffic_group AS\n"
+    "  SELECT t.run_id, t.config_id, c.size AS cache_size, c.line, c.assoc, c.policy,\n"
+    "    SUM(CASE WHEN k.grp = 'geometry' THEN t.traffic_bytes ELSE 0 END) / 1048576.0 AS geometry_mb,\n"
+    "    SUM(CASE WHEN k.grp = 'ray' THEN t.traffic_bytes ELSE 0 END) / 1048576.0 AS ray_mb,\n"
+    "    SUM(CASE WHEN k.grp = 'other' THEN t.traffic_bytes ELSE 0 END) / 1048576.0 AS other_mb,\n"
+    "    SUM(t.traffic_bytes) / 1048576.0 AS total_mb\n"
+    "  FROM traffic t JOIN cache_configs c ON c.id = t.config_id JOIN classes k ON k.name = t.class\n"
+    "  GROUP BY t.run_id, t.config_id;\n"
+    "CREATE VIEW IF NOT EXISTS v_paper AS\n"
+    "  SELECT s.name AS scene, r.tracer, r.lights, r.W, r.H, r.sched_size, g.cache_size,\n"
+    "    g.geometry_mb, g.ray_mb, r.sched_size AS sched_cache_size\n"
+    "  FROM v_traffic_group g JOIN runs r ON r.id = g.run_id JOIN scenes s ON s.id = r.scene_id\n"
+    "  WHERE g.line = 64 AND g.assoc = 0 AND g.policy = 'wb-wa' AND r.sim_method = 'exact'\n"
+    "    AND r.params NOT LIKE '%subsample=%';\n"
+    "CREATE TABLE IF NOT EXISTS traffic_gen(\n"
+    "  run_id INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE,\n"
+    "  config_id INTEGER NOT NULL REFERENCES cache_configs(id),\n"
+    "  class TEXT NOT NULL REFERENCES classes(name),\n"
+    "  gen INTEGER NOT NULL,               -- ray generation 0..7 (7: 7 and later)\n"
+    "  accesses INTEGER NOT NULL,          -- line touches of this generation's references\n"
+    "  read_misses INTEGER NOT NULL,\n"
+    "  write_misses INTEGER NOT NULL,\n"
+    "  writebacks INTEGER NOT NULL,        -- of lines this generation wrote last\n"
+    "  traffic_bytes INTEGER NOT NULL,\n"
+    "  UNIQUE(run_id, config_id, class, gen));\n"
+    "CREATE VIEW IF NOT EXISTS v_gen AS\n"
+    "  SELECT r.id AS run_id, s.name AS scene, r.tracer, r.lights, r.W, r.H,\n"
+    "    CASE WHEN r.params LIKE '%mode=whitted%' THEN 'whitted' WHEN r.params LIKE '%mode=path%' THEN 'path'\n"
+    "      WHEN r.params LIKE '%mode=raycast%' OR (r.lights = 0 AND r.params NOT LIKE '%mode=%') THEN 'raycast'\n"
+    "      ELSE 'shadow' END AS mode,\n"
+    "    r.params, r.sched_size, c.size AS cache_size, t.gen,\n"
+    "    SUM(CASE WHEN k.grp = 'geometry' THEN t.traffic_bytes ELSE 0 END) / 1048576.0 AS geometry_mb,\n"
+    "    SUM(CASE WHEN k.grp = 'ray' THEN t.traffic_bytes ELSE 0 END) / 1048576.0 AS ray_mb,\n"
+    "    SUM(CASE WHEN k.grp = 'other' THEN t.traffic_bytes ELSE 0 END) / 1048576.0 AS other_mb,\n"
+    "    SUM(t.traffic_bytes) / 1048576.0 AS total_mb\n"
+    "  FROM traffic_gen t JOIN cache_configs c ON c.id = t.config_id JOIN classes k ON k.name = t.class\n"
+    "    JOIN runs r ON r.id = t.run_id JOIN scenes s ON s.id = r.scene_id\n"
+    "  WHERE c.line = 64 AND c.assoc = 0 AND c.policy = 'wb-wa' AND r.sim_method = 'exact'\n"
+    "    AND r.params NOT LIKE '%subsample=%'\n"
+    "  GROUP BY t.run_id, t.config_id, t.gen;\n"
+    "INSERT INTO classes VALUES('node', 'geometry'), ('tri', 'geometry'), ('ray', 'ray'), ('fb', 'other');\n"
+    "INSERT INTO scenes(id, name, hash, triangles) VALUES(1, 'cornell', '00000000000000aa', 32);\n"
+    "INSERT INTO runs(id, scene_id, tracer, W, H, lights, sim_method, sim_params, refs, wall_time) VALUES\n"
+    "  (1, 1, 'recursive', 64, 64, 0, 'exact', '', 90000, 0.5),\n"
+    "  (2, 1, 'recursive', 64, 64, 0, 'hybrid',\n"
+    "   'rate=0.25 seed=1 window_below=4096 period=2048 window=1024 exact_below=0', 90000, 0.125);\n"
+    "INSERT INTO cache_configs(id, size, line, assoc, policy) VALUES(1, 4096, 64, 0, 'wb-wa'), (2, 65536, 64, 0, 'wb-wa');\n"
+    "INSERT INTO traffic(run_id, config_id, class, accesses, read_misses, write_misses, writebacks, wt_bytes,\n"
+    "  traffic_bytes) VALUES\n"
+    "  (1, 1, 'tri', 1000, 100, 0, 0, 0, 6400), (1, 1, 'ray', 500, 50, 0, 10, 0, 3840),\n"
+    "  (1, 2, 'tri', 1000, 20, 0, 0, 0, 1280), (1, 2, 'ray', 500, 50, 0, 0, 0, 3200),\n"
+    "  (2, 1, 'tri', 1000, 104, 0, 0, 0, 6656), (2, 1, 'ray', 500, 50, 0, 12, 0, 3968),\n"
+    "  (2, 2, 'tri', 1000, 16, 0, 0, 0, 1024), (2, 2, 'ray', 500, 50, 0, 0, 0, 3200);\n"
+    "PRAGMA user_version = 4;\n";
+
+/* A version-4 file is upgraded in place: its runs and rows kept, the table
+ * traffic_se (empty) and the view v_traffic_se (NULL errors for the old
+ * runs) in the layout of a fresh file; the old hybrid run keeps its key
+ * (it has no errors), a run with errors is another key and its errors
+ * show in the view. */
+static void test_upgrade_v4(const char *dir)
+{
+    char path[300], fresh[300], a[1024], b[1024];
+    rt_err e = {0};
+    snprintf(path, sizeof path, "%s/v4.db", dir);
+    snprintf(fresh, sizeof fresh, "%s/v5fresh.db", dir);
+    CHECK(make_file(path, v4_file_sql) == 0, "create v4 file");
+    rt_db *db = rt_db_open(path, &e), *f = rt_db_open(fresh, &e);
+    CHECK(db && f, "open v4: %s", e.msg);
+    if (!db || !f) {
+        rt_db_close(db);
+        rt_db_close(f);
+        return;
+    }
+    CHECK(count(db, "PRAGMA user_version") == RT_DB_SCHEMA_VERSION && RT_DB_SCHEMA_VERSION == 5, "v4 upgraded to 5");
+    CHECK(count(db, "SELECT count(*) FROM runs") == 2 && count(db, "SELECT count(*) FROM traffic") == 8 &&
+              count(db, "SELECT sum(traffic_bytes) FROM traffic WHERE run_id = 2") == 6656 + 3968 + 1024 + 3200,
+          "v4 runs and rows kept");
+    CHECK(count(db, "SELECT count(*) FROM traffic_se") == 0, "no errors for old runs");
+    CHECK(count(db, "SELECT count(*) FROM v_traffic_se") == 4 &&
+              count(db, "SELECT count(*) FROM v_traffic_se WHERE geometry_se_mb IS NULL AND ray_se_mb IS NULL AND "
+                        "other_se_mb IS NULL AND total_se_mb IS NULL") == 4,
+          "v_traffic_se: every old run's size, errors NULL");
+    CHECK(getd(db, "SELECT total_mb FROM v_traffic_se WHERE run_id = 2 AND cache_size = 4096") ==
+              (6656 + 3968) / 1048576.0,
+          "v_traffic_se: the estimate");
+    const char *tables[] = {"traffic_se", "v_traffic_se", "v_traffic_group", "runs", "traffic", "v_gen"};
+    for (int i = 0; i < 6; i++) {
+        columns(db, tables[i], a, sizeof a);
+        columns(f, tables[i], b, sizeof b);
+        CHECK(a[0] && !strcmp(a, b), "%s: upgraded columns %s, fresh %s", tables[i], a, b);
+    }
+    /* the old hybrid run is found by its key, and a run with errors is another one */
+    rt_db_run r;
+    memset(&r, 0, sizeof r);
+    r.scene = "cornell";
+    r.scene_hash = 0xaa;
+    r.tracer = "recursive";
+    r.W = r.H = 64;
+    r.sim_method = "hybrid";
+    r.sim_params = "rate=0.25 seed=1 window_below=4096 period=2048 window=1024 exact_below=0";
+    CHECK(rt_db_has_run(db, &r, &e) == 1, "old hybrid run found by its key: %s", e.msg);
+    r.sim_params = "rate=0.25 seed=1 window_below=4096 period=2048 window=1024 exact_below=0 errors=1";
+    CHECK(rt_db_has_run(db, &r, &e) == 0, "a run with errors is not the old run");
+    rt_db_traffic t[2] = {{4096, 64, 0, "wb-wa", RT_CLS_TRI, 1000, 104, 0, 0, 0, 6656},
+                          {65536, 64, 0, "wb-wa", RT_CLS_TRI, 1000, 16, 0, 0, 0, 1024}};
+    rt_db_se se[2] = {{4096, 64, 0, "wb-wa", {512.25, 300, -1, 640.5}}, {65536, 64, 0, "wb-wa", {0, 0, 0, 0}}};
+    rt_db_rows R = {t, 2, NULL, 0, se, 2};
+    CHECK(rt_db_store(db, &r, &R, NULL, &e) == 0, "store with errors after the upgrade: %s", e.msg);
+    CHECK(count(db, "SELECT count(*) FROM runs") == 3 && count(db, "SELECT count(*) FROM traffic_se") == 2,
+          "a third run with two error rows");
+    CHECK(getd(db, "SELECT geometry_se_mb * 1048576 FROM v_traffic_se v JOIN runs r ON r.id = v.run_id WHERE "
+                   "r.sim_params LIKE '%errors=1' AND cache_size = 4096") == 512.25,
+          "geometry error in the view");
+    CHECK(count(db, "SELECT count(*) FROM traffic_se WHERE other_se IS NULL") == 1, "a missing error is NULL");
+    CHECK(getd(db, "SELECT total_se FROM traffic_se t JOIN cache_configs c ON c.id = t.config_id WHERE c.size = 65536") ==
+              0,
+          "an exact size's error is 0");
+    rt_db_close(db);
+    rt_db_close(f);
+}
+
+/* Standard-error rows: stored with the run, replaced with its traffic rows
+ * (a re-store without errors keeps none for those sizes), rolled back
+ * with a failed store, refused when not a number, and copied by merge. */
+static void test_se_rows(const char *dir)
+{
+    char path[300], mpath[300];
+    rt_err e = {0};
+    snprintf(path, sizeof path, "%s/se.db", dir);
+    snprintf(mpath, sizeof mpath, "%s/se_merged.db", dir);
+    rt_db *db = rt_db_open(path, &e);
+    CHECK(db, "open: %s", e.msg);
+    if (!db) return;
+    rt_db_run r;
+    run_key(&r, "recursive", 0, 0);
+    r.sim_method = "hybrid";
+    r.sim_params = "rate=0.015625 seed=1 window_below=32768 period=65536 window=1024 exact_below=0 errors=1";
+    rt_db_traffic t[3] = {{1024, 64, 0, "wb-wa", RT_CLS_TRI, 10, 5, 0, 0, 0, 320},
+                          {2048, 64, 0, "wb-wa", RT_CLS_TRI, 10, 4, 0, 0, 0, 256},
+                          {2048, 64, 0, "wb-wa", RT_CLS_RAY, 10, 1, 0, 0, 0, 64}};
+    rt_db_se se[2] = {{1024, 64, 0, "wb-wa", {10.5, -1, 0, 10.5}}, {2048, 64, 0, "wb-wa", {8, 3.25, 0, 9.125}}};
+    rt_db_rows R = {t, 3, NULL, 0, se, 2};
+    CHECK(rt_db_store(db, &r, &R, NULL, &e) == 0, "store: %s", e.msg);
+    CHECK(count(db, "SELECT count(*) FROM traffic_se") == 2, "two error rows");
+    CHECK(getd(db, "SELECT ray_se_mb * 1048576 FROM v_traffic_se WHERE cache_size = 2048") == 3.25 &&
+              getd(db, "SELECT total_se FROM traffic_se e JOIN cache_configs c ON c.id = e.config_id WHERE c.size = 2048") ==
+                  9.125,
+          "values kept exactly");
+    /* not a number: refused, nothing of the store left */
+    rt_db_se bad = se[0];
+    bad.se[2] = NAN;
+    rt_db_rows RB = {t, 1, NULL, 0, &bad, 1};
+    r.tracer = "packet";
+    CHECK(rt_db_store(db, &r, &RB, NULL, &e) < 0 && strstr(e.msg, path) && strstr(e.msg, "not a number"),
+          "NaN refused: %s", e.msg);
+    CHECK(count(db, "SELECT count(*) FROM runs") == 1, "refused store left a run");
+    /* an error row of a size without traffic rows: refused */
+    rt_db_se lone = se[0];
+    lone.size = 4096;
+    rt_db_rows RL = {t, 3, NULL, 0, &lone, 1};
+    CHECK(rt_db_store(db, &r, &RL, NULL, &e) < 0 && strstr(e.msg, "has no traffic row"), "lone error row: %s", e.msg);
+    CHECK(count(db, "SELECT count(*) FROM runs") == 1, "refused store left a run");
+    /* a store failing at its second error row (the same configuration
+     * twice) leaves nothing: not the run, not its first error row */
+    rt_db_se twice[2] = {se[0], se[0]};
+    rt_db_rows RT = {t, 1, NULL, 0, twice, 2};
+    CHECK(rt_db_store(db, &r, &RT, NULL, &e) < 0 && strstr(e.msg, "UNIQUE"), "duplicate error row: %s", e.msg);
+    CHECK(count(db, "SELECT count(*) FROM runs") == 1 && count(db, "SELECT count(*) FROM traffic_se") == 2 &&
+              count(db, "SELECT count(*) FROM traffic") == 3,
+          "rolled back");
+    /* merge copies the errors (NULL stays NULL) */
+    rt_db *m = rt_db_open(mpath, &e);
+    long nr = 0;
+    CHECK(m && rt_db_merge(m, path, &nr, &e) == 0 && nr == 1, "merge: %s", e.msg);
+    CHECK(m && count(m, "SELECT count(*) FROM traffic_se") == 2 &&
+              count(m, "SELECT count(*) FROM traffic_se WHERE geometry_se IS NULL OR ray_se IS NULL") == 1 &&
+              getd(m, "SELECT sum(total_se) FROM traffic_se") == 10.5 + 9.125,
+          "merged errors");
+    /* re-storing sizes without errors drops their error rows only */
+    r.tracer = "recursive";
+    rt_db_rows R2 = {t, 1, NULL, 0, NULL, 0};
+    CHECK(rt_db_store(db, &r, &R2, NULL, &e) == 0, "re-store 1K: %s", e.msg);
+    CHECK(count(db, "SELECT count(*) FROM traffic_se") == 1 && count(db, "SELECT count(*) FROM traffic") == 3,
+          "1K's error row replaced by none, 2K's kept");
+    /* the invariant: every error row's (run, configuration) has traffic rows */
+    CHECK(count(db, "SELECT count(*) FROM traffic_se e WHERE NOT EXISTS (SELECT 1 FROM traffic t WHERE "
+                    "t.run_id = e.run_id AND t.config_id = e.config_id)") == 0,
+          "an error row without traffic rows");
+    /* a shard with an error that is not a number is refused, naming it */
+    sqlite3_exec(rt_db_handle(db), "UPDATE traffic_se SET ray_se = 'big'", NULL, NULL, NULL);
+    rt_db_close(db);
+    CHECK(m && rt_db_merge(m, path, &nr, &e) < 0 && strstr(e.msg, path) && strstr(e.msg, "ray_se is 'big'") &&
+              strstr(e.msg, "standard-error row"),
+          "bad shard error: %s", e.msg);
+    rt_db_close(m);
 }
 
 /* Merge copies runs, refuses newer shards and bad values with the shard
@@ -592,7 +852,9 @@ static void test_merge(const char *dir, const rt_db_traffic *rows, size_t n)
     /* a newer shard is refused without reading it */
     sqlite3 *h;
     sqlite3_open(in, &h);
-    sqlite3_exec(h, "PRAGMA user_version = 5", NULL, NULL, NULL);
+    char newer[64];
+    snprintf(newer, sizeof newer, "PRAGMA user_version = %d", RT_DB_SCHEMA_VERSION + 1);
+    sqlite3_exec(h, newer, NULL, NULL, NULL);
     sqlite3_close(h);
     CHECK(rt_db_merge(db, in, &nr, &e) < 0 && strstr(e.msg, in) && strstr(e.msg, "newer"), "newer shard: %s", e.msg);
     rt_db_close(db);
@@ -794,6 +1056,8 @@ int main(void)
     test_merge(dir, rows, n);
     test_gen_rows(dir);
     test_upgrade_v3(dir, rows, n);
+    test_upgrade_v4(dir);
+    test_se_rows(dir);
 
     if (check_rm_tree(dir) != 0) fprintf(stderr, "warning: could not remove %s\n", dir);
     if (failures) fprintf(stderr, "test_db: %d failures\n", failures);

@@ -8,7 +8,8 @@
  * and the render modes: the matrix of --modes, and per-generation rows of
  * whitted and path jobs (they sum to the traffic rows; their accesses equal
  * a plain per-generation count of the job's line touches; a kept trace
- * replayed gives the same rows; shadow jobs have none).
+ * replayed gives the same rows; shadow jobs have none); the hybrid's
+ * standard errors stored bit for bit as its kept trace replayed gives them.
  */
 #include "experiment.h"
 #include "rows.h"
@@ -195,6 +196,102 @@ static void test_run_job(const char *dir)
     CHECK(rt_exp_run_job(w, &J[0], 0, &e) == 0, "a stored job was not skipped");
     CHECK(count(db, "SELECT COUNT(*) FROM runs") == runs && count(db, "SELECT COUNT(*) FROM traffic") == rows,
           "a skipped job changed the database");
+    rt_exp_worker_free(w);
+    rt_db_close(db);
+    free(J);
+}
+
+/* Standard errors: a job with two hybrid estimators, one with errors and
+ * one without, stores the first's errors per size exactly as an rt_approx
+ * fed the kept trace computes them (the same doubles, bit for bit), and
+ * none for the second; errors=1 ends the first's key only (not a shards
+ * run's, which has no errors to store). */
+static void test_errors(const char *dir)
+{
+    char keep[512], path[600];
+    snprintf(keep, sizeof keep, "%s/se-traces", dir);
+    snprintf(path, sizeof path, "%s/se.db", dir);
+    CHECK(mkdir(keep, 0777) == 0, "mkdir %s", keep);
+    rt_exp_config c;
+    config(&c, keep);
+    c.ntracers = 1; /* recursive */
+    for (int a = 0; a < 2; a++) {
+        rt_approx_config *ac = &c.approx[a];
+        rt_approx_config_default(ac);
+        ac->method = RT_APPROX_HYBRID;
+        ac->rate = 0.25;
+        ac->window_below = 4096;
+        ac->period = 256;
+        ac->window = 64;
+        ac->errors = a == 0;
+    }
+    c.napprox = 2;
+    rt_err e = {0};
+    rt_exp_job *J = NULL;
+    long nj = rt_exp_matrix(&c, &J, &e);
+    rt_db *db = rt_db_open(path, &e);
+    rt_exp_worker *w = db ? rt_exp_worker_new(&c, db, &e) : NULL;
+    CHECK(nj == 1 && w, "one job, a worker: %s", e.msg);
+    if (nj != 1 || !w) {
+        rt_exp_worker_free(w);
+        rt_db_close(db);
+        free(J);
+        return;
+    }
+    CHECK(rt_exp_run_job(w, &J[0], 0, &e) == 1, "job: %s", e.msg);
+    CHECK(count(db, "SELECT COUNT(*) FROM runs WHERE sim_method = 'hybrid' AND sim_params LIKE '% errors=1'") == 1 &&
+              count(db, "SELECT COUNT(*) FROM runs WHERE sim_method = 'hybrid' AND sim_params NOT LIKE '%errors%'") ==
+                  1,
+          "one hybrid run with errors=1, one without");
+    CHECK(count(db, "SELECT COUNT(*) FROM traffic_se e JOIN runs r ON r.id = e.run_id WHERE r.sim_params NOT LIKE "
+                    "'%errors=1'") == 0,
+          "the run without errors has error rows");
+    /* the kept trace through an rt_approx of the same settings */
+    char tp[1200] = "";
+    DIR *d = opendir(keep);
+    for (struct dirent *de; d && (de = readdir(d));)
+        if (strstr(de->d_name, ".rtt")) snprintf(tp, sizeof tp, "%s/%s", keep, de->d_name);
+    if (d) closedir(d);
+    rt_approx *ap = rt_approx_new(&c.sim, &c.approx[0], &e);
+    rt_tr_meta m;
+    rt_sim_input in;
+    CHECK(ap && tp[0] && rt_approx_replay(ap, tp, RT_SIM_IN_AUTO, 0, &m, &in, &e) == 0 && rt_approx_finish(ap, &e) == 0,
+          "replay %s: %s", tp, e.msg);
+    rt_db_se se[RT_SIM_MAXSIZES];
+    size_t n = ap ? rt_approx_db_se_rows(ap, se) : 0;
+    CHECK(n == 3, "errors of %zu sizes, want 3 (1K, 4K, 64K)", n);
+    CHECK(count(db, "SELECT COUNT(*) FROM traffic_se") == (long long)n, "stored error rows");
+    sqlite3_stmt *st;
+    sqlite3_prepare_v2(rt_db_handle(db),
+                       "SELECT e.geometry_se, e.ray_se, e.other_se, e.total_se FROM traffic_se e JOIN cache_configs c "
+                       "ON c.id = e.config_id WHERE c.size = ?1",
+                       -1, &st, NULL);
+    int nonzero = 0;
+    for (size_t i = 0; i < n; i++) {
+        sqlite3_reset(st);
+        sqlite3_bind_int64(st, 1, (sqlite3_int64)se[i].size);
+        CHECK(sqlite3_step(st) == SQLITE_ROW, "no error row of size %llu", (unsigned long long)se[i].size);
+        for (int g = 0; g < RT_DB_SE_N; g++) {
+            int null = sqlite3_column_type(st, g) == SQLITE_NULL;
+            double v = sqlite3_column_double(st, g);
+            CHECK(se[i].se[g] < 0 ? null : !null && v == se[i].se[g], "size %llu group %d: stored %s%.17g, replay %.17g",
+                  (unsigned long long)se[i].size, g, null ? "NULL " : "", v, se[i].se[g]);
+            nonzero += se[i].se[g] > 0;
+        }
+    }
+    CHECK(nonzero >= 6, "only %d errors above 0: the test compares little", nonzero);
+    sqlite3_finalize(st);
+    rt_approx_free(ap);
+    /* the key: errors=1 for the hybrid with errors only */
+    rt_exp_key k;
+    memset(&k, 0, sizeof k);
+    rt_approx_config sh = c.approx[0];
+    sh.method = RT_APPROX_SHARDS_RATE;
+    rt_exp_key_method(&k, &sh);
+    CHECK(!strstr(k.run.sim_params, "errors"), "shards key: %s", k.run.sim_params);
+    rt_exp_key_method(&k, &c.approx[0]);
+    size_t kl = strlen(k.run.sim_params);
+    CHECK(kl > 9 && !strcmp(k.run.sim_params + kl - 9, " errors=1"), "hybrid key: %s", k.run.sim_params);
     rt_exp_worker_free(w);
     rt_db_close(db);
     free(J);
@@ -434,6 +531,7 @@ int main(void)
     test_failing_store(dir);
     test_modes(dir);
     test_models(dir);
+    test_errors(dir);
     if (check_rm_tree(dir) != 0) fprintf(stderr, "cannot remove %s\n", dir);
     if (failures) fprintf(stderr, "%d failure(s)\n", failures);
     else printf("experiment tests passed\n");
