@@ -129,9 +129,10 @@ static int rec_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
             int vis[RT_NLIGHTS] = {0};
             RT_REC(rec, rt_mm_addr(L, reg_shade, h.tri), 16, 0, RT_CLS_SHADE);
             tv.mark_bit = 2;
-            for (int i = 0; i < RT_NLIGHTS; i++) {
+            for (unsigned left = o->lights & ((1u << RT_NLIGHTS) - 1u); left; left &= left - 1u) {
+                const int i = __builtin_ctz(left); /* the lights in turn, none without lights */
                 rt_ray sr;
-                if (!(o->lights & (1u << i)) || !rt_shade_ray(sc, &ray, &h, i, &sr)) continue;
+                if (!rt_shade_ray(sc, &ray, &h, i, &sr)) continue;
                 st->rays_shadow++;
                 vis[i] = !ctx->acc->ops->occluded(&tv, &sr);
             }
