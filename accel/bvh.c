@@ -1355,6 +1355,14 @@ typedef struct wstate {
     float cull;         /* cull_bound(best) */
     uint64_t nvisit, ntest;
     uint64_t tri_base;  /* bvh.tri base address (recording) */
+    /* the tree's arrays and the marks, held here: a store through mark
+     * (a char pointer) would otherwise force them to be reloaded from the
+     * tree and the traversal state after every triangle */
+    const rt_tri *tri;
+    const uint32_t *orig, *degen;
+    uint8_t *mark;
+    uint8_t mark_bit;
+    rt_rec *rec;
 #if defined(__SSE2__)
     rt_isect_sse iq;    /* the ray for the triangle test */
 #endif
@@ -1364,19 +1372,19 @@ typedef struct wstate {
 static RT_ALWAYS_INLINE int leaf_tris(rt_bvh_trav *tv, const rt_ray *r, uint32_t first, uint32_t n, wstate *S,
                                       const int any)
 {
-    const rt_bvh *b = tv->bvh;
-    rt_rec *rec = tv->rec;
+    (void)tv;
     for (uint32_t k = first; k < first + n; k++) {
-        const uint32_t o = b->orig[k];
+        const uint32_t o = S->orig[k];
         S->ntest++;
-        if (tv->mark) tv->mark[o] |= tv->mark_bit;
-        RT_REC(rec, S->tri_base + 36ull * k, 36, 0, RT_CLS_TRI);
+        if (S->mark) S->mark[o] |= S->mark_bit;
+        RT_REC(S->rec, S->tri_base + 36ull * k, 36, 0, RT_CLS_TRI);
         float t, u, v;
 #if defined(__SSE2__)
-        if (!rt_isect_core_nd_sse(&S->iq, r, &b->tri[k], &t, &u, &v) || rt_bvh_degenerate(b, k)) continue;
+        if (!rt_isect_core_nd_sse(&S->iq, r, &S->tri[k], &t, &u, &v)) continue;
 #else
-        if (!rt_isect_core_nd(r, &b->tri[k], &t, &u, &v) || rt_bvh_degenerate(b, k)) continue;
+        if (!rt_isect_core_nd(r, &S->tri[k], &t, &u, &v)) continue;
 #endif
+        if ((S->degen[k >> 5] >> (k & 31)) & 1u) continue; /* rt_bvh_degenerate */
         if (any) {
             if (t > r->tmin && t < r->tmax) return 1;
         } else if (t > r->tmin && (t < S->best || (t == S->best && o < S->btri))) {
@@ -1416,6 +1424,12 @@ static RT_ALWAYS_INLINE void wstate_init(wstate *S, const rt_bvh_trav *tv, const
     S->cull = cull_bound(r->tmax);
     S->nvisit = S->ntest = 0;
     S->tri_base = tv->rec ? tv->L->r[tv->reg_tri].base : 0;
+    S->tri = tv->bvh->tri;
+    S->orig = tv->bvh->orig;
+    S->degen = tv->bvh->degen;
+    S->mark = tv->mark;
+    S->mark_bit = tv->mark_bit;
+    S->rec = tv->rec;
 #if defined(__SSE2__)
     rt_isect_sse_init(&S->iq, r);
 #endif
