@@ -25,7 +25,7 @@
  * them, the verifying reader as it decodes them) and makes each chunk's
  * payload, so writer and reader produce the same bytes from the same
  * records and the reader checks a payload with one memcmp. The sampling
- * rules are src/sample.h's. Its window logic is that of window.c at its
+ * rules are cachesim/sample.h's. Its window logic is that of window.c at its
  * default placement (seed 1: window j measures records [s_j, s_j + M),
  * s_j = (j + 1) P - M - o), with the same backward scan, so a window
  * replayed from the payload gives the counters the hybrid method computes

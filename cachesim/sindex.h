@@ -5,7 +5,7 @@
  * The trace format (src/trace.h) stores side payloads without knowing what
  * they hold. This module is their maker and their reader: for each data
  * chunk, its line-touch counts per class, its records that touch a line of
- * a golden-ratio line sample (src/sample.h), and the exact windows of the
+ * a golden-ratio line sample (cachesim/sample.h), and the exact windows of the
  * hybrid method (cachesim/approx.h, window.c) that end in it, with their
  * warm-up lines -- what the hybrid method needs of a chunk, so that
  * `sim --method hybrid` reads a trace without decoding its records.
