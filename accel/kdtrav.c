@@ -57,13 +57,13 @@ int rt_kd_clip(const rt_kdtree *kd, const rt_ray *r, float *t0, float *t1)
     const float *inv = (const float *)(const void *)&r->inv_d;
     float a = r->tmin, c = r->tmax;
     for (int k = 0; k < 3; k++) {
-        float tn = (lo[k] - o[k]) * inv[k];
-        float tf = (hi[k] - o[k]) * inv[k];
-        if (tn > tf) {
-            float x = tn;
-            tn = tf;
-            tf = x;
-        }
+        /* near and far faces by the direction's sign, not by comparing
+         * the distances: one of them is NaN when the origin lies on a face
+         * and the direction is +-0 on this axis, and a comparison would
+         * then keep the other (+-inf) on the wrong side. */
+        const int neg = signbit(inv[k]) != 0;
+        float tn = ((neg ? hi[k] : lo[k]) - o[k]) * inv[k];
+        float tf = ((neg ? lo[k] : hi[k]) - o[k]) * inv[k];
         tf *= 1.0f + 2.0f * GAMMA3;
         /* NaN (origin on a slab face, direction 0 on that axis) constrains
          * nothing: the comparisons below are false. */
@@ -122,8 +122,8 @@ static RT_ALWAYS_INLINE int traverse_plain(rt_trav *tv, const rt_ray *rp, uint32
     uint64_t nvisit = 0, ntest = 0;
     int occluded = 0;
 
+    if (!any && rt_kd_past(best, tMin)) goto done;
     for (;;) {
-        if (!any && rt_kd_past(best, tMin)) break;
         const rt_kdnode *nd = &nodes[node];
         nvisit++;
         RT_REC(rec, rt_mm_addr(L, tv->reg_node, node), 8, 0, RT_CLS_NODE);
@@ -182,11 +182,13 @@ static RT_ALWAYS_INLINE int traverse_plain(rt_trav *tv, const rt_ray *rp, uint32
                 }
             }
         }
-        if (sp == 0) break;
-        --sp;
-        node = stack[sp].node;
-        tMin = stack[sp].tmin;
-        tMax = stack[sp].tmax;
+        do { /* pop, skipping entries that begin past the best hit */
+            if (sp == 0) goto done;
+            --sp;
+            node = stack[sp].node;
+            tMin = stack[sp].tmin;
+            tMax = stack[sp].tmax;
+        } while (!any && rt_kd_past(best, tMin));
     }
 done:
     tv->nodes += nvisit;
@@ -502,12 +504,13 @@ static RT_ALWAYS_INLINE int traverse_fast(rt_trav *tv, const rt_ray *r, uint32_t
                 leaf_closest(&c, q, n, &b, &ntest);
             }
         }
-        if (sp == 0) break;
-        --sp;
-        node = stack[sp].node;
-        tMin = stack[sp].tmin;
-        tMax = stack[sp].tmax;
-        if (!any && rt_kd_past(b.t, tMin)) break;
+        do { /* pop, skipping entries that begin past the best hit */
+            if (sp == 0) goto done;
+            --sp;
+            node = stack[sp].node;
+            tMin = stack[sp].tmin;
+            tMax = stack[sp].tmax;
+        } while (!any && rt_kd_past(b.t, tMin));
     }
 done:
     if (recording) recw_done(&c.w);
