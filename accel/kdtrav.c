@@ -136,23 +136,19 @@ static RT_ALWAYS_INLINE int traverse_plain(rt_trav *tv, const rt_ray *rp, uint32
             const uint32_t above = w1 >> 2;
             const uint32_t first = belowFirst ? node + 1 : above;
             const uint32_t second = belowFirst ? above : node + 1;
-            if (tPlane > tMax || tPlane <= 0.0f) {
+            float near_end, far_start;
+            const int step = rt_kd_step(tPlane, tMin, tMax, &near_end, &far_start);
+            if (step == RT_KD_NEAR) {
                 node = first;
-            } else if (tPlane < tMin) {
+            } else if (step == RT_KD_FAR) {
                 node = second;
-            } else if (tPlane == tPlane) {
+            } else {
                 stack[sp].node = second;
-                stack[sp].tmin = tPlane;
+                stack[sp].tmin = far_start;
                 stack[sp].tmax = tMax;
                 sp++;
                 node = first;
-                tMax = tPlane;
-            } else { /* NaN: the ray lies in the split plane */
-                stack[sp].node = second;
-                stack[sp].tmin = tMin;
-                stack[sp].tmax = tMax;
-                sp++;
-                node = first;
+                tMax = near_end;
             }
             continue;
         }
@@ -465,21 +461,19 @@ static RT_ALWAYS_INLINE int traverse_fast(rt_trav *tv, const rt_ray *r, uint32_t
             const uint32_t above = w1 >> 2;
             const uint32_t first = belowFirst ? node + 1 : above;
             const uint32_t second = belowFirst ? above : node + 1;
-            if (tPlane > tMax || tPlane <= 0.0f) {
+            float near_end, far_start;
+            const int step = rt_kd_step(tPlane, tMin, tMax, &near_end, &far_start);
+            if (step == RT_KD_NEAR) {
                 node = first;
-            } else if (tPlane < tMin) {
+            } else if (step == RT_KD_FAR) {
                 node = second;
             } else {
                 stack[sp].node = second;
+                stack[sp].tmin = far_start;
                 stack[sp].tmax = tMax;
-                if (tPlane == tPlane) {
-                    stack[sp].tmin = tPlane;
-                    tMax = tPlane;
-                } else { /* NaN: the ray lies in the split plane */
-                    stack[sp].tmin = tMin;
-                }
                 sp++;
                 node = first;
+                tMax = near_end;
             }
             nd = &nodes[node];
             nvisit++;

@@ -198,14 +198,13 @@ static void cut_walk(rt_trav *tv, const rt_ray *r, uint32_t node, float t0, floa
     float tp = (sp - o) * rt_axis(r->inv_d, a);
     int belowFirst = o < sp || (o == sp && d <= 0);
     uint32_t first = belowFirst ? node + 1 : rt_kd_above(nd), second = belowFirst ? rt_kd_above(nd) : node + 1;
-    if (tp > t1 || tp <= 0) cut_walk(tv, r, first, t0, t1, depth + 1, cut, h);
-    else if (tp < t0) cut_walk(tv, r, second, t0, t1, depth + 1, cut, h);
-    else if (tp == tp) {
-        cut_walk(tv, r, first, t0, tp, depth + 1, cut, h);
-        cut_walk(tv, r, second, tp, t1, depth + 1, cut, h);
-    } else {
-        cut_walk(tv, r, first, t0, t1, depth + 1, cut, h);
-        cut_walk(tv, r, second, t0, t1, depth + 1, cut, h);
+    float near_end, far_start;
+    const int step = rt_kd_step(tp, t0, t1, &near_end, &far_start);
+    if (step == RT_KD_NEAR) cut_walk(tv, r, first, t0, t1, depth + 1, cut, h);
+    else if (step == RT_KD_FAR) cut_walk(tv, r, second, t0, t1, depth + 1, cut, h);
+    else {
+        cut_walk(tv, r, first, t0, near_end, depth + 1, cut, h);
+        cut_walk(tv, r, second, far_start, t1, depth + 1, cut, h);
     }
 }
 
