@@ -121,6 +121,8 @@ static RT_ALWAYS_INLINE int traverse_plain(rt_trav *tv, const rt_ray *rp, uint32
     int sp = 0;
     uint64_t nvisit = 0, ntest = 0;
     int occluded = 0;
+    float tMinW = rt_kd_wlo(tMin), tMaxW = rt_kd_whi(tMax); /* the interval widened (rt_kd_step_w) */
+    int ordered = 1; /* no RT_KD_INPLANE entry pushed: entries begin later the deeper they lie */
 
     if (!any && rt_kd_past(best, tMin)) goto done;
     for (;;) {
@@ -137,7 +139,7 @@ static RT_ALWAYS_INLINE int traverse_plain(rt_trav *tv, const rt_ray *rp, uint32
             const uint32_t first = belowFirst ? node + 1 : above;
             const uint32_t second = belowFirst ? above : node + 1;
             float near_end, far_start;
-            const int step = rt_kd_step(tPlane, tMin, tMax, &near_end, &far_start);
+            const int step = rt_kd_step_w(tPlane, tMin, tMax, tMinW, tMaxW, &near_end, &far_start);
             if (step == RT_KD_NEAR) {
                 node = first;
             } else if (step == RT_KD_FAR) {
@@ -149,6 +151,8 @@ static RT_ALWAYS_INLINE int traverse_plain(rt_trav *tv, const rt_ray *rp, uint32
                 sp++;
                 node = first;
                 tMax = near_end;
+                tMaxW = rt_kd_whi(tMax);
+                if (step & RT_KD_INPLANE) ordered = 0;
             }
             continue;
         }
@@ -178,13 +182,18 @@ static RT_ALWAYS_INLINE int traverse_plain(rt_trav *tv, const rt_ray *rp, uint32
                 }
             }
         }
-        do { /* pop, skipping entries that begin past the best hit */
+        for (;;) { /* pop; an entry past the best hit ends the walk, or is skipped
+                    * when one beneath may begin earlier (RT_KD_INPLANE) */
             if (sp == 0) goto done;
             --sp;
             node = stack[sp].node;
             tMin = stack[sp].tmin;
             tMax = stack[sp].tmax;
-        } while (!any && rt_kd_past(best, tMin));
+            if (any || !rt_kd_past(best, tMin)) break;
+            if (ordered) goto done;
+        }
+        tMinW = rt_kd_wlo(tMin);
+        tMaxW = rt_kd_whi(tMax);
     }
 done:
     tv->nodes += nvisit;
@@ -445,6 +454,8 @@ static RT_ALWAYS_INLINE int traverse_fast(rt_trav *tv, const rt_ray *r, uint32_t
     int sp = 0;
     uint64_t nvisit = 0, ntest = 0;
     int occluded = 0;
+    float tMinW = rt_kd_wlo(tMin), tMaxW = rt_kd_whi(tMax); /* the interval widened (rt_kd_step_w) */
+    int ordered = 1; /* no RT_KD_INPLANE entry pushed: entries begin later the deeper they lie */
 
     if (!any && rt_kd_past(b.t, tMin)) goto done;
     for (;;) {
@@ -462,7 +473,7 @@ static RT_ALWAYS_INLINE int traverse_fast(rt_trav *tv, const rt_ray *r, uint32_t
             const uint32_t first = belowFirst ? node + 1 : above;
             const uint32_t second = belowFirst ? above : node + 1;
             float near_end, far_start;
-            const int step = rt_kd_step(tPlane, tMin, tMax, &near_end, &far_start);
+            const int step = rt_kd_step_w(tPlane, tMin, tMax, tMinW, tMaxW, &near_end, &far_start);
             if (step == RT_KD_NEAR) {
                 node = first;
             } else if (step == RT_KD_FAR) {
@@ -474,6 +485,8 @@ static RT_ALWAYS_INLINE int traverse_fast(rt_trav *tv, const rt_ray *r, uint32_t
                 sp++;
                 node = first;
                 tMax = near_end;
+                tMaxW = rt_kd_whi(tMax);
+                if (step & RT_KD_INPLANE) ordered = 0;
             }
             nd = &nodes[node];
             nvisit++;
@@ -498,13 +511,18 @@ static RT_ALWAYS_INLINE int traverse_fast(rt_trav *tv, const rt_ray *r, uint32_t
                 leaf_closest(&c, q, n, &b, &ntest);
             }
         }
-        do { /* pop, skipping entries that begin past the best hit */
+        for (;;) { /* pop; an entry past the best hit ends the walk, or is skipped
+                    * when one beneath may begin earlier (RT_KD_INPLANE) */
             if (sp == 0) goto done;
             --sp;
             node = stack[sp].node;
             tMin = stack[sp].tmin;
             tMax = stack[sp].tmax;
-        } while (!any && rt_kd_past(b.t, tMin));
+            if (any || !rt_kd_past(b.t, tMin)) break;
+            if (ordered) goto done;
+        }
+        tMinW = rt_kd_wlo(tMin);
+        tMaxW = rt_kd_whi(tMax);
     }
 done:
     if (recording) recw_done(&c.w);

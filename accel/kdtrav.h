@@ -47,57 +47,75 @@ static inline int rt_kd_past(float best, float tmin) { return best < tmin * (1.0
  * node's interval is [tMin, tMax], and the near child is the side holding
  * the origin (on the plane: the side the direction points to). Returns
  * RT_KD_NEAR (the near child only, over [tMin, tMax]), RT_KD_FAR (the far
- * child only, over [tMin, tMax]) or RT_KD_BOTH: the near child over
- * [tMin, *near_end], then the far child over [*far_start, tMax].
+ * child only, over [tMin, tMax]) or a value with both bits (RT_KD_BOTH):
+ * the near child over [tMin, *near_end], then the far child over
+ * [*far_start, tMax].
  *
  * pbrt's rule, with two additions:
  *   - tPlane NaN (the ray lies in the split plane): both children over the
- *     whole interval;
- *   - a crossing within RT_KD_TOUCH relative of the interval's end (or its
- *     start) counts as inside it: the ray leaves the cell through (or
- *     enters it at) an edge or corner where the split meets another plane,
- *     and the computed distances of the two planes differ by a few
- *     roundings, so the cell on the other side is visited too, over the
- *     single point [tMax, tMax] (or [tMin, tMin] for the near child). A
- *     triangle whose vertex or edge lies on that edge of the cells -- one
- *     the watertight test hits -- may be listed only there (kdtree.h: a
- *     box touching a split plane from one side goes to that side).
+ *     whole interval, returned as RT_KD_BOTH | RT_KD_INPLANE. Only this
+ *     case pushes a far child that begins before the entries pushed after
+ *     it; without it a stack walk's entries begin later the deeper they
+ *     lie, and a walk may stop at the first one past its best hit;
+ *   - a crossing within RT_KD_TOUCH relative beyond the interval's end (or
+ *     before its start) counts as inside it: the ray leaves the cell
+ *     through (or enters it at) an edge or corner where the split meets
+ *     another plane, and the computed distances of the two planes differ
+ *     by a few roundings, so the cell on the other side is visited too,
+ *     over the single point [tMax, tMax] (or [tMin, tMin] for the near
+ *     child). A triangle whose vertex or edge lies on that edge of the
+ *     cells -- one the watertight test hits -- may be listed only there
+ *     (kdtree.h: a box touching a split plane from one side goes to that
+ *     side).
  * A plane at or behind the origin (tPlane <= 0, not NaN) is never crossed:
  * the near child only, even for a ray starting on the plane.
+ *
+ * rt_kd_step_w is the same rule with the widened bounds tMinW =
+ * rt_kd_wlo(tMin) and tMaxW = rt_kd_whi(tMax) passed in, for walks that
+ * keep them next to their interval (one multiplication when the interval
+ * changes, none per node); the decisions are the same.
  */
-enum { RT_KD_NEAR = 1, RT_KD_FAR = 2, RT_KD_BOTH = 3 };
+enum { RT_KD_NEAR = 1, RT_KD_FAR = 2, RT_KD_BOTH = 3, RT_KD_INPLANE = 4 };
 
 /* 2^-22 relative, four units in the last place. Each plane distance is
  * three roundings (1/d, split - o, the product), so the distances of two
  * planes through one point can differ by up to about six; on 8 million
  * adversarial rays (rays through vertices and along edges of the test
  * scenes) the widest gap that hid a hit was below 2^-22. The band is kept
- * that narrow because every ray that passes this close to a cell edge
- * visits one more cell: at 2^-22 about 1 ray in 10,000 on ordinary
- * primary and secondary rays (none in the tests' golden runs), at 2^-21
- * already a few more in the small cornell runs the golden files keep. */
+ * that narrow because a ray that passes this close to a cell edge visits
+ * one more cell: at 2^-22 one to three primary or secondary rays in
+ * 10,000 (none in the tests' golden runs); at 2^-21 the small cornell
+ * runs the golden files keep already change. */
 #define RT_KD_TOUCH (1.0f / 4194304.0f)
+
+static inline float rt_kd_wlo(float tMin) { return tMin * (1.0f - RT_KD_TOUCH); }
+static inline float rt_kd_whi(float tMax) { return tMax * (1.0f + RT_KD_TOUCH); }
+
+static inline int rt_kd_step_w(float tPlane, float tMin, float tMax, float tMinW, float tMaxW, float *near_end,
+                               float *far_start)
+{
+    if (tPlane > tMaxW || tPlane <= 0.0f) return RT_KD_NEAR;
+    if (tPlane < tMinW) return RT_KD_FAR;
+    if (tPlane <= tMax && tPlane >= tMin) { /* crosses inside the interval (pbrt) */
+        *near_end = *far_start = tPlane;
+        return RT_KD_BOTH;
+    }
+    if (tPlane > tMax) { /* leaves through an edge: the far cell at that point */
+        *near_end = *far_start = tMax;
+        return RT_KD_BOTH;
+    }
+    if (tPlane < tMin) { /* entered through an edge: the near cell at that point */
+        *near_end = *far_start = tMin;
+        return RT_KD_BOTH;
+    }
+    *near_end = tMax; /* NaN: the ray lies in the split plane */
+    *far_start = tMin;
+    return RT_KD_BOTH | RT_KD_INPLANE;
+}
 
 static inline int rt_kd_step(float tPlane, float tMin, float tMax, float *near_end, float *far_start)
 {
-    if (tPlane > tMax) {
-        if (tPlane > tMax * (1.0f + RT_KD_TOUCH)) return RT_KD_NEAR;
-        *near_end = *far_start = tMax; /* leaves through an edge: the far cell at that point */
-        return RT_KD_BOTH;
-    }
-    if (tPlane <= 0.0f) return RT_KD_NEAR;
-    if (tPlane < tMin) {
-        if (tPlane < tMin * (1.0f - RT_KD_TOUCH)) return RT_KD_FAR;
-        *near_end = *far_start = tMin; /* entered through an edge: the near cell at that point */
-        return RT_KD_BOTH;
-    }
-    if (tPlane == tPlane) {
-        *near_end = *far_start = tPlane;
-    } else { /* NaN: the ray lies in the split plane */
-        *near_end = tMax;
-        *far_start = tMin;
-    }
-    return RT_KD_BOTH;
+    return rt_kd_step_w(tPlane, tMin, tMax, rt_kd_wlo(tMin), rt_kd_whi(tMax), near_end, far_start);
 }
 
 /* Clips r to the tree bounds; returns 0 when the ray misses them. */
