@@ -3,16 +3,21 @@
  * memory-access recording, and the brute-force reference.
  *
  * The traversal is pbrt's KdTreeAccel::Intersect: clip the ray to the tree
- * bounds, then walk front to back; at an interior node the near child (the
- * side holding the origin, or the side the direction points to when the
- * origin lies on the plane) is visited first and the far one pushed with its
- * parametric interval when the plane crossing falls inside the current
- * interval. Leaves test every listed triangle against the ray's own interval
- * (never the leaf's), so rounding in the plane distances cannot lose a hit;
- * closest-hit traversal stops as soon as the best hit lies before the next
- * node's entry distance (by a margin of 2^-16 relative, rt_kd_past, so that
- * hits in a split plane and exact ties are resolved as brute force does). A plane distance that is NaN (the ray lies in the
- * split plane) visits both children.
+ * bounds (near and far faces by the direction's sign), then walk front to
+ * back; at an interior node the near child (the side holding the origin,
+ * or the side the direction points to when the origin lies on the plane)
+ * is visited first and the far one pushed with its parametric interval
+ * when the plane crossing falls inside the current interval -- or within
+ * RT_KD_TOUCH of it, so a cell the ray touches only at an edge or corner is
+ * visited too, and a NaN plane distance (the ray lies in the split plane)
+ * visits both over the whole interval (rt_kd_step, kdtrav.h, the rule every
+ * walk shares). Leaves test every listed triangle against the ray's own
+ * interval (never the leaf's), so rounding in the plane distances cannot
+ * lose a hit; closest-hit traversal stops as soon as the best hit lies
+ * before the next entry's distance (by a margin of 2^-16 relative,
+ * rt_kd_past, so that hits in a split plane and exact ties are resolved as
+ * brute force does), or skips that entry and pops on once an in-plane
+ * entry has been pushed (one that may begin before those above it).
  *
  * What is recorded (when tv->rec != NULL), in program order: one 8-byte read
  * of kd.nodes per node visited; at a leaf with n > 0 triangles one read of
