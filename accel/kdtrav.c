@@ -3,16 +3,21 @@
  * memory-access recording, and the brute-force reference.
  *
  * The traversal is pbrt's KdTreeAccel::Intersect: clip the ray to the tree
- * bounds, then walk front to back; at an interior node the near child (the
- * side holding the origin, or the side the direction points to when the
- * origin lies on the plane) is visited first and the far one pushed with its
- * parametric interval when the plane crossing falls inside the current
- * interval. Leaves test every listed triangle against the ray's own interval
- * (never the leaf's), so rounding in the plane distances cannot lose a hit;
- * closest-hit traversal stops as soon as the best hit lies before the next
- * node's entry distance (by a margin of 2^-16 relative, rt_kd_past, so that
- * hits in a split plane and exact ties are resolved as brute force does). A plane distance that is NaN (the ray lies in the
- * split plane) visits both children.
+ * bounds (near and far faces by the direction's sign), then walk front to
+ * back; at an interior node the near child (the side holding the origin,
+ * or the side the direction points to when the origin lies on the plane)
+ * is visited first and the far one pushed with its parametric interval
+ * when the plane crossing falls inside the current interval -- or within
+ * RT_KD_TOUCH of it, so a cell the ray touches only at an edge or corner is
+ * visited too, and a NaN plane distance (the ray lies in the split plane)
+ * visits both over the whole interval (rt_kd_step, kdtrav.h, the rule every
+ * walk shares). Leaves test every listed triangle against the ray's own
+ * interval (never the leaf's), so rounding in the plane distances cannot
+ * lose a hit; closest-hit traversal stops as soon as the best hit lies
+ * before the next entry's distance (by a margin of 2^-16 relative,
+ * rt_kd_past, so that hits in a split plane and exact ties are resolved as
+ * brute force does), or skips that entry and pops on once an in-plane
+ * entry has been pushed (one that may begin before those above it).
  *
  * What is recorded (when tv->rec != NULL), in program order: one 8-byte read
  * of kd.nodes per node visited; at a leaf with n > 0 triangles one read of
@@ -57,13 +62,13 @@ int rt_kd_clip(const rt_kdtree *kd, const rt_ray *r, float *t0, float *t1)
     const float *inv = (const float *)(const void *)&r->inv_d;
     float a = r->tmin, c = r->tmax;
     for (int k = 0; k < 3; k++) {
-        float tn = (lo[k] - o[k]) * inv[k];
-        float tf = (hi[k] - o[k]) * inv[k];
-        if (tn > tf) {
-            float x = tn;
-            tn = tf;
-            tf = x;
-        }
+        /* near and far faces by the direction's sign, not by comparing
+         * the distances: one of them is NaN when the origin lies on a face
+         * and the direction is +-0 on this axis, and a comparison would
+         * then keep the other (+-inf) on the wrong side. */
+        const int neg = signbit(inv[k]) != 0;
+        float tn = ((neg ? hi[k] : lo[k]) - o[k]) * inv[k];
+        float tf = ((neg ? lo[k] : hi[k]) - o[k]) * inv[k];
         tf *= 1.0f + 2.0f * GAMMA3;
         /* NaN (origin on a slab face, direction 0 on that axis) constrains
          * nothing: the comparisons below are false. */
@@ -121,9 +126,11 @@ static RT_ALWAYS_INLINE int traverse_plain(rt_trav *tv, const rt_ray *rp, uint32
     int sp = 0;
     uint64_t nvisit = 0, ntest = 0;
     int occluded = 0;
+    float tMinW = rt_kd_wlo(tMin), tMaxW = rt_kd_whi(tMax); /* the interval widened (rt_kd_step_w) */
+    int ordered = 1; /* no RT_KD_INPLANE entry pushed: entries begin later the deeper they lie */
 
+    if (!any && rt_kd_past(best, tMin)) goto done;
     for (;;) {
-        if (!any && rt_kd_past(best, tMin)) break;
         const rt_kdnode *nd = &nodes[node];
         nvisit++;
         RT_REC(rec, rt_mm_addr(L, tv->reg_node, node), 8, 0, RT_CLS_NODE);
@@ -136,23 +143,21 @@ static RT_ALWAYS_INLINE int traverse_plain(rt_trav *tv, const rt_ray *rp, uint32
             const uint32_t above = w1 >> 2;
             const uint32_t first = belowFirst ? node + 1 : above;
             const uint32_t second = belowFirst ? above : node + 1;
-            if (tPlane > tMax || tPlane <= 0.0f) {
+            float near_end, far_start;
+            const int step = rt_kd_step_w(tPlane, tMin, tMax, tMinW, tMaxW, &near_end, &far_start);
+            if (step == RT_KD_NEAR) {
                 node = first;
-            } else if (tPlane < tMin) {
+            } else if (step == RT_KD_FAR) {
                 node = second;
-            } else if (tPlane == tPlane) {
+            } else {
                 stack[sp].node = second;
-                stack[sp].tmin = tPlane;
+                stack[sp].tmin = far_start;
                 stack[sp].tmax = tMax;
                 sp++;
                 node = first;
-                tMax = tPlane;
-            } else { /* NaN: the ray lies in the split plane */
-                stack[sp].node = second;
-                stack[sp].tmin = tMin;
-                stack[sp].tmax = tMax;
-                sp++;
-                node = first;
+                tMax = near_end;
+                tMaxW = rt_kd_whi(tMax);
+                if (step & RT_KD_INPLANE) ordered = 0;
             }
             continue;
         }
@@ -182,11 +187,18 @@ static RT_ALWAYS_INLINE int traverse_plain(rt_trav *tv, const rt_ray *rp, uint32
                 }
             }
         }
-        if (sp == 0) break;
-        --sp;
-        node = stack[sp].node;
-        tMin = stack[sp].tmin;
-        tMax = stack[sp].tmax;
+        for (;;) { /* pop; an entry past the best hit ends the walk, or is skipped
+                    * when one beneath may begin earlier (RT_KD_INPLANE) */
+            if (sp == 0) goto done;
+            --sp;
+            node = stack[sp].node;
+            tMin = stack[sp].tmin;
+            tMax = stack[sp].tmax;
+            if (any || !rt_kd_past(best, tMin)) break;
+            if (ordered) goto done;
+        }
+        tMinW = rt_kd_wlo(tMin);
+        tMaxW = rt_kd_whi(tMax);
     }
 done:
     tv->nodes += nvisit;
@@ -447,6 +459,8 @@ static RT_ALWAYS_INLINE int traverse_fast(rt_trav *tv, const rt_ray *r, uint32_t
     int sp = 0;
     uint64_t nvisit = 0, ntest = 0;
     int occluded = 0;
+    float tMinW = rt_kd_wlo(tMin), tMaxW = rt_kd_whi(tMax); /* the interval widened (rt_kd_step_w) */
+    int ordered = 1; /* no RT_KD_INPLANE entry pushed: entries begin later the deeper they lie */
 
     if (!any && rt_kd_past(b.t, tMin)) goto done;
     for (;;) {
@@ -463,21 +477,21 @@ static RT_ALWAYS_INLINE int traverse_fast(rt_trav *tv, const rt_ray *r, uint32_t
             const uint32_t above = w1 >> 2;
             const uint32_t first = belowFirst ? node + 1 : above;
             const uint32_t second = belowFirst ? above : node + 1;
-            if (tPlane > tMax || tPlane <= 0.0f) {
+            float near_end, far_start;
+            const int step = rt_kd_step_w(tPlane, tMin, tMax, tMinW, tMaxW, &near_end, &far_start);
+            if (step == RT_KD_NEAR) {
                 node = first;
-            } else if (tPlane < tMin) {
+            } else if (step == RT_KD_FAR) {
                 node = second;
             } else {
                 stack[sp].node = second;
+                stack[sp].tmin = far_start;
                 stack[sp].tmax = tMax;
-                if (tPlane == tPlane) {
-                    stack[sp].tmin = tPlane;
-                    tMax = tPlane;
-                } else { /* NaN: the ray lies in the split plane */
-                    stack[sp].tmin = tMin;
-                }
                 sp++;
                 node = first;
+                tMax = near_end;
+                tMaxW = rt_kd_whi(tMax);
+                if (step & RT_KD_INPLANE) ordered = 0;
             }
             nd = &nodes[node];
             nvisit++;
@@ -502,12 +516,18 @@ static RT_ALWAYS_INLINE int traverse_fast(rt_trav *tv, const rt_ray *r, uint32_t
                 leaf_closest(&c, q, n, &b, &ntest);
             }
         }
-        if (sp == 0) break;
-        --sp;
-        node = stack[sp].node;
-        tMin = stack[sp].tmin;
-        tMax = stack[sp].tmax;
-        if (!any && rt_kd_past(b.t, tMin)) break;
+        for (;;) { /* pop; an entry past the best hit ends the walk, or is skipped
+                    * when one beneath may begin earlier (RT_KD_INPLANE) */
+            if (sp == 0) goto done;
+            --sp;
+            node = stack[sp].node;
+            tMin = stack[sp].tmin;
+            tMax = stack[sp].tmax;
+            if (any || !rt_kd_past(b.t, tMin)) break;
+            if (ordered) goto done;
+        }
+        tMinW = rt_kd_wlo(tMin);
+        tMaxW = rt_kd_whi(tMax);
     }
 done:
     if (recording) recw_done(&c.w);

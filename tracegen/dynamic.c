@@ -525,9 +525,9 @@ typedef struct tstack {
     float t0, t1;
 } tstack;
 
-/* One front-to-back step at an interior node (pbrt's rules, as in
- * kdtrav.c): returns the child to visit next, narrowing *tmax and pushing
- * the far child when the ray crosses the split inside [tmin, *tmax]. */
+/* One front-to-back step at an interior node (rt_kd_step, the rule of
+ * every k-d walk): returns the child to visit next, narrowing *tmax and
+ * pushing the far child when the ray visits both. */
 static inline uint32_t interior_step(const rt_kdnode *nd, uint32_t node, const rt_ray *r, float tmin, float *tmax,
                                      tstack *stack, int *sp)
 {
@@ -539,15 +539,17 @@ static inline uint32_t interior_step(const rt_kdnode *nd, uint32_t node, const r
     int below_first = o < split || (o == split && d <= 0);
     uint32_t nearc = below_first ? node + 1 : rt_kd_above(nd);
     uint32_t farc = below_first ? rt_kd_above(nd) : node + 1;
-    if (tp > *tmax || tp <= 0) return nearc;
-    if (tp < tmin) return farc;
+    float near_end, far_start;
+    const int step = rt_kd_step(tp, tmin, *tmax, &near_end, &far_start);
+    if (step == RT_KD_NEAR) return nearc;
+    if (step == RT_KD_FAR) return farc;
     if (*sp < RT_KD_STACK) {
         stack[*sp].node = farc;
-        stack[*sp].t0 = tp;
+        stack[*sp].t0 = far_start;
         stack[*sp].t1 = *tmax;
         (*sp)++;
     }
-    *tmax = tp;
+    *tmax = near_end;
     return nearc;
 }
 
@@ -609,7 +611,9 @@ static int subtree(dyn *D, uint32_t root, const rt_ray *trav, const rt_ray *test
     uint32_t node = root;
     float tmin = a, tmax = b;
     for (;;) {
-        if (!D->shadow && *best_tri != RT_NO_HIT && rt_kd_past(*best_t, tmin)) return 0;
+        /* past the best hit: skip this entry, not the rest (an entry pushed
+         * by a ray lying in a split plane can begin before those above it) */
+        if (!D->shadow && *best_tri != RT_NO_HIT && rt_kd_past(*best_t, tmin)) goto pop;
         const rt_kdnode *nd = &kd->nodes[node];
         RT_REC(D->rec, rt_mm_addr(D->L, D->tv.reg_node, node), 8, 0, RT_CLS_NODE);
         D->tv.nodes++;
@@ -619,6 +623,7 @@ static int subtree(dyn *D, uint32_t root, const rt_ray *trav, const rt_ray *test
             node = interior_step(nd, node, trav, tmin, &tmax, stack, &sp);
             continue;
         }
+    pop:
         if (!sp) return 0;
         sp--;
         node = stack[sp].node;

@@ -199,14 +199,10 @@ static void visit(pstate *ps, uint32_t node, plist *l, int depth)
         /* near/far as in single-ray traversal; then mapped to packet order */
         int near_is_first = below_first == below_first_pkt;
         plist *nearl = near_is_first ? first : second, *farl = near_is_first ? second : first;
-        if (tp > t1 || tp <= 0) {
-            nearl->idx[nearl->n] = (uint16_t)i, nearl->t0[nearl->n] = t0, nearl->t1[nearl->n++] = t1;
-        } else if (tp < t0) {
-            farl->idx[farl->n] = (uint16_t)i, farl->t0[farl->n] = t0, farl->t1[farl->n++] = t1;
-        } else {
-            nearl->idx[nearl->n] = (uint16_t)i, nearl->t0[nearl->n] = t0, nearl->t1[nearl->n++] = tp;
-            farl->idx[farl->n] = (uint16_t)i, farl->t0[farl->n] = tp, farl->t1[farl->n++] = t1;
-        }
+        float near_end = t1, far_start = t0;
+        const int step = rt_kd_step(tp, t0, t1, &near_end, &far_start);
+        if (step & RT_KD_NEAR) nearl->idx[nearl->n] = (uint16_t)i, nearl->t0[nearl->n] = t0, nearl->t1[nearl->n++] = near_end;
+        if (step & RT_KD_FAR) farl->idx[farl->n] = (uint16_t)i, farl->t0[farl->n] = far_start, farl->t1[farl->n++] = t1;
     }
     if (first->n) visit(ps, child_first, first, depth + 1);
     if (second->n) visit(ps, child_second, second, depth + 1);
