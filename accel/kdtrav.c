@@ -87,6 +87,19 @@ typedef struct todo {
     float tmax;
 } todo;
 
+/* The next stack entry to visit, into *e (1), or 0 when the walk is over:
+ * an entry past the best hit ends it, or is skipped when an entry beneath
+ * may begin earlier (an RT_KD_INPLANE push made the stack unordered). */
+static RT_ALWAYS_INLINE int pop_next(const todo *stack, int *sp, float best, int any, int ordered, todo *e)
+{
+    while (*sp > 0) {
+        *e = stack[--*sp];
+        if (any || !rt_kd_past(best, e->tmin)) return 1;
+        if (ordered) return 0;
+    }
+    return 0;
+}
+
 /*
  * The traversal, shared by all four entry points. `any` is a constant at
  * every call site, so the compiler emits a closest-hit and an any-hit
@@ -187,16 +200,11 @@ static RT_ALWAYS_INLINE int traverse_plain(rt_trav *tv, const rt_ray *rp, uint32
                 }
             }
         }
-        for (;;) { /* pop; an entry past the best hit ends the walk, or is skipped
-                    * when one beneath may begin earlier (RT_KD_INPLANE) */
-            if (sp == 0) goto done;
-            --sp;
-            node = stack[sp].node;
-            tMin = stack[sp].tmin;
-            tMax = stack[sp].tmax;
-            if (any || !rt_kd_past(best, tMin)) break;
-            if (ordered) goto done;
-        }
+        todo e;
+        if (!pop_next(stack, &sp, best, any, ordered, &e)) goto done;
+        node = e.node;
+        tMin = e.tmin;
+        tMax = e.tmax;
         tMinW = rt_kd_wlo(tMin);
         tMaxW = rt_kd_whi(tMax);
     }
@@ -516,16 +524,11 @@ static RT_ALWAYS_INLINE int traverse_fast(rt_trav *tv, const rt_ray *r, uint32_t
                 leaf_closest(&c, q, n, &b, &ntest);
             }
         }
-        for (;;) { /* pop; an entry past the best hit ends the walk, or is skipped
-                    * when one beneath may begin earlier (RT_KD_INPLANE) */
-            if (sp == 0) goto done;
-            --sp;
-            node = stack[sp].node;
-            tMin = stack[sp].tmin;
-            tMax = stack[sp].tmax;
-            if (any || !rt_kd_past(b.t, tMin)) break;
-            if (ordered) goto done;
-        }
+        todo e;
+        if (!pop_next(stack, &sp, b.t, any, ordered, &e)) goto done;
+        node = e.node;
+        tMin = e.tmin;
+        tMax = e.tmax;
         tMinW = rt_kd_wlo(tMin);
         tMaxW = rt_kd_whi(tMax);
     }
