@@ -1220,8 +1220,8 @@ int rt_bvh_check(const rt_bvh *b, const rt_scene *s, rt_err *e)
             rt_errf(e, "bvh%d: record %u differs from scene triangle %u", W, i, o);
             goto out;
         }
-        if (rt_bvh_degenerate(b, i) != rt_isect_degenerate(&b->tri[i])) {
-            rt_errf(e, "bvh%d: record %u: degenerate flag %d, the triangle's %d", W, i, rt_bvh_degenerate(b, i),
+        if (rt_bvh_degenerate(b->degen, i) != rt_isect_degenerate(&b->tri[i])) {
+            rt_errf(e, "bvh%d: record %u: degenerate flag %d, the triangle's %d", W, i, rt_bvh_degenerate(b->degen, i),
                     rt_isect_degenerate(&b->tri[i]));
             goto out;
         }
@@ -1267,8 +1267,6 @@ out:
 #define FAR_SCALE (1.0f + 2.0f * GAMMA3)
 #define RT_BVH_STACK 512 /* >= 1 + 7 x RT_BVH_MAX_DEPTH */
 
-/* Visit bound: a box entered at most this far beyond x is still visited. */
-static inline float cull_bound(float x) { return x + fabsf(x) * (1.0f / 65536.0f); }
 
 /* The ray as the slab tests read it. */
 typedef struct wray {
@@ -1352,7 +1350,7 @@ typedef struct wstate {
     float best, bu, bv; /* best t (starts at tmax), its barycentrics */
     uint32_t btri;      /* its scene index; 0 while none, so an equal t never wins */
     int found;          /* a hit is held */
-    float cull;         /* cull_bound(best) */
+    float cull;         /* rt_bvh_cull_bound(best) */
     uint64_t nvisit, ntest;
     uint64_t tri_base;  /* bvh.tri base address (recording) */
     /* the tree's arrays and the marks, held here: a store through mark
@@ -1384,7 +1382,7 @@ static RT_ALWAYS_INLINE int leaf_tris(rt_bvh_trav *tv, const rt_ray *r, uint32_t
 #else
         if (!rt_isect_core_nd(r, &S->tri[k], &t, &u, &v)) continue;
 #endif
-        if ((S->degen[k >> 5] >> (k & 31)) & 1u) continue; /* rt_bvh_degenerate */
+        if (rt_bvh_degenerate(S->degen, k)) continue;
         if (any) {
             if (t > r->tmin && t < r->tmax) return 1;
         } else if (t > r->tmin && (t < S->best || (t == S->best && o < S->btri))) {
@@ -1393,7 +1391,7 @@ static RT_ALWAYS_INLINE int leaf_tris(rt_bvh_trav *tv, const rt_ray *r, uint32_t
             S->btri = o;
             S->bu = u;
             S->bv = v;
-            S->cull = cull_bound(t);
+            S->cull = rt_bvh_cull_bound(t);
         }
     }
     return 0;
@@ -1421,7 +1419,7 @@ static RT_ALWAYS_INLINE void wstate_init(wstate *S, const rt_bvh_trav *tv, const
     S->bu = S->bv = 0.0f;
     S->btri = 0;
     S->found = 0;
-    S->cull = cull_bound(r->tmax);
+    S->cull = rt_bvh_cull_bound(r->tmax);
     S->nvisit = S->ntest = 0;
     S->tri_base = tv->rec ? tv->L->r[tv->reg_tri].base : 0;
     S->tri = tv->bvh->tri;

@@ -198,8 +198,9 @@ typedef struct rt_bvh {
     float pad;              /* every box is its triangles' boxes grown by pad on each side (bvh.c, B8) */
 } rt_bvh;
 
-/* 1 when record i (leaf order) is a degenerate triangle. */
-static inline int rt_bvh_degenerate(const rt_bvh *b, uint32_t i) { return (int)(b->degen[i >> 5] >> (i & 31)) & 1; }
+/* 1 when record i (leaf order) is a degenerate triangle, from a tree's
+ * degen bits. */
+static inline int rt_bvh_degenerate(const uint32_t *degen, uint32_t i) { return (int)(degen[i >> 5] >> (i & 31)) & 1; }
 
 /* Builds a tree of p->width over all triangles of s (p NULL: width 4
  * defaults). NULL with e set on failure: bad parameters, more than

@@ -238,8 +238,6 @@ typedef struct bvlevel {
     uint8_t *mask;  /* wide: mask[j], the slots ray j hits */
 } bvlevel;
 
-static inline float pb_cull_bound(float x) { return x + fabsf(x) * (1.0f / 65536.0f); }
-
 /* bvh.c's slab test of one box (box_lane), for ray r. */
 #define PB_GAMMA3 ((3.0f * FLT_EPSILON * 0.5f) / (1.0f - 3.0f * FLT_EPSILON * 0.5f))
 static inline int pb_box(const rt_ray *r, const float lo[3], const float hi[3], float cull, float *tnear)
@@ -292,7 +290,7 @@ static void pb_leaf(pstate *ps, uint32_t first, uint32_t n, bvlevel *l)
                 h->tri = o;
                 h->u = u;
                 h->v = v;
-                ps->cull[i] = pb_cull_bound(t);
+                ps->cull[i] = rt_bvh_cull_bound(t);
             }
         }
         if (ps->shadow) pb_drop_done(ps, l);
@@ -405,7 +403,7 @@ static void pb_trace(pstate *ps, const plist *l)
         const rt_ray *r = &ps->ray[i];
         l0->idx[j] = (uint16_t)i;
         l0->tin[j] = r->tmin;
-        ps->cull[i] = pb_cull_bound(!ps->shadow && ps->hit[i].tri != RT_NO_HIT ? ps->hit[i].t : r->tmax);
+        ps->cull[i] = rt_bvh_cull_bound(!ps->shadow && ps->hit[i].tri != RT_NO_HIT ? ps->hit[i].t : r->tmax);
     }
     if (ps->bvh->width == 2) pb_visit2(ps, 0, 0);
     else pb_visitw(ps, 0, 0);
