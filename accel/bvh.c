@@ -1367,10 +1367,9 @@ typedef struct wstate {
 } wstate;
 
 /* Tests records [first, first + n). any: 1 at the first hit in (tmin, tmax). */
-static RT_ALWAYS_INLINE int leaf_tris(rt_bvh_trav *tv, const rt_ray *r, uint32_t first, uint32_t n, wstate *S,
+static RT_ALWAYS_INLINE int leaf_tris(const rt_ray *r, uint32_t first, uint32_t n, wstate *S,
                                       const int any)
 {
-    (void)tv;
     for (uint32_t k = first; k < first + n; k++) {
         const uint32_t o = S->orig[k];
         S->ntest++;
@@ -1457,7 +1456,7 @@ static RT_ALWAYS_INLINE int walk2(rt_bvh_trav *tv, const rt_ray *rp, rt_hit *h, 
         float tn;
         if (box_lane(&w, nd->lo[0], nd->lo[1], nd->lo[2], nd->hi[0], nd->hi[1], nd->hi[2], S.cull, &tn)) {
             if (nd->ntri) {
-                if (leaf_tris(tv, r, nd->offset, nd->ntri, &S, any)) {
+                if (leaf_tris(r, nd->offset, nd->ntri, &S, any)) {
                     occluded = 1;
                     break;
                 }
@@ -1520,7 +1519,7 @@ static RT_ALWAYS_INLINE int walk_wide(rt_bvh_trav *tv, const rt_ray *rp, rt_hit 
         const sentry e = st[--sp];
         if (e.t > S.cull) continue;
         if (e.n) {
-            if (leaf_tris(tv, r, e.a, e.n, &S, any)) {
+            if (leaf_tris(r, e.a, e.n, &S, any)) {
                 occluded = 1;
                 break;
             }
@@ -1624,7 +1623,7 @@ static RT_ALWAYS_INLINE int walk_fast(rt_bvh_trav *tv, const rt_ray *rp, rt_hit 
                     node = ra;
                     continue;
                 }
-                if (leaf_tris(tv, r, ra, rn, &S, any)) {
+                if (leaf_tris(r, ra, rn, &S, any)) {
                     occluded = 1;
                     break;
                 }
@@ -1640,7 +1639,7 @@ static RT_ALWAYS_INLINE int walk_fast(rt_bvh_trav *tv, const rt_ray *rp, rt_hit 
                 node = e.a;
                 break;
             }
-            if (leaf_tris(tv, r, e.a, e.n, &S, any)) return finish(tv, &S, h, any, 1);
+            if (leaf_tris(r, e.a, e.n, &S, any)) return finish(tv, &S, h, any, 1);
         }
     }
     return finish(tv, &S, h, any, occluded);
