@@ -196,11 +196,19 @@ typedef struct rt_bvh {
     float isect_cost;
     double build_sec;       /* wall time of rt_bvh_build */
     float pad;              /* every box is its triangles' boxes grown by pad on each side (bvh.c, B8) */
+    int fast_avx;           /* 1: the unrecorded bvh8 walk tests a node's eight boxes in one AVX
+                               vector (set by the build when the processor has AVX and the build
+                               made the AVX copy; clearing it selects the SSE2 walk, with the
+                               same results) */
 } rt_bvh;
 
 /* 1 when record i (leaf order) is a degenerate triangle, from a tree's
  * degen bits. */
 static inline int rt_bvh_degenerate(const uint32_t *degen, uint32_t i) { return (int)(degen[i >> 5] >> (i & 31)) & 1; }
+
+/* 1 when this build has the AVX copy of the bvh8 walk and the processor
+ * runs it (the value rt_bvh_build stores in fast_avx for width 8). */
+int rt_bvh_avx_usable(void);
 
 /* Builds a tree of p->width over all triangles of s (p NULL: width 4
  * defaults). NULL with e set on failure: bad parameters, more than

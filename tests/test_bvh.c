@@ -9,8 +9,11 @@
  * random rays, rays aimed at vertices and edge midpoints, axis-parallel
  * rays with signed zeros, rays starting on surfaces and segments;
  * rt_bvh_occluded agrees with the closest hit and with rt_brute_occluded;
- * the SSE2 walk equals the scalar reference walk (rt_bvh_plain) in hits,
- * node and test counts, marks and the recorded stream; recorded node bytes
+ * the SSE2 walk (and, where the processor has AVX, bvh8's AVX walk, run
+ * beside its SSE2 copy) equals the scalar reference walk (rt_bvh_plain) in
+ * hits, node and test counts and marks, and records the reference walk's
+ * stream access for access (a hash of the whole sequence, the SSE2 and AVX
+ * copies taking turns); recorded node bytes
  * are nodes x node size and triangle bytes tests x 36, every access inside
  * its region; two builds are byte-identical. The checker rejects a shrunk
  * box, a dropped and a duplicated triangle; a failing allocator at every
@@ -91,6 +94,7 @@ typedef struct counts {
     uint64_t n[RT_NCLASS];     /* accesses per class */
     uint64_t bytes[RT_NCLASS]; /* bytes per class */
     int bad;                   /* accesses outside their region or off a record */
+    uint64_t hash;             /* FNV-1a over (addr, size, cls) in order: the sequence */
     const rt_layout *L;
 } counts;
 
@@ -100,6 +104,8 @@ static int count_put(rt_sink *sk, const rt_access *a, size_t n)
     for (size_t i = 0; i < n; i++) {
         c->n[a[i].cls]++;
         c->bytes[a[i].cls] += a[i].size;
+        const uint64_t v[3] = {a[i].addr, a[i].size, a[i].cls};
+        for (int k = 0; k < 3; k++) c->hash = (c->hash ^ v[k]) * 0x100000001b3ull;
         int ok = 0;
         for (int r = 0; r < c->L->n; r++) {
             const rt_region *g = &c->L->r[r];
@@ -184,9 +190,10 @@ typedef struct wtree {
     rt_bvh *b;
     rt_layout L;
     int rn, rt;
-    rt_bvh_trav fast, plain, recd; /* SSE2, scalar, recording */
-    counts cnt;
-    rt_sink sink;
+    rt_bvh_trav fast, plain, recd; /* SSE2 (bvh8: AVX where it runs), scalar, recording */
+    rt_bvh_trav sse, precd;        /* bvh8's SSE2 copy beside the AVX one; the scalar walk recording */
+    counts cnt, cnt_p;
+    rt_sink sink, sink_p;
     uint8_t *mark_f, *mark_p;
 } wtree;
 
@@ -223,15 +230,22 @@ static void run_scene(const char *name, const rt_scene *s, long nrays, long nbru
         CHECK(rt_bvh_layout(x->b, &x->L, &x->rn, &x->rt, &e) == 0 && x->rn == 0 && x->rt == 1, "%s: layout: %s", name,
               e.msg);
         CHECK(rt_bvh_layout(x->b, &x->L, NULL, NULL, &e) < 0, "%s: a second layout passes", name);
-        x->cnt.L = &x->L;
-        x->sink.put = count_put;
+        x->cnt.L = x->cnt_p.L = &x->L;
+        x->cnt.hash = x->cnt_p.hash = 0xcbf29ce484222325ull;
+        x->sink.put = x->sink_p.put = count_put;
         x->sink.ctx = &x->cnt;
+        x->sink_p.ctx = &x->cnt_p;
         x->mark_f = calloc(s->ntri ? s->ntri : 1, 1);
         x->mark_p = calloc(s->ntri ? s->ntri : 1, 1);
         rt_bvh_trav_init(&x->fast, x->b, s, NULL, NULL);
         rt_bvh_trav_init(&x->plain, x->b, s, NULL, NULL);
         rt_bvh_trav_init(&x->recd, x->b, s, rt_rec_new(&x->sink, &e), &x->L);
         CHECK(x->recd.rec && x->recd.reg_node == x->rn && x->recd.reg_tri == x->rt, "%s: trav init", name);
+        rt_bvh_trav_init(&x->sse, x->b, s, NULL, NULL);
+        rt_bvh_trav_init(&x->precd, x->b, s, rt_rec_new(&x->sink_p, &e), &x->L);
+        CHECK(x->precd.rec != NULL, "%s: trav init", name);
+        CHECK(x->b->fast_avx == (widths[w] == 8 && rt_bvh_avx_usable()), "%s bvh%d: fast_avx %d", name, widths[w],
+              x->b->fast_avx);
         x->fast.mark = x->mark_f;
         x->plain.mark = x->mark_p;
         x->fast.mark_bit = x->plain.mark_bit = 4;
@@ -263,8 +277,24 @@ static void run_scene(const char *name, const rt_scene *s, long nrays, long nbru
             wtree *x = &T[w];
             rt_hit h, hp, hr;
             const int a = rt_bvh_closest(&x->fast, &r, &h);
+            const uint64_t pn0 = x->plain.nodes, pt0 = x->plain.tests;
             const int ap = rt_bvh_plain(&x->plain, &r, &hp, 0);
+            const uint64_t pn = x->plain.nodes - pn0, pt = x->plain.tests - pt0, sn0 = x->sse.nodes, st0 = x->sse.tests;
+            /* the recording walk: bvh8's AVX and SSE2 copies take turns */
+            const int avx = x->b->fast_avx;
+            x->b->fast_avx = avx && (i & 1);
             const int ar = rt_bvh_closest(&x->recd, &r, &hr);
+            x->b->fast_avx = avx;
+            rt_hit hpr, hs;
+            const int apr = rt_bvh_plain(&x->precd, &r, &hpr, 0);
+            x->b->fast_avx = 0;
+            const int as = rt_bvh_closest(&x->sse, &r, &hs);
+            const uint64_t sn = x->sse.nodes - sn0, stt = x->sse.tests - st0;
+            const int os = rt_bvh_occluded(&x->sse, &r);
+            x->b->fast_avx = avx;
+            CHECK(apr == ap && same_hit(&hpr, &hp) && as == ap && same_hit(&hs, &hp) && os == as &&
+                      sn == pn && stt == pt,
+                  "%s bvh%d ray %ld: the SSE2 copy or the recording reference walk differs", name, widths[w], i);
             int ok;
             if (brute) {
                 ok = a == ab && same_hit(&h, &hb);
@@ -293,6 +323,7 @@ static void run_scene(const char *name, const rt_scene *s, long nrays, long nbru
             const int oc = rt_bvh_occluded(&x->fast, &r);
             const int op = rt_bvh_plain(&x->plain, &r, NULL, 1);
             const int orc = rt_bvh_occluded(&x->recd, &r);
+            CHECK(rt_bvh_plain(&x->precd, &r, NULL, 1) == orc, "%s bvh%d ray %ld: recorded occlusion", name, widths[w], i);
             CHECK(oc == a && op == oc && orc == oc && x->fast.tests == x->plain.tests && x->fast.nodes == x->plain.nodes,
                   "%s bvh%d ray %ld: occluded %d/%d/%d, closest %d", name, widths[w], i, oc, op, orc, a);
             if (brute && (i & 7) == 0) CHECK(oc == rt_brute_occluded(s, &r), "%s bvh%d ray %ld: occluded vs brute", name, widths[w], i);
@@ -301,7 +332,8 @@ static void run_scene(const char *name, const rt_scene *s, long nrays, long nbru
                 sr.tmax = h.t; /* clear unless another triangle has the same t */
                 CHECK(rt_bvh_occluded(&x->fast, &sr) == rt_kd_occluded(&kv, &sr) &&
                           rt_bvh_plain(&x->plain, &sr, NULL, 1) == rt_kd_occluded(&kv, &sr) &&
-                          rt_bvh_occluded(&x->recd, &sr) == rt_kd_occluded(&kv, &sr),
+                          rt_bvh_occluded(&x->recd, &sr) == rt_kd_occluded(&kv, &sr) &&
+                          rt_bvh_plain(&x->precd, &sr, NULL, 1) == rt_kd_occluded(&kv, &sr),
                       "%s bvh%d ray %ld: short occlusion", name, widths[w], i);
             }
             if (!ok) bad++;
@@ -310,7 +342,10 @@ static void run_scene(const char *name, const rt_scene *s, long nrays, long nbru
     for (int w = 0; w < 3; w++) {
         wtree *x = &T[w];
         CHECK(!memcmp(x->mark_f, x->mark_p, s->ntri), "%s bvh%d: marks differ", name, widths[w]);
-        CHECK(rt_rec_flush(x->recd.rec) == 0, "flush");
+        CHECK(rt_rec_flush(x->recd.rec) == 0 && rt_rec_flush(x->precd.rec) == 0, "flush");
+        CHECK(x->cnt.hash == x->cnt_p.hash && x->cnt.n[RT_CLS_NODE] == x->cnt_p.n[RT_CLS_NODE] &&
+                  x->cnt.n[RT_CLS_TRI] == x->cnt_p.n[RT_CLS_TRI],
+              "%s bvh%d: the recording walk's access stream differs from the reference walk's", name, widths[w]);
         const uint64_t nsz = rt_bvh_node_size(widths[w]);
         CHECK(x->cnt.n[RT_CLS_NODE] == x->recd.nodes && x->cnt.bytes[RT_CLS_NODE] == nsz * x->recd.nodes,
               "%s bvh%d: node bytes %llu != %llu nodes x %llu", name, widths[w],
@@ -332,6 +367,7 @@ static void run_scene(const char *name, const rt_scene *s, long nrays, long nbru
 out:
     for (int w = 0; w < 3; w++) {
         rt_rec_free(T[w].recd.rec);
+        rt_rec_free(T[w].precd.rec);
         free(T[w].mark_f);
         free(T[w].mark_p);
         rt_bvh_free(T[w].b);
