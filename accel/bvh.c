@@ -1381,12 +1381,8 @@ static RT_ALWAYS_INLINE int walk(rt_bvh_trav *tv, const rt_ray *r, rt_hit *h, co
 #if defined(__SSE2__)
     if (simd) {
         if (tv->bvh->width == 4) return tv->rec ? walk_fast(tv, r, h, any, 4, -1, 1) : walk_octant(tv, r, h, any, 4);
-        if (tv->bvh->width == 8) {
-#if defined(RT_HAVE_AVX_WALK)
-            if (tv->bvh->fast_avx) return rt_bvh_walk8_avx(tv, r, h, any);
-#endif
+        if (tv->bvh->width == 8)
             return tv->rec ? walk_fast(tv, r, h, any, 8, -1, 1) : walk_octant(tv, r, h, any, 8);
-        }
     }
 #endif
     switch (tv->bvh->width) {
@@ -1472,9 +1468,26 @@ int rt_bvh_step(const rt_bvh *b, const rt_bvh_wray *wr, uint32_t node, float cul
     return 2;
 }
 
-int rt_bvh_closest(rt_bvh_trav *tv, const rt_ray *r, rt_hit *h) { return walk(tv, r, h, 0, FAST); }
+/* The AVX copy is tested first, in a function of its own, so a ray bound
+ * for it pays no prologue of the inlined walks below. */
+static RT_NOINLINE int walk_closest(rt_bvh_trav *tv, const rt_ray *r, rt_hit *h) { return walk(tv, r, h, 0, FAST); }
+static RT_NOINLINE int walk_occluded(rt_bvh_trav *tv, const rt_ray *r) { return walk(tv, r, NULL, 1, FAST); }
 
-int rt_bvh_occluded(rt_bvh_trav *tv, const rt_ray *r) { return walk(tv, r, NULL, 1, FAST); }
+int rt_bvh_closest(rt_bvh_trav *tv, const rt_ray *r, rt_hit *h)
+{
+#if defined(RT_HAVE_AVX_WALK)
+    if (tv->bvh->fast_avx) return rt_bvh_walk8_avx(tv, r, h, 0);
+#endif
+    return walk_closest(tv, r, h);
+}
+
+int rt_bvh_occluded(rt_bvh_trav *tv, const rt_ray *r)
+{
+#if defined(RT_HAVE_AVX_WALK)
+    if (tv->bvh->fast_avx) return rt_bvh_walk8_avx(tv, r, NULL, 1);
+#endif
+    return walk_occluded(tv, r);
+}
 
 int rt_bvh_plain(rt_bvh_trav *tv, const rt_ray *r, rt_hit *h, int any)
 {
@@ -1488,7 +1501,8 @@ void rt_bvh_trav_init(rt_bvh_trav *tv, const rt_bvh *b, const rt_scene *sc, rt_r
     tv->sc = sc;
     tv->rec = rec;
     tv->L = L;
-    tv->reg_node = tv->reg_tri = -1;
+    tv->width = b->width;
+    tv->reg_node = tv->reg_idx = tv->reg_tri = -1;
     if (L) {
         const char *nn = rt_bvh_node_region(b->width);
         tv->reg_node = nn ? rt_mm_find(L, nn) : -1;
@@ -1527,18 +1541,6 @@ static void bvh_trav_init(rt_trav *tv, const void *as, const rt_layout *L)
     tv->reg_tri = rt_mm_find(L, "bvh.tri");
 }
 
-/* The walk on the BVH's own state, its counts carried back. */
-static int bvh_walk(rt_trav *tv, const rt_ray *r, rt_hit *h, int any)
-{
-    rt_bvh_trav b = {tv->bvh, tv->sc, tv->rec, tv->L, tv->reg_node, tv->reg_tri, tv->nodes, tv->tests, tv->mark,
-                     tv->mark_bit};
-    int hit = any ? rt_bvh_occluded(&b, r) : rt_bvh_closest(&b, r, h);
-    tv->nodes = b.nodes;
-    tv->tests = b.tests;
-    return hit;
-}
-static int bvh_closest_tv(rt_trav *tv, const rt_ray *r, rt_hit *h) { return bvh_walk(tv, r, h, 0); }
-static int bvh_occluded_tv(rt_trav *tv, const rt_ray *r) { return bvh_walk(tv, r, NULL, 1); }
 
 static int bvh_check_as(const void *as, const rt_scene *sc, rt_err *e) { return rt_bvh_check(as, sc, e); }
 
@@ -1560,8 +1562,8 @@ static void bvh_info(const void *as, rt_accel_info *inf)
         .free = bvh_free_as,                                                                                  \
         .regions = bvh_regions,                                                                               \
         .trav_init = bvh_trav_init,                                                                           \
-        .closest = bvh_closest_tv,                                                                            \
-        .occluded = bvh_occluded_tv,                                                                          \
+        .closest = rt_bvh_closest,                                                                            \
+        .occluded = rt_bvh_occluded,                                                                          \
         .check = bvh_check_as,                                                                                \
         .info = bvh_info,                                                                                     \
     }

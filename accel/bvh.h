@@ -245,18 +245,12 @@ void rt_bvh_stats(const rt_bvh *b, rt_bvh_stat *st);
  */
 int rt_bvh_layout(const rt_bvh *b, rt_layout *L, int *reg_node, int *reg_tri, rt_err *e);
 
-/* Traversal state for one tree of one scene; the fields mirror rt_trav's. */
-typedef struct rt_bvh_trav {
-    const rt_bvh *bvh;
-    const rt_scene *sc;   /* the scene it was built from */
-    rt_rec *rec;          /* NULL: not recording */
-    const rt_layout *L;   /* modeled layout (needed only when rec != NULL) */
-    int reg_node, reg_tri;/* region indices in L */
-    uint64_t nodes;       /* nodes visited (running count) */
-    uint64_t tests;       /* ray/triangle tests (running count) */
-    uint8_t *mark;        /* optional per scene triangle: mark[tri] |= mark_bit on every test */
-    uint8_t mark_bit;
-} rt_bvh_trav;
+/* Traversal state for one tree of one scene: the acceleration layer's
+ * rt_trav (hit.h), so its walks call these with no copy. Read here: bvh,
+ * sc, rec, L, reg_node, reg_tri (region indices in L), the running counts
+ * nodes and tests, and mark / mark_bit (optional per scene triangle:
+ * mark[tri] |= mark_bit on every test). */
+typedef rt_trav rt_bvh_trav;
 
 /* Zeroes tv and sets its tree, scene and recorder; with L non-NULL the
  * regions are looked up by name (rt_bvh_layout's names). */

@@ -51,7 +51,10 @@ static RT_ALWAYS_INLINE void wray_init(wray *w, const rt_ray *r)
     w->inv[0] = r->inv_d.x;
     w->inv[1] = r->inv_d.y;
     w->inv[2] = r->inv_d.z;
-    for (int a = 0; a < 3; a++) w->neg[a] = signbit(w->inv[a]) != 0;
+    /* written out, not a loop: an indexed store would keep w in memory */
+    w->neg[0] = signbit(w->inv[0]) != 0;
+    w->neg[1] = signbit(w->inv[1]) != 0;
+    w->neg[2] = signbit(w->inv[2]) != 0;
     w->tmin = r->tmin;
 }
 
@@ -82,10 +85,12 @@ typedef struct wsse {
 
 static RT_ALWAYS_INLINE void wsse_init(wsse *q, const wray *w)
 {
-    for (int a = 0; a < 3; a++) {
-        q->o[a] = _mm_set1_ps(w->o[a]);
-        q->inv[a] = _mm_set1_ps(w->inv[a]);
-    }
+    q->o[0] = _mm_set1_ps(w->o[0]);
+    q->o[1] = _mm_set1_ps(w->o[1]);
+    q->o[2] = _mm_set1_ps(w->o[2]);
+    q->inv[0] = _mm_set1_ps(w->inv[0]);
+    q->inv[1] = _mm_set1_ps(w->inv[1]);
+    q->inv[2] = _mm_set1_ps(w->inv[2]);
     q->tmin = _mm_set1_ps(w->tmin);
     q->inf = _mm_set1_ps(INFINITY);
     q->scale = _mm_set1_ps(FAR_SCALE);
@@ -124,10 +129,12 @@ typedef struct wavx {
 
 static RT_ALWAYS_INLINE void wavx_init(wavx *q, const wray *w)
 {
-    for (int a = 0; a < 3; a++) {
-        q->o[a] = _mm256_set1_ps(w->o[a]);
-        q->inv[a] = _mm256_set1_ps(w->inv[a]);
-    }
+    q->o[0] = _mm256_set1_ps(w->o[0]);
+    q->o[1] = _mm256_set1_ps(w->o[1]);
+    q->o[2] = _mm256_set1_ps(w->o[2]);
+    q->inv[0] = _mm256_set1_ps(w->inv[0]);
+    q->inv[1] = _mm256_set1_ps(w->inv[1]);
+    q->inv[2] = _mm256_set1_ps(w->inv[2]);
     q->tmin = _mm256_set1_ps(w->tmin);
     q->inf = _mm256_set1_ps(INFINITY);
     q->scale = _mm256_set1_ps(FAR_SCALE);
@@ -157,6 +164,7 @@ typedef struct wstate {
     uint32_t btri;      /* its scene index; 0 while none, so an equal t never wins */
     int found;          /* a hit is held */
     float cull;         /* rt_bvh_cull_bound(best) */
+    float tmin, tmax;   /* the ray's interval, held so the walks need no copy of the ray */
     uint64_t nvisit, ntest;
     uint64_t tri_base;  /* bvh.tri base address (recording) */
     /* the tree's arrays and the marks, held here: a store through mark
@@ -189,8 +197,8 @@ static RT_ALWAYS_INLINE int leaf_tris(const rt_ray *r, uint32_t first, uint32_t 
 #endif
         if (rt_bvh_degenerate(S->degen, k)) continue;
         if (any) {
-            if (t > r->tmin && t < r->tmax) return 1;
-        } else if (t > r->tmin && (t < S->best || (t == S->best && o < S->btri))) {
+            if (t > S->tmin && t < S->tmax) return 1;
+        } else if (t > S->tmin && (t < S->best || (t == S->best && o < S->btri))) {
             S->found = 1;
             S->best = t;
             S->btri = o;
@@ -225,6 +233,8 @@ static RT_ALWAYS_INLINE void wstate_init(wstate *S, const rt_bvh_trav *tv, const
     S->btri = 0;
     S->found = 0;
     S->cull = rt_bvh_cull_bound(r->tmax);
+    S->tmin = r->tmin;
+    S->tmax = r->tmax;
     S->nvisit = S->ntest = 0;
     S->tri_base = tv->rec ? tv->L->r[tv->reg_tri].base : 0;
     S->tri = tv->bvh->tri;
@@ -261,10 +271,9 @@ typedef struct sentry {
  * as it is visited, a triangle as it is tested), 0 records nothing, a
  * constant so the untraced copies carry no recording code. Compiled with
  * AVX (bvh_avx.c), a bvh8 node's eight boxes are tested in one vector. */
-static RT_ALWAYS_INLINE int walk_fast(rt_bvh_trav *tv, const rt_ray *rp, rt_hit *h, const int any, const int W,
+static RT_ALWAYS_INLINE int walk_fast(rt_bvh_trav *tv, const rt_ray *r, rt_hit *h, const int any, const int W,
                                       const int oct, const int recd)
 {
-    const rt_ray ray = *rp, *r = &ray; /* as in walk2 */
     const rt_bvh *b = tv->bvh;
     wstate S;
     wstate_init(&S, tv, r);

@@ -158,7 +158,9 @@ static RT_ALWAYS_INLINE void rt_isect_sse_init(rt_isect_sse *q, const rt_ray *r)
     q->k[0] = r->kx;
     q->k[1] = r->ky;
     q->k[2] = r->kz;
-    for (int a = 0; a < 3; a++) q->o[a] = _mm_set1_ps(o[q->k[a]]);
+    q->o[0] = _mm_set1_ps(o[r->kx]);
+    q->o[1] = _mm_set1_ps(o[r->ky]);
+    q->o[2] = _mm_set1_ps(o[r->kz]);
     q->s[0] = _mm_set1_ps(r->Sx);
     q->s[1] = _mm_set1_ps(r->Sy);
     q->s[2] = _mm_set1_ps(r->Sz);
