@@ -106,11 +106,14 @@
  * smaller, or equal with a lower ORIGINAL index; it starts at t = tmax with
  * no triangle, so t must be < tmax.
  *
- * The same walk runs with scalar box tests (rt_bvh_plain, the reference)
- * and, for wide nodes on SSE2, four boxes per instruction: every lane does
- * the scalar lane's IEEE operations in the same order (max/min written as
- * a > b ? a : b, which is what maxps/minps compute, NaN included), so the
- * two agree bit for bit (tests/test_bvh.c compares them).
+ * The reference walk (rt_bvh_plain: walk2, walk_wide) tests boxes one by
+ * one; the fast walk of bvh_walk.h (rt_bvh_closest, rt_bvh_occluded,
+ * recording or not) makes exactly its visits with four boxes per SSE2
+ * vector, or eight per AVX vector for bvh8 (bvh_avx.c, when the processor
+ * has AVX: fast_avx). Every lane does the scalar lane's IEEE operations in
+ * the same order (max/min written as a > b ? a : b, which is what
+ * maxps/minps compute, NaN included), so all agree bit for bit in hits,
+ * counts, marks and recorded accesses (tests/test_bvh.c compares them).
  */
 #include "config.h"
 #include "bvh.h"

@@ -1,5 +1,5 @@
 /*
- * bvh_avx.c -- the unrecorded bvh8 walk of bvh_walk.h compiled with AVX.
+ * bvh_avx.c -- the bvh8 fast walk of bvh_walk.h (recording or not) compiled with AVX.
  * Only this file is built with -mavx (configure checks the compiler takes
  * it); bvh.c calls it only for a tree whose fast_avx is set, which the
  * build sets only on a processor with AVX, so the rest of the toolkit runs

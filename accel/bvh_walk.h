@@ -1,8 +1,9 @@
 /*
  * bvh_walk.h -- the parts of the BVH walks that two translation units
  * compile: bvh.c (every walk; SSE2 where the target has it) and bvh_avx.c
- * (only the unrecorded bvh8 walk, built with AVX and chosen at run time
- * when the processor has it, rt_bvh.fast_avx). Private to those two files.
+ * (only the bvh8 fast walk, recording or not, built with AVX and chosen at
+ * run time when the processor has it, rt_bvh.fast_avx). Private to those
+ * two files.
  *
  * Every path -- scalar reference lanes, SSE2 four-box and AVX eight-box
  * tests -- performs the same IEEE single-precision operations in the same
@@ -25,16 +26,15 @@
 #include <immintrin.h>
 #endif
 
-/* The unrecorded bvh8 walk compiled with AVX (bvh_avx.c): rt_bvh_closest's
- * (any 0) and rt_bvh_occluded's (any 1) walk. Call only when
- * tv->bvh->fast_avx is set. */
+/* The bvh8 fast walk compiled with AVX (bvh_avx.c): rt_bvh_closest's
+ * (any 0) and rt_bvh_occluded's (any 1) walk, recording when tv->rec is
+ * set. Call only when tv->bvh->fast_avx is set. */
 int rt_bvh_walk8_avx(rt_bvh_trav *tv, const rt_ray *r, rt_hit *h, int any);
 
 /* pbrt's gamma(3): the far distance is widened by 1 + 2 gamma(3). */
 #define GAMMA3 ((3.0f * FLT_EPSILON * 0.5f) / (1.0f - 3.0f * FLT_EPSILON * 0.5f))
 #define FAR_SCALE (1.0f + 2.0f * GAMMA3)
 #define RT_BVH_STACK 512 /* >= 1 + 7 x RT_BVH_MAX_DEPTH */
-
 
 /* The ray as the slab tests read it. */
 typedef struct wray {
