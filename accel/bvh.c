@@ -1339,7 +1339,7 @@ static RT_ALWAYS_INLINE int walk_wide(rt_bvh_trav *tv, const rt_ray *rp, rt_hit 
     wray_init(&w, r);
     rt_rec *rec = tv->rec;
     const uint64_t nbase = rec ? tv->L->r[tv->reg_node].base : 0;
-    const uint32_t nsize = W == 4 ? 128u : 80u;
+    const uint32_t nsize = rec ? rt_bvh_node_size(W) : 0;
     sentry st[RT_BVH_STACK];
     int sp = 0, occluded = 0;
     st[sp++] = (sentry){0, 0, w.tmin};
@@ -1383,9 +1383,8 @@ static RT_ALWAYS_INLINE int walk(rt_bvh_trav *tv, const rt_ray *r, rt_hit *h, co
 {
 #if defined(__SSE2__)
     if (simd) {
-        if (tv->bvh->width == 4) return tv->rec ? walk_fast(tv, r, h, any, 4, -1, 1) : walk_octant(tv, r, h, any, 4);
-        if (tv->bvh->width == 8)
-            return tv->rec ? walk_fast(tv, r, h, any, 8, -1, 1) : walk_octant(tv, r, h, any, 8);
+        if (tv->bvh->width == 4) return walk_fast_for(tv, r, h, any, 4);
+        if (tv->bvh->width == 8) return walk_fast_for(tv, r, h, any, 8);
     }
 #endif
     switch (tv->bvh->width) {

@@ -15,6 +15,5 @@
 
 int rt_bvh_walk8_avx(rt_bvh_trav *tv, const rt_ray *r, rt_hit *h, int any)
 {
-    if (tv->rec) return any ? walk_fast(tv, r, NULL, 1, 8, -1, 1) : walk_fast(tv, r, h, 0, 8, -1, 1);
-    return any ? walk_octant(tv, r, NULL, 1, 8) : walk_octant(tv, r, h, 0, 8);
+    return any ? walk_fast_for(tv, r, NULL, 1, 8) : walk_fast_for(tv, r, h, 0, 8);
 }

@@ -255,9 +255,9 @@ typedef struct sentry {
 } sentry;
 
 #if defined(__SSE2__)
-/* The unrecorded wide walk (rt_bvh_closest and rt_bvh_occluded without a
- * recorder): walk_wide's visits in walk_wide's order, with the same counts,
- * marks and hits, in fewer instructions. Of a node's hit children the
+/* The fast wide walk (rt_bvh_closest and rt_bvh_occluded, recording or
+ * not): walk_wide's visits in walk_wide's order, with the same counts,
+ * marks, hits and recorded accesses, in fewer instructions. Of a node's hit children the
  * nearest is entered at once instead of being pushed and popped (it passes
  * the pop's cull test: a hit box's entry is <= its clipped far distance <=
  * the cull bound, which nothing changes in between); the others are pushed
@@ -280,7 +280,7 @@ static RT_ALWAYS_INLINE int walk_fast(rt_bvh_trav *tv, const rt_ray *r, rt_hit *
     if (!recd) S.rec = NULL;
     rt_rec *const rec = S.rec;
     const uint64_t nbase = rec ? tv->L->r[tv->reg_node].base : 0;
-    const uint32_t nsize = W == 4 ? 128u : 80u;
+    const uint32_t nsize = rec ? rt_bvh_node_size(W) : 0;
     wray w;
     wray_init(&w, r);
     /* walk_wide pops the root with its entry t = tmin */
@@ -377,6 +377,13 @@ static RT_ALWAYS_INLINE int walk_octant(rt_bvh_trav *tv, const rt_ray *r, rt_hit
     case 6: return walk_fast(tv, r, h, any, W, 6, 0);
     default: return walk_fast(tv, r, h, any, W, 7, 0);
     }
+}
+
+/* The fast walk for tv: the recording copy when tv records, else the
+ * untraced copy of the ray's octant. */
+static RT_ALWAYS_INLINE int walk_fast_for(rt_bvh_trav *tv, const rt_ray *r, rt_hit *h, const int any, const int W)
+{
+    return tv->rec ? walk_fast(tv, r, h, any, W, -1, 1) : walk_octant(tv, r, h, any, W);
 }
 #endif
 
