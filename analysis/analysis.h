@@ -128,9 +128,48 @@ int rt_report_within2(double ours, double paper);
  * (data/paper_*.csv). 0, or -1 with a message. */
 int rt_report_agreement(const rt_report *R, const char *sc, rt_report_agree *a, rt_err *e);
 
-/* The paper's reduction in percent: 100 (base / dyn - 1) when dyn <= base,
- * else -100 (dyn / base - 1); NAN unless both are positive. */
+/* The reduction, the paper's formula and the only one in every report,
+ * plot and CSV: 100 (base / dyn - 1) percent (0: the same; 100: half the
+ * traffic; negative: dynamic moves more, down to -100); NAN unless both
+ * are positive. */
 double rt_report_reduction(double base, double dyn);
+/* A reduction as the paper prints it (losses as -100 (dyn / base - 1),
+ * e.g. -625.1 for 7.251 times more) in rt_report_reduction's terms. */
+double rt_report_paper_reduction(double printed);
+/* A reduction for reading: "521.5%" for a gain, "7.25× more" (dyn / base)
+ * for a loss, "—" for none; csv: the number itself, full precision, ""
+ * for none. Returns buf. */
+const char *rt_report_fmt_reduction(double red, int csv, char *buf, size_t n);
+
+/* One size of a scene's primary-ray table as the findings read it:
+ * geometry and ray traffic of the baseline ([0], recursive) and of the
+ * scheduled tracer ([1], dynamic), in any one unit; NAN = no run. */
+typedef struct rt_report_point {
+    uint64_t size;     /* cache size (bytes, or KB for the paper's rows) */
+    double geom[2], ray[2];
+} rt_report_point;
+
+/* The findings of one such table (sizes ascending), computed by
+ * rt_report_find for our runs and for the paper's rows alike. */
+typedef struct rt_report_findings {
+    int nsizes;          /* sizes with both tracers */
+    int dyn_less;        /* of them, where dynamic moves less geometry */
+    int ray_more;        /* where dynamic moves more ray data */
+    uint64_t best_size;  /* the largest geometry reduction's size (0 = none) */
+    double best_red;     /* and that reduction (NAN = none) */
+    uint64_t turn_size;  /* the crossover: the first size from which the total reduction is negative and never
+                          * again positive (0 = none: it ends positive, or never turns) */
+    double turn_red;     /* total reduction at the crossover (NAN = none) */
+    uint64_t last_size;  /* the largest size compared */
+    double last_total;   /* its total reduction */
+} rt_report_findings;
+
+/* Computes f from the n points p (ascending sizes). */
+void rt_report_find(const rt_report_point *p, int n, rt_report_findings *f);
+/* The findings as Markdown list items (sizes in KB), with the paper's in
+ * brackets when paper is non-NULL. sc names the scene (unused in the
+ * sentences, which follow a heading naming it). */
+void rt_report_write_findings(FILE *out, const char *sc, const rt_report_findings *f, const rt_report_findings *paper);
 
 /* The report's tables: figure is "all" (header, scene table, Figures 4-6
  * then 7-9 for every scene), "scenes" (the scene table) or "4".."9" (that
@@ -268,7 +307,7 @@ int rt_report_feedback(sqlite3 *h, const char *scene, int csv, const rt_plot_opt
  * geometry, ray, stack and queue of the reference tracer on the BVH, the
  * treelet run scheduled for that size, the reference tracer on the k-d
  * tree and the dynamic run scheduled for that size, and each scheduler's
- * saving against its baseline, 100 (1 - scheduled / baseline). Roles come
+ * saving against its baseline (rt_report_reduction). Roles come
  * from the traits (reference, RT_FIG_TREELET, the scheduled tracer of
  * RT_FIG_NAVRATIL). Markdown (with the largest saving) or CSV. With plot,
  * DIR/treelet-SCENE-MODE-lLIGHTS-WxH-ACCEL[-VARIANT].{dat,gp,png}. 0, or

@@ -330,7 +330,52 @@ int rt_report_set_model(rt_report *R, int model, rt_err *e)
 double rt_report_reduction(double base, double dyn)
 {
     if (!(base > 0) || !(dyn > 0)) return NAN;
-    return base >= dyn ? 100.0 * (base / dyn - 1.0) : -100.0 * (dyn / base - 1.0);
+    return 100.0 * (base / dyn - 1.0);
+}
+
+double rt_report_paper_reduction(double printed)
+{
+    if (isnan(printed) || printed >= 0) return printed;
+    /* printed = -100 (d / b - 1): d / b = 1 - printed / 100 */
+    return 100.0 * (1.0 / (1.0 - printed / 100.0) - 1.0);
+}
+
+const char *rt_report_fmt_reduction(double red, int csv, char *buf, size_t n)
+{
+    if (isnan(red) || red <= -100) snprintf(buf, n, "%s", csv ? "" : "—");
+    else if (csv) snprintf(buf, n, "%.10g", red);
+    else if (red >= 0) snprintf(buf, n, "%.1f%%", red);
+    else snprintf(buf, n, "%.2f× more", 1.0 / (1.0 + red / 100.0));
+    return buf;
+}
+
+void rt_report_find(const rt_report_point *p, int n, rt_report_findings *f)
+{
+    memset(f, 0, sizeof *f);
+    f->best_red = NAN;
+    f->turn_red = NAN;
+    for (int i = 0; i < n; i++) {
+        double red = rt_report_reduction(p[i].geom[0], p[i].geom[1]);
+        double tot = rt_report_reduction(p[i].geom[0] + p[i].ray[0], p[i].geom[1] + p[i].ray[1]);
+        if (isnan(red) || isnan(tot)) continue;
+        f->nsizes++;
+        f->dyn_less += red > 0;
+        f->ray_more += p[i].ray[1] > p[i].ray[0];
+        if (isnan(f->best_red) || red > f->best_red) {
+            f->best_red = red;
+            f->best_size = p[i].size;
+        }
+        /* the crossover: negative from here on, never again positive */
+        if (tot > 0) {
+            f->turn_size = 0;
+            f->turn_red = NAN;
+        } else if (!f->turn_size && tot < 0) {
+            f->turn_size = p[i].size;
+            f->turn_red = tot;
+        }
+        f->last_size = p[i].size;
+        f->last_total = tot;
+    }
 }
 
 int rt_report_fig_tracers(unsigned fig, const rt_tracer **out, int max)
@@ -364,7 +409,8 @@ int rt_report_value(const rt_report *R, const char *scene, const char *tracer, u
                   R->h,
                   "SELECT g.geometry_mb, g.ray_mb FROM v_traffic_group g JOIN runs r ON r.id = g.run_id"
                   " JOIN scenes s ON s.id = r.scene_id WHERE g.line = 64 AND g.assoc = 0 AND g.policy = 'wb-wa'"
-                  " AND r.sim_method = 'exact' AND r.params NOT LIKE '%subsample=%' AND s.name = ?1 AND (?8 = '' OR"
+                  " AND r.sim_method = 'exact' AND r.params NOT LIKE '%subsample=%' AND instr(r.params, 'accel=') = 0"
+                  " AND s.name = ?1 AND (?8 = '' OR"
                   " s.hash = ?8) AND r.tracer = ?2 AND r.lights = ?3 AND r.sched_size = ?4 AND g.cache_size = ?5 AND"
                   " r.W = ?6 AND r.H = ?7 ORDER BY g.geometry_mb LIMIT 1",
                   R->dbpath, e, "ssIIIiis", name, tracer, (int64_t)lights, sched, (int64_t)size, R->W, R->H, hash)
@@ -374,6 +420,7 @@ int rt_report_value(const rt_report *R, const char *scene, const char *tracer, u
                   "SELECT g.geometry_mb, g.ray_mb FROM v_traffic_group g JOIN runs r ON r.id = g.run_id"
                   " JOIN scenes s ON s.id = r.scene_id WHERE g.line = 64 AND g.assoc = 0 AND g.policy = ?9"
                   " AND r.sim_method = 'exact' AND r.sim_params = ?10 AND r.params NOT LIKE '%subsample=%'"
+                  " AND instr(r.params, 'accel=') = 0"
                   " AND (CASE WHEN ?11 = '' THEN instr(r.params, 'layout=') = 0 ELSE instr(r.params || ' ', ?11) > 0 END)"
                   " AND (r.sched_size = 0 OR (instr(r.params, 'queue_stores=stream') > 0) = ?12)"
                   " AND s.name = ?1 AND (?8 = '' OR s.hash = ?8) AND r.tracer = ?2 AND r.lights = ?3"

@@ -124,13 +124,10 @@ static int same_group(const point *a, const point *b)
 
 static void print_pct(FILE *out, int csv, double v)
 {
-    if (csv) {
-        if (isnan(v)) fprintf(out, ",");
-        else fprintf(out, ",%.1f", v);
-    } else {
-        if (isnan(v)) fprintf(out, " - |");
-        else fprintf(out, " %.1f%% |", v);
-    }
+    char b[64];
+    rt_report_fmt_reduction(v, csv, b, sizeof b);
+    if (csv) fprintf(out, ",%s", b);
+    else fprintf(out, " %s |", b);
 }
 
 /* The tables of points [a, b) (one scene, mode, lighting, resolution). */
@@ -266,7 +263,8 @@ int rt_report_secondary(sqlite3 *h, const char *dbpath, int csv, const rt_plot_o
                      "g5_total_pct,g6_geom_pct,g6_total_pct,g7_geom_pct,g7_total_pct,sec_geom_pct,sec_total_pct\n");
     else
         fprintf(out, "# Secondary rays: dynamic vs recursive per generation\n\nDatabase: %s. Reduction = recursive "
-                     "/ dynamic - 1 (negative: dynamic moves more), the dynamic run scheduled for each size; "
+                     "/ dynamic - 1 in percent (the paper's formula; where dynamic moves more, its factor: \"3.60x "
+                     "more\" = 3.60 times recursive's), the dynamic run scheduled for each size; "
                      "g>=1 sums the secondary generations.\n", dbpath);
     int rc = 0;
     for (long a = 0, b; a < n && rc == 0; a = b) {

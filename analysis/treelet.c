@@ -18,8 +18,9 @@
  * write-back write-allocate, exact runs) and its split into geometry
  * (classes node, index, tri, shade), ray (ray, hit), stack (stream: the
  * treelet tracer's spilled traversal stacks) and queue (queue, qtable);
- * then the saving of each scheduler against its baseline, 100 (1 - sched
- * / base) percent (negative: the scheduler moves more). With a plot
+ * then the saving of each scheduler against its baseline, the reduction
+ * base / sched - 1 of every report (rt_report_reduction; a loss shown as
+ * its factor, "3.60× more"). With a plot
  * folder, per (scene, mode, lighting, resolution, variant) a picture of
  * total and geometry traffic against cache size for the four runs.
  */
@@ -160,10 +161,19 @@ static const trow *find(const trow *R, long n, const trow *a, int role, int acce
 
 static double saved_in(const trow *base, const trow *s, int c)
 {
-    if (!base || !s || !(base->mb[c] > 0)) return NAN;
-    return 100.0 * (1.0 - s->mb[c] / base->mb[c]);
+    if (!base || !s) return NAN;
+    return rt_report_reduction(base->mb[c], s->mb[c]);
 }
 static double saved(const trow *base, const trow *s) { return saved_in(base, s, C_TOTAL); }
+
+/* A reduction (rt_report_fmt_reduction) as a cell. */
+static void red_cell(FILE *out, int csv, double v)
+{
+    char b[64];
+    rt_report_fmt_reduction(v, csv, b, sizeof b);
+    if (csv) fprintf(out, ",%s", b);
+    else fprintf(out, " %s |", b);
+}
 
 static void cell(FILE *out, int csv, double v, const char *fmt)
 {
@@ -284,9 +294,10 @@ int rt_report_treelet(sqlite3 *h, const char *dbpath, const char *scene, int csv
         fprintf(out, "# Treelets against recursive order, beside the dynamic scheduler\n\nDatabase: %s. DRAM traffic in "
                      "MB (fully associative, 64-byte lines, write-back); a scheduled run counts at the size it was "
                      "scheduled for. Split: geometry = node+index+tri+shade, ray = ray+hit, stack = spilled traversal "
-                     "stacks (class stream), queue = queue+qtable. Saved = 100 (1 - scheduled / baseline): the "
-                     "treelet run against the recursive run on the same BVH, dynamic against recursive on the k-d "
-                     "tree; negative when the scheduler moves more; geo saved: the same on geometry alone.\n", dbpath);
+                     "stacks (class stream), queue = queue+qtable. Saved = the reduction baseline / scheduled - 1 "
+                     "in percent (the paper's formula, as every report uses): the treelet run against the recursive "
+                     "run on the same BVH, dynamic against recursive on the k-d tree; where the scheduler moves more, "
+                     "its factor (\"3.60x more\"); geo saved: the same on geometry alone.\n", dbpath);
     int rc = 0;
     double best = NAN, bestg = NAN;
     const trow *bestp = NULL, *bestgp = NULL;
@@ -323,9 +334,9 @@ int rt_report_treelet(sqlite3 *h, const char *dbpath, const char *scene, int csv
             cell(out, csv, b ? b->mb[C_RAY] : NAN, "%.1f");
             static const int tc[5] = {C_TOTAL, C_GEO, C_RAY, C_STACK, C_QUEUE};
             for (int c = 0; c < 5; c++) cell(out, csv, t->mb[tc[c]], "%.1f");
-            cell(out, csv, st, csv ? "%.1f" : "%.1f%%");
+            red_cell(out, csv, st);
             const double sg = saved_in(b, t, C_GEO);
-            cell(out, csv, sg, csv ? "%.1f" : "%.1f%%");
+            red_cell(out, csv, sg);
             if (!isnan(sg) && (isnan(bestg) || sg > bestg)) {
                 bestg = sg;
                 bestgp = t;
@@ -335,17 +346,20 @@ int rt_report_treelet(sqlite3 *h, const char *dbpath, const char *scene, int csv
             cell(out, csv, d ? d->mb[C_GEO] : NAN, "%.1f");
             cell(out, csv, d ? d->mb[C_RAY] : NAN, "%.1f");
             cell(out, csv, d ? d->mb[C_QUEUE] : NAN, "%.1f");
-            cell(out, csv, sd, csv ? "%.1f" : "%.1f%%");
+            red_cell(out, csv, sd);
             fputc('\n', out);
         }
         if (plot) rc = group_plot(plot, R, n, g, ng, e);
     }
+    char bb[64], bg[64];
     if (!csv && rc == 0 && bestp)
-        fprintf(out, "\nLargest treelet saving: %.1f%% (%s, %s, lights %d, %dx%d, %s, %" PRIu64 "K).\n", best,
+        fprintf(out, "\nLargest treelet saving: %s (%s, %s, lights %d, %dx%d, %s, %" PRIu64 "K).\n",
+                rt_report_fmt_reduction(best, 0, bb, sizeof bb),
                 bestp->scene, bestp->mode[0] ? bestp->mode : "primary", bestp->lights, bestp->W, bestp->H,
                 rt_accel_name(bestp->accel), bestp->size / 1024);
     if (!csv && rc == 0 && bestgp)
-        fprintf(out, "Largest treelet saving in geometry: %.1f%% (%s, %s, lights %d, %dx%d, %s, %" PRIu64 "K).\n", bestg,
+        fprintf(out, "Largest treelet saving in geometry: %s (%s, %s, lights %d, %dx%d, %s, %" PRIu64 "K).\n",
+                rt_report_fmt_reduction(bestg, 0, bg, sizeof bg),
                 bestgp->scene, bestgp->mode[0] ? bestgp->mode : "primary", bestgp->lights, bestgp->W, bestgp->H,
                 rt_accel_name(bestgp->accel), bestgp->size / 1024);
     free(g);
