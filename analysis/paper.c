@@ -53,10 +53,14 @@ static void default_params(const char *name, char *buf, size_t n)
     for (const char *p = help; *p;) {
         while (*p == ' ' || *p == ';') p++;
         const char *eq = strchr(p, '='), *sp = eq ? strpbrk(eq, " ;") : NULL;
-        if (!eq || !sp || strpbrk(p, " ;") < eq) break;
-        int l = snprintf(buf + w, n - w, "%s%.*s", w ? "," : "", (int)(sp - p), p);
-        if (l < 0 || (size_t)l >= n - w) break;
-        w += (size_t)l;
+        /* a parameter is "key=default (min..max): help"; a part of a
+         * help text such as "v=1: apex spheres" is not one */
+        if (eq && sp && strpbrk(p, " ;") >= eq && sp[0] == ' ' && sp[1] == '(') {
+            int l = snprintf(buf + w, n - w, "%s%.*s", w ? "," : "", (int)(sp - p), p);
+            if (l < 0 || (size_t)l >= n - w) break;
+            w += (size_t)l;
+        }
+        if (!sp) break;
         const char *next = strchr(sp, ';');
         if (!next) break;
         p = next + 1;

@@ -403,31 +403,31 @@ int rt_report_value(const rt_report *R, const char *scene, const char *tracer, u
     /* v_paper's rows, of the one scene (name, hash) the label stands for */
     int i = rt_report_scene_index(R, scene);
     const char *name = i >= 0 ? R->scene_name[i] : scene, *hash = i >= 0 ? R->scene_hash[i] : "";
+    /* the traffic rows of the matching runs, summed per run by group (not
+     * through v_traffic_group, which SQLite would aggregate whole for
+     * every cell: runs are found first, their rows by the run index) */
+#define VALUE_SQL(COND)                                                                                              \
+    "SELECT SUM(CASE WHEN k.grp = 'geometry' THEN t.traffic_bytes ELSE 0 END) / 1048576.0 AS geometry_mb,"         \
+    " SUM(CASE WHEN k.grp = 'ray' THEN t.traffic_bytes ELSE 0 END) / 1048576.0 AS ray_mb"                           \
+    " FROM runs r JOIN scenes s ON s.id = r.scene_id JOIN traffic t ON t.run_id = r.id"                              \
+    " JOIN cache_configs c ON c.id = t.config_id JOIN classes k ON k.name = t.class"                                 \
+    " WHERE c.line = 64 AND c.assoc = 0 AND r.sim_method = 'exact' AND r.params NOT LIKE '%subsample=%'"             \
+    " AND instr(r.params, 'accel=') = 0 AND s.name = ?1 AND (?8 = '' OR s.hash = ?8) AND r.tracer = ?2"              \
+    " AND r.lights = ?3 AND r.sched_size = ?4 AND c.size = ?5 AND r.W = ?6 AND r.H = ?7 AND " COND                   \
+    " GROUP BY r.id, c.id ORDER BY geometry_mb LIMIT 1"
     sqlite3_stmt *st =
         R->model < 0
-            ? rt_report_stmt(
-                  R->h,
-                  "SELECT g.geometry_mb, g.ray_mb FROM v_traffic_group g JOIN runs r ON r.id = g.run_id"
-                  " JOIN scenes s ON s.id = r.scene_id WHERE g.line = 64 AND g.assoc = 0 AND g.policy = 'wb-wa'"
-                  " AND r.sim_method = 'exact' AND r.params NOT LIKE '%subsample=%' AND instr(r.params, 'accel=') = 0"
-                  " AND s.name = ?1 AND (?8 = '' OR"
-                  " s.hash = ?8) AND r.tracer = ?2 AND r.lights = ?3 AND r.sched_size = ?4 AND g.cache_size = ?5 AND"
-                  " r.W = ?6 AND r.H = ?7 ORDER BY g.geometry_mb LIMIT 1",
-                  R->dbpath, e, "ssIIIiis", name, tracer, (int64_t)lights, sched, (int64_t)size, R->W, R->H, hash)
+            ? rt_report_stmt(R->h, VALUE_SQL("c.policy = 'wb-wa'"), R->dbpath, e, "ssIIIiis", name, tracer,
+                             (int64_t)lights, sched, (int64_t)size, R->W, R->H, hash)
             /* one model: its accounting, its key, its layout and queue stores */
             : rt_report_stmt(
                   R->h,
-                  "SELECT g.geometry_mb, g.ray_mb FROM v_traffic_group g JOIN runs r ON r.id = g.run_id"
-                  " JOIN scenes s ON s.id = r.scene_id WHERE g.line = 64 AND g.assoc = 0 AND g.policy = ?9"
-                  " AND r.sim_method = 'exact' AND r.sim_params = ?10 AND r.params NOT LIKE '%subsample=%'"
-                  " AND instr(r.params, 'accel=') = 0"
-                  " AND (CASE WHEN ?11 = '' THEN instr(r.params, 'layout=') = 0 ELSE instr(r.params || ' ', ?11) > 0 END)"
-                  " AND (r.sched_size = 0 OR (instr(r.params, 'queue_stores=stream') > 0) = ?12)"
-                  " AND s.name = ?1 AND (?8 = '' OR s.hash = ?8) AND r.tracer = ?2 AND r.lights = ?3"
-                  " AND r.sched_size = ?4 AND g.cache_size = ?5 AND r.W = ?6 AND r.H = ?7"
-                  " ORDER BY g.geometry_mb LIMIT 1",
+                  VALUE_SQL("c.policy = ?9 AND r.sim_params = ?10"
+                            " AND (CASE WHEN ?11 = '' THEN instr(r.params, 'layout=') = 0 ELSE instr(r.params || ' ', ?11)"
+                            " > 0 END) AND (r.sched_size = 0 OR (instr(r.params, 'queue_stores=stream') > 0) = ?12)"),
                   R->dbpath, e, "ssIIIiissssi", name, tracer, (int64_t)lights, sched, (int64_t)size, R->W, R->H, hash,
                   R->policy, R->sim_params, lay, R->stream);
+#undef VALUE_SQL
     if (!st) return -1;
     int rc = sqlite3_step(st), found = rc == SQLITE_ROW;
     if (found) {
