@@ -178,6 +178,14 @@ void rt_report_write_findings(FILE *out, const char *sc, const rt_report_finding
  * unknown figure is an error. */
 int rt_report_tables(const rt_report *R, const char *figure, FILE *out, rt_err *e);
 
+/* The summary that opens the full report (rt_report_tables "all", in
+ * Markdown): what was run (runs, resolution, scenes, cache sizes, the
+ * setup), the revision, date, command and preset recorded with the
+ * figures' runs, then per scene its findings (rt_report_find over every
+ * size) in a few sentences with the numbers, and the paper's for a scene
+ * at the paper's setup. */
+int rt_report_summary(const rt_report *R, FILE *out, rt_err *e);
+
 /* The single tables behind rt_report_tables: the scene table (the paper's
  * Figure 3 statistics), one scene's primary-ray traffic (Figures 4-6), one
  * scene's shadow-ray reductions (Figures 7-9). */
@@ -242,7 +250,8 @@ int rt_plot_scenes(const rt_report *R, const rt_plot_opts *p, rt_err *e);
  * of them and every size's estimate beside its error (Markdown; CSV: four
  * more columns per pair, empty without errors). csv selects CSV. With
  * plot non-NULL also writes DIR/speed-error.dat and .gp and, with
- * gnuplot, DIR/speed-error.png (mean miss-ratio error against speedup). */
+ * gnuplot, DIR/speed-error.png (mean miss-ratio error against speedup).
+ * A database with no such pair is an error ("nothing to show"). */
 int rt_report_speed_error(sqlite3 *h, int csv, const rt_plot_opts *plot, FILE *out, rt_err *e);
 
 /* Acceleration structures (analysis/accel.c): per group of runs of one

@@ -337,22 +337,30 @@ int rt_report_tables(const rt_report *R, const char *figure, FILE *out, rt_err *
             return rt_errf(e, "figure '%s' is not 4..9, scenes or all", figure);
         fig = figure[0] - '0';
     }
+    if (!R->csv) fprintf(out, "# raytraffic report: %s\n", R->dbpath);
+    if (!R->csv && all && rt_report_summary(R, out, e) < 0) return -1;
     if (!R->csv)
         fprintf(out,
-                "# raytraffic report: %s\n\nTraffic in MB (2^20 bytes) between DRAM and a fully associative LRU cache "
+                "\n## Figures\n\nTraffic in MB (2^20 bytes) between DRAM and a fully associative LRU cache "
                 "with 64-byte lines (write-back, write-allocate). Reduction = baseline / dynamic - 1 in percent "
                 "(the paper's formula); where dynamic moves more, its factor instead: \"3.60× more\" = 3.60 times "
-                "the baseline's.\n",
-                R->dbpath);
+                "the baseline's.\n");
     if ((all || !strcmp(figure, "scenes")) && rt_report_scenes(R, out, e) < 0) return -1;
+    int shown = 0;
     for (int i = 0; i < R->nscenes; i++) {
         int f = fig_primary_of(R, R->scenes[i]);
         if ((all || (f && fig == f)) && rt_report_primary(R, R->scenes[i], out, e) < 0) return -1;
+        shown += f && fig == f;
     }
     for (int i = 0; i < R->nscenes; i++) {
         int f = fig_primary_of(R, R->scenes[i]);
         if ((all || (f && fig == f + 3)) && rt_report_shadows(R, R->scenes[i], out, e) < 0) return -1;
+        shown += f && fig == f + 3;
     }
+    static const char *const fig_scene[3] = {"room", "grove", "sphereflake"};
+    if (fig && !shown)
+        return rt_errf(e, "%s: nothing to show for figure %d: no run of the paper's %s at its parameters at %dx%d",
+                       R->dbpath, fig, fig_scene[(fig - 4) % 3], R->W, R->H);
     return rt_report_flush(out, e);
 }
 
@@ -851,6 +859,134 @@ int rt_report_compare_paper(const rt_report *R, FILE *out, rt_err *e)
     int named = R->model >= 0 ? 1 : has_named_model(R, e);
     if (named < 0) goto done;
     if (named && agreement_table(R, t, out, e) < 0) goto done;
+    rc = rt_report_flush(out, e);
+done:
+    free(t);
+    return rc;
+}
+
+/* ---- the summary ------------------------------------------------------- */
+
+
+/* One scene's findings as sentences (numbers ours, the paper's in
+ * brackets when paper is non-NULL). */
+static void finding_sentences(FILE *out, const rt_report_findings *f, const rt_report_findings *paper)
+{
+    char a[64], b[64];
+    if (!f->nsizes) {
+        fputs("No size has both the recursive and the dynamic run.", out);
+        return;
+    }
+    fprintf(out, "Dynamic moves less geometry than recursive at %d of %d sizes", f->dyn_less, f->nsizes);
+    if (paper) fprintf(out, " (paper: %d of %d)", paper->dyn_less, paper->nsizes);
+    fprintf(out, "; its largest reduction is %s at %" PRIu64 " K", rt_report_fmt_reduction(f->best_red, 0, a, sizeof a),
+            f->best_size / 1024);
+    if (paper)
+        fprintf(out, " (paper: %s at %" PRIu64 " K)", rt_report_fmt_reduction(paper->best_red, 0, b, sizeof b),
+                paper->best_size);
+    fprintf(out, ". It moves more ray data than recursive at %d of %d sizes", f->ray_more, f->nsizes);
+    if (paper) fprintf(out, " (paper: %d of %d)", paper->ray_more, paper->nsizes);
+    fputs(". ", out);
+    if (f->turn_size)
+        fprintf(out, "Total traffic turns against dynamic from %" PRIu64 " K on (%s there, %s at %" PRIu64 " K)",
+                f->turn_size / 1024, rt_report_fmt_reduction(f->turn_red, 0, a, sizeof a),
+                rt_report_fmt_reduction(f->last_total, 0, b, sizeof b), f->last_size / 1024);
+    else
+        fprintf(out, "Total traffic does not turn against dynamic for good (%s at %" PRIu64 " K)",
+                rt_report_fmt_reduction(f->last_total, 0, a, sizeof a), f->last_size / 1024);
+    if (paper) {
+        if (paper->turn_size) fprintf(out, " (paper: from %" PRIu64 " K on)", paper->turn_size);
+        else fputs(" (paper: never)", out);
+    }
+    fputs(".", out);
+}
+
+/* The provenance query's runs: the figures' runs (the paper's three
+ * tracers, exact, full frame, the k-d tree) at R's resolution. */
+#define SUMMARY_RUNS                                                                                                 \
+    " FROM runs r WHERE r.W = ?1 AND r.H = ?2 AND r.sim_method = 'exact' AND r.tracer IN ('recursive', 'packet',"   \
+    " 'dynamic') AND r.params NOT LIKE '%subsample=%' AND instr(r.params, 'accel=') = 0"
+
+/* Column 0 of the first row of sql (SUMMARY_RUNS bound) into buf; '' if none. */
+static int summary_text(const rt_report *R, const char *sql, char *buf, size_t n, rt_err *e)
+{
+    buf[0] = 0;
+    sqlite3_stmt *st = rt_report_stmt(R->h, sql, R->dbpath, e, "ii", R->W, R->H);
+    if (!st) return -1;
+    int rc = sqlite3_step(st);
+    if (rc == SQLITE_ROW && sqlite3_column_text(st, 0)) snprintf(buf, n, "%s", (const char *)sqlite3_column_text(st, 0));
+    return rt_report_done(st, rc, R->dbpath, e);
+}
+
+int rt_report_summary(const rt_report *R, FILE *out, rt_err *e)
+{
+    char nruns[32], first[64], last[64], rev[200], cmd[1024], ver[64], nrev[32];
+    if (summary_text(R, "SELECT COUNT(*)" SUMMARY_RUNS, nruns, sizeof nruns, e) < 0 ||
+        summary_text(R, "SELECT MIN(r.created)" SUMMARY_RUNS, first, sizeof first, e) < 0 ||
+        summary_text(R, "SELECT MAX(r.created)" SUMMARY_RUNS, last, sizeof last, e) < 0 ||
+        summary_text(R, "SELECT r.git_rev" SUMMARY_RUNS " GROUP BY r.git_rev ORDER BY COUNT(*) DESC, r.git_rev LIMIT 1",
+                     rev, sizeof rev, e) < 0 ||
+        summary_text(R, "SELECT COUNT(DISTINCT r.git_rev)" SUMMARY_RUNS, nrev, sizeof nrev, e) < 0 ||
+        summary_text(R, "SELECT r.tool_version" SUMMARY_RUNS " GROUP BY r.tool_version ORDER BY COUNT(*) DESC LIMIT 1",
+                     ver, sizeof ver, e) < 0 ||
+        summary_text(R, "SELECT r.command" SUMMARY_RUNS " GROUP BY r.command ORDER BY COUNT(*) DESC, r.command LIMIT 1",
+                     cmd, sizeof cmd, e) < 0)
+        return -1;
+    char preset[64] = "none (explicit options)";
+    const char *p = strstr(cmd, "--preset");
+    if (p) {
+        p += 8;
+        if (*p == '=' || *p == ' ') p++;
+        size_t l = strcspn(p, " ");
+        if (l) snprintf(preset, sizeof preset, "%.*s", (int)l, p);
+    }
+    fprintf(out, "\n## Summary\n\n");
+    fprintf(out, "- What was run: %s exact runs of the recursive, packet and dynamic tracers at %dx%d on %d scene%s, ",
+            nruns, R->W, R->H, R->nscenes, R->nscenes == 1 ? "" : "s");
+    if (R->nsizes)
+        fprintf(out, "%d cache sizes from %" PRIu64 " K to %" PRIu64 " K", R->nsizes, R->sizes[0] / 1024,
+                R->sizes[R->nsizes - 1] / 1024);
+    fprintf(out, " (fully associative LRU, 64-byte lines, %s), the k-d tree%s%s.\n", R->policy,
+            R->model >= 0 ? ", model " : "", R->model >= 0 ? rt_exp_model_get(R->model)->name : "");
+    fprintf(out, "- Revision: revision %s (raytraffic %s)", rev[0] ? rev : "unknown", ver[0] ? ver : "unknown");
+    if (atoi(nrev) > 1) fprintf(out, "; the runs come from %s revisions, this one the most common", nrev);
+    fprintf(out, ".\n- Date: %s (first run %s).\n", last[0] ? last : "unknown", first[0] ? first : "unknown");
+    fprintf(out, "- Command: `%s`.\n- Preset: %s.\n", cmd[0] ? cmd : "unknown", preset);
+    fputs("\n### Findings\n", out);
+    paper_tables *t = rt_calloc(1, sizeof *t, e);
+    if (!t) return -1;
+    int rc = -1;
+    if (load_tables(t, e) < 0) goto done;
+    for (int i = 0; i < R->nscenes; i++) {
+        const char *sc = R->scenes[i];
+        rt_report_point pts[RT_REPORT_MAXSIZES];
+        int n = 0;
+        for (int k = 0; k < R->nsizes; k++) {
+            double g[3], r[3];
+            int h[3];
+            if (values3(R, sc, 0, R->sizes[k], g, r, h, e) < 0) goto done;
+            pts[n++] = (rt_report_point){R->sizes[k], {g[0], g[2]}, {r[0], r[2]}};
+        }
+        rt_report_findings f, fp;
+        rt_report_find(pts, n, &f);
+        char why[300];
+        int fig = fig_primary_why(R, sc, why, sizeof why, e);
+        if (fig < 0) goto done;
+        const rt_report_findings *paper = NULL;
+        if (fig) {
+            rt_report_point po[MAX_PAPER_ROWS], pp[MAX_PAPER_ROWS];
+            int np = primary_points(R, sc, R->scene_name[i], t->prim, t->np, po, pp, MAX_PAPER_ROWS, e);
+            if (np < 0) goto done;
+            rt_report_find(pp, np, &fp);
+            paper = &fp;
+        }
+        fprintf(out, "\n**%s**", sc);
+        if (fig) fprintf(out, " (Figure %d; the paper's values in brackets, at 1024x1024)", fig);
+        else if (why[0]) fprintf(out, " (not the paper's setup: %s)", why);
+        fputs(": ", out);
+        finding_sentences(out, &f, paper);
+        fputc('\n', out);
+    }
     rc = rt_report_flush(out, e);
 done:
     free(t);
