@@ -901,6 +901,8 @@ static void finding_sentences(FILE *out, const rt_report_findings *f, const rt_r
     fputs(".", out);
 }
 
+#define PAPER_TRACERS_R "tracer IN ('recursive', 'packet', 'dynamic')"
+
 /* The provenance query's runs: the figures' runs (the paper's three
  * tracers, exact, full frame, the k-d tree) at R's resolution. */
 #define SUMMARY_RUNS                                                                                                 \
@@ -916,6 +918,65 @@ static int summary_text(const rt_report *R, const char *sql, char *buf, size_t n
     int rc = sqlite3_step(st);
     if (rc == SQLITE_ROW && sqlite3_column_text(st, 0)) snprintf(buf, n, "%s", (const char *)sqlite3_column_text(st, 0));
     return rt_report_done(st, rc, R->dbpath, e);
+}
+
+/* One count (column 0 of sql, ?1 ?2 = R's W, H) into *n. */
+static int summary_count(const rt_report *R, const char *sql, long long *n, rt_err *e)
+{
+    char b[32];
+    if (summary_text(R, sql, b, sizeof b, e) < 0) return -1;
+    *n = atoll(b);
+    return 0;
+}
+
+/* The runs of the paper's tracers that the figures leave out because they
+ * are of another setup, each with the option that selects it: a figure
+ * holds one value of every dimension it does not vary. */
+static int summary_others(const rt_report *R, FILE *out, rt_err *e)
+{
+    char res[256] = "";
+    sqlite3_stmt *st = rt_report_stmt(R->h,
+                                      "SELECT DISTINCT W, H FROM runs WHERE sim_method = 'exact' AND " PAPER_TRACERS_R
+                                      " AND params NOT LIKE '%subsample=%' AND (W <> ?1 OR H <> ?2) ORDER BY W * H DESC",
+                                      R->dbpath, e, "ii", R->W, R->H);
+    if (!st) return -1;
+    int rc;
+    size_t w = 0;
+    while ((rc = sqlite3_step(st)) == SQLITE_ROW && w + 64 < sizeof res)
+        w += (size_t)snprintf(res + w, sizeof res - w, "%s%dx%d (`-W %d -H %d`)", w ? ", " : "",
+                              sqlite3_column_int(st, 0), sqlite3_column_int(st, 1), sqlite3_column_int(st, 0),
+                              sqlite3_column_int(st, 1));
+    if (rt_report_done(st, rc, R->dbpath, e) < 0) return -1;
+    long long accel, sub, approx, model, layout;
+    if (summary_count(R, "SELECT COUNT(*) FROM runs WHERE " PAPER_TRACERS_R " AND instr(params, 'accel=') > 0 AND ?1 + ?2 > 0",
+                      &accel, e) < 0 ||
+        summary_count(R, "SELECT COUNT(*) FROM runs WHERE " PAPER_TRACERS_R " AND params LIKE '%subsample=%' AND ?1 + ?2 > 0",
+                      &sub, e) < 0 ||
+        summary_count(R, "SELECT COUNT(*) FROM runs WHERE " PAPER_TRACERS_R " AND sim_method <> 'exact' AND ?1 + ?2 > 0",
+                      &approx, e) < 0 ||
+        summary_count(R,
+                      R->model < 0 ? "SELECT COUNT(*) FROM runs WHERE " PAPER_TRACERS_R " AND sim_method = 'exact' AND "
+                                     "sim_params LIKE 'model=%' AND ?1 + ?2 > 0"
+                                   : "SELECT COUNT(*) FROM runs WHERE " PAPER_TRACERS_R " AND sim_method = 'exact' AND "
+                                     "sim_params NOT LIKE 'model=%' AND ?1 + ?2 > 0",
+                      &model, e) < 0 ||
+        summary_count(R, "SELECT COUNT(*) FROM runs WHERE " PAPER_TRACERS_R " AND instr(params, 'layout=') > 0 AND ?1 + ?2 > 0",
+                      &layout, e) < 0)
+        return -1;
+    if (!res[0] && !accel && !sub && !approx && !model && !(R->model < 0 && layout)) return 0;
+    fputs("- Not in the figures (another setup, each with the option that shows it):", out);
+    const char *sep = " ";
+    if (res[0]) fprintf(out, "%sruns at %s", sep, res), sep = "; ";
+    if (accel) fprintf(out, "%s%lld on another structure (`--figure accel`)", sep, accel), sep = "; ";
+    if (model)
+        fprintf(out, "%s%lld of %s (`--model %s`)", sep, model, R->model < 0 ? "a named model" : "another model",
+                R->model < 0 ? "paper" : "lean"),
+            sep = "; ";
+    if (R->model < 0 && layout) fprintf(out, "%s%lld in another layout (`--model M --layout L`)", sep, layout), sep = "; ";
+    if (sub || approx)
+        fprintf(out, "%s%lld reduced (subsampled) and %lld approximate runs (`--appendix`)", sep, sub, approx);
+    fputs(".\n", out);
+    return 0;
 }
 
 int rt_report_summary(const rt_report *R, FILE *out, rt_err *e)
@@ -952,6 +1013,7 @@ int rt_report_summary(const rt_report *R, FILE *out, rt_err *e)
     if (atoi(nrev) > 1) fprintf(out, "; the runs come from %s revisions, this one the most common", nrev);
     fprintf(out, ".\n- Date: %s (first run %s).\n", last[0] ? last : "unknown", first[0] ? first : "unknown");
     fprintf(out, "- Command: `%s`.\n- Preset: %s.\n", cmd[0] ? cmd : "unknown", preset);
+    if (summary_others(R, out, e) < 0) return -1;
     fputs("\n### Findings\n", out);
     paper_tables *t = rt_calloc(1, sizeof *t, e);
     if (!t) return -1;

@@ -182,6 +182,7 @@ int rt_report_scene_index(const rt_report *R, const char *label)
 /* Runs that belong in the paper's figures: its three tracers, primary and
  * shadow rays only (no mode= parameter). */
 #define PAPER_RUNS "r.tracer IN ('recursive', 'packet', 'dynamic') AND r.params NOT LIKE '%mode=%'"
+#define PAPER_TRACERS "tracer IN ('recursive', 'packet', 'dynamic')"
 
 int rt_report_init(rt_report *R, sqlite3 *h, const char *dbpath, const rt_report_opts *o, rt_err *e)
 {
@@ -209,6 +210,19 @@ int rt_report_init(rt_report *R, sqlite3 *h, const char *dbpath, const rt_report
             R->W = sqlite3_column_int(st, 0);
             R->H = sqlite3_column_int(st, 1);
         }
+        if (rt_report_done(st, rc, dbpath, e) < 0) return -1;
+    }
+    /* no model asked: the default runs; a database holding only one named
+     * model's exact runs is read as that model's (never a mix) */
+    if (model < 0) {
+        st = rt_report_stmt(h,
+                            "SELECT (SELECT COUNT(*) FROM runs WHERE sim_method = 'exact' AND sim_params NOT LIKE 'model=%'"
+                            " AND " PAPER_TRACERS "), (SELECT COUNT(*) FROM runs WHERE sim_method = 'exact' AND"
+                            " sim_params LIKE 'model=paper%' AND " PAPER_TRACERS ")",
+                            dbpath, e, "");
+        if (!st) return -1;
+        if ((rc = sqlite3_step(st)) == SQLITE_ROW && sqlite3_column_int64(st, 0) == 0 && sqlite3_column_int64(st, 1) > 0)
+            model = RT_EXP_MODEL_PAPER;
         if (rt_report_done(st, rc, dbpath, e) < 0) return -1;
     }
     if (rt_report_set_model(R, model, e) < 0) return -1;
@@ -417,7 +431,12 @@ int rt_report_value(const rt_report *R, const char *scene, const char *tracer, u
     " GROUP BY r.id, c.id ORDER BY geometry_mb LIMIT 1"
     sqlite3_stmt *st =
         R->model < 0
-            ? rt_report_stmt(R->h, VALUE_SQL("c.policy = 'wb-wa'"), R->dbpath, e, "ssIIIiis", name, tracer,
+            /* no model: the toolkit's default runs (no model, compact
+             * layout, default queue stores), never another setup's */
+            ? rt_report_stmt(R->h,
+                             VALUE_SQL("c.policy = 'wb-wa' AND r.sim_params NOT LIKE 'model=%'"
+                                       " AND instr(r.params, 'layout=') = 0 AND instr(r.params, 'queue_stores=') = 0"),
+                             R->dbpath, e, "ssIIIiis", name, tracer,
                              (int64_t)lights, sched, (int64_t)size, R->W, R->H, hash)
             /* one model: its accounting, its key, its layout and queue stores */
             : rt_report_stmt(
