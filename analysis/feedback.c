@@ -23,6 +23,7 @@
  * without subsampling are read.
  */
 #include "analysis_int.h"
+#include "experiment.h"
 
 #include <errno.h>
 #include <inttypes.h>
@@ -419,8 +420,9 @@ int rt_report_feedback(sqlite3 *h, const char *scene, int csv, const rt_plot_opt
         f->gens = generations(f->mode);
         f->grid_min = grid_min_of(f->params);
         f->rays = rays_traced((const char *)sqlite3_column_text(st, 7));
-        snprintf(f->label, sizeof f->label, "%s %dx%d lights %d%s%s", f->scene, f->W, f->H, f->lights,
-                 f->params[0] ? " " : "", f->params);
+        char ln[48];
+        snprintf(f->label, sizeof f->label, "%s %dx%d lights %s%s%s", f->scene, f->W, f->H,
+                 rt_exp_lights_name((unsigned)f->lights, ln, sizeof ln), f->params[0] ? " " : "", f->params);
     }
     if (rt_report_done(st, rc, "feedback", e) < 0) {
         free(F);

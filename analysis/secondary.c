@@ -17,6 +17,7 @@
  * lighting): reduction against cache size, a line per generation.
  */
 #include "analysis_int.h"
+#include "experiment.h"
 
 #include <errno.h>
 #include <inttypes.h>
@@ -137,8 +138,9 @@ static void group_table(FILE *out, int csv, const point *P, long a, long b)
     for (long i = a; i < b; i++)
         if (P[i].ngen > ng) ng = P[i].ngen;
     if (!csv) {
-        fprintf(out, "\n### %s, %s (%s), lights %d, %dx%d\n\n", P[a].scene, P[a].mode, P[a].params, P[a].lights,
-                P[a].W, P[a].H);
+        char ln[48];
+        fprintf(out, "\n### %s, %s (%s), lights %s, %dx%d\n\n", P[a].scene, P[a].mode, P[a].params,
+                rt_exp_lights_name((unsigned)P[a].lights, ln, sizeof ln), P[a].W, P[a].H);
         fprintf(out, "Reduction of dynamic vs recursive (base / dyn - 1): geometry | total traffic, per generation.\n\n");
         fprintf(out, "| cache |");
         for (int g = 0; g < ng; g++) fprintf(out, " g%d geom | g%d total |", g, g);
@@ -216,8 +218,9 @@ static int group_plot(const rt_plot_opts *po, const point *P, long a, long b, rt
     if (rt_plot_commit(o, e) < 0) return -1;
     if (!(f = rt_plot_open(gpf, &o, e))) return -1;
     char title[900];
-    snprintf(title, sizeof title, "%s, %s (%s), lights %d, %dx%d: dynamic vs recursive per generation", P[a].scene,
-             P[a].mode, P[a].params, P[a].lights, P[a].W, P[a].H);
+    char ln[48];
+    snprintf(title, sizeof title, "%s, %s (%s), lights %s, %dx%d: dynamic vs recursive per generation", P[a].scene,
+             P[a].mode, P[a].params, rt_exp_lights_name((unsigned)P[a].lights, ln, sizeof ln), P[a].W, P[a].H);
     fprintf(f, "set terminal pngcairo size 1000,420\nset output ");
     rt_plot_quote_path(f, png);
     fprintf(f, "\nset multiplot layout 1,2 title ");

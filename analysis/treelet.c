@@ -25,6 +25,7 @@
  * total and geometry traffic against cache size for the four runs.
  */
 #include "analysis_int.h"
+#include "experiment.h"
 
 #include <errno.h>
 #include <inttypes.h>
@@ -237,8 +238,9 @@ static int group_plot(const rt_plot_opts *po, const trow *R, long n, const trow 
     if (close_file(f, dat, e) < 0) return -1;
     if (!(f = fopen(gpf, "w"))) return rt_errf(e, "%s: %s", gpf, strerror(errno));
     char title[900];
-    snprintf(title, sizeof title, "%s, %s, lights %d, %dx%d, %s %s", a->scene,
-             a->mode[0] ? a->mode : m, a->lights, a->W, a->H, rt_accel_name(a->accel), a->variant);
+    char ln[48];
+    snprintf(title, sizeof title, "%s, %s, lights %s, %dx%d, %s %s", a->scene, a->mode[0] ? a->mode : m,
+             rt_exp_lights_name((unsigned)a->lights, ln, sizeof ln), a->W, a->H, rt_accel_name(a->accel), a->variant);
     fprintf(f, "set terminal pngcairo size 1100,520\nset output ");
     rt_plot_quote_path(f, png);
     fprintf(f, "\nset title ");
@@ -311,9 +313,11 @@ int rt_report_treelet(sqlite3 *h, const char *dbpath, const char *scene, int csv
             if (R[j].role == ROLE_TREELET && same_group(&R[j], &R[i])) g[ng++] = &R[j];
         const trow *a = g[0];
         if (!csv) {
-            fprintf(out, "\n### %s, %s, lights %d, %dx%d, %s%s%s\n\n", a->scene,
-                    a->mode[0] ? a->mode : (a->lights ? "shadow" : "raycast"), a->lights, a->W, a->H,
-                    rt_accel_name(a->accel), a->variant[0] ? ", " : "", a->variant);
+            char ln[48];
+            fprintf(out, "\n### %s, %s, lights %s, %dx%d, %s%s%s\n\n", a->scene,
+                    a->mode[0] ? a->mode : (a->lights ? "shadow" : "raycast"),
+                    rt_exp_lights_name((unsigned)a->lights, ln, sizeof ln), a->W, a->H, rt_accel_name(a->accel),
+                    a->variant[0] ? ", " : "", a->variant);
             fprintf(out, "| cache | recursive (BVH) | geo | ray | treelet | geo | ray | stack | queue | saved | geo saved | "
                          "recursive (k-d) | dynamic | geo | ray | queue | saved |\n"
                          "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
@@ -351,17 +355,17 @@ int rt_report_treelet(sqlite3 *h, const char *dbpath, const char *scene, int csv
         }
         if (plot) rc = group_plot(plot, R, n, g, ng, e);
     }
-    char bb[64], bg[64];
+    char bb[64], bg[64], l1[48], l2[48];
     if (!csv && rc == 0 && bestp)
-        fprintf(out, "\nLargest treelet saving: %s (%s, %s, lights %d, %dx%d, %s, %" PRIu64 "K).\n",
-                rt_report_fmt_reduction(best, 0, bb, sizeof bb),
-                bestp->scene, bestp->mode[0] ? bestp->mode : "primary", bestp->lights, bestp->W, bestp->H,
+        fprintf(out, "\nLargest treelet saving: %s (%s, %s, lights %s, %dx%d, %s, %" PRIu64 "K).\n",
+                rt_report_fmt_reduction(best, 0, bb, sizeof bb), bestp->scene, bestp->mode[0] ? bestp->mode : "primary",
+                rt_exp_lights_name((unsigned)bestp->lights, l1, sizeof l1), bestp->W, bestp->H,
                 rt_accel_name(bestp->accel), bestp->size / 1024);
     if (!csv && rc == 0 && bestgp)
-        fprintf(out, "Largest treelet saving in geometry: %s (%s, %s, lights %d, %dx%d, %s, %" PRIu64 "K).\n",
-                rt_report_fmt_reduction(bestg, 0, bg, sizeof bg),
-                bestgp->scene, bestgp->mode[0] ? bestgp->mode : "primary", bestgp->lights, bestgp->W, bestgp->H,
-                rt_accel_name(bestgp->accel), bestgp->size / 1024);
+        fprintf(out, "Largest treelet saving in geometry: %s (%s, %s, lights %s, %dx%d, %s, %" PRIu64 "K).\n",
+                rt_report_fmt_reduction(bestg, 0, bg, sizeof bg), bestgp->scene,
+                bestgp->mode[0] ? bestgp->mode : "primary", rt_exp_lights_name((unsigned)bestgp->lights, l2, sizeof l2),
+                bestgp->W, bestgp->H, rt_accel_name(bestgp->accel), bestgp->size / 1024);
     free(g);
     free(R);
     if (rc < 0) return -1;

@@ -396,7 +396,7 @@ static void test_secondary(const char *dir)
     CHECK(rt_report_secondary(rt_db_handle(db), "DB", 0, NULL, f, &e) == 0, "secondary: %s", e.msg);
     char *txt = mem_close(&m);
     static const char *const want[] = {
-        "### cornell, whitted (mode=whitted depth=3), lights 7, 16x16",
+        "### cornell, whitted (mode=whitted depth=3), lights all, 16x16",
         /* losses as factors: g0 geometry 20 vs 10 MB = 2.00x more */
         "| 1K | 2.00× more | 2.18× more | 100.0% | 33.3% | 200.0% | 50.0% | 133.3% | 40.0% |",
         "| 4K | 0.0% | 0.0% | 2.00× more | 2.50× more | 0.0% | 1.50× more | 1.50× more | 2.00× more |",
