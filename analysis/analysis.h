@@ -193,6 +193,20 @@ int rt_report_scenes(const rt_report *R, FILE *out, rt_err *e);
 int rt_report_primary(const rt_report *R, const char *scene, FILE *out, rt_err *e);
 int rt_report_shadows(const rt_report *R, const char *scene, FILE *out, rt_err *e);
 
+/* Figures 4-9 as tidy tables, one per figure (figure "all" or "4".."9"),
+ * for loading elsewhere: one row per run x cache size x class of the runs
+ * the figure shows, with every configuration column (scene, parameters,
+ * hash, run, tracer, resolution, light mask, schedule, tracer and
+ * simulator parameters, the schema-6 dimensions, cache configuration,
+ * class and group) and the counters in bytes and line touches, full
+ * precision. CSV (a header line) or JSON ({"figure", "scene", "caption",
+ * "columns", "rows"}; on out, all of them inside {"database", "figures"}).
+ * With dir, one file per figure, DIR/figureN-SCENE.csv or .json, each
+ * logged as "wrote PATH (N rows)" to log (may be NULL); without, out (CSV
+ * only for one figure: tables of different figures never share a
+ * stream). Nothing to show is an error. */
+int rt_report_tidy(const rt_report *R, const char *figure, int json, const char *dir, FILE *log, FILE *out, rt_err *e);
+
 /* Our values beside the paper's (data/paper_primary.csv,
  * data/paper_shadows.csv, found in the source tree or the installed data
  * folder) for the paper scenes present, with ratios and, in Markdown, the

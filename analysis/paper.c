@@ -1054,3 +1054,228 @@ done:
     free(t);
     return rc;
 }
+
+/* ---- tidy tables (CSV, JSON) ------------------------------------------- */
+
+/* Writes s as a JSON string. */
+static void json_str(FILE *f, const char *s)
+{
+    fputc('"', f);
+    for (const unsigned char *p = (const unsigned char *)s; *p; p++) {
+        if (*p == '"' || *p == '\\') fprintf(f, "\\%c", *p);
+        else if (*p < 0x20) fprintf(f, "\\u%04x", *p);
+        else fputc(*p, f);
+    }
+    fputc('"', f);
+}
+
+/* Writes s as one CSV field (quoted when it holds a comma, quote or line
+ * break). */
+static void csv_str(FILE *f, const char *s)
+{
+    if (!strpbrk(s, ",\"\n\r")) {
+        fputs(s, f);
+        return;
+    }
+    fputc('"', f);
+    for (const char *p = s; *p; p++) {
+        if (*p == '"') fputc('"', f);
+        fputc(*p, f);
+    }
+    fputc('"', f);
+}
+
+/* Column i of st's current row as a value: integers as they are, reals in
+ * full precision (%.17g), text quoted; NULL as an empty CSV field or
+ * JSON null. */
+static void tidy_value(FILE *f, sqlite3_stmt *st, int i, int json)
+{
+    switch (sqlite3_column_type(st, i)) {
+    case SQLITE_INTEGER: fprintf(f, "%lld", (long long)sqlite3_column_int64(st, i)); break;
+    case SQLITE_FLOAT: fprintf(f, "%.17g", sqlite3_column_double(st, i)); break;
+    case SQLITE_NULL:
+        if (json) fputs("null", f);
+        break;
+    default: {
+        const char *t = (const char *)sqlite3_column_text(st, i);
+        if (json) json_str(f, t ? t : "");
+        else csv_str(f, t ? t : "");
+    }
+    }
+}
+
+/* Whether the runs table has the columns of schema 6 (a report reads
+ * older files as they are). */
+static int has_v6(sqlite3 *h)
+{
+    sqlite3_stmt *st;
+    int r = 0;
+    if (sqlite3_prepare_v2(h, "SELECT 1 FROM pragma_table_info('runs') WHERE name = 'hierarchy'", -1, &st, NULL) ==
+        SQLITE_OK)
+        r = sqlite3_step(st) == SQLITE_ROW;
+    sqlite3_finalize(st);
+    return r;
+}
+
+/* The rows of one figure (4-9) of scene label sc, long format: one row
+ * per run x cache size x class, every configuration column, counters in
+ * bytes and line touches. The runs are the figure's own: those
+ * rt_report_value reads (R's resolution, model or default setup, the k-d
+ * tree, full frame; the dynamic run scheduled for each size; packets
+ * included at every size). */
+static sqlite3_stmt *tidy_stmt(const rt_report *R, const char *sc, int fig, int kind, const char *table, rt_err *e)
+{
+    int i = rt_report_scene_index(R, sc);
+    if (i < 0) {
+        rt_errf(e, "%s: no scene %s", R->dbpath, sc);
+        return NULL;
+    }
+    char lay[48];
+    rt_report_layout_key(R->geom, lay, sizeof lay);
+    const char *dims = has_v6(R->h) ? "r.repl, r.hierarchy, r.cores, r.light_model, r.instances"
+                                    : "'lru' AS repl, '' AS hierarchy, 1 AS cores, 'point' AS light_model, "
+                                      "'flatten' AS instances";
+    char sql[4096];
+    snprintf(sql, sizeof sql,
+             "SELECT '%s' AS tbl, %d AS figure, s.name AS scene, s.params AS scene_params, s.hash AS scene_hash, r.id AS run_id,"
+             " r.tracer, CASE WHEN instr(r.params, 'accel=') > 0 THEN 'other' ELSE '' END AS accel, r.W, r.H,"
+             " r.lights, r.sched_size, r.gmax, r.params, r.sim_method, r.sim_params, %s, c.size AS cache_size,"
+             " c.line, c.assoc, c.policy, k.grp AS class_group, t.class, t.accesses, t.read_misses, t.write_misses,"
+             " t.writebacks, t.wt_bytes, t.traffic_bytes"
+             " FROM runs r JOIN scenes s ON s.id = r.scene_id JOIN traffic t ON t.run_id = r.id"
+             " JOIN cache_configs c ON c.id = t.config_id JOIN classes k ON k.name = t.class"
+             " WHERE s.name = ?1 AND s.hash = ?2 AND r.W = ?3 AND r.H = ?4 AND r.tracer IN (?5, ?6, ?7)"
+             " AND r.sim_method = 'exact' AND r.params NOT LIKE '%%subsample=%%' AND r.params NOT LIKE '%%mode=%%'"
+             " AND instr(r.params, 'accel=') = 0 AND c.line = 64 AND c.assoc = 0 AND (r.sched_size = 0 OR"
+             " r.sched_size = c.size) AND (%s) AND %s"
+             " ORDER BY r.lights, c.size, CASE r.tracer WHEN ?5 THEN 0 WHEN ?6 THEN 1 ELSE 2 END, t.class",
+             table, fig, dims, kind == 0 ? "r.lights = 0" : "r.lights IN (1, 2, 4, 7)",
+             R->model < 0 ? "c.policy = 'wb-wa' AND r.sim_params NOT LIKE 'model=%' AND instr(r.params, 'layout=') = 0"
+                            " AND instr(r.params, 'queue_stores=') = 0"
+                          : "c.policy = ?8 AND r.sim_params = ?9 AND (CASE WHEN ?10 = '' THEN instr(r.params, "
+                            "'layout=') = 0 ELSE instr(r.params || ' ', ?10) > 0 END) AND (r.sched_size = 0 OR "
+                            "(instr(r.params, 'queue_stores=stream') > 0) = ?11)");
+    return rt_report_stmt(R->h, sql, R->dbpath, e, R->model < 0 ? "ssiisss" : "ssiisssssi", R->scene_name[i],
+                          R->scene_hash[i], R->W, R->H, tracer3(0), tracer3(1), tracer3(2), R->policy, R->sim_params,
+                          lay, R->stream);
+}
+
+/* Writes one figure's tidy table: CSV with a header line, or a JSON
+ * object {"figure", "scene", "caption", "columns", "rows"}. The number of
+ * rows, or -1. */
+static long tidy_table(const rt_report *R, const char *sc, int fig, int kind, const char *table, int json, FILE *out,
+                       rt_err *e)
+{
+    if (strchr(table, '\'')) return rt_errf(e, "bad table name");
+    sqlite3_stmt *st = tidy_stmt(R, sc, fig, kind, table, e);
+    if (!st) return -1;
+    int nc = sqlite3_column_count(st);
+    char cap[512];
+    char fn[32] = "";
+    if (fig) snprintf(fn, sizeof fn, "Figure %d: ", fig);
+    snprintf(cap, sizeof cap,
+             "%s%s, %s, %dx%d; traffic in bytes between DRAM and a fully associative LRU cache with 64-byte "
+             "lines (%s); one row per run x cache size x class",
+             fn, sc, kind == 0 ? "primary rays" : "primary and shadow rays (lights 0, 1, 2, all)", R->W, R->H, R->policy);
+    if (json) {
+        fprintf(out, "{\"table\": \"%s\", \"figure\": %d, \"scene\": ", table, fig);
+        json_str(out, sc);
+        fputs(", \"caption\": ", out);
+        json_str(out, cap);
+        fputs(", \"columns\": [", out);
+        for (int c = 0; c < nc; c++) {
+            if (c) fputs(", ", out);
+            json_str(out, sqlite3_column_name(st, c));
+        }
+        fputs("], \"rows\": [", out);
+    } else {
+        for (int c = 0; c < nc; c++) fprintf(out, "%s%s", c ? "," : "", sqlite3_column_name(st, c));
+        fputc('\n', out);
+    }
+    long n = 0;
+    int rc;
+    while ((rc = sqlite3_step(st)) == SQLITE_ROW) {
+        if (json) fputs(n ? ",\n  [" : "\n  [", out);
+        for (int c = 0; c < nc; c++) {
+            if (c) fputs(json ? ", " : ",", out);
+            tidy_value(out, st, c, json);
+        }
+        fputs(json ? "]" : "\n", out);
+        n++;
+    }
+    if (json) fputs("]}", out);
+    if (rt_report_done(st, rc, R->dbpath, e) < 0) return -1;
+    return n;
+}
+
+int rt_report_tidy(const rt_report *R, const char *figure, int json, const char *dir, FILE *log, FILE *out, rt_err *e)
+{
+    int all = !strcmp(figure, "all"), fig = 0;
+    if (!all) {
+        if (strlen(figure) != 1 || figure[0] < '4' || figure[0] > '9')
+            return rt_errf(e, "--format %s: figure '%s' has no tidy table (4..9 or all)", json ? "json" : "csv", figure);
+        fig = figure[0] - '0';
+    }
+    if (!json && all && !dir)
+        return rt_errf(e, "--format csv writes one table per figure: give --out DIR for all of them, or --figure N "
+                          "for one on stdout");
+    if (dir && rt_plot_mkdir(dir, e) < 0) return -1;
+    if (json && !dir) fprintf(out, "{\"database\": "), json_str(out, R->dbpath), fputs(", \"figures\": [\n", out);
+    int shown = 0;
+    /* the scene table (Figure 3), one table of its own */
+    if (dir && all) {
+        char path[4096];
+        rt_out *o = NULL;
+        rt_report S = *R;
+        S.csv = 1;
+        rt_plot_path(path, sizeof path, dir, "scenes", "", ".csv");
+        FILE *to = rt_plot_open(path, &o, e);
+        if (!to) return -1;
+        if (rt_report_scenes(&S, to, e) < 0) {
+            rt_out_abort(o);
+            return -1;
+        }
+        if (rt_plot_commit(o, e) < 0) return -1;
+        if (log) fprintf(log, "wrote %s\n", path);
+    }
+    for (int kind = 0; kind < 2; kind++) {
+        for (int i = 0; i < R->nscenes; i++) {
+            int f = fig_primary_of(R, R->scenes[i]);
+            int tf = f ? f + 3 * kind : 0; /* the paper's figure number, 0 for another scene */
+            if (fig && tf != fig) continue;
+            /* one table: primary rays (Figures 4-6), or shadows (7-9) */
+            char table[32];
+            if (tf) snprintf(table, sizeof table, "figure%d", tf);
+            else snprintf(table, sizeof table, "%s", kind ? "shadows" : "primary");
+            FILE *to = out;
+            rt_out *o = NULL;
+            char path[4096];
+            if (dir) {
+                char name[40];
+                snprintf(name, sizeof name, "%s-", table);
+                rt_plot_path(path, sizeof path, dir, name, R->scenes[i], json ? ".json" : ".csv");
+                if (!(to = rt_plot_open(path, &o, e))) return -1;
+            } else if (json && shown) {
+                fputs(",\n", out);
+            }
+            long n = tidy_table(R, R->scenes[i], tf, kind, table, json, to, e);
+            if (n < 0) {
+                if (o) rt_out_abort(o);
+                return -1;
+            }
+            if (json && dir) fputc('\n', to);
+            if (o && n == 0) { /* no rows: no file */
+                rt_out_abort(o);
+                continue;
+            }
+            if (o && rt_plot_commit(o, e) < 0) return -1;
+            if (o && log) fprintf(log, "wrote %s (%ld rows)\n", path, n);
+            shown++;
+        }
+    }
+    if (json && !dir) fputs("\n]}\n", out);
+    if (!shown)
+        return rt_errf(e, "%s: nothing to show%s%s at %dx%d", R->dbpath, fig ? " for figure " : "", fig ? figure : "",
+                       R->W, R->H);
+    return rt_report_flush(out, e);
+}

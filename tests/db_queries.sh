@@ -4,7 +4,9 @@
 # scene (room at 16x16 and 8x8), a second structure (bvh4) beside the k-d
 # tree, so a query that forgets a dimension shows each size twice. Every
 # query must run; the figure queries must give exactly one row per tracer
-# and size (one setup), with the dynamic run scheduled for each size.
+# and size (one setup), with the dynamic run scheduled for each size. The
+# tidy CSV and JSON tables of `report --format` load with Python's csv and
+# json modules, one table per figure, the database's bytes.
 set -u
 bin=${RT_BIN:-./raytraffic}
 src=${RT_SRCDIR:-.}
@@ -50,5 +52,32 @@ readme=$(sed -n '/^sqlite3 out\/raytraffic.db "SELECT/,/ORDER BY cache_size, tra
 out=$(sqlite3 "$db" "$readme" 2>&1)
 [ "$(printf '%s\n' "$out" | wc -l)" = 6 ] && [ -z "$(printf '%s\n' "$out" | cut -d'|' -f2,4 | sort | uniq -d)" ] ||
     { echo "FAIL: README query:"; printf '%s\n' "$out"; fail=1; }
+# the tidy tables load with Python's csv and json modules, one table per
+# figure, every row of the figure's one setup (16x16, the k-d tree, lean;
+# dynamic rows at their scheduled size), bytes as the database holds them
+"$bin" report --db "$db" --format csv --out "$tmp/csv" 2>/dev/null || { echo "FAIL: report --format csv --out"; fail=1; }
+"$bin" report --db "$db" --format json > "$tmp/all.json" 2>"$tmp/log" || { echo "FAIL: report --format json"; fail=1; }
+"$bin" report --db "$db" --format csv --figure 4 > "$tmp/f4.csv" 2>"$tmp/log" || { echo "FAIL: --figure 4 csv"; fail=1; }
+want=$(sqlite3 "$db" "SELECT COUNT(*), SUM(t.traffic_bytes) FROM traffic t JOIN runs r ON r.id = t.run_id
+  JOIN cache_configs c ON c.id = t.config_id WHERE r.W = 16 AND r.params NOT LIKE '%accel=%' AND r.lights = 0
+  AND (r.sched_size = 0 OR r.sched_size = c.size)")
+got=$(python3 - "$tmp" <<'PY'
+import csv, json, sys
+d = sys.argv[1]
+rows = list(csv.DictReader(open(d + "/csv/figure4-room.csv")))
+js = json.load(open(d + "/all.json"))
+figs = [f for f in js["figures"] if f["figure"] == 4]
+assert len(figs) == 1, figs
+cols = figs[0]["columns"]
+jrows = [dict(zip(cols, r)) for r in figs[0]["rows"]]
+one = list(csv.DictReader(open(d + "/f4.csv")))
+assert rows == one, "stdout table differs from the folder's"
+assert len(jrows) == len(rows) and all(int(a["traffic_bytes"]) == b["traffic_bytes"] for a, b in zip(rows, jrows))
+assert {r["W"] for r in rows} == {"16"} and {r["accel"] for r in rows} == {""}, "another setup in the figure"
+print(len(rows), sum(int(r["traffic_bytes"]) for r in rows), sep="|")
+PY
+) || { echo "FAIL: the tidy tables do not load with csv/json"; fail=1; }
+[ "$got" = "$want" ] || { echo "FAIL: tidy figure 4: $got rows|bytes, the database $want"; fail=1; }
+
 [ "$fail" = 0 ] && echo "db_queries: ok"
 exit $fail
