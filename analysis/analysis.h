@@ -213,6 +213,15 @@ int rt_report_tidy(const rt_report *R, const char *figure, int json, const char 
  * qualitative findings. An unreadable paper table is an error. */
 int rt_report_compare_paper(const rt_report *R, FILE *out, rt_err *e);
 
+/* The paper's values at cache size kb (KB) for scene label, when the
+ * scene is at the paper's setup: geometry and ray MB of recursive, packet,
+ * dynamic (NAN where the paper has none) and the geometry reductions vs
+ * recursive with light 0, 1, 2 and all three (rt_report_reduction's
+ * terms). 1 when the paper has a row at that size, 0 when not (or not the
+ * paper's setup), -1 on error. */
+int rt_report_paper_point(const rt_report *R, const char *label, uint64_t kb, double geom[3], double ray[3],
+                          double shadow[4], rt_err *e);
+
 /* ---- plots ---------------------------------------------------------------- */
 
 /* Where and how plots are drawn. */

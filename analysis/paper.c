@@ -1279,3 +1279,38 @@ int rt_report_tidy(const rt_report *R, const char *figure, int json, const char 
                        R->W, R->H);
     return rt_report_flush(out, e);
 }
+
+/* ---- the paper's values for plots -------------------------------------- */
+
+int rt_report_paper_point(const rt_report *R, const char *label, uint64_t kb, double geom[3], double ray[3],
+                          double shadow[4], rt_err *e)
+{
+    for (int k = 0; k < 3; k++) geom[k] = ray[k] = NAN;
+    for (int l = 0; l < 4; l++) shadow[l] = NAN;
+    char why[300];
+    int f = fig_primary_why(R, label, why, sizeof why, e);
+    if (f <= 0) return f;
+    int i = rt_report_scene_index(R, label);
+    paper_tables *t = rt_calloc(1, sizeof *t, e);
+    if (!t) return -1;
+    int found = 0;
+    if (load_tables(t, e) < 0) {
+        free(t);
+        return -1;
+    }
+    for (int k = 0; k < t->np; k++)
+        if (!strcmp(t->prim[k].scene, R->scene_name[i]) && (uint64_t)t->prim[k].kb == kb) {
+            for (int c = 0; c < 3; c++) {
+                geom[c] = t->prim[k].v[c];
+                ray[c] = t->prim[k].v[3 + c];
+            }
+            found = 1;
+        }
+    for (int k = 0; k < t->ns; k++)
+        if (!strcmp(t->shad[k].scene, R->scene_name[i]) && (uint64_t)t->shad[k].kb == kb) {
+            for (int l = 0; l < 4; l++) shadow[l] = t->shad[k].v[2 * l];
+            found = 1;
+        }
+    free(t);
+    return found;
+}

@@ -36,6 +36,14 @@ fi
 grep -q "wrote out/scenes.png" log || { echo "FAIL: no 'wrote' line"; cat log; fail=1; }
 grep -q "noenhanced" "out/$mesh-traffic.gp" || { echo "FAIL: titles not noenhanced"; fail=1; }
 grep -q "$mesh" report.md || { echo "FAIL: report lacks the scene"; fail=1; }
+# the traffic plot: geometry, ray, total and the reduction, keys outside
+# the panels, cache sizes as powers of two; the scene strip names scenes
+gpf="out/$mesh-traffic.gp"
+grep -q 'total (geometry + ray) traffic' "$gpf" && grep -q 'recursive / dynamic' "$gpf" &&
+    grep -q 'set key at screen' "$gpf" && ! grep -q 'set key .*inside\|set key top' "$gpf" &&
+    grep -q 'set xtics ("1K" 1, "4K" 4)' "$gpf" || { echo "FAIL: traffic plot script: $(grep -c . "$gpf") lines"; fail=1; }
+grep -q 'set title ".*q.obj" noenhanced' out/scenes.gp 2>/dev/null || grep -q 'set title' out/scenes.gp ||
+    { echo "FAIL: scenes.png without scene names"; fail=1; }
 
 # 2. a failing gnuplot is an error
 RT_GNUPLOT=/bin/false "$bin" report --db i.db --plot out2 >/dev/null 2>log && { echo "FAIL: failing gnuplot exited 0"; fail=1; }
