@@ -203,7 +203,8 @@ static int group_plot(const rt_plot_opts *po, const point *P, long a, long b, rt
     rt_out *o;
     FILE *f = rt_plot_open(dat, &o, e);
     if (!f) return -1;
-    fprintf(f, "# cache_kb then per generation: geometry reduction %%, total reduction %%\n");
+    fprintf(f, "# cache_kb then per generation: recursive / dynamic of geometry, of total traffic (the reduction "
+               "+ 1)\n");
     for (long i = a; i < b; i++) {
         fprintf(f, "%" PRIu64, P[i].size / 1024);
         for (int g = 0; g < ng; g++) {
@@ -211,7 +212,7 @@ static int group_plot(const rt_plot_opts *po, const point *P, long a, long b, rt
                            rt_report_reduction(P[i].tot[0][g], P[i].tot[1][g])};
             for (int t = 0; t < 2; t++)
                 if (isnan(r[t])) fprintf(f, " NaN");
-                else fprintf(f, " %.4g", r[t]);
+                else fprintf(f, " %.6g", 1.0 + r[t] / 100.0);
         }
         fprintf(f, "\n");
     }
@@ -219,14 +220,18 @@ static int group_plot(const rt_plot_opts *po, const point *P, long a, long b, rt
     if (!(f = rt_plot_open(gpf, &o, e))) return -1;
     char title[900];
     char ln[48];
-    snprintf(title, sizeof title, "%s, %s (%s), lights %s, %dx%d: dynamic vs recursive per generation", P[a].scene,
-             P[a].mode, P[a].params, rt_exp_lights_name((unsigned)P[a].lights, ln, sizeof ln), P[a].W, P[a].H);
-    fprintf(f, "set terminal pngcairo size 1000,420\nset output ");
+    snprintf(title, sizeof title,
+             "%s, %s (%s), lights %s, %dx%d: recursive / dynamic per generation (above 1: dynamic moves less)",
+             P[a].scene, P[a].mode, P[a].params, rt_exp_lights_name((unsigned)P[a].lights, ln, sizeof ln), P[a].W,
+             P[a].H);
+    fprintf(f, "set terminal pngcairo size 1100,520\nset output ");
     rt_plot_quote_path(f, png);
     fprintf(f, "\nset multiplot layout 1,2 title ");
     rt_plot_quote(f, title);
-    fprintf(f, " noenhanced\nset logscale x 2\nset xlabel \"cache size (KB)\"\nset ylabel \"reduction (%%)\"\n"
-               "set grid\nset key top left\nset xzeroaxis lw 2\n");
+    fprintf(f, " noenhanced\nset logscale xy\nset format y \"%%g\"\nset xlabel \"cache size\"\n"
+               "set ylabel \"recursive / dynamic\"\n"
+               "set grid\nset key below horizontal\nset bmargin 7\n"
+               "set xtics (\"1K\" 1, \"4K\" 4, \"16K\" 16, \"64K\" 64, \"256K\" 256, \"1M\" 1024, \"4M\" 4096)\n");
     static const char *const what[2] = {"geometry traffic", "total traffic"};
     static const char *const col[] = {"#0072b2", "#e69f00", "#009e73", "#d55e00",
                                       "#cc79a7", "#56b4e9", "#000000", "#f0e442"};
@@ -238,7 +243,7 @@ static int group_plot(const rt_plot_opts *po, const point *P, long a, long b, rt
             else rt_plot_quote_path(f, dat);
             fprintf(f, " u 1:%d w lp lc rgb \"%s\" pt 7 t \"gen %d\"", 2 + 2 * g + t, col[g % 8], g);
         }
-        fprintf(f, "\n");
+        fprintf(f, ", 1 w l lc rgb \"#7f7f7f\" notitle\n");
     }
     fprintf(f, "unset multiplot\n");
     if (rt_plot_commit(o, e) < 0) return -1;
