@@ -297,7 +297,9 @@ static int stacked_plot(const rt_plot_opts *p, const char *name, const char *tit
     }
     if (rt_plot_commit(o, e) < 0) return -1;
     if (!(f = rt_plot_open(gpf, &o, e))) return -1;
-    fprintf(f, "set terminal pngcairo size %d,520\nset output ", 360 + 90 * (int)n);
+    /* wide and tall enough for the title, the key and the slanted run
+     * labels (none clipped) */
+    fprintf(f, "set terminal pngcairo size %d,640\nset output ", 760 + 110 * (int)n);
     rt_plot_quote_path(f, png);
     fputs("\nset title ", f);
     rt_plot_quote(f, title);
@@ -305,7 +307,7 @@ static int stacked_plot(const rt_plot_opts *p, const char *name, const char *tit
     rt_plot_quote(f, ylabel);
     fputs(" noenhanced\nset style data histograms\nset style histogram rowstacked\nset style fill solid 0.85 border -1\n"
           "set boxwidth 0.6\nset key outside right top vertical noenhanced reverse Left\nset grid ytics\n"
-          "set yrange [0:*]\nset xtics rotate by -30 noenhanced\nset bmargin 9\n",
+          "set yrange [0:*]\nset xtics rotate by -30 noenhanced\nset bmargin 14\nset rmargin 30\n",
           f);
     static const char *const col[] = {"#0072b2", "#e69f00", "#009e73", "#d55e00",
                                       "#cc79a7", "#56b4e9", "#f0e442", "#000000"};
