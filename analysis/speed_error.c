@@ -197,7 +197,31 @@ static int approx_series(se_ctx *C, const char *method, const char *params)
         int keep = 1;
         for (size_t k = 0; k < sizeof skip / sizeof skip[0]; k++)
             if (len == strlen(skip[k]) && !strncmp(q, skip[k], len)) keep = 0;
-        if (keep && len) n += (size_t)snprintf(lab + n, sizeof lab - n, " %.*s", (int)len, q);
+        if (keep && len) {
+            /* k=v as words a reader knows: sizes in K, rates as 1/N */
+            char word[64];
+            snprintf(word, sizeof word, "%.*s", (int)(len < 63 ? len : 63), q);
+            char *eq = strchr(word, '=');
+            if (eq) {
+                *eq = 0;
+                const char *v = eq + 1;
+                char *end;
+                double d = strtod(v, &end);
+                char val[32];
+                if (*end == 0 && !strcmp(word, "rate") && d > 0 && d < 1 && fabs(1 / d - floor(1 / d + 0.5)) < 1e-9)
+                    snprintf(val, sizeof val, "1/%.0f", 1 / d);
+                else if (*end == 0 && d >= 1024 && fmod(d, 1024) == 0 && strcmp(word, "rate"))
+                    snprintf(val, sizeof val, "%.0fK", d / 1024);
+                else snprintf(val, sizeof val, "%s", v);
+                for (char *u = word; *u; u++)
+                    if (*u == '_') *u = ' ';
+                if (!strcmp(word, "errors")) n += (size_t)snprintf(lab + n, sizeof lab - n, ", with errors");
+                else n += (size_t)snprintf(lab + n, sizeof lab - n, ", %s %s", word, val);
+            } else {
+                n += (size_t)snprintf(lab + n, sizeof lab - n, " %s", word);
+            }
+            if (n >= sizeof lab) n = sizeof lab - 1;
+        }
         q += len;
         while (*q == ' ') q++;
     }
