@@ -267,12 +267,14 @@ static int group_plot(const rt_plot_opts *po, const arun *g, int n, const uint64
     if (rt_out_commit(out, e) < 0) return -1;
     if (!(out = rt_out_open(gpf, e))) return -1;
     f = rt_out_stream(out);
-    fprintf(f, "set terminal pngcairo size 800,500\nset output ");
+    fprintf(f, "set terminal pngcairo size 1000,500\nset output ");
     rt_plot_quote_path(f, png);
     fprintf(f, "\nset title ");
     rt_plot_quote(f, lab);
-    fprintf(f, " noenhanced\nset logscale xy\nset format y \"10^{%%L}\"\nset xlabel \"cache size (KB)\"\n"
-               "set ylabel \"geometry traffic (MB)\"\nset grid\nset key top right noenhanced\nplot ");
+    fprintf(f, " noenhanced\nset logscale x 2\nset logscale y\nset format y \"%%g\"\nset xlabel \"cache size\"\n"
+               "set xrange [0.8:5120]\n"
+               "set xtics (\"1K\" 1, \"4K\" 4, \"16K\" 16, \"64K\" 64, \"256K\" 256, \"1M\" 1024, \"4M\" 4096)\n"
+               "set ylabel \"geometry traffic (MB)\"\nset grid\nset key outside right top noenhanced\nplot ");
     static const char *const col[] = {"#0072b2", "#e69f00", "#009e73", "#d55e00", "#cc79a7", "#56b4e9", "#000000"};
     for (int i = 0; i < n; i++) {
         char t[96];
