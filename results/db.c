@@ -45,6 +45,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -999,9 +1000,29 @@ static int shard_open(shard *sh, const char *path, rt_err *e)
     FILE *f = fopen(path, "rb");
     if (!f) return rt_errf(e, "%s: cannot open", path);
     fclose(f);
-    char *name = fs_name(path);
-    int orc = name ? sqlite3_open_v2(name, &sh->h, SQLITE_OPEN_READONLY, NULL) : SQLITE_NOMEM;
-    free(name);
+    /* as a URI, so that a shard no connection has open (no -wal file: all
+     * of it is in the main file) is read immutable, leaving no -wal and
+     * -shm beside it; one with a -wal (a writer is active, or was killed)
+     * is read the normal read-only way, -wal included */
+    size_t pl = strlen(path);
+    char *uri = malloc(3 * pl + 32), *wal = malloc(pl + 8);
+    if (!uri || !wal) {
+        free(uri);
+        free(wal);
+        return rt_errf(e, "%s: out of memory", path);
+    }
+    size_t k = (size_t)sprintf(uri, "file:");
+    for (const unsigned char *q = (const unsigned char *)path; *q; q++)
+        k += (size_t)((*q >= 'a' && *q <= 'z') || (*q >= 'A' && *q <= 'Z') || (*q >= '0' && *q <= '9') ||
+                              strchr("-._~/", *q)
+                          ? sprintf(uri + k, "%c", *q)
+                          : sprintf(uri + k, "%%%02X", *q));
+    sprintf(wal, "%s-wal", path);
+    struct stat sb;
+    strcat(uri, stat(wal, &sb) == 0 ? "?mode=ro" : "?immutable=1");
+    free(wal);
+    int orc = sqlite3_open_v2(uri, &sh->h, SQLITE_OPEN_READONLY | SQLITE_OPEN_URI, NULL);
+    free(uri);
     if (orc != SQLITE_OK)
         return rt_errf(e, "%s: cannot open database: %s", path, sh->h ? sqlite3_errmsg(sh->h) : "out of memory");
     sqlite3_busy_timeout(sh->h, 60000);

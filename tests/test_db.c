@@ -971,6 +971,12 @@ static void test_merge(const char *dir, const rt_db_traffic *rows, size_t n)
     rt_db *db = rt_db_open(out, &e);
     CHECK(db && rt_db_merge(db, in, &nr, &e) == 0 && nr == 2, "merge: %ld runs, %s", nr, e.msg);
     CHECK(rt_db_merge(db, in, &nr, &e) == 0 && nr == 2, "merge twice");
+    /* the shard is only read: no -wal or -shm left beside it */
+    char side[320];
+    snprintf(side, sizeof side, "%s-wal", in);
+    CHECK(access(side, F_OK) != 0, "merge left %s", side);
+    snprintf(side, sizeof side, "%s-shm", in);
+    CHECK(access(side, F_OK) != 0, "merge left %s", side);
     CHECK(count(db, "SELECT count(*) FROM runs") == 2 && count(db, "SELECT count(*) FROM traffic") == 2 * (long long)n,
           "merging twice duplicated nothing");
     CHECK(count(db, "SELECT sched_size FROM runs WHERE tracer = 'dynamic'") == 4096, "sched_size merged");
