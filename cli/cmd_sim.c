@@ -254,9 +254,11 @@ static int store(rt_db *db, const char *path, const rt_approx *ap, const rt_tr_m
     /* the hybrid's standard errors (sim_params says errors=1) */
     rt_db_se *se = calloc((size_t)c->nsizes, sizeof *se);
     int rc = -1;
+    size_t nse = 0;
     if (!se) rt_errf(e, "out of memory");
     else {
-        rt_db_rows R = {.traffic = rows, .ntraffic = n, .gen = grows, .ngen = ng, .se = se, .nse = rt_approx_db_se_rows(ap, se)};
+        nse = rt_approx_db_se_rows(ap, se);
+        rt_db_rows R = {.traffic = rows, .ntraffic = n, .gen = grows, .ngen = ng, .se = se, .nse = nse};
         rc = rt_db_store(db, &r, &R, &id, e);
     }
     free(rows);
@@ -266,7 +268,7 @@ static int store(rt_db *db, const char *path, const rt_approx *ap, const rt_tr_m
         char err[96] = "";
         int at = 0;
         double w = worst_se(ap, &at);
-        if (w >= 0)
+        if (w >= 0 && nse > 0) /* an exact run has no standard error to report */
             snprintf(err, sizeof err, ", largest standard error %.2f%% of traffic (%llu bytes)", 100 * w,
                      (unsigned long long)c->sizes[at]);
         fprintf(stderr, "raytraffic sim: %s: %llu refs in %.2f s (%.1f M refs/s), %zu rows, run %lld%s\n", path,

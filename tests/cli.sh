@@ -8,7 +8,18 @@ check() { # expected-status description command...
     "$@" >/dev/null 2>&1; got=$?
     if [ "$got" -ne "$want" ]; then echo "FAIL: $what: exit $got, want $want"; fail=1; fi
 }
-check 0 "no arguments prints usage" "$bin"
+check 2 "no arguments: usage on stderr, a usage error" "$bin"
+[ -z "$("$bin" 2>/dev/null)" ] && "$bin" 2>&1 | grep -q "Usage" || { echo "FAIL: no arguments: usage not on stderr"; fail=1; }
+check 0 "--help" "$bin" --help
+# an unknown tracer names the valid ones
+"$bin" sweep --tracers foo --db /nonexistent/x.db 2>&1 | grep -q "unknown tracer 'foo' (recursive, packet, dynamic" ||
+    { echo "FAIL: sweep --tracers foo does not list the tracers"; fail=1; }
+# an exact run has no standard error to report
+d=$(mktemp -d /tmp/rt-cli-XXXXXX)
+"$bin" trace cornell -W 8 -H 8 -o "$d/t.rtt" 2>/dev/null && "$bin" sim "$d/t.rtt" --db "$d/s.db" 2>"$d/log" >/dev/null &&
+    grep -q "run 1" "$d/log" && ! grep -q "standard error" "$d/log" ||
+    { echo "FAIL: sim --db of an exact run: $(cat "$d/log")"; fail=1; }
+rm -rf "$d"
 check 0 "--version" "$bin" --version
 check 2 "unknown command" "$bin" no-such-command
 for c in scene render trace trace-info trace-dump sim sweep report db bench; do
