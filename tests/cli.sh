@@ -20,6 +20,15 @@ d=$(mktemp -d /tmp/rt-cli-XXXXXX)
     grep -q "run 1" "$d/log" && ! grep -q "standard error" "$d/log" ||
     { echo "FAIL: sim --db of an exact run: $(cat "$d/log")"; fail=1; }
 rm -rf "$d"
+# bench --help names every --what item
+"$bin" bench --help | grep -q "stream,embree" || { echo "FAIL: bench --help omits stream"; fail=1; }
+# the README's triangle counts are the scenes' own
+src=${RT_SRCDIR:-.}
+for sc in grove room cornell knot; do
+    n=$("$bin" scene list | awk -v s="$sc" '$1 == s { for (i = 2; i <= NF; i++) if ($(i + 1) == "triangles" || $(i + 1) == "triangles,") { print $i; exit } }')
+    [ -n "$n" ] && tr '\n' ' ' < "$src/README.md" | grep -q "\`$sc\` ([^)]*$n" ||
+        { echo "FAIL: README's $sc triangle count is not $n"; fail=1; }
+done
 check 0 "--version" "$bin" --version
 check 2 "unknown command" "$bin" no-such-command
 for c in scene render trace trace-info trace-dump sim sweep report db bench; do
