@@ -161,6 +161,11 @@ int main_report(int argc, char **argv)
         rt_cmd_error("report", "--layout needs --model");
         return RT_EXIT_USAGE;
     }
+    /* --figure N --compare-paper: the comparison of that figure's scene
+     * only (4/7 room, 5/8 grove, 6/9 sphereflake) */
+    static const char *const fig_scene[3] = {"room", "grove", "sphereflake"};
+    if (compare && !o.scene && strlen(figure) == 1 && figure[0] >= '4' && figure[0] <= '9')
+        o.scene = fig_scene[(figure[0] - '4') % 3];
     rt_err e = {0};
     sqlite3 *h;
     if (rt_report_db_open(dbpath, &h, &e) < 0) {

@@ -79,5 +79,12 @@ PY
 ) || { echo "FAIL: the tidy tables do not load with csv/json"; fail=1; }
 [ "$got" = "$want" ] || { echo "FAIL: tidy figure 4: $got rows|bytes, the database $want"; fail=1; }
 
+# --figure N --compare-paper compares that figure's scene only (and a
+# figure whose scene the database lacks has nothing to show)
+"$bin" report --db "$db" --figure 4 --compare-paper > "$tmp/c4.md" 2>"$tmp/log" && grep -q '^### `room`, primary rays' "$tmp/c4.md" ||
+    { echo "FAIL: --figure 4 --compare-paper: $(cat "$tmp/log")"; fail=1; }
+"$bin" report --db "$db" --figure 6 --compare-paper > "$tmp/c6.md" 2>"$tmp/log"
+[ $? = 1 ] && [ ! -s "$tmp/c6.md" ] || { echo "FAIL: --figure 6 --compare-paper without sphereflake"; fail=1; }
+
 [ "$fail" = 0 ] && echo "db_queries: ok"
 exit $fail
