@@ -285,7 +285,13 @@ static void run_tables(FILE *o, int csv, const frun *f, const fcfg *C, long n)
         return;
     }
     char lab[96];
-    fprintf(o, "\n### %s: traffic per class (MB = 2^20 bytes)\n\n| cache", f->label);
+    /* which record-store model produced these numbers (the run's key has
+     * record_stores= when it is not the default, streaming stores) */
+    const char *rs = strstr(f->params, "record_stores=");
+    char rsn[32] = "non-temporal";
+    if (rs) sscanf(rs + 14, "%31[a-z-]", rsn);
+    fprintf(o, "\n### %s: traffic per class (MB = 2^20 bytes)\n\nRecord stores: %s (%s; `--record-stores`).\n\n| cache",
+            f->label, rsn, rs ? "as the run asked" : "the default: whole 64-byte records written as streaming stores");
     for (int k = 0; k < NCLS; k++) fprintf(o, " | %s", cls_title[k]);
     fprintf(o, " | total | stream share |\n|---");
     for (int k = 0; k < NCLS + 2; k++) fputs("|---:", o);

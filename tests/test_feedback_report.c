@@ -142,6 +142,8 @@ int main(void)
     static const char *const want[] = {
         /* MB: 128000 / 2^20 = 0.122, 40000 -> 0.038, 8000 -> 0.008, 16000 -> 0.015, 4000 -> 0.004 */
         "### knot 16x16 lights 0 mode=whitted depth=2: traffic per class (MB = 2^20 bytes)\n\n"
+        "Record stores: non-temporal (the default: whole 64-byte records written as streaming stores; "
+        "`--record-stores`).\n\n"
         "| cache | stream (vb) | node (grid) | index (list) | tri | shade | fb | total | stream share |\n"
         "|---|---:|---:|---:|---:|---:|---:|---:|---:|\n"
         "| 4 KB | 0.122 | 0.038 | 0.008 | 0.015 | 0.004 | 0.004 | 0.191 | 64.0% |\n"
