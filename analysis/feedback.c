@@ -158,7 +158,7 @@ static int other_design(sqlite3 *h, const frun *f, fcfg *c, int d, rt_err *e)
         "SELECT r.id, r.params, r.stats FROM runs r JOIN scenes s ON s.id = r.scene_id WHERE r.tracer = ?1"
         " AND s.name = ?2 AND s.hash = ?3 AND r.W = ?4 AND r.H = ?5 AND r.lights = ?6 AND r.sim_method = 'exact'"
         " AND r.params NOT LIKE '%subsample=%' AND r.params NOT LIKE '%sim=all-sizes%'"
-        " AND (?1 <> 'dynamic' OR r.sched_size = ?7) ORDER BY r.id",
+        " AND (?1 <> @SCHED@ OR r.sched_size = ?7) ORDER BY r.id",
         "feedback", e, "sssiiiI", design_tracer(d), f->scene, f->hash, f->W, f->H, f->lights, (int64_t)c->size);
     if (!st) return -1;
     long long best = -1;

@@ -912,13 +912,13 @@ static void finding_sentences(FILE *out, const rt_report_findings *f, const rt_r
     fputs(".", out);
 }
 
-#define PAPER_TRACERS_R "tracer IN ('recursive', 'packet', 'dynamic')"
+#define PAPER_TRACERS_R "tracer IN @NAVRATIL@"
 
 /* The provenance query's runs: the figures' runs (the paper's three
  * tracers, exact, full frame, the k-d tree) at R's resolution. */
 #define SUMMARY_RUNS                                                                                                 \
-    " FROM runs r WHERE r.W = ?1 AND r.H = ?2 AND r.sim_method = 'exact' AND r.tracer IN ('recursive', 'packet',"   \
-    " 'dynamic') AND r.params NOT LIKE '%subsample=%' AND instr(r.params, 'accel=') = 0"
+    " FROM runs r WHERE r.W = ?1 AND r.H = ?2 AND r.sim_method = 'exact' AND r.tracer IN @NAVRATIL@"               \
+    " AND r.params NOT LIKE '%subsample=%' AND instr(r.params, 'accel=') = 0"
 
 /* Column 0 of the first row of sql (SUMMARY_RUNS bound) into buf; '' if none. */
 static int summary_text(const rt_report *R, const char *sql, char *buf, size_t n, rt_err *e)

@@ -269,8 +269,10 @@ static int shadows_plot(const rt_report *R, const rt_plot_opts *p, const char *s
         fprintf(f, "%" PRIu64, s / 1024);
         for (int l = 0; l < 4; l++) {
             double g[2], r[2];
-            int h0 = rt_report_value(R, sc, "recursive", masks[l], s, &g[0], &r[0], e);
-            int h1 = h0 >= 0 ? rt_report_value(R, sc, "dynamic", masks[l], s, &g[1], &r[1], e) : -1;
+            const rt_tracer *tr[3] = {NULL, NULL, NULL};
+            rt_report_fig_tracers(RT_FIG_NAVRATIL, tr, 3);
+            int h0 = tr[0] ? rt_report_value(R, sc, tr[0]->name, masks[l], s, &g[0], &r[0], e) : 0;
+            int h1 = h0 > 0 && tr[2] ? rt_report_value(R, sc, tr[2]->name, masks[l], s, &g[1], &r[1], e) : h0;
             if (h0 < 0 || h1 < 0) {
                 rt_out_abort(o);
                 return -1;

@@ -34,10 +34,46 @@
 #include <string.h>
 #include <sys/stat.h>
 
+/* The tracer names the traits give the paper's figures (RT_FIG_NAVRATIL:
+ * baseline, packet, scheduled), as SQL: the one place the report's
+ * queries learn them (tokens @BASE@, @PACKET@, @SCHED@, @NAVRATIL@). */
+static char *expand_tracers(const char *sql, rt_err *e)
+{
+    const rt_tracer *t[3] = {NULL, NULL, NULL};
+    rt_report_fig_tracers(RT_FIG_NAVRATIL, t, 3);
+    char q[3][64], in[200];
+    for (int k = 0; k < 3; k++) snprintf(q[k], sizeof q[k], "'%s'", t[k] ? t[k]->name : "");
+    snprintf(in, sizeof in, "(%s, %s, %s)", q[0], q[1], q[2]);
+    static const char *const tok[4] = {"@BASE@", "@PACKET@", "@SCHED@", "@NAVRATIL@"};
+    const char *val[4] = {q[0], q[1], q[2], in};
+    size_t n = strlen(sql) + 1;
+    for (const char *p = sql; (p = strchr(p, '@')); p++)
+        n += sizeof in;
+    char *out = rt_calloc(n, 1, e), *w = out;
+    if (!out) return NULL;
+    for (const char *p = sql; *p;) {
+        int hit = -1;
+        for (int k = 0; k < 4 && hit < 0; k++)
+            if (!strncmp(p, tok[k], strlen(tok[k]))) hit = k;
+        if (hit < 0) {
+            *w++ = *p++;
+            continue;
+        }
+        w += sprintf(w, "%s", val[hit]);
+        p += strlen(tok[hit]);
+    }
+    *w = 0;
+    return out;
+}
+
 sqlite3_stmt *rt_report_stmt(sqlite3 *h, const char *sql, const char *context, rt_err *e, const char *types, ...)
 {
     sqlite3_stmt *st;
-    if (sqlite3_prepare_v2(h, sql, -1, &st, NULL) != SQLITE_OK) {
+    char *x = strchr(sql, '@') ? expand_tracers(sql, e) : NULL;
+    if (strchr(sql, '@') && !x) return NULL;
+    int prc = sqlite3_prepare_v2(h, x ? x : sql, -1, &st, NULL);
+    free(x);
+    if (prc != SQLITE_OK) {
         rt_errf(e, "%s: %s", context, sqlite3_errmsg(h));
         return NULL;
     }
@@ -181,8 +217,8 @@ int rt_report_scene_index(const rt_report *R, const char *label)
 
 /* Runs that belong in the paper's figures: its three tracers, primary and
  * shadow rays only (no mode= parameter). */
-#define PAPER_RUNS "r.tracer IN ('recursive', 'packet', 'dynamic') AND r.params NOT LIKE '%mode=%'"
-#define PAPER_TRACERS "tracer IN ('recursive', 'packet', 'dynamic')"
+#define PAPER_RUNS "r.tracer IN @NAVRATIL@ AND r.params NOT LIKE '%mode=%'"
+#define PAPER_TRACERS "tracer IN @NAVRATIL@"
 
 int rt_report_init(rt_report *R, sqlite3 *h, const char *dbpath, const rt_report_opts *o, rt_err *e)
 {
@@ -202,7 +238,7 @@ int rt_report_init(rt_report *R, sqlite3 *h, const char *dbpath, const rt_report
     if (o->model && (model = rt_exp_model_find(o->model)) < 0)
         return rt_errf(e, "model '%s' is not lean or paper", o->model);
     if (!R->W) {
-        st = rt_report_stmt(h, "SELECT W, H FROM runs WHERE sim_method = 'exact' AND tracer IN ('recursive', 'packet', 'dynamic')"
+        st = rt_report_stmt(h, "SELECT W, H FROM runs WHERE sim_method = 'exact' AND tracer IN @NAVRATIL@"
                             " ORDER BY W * H DESC LIMIT 1", dbpath,
                             e, "");
         if (!st) return -1;
@@ -283,7 +319,7 @@ int rt_report_init(rt_report *R, sqlite3 *h, const char *dbpath, const rt_report
         }
     }
     if (rt_report_done(st, rc, dbpath, e) < 0) return -1;
-    st = rt_report_stmt(h, "SELECT params FROM runs WHERE tracer = 'packet' LIMIT 1", dbpath, e, "");
+    st = rt_report_stmt(h, "SELECT params FROM runs WHERE tracer = @PACKET@ LIMIT 1", dbpath, e, "");
     if (!st) return -1;
     if ((rc = sqlite3_step(st)) == SQLITE_ROW && sqlite3_column_text(st, 0)) {
         const char *p = strstr((const char *)sqlite3_column_text(st, 0), "packet=");

@@ -55,9 +55,9 @@ static long read_points(sqlite3 *h, const char *dbpath, point **pts, rt_err *e)
         "SELECT b.scene, b.mode, b.params, b.lights, b.W, b.H, b.cache_size, b.gen, b.geometry_mb, b.total_mb,"
         " d.geometry_mb, d.total_mb FROM v_gen b JOIN v_gen d ON d.scene = b.scene AND d.mode = b.mode"
         " AND d.lights = b.lights AND d.W = b.W AND d.H = b.H AND d.cache_size = b.cache_size AND d.gen = b.gen"
-        " AND d.tracer = 'dynamic' AND d.sched_size = d.cache_size AND instr(d.params, b.params) > 0"
+        " AND d.tracer = @SCHED@ AND d.sched_size = d.cache_size AND instr(d.params, b.params) > 0"
         " AND d.params NOT LIKE '%sim=all-sizes%'"
-        " WHERE b.tracer = 'recursive' AND b.mode IN ('whitted', 'path')"
+        " WHERE b.tracer = @BASE@ AND b.mode IN ('whitted', 'path')"
         " ORDER BY CASE b.scene WHEN 'cornell' THEN 0 WHEN 'sphereflake' THEN 1 WHEN 'knot' THEN 2 ELSE 3 END,"
         " b.scene, b.mode DESC, b.params, b.lights, b.W, b.cache_size, b.gen";
     sqlite3_stmt *st = rt_report_stmt(h, sql, dbpath, e, "");
