@@ -918,7 +918,7 @@ static void finding_sentences(FILE *out, const rt_report_findings *f, const rt_r
  * tracers, exact, full frame, the k-d tree) at R's resolution. */
 #define SUMMARY_RUNS                                                                                                 \
     " FROM runs r WHERE r.W = ?1 AND r.H = ?2 AND r.sim_method = 'exact' AND r.tracer IN @NAVRATIL@"               \
-    " AND r.params NOT LIKE '%subsample=%' AND instr(r.params, 'accel=') = 0"
+    " AND r.params NOT LIKE '%subsample=%' AND instr(r.params, 'accel=') = 0 AND @DIMS@"
 
 /* Column 0 of the first row of sql (SUMMARY_RUNS bound) into buf; '' if none. */
 static int summary_text(const rt_report *R, const char *sql, char *buf, size_t n, rt_err *e)
@@ -958,7 +958,7 @@ static int summary_others(const rt_report *R, FILE *out, rt_err *e)
                               sqlite3_column_int(st, 0), sqlite3_column_int(st, 1), sqlite3_column_int(st, 0),
                               sqlite3_column_int(st, 1));
     if (rt_report_done(st, rc, R->dbpath, e) < 0) return -1;
-    long long accel, sub, approx, model, layout;
+    long long accel, sub, approx, model, layout, dims;
     if (summary_count(R, "SELECT COUNT(*) FROM runs WHERE " PAPER_TRACERS_R " AND instr(params, 'accel=') > 0 AND ?1 + ?2 > 0",
                       &accel, e) < 0 ||
         summary_count(R, "SELECT COUNT(*) FROM runs WHERE " PAPER_TRACERS_R " AND params LIKE '%subsample=%' AND ?1 + ?2 > 0",
@@ -972,9 +972,11 @@ static int summary_others(const rt_report *R, FILE *out, rt_err *e)
                                      "sim_params NOT LIKE 'model=%' AND ?1 + ?2 > 0",
                       &model, e) < 0 ||
         summary_count(R, "SELECT COUNT(*) FROM runs WHERE " PAPER_TRACERS_R " AND instr(params, 'layout=') > 0 AND ?1 + ?2 > 0",
-                      &layout, e) < 0)
+                      &layout, e) < 0 ||
+        summary_count(R, "SELECT COUNT(*) FROM runs r WHERE r." PAPER_TRACERS_R " AND NOT @DIMS@ AND ?1 + ?2 > 0", &dims,
+                      e) < 0)
         return -1;
-    if (!res[0] && !accel && !sub && !approx && !model && !(R->model < 0 && layout)) return 0;
+    if (!res[0] && !accel && !sub && !approx && !model && !(R->model < 0 && layout) && !dims) return 0;
     fputs("- Not in the figures (another setup, each with the option that shows it):", out);
     const char *sep = " ";
     if (res[0]) fprintf(out, "%sruns at %s", sep, res), sep = "; ";
@@ -984,6 +986,9 @@ static int summary_others(const rt_report *R, FILE *out, rt_err *e)
                 R->model < 0 ? "paper" : "lean"),
             sep = "; ";
     if (R->model < 0 && layout) fprintf(out, "%s%lld in another layout (`--model M --layout L`)", sep, layout), sep = "; ";
+    if (dims)
+        fprintf(out, "%s%lld of another replacement policy, hierarchy, core count, light model or instancing (their "
+                     "own reports)", sep, dims), sep = "; ";
     if (sub || approx)
         fprintf(out, "%s%lld reduced (subsampled) and %lld approximate runs (`--appendix`)", sep, sub, approx);
     fputs(".\n", out);
@@ -1158,7 +1163,7 @@ static sqlite3_stmt *tidy_stmt(const rt_report *R, const char *sc, int fig, int 
              " WHERE s.name = ?1 AND s.hash = ?2 AND r.W = ?3 AND r.H = ?4 AND r.tracer IN (?5, ?6, ?7)"
              " AND r.sim_method = 'exact' AND r.params NOT LIKE '%%subsample=%%' AND r.params NOT LIKE '%%mode=%%'"
              " AND instr(r.params, 'accel=') = 0 AND c.line = 64 AND c.assoc = 0 AND (r.sched_size = 0 OR"
-             " r.sched_size = c.size) AND (%s) AND %s"
+             " r.sched_size = c.size) AND @DIMS@ AND (%s) AND %s"
              " ORDER BY r.lights, c.size, CASE r.tracer WHEN ?5 THEN 0 WHEN ?6 THEN 1 ELSE 2 END, t.class",
              table, fig, dims, kind == 0 ? "r.lights = 0" : "r.lights IN (1, 2, 4, 7)",
              R->model < 0 ? "c.policy = 'wb-wa' AND r.sim_params NOT LIKE 'model=%' AND instr(r.params, 'layout=') = 0"

@@ -37,23 +37,36 @@
 /* The tracer names the traits give the paper's figures (RT_FIG_NAVRATIL:
  * baseline, packet, scheduled), as SQL: the one place the report's
  * queries learn them (tokens @BASE@, @PACKET@, @SCHED@, @NAVRATIL@). */
-static char *expand_tracers(const char *sql, rt_err *e)
+static char *expand_tracers(sqlite3 *h, const char *sql, rt_err *e)
 {
     const rt_tracer *t[3] = {NULL, NULL, NULL};
     rt_report_fig_tracers(RT_FIG_NAVRATIL, t, 3);
     char q[3][64], in[200];
     for (int k = 0; k < 3; k++) snprintf(q[k], sizeof q[k], "'%s'", t[k] ? t[k]->name : "");
     snprintf(in, sizeof in, "(%s, %s, %s)", q[0], q[1], q[2]);
-    static const char *const tok[4] = {"@BASE@", "@PACKET@", "@SCHED@", "@NAVRATIL@"};
-    const char *val[4] = {q[0], q[1], q[2], in};
+    /* @DIMS@: the schema-6 dimensions at the values every figure is
+     * drawn for (LRU, one level, one core, point lights, flattened
+     * instances); runs of other values are other setups. Older files have
+     * only such runs. */
+    sqlite3_stmt *c;
+    int v6 = 0;
+    if (sqlite3_prepare_v2(h, "SELECT 1 FROM pragma_table_info('runs') WHERE name = 'hierarchy'", -1, &c, NULL) ==
+        SQLITE_OK)
+        v6 = sqlite3_step(c) == SQLITE_ROW;
+    sqlite3_finalize(c);
+    const char *dims = v6 ? "(r.repl = 'lru' AND r.hierarchy = '' AND r.cores = 1 AND r.light_model = 'point' AND "
+                            "r.instances = 'flatten')"
+                          : "1";
+    static const char *const tok[5] = {"@BASE@", "@PACKET@", "@SCHED@", "@NAVRATIL@", "@DIMS@"};
+    const char *val[5] = {q[0], q[1], q[2], in, dims};
     size_t n = strlen(sql) + 1;
     for (const char *p = sql; (p = strchr(p, '@')); p++)
-        n += sizeof in;
+        n += sizeof in + strlen(dims);
     char *out = rt_calloc(n, 1, e), *w = out;
     if (!out) return NULL;
     for (const char *p = sql; *p;) {
         int hit = -1;
-        for (int k = 0; k < 4 && hit < 0; k++)
+        for (int k = 0; k < 5 && hit < 0; k++)
             if (!strncmp(p, tok[k], strlen(tok[k]))) hit = k;
         if (hit < 0) {
             *w++ = *p++;
@@ -69,7 +82,7 @@ static char *expand_tracers(const char *sql, rt_err *e)
 sqlite3_stmt *rt_report_stmt(sqlite3 *h, const char *sql, const char *context, rt_err *e, const char *types, ...)
 {
     sqlite3_stmt *st;
-    char *x = strchr(sql, '@') ? expand_tracers(sql, e) : NULL;
+    char *x = strchr(sql, '@') ? expand_tracers(h, sql, e) : NULL;
     if (strchr(sql, '@') && !x) return NULL;
     int prc = sqlite3_prepare_v2(h, x ? x : sql, -1, &st, NULL);
     free(x);
@@ -217,7 +230,7 @@ int rt_report_scene_index(const rt_report *R, const char *label)
 
 /* Runs that belong in the paper's figures: its three tracers, primary and
  * shadow rays only (no mode= parameter). */
-#define PAPER_RUNS "r.tracer IN @NAVRATIL@ AND r.params NOT LIKE '%mode=%'"
+#define PAPER_RUNS "r.tracer IN @NAVRATIL@ AND r.params NOT LIKE '%mode=%' AND @DIMS@"
 #define PAPER_TRACERS "tracer IN @NAVRATIL@"
 
 int rt_report_init(rt_report *R, sqlite3 *h, const char *dbpath, const rt_report_opts *o, rt_err *e)
@@ -238,7 +251,7 @@ int rt_report_init(rt_report *R, sqlite3 *h, const char *dbpath, const rt_report
     if (o->model && (model = rt_exp_model_find(o->model)) < 0)
         return rt_errf(e, "model '%s' is not lean or paper", o->model);
     if (!R->W) {
-        st = rt_report_stmt(h, "SELECT W, H FROM runs WHERE sim_method = 'exact' AND tracer IN @NAVRATIL@"
+        st = rt_report_stmt(h, "SELECT W, H FROM runs r WHERE sim_method = 'exact' AND tracer IN @NAVRATIL@ AND @DIMS@"
                             " ORDER BY W * H DESC LIMIT 1", dbpath,
                             e, "");
         if (!st) return -1;
@@ -463,7 +476,7 @@ int rt_report_value(const rt_report *R, const char *scene, const char *tracer, u
     " JOIN cache_configs c ON c.id = t.config_id JOIN classes k ON k.name = t.class"                                 \
     " WHERE c.line = 64 AND c.assoc = 0 AND r.sim_method = 'exact' AND r.params NOT LIKE '%subsample=%'"             \
     " AND instr(r.params, 'accel=') = 0 AND s.name = ?1 AND (?8 = '' OR s.hash = ?8) AND r.tracer = ?2"              \
-    " AND r.lights = ?3 AND r.sched_size = ?4 AND c.size = ?5 AND r.W = ?6 AND r.H = ?7 AND " COND                   \
+    " AND r.lights = ?3 AND r.sched_size = ?4 AND c.size = ?5 AND r.W = ?6 AND r.H = ?7 AND @DIMS@ AND " COND       \
     " GROUP BY r.id, c.id ORDER BY geometry_mb LIMIT 1"
     sqlite3_stmt *st =
         R->model < 0
