@@ -1,22 +1,26 @@
 /*
- * setassoc.h -- one set-associative LRU cache of one size (private to
- * cachesim/; see setassoc.c).
+ * setassoc.h -- one set-associative cache of one size, LRU or a
+ * replacement policy's hooks (private to cachesim/; see setassoc.c).
  */
 #ifndef RT_SETASSOC_H
 #define RT_SETASSOC_H
 
 #include "sim.h"
 
+struct rt_repl_ops;
+
 typedef struct rt_sa rt_sa;
 
 /* size and line in bytes (any line size >= 1); assoc ways per set, 0 =
- * fully associative (one set). size must be a multiple of line*assoc. */
+ * fully associative (one set). size must be a multiple of line*assoc.
+ * ops: the replacement policy (engine.h), NULL = LRU; seed for its random
+ * choices. */
 rt_sa *rt_sa_new(uint64_t size, uint32_t line, uint32_t assoc, int write_through, int no_write_allocate,
-                 rt_err *e);
+                 const struct rt_repl_ops *ops, uint64_t seed, rt_err *e);
 void rt_sa_free(rt_sa *c);
 /* Bytes of state rt_sa_new allocates for that cache (slots, sets, table):
  * it is all allocated up front, so it is checked before (rt_sim_config_check). */
-uint64_t rt_sa_state_bytes(uint64_t size, uint32_t line, uint32_t assoc);
+uint64_t rt_sa_state_bytes(uint64_t size, uint32_t line, uint32_t assoc, int policy);
 void rt_sa_put(rt_sa *c, const rt_access *a, size_t n);
 /* Counters of class cls summed over the generations; _gen: of generation
  * bucket gen (0..RT_MAXGEN-1), gen < 0 sums them. */

@@ -37,12 +37,14 @@ static void usage(FILE *f)
     fprintf(f,
             "Usage: raytraffic sim [options] TRACE...\n\n"
             "Replays each trace (raytraffic .rtt or Dinero IV din text) once through a\n"
-            "set of LRU caches and reports per-class accesses, misses, write-backs and\n"
+            "set of caches (LRU unless --repl) and reports per-class accesses, misses, write-backs and\n"
             "DRAM traffic for every cache size.\n\n"
             "Options:\n"
             "  --sizes LIST           1K-4M (powers of two) or 1K,2K,64K (default 1K-4M)\n"
             "  --line N               line size in bytes, any value (default 64)\n"
             "  --assoc full|N         fully associative (default) or N ways; 1 = direct-mapped\n"
+            "  --repl P               replacement policy (default lru), one of\n"
+            "                         %s; --seed seeds random choices\n"
             "  --write-through        write-through instead of write-back\n"
             "  --no-write-allocate    write misses do not allocate (write around)\n"
             "  --flush                write back the lines still dirty at the end, as\n"
@@ -81,7 +83,8 @@ static void usage(FILE *f)
             "writebacks wt_bytes traffic_bytes; one row per size and class, then group rows\n"
             "(geometry, ray, other). accesses counts line touches (a reference spanning k\n"
             "lines is k accesses), not references. assoc 0 = fully associative. Accounting\n"
-            "and units: docs/cachesim.md. Exit status 0 ok, 1 a trace failed, 2 usage error.\n");
+            "and units: docs/cachesim.md. Exit status 0 ok, 1 a trace failed, 2 usage error.\n",
+            rt_sim_repl_list());
 }
 
 /* Whether the output has the traffic_se column: the hybrid method, errors
@@ -112,11 +115,12 @@ static void print_row(FILE *f, int fmt, const char *trace, const rt_sim_config *
                 c->line, c->assoc, name, v[0], v[1], v[2], v[3], v[4], v[5], with_se ? "," : "", sec);
     } else {
         fprintf(f,
-                "%s\n  {\"trace\": \"%s\", \"size_bytes\": %llu, \"line\": %u, \"assoc\": %u, \"policy\": \"%s\", "
+                "%s\n  {\"trace\": \"%s\", \"size_bytes\": %llu, \"line\": %u, \"assoc\": %u, \"policy\": \"%s\", %s%s%s"
                 "\"class\": \"%s\", \"accesses\": %llu, \"read_misses\": %llu, \"write_misses\": %llu, "
                 "\"writebacks\": %llu, \"wt_bytes\": %llu, \"traffic_bytes\": %llu%s%s}",
                 *first ? "" : ",", trace, (unsigned long long)c->sizes[i], c->line, c->assoc,
-                rt_sim_policy_name(c), name, v[0], v[1], v[2], v[3], v[4], v[5],
+                rt_sim_policy_name(c), c->repl ? "\"repl\": \"" : "", c->repl ? rt_sim_repl_name(c->repl) : "",
+                c->repl ? "\", " : "", name, v[0], v[1], v[2], v[3], v[4], v[5],
                 with_se ? ", \"traffic_se_bytes\": " : "", sec);
         *first = 0;
     }
@@ -129,8 +133,11 @@ static void print_header(FILE *f, const char *trace, const rt_approx *ap)
     const rt_approx_config *ac = rt_approx_get_approx_config(ap);
     char params[160];
     rt_approx_params(ac, params, sizeof params);
-    fprintf(f, "# %s: %llu references (accesses below are line touches), policy %s, engine %s%s%s\n", trace, (unsigned long long)rt_approx_refs(ap),
-            rt_sim_policy_name(c), rt_approx_engine(ap), ac->method == RT_APPROX_EXACT ? "" : " ", params);
+    char repl[48] = ""; /* LRU keeps the line it always had */
+    if (c->repl) snprintf(repl, sizeof repl, ", replacement %s", rt_sim_repl_name(c->repl));
+    fprintf(f, "# %s: %llu references (accesses below are line touches), policy %s%s, engine %s%s%s\n", trace,
+            (unsigned long long)rt_approx_refs(ap), rt_sim_policy_name(c), repl, rt_approx_engine(ap),
+            ac->method == RT_APPROX_EXACT ? "" : " ", params);
     if (ac->method != RT_APPROX_EXACT) {
         rt_approx_stats st;
         rt_approx_get_stats(ap, &st);
@@ -277,7 +284,8 @@ static int store(rt_db *db, const char *path, const rt_approx *ap, const rt_tr_m
 }
 
 enum { O_SIZES = 1, O_LINE, O_ASSOC, O_WT, O_NWA, O_INFMT, O_DINCLS, O_DB, O_FMT, O_METHOD, O_RATE, O_SMAX,
-       O_SEED, O_EXACT_BELOW, O_WINDOW_BELOW, O_PERIOD, O_WINDOW, O_FLUSH, O_FULLLINE, O_THREADS, O_NOERR };
+       O_SEED, O_EXACT_BELOW, O_WINDOW_BELOW, O_PERIOD, O_WINDOW, O_FLUSH, O_FULLLINE, O_THREADS, O_NOERR,
+       O_REPL };
 static const struct option longopts[] = {
     {"sizes", required_argument, NULL, O_SIZES},
     {"line", required_argument, NULL, O_LINE},
@@ -300,6 +308,7 @@ static const struct option longopts[] = {
     {"write-fullline", no_argument, NULL, O_FULLLINE},
     {"threads", required_argument, NULL, O_THREADS},
     {"no-error", no_argument, NULL, O_NOERR},
+    {"repl", required_argument, NULL, O_REPL},
     {"help", no_argument, NULL, 'h'},
     {NULL, 0, NULL, 0},
 };
@@ -333,6 +342,12 @@ static int parse_opt(sim_opts *o, int ch, const char *arg, const char *argv_opt)
             rt_cmd_error("sim", "--assoc: '%s' is not 'full' or a positive number of ways", arg);
             return -1;
         } else o->cfg.assoc = (uint32_t)v;
+        return 0;
+    case O_REPL:
+        if (rt_sim_repl_parse(arg, &o->cfg.repl, &err)) {
+            rt_cmd_error("sim", "--repl: %s", err.msg);
+            return -1;
+        }
         return 0;
     case O_WT: o->cfg.write_through = 1; return 0;
     case O_NWA: o->cfg.no_write_allocate = 1; return 0;
@@ -394,7 +409,7 @@ static const struct {
     {O_RATE, 1u << RT_APPROX_SHARDS_RATE | 1u << RT_APPROX_STATSTACK | 1u << RT_APPROX_HYBRID,
      "shards, statstack and hybrid"},
     {O_SMAX, 1u << RT_APPROX_SHARDS_FIXED, "shards-fixed"},
-    {O_SEED, ~(1u << RT_APPROX_EXACT), "the sampled methods"},
+    {O_SEED, ~0u, "the sampled methods and --repl random|brrip"},
     {O_EXACT_BELOW, ~(1u << RT_APPROX_EXACT), "the sampled methods"},
     {O_WINDOW_BELOW, 1u << RT_APPROX_HYBRID, "hybrid"},
     {O_PERIOD, 1u << RT_APPROX_HYBRID, "hybrid"},
@@ -415,6 +430,16 @@ static int check_applies(const sim_opts *o)
                          method_opts[i].which);
             return -1;
         }
+    if ((o->given >> O_SEED & 1) && o->ac.method == RT_APPROX_EXACT && !rt_sim_repl_random(o->cfg.repl)) {
+        rt_cmd_error("sim", "--seed does not apply to --method exact with --repl %s (only to the sampled methods "
+                            "and to --repl random|brrip)", rt_sim_repl_name(o->cfg.repl));
+        return -1;
+    }
+    if (o->db && o->cfg.repl) {
+        rt_cmd_error("sim", "--db stores LRU runs only for now; --repl %s is printed, not stored",
+                     rt_sim_repl_name(o->cfg.repl));
+        return -1;
+    }
     if (o->db && (o->given >> O_FMT & 1)) {
         rt_cmd_error("sim", "--format applies to printed output, not to --db (which stores runs)");
         return -1;
@@ -444,6 +469,7 @@ static int parse_args(int argc, char **argv, sim_opts *o)
         if (parse_opt(o, ch, optarg, argv[optind - 1]) < 0) return -1;
         if (ch > 0 && ch < 32) o->given |= 1u << ch;
     }
+    o->cfg.seed = o->ac.seed;
     if (check_applies(o) < 0) return -1;
     if (!o->rate_given) o->ac.rate = rt_approx_default_rate(o->ac.method);
     if (optind >= argc) {
