@@ -13,7 +13,10 @@ const rt_cache_engine *const rt_cache_engines[] = {
     NULL,
 };
 
+/* the policies, one file each (repl_<name>.c), one line each */
+extern const rt_repl_ops rt_repl_fifo;
 const rt_repl_ops *const rt_repl_policies[] = {
+    &rt_repl_fifo,
     NULL,
 };
 

@@ -35,6 +35,19 @@ grep -E '^ +2048 +64 +full fb +68 +0 +17 +17 +0 +2176$' "$tmp/fl.txt" >/dev/null
 "$bin" sim --write-fullline --flush --sizes 2K "$tmp/cyc.din" | grep -q 'policy wb-wa+flush+fullline,' || die "--write-fullline label"
 "$bin" sim --method shards --flush "$tmp/cyc.din" >/dev/null 2>&1; [ $? -eq 2 ] || die "--flush with a sampled method must be a usage error"
 
+# --repl: A B A C A in a 2-line cache; LRU keeps A (3 misses), FIFO evicts
+# it for C (4 misses)
+printf '0 1000\n0 1040\n0 1000\n0 1080\n0 1000\n' > "$tmp/abaca.din"
+"$bin" sim --sizes 128 "$tmp/abaca.din" | grep -E '^ +128 +64 +full fb +5 +3 +0 ' >/dev/null || die "lru ABACA"
+"$bin" sim --repl fifo --sizes 128 "$tmp/abaca.din" > "$tmp/fifo.txt" || die "sim --repl fifo exit $?"
+grep -E '^ +128 +64 +full fb +5 +4 +0 ' "$tmp/fifo.txt" >/dev/null || { die "fifo ABACA"; cat "$tmp/fifo.txt"; }
+grep -q 'policy wb-wa, replacement fifo, engine exact-persize' "$tmp/fifo.txt" || die "fifo header: $(head -1 "$tmp/fifo.txt")"
+"$bin" sim --repl fifo --format json --sizes 128 "$tmp/abaca.din" | grep -q '"repl": "fifo"' || die "fifo json"
+"$bin" sim --repl belady "$tmp/abaca.din" >/dev/null 2>"$tmp/err"; [ $? -eq 2 ] || die "unknown --repl must be a usage error"
+grep -q "unknown replacement policy 'belady'" "$tmp/err" || die "unknown --repl message: $(cat "$tmp/err")"
+"$bin" sim --repl fifo --method shards "$tmp/abaca.din" >/dev/null 2>&1; [ $? -eq 2 ] || die "--repl fifo with a sampled method must be a usage error"
+"$bin" sim --seed 3 "$tmp/abaca.din" >/dev/null 2>&1; [ $? -eq 2 ] || die "--seed with exact lru must be a usage error"
+
 # database: storing twice keeps one run
 "$bin" sim --db "$tmp/r.db" "$tmp/cyc.din" 2>"$tmp/err" || die "sim --db exit"
 grep -q 'refs' "$tmp/err" || die "summary line on stderr"

@@ -1,0 +1,396 @@
+/*
+ * test_repl.c -- replacement policies against naive references.
+ *
+ * The reference is one cache per size kept as plain arrays: for every set,
+ * `ways` entries (tag, valid, dirty, last writer's class and generation)
+ * and, per policy, the obvious state: FIFO a fill time per way and the
+ * victim is the way with the smallest. Lookups are linear scans; nothing is
+ * shared with the engine but the accounting rules of docs/cachesim.md (a
+ * reference touches each line it covers; misses, write-backs charged to
+ * the last writer, write-through bytes, no-write-allocate, full-line and
+ * streaming stores). Each policy is compared counter by counter (per size,
+ * class and generation) on random streams of three kinds and on the
+ * reference streams of ray tracers, fully associative and set-associative,
+ * with the engine's invariant checker running along; hand-computed cases
+ * pin the policies' choices on short sequences.
+ */
+#include "check.h"
+#include "run.h"
+#include "sim.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* ---- naive reference ---------------------------------------------------- */
+
+enum { P_LRU, P_FIFO };
+
+typedef struct way {
+    uint64_t tag;
+    int valid, dirty;
+    uint8_t wcls, wgen;
+    uint64_t filled; /* time of the fill (FIFO) */
+    uint64_t used;   /* time of the last touch (LRU) */
+} way;
+
+typedef struct naive {
+    int pol;
+    uint64_t line, nsets, ways;
+    int wt, nwa, fullline;
+    way *w; /* nsets * ways */
+    uint64_t now;
+    rt_sim_counts c[RT_NCLASS][RT_MAXGEN];
+} naive;
+
+static naive *naive_new(int pol, const rt_sim_config *cf, uint64_t size)
+{
+    naive *n = calloc(1, sizeof *n);
+    uint64_t lines = size / cf->line;
+    n->pol = pol;
+    n->line = cf->line;
+    n->ways = cf->assoc ? cf->assoc : lines;
+    n->nsets = lines / n->ways;
+    n->wt = cf->write_through;
+    n->nwa = cf->no_write_allocate;
+    n->fullline = cf->write_miss_fullline;
+    n->w = calloc(lines, sizeof *n->w);
+    return n;
+}
+
+static void naive_free(naive *n)
+{
+    free(n->w);
+    free(n);
+}
+
+/* The way a full set gives up. */
+static uint64_t naive_victim(naive *n, way *s)
+{
+    uint64_t best = 0;
+    for (uint64_t i = 1; i < n->ways; i++) {
+        if (n->pol == P_FIFO && s[i].filled < s[best].filled) best = i;
+        if (n->pol == P_LRU && s[i].used < s[best].used) best = i;
+    }
+    return best;
+}
+
+static void naive_touch(naive *n, uint64_t L, int wr, int cls, int g, uint64_t bytes)
+{
+    way *s = n->w + (L % n->nsets) * n->ways;
+    rt_sim_counts *c = &n->c[cls][g];
+    n->now++;
+    c->accesses++;
+    uint64_t i;
+    for (i = 0; i < n->ways; i++)
+        if (s[i].valid && s[i].tag == L) break;
+    if (i == n->ways) { /* miss */
+        if (wr) c->write_misses++;
+        else c->read_misses++;
+        if (wr && n->nwa) {
+            c->wt_bytes += bytes;
+            return;
+        }
+        if (wr == RT_WRITE_STREAM || (wr && n->fullline && bytes == n->line)) c->nofetch++;
+        for (i = 0; i < n->ways; i++)
+            if (!s[i].valid) break;
+        if (i == n->ways) {
+            i = naive_victim(n, s);
+            if (s[i].dirty) n->c[s[i].wcls][s[i].wgen].writebacks++;
+        }
+        s[i].valid = 1;
+        s[i].tag = L;
+        s[i].dirty = 0;
+        s[i].filled = n->now;
+    }
+    s[i].used = n->now;
+    if (wr) {
+        if (n->wt) c->wt_bytes += bytes;
+        else s[i].dirty = 1, s[i].wcls = (uint8_t)cls, s[i].wgen = (uint8_t)g;
+    }
+}
+
+static void naive_put(naive *n, const rt_access *a, size_t cnt)
+{
+    for (size_t i = 0; i < cnt; i++) {
+        uint64_t sz = a[i].size ? a[i].size : 1;
+        uint64_t end = a[i].addr + sz;
+        for (uint64_t L = a[i].addr / n->line; L * n->line < end; L++) {
+            uint64_t lo = L * n->line > a[i].addr ? L * n->line : a[i].addr;
+            uint64_t hi = (L + 1) * n->line < end ? (L + 1) * n->line : end;
+            int g = a[i].gen < RT_MAXGEN - 1 ? a[i].gen : RT_MAXGEN - 1;
+            int cls = a[i].cls < RT_NCLASS ? a[i].cls : RT_CLS_FB;
+            naive_touch(n, L, a[i].write, cls, g, hi - lo);
+        }
+    }
+}
+
+static void naive_flush(naive *n)
+{
+    for (uint64_t k = 0; k < n->nsets * n->ways; k++)
+        if (n->w[k].valid && n->w[k].dirty) {
+            n->c[n->w[k].wcls][n->w[k].wgen].writebacks++;
+            n->w[k].dirty = 0;
+        }
+}
+
+static void naive_get(const naive *n, int cls, int gen, rt_sim_counts *o)
+{
+    memset(o, 0, sizeof *o);
+    for (int g = 0; g < RT_MAXGEN; g++) {
+        if (gen >= 0 && g != gen) continue;
+        const rt_sim_counts *c = &n->c[cls][g];
+        o->accesses += c->accesses;
+        o->read_misses += c->read_misses;
+        o->write_misses += c->write_misses;
+        o->writebacks += c->writebacks;
+        o->wt_bytes += c->wt_bytes;
+        o->nofetch += c->nofetch;
+    }
+    uint64_t fetch = o->read_misses + (n->nwa ? 0 : o->write_misses - o->nofetch);
+    o->traffic_bytes = (fetch + o->writebacks) * n->line + o->wt_bytes;
+}
+
+/* ---- streams ------------------------------------------------------------ */
+
+static uint64_t rs = 0x243F6A8885A308D3ULL;
+static uint64_t rnd(void)
+{
+    rs ^= rs << 13;
+    rs ^= rs >> 7;
+    rs ^= rs << 17;
+    return rs;
+}
+
+enum { GEN_RANDOM, GEN_ZIPF, GEN_CYCLIC };
+
+static void gen(rt_access *a, size_t n, int kind, uint64_t footprint)
+{
+    static const uint32_t sizes[] = {1, 4, 8, 8, 32, 36, 64, 100};
+    uint64_t cyc = 0;
+    for (size_t i = 0; i < n; i++) {
+        uint64_t r = rnd(), unit;
+        if (kind == GEN_RANDOM) unit = r % footprint;
+        else if (kind == GEN_ZIPF) {
+            double u = (double)(r >> 11) / 9007199254740992.0;
+            unit = (uint64_t)(footprint * u * u * u);
+        } else unit = (r & 15) == 0 ? (r >> 8) % (footprint * 2) : cyc++ % footprint;
+        a[i].addr = 0x4000000ULL + unit * 64 + ((r >> 40) & 63);
+        a[i].size = sizes[(r >> 48) % 8];
+        a[i].write = ((r >> 52) & 7) < 3;
+        if (a[i].write && (r >> 4) % 5 == 0) a[i].write = RT_WRITE_STREAM;
+        a[i].cls = (uint8_t)((r >> 56) % RT_NCLASS);
+        a[i].gen = (uint8_t)((r >> 20) % 9);
+    }
+}
+
+typedef struct capture {
+    rt_access *a;
+    size_t n, cap;
+} capture;
+
+static int cap_put(rt_sink *s, const rt_access *a, size_t n)
+{
+    capture *c = s->ctx;
+    if (c->n + n > c->cap) {
+        size_t nc = (c->n + n) * 2;
+        rt_access *na = realloc(c->a, nc * sizeof *na);
+        if (!na) return -1;
+        c->a = na;
+        c->cap = nc;
+    }
+    memcpy(c->a + c->n, a, n * sizeof *a);
+    c->n += n;
+    return 0;
+}
+
+/* The reference stream of tracer on scene spec at W x H, whitted. */
+static capture trace_stream(const char *spec, const char *tracer, int W, int H)
+{
+    capture cap = {0};
+    rt_render_opts o;
+    rt_run_stats st;
+    rt_err e = {0};
+    rt_job j;
+    rt_render_default_opts(&o);
+    o.W = W, o.H = H;
+    o.mode = RT_MODE_WHITTED;
+    o.lights = 7;
+    rt_sink sink = {cap_put, &cap};
+    if (rt_job_setup(&j, spec, tracer, &o, &e) < 0) {
+        CHECK(0, "%s %s: %s", spec, tracer, e.msg);
+        return cap;
+    }
+    rt_image *im = rt_image_new(W, H, &e);
+    CHECK(im && rt_job_run(&j, &sink, im, &st, &e) == 0, "trace %s %s: %s", spec, tracer, e.msg);
+    rt_image_free(im);
+    rt_job_free(&j);
+    return cap;
+}
+
+/* ---- comparison --------------------------------------------------------- */
+
+static int same(const rt_sim_counts *x, const rt_sim_counts *y) { return !memcmp(x, y, sizeof *x); }
+
+/* Runs a[0..n) through the engine of c and through naive caches of policy
+ * pol, one per size; compares every counter. Returns the total traffic of
+ * the largest size (so callers can compare policies). */
+static uint64_t compare(const char *name, int pol, const rt_sim_config *c, const rt_access *a, size_t n)
+{
+    rt_err e = {0};
+    rt_sim *s = rt_sim_new(c, &e);
+    CHECK(s, "%s: rt_sim_new: %s", name, e.msg);
+    if (!s) return 0;
+    for (size_t i = 0; i < n; i += 2048) {
+        rt_sim_put(s, a + i, n - i < 2048 ? n - i : 2048);
+        if ((i / 2048) % 16 == 0) CHECK(rt_sim_check(s, &e) == 0, "%s: invariant: %s", name, e.msg);
+    }
+    rt_sim_finish(s);
+    CHECK(rt_sim_check(s, &e) == 0, "%s: invariant after finish: %s", name, e.msg);
+    uint64_t misses = 0, last = 0;
+    for (int i = 0; i < c->nsizes; i++) {
+        naive *nv = naive_new(pol, c, c->sizes[i]);
+        naive_put(nv, a, n);
+        if (c->flush) naive_flush(nv);
+        for (int k = 0; k < RT_NCLASS; k++)
+            for (int g = -1; g < RT_MAXGEN; g++) {
+                rt_sim_counts x, y;
+                if (g < 0) rt_sim_get(s, i, k, &x);
+                else rt_sim_get_gen(s, i, k, g, &x);
+                naive_get(nv, k, g, &y);
+                if (g < 0) misses += x.read_misses + x.write_misses;
+                if (g < 0 && i == c->nsizes - 1) last += x.traffic_bytes;
+                CHECK(same(&x, &y),
+                      "%s: size %llu class %s gen %d: engine rm %llu wm %llu wb %llu wt %llu, naive rm %llu wm %llu "
+                      "wb %llu wt %llu",
+                      name, (unsigned long long)c->sizes[i], rt_class_name(k), g, (unsigned long long)x.read_misses,
+                      (unsigned long long)x.write_misses, (unsigned long long)x.writebacks,
+                      (unsigned long long)x.wt_bytes, (unsigned long long)y.read_misses,
+                      (unsigned long long)y.write_misses, (unsigned long long)y.writebacks,
+                      (unsigned long long)y.wt_bytes);
+            }
+        naive_free(nv);
+    }
+    CHECK(misses > 0, "%s: no misses at all: the comparison proves nothing", name);
+    rt_sim_free(s);
+    return last;
+}
+
+static int repl_of(const char *name)
+{
+    int r = -1;
+    rt_err e = {0};
+    CHECK(rt_sim_repl_parse(name, &r, &e) == 0, "parse %s: %s", name, e.msg);
+    return r;
+}
+
+/* Every policy on random streams and tracer streams, fully associative and
+ * 4-way, with the write policies mixed in. */
+static void test_against_naive(const char *pname, int pol, const capture *tr, size_t ntr)
+{
+    enum { N = 40000 };
+    rt_access *a = malloc(N * sizeof *a);
+    static const char *const kinds[3] = {"random", "zipf", "cyclic"};
+    static const uint64_t fp[3] = {400, 1500, 200};
+    for (int v = 0; v < 4; v++) {
+        rt_sim_config c;
+        rt_sim_config_default(&c);
+        CHECK(rt_sim_parse_sizes(v < 2 ? "1K-16K" : "2K,4K,16K", &c, NULL) == 0, "sizes");
+        c.repl = repl_of(pname);
+        c.seed = 7;
+        c.assoc = v & 1 ? 4 : 0;
+        c.flush = v == 1;
+        c.write_through = v == 2;
+        c.no_write_allocate = v == 3;
+        c.write_miss_fullline = v == 0;
+        for (int k = 0; k < 3; k++) {
+            gen(a, N, k, fp[k]);
+            char name[96];
+            snprintf(name, sizeof name, "%s/%s/assoc%u/v%d", pname, kinds[k], c.assoc, v);
+            compare(name, pol, &c, a, N);
+        }
+        for (size_t t = 0; t < ntr; t++) {
+            char name[96];
+            snprintf(name, sizeof name, "%s/tracer%zu/assoc%u/v%d", pname, t, c.assoc, v);
+            compare(name, pol, &c, tr[t].a, tr[t].n);
+        }
+    }
+    free(a);
+}
+
+/* ---- hand-computed cases ------------------------------------------------ */
+
+/* Misses of a 2-line fully associative cache (64-byte lines) on lines seq. */
+static uint64_t misses2(const char *pname, const char *seq)
+{
+    rt_sim_config c;
+    rt_sim_config_default(&c);
+    c.nsizes = 1;
+    c.sizes[0] = 128;
+    c.repl = repl_of(pname);
+    rt_sim *s = rt_sim_new(&c, NULL);
+    for (const char *p = seq; *p; p++) {
+        rt_access a = {0};
+        a.addr = (uint64_t)(*p - 'A') * 64;
+        a.size = 4;
+        rt_sim_put(s, &a, 1);
+    }
+    rt_sim_counts t;
+    rt_sim_get(s, 0, 0, &t);
+    rt_sim_free(s);
+    return t.read_misses;
+}
+
+static void test_by_hand(void)
+{
+    /* A B A C A: LRU keeps A (C evicts B): 3 misses; FIFO evicts A, the
+     * oldest, for C, so the last A misses: 4 */
+    CHECK(misses2("lru", "ABACA") == 3, "lru ABACA: %llu", (unsigned long long)misses2("lru", "ABACA"));
+    CHECK(misses2("fifo", "ABACA") == 4, "fifo ABACA: %llu", (unsigned long long)misses2("fifo", "ABACA"));
+    /* FIFO's hand wraps: A B C(evicts A) D(evicts B) C hits, A misses (evicts C) */
+    CHECK(misses2("fifo", "ABCDCA") == 5, "fifo ABCDCA: %llu", (unsigned long long)misses2("fifo", "ABCDCA"));
+}
+
+static void test_names(void)
+{
+    int r = 99;
+    rt_err e = {0};
+    CHECK(rt_sim_repl_parse("lru", &r, &e) == 0 && r == 0, "lru is 0");
+    CHECK(rt_sim_repl_parse("nonsense", &r, &e) < 0 && strstr(e.msg, "lru"), "unknown policy: %s", e.msg);
+    CHECK(!strcmp(rt_sim_repl_name(0), "lru"), "name of 0");
+    CHECK(!strcmp(rt_sim_repl_name(1000), "?"), "name out of range");
+    /* every listed name parses back to itself */
+    char list[256];
+    snprintf(list, sizeof list, "%s", rt_sim_repl_list());
+    int count = 0;
+    for (char *t = strtok(list, ","); t; t = strtok(NULL, ","), count++)
+        CHECK(rt_sim_repl_parse(t, &r, &e) == 0 && !strcmp(rt_sim_repl_name(r), t), "round trip %s", t);
+    CHECK(count >= 2, "policies listed: %d", count);
+    /* LRU stays on the one-pass engine, other policies on the per-size one */
+    rt_sim_config c;
+    rt_sim_config_default(&c);
+    rt_sim *s = rt_sim_new(&c, NULL);
+    CHECK(s && !strcmp(rt_sim_engine(s), "exact-stack"), "lru engine");
+    rt_sim_free(s);
+    c.repl = repl_of("fifo");
+    s = rt_sim_new(&c, NULL);
+    CHECK(s && !strcmp(rt_sim_engine(s), "exact-persize"), "fifo engine");
+    rt_sim_free(s);
+    c.repl = -1;
+    CHECK(rt_sim_new(&c, &e) == NULL && strstr(e.msg, "replacement"), "bad repl refused: %s", e.msg);
+}
+
+int main(void)
+{
+    test_names();
+    test_by_hand();
+    /* tracer streams: two orders of the same work */
+    capture tr[2];
+    tr[0] = trace_stream("cornell", "recursive", 12, 10);
+    tr[1] = trace_stream("cornell", "dynamic", 12, 10);
+    CHECK(tr[0].n > 10000 && tr[1].n > 10000, "tracer streams: %zu, %zu references", tr[0].n, tr[1].n);
+    test_against_naive("lru", P_LRU, tr, 2);
+    test_against_naive("fifo", P_FIFO, tr, 2);
+    for (int t = 0; t < 2; t++) free(tr[t].a);
+    return failures ? 1 : 0;
+}
