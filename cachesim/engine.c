@@ -14,9 +14,13 @@ const rt_cache_engine *const rt_cache_engines[] = {
 };
 
 /* the policies, one file each (repl_<name>.c), one line each */
-extern const rt_repl_ops rt_repl_fifo;
+extern const rt_repl_ops rt_repl_fifo, rt_repl_random, rt_repl_plru, rt_repl_srrip, rt_repl_brrip;
 const rt_repl_ops *const rt_repl_policies[] = {
     &rt_repl_fifo,
+    &rt_repl_random,
+    &rt_repl_plru,
+    &rt_repl_srrip,
+    &rt_repl_brrip,
     NULL,
 };
 

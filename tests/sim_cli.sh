@@ -47,6 +47,13 @@ grep -q 'policy wb-wa, replacement fifo, engine exact-persize' "$tmp/fifo.txt" |
 grep -q "unknown replacement policy 'belady'" "$tmp/err" || die "unknown --repl message: $(cat "$tmp/err")"
 "$bin" sim --repl fifo --method shards "$tmp/abaca.din" >/dev/null 2>&1; [ $? -eq 2 ] || die "--repl fifo with a sampled method must be a usage error"
 "$bin" sim --seed 3 "$tmp/abaca.din" >/dev/null 2>&1; [ $? -eq 2 ] || die "--seed with exact lru must be a usage error"
+"$bin" sim --repl plru --sizes 192 "$tmp/abaca.din" >/dev/null 2>"$tmp/err"; [ $? -eq 2 ] || die "plru with 3 ways must be a usage error"
+grep -q "power-of-two" "$tmp/err" || die "plru ways message: $(cat "$tmp/err")"
+for p in random plru srrip brrip; do
+    "$bin" sim --repl $p --sizes 128 "$tmp/abaca.din" | grep -q "replacement $p," || die "--repl $p"
+done
+"$bin" sim --repl random --seed 5 --sizes 128 "$tmp/abaca.din" > "$tmp/r1.txt" || die "--repl random --seed"
+"$bin" sim --repl random --seed 5 --sizes 128 "$tmp/abaca.din" | cmp -s - "$tmp/r1.txt" || die "--repl random: same seed, different output"
 
 # database: storing twice keeps one run
 "$bin" sim --db "$tmp/r.db" "$tmp/cyc.din" 2>"$tmp/err" || die "sim --db exit"

@@ -24,7 +24,7 @@
 
 /* ---- naive reference ---------------------------------------------------- */
 
-enum { P_LRU, P_FIFO };
+enum { P_LRU, P_FIFO, P_RANDOM, P_PLRU, P_SRRIP, P_BRRIP };
 
 typedef struct way {
     uint64_t tag;
@@ -32,6 +32,7 @@ typedef struct way {
     uint8_t wcls, wgen;
     uint64_t filled; /* time of the fill (FIFO) */
     uint64_t used;   /* time of the last touch (LRU) */
+    unsigned rrpv;   /* re-reference prediction value (SRRIP, BRRIP) */
 } way;
 
 typedef struct naive {
@@ -39,6 +40,8 @@ typedef struct naive {
     uint64_t line, nsets, ways;
     int wt, nwa, fullline;
     way *w; /* nsets * ways */
+    uint8_t *bit; /* PLRU: per set, ways bits; bit[k] for inner node k of the tree in heap order */
+    uint64_t rng; /* random and BRRIP: xorshift64* seeded as docs/cachesim.md says */
     uint64_t now;
     rt_sim_counts c[RT_NCLASS][RT_MAXGEN];
 } naive;
@@ -55,18 +58,65 @@ static naive *naive_new(int pol, const rt_sim_config *cf, uint64_t size)
     n->nwa = cf->no_write_allocate;
     n->fullline = cf->write_miss_fullline;
     n->w = calloc(lines, sizeof *n->w);
+    n->bit = calloc(lines, 1);
+    n->rng = cf->seed * 0x9E3779B97F4A7C15ULL + 0x2545F4914F6CDD1DULL;
+    if (!n->rng) n->rng = 1;
     return n;
 }
 
 static void naive_free(naive *n)
 {
     free(n->w);
+    free(n->bit);
     free(n);
 }
 
-/* The way a full set gives up. */
-static uint64_t naive_victim(naive *n, way *s)
+/* xorshift64*, a value in 0..m-1 */
+static uint64_t naive_rand(naive *n, uint64_t m)
 {
+    uint64_t x = n->rng;
+    x ^= x >> 12;
+    x ^= x << 25;
+    x ^= x >> 27;
+    n->rng = x;
+    return ((x * 0x2545F4914F6CDD1DULL) >> 32) % m;
+}
+
+/* PLRU: points the nodes above way i away from it. The tree over ways
+ * [lo, hi) at node k: the left half [lo, mid) under 2k, the right under
+ * 2k+1; bit 1 = the victim is on the right. */
+static void plru_use(naive *n, uint8_t *bit, uint64_t i)
+{
+    uint64_t lo = 0, hi = n->ways, k = 1;
+    while (hi - lo > 1) {
+        uint64_t mid = (lo + hi) / 2;
+        if (i < mid) bit[k] = 1, hi = mid, k = 2 * k;
+        else bit[k] = 0, lo = mid, k = 2 * k + 1;
+    }
+}
+
+static uint64_t plru_find(naive *n, const uint8_t *bit)
+{
+    uint64_t lo = 0, hi = n->ways, k = 1;
+    while (hi - lo > 1) {
+        uint64_t mid = (lo + hi) / 2;
+        if (bit[k]) lo = mid, k = 2 * k + 1;
+        else hi = mid, k = 2 * k;
+    }
+    return lo;
+}
+
+/* The way a full set gives up. */
+static uint64_t naive_victim(naive *n, way *s, uint8_t *bit)
+{
+    if (n->pol == P_RANDOM) return naive_rand(n, n->ways);
+    if (n->pol == P_PLRU) return plru_find(n, bit);
+    if (n->pol == P_SRRIP || n->pol == P_BRRIP)
+        for (;;) { /* the paper's loop: the first distant way, else age them all */
+            for (uint64_t i = 0; i < n->ways; i++)
+                if (s[i].rrpv == 3) return i;
+            for (uint64_t i = 0; i < n->ways; i++) s[i].rrpv++;
+        }
     uint64_t best = 0;
     for (uint64_t i = 1; i < n->ways; i++) {
         if (n->pol == P_FIFO && s[i].filled < s[best].filled) best = i;
@@ -78,6 +128,7 @@ static uint64_t naive_victim(naive *n, way *s)
 static void naive_touch(naive *n, uint64_t L, int wr, int cls, int g, uint64_t bytes)
 {
     way *s = n->w + (L % n->nsets) * n->ways;
+    uint8_t *bit = n->bit + (L % n->nsets) * n->ways;
     rt_sim_counts *c = &n->c[cls][g];
     n->now++;
     c->accesses++;
@@ -95,15 +146,20 @@ static void naive_touch(naive *n, uint64_t L, int wr, int cls, int g, uint64_t b
         for (i = 0; i < n->ways; i++)
             if (!s[i].valid) break;
         if (i == n->ways) {
-            i = naive_victim(n, s);
+            i = naive_victim(n, s, bit);
             if (s[i].dirty) n->c[s[i].wcls][s[i].wgen].writebacks++;
         }
         s[i].valid = 1;
         s[i].tag = L;
         s[i].dirty = 0;
         s[i].filled = n->now;
+        if (n->pol == P_SRRIP) s[i].rrpv = 2;
+        if (n->pol == P_BRRIP) s[i].rrpv = naive_rand(n, 32) == 0 ? 2 : 3;
+    } else {
+        s[i].rrpv = 0;
     }
     s[i].used = n->now;
+    if (n->pol == P_PLRU) plru_use(n, bit, i);
     if (wr) {
         if (n->wt) c->wt_bytes += bytes;
         else s[i].dirty = 1, s[i].wcls = (uint8_t)cls, s[i].wgen = (uint8_t)g;
@@ -320,13 +376,14 @@ static void test_against_naive(const char *pname, int pol, const capture *tr, si
 
 /* ---- hand-computed cases ------------------------------------------------ */
 
-/* Misses of a 2-line fully associative cache (64-byte lines) on lines seq. */
-static uint64_t misses2(const char *pname, const char *seq)
+/* Misses of a fully associative cache of `lines` 64-byte lines on the
+ * lines named by the letters of seq. */
+static uint64_t misses_n(const char *pname, uint64_t lines, const char *seq)
 {
     rt_sim_config c;
     rt_sim_config_default(&c);
     c.nsizes = 1;
-    c.sizes[0] = 128;
+    c.sizes[0] = 64 * lines;
     c.repl = repl_of(pname);
     rt_sim *s = rt_sim_new(&c, NULL);
     for (const char *p = seq; *p; p++) {
@@ -341,8 +398,32 @@ static uint64_t misses2(const char *pname, const char *seq)
     return t.read_misses;
 }
 
+static uint64_t misses2(const char *pname, const char *seq) { return misses_n(pname, 2, seq); }
+
 static void test_by_hand(void)
 {
+    /* SRRIP: A B hit (RRPV 0), C D fill at 2; E finds no 3, ages all by 1
+     * (A B 1, C D 3), evicts C; F evicts D; A B still hit: 6 misses. LRU
+     * loses A and B to the scan: 8. PLRU (nodes: root, left pair, right
+     * pair; a bit points at the half to evict): A B C D fill ways 0-3, the
+     * root then points left, the left pair at A: E evicts A (root now
+     * right, the right pair at C): F evicts C (root left, left pair at
+     * B): A evicts B, B evicts D: 8 as well, by another path. */
+    CHECK(misses_n("lru", 4, "ABABCDEFAB") == 8, "lru scan: %llu", (unsigned long long)misses_n("lru", 4, "ABABCDEFAB"));
+    CHECK(misses_n("srrip", 4, "ABABCDEFAB") == 6, "srrip scan: %llu",
+          (unsigned long long)misses_n("srrip", 4, "ABABCDEFAB"));
+    CHECK(misses_n("plru", 4, "ABABCDEFAB") == 8, "plru scan: %llu",
+          (unsigned long long)misses_n("plru", 4, "ABABCDEFAB"));
+    /* with two ways PLRU is LRU */
+    CHECK(misses2("plru", "ABACA") == 3, "plru ABACA");
+    CHECK(misses2("srrip", "ABACA") == 3, "srrip ABACA");
+    /* PLRU differs from LRU with 4 ways: after A B C D and the hit on A,
+     * LRU's E evicts B, then B evicts C and C evicts D: 7 misses; PLRU's
+     * root points right and the right pair at C, so E evicts C, B hits and
+     * C evicts D: 6 */
+    CHECK(misses_n("lru", 4, "ABCDAEBC") == 7, "lru ABCDAEBC: %llu", (unsigned long long)misses_n("lru", 4, "ABCDAEBC"));
+    CHECK(misses_n("plru", 4, "ABCDAEBC") == 6, "plru ABCDAEBC: %llu",
+          (unsigned long long)misses_n("plru", 4, "ABCDAEBC"));
     /* A B A C A: LRU keeps A (C evicts B): 3 misses; FIFO evicts A, the
      * oldest, for C, so the last A misses: 4 */
     CHECK(misses2("lru", "ABACA") == 3, "lru ABACA: %llu", (unsigned long long)misses2("lru", "ABACA"));
@@ -391,6 +472,10 @@ int main(void)
     CHECK(tr[0].n > 10000 && tr[1].n > 10000, "tracer streams: %zu, %zu references", tr[0].n, tr[1].n);
     test_against_naive("lru", P_LRU, tr, 2);
     test_against_naive("fifo", P_FIFO, tr, 2);
+    test_against_naive("random", P_RANDOM, tr, 2);
+    test_against_naive("plru", P_PLRU, tr, 2);
+    test_against_naive("srrip", P_SRRIP, tr, 2);
+    test_against_naive("brrip", P_BRRIP, tr, 2);
     for (int t = 0; t < 2; t++) free(tr[t].a);
     return failures ? 1 : 0;
 }
