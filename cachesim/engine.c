@@ -10,6 +10,7 @@
 const rt_cache_engine *const rt_cache_engines[] = {
     &rt_engine_stack,   /* LRU, fully associative, write-back write-allocate: every size in one pass */
     &rt_engine_persize, /* any policy, associativity and write policy: one cache per size */
+    &rt_engine_opt,     /* Belady's MIN: buffers the stream, simulates each size when it ends */
     NULL,
 };
 
@@ -24,27 +25,44 @@ const rt_repl_ops *const rt_repl_policies[] = {
     NULL,
 };
 
+static int npolicies(void)
+{
+    int k = 0;
+    while (rt_repl_policies[k]) k++;
+    return k;
+}
+
 const rt_repl_ops *rt_repl_ops_for(int repl)
 {
-    if (repl < 1) return NULL;
-    for (int k = 0; rt_repl_policies[k]; k++)
-        if (k == repl - 1) return rt_repl_policies[k];
+    return repl >= 1 && repl <= npolicies() ? rt_repl_policies[repl - 1] : NULL;
+}
+
+/* The name of policy value k: "lru", a hooks policy, or the policy of an
+ * engine of its own (after the hooks, in table order); NULL past the end. */
+static const char *name_at(int k)
+{
+    if (k == 0) return "lru";
+    int p = npolicies();
+    if (k <= p) return rt_repl_policies[k - 1]->name;
+    k -= p;
+    for (int g = 0; rt_cache_engines[g]; g++) {
+        const char *r = rt_cache_engines[g]->repl;
+        if (r && strcmp(r, "lru") && --k == 0) return r;
+    }
     return NULL;
 }
 
 int rt_sim_repl_parse(const char *name, int *repl, rt_err *e)
 {
-    if (name && !strcmp(name, "lru")) return *repl = 0, 0;
-    for (int k = 0; name && rt_repl_policies[k]; k++)
-        if (!strcmp(name, rt_repl_policies[k]->name)) return *repl = k + 1, 0;
+    for (int k = 0; name && name_at(k); k++)
+        if (!strcmp(name, name_at(k))) return *repl = k, 0;
     return rt_errf(e, "unknown replacement policy '%s' (want one of %s)", name ? name : "", rt_sim_repl_list());
 }
 
 const char *rt_sim_repl_name(int repl)
 {
-    if (repl == 0) return "lru";
-    const rt_repl_ops *o = rt_repl_ops_for(repl);
-    return o ? o->name : "?";
+    const char *n = repl >= 0 ? name_at(repl) : NULL;
+    return n ? n : "?";
 }
 
 int rt_sim_repl_random(int repl)
@@ -57,10 +75,9 @@ const char *rt_sim_repl_list(void)
 {
     static char buf[256];
     if (!buf[0]) {
-        strcpy(buf, "lru");
-        for (int k = 0; rt_repl_policies[k]; k++) {
-            strncat(buf, ",", sizeof buf - strlen(buf) - 1);
-            strncat(buf, rt_repl_policies[k]->name, sizeof buf - strlen(buf) - 1);
+        for (int k = 0; name_at(k); k++) {
+            if (k) strncat(buf, ",", sizeof buf - strlen(buf) - 1);
+            strncat(buf, name_at(k), sizeof buf - strlen(buf) - 1);
         }
     }
     return buf;

@@ -57,8 +57,9 @@ typedef struct rt_cache_engine {
     /* Simulates n references: 0, or -1 when the state could not grow (then
      * the counters stop at the batch before). */
     int (*access)(void *st, const rt_access *a, size_t n);
-    /* The end of a run with cfg.flush: every dirty line written back. */
-    void (*finish)(void *st);
+    /* The end of a run (rt_sim_finish): with flush (cfg.flush) every dirty
+     * line is written back; an offline engine (OPT) simulates here. */
+    void (*finish)(void *st, int flush);
     /* Counters of size index i, class cls, generation bucket gen (gen < 0:
      * summed over them), traffic_bytes filled in. */
     void (*counts)(const void *st, int i, int cls, int gen, rt_sim_counts *out);
@@ -71,9 +72,10 @@ typedef struct rt_cache_engine {
 
 /* The table, in the order rt_sim_new tries it, ended by NULL. */
 extern const rt_cache_engine *const rt_cache_engines[];
-/* Its entries: the one-pass LRU stack simulator (msim.c) and the per-size
- * set-associative engine (setassoc.c: LRU lists, or a policy's hooks). */
-extern const rt_cache_engine rt_engine_stack, rt_engine_persize;
+/* Its entries: the one-pass LRU stack simulator (msim.c), the per-size
+ * set-associative engine (setassoc.c: LRU lists, or a policy's hooks) and
+ * Belady's MIN (opt.c, offline: it simulates in finish). */
+extern const rt_cache_engine rt_engine_stack, rt_engine_persize, rt_engine_opt;
 
 /* The first entry that simulates c (its policy, associativity and write
  * policy), or NULL. */
@@ -104,7 +106,8 @@ typedef struct rt_repl_ops {
 } rt_repl_ops;
 
 /* The policies of the per-size engine, ended by NULL; rt_sim_config.repl =
- * k >= 1 names rt_repl_policies[k - 1] (0 is LRU, the engines' own lists). */
+ * k in 1..P names rt_repl_policies[k - 1] (0 is LRU, the engines' own
+ * lists; values above P name the engines of their own policy, "opt"). */
 extern const rt_repl_ops *const rt_repl_policies[];
 /* The ops of configuration value repl (NULL for 0 = LRU or out of range). */
 const rt_repl_ops *rt_repl_ops_for(int repl);

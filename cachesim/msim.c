@@ -794,7 +794,10 @@ static void *eng_create(const rt_sim_config *c, rt_err *e)
 
 static void eng_destroy(void *st) { rt_msim_free(st); }
 static int eng_access(void *st, const rt_access *a, size_t n) { return rt_msim_put(st, a, n); }
-static void eng_finish(void *st) { rt_msim_flush(st); }
+static void eng_finish(void *st, int flush)
+{
+    if (flush) rt_msim_flush(st);
+}
 static void eng_counts(const void *st, int i, int cls, int gen, rt_sim_counts *out) { rt_msim_get_gen(st, i, cls, gen, out); }
 static int eng_check(const void *st, rt_err *e) { return rt_msim_check(st, e); }
 static void eng_repeats(void *st, const uint64_t *cnt) { rt_msim_add_repeats(st, cnt); }

@@ -423,9 +423,10 @@ static int eng_access(void *st, const rt_access *a, size_t n)
     return 0;
 }
 
-static void eng_finish(void *st)
+static void eng_finish(void *st, int flush)
 {
     persize *p = st;
+    if (!flush) return;
     for (int i = 0; i < p->n; i++) rt_sa_flush(p->sa[i]);
 }
 

@@ -89,8 +89,7 @@ int rt_sim_config_check(const rt_sim_config *c, rt_err *e)
                            (unsigned long long)c->sizes[i], (unsigned long long)unit);
         if (c->sizes[i] / c->line >= (1u << 30)) return rt_errf(e, "cache size %llu too large", (unsigned long long)c->sizes[i]);
     }
-    if (c->repl < 0 || (c->repl && !rt_repl_ops_for(c->repl)))
-        return rt_errf(e, "unknown replacement policy %d", c->repl);
+    if (!strcmp(rt_sim_repl_name(c->repl), "?")) return rt_errf(e, "unknown replacement policy %d", c->repl);
     const rt_repl_ops *ops = rt_repl_ops_for(c->repl);
     if (ops && ops->pow2_ways) {
         for (int i = 0; i < c->nsizes; i++) {
@@ -170,8 +169,7 @@ int rt_sim_put(rt_sim *s, const rt_access *a, size_t n)
 
 int rt_sim_finish(rt_sim *s)
 {
-    if (!s->cfg.flush) return 0;
-    s->eng->finish(s->st);
+    s->eng->finish(s->st, s->cfg.flush);
     return 0;
 }
 

@@ -49,6 +49,9 @@ grep -q "unknown replacement policy 'belady'" "$tmp/err" || die "unknown --repl 
 "$bin" sim --seed 3 "$tmp/abaca.din" >/dev/null 2>&1; [ $? -eq 2 ] || die "--seed with exact lru must be a usage error"
 "$bin" sim --repl plru --sizes 192 "$tmp/abaca.din" >/dev/null 2>"$tmp/err"; [ $? -eq 2 ] || die "plru with 3 ways must be a usage error"
 grep -q "power-of-two" "$tmp/err" || die "plru ways message: $(cat "$tmp/err")"
+"$bin" sim --repl opt --sizes 128 "$tmp/abaca.din" > "$tmp/opt.txt" || die "--repl opt exit"
+grep -q 'replacement opt, engine exact-opt' "$tmp/opt.txt" || die "opt header: $(head -1 "$tmp/opt.txt")"
+grep -E '^ +128 +64 +full fb +5 +3 +0 ' "$tmp/opt.txt" >/dev/null || { die "opt ABACA"; cat "$tmp/opt.txt"; }
 for p in random plru srrip brrip; do
     "$bin" sim --repl $p --sizes 128 "$tmp/abaca.din" | grep -q "replacement $p," || die "--repl $p"
 done

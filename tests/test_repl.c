@@ -24,7 +24,14 @@
 
 /* ---- naive reference ---------------------------------------------------- */
 
-enum { P_LRU, P_FIFO, P_RANDOM, P_PLRU, P_SRRIP, P_BRRIP };
+enum { P_LRU, P_FIFO, P_RANDOM, P_PLRU, P_SRRIP, P_BRRIP, P_OPT };
+
+/* OPT's reference needs the future: the line touches of the whole stream */
+typedef struct ltouch {
+    uint64_t line;
+    int w, cls, g;
+    uint64_t bytes;
+} ltouch;
 
 typedef struct way {
     uint64_t tag;
@@ -42,6 +49,8 @@ typedef struct naive {
     way *w; /* nsets * ways */
     uint8_t *bit; /* PLRU: per set, ways bits; bit[k] for inner node k of the tree in heap order */
     uint64_t rng; /* random and BRRIP: xorshift64* seeded as docs/cachesim.md says */
+    const ltouch *fut; /* OPT: every touch, and how many */
+    uint64_t nfut;
     uint64_t now;
     rt_sim_counts c[RT_NCLASS][RT_MAXGEN];
 } naive;
@@ -111,6 +120,16 @@ static uint64_t naive_victim(naive *n, way *s, uint8_t *bit)
 {
     if (n->pol == P_RANDOM) return naive_rand(n, n->ways);
     if (n->pol == P_PLRU) return plru_find(n, bit);
+    if (n->pol == P_OPT) { /* the line used again last, or never (the first such way) */
+        uint64_t best = 0, bestd = 0;
+        for (uint64_t i = 0; i < n->ways; i++) {
+            uint64_t d = n->now; /* touches are numbered from 1: fut[now - 1] is the current one */
+            while (d < n->nfut && n->fut[d].line != s[i].tag) d++;
+            if (d == n->nfut) return i;
+            if (d > bestd) best = i, bestd = d;
+        }
+        return best;
+    }
     if (n->pol == P_SRRIP || n->pol == P_BRRIP)
         for (;;) { /* the paper's loop: the first distant way, else age them all */
             for (uint64_t i = 0; i < n->ways; i++)
@@ -168,6 +187,29 @@ static void naive_touch(naive *n, uint64_t L, int wr, int cls, int g, uint64_t b
 
 static void naive_put(naive *n, const rt_access *a, size_t cnt)
 {
+    if (n->pol == P_OPT) { /* collect the touches first, then replay them knowing the future */
+        ltouch *t = NULL;
+        uint64_t nt = 0, cap = 0;
+        for (size_t i = 0; i < cnt; i++) {
+            uint64_t sz = a[i].size ? a[i].size : 1, end = a[i].addr + sz;
+            for (uint64_t L = a[i].addr / n->line; L * n->line < end; L++) {
+                if (nt == cap) t = realloc(t, (cap = cap ? 2 * cap : 1024) * sizeof *t);
+                uint64_t lo = L * n->line > a[i].addr ? L * n->line : a[i].addr;
+                uint64_t hi = (L + 1) * n->line < end ? (L + 1) * n->line : end;
+                t[nt].line = L;
+                t[nt].w = a[i].write;
+                t[nt].cls = a[i].cls < RT_NCLASS ? a[i].cls : RT_CLS_FB;
+                t[nt].g = a[i].gen < RT_MAXGEN - 1 ? a[i].gen : RT_MAXGEN - 1;
+                t[nt++].bytes = hi - lo;
+            }
+        }
+        n->fut = t;
+        n->nfut = nt;
+        for (uint64_t i = 0; i < nt; i++) naive_touch(n, t[i].line, t[i].w, t[i].cls, t[i].g, t[i].bytes);
+        free(t);
+        n->fut = NULL;
+        return;
+    }
     for (size_t i = 0; i < cnt; i++) {
         uint64_t sz = a[i].size ? a[i].size : 1;
         uint64_t end = a[i].addr + sz;
@@ -342,9 +384,8 @@ static int repl_of(const char *name)
 
 /* Every policy on random streams and tracer streams, fully associative and
  * 4-way, with the write policies mixed in. */
-static void test_against_naive(const char *pname, int pol, const capture *tr, size_t ntr)
+static void test_against_naive_n(const char *pname, int pol, const capture *tr, size_t ntr, size_t N)
 {
-    enum { N = 40000 };
     rt_access *a = malloc(N * sizeof *a);
     static const char *const kinds[3] = {"random", "zipf", "cyclic"};
     static const uint64_t fp[3] = {400, 1500, 200};
@@ -372,6 +413,11 @@ static void test_against_naive(const char *pname, int pol, const capture *tr, si
         }
     }
     free(a);
+}
+
+static void test_against_naive(const char *pname, int pol, const capture *tr, size_t ntr)
+{
+    test_against_naive_n(pname, pol, tr, ntr, 40000);
 }
 
 /* ---- hand-computed cases ------------------------------------------------ */
@@ -432,6 +478,120 @@ static void test_by_hand(void)
     CHECK(misses2("fifo", "ABCDCA") == 5, "fifo ABCDCA: %llu", (unsigned long long)misses2("fifo", "ABCDCA"));
 }
 
+/* ---- OPT: brute force and the floor ------------------------------------ */
+
+/* The fewest misses any replacement can have on lines seq[from..n) of a
+ * fully associative cache of cap lines holding res[0..nres): tries every
+ * victim. */
+static int brute_min(const int *seq, int from, int n, int *res, int nres, int cap)
+{
+    if (from == n) return 0;
+    int L = seq[from];
+    for (int i = 0; i < nres; i++)
+        if (res[i] == L) return brute_min(seq, from + 1, n, res, nres, cap);
+    if (nres < cap) {
+        res[nres] = L;
+        int m = 1 + brute_min(seq, from + 1, n, res, nres + 1, cap);
+        return m;
+    }
+    int best = n + 1;
+    for (int i = 0; i < nres; i++) {
+        int old = res[i];
+        res[i] = L;
+        int m = 1 + brute_min(seq, from + 1, n, res, nres, cap);
+        res[i] = old;
+        if (m < best) best = m;
+    }
+    return best;
+}
+
+static void test_opt_brute(void)
+{
+    rt_access a[14];
+    int seq[14], res[8];
+    for (int trial = 0; trial < 200; trial++) {
+        int n = 8 + (int)(rnd() % 7), lines = 3 + (int)(rnd() % 4), cap = 2 + (int)(rnd() % 2);
+        memset(a, 0, sizeof a);
+        for (int i = 0; i < n; i++) {
+            seq[i] = (int)(rnd() % (uint64_t)lines);
+            a[i].addr = (uint64_t)seq[i] * 64;
+            a[i].size = 8;
+        }
+        rt_sim_config c;
+        rt_sim_config_default(&c);
+        c.nsizes = 1;
+        c.sizes[0] = 64 * (uint64_t)cap;
+        c.repl = repl_of("opt");
+        rt_sim *s = rt_sim_new(&c, NULL);
+        rt_sim_put(s, a, (size_t)n);
+        rt_sim_finish(s);
+        rt_sim_counts t;
+        rt_sim_get(s, 0, 0, &t);
+        int want = brute_min(seq, 0, n, res, 0, cap);
+        CHECK(t.read_misses == (uint64_t)want, "opt trial %d: %llu misses, brute force %d", trial,
+              (unsigned long long)t.read_misses, want);
+        rt_sim_free(s);
+    }
+}
+
+/* Misses (read + write) of size i summed over the classes. */
+static uint64_t all_misses(rt_sim *s, int i)
+{
+    uint64_t m = 0;
+    for (int k = 0; k < RT_NCLASS; k++) {
+        rt_sim_counts t;
+        rt_sim_get(s, i, k, &t);
+        m += t.read_misses + t.write_misses;
+    }
+    return m;
+}
+
+/* OPT has no more misses than any policy, at any size, fully and 4-way. */
+static void test_opt_floor(const capture *tr, size_t ntr)
+{
+    enum { N = 6000 };
+    rt_access *a = malloc(N * sizeof *a);
+    static const char *const pols[] = {"lru", "fifo", "random", "plru", "srrip", "brrip"};
+    int streams = 0, strict = 0;
+    for (int trial = 0; trial < 24 + (int)ntr; trial++) {
+        const rt_access *x = a;
+        size_t n = N;
+        if (trial < 24) gen(a, N, trial % 3, 50 + rnd() % 600);
+        else x = tr[trial - 24].a, n = tr[trial - 24].n;
+        for (int assoc = 0; assoc <= 4; assoc += 4) {
+            rt_sim_config c;
+            rt_sim_config_default(&c);
+            CHECK(rt_sim_parse_sizes("1K-16K", &c, NULL) == 0, "sizes");
+            c.assoc = (uint32_t)assoc;
+            c.seed = (uint64_t)trial;
+            c.repl = repl_of("opt");
+            rt_sim *o = rt_sim_new(&c, NULL);
+            rt_sim_put(o, x, n);
+            rt_sim_finish(o);
+            rt_err e = {0};
+            CHECK(rt_sim_check(o, &e) == 0, "opt invariant: %s", e.msg);
+            for (size_t p = 0; p < sizeof pols / sizeof pols[0]; p++) {
+                c.repl = repl_of(pols[p]);
+                rt_sim *s = rt_sim_new(&c, NULL);
+                rt_sim_put(s, x, n);
+                rt_sim_finish(s);
+                for (int i = 0; i < c.nsizes; i++) {
+                    uint64_t mo = all_misses(o, i), mp = all_misses(s, i);
+                    CHECK(mo <= mp, "trial %d assoc %d size %llu: opt %llu misses > %s %llu", trial, assoc,
+                          (unsigned long long)c.sizes[i], (unsigned long long)mo, pols[p], (unsigned long long)mp);
+                    strict += mo < mp;
+                }
+                rt_sim_free(s);
+            }
+            rt_sim_free(o);
+            streams++;
+        }
+    }
+    CHECK(strict > 0, "opt never beat any policy: the property proves nothing");
+    CHECK(streams == 2 * (24 + (int)ntr), "streams compared: %d", streams);
+    free(a);
+}
+
 static void test_names(void)
 {
     int r = 99;
@@ -457,6 +617,10 @@ static void test_names(void)
     s = rt_sim_new(&c, NULL);
     CHECK(s && !strcmp(rt_sim_engine(s), "exact-persize"), "fifo engine");
     rt_sim_free(s);
+    c.repl = repl_of("opt");
+    s = rt_sim_new(&c, NULL);
+    CHECK(s && !strcmp(rt_sim_engine(s), "exact-opt"), "opt engine");
+    rt_sim_free(s);
     c.repl = -1;
     CHECK(rt_sim_new(&c, &e) == NULL && strstr(e.msg, "replacement"), "bad repl refused: %s", e.msg);
 }
@@ -476,6 +640,18 @@ int main(void)
     test_against_naive("plru", P_PLRU, tr, 2);
     test_against_naive("srrip", P_SRRIP, tr, 2);
     test_against_naive("brrip", P_BRRIP, tr, 2);
+    test_opt_brute();
+    test_opt_floor(tr, 2);
+    /* OPT against its naive reference (a forward scan for each next use):
+     * short streams, the scan is quadratic */
+    {
+        capture sh[2];
+        for (int t = 0; t < 2; t++) {
+            sh[t] = tr[t];
+            if (sh[t].n > 6000) sh[t].n = 6000;
+        }
+        test_against_naive_n("opt", P_OPT, sh, 2, 5000);
+    }
     for (int t = 0; t < 2; t++) free(tr[t].a);
     return failures ? 1 : 0;
 }

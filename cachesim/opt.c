@@ -1,0 +1,430 @@
+/*
+ * opt.c -- Belady's MIN (OPT), the offline optimal replacement, as an
+ * entry of the engine table (engine.h, repl "opt").
+ *
+ * WHAT IT IS. On a miss in a full set, MIN evicts the resident line whose
+ * next use lies farthest in the future (never used again counts as
+ * infinitely far; ties go to the lowest slot). It gives the fewest misses
+ * of any replacement policy for each set and size (Belady 1966; Mattson et
+ * al. 1970), so it is the floor every policy and every ray order is
+ * measured against. It minimizes misses, not write-backs: a policy may
+ * write back less by keeping dirty lines.
+ *
+ * HOW. MIN needs each touch's next use, so the engine buffers the stream
+ * and simulates when the run ends (finish):
+ *   1. access() splits every reference into line touches (the accounting of
+ *      docs/cachesim.md) and appends them: a dense id per distinct line (an
+ *      open-addressing table line -> id), the write kind, the (class,
+ *      generation) index and the bytes inside the line: 12 bytes a touch,
+ *      plus 12 per distinct line.
+ *   2. finish() makes one backward pass over the touches, giving each the
+ *      index of the next touch of its line (one array of the last index
+ *      seen per line id): O(touches) time, 4 bytes a touch.
+ *   3. then, per size, one forward pass: per set an indexed binary max-heap
+ *      of the resident slots keyed by next use, a slot per line id (no
+ *      hash), so a touch costs O(log ways).
+ * Counters are read after finish (before it they are zero); a later finish
+ * simulates everything buffered from cold again (with cfg.flush the dirty
+ * lines are written back at the end of each such simulation).
+ * Memory: 12 bytes a touch (a trace of 10^8 line touches needs 1.2 GB,
+ * checked against the memory limit as the buffer grows) and about 28 bytes
+ * per distinct line, plus 22 bytes per line of the size being simulated.
+ * Lines up to 65535 bytes (the bytes of a touch are 16 bits).
+ *
+ * INVARIANTS (rt_sim_check -> opt_check):
+ *   O1 every touch's line id is below the number of ids, and ids[] maps
+ *      each id back to a line whose table entry names it;
+ *   O2 after finish, next[i] is NONE or > i, and touch next[i] has the same
+ *      line id as touch i, with no touch of that id in between;
+ *   O3 per size and (class, generation): misses <= accesses, write-backs
+ *      <= write touches, no-fetch misses <= write misses.
+ */
+#include "engine.h"
+#include "sim_int.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#define NONE UINT32_MAX
+
+typedef struct otouch {
+    uint32_t id;    /* dense line id */
+    uint8_t w;      /* 0 read, 1 write, RT_WRITE_STREAM */
+    uint8_t cg;     /* (class, generation) index */
+    uint16_t bytes; /* bytes of the reference inside the line (<= 65535: lines up to 64 KB) */
+    uint32_t next;  /* next touch of the same line (after finish), NONE = never */
+} otouch;
+
+typedef struct ocount {
+    uint64_t acc[RT_SIM_NCG], rm[RT_SIM_NCG], wm[RT_SIM_NCG], wb[RT_SIM_NCG], wtb[RT_SIM_NCG], nf[RT_SIM_NCG];
+    uint64_t wr[RT_SIM_NCG];
+} ocount;
+
+typedef struct opt {
+    rt_sim_config cfg;
+    otouch *t;          /* touches */
+    uint64_t nt, capt;  /* used, allocated */
+    uint64_t *ids;      /* id -> line */
+    uint32_t nid, capid;
+    uint64_t *hkey;     /* table line -> id */
+    uint32_t *hval;     /* NONE = empty */
+    uint64_t hcap;      /* power of two, >= 2 * capid */
+    int done;           /* finish ran on the current touches */
+    int oom;            /* growth failed: later batches are refused */
+    ocount *cnt;        /* per size */
+} opt;
+
+static inline uint64_t hsl(uint64_t line, uint64_t cap) { return (line * 0x9E3779B97F4A7C15ULL) & (cap - 1); }
+
+static int grow_table(opt *o, rt_err *e)
+{
+    uint64_t cap = o->hcap ? o->hcap * 2 : 1024;
+    uint64_t *k = rt_calloc(cap, sizeof *k, e);
+    uint32_t *v = rt_calloc(cap, sizeof *v, e);
+    if (!k || !v) return free(k), free(v), -1;
+    for (uint64_t i = 0; i < cap; i++) v[i] = NONE;
+    for (uint32_t id = 0; id < o->nid; id++) {
+        uint64_t h = hsl(o->ids[id], cap);
+        while (v[h] != NONE) h = (h + 1) & (cap - 1);
+        k[h] = o->ids[id];
+        v[h] = id;
+    }
+    free(o->hkey);
+    free(o->hval);
+    o->hkey = k;
+    o->hval = v;
+    o->hcap = cap;
+    return 0;
+}
+
+static uint32_t line_id(opt *o, uint64_t line, rt_err *e)
+{
+    uint64_t h = hsl(line, o->hcap);
+    for (; o->hval[h] != NONE; h = (h + 1) & (o->hcap - 1))
+        if (o->hkey[h] == line) return o->hval[h];
+    if (o->nid == o->capid) {
+        if (o->capid >= (1u << 31)) return rt_errf(e, "opt: more than 2^31 distinct lines"), NONE;
+        uint32_t nc = o->capid ? o->capid * 2 : 1024;
+        uint64_t *ni = rt_reallocarray(o->ids, nc, sizeof *ni, e);
+        if (!ni) return NONE;
+        o->ids = ni;
+        o->capid = nc;
+    }
+    if (2 * (uint64_t)(o->nid + 1) > o->hcap) {
+        if (grow_table(o, e)) return NONE;
+        h = hsl(line, o->hcap);
+        while (o->hval[h] != NONE) h = (h + 1) & (o->hcap - 1);
+    }
+    o->hkey[h] = line;
+    o->hval[h] = o->nid;
+    o->ids[o->nid] = line;
+    return o->nid++;
+}
+
+static uint64_t opt_state_bytes(const rt_sim_config *c)
+{
+    (void)c;
+    return 0; /* grows with the touches */
+}
+
+static void opt_destroy(void *st)
+{
+    opt *o = st;
+    if (!o) return;
+    free(o->t);
+    free(o->ids);
+    free(o->hkey);
+    free(o->hval);
+    free(o->cnt);
+    free(o);
+}
+
+static void *opt_create(const rt_sim_config *c, rt_err *e)
+{
+    if (c->line > 65535) return rt_errf(e, "opt: lines of %u bytes (at most 65535)", c->line), NULL;
+    opt *o = rt_calloc(1, sizeof *o, e);
+    if (!o) return NULL;
+    o->cfg = *c;
+    o->cnt = rt_calloc((size_t)c->nsizes, sizeof *o->cnt, e);
+    if (!o->cnt || grow_table(o, e)) {
+        opt_destroy(o);
+        return NULL;
+    }
+    return o;
+}
+
+static int push(opt *o, uint64_t line, unsigned w, unsigned cg, uint32_t bytes, rt_err *e)
+{
+    if (o->nt == o->capt) {
+        if (o->capt >= NONE - 1) return rt_errf(e, "opt: more than 2^32 line touches");
+        uint64_t nc = o->capt ? o->capt * 2 : 65536;
+        if (nc >= NONE) nc = NONE - 1;
+        char what[96];
+        snprintf(what, sizeof what, "buffering %llu line touches for OPT", (unsigned long long)nc);
+        if (rt_mem_fits(nc * sizeof(otouch), what, e) < 0) return -1;
+        otouch *nt = rt_reallocarray(o->t, nc, sizeof *nt, e);
+        if (!nt) return -1;
+        o->t = nt;
+        o->capt = nc;
+    }
+    uint32_t id = line_id(o, line, e);
+    if (id == NONE) return -1;
+    otouch *t = &o->t[o->nt++];
+    t->id = id;
+    t->w = (uint8_t)w;
+    t->cg = (uint8_t)cg;
+    t->bytes = (uint16_t)bytes;
+    t->next = NONE;
+    return 0;
+}
+
+static int opt_access(void *st, const rt_access *a, size_t n)
+{
+    opt *o = st;
+    if (o->oom) return -1;
+    const uint64_t ls = o->cfg.line;
+    rt_err e = {0};
+    o->done = 0;
+    for (size_t i = 0; i < n; i++) {
+        uint64_t addr = a[i].addr;
+        uint32_t sz = a[i].size ? a[i].size : 1;
+        unsigned cg = rt_sim_cg(&a[i]);
+        unsigned w = a[i].write == RT_WRITE_STREAM ? RT_WRITE_STREAM : a[i].write != 0;
+        uint64_t end = addr + sz, first = addr / ls, last = (end - 1) / ls;
+        for (uint64_t L = first; L <= last; L++) {
+            uint64_t lo = L == first ? addr : L * ls, hi = L == last ? end : (L + 1) * ls;
+            if (push(o, L, w, cg, (uint32_t)(hi - lo), &e)) {
+                o->oom = 1;
+                return -1;
+            }
+        }
+    }
+    return 0;
+}
+
+/* ---- the forward pass of one size ---- */
+
+typedef struct fwd {
+    uint32_t ways;
+    uint64_t nsets;
+    uint32_t *heap;  /* per set, ways slots: a max-heap by key */
+    uint32_t *used;  /* per set */
+    uint32_t *pos;   /* slot -> heap position within its set */
+    uint32_t *key;   /* slot -> next use (NONE = never: the largest) */
+    uint32_t *line;  /* slot -> line id */
+    uint8_t *dirty, *wcg;
+    uint32_t *slot;  /* line id -> slot, NONE = not resident */
+} fwd;
+
+/* key order with ties broken by the lower slot, so the choice is deterministic */
+static inline int above(const fwd *f, uint32_t a, uint32_t b)
+{
+    return f->key[a] > f->key[b] || (f->key[a] == f->key[b] && a < b);
+}
+
+static void sift_up(fwd *f, uint32_t *h, uint32_t i)
+{
+    uint32_t x = h[i];
+    while (i > 0) {
+        uint32_t p = (i - 1) / 2;
+        if (!above(f, x, h[p])) break;
+        h[i] = h[p];
+        f->pos[h[i]] = i;
+        i = p;
+    }
+    h[i] = x;
+    f->pos[x] = i;
+}
+
+static void sift_down(fwd *f, uint32_t *h, uint32_t n, uint32_t i)
+{
+    uint32_t x = h[i];
+    for (;;) {
+        uint32_t c = 2 * i + 1;
+        if (c >= n) break;
+        if (c + 1 < n && above(f, h[c + 1], h[c])) c++;
+        if (!above(f, h[c], x)) break;
+        h[i] = h[c];
+        f->pos[h[i]] = i;
+        i = c;
+    }
+    h[i] = x;
+    f->pos[x] = i;
+}
+
+static void fwd_free(fwd *f)
+{
+    free(f->heap);
+    free(f->used);
+    free(f->pos);
+    free(f->key);
+    free(f->line);
+    free(f->dirty);
+    free(f->wcg);
+    free(f->slot);
+}
+
+static int run_size(opt *o, int si, rt_err *e)
+{
+    const rt_sim_config *c = &o->cfg;
+    uint64_t nlines = c->sizes[si] / c->line;
+    fwd f = {0};
+    f.ways = c->assoc ? c->assoc : (uint32_t)nlines;
+    f.nsets = nlines / f.ways;
+    f.heap = rt_calloc(nlines, sizeof *f.heap, e);
+    f.used = rt_calloc(f.nsets, sizeof *f.used, e);
+    f.pos = rt_calloc(nlines, sizeof *f.pos, e);
+    f.key = rt_calloc(nlines, sizeof *f.key, e);
+    f.line = rt_calloc(nlines, sizeof *f.line, e);
+    f.dirty = rt_calloc(nlines, 1, e);
+    f.wcg = rt_calloc(nlines, 1, e);
+    f.slot = rt_calloc(o->nid ? o->nid : 1, sizeof *f.slot, e);
+    if (!f.heap || !f.used || !f.pos || !f.key || !f.line || !f.dirty || !f.wcg || !f.slot) {
+        fwd_free(&f);
+        return -1;
+    }
+    for (uint32_t i = 0; i < o->nid; i++) f.slot[i] = NONE;
+    ocount *k = &o->cnt[si];
+    memset(k, 0, sizeof *k);
+    const int wt = c->write_through, nwa = c->no_write_allocate, fl = c->write_miss_fullline;
+    for (uint64_t i = 0; i < o->nt; i++) {
+        const otouch *t = &o->t[i];
+        unsigned cg = t->cg, w = t->w;
+        k->acc[cg]++;
+        k->wr[cg] += w != 0;
+        uint64_t set = o->ids[t->id] % f.nsets;
+        uint32_t *h = f.heap + set * f.ways;
+        uint32_t x = f.slot[t->id];
+        if (x != NONE) {
+            f.key[x] = t->next;
+            sift_up(&f, h, f.pos[x]);
+            sift_down(&f, h, f.used[set], f.pos[x]);
+        } else {
+            if (w) k->wm[cg]++;
+            else k->rm[cg]++;
+            if (w && nwa) {
+                k->wtb[cg] += t->bytes;
+                continue;
+            }
+            if (w == RT_WRITE_STREAM || (w && fl && t->bytes == c->line)) k->nf[cg]++;
+            if (f.used[set] < f.ways) {
+                x = (uint32_t)(set * f.ways + f.used[set]);
+                h[f.used[set]] = x;
+                f.pos[x] = f.used[set]++;
+            } else {
+                x = h[0]; /* farthest next use */
+                if (f.dirty[x]) k->wb[f.wcg[x]]++;
+                f.slot[f.line[x]] = NONE;
+            }
+            f.line[x] = t->id;
+            f.dirty[x] = 0;
+            f.slot[t->id] = x;
+            f.key[x] = t->next;
+            sift_up(&f, h, f.pos[x]);
+            sift_down(&f, h, f.used[set], f.pos[x]);
+        }
+        if (w) {
+            if (wt) k->wtb[cg] += t->bytes;
+            else {
+                f.dirty[x] = 1;
+                f.wcg[x] = (uint8_t)cg;
+            }
+        }
+    }
+    if (c->flush)
+        for (uint64_t x = 0; x < nlines; x++)
+            if (f.slot[f.line[x]] == x && f.dirty[x]) k->wb[f.wcg[x]]++;
+    fwd_free(&f);
+    return 0;
+}
+
+static void opt_finish(void *st, int flush)
+{
+    (void)flush; /* cfg.flush, applied inside each size's pass */
+    opt *o = st;
+    if (o->oom) return;
+    rt_err e = {0};
+    /* the backward pass: next use of every touch */
+    uint32_t *last = rt_calloc(o->nid ? o->nid : 1, sizeof *last, &e);
+    if (!last) {
+        o->oom = 1;
+        return;
+    }
+    for (uint32_t i = 0; i < o->nid; i++) last[i] = NONE;
+    for (uint64_t i = o->nt; i-- > 0;) {
+        o->t[i].next = last[o->t[i].id];
+        last[o->t[i].id] = (uint32_t)i;
+    }
+    free(last);
+    for (int s = 0; s < o->cfg.nsizes; s++)
+        if (run_size(o, s, &e)) {
+            o->oom = 1;
+            return;
+        }
+    o->done = 1;
+}
+
+static void opt_counts(const void *st, int i, int cls, int gen, rt_sim_counts *out)
+{
+    const opt *o = st;
+    memset(out, 0, sizeof *out);
+    if (cls < 0 || cls >= RT_NCLASS || gen >= RT_MAXGEN) return;
+    const ocount *k = &o->cnt[i];
+    for (int b = gen < 0 ? 0 : gen; b < (gen < 0 ? RT_MAXGEN : gen + 1); b++) {
+        int cg = b * RT_NCLASS + cls;
+        out->accesses += k->acc[cg];
+        out->read_misses += k->rm[cg];
+        out->write_misses += k->wm[cg];
+        out->writebacks += k->wb[cg];
+        out->wt_bytes += k->wtb[cg];
+        out->nofetch += k->nf[cg];
+    }
+    uint64_t fetches = out->read_misses + (o->cfg.no_write_allocate ? 0 : out->write_misses - out->nofetch);
+    out->traffic_bytes = (fetches + out->writebacks) * o->cfg.line + out->wt_bytes;
+}
+
+static int opt_check(const void *st, rt_err *e)
+{
+    const opt *o = st;
+    if (o->oom) return rt_errf(e, "opt: out of memory earlier; results incomplete");
+    for (uint32_t id = 0; id < o->nid; id++) { /* O1 */
+        uint64_t h = hsl(o->ids[id], o->hcap);
+        while (o->hval[h] != NONE && o->hkey[h] != o->ids[id]) h = (h + 1) & (o->hcap - 1);
+        if (o->hval[h] != id) return rt_errf(e, "opt: line id %u not in the table", id);
+    }
+    for (uint64_t i = 0; i < o->nt; i++) {
+        const otouch *t = &o->t[i];
+        if (t->id >= o->nid) return rt_errf(e, "opt: touch %llu has line id %u of %u", (unsigned long long)i, t->id, o->nid);
+        if (!o->done) continue;
+        if (t->next != NONE && (t->next <= i || t->next >= o->nt || o->t[t->next].id != t->id))
+            return rt_errf(e, "opt: next use of touch %llu is wrong", (unsigned long long)i); /* O2 */
+    }
+    if (o->done) { /* O2: no touch of the line between i and next[i] (every id's chain is all its touches) */
+        uint64_t chained = 0;
+        for (uint64_t i = 0; i < o->nt; i++) chained += o->t[i].next != NONE;
+        if (chained != o->nt - o->nid) return rt_errf(e, "opt: next-use chains skip touches");
+    }
+    for (int s = 0; s < o->cfg.nsizes; s++) /* O3 */
+        for (int cg = 0; cg < RT_SIM_NCG; cg++) {
+            const ocount *k = &o->cnt[s];
+            if (k->rm[cg] + k->wm[cg] > k->acc[cg] || k->wb[cg] > k->wr[cg] || k->nf[cg] > k->wm[cg] ||
+                k->wm[cg] > k->wr[cg])
+                return rt_errf(e, "opt: counters of size %llu class %s generation %d inconsistent",
+                               (unsigned long long)o->cfg.sizes[s], rt_class_name(cg % RT_NCLASS), cg / RT_NCLASS);
+        }
+    return 0;
+}
+
+const rt_cache_engine rt_engine_opt = {
+    .name = "exact-opt",
+    .repl = "opt",
+    .caps = RT_ENG_FULLASSOC | RT_ENG_SETASSOC | RT_ENG_WT | RT_ENG_NWA,
+    .state_bytes = opt_state_bytes,
+    .create = opt_create,
+    .destroy = opt_destroy,
+    .access = opt_access,
+    .finish = opt_finish,
+    .counts = opt_counts,
+    .check = opt_check,
+    .repeats = NULL,
+};
