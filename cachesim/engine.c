@@ -90,6 +90,7 @@ int rt_cache_engine_fits(const rt_cache_engine *g, const rt_sim_config *c)
     if (g->repl ? strcmp(g->repl, rt_sim_repl_name(c->repl)) != 0 : (c->repl != 0 && !rt_repl_ops_for(c->repl)))
         return 0;
     if (!(g->caps & (c->assoc ? RT_ENG_SETASSOC : RT_ENG_FULLASSOC))) return 0;
+    if (c->feeds_below && !g->set_below) return 0;
     if (c->write_through && !(g->caps & RT_ENG_WT)) return 0;
     if (c->no_write_allocate && !(g->caps & RT_ENG_NWA)) return 0;
     return 1;

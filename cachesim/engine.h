@@ -68,6 +68,10 @@ typedef struct rt_cache_engine {
     /* RT_ENG_REPEATS only: counts cnt[cg] reads that hit the top of the
      * recency stack in every size (rt_repeats). */
     void (*repeats)(void *st, const uint64_t *cnt);
+    /* A level of a hierarchy (NULL: this engine cannot feed another): its
+     * fetches, write-backs and written-through bytes become references to
+     * below, in order (rt_sa_set_below). 0, or -1 with a message. */
+    int (*set_below)(void *st, rt_sink *below, rt_err *e);
 } rt_cache_engine;
 
 /* The table, in the order rt_sim_new tries it, ended by NULL. */

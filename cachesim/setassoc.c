@@ -89,6 +89,10 @@ struct rt_sa {
     const rt_repl_ops *ops; /* replacement policy, NULL = the LRU lists */
     uint32_t *pw, *ps;   /* the policy's words: per way, per set (assoc per set), nsets * assoc each */
     uint64_t rng;        /* the policy's random state */
+    rt_sink *below;      /* the next level of a hierarchy, or NULL */
+    rt_access *out;      /* its references, in order, sent when a batch ends or the buffer fills */
+    size_t nout;
+    int below_err;       /* the level below refused a batch */
     uint64_t hmask;      /* table size - 1 */
     int hshift;          /* 64 - log2(table size) */
     /* counters per (class, generation) index */
@@ -191,7 +195,45 @@ void rt_sa_free(rt_sa *c)
     free(c->ht);
     free(c->pw);
     free(c->ps);
+    free(c->out);
     free(c);
+}
+
+#define OUT_CAP 4096
+
+int rt_sa_below_failed(const rt_sa *c) { return c->below_err; }
+
+void rt_sa_add_repeats(rt_sa *c, const uint64_t *cnt)
+{
+    for (int cg = 0; cg < RT_SIM_NCG; cg++) c->acc[cg] += cnt[cg];
+}
+
+int rt_sa_set_below(rt_sa *c, rt_sink *below, rt_err *e)
+{
+    if (below && !c->out && !(c->out = rt_calloc(OUT_CAP, sizeof *c->out, e))) return -1;
+    c->below = below;
+    return 0;
+}
+
+/* Sends the buffered references to the level below. */
+static void out_flush(rt_sa *c)
+{
+    if (c->nout && c->below && c->below->put(c->below, c->out, c->nout) < 0) c->below_err = 1;
+    c->nout = 0;
+}
+
+/* One reference to the level below: a line fetched (write 0), a line
+ * written back (write 1, whole line) or bytes written through / around. */
+static inline void emit(rt_sa *c, uint64_t addr, uint32_t size, int write, unsigned cg)
+{
+    if (!c->below) return;
+    if (c->nout == OUT_CAP) out_flush(c);
+    rt_access *o = &c->out[c->nout++];
+    o->addr = addr;
+    o->size = size;
+    o->write = (uint8_t)write;
+    o->cls = (uint8_t)(cg % RT_NCLASS);
+    o->gen = (uint8_t)(cg / RT_NCLASS);
 }
 
 static inline rt_repl_set repl_set(rt_sa *c, uint64_t set)
@@ -221,7 +263,7 @@ static inline void push_head(rt_sa *c, saset *s, uint32_t x)
 
 /* One line touch; w = 0 read, 1 write, RT_WRITE_STREAM streaming store;
  * bytes = bytes of the reference inside this line. */
-static void touch(rt_sa *c, uint64_t L, int w, unsigned cg, uint32_t bytes)
+static void touch(rt_sa *c, uint64_t L, int w, unsigned cg, uint32_t bytes, uint64_t lo)
 {
     uint64_t set = L % c->nsets;
     saset *s = &c->sets[set];
@@ -243,20 +285,25 @@ static void touch(rt_sa *c, uint64_t L, int w, unsigned cg, uint32_t bytes)
         else c->rm[cg]++;
         if (w && c->nwa) { /* write around the cache */
             c->wtb[cg] += bytes;
+            emit(c, lo, bytes, 1, cg);
             return;
         }
-        if (w == RT_WRITE_STREAM || (w && c->fullline && bytes == c->line))
-            c->nf[cg]++; /* streaming store, or Dinero's full-line write: nothing to fetch */
+        int fetch = !(w == RT_WRITE_STREAM || (w && c->fullline && bytes == c->line));
+        if (!fetch) c->nf[cg]++; /* streaming store, or Dinero's full-line write: nothing to fetch */
         rt_repl_set rs;
         if (c->ops) rs = repl_set(c, set);
         if (s->used < c->assoc) {
             x = (uint32_t)(set * c->assoc + s->used++);
         } else {
             x = c->ops ? (uint32_t)(set * c->assoc + c->ops->victim(&rs)) : s->tail;
-            if (sl[x].dirty) c->wb[sl[x].wcg]++;
+            if (sl[x].dirty) {
+                c->wb[sl[x].wcg]++;
+                emit(c, sl[x].line * c->line, c->line, 1, sl[x].wcg);
+            }
             if (!c->ops) unlink_slot(c, s, x);
             h_delete(c, sl[x].line);
         }
+        if (fetch) emit(c, L * c->line, c->line, 0, cg);
         sl[x].line = L;
         sl[x].dirty = 0;
         h_insert(c, L, x);
@@ -266,6 +313,7 @@ static void touch(rt_sa *c, uint64_t L, int w, unsigned cg, uint32_t bytes)
     if (w) {
         if (c->wt) {
             c->wtb[cg] += bytes;
+            emit(c, lo, bytes, 1, cg);
         } else {
             sl[x].dirty = 1;
             sl[x].wcg = (uint8_t)cg;
@@ -285,9 +333,10 @@ void rt_sa_put(rt_sa *c, const rt_access *a, size_t n)
         for (uint64_t L = first; L <= last; L++) {
             uint64_t lo = L == first ? addr : L * ls;
             uint64_t hi = L == last ? end : (L + 1) * ls;
-            touch(c, L, a[i].write == RT_WRITE_STREAM ? RT_WRITE_STREAM : a[i].write != 0, cg, (uint32_t)(hi - lo));
+            touch(c, L, a[i].write == RT_WRITE_STREAM ? RT_WRITE_STREAM : a[i].write != 0, cg, (uint32_t)(hi - lo), lo);
         }
     }
+    if (c->below) out_flush(c);
 }
 
 void rt_sa_get_gen(const rt_sa *c, int cls, int gen, rt_sim_counts *out)
@@ -318,16 +367,19 @@ void rt_sa_flush(rt_sa *c)
             for (uint64_t x = s * c->assoc; x < s * c->assoc + c->sets[s].used; x++)
                 if (c->slots[x].dirty) {
                     c->wb[c->slots[x].wcg]++;
+                    emit(c, c->slots[x].line * c->line, c->line, 1, c->slots[x].wcg);
                     c->slots[x].dirty = 0;
                 }
-        return;
+    } else {
+        for (uint64_t s = 0; s < c->nsets; s++)
+            for (uint32_t x = c->sets[s].head; x != NIL; x = c->slots[x].next)
+                if (c->slots[x].dirty) {
+                    c->wb[c->slots[x].wcg]++;
+                    emit(c, c->slots[x].line * c->line, c->line, 1, c->slots[x].wcg);
+                    c->slots[x].dirty = 0;
+                }
     }
-    for (uint64_t s = 0; s < c->nsets; s++)
-        for (uint32_t x = c->sets[s].head; x != NIL; x = c->slots[x].next)
-            if (c->slots[x].dirty) {
-                c->wb[c->slots[x].wcg]++;
-                c->slots[x].dirty = 0;
-            }
+    if (c->below) out_flush(c);
 }
 
 int rt_sa_check(const rt_sa *c, rt_err *e)
@@ -420,7 +472,7 @@ static int eng_access(void *st, const rt_access *a, size_t n)
 {
     persize *p = st;
     for (int i = 0; i < p->n; i++) rt_sa_put(p->sa[i], a, n);
-    return 0;
+    return p->n == 1 && rt_sa_below_failed(p->sa[0]) ? -1 : 0;
 }
 
 static void eng_finish(void *st, int flush)
@@ -434,6 +486,19 @@ static void eng_counts(const void *st, int i, int cls, int gen, rt_sim_counts *o
 {
     const persize *p = st;
     rt_sa_get_gen(p->sa[i], cls, gen, out);
+}
+
+static void eng_repeats(void *st, const uint64_t *cnt)
+{
+    persize *p = st;
+    for (int i = 0; i < p->n; i++) rt_sa_add_repeats(p->sa[i], cnt);
+}
+
+static int eng_set_below(void *st, rt_sink *below, rt_err *e)
+{
+    persize *p = st;
+    if (p->n != 1) return rt_errf(e, "a cache level that feeds another has one size, not %d", p->n);
+    return rt_sa_set_below(p->sa[0], below, e);
 }
 
 static int eng_check(const void *st, rt_err *e)
@@ -455,5 +520,6 @@ const rt_cache_engine rt_engine_persize = {
     .finish = eng_finish,
     .counts = eng_counts,
     .check = eng_check,
-    .repeats = NULL,
+    .repeats = eng_repeats, /* offered for hierarchy levels (sim.c: rt_sim_repeats) */
+    .set_below = eng_set_below,
 };

@@ -34,4 +34,17 @@ void rt_sa_set_fullline(rt_sa *c, int on);
  * clean and resident. */
 void rt_sa_flush(rt_sa *c);
 
+/* Makes c a level of a hierarchy: every line it fetches (a read of the
+ * line), writes back (a write of the line) or writes through / around (a
+ * write of those bytes) becomes a reference to below, in order, with the
+ * class and generation of the reference that caused it (a write-back: of
+ * the line's last writer); they are sent when a batch of rt_sa_put or a
+ * flush ends. NULL: none. 0, or -1 out of memory. */
+int rt_sa_set_below(rt_sa *c, rt_sink *below, rt_err *e);
+/* Counts cnt[cg] reads that hit the most recent line of their set (the
+ * repeat filter, sim.h; LRU with write-allocate only). */
+void rt_sa_add_repeats(rt_sa *c, const uint64_t *cnt);
+/* 1 once the level below refused a batch. */
+int rt_sa_below_failed(const rt_sa *c);
+
 #endif

@@ -100,8 +100,15 @@ int rt_sim_config_check(const rt_sim_config *c, rt_err *e)
         }
     }
     const rt_cache_engine *g = rt_cache_engine_for(c);
-    if (!g) return rt_errf(e, "no cache engine simulates replacement policy %s with this configuration",
-                           rt_sim_repl_name(c->repl));
+    if (!g) {
+        rt_sim_config top = *c;
+        top.feeds_below = 0;
+        if (c->feeds_below && rt_cache_engine_for(&top))
+            return rt_errf(e, "replacement policy %s cannot feed a cache level below it (only a last level can be %s)",
+                           rt_sim_repl_name(c->repl), rt_sim_repl_name(c->repl));
+        return rt_errf(e, "no cache engine simulates replacement policy %s with this configuration",
+                       rt_sim_repl_name(c->repl));
+    }
     /* an engine that allocates each cache's lines up front (the stack
      * simulator grows with the lines seen): check before */
     uint64_t bytes = g->state_bytes(c);
@@ -154,12 +161,23 @@ static void sim_add_repeats(void *ctx, const uint64_t *cnt)
 void rt_sim_repeats(rt_sim *s, rt_repeats *out)
 {
     memset(out, 0, sizeof *out);
-    if (!(s->eng->caps & RT_ENG_REPEATS)) return; /* only a fully associative LRU write-allocate engine */
+    /* the one-pass LRU engine; and an LRU write-allocate level of a
+     * hierarchy (a repeat is a hit on the most recent line of its set) */
+    int level = s->cfg.feeds_below && s->cfg.repl == 0 && !s->cfg.no_write_allocate && s->eng->repeats;
+    if (!(s->eng->caps & RT_ENG_REPEATS) && !level) return;
     out->line = s->cfg.line;
     out->add = sim_add_repeats;
     out->ctx = s;
 }
 uint64_t rt_sim_refs(const rt_sim *s) { return s->refs; }
+
+int rt_sim_set_below(rt_sim *s, rt_sink *below, rt_err *e)
+{
+    if (!s->eng->set_below)
+        return rt_errf(e, "engine %s (replacement %s) cannot feed a cache level below it", s->eng->name,
+                       rt_sim_repl_name(s->cfg.repl));
+    return s->eng->set_below(s->st, below, e);
+}
 
 int rt_sim_put(rt_sim *s, const rt_access *a, size_t n)
 {

@@ -74,6 +74,7 @@ typedef struct rt_sim_config {
     int write_miss_fullline;         /* 1: a write miss covering its whole line fetches nothing */
     int repl;                        /* replacement policy: 0 = LRU, else rt_sim_repl_parse's value */
     uint64_t seed;                   /* seed of the random choices of a policy (random, BRRIP) */
+    int feeds_below;                 /* 1: a level of a hierarchy above another (rt_sim_set_below) */
 } rt_sim_config;
 
 /* One size's counters for one class (64-bit). */
@@ -147,6 +148,13 @@ rt_sink *rt_sim_sink(rt_sim *s);
  * results; more references may follow, and a second call writes back only
  * what they dirtied. Returns 0. */
 int rt_sim_finish(rt_sim *s);
+
+/* Makes s one level of a hierarchy (hier.h): every line it fetches, every
+ * write-back and every byte written through or around becomes a reference
+ * to below, in order, with the class and generation of its cause. Only a
+ * one-size configuration of the per-size engine can (any replacement but
+ * OPT); -1 with a message otherwise. below is borrowed. */
+int rt_sim_set_below(rt_sim *s, rt_sink *below, rt_err *e);
 
 /* References (rt_access records, not line touches) seen so far. */
 uint64_t rt_sim_refs(const rt_sim *s);

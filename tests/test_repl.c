@@ -15,6 +15,7 @@
  * pin the policies' choices on short sequences.
  */
 #include "check.h"
+#include "hier.h"
 #include "run.h"
 #include "sim.h"
 
@@ -30,7 +31,7 @@ enum { P_LRU, P_FIFO, P_RANDOM, P_PLRU, P_SRRIP, P_BRRIP, P_OPT };
 typedef struct ltouch {
     uint64_t line;
     int w, cls, g;
-    uint64_t bytes;
+    uint64_t bytes, lo;
 } ltouch;
 
 typedef struct way {
@@ -49,6 +50,9 @@ typedef struct naive {
     way *w; /* nsets * ways */
     uint8_t *bit; /* PLRU: per set, ways bits; bit[k] for inner node k of the tree in heap order */
     uint64_t rng; /* random and BRRIP: xorshift64* seeded as docs/cachesim.md says */
+    rt_access *out;    /* a level above another: what it sends down, in order (NULL: nothing) */
+    size_t nout, capout;
+    int below;         /* 1: record what it sends down */
     const ltouch *fut; /* OPT: every touch, and how many */
     uint64_t nfut;
     uint64_t now;
@@ -73,8 +77,23 @@ static naive *naive_new(int pol, const rt_sim_config *cf, uint64_t size)
     return n;
 }
 
+/* A reference sent to the level below. */
+static void naive_emit(naive *n, uint64_t addr, uint64_t size, int w, int cls, int g)
+{
+    if (!n->below) return;
+    if (n->nout == n->capout) n->out = realloc(n->out, (n->capout = n->capout ? 2 * n->capout : 4096) * sizeof *n->out);
+    rt_access *o = &n->out[n->nout++];
+    memset(o, 0, sizeof *o);
+    o->addr = addr;
+    o->size = (uint32_t)size;
+    o->write = (uint8_t)w;
+    o->cls = (uint8_t)cls;
+    o->gen = (uint8_t)g;
+}
+
 static void naive_free(naive *n)
 {
+    free(n->out);
     free(n->w);
     free(n->bit);
     free(n);
@@ -144,7 +163,7 @@ static uint64_t naive_victim(naive *n, way *s, uint8_t *bit)
     return best;
 }
 
-static void naive_touch(naive *n, uint64_t L, int wr, int cls, int g, uint64_t bytes)
+static void naive_touch(naive *n, uint64_t L, int wr, int cls, int g, uint64_t bytes, uint64_t lo)
 {
     way *s = n->w + (L % n->nsets) * n->ways;
     uint8_t *bit = n->bit + (L % n->nsets) * n->ways;
@@ -159,15 +178,21 @@ static void naive_touch(naive *n, uint64_t L, int wr, int cls, int g, uint64_t b
         else c->read_misses++;
         if (wr && n->nwa) {
             c->wt_bytes += bytes;
+            naive_emit(n, lo, bytes, 1, cls, g);
             return;
         }
-        if (wr == RT_WRITE_STREAM || (wr && n->fullline && bytes == n->line)) c->nofetch++;
+        int nofetch = wr == RT_WRITE_STREAM || (wr && n->fullline && bytes == n->line);
+        if (nofetch) c->nofetch++;
         for (i = 0; i < n->ways; i++)
             if (!s[i].valid) break;
         if (i == n->ways) {
             i = naive_victim(n, s, bit);
-            if (s[i].dirty) n->c[s[i].wcls][s[i].wgen].writebacks++;
+            if (s[i].dirty) {
+                n->c[s[i].wcls][s[i].wgen].writebacks++;
+                naive_emit(n, s[i].tag * n->line, n->line, 1, s[i].wcls, s[i].wgen);
+            }
         }
+        if (!nofetch) naive_emit(n, L * n->line, n->line, 0, cls, g);
         s[i].valid = 1;
         s[i].tag = L;
         s[i].dirty = 0;
@@ -180,7 +205,7 @@ static void naive_touch(naive *n, uint64_t L, int wr, int cls, int g, uint64_t b
     s[i].used = n->now;
     if (n->pol == P_PLRU) plru_use(n, bit, i);
     if (wr) {
-        if (n->wt) c->wt_bytes += bytes;
+        if (n->wt) c->wt_bytes += bytes, naive_emit(n, lo, bytes, 1, cls, g);
         else s[i].dirty = 1, s[i].wcls = (uint8_t)cls, s[i].wgen = (uint8_t)g;
     }
 }
@@ -200,12 +225,13 @@ static void naive_put(naive *n, const rt_access *a, size_t cnt)
                 t[nt].w = a[i].write;
                 t[nt].cls = a[i].cls < RT_NCLASS ? a[i].cls : RT_CLS_FB;
                 t[nt].g = a[i].gen < RT_MAXGEN - 1 ? a[i].gen : RT_MAXGEN - 1;
+                t[nt].lo = lo;
                 t[nt++].bytes = hi - lo;
             }
         }
         n->fut = t;
         n->nfut = nt;
-        for (uint64_t i = 0; i < nt; i++) naive_touch(n, t[i].line, t[i].w, t[i].cls, t[i].g, t[i].bytes);
+        for (uint64_t i = 0; i < nt; i++) naive_touch(n, t[i].line, t[i].w, t[i].cls, t[i].g, t[i].bytes, t[i].lo);
         free(t);
         n->fut = NULL;
         return;
@@ -218,18 +244,37 @@ static void naive_put(naive *n, const rt_access *a, size_t cnt)
             uint64_t hi = (L + 1) * n->line < end ? (L + 1) * n->line : end;
             int g = a[i].gen < RT_MAXGEN - 1 ? a[i].gen : RT_MAXGEN - 1;
             int cls = a[i].cls < RT_NCLASS ? a[i].cls : RT_CLS_FB;
-            naive_touch(n, L, a[i].write, cls, g, hi - lo);
+            naive_touch(n, L, a[i].write, cls, g, hi - lo, lo);
         }
     }
 }
 
+/* The end-of-run flush, set by set; within a set LRU goes from the most
+ * recently used line down, the other policies way by way (the order a
+ * level below sees the write-backs in). */
 static void naive_flush(naive *n)
 {
-    for (uint64_t k = 0; k < n->nsets * n->ways; k++)
-        if (n->w[k].valid && n->w[k].dirty) {
-            n->c[n->w[k].wcls][n->w[k].wgen].writebacks++;
-            n->w[k].dirty = 0;
+    for (uint64_t st = 0; st < n->nsets; st++) {
+        way *s = n->w + st * n->ways;
+        for (uint64_t done = 0; done < n->ways; done++) {
+            uint64_t k = done;
+            if (n->pol == P_LRU) { /* the done-th most recent valid way */
+                k = n->ways;
+                for (uint64_t i = 0; i < n->ways; i++) {
+                    if (!s[i].valid) continue;
+                    uint64_t newer = 0;
+                    for (uint64_t j = 0; j < n->ways; j++) newer += s[j].valid && s[j].used > s[i].used;
+                    if (newer == done) k = i;
+                }
+                if (k == n->ways) break;
+            }
+            if (s[k].valid && s[k].dirty) {
+                n->c[s[k].wcls][s[k].wgen].writebacks++;
+                naive_emit(n, s[k].tag * n->line, n->line, 1, s[k].wcls, s[k].wgen);
+                s[k].dirty = 0;
+            }
         }
+    }
 }
 
 static void naive_get(const naive *n, int cls, int gen, rt_sim_counts *o)
@@ -417,7 +462,7 @@ static void test_against_naive_n(const char *pname, int pol, const capture *tr, 
 
 static void test_against_naive(const char *pname, int pol, const capture *tr, size_t ntr)
 {
-    test_against_naive_n(pname, pol, tr, ntr, 40000);
+    test_against_naive_n(pname, pol, tr, ntr, 25000);
 }
 
 /* ---- hand-computed cases ------------------------------------------------ */
@@ -592,6 +637,137 @@ static void test_opt_floor(const capture *tr, size_t ntr)
     free(a);
 }
 
+/* ---- hierarchies -------------------------------------------------------- */
+
+/* Runs a through hierarchy spec and through a chain of naive caches (each
+ * level's recorded output is the next one's input; the last level one
+ * naive cache per size); compares every level, size, class, generation. */
+static void compare_hier(const char *spec, int flush, const rt_access *a, size_t n)
+{
+    static const int pol_of[] = {P_LRU, P_FIFO, P_RANDOM, P_PLRU, P_SRRIP, P_BRRIP, P_OPT};
+    rt_sim_config base;
+    rt_sim_config_default(&base);
+    base.flush = flush;
+    rt_hier_config hc;
+    rt_err e = {0};
+    CHECK(rt_hier_parse(spec, &base, &hc, &e) == 0, "parse %s: %s", spec, e.msg);
+    rt_hier *h = rt_hier_new(&hc, &e);
+    CHECK(h, "%s: %s", spec, e.msg);
+    if (!h) return;
+    for (size_t i = 0; i < n; i += 3000) {
+        rt_hier_put(h, a + i, n - i < 3000 ? n - i : 3000);
+        if ((i / 3000) % 8 == 0) CHECK(rt_hier_check(h, &e) == 0, "%s: %s", spec, e.msg);
+    }
+    rt_hier_finish(h);
+    CHECK(rt_hier_check(h, &e) == 0, "%s after finish: %s", spec, e.msg);
+    const rt_access *in = a;
+    size_t nin = n;
+    rt_access *keep = NULL;
+    uint64_t last_traffic = 0;
+    for (int k = 0; k < hc.nlevels; k++) {
+        const rt_sim_config *c = &hc.level[k];
+        const rt_sim *s = rt_hier_level(h, k);
+        naive *down = NULL;
+        for (int i = 0; i < c->nsizes; i++) {
+            naive *nv = naive_new(P_LRU, c, c->sizes[i]);
+            /* the policy: by name, the naive enum follows the table's order */
+            const char *pn = rt_sim_repl_name(c->repl);
+            static const char *const names[] = {"lru", "fifo", "random", "plru", "srrip", "brrip", "opt"};
+            for (int p = 0; p < 7; p++)
+                if (!strcmp(pn, names[p])) nv->pol = pol_of[p];
+            nv->below = k + 1 < hc.nlevels;
+            naive_put(nv, in, nin);
+            if (flush) naive_flush(nv);
+            for (int cls = 0; cls < RT_NCLASS; cls++)
+                for (int g = -1; g < RT_MAXGEN; g++) {
+                    rt_sim_counts x, y;
+                    if (g < 0) rt_sim_get(s, i, cls, &x);
+                    else rt_sim_get_gen(s, i, cls, g, &x);
+                    naive_get(nv, cls, g, &y);
+                    if (g < 0 && k == hc.nlevels - 1 && i == c->nsizes - 1) last_traffic += x.traffic_bytes;
+                    CHECK(same(&x, &y), "%s: level %s size %llu class %s gen %d: engine acc %llu rm %llu wm %llu wb %llu, "
+                          "naive acc %llu rm %llu wm %llu wb %llu", spec, hc.name[k], (unsigned long long)c->sizes[i],
+                          rt_class_name(cls), g, (unsigned long long)x.accesses, (unsigned long long)x.read_misses,
+                          (unsigned long long)x.write_misses, (unsigned long long)x.writebacks,
+                          (unsigned long long)y.accesses, (unsigned long long)y.read_misses,
+                          (unsigned long long)y.write_misses, (unsigned long long)y.writebacks);
+                }
+            if (nv->below) down = nv;
+            else naive_free(nv);
+        }
+        if (down) { /* the next level's input */
+            free(keep);
+            keep = down->out;
+            down->out = NULL;
+            in = keep;
+            nin = down->nout;
+            CHECK(nin > 0, "%s: level %s sent nothing down", spec, hc.name[k]);
+            naive_free(down);
+        }
+    }
+    CHECK(last_traffic > 0, "%s: no DRAM traffic", spec);
+    free(keep);
+    rt_hier_free(h);
+}
+
+static void test_hier(const capture *tr, size_t ntr)
+{
+    enum { N = 20000 };
+    rt_access *a = malloc(N * sizeof *a);
+    static const char *const specs[] = {
+        "L1=2K/2/64/lru,LLC=1K-64K/full/64/lru",
+        "L1=1K/full/64/lru,L2=4K/4/64/srrip,LLC=4K-32K/full/64/lru",
+        "L1=1K/4/32/fifo,L2=8K/8/64/plru,L3=16K/16/128/brrip,MEM=32K+64K/4/128/random",
+        "L1=2K/2/64/lru/wt,L2=8K/4/64/lru/nwa,LLC=16K/full/64/lru",
+        "L1=2K/4/64/lru,LLC=4K-16K/4/64/opt",
+        "LLC=1K-8K/full/64/lru",
+    };
+    for (size_t sp = 0; sp < sizeof specs / sizeof specs[0]; sp++)
+        for (int flush = 0; flush < 2; flush++) {
+            gen(a, N, (int)(sp + flush) % 3, 800);
+            compare_hier(specs[sp], flush, a, N);
+            compare_hier(specs[sp], flush, tr[flush % ntr].a, tr[flush % ntr].n < 15000 ? tr[flush % ntr].n : 15000);
+        }
+    free(a);
+    /* a one-level hierarchy is the plain simulator */
+    rt_sim_config base;
+    rt_sim_config_default(&base);
+    rt_hier_config hc;
+    CHECK(rt_hier_parse("LLC=1K-4M/full/64/lru", &base, &hc, NULL) == 0, "one level");
+    CHECK(hc.nlevels == 1 && hc.level[0].nsizes == 13 && !memcmp(hc.level[0].sizes, base.sizes, sizeof base.sizes),
+          "one level = the paper's sizes");
+    rt_hier *h = rt_hier_new(&hc, NULL);
+    CHECK(h && !strcmp(rt_sim_engine(rt_hier_level(h, 0)), "exact-stack"), "one-level LRU is the stack engine");
+    rt_hier_free(h);
+    /* the brief's spec as written */
+    char buf[512];
+    rt_err e = {0};
+    CHECK(rt_hier_parse("L1=32K/8/64/lru,L2=1M/16/64/srrip,LLC=1K-4M/full/64/lru", &base, &hc, &e) == 0, "spec: %s", e.msg);
+    CHECK(!strcmp(rt_hier_spec(&hc, buf, sizeof buf), "L1=32K/8/64/lru,L2=1M/16/64/srrip,LLC=1K-4M/full/64/lru"),
+          "spec round trip: %s", buf);
+    CHECK(hc.nlevels == 3 && hc.level[0].assoc == 8 && hc.level[1].sizes[0] == 1u << 20 && hc.level[2].nsizes == 13,
+          "spec fields");
+    /* errors name the level and the field */
+    static const char *const bad[][2] = {
+        {"L1=32K/8/64", "fields"},          {"L1=1K-4K/full/64/lru,L2=1M/16/64/lru", "only the last level"},
+        {"L1=32K/x/64/lru", "ways"},        {"L1=32K/8/64/belady", "unknown replacement policy"},
+        {"L1=32K/8/64/lru,L1=1M/full/64/lru", "repeats"}, {"L1=32K/8/64/lru/zz", "unknown flag"},
+        {"A=1K/1/64/lru,B=1K/1/64/lru,C=1K/1/64/lru,D=1K/1/64/lru,E=1K/1/64/lru", "more than 4"},
+        {"L1=48K/full/64/plru,L2=1M/full/64/lru", "power-of-two"}, {"=1K/1/64/lru", "NAME="},
+        {"L1=32K/8/64/opt,L2=1M/full/64/lru", "cannot feed"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        memset(&e, 0, sizeof e);
+        int rc = rt_hier_parse(bad[i][0], &base, &hc, &e);
+        if (rc == 0) {
+            rt_hier *x = rt_hier_new(&hc, &e);
+            rc = x ? 0 : -1;
+            rt_hier_free(x);
+        }
+        CHECK(rc < 0 && strstr(e.msg, bad[i][1]), "bad spec %s: '%s' (want %s)", bad[i][0], e.msg, bad[i][1]);
+    }
+}
+
 static void test_names(void)
 {
     int r = 99;
@@ -640,6 +816,7 @@ int main(void)
     test_against_naive("plru", P_PLRU, tr, 2);
     test_against_naive("srrip", P_SRRIP, tr, 2);
     test_against_naive("brrip", P_BRRIP, tr, 2);
+    test_hier(tr, 2);
     test_opt_brute();
     test_opt_floor(tr, 2);
     /* OPT against its naive reference (a forward scan for each next use):
