@@ -58,6 +58,20 @@ done
 "$bin" sim --repl random --seed 5 --sizes 128 "$tmp/abaca.din" > "$tmp/r1.txt" || die "--repl random --seed"
 "$bin" sim --repl random --seed 5 --sizes 128 "$tmp/abaca.din" | cmp -s - "$tmp/r1.txt" || die "--repl random: same seed, different output"
 
+# --hierarchy: L1 = the 1K cache above (68 misses, 17 write-backs) sends
+# 68 fetches + 17 write-backs down; a 2K last level holds all 17 lines:
+# 17 read misses, the write-backs hit
+"$bin" sim --hierarchy L1=1K/full/64/lru,LLC=1K+2K/full/64/lru "$tmp/cyc.din" > "$tmp/h.txt" || die "--hierarchy exit $?"
+grep -E '^L1 +1024 +64 +full lru +fb +68 +51 +17 +17 +0 +5440$' "$tmp/h.txt" >/dev/null || { die "hierarchy L1 row"; cat "$tmp/h.txt"; }
+grep -E '^LLC +2048 +64 +full lru +fb +85 +17 +0 +0 +0 +1088$' "$tmp/h.txt" >/dev/null || { die "hierarchy LLC row"; cat "$tmp/h.txt"; }
+grep -q 'hierarchy L1=1K/full/64/lru,LLC=1K+2K/full/64/lru, policy wb-wa' "$tmp/h.txt" || die "hierarchy header: $(head -1 "$tmp/h.txt")"
+"$bin" sim --hierarchy L1=1K/full/64/lru,LLC=2K/full/64/lru --format csv "$tmp/cyc.din" | grep -q ',LLC,2048,64,0,lru,other,85,17,0,0,0,1088$' || die "hierarchy csv"
+"$bin" sim --hierarchy L1=1K/full/64/lru,LLC=2K/full/64/lru --format json "$tmp/cyc.din" | grep -q '"level": "LLC", "size_bytes": 2048' || die "hierarchy json"
+"$bin" sim --hierarchy L1=1K/full/64/lru,LLC=2K/full/64/lru --flush "$tmp/cyc.din" | grep -E '^LLC +2048 .* fb +85 +17 +0 +17 ' >/dev/null || die "hierarchy --flush"
+"$bin" sim --hierarchy L1=1K/full/64 "$tmp/cyc.din" >/dev/null 2>"$tmp/err"; [ $? -eq 2 ] || die "bad --hierarchy must be a usage error"
+grep -q 'hierarchy level L1' "$tmp/err" || die "bad --hierarchy message: $(cat "$tmp/err")"
+"$bin" sim --hierarchy LLC=2K/full/64/lru --sizes 1K "$tmp/cyc.din" >/dev/null 2>&1; [ $? -eq 2 ] || die "--sizes with --hierarchy must be a usage error"
+
 # database: storing twice keeps one run
 "$bin" sim --db "$tmp/r.db" "$tmp/cyc.din" 2>"$tmp/err" || die "sim --db exit"
 grep -q 'refs' "$tmp/err" || die "summary line on stderr"
