@@ -272,6 +272,8 @@ static void touch(rt_sa *c, uint64_t L, int w, unsigned cg, uint32_t bytes, uint
     c->wr[cg] += w != 0;
     c->sw[cg] += w == RT_WRITE_STREAM;
     uint32_t x = (s->head != NIL && sl[s->head].line == L) ? s->head : h_find(c, L);
+    uint64_t wbline = UINT64_MAX; /* a dirty victim's line, written back at the end */
+    unsigned wbcg = 0;
     if (x != NIL) {
         if (c->ops) {
             rt_repl_set rs = repl_set(c, set);
@@ -298,7 +300,8 @@ static void touch(rt_sa *c, uint64_t L, int w, unsigned cg, uint32_t bytes, uint
             x = c->ops ? (uint32_t)(set * c->assoc + c->ops->victim(&rs)) : s->tail;
             if (sl[x].dirty) {
                 c->wb[sl[x].wcg]++;
-                emit(c, sl[x].line * c->line, c->line, 1, sl[x].wcg);
+                wbline = sl[x].line; /* sent down after the fetch, as Dinero IV does */
+                wbcg = sl[x].wcg;
             }
             if (!c->ops) unlink_slot(c, s, x);
             h_delete(c, sl[x].line);
@@ -319,6 +322,7 @@ static void touch(rt_sa *c, uint64_t L, int w, unsigned cg, uint32_t bytes, uint
             sl[x].wcg = (uint8_t)cg;
         }
     }
+    if (wbline != UINT64_MAX) emit(c, wbline * c->line, c->line, 1, wbcg);
 }
 
 void rt_sa_put(rt_sa *c, const rt_access *a, size_t n)
@@ -362,22 +366,26 @@ void rt_sa_set_fullline(rt_sa *c, int on) { c->fullline = on != 0; }
 
 void rt_sa_flush(rt_sa *c)
 {
-    if (c->ops) {
-        for (uint64_t s = 0; s < c->nsets; s++)
-            for (uint64_t x = s * c->assoc; x < s * c->assoc + c->sets[s].used; x++)
+    /* Dinero IV's order (misc.c d4copyback pushes set by set, most recent
+     * first, onto a stack the level below then pops): sets from the last,
+     * within a set the least recent line first (with a policy: the last way
+     * first). Only the order the level below sees depends on it. */
+    for (uint64_t s = c->nsets; s-- > 0;) {
+        if (c->ops) {
+            for (uint64_t x = s * c->assoc + c->sets[s].used; x-- > s * c->assoc;)
                 if (c->slots[x].dirty) {
                     c->wb[c->slots[x].wcg]++;
                     emit(c, c->slots[x].line * c->line, c->line, 1, c->slots[x].wcg);
                     c->slots[x].dirty = 0;
                 }
-    } else {
-        for (uint64_t s = 0; s < c->nsets; s++)
-            for (uint32_t x = c->sets[s].head; x != NIL; x = c->slots[x].next)
+        } else {
+            for (uint32_t x = c->sets[s].tail; x != NIL; x = c->slots[x].prev)
                 if (c->slots[x].dirty) {
                     c->wb[c->slots[x].wcg]++;
                     emit(c, c->slots[x].line * c->line, c->line, 1, c->slots[x].wcg);
                     c->slots[x].dirty = 0;
                 }
+        }
     }
     if (c->below) out_flush(c);
 }

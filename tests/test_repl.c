@@ -171,6 +171,8 @@ static void naive_touch(naive *n, uint64_t L, int wr, int cls, int g, uint64_t b
     n->now++;
     c->accesses++;
     uint64_t i;
+    way wb;
+    int haswb = 0;
     for (i = 0; i < n->ways; i++)
         if (s[i].valid && s[i].tag == L) break;
     if (i == n->ways) { /* miss */
@@ -189,7 +191,8 @@ static void naive_touch(naive *n, uint64_t L, int wr, int cls, int g, uint64_t b
             i = naive_victim(n, s, bit);
             if (s[i].dirty) {
                 n->c[s[i].wcls][s[i].wgen].writebacks++;
-                naive_emit(n, s[i].tag * n->line, n->line, 1, s[i].wcls, s[i].wgen);
+                wb = s[i]; /* goes down after the fetch and the written-through bytes (Dinero IV's order) */
+                haswb = 1;
             }
         }
         if (!nofetch) naive_emit(n, L * n->line, n->line, 0, cls, g);
@@ -208,6 +211,7 @@ static void naive_touch(naive *n, uint64_t L, int wr, int cls, int g, uint64_t b
         if (n->wt) c->wt_bytes += bytes, naive_emit(n, lo, bytes, 1, cls, g);
         else s[i].dirty = 1, s[i].wcls = (uint8_t)cls, s[i].wgen = (uint8_t)g;
     }
+    if (haswb) naive_emit(n, wb.tag * n->line, n->line, 1, wb.wcls, wb.wgen);
 }
 
 static void naive_put(naive *n, const rt_access *a, size_t cnt)
@@ -249,22 +253,22 @@ static void naive_put(naive *n, const rt_access *a, size_t cnt)
     }
 }
 
-/* The end-of-run flush, set by set; within a set LRU goes from the most
- * recently used line down, the other policies way by way (the order a
- * level below sees the write-backs in). */
+/* The end-of-run flush in Dinero IV's order: sets from the last; within a
+ * set LRU goes from the least recently used line up, the other policies
+ * from the last way down (the order a level below sees the write-backs in). */
 static void naive_flush(naive *n)
 {
-    for (uint64_t st = 0; st < n->nsets; st++) {
+    for (uint64_t st = n->nsets; st-- > 0;) {
         way *s = n->w + st * n->ways;
         for (uint64_t done = 0; done < n->ways; done++) {
-            uint64_t k = done;
-            if (n->pol == P_LRU) { /* the done-th most recent valid way */
+            uint64_t k = n->ways - 1 - done;
+            if (n->pol == P_LRU) { /* the done-th least recent valid way */
                 k = n->ways;
                 for (uint64_t i = 0; i < n->ways; i++) {
                     if (!s[i].valid) continue;
-                    uint64_t newer = 0;
-                    for (uint64_t j = 0; j < n->ways; j++) newer += s[j].valid && s[j].used > s[i].used;
-                    if (newer == done) k = i;
+                    uint64_t older = 0;
+                    for (uint64_t j = 0; j < n->ways; j++) older += s[j].valid && s[j].used < s[i].used;
+                    if (older == done) k = i;
                 }
                 if (k == n->ways) break;
             }
