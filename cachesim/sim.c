@@ -164,7 +164,7 @@ void rt_sim_repeats(rt_sim *s, rt_repeats *out)
     /* the one-pass LRU engine; and an LRU write-allocate level of a
      * hierarchy (a repeat is a hit on the most recent line of its set) */
     int level = s->cfg.feeds_below && s->cfg.repl == 0 && !s->cfg.no_write_allocate && s->eng->repeats;
-    if (!(s->eng->caps & RT_ENG_REPEATS) && !level) return;
+    if (!((s->eng->caps & RT_ENG_REPEATS) && !s->cfg.no_write_allocate) && !level) return;
     out->line = s->cfg.line;
     out->add = sim_add_repeats;
     out->ctx = s;
