@@ -122,6 +122,10 @@ static uint32_t line_id(opt *o, uint64_t line, rt_err *e)
     return o->nid++;
 }
 
+/* Whether every size runs in one pass (run_onepass): fully associative,
+ * write-back, write-allocate, at most 255 sizes of group index. */
+static int opt_onepass(const rt_sim_config *c) { return c->assoc == 0 && !c->write_through && !c->no_write_allocate; }
+
 static uint64_t opt_state_bytes(const rt_sim_config *c)
 {
     (void)c;
@@ -217,10 +221,12 @@ typedef struct fwd {
     uint32_t *slot;  /* line id -> slot, NONE = not resident */
 } fwd;
 
-/* key order with ties broken by the lower slot, so the choice is deterministic */
+/* key order; ties (lines never used again) go to the lower line id, the
+ * line seen first: a priority that does not depend on the size, so MIN
+ * stays a stack algorithm and the one-pass run gives the same numbers */
 static inline int above(const fwd *f, uint32_t a, uint32_t b)
 {
-    return f->key[a] > f->key[b] || (f->key[a] == f->key[b] && a < b);
+    return f->key[a] > f->key[b] || (f->key[a] == f->key[b] && f->line[a] < f->line[b]);
 }
 
 static void sift_up(fwd *f, uint32_t *h, uint32_t i)
@@ -339,6 +345,182 @@ static int run_size(opt *o, int si, rt_err *e)
     return 0;
 }
 
+/* ---- every size in one pass (fully associative, write-back, write-allocate) ----
+ *
+ * MIN with a size-independent priority (next use, then line id) is a stack
+ * algorithm (Mattson et al. 1970): the cache of size C_j holds a subset of
+ * the one of size C_{j+1}. So, as msim does for LRU, the lines are kept in
+ * groups G_0 .. G_{k-1} (S_j = G_0 u .. u G_j is cache j's content), each a
+ * max-heap by priority. A touch of a line x in group i (i = k: in no
+ * cache) hits in sizes >= i and misses below; x moves to G_0; S_0's victim
+ * is the top of G_0, and going up, the victim of S_j is the farther of the
+ * victim carried from S_{j-1} and the top of G_j (which then swap: the
+ * top leaves S_j, the carried line stays in it); the last victim lands in
+ * G_i, or leaves every cache when i = k. A level not yet full takes the
+ * carried line and no eviction happens above it. O(i log) a touch.
+ * Dirty bits per line and size (bit j: dirty in cache j), as in msim:
+ * leaving S_j with bit j set is a write-back of size j.
+ */
+typedef struct one {
+    uint32_t *key, *pos, *dirty;
+    uint8_t *grp, *wcg;
+    uint32_t *heap[RT_SIM_MAXSIZES];
+    uint32_t n[RT_SIM_MAXSIZES], cap[RT_SIM_MAXSIZES];
+} one;
+
+static inline int oabove(const one *g, uint32_t a, uint32_t b)
+{
+    return g->key[a] > g->key[b] || (g->key[a] == g->key[b] && a < b);
+}
+
+static void o_up(one *g, int j, uint32_t i)
+{
+    uint32_t *h = g->heap[j], x = h[i];
+    while (i > 0) {
+        uint32_t p = (i - 1) / 2;
+        if (!oabove(g, x, h[p])) break;
+        h[i] = h[p];
+        g->pos[h[i]] = i;
+        i = p;
+    }
+    h[i] = x;
+    g->pos[x] = i;
+}
+
+static void o_down(one *g, int j, uint32_t i)
+{
+    uint32_t *h = g->heap[j], n = g->n[j], x = h[i];
+    for (;;) {
+        uint32_t c = 2 * i + 1;
+        if (c >= n) break;
+        if (c + 1 < n && oabove(g, h[c + 1], h[c])) c++;
+        if (!oabove(g, h[c], x)) break;
+        h[i] = h[c];
+        g->pos[h[i]] = i;
+        i = c;
+    }
+    h[i] = x;
+    g->pos[x] = i;
+}
+
+static void o_push(one *g, int j, uint32_t x)
+{
+    g->heap[j][g->n[j]] = x;
+    g->grp[x] = (uint8_t)j;
+    o_up(g, j, g->n[j]++);
+}
+
+static void o_remove(one *g, int j, uint32_t x)
+{
+    uint32_t i = g->pos[x], last = g->heap[j][--g->n[j]];
+    if (i == g->n[j]) return;
+    g->heap[j][i] = last;
+    g->pos[last] = i;
+    o_up(g, j, i);
+    o_down(g, j, g->pos[last]);
+}
+
+static int run_onepass(opt *o, rt_err *e)
+{
+    const rt_sim_config *c = &o->cfg;
+    const int k = c->nsizes;
+    one g = {0};
+    uint32_t nid = o->nid ? o->nid : 1;
+    g.key = rt_calloc(nid, sizeof *g.key, e);
+    g.pos = rt_calloc(nid, sizeof *g.pos, e);
+    g.dirty = rt_calloc(nid, sizeof *g.dirty, e);
+    g.grp = rt_calloc(nid, 1, e);
+    g.wcg = rt_calloc(nid, 1, e);
+    int ok = g.key && g.pos && g.dirty && g.grp && g.wcg;
+    for (int j = 0; j < k && ok; j++) {
+        g.cap[j] = (uint32_t)((c->sizes[j] - (j ? c->sizes[j - 1] : 0)) / c->line);
+        ok = (g.heap[j] = rt_calloc(g.cap[j], sizeof *g.heap[j], e)) != NULL;
+    }
+    /* misses by group: hist[cg][kind][g], kind 0 read, 1 write that fetches, 2 write without a fetch */
+    uint64_t(*hist)[3][RT_SIM_MAXSIZES + 1] = ok ? rt_calloc(RT_SIM_NCG, sizeof *hist, e) : NULL;
+    uint64_t(*wb)[RT_SIM_NCG] = ok ? rt_calloc((size_t)k, sizeof *wb, e) : NULL;
+    uint64_t acc[RT_SIM_NCG] = {0}, wr[RT_SIM_NCG] = {0};
+    int rc = -1;
+    if (!hist || !wb) goto out;
+    memset(g.grp, k, nid);
+    const uint32_t all = k == 32 ? UINT32_MAX : (1u << k) - 1;
+    const int fl = c->write_miss_fullline;
+    for (uint64_t t = 0; t < o->nt; t++) {
+        const otouch *tc = &o->t[t];
+        uint32_t x = tc->id;
+        unsigned cg = tc->cg, w = tc->w;
+        int i = g.grp[x];
+        acc[cg]++;
+        wr[cg] += w != 0;
+        hist[cg][w == 0 ? 0 : (w == RT_WRITE_STREAM || (fl && tc->bytes == c->line)) ? 2 : 1][i]++;
+        if (i < k) o_remove(&g, i, x);
+        g.key[x] = tc->next;
+        uint32_t carry = NONE;
+        if (i == 0) o_push(&g, 0, x);
+        for (int j = 0; j < i; j++) {
+            uint32_t full = g.n[j] == g.cap[j];
+            if (j == 0) {
+                if (full) carry = g.heap[0][0], o_remove(&g, 0, carry);
+                o_push(&g, 0, x);
+                if (!full) break;
+            } else {
+                if (!full) { /* room: the carried line stays in S_j, nothing above is evicted */
+                    o_push(&g, j, carry);
+                    carry = NONE;
+                    break;
+                }
+                if (oabove(&g, g.heap[j][0], carry)) {
+                    uint32_t top = g.heap[j][0];
+                    o_remove(&g, j, top);
+                    o_push(&g, j, carry);
+                    carry = top;
+                }
+            }
+            if (g.dirty[carry] >> j & 1) { /* carry leaves cache j */
+                wb[j][g.wcg[carry]]++;
+                g.dirty[carry] &= ~(1u << j);
+            }
+        }
+        if (carry != NONE) {
+            if (i < k) o_push(&g, i, carry);
+            else g.grp[carry] = (uint8_t)k;
+        }
+        if (w) {
+            g.dirty[x] = all;
+            g.wcg[x] = (uint8_t)cg;
+        }
+    }
+    if (c->flush)
+        for (uint32_t x = 0; x < o->nid; x++)
+            for (int j = g.grp[x]; j < k; j++)
+                if (g.dirty[x] >> j & 1) wb[j][g.wcg[x]]++;
+    for (int j = 0; j < k; j++) {
+        ocount *q = &o->cnt[j];
+        memset(q, 0, sizeof *q);
+        for (int cg = 0; cg < RT_SIM_NCG; cg++) {
+            q->acc[cg] = acc[cg];
+            q->wr[cg] = wr[cg];
+            q->wb[cg] = wb[j][cg];
+            for (int gi = j + 1; gi <= k; gi++) {
+                q->rm[cg] += hist[cg][0][gi];
+                q->wm[cg] += hist[cg][1][gi] + hist[cg][2][gi];
+                q->nf[cg] += hist[cg][2][gi];
+            }
+        }
+    }
+    rc = 0;
+out:
+    free(hist);
+    free(wb);
+    for (int j = 0; j < k; j++) free(g.heap[j]);
+    free(g.key);
+    free(g.pos);
+    free(g.dirty);
+    free(g.grp);
+    free(g.wcg);
+    return rc;
+}
+
 static void opt_finish(void *st, int flush)
 {
     (void)flush; /* cfg.flush, applied inside each size's pass */
@@ -357,12 +539,16 @@ static void opt_finish(void *st, int flush)
         last[o->t[i].id] = (uint32_t)i;
     }
     free(last);
-    for (int s = 0; s < o->cfg.nsizes; s++)
-        if (run_size(o, s, &e)) {
-            o->oom = 1;
-            return;
-        }
-    o->done = 1;
+    if (opt_onepass(&o->cfg)) {
+        if (run_onepass(o, &e)) o->oom = 1;
+    } else {
+        for (int s = 0; s < o->cfg.nsizes; s++)
+            if (run_size(o, s, &e)) {
+                o->oom = 1;
+                return;
+            }
+    }
+    o->done = !o->oom;
 }
 
 static void opt_counts(const void *st, int i, int cls, int gen, rt_sim_counts *out)

@@ -139,13 +139,17 @@ static uint64_t naive_victim(naive *n, way *s, uint8_t *bit)
 {
     if (n->pol == P_RANDOM) return naive_rand(n, n->ways);
     if (n->pol == P_PLRU) return plru_find(n, bit);
-    if (n->pol == P_OPT) { /* the line used again last, or never (the first such way) */
-        uint64_t best = 0, bestd = 0;
+    if (n->pol == P_OPT) { /* the line used again last; among those never used again, the one seen first */
+        uint64_t best = 0, bestd = 0, bestfirst = UINT64_MAX;
         for (uint64_t i = 0; i < n->ways; i++) {
             uint64_t d = n->now; /* touches are numbered from 1: fut[now - 1] is the current one */
             while (d < n->nfut && n->fut[d].line != s[i].tag) d++;
-            if (d == n->nfut) return i;
-            if (d > bestd) best = i, bestd = d;
+            if (d == n->nfut) {
+                uint64_t first = 0;
+                while (n->fut[first].line != s[i].tag) first++;
+                if (bestd != n->nfut || first < bestfirst) best = i, bestfirst = first;
+                bestd = n->nfut;
+            } else if (d > bestd) best = i, bestd = d;
         }
         return best;
     }
@@ -724,6 +728,7 @@ static void test_hier(const capture *tr, size_t ntr)
         "L1=1K/4/32/fifo,L2=8K/8/64/plru,L3=16K/16/128/brrip,MEM=32K+64K/4/128/random",
         "L1=2K/2/64/lru/wt,L2=8K/4/64/lru/nwa,LLC=16K/full/64/lru",
         "L1=2K/4/64/lru,LLC=4K-16K/4/64/opt",
+        "L1=2K/4/64/lru,LLC=4K-32K/full/64/opt",
         "LLC=1K-8K/full/64/lru",
     };
     for (size_t sp = 0; sp < sizeof specs / sizeof specs[0]; sp++)
@@ -770,6 +775,53 @@ static void test_hier(const capture *tr, size_t ntr)
         }
         CHECK(rc < 0 && strstr(e.msg, bad[i][1]), "bad spec %s: '%s' (want %s)", bad[i][0], e.msg, bad[i][1]);
     }
+}
+
+/* OPT's one-pass run (fully associative, every size at once) against its
+ * per-size run (a one-set cache of the same size with ways = lines), all
+ * counters, with and without the flush and full-line writes. */
+static void test_opt_onepass(const capture *tr)
+{
+    enum { N = 30000 };
+    rt_access *a = malloc(N * sizeof *a);
+    for (int v = 0; v < 4; v++) {
+        const rt_access *x = a;
+        size_t n = N;
+        if (v < 3) gen(a, N, v, 400 + 300 * (uint64_t)v);
+        else x = tr->a, n = tr->n;
+        rt_sim_config c;
+        rt_sim_config_default(&c);
+        CHECK(rt_sim_parse_sizes("1K-32K", &c, NULL) == 0, "sizes");
+        c.repl = repl_of("opt");
+        c.flush = v & 1;
+        c.write_miss_fullline = v >> 1 & 1;
+        rt_sim *all = rt_sim_new(&c, NULL);
+        rt_sim_put(all, x, n);
+        rt_sim_finish(all);
+        for (int i = 0; i < c.nsizes; i++) {
+            rt_sim_config d = c;
+            d.nsizes = 1;
+            d.sizes[0] = c.sizes[i];
+            d.assoc = (uint32_t)(c.sizes[i] / c.line); /* one set: the per-size pass */
+            rt_sim *one = rt_sim_new(&d, NULL);
+            rt_sim_put(one, x, n);
+            rt_sim_finish(one);
+            for (int k = 0; k < RT_NCLASS; k++)
+                for (int g = -1; g < RT_MAXGEN; g++) {
+                    rt_sim_counts p, q;
+                    if (g < 0) rt_sim_get(all, i, k, &p), rt_sim_get(one, 0, k, &q);
+                    else rt_sim_get_gen(all, i, k, g, &p), rt_sim_get_gen(one, 0, k, g, &q);
+                    CHECK(same(&p, &q), "opt one-pass v%d size %llu class %s gen %d: rm %llu/%llu wm %llu/%llu wb %llu/%llu",
+                          v, (unsigned long long)c.sizes[i], rt_class_name(k), g, (unsigned long long)p.read_misses,
+                          (unsigned long long)q.read_misses, (unsigned long long)p.write_misses,
+                          (unsigned long long)q.write_misses, (unsigned long long)p.writebacks,
+                          (unsigned long long)q.writebacks);
+                }
+            rt_sim_free(one);
+        }
+        rt_sim_free(all);
+    }
+    free(a);
 }
 
 static void test_names(void)
@@ -822,6 +874,7 @@ int main(void)
     test_against_naive("brrip", P_BRRIP, tr, 2);
     test_hier(tr, 2);
     test_opt_brute();
+    test_opt_onepass(&tr[1]);
     test_opt_floor(tr, 2);
     /* OPT against its naive reference (a forward scan for each next use):
      * short streams, the scan is quadratic */
