@@ -453,10 +453,18 @@ static int run_onepass(opt *o, rt_err *e)
         acc[cg]++;
         wr[cg] += w != 0;
         hist[cg][w == 0 ? 0 : (w == RT_WRITE_STREAM || (fl && tc->bytes == c->line)) ? 2 : 1][i]++;
+        if (i == 0) { /* a hit in every size: only x's priority grows (its key was now, the least) */
+            g.key[x] = tc->next;
+            o_up(&g, 0, g.pos[x]);
+            if (w) {
+                g.dirty[x] = all;
+                g.wcg[x] = (uint8_t)cg;
+            }
+            continue;
+        }
         if (i < k) o_remove(&g, i, x);
         g.key[x] = tc->next;
         uint32_t carry = NONE;
-        if (i == 0) o_push(&g, 0, x);
         for (int j = 0; j < i; j++) {
             uint32_t full = g.n[j] == g.cap[j];
             if (j == 0) {
