@@ -251,6 +251,7 @@ static int store(rt_db *db, const char *path, const rt_approx *ap, const rt_tr_m
     r.refs = in->refs;
     r.command = rt_cmd_line();
     r.wall_time = secs;
+    r.repl = c->repl ? rt_sim_repl_name(c->repl) : NULL; /* the run key's replacement policy */
     int64_t id = 0;
     /* an empty trace measured nothing: storing it would look like a result */
     if (in->refs == 0) {
@@ -458,15 +459,6 @@ static int check_applies(const sim_opts *o)
             rt_cmd_error("sim", "--hierarchy needs --method exact");
             return -1;
         }
-        if (o->db) {
-            rt_cmd_error("sim", "--db does not store hierarchies yet; --hierarchy results are printed");
-            return -1;
-        }
-    }
-    if (o->db && o->cfg.repl) {
-        rt_cmd_error("sim", "--db stores LRU runs only for now; --repl %s is printed, not stored",
-                     rt_sim_repl_name(o->cfg.repl));
-        return -1;
     }
     if (o->db && (o->given >> O_FMT & 1)) {
         rt_cmd_error("sim", "--format applies to printed output, not to --db (which stores runs)");
@@ -571,10 +563,65 @@ static void print_hier(FILE *f, int fmt, const char *trace, const rt_hier *h, in
     }
 }
 
+/* Stores one hierarchy run: the run keyed by its canonical spec (and the
+ * last level's replacement policy), the last level's rows as its traffic
+ * (what reaches memory; per generation too when the trace has them) and
+ * per-level rows. */
+static int store_hier(rt_db *db, const char *path, const rt_hier *h, const rt_tr_meta *m, const rt_sim_input *in,
+                      double secs, int din_class, rt_err *e)
+{
+    const rt_hier_config *hc = rt_hier_get_config(h);
+    const rt_sim *last = rt_hier_level(h, hc->nlevels - 1);
+    const rt_sim_config *lc = &hc->level[hc->nlevels - 1];
+    if (in->refs == 0) return rt_errf(e, "%s: no references in the trace; nothing stored", path);
+    rt_exp_key k;
+    if (in->has_meta) {
+        memset(&k, 0, sizeof k);
+        rt_exp_run_from_meta(m, &k.run);
+    } else {
+        rt_exp_run_from_din(path, din_class, in->file_hash, &k);
+    }
+    rt_approx_config ac;
+    rt_approx_config_default(&ac);
+    ac.method = RT_APPROX_EXACT;
+    rt_exp_key_method(&k, &ac);
+    char spec[1024];
+    rt_db_run r = k.run;
+    r.trace_hash = in->file_hash;
+    r.refs = in->refs;
+    r.command = rt_cmd_line();
+    r.wall_time = secs;
+    r.repl = lc->repl ? rt_sim_repl_name(lc->repl) : NULL;
+    r.hierarchy = rt_hier_spec(hc, spec, sizeof spec);
+    rt_db_traffic *rows = calloc((size_t)lc->nsizes * RT_NCLASS, sizeof *rows);
+    rt_db_level *lv = calloc(rt_hier_db_level_max(h), sizeof *lv);
+    rt_db_gen *grows = NULL;
+    size_t ng = 0;
+    int rc = -1;
+    if (in->has_meta && m->generations > 0 &&
+        (grows = calloc((size_t)lc->nsizes * RT_NCLASS * RT_MAXGEN, sizeof *grows)))
+        ng = rt_sim_db_gen_rows(last, grows);
+    if (!rows || !lv || (in->has_meta && m->generations > 0 && !grows)) rt_errf(e, "out of memory");
+    else {
+        size_t n = rt_sim_db_rows(last, rows), nl = rt_hier_db_level_rows(h, lv);
+        rt_db_rows R = {rows, n, grows, ng, NULL, 0, lv, nl};
+        int64_t id = 0;
+        rc = rt_db_store(db, &r, &R, &id, e);
+        if (rc == 0)
+            fprintf(stderr, "raytraffic sim: %s: %llu refs in %.2f s, hierarchy %s, %zu rows, %zu level rows, run %lld\n",
+                    path, (unsigned long long)in->refs, secs, spec, n, nl, (long long)id);
+    }
+    free(rows);
+    free(lv);
+    free(grows);
+    return rc;
+}
+
 /* Replays one trace through the hierarchy and prints it. 0 or -1 (printed). */
-static int sim_hier(const sim_opts *o, const char *path, rt_tr_meta *meta, int *first)
+static int sim_hier(const sim_opts *o, rt_db *db, const char *path, rt_tr_meta *meta, int *first)
 {
     rt_err err = {0};
+    double t0 = rt_now();
     rt_hier *h = rt_hier_new(&o->hc, &err);
     rt_sim_input in;
     int rc = -1;
@@ -584,8 +631,11 @@ static int sim_hier(const sim_opts *o, const char *path, rt_tr_meta *meta, int *
         rt_hier_repeats(h, &rp);
         if (rt_sim_replay_filtered(rt_hier_sink(h), &rp, path, o->infmt, o->din_class, o->threads, meta, &in, &err) == 0) {
             rt_hier_finish(h);
-            print_hier(stdout, o->outfmt, path, h, first);
-            rc = 0;
+            if (db) rc = store_hier(db, path, h, meta, &in, rt_now() - t0, o->din_class, &err);
+            else {
+                print_hier(stdout, o->outfmt, path, h, first);
+                rc = 0;
+            }
         }
     }
     if (rc < 0) rt_cmd_error("sim", "%s", err.msg);
@@ -637,7 +687,7 @@ int main_sim(int argc, char **argv)
         return RT_EXIT_FAIL;
     }
     int status = RT_EXIT_OK, first = 1;
-    if (o.hier && o.outfmt == FMT_CSV)
+    if (!db && o.hier && o.outfmt == FMT_CSV)
         printf("trace,level,size_bytes,line,assoc,repl,class,accesses,read_misses,write_misses,writebacks,wt_bytes,"
                "traffic_bytes\n");
     else if (!db && o.outfmt == FMT_CSV)
@@ -645,7 +695,7 @@ int main_sim(int argc, char **argv)
                "traffic_bytes%s\n", has_se(&o.ac) ? ",traffic_se_bytes" : "");
     if (!db && o.outfmt == FMT_JSON) printf("[");
     for (int a = optind; a < argc; a++)
-        if ((o.hier ? sim_hier(&o, argv[a], meta, &first) : sim_one(&o, db, argv[a], meta, &first)) < 0)
+        if ((o.hier ? sim_hier(&o, db, argv[a], meta, &first) : sim_one(&o, db, argv[a], meta, &first)) < 0)
             status = RT_EXIT_FAIL;
     if (!db && o.outfmt == FMT_JSON) printf("\n]\n");
     free(meta);

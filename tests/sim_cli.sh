@@ -72,6 +72,18 @@ grep -q 'hierarchy L1=1K/full/64/lru,LLC=1K+2K/full/64/lru, policy wb-wa' "$tmp/
 grep -q 'hierarchy level L1' "$tmp/err" || die "bad --hierarchy message: $(cat "$tmp/err")"
 "$bin" sim --hierarchy LLC=2K/full/64/lru --sizes 1K "$tmp/cyc.din" >/dev/null 2>&1; [ $? -eq 2 ] || die "--sizes with --hierarchy must be a usage error"
 
+# --repl and --hierarchy runs are stored with their dimensions: the run key
+# holds repl and the canonical spec, level_traffic one row per level, size
+# and class; the traffic rows are the last level's
+"$bin" sim --db "$tmp/hr.db" --repl fifo --sizes 128 "$tmp/abaca.din" 2>/dev/null || die "sim --db --repl fifo"
+"$bin" sim --db "$tmp/hr.db" --sizes 128 "$tmp/abaca.din" 2>/dev/null || die "sim --db lru"
+"$bin" sim --db "$tmp/hr.db" --hierarchy L1=1K/full/64/lru,LLC=1K+2K/full/64/lru "$tmp/cyc.din" 2>/dev/null || die "sim --db --hierarchy"
+[ "$(sqlite3 "$tmp/hr.db" "select repl || '|' || hierarchy from runs order by id" | tr '\n' ' ')" = \
+  "fifo| lru| lru|L1=1K/full/64/lru,LLC=1K+2K/full/64/lru " ] || die "stored repl/hierarchy: $(sqlite3 "$tmp/hr.db" 'select repl, hierarchy from runs')"
+[ "$(sqlite3 "$tmp/hr.db" "select read_misses from traffic t join cache_configs c on c.id = t.config_id join runs r on r.id = t.run_id where r.repl = 'fifo'")" = 4 ] || die "fifo run's traffic row"
+[ "$(sqlite3 "$tmp/hr.db" "select level || ':' || level_name || ':' || cache_size || ':' || accesses || ':' || misses || ':' || traffic_bytes from level_traffic order by level, cache_size" | tr '\n' ' ')" = \
+  "1:L1:1024:68:68:5440 2:LLC:1024:85:68:5440 2:LLC:2048:85:17:1088 " ] || die "level rows: $(sqlite3 "$tmp/hr.db" 'select * from level_traffic')"
+
 # database: storing twice keeps one run
 "$bin" sim --db "$tmp/r.db" "$tmp/cyc.din" 2>"$tmp/err" || die "sim --db exit"
 grep -q 'refs' "$tmp/err" || die "summary line on stderr"
