@@ -17,6 +17,7 @@
 #include "rayq.h"
 
 #include <inttypes.h>
+#include <signal.h>
 
 #define NQ 7
 #define MAXE 4096
@@ -383,6 +384,34 @@ static void test_config(void)
     rt_rq_free(&rq);
 }
 
+/* RT_ASSERT: compiled away in a plain build (the condition is not even
+ * evaluated); in a checking build (--enable-sanitizers, --enable-debug) a
+ * broken contract aborts: a queue link corrupted under rt_rq_push. */
+static void test_assert(void)
+{
+    int x = 0;
+    RT_ASSERT(++x == 1);
+    CHECK(x == RT_ASSERTS_ON, "RT_ASSERT evaluated its condition %d times (asserts %s)", x,
+          RT_ASSERTS_ON ? "on" : "off");
+    if (!RT_ASSERTS_ON) return;
+    fflush(NULL);
+    pid_t pid = fork();
+    if (pid == 0) {
+        rt_rq rq;
+        const rt_rq_config cfg = {"assert", 2, 4, 4, 8, RT_RQ_FULLEST, 0, 0};
+        if (rt_rq_init(&rq, &cfg, NULL) < 0) _exit(3);
+        uint64_t at;
+        rt_rq_push(&rq, 0, &at);
+        rq.bk_head[1] = -1; /* queue 0 no longer heads its bucket: the next push's unlink asserts */
+        (void)freopen("/dev/null", "w", stderr);
+        rt_rq_push(&rq, 0, &at);
+        _exit(0);
+    }
+    int st = 0;
+    CHECK(pid > 0 && waitpid(pid, &st, 0) == pid, "fork/wait");
+    CHECK(WIFSIGNALED(st) && WTERMSIG(st) == SIGABRT, "a broken queue link did not abort (status %d)", st);
+}
+
 int main(void)
 {
     test_model(RT_RQ_FULLEST);
@@ -393,5 +422,6 @@ int main(void)
     test_batches();
     test_corrupt();
     test_config();
+    test_assert();
     return failures ? 1 : 0;
 }
