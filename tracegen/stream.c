@@ -59,7 +59,9 @@
  * ray between kernel invocations, S4-S5 between passes, S6 at the end):
  *   S1  state: a ray is in ST_TRAV (its cell c is the iterator's current
  *       cell, c.id < ncells), ST_ISECT (lpos is a list word of c's list,
- *       list[lpos] != RT_GRID_NULL) or ST_DONE, and nothing else;
+ *       list[lpos] != RT_GRID_NULL) or ST_DONE, and nothing else; a ray is
+ *       finished only when done, except a branching eye ray that missed
+ *       the grid's box (finished at once: no step taken, no hit);
  *   S2  closest rays: h is the best hit (the hit rule of accel/hit.h) of
  *       the triangles tested so far whose t lies in the cell they were
  *       tested in (widened by tol); a ray is done with a hit only when no
@@ -406,7 +408,7 @@ static void ray_stats(st_run *S, const st_ray *r)
  * tracer the kernels are charged by the passes (charge_kernels = 0). */
 static void finish_closest(st_run *S, st_ray *r, uint32_t slot, st_vec *shadows, st_vec *children, int charge_kernels)
 {
-    RT_ASSERT(r->kind == ST_CLOSEST && r->state == ST_DONE); /* S1 */
+    RT_ASSERT(r->kind == ST_CLOSEST && (r->state == ST_DONE || (r->nstep == 0 && r->h.tri == RT_NO_HIT))); /* S1 */
     const rt_render_opts *o = S->o;
     const int hit = r->h.tri != RT_NO_HIT;
     ray_stats(S, r);
