@@ -171,6 +171,7 @@ static uint32_t select_walk(const rt_kdtree *kd, const uint64_t *g, const int32_
             continue;
         }
         top++;
+        RT_ASSERT(sp + 2 <= (int)(sizeof stack / sizeof stack[0])); /* the tree's depth bounds the walk */
         stack[sp++] = rt_kd_above(nd); /* below first: depth-first order */
         stack[sp++] = i + 1;
     }
@@ -282,6 +283,7 @@ static void pack_top(const rt_kdtree *kd, dplan *P)
         P->topid[i] = (int32_t)id++;
         const rt_kdnode *n = &kd->nodes[i];
         if (P->qp[i] >= 0 || !P->hastris[i] || rt_kd_is_leaf(n)) continue;
+        RT_ASSERT(sp + 2 <= (int)(sizeof stack / sizeof stack[0])); /* the tree's depth bounds the walk */
         stack[sp++] = rt_kd_above(n);
         stack[sp++] = i + 1;
     }
@@ -476,6 +478,7 @@ static inline uint32_t interior_step(const rt_kdnode *nd, uint32_t node, const r
     const int step = rt_kd_step(tp, tmin, *tmax, &near_end, &far_start);
     if (step == RT_KD_NEAR) return nearc;
     if (step == RT_KD_FAR) return farc;
+    RT_ASSERT(*sp < RT_KD_STACK); /* a tree no deeper than RT_KD_STACK: no far child is dropped */
     if (*sp < RT_KD_STACK) {
         stack[*sp].node = farc;
         stack[*sp].t0 = far_start;

@@ -616,6 +616,7 @@ static inline void push(tl_run *T, tray *R, const rt_bvh_ref *x, uint32_t tl)
     if (R->sp == R->cap && grow(T, R) < 0) return;
     if (R->mem > R->sp) R->mem = R->sp; /* that position's memory copy is stale */
     R->stk[R->sp++] = (sent){x->a, x->n, x->t, tl};
+    RT_ASSERT(R->sp <= T->stack_bound); /* T4: the modeled stack area holds it */
     if (R->sp > T->max_sp) T->max_sp = R->sp;
 }
 
