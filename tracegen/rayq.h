@@ -153,7 +153,8 @@ typedef int (*rt_rq_step_fn)(void *user, uint32_t q);
 /* Processes queues until all are empty or a step says stop: the fullest
  * queue first (ties: the queue last made that full) or, in tree order,
  * every non-empty queue by number, round after round. Returns the last
- * step's value (0 when the queues emptied). */
+ * step's value (0 when the queues emptied; the caller's end-of-generation
+ * check sees rays left queued should Q3/Q4 be broken). */
 int rt_rq_run(rt_rq *rq, rt_rq_step_fn step, void *user);
 
 /* ---- batch stack -------------------------------------------------------------- */
