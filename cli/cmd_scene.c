@@ -75,18 +75,14 @@ static void json_vec(const char *key, rt_vec3 v, int comma)
  * advanced), 0 not one of them, -1 usage error (printed). */
 static int view_opt(int argc, char **argv, int *i, rt_render_opts *o)
 {
-    static const struct {
-        const char *name;
-        int code;
-    } vo[] = {{"--look-at", RT_OPT_LOOK_AT}, {"--fov", RT_OPT_FOV}, {"--light", RT_OPT_LIGHT}};
+    static const char *const vo[] = {"--look-at", "--fov", "--light"};
     for (size_t k = 0; k < sizeof vo / sizeof vo[0]; k++) {
-        if (strcmp(argv[*i], vo[k].name)) continue;
+        if (strcmp(argv[*i], vo[k])) continue;
         if (*i + 1 >= argc) {
-            rt_cmd_error("scene", "%s needs a value", vo[k].name);
+            rt_cmd_error("scene", "%s needs a value", vo[k]);
             return -1;
         }
-        const char *tracer = NULL;
-        if (rt_cmd_render_opt("scene", vo[k].code, argv[++*i], o, &tracer) < 0) return -1;
+        if (rt_cmd_render_opt_named("scene", vo[k], argv[++*i], o) < 0) return -1;
         return 1;
     }
     return 0;

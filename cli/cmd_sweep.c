@@ -91,11 +91,13 @@ static void usage(FILE *f)
             "  --lights LIST      comma list of lightings: primary, 0, 1, 2, all\n"
             "  --modes LIST       comma list of render modes: raycast, shadow (default: the\n"
             "                     lighting list as it is, primary = raycast), whitted, path\n"
-            "                     (these two run the lightings with lights, primary skipped)\n"
-            "  --depth N, --spp N, --bounces B  whitted / path parameters (see render --help)\n"
+            "                     (these two run the lightings with lights, primary skipped)\n");
+    rt_cmd_render_help_line(f, "--depth");
+    fprintf(f,
             "  --sizes LIST       cache sizes: 1K-4M (powers of two) or 1K,64K,...\n"
-            "  --line N           line size in bytes (default 64)\n"
-            "  -W N, -H N         image size (overrides the preset and a .pbrt scene's Film)\n"
+            "  --line N           line size in bytes (default 64)\n");
+    rt_cmd_render_help_line(f, "--width");
+    fprintf(f,
             "  --db FILE          results database (default raytraffic.db)\n"
             "  --jobs N           worker processes (default 1)\n"
             "  --keep-traces DIR  also write every job's trace to DIR\n"
@@ -111,30 +113,30 @@ static void usage(FILE *f)
             "  --proxy LIST       also run reduced experiments of every job (exact simulation,\n"
             "                     compared with the full run by report --speed-error): comma\n"
             "                     list of res:N (N pixels wide, same aspect) and sub:K[:T]\n"
-            "                     (trace 1 in K tiles of TxT pixels, T default 8)\n"
-            "  --qorder O, --threads N, --hit-rule R, --qp-measure M  dynamic scheduler options\n"
-            "                     (see render --help)\n"
-            "  --treelet-tris, --ray-window N  treelet scheduler options (see render --help)\n"
+            "                     (trace 1 in K tiles of TxT pixels, T default 8)\n");
+    rt_cmd_render_help_line(f, "--qorder");
+    rt_cmd_render_help_line(f, "--treelet-tris");
+    fprintf(f,
             "  --model M          lean (default: compact layout, write-allocate queue stores,\n"
             "                     no flush, no full-line rule) or paper (pbrt layout; Dinero\n"
             "                     IV's printed accounting: flush + full-line writes); sets the\n"
-            "                     defaults of:\n"
-            "  --layout L         geometry layout, compact | mesh | pbrt | pbrt64\n"
-            "  --queue-stores S   dynamic: write-allocate | stream (streaming stores)\n"
+            "                     defaults of:\n");
+    rt_cmd_render_help_line(f, "--layout");
+    rt_cmd_render_help_line(f, "--queue-stores");
+    fprintf(f,
             "  --flush, --no-flush  write back the dirty lines at the end (Dinero IV)\n"
             "  --write-fullline, --no-write-fullline  a write miss covering its line fetches\n"
-            "                     nothing (Dinero IV)\n"
-            "  --look-at EX,EY,EZ,AX,AY,AZ[,UX,UY,UZ], --fov DEGREES, --light X,Y,Z[,POWER]\n"
-            "                     every scene's camera and lights (see render --help; in the\n"
-            "                     run key when given)\n"
-            "  --accel A, --grid-min N, --grid-density L, --record-stores S, --vb-size S\n"
-            "                     acceleration structure, feedback / stream tracer options\n"
-            "                     (see render --help; in the run key when not the tracer's default)\n"
+            "                     nothing (Dinero IV)\n");
+    rt_cmd_render_help_line(f, "--look-at");
+    rt_cmd_render_help_line(f, "--accel");
+    fprintf(f,
             "  --accels LIST      sweep structures too: comma list of kd, bvh2, bvh4, bvh8,\n"
             "                     grid, naive; each tracer runs on those of the list it can\n"
             "                     (its default structure keeps the run key of a plain run)\n"
             "  --list-jobs        print one self-contained command per job and exit\n"
-            "  --job K            run only job K (0-based) of the matrix\n"
+            "  --job K            run only job K (0-based) of the matrix\n");
+    rt_cmd_render_help_rest(f, RT_OC_SWEEP); /* table options without a place above */
+    fprintf(f,
             "  -h, --help         this help\n\n"
             "Jobs of the stream and feedback tracers also simulate the texture cache of\n"
             "Purcell et al. 2002 (65520 B, 48-byte lines, direct-mapped; report --figure purcell).\n"
@@ -304,7 +306,7 @@ static int parse_accels(sweep_opts *o, const rt_tracer *const *trs)
     rt_exp_config *x = &o->x;
     char *items[MAX_LIST];
     if (!o->lists[6]) return 0;
-    if (x->ro.given & (1u << RT_RO_ACCEL)) {
+    if (rt_render_opt_given(&x->ro, rt_render_opt_find("--accel"))) {
         rt_cmd_error("sweep", "--accel and --accels together: give the structures in --accels");
         return -1;
     }
@@ -356,9 +358,9 @@ static void on_progress(void *ctx, long d, long s, long nj, double t0)
 enum { O_PRESET = 1, O_SCENES, O_TRACERS, O_LIGHTS, O_SIZES, O_LINE, O_DB, O_JOBS, O_KEEP, O_DYNALL, O_LIST, O_JOB,
        O_APPROX, O_PROXY, O_MODES, O_MODEL, O_FLUSH, O_NOFLUSH, O_FULLLINE, O_NOFULLLINE, O_ACCELS, O_NOERR };
 
-/* The command's own options, then the shared render options it takes
- * (-W/-H and the dynamic ones; --lights is its own, a list of lightings). */
-static const struct option sweep_longopts[] = {
+/* The command's own options; the table's render options for sweep follow
+ * them in sweep_longopts (--lights is its own, a list of lightings). */
+static const struct option sweep_own[] = {
     {"preset", required_argument, NULL, O_PRESET},
     {"scenes", required_argument, NULL, O_SCENES},
     {"tracers", required_argument, NULL, O_TRACERS},
@@ -381,31 +383,12 @@ static const struct option sweep_longopts[] = {
     {"no-flush", no_argument, NULL, O_NOFLUSH},
     {"write-fullline", no_argument, NULL, O_FULLLINE},
     {"no-write-fullline", no_argument, NULL, O_NOFULLLINE},
-    {"layout", required_argument, NULL, RT_OPT_LAYOUT},
-    {"queue-stores", required_argument, NULL, RT_OPT_QUEUE_STORES},
     {"help", no_argument, NULL, 'h'},
-    {"depth", required_argument, NULL, RT_OPT_DEPTH},
-    {"spp", required_argument, NULL, RT_OPT_SPP},
-    {"bounces", required_argument, NULL, RT_OPT_BOUNCES},
-    {"qorder", required_argument, NULL, RT_OPT_QORDER},
-    {"hit-rule", required_argument, NULL, RT_OPT_HIT_RULE},
-    {"qp-measure", required_argument, NULL, RT_OPT_QP_MEASURE},
-    {"threads", required_argument, NULL, RT_OPT_THREADS},
-    {"packet", required_argument, NULL, RT_OPT_PACKET},
-    {"accel", required_argument, NULL, RT_OPT_ACCEL},
-    {"grid-min", required_argument, NULL, RT_OPT_GRID_MIN},
-    {"grid-density", required_argument, NULL, RT_OPT_GRID_DENSITY},
-    {"record-stores", required_argument, NULL, RT_OPT_RECORD_STORES},
-    {"vb-size", required_argument, NULL, RT_OPT_VB_SIZE},
-    {"look-at", required_argument, NULL, RT_OPT_LOOK_AT},
-    {"fov", required_argument, NULL, RT_OPT_FOV},
-    {"light", required_argument, NULL, RT_OPT_LIGHT},
-    {"treelet-tris", no_argument, NULL, RT_OPT_TREELET_TRIS},
-    {"ray-window", required_argument, NULL, RT_OPT_RAY_WINDOW},
-    {"width", required_argument, NULL, 'W'},
-    {"height", required_argument, NULL, 'H'},
     {NULL, 0, NULL, 0},
 };
+
+/* sweep_own and the table's entries for sweep, built once. */
+static struct option *sweep_longopts;
 
 /* The first word sh_quote met with a control character (a newline there
  * would end a job line early), or NULL. */
@@ -553,17 +536,18 @@ static int parse_opt(sweep_opts *o, int c, const char *arg)
     rt_err e = {0};
     const char *dummy = NULL;
     long v;
-    if (c == 'W' || c == 'H') {
+    int id = rt_cmd_opt_index(c);
+    const char *name = id >= 0 ? rt_render_opt_name(id) : "";
+    if (!strcmp(name, "--width") || !strcmp(name, "--height")) {
         rt_render_opts tmp = o->x.ro;
         if (rt_cmd_render_opt("sweep", c, arg, &tmp, &dummy) < 0) return -1;
-        if (c == 'W') o->W = tmp.W; else o->H = tmp.H;
+        if (name[2] == 'w') o->W = tmp.W; else o->H = tmp.H;
         return 0;
     }
-    if (c == RT_OPT_DEPTH) o->mode_opt[0] = "--depth";
-    if (c == RT_OPT_SPP) o->mode_opt[1] = "--spp";
-    if (c == RT_OPT_BOUNCES) o->mode_opt[1] = "--bounces";
-    if (c == RT_OPT_LAYOUT) o->geom_given = 1;
-    if (c == RT_OPT_QUEUE_STORES) o->qs_given = 1;
+    if (!strcmp(name, "--depth")) o->mode_opt[0] = "--depth";
+    if (!strcmp(name, "--spp") || !strcmp(name, "--bounces")) o->mode_opt[1] = name;
+    if (!strcmp(name, "--layout")) o->geom_given = 1;
+    if (!strcmp(name, "--queue-stores")) o->qs_given = 1;
     int r = rt_cmd_render_opt("sweep", c, arg, &o->x.ro, &dummy);
     if (r != 0) return r < 0 ? -1 : 0;
     switch (c) {
@@ -766,6 +750,10 @@ static int parse_args(int argc, char **argv, sweep_opts *o)
     }
     int c;
     optind = 1;
+    if (!sweep_longopts && !(sweep_longopts = rt_cmd_longopts(RT_OC_SWEEP, sweep_own))) {
+        rt_cmd_error("sweep", "out of memory");
+        return -1;
+    }
     while ((c = getopt_long(argc, argv, "hW:H:", sweep_longopts, NULL)) != -1) {
         int r = parse_opt(o, c, optarg);
         if (r) return r;
