@@ -708,6 +708,14 @@ static int finish_opts(sweep_opts *o)
         rt_cmd_error("sweep", "--lights: expected a comma list of primary, 0, 1, 2, all");
         return -1;
     }
+    for (int l = 0; l < x->nlightings; l++) { /* with --light, only the lights given exist */
+        rt_render_opts t = x->ro;
+        t.lights_named = strcmp(x->lightings[l].label, "all") ? x->lightings[l].mask : 0;
+        if (rt_render_check_lights(&t, &e) < 0) {
+            rt_cmd_error("sweep", "%s", e.msg);
+            return -1;
+        }
+    }
     if (parse_modes(o) < 0) return -1;
     if (o->sizes_arg && rt_sim_parse_sizes(o->sizes_arg, &x->sim, &e) < 0) {
         rt_cmd_error("sweep", "--sizes: %s", e.msg);

@@ -654,7 +654,7 @@ const rt_render_optdef rt_render_optdefs[] = {
     {"--threads", 0, "N", RT_OPTG_SCHED, ALL, "threads", p_threads, NULL,
      "dynamic: modeled threads, 2 rays buffered each (default 4)", "", "2"},
     {"--mode", 0, "M", 0, RT_OC_RUN, "mode", p_mode, NULL,
-     "raycast | shadow | whitted | path (default shadow with lights," H "else raycast)", NULL, "raycast"},
+     "raycast | shadow | whitted | path (default shadow with lights," H "else raycast)", NULL, "shadow"},
     {"--depth", 0, "N", 0, ALL, "depth", p_depth, NULL,
      "whitted: ray generations per path, primary included (1..64, 5)",
      "  --depth N, --spp N, --bounces B  whitted / path parameters (see render --help)\n", "3"},
@@ -697,6 +697,12 @@ const rt_render_optdef rt_render_optdefs[] = {
      "  --treelet-tris, --ray-window N  treelet scheduler options (see render --help)\n", NULL},
     {"--ray-window", 0, "N", RT_OPTG_TREELET, ALL, "ray_window", p_ray_window, NULL,
      "treelet: rays in flight per generation, e.g. 64K (default all)", "", "64K"},
+#ifdef RT_OPTDEFS_EXAMPLE
+    /* tests/options_cli.sh builds the front end with this one entry more and
+     * finds it in render, trace and sweep, their --help and the refusal */
+    {"--example-edge", 0, "N", RT_OPTG_PACKET, RT_OC_RUN | RT_OC_SWEEP, "packet", p_packet, NULL,
+     "packet: the packet edge again (an entry the tests add)", NULL, "4"},
+#endif
 };
 #undef ALL
 #undef H
@@ -716,15 +722,18 @@ int rt_render_opt_find(const char *name)
 const char *rt_render_opt_name(int id) { return id >= 0 && id < rt_render_noptdefs ? rt_render_optdefs[id].name : NULL; }
 unsigned rt_render_opt_group(int id) { return id >= 0 && id < rt_render_noptdefs ? rt_render_optdefs[id].group : 0; }
 
-int rt_render_optdefs_check(rt_err *e)
+int rt_render_optdefs_check(rt_err *e) { return rt_render_optdefs_check_table(rt_render_optdefs, rt_render_noptdefs, e); }
+
+int rt_render_optdefs_check_table(const rt_render_optdef *t, int n, rt_err *e)
 {
-    for (int i = 0; i < rt_render_noptdefs; i++) {
-        const rt_render_optdef *d = &rt_render_optdefs[i];
+    if (n > 64) return rt_errf(e, "%d options: more than 64 (4)", n);
+    for (int i = 0; i < n; i++) {
+        const rt_render_optdef *d = &t[i];
         if (!d->name || strncmp(d->name, "--", 2) || !d->name[2]) return rt_errf(e, "option %d: a name '--NAME' (1)", i);
         for (int j = 0; j < i; j++) {
-            if (!strcmp(rt_render_optdefs[j].name, d->name)) return rt_errf(e, "%s: declared twice (1)", d->name);
-            if (d->short_name && rt_render_optdefs[j].short_name == d->short_name)
-                return rt_errf(e, "%s: short name -%c taken by %s (2)", d->name, d->short_name, rt_render_optdefs[j].name);
+            if (!strcmp(t[j].name, d->name)) return rt_errf(e, "%s: declared twice (1)", d->name);
+            if (d->short_name && t[j].short_name == d->short_name)
+                return rt_errf(e, "%s: short name -%c taken by %s (2)", d->name, d->short_name, t[j].name);
         }
         if (!d->parse && strcmp(d->name, "--tracer")) return rt_errf(e, "%s: no parser (3)", d->name);
         if (d->help && !d->help[0]) return rt_errf(e, "%s: empty help (5)", d->name);

@@ -143,8 +143,10 @@ int rt_render_opt_find(const char *name);
 /* "--packet" ... for an index, and its group. */
 const char *rt_render_opt_name(int id);
 unsigned rt_render_opt_group(int id);
-/* Checks the table's invariants: 0, or -1 naming the entry in e. */
+/* Checks the table's invariants: 0, or -1 naming the entry and the
+ * invariant's number in e. The _table form checks any table (tests). */
 int rt_render_optdefs_check(rt_err *e);
+int rt_render_optdefs_check_table(const rt_render_optdef *t, int n, rt_err *e);
 
 /* The strict parsers every numeric option value goes through. A decimal
  * integer in lo..hi: a digit first (or '-' and a digit), nothing after it.
