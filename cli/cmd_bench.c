@@ -50,7 +50,7 @@ static void usage(FILE *f)
             "  --tracers LIST     comma list (default recursive,packet,dynamic)\n"
             "  --cache-size S     dynamic tracer's schedule (default 64K)\n"
             "  --what LIST        tracers,trace,sim,replay,approx,path-error,modes,identical,\n"
-            "                     embree,bvh,treelet\n"
+            "                     stream,embree,bvh,treelet\n"
             "                     (default tracers,trace,sim); replay: the exact simulator\n"
             "                     on --trace FILE, one and two threads, decoding included;\n"
             "                     approx: sampled simulators\n"

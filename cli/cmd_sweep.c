@@ -645,7 +645,7 @@ static int finish_opts(sweep_opts *o)
     }
     for (int t = 0; t < x->ntracers; t++)
         if (!rt_tracer_find(x->tracers[t])) {
-            rt_cmd_error("sweep", "--tracers: unknown tracer '%s'", x->tracers[t]);
+            rt_cmd_error("sweep", "--tracers: unknown tracer '%s' (%s)", x->tracers[t], rt_tracer_names());
             return -1;
         }
     /* options of one tracer are an error when no tracer swept reads them */

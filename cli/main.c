@@ -94,9 +94,9 @@ static void version(void)
 
 static int dispatch(int argc, char **argv)
 {
-    if (argc < 2) {
-        usage(stdout);
-        return RT_EXIT_OK;
+    if (argc < 2) { /* no command: a usage error, the usage on stderr */
+        usage(stderr);
+        return RT_EXIT_USAGE;
     }
     const char *name = argv[1];
     if (!strcmp(name, "--version") || !strcmp(name, "version")) {
