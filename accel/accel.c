@@ -22,6 +22,12 @@ const rt_accel_ops *const rt_accel_table[RT_ACCEL_NKINDS] = {
     [RT_ACCEL_BVH8] = &rt_accel_bvh8,
 };
 
+int rt_accel_bvh_width(int kind)
+{
+    static const int width[RT_ACCEL_NKINDS] = {[RT_ACCEL_BVH2] = 2, [RT_ACCEL_BVH4] = 4, [RT_ACCEL_BVH8] = 8};
+    return kind > 0 && kind < RT_ACCEL_NKINDS ? width[kind] : 0;
+}
+
 const char *rt_accel_name(int kind)
 {
     return kind > 0 && kind < RT_ACCEL_NKINDS && rt_accel_table[kind] ? rt_accel_table[kind]->name : NULL;

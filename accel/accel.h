@@ -110,6 +110,10 @@ int rt_accel_from_name(const char *name);
 /* The known names, comma separated ("kd, grid, naive"), for messages. */
 const char *rt_accel_names(void);
 
+/* The branching factor of a BVH kind (2, 4, 8), or 0 for the structures
+ * that are not BVHs: the one place that knows which kinds are which width. */
+int rt_accel_bvh_width(int kind);
+
 /* Builds kind over sc into *a (a->kind, ops, as, build_sec). 0, or -1 with
  * *a zeroed. */
 int rt_accel_build(rt_accel *a, int kind, const rt_scene *sc, const rt_accel_params *p, rt_err *e);

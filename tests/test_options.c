@@ -7,7 +7,9 @@
  * index --light did not define.
  */
 #include "check.h"
+#include "accel.h"
 #include "options.h"
+#include "scene_load.h"
 #include "run.h"
 #include "tracer.h"
 
@@ -162,8 +164,52 @@ static void lights(void)
     CHECK(rt_render_optdefs[li].parse(&o, "2", &e) == 0 && rt_render_check_lights(&o, &e) == 0, "scene lights: %s", e.msg);
 }
 
+/* The accel layer's lists: masks from names, BVH widths, surveys. */
+static void accel_lists(void)
+{
+    rt_err e = {0};
+    unsigned m = 0;
+    CHECK(rt_accel_parse_mask("kd,bvh4", &m, &e) == 0 && m == (RT_ACCEL_BIT(RT_ACCEL_KD) | RT_ACCEL_BIT(RT_ACCEL_BVH4)),
+          "kd,bvh4: %#x %s", m, e.msg);
+    CHECK(rt_accel_parse_mask("all", &m, &e) == 0 && m == 0x7e, "all: %#x", m);
+    CHECK(rt_accel_parse_mask("none", &m, &e) == 0 && m == 0, "none: %#x", m);
+    CHECK(rt_accel_parse_mask("kd,", &m, &e) < 0 && rt_accel_parse_mask("kd,nope", &m, &e) < 0 && strstr(e.msg, "nope") &&
+              rt_accel_parse_mask("", &m, &e) < 0 && rt_accel_parse_mask("default", &m, &e) < 0,
+          "bad lists accepted");
+    /* widths against the names ("bvhN"), a naive reference */
+    for (int k = 0; k <= RT_ACCEL_NKINDS; k++) {
+        const char *n = rt_accel_name(k);
+        int w = n && !strncmp(n, "bvh", 3) ? atoi(n + 3) : 0;
+        CHECK(rt_accel_bvh_width(k) == w, "kind %d (%s): width %d, the name says %d", k, n ? n : "-", rt_accel_bvh_width(k), w);
+    }
+    rt_scene *sc = rt_scene_load("cornell:glass=0", &e);
+    CHECK(sc != NULL, "%s", e.msg);
+    if (!sc) return;
+    rt_accel_survey_row rows[RT_ACCEL_NKINDS];
+    int n = rt_accel_survey(sc, RT_ACCEL_BIT(RT_ACCEL_BVH8) | RT_ACCEL_BIT(RT_ACCEL_KD), NULL, rows, &e);
+    CHECK(n == 2 && rows[0].kind == RT_ACCEL_KD && rows[1].kind == RT_ACCEL_BVH8 && rows[0].has_kd && !rows[1].has_kd,
+          "survey of kd and bvh8: %d rows, %s", n, e.msg);
+    /* cornell:glass=0's k-d tree (tests/render_cli.sh): 75 nodes, 38 leaves, 222 entries */
+    CHECK(n == 2 && rows[0].info.nodes == 75 && rows[0].kd_leaves == 38 && rows[0].kd_entries == 222 &&
+              rows[0].info.bytes == 8 * 75 + 4 * 222,
+          "kd row: %llu nodes %u leaves %u entries", (unsigned long long)rows[0].info.nodes, rows[0].kd_leaves,
+          rows[0].kd_entries);
+    for (int j = 0; j < n; j++) {
+        rt_accel a;
+        rt_accel_info inf;
+        CHECK(rt_accel_build(&a, rows[j].kind, sc, NULL, &e) == 0, "%s", e.msg);
+        rt_accel_info_of(&a, &inf);
+        CHECK(inf.nodes == rows[j].info.nodes && inf.bytes == rows[j].info.bytes && inf.depth == rows[j].info.depth,
+              "%s: the survey's footprint differs from a build's", rt_accel_name(rows[j].kind));
+        rt_accel_free(&a);
+    }
+    CHECK(rt_accel_survey(sc, 0, NULL, rows, &e) == 0, "an empty mask builds something");
+    rt_scene_free(sc);
+}
+
 int main(void)
 {
+    accel_lists();
     checker();
     examples();
     strict_numbers();
