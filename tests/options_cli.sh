@@ -5,8 +5,8 @@
 #     it in render, trace and sweep and lists it in their --help, and the
 #     tracers that do not read it refuse it; the plain binary knows nothing
 #     of it;
-#  2. every numeric option of render, trace and sweep refuses 0x10, ' 1',
-#     +2, 1e999 and nan (exit 2, the option named);
+#  2. every numeric option of render, trace, sweep, bench and trace-dump
+#     refuses 0x10, ' 1', +2, 1e999 and nan (exit 2, the option named);
 #  3. --lights refuses an index --light did not define;
 #  4. --look-at: a view direction not finite in single precision, and the
 #     scene's up along the view direction, are usage errors that say so.
@@ -59,6 +59,11 @@ for ent in $numeric; do
 done
 for b in 0x10 ' 1' +2 1e999 nan; do
     want 2 "trace --level '$b'" "$bin" trace cornell --level "$b" -o "$tmp/n.rtt"
+    want 2 "trace-dump --limit '$b'" "$bin" trace-dump --limit "$b" "$tmp/none.rtt"
+    for o in --reps --sim-refs --ref-spp; do
+        want 2 "bench $o '$b'" "$bin" bench "$o" "$b" --what sim --sim-refs 10
+        grep -q -- "$o" "$tmp/err" || die "bench $o '$b': message does not name it: $(cat "$tmp/err")"
+    done
     for o in --jobs --job --line -W --grid-density --threads; do
         want 2 "sweep $o '$b'" "$bin" sweep --scenes cornell --tracers dynamic,feedback "$o" "$b" --list-jobs
         grep -q -- "$o" "$tmp/err" || die "sweep $o '$b': message does not name it: $(cat "$tmp/err")"
