@@ -879,15 +879,17 @@ static int prepare_outputs(const sweep_opts *o)
 
 /* Every scene of the sweep loads, with the camera and lights of the
  * options applied: before --list-jobs prints a line or a sweep creates its
- * database. 0, or -1 (printed: the scene's own FILE:LINE message). */
+ * database. 0, -1 (a scene that does not load: the loader's FILE:LINE
+ * message printed) or -2 (the view does not fit the scene: a usage error). */
 static int check_scenes(const sweep_opts *o)
 {
     for (int i = 0; i < o->x.nscenes; i++) {
         rt_err e = {0};
         rt_scene *sc = rt_scene_load(o->x.scenes[i], &e);
         if (sc && rt_render_apply_view(&o->x.ro, sc, &e) < 0) {
+            rt_cmd_error("sweep", "%s: %s", o->x.scenes[i], e.msg);
             rt_scene_free(sc);
-            sc = NULL;
+            return -2;
         }
         if (!sc) {
             /* "a,b.obj" in --scenes is two specs: say where such a name goes */
@@ -928,7 +930,8 @@ static void remove_if_empty(const char *path)
 static int sweep_run(sweep_opts *o, const rt_exp_job *J, long nj)
 {
     struct stat sb;
-    if (check_scenes(o) < 0) return RT_EXIT_FAIL;
+    int cs = check_scenes(o);
+    if (cs < 0) return cs == -2 ? RT_EXIT_USAGE : RT_EXIT_FAIL;
     int existed = lstat(o->db, &sb) == 0;
     if (prepare_outputs(o) < 0) return RT_EXIT_FAIL;
     const rt_exp_config *x = &o->x;
@@ -972,7 +975,8 @@ int main_sweep(int argc, char **argv)
         rt_cmd_error("sweep", "--job %ld: the matrix has %ld jobs (0..%ld)", o.only, nj, nj - 1);
         rc = RT_EXIT_USAGE;
     } else if (o.list) {
-        rc = check_scenes(&o) < 0 ? RT_EXIT_FAIL : print_jobs(&o, nj, argc, argv) < 0 ? RT_EXIT_FAIL : RT_EXIT_OK;
+        int cs = check_scenes(&o);
+        rc = cs < 0 ? (cs == -2 ? RT_EXIT_USAGE : RT_EXIT_FAIL) : print_jobs(&o, nj, argc, argv) < 0 ? RT_EXIT_FAIL : RT_EXIT_OK;
     } else {
         rc = sweep_run(&o, J, nj);
     }

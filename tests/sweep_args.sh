@@ -53,6 +53,9 @@ printf 'Shape "nosuchshape"\n' > "$tmp/bad.pbrt"
 want 1 "--list-jobs, unloadable .pbrt" "$bin" sweep --scenes "$tmp/bad.pbrt" --list-jobs
 grep -q "bad.pbrt:1" "$tmp/err" || die "pbrt message lacks FILE:LINE: $(cat "$tmp/err")"
 want 0 "--list-jobs, good scenes" "$bin" sweep --scenes cornell,knot --tracers recursive --list-jobs
+want 2 "--list-jobs, a view along knot's up" "$bin" sweep --scenes cornell,knot --tracers recursive \
+    --look-at 0,0,12,0,0,0 --list-jobs
+grep -q "^raytraffic sweep: cornell: --look-at: the scene.s up vector" "$tmp/err" || die "view message: $(cat "$tmp/err")"
 
 # ---- 3. no empty database ---------------------------------------------------
 want 1 "sweep, unknown scene" "$bin" sweep --scenes nosuch --tracers recursive -W 8 -H 8 --db "$tmp/e.db"
