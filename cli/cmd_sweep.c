@@ -877,13 +877,15 @@ static int prepare_outputs(const sweep_opts *o)
     return 0;
 }
 
-/* Every scene of the sweep loads, with the camera and lights of the
- * options applied: before --list-jobs prints a line or a sweep creates its
- * database. 0, -1 (a scene that does not load: the loader's FILE:LINE
- * message printed) or -2 (the view does not fit the scene: a usage error). */
-static int check_scenes(const sweep_opts *o)
+/* Every scene of the sweep (with --job K, only that job's) loads, with the
+ * camera and lights of the options applied: before --list-jobs prints a
+ * line or a sweep creates its database. 0, -1 (a scene that does not load:
+ * the loader's FILE:LINE message printed) or -2 (the view does not fit the
+ * scene: a usage error). */
+static int check_scenes(const sweep_opts *o, const rt_exp_job *J)
 {
     for (int i = 0; i < o->x.nscenes; i++) {
+        if (o->only >= 0 && J[o->only].scene != i) continue;
         rt_err e = {0};
         rt_scene *sc = rt_scene_load(o->x.scenes[i], &e);
         if (sc && rt_render_apply_view(&o->x.ro, sc, &e) < 0) {
@@ -930,7 +932,7 @@ static void remove_if_empty(const char *path)
 static int sweep_run(sweep_opts *o, const rt_exp_job *J, long nj)
 {
     struct stat sb;
-    int cs = check_scenes(o);
+    int cs = check_scenes(o, J);
     if (cs < 0) return cs == -2 ? RT_EXIT_USAGE : RT_EXIT_FAIL;
     int existed = lstat(o->db, &sb) == 0;
     if (prepare_outputs(o) < 0) return RT_EXIT_FAIL;
@@ -975,7 +977,7 @@ int main_sweep(int argc, char **argv)
         rt_cmd_error("sweep", "--job %ld: the matrix has %ld jobs (0..%ld)", o.only, nj, nj - 1);
         rc = RT_EXIT_USAGE;
     } else if (o.list) {
-        int cs = check_scenes(&o);
+        int cs = check_scenes(&o, J);
         rc = cs < 0 ? (cs == -2 ? RT_EXIT_USAGE : RT_EXIT_FAIL) : print_jobs(&o, nj, argc, argv) < 0 ? RT_EXIT_FAIL : RT_EXIT_OK;
     } else {
         rc = sweep_run(&o, J, nj);

@@ -64,6 +64,11 @@ want 1 "sweep, a job failing in the database" env RT_SWEEP_FAIL_JOB=0:"$tmp/mark
     --tracers recursive --lights primary -W 8 -H 8 --db "$tmp/j.db"
 ls "$tmp"/j.db* >/dev/null 2>&1 && die "a failed sweep left $(ls "$tmp"/j.db*)"
 grep -q "removed the empty" "$tmp/err" || die "no word of the removed database: $(cat "$tmp/err")"
+want 0 "--job 0 loads only its own scene" "$bin" sweep --scenes cornell,nosuch --tracers recursive --lights primary \
+    -W 8 -H 8 --sizes 1K --job 0 --db "$tmp/j0.db"
+want 1 "--job 1 loads its bad scene" "$bin" sweep --scenes cornell,nosuch --tracers recursive --lights primary \
+    -W 8 -H 8 --sizes 1K --job 1 --db "$tmp/j1.db"
+[ -e "$tmp/j1.db" ] && die "--job 1 of a bad scene left its database"
 cp "$tmp/f.db" "$tmp/keep.db"
 want 1 "sweep into an existing database, unknown scene" "$bin" sweep --scenes nosuch --db "$tmp/keep.db"
 cmp -s "$tmp/f.db" "$tmp/keep.db" || die "the existing database changed"
