@@ -119,17 +119,45 @@ int rt_cmd_render_opt_named(const char *cmd, const char *name, const char *arg, 
     return i < 0 ? 0 : render_opt(cmd, i, arg, o, &tracer);
 }
 
+/* --tracer's help: the registered tracers (rt_tracer_all), " | " between
+ * them, and the default, wrapped at 80 columns. */
+static void tracer_help(char *buf, size_t n)
+{
+    char words[40][64];
+    int nw = 0;
+    for (int i = 0; rt_tracer_all[i] && nw < 37; i++)
+        snprintf(words[nw++], sizeof words[0], "%s%s", rt_tracer_all[i]->name, rt_tracer_all[i + 1] ? " |" : "");
+    snprintf(words[nw++], sizeof words[0], "(default");
+    snprintf(words[nw++], sizeof words[0], "%s)", rt_tracer_reference()->name);
+    size_t l = 0, col = 21;
+    buf[0] = 0;
+    for (int k = 0; k < nw && l < n; k++) {
+        size_t wl = strlen(words[k]);
+        const char *sep = "";
+        if (k == 0) col += wl;
+        else if (col + 1 + wl > 80) sep = "\n", col = 21 + wl;
+        else sep = " ", col += 1 + wl;
+        l += (size_t)snprintf(buf + l, n - l, "%s%s", sep, words[k]);
+    }
+}
+
 /* "  LABEL" padded to the help column (21), or two spaces after a longer
  * one, then the help lines, the later ones indented to the column. */
 static void print_entry(FILE *f, const rt_render_optdef *d)
 {
+    char gen[512];
+    const char *help = d->help;
+    if (!d->parse) { /* --tracer: the list comes from the tracers' table */
+        tracer_help(gen, sizeof gen);
+        help = gen;
+    }
     char label[128];
     if (d->label) snprintf(label, sizeof label, "%s", d->label);
     else if (d->short_name) snprintf(label, sizeof label, "-%c %s", d->short_name, d->arg ? d->arg : "");
     else snprintf(label, sizeof label, "%s%s%s", d->name, d->arg ? " " : "", d->arg ? d->arg : "");
     int w = fprintf(f, "  %s", label);
     fprintf(f, "%*s", w < 21 ? 21 - w : 2, "");
-    for (const char *p = d->help; *p; p++) {
+    for (const char *p = help; *p; p++) {
         fputc(*p, f);
         if (*p == '\n') fprintf(f, "%21s", "");
     }

@@ -45,6 +45,12 @@ want 2 "sweep without a reader refuses it" "$optx" sweep --scenes cornell --trac
 grep -q -- "--example-edge does not apply" "$tmp/err" || die "sweep refusal: $(cat "$tmp/err")"
 want 2 "the plain binary does not know it" "$bin" render cornell -t packet --example-edge 4 -o "$tmp/c.exr"
 
+# --help lists the tracers of the tracers' table, the ones an unknown -t names
+"$bin" render cornell -t nosuch -o "$tmp/x.exr" 2>&1 | sed -n 's/.*unknown tracer .nosuch. (\(.*\))$/\1/p' | tr -d ',' > "$tmp/tr"
+[ -s "$tmp/tr" ] || die "no tracer list in the unknown-tracer message"
+"$bin" render --help | sed -n '/^  -t TRACER/,/(default/p' > "$tmp/th"
+for t in $(cat "$tmp/tr"); do grep -q -- "$t" "$tmp/th" || die "render --help -t lacks $t: $(cat "$tmp/th")"; done
+
 # ---- 2. strict numbers ----------------------------------------------------
 # OPTION PREFIX SUFFIX: the bad word goes between prefix and suffix
 numeric="-W|| -H|| --packet|| --cache-size|| --gmax|| --subsample||:8 --threads|| --depth|| --spp|| --bounces||

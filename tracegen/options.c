@@ -607,9 +607,9 @@ static int p_ray_window(rt_render_opts *o, const char *arg, rt_err *e)
 #define H "\n" /* between help lines */
 
 const rt_render_optdef rt_render_optdefs[] = {
-    {"--tracer", 't', "TRACER", 0, RT_OC_RUN, NULL, NULL, NULL,
-     "recursive | packet | dynamic | stream-branching |" H "stream-multipass | feedback | treelet (default recursive)",
-     NULL, "recursive"},
+    /* --help lists the registered tracers here (cli/cmd_common.c, from rt_tracer_all) */
+    {"--tracer", 't', "TRACER", 0, RT_OC_RUN, NULL, NULL, NULL, "the tracer (default: the reference tracer)", NULL,
+     "recursive"},
     {"--width", 'W', "N", 0, ALL, NULL, p_width, "-W N, -H N",
      "image size in pixels (a .pbrt scene: its Film's by default;" H "one of them alone keeps the Film's aspect ratio)",
      "  -W N, -H N         image size (overrides the preset and a .pbrt scene's Film)\n", "32"},
