@@ -353,18 +353,18 @@ LONG_OPT(p_packet, "--packet", 1, 256, packet, "is not in 1..256")
 LONG_OPT(p_threads, "--threads", 1, 1024, threads, "is not in 1..1024")
 _Static_assert(RT_DEPTH_MAX == 64 && RT_SPP_MAX == 65536 && RT_BOUNCES_MAX == 1000, "messages above");
 
-static int p_size(int w, int h, rt_render_opts *o, const char *arg, rt_err *e)
+/* -W (w = 1) or -H: a given size is not taken from the scene's Film */
+static int p_size(int w, rt_render_opts *o, const char *arg, rt_err *e)
 {
     long v;
     if (rt_opt_parse_long(arg, 1, 65536, &v) < 0) return rt_errf(e, "-%c: '%s' is not an image size in 1..65536", w ? 'W' : 'H', arg);
-    (void)h;
     if (w) o->W = (int)v;
     else o->H = (int)v;
-    o->film &= w ? ~RT_FILM_W : ~RT_FILM_H; /* given: not from the scene's Film */
+    o->film &= w ? ~RT_FILM_W : ~RT_FILM_H;
     return 0;
 }
-static int p_width(rt_render_opts *o, const char *arg, rt_err *e) { return p_size(1, 0, o, arg, e); }
-static int p_height(rt_render_opts *o, const char *arg, rt_err *e) { return p_size(0, 1, o, arg, e); }
+static int p_width(rt_render_opts *o, const char *arg, rt_err *e) { return p_size(1, o, arg, e); }
+static int p_height(rt_render_opts *o, const char *arg, rt_err *e) { return p_size(0, o, arg, e); }
 
 static int p_lights(rt_render_opts *o, const char *arg, rt_err *e)
 {
