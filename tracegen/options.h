@@ -110,6 +110,8 @@ enum {
  *
  * Adding an option: a field in rt_render_opts (and its default in
  * rt_render_default_opts), a parser, one entry here. Nothing in cli/ changes.
+ * The table holds what a run renders with; the simulator's options
+ * (--sizes, --line, ...) stay sweep's and sim's own.
  */
 #define RT_OC_RENDER 1u /* render */
 #define RT_OC_TRACE 2u  /* trace */
