@@ -315,7 +315,7 @@ static int tl_plan(const rt_tracer_ctx *ctx, void **out, rt_err *e)
 {
     const rt_bvh *b = ctx->acc->as;
     *out = NULL;
-    if (!b || ctx->acc->kind < RT_ACCEL_BVH2 || ctx->acc->kind > RT_ACCEL_BVH8)
+    if (!b || !rt_accel_bvh_width(ctx->acc->kind))
         return rt_errf(e, "treelet: runs on a BVH only (internal error)");
     tplan *P = rt_calloc(1, sizeof *P, e);
     if (!P) return -1;
@@ -1387,7 +1387,7 @@ static int tl_check_opts(const rt_render_opts *o, rt_err *e)
     const char *opt;
     const uint64_t budget = tl_budget(o, &opt);
     const int k = rt_tracer_accel(&rt_tracer_treelet, o);
-    const int width = k == RT_ACCEL_BVH2 ? 2 : k == RT_ACCEL_BVH8 ? 8 : 4;
+    const int width = rt_accel_bvh_width(k) ? rt_accel_bvh_width(k) : 4; /* the default, bvh4, before the check */
     const uint32_t ns = rt_bvh_node_size(width);
     if (budget < ns)
         return rt_errf_usage(e, "%s: a treelet budget of %" PRIu64 " bytes%s is smaller than one %u-byte bvh%d node", opt,
