@@ -34,10 +34,12 @@ static void usage(FILE *f)
             "  --level N          zlib level 0..9 (default %d)\n"
             "  --no-sample        write format version 1/2, without the sample index that\n"
             "                     lets `sim --method hybrid` skip the records (about 10%%\n"
-            "                     smaller; docs/trace-format.md)\n" RT_RENDER_OPTS_HELP
-            "                     (trace defaults: -W 512 -H 512, --lights none)\n"
-            "  -h, --help         this help\n",
+            "                     smaller; docs/trace-format.md)\n",
             RT_TR_DEFAULT_LEVEL);
+    rt_cmd_render_help(f, RT_OC_TRACE);
+    fprintf(f,
+            "                     (trace defaults: -W 512 -H 512, --lights none)\n"
+            "  -h, --help         this help\n");
 }
 
 enum { OPT_LEVEL = 2000, OPT_NO_SAMPLE };
@@ -66,10 +68,11 @@ int main_trace(int argc, char **argv)
         usage(stdout);
         return RT_EXIT_OK;
     }
-    struct option *lo = rt_cmd_merge_opts(own);
+    struct option *lo = rt_cmd_longopts(RT_OC_TRACE, own);
+    char so[32];
     if (!lo) return RT_EXIT_FAIL;
     optind = 1;
-    while ((c = getopt_long(argc, argv, "o:h" RT_RENDER_SHORTOPTS, lo, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, rt_cmd_shortopts(RT_OC_TRACE, "o:h", so, sizeof so), lo, NULL)) != -1) {
         int r = rt_cmd_render_opt("trace", c, optarg, &o, &tracer);
         if (r < 0) goto usage_err;
         if (r > 0) continue;
