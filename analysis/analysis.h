@@ -207,6 +207,12 @@ int rt_report_shadows(const rt_report *R, const char *scene, FILE *out, rt_err *
  * stream). Nothing to show is an error. */
 int rt_report_tidy(const rt_report *R, const char *figure, int json, const char *dir, FILE *log, FILE *out, rt_err *e);
 
+/* Splits a CSV report of several tables (each after a "# title" line, as
+ * --figure purcell, feedback and --speed-error write them) into one file
+ * per table, DIR/PREFIX-N-TITLE.csv, each logged as "wrote PATH" to log
+ * (may be NULL). 0, or -1 (no table at all is an error). */
+int rt_report_csv_split(FILE *in, const char *dir, const char *prefix, FILE *log, rt_err *e);
+
 /* Our values beside the paper's (data/paper_primary.csv,
  * data/paper_shadows.csv, found in the source tree or the installed data
  * folder) for the paper scenes present, with ratios and, in Markdown, the

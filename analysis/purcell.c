@@ -98,7 +98,25 @@ static int paper_case(const char *scene, const char *params, int lights)
     return lights == 0;
 }
 
-static void cell(FILE *o, int csv, const char *s) { fprintf(o, csv ? ",%s" : " | %s", s); }
+/* A cell; in CSV a text holding a comma or a quote is quoted ("65520 B,
+ * 48 B lines, direct" is one field). */
+static void cell(FILE *o, int csv, const char *s)
+{
+    if (!csv) {
+        fprintf(o, " | %s", s);
+        return;
+    }
+    if (!strpbrk(s, ",\"")) {
+        fprintf(o, ",%s", s);
+        return;
+    }
+    fputs(",\"", o);
+    for (const char *p = s; *p; p++) {
+        if (*p == '"') fputc('"', o);
+        fputc(*p, o);
+    }
+    fputc('"', o);
+}
 static void celld(FILE *o, int csv, const char *fmt, double v)
 {
     char b[64];

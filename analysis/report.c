@@ -505,3 +505,48 @@ int rt_report_value(const rt_report *R, const char *scene, const char *tracer, u
     if (rt_report_done(st, rc, R->dbpath, e) < 0) return -1;
     return found;
 }
+
+int rt_report_csv_split(FILE *in, const char *dir, const char *prefix, FILE *log, rt_err *e)
+{
+    if (rt_plot_mkdir(dir, e) < 0) return -1;
+    char line[8192], title[256] = "";
+    int ntab = 0, rc = 0;
+    rt_out *o = NULL;
+    FILE *to = NULL;
+    char path[4096] = "";
+    rewind(in);
+    while (rc == 0 && fgets(line, sizeof line, in)) {
+        if (line[0] == '#') { /* a table's title: the next line starts it */
+            snprintf(title, sizeof title, "%s", line + 1 + (line[1] == ' '));
+            title[strcspn(title, "\n")] = 0;
+            if (to && rt_plot_commit(o, e) < 0) rc = -1;
+            else if (to && log) fprintf(log, "wrote %s\n", path);
+            to = NULL;
+            continue;
+        }
+        if (!to) {
+            /* DIR/PREFIX-N-TITLE.csv, the title as a file-name word */
+            char slug[96];
+            size_t k = 0;
+            for (const char *p = title; *p && k + 1 < sizeof slug; p++)
+                slug[k++] = (*p >= 'a' && *p <= 'z') || (*p >= '0' && *p <= '9') ? *p
+                            : (*p >= 'A' && *p <= 'Z')                          ? (char)(*p - 'A' + 'a')
+                                                                                : '-';
+            slug[k] = 0;
+            char name[200];
+            snprintf(name, sizeof name, "%s-%d%s%s", prefix, ++ntab, slug[0] ? "-" : "", slug);
+            rt_plot_path(path, sizeof path, dir, "", name, ".csv");
+            if (!(to = rt_plot_open(path, &o, e))) return -1;
+        }
+        fputs(line, to);
+    }
+    if (rc == 0 && to) {
+        if (rt_plot_commit(o, e) < 0) return -1;
+        if (log) fprintf(log, "wrote %s\n", path);
+    } else if (to) {
+        rt_out_abort(o);
+    }
+    if (rc == 0 && ferror(in)) return rt_errf(e, "cannot read the report back");
+    if (rc == 0 && !ntab) return rt_errf(e, "nothing to show: the report has no table");
+    return rc;
+}

@@ -48,7 +48,7 @@ static void usage(FILE *f)
             "                     json: one object holding them all); other figures: csv\n"
             "  --out DIR          with --format csv|json: one file per table in DIR\n"
             "                     (figureN-SCENE, primary-SCENE / shadows-SCENE for other\n"
-            "                     scenes, scenes.csv)\n"
+            "                     scenes, scenes.csv; other figures FIGURE-N-TITLE.csv)\n"
             "  -W N, -H N         resolution to report (default: the largest in the database)\n"
             "  --total            figures 7-9 on total instead of geometry traffic\n"
             "  --compare-paper    our values beside the paper's, with ratios and findings, and\n"
@@ -148,8 +148,8 @@ int main_report(int argc, char **argv)
         rt_cmd_error("report", "--format json: only figures 4-9 (and all) have tidy tables");
         return RT_EXIT_USAGE;
     }
-    if (outdir && !tidy) {
-        rt_cmd_error("report", "--out needs --format csv or json and figures 4-9 (or all)");
+    if (outdir && !o.csv && !json) {
+        rt_cmd_error("report", "--out needs --format csv or json");
         return RT_EXIT_USAGE;
     }
     if (tidy && !json && !outdir && !strcmp(figure, "all")) {
@@ -210,8 +210,10 @@ int main_report(int argc, char **argv)
         if (rc == 0 && plotdir) rc = rt_plot_traffic(&R, &po, &e);
         if (rc == 0 && plotdir) rc = rt_plot_scenes(&R, &po, &e);
     }
+    /* another figure's CSV tables, one file each (tidy ones wrote theirs) */
+    if (rc == 0 && outdir && !tidy) rc = rt_report_csv_split(out, outdir, speed ? "speed-error" : figure, stderr, &e);
     /* the report reaches stdout whole, or not at all */
-    if (rc == 0) {
+    else if (rc == 0) {
         char buf[65536];
         size_t n;
         rewind(out);

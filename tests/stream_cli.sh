@@ -75,6 +75,15 @@ if [ -n "$stats" ]; then
 fi
 "$bin" report --db "$tmp/s.db" --figure purcell --format csv > "$tmp/r.csv" 2>&1 || err "csv report failed"
 grep -q '^"paper: bunny ray cast 1024x1024",1085,610,471,4,221,328,0.105$' "$tmp/r.csv" || err "csv table 2 paper row"
+# --out: one file per table, each one table (every row as wide as its header)
+"$bin" report --db "$tmp/s.db" --figure purcell --format csv --out "$tmp/pc" 2>/dev/null || err "csv --out failed"
+[ "$(ls "$tmp/pc" | wc -l)" -ge 5 ] || err "csv --out: $(ls "$tmp/pc")"
+python3 - "$tmp/pc" <<'PY' || err "a purcell CSV table does not load as one table"
+import csv, glob, sys
+for f in glob.glob(sys.argv[1] + "/*.csv"):
+    rows = list(csv.reader(open(f)))
+    assert len(rows) >= 2 and all(len(r) == len(rows[0]) for r in rows), f
+PY
 "$bin" report --db "$tmp/s.db" --figure purcell --scene cornell > "$tmp/out" 2>&1 && err "report on a scene without runs succeeded"
 grep -q "no runs of the stream tracers" "$tmp/out" || err "no-runs message: $(cat "$tmp/out")"
 
