@@ -10,7 +10,12 @@
 
 /* Prepares sql on h and binds its parameters ?1, ?2, ... from the
  * variable arguments, one per character of types: 's' const char *,
- * 'i' int, 'I' int64_t. NULL with "context: sqlite message" on failure. */
+ * 'i' int, 'I' int64_t. NULL with "context: sqlite message" on failure.
+ * Before preparing, the tokens @BASE@, @PACKET@, @SCHED@ (the figures'
+ * tracers as SQL strings, from the traits: RT_FIG_NAVRATIL), @NAVRATIL@
+ * (the three as an IN list) and @DIMS@ (the schema-6 dimensions at the
+ * values the figures are drawn for, aliased r; "1" on older files) are
+ * replaced, so no query names a tracer or a default itself. */
 sqlite3_stmt *rt_report_stmt(sqlite3 *h, const char *sql, const char *context, rt_err *e, const char *types, ...);
 
 /* Finalizes st after the last sqlite3_step returned rc: 0 when rc is
