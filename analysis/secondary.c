@@ -270,7 +270,7 @@ int rt_report_secondary(sqlite3 *h, const char *dbpath, int csv, const rt_plot_o
                      "g2_geom_pct,g2_total_pct,g3_geom_pct,g3_total_pct,g4_geom_pct,g4_total_pct,g5_geom_pct,"
                      "g5_total_pct,g6_geom_pct,g6_total_pct,g7_geom_pct,g7_total_pct,sec_geom_pct,sec_total_pct\n");
     else
-        fprintf(out, "# Secondary rays: dynamic vs recursive per generation\n\nDatabase: %s. Reduction = recursive "
+        fprintf(out, "## Secondary rays: dynamic vs recursive per generation\n\nDatabase: %s. Reduction = recursive "
                      "/ dynamic - 1 in percent (the paper's formula; where dynamic moves more, its factor: \"3.60x "
                      "more\" = 3.60 times recursive's), the dynamic run scheduled for each size; "
                      "g>=1 sums the secondary generations.\n", dbpath);
@@ -281,7 +281,7 @@ int rt_report_secondary(sqlite3 *h, const char *dbpath, int csv, const rt_plot_o
         if (plot) rc = group_plot(plot, P, a, b, e);
     }
     if (!csv && rc == 0) {
-        fprintf(out, "\n## Finding per scene\n\n");
+        fprintf(out, "\n### Finding per scene\n\n");
         for (long a = 0, b; a < n; a = b) {
             for (b = a + 1; b < n && !strcmp(P[a].scene, P[b].scene); b++) {}
             scene_sentence(out, P, a, b);

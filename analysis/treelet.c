@@ -293,7 +293,7 @@ int rt_report_treelet(sqlite3 *h, const char *dbpath, const char *scene, int csv
                      "treelet_geo_saved_pct,"
                      "kd_total_mb,dynamic_total_mb,dynamic_geo_mb,dynamic_ray_mb,dynamic_queue_mb,dynamic_saved_pct\n");
     else
-        fprintf(out, "# Treelets against recursive order, beside the dynamic scheduler\n\nDatabase: %s. DRAM traffic in "
+        fprintf(out, "## Treelets against recursive order, beside the dynamic scheduler\n\nDatabase: %s. DRAM traffic in "
                      "MB (fully associative, 64-byte lines, write-back); a scheduled run counts at the size it was "
                      "scheduled for. Split: geometry = node+index+tri+shade, ray = ray+hit, stack = spilled traversal "
                      "stacks (class stream), queue = queue+qtable. Saved = the reduction baseline / scheduled - 1 "
