@@ -46,6 +46,17 @@ int main_db(int argc, char **argv)
             rt_cmd_error("db", "%s", e.msg);
             return RT_EXIT_USAGE;
         }
+    /* and every shard's kind (a FIFO, a folder, a missing file) before OUT
+     * is created; what is inside each is checked as it is merged */
+    for (int i = 3; i < argc; i++) {
+        void *h = NULL;
+        int ver;
+        if (rt_db_open_read(argv[i], &h, &ver, &e) < 0) {
+            rt_cmd_error("db", "%s", e.msg);
+            return RT_EXIT_FAIL;
+        }
+        rt_db_close_read(h);
+    }
     rt_db *out = rt_db_open(argv[2], &e);
     if (!out) {
         rt_cmd_error("db", "%s", e.msg);

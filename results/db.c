@@ -859,6 +859,8 @@ static int folder_read_only(const char *path)
     return access(dir, W_OK) != 0;
 }
 
+void rt_db_close_read(void *h) { sqlite3_close(h); }
+
 int rt_db_open_read(const char *path, void **ph, int *ver, rt_err *e)
 {
     *ph = NULL;

@@ -155,6 +155,7 @@ rt_db *rt_db_open(const char *path, rt_err *e);
  *   "newer":           a schema version above RT_DB_SCHEMA_VERSION.
  * 0, or -1 with "PATH: ..." in e. */
 int rt_db_open_read(const char *path, void **ph, int *ver, rt_err *e);
+void rt_db_close_read(void *h); /* sqlite3_close; NULL is fine */
 
 /* The message class of an SQLite error code met while reading a database
  * (rt_db_open_read's words): "malformed database" for SQLITE_CORRUPT, "not
