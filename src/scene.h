@@ -162,13 +162,22 @@ int rt_scene_set_camera(rt_scene *s, rt_vec3 eye, rt_vec3 at, rt_vec3 up, float 
 
 /* The coordinates the single-precision pipeline resolves (derivation in
  * docs/scenes.md): every |coordinate| <= RT_COORD_MAX, the bounding-box
- * diagonal D <= RT_EXTENT_MAX (normals are cross products of edges, and
- * their squared length ~D^4 must stay below FLT_MAX), and
- * D >= RT_EXTENT_MIN_REL * the largest |coordinate| (at least 2^10 float
- * steps across the scene, so vertices do not collapse onto each other). */
+ * diagonal RT_EXTENT_MIN <= D <= RT_EXTENT_MAX (normals are cross
+ * products of edges, and their squared length ~D^4 must stay below
+ * FLT_MAX and above FLT_MIN: a smaller scene's normals underflow and its
+ * shadow rays vanish), and D >= RT_EXTENT_MIN_REL * the largest
+ * |coordinate| (at least 2^10 float steps across the scene, so vertices do
+ * not collapse onto each other). */
 #define RT_COORD_MAX 1e13
 #define RT_EXTENT_MAX 1e9
+#define RT_EXTENT_MIN 1e-9
 #define RT_EXTENT_MIN_REL (1.0 / 8192.0)
+/* The length scale of the self-intersection rule (src/isect.h,
+ * rt_offset_origin_scaled): the bounding-box diagonal, at most 1, so the
+ * fixed offsets near the origin shrink with a scene smaller than the unit
+ * cube and stay those of the unit cube for larger ones. 1 for an empty
+ * scene. */
+float rt_scene_offset_scale(const rt_scene *s);
 /* Checks a finished scene (bounds computed) against that range. 0, or -1
  * with "WHERE: what (value)". Loaders call it with the file name. */
 int rt_scene_check_range(const rt_scene *s, const char *where, rt_err *e);

@@ -19,7 +19,8 @@
 # 28. FIFOs, devices and folders as a database are refused at once, and
 #     nothing is created beside them (no /dev/null-journal);
 # 29. db merge says why a shard is refused, and leaves no -shm/-wal beside it;
-# 30. kept-trace temporaries of a sweep killed with -9 go with the rerun.
+# 30. kept-trace temporaries of a sweep killed with -9 go with the rerun;
+# 31. scenes too small to shade are refused; small ones keep their shadows.
 set -u
 bin=${RT_BIN:-./raytraffic}
 src=${RT_SRCDIR:-${srcdir:-.}}
@@ -405,17 +406,44 @@ holder=$!
 i=0
 while [ ! -s held.out ] && [ $i -lt 500 ]; do sleep 0.01; i=$((i + 1)); done
 mkdir -p elsewhere && : > elsewhere/.job0000-x.rtt.AbC123
+: > kept/.job0003-planted-by-a-dead-writer.rtt.Pln123 # stale whether or not the kill caught one
 # shellcheck disable=SC2086
 "$bin" sweep $a > /dev/null 2> err || die "30: the rerun failed: $(cat err)"
 kill $holder 2>/dev/null
 wait $holder 2>/dev/null
 left=$(ls -a kept | grep '^\.job[0-9]\{4,\}-.*\.rtt\.......$' | grep -v Hld123)
 [ -z "$left" ] || die "30: stale temporaries left after the rerun: $left"
+[ -e kept/.job0003-planted-by-a-dead-writer.rtt.Pln123 ] && die "30: a stale temporary was not removed"
 for f in .other.rtt.AbC123 .job0001-x.rtt.AbC12 job0001-x.rtt.AbC123 .job01-x.rtt.AbC123 .job0002-held.rtt.Hld123; do
     [ -e "kept/$f" ] || die "30: the rerun removed kept/$f (not a stale temporary of its own)"
 done
 [ -e elsewhere/.job0000-x.rtt.AbC123 ] || die "30: the rerun removed a file in another folder"
 [ "$(ls kept | grep -c '^job.*\.rtt$')" = 24 ] || die "30: $(ls kept | grep -c '^job.*\.rtt$') kept traces, want 24"
+cd "$tmp" || exit 1
+
+# ---- 31. tiny scenes --------------------------------------------------------------------
+mkdir s31 && cd s31 || exit 1
+scaled() { # FACTOR OUT: the cube scaled
+    awk -v f="$1" '$1 == "v" { printf "v %.9g %.9g %.9g\n", $2 * f, $3 * f, $4 * f; next } { print }' "$cube" > "$2"
+}
+scaled 1e-19 c19.obj; scaled 1e-12 c12.obj; scaled 1e-6 c6.obj; scaled 1 c0.obj
+printf 'v 1e-40 0 0\nv 0 1e-40 0\nv 0 0 1e-40\nf 1 2 3\n' > denormal.obj
+printf 'LookAt 0 0 5  0 0 0  0 1 0\nCamera "perspective" "float fov" 40\nWorldBegin\nScale 0 0 0\nShape "sphere" "float radius" 1\nWorldEnd\n' > zero.pbrt
+for f in c19.obj c12.obj denormal.obj zero.pbrt; do
+    "$bin" trace "$f" -W 16 -H 16 --lights all -o t.rtt > /dev/null 2> err; rc=$?
+    [ $rc = 1 ] && grep -q "$f: scene extent .* is below 1e-09" err || die "31: $f: exit $rc: $(cat err)"
+done
+for f in c0.obj c6.obj; do
+    "$bin" trace "$f" -W 16 -H 16 --lights all -o t.rtt 2>&1 | sed -n 's/.* + \([0-9]*\) shadow rays.*/\1/p' > "$f.n"
+done
+[ -s c0.obj.n ] && cmp -s c0.obj.n c6.obj.n || die "31: cube at 1e-6: $(cat c6.obj.n) shadow rays, at 1: $(cat c0.obj.n)"
+# an occluded scene: cornell at 1e-6 renders as at 1
+"$bin" scene export cornell -o corn.obj 2> /dev/null
+awk '$1 == "v" { printf "v %.9g %.9g %.9g\n", $2 * 1e-6, $3 * 1e-6, $4 * 1e-6; next } { print }' corn.obj > corn6.obj
+for f in corn corn6; do
+    "$bin" render "$f.obj" -W 32 -H 32 --lights all -o /dev/null --ppm "$f.ppm" 2> err || die "31: render $f: $(cat err)"
+done
+cmp -s corn.ppm corn6.ppm || die "31: cornell at 1e-6 renders differently from cornell at 1"
 cd "$tmp" || exit 1
 
 exit $fail
