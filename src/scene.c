@@ -255,6 +255,7 @@ float rt_scene_offset_scale(const rt_scene *s)
     if (!(b.lo.x <= b.hi.x)) return 1.0f;
     double dx = (double)b.hi.x - b.lo.x, dy = (double)b.hi.y - b.lo.y, dz = (double)b.hi.z - b.lo.z;
     double d = sqrt(dx * dx + dy * dy + dz * dz);
+    d *= 16; /* RT_OFFSET_SCALE_FROM: 1 from a diagonal of 1/16 up */
     return d < 1 && d > 0 ? (float)d : 1.0f;
 }
 

@@ -173,10 +173,11 @@ int rt_scene_set_camera(rt_scene *s, rt_vec3 eye, rt_vec3 at, rt_vec3 up, float 
 #define RT_EXTENT_MIN 1e-9
 #define RT_EXTENT_MIN_REL (1.0 / 8192.0)
 /* The length scale of the self-intersection rule (src/isect.h,
- * rt_offset_origin_scaled): the bounding-box diagonal, at most 1, so the
- * fixed offsets near the origin shrink with a scene smaller than the unit
- * cube and stay those of the unit cube for larger ones. 1 for an empty
- * scene. */
+ * rt_offset_origin_scaled): 16 times the bounding-box diagonal, at most 1.
+ * The fixed offset near the origin (2^-16) is then at most 2^-12 of the
+ * diagonal: it shrinks with scenes whose diagonal is below 1/16 and stays
+ * the unit cube's for larger ones (every built-in scene, and the bunny,
+ * diagonal 0.25, keep their offsets bit for bit). 1 for an empty scene. */
 float rt_scene_offset_scale(const rt_scene *s);
 /* Checks a finished scene (bounds computed) against that range. 0, or -1
  * with "WHERE: what (value)". Loaders call it with the file name. */
