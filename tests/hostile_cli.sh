@@ -1,5 +1,5 @@
 #!/bin/sh
-# Hostile use of the commands (docs/reliability.md §15-§26; the section
+# Hostile use of the commands (docs/reliability.md §15-§31; the section
 # numbers below are those of the docs):
 # 15. control characters in scene names and paths never reach a job line;
 # 16. a mesh cannot make the loader read devices, FIFOs or files outside
