@@ -176,6 +176,7 @@ typedef struct pbrt {
     int nal, cal;
     const float *cur_rgb; /* colour and table index of the shape being made */
     uint32_t cur_mat;
+    token shape_tok;    /* its type string, for messages */
     warnent warn[MAX_WARN];
     int nwarn;          /* kinds kept */
     int nwarn_more;     /* kinds beyond MAX_WARN */
@@ -310,13 +311,15 @@ static int lex(pbrt *P, token *t)
     F->pos += i;
     F->col += (uint32_t)i;
     char c = *b;
+    t->kind = TK_WORD; /* for messages until it is known */
     if ((c >= '0' && c <= '9') || c == '-' || c == '+' || c == '.') {
         char tmp[64], q[80], *end;
         if (i >= sizeof tmp) return perr(P, t, "bad number %s", tq(q, sizeof q, t));
         memcpy(tmp, b, i);
         tmp[i] = 0;
         double v = strtod(tmp, &end);
-        if (end != tmp + i) return perr(P, t, "bad number %s", tq(q, sizeof q, t));
+        if (end != tmp + i || memchr(tmp, 'x', i) || memchr(tmp, 'X', i)) /* no hex floats, as the OBJ loader */
+            return perr(P, t, "bad number %s", tq(q, sizeof q, t));
         if (!isfinite(v) || fabs(v) > 1e30) return perr(P, t, "number %s out of range (|x| <= 1e30)", tq(q, sizeof q, t));
         t->kind = TK_NUMBER;
         t->num = v;
@@ -812,7 +815,7 @@ static int param_value(pbrt *P, param *q, const token *t)
     if (t->kind == TK_NUMBER) {
         if (!numeric) return perr(P, t, "parameter \"%s %s\": expected a %s, got the number %s", q->tname, q->name,
                                   q->type == PT_BOOL ? "bool (true or false)" : "string in quotes", tq(b, sizeof b, t));
-        if (q->type == PT_INT && (t->num != floor(t->num) || fabs(t->num) > 2147483647.0))
+        if (q->type == PT_INT && (t->num != floor(t->num) || t->num < -2147483648.0 || t->num > 2147483647.0))
             return perr(P, t, "parameter \"%s %s\": %s is not an integer", q->tname, q->name, tq(b, sizeof b, t));
         if (q->ns) return perr(P, t, "parameter \"%s %s\": numbers mixed with strings", q->tname, q->name);
         return pv_push(P, q, t->num);
@@ -1109,8 +1112,23 @@ static int pop_frame(pbrt *P, const token *d, char kind)
     return 0;
 }
 
-/* CTM = CTM x m. */
-static void concat(pbrt *P, const mat4 *m) { P->g.ctm = m_mul(&P->g.ctm, m); }
+/* The CTM after directive d must be finite (a product may overflow). */
+static int ctm_check(pbrt *P, const token *d)
+{
+    for (int i = 0; i < 4; i++)
+        for (int j = 0; j < 4; j++)
+            if (!isfinite(P->g.ctm.m[i][j]))
+                return perr(P, d, "%.*s: the transformation is no longer finite (entry %d,%d overflows)", (int)d->n,
+                            d->p, i, j);
+    return 0;
+}
+
+/* CTM = CTM x m, checked finite. */
+static int concat(pbrt *P, const token *d, const mat4 *m)
+{
+    P->g.ctm = m_mul(&P->g.ctm, m);
+    return ctm_check(P, d);
+}
 
 /* ------------------------------------------------------------------------ */
 /* Materials                                                                 */
@@ -1188,6 +1206,10 @@ static int make_matdef(pbrt *P, const token *tt, const char *type, plist *L, mat
             double s = 0;
             for (size_t i = 1; i < q->nv; i += 2) s += q->v[i];
             eta = s / (double)(q->nv / 2);
+        } else if (q && q->type == PT_RGB) {
+            if (q->nv != 3) return perr(P, &q->at, "parameter \"rgb eta\": %zu values, expected 3", q->nv);
+            eta = (q->v[0] + q->v[1] + q->v[2]) / 3; /* one index for the three channels */
+            approx = 1;
         } else if (q) {
             approx = 1; /* a named spectrum: glass */
         }
@@ -1242,7 +1264,11 @@ static int table_index(pbrt *P, matdef *md, const float ke[3], int emit, uint32_
         }
     }
     int r = rt_scene_add_material(s, &m, P->e);
-    if (r < 0) return -1;
+    if (r < 0) {
+        char msg[RT_ERR_LEN];
+        snprintf(msg, sizeof msg, "%s", P->e->msg);
+        return perr(P, &P->shape_tok, "%s", msg);
+    }
     if (!emit) md->tab = r;
     *out = (uint32_t)r;
     return 0;
@@ -1259,8 +1285,24 @@ static int room_for(pbrt *P, const token *t, uint64_t more)
     return 0;
 }
 
+static int finite3(rt_vec3 a) { return isfinite(a.x) && isfinite(a.y) && isfinite(a.z); }
+
+/* Finite and within the coordinate range (RT_COORD_MAX). */
+static int in_range3(rt_vec3 a)
+{
+    return finite3(a) && fabs(a.x) <= RT_COORD_MAX && fabs(a.y) <= RT_COORD_MAX && fabs(a.z) <= RT_COORD_MAX;
+}
+
+/* A triangle of the shape being made (at P->shape_tok), refused at its
+ * line when the transformation left a vertex non-finite in float. */
 static int emit(pbrt *P, rt_vec3 a, rt_vec3 b, rt_vec3 c)
 {
+    if (!in_range3(a) || !in_range3(b) || !in_range3(c)) {
+        char q[80];
+        rt_vec3 x = !in_range3(a) ? a : !in_range3(b) ? b : c;
+        return perr(P, &P->shape_tok, "Shape %s: vertex (%g, %g, %g) is not finite or beyond %g after the transformation",
+                    tq(q, sizeof q, &P->shape_tok), (double)x.x, (double)x.y, (double)x.z, RT_COORD_MAX);
+    }
     return rt_scene_add_tri_mat(P->s, a, b, c, P->cur_rgb, P->cur_mat, P->e);
 }
 
@@ -1578,6 +1620,7 @@ static int do_shape(pbrt *P, const token *d)
     plist L = {NULL, 0, 0};
     if (need_string(P, d, type, sizeof type, &tt) < 0 || parse_params(P, &L) < 0) goto fail;
     rt_esc(q, sizeof q, type, 40);
+    P->shape_tok = tt;
     /* colour and table entry of the state */
     matdef *md = &P->mats[P->g.mat];
     P->cur_rgb = md->rgb;
@@ -1729,6 +1772,12 @@ static int do_camera(pbrt *P, const token *d)
         perr(P, d, "Camera: the current transformation is singular");
         goto done;
     }
+    rt_vec3 eye = m_point(&inv, 0, 0, 0);
+    if (!in_range3(eye)) {
+        perr(P, d, "Camera: the eye (%g, %g, %g) is not finite or beyond %g", (double)eye.x, (double)eye.y,
+             (double)eye.z, RT_COORD_MAX);
+        goto done;
+    }
     if (strcmp(type, "perspective")) {
         char key[48];
         snprintf(key, sizeof key, "Camera \"%.30s\"", type);
@@ -1808,7 +1857,13 @@ static int do_light(pbrt *P, const token *d)
             goto done;
         }
         if (r) memcpy(o, v, sizeof o);
-        if (P->nplight < RT_NLIGHTS) P->plight[P->nplight++] = m_point(&P->g.ctm, o[0], o[1], o[2]);
+        rt_vec3 lp = m_point(&P->g.ctm, o[0], o[1], o[2]);
+        if (!in_range3(lp)) {
+            perr(P, &tt, "LightSource: the light's position (%g, %g, %g) is not finite or beyond %g", (double)lp.x,
+                 (double)lp.y, (double)lp.z, RT_COORD_MAX);
+            goto done;
+        }
+        if (P->nplight < RT_NLIGHTS) P->plight[P->nplight++] = lp;
         count_light(P, &tt);
     } else {
         char key[48];
@@ -1989,7 +2044,12 @@ static int do_object_instance(pbrt *P, const token *d)
         const rt_tri *t = &P->otri[o->start + i];
         const rt_shade *h = &P->oshade[o->start + i];
         rt_vec3 c[3];
-        for (int j = 0; j < 3; j++) c[j] = m_point(&P->g.ctm, t->p[j].x, t->p[j].y, t->p[j].z);
+        for (int j = 0; j < 3; j++) {
+            c[j] = m_point(&P->g.ctm, t->p[j].x, t->p[j].y, t->p[j].z);
+            if (!in_range3(c[j]))
+                return perr(P, &tt, "ObjectInstance \"%s\": vertex (%g, %g, %g) is not finite or beyond %g after the "
+                            "transformation", q, (double)c[j].x, (double)c[j].y, (double)c[j].z, RT_COORD_MAX);
+        }
         if (rt_scene_add_tri_mat(P->s, c[0], c[1], c[2], h->rgb, h->mat, P->e) < 0) return -1;
     }
     if (!o->used) P->s->ntri_unique += o->count;
@@ -2037,8 +2097,7 @@ static int directive(pbrt *P, const token *d)
             for (int j = 0; j < 3; j++) m.m[i][j] = rows[i][j];
             m.m[i][3] = -(rows[i][0] * v[0] + rows[i][1] * v[1] + rows[i][2] * v[2]);
         }
-        concat(P, &m);
-        return 0;
+        return concat(P, d, &m);
     }
     if (!strcmp(dn, "Translate") || !strcmp(dn, "Scale")) {
         if (need_numbers(P, d, v, 3) < 0) return -1;
@@ -2047,8 +2106,7 @@ static int directive(pbrt *P, const token *d)
             if (dn[0] == 'T') m.m[k][3] = v[k];
             else m.m[k][k] = v[k];
         }
-        concat(P, &m);
-        return 0;
+        return concat(P, d, &m);
     }
     if (!strcmp(dn, "Rotate")) {
         if (need_numbers(P, d, v, 4) < 0) return -1;
@@ -2066,16 +2124,17 @@ static int directive(pbrt *P, const token *d)
         m.m[2][0] = x * z * (1 - c) - y * s;
         m.m[2][1] = y * z * (1 - c) + x * s;
         m.m[2][2] = z * z + (1 - z * z) * c;
-        concat(P, &m);
-        return 0;
+        return concat(P, d, &m);
     }
     if (!strcmp(dn, "Transform") || !strcmp(dn, "ConcatTransform")) {
         if (need_numbers(P, d, v, 16) < 0) return -1;
         for (int i = 0; i < 4; i++)
             for (int j = 0; j < 4; j++) m.m[i][j] = v[4 * j + i]; /* the file holds the transpose */
-        if (dn[0] == 'T') P->g.ctm = m;
-        else concat(P, &m);
-        return 0;
+        if (dn[0] == 'T') {
+            P->g.ctm = m;
+            return ctm_check(P, d);
+        }
+        return concat(P, d, &m);
     }
     if (!strcmp(dn, "Identity")) {
         P->g.ctm = m_ident();

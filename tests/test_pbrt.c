@@ -20,6 +20,7 @@
 #include "scene_load.h"
 
 #include <inttypes.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -508,7 +509,7 @@ static void test_errors(void)
         {"WorldBegin\nRotate 10 0 0 0\n", "Rotate: the axis is zero"},
         {"WorldBegin\nCoordSysTransform \"nope\"\n", "no such coordinate system"},
         {"WorldBegin\n", "e.pbrt: no triangles"},
-        {"WorldBegin\nShape \"trianglemesh\" \"point3 P\" [ 0 0 0 1e29 0 0 0 1 0 ]\n", "above 1e+13"},
+        {"WorldBegin\nShape \"trianglemesh\" \"point3 P\" [ 0 0 0 1e29 0 0 0 1 0 ]\n", "is not finite or beyond 1e+13"},
         {"WorldBegin\nInclude \"/etc/hostname\"\n", "absolute paths are not allowed"},
         {"WorldBegin\nInclude \"../x.pbrt\"\n", "the path leaves the scene's folder"},
         {"WorldBegin\nInclude \"sub/../../x.pbrt\"\n", "the path leaves the scene's folder"},
@@ -715,6 +716,81 @@ static void test_film_opts(void)
     CHECK(o.W == 120 && o.H == 90, "no film: kept");
 }
 
+/* Strictness and finiteness (hostile input): hex floats, the smallest
+ * integer, "rgb eta" lengths, huge rotation angles (reduced exactly, so
+ * Rotate 1e22 is Rotate 280), transformations that overflow, lights,
+ * cameras and vertices that leave float range: each a one-line
+ * FILE:LINE:COL error naming the file once. */
+static int count_str(const char *hay, const char *needle)
+{
+    int n = 0;
+    for (const char *p = hay; (p = strstr(p, needle)); p++) n++;
+    return n;
+}
+
+static void test_strict_finite(void)
+{
+    expect_fail("hex.pbrt", "WorldBegin\nShape \"trianglemesh\" \"point3 P\" [ 0x1p0 0 0 1 0 0 0 1 0 ]\n",
+                "hex.pbrt:2:35: bad number '0x1p0'");
+    expect_fail("hex2.pbrt", "WorldBegin\nTranslate 0X10 0 0\n", "hex2.pbrt:2:11: bad number '0X10'");
+    expect_fail("imin.pbrt",
+                "WorldBegin\nShape \"trianglemesh\" \"point3 P\" [ 0 0 0 1 0 0 0 1 0 ] \"integer indices\" [ -2147483648 1 2 ]\n",
+                "index -2147483648 (entry 0) out of range (3 vertices)");
+    expect_fail("imin2.pbrt",
+                "WorldBegin\nShape \"trianglemesh\" \"point3 P\" [ 0 0 0 1 0 0 0 1 0 ] \"integer indices\" [ -2147483649 1 2 ]\n",
+                "'-2147483649' is not an integer");
+    expect_fail("eta2.pbrt", "WorldBegin\nMaterial \"dielectric\" \"rgb eta\" [ 1.5 1.5 ]\n" TRI,
+                "eta2.pbrt:2:23: parameter \"rgb eta\": 2 values, expected 3");
+    expect_fail("eta4.pbrt", "WorldBegin\nMaterial \"dielectric\" \"rgb eta\" [ 1.5 1.5 1.5 1.5 ]\n" TRI,
+                "4 values, expected 3");
+    rt_scene *s = expect_ok("eta3.pbrt", "WorldBegin\nMaterial \"dielectric\" \"rgb eta\" [ 1.4 1.5 1.6 ]\n" TRI, 1);
+    if (s) CHECK(check_near(s->mat[s->shade[0].mat].ior, 1.5, 1e-6, 0), "rgb eta: ior %g", s->mat[s->shade[0].mat].ior);
+    rt_scene_free(s);
+
+    /* 10^22 is a double; 10^22 mod 360 = 280 exactly */
+    double sn, cs, s2, c2;
+    rt_dsincos_deg(1e22, &sn, &cs);
+    rt_dsincos_deg(280, &s2, &c2);
+    CHECK(sn == s2 && cs == c2, "dsincos(1e22) = %.17g %.17g, dsincos(280) = %.17g %.17g", sn, cs, s2, c2);
+    CHECK(check_near(sn, -0.984807753012208, 0, 1e-15) && check_near(cs, 0.1736481776669303, 0, 1e-15),
+          "dsincos(280) = %.17g %.17g", sn, cs);
+    rt_dsincos_deg(-1e300, &sn, &cs);
+    CHECK(isfinite(sn) && isfinite(cs) && check_near(sn * sn + cs * cs, 1, 0, 1e-15), "dsincos(-1e300) %g %g", sn, cs);
+    rt_dsincos_deg(-1e-300, &sn, &cs);
+    CHECK(sn == 0 && cs == 1, "dsincos(-1e-300) %g %g", sn, cs);
+    s = expect_ok("rot22.pbrt",
+                  "WorldBegin\nRotate 1e22 0 0 1\nLightSource \"point\" \"point3 from\" [ 1 0 0 ]\n"
+                  "Shape \"trianglemesh\" \"point3 P\" [ 1 0 0 0 1 0 0 0 1 ]\n",
+                  1);
+    if (s) CHECK(vnear(s->light[0], 0.17364817766693, -0.98480775301221, 0, 1e-6), "Rotate 1e22 light (%g %g %g)",
+                 s->light[0].x, s->light[0].y, s->light[0].z);
+    rt_scene_free(s);
+
+    expect_fail("lightinf.pbrt", "WorldBegin\nScale 1e30 1e30 1e30\nScale 1e30 1 1\nLightSource \"point\" \"point3 from\" [ 1 0 0 ]\n" TRI,
+                "lightinf.pbrt:4:13: LightSource: the light's position (inf, 0, 0) is not finite");
+    expect_fail("lightbig.pbrt", "WorldBegin\nTranslate 1e20 0 0\nLightSource \"point\"\n" TRI,
+                "lightbig.pbrt:3:13: LightSource: the light's position (1e+20, 0, 0) is not finite or beyond");
+    expect_fail("ctminf.pbrt",
+                "WorldBegin\nScale 1e30 1 1\nScale 1e30 1 1\nScale 1e30 1 1\nScale 1e30 1 1\nScale 1e30 1 1\n"
+                "Scale 1e30 1 1\nScale 1e30 1 1\nScale 1e30 1 1\nScale 1e30 1 1\nScale 1e30 1 1\nScale 1e30 1 1\n" TRI,
+                "ctminf.pbrt:12:1: Scale: the transformation is no longer finite");
+    expect_fail("caminf.pbrt", "Translate 1e20 0 0\nCamera \"perspective\"\nWorldBegin\n" TRI,
+                "caminf.pbrt:2:1: Camera: the eye (-1e+20, 0, 0) is not finite or beyond");
+    rt_err e = {0};
+    s = load_text("vinf.pbrt", "WorldBegin\nScale 1e30 1e30 1e30\nScale 1e30 1 1\n" TRI, NULL, &e);
+    CHECK(!s && strstr(e.msg, "vinf.pbrt:4:7: Shape \"trianglemesh\": vertex (inf, 0, 0) is not finite or beyond 1e+13") &&
+              count_str(e.msg, "vinf.pbrt") == 1,
+          "non-finite vertex: '%s'", e.msg);
+    rt_scene_free(s);
+    s = load_text("vinf2.pbrt",
+                  "WorldBegin\nObjectBegin \"o\"\n" TRI "ObjectEnd\nScale 1e30 1e30 1e30\nObjectInstance \"o\"\n", NULL,
+                  &e);
+    CHECK(!s && strstr(e.msg, "vinf2.pbrt:6:16: ObjectInstance \"o\": vertex (1e+30, 0, 0) is not finite or beyond") &&
+              count_str(e.msg, "vinf2.pbrt") == 1,
+          "non-finite instance vertex: '%s'", e.msg);
+    rt_scene_free(s);
+}
+
 int main(void)
 {
     if (!check_tmpdir("test_pbrt")) {
@@ -734,6 +810,7 @@ int main(void)
     test_errors();
     test_truncations();
     test_film_opts();
+    test_strict_finite();
     test_cornell();
     if (check_rm_tree(check_dir) != 0) fprintf(stderr, "warning: could not remove %s\n", check_dir);
     if (failures) fprintf(stderr, "%d failure(s)\n", failures);
