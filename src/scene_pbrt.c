@@ -60,6 +60,7 @@
 #define MAX_DEPTH 32                        /* include nesting */
 #define MAX_NEST 4096                       /* AttributeBegin nesting */
 #define DEFAULT_MAXTRI (1u << 26)
+#define DEFAULT_MAXSUBDIV (1u << 22)        /* triangles one loopsubdiv shape may make */
 #define MAX_WARN 32                         /* kinds of warnings kept */
 #define MAX_PARAMS 256                      /* parameters of one directive */
 
@@ -123,6 +124,17 @@ typedef struct object {
     int used;              /* instanced at least once */
 } object;
 
+/* An ObjectInstance, expanded once the whole file is read (so a file
+ * whose instances exceed maxtri is refused before their triangles are
+ * made): the object, the CTM and where the instance goes in the triangle
+ * order (the scene's triangle count when it was read). */
+typedef struct instrec {
+    uint32_t at;    /* triangles made before it (outside instances) */
+    int obj;        /* index into objs */
+    mat4 ctm;       /* the instance's transformation */
+    char pos[160];  /* "FILE:LINE:COL" of its name, for messages */
+} instrec;
+
 typedef struct arealight {
     double c[3], nsum[3]; /* area-weighted centroid sum, sum of edge cross products */
     double area2;         /* sum of |cross| (twice the area) */
@@ -139,6 +151,7 @@ typedef struct pbrt {
     rt_err *e;
     int tess;           /* sphere tessellation */
     uint32_t maxtri;    /* triangle limit */
+    uint32_t maxsubdiv; /* triangles one loopsubdiv shape may make */
     char *topdir;       /* folder of the top-level file ("." if none) */
     char *rtop;         /* its realpath */
     srcfile *f[MAX_DEPTH];
@@ -166,6 +179,9 @@ typedef struct pbrt {
     rt_tri *otri;       /* object store: triangles and their shading */
     rt_shade *oshade;
     uint32_t on, ocap;
+    instrec *inst;      /* ObjectInstances in file order, expanded at the end */
+    int ninst, cinst;
+    uint64_t pend;      /* their triangles (not yet in s) */
     int in_obj;         /* index of the object being defined, -1 if none */
     uint32_t obj_start; /* its first triangle in the scene */
     uint32_t nonobj;    /* triangles made outside objects and instances */
@@ -1279,9 +1295,10 @@ static int table_index(pbrt *P, matdef *md, const float ke[3], int emit, uint32_
 
 static int room_for(pbrt *P, const token *t, uint64_t more)
 {
-    if ((uint64_t)P->s->ntri + more > P->maxtri)
-        return perr(P, t, "the scene would have %llu triangles, more than maxtri=%u (a spec parameter)",
-                    (unsigned long long)((uint64_t)P->s->ntri + more), (unsigned)P->maxtri);
+    uint64_t n = (uint64_t)P->s->ntri + P->pend + more;
+    if (n > P->maxtri)
+        return perr(P, t, "the scene would have %llu triangles, more than maxtri=%u (raise it with the spec parameter "
+                          "FILE.pbrt:maxtri=N)", (unsigned long long)n, (unsigned)P->maxtri);
     return 0;
 }
 
@@ -1666,11 +1683,17 @@ static int do_shape(pbrt *P, const token *d)
             rc = r < 0 ? -1 : r == 0 ? perr(P, &tt, "Shape \"loopsubdiv\": missing the vertices \"point3 P\"") : 0;
         }
         if (rc == 0) rc = get_indices(P, &tt, type, &L, 3, npv / 3, &idx, &ni);
+        /* the output size before any allocation: 4^levels x the faces
+         * (subdivide's working memory is about 200 bytes per output
+         * face, hence a limit of its own below maxtri) */
         uint64_t nt = ni / 3;
-        for (long l = 0; rc == 0 && l < levels; l++) {
-            nt *= 4;
-            if (nt > P->maxtri) break;
-        }
+        long lv = 0;
+        for (; rc == 0 && lv < levels && nt <= P->maxsubdiv; lv++) nt *= 4;
+        if (rc == 0 && nt > P->maxsubdiv)
+            rc = perr(P, &pfind(&L, "levels")->at,
+                      "Shape \"loopsubdiv\": %llu faces at levels %ld make %s%llu triangles, more than maxsubdiv=%u "
+                      "(raise it with the spec parameter FILE.pbrt:maxsubdiv=N)", (unsigned long long)(ni / 3), levels,
+                      lv < levels ? "over " : "", (unsigned long long)nt, (unsigned)P->maxsubdiv);
         if (rc == 0) rc = room_for(P, &tt, nt);
         if (rc == 0) {
             double *ov = NULL;
@@ -1709,7 +1732,7 @@ static int do_shape(pbrt *P, const token *d)
             rt_err pe;
             long got = rt_scene_append_ply(P->s, full, buf, n, m, P->cur_rgb, P->cur_mat, &pe);
             if (got < 0) rc = perr(P, &tt, "plymesh: %s", pe.msg);
-            else if (P->s->ntri > P->maxtri) {
+            else if ((uint64_t)P->s->ntri + P->pend > P->maxtri) {
                 P->s->ntri = start;
                 rc = room_for(P, &tt, (uint64_t)got);
             }
@@ -2040,22 +2063,65 @@ static int do_object_instance(pbrt *P, const token *d)
     if (k < 0) return perr(P, &tt, "ObjectInstance \"%s\": no such object", q);
     object *o = &P->objs[k];
     if (room_for(P, &tt, o->count) < 0) return -1;
-    for (uint32_t i = 0; i < o->count; i++) {
-        const rt_tri *t = &P->otri[o->start + i];
-        const rt_shade *h = &P->oshade[o->start + i];
-        rt_vec3 c[3];
-        for (int j = 0; j < 3; j++) {
-            c[j] = m_point(&P->g.ctm, t->p[j].x, t->p[j].y, t->p[j].z);
-            if (!in_range3(c[j]))
-                return perr(P, &tt, "ObjectInstance \"%s\": vertex (%g, %g, %g) is not finite or beyond %g after the "
-                            "transformation", q, (double)c[j].x, (double)c[j].y, (double)c[j].z, RT_COORD_MAX);
-        }
-        if (rt_scene_add_tri_mat(P->s, c[0], c[1], c[2], h->rgb, h->mat, P->e) < 0) return -1;
+    if (P->ninst == P->cinst) {
+        int nc = P->cinst ? 2 * P->cinst : 16;
+        instrec *ni = rt_reallocarray(P->inst, (size_t)nc, sizeof *ni, P->e);
+        if (!ni) return -1;
+        P->inst = ni;
+        P->cinst = nc;
     }
+    instrec *r = &P->inst[P->ninst++];
+    r->at = P->s->ntri;
+    r->obj = k;
+    r->ctm = P->g.ctm;
+    where(P, &tt, r->pos, sizeof r->pos, 1);
+    P->pend += o->count;
     if (!o->used) P->s->ntri_unique += o->count;
     o->used = 1;
     P->s->ninst++;
     P->s->ntri_inst += o->count;
+    return 0;
+}
+
+/* Makes the triangles of every ObjectInstance, in file order: the scene
+ * grows once to its final size (maxtri was checked at each instance) and,
+ * from the last instance back, the triangles made after an instance move
+ * up to make room for its copy. 0 or -1. */
+static int expand_instances(pbrt *P)
+{
+    rt_scene *s = P->s;
+    if (!P->ninst) return 0;
+    uint64_t total = (uint64_t)s->ntri + P->pend;
+    if (total > P->maxtri) return rt_errf(P->e, "%s: %llu triangles, more than maxtri=%u", cur(P)->path,
+                                          (unsigned long long)total, (unsigned)P->maxtri);
+    if (rt_scene_reserve(s, (uint32_t)total, P->e) < 0) return -1;
+    uint32_t src = s->ntri, dst = (uint32_t)total;
+    for (int i = P->ninst - 1; i >= 0; i--) {
+        const instrec *r = &P->inst[i];
+        const object *o = &P->objs[r->obj];
+        uint32_t tail = src - r->at;
+        if (tail && dst != src) {
+            memmove(s->tri + dst - tail, s->tri + r->at, tail * sizeof *s->tri);
+            memmove(s->shade + dst - tail, s->shade + r->at, tail * sizeof *s->shade);
+        }
+        dst -= tail;
+        src = r->at;
+        dst -= o->count;
+        for (uint32_t j = 0; j < o->count; j++) {
+            const rt_tri *t = &P->otri[o->start + j];
+            rt_tri *w = &s->tri[dst + j];
+            for (int c = 0; c < 3; c++) {
+                w->p[c] = m_point(&r->ctm, t->p[c].x, t->p[c].y, t->p[c].z);
+                if (!in_range3(w->p[c]))
+                    return rt_errf(P->e, "%s: ObjectInstance: vertex (%g, %g, %g) is not finite or beyond %g after "
+                                         "the transformation", r->pos, (double)w->p[c].x, (double)w->p[c].y,
+                                   (double)w->p[c].z, RT_COORD_MAX);
+            }
+            s->shade[dst + j] = P->oshade[o->start + j];
+        }
+    }
+    s->ntri = (uint32_t)total;
+    P->pend = 0;
     return 0;
 }
 
@@ -2302,19 +2368,21 @@ static void compose_warnings(pbrt *P)
     }
 }
 
-/* tess=N,maxtri=N */
-static int parse_spec(const char *path, const char *params, int *tess, uint32_t *maxtri, rt_err *e)
+/* tess=N,maxtri=N,maxsubdiv=N */
+static int parse_spec(const char *path, const char *params, int *tess, uint32_t *maxtri, uint32_t *maxsubdiv,
+                      rt_err *e)
 {
     *tess = 3;
     *maxtri = DEFAULT_MAXTRI;
-    int seen_t = 0, seen_m = 0;
+    *maxsubdiv = DEFAULT_MAXSUBDIV;
+    int seen_t = 0, seen_m = 0, seen_s = 0;
     const char *p = params ? params : "";
     while (*p) {
         const char *end = strchr(p, ',');
         size_t len = end ? (size_t)(end - p) : strlen(p);
         char item[64], *q;
         if (len == 0 || len >= sizeof item)
-            return rt_errf(e, "%s: bad parameter list '%.60s' (known: tess, maxtri)", path, params);
+            return rt_errf(e, "%s: bad parameter list '%.60s' (known: tess, maxtri, maxsubdiv)", path, params);
         memcpy(item, p, len);
         item[len] = 0;
         char *eq = strchr(item, '=');
@@ -2332,9 +2400,14 @@ static int parse_spec(const char *path, const char *params, int *tess, uint32_t 
             if (!ok || v < 1 || v > (long long)(UINT32_MAX / 2))
                 return rt_errf(e, "%s: maxtri=%s out of range 1..%u", path, eq + 1, (unsigned)(UINT32_MAX / 2));
             *maxtri = (uint32_t)v;
+        } else if (!strcmp(item, "maxsubdiv")) {
+            if (seen_s++) return rt_errf(e, "%s: parameter 'maxsubdiv' given twice", path);
+            if (!ok || v < 1 || v > (long long)(UINT32_MAX / 2))
+                return rt_errf(e, "%s: maxsubdiv=%s out of range 1..%u", path, eq + 1, (unsigned)(UINT32_MAX / 2));
+            *maxsubdiv = (uint32_t)v;
         } else {
             char q2[80];
-            return rt_errf(e, "%s: unknown parameter '%s' (known for .pbrt files: tess, maxtri, material)", path,
+            return rt_errf(e, "%s: unknown parameter '%s' (known for .pbrt files: tess, maxtri, maxsubdiv, material)", path,
                            rt_esc(q2, sizeof q2, item, 40));
         }
         p = end ? end + 1 : p + len;
@@ -2348,13 +2421,14 @@ rt_scene *rt_scene_load_pbrt(const char *path, const char *params, rt_err *e)
     pbrt *P = rt_calloc(1, sizeof *P, e);
     if (!P) return NULL;
     int rc = -1, tess;
-    uint32_t maxtri;
+    uint32_t maxtri, maxsubdiv;
     P->e = e;
     P->in_obj = -1;
     P->fov = 90;
-    if (parse_spec(path, params, &tess, &maxtri, e) < 0) goto done;
+    if (parse_spec(path, params, &tess, &maxtri, &maxsubdiv, e) < 0) goto done;
     P->tess = tess;
     P->maxtri = maxtri;
+    P->maxsubdiv = maxsubdiv;
     if (!(P->s = rt_scene_new(0, e))) goto done;
     const char *base = strrchr(path, '/');
     snprintf(P->s->name, sizeof P->s->name, "%s", base ? base + 1 : path);
@@ -2396,7 +2470,7 @@ rt_scene *rt_scene_load_pbrt(const char *path, const char *params, rt_err *e)
     m0.ior = 1;
     if (add_matdef(P, &m0) < 0) goto done;
     P->g.ctm = m_ident();
-    if (parse_all(P) < 0) goto done;
+    if (parse_all(P) < 0 || expand_instances(P) < 0) goto done;
     rt_scene *s = P->s;
     s->ntri_unique += P->nonobj;
     if (!s->ninst) s->ntri_unique = 0;
@@ -2427,6 +2501,7 @@ done:
     free(P->otri);
     free(P->oshade);
     free(P->al);
+    free(P->inst);
     rt_scene *out = P->s;
     if (rc < 0) {
         rt_scene_free(out);

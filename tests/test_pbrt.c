@@ -25,6 +25,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 
 static const char *srcfile(const char *rel)
@@ -165,16 +166,19 @@ static void test_instancing(void)
                             "ObjectBegin \"unused\"\n" TRI TRI TRI "ObjectEnd\n"
                             "Shape \"trianglemesh\" \"point3 P\" [ 5 5 5  6 5 5  5 6 5 ]\n"
                             "Translate 10 0 0\nObjectInstance \"pair\"\n"
-                            "Translate 10 0 0\nObjectInstance \"pair\"\nObjectInstance \"pair\"\n",
-                            7);
+                            "Translate 10 0 0\nObjectInstance \"pair\"\nObjectInstance \"pair\"\n"
+                            "Shape \"trianglemesh\" \"point3 P\" [ 7 7 7  8 7 7  7 8 7 ]\n",
+                            8);
     if (s) {
-        CHECK(s->ninst == 3 && s->ntri_unique == 3 && s->ntri_inst == 6, "instances %u, unique %u, instanced %u",
+        CHECK(s->ninst == 3 && s->ntri_unique == 4 && s->ntri_inst == 6, "instances %u, unique %u, instanced %u",
               s->ninst, s->ntri_unique, s->ntri_inst);
         CHECK(veq(s->tri[0].p[0], 5, 5, 5) && s->shade[0].rgb[0] == 0.5f, "the triangle outside the objects");
         CHECK(veq(s->tri[1].p[0], 10, 0, 1) && veq(s->tri[1].p[1], 11, 0, 1) && veq(s->tri[1].p[2], 10, 1, 1),
               "first instance (%g %g %g)", s->tri[1].p[0].x, s->tri[1].p[0].y, s->tri[1].p[0].z);
         CHECK(veq(s->tri[2].p[2], 10, 0, 2) && s->shade[2].rgb[0] == 0.9f, "the object's material travels with it");
         CHECK(veq(s->tri[5].p[0], 20, 0, 1) && veq(s->tri[3].p[0], 20, 0, 1), "second and third instance");
+        CHECK(veq(s->tri[7].p[0], 27, 7, 7), "a triangle after the instances stays last (%g %g %g)", s->tri[7].p[0].x,
+              s->tri[7].p[0].y, s->tri[7].p[0].z);
     }
     rt_scene_free(s);
     s = expect_ok("noinst.pbrt", "WorldBegin\n" TRI, 1);
@@ -200,6 +204,60 @@ static void test_includes(void)
     }
     CHECK(s->film_w == 40 && s->film_h == 30, "film %dx%d", s->film_w, s->film_h);
     rt_scene_free(s);
+}
+
+static double now_sec(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* Amplification is refused before anything is allocated: a 131-byte
+ * tetrahedron at levels 12 (4 x 4^12 = 2^26 triangles, exactly maxtri),
+ * 70,000 instances of a 972-triangle object (68 M triangles > maxtri), each
+ * in well under a second, naming the limit and the spec parameter that
+ * raises it. */
+static void test_amplification(void)
+{
+    const char *tet = "WorldBegin\nShape \"loopsubdiv\" \"integer levels\" 12\n"
+                      "\"point3 P\" [0 0 0 1 0 0 0 1 0 0 0 1]\n\"integer indices\" [0 2 1 0 1 3 0 3 2 1 2 3]\n";
+    CHECK(strlen(tet) == 131, "the tetrahedron file has %zu bytes", strlen(tet));
+    double t0 = now_sec();
+    expect_fail("tet12.pbrt", tet,
+                "tet12.pbrt:2:20: Shape \"loopsubdiv\": 4 faces at levels 12 make over 16777216 triangles, more "
+                "than maxsubdiv=4194304 (raise it with the spec parameter FILE.pbrt:maxsubdiv=N)");
+    double dt = now_sec() - t0;
+    CHECK(dt < 0.5, "levels 12 refused after %.3f s", dt);
+    rt_err e = {0};
+    rt_scene *s;
+    s = load_text("tet3.pbrt", tet, "maxsubdiv=256", &e);
+    CHECK(!s && strstr(e.msg, "more than maxsubdiv=256"), "levels 12 at maxsubdiv=256: %s", s ? "accepted" : e.msg);
+    rt_scene_free(s);
+    s = load_text("tet12c.pbrt", tet, "maxsubdiv=100000000,maxtri=1000", &e);
+    CHECK(!s && strstr(e.msg, "tet12c.pbrt:2:7: the scene would have 67108864 triangles, more than maxtri=1000 "
+                              "(raise it with the spec parameter FILE.pbrt:maxtri=N)"),
+          "maxtri message: %s", s ? "accepted" : e.msg);
+    rt_scene_free(s);
+    /* instances: counted before they are made */
+    size_t cap = 70000 * 20 + 200, k = 0;
+    char *text = malloc(cap);
+    CHECK(text != NULL, "malloc");
+    if (!text) return;
+    k += (size_t)snprintf(text, cap, "WorldBegin\nObjectBegin \"s\"\nShape \"sphere\"\nObjectEnd\n");
+    for (int i = 0; i < 70000; i++) k += (size_t)snprintf(text + k, cap - k, "ObjectInstance \"s\"\n");
+    t0 = now_sec();
+    s = load_text("inst70k.pbrt", text, "tess=9", &e);
+    dt = now_sec() - t0;
+    /* 12 x 9 x 9 = 972 triangles each; instance 69043 is the first over 2^26 (69043 x 972 > 67108864 >= 69042 x 972),
+     * on line 4 + 69043 */
+    char want[160];
+    snprintf(want, sizeof want, "inst70k.pbrt:%d:16: the scene would have %llu triangles, more than maxtri=67108864",
+             4 + 69043, 69043ULL * 972);
+    CHECK(!s && strstr(e.msg, want), "70000 instances: '%s' lacks '%s'", e.msg, want);
+    CHECK(dt < 2.0, "70000 instances refused after %.3f s", dt);
+    rt_scene_free(s);
+    free(text);
 }
 
 static void test_loopsubdiv(void)
@@ -246,7 +304,9 @@ static void test_loopsubdiv(void)
     expect_fail("loopbig.pbrt",
                 "WorldBegin\nShape \"loopsubdiv\" \"integer levels\" 40 \"point3 P\" [ 0 0 0 1 0 0 0 1 0 ] "
                 "\"integer indices\" [ 0 1 2 ]\n",
-                "more than maxtri=67108864");
+                "loopbig.pbrt:2:20: Shape \"loopsubdiv\": 1 faces at levels 40 make over 16777216 triangles, more than "
+                "maxsubdiv=4194304 (raise it with the spec parameter FILE.pbrt:maxsubdiv=N)");
+    test_amplification();
 }
 
 static void test_shapes(void)
@@ -785,7 +845,7 @@ static void test_strict_finite(void)
     s = load_text("vinf2.pbrt",
                   "WorldBegin\nObjectBegin \"o\"\n" TRI "ObjectEnd\nScale 1e30 1e30 1e30\nObjectInstance \"o\"\n", NULL,
                   &e);
-    CHECK(!s && strstr(e.msg, "vinf2.pbrt:6:16: ObjectInstance \"o\": vertex (1e+30, 0, 0) is not finite or beyond") &&
+    CHECK(!s && strstr(e.msg, "vinf2.pbrt:6:16: ObjectInstance: vertex (1e+30, 0, 0) is not finite or beyond") &&
               count_str(e.msg, "vinf2.pbrt") == 1,
           "non-finite instance vertex: '%s'", e.msg);
     rt_scene_free(s);
