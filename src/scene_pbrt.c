@@ -193,6 +193,8 @@ typedef struct pbrt {
     const float *cur_rgb; /* colour and table index of the shape being made */
     uint32_t cur_mat;
     token shape_tok;    /* its type string, for messages */
+    uint32_t *mslot;    /* material table entries by their terms: open hashing, 0 = empty, else index */
+    size_t nmslot;      /* slots (a power of two, > 2 x entries), 0 = none yet */
     warnent warn[MAX_WARN];
     int nwarn;          /* kinds kept */
     int nwarn_more;     /* kinds beyond MAX_WARN */
@@ -1249,8 +1251,49 @@ static int make_matdef(pbrt *P, const token *tt, const char *type, plist *L, mat
     return 0;
 }
 
+static int mat_same(const rt_material *a, const rt_material *b)
+{
+    return !memcmp(a->ks, b->ks, sizeof a->ks) && !memcmp(a->kt, b->kt, sizeof a->kt) && a->ior == b->ior &&
+           !memcmp(a->ke, b->ke, sizeof a->ke) && !strcmp(a->name, b->name);
+}
+
+static uint64_t mat_hash(const rt_material *m)
+{
+    uint64_t h = rt_fnv1a(RT_FNV_INIT, m->ks, sizeof m->ks);
+    h = rt_fnv1a(h, m->kt, sizeof m->kt);
+    h = rt_fnv1a(h, &m->ior, sizeof m->ior);
+    h = rt_fnv1a(h, m->ke, sizeof m->ke);
+    return rt_fnv1a(h, m->name, strlen(m->name));
+}
+
+/* Puts table entry i into the slots (growing them). 0 or -1. */
+static int mslot_put(pbrt *P, uint32_t i)
+{
+    rt_scene *s = P->s;
+    if (2 * (size_t)s->nmat >= P->nmslot) {
+        size_t nc = P->nmslot ? 2 * P->nmslot : 64;
+        while (2 * (size_t)s->nmat >= nc) nc *= 2;
+        uint32_t *ns = rt_calloc(nc, sizeof *ns, P->e);
+        if (!ns) return -1;
+        free(P->mslot);
+        P->mslot = ns;
+        P->nmslot = nc;
+        for (uint32_t k = 1; k < s->nmat; k++)
+            if (k != i) {
+                size_t h = (size_t)mat_hash(&s->mat[k]) & (nc - 1);
+                while (ns[h]) h = (h + 1) & (nc - 1);
+                ns[h] = k;
+            }
+    }
+    size_t h = (size_t)mat_hash(&s->mat[i]) & (P->nmslot - 1);
+    while (P->mslot[h]) h = (h + 1) & (P->nmslot - 1);
+    P->mslot[h] = i;
+    return 0;
+}
+
 /* The table index for material md with emission ke (made on first use;
- * identical terms share an entry). */
+ * identical terms share an entry, found by hashing: a file of many
+ * materials costs linear time). */
 static int table_index(pbrt *P, matdef *md, const float ke[3], int emit, uint32_t *out)
 {
     if (!emit && md->tab >= 0) return *out = (uint32_t)md->tab, 0;
@@ -1271,20 +1314,24 @@ static int table_index(pbrt *P, matdef *md, const float ke[3], int emit, uint32_
     snprintf(m.name, sizeof m.name, "%s", md->name);
     if (emit && !strcmp(md->name, "diffuse")) snprintf(m.name, sizeof m.name, "light");
     rt_scene *s = P->s;
-    for (uint32_t i = 1; i < s->nmat; i++) {
-        const rt_material *t = &s->mat[i];
-        if (!memcmp(t->ks, m.ks, sizeof m.ks) && !memcmp(t->kt, m.kt, sizeof m.kt) && t->ior == m.ior &&
-            !memcmp(t->ke, m.ke, sizeof m.ke) && !strcmp(t->name, m.name)) {
+    /* the name as the table stores it (copied, truncated) */
+    m.name[sizeof m.name - 1] = 0;
+    for (size_t h = P->nmslot ? (size_t)mat_hash(&m) & (P->nmslot - 1) : 0; P->nmslot && P->mslot[h];
+         h = (h + 1) & (P->nmslot - 1)) {
+        uint32_t i = P->mslot[h];
+        if (mat_same(&s->mat[i], &m)) {
             if (!emit) md->tab = i;
             return *out = i, 0;
         }
     }
     int r = rt_scene_add_material(s, &m, P->e);
     if (r < 0) {
+        if (s->nmat >= 65536) return perr(P, &P->shape_tok, "more than 65536 distinct materials (the table's limit)");
         char msg[RT_ERR_LEN];
         snprintf(msg, sizeof msg, "%s", P->e->msg);
         return perr(P, &P->shape_tok, "%s", msg);
     }
+    if (mslot_put(P, (uint32_t)r) < 0) return -1;
     if (!emit) md->tab = r;
     *out = (uint32_t)r;
     return 0;
@@ -2502,6 +2549,7 @@ done:
     free(P->oshade);
     free(P->al);
     free(P->inst);
+    free(P->mslot);
     rt_scene *out = P->s;
     if (rc < 0) {
         rt_scene_free(out);

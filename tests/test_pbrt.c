@@ -206,6 +206,13 @@ static void test_includes(void)
     rt_scene_free(s);
 }
 
+static int count_str(const char *hay, const char *needle)
+{
+    int n = 0;
+    for (const char *p = hay; (p = strstr(p, needle)); p++) n++;
+    return n;
+}
+
 static double now_sec(void)
 {
     struct timespec ts;
@@ -256,6 +263,26 @@ static void test_amplification(void)
              4 + 69043, 69043ULL * 972);
     CHECK(!s && strstr(e.msg, want), "70000 instances: '%s' lacks '%s'", e.msg, want);
     CHECK(dt < 2.0, "70000 instances refused after %.3f s", dt);
+    rt_scene_free(s);
+    free(text);
+    /* 70,000 distinct conductors, each on a triangle: the table's limit
+     * is met at the 65,536th (entry 0 is the plain one) with its line, in
+     * linear time (hashed lookup) */
+    cap = 70000 * 140 + 100;
+    text = malloc(cap);
+    CHECK(text != NULL, "malloc");
+    if (!text) return;
+    k = (size_t)snprintf(text, cap, "WorldBegin\n");
+    for (int i = 1; i <= 70000; i++)
+        k += (size_t)snprintf(text + k, cap - k, "Material \"conductor\" \"rgb reflectance\" [ %.7f 0.5 0.5 ]\n" TRI,
+                              i * 1e-6);
+    t0 = now_sec();
+    s = load_text("mat70k.pbrt", text, NULL, &e);
+    dt = now_sec() - t0;
+    snprintf(want, sizeof want, "mat70k.pbrt:%d:7: ", 1 + 2 * 65536);
+    CHECK(!s && strstr(e.msg, want) && strstr(e.msg, "more than 65536 distinct materials") && count_str(e.msg, "mat70k") == 1,
+          "70000 materials: '%s' lacks '%s'", s ? "accepted" : e.msg, want);
+    CHECK(dt < 3.0, "70000 materials refused after %.3f s", dt);
     rt_scene_free(s);
     free(text);
 }
@@ -781,12 +808,6 @@ static void test_film_opts(void)
  * Rotate 1e22 is Rotate 280), transformations that overflow, lights,
  * cameras and vertices that leave float range: each a one-line
  * FILE:LINE:COL error naming the file once. */
-static int count_str(const char *hay, const char *needle)
-{
-    int n = 0;
-    for (const char *p = hay; (p = strstr(p, needle)); p++) n++;
-    return n;
-}
 
 static void test_strict_finite(void)
 {
