@@ -36,6 +36,7 @@
 #include "config.h"
 #include "scene.h"
 #include "scene_load.h"
+#include "scene_file.h"
 
 #include <errno.h>
 #include <float.h>
@@ -286,7 +287,7 @@ static int load_mtl(objload *L, const char *mpath)
 {
     char *buf = NULL;
     size_t n = 0;
-    if (rt_slurp_regular(mpath, rt_scene_max_bytes, &buf, &n, L->e) < 0) {
+    if (rt_sfile_slurp(mpath, rt_scene_max_bytes, &buf, &n, L->e) < 0) {
         if (errno == ENOENT) return -2;
         char m[RT_ERR_LEN];
         snprintf(m, sizeof m, "%s", L->e ? L->e->msg : "");
@@ -555,7 +556,7 @@ rt_scene *rt_scene_load_obj(const char *path, rt_err *e)
 {
     char *buf = NULL;
     size_t n = 0;
-    if (rt_slurp_regular(path, rt_scene_max_bytes, &buf, &n, e) < 0) return NULL;
+    if (rt_sfile_slurp(path, rt_scene_max_bytes, &buf, &n, e) < 0) return NULL;
     rt_scene *s = rt_scene_new(0, e);
     if (!s) {
         free(buf);

@@ -42,6 +42,7 @@
 #include "config.h"
 #include "scene.h"
 #include "scene_load.h"
+#include "scene_file.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -577,41 +578,33 @@ static int open_regular(const char *path, int *fd, struct stat *st, char *why, s
     return 0;
 }
 
-/* Reads the open regular file (at most MAX_FILE_BYTES, and within the
- * load's total) into a NUL-terminated buffer. Closes fd. 0 or -1 (why). */
+/* Reads the open regular file (plain or gzip, rt_sfile_read: at most
+ * MAX_FILE_BYTES after inflation, and within the load's total) into a
+ * NUL-terminated buffer. Closes fd. 0 or -1 (why). */
 static int read_fd(pbrt *P, int fd, const struct stat *st, char **pbuf, size_t *pn, char *why, size_t nwhy)
 {
-    uint64_t size = (uint64_t)st->st_size;
-    if (size > MAX_FILE_BYTES) {
+    if ((uint64_t)st->st_size > MAX_FILE_BYTES) {
         close(fd);
         return snprintf(why, nwhy, "larger than %llu bytes", (unsigned long long)MAX_FILE_BYTES), -1;
     }
-    if (P->total + size > MAX_TOTAL_BYTES || P->nfiles >= MAX_FILES) {
+    if (P->total + (uint64_t)st->st_size > MAX_TOTAL_BYTES || P->nfiles >= MAX_FILES) {
         close(fd);
         return snprintf(why, nwhy, "the files read exceed %llu bytes or %d files in all",
                         (unsigned long long)MAX_TOTAL_BYTES, MAX_FILES), -1;
     }
-    rt_err e2;
-    char *buf = rt_calloc((size_t)size + 1, 1, &e2);
-    if (!buf) {
-        close(fd);
-        return snprintf(why, nwhy, "%.150s", e2.msg), -1;
-    }
-    size_t n = 0;
-    while (n < size) {
-        ssize_t r = read(fd, buf + n, (size_t)size - n);
-        if (r < 0 && errno == EINTR) continue;
-        if (r < 0) {
-            snprintf(why, nwhy, "%s", strerror(errno));
-            free(buf);
-            close(fd);
-            return -1;
-        }
-        if (r == 0) break;
-        n += (size_t)r;
-    }
+    uint64_t left = MAX_TOTAL_BYTES - P->total, lim = left < MAX_FILE_BYTES ? left : MAX_FILE_BYTES;
+    if (lim > rt_scene_max_bytes) lim = rt_scene_max_bytes;
+    char *buf;
+    size_t n;
+    int gz;
+    int rc = rt_sfile_read_fd(fd, lim, &buf, &n, &gz, why, nwhy);
     close(fd);
-    buf[n] = 0;
+    if (rc < 0) {
+        if (strstr(why, "more than") && lim == left && left < MAX_FILE_BYTES && left < rt_scene_max_bytes)
+            snprintf(why, nwhy, "the files read exceed %llu bytes or %d files in all",
+                     (unsigned long long)MAX_TOTAL_BYTES, MAX_FILES);
+        return -1;
+    }
     P->total += n;
     P->nfiles++;
     *pbuf = buf;

@@ -25,6 +25,7 @@
 #include "config.h"
 #include "scene.h"
 #include "scene_load.h"
+#include "scene_file.h"
 
 #include <errno.h>
 #include <float.h>
@@ -537,7 +538,7 @@ rt_scene *rt_scene_load_ply(const char *path, rt_err *e)
 {
     char *buf = NULL;
     size_t n = 0;
-    if (rt_slurp_regular(path, rt_scene_max_bytes, &buf, &n, e) < 0) return NULL;
+    if (rt_sfile_slurp(path, rt_scene_max_bytes, &buf, &n, e) < 0) return NULL;
     rt_vec3 *verts = NULL;
     idxbuf tris = {NULL, 0, 0};
     rt_scene *s = NULL;

@@ -18,8 +18,10 @@
 #include "run.h"
 #include "scene.h"
 #include "scene_load.h"
+#include "scene_file.h"
 
 #include <inttypes.h>
+#include <stdint.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -27,6 +29,7 @@
 #include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
+#include <zlib.h>
 
 static const char *srcfile(const char *rel)
 {
@@ -184,6 +187,141 @@ static void test_instancing(void)
     s = expect_ok("noinst.pbrt", "WorldBegin\n" TRI, 1);
     if (s) CHECK(s->ninst == 0 && s->ntri_unique == 0 && s->ntri_inst == 0, "no instancing, no counts");
     rt_scene_free(s);
+}
+
+/* Writes text gzip-compressed as NAME in the temporary folder, in
+ * `members` gzip members (split evenly), as gzip does for cat a.gz b.gz. */
+static void write_gz(const char *name, const char *text, int members)
+{
+    size_t n = strlen(text), at = 0;
+    FILE *f = fopen(check_path(name), "wb");
+    CHECK(f != NULL, "cannot write %s", name);
+    if (!f) return;
+    for (int m = 0; m < members; m++) {
+        size_t part = m == members - 1 ? n - at : n / (size_t)members;
+        z_stream z;
+        memset(&z, 0, sizeof z);
+        CHECK(deflateInit2(&z, 9, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) == Z_OK, "deflateInit2");
+        uLong cap = deflateBound(&z, (uLong)part);
+        unsigned char *out = malloc(cap);
+        z.next_in = (unsigned char *)(uintptr_t)(text + at);
+        z.avail_in = (uInt)part;
+        z.next_out = out;
+        z.avail_out = (uInt)cap;
+        CHECK(deflate(&z, Z_FINISH) == Z_STREAM_END, "deflate");
+        fwrite(out, 1, cap - z.avail_out, f);
+        deflateEnd(&z);
+        free(out);
+        at += part;
+    }
+    fclose(f);
+}
+
+/* gzip by content: a .pbrt.gz top file, an Include of a .pbrt.gz, a
+ * plymesh of a .ply.gz and a gzipped file under a plain name load the
+ * same triangles as the plain files; two members concatenate; a cut or
+ * damaged stream, and one that inflates past the limit, are refused with
+ * the file and the compressed byte. */
+static void test_gzip(void)
+{
+    const char *ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                      "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+    write_gz("gz_m.ply.gz", ply, 1);
+    write_gz("gz_inc.pbrt.gz", "Shape \"trianglemesh\" \"point3 P\" [ 0 0 5  1 0 5  0 1 5 ]\n", 1);
+    const char *top = "WorldBegin\nInclude \"gz_inc.pbrt.gz\"\nTranslate 2 0 0\n"
+                      "Shape \"plymesh\" \"string filename\" \"gz_m.ply.gz\"\n" TRI;
+    write_gz("gz_top.pbrt.gz", top, 2);
+    write_gz("gz_plain_name.pbrt", top, 1);
+    write_text("gz_top_plain.pbrt", top);
+    rt_err e = {0};
+    rt_scene *a = rt_scene_load(check_path("gz_top.pbrt.gz"), &e);
+    CHECK(a != NULL, "gz_top.pbrt.gz: %s", e.msg);
+    rt_scene *b = rt_scene_load(check_path("gz_plain_name.pbrt"), &e);
+    CHECK(b != NULL, "gz_plain_name.pbrt: %s", e.msg);
+    rt_scene *c = rt_scene_load(check_path("gz_top_plain.pbrt"), &e);
+    CHECK(c != NULL, "gz_top_plain.pbrt: %s", e.msg);
+    if (a && b && c) {
+        CHECK(a->ntri == 3 && b->ntri == 3 && c->ntri == 3, "triangles %u %u %u", a->ntri, b->ntri, c->ntri);
+        CHECK(veq(a->tri[0].p[0], 0, 0, 5) && veq(a->tri[1].p[1], 3, 0, 0) && veq(a->tri[2].p[2], 2, 1, 0),
+              "gzip geometry");
+        CHECK(a->ntri == c->ntri && !memcmp(a->tri, c->tri, c->ntri * sizeof *c->tri) &&
+                  !memcmp(b->tri, c->tri, c->ntri * sizeof *c->tri),
+              "gzip and plain files give different triangles");
+    }
+    rt_scene_free(a);
+    rt_scene_free(b);
+    rt_scene_free(c);
+    /* the PLY loader on its own, by content */
+    a = rt_scene_load(check_path("gz_m.ply.gz"), &e);
+    CHECK(a && a->ntri == 1, "gz_m.ply.gz: %s", a ? "wrong count" : e.msg);
+    rt_scene_free(a);
+    /* damaged: cut in the middle, a bad byte in the header's method */
+    FILE *f = fopen(check_path("gz_top.pbrt.gz"), "rb");
+    unsigned char buf[4096];
+    size_t n = f ? fread(buf, 1, sizeof buf, f) : 0;
+    if (f) fclose(f);
+    CHECK(n > 40, "gz_top.pbrt.gz has %zu bytes", n);
+    check_write_file(check_path("gz_cut.pbrt.gz"), buf, 30);
+    a = rt_scene_load(check_path("gz_cut.pbrt.gz"), &e);
+    CHECK(!a && strstr(e.msg, "gz_cut.pbrt.gz: truncated gzip data (the stream ends at compressed byte 30)"),
+          "cut gzip: %s", a ? "accepted" : e.msg);
+    rt_scene_free(a);
+    buf[2] = 7; /* compression method must be 8 */
+    check_write_file(check_path("gz_bad.pbrt"), buf, n);
+    a = rt_scene_load(check_path("gz_bad.pbrt"), &e);
+    CHECK(!a && strstr(e.msg, "gz_bad.pbrt: gzip data: unknown compression method"), "bad gzip: %s",
+          a ? "accepted" : e.msg);
+    CHECK(!a && !strchr(e.msg, '\n'), "one line");
+    rt_scene_free(a);
+    /* an Include that is cut names the including line */
+    write_text("gz_inc_cut.pbrt", "WorldBegin\nInclude \"gz_cut.pbrt.gz\"\n");
+    a = rt_scene_load(check_path("gz_inc_cut.pbrt"), &e);
+    CHECK(!a && strstr(e.msg, "gz_inc_cut.pbrt:2:9: Include \"gz_cut.pbrt.gz\": truncated gzip data"), "cut include: %s",
+          a ? "accepted" : e.msg);
+    rt_scene_free(a);
+    /* a bomb: 200 KB of comments compress to a few hundred bytes; the
+     * limit is on the inflated bytes */
+    size_t big = 200000;
+    char *text = malloc(big + 200);
+    CHECK(text != NULL, "malloc");
+    if (!text) return;
+    memset(text, '#', big);
+    memcpy(text + big, "\nWorldBegin\n" TRI, strlen("\nWorldBegin\n" TRI) + 1);
+    write_gz("gz_bomb.pbrt.gz", text, 1);
+    write_gz("gz_bomb.ply.gz", text, 1);
+    free(text);
+    uint64_t keep = rt_scene_max_bytes;
+    rt_scene_max_bytes = 100000;
+    a = rt_scene_load(check_path("gz_bomb.pbrt.gz"), &e);
+    CHECK(!a && strstr(e.msg, "gz_bomb.pbrt.gz: more than 100000 bytes (decompressed)"), "pbrt bomb: %s",
+          a ? "accepted" : e.msg);
+    rt_scene_free(a);
+    a = rt_scene_load(check_path("gz_bomb.ply.gz"), &e);
+    CHECK(!a && strstr(e.msg, "gz_bomb.ply.gz: more than 100000 bytes (decompressed) (RT_SCENE_MAX_BYTES)"),
+          "ply bomb: %s", a ? "accepted" : e.msg);
+    rt_scene_free(a);
+    rt_scene_max_bytes = keep;
+    a = rt_scene_load(check_path("gz_bomb.pbrt.gz"), &e);
+    CHECK(a && a->ntri == 1, "the bomb under the normal limit: %s", a ? "wrong count" : e.msg);
+    rt_scene_free(a);
+    /* the reader itself: empty, one byte, the magic alone */
+    char *out;
+    size_t on;
+    int gz;
+    char why[200];
+    CHECK(rt_sfile_read_mem("", 0, 10, &out, &on, &gz, why, sizeof why) == 0 && on == 0 && out[0] == 0 && !gz,
+          "empty source");
+    free(out);
+    CHECK(rt_sfile_read_mem("x", 1, 10, &out, &on, &gz, why, sizeof why) == 0 && on == 1 && !strcmp(out, "x"),
+          "one byte");
+    free(out);
+    CHECK(rt_sfile_read_mem("\x1f\x8b", 2, 10, &out, &on, &gz, why, sizeof why) < 0 && strstr(why, "truncated gzip"),
+          "the magic alone: %s", why);
+    CHECK(rt_sfile_read_mem("0123456789a", 11, 10, &out, &on, &gz, why, sizeof why) < 0 &&
+              !strcmp(why, "more than 10 bytes"),
+          "11 plain bytes over a limit of 10: %s", why);
+    CHECK(rt_sfile_read_mem("0123456789", 10, 10, &out, &on, &gz, why, sizeof why) == 0 && on == 10, "10 of 10");
+    free(out);
 }
 
 static void test_includes(void)
@@ -882,6 +1020,7 @@ int main(void)
     test_transforms();
     test_instancing();
     test_includes();
+    test_gzip();
     test_loopsubdiv();
     test_shapes();
     test_materials();
