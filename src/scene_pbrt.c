@@ -153,8 +153,6 @@ typedef struct pbrt {
     int tess;           /* sphere tessellation */
     uint32_t maxtri;    /* triangle limit */
     uint32_t maxsubdiv; /* triangles one loopsubdiv shape may make */
-    char *topdir;       /* folder of the top-level file ("." if none) */
-    char *rtop;         /* its realpath */
     srcfile *f[MAX_DEPTH];
     int depth;          /* files on the include stack */
     uint64_t total;     /* bytes read so far */
@@ -518,56 +516,27 @@ static double det3(const mat4 *m)
 /* ------------------------------------------------------------------------ */
 /* Files                                                                     */
 
-/* Joins `dir` (relative to the top folder, "" = the top) and a relative
- * `path` into the normalised relative path out ("." and ".." resolved);
- * -1 when path is absolute or empty, or leaves the top folder. A static
- * equivalent of the shared rt_path_within (src/rt.c), kept here until the
- * two are unified. */
-static int rel_join(const char *dir, const char *path, char *out, size_t cap)
-{
-    if (!path[0] || path[0] == '/') return -1;
-    size_t dl = strlen(dir), pl = strlen(path);
-    char *tmp = malloc(dl + pl + 2);
-    if (!tmp) return -1;
-    snprintf(tmp, dl + pl + 2, "%s%s%s", dir, dl ? "/" : "", path);
-    size_t k = 0;
-    int rc = 0;
-    out[0] = 0;
-    for (char *p = tmp; *p && rc == 0;) {
-        char *s = strchr(p, '/');
-        size_t n = s ? (size_t)(s - p) : strlen(p);
-        if (n == 0 || (n == 1 && p[0] == '.')) {
-            /* nothing */
-        } else if (n == 2 && p[0] == '.' && p[1] == '.') {
-            if (k == 0) rc = -1;
-            else {
-                while (k > 0 && out[k - 1] != '/') k--;
-                if (k > 0) k--;
-                out[k] = 0;
-            }
-        } else {
-            if (k + n + 2 > cap) rc = -1;
-            else {
-                if (k) out[k++] = '/';
-                memcpy(out + k, p, n);
-                k += n;
-                out[k] = 0;
-            }
-        }
-        p = s ? s + 1 : p + n;
-    }
-    free(tmp);
-    if (rc == 0 && k == 0) rc = -1;
-    return rc;
-}
-
 /* Opens a regular file without blocking (a FIFO or device is refused
  * before any read). 0 with *fd and *st, or -1 with "reason" in why. A
  * static equivalent of the shared rt_open_regular (src/rt.c), kept here
  * until the two are unified. */
 static int open_regular(const char *path, int *fd, struct stat *st, char *why, size_t nwhy)
 {
-    int f = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    int f = open(path, O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC);
+    if (f < 0 && errno == ENOENT) {
+        /* the folder it was looked for in, as the file system names it */
+        char dir[4096], q[300];
+        const char *slash = strrchr(path, '/');
+        size_t dl = slash ? (size_t)(slash - path) : 0;
+        if (dl >= sizeof dir) dl = 0;
+        memcpy(dir, slash ? path : ".", slash ? (dl ? dl : 1) : 1);
+        dir[slash ? (dl ? dl : 1) : 1] = 0;
+        char *real = realpath(dir, NULL);
+        rt_esc(q, sizeof q, real ? real : dir, 256);
+        snprintf(why, nwhy, "no such file in %.150s%s", q, real ? "" : " (no such folder)");
+        free(real);
+        return -1;
+    }
     if (f < 0) return snprintf(why, nwhy, "%s", strerror(errno)), -1;
     if (fstat(f, st) < 0 || !S_ISREG(st->st_mode)) {
         snprintf(why, nwhy, "%s", S_ISDIR(st->st_mode) ? "a folder, not a file" : "not a regular file");
@@ -621,65 +590,39 @@ static void file_free(srcfile *F)
     free(F);
 }
 
-/* A path of the top folder: "TOP/rel" (or rel when TOP is "."), malloc'd. */
-static char *top_path(pbrt *P, const char *rel)
-{
-    size_t n = strlen(P->topdir) + strlen(rel) + 2;
-    char *p = rt_calloc(n, 1, P->e);
-    if (p) {
-        if (!strcmp(P->topdir, ".")) snprintf(p, n, "%s", rel);
-        else snprintf(p, n, "%s/%s", P->topdir, rel);
-    }
-    return p;
-}
-
-/* Resolves a file named in a directive (token t, decoded name) against the
- * current file's folder: *prel the normalised path relative to the top
- * folder, *pfull the path to open (both malloc'd). Checks that it stays in
- * the top folder, also through symbolic links. 0 or -1. */
+/* The path of a file a directive names (token t, decoded name), as pbrt
+ * resolves it: relative to the folder of the file that names it, ".."
+ * allowed (scene collections share asset folders: "../landscape/x.ply").
+ * Absolute paths are refused, so a scene folder stays movable. The name
+ * is never checked apart from its opening: the caller opens it once
+ * (open_regular) and checks the opened descriptor, so a link swapped
+ * between a check and the read cannot change what is read. *prel and
+ * *pfull (malloc'd): the path to open, the first to become the folder of
+ * an included file. 0 or -1. */
 static int resolve(pbrt *P, const token *t, const char *what, const char *name, char **prel, char **pfull)
 {
     char q[300];
     rt_esc(q, sizeof q, name, 256);
-    size_t cap = strlen(cur(P)->rel) + strlen(name) + 2;
-    char *rel = rt_calloc(cap, 1, P->e);
-    if (!rel) return -1;
-    if (name[0] == '/') {
-        free(rel);
-        return perr(P, t, "%s \"%s\": absolute paths are not allowed (name it relative to %s)", what, q,
+    if (name[0] == '/')
+        return perr(P, t, "%s \"%s\": absolute paths are not allowed (name it relative to the folder of %s)", what, q,
                     cur(P)->path);
-    }
-    if (rel_join(cur(P)->rel, name, rel, cap) < 0) {
-        free(rel);
-        return perr(P, t, "%s \"%s\": the path leaves the scene's folder %s", what, q, P->topdir);
-    }
-    char *full = top_path(P, rel);
-    if (!full) {
+    const char *dir = cur(P)->rel;
+    size_t n = strlen(dir) + strlen(name) + 2;
+    char *full = rt_calloc(n, 1, P->e), *rel = rt_calloc(n, 1, P->e);
+    if (!full || !rel) {
+        free(full);
         free(rel);
         return -1;
     }
-    char *real = realpath(full, NULL);
-    if (!real) {
-        int err = errno;
-        free(rel);
-        free(full);
-        return perr(P, t, "%s \"%s\": %s", what, q, err == ENOENT ? "no such file" : strerror(err));
-    }
-    size_t tl = strlen(P->rtop);
-    int inside = !strncmp(real, P->rtop, tl) && (real[tl] == '/' || (tl == 1 && P->rtop[0] == '/'));
-    free(real);
-    if (!inside) {
-        free(rel);
-        free(full);
-        return perr(P, t, "%s \"%s\": the file lies outside the scene's folder %s (through a link)", what, q,
-                    P->topdir);
-    }
+    snprintf(full, n, "%s%s%s", dir, dir[0] ? "/" : "", name);
+    memcpy(rel, full, strlen(full) + 1);
     *prel = rel;
     *pfull = full;
     return 0;
 }
 
-/* Pushes a file; rel = its path relative to the top folder (taken over). */
+/* Pushes a file; rel = its path as opened (taken over; cut to its folder,
+ * "" when it has none). */
 static int push_file(pbrt *P, char *shown, char *rel, char *buf, size_t n, const struct stat *st)
 {
     srcfile *F = rt_calloc(1, sizeof *F, P->e);
@@ -692,7 +635,8 @@ static int push_file(pbrt *P, char *shown, char *rel, char *buf, size_t n, const
     F->path = shown;
     /* the folder of rel */
     char *slash = strrchr(rel, '/');
-    if (slash) *slash = 0;
+    if (slash == rel) rel[1] = 0; /* "/x.pbrt": the root */
+    else if (slash) *slash = 0;
     else rel[0] = 0;
     F->rel = rel;
     F->buf = buf;
@@ -2473,15 +2417,6 @@ rt_scene *rt_scene_load_pbrt(const char *path, const char *params, rt_err *e)
     const char *base = strrchr(path, '/');
     snprintf(P->s->name, sizeof P->s->name, "%s", base ? base + 1 : path);
     snprintf(P->s->params, sizeof P->s->params, "tess=%d", tess);
-    /* the top folder */
-    size_t dl = base ? (size_t)(base - path) : 0;
-    if (!(P->topdir = rt_calloc(dl + 2, 1, e))) goto done;
-    if (base) memcpy(P->topdir, path, dl ? dl : 1);
-    else P->topdir[0] = '.';
-    if (!(P->rtop = realpath(P->topdir, NULL))) {
-        rt_errf(e, "%s: %s", path, strerror(errno));
-        goto done;
-    }
     /* the top file */
     int fd;
     struct stat st;
@@ -2500,7 +2435,7 @@ rt_scene *rt_scene_load_pbrt(const char *path, const char *params, rt_err *e)
         goto done;
     }
     memcpy(shown, path, pl);
-    memcpy(rel, base ? base + 1 : path, strlen(base ? base + 1 : path)); /* folder "" after push_file */
+    memcpy(rel, path, pl); /* its folder after push_file */
     if (push_file(P, shown, rel, buf, n, &st) < 0) goto done;
     /* the default material and state */
     matdef m0;
@@ -2529,8 +2464,6 @@ rt_scene *rt_scene_load_pbrt(const char *path, const char *params, rt_err *e)
     rc = 0;
 done:
     for (int i = 0; i < P->depth; i++) file_free(P->f[i]);
-    free(P->topdir);
-    free(P->rtop);
     free(P->stack);
     free(P->mats);
     nm_free(&P->named_mat);
