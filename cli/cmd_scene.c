@@ -23,13 +23,14 @@ static void usage(FILE *f)
 {
     fprintf(f,
             "Usage: raytraffic scene list\n"
-            "       raytraffic scene info SCENE [--json] [--no-tree] [--accel A] [VIEW]\n"
+            "       raytraffic scene info SCENE [--json] [--no-tree] [--accel A] [--strict] [VIEW]\n"
             "       raytraffic scene export SCENE -o FILE.obj [VIEW]\n\n"
             "SCENE is a built-in name with optional parameters (sphereflake:level=2,tess=3)\n"
             "or a scene file ending in .obj, .ply or .pbrt.\n\n"
             "  list      built-in scenes, their parameters and one-line descriptions\n"
             "  info      triangles, bounds, scene hash, camera, lights and k-d tree statistics\n"
-            "            --json     one JSON object on stdout\n"
+            "            --json     one JSON object on stdout (warnings included)\n"
+            "            --strict   refuse a scene whose loading warned\n"
             "            and per acceleration structure (kd, bvh2, bvh4, bvh8) its build\n"
             "            time, nodes, modeled bytes (nodes and index lists) and depth\n"
             "            --accel A  only structure A (kd, bvh2, bvh4, bvh8, grid, naive)\n"
@@ -112,13 +113,14 @@ static int cmd_info(int argc, char **argv)
         return RT_EXIT_OK;
     }
     const char *spec = NULL;
-    int json = 0, tree = 1, only = 0, v;
+    int json = 0, tree = 1, only = 0, strict = 0, v;
     rt_render_opts vo;
     rt_render_default_opts(&vo);
     for (int i = 1; i < argc; i++) {
         if ((v = view_opt(argc, argv, &i, &vo)) != 0) {
             if (v < 0) return RT_EXIT_USAGE;
         } else if (!strcmp(argv[i], "--json")) json = 1;
+        else if (!strcmp(argv[i], "--strict")) strict = 1;
         else if (!strcmp(argv[i], "--accel")) {
             if (i + 1 >= argc) {
                 rt_cmd_error("scene", "info: --accel needs a structure (%s)", rt_accel_names());
@@ -148,7 +150,11 @@ static int cmd_info(int argc, char **argv)
     rt_scene *s = load_viewed(spec, &vo);
     if (!s) return RT_EXIT_FAIL;
     double load_sec = rt_now() - t0;
-    if (s->warning[0]) rt_cmd_error("scene", "warning: %s", s->warning);
+    if (strict && rt_cmd_strict("scene", s) < 0) {
+        rt_scene_free(s);
+        return RT_EXIT_FAIL;
+    }
+    if (!json) rt_cmd_print_warnings("scene", s); /* --json: in the object */
     rt_kdtree *kd = NULL;
     if (tree && (!only || only == RT_ACCEL_KD)) {
         rt_kd_params kp;
@@ -204,7 +210,9 @@ static int cmd_info(int argc, char **argv)
             printf("%s[%.9g, %.9g, %.9g]", i ? ", " : "", (double)s->light[i].x, (double)s->light[i].y,
                    (double)s->light[i].z);
         printf("],\n  \"light_power\": %.9g,\n  \"ambient\": %.9g,\n", (double)s->light_power, (double)s->ambient);
-        printf("  \"load_sec\": %.6f", load_sec);
+        printf("  ");
+        rt_cmd_json_warnings(stdout, s);
+        printf(",\n  \"load_sec\": %.6f", load_sec);
         if (kd) {
             printf(",\n  \"kd\": {\"nodes\": %u, \"leaves\": %u, \"empty_leaves\": %u, \"depth\": %u, "
                    "\"index_entries\": %u, \"mean_leaf_tris\": %.4f, \"max_leaf_tris\": %u, \"build_sec\": %.6f}",

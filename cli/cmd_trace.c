@@ -33,13 +33,14 @@ static void usage(FILE *f)
             "  --level N          zlib level 0..9 (default %d)\n"
             "  --no-sample        write format version 1/2, without the sample index that\n"
             "                     lets `sim --method hybrid` skip the records (about 10%%\n"
-            "                     smaller; docs/trace-format.md)\n" RT_RENDER_OPTS_HELP
+            "                     smaller; docs/trace-format.md)\n"
+            "  --strict           refuse a scene whose loading warned\n" RT_RENDER_OPTS_HELP
             "                     (trace defaults: -W 512 -H 512, --lights none)\n"
             "  -h, --help         this help\n",
             RT_TR_DEFAULT_LEVEL);
 }
 
-enum { OPT_LEVEL = 2000, OPT_NO_SAMPLE };
+enum { OPT_LEVEL = 2000, OPT_NO_SAMPLE, OPT_STRICT };
 
 int main_trace(int argc, char **argv)
 {
@@ -47,6 +48,7 @@ int main_trace(int argc, char **argv)
         {"output", required_argument, NULL, 'o'},
         {"level", required_argument, NULL, OPT_LEVEL},
         {"no-sample", no_argument, NULL, OPT_NO_SAMPLE},
+        {"strict", no_argument, NULL, OPT_STRICT},
         {"material", required_argument, NULL, 'M'},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0},
@@ -60,7 +62,7 @@ int main_trace(int argc, char **argv)
     rt_si_wopts(&wo);
     const char *material = NULL;
     const char *tracer = "recursive", *out = NULL;
-    int c;
+    int c, strict = 0;
     if (argc == 1) {
         usage(stdout);
         return RT_EXIT_OK;
@@ -89,6 +91,7 @@ int main_trace(int argc, char **argv)
             wo.level = optarg[0] - '0';
             break;
         case OPT_NO_SAMPLE: wo.payload = NULL; break;
+        case OPT_STRICT: strict = 1; break;
         case 'h': usage(stdout); free(lo); return RT_EXIT_OK;
         default: goto usage_err;
         }
@@ -123,7 +126,11 @@ int main_trace(int argc, char **argv)
          * limit: only the scene reveals them) are usage errors */
         return e.usage ? RT_EXIT_USAGE : RT_EXIT_FAIL;
     }
-    if (j.sc->warning[0]) rt_cmd_error("trace", "warning: %s", j.sc->warning);
+    if (strict && rt_cmd_strict("trace", j.sc) < 0) {
+        rt_job_free(&j);
+        return RT_EXIT_FAIL;
+    }
+    rt_cmd_print_warnings("trace", j.sc);
     o.W = j.opt.W; /* the scene's Film may have set them */
     o.H = j.opt.H;
     rt_scene_fit_aspect(j.sc, o.W, o.H); /* tall images: keep the whole mesh in view */

@@ -17,6 +17,7 @@
 #include "scene_file.h"
 
 #include <errno.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -241,4 +242,59 @@ int rt_sfile_slurp(const char *path, uint64_t max_bytes, char **pbuf, size_t *pn
         return rt_errf(e, "%s: %s%s", q, why, strstr(why, "more than") ? " (RT_SCENE_MAX_BYTES)" : "");
     }
     return 0;
+}
+
+int rt_sfile_warn(rt_scene *s, const char *kind, const char *first, rt_err *e, const char *fmt, ...)
+{
+    for (uint32_t i = 0; i < s->nwarn; i++)
+        if (!strcmp(s->warn[i].kind, kind)) {
+            s->warn[i].count++;
+            return 0;
+        }
+    if (s->nwarn == RT_SCENE_MAX_WARN) { /* the last entry counts the rest */
+        rt_scene_warn *w = &s->warn[s->nwarn - 1];
+        if (strcmp(w->kind, "other")) {
+            snprintf(w->kind, sizeof w->kind, "other");
+            snprintf(w->msg, sizeof w->msg, "more than %d kinds of warnings: the others", RT_SCENE_MAX_WARN - 1);
+        }
+        w->count++;
+        return 0;
+    }
+    if ((s->nwarn & (s->nwarn - 1)) == 0) { /* 0, 1, 2, 4, ...: grow */
+        uint32_t nc = s->nwarn ? 2 * s->nwarn : 1;
+        rt_scene_warn *nw = rt_reallocarray(s->warn, nc, sizeof *nw, e);
+        if (!nw) return -1;
+        s->warn = nw;
+    }
+    rt_scene_warn *w = &s->warn[s->nwarn++];
+    memset(w, 0, sizeof *w);
+    snprintf(w->kind, sizeof w->kind, "%s", kind);
+    snprintf(w->first, sizeof w->first, "%s", first);
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(w->msg, sizeof w->msg, fmt, ap);
+    va_end(ap);
+    w->count = 1;
+    rt_sfile_warn_summary(s);
+    return 0;
+}
+
+void rt_sfile_warn_summary(rt_scene *s)
+{
+    size_t cap = sizeof s->warning, k = 0;
+    uint32_t shown = 0;
+    s->warning[0] = 0;
+    for (uint32_t i = 0; i < s->nwarn; i++) {
+        char one[520];
+        const rt_scene_warn *w = &s->warn[i];
+        if (w->count > 1) snprintf(one, sizeof one, "%s: %s (x%u)", w->first, w->msg, (unsigned)w->count);
+        else snprintf(one, sizeof one, "%s: %s", w->first, w->msg);
+        size_t need = strlen(one) + (k ? 2 : 0);
+        if (k + need + 40 >= cap) break;
+        snprintf(s->warning + k, cap - k, "%s%s", k ? "; " : "", one);
+        k = strlen(s->warning);
+        shown++;
+    }
+    if (shown < s->nwarn)
+        snprintf(s->warning + k, cap - k, "%s(+%u more kinds of warnings)", k ? " " : "", (unsigned)(s->nwarn - shown));
 }

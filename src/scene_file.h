@@ -15,6 +15,7 @@
 #define RT_SCENE_FILE_H
 
 #include "rt.h"
+#include "scene.h"
 
 #include <stddef.h>
 #include <stdint.h>
@@ -47,5 +48,24 @@ int rt_sfile_read_mem(const void *data, size_t n, uint64_t max_bytes, char **pbu
  * read as rt_sfile_read does with max_bytes. 0, or -1 with "PATH: reason"
  * in e. */
 int rt_sfile_slurp(const char *path, uint64_t max_bytes, char **pbuf, size_t *pn, rt_err *e);
+
+/* Load warnings (rt_scene.warn): at most RT_SCENE_MAX_WARN kinds are
+ * kept, one entry each with its count and first place; the kinds beyond
+ * are counted in one last entry of kind "other". */
+#define RT_SCENE_MAX_WARN 256
+
+/* Records one occurrence of warning `kind` at `first` ("FILE:LINE") with
+ * message fmt (kept from the first occurrence) in s->warn, and keeps
+ * s->warning, the one-line summary the front ends print when they print
+ * one line, in step. 0, or -1 out of memory (e set). */
+int rt_sfile_warn(rt_scene *s, const char *kind, const char *first, rt_err *e, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 5, 6)))
+#endif
+    ;
+
+/* Rewrites s->warning from s->warn: "FIRST: MSG (xN)" joined by "; ",
+ * with "(+K more kinds of warnings)" when they do not all fit. */
+void rt_sfile_warn_summary(rt_scene *s);
 
 #endif

@@ -5,7 +5,8 @@
  *
  * Scene specs: a built-in name with optional parameters, e.g.
  *   "sphereflake", "sphereflake:level=2,tess=3", "grove:trees=4",
- * or a path ending in .obj, .ply or .pbrt; any spec may end in
+ * or a path ending in .obj, .ply or .pbrt (each also with .gz after it);
+ * any spec may end in
  * material=PRESET (rt_scene_set_material).
  */
 #ifndef RT_SCENE_LOAD_H
@@ -25,8 +26,10 @@ rt_scene *rt_scene_builtin(const char *name, const char *params, rt_err *e);
 rt_scene *rt_scene_load_obj(const char *path, rt_err *e);
 rt_scene *rt_scene_load_ply(const char *path, rt_err *e);
 /* A pbrt-v4 scene file (subset: docs/scenes.md, "pbrt"). params: "" or
- * "tess=N" (sphere tessellation, 1..64, default 3) and "maxtri=N" (refuse
- * scenes above N triangles, default 2^26). */
+ * "tess=N" (sphere tessellation, 1..64, default 3), "maxtri=N" (refuse
+ * scenes above N triangles, default 2^26) and "maxsubdiv=N" (refuse a
+ * loopsubdiv shape above N triangles, default 2^22). Plain or gzip files
+ * (scene_file.h), told by content. */
 rt_scene *rt_scene_load_pbrt(const char *path, const char *params, rt_err *e);
 /* Appends the triangles of the PLY file held in buf (n bytes, buf[n] = 0;
  * path names it in messages) to s, every vertex mapped by the row-major

@@ -62,7 +62,6 @@
 #define MAX_NEST 4096                       /* AttributeBegin nesting */
 #define DEFAULT_MAXTRI (1u << 26)
 #define DEFAULT_MAXSUBDIV (1u << 22)        /* triangles one loopsubdiv shape may make */
-#define MAX_WARN 32                         /* kinds of warnings kept */
 #define MAX_PARAMS 256                      /* parameters of one directive */
 
 typedef struct mat4 {
@@ -142,11 +141,6 @@ typedef struct arealight {
     char at[200];         /* "FILE:LINE" of its Shape */
 } arealight;
 
-typedef struct warnent {
-    char key[48];  /* kind ("Sampler", "Shape \"disk\"") */
-    char msg[200]; /* "FILE:LINE: what" */
-} warnent;
-
 typedef struct pbrt {
     rt_scene *s;
     rt_err *e;
@@ -194,9 +188,6 @@ typedef struct pbrt {
     token shape_tok;    /* its type string, for messages */
     uint32_t *mslot;    /* material table entries by their terms: open hashing, 0 = empty, else index */
     size_t nmslot;      /* slots (a power of two, > 2 x entries), 0 = none yet */
-    warnent warn[MAX_WARN];
-    int nwarn;          /* kinds kept */
-    int nwarn_more;     /* kinds beyond MAX_WARN */
 } pbrt;
 
 static srcfile *cur(pbrt *P) { return P->f[P->depth - 1]; }
@@ -224,23 +215,18 @@ static void pwarn(pbrt *P, const token *t, const char *key, const char *fmt, ...
 #endif
     ;
 
-/* Records a warning "FILE:LINE: message" once per key. */
+/* Records a warning of kind key at token t (s->warn: one entry per kind,
+ * counted, with its first FILE:LINE; rt_sfile_warn). */
 static void pwarn(pbrt *P, const token *t, const char *key, const char *fmt, ...)
 {
-    for (int i = 0; i < P->nwarn; i++)
-        if (!strcmp(P->warn[i].key, key)) return;
-    if (P->nwarn == MAX_WARN) {
-        P->nwarn_more++;
-        return;
-    }
-    warnent *w = &P->warn[P->nwarn++];
-    snprintf(w->key, sizeof w->key, "%s", key);
-    char m[160];
+    char m[200], first[256];
     va_list ap;
     va_start(ap, fmt);
     vsnprintf(m, sizeof m, fmt, ap);
     va_end(ap);
-    snprintf(w->msg, sizeof w->msg, "%s:%u: %s", cur(P)->path, (unsigned)t->line, m);
+    snprintf(first, sizeof first, "%.230s:%u", cur(P)->path, (unsigned)t->line);
+    rt_err e2;
+    (void)rt_sfile_warn(P->s, key, first, &e2, "%s", m); /* out of memory: the warning is lost, not the scene */
 }
 
 /* A token quoted for a message (escaped, truncated). */
@@ -2311,15 +2297,9 @@ static void set_lights(pbrt *P)
         const arealight *a = &P->al[i];
         double nl = sqrt(a->nsum[0] * a->nsum[0] + a->nsum[1] * a->nsum[1] + a->nsum[2] * a->nsum[2]);
         if (!(a->area2 > 0) || !(nl > 1e-6 * a->area2)) {
-            int j;
-            for (j = 0; j < P->nwarn; j++)
-                if (!strcmp(P->warn[j].key, "closed area light")) break;
-            if (j == P->nwarn && P->nwarn < MAX_WARN) {
-                snprintf(P->warn[j].key, sizeof P->warn[j].key, "closed area light");
-                snprintf(P->warn[j].msg, sizeof P->warn[j].msg,
-                         "%.100s: area light without a facing side (closed or degenerate): no point light for it", a->at);
-                P->nwarn++;
-            }
+            rt_err e2;
+            (void)rt_sfile_warn(s, "closed area light", a->at, &e2,
+                                "area light without a facing side (closed or degenerate): no point light for it");
             continue;
         }
         double off = 0.025 * diag / nl;
@@ -2330,26 +2310,6 @@ static void set_lights(pbrt *P)
     if (P->have_camera)
         for (; n < RT_NLIGHTS; n++) s->light[n] = s->cam.eye;
     /* auto-framed: the remaining lights stay where rt_scene_autoframe put them */
-}
-
-static void compose_warnings(pbrt *P)
-{
-    rt_scene *s = P->s;
-    s->warning[0] = 0;
-    size_t cap = sizeof s->warning;
-    int shown = 0;
-    for (int i = 0; i < P->nwarn; i++) {
-        size_t k = strlen(s->warning);
-        size_t need = strlen(P->warn[i].msg) + (k ? 2 : 0);
-        if (k + need + 24 >= cap) break;
-        snprintf(s->warning + k, cap - k, "%s%s", k ? "; " : "", P->warn[i].msg);
-        shown++;
-    }
-    int more = P->nwarn - shown + P->nwarn_more;
-    if (more > 0) {
-        size_t k = strlen(s->warning);
-        snprintf(s->warning + k, cap - k, "%s(+%d more warnings)", k ? " " : "", more);
-    }
 }
 
 /* tess=N,maxtri=N,maxsubdiv=N */
@@ -2460,7 +2420,7 @@ rt_scene *rt_scene_load_pbrt(const char *path, const char *params, rt_err *e)
     set_lights(P);
     s->film_w = P->film_w;
     s->film_h = P->film_h;
-    compose_warnings(P);
+    rt_sfile_warn_summary(s);
     rc = 0;
 done:
     for (int i = 0; i < P->depth; i++) file_free(P->f[i]);

@@ -53,6 +53,33 @@ got=$(sqlite3 "$tmp/s2.db" "SELECT W, H FROM runs")
 printf 'Sampler "halton"\nWorldBegin\nShape "trianglemesh" "point3 P" [ 0 0 0 1 0 0 0 1 0 ]\n' > "$tmp/w.pbrt"
 "$bin" render "$tmp/w.pbrt" -o "$tmp/w.exr" -W 4 -H 4 2> "$tmp/wlog" || err "render w.pbrt"
 grep -q "^raytraffic render: warning: $tmp/w.pbrt:1: Sampler skipped$" "$tmp/wlog" || err "warning: $(cat "$tmp/wlog")"
+# every kind on its own line with its count; all of them in --json; --strict refuses
+printf 'Sampler "halton"\nWorldBegin\nShape "k1"\nShape "k2"\nShape "k2"\nShape "trianglemesh" "point3 P" [ 0 0 0 1 0 0 0 1 0 ]\n' \
+    > "$tmp/w2.pbrt"
+"$bin" scene info "$tmp/w2.pbrt" --no-tree > /dev/null 2> "$tmp/w2log" || err "scene info w2.pbrt"
+[ "$(grep -c 'warning:' "$tmp/w2log")" = 3 ] || err "three warning lines: $(cat "$tmp/w2log")"
+grep -q "^raytraffic scene: warning: $tmp/w2.pbrt:4: Shape \"k2\" skipped (2 times)$" "$tmp/w2log" ||
+    err "counted warning: $(cat "$tmp/w2log")"
+"$bin" scene info "$tmp/w2.pbrt" --no-tree --json > "$tmp/w2json" 2> "$tmp/w2jlog" || err "scene info --json"
+[ -s "$tmp/w2jlog" ] && err "scene info --json printed warnings to stderr: $(cat "$tmp/w2jlog")"
+grep -qF '"warnings": [{"kind": "Sampler", "count": 1, "first": "'"$tmp"'/w2.pbrt:1", "message": "Sampler skipped"}, {"kind": "Shape \"k1\"", "count": 1,' "$tmp/w2json" ||
+    err "json warnings: $(grep warnings "$tmp/w2json")"
+grep -qF '{"kind": "Shape \"k2\"", "count": 2, "first": "'"$tmp"'/w2.pbrt:4", "message": "Shape \"k2\" skipped"}]' "$tmp/w2json" ||
+    err "json warnings k2: $(grep warnings "$tmp/w2json")"
+"$bin" render "$tmp/w2.pbrt" -o "$tmp/w2.exr" -W 4 -H 4 --json > "$tmp/w2rjson" 2>/dev/null || err "render --json"
+grep -qF '"warnings": [{"kind": "Sampler"' "$tmp/w2rjson" || err "render --json warnings: $(cat "$tmp/w2rjson")"
+for c in "scene info" render trace; do
+    # shellcheck disable=SC2086
+    "$bin" $c "$tmp/w2.pbrt" -o "$tmp/w2.out" -W 4 -H 4 --strict > /dev/null 2> "$tmp/slog3"
+    rc=$?
+    [ "$c" = "scene info" ] && { "$bin" scene info "$tmp/w2.pbrt" --no-tree --strict > /dev/null 2> "$tmp/slog3"; rc=$?; }
+    [ $rc = 1 ] || err "$c --strict: exit $rc"
+    grep -q "w2.pbrt:1: Sampler skipped (--strict: 3 kinds of warnings are errors)$" "$tmp/slog3" ||
+        err "$c --strict: $(cat "$tmp/slog3")"
+    [ -e "$tmp/w2.out" ] && err "$c --strict left an output"
+done
+"$bin" render "$box" -o "$tmp/c.exr" -W 4 -H 4 --strict 2> /dev/null || err "--strict refused a file without warnings"
+
 printf 'WorldBegin\nAttributeEnd\n' > "$tmp/b.pbrt"
 "$bin" render "$tmp/b.pbrt" -o "$tmp/b.exr" 2> "$tmp/blog"
 [ $? = 1 ] || err "bad file: exit status"

@@ -664,8 +664,11 @@ static void test_mtl_missing(void)
     rt_scene *s = expect_ok_text("missing.obj", text, 2);
     if (s) {
         CHECK(strstr(s->warning, "missing.obj:4: material library ") && strstr(s->warning, "gone.mtl not found") &&
-                  strstr(s->warning, "(+1 more warnings)"),
+                  strstr(s->warning, "missing.obj:5: usemtl m: not in the libraries found; default material"),
               "warning '%s'", s->warning);
+        CHECK(s->nwarn == 2 && !strcmp(s->warn[0].kind, "mtllib missing") && !strcmp(s->warn[1].kind, "usemtl unknown") &&
+                  s->warn[1].count == 1 && strstr(s->warn[1].first, "missing.obj:5"),
+              "warnings: %u kinds", s->nwarn);
         CHECK(s->ntri == 2 && s->shade[0].mat == 0 && rgb_is(s->shade[0].rgb, 0.7f, 0.7f, 0.7f),
               "undefined material m: default");
         CHECK(s->ntri == 2 && s->shade[1].mat == 1 && rgb_is(s->shade[1].rgb, 0, 1, 0), "x from the library found");

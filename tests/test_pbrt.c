@@ -717,10 +717,40 @@ static void test_warnings(void)
         size_t k = strlen(text);
         snprintf(text + k, sizeof text - k, "Shape \"kind%d\"\n", i);
     }
+    {
+        size_t k = strlen(text);
+        snprintf(text + k, sizeof text - k, "Shape \"kind3\"\nShape \"kind3\"\nSampler \"x\"\n");
+    }
     s = expect_ok("warn2.pbrt", text, 1);
-    if (s) CHECK(strstr(s->warning, "more warnings)") != NULL && strlen(s->warning) < sizeof s->warning,
-                 "overflow: '%s'", s->warning);
+    if (s) {
+        CHECK(strstr(s->warning, "more kinds of warnings)") != NULL && strlen(s->warning) < sizeof s->warning,
+              "overflow: '%s'", s->warning);
+        /* every kind is kept, counted, with its first line */
+        CHECK(s->nwarn == 41, "%u kinds of warnings, expected 41", s->nwarn);
+        if (s->nwarn == 41) {
+            CHECK(!strcmp(s->warn[3].kind, "Shape \"kind3\"") && s->warn[3].count == 3 &&
+                      strstr(s->warn[3].first, "warn2.pbrt:6") && !strcmp(s->warn[3].msg, "Shape \"kind3\" skipped"),
+                  "kind3: '%s' x%u at '%s': '%s'", s->warn[3].kind, s->warn[3].count, s->warn[3].first, s->warn[3].msg);
+            CHECK(!strcmp(s->warn[40].kind, "Sampler") && s->warn[40].count == 1 && strstr(s->warn[40].first, ":45"),
+                  "Sampler: '%s' at '%s'", s->warn[40].kind, s->warn[40].first);
+            CHECK(s->warn[39].count == 1 && strstr(s->warn[39].first, "warn2.pbrt:42"), "kind39 at '%s'",
+                  s->warn[39].first);
+        }
+    }
     rt_scene_free(s);
+    /* more kinds than are kept: the last entry counts the others */
+    size_t cap = 300 * 24 + 100, k = 0;
+    char *big = malloc(cap);
+    CHECK(big != NULL, "malloc");
+    if (!big) return;
+    k = (size_t)snprintf(big, cap, "WorldBegin\n" TRI);
+    for (int i = 0; i < 300; i++) k += (size_t)snprintf(big + k, cap - k, "Shape \"k%d\"\n", i);
+    s = expect_ok("warn3.pbrt", big, 1);
+    if (s) CHECK(s->nwarn == 256 && !strcmp(s->warn[255].kind, "other") && s->warn[255].count == 300 - 255,
+                 "300 kinds: %u entries, last '%s' x%u", s->nwarn, s->nwarn ? s->warn[s->nwarn - 1].kind : "",
+                 s->nwarn ? s->warn[s->nwarn - 1].count : 0);
+    rt_scene_free(s);
+    free(big);
 }
 
 static void test_errors(void)
