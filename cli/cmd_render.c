@@ -1,6 +1,7 @@
 /* cmd_render.c -- `raytraffic render`: render a scene with a tracer to an
  * OpenEXR image (RGB + cost channels + depth) and print render statistics. */
 #include "cmd.h"
+#include "scene_load.h"
 #include "outfile.h"
 #include "grid.h"
 #include "feedback.h"
@@ -158,6 +159,12 @@ int main_render(int argc, char **argv)
         /* options asking too much (an S_VB overflow, a grid over its cell
          * limit: only the scene reveals them) are usage errors */
         return e.usage ? RT_EXIT_USAGE : RT_EXIT_FAIL;
+    }
+    /* -W and -H both given (no size left to the Film) on a film of another aspect */
+    if (!o.film && rt_scene_fit_film(j.sc, j.opt.W, j.opt.H, &e) < 0) {
+        rt_cmd_error("render", "%s", e.msg);
+        rt_job_free(&j);
+        return RT_EXIT_FAIL;
     }
     if (strict && rt_cmd_strict("render", j.sc) < 0) {
         rt_job_free(&j);

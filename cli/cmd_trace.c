@@ -1,6 +1,7 @@
 /* cmd_trace.c -- `raytraffic trace`: render a scene with a tracer and record
  * every modeled memory access into a .rtt trace file. */
 #include "cmd.h"
+#include "scene_load.h"
 #include "grid.h"
 #include "image.h"
 #include "run.h"
@@ -125,6 +126,12 @@ int main_trace(int argc, char **argv)
         /* options asking too much (an S_VB overflow, a grid over its cell
          * limit: only the scene reveals them) are usage errors */
         return e.usage ? RT_EXIT_USAGE : RT_EXIT_FAIL;
+    }
+    /* -W and -H both given (no size left to the Film) on a film of another aspect */
+    if (!o.film && rt_scene_fit_film(j.sc, j.opt.W, j.opt.H, &e) < 0) {
+        rt_cmd_error("trace", "%s", e.msg);
+        rt_job_free(&j);
+        return RT_EXIT_FAIL;
     }
     if (strict && rt_cmd_strict("trace", j.sc) < 0) {
         rt_job_free(&j);

@@ -31,6 +31,13 @@ rt_scene *rt_scene_load_ply(const char *path, rt_err *e);
  * loopsubdiv shape above N triangles, default 2^22). Plain or gzip files
  * (scene_file.h), told by content. */
 rt_scene *rt_scene_load_pbrt(const char *path, const char *params, rt_err *e);
+/* For an image W x H whose aspect differs from the scene's Film (a pbrt
+ * file's xresolution x yresolution; scenes without one are left alone),
+ * keeps the film's horizontal extent: the vertical field of view becomes
+ * 2 atan(tan(fovy/2) x (film_w / film_h) x (H / W)), and a warning of kind
+ * "image aspect" is recorded. 1 when the camera changed, 0 when not, -1
+ * out of memory. */
+int rt_scene_fit_film(rt_scene *s, int W, int H, rt_err *e);
 /* Appends the triangles of the PLY file held in buf (n bytes, buf[n] = 0;
  * path names it in messages) to s, every vertex mapped by the row-major
  * 4x4 matrix m (homogeneous, NULL = identity), with colour rgb (NULL =

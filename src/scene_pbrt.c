@@ -1825,6 +1825,9 @@ static int do_film(pbrt *P, const token *d)
     }
     P->film_w = (int)w;
     P->film_h = (int)h;
+    if (pfind(&L, "cropwindow") || pfind(&L, "pixelbounds"))
+        pwarn(P, d, "Film cropwindow", "Film: %s ignored (the whole image is rendered)",
+              pfind(&L, "cropwindow") ? "cropwindow" : "pixelbounds");
     rc = 0;
 done:
     plist_free(&L);
@@ -2310,6 +2313,26 @@ static void set_lights(pbrt *P)
     if (P->have_camera)
         for (; n < RT_NLIGHTS; n++) s->light[n] = s->cam.eye;
     /* auto-framed: the remaining lights stay where rt_scene_autoframe put them */
+}
+
+int rt_scene_fit_film(rt_scene *s, int W, int H, rt_err *e)
+{
+    if (s->film_w <= 0 || s->film_h <= 0 || W <= 0 || H <= 0) return 0;
+    if ((int64_t)W * s->film_h == (int64_t)H * s->film_w) return 0;
+    /* tan of the new half angle: the film's horizontal half-extent
+     * (tan(fovy/2) x film aspect) over the image's aspect */
+    double t = tan_half(s->cam.fovy_deg) * ((double)s->film_w / s->film_h) * ((double)H / W);
+    double fovy = fov_of(t);
+    if (!(fovy > 0 && fovy < 180)) return 0;
+    s->cam.fovy_deg = (float)fovy;
+    char first[300];
+    snprintf(first, sizeof first, "%.250s", s->name);
+    if (rt_sfile_warn(s, "image aspect", first, e,
+                      "image %dx%d has not the Film's aspect (%dx%d): its horizontal extent is kept, vertical field "
+                      "of view %.4g degrees", W, H, s->film_w, s->film_h, fovy) < 0)
+        return -1;
+    rt_sfile_warn_summary(s);
+    return 1;
 }
 
 /* tess=N,maxtri=N,maxsubdiv=N */

@@ -1085,6 +1085,38 @@ static void test_strict_finite(void)
     rt_scene_free(s);
 }
 
+/* -W and -H on a film of another aspect keep the film's horizontal
+ * extent (checked against libm's atan); the film's own aspect, scenes
+ * without a Film and cropwindow (warned) */
+static void test_film_fit(void)
+{
+    rt_scene *s = expect_ok("fit.pbrt",
+                            "Film \"rgb\" \"integer xresolution\" 40 \"integer yresolution\" 30 "
+                            "\"float cropwindow\" [ 0 0.5 0 0.5 ]\n"
+                            "Camera \"perspective\" \"float fov\" 45\nWorldBegin\n" TRI,
+                            1);
+    rt_err e = {0};
+    if (s) {
+        CHECK(s->nwarn == 1 && !strcmp(s->warn[0].kind, "Film cropwindow") && strstr(s->warn[0].first, "fit.pbrt:1"),
+              "cropwindow warning: %u '%s'", s->nwarn, s->nwarn ? s->warn[0].msg : "");
+        /* pbrt's fov spans the shorter axis: 45 degrees vertical on 40x30 */
+        CHECK(check_near(s->cam.fovy_deg, 45, 1e-6, 0), "fovy %g", s->cam.fovy_deg);
+        CHECK(rt_scene_fit_film(s, 80, 60, &e) == 0 && s->cam.fovy_deg == 45.0f, "the film's aspect: unchanged");
+        CHECK(rt_scene_fit_film(s, 8, 8, &e) == 1, "8x8 on 40x30: adjusted");
+        double want = 2 * atan(tan(22.5 * M_PI / 180) * 40.0 / 30.0) * 180 / M_PI;
+        CHECK(check_near(s->cam.fovy_deg, want, 1e-6, 0), "8x8: fovy %.9g, expected %.9g", s->cam.fovy_deg, want);
+        CHECK(s->nwarn == 2 && !strcmp(s->warn[1].kind, "image aspect") && strstr(s->warn[1].msg, "horizontal extent is kept"),
+              "image aspect warning");
+    }
+    rt_scene_free(s);
+    s = expect_ok("nofilm.pbrt", "WorldBegin\n" TRI, 1);
+    if (s) {
+        float f = s->cam.fovy_deg;
+        CHECK(rt_scene_fit_film(s, 8, 3, &e) == 0 && s->cam.fovy_deg == f && s->nwarn == 0, "no Film: unchanged");
+    }
+    rt_scene_free(s);
+}
+
 int main(void)
 {
     if (!check_tmpdir("test_pbrt")) {
@@ -1107,6 +1139,7 @@ int main(void)
     test_truncations();
     test_film_opts();
     test_strict_finite();
+    test_film_fit();
     test_cornell();
     if (check_rm_tree(check_dir) != 0) fprintf(stderr, "warning: could not remove %s\n", check_dir);
     if (failures) fprintf(stderr, "%d failure(s)\n", failures);
