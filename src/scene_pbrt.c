@@ -98,6 +98,7 @@ typedef struct matdef {
     float rgb[3];           /* diffuse colour of the triangles */
     float ks[3], kt[3], ior; /* the table terms (ke comes from the area light) */
     long tab;               /* its table index without emission, -1 = not looked up yet */
+    int invisible;          /* "interface": its shapes are not made (rays pass, as in pbrt) */
 } matdef;
 
 typedef struct gstate {
@@ -1159,6 +1160,11 @@ static int make_matdef(pbrt *P, const token *tt, const char *type, plist *L, mat
         m->kt[0] = m->kt[1] = m->kt[2] = 1;
         m->ior = (float)eta;
         memcpy(m->rgb, glass_rgb, sizeof m->rgb);
+    } else if (!strcmp(type, "interface")) {
+        /* pbrt: a boundary between media, invisible to rays */
+        m->invisible = 1;
+        memcpy(m->rgb, half, sizeof m->rgb);
+        return 0;
     } else {
         snprintf(key, sizeof key, "Material \"%.30s\"", type);
         char q[64];
@@ -1610,6 +1616,34 @@ static int do_shape(pbrt *P, const token *d)
     P->shape_tok = tt;
     /* colour and table entry of the state */
     matdef *md = &P->mats[P->g.mat];
+    if (md->invisible) { /* Material "interface": rays pass through, as in pbrt */
+        pwarn(P, &tt, "interface", "Shape \"%s\" with Material \"interface\" left out (invisible: rays pass, as in "
+              "pbrt, but are not tested against it)", q);
+        plist_free(&L);
+        return 0;
+    }
+    param *alpha = pfind(&L, "alpha");
+    if (alpha && (alpha->type == PT_FLOAT || alpha->type == PT_INT)) {
+        double a;
+        if (pfloat(P, &L, "alpha", 1, &a) < 0) goto fail;
+        if (!(a >= 0 && a <= 1)) {
+            perr(P, &alpha->at, "Shape \"%s\": alpha %g outside [0, 1]", q, a);
+            goto fail;
+        }
+        if (a == 0) { /* pbrt: fully transparent, the shape is never hit */
+            pwarn(P, &tt, "alpha 0", "Shape \"%s\" with \"float alpha\" 0 left out (never hit, as in pbrt)", q);
+            plist_free(&L);
+            return 0;
+        }
+        if (a < 1) pwarn(P, &tt, "alpha partial", "Shape \"%s\": \"float alpha\" %g drawn opaque (no stochastic "
+                         "transparency)", q, a);
+    } else if (alpha && alpha->type == PT_TEXTURE) {
+        pwarn(P, &tt, "alpha texture", "Shape \"%s\": alpha texture ignored, drawn opaque (no cutout: its leaves "
+              "and cards block rays)", q);
+    } else if (alpha) {
+        perr(P, &alpha->at, "parameter \"%s alpha\": \"alpha\" must be float or texture", alpha->tname);
+        goto fail;
+    }
     P->cur_rgb = md->rgb;
     if (table_index(P, md, P->g.ke, P->g.area, &P->cur_mat) < 0) goto fail;
     uint32_t start = P->s->ntri;
@@ -1642,6 +1676,43 @@ static int do_shape(pbrt *P, const token *d)
             rc = emit(P, a, b, c);
         }
         free(tm);
+    } else if (!strcmp(type, "disk") || !strcmp(type, "cylinder")) {
+        /* 8 x tess segments around (24 at tess=3) over phimax; a disk is a
+         * fan (an annulus with innerradius), a cylinder one band of quads */
+        int disk = type[0] == 'd';
+        double r, h = 0, ri = 0, z0 = -1, z1 = 1, phimax;
+        rc = pfloat(P, &L, "radius", 1.0, &r);
+        if (rc == 0) rc = pfloat(P, &L, "phimax", 360, &phimax);
+        if (rc == 0 && disk) rc = pfloat(P, &L, "height", 0, &h);
+        if (rc == 0 && disk) rc = pfloat(P, &L, "innerradius", 0, &ri);
+        if (rc == 0 && !disk) rc = pfloat(P, &L, "zmin", -1, &z0);
+        if (rc == 0 && !disk) rc = pfloat(P, &L, "zmax", 1, &z1);
+        if (rc == 0 && !(r > 0)) rc = perr(P, &tt, "Shape \"%s\": radius must be positive", q);
+        if (rc == 0 && !(ri >= 0 && ri < r)) rc = perr(P, &tt, "Shape \"disk\": innerradius must be in [0, radius)");
+        if (rc == 0 && !(z0 != z1)) rc = perr(P, &tt, "Shape \"cylinder\": zmin and zmax coincide");
+        if (rc == 0 && !(phimax > 0 && phimax <= 360)) rc = perr(P, &tt, "Shape \"%s\": phimax outside (0, 360]", q);
+        int nseg = 8 * P->tess;
+        if (rc == 0) rc = room_for(P, &tt, (uint64_t)nseg * (disk && ri == 0 ? 1 : 2));
+        for (int i = 0; rc == 0 && i < nseg; i++) {
+            double s0, c0, s1, c1;
+            rt_dsincos_deg(phimax * i / nseg, &s0, &c0);
+            rt_dsincos_deg(phimax * (i + 1) / nseg, &s1, &c1);
+            if (disk) {
+                rt_vec3 a = m_point(&P->g.ctm, r * c0, r * s0, h), b = m_point(&P->g.ctm, r * c1, r * s1, h);
+                if (ri == 0) {
+                    rc = emit(P, m_point(&P->g.ctm, 0, 0, h), a, b);
+                } else {
+                    rt_vec3 ia = m_point(&P->g.ctm, ri * c0, ri * s0, h), ib = m_point(&P->g.ctm, ri * c1, ri * s1, h);
+                    rc = emit(P, ia, a, b);
+                    if (rc == 0) rc = emit(P, ia, b, ib);
+                }
+            } else {
+                rt_vec3 a0 = m_point(&P->g.ctm, r * c0, r * s0, z0), a1 = m_point(&P->g.ctm, r * c1, r * s1, z0);
+                rt_vec3 b0 = m_point(&P->g.ctm, r * c0, r * s0, z1), b1 = m_point(&P->g.ctm, r * c1, r * s1, z1);
+                rc = emit(P, a0, a1, b1);
+                if (rc == 0) rc = emit(P, a0, b1, b0);
+            }
+        }
     } else if (!strcmp(type, "loopsubdiv")) {
         long levels;
         const double *pv;

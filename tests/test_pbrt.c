@@ -563,6 +563,78 @@ static void test_shapes(void)
 
 static int rgb_is(const float *c, float r, float g, float b) { return c[0] == r && c[1] == g && c[2] == b; }
 
+/* disk (fan, annulus), cylinder (one band) at 8 x tess segments over
+ * phimax, vertices checked against libm; interface material and alpha 0
+ * leave a shape out, partial and texture alpha warn */
+static void test_shapes2(void)
+{
+    rt_scene *s = expect_ok("disk.pbrt", "WorldBegin\nShape \"disk\" \"float radius\" 2 \"float height\" 0.5\n", 24);
+    double c15 = cos(15 * M_PI / 180), s15 = sin(15 * M_PI / 180);
+    if (s) {
+        CHECK(vnear(s->tri[0].p[0], 0, 0, 0.5, 1e-7) && vnear(s->tri[0].p[1], 2, 0, 0.5, 1e-7) &&
+                  vnear(s->tri[0].p[2], 2 * c15, 2 * s15, 0.5, 1e-6),
+              "disk fan 0: (%g %g %g)", s->tri[0].p[2].x, s->tri[0].p[2].y, s->tri[0].p[2].z);
+        CHECK(vnear(s->tri[23].p[2], 2, 0, 0.5, 1e-6), "the fan closes: (%g %g %g)", s->tri[23].p[2].x,
+              s->tri[23].p[2].y, s->tri[23].p[2].z);
+        CHECK(s->nwarn == 0, "disk warned: %s", s->warning);
+    }
+    rt_scene_free(s);
+    s = expect_ok("ann.pbrt", "WorldBegin\nShape \"disk\" \"float innerradius\" 0.5 \"float phimax\" 90\n", 48);
+    if (s) {
+        double c = cos(90.0 / 24 * M_PI / 180), sn = sin(90.0 / 24 * M_PI / 180);
+        CHECK(vnear(s->tri[0].p[0], 0.5, 0, 0, 1e-7) && vnear(s->tri[1].p[2], 0.5 * c, 0.5 * sn, 0, 1e-6) &&
+                  vnear(s->tri[47].p[1], 0, 1, 0, 1e-6),
+              "annulus over 90 degrees");
+    }
+    rt_scene_free(s);
+    rt_err e = {0};
+    s = load_text("cyl.pbrt", "WorldBegin\nShape \"cylinder\" \"float radius\" 3 \"float zmin\" 0 \"float zmax\" 2\n",
+                  "tess=1", &e);
+    CHECK(s && s->ntri == 16, "tess=1 cylinder: %u triangles (%s)", s ? s->ntri : 0, e.msg);
+    if (s && s->ntri == 16) {
+        double c45 = cos(M_PI / 4);
+        CHECK(vnear(s->tri[0].p[0], 3, 0, 0, 1e-6) && vnear(s->tri[0].p[1], 3 * c45, 3 * c45, 0, 1e-6) &&
+                  vnear(s->tri[0].p[2], 3 * c45, 3 * c45, 2, 1e-6) && vnear(s->tri[1].p[2], 3, 0, 2, 1e-6),
+              "cylinder band 0");
+        double worst = 0;
+        for (uint32_t i = 0; i < s->ntri; i++)
+            for (int k = 0; k < 3; k++) {
+                rt_vec3 p = s->tri[i].p[k];
+                double d = fabs(sqrt((double)p.x * p.x + (double)p.y * p.y) - 3);
+                if (d > worst) worst = d;
+            }
+        CHECK(worst < 1e-6, "cylinder vertices off the radius by %g", worst);
+    }
+    rt_scene_free(s);
+    expect_fail("cyl0.pbrt", "WorldBegin\nShape \"cylinder\" \"float zmin\" 1 \"float zmax\" 1\n",
+                "cyl0.pbrt:2:7: Shape \"cylinder\": zmin and zmax coincide");
+    expect_fail("disk0.pbrt", "WorldBegin\nShape \"disk\" \"float radius\" 1 \"float innerradius\" 1\n",
+                "innerradius must be in [0, radius)");
+    /* interface: the shapes are not made; alpha 0 likewise */
+    s = expect_ok("iface.pbrt",
+                  "WorldBegin\nAttributeBegin\nMaterial \"interface\"\nShape \"sphere\"\nShape \"disk\"\nAttributeEnd\n" TRI
+                  "Shape \"sphere\" \"float alpha\" 0\n"
+                  "Shape \"trianglemesh\" \"point3 P\" [ 0 0 1 1 0 1 0 1 1 ] \"float alpha\" 0.5\n"
+                  "Shape \"trianglemesh\" \"point3 P\" [ 0 0 2 1 0 2 0 1 2 ] \"texture alpha\" \"leaf\"\n",
+                  3);
+    if (s) {
+        CHECK(s->nwarn == 4, "%u kinds of warnings: %s", s->nwarn, s->warning);
+        if (s->nwarn == 4) {
+            CHECK(!strcmp(s->warn[0].kind, "interface") && s->warn[0].count == 2 && strstr(s->warn[0].first, "iface.pbrt:4"),
+                  "interface warning '%s' x%u", s->warn[0].kind, s->warn[0].count);
+            CHECK(!strcmp(s->warn[1].kind, "alpha 0") && strstr(s->warn[1].first, ":8"), "alpha 0 warning");
+            CHECK(!strcmp(s->warn[2].kind, "alpha partial") && !strcmp(s->warn[3].kind, "alpha texture"),
+                  "alpha warnings '%s' '%s'", s->warn[2].kind, s->warn[3].kind);
+        }
+        CHECK(veq(s->tri[1].p[0], 0, 0, 1) && veq(s->tri[2].p[0], 0, 0, 2), "the opaque shapes stay");
+    }
+    rt_scene_free(s);
+    expect_fail("ifaceonly.pbrt", "WorldBegin\nMaterial \"interface\"\n" TRI, "no triangles");
+    expect_fail("alpha2.pbrt", "WorldBegin\nShape \"sphere\" \"float alpha\" 2\n",
+                "alpha2.pbrt:2:16: Shape \"sphere\": alpha 2 outside [0, 1]");
+    expect_fail("alphas.pbrt", "WorldBegin\nShape \"sphere\" \"string alpha\" \"x\"\n", "\"alpha\" must be float or texture");
+}
+
 static void test_materials(void)
 {
     rt_scene *s = expect_ok("mat.pbrt",
@@ -697,7 +769,7 @@ static void test_warnings(void)
                             "ColorSpace \"srgb\"\nOption \"bool disablepixeljitter\" true\n"
                             "WorldBegin\n"
                             "Texture \"t\" \"spectrum\" \"imagemap\" \"string filename\" \"x.png\"\n"
-                            "Shape \"disk\"\nShape \"disk\" \"float radius\" 2\n"
+                            "Shape \"nurbs\"\nShape \"nurbs\" \"float radius\" 2\n"
                             "ReverseOrientation\n" TRI,
                             1);
     if (s) {
@@ -706,7 +778,7 @@ static void test_warnings(void)
         const char *w = strstr(s->warning, "Sampler");
         CHECK(w && !strstr(w + 1, "Sampler"),
               "one warning per kind: '%s'", s->warning);
-        static const char *const kinds[] = {"ColorSpace", "Option", "warn.pbrt:7: Texture", "warn.pbrt:8: Shape \"disk\"",
+        static const char *const kinds[] = {"ColorSpace", "Option", "warn.pbrt:7: Texture", "warn.pbrt:8: Shape \"nurbs\"",
                                             "ReverseOrientation"};
         for (int i = 0; i < 5; i++) CHECK(strstr(s->warning, kinds[i]) != NULL, "no warning for %s", kinds[i]);
     }
@@ -1131,6 +1203,7 @@ int main(void)
     test_gzip();
     test_loopsubdiv();
     test_shapes();
+    test_shapes2();
     test_materials();
     test_camera();
     test_lights();
