@@ -158,6 +158,7 @@ typedef struct pbrt {
     int world;          /* WorldBegin seen */
     int have_camera;
     mat4 cam_ctm;       /* CTM at Camera: camera-from-world */
+    double eye[3];      /* the camera's position in the world (have_camera) */
     double fov;         /* perspective fov (degrees), pbrt's shorter image axis */
     double sw[4];       /* screenwindow when have_sw */
     int have_sw;
@@ -1605,6 +1606,125 @@ static int note_area_light(pbrt *P, const token *d, uint32_t start)
     return 0;
 }
 
+/* Shape "curve" as flat ribbons: each cubic (or quadratic) Bezier segment
+ * -- "bspline" control points are converted to Bezier ones first -- is
+ * evaluated at 2^splitdepth + 1 points (splitdepth 3: 8 pieces, 16
+ * triangles per segment), mapped by the CTM, and widened across its
+ * tangent by the width (width0 to width1 along the whole curve, scaled by
+ * the CTM's mean scale): type "ribbon" across its normals N, types "flat"
+ * and "cylinder" facing the camera as pbrt's flat curves face the ray (a
+ * tube drawn as the ribbon that is its silhouette from the eye). 0 or -1. */
+static int make_curve(pbrt *P, const token *tt, plist *L)
+{
+    const double *cp, *nv = NULL;
+    size_t ncp, nn = 0;
+    char basis[32], ctype[32];
+    long degree, split;
+    double w0, w1, w;
+    int r = pnums(P, L, "P", B(PT_POINT3), "point3", 3, 3, &cp, &ncp);
+    if (r < 0) return -1;
+    if (!r) return perr(P, tt, "Shape \"curve\": missing the control points \"point3 P\"");
+    ncp /= 3;
+    if (pstring(P, L, "basis", basis, sizeof basis) < 0 || pstring(P, L, "type", ctype, sizeof ctype) < 0 ||
+        pint(P, L, "degree", 3, &degree) < 0 || pint(P, L, "splitdepth", 3, &split) < 0 ||
+        pfloat(P, L, "width", 1, &w) < 0 || pfloat(P, L, "width0", w, &w0) < 0 || pfloat(P, L, "width1", w, &w1) < 0)
+        return -1;
+    if (!basis[0]) snprintf(basis, sizeof basis, "bezier");
+    if (!ctype[0]) snprintf(ctype, sizeof ctype, "flat");
+    int bspline = !strcmp(basis, "bspline");
+    if (!bspline && strcmp(basis, "bezier")) return perr(P, tt, "Shape \"curve\": basis \"%.20s\" (bezier or bspline)", basis);
+    if (degree != 2 && degree != 3) return perr(P, tt, "Shape \"curve\": degree %ld (2 or 3)", degree);
+    int ribbon = !strcmp(ctype, "ribbon");
+    if (!ribbon && strcmp(ctype, "flat") && strcmp(ctype, "cylinder"))
+        return perr(P, tt, "Shape \"curve\": type \"%.20s\" (flat, ribbon or cylinder)", ctype);
+    if (split < 0 || split > 6) return perr(P, tt, "Shape \"curve\": splitdepth %ld outside 0..6", split);
+    if (!(w0 >= 0 && w1 >= 0)) return perr(P, tt, "Shape \"curve\": negative width");
+    size_t nseg = bspline ? (ncp > (size_t)degree ? ncp - (size_t)degree : 0)
+                          : (ncp > 1 && (ncp - 1) % (size_t)degree == 0 ? (ncp - 1) / (size_t)degree : 0);
+    if (!nseg)
+        return perr(P, tt, "Shape \"curve\": %zu control points do not make %s segments of degree %ld", ncp, basis,
+                    degree);
+    if (ribbon) {
+        r = pnums(P, L, "N", B(PT_NORMAL3), "normal3", 3, 3, &nv, &nn);
+        if (r < 0) return -1;
+        if (nn / 3 != nseg + 1)
+            return perr(P, tt, "Shape \"curve\": type \"ribbon\" needs %zu normals \"normal3 N\" (one per segment end), "
+                        "got %zu", nseg + 1, nn / 3);
+    }
+    int pieces = 1 << split;
+    if (room_for(P, tt, (uint64_t)nseg * 2 * (uint64_t)pieces) < 0) return -1;
+    double sc = 0; /* the CTM's mean scale: its columns' mean length (sqrt only, as all arithmetic here) */
+    for (int c = 0; c < 3; c++)
+        sc += sqrt(P->g.ctm.m[0][c] * P->g.ctm.m[0][c] + P->g.ctm.m[1][c] * P->g.ctm.m[1][c] +
+                   P->g.ctm.m[2][c] * P->g.ctm.m[2][c]) / 3;
+    static const double z_up[3] = {0, 0, 1};
+    for (size_t sg = 0; sg < nseg; sg++) {
+        /* the segment's Bezier control points */
+        double b[4][3];
+        int nb = (int)degree + 1;
+        for (int d = 0; d < 3; d++) {
+            const double *p0 = cp + 3 * (bspline ? sg : sg * (size_t)degree) + d;
+            if (!bspline) {
+                for (int k = 0; k < nb; k++) b[k][d] = p0[3 * k];
+            } else if (degree == 3) {
+                b[0][d] = (p0[0] + 4 * p0[3] + p0[6]) / 6, b[1][d] = (2 * p0[3] + p0[6]) / 3;
+                b[2][d] = (p0[3] + 2 * p0[6]) / 3, b[3][d] = (p0[3] + 4 * p0[6] + p0[9]) / 6;
+            } else {
+                b[0][d] = (p0[0] + p0[3]) / 2, b[1][d] = p0[3], b[2][d] = (p0[3] + p0[6]) / 2;
+            }
+        }
+        rt_vec3 prevl = {0, 0, 0}, prevr = {0, 0, 0};
+        for (int i = 0; i <= pieces; i++) {
+            double u = (double)i / pieces, v = 1 - u, q[3], t[3], wq[3];
+            for (int d = 0; d < 3; d++) {
+                if (degree == 3) {
+                    q[d] = v * v * v * b[0][d] + 3 * u * v * v * b[1][d] + 3 * u * u * v * b[2][d] + u * u * u * b[3][d];
+                    t[d] = 3 * (v * v * (b[1][d] - b[0][d]) + 2 * u * v * (b[2][d] - b[1][d]) + u * u * (b[3][d] - b[2][d]));
+                } else {
+                    q[d] = v * v * b[0][d] + 2 * u * v * b[1][d] + u * u * b[2][d];
+                    t[d] = 2 * (v * (b[1][d] - b[0][d]) + u * (b[2][d] - b[1][d]));
+                }
+            }
+            m_apply(&P->g.ctm, q, wq);
+            /* the tangent in the world: the linear part of the CTM */
+            double wt[3], side[3], ref[3];
+            for (int d = 0; d < 3; d++) wt[d] = P->g.ctm.m[d][0] * t[0] + P->g.ctm.m[d][1] * t[1] + P->g.ctm.m[d][2] * t[2];
+            if (ribbon) {
+                const double *n0 = nv + 3 * sg, *n1 = nv + 3 * (sg + 1);
+                double n[3] = {v * n0[0] + u * n1[0], v * n0[1] + u * n1[1], v * n0[2] + u * n1[2]};
+                for (int d = 0; d < 3; d++) ref[d] = P->g.ctm.m[d][0] * n[0] + P->g.ctm.m[d][1] * n[1] + P->g.ctm.m[d][2] * n[2];
+            } else if (P->have_camera) {
+                for (int d = 0; d < 3; d++) ref[d] = P->eye[d] - wq[d];
+            } else {
+                memcpy(ref, z_up, sizeof ref);
+            }
+            side[0] = wt[1] * ref[2] - wt[2] * ref[1];
+            side[1] = wt[2] * ref[0] - wt[0] * ref[2];
+            side[2] = wt[0] * ref[1] - wt[1] * ref[0];
+            double sl = sqrt(side[0] * side[0] + side[1] * side[1] + side[2] * side[2]);
+            if (!(sl > 0)) { /* tangent along the reference: any perpendicular */
+                double alt[3] = {fabs(wt[0]) < fabs(wt[1]) ? 1 : 0, fabs(wt[0]) < fabs(wt[1]) ? 0 : 1, 0};
+                side[0] = wt[1] * alt[2] - wt[2] * alt[1];
+                side[1] = wt[2] * alt[0] - wt[0] * alt[2];
+                side[2] = wt[0] * alt[1] - wt[1] * alt[0];
+                sl = sqrt(side[0] * side[0] + side[1] * side[1] + side[2] * side[2]);
+                if (!(sl > 0)) sl = 1, side[0] = 1, side[1] = side[2] = 0;
+            }
+            double gu = ((double)sg + u) / (double)nseg; /* along the whole curve */
+            double half = 0.5 * ((1 - gu) * w0 + gu * w1) * sc / sl;
+            rt_vec3 lft = rt_v3((float)(wq[0] - side[0] * half), (float)(wq[1] - side[1] * half), (float)(wq[2] - side[2] * half));
+            rt_vec3 rgt = rt_v3((float)(wq[0] + side[0] * half), (float)(wq[1] + side[1] * half), (float)(wq[2] + side[2] * half));
+            if (i > 0 && (emit(P, prevl, prevr, rgt) < 0 || emit(P, prevl, rgt, lft) < 0)) return -1;
+            prevl = lft, prevr = rgt;
+        }
+    }
+    char q[48];
+    snprintf(q, sizeof q, "%.20s", ctype);
+    pwarn(P, tt, "curve", "Shape \"curve\" (type \"%s\") made as %s ribbons, %d pieces (%d triangles) per segment", q,
+          ribbon ? "normal-oriented" : "camera-facing", pieces, 2 * pieces);
+    return 0;
+}
+
 static int do_shape(pbrt *P, const token *d)
 {
     if (need_world(P, d, 1) < 0) return -1;
@@ -1713,6 +1833,8 @@ static int do_shape(pbrt *P, const token *d)
                 if (rc == 0) rc = emit(P, a0, b1, b0);
             }
         }
+    } else if (!strcmp(type, "curve")) {
+        rc = make_curve(P, &tt, &L);
     } else if (!strcmp(type, "loopsubdiv")) {
         long levels;
         const double *pv;
@@ -1873,6 +1995,7 @@ static int do_camera(pbrt *P, const token *d)
     }
     P->have_camera = 1;
     P->cam_ctm = P->g.ctm;
+    P->eye[0] = eye.x, P->eye[1] = eye.y, P->eye[2] = eye.z;
     if (name_cs(P, "camera", &inv) < 0) goto done;
     rc = 0;
 done:

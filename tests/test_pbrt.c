@@ -1189,6 +1189,70 @@ static void test_film_fit(void)
     rt_scene_free(s);
 }
 
+/* curves as ribbons: a straight cubic Bezier along x, 8 pieces (16
+ * triangles), widened across its tangent facing the camera (or z without
+ * one), tapered by width0/width1; bspline and degree 2 control points;
+ * wrong counts refused */
+static void test_curves(void)
+{
+    const char *straight = "\"point3 P\" [ 0 0 0  1 0 0  2 0 0  3 0 0 ] \"float width\" 0.2";
+    char text[600];
+    snprintf(text, sizeof text, "WorldBegin\nShape \"curve\" %s\n", straight);
+    rt_scene *s = expect_ok("curve.pbrt", text, 16);
+    if (s) {
+        /* no camera: across cross(x, z) = -y, the points at x = 3u */
+        CHECK(vnear(s->tri[0].p[0], 0, 0.1, 0, 1e-7) && vnear(s->tri[0].p[1], 0, -0.1, 0, 1e-7) &&
+                  vnear(s->tri[0].p[2], 0.375, -0.1, 0, 1e-6) && vnear(s->tri[15].p[2], 3, 0.1, 0, 1e-6),
+              "curve ribbon: (%g %g %g) (%g %g %g)", s->tri[0].p[2].x, s->tri[0].p[2].y, s->tri[0].p[2].z,
+              s->tri[15].p[2].x, s->tri[15].p[2].y, s->tri[15].p[2].z);
+        CHECK(s->nwarn == 1 && !strcmp(s->warn[0].kind, "curve") && strstr(s->warn[0].msg, "camera-facing ribbons, 8 pieces"),
+              "curve warning: %s", s->warning);
+    }
+    rt_scene_free(s);
+    /* the eye above (y = 5): the ribbon turns to face it, across z */
+    snprintf(text, sizeof text,
+             "LookAt 1.5 5 0  1.5 0 0  0 0 1\nCamera \"perspective\"\nWorldBegin\nScale 2 2 2\nShape \"curve\" %s "
+             "\"integer splitdepth\" 1\n", straight);
+    s = expect_ok("curve2.pbrt", text, 4);
+    if (s) {
+        int ok = 1;
+        for (uint32_t i = 0; i < s->ntri; i++)
+            for (int k = 0; k < 3; k++) ok &= fabsf(s->tri[i].p[k].y) < 1e-6f && fabsf(fabsf(s->tri[i].p[k].z) - 0.2f) < 1e-6f;
+        CHECK(ok, "curve facing y: (%g %g %g)", s->tri[0].p[0].x, s->tri[0].p[0].y, s->tri[0].p[0].z);
+        CHECK(vnear(s->tri[3].p[2], 6, 0, -0.2, 1e-6) || vnear(s->tri[3].p[2], 6, 0, 0.2, 1e-6), "scaled end (%g %g %g)",
+              s->tri[3].p[2].x, s->tri[3].p[2].y, s->tri[3].p[2].z);
+    }
+    rt_scene_free(s);
+    /* taper to a point; bspline (1 segment of 4 points); degree 2 */
+    s = expect_ok("curve3.pbrt",
+                  "WorldBegin\nShape \"curve\" \"point3 P\" [ 0 0 0  1 0 0  2 0 0  3 0 0 ] \"float width0\" 0.2 "
+                  "\"float width1\" 0\n",
+                  16);
+    if (s) CHECK(vnear(s->tri[15].p[2], 3, 0, 0, 1e-6) && vnear(s->tri[15].p[1], 3, 0, 0, 1e-6), "taper to 0");
+    rt_scene_free(s);
+    s = expect_ok("curve4.pbrt",
+                  "WorldBegin\nShape \"curve\" \"string basis\" \"bspline\" \"point3 P\" [ 0 0 0  3 0 0  6 0 0  9 0 0 ]\n",
+                  16);
+    /* uniform B-spline of evenly spaced points: from (p0 + 4p1 + p2)/6 = 3 to (p1 + 4p2 + p3)/6 = 6 */
+    if (s) CHECK(check_near(s->tri[0].p[0].x, 3, 0, 1e-6) && check_near(s->tri[15].p[2].x, 6, 0, 1e-5), "bspline ends %g %g",
+                 s->tri[0].p[0].x, s->tri[15].p[2].x);
+    rt_scene_free(s);
+    s = expect_ok("curve5.pbrt", "WorldBegin\nShape \"curve\" \"integer degree\" 2 \"point3 P\" [ 0 0 0  1 0 0  2 0 0  3 0 0  4 0 0 ]\n",
+                  32);
+    rt_scene_free(s);
+    expect_fail("curve6.pbrt", "WorldBegin\nShape \"curve\" \"point3 P\" [ 0 0 0  1 0 0  2 0 0  3 0 0  4 0 0 ]\n",
+                "curve6.pbrt:2:7: Shape \"curve\": 5 control points do not make bezier segments of degree 3");
+    expect_fail("curve7.pbrt", "WorldBegin\nShape \"curve\" \"string type\" \"ribbon\" \"point3 P\" [ 0 0 0  1 0 0  2 0 0  3 0 0 ]\n",
+                "type \"ribbon\" needs 2 normals");
+    s = expect_ok("curve8.pbrt",
+                  "WorldBegin\nShape \"curve\" \"string type\" \"ribbon\" \"point3 P\" [ 0 0 0  1 0 0  2 0 0  3 0 0 ] "
+                  "\"normal N\" [ 0 1 0  0 1 0 ]\n",
+                  16);
+    if (s) CHECK(fabsf(s->tri[0].p[0].y) < 1e-7f && fabsf(fabsf(s->tri[0].p[0].z) - 0.5f) < 1e-6f,
+                 "ribbon across cross(x, y) = z: (%g %g %g)", s->tri[0].p[0].x, s->tri[0].p[0].y, s->tri[0].p[0].z);
+    rt_scene_free(s);
+}
+
 int main(void)
 {
     if (!check_tmpdir("test_pbrt")) {
@@ -1204,6 +1268,7 @@ int main(void)
     test_loopsubdiv();
     test_shapes();
     test_shapes2();
+    test_curves();
     test_materials();
     test_camera();
     test_lights();
