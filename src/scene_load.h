@@ -38,12 +38,4 @@ rt_scene *rt_scene_load_pbrt(const char *path, const char *params, rt_err *e);
  * "image aspect" is recorded. 1 when the camera changed, 0 when not, -1
  * out of memory. */
 int rt_scene_fit_film(rt_scene *s, int W, int H, rt_err *e);
-/* Appends the triangles of the PLY file held in buf (n bytes, buf[n] = 0;
- * path names it in messages) to s, every vertex mapped by the row-major
- * 4x4 matrix m (homogeneous, NULL = identity), with colour rgb (NULL =
- * default grey) and material mat. Same parsing and checks as
- * rt_scene_load_ply; s is not finished. Returns the triangles appended, or
- * -1 (s may hold part of them). */
-long rt_scene_append_ply(rt_scene *s, const char *path, const char *buf, size_t n, const double m[16],
-                         const float rgb[3], uint32_t mat, rt_err *e);
 #endif

@@ -43,6 +43,7 @@
 #include "scene.h"
 #include "scene_load.h"
 #include "scene_file.h"
+#include "ply_read.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -1889,15 +1890,20 @@ static int do_shape(pbrt *P, const token *d)
             char q2[300];
             rc = perr(P, &pfind(&L, "filename")->at, "plymesh \"%s\": %s", rt_esc(q2, sizeof q2, name, 256), why);
         }
-        if (rc == 0) {
-            double m[16];
-            for (int i = 0; i < 16; i++) m[i] = P->g.ctm.m[i / 4][i % 4];
+        if (rc == 0) { /* the shared reader (ply_read.c), then the triangles under the CTM */
+            rt_ply_mesh pm;
             rt_err pe;
-            long got = rt_scene_append_ply(P->s, full, buf, n, m, P->cur_rgb, P->cur_mat, &pe);
-            if (got < 0) rc = perr(P, &tt, "plymesh: %s", pe.msg);
-            else if ((uint64_t)P->s->ntri + P->pend > P->maxtri) {
-                P->s->ntri = start;
-                rc = room_for(P, &tt, (uint64_t)got);
+            if (rt_ply_parse(full, buf, n, &pm, &pe) < 0) rc = perr(P, &tt, "plymesh: %s", pe.msg);
+            else {
+                free(buf); /* the text is no longer needed */
+                buf = NULL;
+                rc = room_for(P, &tt, pm.nidx / 3);
+                for (size_t k = 0; rc == 0 && k < pm.nidx; k += 3) {
+                    const rt_vec3 *a = &pm.v[pm.idx[k]], *b = &pm.v[pm.idx[k + 1]], *c = &pm.v[pm.idx[k + 2]];
+                    rc = emit(P, m_point(&P->g.ctm, a->x, a->y, a->z), m_point(&P->g.ctm, b->x, b->y, b->z),
+                              m_point(&P->g.ctm, c->x, c->y, c->z));
+                }
+                rt_ply_mesh_free(&pm);
             }
         }
         if (rc == 0 && pfind(&L, "displacement"))
