@@ -16,10 +16,13 @@
  *             ObjectBegin stack, named materials, named coordinate
  *             systems and object definitions (name tables: open hashing);
  *   output    triangles go straight into the rt_scene with the colour and
- *             material table entry of the state. An object's triangles are
- *             appended like any others and cut out into the object store at
- *             ObjectEnd; ObjectInstance appends them again under the
- *             instance's matrix (instances are flattened, the counts kept).
+ *             material table entry of the state (disks, cylinders, spheres
+ *             and curves tessellated, PLY files through the shared reader
+ *             ply_read.c). An object's triangles are appended like any
+ *             others and cut out into the object store at ObjectEnd;
+ *             ObjectInstance records the object and its matrix, and once
+ *             the file is read every instance is expanded in file order
+ *             (instances are flattened, the counts kept).
  *
  * What is mapped and what is skipped is listed in docs/scenes.md ("pbrt
  * scene files"). Invariants: (I1) every triangle in the scene was made
@@ -29,13 +32,17 @@
  * file, and every *End pops a frame of its own kind; (I3) memory is bounded
  * by the bytes read (every value held comes from at least two bytes of
  * input, files are capped one by one and in total) and by `maxtri`
- * (checked before any shape, subdivision or instance is generated); (I4)
- * every file read is a regular file inside the top-level file's folder,
- * and no file is read while it is already open on the include stack.
+ * (checked before any shape, subdivision or instance is generated; a
+ * loopsubdiv shape also by maxsubdiv); (I4) every file read is a regular
+ * file, opened once and checked on its descriptor, named by a path
+ * relative to the file naming it, and no file is read while it is already
+ * open on the include stack; (I5) every matrix of the state is finite and
+ * every vertex, light and eye it makes is finite and within RT_COORD_MAX.
  *
  * Errors are one line "FILE:LINE:COL: what was expected"; directives of
- * pbrt outside the subset are skipped with one warning per kind naming the
- * first FILE:LINE, collected in s->warning (the library never prints).
+ * pbrt outside the subset are skipped, and approximations made, with a
+ * warning per kind counted and naming the first FILE:LINE, collected in
+ * s->warn (rt_sfile_warn; the library never prints).
  * Arithmetic is in double with + - * / and sqrt only (angles through
  * rt_dsincos_deg), so the triangles are the same on every machine.
  */
