@@ -251,6 +251,12 @@ static void test_gzip(void)
     rt_scene_free(a);
     rt_scene_free(b);
     rt_scene_free(c);
+    /* a .pbrt.gz spec takes parameters as a .pbrt one does */
+    char spec[700];
+    snprintf(spec, sizeof spec, "%s:tess=2", check_path("gz_top.pbrt.gz"));
+    a = rt_scene_load(spec, &e);
+    CHECK(a && a->ntri == 3 && !strcmp(a->params, "tess=2"), "%s: %s", spec, a ? a->params : e.msg);
+    rt_scene_free(a);
     /* the PLY loader on its own, by content */
     a = rt_scene_load(check_path("gz_m.ply.gz"), &e);
     CHECK(a && a->ntri == 1, "gz_m.ply.gz: %s", a ? "wrong count" : e.msg);
