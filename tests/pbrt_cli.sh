@@ -45,6 +45,23 @@ grep -q "warning: main.pbrt: image 8x8 has not the Film's aspect (40x30): its ho
 "$bin" render "$main" -o "$tmp/o.exr" -W 25 2> "$tmp/alog2" || err "render -W 25"
 grep -q "warning" "$tmp/alog2" && err "-W alone warned: $(cat "$tmp/alog2")"
 
+# the features scene: a gzipped top file, a gzipped PLY in ../assets,
+# disk, cylinder, sphere, curve, interface, alpha 0 and an alpha texture
+feat="$src/tests/data/pbrt/features/scene/top.pbrt.gz"
+"$bin" scene info "$feat" --no-tree > "$tmp/finfo" 2> "$tmp/flog" || err "scene info features: $(cat "$tmp/flog")"
+grep -q '^triangles    201$' "$tmp/finfo" || err "features: $(grep triangles "$tmp/finfo") (24 + 48 + 108 + 16 + 4 + 1 = 201)"
+for k in 'Shape "curve" (type "flat") made as camera-facing ribbons' 'Material "interface" left out' \
+         '"float alpha" 0 left out' 'alpha texture ignored'; do
+    grep -qF "$k" "$tmp/flog" || err "features: no warning '$k': $(cat "$tmp/flog")"
+done
+[ "$(grep -c warning: "$tmp/flog")" = 4 ] || err "features: $(grep -c warning: "$tmp/flog") warnings, expected 4"
+for t in recursive packet dynamic treelet; do
+    "$bin" render "$feat" -t $t -o "$tmp/f.exr" --ppm "$tmp/f-$t.ppm" 2> /dev/null || err "features: render -t $t"
+done
+for t in packet dynamic treelet; do
+    cmp -s "$tmp/f-recursive.ppm" "$tmp/f-$t.ppm" || err "features: $t image differs from recursive"
+done
+
 # sweep: per scene, the Film or the preset
 "$bin" sweep --scenes "$main",cornell:glass=0 --tracers recursive --lights primary --sizes 1K \
     --db "$tmp/s.db" 2> "$tmp/slog" || { err "sweep"; cat "$tmp/slog"; }
