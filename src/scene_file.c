@@ -200,11 +200,45 @@ done:
     return rc;
 }
 
-static ssize_t fd_read(void *ctx, void *buf, size_t n) { return read(*(int *)ctx, buf, n); }
+/* A regular file read through its descriptor: never more bytes than
+ * fstat gave at the start, so a file that grows while read, or a
+ * pseudo-file whose size says 0 but whose reads never end (/proc), is
+ * refused instead of read to the limit. */
+typedef struct fdsrc {
+    int fd;
+    int bounded;        /* a regular file: size holds */
+    uint64_t size, got; /* its size at the start, bytes read */
+    int grew;
+} fdsrc;
+
+static ssize_t fd_read(void *ctx, void *buf, size_t n)
+{
+    fdsrc *f = ctx;
+    ssize_t r = read(f->fd, buf, n);
+    if (r > 0) {
+        f->got += (uint64_t)r;
+        if (f->bounded && f->got > f->size) {
+            f->grew = 1;
+            errno = EFBIG;
+            return -1;
+        }
+    }
+    return r;
+}
 
 int rt_sfile_read_fd(int fd, uint64_t max_bytes, char **pbuf, size_t *pn, int *gz, char *why, size_t nwhy)
 {
-    return rt_sfile_read(fd_read, &fd, max_bytes, pbuf, pn, gz, why, nwhy);
+    fdsrc f = {fd, 0, 0, 0, 0};
+    struct stat st;
+    if (fstat(fd, &st) == 0 && S_ISREG(st.st_mode)) {
+        f.bounded = 1;
+        f.size = (uint64_t)st.st_size;
+    }
+    int rc = rt_sfile_read(fd_read, &f, max_bytes, pbuf, pn, gz, why, nwhy);
+    if (rc < 0 && f.grew)
+        snprintf(why, nwhy, "the file holds more than the %llu bytes it had when opened (it grew, or is not a plain "
+                 "file)", (unsigned long long)f.size);
+    return rc;
 }
 
 typedef struct memsrc {

@@ -310,6 +310,17 @@ static void test_gzip(void)
     a = rt_scene_load(check_path("gz_bomb.pbrt.gz"), &e);
     CHECK(a && a->ntri == 1, "the bomb under the normal limit: %s", a ? "wrong count" : e.msg);
     rt_scene_free(a);
+    /* a pseudo-file whose size says 0 but whose reads go on (/proc): refused
+     * at once, not read to the limit */
+    if (access("/proc/self/status", R_OK) == 0) {
+        write_text("gz_proc.pbrt", "WorldBegin\nInclude \"../../../../../../../../proc/self/status\"\n");
+        a = rt_scene_load(check_path("gz_proc.pbrt"), &e);
+        CHECK(!a && strstr(e.msg, "gz_proc.pbrt:2:9: ") && strstr(e.msg, "holds more than the 0 bytes it had when opened"),
+              "/proc file: %s", a ? "accepted" : e.msg);
+        rt_scene_free(a);
+        a = rt_scene_load("/proc/self/status.ply", &e); /* no such file: the reader's rule is not reached */
+        rt_scene_free(a);
+    }
     /* the reader itself: empty, one byte, the magic alone */
     char *out;
     size_t on;
