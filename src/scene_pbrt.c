@@ -97,6 +97,7 @@ typedef struct srcfile {
     uint32_t line, col; /* position of buf[pos] */
     dev_t dev;         /* identity, for include cycles */
     ino_t ino;
+    int pid;           /* its index in pbrt.paths */
     int has_peek;      /* peek holds the next token */
     token peek;
 } srcfile;
@@ -141,7 +142,7 @@ typedef struct instrec {
     uint32_t at;    /* triangles made before it (outside instances) */
     int obj;        /* index into objs */
     mat4 ctm;       /* the instance's transformation */
-    char pos[160];  /* "FILE:LINE:COL" of its name, for messages */
+    uint32_t file, line, col; /* where its name stands (file: index into paths), for messages */
 } instrec;
 
 typedef struct arealight {
@@ -160,6 +161,8 @@ typedef struct pbrt {
     int depth;          /* files on the include stack */
     uint64_t total;     /* bytes read so far */
     int nfiles;         /* files opened so far */
+    char **paths;       /* every file pushed, as shown (for instance messages), npaths <= MAX_FILES + 1 */
+    int npaths;
     gstate g;           /* current graphics state */
     frame *stack;       /* AttributeBegin/TransformBegin/ObjectBegin frames */
     int nstack, cstack;
@@ -629,6 +632,27 @@ static int push_file(pbrt *P, char *shown, char *rel, char *buf, size_t n, const
         return -1;
     }
     F->path = shown;
+    if (P->npaths % 64 == 0) {
+        char **np = rt_reallocarray(P->paths, (size_t)P->npaths + 64, sizeof *np, P->e);
+        if (!np) {
+            free(shown);
+            free(rel);
+            free(buf);
+            free(F);
+            return -1;
+        }
+        P->paths = np;
+    }
+    size_t pl = strlen(shown);
+    if (!(P->paths[P->npaths] = rt_calloc(pl + 1, 1, P->e))) {
+        free(shown);
+        free(rel);
+        free(buf);
+        free(F);
+        return -1;
+    }
+    memcpy(P->paths[P->npaths], shown, pl);
+    F->pid = P->npaths++;
     /* the folder of rel */
     char *slash = strrchr(rel, '/');
     if (slash == rel) rel[1] = 0; /* "/x.pbrt": the root */
@@ -2243,6 +2267,24 @@ static int do_object_instance(pbrt *P, const token *d)
     if (k < 0) return perr(P, &tt, "ObjectInstance \"%s\": no such object", q);
     object *o = &P->objs[k];
     if (room_for(P, &tt, o->count) < 0) return -1;
+    /* an instance is recorded (148 bytes) only when its triangles would
+     * take more (52 bytes each): the records never hold more memory than
+     * the flattened scene they stand for (maxtri bounds both) */
+    if (o->count * (uint64_t)(sizeof(rt_tri) + sizeof(rt_shade)) <= sizeof(instrec)) {
+        for (uint32_t i = 0; i < o->count; i++) {
+            const rt_tri *t = &P->otri[o->start + i];
+            const rt_shade *h = &P->oshade[o->start + i];
+            rt_vec3 c[3];
+            for (int j = 0; j < 3; j++) {
+                c[j] = m_point(&P->g.ctm, t->p[j].x, t->p[j].y, t->p[j].z);
+                if (!in_range3(c[j]))
+                    return perr(P, &tt, "ObjectInstance: vertex (%g, %g, %g) is not finite or beyond %g after the "
+                                "transformation", (double)c[j].x, (double)c[j].y, (double)c[j].z, RT_COORD_MAX);
+            }
+            if (rt_scene_add_tri_mat(P->s, c[0], c[1], c[2], h->rgb, h->mat, P->e) < 0) return -1;
+        }
+        goto count;
+    }
     if (P->ninst == P->cinst) {
         int nc = P->cinst ? 2 * P->cinst : 16;
         instrec *ni = rt_reallocarray(P->inst, (size_t)nc, sizeof *ni, P->e);
@@ -2254,8 +2296,11 @@ static int do_object_instance(pbrt *P, const token *d)
     r->at = P->s->ntri;
     r->obj = k;
     r->ctm = P->g.ctm;
-    where(P, &tt, r->pos, sizeof r->pos, 1);
+    r->file = (uint32_t)cur(P)->pid;
+    r->line = tt.line;
+    r->col = tt.col;
     P->pend += o->count;
+count:
     if (!o->used) P->s->ntri_unique += o->count;
     o->used = 1;
     P->s->ninst++;
@@ -2293,9 +2338,10 @@ static int expand_instances(pbrt *P)
             for (int c = 0; c < 3; c++) {
                 w->p[c] = m_point(&r->ctm, t->p[c].x, t->p[c].y, t->p[c].z);
                 if (!in_range3(w->p[c]))
-                    return rt_errf(P->e, "%s: ObjectInstance: vertex (%g, %g, %g) is not finite or beyond %g after "
-                                         "the transformation", r->pos, (double)w->p[c].x, (double)w->p[c].y,
-                                   (double)w->p[c].z, RT_COORD_MAX);
+                    return rt_errf(P->e, "%s:%u:%u: ObjectInstance: vertex (%g, %g, %g) is not finite or beyond %g "
+                                         "after the transformation", P->paths[r->file], (unsigned)r->line,
+                                   (unsigned)r->col, (double)w->p[c].x, (double)w->p[c].y, (double)w->p[c].z,
+                                   RT_COORD_MAX);
             }
             s->shade[dst + j] = P->oshade[o->start + j];
         }
@@ -2666,6 +2712,8 @@ done:
     free(P->al);
     free(P->inst);
     free(P->mslot);
+    for (int i = 0; i < P->npaths; i++) free(P->paths[i]);
+    free(P->paths);
     rt_scene *out = P->s;
     if (rc < 0) {
         rt_scene_free(out);

@@ -156,6 +156,13 @@ static void test_transforms(void)
     rt_scene_free(s);
 }
 
+static int count_str(const char *hay, const char *needle)
+{
+    int n = 0;
+    for (const char *p = hay; (p = strstr(p, needle)); p++) n++;
+    return n;
+}
+
 static void test_instancing(void)
 {
     rt_scene *s = expect_ok("inst.pbrt",
@@ -183,6 +190,35 @@ static void test_instancing(void)
         CHECK(veq(s->tri[7].p[0], 27, 7, 7), "a triangle after the instances stays last (%g %g %g)", s->tri[7].p[0].x,
               s->tri[7].p[0].y, s->tri[7].p[0].z);
     }
+    rt_scene_free(s);
+    /* objects of 3 triangles and more are recorded and made at the end (2
+     * and fewer at once): the order is the file's either way */
+    s = expect_ok("inst3.pbrt",
+                  "WorldBegin\nObjectBegin \"three\"\n" TRI TRI TRI "ObjectEnd\nObjectBegin \"one\"\n" TRI "ObjectEnd\n"
+                  "Shape \"trianglemesh\" \"point3 P\" [ 5 5 5  6 5 5  5 6 5 ]\n"
+                  "Translate 10 0 0\nObjectInstance \"three\"\nObjectInstance \"one\"\n"
+                  "Shape \"trianglemesh\" \"point3 P\" [ 7 7 7  8 7 7  7 8 7 ]\n"
+                  "Translate 10 0 0\nObjectInstance \"three\"\n"
+                  "Shape \"trianglemesh\" \"point3 P\" [ 9 9 9  8 9 9  9 8 9 ]\n",
+                  10);
+    if (s) {
+        static const float x0[10] = {5, 10, 10, 10, 10, 17, 20, 20, 20, 29};
+        int ok = 1;
+        for (int i = 0; i < 10; i++) ok &= s->tri[i].p[0].x == x0[i];
+        CHECK(ok, "instances in file order: x %g %g %g %g %g %g %g %g %g %g", s->tri[0].p[0].x, s->tri[1].p[0].x,
+              s->tri[2].p[0].x, s->tri[3].p[0].x, s->tri[4].p[0].x, s->tri[5].p[0].x, s->tri[6].p[0].x,
+              s->tri[7].p[0].x, s->tri[8].p[0].x, s->tri[9].p[0].x);
+        CHECK(s->ninst == 3 && s->ntri_inst == 7 && s->ntri_unique == 7, "counts %u %u %u", s->ninst, s->ntri_inst,
+              s->ntri_unique);
+    }
+    rt_scene_free(s);
+    rt_err e = {0};
+    s = load_text("inst3inf.pbrt",
+                  "WorldBegin\nObjectBegin \"three\"\n" TRI TRI TRI "ObjectEnd\nScale 1e30 1e30 1e30\n"
+                  "ObjectInstance \"three\"\n", NULL, &e);
+    CHECK(!s && strstr(e.msg, "inst3inf.pbrt:8:16: ObjectInstance: vertex (1e+30, 0, 0) is not finite or beyond") &&
+              count_str(e.msg, "inst3inf.pbrt") == 1,
+          "deferred instance out of range: %s", s ? "accepted" : e.msg);
     rt_scene_free(s);
     s = expect_ok("noinst.pbrt", "WorldBegin\n" TRI, 1);
     if (s) CHECK(s->ninst == 0 && s->ntri_unique == 0 && s->ntri_inst == 0, "no instancing, no counts");
@@ -397,12 +433,6 @@ static void test_includes(void)
     rt_scene_free(s);
 }
 
-static int count_str(const char *hay, const char *needle)
-{
-    int n = 0;
-    for (const char *p = hay; (p = strstr(p, needle)); p++) n++;
-    return n;
-}
 
 static double now_sec(void)
 {
