@@ -207,6 +207,7 @@ void rt_scene_free(rt_scene *s)
     free(s->tri);
     free(s->shade);
     free(s->mat);
+    free(s->warn);
     free(s);
 }
 
