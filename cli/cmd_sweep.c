@@ -43,6 +43,7 @@
 #include "scene_load.h"
 #include "cmd.h"
 #include "experiment.h"
+#include "hier.h"
 #include "pool.h"
 
 #include <errno.h>
@@ -74,6 +75,9 @@ typedef struct sweep_opts {
     int geom_given, qs_given; /* --layout / --queue-stores given (they override the model) */
     int flush, fullline;      /* --flush / --write-fullline: -1 = the model's, else 0/1 */
     int no_error;             /* --no-error: hybrid estimators store no standard errors */
+    const char *repl_arg, *hier_arg; /* --repl, --hierarchy */
+    int line_given;           /* --line given (refused with --hierarchy) */
+    rt_hier_config hc;        /* parsed --hierarchy (x.hier points here) */
 } sweep_opts;
 
 
@@ -95,6 +99,10 @@ static void usage(FILE *f)
             "  --depth N, --spp N, --bounces B  whitted / path parameters (see render --help)\n"
             "  --sizes LIST       cache sizes: 1K-4M (powers of two) or 1K,64K,...\n"
             "  --line N           line size in bytes (default 64)\n"
+            "  --repl P           replacement policy (default lru; docs/cachesim.md)\n"
+            "  --hierarchy SPEC   simulate through cache levels, e.g.\n"
+            "                     L1=32K/8/64/lru,LLC=1K-4M/full/64/lru (instead of\n"
+            "                     --sizes/--line/--repl; no --approx); runs keep the spec\n"
             "  -W N, -H N         image size (overrides the preset and a .pbrt scene's Film)\n"
             "  --db FILE          results database (default raytraffic.db)\n"
             "  --jobs N           worker processes (default 1)\n"
@@ -354,7 +362,8 @@ static void on_progress(void *ctx, long d, long s, long nj, double t0)
 }
 
 enum { O_PRESET = 1, O_SCENES, O_TRACERS, O_LIGHTS, O_SIZES, O_LINE, O_DB, O_JOBS, O_KEEP, O_DYNALL, O_LIST, O_JOB,
-       O_APPROX, O_PROXY, O_MODES, O_MODEL, O_FLUSH, O_NOFLUSH, O_FULLLINE, O_NOFULLLINE, O_ACCELS, O_NOERR };
+       O_APPROX, O_PROXY, O_MODES, O_MODEL, O_FLUSH, O_NOFLUSH, O_FULLLINE, O_NOFULLLINE, O_ACCELS, O_NOERR,
+       O_REPL, O_HIER };
 
 /* The command's own options, then the shared render options it takes
  * (-W/-H and the dynamic ones; --lights is its own, a list of lightings). */
@@ -365,6 +374,8 @@ static const struct option sweep_longopts[] = {
     {"lights", required_argument, NULL, O_LIGHTS},
     {"sizes", required_argument, NULL, O_SIZES},
     {"line", required_argument, NULL, O_LINE},
+    {"repl", required_argument, NULL, O_REPL},
+    {"hierarchy", required_argument, NULL, O_HIER},
     {"db", required_argument, NULL, O_DB},
     {"jobs", required_argument, NULL, O_JOBS},
     {"keep-traces", required_argument, NULL, O_KEEP},
@@ -592,7 +603,9 @@ static int parse_opt(sweep_opts *o, int c, const char *arg)
     case O_NOFLUSH: o->flush = c == O_FLUSH; return 0;
     case O_FULLLINE:
     case O_NOFULLLINE: o->fullline = c == O_FULLLINE; return 0;
-    case O_LINE: return rt_cmd_parse_line("sweep", arg, &o->x.sim.line);
+    case O_LINE: o->line_given = 1; return rt_cmd_parse_line("sweep", arg, &o->x.sim.line);
+    case O_REPL: o->repl_arg = arg; return 0;
+    case O_HIER: o->hier_arg = arg; return 0;
     case O_DB:
         if (rt_cmd_check_text("sweep", "--db", arg) < 0) return -1;
         o->db = arg;
@@ -727,6 +740,28 @@ static int finish_opts(sweep_opts *o)
     if (parse_modes(o) < 0) return -1;
     if (o->sizes_arg && rt_sim_parse_sizes(o->sizes_arg, &x->sim, &e) < 0) {
         rt_cmd_error("sweep", "--sizes: %s", e.msg);
+        return -1;
+    }
+    if (o->repl_arg && rt_sim_repl_parse(o->repl_arg, &x->sim.repl, &e) < 0) {
+        rt_cmd_error("sweep", "--repl: %s", e.msg);
+        return -1;
+    }
+    if (o->hier_arg) { /* the levels give sizes, lines and policies; the last level is the run's sim */
+        const char *clash = o->sizes_arg ? "--sizes" : o->line_given ? "--line" : o->repl_arg ? "--repl" : NULL;
+        if (clash) {
+            rt_cmd_error("sweep", "%s does not apply with --hierarchy (each level gives its own)", clash);
+            return -1;
+        }
+        if (rt_hier_parse(o->hier_arg, &x->sim, &o->hc, &e) < 0) {
+            rt_cmd_error("sweep", "--hierarchy: %s", e.msg);
+            return -1;
+        }
+        x->sim = o->hc.level[o->hc.nlevels - 1];
+        x->hier = &o->hc;
+    }
+    if ((x->sim.repl || x->hier) && x->napprox) {
+        rt_cmd_error("sweep", "--approx does not apply with %s (the sampled methods model one LRU level)",
+                     x->hier ? "--hierarchy" : "--repl");
         return -1;
     }
     if (rt_sim_config_check(&x->sim, &e) < 0) {

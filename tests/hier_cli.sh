@@ -50,4 +50,24 @@ row "$tmp/h3.txt" L1 4096 32 2 lru 315931 21496 1138 1138 760704
 row "$tmp/h3.txt" L2 16384 64 4 fifo 23772 6480 25 500 448320
 row "$tmp/h3.txt" L3 131072 128 8 lru 7005 1151 0 217 175104
 
+# the in-process sweep: runs keyed by their spec and policy, per-level rows;
+# the LLC's rows are the run's traffic and equal the same hierarchy on the
+# job's kept trace through `sim`
+"$bin" sweep --scenes cornell --tracers recursive -W 24 -H 24 --lights primary --db "$tmp/s.db" --keep-traces "$tmp" \
+    --hierarchy L1=2K/4/64/lru,LLC=1K-16K/full/64/lru >/dev/null 2>&1 || die "sweep --hierarchy"
+[ "$(sqlite3 "$tmp/s.db" "select hierarchy from runs")" = "L1=2K/4/64/lru,LLC=1K-16K/full/64/lru" ] || die "sweep: stored spec"
+[ "$(sqlite3 "$tmp/s.db" "select count(distinct cache_size) from level_traffic where level = 2")" = 5 ] || die "sweep: LLC level rows"
+kept=$(ls "$tmp"/job*.rtt | head -1)
+"$bin" sim "$kept" --hierarchy L1=2K/4/64/lru,LLC=1K-16K/full/64/lru --format csv > "$tmp/k.csv" || die "sim of the kept trace"
+want=$(grep ',LLC,16384,' "$tmp/k.csv" | grep -v ',geometry,\|,ray,\|,other,' | awk -F, '{s += $13} END {print s}')
+got=$(sqlite3 "$tmp/s.db" "select sum(t.traffic_bytes) from traffic t join cache_configs c on c.id = t.config_id where c.size = 16384")
+[ -n "$want" ] && [ "$want" = "$got" ] || die "sweep LLC traffic $got, sim of its trace $want"
+"$bin" sweep --scenes cornell --tracers recursive -W 24 -H 24 --lights primary --db "$tmp/s.db" --repl fifo --sizes 1K-4K \
+    >/dev/null 2>&1 || die "sweep --repl"
+[ "$(sqlite3 "$tmp/s.db" "select count(*) from runs where repl = 'fifo' and hierarchy = ''")" = 1 ] || die "sweep: fifo run"
+"$bin" sweep --scenes cornell --tracers recursive --hierarchy LLC=1K/full/64/lru --line 32 --db "$tmp/x.db" >/dev/null 2>&1
+[ $? -eq 2 ] || die "sweep --line with --hierarchy must be a usage error"
+"$bin" sweep --scenes cornell --tracers recursive --repl fifo --approx shards --db "$tmp/x.db" >/dev/null 2>&1
+[ $? -eq 2 ] || die "sweep --repl with --approx must be a usage error"
+
 exit $fail
