@@ -70,4 +70,21 @@ got=$(sqlite3 "$tmp/s.db" "select sum(t.traffic_bytes) from traffic t join cache
 "$bin" sweep --scenes cornell --tracers recursive --repl fifo --approx shards --db "$tmp/x.db" >/dev/null 2>&1
 [ $? -eq 2 ] || die "sweep --repl with --approx must be a usage error"
 
+# report --figure hierarchy: the levels of the hierarchy run, and the
+# policies against OPT for the runs that differ only in their policy
+for p in lru opt; do
+    "$bin" sweep --scenes cornell --tracers recursive -W 24 -H 24 --lights primary --db "$tmp/s.db" --repl $p --sizes 1K-4K \
+        >/dev/null 2>&1 || die "sweep --repl $p"
+done
+"$bin" report --db "$tmp/s.db" --figure hierarchy > "$tmp/rep.md" || die "report --figure hierarchy exit"
+grep -q '^### cornell, recursive, 24x24, lights 0, run 1: L1=2K/4/64/lru,LLC=1K-16K/full/64/lru$' "$tmp/rep.md" || die "report: hierarchy heading"
+[ "$(grep -c '^| LLC | ' "$tmp/rep.md")" = 5 ] || die "report: LLC rows"
+grep -q '^| size | lru KB | fifo KB | opt KB | LRU gap to OPT |$' "$tmp/rep.md" || die "report: policy header"
+# the gap is computed from the stored totals
+lru=$(sqlite3 "$tmp/s.db" "select total(t.traffic_bytes) from traffic t join runs r on r.id = t.run_id join cache_configs c on c.id = t.config_id where r.repl = 'lru' and r.hierarchy = '' and c.size = 1024")
+opt=$(sqlite3 "$tmp/s.db" "select total(t.traffic_bytes) from traffic t join runs r on r.id = t.run_id join cache_configs c on c.id = t.config_id where r.repl = 'opt' and c.size = 1024")
+gap=$(awk -v l="$lru" -v o="$opt" 'BEGIN {printf "%.1f%%", 100 * (l / o - 1)}')
+grep -q "^| 1024 | .* | $gap |\$" "$tmp/rep.md" || die "report: gap $gap at 1K: $(grep '^| 1024' "$tmp/rep.md")"
+"$bin" report --db "$tmp/x.db" --figure hierarchy >/dev/null 2>&1; [ $? -eq 1 ] || die "report --figure hierarchy without runs must exit 1"
+
 exit $fail
