@@ -89,7 +89,9 @@ static void usage(FILE *f)
             "Options:\n"
             "  --preset P         quick (default; 256x256) or paper (1024x1024): room, grove,\n"
             "                     sphereflake; lighting primary,0,1,2,all; recursive, packet,\n"
-            "                     dynamic; sizes 1K-4M\n"
+            "                     dynamic; sizes 1K-4M; cpu or gpu: quick behind a hierarchy,\n"
+            "                     L1=32K/8/64/lru,L2=1M/16/64/lru,LLC=1K-4M/full/64/lru or\n"
+            "                     L1=128K/4/128/lru,L2=1M+2M+4M+6M/16/128/lru\n"
             "  --scenes LIST      comma list of scene specs (overrides the preset)\n"
             "  --tracers LIST     comma list of tracers\n"
             "  --lights LIST      comma list of lightings: primary, 0, 1, 2, all\n"
@@ -579,8 +581,8 @@ static int parse_opt(sweep_opts *o, int c, const char *arg)
     if (r != 0) return r < 0 ? -1 : 0;
     switch (c) {
     case O_PRESET:
-        if (strcmp(arg, "quick") && strcmp(arg, "paper")) {
-            rt_cmd_error("sweep", "--preset: '%s' is not quick or paper", arg);
+        if (strcmp(arg, "quick") && strcmp(arg, "paper") && strcmp(arg, "cpu") && strcmp(arg, "gpu")) {
+            rt_cmd_error("sweep", "--preset: '%s' is not quick, paper, cpu or gpu", arg);
             return -1;
         }
         o->preset = arg;
@@ -746,6 +748,10 @@ static int finish_opts(sweep_opts *o)
         rt_cmd_error("sweep", "--repl: %s", e.msg);
         return -1;
     }
+    /* the hierarchy presets (docs/cachesim.md, "Presets"): the quick sweep
+     * behind a CPU-like or a GPU-like hierarchy */
+    if (!o->hier_arg && !strcmp(o->preset, "cpu")) o->hier_arg = "L1=32K/8/64/lru,L2=1M/16/64/lru,LLC=1K-4M/full/64/lru";
+    if (!o->hier_arg && !strcmp(o->preset, "gpu")) o->hier_arg = "L1=128K/4/128/lru,L2=1M+2M+4M+6M/16/128/lru";
     if (o->hier_arg) { /* the levels give sizes, lines and policies; the last level is the run's sim */
         const char *clash = o->sizes_arg ? "--sizes" : o->line_given ? "--line" : o->repl_arg ? "--repl" : NULL;
         if (clash) {

@@ -70,6 +70,12 @@ got=$(sqlite3 "$tmp/s.db" "select sum(t.traffic_bytes) from traffic t join cache
 "$bin" sweep --scenes cornell --tracers recursive --repl fifo --approx shards --db "$tmp/x.db" >/dev/null 2>&1
 [ $? -eq 2 ] || die "sweep --repl with --approx must be a usage error"
 
+# the presets name their hierarchies
+"$bin" sweep --preset gpu --scenes cornell --tracers recursive --lights primary -W 16 -H 16 --db "$tmp/g.db" >/dev/null 2>&1 || die "--preset gpu"
+[ "$(sqlite3 "$tmp/g.db" "select hierarchy from runs")" = "L1=128K/4/128/lru,L2=1M+2M+4M+6M/16/128/lru" ] || die "gpu preset spec"
+"$bin" sweep --preset cpu --scenes cornell --tracers recursive --lights primary -W 16 -H 16 --db "$tmp/c.db" >/dev/null 2>&1 || die "--preset cpu"
+[ "$(sqlite3 "$tmp/c.db" "select hierarchy from runs")" = "L1=32K/8/64/lru,L2=1M/16/64/lru,LLC=1K-4M/full/64/lru" ] || die "cpu preset spec"
+
 # report --figure hierarchy: the levels of the hierarchy run, and the
 # policies against OPT for the runs that differ only in their policy
 for p in lru opt; do
