@@ -361,16 +361,25 @@ static int run_size(opt *o, int si, rt_err *e)
  * Dirty bits per line and size (bit j: dirty in cache j), as in msim:
  * leaving S_j with bit j set is a write-back of size j.
  */
+/* A line's state, in one 16-byte record so a touch reads one cache line. */
+typedef struct oline {
+    uint32_t key;   /* next use (NONE = never) */
+    uint32_t pos;   /* position in its group's heap */
+    uint32_t dirty; /* bit j: dirty in cache j */
+    uint8_t grp;    /* group, k = in no cache */
+    uint8_t wcg;    /* (class, generation) index of the last write */
+    uint16_t pad;
+} oline;
+
 typedef struct one {
-    uint32_t *key, *pos, *dirty;
-    uint8_t *grp, *wcg;
+    oline *l;
     uint32_t *heap[RT_SIM_MAXSIZES];
     uint32_t n[RT_SIM_MAXSIZES], cap[RT_SIM_MAXSIZES];
 } one;
 
 static inline int oabove(const one *g, uint32_t a, uint32_t b)
 {
-    return g->key[a] > g->key[b] || (g->key[a] == g->key[b] && a < b);
+    return g->l[a].key > g->l[b].key || (g->l[a].key == g->l[b].key && a < b);
 }
 
 static void o_up(one *g, int j, uint32_t i)
@@ -380,11 +389,11 @@ static void o_up(one *g, int j, uint32_t i)
         uint32_t p = (i - 1) / 2;
         if (!oabove(g, x, h[p])) break;
         h[i] = h[p];
-        g->pos[h[i]] = i;
+        g->l[h[i]].pos = i;
         i = p;
     }
     h[i] = x;
-    g->pos[x] = i;
+    g->l[x].pos = i;
 }
 
 static void o_down(one *g, int j, uint32_t i)
@@ -396,28 +405,28 @@ static void o_down(one *g, int j, uint32_t i)
         if (c + 1 < n && oabove(g, h[c + 1], h[c])) c++;
         if (!oabove(g, h[c], x)) break;
         h[i] = h[c];
-        g->pos[h[i]] = i;
+        g->l[h[i]].pos = i;
         i = c;
     }
     h[i] = x;
-    g->pos[x] = i;
+    g->l[x].pos = i;
 }
 
 static void o_push(one *g, int j, uint32_t x)
 {
     g->heap[j][g->n[j]] = x;
-    g->grp[x] = (uint8_t)j;
+    g->l[x].grp = (uint8_t)j;
     o_up(g, j, g->n[j]++);
 }
 
 static void o_remove(one *g, int j, uint32_t x)
 {
-    uint32_t i = g->pos[x], last = g->heap[j][--g->n[j]];
+    uint32_t i = g->l[x].pos, last = g->heap[j][--g->n[j]];
     if (i == g->n[j]) return;
     g->heap[j][i] = last;
-    g->pos[last] = i;
+    g->l[last].pos = i;
     o_up(g, j, i);
-    o_down(g, j, g->pos[last]);
+    o_down(g, j, g->l[last].pos);
 }
 
 static int run_onepass(opt *o, rt_err *e)
@@ -426,12 +435,8 @@ static int run_onepass(opt *o, rt_err *e)
     const int k = c->nsizes;
     one g = {0};
     uint32_t nid = o->nid ? o->nid : 1;
-    g.key = rt_calloc(nid, sizeof *g.key, e);
-    g.pos = rt_calloc(nid, sizeof *g.pos, e);
-    g.dirty = rt_calloc(nid, sizeof *g.dirty, e);
-    g.grp = rt_calloc(nid, 1, e);
-    g.wcg = rt_calloc(nid, 1, e);
-    int ok = g.key && g.pos && g.dirty && g.grp && g.wcg;
+    g.l = rt_calloc(nid, sizeof *g.l, e);
+    int ok = g.l != NULL;
     for (int j = 0; j < k && ok; j++) {
         g.cap[j] = (uint32_t)((c->sizes[j] - (j ? c->sizes[j - 1] : 0)) / c->line);
         ok = (g.heap[j] = rt_calloc(g.cap[j], sizeof *g.heap[j], e)) != NULL;
@@ -442,28 +447,28 @@ static int run_onepass(opt *o, rt_err *e)
     uint64_t acc[RT_SIM_NCG] = {0}, wr[RT_SIM_NCG] = {0};
     int rc = -1;
     if (!hist || !wb) goto out;
-    memset(g.grp, k, nid);
+    for (uint32_t x = 0; x < nid; x++) g.l[x].grp = (uint8_t)k;
     const uint32_t all = k == 32 ? UINT32_MAX : (1u << k) - 1;
     const int fl = c->write_miss_fullline;
     for (uint64_t t = 0; t < o->nt; t++) {
         const otouch *tc = &o->t[t];
         uint32_t x = tc->id;
         unsigned cg = tc->cg, w = tc->w;
-        int i = g.grp[x];
+        int i = g.l[x].grp;
         acc[cg]++;
         wr[cg] += w != 0;
         hist[cg][w == 0 ? 0 : (w == RT_WRITE_STREAM || (fl && tc->bytes == c->line)) ? 2 : 1][i]++;
         if (i == 0) { /* a hit in every size: only x's priority grows (its key was now, the least) */
-            g.key[x] = tc->next;
-            o_up(&g, 0, g.pos[x]);
+            g.l[x].key = tc->next;
+            o_up(&g, 0, g.l[x].pos);
             if (w) {
-                g.dirty[x] = all;
-                g.wcg[x] = (uint8_t)cg;
+                g.l[x].dirty = all;
+                g.l[x].wcg = (uint8_t)cg;
             }
             continue;
         }
         if (i < k) o_remove(&g, i, x);
-        g.key[x] = tc->next;
+        g.l[x].key = tc->next;
         uint32_t carry = NONE;
         for (int j = 0; j < i; j++) {
             uint32_t full = g.n[j] == g.cap[j];
@@ -484,24 +489,24 @@ static int run_onepass(opt *o, rt_err *e)
                     carry = top;
                 }
             }
-            if (g.dirty[carry] >> j & 1) { /* carry leaves cache j */
-                wb[j][g.wcg[carry]]++;
-                g.dirty[carry] &= ~(1u << j);
+            if (g.l[carry].dirty >> j & 1) { /* carry leaves cache j */
+                wb[j][g.l[carry].wcg]++;
+                g.l[carry].dirty &= ~(1u << j);
             }
         }
         if (carry != NONE) {
             if (i < k) o_push(&g, i, carry);
-            else g.grp[carry] = (uint8_t)k;
+            else g.l[carry].grp = (uint8_t)k;
         }
         if (w) {
-            g.dirty[x] = all;
-            g.wcg[x] = (uint8_t)cg;
+            g.l[x].dirty = all;
+            g.l[x].wcg = (uint8_t)cg;
         }
     }
     if (c->flush)
         for (uint32_t x = 0; x < o->nid; x++)
-            for (int j = g.grp[x]; j < k; j++)
-                if (g.dirty[x] >> j & 1) wb[j][g.wcg[x]]++;
+            for (int j = g.l[x].grp; j < k; j++)
+                if (g.l[x].dirty >> j & 1) wb[j][g.l[x].wcg]++;
     for (int j = 0; j < k; j++) {
         ocount *q = &o->cnt[j];
         memset(q, 0, sizeof *q);
@@ -521,11 +526,7 @@ out:
     free(hist);
     free(wb);
     for (int j = 0; j < k; j++) free(g.heap[j]);
-    free(g.key);
-    free(g.pos);
-    free(g.dirty);
-    free(g.grp);
-    free(g.wcg);
+    free(g.l);
     return rc;
 }
 

@@ -540,7 +540,7 @@ static int store_job(rt_exp_worker *w, jobrun *r, rt_exp_key *key, double t0, rt
             free(se);
             return -1;
         }
-        nlv = rt_hier_db_level_rows(r->hier, lv);
+        nlv = rt_hier_db_level_rows(r->hier, rt_job_generations(&r->j) > 0, lv);
     } else
         rt_sim_finish(r->sim); /* the flush, when the accounting asks for it */
     size_t k = rt_sim_db_rows(r->sim, rows);

@@ -50,6 +50,12 @@ row "$tmp/h3.txt" L1 4096 32 2 lru 315931 21496 1138 1138 760704
 row "$tmp/h3.txt" L2 16384 64 4 fifo 23772 6480 25 500 448320
 row "$tmp/h3.txt" L3 131072 128 8 lru 7005 1151 0 217 175104
 
+# a trace with ray generations: per-level rows per generation too, summing
+# to the level's rows over all generations
+"$bin" sim "$tmp/t.rtt" --db "$tmp/gen.db" --hierarchy L1=4K/2/64/lru,LLC=64K/full/64/lru 2>/dev/null || die "sim --db generations"
+[ "$(sqlite3 "$tmp/gen.db" "select count(distinct gen) from level_traffic where gen >= 0")" -ge 3 ] || die "level rows per generation"
+[ "$(sqlite3 "$tmp/gen.db" "select count(*) from (select level, cache_size, class, sum(case when gen < 0 then accesses else -accesses end) d, sum(case when gen < 0 then misses else -misses end) m from level_traffic group by 1, 2, 3) where d <> 0 or m <> 0")" = 0 ] || die "generations do not sum to the level rows"
+
 # the in-process sweep: runs keyed by their spec and policy, per-level rows;
 # the LLC's rows are the run's traffic and equal the same hierarchy on the
 # job's kept trace through `sim`
