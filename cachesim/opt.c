@@ -373,60 +373,72 @@ typedef struct oline {
 
 typedef struct one {
     oline *l;
-    uint32_t *heap[RT_SIM_MAXSIZES];
+    /* per group a max-heap of entries (next use << 32 | ~line id): the
+     * priority order (farther next use first, then the lower id) is the
+     * integer order, and sifting reads no line record */
+    uint64_t *heap[RT_SIM_MAXSIZES];
     uint32_t n[RT_SIM_MAXSIZES], cap[RT_SIM_MAXSIZES];
 } one;
 
-static inline int oabove(const one *g, uint32_t a, uint32_t b)
-{
-    return g->l[a].key > g->l[b].key || (g->l[a].key == g->l[b].key && a < b);
-}
+static inline uint64_t oent(const one *g, uint32_t x) { return (uint64_t)g->l[x].key << 32 | (uint32_t)~x; }
+static inline uint32_t oid(uint64_t v) { return ~(uint32_t)v; }
 
 static void o_up(one *g, int j, uint32_t i)
 {
-    uint32_t *h = g->heap[j], x = h[i];
+    uint64_t *h = g->heap[j], v = h[i];
     while (i > 0) {
         uint32_t p = (i - 1) / 2;
-        if (!oabove(g, x, h[p])) break;
+        if (v <= h[p]) break;
         h[i] = h[p];
-        g->l[h[i]].pos = i;
+        g->l[oid(h[i])].pos = i;
         i = p;
     }
-    h[i] = x;
-    g->l[x].pos = i;
+    h[i] = v;
+    g->l[oid(v)].pos = i;
 }
 
 static void o_down(one *g, int j, uint32_t i)
 {
-    uint32_t *h = g->heap[j], n = g->n[j], x = h[i];
+    uint64_t *h = g->heap[j], v = h[i];
+    uint32_t n = g->n[j];
     for (;;) {
         uint32_t c = 2 * i + 1;
         if (c >= n) break;
-        if (c + 1 < n && oabove(g, h[c + 1], h[c])) c++;
-        if (!oabove(g, h[c], x)) break;
+        if (c + 1 < n && h[c + 1] > h[c]) c++;
+        if (h[c] <= v) break;
         h[i] = h[c];
-        g->l[h[i]].pos = i;
+        g->l[oid(h[i])].pos = i;
         i = c;
     }
-    h[i] = x;
-    g->l[x].pos = i;
+    h[i] = v;
+    g->l[oid(v)].pos = i;
 }
 
 static void o_push(one *g, int j, uint32_t x)
 {
-    g->heap[j][g->n[j]] = x;
+    g->heap[j][g->n[j]] = oent(g, x);
     g->l[x].grp = (uint8_t)j;
     o_up(g, j, g->n[j]++);
 }
 
+/* y takes heap position p of group j (whatever held it leaves the heap). */
+static void o_replace(one *g, int j, uint32_t p, uint32_t y)
+{
+    g->heap[j][p] = oent(g, y);
+    g->l[y].grp = (uint8_t)j;
+    o_up(g, j, p);
+    o_down(g, j, g->l[y].pos);
+}
+
 static void o_remove(one *g, int j, uint32_t x)
 {
-    uint32_t i = g->l[x].pos, last = g->heap[j][--g->n[j]];
+    uint32_t i = g->l[x].pos;
+    uint64_t last = g->heap[j][--g->n[j]];
     if (i == g->n[j]) return;
     g->heap[j][i] = last;
-    g->l[last].pos = i;
+    g->l[oid(last)].pos = i;
     o_up(g, j, i);
-    o_down(g, j, g->l[last].pos);
+    o_down(g, j, g->l[oid(last)].pos);
 }
 
 static int run_onepass(opt *o, rt_err *e)
@@ -460,6 +472,7 @@ static int run_onepass(opt *o, rt_err *e)
         hist[cg][w == 0 ? 0 : (w == RT_WRITE_STREAM || (fl && tc->bytes == c->line)) ? 2 : 1][i]++;
         if (i == 0) { /* a hit in every size: only x's priority grows (its key was now, the least) */
             g.l[x].key = tc->next;
+            g.heap[0][g.l[x].pos] = oent(&g, x);
             o_up(&g, 0, g.l[x].pos);
             if (w) {
                 g.l[x].dirty = all;
@@ -467,25 +480,29 @@ static int run_onepass(opt *o, rt_err *e)
             }
             continue;
         }
-        if (i < k) o_remove(&g, i, x);
+        /* x's old key was this touch, the least of all: x is a leaf of G_i,
+         * where the last victim will take its place */
+        uint32_t px = i < k ? g.l[x].pos : 0;
         g.l[x].key = tc->next;
         uint32_t carry = NONE;
         for (int j = 0; j < i; j++) {
             uint32_t full = g.n[j] == g.cap[j];
             if (j == 0) {
-                if (full) carry = g.heap[0][0], o_remove(&g, 0, carry);
-                o_push(&g, 0, x);
-                if (!full) break;
+                if (!full) { /* a cold cache: every size has room, nothing is evicted */
+                    o_push(&g, 0, x);
+                    break;
+                }
+                carry = oid(g.heap[0][0]); /* the farthest next use leaves cache 0; x takes its place */
+                o_replace(&g, 0, 0, x);
             } else {
                 if (!full) { /* room: the carried line stays in S_j, nothing above is evicted */
                     o_push(&g, j, carry);
                     carry = NONE;
                     break;
                 }
-                if (oabove(&g, g.heap[j][0], carry)) {
-                    uint32_t top = g.heap[j][0];
-                    o_remove(&g, j, top);
-                    o_push(&g, j, carry);
+                if (g.heap[j][0] > oent(&g, carry)) { /* G_j's top leaves cache j instead */
+                    uint32_t top = oid(g.heap[j][0]);
+                    o_replace(&g, j, 0, carry);
                     carry = top;
                 }
             }
@@ -494,10 +511,11 @@ static int run_onepass(opt *o, rt_err *e)
                 g.l[carry].dirty &= ~(1u << j);
             }
         }
-        if (carry != NONE) {
-            if (i < k) o_push(&g, i, carry);
-            else g.l[carry].grp = (uint8_t)k;
-        }
+        if (i < k) {
+            if (carry != NONE) o_replace(&g, i, px, carry);
+            else o_remove(&g, i, x); /* (not reached: a cache with room holds every line) */
+        } else if (carry != NONE)
+            g.l[carry].grp = (uint8_t)k;
         if (w) {
             g.l[x].dirty = all;
             g.l[x].wcg = (uint8_t)cg;
