@@ -49,8 +49,8 @@ static void usage(FILE *f)
             "  --lights L         lights for the tracer runs (default none: primary rays)\n"
             "  --tracers LIST     comma list (default recursive,packet,dynamic)\n"
             "  --cache-size S     dynamic tracer's schedule (default 64K)\n"
-            "  --what LIST        tracers,trace,sim,replay,hierarchy,approx,path-error,modes,identical,\n"
-            "                     embree,bvh,treelet\n"
+            "  --what LIST        tracers,trace,sim,replay,hierarchy,approx,path-error,modes,\n"
+            "                     identical,stream,embree,bvh,treelet\n"
             "                     (default tracers,trace,sim); replay: the exact simulator\n"
             "                     on --trace FILE, one and two threads, decoding included;\n"
             "                     hierarchy: L1 32K + 13 LLC sizes in one pass, and OPT,\n"
@@ -270,11 +270,12 @@ int main_bench(int argc, char **argv)
     const char *scene = NULL, *tracers = "recursive,packet,dynamic", *what = "tracers,trace,sim";
     const char *tmpdir = "/tmp", *dummy = NULL, *trace = NULL;
     uint64_t simrefs = 20000000;
-    struct option *lo = rt_cmd_merge_opts(own);
+    struct option *lo = rt_cmd_longopts(RT_OC_BENCH, own);
+    char so[32];
     int c;
     if (!lo) return RT_EXIT_FAIL;
     optind = 1;
-    while ((c = getopt_long(argc, argv, "h" RT_RENDER_SHORTOPTS, lo, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, rt_cmd_shortopts(RT_OC_BENCH, "h", so, sizeof so), lo, NULL)) != -1) {
         int r = rt_cmd_render_opt("bench", c, optarg, &o, &dummy);
         if (r < 0) {
             free(lo);
