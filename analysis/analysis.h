@@ -353,4 +353,11 @@ int rt_report_feedback(sqlite3 *h, const char *scene, int csv, const rt_plot_opt
 int rt_report_treelet(sqlite3 *h, const char *dbpath, const char *scene, int csv, const rt_plot_opts *plot, FILE *out,
                       rt_err *e);
 
+/* `report --figure hierarchy` (analysis/hierarchy.c): per hierarchy run
+ * the traffic of every level and size per class group, then for runs that
+ * differ only in their replacement policy and include OPT, total traffic
+ * per policy and size with LRU's gap to OPT. Markdown. scene NULL = all.
+ * 0, or -1 when there is nothing to show. */
+int rt_report_hierarchy(sqlite3 *h, const char *scene, FILE *out, rt_err *e);
+
 #endif

@@ -5,6 +5,7 @@
  */
 #include "engine.h"
 
+#include <pthread.h>
 #include <string.h>
 
 const rt_cache_engine *const rt_cache_engines[] = {
@@ -71,16 +72,21 @@ int rt_sim_repl_random(int repl)
     return o && o->random;
 }
 
+static char repl_list[256];
+
+static void make_list(void)
+{
+    for (int k = 0; name_at(k); k++) {
+        if (k) strncat(repl_list, ",", sizeof repl_list - strlen(repl_list) - 1);
+        strncat(repl_list, name_at(k), sizeof repl_list - strlen(repl_list) - 1);
+    }
+}
+
 const char *rt_sim_repl_list(void)
 {
-    static char buf[256];
-    if (!buf[0]) {
-        for (int k = 0; name_at(k); k++) {
-            if (k) strncat(buf, ",", sizeof buf - strlen(buf) - 1);
-            strncat(buf, name_at(k), sizeof buf - strlen(buf) - 1);
-        }
-    }
-    return buf;
+    static pthread_once_t once = PTHREAD_ONCE_INIT;
+    pthread_once(&once, make_list); /* built once, whichever thread asks first */
+    return repl_list;
 }
 
 int rt_cache_engine_fits(const rt_cache_engine *g, const rt_sim_config *c)

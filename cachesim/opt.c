@@ -361,63 +361,84 @@ static int run_size(opt *o, int si, rt_err *e)
  * Dirty bits per line and size (bit j: dirty in cache j), as in msim:
  * leaving S_j with bit j set is a write-back of size j.
  */
+/* A line's state, in one 16-byte record so a touch reads one cache line. */
+typedef struct oline {
+    uint32_t key;   /* next use (NONE = never) */
+    uint32_t pos;   /* position in its group's heap */
+    uint32_t dirty; /* bit j: dirty in cache j */
+    uint8_t grp;    /* group, k = in no cache */
+    uint8_t wcg;    /* (class, generation) index of the last write */
+    uint16_t pad;
+} oline;
+
 typedef struct one {
-    uint32_t *key, *pos, *dirty;
-    uint8_t *grp, *wcg;
-    uint32_t *heap[RT_SIM_MAXSIZES];
+    oline *l;
+    /* per group a max-heap of entries (next use << 32 | ~line id): the
+     * priority order (farther next use first, then the lower id) is the
+     * integer order, and sifting reads no line record */
+    uint64_t *heap[RT_SIM_MAXSIZES];
     uint32_t n[RT_SIM_MAXSIZES], cap[RT_SIM_MAXSIZES];
 } one;
 
-static inline int oabove(const one *g, uint32_t a, uint32_t b)
-{
-    return g->key[a] > g->key[b] || (g->key[a] == g->key[b] && a < b);
-}
+static inline uint64_t oent(const one *g, uint32_t x) { return (uint64_t)g->l[x].key << 32 | (uint32_t)~x; }
+static inline uint32_t oid(uint64_t v) { return ~(uint32_t)v; }
 
 static void o_up(one *g, int j, uint32_t i)
 {
-    uint32_t *h = g->heap[j], x = h[i];
+    uint64_t *h = g->heap[j], v = h[i];
     while (i > 0) {
         uint32_t p = (i - 1) / 2;
-        if (!oabove(g, x, h[p])) break;
+        if (v <= h[p]) break;
         h[i] = h[p];
-        g->pos[h[i]] = i;
+        g->l[oid(h[i])].pos = i;
         i = p;
     }
-    h[i] = x;
-    g->pos[x] = i;
+    h[i] = v;
+    g->l[oid(v)].pos = i;
 }
 
 static void o_down(one *g, int j, uint32_t i)
 {
-    uint32_t *h = g->heap[j], n = g->n[j], x = h[i];
+    uint64_t *h = g->heap[j], v = h[i];
+    uint32_t n = g->n[j];
     for (;;) {
         uint32_t c = 2 * i + 1;
         if (c >= n) break;
-        if (c + 1 < n && oabove(g, h[c + 1], h[c])) c++;
-        if (!oabove(g, h[c], x)) break;
+        if (c + 1 < n && h[c + 1] > h[c]) c++;
+        if (h[c] <= v) break;
         h[i] = h[c];
-        g->pos[h[i]] = i;
+        g->l[oid(h[i])].pos = i;
         i = c;
     }
-    h[i] = x;
-    g->pos[x] = i;
+    h[i] = v;
+    g->l[oid(v)].pos = i;
 }
 
 static void o_push(one *g, int j, uint32_t x)
 {
-    g->heap[j][g->n[j]] = x;
-    g->grp[x] = (uint8_t)j;
+    g->heap[j][g->n[j]] = oent(g, x);
+    g->l[x].grp = (uint8_t)j;
     o_up(g, j, g->n[j]++);
+}
+
+/* y takes heap position p of group j (whatever held it leaves the heap). */
+static void o_replace(one *g, int j, uint32_t p, uint32_t y)
+{
+    g->heap[j][p] = oent(g, y);
+    g->l[y].grp = (uint8_t)j;
+    o_up(g, j, p);
+    o_down(g, j, g->l[y].pos);
 }
 
 static void o_remove(one *g, int j, uint32_t x)
 {
-    uint32_t i = g->pos[x], last = g->heap[j][--g->n[j]];
+    uint32_t i = g->l[x].pos;
+    uint64_t last = g->heap[j][--g->n[j]];
     if (i == g->n[j]) return;
     g->heap[j][i] = last;
-    g->pos[last] = i;
+    g->l[oid(last)].pos = i;
     o_up(g, j, i);
-    o_down(g, j, g->pos[last]);
+    o_down(g, j, g->l[oid(last)].pos);
 }
 
 static int run_onepass(opt *o, rt_err *e)
@@ -426,12 +447,8 @@ static int run_onepass(opt *o, rt_err *e)
     const int k = c->nsizes;
     one g = {0};
     uint32_t nid = o->nid ? o->nid : 1;
-    g.key = rt_calloc(nid, sizeof *g.key, e);
-    g.pos = rt_calloc(nid, sizeof *g.pos, e);
-    g.dirty = rt_calloc(nid, sizeof *g.dirty, e);
-    g.grp = rt_calloc(nid, 1, e);
-    g.wcg = rt_calloc(nid, 1, e);
-    int ok = g.key && g.pos && g.dirty && g.grp && g.wcg;
+    g.l = rt_calloc(nid, sizeof *g.l, e);
+    int ok = g.l != NULL;
     for (int j = 0; j < k && ok; j++) {
         g.cap[j] = (uint32_t)((c->sizes[j] - (j ? c->sizes[j - 1] : 0)) / c->line);
         ok = (g.heap[j] = rt_calloc(g.cap[j], sizeof *g.heap[j], e)) != NULL;
@@ -442,66 +459,72 @@ static int run_onepass(opt *o, rt_err *e)
     uint64_t acc[RT_SIM_NCG] = {0}, wr[RT_SIM_NCG] = {0};
     int rc = -1;
     if (!hist || !wb) goto out;
-    memset(g.grp, k, nid);
+    for (uint32_t x = 0; x < nid; x++) g.l[x].grp = (uint8_t)k;
     const uint32_t all = k == 32 ? UINT32_MAX : (1u << k) - 1;
     const int fl = c->write_miss_fullline;
     for (uint64_t t = 0; t < o->nt; t++) {
         const otouch *tc = &o->t[t];
         uint32_t x = tc->id;
         unsigned cg = tc->cg, w = tc->w;
-        int i = g.grp[x];
+        int i = g.l[x].grp;
         acc[cg]++;
         wr[cg] += w != 0;
         hist[cg][w == 0 ? 0 : (w == RT_WRITE_STREAM || (fl && tc->bytes == c->line)) ? 2 : 1][i]++;
         if (i == 0) { /* a hit in every size: only x's priority grows (its key was now, the least) */
-            g.key[x] = tc->next;
-            o_up(&g, 0, g.pos[x]);
+            g.l[x].key = tc->next;
+            g.heap[0][g.l[x].pos] = oent(&g, x);
+            o_up(&g, 0, g.l[x].pos);
             if (w) {
-                g.dirty[x] = all;
-                g.wcg[x] = (uint8_t)cg;
+                g.l[x].dirty = all;
+                g.l[x].wcg = (uint8_t)cg;
             }
             continue;
         }
-        if (i < k) o_remove(&g, i, x);
-        g.key[x] = tc->next;
+        /* x's old key was this touch, the least of all: x is a leaf of G_i,
+         * where the last victim will take its place */
+        uint32_t px = i < k ? g.l[x].pos : 0;
+        g.l[x].key = tc->next;
         uint32_t carry = NONE;
         for (int j = 0; j < i; j++) {
             uint32_t full = g.n[j] == g.cap[j];
             if (j == 0) {
-                if (full) carry = g.heap[0][0], o_remove(&g, 0, carry);
-                o_push(&g, 0, x);
-                if (!full) break;
+                if (!full) { /* a cold cache: every size has room, nothing is evicted */
+                    o_push(&g, 0, x);
+                    break;
+                }
+                carry = oid(g.heap[0][0]); /* the farthest next use leaves cache 0; x takes its place */
+                o_replace(&g, 0, 0, x);
             } else {
                 if (!full) { /* room: the carried line stays in S_j, nothing above is evicted */
                     o_push(&g, j, carry);
                     carry = NONE;
                     break;
                 }
-                if (oabove(&g, g.heap[j][0], carry)) {
-                    uint32_t top = g.heap[j][0];
-                    o_remove(&g, j, top);
-                    o_push(&g, j, carry);
+                if (g.heap[j][0] > oent(&g, carry)) { /* G_j's top leaves cache j instead */
+                    uint32_t top = oid(g.heap[j][0]);
+                    o_replace(&g, j, 0, carry);
                     carry = top;
                 }
             }
-            if (g.dirty[carry] >> j & 1) { /* carry leaves cache j */
-                wb[j][g.wcg[carry]]++;
-                g.dirty[carry] &= ~(1u << j);
+            if (g.l[carry].dirty >> j & 1) { /* carry leaves cache j */
+                wb[j][g.l[carry].wcg]++;
+                g.l[carry].dirty &= ~(1u << j);
             }
         }
-        if (carry != NONE) {
-            if (i < k) o_push(&g, i, carry);
-            else g.grp[carry] = (uint8_t)k;
-        }
+        if (i < k) {
+            if (carry != NONE) o_replace(&g, i, px, carry);
+            else o_remove(&g, i, x); /* (not reached: a cache with room holds every line) */
+        } else if (carry != NONE)
+            g.l[carry].grp = (uint8_t)k;
         if (w) {
-            g.dirty[x] = all;
-            g.wcg[x] = (uint8_t)cg;
+            g.l[x].dirty = all;
+            g.l[x].wcg = (uint8_t)cg;
         }
     }
     if (c->flush)
         for (uint32_t x = 0; x < o->nid; x++)
-            for (int j = g.grp[x]; j < k; j++)
-                if (g.dirty[x] >> j & 1) wb[j][g.wcg[x]]++;
+            for (int j = g.l[x].grp; j < k; j++)
+                if (g.l[x].dirty >> j & 1) wb[j][g.l[x].wcg]++;
     for (int j = 0; j < k; j++) {
         ocount *q = &o->cnt[j];
         memset(q, 0, sizeof *q);
@@ -521,11 +544,7 @@ out:
     free(hist);
     free(wb);
     for (int j = 0; j < k; j++) free(g.heap[j]);
-    free(g.key);
-    free(g.pos);
-    free(g.dirty);
-    free(g.grp);
-    free(g.wcg);
+    free(g.l);
     return rc;
 }
 

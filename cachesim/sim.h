@@ -8,13 +8,24 @@
  * din text file. Results are 64-bit counters per (size, class, ray
  * generation); per-class figures are sums over the generations.
  *
- * Engines (chosen by rt_sim_new, see docs/cachesim.md):
- *   - fully associative, write-back, write-allocate (the paper's setting):
- *     the one-pass multi-size LRU stack simulator (msim.c), exact for every
- *     size at O(#sizes) per reference;
- *   - anything else (set-associative, direct-mapped, write-through,
- *     no-write-allocate, fully associative with a non-default policy):
- *     one set-associative LRU simulator per size (setassoc.c), any line size.
+ * Engines: rt_sim_new takes the first entry of the engine table (engine.h,
+ * docs/cachesim.md) that fits the configuration; sim.c reaches it only
+ * through the table:
+ *   - exact-stack: fully associative LRU, write-back, write-allocate (the
+ *     paper's setting): the one-pass multi-size stack simulator (msim.c),
+ *     exact for every size at O(#sizes) per reference;
+ *   - exact-persize: anything else but OPT (set-associative,
+ *     direct-mapped, write-through, no-write-allocate, a replacement
+ *     policy other than LRU): one cache per size (setassoc.c), any line
+ *     size;
+ *   - exact-opt: Belady's MIN (opt.c), offline: counters after
+ *     rt_sim_finish.
+ * The replacement policy (rt_sim_config.repl) is separate from the write
+ * policy; a hierarchy of caches (hier.h) chains simulators.
+ *
+ * Ownership and errors: an rt_sim owns its state and its sink; every
+ * function that can fail returns -1 or NULL with a message in the rt_err
+ * (which may be NULL); nothing here prints. The configuration is copied.
  *
  * Accounting (Dinero IV defaults, documented in docs/cachesim.md):
  *   - a reference touches every line in [addr, addr+size-1]; each touch is
@@ -122,8 +133,10 @@ int rt_sim_config_check(const rt_sim_config *c, rt_err *e);
 typedef struct rt_sim rt_sim;
 
 /* Creates a simulator (cold caches). NULL on a bad configuration or out of
- * memory. Memory: about 48 bytes per line of the largest cache (exact
- * engine) or per line of every size (per-size engine). */
+ * memory, with a message. Memory: about 48 bytes per line of the largest
+ * cache (exact-stack) or per line of every size (exact-persize, 8 more
+ * with a policy), or 12 bytes per line touch buffered (exact-opt). The
+ * caller owns the result; rt_sim_free(NULL) is a no-op. */
 rt_sim *rt_sim_new(const rt_sim_config *c, rt_err *e);
 void rt_sim_free(rt_sim *s);
 
@@ -144,9 +157,10 @@ rt_sink *rt_sim_sink(rt_sim *s);
 /* Ends a simulation: with cfg.flush, every line still dirty in any size is
  * written back (counted in writebacks and traffic, charged to its last
  * writer's class and generation) and left clean and resident; without it
- * nothing happens. Call it after the last reference and before reading
+ * nothing happens for the online engines; OPT simulates here (its counters
+ * are zero before). Call it after the last reference and before reading
  * results; more references may follow, and a second call writes back only
- * what they dirtied. Returns 0. */
+ * what they dirtied (OPT: simulates everything again from cold). Returns 0. */
 int rt_sim_finish(rt_sim *s);
 
 /* Makes s one level of a hierarchy (hier.h): every line it fetches, every

@@ -89,9 +89,9 @@ int main_report(int argc, char **argv)
         case 'd': dbpath = optarg; break;
         case 'f':
             if (strcmp(optarg, "all") && strcmp(optarg, "scenes") && strcmp(optarg, "secondary") && strcmp(optarg, "purcell") && strcmp(optarg, "feedback") &&
-                strcmp(optarg, "accel") && strcmp(optarg, "treelet") &&
+                strcmp(optarg, "accel") && strcmp(optarg, "treelet") && strcmp(optarg, "hierarchy") &&
                 !(strlen(optarg) == 1 && optarg[0] >= '4' && optarg[0] <= '9')) {
-                rt_cmd_error("report", "--figure: '%s' is not 4..9, scenes, secondary, purcell, feedback, accel, treelet or all", optarg);
+                rt_cmd_error("report", "--figure: '%s' is not 4..9, scenes, secondary, purcell, feedback, accel, treelet, hierarchy or all", optarg);
                 return RT_EXIT_USAGE;
             }
             figure = optarg;
@@ -195,6 +195,8 @@ int main_report(int argc, char **argv)
         rc = rt_report_feedback(h, o.scene, o.csv, plotdir ? &po : NULL, out, &e);
     } else if (rc == 0 && !strcmp(figure, "accel")) {
         rc = rt_report_accel(h, o.scene, o.csv, plotdir ? &po : NULL, out, &e);
+    } else if (rc == 0 && !strcmp(figure, "hierarchy")) {
+        rc = rt_report_hierarchy(h, o.scene, out, &e);
     } else if (rc == 0 && !strcmp(figure, "treelet")) {
         rc = rt_report_treelet(h, dbpath, o.scene, o.csv, plotdir ? &po : NULL, out, &e);
     } else if (rc == 0 && !strcmp(figure, "secondary")) {

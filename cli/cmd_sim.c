@@ -614,7 +614,7 @@ static int store_hier(rt_db *db, const char *path, const rt_hier *h, const rt_tr
         ng = rt_sim_db_gen_rows(last, grows);
     if (!rows || !lv || (in->has_meta && m->generations > 0 && !grows)) rt_errf(e, "out of memory");
     else {
-        size_t n = rt_sim_db_rows(last, rows), nl = rt_hier_db_level_rows(h, lv);
+        size_t n = rt_sim_db_rows(last, rows), nl = rt_hier_db_level_rows(h, in->has_meta && m->generations > 0, lv);
         rt_db_rows R = {rows, n, grows, ng, NULL, 0, lv, nl};
         int64_t id = 0;
         rc = rt_db_store(db, &r, &R, &id, e);

@@ -43,6 +43,7 @@
 #include "scene_load.h"
 #include "cmd.h"
 #include "experiment.h"
+#include "hier.h"
 #include "outfile.h"
 #include "pool.h"
 
@@ -76,6 +77,9 @@ typedef struct sweep_opts {
     int geom_given, qs_given; /* --layout / --queue-stores given (they override the model) */
     int flush, fullline;      /* --flush / --write-fullline: -1 = the model's, else 0/1 */
     int no_error;             /* --no-error: hybrid estimators store no standard errors */
+    const char *repl_arg, *hier_arg; /* --repl, --hierarchy */
+    int line_given;           /* --line given (refused with --hierarchy) */
+    rt_hier_config hc;        /* parsed --hierarchy (x.hier points here) */
     const char *scenes_file;  /* --scenes-file: one spec per line (names may hold commas) */
     char *owned[MAX_LIST];    /* specs made absolute from --scenes-file */
 } sweep_opts;
@@ -89,7 +93,9 @@ static void usage(FILE *f)
             "Options:\n"
             "  --preset P         quick (default; 256x256) or paper (1024x1024): room, grove,\n"
             "                     sphereflake; lighting primary,0,1,2,all; recursive, packet,\n"
-            "                     dynamic; sizes 1K-4M\n"
+            "                     dynamic; sizes 1K-4M; cpu or gpu: quick behind a hierarchy,\n"
+            "                     L1=32K/8/64/lru,L2=1M/16/64/lru,LLC=1K-4M/full/64/lru or\n"
+            "                     L1=128K/4/128/lru,L2=1M+2M+4M+6M/16/128/lru\n"
             "  --scenes LIST      comma list of scene specs (overrides the preset)\n"
             "  --scenes-file FILE  the scene specs one per line instead (a name may hold\n"
             "                     commas; blank lines and lines starting with # skipped; a\n"
@@ -102,7 +108,11 @@ static void usage(FILE *f)
     rt_cmd_render_help_line(f, "--depth");
     fprintf(f,
             "  --sizes LIST       cache sizes: 1K-4M (powers of two) or 1K,64K,...\n"
-            "  --line N           line size in bytes (default 64)\n");
+            "  --line N           line size in bytes (default 64)\n"
+            "  --repl P           replacement policy (default lru; docs/cachesim.md)\n"
+            "  --hierarchy SPEC   simulate through cache levels, e.g.\n"
+            "                     L1=32K/8/64/lru,LLC=1K-4M/full/64/lru (instead of\n"
+            "                     --sizes/--line/--repl; no --approx); runs keep the spec\n");
     rt_cmd_render_help_line(f, "--width");
     fprintf(f,
             "  --db FILE          results database (default raytraffic.db)\n"
@@ -363,7 +373,7 @@ static void on_progress(void *ctx, long d, long s, long nj, double t0)
 
 enum { O_PRESET = 1, O_SCENES, O_TRACERS, O_LIGHTS, O_SIZES, O_LINE, O_DB, O_JOBS, O_KEEP, O_DYNALL, O_LIST, O_JOB,
        O_APPROX, O_PROXY, O_MODES, O_MODEL, O_FLUSH, O_NOFLUSH, O_FULLLINE, O_NOFULLLINE, O_ACCELS, O_NOERR,
-       O_SCENES_FILE };
+       O_SCENES_FILE, O_REPL, O_HIER };
 
 /* The command's own options; the table's render options for sweep follow
  * them in sweep_longopts (--lights is its own, a list of lightings). */
@@ -375,6 +385,8 @@ static const struct option sweep_own[] = {
     {"lights", required_argument, NULL, O_LIGHTS},
     {"sizes", required_argument, NULL, O_SIZES},
     {"line", required_argument, NULL, O_LINE},
+    {"repl", required_argument, NULL, O_REPL},
+    {"hierarchy", required_argument, NULL, O_HIER},
     {"db", required_argument, NULL, O_DB},
     {"jobs", required_argument, NULL, O_JOBS},
     {"keep-traces", required_argument, NULL, O_KEEP},
@@ -560,8 +572,8 @@ static int parse_opt(sweep_opts *o, int c, const char *arg)
     if (r != 0) return r < 0 ? -1 : 0;
     switch (c) {
     case O_PRESET:
-        if (strcmp(arg, "quick") && strcmp(arg, "paper")) {
-            rt_cmd_error("sweep", "--preset: '%s' is not quick or paper", arg);
+        if (strcmp(arg, "quick") && strcmp(arg, "paper") && strcmp(arg, "cpu") && strcmp(arg, "gpu")) {
+            rt_cmd_error("sweep", "--preset: '%s' is not quick, paper, cpu or gpu", arg);
             return -1;
         }
         o->preset = arg;
@@ -588,7 +600,9 @@ static int parse_opt(sweep_opts *o, int c, const char *arg)
     case O_NOFLUSH: o->flush = c == O_FLUSH; return 0;
     case O_FULLLINE:
     case O_NOFULLLINE: o->fullline = c == O_FULLLINE; return 0;
-    case O_LINE: return rt_cmd_parse_line("sweep", arg, &o->x.sim.line);
+    case O_LINE: o->line_given = 1; return rt_cmd_parse_line("sweep", arg, &o->x.sim.line);
+    case O_REPL: o->repl_arg = arg; return 0;
+    case O_HIER: o->hier_arg = arg; return 0;
     case O_DB: {
         rt_err ne = {0};
         if (rt_cmd_check_text("sweep", "--db", arg) < 0) return -1;
@@ -810,6 +824,32 @@ static int finish_opts(sweep_opts *o)
     if (parse_modes(o) < 0) return -1;
     if (o->sizes_arg && rt_sim_parse_sizes(o->sizes_arg, &x->sim, &e) < 0) {
         rt_cmd_error("sweep", "--sizes: %s", e.msg);
+        return -1;
+    }
+    if (o->repl_arg && rt_sim_repl_parse(o->repl_arg, &x->sim.repl, &e) < 0) {
+        rt_cmd_error("sweep", "--repl: %s", e.msg);
+        return -1;
+    }
+    /* the hierarchy presets (docs/cachesim.md, "Presets"): the quick sweep
+     * behind a CPU-like or a GPU-like hierarchy */
+    if (!o->hier_arg && !strcmp(o->preset, "cpu")) o->hier_arg = "L1=32K/8/64/lru,L2=1M/16/64/lru,LLC=1K-4M/full/64/lru";
+    if (!o->hier_arg && !strcmp(o->preset, "gpu")) o->hier_arg = "L1=128K/4/128/lru,L2=1M+2M+4M+6M/16/128/lru";
+    if (o->hier_arg) { /* the levels give sizes, lines and policies; the last level is the run's sim */
+        const char *clash = o->sizes_arg ? "--sizes" : o->line_given ? "--line" : o->repl_arg ? "--repl" : NULL;
+        if (clash) {
+            rt_cmd_error("sweep", "%s does not apply with --hierarchy (each level gives its own)", clash);
+            return -1;
+        }
+        if (rt_hier_parse(o->hier_arg, &x->sim, &o->hc, &e) < 0) {
+            rt_cmd_error("sweep", "--hierarchy: %s", e.msg);
+            return -1;
+        }
+        x->sim = o->hc.level[o->hc.nlevels - 1];
+        x->hier = &o->hc;
+    }
+    if ((x->sim.repl || x->hier) && x->napprox) {
+        rt_cmd_error("sweep", "--approx does not apply with %s (the sampled methods model one LRU level)",
+                     x->hier ? "--hierarchy" : "--repl");
         return -1;
     }
     if (rt_sim_config_check(&x->sim, &e) < 0) {

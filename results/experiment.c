@@ -246,6 +246,8 @@ void rt_exp_job_key(const rt_exp_config *c, const rt_exp_job *jb, const rt_scene
     r->params = rt_exp_tracer_params(jb->tracer, &ro, dynamic && c->dyn_all, k->params, sizeof k->params);
     r->sim_method = "exact";
     r->sim_params = rt_exp_sim_params(c->model, &c->sim, k->exact_sim_params, sizeof k->exact_sim_params);
+    r->repl = c->sim.repl ? rt_sim_repl_name(c->sim.repl) : NULL;
+    if (c->hier) r->hierarchy = rt_hier_spec(c->hier, k->hierarchy, sizeof k->hierarchy);
     if (is_mesh_spec(c->scenes[jb->scene])) {
         r->scene_path = c->scenes[jb->scene];
         r->scene_abspath = abs_path(c->scenes[jb->scene], k->abspath);
@@ -414,6 +416,7 @@ typedef struct jobrun {
     rt_sim_config sc;                  /* sizes simulated */
     rt_run_stats st;                   /* tracer statistics */
     int accel_stats;                   /* a job of a structure sweep: its stats name the structure's footprint */
+    rt_hier *hier;                     /* the configuration's hierarchy (then sim is NULL), or NULL */
 } jobrun;
 
 static void jobrun_free(jobrun *r)
@@ -422,6 +425,7 @@ static void jobrun_free(jobrun *r)
     if (r->tw) rt_tr_abort(r->tw);
     rt_image_free(r->img);
     rt_sim_free(r->sim);
+    rt_hier_free(r->hier);
     rt_sim_free(r->tex);
     if (r->have_job) rt_job_free(&r->j);
 }
@@ -496,9 +500,18 @@ static int render_job(rt_exp_worker *w, jobrun *r, const rt_exp_job *jb, long in
     if (rt_job_setup_borrowed(&r->j, w->sc, w->kd, jb->tracer, &ro, e) < 0) return -1;
     r->have_job = 1;
     r->accel_stats = jb->accel != RT_ACCEL_DEFAULT;
-    if (!(r->sim = rt_sim_new(&r->sc, e)) || !(r->img = rt_image_new(ro.W, ro.H, e))) return -1;
     rt_exp_fan_init(&r->fan);
-    rt_exp_fan_add(&r->fan, rt_sim_sink(r->sim), e);
+    if (c->hier) { /* the hierarchy instead of one level; its last level at the job's sizes */
+        rt_hier_config hc = *c->hier;
+        rt_sim_config *last = &hc.level[hc.nlevels - 1];
+        last->nsizes = r->sc.nsizes;
+        memcpy(last->sizes, r->sc.sizes, sizeof last->sizes);
+        if (!(r->hier = rt_hier_new(&hc, e)) || !(r->img = rt_image_new(ro.W, ro.H, e))) return -1;
+        rt_exp_fan_add(&r->fan, rt_hier_sink(r->hier), e);
+    } else {
+        if (!(r->sim = rt_sim_new(&r->sc, e)) || !(r->img = rt_image_new(ro.W, ro.H, e))) return -1;
+        rt_exp_fan_add(&r->fan, rt_sim_sink(r->sim), e);
+    }
     for (int a = 0; a < job_napprox(c, jb); a++) {
         if (!(r->ap[a] = rt_approx_new(&r->sc, &c->approx[a], e))) return -1;
         r->napprox = a + 1;
@@ -532,7 +545,20 @@ static int store_job(rt_exp_worker *w, jobrun *r, rt_exp_key *key, double t0, rt
         return -1;
     }
     double ts = rt_now();
-    rt_sim_finish(r->sim); /* the flush, when the accounting asks for it */
+    rt_db_level *lv = NULL; /* a hierarchy's per-level rows */
+    size_t nlv = 0;
+    if (r->hier) {
+        rt_hier_finish(r->hier);
+        r->sim = (rt_sim *)rt_hier_level(r->hier, rt_hier_get_config(r->hier)->nlevels - 1); /* borrowed */
+        if (!(lv = rt_calloc(rt_hier_db_level_max(r->hier), sizeof *lv, e))) {
+            r->sim = NULL;
+            free(rows);
+            free(se);
+            return -1;
+        }
+        nlv = rt_hier_db_level_rows(r->hier, rt_job_generations(&r->j) > 0, lv);
+    } else
+        rt_sim_finish(r->sim); /* the flush, when the accounting asks for it */
     size_t k = rt_sim_db_rows(r->sim, rows);
     if (r->tex) k += rt_sim_db_rows(r->tex, rows + k);
     w->t.simulation += rt_now() - ts;
@@ -550,7 +576,7 @@ static int store_job(rt_exp_worker *w, jobrun *r, rt_exp_key *key, double t0, rt
              st->rays_primary, st->rays_shadow, st->nodes, st->tests, st->pv_primary, st->pv_all, st->seconds,
              r->fan.sec[0], st->extra[0] ? " " : "", st->extra, acc);
     rt_db_run run = key->run;
-    run.refs = rt_sim_refs(r->sim);
+    run.refs = rt_sim_refs(r->hier ? rt_hier_level(r->hier, 0) : r->sim);
     run.command = w->c->command;
     run.wall_time = rt_now() - t0;
     run.stats = stats;
@@ -561,6 +587,8 @@ static int store_job(rt_exp_worker *w, jobrun *r, rt_exp_key *key, double t0, rt
         if (!(grows = rt_calloc(nrows * RT_MAXGEN, sizeof *grows, e))) {
             free(rows);
             free(se);
+            free(lv);
+            if (r->hier) r->sim = NULL;
             return -1;
         }
         ng = rt_sim_db_gen_rows(r->sim, grows);
@@ -573,7 +601,14 @@ static int store_job(rt_exp_worker *w, jobrun *r, rt_exp_key *key, double t0, rt
     sigaddset(&stop, SIGINT);
     sigaddset(&stop, SIGHUP);
     pthread_sigmask(SIG_BLOCK, &stop, &old);
-    int rc = rt_db_store_run_gen(w->db, &run, rows, k, grows, ng, NULL, e);
+    int rc;
+    if (r->hier) {
+        rt_db_rows R = {.traffic = rows, .ntraffic = k, .gen = grows, .ngen = ng, .level = lv, .nlevel = nlv};
+        rc = rt_db_store(w->db, &run, &R, NULL, e);
+        r->sim = NULL; /* the hierarchy's level, freed with it */
+    } else
+        rc = rt_db_store_run_gen(w->db, &run, rows, k, grows, ng, NULL, e);
+    free(lv);
     if (rc == 0 && w->c->on_stored) w->c->on_stored(w->c->on_stored_arg);
     pthread_sigmask(SIG_SETMASK, &old, NULL);
     w->t.database += rt_now() - td;

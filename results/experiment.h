@@ -25,6 +25,7 @@
 
 #include "approx.h"
 #include "db.h"
+#include "hier.h"
 #include "sim.h"
 #include "trace.h"
 #include "tracer.h"
@@ -145,6 +146,12 @@ typedef struct rt_exp_config {
      * none. */
     void (*on_stored)(void *arg);
     void *on_stored_arg;                        /* its argument */
+    /* A cache hierarchy every job is simulated through instead of one level
+     * (NULL: one level, sim). Its last level's sizes are sim's (sim is set
+     * to that level's configuration); the run key carries the canonical
+     * spec, the traffic rows are the last level's, level_traffic rows the
+     * levels'. No approximate runs with it. */
+    const rt_hier_config *hier;
 } rt_exp_config;
 
 /* One job of the matrix: scene x mode x lighting x tracer (x scheduled
@@ -210,6 +217,7 @@ typedef struct rt_exp_key {
     char exact_sim_params[160]; /* the exact run's sim_params (kept when the key switches method) */
     char scene[300];           /* run.scene points here (din keys) */
     char abspath[4096];        /* run.scene_abspath points here (mesh and din files) */
+    char hierarchy[1024];      /* run.hierarchy points here (the canonical spec) */
 } rt_exp_key;
 
 /* The key of an in-process job of scene sc (whose rt_scene_hash is

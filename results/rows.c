@@ -105,38 +105,40 @@ size_t rt_hier_db_level_max(const rt_hier *h)
 {
     const rt_hier_config *hc = rt_hier_get_config(h);
     size_t n = 0;
-    for (int k = 0; k < hc->nlevels; k++) n += (size_t)hc->level[k].nsizes * RT_NCLASS;
+    for (int k = 0; k < hc->nlevels; k++) n += (size_t)hc->level[k].nsizes * RT_NCLASS * (1 + RT_MAXGEN);
     return n;
 }
 
-size_t rt_hier_db_level_rows(const rt_hier *h, rt_db_level *out)
+size_t rt_hier_db_level_rows(const rt_hier *h, int gens, rt_db_level *out)
 {
     const rt_hier_config *hc = rt_hier_get_config(h);
     size_t n = 0;
     for (int k = 0; k < hc->nlevels; k++) {
         const rt_sim_config *c = &hc->level[k];
         for (int i = 0; i < c->nsizes; i++)
-            for (int cls = 0; cls < RT_NCLASS; cls++) {
-                rt_sim_counts t;
-                rt_sim_get(rt_hier_level(h, k), i, cls, &t);
-                if (!t.accesses) continue;
-                rt_db_level *r = &out[n++];
-                memset(r, 0, sizeof *r);
-                r->level = k + 1;
-                r->level_name = hc->name[k];
-                r->core = -1;
-                r->size = c->sizes[i];
-                r->line = c->line;
-                r->assoc = c->assoc;
-                r->policy = rt_sim_policy_name(c);
-                r->repl = rt_sim_repl_name(c->repl);
-                r->cls = cls;
-                r->gen = -1;
-                r->accesses = t.accesses;
-                r->misses = t.read_misses + t.write_misses;
-                r->writebacks = t.writebacks;
-                r->traffic_bytes = t.traffic_bytes;
-            }
+            for (int cls = 0; cls < RT_NCLASS; cls++)
+                for (int g = -1; g < (gens ? RT_MAXGEN : 0); g++) {
+                    rt_sim_counts t;
+                    if (g < 0) rt_sim_get(rt_hier_level(h, k), i, cls, &t);
+                    else rt_sim_get_gen(rt_hier_level(h, k), i, cls, g, &t);
+                    if (!t.accesses) continue;
+                    rt_db_level *r = &out[n++];
+                    memset(r, 0, sizeof *r);
+                    r->level = k + 1;
+                    r->level_name = hc->name[k];
+                    r->core = -1;
+                    r->size = c->sizes[i];
+                    r->line = c->line;
+                    r->assoc = c->assoc;
+                    r->policy = rt_sim_policy_name(c);
+                    r->repl = rt_sim_repl_name(c->repl);
+                    r->cls = cls;
+                    r->gen = g;
+                    r->accesses = t.accesses;
+                    r->misses = t.read_misses + t.write_misses;
+                    r->writebacks = t.writebacks;
+                    r->traffic_bytes = t.traffic_bytes;
+                }
     }
     return n;
 }

@@ -50,4 +50,53 @@ row "$tmp/h3.txt" L1 4096 32 2 lru 315931 21496 1138 1138 760704
 row "$tmp/h3.txt" L2 16384 64 4 fifo 23772 6480 25 500 448320
 row "$tmp/h3.txt" L3 131072 128 8 lru 7005 1151 0 217 175104
 
+# a trace with ray generations: per-level rows per generation too, summing
+# to the level's rows over all generations
+"$bin" sim "$tmp/t.rtt" --db "$tmp/gen.db" --hierarchy L1=4K/2/64/lru,LLC=64K/full/64/lru 2>/dev/null || die "sim --db generations"
+[ "$(sqlite3 "$tmp/gen.db" "select count(distinct gen) from level_traffic where gen >= 0")" -ge 3 ] || die "level rows per generation"
+[ "$(sqlite3 "$tmp/gen.db" "select count(*) from (select level, cache_size, class, sum(case when gen < 0 then accesses else -accesses end) d, sum(case when gen < 0 then misses else -misses end) m from level_traffic group by 1, 2, 3) where d <> 0 or m <> 0")" = 0 ] || die "generations do not sum to the level rows"
+
+# the in-process sweep: runs keyed by their spec and policy, per-level rows;
+# the LLC's rows are the run's traffic and equal the same hierarchy on the
+# job's kept trace through `sim`
+"$bin" sweep --scenes cornell --tracers recursive -W 24 -H 24 --lights primary --db "$tmp/s.db" --keep-traces "$tmp" \
+    --hierarchy L1=2K/4/64/lru,LLC=1K-16K/full/64/lru >/dev/null 2>&1 || die "sweep --hierarchy"
+[ "$(sqlite3 "$tmp/s.db" "select hierarchy from runs")" = "L1=2K/4/64/lru,LLC=1K-16K/full/64/lru" ] || die "sweep: stored spec"
+[ "$(sqlite3 "$tmp/s.db" "select count(distinct cache_size) from level_traffic where level = 2")" = 5 ] || die "sweep: LLC level rows"
+kept=$(ls "$tmp"/job*.rtt | head -1)
+"$bin" sim "$kept" --hierarchy L1=2K/4/64/lru,LLC=1K-16K/full/64/lru --format csv > "$tmp/k.csv" || die "sim of the kept trace"
+want=$(grep ',LLC,16384,' "$tmp/k.csv" | tail -3 | awk -F, '{s += $13} END {print s}') # the three group rows
+got=$(sqlite3 "$tmp/s.db" "select sum(t.traffic_bytes) from traffic t join cache_configs c on c.id = t.config_id where c.size = 16384")
+[ -n "$want" ] && [ "$want" = "$got" ] || die "sweep LLC traffic $got, sim of its trace $want"
+"$bin" sweep --scenes cornell --tracers recursive -W 24 -H 24 --lights primary --db "$tmp/s.db" --repl fifo --sizes 1K-4K \
+    >/dev/null 2>&1 || die "sweep --repl"
+[ "$(sqlite3 "$tmp/s.db" "select count(*) from runs where repl = 'fifo' and hierarchy = ''")" = 1 ] || die "sweep: fifo run"
+"$bin" sweep --scenes cornell --tracers recursive --hierarchy LLC=1K/full/64/lru --line 32 --db "$tmp/x.db" >/dev/null 2>&1
+[ $? -eq 2 ] || die "sweep --line with --hierarchy must be a usage error"
+"$bin" sweep --scenes cornell --tracers recursive --repl fifo --approx shards --db "$tmp/x.db" >/dev/null 2>&1
+[ $? -eq 2 ] || die "sweep --repl with --approx must be a usage error"
+
+# the presets name their hierarchies
+"$bin" sweep --preset gpu --scenes cornell --tracers recursive --lights primary -W 16 -H 16 --db "$tmp/g.db" >/dev/null 2>&1 || die "--preset gpu"
+[ "$(sqlite3 "$tmp/g.db" "select hierarchy from runs")" = "L1=128K/4/128/lru,L2=1M+2M+4M+6M/16/128/lru" ] || die "gpu preset spec"
+"$bin" sweep --preset cpu --scenes cornell --tracers recursive --lights primary -W 16 -H 16 --db "$tmp/c.db" >/dev/null 2>&1 || die "--preset cpu"
+[ "$(sqlite3 "$tmp/c.db" "select hierarchy from runs")" = "L1=32K/8/64/lru,L2=1M/16/64/lru,LLC=1K-4M/full/64/lru" ] || die "cpu preset spec"
+
+# report --figure hierarchy: the levels of the hierarchy run, and the
+# policies against OPT for the runs that differ only in their policy
+for p in lru opt; do
+    "$bin" sweep --scenes cornell --tracers recursive -W 24 -H 24 --lights primary --db "$tmp/s.db" --repl $p --sizes 1K-4K \
+        >/dev/null 2>&1 || die "sweep --repl $p"
+done
+"$bin" report --db "$tmp/s.db" --figure hierarchy > "$tmp/rep.md" || die "report --figure hierarchy exit"
+grep -q '^### cornell, recursive, 24x24, lights 0, run 1: L1=2K/4/64/lru,LLC=1K-16K/full/64/lru$' "$tmp/rep.md" || die "report: hierarchy heading"
+[ "$(grep -c '^| LLC | ' "$tmp/rep.md")" = 5 ] || die "report: LLC rows"
+grep -q '^| size | lru KB | fifo KB | opt KB | LRU gap to OPT |$' "$tmp/rep.md" || die "report: policy header"
+# the gap is computed from the stored totals
+lru=$(sqlite3 "$tmp/s.db" "select total(t.traffic_bytes) from traffic t join runs r on r.id = t.run_id join cache_configs c on c.id = t.config_id where r.repl = 'lru' and r.hierarchy = '' and c.size = 1024")
+opt=$(sqlite3 "$tmp/s.db" "select total(t.traffic_bytes) from traffic t join runs r on r.id = t.run_id join cache_configs c on c.id = t.config_id where r.repl = 'opt' and c.size = 1024")
+gap=$(awk -v l="$lru" -v o="$opt" 'BEGIN {printf "%.1f%%", 100 * (l / o - 1)}')
+grep -q "^| 1024 | .* | $gap |\$" "$tmp/rep.md" || die "report: gap $gap at 1K: $(grep '^| 1024' "$tmp/rep.md")"
+"$bin" report --db "$tmp/x.db" --figure hierarchy >/dev/null 2>&1; [ $? -eq 1 ] || die "report --figure hierarchy without runs must exit 1"
+
 exit $fail

@@ -15,6 +15,7 @@
  * pin the policies' choices on short sequences.
  */
 #include "check.h"
+#include "engine.h"
 #include "hier.h"
 #include "run.h"
 #include "sim.h"
@@ -824,6 +825,48 @@ static void test_opt_onepass(const capture *tr)
     free(a);
 }
 
+/* Each policy's checker passes on the state its hooks make and fails on
+ * corrupted state. */
+/* the policies' ops (defined in their files, listed in engine.c) */
+extern const rt_repl_ops rt_repl_fifo, rt_repl_plru, rt_repl_srrip;
+
+static void test_checkers(void)
+{
+    uint32_t wv[8], sv[8];
+    uint64_t rng = 1;
+    rt_repl_set st = {8, wv, sv, &rng};
+    rt_err e = {0};
+    for (int k = 0; rt_repl_policies[k]; k++) {
+        const rt_repl_ops *o = rt_repl_policies[k];
+        memset(wv, 0, sizeof wv);
+        memset(sv, 0, sizeof sv);
+        for (uint32_t w = 0; w < 8; w++) o->fill(&st, w);
+        for (int i = 0; i < 50; i++) {
+            uint32_t v = o->victim(&st);
+            CHECK(v < 8, "%s: victim %u of 8 ways", o->name, v);
+            o->fill(&st, v);
+            o->hit(&st, (uint32_t)i % 8);
+        }
+        CHECK(!o->check || o->check(&st, 8, &e) == 0, "%s: check of a sound set: %s", o->name, e.msg);
+    }
+    /* corruptions each checker must see */
+    memset(sv, 0, sizeof sv);
+    sv[0] = 8; /* the hand past the last way */
+    CHECK(rt_repl_fifo.check(&st, 8, &e) < 0 && strstr(e.msg, "fifo"), "fifo hand not caught");
+    sv[0] = 3; /* a hand moved in a set not yet full */
+    CHECK(rt_repl_fifo.check(&st, 5, &e) < 0, "fifo hand in a filling set not caught");
+    memset(sv, 0, sizeof sv);
+    sv[3] = 2; /* a node bit that is not a bit */
+    CHECK(rt_repl_plru.check(&st, 8, &e) < 0 && strstr(e.msg, "plru"), "plru node not caught");
+    rt_repl_set odd = {6, wv, sv, &rng};
+    memset(sv, 0, sizeof sv);
+    CHECK(rt_repl_plru.check(&odd, 6, &e) < 0, "plru with 6 ways not caught");
+    memset(wv, 0, sizeof wv);
+    wv[5] = 4; /* an RRPV beyond 2 bits */
+    CHECK(rt_repl_srrip.check(&st, 8, &e) < 0 && strstr(e.msg, "rrip"), "rrip value not caught");
+    CHECK(rt_repl_srrip.check(&st, 5, &e) == 0, "rrip: an unfilled way is not checked");
+}
+
 static void test_names(void)
 {
     int r = 99;
@@ -860,6 +903,7 @@ static void test_names(void)
 int main(void)
 {
     test_names();
+    test_checkers();
     test_by_hand();
     /* tracer streams: two orders of the same work */
     capture tr[2];
