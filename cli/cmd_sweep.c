@@ -174,9 +174,8 @@ static int parse_lightings(char *s, sweep_opts *o)
         } else if (!strcmp(items[i], "all")) {
             l->label = "all";
             l->mask = 7;
-        } else if (!strcmp(items[i], "0") || !strcmp(items[i], "1") || !strcmp(items[i], "2")) {
-            l->label = items[i];
-            l->mask = 1u << (items[i][0] - '0');
+        } else if (!strchr(items[i], ',') && rt_parse_lights(items[i], &l->mask) == 0 && l->mask) {
+            l->label = items[i]; /* one light, "0", or several, "0+1" (rt_exp_lights_name) */
         } else {
             return -1;
         }

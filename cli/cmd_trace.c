@@ -1,6 +1,7 @@
 /* cmd_trace.c -- `raytraffic trace`: render a scene with a tracer and record
  * every modeled memory access into a .rtt trace file. */
 #include "cmd.h"
+#include "experiment.h"
 #include "grid.h"
 #include "image.h"
 #include "run.h"
@@ -153,9 +154,11 @@ int main_trace(int argc, char **argv)
     fprintf(stderr, "wrote %s: %" PRIu64 " references (%" PRIu64 " bytes referenced) in %" PRIu64
                     " chunks, %" PRIu64 " bytes on disk, %.3f bytes/reference\n",
             out, tot.nrefs, bytes, tot.nchunks, fbytes, tot.nrefs ? (double)fbytes / (double)tot.nrefs : 0.0);
-    fprintf(stderr, "scene %s (%" PRIu32 " triangles), tracer %s, %dx%d, lights %u; %" PRIu64 " primary + %" PRIu64
+    char ln[48];
+    fprintf(stderr, "scene %s (%" PRIu32 " triangles), tracer %s, %dx%d, lights %s; %" PRIu64 " primary + %" PRIu64
                     " shadow rays; traced in %.2f s (%.1f M references/s)\n",
-            j.sc->name, j.sc->ntri, j.tr->name, o.W, o.H, o.lights, st.rays_primary, st.rays_shadow, sec,
+            j.sc->name, j.sc->ntri, j.tr->name, o.W, o.H, rt_exp_lights_name(o.lights, ln, sizeof ln),
+            st.rays_primary, st.rays_shadow, sec,
             sec > 0 ? (double)tot.nrefs / sec * 1e-6 : 0.0);
     rc = RT_EXIT_OK;
     goto done;

@@ -187,7 +187,7 @@ int rt_render_parse_lights(const char *s, unsigned *mask)
         if (*p < '0' || *p >= '0' + RT_NLIGHTS) return -1;
         m |= 1u << (*p - '0');
         p++;
-        if (*p == ',') {
+        if (*p == ',' || *p == '+') { /* "0,2" and the printed name "0+2" */
             p++;
             if (!*p) return -1;
         } else if (*p) {

@@ -299,8 +299,9 @@ int rt_render_check_lights(const rt_render_opts *o, rt_err *e);
  * to buf (nothing when no view was given). */
 void rt_render_view_params(const rt_render_opts *o, char *buf, size_t n);
 
-/* Parses "all", "none" (or ""), or a comma list of light indices "0,2" into
- * a light mask. 0, or -1 on a malformed list (*mask untouched). */
+/* Parses "all", "none" (or ""), or a list of light indices joined by ','
+ * or '+' ("0,2", or "0+2" as rt_exp_lights_name prints it) into a light
+ * mask. 0, or -1 on a malformed list (*mask untouched). */
 int rt_render_parse_lights(const char *s, unsigned *mask);
 
 /* Former name, kept for the front end and its tests. */
