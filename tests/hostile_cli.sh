@@ -370,6 +370,23 @@ merge_says empty.db "not a raytraffic database \(an empty file\)"
 merge_says missing.db "unreadable: No such file"
 mkdir dir.db
 merge_says dir.db "unreadable: is a directory"
+# a writer that died mid-transaction left a hot rollback journal: refused, not read torn
+cp good.db hot.db
+python3 -c "
+import sqlite3, os, sys
+c = sqlite3.connect(sys.argv[1]); c.execute('PRAGMA journal_mode = DELETE'); c.commit(); c.close()
+c = sqlite3.connect(sys.argv[1]); c.execute('BEGIN'); c.execute(\"UPDATE runs SET command = 'torn'\")
+c.execute('CREATE TABLE big(x)')
+for i in range(3000): c.execute('INSERT INTO big VALUES(randomblob(1000))')
+os._exit(0)" hot.db
+if [ -e hot.db-journal ]; then
+    merge_says hot.db "read-only: its rollback journal hot.db-journal"
+    sqlite3 hot.db 'PRAGMA quick_check' > /dev/null
+    "$bin" db merge hotm.db hot.db > /dev/null 2> err && [ "$(sqlite3 hotm.db "SELECT command FROM runs")" != torn ] ||
+        die "29: the rolled-back shard: $(cat err)"
+else
+    echo "skip: 29 hot journal (python's sqlite3 left none)"
+fi
 if [ "$(id -u)" != 0 ]; then
     cp good.db noperm.db && chmod 000 noperm.db
     merge_says noperm.db "unreadable: Permission denied"
