@@ -1162,9 +1162,10 @@ static int shard_error(const shard *sh, rt_err *e)
 }
 
 /* Opens a shard read-only and checks it is a raytraffic database of a
- * version this build reads (1 to 6, through rt_db_open_read; older column name for 1, no scene
- * paths before 3, no generation rows before 4, no standard errors before
- * 5, no new dimensions (their defaults) and no level rows before 6). */
+ * version this build reads (1 to 6, through rt_db_open_read; older column
+ * name for 1, no scene paths before 3, no generation rows before 4, no
+ * standard errors before 5, no new dimensions (their defaults) and no
+ * level rows before 6). */
 static int shard_open(shard *sh, const char *path, rt_err *e)
 {
     memset(sh, 0, sizeof *sh);

@@ -721,6 +721,28 @@ for sp in nosuch missing.obj bad.pbrt; do
 done
 run 30 "$bin" sweep --scenes nosuch --tracers recursive -W 8 -H 8 --db e.db
 [ ! -e e.db ]; check $? "a failed sweep left an empty database"
+# pbrt scene files (docs/scenes.md, "Limits and strictness"): amplification, overflow, strictness, gzip, links (issues [5/6], [6/6])
+printf 'WorldBegin\nShape "loopsubdiv" "integer levels" 12\n"point3 P" [0 0 0 1 0 0 0 1 0 0 0 1]\n"integer indices" [0 2 1 0 1 3 0 3 2 1 2 3]\n' > tet.pbrt
+what="tetrahedron at levels 12"; run 5 "$rbin" scene info tet.pbrt --no-tree; must_refuse "tet.pbrt:2:20: .*maxsubdiv=N"
+python3 -c "print('WorldBegin\nObjectBegin \"s\"\nShape \"sphere\"\nObjectEnd\n' + 'ObjectInstance \"s\"\n' * 70000)" > inst.pbrt
+what="70,000 instances"; run 5 "$rbin" scene info inst.pbrt:tess=9 --no-tree; must_refuse "inst.pbrt:69047:16: .*maxtri=N"
+tri='Shape "trianglemesh" "point3 P" [ 0 0 0 1 0 0 0 1 0 ]'
+printf 'WorldBegin\nRotate 1e22 0 0 1\nLightSource "point" "point3 from" [ 1 0 0 ]\n%s\n' "$tri" > rot.pbrt
+what="Rotate 1e22"; run 10 "$rbin" scene info rot.pbrt --no-tree; must_accept
+grep -q 'nan\|inf' "$tmp/out"; check $((1 - $?)) "Rotate 1e22: a light or vertex not finite"
+printf 'WorldBegin\nScale 1e30 1e30 1e30\nScale 1e30 1 1\nLightSource "point" "point3 from" [ 1 0 0 ]\n%s\n' "$tri" > big.pbrt
+what="light at infinity"; run 10 "$rbin" scene info big.pbrt --no-tree; must_refuse "big.pbrt:4:13: LightSource: .* not finite"
+printf 'WorldBegin\nScale 1e30 1e30 1e30\nScale 1e30 1 1\n%s\n' "$tri" > vinf.pbrt
+what="vertex at infinity"; run 10 "$rbin" scene info vinf.pbrt --no-tree; must_refuse "^raytraffic scene: vinf.pbrt:4:7: Shape"
+printf 'WorldBegin\nShape "trianglemesh" "point3 P" [ 0x1p0 0 0 1 0 0 0 1 0 ]\n' > hex.pbrt
+what="hex float in pbrt"; run 10 "$rbin" scene info hex.pbrt --no-tree; must_refuse "hex.pbrt:2:35: bad number"
+printf 'WorldBegin\nMaterial "dielectric" "rgb eta" [ 1.5 1.5 ]\n%s\n' "$tri" > eta.pbrt
+what="rgb eta of 2 values"; run 10 "$rbin" scene info eta.pbrt --no-tree; must_refuse "eta.pbrt:2:23: .*2 values, expected 3"
+python3 -c "import gzip,sys; sys.stdout.buffer.write(gzip.compress(b'#' * 200000000 + b'\nWorldBegin\n'))" > bomb.pbrt.gz
+what="gzip bomb"; RT_SCENE_MAX_BYTES=100M run 20 "$rbin" scene info bomb.pbrt.gz --no-tree; must_refuse "more than 104857600 bytes \(decompressed\)"
+ln -s m/fifo.obj tofifo.pbrt
+printf 'WorldBegin\nInclude "tofifo.pbrt"\n' > lf.pbrt
+what="Include of a link to a FIFO"; run 5 "$rbin" scene info lf.pbrt --no-tree; must_refuse "lf.pbrt:2:9: .*not a regular file"
 cd "$src" || exit 1
 rm -rf "$p9"
 row "9. hostile use: job lines, scene files, reruns, names, reports, exports, numbers, memory, databases" $n $crash $hang $silent - - $other

@@ -207,6 +207,7 @@ void rt_scene_free(rt_scene *s)
     free(s->tri);
     free(s->shade);
     free(s->mat);
+    free(s->warn);
     free(s);
 }
 
@@ -237,15 +238,16 @@ int rt_scene_check_range(const rt_scene *s, const char *where, rt_err *e)
     if (m > RT_COORD_MAX)
         return rt_errf(e, "%s: coordinate magnitude %.9g above %g (docs/scenes.md: coordinate range)", where, m,
                        RT_COORD_MAX);
-    if (d > RT_EXTENT_MAX)
-        return rt_errf(e, "%s: scene extent %.9g above %g: shading would overflow single precision "
-                          "(docs/scenes.md: coordinate range)", where, d, RT_EXTENT_MAX);
-    if (d < m * RT_EXTENT_MIN_REL)
+    /* a far-off scene whose extent rounded away: the relative rule says why */
+    if (d < m * RT_EXTENT_MIN_REL && m > 0)
         return rt_errf(e, "%s: scene extent %.9g is below 1/8192 of its largest coordinate %.9g: single "
                           "precision cannot resolve it there (docs/scenes.md: coordinate range)", where, d, m);
     if (!(d >= RT_EXTENT_MIN))
         return rt_errf(e, "%s: scene extent %.9g is below %g: single precision cannot shade it (normals underflow; "
                           "docs/scenes.md: coordinate range); scale the scene up", where, d, RT_EXTENT_MIN);
+    if (d > RT_EXTENT_MAX)
+        return rt_errf(e, "%s: scene extent %.9g above %g: shading would overflow single precision "
+                          "(docs/scenes.md: coordinate range)", where, d, RT_EXTENT_MAX);
     return 0;
 }
 

@@ -93,6 +93,15 @@ typedef struct rt_camera {
 
 #define RT_NLIGHTS 3
 
+/* One kind of load warning (a skipped or approximated feature): its key
+ * ("Shape \"disk\"", "Sampler"), how often it occurred and where first. */
+typedef struct rt_scene_warn {
+    char kind[48];   /* the kind, one per entry */
+    char first[256]; /* "FILE:LINE" of its first occurrence */
+    char msg[200];   /* what was done ("Shape \"curve\" skipped") */
+    uint32_t count;  /* occurrences */
+} rt_scene_warn;
+
 typedef struct rt_scene {
     char name[256];         /* spec it was made from: built-in name or mesh file name, whole (NAME_MAX) */
     char params[128];       /* canonical parameter string, "" if none */
@@ -113,6 +122,8 @@ typedef struct rt_scene {
     uint32_t ninst;         /* object instances flattened into tri (pbrt ObjectInstance), 0 = none */
     uint32_t ntri_unique;   /* with instances: triangles outside objects + each instanced object once */
     uint32_t ntri_inst;     /* with instances: triangles that came from instances */
+    rt_scene_warn *warn;    /* every load warning, one entry per kind in order of first occurrence (NULL if none; owned) */
+    uint32_t nwarn;         /* entries in warn */
 } rt_scene;
 
 void rt_scene_free(rt_scene *s);
