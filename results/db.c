@@ -1046,20 +1046,24 @@ int rt_db_open_read(const char *path, void **ph, int *ver, rt_err *e)
         return rt_errf(e, "%s: unreadable: %s", path, strncmp(m, path, pl) == 0 && m[pl] == ':' ? m + pl + 2 : m);
     }
     size_t n = strlen(path);
-    char *wal = rt_calloc(n + 8, 1, e);
+    char *wal = rt_calloc(n + 12, 1, e);
     if (!wal) return -1;
     snprintf(wal, n + 8, "%s-wal", path);
     struct stat ws;
     int has_wal = stat(wal, &ws) == 0;
+    /* a rollback journal left by a writer that died: not immutable, so
+     * SQLite sees it (and, read-only, refuses rather than read a torn file) */
+    snprintf(wal, n + 12, "%s-journal", path);
+    int has_journal = stat(wal, &ws) == 0;
     free(wal);
     int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
     if (fd < 0) return rt_errf(e, "%s: unreadable: %s", path, strerror(errno));
-    int hr = check_header(fd, path, !has_wal, e);
+    int hr = check_header(fd, path, !has_wal && !has_journal, e);
     close(fd);
     if (hr < 0) return -1;
     /* immutable: no -shm or -wal made beside it, fine on a read-only
      * file system; with a log it must be read through the log */
-    char *uri = read_uri(path, has_wal ? "?mode=ro" : "?immutable=1", e);
+    char *uri = read_uri(path, has_wal || has_journal ? "?mode=ro" : "?immutable=1", e);
     if (!uri) return -1;
     sqlite3 *h = NULL;
     int orc = sqlite3_open_v2(uri, &h, SQLITE_OPEN_READONLY | SQLITE_OPEN_URI, NULL);
@@ -1089,7 +1093,11 @@ int rt_db_open_read(const char *path, void **ph, int *ver, rt_err *e)
     sqlite3_finalize(st);
     if (orc != SQLITE_OK) {
         int code = orc & 0xff;
-        if (has_wal && code != SQLITE_CORRUPT && code != SQLITE_NOTADB && folder_read_only(path))
+        if (has_journal && code == SQLITE_READONLY)
+            rt_errf(e, "%s: read-only: its rollback journal %s-journal (a writer died mid-transaction) must be rolled "
+                       "back, which a reader does not do; open it once for writing, e.g. sqlite3 %s 'PRAGMA "
+                       "quick_check'", path, path, path);
+        else if (has_wal && code != SQLITE_CORRUPT && code != SQLITE_NOTADB && folder_read_only(path))
             rt_errf(e, "%s: read-only: its write-ahead log %s-wal must be replayed, which needs a writable folder; copy "
                        "both files to one, or rerun where it was written", path, path);
         else
@@ -1154,9 +1162,10 @@ static int shard_error(const shard *sh, rt_err *e)
 }
 
 /* Opens a shard read-only and checks it is a raytraffic database of a
- * version this build reads (1 to 6; older column name for 1, no scene
- * paths before 3, no generation rows before 4, no standard errors before
- * 5, no new dimensions (their defaults) and no level rows before 6). */
+ * version this build reads (1 to 6, through rt_db_open_read; older column
+ * name for 1, no scene paths before 3, no generation rows before 4, no
+ * standard errors before 5, no new dimensions (their defaults) and no
+ * level rows before 6). */
 static int shard_open(shard *sh, const char *path, rt_err *e)
 {
     memset(sh, 0, sizeof *sh);

@@ -174,9 +174,10 @@ rt_db *rt_db_open(const char *path, rt_err *e);
 /* Opens the database at path read-only, for reading it whole (db merge,
  * report), and returns the handle (*ph, an sqlite3 *; sqlite3_close it)
  * and its schema version (*ver). The file is never changed and nothing is
- * created beside it: without a "-wal" file beside it, it is opened as
- * immutable (SQLite creates no "-shm" or "-wal", and a read-only folder or
- * file system is fine); with one, read-only with the log applied. It must
+ * created beside it: without a "-wal" or "-journal" file beside it, it is
+ * opened as immutable (SQLite creates no "-shm" or "-wal", and a read-only
+ * folder or file system is fine); with one, read-only with the log
+ * applied (a hot rollback journal is then refused, not ignored). It must
  * not be written while read. Each refusal says which it is:
  *   usage (e->usage):  ":memory:", "", names beginning with ':';
  *   "unreadable":      absent, not a regular file (FIFO, device, folder),

@@ -27,6 +27,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <fcntl.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -882,6 +884,81 @@ static void test_si_check(void)
     free(a);
 }
 
+/* ---- rt_open_target and stale temporaries --------------------------------- */
+
+static int match_all(const char *name)
+{
+    return strncmp(name, "job", 3) == 0;
+}
+
+static void test_open_target(void)
+{
+    rt_err e = {0};
+    clean_dir();
+    /* names SQLite stores nowhere: usage errors for databases only */
+    static const char *const mem[] = {":memory:", ":x", ":", ""};
+    for (int i = 0; i < 4; i++) {
+        e.usage = 0;
+        CHECK(rt_open_target(mem[i], RT_TARGET_DB, &e) < 0 && e.usage == 1, "db '%s' accepted (usage %d)", mem[i],
+              e.usage);
+        e.usage = 0;
+        CHECK(rt_open_target(mem[i], RT_TARGET_DB_READ, &e) < 0 && e.usage == 1, "db read '%s' accepted", mem[i]);
+    }
+    CHECK(count_entries() == 0, "a refused name created a file");
+    /* absent, regular, folder, FIFO, device */
+    const char *a = check_path("a.db");
+    CHECK(rt_open_target(a, RT_TARGET_DB, &e) == RT_TARGET_ABSENT, "absent db: %s", e.msg);
+    CHECK(rt_open_target(a, RT_TARGET_DB_READ, &e) < 0 && strstr(e.msg, "No such file"), "absent read: %s", e.msg);
+    CHECK(rt_open_target(a, RT_TARGET_OUTPUT, &e) == RT_TARGET_ABSENT, "absent output: %s", e.msg);
+    CHECK(write_text(a, "x", &e) == 0, "write: %s", e.msg);
+    for (int k = 0; k < 3; k++) CHECK(rt_open_target(a, k, &e) == RT_TARGET_REGULAR, "regular, kind %d: %s", k, e.msg);
+    CHECK(rt_open_target(check_path("no/such.db"), RT_TARGET_DB, &e) < 0 && strstr(e.msg, "No such file"),
+          "db in a missing folder: %s", e.msg);
+    CHECK(mkdir(check_path("d"), 0777) == 0, "mkdir");
+    for (int k = 0; k < 3; k++)
+        CHECK(rt_open_target(check_path("d"), k, &e) < 0 && strstr(e.msg, "is a directory"), "folder, kind %d: %s", k,
+              e.msg);
+    CHECK(mkfifo(check_path("f"), 0666) == 0, "mkfifo");
+    CHECK(symlink("f", check_path("lf")) == 0, "symlink");
+    CHECK(rt_open_target(check_path("f"), RT_TARGET_OUTPUT, &e) == RT_TARGET_STREAM, "FIFO output: %s", e.msg);
+    CHECK(rt_open_target(check_path("lf"), RT_TARGET_DB, &e) < 0 && strstr(e.msg, "is a FIFO"), "link to FIFO: %s",
+          e.msg);
+    CHECK(rt_open_target("/dev/null", RT_TARGET_OUTPUT, &e) == RT_TARGET_STREAM, "/dev/null output: %s", e.msg);
+    CHECK(rt_open_target("/dev/null", RT_TARGET_DB, &e) < 0 && strstr(e.msg, "character device"), "/dev/null db: %s",
+          e.msg);
+    CHECK(rt_open_target("/dev/null", RT_TARGET_DB_READ, &e) < 0 && strstr(e.msg, "character device"),
+          "/dev/null db read: %s", e.msg);
+
+    /* stale temporaries: only unlocked regular files of the pattern go */
+    clean_dir();
+    static const char *const gone[] = {".job1.rtt.AbC123", ".jobx.Zz9999"};
+    static const char *const kept[] = {".job2.rtt.AbC12", ".other.AbC123", "job3.rtt.AbC123", ".job4.rtt.AbC12!",
+                                       ".job5.rtt.Hld123"};
+    for (int i = 0; i < 2; i++) CHECK(write_text(check_path(gone[i]), "x", &e) == 0, "write: %s", e.msg);
+    for (int i = 0; i < 5; i++) CHECK(write_text(check_path(kept[i]), "x", &e) == 0, "write: %s", e.msg);
+    CHECK(mkfifo(check_path(".job6.rtt.Fifo12"), 0666) == 0, "mkfifo");
+    /* a live writer's temporary: rt_out_open holds its lock */
+    rt_out *live = rt_out_open(check_path("job7.rtt"), &e);
+    CHECK(live != NULL, "open: %s", e.msg);
+    int held = open(check_path(kept[4]), O_RDONLY); /* another process's lock would do the same */
+    CHECK(held >= 0 && flock(held, LOCK_EX) == 0, "flock: %s", strerror(errno));
+    int n0 = count_entries();
+    long nr = rt_out_remove_stale(check_dir, match_all, &e);
+    CHECK(nr == 2, "removed %ld (%d entries fewer), want 2: %s", nr, n0 - count_entries(), e.msg);
+    struct stat st;
+    for (int i = 0; i < 2; i++) CHECK(lstat(check_path(gone[i]), &st) != 0, "%s not removed", gone[i]);
+    for (int i = 0; i < 5; i++) CHECK(lstat(check_path(kept[i]), &st) == 0, "%s removed", kept[i]);
+    CHECK(lstat(check_path(".job6.rtt.Fifo12"), &st) == 0, "a FIFO was removed");
+    close(held);
+    fputs("live", rt_out_stream(live));
+    CHECK(rt_out_commit(live, &e) == 0, "the live writer's commit failed: %s", e.msg);
+    char *b = read_all(check_path("job7.rtt"), NULL);
+    CHECK(b && !strcmp(b, "live"), "live writer's file '%s'", b ? b : "(none)");
+    free(b);
+    CHECK(rt_out_remove_stale(check_path("nope"), match_all, &e) < 0, "a missing folder was read");
+    clean_dir();
+}
+
 int main(void)
 {
     alarm(120); /* a spinning loader ends the test instead of hanging it (generous: the
@@ -891,6 +968,7 @@ int main(void)
         return 1;
     }
     test_outfile_rules();
+    test_open_target();
     test_outfile_faults();
     test_writers_faults();
     clean_dir();
