@@ -115,10 +115,15 @@ int rt_scene_add_material(rt_scene *s, const rt_material *m, rt_err *e)
     if (!(m->ior >= 1.0f && m->ior <= 100.0f))
         return rt_errf(e, "%s: material '%s': index of refraction %g outside [1, 100]", s->name, nm, (double)m->ior);
     if (s->nmat >= 65536) return rt_errf(e, "%s: more than 65536 materials", s->name);
-    rt_material *t = rt_reallocarray(s->mat, s->nmat + 1, sizeof *t, e);
-    if (!t) return -1;
-    s->mat = t;
-    rt_material *d = &t[s->nmat];
+    /* the table grows by doubling (the allocation holds the next power of
+     * two entries at least): one entry at a time made a file of many
+     * materials quadratic where realloc copies (sanitizer builds) */
+    if ((s->nmat & (s->nmat - 1)) == 0) {
+        rt_material *t = rt_reallocarray(s->mat, s->nmat ? 2 * (size_t)s->nmat : 1, sizeof *t, e);
+        if (!t) return -1;
+        s->mat = t;
+    }
+    rt_material *d = &s->mat[s->nmat];
     *d = *m;
     d->name[sizeof d->name - 1] = 0;
     d->flags = 0;

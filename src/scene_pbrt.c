@@ -2581,7 +2581,7 @@ int rt_scene_fit_film(rt_scene *s, int W, int H, rt_err *e)
     char first[300];
     snprintf(first, sizeof first, "%.250s", s->name);
     if (rt_sfile_warn(s, "image aspect", first, e,
-                      "image %dx%d has not the Film's aspect (%dx%d): its horizontal extent is kept, vertical field "
+                      "image %dx%d does not have the Film's aspect (%dx%d): its horizontal extent is kept, vertical field "
                       "of view %.4g degrees", W, H, s->film_w, s->film_h, fovy) < 0)
         return -1;
     rt_sfile_warn_summary(s);

@@ -40,7 +40,7 @@ grep -q '^tracer: *recursive, 40x30, lights none$' "$tmp/tinfo" || err "trace-in
 
 # -W and -H on a film of another aspect: the horizontal extent kept, with a warning
 "$bin" render "$main" -o "$tmp/o.exr" -W 8 -H 8 2> "$tmp/alog" || err "render -W 8 -H 8"
-grep -q "warning: main.pbrt: image 8x8 has not the Film's aspect (40x30): its horizontal extent is kept, vertical field of view 57.82 degrees$" "$tmp/alog" ||
+grep -q "warning: main.pbrt: image 8x8 does not have the Film's aspect (40x30): its horizontal extent is kept, vertical field of view 57.82 degrees$" "$tmp/alog" ||
     err "aspect warning: $(cat "$tmp/alog")"
 "$bin" render "$main" -o "$tmp/o.exr" -W 25 2> "$tmp/alog2" || err "render -W 25"
 grep -q "warning" "$tmp/alog2" && err "-W alone warned: $(cat "$tmp/alog2")"

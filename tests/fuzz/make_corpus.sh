@@ -129,6 +129,33 @@ AttributeEnd
 Shape "trianglemesh" "point3 P" [ -5 -5 0 5 -5 0 5 5 0 -5 5 0 ] "integer indices" [ 0 1 2 0 2 3 ]
 Shape "disk"
 PBRT
+cat > "$c/pbrt/ok-shapes2" <<'PBRT'
+# disk, annulus, cylinder, curves (bezier, bspline, ribbon), interface, alpha, deferred instances
+LookAt 0 -6 3  0 0 0.5  0 0 1
+Camera "perspective" "float fov" 40
+Film "rgb" "integer xresolution" 32 "integer yresolution" 24 "float cropwindow" [ 0 1 0 1 ]
+WorldBegin
+Shape "disk" "float radius" 0.6 "float height" 0.1
+Shape "disk" "float radius" 0.6 "float innerradius" 0.3 "float phimax" 270
+Shape "cylinder" "float radius" 0.4 "float zmin" 0 "float zmax" 1 "float phimax" 180
+Shape "curve" "point3 P" [ -2 -1 0.5  -1 -1 1.5  1 -1 1.5  2 -1 0.5 ] "float width0" 0.1 "float width1" 0.02
+Shape "curve" "string basis" "bspline" "point3 P" [ 0 0 0  1 0 1  2 0 0  3 0 1  4 0 0 ] "integer splitdepth" 2
+Shape "curve" "string type" "ribbon" "point3 P" [ 0 0 0  1 0 0  2 0 0  3 0 0 ] "normal N" [ 0 1 0  0 0 1 ]
+AttributeBegin
+  Material "interface"
+  Shape "sphere" "float radius" 3
+AttributeEnd
+Shape "sphere" "float radius" 2 "float alpha" 0
+Shape "trianglemesh" "point3 P" [ -3 -3 -0.01  3 -3 -0.01  3 3 -0.01 ] "texture alpha" "leaves"
+ObjectBegin "three"
+  Shape "trianglemesh" "point3 P" [ 0 0 0 1 0 0 0 1 0  0 0 1 ] "integer indices" [ 0 1 2 0 1 3 0 2 3 ]
+ObjectEnd
+Translate 1 0 0
+ObjectInstance "three"
+Translate 1 0 0
+ObjectInstance "three"
+PBRT
+python3 -c "import gzip,sys; sys.stdout.buffer.write(gzip.compress(open(sys.argv[1],'rb').read(), 9, mtime=0))" "$c/pbrt/ok-shapes2" > "$c/pbrt/ok-shapes2-gz"
 printf 'WorldBegin\nAttributeEnd\n' > "$c/pbrt/bad-unbalanced"
 printf 'WorldBegin\nShape "trianglemesh" "point3 P" [ 0 0 0 1 0 0 0 1 0 ] "integer indices" [ 0 1 3 ]\n' > "$c/pbrt/bad-index"
 printf 'WorldBegin\nInclude "../../etc/passwd"\n' > "$c/pbrt/bad-escape"
