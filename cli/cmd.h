@@ -103,7 +103,8 @@ enum {
     RT_OPT_GRID_DENSITY,
     RT_OPT_RECORD_STORES,
     RT_OPT_TREELET_TRIS,
-    RT_OPT_RAY_WINDOW
+    RT_OPT_RAY_WINDOW,
+    RT_OPT_CORES
 };
 
 /* The shared long options ({"lights",...}, {"cache-size",...}, ...);
@@ -132,7 +133,9 @@ extern const struct option rt_render_longopts[];
     "                     later queue points) | first (taken; images may differ)\n"        \
     "  --qp-measure M     dynamic: subtree size for queue points, all (nodes, lists,\n"    \
     "                     triangles) | triangles (default all)\n"                          \
-    "  --threads N        dynamic: modeled threads, 2 rays buffered each (default 4)\n"      \
+    "  --cores N          dynamic: modeled cores, 2 rays buffered each (default 4)\n"        \
+    "  --threads N        render, bench: real host threads (recursive, packet, treelet;\n"  \
+    "                     images identical to one thread; default 1)\n"                    \
     "  --mode M           raycast | shadow | whitted | path (default shadow with lights,\n" \
     "                     else raycast)\n"                                                    \
     "  --depth N          whitted: ray generations per path, primary included (1..64, 5)\n" \

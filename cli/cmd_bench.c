@@ -50,7 +50,7 @@ static void usage(FILE *f)
             "  --tracers LIST     comma list (default recursive,packet,dynamic)\n"
             "  --cache-size S     dynamic tracer's schedule (default 64K)\n"
             "  --what LIST        tracers,trace,sim,replay,approx,path-error,modes,identical,\n"
-            "                     embree,bvh,treelet\n"
+            "                     embree,bvh,treelet,threads\n"
             "                     (default tracers,trace,sim); replay: the exact simulator\n"
             "                     on --trace FILE, one and two threads, decoding included;\n"
             "                     approx: sampled simulators\n"
@@ -69,13 +69,18 @@ static void usage(FILE *f)
             "                     against the k-d tree (and Embree when built), --reps runs;\n"
             "                     treelet: the treelet tracer against the recursive one on\n"
             "                     bvh4 and bvh8 (--accel: one BVH), untraced, into a null\n"
-            "                     sink and into a trace file, --reps runs, medians\n"
+            "                     sink and into a trace file, --reps runs, medians;\n"
+            "                     threads: untraced runs on 1..--threads N host threads\n"
+            "                     (default: the online CPUs) of the --tracers that split\n"
+            "                     (default recursive,packet,treelet), wall and CPU time,\n"
+            "                     speedup, images compared, beside the modeled traffic\n"
             "  --scenes LIST      scenes of path-error, modes, identical (defaults cornell;\n"
             "                     sphereflake,cornell; cornell,knot,sphereflake)\n"
             "  --ref-spp N        path-error reference samples per pixel (default 1024)\n"
             "  --plot DIR         path-error: DIR/path-error-SCENE.png (gnuplot), .dat, .gp\n"
             "  --trace FILE       .rtt or din trace for --what approx (required by replay)\n"
-            "  --reps N           replay, bvh, treelet: runs, median or best printed (default 3)\n"
+            "  --reps N           replay, bvh, treelet, threads: runs, median or best printed\n"
+            "                     (default 3)\n"
             "  --sim-refs N       synthetic simulator trace length (default 20000000)\n"
             "  --tmpdir DIR       where trace files are written (default /tmp)\n"
             "  -h, --help         this help\n");
@@ -269,10 +274,11 @@ int main_bench(int argc, char **argv)
     const char *tmpdir = "/tmp", *dummy = NULL, *trace = NULL;
     uint64_t simrefs = 20000000;
     struct option *lo = rt_cmd_merge_opts(own);
-    int c;
+    int c, threads_given = 0, tracers_given = 0;
     if (!lo) return RT_EXIT_FAIL;
     optind = 1;
     while ((c = getopt_long(argc, argv, "h" RT_RENDER_SHORTOPTS, lo, NULL)) != -1) {
+        if (c == RT_OPT_THREADS) threads_given = 1;
         int r = rt_cmd_render_opt("bench", c, optarg, &o, &dummy);
         if (r < 0) {
             free(lo);
@@ -281,7 +287,7 @@ int main_bench(int argc, char **argv)
         if (r > 0) continue;
         switch (c) {
         case 's': scene = optarg; break;
-        case 'T': tracers = optarg; break;
+        case 'T': tracers = optarg, tracers_given = 1; break;
         case 'w': what = optarg; break;
         case 'd': tmpdir = optarg; break;
         case 1100: trace = optarg; break;
@@ -318,7 +324,7 @@ int main_bench(int argc, char **argv)
         return RT_EXIT_USAGE;
     }
     int do_tr = 0, do_trace = 0, do_sim = 0, do_approx = 0, do_perr = 0, do_modes = 0, do_ident = 0, do_stream = 0, do_embree = 0, do_bvh = 0,
-        do_replay = 0, do_treelet = 0;
+        do_replay = 0, do_treelet = 0, do_threads = 0;
     {
         char *list = strdup(what), *save = NULL;
         for (char *t = strtok_r(list, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
@@ -334,9 +340,10 @@ int main_bench(int argc, char **argv)
             else if (!strcmp(t, "embree")) do_embree = 1;
             else if (!strcmp(t, "bvh")) do_bvh = 1;
             else if (!strcmp(t, "treelet")) do_treelet = 1;
+            else if (!strcmp(t, "threads")) do_threads = 1;
             else {
                 rt_cmd_error("bench", "--what: unknown item '%s' (tracers, trace, sim, replay, approx, path-error, "
-                             "modes, identical, stream, embree, bvh, treelet)", t);
+                             "modes, identical, stream, embree, bvh, treelet, threads)", t);
                 free(list);
                 return RT_EXIT_USAGE;
             }
@@ -350,9 +357,11 @@ int main_bench(int argc, char **argv)
     const char *stream_scene = scene ? scene : "bunny"; /* the paper's scene */
     if (!scene) scene = "sphereflake";
     int W0 = o.W, H0 = o.H; /* as given; 0 = each item's default */
+    const int host_threads = o.host_threads; /* --threads: the threads item's largest count; the others run on one */
+    o.host_threads = 1;
     o.W = W0 ? W0 : 1024;
     o.H = H0 ? H0 : 1024;
-    if (do_tr || do_trace || do_sim || do_approx || do_embree || do_bvh || do_treelet)
+    if (do_tr || do_trace || do_sim || do_approx || do_embree || do_bvh || do_treelet || do_threads)
         printf("raytraffic %s (%s) bench: scene %s, %dx%d, lights %u, one core\n\n", rt_version(), rt_git_rev(),
                scene, o.W, o.H, o.lights);
     else
@@ -428,6 +437,24 @@ int main_bench(int argc, char **argv)
         rt_scene *sc = rt_scene_load(scene, &e);
         fflush(stdout);
         int r = sc ? rt_treelet_bench(stdout, sc, &o, (int)reps, tmpdir, rt_cmd_line(), &e) : -1;
+        rt_scene_free(sc);
+        if (r < 0) {
+            rt_cmd_error("bench", "%s", e.msg);
+            return RT_EXIT_FAIL;
+        }
+    }
+    if (do_threads) {
+        rt_err e = {0};
+        rt_scene *sc = rt_scene_load(scene, &e);
+        long ncpu = sysconf(_SC_NPROCESSORS_ONLN);
+        int maxt = threads_given ? host_threads : ncpu >= 1 && ncpu <= 1024 ? (int)ncpu : 1;
+        rt_render_opts to = o;
+        to.W = W0 ? W0 : 512;
+        to.H = H0 ? H0 : 512;
+        fflush(stdout);
+        int r = sc ? rt_threads_bench(stdout, sc, &to, tracers_given ? tracers : "recursive,packet,treelet", maxt,
+                                      (int)reps, &e)
+                   : -1;
         rt_scene_free(sc);
         if (r < 0) {
             rt_cmd_error("bench", "%s", e.msg);

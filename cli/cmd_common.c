@@ -22,6 +22,7 @@ const struct option rt_render_longopts[] = {
     {"hit-rule", required_argument, NULL, RT_OPT_HIT_RULE},
     {"qp-measure", required_argument, NULL, RT_OPT_QP_MEASURE},
     {"threads", required_argument, NULL, RT_OPT_THREADS},
+    {"cores", required_argument, NULL, RT_OPT_CORES},
     {"subsample", required_argument, NULL, RT_OPT_SUBSAMPLE},
     {"mode", required_argument, NULL, RT_OPT_MODE},
     {"depth", required_argument, NULL, RT_OPT_DEPTH},
@@ -369,12 +370,19 @@ static int render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         }
         o->qp_measure = (int)v;
         return 1;
+    case RT_OPT_CORES:
+        if (rt_cmd_parse_long(arg, 1, 1024, &v) < 0) {
+            rt_cmd_error(cmd, "--cores: '%s' is not in 1..1024", arg);
+            return -1;
+        }
+        o->threads = (int)v;
+        return 1;
     case RT_OPT_THREADS:
         if (rt_cmd_parse_long(arg, 1, 1024, &v) < 0) {
             rt_cmd_error(cmd, "--threads: '%s' is not in 1..1024", arg);
             return -1;
         }
-        o->threads = (int)v;
+        o->host_threads = (int)v;
         return 1;
     case RT_OPT_SUBSAMPLE: {
         char buf[64], *colon;
@@ -426,7 +434,8 @@ static int given_id(int c)
     case RT_OPT_QORDER: return RT_RO_QORDER;
     case RT_OPT_HIT_RULE: return RT_RO_HIT_RULE;
     case RT_OPT_QP_MEASURE: return RT_RO_QP_MEASURE;
-    case RT_OPT_THREADS: return RT_RO_THREADS;
+    case RT_OPT_CORES: return RT_RO_THREADS;
+    case RT_OPT_THREADS: return RT_RO_HOST_THREADS;
     case RT_OPT_QUEUE_STORES: return RT_RO_QUEUE_STORES;
     case RT_OPT_GRID_MIN: return RT_RO_GRID_MIN;
     case RT_OPT_VB_SIZE: return RT_RO_VB_SIZE;
@@ -447,6 +456,12 @@ static int given_id(int c)
  * group is remembered in o->given, so the tracer can refuse it. */
 int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o, const char **tracer)
 {
+    if (c == RT_OPT_THREADS && strcmp(cmd, "render") && strcmp(cmd, "bench")) {
+        /* traced runs are one ordered stream; the former --threads is --cores */
+        rt_cmd_error(cmd, "--threads: %s records one ordered stream on one host thread; the dynamic tracer's modeled "
+                          "threads are now --cores N", cmd);
+        return -1;
+    }
     int r = render_opt(cmd, c, arg, o, tracer), id = given_id(c);
     if (r > 0 && id >= 0) o->given |= 1u << id;
     return r;
@@ -458,6 +473,12 @@ int rt_cmd_check_tracer_opts(const char *cmd, const char *tracer, const rt_rende
     const rt_tracer *tr = tracer ? rt_tracer_find(tracer) : rt_tracer_reference();
     if (!tr) {
         rt_cmd_error(cmd, "unknown tracer '%s' (%s)", tracer, rt_tracer_names());
+        return -1;
+    }
+    if ((o->given & (1u << RT_RO_HOST_THREADS)) && !(tr->opts & RT_OPTG_THREADS) && (tr->opts & RT_OPTG_SCHED)) {
+        /* the former spelling of the scheduler's modeled threads */
+        rt_cmd_error(cmd, "--threads: host threads do not apply to the %s tracer (one serial schedule); its modeled "
+                          "threads are now --cores N", tr->name);
         return -1;
     }
     if (rt_tracer_check_given(tr, o, &e) < 0 || rt_tracer_check_opts(tr, o, &e) < 0) {

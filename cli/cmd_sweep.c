@@ -112,7 +112,7 @@ static void usage(FILE *f)
             "                     compared with the full run by report --speed-error): comma\n"
             "                     list of res:N (N pixels wide, same aspect) and sub:K[:T]\n"
             "                     (trace 1 in K tiles of TxT pixels, T default 8)\n"
-            "  --qorder O, --threads N, --hit-rule R, --qp-measure M  dynamic scheduler options\n"
+            "  --qorder O, --cores N, --hit-rule R, --qp-measure M  dynamic scheduler options\n"
             "                     (see render --help)\n"
             "  --treelet-tris, --ray-window N  treelet scheduler options (see render --help)\n"
             "  --model M          lean (default: compact layout, write-allocate queue stores,\n"
@@ -391,6 +391,7 @@ static const struct option sweep_longopts[] = {
     {"hit-rule", required_argument, NULL, RT_OPT_HIT_RULE},
     {"qp-measure", required_argument, NULL, RT_OPT_QP_MEASURE},
     {"threads", required_argument, NULL, RT_OPT_THREADS},
+    {"cores", required_argument, NULL, RT_OPT_CORES},
     {"packet", required_argument, NULL, RT_OPT_PACKET},
     {"accel", required_argument, NULL, RT_OPT_ACCEL},
     {"grid-min", required_argument, NULL, RT_OPT_GRID_MIN},

@@ -71,21 +71,23 @@ typedef enum rt_rstores {
  */
 enum {
     RT_OPTG_PACKET = 1u << 0,   /* --packet */
-    RT_OPTG_SCHED = 1u << 1,    /* --cache-size, --gmax, --qorder, --threads, --hit-rule, --qp-measure:
+    RT_OPTG_SCHED = 1u << 1,    /* --cache-size, --gmax, --qorder, --cores, --hit-rule, --qp-measure:
                                  * scheduled tracers */
     RT_OPTG_QUEUES = 1u << 2,   /* --queue-stores: tracers that keep ray queues */
     RT_OPTG_GRID = 1u << 3,     /* --grid-min, --grid-density: tracers on the uniform grid */
     RT_OPTG_VB = 1u << 4,       /* --vb-size: ping-pong vertex buffers */
     RT_OPTG_ORACLE = 1u << 5,   /* --oracle, --oracle-fraction, --unroll, --unroll-suppress */
     RT_OPTG_RECORDS = 1u << 6,  /* --record-stores: tracers whose ray records the GPU writes whole */
-    RT_OPTG_TREELET = 1u << 7   /* --treelet-tris, --ray-window: the treelet scheduler */
+    RT_OPTG_TREELET = 1u << 7,  /* --treelet-tris, --ray-window: the treelet scheduler */
+    RT_OPTG_THREADS = 1u << 8   /* --threads: tracers whose work splits over host threads
+                                 * (parallel by construction: rt_job_run, run.h) */
 };
 /* The options of those groups, a bit each in rt_render_opts.given. */
 enum {
     RT_RO_PACKET, RT_RO_CACHE_SIZE, RT_RO_GMAX, RT_RO_QORDER, RT_RO_THREADS, RT_RO_QUEUE_STORES,
     RT_RO_GRID_MIN, RT_RO_VB_SIZE, RT_RO_ORACLE, RT_RO_ORACLE_FRACTION, RT_RO_UNROLL, RT_RO_UNROLL_SUPPRESS,
     RT_RO_GRID_DENSITY, RT_RO_RECORD_STORES, RT_RO_ACCEL, RT_RO_HIT_RULE, RT_RO_QP_MEASURE, RT_RO_TREELET_TRIS,
-    RT_RO_RAY_WINDOW, RT_RO_COUNT
+    RT_RO_RAY_WINDOW, RT_RO_HOST_THREADS, RT_RO_COUNT
 };
 /* "--packet" ... for an RT_RO_* id, and its group (0 for --accel, which is
  * checked against the tracer's structures instead). */
@@ -124,7 +126,10 @@ typedef struct rt_render_opts {
     uint64_t sched_size; /* dynamic: cache size the schedule targets (bytes) */
     uint64_t gmax;       /* dynamic: explicit geometry budget, 0 = derive */
     int qorder;          /* dynamic: rt_qorder */
-    int threads;         /* dynamic: modeled threads (ray buffer = 2 rays each) */
+    int threads;         /* dynamic: modeled cores, --cores (ray buffer = 2 rays each; the run
+                          * key keeps its version-1 spelling "threads=N") */
+    int host_threads;    /* --threads: real host threads of an untraced run (1; never in a run key:
+                          * the images and statistics are those of one thread, run.h) */
     uint32_t subsample;  /* reduced experiment: trace 1 in K tiles (1 = all) */
     int subtile;         /* subsampling tile edge in pixels (default 8) */
     int mode;            /* rt_mode; RT_MODE_DEFAULT resolves by lights (rt_render_mode) */

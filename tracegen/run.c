@@ -2,8 +2,10 @@
 #include "scene_load.h"
 #include "run.h"
 #include "pbrtlayout.h"
+#include "stats.h"
 
 #include <inttypes.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -11,7 +13,7 @@
 /* The tracer's plan, then its regions. On failure the plan is freed. */
 static int layout(rt_job *j, rt_err *e)
 {
-    rt_tracer_ctx ctx = {j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, NULL, NULL, 0, NULL};
+    rt_tracer_ctx ctx = {j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, NULL, NULL, 0, NULL, 0, 1};
     rt_mm_init(&j->L);
     if (rt_geom_uses_mesh(j->opt.geom) && !j->mesh && !(j->mesh = rt_mesh_build(j->sc, e))) return -1;
     ctx.mesh = j->mesh;
@@ -106,12 +108,155 @@ int rt_job_setup(rt_job *j, const char *scene_spec, const char *tracer, const rt
     return 0;
 }
 
+/* ---- host threads: one work share each (pixels.h) ---------------------- */
+
+typedef struct share_run {
+    const rt_job *j;
+    rt_tracer_ctx ctx;
+    rt_image *img;
+    rt_run_stats st;
+    rt_err e;
+    int rc;
+} share_run;
+
+static void *share_main(void *arg)
+{
+    share_run *s = arg;
+    s->rc = s->j->tr->run(&s->ctx, s->img, &s->st, &s->e);
+    return NULL;
+}
+
+/* The statistics strings of the shares as one: a token equal in every
+ * share stays; "k=N" integers are summed (the largest for a key naming a
+ * max or peak); "k=X" decimals are averaged over the shares. Strings of
+ * different shapes: share 0's. */
+static void merge_extra(const share_run *s, int n, char *out, size_t cap)
+{
+    char tok[64][96];
+    int ntok = 0;
+    const char *p = s[0].st.extra;
+    snprintf(out, cap, "%s", p);
+    while (*p && ntok < 64) {
+        while (*p == ' ') p++;
+        size_t l = strcspn(p, " ");
+        if (!l) break;
+        if (l >= sizeof tok[0]) return;
+        memcpy(tok[ntok], p, l);
+        tok[ntok++][l] = 0;
+        p += l;
+    }
+    if (*p) return;
+    char merged[sizeof s[0].st.extra] = "";
+    size_t ml = 0;
+    for (int t = 0; t < ntok; t++) {
+        char *eq = strchr(tok[t], '=');
+        int same = 1, integer = eq && eq[1], isnum = eq && eq[1];
+        double sum = 0, mx = 0;
+        for (int k = 0; k < n; k++) {
+            const char *q = s[k].st.extra;
+            for (int u = 0; u <= t; u++) { /* token t of share k */
+                while (*q == ' ') q++;
+                size_t l = strcspn(q, " ");
+                if (u < t) {
+                    q += l;
+                    continue;
+                }
+                if (l != strlen(tok[t]) || strncmp(q, tok[t], l)) same = 0;
+                if (!eq || strncmp(q, tok[t], (size_t)(eq - tok[t]) + 1)) {
+                    isnum = 0;
+                    break;
+                }
+                char *end;
+                const char *v = q + (eq - tok[t]) + 1;
+                double x = strtod(v, &end);
+                if (end == v || (size_t)(end - q) != l) isnum = 0;
+                if (memchr(v, '.', l - (size_t)(v - q))) integer = 0;
+                sum += x;
+                if (!k || x > mx) mx = x;
+            }
+        }
+        char one[128];
+        if (same || !isnum) snprintf(one, sizeof one, "%s", tok[t]);
+        else if (integer)
+            snprintf(one, sizeof one, "%.*s=%.0f", (int)(eq - tok[t]), tok[t],
+                     strstr(tok[t], "max") || strstr(tok[t], "peak") ? mx : sum);
+        else snprintf(one, sizeof one, "%.*s=%.1f", (int)(eq - tok[t]), tok[t], sum / n);
+        ml += (size_t)snprintf(merged + ml, sizeof merged - ml, "%s%s", ml ? " " : "", one);
+        if (ml >= sizeof merged) return;
+    }
+    snprintf(out, cap, "%s", merged);
+}
+
+/* An untraced run on n host threads: the tracer's run on each work share,
+ * the statistics summed and the marks or-ed for the visible sets. */
+static int run_threads(rt_job *j, int n, rt_image *img, rt_run_stats *st, rt_err *e)
+{
+    const uint32_t ntri = j->sc->ntri ? j->sc->ntri : 1;
+    share_run *s = rt_calloc((size_t)n, sizeof *s, e);
+    uint8_t *marks = s ? rt_calloc((size_t)n, ntri, e) : NULL;
+    pthread_t *tid = marks ? rt_calloc((size_t)n, sizeof *tid, e) : NULL;
+    int started = 0, rc = 0;
+    if (!tid) goto done;
+    for (int k = 0; k < n; k++) {
+        s[k].j = j;
+        s[k].ctx = (rt_tracer_ctx){j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, NULL, j->plan, j->check, j->mesh, k, n};
+        s[k].img = img;
+        s[k].st.mark_keep = marks + (size_t)k * ntri;
+    }
+    for (; started < n; started++)
+        if (pthread_create(&tid[started], NULL, share_main, &s[started])) break;
+    for (int k = 0; k < started; k++) pthread_join(tid[k], NULL);
+    if (started < n) {
+        rc = rt_errf(e, "--threads %d: could not start host thread %d", n, started + 1);
+        goto done;
+    }
+    for (int k = 0; k < n; k++)
+        if (s[k].rc < 0) {
+            *e = s[k].e;
+            rc = -1;
+            goto done;
+        }
+    for (int k = 0; k < n; k++) {
+        st->rays_primary += s[k].st.rays_primary;
+        st->rays_shadow += s[k].st.rays_shadow;
+        st->nodes += s[k].st.nodes;
+        st->tests += s[k].st.tests;
+    }
+    for (int k = 1; k < n; k++)
+        for (uint32_t i = 0; i < ntri; i++) marks[i] |= marks[(size_t)k * ntri + i];
+    rt_trav none;
+    memset(&none, 0, sizeof none);
+    rt_run_stats pv;
+    memset(&pv, 0, sizeof pv);
+    rt_stats_finish(&pv, &none, marks, j->sc->ntri);
+    st->pv_primary = pv.pv_primary;
+    st->pv_all = pv.pv_all;
+    merge_extra(s, n, st->extra, sizeof st->extra);
+done:
+    free(tid);
+    free(marks);
+    free(s);
+    return tid ? rc : -1;
+}
+
 int rt_job_run(rt_job *j, rt_sink *sink, rt_image *img, rt_run_stats *st, rt_err *e)
 {
     rt_rec *rec = NULL;
     memset(st, 0, sizeof *st);
     if (img->W != j->opt.W || img->H != j->opt.H)
         return rt_errf(e, "image is %dx%d, job wants %dx%d", img->W, img->H, j->opt.W, j->opt.H);
+    if (j->opt.host_threads > 1) {
+        if (sink)
+            return rt_errf_usage(e, "--threads %d: a trace is one ordered stream, recorded on one thread "
+                                    "(simulated cores: --cores)", j->opt.host_threads);
+        if (!(j->tr->opts & RT_OPTG_THREADS))
+            return rt_errf_usage(e, "--threads %d: the %s tracer runs on one host thread", j->opt.host_threads,
+                                 j->tr->name);
+        double t0 = rt_now();
+        int rc = run_threads(j, j->opt.host_threads, img, st, e);
+        st->seconds = rt_now() - t0;
+        return rc;
+    }
     if (sink && !(rec = rt_rec_new(sink, e))) return -1;
     /* mesh layout: the tracer records into the translating recorder, which
      * feeds rec (mesh.h) */
@@ -126,7 +271,7 @@ int rt_job_run(rt_job *j, rt_sink *sink, rt_image *img, rt_run_stats *st, rt_err
         rt_rec_free(rec);
         return -1;
     }
-    rt_tracer_ctx ctx = {j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, trec, j->plan, j->check, j->mesh};
+    rt_tracer_ctx ctx = {j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, trec, j->plan, j->check, j->mesh, 0, 1};
     double t0 = rt_now();
     int rc = j->tr->run(&ctx, img, st, e);
     if (trec != rec) {
