@@ -371,11 +371,12 @@ static int render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         o->qp_measure = (int)v;
         return 1;
     case RT_OPT_CORES:
-        if (rt_cmd_parse_long(arg, 1, 1024, &v) < 0) {
-            rt_cmd_error(cmd, "--cores: '%s' is not in 1..1024", arg);
+        if (rt_cmd_parse_long(arg, 1, RT_MAX_CORES, &v) < 0) {
+            rt_cmd_error(cmd, "--cores: '%s' is not in 1..%d", arg, RT_MAX_CORES);
             return -1;
         }
-        o->threads = (int)v;
+        o->threads = (int)v; /* the dynamic tracer's modeled threads */
+        o->cores = (int)v;   /* the others' simulated cores */
         return 1;
     case RT_OPT_THREADS:
         if (rt_cmd_parse_long(arg, 1, 1024, &v) < 0) {

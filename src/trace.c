@@ -323,6 +323,7 @@ struct rt_tr_writer {
     unsigned maxgen;        /* meta.generations: 0 = no generation bytes */
     unsigned cores;         /* meta.cores: 1, or 2..256 (version 4: core switches) */
     unsigned core;          /* the core of the records being put (rt_tr_put_core; 0 otherwise) */
+    rt_csink csink;         /* rt_tr_csink: ctx = this */
     const rt_tr_payload_ops *pops; /* side payload maker (version 3), or NULL */
     void *pctx;             /* its state */
     rt_tr_sample_params sp; /* its parameters, as in the header */
@@ -581,6 +582,18 @@ fail:
 }
 
 rt_sink *rt_tr_sink(rt_tr_writer *w) { return &w->sink; }
+
+static int w_put_core(rt_csink *s, unsigned core, const rt_access *a, size_t n)
+{
+    return rt_tr_put_core(s->ctx, core, a, n);
+}
+
+rt_csink *rt_tr_csink(rt_tr_writer *w)
+{
+    w->csink.put = w_put_core;
+    w->csink.ctx = w;
+    return &w->csink;
+}
 const rt_tr_totals *rt_tr_writer_totals(const rt_tr_writer *w) { return &w->tot; }
 const char *rt_tr_writer_error(const rt_tr_writer *w) { return w->err.msg; }
 

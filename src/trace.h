@@ -144,6 +144,8 @@ const rt_tr_totals *rt_tr_writer_totals(const rt_tr_writer *w);
  * if none. Owned by w. */
 const char *rt_tr_writer_error(const rt_tr_writer *w);
 rt_sink *rt_tr_sink(rt_tr_writer *w);
+/* The writer as a core sink (rt_tr_put_core): for meta.cores > 1. */
+rt_csink *rt_tr_csink(rt_tr_writer *w);
 /* Puts n records made by core `core` (< meta.cores; version 4): a
  * core-switch record (2 bytes) goes before the first of them when the
  * previous record was another core's or a chunk starts. The sink's put

@@ -19,6 +19,7 @@ void rt_render_default_opts(rt_render_opts *o)
     o->qorder = RT_QORDER_FULLEST;
     o->threads = 4;
     o->host_threads = 1;
+    o->cores = 1;
     o->subsample = 1;
     o->subtile = 8;
     o->mode = RT_MODE_DEFAULT;
@@ -134,7 +135,7 @@ static const struct {
     [RT_RO_QORDER] = {"--qorder", RT_OPTG_SCHED},
     [RT_RO_HIT_RULE] = {"--hit-rule", RT_OPTG_SCHED},
     [RT_RO_QP_MEASURE] = {"--qp-measure", RT_OPTG_SCHED},
-    [RT_RO_THREADS] = {"--cores", RT_OPTG_SCHED},
+    [RT_RO_THREADS] = {"--cores", RT_OPTG_CORES},
     [RT_RO_HOST_THREADS] = {"--threads", RT_OPTG_THREADS},
     [RT_RO_QUEUE_STORES] = {"--queue-stores", RT_OPTG_QUEUES},
     [RT_RO_GRID_MIN] = {"--grid-min", RT_OPTG_GRID},
