@@ -296,6 +296,15 @@ static int run_share(rt_job *j, rt_sink *sink, int part, int nparts, rt_image *i
     return rc;
 }
 
+int rt_job_run_part(rt_job *j, rt_sink *sink, int part, int nparts, rt_image *img, rt_run_stats *st, rt_err *e)
+{
+    memset(st, 0, sizeof *st);
+    if (nparts < 1 || part < 0 || part >= nparts) return rt_errf(e, "work share %d of %d", part, nparts);
+    if (nparts > 1 && !(j->tr->opts & RT_OPTG_THREADS))
+        return rt_errf(e, "the %s tracer does not split its work", j->tr->name);
+    return run_share(j, sink, part, nparts, img, st, e);
+}
+
 /* A core sink that forgets the cores: rt_job_run's sink behind the interleave. */
 static int plain_put(rt_csink *cs, unsigned core, const rt_access *a, size_t n)
 {

@@ -64,6 +64,10 @@ int rt_job_run(rt_job *j, rt_sink *sink, rt_image *img, rt_run_stats *st, rt_err
  */
 #define RT_CORE_TICK 16
 int rt_job_run_cores(rt_job *j, rt_csink *cs, rt_image *img, rt_run_stats *st, rt_err *e);
+/* Work share part of nparts alone, on the calling thread, into sink (NULL:
+ * untraced): one core's references as rt_job_run_cores sees them (the
+ * tests' reference for the interleave). 0 or -1. */
+int rt_job_run_part(rt_job *j, rt_sink *sink, int part, int nparts, rt_image *img, rt_run_stats *st, rt_err *e);
 /* The tracer-parameter string that identifies a run ("qorder=fullest
  * threads=4", "packet=8", "" ...; then the subsampling parameters), the
  * one formatter for trace headers and database keys. extra, if non-empty,
