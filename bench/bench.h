@@ -167,4 +167,15 @@ int rt_treelet_bench(FILE *out, rt_scene *sc, const rt_render_opts *base, int re
 int rt_threads_bench(FILE *out, rt_scene *sc, const rt_render_opts *base, const char *tracers, int maxthreads,
                      int reps, rt_err *e);
 
+/* ---- many cores (cores_bench.c) -------------------------------------------- */
+
+/* tracer's run of base on sc recorded on one core and on base->cores (8
+ * when 1) simulated cores, then reps times each stream through hierarchy
+ * (mcore.h) on 1 and on N cores, and the one-level simulator on the
+ * one-core stream: a Markdown table to out of M references per thread-CPU
+ * second and the ratio N cores over one, per repetition and the medians.
+ * 0, or -1 with e set. */
+int rt_cores_bench(FILE *out, rt_scene *sc, const rt_render_opts *base, const char *tracer, const char *hierarchy,
+                   int reps, rt_err *e);
+
 #endif

@@ -166,6 +166,9 @@ extern const struct option rt_render_longopts[];
  * returns a malloc'd table (caller frees) or NULL. */
 struct option *rt_cmd_merge_opts(const struct option *own);
 
+/* `sim --hierarchy SPEC ...`: the multi-core hierarchy (cmd_sim_cores.c). */
+int rt_cmd_sim_cores(int argc, char **argv);
+
 /* Handles one shared option. Returns 1 if handled, 0 if c is not a shared
  * option, -1 on a bad value (message printed for cmd). */
 int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o, const char **tracer);

@@ -73,7 +73,12 @@ static void usage(FILE *f)
             "                     threads: untraced runs on 1..--threads N host threads\n"
             "                     (default: the online CPUs) of the --tracers that split\n"
             "                     (default recursive,packet,treelet), wall and CPU time,\n"
-            "                     speedup, images compared, beside the modeled traffic\n"
+            "                     speedup, images compared, beside the modeled traffic;\n"
+            "                     cores: the multi-core hierarchy (--hierarchy, default\n"
+            "                     L1=32K/8/64/lru/private,LLC=1K-4M/full/64/lru/shared) on\n"
+            "                     --cores N (default 8) against one core, refs/s and ratio\n"
+            "                     (default 256x256)\n"
+            "  --hierarchy SPEC   cores: the hierarchy\n"
             "  --scenes LIST      scenes of path-error, modes, identical (defaults cornell;\n"
             "                     sphereflake,cornell; cornell,knot,sphereflake)\n"
             "  --ref-spp N        path-error reference samples per pixel (default 1024)\n"
@@ -259,6 +264,7 @@ int main_bench(int argc, char **argv)
         {"tmpdir", required_argument, NULL, 'd'},
         {"trace", required_argument, NULL, 1100},
         {"reps", required_argument, NULL, 1110},
+        {"hierarchy", required_argument, NULL, 1111},
         {"scenes", required_argument, NULL, 1101},
         {"ref-spp", required_argument, NULL, 1102},
         {"plot", required_argument, NULL, 1103},
@@ -268,7 +274,7 @@ int main_bench(int argc, char **argv)
     rt_render_opts o;
     rt_render_default_opts(&o);
     o.W = o.H = 0; /* 0: the item's own default size */
-    const char *scenes = NULL, *plotdir = NULL;
+    const char *scenes = NULL, *plotdir = NULL, *hierarchy = "L1=32K/8/64/lru/private,LLC=1K-4M/full/64/lru/shared";
     long refspp = 1024, reps = 3;
     const char *scene = NULL, *tracers = "recursive,packet,dynamic", *what = "tracers,trace,sim";
     const char *tmpdir = "/tmp", *dummy = NULL, *trace = NULL;
@@ -299,6 +305,7 @@ int main_bench(int argc, char **argv)
             }
             break;
         case 1101: scenes = optarg; break;
+        case 1111: hierarchy = optarg; break;
         case 1103: plotdir = optarg; break;
         case 1102:
             if (rt_cmd_parse_long(optarg, 1, RT_SPP_MAX, &refspp) < 0) {
@@ -324,7 +331,7 @@ int main_bench(int argc, char **argv)
         return RT_EXIT_USAGE;
     }
     int do_tr = 0, do_trace = 0, do_sim = 0, do_approx = 0, do_perr = 0, do_modes = 0, do_ident = 0, do_stream = 0, do_embree = 0, do_bvh = 0,
-        do_replay = 0, do_treelet = 0, do_threads = 0;
+        do_replay = 0, do_treelet = 0, do_threads = 0, do_cores = 0;
     {
         char *list = strdup(what), *save = NULL;
         for (char *t = strtok_r(list, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
@@ -341,9 +348,10 @@ int main_bench(int argc, char **argv)
             else if (!strcmp(t, "bvh")) do_bvh = 1;
             else if (!strcmp(t, "treelet")) do_treelet = 1;
             else if (!strcmp(t, "threads")) do_threads = 1;
+            else if (!strcmp(t, "cores")) do_cores = 1;
             else {
                 rt_cmd_error("bench", "--what: unknown item '%s' (tracers, trace, sim, replay, approx, path-error, "
-                             "modes, identical, stream, embree, bvh, treelet, threads)", t);
+                             "modes, identical, stream, embree, bvh, treelet, threads, cores)", t);
                 free(list);
                 return RT_EXIT_USAGE;
             }
@@ -361,7 +369,7 @@ int main_bench(int argc, char **argv)
     o.host_threads = 1;
     o.W = W0 ? W0 : 1024;
     o.H = H0 ? H0 : 1024;
-    if (do_tr || do_trace || do_sim || do_approx || do_embree || do_bvh || do_treelet || do_threads)
+    if (do_tr || do_trace || do_sim || do_approx || do_embree || do_bvh || do_treelet || do_threads || do_cores)
         printf("raytraffic %s (%s) bench: scene %s, %dx%d, lights %u, one core\n\n", rt_version(), rt_git_rev(),
                scene, o.W, o.H, o.lights);
     else
@@ -455,6 +463,20 @@ int main_bench(int argc, char **argv)
         int r = sc ? rt_threads_bench(stdout, sc, &to, tracers_given ? tracers : "recursive,packet,treelet", maxt,
                                       (int)reps, &e)
                    : -1;
+        rt_scene_free(sc);
+        if (r < 0) {
+            rt_cmd_error("bench", "%s", e.msg);
+            return RT_EXIT_FAIL;
+        }
+    }
+    if (do_cores) {
+        rt_err e = {0};
+        rt_scene *sc = rt_scene_load(scene, &e);
+        rt_render_opts co = o;
+        co.W = W0 ? W0 : 256;
+        co.H = H0 ? H0 : 256;
+        fflush(stdout);
+        int r = sc ? rt_cores_bench(stdout, sc, &co, tracers_given ? tracers : "recursive", hierarchy, (int)reps, &e) : -1;
         rt_scene_free(sc);
         if (r < 0) {
             rt_cmd_error("bench", "%s", e.msg);

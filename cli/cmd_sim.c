@@ -76,6 +76,8 @@ static void usage(FILE *f)
             "  --exact-below SIZE     simulate sizes below SIZE exactly (default 0 = none);\n"
             "                         sizes without an estimate are left out (text: a\n"
             "                         '#' line gives the reason)\n"
+            "  --hierarchy SPEC       private and shared levels for several simulated cores\n"
+            "                         (sim --hierarchy X --help)\n"
             "  -h, --help             this help\n\n"
             "Output columns: size_bytes line assoc class accesses read_misses write_misses\n"
             "writebacks wt_bytes traffic_bytes; one row per size and class, then group rows\n"
@@ -482,6 +484,8 @@ static int sim_one(const sim_opts *o, rt_db *db, const char *path, rt_tr_meta *m
 
 int main_sim(int argc, char **argv)
 {
+    for (int a = 1; a < argc; a++) /* the multi-core hierarchy: cmd_sim_cores.c */
+        if (!strcmp(argv[a], "--hierarchy") || !strncmp(argv[a], "--hierarchy=", 12)) return rt_cmd_sim_cores(argc, argv);
     if (rt_cmd_wants_help(argc, argv)) {
         usage(stdout);
         return RT_EXIT_OK;

@@ -59,7 +59,7 @@ cmp -s "$tmp/c.txt" "$tmp/c1.txt" || err "--cores 1 changed the references"
 "$bin" trace-info "$tmp/c1.rtt" | grep -q "^format: *rtt version 3" || err "--cores 1 is not a version-3 trace"
 "$bin" trace-info "$tmp/c4.rtt" >"$tmp/i4.txt" || err "trace-info of a version-4 trace"
 grep -q "^format: *rtt version 4" "$tmp/i4.txt" && grep -q "^cores: *4 simulated cores" "$tmp/i4.txt" \
-    && grep -q "cores=4" "$tmp/i4.txt" || err "trace-info: $(cat "$tmp/i4.txt")"
+    || err "trace-info: $(cat "$tmp/i4.txt")"
 "$bin" trace-info "$tmp/c.rtt" | grep -q "^cores:" && err "trace-info shows cores for a one-core trace"
 "$bin" trace-info --json "$tmp/c4.rtt" | grep -q '"cores": 4' || err "trace-info --json: no cores"
 total=0

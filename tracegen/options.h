@@ -132,7 +132,7 @@ typedef struct rt_render_opts {
                           * key keeps its version-1 spelling "threads=N") */
     int cores;           /* --cores for the tracers of RT_OPTG_THREADS: simulated cores, one work
                           * share each, interleaved by the modeled clock (run.h); 1 = today's
-                          * single stream ("cores=N" in the run key when > 1) */
+                          * single stream (the run key's cores: rt_tr_meta.cores, the database column) */
     int host_threads;    /* --threads: real host threads of an untraced run (1; never in a run key:
                           * the images and statistics are those of one thread, run.h) */
     uint32_t subsample;  /* reduced experiment: trace 1 in K tiles (1 = all) */

@@ -564,9 +564,6 @@ static void layout_params(const rt_tracer *tr, const rt_render_opts *o, char *bu
     if (o->geom != RT_GEOM_COMPACT)
         snprintf(buf + l, n - l, "%slayout=%s", l ? " " : "", rt_render_geom_name(o->geom));
     l = strlen(buf);
-    if (tr && (tr->opts & RT_OPTG_THREADS) && o->cores > 1) /* simulated cores; one core: no key part */
-        snprintf(buf + l, n - l, "%scores=%d", l ? " " : "", o->cores);
-    l = strlen(buf);
     if (rt_tracer_is(tr, RT_TR_QUEUES) && o->qstores != RT_QSTORES_WRITE_ALLOCATE)
         snprintf(buf + l, n - l, "%squeue_stores=stream", l ? " " : ""); /* the key's spelling since version 1 */
 }
