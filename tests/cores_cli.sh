@@ -1,0 +1,48 @@
+#!/bin/sh
+# Many cores from the command line: sim --hierarchy on a version-4 trace of
+# 4 simulated cores prints a private row set per core and the shared
+# sizes, stores the run with cores 4, its hierarchy and per-level rows
+# (one per core for the private level); a one-core trace is one core; bad
+# hierarchies are usage errors naming the part; bench --what cores prints
+# its ratio.
+set -u
+bin=${RT_BIN:-./raytraffic}
+tmp=$(mktemp -d /tmp/rt_cores_cli.XXXXXX) || exit 1
+trap 'rm -rf "$tmp"' EXIT
+fail=0
+err() { echo "FAIL: $*"; fail=1; }
+[ -x "$bin" ] || { echo "FAIL: $bin is not an executable"; exit 1; }
+H=L1=32K/8/64/lru/private,LLC=1K-4M/full/64/lru/shared
+
+"$bin" trace cornell -W 24 -H 24 --lights all --cores 4 -o "$tmp/c4.rtt" 2>/dev/null || err "trace --cores 4"
+"$bin" trace cornell -W 24 -H 24 --lights all -o "$tmp/c1.rtt" 2>/dev/null || err "trace"
+"$bin" sim --hierarchy "$H" "$tmp/c4.rtt" >"$tmp/s4.txt" || err "sim --hierarchy: $(cat "$tmp/s4.txt")"
+grep -q "^# .*c4.rtt: 4 cores, $H, " "$tmp/s4.txt" || err "sim header: $(head -1 "$tmp/s4.txt")"
+[ "$(grep -c '^L1 [0-3] 32768 64 8 all ' "$tmp/s4.txt")" -eq 4 ] || err "not 4 private rows: $(cat "$tmp/s4.txt")"
+[ "$(grep -c '^LLC - [0-9]* 64 0 all ' "$tmp/s4.txt")" -eq 13 ] || err "not 13 shared sizes"
+# the private levels' accesses add up to the line touches of the one-core run's private level
+a4=$(awk '$1 == "L1" && $6 == "all" { s += $7 } END { print s }' "$tmp/s4.txt")
+"$bin" sim --hierarchy "$H" "$tmp/c1.rtt" >"$tmp/s1.txt" || err "sim --hierarchy of a one-core trace"
+grep -q ": 1 core, " "$tmp/s1.txt" || err "a version-3 trace is not one core: $(head -1 "$tmp/s1.txt")"
+a1=$(awk '$1 == "L1" && $6 == "all" { s += $7 } END { print s }' "$tmp/s1.txt")
+[ "$a4" = "$a1" ] && [ "$a4" -gt 0 ] || err "line touches: $a4 on 4 cores, $a1 on one"
+# the shared level sees only what the private ones send down
+"$bin" sim --hierarchy "$H" --format csv "$tmp/c4.rtt" >"$tmp/s4.csv" || err "csv"
+head -1 "$tmp/s4.csv" | grep -q "^trace,level,core,size_bytes" || err "csv header"
+# the database
+"$bin" sim --hierarchy "$H" --db "$tmp/r.db" "$tmp/c4.rtt" 2>"$tmp/db.log" || err "sim --db: $(cat "$tmp/db.log")"
+[ "$(sqlite3 "$tmp/r.db" "SELECT cores || ' ' || hierarchy FROM runs")" = "4 $H" ] || err "run: $(sqlite3 "$tmp/r.db" 'SELECT * FROM runs')"
+[ "$(sqlite3 "$tmp/r.db" "SELECT COUNT(DISTINCT core) FROM level_traffic WHERE level = 1")" = 4 ] || err "private rows"
+[ "$(sqlite3 "$tmp/r.db" "SELECT COUNT(DISTINCT cache_size) FROM level_traffic WHERE level = 2 AND core = -1")" = 13 ] \
+    || err "shared rows"
+[ "$(sqlite3 "$tmp/r.db" "SELECT COUNT(DISTINCT config_id) FROM traffic")" = 13 ] || err "memory traffic rows"
+# bad hierarchies
+for bad in "L1=32K/8/64/lru/private" "L1=32K/8/64/fifo,LLC=1M/full/64/lru" "L1=32K/8/64/lru,LLC=1M/full/32/lru"; do
+    "$bin" sim --hierarchy "$bad" "$tmp/c4.rtt" >/dev/null 2>"$tmp/u.log"
+    [ $? = 2 ] && grep -q -- "--hierarchy" "$tmp/u.log" || err "--hierarchy $bad: $(cat "$tmp/u.log")"
+done
+"$bin" bench --what cores --scene cornell -W 24 -H 24 --cores 3 --reps 1 >"$tmp/b.txt" 2>&1 || err "bench --what cores: $(cat "$tmp/b.txt")"
+grep -q "^| median | | [0-9.]* | [0-9.]* | [0-9.]* |" "$tmp/b.txt" || err "bench: $(cat "$tmp/b.txt")"
+
+[ $fail = 0 ] && echo "PASS: cores_cli"
+exit $fail
