@@ -36,6 +36,17 @@ head -1 "$tmp/s4.csv" | grep -q "^trace,level,core,size_bytes" || err "csv heade
 [ "$(sqlite3 "$tmp/r.db" "SELECT COUNT(DISTINCT cache_size) FROM level_traffic WHERE level = 2 AND core = -1")" = 13 ] \
     || err "shared rows"
 [ "$(sqlite3 "$tmp/r.db" "SELECT COUNT(DISTINCT config_id) FROM traffic")" = 13 ] || err "memory traffic rows"
+# report --figure cores: one row per core count, the DRAM MB of the traffic rows
+"$bin" sim --hierarchy "$H" --db "$tmp/r.db" "$tmp/c1.rtt" 2>/dev/null || err "sim --db of the one-core trace"
+"$bin" trace cornell -W 24 -H 24 --lights all -t treelet --cores 4 -o "$tmp/t4.rtt" 2>/dev/null || err "trace -t treelet --cores 4"
+"$bin" sim --hierarchy "$H" --db "$tmp/r.db" "$tmp/t4.rtt" 2>/dev/null || err "sim --db of the treelet trace"
+"$bin" report --db "$tmp/r.db" --figure cores >"$tmp/rep.md" 2>&1 || err "report --figure cores: $(cat "$tmp/rep.md")"
+want=$(sqlite3 "$tmp/r.db" "SELECT printf('%.2f', SUM(t.traffic_bytes) / 1048576.0) FROM traffic t JOIN runs r ON r.id = t.run_id
+    JOIN cache_configs c ON c.id = t.config_id WHERE r.cores = 4 AND r.tracer = 'recursive' AND c.size = 4194304")
+grep "shared 4096K" -A5 "$tmp/rep.md" | grep -q "^| 4 | $want | [0-9.]*% | [0-9.]* | [0-9.]*% | -*[0-9.]*% |$" \
+    || err "report: want recursive $want MB on 4 cores: $(cat "$tmp/rep.md")"
+grep "shared 4096K" -A5 "$tmp/rep.md" | grep -q "^| 1 | [0-9.]* | [0-9.]*% | - | - | - |$" || err "report: the one-core row"
+"$bin" report --db "$tmp/r.db" --figure cores --format csv | grep -q "^cornell,24,24,7,.*,4194304,4,treelet," || err "report csv"
 # bad hierarchies
 for bad in "L1=32K/8/64/lru/private" "L1=32K/8/64/fifo,LLC=1M/full/64/lru" "L1=32K/8/64/lru,LLC=1M/full/32/lru"; do
     "$bin" sim --hierarchy "$bad" "$tmp/c4.rtt" >/dev/null 2>"$tmp/u.log"
