@@ -168,6 +168,8 @@ struct option *rt_cmd_merge_opts(const struct option *own);
 
 /* `sim --hierarchy SPEC ...`: the multi-core hierarchy (cmd_sim_cores.c). */
 int rt_cmd_sim_cores(int argc, char **argv);
+/* `sweep --hierarchy SPEC --cores LIST ...`: the multi-core matrix (cmd_sweep_cores.c). */
+int rt_cmd_sweep_cores(int argc, char **argv);
 
 /* Handles one shared option. Returns 1 if handled, 0 if c is not a shared
  * option, -1 on a bad value (message printed for cmd). */

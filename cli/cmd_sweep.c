@@ -113,6 +113,8 @@ static void usage(FILE *f)
             "                     list of res:N (N pixels wide, same aspect) and sub:K[:T]\n"
             "                     (trace 1 in K tiles of TxT pixels, T default 8)\n"
             "  --qorder O, --cores N, --hit-rule R, --qp-measure M  dynamic scheduler options\n"
+            "  --hierarchy SPEC --cores LIST  the multi-core matrix: private caches above a\n"
+            "                     shared level (sweep --hierarchy X --help)\n"
             "                     (see render --help)\n"
             "  --treelet-tris, --ray-window N  treelet scheduler options (see render --help)\n"
             "  --model M          lean (default: compact layout, write-allocate queue stores,\n"
@@ -826,6 +828,8 @@ static int sweep_run(sweep_opts *o, const rt_exp_job *J, long nj)
 
 int main_sweep(int argc, char **argv)
 {
+    for (int a = 1; a < argc; a++) /* the multi-core matrix: cmd_sweep_cores.c */
+        if (!strcmp(argv[a], "--hierarchy") || !strncmp(argv[a], "--hierarchy=", 12)) return rt_cmd_sweep_cores(argc, argv);
     sweep_opts o;
     rt_err e = {0};
     rt_exp_job *J = NULL;

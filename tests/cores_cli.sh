@@ -47,6 +47,17 @@ grep "shared 4096K" -A5 "$tmp/rep.md" | grep -q "^| 4 | $want | [0-9.]*% | [0-9.
     || err "report: want recursive $want MB on 4 cores: $(cat "$tmp/rep.md")"
 grep "shared 4096K" -A5 "$tmp/rep.md" | grep -q "^| 1 | [0-9.]* | [0-9.]*% | - | - | - |$" || err "report: the one-core row"
 "$bin" report --db "$tmp/r.db" --figure cores --format csv | grep -q "^cornell,24,24,7,.*,4194304,4,treelet," || err "report csv"
+# sweep --hierarchy --cores: in process, the same runs and rows as sim --hierarchy of the traces
+"$bin" sweep --scenes cornell -W 24 -H 24 --lights all --tracers recursive --cores 1,4 --hierarchy "$H" \
+    --db "$tmp/s.db" 2>"$tmp/sw.log" || err "sweep --hierarchy: $(cat "$tmp/sw.log")"
+"$bin" sweep --scenes cornell -W 24 -H 24 --lights all --tracers treelet --cores 4 --hierarchy "$H" \
+    --db "$tmp/s.db" 2>"$tmp/sw.log" || err "sweep --hierarchy -t treelet: $(cat "$tmp/sw.log")"
+q="SELECT r.tracer, r.cores, r.hierarchy, l.level, l.core, l.cache_size, l.class, l.accesses, l.misses, l.writebacks,
+   l.traffic_bytes FROM level_traffic l JOIN runs r ON r.id = l.run_id ORDER BY 1, 2, 4, 5, 6, 7"
+sqlite3 "$tmp/r.db" "$q" >"$tmp/lv_sim.txt"; sqlite3 "$tmp/s.db" "$q" >"$tmp/lv_sweep.txt"
+[ -s "$tmp/lv_sim.txt" ] && cmp -s "$tmp/lv_sim.txt" "$tmp/lv_sweep.txt" || err "sweep and sim --hierarchy rows differ"
+"$bin" sweep --scenes cornell -W 8 -H 8 --tracers dynamic --cores 1,2 --hierarchy "$H" --db "$tmp/s.db" 2>"$tmp/u.log"
+[ $? = 2 ] && grep -q "dynamic tracer's work is not split" "$tmp/u.log" || err "sweep -t dynamic --cores 2: $(cat "$tmp/u.log")"
 # bad hierarchies
 for bad in "L1=32K/8/64/lru/private" "L1=32K/8/64/fifo,LLC=1M/full/64/lru" "L1=32K/8/64/lru,LLC=1M/full/32/lru"; do
     "$bin" sim --hierarchy "$bad" "$tmp/c4.rtt" >/dev/null 2>"$tmp/u.log"
