@@ -7,7 +7,8 @@
  * of RT_CORES_SIZES present, a table of DRAM traffic in MB (the run's
  * traffic rows: what reaches memory below the shared level) with one row
  * per core count and one column per tracer, then each tracer's reduction
- * against the recursive tracer at the same core count, 100 (1 - T / R) %;
+ * against the recursive tracer on the same structure (its default, or the
+ * one named in the column) at the same core count, 100 (1 - T / R) %;
  * (a tracer on another structure than its default is its own column,
  * "recursive/bvh4") and the shared level's miss rate (misses / accesses of level 2, all
  * classes). With a plot folder: DIR/cores-SCENE.png, DRAM traffic against
@@ -47,6 +48,19 @@ static int idx_of(char (*names)[32], int *n, int max, const char *s)
     if (*n == max) return -1;
     snprintf(names[*n], 32, "%s", s);
     return (*n)++;
+}
+
+/* The structure a column's tracer runs on: after '/' in its label, else
+ * its tracer's default. */
+static void structure_of(const char *label, char *buf, size_t n)
+{
+    const char *sl = strchr(label, '/');
+    if (sl) {
+        snprintf(buf, n, "%s", sl + 1);
+        return;
+    }
+    const rt_tracer *tr = rt_tracer_find(label);
+    snprintf(buf, n, "%s", tr && rt_accel_name(tr->accel_default) ? rt_accel_name(tr->accel_default) : "?");
 }
 
 int rt_report_cores(sqlite3 *h, const char *dbpath, const char *scene, int csv, const rt_plot_opts *plot, FILE *out,
@@ -127,14 +141,27 @@ int rt_report_cores(sqlite3 *h, const char *dbpath, const char *scene, int csv, 
     else
         fprintf(out, "# Many cores sharing the last level\n\nDatabase: %s. DRAM traffic in MB below the shared level "
                      "(its LRU, fully associative, 64-byte lines) against the number of cores, each with the private "
-                     "level named; reduction = 100 (1 - tracer / recursive) at the same core count; shared miss rate = "
+                     "level named; reduction = 100 (1 - tracer / recursive) at the same core count, against the recursive tracer on the same structure; shared miss rate = "
                      "misses / accesses of the shared level.\n", dbpath);
     rc = 0;
     for (int i = 0; i < ng && rc == 0; i++) {
         group *g = &G[i];
-        int rec = -1;
-        for (int t = 0; t < g->nt; t++)
-            if (!strcmp(g->tracer[t], "recursive")) rec = t;
+        /* each tracer's baseline: the recursive tracer on the same structure */
+        int base[NT], any_base = 0;
+        for (int t = 0; t < g->nt; t++) {
+            char sname[32];
+            structure_of(g->tracer[t], sname, sizeof sname);
+            base[t] = -1;
+            for (int u = 0; u < g->nt; u++) {
+                char su[32];
+                structure_of(g->tracer[u], su, sizeof su);
+                if (u != t && !strncmp(g->tracer[u], "recursive", 9) && (!g->tracer[u][9] || g->tracer[u][9] == '/') &&
+                    !strcmp(sname, su) && strncmp(g->tracer[t], "recursive", 9))
+                    base[t] = u;
+            }
+            any_base |= base[t] >= 0;
+        }
+        (void)any_base;
         for (int z = 0; z < NSZ; z++) {
             int any = 0;
             for (int c = 0; c < g->nc; c++)
@@ -145,18 +172,18 @@ int rt_report_cores(sqlite3 *h, const char *dbpath, const char *scene, int csv, 
                         g->H, g->lights, g->l1, cores_sizes[z] / 1024);
                 for (int t = 0; t < g->nt; t++) fprintf(out, " %s MB | miss |", g->tracer[t]);
                 for (int t = 0; t < g->nt; t++)
-                    if (t != rec && rec >= 0) fprintf(out, " %s vs recursive |", g->tracer[t]);
+                    if (base[t] >= 0) fprintf(out, " %s vs %s |", g->tracer[t], g->tracer[base[t]]);
                 fprintf(out, "\n|---:|");
                 for (int t = 0; t < g->nt; t++) fprintf(out, "---:|---:|");
                 for (int t = 0; t < g->nt; t++)
-                    if (t != rec && rec >= 0) fprintf(out, "---:|");
+                    if (base[t] >= 0) fprintf(out, "---:|");
                 fprintf(out, "\n");
             }
             for (int c = 0; c < g->nc; c++) {
                 const cell *v = g->v[z][c];
                 if (!csv) fprintf(out, "| %d |", g->cores[c]);
                 for (int t = 0; t < g->nt; t++) {
-                    const double red = rec >= 0 && t != rec ? rt_report_reduction(v[rec].mb, v[t].mb) : NAN;
+                    const double red = base[t] >= 0 ? rt_report_reduction(v[base[t]].mb, v[t].mb) : NAN;
                     if (csv) {
                         if (isnan(v[t].mb)) continue;
                         fprintf(out, "%s,%d,%d,%d,%s,%" PRIu64 ",%d,%s,%.3f,", g->scene, g->W, g->H, g->lights, g->l1,
@@ -173,8 +200,8 @@ int rt_report_cores(sqlite3 *h, const char *dbpath, const char *scene, int csv, 
                 }
                 if (!csv) {
                     for (int t = 0; t < g->nt; t++) {
-                        if (t == rec || rec < 0) continue;
-                        const double red = rt_report_reduction(v[rec].mb, v[t].mb);
+                        if (base[t] < 0) continue;
+                        const double red = rt_report_reduction(v[base[t]].mb, v[t].mb);
                         if (isnan(red)) fprintf(out, " - |");
                         else fprintf(out, " %.1f%% |", red);
                     }

@@ -43,9 +43,16 @@ head -1 "$tmp/s4.csv" | grep -q "^trace,level,core,size_bytes" || err "csv heade
 "$bin" report --db "$tmp/r.db" --figure cores >"$tmp/rep.md" 2>&1 || err "report --figure cores: $(cat "$tmp/rep.md")"
 want=$(sqlite3 "$tmp/r.db" "SELECT printf('%.2f', SUM(t.traffic_bytes) / 1048576.0) FROM traffic t JOIN runs r ON r.id = t.run_id
     JOIN cache_configs c ON c.id = t.config_id WHERE r.cores = 4 AND r.tracer = 'recursive' AND c.size = 4194304")
-grep "shared 4096K" -A5 "$tmp/rep.md" | grep -q "^| 4 | $want | [0-9.]*% | [0-9.]* | [0-9.]*% | -*[0-9.]*% |$" \
+grep "shared 4096K" -A5 "$tmp/rep.md" | grep -q "^| 4 | $want | [0-9.]*% | [0-9.]* | [0-9.]*% |$" \
     || err "report: want recursive $want MB on 4 cores: $(cat "$tmp/rep.md")"
-grep "shared 4096K" -A5 "$tmp/rep.md" | grep -q "^| 1 | [0-9.]* | [0-9.]*% | - | - | - |$" || err "report: the one-core row"
+grep "shared 4096K" -A5 "$tmp/rep.md" | grep -q "^| 1 | [0-9.]* | [0-9.]*% | - | - |$" || err "report: the one-core row"
+# the treelet tracer is compared with the recursive tracer on its structure (bvh4)
+"$bin" trace cornell -W 24 -H 24 --lights all --accel bvh4 --cores 4 -o "$tmp/b4.rtt" 2>/dev/null || err "trace --accel bvh4"
+"$bin" sim --hierarchy "$H" --db "$tmp/r.db" "$tmp/b4.rtt" 2>/dev/null || err "sim --db of the bvh4 trace"
+"$bin" report --db "$tmp/r.db" --figure cores >"$tmp/rep.md" 2>&1 || err "report --figure cores (bvh4)"
+grep -q "| treelet vs recursive/bvh4 |" "$tmp/rep.md" || err "no treelet vs recursive/bvh4 column: $(cat "$tmp/rep.md")"
+grep "shared 4096K" -A6 "$tmp/rep.md" | grep -q "^| 4 | [0-9.]* | [0-9.]*% | [0-9.]* | [0-9.]*% | [0-9.]* | [0-9.]*% | -*[0-9.]*% |$" \
+    || err "report: the reduction on 4 cores: $(cat "$tmp/rep.md")"
 "$bin" report --db "$tmp/r.db" --figure cores --format csv | grep -q "^cornell,24,24,7,.*,4194304,4,treelet," || err "report csv"
 # sweep --hierarchy --cores: in process, the same runs and rows as sim --hierarchy of the traces
 "$bin" sweep --scenes cornell -W 24 -H 24 --lights all --tracers recursive --cores 1,4 --hierarchy "$H" \
@@ -53,7 +60,8 @@ grep "shared 4096K" -A5 "$tmp/rep.md" | grep -q "^| 1 | [0-9.]* | [0-9.]*% | - |
 "$bin" sweep --scenes cornell -W 24 -H 24 --lights all --tracers treelet --cores 4 --hierarchy "$H" \
     --db "$tmp/s.db" 2>"$tmp/sw.log" || err "sweep --hierarchy -t treelet: $(cat "$tmp/sw.log")"
 q="SELECT r.tracer, r.cores, r.hierarchy, l.level, l.core, l.cache_size, l.class, l.accesses, l.misses, l.writebacks,
-   l.traffic_bytes FROM level_traffic l JOIN runs r ON r.id = l.run_id ORDER BY 1, 2, 4, 5, 6, 7"
+   l.traffic_bytes FROM level_traffic l JOIN runs r ON r.id = l.run_id WHERE r.params NOT LIKE '%accel=%'
+   ORDER BY 1, 2, 4, 5, 6, 7"
 sqlite3 "$tmp/r.db" "$q" >"$tmp/lv_sim.txt"; sqlite3 "$tmp/s.db" "$q" >"$tmp/lv_sweep.txt"
 [ -s "$tmp/lv_sim.txt" ] && cmp -s "$tmp/lv_sim.txt" "$tmp/lv_sweep.txt" || err "sweep and sim --hierarchy rows differ"
 "$bin" sweep --scenes cornell -W 8 -H 8 --tracers dynamic --cores 1,2 --hierarchy "$H" --db "$tmp/s.db" 2>"$tmp/u.log"
