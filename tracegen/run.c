@@ -253,24 +253,86 @@ done:
     return tid ? rc : -1;
 }
 
+/* ---- a core's own copy of its scratch regions (run.h) -------------------- */
+
+typedef struct reloc {
+    rt_sink self;        /* the wrapper: relocates, then hands on */
+    rt_sink *to;
+    uint64_t lo[RT_MM_MAX_REGIONS], hi[RT_MM_MAX_REGIONS]; /* the scratch regions [lo, hi) */
+    int n;
+    uint64_t off;        /* core * span */
+    rt_access buf[RT_REC_BUF];
+} reloc;
+
+static int reloc_put(rt_sink *s, const rt_access *a, size_t n)
+{
+    reloc *r = s->ctx;
+    while (n) {
+        size_t k = n < RT_REC_BUF ? n : RT_REC_BUF;
+        for (size_t i = 0; i < k; i++) {
+            r->buf[i] = a[i];
+            for (int g = 0; g < r->n; g++)
+                if (a[i].addr >= r->lo[g] && a[i].addr < r->hi[g]) {
+                    r->buf[i].addr += r->off;
+                    break;
+                }
+        }
+        if (r->to->put(r->to, r->buf, k) < 0) return -1;
+        a += k;
+        n -= k;
+    }
+    return 0;
+}
+
+/* Sets r up for core `part`: 0 when it relocates nothing (core 0, or no
+ * scratch region), 1 when r->self is to be used. */
+static int reloc_init(reloc *r, const rt_layout *L, int part, rt_sink *to)
+{
+    r->n = 0;
+    r->to = to;
+    r->self.put = reloc_put;
+    r->self.ctx = r;
+    if (part <= 0) return 0;
+    for (int g = 0; g < L->n; g++) {
+        const rt_region *x = &L->r[g];
+        if (rt_class_group(x->cls) == RT_GROUP_GEOMETRY || !strcmp(x->name, "rays.primary") || !strcmp(x->name, "fb"))
+            continue;
+        r->lo[r->n] = x->base;
+        r->hi[r->n++] = x->base + (uint64_t)x->recsize * x->count;
+    }
+    const uint64_t span = (L->next - RT_MM_BASE + 4095) & ~(uint64_t)4095;
+    r->off = (uint64_t)part * span;
+    return r->n > 0;
+}
+
 /* One tracer run of work share part of nparts, recording into sink (NULL:
  * untraced) through the layout's translating recorder. Fills st (its
  * mark_keep as set by the caller). 0 or -1. */
 static int run_share(rt_job *j, rt_sink *sink, int part, int nparts, rt_image *img, rt_run_stats *st, rt_err *e)
 {
     rt_rec *rec = NULL;
-    if (sink && !(rec = rt_rec_new(sink, e))) return -1;
+    reloc *rl = NULL;
+    if (sink && nparts > 1) { /* a core's scratch regions: its own copy (run.h) */
+        if (!(rl = rt_calloc(1, sizeof *rl, e))) return -1;
+        if (reloc_init(rl, &j->L, part, sink)) sink = &rl->self;
+    }
+    if (sink && !(rec = rt_rec_new(sink, e))) {
+        free(rl);
+        return -1;
+    }
     /* mesh layout: the tracer records into the translating recorder, which
      * feeds rec (mesh.h) */
     rt_rec *trec = rec;
     const int pbrt = rt_geom_is_pbrt(j->opt.geom);
     if (rec && j->opt.geom == RT_GEOM_MESH && !(trec = rt_mesh_rec_new(j->mesh, &j->L, rec, e))) {
         rt_rec_free(rec);
+        free(rl);
         return -1;
     }
     /* pbrt layouts: pbrt-v1's objects and mailboxes (pbrtlayout.h) */
     if (rec && pbrt && !(trec = rt_pbrt_rec_new(j->mesh, rt_job_kd(j), &j->L, j->opt.geom, rec, e))) {
         rt_rec_free(rec);
+        free(rl);
         return -1;
     }
     rt_tracer_ctx ctx = {j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, trec, j->plan, j->check, j->mesh, part, nparts};
@@ -293,6 +355,7 @@ static int run_share(rt_job *j, rt_sink *sink, int part, int nparts, rt_image *i
         st->accesses = rec->total;
         rt_rec_free(rec);
     }
+    free(rl);
     return rc;
 }
 

@@ -56,6 +56,15 @@ int rt_job_run(rt_job *j, rt_sink *sink, rt_image *img, rt_run_stats *st, rt_err
  *   in each tick core 0 issues its next RT_CORE_TICK references (fewer at
  *   its end), then core 1, ..., then core N-1. A finished core drops out.
  *
+ * Each core has its own copy of the run's scratch regions -- every region
+ * but the geometry group's and the per-pixel "rays.primary" and "fb"
+ * (queues, stacks, ray-window slots, packet hits: what one core's tracer
+ * keeps for itself): core k's references into them are moved up by k
+ * times the layout's span (rt_layout.next - RT_MM_BASE, rounded to 4 KiB),
+ * so two cores never share a scratch line; geometry is shared read-only
+ * and a pixel's records are its core's (lines at share-tile edges are
+ * really shared). rt_job_run_part moves them the same way.
+ *
  * The order depends only on each core's own reference stream, never on
  * host timing, so it is the same on every machine; N = 1 is the one-core
  * run (rt_job_run). A trace of it costs one 2-byte core switch per
