@@ -28,7 +28,9 @@ static void usage(FILE *f)
             "  --heatmap FILE     also write the triangle tests per pixel as a heat-map PNG\n"
             "                     (log scale up to 4 x triangles: grid and naive comparable)\n"
             "  --ppm FILE         same as a binary PPM\n"
-            "  --json             print statistics as JSON on stdout\n" RT_RENDER_OPTS_HELP
+            "  --json             print statistics as JSON on stdout\n");
+    rt_cmd_render_help(f, RT_OC_RENDER);
+    fprintf(f,
             "  -h, --help         this help\n\n"
             "Statistics (stderr, or JSON): rays traced, nodes visited and triangles tested\n"
             "per ray, and the distinct triangles tested by primary rays and by all rays\n"
@@ -96,10 +98,11 @@ int main_render(int argc, char **argv)
     const char *material = NULL;
     const char *tracer = "recursive", *out = NULL, *ppm = NULL, *png = NULL, *heat = NULL;
     int json = 0, c, rc = RT_EXIT_FAIL;
-    struct option *lo = rt_cmd_merge_opts(own);
+    struct option *lo = rt_cmd_longopts(RT_OC_RENDER, own);
+    char so[32];
     if (!lo) return RT_EXIT_FAIL;
     optind = 1;
-    while ((c = getopt_long(argc, argv, "o:h" RT_RENDER_SHORTOPTS, lo, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, rt_cmd_shortopts(RT_OC_RENDER, "o:h", so, sizeof so), lo, NULL)) != -1) {
         int r = rt_cmd_render_opt("render", c, optarg, &o, &tracer);
         if (r < 0) goto usage_err;
         if (r > 0) continue;

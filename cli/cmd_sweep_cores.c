@@ -116,10 +116,11 @@ int rt_cmd_sweep_cores(int argc, char **argv)
     o.W = o.H = 256;
     const char *spec = NULL, *scenes = "sphereflake", *tracers = "recursive", *dbpath = "raytraffic.db", *dummy = NULL;
     int cores[64] = {1}, nc = 1, c;
-    struct option *lo = rt_cmd_merge_opts(own);
+    struct option *lo = rt_cmd_longopts(RT_OC_RUN, own); /* the one-job options (--lights, --accel, ...) */
+    char so[32];
     if (!lo) return RT_EXIT_FAIL;
     optind = 1;
-    while ((c = getopt_long(argc, argv, "h" RT_RENDER_SHORTOPTS, lo, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, rt_cmd_shortopts(RT_OC_RUN, "h", so, sizeof so), lo, NULL)) != -1) {
         if (c == 'c' || c == 'y' || c == 's' || c == 'T' || c == 'd' || c == 'h') {
             switch (c) {
             case 'y': spec = optarg; break;
@@ -136,7 +137,7 @@ int rt_cmd_sweep_cores(int argc, char **argv)
             }
             continue;
         }
-        int r = c == RT_OPT_CORES ? -1 : rt_cmd_render_opt("sweep", c, optarg, &o, &dummy);
+        int r = rt_cmd_render_opt("sweep", c, optarg, &o, &dummy);
         if (r <= 0) {
             if (!r) rt_cmd_error("sweep", "with --hierarchy: option not supported (see sweep --hierarchy X --help)");
             free(lo);

@@ -90,6 +90,17 @@ _Static_assert(RT_DB_SE_N == RT_NGROUP + 1, "rt_db_se holds one error per group 
     "  UNIQUE(scene_id, tracer, W, H, lights, sched_size, gmax, params, sim_method, sim_params, repl, hierarchy,\n" \
     "         cores, light_model, instances));\n"
 
+/* The structure a run was traced on, from its key: the word after
+ * "accel=" ('' = the tracer's default, the k-d tree for the paper's
+ * tracers). */
+#define ACCEL_EXPR                                                                                                   \
+    "CASE WHEN instr(r.params, 'accel=') > 0 THEN substr(substr(r.params, instr(r.params, 'accel=') + 6), 1,"        \
+    " instr(substr(r.params, instr(r.params, 'accel=') + 6) || ' ', ' ') - 1) ELSE '' END"
+
+/* A light mask as names: bit i is light i, "0+2" for lights 0 and 2
+ * (lights 0..7; 0 = "none"). */
+#define LIGHT_BITS "CASE WHEN r.lights & 1 THEN '+0' ELSE '' END || CASE WHEN r.lights & 2 THEN '+1' ELSE '' END || CASE WHEN r.lights & 4 THEN '+2' ELSE '' END || CASE WHEN r.lights & 8 THEN '+3' ELSE '' END || CASE WHEN r.lights & 16 THEN '+4' ELSE '' END || CASE WHEN r.lights & 32 THEN '+5' ELSE '' END || CASE WHEN r.lights & 64 THEN '+6' ELSE '' END || CASE WHEN r.lights & 128 THEN '+7' ELSE '' END"
+
 static const char schema_sql[] =
     "CREATE TABLE IF NOT EXISTS scenes(\n"
     "  id INTEGER PRIMARY KEY,\n"
@@ -133,7 +144,8 @@ static const char schema_sql[] =
     "  GROUP BY t.run_id, t.config_id;\n"
     "CREATE VIEW IF NOT EXISTS v_paper AS\n"
     "  SELECT s.name AS scene, r.tracer, r.lights, r.W, r.H, r.sched_size, g.cache_size,\n"
-    "    g.geometry_mb, g.ray_mb, r.sched_size AS sched_cache_size\n"
+    "    g.geometry_mb, g.ray_mb, r.sched_size AS sched_cache_size,\n"
+    "    s.params AS scene_params, " ACCEL_EXPR " AS accel, r.sim_params, r.params, r.id AS run_id\n"
     "  FROM v_traffic_group g JOIN runs r ON r.id = g.run_id JOIN scenes s ON s.id = r.scene_id\n"
     "  WHERE g.line = 64 AND g.assoc = 0 AND g.policy = 'wb-wa' AND r.sim_method = 'exact'\n"
     "    AND r.params NOT LIKE '%subsample=%';\n"
@@ -177,6 +189,19 @@ static const char schema_sql[] =
     "    g.other_mb, e.other_se / 1048576.0 AS other_se_mb, g.total_mb, e.total_se / 1048576.0 AS total_se_mb\n"
     "  FROM v_traffic_group g JOIN runs r ON r.id = g.run_id\n"
     "    LEFT JOIN traffic_se e ON e.run_id = g.run_id AND e.config_id = g.config_id;\n"
+    "CREATE VIEW IF NOT EXISTS v_runs AS\n"
+    "  SELECT r.id AS run_id, s.name AS scene, s.params AS scene_params, s.hash AS scene_hash, r.tracer,\n"
+    "    " ACCEL_EXPR " AS accel, r.W, r.H, r.lights,\n"
+    "    CASE WHEN r.lights = 0 THEN 'none' ELSE ltrim(" LIGHT_BITS ", '+') END AS light_names,\n"
+    "    CASE WHEN r.params LIKE '%mode=whitted%' THEN 'whitted' WHEN r.params LIKE '%mode=path%' THEN 'path'\n"
+    "      WHEN r.params LIKE '%mode=raycast%' OR (r.lights = 0 AND r.params NOT LIKE '%mode=%') THEN 'raycast'\n"
+    "      ELSE 'shadow' END AS mode,\n"
+    "    CASE WHEN r.params LIKE '%subsample=%' THEN 'subsample' ELSE 'full' END AS proxy,\n"
+    "    CASE WHEN r.sim_params LIKE 'model=%' THEN substr(r.sim_params, 7, instr(r.sim_params || ' ', ' ') - 7)\n"
+    "      WHEN r.sim_method = 'exact' THEN 'lean' ELSE '' END AS model,\n"
+    "    r.sim_method, r.sim_params, r.sched_size, r.gmax, r.repl, r.hierarchy, r.cores, r.light_model,\n"
+    "    r.instances, r.params, r.refs, r.git_rev, r.created, r.command\n"
+    "  FROM runs r JOIN scenes s ON s.id = r.scene_id;\n"
     "CREATE TABLE IF NOT EXISTS level_traffic(\n"
     "  run_id INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE,\n"
     "  level INTEGER NOT NULL,             -- 1 = nearest the core, 2, ... (memory side last)\n"

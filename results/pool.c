@@ -35,12 +35,13 @@ void rt_pool_job_label(const rt_exp_config *o, const rt_exp_job *jb, char *buf, 
         if (p->W) snprintf(px, sizeof px, " [res:%d]", p->W);
         else snprintf(px, sizeof px, " [sub:%u:%d]", (unsigned)p->subsample, p->subtile);
     }
-    char li[64];
-    const char *lab = jb->lighting >= 0 ? o->lightings[jb->lighting].label : "primary";
+    char li[96], ln[48];
+    /* the lights as names (rt_exp_lights_name), the one spelling */
+    rt_exp_lights_name(jb->lighting >= 0 ? o->lightings[jb->lighting].mask : 0, ln, sizeof ln);
     if (jb->mode == RT_MODE_WHITTED || jb->mode == RT_MODE_PATH)
-        snprintf(li, sizeof li, "%s %s", rt_render_mode_name(jb->mode), lab);
+        snprintf(li, sizeof li, "%s lights %s", rt_render_mode_name(jb->mode), ln);
     else
-        snprintf(li, sizeof li, "%s", lab);
+        snprintf(li, sizeof li, "lights %s", ln);
     char tr[96];
     snprintf(tr, sizeof tr, "%s%s%s", jb->tracer, jb->accel != RT_ACCEL_DEFAULT ? "/" : "",
              jb->accel != RT_ACCEL_DEFAULT ? rt_accel_name(jb->accel) : "");

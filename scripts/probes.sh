@@ -592,6 +592,20 @@ bad --approx sweep --approx shards:7 --db $o.db
 bad --proxy sweep --proxy res:0 --db $o.db
 bad --figure report --figure 42 --db $o.db
 bad --format report --format xml --db $o.db
+# strict numbers in every render option (docs/options.md): hex, space, plus, overflow, nan
+for v in 0x10 " 1" +2 1e999 nan; do
+    bad --grid-density trace cornell -W 8 -H 8 -t feedback --grid-density "$v" -o $o.rtt
+    bad --oracle-fraction trace cornell -W 8 -H 8 -t stream-multipass --oracle-fraction "$v" -o $o.rtt
+    bad --fov trace cornell -W 8 -H 8 --fov "$v" -o $o.rtt
+    bad --look-at trace cornell -W 8 -H 8 --look-at "$v,0,1,0,0,0" -o $o.rtt
+    bad --light trace cornell -W 8 -H 8 --light "0.5,$v,0.9" -o $o.rtt
+    bad --grid-density sweep --tracers feedback --grid-density "$v" --list-jobs
+done
+# a light index --light did not define; --look-at beyond single precision, along the scene's up
+bad --lights trace cornell -W 8 -H 8 --light 0.5,0.5,0.9 --lights 1,2 -o $o.rtt
+bad --lights sweep --scenes cornell --tracers recursive --light 0.5,0.5,0.9 --lights primary,1 --list-jobs
+bad --look-at trace cornell -W 8 -H 8 --look-at 1e20,1e20,1e20,-1e20,-1e20,-1e20 -o $o.rtt
+bad "scene's up vector" trace knot -W 8 -H 8 --look-at 0,0,12,0,0,0 -o $o.rtt
 [ -e $o.db ] && { other=$((other + 1)); note "a usage error created the database"; }
 cd "$src" || exit 1
 rm -rf "$tmp/p8"
@@ -695,6 +709,18 @@ cp "$cube" "${L2}.obj"
 what="240-byte name with --keep-traces"
 run 60 "$bin" sweep --scenes "${L2}.obj" --tracers recursive --lights primary -W 8 -H 8 --sizes 1K --db k.db --keep-traces kept
 must_accept
+# sweep's scene list (docs/options.md): a comma in a mesh name, scenes loaded before --list-jobs,
+# no empty database after a failure
+cp "$cube" "a,b.obj" && printf 'a,b.obj\n' > list.txt
+what="--scenes-file with a comma mesh"
+run 60 "$bin" sweep --scenes-file list.txt --tracers recursive --lights primary -W 8 -H 8 --sizes 1K --db c.db; must_accept
+printf 'Shape "nosuchshape"\n' > bad.pbrt
+for sp in nosuch missing.obj bad.pbrt; do
+    what="--list-jobs with scene $sp"; run 30 "$bin" sweep --scenes "$sp" --list-jobs
+    [ $rc = 1 ] && [ ! -s "$tmp/out" ]; check $? "$what: exit $rc, $(wc -l < "$tmp/out") job lines"
+done
+run 30 "$bin" sweep --scenes nosuch --tracers recursive -W 8 -H 8 --db e.db
+[ ! -e e.db ]; check $? "a failed sweep left an empty database"
 cd "$src" || exit 1
 rm -rf "$p9"
 row "9. hostile use: job lines, scene files, reruns, names, reports, exports, numbers, memory, databases" $n $crash $hang $silent - - $other

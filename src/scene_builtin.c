@@ -1168,7 +1168,7 @@ rt_scene *rt_scene_builtin(const char *name, const char *params, rt_err *e)
     for (size_t i = 0; i < NBUILTIN; i++)
         if (!strcmp(builtins[i].name, name)) b = &builtins[i];
     if (!b) {
-        rt_errf(e, "unknown scene '%s' (not .obj/.ply, not a built-in; see 'raytraffic scene list')", name);
+        rt_errf(e, "unknown scene '%s' (not .obj/.ply/.pbrt, not a built-in; see 'raytraffic scene list')", name);
         return NULL;
     }
     int vals[MAXP];

@@ -41,7 +41,7 @@ static rt_scene *load_base(const char *spec, const char *params, rt_err *e)
         return has_suffix(spec, ".obj") ? rt_scene_load_obj(spec, e) : rt_scene_load_ply(spec, e);
     }
     if (fn >= sizeof name) {
-        rt_errf(e, "unknown scene '%.40s...' (not .obj/.ply, not a built-in; see 'raytraffic scene list')", spec);
+        rt_errf(e, "unknown scene '%.40s...' (not .obj/.ply/.pbrt, not a built-in; see 'raytraffic scene list')", spec);
         return NULL;
     }
     memcpy(name, spec, fn);

@@ -67,7 +67,8 @@ sqlite3 "$tmp/r.db" "$q" >"$tmp/lv_sim.txt"; sqlite3 "$tmp/s.db" "$q" >"$tmp/lv_
 "$bin" sweep --scenes cornell -W 8 -H 8 --tracers dynamic --cores 1,2 --hierarchy "$H" --db "$tmp/s.db" 2>"$tmp/u.log"
 [ $? = 2 ] && grep -q "dynamic tracer's work is not split" "$tmp/u.log" || err "sweep -t dynamic --cores 2: $(cat "$tmp/u.log")"
 # bad hierarchies
-for bad in "L1=32K/8/64/lru/private" "L1=32K/8/64/fifo,LLC=1M/full/64/lru" "L1=32K/8/64/lru,LLC=1M/full/32/lru"; do
+for bad in "L1=32K/8/64/lru/private" "L1=32K/8/64/fifo/private,LLC=1M/full/64/lru/shared" \
+    "L1=32K/8/64/lru/private,LLC=1M/full/32/lru/shared" "L1=32K/8/64/lru/shared,LLC=1M/full/64/lru/shared"; do
     "$bin" sim --hierarchy "$bad" "$tmp/c4.rtt" >/dev/null 2>"$tmp/u.log"
     [ $? = 2 ] && grep -q -- "--hierarchy" "$tmp/u.log" || err "--hierarchy $bad: $(cat "$tmp/u.log")"
 done

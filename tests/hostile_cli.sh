@@ -100,15 +100,23 @@ cp "$cube" "${L}a.obj"
     --db r.db 2> err || die "18: sweep: $(cat err)"
 [ "$(sqlite3 r.db "SELECT COUNT(DISTINCT name) FROM scenes WHERE length(name) = 151")" = 2 ] ||
     die "18: names not stored whole: $(sqlite3 r.db 'SELECT length(name) FROM scenes')"
-"$bin" report --db r.db --format csv > rep.csv 2> err || die "18: report: $(cat err)"
+"$bin" report --db r.db --format csv --out csv 2> err || die "18: report: $(cat err)"
+# a tidy table's geometry MB of scene $2 at size $3 (recursive), by column name
+geo_mb() {
+    awk -F, -v sc="$2" -v sz="$3" 'NR == 1 { for (i = 1; i <= NF; i++) h[$i] = i; next }
+        $h["scene"] == sc && $h["cache_size"] == sz && $h["class_group"] == "geometry" && $h["tracer"] == "recursive" {
+        s += $h["traffic_bytes"] } END { printf "%.2f", s / 1048576 }' "$1"
+}
 for x in a b; do
     want=$(sqlite3 r.db "SELECT printf('%.2f', g.geometry_mb) FROM v_traffic_group g JOIN runs r ON r.id = g.run_id
         JOIN scenes s ON s.id = r.scene_id WHERE s.name = '${L}$x.obj' AND g.cache_size = 1024 AND g.line = 64
         AND g.assoc = 0 AND g.policy = 'wb-wa'")
-    got=$(grep "^0,${L}$x.obj,1024," rep.csv | cut -d, -f4)
+    f=$(grep -l ",${L}$x.obj," csv/primary-* | head -1)
+    got=$([ -n "$f" ] && geo_mb "$f" "${L}$x.obj" 1024)
     [ -n "$want" ] && [ "$got" = "$want" ] || die "18: scene $x: report says '$got', the database '$want'"
-    [ "$(grep -c "^${L}$x.obj," rep.csv)" = 1 ] || die "18: scene $x: not one row in the scene table"
+    [ "$(grep -c "^${L}$x.obj," csv/scenes.csv)" = 1 ] || die "18: scene $x: not one row in the scene table"
 done
+[ "$(ls csv/primary-* | wc -l)" = 2 ] || die "18: not one table per scene: $(ls csv)"
 havegp=0
 command -v gnuplot > /dev/null 2>&1 && havegp=1
 if [ $havegp = 1 ]; then
@@ -123,8 +131,9 @@ sed -i "s|^mtllib .*|mtllib ${L2}b.mtl|" "${L2}b.obj"
 "$bin" sweep --scenes "${L2}a.obj,${L2}b.obj" --tracers recursive --lights primary -W 16 -H 16 --sizes 1K-4K \
     --db r2.db --keep-traces kept 2> err || die "26: sweep of 245-byte names with --keep-traces: $(cat err)"
 [ "$(ls kept | wc -l)" = 2 ] || die "26: kept traces: $(ls kept)"
-"$bin" report --db r2.db --format csv > rep2.csv 2> err || die "18: report of long names: $(cat err)"
-[ "$(grep -c "^${L2}[ab].obj," rep2.csv)" = 2 ] || die "18: 245-byte names: labels not whole and distinct"
+"$bin" report --db r2.db --format csv --out csv2 2> err || die "18: report of long names: $(cat err)"
+[ "$(grep -c "^${L2}[ab].obj," csv2/scenes.csv)" = 2 ] || die "18: 245-byte names: labels not whole and distinct"
+[ "$(ls csv2 | grep -c '^primary-.*n~[0-9a-f]*\.csv$')" = 2 ] || die "18: 245-byte names: tables $(ls csv2)"
 if [ $havegp = 1 ]; then
     rm -rf p && "$bin" report --db r2.db --plot p > /dev/null 2> err || die "18: --plot of long names: $(cat err)"
     [ "$(ls p | grep -c 'n~[0-9a-f]*-traffic.png$')" = 2 ] || die "18: 245-byte names: plots $(ls p)"
