@@ -106,6 +106,9 @@ static void usage(FILE *f)
     fprintf(f,
             "  --db FILE          results database (default raytraffic.db)\n"
             "  --jobs N           worker processes (default 1)\n"
+            "  --hierarchy SPEC --cores LIST  the multi-core matrix instead: private\n"
+            "                     caches above a shared level, per core count\n"
+            "                     (sweep --hierarchy X --help)\n"
             "  --keep-traces DIR  also write every job's trace to DIR\n"
             "  --dynamic-all-sizes  simulate each dynamic schedule at every size\n"
             "  --approx LIST      also run approximate simulators on the same access stream\n"
