@@ -65,66 +65,19 @@ int rt_report_flush(FILE *out, rt_err *e)
     return 0;
 }
 
-/* One integer from a query (0 when it returns no row). */
-static int get_int(sqlite3 *h, const char *path, const char *sql, sqlite3_int64 *v, rt_err *e)
-{
-    sqlite3_stmt *st;
-    *v = 0;
-    if (sqlite3_prepare_v2(h, sql, -1, &st, NULL) != SQLITE_OK) return rt_errf(e, "%s: %s", path, sqlite3_errmsg(h));
-    int rc = sqlite3_step(st);
-    if (rc == SQLITE_ROW) *v = sqlite3_column_int64(st, 0);
-    sqlite3_finalize(st);
-    if (rc != SQLITE_ROW && rc != SQLITE_DONE) return rt_errf(e, "%s: %s", path, sqlite3_errmsg(h));
-    return 0;
-}
-
 int rt_report_db_open(const char *path, sqlite3 **ph, rt_err *e)
 {
+    /* the one reading rule of results/db.c (immutable without a -wal
+     * file, nothing created beside it; FIFOs, devices and memory refused) */
     *ph = NULL;
     struct stat sb;
-    if (stat(path, &sb) < 0) return rt_errf(e, "%s: %s (run `raytraffic sweep` first)", path, strerror(errno));
-    size_t n = strlen(path);
-    char *uri = rt_calloc(3 * n + 32, 1, e);
-    if (!uri) return -1;
-    /* a URI, so every byte outside the unreserved set is percent-encoded */
-    size_t k = (size_t)sprintf(uri, "file:");
-    for (const unsigned char *p = (const unsigned char *)path; *p; p++)
-        k += (size_t)(isalnum(*p) || strchr("-._~/", *p) ? sprintf(uri + k, "%c", *p) : sprintf(uri + k, "%%%02X", *p));
-    char *wal = rt_calloc(n + 8, 1, e);
-    if (!wal) {
-        free(uri);
-        return -1;
-    }
-    sprintf(wal, "%s-wal", path);
-    strcat(uri, stat(wal, &sb) == 0 ? "?mode=ro" : "?immutable=1");
-    free(wal);
-    sqlite3 *h = NULL;
-    int orc = sqlite3_open_v2(uri, &h, SQLITE_OPEN_READONLY | SQLITE_OPEN_URI, NULL);
-    free(uri);
-    if (orc != SQLITE_OK) {
-        rt_errf(e, "%s: cannot open database: %s", path, h ? sqlite3_errmsg(h) : "out of memory");
-        sqlite3_close(h);
-        return -1;
-    }
-    sqlite3_busy_timeout(h, 60000);
-    sqlite3_int64 ver, ntab;
-    if (get_int(h, path, "PRAGMA user_version", &ver, e) < 0 ||
-        get_int(h, path, "SELECT COUNT(*) FROM sqlite_master WHERE type = 'table' AND name = 'runs'", &ntab, e) < 0)
-        goto fail;
-    if (ver > RT_DB_SCHEMA_VERSION) {
-        rt_errf(e, "%s: database schema version %lld is newer than this raytraffic supports (%d); use a newer raytraffic",
-                path, (long long)ver, RT_DB_SCHEMA_VERSION);
-        goto fail;
-    }
-    if (ver < 1 || !ntab) {
-        rt_errf(e, "%s: not a raytraffic results database", path);
-        goto fail;
-    }
+    if (path && path[0] && path[0] != ':' && stat(path, &sb) < 0 && errno == ENOENT)
+        return rt_errf(e, "%s: %s (run `raytraffic sweep` first)", path, strerror(errno));
+    void *h = NULL;
+    int ver = 0;
+    if (rt_db_open_read(path, &h, &ver, e) < 0) return -1;
     *ph = h;
     return 0;
-fail:
-    sqlite3_close(h);
-    return -1;
 }
 
 /* A scene's label: its name, and when another scene has that name but

@@ -200,13 +200,6 @@ static int same_group(const trow *a, const trow *b)
            a->H == b->H && !strcmp(a->variant, b->variant) && a->accel == b->accel;
 }
 
-static int close_file(FILE *f, const char *path, rt_err *e)
-{
-    int bad = ferror(f);
-    if (fclose(f) != 0 || bad) return rt_errf(e, "%s: write error: %s", path, strerror(errno ? errno : EIO));
-    return 0;
-}
-
 /* DIR/treelet-SCENE-MODE-lLIGHTS-WxH-ACCEL[-VARIANT].{dat,gp,png}. */
 static int group_plot(const rt_plot_opts *po, const trow *R, long n, const trow *const *g, int ng, rt_err *e)
 {
@@ -221,8 +214,9 @@ static int group_plot(const rt_plot_opts *po, const trow *R, long n, const trow 
     snprintf(dat, sizeof dat, "%s.dat", base);
     snprintf(gpf, sizeof gpf, "%s.gp", base);
     snprintf(png, sizeof png, "%s.png", base);
-    FILE *f = fopen(dat, "w");
-    if (!f) return rt_errf(e, "%s: %s", dat, strerror(errno));
+    struct rt_out *o; /* through src/outfile.c: unique temporary, renamed when complete */
+    FILE *f = rt_plot_open(dat, &o, e);
+    if (!f) return -1;
     fprintf(f, "# cache_kb, total MB and geometry MB of: baseline on the BVH, treelet, baseline on the k-d tree, "
                "dynamic (NaN: no run)\n");
     for (int i = 0; i < ng; i++) {
@@ -235,8 +229,8 @@ static int group_plot(const rt_plot_opts *po, const trow *R, long n, const trow 
             else fprintf(f, " NaN NaN");
         fprintf(f, "\n");
     }
-    if (close_file(f, dat, e) < 0) return -1;
-    if (!(f = fopen(gpf, "w"))) return rt_errf(e, "%s: %s", gpf, strerror(errno));
+    if (rt_plot_commit(o, e) < 0) return -1;
+    if (!(f = rt_plot_open(gpf, &o, e))) return -1;
     char title[900];
     char ln[48];
     snprintf(title, sizeof title, "%s, %s, lights %s, %dx%d, %s %s", a->scene, a->mode[0] ? a->mode : m,
@@ -257,7 +251,7 @@ static int group_plot(const rt_plot_opts *po, const trow *R, long n, const trow 
                 2 + 2 * c, col[c], name[c], 3 + 2 * c, col[c], name[c]);
     }
     fprintf(f, "\n");
-    if (close_file(f, gpf, e) < 0) return -1;
+    if (rt_plot_commit(o, e) < 0) return -1;
     if (!po->gnuplot) return 0;
     if (rt_plot_run(po->gnuplot, gpf, e) < 0) return -1;
     if (po->log) fprintf(po->log, "wrote %s\n", png);

@@ -71,6 +71,16 @@ int rt_cmd_parse_line(const char *cmd, const char *arg, uint32_t *line);
  * bytes escaped). */
 void rt_cmd_json_str(FILE *f, const char *s);
 
+/* A scene's load warnings (rt_scene.warn), every kind on its own stderr
+ * line "raytraffic CMD: warning: FILE:LINE: what (N times)". */
+void rt_cmd_print_warnings(const char *cmd, const rt_scene *s);
+/* The same as a JSON member `"warnings": [{"kind": ..., "count": N,
+ * "first": "FILE:LINE", "message": ...}, ...]` (no comma around it). */
+void rt_cmd_json_warnings(FILE *f, const rt_scene *s);
+/* --strict: a scene with warnings is refused, its first warning named and
+ * the count of kinds given (printed for cmd). 0, or -1. */
+int rt_cmd_strict(const char *cmd, const rt_scene *s);
+
 /* ---- render options shared by render, trace, bench and sweep ---------- */
 
 /* The options come from one table, rt_render_optdefs (tracegen/options.h):

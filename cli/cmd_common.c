@@ -254,6 +254,40 @@ void rt_cmd_json_str(FILE *f, const char *s)
     fputc('"', f);
 }
 
+void rt_cmd_print_warnings(const char *cmd, const rt_scene *s)
+{
+    for (uint32_t i = 0; i < s->nwarn; i++) {
+        const rt_scene_warn *w = &s->warn[i];
+        if (w->count > 1) rt_cmd_error(cmd, "warning: %s: %s (%u times)", w->first, w->msg, (unsigned)w->count);
+        else rt_cmd_error(cmd, "warning: %s: %s", w->first, w->msg);
+    }
+}
+
+void rt_cmd_json_warnings(FILE *f, const rt_scene *s)
+{
+    fputs("\"warnings\": [", f);
+    for (uint32_t i = 0; i < s->nwarn; i++) {
+        const rt_scene_warn *w = &s->warn[i];
+        fputs(i ? ", {\"kind\": " : "{\"kind\": ", f);
+        rt_cmd_json_str(f, w->kind);
+        fprintf(f, ", \"count\": %u, \"first\": ", (unsigned)w->count);
+        rt_cmd_json_str(f, w->first);
+        fputs(", \"message\": ", f);
+        rt_cmd_json_str(f, w->msg);
+        fputc('}', f);
+    }
+    fputc(']', f);
+}
+
+int rt_cmd_strict(const char *cmd, const rt_scene *s)
+{
+    if (!s->nwarn) return 0;
+    const rt_scene_warn *w = &s->warn[0];
+    rt_cmd_error(cmd, "%s: %s (--strict: %u kind%s of warnings are errors)", w->first, w->msg, (unsigned)s->nwarn,
+                 s->nwarn > 1 ? "s" : "");
+    return -1;
+}
+
 const char *rt_cmd_scene_material(const char *cmd, const char *spec, const char *name, char *buf, size_t n)
 {
     if (!name) return spec;

@@ -168,7 +168,7 @@ int main_report(int argc, char **argv)
     sqlite3 *h;
     if (rt_report_db_open(dbpath, &h, &e) < 0) {
         rt_cmd_error("report", "%s", e.msg);
-        return RT_EXIT_FAIL;
+        return e.usage ? RT_EXIT_USAGE : RT_EXIT_FAIL;
     }
     char gp[4096];
     rt_plot_opts po = {plotdir, NULL, stderr};

@@ -23,7 +23,7 @@ static void usage(FILE *f)
 {
     fprintf(f,
             "Usage: raytraffic scene list\n"
-            "       raytraffic scene info SCENE [--json] [--no-tree] [--accel LIST] [VIEW]\n"
+            "       raytraffic scene info SCENE [--json] [--no-tree] [--accel LIST] [--strict] [VIEW]\n"
             "       raytraffic scene export SCENE -o FILE.obj [VIEW]\n\n"
             "SCENE is a built-in name with optional parameters (sphereflake:level=2,tess=3)\n"
             "or a scene file ending in .obj, .ply or .pbrt.\n\n"
@@ -31,7 +31,8 @@ static void usage(FILE *f)
             "  info      triangles, bounds, scene hash, camera, lights and k-d tree statistics\n"
             "            and per acceleration structure built its build time, nodes,\n"
             "            modeled bytes (nodes and index lists) and depth\n"
-            "            --json     one JSON object on stdout\n"
+            "            --json     one JSON object on stdout (warnings included)\n"
+            "            --strict   refuse a scene whose loading warned\n"
             "            --accel LIST  the structures to build: a comma list of\n"
             "                       %s, or all, or none\n"
             "                       (default %s, the default structure)\n"
@@ -112,7 +113,7 @@ static int cmd_info(int argc, char **argv)
     }
     const char *spec = NULL;
     rt_err e = {0};
-    int json = 0, v;
+    int json = 0, strict = 0, v;
     /* the default: the reference tracer's structure; --accel LIST, all or none */
     unsigned mask = RT_ACCEL_BIT(rt_tracer_reference()->accel_default);
     rt_render_opts vo;
@@ -121,6 +122,7 @@ static int cmd_info(int argc, char **argv)
         if ((v = view_opt(argc, argv, &i, &vo)) != 0) {
             if (v < 0) return RT_EXIT_USAGE;
         } else if (!strcmp(argv[i], "--json")) json = 1;
+        else if (!strcmp(argv[i], "--strict")) strict = 1;
         else if (!strcmp(argv[i], "--accel")) {
             if (i + 1 >= argc) {
                 rt_cmd_error("scene", "info: --accel needs a structure (%s)", rt_accel_names());
@@ -148,7 +150,11 @@ static int cmd_info(int argc, char **argv)
     rt_scene *s = load_viewed(spec, &vo);
     if (!s) return RT_EXIT_FAIL;
     double load_sec = rt_now() - t0;
-    if (s->warning[0]) rt_cmd_error("scene", "warning: %s", s->warning);
+    if (strict && rt_cmd_strict("scene", s) < 0) {
+        rt_scene_free(s);
+        return RT_EXIT_FAIL;
+    }
+    if (!json) rt_cmd_print_warnings("scene", s); /* --json: in the object */
     /* the structures asked for, built by the accel layer one at a time */
     rt_accel_survey_row inf[RT_ACCEL_NKINDS];
     int nacc = rt_accel_survey(s, mask, NULL, inf, &e);
@@ -185,7 +191,9 @@ static int cmd_info(int argc, char **argv)
             printf("%s[%.9g, %.9g, %.9g]", i ? ", " : "", (double)s->light[i].x, (double)s->light[i].y,
                    (double)s->light[i].z);
         printf("],\n  \"light_power\": %.9g,\n  \"ambient\": %.9g,\n", (double)s->light_power, (double)s->ambient);
-        printf("  \"load_sec\": %.6f", load_sec);
+        printf("  ");
+        rt_cmd_json_warnings(stdout, s);
+        printf(",\n  \"load_sec\": %.6f", load_sec);
         if (kd) {
             printf(",\n  \"kd\": {\"nodes\": %u, \"leaves\": %u, \"empty_leaves\": %u, \"depth\": %u, "
                    "\"index_entries\": %u, \"mean_leaf_tris\": %.4f, \"max_leaf_tris\": %u, \"build_sec\": %.6f}",

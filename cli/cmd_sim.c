@@ -8,6 +8,7 @@
 #include "approx.h"
 #include "cmd.h"
 #include "experiment.h"
+#include "outfile.h"
 #include "rows.h"
 #include "sim.h"
 #include "hier.h"
@@ -385,7 +386,15 @@ static int parse_opt(sim_opts *o, int ch, const char *arg, const char *argv_opt)
             return -1;
         }
         return 0;
-    case O_DB: o->db = arg; return 0;
+    case O_DB: {
+        rt_err ne = {0};
+        if (rt_open_target(arg, RT_TARGET_DB, &ne) < 0 && ne.usage) { /* the name; the file is checked when opened */
+            rt_cmd_error("sim", "--db: %s", ne.msg);
+            return -1;
+        }
+        o->db = arg;
+        return 0;
+    }
     case O_FMT: return (o->outfmt = pick("format", arg, outfmts, "text, csv or json")) < 0 ? -1 : 0;
     case O_METHOD:
         if ((o->ac.method = rt_approx_method_from_name(arg)) < 0) {
@@ -687,7 +696,7 @@ int main_sim(int argc, char **argv)
     rt_db *db = NULL;
     if (o.db && !(db = rt_db_open(o.db, &err))) {
         rt_cmd_error("sim", "%s", err.msg);
-        return RT_EXIT_FAIL;
+        return err.usage ? RT_EXIT_USAGE : RT_EXIT_FAIL;
     }
     rt_tr_meta *meta = malloc(sizeof *meta);
     if (!meta) {

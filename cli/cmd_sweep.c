@@ -43,6 +43,7 @@
 #include "scene_load.h"
 #include "cmd.h"
 #include "experiment.h"
+#include "outfile.h"
 #include "pool.h"
 
 #include <errno.h>
@@ -591,10 +592,16 @@ static int parse_opt(sweep_opts *o, int c, const char *arg)
     case O_FULLLINE:
     case O_NOFULLLINE: o->fullline = c == O_FULLLINE; return 0;
     case O_LINE: return rt_cmd_parse_line("sweep", arg, &o->x.sim.line);
-    case O_DB:
+    case O_DB: {
+        rt_err ne = {0};
         if (rt_cmd_check_text("sweep", "--db", arg) < 0) return -1;
+        if (rt_open_target(arg, RT_TARGET_DB, &ne) < 0 && ne.usage) { /* the name; the file is checked at the start */
+            rt_cmd_error("sweep", "--db: %s", ne.msg);
+            return -1;
+        }
         o->db = arg;
         return 0;
+    }
     case O_JOBS:
         if (rt_cmd_parse_long(arg, 1, 256, &v) < 0) {
             rt_cmd_error("sweep", "--jobs: '%s' is not in 1..256", arg);
@@ -873,7 +880,7 @@ static int prepare_outputs(const sweep_opts *o)
     rt_db *db = rt_db_open(o->db, &e);
     if (!db) {
         rt_cmd_error("sweep", "%s", e.msg);
-        return -1;
+        return e.usage ? -2 : -1;
     }
     rt_db_close(db);
     return 0;
@@ -937,7 +944,8 @@ static int sweep_run(sweep_opts *o, const rt_exp_job *J, long nj)
     int cs = check_scenes(o, J);
     if (cs < 0) return cs == -2 ? RT_EXIT_USAGE : RT_EXIT_FAIL;
     int existed = lstat(o->db, &sb) == 0;
-    if (prepare_outputs(o) < 0) return RT_EXIT_FAIL;
+    int pr = prepare_outputs(o);
+    if (pr < 0) return pr == -2 ? RT_EXIT_USAGE : RT_EXIT_FAIL;
     const rt_exp_config *x = &o->x;
     long total = o->only >= 0 ? 1 : nj;
     rt_pool_opts po = {o->db, o->jobs, o->only, isatty(2), o->stop_after, o->fail_job, o->fail_marker,

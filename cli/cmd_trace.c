@@ -2,6 +2,7 @@
  * every modeled memory access into a .rtt trace file. */
 #include "cmd.h"
 #include "experiment.h"
+#include "scene_load.h"
 #include "grid.h"
 #include "image.h"
 #include "run.h"
@@ -34,7 +35,8 @@ static void usage(FILE *f)
             "  --level N          zlib level 0..9 (default %d)\n"
             "  --no-sample        write format version 1/2, without the sample index that\n"
             "                     lets `sim --method hybrid` skip the records (about 10%%\n"
-            "                     smaller; docs/trace-format.md)\n",
+            "                     smaller; docs/trace-format.md)\n"
+            "  --strict           refuse a scene whose loading warned\n",
             RT_TR_DEFAULT_LEVEL);
     rt_cmd_render_help(f, RT_OC_TRACE);
     fprintf(f,
@@ -42,7 +44,7 @@ static void usage(FILE *f)
             "  -h, --help         this help\n");
 }
 
-enum { OPT_LEVEL = 2000, OPT_NO_SAMPLE };
+enum { OPT_LEVEL = 2000, OPT_NO_SAMPLE, OPT_STRICT };
 
 int main_trace(int argc, char **argv)
 {
@@ -50,6 +52,7 @@ int main_trace(int argc, char **argv)
         {"output", required_argument, NULL, 'o'},
         {"level", required_argument, NULL, OPT_LEVEL},
         {"no-sample", no_argument, NULL, OPT_NO_SAMPLE},
+        {"strict", no_argument, NULL, OPT_STRICT},
         {"material", required_argument, NULL, 'M'},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0},
@@ -63,7 +66,7 @@ int main_trace(int argc, char **argv)
     rt_si_wopts(&wo);
     const char *material = NULL;
     const char *tracer = "recursive", *out = NULL;
-    int c;
+    int c, strict = 0;
     if (argc == 1) {
         usage(stdout);
         return RT_EXIT_OK;
@@ -93,6 +96,7 @@ int main_trace(int argc, char **argv)
             wo.level = optarg[0] - '0';
             break;
         case OPT_NO_SAMPLE: wo.payload = NULL; break;
+        case OPT_STRICT: strict = 1; break;
         case 'h': usage(stdout); free(lo); return RT_EXIT_OK;
         default: goto usage_err;
         }
@@ -127,7 +131,17 @@ int main_trace(int argc, char **argv)
          * limit: only the scene reveals them) are usage errors */
         return e.usage ? RT_EXIT_USAGE : RT_EXIT_FAIL;
     }
-    if (j.sc->warning[0]) rt_cmd_error("trace", "warning: %s", j.sc->warning);
+    /* -W and -H both given (no size left to the Film) on a film of another aspect */
+    if (!o.film && rt_scene_fit_film(j.sc, j.opt.W, j.opt.H, &e) < 0) {
+        rt_cmd_error("trace", "%s", e.msg);
+        rt_job_free(&j);
+        return RT_EXIT_FAIL;
+    }
+    if (strict && rt_cmd_strict("trace", j.sc) < 0) {
+        rt_job_free(&j);
+        return RT_EXIT_FAIL;
+    }
+    rt_cmd_print_warnings("trace", j.sc);
     o.W = j.opt.W; /* the scene's Film may have set them */
     o.H = j.opt.H;
     rt_scene_fit_aspect(j.sc, o.W, o.H); /* tall images: keep the whole mesh in view */

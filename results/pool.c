@@ -1,6 +1,7 @@
 /* pool.c -- the sweep's worker pool (see pool.h). */
 #include "pool.h"
 #include "db.h"
+#include "outfile.h"
 
 #include <errno.h>
 #include <inttypes.h>
@@ -239,9 +240,23 @@ static int run_workers(const rt_exp_config *c, const rt_exp_job *J, long nj, con
     return rc;
 }
 
+/* 1 if name is a kept trace's file name as experiment.c's open_trace
+ * makes it: "job", at least four digits, '-', anything, ".rtt". */
+static int kept_trace_name(const char *name)
+{
+    size_t n = strlen(name), d = 0;
+    if (strncmp(name, "job", 3) != 0) return 0;
+    while (name[3 + d] >= '0' && name[3 + d] <= '9') d++;
+    return d >= 4 && name[3 + d] == '-' && n > 3 + d + 1 + 4 && strcmp(name + n - 4, ".rtt") == 0;
+}
+
 int rt_pool_run(rt_exp_config *c, const rt_exp_job *J, long nj, const rt_pool_opts *po, rt_pool_result *r, rt_err *e)
 {
     memset(r, 0, sizeof *r);
+    /* a sweep killed with SIGKILL (no handler runs) left the temporaries of
+     * the traces it was writing: remove those of dead writers, of the kept
+     * traces' naming only, in that folder only (live writers hold a lock) */
+    if (c->keep && rt_out_remove_stale(c->keep, kept_trace_name, e) < 0) return -1;
     shared *sh = mmap(NULL, sizeof *sh, PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
     if (sh == MAP_FAILED) return rt_errf(e, "mmap: %s", strerror(errno));
     atomic_init(&sh->next, 0);
