@@ -350,6 +350,14 @@ int rt_report_feedback(sqlite3 *h, const char *scene, int csv, const rt_plot_opt
  * RT_FIG_NAVRATIL). Markdown (with the largest saving) or CSV. With plot,
  * DIR/treelet-SCENE-MODE-lLIGHTS-WxH-ACCEL[-VARIANT].{dat,gp,png}. 0, or
  * -1 when there is no treelet run or a plot cannot be written. */
+/* report --figure cores (cores.c): DRAM traffic and the shared level's
+ * miss rate of the multi-core runs (a hierarchy with a private level)
+ * against their core count, per scene, tracer and shared size (256K, 4M),
+ * with each tracer's reduction against the recursive tracer; a plot per
+ * scene with plot. 0, or -1 with e (no such runs: the message says how to
+ * make them). */
+int rt_report_cores(sqlite3 *h, const char *dbpath, const char *scene, int csv, const rt_plot_opts *plot, FILE *out,
+                    rt_err *e);
 int rt_report_treelet(sqlite3 *h, const char *dbpath, const char *scene, int csv, const rt_plot_opts *plot, FILE *out,
                       rt_err *e);
 

@@ -162,4 +162,27 @@ int rt_bvh_bench_primary(FILE *out, const rt_scene *sc, int W, int H, int reps, 
 int rt_treelet_bench(FILE *out, rt_scene *sc, const rt_render_opts *base, int reps, const char *tmpdir,
                      const char *command, rt_err *e);
 
+/* ---- host threads (threads_bench.c) --------------------------------------- */
+
+/* Each tracer of the comma list on sc with base's options, untraced, on 1..
+ * maxthreads host threads (tracers that run on one thread get a row saying
+ * so), reps runs each: a Markdown table to out of the median wall and
+ * process CPU seconds, the wall speedup over one thread, CPU over wall, the
+ * image against one thread's (bit for bit) and the modeled references and
+ * 64 KiB DRAM bytes of one traced run. 0, or -1 with e set (an image that
+ * differs is printed first, then an error). */
+int rt_threads_bench(FILE *out, rt_scene *sc, const rt_render_opts *base, const char *tracers, int maxthreads,
+                     int reps, rt_err *e);
+
+/* ---- many cores (cores_bench.c) -------------------------------------------- */
+
+/* tracer's run of base on sc recorded on one core and on base->cores (8
+ * when 1) simulated cores, then reps times each stream through hierarchy
+ * (mcore.h) on 1 and on N cores, and the one-level simulator on the
+ * one-core stream: a Markdown table to out of M references per thread-CPU
+ * second and the ratio N cores over one, per repetition and the medians.
+ * 0, or -1 with e set. */
+int rt_cores_bench(FILE *out, rt_scene *sc, const rt_render_opts *base, const char *tracer, const char *hierarchy,
+                   int reps, rt_err *e);
+
 #endif

@@ -117,6 +117,12 @@ void rt_cmd_render_help_rest(FILE *f, unsigned cmd);
  * cannot run (subsampling that traces nothing, partial packets). 0 or -1. */
 int rt_cmd_check_tracer_opts(const char *cmd, const char *tracer, const rt_render_opts *o);
 
+/* `sim --hierarchy SPEC ...` with private/shared levels: the multi-core
+ * hierarchy (cmd_sim_cores.c). */
+int rt_cmd_sim_cores(int argc, char **argv);
+/* `sweep --hierarchy SPEC --cores LIST ...`: the multi-core matrix (cmd_sweep_cores.c). */
+int rt_cmd_sweep_cores(int argc, char **argv);
+
 /* --material NAME for render and trace: checks NAME against the scene
  * library's presets and returns SPEC with ":material=NAME" (or
  * ",material=NAME" after existing parameters) in buf; SPEC itself when

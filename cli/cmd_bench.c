@@ -50,7 +50,7 @@ static void usage(FILE *f)
             "  --tracers LIST     comma list (default recursive,packet,dynamic)\n"
             "  --cache-size S     dynamic tracer's schedule (default 64K)\n"
             "  --what LIST        tracers,trace,sim,replay,hierarchy,approx,path-error,modes,\n"
-            "                     identical,stream,embree,bvh,treelet\n"
+            "                     identical,stream,embree,bvh,treelet,threads,cores\n"
             "                     (default tracers,trace,sim); replay: the exact simulator\n"
             "                     on --trace FILE, one and two threads, decoding included;\n"
             "                     hierarchy: L1 32K + 13 LLC sizes in one pass, and OPT,\n"
@@ -71,13 +71,23 @@ static void usage(FILE *f)
             "                     against the k-d tree (and Embree when built), --reps runs;\n"
             "                     treelet: the treelet tracer against the recursive one on\n"
             "                     bvh4 and bvh8 (--accel: one BVH), untraced, into a null\n"
-            "                     sink and into a trace file, --reps runs, medians\n"
+            "                     sink and into a trace file, --reps runs, medians;\n"
+            "                     threads: untraced runs on 1..--threads N host threads\n"
+            "                     (default: the online CPUs) of the --tracers that split\n"
+            "                     (default recursive,packet,treelet), wall and CPU time,\n"
+            "                     speedup, images compared, beside the modeled traffic;\n"
+            "                     cores: the multi-core hierarchy (--hierarchy, default\n"
+            "                     L1=32K/8/64/lru/private,LLC=1K-4M/full/64/lru/shared) on\n"
+            "                     --cores N (default 8) against one core, refs/s and ratio\n"
+            "                     (default 256x256)\n"
+            "  --hierarchy SPEC   cores: the hierarchy\n"
             "  --scenes LIST      scenes of path-error, modes, identical (defaults cornell;\n"
             "                     sphereflake,cornell; cornell,knot,sphereflake)\n"
             "  --ref-spp N        path-error reference samples per pixel (default 1024)\n"
             "  --plot DIR         path-error: DIR/path-error-SCENE.png (gnuplot), .dat, .gp\n"
             "  --trace FILE       .rtt or din trace for --what approx (required by replay)\n"
-            "  --reps N           replay, bvh, treelet: runs, median or best printed (default 3)\n"
+            "  --reps N           replay, bvh, treelet, threads, cores: runs, median or best\n"
+            "                     printed (default 3)\n"
             "  --sim-refs N       synthetic simulator trace length (default 20000000)\n"
             "  --tmpdir DIR       where trace files are written (default /tmp)\n"
             "  -h, --help         this help\n");
@@ -256,6 +266,7 @@ int main_bench(int argc, char **argv)
         {"tmpdir", required_argument, NULL, 'd'},
         {"trace", required_argument, NULL, 1100},
         {"reps", required_argument, NULL, 1110},
+        {"hierarchy", required_argument, NULL, 1111},
         {"scenes", required_argument, NULL, 1101},
         {"ref-spp", required_argument, NULL, 1102},
         {"plot", required_argument, NULL, 1103},
@@ -265,17 +276,19 @@ int main_bench(int argc, char **argv)
     rt_render_opts o;
     rt_render_default_opts(&o);
     o.W = o.H = 0; /* 0: the item's own default size */
-    const char *scenes = NULL, *plotdir = NULL;
+    const char *scenes = NULL, *plotdir = NULL, *hierarchy = "L1=32K/8/64/lru/private,LLC=1K-4M/full/64/lru/shared";
     long refspp = 1024, reps = 3;
     const char *scene = NULL, *tracers = "recursive,packet,dynamic", *what = "tracers,trace,sim";
     const char *tmpdir = "/tmp", *dummy = NULL, *trace = NULL;
     uint64_t simrefs = 20000000;
     struct option *lo = rt_cmd_longopts(RT_OC_BENCH, own);
     char so[32];
-    int c;
+    int c, threads_given = 0, tracers_given = 0;
+    const int thr_index = rt_render_opt_find("--threads");
     if (!lo) return RT_EXIT_FAIL;
     optind = 1;
     while ((c = getopt_long(argc, argv, rt_cmd_shortopts(RT_OC_BENCH, "h", so, sizeof so), lo, NULL)) != -1) {
+        if (rt_cmd_opt_index(c) == thr_index) threads_given = 1;
         int r = rt_cmd_render_opt("bench", c, optarg, &o, &dummy);
         if (r < 0) {
             free(lo);
@@ -284,7 +297,7 @@ int main_bench(int argc, char **argv)
         if (r > 0) continue;
         switch (c) {
         case 's': scene = optarg; break;
-        case 'T': tracers = optarg; break;
+        case 'T': tracers = optarg, tracers_given = 1; break;
         case 'w': what = optarg; break;
         case 'd': tmpdir = optarg; break;
         case 1100: trace = optarg; break;
@@ -296,6 +309,7 @@ int main_bench(int argc, char **argv)
             }
             break;
         case 1101: scenes = optarg; break;
+        case 1111: hierarchy = optarg; break;
         case 1103: plotdir = optarg; break;
         case 1102:
             if (rt_cmd_parse_long(optarg, 1, RT_SPP_MAX, &refspp) < 0) {
@@ -321,7 +335,7 @@ int main_bench(int argc, char **argv)
         return RT_EXIT_USAGE;
     }
     int do_tr = 0, do_trace = 0, do_sim = 0, do_approx = 0, do_perr = 0, do_modes = 0, do_ident = 0, do_stream = 0, do_embree = 0, do_bvh = 0,
-        do_replay = 0, do_treelet = 0, do_hier = 0;
+        do_replay = 0, do_treelet = 0, do_hier = 0, do_threads = 0, do_cores = 0;
     {
         char *list = strdup(what), *save = NULL;
         for (char *t = strtok_r(list, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
@@ -338,9 +352,11 @@ int main_bench(int argc, char **argv)
             else if (!strcmp(t, "embree")) do_embree = 1;
             else if (!strcmp(t, "bvh")) do_bvh = 1;
             else if (!strcmp(t, "treelet")) do_treelet = 1;
+            else if (!strcmp(t, "threads")) do_threads = 1;
+            else if (!strcmp(t, "cores")) do_cores = 1;
             else {
                 rt_cmd_error("bench", "--what: unknown item '%s' (tracers, trace, sim, replay, hierarchy, approx, path-error, "
-                             "modes, identical, stream, embree, bvh, treelet)", t);
+                             "modes, identical, stream, embree, bvh, treelet, threads, cores)", t);
                 free(list);
                 return RT_EXIT_USAGE;
             }
@@ -358,9 +374,11 @@ int main_bench(int argc, char **argv)
     const char *stream_scene = scene ? scene : "bunny"; /* the paper's scene */
     if (!scene) scene = "sphereflake";
     int W0 = o.W, H0 = o.H; /* as given; 0 = each item's default */
+    const int host_threads = o.host_threads; /* --threads: the threads item's largest count; the others run on one */
+    o.host_threads = 1;
     o.W = W0 ? W0 : 1024;
     o.H = H0 ? H0 : 1024;
-    if (do_tr || do_trace || do_sim || do_approx || do_embree || do_bvh || do_treelet)
+    if (do_tr || do_trace || do_sim || do_approx || do_embree || do_bvh || do_treelet || do_threads || do_cores)
         printf("raytraffic %s (%s) bench: scene %s, %dx%d, lights %u, one core\n\n", rt_version(), rt_git_rev(),
                scene, o.W, o.H, o.lights);
     else
@@ -436,6 +454,38 @@ int main_bench(int argc, char **argv)
         rt_scene *sc = rt_scene_load(scene, &e);
         fflush(stdout);
         int r = sc ? rt_treelet_bench(stdout, sc, &o, (int)reps, tmpdir, rt_cmd_line(), &e) : -1;
+        rt_scene_free(sc);
+        if (r < 0) {
+            rt_cmd_error("bench", "%s", e.msg);
+            return RT_EXIT_FAIL;
+        }
+    }
+    if (do_threads) {
+        rt_err e = {0};
+        rt_scene *sc = rt_scene_load(scene, &e);
+        long ncpu = sysconf(_SC_NPROCESSORS_ONLN);
+        int maxt = threads_given ? host_threads : ncpu >= 1 && ncpu <= 1024 ? (int)ncpu : 1;
+        rt_render_opts to = o;
+        to.W = W0 ? W0 : 512;
+        to.H = H0 ? H0 : 512;
+        fflush(stdout);
+        int r = sc ? rt_threads_bench(stdout, sc, &to, tracers_given ? tracers : "recursive,packet,treelet", maxt,
+                                      (int)reps, &e)
+                   : -1;
+        rt_scene_free(sc);
+        if (r < 0) {
+            rt_cmd_error("bench", "%s", e.msg);
+            return RT_EXIT_FAIL;
+        }
+    }
+    if (do_cores) {
+        rt_err e = {0};
+        rt_scene *sc = rt_scene_load(scene, &e);
+        rt_render_opts co = o;
+        co.W = W0 ? W0 : 256;
+        co.H = H0 ? H0 : 256;
+        fflush(stdout);
+        int r = sc ? rt_cores_bench(stdout, sc, &co, tracers_given ? tracers : "recursive", hierarchy, (int)reps, &e) : -1;
         rt_scene_free(sc);
         if (r < 0) {
             rt_cmd_error("bench", "%s", e.msg);

@@ -93,6 +93,12 @@ static int render_opt(const char *cmd, int i, const char *arg, rt_render_opts *o
         *tracer = arg;
         return 1;
     }
+    if (!strcmp(d->name, "--threads") && strcmp(cmd, "render") && strcmp(cmd, "bench")) {
+        /* traced runs are one ordered stream; the former --threads is --cores */
+        rt_cmd_error(cmd, "--threads: %s records one ordered stream on one host thread; the dynamic tracer's modeled "
+                          "threads are now --cores N", cmd);
+        return -1;
+    }
     rt_render_opts t = *o; /* a refusal leaves o as it was */
     int r = d->parse(&t, arg, &e);
     if (r < 0) {
@@ -190,6 +196,13 @@ int rt_cmd_check_tracer_opts(const char *cmd, const char *tracer, const rt_rende
     const rt_tracer *tr = tracer ? rt_tracer_find(tracer) : rt_tracer_reference();
     if (!tr) {
         rt_cmd_error(cmd, "unknown tracer '%s' (%s)", tracer, rt_tracer_names());
+        return -1;
+    }
+    const int th = rt_render_opt_find("--threads");
+    if (th >= 0 && (o->given & ((uint64_t)1 << th)) && !(tr->opts & RT_OPTG_THREADS) && (tr->opts & RT_OPTG_SCHED)) {
+        /* the former spelling of the scheduler's modeled threads */
+        rt_cmd_error(cmd, "--threads: host threads do not apply to the %s tracer (one serial schedule); its modeled "
+                          "threads are now --cores N", tr->name);
         return -1;
     }
     if (rt_tracer_check_given(tr, o, &e) < 0 || rt_tracer_check_opts(tr, o, &e) < 0 ||

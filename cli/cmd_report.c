@@ -40,6 +40,9 @@ static void usage(FILE *f)
             "                     (runs of sweep --accels; --plot: traffic against cache size)\n"
             "                     treelet: treelet vs recursive on the BVH, dynamic vs recursive\n"
             "                     on the k-d tree, traffic split geometry/ray/stack/queue (--plot)\n"
+            "                     cores: DRAM traffic and shared-level miss rate against the\n"
+            "                     core count of multi-core runs (sim --hierarchy --db), each\n"
+            "                     tracer's reduction against recursive (--plot)\n"
             "  --scene NAME       only this scene (figures 4-9 map room, grove, sphereflake)\n"
             "  --format md|csv|json  Markdown tables (default); for figures 4-9 (and all),\n"
             "                     csv and json write tidy tables: one row per run x cache size\n"
@@ -89,9 +92,9 @@ int main_report(int argc, char **argv)
         case 'd': dbpath = optarg; break;
         case 'f':
             if (strcmp(optarg, "all") && strcmp(optarg, "scenes") && strcmp(optarg, "secondary") && strcmp(optarg, "purcell") && strcmp(optarg, "feedback") &&
-                strcmp(optarg, "accel") && strcmp(optarg, "treelet") && strcmp(optarg, "hierarchy") &&
+                strcmp(optarg, "accel") && strcmp(optarg, "treelet") && strcmp(optarg, "hierarchy") && strcmp(optarg, "cores") &&
                 !(strlen(optarg) == 1 && optarg[0] >= '4' && optarg[0] <= '9')) {
-                rt_cmd_error("report", "--figure: '%s' is not 4..9, scenes, secondary, purcell, feedback, accel, treelet, hierarchy or all", optarg);
+                rt_cmd_error("report", "--figure: '%s' is not 4..9, scenes, secondary, purcell, feedback, accel, treelet, hierarchy, cores or all", optarg);
                 return RT_EXIT_USAGE;
             }
             figure = optarg;
@@ -199,6 +202,8 @@ int main_report(int argc, char **argv)
         rc = rt_report_hierarchy(h, o.scene, out, &e);
     } else if (rc == 0 && !strcmp(figure, "treelet")) {
         rc = rt_report_treelet(h, dbpath, o.scene, o.csv, plotdir ? &po : NULL, out, &e);
+    } else if (rc == 0 && !strcmp(figure, "cores")) {
+        rc = rt_report_cores(h, dbpath, o.scene, o.csv, plotdir ? &po : NULL, out, &e);
     } else if (rc == 0 && !strcmp(figure, "secondary")) {
         rc = rt_report_secondary(h, dbpath, o.csv, plotdir ? &po : NULL, out, &e);
     } else if (rc == 0 && !R.nscenes) {

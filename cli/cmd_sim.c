@@ -88,6 +88,10 @@ static void usage(FILE *f)
             "  --exact-below SIZE     simulate sizes below SIZE exactly (default 0 = none);\n"
             "                         sizes without an estimate are left out (text: a\n"
             "                         '#' line gives the reason)\n"
+            "  --hierarchy P,S        with levels ending /private and /shared: the simulated\n"
+            "                         cores of a version-4 trace on private caches above a\n"
+            "                         shared level (sim --hierarchy L1=32K/8/64/lru/private,\n"
+            "                         LLC=1K-4M/full/64/lru/shared --help)\n"
             "  -h, --help             this help\n\n"
             "Output columns: size_bytes line assoc class accesses read_misses write_misses\n"
             "writebacks wt_bytes traffic_bytes; one row per size and class, then group rows\n"
@@ -679,6 +683,11 @@ static int sim_one(const sim_opts *o, rt_db *db, const char *path, rt_tr_meta *m
 
 int main_sim(int argc, char **argv)
 {
+    for (int a = 1; a < argc; a++) { /* levels marked private/shared: the multi-core model, cmd_sim_cores.c */
+        const char *spec = !strncmp(argv[a], "--hierarchy=", 12) ? argv[a] + 12
+                           : !strcmp(argv[a], "--hierarchy") && a + 1 < argc ? argv[a + 1] : NULL;
+        if (spec && (strstr(spec, "/private") || strstr(spec, "/shared"))) return rt_cmd_sim_cores(argc, argv);
+    }
     if (rt_cmd_wants_help(argc, argv)) {
         usage(stdout);
         return RT_EXIT_OK;

@@ -117,6 +117,9 @@ static void usage(FILE *f)
     fprintf(f,
             "  --db FILE          results database (default raytraffic.db)\n"
             "  --jobs N           worker processes (default 1)\n"
+            "  --hierarchy SPEC --cores LIST  the multi-core matrix instead: private\n"
+            "                     caches above a shared level, per core count\n"
+            "                     (sweep --hierarchy X --help)\n"
             "  --keep-traces DIR  also write every job's trace to DIR\n"
             "  --dynamic-all-sizes  simulate each dynamic schedule at every size\n"
             "  --approx LIST      also run approximate simulators on the same access stream\n"
@@ -1010,6 +1013,8 @@ static int sweep_run(sweep_opts *o, const rt_exp_job *J, long nj)
 
 int main_sweep(int argc, char **argv)
 {
+    for (int a = 1; a < argc; a++) /* the multi-core matrix: cmd_sweep_cores.c */
+        if (!strcmp(argv[a], "--hierarchy") || !strncmp(argv[a], "--hierarchy=", 12)) return rt_cmd_sweep_cores(argc, argv);
     sweep_opts o;
     rt_err e = {0};
     rt_exp_job *J = NULL;

@@ -147,10 +147,12 @@ int main_trace(int argc, char **argv)
     rt_scene_fit_aspect(j.sc, o.W, o.H); /* tall images: keep the whole mesh in view */
     if (!(m = rt_calloc(1, sizeof *m, &e))) goto fail;
     rt_job_meta(&j, rt_cmd_line(), m);
+    if (m->cores > 1) wo.payload = NULL; /* version 4: simulated cores, no sample index */
     if (!(w = rt_tr_create_opts(out, m, &wo, &e))) goto fail;
     if (!(img = rt_image_new(o.W, o.H, &e))) goto fail;
     double t0 = rt_now();
-    if (rt_job_run(&j, rt_tr_sink(w), img, &st, &e) < 0) {
+    if ((m->cores > 1 ? rt_job_run_cores(&j, rt_tr_csink(w), img, &st, &e) : rt_job_run(&j, rt_tr_sink(w), img, &st, &e)) <
+        0) {
         if (rt_tr_writer_error(w)[0]) rt_errf(&e, "%s", rt_tr_writer_error(w));
         goto fail;
     }

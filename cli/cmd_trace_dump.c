@@ -13,7 +13,7 @@
 static void usage(FILE *f)
 {
     fprintf(f,
-            "Usage: raytraffic trace-dump FILE [--din] [--line N] [--limit N]\n\n"
+            "Usage: raytraffic trace-dump FILE [--din] [--line N] [--limit N] [--core K]\n\n"
             "Print the records of a trace, one per line:\n"
             "  text (default)  'R 0x10001000 8 node': R/W, address, size in bytes, class\n"
             "  --din           Dinero IV din: 'LABEL ADDRESS' with LABEL 0 read, 1 write and\n"
@@ -26,6 +26,11 @@ static void usage(FILE *f)
             "  --din              Dinero IV din output\n"
             "  --line N           line size for --din in bytes (default 64)\n"
             "  --limit N          stop after N trace records (default: all)\n"
+            "  --core K           only core K's references (a version-4 trace of several\n"
+            "                     simulated cores: one din per core; earlier traces are\n"
+            "                     core 0). Without it the text lines of such a trace end\n"
+            "                     with ' core K'; --din then writes all cores' references\n"
+            "                     in their interleaved order\n"
             "  -h, --help         this help\n\n"
             "The whole file is verified unless --limit stops early; an error after some\n"
             "records were printed still exits 1 with the byte offset.\n");
@@ -64,12 +69,13 @@ int main_trace_dump(int argc, char **argv)
         {"din", no_argument, NULL, 'd'},
         {"line", required_argument, NULL, 'l'},
         {"limit", required_argument, NULL, 'n'},
+        {"core", required_argument, NULL, 'k'},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0},
     };
     int din = 0, c;
     uint32_t line = 64;
-    uint64_t limit = UINT64_MAX;
+    uint64_t limit = UINT64_MAX, only = UINT64_MAX;
     optind = 1;
     while ((c = getopt_long(argc, argv, "h", lo, NULL)) != -1) {
         switch (c) {
@@ -80,6 +86,12 @@ int main_trace_dump(int argc, char **argv)
         case 'n':
             if (parse_u64(optarg, 0, &limit) < 0) {
                 rt_cmd_error("trace-dump", "--limit: '%s' is not a record count", optarg);
+                return RT_EXIT_USAGE;
+            }
+            break;
+        case 'k':
+            if (parse_u64(optarg, 0, &only) < 0 || only >= RT_TR_MAX_CORES) {
+                rt_cmd_error("trace-dump", "--core: '%s' is not a core in 0..%d", optarg, RT_TR_MAX_CORES - 1);
                 return RT_EXIT_USAGE;
             }
             break;
@@ -102,18 +114,31 @@ int main_trace_dump(int argc, char **argv)
         rt_cmd_error("trace-dump", "%s", e.msg);
         return RT_EXIT_FAIL;
     }
+    const uint32_t ncores = rt_tr_get_meta(r)->cores;
+    if (only != UINT64_MAX && only >= ncores) {
+        rt_cmd_error("trace-dump", "--core %" PRIu64 ": %s holds %" PRIu32 " core%s", only, path, ncores,
+                     ncores == 1 ? " (0)" : "s");
+        rt_tr_close(r);
+        return RT_EXIT_USAGE;
+    }
     enum { CAP = 16384 };
     rt_access *buf = rt_calloc(CAP, sizeof *buf, &e);
-    long n = buf ? 1 : -1;
+    uint8_t *cores = buf ? rt_calloc(CAP, 1, &e) : NULL;
+    long n = cores ? 1 : -1;
     uint64_t done = 0;
-    while (buf && done < limit && (n = rt_tr_read(r, buf, CAP, &e)) > 0) {
+    while (cores && done < limit && (n = rt_tr_read_cores(r, buf, cores, CAP, &e)) > 0) {
         uint64_t k = (uint64_t)n;
         if (k > limit - done) k = limit - done;
         for (uint64_t i = 0; i < k; i++) {
             const rt_access *a = &buf[i];
+            if (only != UINT64_MAX && cores[i] != only) continue;
             if (!din) {
-                printf("%c 0x%" PRIx64 " %" PRIu32 " %s\n", a->write ? 'W' : 'R', a->addr, a->size,
-                       rt_class_name(a->cls));
+                if (ncores > 1 && only == UINT64_MAX)
+                    printf("%c 0x%" PRIx64 " %" PRIu32 " %s core %u\n", a->write ? 'W' : 'R', a->addr, a->size,
+                           rt_class_name(a->cls), cores[i]);
+                else
+                    printf("%c 0x%" PRIx64 " %" PRIu32 " %s\n", a->write ? 'W' : 'R', a->addr, a->size,
+                           rt_class_name(a->cls));
                 continue;
             }
             /* last byte, clipped at the top of the address space */
@@ -126,6 +151,7 @@ int main_trace_dump(int argc, char **argv)
         done += k;
     }
     free(buf);
+    free(cores);
     int rc = RT_EXIT_OK;
     if (n < 0) {
         fflush(stdout);

@@ -40,6 +40,9 @@ static void print_text(const char *path, const rt_tr_reader *r)
     printf("size:          %" PRIu64 " bytes, %.3f bytes/reference\n", fb,
            t->nrefs ? (double)fb / (double)t->nrefs : 0.0);
     printf("file hash:     %016" PRIx64 "\n", rt_tr_file_hash(r));
+    if (m->cores > 1) /* version 4 only: earlier traces print as they did */
+        printf("cores:         %" PRIu32 " simulated cores, interleaved (a 2-byte core-switch record per change)\n",
+               m->cores);
     printf("written by:    raytraffic %s (git %s)\n", m->tool_version, m->git_rev);
     printf("command:       %s\n", m->command);
     printf("scene:         %s%s%s%s, %" PRIu32 " triangles, hash %016" PRIx64 "\n", m->scene,
@@ -95,6 +98,7 @@ static void print_json(const char *path, const rt_tr_reader *r)
            ", \"file_hash\": \"%016" PRIx64 "\", \"bytes_per_ref\": %.4f",
            rt_tr_get_version(r), rt_tr_get_chunk_records(r), fb, rt_tr_file_hash(r),
            t->nrefs ? (double)fb / (double)t->nrefs : 0.0);
+    if (m->cores > 1) printf(", \"cores\": %" PRIu32, m->cores);
     printf(", \"tool_version\": ");
     json_str(stdout, m->tool_version);
     printf(", \"git_rev\": ");

@@ -280,6 +280,7 @@ void rt_exp_run_from_meta(const rt_tr_meta *m, rt_db_run *r)
     r->params = m->params;
     r->sim_method = "exact";
     r->sim_params = "";
+    r->cores = m->cores > 1 ? (int)m->cores : 1; /* a version-4 trace's simulated cores */
 }
 
 void rt_exp_run_from_din(const char *path, int din_class, uint64_t file_hash, rt_exp_key *k)

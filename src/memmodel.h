@@ -148,6 +148,17 @@ struct rt_sink {
     void *ctx; /* owner's state */
 };
 
+/*
+ * A core sink consumes the references of several simulated cores, each
+ * batch one core's (core < the stream's cores), in the order of the
+ * modeled clock (tracegen/run.h: rt_job_run_cores). Same contract as put.
+ */
+typedef struct rt_csink rt_csink;
+struct rt_csink {
+    int (*put)(rt_csink *s, unsigned core, const rt_access *a, size_t n);
+    void *ctx; /* owner's state */
+};
+
 #define RT_REC_BUF 4096
 
 /* The recorder. Invariant (RT_ASSERT in rt_rec_push and the writer

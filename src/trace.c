@@ -321,6 +321,9 @@ struct rt_tr_writer {
     int zinit;              /* zs initialised */
     rt_trc_coder cd;        /* record coder of the current chunk */
     unsigned maxgen;        /* meta.generations: 0 = no generation bytes */
+    unsigned cores;         /* meta.cores: 1, or 2..256 (version 4: core switches) */
+    unsigned core;          /* the core of the records being put (rt_tr_put_core; 0 otherwise) */
+    rt_csink csink;         /* rt_tr_csink: ctx = this */
     const rt_tr_payload_ops *pops; /* side payload maker (version 3), or NULL */
     void *pctx;             /* its state */
     rt_tr_sample_params sp; /* its parameters, as in the header */
@@ -425,6 +428,11 @@ static int w_put(rt_sink *s, const rt_access *a, size_t n)
                 return -1;
             }
         }
+        if (w->core != w->cd.core) { /* version 4: the core switch */
+            w->raw[w->rawlen++] = RT_TRC_SWITCH;
+            w->raw[w->rawlen++] = (unsigned char)w->core;
+            w->cd.core = w->core;
+        }
         w->rawlen = (size_t)(rt_trc_enc(&w->cd, w->raw + w->rawlen, &a[i]) - w->raw);
         w->tot.refs[cls]++;
         w->tot.bytes[cls] += a[i].size;
@@ -485,6 +493,9 @@ static int encode_header(hbuf *h, const rt_tr_meta *m, uint32_t chunk_records, i
         hb_u64(h, sp->window);
         hb_u64(h, sp->cmax);
         hb_u64(h, sp->hist);
+    } else if (m->cores > 1) { /* version 4 */
+        hb_u32(h, m->generations);
+        hb_u32(h, m->cores);
     } else if (m->generations) {
         hb_u32(h, m->generations); /* version 2 */
     }
@@ -513,6 +524,11 @@ rt_tr_writer *rt_tr_create_opts(const char *path, const rt_tr_meta *m, const rt_
                        po->params.shift, (unsigned long long)po->params.period, (unsigned long long)po->params.window,
                        (unsigned long long)po->params.cmax, (unsigned long long)po->params.hist), NULL;
     }
+    if (m->cores > RT_TR_MAX_CORES || (m->cores > 1 && po)) {
+        free(h);
+        return rt_errf(e, "%s: %u cores%s", path, m->cores,
+                       m->cores > RT_TR_MAX_CORES ? " (at most 256)" : ": a version-4 trace has no side payloads"), NULL;
+    }
     if (m->W < 0 || m->H < 0 || encode_header(h, m, o->chunk_records, o->level, po ? &po->params : NULL) < 0) {
         free(h);
         return rt_errf(e, "%s: trace metadata does not fit the format (string too long, bad region table, "
@@ -527,9 +543,11 @@ rt_tr_writer *rt_tr_create_opts(const char *path, const rt_tr_meta *m, const rt_
     w->sink.ctx = w;
     w->chunk_records = o->chunk_records;
     w->maxgen = m->generations;
+    w->cores = m->cores > 1 ? m->cores : 1;
     size_t plen = strlen(path);
     w->path = rt_calloc(plen + 1, 1, e);
-    w->raw = w->path ? rt_calloc(o->chunk_records, RT_TRC_MAX_REC, e) : NULL;
+    const uint32_t maxrec = w->cores > 1 ? RT_TRC_MAX_REC_V4 : RT_TRC_MAX_REC;
+    w->raw = w->path ? rt_calloc(o->chunk_records, maxrec, e) : NULL;
     if (!w->raw) goto fail;
     memcpy(w->path, path, plen + 1);
     if (deflateInit(&w->zs, o->level) != Z_OK) {
@@ -537,7 +555,7 @@ rt_tr_writer *rt_tr_create_opts(const char *path, const rt_tr_meta *m, const rt_
         goto fail;
     }
     w->zinit = 1;
-    uint64_t ulen = (uint64_t)o->chunk_records * RT_TRC_MAX_REC;
+    uint64_t ulen = (uint64_t)o->chunk_records * maxrec;
     if (po) {
         w->sp = po->params;
         if (!(w->pctx = po->open(&w->sp, m->generations, e))) goto fail;
@@ -550,7 +568,7 @@ rt_tr_writer *rt_tr_create_opts(const char *path, const rt_tr_meta *m, const rt_
     w->f = rt_out_stream(w->of);
     unsigned char pre[16];
     memcpy(pre, HDR_MAGIC, 8);
-    put32(pre + 8, po ? 3 : m->generations ? 2 : 1);
+    put32(pre + 8, w->cores > 1 ? 4 : po ? 3 : m->generations ? 2 : 1);
     put32(pre + 12, (uint32_t)h->n);
     unsigned char c[4];
     put32(c, crc(crc(0, pre, 16), h->b, h->n));
@@ -564,6 +582,18 @@ fail:
 }
 
 rt_sink *rt_tr_sink(rt_tr_writer *w) { return &w->sink; }
+
+static int w_put_core(rt_csink *s, unsigned core, const rt_access *a, size_t n)
+{
+    return rt_tr_put_core(s->ctx, core, a, n);
+}
+
+rt_csink *rt_tr_csink(rt_tr_writer *w)
+{
+    w->csink.put = w_put_core;
+    w->csink.ctx = w;
+    return &w->csink;
+}
 const rt_tr_totals *rt_tr_writer_totals(const rt_tr_writer *w) { return &w->tot; }
 const char *rt_tr_writer_error(const rt_tr_writer *w) { return w->err.msg; }
 
@@ -734,13 +764,20 @@ static int parse_header(rt_tr_reader *r, hbuf *h)
     }
 #undef STR
     if (r->version >= 2) {
-        uint32_t lo = r->version == 2 ? 1 : 0; /* version 3 also holds traces without generations */
+        uint32_t lo = r->version == 2 ? 1 : 0; /* versions 3, 4 also hold traces without generations */
         m->generations = hg_u32(h);
         if (!h->bad && (m->generations < lo || m->generations > RT_TR_MAX_GENERATION))
             return r_fail(r, base + h->n - 4, "header: %u generations not in %u..%d", m->generations, lo,
                           RT_TR_MAX_GENERATION);
     }
-    if (r->version >= 3) {
+    m->cores = 1;
+    if (r->version == 4) {
+        size_t at = h->n;
+        m->cores = hg_u32(h);
+        if (!h->bad && (m->cores < 2 || m->cores > RT_TR_MAX_CORES))
+            return r_fail(r, base + at, "header: %u cores not in 2..%d", m->cores, RT_TR_MAX_CORES);
+    }
+    if (r->version == 3) {
         rt_tr_sample_params *sp = &r->sp;
         size_t at = h->n;
         sp->line = hg_u32(h);
@@ -809,7 +846,7 @@ rt_tr_reader *rt_tr_open(const char *path, rt_err *e)
     if (parse_header(r, h) < 0) goto fail;
     free(h);
     h = NULL;
-    r->maxrec = r->version >= 2 ? RT_TRC_MAX_REC : RT_TRC_MAX_REC_V1;
+    r->maxrec = r->version == 4 ? RT_TRC_MAX_REC_V4 : r->version >= 2 ? RT_TRC_MAX_REC : RT_TRC_MAX_REC_V1;
     r->rawcap = (size_t)r->chunk_records * r->maxrec;
     r->ccap = (size_t)bound_compressed(r->rawcap);
     if (r->has_sample) {
@@ -1062,7 +1099,24 @@ static void tally(rt_tr_totals *t, const rt_access *a, size_t n)
     t->nrefs += n;
 }
 
-long rt_tr_read(rt_tr_reader *r, rt_access *buf, size_t cap, rt_err *e)
+int rt_tr_put_core(rt_tr_writer *w, unsigned core, const rt_access *a, size_t n)
+{
+    if (w->failed) return -1;
+    if (core >= w->cores) {
+        rt_errf(&w->err, "%s: record %llu: core %u, the header declares %u", w->path, (unsigned long long)w->tot.nrefs,
+                core, w->cores);
+        w->failed = 1;
+        return -1;
+    }
+    w->core = core;
+    int rc = w_put(&w->sink, a, n);
+    w->core = 0;
+    return rc;
+}
+
+long rt_tr_read(rt_tr_reader *r, rt_access *buf, size_t cap, rt_err *e) { return rt_tr_read_cores(r, buf, NULL, cap, e); }
+
+long rt_tr_read_cores(rt_tr_reader *r, rt_access *buf, uint8_t *cores, size_t cap, rt_err *e)
 {
     if (r->state == RS_FAILED) return rt_errf(e, "%s", r->err.msg);
     if (r->state == RS_DONE) return 0;
@@ -1106,7 +1160,16 @@ long rt_tr_read(rt_tr_reader *r, rt_access *buf, size_t cap, rt_err *e)
         rt_trc_coder cd = r->cd;
         size_t i = 0;
         int dr = RT_TRC_OK;
-        while (i < m && (dr = rt_trc_dec(&p, end, &cd, maxgen, &buf[n + i])) == RT_TRC_OK) i++;
+        if (r->version == 4) {
+            const unsigned nc = r->meta.cores;
+            while (i < m && (dr = rt_trc_dec4(&p, end, &cd, maxgen, nc, &buf[n + i])) == RT_TRC_OK) {
+                if (cores) cores[n + i] = (uint8_t)cd.core;
+                i++;
+            }
+        } else {
+            while (i < m && (dr = rt_trc_dec(&p, end, &cd, maxgen, &buf[n + i])) == RT_TRC_OK) i++;
+            if (cores) memset(cores + n, 0, i);
+        }
         tally(&r->got, buf + n, i);
         r->cd = cd;
         r->rpos = (size_t)(p - r->raw);

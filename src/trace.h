@@ -75,6 +75,11 @@ typedef struct rt_tr_meta {
                                0 (primary rays only): written as format
                                version 1, every record generation 0; > 0:
                                version 2, a generation per record */
+    uint32_t cores;         /* simulated cores whose interleaved references the trace
+                               holds: 0 or 1, one core (versions 1-3 as before);
+                               2..RT_TR_MAX_CORES: version 4, each reference's core
+                               from core-switch records (rt_tr_put_core,
+                               rt_tr_read_cores) */
 } rt_tr_meta;
 
 /* Per-class totals, kept by the writer and stored in the footer. */
@@ -91,7 +96,8 @@ typedef struct rt_tr_totals {
  * payloads; without it version 1 when meta.generations == 0 (the bytes of
  * every trace without generations are those of a version-1 writer) and
  * version 2 otherwise. The reader accepts 1..RT_TR_FORMAT_VERSION. */
-#define RT_TR_FORMAT_VERSION 3        /* newest version; the reader accepts 1..this */
+#define RT_TR_FORMAT_VERSION 4        /* newest version; the reader accepts 1..this */
+#define RT_TR_MAX_CORES 256           /* largest meta.cores (a core id is one byte) */
 #define RT_TR_MAX_GENERATION 255      /* largest meta.generations / record generation */
 #define RT_TR_DEFAULT_LEVEL 3         /* zlib level (3: ~2x faster than 6, +30% size) */
 #define RT_TR_DEFAULT_CHUNK 65536     /* records per chunk */
@@ -169,6 +175,13 @@ const char *rt_tr_writer_error(const rt_tr_writer *w);
  * the first failure, whose message rt_tr_writer_error gives, and drops
  * every later access. */
 rt_sink *rt_tr_sink(rt_tr_writer *w);
+/* The writer as a core sink (rt_tr_put_core): for meta.cores > 1. */
+rt_csink *rt_tr_csink(rt_tr_writer *w);
+/* Puts n records made by core `core` (< meta.cores; version 4): a
+ * core-switch record (2 bytes) goes before the first of them when the
+ * previous record was another core's or a chunk starts. The sink's put
+ * is core 0's. 0, or -1 (the error in rt_tr_writer_error). */
+int rt_tr_put_core(rt_tr_writer *w, unsigned core, const rt_access *a, size_t n);
 /* Writes the last chunk and the footer, flushes, and renames PATH.tmp to
  * PATH. Frees w in every case (the temporary is removed on failure). 0, or
  * -1 naming the first failure: a failed put(), an I/O error, a failed
@@ -194,6 +207,9 @@ const rt_tr_totals *rt_tr_get_totals(const rt_tr_reader *r);
  * the file and byte offset. After -1 every later call returns -1 with the
  * same message; after 0, 0 again. */
 long rt_tr_read(rt_tr_reader *r, rt_access *buf, size_t cap, rt_err *e);
+/* The same, with each record's core in cores[i] (cores may be NULL;
+ * versions 1-3: every record core 0). */
+long rt_tr_read_cores(rt_tr_reader *r, rt_access *buf, uint8_t *cores, size_t cap, rt_err *e);
 /* Before the first rt_tr_read of a version-3 trace: the maker whose
  * payloads the trace is meant to hold (cachesim/sindex.h rt_si_open sets
  * the sample index's). rt_tr_read then feeds it every record it decodes
@@ -213,9 +229,9 @@ void rt_tr_set_side_check(rt_tr_reader *r, int on);
  * rt_tr_read returned 0). */
 uint64_t rt_tr_file_bytes(const rt_tr_reader *r);
 uint64_t rt_tr_file_hash(const rt_tr_reader *r);
-/* Format version of the open file (1..3) and its records-per-chunk
+/* Format version of the open file (1..4) and its records-per-chunk
  * limit. meta.generations is 0 for version 1, 1..255 for version 2, 0..255
- * for version 3. */
+ * for versions 3 and 4; meta.cores is 1 for versions 1-3, 2..256 for 4. */
 uint32_t rt_tr_get_version(const rt_tr_reader *r);
 uint32_t rt_tr_get_chunk_records(const rt_tr_reader *r);
 /* Closes the file and frees r (NULL is fine). */

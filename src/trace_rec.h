@@ -28,6 +28,12 @@
 #define RT_TRC_TAG_SAMESIZE 0x20u
 #define RT_TRC_TAG_SEQ 0x40u
 #define RT_TRC_TAG_GEN 0x80u /* version >= 2; reserved (zero) in version 1 */
+/* Version 4: the core-switch record, a tag byte of exactly 0x0f (class 15,
+ * no other bit) and the core id byte: the references after it, up to the
+ * next switch or the chunk's end, are that core's. Not a reference (a
+ * chunk's n counts references only); it always precedes a reference. */
+#define RT_TRC_SWITCH 0x0fu
+#define RT_TRC_MAX_REC_V4 (RT_TRC_MAX_REC + 2u) /* a reference with its core switch */
 
 /* Per-class coder state: previous address and size per class and the
  * current generation, all 0 at the start of a chunk (and of every record
@@ -36,6 +42,7 @@ typedef struct rt_trc_coder {
     uint64_t addr[16]; /* previous address per class */
     uint32_t size[16]; /* previous size per class */
     unsigned gen;      /* current generation */
+    unsigned core;     /* current core (version 4; 0 at a chunk's start, and always before) */
 } rt_trc_coder;
 
 /* Writes v as LEB128 at p (at most 10 bytes); returns the end. */
@@ -78,7 +85,8 @@ static inline unsigned char *rt_trc_enc(rt_trc_coder *c, unsigned char *p, const
 
 /* Decoding errors (RT_TRC_OK: none), in the words of the chunk decoder in
  * rt_tr_read; rt_trc_msg gives the message of each. */
-enum { RT_TRC_OK = 0, RT_TRC_TAG, RT_TRC_CLASS, RT_TRC_SAMEGEN, RT_TRC_GEN, RT_TRC_SHORT, RT_TRC_OVERFLOW, RT_TRC_SIZE0 };
+enum { RT_TRC_OK = 0, RT_TRC_TAG, RT_TRC_CLASS, RT_TRC_SAMEGEN, RT_TRC_GEN, RT_TRC_SHORT, RT_TRC_OVERFLOW, RT_TRC_SIZE0,
+       RT_TRC_SAMECORE, RT_TRC_CORE, RT_TRC_SWITCH2 };
 static inline const char *rt_trc_msg(int err)
 {
     switch (err) {
@@ -89,6 +97,9 @@ static inline const char *rt_trc_msg(int err)
     case RT_TRC_SHORT: return "record runs past the end of the chunk";
     case RT_TRC_OVERFLOW: return "varint overflow";
     case RT_TRC_SIZE0: return "size 0";
+    case RT_TRC_SAMECORE: return "core switch to the current core";
+    case RT_TRC_CORE: return "core switch above the header's cores";
+    case RT_TRC_SWITCH2: return "core switch not followed by a reference";
     default: return "";
     }
 }
@@ -147,6 +158,31 @@ static inline __attribute__((always_inline)) int rt_trc_dec(const unsigned char 
     out->write = (t & RT_TRC_TAG_WRITE) != 0;
     out->cls = (uint8_t)cls;
     out->gen = (uint8_t)gen;
+    *pp = p;
+    return RT_TRC_OK;
+}
+
+/* Version 4: one reference, after its core switch if one comes first
+ * (ncores: the header's cores, 2..256); its core is c->core after the call. The errors of rt_trc_dec, and a
+ * switch to the current core, to a core >= ncores, or followed by another
+ * switch or by the chunk's end. */
+static inline int rt_trc_dec4(const unsigned char **pp, const unsigned char *end, rt_trc_coder *restrict c,
+                              unsigned maxgen, unsigned ncores, rt_access *restrict out)
+{
+    const unsigned char *p = *pp;
+    if (p == end || *p != RT_TRC_SWITCH) return rt_trc_dec(pp, end, c, maxgen, out);
+    if (end - p < 2) return RT_TRC_SHORT;
+    const unsigned core = p[1], saved = c->core;
+    if (core == saved) return RT_TRC_SAMECORE;
+    if (core >= ncores) return RT_TRC_CORE;
+    p += 2;
+    if (p == end || *p == RT_TRC_SWITCH) return RT_TRC_SWITCH2;
+    c->core = core;
+    const int r = rt_trc_dec(&p, end, c, maxgen, out);
+    if (r != RT_TRC_OK) {
+        c->core = saved;
+        return r;
+    }
     *pp = p;
     return RT_TRC_OK;
 }

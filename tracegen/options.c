@@ -22,6 +22,8 @@ void rt_render_default_opts(rt_render_opts *o)
     o->gmax = 0;
     o->qorder = RT_QORDER_FULLEST;
     o->threads = 4;
+    o->cores = 1;
+    o->host_threads = 1;
     o->subsample = 1;
     o->subtile = 8;
     o->mode = RT_MODE_DEFAULT;
@@ -350,7 +352,18 @@ LONG_OPT(p_depth, "--depth", 1, RT_DEPTH_MAX, depth, "is not in 1..64")
 LONG_OPT(p_spp, "--spp", 1, RT_SPP_MAX, spp, "is not in 1..65536")
 LONG_OPT(p_bounces, "--bounces", 0, RT_BOUNCES_MAX, bounces, "is not in 0..1000")
 LONG_OPT(p_packet, "--packet", 1, 256, packet, "is not in 1..256")
-LONG_OPT(p_threads, "--threads", 1, 1024, threads, "is not in 1..1024")
+LONG_OPT(p_host_threads, "--threads", 1, 1024, host_threads, "is not in 1..1024")
+
+/* --cores N: the dynamic tracer's modeled threads and the other tracers'
+ * simulated cores (the job keeps the one its tracer reads: run.c) */
+static int p_cores(rt_render_opts *o, const char *arg, rt_err *e)
+{
+    long v;
+    if (rt_opt_parse_long(arg, 1, RT_MAX_CORES, &v) < 0) return rt_errf(e, "--cores: '%s' is not in 1..%d", arg, RT_MAX_CORES);
+    o->threads = (int)v;
+    o->cores = (int)v;
+    return 0;
+}
 _Static_assert(RT_DEPTH_MAX == 64 && RT_SPP_MAX == 65536 && RT_BOUNCES_MAX == 1000, "messages above");
 
 /* -W (w = 1) or -H: a given size is not taken from the scene's Film */
@@ -641,7 +654,7 @@ const rt_render_optdef rt_render_optdefs[] = {
      NULL, "2:8"},
     {"--qorder", 0, "O", RT_OPTG_SCHED, ALL, "qorder", p_qorder, NULL,
      "dynamic, treelet: queue order, fullest | tree (default fullest)",
-     "  --qorder O, --threads N, --hit-rule R, --qp-measure M  dynamic scheduler options\n"
+     "  --qorder O, --cores N, --hit-rule R, --qp-measure M  dynamic scheduler options\n"
      "                     (see render --help)\n",
      "tree"},
     {"--hit-rule", 0, "R", RT_OPTG_SCHED, ALL, "hit_rule", p_hit_rule, NULL,
@@ -651,8 +664,17 @@ const rt_render_optdef rt_render_optdefs[] = {
     {"--qp-measure", 0, "M", RT_OPTG_SCHED, ALL, "qp_measure", p_qp_measure, NULL,
      "dynamic: subtree size for queue points, all (nodes, lists," H "triangles) | triangles (default all)", "",
      "triangles"},
-    {"--threads", 0, "N", RT_OPTG_SCHED, ALL, "threads", p_threads, NULL,
-     "dynamic: modeled threads, 2 rays buffered each (default 4)", "", "2"},
+    /* no key: the dynamic tracer writes it as threads=N (its .params), the
+     * others' cores are the run's cores column */
+    {"--cores", 0, "N", RT_OPTG_CORES, ALL, NULL, p_cores, NULL,
+     "dynamic: modeled cores, 2 rays buffered each (default 4; formerly" H
+     "--threads); recursive, packet, treelet: simulated cores, one work" H
+     "share each (trace: a version-4 trace; default 1)",
+     "", "2"},
+    {"--threads", 0, "N", RT_OPTG_THREADS, ALL, NULL, p_host_threads, NULL,
+     "render, bench: real host threads (recursive, packet, treelet;" H
+     "images identical to one thread; default 1); trace and sweep refuse it",
+     "", "2"},
     {"--mode", 0, "M", 0, RT_OC_RUN, "mode", p_mode, NULL,
      "raycast | shadow | whitted | path (default shadow with lights," H "else raycast)", NULL, "shadow"},
     {"--depth", 0, "N", 0, ALL, "depth", p_depth, NULL,

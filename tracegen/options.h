@@ -70,14 +70,18 @@ typedef enum rt_rstores {
  */
 enum {
     RT_OPTG_PACKET = 1u << 0,   /* --packet */
-    RT_OPTG_SCHED = 1u << 1,    /* --cache-size, --gmax, --qorder, --threads, --hit-rule, --qp-measure:
+    RT_OPTG_SCHED = 1u << 1,    /* --cache-size, --gmax, --qorder, --hit-rule, --qp-measure:
                                  * scheduled tracers */
     RT_OPTG_QUEUES = 1u << 2,   /* --queue-stores: tracers that keep ray queues */
     RT_OPTG_GRID = 1u << 3,     /* --grid-min, --grid-density: tracers on the uniform grid */
     RT_OPTG_VB = 1u << 4,       /* --vb-size: ping-pong vertex buffers */
     RT_OPTG_ORACLE = 1u << 5,   /* --oracle, --oracle-fraction, --unroll, --unroll-suppress */
     RT_OPTG_RECORDS = 1u << 6,  /* --record-stores: tracers whose ray records the GPU writes whole */
-    RT_OPTG_TREELET = 1u << 7   /* --treelet-tris, --ray-window: the treelet scheduler */
+    RT_OPTG_TREELET = 1u << 7,  /* --treelet-tris, --ray-window: the treelet scheduler */
+    RT_OPTG_THREADS = 1u << 8,  /* --threads: tracers whose work splits over host threads
+                                 * (parallel by construction: rt_job_run, run.h) */
+    RT_OPTG_CORES = 1u << 9     /* --cores: simulated cores (the tracers of RT_OPTG_THREADS:
+                                 * their work shares; dynamic: its modeled threads) */
 };
 
 /*
@@ -188,7 +192,13 @@ typedef struct rt_render_opts {
     uint64_t sched_size; /* dynamic: cache size the schedule targets (bytes) */
     uint64_t gmax;       /* dynamic: explicit geometry budget, 0 = derive */
     int qorder;          /* dynamic: rt_qorder */
-    int threads;         /* dynamic: modeled threads (ray buffer = 2 rays each) */
+    int threads;         /* dynamic: modeled cores, --cores (ray buffer = 2 rays each; the run
+                          * key keeps its version-1 spelling "threads=N") */
+    int cores;           /* --cores for the tracers of RT_OPTG_THREADS: simulated cores, one work
+                          * share each, interleaved by the modeled clock (run.h); 1 = today's
+                          * single stream (the run key's cores: rt_tr_meta.cores, the database column) */
+    int host_threads;    /* --threads: real host threads of an untraced run (1; never in a run key:
+                          * the images and statistics are those of one thread, run.h) */
     uint32_t subsample;  /* reduced experiment: trace 1 in K tiles (1 = all) */
     int subtile;         /* subsampling tile edge in pixels (default 8) */
     int mode;            /* rt_mode; RT_MODE_DEFAULT resolves by lights (rt_render_mode) */
@@ -225,6 +235,9 @@ static inline int rt_render_opt_given(const rt_render_opts *o, int id)
 {
     return id >= 0 && id < 64 && (o->given >> id & 1);
 }
+
+#define RT_MAX_CORES 1024 /* largest --cores (the dynamic tracer's modeled threads; a multi-core
+                           * trace holds at most 256: RT_TR_MAX_CORES) */
 
 #define RT_FILM_W 1u
 #define RT_FILM_H 2u

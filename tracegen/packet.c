@@ -694,9 +694,11 @@ static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_
     rt_cam_frame cam;
     rt_cam_setup(&cam, sc, W, H);
 
+    uint64_t q = 0; /* kept packets so far: the work share (pixels.h) */
     for (int py = 0; py < H; py += P) {
         for (int px = 0; px < W; px += P) {
             if (!rt_pixel_kept(o, px, py)) continue; /* subsampling: tiles hold whole packets */
+            if (!rt_pixel_packet_part(q++, ctx->part, ctx->nparts)) continue;
             int pw = W - px < P ? W - px : P, ph = H - py < P ? H - py : P;
             int n = pw * ph;
             if (secondary) {
@@ -815,7 +817,7 @@ const rt_tracer rt_tracer_packet = {
     .modes = RT_TRACER_ALL_MODES,
     .accels = RT_ACCEL_BIT(RT_ACCEL_KD) | RT_ACCEL_BVH_BITS,
     .accel_default = RT_ACCEL_KD,
-    .opts = RT_OPTG_PACKET,
+    .opts = RT_OPTG_PACKET | RT_OPTG_THREADS | RT_OPTG_CORES,
     .figures = RT_FIG_NAVRATIL,
     .check_opts = pk_check_opts,
     .params = pk_params,

@@ -65,3 +65,13 @@ void rt_pixel_params(const rt_render_opts *o, char *buf, size_t n)
     if (n) buf[0] = 0;
     if (o->subsample > 1) snprintf(buf, n, " subsample=%u tile=%d", (unsigned)o->subsample, o->subtile);
 }
+
+size_t rt_pixel_order_part(const rt_render_opts *o, int part, int nparts, uint32_t *order)
+{
+    size_t n = rt_pixel_order(o, order);
+    if (nparts <= 1) return n;
+    size_t m = 0;
+    for (size_t k = 0; k < n; k++)
+        if ((k / RT_SHARE_TILE) % (size_t)nparts == (size_t)part) order[m++] = order[k];
+    return m;
+}

@@ -24,6 +24,28 @@ int rt_pixel_kept(const rt_render_opts *o, int x, int y);
 /* Writes the traced pixels (y * W + x) in Hilbert-curve order to order[]
  * (room for W * H) and returns how many there are. */
 size_t rt_pixel_order(const rt_render_opts *o, uint32_t *order);
+/*
+ * Work shares. The work of a frame splits into parts that can run at the
+ * same time (host threads: rt_job_run), by a static interleave:
+ *   - pixel tracers (recursive, treelet): the traced pixels in Hilbert order
+ *     (rt_pixel_order) are cut into share tiles of RT_SHARE_TILE consecutive
+ *     pixels; share tile t belongs to part t mod nparts;
+ *   - packet tracer: the kept packets, counted in the tracer's row-major
+ *     order, packet q belonging to part q mod nparts.
+ * Every pixel belongs to exactly one part, and part p traces its pixels in
+ * the order one part would (nparts <= 1: everything, today's order). With a
+ * 512 x 512 image a share tile is an 8 x 8 block of the Hilbert curve.
+ */
+#define RT_SHARE_TILE 64
+/* Part `part` of `nparts` of rt_pixel_order's pixels, in order, into order[]
+ * (room for W * H); returns how many. */
+size_t rt_pixel_order_part(const rt_render_opts *o, int part, int nparts, uint32_t *order);
+/* 1 when the packet with row-major index q belongs to part `part` of `nparts`. */
+static inline int rt_pixel_packet_part(uint64_t q, int part, int nparts)
+{
+    return nparts <= 1 || q % (uint64_t)nparts == (uint64_t)part;
+}
+
 /* Number of subsampling tiles of the image (partial tiles at the right and
  * bottom edges count). */
 uint64_t rt_pixel_tiles(const rt_render_opts *o);

@@ -99,7 +99,7 @@ static int rec_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
         free(mark);
         return -1;
     }
-    size_t npix = rt_pixel_order(o, order);
+    size_t npix = rt_pixel_order_part(o, ctx->part, ctx->nparts, order);
     rt_cam_frame cam;
     rt_cam_setup(&cam, sc, W, H);
     rt_trav tv;
@@ -158,6 +158,7 @@ const rt_tracer rt_tracer_recursive = {
     .modes = RT_TRACER_ALL_MODES,
     .accels = RT_ACCEL_BIT(RT_ACCEL_KD) | RT_ACCEL_BVH_BITS | RT_ACCEL_BIT(RT_ACCEL_NAIVE),
     .accel_default = RT_ACCEL_KD,
+    .opts = RT_OPTG_THREADS | RT_OPTG_CORES,
     .traits = RT_TR_REFERENCE,
     .figures = RT_FIG_NAVRATIL,
     .layout = rec_layout,

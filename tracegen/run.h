@@ -39,8 +39,44 @@ int rt_job_setup(rt_job *j, const char *scene_spec, const char *tracer, const rt
  * with the caller; any other structure is built and owned by the job. */
 int rt_job_setup_borrowed(rt_job *j, rt_scene *sc, rt_kdtree *kd, const char *tracer, const rt_render_opts *o,
                           rt_err *e);
-/* Renders into img (W x H); sink NULL = untraced. Fills st. 0 or -1. */
+/* Renders into img (W x H); sink NULL = untraced. Fills st. 0 or -1.
+ * opt.host_threads > 1 (untraced only): the work shares on that many host
+ * threads, images and statistics those of one thread. opt.cores > 1 with a
+ * sink: the simulated cores' references interleaved as rt_job_run_cores
+ * orders them, without their core ids. */
 int rt_job_run(rt_job *j, rt_sink *sink, rt_image *img, rt_run_stats *st, rt_err *e);
+/*
+ * Simulated cores (opt.cores = N > 1, tracers of RT_OPTG_THREADS): core k
+ * runs work share k of N (pixels.h: Hilbert share tiles or packets dealt
+ * round-robin), recording on its own host thread into a bounded queue,
+ * and the calling thread hands the references to cs in the order of the
+ * modeled clock:
+ *
+ *   A TICK is RT_CORE_TICK references of every core that has work left:
+ *   in each tick core 0 issues its next RT_CORE_TICK references (fewer at
+ *   its end), then core 1, ..., then core N-1. A finished core drops out.
+ *
+ * Each core has its own copy of the run's scratch regions -- every region
+ * but the geometry group's and the per-pixel "rays.primary" and "fb"
+ * (queues, stacks, ray-window slots, packet hits: what one core's tracer
+ * keeps for itself): core k's references into them are moved up by k
+ * times the layout's span (rt_layout.next - RT_MM_BASE, rounded to 4 KiB),
+ * so two cores never share a scratch line; geometry is shared read-only
+ * and a pixel's records are its core's (lines at share-tile edges are
+ * really shared). rt_job_run_part moves them the same way.
+ *
+ * The order depends only on each core's own reference stream, never on
+ * host timing, so it is the same on every machine; N = 1 is the one-core
+ * run (rt_job_run). A trace of it costs one 2-byte core switch per
+ * RT_CORE_TICK references (0.125 B/reference before compression).
+ * Statistics are summed as for host threads. 0 or -1.
+ */
+#define RT_CORE_TICK 16
+int rt_job_run_cores(rt_job *j, rt_csink *cs, rt_image *img, rt_run_stats *st, rt_err *e);
+/* Work share part of nparts alone, on the calling thread, into sink (NULL:
+ * untraced): one core's references as rt_job_run_cores sees them (the
+ * tests' reference for the interleave). 0 or -1. */
+int rt_job_run_part(rt_job *j, rt_sink *sink, int part, int nparts, rt_image *img, rt_run_stats *st, rt_err *e);
 /* The tracer-parameter string that identifies a run ("qorder=fullest
  * threads=4", "packet=8", "" ...; then the subsampling parameters), the
  * one formatter for trace headers and database keys. extra, if non-empty,

@@ -5,6 +5,7 @@
 
 void rt_stats_finish(rt_run_stats *st, const rt_trav *tv, const uint8_t *mark, uint32_t ntri)
 {
+    if (st->mark_keep && ntri) memcpy(st->mark_keep, mark, ntri);
     st->nodes = tv->nodes;
     st->tests = tv->tests;
     /* eight marks at a time: bit 0 of every byte counted for pv_primary,

@@ -64,6 +64,9 @@ typedef struct rt_run_stats {
     uint64_t pv_all;         /* distinct triangles tested by any ray */
     uint64_t accesses;       /* memory accesses recorded (0 if not recording) */
     double seconds;          /* wall time of run() */
+    uint8_t *mark_keep;      /* set by the job for one host thread's share: rt_stats_finish copies the
+                              * run's triangle marks there (ntri bytes), so the job can count the
+                              * potentially visible sets of the whole image; NULL otherwise */
     char extra[512];         /* tracer-specific statistics, "k=v k=v" */
 } rt_run_stats;
 
@@ -77,6 +80,11 @@ typedef struct rt_tracer_ctx {
     const void *plan;  /* the tracer's plan (NULL before plan() or without one) */
     int check;         /* test mode: verify the tracer's invariants as it runs */
     const rt_mesh *mesh; /* vertex index of the mesh layout (NULL in the compact one) */
+    /* The work share this run traces: part `part` of `nparts` (0 or 1 parts:
+     * all the work, today's order). Only tracers with the RT_OPTG_THREADS
+     * group read it, through rt_pixel_order_part (recursive, treelet) or
+     * rt_pixel_packet_part (packet); see "Work shares" in pixels.h. */
+    int part, nparts;
 } rt_tracer_ctx;
 
 /* Traits (rt_tracer.traits). */

@@ -1367,7 +1367,7 @@ static int tl_run_fn(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, 
     uint32_t *order = NULL;
     if (tl_init(&T, ctx, img, st, e) < 0 || !(order = rt_calloc(T.npix, sizeof *order, e))) goto done;
     if (ctx->check && check_plan(T.P, T.b, e) < 0) goto done;
-    const size_t ntr = rt_pixel_order(ctx->opt, order);
+    const size_t ntr = rt_pixel_order_part(ctx->opt, ctx->part, ctx->nparts, order);
     for (size_t k = 0; k < ntr; k += T.slots) {
         const uint32_t n = (uint32_t)(ntr - k < T.slots ? ntr - k : T.slots);
         if ((T.secondary ? window_secondary(&T, order + k, n, e) : window_primary(&T, order + k, n, e)) < 0) goto done;
@@ -1408,7 +1408,7 @@ const rt_tracer rt_tracer_treelet = {
     .modes = RT_TRACER_ALL_MODES,
     .accels = RT_ACCEL_BVH_BITS,
     .accel_default = RT_ACCEL_BVH4,
-    .opts = RT_OPTG_SCHED | RT_OPTG_QUEUES | RT_OPTG_TREELET,
+    .opts = RT_OPTG_SCHED | RT_OPTG_QUEUES | RT_OPTG_TREELET | RT_OPTG_THREADS | RT_OPTG_CORES,
     .traits = RT_TR_SCHEDULED | RT_TR_QUEUES,
     .figures = RT_FIG_TREELET,
     .check_opts = tl_check_opts,

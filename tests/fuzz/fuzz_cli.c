@@ -15,7 +15,7 @@
  * prints nothing and can check that every refusal has a message.
  *
  * Contracts checked: a value accepted is in its documented range (-W/-H
- * 1..65536, --packet 1..256, --threads 1..1024, --cache-size >= 64,
+ * 1..65536, --packet 1..256, --cores 1..1024, --cache-size >= 64,
  * --gmax >= 1, --subsample 1..2^20 with tile 1..4096, --lights a subset
  * of 0..2, --line 1..1M, a rate in (0, 1]); a refusal leaves the options
  * unchanged and has a message; rt_parse_size agrees with a naive parser;
@@ -102,6 +102,8 @@ static void check_opts(const rt_render_opts *o, const char *tracer)
     if (o->W < 1 || o->W > 65536 || o->H < 1 || o->H > 65536) rt_fuzz_fail("image size %dx%d", o->W, o->H);
     if (o->packet < 1 || o->packet > 256) rt_fuzz_fail("packet %d", o->packet);
     if (o->threads < 1 || o->threads > 1024) rt_fuzz_fail("threads %d", o->threads);
+    if (o->cores < 1 || o->cores > 1024) rt_fuzz_fail("cores %d", o->cores);
+    if (o->host_threads < 1 || o->host_threads > 1024) rt_fuzz_fail("host threads %d", o->host_threads);
     if (o->sched_size < 64) rt_fuzz_fail("sched size %llu", (unsigned long long)o->sched_size);
     if (o->subsample < 1 || o->subsample > (1u << 20) || o->subtile < 1 || o->subtile > 4096)
         rt_fuzz_fail("subsample %u:%d", o->subsample, o->subtile);

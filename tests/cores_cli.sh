@@ -1,0 +1,79 @@
+#!/bin/sh
+# Many cores from the command line: sim --hierarchy on a version-4 trace of
+# 4 simulated cores prints a private row set per core and the shared
+# sizes, stores the run with cores 4, its hierarchy and per-level rows
+# (one per core for the private level); a one-core trace is one core; bad
+# hierarchies are usage errors naming the part; bench --what cores prints
+# its ratio.
+set -u
+bin=${RT_BIN:-./raytraffic}
+tmp=$(mktemp -d /tmp/rt_cores_cli.XXXXXX) || exit 1
+trap 'rm -rf "$tmp"' EXIT
+fail=0
+err() { echo "FAIL: $*"; fail=1; }
+[ -x "$bin" ] || { echo "FAIL: $bin is not an executable"; exit 1; }
+H=L1=32K/8/64/lru/private,LLC=1K-4M/full/64/lru/shared
+
+"$bin" trace cornell -W 24 -H 24 --lights all --cores 4 -o "$tmp/c4.rtt" 2>/dev/null || err "trace --cores 4"
+"$bin" trace cornell -W 24 -H 24 --lights all -o "$tmp/c1.rtt" 2>/dev/null || err "trace"
+"$bin" sim --hierarchy "$H" "$tmp/c4.rtt" >"$tmp/s4.txt" || err "sim --hierarchy: $(cat "$tmp/s4.txt")"
+grep -q "^# .*c4.rtt: 4 cores, $H, " "$tmp/s4.txt" || err "sim header: $(head -1 "$tmp/s4.txt")"
+[ "$(grep -c '^L1 [0-3] 32768 64 8 all ' "$tmp/s4.txt")" -eq 4 ] || err "not 4 private rows: $(cat "$tmp/s4.txt")"
+[ "$(grep -c '^LLC - [0-9]* 64 0 all ' "$tmp/s4.txt")" -eq 13 ] || err "not 13 shared sizes"
+# the private levels' accesses add up to the line touches of the one-core run's private level
+a4=$(awk '$1 == "L1" && $6 == "all" { s += $7 } END { print s }' "$tmp/s4.txt")
+"$bin" sim --hierarchy "$H" "$tmp/c1.rtt" >"$tmp/s1.txt" || err "sim --hierarchy of a one-core trace"
+grep -q ": 1 core, " "$tmp/s1.txt" || err "a version-3 trace is not one core: $(head -1 "$tmp/s1.txt")"
+a1=$(awk '$1 == "L1" && $6 == "all" { s += $7 } END { print s }' "$tmp/s1.txt")
+[ "$a4" = "$a1" ] && [ "$a4" -gt 0 ] || err "line touches: $a4 on 4 cores, $a1 on one"
+# the shared level sees only what the private ones send down
+"$bin" sim --hierarchy "$H" --format csv "$tmp/c4.rtt" >"$tmp/s4.csv" || err "csv"
+head -1 "$tmp/s4.csv" | grep -q "^trace,level,core,size_bytes" || err "csv header"
+# the database
+"$bin" sim --hierarchy "$H" --db "$tmp/r.db" "$tmp/c4.rtt" 2>"$tmp/db.log" || err "sim --db: $(cat "$tmp/db.log")"
+[ "$(sqlite3 "$tmp/r.db" "SELECT cores || ' ' || hierarchy FROM runs")" = "4 $H" ] || err "run: $(sqlite3 "$tmp/r.db" 'SELECT * FROM runs')"
+[ "$(sqlite3 "$tmp/r.db" "SELECT COUNT(DISTINCT core) FROM level_traffic WHERE level = 1")" = 4 ] || err "private rows"
+[ "$(sqlite3 "$tmp/r.db" "SELECT COUNT(DISTINCT cache_size) FROM level_traffic WHERE level = 2 AND core = -1")" = 13 ] \
+    || err "shared rows"
+[ "$(sqlite3 "$tmp/r.db" "SELECT COUNT(DISTINCT config_id) FROM traffic")" = 13 ] || err "memory traffic rows"
+# report --figure cores: one row per core count, the DRAM MB of the traffic rows
+"$bin" sim --hierarchy "$H" --db "$tmp/r.db" "$tmp/c1.rtt" 2>/dev/null || err "sim --db of the one-core trace"
+"$bin" trace cornell -W 24 -H 24 --lights all -t treelet --cores 4 -o "$tmp/t4.rtt" 2>/dev/null || err "trace -t treelet --cores 4"
+"$bin" sim --hierarchy "$H" --db "$tmp/r.db" "$tmp/t4.rtt" 2>/dev/null || err "sim --db of the treelet trace"
+"$bin" report --db "$tmp/r.db" --figure cores >"$tmp/rep.md" 2>&1 || err "report --figure cores: $(cat "$tmp/rep.md")"
+want=$(sqlite3 "$tmp/r.db" "SELECT printf('%.2f', SUM(t.traffic_bytes) / 1048576.0) FROM traffic t JOIN runs r ON r.id = t.run_id
+    JOIN cache_configs c ON c.id = t.config_id WHERE r.cores = 4 AND r.tracer = 'recursive' AND c.size = 4194304")
+grep "shared 4096K" -A5 "$tmp/rep.md" | grep -q "^| 4 | $want | [0-9.]*% | [0-9.]* | [0-9.]*% |$" \
+    || err "report: want recursive $want MB on 4 cores: $(cat "$tmp/rep.md")"
+grep "shared 4096K" -A5 "$tmp/rep.md" | grep -q "^| 1 | [0-9.]* | [0-9.]*% | - | - |$" || err "report: the one-core row"
+# the treelet tracer is compared with the recursive tracer on its structure (bvh4)
+"$bin" trace cornell -W 24 -H 24 --lights all --accel bvh4 --cores 4 -o "$tmp/b4.rtt" 2>/dev/null || err "trace --accel bvh4"
+"$bin" sim --hierarchy "$H" --db "$tmp/r.db" "$tmp/b4.rtt" 2>/dev/null || err "sim --db of the bvh4 trace"
+"$bin" report --db "$tmp/r.db" --figure cores >"$tmp/rep.md" 2>&1 || err "report --figure cores (bvh4)"
+grep -q "| treelet vs recursive/bvh4 |" "$tmp/rep.md" || err "no treelet vs recursive/bvh4 column: $(cat "$tmp/rep.md")"
+grep "shared 4096K" -A6 "$tmp/rep.md" | grep -q "^| 4 | [0-9.]* | [0-9.]*% | [0-9.]* | [0-9.]*% | [0-9.]* | [0-9.]*% | -*[0-9.]*% |$" \
+    || err "report: the reduction on 4 cores: $(cat "$tmp/rep.md")"
+"$bin" report --db "$tmp/r.db" --figure cores --format csv | grep -q "^cornell,24,24,7,.*,4194304,4,treelet," || err "report csv"
+# sweep --hierarchy --cores: in process, the same runs and rows as sim --hierarchy of the traces
+"$bin" sweep --scenes cornell -W 24 -H 24 --lights all --tracers recursive --cores 1,4 --hierarchy "$H" \
+    --db "$tmp/s.db" 2>"$tmp/sw.log" || err "sweep --hierarchy: $(cat "$tmp/sw.log")"
+"$bin" sweep --scenes cornell -W 24 -H 24 --lights all --tracers treelet --cores 4 --hierarchy "$H" \
+    --db "$tmp/s.db" 2>"$tmp/sw.log" || err "sweep --hierarchy -t treelet: $(cat "$tmp/sw.log")"
+q="SELECT r.tracer, r.cores, r.hierarchy, l.level, l.core, l.cache_size, l.class, l.accesses, l.misses, l.writebacks,
+   l.traffic_bytes FROM level_traffic l JOIN runs r ON r.id = l.run_id WHERE r.params NOT LIKE '%accel=%'
+   ORDER BY 1, 2, 4, 5, 6, 7"
+sqlite3 "$tmp/r.db" "$q" >"$tmp/lv_sim.txt"; sqlite3 "$tmp/s.db" "$q" >"$tmp/lv_sweep.txt"
+[ -s "$tmp/lv_sim.txt" ] && cmp -s "$tmp/lv_sim.txt" "$tmp/lv_sweep.txt" || err "sweep and sim --hierarchy rows differ"
+"$bin" sweep --scenes cornell -W 8 -H 8 --tracers dynamic --cores 1,2 --hierarchy "$H" --db "$tmp/s.db" 2>"$tmp/u.log"
+[ $? = 2 ] && grep -q "dynamic tracer's work is not split" "$tmp/u.log" || err "sweep -t dynamic --cores 2: $(cat "$tmp/u.log")"
+# bad hierarchies
+for bad in "L1=32K/8/64/lru/private" "L1=32K/8/64/fifo/private,LLC=1M/full/64/lru/shared" \
+    "L1=32K/8/64/lru/private,LLC=1M/full/32/lru/shared" "L1=32K/8/64/lru/shared,LLC=1M/full/64/lru/shared"; do
+    "$bin" sim --hierarchy "$bad" "$tmp/c4.rtt" >/dev/null 2>"$tmp/u.log"
+    [ $? = 2 ] && grep -q -- "--hierarchy" "$tmp/u.log" || err "--hierarchy $bad: $(cat "$tmp/u.log")"
+done
+"$bin" bench --what cores --scene cornell -W 24 -H 24 --cores 3 --reps 1 >"$tmp/b.txt" 2>&1 || err "bench --what cores: $(cat "$tmp/b.txt")"
+grep -q "^| median | | [0-9.]* | [0-9.]* | [0-9.]* |" "$tmp/b.txt" || err "bench: $(cat "$tmp/b.txt")"
+
+[ $fail = 0 ] && echo "PASS: cores_cli"
+exit $fail
