@@ -1570,6 +1570,51 @@ static int note_area_light(pbrt *P, const token *d, uint32_t start)
     return 0;
 }
 
+/* Authored lights (scene.h "Lights as authored"): a record for the scene's
+ * lights[] beside the point model above, named by the directive's line. */
+static int add_light(pbrt *P, const token *t, rt_light *l)
+{
+    l->scale = 1.0f;
+    where(P, t, l->at, sizeof l->at, 0);
+    rt_err le;
+    if (rt_scene_add_light(P->s, l, &le) < 0) return perr(P, t, "%s", le.msg);
+    return 0;
+}
+
+/* The emitter of an AreaLightSource on this shape: sphere and disk as
+ * analytic shapes (centre and radius from the transform, which is taken
+ * as a similarity), other shapes by their triangles [start, ntri). */
+static int note_authored_area(pbrt *P, const token *t, const char *type, plist *L, uint32_t start)
+{
+    rt_light l;
+    memset(&l, 0, sizeof l);
+    const mat4 *m = &P->g.ctm;
+    if (!strcmp(type, "sphere") || !strcmp(type, "disk")) {
+        double r, h = 0;
+        if (pfloat(P, L, "radius", 1.0, &r) < 0) return -1;
+        if (type[0] == 'd' && pfloat(P, L, "height", 0.0, &h) < 0) return -1;
+        if (!(r > 0)) return perr(P, t, "Shape \"%s\": radius must be positive", type);
+        rt_vec3 c = m_point(m, 0, 0, h), ex = m_point(m, r, 0, h), ey = m_point(m, 0, r, h), ez = m_point(m, 0, 0, h + 1);
+        l.p = c;
+        l.r = rt_len(rt_sub(ex, c));
+        if (type[0] == 's') {
+            l.kind = RT_LIGHT_SPHERE;
+        } else {
+            rt_vec3 n = rt_cross(rt_sub(ex, c), rt_sub(ey, c)); /* the disk's +z side */
+            if (rt_dot(n, rt_sub(ez, c)) < 0) n = rt_mul(n, -1.0f);
+            l.kind = RT_LIGHT_DISK;
+            l.d = rt_norm(n);
+        }
+        if (!(l.r > 0) || !isfinite(l.r)) return perr(P, t, "Shape \"%s\": emitter radius out of range after the transform", type);
+        return add_light(P, t, &l);
+    }
+    if (P->s->ntri <= start) return 0;
+    l.kind = RT_LIGHT_MESH;
+    l.first = start;
+    l.count = P->s->ntri - start;
+    return add_light(P, t, &l);
+}
+
 static int do_shape(pbrt *P, const token *d)
 {
     if (need_world(P, d, 1) < 0) return -1;
@@ -1682,6 +1727,8 @@ static int do_shape(pbrt *P, const token *d)
         pwarn(P, &tt, key, "Shape \"%s\" skipped", q);
     }
     if (rc == 0 && P->g.area && P->in_obj < 0 && P->s->ntri > start) rc = note_area_light(P, &tt, start);
+    if (rc == 0 && P->g.area && P->in_obj < 0) rc = note_authored_area(P, &tt, type, &L, start);
+    if (rc == 0 && P->g.area && P->in_obj >= 0) pwarn(P, &tt, "instanced area light", "area light inside an object: not one of the authored lights");
     if (rc == 0 && P->in_obj < 0) P->nonobj += P->s->ntri - start;
     free(w);
     free(idx);
@@ -1810,6 +1857,44 @@ static int do_light(pbrt *P, const token *d)
         if (r) memcpy(o, v, sizeof o);
         if (P->nplight < RT_NLIGHTS) P->plight[P->nplight++] = m_point(&P->g.ctm, o[0], o[1], o[2]);
         count_light(P, &tt);
+        rt_light al;
+        memset(&al, 0, sizeof al);
+        al.kind = RT_LIGHT_POINT;
+        al.p = m_point(&P->g.ctm, o[0], o[1], o[2]);
+        if (add_light(P, &tt, &al) < 0) goto done;
+    } else if (!strcmp(type, "distant")) {
+        const double *v;
+        size_t n;
+        double ft[6] = {0, 0, 0, 0, 0, 1};
+        for (int k = 0; k < 2; k++) {
+            const char *key = k ? "to" : "from";
+            int r = pnums(P, &L, key, B(PT_POINT3), "point3", 3, 3, &v, &n);
+            if (r < 0) goto done;
+            if (r && n != 3) {
+                perr(P, &pfind(&L, key)->at, "LightSource: \"%s\" has %zu values, expected 3", key, n);
+                goto done;
+            }
+            if (r) memcpy(ft + 3 * k, v, 3 * sizeof *v);
+        }
+        rt_vec3 f = m_point(&P->g.ctm, ft[0], ft[1], ft[2]), t = m_point(&P->g.ctm, ft[3], ft[4], ft[5]);
+        rt_vec3 dir = rt_sub(f, t);
+        if (!(rt_len(dir) > 0) || !isfinite(rt_len(dir))) {
+            perr(P, &tt, "LightSource \"distant\": \"from\" and \"to\" coincide");
+            goto done;
+        }
+        rt_light al;
+        memset(&al, 0, sizeof al);
+        al.kind = RT_LIGHT_DISTANT;
+        al.d = rt_norm(dir);
+        if (add_light(P, &tt, &al) < 0) goto done;
+        pwarn(P, &tt, "LightSource \"distant\"", "LightSource \"distant\": used with --light-samples only (no point light for it)");
+    } else if (!strcmp(type, "infinite")) {
+        rt_light al;
+        memset(&al, 0, sizeof al);
+        al.kind = RT_LIGHT_INFINITE;
+        if (add_light(P, &tt, &al) < 0) goto done;
+        if (pfind(&L, "filename")) pwarn(P, &tt, "infinite image", "LightSource \"infinite\": image ignored (a uniform sky)");
+        pwarn(P, &tt, "LightSource \"infinite\"", "LightSource \"infinite\": used with --light-samples only (no point light for it)");
     } else {
         char key[48];
         snprintf(key, sizeof key, "LightSource \"%.30s\"", type);

@@ -208,9 +208,11 @@ int rt_render_parse_lights(const char *s, unsigned *mask)
     unsigned m = 0;
     const char *p = s;
     while (*p) {
-        if (*p < '0' || *p >= '0' + RT_NLIGHTS) return -1;
-        m |= 1u << (*p - '0');
-        p++;
+        if (*p < '0' || *p > '9') return -1;
+        unsigned i = (unsigned)(*p++ - '0');
+        if (i && *p >= '0' && *p <= '9') i = 10 * i + (unsigned)(*p++ - '0'); /* two digits, no leading 0 */
+        if (i > 31) return -1;
+        m |= 1u << i;
         if (*p == ',') {
             p++;
             if (!*p) return -1;
@@ -238,6 +240,29 @@ int rt_render_apply_view(const rt_render_opts *o, rt_scene *sc, rt_err *e)
         sc->light[i] = rt_v3(v->light[i][0], v->light[i][1], v->light[i][2]);
         sc->light_scale[i] = v->light[i][3] > 0 ? v->light[i][3] / sc->light_power : 1.0f;
     }
+    return 0;
+}
+
+uint32_t rt_render_nlights(const rt_render_opts *o, const rt_scene *sc)
+{
+    return o->light_samples && sc->nlight ? sc->nlight : RT_NLIGHTS;
+}
+
+int rt_render_light_on(const rt_render_opts *o, uint32_t i)
+{
+    return (o->lights_all && o->lights) || (i < 32 && ((o->lights >> i) & 1u));
+}
+
+int rt_render_check_lights(const rt_render_opts *o, const rt_scene *sc, rt_err *e)
+{
+    if (o->light_samples > RT_LIGHT_SAMPLES_MAX)
+        return rt_errf_usage(e, "--light-samples: %u is not in 0..%d", (unsigned)o->light_samples, RT_LIGHT_SAMPLES_MAX);
+    uint32_t n = rt_render_nlights(o, sc);
+    for (uint32_t i = n; i < 32; i++)
+        if ((o->lights >> i) & 1u)
+            return rt_errf_usage(e, "--lights: light %u does not exist (%s has %u light%s%s)", (unsigned)i, sc->name,
+                                 (unsigned)n, n == 1 ? "" : "s",
+                                 o->light_samples || !sc->nlight ? "" : "; --light-samples N uses the file's own");
     return 0;
 }
 
@@ -275,4 +300,7 @@ void rt_render_view_params(const rt_render_opts *o, char *buf, size_t n)
         for (int k = 0; k < 3; k++) put_float(buf, n, &l, k ? "," : key, v->light[i][k]);
         if (v->light[i][3] > 0) put_float(buf, n, &l, ",", v->light[i][3]);
     }
+    if (o->light_samples && l < n) /* the authored model: only then, so other keys stay as they were */
+        l += (size_t)snprintf(buf + l, n - l, "%slight_model=authored light_samples=%u%s", l ? " " : "",
+                              (unsigned)o->light_samples, o->lights_all ? " lights=all" : "");
 }
