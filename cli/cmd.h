@@ -103,7 +103,8 @@ enum {
     RT_OPT_GRID_DENSITY,
     RT_OPT_RECORD_STORES,
     RT_OPT_TREELET_TRIS,
-    RT_OPT_RAY_WINDOW
+    RT_OPT_RAY_WINDOW,
+    RT_OPT_LIGHT_SAMPLES
 };
 
 /* The shared long options ({"lights",...}, {"cache-size",...}, ...);
@@ -116,7 +117,11 @@ extern const struct option rt_render_longopts[];
     "                     stream-multipass | feedback | treelet (default recursive)\n"                \
     "  -W N, -H N         image size in pixels (a .pbrt scene: its Film's by default;\n"   \
     "                     one of them alone keeps the Film's aspect ratio)\n"                \
-    "  --lights L         all | none | comma list of lights 0,1,2 (default none)\n"         \
+    "  --lights L         all | none | comma list of lights 0,1,2 (default none; with\n"   \
+    "                     --light-samples, indices 0..31 of the file's lights, all = every one)\n" \
+    "  --light-samples N  the scene file's own lights: N shadow rays per hit to each area\n" \
+    "                     or infinite light, 1 to point and distant ones (default 0: the\n" \
+    "                     three point lights)\n"                                             \
     "  --look-at EX,EY,EZ,AX,AY,AZ[,UX,UY,UZ]  camera at E looking at A (up: the scene's)\n" \
     "  --fov DEGREES      vertical field of view (default: the scene's)\n"                 \
     "  --light X,Y,Z[,POWER]  a point light (repeat up to 3 times: lights 0, 1, 2 replace\n" \

@@ -43,6 +43,7 @@ const struct option rt_render_longopts[] = {
     {"light", required_argument, NULL, RT_OPT_LIGHT},
     {"treelet-tris", no_argument, NULL, RT_OPT_TREELET_TRIS},
     {"ray-window", required_argument, NULL, RT_OPT_RAY_WINDOW},
+    {"light-samples", required_argument, NULL, RT_OPT_LIGHT_SAMPLES},
     {"tracer", required_argument, NULL, 't'},
     {"width", required_argument, NULL, 'W'},
     {"height", required_argument, NULL, 'H'},
@@ -322,9 +323,17 @@ static int render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o
         return 1;
     case RT_OPT_LIGHTS:
         if (rt_parse_lights(arg, &o->lights) < 0) {
-            rt_cmd_error(cmd, "--lights: '%s' is not all, none or a list like 0,2", arg);
+            rt_cmd_error(cmd, "--lights: '%s' is not all, none or a list like 0,2 (indices 0..31)", arg);
             return -1;
         }
+        o->lights_all = !strcmp(arg, "all");
+        return 1;
+    case RT_OPT_LIGHT_SAMPLES:
+        if (rt_cmd_parse_long(arg, 1, RT_LIGHT_SAMPLES_MAX, &v) < 0) {
+            rt_cmd_error(cmd, "--light-samples: '%s' is not a sample count in 1..%d", arg, RT_LIGHT_SAMPLES_MAX);
+            return -1;
+        }
+        o->light_samples = (uint32_t)v;
         return 1;
     case RT_OPT_CACHE_SIZE:
         if (rt_parse_size(arg, &u) < 0 || u < 64) {

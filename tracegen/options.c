@@ -258,7 +258,7 @@ int rt_render_check_lights(const rt_render_opts *o, const rt_scene *sc, rt_err *
     if (o->light_samples > RT_LIGHT_SAMPLES_MAX)
         return rt_errf_usage(e, "--light-samples: %u is not in 0..%d", (unsigned)o->light_samples, RT_LIGHT_SAMPLES_MAX);
     uint32_t n = rt_render_nlights(o, sc);
-    for (uint32_t i = n; i < 32; i++)
+    for (uint32_t i = n; i < 32 && !o->lights_all; i++) /* "all": the lights there are */
         if ((o->lights >> i) & 1u)
             return rt_errf_usage(e, "--lights: light %u does not exist (%s has %u light%s%s)", (unsigned)i, sc->name,
                                  (unsigned)n, n == 1 ? "" : "s",

@@ -2,6 +2,7 @@
 #include "scene_load.h"
 #include "run.h"
 #include "pbrtlayout.h"
+#include "shade.h"
 
 #include <inttypes.h>
 #include <stdio.h>
@@ -75,6 +76,15 @@ static int setup_opts(rt_job *j, const char *tracer, const rt_render_opts *o, rt
 static int apply_film(rt_job *j, rt_err *e)
 {
     j->opt.lights = rt_render_lights(&j->opt); /* with --light, only the lights given exist */
+    if (rt_render_check_lights(&j->opt, j->sc, e) < 0) return -1;
+    if (rt_shade_authored(j->sc, &j->opt) && j->opt.lights) {
+        if (!rt_tracer_is(j->tr, RT_TR_LIGHTS))
+            return rt_errf_usage(e, "--light-samples: the %s tracer traces the three point lights only (the file's own "
+                                 "lights: -t recursive or packet)", j->tr->name);
+        if (rt_render_secondary(&j->opt))
+            return rt_errf_usage(e, "--light-samples: mode %s follows the three point lights only (the file's own "
+                                 "lights: shadow mode)", rt_render_mode_name(rt_render_mode(&j->opt)));
+    }
     rt_render_apply_film(&j->opt, j->sc->film_w, j->sc->film_h);
     if (check_opts(&j->opt, e) < 0 || rt_pixel_check(&j->opt, e) < 0) return -1;
     return 0;
