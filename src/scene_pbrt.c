@@ -1887,14 +1887,14 @@ static int do_light(pbrt *P, const token *d)
         al.kind = RT_LIGHT_DISTANT;
         al.d = rt_norm(dir);
         if (add_light(P, &tt, &al) < 0) goto done;
-        pwarn(P, &tt, "LightSource \"distant\"", "LightSource \"distant\": used with --light-samples only (no point light for it)");
+        pwarn(P, &tt, "LightSource \"distant\"", "LightSource \"distant\" skipped by the point lights (traced with --light-samples)");
     } else if (!strcmp(type, "infinite")) {
         rt_light al;
         memset(&al, 0, sizeof al);
         al.kind = RT_LIGHT_INFINITE;
         if (add_light(P, &tt, &al) < 0) goto done;
         if (pfind(&L, "filename")) pwarn(P, &tt, "infinite image", "LightSource \"infinite\": image ignored (a uniform sky)");
-        pwarn(P, &tt, "LightSource \"infinite\"", "LightSource \"infinite\": used with --light-samples only (no point light for it)");
+        pwarn(P, &tt, "LightSource \"infinite\"", "LightSource \"infinite\" skipped by the point lights (traced with --light-samples)");
     } else {
         char key[48];
         snprintf(key, sizeof key, "LightSource \"%.30s\"", type);
