@@ -251,6 +251,36 @@ static void test_shading(void)
     }
 }
 
+/* Escaping primary rays are environment hits: a floor on the quadrant
+ * x, y > 0 only fills 4 x 4 of the 8 x 8 pixels (pixel centres never on
+ * an axis), so 48 rays escape and 16 hits x 4 samples go to the sky. */
+static void test_env_hits(void)
+{
+    static const char *const quad =
+        "LookAt 0 0 5  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" 40\n"
+        "Film \"rgb\" \"integer xresolution\" 8 \"integer yresolution\" 8\nWorldBegin\n"
+        "LightSource \"infinite\"\n"
+        "Shape \"trianglemesh\" \"point3 P\" [0 0 0  50 0 0  0 50 0] \"integer indices\" [0 1 2]\n";
+    check_write_file(check_path("quad.pbrt"), quad, strlen(quad));
+    rt_err e = {0};
+    rt_scene *s = rt_scene_load(check_path("quad.pbrt"), &e);
+    CHECK(s != NULL, "quad.pbrt: %s", e.msg);
+    if (!s) return;
+    run_out a, b;
+    if (run(s, "recursive", 1, 0, 4, &a) == 0 && run(s, "packet", 1, 0, 4, &b) == 0) {
+        CHECK(a.st.rays_shadow == 16 * 4 && strstr(a.st.extra, "env_hits=48"), "sky: %llu shadow rays, '%s'",
+              (unsigned long long)a.st.rays_shadow, a.st.extra);
+        CHECK(b.st.rays_shadow == 16 * 4 && strstr(b.st.extra, "env_hits=48") && same_rgb(a.im, b.im),
+              "packet sky: %llu shadow rays, '%s'", (unsigned long long)b.st.rays_shadow, b.st.extra);
+    }
+    rt_image_free(a.im);
+    rt_image_free(b.im);
+    /* the point model counts none */
+    if (run(s, "recursive", 1, 0, 0, &a) == 0) CHECK(!strstr(a.st.extra, "env_hits"), "point model: '%s'", a.st.extra);
+    rt_image_free(a.im);
+    rt_scene_free(s);
+}
+
 /* Several lights: all of them, selection by index, more than three. */
 static void test_selection(void)
 {
@@ -382,6 +412,7 @@ int main(void)
     test_counts();
     test_points_on_emitters();
     test_shading();
+    test_env_hits();
     test_selection();
     test_point_model();
     test_checker();

@@ -5,6 +5,7 @@
 #include "shade.h"
 
 #include <inttypes.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -116,6 +117,22 @@ int rt_job_setup(rt_job *j, const char *scene_spec, const char *tracer, const rt
     return 0;
 }
 
+/* The file's lights with an enabled infinite one: primary rays that escape
+ * are environment hits, counted in the statistics (env_hits=N; not with
+ * subsampling, which leaves pixels untraced). */
+static void env_hits(const rt_job *j, const rt_image *img, rt_run_stats *st)
+{
+    const rt_scene *sc = j->sc;
+    if (!rt_shade_authored(sc, &j->opt) || !j->opt.lights || j->opt.subsample != 1) return;
+    int sky = 0;
+    for (uint32_t i = 0; i < sc->nlight; i++) sky |= sc->lights[i].kind == RT_LIGHT_INFINITE && rt_render_light_on(&j->opt, i);
+    if (!sky) return;
+    uint64_t n = 0;
+    for (size_t p = 0; p < (size_t)img->W * img->H; p++) n += img->depth[p] == INFINITY;
+    size_t l = strlen(st->extra);
+    snprintf(st->extra + l, sizeof st->extra - l, "%senv_hits=%" PRIu64, l ? " " : "", n);
+}
+
 int rt_job_run(rt_job *j, rt_sink *sink, rt_image *img, rt_run_stats *st, rt_err *e)
 {
     rt_rec *rec = NULL;
@@ -139,6 +156,7 @@ int rt_job_run(rt_job *j, rt_sink *sink, rt_image *img, rt_run_stats *st, rt_err
     rt_tracer_ctx ctx = {j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, trec, j->plan, j->check, j->mesh};
     double t0 = rt_now();
     int rc = j->tr->run(&ctx, img, st, e);
+    if (rc == 0) env_hits(j, img, st);
     if (trec != rec) {
         rt_rec_flush(trec);
         if (pbrt) {
