@@ -380,6 +380,14 @@ static void test_point_model(void)
             CHECK(same_rgb(a.im, b.im) && a.st.rays_shadow == 128 && b.st.rays_shadow == 128 && !b.has_lights_region,
                   "point lights: the two models differ (%llu, %llu rays)", (unsigned long long)a.st.rays_shadow,
                   (unsigned long long)b.st.rays_shadow);
+        /* at most three point lights: every tracer runs them (the point lights hold them) */
+        const char *all_tracers[] = {"packet", "dynamic", "treelet", "stream-branching", "stream-multipass", "feedback"};
+        for (int t = 0; t < 6; t++) {
+            run_out c;
+            if (run(s, all_tracers[t], 3, 0, 16, &c) == 0)
+                CHECK(same_rgb(a.im, c.im), "point lights, --light-samples: %s differs", all_tracers[t]);
+            rt_image_free(c.im);
+        }
         rt_image_free(a.im);
         rt_image_free(b.im);
         rt_scene_free(s);

@@ -78,7 +78,11 @@ static int apply_film(rt_job *j, rt_err *e)
 {
     j->opt.lights = rt_render_lights(&j->opt); /* with --light, only the lights given exist */
     if (rt_render_check_lights(&j->opt, j->sc, e) < 0) return -1;
-    if (rt_shade_authored(j->sc, &j->opt) && j->opt.lights) {
+    /* the file's lights: a file of at most three point lights is lit alike by
+     * the point lights (light[] holds them in order), which every tracer and
+     * mode traces; other lights need the sampling tracers and shadow mode */
+    if (rt_shade_authored(j->sc, &j->opt) && j->opt.lights &&
+        (rt_scene_nonpoint_lights(j->sc) || j->sc->nlight > RT_NLIGHTS)) {
         if (!rt_tracer_is(j->tr, RT_TR_LIGHTS))
             return rt_errf_usage(e, "--light-samples: the %s tracer traces the three point lights only (the file's own "
                                  "lights: -t recursive, packet, dynamic or treelet)", j->tr->name);
