@@ -88,7 +88,10 @@ static void usage(FILE *f)
             "                     dynamic; sizes 1K-4M\n"
             "  --scenes LIST      comma list of scene specs (overrides the preset)\n"
             "  --tracers LIST     comma list of tracers\n"
-            "  --lights LIST      comma list of lightings: primary, 0, 1, 2, all\n"
+            "  --lights LIST      comma list of lightings: primary, 0, 1, 2, all (with\n"
+            "                     --light-samples N: the file's lights 0..31, all = every one)\n"
+            "  --light-samples N  the scene files' own lights, N shadow rays per hit to area and\n"
+            "                     infinite lights (see render --help)\n"
             "  --modes LIST       comma list of render modes: raycast, shadow (default: the\n"
             "                     lighting list as it is, primary = raycast), whitted, path\n"
             "                     (these two run the lightings with lights, primary skipped)\n"
@@ -166,9 +169,8 @@ static int parse_lightings(char *s, sweep_opts *o)
         } else if (!strcmp(items[i], "all")) {
             l->label = "all";
             l->mask = 7;
-        } else if (!strcmp(items[i], "0") || !strcmp(items[i], "1") || !strcmp(items[i], "2")) {
-            l->label = items[i];
-            l->mask = 1u << (items[i][0] - '0');
+        } else if (strchr("0123456789", items[i][0]) && rt_render_parse_lights(items[i], &l->mask) == 0) {
+            l->label = items[i]; /* one light: 0, 1, 2 (with --light-samples, the file's 0..31) */
         } else {
             return -1;
         }
@@ -402,6 +404,7 @@ static const struct option sweep_longopts[] = {
     {"light", required_argument, NULL, RT_OPT_LIGHT},
     {"treelet-tris", no_argument, NULL, RT_OPT_TREELET_TRIS},
     {"ray-window", required_argument, NULL, RT_OPT_RAY_WINDOW},
+    {"light-samples", required_argument, NULL, RT_OPT_LIGHT_SAMPLES},
     {"width", required_argument, NULL, 'W'},
     {"height", required_argument, NULL, 'H'},
     {NULL, 0, NULL, 0},

@@ -114,6 +114,7 @@ rt_render_opts rt_exp_job_opts(const rt_exp_config *c, const rt_exp_job *jb)
 {
     rt_render_opts ro = c->ro;
     ro.lights = jb->lighting >= 0 ? c->lightings[jb->lighting].mask : 0;
+    ro.lights_all = jb->lighting >= 0 && !strcmp(c->lightings[jb->lighting].label, "all"); /* every light of a file */
     ro.lights = rt_render_lights(&ro); /* with --light, only the lights given exist */
     /* a raycast job is the run without lights: the default mode keeps its key */
     ro.mode = jb->mode == RT_MODE_RAYCAST ? RT_MODE_DEFAULT : jb->mode;
