@@ -256,7 +256,7 @@ static int store(rt_db *db, const char *path, const rt_approx *ap, const rt_tr_m
     int rc = -1;
     if (!se) rt_errf(e, "out of memory");
     else {
-        rt_db_rows R = {rows, n, grows, ng, se, rt_approx_db_se_rows(ap, se)};
+        rt_db_rows R = {.traffic = rows, .ntraffic = n, .gen = grows, .ngen = ng, .se = se, .nse = rt_approx_db_se_rows(ap, se)};
         rc = rt_db_store(db, &r, &R, &id, e);
     }
     free(rows);

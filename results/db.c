@@ -2,12 +2,15 @@
  * db.c -- the SQLite results database (see db.h and docs/database.md).
  *
  * The schema lives in one string below (documented column by column in
- * docs/database.md). Version 5; older files are upgraded in place when
- * opened, one step after the other in one transaction (migrate_v1: the
- * sched_size rename; migrate_v2: where a mesh scene was found; migrate_v3:
- * the per-generation table traffic_gen and its view v_gen; migrate_v4: the
- * standard errors of approximate runs, table traffic_se and view
- * v_traffic_se). Unsigned 64-bit hashes are stored as 16 lowercase hex
+ * docs/database.md). Version 6; older files are upgraded in place when
+ * opened, one step after the other in one transaction (the views dropped
+ * first and created again last; migrate_v1: the sched_size rename;
+ * migrate_v2: where a mesh scene was found; 3 -> 4: the per-generation
+ * table traffic_gen and its view v_gen; 4 -> 5: the standard errors of
+ * approximate runs, table traffic_se and view v_traffic_se; migrate_v5:
+ * the run's new dimensions repl, hierarchy, cores, light_model and
+ * instances in its key, the per-level table level_traffic and its view
+ * v_level). Unsigned 64-bit hashes are stored as 16 lowercase hex
  * digits, counters as INTEGER (they stay far below 2^63), standard errors
  * as REAL (bytes, NULL = none).
  *
@@ -53,6 +56,40 @@ _Static_assert(RT_DB_SE_N == RT_NGROUP + 1, "rt_db_se holds one error per group 
  * (last column of runs, so fresh and upgraded files have the same layout). */
 #define SCHED_ALIAS "sched_cache_size INTEGER GENERATED ALWAYS AS (sched_size) VIRTUAL"
 
+/* The runs table, as created fresh and as the version 5 -> 6 upgrade
+ * rebuilds it (its UNIQUE key gains the new dimensions, which SQLite
+ * cannot add to an existing table); NAME is "runs" or the rebuild's
+ * temporary name. */
+#define RUNS_TABLE(NAME) \
+    "CREATE TABLE IF NOT EXISTS " NAME "(\n" \
+    "  id INTEGER PRIMARY KEY,\n" \
+    "  scene_id INTEGER NOT NULL REFERENCES scenes(id),\n" \
+    "  tracer TEXT NOT NULL,\n" \
+    "  W INTEGER NOT NULL,\n" \
+    "  H INTEGER NOT NULL,\n" \
+    "  lights INTEGER NOT NULL,            -- enabled-light mask (bit i = light i; 0 = none)\n" \
+    "  sched_size INTEGER NOT NULL DEFAULT 0, -- cache size the trace was scheduled for (0 = n/a)\n" \
+    "  gmax INTEGER NOT NULL DEFAULT 0,    -- geometry budget (0 = n/a)\n" \
+    "  params TEXT NOT NULL DEFAULT '',    -- other tracer parameters\n" \
+    "  sim_method TEXT NOT NULL DEFAULT 'exact',\n" \
+    "  sim_params TEXT NOT NULL DEFAULT '',\n" \
+    "  trace_hash TEXT NOT NULL DEFAULT '', -- 16 hex digits; '' for in-process streams\n" \
+    "  refs INTEGER NOT NULL DEFAULT 0,    -- references simulated\n" \
+    "  tool_version TEXT NOT NULL DEFAULT '',\n" \
+    "  git_rev TEXT NOT NULL DEFAULT '',\n" \
+    "  command TEXT NOT NULL DEFAULT '',\n" \
+    "  wall_time REAL NOT NULL DEFAULT 0,  -- seconds\n" \
+    "  stats TEXT NOT NULL DEFAULT '',     -- tracer statistics, k=v k=v\n" \
+    "  created TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%SZ','now')),\n" \
+    "  repl TEXT NOT NULL DEFAULT 'lru',   -- replacement policy (the write policy is cache_configs.policy)\n" \
+    "  hierarchy TEXT NOT NULL DEFAULT '', -- canonical hierarchy spec ('' = one level)\n" \
+    "  cores INTEGER NOT NULL DEFAULT 1,   -- cores sharing the hierarchy's last level\n" \
+    "  light_model TEXT NOT NULL DEFAULT 'point', -- how lights are sampled\n" \
+    "  instances TEXT NOT NULL DEFAULT 'flatten', -- how object instances are traced\n" \
+    "  " SCHED_ALIAS ",\n" \
+    "  UNIQUE(scene_id, tracer, W, H, lights, sched_size, gmax, params, sim_method, sim_params, repl, hierarchy,\n" \
+    "         cores, light_model, instances));\n"
+
 static const char schema_sql[] =
     "CREATE TABLE IF NOT EXISTS scenes(\n"
     "  id INTEGER PRIMARY KEY,\n"
@@ -63,28 +100,7 @@ static const char schema_sql[] =
     "  path TEXT NOT NULL DEFAULT '',      -- mesh file as given on the command line ('' built-in)\n"
     "  abspath TEXT NOT NULL DEFAULT '',   -- that file's absolute path, where it was last seen\n"
     "  UNIQUE(name, params, hash));\n"
-    "CREATE TABLE IF NOT EXISTS runs(\n"
-    "  id INTEGER PRIMARY KEY,\n"
-    "  scene_id INTEGER NOT NULL REFERENCES scenes(id),\n"
-    "  tracer TEXT NOT NULL,\n"
-    "  W INTEGER NOT NULL,\n"
-    "  H INTEGER NOT NULL,\n"
-    "  lights INTEGER NOT NULL,            -- enabled-light mask\n"
-    "  sched_size INTEGER NOT NULL DEFAULT 0, -- cache size the trace was scheduled for (0 = n/a)\n"
-    "  gmax INTEGER NOT NULL DEFAULT 0,    -- geometry budget (0 = n/a)\n"
-    "  params TEXT NOT NULL DEFAULT '',    -- other tracer parameters\n"
-    "  sim_method TEXT NOT NULL DEFAULT 'exact',\n"
-    "  sim_params TEXT NOT NULL DEFAULT '',\n"
-    "  trace_hash TEXT NOT NULL DEFAULT '', -- 16 hex digits; '' for in-process streams\n"
-    "  refs INTEGER NOT NULL DEFAULT 0,    -- references simulated\n"
-    "  tool_version TEXT NOT NULL DEFAULT '',\n"
-    "  git_rev TEXT NOT NULL DEFAULT '',\n"
-    "  command TEXT NOT NULL DEFAULT '',\n"
-    "  wall_time REAL NOT NULL DEFAULT 0,  -- seconds\n"
-    "  stats TEXT NOT NULL DEFAULT '',     -- tracer statistics, k=v k=v\n"
-    "  created TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%SZ','now')),\n"
-    "  " SCHED_ALIAS ",\n"
-    "  UNIQUE(scene_id, tracer, W, H, lights, sched_size, gmax, params, sim_method, sim_params));\n"
+    RUNS_TABLE("runs")
     "CREATE TABLE IF NOT EXISTS cache_configs(\n"
     "  id INTEGER PRIMARY KEY,\n"
     "  size INTEGER NOT NULL,              -- bytes\n"
@@ -160,20 +176,49 @@ static const char schema_sql[] =
     "    g.geometry_mb, e.geometry_se / 1048576.0 AS geometry_se_mb, g.ray_mb, e.ray_se / 1048576.0 AS ray_se_mb,\n"
     "    g.other_mb, e.other_se / 1048576.0 AS other_se_mb, g.total_mb, e.total_se / 1048576.0 AS total_se_mb\n"
     "  FROM v_traffic_group g JOIN runs r ON r.id = g.run_id\n"
-    "    LEFT JOIN traffic_se e ON e.run_id = g.run_id AND e.config_id = g.config_id;\n";
+    "    LEFT JOIN traffic_se e ON e.run_id = g.run_id AND e.config_id = g.config_id;\n"
+    "CREATE TABLE IF NOT EXISTS level_traffic(\n"
+    "  run_id INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE,\n"
+    "  level INTEGER NOT NULL,             -- 1 = nearest the core, 2, ... (memory side last)\n"
+    "  level_name TEXT NOT NULL DEFAULT '', -- e.g. L1, L2\n"
+    "  core INTEGER NOT NULL DEFAULT -1,   -- core of a private cache; -1 = shared / all cores\n"
+    "  cache_size INTEGER NOT NULL,        -- bytes\n"
+    "  line INTEGER NOT NULL,              -- bytes\n"
+    "  assoc INTEGER NOT NULL,             -- ways; 0 = fully associative\n"
+    "  policy TEXT NOT NULL DEFAULT 'wb-wa', -- write policy of this level\n"
+    "  repl TEXT NOT NULL DEFAULT 'lru',   -- replacement policy of this level\n"
+    "  class TEXT NOT NULL REFERENCES classes(name),\n"
+    "  gen INTEGER NOT NULL DEFAULT -1,    -- ray generation 0..7; -1 = all generations\n"
+    "  accesses INTEGER NOT NULL,          -- line touches reaching this level\n"
+    "  misses INTEGER NOT NULL,            -- of them, misses (read and write)\n"
+    "  writebacks INTEGER NOT NULL,        -- dirty evictions out of this level\n"
+    "  traffic_bytes INTEGER NOT NULL,     -- bytes this level moves to the level below it\n"
+    "  UNIQUE(run_id, level, core, cache_size, line, assoc, policy, repl, class, gen));\n"
+    "CREATE VIEW IF NOT EXISTS v_level AS\n"
+    "  SELECT l.run_id, s.name AS scene, s.params AS scene_params, r.tracer, r.W, r.H, r.lights, r.hierarchy,\n"
+    "    r.cores, r.light_model, r.instances, r.sim_method, l.level, l.level_name, l.core, l.cache_size, l.line,\n"
+    "    l.assoc, l.policy, l.repl, l.gen,\n"
+    "    SUM(CASE WHEN k.grp = 'geometry' THEN l.traffic_bytes ELSE 0 END) AS geometry_bytes,\n"
+    "    SUM(CASE WHEN k.grp = 'ray' THEN l.traffic_bytes ELSE 0 END) AS ray_bytes,\n"
+    "    SUM(CASE WHEN k.grp = 'other' THEN l.traffic_bytes ELSE 0 END) AS other_bytes,\n"
+    "    SUM(l.traffic_bytes) AS total_bytes, SUM(l.accesses) AS accesses, SUM(l.misses) AS misses,\n"
+    "    SUM(l.writebacks) AS writebacks\n"
+    "  FROM level_traffic l JOIN classes k ON k.name = l.class JOIN runs r ON r.id = l.run_id\n"
+    "    JOIN scenes s ON s.id = r.scene_id\n"
+    "  GROUP BY l.run_id, l.level, l.core, l.cache_size, l.line, l.assoc, l.policy, l.repl, l.gen;\n";
 
 struct rt_db {
     sqlite3 *h;        /* connection */
     char *path;        /* for messages */
-    sqlite3_stmt *st[16]; /* prepared statements, see enum (S_NSTMT of them) */
+    sqlite3_stmt *st[20]; /* prepared statements, see enum (S_NSTMT of them) */
     int busy;          /* the last failure was SQLITE_BUSY / SQLITE_LOCKED (open retries it) */
 };
 
 enum {
     S_SCENE_INS, S_SCENE_GET, S_SCENE_TRI, S_RUN_GET, S_RUN_INS, S_RUN_UPD, S_CFG_INS, S_CFG_GET, S_TR_DEL,
-    S_TR_INS, S_GEN_DEL, S_GEN_INS, S_SE_DEL, S_SE_INS, S_TR_HAS, S_NSTMT
+    S_TR_INS, S_GEN_DEL, S_GEN_INS, S_SE_DEL, S_SE_INS, S_TR_HAS, S_LV_DEL, S_LV_INS, S_NSTMT
 };
-_Static_assert(S_NSTMT <= 16, "struct rt_db holds 16 statements");
+_Static_assert(S_NSTMT <= 20, "struct rt_db holds 20 statements");
 
 static const char *const stmt_sql[S_NSTMT] = {
     "INSERT OR IGNORE INTO scenes(name, params, hash, triangles) VALUES(?1, ?2, ?3, ?4)",
@@ -183,10 +228,13 @@ static const char *const stmt_sql[S_NSTMT] = {
     " WHERE id = ?1",
     "SELECT r.id FROM runs r JOIN scenes s ON s.id = r.scene_id WHERE s.name = ?1 AND s.params = ?2 AND s.hash = ?3"
     " AND r.tracer = ?4 AND r.W = ?5 AND r.H = ?6 AND r.lights = ?7 AND r.sched_size = ?8 AND r.gmax = ?9"
-    " AND r.params = ?10 AND r.sim_method = ?11 AND r.sim_params = ?12",
+    " AND r.params = ?10 AND r.sim_method = ?11 AND r.sim_params = ?12 AND r.repl = ?13 AND r.hierarchy = ?14"
+    " AND r.cores = ?15 AND r.light_model = ?16 AND r.instances = ?17",
     "INSERT INTO runs(scene_id, tracer, W, H, lights, sched_size, gmax, params, sim_method, sim_params,"
+    " repl, hierarchy, cores, light_model, instances,"
     " trace_hash, refs, tool_version, git_rev, command, wall_time, stats)"
-    " VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17)",
+    " VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19, ?20, ?21,"
+    " ?22)",
     "UPDATE runs SET trace_hash = ?2, refs = ?3, tool_version = ?4, git_rev = ?5, command = ?6, wall_time = ?7,"
     " stats = ?8, created = strftime('%Y-%m-%dT%H:%M:%SZ','now') WHERE id = ?1",
     "INSERT OR IGNORE INTO cache_configs(size, line, assoc, policy) VALUES(?1, ?2, ?3, ?4)",
@@ -200,6 +248,11 @@ static const char *const stmt_sql[S_NSTMT] = {
     "DELETE FROM traffic_se WHERE run_id = ?1 AND config_id = ?2",
     "INSERT INTO traffic_se(run_id, config_id, geometry_se, ray_se, other_se, total_se) VALUES(?1, ?2, ?3, ?4, ?5, ?6)",
     "SELECT 1 FROM traffic WHERE run_id = ?1 AND config_id = ?2 LIMIT 1",
+    "DELETE FROM level_traffic WHERE run_id = ?1 AND level = ?2 AND core = ?3 AND cache_size = ?4 AND line = ?5"
+    " AND assoc = ?6 AND policy = ?7 AND repl = ?8",
+    "INSERT INTO level_traffic(run_id, level, level_name, core, cache_size, line, assoc, policy, repl, class, gen,"
+    " accesses, misses, writebacks, traffic_bytes)"
+    " VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15)",
 };
 
 const char *rt_db_schema_sql(void) { return schema_sql; }
@@ -263,44 +316,63 @@ static int create_tables(rt_db *db, rt_err *e)
     return 0;
 }
 
+/* Every view, dropped before an upgrade changes a table under it and
+ * created again (as the current schema has it) when the upgrade is done. */
+static const char drop_views_sql[] = "DROP VIEW IF EXISTS v_paper;\n"
+                                     "DROP VIEW IF EXISTS v_traffic_se;\n"
+                                     "DROP VIEW IF EXISTS v_gen;\n"
+                                     "DROP VIEW IF EXISTS v_traffic_group;\n"
+                                     "DROP VIEW IF EXISTS v_level;\n"
+                                     "DROP VIEW IF EXISTS v_runs;\n";
+
 /* Version 1 -> 2: runs.sched_cache_size becomes sched_size (the UNIQUE
- * key follows the rename), the old name an alias; views rebuilt. Runs
- * inside the caller's transaction. */
+ * key follows the rename), the old name an alias. Runs inside the
+ * caller's transaction, the views already dropped. */
 static int migrate_v1(rt_db *db, rt_err *e)
 {
     return exec(db,
-                "DROP VIEW IF EXISTS v_paper;\n"
-                "DROP VIEW IF EXISTS v_traffic_group;\n"
                 "ALTER TABLE runs RENAME COLUMN sched_cache_size TO sched_size;\n"
                 "ALTER TABLE runs ADD COLUMN " SCHED_ALIAS ";\n",
-                e) ||
-           exec(db, schema_sql, e);
+                e);
 }
 
 /* Version 2 -> 3: scenes learn where a mesh file was (path as given,
- * absolute path); existing scenes get ''. Views rebuilt. Runs inside the
- * caller's transaction. */
+ * absolute path); existing scenes get ''. */
 static int migrate_v2(rt_db *db, rt_err *e)
 {
     return exec(db,
                 "ALTER TABLE scenes ADD COLUMN path TEXT NOT NULL DEFAULT '';\n"
-                "ALTER TABLE scenes ADD COLUMN abspath TEXT NOT NULL DEFAULT '';\n"
-                "DROP VIEW IF EXISTS v_paper;\n"
-                "DROP VIEW IF EXISTS v_traffic_group;\n",
-                e) ||
-           exec(db, schema_sql, e);
+                "ALTER TABLE scenes ADD COLUMN abspath TEXT NOT NULL DEFAULT '';\n",
+                e);
 }
 
-/* Version 3 -> 4: the per-generation table traffic_gen and the view
- * v_gen (nothing else changes: existing runs simply have no generation
- * rows). Runs inside the caller's transaction. */
-static int migrate_v3(rt_db *db, rt_err *e) { return exec(db, schema_sql, e); }
+/* Version 3 -> 4 (the per-generation table traffic_gen and the view
+ * v_gen) and 4 -> 5 (the standard errors of approximate runs, table
+ * traffic_se and view v_traffic_se) only add tables and views, which the
+ * schema creates: runs stored before simply have no such rows. */
 
-/* Version 4 -> 5: the standard errors of approximate runs, table
- * traffic_se and view v_traffic_se (nothing else changes: runs stored
- * before have none, and their view rows show NULL). Runs inside the
- * caller's transaction. */
-static int migrate_v4(rt_db *db, rt_err *e) { return exec(db, schema_sql, e); }
+/* Version 5 -> 6: the run gains the dimensions repl, hierarchy, cores,
+ * light_model and instances, all part of its key, with defaults under
+ * which every stored run reads as it did (LRU, one level, one core, point
+ * lights, flattened instances); the per-level table level_traffic and the
+ * views v_level and v_runs are new. A UNIQUE key cannot be altered in
+ * place, so runs is rebuilt: a copy with the current definition is
+ * filled with every row (ids kept, so the rows referring to them stay
+ * valid), the old table dropped and the copy renamed. The caller has
+ * turned foreign keys off (the drop must not cascade into the traffic
+ * rows) and dropped the views. */
+static int migrate_v5(rt_db *db, rt_err *e)
+{
+    return exec(db,
+                "DROP TABLE IF EXISTS runs_v6;\n" RUNS_TABLE("runs_v6")
+                "INSERT INTO runs_v6(id, scene_id, tracer, W, H, lights, sched_size, gmax, params, sim_method,"
+                " sim_params, trace_hash, refs, tool_version, git_rev, command, wall_time, stats, created)\n"
+                "  SELECT id, scene_id, tracer, W, H, lights, sched_size, gmax, params, sim_method, sim_params,"
+                " trace_hash, refs, tool_version, git_rev, command, wall_time, stats, created FROM runs;\n"
+                "DROP TABLE runs;\n"
+                "ALTER TABLE runs_v6 RENAME TO runs;\n",
+                e);
+}
 
 /* The name of a table that is not raytraffic's, or "" (none); for refusing
  * to add tables to an unrelated file. */
@@ -311,7 +383,8 @@ static int foreign_table(rt_db *db, char *name, size_t n, rt_err *e)
     if (sqlite3_prepare_v2(db->h,
                            "SELECT name FROM sqlite_master WHERE name NOT LIKE 'sqlite_%' AND name NOT IN "
                            "('scenes', 'runs', 'cache_configs', 'classes', 'traffic', 'traffic_config', "
-                           "'v_traffic_group', 'v_paper', 'traffic_gen', 'v_gen', 'traffic_se', 'v_traffic_se') "
+                           "'v_traffic_group', 'v_paper', 'traffic_gen', 'v_gen', 'traffic_se', 'v_traffic_se', "
+                           "'level_traffic', 'v_level', 'v_runs') "
                            "ORDER BY name LIMIT 1",
                            -1, &st, NULL) != SQLITE_OK)
         return dberr(db, e, NULL);
@@ -368,6 +441,21 @@ static int check_foreign(rt_db *db, rt_err *e)
     return 0;
 }
 
+/* After an upgrade: every row still refers to rows that exist (the
+ * rebuild of runs ran with foreign keys off). */
+static int foreign_key_check(rt_db *db, rt_err *e)
+{
+    sqlite3_stmt *st;
+    if (sqlite3_prepare_v2(db->h, "PRAGMA foreign_key_check", -1, &st, NULL) != SQLITE_OK) return dberr(db, e, NULL);
+    int rc = sqlite3_step(st);
+    char tab[64] = "";
+    if (rc == SQLITE_ROW) snprintf(tab, sizeof tab, "%s", (const char *)sqlite3_column_text(st, 0));
+    sqlite3_finalize(st);
+    if (rc == SQLITE_ROW) return rt_errf(e, "%s: upgrade left a row of %s without its referent", db->path, tab);
+    if (rc != SQLITE_DONE) return dberr(db, e, NULL);
+    return 0;
+}
+
 /* Brings the file to RT_DB_SCHEMA_VERSION in one transaction: creates the
  * schema of an empty file, upgrades an older one step by step. */
 static int create_schema(rt_db *db, rt_err *e)
@@ -381,10 +469,12 @@ static int create_schema(rt_db *db, rt_err *e)
     if (ver == 0) {
         if (create_tables(db, e)) goto fail;
     } else {
+        if (exec(db, drop_views_sql, e)) goto fail;
         if (ver == 1 && migrate_v1(db, e)) goto fail;
         if (ver <= 2 && migrate_v2(db, e)) goto fail;
-        if (ver <= 3 && migrate_v3(db, e)) goto fail;
-        if (ver <= 4 && migrate_v4(db, e)) goto fail;
+        if (ver <= 5 && migrate_v5(db, e)) goto fail;
+        if (exec(db, schema_sql, e)) goto fail;
+        if (foreign_key_check(db, e)) goto fail;
     }
     if (ver < RT_DB_SCHEMA_VERSION) {
         char sql[64];
@@ -470,8 +560,11 @@ rt_db *rt_db_open(const char *path, rt_err *e)
         goto fail;
     }
     if (retry_busy(db, check_foreign, e)) goto fail;
-    if (exec(db, "PRAGMA foreign_keys = ON", e)) goto fail;
+    /* foreign keys on only after the schema is current: the upgrade to 6
+     * rebuilds runs, whose drop must not cascade */
+    if (exec(db, "PRAGMA foreign_keys = OFF", e)) goto fail;
     if (retry_busy(db, set_wal, e) || retry_busy(db, create_schema, e)) goto fail;
+    if (exec(db, "PRAGMA foreign_keys = ON", e)) goto fail;
     for (int i = 0; i < S_NSTMT; i++)
         if (sqlite3_prepare_v2(db->h, stmt_sql[i], -1, &db->st[i], NULL) != SQLITE_OK) {
             dberr(db, e, "schema mismatch");
@@ -488,8 +581,11 @@ static const char *nz(const char *s) { return s ? s : ""; }
 static void hex64(char out[17], uint64_t v) { snprintf(out, 17, "%016llx", (unsigned long long)v); }
 
 /* Binds the run's own identity columns (tracer, W, H, lights, sched_size,
- * gmax, params, sim_method, sim_params) to parameters first..first+8: the
- * same columns, in the same order, in S_RUN_GET and S_RUN_INS. */
+ * gmax, params, sim_method, sim_params, repl, hierarchy, cores,
+ * light_model, instances) to parameters first..first+13: the same columns,
+ * in the same order, in S_RUN_GET and S_RUN_INS. Unset new dimensions
+ * (NULL, cores 0) bind their defaults, so every earlier caller's run reads
+ * as it always did. */
 static void bind_run_cols(sqlite3_stmt *st, int first, const rt_db_run *r)
 {
     sqlite3_bind_text(st, first, nz(r->tracer), -1, SQLITE_TRANSIENT);
@@ -501,9 +597,16 @@ static void bind_run_cols(sqlite3_stmt *st, int first, const rt_db_run *r)
     sqlite3_bind_text(st, first + 6, nz(r->params), -1, SQLITE_TRANSIENT);
     sqlite3_bind_text(st, first + 7, r->sim_method ? r->sim_method : "exact", -1, SQLITE_TRANSIENT);
     sqlite3_bind_text(st, first + 8, nz(r->sim_params), -1, SQLITE_TRANSIENT);
+    sqlite3_bind_text(st, first + 9, r->repl && r->repl[0] ? r->repl : "lru", -1, SQLITE_TRANSIENT);
+    sqlite3_bind_text(st, first + 10, nz(r->hierarchy), -1, SQLITE_TRANSIENT);
+    sqlite3_bind_int(st, first + 11, r->cores > 0 ? r->cores : 1);
+    sqlite3_bind_text(st, first + 12, r->light_model && r->light_model[0] ? r->light_model : "point", -1,
+                      SQLITE_TRANSIENT);
+    sqlite3_bind_text(st, first + 13, r->instances && r->instances[0] ? r->instances : "flatten", -1,
+                      SQLITE_TRANSIENT);
 }
 
-/* Binds the 12 identity parameters of S_RUN_GET. */
+/* Binds the 17 identity parameters of S_RUN_GET. */
 static void bind_key(sqlite3_stmt *st, const rt_db_run *r, char *hash)
 {
     hex64(hash, r->scene_hash);
@@ -700,6 +803,49 @@ static int store_se(rt_db *db, int64_t rid, int pass, const rt_db_se *se, size_t
     return 0;
 }
 
+/* One pass over the per-level rows of run rid: pass 0 checks each row and
+ * deletes the run's old rows of its level configuration (level, core,
+ * size, line, assoc, write policy, replacement policy), pass 1 inserts. */
+static int store_levels(rt_db *db, int64_t rid, int pass, const rt_db_level *lv, size_t n, rt_err *e)
+{
+    for (size_t i = 0; i < n; i++) {
+        const rt_db_level *x = &lv[i];
+        const char *cname = rt_class_name(x->cls);
+        const char *pol = x->policy && x->policy[0] ? x->policy : "wb-wa";
+        const char *repl = x->repl && x->repl[0] ? x->repl : "lru";
+        int first = pass == 0 ? 0 : 1;
+        if (pass == 0) {
+            if (!cname) return rt_errf(e, "%s: level row %zu has bad class %d", db->path, i, x->cls);
+            if (x->level < 1) return rt_errf(e, "%s: level row %zu has level %d (1 or more)", db->path, i, x->level);
+            if (x->core < -1) return rt_errf(e, "%s: level row %zu has core %d (-1 or more)", db->path, i, x->core);
+            if (x->gen < -1 || x->gen >= RT_MAXGEN)
+                return rt_errf(e, "%s: level row %zu has generation %d (-1..%d)", db->path, i, x->gen, RT_MAXGEN - 1);
+            if (x->line == 0 || x->misses > x->accesses)
+                return rt_errf(e, "%s: level row %zu has line 0 or more misses than accesses", db->path, i);
+        }
+        sqlite3_stmt *st = db->st[pass == 0 ? S_LV_DEL : S_LV_INS];
+        sqlite3_bind_int64(st, 1, rid);
+        sqlite3_bind_int(st, 2, x->level);
+        if (pass) sqlite3_bind_text(st, 3, x->level_name ? x->level_name : "", -1, SQLITE_TRANSIENT);
+        sqlite3_bind_int(st, 3 + first, x->core);
+        sqlite3_bind_int64(st, 4 + first, (sqlite3_int64)x->size);
+        sqlite3_bind_int64(st, 5 + first, x->line);
+        sqlite3_bind_int64(st, 6 + first, x->assoc);
+        sqlite3_bind_text(st, 7 + first, pol, -1, SQLITE_TRANSIENT);
+        sqlite3_bind_text(st, 8 + first, repl, -1, SQLITE_TRANSIENT);
+        if (pass) {
+            sqlite3_bind_text(st, 10, cname, -1, SQLITE_STATIC);
+            sqlite3_bind_int(st, 11, x->gen);
+            sqlite3_bind_int64(st, 12, (sqlite3_int64)x->accesses);
+            sqlite3_bind_int64(st, 13, (sqlite3_int64)x->misses);
+            sqlite3_bind_int64(st, 14, (sqlite3_int64)x->writebacks);
+            sqlite3_bind_int64(st, 15, (sqlite3_int64)x->traffic_bytes);
+        }
+        if (step_id(db, st, NULL, e) < 0) return -1;
+    }
+    return 0;
+}
+
 static int store(rt_db *db, const rt_db_run *r, const rt_db_rows *R, int64_t *run_id, rt_err *e)
 {
     char hash[17], thash[17];
@@ -730,13 +876,13 @@ static int store(rt_db *db, const rt_db_run *r, const rt_db_rows *R, int64_t *ru
         sqlite3_stmt *in = st[S_RUN_INS];
         sqlite3_bind_int64(in, 1, scene_id);
         bind_run_cols(in, 2, r);
-        sqlite3_bind_text(in, 11, thash, -1, SQLITE_TRANSIENT);
-        sqlite3_bind_int64(in, 12, (sqlite3_int64)r->refs);
-        sqlite3_bind_text(in, 13, ver, -1, SQLITE_TRANSIENT);
-        sqlite3_bind_text(in, 14, rev, -1, SQLITE_TRANSIENT);
-        sqlite3_bind_text(in, 15, nz(r->command), -1, SQLITE_TRANSIENT);
-        sqlite3_bind_double(in, 16, r->wall_time);
-        sqlite3_bind_text(in, 17, nz(r->stats), -1, SQLITE_TRANSIENT);
+        sqlite3_bind_text(in, 16, thash, -1, SQLITE_TRANSIENT);
+        sqlite3_bind_int64(in, 17, (sqlite3_int64)r->refs);
+        sqlite3_bind_text(in, 18, ver, -1, SQLITE_TRANSIENT);
+        sqlite3_bind_text(in, 19, rev, -1, SQLITE_TRANSIENT);
+        sqlite3_bind_text(in, 20, nz(r->command), -1, SQLITE_TRANSIENT);
+        sqlite3_bind_double(in, 21, r->wall_time);
+        sqlite3_bind_text(in, 22, nz(r->stats), -1, SQLITE_TRANSIENT);
         if (step_id(db, in, NULL, e) < 0) return -1;
         rid = sqlite3_last_insert_rowid(db->h);
     }
@@ -750,6 +896,7 @@ static int store(rt_db *db, const rt_db_run *r, const rt_db_rows *R, int64_t *ru
                            tab ? sizeof *R->gen : sizeof *R->traffic, e) < 0)
                 return -1;
         if (store_se(db, rid, pass, R->se, R->nse, e) < 0) return -1;
+        if (store_levels(db, rid, pass, R->level, R->nlevel, e) < 0) return -1;
     }
     if (run_id) *run_id = rid;
     return 0;
@@ -763,7 +910,7 @@ int rt_db_store_run(rt_db *db, const rt_db_run *run, const rt_db_traffic *rows, 
 int rt_db_store_run_gen(rt_db *db, const rt_db_run *run, const rt_db_traffic *rows, size_t n, const rt_db_gen *grows,
                         size_t ng, int64_t *run_id, rt_err *e)
 {
-    rt_db_rows R = {rows, n, grows, ng, NULL, 0};
+    rt_db_rows R = {.traffic = rows, .ntraffic = n, .gen = grows, .ngen = ng};
     return rt_db_store(db, run, &R, run_id, e);
 }
 
@@ -794,6 +941,7 @@ typedef struct shard {
     sqlite3_stmt *runs, *rows;
     sqlite3_stmt *gens; /* generation rows (version 4), or NULL */
     sqlite3_stmt *ses;  /* standard-error rows (version 5), or NULL */
+    sqlite3_stmt *lvs;  /* per-level rows (version 6), or NULL */
 } shard;
 
 static const char *txt(sqlite3_stmt *st, int i)
@@ -816,9 +964,9 @@ static int count_col(const shard *sh, sqlite3_stmt *st, int i, const char *row, 
 }
 
 /* Opens a shard read-only and checks it is a raytraffic database of a
- * version this build reads (1 to 5; older column name for 1, no scene
+ * version this build reads (1 to 6; older column name for 1, no scene
  * paths before 3, no generation rows before 4, no standard errors before
- * 5). */
+ * 5, no new dimensions (their defaults) and no level rows before 6). */
 static int shard_open(shard *sh, const char *path, rt_err *e)
 {
     memset(sh, 0, sizeof *sh);
@@ -841,12 +989,14 @@ static int shard_open(shard *sh, const char *path, rt_err *e)
         return rt_errf(e, "%s: database schema version %lld is newer than this raytraffic supports (%d)", path,
                        (long long)ver, RT_DB_SCHEMA_VERSION);
     if (ver < 1) return rt_errf(e, "%s: not a raytraffic database (schema version %lld)", path, (long long)ver);
-    char runs_sql[700];
+    char runs_sql[900];
     snprintf(runs_sql, sizeof runs_sql,
              "SELECT r.id, s.name, s.params, s.hash, s.triangles, r.tracer, r.W, r.H, r.lights, r.%s, r.gmax,"
              " r.params, r.sim_method, r.sim_params, r.trace_hash, r.refs, r.tool_version, r.git_rev, r.command,"
-             " r.wall_time, r.stats, %s FROM runs r JOIN scenes s ON s.id = r.scene_id ORDER BY r.id",
-             ver == 1 ? "sched_cache_size" : "sched_size", ver >= 3 ? "s.path, s.abspath" : "'', ''");
+             " r.wall_time, r.stats, %s, %s FROM runs r JOIN scenes s ON s.id = r.scene_id ORDER BY r.id",
+             ver == 1 ? "sched_cache_size" : "sched_size", ver >= 3 ? "s.path, s.abspath" : "'', ''",
+             ver >= 6 ? "r.repl, r.hierarchy, r.cores, r.light_model, r.instances"
+                      : "'lru', '', 1, 'point', 'flatten'");
     static const char rows_sql[] =
         "SELECT c.size, c.line, c.assoc, c.policy, t.class, t.accesses, t.read_misses, t.write_misses, t.writebacks,"
         " t.wt_bytes, t.traffic_bytes FROM traffic t JOIN cache_configs c ON c.id = t.config_id WHERE t.run_id = ?1"
@@ -865,6 +1015,12 @@ static int shard_open(shard *sh, const char *path, rt_err *e)
         " JOIN cache_configs c ON c.id = e.config_id WHERE e.run_id = ?1 ORDER BY c.size, c.line, c.assoc, c.policy";
     if (ver >= 5 && sqlite3_prepare_v2(sh->h, ses_sql, -1, &sh->ses, NULL) != SQLITE_OK)
         return rt_errf(e, "%s: not a raytraffic database: %s", path, sqlite3_errmsg(sh->h));
+    static const char lvs_sql[] =
+        "SELECT level, level_name, core, cache_size, line, assoc, policy, repl, class, gen, accesses, misses,"
+        " writebacks, traffic_bytes FROM level_traffic WHERE run_id = ?1"
+        " ORDER BY level, core, cache_size, line, assoc, policy, repl, class, gen";
+    if (ver >= 6 && sqlite3_prepare_v2(sh->h, lvs_sql, -1, &sh->lvs, NULL) != SQLITE_OK)
+        return rt_errf(e, "%s: not a raytraffic database: %s", path, sqlite3_errmsg(sh->h));
     return 0;
 }
 
@@ -874,6 +1030,7 @@ static void shard_close(shard *sh)
     sqlite3_finalize(sh->rows);
     sqlite3_finalize(sh->gens);
     sqlite3_finalize(sh->ses);
+    sqlite3_finalize(sh->lvs);
     sqlite3_close(sh->h);
 }
 
@@ -916,6 +1073,14 @@ static int read_run(const shard *sh, rt_db_run *r, int64_t *id, rt_err *e)
     r->stats = txt(st, 20);
     r->scene_path = txt(st, 21);
     r->scene_abspath = txt(st, 22);
+    uint64_t cores;
+    if (count_col(sh, st, 25, row, &cores, e)) return -1;
+    if (cores < 1 || cores > 65536) return rt_errf(e, "%s: %s: cores out of range (1..65536)", sh->path, row);
+    r->repl = txt(st, 23);
+    r->hierarchy = txt(st, 24);
+    r->cores = (int)cores;
+    r->light_model = txt(st, 26);
+    r->instances = txt(st, 27);
     return 0;
 }
 
@@ -1039,13 +1204,87 @@ fail:
     return -1;
 }
 
+/* Frees the strings read_levels strdup'd in lv[0..n). */
+static void free_levels(rt_db_level *lv, long n)
+{
+    for (long k = 0; k < n; k++) {
+        free((char *)lv[k].level_name);
+        free((char *)lv[k].policy);
+        free((char *)lv[k].repl);
+    }
+}
+
+/* Reads run id's per-level rows (sh->lvs) into *lv (grown as needed;
+ * strings strdup'd): counts non-negative integers, level >= 1, core >= -1,
+ * generation -1..RT_MAXGEN-1. The row count, or -1. */
+static long read_levels(const shard *sh, int64_t id, rt_db_level **lv, size_t *cap, rt_err *e)
+{
+    size_t n = 0;
+    int step;
+    sqlite3_stmt *st = sh->lvs;
+    sqlite3_reset(st);
+    sqlite3_bind_int64(st, 1, id);
+    while ((step = sqlite3_step(st)) == SQLITE_ROW) {
+        if (n == *cap) {
+            size_t nc = *cap ? 2 * *cap : 64;
+            rt_db_level *r2 = rt_reallocarray(*lv, nc, sizeof *r2, e);
+            if (!r2) goto fail;
+            *lv = r2;
+            *cap = nc;
+        }
+        rt_db_level *x = &(*lv)[n];
+        memset(x, 0, sizeof *x);
+        char row[128];
+        snprintf(row, sizeof row, "run %lld, level row (level %s, size %s, class %s)", (long long)id, txt(st, 0),
+                 txt(st, 3), txt(st, 8));
+        static const int cols[8] = {0, 3, 4, 5, 10, 11, 12, 13};
+        uint64_t v[8];
+        for (int k = 0; k < 8; k++)
+            if (count_col(sh, st, cols[k], row, &v[k], e)) goto fail;
+        sqlite3_int64 core = sqlite3_column_int64(st, 2), gen = sqlite3_column_int64(st, 9);
+        if (sqlite3_column_type(st, 2) != SQLITE_INTEGER || sqlite3_column_type(st, 9) != SQLITE_INTEGER ||
+            core < -1 || core > 65535 || gen < -1 || gen >= RT_MAXGEN || v[0] < 1 || v[0] > 64 || v[2] == 0 ||
+            v[2] > UINT32_MAX || v[3] > UINT32_MAX) {
+            rt_errf(e, "%s: %s: level, core, generation, line or assoc out of range", sh->path, row);
+            goto fail;
+        }
+        x->cls = rt_class_from_name(txt(st, 8));
+        if (x->cls < 0) {
+            rt_errf(e, "%s: %s: unknown class", sh->path, row);
+            goto fail;
+        }
+        x->level = (int)v[0];
+        x->core = (int)core;
+        x->gen = (int)gen;
+        x->size = v[1];
+        x->line = (uint32_t)v[2];
+        x->assoc = (uint32_t)v[3];
+        x->accesses = v[4];
+        x->misses = v[5];
+        x->writebacks = v[6];
+        x->traffic_bytes = v[7];
+        n++;
+        if (!(x->level_name = strdup(txt(st, 1))) || !(x->policy = strdup(txt(st, 6))) ||
+            !(x->repl = strdup(txt(st, 7)))) {
+            rt_errf(e, "%s: out of memory", sh->path);
+            goto fail;
+        }
+    }
+    if (step == SQLITE_DONE) return (long)n;
+    rt_errf(e, "%s: %s", sh->path, sqlite3_errmsg(sh->h));
+fail:
+    free_levels(*lv, (long)n);
+    return -1;
+}
+
 int rt_db_merge(rt_db *out, const char *inpath, long *nruns, rt_err *e)
 {
     shard sh;
     rt_db_traffic *rows = NULL;
     rt_db_gen *gens = NULL;
     rt_db_se *ses = NULL;
-    size_t cap = 0, gcap = 0, scap = 0;
+    rt_db_level *lvs = NULL;
+    size_t cap = 0, gcap = 0, scap = 0, lcap = 0;
     int rc = -1, step;
     *nruns = 0;
     if (shard_open(&sh, inpath, e)) goto done;
@@ -1054,18 +1293,21 @@ int rt_db_merge(rt_db *out, const char *inpath, long *nruns, rt_err *e)
         int64_t id;
         memset(&run, 0, sizeof run);
         if (read_run(&sh, &run, &id, e)) goto done;
-        long n = read_rows(&sh, sh.rows, id, (void **)&rows, &cap, sizeof *rows, e), ng = 0, ns = 0;
+        long n = read_rows(&sh, sh.rows, id, (void **)&rows, &cap, sizeof *rows, e), ng = 0, ns = 0, nl = 0;
         if (n < 0) goto done;
         if (sh.gens && (ng = read_rows(&sh, sh.gens, id, (void **)&gens, &gcap, sizeof *gens, e)) < 0) ng = -1;
         else if (sh.ses && (ns = read_ses(&sh, id, &ses, &scap, e)) < 0) ns = -1;
+        else if (sh.lvs && (nl = read_levels(&sh, id, &lvs, &lcap, e)) < 0) nl = -1;
         int st = -1;
-        if (ng >= 0 && ns >= 0) {
-            rt_db_rows R = {rows, (size_t)n, gens, (size_t)ng, ses, (size_t)ns};
+        if (ng >= 0 && ns >= 0 && nl >= 0) {
+            rt_db_rows R = {.traffic = rows, .ntraffic = (size_t)n, .gen = gens, .ngen = (size_t)ng, .se = ses,
+                            .nse = (size_t)ns, .level = lvs, .nlevel = (size_t)nl};
             st = rt_db_store(out, &run, &R, NULL, e);
         }
         for (long k = 0; k < n; k++) free((char *)rows[k].policy);
         for (long k = 0; k < ng; k++) free((char *)gens[k].t.policy);
         for (long k = 0; k < ns; k++) free((char *)ses[k].policy);
+        if (nl > 0) free_levels(lvs, nl);
         if (st < 0) goto done;
         (*nruns)++;
     }
@@ -1078,6 +1320,7 @@ done:
     free(rows);
     free(gens);
     free(ses);
+    free(lvs);
     shard_close(&sh);
     return rc;
 }

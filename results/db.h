@@ -18,7 +18,10 @@
  *
  * Identity: a run is identified by (scene name, scene params, scene hash,
  * tracer, W, H, lights, scheduled cache size, gmax, tracer params,
- * sim method, sim params). Storing a run whose key exists updates the run's
+ * sim method, sim params, replacement policy, hierarchy, cores, light
+ * model, instances). The last five (schema version 6) default to LRU, ''
+ * (one level), 1, "point" and "flatten": a caller that leaves them unset
+ * (NULL / 0) stores and finds the run every earlier version did. Storing a run whose key exists updates the run's
  * provenance and replaces its traffic rows for the cache configurations
  * being stored (rows of other configurations are kept); nothing is ever
  * duplicated.
@@ -33,7 +36,7 @@
 
 #include <stdint.h>
 
-#define RT_DB_SCHEMA_VERSION 5
+#define RT_DB_SCHEMA_VERSION 6
 
 typedef struct rt_db rt_db;
 
@@ -52,6 +55,11 @@ typedef struct rt_db_run {
     const char *params;       /* other tracer parameters "k=v k=v" */
     const char *sim_method;   /* "exact" (NULL = "exact"); later "sampled" ... */
     const char *sim_params;   /* parameters of the sim method ('' for exact) */
+    const char *repl;         /* replacement policy (NULL = "lru"); the write policy is per configuration */
+    const char *hierarchy;    /* canonical hierarchy spec (NULL = '': one level, the traffic rows) */
+    int cores;                /* cores (0 = 1) */
+    const char *light_model;  /* how lights are sampled (NULL = "point") */
+    const char *instances;    /* how object instances are traced (NULL = "flatten") */
     /* provenance */
     uint32_t ntri;            /* scene triangles */
     uint64_t trace_hash;      /* content hash of the trace (0 = in-process stream) */
@@ -106,6 +114,31 @@ typedef struct rt_db_se {
     double se[RT_DB_SE_N]; /* geometry, ray, other, all classes; bytes, < 0 = none */
 } rt_db_se;
 
+/* One per-level row (table level_traffic) of a run simulated through a
+ * cache hierarchy: the counters of class cls at one level (of one core's
+ * private cache, or of a shared level) restricted to generation gen (-1:
+ * all generations). The level's configuration is (level, core, size,
+ * line, assoc, policy, repl); a store replaces the run's old rows of every
+ * level configuration it stores. traffic_bytes is what the level moves to
+ * the level below it (fetches and write-backs, in bytes); the traffic
+ * table keeps holding what reaches memory. */
+typedef struct rt_db_level {
+    int level;              /* 1 = nearest the core, 2, ... */
+    const char *level_name; /* "L1", "L2", ... (NULL = '') */
+    int core;               /* core of a private cache; -1 = shared / all cores */
+    uint64_t size;          /* cache size, bytes */
+    uint32_t line;          /* line size, bytes (> 0) */
+    uint32_t assoc;         /* ways, 0 = fully associative */
+    const char *policy;     /* write policy (NULL = "wb-wa") */
+    const char *repl;       /* replacement policy (NULL = "lru") */
+    int cls;                /* rt_class */
+    int gen;                /* generation 0..RT_MAXGEN-1, -1 = all */
+    uint64_t accesses;      /* line touches reaching this level */
+    uint64_t misses;        /* of them, misses (<= accesses) */
+    uint64_t writebacks;    /* dirty evictions out of this level */
+    uint64_t traffic_bytes; /* bytes moved to the level below */
+} rt_db_level;
+
 /* Everything stored with one run: its traffic rows, its per-generation
  * rows (exact runs whose stream carried generations) and its
  * standard-error rows (approximate runs with errors). Rows of one
@@ -117,10 +150,12 @@ typedef struct rt_db_rows {
     size_t ngen;
     const rt_db_se *se;           /* per configuration */
     size_t nse;
+    const rt_db_level *level;     /* per (level configuration, class, generation); schema version 6 */
+    size_t nlevel;
 } rt_db_rows;
 
 /* Opens (creating if needed) the database at path and ensures the schema.
- * A version-1 to -4 file is upgraded to RT_DB_SCHEMA_VERSION in place, in
+ * A version-1 to -5 file is upgraded to RT_DB_SCHEMA_VERSION in place, in
  * one transaction. Safe for many processes opening a new file at once
  * (lock conflicts while creating it are waited out, up to 2 minutes). Fails with "PATH: message", leaving the file untouched, if
  * it cannot be created or written, is not a SQLite database, has a newer
@@ -162,7 +197,10 @@ int rt_db_store_run_gen(rt_db *db, const rt_db_run *run, const rt_db_traffic *ro
  * standard-error rows are replaced (a run stored again without errors
  * keeps none for those configurations); for every configuration in
  * rows->gen its old generation rows are, in rows->se its old
- * standard-error rows. A standard error that is not a finite number is
+ * standard-error rows, and for every level configuration in rows->level
+ * its old level rows are (a level row with a bad class, level < 1,
+ * core < -1, generation out of range, line 0 or more misses than
+ * accesses is refused). A standard error that is not a finite number is
  * refused, and so is one of a configuration the run has no traffic rows
  * for (nothing stored). Same returns. */
 int rt_db_store(rt_db *db, const rt_db_run *run, const rt_db_rows *rows, int64_t *run_id, rt_err *e);
@@ -172,7 +210,7 @@ int rt_db_store(rt_db *db, const rt_db_run *run, const rt_db_rows *rows, int64_t
  * out through rt_db_store: a run whose key is already in out is replaced,
  * never duplicated; each run in its own transaction. inpath is opened
  * read-only and never written. It must be a raytraffic database of schema version 1
- * to 5; a newer version, a foreign file, or a value that is not a
+ * to 6 (level rows copied too); a newer version, a foreign file, or a value that is not a
  * non-negative integer where a count belongs (negative counts, text; a
  * generation outside 0..RT_MAXGEN-1), or a standard error that is neither
  * NULL nor a non-negative number, is refused with a message naming inpath and the

@@ -579,7 +579,7 @@ static int store_job(rt_exp_worker *w, jobrun *r, rt_exp_key *key, double t0, rt
         snprintf(astats, sizeof astats, "sim_seconds=%.3f exact_sim_seconds=%.3f", sec, r->fan.sec[0]);
         ra.stats = astats;
         td = rt_now();
-        rt_db_rows R = {rows, na, NULL, 0, se, nse};
+        rt_db_rows R = {.traffic = rows, .ntraffic = na, .se = se, .nse = nse};
         rc = rt_db_store(w->db, &ra, &R, NULL, e);
         w->t.database += rt_now() - td;
     }

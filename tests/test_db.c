@@ -381,7 +381,8 @@ static void test_upgrade_v1(const char *dir)
     sqlite3_step(st);
     const char *cols = (const char *)sqlite3_column_text(st, 0);
     CHECK(cols && !strcmp(cols, "id scene_id tracer W H lights sched_size gmax params sim_method sim_params trace_hash "
-                                "refs tool_version git_rev command wall_time stats created sched_cache_size"),
+                                "refs tool_version git_rev command wall_time stats created repl hierarchy cores light_model "
+                                "instances sched_cache_size"),
           "upgraded runs columns: %s", cols ? cols : "(none)");
     sqlite3_finalize(st);
     rt_db_close(db);
@@ -685,7 +686,7 @@ static void test_upgrade_v4(const char *dir)
         rt_db_close(f);
         return;
     }
-    CHECK(count(db, "PRAGMA user_version") == RT_DB_SCHEMA_VERSION && RT_DB_SCHEMA_VERSION == 5, "v4 upgraded to 5");
+    CHECK(count(db, "PRAGMA user_version") == RT_DB_SCHEMA_VERSION && RT_DB_SCHEMA_VERSION == 6, "v4 upgraded to 6");
     CHECK(count(db, "SELECT count(*) FROM runs") == 2 && count(db, "SELECT count(*) FROM traffic") == 8 &&
               count(db, "SELECT sum(traffic_bytes) FROM traffic WHERE run_id = 2") == 6656 + 3968 + 1024 + 3200,
           "v4 runs and rows kept");
@@ -718,7 +719,7 @@ static void test_upgrade_v4(const char *dir)
     rt_db_traffic t[2] = {{4096, 64, 0, "wb-wa", RT_CLS_TRI, 1000, 104, 0, 0, 0, 6656},
                           {65536, 64, 0, "wb-wa", RT_CLS_TRI, 1000, 16, 0, 0, 0, 1024}};
     rt_db_se se[2] = {{4096, 64, 0, "wb-wa", {512.25, 300, -1, 640.5}}, {65536, 64, 0, "wb-wa", {0, 0, 0, 0}}};
-    rt_db_rows R = {t, 2, NULL, 0, se, 2};
+    rt_db_rows R = {.traffic = t, .ntraffic = 2, .se = se, .nse = 2};
     CHECK(rt_db_store(db, &r, &R, NULL, &e) == 0, "store with errors after the upgrade: %s", e.msg);
     CHECK(count(db, "SELECT count(*) FROM runs") == 3 && count(db, "SELECT count(*) FROM traffic_se") == 2,
           "a third run with two error rows");
@@ -736,6 +737,147 @@ static void test_upgrade_v4(const char *dir)
 /* Standard-error rows: stored with the run, replaced with its traffic rows
  * (a re-store without errors keeps none for those sizes), rolled back
  * with a failed store, refused when not a number, and copied by merge. */
+/* Version 5 additions over version 4 (its own text): the standard-error
+ * table and view; with one error row and one generation row, so the
+ * rebuild of runs can be seen to keep every row that refers to a run. */
+static const char v5_extra_sql[] =
+    "CREATE TABLE IF NOT EXISTS traffic_se(\n"
+    "  run_id INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE,\n"
+    "  config_id INTEGER NOT NULL REFERENCES cache_configs(id),\n"
+    "  geometry_se REAL, ray_se REAL, other_se REAL, total_se REAL,\n"
+    "  UNIQUE(run_id, config_id));\n"
+    "CREATE VIEW IF NOT EXISTS v_traffic_se AS\n"
+    "  SELECT g.run_id, g.config_id, r.sim_method, g.cache_size, g.line, g.assoc, g.policy,\n"
+    "    g.geometry_mb, e.geometry_se / 1048576.0 AS geometry_se_mb, g.ray_mb, e.ray_se / 1048576.0 AS ray_se_mb,\n"
+    "    g.other_mb, e.other_se / 1048576.0 AS other_se_mb, g.total_mb, e.total_se / 1048576.0 AS total_se_mb\n"
+    "  FROM v_traffic_group g JOIN runs r ON r.id = g.run_id\n"
+    "    LEFT JOIN traffic_se e ON e.run_id = g.run_id AND e.config_id = g.config_id;\n"
+    "INSERT INTO traffic_se VALUES(2, 1, 10.5, 20.25, NULL, 30);\n"
+    "INSERT INTO traffic_gen VALUES(1, 1, 'tri', 0, 1000, 100, 0, 0, 6400);\n"
+    "PRAGMA user_version = 5;\n";
+
+/* A version-5 file is upgraded to 6 in place: runs rebuilt with the new
+ * dimensions at their defaults (ids, provenance, traffic, generation and
+ * error rows all kept: the rebuild must not cascade), the layout of a
+ * fresh file; old keys still found; the new dimensions are part of the
+ * key; level rows are stored, replaced per level configuration, refused
+ * when wrong, shown by v_level and copied by merge. */
+static void test_upgrade_v5(const char *dir)
+{
+    char path[300], fresh[300], a[2048], b[2048], out[300];
+    rt_err e = {0};
+    snprintf(path, sizeof path, "%s/v5.db", dir);
+    snprintf(fresh, sizeof fresh, "%s/v6fresh.db", dir);
+    snprintf(out, sizeof out, "%s/v6merged.db", dir);
+    CHECK(make_file(path, v4_file_sql) == 0 && make_file(path, v5_extra_sql) == 0, "create v5 file");
+    sqlite3 *h;
+    sqlite3_open(path, &h);
+    sqlite3_exec(h, "UPDATE runs SET git_rev = 'abc123', command = 'sweep x', created = '2026-01-02T03:04:05Z'",
+                 NULL, NULL, NULL);
+    sqlite3_close(h);
+    rt_db *db = rt_db_open(path, &e), *f = rt_db_open(fresh, &e);
+    CHECK(db && f, "open v5: %s", e.msg);
+    if (!db || !f) {
+        rt_db_close(db);
+        rt_db_close(f);
+        return;
+    }
+    CHECK(count(db, "PRAGMA user_version") == 6, "v5 upgraded to 6");
+    CHECK(count(db, "SELECT count(*) FROM runs") == 2 && count(db, "SELECT count(*) FROM traffic") == 8 &&
+              count(db, "SELECT count(*) FROM traffic_se") == 1 && count(db, "SELECT count(*) FROM traffic_gen") == 1 &&
+              count(db, "SELECT sum(traffic_bytes) FROM traffic WHERE run_id = 2") == 6656 + 3968 + 1024 + 3200,
+          "v5 runs, traffic, error and generation rows kept");
+    CHECK(count(db, "SELECT count(*) FROM runs WHERE repl = 'lru' AND hierarchy = '' AND cores = 1 AND "
+                    "light_model = 'point' AND instances = 'flatten' AND git_rev = 'abc123' AND command = 'sweep x' "
+                    "AND created = '2026-01-02T03:04:05Z' AND sched_cache_size = 0") == 2,
+          "defaults of the new dimensions, provenance kept");
+    CHECK(getd(db, "SELECT total_se_mb FROM v_traffic_se WHERE run_id = 2 AND cache_size = 4096") == 30 / 1048576.0,
+          "the error row still joins its run");
+    CHECK(count(db, "PRAGMA foreign_key_check") == -1, "no dangling rows");
+    const char *tables[] = {"runs", "level_traffic", "v_level", "v_paper", "v_gen", "v_traffic_se"};
+    for (int i = 0; i < 6; i++) {
+        columns(db, tables[i], a, sizeof a);
+        columns(f, tables[i], b, sizeof b);
+        CHECK(a[0] && !strcmp(a, b), "%s: upgraded columns %s, fresh %s", tables[i], a, b);
+    }
+    rt_db_run r;
+    memset(&r, 0, sizeof r);
+    r.scene = "cornell";
+    r.scene_hash = 0xaa;
+    r.tracer = "recursive";
+    r.W = r.H = 64;
+    CHECK(rt_db_has_run(db, &r, &e) == 1, "old exact run found by its key: %s", e.msg);
+    r.repl = "lru";
+    r.cores = 1;
+    r.light_model = "point";
+    r.instances = "flatten";
+    r.hierarchy = "";
+    CHECK(rt_db_has_run(db, &r, &e) == 1, "explicit defaults are the same key");
+    r.repl = "fifo";
+    CHECK(rt_db_has_run(db, &r, &e) == 0, "another replacement policy is another run");
+    r.repl = NULL;
+    r.cores = 4;
+    CHECK(rt_db_has_run(db, &r, &e) == 0, "another core count is another run");
+    /* a hierarchy run with level rows */
+    r.cores = 2;
+    r.hierarchy = "L1:4K:64:2,L2:64K:64:8";
+    rt_db_traffic t[1] = {{65536, 64, 8, "wb-wa", RT_CLS_TRI, 50, 5, 0, 0, 0, 320}};
+    rt_db_level lv[3] = {
+        {1, "L1", 0, 4096, 64, 2, NULL, NULL, RT_CLS_TRI, -1, 1000, 50, 0, 3200},
+        {1, "L1", 1, 4096, 64, 2, NULL, NULL, RT_CLS_TRI, -1, 900, 40, 0, 2560},
+        {2, "L2", -1, 65536, 64, 8, "wb-wa", "lru", RT_CLS_TRI, -1, 90, 5, 0, 320},
+    };
+    rt_db_rows R = {.traffic = t, .ntraffic = 1, .level = lv, .nlevel = 3};
+    int64_t rid = 0;
+    CHECK(rt_db_store(db, &r, &R, &rid, &e) == 0, "store level rows: %s", e.msg);
+    CHECK(count(db, "SELECT count(*) FROM level_traffic") == 3 &&
+              count(db, "SELECT sum(traffic_bytes) FROM level_traffic WHERE level = 1") == 3200 + 2560,
+          "level rows stored");
+    CHECK(count(db, "SELECT total_bytes FROM v_level WHERE level = 2 AND core = -1 AND hierarchy = "
+                    "'L1:4K:64:2,L2:64K:64:8' AND cores = 2") == 320 &&
+              count(db, "SELECT geometry_bytes FROM v_level WHERE level = 1 AND core = 1") == 2560 &&
+              count(db, "SELECT misses FROM v_level WHERE level = 1 AND core = 0") == 50,
+          "v_level");
+    lv[0].traffic_bytes = 6400;
+    R.nlevel = 1;
+    CHECK(rt_db_store(db, &r, &R, NULL, &e) == 0, "store again: %s", e.msg);
+    CHECK(count(db, "SELECT count(*) FROM level_traffic") == 3 &&
+              count(db, "SELECT traffic_bytes FROM level_traffic WHERE level = 1 AND core = 0") == 6400,
+          "a re-store replaces that level configuration only");
+    rt_db_level badl = lv[1];
+    badl.misses = badl.accesses + 1;
+    R.level = &badl;
+    CHECK(rt_db_store(db, &r, &R, NULL, &e) < 0 && strstr(e.msg, "more misses"), "misses > accesses: %s", e.msg);
+    badl = lv[1];
+    badl.level = 0;
+    CHECK(rt_db_store(db, &r, &R, NULL, &e) < 0 && strstr(e.msg, "level 0"), "level 0: %s", e.msg);
+    CHECK(count(db, "SELECT count(*) FROM level_traffic") == 3 &&
+              count(db, "SELECT traffic_bytes FROM level_traffic WHERE level = 1 AND core = 0") == 6400,
+          "refused stores left nothing");
+    /* merge copies dimensions and level rows */
+    long nr = -1;
+    rt_db *m = rt_db_open(out, &e);
+    CHECK(m && rt_db_merge(m, path, &nr, &e) == 0 && nr == 3, "merge v6: %ld %s", nr, e.msg);
+    CHECK(count(m, "SELECT count(*) FROM level_traffic") == 3 &&
+              count(m, "SELECT sum(traffic_bytes) FROM level_traffic") == 6400 + 2560 + 320 &&
+              count(m, "SELECT cores FROM runs WHERE hierarchy = 'L1:4K:64:2,L2:64K:64:8'") == 2 &&
+              count(m, "SELECT count(*) FROM runs WHERE repl = 'lru' AND light_model = 'point'") == 3,
+          "merged dimensions and level rows");
+    CHECK(rt_db_merge(m, path, &nr, &e) == 0 && count(m, "SELECT count(*) FROM level_traffic") == 3 &&
+              count(m, "SELECT count(*) FROM runs") == 3,
+          "merging twice duplicates nothing");
+    rt_db_close(m);
+    sqlite3_open(path, &h);
+    sqlite3_exec(h, "UPDATE level_traffic SET gen = 9 WHERE level = 2", NULL, NULL, NULL);
+    sqlite3_close(h);
+    m = rt_db_open(out, &e);
+    CHECK(m && rt_db_merge(m, path, &nr, &e) < 0 && strstr(e.msg, "level row") && strstr(e.msg, path),
+          "bad level row refused: %s", e.msg);
+    rt_db_close(m);
+    rt_db_close(db);
+    rt_db_close(f);
+}
+
 static void test_se_rows(const char *dir)
 {
     char path[300], mpath[300];
@@ -753,7 +895,7 @@ static void test_se_rows(const char *dir)
                           {2048, 64, 0, "wb-wa", RT_CLS_TRI, 10, 4, 0, 0, 0, 256},
                           {2048, 64, 0, "wb-wa", RT_CLS_RAY, 10, 1, 0, 0, 0, 64}};
     rt_db_se se[2] = {{1024, 64, 0, "wb-wa", {10.5, -1, 0, 10.5}}, {2048, 64, 0, "wb-wa", {8, 3.25, 0, 9.125}}};
-    rt_db_rows R = {t, 3, NULL, 0, se, 2};
+    rt_db_rows R = {.traffic = t, .ntraffic = 3, .se = se, .nse = 2};
     CHECK(rt_db_store(db, &r, &R, NULL, &e) == 0, "store: %s", e.msg);
     CHECK(count(db, "SELECT count(*) FROM traffic_se") == 2, "two error rows");
     CHECK(getd(db, "SELECT ray_se_mb * 1048576 FROM v_traffic_se WHERE cache_size = 2048") == 3.25 &&
@@ -763,7 +905,7 @@ static void test_se_rows(const char *dir)
     /* not a number: refused, nothing of the store left */
     rt_db_se bad = se[0];
     bad.se[2] = NAN;
-    rt_db_rows RB = {t, 1, NULL, 0, &bad, 1};
+    rt_db_rows RB = {.traffic = t, .ntraffic = 1, .se = &bad, .nse = 1};
     r.tracer = "packet";
     CHECK(rt_db_store(db, &r, &RB, NULL, &e) < 0 && strstr(e.msg, path) && strstr(e.msg, "not a number"),
           "NaN refused: %s", e.msg);
@@ -771,13 +913,13 @@ static void test_se_rows(const char *dir)
     /* an error row of a size without traffic rows: refused */
     rt_db_se lone = se[0];
     lone.size = 4096;
-    rt_db_rows RL = {t, 3, NULL, 0, &lone, 1};
+    rt_db_rows RL = {.traffic = t, .ntraffic = 3, .se = &lone, .nse = 1};
     CHECK(rt_db_store(db, &r, &RL, NULL, &e) < 0 && strstr(e.msg, "has no traffic row"), "lone error row: %s", e.msg);
     CHECK(count(db, "SELECT count(*) FROM runs") == 1, "refused store left a run");
     /* a store failing at its second error row (the same configuration
      * twice) leaves nothing: not the run, not its first error row */
     rt_db_se twice[2] = {se[0], se[0]};
-    rt_db_rows RT = {t, 1, NULL, 0, twice, 2};
+    rt_db_rows RT = {.traffic = t, .ntraffic = 1, .se = twice, .nse = 2};
     CHECK(rt_db_store(db, &r, &RT, NULL, &e) < 0 && strstr(e.msg, "UNIQUE"), "duplicate error row: %s", e.msg);
     CHECK(count(db, "SELECT count(*) FROM runs") == 1 && count(db, "SELECT count(*) FROM traffic_se") == 2 &&
               count(db, "SELECT count(*) FROM traffic") == 3,
@@ -792,7 +934,7 @@ static void test_se_rows(const char *dir)
           "merged errors");
     /* re-storing sizes without errors drops their error rows only */
     r.tracer = "recursive";
-    rt_db_rows R2 = {t, 1, NULL, 0, NULL, 0};
+    rt_db_rows R2 = {.traffic = t, .ntraffic = 1};
     CHECK(rt_db_store(db, &r, &R2, NULL, &e) == 0, "re-store 1K: %s", e.msg);
     CHECK(count(db, "SELECT count(*) FROM traffic_se") == 1 && count(db, "SELECT count(*) FROM traffic") == 3,
           "1K's error row replaced by none, 2K's kept");
@@ -1057,6 +1199,7 @@ int main(void)
     test_gen_rows(dir);
     test_upgrade_v3(dir, rows, n);
     test_upgrade_v4(dir);
+    test_upgrade_v5(dir);
     test_se_rows(dir);
 
     if (check_rm_tree(dir) != 0) fprintf(stderr, "warning: could not remove %s\n", dir);
