@@ -45,6 +45,17 @@ cmp -s "$tmp/point.png" "$tmp/recursive.png" && err "16 lamp samples left the po
 "$bin" scene info "$tmp/lamp.pbrt" --no-tree 2>/dev/null | grep -q "^file light 0  mesh     triangles 1..1" \
     || err "scene info does not list the lamp"
 
+# the database: light_model authored beside the point model's run
+"$bin" sweep --scenes "$tmp/lamp.pbrt" --tracers recursive --lights 0,all -W 8 -H 8 --sizes 64K --light-samples 4 \
+    --db "$tmp/s.db" >/dev/null 2>&1 || err "sweep --light-samples"
+"$bin" sweep --scenes "$tmp/lamp.pbrt" --tracers recursive --lights 0 -W 8 -H 8 --sizes 64K --db "$tmp/s.db" \
+    >/dev/null 2>&1 || err "sweep, point model"
+sqlite3 "$tmp/s.db" "SELECT lights, light_model, params FROM runs ORDER BY id" > "$tmp/rows" || err "sqlite3"
+printf '%s\n' "1|authored|light_model=authored light_samples=4" "7|authored|light_model=authored light_samples=4 lights=all" \
+    "1|point|" | cmp -s - "$tmp/rows" || err "runs rows: $(cat "$tmp/rows")"
+"$bin" sim --db "$tmp/t.db" --sizes 64K "$tmp/t.rtt" >/dev/null 2>&1 || err "sim --db"
+[ "$(sqlite3 "$tmp/t.db" "SELECT light_model FROM runs")" = authored ] || err "sim --db: light_model not authored"
+
 # a built-in scene has no light records: the option changes nothing
 "$bin" render cornell -W 16 -H 16 --lights all -o "$tmp/a.exr" --png "$tmp/c0.png" 2>/dev/null || err "render cornell"
 "$bin" render cornell -W 16 -H 16 --lights all --light-samples 16 -o "$tmp/a.exr" --png "$tmp/c1.png" 2>/dev/null \
