@@ -293,6 +293,102 @@ static void test_env_hits(void)
     rt_scene_free(s);
 }
 
+/* ---- the memory model: light records read once per sample ---------------- */
+
+typedef struct ltally {
+    const rt_layout *L;
+    int rl, rc, rv;          /* lights, lights.cdf, tri.verts (-1: absent) */
+    uint64_t lights, cdf, verts, outside, bad;
+    char why[200];
+} ltally;
+
+static int ltally_put(rt_sink *sk, const rt_access *a, size_t n)
+{
+    ltally *t = sk->ctx;
+    for (size_t i = 0; i < n; i++) {
+        int r = -1;
+        for (int k = 0; k < t->L->n; k++)
+            if (a[i].addr >= t->L->r[k].base && a[i].addr < t->L->r[k].base + (uint64_t)t->L->r[k].recsize * t->L->r[k].count)
+                r = k;
+        if (r < 0) {
+            t->outside++;
+            continue;
+        }
+        if (r != t->rl && r != t->rc) {
+            if (r == t->rv && !a[i].write) t->verts++;
+            continue;
+        }
+        const uint64_t off = a[i].addr - t->L->r[r].base;
+        if (a[i].write || a[i].cls != RT_CLS_SHADE || off % t->L->r[r].recsize || a[i].size != t->L->r[r].recsize) {
+            if (!t->bad++)
+                snprintf(t->why, sizeof t->why, "%s access: write %u class %u offset %llu size %u", t->L->r[r].name,
+                         a[i].write, a[i].cls, (unsigned long long)off, a[i].size);
+            continue;
+        }
+        if (r == t->rl) t->lights++;
+        else t->cdf++;
+    }
+    return 0;
+}
+
+/* Every sample reads its light's 64-byte record (a mesh light also its
+ * area-table entry and the sampled triangle), in every tracer; a point-lit
+ * run has neither region. */
+static void test_memory_model(void)
+{
+    const char *decl[] = {k_mesh, k_sphere, k_distant, k_infinite, k_point};
+    const char *name[] = {"mm.pbrt", "ms.pbrt", "md.pbrt", "mi.pbrt", "mp.pbrt"};
+    const uint64_t rays[] = {64 * 16, 64 * 16, 64, 64 * 16, 64};
+    for (int c = 0; c < 5; c++) {
+        rt_scene *s = load(name[c], decl[c]);
+        if (!s) continue;
+        const int mesh = s->lights[0].kind == RT_LIGHT_MESH, point = s->lights[0].kind == RT_LIGHT_POINT;
+        for (size_t t = 0; t < sizeof lit_tracers / sizeof lit_tracers[0]; t++) {
+            rt_render_opts o;
+            rt_render_default_opts(&o);
+            o.W = o.H = 8;
+            o.lights = 1;
+            o.light_samples = 16;
+            rt_err e = {0};
+            rt_job j;
+            if (rt_job_setup_borrowed(&j, s, NULL, lit_tracers[t], &o, &e) < 0) {
+                CHECK(0, "%s %s: %s", name[c], lit_tracers[t], e.msg);
+                continue;
+            }
+            ltally T = {&j.L, rt_mm_find(&j.L, "lights"), rt_mm_find(&j.L, "lights.cdf"), rt_mm_find(&j.L, "tri.verts"),
+                        0, 0, 0, 0, 0, ""};
+            int rl = T.rl;
+            CHECK((T.rl >= 0) == !point && (T.rc >= 0) == mesh, "%s %s: regions lights %d, lights.cdf %d", name[c],
+                  lit_tracers[t], T.rl, T.rc);
+            if (T.rl >= 0)
+                CHECK(j.L.r[T.rl].recsize == RT_LIGHT_RECSIZE && j.L.r[T.rl].count == s->nlight &&
+                          j.L.r[T.rl].cls == RT_CLS_SHADE,
+                      "%s: lights region %u x %llu", name[c], j.L.r[T.rl].recsize, (unsigned long long)j.L.r[T.rl].count);
+            if (T.rc >= 0)
+                CHECK(j.L.r[T.rc].recsize == 4 && j.L.r[T.rc].count == s->lights[0].count, "%s: lights.cdf region",
+                      name[c]);
+            rt_sink sink = {ltally_put, &T};
+            rt_run_stats st;
+            rt_image *im = rt_image_new(8, 8, &e);
+            j.check = 1;
+            if (!im || rt_job_run(&j, &sink, im, &st, &e) < 0) CHECK(0, "%s %s: run: %s", name[c], lit_tracers[t], e.msg);
+            CHECK(T.outside == 0 && T.bad == 0, "%s %s: %llu accesses outside the regions, %llu bad (%s)", name[c],
+                  lit_tracers[t], (unsigned long long)T.outside, (unsigned long long)T.bad, T.why);
+            CHECK(st.rays_shadow == rays[c], "%s %s: %llu shadow rays", name[c], lit_tracers[t],
+                  (unsigned long long)st.rays_shadow);
+            CHECK(T.lights == (rl >= 0 ? rays[c] : 0) && T.cdf == (mesh ? rays[c] : 0),
+                  "%s %s: %llu light-record and %llu area-table reads for %llu samples", name[c], lit_tracers[t],
+                  (unsigned long long)T.lights, (unsigned long long)T.cdf, (unsigned long long)rays[c]);
+            /* a mesh light's samples read their triangles on top of the traversal's tests */
+            if (mesh && T.rv >= 0) CHECK(T.verts >= rays[c], "%s %s: %llu triangle reads", name[c], lit_tracers[t],
+                                         (unsigned long long)T.verts);
+            rt_image_free(im);
+            rt_job_free(&j);
+        }
+        rt_scene_free(s);
+    }
+}
+
 /* Several lights: all of them, selection by index, more than three. */
 static void test_selection(void)
 {
@@ -438,6 +534,7 @@ int main(void)
     test_points_on_emitters();
     test_shading();
     test_env_hits();
+    test_memory_model();
     test_selection();
     test_point_model();
     test_checker();
