@@ -226,7 +226,8 @@ static int finite_v(rt_vec3 v) { return isfinite(v.x) && isfinite(v.y) && isfini
 static const char *light_problem(const rt_light *l)
 {
     if (l->kind < 0 || l->kind >= RT_LIGHT_KINDS) return "unknown kind (invariant 2)";
-    if (!finite_v(l->p) || !finite_v(l->d) || !isfinite(l->r)) return "non-finite position, direction or radius (invariant 2)";
+    if (!finite_v(l->p) || !finite_v(l->d) || !isfinite(l->r))
+        return "non-finite position, direction or radius (invariant 2)";
     if (l->kind == RT_LIGHT_DISTANT || l->kind == RT_LIGHT_DISK) {
         float n = rt_len(l->d);
         if (!(fabsf(n - 1.0f) <= 1e-3f)) return "direction not of unit length (invariant 3)";
@@ -285,7 +286,8 @@ int rt_scene_add_light(rt_scene *s, const rt_light *l, rt_err *e)
 
 int rt_scene_check_lights(const rt_scene *s, rt_err *e)
 {
-    if ((s->nlight == 0) != (s->lights == NULL)) return rt_errf(e, "%s: light count and table disagree (invariant 1)", s->name);
+    if ((s->nlight == 0) != (s->lights == NULL))
+        return rt_errf(e, "%s: light count and table disagree (invariant 1)", s->name);
     for (uint32_t i = 0; i < s->nlight; i++) {
         const char *why = light_problem(&s->lights[i]);
         if (!why) why = mesh_problem(s, &s->lights[i]);

@@ -1537,8 +1537,9 @@ done:
 static void count_light(pbrt *P, const token *t)
 {
     if (++P->nlights_all == RT_NLIGHTS + 1)
-        pwarn(P, t, "lights", "more than %d lights: kept %d, point and spot lights first", RT_NLIGHTS,
-              RT_NLIGHTS);
+        pwarn(P, t, "lights",
+              "more than %d lights: the point model keeps %d, point and spot lights first (--light-samples traces all)",
+              RT_NLIGHTS, RT_NLIGHTS);
 }
 
 /* Records an area-light shape (triangles from `start` on) for the lights. */
@@ -1605,7 +1606,8 @@ static int note_authored_area(pbrt *P, const token *t, const char *type, plist *
             l.kind = RT_LIGHT_DISK;
             l.d = rt_norm(n);
         }
-        if (!(l.r > 0) || !isfinite(l.r)) return perr(P, t, "Shape \"%s\": emitter radius out of range after the transform", type);
+        if (!(l.r > 0) || !isfinite(l.r))
+            return perr(P, t, "Shape \"%s\": emitter radius out of range after the transform", type);
         return add_light(P, t, &l);
     }
     if (P->s->ntri <= start) return 0;
@@ -1728,7 +1730,8 @@ static int do_shape(pbrt *P, const token *d)
     }
     if (rc == 0 && P->g.area && P->in_obj < 0 && P->s->ntri > start) rc = note_area_light(P, &tt, start);
     if (rc == 0 && P->g.area && P->in_obj < 0) rc = note_authored_area(P, &tt, type, &L, start);
-    if (rc == 0 && P->g.area && P->in_obj >= 0) pwarn(P, &tt, "instanced area light", "area light inside an object: not one of the authored lights");
+    if (rc == 0 && P->g.area && P->in_obj >= 0)
+        pwarn(P, &tt, "instanced area light", "area light inside an object: not one of the authored lights");
     if (rc == 0 && P->in_obj < 0) P->nonobj += P->s->ntri - start;
     free(w);
     free(idx);
@@ -1887,14 +1890,17 @@ static int do_light(pbrt *P, const token *d)
         al.kind = RT_LIGHT_DISTANT;
         al.d = rt_norm(dir);
         if (add_light(P, &tt, &al) < 0) goto done;
-        pwarn(P, &tt, "LightSource \"distant\"", "LightSource \"distant\" skipped by the point lights (traced with --light-samples)");
+        pwarn(P, &tt, "LightSource \"distant\"",
+              "LightSource \"distant\" skipped by the point lights (traced with --light-samples)");
     } else if (!strcmp(type, "infinite")) {
         rt_light al;
         memset(&al, 0, sizeof al);
         al.kind = RT_LIGHT_INFINITE;
         if (add_light(P, &tt, &al) < 0) goto done;
-        if (pfind(&L, "filename")) pwarn(P, &tt, "infinite image", "LightSource \"infinite\": image ignored (a uniform sky)");
-        pwarn(P, &tt, "LightSource \"infinite\"", "LightSource \"infinite\" skipped by the point lights (traced with --light-samples)");
+        if (pfind(&L, "filename"))
+            pwarn(P, &tt, "infinite image", "LightSource \"infinite\": image ignored (a uniform sky)");
+        pwarn(P, &tt, "LightSource \"infinite\"",
+              "LightSource \"infinite\" skipped by the point lights (traced with --light-samples)");
     } else {
         char key[48];
         snprintf(key, sizeof key, "LightSource \"%.30s\"", type);
