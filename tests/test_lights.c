@@ -490,6 +490,55 @@ static void test_point_model(void)
     }
 }
 
+/* The loader's light handlers: bad input is one error naming file and
+ * line; what is approximated is a warning; transforms apply. */
+static void test_loader(void)
+{
+    char text[4096];
+    rt_err e = {0};
+    snprintf(text, sizeof text, "%s%s", floor_pbrt, "LightSource \"distant\" \"point3 from\" [1 2 3] \"point3 to\" [1 2 3]\n");
+    check_write_file(check_path("same.pbrt"), text, strlen(text));
+    rt_scene *s = rt_scene_load(check_path("same.pbrt"), &e);
+    CHECK(!s && strstr(e.msg, "same.pbrt:6") && strstr(e.msg, "coincide"), "distant from = to: %s", e.msg);
+    rt_scene_free(s);
+    snprintf(text, sizeof text, "%s%s", floor_pbrt, "LightSource \"distant\" \"point3 from\" [0 0]\n");
+    check_write_file(check_path("short.pbrt"), text, strlen(text));
+    s = rt_scene_load(check_path("short.pbrt"), &e);
+    CHECK(!s && strstr(e.msg, "short.pbrt:6"), "distant from with 2 values: %s", e.msg);
+    rt_scene_free(s);
+    /* a light inside an object, an infinite light's image, a distant light under a transform */
+    snprintf(text, sizeof text, "%s%s", floor_pbrt,
+             "ObjectBegin \"lamp\"\nAreaLightSource \"diffuse\"\n"
+             "Shape \"trianglemesh\" \"point3 P\" [0 0 9  1 0 9  0 1 9] \"integer indices\" [0 1 2]\nObjectEnd\n"
+             "ObjectInstance \"lamp\"\n"
+             "LightSource \"infinite\" \"string filename\" \"sky.exr\"\n"
+             "AttributeBegin\nRotate 90 1 0 0\nLightSource \"distant\" \"point3 from\" [0 0 1] \"point3 to\" [0 0 0]\n"
+             "AttributeEnd\n"
+             "AttributeBegin\nAreaLightSource \"diffuse\"\nTranslate 1 2 8\nScale 3 3 3\n"
+             "Shape \"disk\" \"float radius\" 0.5 \"float height\" 1\nAttributeEnd\n");
+    check_write_file(check_path("mix.pbrt"), text, strlen(text));
+    s = rt_scene_load(check_path("mix.pbrt"), &e);
+    CHECK(s != NULL, "mix.pbrt: %s", e.msg);
+    if (!s) return;
+    CHECK(strstr(s->warning, "area light inside an object") && strstr(s->warning, "image ignored"),
+          "warnings: %s", s->warning);
+    CHECK(s->nlight == 3 && s->lights[0].kind == RT_LIGHT_INFINITE && s->lights[1].kind == RT_LIGHT_DISTANT &&
+              s->lights[2].kind == RT_LIGHT_DISK,
+          "3 lights (infinite, distant, disk): %u", s->nlight);
+    if (s->nlight == 3) {
+        /* Rotate 90 about x takes +z to -y: the light lies toward -y */
+        const rt_light *d = &s->lights[1], *k = &s->lights[2];
+        CHECK(fabsf(d->d.x) < 1e-6f && fabsf(d->d.y + 1.0f) < 1e-6f && fabsf(d->d.z) < 1e-6f, "distant toward (%g %g %g)",
+              (double)d->d.x, (double)d->d.y, (double)d->d.z);
+        /* the disk: centre (1, 2, 8 + 3 x 1), radius 3 x 0.5, normal +z */
+        CHECK(fabsf(k->p.x - 1) < 1e-5f && fabsf(k->p.y - 2) < 1e-5f && fabsf(k->p.z - 11) < 1e-5f &&
+                  fabsf(k->r - 1.5f) < 1e-5f && fabsf(k->d.z - 1) < 1e-6f,
+              "disk at (%g %g %g) r %g n.z %g", (double)k->p.x, (double)k->p.y, (double)k->p.z, (double)k->r,
+              (double)k->d.z);
+    }
+    rt_scene_free(s);
+}
+
 /* The checker and rt_scene_add_light refuse broken records. */
 static void test_checker(void)
 {
@@ -538,6 +587,7 @@ int main(void)
     test_selection();
     test_point_model();
     test_checker();
+    test_loader();
     if (check_rm_tree(check_dir) != 0) fprintf(stderr, "warning: could not remove %s\n", check_dir);
     if (failures) fprintf(stderr, "%d failure(s)\n", failures);
     else printf("test_lights: all passed\n");
