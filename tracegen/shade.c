@@ -166,9 +166,9 @@ int rt_shade_sample_ray(const rt_scene *sc, const rt_render_opts *o, const rt_ra
         /* uniform on the cap seen from p: cos in [r / dist, 1] */
         float zmin = L->r / dist, z = zmin + (1.0f - zmin) * light_rand(h, i, k, 0);
         float x, y;
-        light_disk(h, i, k, &x, &y);
+        light_disk(h, i, k, &x, &y); /* its direction about wc: (x, y) / |(x, y)| */
+        if (!(x * x + y * y > 0)) x = 1.0f, y = 0.0f;
         float rr = sqrtf(fmaxf(0.0f, 1.0f - z * z)) / sqrtf(x * x + y * y);
-        if (!(x * x + y * y > 0)) x = 1.0f, y = 0.0f, rr = sqrtf(fmaxf(0.0f, 1.0f - z * z));
         rt_vec3 u = rt_add(rt_add(rt_mul(t, x * rr), rt_mul(s, y * rr)), rt_mul(wc, z));
         q = rt_add(L->p, rt_mul(u, L->r));
         tmax = 0.999f;
