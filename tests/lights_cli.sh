@@ -62,6 +62,17 @@ printf '%s\n' "1|authored|light_model=authored light_samples=4" "7|authored|ligh
     || err "render cornell --light-samples"
 cmp -s "$tmp/c0.png" "$tmp/c1.png" || err "--light-samples changed a built-in scene's image"
 
+# golden traffic: the Cornell box's lamp sampled 4 times per hit, 32 x 32,
+# simulated at 4K and 64K (the sample points decide every address the
+# shadow rays touch, so this pins the sampling on every machine);
+# RT_REDO_GOLDEN=1 rewrites tests/golden/lights_cornell.csv
+golden=${RT_SRCDIR:-.}/tests/golden/lights_cornell.csv
+"$bin" trace "${RT_SRCDIR:-.}/data/pbrt/cornell.pbrt" -W 32 -H 32 --lights all --light-samples 4 -o "$tmp/c.rtt" \
+    >/dev/null 2>&1 || err "trace cornell.pbrt --light-samples 4"
+"$bin" sim --sizes 4K,64K --format csv "$tmp/c.rtt" 2>/dev/null | cut -d, -f2- > "$tmp/c.csv" || err "sim"
+if [ "${RT_REDO_GOLDEN:-0}" = 1 ]; then cp "$tmp/c.csv" "$golden"; echo "regenerated $golden"; fi
+diff -u "$golden" "$tmp/c.csv" || err "traffic differs from $golden"
+
 # usage errors: exit 2, one line naming the problem
 usage() { # want-text, then the command's arguments
     want=$1
