@@ -9,8 +9,9 @@
  * leaves the subtree, in which case it continues through the tree top to
  * its next queue point, or leaves the scene. Rays are processed in
  * generations: all primary rays; then, per point light, shadow rays traced
- * from the light toward the hit points; then newly spawned non-shadow rays
- * (none with the diffuse shading used here).
+ * from the light toward the hit points (with a file's own lights,
+ * --light-samples: per light and sample, from the sampled point); then
+ * newly spawned non-shadow rays (none with the diffuse shading used here).
  *
  * Choices the paper leaves open (docs/tracers.md):
  *   - queue order: fullest queue first (default) or depth-first tree order,

@@ -87,7 +87,8 @@
  * windows of --ray-window rays (default all of the frame). Per window: the
  * closest-hit generation (every ray started at the root treelet, then the
  * queues until empty), then one shadow generation per enabled light (from
- * the hit toward the light). Whitted and path modes keep a stack of
+ * the hit toward the light; with a file's own lights, --light-samples, one
+ * per light and sample). Whitted and path modes keep a stack of
  * batches (refracted rays one level, reflected and path rays another) and
  * shade each ray with rt_shade_step, summing contributions in an rt_acc,
  * so the order of rays does not change the image.
