@@ -253,7 +253,7 @@ int rt_render_light_on(const rt_render_opts *o, uint32_t i)
     return (o->lights_all && o->lights) || (i < 32 && ((o->lights >> i) & 1u));
 }
 
-int rt_render_check_lights(const rt_render_opts *o, const rt_scene *sc, rt_err *e)
+int rt_render_check_scene_lights(const rt_render_opts *o, const rt_scene *sc, rt_err *e)
 {
     if (o->light_samples > RT_LIGHT_SAMPLES_MAX)
         return rt_errf_usage(e, "--light-samples: %u is not in 0..%d", (unsigned)o->light_samples, RT_LIGHT_SAMPLES_MAX);

@@ -232,7 +232,7 @@ void rt_render_view_params(const rt_render_opts *o, char *buf, size_t n);
 /* Parses "all", "none" (or ""), or a comma list of light indices "0,2" into
  * a light mask ("all": lights 0..2, the point model's; with authored lights
  * the front end also sets lights_all). Indices 0..31; whether the light
- * exists is checked when the scene is known (rt_render_check_lights). 0, or
+ * exists is checked when the scene is known (rt_render_check_scene_lights). 0, or
  * -1 on a malformed list (*mask untouched). */
 int rt_render_parse_lights(const char *s, unsigned *mask);
 #define RT_LIGHT_SAMPLES_MAX 4096 /* largest --light-samples */
@@ -243,7 +243,7 @@ uint32_t rt_render_nlights(const rt_render_opts *o, const struct rt_scene *sc);
 int rt_render_light_on(const rt_render_opts *o, uint32_t i);
 /* Every enabled light exists in sc and --light-samples is in range: 0, or -1
  * naming the light. */
-int rt_render_check_lights(const rt_render_opts *o, const struct rt_scene *sc, rt_err *e);
+int rt_render_check_scene_lights(const rt_render_opts *o, const struct rt_scene *sc, rt_err *e);
 
 /* Former name, kept for the front end and its tests. */
 static inline int rt_parse_lights(const char *s, unsigned *mask) { return rt_render_parse_lights(s, mask); }

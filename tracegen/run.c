@@ -77,7 +77,7 @@ static int setup_opts(rt_job *j, const char *tracer, const rt_render_opts *o, rt
 static int apply_film(rt_job *j, rt_err *e)
 {
     j->opt.lights = rt_render_lights(&j->opt); /* with --light, only the lights given exist */
-    if (rt_render_check_lights(&j->opt, j->sc, e) < 0) return -1;
+    if (rt_render_check_scene_lights(&j->opt, j->sc, e) < 0) return -1;
     /* the file's lights: a file of at most three point lights is lit alike by
      * the point lights (light[] holds them in order), which every tracer and
      * mode traces; other lights need the sampling tracers and shadow mode */
