@@ -131,7 +131,7 @@ typedef struct rt_light {
     float scale;            /* factor on the scene's light_power (1) */
     uint32_t first, count;  /* mesh: the emitting triangles */
     float *cdf;             /* mesh: count cumulative area fractions (owned) */
-    char at[64];            /* "FILE:LINE" of its declaration ("" if none) */
+    char at[256];           /* "FILE:LINE" of its declaration ("" if none; a long path truncated) */
 } rt_light;
 
 /* Bytes of one light record in the modeled memory (kind, p, d, r, scale,
