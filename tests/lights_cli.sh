@@ -1,7 +1,7 @@
 #!/bin/sh
 # --light-samples from the command line: a floor under an area light casts
 # 64 hits x N shadow rays (8 x 8 pixels, all on the floor), the same image
-# from the recursive, packet, dynamic and treelet tracers; the run key names the light model;
+# from the recursive, packet, dynamic, treelet and stream tracers; the run key names the light model;
 # scene info lists the file's lights; a built-in scene renders the same
 # with and without the option; bad values, missing lights and tracers that
 # trace point lights only are usage errors (exit 2) with a one-line reason.
@@ -25,12 +25,12 @@ Shape "trianglemesh" "point3 P" [-1 -1 10  1 -1 10  0 1 10] "integer indices" [0
 AttributeEnd
 PBRT
 
-for t in recursive packet dynamic treelet; do
+for t in recursive packet dynamic treelet stream-branching stream-multipass; do
     "$bin" render "$tmp/lamp.pbrt" -t $t --lights 0 --light-samples 16 --json -o "$tmp/a.exr" --png "$tmp/$t.png" \
         > "$tmp/$t.json" 2>/dev/null || err "render -t $t --light-samples 16"
     grep -q '"rays_shadow": 1024,' "$tmp/$t.json" || err "$t: 64 hits x 16 samples: $(cat "$tmp/$t.json")"
 done
-for t in packet dynamic treelet; do
+for t in packet dynamic treelet stream-branching stream-multipass; do
     cmp -s "$tmp/recursive.png" "$tmp/$t.png" || err "$t image differs from recursive's"
 done
 "$bin" render "$tmp/lamp.pbrt" --lights all --light-samples 4 --json -o "$tmp/a.exr" 2>/dev/null \
