@@ -88,6 +88,7 @@ usage "--light-samples: 'x' is not a sample count" render "$tmp/lamp.pbrt" --lig
 usage "light 1 does not exist" render "$tmp/lamp.pbrt" --lights 1 --light-samples 4 -o "$tmp/a.exr"
 usage "light 3 does not exist" render cornell --lights 3 -W 8 -H 8 -o "$tmp/a.exr"
 usage "--lights: '32' is not" render cornell --lights 32 -o "$tmp/a.exr"
+usage "give one of them" render "$tmp/lamp.pbrt" --lights 0 --light 1,2,3 --light-samples 4 -o "$tmp/a.exr"
 usage "the feedback tracer traces the three point lights only" render "$tmp/lamp.pbrt" -t feedback --lights 0 \
     --light-samples 4 -o "$tmp/a.exr"
 usage "mode whitted follows the three point lights only" render "$tmp/lamp.pbrt" --mode whitted --lights 0 \

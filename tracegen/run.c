@@ -78,6 +78,9 @@ static int apply_film(rt_job *j, rt_err *e)
 {
     j->opt.lights = rt_render_lights(&j->opt); /* with --light, only the lights given exist */
     if (rt_render_check_scene_lights(&j->opt, j->sc, e) < 0) return -1;
+    if (rt_shade_authored(j->sc, &j->opt) && j->opt.view.nlights)
+        return rt_errf_usage(e, "--light replaces the three point lights, --light-samples traces %s's own lights: "
+                                "give one of them", j->sc->name);
     /* the file's lights: a file of at most three point lights is lit alike by
      * the point lights (light[] holds them in order), which every tracer and
      * mode traces; other lights need the sampling tracers and shadow mode */
