@@ -482,6 +482,11 @@ static void test_point_model(void)
             if (run(s, all_tracers[t], 3, 0, 16, &c) == 0)
                 CHECK(same_rgb(a.im, c.im), "point lights, --light-samples: %s differs", all_tracers[t]);
             rt_image_free(c.im);
+            /* "all" is the file's two lights, not the point model's third (at the camera) */
+            if (run(s, all_tracers[t], 7, 1, 16, &c) == 0)
+                CHECK(same_rgb(a.im, c.im) && c.st.rays_shadow == 128, "point lights, all: %s differs (%llu rays)",
+                      all_tracers[t], (unsigned long long)c.st.rays_shadow);
+            rt_image_free(c.im);
         }
         rt_image_free(a.im);
         rt_image_free(b.im);

@@ -78,6 +78,8 @@ static int apply_film(rt_job *j, rt_err *e)
 {
     j->opt.lights = rt_render_lights(&j->opt); /* with --light, only the lights given exist */
     if (rt_render_check_scene_lights(&j->opt, j->sc, e) < 0) return -1;
+    if (rt_shade_authored(j->sc, &j->opt) && j->opt.lights_all && j->opt.lights && j->sc->nlight < 32)
+        j->opt.lights = (1u << j->sc->nlight) - 1u; /* "all": the file's lights, none of the point model's fill */
     if (rt_shade_authored(j->sc, &j->opt) && j->opt.view.nlights)
         return rt_errf_usage(e, "--light replaces the three point lights, --light-samples traces %s's own lights: "
                                 "give one of them", j->sc->name);
