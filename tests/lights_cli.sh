@@ -1,10 +1,10 @@
 #!/bin/sh
 # --light-samples from the command line: a floor under an area light casts
 # 64 hits x N shadow rays (8 x 8 pixels, all on the floor), the same image
-# from the recursive, packet, dynamic, treelet and stream tracers; the run key names the light model;
+# from every tracer; the run key names the light model;
 # scene info lists the file's lights; a built-in scene renders the same
-# with and without the option; bad values, missing lights and tracers that
-# trace point lights only are usage errors (exit 2) with a one-line reason.
+# with and without the option; bad values, missing lights and secondary
+# modes are usage errors (exit 2) with a one-line reason.
 set -u
 bin=${RT_BIN:-./raytraffic}
 tmp=$(mktemp -d /tmp/rt_lights_cli.XXXXXX) || exit 1
@@ -25,12 +25,12 @@ Shape "trianglemesh" "point3 P" [-1 -1 10  1 -1 10  0 1 10] "integer indices" [0
 AttributeEnd
 PBRT
 
-for t in recursive packet dynamic treelet stream-branching stream-multipass; do
+for t in recursive packet dynamic treelet stream-branching stream-multipass feedback; do
     "$bin" render "$tmp/lamp.pbrt" -t $t --lights 0 --light-samples 16 --json -o "$tmp/a.exr" --png "$tmp/$t.png" \
         > "$tmp/$t.json" 2>/dev/null || err "render -t $t --light-samples 16"
     grep -q '"rays_shadow": 1024,' "$tmp/$t.json" || err "$t: 64 hits x 16 samples: $(cat "$tmp/$t.json")"
 done
-for t in packet dynamic treelet stream-branching stream-multipass; do
+for t in packet dynamic treelet stream-branching stream-multipass feedback; do
     cmp -s "$tmp/recursive.png" "$tmp/$t.png" || err "$t image differs from recursive's"
 done
 "$bin" render "$tmp/lamp.pbrt" --lights all --light-samples 4 --json -o "$tmp/a.exr" 2>/dev/null \
@@ -89,8 +89,6 @@ usage "light 1 does not exist" render "$tmp/lamp.pbrt" --lights 1 --light-sample
 usage "light 3 does not exist" render cornell --lights 3 -W 8 -H 8 -o "$tmp/a.exr"
 usage "--lights: '32' is not" render cornell --lights 32 -o "$tmp/a.exr"
 usage "give one of them" render "$tmp/lamp.pbrt" --lights 0 --light 1,2,3 --light-samples 4 -o "$tmp/a.exr"
-usage "the feedback tracer traces the three point lights only" render "$tmp/lamp.pbrt" -t feedback --lights 0 \
-    --light-samples 4 -o "$tmp/a.exr"
 usage "mode whitted follows the three point lights only" render "$tmp/lamp.pbrt" --mode whitted --lights 0 \
     --light-samples 4 -o "$tmp/a.exr"
 [ $fail -eq 0 ] && echo "lights_cli: all passed"

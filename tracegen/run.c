@@ -90,7 +90,7 @@ static int apply_film(rt_job *j, rt_err *e)
         (rt_scene_nonpoint_lights(j->sc) || j->sc->nlight > RT_NLIGHTS)) {
         if (!rt_tracer_is(j->tr, RT_TR_LIGHTS))
             return rt_errf_usage(e, "--light-samples: the %s tracer traces the three point lights only (the file's own "
-                                 "lights: -t recursive, packet, dynamic, treelet, stream-branching or stream-multipass)", j->tr->name);
+                                 "lights)", j->tr->name);
         if (rt_render_secondary(&j->opt))
             return rt_errf_usage(e, "--light-samples: mode %s follows the three point lights only (the file's own "
                                  "lights: shadow mode)", rt_render_mode_name(rt_render_mode(&j->opt)));
