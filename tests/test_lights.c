@@ -225,6 +225,62 @@ static void test_points_on_emitters(void)
     }
 }
 
+/* The distributions against what they must be: a mesh light of two
+ * triangles with areas 1 : 3 gets a quarter of the samples on the small
+ * one; the sky's cosine-distributed directions fall on either side of a
+ * vertical plane equally often and have E[cos] = 2/3 (pdf cos/pi); a
+ * disk's points fill its inner half-radius disk a quarter of the time.
+ * 16 floor points x 256 samples = 4096 draws: the bounds are > 5 standard
+ * deviations wide, and the draws are fixed (a hash), so the test is exact
+ * on every machine. */
+static void test_distributions(void)
+{
+    static const char *const two =
+        "AttributeBegin\nAreaLightSource \"diffuse\"\n"
+        "Shape \"trianglemesh\" \"point3 P\" [0 0 10  1 0 10  0 1 10   2 0 10  5 0 10  2 1 10] "
+        "\"integer indices\" [0 1 2  3 4 5]\nAttributeEnd\n";
+    const char *decl[] = {two, k_infinite, k_disk};
+    const char *name[] = {"dm.pbrt", "di.pbrt", "dd.pbrt"};
+    for (int c = 0; c < 3; c++) {
+        rt_scene *s = load(name[c], decl[c]);
+        if (!s) continue;
+        rt_render_opts o;
+        rt_render_default_opts(&o);
+        o.lights = 1;
+        o.light_samples = 256;
+        uint64_t n = 0, small = 0, west = 0, inner = 0;
+        double cosum = 0;
+        for (int q = 0; q < 16; q++) {
+            rt_ray eye;
+            rt_ray_init(&eye, rt_v3(0.1f * (float)q - 0.7f, 0.05f * (float)q, 5.0f), rt_v3(0, 0, -1));
+            rt_hit h = {5.0f, 0, 0.3f + 0.01f * (float)q, 0.2f + 0.005f * (float)q};
+            for (uint32_t k = 0; k < 256; k++) {
+                rt_ray sr;
+                float w;
+                uint32_t tri;
+                if (!rt_shade_sample_ray(s, &o, &eye, &h, 0, k, &sr, &w, &tri)) continue;
+                n++;
+                rt_vec3 d = rt_norm(sr.d), end = rt_add(sr.o, sr.d);
+                small += tri == 1;
+                west += d.x < 0;
+                cosum += d.z; /* the floor's normal is +z */
+                inner += (end.x * end.x + end.y * end.y) < 1.0f; /* the disk: radius 2 at the origin */
+            }
+        }
+        CHECK(n == 16 * 256, "%s: %llu of 4096 samples cast", name[c], (unsigned long long)n);
+        if (c == 0) CHECK(small > 1024 - 150 && small < 1024 + 150, "mesh: %llu of 4096 on the 1/4-area triangle",
+                          (unsigned long long)small);
+        if (c == 1) {
+            CHECK(west > 2048 - 170 && west < 2048 + 170, "sky: %llu of 4096 toward -x", (unsigned long long)west);
+            CHECK(fabs(cosum / (double)n - 2.0 / 3.0) < 0.02, "sky: mean cos %.4f, cosine sampling gives 2/3",
+                  cosum / (double)n);
+        }
+        if (c == 2) CHECK(inner > 1024 - 150 && inner < 1024 + 150, "disk: %llu of 4096 within half the radius",
+                          (unsigned long long)inner);
+        rt_scene_free(s);
+    }
+}
+
 /* Shading values: unoccluded sky = ambient + power; a roof between floor
  * and light leaves the ambient term alone, with the rays still cast. */
 static void test_shading(void)
@@ -587,6 +643,7 @@ int main(void)
     }
     test_counts();
     test_points_on_emitters();
+    test_distributions();
     test_shading();
     test_env_hits();
     test_memory_model();
