@@ -35,7 +35,10 @@ if command -v gnuplot >/dev/null 2>&1; then
     "$rt" report --db "$db" --figure scenes --plot "$out/plots" > /dev/null && plots="$out/plots/"
     plotarg=(--plot "$out/plots")
 fi
-{ "$rt" report --db "$db" --compare-paper; echo; "$rt" report --db "$db" --speed-error "${plotarg[@]}"
+# The report opens with its summary and findings; the diagnostics (speed
+# against error, standard errors, reduced experiments) go to appendix.md.
+"$rt" report --db "$db" --appendix "${plotarg[@]}" > "$out/appendix.md"
+{ "$rt" report --db "$db" --compare-paper
   echo; "$rt" report --db "$db" --figure purcell --compare-paper "${plotarg[@]}"
   echo; "$rt" report --db "$db" --figure feedback "${plotarg[@]}"
   echo; "$rt" report --db "$db" --figure secondary "${plotarg[@]}"; } > "$out/report.md"
@@ -44,8 +47,9 @@ cat <<EOT
 
 raytraffic main job done:
   database  $db   (sqlite3 $db 'SELECT * FROM v_paper LIMIT 5')
-  report    $out/report.md   (Figures 3-9 and the comparison with the paper; Purcell's
-            figures on the bunny; feedback records and secondary rays on the knot)
+  report    $out/report.md   (summary and findings, Figures 3-9 and the comparison with the
+            paper; Purcell's figures on the bunny; feedback records and secondary rays on the knot)
+  appendix  $out/appendix.md (speed against error, standard errors, reduced experiments)
   plots     $plots
   image     $out/sphereflake.exr (preview $out/sphereflake.png)
 EOT

@@ -3,6 +3,7 @@
  * triangle against every ray) and the brute-force reference (see accel.h).
  */
 #include "accel.h"
+#include "kdtree.h"
 
 #include <stdio.h>
 #include <string.h>
@@ -20,6 +21,12 @@ const rt_accel_ops *const rt_accel_table[RT_ACCEL_NKINDS] = {
     [RT_ACCEL_BVH4] = &rt_accel_bvh4,
     [RT_ACCEL_BVH8] = &rt_accel_bvh8,
 };
+
+int rt_accel_bvh_width(int kind)
+{
+    static const int width[RT_ACCEL_NKINDS] = {[RT_ACCEL_BVH2] = 2, [RT_ACCEL_BVH4] = 4, [RT_ACCEL_BVH8] = 8};
+    return kind > 0 && kind < RT_ACCEL_NKINDS ? width[kind] : 0;
+}
 
 const char *rt_accel_name(int kind)
 {
@@ -186,4 +193,62 @@ int rt_brute_occluded(const rt_scene *sc, const rt_ray *rp)
         if (rt_isect_core(r, &tris[i], &t, &u, &v) && t > r->tmin && t < r->tmax) return 1;
     }
     return 0;
+}
+
+int rt_accel_parse_mask(const char *list, unsigned *mask, rt_err *e)
+{
+    unsigned m = 0;
+    if (!strcmp(list, "none")) {
+        *mask = 0;
+        return 0;
+    }
+    if (!strcmp(list, "all")) {
+        for (int k = 1; k < RT_ACCEL_NKINDS; k++)
+            if (rt_accel_table[k]) m |= RT_ACCEL_BIT(k);
+        *mask = m;
+        return 0;
+    }
+    for (const char *p = list;;) {
+        size_t n = strcspn(p, ",");
+        char name[32];
+        int k = -1;
+        if (n && n < sizeof name) {
+            memcpy(name, p, n);
+            name[n] = 0;
+            k = rt_accel_from_name(name);
+        }
+        if (k <= 0) return rt_errf(e, "unknown structure '%.*s' (%s, or all or none)", (int)(n < 64 ? n : 64), p, rt_accel_names());
+        m |= RT_ACCEL_BIT(k);
+        if (!p[n]) break;
+        p += n + 1;
+    }
+    *mask = m;
+    return 0;
+}
+
+int rt_accel_survey(const rt_scene *sc, unsigned mask, const rt_accel_params *p, rt_accel_survey_row *rows, rt_err *e)
+{
+    int n = 0;
+    for (int k = 1; k < RT_ACCEL_NKINDS; k++) {
+        if (!(mask & RT_ACCEL_BIT(k)) || !rt_accel_table[k]) continue;
+        rt_accel a;
+        rt_err be = {0};
+        if (rt_accel_build(&a, k, sc, p, &be) < 0) return rt_errf(e, "%s: %s", rt_accel_name(k), be.msg);
+        rt_accel_survey_row *r = &rows[n++];
+        memset(r, 0, sizeof *r);
+        r->kind = k;
+        r->build_sec = a.build_sec;
+        rt_accel_info_of(&a, &r->info);
+        if (k == RT_ACCEL_KD) {
+            const rt_kdtree *kd = a.as;
+            r->has_kd = 1;
+            r->kd_leaves = kd->nleaves;
+            r->kd_empty = kd->nempty;
+            r->kd_entries = kd->nidx;
+            r->kd_max_leaf = kd->maxleaf;
+            r->kd_mean_leaf = rt_kd_mean_leaf_tris(kd);
+        }
+        rt_accel_free(&a);
+    }
+    return n;
 }

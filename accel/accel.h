@@ -110,6 +110,10 @@ int rt_accel_from_name(const char *name);
 /* The known names, comma separated ("kd, grid, naive"), for messages. */
 const char *rt_accel_names(void);
 
+/* The branching factor of a BVH kind (2, 4, 8), or 0 for the structures
+ * that are not BVHs: the one place that knows which kinds are which width. */
+int rt_accel_bvh_width(int kind);
+
 /* Builds kind over sc into *a (a->kind, ops, as, build_sec). 0, or -1 with
  * *a zeroed. */
 int rt_accel_build(rt_accel *a, int kind, const rt_scene *sc, const rt_accel_params *p, rt_err *e);
@@ -124,5 +128,28 @@ int rt_accel_regions(const rt_accel *a, const rt_scene *sc, rt_layout *L, rt_err
 void rt_accel_trav(const rt_accel *a, rt_trav *tv, const rt_scene *sc, rt_rec *rec, const rt_layout *L);
 int rt_accel_check(const rt_accel *a, const rt_scene *sc, rt_err *e);
 void rt_accel_info_of(const rt_accel *a, rt_accel_info *inf);
+
+/* ---- surveys (`scene info`): which structures, built one at a time ---- */
+
+/* A comma list of structure names ("kd,bvh4"), "all" (every member) or
+ * "none" into a mask of RT_ACCEL_BIT(kind). 0, or -1 naming the unknown
+ * name in e. */
+int rt_accel_parse_mask(const char *list, unsigned *mask, rt_err *e);
+
+/* What a survey reports of one structure. */
+typedef struct rt_accel_survey_row {
+    int kind;            /* rt_accel_kind */
+    double build_sec;    /* wall time of its build */
+    rt_accel_info info;  /* footprint */
+    int has_kd;          /* 1: a k-d tree, the kd_ fields are set */
+    uint32_t kd_leaves, kd_empty, kd_entries, kd_max_leaf;
+    double kd_mean_leaf; /* mean triangles per non-empty leaf */
+} rt_accel_survey_row;
+
+/* Builds each structure of mask over sc, in kind order, one at a time (built,
+ * measured and freed before the next: the peak memory is the largest one,
+ * not their sum), into rows[0..RT_ACCEL_NKINDS). How many rows, or -1 with
+ * "NAME: message" in e. */
+int rt_accel_survey(const rt_scene *sc, unsigned mask, const rt_accel_params *p, rt_accel_survey_row *rows, rt_err *e);
 
 #endif

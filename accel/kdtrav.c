@@ -278,45 +278,6 @@ static RT_ALWAYS_INLINE void quad_isect(const quad_ray *qr, const rt_kd_quad *q,
     *v_out = _mm_mul_ps(W, inv);
 }
 
-/*
- * The recording walk's writer: rt_rec_push with the buffer count and the
- * generation held in this (non-escaping) struct instead of reloaded from
- * the recorder after every byte store. It writes the same fields and hands
- * the buffer to the sink at the same fill level, so the sink sees the very
- * batches rt_rec_push would give it; recw_done writes the count back.
- */
-typedef struct recw {
-    rt_rec *rec;    /* the recorder */
-    rt_access *buf; /* rec->buf */
-    size_t n;       /* entries in buf (rec->n is stale until recw_done) */
-    uint8_t gen;    /* rec->gen, constant during a walk */
-} recw;
-
-static RT_ALWAYS_INLINE void recw_init(recw *w, rt_rec *rec)
-{
-    w->rec = rec;
-    w->buf = rec->buf;
-    w->n = rec->n;
-    w->gen = rec->gen;
-}
-
-static RT_ALWAYS_INLINE void recw_put(recw *w, uint64_t addr, uint32_t size, uint8_t cls)
-{
-    rt_access *a = &w->buf[w->n++];
-    a->addr = addr;
-    a->size = size;
-    a->write = 0;
-    a->cls = cls;
-    a->gen = w->gen;
-    if (w->n == RT_REC_BUF) {
-        w->rec->n = w->n;
-        rt_rec_flush(w->rec);
-        w->n = w->rec->n;
-    }
-}
-
-static RT_ALWAYS_INLINE void recw_done(recw *w) { w->rec->n = w->n; }
-
 /* The per-ray state a leaf needs, set up once per ray. */
 typedef struct leaf_ctx {
     quad_ray qr;          /* the ray for quad_isect */
@@ -324,7 +285,7 @@ typedef struct leaf_ctx {
     const rt_tri *tris;   /* scene triangles (scalar fallback) */
     uint8_t *mark;        /* rt_trav's mark array, or NULL */
     uint8_t mbit;         /* its bit */
-    recw w;               /* recorder's writer (recording walk only) */
+    rt_rec_w w;           /* recorder's local writer (memmodel.h; recording walk only) */
     uint64_t tri_base;    /* triangle region: base and record size (rt_mm_addr, */
     uint64_t tri_size;    /* hoisted: the recorder's stores may alias the layout) */
 } leaf_ctx;
@@ -336,7 +297,7 @@ static RT_ALWAYS_INLINE void leaf_setup(leaf_ctx *c, const rt_trav *tv, const rt
     c->tris = tv->sc->tri;
     c->mark = tv->mark;
     c->mbit = tv->mark_bit;
-    if (recording) recw_init(&c->w, tv->rec);
+    if (recording) rt_rec_wbegin(&c->w, tv->rec);
     c->tri_base = recording ? tv->L->r[tv->reg_tri].base : 0;
     c->tri_size = recording ? tv->L->r[tv->reg_tri].recsize : 0;
     c->qr.kx = r->kx;
@@ -409,7 +370,7 @@ static RT_ALWAYS_INLINE int leaf_test(leaf_ctx *c, const rt_kd_quad *q, uint32_t
             for (unsigned j = 0; j < lanes; j++) {
                 const uint32_t tri = q->tri[j] & ~RT_KD_QUAD_DEGEN;
                 if (c->mark) c->mark[tri] |= c->mbit;
-                if (recording) recw_put(&c->w, c->tri_base + tri * c->tri_size, 36, RT_CLS_TRI);
+                if (recording) rt_rec_wput(&c->w, c->tri_base + tri * c->tri_size, 36, RT_CLS_TRI);
             }
         if (any && occluded) return 1;
     }
@@ -474,7 +435,7 @@ static RT_ALWAYS_INLINE int traverse_fast(rt_trav *tv, const rt_ray *r, uint32_t
     for (;;) {
         const rt_kdnode *nd = &nodes[node];
         nvisit++;
-        if (recording) recw_put(&c.w, node_base + node * node_size, 8, RT_CLS_NODE);
+        if (recording) rt_rec_wput(&c.w, node_base + node * node_size, 8, RT_CLS_NODE);
         uint32_t w1 = nd->w1;
         while ((w1 & 3u) != 3u) { /* descend to a leaf */
             const uint32_t axis = w1 & 3u;
@@ -503,14 +464,14 @@ static RT_ALWAYS_INLINE int traverse_fast(rt_trav *tv, const rt_ray *r, uint32_t
             }
             nd = &nodes[node];
             nvisit++;
-            if (recording) recw_put(&c.w, node_base + node * node_size, 8, RT_CLS_NODE);
+            if (recording) rt_rec_wput(&c.w, node_base + node * node_size, 8, RT_CLS_NODE);
             w1 = nd->w1;
         }
         const uint32_t n = w1 >> 2;
         if (n > 0) {
             const rt_kd_quad *q = quads + nd->w0;
             if (recording) {
-                recw_put(&c.w, idx_base + tv->kd->nodes[node].w0 * idx_size, 4u * n, RT_CLS_INDEX);
+                rt_rec_wput(&c.w, idx_base + tv->kd->nodes[node].w0 * idx_size, 4u * n, RT_CLS_INDEX);
                 if (leaf_test(&c, q, n, &b, &ntest, any, 1, 0)) {
                     occluded = 1;
                     break;
@@ -533,7 +494,7 @@ static RT_ALWAYS_INLINE int traverse_fast(rt_trav *tv, const rt_ray *r, uint32_t
         tMaxW = rt_kd_whi(tMax);
     }
 done:
-    if (recording) recw_done(&c.w);
+    if (recording) rt_rec_wend(&c.w);
     tv->nodes += nvisit;
     tv->tests += ntest;
     if (any) return occluded;
@@ -626,7 +587,7 @@ int rt_kd_leaf(rt_trav *tv, const rt_ray *r, uint32_t node, rt_hit *h, int any)
         if (tv->rec) {
             leaf_setup(&c, tv, r, o, 1);
             rc = any ? leaf_test(&c, q, n, NULL, &ntest, 1, 1, 1) : leaf_test(&c, q, n, &b, &ntest, 0, 1, 1);
-            recw_done(&c.w);
+            rt_rec_wend(&c.w);
         } else {
             leaf_setup(&c, tv, r, o, 0);
             rc = any ? leaf_test(&c, q, n, NULL, &ntest, 1, 0, 1) : leaf_test(&c, q, n, &b, &ntest, 0, 0, 1);

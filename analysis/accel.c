@@ -27,6 +27,7 @@
  * Everything printed comes from counts, so the output is deterministic.
  */
 #include "analysis_int.h"
+#include "experiment.h"
 #include "outfile.h"
 
 #include <inttypes.h>
@@ -160,8 +161,10 @@ static int group_sizes(const arun *g, int n, uint64_t *sz)
 
 static void group_label(const arun *a, char *b, size_t n)
 {
-    snprintf(b, n, "%s %dx%d lights %d: %s%s%s%s%s", a->scene, a->W, a->H, a->lights, a->tracer, a->key[0] ? " " : "",
-             a->key, a->sim_params[0] ? " " : "", a->sim_params);
+    char ln[48];
+    snprintf(b, n, "%s %dx%d lights %s: %s%s%s%s%s", a->scene, a->W, a->H,
+             rt_exp_lights_name((unsigned)a->lights, ln, sizeof ln), a->tracer, a->key[0] ? " " : "", a->key,
+             a->sim_params[0] ? " " : "", a->sim_params);
 }
 
 /* The structure moving the least geometry at size s (NULL: none). */

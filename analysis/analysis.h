@@ -128,9 +128,48 @@ int rt_report_within2(double ours, double paper);
  * (data/paper_*.csv). 0, or -1 with a message. */
 int rt_report_agreement(const rt_report *R, const char *sc, rt_report_agree *a, rt_err *e);
 
-/* The paper's reduction in percent: 100 (base / dyn - 1) when dyn <= base,
- * else -100 (dyn / base - 1); NAN unless both are positive. */
+/* The reduction, the paper's formula and the only one in every report,
+ * plot and CSV: 100 (base / dyn - 1) percent (0: the same; 100: half the
+ * traffic; negative: dynamic moves more, down to -100); NAN unless both
+ * are positive. */
 double rt_report_reduction(double base, double dyn);
+/* A reduction as the paper prints it (losses as -100 (dyn / base - 1),
+ * e.g. -625.1 for 7.251 times more) in rt_report_reduction's terms. */
+double rt_report_paper_reduction(double printed);
+/* A reduction for reading: "521.5%" for a gain, "7.25× more" (dyn / base)
+ * for a loss, "—" for none; csv: the number itself, full precision, ""
+ * for none. Returns buf. */
+const char *rt_report_fmt_reduction(double red, int csv, char *buf, size_t n);
+
+/* One size of a scene's primary-ray table as the findings read it:
+ * geometry and ray traffic of the baseline ([0], recursive) and of the
+ * scheduled tracer ([1], dynamic), in any one unit; NAN = no run. */
+typedef struct rt_report_point {
+    uint64_t size;     /* cache size (bytes, or KB for the paper's rows) */
+    double geom[2], ray[2];
+} rt_report_point;
+
+/* The findings of one such table (sizes ascending), computed by
+ * rt_report_find for our runs and for the paper's rows alike. */
+typedef struct rt_report_findings {
+    int nsizes;          /* sizes with both tracers */
+    int dyn_less;        /* of them, where dynamic moves less geometry */
+    int ray_more;        /* where dynamic moves more ray data */
+    uint64_t best_size;  /* the largest geometry reduction's size (0 = none) */
+    double best_red;     /* and that reduction (NAN = none) */
+    uint64_t turn_size;  /* the crossover: the first size from which the total reduction is negative and never
+                          * again positive (0 = none: it ends positive, or never turns) */
+    double turn_red;     /* total reduction at the crossover (NAN = none) */
+    uint64_t last_size;  /* the largest size compared */
+    double last_total;   /* its total reduction */
+} rt_report_findings;
+
+/* Computes f from the n points p (ascending sizes). */
+void rt_report_find(const rt_report_point *p, int n, rt_report_findings *f);
+/* The findings as Markdown list items (sizes in KB), with the paper's in
+ * brackets when paper is non-NULL. sc names the scene (unused in the
+ * sentences, which follow a heading naming it). */
+void rt_report_write_findings(FILE *out, const char *sc, const rt_report_findings *f, const rt_report_findings *paper);
 
 /* The report's tables: figure is "all" (header, scene table, Figures 4-6
  * then 7-9 for every scene), "scenes" (the scene table) or "4".."9" (that
@@ -139,6 +178,14 @@ double rt_report_reduction(double base, double dyn);
  * unknown figure is an error. */
 int rt_report_tables(const rt_report *R, const char *figure, FILE *out, rt_err *e);
 
+/* The summary that opens the full report (rt_report_tables "all", in
+ * Markdown): what was run (runs, resolution, scenes, cache sizes, the
+ * setup), the revision, date, command and preset recorded with the
+ * figures' runs, then per scene its findings (rt_report_find over every
+ * size) in a few sentences with the numbers, and the paper's for a scene
+ * at the paper's setup. */
+int rt_report_summary(const rt_report *R, FILE *out, rt_err *e);
+
 /* The single tables behind rt_report_tables: the scene table (the paper's
  * Figure 3 statistics), one scene's primary-ray traffic (Figures 4-6), one
  * scene's shadow-ray reductions (Figures 7-9). */
@@ -146,11 +193,34 @@ int rt_report_scenes(const rt_report *R, FILE *out, rt_err *e);
 int rt_report_primary(const rt_report *R, const char *scene, FILE *out, rt_err *e);
 int rt_report_shadows(const rt_report *R, const char *scene, FILE *out, rt_err *e);
 
+/* Figures 4-9 as tidy tables, one per figure (figure "all" or "4".."9"),
+ * for loading elsewhere: one row per run x cache size x class of the runs
+ * the figure shows, with every configuration column (scene, parameters,
+ * hash, run, tracer, resolution, light mask, schedule, tracer and
+ * simulator parameters, the schema-6 dimensions, cache configuration,
+ * class and group) and the counters in bytes and line touches, full
+ * precision. CSV (a header line) or JSON ({"figure", "scene", "caption",
+ * "columns", "rows"}; on out, all of them inside {"database", "figures"}).
+ * With dir, one file per figure, DIR/figureN-SCENE.csv or .json, each
+ * logged as "wrote PATH (N rows)" to log (may be NULL); without, out (CSV
+ * only for one figure: tables of different figures never share a
+ * stream). Nothing to show is an error. */
+int rt_report_tidy(const rt_report *R, const char *figure, int json, const char *dir, FILE *log, FILE *out, rt_err *e);
+
 /* Our values beside the paper's (data/paper_primary.csv,
  * data/paper_shadows.csv, found in the source tree or the installed data
  * folder) for the paper scenes present, with ratios and, in Markdown, the
  * qualitative findings. An unreadable paper table is an error. */
 int rt_report_compare_paper(const rt_report *R, FILE *out, rt_err *e);
+
+/* The paper's values at cache size kb (KB) for scene label, when the
+ * scene is at the paper's setup: geometry and ray MB of recursive, packet,
+ * dynamic (NAN where the paper has none) and the geometry reductions vs
+ * recursive with light 0, 1, 2 and all three (rt_report_reduction's
+ * terms). 1 when the paper has a row at that size, 0 when not (or not the
+ * paper's setup), -1 on error. */
+int rt_report_paper_point(const rt_report *R, const char *label, uint64_t kb, double geom[3], double ray[3],
+                          double shadow[4], rt_err *e);
 
 /* ---- plots ---------------------------------------------------------------- */
 
@@ -203,7 +273,8 @@ int rt_plot_scenes(const rt_report *R, const rt_plot_opts *p, rt_err *e);
  * of them and every size's estimate beside its error (Markdown; CSV: four
  * more columns per pair, empty without errors). csv selects CSV. With
  * plot non-NULL also writes DIR/speed-error.dat and .gp and, with
- * gnuplot, DIR/speed-error.png (mean miss-ratio error against speedup). */
+ * gnuplot, DIR/speed-error.png (mean miss-ratio error against speedup).
+ * A database with no such pair is an error ("nothing to show"). */
 int rt_report_speed_error(sqlite3 *h, int csv, const rt_plot_opts *plot, FILE *out, rt_err *e);
 
 /* Acceleration structures (analysis/accel.c): per group of runs of one
@@ -268,7 +339,7 @@ int rt_report_feedback(sqlite3 *h, const char *scene, int csv, const rt_plot_opt
  * geometry, ray, stack and queue of the reference tracer on the BVH, the
  * treelet run scheduled for that size, the reference tracer on the k-d
  * tree and the dynamic run scheduled for that size, and each scheduler's
- * saving against its baseline, 100 (1 - scheduled / baseline). Roles come
+ * saving against its baseline (rt_report_reduction). Roles come
  * from the traits (reference, RT_FIG_TREELET, the scheduled tracer of
  * RT_FIG_NAVRATIL). Markdown (with the largest saving) or CSV. With plot,
  * DIR/treelet-SCENE-MODE-lLIGHTS-WxH-ACCEL[-VARIANT].{dat,gp,png}. 0, or

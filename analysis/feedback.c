@@ -23,6 +23,7 @@
  * without subsampling are read.
  */
 #include "analysis_int.h"
+#include "experiment.h"
 
 #include <errno.h>
 #include <inttypes.h>
@@ -349,6 +350,9 @@ static int run_plot(const rt_plot_opts *po, const frun *f, const fcfg *C, long n
     if (!fp) return -1;
     fprintf(fp, "# cache_kb, MB of stream node index tri shade fb, bytes per ray of dynamic multipass feedback\n");
     for (long i = 0; i < n; i++) {
+        /* one cache family on the axis: fully associative 64-byte lines
+         * (Purcell's 48-byte direct-mapped texture cache is in the table) */
+        if (C[i].line != 64 || C[i].assoc != 0) continue;
         fprintf(fp, "%" PRIu64, C[i].size / 1024);
         for (int c = 0; c < NCLS; c++) fprintf(fp, " %.6g", C[i].cls[c] / 1048576.0);
         for (int d = 0; d < ND; d++) {
@@ -360,11 +364,13 @@ static int run_plot(const rt_plot_opts *po, const frun *f, const fcfg *C, long n
     }
     if (rt_plot_commit(o, e) < 0) return -1;
     if (!(fp = rt_plot_open(gpf, &o, e))) return -1;
-    fprintf(fp, "set terminal pngcairo size 1000,420\nset output ");
+    fprintf(fp, "set terminal pngcairo size 1100,560\nset output ");
     rt_plot_quote_path(fp, png);
     fprintf(fp, "\nset multiplot layout 1,2 title ");
     rt_plot_quote(fp, f->label);
-    fprintf(fp, " noenhanced\nset logscale x 2\nset xlabel \"cache size (KB)\"\nset grid\nset key top right\n"
+    fprintf(fp, " noenhanced\nset logscale x 2\nset xlabel \"cache size (fully associative, 64-byte lines)\"\n"
+                "set grid\nset key below horizontal maxrows 3 noenhanced\nset bmargin 9\nset xrange [0.8:5120]\n"
+                "set xtics (\"1K\" 1, \"4K\" 4, \"16K\" 16, \"64K\" 64, \"256K\" 256, \"1M\" 1024, \"4M\" 4096)\n"
                 "set title \"traffic per class\"\nset ylabel \"MB\"\nplot ");
     static const char *const col[] = {"#0072b2", "#e69f00", "#009e73", "#d55e00", "#cc79a7", "#56b4e9"};
     for (int c = 0; c < NCLS; c++) {
@@ -419,8 +425,9 @@ int rt_report_feedback(sqlite3 *h, const char *scene, int csv, const rt_plot_opt
         f->gens = generations(f->mode);
         f->grid_min = grid_min_of(f->params);
         f->rays = rays_traced((const char *)sqlite3_column_text(st, 7));
-        snprintf(f->label, sizeof f->label, "%s %dx%d lights %d%s%s", f->scene, f->W, f->H, f->lights,
-                 f->params[0] ? " " : "", f->params);
+        char ln[48];
+        snprintf(f->label, sizeof f->label, "%s %dx%d lights %s%s%s", f->scene, f->W, f->H,
+                 rt_exp_lights_name((unsigned)f->lights, ln, sizeof ln), f->params[0] ? " " : "", f->params);
     }
     if (rt_report_done(st, rc, "feedback", e) < 0) {
         free(F);

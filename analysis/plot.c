@@ -26,6 +26,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <inttypes.h>
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -167,38 +168,167 @@ int rt_plot_draw(const rt_plot_opts *p, const char *script, const char *const *o
 
 /* ---- traffic against cache size ------------------------------------------------- */
 
-static int traffic_script(FILE *f, const rt_report *R, const char *scene, const char *dat, const char *base)
+/* The x tics of a cache-size axis: every size of R, labelled "1K",
+ * "64K", "1M" (powers of two, never 10^n). */
+static void size_tics(FILE *f, const rt_report *R)
+{
+    fputs("set xtics (", f);
+    for (int k = 0; k < R->nsizes; k++) {
+        uint64_t kb = R->sizes[k] / 1024;
+        if (kb >= 1024) fprintf(f, "%s\"%" PRIu64 "M\" %" PRIu64, k ? ", " : "", kb / 1024, kb);
+        else fprintf(f, "%s\"%" PRIu64 "K\" %" PRIu64, k ? ", " : "", kb, kb);
+    }
+    fputs(")\nset xtics rotate by -45 font \",9\"\n", f);
+}
+
+/* The x range of a cache-size axis: a little beyond R's sizes. */
+static void size_range(FILE *f, const rt_report *R)
+{
+    if (R->nsizes)
+        fprintf(f, "set xrange [%.6g:%.6g]\n", (double)R->sizes[0] / 1024 / 1.25,
+                (double)R->sizes[R->nsizes - 1] / 1024 * 1.25);
+}
+
+/* Columns of DIR/NAME-traffic.dat: 1 cache KB; 2-4 geometry MB of
+ * recursive, packet, dynamic; 5-7 ray MB; 8-10 total MB; 11-16 the paper's
+ * geometry and ray MB (NaN where it has none or the scene is not at its
+ * setup); 17-19 the paper's totals; 20-21 recursive / dynamic of geometry
+ * and total, ours; 22-23 the paper's. */
+static int traffic_script(FILE *f, const rt_report *R, const char *scene, const char *dat, const char *base,
+                          int paper, int mb)
 {
     for (int t = 0; t < 2; t++) {
         char out[4200];
         snprintf(out, sizeof out, "%s.%s", base, t ? "svg" : "png");
-        fprintf(f, "set terminal %s enhanced\nset output ", t ? "svg size 900,420 dynamic" : "pngcairo size 900,420");
+        fprintf(f, "set terminal %s enhanced\nset output ",
+                t ? "svg size 1200,900 dynamic font \"sans,11\"" : "pngcairo size 1200,900 font \"sans,11\"");
         rt_plot_quote_path(f, out);
-        fprintf(f, "\nset multiplot layout 1,2 title ");
+        fprintf(f, "\nset multiplot layout 2,2 margins 0.08,0.97,0.16,0.90 spacing 0.08,0.13 title ");
         char title[512];
-        snprintf(title, sizeof title, "%s: DRAM traffic, primary rays, %dx%d", scene, R->W, R->H);
+        snprintf(title, sizeof title, "%s: DRAM traffic, primary rays, %dx%d (fully associative, 64-byte lines)%s",
+                 scene, R->W, R->H,
+                 paper ? (mb ? "; dashed: the paper's values" : "; dashed: the paper's reductions (its MB are at "
+                                                                "1024x1024)")
+                       : "");
         rt_plot_quote(f, title);
-        fprintf(f, " noenhanced\n"
-                   "set logscale xy\nset format y \"10^{%%L}\"\nset ytics 10\nset xlabel \"cache size (KB)\"\n"
-                   "set ylabel \"MB\"\nset grid\nset key top right noenhanced\n"
-                   "set xtics (1,4,16,64,256,1024,4096)\n");
-        static const char *const what[2] = {"geometry", "ray"};
-        for (int g = 0; g < 2; g++) {
-            fprintf(f, "set title \"%s traffic\"\nplot ", what[g]);
+        fprintf(f, " noenhanced\nset logscale xy\nset format y \"%%g\"\nset xlabel \"cache size\"\nset grid\n");
+        size_tics(f, R);
+        size_range(f, R);
+        static const char *const what[3] = {"geometry", "ray", "total (geometry + ray)"};
+        static const char *const col[3] = {"#0072b2", "#e69f00", "#009e73"};
+        static const char *const name[3] = {"recursive", "packet", "dynamic"};
+        static const int pt[3] = {7, 5, 9};
+        for (int g = 0; g < 3; g++) {
+            /* one key for the three traffic panels, below the page's left
+             * half, outside every panel */
+            if (g == 2) fprintf(f, "set key at screen 0.27,0.05 center horizontal maxrows 2 noenhanced\n");
+            else fprintf(f, "unset key\n");
+            fprintf(f, "set title \"%s traffic\"\nset ylabel \"MB\"\nplot ", what[g]);
             rt_plot_quote_path(f, dat);
-            fprintf(f,
-                    " u 1:%d w lp lc rgb \"#0072b2\" pt 7 t \"recursive\", '' u 1:%d w lp lc rgb \"#e69f00\" pt 5 t "
-                    "\"packet\", '' u 1:%d w lp lc rgb \"#009e73\" pt 9 t \"dynamic\"\n",
-                    2 + 3 * g, 3 + 3 * g, 4 + 3 * g);
+            for (int k = 0; k < 3; k++)
+                fprintf(f, "%s u 1:%d w lp lc rgb \"%s\" pt %d t \"%s\"", k ? ", ''" : "", 2 + 3 * g + k, col[k], pt[k],
+                        name[k]);
+            if (paper && mb)
+                for (int k = 0; k < 3; k++)
+                    fprintf(f, ", '' u 1:%d w lp dt 2 lc rgb \"%s\" pt %d t \"paper %s\"", 11 + 3 * g + k,
+                            col[k], pt[k] - 1, name[k]);
+            fputc('\n', f);
         }
-        fprintf(f, "unset multiplot\n");
+        fprintf(f, "set key at screen 0.77,0.05 center horizontal maxrows 2 noenhanced\n"
+                   "set title \"reduction: recursive / dynamic (above 1: dynamic moves less)\"\n"
+                   "set ylabel \"recursive / dynamic\"\nplot ");
+        rt_plot_quote_path(f, dat);
+        fprintf(f, " u 1:20 w lp lc rgb \"#0072b2\" pt 7 t \"geometry\", '' u 1:21 w lp lc rgb \"#009e73\" pt 9 t "
+                   "\"total\", 1 w l lc rgb \"#7f7f7f\" notitle");
+        if (paper)
+            fprintf(f, ", '' u 1:22 w lp dt 2 lc rgb \"#0072b2\" pt 6 t \"paper geometry\", '' u 1:23 w lp dt 2 lc "
+                       "rgb \"#009e73\" pt 8 t \"paper total\"");
+        fprintf(f, "\nunset multiplot\n");
     }
     return ferror(f) ? -1 : 0;
+}
+
+/* DIR/NAME-shadows.{dat,gp,png}: Figures 7-9 as curves, the geometry (or,
+ * with R->total, total) traffic of recursive over dynamic per cache size
+ * with light 0, 1, 2 and all three, the paper's dashed beside ours. */
+static int shadows_plot(const rt_report *R, const rt_plot_opts *p, const char *sc, int paper, rt_err *e)
+{
+    char dat[4096], gpf[4096], png[4200], base[4096];
+    rt_plot_path(dat, sizeof dat, p->dir, "", sc, "-shadows.dat");
+    rt_plot_path(gpf, sizeof gpf, p->dir, "", sc, "-shadows.gp");
+    rt_plot_path(base, sizeof base, p->dir, "", sc, "-shadows");
+    snprintf(png, sizeof png, "%s.png", base);
+    rt_out *o;
+    FILE *f = rt_plot_open(dat, &o, e);
+    if (!f) return -1;
+    fprintf(f, "# cache_kb, recursive/dynamic with light 0, 1, 2, all (ours), then the paper's\n");
+    static const unsigned masks[4] = {1, 2, 4, 7};
+    int any = 0;
+    for (int k = 0; k < R->nsizes; k++) {
+        uint64_t s = R->sizes[k];
+        fprintf(f, "%" PRIu64, s / 1024);
+        for (int l = 0; l < 4; l++) {
+            double g[2], r[2];
+            int h0 = rt_report_value(R, sc, "recursive", masks[l], s, &g[0], &r[0], e);
+            int h1 = h0 >= 0 ? rt_report_value(R, sc, "dynamic", masks[l], s, &g[1], &r[1], e) : -1;
+            if (h0 < 0 || h1 < 0) {
+                rt_out_abort(o);
+                return -1;
+            }
+            double b = R->total ? g[0] + r[0] : g[0], d = R->total ? g[1] + r[1] : g[1];
+            if (h0 && h1 && b > 0 && d > 0) fprintf(f, " %.6g", b / d), any = 1;
+            else fputs(" NaN", f);
+        }
+        double pg[3], pr[3], ps[4];
+        int hp = paper ? rt_report_paper_point(R, sc, s / 1024, pg, pr, ps, e) : 0;
+        if (hp < 0) {
+            rt_out_abort(o);
+            return -1;
+        }
+        for (int l = 0; l < 4; l++)
+            if (hp > 0 && !isnan(ps[l])) fprintf(f, " %.6g", 1.0 + ps[l] / 100.0);
+            else fputs(" NaN", f);
+        fputc('\n', f);
+    }
+    if (rt_plot_commit(o, e) < 0) return -1;
+    if (!any) { /* no shadow runs: no picture */
+        remove(dat);
+        return 0;
+    }
+    if (!(f = rt_plot_open(gpf, &o, e))) return -1;
+    fprintf(f, "set terminal pngcairo size 1000,600 font \"sans,11\"\nset output ");
+    rt_plot_quote_path(f, png);
+    char title[512];
+    snprintf(title, sizeof title, "%s: %s traffic, recursive / dynamic, primary + shadow rays, %dx%d%s", sc,
+             R->total ? "total" : "geometry", R->W, R->H, paper ? " (dashed: the paper's)" : "");
+    fputs("\nset title ", f);
+    rt_plot_quote(f, title);
+    fprintf(f, " noenhanced\nset logscale xy\nset format y \"%%g\"\nset grid\nset xlabel \"cache size\"\n"
+               "set ylabel \"recursive / dynamic (above 1: dynamic moves less)\"\nset key outside right noenhanced\n"
+               "set bmargin 6\n");
+    size_tics(f, R);
+    size_range(f, R);
+    static const char *const lc[4] = {"#0072b2", "#e69f00", "#cc79a7", "#009e73"};
+    static const char *const ln[4] = {"light 0", "light 1", "light 2", "all 3 lights"};
+    fputs("plot ", f);
+    rt_plot_quote_path(f, dat);
+    for (int l = 0; l < 4; l++)
+        fprintf(f, "%s u 1:%d w lp lc rgb \"%s\" pt 7 t \"%s\"", l ? ", ''" : "", 2 + l, lc[l], ln[l]);
+    if (paper)
+        for (int l = 0; l < 4; l++)
+            fprintf(f, ", '' u 1:%d w lp dt 2 lc rgb \"%s\" pt 6 t \"paper %s\"", 6 + l, lc[l], ln[l]);
+    fprintf(f, ", 1 w l lc rgb \"#7f7f7f\" notitle\n");
+    if (rt_plot_commit(o, e) < 0) return -1;
+    const char *outs[] = {png, NULL};
+    char what[4300];
+    snprintf(what, sizeof what, "%s", png);
+    return rt_plot_draw(p, gpf, outs, what, e);
 }
 
 int rt_plot_traffic(const rt_report *R, const rt_plot_opts *p, rt_err *e)
 {
     if (rt_plot_mkdir(p->dir, e) < 0) return -1;
+    const int mb = R->W == 1024 && R->H == 1024;
     for (int i = 0; i < R->nscenes; i++) {
         const char *sc = R->scenes[i];
         char dat[4096], gpf[4096], base[4096], png[4200], svg[4200], what[4300];
@@ -208,11 +338,12 @@ int rt_plot_traffic(const rt_report *R, const rt_plot_opts *p, rt_err *e)
         rt_out *o;
         FILE *f = rt_plot_open(dat, &o, e);
         if (!f) return -1;
-        fprintf(f, "# cache_kb geom_recursive geom_packet geom_dynamic ray_recursive ray_packet ray_dynamic (MB, "
-                   "primary rays)\n");
+        fprintf(f, "# cache_kb; geometry, ray, total MB of recursive packet dynamic (primary rays); the paper's "
+                   "geometry, ray, total MB; recursive/dynamic geometry and total, ours then the paper's\n");
+        int paper = 0;
         for (int k = 0; k < R->nsizes; k++) {
             uint64_t s = R->sizes[k];
-            double v[6];
+            double v[9], pv[9];
             int h[3];
             const rt_tracer *tr[3] = {NULL, NULL, NULL};
             rt_report_fig_tracers(RT_FIG_NAVRATIL, tr, 3);
@@ -222,23 +353,40 @@ int rt_plot_traffic(const rt_report *R, const rt_plot_opts *p, rt_err *e)
                     rt_out_abort(o);
                     return -1;
                 }
+                v[t + 6] = v[t] + v[t + 3];
             }
             h[1] = h[1] && s > (uint64_t)R->packet * R->packet * 32;
+            int hp = rt_report_paper_point(R, sc, s / 1024, &pv[0], &pv[3], (double[4]){0}, e);
+            if (hp < 0) {
+                rt_out_abort(o);
+                return -1;
+            }
+            paper |= hp > 0;
+            for (int t = 0; t < 3; t++) pv[t + 6] = pv[t] + pv[t + 3];
             fprintf(f, "%" PRIu64, s / 1024);
-            for (int c = 0; c < 6; c++)
+            for (int c = 0; c < 9; c++)
                 if (h[c % 3] && v[c] > 0) fprintf(f, " %.6g", v[c]);
+                else fprintf(f, " NaN");
+            for (int c = 0; c < 9; c++)
+                if (hp > 0 && pv[c] > 0) fprintf(f, " %.6g", pv[c]);
+                else fprintf(f, " NaN");
+            const double q[4] = {h[0] && h[2] ? v[0] / v[2] : NAN, h[0] && h[2] ? v[6] / v[8] : NAN,
+                                 hp > 0 ? pv[0] / pv[2] : NAN, hp > 0 ? pv[6] / pv[8] : NAN};
+            for (int c = 0; c < 4; c++)
+                if (q[c] > 0 && isfinite(q[c])) fprintf(f, " %.6g", q[c]);
                 else fprintf(f, " NaN");
             fprintf(f, "\n");
         }
         if (rt_plot_commit(o, e) < 0) return -1;
         if (!(f = rt_plot_open(gpf, &o, e))) return -1;
-        traffic_script(f, R, sc, dat, base);
+        traffic_script(f, R, sc, dat, base, paper, mb);
         if (rt_plot_commit(o, e) < 0) return -1;
         snprintf(png, sizeof png, "%s.png", base);
         snprintf(svg, sizeof svg, "%s.svg", base);
         snprintf(what, sizeof what, "%s.png and .svg", base);
         const char *outs[] = {png, svg, NULL};
         if (rt_plot_draw(p, gpf, outs, what, e) < 0) return -1;
+        if (shadows_plot(R, p, sc, paper, e) < 0) return -1;
     }
     return 0;
 }
@@ -320,7 +468,27 @@ int rt_plot_scenes(const rt_report *R, const rt_plot_opts *p, rt_err *e)
         rt_run_stats st;
         /* a mesh from where the database last saw it (works from any
          * folder); a built-in by its name */
-        const char *spec = R->scene_abspath[i][0] ? R->scene_abspath[i] : R->scene_name[i];
+        char spec[4400];
+        if (R->scene_abspath[i][0]) snprintf(spec, sizeof spec, "%s", R->scene_abspath[i]);
+        else {
+            /* a built-in at its stored parameters (sphereflake:level=2 is
+             * not the default sphereflake) */
+            char prm[256] = "";
+            sqlite3_stmt *q = rt_report_stmt(R->h, "SELECT params FROM scenes WHERE name = ?1 AND hash = ?2 LIMIT 1",
+                                              R->dbpath, e, "ss", R->scene_name[i], R->scene_hash[i]);
+            if (!q) {
+                rc = -1;
+                break;
+            }
+            int src = sqlite3_step(q);
+            if (src == SQLITE_ROW && sqlite3_column_text(q, 0))
+                snprintf(prm, sizeof prm, "%s", (const char *)sqlite3_column_text(q, 0));
+            if (rt_report_done(q, src, R->dbpath, e) < 0) {
+                rc = -1;
+                break;
+            }
+            snprintf(spec, sizeof spec, "%s%s%s", R->scene_name[i], prm[0] ? ":" : "", prm);
+        }
         if (rt_job_setup(&j, spec, rt_tracer_reference()->name, &o, e) < 0) {
             /* e names the scene file that could not be loaded */
             if (e) {
@@ -340,11 +508,35 @@ int rt_plot_scenes(const rt_report *R, const rt_plot_opts *p, rt_err *e)
         for (int y = 0; y < tile; y++)
             memcpy(all + ((size_t)y * tile * n + (size_t)i * tile) * 3, px + (size_t)y * tile * 3, (size_t)tile * 3);
     }
-    char path[4096];
+    char path[4096], strip[4096], gpf[4096];
     snprintf(path, sizeof path, "%s/scenes.png", p->dir);
-    if (rc == 0) rc = rt_png_write_rgb8(path, tile * n, tile, all, e);
-    if (rc == 0 && p->log) fprintf(p->log, "wrote %s\n", path);
+    snprintf(strip, sizeof strip, "%s/scenes-tiles.png", p->dir);
+    snprintf(gpf, sizeof gpf, "%s/scenes.gp", p->dir);
+    /* the tiles side by side; with gnuplot, scenes.png is that strip with
+     * each scene's name above its tile, else the strip itself */
+    if (rc == 0) rc = rt_png_write_rgb8(p->gnuplot ? strip : path, tile * n, tile, all, e);
     free(px);
     free(all);
+    if (rc == 0 && p->gnuplot) {
+        rt_out *o;
+        FILE *f = rt_plot_open(gpf, &o, e);
+        if (!f) return -1;
+        fprintf(f, "set terminal pngcairo size %d,%d font \"sans,10\"\nset output ", tile * n + 8 * n, tile + 44);
+        rt_plot_quote_path(f, path);
+        fprintf(f, "\nunset border\nunset tics\nunset key\nset size ratio -1\n"
+                   "set multiplot layout 1,%d margins 0.002,0.998,0.01,0.88 spacing 0.004,0\n", n);
+        for (int i = 0; i < n; i++) {
+            fprintf(f, "set title ");
+            rt_plot_quote(f, R->scenes[i]);
+            fprintf(f, " noenhanced\nset xrange [%d:%d]\nset yrange [0:%d]\nplot ", i * tile, (i + 1) * tile, tile);
+            rt_plot_quote_path(f, strip);
+            fprintf(f, " binary filetype=png with rgbimage\n");
+        }
+        fprintf(f, "unset multiplot\n");
+        if (rt_plot_commit(o, e) < 0) return -1;
+        const char *outs[] = {path, NULL};
+        return rt_plot_draw(p, gpf, outs, path, e);
+    }
+    if (rc == 0 && p->log) fprintf(p->log, "wrote %s\n", path);
     return rc;
 }

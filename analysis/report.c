@@ -65,66 +65,19 @@ int rt_report_flush(FILE *out, rt_err *e)
     return 0;
 }
 
-/* One integer from a query (0 when it returns no row). */
-static int get_int(sqlite3 *h, const char *path, const char *sql, sqlite3_int64 *v, rt_err *e)
-{
-    sqlite3_stmt *st;
-    *v = 0;
-    if (sqlite3_prepare_v2(h, sql, -1, &st, NULL) != SQLITE_OK) return rt_errf(e, "%s: %s", path, sqlite3_errmsg(h));
-    int rc = sqlite3_step(st);
-    if (rc == SQLITE_ROW) *v = sqlite3_column_int64(st, 0);
-    sqlite3_finalize(st);
-    if (rc != SQLITE_ROW && rc != SQLITE_DONE) return rt_errf(e, "%s: %s", path, sqlite3_errmsg(h));
-    return 0;
-}
-
 int rt_report_db_open(const char *path, sqlite3 **ph, rt_err *e)
 {
+    /* the one reading rule of results/db.c (immutable without a -wal
+     * file, nothing created beside it; FIFOs, devices and memory refused) */
     *ph = NULL;
     struct stat sb;
-    if (stat(path, &sb) < 0) return rt_errf(e, "%s: %s (run `raytraffic sweep` first)", path, strerror(errno));
-    size_t n = strlen(path);
-    char *uri = rt_calloc(3 * n + 32, 1, e);
-    if (!uri) return -1;
-    /* a URI, so every byte outside the unreserved set is percent-encoded */
-    size_t k = (size_t)sprintf(uri, "file:");
-    for (const unsigned char *p = (const unsigned char *)path; *p; p++)
-        k += (size_t)(isalnum(*p) || strchr("-._~/", *p) ? sprintf(uri + k, "%c", *p) : sprintf(uri + k, "%%%02X", *p));
-    char *wal = rt_calloc(n + 8, 1, e);
-    if (!wal) {
-        free(uri);
-        return -1;
-    }
-    sprintf(wal, "%s-wal", path);
-    strcat(uri, stat(wal, &sb) == 0 ? "?mode=ro" : "?immutable=1");
-    free(wal);
-    sqlite3 *h = NULL;
-    int orc = sqlite3_open_v2(uri, &h, SQLITE_OPEN_READONLY | SQLITE_OPEN_URI, NULL);
-    free(uri);
-    if (orc != SQLITE_OK) {
-        rt_errf(e, "%s: cannot open database: %s", path, h ? sqlite3_errmsg(h) : "out of memory");
-        sqlite3_close(h);
-        return -1;
-    }
-    sqlite3_busy_timeout(h, 60000);
-    sqlite3_int64 ver, ntab;
-    if (get_int(h, path, "PRAGMA user_version", &ver, e) < 0 ||
-        get_int(h, path, "SELECT COUNT(*) FROM sqlite_master WHERE type = 'table' AND name = 'runs'", &ntab, e) < 0)
-        goto fail;
-    if (ver > RT_DB_SCHEMA_VERSION) {
-        rt_errf(e, "%s: database schema version %lld is newer than this raytraffic supports (%d); use a newer raytraffic",
-                path, (long long)ver, RT_DB_SCHEMA_VERSION);
-        goto fail;
-    }
-    if (ver < 1 || !ntab) {
-        rt_errf(e, "%s: not a raytraffic results database", path);
-        goto fail;
-    }
+    if (path && path[0] && path[0] != ':' && stat(path, &sb) < 0 && errno == ENOENT)
+        return rt_errf(e, "%s: %s (run `raytraffic sweep` first)", path, strerror(errno));
+    void *h = NULL;
+    int ver = 0;
+    if (rt_db_open_read(path, &h, &ver, e) < 0) return -1;
     *ph = h;
     return 0;
-fail:
-    sqlite3_close(h);
-    return -1;
 }
 
 /* A scene's label: its name, and when another scene has that name but
@@ -182,6 +135,7 @@ int rt_report_scene_index(const rt_report *R, const char *label)
 /* Runs that belong in the paper's figures: its three tracers, primary and
  * shadow rays only (no mode= parameter). */
 #define PAPER_RUNS "r.tracer IN ('recursive', 'packet', 'dynamic') AND r.params NOT LIKE '%mode=%'"
+#define PAPER_TRACERS "tracer IN ('recursive', 'packet', 'dynamic')"
 
 int rt_report_init(rt_report *R, sqlite3 *h, const char *dbpath, const rt_report_opts *o, rt_err *e)
 {
@@ -209,6 +163,19 @@ int rt_report_init(rt_report *R, sqlite3 *h, const char *dbpath, const rt_report
             R->W = sqlite3_column_int(st, 0);
             R->H = sqlite3_column_int(st, 1);
         }
+        if (rt_report_done(st, rc, dbpath, e) < 0) return -1;
+    }
+    /* no model asked: the default runs; a database holding only one named
+     * model's exact runs is read as that model's (never a mix) */
+    if (model < 0) {
+        st = rt_report_stmt(h,
+                            "SELECT (SELECT COUNT(*) FROM runs WHERE sim_method = 'exact' AND sim_params NOT LIKE 'model=%'"
+                            " AND " PAPER_TRACERS "), (SELECT COUNT(*) FROM runs WHERE sim_method = 'exact' AND"
+                            " sim_params LIKE 'model=paper%' AND " PAPER_TRACERS ")",
+                            dbpath, e, "");
+        if (!st) return -1;
+        if ((rc = sqlite3_step(st)) == SQLITE_ROW && sqlite3_column_int64(st, 0) == 0 && sqlite3_column_int64(st, 1) > 0)
+            model = RT_EXP_MODEL_PAPER;
         if (rt_report_done(st, rc, dbpath, e) < 0) return -1;
     }
     if (rt_report_set_model(R, model, e) < 0) return -1;
@@ -330,7 +297,52 @@ int rt_report_set_model(rt_report *R, int model, rt_err *e)
 double rt_report_reduction(double base, double dyn)
 {
     if (!(base > 0) || !(dyn > 0)) return NAN;
-    return base >= dyn ? 100.0 * (base / dyn - 1.0) : -100.0 * (dyn / base - 1.0);
+    return 100.0 * (base / dyn - 1.0);
+}
+
+double rt_report_paper_reduction(double printed)
+{
+    if (isnan(printed) || printed >= 0) return printed;
+    /* printed = -100 (d / b - 1): d / b = 1 - printed / 100 */
+    return 100.0 * (1.0 / (1.0 - printed / 100.0) - 1.0);
+}
+
+const char *rt_report_fmt_reduction(double red, int csv, char *buf, size_t n)
+{
+    if (isnan(red) || red <= -100) snprintf(buf, n, "%s", csv ? "" : "—");
+    else if (csv) snprintf(buf, n, "%.10g", red);
+    else if (red >= 0) snprintf(buf, n, "%.1f%%", red);
+    else snprintf(buf, n, "%.2f× more", 1.0 / (1.0 + red / 100.0));
+    return buf;
+}
+
+void rt_report_find(const rt_report_point *p, int n, rt_report_findings *f)
+{
+    memset(f, 0, sizeof *f);
+    f->best_red = NAN;
+    f->turn_red = NAN;
+    for (int i = 0; i < n; i++) {
+        double red = rt_report_reduction(p[i].geom[0], p[i].geom[1]);
+        double tot = rt_report_reduction(p[i].geom[0] + p[i].ray[0], p[i].geom[1] + p[i].ray[1]);
+        if (isnan(red) || isnan(tot)) continue;
+        f->nsizes++;
+        f->dyn_less += red > 0;
+        f->ray_more += p[i].ray[1] > p[i].ray[0];
+        if (isnan(f->best_red) || red > f->best_red) {
+            f->best_red = red;
+            f->best_size = p[i].size;
+        }
+        /* the crossover: negative from here on, never again positive */
+        if (tot > 0) {
+            f->turn_size = 0;
+            f->turn_red = NAN;
+        } else if (!f->turn_size && tot < 0) {
+            f->turn_size = p[i].size;
+            f->turn_red = tot;
+        }
+        f->last_size = p[i].size;
+        f->last_total = tot;
+    }
 }
 
 int rt_report_fig_tracers(unsigned fig, const rt_tracer **out, int max)
@@ -358,29 +370,36 @@ int rt_report_value(const rt_report *R, const char *scene, const char *tracer, u
     /* v_paper's rows, of the one scene (name, hash) the label stands for */
     int i = rt_report_scene_index(R, scene);
     const char *name = i >= 0 ? R->scene_name[i] : scene, *hash = i >= 0 ? R->scene_hash[i] : "";
+    /* the traffic rows of the matching runs, summed per run by group (not
+     * through v_traffic_group, which SQLite would aggregate whole for
+     * every cell: runs are found first, their rows by the run index) */
+#define VALUE_SQL(COND)                                                                                              \
+    "SELECT SUM(CASE WHEN k.grp = 'geometry' THEN t.traffic_bytes ELSE 0 END) / 1048576.0 AS geometry_mb,"         \
+    " SUM(CASE WHEN k.grp = 'ray' THEN t.traffic_bytes ELSE 0 END) / 1048576.0 AS ray_mb"                           \
+    " FROM runs r JOIN scenes s ON s.id = r.scene_id JOIN traffic t ON t.run_id = r.id"                              \
+    " JOIN cache_configs c ON c.id = t.config_id JOIN classes k ON k.name = t.class"                                 \
+    " WHERE c.line = 64 AND c.assoc = 0 AND r.sim_method = 'exact' AND r.params NOT LIKE '%subsample=%'"             \
+    " AND instr(r.params, 'accel=') = 0 AND s.name = ?1 AND (?8 = '' OR s.hash = ?8) AND r.tracer = ?2"              \
+    " AND r.lights = ?3 AND r.sched_size = ?4 AND c.size = ?5 AND r.W = ?6 AND r.H = ?7 AND " COND                   \
+    " GROUP BY r.id, c.id ORDER BY geometry_mb LIMIT 1"
     sqlite3_stmt *st =
         R->model < 0
-            ? rt_report_stmt(
-                  R->h,
-                  "SELECT g.geometry_mb, g.ray_mb FROM v_traffic_group g JOIN runs r ON r.id = g.run_id"
-                  " JOIN scenes s ON s.id = r.scene_id WHERE g.line = 64 AND g.assoc = 0 AND g.policy = 'wb-wa'"
-                  " AND r.sim_method = 'exact' AND r.params NOT LIKE '%subsample=%' AND s.name = ?1 AND (?8 = '' OR"
-                  " s.hash = ?8) AND r.tracer = ?2 AND r.lights = ?3 AND r.sched_size = ?4 AND g.cache_size = ?5 AND"
-                  " r.W = ?6 AND r.H = ?7 ORDER BY g.geometry_mb LIMIT 1",
-                  R->dbpath, e, "ssIIIiis", name, tracer, (int64_t)lights, sched, (int64_t)size, R->W, R->H, hash)
+            /* no model: the toolkit's default runs (no model, compact
+             * layout, default queue stores), never another setup's */
+            ? rt_report_stmt(R->h,
+                             VALUE_SQL("c.policy = 'wb-wa' AND r.sim_params NOT LIKE 'model=%'"
+                                       " AND instr(r.params, 'layout=') = 0 AND instr(r.params, 'queue_stores=') = 0"),
+                             R->dbpath, e, "ssIIIiis", name, tracer,
+                             (int64_t)lights, sched, (int64_t)size, R->W, R->H, hash)
             /* one model: its accounting, its key, its layout and queue stores */
             : rt_report_stmt(
                   R->h,
-                  "SELECT g.geometry_mb, g.ray_mb FROM v_traffic_group g JOIN runs r ON r.id = g.run_id"
-                  " JOIN scenes s ON s.id = r.scene_id WHERE g.line = 64 AND g.assoc = 0 AND g.policy = ?9"
-                  " AND r.sim_method = 'exact' AND r.sim_params = ?10 AND r.params NOT LIKE '%subsample=%'"
-                  " AND (CASE WHEN ?11 = '' THEN instr(r.params, 'layout=') = 0 ELSE instr(r.params || ' ', ?11) > 0 END)"
-                  " AND (r.sched_size = 0 OR (instr(r.params, 'queue_stores=stream') > 0) = ?12)"
-                  " AND s.name = ?1 AND (?8 = '' OR s.hash = ?8) AND r.tracer = ?2 AND r.lights = ?3"
-                  " AND r.sched_size = ?4 AND g.cache_size = ?5 AND r.W = ?6 AND r.H = ?7"
-                  " ORDER BY g.geometry_mb LIMIT 1",
+                  VALUE_SQL("c.policy = ?9 AND r.sim_params = ?10"
+                            " AND (CASE WHEN ?11 = '' THEN instr(r.params, 'layout=') = 0 ELSE instr(r.params || ' ', ?11)"
+                            " > 0 END) AND (r.sched_size = 0 OR (instr(r.params, 'queue_stores=stream') > 0) = ?12)"),
                   R->dbpath, e, "ssIIIiissssi", name, tracer, (int64_t)lights, sched, (int64_t)size, R->W, R->H, hash,
                   R->policy, R->sim_params, lay, R->stream);
+#undef VALUE_SQL
     if (!st) return -1;
     int rc = sqlite3_step(st), found = rc == SQLITE_ROW;
     if (found) {

@@ -17,6 +17,7 @@
  * lighting): reduction against cache size, a line per generation.
  */
 #include "analysis_int.h"
+#include "experiment.h"
 
 #include <errno.h>
 #include <inttypes.h>
@@ -124,13 +125,10 @@ static int same_group(const point *a, const point *b)
 
 static void print_pct(FILE *out, int csv, double v)
 {
-    if (csv) {
-        if (isnan(v)) fprintf(out, ",");
-        else fprintf(out, ",%.1f", v);
-    } else {
-        if (isnan(v)) fprintf(out, " - |");
-        else fprintf(out, " %.1f%% |", v);
-    }
+    char b[64];
+    rt_report_fmt_reduction(v, csv, b, sizeof b);
+    if (csv) fprintf(out, ",%s", b);
+    else fprintf(out, " %s |", b);
 }
 
 /* The tables of points [a, b) (one scene, mode, lighting, resolution). */
@@ -140,8 +138,9 @@ static void group_table(FILE *out, int csv, const point *P, long a, long b)
     for (long i = a; i < b; i++)
         if (P[i].ngen > ng) ng = P[i].ngen;
     if (!csv) {
-        fprintf(out, "\n### %s, %s (%s), lights %d, %dx%d\n\n", P[a].scene, P[a].mode, P[a].params, P[a].lights,
-                P[a].W, P[a].H);
+        char ln[48];
+        fprintf(out, "\n### %s, %s (%s), lights %s, %dx%d\n\n", P[a].scene, P[a].mode, P[a].params,
+                rt_exp_lights_name((unsigned)P[a].lights, ln, sizeof ln), P[a].W, P[a].H);
         fprintf(out, "Reduction of dynamic vs recursive (base / dyn - 1): geometry | total traffic, per generation.\n\n");
         fprintf(out, "| cache |");
         for (int g = 0; g < ng; g++) fprintf(out, " g%d geom | g%d total |", g, g);
@@ -219,8 +218,9 @@ static int group_plot(const rt_plot_opts *po, const point *P, long a, long b, rt
     if (rt_plot_commit(o, e) < 0) return -1;
     if (!(f = rt_plot_open(gpf, &o, e))) return -1;
     char title[900];
-    snprintf(title, sizeof title, "%s, %s (%s), lights %d, %dx%d: dynamic vs recursive per generation", P[a].scene,
-             P[a].mode, P[a].params, P[a].lights, P[a].W, P[a].H);
+    char ln[48];
+    snprintf(title, sizeof title, "%s, %s (%s), lights %s, %dx%d: dynamic vs recursive per generation", P[a].scene,
+             P[a].mode, P[a].params, rt_exp_lights_name((unsigned)P[a].lights, ln, sizeof ln), P[a].W, P[a].H);
     fprintf(f, "set terminal pngcairo size 1000,420\nset output ");
     rt_plot_quote_path(f, png);
     fprintf(f, "\nset multiplot layout 1,2 title ");
@@ -266,7 +266,8 @@ int rt_report_secondary(sqlite3 *h, const char *dbpath, int csv, const rt_plot_o
                      "g5_total_pct,g6_geom_pct,g6_total_pct,g7_geom_pct,g7_total_pct,sec_geom_pct,sec_total_pct\n");
     else
         fprintf(out, "# Secondary rays: dynamic vs recursive per generation\n\nDatabase: %s. Reduction = recursive "
-                     "/ dynamic - 1 (negative: dynamic moves more), the dynamic run scheduled for each size; "
+                     "/ dynamic - 1 in percent (the paper's formula; where dynamic moves more, its factor: \"3.60x "
+                     "more\" = 3.60 times recursive's), the dynamic run scheduled for each size; "
                      "g>=1 sums the secondary generations.\n", dbpath);
     int rc = 0;
     for (long a = 0, b; a < n && rc == 0; a = b) {

@@ -172,6 +172,7 @@ typedef struct se_ctx {
     int nser;
     char *sizes_md;                   /* their per-size table rows (Markdown), or NULL */
     size_t sizes_len;
+    int shown;                        /* approximate and reduced pairs reported */
 } se_ctx;
 
 static int series_id(se_ctx *C, const char *label)
@@ -462,6 +463,7 @@ static int report_approx(se_ctx *C, rt_err *e)
             pair_row(C, hdr, cur, xid, secs, xsecs, A, hdr, series_cur);
             if (!C->csv) summ_add(C, cur_scene, cur_method, cur_params, secs, xsecs, A);
             rows++;
+            C->shown++;
             memset(A, 0, sizeof A);
         }
         if (rc != SQLITE_ROW) break;
@@ -563,6 +565,7 @@ static int report_proxies(se_ctx *C, rt_err *e)
                         "max | ray traffic err %% mean / max |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
             pair_row(C, cur.hdr, cur.id, cur.xid, cur.secs, cur.xsecs, cur.A, cur.desc, cur.series);
             rows++;
+            C->shown++;
             if (!isnan(cur.dens) && !isnan(cur.xdens)) {
                 if (ndyn == capdyn) {
                     ppair *t = rt_reallocarray(dyn, capdyn = capdyn ? 2 * capdyn : 16, sizeof *t, e);
@@ -642,6 +645,11 @@ int rt_report_speed_error(sqlite3 *h, int csv, const rt_plot_opts *plot, FILE *o
     }
     if (se_collect(C, e) < 0 || report_approx(C, e) < 0 || report_proxies(C, e) < 0 || rt_report_flush(out, e) < 0)
         goto done;
+    if (!C->shown) {
+        rt_errf(e, "nothing to show: no approximate run beside its exact run and no reduced experiment beside its full "
+                   "run (run the sweep with --approx or --proxy, or `sim --method ... --db`)");
+        goto done;
+    }
     if (C->dat) {
         C->dat = NULL;
         rt_out *o = C->dato;

@@ -18,12 +18,14 @@
  * write-back write-allocate, exact runs) and its split into geometry
  * (classes node, index, tri, shade), ray (ray, hit), stack (stream: the
  * treelet tracer's spilled traversal stacks) and queue (queue, qtable);
- * then the saving of each scheduler against its baseline, 100 (1 - sched
- * / base) percent (negative: the scheduler moves more). With a plot
+ * then the saving of each scheduler against its baseline, the reduction
+ * base / sched - 1 of every report (rt_report_reduction; a loss shown as
+ * its factor, "3.60× more"). With a plot
  * folder, per (scene, mode, lighting, resolution, variant) a picture of
  * total and geometry traffic against cache size for the four runs.
  */
 #include "analysis_int.h"
+#include "experiment.h"
 
 #include <errno.h>
 #include <inttypes.h>
@@ -160,10 +162,19 @@ static const trow *find(const trow *R, long n, const trow *a, int role, int acce
 
 static double saved_in(const trow *base, const trow *s, int c)
 {
-    if (!base || !s || !(base->mb[c] > 0)) return NAN;
-    return 100.0 * (1.0 - s->mb[c] / base->mb[c]);
+    if (!base || !s) return NAN;
+    return rt_report_reduction(base->mb[c], s->mb[c]);
 }
 static double saved(const trow *base, const trow *s) { return saved_in(base, s, C_TOTAL); }
+
+/* A reduction (rt_report_fmt_reduction) as a cell. */
+static void red_cell(FILE *out, int csv, double v)
+{
+    char b[64];
+    rt_report_fmt_reduction(v, csv, b, sizeof b);
+    if (csv) fprintf(out, ",%s", b);
+    else fprintf(out, " %s |", b);
+}
 
 static void cell(FILE *out, int csv, double v, const char *fmt)
 {
@@ -189,13 +200,6 @@ static int same_group(const trow *a, const trow *b)
            a->H == b->H && !strcmp(a->variant, b->variant) && a->accel == b->accel;
 }
 
-static int close_file(FILE *f, const char *path, rt_err *e)
-{
-    int bad = ferror(f);
-    if (fclose(f) != 0 || bad) return rt_errf(e, "%s: write error: %s", path, strerror(errno ? errno : EIO));
-    return 0;
-}
-
 /* DIR/treelet-SCENE-MODE-lLIGHTS-WxH-ACCEL[-VARIANT].{dat,gp,png}. */
 static int group_plot(const rt_plot_opts *po, const trow *R, long n, const trow *const *g, int ng, rt_err *e)
 {
@@ -210,8 +214,9 @@ static int group_plot(const rt_plot_opts *po, const trow *R, long n, const trow 
     snprintf(dat, sizeof dat, "%s.dat", base);
     snprintf(gpf, sizeof gpf, "%s.gp", base);
     snprintf(png, sizeof png, "%s.png", base);
-    FILE *f = fopen(dat, "w");
-    if (!f) return rt_errf(e, "%s: %s", dat, strerror(errno));
+    struct rt_out *o; /* through src/outfile.c: unique temporary, renamed when complete */
+    FILE *f = rt_plot_open(dat, &o, e);
+    if (!f) return -1;
     fprintf(f, "# cache_kb, total MB and geometry MB of: baseline on the BVH, treelet, baseline on the k-d tree, "
                "dynamic (NaN: no run)\n");
     for (int i = 0; i < ng; i++) {
@@ -224,11 +229,12 @@ static int group_plot(const rt_plot_opts *po, const trow *R, long n, const trow 
             else fprintf(f, " NaN NaN");
         fprintf(f, "\n");
     }
-    if (close_file(f, dat, e) < 0) return -1;
-    if (!(f = fopen(gpf, "w"))) return rt_errf(e, "%s: %s", gpf, strerror(errno));
+    if (rt_plot_commit(o, e) < 0) return -1;
+    if (!(f = rt_plot_open(gpf, &o, e))) return -1;
     char title[900];
-    snprintf(title, sizeof title, "%s, %s, lights %d, %dx%d, %s %s", a->scene,
-             a->mode[0] ? a->mode : m, a->lights, a->W, a->H, rt_accel_name(a->accel), a->variant);
+    char ln[48];
+    snprintf(title, sizeof title, "%s, %s, lights %s, %dx%d, %s %s", a->scene, a->mode[0] ? a->mode : m,
+             rt_exp_lights_name((unsigned)a->lights, ln, sizeof ln), a->W, a->H, rt_accel_name(a->accel), a->variant);
     fprintf(f, "set terminal pngcairo size 1100,520\nset output ");
     rt_plot_quote_path(f, png);
     fprintf(f, "\nset title ");
@@ -245,7 +251,7 @@ static int group_plot(const rt_plot_opts *po, const trow *R, long n, const trow 
                 2 + 2 * c, col[c], name[c], 3 + 2 * c, col[c], name[c]);
     }
     fprintf(f, "\n");
-    if (close_file(f, gpf, e) < 0) return -1;
+    if (rt_plot_commit(o, e) < 0) return -1;
     if (!po->gnuplot) return 0;
     if (rt_plot_run(po->gnuplot, gpf, e) < 0) return -1;
     if (po->log) fprintf(po->log, "wrote %s\n", png);
@@ -284,9 +290,10 @@ int rt_report_treelet(sqlite3 *h, const char *dbpath, const char *scene, int csv
         fprintf(out, "# Treelets against recursive order, beside the dynamic scheduler\n\nDatabase: %s. DRAM traffic in "
                      "MB (fully associative, 64-byte lines, write-back); a scheduled run counts at the size it was "
                      "scheduled for. Split: geometry = node+index+tri+shade, ray = ray+hit, stack = spilled traversal "
-                     "stacks (class stream), queue = queue+qtable. Saved = 100 (1 - scheduled / baseline): the "
-                     "treelet run against the recursive run on the same BVH, dynamic against recursive on the k-d "
-                     "tree; negative when the scheduler moves more; geo saved: the same on geometry alone.\n", dbpath);
+                     "stacks (class stream), queue = queue+qtable. Saved = the reduction baseline / scheduled - 1 "
+                     "in percent (the paper's formula, as every report uses): the treelet run against the recursive "
+                     "run on the same BVH, dynamic against recursive on the k-d tree; where the scheduler moves more, "
+                     "its factor (\"3.60x more\"); geo saved: the same on geometry alone.\n", dbpath);
     int rc = 0;
     double best = NAN, bestg = NAN;
     const trow *bestp = NULL, *bestgp = NULL;
@@ -300,9 +307,11 @@ int rt_report_treelet(sqlite3 *h, const char *dbpath, const char *scene, int csv
             if (R[j].role == ROLE_TREELET && same_group(&R[j], &R[i])) g[ng++] = &R[j];
         const trow *a = g[0];
         if (!csv) {
-            fprintf(out, "\n### %s, %s, lights %d, %dx%d, %s%s%s\n\n", a->scene,
-                    a->mode[0] ? a->mode : (a->lights ? "shadow" : "raycast"), a->lights, a->W, a->H,
-                    rt_accel_name(a->accel), a->variant[0] ? ", " : "", a->variant);
+            char ln[48];
+            fprintf(out, "\n### %s, %s, lights %s, %dx%d, %s%s%s\n\n", a->scene,
+                    a->mode[0] ? a->mode : (a->lights ? "shadow" : "raycast"),
+                    rt_exp_lights_name((unsigned)a->lights, ln, sizeof ln), a->W, a->H, rt_accel_name(a->accel),
+                    a->variant[0] ? ", " : "", a->variant);
             fprintf(out, "| cache | recursive (BVH) | geo | ray | treelet | geo | ray | stack | queue | saved | geo saved | "
                          "recursive (k-d) | dynamic | geo | ray | queue | saved |\n"
                          "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
@@ -323,9 +332,9 @@ int rt_report_treelet(sqlite3 *h, const char *dbpath, const char *scene, int csv
             cell(out, csv, b ? b->mb[C_RAY] : NAN, "%.1f");
             static const int tc[5] = {C_TOTAL, C_GEO, C_RAY, C_STACK, C_QUEUE};
             for (int c = 0; c < 5; c++) cell(out, csv, t->mb[tc[c]], "%.1f");
-            cell(out, csv, st, csv ? "%.1f" : "%.1f%%");
+            red_cell(out, csv, st);
             const double sg = saved_in(b, t, C_GEO);
-            cell(out, csv, sg, csv ? "%.1f" : "%.1f%%");
+            red_cell(out, csv, sg);
             if (!isnan(sg) && (isnan(bestg) || sg > bestg)) {
                 bestg = sg;
                 bestgp = t;
@@ -335,19 +344,22 @@ int rt_report_treelet(sqlite3 *h, const char *dbpath, const char *scene, int csv
             cell(out, csv, d ? d->mb[C_GEO] : NAN, "%.1f");
             cell(out, csv, d ? d->mb[C_RAY] : NAN, "%.1f");
             cell(out, csv, d ? d->mb[C_QUEUE] : NAN, "%.1f");
-            cell(out, csv, sd, csv ? "%.1f" : "%.1f%%");
+            red_cell(out, csv, sd);
             fputc('\n', out);
         }
         if (plot) rc = group_plot(plot, R, n, g, ng, e);
     }
+    char bb[64], bg[64], l1[48], l2[48];
     if (!csv && rc == 0 && bestp)
-        fprintf(out, "\nLargest treelet saving: %.1f%% (%s, %s, lights %d, %dx%d, %s, %" PRIu64 "K).\n", best,
-                bestp->scene, bestp->mode[0] ? bestp->mode : "primary", bestp->lights, bestp->W, bestp->H,
+        fprintf(out, "\nLargest treelet saving: %s (%s, %s, lights %s, %dx%d, %s, %" PRIu64 "K).\n",
+                rt_report_fmt_reduction(best, 0, bb, sizeof bb), bestp->scene, bestp->mode[0] ? bestp->mode : "primary",
+                rt_exp_lights_name((unsigned)bestp->lights, l1, sizeof l1), bestp->W, bestp->H,
                 rt_accel_name(bestp->accel), bestp->size / 1024);
     if (!csv && rc == 0 && bestgp)
-        fprintf(out, "Largest treelet saving in geometry: %.1f%% (%s, %s, lights %d, %dx%d, %s, %" PRIu64 "K).\n", bestg,
-                bestgp->scene, bestgp->mode[0] ? bestgp->mode : "primary", bestgp->lights, bestgp->W, bestgp->H,
-                rt_accel_name(bestgp->accel), bestgp->size / 1024);
+        fprintf(out, "Largest treelet saving in geometry: %s (%s, %s, lights %s, %dx%d, %s, %" PRIu64 "K).\n",
+                rt_report_fmt_reduction(bestg, 0, bg, sizeof bg), bestgp->scene,
+                bestgp->mode[0] ? bestgp->mode : "primary", rt_exp_lights_name((unsigned)bestgp->lights, l2, sizeof l2),
+                bestgp->W, bestgp->H, rt_accel_name(bestgp->accel), bestgp->size / 1024);
     free(g);
     free(R);
     if (rc < 0) return -1;

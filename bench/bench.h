@@ -33,6 +33,13 @@ int rt_sim_bench_n(FILE *out, uint64_t nrefs);
  * LRU on the file's first 100000 references and beside --threads 1. 0, or
  * -1 (file error, or the two replays' counters differ) with e set. */
 int rt_replay_bench(FILE *out, const char *path, int reps, rt_err *e);
+/* Replays path (reps times, 1..9, medians) as the single-level 13-size LRU
+ * run, as a two-level hierarchy (L1 32K 8-way LRU + the 13 sizes as LLC, in
+ * one pass) and with OPT at the 13 sizes; prints each one's references/s,
+ * the two-level/single throughput ratio and the OPT/LRU time ratio (bench
+ * --what hierarchy, bench/hier_bench.c). 0, or -1 with e set (file error,
+ * or a one-level hierarchy differs from the plain simulator). */
+int rt_hier_bench(FILE *out, const char *path, int reps, rt_err *e);
 
 /* ---- benchmark -------------------------------------------------------- */
 

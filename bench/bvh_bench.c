@@ -109,8 +109,12 @@ int rt_bvh_bench_primary(FILE *out, const rt_scene *sc, int W, int H, int reps, 
     uint32_t dpix[NDIFF];
     rt_hit dhit[NDIFF];
     rt_kdtree *kd = NULL;
-    row rows[4];
+    /* row 0 the k-d tree, then the BVHs of the accel table in kind order */
+    row rows[RT_ACCEL_NKINDS];
+    int bvh_kind[RT_ACCEL_NKINDS], nrows = 1;
     memset(rows, 0, sizeof rows);
+    for (int k = 1; k < RT_ACCEL_NKINDS; k++)
+        if (rt_accel_bvh_width(k)) bvh_kind[nrows++] = k;
     int rc = -1;
     if (!order || !ref) goto out;
     if (reps < 1) reps = 1;
@@ -159,10 +163,10 @@ int rt_bvh_bench_primary(FILE *out, const rt_scene *sc, int W, int H, int reps, 
     rt_kd_free(kd);
     kd = NULL;
 
-    for (int w = 0; w < 3; w++) {
-        row *x = &rows[1 + w];
+    for (int w = 1; w < nrows; w++) {
+        row *x = &rows[w];
         rt_bvh_params p;
-        rt_bvh_default_params(&p, 2 << w);
+        rt_bvh_default_params(&p, rt_accel_bvh_width(bvh_kind[w]));
         rt_bvh *b = NULL;
         rt_bvh_stat st;
         for (int i = 0; i < nbuild; i++) {
@@ -174,7 +178,7 @@ int rt_bvh_bench_primary(FILE *out, const rt_scene *sc, int W, int H, int reps, 
             if (i == 0 || cpu < x->build_cpu) x->build_cpu = cpu;
             if (i == 0 || st.build_sec < x->build_sec) x->build_sec = st.build_sec;
         }
-        snprintf(x->name, sizeof x->name, "bvh%d", 2 << w);
+        snprintf(x->name, sizeof x->name, "%s", rt_accel_name(bvh_kind[w]));
         x->nodes = st.nodes;
         x->bytes = st.bytes;
         for (int rep = 0; rep < reps; rep++) {
@@ -234,7 +238,7 @@ int rt_bvh_bench_primary(FILE *out, const rt_scene *sc, int W, int H, int reps, 
     fprintf(out, "| structure | build s | build CPU s | build CPU over k-d | nodes | MB | seconds | CPU s | Mrays/s (CPU) "
                  "| nodes/ray | tests/ray | differ | k-d CPU over this | rays/s over Embree (CPU) |\n"
                  "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
-    for (int i = 0; i < 4; i++) {
+    for (int i = 0; i < nrows; i++) {
         const row *x = &rows[i];
         char emb[32] = "";
         if (have_embree) snprintf(emb, sizeof emb, "%.2f", er.cpu_sec / x->cpu);
@@ -251,15 +255,17 @@ int rt_bvh_bench_primary(FILE *out, const rt_scene *sc, int W, int H, int reps, 
     fprintf(out, "\nThe walks: bvh2 one box at a time; bvh4 on SSE2, four boxes per vector; bvh8 %s.\n",
             rt_bvh_avx_usable() ? "with AVX, eight boxes per vector (the processor has it)"
                                 : "on SSE2, four boxes per vector (no AVX copy, or the processor lacks AVX)");
-    for (int i = 1; i < 4; i++)
+    for (int i = 1; i < nrows; i++)
         if (rows[i].kd_off)
             fprintf(out, "%s: %" PRIu64 " hits differ from the k-d tree's and equal brute force's\n", rows[i].name,
                     rows[i].kd_off);
     fprintf(out, "\n");
     /* the recursive tracer on each structure */
-    static const int kinds[4] = {RT_ACCEL_KD, RT_ACCEL_BVH2, RT_ACCEL_BVH4, RT_ACCEL_BVH8};
-    double tu[4] = {0}, tum[4] = {0}, trc[4] = {0}, rpr[4] = {0};
-    for (int i = 0; i < 4; i++)
+    int kinds[RT_ACCEL_NKINDS];
+    double tu[RT_ACCEL_NKINDS] = {0}, tum[RT_ACCEL_NKINDS] = {0}, trc[RT_ACCEL_NKINDS] = {0}, rpr[RT_ACCEL_NKINDS] = {0};
+    kinds[0] = RT_ACCEL_KD;
+    for (int i = 1; i < nrows; i++) kinds[i] = bvh_kind[i];
+    for (int i = 0; i < nrows; i++)
         if (tracer_row(sc, kinds[i], W, H, reps, &tu[i], &tum[i], &trc[i], &rpr[i], e) < 0) goto out;
     fprintf(out, "The recursive tracer on each structure, the same primary rays, no lights (untraced and recording "
                  "into a null sink; CPU time of the thread, best of %d each, the untraced run's median beside it). "
@@ -269,7 +275,7 @@ int rt_bvh_bench_primary(FILE *out, const rt_scene *sc, int W, int H, int reps, 
     fprintf(out, "| structure | untraced CPU s | median | Mrays/s | recording CPU s | recording over untraced | refs/ray | "
                  "untraced k-d CPU over this | over Embree's walk (best / median) | over Embree's job (best / median) "
                  "|\n|---|---|---|---|---|---|---|---|---|---|\n");
-    for (int i = 0; i < 4; i++) {
+    for (int i = 0; i < nrows; i++) {
         char emb[32] = "", job[32] = "";
         if (have_embree) {
             snprintf(emb, sizeof emb, "%.2f / %.2f", er.cpu_sec / tu[i], er.cpu_med / tum[i]);
@@ -284,7 +290,7 @@ int rt_bvh_bench_primary(FILE *out, const rt_scene *sc, int W, int H, int reps, 
                 er.cpu_sec / er.job_cpu_sec, er.cpu_med / er.job_cpu_med);
     fprintf(out, "\n");
     rc = 0;
-    for (int i = 1; i < 4; i++)
+    for (int i = 1; i < nrows; i++)
         if (rows[i].differ) rc = rt_errf(e, "%s: %" PRIu64 " hits differ from the k-d tree's", rows[i].name, rows[i].differ);
 out:
     rt_kd_free(kd);

@@ -25,6 +25,7 @@
 #include "analysis.h"
 #include "bench.h"
 #include "image.h"
+#include "outfile.h"
 #include "run.h"
 
 #include <errno.h>
@@ -119,12 +120,14 @@ static int plot_path_error(const rt_plot_opts *p, const char *scene, const int *
     snprintf(dat, sizeof dat, "%s.dat", base);
     snprintf(gp, sizeof gp, "%s.gp", base);
     snprintf(png, sizeof png, "%s.png", base);
-    FILE *f = fopen(dat, "w");
-    if (!f) return rt_errf(e, "%s: %s", dat, strerror(errno));
+    rt_out *o = rt_out_open(dat, e); /* src/outfile.c: unique temporary, renamed when complete */
+    if (!o) return -1;
+    FILE *f = rt_out_stream(o);
     fprintf(f, "# spp seconds rmse\n");
     for (int i = 0; i < n; i++) fprintf(f, "%d %.6g %.6g\n", spp[i], sec[i], err[i]);
-    if (fclose(f) != 0) return rt_errf(e, "%s: %s", dat, strerror(errno));
-    if (!(f = fopen(gp, "w"))) return rt_errf(e, "%s: %s", gp, strerror(errno));
+    if (rt_out_commit(o, e) < 0) return -1;
+    if (!(o = rt_out_open(gp, e))) return -1;
+    f = rt_out_stream(o);
     fprintf(f, "set terminal pngcairo size 800,600 enhanced\nset output ");
     rt_plot_quote_path(f, png);
     fprintf(f, "\nset logscale xy\nset format x \"10^{%%L}\"\nset format y \"10^{%%L}\"\nset xtics 10\nset ytics 10\n"
@@ -139,7 +142,7 @@ static int plot_path_error(const rt_plot_opts *p, const char *scene, const int *
     fprintf(f, " u 2:3 w lp pt 7 ps 1.2 lc rgb \"#0072b2\" t \"measured (spp 1, 4, 16, 64)\", \\\n  ");
     rt_plot_quote_path(f, dat);
     fprintf(f, " u 2:(%.9g*sqrt(%.9g/$2)) w l dt 2 lc rgb \"#d55e00\" t \"RMSE ~ time^{-1/2}\"\n", err[0], sec[0]);
-    if (fclose(f) != 0) return rt_errf(e, "%s: %s", gp, strerror(errno));
+    if (rt_out_commit(o, e) < 0) return -1;
     if (!p->gnuplot) {
         if (p->log) fprintf(p->log, "wrote %s and %s (no gnuplot: no picture)\n", dat, gp);
         return 0;

@@ -142,9 +142,12 @@ out:
 int rt_treelet_bench(FILE *out, rt_scene *sc, const rt_render_opts *base, int reps, const char *tmpdir,
                      const char *command, rt_err *e)
 {
-    int kinds[2] = {RT_ACCEL_BVH4, RT_ACCEL_BVH8}, nk = 2;
+    /* the wide BVHs of the accel table, or the one --accel names */
+    int kinds[RT_ACCEL_NKINDS], nk = 0;
+    for (int k = 1; k < RT_ACCEL_NKINDS; k++)
+        if (rt_accel_bvh_width(k) > 2) kinds[nk++] = k;
     if (base->accel != RT_ACCEL_DEFAULT) {
-        if (base->accel < RT_ACCEL_BVH2 || base->accel > RT_ACCEL_BVH8)
+        if (!rt_accel_bvh_width(base->accel))
             return rt_errf(e, "--what treelet: the treelet tracer runs on a BVH, not on %s", rt_accel_name(base->accel));
         kinds[0] = base->accel;
         nk = 1;

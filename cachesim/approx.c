@@ -114,6 +114,9 @@ int rt_approx_config_check(const rt_sim_config *c, const rt_approx_config *ac, r
     if (rt_sim_config_check(c, e)) return -1;
     if (!rt_approx_method_name(ac->method)) return rt_errf(e, "unknown approximation method %d", ac->method);
     if (ac->method == RT_APPROX_EXACT) return 0;
+    if (c->repl)
+        return rt_errf(e, "sampled simulation (%s) models LRU only, not replacement policy %s: use the exact method",
+                       rt_approx_method_name(ac->method), rt_sim_repl_name(c->repl));
     if (c->flush || c->write_miss_fullline)
         return rt_errf(e, "sampled simulation (%s) does not model %s: use the exact method",
                        rt_approx_method_name(ac->method), rt_sim_policy_name(c));

@@ -120,6 +120,7 @@
  * touch(), so the choice changes no counter (tested with each forced).
  */
 #include "msim.h"
+#include "engine.h"
 #include "sim_int.h"
 
 #include <stdlib.h>
@@ -775,3 +776,42 @@ void rt_msim_test_add(rt_msim *m, int cls, int write, int g, uint64_t n)
 {
     if (cls >= 0 && cls < RT_NCLASS && g >= 0 && g <= m->k) m->hist[cls][write ? 1 : 0][g] += n;
 }
+
+/* ---- the engine table's entry (engine.h) ---- */
+
+static uint64_t eng_state_bytes(const rt_sim_config *c)
+{
+    (void)c;
+    return 0; /* grows with the lines seen */
+}
+
+static void *eng_create(const rt_sim_config *c, rt_err *e)
+{
+    rt_msim *m = rt_msim_new(c->sizes, c->nsizes, c->line, e);
+    if (m) rt_msim_set_fullline(m, c->write_miss_fullline);
+    return m;
+}
+
+static void eng_destroy(void *st) { rt_msim_free(st); }
+static int eng_access(void *st, const rt_access *a, size_t n) { return rt_msim_put(st, a, n); }
+static void eng_finish(void *st, int flush)
+{
+    if (flush) rt_msim_flush(st);
+}
+static void eng_counts(const void *st, int i, int cls, int gen, rt_sim_counts *out) { rt_msim_get_gen(st, i, cls, gen, out); }
+static int eng_check(const void *st, rt_err *e) { return rt_msim_check(st, e); }
+static void eng_repeats(void *st, const uint64_t *cnt) { rt_msim_add_repeats(st, cnt); }
+
+const rt_cache_engine rt_engine_stack = {
+    .name = "exact-stack",
+    .repl = "lru",
+    .caps = RT_ENG_FULLASSOC | RT_ENG_ONEPASS | RT_ENG_REPEATS,
+    .state_bytes = eng_state_bytes,
+    .create = eng_create,
+    .destroy = eng_destroy,
+    .access = eng_access,
+    .finish = eng_finish,
+    .counts = eng_counts,
+    .check = eng_check,
+    .repeats = eng_repeats,
+};

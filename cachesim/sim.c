@@ -1,18 +1,19 @@
 /*
- * sim.c -- the rt_sim front door: configurations, engine choice, the sink,
- * per-size / per-class / per-group results (see sim.h).
+ * sim.c -- the rt_sim front door: configurations, the sink, per-size /
+ * per-class / per-group results (see sim.h). The engine is the first entry
+ * of the engine table (engine.h) that fits the configuration; everything
+ * else goes through its function pointers.
  */
 #include "sim.h"
-#include "msim.h"
-#include "setassoc.h"
+#include "engine.h"
 
 #include <stdlib.h>
 #include <string.h>
 
 struct rt_sim {
     rt_sim_config cfg;               /* as created */
-    rt_msim *ms;                     /* one-pass engine, or NULL */
-    rt_sa *sa[RT_SIM_MAXSIZES];      /* per-size engines, or NULL */
+    const rt_cache_engine *eng;      /* the engine table's entry */
+    void *st;                        /* its state */
     rt_sink sink;                    /* put() -> rt_sim_put */
     uint64_t refs;                   /* references seen */
 };
@@ -88,11 +89,30 @@ int rt_sim_config_check(const rt_sim_config *c, rt_err *e)
                            (unsigned long long)c->sizes[i], (unsigned long long)unit);
         if (c->sizes[i] / c->line >= (1u << 30)) return rt_errf(e, "cache size %llu too large", (unsigned long long)c->sizes[i]);
     }
-    /* the per-size engine allocates each cache's lines up front (the
-     * stack simulator grows with the lines seen): check before */
-    if (!(c->assoc == 0 && !c->write_through && !c->no_write_allocate)) {
-        uint64_t bytes = 0;
-        for (int i = 0; i < c->nsizes; i++) bytes += rt_sa_state_bytes(c->sizes[i], c->line, c->assoc);
+    if (!strcmp(rt_sim_repl_name(c->repl), "?")) return rt_errf(e, "unknown replacement policy %d", c->repl);
+    const rt_repl_ops *ops = rt_repl_ops_for(c->repl);
+    if (ops && ops->pow2_ways) {
+        for (int i = 0; i < c->nsizes; i++) {
+            uint64_t w = c->assoc ? c->assoc : c->sizes[i] / c->line;
+            if (w & (w - 1))
+                return rt_errf(e, "replacement policy %s needs a power-of-two number of ways (cache size %llu has %llu)",
+                               ops->name, (unsigned long long)c->sizes[i], (unsigned long long)w);
+        }
+    }
+    const rt_cache_engine *g = rt_cache_engine_for(c);
+    if (!g) {
+        rt_sim_config top = *c;
+        top.feeds_below = 0;
+        if (c->feeds_below && rt_cache_engine_for(&top))
+            return rt_errf(e, "replacement policy %s cannot feed a cache level below it (only a last level can be %s)",
+                           rt_sim_repl_name(c->repl), rt_sim_repl_name(c->repl));
+        return rt_errf(e, "no cache engine simulates replacement policy %s with this configuration",
+                       rt_sim_repl_name(c->repl));
+    }
+    /* an engine that allocates each cache's lines up front (the stack
+     * simulator grows with the lines seen): check before */
+    uint64_t bytes = g->state_bytes(c);
+    if (bytes) {
         char what[160];
         snprintf(what, sizeof what, "simulating cache sizes up to %llu bytes (%u-way, per-size engine)",
                  (unsigned long long)c->sizes[c->nsizes - 1], c->assoc);
@@ -111,67 +131,63 @@ rt_sim *rt_sim_new(const rt_sim_config *c, rt_err *e)
     s->cfg = *c;
     s->sink.put = sink_put;
     s->sink.ctx = s;
-    if (c->assoc == 0 && !c->write_through && !c->no_write_allocate) {
-        s->ms = rt_msim_new(c->sizes, c->nsizes, c->line, e);
-        if (!s->ms) goto fail;
-        rt_msim_set_fullline(s->ms, c->write_miss_fullline);
-    } else {
-        for (int i = 0; i < c->nsizes; i++) {
-            s->sa[i] = rt_sa_new(c->sizes[i], c->line, c->assoc, c->write_through, c->no_write_allocate, e);
-            if (!s->sa[i]) goto fail;
-            rt_sa_set_fullline(s->sa[i], c->write_miss_fullline);
-        }
+    s->eng = rt_cache_engine_for(c);
+    s->st = s->eng->create(c, e);
+    if (!s->st) {
+        free(s);
+        return NULL;
     }
     return s;
-fail:
-    rt_sim_free(s);
-    return NULL;
 }
 
 void rt_sim_free(rt_sim *s)
 {
     if (!s) return;
-    rt_msim_free(s->ms);
-    for (int i = 0; i < RT_SIM_MAXSIZES; i++) rt_sa_free(s->sa[i]);
+    s->eng->destroy(s->st);
     free(s);
 }
 
 const rt_sim_config *rt_sim_get_config(const rt_sim *s) { return &s->cfg; }
-const char *rt_sim_engine(const rt_sim *s) { return s->ms ? "exact-stack" : "exact-persize"; }
+const char *rt_sim_engine(const rt_sim *s) { return s->eng->name; }
 rt_sink *rt_sim_sink(rt_sim *s) { return &s->sink; }
 
 static void sim_add_repeats(void *ctx, const uint64_t *cnt)
 {
     rt_sim *s = ctx;
     for (int cg = 0; cg < RT_NCLASS * RT_MAXGEN; cg++) s->refs += cnt[cg];
-    rt_msim_add_repeats(s->ms, cnt);
+    s->eng->repeats(s->st, cnt);
 }
 
 void rt_sim_repeats(rt_sim *s, rt_repeats *out)
 {
     memset(out, 0, sizeof *out);
-    if (!s->ms) return; /* set-associative or write-through/no-allocate: per-size engines */
+    /* the one-pass LRU engine; and an LRU write-allocate level of a
+     * hierarchy (a repeat is a hit on the most recent line of its set) */
+    int level = s->cfg.feeds_below && s->cfg.repl == 0 && !s->cfg.no_write_allocate && s->eng->repeats;
+    if (!((s->eng->caps & RT_ENG_REPEATS) && !s->cfg.no_write_allocate) && !level) return;
     out->line = s->cfg.line;
     out->add = sim_add_repeats;
     out->ctx = s;
 }
 uint64_t rt_sim_refs(const rt_sim *s) { return s->refs; }
 
+int rt_sim_set_below(rt_sim *s, rt_sink *below, rt_err *e)
+{
+    if (!s->eng->set_below)
+        return rt_errf(e, "engine %s (replacement %s) cannot feed a cache level below it", s->eng->name,
+                       rt_sim_repl_name(s->cfg.repl));
+    return s->eng->set_below(s->st, below, e);
+}
+
 int rt_sim_put(rt_sim *s, const rt_access *a, size_t n)
 {
     s->refs += n;
-    if (s->ms) return rt_msim_put(s->ms, a, n);
-    else
-        for (int i = 0; i < s->cfg.nsizes; i++) rt_sa_put(s->sa[i], a, n);
-    return 0;
+    return s->eng->access(s->st, a, n);
 }
 
 int rt_sim_finish(rt_sim *s)
 {
-    if (!s->cfg.flush) return 0;
-    if (s->ms) rt_msim_flush(s->ms);
-    else
-        for (int i = 0; i < s->cfg.nsizes; i++) rt_sa_flush(s->sa[i]);
+    s->eng->finish(s->st, s->cfg.flush);
     return 0;
 }
 
@@ -180,8 +196,7 @@ static void get_cg(const rt_sim *s, int i, int cls, int gen, rt_sim_counts *out)
 {
     memset(out, 0, sizeof *out);
     if (i < 0 || i >= s->cfg.nsizes) return;
-    if (s->ms) rt_msim_get_gen(s->ms, i, cls, gen, out);
-    else rt_sa_get_gen(s->sa[i], cls, gen, out);
+    s->eng->counts(s->st, i, cls, gen, out);
 }
 
 static void add_counts(rt_sim_counts *out, const rt_sim_counts *t)
@@ -223,12 +238,7 @@ void rt_sim_get_group_gen(const rt_sim *s, int i, int group, int gen, rt_sim_cou
 
 int rt_sim_check(const rt_sim *s, rt_err *e)
 {
-    if (s->ms) {
-        if (rt_msim_check(s->ms, e)) return -1;
-    } else {
-        for (int i = 0; i < s->cfg.nsizes; i++)
-            if (rt_sa_check(s->sa[i], e)) return -1;
-    }
+    if (s->eng->check(s->st, e)) return -1;
     for (int i = 0; i < s->cfg.nsizes; i++)
         for (int c = 0; c < RT_NCLASS; c++) {
             rt_sim_counts all, sum, t;

@@ -72,6 +72,9 @@ typedef struct rt_sim_config {
     int no_write_allocate;           /* 1: write misses do not allocate */
     int flush;                       /* 1: rt_sim_finish writes back every dirty line */
     int write_miss_fullline;         /* 1: a write miss covering its whole line fetches nothing */
+    int repl;                        /* replacement policy: 0 = LRU, else rt_sim_repl_parse's value */
+    uint64_t seed;                   /* seed of the random choices of a policy (random, BRRIP) */
+    int feeds_below;                 /* 1: a level of a hierarchy above another (rt_sim_set_below) */
 } rt_sim_config;
 
 /* One size's counters for one class (64-bit). */
@@ -99,6 +102,19 @@ int rt_sim_parse_sizes(const char *s, rt_sim_config *c, rt_err *e);
  * labels, so rows of different accounting never share a label. */
 const char *rt_sim_policy_name(const rt_sim_config *c);
 
+/* Replacement policies (rt_sim_config.repl): "lru" (0, the default), and
+ * the per-size engine's policies (engine.h): "fifo", ... rt_sim_repl_parse
+ * sets *repl from a name: 0, or -1 with a message listing the names;
+ * rt_sim_repl_name gives the name ("?" out of range). The replacement
+ * policy is its own dimension, separate from the write policy label of
+ * rt_sim_policy_name. */
+int rt_sim_repl_parse(const char *name, int *repl, rt_err *e);
+const char *rt_sim_repl_name(int repl);
+/* 1 if policy repl makes random choices (so rt_sim_config.seed matters). */
+int rt_sim_repl_random(int repl);
+/* The names accepted, comma-separated ("lru,fifo,..."), for usage texts. */
+const char *rt_sim_repl_list(void);
+
 /* Checks a configuration: sizes increasing, each a multiple of
  * line * assoc (fully associative: of line), at least one set. 0 or -1. */
 int rt_sim_config_check(const rt_sim_config *c, rt_err *e);
@@ -113,7 +129,8 @@ void rt_sim_free(rt_sim *s);
 
 /* The configuration s was created with. */
 const rt_sim_config *rt_sim_get_config(const rt_sim *s);
-/* "exact-stack" (one-pass msim) or "exact-persize" (setassoc per size). */
+/* The engine's name (engine.h): "exact-stack" (one-pass msim) or
+ * "exact-persize" (setassoc per size, any replacement policy). */
 const char *rt_sim_engine(const rt_sim *s);
 
 /* Simulates n references. Never fails (returns 0); references with size 0
@@ -131,6 +148,13 @@ rt_sink *rt_sim_sink(rt_sim *s);
  * results; more references may follow, and a second call writes back only
  * what they dirtied. Returns 0. */
 int rt_sim_finish(rt_sim *s);
+
+/* Makes s one level of a hierarchy (hier.h): every line it fetches, every
+ * write-back and every byte written through or around becomes a reference
+ * to below, in order, with the class and generation of its cause. Only a
+ * one-size configuration of the per-size engine can (any replacement but
+ * OPT); -1 with a message otherwise. below is borrowed. */
+int rt_sim_set_below(rt_sim *s, rt_sink *below, rt_err *e);
 
 /* References (rt_access records, not line touches) seen so far. */
 uint64_t rt_sim_refs(const rt_sim *s);

@@ -71,106 +71,47 @@ int rt_cmd_parse_line(const char *cmd, const char *arg, uint32_t *line);
  * bytes escaped). */
 void rt_cmd_json_str(FILE *f, const char *s);
 
+/* A scene's load warnings (rt_scene.warn), every kind on its own stderr
+ * line "raytraffic CMD: warning: FILE:LINE: what (N times)". */
+void rt_cmd_print_warnings(const char *cmd, const rt_scene *s);
+/* The same as a JSON member `"warnings": [{"kind": ..., "count": N,
+ * "first": "FILE:LINE", "message": ...}, ...]` (no comma around it). */
+void rt_cmd_json_warnings(FILE *f, const rt_scene *s);
+/* --strict: a scene with warnings is refused, its first warning named and
+ * the count of kinds given (printed for cmd). 0, or -1. */
+int rt_cmd_strict(const char *cmd, const rt_scene *s);
+
 /* ---- render options shared by render, trace, bench and sweep ---------- */
 
-/* getopt_long codes for the shared render options. */
-enum {
-    RT_OPT_LIGHTS = 1000,
-    RT_OPT_CACHE_SIZE,
-    RT_OPT_GMAX,
-    RT_OPT_PACKET,
-    RT_OPT_QORDER,
-    RT_OPT_HIT_RULE,
-    RT_OPT_QP_MEASURE,
-    RT_OPT_THREADS,
-    RT_OPT_SUBSAMPLE,
-    RT_OPT_MODE,
-    RT_OPT_DEPTH,
-    RT_OPT_SPP,
-    RT_OPT_BOUNCES,
-    RT_OPT_LAYOUT,
-    RT_OPT_QUEUE_STORES,
-    RT_OPT_ACCEL,
-    RT_OPT_GRID_MIN,
-    RT_OPT_VB_SIZE,
-    RT_OPT_ORACLE,
-    RT_OPT_ORACLE_FRACTION,
-    RT_OPT_UNROLL,
-    RT_OPT_UNROLL_SUPPRESS,
-    RT_OPT_LOOK_AT,
-    RT_OPT_FOV,
-    RT_OPT_LIGHT,
-    RT_OPT_GRID_DENSITY,
-    RT_OPT_RECORD_STORES,
-    RT_OPT_TREELET_TRIS,
-    RT_OPT_RAY_WINDOW,
-    RT_OPT_LIGHT_SAMPLES
-};
+/* The options come from one table, rt_render_optdefs (tracegen/options.h):
+ * an entry names the commands (RT_OC_*) that take it, and these helpers
+ * derive the getopt tables, the parsing and the --help text from it. An
+ * entry's getopt code is RT_OPT_CODE_BASE + its index (or its short name). */
 
-/* The shared long options ({"lights",...}, {"cache-size",...}, ...);
- * terminated by a zero entry. Copy them into a command's own table with
- * rt_cmd_merge_opts. */
-extern const struct option rt_render_longopts[];
-#define RT_RENDER_SHORTOPTS "t:W:H:"
-#define RT_RENDER_OPTS_HELP                                                                  \
-    "  -t TRACER          recursive | packet | dynamic | stream-branching |\n"               \
-    "                     stream-multipass | feedback | treelet (default recursive)\n"                \
-    "  -W N, -H N         image size in pixels (a .pbrt scene: its Film's by default;\n"   \
-    "                     one of them alone keeps the Film's aspect ratio)\n"                \
-    "  --lights L         all | none | comma list of lights 0,1,2 (default none; with\n"   \
-    "                     --light-samples, indices 0..31 of the file's lights, all = every one)\n" \
-    "  --light-samples N  the scene file's own lights: N shadow rays per hit to each area\n" \
-    "                     or infinite light, 1 to point and distant ones (default 0: the\n" \
-    "                     three point lights)\n"                                             \
-    "  --look-at EX,EY,EZ,AX,AY,AZ[,UX,UY,UZ]  camera at E looking at A (up: the scene's)\n" \
-    "  --fov DEGREES      vertical field of view (default: the scene's)\n"                 \
-    "  --light X,Y,Z[,POWER]  a point light (repeat up to 3 times: lights 0, 1, 2 replace\n" \
-    "                     the scene's; POWER default: the scene's light power)\n"          \
-    "  --packet N         packet edge in pixels for -t packet (default 8)\n"                 \
-    "  --cache-size S     dynamic, treelet: cache size to schedule for, e.g. 64K (default 64K)\n" \
-    "  --gmax B           dynamic: explicit geometry budget in bytes (overrides derivation);\n" \
-    "                     treelet: the treelet byte budget (default half the cache size)\n" \
-    "  --subsample K[:T]  reduced experiment: trace 1 in K tiles of TxT pixels (T default 8;\n" \
-    "                     1 = single pixels; packet tracer: T a multiple of the packet)\n" \
-    "  --qorder O         dynamic, treelet: queue order, fullest | tree (default fullest)\n" \
-    "  --hit-rule R       dynamic: a hit beyond the subtree's exit, exact (settled in\n"    \
-    "                     later queue points) | first (taken; images may differ)\n"        \
-    "  --qp-measure M     dynamic: subtree size for queue points, all (nodes, lists,\n"    \
-    "                     triangles) | triangles (default all)\n"                          \
-    "  --threads N        dynamic: modeled threads, 2 rays buffered each (default 4)\n"      \
-    "  --mode M           raycast | shadow | whitted | path (default shadow with lights,\n" \
-    "                     else raycast)\n"                                                    \
-    "  --depth N          whitted: ray generations per path, primary included (1..64, 5)\n" \
-    "  --spp N            path: samples per pixel (default 1)\n"                             \
-    "  --bounces B        path: bounces after the primary hit (0..1000, default 4)\n"        \
-    "  --layout L         geometry layout, compact | mesh (pbrt-style shared vertices)\n" \
-    "                     | pbrt | pbrt64 (pbrt-v1's k-d tree objects and mailboxes,\n"    \
-    "                     4- or 8-byte pointers) (default compact)\n"                      \
-    "  --queue-stores S   dynamic: queue writes, write-allocate | stream (default\n"        \
-    "                     write-allocate)\n"                                               \
-    "  --accel A          acceleration structure: kd | bvh2 | bvh4 | bvh8 (recursive,\n"  \
-    "                     packet; default kd), grid | naive (feedback; default grid)\n"  \
-    "  --vb-size S        feedback: limit of one vertex buffer, e.g. 512M (default 2G)\n" \
-    "  --grid-min N       grid tracers: grid cells along the smallest axis (default 64,\n" \
-    "                     halved until the grid fits the cell limit)\n"                     \
-    "  --grid-density L   grid tracers: about L cells per triangle instead (0 < L <= 1024)\n" \
-    "  --record-stores S  feedback, stream tracers: non-temporal (whole records, lines not\n" \
-    "                     fetched; default) | write-allocate\n"                               \
-    "  --oracle O         stream-multipass: naive | threshold (default threshold)\n"        \
-    "  --oracle-fraction F  stream-multipass: intersect once F of the active rays need it\n" \
-    "                     (0 < F <= 1, default 0.2)\n"                                      \
-    "  --unroll T,I       stream-multipass: traversal steps, intersection tests per pass (1,1)\n" \
-    "  --unroll-suppress  stream-multipass: no texel reads for rays done mid-pass\n"        \
-    "  --treelet-tris     treelet: leaves' triangles count against the treelet budget\n"   \
-    "  --ray-window N     treelet: rays in flight per generation, e.g. 64K (default all)\n"
+/* The command's own NULL-terminated long options followed by the table's
+ * entries for cmd (RT_OC_RENDER, ...); a malloc'd table (caller frees) or
+ * NULL. */
+struct option *rt_cmd_longopts(unsigned cmd, const struct option *own);
+/* own short options followed by the table's for cmd ("o:h" + "t:W:H:")
+ * into buf. */
+const char *rt_cmd_shortopts(unsigned cmd, const char *own, char *buf, size_t n);
+/* The table index behind a getopt code, or -1. */
+int rt_cmd_opt_index(int c);
 
-/* Appends the shared options to a command's own NULL-terminated table;
- * returns a malloc'd table (caller frees) or NULL. */
-struct option *rt_cmd_merge_opts(const struct option *own);
-
-/* Handles one shared option. Returns 1 if handled, 0 if c is not a shared
- * option, -1 on a bad value (message printed for cmd). */
+/* Handles one table option. Returns 1 if handled, 0 if c is not a table
+ * option, -1 on a bad value (message printed for cmd). Records the option
+ * in o->given, so the tracer can refuse it. */
 int rt_cmd_render_opt(const char *cmd, int c, const char *arg, rt_render_opts *o, const char **tracer);
+/* The same for the option named "--NAME" (scene's --look-at, --fov, --light). */
+int rt_cmd_render_opt_named(const char *cmd, const char *name, const char *arg, rt_render_opts *o);
+
+/* --help lines of the table's entries for cmd, in table order. */
+void rt_cmd_render_help(FILE *f, unsigned cmd);
+/* sweep --help: the line of the entry "--NAME" (its .sweep_help), and then
+ * every entry of cmd without one (as render lists it). */
+void rt_cmd_render_help_line(FILE *f, const char *name);
+void rt_cmd_render_help_rest(FILE *f, unsigned cmd);
+
 /* Refuses, as a usage error printed for cmd, the options given in o that
  * the tracer does not read, a structure it cannot run on, and values it
  * cannot run (subsampling that traces nothing, partial packets). 0 or -1. */

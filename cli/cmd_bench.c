@@ -49,10 +49,12 @@ static void usage(FILE *f)
             "  --lights L         lights for the tracer runs (default none: primary rays)\n"
             "  --tracers LIST     comma list (default recursive,packet,dynamic)\n"
             "  --cache-size S     dynamic tracer's schedule (default 64K)\n"
-            "  --what LIST        tracers,trace,sim,replay,approx,path-error,modes,identical,\n"
-            "                     embree,bvh,treelet\n"
+            "  --what LIST        tracers,trace,sim,replay,hierarchy,approx,path-error,modes,\n"
+            "                     identical,stream,embree,bvh,treelet\n"
             "                     (default tracers,trace,sim); replay: the exact simulator\n"
             "                     on --trace FILE, one and two threads, decoding included;\n"
+            "                     hierarchy: L1 32K + 13 LLC sizes in one pass, and OPT,\n"
+            "                     against the single-level replay of --trace FILE;\n"
             "                     approx: sampled simulators\n"
             "                     against exact (docs/approx.md) on --trace or the synthetic\n"
             "                     trace; path-error: path-mode RMSE against a --ref-spp\n"
@@ -268,11 +270,12 @@ int main_bench(int argc, char **argv)
     const char *scene = NULL, *tracers = "recursive,packet,dynamic", *what = "tracers,trace,sim";
     const char *tmpdir = "/tmp", *dummy = NULL, *trace = NULL;
     uint64_t simrefs = 20000000;
-    struct option *lo = rt_cmd_merge_opts(own);
+    struct option *lo = rt_cmd_longopts(RT_OC_BENCH, own);
+    char so[32];
     int c;
     if (!lo) return RT_EXIT_FAIL;
     optind = 1;
-    while ((c = getopt_long(argc, argv, "h" RT_RENDER_SHORTOPTS, lo, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, rt_cmd_shortopts(RT_OC_BENCH, "h", so, sizeof so), lo, NULL)) != -1) {
         int r = rt_cmd_render_opt("bench", c, optarg, &o, &dummy);
         if (r < 0) {
             free(lo);
@@ -318,7 +321,7 @@ int main_bench(int argc, char **argv)
         return RT_EXIT_USAGE;
     }
     int do_tr = 0, do_trace = 0, do_sim = 0, do_approx = 0, do_perr = 0, do_modes = 0, do_ident = 0, do_stream = 0, do_embree = 0, do_bvh = 0,
-        do_replay = 0, do_treelet = 0;
+        do_replay = 0, do_treelet = 0, do_hier = 0;
     {
         char *list = strdup(what), *save = NULL;
         for (char *t = strtok_r(list, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
@@ -326,6 +329,7 @@ int main_bench(int argc, char **argv)
             else if (!strcmp(t, "trace")) do_trace = 1;
             else if (!strcmp(t, "sim")) do_sim = 1;
             else if (!strcmp(t, "replay")) do_replay = 1;
+            else if (!strcmp(t, "hierarchy")) do_hier = 1;
             else if (!strcmp(t, "approx")) do_approx = 1;
             else if (!strcmp(t, "path-error")) do_perr = 1;
             else if (!strcmp(t, "modes")) do_modes = 1;
@@ -335,13 +339,17 @@ int main_bench(int argc, char **argv)
             else if (!strcmp(t, "bvh")) do_bvh = 1;
             else if (!strcmp(t, "treelet")) do_treelet = 1;
             else {
-                rt_cmd_error("bench", "--what: unknown item '%s' (tracers, trace, sim, replay, approx, path-error, "
+                rt_cmd_error("bench", "--what: unknown item '%s' (tracers, trace, sim, replay, hierarchy, approx, path-error, "
                              "modes, identical, stream, embree, bvh, treelet)", t);
                 free(list);
                 return RT_EXIT_USAGE;
             }
         }
         free(list);
+    }
+    if (do_hier && !trace) {
+        rt_cmd_error("bench", "--what hierarchy needs --trace FILE (e.g. a trace of sphereflake 1024x1024)");
+        return RT_EXIT_USAGE;
     }
     if (do_replay && !trace) {
         rt_cmd_error("bench", "--what replay needs --trace FILE");
@@ -447,6 +455,15 @@ int main_bench(int argc, char **argv)
         printf("%sReplay of a trace file:\n\n", do_sim ? "\n" : "");
         fflush(stdout);
         if (rt_replay_bench(stdout, trace, (int)reps, &e) < 0) {
+            rt_cmd_error("bench", "%s", e.msg);
+            return RT_EXIT_FAIL;
+        }
+    }
+    if (do_hier) {
+        rt_err e = {0};
+        printf("Cache hierarchy and OPT against the single-level replay:\n\n");
+        fflush(stdout);
+        if (rt_hier_bench(stdout, trace, (int)reps, &e) < 0) {
             rt_cmd_error("bench", "%s", e.msg);
             return RT_EXIT_FAIL;
         }

@@ -10,6 +10,7 @@
  */
 #include "cmd.h"
 #include "db.h"
+#include "outfile.h"
 
 #include <stdio.h>
 #include <string.h>
@@ -38,10 +39,28 @@ int main_db(int argc, char **argv)
         return RT_EXIT_USAGE;
     }
     rt_err e = {0};
+    /* every name first: a shard named ":memory:" is a usage error before
+     * anything is merged */
+    for (int i = 2; i < argc; i++)
+        if (rt_open_target(argv[i], RT_TARGET_DB, &e) < 0 && e.usage) {
+            rt_cmd_error("db", "%s", e.msg);
+            return RT_EXIT_USAGE;
+        }
+    /* and every shard's kind (a FIFO, a folder, a missing file) before OUT
+     * is created; what is inside each is checked as it is merged */
+    for (int i = 3; i < argc; i++) {
+        void *h = NULL;
+        int ver;
+        if (rt_db_open_read(argv[i], &h, &ver, &e) < 0) {
+            rt_cmd_error("db", "%s", e.msg);
+            return RT_EXIT_FAIL;
+        }
+        rt_db_close_read(h);
+    }
     rt_db *out = rt_db_open(argv[2], &e);
     if (!out) {
         rt_cmd_error("db", "%s", e.msg);
-        return RT_EXIT_FAIL;
+        return e.usage ? RT_EXIT_USAGE : RT_EXIT_FAIL;
     }
     long total = 0;
     for (int i = 3; i < argc; i++) {

@@ -1,6 +1,7 @@
 /* cmd_render.c -- `raytraffic render`: render a scene with a tracer to an
  * OpenEXR image (RGB + cost channels + depth) and print render statistics. */
 #include "cmd.h"
+#include "scene_load.h"
 #include "outfile.h"
 #include "grid.h"
 #include "feedback.h"
@@ -28,7 +29,11 @@ static void usage(FILE *f)
             "  --heatmap FILE     also write the triangle tests per pixel as a heat-map PNG\n"
             "                     (log scale up to 4 x triangles: grid and naive comparable)\n"
             "  --ppm FILE         same as a binary PPM\n"
-            "  --json             print statistics as JSON on stdout\n" RT_RENDER_OPTS_HELP
+            "  --json             print statistics as JSON on stdout (with the scene's warnings)\n"
+            "  --strict           refuse a scene whose loading warned (a skipped or\n"
+            "                     approximated feature)\n");
+    rt_cmd_render_help(f, RT_OC_RENDER);
+    fprintf(f,
             "  -h, --help         this help\n\n"
             "Statistics (stderr, or JSON): rays traced, nodes visited and triangles tested\n"
             "per ray, and the distinct triangles tested by primary rays and by all rays\n"
@@ -63,6 +68,8 @@ void rt_print_run_stats(FILE *f, const rt_job *j, const rt_run_stats *st, int js
             fputs(", \"extra\": ", f);
             rt_cmd_json_str(f, st->extra);
         }
+        fputs(", ", f);
+        rt_cmd_json_warnings(f, j->sc);
         fputs("}\n", f);
         return;
     }
@@ -85,6 +92,7 @@ int main_render(int argc, char **argv)
         {"ppm", required_argument, NULL, 'p'},
         {"png", required_argument, NULL, 'g'},
         {"json", no_argument, NULL, 'j'},
+        {"strict", no_argument, NULL, 'S'},
         {"material", required_argument, NULL, 'M'},
         {"heatmap", required_argument, NULL, 'K'},
         {"help", no_argument, NULL, 'h'},
@@ -95,11 +103,12 @@ int main_render(int argc, char **argv)
     o.film = RT_FILM_W | RT_FILM_H; /* a pbrt scene's Film sets the size -W/-H do not */
     const char *material = NULL;
     const char *tracer = "recursive", *out = NULL, *ppm = NULL, *png = NULL, *heat = NULL;
-    int json = 0, c, rc = RT_EXIT_FAIL;
-    struct option *lo = rt_cmd_merge_opts(own);
+    int json = 0, strict = 0, c, rc = RT_EXIT_FAIL;
+    struct option *lo = rt_cmd_longopts(RT_OC_RENDER, own);
+    char so[32];
     if (!lo) return RT_EXIT_FAIL;
     optind = 1;
-    while ((c = getopt_long(argc, argv, "o:h" RT_RENDER_SHORTOPTS, lo, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, rt_cmd_shortopts(RT_OC_RENDER, "o:h", so, sizeof so), lo, NULL)) != -1) {
         int r = rt_cmd_render_opt("render", c, optarg, &o, &tracer);
         if (r < 0) goto usage_err;
         if (r > 0) continue;
@@ -116,6 +125,7 @@ int main_render(int argc, char **argv)
         case 'g': png = optarg; break;
         case 'K': heat = optarg; break;
         case 'j': json = 1; break;
+        case 'S': strict = 1; break;
         case 'h': usage(stdout); free(lo); return RT_EXIT_OK;
         default: goto usage_err;
         }
@@ -153,7 +163,17 @@ int main_render(int argc, char **argv)
          * limit: only the scene reveals them) are usage errors */
         return e.usage ? RT_EXIT_USAGE : RT_EXIT_FAIL;
     }
-    if (j.sc->warning[0]) rt_cmd_error("render", "warning: %s", j.sc->warning);
+    /* -W and -H both given (no size left to the Film) on a film of another aspect */
+    if (!o.film && rt_scene_fit_film(j.sc, j.opt.W, j.opt.H, &e) < 0) {
+        rt_cmd_error("render", "%s", e.msg);
+        rt_job_free(&j);
+        return RT_EXIT_FAIL;
+    }
+    if (strict && rt_cmd_strict("render", j.sc) < 0) {
+        rt_job_free(&j);
+        return RT_EXIT_FAIL;
+    }
+    rt_cmd_print_warnings("render", j.sc);
     o.W = j.opt.W; /* the scene's Film may have set them */
     o.H = j.opt.H;
     rt_scene_fit_aspect(j.sc, o.W, o.H); /* tall images: keep the whole mesh in view */

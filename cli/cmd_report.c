@@ -6,6 +6,12 @@
  * analysis/ (analysis.h), which writes to stdout through the FILE * it is
  * given and returns errors that this file prints. The database is opened
  * read-only.
+ *
+ * One rule for every figure: what is to be shown is written to a
+ * temporary stream first and copied to stdout only when the whole report
+ * succeeded, so a report with nothing to show (no runs, no run of the
+ * figure's scene, no approximate run) or one that fails half-way prints
+ * one line on stderr, exits 1 and writes nothing on stdout.
  */
 #include "analysis.h"
 #include "experiment.h"
@@ -35,7 +41,14 @@ static void usage(FILE *f)
             "                     treelet: treelet vs recursive on the BVH, dynamic vs recursive\n"
             "                     on the k-d tree, traffic split geometry/ray/stack/queue (--plot)\n"
             "  --scene NAME       only this scene (figures 4-9 map room, grove, sphereflake)\n"
-            "  --format md|csv    Markdown tables (default) or CSV\n"
+            "  --format md|csv|json  Markdown tables (default); for figures 4-9 (and all),\n"
+            "                     csv and json write tidy tables: one row per run x cache size\n"
+            "                     x class, every configuration column, bytes in full precision,\n"
+            "                     one table per figure (csv on stdout only for one --figure N;\n"
+            "                     json: one object holding them all); other figures: csv\n"
+            "  --out DIR          with --format csv|json: one file per table in DIR\n"
+            "                     (figureN-SCENE, primary-SCENE / shadows-SCENE for other\n"
+            "                     scenes, scenes.csv)\n"
             "  -W N, -H N         resolution to report (default: the largest in the database)\n"
             "  --total            figures 7-9 on total instead of geometry traffic\n"
             "  --compare-paper    our values beside the paper's, with ratios and findings, and\n"
@@ -47,7 +60,10 @@ static void usage(FILE *f)
             "  --layout L         with --model: that model's runs in layout L (compact, mesh,\n"
             "                     pbrt, pbrt64) instead of the model's own\n"
             "  --plot DIR         traffic-vs-cache-size plots (PNG, SVG; gnuplot) and scenes.png\n"
-            "  --speed-error      speed against error of approximate simulation\n"
+            "  --speed-error      speed against error of approximate simulation and reduced\n"
+            "                     experiments, with the standard errors of hybrid runs\n"
+            "  --appendix         the diagnostics appendix (the same as --speed-error; run.sh\n"
+            "                     writes it to appendix.md, beside report.md)\n"
             "  -h, --help         this help\n");
 }
 
@@ -60,10 +76,12 @@ int main_report(int argc, char **argv)
         {"plot", required_argument, NULL, 'p'},     {"speed-error", no_argument, NULL, 'e'},
         {"width", required_argument, NULL, 'W'},    {"height", required_argument, NULL, 'H'},
         {"model", required_argument, NULL, 'm'},    {"layout", required_argument, NULL, 'L'},
+        {"appendix", no_argument, NULL, 'A'},      {"out", required_argument, NULL, 'o'},
         {"help", no_argument, NULL, 'h'},           {NULL, 0, NULL, 0},
     };
     rt_report_opts o = {0};
-    const char *dbpath = "raytraffic.db", *figure = "all", *plotdir = NULL;
+    const char *dbpath = "raytraffic.db", *figure = "all", *plotdir = NULL, *outdir = NULL;
+    int json = 0;
     int compare = 0, speed = 0, c;
     optind = 1;
     while ((c = getopt_long(argc, argv, "hW:H:", lo, NULL)) != -1) {
@@ -95,8 +113,9 @@ int main_report(int argc, char **argv)
             break;
         case 'F':
             if (!strcmp(optarg, "csv")) o.csv = 1;
+            else if (!strcmp(optarg, "json")) json = 1;
             else if (strcmp(optarg, "md")) {
-                rt_cmd_error("report", "--format: '%s' is not md or csv", optarg);
+                rt_cmd_error("report", "--format: '%s' is not md, csv or json", optarg);
                 return RT_EXIT_USAGE;
             }
             break;
@@ -104,6 +123,8 @@ int main_report(int argc, char **argv)
         case 'c': compare = 1; break;
         case 'p': plotdir = optarg; break;
         case 'e': speed = 1; break;
+        case 'A': speed = 1; break;
+        case 'o': outdir = optarg; break;
         case 'W':
         case 'H': {
             long v;
@@ -122,6 +143,20 @@ int main_report(int argc, char **argv)
         rt_cmd_error("report", "unexpected argument '%s'", argv[optind]);
         return RT_EXIT_USAGE;
     }
+    int tidy = (o.csv || json) && !speed && (!strcmp(figure, "all") || (strlen(figure) == 1 && figure[0] >= '4'));
+    if (json && !tidy) {
+        rt_cmd_error("report", "--format json: only figures 4-9 (and all) have tidy tables");
+        return RT_EXIT_USAGE;
+    }
+    if (outdir && !tidy) {
+        rt_cmd_error("report", "--out needs --format csv or json and figures 4-9 (or all)");
+        return RT_EXIT_USAGE;
+    }
+    if (tidy && !json && !outdir && !strcmp(figure, "all")) {
+        rt_cmd_error("report", "--format csv writes one table per figure: give --out DIR for all of them, or --figure N "
+                               "for one on stdout");
+        return RT_EXIT_USAGE;
+    }
     if (o.layout && !o.model) {
         rt_cmd_error("report", "--layout needs --model");
         return RT_EXIT_USAGE;
@@ -130,7 +165,7 @@ int main_report(int argc, char **argv)
     sqlite3 *h;
     if (rt_report_db_open(dbpath, &h, &e) < 0) {
         rt_cmd_error("report", "%s", e.msg);
-        return RT_EXIT_FAIL;
+        return e.usage ? RT_EXIT_USAGE : RT_EXIT_FAIL;
     }
     char gp[4096];
     rt_plot_opts po = {plotdir, NULL, stderr};
@@ -140,28 +175,49 @@ int main_report(int argc, char **argv)
             rt_cmd_error("report", "gnuplot not found (apt-get install gnuplot-nox): writing data files only, no plots");
     }
     rt_report R;
+    FILE *out = tmpfile();
+    if (!out) {
+        rt_cmd_error("report", "cannot make a temporary file for the report");
+        sqlite3_close(h);
+        return RT_EXIT_FAIL;
+    }
     int rc = rt_report_init(&R, h, dbpath, &o, &e);
     if (rc == 0 && speed) {
-        rc = rt_report_speed_error(h, o.csv, plotdir ? &po : NULL, stdout, &e);
+        rc = rt_report_speed_error(h, o.csv, plotdir ? &po : NULL, out, &e);
     } else if (rc == 0 && !strcmp(figure, "purcell")) {
-        rc = rt_report_purcell(h, o.scene, o.csv, compare, plotdir ? &po : NULL, stdout, &e);
+        rc = rt_report_purcell(h, o.scene, o.csv, compare, plotdir ? &po : NULL, out, &e);
     } else if (rc == 0 && !strcmp(figure, "feedback")) {
-        rc = rt_report_feedback(h, o.scene, o.csv, plotdir ? &po : NULL, stdout, &e);
+        rc = rt_report_feedback(h, o.scene, o.csv, plotdir ? &po : NULL, out, &e);
     } else if (rc == 0 && !strcmp(figure, "accel")) {
-        rc = rt_report_accel(h, o.scene, o.csv, plotdir ? &po : NULL, stdout, &e);
+        rc = rt_report_accel(h, o.scene, o.csv, plotdir ? &po : NULL, out, &e);
     } else if (rc == 0 && !strcmp(figure, "treelet")) {
-        rc = rt_report_treelet(h, dbpath, o.scene, o.csv, plotdir ? &po : NULL, stdout, &e);
+        rc = rt_report_treelet(h, dbpath, o.scene, o.csv, plotdir ? &po : NULL, out, &e);
     } else if (rc == 0 && !strcmp(figure, "secondary")) {
-        rc = rt_report_secondary(h, dbpath, o.csv, plotdir ? &po : NULL, stdout, &e);
+        rc = rt_report_secondary(h, dbpath, o.csv, plotdir ? &po : NULL, out, &e);
     } else if (rc == 0 && !R.nscenes) {
         snprintf(e.msg, sizeof e.msg, "%s: no runs%s", dbpath, o.scene ? " for that scene" : "");
         rc = -1;
+    } else if (rc == 0 && tidy) {
+        rc = rt_report_tidy(&R, figure, json, outdir, stderr, out, &e);
     } else if (rc == 0) {
-        rc = rt_report_tables(&R, figure, stdout, &e);
-        if (rc == 0 && compare) rc = rt_report_compare_paper(&R, stdout, &e);
+        rc = rt_report_tables(&R, figure, out, &e);
+        if (rc == 0 && compare) rc = rt_report_compare_paper(&R, out, &e);
         if (rc == 0 && plotdir) rc = rt_plot_traffic(&R, &po, &e);
         if (rc == 0 && plotdir) rc = rt_plot_scenes(&R, &po, &e);
     }
+    /* the report reaches stdout whole, or not at all */
+    if (rc == 0) {
+        char buf[65536];
+        size_t n;
+        rewind(out);
+        while ((n = fread(buf, 1, sizeof buf, out)) > 0)
+            if (fwrite(buf, 1, n, stdout) != n) break;
+        if (ferror(out) || fflush(stdout) != 0 || ferror(stdout)) {
+            snprintf(e.msg, sizeof e.msg, "write error on the standard output");
+            rc = -1;
+        }
+    }
+    fclose(out);
     if (rc < 0) rt_cmd_error("report", "%s", e.msg);
     rt_report_free(&R);
     sqlite3_close(h);

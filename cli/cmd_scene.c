@@ -1,17 +1,17 @@
 /*
  * cmd_scene.c -- `raytraffic scene`: list the built-in scenes, describe a
  * scene (triangles, bounds, identity hash, camera, lights and the statistics
- * of its SAH k-d tree; the build time and footprint of each acceleration
- * structure), and export a scene as OBJ.
+ * of its SAH k-d tree; the build time and footprint of the acceleration
+ * structures asked for, built by the accel layer: rt_accel_survey), and
+ * export a scene as OBJ.
  *
  *   raytraffic scene list
- *   raytraffic scene info SCENE [--json] [--no-tree] [--accel A]
+ *   raytraffic scene info SCENE [--json] [--no-tree] [--accel LIST]
  *   raytraffic scene export SCENE -o FILE.obj
  */
 #include "config.h"
 #include "accel.h"
 #include "cmd.h"
-#include "kdtree.h"
 #include "scene.h"
 #include "scene_load.h"
 
@@ -23,21 +23,25 @@ static void usage(FILE *f)
 {
     fprintf(f,
             "Usage: raytraffic scene list\n"
-            "       raytraffic scene info SCENE [--json] [--no-tree] [--accel A] [VIEW]\n"
+            "       raytraffic scene info SCENE [--json] [--no-tree] [--accel LIST] [--strict] [VIEW]\n"
             "       raytraffic scene export SCENE -o FILE.obj [VIEW]\n\n"
             "SCENE is a built-in name with optional parameters (sphereflake:level=2,tess=3)\n"
             "or a scene file ending in .obj, .ply or .pbrt.\n\n"
             "  list      built-in scenes, their parameters and one-line descriptions\n"
             "  info      triangles, bounds, scene hash, camera, lights and k-d tree statistics\n"
-            "            --json     one JSON object on stdout\n"
-            "            and per acceleration structure (kd, bvh2, bvh4, bvh8) its build\n"
-            "            time, nodes, modeled bytes (nodes and index lists) and depth\n"
-            "            --accel A  only structure A (kd, bvh2, bvh4, bvh8, grid, naive)\n"
-            "            --no-tree  build no structure\n"
+            "            and per acceleration structure built its build time, nodes,\n"
+            "            modeled bytes (nodes and index lists) and depth\n"
+            "            --json     one JSON object on stdout (warnings included)\n"
+            "            --strict   refuse a scene whose loading warned\n"
+            "            --accel LIST  the structures to build: a comma list of\n"
+            "                       %s, or all, or none\n"
+            "                       (default %s, the default structure)\n"
+            "            --no-tree  build no structure (same as --accel none)\n"
             "  export    write the scene's triangles as Wavefront OBJ\n"
             "            -o FILE    output file (required)\n\n"
             "VIEW replaces the scene's camera and lights, as for render:\n"
-            "  --look-at EX,EY,EZ,AX,AY,AZ[,UX,UY,UZ]   --fov DEGREES   --light X,Y,Z[,POWER] (up to 3)\n");
+            "  --look-at EX,EY,EZ,AX,AY,AZ[,UX,UY,UZ]   --fov DEGREES   --light X,Y,Z[,POWER] (up to 3)\n",
+            rt_accel_names(), rt_accel_name(rt_tracer_reference()->accel_default));
 }
 
 static int cmd_list(int argc, char **argv)
@@ -75,18 +79,14 @@ static void json_vec(const char *key, rt_vec3 v, int comma)
  * advanced), 0 not one of them, -1 usage error (printed). */
 static int view_opt(int argc, char **argv, int *i, rt_render_opts *o)
 {
-    static const struct {
-        const char *name;
-        int code;
-    } vo[] = {{"--look-at", RT_OPT_LOOK_AT}, {"--fov", RT_OPT_FOV}, {"--light", RT_OPT_LIGHT}};
+    static const char *const vo[] = {"--look-at", "--fov", "--light"};
     for (size_t k = 0; k < sizeof vo / sizeof vo[0]; k++) {
-        if (strcmp(argv[*i], vo[k].name)) continue;
+        if (strcmp(argv[*i], vo[k])) continue;
         if (*i + 1 >= argc) {
-            rt_cmd_error("scene", "%s needs a value", vo[k].name);
+            rt_cmd_error("scene", "%s needs a value", vo[k]);
             return -1;
         }
-        const char *tracer = NULL;
-        if (rt_cmd_render_opt("scene", vo[k].code, argv[++*i], o, &tracer) < 0) return -1;
+        if (rt_cmd_render_opt_named("scene", vo[k], argv[++*i], o) < 0) return -1;
         return 1;
     }
     return 0;
@@ -112,25 +112,28 @@ static int cmd_info(int argc, char **argv)
         return RT_EXIT_OK;
     }
     const char *spec = NULL;
-    int json = 0, tree = 1, only = 0, v;
+    rt_err e = {0};
+    int json = 0, strict = 0, v;
+    /* the default: the reference tracer's structure; --accel LIST, all or none */
+    unsigned mask = RT_ACCEL_BIT(rt_tracer_reference()->accel_default);
     rt_render_opts vo;
     rt_render_default_opts(&vo);
     for (int i = 1; i < argc; i++) {
         if ((v = view_opt(argc, argv, &i, &vo)) != 0) {
             if (v < 0) return RT_EXIT_USAGE;
         } else if (!strcmp(argv[i], "--json")) json = 1;
+        else if (!strcmp(argv[i], "--strict")) strict = 1;
         else if (!strcmp(argv[i], "--accel")) {
             if (i + 1 >= argc) {
                 rt_cmd_error("scene", "info: --accel needs a structure (%s)", rt_accel_names());
                 return RT_EXIT_USAGE;
             }
-            only = rt_accel_from_name(argv[++i]);
-            if (only <= 0) {
-                rt_cmd_error("scene", "info: --accel: unknown structure '%s' (%s)", argv[i], rt_accel_names());
+            if (rt_accel_parse_mask(argv[++i], &mask, &e) < 0) {
+                rt_cmd_error("scene", "info: --accel: %s", e.msg);
                 return RT_EXIT_USAGE;
             }
         }
-        else if (!strcmp(argv[i], "--no-tree")) tree = 0;
+        else if (!strcmp(argv[i], "--no-tree")) mask = 0;
         else if (argv[i][0] == '-' && argv[i][1]) {
             rt_cmd_error("scene", "info: unknown option '%s'", argv[i]);
             return RT_EXIT_USAGE;
@@ -143,42 +146,26 @@ static int cmd_info(int argc, char **argv)
         rt_cmd_error("scene", "info: no scene given (see 'raytraffic scene --help')");
         return RT_EXIT_USAGE;
     }
-    rt_err e = {0};
     double t0 = rt_now();
     rt_scene *s = load_viewed(spec, &vo);
     if (!s) return RT_EXIT_FAIL;
     double load_sec = rt_now() - t0;
-    if (s->warning[0]) rt_cmd_error("scene", "warning: %s", s->warning);
-    rt_kdtree *kd = NULL;
-    if (tree && (!only || only == RT_ACCEL_KD)) {
-        rt_kd_params kp;
-        rt_kd_default_params(&kp);
-        kd = rt_kd_build(s, &kp, &e);
-        if (!kd) {
-            rt_cmd_error("scene", "%s: k-d tree: %s", spec, e.msg);
-            rt_scene_free(s);
-            return RT_EXIT_FAIL;
-        }
+    if (strict && rt_cmd_strict("scene", s) < 0) {
+        rt_scene_free(s);
+        return RT_EXIT_FAIL;
     }
-    /* the structures: kd (built above) and the BVHs, or the one asked for */
-    static const int kinds[] = {RT_ACCEL_KD, RT_ACCEL_BVH2, RT_ACCEL_BVH4, RT_ACCEL_BVH8};
-    rt_accel acc[RT_ACCEL_NKINDS];
-    rt_accel_info inf[RT_ACCEL_NKINDS];
-    int nacc = 0;
-    for (int k = 0; tree && k < (only ? 1 : 4); k++) {
-        const int kind = only ? only : kinds[k];
-        if (kind == RT_ACCEL_KD) rt_accel_wrap(&acc[nacc], kind, kd, kd->build_sec);
-        else if (rt_accel_build(&acc[nacc], kind, s, NULL, &e) < 0) {
-            rt_cmd_error("scene", "%s: %s: %s", spec, rt_accel_name(kind), e.msg);
-            for (int j = 0; j < nacc; j++)
-                if (acc[j].kind != RT_ACCEL_KD) rt_accel_free(&acc[j]);
-            rt_kd_free(kd);
-            rt_scene_free(s);
-            return RT_EXIT_FAIL;
-        }
-        rt_accel_info_of(&acc[nacc], &inf[nacc]);
-        nacc++;
+    if (!json) rt_cmd_print_warnings("scene", s); /* --json: in the object */
+    /* the structures asked for, built by the accel layer one at a time */
+    rt_accel_survey_row inf[RT_ACCEL_NKINDS];
+    int nacc = rt_accel_survey(s, mask, NULL, inf, &e);
+    if (nacc < 0) {
+        rt_cmd_error("scene", "%s: %s", spec, e.msg);
+        rt_scene_free(s);
+        return RT_EXIT_FAIL;
     }
+    const rt_accel_survey_row *kd = NULL;
+    for (int j = 0; j < nacc; j++)
+        if (inf[j].has_kd) kd = &inf[j];
     uint64_t h = rt_scene_hash(s);
     if (json) {
         printf("{\n  \"spec\": ");
@@ -218,20 +205,22 @@ static int cmd_info(int argc, char **argv)
             printf("\n  ],\n");
         }
         printf("  \"light_power\": %.9g,\n  \"ambient\": %.9g,\n", (double)s->light_power, (double)s->ambient);
-        printf("  \"load_sec\": %.6f", load_sec);
+        printf("  ");
+        rt_cmd_json_warnings(stdout, s);
+        printf(",\n  \"load_sec\": %.6f", load_sec);
         if (kd) {
             printf(",\n  \"kd\": {\"nodes\": %u, \"leaves\": %u, \"empty_leaves\": %u, \"depth\": %u, "
                    "\"index_entries\": %u, \"mean_leaf_tris\": %.4f, \"max_leaf_tris\": %u, \"build_sec\": %.6f}",
-                   kd->nnodes, kd->nleaves, kd->nempty, kd->maxdepth, kd->nidx, rt_kd_mean_leaf_tris(kd),
-                   kd->maxleaf, kd->build_sec);
+                   (unsigned)kd->info.nodes, kd->kd_leaves, kd->kd_empty, kd->info.depth, kd->kd_entries,
+                   kd->kd_mean_leaf, kd->kd_max_leaf, kd->build_sec);
         }
         if (nacc) {
             printf(",\n  \"accel\": [");
             for (int j = 0; j < nacc; j++)
                 printf("%s\n    {\"name\": \"%s\", \"build_sec\": %.6f, \"nodes\": %" PRIu64 ", \"bytes\": %" PRIu64
                        ", \"depth\": %u}",
-                       j ? "," : "", rt_accel_name(acc[j].kind), acc[j].build_sec, inf[j].nodes, inf[j].bytes,
-                       inf[j].depth);
+                       j ? "," : "", rt_accel_name(inf[j].kind), inf[j].build_sec, inf[j].info.nodes, inf[j].info.bytes,
+                       inf[j].info.depth);
             printf("\n  ]");
         }
         printf("\n}\n");
@@ -269,21 +258,18 @@ static int cmd_info(int argc, char **argv)
         if (s->nmat > 1) rt_scene_describe_materials(s, stdout);
         printf("load time    %.3f s\n", load_sec);
         if (kd) {
-            printf("kd nodes     %u\n", kd->nnodes);
-            printf("kd leaves    %u (%u empty)\n", kd->nleaves, kd->nempty);
-            printf("kd depth     %u\n", kd->maxdepth);
-            printf("kd entries   %u\n", kd->nidx);
-            printf("kd leaf tris mean %.2f (non-empty leaves), max %u\n", rt_kd_mean_leaf_tris(kd), kd->maxleaf);
+            printf("kd nodes     %u\n", (unsigned)kd->info.nodes);
+            printf("kd leaves    %u (%u empty)\n", kd->kd_leaves, kd->kd_empty);
+            printf("kd depth     %u\n", kd->info.depth);
+            printf("kd entries   %u\n", kd->kd_entries);
+            printf("kd leaf tris mean %.2f (non-empty leaves), max %u\n", kd->kd_mean_leaf, kd->kd_max_leaf);
             printf("kd build     %.3f s\n", kd->build_sec);
         }
         if (nacc) printf("structure    build s        nodes          bytes  depth\n");
         for (int j = 0; j < nacc; j++)
-            printf("  %-8s %9.3f %12" PRIu64 " %14" PRIu64 " %6u\n", rt_accel_name(acc[j].kind), acc[j].build_sec,
-                   inf[j].nodes, inf[j].bytes, inf[j].depth);
+            printf("  %-8s %9.3f %12" PRIu64 " %14" PRIu64 " %6u\n", rt_accel_name(inf[j].kind), inf[j].build_sec,
+                   inf[j].info.nodes, inf[j].info.bytes, inf[j].info.depth);
     }
-    for (int j = 0; j < nacc; j++)
-        if (acc[j].kind != RT_ACCEL_KD) rt_accel_free(&acc[j]);
-    rt_kd_free(kd);
     rt_scene_free(s);
     return RT_EXIT_OK;
 }

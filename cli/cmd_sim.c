@@ -8,8 +8,10 @@
 #include "approx.h"
 #include "cmd.h"
 #include "experiment.h"
+#include "outfile.h"
 #include "rows.h"
 #include "sim.h"
+#include "hier.h"
 #include "trace.h"
 
 #include <errno.h>
@@ -30,6 +32,8 @@ typedef struct sim_opts {
     int rate_given;     /* --rate seen */
     int threads;        /* replay threads: 1, or 2 to decode beside the simulator */
     unsigned given;     /* bit (1 << O_x) for every option seen, to refuse those that do not apply */
+    const char *hier;   /* --hierarchy spec, or NULL */
+    rt_hier_config hc;  /* parsed from it */
 } sim_opts;
 
 static void usage(FILE *f)
@@ -37,12 +41,20 @@ static void usage(FILE *f)
     fprintf(f,
             "Usage: raytraffic sim [options] TRACE...\n\n"
             "Replays each trace (raytraffic .rtt or Dinero IV din text) once through a\n"
-            "set of LRU caches and reports per-class accesses, misses, write-backs and\n"
+            "set of caches (LRU unless --repl) and reports per-class accesses, misses, write-backs and\n"
             "DRAM traffic for every cache size.\n\n"
             "Options:\n"
             "  --sizes LIST           1K-4M (powers of two) or 1K,2K,64K (default 1K-4M)\n"
             "  --line N               line size in bytes, any value (default 64)\n"
             "  --assoc full|N         fully associative (default) or N ways; 1 = direct-mapped\n"
+            "  --repl P               replacement policy (default lru), one of\n"
+            "                         %s; --seed seeds random choices\n"
+            "  --hierarchy SPEC       caches in levels, from the core outward, instead of\n"
+            "                         --sizes/--line/--assoc/--repl and the write options:\n"
+            "                         NAME=SIZE[S]/WAYS|full/LINE/POLICY[/wt][/nwa],...\n"
+            "                         e.g. L1=32K/8/64/lru,L2=1M/16/64/srrip,LLC=1K-4M/full/64/lru\n"
+            "                         (only the last level may have several sizes: A-B or\n"
+            "                         A+B+C); rows per level, DRAM = the last level\n"
             "  --write-through        write-through instead of write-back\n"
             "  --no-write-allocate    write misses do not allocate (write around)\n"
             "  --flush                write back the lines still dirty at the end, as\n"
@@ -81,7 +93,8 @@ static void usage(FILE *f)
             "writebacks wt_bytes traffic_bytes; one row per size and class, then group rows\n"
             "(geometry, ray, other). accesses counts line touches (a reference spanning k\n"
             "lines is k accesses), not references. assoc 0 = fully associative. Accounting\n"
-            "and units: docs/cachesim.md. Exit status 0 ok, 1 a trace failed, 2 usage error.\n");
+            "and units: docs/cachesim.md. Exit status 0 ok, 1 a trace failed, 2 usage error.\n",
+            rt_sim_repl_list());
 }
 
 /* Whether the output has the traffic_se column: the hybrid method, errors
@@ -112,11 +125,12 @@ static void print_row(FILE *f, int fmt, const char *trace, const rt_sim_config *
                 c->line, c->assoc, name, v[0], v[1], v[2], v[3], v[4], v[5], with_se ? "," : "", sec);
     } else {
         fprintf(f,
-                "%s\n  {\"trace\": \"%s\", \"size_bytes\": %llu, \"line\": %u, \"assoc\": %u, \"policy\": \"%s\", "
+                "%s\n  {\"trace\": \"%s\", \"size_bytes\": %llu, \"line\": %u, \"assoc\": %u, \"policy\": \"%s\", %s%s%s"
                 "\"class\": \"%s\", \"accesses\": %llu, \"read_misses\": %llu, \"write_misses\": %llu, "
                 "\"writebacks\": %llu, \"wt_bytes\": %llu, \"traffic_bytes\": %llu%s%s}",
                 *first ? "" : ",", trace, (unsigned long long)c->sizes[i], c->line, c->assoc,
-                rt_sim_policy_name(c), name, v[0], v[1], v[2], v[3], v[4], v[5],
+                rt_sim_policy_name(c), c->repl ? "\"repl\": \"" : "", c->repl ? rt_sim_repl_name(c->repl) : "",
+                c->repl ? "\", " : "", name, v[0], v[1], v[2], v[3], v[4], v[5],
                 with_se ? ", \"traffic_se_bytes\": " : "", sec);
         *first = 0;
     }
@@ -129,8 +143,11 @@ static void print_header(FILE *f, const char *trace, const rt_approx *ap)
     const rt_approx_config *ac = rt_approx_get_approx_config(ap);
     char params[160];
     rt_approx_params(ac, params, sizeof params);
-    fprintf(f, "# %s: %llu references (accesses below are line touches), policy %s, engine %s%s%s\n", trace, (unsigned long long)rt_approx_refs(ap),
-            rt_sim_policy_name(c), rt_approx_engine(ap), ac->method == RT_APPROX_EXACT ? "" : " ", params);
+    char repl[48] = ""; /* LRU keeps the line it always had */
+    if (c->repl) snprintf(repl, sizeof repl, ", replacement %s", rt_sim_repl_name(c->repl));
+    fprintf(f, "# %s: %llu references (accesses below are line touches), policy %s%s, engine %s%s%s\n", trace,
+            (unsigned long long)rt_approx_refs(ap), rt_sim_policy_name(c), repl, rt_approx_engine(ap),
+            ac->method == RT_APPROX_EXACT ? "" : " ", params);
     if (ac->method != RT_APPROX_EXACT) {
         rt_approx_stats st;
         rt_approx_get_stats(ap, &st);
@@ -235,6 +252,7 @@ static int store(rt_db *db, const char *path, const rt_approx *ap, const rt_tr_m
     r.refs = in->refs;
     r.command = rt_cmd_line();
     r.wall_time = secs;
+    r.repl = c->repl ? rt_sim_repl_name(c->repl) : NULL; /* the run key's replacement policy */
     int64_t id = 0;
     /* an empty trace measured nothing: storing it would look like a result */
     if (in->refs == 0) {
@@ -277,7 +295,8 @@ static int store(rt_db *db, const char *path, const rt_approx *ap, const rt_tr_m
 }
 
 enum { O_SIZES = 1, O_LINE, O_ASSOC, O_WT, O_NWA, O_INFMT, O_DINCLS, O_DB, O_FMT, O_METHOD, O_RATE, O_SMAX,
-       O_SEED, O_EXACT_BELOW, O_WINDOW_BELOW, O_PERIOD, O_WINDOW, O_FLUSH, O_FULLLINE, O_THREADS, O_NOERR };
+       O_SEED, O_EXACT_BELOW, O_WINDOW_BELOW, O_PERIOD, O_WINDOW, O_FLUSH, O_FULLLINE, O_THREADS, O_NOERR,
+       O_REPL, O_HIER };
 static const struct option longopts[] = {
     {"sizes", required_argument, NULL, O_SIZES},
     {"line", required_argument, NULL, O_LINE},
@@ -300,6 +319,8 @@ static const struct option longopts[] = {
     {"write-fullline", no_argument, NULL, O_FULLLINE},
     {"threads", required_argument, NULL, O_THREADS},
     {"no-error", no_argument, NULL, O_NOERR},
+    {"repl", required_argument, NULL, O_REPL},
+    {"hierarchy", required_argument, NULL, O_HIER},
     {"help", no_argument, NULL, 'h'},
     {NULL, 0, NULL, 0},
 };
@@ -334,6 +355,13 @@ static int parse_opt(sim_opts *o, int ch, const char *arg, const char *argv_opt)
             return -1;
         } else o->cfg.assoc = (uint32_t)v;
         return 0;
+    case O_REPL:
+        if (rt_sim_repl_parse(arg, &o->cfg.repl, &err)) {
+            rt_cmd_error("sim", "--repl: %s", err.msg);
+            return -1;
+        }
+        return 0;
+    case O_HIER: o->hier = arg; return 0;
     case O_WT: o->cfg.write_through = 1; return 0;
     case O_NWA: o->cfg.no_write_allocate = 1; return 0;
     case O_FLUSH: o->cfg.flush = 1; return 0;
@@ -354,7 +382,15 @@ static int parse_opt(sim_opts *o, int ch, const char *arg, const char *argv_opt)
             return -1;
         }
         return 0;
-    case O_DB: o->db = arg; return 0;
+    case O_DB: {
+        rt_err ne = {0};
+        if (rt_open_target(arg, RT_TARGET_DB, &ne) < 0 && ne.usage) { /* the name; the file is checked when opened */
+            rt_cmd_error("sim", "--db: %s", ne.msg);
+            return -1;
+        }
+        o->db = arg;
+        return 0;
+    }
     case O_FMT: return (o->outfmt = pick("format", arg, outfmts, "text, csv or json")) < 0 ? -1 : 0;
     case O_METHOD:
         if ((o->ac.method = rt_approx_method_from_name(arg)) < 0) {
@@ -394,7 +430,7 @@ static const struct {
     {O_RATE, 1u << RT_APPROX_SHARDS_RATE | 1u << RT_APPROX_STATSTACK | 1u << RT_APPROX_HYBRID,
      "shards, statstack and hybrid"},
     {O_SMAX, 1u << RT_APPROX_SHARDS_FIXED, "shards-fixed"},
-    {O_SEED, ~(1u << RT_APPROX_EXACT), "the sampled methods"},
+    {O_SEED, ~0u, "the sampled methods and --repl random|brrip"},
     {O_EXACT_BELOW, ~(1u << RT_APPROX_EXACT), "the sampled methods"},
     {O_WINDOW_BELOW, 1u << RT_APPROX_HYBRID, "hybrid"},
     {O_PERIOD, 1u << RT_APPROX_HYBRID, "hybrid"},
@@ -415,6 +451,24 @@ static int check_applies(const sim_opts *o)
                          method_opts[i].which);
             return -1;
         }
+    if ((o->given >> O_SEED & 1) && o->ac.method == RT_APPROX_EXACT && !rt_sim_repl_random(o->cfg.repl)) {
+        rt_cmd_error("sim", "--seed does not apply to --method exact with --repl %s (only to the sampled methods "
+                            "and to --repl random|brrip)", rt_sim_repl_name(o->cfg.repl));
+        return -1;
+    }
+    if (o->hier) {
+        static const int in_spec[] = {O_SIZES, O_LINE, O_ASSOC, O_REPL, O_WT, O_NWA};
+        for (size_t i = 0; i < sizeof in_spec / sizeof in_spec[0]; i++)
+            if (o->given >> in_spec[i] & 1) {
+                rt_cmd_error("sim", "--%s does not apply with --hierarchy (each level gives its own)",
+                             longopts[in_spec[i] - O_SIZES].name);
+                return -1;
+            }
+        if (o->ac.method != RT_APPROX_EXACT) {
+            rt_cmd_error("sim", "--hierarchy needs --method exact");
+            return -1;
+        }
+    }
     if (o->db && (o->given >> O_FMT & 1)) {
         rt_cmd_error("sim", "--format applies to printed output, not to --db (which stores runs)");
         return -1;
@@ -444,17 +498,158 @@ static int parse_args(int argc, char **argv, sim_opts *o)
         if (parse_opt(o, ch, optarg, argv[optind - 1]) < 0) return -1;
         if (ch > 0 && ch < 32) o->given |= 1u << ch;
     }
+    o->cfg.seed = o->ac.seed;
     if (check_applies(o) < 0) return -1;
     if (!o->rate_given) o->ac.rate = rt_approx_default_rate(o->ac.method);
     if (optind >= argc) {
         rt_cmd_error("sim", "no trace given (see --help)");
         return -1;
     }
+    if (o->hier) {
+        if (rt_hier_parse(o->hier, &o->cfg, &o->hc, &err)) {
+            rt_cmd_error("sim", "--hierarchy: %s", err.msg);
+            return -1;
+        }
+        return 0;
+    }
     if (rt_sim_config_check(&o->cfg, &err) || rt_approx_config_check(&o->cfg, &o->ac, &err)) {
         rt_cmd_error("sim", "%s", err.msg);
         return -1;
     }
     return 0;
+}
+
+/* The rows of one hierarchy: per level, size, class (those with accesses)
+ * and group, with the level's name first. */
+static void print_hier(FILE *f, int fmt, const char *trace, const rt_hier *h, int *first)
+{
+    const rt_hier_config *hc = rt_hier_get_config(h);
+    char spec[1024];
+    if (fmt == FMT_TEXT) {
+        fprintf(f, "# %s: %llu references (accesses below are line touches), hierarchy %s, policy %s, non-inclusive\n",
+                trace, (unsigned long long)rt_sim_refs(rt_hier_level(h, 0)), rt_hier_spec(hc, spec, sizeof spec),
+                rt_sim_policy_name(&hc->level[0]));
+        fprintf(f, "%-6s %12s %5s %5s %-6s %-9s %14s %12s %12s %12s %12s %16s\n", "level", "size_bytes", "line", "assoc",
+                "repl", "class", "accesses", "read_misses", "write_misses", "writebacks", "wt_bytes", "traffic_bytes");
+    }
+    for (int k = 0; k < hc->nlevels; k++) {
+        const rt_sim *s = rt_hier_level(h, k);
+        const rt_sim_config *c = &hc->level[k];
+        for (int i = 0; i < c->nsizes; i++)
+            for (int r = 0; r < RT_NCLASS + RT_NGROUP; r++) {
+                rt_sim_counts t;
+                const char *name;
+                if (r < RT_NCLASS) {
+                    rt_sim_get(s, i, r, &t);
+                    if (!t.accesses) continue;
+                    name = rt_class_name(r);
+                } else {
+                    rt_sim_get_group(s, i, r - RT_NCLASS, &t);
+                    name = rt_group_name(r - RT_NCLASS);
+                }
+                unsigned long long v[6] = {t.accesses, t.read_misses, t.write_misses, t.writebacks, t.wt_bytes,
+                                           t.traffic_bytes};
+                char assoc[16];
+                if (c->assoc) snprintf(assoc, sizeof assoc, "%u", c->assoc);
+                else strcpy(assoc, fmt == FMT_TEXT ? "full" : "0");
+                const char *rp = rt_sim_repl_name(c->repl);
+                if (fmt == FMT_TEXT)
+                    fprintf(f, "%-6s %12llu %5u %5s %-6s %-9s %14llu %12llu %12llu %12llu %12llu %16llu\n", hc->name[k],
+                            (unsigned long long)c->sizes[i], c->line, assoc, rp, name, v[0], v[1], v[2], v[3], v[4], v[5]);
+                else if (fmt == FMT_CSV)
+                    fprintf(f, "%s,%s,%llu,%u,%s,%s,%s,%llu,%llu,%llu,%llu,%llu,%llu\n", trace, hc->name[k],
+                            (unsigned long long)c->sizes[i], c->line, assoc, rp, name, v[0], v[1], v[2], v[3], v[4], v[5]);
+                else {
+                    fprintf(f,
+                            "%s\n  {\"trace\": \"%s\", \"level\": \"%s\", \"size_bytes\": %llu, \"line\": %u, \"assoc\": %s, "
+                            "\"repl\": \"%s\", \"policy\": \"%s\", \"class\": \"%s\", \"accesses\": %llu, \"read_misses\": %llu, "
+                            "\"write_misses\": %llu, \"writebacks\": %llu, \"wt_bytes\": %llu, \"traffic_bytes\": %llu}",
+                            *first ? "" : ",", trace, hc->name[k], (unsigned long long)c->sizes[i], c->line, assoc, rp,
+                            rt_sim_policy_name(c), name, v[0], v[1], v[2], v[3], v[4], v[5]);
+                    *first = 0;
+                }
+            }
+    }
+}
+
+/* Stores one hierarchy run: the run keyed by its canonical spec (and the
+ * last level's replacement policy), the last level's rows as its traffic
+ * (what reaches memory; per generation too when the trace has them) and
+ * per-level rows. */
+static int store_hier(rt_db *db, const char *path, const rt_hier *h, const rt_tr_meta *m, const rt_sim_input *in,
+                      double secs, int din_class, rt_err *e)
+{
+    const rt_hier_config *hc = rt_hier_get_config(h);
+    const rt_sim *last = rt_hier_level(h, hc->nlevels - 1);
+    const rt_sim_config *lc = &hc->level[hc->nlevels - 1];
+    if (in->refs == 0) return rt_errf(e, "%s: no references in the trace; nothing stored", path);
+    rt_exp_key k;
+    if (in->has_meta) {
+        memset(&k, 0, sizeof k);
+        rt_exp_run_from_meta(m, &k.run);
+    } else {
+        rt_exp_run_from_din(path, din_class, in->file_hash, &k);
+    }
+    rt_approx_config ac;
+    rt_approx_config_default(&ac);
+    ac.method = RT_APPROX_EXACT;
+    rt_exp_key_method(&k, &ac);
+    char spec[1024];
+    rt_db_run r = k.run;
+    r.trace_hash = in->file_hash;
+    r.refs = in->refs;
+    r.command = rt_cmd_line();
+    r.wall_time = secs;
+    r.repl = lc->repl ? rt_sim_repl_name(lc->repl) : NULL;
+    r.hierarchy = rt_hier_spec(hc, spec, sizeof spec);
+    rt_db_traffic *rows = calloc((size_t)lc->nsizes * RT_NCLASS, sizeof *rows);
+    rt_db_level *lv = calloc(rt_hier_db_level_max(h), sizeof *lv);
+    rt_db_gen *grows = NULL;
+    size_t ng = 0;
+    int rc = -1;
+    if (in->has_meta && m->generations > 0 &&
+        (grows = calloc((size_t)lc->nsizes * RT_NCLASS * RT_MAXGEN, sizeof *grows)))
+        ng = rt_sim_db_gen_rows(last, grows);
+    if (!rows || !lv || (in->has_meta && m->generations > 0 && !grows)) rt_errf(e, "out of memory");
+    else {
+        size_t n = rt_sim_db_rows(last, rows), nl = rt_hier_db_level_rows(h, lv);
+        rt_db_rows R = {rows, n, grows, ng, NULL, 0, lv, nl};
+        int64_t id = 0;
+        rc = rt_db_store(db, &r, &R, &id, e);
+        if (rc == 0)
+            fprintf(stderr, "raytraffic sim: %s: %llu refs in %.2f s, hierarchy %s, %zu rows, %zu level rows, run %lld\n",
+                    path, (unsigned long long)in->refs, secs, spec, n, nl, (long long)id);
+    }
+    free(rows);
+    free(lv);
+    free(grows);
+    return rc;
+}
+
+/* Replays one trace through the hierarchy and prints it. 0 or -1 (printed). */
+static int sim_hier(const sim_opts *o, rt_db *db, const char *path, rt_tr_meta *meta, int *first)
+{
+    rt_err err = {0};
+    double t0 = rt_now();
+    rt_hier *h = rt_hier_new(&o->hc, &err);
+    rt_sim_input in;
+    int rc = -1;
+    memset(meta, 0, sizeof *meta);
+    if (h) {
+        rt_repeats rp;
+        rt_hier_repeats(h, &rp);
+        if (rt_sim_replay_filtered(rt_hier_sink(h), &rp, path, o->infmt, o->din_class, o->threads, meta, &in, &err) == 0) {
+            rt_hier_finish(h);
+            if (db) rc = store_hier(db, path, h, meta, &in, rt_now() - t0, o->din_class, &err);
+            else {
+                print_hier(stdout, o->outfmt, path, h, first);
+                rc = 0;
+            }
+        }
+    }
+    if (rc < 0) rt_cmd_error("sim", "%s", err.msg);
+    rt_hier_free(h);
+    return rc;
 }
 
 /* Replays one trace and prints or stores its counters. 0 or -1 (printed). */
@@ -492,7 +687,7 @@ int main_sim(int argc, char **argv)
     rt_db *db = NULL;
     if (o.db && !(db = rt_db_open(o.db, &err))) {
         rt_cmd_error("sim", "%s", err.msg);
-        return RT_EXIT_FAIL;
+        return err.usage ? RT_EXIT_USAGE : RT_EXIT_FAIL;
     }
     rt_tr_meta *meta = malloc(sizeof *meta);
     if (!meta) {
@@ -501,12 +696,16 @@ int main_sim(int argc, char **argv)
         return RT_EXIT_FAIL;
     }
     int status = RT_EXIT_OK, first = 1;
-    if (!db && o.outfmt == FMT_CSV)
+    if (!db && o.hier && o.outfmt == FMT_CSV)
+        printf("trace,level,size_bytes,line,assoc,repl,class,accesses,read_misses,write_misses,writebacks,wt_bytes,"
+               "traffic_bytes\n");
+    else if (!db && o.outfmt == FMT_CSV)
         printf("trace,size_bytes,line,assoc,class,accesses,read_misses,write_misses,writebacks,wt_bytes,"
                "traffic_bytes%s\n", has_se(&o.ac) ? ",traffic_se_bytes" : "");
     if (!db && o.outfmt == FMT_JSON) printf("[");
     for (int a = optind; a < argc; a++)
-        if (sim_one(&o, db, argv[a], meta, &first) < 0) status = RT_EXIT_FAIL;
+        if ((o.hier ? sim_hier(&o, db, argv[a], meta, &first) : sim_one(&o, db, argv[a], meta, &first)) < 0)
+            status = RT_EXIT_FAIL;
     if (!db && o.outfmt == FMT_JSON) printf("\n]\n");
     free(meta);
     rt_db_close(db);

@@ -43,10 +43,12 @@
 #include "scene_load.h"
 #include "cmd.h"
 #include "experiment.h"
+#include "outfile.h"
 #include "pool.h"
 
 #include <errno.h>
 #include <inttypes.h>
+#include <sqlite3.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -74,6 +76,8 @@ typedef struct sweep_opts {
     int geom_given, qs_given; /* --layout / --queue-stores given (they override the model) */
     int flush, fullline;      /* --flush / --write-fullline: -1 = the model's, else 0/1 */
     int no_error;             /* --no-error: hybrid estimators store no standard errors */
+    const char *scenes_file;  /* --scenes-file: one spec per line (names may hold commas) */
+    char *owned[MAX_LIST];    /* specs made absolute from --scenes-file */
 } sweep_opts;
 
 
@@ -87,6 +91,9 @@ static void usage(FILE *f)
             "                     sphereflake; lighting primary,0,1,2,all; recursive, packet,\n"
             "                     dynamic; sizes 1K-4M\n"
             "  --scenes LIST      comma list of scene specs (overrides the preset)\n"
+            "  --scenes-file FILE  the scene specs one per line instead (a name may hold\n"
+            "                     commas; blank lines and lines starting with # skipped; a\n"
+            "                     relative mesh path is relative to FILE's folder)\n"
             "  --tracers LIST     comma list of tracers\n"
             "  --lights LIST      comma list of lightings: primary, 0, 1, 2, all (with\n"
             "                     --light-samples N: the file's lights 0..31, all = every one)\n"
@@ -94,11 +101,13 @@ static void usage(FILE *f)
             "                     infinite lights (see render --help)\n"
             "  --modes LIST       comma list of render modes: raycast, shadow (default: the\n"
             "                     lighting list as it is, primary = raycast), whitted, path\n"
-            "                     (these two run the lightings with lights, primary skipped)\n"
-            "  --depth N, --spp N, --bounces B  whitted / path parameters (see render --help)\n"
+            "                     (these two run the lightings with lights, primary skipped)\n");
+    rt_cmd_render_help_line(f, "--depth");
+    fprintf(f,
             "  --sizes LIST       cache sizes: 1K-4M (powers of two) or 1K,64K,...\n"
-            "  --line N           line size in bytes (default 64)\n"
-            "  -W N, -H N         image size (overrides the preset and a .pbrt scene's Film)\n"
+            "  --line N           line size in bytes (default 64)\n");
+    rt_cmd_render_help_line(f, "--width");
+    fprintf(f,
             "  --db FILE          results database (default raytraffic.db)\n"
             "  --jobs N           worker processes (default 1)\n"
             "  --keep-traces DIR  also write every job's trace to DIR\n"
@@ -114,30 +123,30 @@ static void usage(FILE *f)
             "  --proxy LIST       also run reduced experiments of every job (exact simulation,\n"
             "                     compared with the full run by report --speed-error): comma\n"
             "                     list of res:N (N pixels wide, same aspect) and sub:K[:T]\n"
-            "                     (trace 1 in K tiles of TxT pixels, T default 8)\n"
-            "  --qorder O, --threads N, --hit-rule R, --qp-measure M  dynamic scheduler options\n"
-            "                     (see render --help)\n"
-            "  --treelet-tris, --ray-window N  treelet scheduler options (see render --help)\n"
+            "                     (trace 1 in K tiles of TxT pixels, T default 8)\n");
+    rt_cmd_render_help_line(f, "--qorder");
+    rt_cmd_render_help_line(f, "--treelet-tris");
+    fprintf(f,
             "  --model M          lean (default: compact layout, write-allocate queue stores,\n"
             "                     no flush, no full-line rule) or paper (pbrt layout; Dinero\n"
             "                     IV's printed accounting: flush + full-line writes); sets the\n"
-            "                     defaults of:\n"
-            "  --layout L         geometry layout, compact | mesh | pbrt | pbrt64\n"
-            "  --queue-stores S   dynamic: write-allocate | stream (streaming stores)\n"
+            "                     defaults of:\n");
+    rt_cmd_render_help_line(f, "--layout");
+    rt_cmd_render_help_line(f, "--queue-stores");
+    fprintf(f,
             "  --flush, --no-flush  write back the dirty lines at the end (Dinero IV)\n"
             "  --write-fullline, --no-write-fullline  a write miss covering its line fetches\n"
-            "                     nothing (Dinero IV)\n"
-            "  --look-at EX,EY,EZ,AX,AY,AZ[,UX,UY,UZ], --fov DEGREES, --light X,Y,Z[,POWER]\n"
-            "                     every scene's camera and lights (see render --help; in the\n"
-            "                     run key when given)\n"
-            "  --accel A, --grid-min N, --grid-density L, --record-stores S, --vb-size S\n"
-            "                     acceleration structure, feedback / stream tracer options\n"
-            "                     (see render --help; in the run key when not the tracer's default)\n"
+            "                     nothing (Dinero IV)\n");
+    rt_cmd_render_help_line(f, "--look-at");
+    rt_cmd_render_help_line(f, "--accel");
+    fprintf(f,
             "  --accels LIST      sweep structures too: comma list of kd, bvh2, bvh4, bvh8,\n"
             "                     grid, naive; each tracer runs on those of the list it can\n"
             "                     (its default structure keeps the run key of a plain run)\n"
             "  --list-jobs        print one self-contained command per job and exit\n"
-            "  --job K            run only job K (0-based) of the matrix\n"
+            "  --job K            run only job K (0-based) of the matrix\n");
+    rt_cmd_render_help_rest(f, RT_OC_SWEEP); /* table options without a place above */
+    fprintf(f,
             "  -h, --help         this help\n\n"
             "Jobs of the stream and feedback tracers also simulate the texture cache of\n"
             "Purcell et al. 2002 (65520 B, 48-byte lines, direct-mapped; report --figure purcell).\n"
@@ -169,8 +178,8 @@ static int parse_lightings(char *s, sweep_opts *o)
         } else if (!strcmp(items[i], "all")) {
             l->label = "all";
             l->mask = 7;
-        } else if (strchr("0123456789", items[i][0]) && rt_render_parse_lights(items[i], &l->mask) == 0) {
-            l->label = items[i]; /* one light: 0, 1, 2 (with --light-samples, the file's 0..31) */
+        } else if (!strchr(items[i], ',') && rt_parse_lights(items[i], &l->mask) == 0 && l->mask) {
+            l->label = items[i]; /* one light, "0", or several, "0+1" (rt_exp_lights_name) */
         } else {
             return -1;
         }
@@ -306,7 +315,7 @@ static int parse_accels(sweep_opts *o, const rt_tracer *const *trs)
     rt_exp_config *x = &o->x;
     char *items[MAX_LIST];
     if (!o->lists[6]) return 0;
-    if (x->ro.given & (1u << RT_RO_ACCEL)) {
+    if (rt_render_opt_given(&x->ro, rt_render_opt_find("--accel"))) {
         rt_cmd_error("sweep", "--accel and --accels together: give the structures in --accels");
         return -1;
     }
@@ -356,13 +365,15 @@ static void on_progress(void *ctx, long d, long s, long nj, double t0)
 }
 
 enum { O_PRESET = 1, O_SCENES, O_TRACERS, O_LIGHTS, O_SIZES, O_LINE, O_DB, O_JOBS, O_KEEP, O_DYNALL, O_LIST, O_JOB,
-       O_APPROX, O_PROXY, O_MODES, O_MODEL, O_FLUSH, O_NOFLUSH, O_FULLLINE, O_NOFULLLINE, O_ACCELS, O_NOERR };
+       O_APPROX, O_PROXY, O_MODES, O_MODEL, O_FLUSH, O_NOFLUSH, O_FULLLINE, O_NOFULLLINE, O_ACCELS, O_NOERR,
+       O_SCENES_FILE };
 
-/* The command's own options, then the shared render options it takes
- * (-W/-H and the dynamic ones; --lights is its own, a list of lightings). */
-static const struct option sweep_longopts[] = {
+/* The command's own options; the table's render options for sweep follow
+ * them in sweep_longopts (--lights is its own, a list of lightings). */
+static const struct option sweep_own[] = {
     {"preset", required_argument, NULL, O_PRESET},
     {"scenes", required_argument, NULL, O_SCENES},
+    {"scenes-file", required_argument, NULL, O_SCENES_FILE},
     {"tracers", required_argument, NULL, O_TRACERS},
     {"lights", required_argument, NULL, O_LIGHTS},
     {"sizes", required_argument, NULL, O_SIZES},
@@ -383,32 +394,12 @@ static const struct option sweep_longopts[] = {
     {"no-flush", no_argument, NULL, O_NOFLUSH},
     {"write-fullline", no_argument, NULL, O_FULLLINE},
     {"no-write-fullline", no_argument, NULL, O_NOFULLLINE},
-    {"layout", required_argument, NULL, RT_OPT_LAYOUT},
-    {"queue-stores", required_argument, NULL, RT_OPT_QUEUE_STORES},
     {"help", no_argument, NULL, 'h'},
-    {"depth", required_argument, NULL, RT_OPT_DEPTH},
-    {"spp", required_argument, NULL, RT_OPT_SPP},
-    {"bounces", required_argument, NULL, RT_OPT_BOUNCES},
-    {"qorder", required_argument, NULL, RT_OPT_QORDER},
-    {"hit-rule", required_argument, NULL, RT_OPT_HIT_RULE},
-    {"qp-measure", required_argument, NULL, RT_OPT_QP_MEASURE},
-    {"threads", required_argument, NULL, RT_OPT_THREADS},
-    {"packet", required_argument, NULL, RT_OPT_PACKET},
-    {"accel", required_argument, NULL, RT_OPT_ACCEL},
-    {"grid-min", required_argument, NULL, RT_OPT_GRID_MIN},
-    {"grid-density", required_argument, NULL, RT_OPT_GRID_DENSITY},
-    {"record-stores", required_argument, NULL, RT_OPT_RECORD_STORES},
-    {"vb-size", required_argument, NULL, RT_OPT_VB_SIZE},
-    {"look-at", required_argument, NULL, RT_OPT_LOOK_AT},
-    {"fov", required_argument, NULL, RT_OPT_FOV},
-    {"light", required_argument, NULL, RT_OPT_LIGHT},
-    {"treelet-tris", no_argument, NULL, RT_OPT_TREELET_TRIS},
-    {"ray-window", required_argument, NULL, RT_OPT_RAY_WINDOW},
-    {"light-samples", required_argument, NULL, RT_OPT_LIGHT_SAMPLES},
-    {"width", required_argument, NULL, 'W'},
-    {"height", required_argument, NULL, 'H'},
     {NULL, 0, NULL, 0},
 };
+
+/* sweep_own and the table's entries for sweep, built once. */
+static struct option *sweep_longopts;
 
 /* The first word sh_quote met with a control character (a newline there
  * would end a job line early), or NULL. */
@@ -481,7 +472,7 @@ static void print_words(FILE *f, int argc, char **argv)
         }
         if (!optarg) continue;
         fputc(' ', f);
-        if (c == O_KEEP) {
+        if (c == O_KEEP || c == O_SCENES_FILE) {
             sh_quote(f, absolute(optarg, buf, sizeof buf));
         } else if (c == O_SCENES) { /* each mesh of the list made absolute */
             char *list = strdup(optarg), *save = NULL, out[8192] = "", one[4096];
@@ -556,17 +547,18 @@ static int parse_opt(sweep_opts *o, int c, const char *arg)
     rt_err e = {0};
     const char *dummy = NULL;
     long v;
-    if (c == 'W' || c == 'H') {
+    int id = rt_cmd_opt_index(c);
+    const char *name = id >= 0 ? rt_render_opt_name(id) : "";
+    if (!strcmp(name, "--width") || !strcmp(name, "--height")) {
         rt_render_opts tmp = o->x.ro;
         if (rt_cmd_render_opt("sweep", c, arg, &tmp, &dummy) < 0) return -1;
-        if (c == 'W') o->W = tmp.W; else o->H = tmp.H;
+        if (name[2] == 'w') o->W = tmp.W; else o->H = tmp.H;
         return 0;
     }
-    if (c == RT_OPT_DEPTH) o->mode_opt[0] = "--depth";
-    if (c == RT_OPT_SPP) o->mode_opt[1] = "--spp";
-    if (c == RT_OPT_BOUNCES) o->mode_opt[1] = "--bounces";
-    if (c == RT_OPT_LAYOUT) o->geom_given = 1;
-    if (c == RT_OPT_QUEUE_STORES) o->qs_given = 1;
+    if (!strcmp(name, "--depth")) o->mode_opt[0] = "--depth";
+    if (!strcmp(name, "--spp") || !strcmp(name, "--bounces")) o->mode_opt[1] = name;
+    if (!strcmp(name, "--layout")) o->geom_given = 1;
+    if (!strcmp(name, "--queue-stores")) o->qs_given = 1;
     int r = rt_cmd_render_opt("sweep", c, arg, &o->x.ro, &dummy);
     if (r != 0) return r < 0 ? -1 : 0;
     switch (c) {
@@ -580,6 +572,10 @@ static int parse_opt(sweep_opts *o, int c, const char *arg)
     case O_SCENES:
         if (rt_cmd_check_text("sweep", "--scenes", arg) < 0) return -1;
         return keep_copy(o, 0, arg) ? 0 : -1;
+    case O_SCENES_FILE:
+        if (rt_cmd_check_text("sweep", "--scenes-file", arg) < 0) return -1;
+        o->scenes_file = arg;
+        return 0;
     case O_TRACERS: return keep_copy(o, 1, arg) ? 0 : -1;
     case O_LIGHTS: return keep_copy(o, 2, arg) ? 0 : -1;
     case O_MODES: return keep_copy(o, 5, arg) ? 0 : -1;
@@ -596,10 +592,16 @@ static int parse_opt(sweep_opts *o, int c, const char *arg)
     case O_FULLLINE:
     case O_NOFULLLINE: o->fullline = c == O_FULLLINE; return 0;
     case O_LINE: return rt_cmd_parse_line("sweep", arg, &o->x.sim.line);
-    case O_DB:
+    case O_DB: {
+        rt_err ne = {0};
         if (rt_cmd_check_text("sweep", "--db", arg) < 0) return -1;
+        if (rt_open_target(arg, RT_TARGET_DB, &ne) < 0 && ne.usage) { /* the name; the file is checked at the start */
+            rt_cmd_error("sweep", "--db: %s", ne.msg);
+            return -1;
+        }
         o->db = arg;
         return 0;
+    }
     case O_JOBS:
         if (rt_cmd_parse_long(arg, 1, 256, &v) < 0) {
             rt_cmd_error("sweep", "--jobs: '%s' is not in 1..256", arg);
@@ -633,6 +635,74 @@ static int parse_opt(sweep_opts *o, int c, const char *arg)
     }
 }
 
+/* --scenes-file: the file (a regular one, at most 1 MiB) into lists[0],
+ * one spec per line into x.scenes; a relative mesh path is made relative
+ * to the file's folder. 0 or -1 (printed, FILE:LINE). */
+static int read_scenes_file(sweep_opts *o)
+{
+    rt_exp_config *x = &o->x;
+    const char *path = o->scenes_file;
+    struct stat sb;
+    FILE *f = fopen(path, "r");
+    if (!f || fstat(fileno(f), &sb) < 0 || !S_ISREG(sb.st_mode) || sb.st_size > (1 << 20)) {
+        rt_cmd_error("sweep", "--scenes-file: %s: %s", path,
+                     !f ? strerror(errno) : !S_ISREG(sb.st_mode) ? "not a regular file" : "larger than 1 MiB");
+        if (f) fclose(f);
+        return -1;
+    }
+    char *buf = calloc((size_t)sb.st_size + 1, 1);
+    size_t n = buf ? fread(buf, 1, (size_t)sb.st_size, f) : 0;
+    int bad = !buf || ferror(f);
+    fclose(f);
+    free(o->lists[0]);
+    o->lists[0] = buf;
+    if (bad) {
+        rt_cmd_error("sweep", "--scenes-file: %s: read error", path);
+        return -1;
+    }
+    buf[n] = 0;
+    if (memchr(buf, 0, n)) {
+        rt_cmd_error("sweep", "--scenes-file: %s: a NUL byte (not a text file)", path);
+        return -1;
+    }
+    const char *slash = strrchr(path, '/');
+    int dirlen = slash ? (int)(slash - path) : 0;
+    x->nscenes = 0;
+    long line = 0;
+    for (char *p = buf, *next; p && *p; p = next) {
+        line++;
+        char *nl = strchr(p, '\n');
+        next = nl ? nl + 1 : NULL;
+        if (nl) *nl = 0;
+        if (nl > p && nl[-1] == '\r') nl[-1] = 0;
+        if (!*p || *p == '#') continue;
+        char where[64];
+        snprintf(where, sizeof where, "%s:%ld", slash ? slash + 1 : path, line);
+        if (rt_cmd_check_text("sweep", where, p) < 0) return -1;
+        if (x->nscenes == MAX_LIST) {
+            rt_cmd_error("sweep", "--scenes-file: %s:%ld: more than %d scenes", path, line, MAX_LIST);
+            return -1;
+        }
+        if (is_mesh(p) && p[0] != '/' && slash) { /* relative to the file's folder */
+            size_t l = (size_t)dirlen + 1 + strlen(p) + 1;
+            char *abs = malloc(l);
+            if (!abs) {
+                rt_cmd_error("sweep", "out of memory");
+                return -1;
+            }
+            snprintf(abs, l, "%.*s/%s", dirlen, path, p);
+            o->owned[x->nscenes] = abs;
+            p = abs;
+        }
+        x->scenes[x->nscenes++] = p;
+    }
+    if (!x->nscenes) {
+        rt_cmd_error("sweep", "--scenes-file: %s: no scene", path);
+        return -1;
+    }
+    return 0;
+}
+
 /* Fills in what the options left to the preset and checks the lists.
  * 0 or -1 (usage error, printed). */
 static int finish_opts(sweep_opts *o)
@@ -647,6 +717,11 @@ static int finish_opts(sweep_opts *o)
     x->ro.film = (o->W ? 0 : RT_FILM_W) | (o->H ? 0 : RT_FILM_H); /* a .pbrt scene's Film */
     /* the defaults are split in place: copies, so a second sweep in one
      * process (tests) sees them whole */
+    if (o->scenes_file && o->lists[0]) {
+        rt_cmd_error("sweep", "--scenes and --scenes-file: give one");
+        return -1;
+    }
+    if (o->scenes_file && read_scenes_file(o) < 0) return -1;
     char *sc = o->lists[0] ? o->lists[0] : keep_copy(o, 0, defscenes);
     char *tr = o->lists[1] ? o->lists[1] : keep_copy(o, 1, deftracers);
     char *li = o->lists[2] ? o->lists[2] : keep_copy(o, 2, deflights);
@@ -654,7 +729,7 @@ static int finish_opts(sweep_opts *o)
         rt_cmd_error("sweep", "out of memory");
         return -1;
     }
-    if ((x->nscenes = split_list(sc, x->scenes, MAX_LIST)) <= 0) {
+    if (!o->scenes_file && (x->nscenes = split_list(sc, x->scenes, MAX_LIST)) <= 0) {
         rt_cmd_error("sweep", "--scenes: empty or too long list");
         return -1;
     }
@@ -664,7 +739,7 @@ static int finish_opts(sweep_opts *o)
     }
     for (int t = 0; t < x->ntracers; t++)
         if (!rt_tracer_find(x->tracers[t])) {
-            rt_cmd_error("sweep", "--tracers: unknown tracer '%s'", x->tracers[t]);
+            rt_cmd_error("sweep", "--tracers: unknown tracer '%s' (%s)", x->tracers[t], rt_tracer_names());
             return -1;
         }
     /* options of one tracer are an error when no tracer swept reads them */
@@ -727,6 +802,14 @@ static int finish_opts(sweep_opts *o)
         rt_cmd_error("sweep", "--lights: expected a comma list of primary, 0, 1, 2, all");
         return -1;
     }
+    for (int l = 0; l < x->nlightings; l++) { /* with --light, only the lights given exist */
+        rt_render_opts t = x->ro;
+        t.lights_named = strcmp(x->lightings[l].label, "all") ? x->lightings[l].mask : 0;
+        if (rt_render_check_lights(&t, &e) < 0) {
+            rt_cmd_error("sweep", "%s", e.msg);
+            return -1;
+        }
+    }
     if (parse_modes(o) < 0) return -1;
     if (o->sizes_arg && rt_sim_parse_sizes(o->sizes_arg, &x->sim, &e) < 0) {
         rt_cmd_error("sweep", "--sizes: %s", e.msg);
@@ -769,6 +852,10 @@ static int parse_args(int argc, char **argv, sweep_opts *o)
     }
     int c;
     optind = 1;
+    if (!sweep_longopts && !(sweep_longopts = rt_cmd_longopts(RT_OC_SWEEP, sweep_own))) {
+        rt_cmd_error("sweep", "out of memory");
+        return -1;
+    }
     while ((c = getopt_long(argc, argv, "hW:H:", sweep_longopts, NULL)) != -1) {
         int r = parse_opt(o, c, optarg);
         if (r) return r;
@@ -793,15 +880,72 @@ static int prepare_outputs(const sweep_opts *o)
     rt_db *db = rt_db_open(o->db, &e);
     if (!db) {
         rt_cmd_error("sweep", "%s", e.msg);
-        return -1;
+        return e.usage ? -2 : -1;
     }
     rt_db_close(db);
     return 0;
 }
 
+/* Every scene of the sweep (with --job K, only that job's) loads, with the
+ * camera and lights of the options applied: before --list-jobs prints a
+ * line or a sweep creates its database. 0, -1 (a scene that does not load:
+ * the loader's FILE:LINE message printed) or -2 (the view does not fit the
+ * scene: a usage error). */
+static int check_scenes(const sweep_opts *o, const rt_exp_job *J)
+{
+    for (int i = 0; i < o->x.nscenes; i++) {
+        if (o->only >= 0 && J[o->only].scene != i) continue;
+        rt_err e = {0};
+        rt_scene *sc = rt_scene_load(o->x.scenes[i], &e);
+        if (sc && rt_render_apply_view(&o->x.ro, sc, &e) < 0) {
+            rt_cmd_error("sweep", "%s: %s", o->x.scenes[i], e.msg);
+            rt_scene_free(sc);
+            return -2;
+        }
+        if (!sc) {
+            /* "a,b.obj" in --scenes is two specs: say where such a name goes */
+            int split = !o->scenes_file && o->x.nscenes > 1 && !is_mesh(o->x.scenes[i]);
+            rt_cmd_error("sweep", "--scenes: %s%s", e.msg,
+                         split ? "; --scenes splits at commas: list a name holding one in --scenes-file" : "");
+            return -1;
+        }
+        rt_scene_free(sc);
+    }
+    return 0;
+}
+
+/* The database a failed sweep created and stored nothing in (no run, as
+ * SQLite says) is removed with its journal, so a failure leaves no empty
+ * results file behind; one that existed before is left as it was. */
+static void remove_if_empty(const char *path)
+{
+    rt_err e = {0};
+    rt_db *db = rt_db_open(path, &e);
+    sqlite3_stmt *st = NULL;
+    int empty = 0;
+    if (db && sqlite3_prepare_v2(rt_db_handle(db), "SELECT count(*) FROM runs", -1, &st, NULL) == SQLITE_OK &&
+        sqlite3_step(st) == SQLITE_ROW)
+        empty = sqlite3_column_int64(st, 0) == 0;
+    sqlite3_finalize(st);
+    rt_db_close(db);
+    if (!empty) return;
+    static const char *const suffix[] = {"", "-journal", "-wal", "-shm"};
+    char buf[4200];
+    for (int k = 0; k < 4; k++) {
+        snprintf(buf, sizeof buf, "%s%s", path, suffix[k]);
+        unlink(buf);
+    }
+    fprintf(stderr, "sweep: no run stored: removed the empty %s\n", path);
+}
+
 static int sweep_run(sweep_opts *o, const rt_exp_job *J, long nj)
 {
-    if (prepare_outputs(o) < 0) return RT_EXIT_FAIL;
+    struct stat sb;
+    int cs = check_scenes(o, J);
+    if (cs < 0) return cs == -2 ? RT_EXIT_USAGE : RT_EXIT_FAIL;
+    int existed = lstat(o->db, &sb) == 0;
+    int pr = prepare_outputs(o);
+    if (pr < 0) return pr == -2 ? RT_EXIT_USAGE : RT_EXIT_FAIL;
     const rt_exp_config *x = &o->x;
     long total = o->only >= 0 ? 1 : nj;
     rt_pool_opts po = {o->db, o->jobs, o->only, isatty(2), o->stop_after, o->fail_job, o->fail_marker,
@@ -822,6 +966,7 @@ static int sweep_run(sweep_opts *o, const rt_exp_job *J, long nj)
             "sweep: %ld run(s) finished (%ld already in the database) in %.1f s wall; results in %s; stages: scene %.1f s, "
             "tracing %.1f s, simulation %.1f s, database %.1f s (summed over workers)\n",
             r.done, r.skipped, rt_now() - t0, o->db, r.stage_sec[0], r.stage_sec[1], r.stage_sec[2], r.stage_sec[3]);
+    if ((r.usage || rc < 0) && !existed && r.done == 0) remove_if_empty(o->db);
     if (r.usage) return RT_EXIT_USAGE; /* as render and trace: the options ask too much */
     return rc < 0 ? RT_EXIT_FAIL : RT_EXIT_OK;
 }
@@ -842,11 +987,13 @@ int main_sweep(int argc, char **argv)
         rt_cmd_error("sweep", "--job %ld: the matrix has %ld jobs (0..%ld)", o.only, nj, nj - 1);
         rc = RT_EXIT_USAGE;
     } else if (o.list) {
-        rc = print_jobs(&o, nj, argc, argv) < 0 ? RT_EXIT_FAIL : RT_EXIT_OK;
+        int cs = check_scenes(&o, J);
+        rc = cs < 0 ? (cs == -2 ? RT_EXIT_USAGE : RT_EXIT_FAIL) : print_jobs(&o, nj, argc, argv) < 0 ? RT_EXIT_FAIL : RT_EXIT_OK;
     } else {
         rc = sweep_run(&o, J, nj);
     }
     free(J);
     for (int i = 0; i < 7; i++) free(o.lists[i]);
+    for (int i = 0; i < MAX_LIST; i++) free(o.owned[i]);
     return rc;
 }

@@ -1,6 +1,8 @@
 /* cmd_trace.c -- `raytraffic trace`: render a scene with a tracer and record
  * every modeled memory access into a .rtt trace file. */
 #include "cmd.h"
+#include "experiment.h"
+#include "scene_load.h"
 #include "grid.h"
 #include "image.h"
 #include "run.h"
@@ -33,13 +35,16 @@ static void usage(FILE *f)
             "  --level N          zlib level 0..9 (default %d)\n"
             "  --no-sample        write format version 1/2, without the sample index that\n"
             "                     lets `sim --method hybrid` skip the records (about 10%%\n"
-            "                     smaller; docs/trace-format.md)\n" RT_RENDER_OPTS_HELP
-            "                     (trace defaults: -W 512 -H 512, --lights none)\n"
-            "  -h, --help         this help\n",
+            "                     smaller; docs/trace-format.md)\n"
+            "  --strict           refuse a scene whose loading warned\n",
             RT_TR_DEFAULT_LEVEL);
+    rt_cmd_render_help(f, RT_OC_TRACE);
+    fprintf(f,
+            "                     (trace defaults: -W 512 -H 512, --lights none)\n"
+            "  -h, --help         this help\n");
 }
 
-enum { OPT_LEVEL = 2000, OPT_NO_SAMPLE };
+enum { OPT_LEVEL = 2000, OPT_NO_SAMPLE, OPT_STRICT };
 
 int main_trace(int argc, char **argv)
 {
@@ -47,6 +52,7 @@ int main_trace(int argc, char **argv)
         {"output", required_argument, NULL, 'o'},
         {"level", required_argument, NULL, OPT_LEVEL},
         {"no-sample", no_argument, NULL, OPT_NO_SAMPLE},
+        {"strict", no_argument, NULL, OPT_STRICT},
         {"material", required_argument, NULL, 'M'},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0},
@@ -60,15 +66,16 @@ int main_trace(int argc, char **argv)
     rt_si_wopts(&wo);
     const char *material = NULL;
     const char *tracer = "recursive", *out = NULL;
-    int c;
+    int c, strict = 0;
     if (argc == 1) {
         usage(stdout);
         return RT_EXIT_OK;
     }
-    struct option *lo = rt_cmd_merge_opts(own);
+    struct option *lo = rt_cmd_longopts(RT_OC_TRACE, own);
+    char so[32];
     if (!lo) return RT_EXIT_FAIL;
     optind = 1;
-    while ((c = getopt_long(argc, argv, "o:h" RT_RENDER_SHORTOPTS, lo, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, rt_cmd_shortopts(RT_OC_TRACE, "o:h", so, sizeof so), lo, NULL)) != -1) {
         int r = rt_cmd_render_opt("trace", c, optarg, &o, &tracer);
         if (r < 0) goto usage_err;
         if (r > 0) continue;
@@ -89,6 +96,7 @@ int main_trace(int argc, char **argv)
             wo.level = optarg[0] - '0';
             break;
         case OPT_NO_SAMPLE: wo.payload = NULL; break;
+        case OPT_STRICT: strict = 1; break;
         case 'h': usage(stdout); free(lo); return RT_EXIT_OK;
         default: goto usage_err;
         }
@@ -123,7 +131,17 @@ int main_trace(int argc, char **argv)
          * limit: only the scene reveals them) are usage errors */
         return e.usage ? RT_EXIT_USAGE : RT_EXIT_FAIL;
     }
-    if (j.sc->warning[0]) rt_cmd_error("trace", "warning: %s", j.sc->warning);
+    /* -W and -H both given (no size left to the Film) on a film of another aspect */
+    if (!o.film && rt_scene_fit_film(j.sc, j.opt.W, j.opt.H, &e) < 0) {
+        rt_cmd_error("trace", "%s", e.msg);
+        rt_job_free(&j);
+        return RT_EXIT_FAIL;
+    }
+    if (strict && rt_cmd_strict("trace", j.sc) < 0) {
+        rt_job_free(&j);
+        return RT_EXIT_FAIL;
+    }
+    rt_cmd_print_warnings("trace", j.sc);
     o.W = j.opt.W; /* the scene's Film may have set them */
     o.H = j.opt.H;
     rt_scene_fit_aspect(j.sc, o.W, o.H); /* tall images: keep the whole mesh in view */
@@ -150,9 +168,11 @@ int main_trace(int argc, char **argv)
     fprintf(stderr, "wrote %s: %" PRIu64 " references (%" PRIu64 " bytes referenced) in %" PRIu64
                     " chunks, %" PRIu64 " bytes on disk, %.3f bytes/reference\n",
             out, tot.nrefs, bytes, tot.nchunks, fbytes, tot.nrefs ? (double)fbytes / (double)tot.nrefs : 0.0);
-    fprintf(stderr, "scene %s (%" PRIu32 " triangles), tracer %s, %dx%d, lights %u; %" PRIu64 " primary + %" PRIu64
+    char ln[48];
+    fprintf(stderr, "scene %s (%" PRIu32 " triangles), tracer %s, %dx%d, lights %s; %" PRIu64 " primary + %" PRIu64
                     " shadow rays; traced in %.2f s (%.1f M references/s)\n",
-            j.sc->name, j.sc->ntri, j.tr->name, o.W, o.H, o.lights, st.rays_primary, st.rays_shadow, sec,
+            j.sc->name, j.sc->ntri, j.tr->name, o.W, o.H, rt_exp_lights_name(o.lights, ln, sizeof ln),
+            st.rays_primary, st.rays_shadow, sec,
             sec > 0 ? (double)tot.nrefs / sec * 1e-6 : 0.0);
     rc = RT_EXIT_OK;
     goto done;

@@ -1,6 +1,7 @@
 /* cmd_trace_info.c -- `raytraffic trace-info`: describe a trace file (header,
  * region table, per-class totals) after verifying all of it. */
 #include "cmd.h"
+#include "experiment.h"
 #include "sindex.h"
 #include "trace.h"
 
@@ -24,17 +25,7 @@ static void usage(FILE *f)
 
 static void json_str(FILE *f, const char *s) { rt_cmd_json_str(f, s); }
 
-static void lights_str(uint32_t mask, char *buf, size_t cap)
-{
-    size_t k = 0;
-    buf[0] = 0;
-    if (!mask) {
-        snprintf(buf, cap, "none");
-        return;
-    }
-    for (int i = 0; i < 32 && k + 4 < cap; i++)
-        if (mask >> i & 1) k += (size_t)snprintf(buf + k, cap - k, "%s%d", k ? "," : "", i);
-}
+static void lights_str(uint32_t mask, char *buf, size_t cap) { rt_exp_lights_name(mask, buf, cap); }
 
 static void print_text(const char *path, const rt_tr_reader *r)
 {

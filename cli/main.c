@@ -1,7 +1,8 @@
 /* main.c -- the raytraffic front end: a thin dispatcher over subcommands.
  * It also owns what every command shares at exit: a failed write to
  * standard output is an error (as coreutils' close_stdout), and a fatal
- * signal removes the temporaries of unfinished output files. */
+ * signal removes the temporaries of unfinished output files. It calls the
+ * commands (cmd_*.c) and cmd_base.c; nothing calls back into it. */
 #include "config.h"
 #include "cmd.h"
 #include "outfile.h"
@@ -10,7 +11,6 @@
 #include <errno.h>
 #include <limits.h>
 #include <signal.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -34,40 +34,6 @@ static const command commands[] = {
     {"bench", main_bench, "measure throughput of tracers, tree build and simulator"},
     {NULL, NULL, NULL},
 };
-
-static char cmdline[4096];
-
-void rt_cmd_set_line(int argc, char **argv)
-{
-    size_t k = 0;
-    cmdline[0] = 0;
-    for (int i = 0; i < argc && k + 1 < sizeof cmdline; i++) {
-        int n = snprintf(cmdline + k, sizeof cmdline - k, "%s%s", i ? " " : "", argv[i]);
-        if (n < 0) break;
-        k += (size_t)n;
-    }
-}
-
-const char *rt_cmd_line(void) { return cmdline; }
-
-void rt_cmd_error(const char *cmd, const char *fmt, ...)
-{
-    va_list ap;
-    fprintf(stderr, "raytraffic %s: ", cmd);
-    va_start(ap, fmt);
-    vfprintf(stderr, fmt, ap);
-    va_end(ap);
-    fputc('\n', stderr);
-}
-
-int rt_cmd_wants_help(int argc, char **argv)
-{
-    for (int i = 1; i < argc; i++) {
-        if (strcmp(argv[i], "--") == 0) break;
-        if (strcmp(argv[i], "-h") == 0 || strcmp(argv[i], "--help") == 0) return 1;
-    }
-    return 0;
-}
 
 static void usage(FILE *f)
 {
@@ -94,9 +60,9 @@ static void version(void)
 
 static int dispatch(int argc, char **argv)
 {
-    if (argc < 2) {
-        usage(stdout);
-        return RT_EXIT_OK;
+    if (argc < 2) { /* no command: a usage error, the usage on stderr */
+        usage(stderr);
+        return RT_EXIT_USAGE;
     }
     const char *name = argv[1];
     if (!strcmp(name, "--version") || !strcmp(name, "version")) {

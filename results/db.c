@@ -39,12 +39,17 @@
  */
 #include "db.h"
 #include "memmodel.h"
+#include "outfile.h"
 
+#include <ctype.h>
+#include <errno.h>
+#include <fcntl.h>
 #include <math.h>
 #include <sqlite3.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -90,6 +95,17 @@ _Static_assert(RT_DB_SE_N == RT_NGROUP + 1, "rt_db_se holds one error per group 
     "  UNIQUE(scene_id, tracer, W, H, lights, sched_size, gmax, params, sim_method, sim_params, repl, hierarchy,\n" \
     "         cores, light_model, instances));\n"
 
+/* The structure a run was traced on, from its key: the word after
+ * "accel=" ('' = the tracer's default, the k-d tree for the paper's
+ * tracers). */
+#define ACCEL_EXPR                                                                                                   \
+    "CASE WHEN instr(r.params, 'accel=') > 0 THEN substr(substr(r.params, instr(r.params, 'accel=') + 6), 1,"        \
+    " instr(substr(r.params, instr(r.params, 'accel=') + 6) || ' ', ' ') - 1) ELSE '' END"
+
+/* A light mask as names: bit i is light i, "0+2" for lights 0 and 2
+ * (lights 0..7; 0 = "none"). */
+#define LIGHT_BITS "CASE WHEN r.lights & 1 THEN '+0' ELSE '' END || CASE WHEN r.lights & 2 THEN '+1' ELSE '' END || CASE WHEN r.lights & 4 THEN '+2' ELSE '' END || CASE WHEN r.lights & 8 THEN '+3' ELSE '' END || CASE WHEN r.lights & 16 THEN '+4' ELSE '' END || CASE WHEN r.lights & 32 THEN '+5' ELSE '' END || CASE WHEN r.lights & 64 THEN '+6' ELSE '' END || CASE WHEN r.lights & 128 THEN '+7' ELSE '' END"
+
 static const char schema_sql[] =
     "CREATE TABLE IF NOT EXISTS scenes(\n"
     "  id INTEGER PRIMARY KEY,\n"
@@ -133,7 +149,8 @@ static const char schema_sql[] =
     "  GROUP BY t.run_id, t.config_id;\n"
     "CREATE VIEW IF NOT EXISTS v_paper AS\n"
     "  SELECT s.name AS scene, r.tracer, r.lights, r.W, r.H, r.sched_size, g.cache_size,\n"
-    "    g.geometry_mb, g.ray_mb, r.sched_size AS sched_cache_size\n"
+    "    g.geometry_mb, g.ray_mb, r.sched_size AS sched_cache_size,\n"
+    "    s.params AS scene_params, " ACCEL_EXPR " AS accel, r.sim_params, r.params, r.id AS run_id\n"
     "  FROM v_traffic_group g JOIN runs r ON r.id = g.run_id JOIN scenes s ON s.id = r.scene_id\n"
     "  WHERE g.line = 64 AND g.assoc = 0 AND g.policy = 'wb-wa' AND r.sim_method = 'exact'\n"
     "    AND r.params NOT LIKE '%subsample=%';\n"
@@ -177,6 +194,19 @@ static const char schema_sql[] =
     "    g.other_mb, e.other_se / 1048576.0 AS other_se_mb, g.total_mb, e.total_se / 1048576.0 AS total_se_mb\n"
     "  FROM v_traffic_group g JOIN runs r ON r.id = g.run_id\n"
     "    LEFT JOIN traffic_se e ON e.run_id = g.run_id AND e.config_id = g.config_id;\n"
+    "CREATE VIEW IF NOT EXISTS v_runs AS\n"
+    "  SELECT r.id AS run_id, s.name AS scene, s.params AS scene_params, s.hash AS scene_hash, r.tracer,\n"
+    "    " ACCEL_EXPR " AS accel, r.W, r.H, r.lights,\n"
+    "    CASE WHEN r.lights = 0 THEN 'none' ELSE ltrim(" LIGHT_BITS ", '+') END AS light_names,\n"
+    "    CASE WHEN r.params LIKE '%mode=whitted%' THEN 'whitted' WHEN r.params LIKE '%mode=path%' THEN 'path'\n"
+    "      WHEN r.params LIKE '%mode=raycast%' OR (r.lights = 0 AND r.params NOT LIKE '%mode=%') THEN 'raycast'\n"
+    "      ELSE 'shadow' END AS mode,\n"
+    "    CASE WHEN r.params LIKE '%subsample=%' THEN 'subsample' ELSE 'full' END AS proxy,\n"
+    "    CASE WHEN r.sim_params LIKE 'model=%' THEN substr(r.sim_params, 7, instr(r.sim_params || ' ', ' ') - 7)\n"
+    "      WHEN r.sim_method = 'exact' THEN 'lean' ELSE '' END AS model,\n"
+    "    r.sim_method, r.sim_params, r.sched_size, r.gmax, r.repl, r.hierarchy, r.cores, r.light_model,\n"
+    "    r.instances, r.params, r.refs, r.git_rev, r.created, r.command\n"
+    "  FROM runs r JOIN scenes s ON s.id = r.scene_id;\n"
     "CREATE TABLE IF NOT EXISTS level_traffic(\n"
     "  run_id INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE,\n"
     "  level INTEGER NOT NULL,             -- 1 = nearest the core, 2, ... (memory side last)\n"
@@ -538,6 +568,10 @@ static char *fs_name(const char *path)
 
 rt_db *rt_db_open(const char *path, rt_err *e)
 {
+    /* a file name of a regular file or of none: never a FIFO (SQLite's
+     * read would block for ever), a device (its -journal beside it), or
+     * memory (results stored nowhere) */
+    if (rt_open_target(path, RT_TARGET_DB, e) < 0) return NULL;
     rt_db *db = rt_calloc(1, sizeof *db, e);
     if (!db) return NULL;
     db->path = strdup(path);
@@ -932,6 +966,152 @@ int rt_db_store(rt_db *db, const rt_db_run *run, const rt_db_rows *rows, int64_t
     return 0;
 }
 
+/* ---- reading a database whole ------------------------------------------ */
+
+const char *rt_db_read_error_kind(int rc)
+{
+    switch (rc & 0xff) {
+    case SQLITE_CORRUPT: return "malformed database";
+    case SQLITE_NOTADB: return "not an SQLite database";
+    default: return "cannot read database";
+    }
+}
+
+/* A URI for path with every byte outside the unreserved set escaped (so a
+ * '?' or '#' in the name stays part of it) and the query q. Malloc'd. */
+static char *read_uri(const char *path, const char *q, rt_err *e)
+{
+    size_t n = strlen(path);
+    char *uri = rt_calloc(3 * n + strlen(q) + 16, 1, e);
+    if (!uri) return NULL;
+    size_t k = (size_t)sprintf(uri, "file:");
+    for (const unsigned char *p = (const unsigned char *)path; *p; p++)
+        k += (size_t)(isalnum(*p) || strchr("-._~/", *p) ? sprintf(uri + k, "%c", *p) : sprintf(uri + k, "%%%02X", *p));
+    strcpy(uri + k, q);
+    return uri;
+}
+
+/* What the first 100 bytes of the file at fd say: 0 when they are an
+ * SQLite header consistent with the file's size, else -1 with the reason
+ * ("malformed" for a truncated file, "not a raytraffic database" for
+ * something else). check_size: the main file is complete only without a
+ * write-ahead log beside it. */
+static int check_header(int fd, const char *path, int check_size, rt_err *e)
+{
+    unsigned char h[100];
+    struct stat st;
+    if (fstat(fd, &st) != 0) return rt_errf(e, "%s: unreadable: %s", path, strerror(errno));
+    ssize_t n = pread(fd, h, sizeof h, 0);
+    if (n < 0) return rt_errf(e, "%s: unreadable: %s", path, strerror(errno));
+    if (n == 0) return rt_errf(e, "%s: not a raytraffic database (an empty file)", path);
+    if ((size_t)n < 16 || memcmp(h, "SQLite format 3", 16) != 0)
+        return rt_errf(e, "%s: not a raytraffic database (not an SQLite file)", path);
+    if ((size_t)n < sizeof h)
+        return rt_errf(e, "%s: malformed database: truncated (%lld bytes, shorter than SQLite's 100-byte header)", path,
+                       (long long)n);
+    uint64_t page = (uint64_t)h[16] << 8 | h[17];
+    if (page == 1) page = 65536;
+    uint32_t count = (uint32_t)h[28] << 24 | (uint32_t)h[29] << 16 | (uint32_t)h[30] << 8 | h[31];
+    /* the page count is valid when the change counter (24) equals its
+     * version-valid-for copy (92) */
+    if (check_size && memcmp(h + 24, h + 92, 4) == 0 && count && (uint64_t)st.st_size < page * count)
+        return rt_errf(e, "%s: malformed database: truncated (%lld bytes; its header says %u pages of %llu bytes)",
+                       path, (long long)st.st_size, (unsigned)count, (unsigned long long)page);
+    return 0;
+}
+
+/* 1 if path's folder cannot be written (read-only file system, no
+ * permission). */
+static int folder_read_only(const char *path)
+{
+    const char *s = strrchr(path, '/');
+    char dir[4096];
+    if (!s) snprintf(dir, sizeof dir, ".");
+    else snprintf(dir, sizeof dir, "%.*s", (int)(s - path) + 1, path);
+    return access(dir, W_OK) != 0;
+}
+
+void rt_db_close_read(void *h) { sqlite3_close(h); }
+
+int rt_db_open_read(const char *path, void **ph, int *ver, rt_err *e)
+{
+    *ph = NULL;
+    *ver = 0;
+    if (rt_open_target(path, RT_TARGET_DB_READ, e) < 0) {
+        if (!e || e->usage) return -1;
+        char m[RT_ERR_LEN];
+        snprintf(m, sizeof m, "%s", e->msg);
+        size_t pl = strlen(path);
+        /* "PATH: reason" -> "PATH: unreadable: reason" */
+        return rt_errf(e, "%s: unreadable: %s", path, strncmp(m, path, pl) == 0 && m[pl] == ':' ? m + pl + 2 : m);
+    }
+    size_t n = strlen(path);
+    char *wal = rt_calloc(n + 8, 1, e);
+    if (!wal) return -1;
+    snprintf(wal, n + 8, "%s-wal", path);
+    struct stat ws;
+    int has_wal = stat(wal, &ws) == 0;
+    free(wal);
+    int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0) return rt_errf(e, "%s: unreadable: %s", path, strerror(errno));
+    int hr = check_header(fd, path, !has_wal, e);
+    close(fd);
+    if (hr < 0) return -1;
+    /* immutable: no -shm or -wal made beside it, fine on a read-only
+     * file system; with a log it must be read through the log */
+    char *uri = read_uri(path, has_wal ? "?mode=ro" : "?immutable=1", e);
+    if (!uri) return -1;
+    sqlite3 *h = NULL;
+    int orc = sqlite3_open_v2(uri, &h, SQLITE_OPEN_READONLY | SQLITE_OPEN_URI, NULL);
+    free(uri);
+    sqlite3_stmt *st = NULL;
+    if (orc == SQLITE_OK) {
+        sqlite3_busy_timeout(h, 60000);
+        orc = sqlite3_prepare_v2(h, "PRAGMA user_version", -1, &st, NULL);
+        if (orc == SQLITE_OK && (orc = sqlite3_step(st)) == SQLITE_ROW) {
+            *ver = sqlite3_column_int(st, 0);
+            orc = SQLITE_OK;
+        }
+        if (orc == SQLITE_OK) {
+            /* the catalogue holds every table's root: reading it touches
+             * the file beyond the header */
+            sqlite3_finalize(st);
+            orc = sqlite3_prepare_v2(h,
+                                     "SELECT COUNT(*) FROM sqlite_master WHERE type = 'table' AND name IN ('runs', "
+                                     "'scenes')",
+                                     -1, &st, NULL);
+            if (orc == SQLITE_OK && (orc = sqlite3_step(st)) == SQLITE_ROW) {
+                if (sqlite3_column_int(st, 0) != 2 && *ver <= RT_DB_SCHEMA_VERSION) *ver = 0;
+                orc = SQLITE_OK;
+            }
+        }
+    }
+    sqlite3_finalize(st);
+    if (orc != SQLITE_OK) {
+        int code = orc & 0xff;
+        if (has_wal && code != SQLITE_CORRUPT && code != SQLITE_NOTADB && folder_read_only(path))
+            rt_errf(e, "%s: read-only: its write-ahead log %s-wal must be replayed, which needs a writable folder; copy "
+                       "both files to one, or rerun where it was written", path, path);
+        else
+            rt_errf(e, "%s: %s: %s", path, rt_db_read_error_kind(orc), h ? sqlite3_errmsg(h) : "out of memory");
+        sqlite3_close(h);
+        return -1;
+    }
+    if (*ver > RT_DB_SCHEMA_VERSION) {
+        rt_errf(e, "%s: database schema version %d is newer than this raytraffic supports (%d); use a newer raytraffic",
+                path, *ver, RT_DB_SCHEMA_VERSION);
+        sqlite3_close(h);
+        return -1;
+    }
+    if (*ver < 1) {
+        rt_errf(e, "%s: not a raytraffic database (an SQLite file without raytraffic's tables)", path);
+        sqlite3_close(h);
+        return -1;
+    }
+    *ph = h;
+    return 0;
+}
+
 /* ---- merge ------------------------------------------------------------- */
 
 /* A shard being merged: its connection and the reading statements. */
@@ -963,6 +1143,16 @@ static int count_col(const shard *sh, sqlite3_stmt *st, int i, const char *row, 
     return 0;
 }
 
+/* A statement of a shard did not compile: a damaged file, or tables that
+ * are not raytraffic's. */
+static int shard_error(const shard *sh, rt_err *e)
+{
+    int c = sqlite3_errcode(sh->h) & 0xff;
+    if (c == SQLITE_CORRUPT || c == SQLITE_NOTADB)
+        return rt_errf(e, "%s: %s: %s", sh->path, rt_db_read_error_kind(c), sqlite3_errmsg(sh->h));
+    return rt_errf(e, "%s: not a raytraffic database (%s)", sh->path, sqlite3_errmsg(sh->h));
+}
+
 /* Opens a shard read-only and checks it is a raytraffic database of a
  * version this build reads (1 to 6; older column name for 1, no scene
  * paths before 3, no generation rows before 4, no standard errors before
@@ -971,24 +1161,10 @@ static int shard_open(shard *sh, const char *path, rt_err *e)
 {
     memset(sh, 0, sizeof *sh);
     sh->path = path;
-    FILE *f = fopen(path, "rb");
-    if (!f) return rt_errf(e, "%s: cannot open", path);
-    fclose(f);
-    char *name = fs_name(path);
-    int orc = name ? sqlite3_open_v2(name, &sh->h, SQLITE_OPEN_READONLY, NULL) : SQLITE_NOMEM;
-    free(name);
-    if (orc != SQLITE_OK)
-        return rt_errf(e, "%s: cannot open database: %s", path, sh->h ? sqlite3_errmsg(sh->h) : "out of memory");
-    sqlite3_busy_timeout(sh->h, 60000);
-    sqlite3_stmt *st;
-    int64_t ver = -1;
-    if (sqlite3_prepare_v2(sh->h, "PRAGMA user_version", -1, &st, NULL) == SQLITE_OK && sqlite3_step(st) == SQLITE_ROW)
-        ver = sqlite3_column_int64(st, 0);
-    sqlite3_finalize(st);
-    if (ver > RT_DB_SCHEMA_VERSION)
-        return rt_errf(e, "%s: database schema version %lld is newer than this raytraffic supports (%d)", path,
-                       (long long)ver, RT_DB_SCHEMA_VERSION);
-    if (ver < 1) return rt_errf(e, "%s: not a raytraffic database (schema version %lld)", path, (long long)ver);
+    int ver = 0;
+    void *h = NULL;
+    if (rt_db_open_read(path, &h, &ver, e) < 0) return -1;
+    sh->h = h;
     char runs_sql[900];
     snprintf(runs_sql, sizeof runs_sql,
              "SELECT r.id, s.name, s.params, s.hash, s.triangles, r.tracer, r.W, r.H, r.lights, r.%s, r.gmax,"
@@ -1003,24 +1179,24 @@ static int shard_open(shard *sh, const char *path, rt_err *e)
         " ORDER BY c.size, t.class";
     if (sqlite3_prepare_v2(sh->h, runs_sql, -1, &sh->runs, NULL) != SQLITE_OK ||
         sqlite3_prepare_v2(sh->h, rows_sql, -1, &sh->rows, NULL) != SQLITE_OK)
-        return rt_errf(e, "%s: not a raytraffic database: %s", path, sqlite3_errmsg(sh->h));
+        return shard_error(sh, e);
     static const char gens_sql[] =
         "SELECT c.size, c.line, c.assoc, c.policy, t.class, t.accesses, t.read_misses, t.write_misses, t.writebacks,"
         " t.gen, t.traffic_bytes FROM traffic_gen t JOIN cache_configs c ON c.id = t.config_id WHERE t.run_id = ?1"
         " ORDER BY c.size, c.line, c.assoc, c.policy, t.class, t.gen";
     if (ver >= 4 && sqlite3_prepare_v2(sh->h, gens_sql, -1, &sh->gens, NULL) != SQLITE_OK)
-        return rt_errf(e, "%s: not a raytraffic database: %s", path, sqlite3_errmsg(sh->h));
+        return shard_error(sh, e);
     static const char ses_sql[] =
         "SELECT c.size, c.line, c.assoc, c.policy, e.geometry_se, e.ray_se, e.other_se, e.total_se FROM traffic_se e"
         " JOIN cache_configs c ON c.id = e.config_id WHERE e.run_id = ?1 ORDER BY c.size, c.line, c.assoc, c.policy";
     if (ver >= 5 && sqlite3_prepare_v2(sh->h, ses_sql, -1, &sh->ses, NULL) != SQLITE_OK)
-        return rt_errf(e, "%s: not a raytraffic database: %s", path, sqlite3_errmsg(sh->h));
+        return shard_error(sh, e);
     static const char lvs_sql[] =
         "SELECT level, level_name, core, cache_size, line, assoc, policy, repl, class, gen, accesses, misses,"
         " writebacks, traffic_bytes FROM level_traffic WHERE run_id = ?1"
         " ORDER BY level, core, cache_size, line, assoc, policy, repl, class, gen";
     if (ver >= 6 && sqlite3_prepare_v2(sh->h, lvs_sql, -1, &sh->lvs, NULL) != SQLITE_OK)
-        return rt_errf(e, "%s: not a raytraffic database: %s", path, sqlite3_errmsg(sh->h));
+        return shard_error(sh, e);
     return 0;
 }
 
@@ -1143,7 +1319,7 @@ static long read_rows(const shard *sh, sqlite3_stmt *st, int64_t id, void **rows
         n++;
     }
     if (step == SQLITE_DONE) return (long)n;
-    rt_errf(e, "%s: %s", sh->path, sqlite3_errmsg(sh->h));
+    rt_errf(e, "%s: %s: %s", sh->path, rt_db_read_error_kind(step), sqlite3_errmsg(sh->h));
 fail:
     for (size_t k = 0; k < n; k++) free((char *)((rt_db_traffic *)((char *)*rows + k * elem))->policy);
     return -1;
@@ -1198,7 +1374,7 @@ static long read_ses(const shard *sh, int64_t id, rt_db_se **ses, size_t *cap, r
         n++;
     }
     if (step == SQLITE_DONE) return (long)n;
-    rt_errf(e, "%s: %s", sh->path, sqlite3_errmsg(sh->h));
+    rt_errf(e, "%s: %s: %s", sh->path, rt_db_read_error_kind(step), sqlite3_errmsg(sh->h));
 fail:
     for (size_t k = 0; k < n; k++) free((char *)(*ses)[k].policy);
     return -1;
@@ -1312,7 +1488,7 @@ int rt_db_merge(rt_db *out, const char *inpath, long *nruns, rt_err *e)
         (*nruns)++;
     }
     if (step != SQLITE_DONE) {
-        rt_errf(e, "%s: %s", inpath, sqlite3_errmsg(sh.h));
+        rt_errf(e, "%s: %s: %s", inpath, rt_db_read_error_kind(step), sqlite3_errmsg(sh.h));
         goto done;
     }
     rc = 0;

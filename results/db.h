@@ -164,8 +164,38 @@ typedef struct rt_db_rows {
  * with tables the statements do not compile against): all checked before
  * anything is written (no WAL switch, no upgrade). An older raytraffic
  * refuses a file of this version (newer than it supports). path is a file name,
- * never an SQLite URI ("file:x.db?mode=memory" is a file of that name). */
+ * never an SQLite URI ("file:x.db?mode=memory" is a file of that name).
+ * Before SQLite sees it, path goes through rt_open_target's database rule
+ * (src/outfile.h): ":memory:", "" and names beginning with ':' are refused
+ * with e->usage set, and so is (without usage) anything but a regular file
+ * or an absent one in an existing folder: a FIFO, a device, a folder. */
 rt_db *rt_db_open(const char *path, rt_err *e);
+
+/* Opens the database at path read-only, for reading it whole (db merge,
+ * report), and returns the handle (*ph, an sqlite3 *; sqlite3_close it)
+ * and its schema version (*ver). The file is never changed and nothing is
+ * created beside it: without a "-wal" file beside it, it is opened as
+ * immutable (SQLite creates no "-shm" or "-wal", and a read-only folder or
+ * file system is fine); with one, read-only with the log applied. It must
+ * not be written while read. Each refusal says which it is:
+ *   usage (e->usage):  ":memory:", "", names beginning with ':';
+ *   "unreadable":      absent, not a regular file (FIFO, device, folder),
+ *                      or no read permission;
+ *   "read-only":       an unfinished write-ahead log that cannot be
+ *                      replayed because the folder is not writable;
+ *   "malformed":       an SQLite file that is truncated (shorter than its
+ *                      header's page count) or damaged;
+ *   "not a raytraffic database": not an SQLite file, or one without the
+ *                      runs and scenes tables (schema version < 1);
+ *   "newer":           a schema version above RT_DB_SCHEMA_VERSION.
+ * 0, or -1 with "PATH: ..." in e. */
+int rt_db_open_read(const char *path, void **ph, int *ver, rt_err *e);
+void rt_db_close_read(void *h); /* sqlite3_close; NULL is fine */
+
+/* The message class of an SQLite error code met while reading a database
+ * (rt_db_open_read's words): "malformed database" for SQLITE_CORRUPT, "not
+ * an SQLite database" for SQLITE_NOTADB, else "cannot read database". */
+const char *rt_db_read_error_kind(int sqlite_rc);
 void rt_db_close(rt_db *db); /* NULL is fine */
 
 /* 1 if a run with this key has been stored, 0 if not, -1 on error. Only

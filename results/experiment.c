@@ -186,6 +186,22 @@ const char *rt_exp_sim_params(int model, const rt_sim_config *sc, char *buf, siz
     return buf;
 }
 
+/* ---- lights -------------------------------------------------------------- */
+
+const char *rt_exp_lights_name(unsigned mask, char *buf, size_t n)
+{
+    if (!n) return buf;
+    buf[0] = 0;
+    if (!mask) snprintf(buf, n, "none");
+    else if (mask == (1u << RT_NLIGHTS) - 1) snprintf(buf, n, "all");
+    else {
+        size_t k = 0;
+        for (int i = 0; i < 32 && k + 12 < n; i++)
+            if (mask >> i & 1) k += (size_t)snprintf(buf + k, n - k, "%s%d", k ? "+" : "", i);
+    }
+    return buf;
+}
+
 /* ---- run identity ------------------------------------------------------ */
 
 const char *rt_exp_tracer_params(const char *tracer, const rt_render_opts *ro, int all_sizes, char *buf, size_t n)

@@ -180,6 +180,16 @@ long rt_exp_matrix(const rt_exp_config *c, rt_exp_job **out, rt_err *e);
  * size and proxy applied. */
 rt_render_opts rt_exp_job_opts(const rt_exp_config *c, const rt_exp_job *jb);
 
+/* ---- lights -------------------------------------------------------------- */
+
+/* The one way a set of lights is printed, on every command, table,
+ * heading and progress line: the enabled-light mask (bit i = light i, as
+ * the database's lights column stores it) as names: "none" (mask 0, only
+ * primary rays), "all" (every light, RT_NLIGHTS of them), else the
+ * indices joined by '+', "0", "0+2". --lights reads these names (and the
+ * older "0,2"). Writes at most n bytes; returns buf. */
+const char *rt_exp_lights_name(unsigned mask, char *buf, size_t n);
+
 /* ---- run identity ------------------------------------------------------ */
 
 #define RT_EXP_PARAMS 512 /* = sizeof(rt_tr_meta.params) */

@@ -1,6 +1,7 @@
 /* pool.c -- the sweep's worker pool (see pool.h). */
 #include "pool.h"
 #include "db.h"
+#include "outfile.h"
 
 #include <errno.h>
 #include <inttypes.h>
@@ -35,12 +36,13 @@ void rt_pool_job_label(const rt_exp_config *o, const rt_exp_job *jb, char *buf, 
         if (p->W) snprintf(px, sizeof px, " [res:%d]", p->W);
         else snprintf(px, sizeof px, " [sub:%u:%d]", (unsigned)p->subsample, p->subtile);
     }
-    char li[64];
-    const char *lab = jb->lighting >= 0 ? o->lightings[jb->lighting].label : "primary";
+    char li[96], ln[48];
+    /* the lights as names (rt_exp_lights_name), the one spelling */
+    rt_exp_lights_name(jb->lighting >= 0 ? o->lightings[jb->lighting].mask : 0, ln, sizeof ln);
     if (jb->mode == RT_MODE_WHITTED || jb->mode == RT_MODE_PATH)
-        snprintf(li, sizeof li, "%s %s", rt_render_mode_name(jb->mode), lab);
+        snprintf(li, sizeof li, "%s lights %s", rt_render_mode_name(jb->mode), ln);
     else
-        snprintf(li, sizeof li, "%s", lab);
+        snprintf(li, sizeof li, "lights %s", ln);
     char tr[96];
     snprintf(tr, sizeof tr, "%s%s%s", jb->tracer, jb->accel != RT_ACCEL_DEFAULT ? "/" : "",
              jb->accel != RT_ACCEL_DEFAULT ? rt_accel_name(jb->accel) : "");
@@ -238,9 +240,23 @@ static int run_workers(const rt_exp_config *c, const rt_exp_job *J, long nj, con
     return rc;
 }
 
+/* 1 if name is a kept trace's file name as experiment.c's open_trace
+ * makes it: "job", at least four digits, '-', anything, ".rtt". */
+static int kept_trace_name(const char *name)
+{
+    size_t n = strlen(name), d = 0;
+    if (strncmp(name, "job", 3) != 0) return 0;
+    while (name[3 + d] >= '0' && name[3 + d] <= '9') d++;
+    return d >= 4 && name[3 + d] == '-' && n > 3 + d + 1 + 4 && strcmp(name + n - 4, ".rtt") == 0;
+}
+
 int rt_pool_run(rt_exp_config *c, const rt_exp_job *J, long nj, const rt_pool_opts *po, rt_pool_result *r, rt_err *e)
 {
     memset(r, 0, sizeof *r);
+    /* a sweep killed with SIGKILL (no handler runs) left the temporaries of
+     * the traces it was writing: remove those of dead writers, of the kept
+     * traces' naming only, in that folder only (live writers hold a lock) */
+    if (c->keep && rt_out_remove_stale(c->keep, kept_trace_name, e) < 0) return -1;
     shared *sh = mmap(NULL, sizeof *sh, PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
     if (sh == MAP_FAILED) return rt_errf(e, "mmap: %s", strerror(errno));
     atomic_init(&sh->next, 0);

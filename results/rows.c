@@ -8,6 +8,8 @@
  */
 #include "rows.h"
 
+#include <string.h>
+
 /* Fetches size i, class c (generation g, or all when g < 0) into t; 0 ok,
  * -1 when the size has no value. */
 typedef int (*get_fn)(const void *sim, int i, int c, int g, rt_sim_counts *t);
@@ -95,6 +97,46 @@ size_t rt_approx_db_se_rows(const rt_approx *a, rt_db_se *se)
         x->policy = rt_sim_policy_name(cfg);
         for (int g = 0; g <= RT_NGROUP; g++)
             if (rt_approx_traffic_se(a, i, g, &x->se[g], NULL)) x->se[g] = -1;
+    }
+    return n;
+}
+
+size_t rt_hier_db_level_max(const rt_hier *h)
+{
+    const rt_hier_config *hc = rt_hier_get_config(h);
+    size_t n = 0;
+    for (int k = 0; k < hc->nlevels; k++) n += (size_t)hc->level[k].nsizes * RT_NCLASS;
+    return n;
+}
+
+size_t rt_hier_db_level_rows(const rt_hier *h, rt_db_level *out)
+{
+    const rt_hier_config *hc = rt_hier_get_config(h);
+    size_t n = 0;
+    for (int k = 0; k < hc->nlevels; k++) {
+        const rt_sim_config *c = &hc->level[k];
+        for (int i = 0; i < c->nsizes; i++)
+            for (int cls = 0; cls < RT_NCLASS; cls++) {
+                rt_sim_counts t;
+                rt_sim_get(rt_hier_level(h, k), i, cls, &t);
+                if (!t.accesses) continue;
+                rt_db_level *r = &out[n++];
+                memset(r, 0, sizeof *r);
+                r->level = k + 1;
+                r->level_name = hc->name[k];
+                r->core = -1;
+                r->size = c->sizes[i];
+                r->line = c->line;
+                r->assoc = c->assoc;
+                r->policy = rt_sim_policy_name(c);
+                r->repl = rt_sim_repl_name(c->repl);
+                r->cls = cls;
+                r->gen = -1;
+                r->accesses = t.accesses;
+                r->misses = t.read_misses + t.write_misses;
+                r->writebacks = t.writebacks;
+                r->traffic_bytes = t.traffic_bytes;
+            }
     }
     return n;
 }

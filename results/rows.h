@@ -12,6 +12,7 @@
 #define RT_ROWS_H
 
 #include "approx.h"
+#include "hier.h"
 #include "db.h"
 #include "sim.h"
 
@@ -36,5 +37,14 @@ int rt_approx_db_has_se(const rt_approx_config *ac);
  * classes), -1 where it has none; none at all unless rt_approx_db_has_se.
  * se must hold nsizes entries; returns the rows written. */
 size_t rt_approx_db_se_rows(const rt_approx *a, rt_db_se *se);
+
+/* Per-level rows of a hierarchy (after rt_hier_finish): one per (level,
+ * size, class) with accesses, generation -1 (all), core -1 (shared);
+ * misses = read + write misses, traffic_bytes = what the level moves to the
+ * one below. out must hold rt_hier_db_level_max(h) entries; returns the rows
+ * written. The traffic rows of such a run are rt_sim_db_rows of its last
+ * level (what reaches memory). */
+size_t rt_hier_db_level_max(const rt_hier *h);
+size_t rt_hier_db_level_rows(const rt_hier *h, rt_db_level *out);
 
 #endif

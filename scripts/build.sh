@@ -3,7 +3,9 @@
 # raytraffic out of tree (once, and again when configure is newer than the
 # build) and builds it.
 #   scripts/build.sh [BUILD_DIR]   (relative to the source tree; default build)
-#   RT_SANITIZE=1  configure with --enable-sanitizers (ASan + UBSan)
+#   RT_SANITIZE=1  configure with --enable-sanitizers (ASan + UBSan, and
+#                  float-cast-overflow where the compiler has it; with
+#                  CC=clang: the clang sanitizer configuration)
 #   CFLAGS         default -O2 -g
 set -euo pipefail
 top="$(cd "$(dirname "$0")/.." && pwd)"

@@ -592,6 +592,20 @@ bad --approx sweep --approx shards:7 --db $o.db
 bad --proxy sweep --proxy res:0 --db $o.db
 bad --figure report --figure 42 --db $o.db
 bad --format report --format xml --db $o.db
+# strict numbers in every render option (docs/options.md): hex, space, plus, overflow, nan
+for v in 0x10 " 1" +2 1e999 nan; do
+    bad --grid-density trace cornell -W 8 -H 8 -t feedback --grid-density "$v" -o $o.rtt
+    bad --oracle-fraction trace cornell -W 8 -H 8 -t stream-multipass --oracle-fraction "$v" -o $o.rtt
+    bad --fov trace cornell -W 8 -H 8 --fov "$v" -o $o.rtt
+    bad --look-at trace cornell -W 8 -H 8 --look-at "$v,0,1,0,0,0" -o $o.rtt
+    bad --light trace cornell -W 8 -H 8 --light "0.5,$v,0.9" -o $o.rtt
+    bad --grid-density sweep --tracers feedback --grid-density "$v" --list-jobs
+done
+# a light index --light did not define; --look-at beyond single precision, along the scene's up
+bad --lights trace cornell -W 8 -H 8 --light 0.5,0.5,0.9 --lights 1,2 -o $o.rtt
+bad --lights sweep --scenes cornell --tracers recursive --light 0.5,0.5,0.9 --lights primary,1 --list-jobs
+bad --look-at trace cornell -W 8 -H 8 --look-at 1e20,1e20,1e20,-1e20,-1e20,-1e20 -o $o.rtt
+bad "scene's up vector" trace knot -W 8 -H 8 --look-at 0,0,12,0,0,0 -o $o.rtt
 [ -e $o.db ] && { other=$((other + 1)); note "a usage error created the database"; }
 cd "$src" || exit 1
 rm -rf "$tmp/p8"
@@ -695,9 +709,122 @@ cp "$cube" "${L2}.obj"
 what="240-byte name with --keep-traces"
 run 60 "$bin" sweep --scenes "${L2}.obj" --tracers recursive --lights primary -W 8 -H 8 --sizes 1K --db k.db --keep-traces kept
 must_accept
+# sweep's scene list (docs/options.md): a comma in a mesh name, scenes loaded before --list-jobs,
+# no empty database after a failure
+cp "$cube" "a,b.obj" && printf 'a,b.obj\n' > list.txt
+what="--scenes-file with a comma mesh"
+run 60 "$bin" sweep --scenes-file list.txt --tracers recursive --lights primary -W 8 -H 8 --sizes 1K --db c.db; must_accept
+printf 'Shape "nosuchshape"\n' > bad.pbrt
+for sp in nosuch missing.obj bad.pbrt; do
+    what="--list-jobs with scene $sp"; run 30 "$bin" sweep --scenes "$sp" --list-jobs
+    [ $rc = 1 ] && [ ! -s "$tmp/out" ]; check $? "$what: exit $rc, $(wc -l < "$tmp/out") job lines"
+done
+run 30 "$bin" sweep --scenes nosuch --tracers recursive -W 8 -H 8 --db e.db
+[ ! -e e.db ]; check $? "a failed sweep left an empty database"
+# pbrt scene files (docs/scenes.md, "Limits and strictness"): amplification, overflow, strictness, gzip, links (issues [5/6], [6/6])
+printf 'WorldBegin\nShape "loopsubdiv" "integer levels" 12\n"point3 P" [0 0 0 1 0 0 0 1 0 0 0 1]\n"integer indices" [0 2 1 0 1 3 0 3 2 1 2 3]\n' > tet.pbrt
+what="tetrahedron at levels 12"; run 5 "$rbin" scene info tet.pbrt --no-tree; must_refuse "tet.pbrt:2:20: .*maxsubdiv=N"
+python3 -c "print('WorldBegin\nObjectBegin \"s\"\nShape \"sphere\"\nObjectEnd\n' + 'ObjectInstance \"s\"\n' * 70000)" > inst.pbrt
+what="70,000 instances"; run 5 "$rbin" scene info inst.pbrt:tess=9 --no-tree; must_refuse "inst.pbrt:69047:16: .*maxtri=N"
+tri='Shape "trianglemesh" "point3 P" [ 0 0 0 1 0 0 0 1 0 ]'
+printf 'WorldBegin\nRotate 1e22 0 0 1\nLightSource "point" "point3 from" [ 1 0 0 ]\n%s\n' "$tri" > rot.pbrt
+what="Rotate 1e22"; run 10 "$rbin" scene info rot.pbrt --no-tree; must_accept
+grep -q 'nan\|inf' "$tmp/out"; check $((1 - $?)) "Rotate 1e22: a light or vertex not finite"
+printf 'WorldBegin\nScale 1e30 1e30 1e30\nScale 1e30 1 1\nLightSource "point" "point3 from" [ 1 0 0 ]\n%s\n' "$tri" > big.pbrt
+what="light at infinity"; run 10 "$rbin" scene info big.pbrt --no-tree; must_refuse "big.pbrt:4:13: LightSource: .* not finite"
+printf 'WorldBegin\nScale 1e30 1e30 1e30\nScale 1e30 1 1\n%s\n' "$tri" > vinf.pbrt
+what="vertex at infinity"; run 10 "$rbin" scene info vinf.pbrt --no-tree; must_refuse "^raytraffic scene: vinf.pbrt:4:7: Shape"
+printf 'WorldBegin\nShape "trianglemesh" "point3 P" [ 0x1p0 0 0 1 0 0 0 1 0 ]\n' > hex.pbrt
+what="hex float in pbrt"; run 10 "$rbin" scene info hex.pbrt --no-tree; must_refuse "hex.pbrt:2:35: bad number"
+printf 'WorldBegin\nMaterial "dielectric" "rgb eta" [ 1.5 1.5 ]\n%s\n' "$tri" > eta.pbrt
+what="rgb eta of 2 values"; run 10 "$rbin" scene info eta.pbrt --no-tree; must_refuse "eta.pbrt:2:23: .*2 values, expected 3"
+python3 -c "import gzip,sys; sys.stdout.buffer.write(gzip.compress(b'#' * 200000000 + b'\nWorldBegin\n'))" > bomb.pbrt.gz
+what="gzip bomb"; RT_SCENE_MAX_BYTES=100M run 20 "$rbin" scene info bomb.pbrt.gz --no-tree; must_refuse "more than 104857600 bytes \(decompressed\)"
+ln -s m/fifo.obj tofifo.pbrt
+printf 'WorldBegin\nInclude "tofifo.pbrt"\n' > lf.pbrt
+what="Include of a link to a FIFO"; run 5 "$rbin" scene info lf.pbrt --no-tree; must_refuse "lf.pbrt:2:9: .*not a regular file"
 cd "$src" || exit 1
 rm -rf "$p9"
 row "9. hostile use: job lines, scene files, reruns, names, reports, exports, numbers, memory, databases" $n $crash $hang $silent - - $other
+
+# ---- 10. databases stored nowhere or blocking, merge messages, stale temporaries, tiny scenes --
+# docs/reliability.md §27-§31
+begin 10
+p10=$tmp/p10
+mkdir -p "$p10" && cd "$p10" || exit 1
+"$bin" trace cornell -W 8 -H 8 -o t.rtt 2>/dev/null
+"$bin" sim --db good.db t.rtt > /dev/null 2>&1
+sw="sweep --scenes cornell --tracers recursive --lights primary -W 8 -H 8 --sizes 1K"
+# §27 names SQLite stores nowhere: usage errors
+for name in ':memory:' '' ':x'; do
+    what="sim --db '$name'"; run 30 "$bin" sim --db "$name" t.rtt; usage_err "not a file name\|empty database name"
+    # shellcheck disable=SC2086
+    what="sweep --db '$name'"; run 30 "$bin" $sw --db "$name"; usage_err "not a file name\|empty database name"
+    what="report --db '$name'"; run 30 "$bin" report --db "$name"; usage_err "not a file name\|empty database name"
+    what="db merge '$name' good.db"; run 30 "$bin" db merge "$name" good.db; usage_err "not a file name\|empty database name"
+done
+# §28 FIFOs, folders, devices: refused at once, nothing beside them
+mkfifo f.db && mkdir d.db
+for c in "report --db f.db" "sim --db f.db t.rtt" "db merge o.db f.db" "db merge f.db good.db" "$sw --db f.db" \
+    "sim --db d.db t.rtt" "report --db d.db"; do
+    # shellcheck disable=SC2086
+    what="$c"; run 10 "$bin" $c; must_refuse "is a FIFO|is a directory"
+done
+[ ! -e o.db ]; check $? "db merge o.db f.db created o.db"
+for dev in /dev/null /dev/full; do
+    had=0; [ -e "$dev-journal" ] && had=1
+    # shellcheck disable=SC2086
+    for c in "sim --db $dev t.rtt" "$sw --db $dev" "db merge $dev good.db"; do
+        what="$c"; run 10 "$bin" $c; must_refuse "character device"
+    done
+    [ $had = 1 ] || [ ! -e "$dev-journal" ]; check $? "$dev-journal created"
+done
+# §29 merge messages; nothing left beside the shards
+cp good.db a.db
+run 30 "$bin" db merge m.db a.db
+[ ! -e a.db-wal ] && [ ! -e a.db-shm ]; check $? "db merge left -wal/-shm beside its shard"
+head -c 3000 good.db > trunc.db
+sqlite3 foreign.db "CREATE TABLE foo(x)"
+cp good.db newer.db && sqlite3 newer.db "PRAGMA user_version = 99"
+head -c 5000 "$meshes/cube.obj" > notsql.db
+for x in "trunc.db:malformed database: truncated" "foreign.db:an SQLite file without raytraffic's tables" \
+    "newer.db:schema version 99 is newer" "notsql.db:not an SQLite file" "missing.db:unreadable: No such file" \
+    "d.db:unreadable: is a directory"; do
+    f=${x%%:*}
+    what="db merge of $f"; run 30 "$bin" db merge m2.db "$f"; must_refuse "$f: .*${x#*:}"
+done
+# §30 kept-trace temporaries after kill -9: the rerun removes them
+ka="--scenes cornell,knot --tracers recursive,dynamic --lights primary,all -W 48 -H 48 --sizes 1K-16K --db k.db --keep-traces kept"
+trials=$([ $quick = 1 ] && echo 2 || echo 5)
+for trial in $(seq 1 "$trials"); do
+    rm -rf kept k.db*
+    # shellcheck disable=SC2086
+    "$bin" sweep $ka > /dev/null 2>&1 &
+    pid=$!
+    bgpids="$bgpids $pid"
+    i=0
+    while ! ls -a kept 2>/dev/null | grep -q '^\.job.*\.rtt\.......$' && [ $i -lt 1000 ]; do sleep 0.01; i=$((i + 1)); done
+    kill -KILL $pid 2>/dev/null
+    wait $pid 2>/dev/null
+    : > kept/.job0009-stale.rtt.Stale1
+    : > kept/.unrelated.rtt.Keep12
+    # shellcheck disable=SC2086
+    what="sweep rerun after kill -9 (trial $trial)"; run 300 "$bin" sweep $ka; must_accept
+    [ -z "$(ls -a kept | grep '^\.job.*\.rtt\.......$')" ]; check $? "trial $trial: stale temporaries left: $(ls -a kept | grep '^\.job' | head -3)"
+    [ -e kept/.unrelated.rtt.Keep12 ]; check $? "trial $trial: the rerun removed a file not of its pattern"
+done
+# §31 tiny scenes refused; small ones keep their shadow rays
+for f in 1e-19 1e-12 0; do
+    awk -v f="$f" '$1 == "v" { printf "v %.9g %.9g %.9g\n", $2 * f, $3 * f, $4 * f; next } { print }' "$meshes/cube.obj" > "c$f.obj"
+    what="cube scaled by $f"; run 10 "$bin" trace "c$f.obj" -W 16 -H 16 --lights all -o t2.rtt; must_refuse "scene extent .* is below 1e-09"
+done
+awk '$1 == "v" { printf "v %.9g %.9g %.9g\n", $2 * 1e-6, $3 * 1e-6, $4 * 1e-6; next } { print }' "$meshes/cube.obj" > c6.obj
+a=$("$bin" trace "$meshes/cube.obj" -W 16 -H 16 --lights all -o t2.rtt 2>&1 | sed -n 's/.* + \([0-9]*\) shadow rays.*/\1/p')
+b=$("$bin" trace c6.obj -W 16 -H 16 --lights all -o t2.rtt 2>&1 | sed -n 's/.* + \([0-9]*\) shadow rays.*/\1/p')
+[ -n "$a" ] && [ "$a" = "$b" ]; check $? "cube at 1e-6: $b shadow rays, at 1: $a"
+cd "$src" || exit 1
+rm -rf "$p10"
+row "10. databases stored nowhere, FIFOs/devices/folders as databases, merge messages, kill -9 temporaries, tiny scenes" $n $crash $hang $silent - - $other
 
 end=$(date +%s)
 echo

@@ -22,7 +22,10 @@
  * Avoiding Self-Intersection" (Ray Tracing Gems, ch. 6): the point moves
  * along the unit normal by up to 256 ULPs in integer space, so the offset
  * scales with the point's magnitude; components within 1/32 of zero, where
- * ULPs become tiny, move by a fixed 1/65536 of the normal instead.
+ * ULPs become tiny, move by a fixed 1/65536 of the normal instead. In a
+ * scene smaller than the unit cube both constants shrink with its diagonal
+ * (rt_offset_origin_scaled, rt_scene_offset_scale), so tiny scenes keep
+ * their shadow rays on their own surfaces.
  */
 #include "config.h"
 #include "isect.h"
@@ -117,10 +120,10 @@ rt_vec3 rt_tri_point(const rt_tri *tri, float u, float v)
     return rt_add(tri->p[0], rt_add(rt_mul(e1, u), rt_mul(e2, v)));
 }
 
-static float offset_comp(float p, float n)
+static float offset_comp(float p, float n, float scale)
 {
-    const float origin = 1.0f / 32.0f;
-    const float float_scale = 1.0f / 65536.0f;
+    const float origin = scale * (1.0f / 32.0f);
+    const float float_scale = scale * (1.0f / 65536.0f);
     const float int_scale = 256.0f;
     if (fabsf(p) < origin) return p + float_scale * n;
     int32_t of = (int32_t)(int_scale * n); /* |n| <= 1: at most 256 ULPs */
@@ -135,10 +138,30 @@ static float offset_comp(float p, float n)
     return q;
 }
 
-rt_vec3 rt_offset_origin(rt_vec3 p, rt_vec3 n)
+rt_vec3 rt_offset_origin_scaled(rt_vec3 p, rt_vec3 n, float scale)
 {
     float l = rt_len(n);
-    if (!(l > 0.0f) || !isfinite(l)) return p;
+    if (!(l > 0.0f) || !isfinite(l)) {
+        /* the normal of a tiny triangle (edges below ~1e-10: its squared
+         * length underflows) or a huge one: rescale by its largest
+         * component first (only here, so other normals keep their bits) */
+        float m = fmaxf(fabsf(n.x), fmaxf(fabsf(n.y), fabsf(n.z)));
+        if (!(m > 0.0f) || !isfinite(m)) return p;
+        n = rt_mul(n, 1.0f / m);
+        l = rt_len(n);
+        if (!(l > 0.0f) || !isfinite(l)) return p;
+    }
+    if (!(scale > 0.0f && scale <= 1.0f)) scale = 1.0f;
     n = rt_mul(n, 1.0f / l);
-    return rt_v3(offset_comp(p.x, n.x), offset_comp(p.y, n.y), offset_comp(p.z, n.z));
+    return rt_v3(offset_comp(p.x, n.x, scale), offset_comp(p.y, n.y, scale), offset_comp(p.z, n.z, scale));
+}
+
+rt_vec3 rt_offset_origin(rt_vec3 p, rt_vec3 n) { return rt_offset_origin_scaled(p, n, 1.0f); }
+
+float rt_offset_reach(rt_vec3 p, float scale)
+{
+    if (!(scale > 0.0f && scale <= 1.0f)) scale = 1.0f;
+    float m = fmaxf(fabsf(p.x), fmaxf(fabsf(p.y), fabsf(p.z)));
+    /* 256 ULPs of m is at most m * 2^-15; a ULP below 1/32 is smaller */
+    return 2.0f * fmaxf(m * 0x1p-15f, scale * (1.0f / 65536.0f));
 }

@@ -50,6 +50,17 @@ rt_vec3 rt_tri_point(const rt_tri *tri, float u, float v);
  * be unit length: it is normalised here). Every component moves by up to
  * 256 ULPs of itself (components below 1/32 in magnitude by n/65536). */
 rt_vec3 rt_offset_origin(rt_vec3 p, rt_vec3 n);
+/* The same in a scene of length scale `scale` (rt_scene_offset_scale, in
+ * (0, 1]): components below scale/32 move by scale * n/65536, so the
+ * offset stays a fixed fraction of a scene smaller than the unit cube
+ * instead of leaving it (a cube of edge 1e-9 would otherwise start its
+ * shadow rays 1.5e-5 away). scale = 1 is rt_offset_origin bit for bit. */
+rt_vec3 rt_offset_origin_scaled(rt_vec3 p, rt_vec3 n, float scale);
+/* How far from p a surface counts as p's own under that rule: the
+ * largest move rt_offset_origin_scaled makes (256 ULPs of the largest
+ * component, at least scale/65536), doubled. Camera rays from an eye this
+ * close to a triangle start this far along (camera.h). */
+float rt_offset_reach(rt_vec3 p, float scale);
 
 /* rt_isect_core_nd (below) out of line: the vector core's rare fallback,
  * kept out of the walks it is inlined into. */

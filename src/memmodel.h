@@ -35,6 +35,7 @@
 #define RT_MEMMODEL_H
 
 #include "rt.h"
+#include "rt_assert.h"
 
 #include <stdint.h>
 
@@ -149,9 +150,13 @@ struct rt_sink {
 
 #define RT_REC_BUF 4096
 
+/* The recorder. Invariant (RT_ASSERT in rt_rec_push and the writer
+ * below): 0 <= n < RT_REC_BUF between calls; a push that fills the
+ * buffer hands it to the sink at once, so the sink always receives
+ * batches of RT_REC_BUF accesses but the last. */
 typedef struct rt_rec {
     rt_access buf[RT_REC_BUF]; /* pending accesses */
-    size_t n;                  /* entries in buf */
+    size_t n;                  /* entries in buf, < RT_REC_BUF between calls */
     rt_sink *sink;             /* receives full buffers; never NULL */
     uint64_t total;            /* accesses recorded so far */
     int failed;                /* a put() failed; later accesses are dropped */
@@ -176,6 +181,7 @@ static inline void rt_rec_set_gen(rt_rec *r, int gen)
 
 static inline void rt_rec_push(rt_rec *r, uint64_t addr, uint32_t size, int write, int cls)
 {
+    RT_ASSERT(r->n < RT_REC_BUF);
     rt_access *a = &r->buf[r->n++];
     a->addr = addr;
     a->size = size;
@@ -183,6 +189,69 @@ static inline void rt_rec_push(rt_rec *r, uint64_t addr, uint32_t size, int writ
     a->cls = (uint8_t)cls;
     a->gen = r->gen;
     if (r->n == RT_REC_BUF) rt_rec_flush(r);
+}
+
+/*
+ * A local writer for a walk's inner loop (the k-d walk's leaves and
+ * nodes): reads that rt_rec_push would do through the recorder after
+ * every store (its count and generation, which the compiler must assume
+ * the stores into buf may change) are held in this struct, which the
+ * walk keeps in registers. It writes the same accesses, fields and order
+ * as rt_rec_push and hands the buffer to the sink at the same fill level,
+ * so the sink sees the very batches rt_rec_push would give it.
+ *
+ *   rt_rec_w w;
+ *   rt_rec_wbegin(&w, rec);          rec non-NULL
+ *   rt_rec_wput(&w, addr, size, cls) reads only, any number of times
+ *   rt_rec_wend(&w);                 writes the count back
+ *
+ * Between wbegin and wend the recorder's own count is stale: nothing else
+ * may record into rec (RT_ASSERT at wend checks that the count is the one
+ * the writer last left there), and the generation stays as it was.
+ */
+#if defined(__GNUC__)
+#define RT_REC_INLINE inline __attribute__((always_inline))
+#else
+#define RT_REC_INLINE inline
+#endif
+
+typedef struct rt_rec_w {
+    rt_rec *rec;    /* the recorder */
+    rt_access *buf; /* rec->buf */
+    size_t n;       /* entries in buf (rec->n is stale until rt_rec_wend) */
+    size_t synced;  /* rec->n as the writer last left it */
+    uint8_t gen;    /* rec->gen, constant between wbegin and wend */
+} rt_rec_w;
+
+static RT_REC_INLINE void rt_rec_wbegin(rt_rec_w *w, rt_rec *rec)
+{
+    w->rec = rec;
+    w->buf = rec->buf;
+    w->n = w->synced = rec->n;
+    w->gen = rec->gen;
+}
+
+static RT_REC_INLINE void rt_rec_wput(rt_rec_w *w, uint64_t addr, uint32_t size, uint8_t cls)
+{
+    RT_ASSERT(w->n < RT_REC_BUF);
+    rt_access *a = &w->buf[w->n++];
+    a->addr = addr;
+    a->size = size;
+    a->write = 0;
+    a->cls = cls;
+    a->gen = w->gen;
+    if (w->n == RT_REC_BUF) {
+        RT_ASSERT(w->rec->n == w->synced); /* nothing else recorded meanwhile */
+        w->rec->n = w->n;
+        rt_rec_flush(w->rec);
+        w->n = w->synced = w->rec->n;
+    }
+}
+
+static RT_REC_INLINE void rt_rec_wend(rt_rec_w *w)
+{
+    RT_ASSERT(w->rec->n == w->synced && w->rec->gen == w->gen); /* nothing else recorded meanwhile */
+    w->rec->n = w->synced = w->n;
 }
 
 /* The tracers' hook: free when recording is off (rec == NULL). */

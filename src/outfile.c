@@ -2,7 +2,8 @@
  * outfile.c -- safe output files: complete or absent, never half-written.
  *
  * A careless `-o` can name anything, and two runs can name the same file.
- * The rules, applied by rt_out_open to the path it is given:
+ * The rules, applied by rt_out_open to the path it is given (1-3 are
+ * rt_open_target's, which databases go through too):
  *
  *   1. A symlink is followed (up to 40 levels) and the rules apply to what
  *      it points at; the link itself stays a link.
@@ -13,7 +14,10 @@
  *   4. A regular or missing file gets a unique temporary in the same folder
  *      (".NAME.XXXXXX" from mkstemp, i.e. O_EXCL), so the final rename is
  *      atomic and two writers never share a temporary: the last rename wins
- *      and the target is always one writer's complete output.
+ *      and the target is always one writer's complete output. The writer
+ *      holds an exclusive flock on its temporary until commit or abort, so
+ *      a temporary left by a killed process (kill -9 runs no handler) is
+ *      told from a live one: rt_out_remove_stale removes the former only.
  *   5. rt_out_commit does fflush, fsync (regular files only: devices refuse
  *      it), a checked fclose, then rename. A write error anywhere, reported
  *      late by fflush/fclose (ENOSPC, EIO) or early by fwrite, fails the
@@ -33,6 +37,8 @@
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
+#include <dirent.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <sys/types.h>
 #include <fcntl.h>
@@ -191,20 +197,103 @@ static mode_t default_mode(void)
     return 0666 & ~m;
 }
 
+/* 1 if descriptor fd is still the file named path (not unlinked, not
+ * replaced). */
+static int same_file(int fd, const char *path)
+{
+    struct stat a, b;
+    return fstat(fd, &a) == 0 && lstat(path, &b) == 0 && a.st_dev == b.st_dev && a.st_ino == b.st_ino;
+}
+
+/* mkstemp on tmp (ending in XXXXXX; close-on-exec) holding
+ * an exclusive flock for as long as the descriptor is open: the mark of a
+ * live temporary for rt_out_remove_stale. A stale-temporary remover may
+ * take a new file's lock first and unlink it; then the name no longer
+ * names our file, and a new one is made. The descriptor, or -1 (errno). */
+static int make_temporary(char *tmp)
+{
+    for (int tries = 0; tries < 100; tries++) {
+        memcpy(tmp + strlen(tmp) - 6, "XXXXXX", 6);
+        int fd = mkostemp(tmp, O_CLOEXEC);
+        if (fd < 0) return -1;
+        if (flock(fd, LOCK_EX | LOCK_NB) == 0 && same_file(fd, tmp)) return fd;
+        if (errno == ENOLCK || errno == EINVAL) return fd; /* no locks here: a remover cannot lock either */
+        close(fd);
+    }
+    errno = EEXIST;
+    return -1;
+}
+
+static const char *kind_name(mode_t m)
+{
+    return S_ISFIFO(m) ? "a FIFO" : S_ISCHR(m) ? "a character device" : S_ISBLK(m) ? "a block device"
+         : S_ISSOCK(m) ? "a socket" : "not a regular file";
+}
+
+/* rt_open_target's rule; *target (malloc'd, symlinks followed) and *st
+ * (st_mode 0 when absent) for rt_out_open when target is non-NULL. */
+static int classify(const char *path, int kind, char **target, struct stat *st, rt_err *e)
+{
+    const int db = kind == RT_TARGET_DB || kind == RT_TARGET_DB_READ;
+    if (!path || !*path)
+        return db ? rt_errf_usage(e, "empty database name: SQLite would keep it in a temporary file")
+                  : rt_errf_usage(e, "empty output path");
+    if (db && path[0] == ':')
+        return rt_errf_usage(e, "'%s' is not a file name: SQLite keeps such a database in memory, nothing would be "
+                                "stored (for a file of that name write ./%s)", path, path);
+    char *t = resolve(path, st, e);
+    if (!t) return -1;
+    int rc = -1;
+    if (S_ISDIR(st->st_mode)) {
+        rt_errf(e, "%s: is a directory", path);
+    } else if (st->st_mode == 0) {
+        if (kind == RT_TARGET_DB_READ) {
+            rt_errf(e, "%s: %s", path, strerror(ENOENT));
+        } else if (kind == RT_TARGET_DB) {
+            /* SQLite creates the file: its folder must exist (and be one) */
+            size_t d = dir_len(t);
+            char *dir = rt_calloc(d + 2, 1, e);
+            struct stat ds;
+            if (dir) {
+                memcpy(dir, d ? t : ".", d ? d : 1);
+                if (stat(dir, &ds) != 0) rt_errf(e, "%s: %s", path, strerror(errno));
+                else if (!S_ISDIR(ds.st_mode)) rt_errf(e, "%s: %s", path, strerror(ENOTDIR));
+                else rc = RT_TARGET_ABSENT;
+                free(dir);
+            }
+        } else {
+            rc = RT_TARGET_ABSENT;
+        }
+    } else if (S_ISREG(st->st_mode)) {
+        rc = RT_TARGET_REGULAR;
+    } else if (db) {
+        rt_errf(e, "%s: is %s, not a regular file%s", path, kind_name(st->st_mode),
+                kind == RT_TARGET_DB ? ": a database must be a regular file (or absent, to create it)" : "");
+    } else {
+        rc = RT_TARGET_STREAM;
+    }
+    if (rc >= 0 && target) *target = t;
+    else free(t);
+    return rc;
+}
+
+int rt_open_target(const char *path, int kind, rt_err *e)
+{
+    struct stat st;
+    return classify(path, kind, NULL, &st, e);
+}
+
 rt_out *rt_out_open(const char *path, rt_err *e)
 {
-    if (!path || !*path) return rt_errf(e, "empty output path"), NULL;
     rt_out *o = rt_calloc(1, sizeof *o, e);
     if (!o) return NULL;
     o->fd = -1;
     o->slot = -1;
     struct stat st;
-    if (!(o->path = dupstr(path, e)) || !(o->target = resolve(path, &st, e))) goto fail;
-    if (S_ISDIR(st.st_mode)) {
-        rt_errf(e, "%s: is a directory", path);
+    int kind;
+    if (!(o->path = dupstr(path ? path : "", e)) || (kind = classify(path, RT_TARGET_OUTPUT, &o->target, &st, e)) < 0)
         goto fail;
-    }
-    if (st.st_mode != 0 && !S_ISREG(st.st_mode)) {
+    if (kind == RT_TARGET_STREAM) {
         /* device, FIFO, socket: write in place */
         if ((o->fd = open(o->target, O_WRONLY | O_CLOEXEC)) < 0) {
             rt_errf(e, "%s: %s", path, strerror(errno));
@@ -216,7 +305,7 @@ rt_out *rt_out_open(const char *path, rt_err *e)
         if (!(o->tmp = rt_calloc(d + strlen(base) + 9, 1, e))) goto fail;
         memcpy(o->tmp, o->target, d);
         sprintf(o->tmp + d, ".%s.XXXXXX", base);
-        if ((o->fd = mkstemp(o->tmp)) < 0) {
+        if ((o->fd = make_temporary(o->tmp)) < 0) {
             rt_errf(e, "%s: cannot create a temporary beside it: %s", path, strerror(errno));
             free(o->tmp);
             o->tmp = NULL;
@@ -299,4 +388,44 @@ int rt_out_probe(const char *path, rt_err *e)
     if (!o) return -1;
     rt_out_abort(o);
     return 0;
+}
+
+/* ---- temporaries of dead writers -------------------------------------------- */
+
+/* 1 if c is one of mkstemp's six-character suffix letters. */
+static int tmp_char(char c)
+{
+    return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9');
+}
+
+long rt_out_remove_stale(const char *dir, int (*match)(const char *name), rt_err *e)
+{
+    DIR *dp = opendir(dir);
+    if (!dp) return rt_errf(e, "%s: %s", dir, strerror(errno));
+    int dfd = dirfd(dp);
+    long removed = 0;
+    struct dirent *de;
+    char name[NAME_MAX + 1];
+    while ((de = readdir(dp))) {
+        size_t n = strlen(de->d_name);
+        /* ".NAME.XXXXXX": a dot, at least one byte of name, a dot, six */
+        if (n < 9 || de->d_name[0] != '.' || de->d_name[n - 7] != '.') continue;
+        int ok = 1;
+        for (size_t k = n - 6; k < n; k++) ok &= tmp_char(de->d_name[k]);
+        if (!ok) continue;
+        memcpy(name, de->d_name + 1, n - 8);
+        name[n - 8] = 0;
+        if (!match(name)) continue;
+        int fd = openat(dfd, de->d_name, O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
+        if (fd < 0) continue;
+        struct stat a, b;
+        /* a regular file nobody holds, still under that name */
+        if (fstat(fd, &a) == 0 && S_ISREG(a.st_mode) && flock(fd, LOCK_EX | LOCK_NB) == 0 &&
+            fstatat(dfd, de->d_name, &b, AT_SYMLINK_NOFOLLOW) == 0 && a.st_dev == b.st_dev && a.st_ino == b.st_ino &&
+            unlinkat(dfd, de->d_name, 0) == 0)
+            removed++;
+        close(fd);
+    }
+    closedir(dp);
+    return removed;
 }

@@ -6,6 +6,7 @@
 
 #include <errno.h>
 #include <fcntl.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -227,11 +228,18 @@ static void sincos_small(double r, double *s, double *c)
 void rt_dsincos_deg(double deg, double *s, double *c)
 {
     /* Reduce in degrees (exact for the angles the generators use) to the
-     * nearest multiple q of 90, after whole turns. */
-    double turns = deg / 360.0;
-    long long t = (long long)turns;
-    deg -= 360.0 * (double)t;
+     * nearest multiple q of 90, after whole turns. fmod is exact (the
+     * remainder of two doubles is a double), defined for every finite
+     * angle, and equals deg - 360 trunc(deg / 360) wherever that
+     * expression was exact, so angles below 2^53 degrees reduce as they
+     * did; a non-finite angle gives NaN sine and cosine. */
+    if (!isfinite(deg)) {
+        *s = *c = NAN;
+        return;
+    }
+    deg = fmod(deg, 360.0);
     if (deg < 0) deg += 360.0;
+    if (deg >= 360.0) deg = 0; /* -tiny + 360 rounds to 360 */
     int q = (int)((deg + 45.0) / 90.0);
     double r = (deg - 90.0 * q) * (3.14159265358979323846 / 180.0);
     double ss, cc;

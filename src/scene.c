@@ -209,6 +209,7 @@ void rt_scene_free(rt_scene *s)
     free(s->mat);
     for (uint32_t i = 0; i < s->nlight; i++) free(s->lights[i].cdf);
     free(s->lights);
+    free(s->warn);
     free(s);
 }
 
@@ -330,13 +331,27 @@ int rt_scene_check_range(const rt_scene *s, const char *where, rt_err *e)
     if (m > RT_COORD_MAX)
         return rt_errf(e, "%s: coordinate magnitude %.9g above %g (docs/scenes.md: coordinate range)", where, m,
                        RT_COORD_MAX);
+    /* a far-off scene whose extent rounded away: the relative rule says why */
+    if (d < m * RT_EXTENT_MIN_REL && m > 0)
+        return rt_errf(e, "%s: scene extent %.9g is below 1/8192 of its largest coordinate %.9g: single "
+                          "precision cannot resolve it there (docs/scenes.md: coordinate range)", where, d, m);
+    if (!(d >= RT_EXTENT_MIN))
+        return rt_errf(e, "%s: scene extent %.9g is below %g: single precision cannot shade it (normals underflow; "
+                          "docs/scenes.md: coordinate range); scale the scene up", where, d, RT_EXTENT_MIN);
     if (d > RT_EXTENT_MAX)
         return rt_errf(e, "%s: scene extent %.9g above %g: shading would overflow single precision "
                           "(docs/scenes.md: coordinate range)", where, d, RT_EXTENT_MAX);
-    if (d < m * RT_EXTENT_MIN_REL)
-        return rt_errf(e, "%s: scene extent %.9g is below 1/8192 of its largest coordinate %.9g: single "
-                          "precision cannot resolve it there (docs/scenes.md: coordinate range)", where, d, m);
     return 0;
+}
+
+float rt_scene_offset_scale(const rt_scene *s)
+{
+    rt_bounds b = s->bounds;
+    if (!(b.lo.x <= b.hi.x)) return 1.0f;
+    double dx = (double)b.hi.x - b.lo.x, dy = (double)b.hi.y - b.lo.y, dz = (double)b.hi.z - b.lo.z;
+    double d = sqrt(dx * dx + dy * dy + dz * dz);
+    d *= 16; /* RT_OFFSET_SCALE_FROM: 1 from a diagonal of 1/16 up */
+    return d < 1 && d > 0 ? (float)d : 1.0f;
 }
 
 /* Places the camera so the bounding sphere fits a W x H image. */

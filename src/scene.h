@@ -141,6 +141,15 @@ typedef struct rt_light {
 /* The kind's name ("point", "mesh", "sphere", "disk", "distant", "infinite"). */
 const char *rt_light_kind_name(int kind);
 
+/* One kind of load warning (a skipped or approximated feature): its key
+ * ("Shape \"disk\"", "Sampler"), how often it occurred and where first. */
+typedef struct rt_scene_warn {
+    char kind[48];   /* the kind, one per entry */
+    char first[256]; /* "FILE:LINE" of its first occurrence */
+    char msg[200];   /* what was done ("Shape \"curve\" skipped") */
+    uint32_t count;  /* occurrences */
+} rt_scene_warn;
+
 typedef struct rt_scene {
     char name[256];         /* spec it was made from: built-in name or mesh file name, whole (NAME_MAX) */
     char params[128];       /* canonical parameter string, "" if none */
@@ -163,6 +172,8 @@ typedef struct rt_scene {
     uint32_t ntri_inst;     /* with instances: triangles that came from instances */
     uint32_t nlight;        /* authored lights (pbrt files), 0 = none */
     rt_light *lights;       /* nlight records (see "Lights as authored") */
+    rt_scene_warn *warn;    /* every load warning, one entry per kind in order of first occurrence (NULL if none; owned) */
+    uint32_t nwarn;         /* entries in warn */
 } rt_scene;
 
 void rt_scene_free(rt_scene *s);
@@ -222,13 +233,23 @@ int rt_scene_set_camera(rt_scene *s, rt_vec3 eye, rt_vec3 at, rt_vec3 up, float 
 
 /* The coordinates the single-precision pipeline resolves (derivation in
  * docs/scenes.md): every |coordinate| <= RT_COORD_MAX, the bounding-box
- * diagonal D <= RT_EXTENT_MAX (normals are cross products of edges, and
- * their squared length ~D^4 must stay below FLT_MAX), and
- * D >= RT_EXTENT_MIN_REL * the largest |coordinate| (at least 2^10 float
- * steps across the scene, so vertices do not collapse onto each other). */
+ * diagonal RT_EXTENT_MIN <= D <= RT_EXTENT_MAX (normals are cross
+ * products of edges, and their squared length ~D^4 must stay below
+ * FLT_MAX and above FLT_MIN: a smaller scene's normals underflow and its
+ * shadow rays vanish), and D >= RT_EXTENT_MIN_REL * the largest
+ * |coordinate| (at least 2^10 float steps across the scene, so vertices do
+ * not collapse onto each other). */
 #define RT_COORD_MAX 1e13
 #define RT_EXTENT_MAX 1e9
+#define RT_EXTENT_MIN 1e-9
 #define RT_EXTENT_MIN_REL (1.0 / 8192.0)
+/* The length scale of the self-intersection rule (src/isect.h,
+ * rt_offset_origin_scaled): 16 times the bounding-box diagonal, at most 1.
+ * The fixed offset near the origin (2^-16) is then at most 2^-12 of the
+ * diagonal: it shrinks with scenes whose diagonal is below 1/16 and stays
+ * the unit cube's for larger ones (every built-in scene, and the bunny,
+ * diagonal 0.25, keep their offsets bit for bit). 1 for an empty scene. */
+float rt_scene_offset_scale(const rt_scene *s);
 /* Checks a finished scene (bounds computed) against that range. 0, or -1
  * with "WHERE: what (value)". Loaders call it with the file name. */
 int rt_scene_check_range(const rt_scene *s, const char *where, rt_err *e);

@@ -24,6 +24,7 @@
 #include "config.h"
 #include "scene.h"
 #include "scene_load.h"
+#include "ply_read.h"
 
 #include <limits.h>
 #include <stdio.h>
@@ -1080,29 +1081,33 @@ static int gen_bunny(gen *g, const int *pv)
     (void)pv;
     static const char *const dirs[] = {RT_SRCDATADIR, RT_DATADIR};
     char path[1024];
-    rt_scene *b = NULL;
+    rt_ply_mesh b;
+    int found = 0;
     rt_err e2 = {0};
-    for (int i = 0; i < 2 && !b; i++) {
+    for (int i = 0; i < 2 && !found; i++) {
         snprintf(path, sizeof path, "%s/bunny/bun_zipper.ply", dirs[i]);
         FILE *f = fopen(path, "rb");
         if (!f) continue;
         fclose(f);
-        b = rt_scene_load_ply(path, &e2);
-        if (!b) return rt_errf(g->e, "bunny: %s", e2.msg);
+        if (rt_ply_read_file(path, &b, &e2) < 0) return rt_errf(g->e, "bunny: %s", e2.msg); /* the shared reader */
+        found = 1;
     }
-    if (!b) return rt_errf(g->e, "bunny: bunny/bun_zipper.ply found neither in %s nor in %s", RT_SRCDATADIR, RT_DATADIR);
-    if (rt_scene_reserve(g->s, b->ntri, g->e) < 0) {
-        rt_scene_free(b);
-        return -1;
+    if (!found) return rt_errf(g->e, "bunny: bunny/bun_zipper.ply found neither in %s nor in %s", RT_SRCDATADIR, RT_DATADIR);
+    int huge = b.nidx / 3 > UINT32_MAX / 2;
+    if (huge || rt_scene_reserve(g->s, (uint32_t)(b.nidx / 3), g->e) < 0) {
+        rt_ply_mesh_free(&b);
+        return huge ? rt_errf(g->e, "bunny: too many triangles") : -1;
     }
     colour(g, 0.85, 0.78, 0.66);
-    for (uint32_t t = 0; t < b->ntri && !g->failed; t++) {
-        const float *p = (const float *)(const void *)&b->tri[t];
+    for (size_t t = 0; t < b.nidx && !g->failed; t += 3) {
         dv3 v[3];
-        for (int k = 0; k < 3; k++) v[k] = d3(p[3 * k], -(double)p[3 * k + 2], p[3 * k + 1]);
+        for (int k = 0; k < 3; k++) {
+            const rt_vec3 p = b.v[b.idx[t + (size_t)k]];
+            v[k] = d3(p.x, -(double)p.z, p.y);
+        }
         tri(g, v[0], v[1], v[2]);
     }
-    rt_scene_free(b);
+    rt_ply_mesh_free(&b);
     /* bounds after the turn: x -0.095..0.061, y -0.059..0.062, z 0.033..0.187 */
     view v = {rt_v3(-0.012f, -0.36f, 0.1f), rt_v3(-0.012f, 0.0f, 0.095f), BUNNY_FOVY,
               {rt_v3(-0.25f, -0.35f, 0.45f), rt_v3(0.3f, -0.3f, 0.35f), rt_v3(0.0f, 0.2f, 0.6f)},
@@ -1168,7 +1173,7 @@ rt_scene *rt_scene_builtin(const char *name, const char *params, rt_err *e)
     for (size_t i = 0; i < NBUILTIN; i++)
         if (!strcmp(builtins[i].name, name)) b = &builtins[i];
     if (!b) {
-        rt_errf(e, "unknown scene '%s' (not .obj/.ply, not a built-in; see 'raytraffic scene list')", name);
+        rt_errf(e, "unknown scene '%s' (not .obj/.ply/.pbrt, not a built-in; see 'raytraffic scene list')", name);
         return NULL;
     }
     int vals[MAXP];

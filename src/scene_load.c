@@ -24,24 +24,40 @@ static int has_suffix(const char *s, const char *suf)
     return 1;
 }
 
+/* The suffix of a scene file's name: ".obj", ".ply" or ".pbrt", each
+ * also with ".gz" after it (the loaders tell gzip by content, so a
+ * gzipped file under the plain name loads too). */
+static int has_type(const char *s, const char *suf)
+{
+    size_t n = strlen(s);
+    if (has_suffix(s, suf)) return 1;
+    if (n < 3 || !has_suffix(s, ".gz")) return 0;
+    char tmp[16];
+    size_t m = strlen(suf);
+    if (n < 3 + m || m + 1 > sizeof tmp) return 0;
+    memcpy(tmp, s + n - 3 - m, m);
+    tmp[m] = 0;
+    return has_suffix(tmp, suf);
+}
+
 /* A spec (or its part before the parameters) naming a scene file. */
-static int is_file(const char *s) { return has_suffix(s, ".obj") || has_suffix(s, ".ply") || has_suffix(s, ".pbrt"); }
+static int is_file(const char *s) { return has_type(s, ".obj") || has_type(s, ".ply") || has_type(s, ".pbrt"); }
 
 /* Loads a spec without its material=PRESET item. */
 static rt_scene *load_base(const char *spec, const char *params, rt_err *e)
 {
     char name[64];
     size_t fn = strlen(spec);
-    if (has_suffix(spec, ".pbrt")) return rt_scene_load_pbrt(spec, params, e);
-    if (has_suffix(spec, ".obj") || has_suffix(spec, ".ply")) {
+    if (has_type(spec, ".pbrt")) return rt_scene_load_pbrt(spec, params, e);
+    if (has_type(spec, ".obj") || has_type(spec, ".ply")) {
         if (params[0]) {
             rt_errf(e, "%s: unknown parameter '%s' (known for mesh files: material)", spec, params);
             return NULL;
         }
-        return has_suffix(spec, ".obj") ? rt_scene_load_obj(spec, e) : rt_scene_load_ply(spec, e);
+        return has_type(spec, ".obj") ? rt_scene_load_obj(spec, e) : rt_scene_load_ply(spec, e);
     }
     if (fn >= sizeof name) {
-        rt_errf(e, "unknown scene '%.40s...' (not .obj/.ply, not a built-in; see 'raytraffic scene list')", spec);
+        rt_errf(e, "unknown scene '%.40s...' (not .obj/.ply/.pbrt, not a built-in; see 'raytraffic scene list')", spec);
         return NULL;
     }
     memcpy(name, spec, fn);
@@ -63,8 +79,8 @@ rt_scene *rt_scene_load(const char *spec, rt_err *e)
     if (!file)
         for (size_t i = n; i-- > 4;)
             if (spec[i] == ':') {
-                char suf[6];
-                size_t k = i < 5 ? i : 5;
+                char suf[9];
+                size_t k = i < 8 ? i : 8;
                 memcpy(suf, spec + i - k, k);
                 suf[k] = 0;
                 if (is_file(suf)) {

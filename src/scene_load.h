@@ -5,7 +5,8 @@
  *
  * Scene specs: a built-in name with optional parameters, e.g.
  *   "sphereflake", "sphereflake:level=2,tess=3", "grove:trees=4",
- * or a path ending in .obj, .ply or .pbrt; any spec may end in
+ * or a path ending in .obj, .ply or .pbrt (each also with .gz after it);
+ * any spec may end in
  * material=PRESET (rt_scene_set_material).
  */
 #ifndef RT_SCENE_LOAD_H
@@ -25,15 +26,16 @@ rt_scene *rt_scene_builtin(const char *name, const char *params, rt_err *e);
 rt_scene *rt_scene_load_obj(const char *path, rt_err *e);
 rt_scene *rt_scene_load_ply(const char *path, rt_err *e);
 /* A pbrt-v4 scene file (subset: docs/scenes.md, "pbrt"). params: "" or
- * "tess=N" (sphere tessellation, 1..64, default 3) and "maxtri=N" (refuse
- * scenes above N triangles, default 2^26). */
+ * "tess=N" (sphere tessellation, 1..64, default 3), "maxtri=N" (refuse
+ * scenes above N triangles, default 2^26) and "maxsubdiv=N" (refuse a
+ * loopsubdiv shape above N triangles, default 2^22). Plain or gzip files
+ * (scene_file.h), told by content. */
 rt_scene *rt_scene_load_pbrt(const char *path, const char *params, rt_err *e);
-/* Appends the triangles of the PLY file held in buf (n bytes, buf[n] = 0;
- * path names it in messages) to s, every vertex mapped by the row-major
- * 4x4 matrix m (homogeneous, NULL = identity), with colour rgb (NULL =
- * default grey) and material mat. Same parsing and checks as
- * rt_scene_load_ply; s is not finished. Returns the triangles appended, or
- * -1 (s may hold part of them). */
-long rt_scene_append_ply(rt_scene *s, const char *path, const char *buf, size_t n, const double m[16],
-                         const float rgb[3], uint32_t mat, rt_err *e);
+/* For an image W x H whose aspect differs from the scene's Film (a pbrt
+ * file's xresolution x yresolution; scenes without one are left alone),
+ * keeps the film's horizontal extent: the vertical field of view becomes
+ * 2 atan(tan(fovy/2) x (film_w / film_h) x (H / W)), and a warning of kind
+ * "image aspect" is recorded. 1 when the camera changed, 0 when not, -1
+ * out of memory. */
+int rt_scene_fit_film(rt_scene *s, int W, int H, rt_err *e);
 #endif

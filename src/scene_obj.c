@@ -36,6 +36,7 @@
 #include "config.h"
 #include "scene.h"
 #include "scene_load.h"
+#include "scene_file.h"
 
 #include <errno.h>
 #include <float.h>
@@ -125,20 +126,24 @@ typedef struct objload {
     float cur_kd[3];    /* storage for cur_rgb */
 } objload;
 
-static void warn(objload *L, const char *fmt, ...)
+static void warn(objload *L, const char *kind, const char *fmt, ...)
 #if defined(__GNUC__)
-    __attribute__((format(printf, 2, 3)))
+    __attribute__((format(printf, 3, 4)))
 #endif
     ;
 
-static void warn(objload *L, const char *fmt, ...)
+/* A warning of `kind` at the current line (s->warn, rt_sfile_warn). */
+static void warn(objload *L, const char *kind, const char *fmt, ...)
 {
-    if (L->nwarn++ == 0) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(L->s->warning, sizeof L->s->warning, fmt, ap);
-        va_end(ap);
-    }
+    char m[200], first[256];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(m, sizeof m, fmt, ap);
+    va_end(ap);
+    snprintf(first, sizeof first, "%.230s:%lu", L->path, L->line);
+    L->nwarn++;
+    rt_err e2;
+    (void)rt_sfile_warn(L->s, kind, first, &e2, "%s", m); /* out of memory: the warning is lost, not the scene */
 }
 
 /* ------------------------------------------------------------------------ */
@@ -286,7 +291,7 @@ static int load_mtl(objload *L, const char *mpath)
 {
     char *buf = NULL;
     size_t n = 0;
-    if (rt_slurp_regular(mpath, rt_scene_max_bytes, &buf, &n, L->e) < 0) {
+    if (rt_sfile_slurp(mpath, rt_scene_max_bytes, &buf, &n, L->e) < 0) {
         if (errno == ENOENT) return -2;
         char m[RT_ERR_LEN];
         snprintf(m, sizeof m, "%s", L->e ? L->e->msg : "");
@@ -398,7 +403,7 @@ static int mtllib_line(objload *L, const char *p)
                          pe.msg);
         } else if ((rc = load_mtl(L, mp)) == -2) {
             L->libmissing = 1;
-            warn(L, "%s:%lu: material library %s not found; its materials are the default", L->path, L->line,
+            warn(L, "mtllib missing", "material library %s not found; its materials are the default",
                  rt_esc(q, sizeof q, mp, 4096));
             rc = 0;
         }
@@ -438,7 +443,7 @@ static int usemtl_line(objload *L, const char *p)
     }
     rt_esc(q, sizeof q, p, len);
     if (L->nlib == 0 || L->libmissing) {
-        warn(L, "%s:%lu: usemtl %s: %s; default material", L->path, L->line, q,
+        warn(L, "usemtl unknown", "usemtl %s: %s; default material", q,
              L->nlib ? "not in the libraries found" : "no mtllib names a library");
         L->cur_mat = 0;
         L->cur_rgb = NULL;
@@ -555,7 +560,7 @@ rt_scene *rt_scene_load_obj(const char *path, rt_err *e)
 {
     char *buf = NULL;
     size_t n = 0;
-    if (rt_slurp_regular(path, rt_scene_max_bytes, &buf, &n, e) < 0) return NULL;
+    if (rt_sfile_slurp(path, rt_scene_max_bytes, &buf, &n, e) < 0) return NULL;
     rt_scene *s = rt_scene_new(0, e);
     if (!s) {
         free(buf);
@@ -598,14 +603,7 @@ rt_scene *rt_scene_load_obj(const char *path, rt_err *e)
     free(L.v);
     free(L.face);
     free(L.mtl);
-    if (rc == 0 && L.nwarn > 1) {
-        /* Keep the first warning whole if it fits with the count. */
-        char more[48];
-        int m = snprintf(more, sizeof more, " (+%u more warnings)", L.nwarn - 1);
-        size_t room = sizeof s->warning - 1 - (size_t)m;
-        if (strlen(s->warning) > room) s->warning[room] = 0;
-        strcat(s->warning, more);
-    }
+    if (rc == 0 && L.nwarn) rt_sfile_warn_summary(s); /* the counts as they ended */
     if (rc == 0) {
         rt_err fe;
         if (rt_scene_finish(s, &fe) < 0) rc = rt_errf(e, "%s: %s", path, fe.msg);

@@ -16,10 +16,13 @@
  *             ObjectBegin stack, named materials, named coordinate
  *             systems and object definitions (name tables: open hashing);
  *   output    triangles go straight into the rt_scene with the colour and
- *             material table entry of the state. An object's triangles are
- *             appended like any others and cut out into the object store at
- *             ObjectEnd; ObjectInstance appends them again under the
- *             instance's matrix (instances are flattened, the counts kept).
+ *             material table entry of the state (disks, cylinders, spheres
+ *             and curves tessellated, PLY files through the shared reader
+ *             ply_read.c). An object's triangles are appended like any
+ *             others and cut out into the object store at ObjectEnd;
+ *             ObjectInstance records the object and its matrix, and once
+ *             the file is read every instance is expanded in file order
+ *             (instances are flattened, the counts kept).
  *
  * What is mapped and what is skipped is listed in docs/scenes.md ("pbrt
  * scene files"). Invariants: (I1) every triangle in the scene was made
@@ -29,19 +32,25 @@
  * file, and every *End pops a frame of its own kind; (I3) memory is bounded
  * by the bytes read (every value held comes from at least two bytes of
  * input, files are capped one by one and in total) and by `maxtri`
- * (checked before any shape, subdivision or instance is generated); (I4)
- * every file read is a regular file inside the top-level file's folder,
- * and no file is read while it is already open on the include stack.
+ * (checked before any shape, subdivision or instance is generated; a
+ * loopsubdiv shape also by maxsubdiv); (I4) every file read is a regular
+ * file, opened once and checked on its descriptor, named by a path
+ * relative to the file naming it, and no file is read while it is already
+ * open on the include stack; (I5) every matrix of the state is finite and
+ * every vertex, light and eye it makes is finite and within RT_COORD_MAX.
  *
  * Errors are one line "FILE:LINE:COL: what was expected"; directives of
- * pbrt outside the subset are skipped with one warning per kind naming the
- * first FILE:LINE, collected in s->warning (the library never prints).
+ * pbrt outside the subset are skipped, and approximations made, with a
+ * warning per kind counted and naming the first FILE:LINE, collected in
+ * s->warn (rt_sfile_warn; the library never prints).
  * Arithmetic is in double with + - * / and sqrt only (angles through
  * rt_dsincos_deg), so the triangles are the same on every machine.
  */
 #include "config.h"
 #include "scene.h"
 #include "scene_load.h"
+#include "scene_file.h"
+#include "ply_read.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -60,7 +69,7 @@
 #define MAX_DEPTH 32                        /* include nesting */
 #define MAX_NEST 4096                       /* AttributeBegin nesting */
 #define DEFAULT_MAXTRI (1u << 26)
-#define MAX_WARN 32                         /* kinds of warnings kept */
+#define DEFAULT_MAXSUBDIV (1u << 22)        /* triangles one loopsubdiv shape may make */
 #define MAX_PARAMS 256                      /* parameters of one directive */
 
 typedef struct mat4 {
@@ -88,6 +97,7 @@ typedef struct srcfile {
     uint32_t line, col; /* position of buf[pos] */
     dev_t dev;         /* identity, for include cycles */
     ino_t ino;
+    int pid;           /* its index in pbrt.paths */
     int has_peek;      /* peek holds the next token */
     token peek;
 } srcfile;
@@ -97,6 +107,7 @@ typedef struct matdef {
     float rgb[3];           /* diffuse colour of the triangles */
     float ks[3], kt[3], ior; /* the table terms (ke comes from the area light) */
     long tab;               /* its table index without emission, -1 = not looked up yet */
+    int invisible;          /* "interface": its shapes are not made (rays pass, as in pbrt) */
 } matdef;
 
 typedef struct gstate {
@@ -123,34 +134,42 @@ typedef struct object {
     int used;              /* instanced at least once */
 } object;
 
+/* An ObjectInstance, expanded once the whole file is read (so a file
+ * whose instances exceed maxtri is refused before their triangles are
+ * made): the object, the CTM and where the instance goes in the triangle
+ * order (the scene's triangle count when it was read). */
+typedef struct instrec {
+    uint32_t at;    /* triangles made before it (outside instances) */
+    int obj;        /* index into objs */
+    mat4 ctm;       /* the instance's transformation */
+    uint32_t file, line, col; /* where its name stands (file: index into paths), for messages */
+} instrec;
+
 typedef struct arealight {
     double c[3], nsum[3]; /* area-weighted centroid sum, sum of edge cross products */
     double area2;         /* sum of |cross| (twice the area) */
     char at[200];         /* "FILE:LINE" of its Shape */
 } arealight;
 
-typedef struct warnent {
-    char key[48];  /* kind ("Sampler", "Shape \"disk\"") */
-    char msg[200]; /* "FILE:LINE: what" */
-} warnent;
-
 typedef struct pbrt {
     rt_scene *s;
     rt_err *e;
     int tess;           /* sphere tessellation */
     uint32_t maxtri;    /* triangle limit */
-    char *topdir;       /* folder of the top-level file ("." if none) */
-    char *rtop;         /* its realpath */
+    uint32_t maxsubdiv; /* triangles one loopsubdiv shape may make */
     srcfile *f[MAX_DEPTH];
     int depth;          /* files on the include stack */
     uint64_t total;     /* bytes read so far */
     int nfiles;         /* files opened so far */
+    char **paths;       /* every file pushed, as shown (for instance messages), npaths <= MAX_FILES + 1 */
+    int npaths;
     gstate g;           /* current graphics state */
     frame *stack;       /* AttributeBegin/TransformBegin/ObjectBegin frames */
     int nstack, cstack;
     int world;          /* WorldBegin seen */
     int have_camera;
     mat4 cam_ctm;       /* CTM at Camera: camera-from-world */
+    double eye[3];      /* the camera's position in the world (have_camera) */
     double fov;         /* perspective fov (degrees), pbrt's shorter image axis */
     double sw[4];       /* screenwindow when have_sw */
     int have_sw;
@@ -166,6 +185,9 @@ typedef struct pbrt {
     rt_tri *otri;       /* object store: triangles and their shading */
     rt_shade *oshade;
     uint32_t on, ocap;
+    instrec *inst;      /* ObjectInstances in file order, expanded at the end */
+    int ninst, cinst;
+    uint64_t pend;      /* their triangles (not yet in s) */
     int in_obj;         /* index of the object being defined, -1 if none */
     uint32_t obj_start; /* its first triangle in the scene */
     uint32_t nonobj;    /* triangles made outside objects and instances */
@@ -176,9 +198,9 @@ typedef struct pbrt {
     int nal, cal;
     const float *cur_rgb; /* colour and table index of the shape being made */
     uint32_t cur_mat;
-    warnent warn[MAX_WARN];
-    int nwarn;          /* kinds kept */
-    int nwarn_more;     /* kinds beyond MAX_WARN */
+    token shape_tok;    /* its type string, for messages */
+    uint32_t *mslot;    /* material table entries by their terms: open hashing, 0 = empty, else index */
+    size_t nmslot;      /* slots (a power of two, > 2 x entries), 0 = none yet */
 } pbrt;
 
 static srcfile *cur(pbrt *P) { return P->f[P->depth - 1]; }
@@ -206,23 +228,18 @@ static void pwarn(pbrt *P, const token *t, const char *key, const char *fmt, ...
 #endif
     ;
 
-/* Records a warning "FILE:LINE: message" once per key. */
+/* Records a warning of kind key at token t (s->warn: one entry per kind,
+ * counted, with its first FILE:LINE; rt_sfile_warn). */
 static void pwarn(pbrt *P, const token *t, const char *key, const char *fmt, ...)
 {
-    for (int i = 0; i < P->nwarn; i++)
-        if (!strcmp(P->warn[i].key, key)) return;
-    if (P->nwarn == MAX_WARN) {
-        P->nwarn_more++;
-        return;
-    }
-    warnent *w = &P->warn[P->nwarn++];
-    snprintf(w->key, sizeof w->key, "%s", key);
-    char m[160];
+    char m[200], first[256];
     va_list ap;
     va_start(ap, fmt);
     vsnprintf(m, sizeof m, fmt, ap);
     va_end(ap);
-    snprintf(w->msg, sizeof w->msg, "%s:%u: %s", cur(P)->path, (unsigned)t->line, m);
+    snprintf(first, sizeof first, "%.230s:%u", cur(P)->path, (unsigned)t->line);
+    rt_err e2;
+    (void)rt_sfile_warn(P->s, key, first, &e2, "%s", m); /* out of memory: the warning is lost, not the scene */
 }
 
 /* A token quoted for a message (escaped, truncated). */
@@ -310,13 +327,15 @@ static int lex(pbrt *P, token *t)
     F->pos += i;
     F->col += (uint32_t)i;
     char c = *b;
+    t->kind = TK_WORD; /* for messages until it is known */
     if ((c >= '0' && c <= '9') || c == '-' || c == '+' || c == '.') {
         char tmp[64], q[80], *end;
         if (i >= sizeof tmp) return perr(P, t, "bad number %s", tq(q, sizeof q, t));
         memcpy(tmp, b, i);
         tmp[i] = 0;
         double v = strtod(tmp, &end);
-        if (end != tmp + i) return perr(P, t, "bad number %s", tq(q, sizeof q, t));
+        if (end != tmp + i || memchr(tmp, 'x', i) || memchr(tmp, 'X', i)) /* no hex floats, as the OBJ loader */
+            return perr(P, t, "bad number %s", tq(q, sizeof q, t));
         if (!isfinite(v) || fabs(v) > 1e30) return perr(P, t, "number %s out of range (|x| <= 1e30)", tq(q, sizeof q, t));
         t->kind = TK_NUMBER;
         t->num = v;
@@ -496,56 +515,27 @@ static double det3(const mat4 *m)
 /* ------------------------------------------------------------------------ */
 /* Files                                                                     */
 
-/* Joins `dir` (relative to the top folder, "" = the top) and a relative
- * `path` into the normalised relative path out ("." and ".." resolved);
- * -1 when path is absolute or empty, or leaves the top folder. A static
- * equivalent of the shared rt_path_within (src/rt.c), kept here until the
- * two are unified. */
-static int rel_join(const char *dir, const char *path, char *out, size_t cap)
-{
-    if (!path[0] || path[0] == '/') return -1;
-    size_t dl = strlen(dir), pl = strlen(path);
-    char *tmp = malloc(dl + pl + 2);
-    if (!tmp) return -1;
-    snprintf(tmp, dl + pl + 2, "%s%s%s", dir, dl ? "/" : "", path);
-    size_t k = 0;
-    int rc = 0;
-    out[0] = 0;
-    for (char *p = tmp; *p && rc == 0;) {
-        char *s = strchr(p, '/');
-        size_t n = s ? (size_t)(s - p) : strlen(p);
-        if (n == 0 || (n == 1 && p[0] == '.')) {
-            /* nothing */
-        } else if (n == 2 && p[0] == '.' && p[1] == '.') {
-            if (k == 0) rc = -1;
-            else {
-                while (k > 0 && out[k - 1] != '/') k--;
-                if (k > 0) k--;
-                out[k] = 0;
-            }
-        } else {
-            if (k + n + 2 > cap) rc = -1;
-            else {
-                if (k) out[k++] = '/';
-                memcpy(out + k, p, n);
-                k += n;
-                out[k] = 0;
-            }
-        }
-        p = s ? s + 1 : p + n;
-    }
-    free(tmp);
-    if (rc == 0 && k == 0) rc = -1;
-    return rc;
-}
-
 /* Opens a regular file without blocking (a FIFO or device is refused
  * before any read). 0 with *fd and *st, or -1 with "reason" in why. A
  * static equivalent of the shared rt_open_regular (src/rt.c), kept here
  * until the two are unified. */
 static int open_regular(const char *path, int *fd, struct stat *st, char *why, size_t nwhy)
 {
-    int f = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    int f = open(path, O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC);
+    if (f < 0 && errno == ENOENT) {
+        /* the folder it was looked for in, as the file system names it */
+        char dir[4096], q[300];
+        const char *slash = strrchr(path, '/');
+        size_t dl = slash ? (size_t)(slash - path) : 0;
+        if (dl >= sizeof dir) dl = 0;
+        memcpy(dir, slash ? path : ".", slash ? (dl ? dl : 1) : 1);
+        dir[slash ? (dl ? dl : 1) : 1] = 0;
+        char *real = realpath(dir, NULL);
+        rt_esc(q, sizeof q, real ? real : dir, 256);
+        snprintf(why, nwhy, "no such file in %.150s%s", q, real ? "" : " (no such folder)");
+        free(real);
+        return -1;
+    }
     if (f < 0) return snprintf(why, nwhy, "%s", strerror(errno)), -1;
     if (fstat(f, st) < 0 || !S_ISREG(st->st_mode)) {
         snprintf(why, nwhy, "%s", S_ISDIR(st->st_mode) ? "a folder, not a file" : "not a regular file");
@@ -556,41 +546,33 @@ static int open_regular(const char *path, int *fd, struct stat *st, char *why, s
     return 0;
 }
 
-/* Reads the open regular file (at most MAX_FILE_BYTES, and within the
- * load's total) into a NUL-terminated buffer. Closes fd. 0 or -1 (why). */
+/* Reads the open regular file (plain or gzip, rt_sfile_read: at most
+ * MAX_FILE_BYTES after inflation, and within the load's total) into a
+ * NUL-terminated buffer. Closes fd. 0 or -1 (why). */
 static int read_fd(pbrt *P, int fd, const struct stat *st, char **pbuf, size_t *pn, char *why, size_t nwhy)
 {
-    uint64_t size = (uint64_t)st->st_size;
-    if (size > MAX_FILE_BYTES) {
+    if ((uint64_t)st->st_size > MAX_FILE_BYTES) {
         close(fd);
         return snprintf(why, nwhy, "larger than %llu bytes", (unsigned long long)MAX_FILE_BYTES), -1;
     }
-    if (P->total + size > MAX_TOTAL_BYTES || P->nfiles >= MAX_FILES) {
+    if (P->total + (uint64_t)st->st_size > MAX_TOTAL_BYTES || P->nfiles >= MAX_FILES) {
         close(fd);
         return snprintf(why, nwhy, "the files read exceed %llu bytes or %d files in all",
                         (unsigned long long)MAX_TOTAL_BYTES, MAX_FILES), -1;
     }
-    rt_err e2;
-    char *buf = rt_calloc((size_t)size + 1, 1, &e2);
-    if (!buf) {
-        close(fd);
-        return snprintf(why, nwhy, "%.150s", e2.msg), -1;
-    }
-    size_t n = 0;
-    while (n < size) {
-        ssize_t r = read(fd, buf + n, (size_t)size - n);
-        if (r < 0 && errno == EINTR) continue;
-        if (r < 0) {
-            snprintf(why, nwhy, "%s", strerror(errno));
-            free(buf);
-            close(fd);
-            return -1;
-        }
-        if (r == 0) break;
-        n += (size_t)r;
-    }
+    uint64_t left = MAX_TOTAL_BYTES - P->total, lim = left < MAX_FILE_BYTES ? left : MAX_FILE_BYTES;
+    if (lim > rt_scene_max_bytes) lim = rt_scene_max_bytes;
+    char *buf;
+    size_t n;
+    int gz;
+    int rc = rt_sfile_read_fd(fd, lim, &buf, &n, &gz, why, nwhy);
     close(fd);
-    buf[n] = 0;
+    if (rc < 0) {
+        if (strstr(why, "more than") && lim == left && left < MAX_FILE_BYTES && left < rt_scene_max_bytes)
+            snprintf(why, nwhy, "the files read exceed %llu bytes or %d files in all",
+                     (unsigned long long)MAX_TOTAL_BYTES, MAX_FILES);
+        return -1;
+    }
     P->total += n;
     P->nfiles++;
     *pbuf = buf;
@@ -607,65 +589,39 @@ static void file_free(srcfile *F)
     free(F);
 }
 
-/* A path of the top folder: "TOP/rel" (or rel when TOP is "."), malloc'd. */
-static char *top_path(pbrt *P, const char *rel)
-{
-    size_t n = strlen(P->topdir) + strlen(rel) + 2;
-    char *p = rt_calloc(n, 1, P->e);
-    if (p) {
-        if (!strcmp(P->topdir, ".")) snprintf(p, n, "%s", rel);
-        else snprintf(p, n, "%s/%s", P->topdir, rel);
-    }
-    return p;
-}
-
-/* Resolves a file named in a directive (token t, decoded name) against the
- * current file's folder: *prel the normalised path relative to the top
- * folder, *pfull the path to open (both malloc'd). Checks that it stays in
- * the top folder, also through symbolic links. 0 or -1. */
+/* The path of a file a directive names (token t, decoded name), as pbrt
+ * resolves it: relative to the folder of the file that names it, ".."
+ * allowed (scene collections share asset folders: "../landscape/x.ply").
+ * Absolute paths are refused, so a scene folder stays movable. The name
+ * is never checked apart from its opening: the caller opens it once
+ * (open_regular) and checks the opened descriptor, so a link swapped
+ * between a check and the read cannot change what is read. *prel and
+ * *pfull (malloc'd): the path to open, the first to become the folder of
+ * an included file. 0 or -1. */
 static int resolve(pbrt *P, const token *t, const char *what, const char *name, char **prel, char **pfull)
 {
     char q[300];
     rt_esc(q, sizeof q, name, 256);
-    size_t cap = strlen(cur(P)->rel) + strlen(name) + 2;
-    char *rel = rt_calloc(cap, 1, P->e);
-    if (!rel) return -1;
-    if (name[0] == '/') {
-        free(rel);
-        return perr(P, t, "%s \"%s\": absolute paths are not allowed (name it relative to %s)", what, q,
+    if (name[0] == '/')
+        return perr(P, t, "%s \"%s\": absolute paths are not allowed (name it relative to the folder of %s)", what, q,
                     cur(P)->path);
-    }
-    if (rel_join(cur(P)->rel, name, rel, cap) < 0) {
-        free(rel);
-        return perr(P, t, "%s \"%s\": the path leaves the scene's folder %s", what, q, P->topdir);
-    }
-    char *full = top_path(P, rel);
-    if (!full) {
+    const char *dir = cur(P)->rel;
+    size_t n = strlen(dir) + strlen(name) + 2;
+    char *full = rt_calloc(n, 1, P->e), *rel = rt_calloc(n, 1, P->e);
+    if (!full || !rel) {
+        free(full);
         free(rel);
         return -1;
     }
-    char *real = realpath(full, NULL);
-    if (!real) {
-        int err = errno;
-        free(rel);
-        free(full);
-        return perr(P, t, "%s \"%s\": %s", what, q, err == ENOENT ? "no such file" : strerror(err));
-    }
-    size_t tl = strlen(P->rtop);
-    int inside = !strncmp(real, P->rtop, tl) && (real[tl] == '/' || (tl == 1 && P->rtop[0] == '/'));
-    free(real);
-    if (!inside) {
-        free(rel);
-        free(full);
-        return perr(P, t, "%s \"%s\": the file lies outside the scene's folder %s (through a link)", what, q,
-                    P->topdir);
-    }
+    snprintf(full, n, "%s%s%s", dir, dir[0] ? "/" : "", name);
+    memcpy(rel, full, strlen(full) + 1);
     *prel = rel;
     *pfull = full;
     return 0;
 }
 
-/* Pushes a file; rel = its path relative to the top folder (taken over). */
+/* Pushes a file; rel = its path as opened (taken over; cut to its folder,
+ * "" when it has none). */
 static int push_file(pbrt *P, char *shown, char *rel, char *buf, size_t n, const struct stat *st)
 {
     srcfile *F = rt_calloc(1, sizeof *F, P->e);
@@ -676,9 +632,31 @@ static int push_file(pbrt *P, char *shown, char *rel, char *buf, size_t n, const
         return -1;
     }
     F->path = shown;
+    if (P->npaths % 64 == 0) {
+        char **np = rt_reallocarray(P->paths, (size_t)P->npaths + 64, sizeof *np, P->e);
+        if (!np) {
+            free(shown);
+            free(rel);
+            free(buf);
+            free(F);
+            return -1;
+        }
+        P->paths = np;
+    }
+    size_t pl = strlen(shown);
+    if (!(P->paths[P->npaths] = rt_calloc(pl + 1, 1, P->e))) {
+        free(shown);
+        free(rel);
+        free(buf);
+        free(F);
+        return -1;
+    }
+    memcpy(P->paths[P->npaths], shown, pl);
+    F->pid = P->npaths++;
     /* the folder of rel */
     char *slash = strrchr(rel, '/');
-    if (slash) *slash = 0;
+    if (slash == rel) rel[1] = 0; /* "/x.pbrt": the root */
+    else if (slash) *slash = 0;
     else rel[0] = 0;
     F->rel = rel;
     F->buf = buf;
@@ -812,7 +790,7 @@ static int param_value(pbrt *P, param *q, const token *t)
     if (t->kind == TK_NUMBER) {
         if (!numeric) return perr(P, t, "parameter \"%s %s\": expected a %s, got the number %s", q->tname, q->name,
                                   q->type == PT_BOOL ? "bool (true or false)" : "string in quotes", tq(b, sizeof b, t));
-        if (q->type == PT_INT && (t->num != floor(t->num) || fabs(t->num) > 2147483647.0))
+        if (q->type == PT_INT && (t->num != floor(t->num) || t->num < -2147483648.0 || t->num > 2147483647.0))
             return perr(P, t, "parameter \"%s %s\": %s is not an integer", q->tname, q->name, tq(b, sizeof b, t));
         if (q->ns) return perr(P, t, "parameter \"%s %s\": numbers mixed with strings", q->tname, q->name);
         return pv_push(P, q, t->num);
@@ -1109,8 +1087,23 @@ static int pop_frame(pbrt *P, const token *d, char kind)
     return 0;
 }
 
-/* CTM = CTM x m. */
-static void concat(pbrt *P, const mat4 *m) { P->g.ctm = m_mul(&P->g.ctm, m); }
+/* The CTM after directive d must be finite (a product may overflow). */
+static int ctm_check(pbrt *P, const token *d)
+{
+    for (int i = 0; i < 4; i++)
+        for (int j = 0; j < 4; j++)
+            if (!isfinite(P->g.ctm.m[i][j]))
+                return perr(P, d, "%.*s: the transformation is no longer finite (entry %d,%d overflows)", (int)d->n,
+                            d->p, i, j);
+    return 0;
+}
+
+/* CTM = CTM x m, checked finite. */
+static int concat(pbrt *P, const token *d, const mat4 *m)
+{
+    P->g.ctm = m_mul(&P->g.ctm, m);
+    return ctm_check(P, d);
+}
 
 /* ------------------------------------------------------------------------ */
 /* Materials                                                                 */
@@ -1188,6 +1181,10 @@ static int make_matdef(pbrt *P, const token *tt, const char *type, plist *L, mat
             double s = 0;
             for (size_t i = 1; i < q->nv; i += 2) s += q->v[i];
             eta = s / (double)(q->nv / 2);
+        } else if (q && q->type == PT_RGB) {
+            if (q->nv != 3) return perr(P, &q->at, "parameter \"rgb eta\": %zu values, expected 3", q->nv);
+            eta = (q->v[0] + q->v[1] + q->v[2]) / 3; /* one index for the three channels */
+            approx = 1;
         } else if (q) {
             approx = 1; /* a named spectrum: glass */
         }
@@ -1196,6 +1193,11 @@ static int make_matdef(pbrt *P, const token *tt, const char *type, plist *L, mat
         m->kt[0] = m->kt[1] = m->kt[2] = 1;
         m->ior = (float)eta;
         memcpy(m->rgb, glass_rgb, sizeof m->rgb);
+    } else if (!strcmp(type, "interface")) {
+        /* pbrt: a boundary between media, invisible to rays */
+        m->invisible = 1;
+        memcpy(m->rgb, half, sizeof m->rgb);
+        return 0;
     } else {
         snprintf(key, sizeof key, "Material \"%.30s\"", type);
         char q[64];
@@ -1211,8 +1213,49 @@ static int make_matdef(pbrt *P, const token *tt, const char *type, plist *L, mat
     return 0;
 }
 
+static int mat_same(const rt_material *a, const rt_material *b)
+{
+    return !memcmp(a->ks, b->ks, sizeof a->ks) && !memcmp(a->kt, b->kt, sizeof a->kt) && a->ior == b->ior &&
+           !memcmp(a->ke, b->ke, sizeof a->ke) && !strcmp(a->name, b->name);
+}
+
+static uint64_t mat_hash(const rt_material *m)
+{
+    uint64_t h = rt_fnv1a(RT_FNV_INIT, m->ks, sizeof m->ks);
+    h = rt_fnv1a(h, m->kt, sizeof m->kt);
+    h = rt_fnv1a(h, &m->ior, sizeof m->ior);
+    h = rt_fnv1a(h, m->ke, sizeof m->ke);
+    return rt_fnv1a(h, m->name, strlen(m->name));
+}
+
+/* Puts table entry i into the slots (growing them). 0 or -1. */
+static int mslot_put(pbrt *P, uint32_t i)
+{
+    rt_scene *s = P->s;
+    if (2 * (size_t)s->nmat >= P->nmslot) {
+        size_t nc = P->nmslot ? 2 * P->nmslot : 64;
+        while (2 * (size_t)s->nmat >= nc) nc *= 2;
+        uint32_t *ns = rt_calloc(nc, sizeof *ns, P->e);
+        if (!ns) return -1;
+        free(P->mslot);
+        P->mslot = ns;
+        P->nmslot = nc;
+        for (uint32_t k = 1; k < s->nmat; k++)
+            if (k != i) {
+                size_t h = (size_t)mat_hash(&s->mat[k]) & (nc - 1);
+                while (ns[h]) h = (h + 1) & (nc - 1);
+                ns[h] = k;
+            }
+    }
+    size_t h = (size_t)mat_hash(&s->mat[i]) & (P->nmslot - 1);
+    while (P->mslot[h]) h = (h + 1) & (P->nmslot - 1);
+    P->mslot[h] = i;
+    return 0;
+}
+
 /* The table index for material md with emission ke (made on first use;
- * identical terms share an entry). */
+ * identical terms share an entry, found by hashing: a file of many
+ * materials costs linear time). */
 static int table_index(pbrt *P, matdef *md, const float ke[3], int emit, uint32_t *out)
 {
     if (!emit && md->tab >= 0) return *out = (uint32_t)md->tab, 0;
@@ -1233,16 +1276,24 @@ static int table_index(pbrt *P, matdef *md, const float ke[3], int emit, uint32_
     snprintf(m.name, sizeof m.name, "%s", md->name);
     if (emit && !strcmp(md->name, "diffuse")) snprintf(m.name, sizeof m.name, "light");
     rt_scene *s = P->s;
-    for (uint32_t i = 1; i < s->nmat; i++) {
-        const rt_material *t = &s->mat[i];
-        if (!memcmp(t->ks, m.ks, sizeof m.ks) && !memcmp(t->kt, m.kt, sizeof m.kt) && t->ior == m.ior &&
-            !memcmp(t->ke, m.ke, sizeof m.ke) && !strcmp(t->name, m.name)) {
+    /* the name as the table stores it (copied, truncated) */
+    m.name[sizeof m.name - 1] = 0;
+    for (size_t h = P->nmslot ? (size_t)mat_hash(&m) & (P->nmslot - 1) : 0; P->nmslot && P->mslot[h];
+         h = (h + 1) & (P->nmslot - 1)) {
+        uint32_t i = P->mslot[h];
+        if (mat_same(&s->mat[i], &m)) {
             if (!emit) md->tab = i;
             return *out = i, 0;
         }
     }
     int r = rt_scene_add_material(s, &m, P->e);
-    if (r < 0) return -1;
+    if (r < 0) {
+        if (s->nmat >= 65536) return perr(P, &P->shape_tok, "more than 65536 distinct materials (the table's limit)");
+        char msg[RT_ERR_LEN];
+        snprintf(msg, sizeof msg, "%s", P->e->msg);
+        return perr(P, &P->shape_tok, "%s", msg);
+    }
+    if (mslot_put(P, (uint32_t)r) < 0) return -1;
     if (!emit) md->tab = r;
     *out = (uint32_t)r;
     return 0;
@@ -1253,14 +1304,31 @@ static int table_index(pbrt *P, matdef *md, const float ke[3], int emit, uint32_
 
 static int room_for(pbrt *P, const token *t, uint64_t more)
 {
-    if ((uint64_t)P->s->ntri + more > P->maxtri)
-        return perr(P, t, "the scene would have %llu triangles, more than maxtri=%u (a spec parameter)",
-                    (unsigned long long)((uint64_t)P->s->ntri + more), (unsigned)P->maxtri);
+    uint64_t n = (uint64_t)P->s->ntri + P->pend + more;
+    if (n > P->maxtri)
+        return perr(P, t, "the scene would have %llu triangles, more than maxtri=%u (raise it with the spec parameter "
+                          "FILE.pbrt:maxtri=N)", (unsigned long long)n, (unsigned)P->maxtri);
     return 0;
 }
 
+static int finite3(rt_vec3 a) { return isfinite(a.x) && isfinite(a.y) && isfinite(a.z); }
+
+/* Finite and within the coordinate range (RT_COORD_MAX). */
+static int in_range3(rt_vec3 a)
+{
+    return finite3(a) && fabs(a.x) <= RT_COORD_MAX && fabs(a.y) <= RT_COORD_MAX && fabs(a.z) <= RT_COORD_MAX;
+}
+
+/* A triangle of the shape being made (at P->shape_tok), refused at its
+ * line when the transformation left a vertex non-finite in float. */
 static int emit(pbrt *P, rt_vec3 a, rt_vec3 b, rt_vec3 c)
 {
+    if (!in_range3(a) || !in_range3(b) || !in_range3(c)) {
+        char q[80];
+        rt_vec3 x = !in_range3(a) ? a : !in_range3(b) ? b : c;
+        return perr(P, &P->shape_tok, "Shape %s: vertex (%g, %g, %g) is not finite or beyond %g after the transformation",
+                    tq(q, sizeof q, &P->shape_tok), (double)x.x, (double)x.y, (double)x.z, RT_COORD_MAX);
+    }
     return rt_scene_add_tri_mat(P->s, a, b, c, P->cur_rgb, P->cur_mat, P->e);
 }
 
@@ -1617,6 +1685,125 @@ static int note_authored_area(pbrt *P, const token *t, const char *type, plist *
     return add_light(P, t, &l);
 }
 
+/* Shape "curve" as flat ribbons: each cubic (or quadratic) Bezier segment
+ * -- "bspline" control points are converted to Bezier ones first -- is
+ * evaluated at 2^splitdepth + 1 points (splitdepth 3: 8 pieces, 16
+ * triangles per segment), mapped by the CTM, and widened across its
+ * tangent by the width (width0 to width1 along the whole curve, scaled by
+ * the CTM's mean scale): type "ribbon" across its normals N, types "flat"
+ * and "cylinder" facing the camera as pbrt's flat curves face the ray (a
+ * tube drawn as the ribbon that is its silhouette from the eye). 0 or -1. */
+static int make_curve(pbrt *P, const token *tt, plist *L)
+{
+    const double *cp, *nv = NULL;
+    size_t ncp, nn = 0;
+    char basis[32], ctype[32];
+    long degree, split;
+    double w0, w1, w;
+    int r = pnums(P, L, "P", B(PT_POINT3), "point3", 3, 3, &cp, &ncp);
+    if (r < 0) return -1;
+    if (!r) return perr(P, tt, "Shape \"curve\": missing the control points \"point3 P\"");
+    ncp /= 3;
+    if (pstring(P, L, "basis", basis, sizeof basis) < 0 || pstring(P, L, "type", ctype, sizeof ctype) < 0 ||
+        pint(P, L, "degree", 3, &degree) < 0 || pint(P, L, "splitdepth", 3, &split) < 0 ||
+        pfloat(P, L, "width", 1, &w) < 0 || pfloat(P, L, "width0", w, &w0) < 0 || pfloat(P, L, "width1", w, &w1) < 0)
+        return -1;
+    if (!basis[0]) snprintf(basis, sizeof basis, "bezier");
+    if (!ctype[0]) snprintf(ctype, sizeof ctype, "flat");
+    int bspline = !strcmp(basis, "bspline");
+    if (!bspline && strcmp(basis, "bezier")) return perr(P, tt, "Shape \"curve\": basis \"%.20s\" (bezier or bspline)", basis);
+    if (degree != 2 && degree != 3) return perr(P, tt, "Shape \"curve\": degree %ld (2 or 3)", degree);
+    int ribbon = !strcmp(ctype, "ribbon");
+    if (!ribbon && strcmp(ctype, "flat") && strcmp(ctype, "cylinder"))
+        return perr(P, tt, "Shape \"curve\": type \"%.20s\" (flat, ribbon or cylinder)", ctype);
+    if (split < 0 || split > 6) return perr(P, tt, "Shape \"curve\": splitdepth %ld outside 0..6", split);
+    if (!(w0 >= 0 && w1 >= 0)) return perr(P, tt, "Shape \"curve\": negative width");
+    size_t nseg = bspline ? (ncp > (size_t)degree ? ncp - (size_t)degree : 0)
+                          : (ncp > 1 && (ncp - 1) % (size_t)degree == 0 ? (ncp - 1) / (size_t)degree : 0);
+    if (!nseg)
+        return perr(P, tt, "Shape \"curve\": %zu control points do not make %s segments of degree %ld", ncp, basis,
+                    degree);
+    if (ribbon) {
+        r = pnums(P, L, "N", B(PT_NORMAL3), "normal3", 3, 3, &nv, &nn);
+        if (r < 0) return -1;
+        if (nn / 3 != nseg + 1)
+            return perr(P, tt, "Shape \"curve\": type \"ribbon\" needs %zu normals \"normal3 N\" (one per segment end), "
+                        "got %zu", nseg + 1, nn / 3);
+    }
+    int pieces = 1 << split;
+    if (room_for(P, tt, (uint64_t)nseg * 2 * (uint64_t)pieces) < 0) return -1;
+    double sc = 0; /* the CTM's mean scale: its columns' mean length (sqrt only, as all arithmetic here) */
+    for (int c = 0; c < 3; c++)
+        sc += sqrt(P->g.ctm.m[0][c] * P->g.ctm.m[0][c] + P->g.ctm.m[1][c] * P->g.ctm.m[1][c] +
+                   P->g.ctm.m[2][c] * P->g.ctm.m[2][c]) / 3;
+    static const double z_up[3] = {0, 0, 1};
+    for (size_t sg = 0; sg < nseg; sg++) {
+        /* the segment's Bezier control points */
+        double b[4][3];
+        int nb = (int)degree + 1;
+        for (int d = 0; d < 3; d++) {
+            const double *p0 = cp + 3 * (bspline ? sg : sg * (size_t)degree) + d;
+            if (!bspline) {
+                for (int k = 0; k < nb; k++) b[k][d] = p0[3 * k];
+            } else if (degree == 3) {
+                b[0][d] = (p0[0] + 4 * p0[3] + p0[6]) / 6, b[1][d] = (2 * p0[3] + p0[6]) / 3;
+                b[2][d] = (p0[3] + 2 * p0[6]) / 3, b[3][d] = (p0[3] + 4 * p0[6] + p0[9]) / 6;
+            } else {
+                b[0][d] = (p0[0] + p0[3]) / 2, b[1][d] = p0[3], b[2][d] = (p0[3] + p0[6]) / 2;
+            }
+        }
+        rt_vec3 prevl = {0, 0, 0}, prevr = {0, 0, 0};
+        for (int i = 0; i <= pieces; i++) {
+            double u = (double)i / pieces, v = 1 - u, q[3], t[3], wq[3];
+            for (int d = 0; d < 3; d++) {
+                if (degree == 3) {
+                    q[d] = v * v * v * b[0][d] + 3 * u * v * v * b[1][d] + 3 * u * u * v * b[2][d] + u * u * u * b[3][d];
+                    t[d] = 3 * (v * v * (b[1][d] - b[0][d]) + 2 * u * v * (b[2][d] - b[1][d]) + u * u * (b[3][d] - b[2][d]));
+                } else {
+                    q[d] = v * v * b[0][d] + 2 * u * v * b[1][d] + u * u * b[2][d];
+                    t[d] = 2 * (v * (b[1][d] - b[0][d]) + u * (b[2][d] - b[1][d]));
+                }
+            }
+            m_apply(&P->g.ctm, q, wq);
+            /* the tangent in the world: the linear part of the CTM */
+            double wt[3], side[3], ref[3];
+            for (int d = 0; d < 3; d++) wt[d] = P->g.ctm.m[d][0] * t[0] + P->g.ctm.m[d][1] * t[1] + P->g.ctm.m[d][2] * t[2];
+            if (ribbon) {
+                const double *n0 = nv + 3 * sg, *n1 = nv + 3 * (sg + 1);
+                double n[3] = {v * n0[0] + u * n1[0], v * n0[1] + u * n1[1], v * n0[2] + u * n1[2]};
+                for (int d = 0; d < 3; d++) ref[d] = P->g.ctm.m[d][0] * n[0] + P->g.ctm.m[d][1] * n[1] + P->g.ctm.m[d][2] * n[2];
+            } else if (P->have_camera) {
+                for (int d = 0; d < 3; d++) ref[d] = P->eye[d] - wq[d];
+            } else {
+                memcpy(ref, z_up, sizeof ref);
+            }
+            side[0] = wt[1] * ref[2] - wt[2] * ref[1];
+            side[1] = wt[2] * ref[0] - wt[0] * ref[2];
+            side[2] = wt[0] * ref[1] - wt[1] * ref[0];
+            double sl = sqrt(side[0] * side[0] + side[1] * side[1] + side[2] * side[2]);
+            if (!(sl > 0)) { /* tangent along the reference: any perpendicular */
+                double alt[3] = {fabs(wt[0]) < fabs(wt[1]) ? 1 : 0, fabs(wt[0]) < fabs(wt[1]) ? 0 : 1, 0};
+                side[0] = wt[1] * alt[2] - wt[2] * alt[1];
+                side[1] = wt[2] * alt[0] - wt[0] * alt[2];
+                side[2] = wt[0] * alt[1] - wt[1] * alt[0];
+                sl = sqrt(side[0] * side[0] + side[1] * side[1] + side[2] * side[2]);
+                if (!(sl > 0)) sl = 1, side[0] = 1, side[1] = side[2] = 0;
+            }
+            double gu = ((double)sg + u) / (double)nseg; /* along the whole curve */
+            double half = 0.5 * ((1 - gu) * w0 + gu * w1) * sc / sl;
+            rt_vec3 lft = rt_v3((float)(wq[0] - side[0] * half), (float)(wq[1] - side[1] * half), (float)(wq[2] - side[2] * half));
+            rt_vec3 rgt = rt_v3((float)(wq[0] + side[0] * half), (float)(wq[1] + side[1] * half), (float)(wq[2] + side[2] * half));
+            if (i > 0 && (emit(P, prevl, prevr, rgt) < 0 || emit(P, prevl, rgt, lft) < 0)) return -1;
+            prevl = lft, prevr = rgt;
+        }
+    }
+    char q[48];
+    snprintf(q, sizeof q, "%.20s", ctype);
+    pwarn(P, tt, "curve", "Shape \"curve\" (type \"%s\") made as %s ribbons, %d pieces (%d triangles) per segment", q,
+          ribbon ? "normal-oriented" : "camera-facing", pieces, 2 * pieces);
+    return 0;
+}
+
 static int do_shape(pbrt *P, const token *d)
 {
     if (need_world(P, d, 1) < 0) return -1;
@@ -1625,8 +1812,37 @@ static int do_shape(pbrt *P, const token *d)
     plist L = {NULL, 0, 0};
     if (need_string(P, d, type, sizeof type, &tt) < 0 || parse_params(P, &L) < 0) goto fail;
     rt_esc(q, sizeof q, type, 40);
+    P->shape_tok = tt;
     /* colour and table entry of the state */
     matdef *md = &P->mats[P->g.mat];
+    if (md->invisible) { /* Material "interface": rays pass through, as in pbrt */
+        pwarn(P, &tt, "interface", "Shape \"%s\" with Material \"interface\" left out (invisible: rays pass, as in "
+              "pbrt, but are not tested against it)", q);
+        plist_free(&L);
+        return 0;
+    }
+    param *alpha = pfind(&L, "alpha");
+    if (alpha && (alpha->type == PT_FLOAT || alpha->type == PT_INT)) {
+        double a;
+        if (pfloat(P, &L, "alpha", 1, &a) < 0) goto fail;
+        if (!(a >= 0 && a <= 1)) {
+            perr(P, &alpha->at, "Shape \"%s\": alpha %g outside [0, 1]", q, a);
+            goto fail;
+        }
+        if (a == 0) { /* pbrt: fully transparent, the shape is never hit */
+            pwarn(P, &tt, "alpha 0", "Shape \"%s\" with \"float alpha\" 0 left out (never hit, as in pbrt)", q);
+            plist_free(&L);
+            return 0;
+        }
+        if (a < 1) pwarn(P, &tt, "alpha partial", "Shape \"%s\": \"float alpha\" %g drawn opaque (no stochastic "
+                         "transparency)", q, a);
+    } else if (alpha && alpha->type == PT_TEXTURE) {
+        pwarn(P, &tt, "alpha texture", "Shape \"%s\": alpha texture ignored, drawn opaque (no cutout: its leaves "
+              "and cards block rays)", q);
+    } else if (alpha) {
+        perr(P, &alpha->at, "parameter \"%s alpha\": \"alpha\" must be float or texture", alpha->tname);
+        goto fail;
+    }
     P->cur_rgb = md->rgb;
     if (table_index(P, md, P->g.ke, P->g.area, &P->cur_mat) < 0) goto fail;
     uint32_t start = P->s->ntri;
@@ -1659,6 +1875,45 @@ static int do_shape(pbrt *P, const token *d)
             rc = emit(P, a, b, c);
         }
         free(tm);
+    } else if (!strcmp(type, "disk") || !strcmp(type, "cylinder")) {
+        /* 8 x tess segments around (24 at tess=3) over phimax; a disk is a
+         * fan (an annulus with innerradius), a cylinder one band of quads */
+        int disk = type[0] == 'd';
+        double r, h = 0, ri = 0, z0 = -1, z1 = 1, phimax;
+        rc = pfloat(P, &L, "radius", 1.0, &r);
+        if (rc == 0) rc = pfloat(P, &L, "phimax", 360, &phimax);
+        if (rc == 0 && disk) rc = pfloat(P, &L, "height", 0, &h);
+        if (rc == 0 && disk) rc = pfloat(P, &L, "innerradius", 0, &ri);
+        if (rc == 0 && !disk) rc = pfloat(P, &L, "zmin", -1, &z0);
+        if (rc == 0 && !disk) rc = pfloat(P, &L, "zmax", 1, &z1);
+        if (rc == 0 && !(r > 0)) rc = perr(P, &tt, "Shape \"%s\": radius must be positive", q);
+        if (rc == 0 && !(ri >= 0 && ri < r)) rc = perr(P, &tt, "Shape \"disk\": innerradius must be in [0, radius)");
+        if (rc == 0 && !(z0 != z1)) rc = perr(P, &tt, "Shape \"cylinder\": zmin and zmax coincide");
+        if (rc == 0 && !(phimax > 0 && phimax <= 360)) rc = perr(P, &tt, "Shape \"%s\": phimax outside (0, 360]", q);
+        int nseg = 8 * P->tess;
+        if (rc == 0) rc = room_for(P, &tt, (uint64_t)nseg * (disk && ri == 0 ? 1 : 2));
+        for (int i = 0; rc == 0 && i < nseg; i++) {
+            double s0, c0, s1, c1;
+            rt_dsincos_deg(phimax * i / nseg, &s0, &c0);
+            rt_dsincos_deg(phimax * (i + 1) / nseg, &s1, &c1);
+            if (disk) {
+                rt_vec3 a = m_point(&P->g.ctm, r * c0, r * s0, h), b = m_point(&P->g.ctm, r * c1, r * s1, h);
+                if (ri == 0) {
+                    rc = emit(P, m_point(&P->g.ctm, 0, 0, h), a, b);
+                } else {
+                    rt_vec3 ia = m_point(&P->g.ctm, ri * c0, ri * s0, h), ib = m_point(&P->g.ctm, ri * c1, ri * s1, h);
+                    rc = emit(P, ia, a, b);
+                    if (rc == 0) rc = emit(P, ia, b, ib);
+                }
+            } else {
+                rt_vec3 a0 = m_point(&P->g.ctm, r * c0, r * s0, z0), a1 = m_point(&P->g.ctm, r * c1, r * s1, z0);
+                rt_vec3 b0 = m_point(&P->g.ctm, r * c0, r * s0, z1), b1 = m_point(&P->g.ctm, r * c1, r * s1, z1);
+                rc = emit(P, a0, a1, b1);
+                if (rc == 0) rc = emit(P, a0, b1, b0);
+            }
+        }
+    } else if (!strcmp(type, "curve")) {
+        rc = make_curve(P, &tt, &L);
     } else if (!strcmp(type, "loopsubdiv")) {
         long levels;
         const double *pv;
@@ -1670,11 +1925,17 @@ static int do_shape(pbrt *P, const token *d)
             rc = r < 0 ? -1 : r == 0 ? perr(P, &tt, "Shape \"loopsubdiv\": missing the vertices \"point3 P\"") : 0;
         }
         if (rc == 0) rc = get_indices(P, &tt, type, &L, 3, npv / 3, &idx, &ni);
+        /* the output size before any allocation: 4^levels x the faces
+         * (subdivide's working memory is about 200 bytes per output
+         * face, hence a limit of its own below maxtri) */
         uint64_t nt = ni / 3;
-        for (long l = 0; rc == 0 && l < levels; l++) {
-            nt *= 4;
-            if (nt > P->maxtri) break;
-        }
+        long lv = 0;
+        for (; rc == 0 && lv < levels && nt <= P->maxsubdiv; lv++) nt *= 4;
+        if (rc == 0 && nt > P->maxsubdiv)
+            rc = perr(P, &pfind(&L, "levels")->at,
+                      "Shape \"loopsubdiv\": %llu faces at levels %ld make %s%llu triangles, more than maxsubdiv=%u "
+                      "(raise it with the spec parameter FILE.pbrt:maxsubdiv=N)", (unsigned long long)(ni / 3), levels,
+                      lv < levels ? "over " : "", (unsigned long long)nt, (unsigned)P->maxsubdiv);
         if (rc == 0) rc = room_for(P, &tt, nt);
         if (rc == 0) {
             double *ov = NULL;
@@ -1707,15 +1968,20 @@ static int do_shape(pbrt *P, const token *d)
             char q2[300];
             rc = perr(P, &pfind(&L, "filename")->at, "plymesh \"%s\": %s", rt_esc(q2, sizeof q2, name, 256), why);
         }
-        if (rc == 0) {
-            double m[16];
-            for (int i = 0; i < 16; i++) m[i] = P->g.ctm.m[i / 4][i % 4];
+        if (rc == 0) { /* the shared reader (ply_read.c), then the triangles under the CTM */
+            rt_ply_mesh pm;
             rt_err pe;
-            long got = rt_scene_append_ply(P->s, full, buf, n, m, P->cur_rgb, P->cur_mat, &pe);
-            if (got < 0) rc = perr(P, &tt, "plymesh: %s", pe.msg);
-            else if (P->s->ntri > P->maxtri) {
-                P->s->ntri = start;
-                rc = room_for(P, &tt, (uint64_t)got);
+            if (rt_ply_parse(full, buf, n, &pm, &pe) < 0) rc = perr(P, &tt, "plymesh: %s", pe.msg);
+            else {
+                free(buf); /* the text is no longer needed */
+                buf = NULL;
+                rc = room_for(P, &tt, pm.nidx / 3);
+                for (size_t k = 0; rc == 0 && k < pm.nidx; k += 3) {
+                    const rt_vec3 *a = &pm.v[pm.idx[k]], *b = &pm.v[pm.idx[k + 1]], *c = &pm.v[pm.idx[k + 2]];
+                    rc = emit(P, m_point(&P->g.ctm, a->x, a->y, a->z), m_point(&P->g.ctm, b->x, b->y, b->z),
+                              m_point(&P->g.ctm, c->x, c->y, c->z));
+                }
+                rt_ply_mesh_free(&pm);
             }
         }
         if (rc == 0 && pfind(&L, "displacement"))
@@ -1779,6 +2045,12 @@ static int do_camera(pbrt *P, const token *d)
         perr(P, d, "Camera: the current transformation is singular");
         goto done;
     }
+    rt_vec3 eye = m_point(&inv, 0, 0, 0);
+    if (!in_range3(eye)) {
+        perr(P, d, "Camera: the eye (%g, %g, %g) is not finite or beyond %g", (double)eye.x, (double)eye.y,
+             (double)eye.z, RT_COORD_MAX);
+        goto done;
+    }
     if (strcmp(type, "perspective")) {
         char key[48];
         snprintf(key, sizeof key, "Camera \"%.30s\"", type);
@@ -1810,6 +2082,7 @@ static int do_camera(pbrt *P, const token *d)
     }
     P->have_camera = 1;
     P->cam_ctm = P->g.ctm;
+    P->eye[0] = eye.x, P->eye[1] = eye.y, P->eye[2] = eye.z;
     if (name_cs(P, "camera", &inv) < 0) goto done;
     rc = 0;
 done:
@@ -1833,6 +2106,9 @@ static int do_film(pbrt *P, const token *d)
     }
     P->film_w = (int)w;
     P->film_h = (int)h;
+    if (pfind(&L, "cropwindow") || pfind(&L, "pixelbounds"))
+        pwarn(P, d, "Film cropwindow", "Film: %s ignored (the whole image is rendered)",
+              pfind(&L, "cropwindow") ? "cropwindow" : "pixelbounds");
     rc = 0;
 done:
     plist_free(&L);
@@ -1858,7 +2134,13 @@ static int do_light(pbrt *P, const token *d)
             goto done;
         }
         if (r) memcpy(o, v, sizeof o);
-        if (P->nplight < RT_NLIGHTS) P->plight[P->nplight++] = m_point(&P->g.ctm, o[0], o[1], o[2]);
+        rt_vec3 lp = m_point(&P->g.ctm, o[0], o[1], o[2]);
+        if (!in_range3(lp)) {
+            perr(P, &tt, "LightSource: the light's position (%g, %g, %g) is not finite or beyond %g", (double)lp.x,
+                 (double)lp.y, (double)lp.z, RT_COORD_MAX);
+            goto done;
+        }
+        if (P->nplight < RT_NLIGHTS) P->plight[P->nplight++] = lp;
         count_light(P, &tt);
         rt_light al;
         memset(&al, 0, sizeof al);
@@ -2076,17 +2358,104 @@ static int do_object_instance(pbrt *P, const token *d)
     if (k < 0) return perr(P, &tt, "ObjectInstance \"%s\": no such object", q);
     object *o = &P->objs[k];
     if (room_for(P, &tt, o->count) < 0) return -1;
-    for (uint32_t i = 0; i < o->count; i++) {
-        const rt_tri *t = &P->otri[o->start + i];
-        const rt_shade *h = &P->oshade[o->start + i];
-        rt_vec3 c[3];
-        for (int j = 0; j < 3; j++) c[j] = m_point(&P->g.ctm, t->p[j].x, t->p[j].y, t->p[j].z);
-        if (rt_scene_add_tri_mat(P->s, c[0], c[1], c[2], h->rgb, h->mat, P->e) < 0) return -1;
+    /* an instance is recorded (148 bytes) only when its triangles would
+     * take more (52 bytes each): the records never hold more memory than
+     * the flattened scene they stand for (maxtri bounds both) */
+    if (o->count * (uint64_t)(sizeof(rt_tri) + sizeof(rt_shade)) <= sizeof(instrec)) {
+        for (uint32_t i = 0; i < o->count; i++) {
+            const rt_tri *t = &P->otri[o->start + i];
+            const rt_shade *h = &P->oshade[o->start + i];
+            rt_vec3 c[3];
+            for (int j = 0; j < 3; j++) {
+                c[j] = m_point(&P->g.ctm, t->p[j].x, t->p[j].y, t->p[j].z);
+                if (!in_range3(c[j]))
+                    return perr(P, &tt, "ObjectInstance: vertex (%g, %g, %g) is not finite or beyond %g after the "
+                                "transformation", (double)c[j].x, (double)c[j].y, (double)c[j].z, RT_COORD_MAX);
+            }
+            if (rt_scene_add_tri_mat(P->s, c[0], c[1], c[2], h->rgb, h->mat, P->e) < 0) return -1;
+        }
+        goto count;
     }
+    if (P->ninst == P->cinst) {
+        int nc = P->cinst ? 2 * P->cinst : 16;
+        instrec *ni = rt_reallocarray(P->inst, (size_t)nc, sizeof *ni, P->e);
+        if (!ni) return -1;
+        P->inst = ni;
+        P->cinst = nc;
+    }
+    instrec *r = &P->inst[P->ninst++];
+    r->at = P->s->ntri;
+    r->obj = k;
+    r->ctm = P->g.ctm;
+    r->file = (uint32_t)cur(P)->pid;
+    r->line = tt.line;
+    r->col = tt.col;
+    P->pend += o->count;
+count:
     if (!o->used) P->s->ntri_unique += o->count;
     o->used = 1;
     P->s->ninst++;
     P->s->ntri_inst += o->count;
+    return 0;
+}
+
+/* The mesh lights' triangles once the instances are made: an instance
+ * recorded at or before a light's first triangle moves it up by the
+ * object's triangles (expand_instances below; a shape is never split by
+ * an instance). Called before it, while the records are there. */
+static void relocate_mesh_lights(pbrt *P)
+{
+    rt_scene *s = P->s;
+    for (uint32_t i = 0; i < s->nlight; i++) {
+        rt_light *l = &s->lights[i];
+        if (l->kind != RT_LIGHT_MESH) continue;
+        uint64_t shift = 0;
+        for (int k = 0; k < P->ninst; k++)
+            if (P->inst[k].at <= l->first) shift += P->objs[P->inst[k].obj].count;
+        l->first += (uint32_t)shift;
+    }
+}
+
+/* Makes the triangles of every ObjectInstance, in file order: the scene
+ * grows once to its final size (maxtri was checked at each instance) and,
+ * from the last instance back, the triangles made after an instance move
+ * up to make room for its copy. 0 or -1. */
+static int expand_instances(pbrt *P)
+{
+    rt_scene *s = P->s;
+    if (!P->ninst) return 0;
+    uint64_t total = (uint64_t)s->ntri + P->pend;
+    if (total > P->maxtri) return rt_errf(P->e, "%s: %llu triangles, more than maxtri=%u", cur(P)->path,
+                                          (unsigned long long)total, (unsigned)P->maxtri);
+    if (rt_scene_reserve(s, (uint32_t)total, P->e) < 0) return -1;
+    uint32_t src = s->ntri, dst = (uint32_t)total;
+    for (int i = P->ninst - 1; i >= 0; i--) {
+        const instrec *r = &P->inst[i];
+        const object *o = &P->objs[r->obj];
+        uint32_t tail = src - r->at;
+        if (tail && dst != src) {
+            memmove(s->tri + dst - tail, s->tri + r->at, tail * sizeof *s->tri);
+            memmove(s->shade + dst - tail, s->shade + r->at, tail * sizeof *s->shade);
+        }
+        dst -= tail;
+        src = r->at;
+        dst -= o->count;
+        for (uint32_t j = 0; j < o->count; j++) {
+            const rt_tri *t = &P->otri[o->start + j];
+            rt_tri *w = &s->tri[dst + j];
+            for (int c = 0; c < 3; c++) {
+                w->p[c] = m_point(&r->ctm, t->p[c].x, t->p[c].y, t->p[c].z);
+                if (!in_range3(w->p[c]))
+                    return rt_errf(P->e, "%s:%u:%u: ObjectInstance: vertex (%g, %g, %g) is not finite or beyond %g "
+                                         "after the transformation", P->paths[r->file], (unsigned)r->line,
+                                   (unsigned)r->col, (double)w->p[c].x, (double)w->p[c].y, (double)w->p[c].z,
+                                   RT_COORD_MAX);
+            }
+            s->shade[dst + j] = P->oshade[o->start + j];
+        }
+    }
+    s->ntri = (uint32_t)total;
+    P->pend = 0;
     return 0;
 }
 
@@ -2128,8 +2497,7 @@ static int directive(pbrt *P, const token *d)
             for (int j = 0; j < 3; j++) m.m[i][j] = rows[i][j];
             m.m[i][3] = -(rows[i][0] * v[0] + rows[i][1] * v[1] + rows[i][2] * v[2]);
         }
-        concat(P, &m);
-        return 0;
+        return concat(P, d, &m);
     }
     if (!strcmp(dn, "Translate") || !strcmp(dn, "Scale")) {
         if (need_numbers(P, d, v, 3) < 0) return -1;
@@ -2138,8 +2506,7 @@ static int directive(pbrt *P, const token *d)
             if (dn[0] == 'T') m.m[k][3] = v[k];
             else m.m[k][k] = v[k];
         }
-        concat(P, &m);
-        return 0;
+        return concat(P, d, &m);
     }
     if (!strcmp(dn, "Rotate")) {
         if (need_numbers(P, d, v, 4) < 0) return -1;
@@ -2157,16 +2524,17 @@ static int directive(pbrt *P, const token *d)
         m.m[2][0] = x * z * (1 - c) - y * s;
         m.m[2][1] = y * z * (1 - c) + x * s;
         m.m[2][2] = z * z + (1 - z * z) * c;
-        concat(P, &m);
-        return 0;
+        return concat(P, d, &m);
     }
     if (!strcmp(dn, "Transform") || !strcmp(dn, "ConcatTransform")) {
         if (need_numbers(P, d, v, 16) < 0) return -1;
         for (int i = 0; i < 4; i++)
             for (int j = 0; j < 4; j++) m.m[i][j] = v[4 * j + i]; /* the file holds the transpose */
-        if (dn[0] == 'T') P->g.ctm = m;
-        else concat(P, &m);
-        return 0;
+        if (dn[0] == 'T') {
+            P->g.ctm = m;
+            return ctm_check(P, d);
+        }
+        return concat(P, d, &m);
     }
     if (!strcmp(dn, "Identity")) {
         P->g.ctm = m_ident();
@@ -2293,15 +2661,9 @@ static void set_lights(pbrt *P)
         const arealight *a = &P->al[i];
         double nl = sqrt(a->nsum[0] * a->nsum[0] + a->nsum[1] * a->nsum[1] + a->nsum[2] * a->nsum[2]);
         if (!(a->area2 > 0) || !(nl > 1e-6 * a->area2)) {
-            int j;
-            for (j = 0; j < P->nwarn; j++)
-                if (!strcmp(P->warn[j].key, "closed area light")) break;
-            if (j == P->nwarn && P->nwarn < MAX_WARN) {
-                snprintf(P->warn[j].key, sizeof P->warn[j].key, "closed area light");
-                snprintf(P->warn[j].msg, sizeof P->warn[j].msg,
-                         "%.100s: area light without a facing side (closed or degenerate): no point light for it", a->at);
-                P->nwarn++;
-            }
+            rt_err e2;
+            (void)rt_sfile_warn(s, "closed area light", a->at, &e2,
+                                "area light without a facing side (closed or degenerate): no point light for it");
             continue;
         }
         double off = 0.025 * diag / nl;
@@ -2314,39 +2676,41 @@ static void set_lights(pbrt *P)
     /* auto-framed: the remaining lights stay where rt_scene_autoframe put them */
 }
 
-static void compose_warnings(pbrt *P)
+int rt_scene_fit_film(rt_scene *s, int W, int H, rt_err *e)
 {
-    rt_scene *s = P->s;
-    s->warning[0] = 0;
-    size_t cap = sizeof s->warning;
-    int shown = 0;
-    for (int i = 0; i < P->nwarn; i++) {
-        size_t k = strlen(s->warning);
-        size_t need = strlen(P->warn[i].msg) + (k ? 2 : 0);
-        if (k + need + 24 >= cap) break;
-        snprintf(s->warning + k, cap - k, "%s%s", k ? "; " : "", P->warn[i].msg);
-        shown++;
-    }
-    int more = P->nwarn - shown + P->nwarn_more;
-    if (more > 0) {
-        size_t k = strlen(s->warning);
-        snprintf(s->warning + k, cap - k, "%s(+%d more warnings)", k ? " " : "", more);
-    }
+    if (s->film_w <= 0 || s->film_h <= 0 || W <= 0 || H <= 0) return 0;
+    if ((int64_t)W * s->film_h == (int64_t)H * s->film_w) return 0;
+    /* tan of the new half angle: the film's horizontal half-extent
+     * (tan(fovy/2) x film aspect) over the image's aspect */
+    double t = tan_half(s->cam.fovy_deg) * ((double)s->film_w / s->film_h) * ((double)H / W);
+    double fovy = fov_of(t);
+    if (!(fovy > 0 && fovy < 180)) return 0;
+    s->cam.fovy_deg = (float)fovy;
+    char first[300];
+    snprintf(first, sizeof first, "%.250s", s->name);
+    if (rt_sfile_warn(s, "image aspect", first, e,
+                      "image %dx%d has not the Film's aspect (%dx%d): its horizontal extent is kept, vertical field "
+                      "of view %.4g degrees", W, H, s->film_w, s->film_h, fovy) < 0)
+        return -1;
+    rt_sfile_warn_summary(s);
+    return 1;
 }
 
-/* tess=N,maxtri=N */
-static int parse_spec(const char *path, const char *params, int *tess, uint32_t *maxtri, rt_err *e)
+/* tess=N,maxtri=N,maxsubdiv=N */
+static int parse_spec(const char *path, const char *params, int *tess, uint32_t *maxtri, uint32_t *maxsubdiv,
+                      rt_err *e)
 {
     *tess = 3;
     *maxtri = DEFAULT_MAXTRI;
-    int seen_t = 0, seen_m = 0;
+    *maxsubdiv = DEFAULT_MAXSUBDIV;
+    int seen_t = 0, seen_m = 0, seen_s = 0;
     const char *p = params ? params : "";
     while (*p) {
         const char *end = strchr(p, ',');
         size_t len = end ? (size_t)(end - p) : strlen(p);
         char item[64], *q;
         if (len == 0 || len >= sizeof item)
-            return rt_errf(e, "%s: bad parameter list '%.60s' (known: tess, maxtri)", path, params);
+            return rt_errf(e, "%s: bad parameter list '%.60s' (known: tess, maxtri, maxsubdiv)", path, params);
         memcpy(item, p, len);
         item[len] = 0;
         char *eq = strchr(item, '=');
@@ -2364,9 +2728,14 @@ static int parse_spec(const char *path, const char *params, int *tess, uint32_t 
             if (!ok || v < 1 || v > (long long)(UINT32_MAX / 2))
                 return rt_errf(e, "%s: maxtri=%s out of range 1..%u", path, eq + 1, (unsigned)(UINT32_MAX / 2));
             *maxtri = (uint32_t)v;
+        } else if (!strcmp(item, "maxsubdiv")) {
+            if (seen_s++) return rt_errf(e, "%s: parameter 'maxsubdiv' given twice", path);
+            if (!ok || v < 1 || v > (long long)(UINT32_MAX / 2))
+                return rt_errf(e, "%s: maxsubdiv=%s out of range 1..%u", path, eq + 1, (unsigned)(UINT32_MAX / 2));
+            *maxsubdiv = (uint32_t)v;
         } else {
             char q2[80];
-            return rt_errf(e, "%s: unknown parameter '%s' (known for .pbrt files: tess, maxtri, material)", path,
+            return rt_errf(e, "%s: unknown parameter '%s' (known for .pbrt files: tess, maxtri, maxsubdiv, material)", path,
                            rt_esc(q2, sizeof q2, item, 40));
         }
         p = end ? end + 1 : p + len;
@@ -2380,26 +2749,18 @@ rt_scene *rt_scene_load_pbrt(const char *path, const char *params, rt_err *e)
     pbrt *P = rt_calloc(1, sizeof *P, e);
     if (!P) return NULL;
     int rc = -1, tess;
-    uint32_t maxtri;
+    uint32_t maxtri, maxsubdiv;
     P->e = e;
     P->in_obj = -1;
     P->fov = 90;
-    if (parse_spec(path, params, &tess, &maxtri, e) < 0) goto done;
+    if (parse_spec(path, params, &tess, &maxtri, &maxsubdiv, e) < 0) goto done;
     P->tess = tess;
     P->maxtri = maxtri;
+    P->maxsubdiv = maxsubdiv;
     if (!(P->s = rt_scene_new(0, e))) goto done;
     const char *base = strrchr(path, '/');
     snprintf(P->s->name, sizeof P->s->name, "%s", base ? base + 1 : path);
     snprintf(P->s->params, sizeof P->s->params, "tess=%d", tess);
-    /* the top folder */
-    size_t dl = base ? (size_t)(base - path) : 0;
-    if (!(P->topdir = rt_calloc(dl + 2, 1, e))) goto done;
-    if (base) memcpy(P->topdir, path, dl ? dl : 1);
-    else P->topdir[0] = '.';
-    if (!(P->rtop = realpath(P->topdir, NULL))) {
-        rt_errf(e, "%s: %s", path, strerror(errno));
-        goto done;
-    }
     /* the top file */
     int fd;
     struct stat st;
@@ -2418,7 +2779,7 @@ rt_scene *rt_scene_load_pbrt(const char *path, const char *params, rt_err *e)
         goto done;
     }
     memcpy(shown, path, pl);
-    memcpy(rel, base ? base + 1 : path, strlen(base ? base + 1 : path)); /* folder "" after push_file */
+    memcpy(rel, path, pl); /* its folder after push_file */
     if (push_file(P, shown, rel, buf, n, &st) < 0) goto done;
     /* the default material and state */
     matdef m0;
@@ -2429,6 +2790,8 @@ rt_scene *rt_scene_load_pbrt(const char *path, const char *params, rt_err *e)
     if (add_matdef(P, &m0) < 0) goto done;
     P->g.ctm = m_ident();
     if (parse_all(P) < 0) goto done;
+    relocate_mesh_lights(P);
+    if (expand_instances(P) < 0) goto done;
     rt_scene *s = P->s;
     s->ntri_unique += P->nonobj;
     if (!s->ninst) s->ntri_unique = 0;
@@ -2443,12 +2806,10 @@ rt_scene *rt_scene_load_pbrt(const char *path, const char *params, rt_err *e)
     set_lights(P);
     s->film_w = P->film_w;
     s->film_h = P->film_h;
-    compose_warnings(P);
+    rt_sfile_warn_summary(s);
     rc = 0;
 done:
     for (int i = 0; i < P->depth; i++) file_free(P->f[i]);
-    free(P->topdir);
-    free(P->rtop);
     free(P->stack);
     free(P->mats);
     nm_free(&P->named_mat);
@@ -2459,6 +2820,10 @@ done:
     free(P->otri);
     free(P->oshade);
     free(P->al);
+    free(P->inst);
+    free(P->mslot);
+    for (int i = 0; i < P->npaths; i++) free(P->paths[i]);
+    free(P->paths);
     rt_scene *out = P->s;
     if (rc < 0) {
         rt_scene_free(out);

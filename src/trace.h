@@ -1,10 +1,30 @@
 /*
- * trace.h -- the raytraffic trace file (.rtt): writer and streaming reader.
+ * trace.h -- the raytraffic trace file (.rtt): writer and streaming reader
+ * (prefix rt_tr_).
  *
- * (The essay comment describing the on-disk format and its invariants is in
- * trace.c and docs/trace-format.md.)
+ * A trace is the complete, ordered stream of memory references (address,
+ * size, read|write, class, ray generation: rt_access, memmodel.h) that one
+ * tracer made while rendering one image, with the metadata that says where
+ * it came from (rt_tr_meta: tool, revision, command, scene, tracer, image
+ * size, the region table of the modeled memory). The file is a header, then
+ * chunks of at most chunk_records records (each one zlib stream of records
+ * coded against the previous address and size of their class: trace_rec.h),
+ * then, in version 3, a side chunk after every chunk, then a footer with
+ * per-class totals. Integers are little-endian, so a trace is the same file
+ * on every machine; every byte is covered by a CRC-32 or a magic, so a
+ * flipped bit or a truncation is always reported. The byte layout and
+ * every check a reader makes are spelled out in trace.c and
+ * docs/trace-format.md; what a caller needs is below.
  *
- * Writer: rt_tr_create opens PATH.tmp, writes the header; accesses arrive
+ * Conventions: functions returning a pointer return NULL on failure,
+ * functions returning int return 0 (or a count) on success and -1 on
+ * failure; a failure's message is written into e (may be NULL), one line
+ * naming the file and, for a reader, the byte offset. Nothing here prints.
+ * Metadata and totals returned by pointer are owned by the writer or reader
+ * and valid until it is finished, aborted or closed.
+ *
+ * Writer: rt_tr_create opens a unique temporary beside PATH (outfile.h),
+ * written as PATH.tmp below, and writes the header; accesses arrive
  * through the rt_sink returned by rt_tr_sink (so a tracer's recorder can
  * feed it directly); rt_tr_finish writes the last chunk and the footer,
  * flushes and renames PATH.tmp to PATH. rt_tr_abort removes PATH.tmp, so an
@@ -121,10 +141,15 @@ typedef struct rt_tr_wopts {
     uint32_t chunk_records; /* records per chunk, default 65536 */
     const rt_tr_payload_ops *payload; /* non-NULL: version 3 with its side payloads; NULL: version 1/2 */
 } rt_tr_wopts;
+
+/* Fills *o with the defaults: RT_TR_DEFAULT_LEVEL, RT_TR_DEFAULT_CHUNK,
+ * no payload (the version 1/2 format). */
 void rt_tr_default_wopts(rt_tr_wopts *o);
 
 typedef struct rt_tr_writer rt_tr_writer;
-/* Opens PATH.tmp and writes the header. NULL on failure (bad metadata,
+/* Opens PATH.tmp (a unique temporary beside PATH; PATH itself is replaced
+ * only by rt_tr_finish; rt_out_open, outfile.h, says which targets are
+ * refused) and writes the header from m (read during the call only). NULL on failure (bad metadata,
  * e.g. generations > RT_TR_MAX_GENERATION; bad options or payload
  * parameters; I/O error; out of memory). rt_tr_create uses
  * rt_tr_default_wopts: the version 1/2 format, whose bytes are those of
@@ -137,18 +162,37 @@ const rt_tr_totals *rt_tr_writer_totals(const rt_tr_writer *w);
  * 0, generation above meta.generations, a payload maker's failure), or ""
  * if none. Owned by w. */
 const char *rt_tr_writer_error(const rt_tr_writer *w);
+/* The sink accesses are written through (owned by w; a recorder may hold
+ * it until rt_tr_finish or rt_tr_abort). Its put() encodes the records
+ * into the current chunk, compressing and writing a chunk (and, version 3,
+ * its side chunk) each time chunk_records are pending; it returns -1 after
+ * the first failure, whose message rt_tr_writer_error gives, and drops
+ * every later access. */
 rt_sink *rt_tr_sink(rt_tr_writer *w);
-/* Finishes and renames into place. Frees w in every case. 0 or -1. */
+/* Writes the last chunk and the footer, flushes, and renames PATH.tmp to
+ * PATH. Frees w in every case (the temporary is removed on failure). 0, or
+ * -1 naming the first failure: a failed put(), an I/O error, a failed
+ * rename. */
 int rt_tr_finish(rt_tr_writer *w, rt_err *e);
 /* Discards the temporary file and frees w (NULL is fine). */
 void rt_tr_abort(rt_tr_writer *w);
 
 typedef struct rt_tr_reader rt_tr_reader;
+/* Opens path (a regular file) and reads and checks its header: magic,
+ * version 1..RT_TR_FORMAT_VERSION, header CRC, every field in range. NULL
+ * with e naming the file and offset on any failure. Memory: one chunk's
+ * buffers, whatever the trace's length. */
 rt_tr_reader *rt_tr_open(const char *path, rt_err *e);
+/* The header's metadata (owned by r). */
 const rt_tr_meta *rt_tr_get_meta(const rt_tr_reader *r);
 /* Totals from the footer; valid only after rt_tr_read returned 0. */
 const rt_tr_totals *rt_tr_get_totals(const rt_tr_reader *r);
-/* Records carry their generation (version 1: always 0). */
+/* Decodes up to cap records into buf, in the order they were written;
+ * records carry their generation (version 1: always 0). Returns the count
+ * (> 0), 0 at the verified end of the trace (the footer's CRC and totals
+ * checked, nothing after it), or -1 on truncation or corruption, e naming
+ * the file and byte offset. After -1 every later call returns -1 with the
+ * same message; after 0, 0 again. */
 long rt_tr_read(rt_tr_reader *r, rt_access *buf, size_t cap, rt_err *e);
 /* Before the first rt_tr_read of a version-3 trace: the maker whose
  * payloads the trace is meant to hold (cachesim/sindex.h rt_si_open sets
@@ -174,6 +218,7 @@ uint64_t rt_tr_file_hash(const rt_tr_reader *r);
  * for version 3. */
 uint32_t rt_tr_get_version(const rt_tr_reader *r);
 uint32_t rt_tr_get_chunk_records(const rt_tr_reader *r);
+/* Closes the file and frees r (NULL is fine). */
 void rt_tr_close(rt_tr_reader *r);
 
 /* 1 and the parameters in *p if the trace has side payloads (version 3),

@@ -73,7 +73,7 @@ diff -u "$golden" "$tmp/report.md" || die "report differs from $golden"
 [ "$(wc -l < "$tmp/report.csv")" = 97 ] || die "csv: $(wc -l < "$tmp/report.csv") lines, want 97"
 RT_GNUPLOT=/bin/true "$bin" report --db "$db" --figure accel --scene knot --plot "$tmp/plots" \
     > /dev/null 2>"$tmp/plot.err" || die "report --figure accel --plot: $(cat "$tmp/plot.err")"
-dat="$tmp/plots/accel-knot_24x20_lights_7__recursive.dat"
+dat="$tmp/plots/accel-knot_24x20_lights_all__recursive.dat"
 [ -f "$dat" ] && [ -f "${dat%.dat}.gp" ] || die "plot files missing: $(ls "$tmp/plots" 2>&1)"
 awk '!/^#/ && NF == 5 { n++ } END { exit n != 3 }' "$dat" 2>/dev/null || die "plot data: $(cat "$dat" 2>&1)"
 

@@ -10,7 +10,7 @@ set -u
 src=${RT_SRCDIR:-.}/tests/fuzz
 bld=${RT_BUILDDIR:-.}/tests/fuzz
 fail=0
-for t in trace din obj ply cli pbrt; do
+for t in trace din obj ply cli pbrt gz; do
   for d in corpus regress; do
     dir=$src/$d/$t
     test -d "$dir" || continue

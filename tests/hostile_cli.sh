@@ -1,5 +1,5 @@
 #!/bin/sh
-# Hostile use of the commands (docs/reliability.md §15-§26; the section
+# Hostile use of the commands (docs/reliability.md §15-§31; the section
 # numbers below are those of the docs):
 # 15. control characters in scene names and paths never reach a job line;
 # 16. a mesh cannot make the loader read devices, FIFOs or files outside
@@ -14,7 +14,13 @@
 # 24. a foreign SQLite file is refused untouched;
 # 25. --db is a path, never an SQLite URI;
 # 26. lesser ones (render -o '', CR line ends, hex floats, duplicated PLY
-#     properties, exact run counts, long names with --keep-traces).
+#     properties, exact run counts, long names with --keep-traces);
+# 27. database names SQLite stores nowhere (:memory:, '', ':x') are usage errors;
+# 28. FIFOs, devices and folders as a database are refused at once, and
+#     nothing is created beside them (no /dev/null-journal);
+# 29. db merge says why a shard is refused, and leaves no -shm/-wal beside it;
+# 30. kept-trace temporaries of a sweep killed with -9 go with the rerun;
+# 31. scenes too small to shade are refused; small ones keep their shadows.
 set -u
 bin=${RT_BIN:-./raytraffic}
 src=${RT_SRCDIR:-${srcdir:-.}}
@@ -100,15 +106,23 @@ cp "$cube" "${L}a.obj"
     --db r.db 2> err || die "18: sweep: $(cat err)"
 [ "$(sqlite3 r.db "SELECT COUNT(DISTINCT name) FROM scenes WHERE length(name) = 151")" = 2 ] ||
     die "18: names not stored whole: $(sqlite3 r.db 'SELECT length(name) FROM scenes')"
-"$bin" report --db r.db --format csv > rep.csv 2> err || die "18: report: $(cat err)"
+"$bin" report --db r.db --format csv --out csv 2> err || die "18: report: $(cat err)"
+# a tidy table's geometry MB of scene $2 at size $3 (recursive), by column name
+geo_mb() {
+    awk -F, -v sc="$2" -v sz="$3" 'NR == 1 { for (i = 1; i <= NF; i++) h[$i] = i; next }
+        $h["scene"] == sc && $h["cache_size"] == sz && $h["class_group"] == "geometry" && $h["tracer"] == "recursive" {
+        s += $h["traffic_bytes"] } END { printf "%.2f", s / 1048576 }' "$1"
+}
 for x in a b; do
     want=$(sqlite3 r.db "SELECT printf('%.2f', g.geometry_mb) FROM v_traffic_group g JOIN runs r ON r.id = g.run_id
         JOIN scenes s ON s.id = r.scene_id WHERE s.name = '${L}$x.obj' AND g.cache_size = 1024 AND g.line = 64
         AND g.assoc = 0 AND g.policy = 'wb-wa'")
-    got=$(grep "^0,${L}$x.obj,1024," rep.csv | cut -d, -f4)
+    f=$(grep -l ",${L}$x.obj," csv/primary-* | head -1)
+    got=$([ -n "$f" ] && geo_mb "$f" "${L}$x.obj" 1024)
     [ -n "$want" ] && [ "$got" = "$want" ] || die "18: scene $x: report says '$got', the database '$want'"
-    [ "$(grep -c "^${L}$x.obj," rep.csv)" = 1 ] || die "18: scene $x: not one row in the scene table"
+    [ "$(grep -c "^${L}$x.obj," csv/scenes.csv)" = 1 ] || die "18: scene $x: not one row in the scene table"
 done
+[ "$(ls csv/primary-* | wc -l)" = 2 ] || die "18: not one table per scene: $(ls csv)"
 havegp=0
 command -v gnuplot > /dev/null 2>&1 && havegp=1
 if [ $havegp = 1 ]; then
@@ -123,8 +137,9 @@ sed -i "s|^mtllib .*|mtllib ${L2}b.mtl|" "${L2}b.obj"
 "$bin" sweep --scenes "${L2}a.obj,${L2}b.obj" --tracers recursive --lights primary -W 16 -H 16 --sizes 1K-4K \
     --db r2.db --keep-traces kept 2> err || die "26: sweep of 245-byte names with --keep-traces: $(cat err)"
 [ "$(ls kept | wc -l)" = 2 ] || die "26: kept traces: $(ls kept)"
-"$bin" report --db r2.db --format csv > rep2.csv 2> err || die "18: report of long names: $(cat err)"
-[ "$(grep -c "^${L2}[ab].obj," rep2.csv)" = 2 ] || die "18: 245-byte names: labels not whole and distinct"
+"$bin" report --db r2.db --format csv --out csv2 2> err || die "18: report of long names: $(cat err)"
+[ "$(grep -c "^${L2}[ab].obj," csv2/scenes.csv)" = 2 ] || die "18: 245-byte names: labels not whole and distinct"
+[ "$(ls csv2 | grep -c '^primary-.*n~[0-9a-f]*\.csv$')" = 2 ] || die "18: 245-byte names: tables $(ls csv2)"
 if [ $havegp = 1 ]; then
     rm -rf p && "$bin" report --db r2.db --plot p > /dev/null 2> err || die "18: --plot of long names: $(cat err)"
     [ "$(ls p | grep -c 'n~[0-9a-f]*-traffic.png$')" = 2 ] || die "18: 245-byte names: plots $(ls p)"
@@ -276,5 +291,168 @@ for trial in 1 2 3; do
     said=$(sed -n 's/^sweep: \([0-9]*\) run(s) finished.*/\1/p' hup.log)
     [ "$said" = "$(runs "$db")" ] || die "26: after SIGHUP the summary says '$said' runs, the database holds $(runs "$db")"
 done
+
+# ---- 27. results stored nowhere ------------------------------------------------------
+mkdir s27 && cd s27 || exit 1
+for name in ':memory:' '' ':x' ':'; do
+    "$bin" sim --db "$name" ../t.rtt > /dev/null 2> err; rc=$?
+    [ $rc = 2 ] && grep -q "not a file name\|empty database name" err || die "27: sim --db '$name': exit $rc: $(cat err)"
+    "$bin" sweep --scenes cornell --tracers recursive --lights primary -W 8 -H 8 --sizes 1K --db "$name" \
+        > /dev/null 2> err; rc=$?
+    [ $rc = 2 ] || die "27: sweep --db '$name': exit $rc: $(cat err)"
+    "$bin" report --db "$name" > out 2> err; rc=$?
+    [ $rc = 2 ] && [ ! -s out ] || die "27: report --db '$name': exit $rc: $(cat err)"
+done
+"$bin" sim --db good.db ../t.rtt > /dev/null 2>&1 || die "27: sim --db good.db failed"
+"$bin" db merge ':memory:' good.db > /dev/null 2> err; rc=$?
+[ $rc = 2 ] && ! grep -q merged err || die "27: db merge :memory: good.db: exit $rc: $(cat err)"
+"$bin" db merge out.db ':x' > /dev/null 2> err; rc=$?
+[ $rc = 2 ] && [ ! -e out.db ] || die "27: db merge out.db ':x': exit $rc, out.db created or $(cat err)"
+[ "$(ls | grep -v '^err$\|^out$\|^good.db$' | wc -l)" = 0 ] || die "27: files left: $(ls)"
+# a file of that name is still reachable as ./NAME
+"$bin" sim --db ./:memory: ../t.rtt > /dev/null 2>&1 && [ "$(runs ./:memory:)" = 1 ] || die "27: --db ./:memory: refused"
+cd "$tmp" || exit 1
+
+# ---- 28. FIFOs, devices, folders as a database ------------------------------------------
+mkdir s28 && cd s28 || exit 1
+mkfifo f.db
+"$bin" sim --db good.db ../t.rtt > /dev/null 2>&1 || die "28: sim --db good.db failed"
+for c in "report --db f.db" "sim --db f.db ../t.rtt" "db merge o.db f.db" "db merge f.db good.db" \
+    "sweep --scenes cornell --tracers recursive --lights primary -W 8 -H 8 --sizes 1K --db f.db"; do
+    # shellcheck disable=SC2086
+    timeout 20 "$bin" $c > /dev/null 2> err; rc=$?
+    [ $rc = 1 ] && grep -q "f.db: .*is a FIFO, not a regular file" err || die "28: $c: exit $rc (124: hang): $(cat err)"
+done
+[ -e o.db ] && die "28: db merge o.db f.db created o.db before refusing f.db"
+mkdir d.db
+"$bin" sim --db d.db ../t.rtt > /dev/null 2> err; rc=$?
+[ $rc = 1 ] && grep -q "d.db: is a directory" err || die "28: sim --db DIR: exit $rc: $(cat err)"
+ln -s f.db l.db
+timeout 20 "$bin" report --db l.db > /dev/null 2> err; rc=$?
+[ $rc = 1 ] && grep -q "l.db: .*FIFO" err || die "28: report --db link-to-FIFO: exit $rc: $(cat err)"
+"$bin" sim --db no/such/dir.db ../t.rtt > /dev/null 2> err; rc=$?
+[ $rc = 1 ] && grep -q "no/such/dir.db: No such file" err || die "28: sim --db in a missing folder: exit $rc: $(cat err)"
+for dev in /dev/null /dev/full; do
+    before=0; [ -e "$dev-journal" ] && before=1
+    for c in "sim --db $dev ../t.rtt" "db merge $dev good.db" "report --db $dev"; do
+        # shellcheck disable=SC2086
+        timeout 20 "$bin" $c > /dev/null 2> err; rc=$?
+        [ $rc = 1 ] && grep -q "$dev: .*character device" err || die "28: $c: exit $rc: $(cat err)"
+    done
+    if [ $before = 0 ]; then
+        for x in -journal -wal -shm; do [ -e "$dev$x" ] && die "28: $dev$x created"; done
+    fi
+done
+cd "$tmp" || exit 1
+
+# ---- 29. db merge: why a shard is refused; nothing left beside shards ------------------
+mkdir s29 && cd s29 || exit 1
+"$bin" sim --db good.db ../t.rtt > /dev/null 2>&1 || die "29: sim --db good.db failed"
+cp good.db a.db && cp good.db b.db
+"$bin" db merge m.db a.db b.db > /dev/null 2> err || die "29: merge of two good shards: $(cat err)"
+for x in a.db-wal a.db-shm b.db-wal b.db-shm good.db-wal good.db-shm m.db-wal m.db-shm; do
+    [ -e "$x" ] && die "29: db merge left $x"
+done
+head -c 3000 good.db > trunc.db
+sqlite3 foreign.db "CREATE TABLE foo(x)"
+cp good.db newer.db && sqlite3 newer.db "PRAGMA user_version = 99"
+head -c 20000 "$cube" > notsql.db
+: > empty.db
+merge_says() { # SHARD REGEX
+    "$bin" db merge out.db "$1" > /dev/null 2> err; rc=$?
+    [ $rc = 1 ] && grep -Eq "$1: $2" err && [ "$(wc -l < err)" = 1 ] || die "29: merge $1: exit $rc: $(cat err), want '$2'"
+}
+merge_says trunc.db "malformed database: truncated \(3000 bytes"
+merge_says foreign.db "not a raytraffic database \(an SQLite file without raytraffic's tables\)"
+merge_says newer.db "database schema version 99 is newer"
+merge_says notsql.db "not a raytraffic database \(not an SQLite file\)"
+merge_says empty.db "not a raytraffic database \(an empty file\)"
+merge_says missing.db "unreadable: No such file"
+mkdir dir.db
+merge_says dir.db "unreadable: is a directory"
+if [ "$(id -u)" != 0 ]; then
+    cp good.db noperm.db && chmod 000 noperm.db
+    merge_says noperm.db "unreadable: Permission denied"
+fi
+# a good shard on a read-only file system merges (it did not: "schema
+# version -1"); one with an unreplayed log there is "read-only"
+if [ "$(id -u)" = 0 ] && mkdir ro && mount -t tmpfs -o size=4m tmpfs ro 2>/dev/null; then
+    cp good.db ro/ && cp good.db ro/w.db
+    python3 -c "
+import sqlite3, os, sys
+c = sqlite3.connect(sys.argv[1]); c.execute('PRAGMA journal_mode = WAL')
+c.execute(\"UPDATE runs SET command = 'x'\"); c.commit(); os._exit(0)" ro/w.db
+    rm -f ro/w.db-shm # (with its -shm SQLite reads the log read-only)
+    mount -o remount,ro ro
+    "$bin" db merge rom.db ro/good.db > /dev/null 2> err && [ "$(runs rom.db)" = 1 ] || die "29: read-only shard: $(cat err)"
+    "$bin" report --db ro/good.db --figure scenes > /dev/null 2> err || die "29: report of a read-only db: $(cat err)"
+    merge_says ro/w.db "read-only: its write-ahead log"
+    umount ro
+else
+    echo "skip: 29 read-only file system (cannot mount a tmpfs)"
+fi
+cd "$tmp" || exit 1
+
+# ---- 30. kept-trace temporaries of a killed sweep ---------------------------------------
+mkdir s30 && cd s30 || exit 1
+a="--scenes cornell,knot --tracers recursive,dynamic --lights primary,all -W 64 -H 64 --sizes 1K-16K --db k.db --keep-traces kept"
+# shellcheck disable=SC2086
+"$bin" sweep $a > /dev/null 2>&1 &
+pid=$!
+i=0
+while ! ls -a kept 2>/dev/null | grep -q '^\.job.*\.rtt\.......$' && [ $i -lt 500 ]; do sleep 0.01; i=$((i + 1)); done
+kill -9 $pid 2>/dev/null
+wait $pid 2>/dev/null
+ls -a kept | grep -q '^\.job.*\.rtt\.......$' || echo "note: 30: no temporary caught by the kill"
+# not ours, or not of that pattern, or held by a live writer: kept
+: > kept/.other.rtt.AbC123; : > kept/.job0001-x.rtt.AbC12; : > kept/job0001-x.rtt.AbC123; : > kept/.job01-x.rtt.AbC123
+: > kept/.job0002-held.rtt.Hld123
+python3 -c "
+import fcntl, sys, time
+f = open(sys.argv[1], 'rb'); fcntl.flock(f, fcntl.LOCK_EX); print('locked', flush=True); time.sleep(60)" \
+    kept/.job0002-held.rtt.Hld123 > held.out &
+holder=$!
+i=0
+while [ ! -s held.out ] && [ $i -lt 500 ]; do sleep 0.01; i=$((i + 1)); done
+mkdir -p elsewhere && : > elsewhere/.job0000-x.rtt.AbC123
+: > kept/.job0003-planted-by-a-dead-writer.rtt.Pln123 # stale whether or not the kill caught one
+# shellcheck disable=SC2086
+"$bin" sweep $a > /dev/null 2> err || die "30: the rerun failed: $(cat err)"
+kill $holder 2>/dev/null
+wait $holder 2>/dev/null
+left=$(ls -a kept | grep '^\.job[0-9]\{4,\}-.*\.rtt\.......$' | grep -v Hld123)
+[ -z "$left" ] || die "30: stale temporaries left after the rerun: $left"
+[ -e kept/.job0003-planted-by-a-dead-writer.rtt.Pln123 ] && die "30: a stale temporary was not removed"
+for f in .other.rtt.AbC123 .job0001-x.rtt.AbC12 job0001-x.rtt.AbC123 .job01-x.rtt.AbC123 .job0002-held.rtt.Hld123; do
+    [ -e "kept/$f" ] || die "30: the rerun removed kept/$f (not a stale temporary of its own)"
+done
+[ -e elsewhere/.job0000-x.rtt.AbC123 ] || die "30: the rerun removed a file in another folder"
+[ "$(ls kept | grep -c '^job.*\.rtt$')" = 24 ] || die "30: $(ls kept | grep -c '^job.*\.rtt$') kept traces, want 24"
+cd "$tmp" || exit 1
+
+# ---- 31. tiny scenes --------------------------------------------------------------------
+mkdir s31 && cd s31 || exit 1
+scaled() { # FACTOR OUT: the cube scaled
+    awk -v f="$1" '$1 == "v" { printf "v %.9g %.9g %.9g\n", $2 * f, $3 * f, $4 * f; next } { print }' "$cube" > "$2"
+}
+scaled 1e-19 c19.obj; scaled 1e-12 c12.obj; scaled 1e-6 c6.obj; scaled 1 c0.obj
+printf 'v 1e-40 0 0\nv 0 1e-40 0\nv 0 0 1e-40\nf 1 2 3\n' > denormal.obj
+printf 'LookAt 0 0 5  0 0 0  0 1 0\nCamera "perspective" "float fov" 40\nWorldBegin\nScale 0 0 0\nShape "sphere" "float radius" 1\nWorldEnd\n' > zero.pbrt
+for f in c19.obj c12.obj denormal.obj zero.pbrt; do
+    "$bin" trace "$f" -W 16 -H 16 --lights all -o t.rtt > /dev/null 2> err; rc=$?
+    [ $rc = 1 ] && grep -q "$f: scene extent .* is below 1e-09" err || die "31: $f: exit $rc: $(cat err)"
+done
+for f in c0.obj c6.obj; do
+    "$bin" trace "$f" -W 16 -H 16 --lights all -o t.rtt 2>&1 | sed -n 's/.* + \([0-9]*\) shadow rays.*/\1/p' > "$f.n"
+done
+[ -s c0.obj.n ] && cmp -s c0.obj.n c6.obj.n || die "31: cube at 1e-6: $(cat c6.obj.n) shadow rays, at 1: $(cat c0.obj.n)"
+# an occluded scene: cornell at 1e-6 renders as at 1
+"$bin" scene export cornell -o corn.obj 2> /dev/null
+awk '$1 == "v" { printf "v %.9g %.9g %.9g\n", $2 * 1e-6, $3 * 1e-6, $4 * 1e-6; next } { print }' corn.obj > corn6.obj
+for f in corn corn6; do
+    "$bin" render "$f.obj" -W 32 -H 32 --lights all -o /dev/null --ppm "$f.ppm" 2> err || die "31: render $f: $(cat err)"
+done
+cmp -s corn.ppm corn6.ppm || die "31: cornell at 1e-6 renders differently from cornell at 1"
+cd "$tmp" || exit 1
 
 exit $fail

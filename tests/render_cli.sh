@@ -171,7 +171,7 @@ grep -q '"kd": {"nodes": 75, "leaves": 38, "empty_leaves": 1, "depth": 10, "inde
 # 2L - 1 nodes (odd); --accel shows one structure, an unknown one exits 2
 grep -q '{"name": "kd", "build_sec": [0-9.]*, "nodes": 75, "bytes": 1488, "depth": 10}' "$tmp/info.json" \
     || err "scene info --json: kd footprint: $(cat "$tmp/info.json")"
-"$bin" scene info cornell:glass=0 > "$tmp/info.txt" || err "scene info cornell"
+"$bin" scene info cornell:glass=0 --accel kd,bvh2,bvh4,bvh8 > "$tmp/info.txt" || err "scene info cornell"
 awk '$1 == "bvh2" && $3 % 2 == 1 && $4 == 32 * $3 { n++ } $1 == "bvh4" && $4 == 128 * $3 { n++ }
      $1 == "bvh8" && $4 == 80 * $3 && $3 > 1 { n++ } $1 == "kd" && $3 == 75 && $4 == 1488 { n++ }
      END { exit n != 4 }' "$tmp/info.txt" || err "scene info: structure table: $(cat "$tmp/info.txt")"
@@ -179,6 +179,15 @@ awk '$1 == "bvh2" && $3 % 2 == 1 && $4 == 32 * $3 { n++ } $1 == "bvh4" && $4 == 
 [ "$(grep -c '^  bvh' "$tmp/info4.txt")" = 1 ] && grep -q '^  bvh4 ' "$tmp/info4.txt" && ! grep -q '^kd nodes' "$tmp/info4.txt" \
     || err "scene info --accel bvh4: $(cat "$tmp/info4.txt")"
 "$bin" scene info cornell:glass=0 --accel nope > /dev/null 2>&1; [ $? -eq 2 ] || err "scene info --accel nope should exit 2"
+# by default only the default structure (kd) is built; all: every member of the table
+"$bin" scene info cornell:glass=0 > "$tmp/info0.txt" || err "scene info, default structures"
+[ "$(grep -c '^  [a-z0-9]* *[0-9.]* *[0-9]* *[0-9]* *[0-9]*$' "$tmp/info0.txt")" = 1 ] && grep -q '^  kd ' "$tmp/info0.txt" \
+    && grep -q '^kd nodes     75$' "$tmp/info0.txt" || err "scene info builds more than kd by default: $(cat "$tmp/info0.txt")"
+"$bin" scene info cornell:glass=0 --accel all > "$tmp/infoa.txt" || err "scene info --accel all"
+for a in kd grid naive bvh2 bvh4 bvh8; do grep -q "^  $a " "$tmp/infoa.txt" || err "scene info --accel all lacks $a"; done
+"$bin" scene info cornell:glass=0 --accel none > "$tmp/infon.txt" || err "scene info --accel none"
+grep -q '^structure\|^kd nodes' "$tmp/infon.txt" && err "scene info --accel none built a structure"
+"$bin" scene info cornell:glass=0 --accel bvh4,nope > /dev/null 2>&1; [ $? -eq 2 ] || err "scene info --accel bvh4,nope should exit 2"
 "$bin" scene list > "$tmp/list" || err "scene list"
 for s in sphereflake grove room cornell knot; do grep -q "$s" "$tmp/list" || err "scene list lacks $s"; done
 "$bin" scene info no-such-scene > /dev/null 2>&1; [ $? -eq 1 ] || err "scene info of a bad scene should exit 1"

@@ -3,7 +3,9 @@
 # shell injection is plotted without running it; the database is opened
 # read-only (read-only file and folder, no side files); a missing database
 # is a one-line error and is not created; a newer schema is refused; a
-# failing gnuplot and a mesh that has moved are errors, not silent.
+# failing gnuplot and a mesh that has moved are errors, not silent; a
+# report with nothing to show is one line and exit 1, nothing on stdout;
+# the full report opens with its summary.
 # SKIP (77) only when gnuplot is missing.
 set -u
 bin=${RT_BIN:-./raytraffic}
@@ -34,6 +36,14 @@ fi
 grep -q "wrote out/scenes.png" log || { echo "FAIL: no 'wrote' line"; cat log; fail=1; }
 grep -q "noenhanced" "out/$mesh-traffic.gp" || { echo "FAIL: titles not noenhanced"; fail=1; }
 grep -q "$mesh" report.md || { echo "FAIL: report lacks the scene"; fail=1; }
+# the traffic plot: geometry, ray, total and the reduction, keys outside
+# the panels, cache sizes as powers of two; the scene strip names scenes
+gpf="out/$mesh-traffic.gp"
+grep -q 'total (geometry + ray) traffic' "$gpf" && grep -q 'recursive / dynamic' "$gpf" &&
+    grep -q 'set key at screen' "$gpf" && ! grep -q 'set key .*inside\|set key top' "$gpf" &&
+    grep -q 'set xtics ("1K" 1, "4K" 4)' "$gpf" || { echo "FAIL: traffic plot script: $(grep -c . "$gpf") lines"; fail=1; }
+grep -q 'set title ".*q.obj" noenhanced' out/scenes.gp 2>/dev/null || grep -q 'set title' out/scenes.gp ||
+    { echo "FAIL: scenes.png without scene names"; fail=1; }
 
 # 2. a failing gnuplot is an error
 RT_GNUPLOT=/bin/false "$bin" report --db i.db --plot out2 >/dev/null 2>log && { echo "FAIL: failing gnuplot exited 0"; fail=1; }
@@ -74,6 +84,29 @@ rc=$?
 cp i.db newer.db && sqlite3 newer.db "PRAGMA user_version = 7" 2>/dev/null
 "$bin" report --db newer.db >/dev/null 2>log && { echo "FAIL: newer schema accepted"; fail=1; }
 grep -q "schema version 7 is newer" log || { echo "FAIL: newer schema message"; cat log; fail=1; }
+
+# 7. nothing to show: one line on stderr, exit 1, nothing on stdout (a
+# figure of a scene the database lacks, in Markdown and CSV; a figure of
+# runs it lacks; speed against error and the appendix without approximate
+# runs)
+for args in "--figure 4" "--figure 9 --format csv" "--figure accel" "--figure treelet" "--speed-error" \
+    "--appendix"; do
+    # shellcheck disable=SC2086
+    "$bin" report --db i.db $args >out.txt 2>log
+    rc=$?
+    [ "$rc" = 1 ] && [ ! -s out.txt ] && [ "$(wc -l <log)" = 1 ] ||
+        { echo "FAIL: report $args with nothing to show: exit $rc, stdout $(wc -c <out.txt) bytes, $(cat log)"; fail=1; }
+done
+grep -q "nothing to show for figure 4: no run of the paper's room" log 2>/dev/null ||
+    "$bin" report --db i.db --figure 4 2>&1 | grep -q "nothing to show for figure 4" ||
+    { echo "FAIL: figure 4 message"; fail=1; }
+# the full report opens with its summary, headings descend one level at a time
+"$bin" report --db i.db >full.md 2>log || { echo "FAIL: report"; cat log; fail=1; }
+[ "$(grep -m1 -n '^## ' full.md)" = "3:## Summary" ] || { echo "FAIL: report does not open with its summary"; head -5 full.md; fail=1; }
+grep -q "^- Command: \`.*sweep --scenes" full.md && grep -q "^- Revision: revision " full.md &&
+    grep -q "^- Preset: none" full.md || { echo "FAIL: summary lacks command, revision or preset"; fail=1; }
+awk '/^#/ { n = index($0, " ") - 1; if (p && n > p + 1) { print "jump: " $0; bad = 1 } p = n } END { exit bad }' full.md ||
+    { echo "FAIL: a heading level is skipped"; fail=1; }
 
 [ "$fail" = 0 ] && echo "report_cli: ok"
 exit $fail

@@ -38,8 +38,8 @@ b=$(q "$d/r.db" "select group_concat(x, ' ') from (select c.size || ':' || g.cla
     err "merge lost generation rows"
 # the report
 "$bin" report --db "$d/s.db" --figure secondary --plot "$d/pl" >"$d/rep.md" 2>"$d/rep.err" || err "report failed: $(cat "$d/rep.err")"
-grep -q '^### cornell, whitted (mode=whitted depth=3), lights 7, 16x16' "$d/rep.md" || err "no whitted table"
-grep -q '^### cornell, path (mode=path spp=1 bounces=2), lights 7, 16x16' "$d/rep.md" || err "no path table"
+grep -q '^### cornell, whitted (mode=whitted depth=3), lights all, 16x16' "$d/rep.md" || err "no whitted table"
+grep -q '^### cornell, path (mode=path spp=1 bounces=2), lights all, 16x16' "$d/rep.md" || err "no path table"
 grep -q '^| 64K |' "$d/rep.md" || err "no 64K row"
 grep -q '^- \*\*cornell\*\*: dynamic moves less geometry than recursive in generations >= 1 at [0-4] of 4 ' "$d/rep.md" ||
     err "no finding sentence"

@@ -35,6 +35,55 @@ grep -E '^ +2048 +64 +full fb +68 +0 +17 +17 +0 +2176$' "$tmp/fl.txt" >/dev/null
 "$bin" sim --write-fullline --flush --sizes 2K "$tmp/cyc.din" | grep -q 'policy wb-wa+flush+fullline,' || die "--write-fullline label"
 "$bin" sim --method shards --flush "$tmp/cyc.din" >/dev/null 2>&1; [ $? -eq 2 ] || die "--flush with a sampled method must be a usage error"
 
+# --repl: A B A C A in a 2-line cache; LRU keeps A (3 misses), FIFO evicts
+# it for C (4 misses)
+printf '0 1000\n0 1040\n0 1000\n0 1080\n0 1000\n' > "$tmp/abaca.din"
+"$bin" sim --sizes 128 "$tmp/abaca.din" | grep -E '^ +128 +64 +full fb +5 +3 +0 ' >/dev/null || die "lru ABACA"
+"$bin" sim --repl fifo --sizes 128 "$tmp/abaca.din" > "$tmp/fifo.txt" || die "sim --repl fifo exit $?"
+grep -E '^ +128 +64 +full fb +5 +4 +0 ' "$tmp/fifo.txt" >/dev/null || { die "fifo ABACA"; cat "$tmp/fifo.txt"; }
+grep -q 'policy wb-wa, replacement fifo, engine exact-persize' "$tmp/fifo.txt" || die "fifo header: $(head -1 "$tmp/fifo.txt")"
+"$bin" sim --repl fifo --format json --sizes 128 "$tmp/abaca.din" | grep -q '"repl": "fifo"' || die "fifo json"
+"$bin" sim --repl belady "$tmp/abaca.din" >/dev/null 2>"$tmp/err"; [ $? -eq 2 ] || die "unknown --repl must be a usage error"
+grep -q "unknown replacement policy 'belady'" "$tmp/err" || die "unknown --repl message: $(cat "$tmp/err")"
+"$bin" sim --repl fifo --method shards "$tmp/abaca.din" >/dev/null 2>&1; [ $? -eq 2 ] || die "--repl fifo with a sampled method must be a usage error"
+"$bin" sim --seed 3 "$tmp/abaca.din" >/dev/null 2>&1; [ $? -eq 2 ] || die "--seed with exact lru must be a usage error"
+"$bin" sim --repl plru --sizes 192 "$tmp/abaca.din" >/dev/null 2>"$tmp/err"; [ $? -eq 2 ] || die "plru with 3 ways must be a usage error"
+grep -q "power-of-two" "$tmp/err" || die "plru ways message: $(cat "$tmp/err")"
+"$bin" sim --repl opt --sizes 128 "$tmp/abaca.din" > "$tmp/opt.txt" || die "--repl opt exit"
+grep -q 'replacement opt, engine exact-opt' "$tmp/opt.txt" || die "opt header: $(head -1 "$tmp/opt.txt")"
+grep -E '^ +128 +64 +full fb +5 +3 +0 ' "$tmp/opt.txt" >/dev/null || { die "opt ABACA"; cat "$tmp/opt.txt"; }
+for p in random plru srrip brrip; do
+    "$bin" sim --repl $p --sizes 128 "$tmp/abaca.din" | grep -q "replacement $p," || die "--repl $p"
+done
+"$bin" sim --repl random --seed 5 --sizes 128 "$tmp/abaca.din" > "$tmp/r1.txt" || die "--repl random --seed"
+"$bin" sim --repl random --seed 5 --sizes 128 "$tmp/abaca.din" | cmp -s - "$tmp/r1.txt" || die "--repl random: same seed, different output"
+
+# --hierarchy: L1 = the 1K cache above (68 misses, 17 write-backs) sends
+# 68 fetches + 17 write-backs down; a 2K last level holds all 17 lines:
+# 17 read misses, the write-backs hit
+"$bin" sim --hierarchy L1=1K/full/64/lru,LLC=1K+2K/full/64/lru "$tmp/cyc.din" > "$tmp/h.txt" || die "--hierarchy exit $?"
+grep -E '^L1 +1024 +64 +full lru +fb +68 +51 +17 +17 +0 +5440$' "$tmp/h.txt" >/dev/null || { die "hierarchy L1 row"; cat "$tmp/h.txt"; }
+grep -E '^LLC +2048 +64 +full lru +fb +85 +17 +0 +0 +0 +1088$' "$tmp/h.txt" >/dev/null || { die "hierarchy LLC row"; cat "$tmp/h.txt"; }
+grep -q 'hierarchy L1=1K/full/64/lru,LLC=1K+2K/full/64/lru, policy wb-wa' "$tmp/h.txt" || die "hierarchy header: $(head -1 "$tmp/h.txt")"
+"$bin" sim --hierarchy L1=1K/full/64/lru,LLC=2K/full/64/lru --format csv "$tmp/cyc.din" | grep -q ',LLC,2048,64,0,lru,other,85,17,0,0,0,1088$' || die "hierarchy csv"
+"$bin" sim --hierarchy L1=1K/full/64/lru,LLC=2K/full/64/lru --format json "$tmp/cyc.din" | grep -q '"level": "LLC", "size_bytes": 2048' || die "hierarchy json"
+"$bin" sim --hierarchy L1=1K/full/64/lru,LLC=2K/full/64/lru --flush "$tmp/cyc.din" | grep -E '^LLC +2048 .* fb +85 +17 +0 +17 ' >/dev/null || die "hierarchy --flush"
+"$bin" sim --hierarchy L1=1K/full/64 "$tmp/cyc.din" >/dev/null 2>"$tmp/err"; [ $? -eq 2 ] || die "bad --hierarchy must be a usage error"
+grep -q 'hierarchy level L1' "$tmp/err" || die "bad --hierarchy message: $(cat "$tmp/err")"
+"$bin" sim --hierarchy LLC=2K/full/64/lru --sizes 1K "$tmp/cyc.din" >/dev/null 2>&1; [ $? -eq 2 ] || die "--sizes with --hierarchy must be a usage error"
+
+# --repl and --hierarchy runs are stored with their dimensions: the run key
+# holds repl and the canonical spec, level_traffic one row per level, size
+# and class; the traffic rows are the last level's
+"$bin" sim --db "$tmp/hr.db" --repl fifo --sizes 128 "$tmp/abaca.din" 2>/dev/null || die "sim --db --repl fifo"
+"$bin" sim --db "$tmp/hr.db" --sizes 128 "$tmp/abaca.din" 2>/dev/null || die "sim --db lru"
+"$bin" sim --db "$tmp/hr.db" --hierarchy L1=1K/full/64/lru,LLC=1K+2K/full/64/lru "$tmp/cyc.din" 2>/dev/null || die "sim --db --hierarchy"
+[ "$(sqlite3 "$tmp/hr.db" "select repl || '|' || hierarchy from runs order by id" | tr '\n' ' ')" = \
+  "fifo| lru| lru|L1=1K/full/64/lru,LLC=1K+2K/full/64/lru " ] || die "stored repl/hierarchy: $(sqlite3 "$tmp/hr.db" 'select repl, hierarchy from runs')"
+[ "$(sqlite3 "$tmp/hr.db" "select read_misses from traffic t join cache_configs c on c.id = t.config_id join runs r on r.id = t.run_id where r.repl = 'fifo'")" = 4 ] || die "fifo run's traffic row"
+[ "$(sqlite3 "$tmp/hr.db" "select level || ':' || level_name || ':' || cache_size || ':' || accesses || ':' || misses || ':' || traffic_bytes from level_traffic order by level, cache_size" | tr '\n' ' ')" = \
+  "1:L1:1024:68:68:5440 2:LLC:1024:85:68:5440 2:LLC:2048:85:17:1088 " ] || die "level rows: $(sqlite3 "$tmp/hr.db" 'select * from level_traffic')"
+
 # database: storing twice keeps one run
 "$bin" sim --db "$tmp/r.db" "$tmp/cyc.din" 2>"$tmp/err" || die "sim --db exit"
 grep -q 'refs' "$tmp/err" || die "summary line on stderr"

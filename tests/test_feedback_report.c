@@ -141,7 +141,7 @@ int main(void)
     CHECK(rc == 0, "report: %s", e.msg);
     static const char *const want[] = {
         /* MB: 128000 / 2^20 = 0.122, 40000 -> 0.038, 8000 -> 0.008, 16000 -> 0.015, 4000 -> 0.004 */
-        "### knot 16x16 lights 1 mode=whitted depth=2: traffic per class (MB = 2^20 bytes)\n\n"
+        "### knot 16x16 lights 0 mode=whitted depth=2: traffic per class (MB = 2^20 bytes)\n\n"
         "| cache | stream (vb) | node (grid) | index (list) | tri | shade | fb | total | stream share |\n"
         "|---|---:|---:|---:|---:|---:|---:|---:|---:|\n"
         "| 4 KB | 0.122 | 0.038 | 0.008 | 0.015 | 0.004 | 0.004 | 0.191 | 64.0% |\n"
@@ -159,7 +159,7 @@ int main(void)
         "| 4 KB | 150.0 | 2400.0 | 240.0 | 75.0 | 1200.0 | 120.0 |\n",
         "(50.0% of the run's traffic); 1.07x the 150.0 B of Navrátil queued rays (dynamic); 0.20x the 800.0 B",
         /* nothing to compare, one generation */
-        "### cornell 8x8 lights 0: ray-state bytes per traced ray\n\nRays traced (primary + shadow + secondary): "
+        "### cornell 8x8 lights none: ray-state bytes per traced ray\n\nRays traced (primary + shadow + secondary): "
         "dynamic —, stream-multipass —, feedback 64; 1 generation, so per generation = per ray / 1.\n",
         "| 4 KB | — | — | 100.0 | — | — | 100.0 |\n",
         "(100.0% of the run's traffic); no dynamic run to compare; no stream-multipass run to compare.\n",
@@ -167,18 +167,18 @@ int main(void)
     for (size_t i = 0; i < sizeof want / sizeof *want; i++)
         CHECK(strstr(txt, want[i]), "report lacks\n%s\nin\n%s", want[i], txt);
     /* order: scene name, then params ("grid_min=16 ..." before "mode=...") */
-    char *a = strstr(txt, "### cornell"), *b = strstr(txt, "### knot 16x16 lights 1 grid_min"),
-         *c = strstr(txt, "### knot 16x16 lights 1 mode");
+    char *a = strstr(txt, "### cornell"), *b = strstr(txt, "### knot 16x16 lights 0 grid_min"),
+         *c = strstr(txt, "### knot 16x16 lights 0 mode");
     CHECK(a && b && c && a < b && b < c, "run order");
     free(txt);
 
     txt = report(h, NULL, 1, NULL, &rc, &e);
     CHECK(rc == 0, "csv: %s", e.msg);
-    CHECK(strstr(txt, "\"knot 16x16 lights 1 mode=whitted depth=2\",4096,64,0,wb-wa,128000,40000,8000,16000,"
+    CHECK(strstr(txt, "\"knot 16x16 lights 0 mode=whitted depth=2\",4096,64,0,wb-wa,128000,40000,8000,16000,"
                              "4000,4000,200000\n"), "csv classes:\n%s", txt);
-    CHECK(strstr(txt, "\"knot 16x16 lights 1 mode=whitted depth=2\",65536,64,0,wb-wa,400,500,400,30.00,160.00,"
+    CHECK(strstr(txt, "\"knot 16x16 lights 0 mode=whitted depth=2\",65536,64,0,wb-wa,400,500,400,30.00,160.00,"
                              "256.00,15.00,80.00,128.00\n"), "csv per ray:\n%s", txt);
-    CHECK(strstr(txt, "\"cornell 8x8 lights 0\",4096,64,0,wb-wa,,,64,,,100.00,,,100.00\n"), "csv dashes:\n%s", txt);
+    CHECK(strstr(txt, "\"cornell 8x8 lights none\",4096,64,0,wb-wa,,,64,,,100.00,,,100.00\n"), "csv dashes:\n%s", txt);
     free(txt);
 
     txt = report(h, "cornell", 0, NULL, &rc, &e);
@@ -195,7 +195,7 @@ int main(void)
     txt = report(h, "knot", 0, &po, &rc, &e);
     CHECK(rc == 0, "plot: %s", e.msg);
     free(txt);
-    snprintf(dat, sizeof dat, "%s/feedback-knot_16x16_lights_1_mode-whitted_depth-2.dat", pdir);
+    snprintf(dat, sizeof dat, "%s/feedback-knot_16x16_lights_0_mode-whitted_depth-2.dat", pdir);
     FILE *f = fopen(dat, "r");
     CHECK(f, "no %s", dat);
     if (f) {
@@ -209,7 +209,7 @@ int main(void)
               "dat 64K: %s", line);
         fclose(f);
     }
-    snprintf(dat, sizeof dat, "%s/feedback-knot_16x16_lights_1_mode-whitted_depth-2.gp", pdir);
+    snprintf(dat, sizeof dat, "%s/feedback-knot_16x16_lights_0_mode-whitted_depth-2.gp", pdir);
     CHECK((f = fopen(dat, "r")) != NULL, "no %s", dat);
     if (f) fclose(f);
 

@@ -303,8 +303,10 @@ static void test_grazing(void)
     CHECK(inplane_hits == 0, "%ld rays lying in the triangle's plane hit it", inplane_hits);
 }
 
-/* Shadow rays from offset hit points never hit their own triangle. */
-static void test_offset(double scale, double shift)
+/* Shadow rays from offset hit points never hit their own triangle.
+ * oscale: the scene length scale handed to rt_offset_origin_scaled (1:
+ * rt_offset_origin). */
+static void test_offset(double scale, double shift, float oscale)
 {
     long self = 0, tried = 0;
     for (int k = 0; k < 20000; k++) {
@@ -331,7 +333,7 @@ static void test_offset(double scale, double shift)
         rt_vec3 hitp = rt_tri_point(&tri, u, v);
         rt_vec3 n = rt_tri_normal(&tri);
         if (rt_dot(n, r.d) > 0) n = rt_mul(n, -1.0f);
-        rt_vec3 o2 = rt_offset_origin(hitp, n);
+        rt_vec3 o2 = rt_offset_origin_scaled(hitp, n, oscale);
         /* Lights on the eye's side, near and far, grazing and steep. */
         for (int j = 0; j < 4; j++) {
             rt_vec3 ld = rand_dir();
@@ -348,6 +350,36 @@ static void test_offset(double scale, double shift)
     CHECK(tried > 5000, "offset: only %ld shadow rays tried", tried);
     CHECK(self == 0, "offset at scale %g shift %g: %ld of %ld shadow rays hit their own triangle", scale, shift, self,
           tried);
+}
+
+/* In a scene smaller than the unit cube the offset shrinks with it: a
+ * floor point under a plate 5% of the scene above it, lit from 10% above,
+ * is in shadow. The unit-cube offset (2^-16 = 1.5e-5) put the shadow ray's
+ * origin above the light in a scene of 1e-7, and the plate was never
+ * crossed. Scale 1 gives rt_offset_origin bit for bit. */
+static void test_offset_small_scene(void)
+{
+    for (int k = 0; k < 4; k++) {
+        const float s = k == 0 ? 1.0f : k == 1 ? 1e-4f : k == 2 ? 1e-7f : 1e-9f;
+        rt_tri floor_t = {{rt_v3(-s, -s, 0), rt_v3(s, -s, 0), rt_v3(0, s, 0)}};
+        rt_tri plate = {{rt_v3(-s, -s, 0.05f * s), rt_v3(s, -s, 0.05f * s), rt_v3(0, s, 0.05f * s)}};
+        rt_vec3 light = rt_v3(0.01f * s, 0.01f * s, 0.1f * s);
+        float diag = 2.0f * s * 1.5f; /* about the scene's diagonal */
+        float sc = diag < 1 ? diag : 1;
+        rt_vec3 p = rt_v3(0.02f * s, -0.01f * s, 0), n = rt_v3(0, 0, 1);
+        rt_vec3 o = rt_offset_origin_scaled(p, n, sc);
+        rt_ray sr;
+        rt_ray_init(&sr, o, rt_sub(light, o));
+        sr.tmax = 1.0f;
+        float t, u, v;
+        CHECK(o.z > 0 && o.z < 0.01f * s, "scale %g: offset origin z %g not just above the floor", (double)s, (double)o.z);
+        CHECK(rt_isect_tri(&sr, &plate, &t, &u, &v), "scale %g: the plate does not shadow the floor point", (double)s);
+        CHECK(!rt_isect_tri(&sr, &floor_t, &t, &u, &v), "scale %g: the shadow ray hits its own floor", (double)s);
+        rt_vec3 a = rt_offset_origin(p, n), b = rt_offset_origin_scaled(p, n, 1.0f);
+        CHECK(memcmp(&a, &b, sizeof a) == 0, "scale 1 differs from rt_offset_origin");
+        CHECK(rt_offset_reach(p, sc) >= fabsf(o.z - p.z), "scale %g: reach %g below the offset %g", (double)s,
+              (double)rt_offset_reach(p, sc), (double)(o.z - p.z));
+    }
 }
 
 /* Random and hostile pairs for core_agree: triangles with shared and
@@ -409,8 +441,13 @@ int main(void)
         test_watertight(name, &m, sc[i].scale, sc[i].shift, 60);
         test_misses(name, &m, sc[i].scale);
         mesh_free(&m);
-        test_offset(sc[i].scale, sc[i].shift);
+        test_offset(sc[i].scale, sc[i].shift, 1.0f);
     }
+    /* scenes smaller than the unit cube, with the scaled offsets */
+    test_offset(1e-7, 0, 3.5e-7f);
+    test_offset(1e-9, 0, 3.5e-9f);
+    test_offset(1e-7, 1e-6, 3.5e-7f);
+    test_offset_small_scene();
     CHECK(core_differ == 0, "vector core differs from the scalar core on %ld of %ld pairs", core_differ, core_pairs);
 #if defined(__SSE2__)
     CHECK(core_pairs > 1000000, "vector core compared on only %ld pairs", core_pairs);

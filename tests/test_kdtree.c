@@ -29,6 +29,7 @@
 #include "config.h"
 #include "check.h"
 #include "check_scene.h"
+#include "camera.h"
 #include "kdtrav.h"
 #include "kdtree.h"
 #include "memmodel.h"
@@ -820,6 +821,39 @@ static void test_brute_causes(void)
         }
     CHECK(seen > 0, "no ray starting on F hits F by rounding: the case no longer shows the difference");
     printf("own-start rays on a triangle in a split plane: brute force takes the triangle itself on %d of 105\n", seen);
+
+    /* ... and a camera on F (docs/kdtree.md cause 4, camera.h): its rays
+     * start past the eye's own surface, so the k-d tree equals brute force
+     * on every pixel and no pixel sees F at a t of rounding size. Before,
+     * brute force took F on such pixels while the k-d tree did not. */
+    const rt_vec3 eyes[3] = {rt_tri_point(&s->tri[0], 0.25f, 0.25f), rt_tri_point(&s->tri[0], 0.1f, 0.6f),
+                             rt_v3(0, 0, 1)};
+    for (int ei = 0; ei < 3; ei++) {
+        CHECK(rt_scene_set_camera(s, eyes[ei], rt_add(eyes[ei], rt_v3(1, 0.5f, 0.3f)), rt_v3(0, 0, 1), 120, &e) == 0,
+              "camera: %s", e.msg);
+        rt_cam_frame f;
+        rt_cam_setup(&f, s, 24, 24);
+        CHECK(f.near > 0, "eye %d on F: no near distance", ei);
+        long differ = 0, own = 0;
+        for (int y = 0; y < 24; y++)
+            for (int x = 0; x < 24; x++) {
+                rt_ray r;
+                rt_cam_ray(&f, x, y, &r);
+                rt_hit hk, hb;
+                rt_kd_closest(&tv, &r, &hk);
+                rt_brute_closest(s, &r, &hb);
+                if (hk.tri != hb.tri || (hb.tri != RT_NO_HIT && !same_bits(hk.t, hb.t))) differ++;
+                if (hb.tri == 0) own++;
+            }
+        CHECK(differ == 0 && own == 0, "camera on F (eye %d): %ld pixels where k-d and brute force differ, %ld see F",
+              ei, differ, own);
+    }
+    /* an eye off every surface keeps its rays exactly */
+    CHECK(rt_scene_set_camera(s, rt_v3(0.2f, 0.2f, 1.5f), rt_v3(1, 1, 2), rt_v3(0, 0, 1), 60, &e) == 0, "camera: %s",
+          e.msg);
+    rt_cam_frame f0;
+    rt_cam_setup(&f0, s, 8, 8);
+    CHECK(f0.near == 0, "an eye 0.5 away from F got near %g", (double)f0.near);
     rt_kd_free(kd);
     rt_scene_free(s);
 }

@@ -684,10 +684,11 @@ static void dyn_hypotheses(const char *spec)
     CHECK(!strcmp(rt_job_params("recursive", &o, NULL, b, sizeof b), ""), "recursive with hypotheses: '%s'", b);
     CHECK(rt_render_hit_rule_from_name("first") == RT_HIT_FIRST && rt_render_qp_measure_from_name("triangles") == RT_QPM_TRIANGLES &&
               rt_render_hit_rule_from_name("closest") == -1 && !strcmp(rt_render_qp_measure_name(RT_QPM_ALL), "all") &&
-              rt_render_opt_group(RT_RO_HIT_RULE) == RT_OPTG_SCHED && !strcmp(rt_render_opt_name(RT_RO_QP_MEASURE), "--qp-measure"),
+              rt_render_opt_group(rt_render_opt_find("--hit-rule")) == RT_OPTG_SCHED &&
+              !strcmp(rt_render_opt_name(rt_render_opt_find("qp-measure")), "--qp-measure"),
           "hypotheses' names");
     rt_err e = {0};
-    o.given = 1u << RT_RO_HIT_RULE;
+    o.given = (uint64_t)1 << rt_render_opt_find("--hit-rule");
     CHECK(rt_tracer_check_given(rt_tracer_find("recursive"), &o, &e) < 0 && strstr(e.msg, "--hit-rule"),
           "--hit-rule accepted by the recursive tracer: %s", e.msg);
     o.hit_rule = 2;

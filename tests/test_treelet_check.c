@@ -1,8 +1,8 @@
 /*
  * test_treelet_check.c -- the treelet scheduler's checkers can fail: the
- * plan's checker (T1) and the state checker (T2-T5) pass on a real plan
- * and a real run state, and each rejects a corrupted copy naming the
- * invariant. The tracer file is compiled into this test (its functions
+ * plan's checker (T1) and the state checker (T2-T4; T2 is the ray-queue
+ * core's Q1-Q5, rt_rq_check) pass on a real plan and a real run state, and
+ * each rejects a corrupted copy naming the invariant. The tracer file is compiled into this test (its functions
  * are static) under another name for its registry entry.
  */
 #define rt_tracer_treelet rt_tracer_treelet_under_test
@@ -103,12 +103,14 @@ static void test_state(const rt_scene *sc)
         CHECK(start(&T, s, &r, 0) == 0, "ray %u finished at its start", s);
     }
     CHECK(check_state(&T, &e) == 0, "a real state fails: %s", e.msg);
-    T.qcount[0]--;
-    expect_fail(check_state(&T, &e), &e, "T2", "queue count off by one");
-    T.qcount[0]++;
-    T.queued++;
-    expect_fail(check_state(&T, &e), &e, "T2", "rays queued miscounted");
-    T.queued--;
+    CHECK(T.rq.count[0] == 2 && T.rq.queued == 2, "root queue holds %u rays, %llu queued", T.rq.count[0],
+          (unsigned long long)T.rq.queued);
+    T.rq.count[0]--;
+    expect_fail(check_state(&T, &e), &e, "Q3", "queue count off by one");
+    T.rq.count[0]++;
+    T.rq.queued++;
+    expect_fail(check_state(&T, &e), &e, "Q3", "rays queued miscounted");
+    T.rq.queued--;
     T.ray[1].stk[0].tl = 1;
     expect_fail(check_state(&T, &e), &e, "T3", "queued away from its stack top");
     T.ray[1].stk[0].tl = 0;
@@ -118,13 +120,14 @@ static void test_state(const rt_scene *sc)
     T.done[1] = 1;
     expect_fail(check_state(&T, &e), &e, "T3", "a finished ray still queued");
     T.done[1] = 0;
-    int32_t keep = T.bnext[T.freelist];
-    T.bnext[T.freelist] = T.qhead[0];
-    expect_fail(check_state(&T, &e), &e, "T2", "a queue's block also on the free list");
-    T.bnext[T.freelist] = keep;
-    T.bk_head[1] = T.bk_head[2];
-    expect_fail(check_state(&T, &e), &e, "T5", "a queue out of its bucket");
-    T.bk_head[1] = -1; /* bucket 1 was empty: queue 0 holds two rays */
+    int32_t keep = T.rq.bnext[T.rq.freelist];
+    T.rq.bnext[T.rq.freelist] = T.rq.head[0];
+    expect_fail(check_state(&T, &e), &e, "Q2", "a queue's block also on the free list");
+    T.rq.bnext[T.rq.freelist] = keep;
+    T.rq.bk_head[1] = T.rq.bk_head[2];
+    expect_fail(check_state(&T, &e), &e, "Q4", "a queue out of its bucket");
+    T.rq.bk_head[1] = -1; /* bucket 1 was empty: queue 0 holds two rays */
+    CHECK(strstr(e.msg, "treelet: ray queue") != NULL, "core's message names the scheduler: %s", e.msg);
     CHECK(check_state(&T, &e) == 0, "restored state fails: %s", e.msg);
     /* the run finishes what was started */
     run_queues(&T);

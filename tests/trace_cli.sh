@@ -94,4 +94,26 @@ printf 'not a trace at all\n' > "$tmp/junk.rtt"
     "$bin" trace no-such-scene -o "$tmp/bad.rtt" > /dev/null 2>&1; [ $? -eq 1 ] || err "bad scene should exit 1"
     [ ! -e "$tmp/bad.rtt" ] && [ ! -e "$tmp/bad.rtt.tmp" ] || err "failed trace left a file"
 }
+# "lights" has one meaning: the trace's summary, trace-info, sweep's
+# progress lines and --lights itself spell a set of lights the same way
+# (none, 0, 0+1, all); the older "0,1" is still read
+"$bin" trace cornell:glass=0 --lights 0 -W 8 -H 8 -o "$tmp/l0.rtt" 2> "$tmp/l0.log" || err "trace --lights 0"
+grep -q "lights 0;" "$tmp/l0.log" || err "trace --lights 0 summary: $(cat "$tmp/l0.log")"
+"$bin" trace-info "$tmp/l0.rtt" | grep -q "lights 0$" || err "trace-info of --lights 0: $("$bin" trace-info "$tmp/l0.rtt" | grep lights)"
+for l in "0+2" "0,2"; do
+    "$bin" trace cornell:glass=0 --lights "$l" -W 8 -H 8 -o "$tmp/l02.rtt" 2> "$tmp/l02.log" || err "trace --lights $l"
+    grep -q "lights 0+2;" "$tmp/l02.log" || err "trace --lights $l summary: $(cat "$tmp/l02.log")"
+    "$bin" trace-info "$tmp/l02.rtt" | grep -q "lights 0+2$" || err "trace-info of --lights $l"
+done
+"$bin" trace cornell:glass=0 --lights all -W 8 -H 8 -o "$tmp/la.rtt" 2> "$tmp/la.log" && grep -q "lights all;" "$tmp/la.log" ||
+    err "trace --lights all summary: $(cat "$tmp/la.log")"
+"$bin" trace cornell:glass=0 --lights none -W 8 -H 8 -o "$tmp/ln.rtt" 2> "$tmp/ln.log" && grep -q "lights none;" "$tmp/ln.log" &&
+    "$bin" trace-info "$tmp/ln.rtt" | grep -q "lights none$" || err "trace --lights none: $(cat "$tmp/ln.log")"
+"$bin" sweep --scenes cornell:glass=0 --tracers recursive --lights primary,1,0+2 --sizes 1K -W 8 -H 8 --db "$tmp/l.db" \
+    2> "$tmp/ls.log" >/dev/null || err "sweep --lights primary,1,0+2: $(cat "$tmp/ls.log")"
+for l in none 1 0+2; do
+    grep -q "cornell:glass=0 lights $l recursive" "$tmp/ls.log" || err "sweep progress lacks 'lights $l': $(cat "$tmp/ls.log")"
+done
+[ "$(sqlite3 "$tmp/l.db" "SELECT group_concat(lights) FROM (SELECT lights FROM runs ORDER BY lights)")" = "0,2,5" ] ||
+    err "sweep stored masks $(sqlite3 "$tmp/l.db" "SELECT lights FROM runs")"
 exit $fail

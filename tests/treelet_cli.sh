@@ -69,7 +69,7 @@ q="select r.tracer, r.sched_size, r.params, t.class, c.size, t.traffic_bytes fro
 # report --figure treelet: one table row per size, values from the database
 "$bin" report --db "$tmp/s.db" --figure treelet >"$tmp/r" 2>"$tmp/e" || err "report: $(cat "$tmp/e")"
 [ "$(grep -c '^| [0-9]*K |' "$tmp/r")" -eq 2 ] || err "report rows: $(cat "$tmp/r")"
-grep -q "^### knot, mode=path spp=1 bounces=1, lights 1, 16x16, bvh4, qorder=fullest ray_window=65536" "$tmp/r" ||
+grep -q "^### knot, mode=path spp=1 bounces=1, lights 0, 16x16, bvh4, qorder=fullest ray_window=65536" "$tmp/r" ||
     err "report group: $(cat "$tmp/r")"
 grep -q "^Largest treelet saving: " "$tmp/r" || err "report summary: $(cat "$tmp/r")"
 base=$(sqlite3 "$tmp/s.db" "select round(sum(t.traffic_bytes) / 1048576.0, 1) from traffic t join runs r on r.id = t.run_id

@@ -53,13 +53,12 @@
  * holds per node: g[] subtree geometry bytes, hastris[] (the subtree lists
  * a triangle), qp[] (queue-point number or -1) and topid[] (entry in the
  * packed tree top, region dyn.top, or -1); per queue point qnode[] (its
- * node). The run's state holds the queues: a pool of nblk blocks of QBLK
- * entries, bnext[] linking a queue's blocks head to tail and the free
- * blocks into a LIFO list; per queue qhead/qtail (blocks, -1 when empty),
- * qheadpos (read position in the head block, always 0 since a queue is
- * drained whole) and qcount (rays); for fullest-first order, bucket lists
- * bk_head[c] doubly linked through bk_next/bk_prev holding the queues with
- * c rays, and bk_max bounding the fullest; per pixel the hit record
+ * node). The run's state holds the queues in the ray-queue core (rt_rq,
+ * rayq.c): one queue per queue point, chains of 64-entry blocks from a
+ * pool with a LIFO free list, each entry a qent (pixel id and interval),
+ * the fullest-first buckets and, in the secondary modes, the batch stack;
+ * this file models their memory (dyn.qtable, dyn.queues, dyn.spawn) from
+ * the blocks and positions the core reports. Per pixel the hit record
  * (hit_t, hit_tri, barycentrics), the visibility bits and resolved[] (rays
  * of the current generation resolved).
  *
@@ -75,15 +74,11 @@
  *       top interior nodes; there are ntop of them; topid numbers the root,
  *       the top interior nodes and their children depth first 0..ntopent-1
  *       (a below child right after its parent) and is -1 elsewhere;
- *   I3  queues: queue q is empty (qhead = qtail = -1, qcount = qheadpos =
- *       0) or a chain of ceil((qheadpos + qcount) / QBLK) blocks from qhead
- *       to qtail, bnext[qtail] = -1, qheadpos < QBLK; the counts sum to
- *       queued <= peak_queued;
- *   I4  block pool: every block lies in exactly one queue's chain or on the
- *       free list, never twice;
- *   I5  buckets (fullest-first order only): every queue is in exactly one
- *       bucket, the one of its count, and bk_prev mirrors bk_next; no queue
- *       holds more than bk_max rays;
+ *   I3  queues, block pool, buckets and batch stack: the ray-queue core's
+ *       Q1-Q5 (queue chains as long as their counts, every block in one
+ *       chain or free once, counts summing to the rays queued, every queue
+ *       in the bucket of its count, the stack within its levels), checked
+ *       by rt_rq_check; what were I4 and I5 here are its Q2 and Q4;
  *   I6  generations: a queued entry holds a pixel traced in this generation
  *       whose ray is not yet resolved, and no pixel is queued twice (a ray is
  *       in one queue at a time); a candidate flag appears only in the
@@ -103,6 +98,7 @@
  */
 #include "dynamic.h"
 #include "camera.h"
+#include "rayq.h"
 #include "regions.h"
 #include "shade.h"
 #include "stats.h"
@@ -114,7 +110,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define QBLK 64          /* rays per queue block */
+#define QBLK RT_RQ_BLK    /* rays per queue block (64) */
 #define CAND_FLAG 0x80000000u
 
 /* ---- queue-point selection ---------------------------------------------- */
@@ -176,6 +172,7 @@ static uint32_t select_walk(const rt_kdtree *kd, const uint64_t *g, const int32_
             continue;
         }
         top++;
+        RT_ASSERT(sp + 2 <= (int)(sizeof stack / sizeof stack[0])); /* the tree's depth bounds the walk */
         stack[sp++] = rt_kd_above(nd); /* below first: depth-first order */
         stack[sp++] = i + 1;
     }
@@ -287,6 +284,7 @@ static void pack_top(const rt_kdtree *kd, dplan *P)
         P->topid[i] = (int32_t)id++;
         const rt_kdnode *n = &kd->nodes[i];
         if (P->qp[i] >= 0 || !P->hastris[i] || rt_kd_is_leaf(n)) continue;
+        RT_ASSERT(sp + 2 <= (int)(sizeof stack / sizeof stack[0])); /* the tree's depth bounds the walk */
         stack[sp++] = rt_kd_above(n);
         stack[sp++] = i + 1;
     }
@@ -362,18 +360,9 @@ struct rt_dyn {
     const uint32_t *qnode;  /* = P->qnode */
     uint32_t nq, ntop;      /* = P->nq, P->ntop */
     size_t npix;         /* W x H */
-    /* queues: chains of blocks (I3, I4) */
-    qent *blk;           /* nblk * QBLK entries */
-    int32_t *bnext;      /* next block in chain / free list */
-    uint32_t nblk;
-    int32_t freelist;
-    int32_t *qhead, *qtail; /* first/last block per queue */
-    uint32_t *qheadpos;  /* read position in head block */
-    uint32_t *qcount;    /* rays queued */
-    uint64_t queued, peak_queued;
-    /* fullest-first buckets (I5) */
-    int32_t *bk_head, *bk_next, *bk_prev;
-    uint32_t bk_max, bk_cap;
+    /* the queues, their block pool and buckets, the batch stack (I3: the
+     * ray-queue core's Q1-Q5, rayq.c); entries are qent */
+    rt_rq rq;
     /* per-pixel state (I6) */
     rt_cam_frame cam;
     float *hit_t;
@@ -405,10 +394,8 @@ struct rt_dyn {
     rt_shade_out *out;   /* step result per slot */
     rt_acc *acc;         /* pixel sums */
     rt_hit *h0;          /* primary hit per pixel (depth channel) */
-    rt_path **lvl;       /* batch stack: level l holds up to npix rays */
-    uint32_t *lvlen;     /* rays per level */
-    int nlvl, reg_spawn;
-    uint64_t batches, nsec, self_hits;
+    int reg_spawn;       /* the batch stack (in rq) writes level l's rays at l * npix */
+    uint64_t nsec, self_hits;
     qstat qs;            /* why rays enter queue points (opt->queue_stats) */
 };
 typedef struct rt_dyn dyn;
@@ -459,77 +446,25 @@ static void make_rays(dyn *D, uint32_t pix, rt_ray *trav, rt_ray *test)
 
 /* ---- queues ---------------------------------------------------------------- */
 
-static void bk_unlink(dyn *D, uint32_t q)
-{
-    uint32_t c = D->qcount[q];
-    if (D->bk_prev[q] >= 0) D->bk_next[D->bk_prev[q]] = D->bk_next[q];
-    else D->bk_head[c] = D->bk_next[q];
-    if (D->bk_next[q] >= 0) D->bk_prev[D->bk_next[q]] = D->bk_prev[q];
-}
-
-static void bk_link(dyn *D, uint32_t q)
-{
-    uint32_t c = D->qcount[q];
-    D->bk_prev[q] = -1;
-    D->bk_next[q] = D->bk_head[c];
-    if (D->bk_head[c] >= 0) D->bk_prev[D->bk_head[c]] = (int32_t)q;
-    D->bk_head[c] = (int32_t)q;
-    if (c > D->bk_max) D->bk_max = c;
-}
-
-static int32_t alloc_block(dyn *D)
-{
-    int32_t b = D->freelist;
-    if (b >= 0) {
-        D->freelist = D->bnext[b];
-        D->bnext[b] = -1;
-    }
-    return b;
-}
-
-static uint64_t qaddr(const dyn *D, int32_t b, uint32_t pos)
-{
-    return rt_mm_addr(D->L, D->reg_q, (uint64_t)b * QBLK + pos);
-}
+static uint64_t qaddr(const dyn *D, uint64_t at) { return rt_mm_addr(D->L, D->reg_q, at); }
 
 static void enqueue(dyn *D, uint32_t q, uint32_t pix, float t0, float t1)
 {
     RT_REC(D->rec, rt_mm_addr(D->L, D->reg_qt, q), 8, 0, RT_CLS_QTABLE);
-    int32_t tb = D->qtail[q];
-    uint32_t pos = D->qcount[q] + D->qheadpos[q];
-    /* position within the tail block */
-    uint32_t inblk = tb >= 0 ? pos % QBLK : 0;
-    if (tb < 0 || (inblk == 0 && pos > 0)) {
-        int32_t nb = alloc_block(D);
-        if (nb < 0) {
-            D->err = 1;
-            return;
-        }
-        if (tb < 0) {
-            D->qhead[q] = nb;
-            D->qheadpos[q] = 0;
-            inblk = 0;
-        } else {
-            D->bnext[tb] = nb;
-        }
-        D->qtail[q] = tb = nb;
-        inblk = 0;
+    uint64_t at;
+    qent *e = rt_rq_push(&D->rq, q, &at);
+    if (!e) {
+        D->err = 1;
+        return;
     }
-    qent *e = &D->blk[(size_t)tb * QBLK + inblk];
     e->pix = pix;
     e->t0 = t0;
     e->t1 = t1;
     /* streaming stores: a block's lines are filled whole (two records each)
      * before the queue is drained, so they need not be fetched */
-    RT_REC(D->rec, qaddr(D, tb, inblk), 32, D->ctx->opt->qstores == RT_QSTORES_STREAM ? RT_WRITE_STREAM : 1,
-           RT_CLS_QUEUE);
+    RT_REC(D->rec, qaddr(D, at), 32, D->ctx->opt->qstores == RT_QSTORES_STREAM ? RT_WRITE_STREAM : 1, RT_CLS_QUEUE);
     RT_REC(D->rec, rt_mm_addr(D->L, D->reg_qt, q), 8, 1, RT_CLS_QTABLE);
-    if (D->ctx->opt->qorder == RT_QORDER_FULLEST) bk_unlink(D, q);
-    D->qcount[q]++;
-    if (D->ctx->opt->qorder == RT_QORDER_FULLEST) bk_link(D, q);
-    D->queued++;
     D->enq++;
-    if (D->queued > D->peak_queued) D->peak_queued = D->queued;
 }
 
 /* ---- traversal ------------------------------------------------------------- */
@@ -557,6 +492,7 @@ static inline uint32_t interior_step(const rt_kdnode *nd, uint32_t node, const r
     const int step = rt_kd_step(tp, tmin, *tmax, &near_end, &far_start);
     if (step == RT_KD_NEAR) return nearc;
     if (step == RT_KD_FAR) return farc;
+    RT_ASSERT(*sp < RT_KD_STACK); /* a tree no deeper than RT_KD_STACK: no far child is dropped */
     if (*sp < RT_KD_STACK) {
         stack[*sp].node = farc;
         stack[*sp].t0 = far_start;
@@ -898,7 +834,7 @@ static void process_oversized(dyn *D, uint32_t q, const qent *es, uint32_t n)
 /* Pops every ray of queue q (rays never re-enter q: cells are convex). */
 static void drain(dyn *D, uint32_t q)
 {
-    uint32_t n = D->qcount[q];
+    uint32_t n = D->rq.count[q];
     if (!n) return;
     D->events++;
     D->ev_rays += n;
@@ -906,31 +842,19 @@ static void drain(dyn *D, uint32_t q)
     D->qtimes[q]++;
     RT_REC(D->rec, rt_mm_addr(D->L, D->reg_qt, q), 8, 0, RT_CLS_QTABLE);
     RT_REC(D->rec, rt_mm_addr(D->L, D->reg_box, q), 24, 0, RT_CLS_QTABLE);
-    if (D->ctx->opt->qorder == RT_QORDER_FULLEST) bk_unlink(D, q);
-    int32_t b = D->qhead[q];
-    uint32_t pos = D->qheadpos[q];
-    D->qhead[q] = D->qtail[q] = -1;
-    D->qcount[q] = 0;
-    D->qheadpos[q] = 0;
-    D->queued -= n;
-    if (D->ctx->opt->qorder == RT_QORDER_FULLEST) bk_link(D, q);
+    rt_rq_cur cur;
+    rt_rq_take(&D->rq, q, &cur);
     const rt_kdnode *nd = &D->kd->nodes[D->qnode[q]];
     int oversized = rt_kd_is_leaf(nd) && 40ull * rt_kd_ntri(nd) > D->gmax;
     qent batch[256];
     uint32_t nb = 0, bsz = D->rbslots < 256 ? D->rbslots : 256;
     while (n) {
-        qent e = D->blk[(size_t)b * QBLK + pos];
-        RT_REC(D->rec, qaddr(D, b, pos), 32, 0, RT_CLS_QUEUE);
+        qent e;
+        RT_REC(D->rec, qaddr(D, (uint64_t)cur.b * RT_RQ_BLK + cur.pos), 32, 0, RT_CLS_QUEUE);
+        rt_rq_pop(&D->rq, &cur, &e);
         D->rbslot++;
         RT_REC(D->rec, rt_mm_addr(D->L, D->reg_rb, D->rbslot % D->rbslots), 32, 1, RT_CLS_RAY);
         n--;
-        if (++pos == QBLK || n == 0) {
-            int32_t nx = D->bnext[b];
-            D->bnext[b] = D->freelist;
-            D->freelist = b;
-            b = nx;
-            pos = 0;
-        }
         if (oversized) {
             batch[nb++] = e;
             if (nb == bsz || n == 0) {
@@ -953,23 +877,18 @@ static void step_check(dyn *D, int all)
     if (D->ctx->check && !D->err && (all ? rt_dyn_check(D, D->e) : check_state(D, D->e)) < 0) D->err = 2;
 }
 
+/* The ray-queue core's step: drains queue q, then (test mode) checks. */
+static int drain_step(void *u, uint32_t q)
+{
+    dyn *D = u;
+    drain(D, q);
+    step_check(D, 0);
+    return D->err;
+}
+
 static void run_queues(dyn *D)
 {
-    if (D->ctx->opt->qorder == RT_QORDER_FULLEST) {
-        while (D->queued && !D->err) {
-            while (D->bk_max > 0 && D->bk_head[D->bk_max] < 0) D->bk_max--;
-            if (!D->bk_max) break;
-            drain(D, (uint32_t)D->bk_head[D->bk_max]);
-            step_check(D, 0);
-        }
-    } else {
-        while (D->queued && !D->err)
-            for (uint32_t q = 0; q < D->nq && !D->err; q++) {
-                uint32_t had = D->qcount[q];
-                drain(D, q);
-                if (had) step_check(D, 0);
-            }
-    }
+    if (!D->err) rt_rq_run(&D->rq, drain_step, D);
 }
 
 /* Starts a ray of the current generation from the root. */
@@ -1014,7 +933,7 @@ static int check_generation(dyn *D, const uint8_t *want, size_t npix, rt_err *e)
 {
     if (D->err == 2) return -1;
     if (D->err) return rt_errf(e, "dynamic: queue block pool exhausted (internal error)");
-    if (D->queued) return rt_errf(e, "dynamic: %" PRIu64 " rays left in queues (internal error)", D->queued);
+    if (D->rq.queued) return rt_errf(e, "dynamic: %" PRIu64 " rays left in queues (internal error)", D->rq.queued);
     for (size_t p = 0; p < npix; p++)
         if (D->resolved[p] != want[p])
             return rt_errf(e, "dynamic: pixel %zu resolved %u times, expected %u (internal error)", p, D->resolved[p],
@@ -1073,72 +992,11 @@ static int check_plan(const dyn *D, rt_err *e)
     return 0;
 }
 
-static int check_queues(const dyn *D, uint8_t *seen_blk, rt_err *e)
-{
-    uint64_t total = 0;
-    for (uint32_t q = 0; q < D->nq; q++) {
-        if (D->qhead[q] < 0) {
-            if (D->qtail[q] >= 0 || D->qcount[q] || D->qheadpos[q])
-                return rt_errf(e, "dynamic I3: queue %u has no head but tail %d, %u rays, position %u", q, D->qtail[q],
-                               D->qcount[q], D->qheadpos[q]);
-            continue;
-        }
-        if (D->qheadpos[q] >= QBLK) return rt_errf(e, "dynamic I3: queue %u reads at %u", q, D->qheadpos[q]);
-        uint32_t want = (D->qheadpos[q] + D->qcount[q] + QBLK - 1) / QBLK, nb = 0;
-        int32_t b = D->qhead[q], last = -1;
-        while (b >= 0 && nb <= want) {
-            if ((uint32_t)b >= D->nblk || seen_blk[b]) return rt_errf(e, "dynamic I4: block %d reached twice (queue %u)", b, q);
-            seen_blk[b] = 1;
-            nb++;
-            last = b;
-            b = D->bnext[b];
-        }
-        if (nb != want || last != D->qtail[q])
-            return rt_errf(e, "dynamic I3: queue %u holds %u rays in %u blocks ending at %d, expected %u ending at %d", q,
-                           D->qcount[q], nb, last, want, D->qtail[q]);
-        total += D->qcount[q];
-    }
-    if (total != D->queued || D->queued > D->peak_queued)
-        return rt_errf(e, "dynamic I3: queues hold %" PRIu64 " rays, %" PRIu64 " counted, peak %" PRIu64, total, D->queued,
-                       D->peak_queued);
-    uint32_t nfree = 0;
-    for (int32_t b = D->freelist; b >= 0; b = D->bnext[b]) {
-        if ((uint32_t)b >= D->nblk || seen_blk[b]) return rt_errf(e, "dynamic I4: free block %d also in use or listed twice", b);
-        seen_blk[b] = 1;
-        nfree++;
-    }
-    for (uint32_t b = 0; b < D->nblk; b++)
-        if (!seen_blk[b]) return rt_errf(e, "dynamic I4: block %u is in no queue and not free", b);
-    return 0;
-}
-
-static int check_buckets(const dyn *D, uint8_t *seen_q, rt_err *e)
-{
-    uint32_t listed = 0;
-    for (size_t c = 0; c <= D->bk_max && c <= D->bk_cap; c++) { /* all nq found here: none above bk_max */
-        int32_t prev = -1;
-        for (int32_t q = D->bk_head[c]; q >= 0; q = D->bk_next[q]) {
-            if ((uint32_t)q >= D->nq || seen_q[q]) return rt_errf(e, "dynamic I5: queue %d listed twice", q);
-            seen_q[q] = 1;
-            listed++;
-            if (D->qcount[q] != c) return rt_errf(e, "dynamic I5: queue %d with %u rays in bucket %zu", q, D->qcount[q], c);
-            if (D->bk_prev[q] != prev) return rt_errf(e, "dynamic I5: queue %d links back to %d, not %d", q, D->bk_prev[q], prev);
-            if (D->qcount[q] > D->bk_max) return rt_errf(e, "dynamic I5: queue %d holds %u rays above the fullest bound %u", q,
-                                                        D->qcount[q], D->bk_max);
-            prev = q;
-        }
-    }
-    if (listed != D->nq) return rt_errf(e, "dynamic I5: %u of %u queues in buckets", listed, D->nq);
-    return 0;
-}
-
 static int check_rays(const dyn *D, uint8_t *seen_pix, rt_err *e)
 {
     for (uint32_t q = 0; q < D->nq; q++) {
-        int32_t b = D->qhead[q];
-        uint32_t pos = D->qheadpos[q];
-        for (uint32_t k = 0; k < D->qcount[q]; k++) {
-            const qent *qe = &D->blk[(size_t)b * QBLK + pos];
+        for (rt_rq_cur c = rt_rq_peek(&D->rq, q); c.left; rt_rq_skip(&D->rq, &c)) {
+            const qent *qe = rt_rq_at(&D->rq, &c);
             uint32_t pix = qe->pix & ~CAND_FLAG;
             if (pix >= D->npix || !D->want[pix] || D->resolved[pix] || seen_pix[pix])
                 return rt_errf(e, "dynamic I6: queue %u holds pixel %u (wanted %d, resolved %d, queued before %d)", q, pix,
@@ -1147,36 +1005,24 @@ static int check_rays(const dyn *D, uint8_t *seen_pix, rt_err *e)
             seen_pix[pix] = 1;
             if ((qe->pix & CAND_FLAG) && (D->shadow || D->hit_tri[pix] == RT_NO_HIT))
                 return rt_errf(e, "dynamic I6: pixel %u flagged with a candidate hit it lacks", pix);
-            if (++pos == QBLK) {
-                b = D->bnext[b];
-                pos = 0;
-            }
         }
     }
     for (size_t p = 0; p < D->npix; p++)
         if (D->resolved[p] > 1) return rt_errf(e, "dynamic I6: pixel %zu resolved %u times", p, D->resolved[p]);
-    if (D->created != D->done + D->queued)
+    if (D->created != D->done + D->rq.queued)
         return rt_errf(e, "dynamic I6: %" PRIu64 " rays started, %" PRIu64 " resolved, %" PRIu64 " queued", D->created,
-                       D->done, D->queued);
+                       D->done, D->rq.queued);
     return 0;
 }
 
-/* I3-I6: the run's state (the plan does not change during a run). */
+/* I3-I6: the run's state (the plan does not change during a run): the
+ * ray-queue core's Q1-Q5, then what its entries mean. */
 static int check_state(const dyn *D, rt_err *e)
 {
-    size_t n = D->nblk > D->nq ? D->nblk : D->nq;
-    if (D->npix > n) n = D->npix;
-    uint8_t *seen = rt_calloc(n ? n : 1, 1, e);
+    if (rt_rq_check(&D->rq, e) < 0) return -1;
+    uint8_t *seen = rt_calloc(D->npix ? D->npix : 1, 1, e);
     if (!seen) return -1;
-    int rc = check_queues(D, seen, e);
-    if (rc == 0 && D->ctx->opt->qorder == RT_QORDER_FULLEST) {
-        memset(seen, 0, n);
-        rc = check_buckets(D, seen, e);
-    }
-    if (rc == 0) {
-        memset(seen, 0, n);
-        rc = check_rays(D, seen, e);
-    }
+    int rc = check_rays(D, seen, e);
     free(seen);
     return rc;
 }
@@ -1216,16 +1062,8 @@ static void dyn_free(dyn *D)
 {
     free(D->lw);
     free(D->swt);
-    free(D->blk);
-    free(D->bnext);
-    free(D->qhead);
-    free(D->qtail);
-    free(D->qheadpos);
-    free(D->qcount);
+    rt_rq_free(&D->rq);
     free(D->qtimes);
-    free(D->bk_head);
-    free(D->bk_next);
-    free(D->bk_prev);
     free(D->hit_t);
     free(D->hit_tri);
     free(D->hit_u);
@@ -1240,9 +1078,6 @@ static void dyn_free(dyn *D)
     free(D->out);
     free(D->acc);
     free(D->h0);
-    for (int l = 0; D->lvl && l < D->nlvl; l++) free(D->lvl[l]);
-    free(D->lvl);
-    free(D->lvlen);
 }
 
 /* Sets up the run's state: regions, the plan, an empty block pool on the
@@ -1285,38 +1120,32 @@ static int dyn_init(dyn *D, const rt_tracer_ctx *ctx, rt_image *img, rt_run_stat
     D->nq = P->nq;
     D->ntop = P->ntop;
     uint32_t nq = D->nq ? D->nq : 1;
-    D->nblk = (uint32_t)(npix / QBLK + nq + 2);
-    if (!(D->blk = rt_calloc((size_t)D->nblk * QBLK, sizeof *D->blk, e)) ||
-        !(D->bnext = rt_calloc(D->nblk, sizeof *D->bnext, e)) || !(D->qhead = rt_calloc(nq, sizeof *D->qhead, e)) ||
-        !(D->qtail = rt_calloc(nq, sizeof *D->qtail, e)) || !(D->qheadpos = rt_calloc(nq, sizeof *D->qheadpos, e)) ||
-        !(D->qcount = rt_calloc(nq, sizeof *D->qcount, e)) || !(D->qtimes = rt_calloc(nq, sizeof *D->qtimes, e)) ||
-        !(D->bk_head = rt_calloc(npix + 2, sizeof *D->bk_head, e)) || !(D->bk_next = rt_calloc(nq, sizeof *D->bk_next, e)) ||
-        !(D->bk_prev = rt_calloc(nq, sizeof *D->bk_prev, e)) || !(D->hit_t = rt_calloc(npix, sizeof *D->hit_t, e)) ||
+    D->secondary = rt_render_secondary(o);
+    const rt_rq_config qc = {.name = "dynamic",
+                             .nq = D->nq,
+                             .nblk = (uint32_t)(npix / QBLK + nq + 2),
+                             .esize = sizeof(qent),
+                             .maxcount = (uint32_t)(npix + 1),
+                             .order = o->qorder == RT_QORDER_FULLEST ? RT_RQ_FULLEST : RT_RQ_TREE,
+                             .levels = D->secondary ? dyn_levels(o) : 0,
+                             .level_cap = (uint32_t)npix};
+    if (rt_rq_init(&D->rq, &qc, e) < 0 || !(D->qtimes = rt_calloc(nq, sizeof *D->qtimes, e)) ||
+        !(D->hit_t = rt_calloc(npix, sizeof *D->hit_t, e)) ||
         !(D->hit_tri = rt_calloc(npix, sizeof *D->hit_tri, e)) || !(D->hit_u = rt_calloc(npix, sizeof *D->hit_u, e)) ||
         !(D->hit_v = rt_calloc(npix, sizeof *D->hit_v, e)) || !(D->vis = rt_calloc(npix, 1, e)) ||
         !(D->resolved = rt_calloc(npix, 1, e)) || !(D->want = rt_calloc(npix, 1, e)) ||
         !(D->mark = rt_calloc(D->sc->ntri ? D->sc->ntri : 1, 1, e)))
         return -1;
-    for (uint32_t i = 0; i < D->nblk; i++) D->bnext[i] = i + 1 < D->nblk ? (int32_t)(i + 1) : -1;
-    D->freelist = 0;
-    for (uint32_t q = 0; q < nq; q++) D->qhead[q] = D->qtail[q] = -1;
-    for (size_t c = 0; c < npix + 2; c++) D->bk_head[c] = -1;
-    D->bk_cap = (uint32_t)(npix + 1);
-    for (uint32_t q = 0; q < D->nq; q++) bk_link(D, q);
     D->tv.mark = D->mark;
-    D->secondary = rt_render_secondary(o);
     D->reg_spawn = rt_mm_find(L, "dyn.spawn");
     D->authored = rt_shade_authored(D->sc, o) && o->lights && !D->secondary;
     if (D->authored && (!(D->lw = rt_calloc(npix * D->sc->nlight, sizeof *D->lw, e)) ||
                         !(D->swt = rt_calloc(npix, sizeof *D->swt, e))))
         return -1;
     if (D->secondary) {
-        D->nlvl = dyn_levels(o);
         if (!(D->bray = rt_calloc(npix, sizeof *D->bray, e)) || !(D->bsray = rt_calloc(npix, sizeof *D->bsray, e)) ||
             !(D->bpix = rt_calloc(npix, sizeof *D->bpix, e)) || !(D->out = rt_calloc(npix, sizeof *D->out, e)) ||
-            !(D->acc = rt_calloc(npix, sizeof *D->acc, e)) || !(D->h0 = rt_calloc(npix, sizeof *D->h0, e)) ||
-            !(D->lvl = rt_calloc((size_t)D->nlvl, sizeof *D->lvl, e)) ||
-            !(D->lvlen = rt_calloc((size_t)D->nlvl, sizeof *D->lvlen, e)))
+            !(D->acc = rt_calloc(npix, sizeof *D->acc, e)) || !(D->h0 = rt_calloc(npix, sizeof *D->h0, e)))
             return -1;
         for (size_t p = 0; p < npix; p++) D->h0[p].tri = RT_NO_HIT;
     }
@@ -1437,12 +1266,12 @@ static void report(const dyn *D, rt_run_stats *st)
              " peak_queued_bytes=%" PRIu64 " events_per_queue_mean=%.2f events_per_queue_max=%u rays=%" PRIu64
              " resolved=%" PRIu64,
              D->gmax, o->gmax ? "given" : (D->P->fallback ? "top-first" : "resident-top"), D->nq, D->ntop, oversized,
-             D->enq, D->events, D->events ? (double)D->ev_rays / (double)D->events : 0.0, D->ev_max, D->peak_queued * 32,
+             D->enq, D->events, D->events ? (double)D->ev_rays / (double)D->events : 0.0, D->ev_max, D->rq.peak * 32,
              D->nq ? (double)D->events / D->nq : 0.0, qmax, D->created, D->done);
     if (D->secondary) {
         size_t l = strlen(st->extra);
         snprintf(st->extra + l, sizeof st->extra - l, " batches=%" PRIu64 " rays_secondary=%" PRIu64 " self_hits=%" PRIu64,
-                 D->batches, D->nsec, D->self_hits);
+                 D->rq.batches, D->nsec, D->self_hits);
     }
     if (o->queue_stats) {
         const qstat *S = &D->qs;
@@ -1470,9 +1299,8 @@ static void report(const dyn *D, rt_run_stats *st)
  * After every generation check_generation verifies that each ray was
  * resolved exactly once, and in test mode rt_dyn_check runs at every step. */
 
-static int batch_closest(dyn *D, int lv, uint32_t n, rt_err *e)
+static int batch_closest(dyn *D, int lv, const rt_path *rays, uint32_t n, rt_err *e)
 {
-    const rt_path *rays = D->lvl[lv];
     D->shadow = 0;
     D->tv.mark_bit = rays[0].depth ? 4 : 1;
     memset(D->want, 0, D->npix);
@@ -1517,16 +1345,13 @@ static int batch_shadow(dyn *D, int li, uint32_t n, rt_err *e)
     return check_generation(D, D->want, D->npix, e);
 }
 
-/* Traces the batch on top of the stack and pushes its children. */
-static int batch_run(dyn *D, int *height, rt_err *e)
+/* The ray-queue core's batch trace: the batch at level lv (its closest
+ * hits, shading, shadow rays); the core then pushes the children in out. */
+static int batch_trace(void *u, int lv, const rt_path *rays, uint32_t n, const rt_shade_out **out, rt_err *e)
 {
+    dyn *D = u;
     const rt_render_opts *o = D->ctx->opt;
-    const int lv = --*height;
-    const uint32_t n = D->lvlen[lv];
-    const rt_path *rays = D->lvl[lv];
-    D->batches++;
-    rt_rec_set_gen(D->rec, rays[0].depth); /* a batch is one generation */
-    if (batch_closest(D, lv, n, e) < 0) return -1;
+    if (batch_closest(D, lv, rays, n, e) < 0) return -1;
     for (uint32_t k = 0; k < n; k++) {
         rt_hit h = {D->hit_t[k], D->hit_tri[k], D->hit_u[k], D->hit_v[k]};
         const rt_hit *hp = h.tri != RT_NO_HIT ? &h : NULL;
@@ -1537,22 +1362,7 @@ static int batch_run(dyn *D, int *height, rt_err *e)
     }
     for (int li = 0; li < RT_NLIGHTS; li++)
         if ((o->lights & (1u << li)) && batch_shadow(D, li, n, e) < 0) return -1;
-    /* children: refracted rays into this level, the others above it */
-    for (int kind = RT_PATH_REFRACT; kind >= 0; kind--) {
-        int dst = *height;
-        uint32_t m = 0;
-        if (dst >= D->nlvl) return rt_errf(e, "dynamic: batch stack overflow (internal error)");
-        if (!D->lvl[dst] && !(D->lvl[dst] = rt_calloc(D->npix, sizeof *D->lvl[dst], e))) return -1;
-        rt_path *d = D->lvl[dst];
-        for (uint32_t k = 0; k < n; k++)
-            for (int c = 0; c < D->out[k].nchild; c++) {
-                if (D->out[k].child[c].kind != kind) continue;
-                d[m] = D->out[k].child[c];
-                RT_REC(D->rec, rt_mm_addr(D->L, D->reg_spawn, (uint64_t)dst * D->npix + m), RT_SREC_SIZE, 1, RT_CLS_RAY);
-                m++;
-            }
-        if (m) D->lvlen[(*height)++] = m;
-    }
+    *out = D->out;
     return 0;
 }
 
@@ -1560,17 +1370,15 @@ static int secondary_run(dyn *D, const uint32_t *order, size_t ntr, rt_err *e)
 {
     const rt_render_opts *o = D->ctx->opt;
     const int spp = o->mode == RT_MODE_PATH ? o->spp : 1;
-    if (!D->lvl[0] && !(D->lvl[0] = rt_calloc(D->npix, sizeof *D->lvl[0], e))) return -1;
+    rt_path *base = rt_rq_base(&D->rq, e);
+    if (!base) return -1;
     for (int s = 0; s < spp; s++) {
         for (size_t k = 0; k < ntr; k++) {
             rt_ray eye;
             rt_cam_ray(&D->cam, (int)(order[k] % (uint32_t)o->W), (int)(order[k] / (uint32_t)o->W), &eye);
-            rt_shade_path_start(&D->lvl[0][k], &eye, order[k], (uint32_t)s);
+            rt_shade_path_start(&base[k], &eye, order[k], (uint32_t)s);
         }
-        D->lvlen[0] = (uint32_t)ntr;
-        int height = 1;
-        while (height)
-            if (batch_run(D, &height, e) < 0) return -1;
+        if (rt_rq_batches(&D->rq, (uint32_t)ntr, batch_trace, D, D->rec, D->L, D->reg_spawn, e) < 0) return -1;
     }
     for (size_t k = 0; k < ntr; k++) {
         uint32_t p = order[k];

@@ -66,8 +66,7 @@ typedef enum rt_rstores {
  * Render options that only some tracers read, each in one group; a tracer's
  * traits (tracer.h, rt_tracer.opts) list the groups it reads, and an option
  * given on the command line for a tracer that does not read it is refused
- * (rt_tracer_check_given). The front end sets the option's bit in
- * rt_render_opts.given (RT_RO_*); rt_render_opt_name names it.
+ * (rt_tracer_check_given).
  */
 enum {
     RT_OPTG_PACKET = 1u << 0,   /* --packet */
@@ -80,18 +79,83 @@ enum {
     RT_OPTG_RECORDS = 1u << 6,  /* --record-stores: tracers whose ray records the GPU writes whole */
     RT_OPTG_TREELET = 1u << 7   /* --treelet-tris, --ray-window: the treelet scheduler */
 };
-/* The options of those groups, a bit each in rt_render_opts.given. */
-enum {
-    RT_RO_PACKET, RT_RO_CACHE_SIZE, RT_RO_GMAX, RT_RO_QORDER, RT_RO_THREADS, RT_RO_QUEUE_STORES,
-    RT_RO_GRID_MIN, RT_RO_VB_SIZE, RT_RO_ORACLE, RT_RO_ORACLE_FRACTION, RT_RO_UNROLL, RT_RO_UNROLL_SUPPRESS,
-    RT_RO_GRID_DENSITY, RT_RO_RECORD_STORES, RT_RO_ACCEL, RT_RO_HIT_RULE, RT_RO_QP_MEASURE, RT_RO_TREELET_TRIS,
-    RT_RO_RAY_WINDOW, RT_RO_COUNT
-};
-/* "--packet" ... for an RT_RO_* id, and its group (0 for --accel, which is
- * checked against the tracer's structures instead). */
+
+/*
+ * The render option table: every option of render, trace, bench and sweep
+ * that sets a field of rt_render_opts is declared once here, in the order
+ * --help lists them. Everything else derives from the entry:
+ *
+ *   1. the front end's getopt tables (cli/cmd_common.c, rt_cmd_longopts)
+ *      take each entry whose .cmds names the command: the option's code is
+ *      RT_OPT_CODE_BASE + its index;
+ *   2. parsing: .parse reads the value into rt_render_opts (a message in e
+ *      on a bad value); every numeric value goes through the strict parsers
+ *      below (no white space, '+', hex, inf, nan or overflow);
+ *   3. --help: rt_cmd_render_help prints .label (default "--NAME ARG") and
+ *      .help for every entry of the command; sweep lists .sweep_help where
+ *      its usage places it, and any entry without one after its own options;
+ *   4. the refusal: a value given sets bit (index) of rt_render_opts.given;
+ *      rt_tracer_check_given refuses a given option whose .group the tracer
+ *      does not read ("--packet does not apply to the dynamic tracer");
+ *   5. .key is the spelling of the run-key parameter the option writes
+ *      (written by the tracer's .params, or by rt_job_params for the
+ *      options every tracer reads); tests/test_options.c checks that the
+ *      .example value puts "KEY=" in the run key.
+ *
+ * Invariants (rt_render_optdefs_check): (1) names are unique and start with
+ * "--"; (2) short names are unique; (3) every entry has a parser except
+ * --tracer (the front end's: it names the tracer, not an option value);
+ * (4) at most 64 entries (the .given mask); (5) every entry but those listed
+ * with the entry before (.help NULL) has help text and an example value.
+ *
+ * Adding an option: a field in rt_render_opts (and its default in
+ * rt_render_default_opts), a parser, one entry here. Nothing in cli/ changes.
+ * The table holds what a run renders with; the simulator's options
+ * (--sizes, --line, ...) stay sweep's and sim's own.
+ */
+#define RT_OC_RENDER 1u /* render */
+#define RT_OC_TRACE 2u  /* trace */
+#define RT_OC_BENCH 4u  /* bench (takes every option of a run; its help lists its own) */
+#define RT_OC_SWEEP 8u  /* sweep */
+#define RT_OC_RUN (RT_OC_RENDER | RT_OC_TRACE | RT_OC_BENCH) /* the commands that run one job */
+#define RT_OPT_CODE_BASE 1000 /* getopt code of entry i: RT_OPT_CODE_BASE + i */
+
+struct rt_render_opts;
+typedef struct rt_render_optdef {
+    const char *name;       /* "--packet"; the long option is name + 2 */
+    int short_name;         /* 'W', or 0 */
+    const char *arg;        /* the value's name in --help ("N"); NULL: a switch without a value */
+    unsigned group;         /* RT_OPTG_* of the tracers that read it; 0: every tracer */
+    unsigned cmds;          /* RT_OC_* commands that take it */
+    const char *key;        /* run-key parameter it writes ("qorder"), NULL: none (a column, or no key) */
+    /* Reads arg (NULL for a switch) into o: 0, 1 (done, with a note in e->msg
+     * to show), or -1 with "--NAME: ..." in e. NULL only for --tracer. */
+    int (*parse)(struct rt_render_opts *o, const char *arg, rt_err *e);
+    const char *label;      /* --help column; NULL: "NAME ARG" */
+    const char *help;       /* --help text, "\n" between lines; NULL: listed with the entry before */
+    const char *sweep_help; /* sweep --help: the whole line(s) naming it with others; "": listed on
+                             * another entry's line; NULL: label and help as in render */
+    const char *example;    /* a value the parser takes (tests); NULL for a switch */
+} rt_render_optdef;
+
+extern const rt_render_optdef rt_render_optdefs[];
+extern const int rt_render_noptdefs;
+/* Index of the entry named "--NAME" (or "NAME"), or -1. */
+int rt_render_opt_find(const char *name);
+/* "--packet" ... for an index, and its group. */
 const char *rt_render_opt_name(int id);
 unsigned rt_render_opt_group(int id);
+/* Checks the table's invariants: 0, or -1 naming the entry and the
+ * invariant's number in e. The _table form checks any table (tests). */
+int rt_render_optdefs_check(rt_err *e);
+int rt_render_optdefs_check_table(const rt_render_optdef *t, int n, rt_err *e);
 
+/* The strict parsers every numeric option value goes through. A decimal
+ * integer in lo..hi: a digit first (or '-' and a digit), nothing after it.
+ * A finite decimal [-]D[.D][e[+-]D] (or [-].D...). No white space, no '+'
+ * in front, no hex, nan or inf, no overflow. 0 or -1. */
+int rt_opt_parse_long(const char *s, long lo, long hi, long *out);
+int rt_opt_parse_double(const char *s, double *out);
 
 /* What a run traces (docs/tracers.md, "Modes"). */
 typedef enum rt_mode {
@@ -149,7 +213,8 @@ typedef struct rt_render_opts {
     int unroll_suppress; /* stream-multipass: no texel reads for rays that finish mid-pass */
     int treelet_tris;    /* treelet: the leaves' triangles count against the treelet budget (0: nodes only) */
     uint32_t ray_window; /* treelet: rays in flight per generation, 0 = all rays of the frame */
-    uint32_t given;      /* front end: bit RT_RO_x set when that option was given (never in a run key) */
+    uint64_t given;      /* front end: bit i set when rt_render_optdefs[i] was given (never in a run key) */
+    unsigned lights_named; /* the light indices --lights named (not "all"): each must exist */
     rt_render_view view; /* camera and lights the user set (--look-at, --fov, --light); none by default */
     uint32_t light_samples; /* --light-samples N: 0 = the point model (the scene's three point lights);
                              * N >= 1 = the authored lights, N shadow rays per hit to each area or
@@ -158,6 +223,12 @@ typedef struct rt_render_opts {
     unsigned film;       /* RT_FILM_W | RT_FILM_H: that size may come from the scene's default
                           * image size (a pbrt Film); front ends set the bits of -W/-H not given (0) */
 } rt_render_opts;
+
+/* 1 when the option of table index id was given (o->given). */
+static inline int rt_render_opt_given(const rt_render_opts *o, int id)
+{
+    return id >= 0 && id < 64 && (o->given >> id & 1);
+}
 
 #define RT_FILM_W 1u
 #define RT_FILM_H 2u
@@ -225,15 +296,19 @@ int rt_render_apply_view(const rt_render_opts *o, rt_scene *sc, rt_err *e);
 /* The light mask o asks for, limited to the lights that exist (with
  * --light given, only that many). */
 unsigned rt_render_lights(const rt_render_opts *o);
+/* Refuses a light index --lights named that --light did not define (with
+ * --light given N times, only lights 0..N-1 exist). 0, or -1 (usage). */
+int rt_render_check_lights(const rt_render_opts *o, rt_err *e);
 /* Appends the view's run-key parameters (" look_at=... fov=... light0=...")
  * to buf (nothing when no view was given). */
 void rt_render_view_params(const rt_render_opts *o, char *buf, size_t n);
 
-/* Parses "all", "none" (or ""), or a comma list of light indices "0,2" into
- * a light mask ("all": lights 0..2, the point model's; with authored lights
+/* Parses "all", "none" (or ""), or a list of light indices joined by ','
+ * or '+' ("0,2", or "0+2" as rt_exp_lights_name prints it) into a light
+ * mask ("all": lights 0..2, the point model's; with a file's own lights
  * the front end also sets lights_all). Indices 0..31; whether the light
- * exists is checked when the scene is known (rt_render_check_scene_lights). 0, or
- * -1 on a malformed list (*mask untouched). */
+ * exists is checked when the scene is known (rt_render_check_scene_lights).
+ * 0, or -1 on a malformed list (*mask untouched). */
 int rt_render_parse_lights(const char *s, unsigned *mask);
 #define RT_LIGHT_SAMPLES_MAX 4096 /* largest --light-samples */
 /* The number of lights the run can enable: the scene's authored lights

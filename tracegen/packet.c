@@ -28,10 +28,40 @@
  * records (docs/memory-model.md) in packet.rays, one P*P slot per stack
  * level: written when spawned, read when the chunk is traced. Statistics:
  * secondary packets traced and their mean fill (rays / (P*P)).
+ *
+ * Representation. A packet is NP = P*P rays (ray[], and per ray its hit,
+ * its shadow flag done[] and its cost channels pnodes/ptests), indexed by
+ * their slot in the packet. The rays still walking form an active list: on
+ * the k-d tree a plist per depth and side (store[2 d], store[2 d + 1]: the
+ * packet's first and second child) of slots with their intervals in the
+ * node's cell; on a BVH a bvlevel per depth of slots with their entry
+ * distances and, for wide nodes, the children each ray's box test hit.
+ *
+ * Invariants (RT_ASSERT where the walk relies on one):
+ *   P1  lists: an active list at depth d holds at most NP distinct slots,
+ *       each < NP; d stays within the lists allocated for the structure's
+ *       depth (k-d: d <= maxdepth; BVH: d + 1 <= maxdepth);
+ *   P2  pruning: a slot in the list of a node being visited is needed
+ *       there -- not an occluded shadow ray, and (closest hits) its best
+ *       hit does not lie strictly before the node's interval (k-d) or
+ *       beyond the visit bound of its best hit (BVH cull);
+ *   P3  results: each ray's hit is the hit rule's best (accel/hit.h,
+ *       rt_hit_better: least t, then least triangle) among the triangles
+ *       tested against it, and by P2 no triangle that could beat it was
+ *       skipped, so it is the single-ray walk's; a shadow ray is done
+ *       exactly when a triangle hit it inside its interval;
+ *   P4  accounting: a node is read once per packet visit, a leaf's index
+ *       list once per visit, a triangle once per packet test; a ray's
+ *       cost channels count the nodes it was present at and the tests
+ *       made against it;
+ *   P5  chunk stack (secondary modes): height <= pk_levels levels, each
+ *       level a chunk of 1..NP rays of one generation; a chunk's children
+ *       go refracted first onto the level it freed, the others above.
  */
 #include "bvh.h"
 #include "camera.h"
 #include "regions.h"
+#include "rt_assert.h"
 #include "shade.h"
 #include "stats.h"
 #include "tracer.h"
@@ -157,6 +187,7 @@ static void leaf(pstate *ps, const rt_kdnode *nd, plist *l)
 
 static void visit(pstate *ps, uint32_t node, plist *l, int depth)
 {
+    RT_ASSERT(depth <= ps->maxdepth && l->n <= ps->np); /* P1 */
     /* prune() and the per-ray visit count in one pass over the rays */
     int kept = 0;
     for (int j = 0; j < l->n; j++) {
@@ -308,6 +339,7 @@ static void pb_read(pstate *ps, uint32_t node, const bvlevel *l)
 /* bvh2: node with the rays of ps->lv[d]. */
 static void pb_visit2(pstate *ps, uint32_t node, int d)
 {
+    RT_ASSERT(d + 1 <= ps->maxdepth && ps->lv[d].n <= ps->np); /* P1 */
     bvlevel *l = &ps->lv[d];
     if (ps->shadow) pb_drop_done(ps, l);
     if (l->n == 0) return;
@@ -342,6 +374,7 @@ static void pb_visitw(pstate *ps, uint32_t node, int d)
 {
     const rt_bvh *b = ps->bvh;
     const int W = b->width, NP = ps->np;
+    RT_ASSERT(d + 1 <= ps->maxdepth && ps->lv[d].n <= NP); /* P1 */
     bvlevel *l = &ps->lv[d];
     int k = 0;
     for (int j = 0; j < l->n; j++) {
@@ -478,6 +511,7 @@ static void pk_chunk(pstate *ps, const rt_tracer_ctx *ctx, psec *S, int *height,
     const int lv = --*height;
     rt_path *rays = &S->chunk[(size_t)lv * NP];
     const int n = S->clen[lv];
+    RT_ASSERT(lv >= 0 && lv < pk_levels(o) && n >= 1 && n <= NP); /* P5 */
     top->n = 0;
     rt_rec_set_gen(rec, rays[0].depth); /* a chunk is one generation */
     for (int k = 0; k < n; k++) {
@@ -544,6 +578,7 @@ static void pk_chunk(pstate *ps, const rt_tracer_ctx *ctx, psec *S, int *height,
      * into this level, reflected rays (or a path's continuation) above */
     for (int kind = RT_PATH_REFRACT; kind >= 0; kind--) {
         int m = 0, dst = *height;
+        RT_ASSERT(dst < pk_levels(o)); /* P5: the stack never outgrows its levels */
         rt_path *d = &S->chunk[(size_t)dst * NP];
         for (int k = 0; k < n; k++)
             for (int c = 0; c < S->out[k].nchild; c++) {

@@ -28,7 +28,7 @@ int rt_shade_ray(const rt_scene *sc, const rt_ray *eye, const rt_hit *h, int lig
     rt_vec3 p = hit_point(sc, h);
     rt_vec3 l = rt_sub(sc->light[light], p);
     if (!(rt_dot(n, l) > 0)) return 0;
-    rt_vec3 o = rt_offset_origin(p, n);
+    rt_vec3 o = rt_offset_origin_scaled(p, n, rt_scene_offset_scale(sc));
     rt_ray_init(sr, o, rt_sub(sc->light[light], o));
     sr->tmin = 0.0f;
     sr->tmax = 1.0f;

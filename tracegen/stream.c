@@ -45,12 +45,47 @@
  * byte per slot, multipass only, class fb: the stencil plane of the
  * framebuffer), fb (12 B RGB per pixel). Every access is also counted per
  * kernel and per data type, so the statistics need no recorder.
+ *
+ * Representation. A ray (st_ray) carries the traced rt_ray, its path
+ * record (secondary modes), the closest hit so far, the grid iterator and
+ * its current cell, the list position while it intersects, its counters
+ * and its state. The branching tracer keeps one ray in flight and a stack
+ * of the pixel's children (st_vec); the multipass tracer keeps a wave of
+ * closest rays in a vector, cut into streams of at most W x H rays whose
+ * slot i is record i of stream.state and stream.stencil, the spawned
+ * shadow rays and children in two more vectors (the next wave).
+ *
+ * Invariants (RT_ASSERT where a kernel relies on one; S1-S3 hold for every
+ * ray between kernel invocations, S4-S5 between passes, S6 at the end):
+ *   S1  state: a ray is in ST_TRAV (its cell c is the iterator's current
+ *       cell, c.id < ncells), ST_ISECT (lpos is a list word of c's list,
+ *       list[lpos] != RT_GRID_NULL) or ST_DONE, and nothing else; a ray is
+ *       finished only when done, except a branching eye ray that missed
+ *       the grid's box (finished at once: no step taken, no hit);
+ *   S2  closest rays: h is the best hit (the hit rule of accel/hit.h) of
+ *       the triangles tested so far whose t lies in the cell they were
+ *       tested in (widened by tol); a ray is done with a hit only when no
+ *       later cell can hold a closer one (h.t < c.t1 - tol) or the
+ *       iterator is exhausted; so the hit is rt_grid_closest's;
+ *   S3  shadow rays: occluded implies done; a shadow ray never holds a hit;
+ *   S4  streams (multipass): a stream holds n <= W x H rays in slots
+ *       0..n-1 (its slots are records of stream.state and stream.stencil);
+ *       every pass reads all n stencils and only rays in the kernel's state
+ *       work; the traversal loop ends exactly when every ray is done;
+ *   S5  generations: a wave's rays share one generation (the recorder's);
+ *       the next wave holds only the children of this one; a pixel's
+ *       children in the branching tracer are traced depth first,
+ *       reflection before refraction, each ray with its shadow rays before
+ *       the next ray;
+ *   S6  accounting: every byte is charged once to a kernel and once to a
+ *       data type, so the sums of kbytes[] and dbytes[] are equal.
  */
 #include "stream.h"
 
 #include "camera.h"
 #include "grid.h"
 #include "regions.h"
+#include "rt_assert.h"
 #include "shade.h"
 #include "stats.h"
 #include "tracer.h"
@@ -276,6 +311,7 @@ static void k_setup(st_run *S, st_ray *r)
 /* One traversal step without its texel accounting (k_step charges it). */
 static RT_ALWAYS_INLINE void k_step_body(st_run *S, st_ray *r)
 {
+    RT_ASSERT(r->state == ST_TRAV && r->c.id < S->g->ncells); /* S1 */
     const uint32_t w = S->g->cells[r->c.id];
     r->nstep++;
     S->steps++;
@@ -302,6 +338,7 @@ static void k_step(st_run *S, st_ray *r)
 static RT_ALWAYS_INLINE void k_isect_body(st_run *S, st_ray *r)
 {
     const rt_grid *g = S->g;
+    RT_ASSERT(r->state == ST_ISECT && r->lpos < g->nlist && g->list[r->lpos] != RT_GRID_NULL); /* S1 */
     const uint32_t tri = g->list[r->lpos];
     r->ntest++;
     r->last_tri = tri;
@@ -376,6 +413,7 @@ static void ray_stats(st_run *S, const st_ray *r)
  * tracer the kernels are charged by the passes (charge_kernels = 0). */
 static void finish_closest(st_run *S, st_ray *r, uint32_t slot, st_vec *shadows, st_vec *children, int charge_kernels)
 {
+    RT_ASSERT(r->kind == ST_CLOSEST && (r->state == ST_DONE || (r->nstep == 0 && r->h.tri == RT_NO_HIT))); /* S1 */
     const rt_render_opts *o = S->o;
     const int hit = r->h.tri != RT_NO_HIT;
     ray_stats(S, r);
@@ -444,6 +482,7 @@ static void finish_closest(st_run *S, st_ray *r, uint32_t slot, st_vec *shadows,
  * reads and writes the pixel, charged to the shadow kernel). */
 static void finish_shadow(st_run *S, st_ray *r)
 {
+    RT_ASSERT(r->kind == ST_SHADOW && r->state == ST_DONE && r->h.tri == RT_NO_HIT); /* S1, S3 */
     ray_stats(S, r);
     if (r->occluded) return;
     acc_rd(S, RT_SK_SHADOW, RT_SD_FB, S->reg_fb, r->pix, 0, 12, RT_CLS_FB, 0);
@@ -574,6 +613,7 @@ static int mp_oracle(const st_run *S, size_t ntrav, size_t nisect)
 static void mp_loop(st_run *S, st_ray *a, size_t n)
 {
     const int T = S->o->unroll_t, I = S->o->unroll_i, sup = S->o->unroll_suppress;
+    RT_ASSERT(n <= st_npix(S->o)); /* S4: slots are stream.state records */
     size_t active = 0;
     for (size_t i = 0; i < n; i++)
         if (a[i].state != ST_DONE) active++;
@@ -591,7 +631,7 @@ static void mp_loop(st_run *S, st_ray *a, size_t n)
             ntrav += a[i].state == ST_TRAV;
             nisect += a[i].state == ST_ISECT;
         }
-        if (!ntrav && !nisect) break;
+        if (!ntrav && !nisect) break; /* S4: every ray done */
         int isect = mp_oracle(S, ntrav, nisect);
         int want = isect ? ST_ISECT : ST_TRAV, kern = isect ? RT_SK_ISECT : RT_SK_STEP, U = isect ? I : T;
         mp_pass(S, kern, isect ? ST_PASS_ISECT : ST_PASS_TRAV, n, isect ? nisect : ntrav);
@@ -828,6 +868,14 @@ static int st_run_common(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *
             rt_shade_pixel(sc, &eye, h, vis, o->lights, img, pix);
         }
     }
+#if RT_ASSERTS_ON
+    {
+        uint64_t ksum = 0, dsum = 0;
+        for (int k = 0; k < RT_SK_N; k++) ksum += S.kbytes[k];
+        for (int d = 0; d < RT_SD_N; d++) dsum += S.dbytes[d];
+        RT_ASSERT(ksum == dsum); /* S6 */
+    }
+#endif
     rt_trav tv;
     memset(&tv, 0, sizeof tv);
     tv.nodes = S.steps;

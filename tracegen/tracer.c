@@ -84,8 +84,8 @@ int rt_tracer_check_given_any(const rt_tracer *const *trs, int ntr, const rt_ren
     }
     const char *who = ntr == 1 ? trs[0]->name : NULL;
     char hint[256];
-    for (int id = 0; id < RT_RO_COUNT; id++) {
-        if (!(o->given & (1u << id))) continue;
+    for (int id = 0; id < rt_render_noptdefs; id++) {
+        if (!rt_render_opt_given(o, id)) continue;
         unsigned g = rt_render_opt_group(id);
         if (!g || (opts & g)) continue;
         readers(g, 0, hint, sizeof hint);

@@ -93,12 +93,15 @@
  * shade each ray with rt_shade_step, summing contributions in an rt_acc,
  * so the order of rays does not change the image.
  *
- * Queue order (--qorder): the fullest queue first (buckets by count, as
- * dynamic.c), or tree order (treelets by number, repeated until empty).
+ * Queues (the ray-queue core, rayq.c, shared with dynamic.c): one per
+ * treelet, entries 4-byte ray slot numbers; the core's pool, buckets and
+ * batch stack, this file's modeled addresses for them. Queue order
+ * (--qorder): the fullest queue first (buckets by count), or tree order
+ * (treelets by number, repeated until empty).
  *
  * Invariants, holding between steps (after a generation's rays have been
  * started and after every queue processed; in test mode, ctx->check,
- * check_plan verifies T1 once per run and check_state T2-T5 at every
+ * check_plan verifies T1 once per run and check_state T2-T4 at every
  * step, and tests/test_treelet_check.c shows both rejecting corrupted
  * copies):
  *   T1  plan: every node lies in exactly one treelet; treelet 0 holds the
@@ -110,9 +113,12 @@
  *       unless it is its root alone; the greedy rule stopped correctly:
  *       the frontier node of largest area would have taken the treelet
  *       past the budget;
- *   T2  queue pool: every block lies in exactly one queue's chain or on
- *       the free list; a queue of c rays is a chain of ceil(c / 64) blocks
- *       ending at its tail; the counts sum to the rays queued;
+ *   T2  queues, pool, buckets, batch stack: the ray-queue core's Q1-Q5
+ *       (rayq.c, checked by rt_rq_check): a queue of c rays is a chain of
+ *       ceil(c / 64) blocks ending at its tail; every block lies in exactly
+ *       one queue's chain or on the free list; the counts sum to the rays
+ *       queued; with fullest-first order every treelet is in the bucket of
+ *       its count, none above the fullest bound (what was T5 here is Q4);
  *   T3  rays: every ray of the generation is in exactly one queue or
  *       finished (started = finished + queued), and a queued ray is in the
  *       queue of the treelet of the entry on top of its stack;
@@ -120,8 +126,6 @@
  *       registers (reg = mem = depth), depth <= stack_bound; an entry's
  *       treelet is the treelet of its node (a leaf: of the node that
  *       pushed it);
- *   T5  buckets (fullest-first order): every treelet in the bucket of its
- *       count, none above the fullest bound;
  *   T6  resolution (checked as each ray finishes): its closest hit or its
  *       visibility is the one the single-ray walk finds.
  * At the end of every generation: all queues empty, every wanted ray
@@ -133,6 +137,8 @@
  */
 #include "bvh.h"
 #include "camera.h"
+#include "hit.h"
+#include "rayq.h"
 #include "regions.h"
 #include "shade.h"
 #include "stats.h"
@@ -147,7 +153,7 @@
 #include <sys/mman.h>
 #endif
 
-#define QBLK 64        /* queue entries per block */
+#define QBLK RT_RQ_BLK  /* queue entries per block (64) */
 #define RAY_REC 64     /* bytes of a ray-state record: one line */
 #define RAY_STATE 48   /* ... of which the ray and its hit; then the short stack */
 #define RAY_SUSP_OFS 28 /* the hit and stack depth: 20 bytes */
@@ -310,7 +316,7 @@ static int tl_plan(const rt_tracer_ctx *ctx, void **out, rt_err *e)
 {
     const rt_bvh *b = ctx->acc->as;
     *out = NULL;
-    if (!b || ctx->acc->kind < RT_ACCEL_BVH2 || ctx->acc->kind > RT_ACCEL_BVH8)
+    if (!b || !rt_accel_bvh_width(ctx->acc->kind))
         return rt_errf(e, "treelet: runs on a BVH only (internal error)");
     tplan *P = rt_calloc(1, sizeof *P, e);
     if (!P) return -1;
@@ -530,18 +536,10 @@ typedef struct tl_run {
     tray *ray;        /* slots records of TRAY_SIZE bytes, line-aligned inside ray_mem */
     void *ray_mem;    /* the allocation holding ray */
     tslab *slab;      /* the stack arena's newest slab */
-    /* queues (T2) */
-    uint32_t *blk;    /* nblk * QBLK slot numbers */
-    int32_t *bnext;
-    uint32_t nblk;
-    int32_t freelist;
-    int32_t *qhead, *qtail;
-    uint32_t *qcount;
-    uint64_t queued, peak_queued;
-    /* fullest-first buckets (T5) */
-    int32_t *bk_head, *bk_next, *bk_prev;
-    uint32_t bk_max, bk_cap;
-    int qfull;        /* the fullest queue first (--qorder fullest), else tree order */
+    /* the queues (one per treelet, entries are 4-byte slot numbers), their
+     * block pool and buckets, the batch stack (T2: the ray-queue core's
+     * Q1-Q5, rayq.c) */
+    rt_rq rq;
     int qwrite;       /* the write kind of a queue entry's store (--queue-stores) */
     /* the generation (T3) */
     uint8_t *want, *done; /* per slot */
@@ -559,11 +557,8 @@ typedef struct tl_run {
     rt_shade_out *out;
     rt_acc *acc;
     rt_hit *h0;
-    rt_path **lvl;
-    uint32_t *lvlen;
-    int nlvl;
     /* statistics */
-    uint64_t enq, events, ev_max, visits, stack_w, stack_r, spills, refills, nsec, self_hits, batches, susp, qreads;
+    uint64_t enq, events, ev_max, visits, stack_w, stack_r, spills, refills, nsec, self_hits, susp, qreads;
     uint32_t max_sp;
     uint8_t *mark;
     rt_image *img;
@@ -574,52 +569,19 @@ typedef struct tl_run {
 
 /* ---- queues ------------------------------------------------------------------- */
 
-static inline void bk_unlink(tl_run *T, uint32_t q)
-{
-    uint32_t c = T->qcount[q];
-    if (T->bk_prev[q] >= 0) T->bk_next[T->bk_prev[q]] = T->bk_next[q];
-    else T->bk_head[c] = T->bk_next[q];
-    if (T->bk_next[q] >= 0) T->bk_prev[T->bk_next[q]] = T->bk_prev[q];
-}
-
-static inline void bk_link(tl_run *T, uint32_t q)
-{
-    uint32_t c = T->qcount[q];
-    T->bk_prev[q] = -1;
-    T->bk_next[q] = T->bk_head[c];
-    if (T->bk_head[c] >= 0) T->bk_prev[T->bk_head[c]] = (int32_t)q;
-    T->bk_head[c] = (int32_t)q;
-    if (c > T->bk_max) T->bk_max = c;
-}
-
-static int fullest(const tl_run *T) { return T->qfull; }
-
 static void enqueue(tl_run *T, uint32_t q, uint32_t slot)
 {
-    int32_t tb = T->qtail[q];
-    const uint32_t pos = T->qcount[q] % QBLK;
-    if (tb < 0 || pos == 0) {
-        const int32_t nb = T->freelist;
-        if (nb < 0) {
-            if (!T->err) rt_errf(T->e, "treelet: queue pool exhausted (internal error)");
-            T->err = 1;
-            return;
-        }
-        T->freelist = T->bnext[nb];
-        T->bnext[nb] = -1;
-        if (tb < 0) T->qhead[q] = nb;
-        else T->bnext[tb] = nb;
-        T->qtail[q] = tb = nb;
+    uint64_t at;
+    uint32_t *x = rt_rq_push(&T->rq, q, &at);
+    if (!x) {
+        if (!T->err) rt_errf(T->e, "treelet: queue pool exhausted (internal error)");
+        T->err = 1;
+        return;
     }
-    T->blk[(size_t)tb * QBLK + pos] = slot;
-    RT_REC(T->rec, rt_mm_addr(T->L, T->reg_q, (uint64_t)tb * QBLK + pos), 4, T->qwrite, RT_CLS_QUEUE);
+    *x = slot;
+    RT_REC(T->rec, rt_mm_addr(T->L, T->reg_q, at), 4, T->qwrite, RT_CLS_QUEUE);
     RT_REC(T->rec, rt_mm_addr(T->L, T->reg_qt, q), 8, 1, RT_CLS_QTABLE);
-    if (fullest(T)) bk_unlink(T, q);
-    T->qcount[q]++;
-    if (fullest(T)) bk_link(T, q);
-    T->queued++;
     T->enq++;
-    if (T->queued > T->peak_queued) T->peak_queued = T->queued;
 }
 
 /* ---- one ray in one treelet ---------------------------------------------------- */
@@ -657,6 +619,7 @@ static inline void push(tl_run *T, tray *R, const rt_bvh_ref *x, uint32_t tl)
     if (R->sp == R->cap && grow(T, R) < 0) return;
     if (R->mem > R->sp) R->mem = R->sp; /* that position's memory copy is stale */
     R->stk[R->sp++] = (sent){x->a, x->n, x->t, tl};
+    RT_ASSERT(R->sp <= T->stack_bound); /* T4: the modeled stack area holds it */
     if (R->sp > T->max_sp) T->max_sp = R->sp;
 }
 
@@ -687,7 +650,9 @@ static RT_ALWAYS_INLINE int leaf(const tl_run *T, const rt_ray *r, int any, thit
         if (!rt_isect_core(r, &b->tri[k], &t, &u, &v)) continue;
         if (any) {
             if (t > r->tmin && t < r->tmax) return 1;
-        } else if (t > r->tmin && (t < H->best || (t == H->best && o < H->btri))) {
+        } else if (t > r->tmin && rt_hit_better(&(const rt_hit){H->best, H->btri, H->bu, H->bv}, t, o)) {
+            /* the hit rule of accel/hit.h (btri is 0 while none is held:
+             * best is then tmax, which no hit in (tmin, tmax) ties) */
             H->found = 1;
             H->best = t;
             H->btri = o;
@@ -905,79 +870,34 @@ static void finish(tl_run *T, uint32_t s)
     }
 }
 
-/* ---- invariants (T2-T5) --------------------------------------------------------- */
+/* ---- invariants (T2-T4) --------------------------------------------------------- */
 
 static int check_state(const tl_run *T, rt_err *e)
 {
     const tplan *P = T->P;
-    uint32_t n = T->nblk > T->slots ? T->nblk : T->slots;
-    if (P->nt > n) n = P->nt;
-    uint8_t *seen = rt_calloc(n ? n : 1, 1, e);
+    if (rt_rq_check(&T->rq, e) < 0) return -1;
     uint8_t *inq = rt_calloc(T->slots ? T->slots : 1, 1, e);
     int rc = -1;
-    if (!seen || !inq) goto done;
-    uint64_t total = 0;
-    for (uint32_t q = 0; q < P->nt; q++) {
-        if (T->qhead[q] < 0) {
-            if (T->qtail[q] >= 0 || T->qcount[q]) {
-                rt_errf(e, "treelet T2: queue %u has no head but tail %d, %u rays", q, T->qtail[q], T->qcount[q]);
+    if (!inq) goto done;
+    for (uint32_t q = 0; q < P->nt; q++)
+        for (rt_rq_cur c = rt_rq_peek(&T->rq, q); c.left; rt_rq_skip(&T->rq, &c)) {
+            const uint32_t s = *(const uint32_t *)rt_rq_at(&T->rq, &c);
+            const tray *R = s < T->slots ? &T->ray[s] : NULL;
+            if (!R || !T->want[s] || T->done[s] || inq[s]) {
+                rt_errf(e, "treelet T3: queue %u holds ray %u (wanted %d, finished %d, queued before %d)", q, s,
+                        R ? T->want[s] : -1, R ? T->done[s] : -1, R ? inq[s] : -1);
                 goto done;
             }
-            continue;
-        }
-        uint32_t want = (T->qcount[q] + QBLK - 1) / QBLK, nb = 0, k = 0;
-        int32_t b = T->qhead[q], last = -1;
-        while (b >= 0 && nb <= want) {
-            if ((uint32_t)b >= T->nblk || seen[b]) {
-                rt_errf(e, "treelet T2: block %d reached twice (queue %u)", b, q);
+            inq[s] = 1;
+            if (!R->sp || R->stk[R->sp - 1].tl != q) {
+                rt_errf(e, "treelet T3: ray %u queued at treelet %u, the top of its stack is in %d", s, q,
+                        R->sp ? (int)R->stk[R->sp - 1].tl : -1);
                 goto done;
             }
-            seen[b] = 1;
-            for (uint32_t p = 0; p < QBLK && k < T->qcount[q]; p++, k++) {
-                const uint32_t s = T->blk[(size_t)b * QBLK + p];
-                const tray *R = s < T->slots ? &T->ray[s] : NULL;
-                if (!R || !T->want[s] || T->done[s] || inq[s]) {
-                    rt_errf(e, "treelet T3: queue %u holds ray %u (wanted %d, finished %d, queued before %d)", q, s,
-                            R ? T->want[s] : -1, R ? T->done[s] : -1, R ? inq[s] : -1);
-                    goto done;
-                }
-                inq[s] = 1;
-                if (!R->sp || R->stk[R->sp - 1].tl != q) {
-                    rt_errf(e, "treelet T3: ray %u queued at treelet %u, the top of its stack is in %d", s, q,
-                            R->sp ? (int)R->stk[R->sp - 1].tl : -1);
-                    goto done;
-                }
-            }
-            nb++;
-            last = b;
-            b = T->bnext[b];
         }
-        if (nb != want || last != T->qtail[q]) {
-            rt_errf(e, "treelet T2: queue %u holds %u rays in %u blocks ending at %d, expected %u ending at %d", q,
-                    T->qcount[q], nb, last, want, T->qtail[q]);
-            goto done;
-        }
-        total += T->qcount[q];
-    }
-    if (total != T->queued) {
-        rt_errf(e, "treelet T2: queues hold %" PRIu64 " rays, %" PRIu64 " counted", total, T->queued);
-        goto done;
-    }
-    for (int32_t b = T->freelist; b >= 0; b = T->bnext[b]) {
-        if ((uint32_t)b >= T->nblk || seen[b]) {
-            rt_errf(e, "treelet T2: free block %d also in use or listed twice", b);
-            goto done;
-        }
-        seen[b] = 1;
-    }
-    for (uint32_t b = 0; b < T->nblk; b++)
-        if (!seen[b]) {
-            rt_errf(e, "treelet T2: block %u is in no queue and not free", b);
-            goto done;
-        }
-    if (T->started != T->finished + T->queued) {
+    if (T->started != T->finished + T->rq.queued) {
         rt_errf(e, "treelet T3: %" PRIu64 " rays started, %" PRIu64 " finished, %" PRIu64 " queued", T->started,
-                T->finished, T->queued);
+                T->finished, T->rq.queued);
         goto done;
     }
     for (uint32_t s = 0; s < T->slots; s++) {
@@ -1002,34 +922,13 @@ static int check_state(const tl_run *T, rt_err *e)
             }
         }
     }
-    if (fullest(T)) {
-        memset(seen, 0, n);
-        uint32_t listed = 0;
-        for (size_t c = 0; c <= T->bk_max && c <= T->bk_cap; c++) {
-            int32_t prev = -1;
-            for (int32_t q = T->bk_head[c]; q >= 0; q = T->bk_next[q]) {
-                if ((uint32_t)q >= P->nt || seen[q] || T->qcount[q] != c || T->bk_prev[q] != prev) {
-                    rt_errf(e, "treelet T5: queue %d misplaced in bucket %zu", q, c);
-                    goto done;
-                }
-                seen[q] = 1;
-                listed++;
-                prev = q;
-            }
-        }
-        if (listed != P->nt) {
-            rt_errf(e, "treelet T5: %u of %u queues in buckets", listed, P->nt);
-            goto done;
-        }
-    }
     rc = 0;
 done:
-    free(seen);
     free(inq);
     return rc;
 }
 
-/* Test mode: T2-T5 between steps. */
+/* Test mode: T2-T4 between steps. */
 static void step_check(tl_run *T)
 {
     if (!T->ctx->check || T->err) return;
@@ -1075,14 +974,9 @@ static inline void prefetch_top(const tl_run *T, const tray *R)
 /* Takes queue q whole and walks its rays in treelet q. */
 static void process(tl_run *T, uint32_t q)
 {
-    const uint32_t n = T->qcount[q];
-    int32_t b = T->qhead[q];
     RT_REC(T->rec, rt_mm_addr(T->L, T->reg_qt, q), 8, 1, RT_CLS_QTABLE); /* taken: read and reset */
-    if (fullest(T)) bk_unlink(T, q);
-    T->qhead[q] = T->qtail[q] = -1;
-    T->qcount[q] = 0;
-    if (fullest(T)) bk_link(T, q);
-    T->queued -= n;
+    rt_rq_cur cur;
+    const uint32_t n = rt_rq_take(&T->rq, q, &cur);
     T->events++;
     if (n > T->ev_max) T->ev_max = n;
     /* host prefetches (no modeled traffic): the record of the ray PF_REC
@@ -1090,66 +984,54 @@ static void process(tl_run *T, uint32_t q)
      * entries on, through the block chain (cursors ra/pa and rn/pn run
      * ahead of k and read a block's link before that block is freed); the
      * first PF_REC records at once, so a short queue's misses overlap */
-    int32_t ba = b, bn = b;
-    uint32_t pa = 0, pn = 0;
+    rt_rq_cur ca = cur, cn = cur;
     for (uint32_t j = 0; j < n && j < PF_REC; j++) {
-        prefetch_rec(T, T->blk[(size_t)ba * QBLK + pa]);
-        if (++pa == QBLK) pa = 0, ba = T->bnext[ba];
+        prefetch_rec(T, *(const uint32_t *)rt_rq_at(&T->rq, &ca));
+        rt_rq_skip(&T->rq, &ca);
     }
-    for (uint32_t j = 0; j < n && j < PF_NODE; j++)
-        if (++pn == QBLK) pn = 0, bn = T->bnext[bn];
+    for (uint32_t j = 0; j < n && j < PF_NODE; j++) rt_rq_skip(&T->rq, &cn);
     for (uint32_t k = 0; k < n && !T->err; k++) {
-        const uint32_t pos = k % QBLK;
-        const uint32_t s = T->blk[(size_t)b * QBLK + pos];
         if (k + PF_REC < n) {
-            prefetch_rec(T, T->blk[(size_t)ba * QBLK + pa]);
-            if (++pa == QBLK) pa = 0, ba = T->bnext[ba];
+            prefetch_rec(T, *(const uint32_t *)rt_rq_at(&T->rq, &ca));
+            rt_rq_skip(&T->rq, &ca);
         }
         if (k + PF_NODE < n) {
-            prefetch_top(T, &T->ray[T->blk[(size_t)bn * QBLK + pn]]);
-            if (++pn == QBLK) pn = 0, bn = T->bnext[bn];
+            prefetch_top(T, &T->ray[*(const uint32_t *)rt_rq_at(&T->rq, &cn)]);
+            rt_rq_skip(&T->rq, &cn);
         }
-        if (pos == 0) { /* a block's entries are read together */
+        if (cur.pos == 0) { /* a block's entries are read together */
             const uint32_t m = n - k < QBLK ? n - k : QBLK;
-            RT_REC(T->rec, rt_mm_addr(T->L, T->reg_q, (uint64_t)b * QBLK), 4 * m, 0, RT_CLS_QUEUE);
+            RT_REC(T->rec, rt_mm_addr(T->L, T->reg_q, (uint64_t)cur.b * QBLK), 4 * m, 0, RT_CLS_QUEUE);
             T->qreads++;
         }
-        if (pos == QBLK - 1 || k == n - 1) { /* block read: back to the pool */
-            int32_t nx = T->bnext[b];
-            T->bnext[b] = T->freelist;
-            T->freelist = b;
-            b = nx;
-        }
+        uint32_t s;
+        rt_rq_pop(&T->rq, &cur, &s); /* a block read to its end goes back to the pool */
         RT_REC(T->rec, rt_mm_addr(T->L, T->reg_rays, s), RAY_REC, 0, RT_CLS_RAY);
         T->visits++;
         if (walk(T, s, q)) finish(T, s);
     }
 }
 
+/* The ray-queue core's step: processes queue q, then (test mode) checks. */
+static int process_step(void *u, uint32_t q)
+{
+    tl_run *T = u;
+    process(T, q);
+    step_check(T);
+    return T->err;
+}
+
 /* Processes queues until all are empty. */
 static void run_queues(tl_run *T)
 {
-    const tplan *P = T->P;
-    while (T->queued && !T->err) {
-        if (fullest(T)) {
-            while (T->bk_max > 0 && T->bk_head[T->bk_max] < 0) T->bk_max--;
-            process(T, (uint32_t)T->bk_head[T->bk_max]);
-            step_check(T);
-            continue;
-        }
-        for (uint32_t q = 0; q < P->nt && !T->err; q++)
-            if (T->qcount[q]) {
-                process(T, q);
-                step_check(T);
-            }
-    }
+    if (!T->err) rt_rq_run(&T->rq, process_step, T);
 }
 
 /* End of a generation: queues empty, each wanted ray finished once. */
 static int end_generation(tl_run *T, uint32_t n, rt_err *e)
 {
     if (T->err) return -1;
-    if (T->queued) return rt_errf(e, "treelet: %" PRIu64 " rays still queued after a generation", T->queued);
+    if (T->rq.queued) return rt_errf(e, "treelet: %" PRIu64 " rays still queued after a generation", T->rq.queued);
     for (uint32_t s = 0; s < n; s++)
         if (T->want[s] != T->done[s])
             return rt_errf(e, "treelet T3: ray %u wanted %u times, finished %u times", s, T->want[s], T->done[s]);
@@ -1272,14 +1154,12 @@ static int window_primary(tl_run *T, const uint32_t *pix, uint32_t n, rt_err *e)
 
 /* ---- secondary modes: batches of one generation (dynamic.c's scheme) ------------- */
 
-static int batch_run(tl_run *T, int *height, rt_err *e)
+/* The ray-queue core's batch trace: the batch at level lv (its closest
+ * hits, shading, shadow rays); the core then pushes the children in out. */
+static int batch_trace(void *u, int lv, const rt_path *rays, uint32_t n, const rt_shade_out **out, rt_err *e)
 {
+    tl_run *T = u;
     const rt_render_opts *o = T->ctx->opt;
-    const int lv = --*height;
-    const uint32_t n = T->lvlen[lv];
-    const rt_path *rays = T->lvl[lv];
-    T->batches++;
-    rt_rec_set_gen(T->rec, rays[0].depth);
     T->tv.mark_bit = rays[0].depth ? 4 : 1;
     for (uint32_t s = 0; s < n; s++) {
         rt_shade_path_ray(&rays[s], &T->bray[s]);
@@ -1322,23 +1202,7 @@ static int batch_run(tl_run *T, int *height, rt_err *e)
                 RT_REC(T->rec, rt_mm_addr(T->L, T->reg_fb, px), 12, 1, RT_CLS_FB);
             }
     }
-    /* children: refracted rays into this level, the others above it */
-    for (int kind = RT_PATH_REFRACT; kind >= 0; kind--) {
-        const int dst = *height;
-        uint32_t m = 0;
-        if (dst >= T->nlvl) return rt_errf(e, "treelet: batch stack overflow (internal error)");
-        if (!T->lvl[dst] && !(T->lvl[dst] = rt_calloc(T->slots, sizeof *T->lvl[dst], e))) return -1;
-        rt_path *d = T->lvl[dst];
-        for (uint32_t s = 0; s < n; s++)
-            for (int c = 0; c < T->out[s].nchild; c++) {
-                if (T->out[s].child[c].kind != kind) continue;
-                d[m] = T->out[s].child[c];
-                RT_REC(T->rec, rt_mm_addr(T->L, T->reg_spawn, (uint64_t)dst * T->slots + m), RT_SREC_SIZE, 1,
-                       RT_CLS_RAY);
-                m++;
-            }
-        if (m) T->lvlen[(*height)++] = m;
-    }
+    *out = T->out;
     return 0;
 }
 
@@ -1348,17 +1212,15 @@ static int window_secondary(tl_run *T, const uint32_t *pix, uint32_t n, rt_err *
     const int spp = o->mode == RT_MODE_PATH ? o->spp : 1;
     rt_cam_frame cam;
     rt_cam_setup(&cam, T->sc, o->W, o->H);
-    if (!T->lvl[0] && !(T->lvl[0] = rt_calloc(T->slots, sizeof *T->lvl[0], e))) return -1;
+    rt_path *base = rt_rq_base(&T->rq, e);
+    if (!base) return -1;
     for (int s = 0; s < spp; s++) {
         for (uint32_t k = 0; k < n; k++) {
             rt_ray eye;
             rt_cam_ray(&cam, (int)(pix[k] % (uint32_t)o->W), (int)(pix[k] / (uint32_t)o->W), &eye);
-            rt_shade_path_start(&T->lvl[0][k], &eye, pix[k], (uint32_t)s);
+            rt_shade_path_start(&base[k], &eye, pix[k], (uint32_t)s);
         }
-        T->lvlen[0] = n;
-        int height = 1;
-        while (height)
-            if (batch_run(T, &height, e) < 0) return -1;
+        if (rt_rq_batches(&T->rq, n, batch_trace, T, T->rec, T->L, T->reg_spawn, e) < 0) return -1;
     }
     rt_rec_set_gen(T->rec, 0);
     for (uint32_t k = 0; k < n; k++) {
@@ -1417,14 +1279,7 @@ static void tl_free(tl_run *T)
         T->slab = n;
     }
     free(T->ray_mem);
-    free(T->blk);
-    free(T->bnext);
-    free(T->qhead);
-    free(T->qtail);
-    free(T->qcount);
-    free(T->bk_head);
-    free(T->bk_next);
-    free(T->bk_prev);
+    rt_rq_free(&T->rq);
     free(T->want);
     free(T->done);
     free(T->hit);
@@ -1436,9 +1291,6 @@ static void tl_free(tl_run *T)
     free(T->out);
     free(T->acc);
     free(T->h0);
-    for (int l = 0; T->lvl && l < T->nlvl; l++) free(T->lvl[l]);
-    free(T->lvl);
-    free(T->lvlen);
     free(T->mark);
 }
 
@@ -1479,15 +1331,17 @@ static int tl_init(tl_run *T, const rt_tracer_ctx *ctx, rt_image *img, rt_run_st
     T->reg_spawn = rt_mm_find(T->L, "tl.spawn");
     T->reg_shade = rt_mm_find(T->L, "tri.shade");
     const uint32_t nt = P->nt, ns = T->slots;
-    T->nblk = nblk_of(ns, nt);
     T->secondary = rt_render_secondary(o);
-    T->qfull = o->qorder == RT_QORDER_FULLEST;
     T->qwrite = o->qstores == RT_QSTORES_STREAM ? RT_WRITE_STREAM : 1;
-    if (!(T->ray_mem = rt_calloc((size_t)ns + 1, TRAY_SIZE, e)) || !(T->blk = uninit(T->nblk * (size_t)QBLK, sizeof *T->blk, e)) ||
-        !(T->bnext = rt_calloc(T->nblk, sizeof *T->bnext, e)) || !(T->qhead = rt_calloc(nt, sizeof *T->qhead, e)) ||
-        !(T->qtail = rt_calloc(nt, sizeof *T->qtail, e)) || !(T->qcount = rt_calloc(nt, sizeof *T->qcount, e)) ||
-        !(T->bk_head = rt_calloc((size_t)ns + 2, sizeof *T->bk_head, e)) ||
-        !(T->bk_next = rt_calloc(nt, sizeof *T->bk_next, e)) || !(T->bk_prev = rt_calloc(nt, sizeof *T->bk_prev, e)) ||
+    const rt_rq_config qc = {.name = "treelet",
+                             .nq = nt,
+                             .nblk = nblk_of(ns, nt),
+                             .esize = sizeof(uint32_t),
+                             .maxcount = ns + 1,
+                             .order = o->qorder == RT_QORDER_FULLEST ? RT_RQ_FULLEST : RT_RQ_TREE,
+                             .levels = T->secondary ? levels_of(o) : 0,
+                             .level_cap = ns};
+    if (rt_rq_init(&T->rq, &qc, e) < 0 || !(T->ray_mem = rt_calloc((size_t)ns + 1, TRAY_SIZE, e)) ||
         !(T->want = rt_calloc(2 * (size_t)ns, 1, e)) || !(T->done = rt_calloc(ns, 1, e)) ||
         !(T->hit = uninit(ns, sizeof *T->hit, e)) || !(T->bsray = uninit(ns, sizeof *T->bsray, e)) || !(T->mark = rt_calloc(T->sc->ntri ? T->sc->ntri : 1, 1, e)))
         return -1;
@@ -1497,19 +1351,10 @@ static int tl_init(tl_run *T, const rt_tracer_ctx *ctx, rt_image *img, rt_run_st
         T->ray[s].stk = T->ray[s].inl;
         T->ray[s].cap = INL;
     }
-    for (uint32_t i = 0; i < T->nblk; i++) T->bnext[i] = i + 1 < T->nblk ? (int32_t)(i + 1) : -1;
-    T->freelist = 0;
-    for (uint32_t q = 0; q < nt; q++) T->qhead[q] = T->qtail[q] = -1;
-    for (size_t c = 0; c < (size_t)ns + 2; c++) T->bk_head[c] = -1;
-    T->bk_cap = ns + 1;
-    for (uint32_t q = 0; q < nt; q++) bk_link(T, q);
     T->tv.mark = T->mark;
     if (T->secondary) {
-        T->nlvl = levels_of(o);
         if (!(T->out = uninit(ns, sizeof *T->out, e)) || !(T->bray = uninit(ns, sizeof *T->bray, e)) ||
-            !(T->acc = rt_calloc(T->npix, sizeof *T->acc, e)) || !(T->h0 = rt_calloc(T->npix, sizeof *T->h0, e)) ||
-            !(T->lvl = rt_calloc((size_t)T->nlvl, sizeof *T->lvl, e)) ||
-            !(T->lvlen = rt_calloc((size_t)T->nlvl, sizeof *T->lvlen, e)))
+            !(T->acc = rt_calloc(T->npix, sizeof *T->acc, e)) || !(T->h0 = rt_calloc(T->npix, sizeof *T->h0, e)))
             return -1;
         for (size_t p = 0; p < T->npix; p++) T->h0[p].tri = RT_NO_HIT;
     } else if (!(T->vis = rt_calloc(T->npix, 1, e))) {
@@ -1534,12 +1379,12 @@ static void report(const tl_run *T, rt_run_stats *st)
              " rays_per_event_mean=%.1f rays_per_event_max=%" PRIu64 " peak_queued=%" PRIu64 " suspends=%" PRIu64
              " stack_writes=%" PRIu64 " stack_reads=%" PRIu64 " stack_spills=%" PRIu64 " stack_refills=%" PRIu64 " stack_max=%u queue_block_reads=%" PRIu64,
              P->budget, P->nt, P->nt ? (double)sum / P->nt : 0.0, P->bytes_max, P->maxdepth, T->slots, T->enq,
-             T->visits, T->events, T->events ? (double)T->visits / (double)T->events : 0.0, T->ev_max, T->peak_queued,
+             T->visits, T->events, T->events ? (double)T->visits / (double)T->events : 0.0, T->ev_max, T->rq.peak,
              T->susp, T->stack_w, T->stack_r, T->spills, T->refills, T->max_sp, T->qreads);
     if (T->secondary) {
         size_t l = strlen(st->extra);
         snprintf(st->extra + l, sizeof st->extra - l, " batches=%" PRIu64 " rays_secondary=%" PRIu64 " self_hits=%" PRIu64,
-                 T->batches, T->nsec, T->self_hits);
+                 T->rq.batches, T->nsec, T->self_hits);
     }
 }
 
@@ -1570,7 +1415,7 @@ static int tl_check_opts(const rt_render_opts *o, rt_err *e)
     const char *opt;
     const uint64_t budget = tl_budget(o, &opt);
     const int k = rt_tracer_accel(&rt_tracer_treelet, o);
-    const int width = k == RT_ACCEL_BVH2 ? 2 : k == RT_ACCEL_BVH8 ? 8 : 4;
+    const int width = rt_accel_bvh_width(k) ? rt_accel_bvh_width(k) : 4; /* the default, bvh4, before the check */
     const uint32_t ns = rt_bvh_node_size(width);
     if (budget < ns)
         return rt_errf_usage(e, "%s: a treelet budget of %" PRIu64 " bytes%s is smaller than one %u-byte bvh%d node", opt,

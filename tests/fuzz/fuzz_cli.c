@@ -1,6 +1,6 @@
 /*
  * fuzz_cli.c -- fuzz target for the command line's shared option parsers
- * (cli/cmd_common.c): rt_cmd_merge_opts, rt_cmd_render_opt,
+ * (cli/cmd_common.c): rt_cmd_longopts, rt_cmd_render_opt,
  * rt_cmd_parse_long, rt_cmd_parse_rate, rt_cmd_parse_line,
  * rt_cmd_json_str, and the library parsers under them (rt_parse_size,
  * rt_parse_lights, rt_tracer_find).
@@ -146,13 +146,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0},
     };
-    struct option *lo = rt_cmd_merge_opts(own);
-    if (!lo) rt_fuzz_fail("merge_opts failed");
+    struct option *lo = rt_cmd_longopts(RT_OC_RENDER, own);
+    if (!lo) rt_fuzz_fail("rt_cmd_longopts failed");
     size_t nlo = 0, nshared = 0;
+    char so[32];
     while (lo[nlo].name) nlo++;
-    while (rt_render_longopts[nshared].name) nshared++;
-    if (nlo != 3 + nshared || strcmp(lo[0].name, "line") ||
-        strcmp(lo[3].name, rt_render_longopts[0].name))
+    for (int i = 0; i < rt_render_noptdefs; i++) nshared += (rt_render_optdefs[i].cmds & RT_OC_RENDER) != 0;
+    if (nlo != 3 + nshared || strcmp(lo[0].name, "line") || strcmp(lo[3].name, rt_render_optdefs[0].name + 2))
         rt_fuzz_fail("merged table has %zu entries", nlo);
     rt_render_opts o;
     rt_render_default_opts(&o);
@@ -160,7 +160,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     int c;
     optind = 0; /* glibc: full re-initialisation for each input */
     opterr = 0;
-    while ((c = getopt_long(argc, argv, "l:r:h" RT_RENDER_SHORTOPTS, lo, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, rt_cmd_shortopts(RT_OC_RENDER, "l:r:h", so, sizeof so), lo, NULL)) != -1) {
         if (c == 'l') {
             uint32_t line = 0;
             int before = nerrors;

@@ -15,7 +15,7 @@ c=$here/corpus
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 rm -rf "$c"
-mkdir -p "$c/trace" "$c/din" "$c/obj" "$c/ply" "$c/cli" "$c/pbrt"
+mkdir -p "$c/trace" "$c/din" "$c/obj" "$c/ply" "$c/cli" "$c/pbrt" "$c/gz"
 
 # Traces at 4x4: each tracer, with and without writes from shadow rays
 # (version 1), and version 3 with its sample index (a chunk and its side
@@ -141,4 +141,18 @@ printf -- '-W\n0' > "$c/cli/bad-width"
 printf -- '--subsample\n0:99999\n--cache-size\n63' > "$c/cli/bad-subsample"
 printf -- '--line\n2M\n--rate\n2\n--lights\n3' > "$c/cli/bad-line"
 printf -- '--cache-size\n18446744073709551615K\n-t\nwhitted' > "$c/cli/bad-overflow"
+# gzip input (fuzz_gz.c): the tetrahedron gzipped, in two members, plain;
+# cut, with a bad method byte, with bytes after the stream, the magic alone
+python3 - "$c" "$here/../../data/meshes/tetra_ascii.ply" <<'EOF'
+import gzip, sys
+c, ply = sys.argv[1], open(sys.argv[2], 'rb').read()
+g = gzip.compress(ply, 9, mtime=0)
+open(f'{c}/gz/ok-tetra', 'wb').write(g)
+open(f'{c}/gz/ok-members', 'wb').write(gzip.compress(ply[:40], 9, mtime=0) + gzip.compress(ply[40:], 9, mtime=0))
+open(f'{c}/gz/ok-plain', 'wb').write(ply)
+open(f'{c}/gz/bad-cut', 'wb').write(g[:len(g) // 2])
+open(f'{c}/gz/bad-method', 'wb').write(g[:2] + b'\x07' + g[3:])
+open(f'{c}/gz/bad-trailing', 'wb').write(g + b'garbage')
+open(f'{c}/gz/bad-magic-only', 'wb').write(b'\x1f\x8b')
+EOF
 du -sh "$c"

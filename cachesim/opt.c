@@ -1,0 +1,635 @@
+/*
+ * opt.c -- Belady's MIN (OPT), the offline optimal replacement, as an
+ * entry of the engine table (engine.h, repl "opt").
+ *
+ * WHAT IT IS. On a miss in a full set, MIN evicts the resident line whose
+ * next use lies farthest in the future (never used again counts as
+ * infinitely far; ties go to the lowest slot). It gives the fewest misses
+ * of any replacement policy for each set and size (Belady 1966; Mattson et
+ * al. 1970), so it is the floor every policy and every ray order is
+ * measured against. It minimizes misses, not write-backs: a policy may
+ * write back less by keeping dirty lines.
+ *
+ * HOW. MIN needs each touch's next use, so the engine buffers the stream
+ * and simulates when the run ends (finish):
+ *   1. access() splits every reference into line touches (the accounting of
+ *      docs/cachesim.md) and appends them: a dense id per distinct line (an
+ *      open-addressing table line -> id), the write kind, the (class,
+ *      generation) index and the bytes inside the line: 12 bytes a touch,
+ *      plus 12 per distinct line.
+ *   2. finish() makes one backward pass over the touches, giving each the
+ *      index of the next touch of its line (one array of the last index
+ *      seen per line id): O(touches) time, 4 bytes a touch.
+ *   3. then, per size, one forward pass: per set an indexed binary max-heap
+ *      of the resident slots keyed by next use, a slot per line id (no
+ *      hash), so a touch costs O(log ways).
+ * Counters are read after finish (before it they are zero); a later finish
+ * simulates everything buffered from cold again (with cfg.flush the dirty
+ * lines are written back at the end of each such simulation).
+ * Memory: 12 bytes a touch (a trace of 10^8 line touches needs 1.2 GB,
+ * checked against the memory limit as the buffer grows) and about 28 bytes
+ * per distinct line, plus 22 bytes per line of the size being simulated.
+ * Lines up to 65535 bytes (the bytes of a touch are 16 bits).
+ *
+ * INVARIANTS (rt_sim_check -> opt_check):
+ *   O1 every touch's line id is below the number of ids, and ids[] maps
+ *      each id back to a line whose table entry names it;
+ *   O2 after finish, next[i] is NONE or > i, and touch next[i] has the same
+ *      line id as touch i, with no touch of that id in between;
+ *   O3 per size and (class, generation): misses <= accesses, write-backs
+ *      <= write touches, no-fetch misses <= write misses.
+ */
+#include "engine.h"
+#include "sim_int.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#define NONE UINT32_MAX
+
+typedef struct otouch {
+    uint32_t id;    /* dense line id */
+    uint8_t w;      /* 0 read, 1 write, RT_WRITE_STREAM */
+    uint8_t cg;     /* (class, generation) index */
+    uint16_t bytes; /* bytes of the reference inside the line (<= 65535: lines up to 64 KB) */
+    uint32_t next;  /* next touch of the same line (after finish), NONE = never */
+} otouch;
+
+typedef struct ocount {
+    uint64_t acc[RT_SIM_NCG], rm[RT_SIM_NCG], wm[RT_SIM_NCG], wb[RT_SIM_NCG], wtb[RT_SIM_NCG], nf[RT_SIM_NCG];
+    uint64_t wr[RT_SIM_NCG];
+} ocount;
+
+typedef struct opt {
+    rt_sim_config cfg;
+    otouch *t;          /* touches */
+    uint64_t nt, capt;  /* used, allocated */
+    uint64_t *ids;      /* id -> line */
+    uint32_t nid, capid;
+    uint64_t *hkey;     /* table line -> id */
+    uint32_t *hval;     /* NONE = empty */
+    uint64_t hcap;      /* power of two, >= 2 * capid */
+    int done;           /* finish ran on the current touches */
+    int oom;            /* growth failed: later batches are refused */
+    ocount *cnt;        /* per size */
+    uint64_t rep[RT_SIM_NCG]; /* reads counted by the repeat filter: hits in every size */
+} opt;
+
+static inline uint64_t hsl(uint64_t line, uint64_t cap) { return (line * 0x9E3779B97F4A7C15ULL) & (cap - 1); }
+
+static int grow_table(opt *o, rt_err *e)
+{
+    uint64_t cap = o->hcap ? o->hcap * 2 : 1024;
+    uint64_t *k = rt_calloc(cap, sizeof *k, e);
+    uint32_t *v = rt_calloc(cap, sizeof *v, e);
+    if (!k || !v) return free(k), free(v), -1;
+    for (uint64_t i = 0; i < cap; i++) v[i] = NONE;
+    for (uint32_t id = 0; id < o->nid; id++) {
+        uint64_t h = hsl(o->ids[id], cap);
+        while (v[h] != NONE) h = (h + 1) & (cap - 1);
+        k[h] = o->ids[id];
+        v[h] = id;
+    }
+    free(o->hkey);
+    free(o->hval);
+    o->hkey = k;
+    o->hval = v;
+    o->hcap = cap;
+    return 0;
+}
+
+static uint32_t line_id(opt *o, uint64_t line, rt_err *e)
+{
+    uint64_t h = hsl(line, o->hcap);
+    for (; o->hval[h] != NONE; h = (h + 1) & (o->hcap - 1))
+        if (o->hkey[h] == line) return o->hval[h];
+    if (o->nid == o->capid) {
+        if (o->capid >= (1u << 31)) return rt_errf(e, "opt: more than 2^31 distinct lines"), NONE;
+        uint32_t nc = o->capid ? o->capid * 2 : 1024;
+        uint64_t *ni = rt_reallocarray(o->ids, nc, sizeof *ni, e);
+        if (!ni) return NONE;
+        o->ids = ni;
+        o->capid = nc;
+    }
+    if (2 * (uint64_t)(o->nid + 1) > o->hcap) {
+        if (grow_table(o, e)) return NONE;
+        h = hsl(line, o->hcap);
+        while (o->hval[h] != NONE) h = (h + 1) & (o->hcap - 1);
+    }
+    o->hkey[h] = line;
+    o->hval[h] = o->nid;
+    o->ids[o->nid] = line;
+    return o->nid++;
+}
+
+/* Whether every size runs in one pass (run_onepass): fully associative,
+ * write-back, write-allocate, at most 255 sizes of group index. */
+static int opt_onepass(const rt_sim_config *c) { return c->assoc == 0 && !c->write_through && !c->no_write_allocate; }
+
+static uint64_t opt_state_bytes(const rt_sim_config *c)
+{
+    (void)c;
+    return 0; /* grows with the touches */
+}
+
+static void opt_destroy(void *st)
+{
+    opt *o = st;
+    if (!o) return;
+    free(o->t);
+    free(o->ids);
+    free(o->hkey);
+    free(o->hval);
+    free(o->cnt);
+    free(o);
+}
+
+static void *opt_create(const rt_sim_config *c, rt_err *e)
+{
+    if (c->line > 65535) return rt_errf(e, "opt: lines of %u bytes (at most 65535)", c->line), NULL;
+    opt *o = rt_calloc(1, sizeof *o, e);
+    if (!o) return NULL;
+    o->cfg = *c;
+    o->cnt = rt_calloc((size_t)c->nsizes, sizeof *o->cnt, e);
+    if (!o->cnt || grow_table(o, e)) {
+        opt_destroy(o);
+        return NULL;
+    }
+    return o;
+}
+
+static int push(opt *o, uint64_t line, unsigned w, unsigned cg, uint32_t bytes, rt_err *e)
+{
+    if (o->nt == o->capt) {
+        if (o->capt >= NONE - 1) return rt_errf(e, "opt: more than 2^32 line touches");
+        uint64_t nc = o->capt ? o->capt * 2 : 65536;
+        if (nc >= NONE) nc = NONE - 1;
+        char what[96];
+        snprintf(what, sizeof what, "buffering %llu line touches for OPT", (unsigned long long)nc);
+        if (rt_mem_fits(nc * sizeof(otouch), what, e) < 0) return -1;
+        otouch *nt = rt_reallocarray(o->t, nc, sizeof *nt, e);
+        if (!nt) return -1;
+        o->t = nt;
+        o->capt = nc;
+    }
+    uint32_t id = line_id(o, line, e);
+    if (id == NONE) return -1;
+    otouch *t = &o->t[o->nt++];
+    t->id = id;
+    t->w = (uint8_t)w;
+    t->cg = (uint8_t)cg;
+    t->bytes = (uint16_t)bytes;
+    t->next = NONE;
+    return 0;
+}
+
+static int opt_access(void *st, const rt_access *a, size_t n)
+{
+    opt *o = st;
+    if (o->oom) return -1;
+    const uint64_t ls = o->cfg.line;
+    rt_err e = {0};
+    o->done = 0;
+    for (size_t i = 0; i < n; i++) {
+        uint64_t addr = a[i].addr;
+        uint32_t sz = a[i].size ? a[i].size : 1;
+        unsigned cg = rt_sim_cg(&a[i]);
+        unsigned w = a[i].write == RT_WRITE_STREAM ? RT_WRITE_STREAM : a[i].write != 0;
+        uint64_t end = addr + sz, first = addr / ls, last = (end - 1) / ls;
+        for (uint64_t L = first; L <= last; L++) {
+            uint64_t lo = L == first ? addr : L * ls, hi = L == last ? end : (L + 1) * ls;
+            if (push(o, L, w, cg, (uint32_t)(hi - lo), &e)) {
+                o->oom = 1;
+                return -1;
+            }
+        }
+    }
+    return 0;
+}
+
+/* ---- the forward pass of one size ---- */
+
+typedef struct fwd {
+    uint32_t ways;
+    uint64_t nsets;
+    uint32_t *heap;  /* per set, ways slots: a max-heap by key */
+    uint32_t *used;  /* per set */
+    uint32_t *pos;   /* slot -> heap position within its set */
+    uint32_t *key;   /* slot -> next use (NONE = never: the largest) */
+    uint32_t *line;  /* slot -> line id */
+    uint8_t *dirty, *wcg;
+    uint32_t *slot;  /* line id -> slot, NONE = not resident */
+} fwd;
+
+/* key order; ties (lines never used again) go to the lower line id, the
+ * line seen first: a priority that does not depend on the size, so MIN
+ * stays a stack algorithm and the one-pass run gives the same numbers */
+static inline int above(const fwd *f, uint32_t a, uint32_t b)
+{
+    return f->key[a] > f->key[b] || (f->key[a] == f->key[b] && f->line[a] < f->line[b]);
+}
+
+static void sift_up(fwd *f, uint32_t *h, uint32_t i)
+{
+    uint32_t x = h[i];
+    while (i > 0) {
+        uint32_t p = (i - 1) / 2;
+        if (!above(f, x, h[p])) break;
+        h[i] = h[p];
+        f->pos[h[i]] = i;
+        i = p;
+    }
+    h[i] = x;
+    f->pos[x] = i;
+}
+
+static void sift_down(fwd *f, uint32_t *h, uint32_t n, uint32_t i)
+{
+    uint32_t x = h[i];
+    for (;;) {
+        uint32_t c = 2 * i + 1;
+        if (c >= n) break;
+        if (c + 1 < n && above(f, h[c + 1], h[c])) c++;
+        if (!above(f, h[c], x)) break;
+        h[i] = h[c];
+        f->pos[h[i]] = i;
+        i = c;
+    }
+    h[i] = x;
+    f->pos[x] = i;
+}
+
+static void fwd_free(fwd *f)
+{
+    free(f->heap);
+    free(f->used);
+    free(f->pos);
+    free(f->key);
+    free(f->line);
+    free(f->dirty);
+    free(f->wcg);
+    free(f->slot);
+}
+
+static int run_size(opt *o, int si, rt_err *e)
+{
+    const rt_sim_config *c = &o->cfg;
+    uint64_t nlines = c->sizes[si] / c->line;
+    fwd f = {0};
+    f.ways = c->assoc ? c->assoc : (uint32_t)nlines;
+    f.nsets = nlines / f.ways;
+    f.heap = rt_calloc(nlines, sizeof *f.heap, e);
+    f.used = rt_calloc(f.nsets, sizeof *f.used, e);
+    f.pos = rt_calloc(nlines, sizeof *f.pos, e);
+    f.key = rt_calloc(nlines, sizeof *f.key, e);
+    f.line = rt_calloc(nlines, sizeof *f.line, e);
+    f.dirty = rt_calloc(nlines, 1, e);
+    f.wcg = rt_calloc(nlines, 1, e);
+    f.slot = rt_calloc(o->nid ? o->nid : 1, sizeof *f.slot, e);
+    if (!f.heap || !f.used || !f.pos || !f.key || !f.line || !f.dirty || !f.wcg || !f.slot) {
+        fwd_free(&f);
+        return -1;
+    }
+    for (uint32_t i = 0; i < o->nid; i++) f.slot[i] = NONE;
+    ocount *k = &o->cnt[si];
+    memset(k, 0, sizeof *k);
+    const int wt = c->write_through, nwa = c->no_write_allocate, fl = c->write_miss_fullline;
+    for (uint64_t i = 0; i < o->nt; i++) {
+        const otouch *t = &o->t[i];
+        unsigned cg = t->cg, w = t->w;
+        k->acc[cg]++;
+        k->wr[cg] += w != 0;
+        uint64_t set = o->ids[t->id] % f.nsets;
+        uint32_t *h = f.heap + set * f.ways;
+        uint32_t x = f.slot[t->id];
+        if (x != NONE) {
+            f.key[x] = t->next;
+            sift_up(&f, h, f.pos[x]);
+            sift_down(&f, h, f.used[set], f.pos[x]);
+        } else {
+            if (w) k->wm[cg]++;
+            else k->rm[cg]++;
+            if (w && nwa) {
+                k->wtb[cg] += t->bytes;
+                continue;
+            }
+            if (w == RT_WRITE_STREAM || (w && fl && t->bytes == c->line)) k->nf[cg]++;
+            if (f.used[set] < f.ways) {
+                x = (uint32_t)(set * f.ways + f.used[set]);
+                h[f.used[set]] = x;
+                f.pos[x] = f.used[set]++;
+            } else {
+                x = h[0]; /* farthest next use */
+                if (f.dirty[x]) k->wb[f.wcg[x]]++;
+                f.slot[f.line[x]] = NONE;
+            }
+            f.line[x] = t->id;
+            f.dirty[x] = 0;
+            f.slot[t->id] = x;
+            f.key[x] = t->next;
+            sift_up(&f, h, f.pos[x]);
+            sift_down(&f, h, f.used[set], f.pos[x]);
+        }
+        if (w) {
+            if (wt) k->wtb[cg] += t->bytes;
+            else {
+                f.dirty[x] = 1;
+                f.wcg[x] = (uint8_t)cg;
+            }
+        }
+    }
+    if (c->flush)
+        for (uint64_t x = 0; x < nlines; x++)
+            if (f.slot[f.line[x]] == x && f.dirty[x]) k->wb[f.wcg[x]]++;
+    fwd_free(&f);
+    return 0;
+}
+
+/* ---- every size in one pass (fully associative, write-back, write-allocate) ----
+ *
+ * MIN with a size-independent priority (next use, then line id) is a stack
+ * algorithm (Mattson et al. 1970): the cache of size C_j holds a subset of
+ * the one of size C_{j+1}. So, as msim does for LRU, the lines are kept in
+ * groups G_0 .. G_{k-1} (S_j = G_0 u .. u G_j is cache j's content), each a
+ * max-heap by priority. A touch of a line x in group i (i = k: in no
+ * cache) hits in sizes >= i and misses below; x moves to G_0; S_0's victim
+ * is the top of G_0, and going up, the victim of S_j is the farther of the
+ * victim carried from S_{j-1} and the top of G_j (which then swap: the
+ * top leaves S_j, the carried line stays in it); the last victim lands in
+ * G_i, or leaves every cache when i = k. A level not yet full takes the
+ * carried line and no eviction happens above it. O(i log) a touch.
+ * Dirty bits per line and size (bit j: dirty in cache j), as in msim:
+ * leaving S_j with bit j set is a write-back of size j.
+ */
+typedef struct one {
+    uint32_t *key, *pos, *dirty;
+    uint8_t *grp, *wcg;
+    uint32_t *heap[RT_SIM_MAXSIZES];
+    uint32_t n[RT_SIM_MAXSIZES], cap[RT_SIM_MAXSIZES];
+} one;
+
+static inline int oabove(const one *g, uint32_t a, uint32_t b)
+{
+    return g->key[a] > g->key[b] || (g->key[a] == g->key[b] && a < b);
+}
+
+static void o_up(one *g, int j, uint32_t i)
+{
+    uint32_t *h = g->heap[j], x = h[i];
+    while (i > 0) {
+        uint32_t p = (i - 1) / 2;
+        if (!oabove(g, x, h[p])) break;
+        h[i] = h[p];
+        g->pos[h[i]] = i;
+        i = p;
+    }
+    h[i] = x;
+    g->pos[x] = i;
+}
+
+static void o_down(one *g, int j, uint32_t i)
+{
+    uint32_t *h = g->heap[j], n = g->n[j], x = h[i];
+    for (;;) {
+        uint32_t c = 2 * i + 1;
+        if (c >= n) break;
+        if (c + 1 < n && oabove(g, h[c + 1], h[c])) c++;
+        if (!oabove(g, h[c], x)) break;
+        h[i] = h[c];
+        g->pos[h[i]] = i;
+        i = c;
+    }
+    h[i] = x;
+    g->pos[x] = i;
+}
+
+static void o_push(one *g, int j, uint32_t x)
+{
+    g->heap[j][g->n[j]] = x;
+    g->grp[x] = (uint8_t)j;
+    o_up(g, j, g->n[j]++);
+}
+
+static void o_remove(one *g, int j, uint32_t x)
+{
+    uint32_t i = g->pos[x], last = g->heap[j][--g->n[j]];
+    if (i == g->n[j]) return;
+    g->heap[j][i] = last;
+    g->pos[last] = i;
+    o_up(g, j, i);
+    o_down(g, j, g->pos[last]);
+}
+
+static int run_onepass(opt *o, rt_err *e)
+{
+    const rt_sim_config *c = &o->cfg;
+    const int k = c->nsizes;
+    one g = {0};
+    uint32_t nid = o->nid ? o->nid : 1;
+    g.key = rt_calloc(nid, sizeof *g.key, e);
+    g.pos = rt_calloc(nid, sizeof *g.pos, e);
+    g.dirty = rt_calloc(nid, sizeof *g.dirty, e);
+    g.grp = rt_calloc(nid, 1, e);
+    g.wcg = rt_calloc(nid, 1, e);
+    int ok = g.key && g.pos && g.dirty && g.grp && g.wcg;
+    for (int j = 0; j < k && ok; j++) {
+        g.cap[j] = (uint32_t)((c->sizes[j] - (j ? c->sizes[j - 1] : 0)) / c->line);
+        ok = (g.heap[j] = rt_calloc(g.cap[j], sizeof *g.heap[j], e)) != NULL;
+    }
+    /* misses by group: hist[cg][kind][g], kind 0 read, 1 write that fetches, 2 write without a fetch */
+    uint64_t(*hist)[3][RT_SIM_MAXSIZES + 1] = ok ? rt_calloc(RT_SIM_NCG, sizeof *hist, e) : NULL;
+    uint64_t(*wb)[RT_SIM_NCG] = ok ? rt_calloc((size_t)k, sizeof *wb, e) : NULL;
+    uint64_t acc[RT_SIM_NCG] = {0}, wr[RT_SIM_NCG] = {0};
+    int rc = -1;
+    if (!hist || !wb) goto out;
+    memset(g.grp, k, nid);
+    const uint32_t all = k == 32 ? UINT32_MAX : (1u << k) - 1;
+    const int fl = c->write_miss_fullline;
+    for (uint64_t t = 0; t < o->nt; t++) {
+        const otouch *tc = &o->t[t];
+        uint32_t x = tc->id;
+        unsigned cg = tc->cg, w = tc->w;
+        int i = g.grp[x];
+        acc[cg]++;
+        wr[cg] += w != 0;
+        hist[cg][w == 0 ? 0 : (w == RT_WRITE_STREAM || (fl && tc->bytes == c->line)) ? 2 : 1][i]++;
+        if (i == 0) { /* a hit in every size: only x's priority grows (its key was now, the least) */
+            g.key[x] = tc->next;
+            o_up(&g, 0, g.pos[x]);
+            if (w) {
+                g.dirty[x] = all;
+                g.wcg[x] = (uint8_t)cg;
+            }
+            continue;
+        }
+        if (i < k) o_remove(&g, i, x);
+        g.key[x] = tc->next;
+        uint32_t carry = NONE;
+        for (int j = 0; j < i; j++) {
+            uint32_t full = g.n[j] == g.cap[j];
+            if (j == 0) {
+                if (full) carry = g.heap[0][0], o_remove(&g, 0, carry);
+                o_push(&g, 0, x);
+                if (!full) break;
+            } else {
+                if (!full) { /* room: the carried line stays in S_j, nothing above is evicted */
+                    o_push(&g, j, carry);
+                    carry = NONE;
+                    break;
+                }
+                if (oabove(&g, g.heap[j][0], carry)) {
+                    uint32_t top = g.heap[j][0];
+                    o_remove(&g, j, top);
+                    o_push(&g, j, carry);
+                    carry = top;
+                }
+            }
+            if (g.dirty[carry] >> j & 1) { /* carry leaves cache j */
+                wb[j][g.wcg[carry]]++;
+                g.dirty[carry] &= ~(1u << j);
+            }
+        }
+        if (carry != NONE) {
+            if (i < k) o_push(&g, i, carry);
+            else g.grp[carry] = (uint8_t)k;
+        }
+        if (w) {
+            g.dirty[x] = all;
+            g.wcg[x] = (uint8_t)cg;
+        }
+    }
+    if (c->flush)
+        for (uint32_t x = 0; x < o->nid; x++)
+            for (int j = g.grp[x]; j < k; j++)
+                if (g.dirty[x] >> j & 1) wb[j][g.wcg[x]]++;
+    for (int j = 0; j < k; j++) {
+        ocount *q = &o->cnt[j];
+        memset(q, 0, sizeof *q);
+        for (int cg = 0; cg < RT_SIM_NCG; cg++) {
+            q->acc[cg] = acc[cg];
+            q->wr[cg] = wr[cg];
+            q->wb[cg] = wb[j][cg];
+            for (int gi = j + 1; gi <= k; gi++) {
+                q->rm[cg] += hist[cg][0][gi];
+                q->wm[cg] += hist[cg][1][gi] + hist[cg][2][gi];
+                q->nf[cg] += hist[cg][2][gi];
+            }
+        }
+    }
+    rc = 0;
+out:
+    free(hist);
+    free(wb);
+    for (int j = 0; j < k; j++) free(g.heap[j]);
+    free(g.key);
+    free(g.pos);
+    free(g.dirty);
+    free(g.grp);
+    free(g.wcg);
+    return rc;
+}
+
+static void opt_finish(void *st, int flush)
+{
+    (void)flush; /* cfg.flush, applied inside each size's pass */
+    opt *o = st;
+    if (o->oom) return;
+    rt_err e = {0};
+    /* the backward pass: next use of every touch */
+    uint32_t *last = rt_calloc(o->nid ? o->nid : 1, sizeof *last, &e);
+    if (!last) {
+        o->oom = 1;
+        return;
+    }
+    for (uint32_t i = 0; i < o->nid; i++) last[i] = NONE;
+    for (uint64_t i = o->nt; i-- > 0;) {
+        o->t[i].next = last[o->t[i].id];
+        last[o->t[i].id] = (uint32_t)i;
+    }
+    free(last);
+    if (opt_onepass(&o->cfg)) {
+        if (run_onepass(o, &e)) o->oom = 1;
+    } else {
+        for (int s = 0; s < o->cfg.nsizes; s++)
+            if (run_size(o, s, &e)) {
+                o->oom = 1;
+                return;
+            }
+    }
+    o->done = !o->oom;
+}
+
+static void opt_counts(const void *st, int i, int cls, int gen, rt_sim_counts *out)
+{
+    const opt *o = st;
+    memset(out, 0, sizeof *out);
+    if (cls < 0 || cls >= RT_NCLASS || gen >= RT_MAXGEN) return;
+    const ocount *k = &o->cnt[i];
+    for (int b = gen < 0 ? 0 : gen; b < (gen < 0 ? RT_MAXGEN : gen + 1); b++) {
+        int cg = b * RT_NCLASS + cls;
+        out->accesses += k->acc[cg] + o->rep[cg];
+        out->read_misses += k->rm[cg];
+        out->write_misses += k->wm[cg];
+        out->writebacks += k->wb[cg];
+        out->wt_bytes += k->wtb[cg];
+        out->nofetch += k->nf[cg];
+    }
+    uint64_t fetches = out->read_misses + (o->cfg.no_write_allocate ? 0 : out->write_misses - out->nofetch);
+    out->traffic_bytes = (fetches + out->writebacks) * o->cfg.line + out->wt_bytes;
+}
+
+static int opt_check(const void *st, rt_err *e)
+{
+    const opt *o = st;
+    if (o->oom) return rt_errf(e, "opt: out of memory earlier; results incomplete");
+    for (uint32_t id = 0; id < o->nid; id++) { /* O1 */
+        uint64_t h = hsl(o->ids[id], o->hcap);
+        while (o->hval[h] != NONE && o->hkey[h] != o->ids[id]) h = (h + 1) & (o->hcap - 1);
+        if (o->hval[h] != id) return rt_errf(e, "opt: line id %u not in the table", id);
+    }
+    for (uint64_t i = 0; i < o->nt; i++) {
+        const otouch *t = &o->t[i];
+        if (t->id >= o->nid) return rt_errf(e, "opt: touch %llu has line id %u of %u", (unsigned long long)i, t->id, o->nid);
+        if (!o->done) continue;
+        if (t->next != NONE && (t->next <= i || t->next >= o->nt || o->t[t->next].id != t->id))
+            return rt_errf(e, "opt: next use of touch %llu is wrong", (unsigned long long)i); /* O2 */
+    }
+    if (o->done) { /* O2: no touch of the line between i and next[i] (every id's chain is all its touches) */
+        uint64_t chained = 0;
+        for (uint64_t i = 0; i < o->nt; i++) chained += o->t[i].next != NONE;
+        if (chained != o->nt - o->nid) return rt_errf(e, "opt: next-use chains skip touches");
+    }
+    for (int s = 0; s < o->cfg.nsizes; s++) /* O3 */
+        for (int cg = 0; cg < RT_SIM_NCG; cg++) {
+            const ocount *k = &o->cnt[s];
+            if (k->rm[cg] + k->wm[cg] > k->acc[cg] || k->wb[cg] > k->wr[cg] || k->nf[cg] > k->wm[cg] ||
+                k->wm[cg] > k->wr[cg])
+                return rt_errf(e, "opt: counters of size %llu class %s generation %d inconsistent",
+                               (unsigned long long)o->cfg.sizes[s], rt_class_name(cg % RT_NCLASS), cg / RT_NCLASS);
+        }
+    return 0;
+}
+
+/* A read of the line the previous touch ended on is a hit in every size
+ * (write-allocate: that touch left the line resident, and MIN's choices
+ * are the same with the repeat left out, no eviction falling between the
+ * two touches); the filter drops it and it is counted here. */
+static void opt_repeats(void *st, const uint64_t *cnt)
+{
+    opt *o = st;
+    for (int cg = 0; cg < RT_SIM_NCG; cg++) o->rep[cg] += cnt[cg];
+}
+
+const rt_cache_engine rt_engine_opt = {
+    .name = "exact-opt",
+    .repl = "opt",
+    .caps = RT_ENG_FULLASSOC | RT_ENG_SETASSOC | RT_ENG_WT | RT_ENG_NWA | RT_ENG_REPEATS,
+    .state_bytes = opt_state_bytes,
+    .create = opt_create,
+    .destroy = opt_destroy,
+    .access = opt_access,
+    .finish = opt_finish,
+    .counts = opt_counts,
+    .check = opt_check,
+    .repeats = opt_repeats,
+};
