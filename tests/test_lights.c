@@ -599,6 +599,27 @@ static void test_loader(void)
               (double)k->d.z);
     }
     rt_scene_free(s);
+    /* instances before a lamp: its triangles move up past theirs, and the light follows */
+    snprintf(text, sizeof text, "%s%s", floor_pbrt,
+             "ObjectBegin \"box\"\nShape \"trianglemesh\" \"point3 P\" [0 0 1  1 0 1  0 1 1  0 0 2  1 0 2  0 1 2] "
+             "\"integer indices\" [0 1 2  3 4 5  0 1 5  1 2 3]\nObjectEnd\n"
+             "ObjectInstance \"box\"\nTranslate 3 0 0\nObjectInstance \"box\"\n"
+             "AttributeBegin\nAreaLightSource \"diffuse\"\n"
+             "Shape \"trianglemesh\" \"point3 P\" [-1 -1 9  1 -1 9  0 1 9] \"integer indices\" [0 1 2]\nAttributeEnd\n"
+             "ObjectInstance \"box\"\n");
+    check_write_file(check_path("inst.pbrt"), text, strlen(text));
+    s = rt_scene_load(check_path("inst.pbrt"), &e);
+    CHECK(s != NULL, "inst.pbrt: %s", e.msg);
+    if (!s) return;
+    /* (4-triangle objects are instanced at the end of the load) floor 0, two instances 1..8, the lamp 9,
+     * the last instance 10..13 */
+    CHECK(s->ntri == 14 && s->nlight == 1 && s->lights[0].kind == RT_LIGHT_MESH && s->lights[0].first == 9 &&
+              s->lights[0].count == 1,
+          "%u triangles, light first %u count %u", s->ntri, s->nlight ? s->lights[0].first : 0,
+          s->nlight ? s->lights[0].count : 0);
+    if (s->ntri == 14) CHECK(s->tri[9].p[0].z == 9.0f && s->tri[9].p[2].y == 1.0f, "triangle 9 is not the lamp");
+    CHECK(rt_scene_check_lights(s, &e) == 0, "checker: %s", e.msg);
+    rt_scene_free(s);
 }
 
 /* The checker and rt_scene_add_light refuse broken records. */
