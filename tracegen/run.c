@@ -144,6 +144,7 @@ typedef struct share_run {
 } share_run;
 
 static int run_share(rt_job *j, rt_sink *sink, int part, int nparts, rt_image *img, rt_run_stats *st, rt_err *e);
+static void env_hits(const rt_job *j, const rt_image *img, rt_run_stats *st);
 
 static void *share_main(void *arg)
 {
