@@ -19,6 +19,7 @@
 
 #include <stdio.h>
 #include <stdlib.h>
+#include <errno.h>
 #include <string.h>
 
 static void usage(FILE *f)
@@ -223,11 +224,18 @@ int main_report(int argc, char **argv)
     else if (rc == 0) {
         char buf[65536];
         size_t n;
+        int err = 0;
         rewind(out);
+        errno = 0;
         while ((n = fread(buf, 1, sizeof buf, out)) > 0)
-            if (fwrite(buf, 1, n, stdout) != n) break;
-        if (ferror(out) || fflush(stdout) != 0 || ferror(stdout)) {
-            snprintf(e.msg, sizeof e.msg, "write error on the standard output");
+            if (fwrite(buf, 1, n, stdout) != n) {
+                err = errno;
+                break;
+            }
+        if (!err && fflush(stdout) != 0) err = errno;
+        if (err || ferror(out) || ferror(stdout)) {
+            snprintf(e.msg, sizeof e.msg, "write error: %s", err ? strerror(err) : "the standard output");
+            clearerr(stdout); /* said once, here: not again at exit */
             rc = -1;
         }
     }

@@ -190,7 +190,21 @@ static int cmd_info(int argc, char **argv)
         for (int i = 0; i < RT_NLIGHTS; i++)
             printf("%s[%.9g, %.9g, %.9g]", i ? ", " : "", (double)s->light[i].x, (double)s->light[i].y,
                    (double)s->light[i].z);
-        printf("],\n  \"light_power\": %.9g,\n  \"ambient\": %.9g,\n", (double)s->light_power, (double)s->ambient);
+        printf("],\n");
+        if (s->nlight) { /* the file's own lights (--light-samples), only when it has some */
+            printf("  \"file_lights\": [");
+            for (uint32_t i = 0; i < s->nlight; i++) {
+                const rt_light *l = &s->lights[i];
+                printf("%s\n    {\"kind\": \"%s\", \"p\": [%.9g, %.9g, %.9g], \"d\": [%.9g, %.9g, %.9g], \"r\": %.9g, "
+                       "\"triangles\": %u, \"at\": ",
+                       i ? "," : "", rt_light_kind_name(l->kind), (double)l->p.x, (double)l->p.y, (double)l->p.z,
+                       (double)l->d.x, (double)l->d.y, (double)l->d.z, (double)l->r, l->count);
+                rt_cmd_json_str(stdout, l->at);
+                printf("}");
+            }
+            printf("\n  ],\n");
+        }
+        printf("  \"light_power\": %.9g,\n  \"ambient\": %.9g,\n", (double)s->light_power, (double)s->ambient);
         printf("  ");
         rt_cmd_json_warnings(stdout, s);
         printf(",\n  \"load_sec\": %.6f", load_sec);
@@ -228,6 +242,18 @@ static int cmd_info(int argc, char **argv)
         for (int i = 0; i < RT_NLIGHTS; i++)
             printf("light %d      (%.6g, %.6g, %.6g)\n", i, (double)s->light[i].x, (double)s->light[i].y,
                    (double)s->light[i].z);
+        for (uint32_t i = 0; i < s->nlight; i++) { /* the file's own lights (--light-samples) */
+            const rt_light *l = &s->lights[i];
+            printf("file light %-2u %-8s", i, rt_light_kind_name(l->kind));
+            if (l->kind == RT_LIGHT_MESH) printf(" triangles %u..%u", l->first, l->first + l->count - 1);
+            else if (l->kind == RT_LIGHT_POINT || l->kind == RT_LIGHT_SPHERE || l->kind == RT_LIGHT_DISK)
+                printf(" (%.6g, %.6g, %.6g)", (double)l->p.x, (double)l->p.y, (double)l->p.z);
+            if (l->kind == RT_LIGHT_DISTANT || l->kind == RT_LIGHT_DISK)
+                printf(" %s (%.6g, %.6g, %.6g)", l->kind == RT_LIGHT_DISK ? "normal" : "toward", (double)l->d.x,
+                       (double)l->d.y, (double)l->d.z);
+            if (l->kind == RT_LIGHT_SPHERE || l->kind == RT_LIGHT_DISK) printf(" radius %.6g", (double)l->r);
+            printf("  %s\n", l->at);
+        }
         printf("shading      light_power %.6g, ambient %.6g\n", (double)s->light_power, (double)s->ambient);
         if (s->nmat > 1) rt_scene_describe_materials(s, stdout);
         printf("load time    %.3f s\n", load_sec);

@@ -101,7 +101,10 @@ static void usage(FILE *f)
             "                     commas; blank lines and lines starting with # skipped; a\n"
             "                     relative mesh path is relative to FILE's folder)\n"
             "  --tracers LIST     comma list of tracers\n"
-            "  --lights LIST      comma list of lightings: primary, 0, 1, 2, all\n"
+            "  --lights LIST      comma list of lightings: primary, 0, 1, 2, all (with\n"
+            "                     --light-samples N: the file's lights 0..31, all = every one)\n"
+            "  --light-samples N  the scene files' own lights, N shadow rays per hit to area and\n"
+            "                     infinite lights (see render --help)\n"
             "  --modes LIST       comma list of render modes: raycast, shadow (default: the\n"
             "                     lighting list as it is, primary = raycast), whitted, path\n"
             "                     (these two run the lightings with lights, primary skipped)\n");

@@ -114,6 +114,7 @@ rt_render_opts rt_exp_job_opts(const rt_exp_config *c, const rt_exp_job *jb)
 {
     rt_render_opts ro = c->ro;
     ro.lights = jb->lighting >= 0 ? c->lightings[jb->lighting].mask : 0;
+    ro.lights_all = jb->lighting >= 0 && !strcmp(c->lightings[jb->lighting].label, "all"); /* every light of a file */
     ro.lights = rt_render_lights(&ro); /* with --light, only the lights given exist */
     /* a raycast job is the run without lights: the default mode keeps its key */
     ro.mode = jb->mode == RT_MODE_RAYCAST ? RT_MODE_DEFAULT : jb->mode;
@@ -241,6 +242,7 @@ void rt_exp_job_key(const rt_exp_config *c, const rt_exp_job *jb, const rt_scene
     r->W = ro.W;
     r->H = ro.H;
     r->lights = ro.lights;
+    r->light_model = ro.light_samples ? "authored" : NULL; /* --light-samples: the file's own lights */
     r->sched_size = dynamic ? ro.sched_size : 0;
     r->gmax = dynamic ? ro.gmax : 0;
     r->params = rt_exp_tracer_params(jb->tracer, &ro, dynamic && c->dyn_all, k->params, sizeof k->params);
@@ -279,6 +281,7 @@ void rt_exp_run_from_meta(const rt_tr_meta *m, rt_db_run *r)
     r->W = m->W;
     r->H = m->H;
     r->lights = m->lights;
+    r->light_model = strstr(m->params, "light_model=authored") ? "authored" : NULL; /* the run key says it */
     r->sched_size = m->sched_size;
     r->gmax = m->gmax;
     r->params = m->params;

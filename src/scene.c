@@ -212,8 +212,101 @@ void rt_scene_free(rt_scene *s)
     free(s->tri);
     free(s->shade);
     free(s->mat);
+    for (uint32_t i = 0; i < s->nlight; i++) free(s->lights[i].cdf);
+    free(s->lights);
     free(s->warn);
     free(s);
+}
+
+/* ---- lights as authored (scene.h) ------------------------------------------ */
+
+const char *rt_light_kind_name(int kind)
+{
+    static const char *const names[RT_LIGHT_KINDS] = {"point", "mesh", "sphere", "disk", "distant", "infinite"};
+    return kind >= 0 && kind < RT_LIGHT_KINDS ? names[kind] : "?";
+}
+
+static int finite_v(rt_vec3 v) { return isfinite(v.x) && isfinite(v.y) && isfinite(v.z); }
+
+/* Invariants 2, 3, 5 of one light (4 needs the scene: check_mesh). */
+static const char *light_problem(const rt_light *l)
+{
+    if (l->kind < 0 || l->kind >= RT_LIGHT_KINDS) return "unknown kind (invariant 2)";
+    if (!finite_v(l->p) || !finite_v(l->d) || !isfinite(l->r))
+        return "non-finite position, direction or radius (invariant 2)";
+    if (l->kind == RT_LIGHT_DISTANT || l->kind == RT_LIGHT_DISK) {
+        float n = rt_len(l->d);
+        if (!(fabsf(n - 1.0f) <= 1e-3f)) return "direction not of unit length (invariant 3)";
+    }
+    if ((l->kind == RT_LIGHT_SPHERE || l->kind == RT_LIGHT_DISK) && !(l->r > 0)) return "radius not > 0 (invariant 3)";
+    if (!(l->scale >= 0) || !isfinite(l->scale)) return "scale negative or not finite (invariant 5)";
+    return NULL;
+}
+
+static const char *mesh_problem(const rt_scene *s, const rt_light *l)
+{
+    if (l->kind != RT_LIGHT_MESH) return NULL;
+    if (!l->count || l->first > s->ntri || l->count > s->ntri - l->first) return "triangles out of range (invariant 4)";
+    if (!l->cdf) return "no area table (invariant 4)";
+    for (uint32_t i = 0; i < l->count; i++)
+        if (!(l->cdf[i] >= (i ? l->cdf[i - 1] : 0.0f))) return "area table decreasing (invariant 4)";
+    if (l->cdf[l->count - 1] != 1.0f) return "area table not ending in 1 (invariant 4)";
+    return NULL;
+}
+
+int rt_scene_add_light(rt_scene *s, const rt_light *l, rt_err *e)
+{
+    rt_light c = *l;
+    c.cdf = NULL;
+    c.at[sizeof c.at - 1] = 0;
+    const char *why = light_problem(&c);
+    if (why) return rt_errf(e, "%s: %s light: %s", c.at[0] ? c.at : s->name, rt_light_kind_name(c.kind), why);
+    if (c.kind == RT_LIGHT_MESH) {
+        if (!c.count || c.first > s->ntri || c.count > s->ntri - c.first)
+            return rt_errf(e, "%s: mesh light: triangles out of range (invariant 4)", c.at[0] ? c.at : s->name);
+        if (!(c.cdf = rt_calloc(c.count, sizeof *c.cdf, e))) return -1;
+        double sum = 0, *acc = rt_calloc(c.count, sizeof *acc, e);
+        if (!acc) {
+            free(c.cdf);
+            return -1;
+        }
+        for (uint32_t i = 0; i < c.count; i++) {
+            const rt_vec3 *v = s->tri[c.first + i].p;
+            sum += 0.5 * (double)rt_len(rt_cross(rt_sub(v[1], v[0]), rt_sub(v[2], v[0])));
+            acc[i] = sum;
+        }
+        for (uint32_t i = 0; i < c.count; i++)
+            c.cdf[i] = sum > 0 ? (float)(acc[i] / sum) : (float)(i + 1) / (float)c.count;
+        c.cdf[c.count - 1] = 1.0f;
+        free(acc);
+    }
+    rt_light *n = rt_reallocarray(s->lights, (size_t)s->nlight + 1, sizeof *n, e);
+    if (!n) {
+        free(c.cdf);
+        return -1;
+    }
+    s->lights = n;
+    s->lights[s->nlight++] = c;
+    return 0;
+}
+
+int rt_scene_check_lights(const rt_scene *s, rt_err *e)
+{
+    if ((s->nlight == 0) != (s->lights == NULL))
+        return rt_errf(e, "%s: light count and table disagree (invariant 1)", s->name);
+    for (uint32_t i = 0; i < s->nlight; i++) {
+        const char *why = light_problem(&s->lights[i]);
+        if (!why) why = mesh_problem(s, &s->lights[i]);
+        if (why) return rt_errf(e, "%s: light %u (%s): %s", s->name, i, rt_light_kind_name(s->lights[i].kind), why);
+    }
+    return 0;
+}
+
+int rt_scene_nonpoint_lights(const rt_scene *s)
+{
+    for (uint32_t i = 0; i < s->nlight; i++)
+        if (s->lights[i].kind != RT_LIGHT_POINT) return 1;
+    return 0;
 }
 
 int rt_scene_finish(rt_scene *s, rt_err *e)
@@ -372,6 +465,15 @@ uint64_t rt_scene_hash(const rt_scene *s)
         if (s->light_scale[i] != 1.0f) h = hash_f(hash_u32(h, (uint32_t)i), s->light_scale[i]);
     h = hash_f(h, s->ambient);
     h = hash_v(h, s->background);
+    /* authored lights only when one is not a point light (a file whose
+     * lights are all points is lit by light[] above): other hashes unchanged */
+    if (rt_scene_nonpoint_lights(s))
+        for (uint32_t i = 0; i < s->nlight; i++) {
+            const rt_light *l = &s->lights[i];
+            h = hash_u32(h, (uint32_t)l->kind);
+            h = hash_f(hash_v(hash_v(h, l->p), l->d), l->r);
+            h = hash_u32(hash_u32(hash_f(h, l->scale), l->first), l->count);
+        }
     return h;
 }
 

@@ -93,6 +93,54 @@ typedef struct rt_camera {
 
 #define RT_NLIGHTS 3
 
+/*
+ * Lights as authored. A scene always has the three point lights above
+ * (light[], the paper's lights 0..2; for a pbrt file they stand in for the
+ * file's lights: its point and spot lights, then a point near each area
+ * light, the "point model"). A pbrt file also keeps the lights it declares,
+ * in file order, as rt_light records (lights[], nlight of them), which the
+ * tracers use when a run asks for them (--light-samples N, the "authored
+ * model"; docs/scenes.md "Lights").
+ *
+ * Invariants (rt_scene_check_lights tests them):
+ *  1. nlight == 0 exactly when lights == NULL.
+ *  2. Every kind is one of rt_light_kind; every position, direction and
+ *     radius is finite.
+ *  3. DISTANT and DISK directions (d) have unit length (within 1e-3);
+ *     SPHERE and DISK radii are > 0.
+ *  4. A MESH light names triangles [first, first + count) of the scene,
+ *     count >= 1 and first + count <= ntri, and its cdf holds count
+ *     non-decreasing values ending in exactly 1 (area fractions), so a
+ *     sample picks triangle i with probability area_i / area.
+ *  5. scale >= 0 and finite.
+ */
+typedef enum rt_light_kind {
+    RT_LIGHT_POINT = 0,   /* p: position (LightSource "point", "spot") */
+    RT_LIGHT_MESH = 1,    /* triangles first..first+count-1 emit (AreaLightSource on a triangle shape) */
+    RT_LIGHT_SPHERE = 2,  /* p: centre, r: radius (AreaLightSource on Shape "sphere") */
+    RT_LIGHT_DISK = 3,    /* p: centre, d: unit normal, r: radius (AreaLightSource on Shape "disk") */
+    RT_LIGHT_DISTANT = 4, /* d: unit direction toward the light (LightSource "distant": from - to) */
+    RT_LIGHT_INFINITE = 5 /* the sky: every direction (LightSource "infinite") */
+} rt_light_kind;
+#define RT_LIGHT_KINDS 6
+
+typedef struct rt_light {
+    int kind;               /* rt_light_kind */
+    rt_vec3 p, d;           /* see the kinds */
+    float r;                /* sphere, disk: radius */
+    float scale;            /* factor on the scene's light_power (1) */
+    uint32_t first, count;  /* mesh: the emitting triangles */
+    float *cdf;             /* mesh: count cumulative area fractions (owned) */
+    char at[256];           /* "FILE:LINE" of its declaration ("" if none; a long path truncated) */
+} rt_light;
+
+/* Bytes of one light record in the modeled memory (kind, p, d, r, scale,
+ * first, count, cdf offset: 48, padded to 64). */
+#define RT_LIGHT_RECSIZE 64
+
+/* The kind's name ("point", "mesh", "sphere", "disk", "distant", "infinite"). */
+const char *rt_light_kind_name(int kind);
+
 /* One kind of load warning (a skipped or approximated feature): its key
  * ("Shape \"disk\"", "Sampler"), how often it occurred and where first. */
 typedef struct rt_scene_warn {
@@ -122,6 +170,8 @@ typedef struct rt_scene {
     uint32_t ninst;         /* object instances flattened into tri (pbrt ObjectInstance), 0 = none */
     uint32_t ntri_unique;   /* with instances: triangles outside objects + each instanced object once */
     uint32_t ntri_inst;     /* with instances: triangles that came from instances */
+    uint32_t nlight;        /* authored lights (pbrt files), 0 = none */
+    rt_light *lights;       /* nlight records (see "Lights as authored") */
     rt_scene_warn *warn;    /* every load warning, one entry per kind in order of first occurrence (NULL if none; owned) */
     uint32_t nwarn;         /* entries in warn */
 } rt_scene;
@@ -155,6 +205,16 @@ int rt_scene_set_material(rt_scene *s, const char *name, rt_err *e);
  * triangles using it, RT_MAT_* flags, ks, kt, ior, ke), after a header
  * line. Returns 0, or -1 if the stream reports a write error. */
 int rt_scene_describe_materials(const rt_scene *s, FILE *f);
+/* Appends a copy of the light l (a MESH light's cdf is computed here from
+ * its triangles; l->cdf is ignored). 0, or -1 when l breaks an invariant
+ * of "Lights as authored" (message names l->at) or on allocation failure. */
+int rt_scene_add_light(rt_scene *s, const rt_light *l, rt_err *e);
+/* Checks the invariants of "Lights as authored": 0, or -1 naming the
+ * first light and invariant broken. */
+int rt_scene_check_lights(const rt_scene *s, rt_err *e);
+/* 1 when some authored light is not a point light. */
+int rt_scene_nonpoint_lights(const rt_scene *s);
+
 /* Recomputes bounds; rejects NaN/Inf coordinates. Returns 0 or -1. */
 int rt_scene_finish(rt_scene *s, rt_err *e);
 /* Frames the camera on the bounds and places three default lights. The

@@ -1605,8 +1605,9 @@ done:
 static void count_light(pbrt *P, const token *t)
 {
     if (++P->nlights_all == RT_NLIGHTS + 1)
-        pwarn(P, t, "lights", "more than %d lights: kept %d, point and spot lights first", RT_NLIGHTS,
-              RT_NLIGHTS);
+        pwarn(P, t, "lights",
+              "more than %d lights: the point model keeps %d, point and spot lights first (--light-samples traces all)",
+              RT_NLIGHTS, RT_NLIGHTS);
 }
 
 /* Records an area-light shape (triangles from `start` on) for the lights. */
@@ -1636,6 +1637,52 @@ static int note_area_light(pbrt *P, const token *d, uint32_t start)
     }
     count_light(P, d);
     return 0;
+}
+
+/* Authored lights (scene.h "Lights as authored"): a record for the scene's
+ * lights[] beside the point model above, named by the directive's line. */
+static int add_light(pbrt *P, const token *t, rt_light *l)
+{
+    l->scale = 1.0f;
+    where(P, t, l->at, sizeof l->at, 0);
+    rt_err le;
+    if (rt_scene_add_light(P->s, l, &le) < 0) return perr(P, t, "%s", le.msg);
+    return 0;
+}
+
+/* The emitter of an AreaLightSource on this shape: sphere and disk as
+ * analytic shapes (centre and radius from the transform, which is taken
+ * as a similarity), other shapes by their triangles [start, ntri). */
+static int note_authored_area(pbrt *P, const token *t, const char *type, plist *L, uint32_t start)
+{
+    rt_light l;
+    memset(&l, 0, sizeof l);
+    const mat4 *m = &P->g.ctm;
+    if (!strcmp(type, "sphere") || !strcmp(type, "disk")) {
+        double r, h = 0;
+        if (pfloat(P, L, "radius", 1.0, &r) < 0) return -1;
+        if (type[0] == 'd' && pfloat(P, L, "height", 0.0, &h) < 0) return -1;
+        if (!(r > 0)) return perr(P, t, "Shape \"%s\": radius must be positive", type);
+        rt_vec3 c = m_point(m, 0, 0, h), ex = m_point(m, r, 0, h), ey = m_point(m, 0, r, h), ez = m_point(m, 0, 0, h + 1);
+        l.p = c;
+        l.r = rt_len(rt_sub(ex, c));
+        if (type[0] == 's') {
+            l.kind = RT_LIGHT_SPHERE;
+        } else {
+            rt_vec3 n = rt_cross(rt_sub(ex, c), rt_sub(ey, c)); /* the disk's +z side */
+            if (rt_dot(n, rt_sub(ez, c)) < 0) n = rt_mul(n, -1.0f);
+            l.kind = RT_LIGHT_DISK;
+            l.d = rt_norm(n);
+        }
+        if (!(l.r > 0) || !isfinite(l.r))
+            return perr(P, t, "Shape \"%s\": emitter radius out of range after the transform", type);
+        return add_light(P, t, &l);
+    }
+    if (P->s->ntri <= start) return 0;
+    l.kind = RT_LIGHT_MESH;
+    l.first = start;
+    l.count = P->s->ntri - start;
+    return add_light(P, t, &l);
 }
 
 /* Shape "curve" as flat ribbons: each cubic (or quadratic) Bezier segment
@@ -1948,6 +1995,9 @@ static int do_shape(pbrt *P, const token *d)
         pwarn(P, &tt, key, "Shape \"%s\" skipped", q);
     }
     if (rc == 0 && P->g.area && P->in_obj < 0 && P->s->ntri > start) rc = note_area_light(P, &tt, start);
+    if (rc == 0 && P->g.area && P->in_obj < 0) rc = note_authored_area(P, &tt, type, &L, start);
+    if (rc == 0 && P->g.area && P->in_obj >= 0)
+        pwarn(P, &tt, "instanced area light", "area light inside an object: not one of the authored lights");
     if (rc == 0 && P->in_obj < 0) P->nonobj += P->s->ntri - start;
     free(w);
     free(idx);
@@ -2092,6 +2142,47 @@ static int do_light(pbrt *P, const token *d)
         }
         if (P->nplight < RT_NLIGHTS) P->plight[P->nplight++] = lp;
         count_light(P, &tt);
+        rt_light al;
+        memset(&al, 0, sizeof al);
+        al.kind = RT_LIGHT_POINT;
+        al.p = m_point(&P->g.ctm, o[0], o[1], o[2]);
+        if (add_light(P, &tt, &al) < 0) goto done;
+    } else if (!strcmp(type, "distant")) {
+        const double *v;
+        size_t n;
+        double ft[6] = {0, 0, 0, 0, 0, 1};
+        for (int k = 0; k < 2; k++) {
+            const char *key = k ? "to" : "from";
+            int r = pnums(P, &L, key, B(PT_POINT3), "point3", 3, 3, &v, &n);
+            if (r < 0) goto done;
+            if (r && n != 3) {
+                perr(P, &pfind(&L, key)->at, "LightSource: \"%s\" has %zu values, expected 3", key, n);
+                goto done;
+            }
+            if (r) memcpy(ft + 3 * k, v, 3 * sizeof *v);
+        }
+        rt_vec3 f = m_point(&P->g.ctm, ft[0], ft[1], ft[2]), t = m_point(&P->g.ctm, ft[3], ft[4], ft[5]);
+        rt_vec3 dir = rt_sub(f, t);
+        if (!(rt_len(dir) > 0) || !isfinite(rt_len(dir))) {
+            perr(P, &tt, "LightSource \"distant\": \"from\" and \"to\" coincide");
+            goto done;
+        }
+        rt_light al;
+        memset(&al, 0, sizeof al);
+        al.kind = RT_LIGHT_DISTANT;
+        al.d = rt_norm(dir);
+        if (add_light(P, &tt, &al) < 0) goto done;
+        pwarn(P, &tt, "LightSource \"distant\"",
+              "LightSource \"distant\" skipped by the point lights (traced with --light-samples)");
+    } else if (!strcmp(type, "infinite")) {
+        rt_light al;
+        memset(&al, 0, sizeof al);
+        al.kind = RT_LIGHT_INFINITE;
+        if (add_light(P, &tt, &al) < 0) goto done;
+        if (pfind(&L, "filename"))
+            pwarn(P, &tt, "infinite image", "LightSource \"infinite\": image ignored (a uniform sky)");
+        pwarn(P, &tt, "LightSource \"infinite\"",
+              "LightSource \"infinite\" skipped by the point lights (traced with --light-samples)");
     } else {
         char key[48];
         snprintf(key, sizeof key, "LightSource \"%.30s\"", type);
@@ -2306,6 +2397,23 @@ count:
     P->s->ninst++;
     P->s->ntri_inst += o->count;
     return 0;
+}
+
+/* The mesh lights' triangles once the instances are made: an instance
+ * recorded at or before a light's first triangle moves it up by the
+ * object's triangles (expand_instances below; a shape is never split by
+ * an instance). Called before it, while the records are there. */
+static void relocate_mesh_lights(pbrt *P)
+{
+    rt_scene *s = P->s;
+    for (uint32_t i = 0; i < s->nlight; i++) {
+        rt_light *l = &s->lights[i];
+        if (l->kind != RT_LIGHT_MESH) continue;
+        uint64_t shift = 0;
+        for (int k = 0; k < P->ninst; k++)
+            if (P->inst[k].at <= l->first) shift += P->objs[P->inst[k].obj].count;
+        l->first += (uint32_t)shift;
+    }
 }
 
 /* Makes the triangles of every ObjectInstance, in file order: the scene
@@ -2681,7 +2789,9 @@ rt_scene *rt_scene_load_pbrt(const char *path, const char *params, rt_err *e)
     m0.ior = 1;
     if (add_matdef(P, &m0) < 0) goto done;
     P->g.ctm = m_ident();
-    if (parse_all(P) < 0 || expand_instances(P) < 0) goto done;
+    if (parse_all(P) < 0) goto done;
+    relocate_mesh_lights(P);
+    if (expand_instances(P) < 0) goto done;
     rt_scene *s = P->s;
     s->ntri_unique += P->nonobj;
     if (!s->ninst) s->ntri_unique = 0;

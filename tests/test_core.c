@@ -174,7 +174,8 @@ static void test_parsers(void)
     CHECK(rt_parse_lights("all", &m) == 0 && m == 7, "all");
     CHECK(rt_parse_lights("none", &m) == 0 && m == 0, "none");
     CHECK(rt_parse_lights("0,2", &m) == 0 && m == 5, "0,2");
-    CHECK(rt_parse_lights("3", &m) < 0 && rt_parse_lights("0,", &m) < 0 && rt_parse_lights("a", &m) < 0, "bad");
+    CHECK(rt_parse_lights("3,17", &m) == 0 && m == (1u << 3 | 1u << 17), "3,17 (whether they exist: at setup)");
+    CHECK(rt_parse_lights("32", &m) < 0 && rt_parse_lights("0,", &m) < 0 && rt_parse_lights("a", &m) < 0, "bad");
     CHECK(fabs(rt_dtan(0.5) - 0.54630248984379051) < 1e-15, "dtan");
     CHECK(fabs(rt_dtan(1.2) - 2.5721516221263188) < 1e-13, "dtan 1.2");
 }

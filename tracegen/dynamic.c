@@ -9,8 +9,9 @@
  * leaves the subtree, in which case it continues through the tree top to
  * its next queue point, or leaves the scene. Rays are processed in
  * generations: all primary rays; then, per point light, shadow rays traced
- * from the light toward the hit points; then newly spawned non-shadow rays
- * (none with the diffuse shading used here).
+ * from the light toward the hit points (with a file's own lights,
+ * --light-samples: per light and sample, from the sampled point); then
+ * newly spawned non-shadow rays (none with the diffuse shading used here).
  *
  * Choices the paper leaves open (docs/tracers.md):
  *   - queue order: fullest queue first (default) or depth-first tree order,
@@ -372,6 +373,9 @@ struct rt_dyn {
     uint8_t *want;       /* pixel has a ray in this generation */
     int shadow;          /* current generation: 0 primary, 1 shadow */
     int light;           /* light of the shadow generation */
+    uint32_t sample;     /* authored lights: sample of the shadow generation */
+    int authored;        /* the file's lights (--light-samples; shade.h): one generation per light and sample */
+    float *lw, *swt;     /* authored: per pixel x light the unoccluded weights; per pixel this sample's weight */
     uint32_t rbslot, rbslots;
     /* statistics */
     uint64_t events, ev_rays, ev_max, enq, created, done;
@@ -424,6 +428,16 @@ static void make_rays(dyn *D, uint32_t pix, rt_ray *trav, rt_ray *test)
         return;
     }
     rt_hit h = {D->hit_t[pix], D->hit_tri[pix], D->hit_u[pix], D->hit_v[pix]};
+    if (D->authored) { /* from the segment's far end (the light's point) back to the hit */
+        float w;
+        uint32_t tri;
+        rt_shade_sample_ray(D->sc, D->ctx->opt, &eye, &h, (uint32_t)D->light, D->sample, test, &w, &tri);
+        rt_vec3 end = rt_add(test->o, test->d);
+        rt_ray_init(trav, end, rt_sub(test->o, end));
+        trav->tmin = 0.0f;
+        trav->tmax = 1.0f;
+        return;
+    }
     rt_shade_ray(D->sc, &eye, &h, D->light, test);
     rt_ray_init(trav, D->sc->light[D->light], rt_sub(test->o, D->sc->light[D->light]));
     trav->tmin = 0.0f;
@@ -650,7 +664,8 @@ static void resolve_shadow(dyn *D, uint32_t pix, int visible)
     D->resolved[pix]++;
     D->done++;
     if (!visible) return;
-    D->vis[pix] |= (uint8_t)(1u << D->light);
+    if (D->authored) D->lw[(size_t)pix * D->sc->nlight + (size_t)D->light] += D->swt[pix];
+    else D->vis[pix] |= (uint8_t)(1u << D->light);
     if (D->secondary) rt_acc_add(&D->acc[PIX(D, pix)], D->out[pix].lc[D->light]);
     RT_REC(D->rec, rt_mm_addr(D->L, D->reg_fb, PIX(D, pix)), 12, 0, RT_CLS_FB);
     RT_REC(D->rec, rt_mm_addr(D->L, D->reg_fb, PIX(D, pix)), 12, 1, RT_CLS_FB);
@@ -1045,6 +1060,8 @@ static int dyn_layout(const rt_tracer_ctx *ctx, rt_layout *L, rt_err *e)
 
 static void dyn_free(dyn *D)
 {
+    free(D->lw);
+    free(D->swt);
     rt_rq_free(&D->rq);
     free(D->qtimes);
     free(D->hit_t);
@@ -1121,6 +1138,10 @@ static int dyn_init(dyn *D, const rt_tracer_ctx *ctx, rt_image *img, rt_run_stat
         return -1;
     D->tv.mark = D->mark;
     D->reg_spawn = rt_mm_find(L, "dyn.spawn");
+    D->authored = rt_shade_authored(D->sc, o) && o->lights && !D->secondary;
+    if (D->authored && (!(D->lw = rt_calloc(npix * D->sc->nlight, sizeof *D->lw, e)) ||
+                        !(D->swt = rt_calloc(npix, sizeof *D->swt, e))))
+        return -1;
     if (D->secondary) {
         if (!(D->bray = rt_calloc(npix, sizeof *D->bray, e)) || !(D->bsray = rt_calloc(npix, sizeof *D->bsray, e)) ||
             !(D->bpix = rt_calloc(npix, sizeof *D->bpix, e)) || !(D->out = rt_calloc(npix, sizeof *D->out, e)) ||
@@ -1171,6 +1192,40 @@ static int shadow_generation(dyn *D, int li, const uint32_t *order, size_t ntr, 
     return check_generation(D, D->want, D->npix, e);
 }
 
+/* Authored lights: a shadow generation per enabled light and sample, each
+ * from the sampled points toward the hits (rt_shade_sample_ray). */
+static int authored_generations(dyn *D, const uint32_t *order, size_t ntr, rt_err *e)
+{
+    const int W = D->ctx->opt->W;
+    const rt_scene *sc = D->sc;
+    for (uint32_t li = 0; li < sc->nlight; li++) {
+        if (!rt_render_light_on(D->ctx->opt, li)) continue;
+        for (uint32_t smp = 0, ns = rt_shade_light_nsamples(sc, D->ctx->opt, li); smp < ns; smp++) {
+            D->light = (int)li;
+            D->sample = smp;
+            memset(D->resolved, 0, D->npix);
+            for (size_t k = 0; k < ntr; k++) {
+                uint32_t pix = order[k], tri;
+                D->want[pix] = 0;
+                RT_REC(D->rec, rt_mm_addr(D->L, D->reg_hits, pix), 24, 0, RT_CLS_HIT);
+                if (D->hit_tri[pix] == RT_NO_HIT) continue;
+                rt_ray eye, sr;
+                rt_cam_ray(&D->cam, (int)(pix % (uint32_t)W), (int)(pix / (uint32_t)W), &eye);
+                rt_hit h = {D->hit_t[pix], D->hit_tri[pix], D->hit_u[pix], D->hit_v[pix]};
+                if (!rt_shade_sample_ray(sc, D->ctx->opt, &eye, &h, li, smp, &sr, &D->swt[pix], &tri)) continue;
+                rt_reg_light(D->ctx, D->rec, li, tri);
+                D->want[pix] = 1;
+                D->st->rays_shadow++;
+                start(D, pix);
+            }
+            step_check(D, 1);
+            run_queues(D);
+            if (check_generation(D, D->want, D->npix, e) < 0) return -1;
+        }
+    }
+    return 0;
+}
+
 /* The final image: the shared shading rule on the per-light visibility. */
 static void shade_image(dyn *D)
 {
@@ -1185,6 +1240,10 @@ static void shade_image(dyn *D)
             continue;
         }
         rt_hit h = {D->hit_t[p], D->hit_tri[p], D->hit_u[p], D->hit_v[p]};
+        if (D->authored) {
+            rt_shade_pixel_lw(D->sc, o, &eye, &h, &D->lw[p * D->sc->nlight], D->img, p);
+            continue;
+        }
         int vis[RT_NLIGHTS];
         for (int i = 0; i < RT_NLIGHTS; i++) vis[i] = (D->vis[p] >> i) & 1;
         rt_shade_pixel(D->sc, &eye, &h, vis, o->lights, D->img, p);
@@ -1347,7 +1406,8 @@ static int dyn_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
     if (primary_generation(&D, order, ntr, e) < 0) goto done;
     D.shadow = 1;
     D.tv.mark_bit = 2;
-    for (int li = 0; li < RT_NLIGHTS; li++)
+    if (D.authored && authored_generations(&D, order, ntr, e) < 0) goto done;
+    for (int li = 0; li < RT_NLIGHTS && !D.authored; li++)
         if ((o->lights & (1u << li)) && shadow_generation(&D, li, order, ntr, e) < 0) goto done;
     shade_image(&D);
     report(&D, st);
@@ -1376,7 +1436,7 @@ const rt_tracer rt_tracer_dynamic = {
     .accels = RT_ACCEL_BIT(RT_ACCEL_KD),
     .accel_default = RT_ACCEL_KD,
     .opts = RT_OPTG_SCHED | RT_OPTG_QUEUES | RT_OPTG_CORES,
-    .traits = RT_TR_SCHEDULED | RT_TR_QUEUES,
+    .traits = RT_TR_SCHEDULED | RT_TR_QUEUES | RT_TR_LIGHTS,
     .figures = RT_FIG_NAVRATIL | RT_FIG_FEEDBACK,
     .params = dyn_params,
     .layout = dyn_layout,

@@ -120,6 +120,32 @@ static int nlights(const rt_render_opts *o)
     return n;
 }
 
+/* A file's own lights (--light-samples, shadow mode; shade.h): one target
+ * per enabled light, which sums its unoccluded samples' weights. */
+static int authored(const rt_scene *sc, const rt_render_opts *o)
+{
+    return rt_shade_authored(sc, o) && o->lights && rt_render_mode(o) == RT_MODE_SHADOW;
+}
+
+/* Shadow rays one hit casts at most: a record per enabled light, or with a
+ * file's own lights per enabled light and sample. */
+static int nshadow(const rt_scene *sc, const rt_render_opts *o)
+{
+    if (!authored(sc, o)) return nlights(o);
+    int n = 0;
+    for (uint32_t i = 0; i < sc->nlight; i++)
+        if (rt_render_light_on(o, i)) n += (int)rt_shade_light_nsamples(sc, o, i);
+    return n;
+}
+
+/* Enabled lights of a file's own (their targets). */
+static int nlit(const rt_scene *sc, const rt_render_opts *o)
+{
+    int n = 0;
+    for (uint32_t i = 0; i < sc->nlight; i++) n += rt_render_light_on(o, i);
+    return n;
+}
+
 /* Most children one hit spawns: 2 for a material with mirror and
  * transmission terms, 1 for one of them (a total internal reflection
  * replaces the refraction), over the materials triangles use. */
@@ -140,7 +166,7 @@ static int branching(const rt_scene *sc)
 int rt_fb_size(const rt_scene *sc, const rt_render_opts *o, rt_fb_sizes *z, rt_err *e)
 {
     memset(z, 0, sizeof *z);
-    const int mode = rt_render_mode(o), L = nlights(o), D = mode == RT_MODE_WHITTED ? o->depth : 1;
+    const int mode = rt_render_mode(o), L = nshadow(sc, o), D = mode == RT_MODE_WHITTED ? o->depth : 1;
     z->branching = mode == RT_MODE_WHITTED ? branching(sc) : 0;
     const double b = z->branching;
     double s = 1.0; /* secondary rays per pixel in generation k-1 */
@@ -230,6 +256,9 @@ static int fb_plan_make(const rt_tracer_ctx *ctx, void **out, rt_err *e)
     if (mode == RT_MODE_WHITTED) {
         pl->comp = L <= 1 && o->depth <= 2 ? COMP_EQ1 : COMP_GENS;
         pl->ntarget = pl->comp == COMP_EQ1 ? 1 : o->depth;
+    } else if (authored(sc, o)) { /* a target per light of the file, summing its samples' weights */
+        pl->comp = COMP_LIGHTS;
+        pl->ntarget = 1 + nlit(sc, o);
     } else {
         pl->comp = L <= 1 ? COMP_EQ1 : COMP_LIGHTS;
         pl->ntarget = pl->comp == COMP_EQ1 ? 1 : 1 + L;
@@ -315,6 +344,9 @@ typedef struct fb_run {
     const rt_layout *L;
     int reg_grid, reg_list, reg_tri, reg_vb[2], reg_fb;
     int mode, light[RT_NLIGHTS], nl;
+    int authored;        /* a file's own lights: targets 1.. hold each enabled light's summed sample weights */
+    int *arank;          /* authored: target - 1 of light i (-1: off) */
+    uint32_t *htri;      /* authored: each pixel's primary hit triangle (RT_NO_HIT: none) */
     int mats;            /* whitted on a scene with materials: the tex1 material slices are read */
     size_t npix;
     float *ft;           /* float targets, ntarget x npix x 3 */
@@ -582,6 +614,32 @@ static int gs_primary(fb_run *R, int out, rt_fb_ray *ray, const rt_ray *r, const
         blend(R, 0, in.pix, src, 1);
         return 0;
     }
+    if (R->authored) { /* every sample of every enabled light, payload its weight */
+        rec_shading(R, h->tri, 1);
+        if (pass_through(R, out, ray, e) < 0) return -1;
+        R->img->depth[in.pix] = h->t * rt_len(r->d);
+        R->htri[in.pix] = h->tri;
+        for (uint32_t i = 0; i < sc->nlight; i++) {
+            if (!rt_render_light_on(R->o, i)) continue;
+            for (uint32_t k = 0, ns = rt_shade_light_nsamples(sc, R->o, i); k < ns; k++) {
+                rt_ray sr;
+                float w;
+                uint32_t tri;
+                if (!rt_shade_sample_ray(sc, R->o, r, h, i, k, &sr, &w, &tri)) continue;
+                if (tri != RT_NO_HIT) rec_verts(R, tri); /* a mesh light's sampled triangle; light records are constants */
+                const float pay[3] = {w, w, w};
+                rt_fb_ray s = shadow_rec(&in, &sr, (int)i, pay);
+                R->s.gs_rays++;
+                if (emit(R, out, &s, e) < 0) return -1;
+            }
+        }
+        R->s.fs_shaded++;
+        rec_shading(R, h->tri, 0);
+        int none[RT_NLIGHTS] = {0};
+        rt_shade_hit(sc, r, h, none, lights, src); /* ambient only: target 0 */
+        blend(R, 0, in.pix, src, 1);
+        return 0;
+    }
     int vis[RT_NLIGHTS] = {0}, want[RT_NLIGHTS] = {0};
     rt_ray sr[RT_NLIGHTS];
     if (lights) rec_shading(R, h->tri, 1);
@@ -706,6 +764,8 @@ static int gs_shadow(fb_run *R, int out, rt_fb_ray *ray, rt_err *e)
         /* primary hits: replace (alpha 0); deeper ones: subtract (alpha 1,
          * the payload is minus the light's term) */
         alpha = in.gen == 0 ? 0 : 1;
+    } else if (R->pl->comp == COMP_LIGHTS && R->authored) {
+        tg = 1 + R->arank[in.light];
     } else if (R->pl->comp == COMP_LIGHTS) {
         tg = 1;
         while (R->light[tg - 1] != (int)in.light) tg++;
@@ -778,6 +838,19 @@ static void composite(fb_run *R, const uint8_t *kept)
             continue;
         }
         for (int k = 0; k < 3; k++) rgb[k] = R->ft[3 * pix + k];
+        if (R->authored) { /* target 1 + rank: light i's unoccluded weights; shade.h's rule in light order */
+            if (R->htri[pix] == RT_NO_HIT) continue;
+            const float *alb = R->sc->shade[R->htri[pix]].rgb;
+            for (uint32_t i = 0; i < R->sc->nlight; i++) {
+                if (R->arank[i] < 0) continue;
+                float W = R->ft[3 * ((size_t)(1 + R->arank[i]) * R->npix + pix)];
+                if (!(W > 0)) continue;
+                float sw = (W / (float)rt_shade_light_nsamples(R->sc, R->o, i)) *
+                           (R->sc->light_power * R->sc->lights[i].scale);
+                for (int k = 0; k < 3; k++) rgb[k] += alb[k] * sw;
+            }
+            continue;
+        }
         for (int t = 1; t < nt; t++)
             for (int k = 0; k < 3; k++) rgb[k] += R->ft[3 * ((size_t)t * R->npix + pix) + k];
     }
@@ -876,6 +949,13 @@ static int fb_run_tracer(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *
         for (int i = 0; i < RT_NLIGHTS; i++)
             if (o->lights & (1u << i)) R.light[R.nl++] = i;
     uint8_t *kept = rt_calloc(R.npix, 1, e);
+    R.authored = authored(R.sc, o);
+    if (R.authored) {
+        if (!(R.arank = rt_calloc(R.sc->nlight, sizeof *R.arank, e)) || !(R.htri = rt_calloc(R.npix, sizeof *R.htri, e)))
+            goto done;
+        for (uint32_t i = 0, j = 0; i < R.sc->nlight; i++) R.arank[i] = rt_render_light_on(o, i) ? (int)j++ : -1;
+        for (size_t p = 0; p < R.npix; p++) R.htri[p] = RT_NO_HIT;
+    }
     R.mark = rt_calloc(R.sc->ntri ? R.sc->ntri : 1, 1, e);
     if (pl->comp == COMP_GENS) R.at = rt_calloc(R.npix * (size_t)pl->ntarget, sizeof *R.at, e);
     else R.ft = rt_calloc(R.npix * (size_t)pl->ntarget * 3, sizeof *R.ft, e);
@@ -937,6 +1017,8 @@ static int fb_run_tracer(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *
     rc = 0;
 done:
     free(kept);
+    free(R.arank);
+    free(R.htri);
     free(R.mark);
     free(R.at);
     free(R.ft);
@@ -966,7 +1048,7 @@ const rt_tracer rt_tracer_feedback = {
     .accels = RT_ACCEL_BIT(RT_ACCEL_GRID) | RT_ACCEL_BIT(RT_ACCEL_NAIVE),
     .accel_default = RT_ACCEL_GRID,
     .opts = RT_OPTG_GRID | RT_OPTG_VB | RT_OPTG_RECORDS,
-    .traits = RT_TR_TEXCACHE,
+    .traits = RT_TR_TEXCACHE | RT_TR_LIGHTS,
     .figures = RT_FIG_FEEDBACK,
     .params = fb_params,
     .layout = fb_layout,

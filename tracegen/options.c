@@ -186,9 +186,11 @@ int rt_render_parse_lights(const char *s, unsigned *mask)
     unsigned m = 0;
     const char *p = s;
     while (*p) {
-        if (*p < '0' || *p >= '0' + RT_NLIGHTS) return -1;
-        m |= 1u << (*p - '0');
-        p++;
+        if (*p < '0' || *p > '9') return -1;
+        unsigned i = (unsigned)(*p++ - '0');
+        if (i && *p >= '0' && *p <= '9') i = 10 * i + (unsigned)(*p++ - '0'); /* two digits, no leading 0 */
+        if (i > 31) return -1;
+        m |= 1u << i;
         if (*p == ',' || *p == '+') { /* "0,2" and the printed name "0+2" */
             p++;
             if (!*p) return -1;
@@ -229,6 +231,29 @@ int rt_render_apply_view(const rt_render_opts *o, rt_scene *sc, rt_err *e)
     return 0;
 }
 
+uint32_t rt_render_nlights(const rt_render_opts *o, const rt_scene *sc)
+{
+    return o->light_samples && sc->nlight ? sc->nlight : RT_NLIGHTS;
+}
+
+int rt_render_light_on(const rt_render_opts *o, uint32_t i)
+{
+    return (o->lights_all && o->lights) || (i < 32 && ((o->lights >> i) & 1u));
+}
+
+int rt_render_check_scene_lights(const rt_render_opts *o, const rt_scene *sc, rt_err *e)
+{
+    if (o->light_samples > RT_LIGHT_SAMPLES_MAX)
+        return rt_errf_usage(e, "--light-samples: %u is not in 0..%d", (unsigned)o->light_samples, RT_LIGHT_SAMPLES_MAX);
+    uint32_t n = rt_render_nlights(o, sc);
+    for (uint32_t i = n; i < 32 && !o->lights_all; i++) /* "all": the lights there are */
+        if ((o->lights >> i) & 1u)
+            return rt_errf_usage(e, "--lights: light %u does not exist (%s has %u light%s%s)", (unsigned)i, sc->name,
+                                 (unsigned)n, n == 1 ? "" : "s",
+                                 o->light_samples || !sc->nlight ? "" : "; --light-samples N uses the file's own");
+    return 0;
+}
+
 unsigned rt_render_lights(const rt_render_opts *o)
 {
     int n = o->view.nlights;
@@ -263,6 +288,9 @@ void rt_render_view_params(const rt_render_opts *o, char *buf, size_t n)
         for (int k = 0; k < 3; k++) put_float(buf, n, &l, k ? "," : key, v->light[i][k]);
         if (v->light[i][3] > 0) put_float(buf, n, &l, ",", v->light[i][3]);
     }
+    if (o->light_samples && l < n) /* the authored model: only then, so other keys stay as they were */
+        l += (size_t)snprintf(buf + l, n - l, "%slight_model=authored light_samples=%u%s", l ? " " : "",
+                              (unsigned)o->light_samples, o->lights_all ? " lights=all" : "");
 }
 
 /* ---- the strict parsers ------------------------------------------------ */
@@ -383,6 +411,16 @@ static int p_lights(rt_render_opts *o, const char *arg, rt_err *e)
 {
     if (rt_parse_lights(arg, &o->lights) < 0) return rt_errf(e, "--lights: '%s' is not all, none or a list like 0,2", arg);
     o->lights_named = strcmp(arg, "all") ? o->lights : 0;
+    o->lights_all = !strcmp(arg, "all"); /* every light of a file (--light-samples) */
+    return 0;
+}
+
+static int p_light_samples(rt_render_opts *o, const char *arg, rt_err *e)
+{
+    long v;
+    if (rt_opt_parse_long(arg, 1, RT_LIGHT_SAMPLES_MAX, &v) < 0)
+        return rt_errf(e, "--light-samples: '%s' is not a sample count in 1..%d", arg, RT_LIGHT_SAMPLES_MAX);
+    o->light_samples = (uint32_t)v;
     return 0;
 }
 
@@ -627,8 +665,14 @@ const rt_render_optdef rt_render_optdefs[] = {
      "image size in pixels (a .pbrt scene: its Film's by default;" H "one of them alone keeps the Film's aspect ratio)",
      "  -W N, -H N         image size (overrides the preset and a .pbrt scene's Film)\n", "32"},
     {"--height", 'H', "N", 0, ALL, NULL, p_height, NULL, NULL, "", "24"},
-    {"--lights", 0, "L", 0, RT_OC_RUN, NULL, p_lights, NULL, "all | none | comma list of lights 0,1,2 (default none)",
+    {"--lights", 0, "L", 0, RT_OC_RUN, NULL, p_lights, NULL,
+     "all | none | comma list of lights 0,1,2 (default none; with" H
+     "--light-samples, indices 0..31 of the file's lights, all = every one)",
      NULL, "0,2"},
+    {"--light-samples", 0, "N", 0, ALL, "light_samples", p_light_samples, NULL,
+     "the scene file's own lights: N shadow rays per hit to each area" H
+     "or infinite light, 1 to point and distant ones (default: the" H "three point lights)",
+     NULL, "16"},
     {"--look-at", 0, "EX,EY,EZ,AX,AY,AZ[,UX,UY,UZ]", 0, ALL, "look_at", p_look_at, NULL,
      "camera at E looking at A (up: the scene's)",
      "  --look-at EX,EY,EZ,AX,AY,AZ[,UX,UY,UZ], --fov DEGREES, --light X,Y,Z[,POWER]\n"

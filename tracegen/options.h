@@ -226,6 +226,10 @@ typedef struct rt_render_opts {
     uint64_t given;      /* front end: bit i set when rt_render_optdefs[i] was given (never in a run key) */
     unsigned lights_named; /* the light indices --lights named (not "all"): each must exist */
     rt_render_view view; /* camera and lights the user set (--look-at, --fov, --light); none by default */
+    uint32_t light_samples; /* --light-samples N: 0 = the point model (the scene's three point lights);
+                             * N >= 1 = the authored lights, N shadow rays per hit to each area or
+                             * infinite light (docs/scenes.md "Lights"); part of the run key when set */
+    int lights_all;      /* --lights all: every light, also those past index 31 (authored model) */
     unsigned film;       /* RT_FILM_W | RT_FILM_H: that size may come from the scene's default
                           * image size (a pbrt Film); front ends set the bits of -W/-H not given (0) */
 } rt_render_opts;
@@ -314,8 +318,20 @@ void rt_render_view_params(const rt_render_opts *o, char *buf, size_t n);
 
 /* Parses "all", "none" (or ""), or a list of light indices joined by ','
  * or '+' ("0,2", or "0+2" as rt_exp_lights_name prints it) into a light
- * mask. 0, or -1 on a malformed list (*mask untouched). */
+ * mask ("all": lights 0..2, the point model's; with a file's own lights
+ * the front end also sets lights_all). Indices 0..31; whether the light
+ * exists is checked when the scene is known (rt_render_check_scene_lights).
+ * 0, or -1 on a malformed list (*mask untouched). */
 int rt_render_parse_lights(const char *s, unsigned *mask);
+#define RT_LIGHT_SAMPLES_MAX 4096 /* largest --light-samples */
+/* The number of lights the run can enable: the scene's authored lights
+ * when o->light_samples > 0 and it has some, else the RT_NLIGHTS point lights. */
+uint32_t rt_render_nlights(const rt_render_opts *o, const struct rt_scene *sc);
+/* 1 when light i is enabled (bit i of the mask; every light with lights_all). */
+int rt_render_light_on(const rt_render_opts *o, uint32_t i);
+/* Every enabled light exists in sc and --light-samples is in range: 0, or -1
+ * naming the light. */
+int rt_render_check_scene_lights(const rt_render_opts *o, const struct rt_scene *sc, rt_err *e);
 
 /* Former name, kept for the front end and its tests. */
 static inline int rt_parse_lights(const char *s, unsigned *mask) { return rt_render_parse_lights(s, mask); }

@@ -623,6 +623,47 @@ static void pk_secondary(pstate *ps, const rt_tracer_ctx *ctx, psec *S, plist *t
     }
 }
 
+/* Authored lights: per enabled light and sample in order, one shadow packet
+ * of the packet's hits that want that sample; lw[k * nlight + i] sums the
+ * weights of pixel k's unoccluded samples of light i (the recursive
+ * tracer's sums, added in the same order). */
+static void pk_lights(pstate *ps, const rt_tracer_ctx *ctx, plist *top, const rt_ray *eye, const rt_hit *hit, rt_ray *sray,
+                      uint8_t *want, float *swt, float *lw, int n, rt_run_stats *st)
+{
+    const rt_scene *sc = ctx->sc;
+    const rt_layout *L = ctx->L;
+    const int reg_hits = rt_mm_find(L, "packet.hits");
+    const uint32_t nl = sc->nlight;
+    memset(lw, 0, sizeof *lw * (size_t)n * nl);
+    for (uint32_t li = 0; li < nl; li++) {
+        if (!rt_render_light_on(ctx->opt, li)) continue;
+        for (uint32_t smp = 0, ns = rt_shade_light_nsamples(sc, ctx->opt, li); smp < ns; smp++) {
+            top->n = 0;
+            for (int k = 0; k < n; k++) {
+                RT_REC(ctx->rec, rt_mm_addr(L, reg_hits, k), 8, 0, RT_CLS_HIT);
+                uint32_t tri;
+                want[k] = 0;
+                ps->done[k] = 0;
+                if (hit[k].tri == RT_NO_HIT) continue;
+                if (!rt_shade_sample_ray(sc, ctx->opt, &eye[k], &hit[k], li, smp, &sray[k], &swt[k], &tri)) continue;
+                rt_reg_light(ctx, ctx->rec, li, tri);
+                want[k] = 1;
+                st->rays_shadow++;
+                float t0, t1;
+                if (pk_clip(ctx, &sray[k], &t0, &t1)) {
+                    top->idx[top->n] = (uint16_t)k, top->t0[top->n] = t0, top->t1[top->n++] = t1;
+                }
+            }
+            ps->ray = sray;
+            ps->shadow = 1;
+            ps->tv->mark_bit = 2;
+            trace_packet(ps, top);
+            for (int k = 0; k < n; k++)
+                if (want[k] && !ps->done[k]) lw[(size_t)k * nl + li] += swt[k];
+        }
+    }
+}
+
 static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_err *e)
 {
     const rt_scene *sc = ctx->sc;
@@ -651,6 +692,9 @@ static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_
     uint8_t *mark = pt ? rt_calloc(sc->ntri ? sc->ntri : 1, 1, e) : NULL;
     plist *store = mark ? rt_calloc((size_t)2 * (ps.maxdepth + 1) + 1, sizeof *store, e) : NULL;
     void *pool = store ? rt_calloc(((size_t)2 * (ps.maxdepth + 1) + 1) * NP, 12, e) : NULL;
+    const int authored = rt_shade_authored(sc, o) && o->lights; /* the file's lights (--light-samples) */
+    float *lw = pool && authored ? rt_calloc((size_t)NP * sc->nlight, sizeof *lw, e) : NULL;
+    float *swt = lw ? rt_calloc(NP, sizeof *swt, e) : NULL;
     psec S;
     memset(&S, 0, sizeof S);
     /* BVH packets: per level the rays (idx, tin) and, wide, their slots */
@@ -676,7 +720,7 @@ static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_
             !(S.h0 = rt_calloc(NP, sizeof *S.h0, e)))
             goto done;
     }
-    if (!pool) goto done;
+    if (!pool || (authored && !swt)) goto done;
     {
         unsigned char *p = pool;
         for (int k = 0; k < 2 * (ps.maxdepth + 1) + 1; k++) {
@@ -727,6 +771,21 @@ static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_
             tv.mark_bit = 1;
             trace_packet(&ps, top);
             for (int k = 0; k < n; k++) RT_REC(rec, rt_mm_addr(L, reg_hits, k), 8, 1, RT_CLS_HIT);
+            if (authored) { /* the file's lights: one shadow packet per light and sample */
+                pk_lights(&ps, ctx, top, eye, hit, sray, want, swt, lw, n, st);
+                for (int k = 0; k < n; k++) {
+                    int x = px + k % pw, y = py + k / pw;
+                    uint32_t pix = (uint32_t)y * (uint32_t)W + (uint32_t)x;
+                    RT_REC(rec, rt_mm_addr(L, reg_hits, k), 8, 0, RT_CLS_HIT);
+                    if (hit[k].tri != RT_NO_HIT) RT_REC(rec, rt_mm_addr(L, reg_shade, hit[k].tri), 16, 0, RT_CLS_SHADE);
+                    rt_shade_pixel_lw(sc, o, &eye[k], hit[k].tri != RT_NO_HIT ? &hit[k] : NULL, &lw[(size_t)k * sc->nlight],
+                                      img, pix);
+                    img->nodes[pix] = pn[k];
+                    img->tests[pix] = pt[k];
+                    RT_REC(rec, rt_mm_addr(L, reg_fb, pix), 12, 1, RT_CLS_FB);
+                }
+                continue;
+            }
             /* shadow packets, one per light */
             memset(vis, 0, sizeof(int) * (size_t)NP * RT_NLIGHTS);
             for (int li = 0; li < RT_NLIGHTS; li++) {
@@ -790,6 +849,8 @@ done:
     free(mark);
     free(pt);
     free(pn);
+    free(swt);
+    free(lw);
     free(vis);
     free(want);
     free(done);
@@ -818,6 +879,7 @@ const rt_tracer rt_tracer_packet = {
     .accels = RT_ACCEL_BIT(RT_ACCEL_KD) | RT_ACCEL_BVH_BITS,
     .accel_default = RT_ACCEL_KD,
     .opts = RT_OPTG_PACKET | RT_OPTG_THREADS | RT_OPTG_CORES,
+    .traits = RT_TR_LIGHTS,
     .figures = RT_FIG_NAVRATIL,
     .check_opts = pk_check_opts,
     .params = pk_params,

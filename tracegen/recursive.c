@@ -9,6 +9,10 @@
  * finish before the next pixel starts, which is what keeps ray traffic
  * minimal and lets geometry thrash when the cache is small.
  *
+ * With authored lights (--light-samples N) a hit traces every sample of
+ * every enabled light in turn, depth first like the point lights
+ * (rec_lights).
+ *
  * Secondary modes (whitted, path): per pixel and sample, the rays of the
  * Whitted tree or the path are followed depth first from a small stack
  * (reflection before refraction); each hit reads its shading and material
@@ -84,6 +88,27 @@ static void rec_secondary(const rt_tracer_ctx *ctx, rt_trav *tv, const rt_cam_fr
     rt_rec_set_gen(ctx->rec, 0); /* the pixel write: the primary ray's */
 }
 
+/* Authored lights: every sample of every enabled light from the hit h, in
+ * light then sample order; lw[i] gets the weights of the unoccluded ones. */
+static void rec_lights(const rt_tracer_ctx *ctx, rt_trav *tv, const rt_ray *eye, const rt_hit *h, float *lw,
+                       rt_run_stats *st)
+{
+    const rt_scene *sc = ctx->sc;
+    for (uint32_t i = 0; i < sc->nlight; i++) {
+        lw[i] = 0.0f;
+        if (!rt_render_light_on(ctx->opt, i)) continue;
+        for (uint32_t k = 0, n = rt_shade_light_nsamples(sc, ctx->opt, i); k < n; k++) {
+            rt_ray sr;
+            float w;
+            uint32_t tri;
+            if (!rt_shade_sample_ray(sc, ctx->opt, eye, h, i, k, &sr, &w, &tri)) continue;
+            rt_reg_light(ctx, ctx->rec, i, tri);
+            st->rays_shadow++;
+            if (!ctx->acc->ops->occluded(tv, &sr)) lw[i] += w;
+        }
+    }
+}
+
 static int rec_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_err *e)
 {
     const rt_scene *sc = ctx->sc;
@@ -107,6 +132,13 @@ static int rec_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
     tv.mark = mark;
     const int secondary = rt_render_secondary(o);
     uint64_t nsec = 0, nself = 0;
+    const int authored = rt_shade_authored(sc, o) && o->lights; /* the file's lights (--light-samples) */
+    float *lw = authored ? rt_calloc(sc->nlight, sizeof *lw, e) : NULL;
+    if (authored && !lw) {
+        free(order);
+        free(mark);
+        return -1;
+    }
 
     for (size_t k = 0; k < npix; k++) {
         uint32_t pix = order[k];
@@ -125,7 +157,15 @@ static int rec_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
         rt_cam_ray(&cam, x, y, &ray);
         tv.mark_bit = 1;
         st->rays_primary++;
-        if (ctx->acc->ops->closest(&tv, &ray, &h)) {
+        if (authored) {
+            int hit = ctx->acc->ops->closest(&tv, &ray, &h);
+            if (hit) {
+                RT_REC(rec, rt_mm_addr(L, reg_shade, h.tri), 16, 0, RT_CLS_SHADE);
+                tv.mark_bit = 2;
+                rec_lights(ctx, &tv, &ray, &h, lw, st);
+            }
+            rt_shade_pixel_lw(sc, o, &ray, hit ? &h : NULL, lw, img, pix);
+        } else if (ctx->acc->ops->closest(&tv, &ray, &h)) {
             int vis[RT_NLIGHTS] = {0};
             RT_REC(rec, rt_mm_addr(L, reg_shade, h.tri), 16, 0, RT_CLS_SHADE);
             tv.mark_bit = 2;
@@ -149,6 +189,7 @@ static int rec_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
         snprintf(st->extra, sizeof st->extra, "rays_secondary=%" PRIu64 " self_hits=%" PRIu64, nsec, nself);
     free(order);
     free(mark);
+    free(lw);
     return 0;
 }
 
@@ -159,7 +200,7 @@ const rt_tracer rt_tracer_recursive = {
     .accels = RT_ACCEL_BIT(RT_ACCEL_KD) | RT_ACCEL_BVH_BITS | RT_ACCEL_BIT(RT_ACCEL_NAIVE),
     .accel_default = RT_ACCEL_KD,
     .opts = RT_OPTG_THREADS | RT_OPTG_CORES,
-    .traits = RT_TR_REFERENCE,
+    .traits = RT_TR_REFERENCE | RT_TR_LIGHTS,
     .figures = RT_FIG_NAVRATIL,
     .layout = rec_layout,
     .run = rec_run,

@@ -3,6 +3,7 @@
 #include "regions.h"
 #include "mesh.h"
 #include "pbrtlayout.h"
+#include "shade.h"
 
 #include <string.h>
 
@@ -29,7 +30,36 @@ int rt_reg_geometry(const rt_tracer_ctx *ctx, rt_layout *L, int want_shade, rt_e
     if (want_shade && rt_reg_wants_mat(ctx) &&
         rt_mm_add(L, "mat", RT_CLS_SHADE, RT_MAT_RECSIZE, ctx->sc->nmat, e) < 0)
         return -1;
+    if (rt_reg_wants_lights(ctx)) {
+        uint64_t ncdf = 0;
+        for (uint32_t i = 0; i < ctx->sc->nlight; i++)
+            if (ctx->sc->lights[i].kind == RT_LIGHT_MESH) ncdf += ctx->sc->lights[i].count;
+        if (rt_mm_add(L, "lights", RT_CLS_SHADE, RT_LIGHT_RECSIZE, ctx->sc->nlight, e) < 0) return -1;
+        if (ncdf && rt_mm_add(L, "lights.cdf", RT_CLS_SHADE, 4, ncdf, e) < 0) return -1;
+    }
     return 0;
+}
+
+int rt_reg_wants_lights(const rt_tracer_ctx *ctx)
+{
+    return rt_shade_authored(ctx->sc, ctx->opt) && ctx->opt->lights && rt_render_mode(ctx->opt) != RT_MODE_RAYCAST &&
+           rt_scene_nonpoint_lights(ctx->sc);
+}
+
+void rt_reg_light(const rt_tracer_ctx *ctx, rt_rec *rec, uint32_t light, uint32_t tri)
+{
+    if (!rec) return;
+    const rt_layout *L = ctx->L;
+    int rl = rt_mm_find(L, "lights");
+    if (rl < 0) return;
+    RT_REC(rec, rt_mm_addr(L, rl, light), RT_LIGHT_RECSIZE, 0, RT_CLS_SHADE);
+    if (tri == RT_NO_HIT) return;
+    int rc = rt_mm_find(L, "lights.cdf"), rv = rt_mm_find(L, "tri.verts");
+    uint64_t base = 0; /* the light's entries follow the earlier mesh lights' */
+    for (uint32_t i = 0; i < light; i++)
+        if (ctx->sc->lights[i].kind == RT_LIGHT_MESH) base += ctx->sc->lights[i].count;
+    if (rc >= 0) RT_REC(rec, rt_mm_addr(L, rc, base + (tri - ctx->sc->lights[light].first)), 4, 0, RT_CLS_SHADE);
+    if (rv >= 0) RT_REC(rec, rt_mm_addr(L, rv, tri), 36, 0, RT_CLS_TRI);
 }
 
 int rt_reg_wants_mat(const rt_tracer_ctx *ctx)

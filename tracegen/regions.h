@@ -33,6 +33,19 @@ int rt_reg_wants_mat(const rt_tracer_ctx *ctx);
  * record and, when the region mat exists, its material record. */
 void rt_reg_shade(const rt_tracer_ctx *ctx, rt_rec *rec, uint32_t tri);
 
+/* 1 when the run samples authored lights other than points (--light-samples
+ * on a scene with area, distant or infinite lights, shadow rays on). Then
+ * rt_reg_geometry adds, after the shading regions, the region lights
+ * (RT_LIGHT_RECSIZE B x authored lights, class shade) and, when a mesh
+ * light exists, lights.cdf (4 B x emitting triangles, class shade). A
+ * scene lit by point lights alone keeps its layout. */
+int rt_reg_wants_lights(const rt_tracer_ctx *ctx);
+/* Records the reads one light sample makes (only when the lights region
+ * exists): the light's record and, for a mesh light (tri != RT_NO_HIT),
+ * the cdf entry its search ends at and the sampled triangle's vertices
+ * (tri.verts, when the run has that region). */
+void rt_reg_light(const rt_tracer_ctx *ctx, rt_rec *rec, uint32_t light, uint32_t tri);
+
 /* Initialises a traversal context for ctx: its tree, scene and recorder,
  * with the geometry regions looked up in ctx->L. */
 void rt_reg_trav(rt_trav *tv, const rt_tracer_ctx *ctx);

@@ -2,9 +2,11 @@
 #include "scene_load.h"
 #include "run.h"
 #include "pbrtlayout.h"
+#include "shade.h"
 #include "stats.h"
 
 #include <inttypes.h>
+#include <math.h>
 #include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -81,6 +83,24 @@ static int setup_opts(rt_job *j, const char *tracer, const rt_render_opts *o, rt
 static int apply_film(rt_job *j, rt_err *e)
 {
     j->opt.lights = rt_render_lights(&j->opt); /* with --light, only the lights given exist */
+    if (rt_render_check_scene_lights(&j->opt, j->sc, e) < 0) return -1;
+    if (rt_shade_authored(j->sc, &j->opt) && j->opt.lights_all && j->opt.lights && j->sc->nlight < 32)
+        j->opt.lights = (1u << j->sc->nlight) - 1u; /* "all": the file's lights, none of the point model's fill */
+    if (rt_shade_authored(j->sc, &j->opt) && j->opt.view.nlights)
+        return rt_errf_usage(e, "--light replaces the three point lights, --light-samples traces %s's own lights: "
+                                "give one of them", j->sc->name);
+    /* the file's lights: a file of at most three point lights is lit alike by
+     * the point lights (light[] holds them in order), which every tracer and
+     * mode traces; other lights need the sampling tracers and shadow mode */
+    if (rt_shade_authored(j->sc, &j->opt) && j->opt.lights &&
+        (rt_scene_nonpoint_lights(j->sc) || j->sc->nlight > RT_NLIGHTS)) {
+        if (!rt_tracer_is(j->tr, RT_TR_LIGHTS))
+            return rt_errf_usage(e, "--light-samples: the %s tracer traces the three point lights only (the file's own "
+                                 "lights)", j->tr->name);
+        if (rt_render_secondary(&j->opt))
+            return rt_errf_usage(e, "--light-samples: mode %s follows the three point lights only (the file's own "
+                                 "lights: shadow mode)", rt_render_mode_name(rt_render_mode(&j->opt)));
+    }
     rt_render_apply_film(&j->opt, j->sc->film_w, j->sc->film_h);
     if (check_opts(&j->opt, e) < 0 || rt_pixel_check(&j->opt, e) < 0) return -1;
     return 0;
@@ -124,6 +144,7 @@ typedef struct share_run {
 } share_run;
 
 static int run_share(rt_job *j, rt_sink *sink, int part, int nparts, rt_image *img, rt_run_stats *st, rt_err *e);
+static void env_hits(const rt_job *j, const rt_image *img, rt_run_stats *st);
 
 static void *share_main(void *arg)
 {
@@ -246,6 +267,7 @@ static int run_threads(rt_job *j, int n, rt_image *img, rt_run_stats *st, rt_err
             goto done;
         }
     merge_shares(j, s, n, marks, st);
+    env_hits(j, img, st);
 done:
     free(tid);
     free(marks);
@@ -308,6 +330,22 @@ static int reloc_init(reloc *r, const rt_layout *L, int part, rt_sink *to)
 /* One tracer run of work share part of nparts, recording into sink (NULL:
  * untraced) through the layout's translating recorder. Fills st (its
  * mark_keep as set by the caller). 0 or -1. */
+/* The file's lights with an enabled infinite one: primary rays that escape
+ * are environment hits, counted in the statistics (env_hits=N; not with
+ * subsampling, which leaves pixels untraced). */
+static void env_hits(const rt_job *j, const rt_image *img, rt_run_stats *st)
+{
+    const rt_scene *sc = j->sc;
+    if (!rt_shade_authored(sc, &j->opt) || !j->opt.lights || j->opt.subsample != 1) return;
+    int sky = 0;
+    for (uint32_t i = 0; i < sc->nlight; i++) sky |= sc->lights[i].kind == RT_LIGHT_INFINITE && rt_render_light_on(&j->opt, i);
+    if (!sky) return;
+    uint64_t n = 0;
+    for (size_t p = 0; p < (size_t)img->W * img->H; p++) n += img->depth[p] == INFINITY;
+    size_t l = strlen(st->extra);
+    snprintf(st->extra + l, sizeof st->extra - l, "%senv_hits=%" PRIu64, l ? " " : "", n);
+}
+
 static int run_share(rt_job *j, rt_sink *sink, int part, int nparts, rt_image *img, rt_run_stats *st, rt_err *e)
 {
     rt_rec *rec = NULL;
@@ -337,6 +375,7 @@ static int run_share(rt_job *j, rt_sink *sink, int part, int nparts, rt_image *i
     }
     rt_tracer_ctx ctx = {j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, trec, j->plan, j->check, j->mesh, part, nparts};
     int rc = j->tr->run(&ctx, img, st, e);
+    if (rc == 0 && nparts == 1) env_hits(j, img, st); /* n shares: once, over the whole image */
     if (trec != rec) {
         rt_rec_flush(trec);
         if (pbrt) {

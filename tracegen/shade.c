@@ -75,6 +75,175 @@ void rt_shade_pixel(const rt_scene *sc, const rt_ray *eye, const rt_hit *h, cons
     img->rgb[3 * pix + 2] = rgb[2];
 }
 
+/* ---- lights as authored (shade.h) ------------------------------------------- */
+
+int rt_shade_authored(const rt_scene *sc, const rt_render_opts *o) { return o->light_samples > 0 && sc->nlight > 0; }
+
+uint32_t rt_shade_light_nsamples(const rt_scene *sc, const rt_render_opts *o, uint32_t i)
+{
+    int k = sc->lights[i].kind;
+    return k == RT_LIGHT_POINT || k == RT_LIGHT_DISTANT ? 1u : o->light_samples;
+}
+
+/* Uniform float in [0, 1) for dimension dim of sample k of light i at hit h. */
+static float light_rand(const rt_hit *h, uint32_t i, uint32_t k, uint32_t dim)
+{
+    uint32_t ub, vb;
+    memcpy(&ub, &h->u, 4);
+    memcpy(&vb, &h->v, 4);
+    uint64_t x = rt_mix64(((uint64_t)h->tri << 32 | ub) ^ 0x9e3779b97f4a7c15ULL);
+    x = rt_mix64(x ^ ((uint64_t)vb << 32 | i) ^ 0xc2b2ae3d27d4eb4fULL);
+    x = rt_mix64(x ^ ((uint64_t)k << 32 | dim) ^ 0x165667b19e3779f9ULL);
+    return (float)(x >> 40) * (1.0f / 16777216.0f);
+}
+
+/* A point of the unit disk by rejection from the hash (no trigonometry:
+ * the same bits on every machine); the centre after 16 misses. */
+static void light_disk(const rt_hit *h, uint32_t i, uint32_t k, float *x, float *y)
+{
+    *x = *y = 0.0f;
+    for (uint32_t t = 0; t < 16; t++) {
+        float a = 2.0f * light_rand(h, i, k, 2 + 2 * t) - 1.0f, b = 2.0f * light_rand(h, i, k, 3 + 2 * t) - 1.0f;
+        if (a * a + b * b < 1.0f && a * a + b * b > 0x1p-20f) {
+            *x = a;
+            *y = b;
+            return;
+        }
+    }
+}
+
+/* Duff et al. (JCGT 2017) orthonormal basis t, s about unit n. */
+static void light_basis(rt_vec3 n, rt_vec3 *t, rt_vec3 *s)
+{
+    float sign = copysignf(1.0f, n.z), a = -1.0f / (sign + n.z), b = n.x * n.y * a;
+    *t = rt_v3(1.0f + sign * n.x * n.x * a, sign * b, -sign * n.x);
+    *s = rt_v3(b, sign + n.y * n.y * a, -n.y);
+}
+
+/* Length that takes a ray from o past every point of the scene. */
+static float reach(const rt_scene *sc, rt_vec3 o)
+{
+    rt_vec3 c = rt_mul(rt_add(sc->bounds.lo, sc->bounds.hi), 0.5f);
+    return 2.0f * (rt_len(rt_sub(sc->bounds.hi, sc->bounds.lo)) + rt_len(rt_sub(o, c))) + 1.0f;
+}
+
+int rt_shade_sample_ray(const rt_scene *sc, const rt_render_opts *o, const rt_ray *eye, const rt_hit *h, uint32_t i,
+                        uint32_t k, rt_ray *sr, float *w, uint32_t *tri)
+{
+    (void)o;
+    const rt_light *L = &sc->lights[i];
+    rt_vec3 n = facing_normal(sc, eye, h);
+    rt_vec3 p = hit_point(sc, h);
+    rt_vec3 q, dir;
+    float tmax = 1.0f;
+    *tri = RT_NO_HIT;
+    *w = 0.0f;
+    switch (L->kind) {
+    case RT_LIGHT_POINT:
+        q = L->p;
+        break;
+    case RT_LIGHT_MESH: {
+        float a = light_rand(h, i, k, 0);
+        uint32_t lo = 0, hi = L->count - 1; /* first entry with cdf > a */
+        while (lo < hi) {
+            uint32_t mid = lo + (hi - lo) / 2;
+            if (L->cdf[mid] > a) hi = mid;
+            else lo = mid + 1;
+        }
+        *tri = L->first + lo;
+        float b1 = light_rand(h, i, k, 1), b2 = light_rand(h, i, k, 2);
+        if (b1 + b2 > 1.0f) b1 = 1.0f - b1, b2 = 1.0f - b2;
+        q = rt_tri_point(&sc->tri[*tri], b1, b2);
+        tmax = 0.999f;
+        break;
+    }
+    case RT_LIGHT_SPHERE: {
+        rt_vec3 pc = rt_sub(p, L->p);
+        float dist = rt_len(pc);
+        if (!(dist > L->r)) return 0;
+        rt_vec3 wc = rt_mul(pc, 1.0f / dist), t, s;
+        light_basis(wc, &t, &s);
+        /* uniform on the cap seen from p: cos in [r / dist, 1] */
+        float zmin = L->r / dist, z = zmin + (1.0f - zmin) * light_rand(h, i, k, 0);
+        float x, y;
+        light_disk(h, i, k, &x, &y); /* its direction about wc: (x, y) / |(x, y)| */
+        if (!(x * x + y * y > 0)) x = 1.0f, y = 0.0f;
+        float rr = sqrtf(fmaxf(0.0f, 1.0f - z * z)) / sqrtf(x * x + y * y);
+        rt_vec3 u = rt_add(rt_add(rt_mul(t, x * rr), rt_mul(s, y * rr)), rt_mul(wc, z));
+        q = rt_add(L->p, rt_mul(u, L->r));
+        tmax = 0.999f;
+        break;
+    }
+    case RT_LIGHT_DISK: {
+        rt_vec3 t, s;
+        float x, y;
+        light_basis(L->d, &t, &s);
+        light_disk(h, i, k, &x, &y);
+        q = rt_add(L->p, rt_add(rt_mul(t, x * L->r), rt_mul(s, y * L->r)));
+        tmax = 0.999f;
+        break;
+    }
+    case RT_LIGHT_DISTANT: {
+        float c = rt_dot(n, L->d);
+        if (!(c > 0)) return 0;
+        rt_vec3 so = rt_offset_origin(p, n);
+        rt_ray_init(sr, so, rt_mul(L->d, reach(sc, so)));
+        sr->tmin = 0.0f;
+        sr->tmax = 1.0f;
+        *w = c;
+        return 1;
+    }
+    default: { /* RT_LIGHT_INFINITE: cosine-distributed about n */
+        rt_vec3 t, s;
+        float x, y;
+        light_basis(n, &t, &s);
+        light_disk(h, i, k, &x, &y);
+        float z = sqrtf(fmaxf(0.0f, 1.0f - x * x - y * y));
+        dir = rt_add(rt_add(rt_mul(t, x), rt_mul(s, y)), rt_mul(n, z));
+        if (!(rt_dot(n, dir) > 0)) return 0;
+        rt_vec3 so = rt_offset_origin(p, n);
+        rt_ray_init(sr, so, rt_mul(dir, reach(sc, so)));
+        sr->tmin = 0.0f;
+        sr->tmax = 1.0f;
+        *w = 1.0f;
+        return 1;
+    }
+    }
+    /* to the point q: as rt_shade_ray does for a point light */
+    rt_vec3 l = rt_sub(q, p);
+    if (!(rt_dot(n, l) > 0)) return 0;
+    rt_vec3 so = rt_offset_origin(p, n);
+    rt_ray_init(sr, so, rt_sub(q, so));
+    sr->tmin = 0.0f;
+    sr->tmax = tmax;
+    *w = rt_dot(n, rt_norm(l));
+    return *w > 0;
+}
+
+void rt_shade_pixel_lw(const rt_scene *sc, const rt_render_opts *o, const rt_ray *eye, const rt_hit *h,
+                       const float *lw, rt_image *img, size_t pix)
+{
+    float rgb[3];
+    if (h) {
+        const float *alb = sc->shade[h->tri].rgb;
+        for (int k = 0; k < 3; k++) rgb[k] = alb[k] * sc->ambient;
+        for (uint32_t i = 0; i < sc->nlight; i++) {
+            if (!rt_render_light_on(o, i) || !(lw[i] > 0)) continue;
+            float s = (lw[i] / (float)rt_shade_light_nsamples(sc, o, i)) * (sc->light_power * sc->lights[i].scale);
+            for (int k = 0; k < 3; k++) rgb[k] += alb[k] * s;
+        }
+        img->depth[pix] = h->t * rt_len(eye->d);
+    } else {
+        rgb[0] = sc->background.x;
+        rgb[1] = sc->background.y;
+        rgb[2] = sc->background.z;
+        img->depth[pix] = INFINITY;
+    }
+    img->rgb[3 * pix] = rgb[0];
+    img->rgb[3 * pix + 1] = rgb[1];
+    img->rgb[3 * pix + 2] = rgb[2];
+}
+
 /* ---- secondary modes (whitted, path) ---------------------------------------- */
 
 void rt_shade_path_start(rt_path *p, const rt_ray *eye, uint32_t pix, uint32_t sample)

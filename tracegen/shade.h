@@ -50,6 +50,46 @@ void rt_shade_pixel(const rt_scene *sc, const rt_ray *eye, const rt_hit *h, cons
  * not lit), else 1. */
 int rt_shade_ray(const rt_scene *sc, const rt_ray *eye, const rt_hit *h, int light, rt_ray *sr);
 
+/* ---- lights as authored (--light-samples N; docs/scenes.md "Lights") ------
+ *
+ * With o->light_samples = N > 0 and a scene that has authored lights
+ * (rt_shade_authored), the lights are the scene's lights[] and a hit casts,
+ * per enabled light i, rt_shade_light_nsamples shadow rays: 1 to a point
+ * light (the ray of rt_shade_ray), 1 along a distant light's direction, and
+ * N to an area light (to points sampled on the emitter: a mesh triangle
+ * picked by area, then a uniform point on it; a uniform point on the
+ * visible cap of a sphere; a uniform point on a disk) or to the sky of an
+ * infinite light (cosine-distributed directions about the normal). Sample
+ * k of light i at a hit is a pure function of (hit triangle, barycentrics,
+ * i, k): a hash, not a counter, so every tracer draws the same points in
+ * any order and the images agree bit for bit. A sample adds its weight
+ * w = max(0, n.l) (1 for the sky) when unoccluded, and the hit is shaded
+ * c = albedo * ambient + sum over lights in order of
+ *     albedo * ((W_i / n_i) * (light_power * scale_i)),
+ * W_i the sum of the weights of light i's unoccluded samples, n_i its
+ * sample count: with point lights alone this is the rule above. Emitters
+ * are two-sided (no cosine at the emitter) and every light has the power
+ * of a point light; the study counts rays, the shading only shows them. */
+
+/* 1 when the run uses the authored lights (o->light_samples > 0 and the
+ * scene has authored lights). */
+int rt_shade_authored(const rt_scene *sc, const rt_render_opts *o);
+/* Shadow rays per hit to authored light i (1 or o->light_samples). */
+uint32_t rt_shade_light_nsamples(const rt_scene *sc, const rt_render_opts *o, uint32_t i);
+/* Sample k of authored light i at the primary hit h of eye: the shadow
+ * ray (origin offset as rt_shade_ray's; to a point: interval (0, 1) to
+ * it, or (0, 0.999) when the point lies on an emitter, so the emitter does
+ * not shadow itself; to the sky or a distant light: a segment reaching
+ * past the scene's bounds), its weight *w, and *tri the emitter triangle
+ * sampled (mesh lights; else RT_NO_HIT). 0 when no ray is needed (the
+ * sample lies behind the surface, or the hit is inside a sphere light). */
+int rt_shade_sample_ray(const rt_scene *sc, const rt_render_opts *o, const rt_ray *eye, const rt_hit *h, uint32_t i,
+                        uint32_t k, rt_ray *sr, float *w, uint32_t *tri);
+/* Shades and writes pixel pix from lw[i], the summed weights of light i's
+ * unoccluded samples (lights not enabled: ignored); h NULL for a miss. */
+void rt_shade_pixel_lw(const rt_scene *sc, const rt_render_opts *o, const rt_ray *eye, const rt_hit *h,
+                       const float *lw, rt_image *img, size_t pix);
+
 /* ---- secondary modes ------------------------------------------------------ */
 
 #define RT_PATH_MEDIA 4 /* nesting depth of dielectrics a ray remembers */

@@ -193,13 +193,15 @@ typedef struct st_ray {
     uint32_t ntest;    /* intersection tests so far */
     uint8_t kind;      /* ST_CLOSEST or ST_SHADOW */
     uint8_t state;     /* ST_TRAV, ST_ISECT or ST_DONE */
-    uint8_t light;     /* shadow ray: its light */
+    uint8_t light;     /* shadow ray: its light (point lights) */
     uint8_t occluded;  /* shadow ray: a blocker was found */
     uint8_t gen;       /* generation (mark bit and recorder) */
     uint8_t primary;   /* eye ray of sample 0 (sets the pixel's depth) */
     uint8_t cidx;      /* multipass child: 0 reflection / path, 1 refraction */
     uint8_t ready;     /* it already holds rt_grid_iter_init of r (the eye kernel's bounds test) */
     uint32_t parent;   /* multipass: stream slot of the ray that spawned it */
+    uint32_t alight;   /* shadow ray, a file's own lights: its light */
+    uint32_t lslot;    /* ... and its sample's slot among the pixel's (loff[alight] + sample) */
 } st_ray;
 
 typedef struct st_vec {
@@ -220,7 +222,10 @@ typedef struct st_run {
     rt_image *img;
     rt_cam_frame cam;
     rt_hit *h0;          /* raycast/shadow: each pixel's primary hit */
-    uint8_t *vis;        /* raycast/shadow: pixel x light visibility */
+    uint8_t *vis;        /* raycast/shadow: pixel x light visibility (a file's lights: pixel x sample slot) */
+    int authored;        /* the file's own lights (--light-samples; shade.h) */
+    uint32_t nslot, *loff; /* authored: sample slots per pixel; light i's first slot */
+    float *lw;           /* authored: a pixel's per-light weights while shading */
     rt_acc *acc;         /* whitted/path: each pixel's sum */
     uint8_t *mark;       /* triangles tested (bit 1 primary, 2 shadow, 4 secondary) */
     int err;             /* out of memory while spawning */
@@ -428,7 +433,22 @@ static void finish_closest(st_run *S, st_ray *r, uint32_t slot, st_vec *shadows,
     if (!S->secondary) {
         S->h0[r->pix] = r->h;
         if (!hit) return;
-        for (int i = 0; i < RT_NLIGHTS; i++) {
+        for (uint32_t i = 0; S->authored && i < S->sc->nlight; i++) { /* the file's lights, sample by sample */
+            if (!rt_render_light_on(o, i)) continue;
+            for (uint32_t k = 0, ns = rt_shade_light_nsamples(S->sc, o, i); k < ns; k++) {
+                rt_ray sr;
+                float w;
+                uint32_t tri;
+                if (!rt_shade_sample_ray(S->sc, o, &r->r, &r->h, i, k, &sr, &w, &tri)) continue;
+                rt_reg_light(S->ctx, S->rec, i, tri);
+                if (charge_kernels) charge(S, RT_SK_SHADOW, slot);
+                ray_new_shadow(&n, &sr, r->pix, 0, 0, NULL);
+                n.alight = i;
+                n.lslot = S->loff[i] + k;
+                if (vec_push(S, shadows, &n) < 0) return;
+            }
+        }
+        for (int i = 0; i < RT_NLIGHTS && !S->authored; i++) {
             rt_ray sr;
             if (!(o->lights & (1u << i)) || !rt_shade_ray(S->sc, &r->r, &r->h, i, &sr)) continue;
             if (charge_kernels) charge(S, RT_SK_SHADOW, slot);
@@ -469,6 +489,7 @@ static void finish_shadow(st_run *S, st_ray *r)
     acc_rd(S, RT_SK_SHADOW, RT_SD_FB, S->reg_fb, r->pix, 0, 12, RT_CLS_FB, 1);
     S->acc_bytes += 24;
     if (S->secondary) rt_acc_add(&S->acc[r->pix], r->lc);
+    else if (S->authored) S->vis[(size_t)r->pix * S->nslot + r->lslot] = 1;
     else S->vis[(size_t)r->pix * RT_NLIGHTS + r->light] = 1;
 }
 
@@ -673,7 +694,17 @@ static void mp_closest(st_run *S, st_ray *a, size_t n, int first, st_vec *shadow
         }
     }
     mp_pass(S, RT_SK_COLOR, ST_PASS_OTHER, n, nhit);
-    for (int l = 0; l < RT_NLIGHTS; l++) {
+    for (uint32_t l = 0; S->authored && l < S->sc->nlight; l++) { /* one shadow pass per light of the file */
+        if (!rt_render_light_on(o, l)) continue;
+        size_t w = 0;
+        for (size_t k = s0; k < shadows->n; k++)
+            if (shadows->a[k].alight == l) {
+                charge(S, RT_SK_SHADOW, shadows->a[k].parent);
+                w++;
+            }
+        mp_pass(S, RT_SK_SHADOW, ST_PASS_OTHER, n, w);
+    }
+    for (int l = 0; l < RT_NLIGHTS && !S->authored; l++) {
         if (!(o->lights & (1u << l))) continue;
         size_t w = 0;
         for (size_t k = s0; k < shadows->n; k++)
@@ -767,12 +798,19 @@ static int st_run_common(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *
     rt_cam_setup(&S.cam, sc, W, H);
     uint32_t *order = rt_calloc(npix, sizeof *order, e);
     S.h0 = rt_calloc(npix, sizeof *S.h0, e);
-    S.vis = rt_calloc(npix * RT_NLIGHTS, 1, e);
+    S.authored = rt_shade_authored(sc, o) && o->lights && !S.secondary;
+    if (S.authored && (S.loff = rt_calloc(sc->nlight, sizeof *S.loff, e)))
+        for (uint32_t i = 0; i < sc->nlight; i++) {
+            S.loff[i] = S.nslot;
+            S.nslot += rt_shade_light_nsamples(sc, o, i);
+        }
+    S.vis = S.authored && !S.loff ? NULL : rt_calloc(npix * (S.authored ? S.nslot : RT_NLIGHTS), 1, e);
     S.acc = S.secondary ? rt_calloc(npix, sizeof *S.acc, e) : NULL;
     S.mark = rt_calloc(sc->ntri ? sc->ntri : 1, 1, e);
     st_vec wave = {0}, stack = {0}, shadows = {0};
     int rc = -1;
-    if (!order || !S.h0 || !S.vis || (S.secondary && !S.acc) || !S.mark) goto out;
+    S.lw = S.authored ? rt_calloc(sc->nlight, sizeof *S.lw, e) : NULL;
+    if (!order || !S.h0 || !S.vis || (S.secondary && !S.acc) || !S.mark || (S.authored && !S.lw)) goto out;
     size_t nk = rt_pixel_order(o, order);
     for (size_t i = 0; i < npix; i++) rt_hit_none(&S.h0[i]);
     if (!multipass) {
@@ -810,6 +848,20 @@ static int st_run_common(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *
         const rt_hit *h = S.h0[pix].tri != RT_NO_HIT ? &S.h0[pix] : NULL;
         if (S.secondary) {
             rt_acc_pixel(&S.acc[pix], spp, &eye, h, img, pix);
+        } else if (S.authored) { /* the unoccluded samples' weights, summed in light and sample order */
+            float *lw = S.lw;
+            for (uint32_t i = 0; i < sc->nlight; i++) {
+                lw[i] = 0.0f;
+                for (uint32_t smp = 0, ns = rt_shade_light_nsamples(sc, o, i); h && smp < ns; smp++) {
+                    rt_ray sr;
+                    float w;
+                    uint32_t tri;
+                    if (S.vis[(size_t)pix * S.nslot + S.loff[i] + smp] &&
+                        rt_shade_sample_ray(sc, o, &eye, h, i, smp, &sr, &w, &tri))
+                        lw[i] += w;
+                }
+            }
+            rt_shade_pixel_lw(sc, o, &eye, h, lw, img, pix);
         } else {
             int vis[RT_NLIGHTS];
             for (int i = 0; i < RT_NLIGHTS; i++) vis[i] = S.vis[(size_t)pix * RT_NLIGHTS + i];
@@ -860,6 +912,8 @@ out:
     free(order);
     free(S.h0);
     free(S.vis);
+    free(S.loff);
+    free(S.lw);
     free(S.acc);
     free(S.mark);
     free(wave.a);
@@ -907,7 +961,7 @@ const rt_tracer rt_tracer_stream_branching = {
     .accels = RT_ACCEL_BIT(RT_ACCEL_GRID),
     .accel_default = RT_ACCEL_GRID,
     .opts = RT_OPTG_GRID | RT_OPTG_RECORDS,
-    .traits = RT_TR_TEXCACHE,
+    .traits = RT_TR_TEXCACHE | RT_TR_LIGHTS,
     .figures = RT_FIG_PURCELL,
     .params = st_params_br,
     .layout = st_layout_br,
@@ -923,7 +977,7 @@ const rt_tracer rt_tracer_stream_multipass = {
     .accels = RT_ACCEL_BIT(RT_ACCEL_GRID),
     .accel_default = RT_ACCEL_GRID,
     .opts = RT_OPTG_GRID | RT_OPTG_ORACLE | RT_OPTG_RECORDS,
-    .traits = RT_TR_TEXCACHE | RT_TR_MULTIPASS,
+    .traits = RT_TR_TEXCACHE | RT_TR_MULTIPASS | RT_TR_LIGHTS,
     .figures = RT_FIG_PURCELL | RT_FIG_FEEDBACK,
     .params = st_params_mp,
     .layout = st_layout_mp,

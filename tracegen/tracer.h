@@ -93,7 +93,8 @@ enum {
     RT_TR_TEXCACHE = 1u << 1,  /* its jobs also simulate Purcell et al.'s texture cache */
     RT_TR_QUEUES = 1u << 2,    /* keeps ray queues in memory (--queue-stores applies) */
     RT_TR_REFERENCE = 1u << 3, /* the reference tracer other tracers' images are compared with */
-    RT_TR_MULTIPASS = 1u << 4  /* Purcell et al.'s multipass architecture (stencil passes) */
+    RT_TR_MULTIPASS = 1u << 4, /* Purcell et al.'s multipass architecture (stencil passes) */
+    RT_TR_LIGHTS = 1u << 5     /* traces the authored lights' samples (--light-samples; shade.h) */
 };
 /* Report figures a tracer appears in (rt_tracer.figures), in registry order. */
 enum {

@@ -87,7 +87,8 @@
  * windows of --ray-window rays (default all of the frame). Per window: the
  * closest-hit generation (every ray started at the root treelet, then the
  * queues until empty), then one shadow generation per enabled light (from
- * the hit toward the light). Whitted and path modes keep a stack of
+ * the hit toward the light; with a file's own lights, --light-samples, one
+ * per light and sample). Whitted and path modes keep a stack of
  * batches (refracted rays one level, reflected and path rays another) and
  * shade each ray with rt_shade_step, summing contributions in an rt_acc,
  * so the order of rays does not change the image.
@@ -547,6 +548,8 @@ typedef struct tl_run {
     /* per slot results */
     rt_hit *hit;      /* closest hit per slot */
     uint8_t *vis;     /* per pixel (primary modes): bit i light i visible */
+    int authored;     /* the file's lights (--light-samples; shade.h): a generation per light and sample */
+    float *lw, *swt;  /* authored: per pixel x light the unoccluded weights; per slot this sample's weight */
     rt_ray *bray;     /* closest ray per slot (secondary modes: the path ray; primary modes derive the camera ray) */
     rt_ray *bsray;    /* shadow ray per slot */
     /* secondary modes */
@@ -1100,7 +1103,24 @@ static int window_primary(tl_run *T, const uint32_t *pix, uint32_t n, rt_err *e)
         if (o->lights) RT_REC(T->rec, rt_mm_addr(T->L, T->reg_hits, s), 24, 1, RT_CLS_HIT);
     }
     T->tv.mark_bit = 2;
-    for (int li = 0; li < RT_NLIGHTS; li++) {
+    for (uint32_t li = 0; T->authored && li < T->sc->nlight; li++) { /* the file's lights, sample by sample */
+        if (!rt_render_light_on(o, li)) continue;
+        for (uint32_t smp = 0, ns = rt_shade_light_nsamples(T->sc, o, li); smp < ns; smp++) {
+            for (uint32_t s = 0; s < n; s++) {
+                uint32_t tri;
+                wl[s] = 0;
+                if (T->hit[s].tri == RT_NO_HIT) continue;
+                rt_ray eye;
+                eye_ray(T, &cam, pix[s], &eye);
+                wl[s] = rt_shade_sample_ray(T->sc, o, &eye, &T->hit[s], li, smp, &T->bsray[s], &T->swt[s], &tri) != 0;
+                if (wl[s]) rt_reg_light(T->ctx, T->rec, li, tri);
+            }
+            if (gen_shadow(T, (int)li, n, wl, e) < 0) return -1;
+            for (uint32_t s = 0; s < n; s++)
+                if (wl[s] && !T->ray[s].occluded) T->lw[(size_t)pix[s] * T->sc->nlight + li] += T->swt[s];
+        }
+    }
+    for (int li = 0; li < RT_NLIGHTS && !T->authored; li++) {
         if (!(o->lights & (1u << li))) continue;
         for (uint32_t s = 0; s < n; s++) {
             wl[s] = 0;
@@ -1120,6 +1140,8 @@ static int window_primary(tl_run *T, const uint32_t *pix, uint32_t n, rt_err *e)
         eye_ray(T, &cam, p, &eye);
         if (h->tri == RT_NO_HIT) {
             rt_shade_pixel(T->sc, &eye, NULL, NULL, o->lights, T->img, p);
+        } else if (T->authored) {
+            rt_shade_pixel_lw(T->sc, o, &eye, h, &T->lw[(size_t)p * T->sc->nlight], T->img, p);
         } else {
             int vis[RT_NLIGHTS];
             for (int i = 0; i < RT_NLIGHTS; i++) vis[i] = (T->vis[p] >> i) & 1;
@@ -1262,6 +1284,8 @@ static void tl_free(tl_run *T)
     free(T->done);
     free(T->hit);
     free(T->vis);
+    free(T->lw);
+    free(T->swt);
     free(T->bray);
     free(T->bsray);
     free(T->out);
@@ -1336,6 +1360,10 @@ static int tl_init(tl_run *T, const rt_tracer_ctx *ctx, rt_image *img, rt_run_st
     } else if (!(T->vis = rt_calloc(T->npix, 1, e))) {
         return -1;
     }
+    T->authored = rt_shade_authored(T->sc, o) && o->lights && !T->secondary;
+    if (T->authored && (!(T->lw = rt_calloc(T->npix * T->sc->nlight, sizeof *T->lw, e)) ||
+                        !(T->swt = rt_calloc(ns, sizeof *T->swt, e))))
+        return -1;
     return 0;
 }
 
@@ -1409,7 +1437,7 @@ const rt_tracer rt_tracer_treelet = {
     .accels = RT_ACCEL_BVH_BITS,
     .accel_default = RT_ACCEL_BVH4,
     .opts = RT_OPTG_SCHED | RT_OPTG_QUEUES | RT_OPTG_TREELET | RT_OPTG_THREADS | RT_OPTG_CORES,
-    .traits = RT_TR_SCHEDULED | RT_TR_QUEUES,
+    .traits = RT_TR_SCHEDULED | RT_TR_QUEUES | RT_TR_LIGHTS,
     .figures = RT_FIG_TREELET,
     .check_opts = tl_check_opts,
     .params = tl_params,

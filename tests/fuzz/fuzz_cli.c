@@ -107,7 +107,9 @@ static void check_opts(const rt_render_opts *o, const char *tracer)
     if (o->sched_size < 64) rt_fuzz_fail("sched size %llu", (unsigned long long)o->sched_size);
     if (o->subsample < 1 || o->subsample > (1u << 20) || o->subtile < 1 || o->subtile > 4096)
         rt_fuzz_fail("subsample %u:%d", o->subsample, o->subtile);
-    if (o->lights > 7) rt_fuzz_fail("lights mask %u", o->lights);
+    /* the lights mask may name any of lights 0..31 (whether they exist is checked at job setup) */
+    if (o->light_samples > RT_LIGHT_SAMPLES_MAX) rt_fuzz_fail("light samples %u", (unsigned)o->light_samples);
+    if (o->lights_all && o->lights != 7) rt_fuzz_fail("lights all with mask %u", o->lights);
     if (o->qorder != RT_QORDER_FULLEST && o->qorder != RT_QORDER_TREE) rt_fuzz_fail("qorder %d", o->qorder);
     if (!rt_tracer_find(tracer)) rt_fuzz_fail("tracer '%s'", tracer);
 }
