@@ -1025,7 +1025,7 @@ int rt_report_summary(const rt_report *R, FILE *out, rt_err *e)
                 R->sizes[R->nsizes - 1] / 1024);
     fprintf(out, " (fully associative LRU, 64-byte lines, %s), the k-d tree%s%s.\n", R->policy,
             R->model >= 0 ? ", model " : "", R->model >= 0 ? rt_exp_model_get(R->model)->name : "");
-    fprintf(out, "- Revision: revision %s (raytraffic %s)", rev[0] ? rev : "unknown", ver[0] ? ver : "unknown");
+    fprintf(out, "- Revision: %s (raytraffic %s)", rev[0] ? rev : "unknown", ver[0] ? ver : "unknown");
     if (atoi(nrev) > 1) fprintf(out, "; the runs come from %s revisions, this one the most common", nrev);
     fprintf(out, ".\n- Date: %s (first run %s).\n", last[0] ? last : "unknown", first[0] ? first : "unknown");
     fprintf(out, "- Command: `%s`.\n- Preset: %s.\n", cmd[0] ? cmd : "unknown", preset);

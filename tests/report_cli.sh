@@ -103,7 +103,7 @@ grep -q "nothing to show for figure 4: no run of the paper's room" log 2>/dev/nu
 # the full report opens with its summary, headings descend one level at a time
 "$bin" report --db i.db >full.md 2>log || { echo "FAIL: report"; cat log; fail=1; }
 [ "$(grep -m1 -n '^## ' full.md)" = "3:## Summary" ] || { echo "FAIL: report does not open with its summary"; head -5 full.md; fail=1; }
-grep -q "^- Command: \`.*sweep --scenes" full.md && grep -q "^- Revision: revision " full.md &&
+grep -q "^- Command: \`.*sweep --scenes" full.md && grep -q "^- Revision: [0-9a-fu]" full.md &&
     grep -q "^- Preset: none" full.md || { echo "FAIL: summary lacks command, revision or preset"; fail=1; }
 awk '/^#/ { n = index($0, " ") - 1; if (p && n > p + 1) { print "jump: " $0; bad = 1 } p = n } END { exit bad }' full.md ||
     { echo "FAIL: a heading level is skipped"; fail=1; }

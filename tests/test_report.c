@@ -195,7 +195,7 @@ static void test_tables(sqlite3 *h)
     static const char *const summary[] = {
         "# raytraffic report: DB\n\n## Summary\n\n- What was run: 7 exact runs of the recursive, packet and dynamic "
         "tracers at 16x16 on 1 scene, 3 cache sizes from 1 K to 4 K (fully associative LRU, 64-byte lines, wb-wa), the "
-        "k-d tree.\n- Revision: revision ",
+        "k-d tree.\n- Revision: ",
         "- Command: `test_report`.\n- Preset: none (explicit options).\n\n### Findings\n",
         /* by hand from the table below: less geometry at 2K and 4K, most
          * 521.5% at 2K; more ray data at 2K and 4K; total positive at 2K
