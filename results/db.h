@@ -36,7 +36,7 @@
 
 #include <stdint.h>
 
-#define RT_DB_SCHEMA_VERSION 6
+#define RT_DB_SCHEMA_VERSION 7
 
 typedef struct rt_db rt_db;
 
