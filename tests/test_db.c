@@ -11,6 +11,7 @@
 #include "rows.h"
 #include "memmodel.h"
 #include "sim.h"
+#include "stats.h"
 
 #include <math.h>
 #include <sqlite3.h>
@@ -1115,6 +1116,35 @@ static void test_upgrade_v6(const char *dir, const rt_db_traffic *rows, size_t n
     rt_db_close(db);
 }
 
+/* The statistics parser on hand cases: numbers in JSON's grammar become
+ * numbers, other one-word values strings; a repeated key, a token without
+ * '=', an empty key or value, a quote, a double or trailing space fail. */
+static void test_stats_json(void)
+{
+    char out[256];
+    rt_err e = {0};
+    static const struct {
+        const char *in, *want;
+    } ok[] = {
+        {"", "{}"},
+        {"a=1", "{\"a\": 1}"},
+        {"a=-1.5e3 b=0.000 c=4x4x4 d=1,2,3 e=007 f=inf g=1. h=-0", "{\"a\": -1.5e3, \"b\": 0.000, \"c\": \"4x4x4\", "
+         "\"d\": \"1,2,3\", \"e\": \"007\", \"f\": \"inf\", \"g\": \"1.\", \"h\": -0}"},
+        {"gmax_rule=top-first q_1=2E+5", "{\"gmax_rule\": \"top-first\", \"q_1\": 2E+5}"},
+    };
+    for (size_t i = 0; i < sizeof ok / sizeof ok[0]; i++) {
+        int rc = rt_stats_json(ok[i].in, out, sizeof out, &e);
+        CHECK(rc == 0 && !strcmp(out, ok[i].want), "stats json '%s': %d '%s' (%s)", ok[i].in, rc, out, e.msg);
+    }
+    static const char *bad[] = {"a=1 a=2", "ab=1 b=2 ab=3", "a=1 nodes=packet node visits", "a=1 ", "a=1  b=2", " a=1",
+                                "=1", "a=", "a", "a=\"x\"", "a=x\\y", "a-b=1", "a=1\tb=2"};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        int rc = rt_stats_json(bad[i], out, sizeof out, &e);
+        CHECK(rc == -1 && !strcmp(out, "{}") && e.msg[0], "stats json '%s' accepted: %s", bad[i], out);
+    }
+    CHECK(rt_stats_json("key=12345678901234567890", out, 16, &e) == -1, "a too small buffer is refused");
+}
+
 int main(void)
 {
     char dir[] = "/tmp/rt_test_db_XXXXXX";
@@ -1261,6 +1291,7 @@ int main(void)
     test_upgrade_v4(dir);
     test_upgrade_v5(dir);
     test_upgrade_v6(dir, rows, n);
+    test_stats_json();
     test_se_rows(dir);
 
     if (check_rm_tree(dir) != 0) fprintf(stderr, "warning: could not remove %s\n", dir);
