@@ -1221,7 +1221,7 @@ static int shard_error(const shard *sh, rt_err *e)
 }
 
 /* Opens a shard read-only and checks it is a raytraffic database of a
- * version this build reads (1 to 6, through rt_db_open_read; older column
+ * version this build reads (1 to 7, through rt_db_open_read; older column
  * name for 1, no scene paths before 3, no generation rows before 4, no
  * standard errors before 5, no new dimensions (their defaults) and no
  * level rows before 6). */
