@@ -64,6 +64,22 @@ for t in recursive packet dynamic stream-branching stream-multipass feedback tre
         err "render -t $t exited $?: $(cat "$tmp/$t.err")"
     fi
 done
+# the secondary-ray counters and host threads' merged statistics append
+# keys of their own: still once each
+i=0
+for v in "-t packet --mode whitted" "-t dynamic --mode whitted" "-t treelet --mode whitted --threads 2" \
+    "-t recursive --mode whitted --threads 2" "-t stream-multipass --mode whitted"; do
+    i=$((i + 1))
+    # shellcheck disable=SC2086 # $v is a list of options
+    if "$bin" render cornell -W 16 -H 16 $v --json -o "$tmp/v$i.exr" > "$tmp/v$i.json" 2> "$tmp/v$i.err"; then
+        msg=$(check_render "$tmp/v$i.json" "" 2>&1) || err "render $v --json: $msg: $(cat "$tmp/v$i.json")"
+        python3 -c 'import json, sys; s = json.load(open(sys.argv[1]))["stats"]
+if not isinstance(s.get("rays_secondary"), int) or s["rays_secondary"] <= 0: sys.exit("no rays_secondary: %r" % s)' \
+            "$tmp/v$i.json" || err "render $v: no secondary-ray count in stats"
+    else
+        err "render $v exited $?: $(cat "$tmp/v$i.err")"
+    fi
+done
 
 # the database: a small sweep over every tracer family and two structures
 "$bin" sweep --scenes cornell:glass=0 --tracers recursive,packet,dynamic,treelet,feedback,stream-branching \
