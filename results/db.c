@@ -413,25 +413,31 @@ static int migrate_v5(rt_db *db, rt_err *e)
 }
 
 /* Binds stats_json: the statistics as a JSON object, NULL when the text
- * is not k=v with unique keys and one-word values (stats.h). */
+ * is not k=v with unique keys and one-word values (stats.h). Older packet
+ * runs wrote descriptive words into their statistics ("nodes=packet node
+ * visits tests=ray-triangle tests", repeating the keys nodes and tests):
+ * those words are left out of the object, so such a run parses whether it
+ * comes by the upgrade or from an old shard through db merge. */
 static void bind_stats_json(sqlite3_stmt *st, int col, const char *stats)
 {
-    char obj[RT_DB_STATS_JSON_MAX];
+    static const char legacy[] = " nodes=packet node visits tests=ray-triangle tests";
+    char txt[RT_DB_STATS_JSON_MAX], obj[RT_DB_STATS_JSON_MAX];
     rt_err ignored;
-    if (rt_stats_json(stats ? stats : "", obj, sizeof obj, &ignored) == 0) sqlite3_bind_text(st, col, obj, -1, SQLITE_TRANSIENT);
+    int n = snprintf(txt, sizeof txt, "%s", stats ? stats : "");
+    char *w = strstr(txt, legacy);
+    if (w) memmove(w, w + sizeof legacy - 1, strlen(w + sizeof legacy - 1) + 1);
+    if (n >= 0 && (size_t)n < sizeof txt && rt_stats_json(txt, obj, sizeof obj, &ignored) == 0)
+        sqlite3_bind_text(st, col, obj, -1, SQLITE_TRANSIENT);
     else sqlite3_bind_null(st, col);
 }
 
 /* Version 6 -> 7: stats_json from every run's stats (the column itself is
  * new in RUNS_TABLE, so a file coming from version 5 or older has it
- * already; a version-6 file gets it appended). Older packet runs wrote
- * descriptive words into their statistics ("nodes=packet node visits
- * tests=ray-triangle tests", repeating the keys nodes and tests); those
- * words are left out of the object, the rest parses. Other text that does
- * not parse keeps NULL. */
+ * already; a version-6 file gets it appended), parsed as a store does
+ * (bind_stats_json: the old packet words left out); text that does not
+ * parse keeps NULL. */
 static int migrate_v6(rt_db *db, int64_t ver, rt_err *e)
 {
-    static const char legacy[] = " nodes=packet node visits tests=ray-triangle tests";
     if (ver == 6 && exec(db, "ALTER TABLE runs ADD COLUMN stats_json TEXT", e)) return -1;
     sqlite3_stmt *sel = NULL, *upd = NULL;
     if (sqlite3_prepare_v2(db->h, "SELECT id, stats FROM runs ORDER BY id", -1, &sel, NULL) != SQLITE_OK ||
@@ -441,14 +447,9 @@ static int migrate_v6(rt_db *db, int64_t ver, rt_err *e)
     }
     int rc;
     while ((rc = sqlite3_step(sel)) == SQLITE_ROW) {
-        const char *t = (const char *)sqlite3_column_text(sel, 1);
-        char txt[RT_DB_STATS_JSON_MAX];
-        snprintf(txt, sizeof txt, "%s", t ? t : "");
-        char *w = strstr(txt, legacy);
-        if (w) memmove(w, w + sizeof legacy - 1, strlen(w + sizeof legacy - 1) + 1);
         sqlite3_reset(upd);
         sqlite3_bind_int64(upd, 1, sqlite3_column_int64(sel, 0));
-        bind_stats_json(upd, 2, txt);
+        bind_stats_json(upd, 2, (const char *)sqlite3_column_text(sel, 1));
         if (sqlite3_step(upd) != SQLITE_DONE) {
             rc = SQLITE_ERROR;
             break;

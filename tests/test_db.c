@@ -1113,6 +1113,12 @@ static void test_upgrade_v6(const char *dir, const rt_db_traffic *rows, size_t n
           "a repeated key leaves NULL");
     CHECK(count(db, "SELECT count(*) FROM v_runs WHERE stats_json IS NOT NULL") == 2, "v_runs shows stats_json");
     CHECK(count(db, "PRAGMA foreign_key_check") == -1, "no dangling rows after the v6 upgrade");
+    /* an old shard's packet run stored as db merge does: the same object */
+    run_key(&r, "packet", 1, 0);
+    r.stats = "nodes=7 packet=8 nodes=packet node visits tests=ray-triangle tests";
+    CHECK(rt_db_store_run(db, &r, rows, n, NULL, &e) == 0, "store old packet text: %s", e.msg);
+    CHECK(count(db, "SELECT count(*) FROM runs WHERE lights = 1 AND stats_json = '{\"nodes\": 7, \"packet\": 8}'") == 1,
+          "a store of the old packet text leaves its words out");
     rt_db_close(db);
 }
 
