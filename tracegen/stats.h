@@ -25,7 +25,9 @@ void rt_stats_finish(rt_run_stats *st, const rt_trav *tv, const uint8_t *mark, u
  * rt_stats_json writes such a string as a JSON object into out (n bytes):
  * values that are JSON numbers as numbers, the others as strings, keys in
  * the string's order; "" gives "{}". Returns 0, or -1 with e saying which
- * token breaks the form (out then holds "{}" when n allows). */
+ * token breaks the form (out then holds "{}" when n allows). It is also
+ * the form's checker: tests/test_conform.c runs it on every tracer, mode
+ * and structure, with the keys a sweep's runs.stats adds around them. */
 int rt_stats_json(const char *s, char *out, size_t n, rt_err *e);
 
 /* 1 when v[0..len) is a number in JSON's grammar (-?int frac? exp?). */
