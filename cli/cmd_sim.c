@@ -54,7 +54,10 @@ static void usage(FILE *f)
             "                         NAME=SIZE[S]/WAYS|full/LINE/POLICY[/wt][/nwa],...\n"
             "                         e.g. L1=32K/8/64/lru,L2=1M/16/64/srrip,LLC=1K-4M/full/64/lru\n"
             "                         (only the last level may have several sizes: A-B or\n"
-            "                         A+B+C); rows per level, DRAM = the last level\n"
+            "                         A+B+C); rows per level, DRAM = the last level;\n"
+            "                         a last item nine (default), inclusive or exclusive\n"
+            "                         sets the inclusion (all-LRU levels, one line size; one\n"
+            "                         chain per last-level size; back-invalidations shown)\n"
             "  --write-through        write-through instead of write-back\n"
             "  --no-write-allocate    write misses do not allocate (write around)\n"
             "  --flush                write back the lines still dirty at the end, as\n"
@@ -516,6 +519,11 @@ static int parse_args(int argc, char **argv, sim_opts *o)
             rt_cmd_error("sim", "--hierarchy: %s", err.msg);
             return -1;
         }
+        if (o->db && o->hc.inclusion != RT_INCL_NINE) {
+            rt_cmd_error("sim", "--hierarchy: %s hierarchies are printed, not stored (--db holds non-inclusive ones)",
+                         rt_hier_inclusion_name(o->hc.inclusion));
+            return -1;
+        }
         return 0;
     }
     if (rt_sim_config_check(&o->cfg, &err) || rt_approx_config_check(&o->cfg, &o->ac, &err)) {
@@ -539,7 +547,9 @@ static void print_hier(FILE *f, int fmt, const char *trace, const rt_hier *h, in
                 trace, (unsigned long long)rt_hier_refs(h), rt_hier_spec(hc, spec, sizeof spec),
                 rt_sim_policy_name(&hc->level[0]),
                 inc ? rt_hier_inclusion_name(hc->inclusion) : "non-inclusive");
-        fprintf(f, "%-6s %12s %5s %5s %-6s %-9s %14s %12s %12s %12s %12s %16s", "level", "size_bytes", "line", "assoc",
+        fprintf(f, "%-6s ", "level");
+        if (inc) fprintf(f, "%12s ", "last_size");
+        fprintf(f, "%12s %5s %5s %-6s %-9s %14s %12s %12s %12s %12s %16s", "size_bytes", "line", "assoc",
                 "repl", "class", "accesses", "read_misses", "write_misses", "writebacks", "wt_bytes", "traffic_bytes");
         if (inc) fprintf(f, " %12s %13s", "backinvals", "bi_writebacks");
         fputc('\n', f);
@@ -576,14 +586,17 @@ static void print_hier(FILE *f, int fmt, const char *trace, const rt_hier *h, in
                 else strcpy(assoc, fmt == FMT_TEXT ? "full" : "0");
                 const char *rp = rt_sim_repl_name(c->repl);
                 if (fmt == FMT_TEXT) {
-                    fprintf(f, "%-6s %12llu %5u %5s %-6s %-9s %14llu %12llu %12llu %12llu %12llu %16llu", hc->name[k],
-                            size, c->line, assoc, rp, name, v[0], v[1], v[2], v[3], v[4], v[5]);
+                    fprintf(f, "%-6s ", hc->name[k]);
+                    if (inc) fprintf(f, "%12llu ", (unsigned long long)lc->sizes[i]);
+                    fprintf(f, "%12llu %5u %5s %-6s %-9s %14llu %12llu %12llu %12llu %12llu %16llu", size, c->line, assoc, rp, name, v[0], v[1], v[2], v[3], v[4], v[5]);
                     if (inc)
                         fprintf(f, " %12llu %13llu", (unsigned long long)hcnt.backinvals,
                                 (unsigned long long)hcnt.bi_writebacks);
                     fputc('\n', f);
                 } else if (fmt == FMT_CSV) {
-                    fprintf(f, "%s,%s,%llu,%u,%s,%s,%s,%llu,%llu,%llu,%llu,%llu,%llu", trace, hc->name[k], size, c->line,
+                    fprintf(f, "%s,%s,", trace, hc->name[k]);
+                    if (inc) fprintf(f, "%llu,", (unsigned long long)lc->sizes[i]);
+                    fprintf(f, "%llu,%u,%s,%s,%s,%llu,%llu,%llu,%llu,%llu,%llu", size, c->line,
                             assoc, rp, name, v[0], v[1], v[2], v[3], v[4], v[5]);
                     if (inc)
                         fprintf(f, ",%llu,%llu", (unsigned long long)hcnt.backinvals,
@@ -739,7 +752,10 @@ int main_sim(int argc, char **argv)
         return RT_EXIT_FAIL;
     }
     int status = RT_EXIT_OK, first = 1;
-    if (!db && o.hier && o.outfmt == FMT_CSV)
+    if (!db && o.hier && o.outfmt == FMT_CSV && o.hc.inclusion != RT_INCL_NINE)
+        printf("trace,level,last_level_size,size_bytes,line,assoc,repl,class,accesses,read_misses,write_misses,writebacks,"
+               "wt_bytes,traffic_bytes,backinvals,bi_writebacks\n");
+    else if (!db && o.hier && o.outfmt == FMT_CSV)
         printf("trace,level,size_bytes,line,assoc,repl,class,accesses,read_misses,write_misses,writebacks,wt_bytes,"
                "traffic_bytes\n");
     else if (!db && o.outfmt == FMT_CSV)
