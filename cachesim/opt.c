@@ -20,7 +20,7 @@
  *   2. finish() makes one backward pass over the touches, giving each the
  *      index of the next touch of its line (one array of the last index
  *      seen per line id): O(touches) time, 4 bytes a touch.
- *   3. then, per size, one forward pass: per set an indexed binary max-heap
+ *   3. then, per size, one forward pass: per set an indexed 4-ary max-heap
  *      of the resident slots keyed by next use, a slot per line id (no
  *      hash), so a touch costs O(log ways).
  * Counters are read after finish (before it they are zero); a later finish
@@ -46,6 +46,8 @@
 #include <string.h>
 
 #define NONE UINT32_MAX
+/* heap arity (the one-pass groups and the per-size sets; see o_down) */
+#define OARY 4
 
 typedef struct otouch {
     uint32_t id;    /* dense line id */
@@ -233,7 +235,7 @@ static void sift_up(fwd *f, uint32_t *h, uint32_t i)
 {
     uint32_t x = h[i];
     while (i > 0) {
-        uint32_t p = (i - 1) / 2;
+        uint32_t p = (i - 1) / OARY;
         if (!above(f, x, h[p])) break;
         h[i] = h[p];
         f->pos[h[i]] = i;
@@ -247,9 +249,11 @@ static void sift_down(fwd *f, uint32_t *h, uint32_t n, uint32_t i)
 {
     uint32_t x = h[i];
     for (;;) {
-        uint32_t c = 2 * i + 1;
+        uint32_t c = OARY * i + 1;
         if (c >= n) break;
-        if (c + 1 < n && above(f, h[c + 1], h[c])) c++;
+        uint32_t e = c + OARY < n ? c + OARY : n;
+        for (uint32_t q = c + 1; q < e; q++)
+            if (above(f, h[q], h[c])) c = q;
         if (!above(f, h[c], x)) break;
         h[i] = h[c];
         f->pos[h[i]] = i;
@@ -383,11 +387,16 @@ typedef struct one {
 static inline uint64_t oent(const one *g, uint32_t x) { return (uint64_t)g->l[x].key << 32 | (uint32_t)~x; }
 static inline uint32_t oid(uint64_t v) { return ~(uint32_t)v; }
 
+/* The heaps are 4-ary (children of i: 4i+1..4i+4, one 32-byte run): half
+ * the depth of a binary heap, so a sift moves half as many entries and
+ * writes half as many line records (their pos), the cost that dominates;
+ * the order is total (entries are unique), so the top, and every result,
+ * is the binary heap's. */
 static void o_up(one *g, int j, uint32_t i)
 {
     uint64_t *h = g->heap[j], v = h[i];
     while (i > 0) {
-        uint32_t p = (i - 1) / 2;
+        uint32_t p = (i - 1) / OARY;
         if (v <= h[p]) break;
         h[i] = h[p];
         g->l[oid(h[i])].pos = i;
@@ -402,13 +411,15 @@ static void o_down(one *g, int j, uint32_t i)
     uint64_t *h = g->heap[j], v = h[i];
     uint32_t n = g->n[j];
     for (;;) {
-        uint32_t c = 2 * i + 1;
+        uint32_t c = OARY * i + 1;
         if (c >= n) break;
-        if (c + 1 < n && h[c + 1] > h[c]) c++;
-        if (h[c] <= v) break;
-        h[i] = h[c];
+        uint32_t e = c + OARY < n ? c + OARY : n, b = c;
+        for (uint32_t q = c + 1; q < e; q++)
+            if (h[q] > h[b]) b = q;
+        if (h[b] <= v) break;
+        h[i] = h[b];
         g->l[oid(h[i])].pos = i;
-        i = c;
+        i = b;
     }
     h[i] = v;
     g->l[oid(v)].pos = i;
@@ -426,7 +437,8 @@ static void o_replace(one *g, int j, uint32_t p, uint32_t y)
 {
     g->heap[j][p] = oent(g, y);
     g->l[y].grp = (uint8_t)j;
-    o_up(g, j, p);
+    g->l[y].pos = p;
+    if (p) o_up(g, j, p);
     o_down(g, j, g->l[y].pos);
 }
 
