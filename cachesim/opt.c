@@ -48,6 +48,8 @@
 #define NONE UINT32_MAX
 /* heap arity (the one-pass groups and the per-size sets; see o_down) */
 #define OARY 4
+/* touches ahead whose line record is prefetched in the one-pass run */
+#define OPT_AHEAD 16
 
 typedef struct otouch {
     uint32_t id;    /* dense line id */
@@ -197,6 +199,11 @@ static int opt_access(void *st, const rt_access *a, size_t n)
         uint32_t sz = a[i].size ? a[i].size : 1;
         unsigned cg = rt_sim_cg(&a[i]);
         unsigned w = a[i].write == RT_WRITE_STREAM ? RT_WRITE_STREAM : a[i].write != 0;
+        if (i + OPT_AHEAD < n) { /* the table slots of a reference ahead */
+            uint64_t h = hsl(a[i + OPT_AHEAD].addr / ls, o->hcap);
+            __builtin_prefetch(&o->hkey[h]);
+            __builtin_prefetch(&o->hval[h]);
+        }
         uint64_t end = addr + sz, first = addr / ls, last = (end - 1) / ls;
         for (uint64_t L = first; L <= last; L++) {
             uint64_t lo = L == first ? addr : L * ls, hi = L == last ? end : (L + 1) * ls;
@@ -411,11 +418,16 @@ static void o_down(one *g, int j, uint32_t i)
     uint64_t *h = g->heap[j], v = h[i];
     uint32_t n = g->n[j];
     for (;;) {
-        uint32_t c = OARY * i + 1;
-        if (c >= n) break;
-        uint32_t e = c + OARY < n ? c + OARY : n, b = c;
-        for (uint32_t q = c + 1; q < e; q++)
-            if (h[q] > h[b]) b = q;
+        uint32_t c = OARY * i + 1, b;
+        if (c + 3 < n) { /* four children: the larger of two pairs, without branches */
+            uint32_t b0 = c + (h[c + 1] > h[c]), b1 = c + 2 + (h[c + 3] > h[c + 2]);
+            b = h[b1] > h[b0] ? b1 : b0;
+        } else {
+            if (c >= n) break;
+            b = c;
+            for (uint32_t q = c + 1; q < n; q++)
+                if (h[q] > h[b]) b = q;
+        }
         if (h[b] <= v) break;
         h[i] = h[b];
         g->l[oid(h[i])].pos = i;
@@ -463,7 +475,11 @@ static int run_onepass(opt *o, rt_err *e)
     int ok = g.l != NULL;
     for (int j = 0; j < k && ok; j++) {
         g.cap[j] = (uint32_t)((c->sizes[j] - (j ? c->sizes[j - 1] : 0)) / c->line);
-        ok = (g.heap[j] = rt_calloc(g.cap[j], sizeof *g.heap[j], e)) != NULL;
+        /* 3 entries before a 64-byte boundary: the 4 children of i (4i+1..4i+4)
+         * then share one cache line */
+        uint64_t *b = rt_calloc_aligned((size_t)g.cap[j] + 3, sizeof *b, 64, e);
+        ok = b != NULL;
+        g.heap[j] = b ? b + 3 : NULL;
     }
     /* misses by group: hist[cg][kind][g], kind 0 read, 1 write that fetches, 2 write without a fetch */
     uint64_t(*hist)[3][RT_SIM_MAXSIZES + 1] = ok ? rt_calloc(RT_SIM_NCG, sizeof *hist, e) : NULL;
@@ -478,6 +494,7 @@ static int run_onepass(opt *o, rt_err *e)
         const otouch *tc = &o->t[t];
         uint32_t x = tc->id;
         unsigned cg = tc->cg, w = tc->w;
+        if (t + OPT_AHEAD < o->nt) __builtin_prefetch(&g.l[o->t[t + OPT_AHEAD].id]); /* a random record, ahead */
         int i = g.l[x].grp;
         acc[cg]++;
         wr[cg] += w != 0;
@@ -555,7 +572,7 @@ static int run_onepass(opt *o, rt_err *e)
 out:
     free(hist);
     free(wb);
-    for (int j = 0; j < k; j++) free(g.heap[j]);
+    for (int j = 0; j < k; j++) free(g.heap[j] ? g.heap[j] - 3 : NULL);
     free(g.l);
     return rc;
 }
@@ -574,6 +591,7 @@ static void opt_finish(void *st, int flush)
     }
     for (uint32_t i = 0; i < o->nid; i++) last[i] = NONE;
     for (uint64_t i = o->nt; i-- > 0;) {
+        if (i >= OPT_AHEAD) __builtin_prefetch(&last[o->t[i - OPT_AHEAD].id], 1);
         o->t[i].next = last[o->t[i].id];
         last[o->t[i].id] = (uint32_t)i;
     }
