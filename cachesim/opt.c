@@ -73,6 +73,8 @@ typedef struct opt {
     uint64_t *hkey;     /* table line -> id */
     uint32_t *hval;     /* NONE = empty */
     uint64_t hcap;      /* power of two, >= 2 * capid */
+    uint64_t memo_line; /* the line of the latest touch, and its id (NONE: none yet) */
+    uint32_t memo_id;
     int done;           /* finish ran on the current touches */
     int oom;            /* growth failed: later batches are refused */
     ocount *cnt;        /* per size */
@@ -154,6 +156,7 @@ static void *opt_create(const rt_sim_config *c, rt_err *e)
     opt *o = rt_calloc(1, sizeof *o, e);
     if (!o) return NULL;
     o->cfg = *c;
+    o->memo_id = NONE;
     o->cnt = rt_calloc((size_t)c->nsizes, sizeof *o->cnt, e);
     if (!o->cnt || grow_table(o, e)) {
         opt_destroy(o);
@@ -176,8 +179,10 @@ static int push(opt *o, uint64_t line, unsigned w, unsigned cg, uint32_t bytes, 
         o->t = nt;
         o->capt = nc;
     }
-    uint32_t id = line_id(o, line, e);
+    uint32_t id = o->memo_id != NONE && o->memo_line == line ? o->memo_id : line_id(o, line, e);
     if (id == NONE) return -1;
+    o->memo_line = line;
+    o->memo_id = id;
     otouch *t = &o->t[o->nt++];
     t->id = id;
     t->w = (uint8_t)w;
