@@ -14,9 +14,9 @@
  * and simulates when the run ends (finish):
  *   1. access() splits every reference into line touches (the accounting of
  *      docs/cachesim.md) and appends them: a dense id per distinct line (an
- *      open-addressing table line -> id), the write kind, the (class,
+ *      open-addressing table line -> id, 16-byte slots), the write kind, the (class,
  *      generation) index and the bytes inside the line: 12 bytes a touch,
- *      plus 12 per distinct line.
+ *      plus 8 (ids) and 32 to 64 (table slots) per distinct line.
  *   2. finish() makes one backward pass over the touches, giving each the
  *      index of the next touch of its line (one array of the last index
  *      seen per line id): O(touches) time, 4 bytes a touch.
@@ -27,8 +27,8 @@
  * simulates everything buffered from cold again (with cfg.flush the dirty
  * lines are written back at the end of each such simulation).
  * Memory: 12 bytes a touch (a trace of 10^8 line touches needs 1.2 GB,
- * checked against the memory limit as the buffer grows) and about 28 bytes
- * per distinct line, plus 22 bytes per line of the size being simulated.
+ * checked against the memory limit as the buffer grows) and 40 to 72 bytes
+ * per distinct line (ids, table, next-use scratch), plus 22 bytes per line of the size being simulated.
  * Lines up to 65535 bytes (the bytes of a touch are 16 bits).
  *
  * INVARIANTS (rt_sim_check -> opt_check):
@@ -59,6 +59,12 @@ typedef struct otouch {
     uint32_t next;  /* next touch of the same line (after finish), NONE = never */
 } otouch;
 
+typedef struct oslot {
+    uint64_t key; /* the line */
+    uint32_t val; /* its id, NONE = empty */
+    uint32_t pad;
+} oslot;
+
 typedef struct ocount {
     uint64_t acc[RT_SIM_NCG], rm[RT_SIM_NCG], wm[RT_SIM_NCG], wb[RT_SIM_NCG], wtb[RT_SIM_NCG], nf[RT_SIM_NCG];
     uint64_t wr[RT_SIM_NCG];
@@ -70,8 +76,7 @@ typedef struct opt {
     uint64_t nt, capt;  /* used, allocated */
     uint64_t *ids;      /* id -> line */
     uint32_t nid, capid;
-    uint64_t *hkey;     /* table line -> id */
-    uint32_t *hval;     /* NONE = empty */
+    oslot *ht;          /* table line -> id (one 16-byte slot: a probe reads one cache line) */
     uint64_t hcap;      /* power of two, >= 2 * capid */
     uint64_t memo_line; /* the line of the latest touch, and its id (NONE: none yet) */
     uint32_t memo_id;
@@ -86,20 +91,17 @@ static inline uint64_t hsl(uint64_t line, uint64_t cap) { return (line * 0x9E377
 static int grow_table(opt *o, rt_err *e)
 {
     uint64_t cap = o->hcap ? o->hcap * 2 : 1024;
-    uint64_t *k = rt_calloc(cap, sizeof *k, e);
-    uint32_t *v = rt_calloc(cap, sizeof *v, e);
-    if (!k || !v) return free(k), free(v), -1;
-    for (uint64_t i = 0; i < cap; i++) v[i] = NONE;
+    oslot *t = rt_calloc_aligned(cap, sizeof *t, 64, e);
+    if (!t) return -1;
+    for (uint64_t i = 0; i < cap; i++) t[i].val = NONE;
     for (uint32_t id = 0; id < o->nid; id++) {
         uint64_t h = hsl(o->ids[id], cap);
-        while (v[h] != NONE) h = (h + 1) & (cap - 1);
-        k[h] = o->ids[id];
-        v[h] = id;
+        while (t[h].val != NONE) h = (h + 1) & (cap - 1);
+        t[h].key = o->ids[id];
+        t[h].val = id;
     }
-    free(o->hkey);
-    free(o->hval);
-    o->hkey = k;
-    o->hval = v;
+    free(o->ht);
+    o->ht = t;
     o->hcap = cap;
     return 0;
 }
@@ -107,8 +109,8 @@ static int grow_table(opt *o, rt_err *e)
 static uint32_t line_id(opt *o, uint64_t line, rt_err *e)
 {
     uint64_t h = hsl(line, o->hcap);
-    for (; o->hval[h] != NONE; h = (h + 1) & (o->hcap - 1))
-        if (o->hkey[h] == line) return o->hval[h];
+    for (; o->ht[h].val != NONE; h = (h + 1) & (o->hcap - 1))
+        if (o->ht[h].key == line) return o->ht[h].val;
     if (o->nid == o->capid) {
         if (o->capid >= (1u << 31)) return rt_errf(e, "opt: more than 2^31 distinct lines"), NONE;
         uint32_t nc = o->capid ? o->capid * 2 : 1024;
@@ -120,10 +122,10 @@ static uint32_t line_id(opt *o, uint64_t line, rt_err *e)
     if (2 * (uint64_t)(o->nid + 1) > o->hcap) {
         if (grow_table(o, e)) return NONE;
         h = hsl(line, o->hcap);
-        while (o->hval[h] != NONE) h = (h + 1) & (o->hcap - 1);
+        while (o->ht[h].val != NONE) h = (h + 1) & (o->hcap - 1);
     }
-    o->hkey[h] = line;
-    o->hval[h] = o->nid;
+    o->ht[h].key = line;
+    o->ht[h].val = o->nid;
     o->ids[o->nid] = line;
     return o->nid++;
 }
@@ -144,8 +146,7 @@ static void opt_destroy(void *st)
     if (!o) return;
     free(o->t);
     free(o->ids);
-    free(o->hkey);
-    free(o->hval);
+    free(o->ht);
     free(o->cnt);
     free(o);
 }
@@ -206,8 +207,7 @@ static int opt_access(void *st, const rt_access *a, size_t n)
         unsigned w = a[i].write == RT_WRITE_STREAM ? RT_WRITE_STREAM : a[i].write != 0;
         if (i + OPT_AHEAD < n) { /* the table slots of a reference ahead */
             uint64_t h = hsl(a[i + OPT_AHEAD].addr / ls, o->hcap);
-            __builtin_prefetch(&o->hkey[h]);
-            __builtin_prefetch(&o->hval[h]);
+            __builtin_prefetch(&o->ht[h]);
         }
         uint64_t end = addr + sz, first = addr / ls, last = (end - 1) / ls;
         for (uint64_t L = first; L <= last; L++) {
@@ -638,8 +638,8 @@ static int opt_check(const void *st, rt_err *e)
     if (o->oom) return rt_errf(e, "opt: out of memory earlier; results incomplete");
     for (uint32_t id = 0; id < o->nid; id++) { /* O1 */
         uint64_t h = hsl(o->ids[id], o->hcap);
-        while (o->hval[h] != NONE && o->hkey[h] != o->ids[id]) h = (h + 1) & (o->hcap - 1);
-        if (o->hval[h] != id) return rt_errf(e, "opt: line id %u not in the table", id);
+        while (o->ht[h].val != NONE && o->ht[h].key != o->ids[id]) h = (h + 1) & (o->hcap - 1);
+        if (o->ht[h].val != id) return rt_errf(e, "opt: line id %u not in the table", id);
     }
     for (uint64_t i = 0; i < o->nt; i++) {
         const otouch *t = &o->t[i];
