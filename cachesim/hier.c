@@ -12,12 +12,15 @@
  */
 #include "hier.h"
 
+#include "incl.h"
+
 #include <stdlib.h>
 #include <string.h>
 
 struct rt_hier {
     rt_hier_config cfg;
-    rt_sim *lv[RT_HIER_MAXLEVELS];
+    rt_sim *lv[RT_HIER_MAXLEVELS]; /* non-inclusive */
+    rt_incl *incl;                 /* inclusive or exclusive */
     rt_sink sink;
 };
 
@@ -77,15 +80,36 @@ int rt_hier_parse(const char *spec, const rt_sim_config *base, rt_hier_config *h
     char buf[1024];
     if (!spec || !*spec || strlen(spec) >= sizeof buf) return rt_errf(e, "bad hierarchy spec '%s'", spec ? spec : "");
     snprintf(buf, sizeof buf, "%s", spec);
-    char *tok[RT_HIER_MAXLEVELS + 1];
+    char *tok[RT_HIER_MAXLEVELS + 2];
     int n = 0;
     for (char *p = buf, *s; (s = strsep(&p, ","));) {
-        if (n == RT_HIER_MAXLEVELS) return rt_errf(e, "hierarchy '%s': more than %d levels", spec, RT_HIER_MAXLEVELS);
+        if (n == RT_HIER_MAXLEVELS + 1) return rt_errf(e, "hierarchy '%s': more than %d levels", spec, RT_HIER_MAXLEVELS);
         tok[n++] = s;
     }
+    h->inclusion = RT_INCL_NINE;
+    if (n > 1 && !strchr(tok[n - 1], '=')) { /* the inclusion */
+        const char *t = tok[--n];
+        if (!strcmp(t, "nine")) h->inclusion = RT_INCL_NINE;
+        else if (!strcmp(t, "inclusive")) h->inclusion = RT_INCL_INCLUSIVE;
+        else if (!strcmp(t, "exclusive")) h->inclusion = RT_INCL_EXCLUSIVE;
+        else return rt_errf(e, "hierarchy '%s': last item '%s' is not a level (NAME=...) nor nine, inclusive, exclusive", spec, t);
+    }
+    if (n > RT_HIER_MAXLEVELS) return rt_errf(e, "hierarchy '%s': more than %d levels", spec, RT_HIER_MAXLEVELS);
     for (int k = 0; k < n; k++)
         if (parse_level(tok[k], k == n - 1, base, h, e)) return -1;
-    h->inclusion = RT_INCL_NINE;
+    if (h->inclusion != RT_INCL_NINE) {
+        const char *in = rt_hier_inclusion_name(h->inclusion);
+        if (base->flush || base->write_miss_fullline)
+            return rt_errf(e, "hierarchy '%s': %s: flush and full-line write misses are modeled only non-inclusive", spec, in);
+        for (int k = 0; k < n; k++) {
+            const rt_sim_config *c = &h->level[k];
+            if (c->repl != 0 || c->write_through || c->no_write_allocate)
+                return rt_errf(e, "hierarchy level %s: %s needs lru, write-back, write-allocate at every level", h->name[k], in);
+            if (c->line != h->level[0].line)
+                return rt_errf(e, "hierarchy level %s: %s needs one line size at every level (%u, not %u)", h->name[k], in,
+                               h->level[0].line, c->line);
+        }
+    }
     return 0;
 }
 
@@ -124,7 +148,14 @@ const char *rt_hier_spec(const rt_hier_config *h, char *buf, size_t n)
                                rt_sim_repl_name(c->repl), c->write_through ? "/wt" : "",
                                c->no_write_allocate ? "/nwa" : "");
     }
+    if (h->inclusion != RT_INCL_NINE && at < n)
+        snprintf(buf + at, n - at, ",%s", rt_hier_inclusion_name(h->inclusion));
     return buf;
+}
+
+const char *rt_hier_inclusion_name(int inclusion)
+{
+    return inclusion == RT_INCL_INCLUSIVE ? "inclusive" : inclusion == RT_INCL_EXCLUSIVE ? "exclusive" : "nine";
 }
 
 /* ---- the chain ---- */
@@ -135,12 +166,15 @@ rt_hier *rt_hier_new(const rt_hier_config *hc, rt_err *e)
 {
     if (hc->nlevels < 1 || hc->nlevels > RT_HIER_MAXLEVELS)
         return rt_errf(e, "a hierarchy has 1..%d levels, not %d", RT_HIER_MAXLEVELS, hc->nlevels), NULL;
-    if (hc->inclusion != RT_INCL_NINE) return rt_errf(e, "only non-inclusive non-exclusive hierarchies are modeled"), NULL;
     rt_hier *h = rt_calloc(1, sizeof *h, e);
     if (!h) return NULL;
     h->cfg = *hc;
     h->sink.put = sink_put;
     h->sink.ctx = h;
+    if (hc->inclusion != RT_INCL_NINE) {
+        if (!(h->incl = rt_incl_new(hc, e))) goto fail;
+        return h;
+    }
     for (int k = 0; k < hc->nlevels; k++) {
         rt_sim_config c = hc->level[k];
         c.feeds_below = k < hc->nlevels - 1;
@@ -163,24 +197,42 @@ void rt_hier_free(rt_hier *h)
 {
     if (!h) return;
     for (int k = 0; k < RT_HIER_MAXLEVELS; k++) rt_sim_free(h->lv[k]);
+    rt_incl_free(h->incl);
     free(h);
 }
 
 const rt_hier_config *rt_hier_get_config(const rt_hier *h) { return &h->cfg; }
-int rt_hier_put(rt_hier *h, const rt_access *a, size_t n) { return rt_sim_put(h->lv[0], a, n); }
+int rt_hier_put(rt_hier *h, const rt_access *a, size_t n)
+{
+    return h->incl ? rt_incl_put(h->incl, a, n) : rt_sim_put(h->lv[0], a, n);
+}
 rt_sink *rt_hier_sink(rt_hier *h) { return &h->sink; }
 const rt_sim *rt_hier_level(const rt_hier *h, int k) { return k >= 0 && k < h->cfg.nlevels ? h->lv[k] : NULL; }
 
+uint64_t rt_hier_refs(const rt_hier *h) { return h->incl ? rt_incl_refs(h->incl) : rt_sim_refs(h->lv[0]); }
+
+void rt_hier_get(const rt_hier *h, int k, int i, int cls, rt_hier_counts *out)
+{
+    memset(out, 0, sizeof *out);
+    if (h->incl) rt_incl_get(h->incl, k, i, cls, out);
+    else if (k >= 0 && k < h->cfg.nlevels) rt_sim_get(h->lv[k], k + 1 == h->cfg.nlevels ? i : 0, cls, &out->c);
+}
+
 int rt_hier_finish(rt_hier *h)
 {
-    for (int k = 0; k < h->cfg.nlevels; k++) rt_sim_finish(h->lv[k]);
+    for (int k = 0; k < h->cfg.nlevels && !h->incl; k++) rt_sim_finish(h->lv[k]);
     return 0;
 }
 
-void rt_hier_repeats(rt_hier *h, rt_repeats *out) { rt_sim_repeats(h->lv[0], out); }
+void rt_hier_repeats(rt_hier *h, rt_repeats *out)
+{
+    if (h->incl) memset(out, 0, sizeof *out); /* every read reaches the chains */
+    else rt_sim_repeats(h->lv[0], out);
+}
 
 int rt_hier_check(const rt_hier *h, rt_err *e)
 {
+    if (h->incl) return rt_incl_check(h->incl, e);
     for (int k = 0; k < h->cfg.nlevels; k++) {
         if (rt_sim_check(h->lv[k], e)) return -1; /* H1 */
         const rt_sim_config *c = &h->cfg.level[k];

@@ -8,15 +8,15 @@
  * is an ordinary rt_sim and may have many sizes. DRAM traffic is the last
  * level's traffic_bytes.
  *
- * Inclusion: non-inclusive non-exclusive (NINE, the only one modeled so
- * far, as in Dinero IV): a level knows nothing of the others; a line
- * evicted below stays where it is above. Because the stream a level sends
- * down does not depend on the levels below it, the last level's sizes all
- * run on the same filtered stream: with an LRU last level (fully
- * associative, write-back, write-allocate) that is the one-pass stack
- * simulator, every size in one pass; OPT runs its backward pass once.
- * (Inclusive back-invalidation would make the upper levels depend on the
- * last level's size, so it would need one chain per size.)
+ * Inclusion: non-inclusive non-exclusive (NINE, the default, as in Dinero
+ * IV): a level knows nothing of the others; a line evicted below stays
+ * where it is above. Because the stream a level sends down does not depend
+ * on the levels below it, the last level's sizes all run on the same
+ * filtered stream: with an LRU last level (fully associative, write-back,
+ * write-allocate) that is the one-pass stack simulator, every size in one
+ * pass; OPT runs its backward pass once. INCLUSIVE (back-invalidation
+ * counted) and EXCLUSIVE hierarchies are incl.h's: there the upper levels
+ * depend on the last level's size, so every size runs its own chain.
  *
  * Spec (rt_hier_parse): levels from the core outward, comma-separated,
  *     NAME=SIZE[S]/WAYS|full/LINE/POLICY[/wt][/nwa]
@@ -27,6 +27,11 @@
  * (opt only at the last level: it sees its whole stream before it
  * simulates). /wt and /nwa make the level write-through, no-write-allocate.
  * Write-backs of a level reach the next as whole-line writes.
+ * An optional last item names the inclusion: nine (the default, never
+ * written back by rt_hier_spec), inclusive or exclusive, e.g.
+ * L1=32K/8/64/lru,LLC=1K-4M/full/64/lru,inclusive; those two need every
+ * level LRU, write-back, write-allocate, one line size, and no flush or
+ * full-line write accounting (incl.h).
  *
  * Ownership: an rt_hier owns its levels; rt_hier_sink is valid until
  * rt_hier_free. Errors are returned through rt_err; nothing here prints.
@@ -38,7 +43,19 @@
 
 #define RT_HIER_MAXLEVELS 4
 
-enum { RT_INCL_NINE = 0 };
+enum { RT_INCL_NINE = 0, RT_INCL_INCLUSIVE = 1, RT_INCL_EXCLUSIVE = 2 };
+
+/* "nine", "inclusive", "exclusive". */
+const char *rt_hier_inclusion_name(int inclusion);
+
+/* A level's counters with the inclusion's: back-invalidations (lines the
+ * level lost because a level below evicted them) and the write-backs of
+ * the dirty ones, per class; zero for a non-inclusive hierarchy. */
+typedef struct rt_hier_counts {
+    rt_sim_counts c;
+    uint64_t backinvals;
+    uint64_t bi_writebacks;
+} rt_hier_counts;
 
 typedef struct rt_hier_config {
     int nlevels;                             /* 1..RT_HIER_MAXLEVELS */
@@ -78,8 +95,14 @@ int rt_hier_finish(rt_hier *h);
 void rt_hier_repeats(rt_hier *h, rt_repeats *out);
 
 /* Level k (0..nlevels-1) as a simulator: its counters with rt_sim_get and
- * the rest of sim.h (size index 0 for every level but the last). */
+ * the rest of sim.h (size index 0 for every level but the last). NULL for
+ * an inclusive or exclusive hierarchy (use rt_hier_get). */
 const rt_sim *rt_hier_level(const rt_hier *h, int k);
+/* Level k's counters for last-level size index i (the chain of that size
+ * when inclusive or exclusive) and class cls. */
+void rt_hier_get(const rt_hier *h, int k, int i, int cls, rt_hier_counts *out);
+/* References put into the first level. */
+uint64_t rt_hier_refs(const rt_hier *h);
 
 /* The invariants of every level (rt_sim_check) and of the chain: each
  * level's references are the fetches, write-backs and written-through

@@ -14,21 +14,21 @@
  * and simulates when the run ends (finish):
  *   1. access() splits every reference into line touches (the accounting of
  *      docs/cachesim.md) and appends them: a dense id per distinct line (an
- *      open-addressing table line -> id), the write kind, the (class,
+ *      open-addressing table line -> id, 16-byte slots), the write kind, the (class,
  *      generation) index and the bytes inside the line: 12 bytes a touch,
- *      plus 12 per distinct line.
+ *      plus 8 (ids) and 32 to 64 (table slots) per distinct line.
  *   2. finish() makes one backward pass over the touches, giving each the
  *      index of the next touch of its line (one array of the last index
  *      seen per line id): O(touches) time, 4 bytes a touch.
- *   3. then, per size, one forward pass: per set an indexed binary max-heap
+ *   3. then, per size, one forward pass: per set an indexed 4-ary max-heap
  *      of the resident slots keyed by next use, a slot per line id (no
  *      hash), so a touch costs O(log ways).
  * Counters are read after finish (before it they are zero); a later finish
  * simulates everything buffered from cold again (with cfg.flush the dirty
  * lines are written back at the end of each such simulation).
  * Memory: 12 bytes a touch (a trace of 10^8 line touches needs 1.2 GB,
- * checked against the memory limit as the buffer grows) and about 28 bytes
- * per distinct line, plus 22 bytes per line of the size being simulated.
+ * checked against the memory limit as the buffer grows) and 40 to 72 bytes
+ * per distinct line (ids, table, next-use scratch), plus 22 bytes per line of the size being simulated.
  * Lines up to 65535 bytes (the bytes of a touch are 16 bits).
  *
  * INVARIANTS (rt_sim_check -> opt_check):
@@ -46,6 +46,10 @@
 #include <string.h>
 
 #define NONE UINT32_MAX
+/* heap arity (the one-pass groups and the per-size sets; see o_down) */
+#define OARY 4
+/* touches ahead whose line record is prefetched in the one-pass run */
+#define OPT_AHEAD 16
 
 typedef struct otouch {
     uint32_t id;    /* dense line id */
@@ -54,6 +58,12 @@ typedef struct otouch {
     uint16_t bytes; /* bytes of the reference inside the line (<= 65535: lines up to 64 KB) */
     uint32_t next;  /* next touch of the same line (after finish), NONE = never */
 } otouch;
+
+typedef struct oslot {
+    uint64_t key; /* the line */
+    uint32_t val; /* its id, NONE = empty */
+    uint32_t pad;
+} oslot;
 
 typedef struct ocount {
     uint64_t acc[RT_SIM_NCG], rm[RT_SIM_NCG], wm[RT_SIM_NCG], wb[RT_SIM_NCG], wtb[RT_SIM_NCG], nf[RT_SIM_NCG];
@@ -66,9 +76,10 @@ typedef struct opt {
     uint64_t nt, capt;  /* used, allocated */
     uint64_t *ids;      /* id -> line */
     uint32_t nid, capid;
-    uint64_t *hkey;     /* table line -> id */
-    uint32_t *hval;     /* NONE = empty */
+    oslot *ht;          /* table line -> id (one 16-byte slot: a probe reads one cache line) */
     uint64_t hcap;      /* power of two, >= 2 * capid */
+    uint64_t memo_line; /* the line of the latest touch, and its id (NONE: none yet) */
+    uint32_t memo_id;
     int done;           /* finish ran on the current touches */
     int oom;            /* growth failed: later batches are refused */
     ocount *cnt;        /* per size */
@@ -80,20 +91,17 @@ static inline uint64_t hsl(uint64_t line, uint64_t cap) { return (line * 0x9E377
 static int grow_table(opt *o, rt_err *e)
 {
     uint64_t cap = o->hcap ? o->hcap * 2 : 1024;
-    uint64_t *k = rt_calloc(cap, sizeof *k, e);
-    uint32_t *v = rt_calloc(cap, sizeof *v, e);
-    if (!k || !v) return free(k), free(v), -1;
-    for (uint64_t i = 0; i < cap; i++) v[i] = NONE;
+    oslot *t = rt_calloc_aligned(cap, sizeof *t, 64, e);
+    if (!t) return -1;
+    for (uint64_t i = 0; i < cap; i++) t[i].val = NONE;
     for (uint32_t id = 0; id < o->nid; id++) {
         uint64_t h = hsl(o->ids[id], cap);
-        while (v[h] != NONE) h = (h + 1) & (cap - 1);
-        k[h] = o->ids[id];
-        v[h] = id;
+        while (t[h].val != NONE) h = (h + 1) & (cap - 1);
+        t[h].key = o->ids[id];
+        t[h].val = id;
     }
-    free(o->hkey);
-    free(o->hval);
-    o->hkey = k;
-    o->hval = v;
+    free(o->ht);
+    o->ht = t;
     o->hcap = cap;
     return 0;
 }
@@ -101,8 +109,8 @@ static int grow_table(opt *o, rt_err *e)
 static uint32_t line_id(opt *o, uint64_t line, rt_err *e)
 {
     uint64_t h = hsl(line, o->hcap);
-    for (; o->hval[h] != NONE; h = (h + 1) & (o->hcap - 1))
-        if (o->hkey[h] == line) return o->hval[h];
+    for (; o->ht[h].val != NONE; h = (h + 1) & (o->hcap - 1))
+        if (o->ht[h].key == line) return o->ht[h].val;
     if (o->nid == o->capid) {
         if (o->capid >= (1u << 31)) return rt_errf(e, "opt: more than 2^31 distinct lines"), NONE;
         uint32_t nc = o->capid ? o->capid * 2 : 1024;
@@ -114,10 +122,10 @@ static uint32_t line_id(opt *o, uint64_t line, rt_err *e)
     if (2 * (uint64_t)(o->nid + 1) > o->hcap) {
         if (grow_table(o, e)) return NONE;
         h = hsl(line, o->hcap);
-        while (o->hval[h] != NONE) h = (h + 1) & (o->hcap - 1);
+        while (o->ht[h].val != NONE) h = (h + 1) & (o->hcap - 1);
     }
-    o->hkey[h] = line;
-    o->hval[h] = o->nid;
+    o->ht[h].key = line;
+    o->ht[h].val = o->nid;
     o->ids[o->nid] = line;
     return o->nid++;
 }
@@ -138,8 +146,7 @@ static void opt_destroy(void *st)
     if (!o) return;
     free(o->t);
     free(o->ids);
-    free(o->hkey);
-    free(o->hval);
+    free(o->ht);
     free(o->cnt);
     free(o);
 }
@@ -150,6 +157,7 @@ static void *opt_create(const rt_sim_config *c, rt_err *e)
     opt *o = rt_calloc(1, sizeof *o, e);
     if (!o) return NULL;
     o->cfg = *c;
+    o->memo_id = NONE;
     o->cnt = rt_calloc((size_t)c->nsizes, sizeof *o->cnt, e);
     if (!o->cnt || grow_table(o, e)) {
         opt_destroy(o);
@@ -172,8 +180,10 @@ static int push(opt *o, uint64_t line, unsigned w, unsigned cg, uint32_t bytes, 
         o->t = nt;
         o->capt = nc;
     }
-    uint32_t id = line_id(o, line, e);
+    uint32_t id = o->memo_id != NONE && o->memo_line == line ? o->memo_id : line_id(o, line, e);
     if (id == NONE) return -1;
+    o->memo_line = line;
+    o->memo_id = id;
     otouch *t = &o->t[o->nt++];
     t->id = id;
     t->w = (uint8_t)w;
@@ -195,6 +205,10 @@ static int opt_access(void *st, const rt_access *a, size_t n)
         uint32_t sz = a[i].size ? a[i].size : 1;
         unsigned cg = rt_sim_cg(&a[i]);
         unsigned w = a[i].write == RT_WRITE_STREAM ? RT_WRITE_STREAM : a[i].write != 0;
+        if (i + OPT_AHEAD < n) { /* the table slots of a reference ahead */
+            uint64_t h = hsl(a[i + OPT_AHEAD].addr / ls, o->hcap);
+            __builtin_prefetch(&o->ht[h]);
+        }
         uint64_t end = addr + sz, first = addr / ls, last = (end - 1) / ls;
         for (uint64_t L = first; L <= last; L++) {
             uint64_t lo = L == first ? addr : L * ls, hi = L == last ? end : (L + 1) * ls;
@@ -233,7 +247,7 @@ static void sift_up(fwd *f, uint32_t *h, uint32_t i)
 {
     uint32_t x = h[i];
     while (i > 0) {
-        uint32_t p = (i - 1) / 2;
+        uint32_t p = (i - 1) / OARY;
         if (!above(f, x, h[p])) break;
         h[i] = h[p];
         f->pos[h[i]] = i;
@@ -247,9 +261,11 @@ static void sift_down(fwd *f, uint32_t *h, uint32_t n, uint32_t i)
 {
     uint32_t x = h[i];
     for (;;) {
-        uint32_t c = 2 * i + 1;
+        uint32_t c = OARY * i + 1;
         if (c >= n) break;
-        if (c + 1 < n && above(f, h[c + 1], h[c])) c++;
+        uint32_t e = c + OARY < n ? c + OARY : n;
+        for (uint32_t q = c + 1; q < e; q++)
+            if (above(f, h[q], h[c])) c = q;
         if (!above(f, h[c], x)) break;
         h[i] = h[c];
         f->pos[h[i]] = i;
@@ -383,11 +399,16 @@ typedef struct one {
 static inline uint64_t oent(const one *g, uint32_t x) { return (uint64_t)g->l[x].key << 32 | (uint32_t)~x; }
 static inline uint32_t oid(uint64_t v) { return ~(uint32_t)v; }
 
+/* The heaps are 4-ary (children of i: 4i+1..4i+4, one 32-byte run): half
+ * the depth of a binary heap, so a sift moves half as many entries and
+ * writes half as many line records (their pos), the cost that dominates;
+ * the order is total (entries are unique), so the top, and every result,
+ * is the binary heap's. */
 static void o_up(one *g, int j, uint32_t i)
 {
     uint64_t *h = g->heap[j], v = h[i];
     while (i > 0) {
-        uint32_t p = (i - 1) / 2;
+        uint32_t p = (i - 1) / OARY;
         if (v <= h[p]) break;
         h[i] = h[p];
         g->l[oid(h[i])].pos = i;
@@ -402,13 +423,20 @@ static void o_down(one *g, int j, uint32_t i)
     uint64_t *h = g->heap[j], v = h[i];
     uint32_t n = g->n[j];
     for (;;) {
-        uint32_t c = 2 * i + 1;
-        if (c >= n) break;
-        if (c + 1 < n && h[c + 1] > h[c]) c++;
-        if (h[c] <= v) break;
-        h[i] = h[c];
+        uint32_t c = OARY * i + 1, b;
+        if (c + 3 < n) { /* four children: the larger of two pairs, without branches */
+            uint32_t b0 = c + (h[c + 1] > h[c]), b1 = c + 2 + (h[c + 3] > h[c + 2]);
+            b = h[b1] > h[b0] ? b1 : b0;
+        } else {
+            if (c >= n) break;
+            b = c;
+            for (uint32_t q = c + 1; q < n; q++)
+                if (h[q] > h[b]) b = q;
+        }
+        if (h[b] <= v) break;
+        h[i] = h[b];
         g->l[oid(h[i])].pos = i;
-        i = c;
+        i = b;
     }
     h[i] = v;
     g->l[oid(v)].pos = i;
@@ -426,7 +454,8 @@ static void o_replace(one *g, int j, uint32_t p, uint32_t y)
 {
     g->heap[j][p] = oent(g, y);
     g->l[y].grp = (uint8_t)j;
-    o_up(g, j, p);
+    g->l[y].pos = p;
+    if (p) o_up(g, j, p);
     o_down(g, j, g->l[y].pos);
 }
 
@@ -451,7 +480,11 @@ static int run_onepass(opt *o, rt_err *e)
     int ok = g.l != NULL;
     for (int j = 0; j < k && ok; j++) {
         g.cap[j] = (uint32_t)((c->sizes[j] - (j ? c->sizes[j - 1] : 0)) / c->line);
-        ok = (g.heap[j] = rt_calloc(g.cap[j], sizeof *g.heap[j], e)) != NULL;
+        /* 3 entries before a 64-byte boundary: the 4 children of i (4i+1..4i+4)
+         * then share one cache line */
+        uint64_t *b = rt_calloc_aligned((size_t)g.cap[j] + 3, sizeof *b, 64, e);
+        ok = b != NULL;
+        g.heap[j] = b ? b + 3 : NULL;
     }
     /* misses by group: hist[cg][kind][g], kind 0 read, 1 write that fetches, 2 write without a fetch */
     uint64_t(*hist)[3][RT_SIM_MAXSIZES + 1] = ok ? rt_calloc(RT_SIM_NCG, sizeof *hist, e) : NULL;
@@ -466,6 +499,7 @@ static int run_onepass(opt *o, rt_err *e)
         const otouch *tc = &o->t[t];
         uint32_t x = tc->id;
         unsigned cg = tc->cg, w = tc->w;
+        if (t + OPT_AHEAD < o->nt) __builtin_prefetch(&g.l[o->t[t + OPT_AHEAD].id]); /* a random record, ahead */
         int i = g.l[x].grp;
         acc[cg]++;
         wr[cg] += w != 0;
@@ -543,7 +577,7 @@ static int run_onepass(opt *o, rt_err *e)
 out:
     free(hist);
     free(wb);
-    for (int j = 0; j < k; j++) free(g.heap[j]);
+    for (int j = 0; j < k; j++) free(g.heap[j] ? g.heap[j] - 3 : NULL);
     free(g.l);
     return rc;
 }
@@ -562,6 +596,7 @@ static void opt_finish(void *st, int flush)
     }
     for (uint32_t i = 0; i < o->nid; i++) last[i] = NONE;
     for (uint64_t i = o->nt; i-- > 0;) {
+        if (i >= OPT_AHEAD) __builtin_prefetch(&last[o->t[i - OPT_AHEAD].id], 1);
         o->t[i].next = last[o->t[i].id];
         last[o->t[i].id] = (uint32_t)i;
     }
@@ -603,8 +638,8 @@ static int opt_check(const void *st, rt_err *e)
     if (o->oom) return rt_errf(e, "opt: out of memory earlier; results incomplete");
     for (uint32_t id = 0; id < o->nid; id++) { /* O1 */
         uint64_t h = hsl(o->ids[id], o->hcap);
-        while (o->hval[h] != NONE && o->hkey[h] != o->ids[id]) h = (h + 1) & (o->hcap - 1);
-        if (o->hval[h] != id) return rt_errf(e, "opt: line id %u not in the table", id);
+        while (o->ht[h].val != NONE && o->ht[h].key != o->ids[id]) h = (h + 1) & (o->hcap - 1);
+        if (o->ht[h].val != id) return rt_errf(e, "opt: line id %u not in the table", id);
     }
     for (uint64_t i = 0; i < o->nt; i++) {
         const otouch *t = &o->t[i];

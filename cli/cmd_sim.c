@@ -54,7 +54,10 @@ static void usage(FILE *f)
             "                         NAME=SIZE[S]/WAYS|full/LINE/POLICY[/wt][/nwa],...\n"
             "                         e.g. L1=32K/8/64/lru,L2=1M/16/64/srrip,LLC=1K-4M/full/64/lru\n"
             "                         (only the last level may have several sizes: A-B or\n"
-            "                         A+B+C); rows per level, DRAM = the last level\n"
+            "                         A+B+C); rows per level, DRAM = the last level;\n"
+            "                         a last item nine (default), inclusive or exclusive\n"
+            "                         sets the inclusion (all-LRU levels, one line size; one\n"
+            "                         chain per last-level size; back-invalidations shown)\n"
             "  --write-through        write-through instead of write-back\n"
             "  --no-write-allocate    write misses do not allocate (write around)\n"
             "  --flush                write back the lines still dirty at the end, as\n"
@@ -516,6 +519,11 @@ static int parse_args(int argc, char **argv, sim_opts *o)
             rt_cmd_error("sim", "--hierarchy: %s", err.msg);
             return -1;
         }
+        if (o->db && o->hc.inclusion != RT_INCL_NINE) {
+            rt_cmd_error("sim", "--hierarchy: %s hierarchies are printed, not stored (--db holds non-inclusive ones)",
+                         rt_hier_inclusion_name(o->hc.inclusion));
+            return -1;
+        }
         return 0;
     }
     if (rt_sim_config_check(&o->cfg, &err) || rt_approx_config_check(&o->cfg, &o->ac, &err)) {
@@ -526,26 +534,43 @@ static int parse_args(int argc, char **argv, sim_opts *o)
 }
 
 /* The rows of one hierarchy: per level, size, class (those with accesses)
- * and group, with the level's name first. */
+ * and group, with the level's name first. An inclusive or exclusive one
+ * prints class rows only, with two more columns: backinvals and
+ * bi_writebacks (incl.h). */
 static void print_hier(FILE *f, int fmt, const char *trace, const rt_hier *h, int *first)
 {
     const rt_hier_config *hc = rt_hier_get_config(h);
+    int inc = hc->inclusion != RT_INCL_NINE;
     char spec[1024];
     if (fmt == FMT_TEXT) {
-        fprintf(f, "# %s: %llu references (accesses below are line touches), hierarchy %s, policy %s, non-inclusive\n",
-                trace, (unsigned long long)rt_sim_refs(rt_hier_level(h, 0)), rt_hier_spec(hc, spec, sizeof spec),
-                rt_sim_policy_name(&hc->level[0]));
-        fprintf(f, "%-6s %12s %5s %5s %-6s %-9s %14s %12s %12s %12s %12s %16s\n", "level", "size_bytes", "line", "assoc",
+        fprintf(f, "# %s: %llu references (accesses below are line touches), hierarchy %s, policy %s, %s\n",
+                trace, (unsigned long long)rt_hier_refs(h), rt_hier_spec(hc, spec, sizeof spec),
+                rt_sim_policy_name(&hc->level[0]),
+                inc ? rt_hier_inclusion_name(hc->inclusion) : "non-inclusive");
+        fprintf(f, "%-6s ", "level");
+        if (inc) fprintf(f, "%12s ", "last_size");
+        fprintf(f, "%12s %5s %5s %-6s %-9s %14s %12s %12s %12s %12s %16s", "size_bytes", "line", "assoc",
                 "repl", "class", "accesses", "read_misses", "write_misses", "writebacks", "wt_bytes", "traffic_bytes");
+        if (inc) fprintf(f, " %12s %13s", "backinvals", "bi_writebacks");
+        fputc('\n', f);
     }
     for (int k = 0; k < hc->nlevels; k++) {
         const rt_sim *s = rt_hier_level(h, k);
         const rt_sim_config *c = &hc->level[k];
-        for (int i = 0; i < c->nsizes; i++)
-            for (int r = 0; r < RT_NCLASS + RT_NGROUP; r++) {
+        const rt_sim_config *lc = &hc->level[hc->nlevels - 1];
+        int nrows = inc ? lc->nsizes : c->nsizes; /* inclusive: level k in the chain of each last-level size */
+        for (int i = 0; i < nrows; i++)
+            for (int r = 0; r < RT_NCLASS + (inc ? 0 : RT_NGROUP); r++) {
                 rt_sim_counts t;
+                rt_hier_counts hcnt;
+                memset(&hcnt, 0, sizeof hcnt);
                 const char *name;
-                if (r < RT_NCLASS) {
+                if (inc) {
+                    rt_hier_get(h, k, i, r, &hcnt);
+                    t = hcnt.c;
+                    if (!t.accesses && !hcnt.backinvals) continue;
+                    name = rt_class_name(r);
+                } else if (r < RT_NCLASS) {
                     rt_sim_get(s, i, r, &t);
                     if (!t.accesses) continue;
                     name = rt_class_name(r);
@@ -555,23 +580,40 @@ static void print_hier(FILE *f, int fmt, const char *trace, const rt_hier *h, in
                 }
                 unsigned long long v[6] = {t.accesses, t.read_misses, t.write_misses, t.writebacks, t.wt_bytes,
                                            t.traffic_bytes};
+                unsigned long long size = inc && k + 1 < hc->nlevels ? c->sizes[0] : c->sizes[i];
                 char assoc[16];
                 if (c->assoc) snprintf(assoc, sizeof assoc, "%u", c->assoc);
                 else strcpy(assoc, fmt == FMT_TEXT ? "full" : "0");
                 const char *rp = rt_sim_repl_name(c->repl);
-                if (fmt == FMT_TEXT)
-                    fprintf(f, "%-6s %12llu %5u %5s %-6s %-9s %14llu %12llu %12llu %12llu %12llu %16llu\n", hc->name[k],
-                            (unsigned long long)c->sizes[i], c->line, assoc, rp, name, v[0], v[1], v[2], v[3], v[4], v[5]);
-                else if (fmt == FMT_CSV)
-                    fprintf(f, "%s,%s,%llu,%u,%s,%s,%s,%llu,%llu,%llu,%llu,%llu,%llu\n", trace, hc->name[k],
-                            (unsigned long long)c->sizes[i], c->line, assoc, rp, name, v[0], v[1], v[2], v[3], v[4], v[5]);
-                else {
+                if (fmt == FMT_TEXT) {
+                    fprintf(f, "%-6s ", hc->name[k]);
+                    if (inc) fprintf(f, "%12llu ", (unsigned long long)lc->sizes[i]);
+                    fprintf(f, "%12llu %5u %5s %-6s %-9s %14llu %12llu %12llu %12llu %12llu %16llu", size, c->line, assoc, rp, name, v[0], v[1], v[2], v[3], v[4], v[5]);
+                    if (inc)
+                        fprintf(f, " %12llu %13llu", (unsigned long long)hcnt.backinvals,
+                                (unsigned long long)hcnt.bi_writebacks);
+                    fputc('\n', f);
+                } else if (fmt == FMT_CSV) {
+                    fprintf(f, "%s,%s,", trace, hc->name[k]);
+                    if (inc) fprintf(f, "%llu,", (unsigned long long)lc->sizes[i]);
+                    fprintf(f, "%llu,%u,%s,%s,%s,%llu,%llu,%llu,%llu,%llu,%llu", size, c->line,
+                            assoc, rp, name, v[0], v[1], v[2], v[3], v[4], v[5]);
+                    if (inc)
+                        fprintf(f, ",%llu,%llu", (unsigned long long)hcnt.backinvals,
+                                (unsigned long long)hcnt.bi_writebacks);
+                    fputc('\n', f);
+                } else {
                     fprintf(f,
                             "%s\n  {\"trace\": \"%s\", \"level\": \"%s\", \"size_bytes\": %llu, \"line\": %u, \"assoc\": %s, "
                             "\"repl\": \"%s\", \"policy\": \"%s\", \"class\": \"%s\", \"accesses\": %llu, \"read_misses\": %llu, "
-                            "\"write_misses\": %llu, \"writebacks\": %llu, \"wt_bytes\": %llu, \"traffic_bytes\": %llu}",
-                            *first ? "" : ",", trace, hc->name[k], (unsigned long long)c->sizes[i], c->line, assoc, rp,
-                            rt_sim_policy_name(c), name, v[0], v[1], v[2], v[3], v[4], v[5]);
+                            "\"write_misses\": %llu, \"writebacks\": %llu, \"wt_bytes\": %llu, \"traffic_bytes\": %llu",
+                            *first ? "" : ",", trace, hc->name[k], size, c->line, assoc, rp, rt_sim_policy_name(c), name,
+                            v[0], v[1], v[2], v[3], v[4], v[5]);
+                    if (inc)
+                        fprintf(f, ", \"inclusion\": \"%s\", \"last_level_size\": %llu, \"backinvals\": %llu, \"bi_writebacks\": %llu",
+                                rt_hier_inclusion_name(hc->inclusion), (unsigned long long)lc->sizes[i],
+                                (unsigned long long)hcnt.backinvals, (unsigned long long)hcnt.bi_writebacks);
+                    fputc('}', f);
                     *first = 0;
                 }
             }
@@ -586,6 +628,9 @@ static int store_hier(rt_db *db, const char *path, const rt_hier *h, const rt_tr
                       double secs, int din_class, rt_err *e)
 {
     const rt_hier_config *hc = rt_hier_get_config(h);
+    if (hc->inclusion != RT_INCL_NINE)
+        return rt_errf(e, "%s: %s hierarchies are printed, not stored (--db): the database holds non-inclusive ones", path,
+                       rt_hier_inclusion_name(hc->inclusion));
     const rt_sim *last = rt_hier_level(h, hc->nlevels - 1);
     const rt_sim_config *lc = &hc->level[hc->nlevels - 1];
     if (in->refs == 0) return rt_errf(e, "%s: no references in the trace; nothing stored", path);
@@ -707,7 +752,10 @@ int main_sim(int argc, char **argv)
         return RT_EXIT_FAIL;
     }
     int status = RT_EXIT_OK, first = 1;
-    if (!db && o.hier && o.outfmt == FMT_CSV)
+    if (!db && o.hier && o.outfmt == FMT_CSV && o.hc.inclusion != RT_INCL_NINE)
+        printf("trace,level,last_level_size,size_bytes,line,assoc,repl,class,accesses,read_misses,write_misses,writebacks,"
+               "wt_bytes,traffic_bytes,backinvals,bi_writebacks\n");
+    else if (!db && o.hier && o.outfmt == FMT_CSV)
         printf("trace,level,size_bytes,line,assoc,repl,class,accesses,read_misses,write_misses,writebacks,wt_bytes,"
                "traffic_bytes\n");
     else if (!db && o.outfmt == FMT_CSV)

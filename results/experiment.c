@@ -514,6 +514,9 @@ static int render_job(rt_exp_worker *w, jobrun *r, const rt_exp_job *jb, long in
     rt_exp_fan_init(&r->fan);
     if (c->hier) { /* the hierarchy instead of one level; its last level at the job's sizes */
         rt_hier_config hc = *c->hier;
+        if (hc.inclusion != RT_INCL_NINE)
+            return rt_errf(e, "sweep: a %s hierarchy is simulated by sim --hierarchy only; the database holds non-inclusive ones",
+                           rt_hier_inclusion_name(hc.inclusion));
         rt_sim_config *last = &hc.level[hc.nlevels - 1];
         last->nsizes = r->sc.nsizes;
         memcpy(last->sizes, r->sc.sizes, sizeof last->sizes);

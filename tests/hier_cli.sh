@@ -99,4 +99,26 @@ gap=$(awk -v l="$lru" -v o="$opt" 'BEGIN {printf "%.1f%%", 100 * (l / o - 1)}')
 grep -q "^| 1024 | .* | $gap |\$" "$tmp/rep.md" || die "report: gap $gap at 1K: $(grep '^| 1024' "$tmp/rep.md")"
 "$bin" report --db "$tmp/x.db" --figure hierarchy >/dev/null 2>&1; [ $? -eq 1 ] || die "report --figure hierarchy without runs must exit 1"
 
+# inclusion: inclusive and exclusive hierarchies print back-invalidations;
+# an inclusive one whose last level never evicts has the non-inclusive L1
+"$bin" sim "$tmp/t.rtt" --hierarchy L1=4K/2/64/lru,LLC=8K-16K/full/64/lru,inclusive --format csv > "$tmp/inc.csv" || die "inclusive exit"
+head -1 "$tmp/inc.csv" | grep -q ',last_level_size,.*,backinvals,bi_writebacks$' || die "inclusive csv header"
+[ "$(awk -F, '$2 == "L1" && $3 == 8192 {s += $15} END {print s + 0}' "$tmp/inc.csv")" -gt 0 ] || die "inclusive: no back-invalidation at 8K"
+"$bin" sim "$tmp/t.rtt" --hierarchy L1=4K/2/64/lru,LLC=64M/full/64/lru,inclusive --format csv > "$tmp/incbig.csv" || die "inclusive 64M exit"
+"$bin" sim "$tmp/t.rtt" --hierarchy L1=4K/2/64/lru,LLC=64M/full/64/lru --format csv > "$tmp/ninebig.csv" || die "nine 64M exit"
+# (class columns of both; the non-inclusive rows list the classes before the groups)
+a=$(awk -F, '$2 == "L1" {print $8, $9, $10, $11, $12, $14, $15}' "$tmp/incbig.csv")
+b=$(awk -F, '$2 == "L1" {print $7, $8, $9, $10, $11, $13, 0}' "$tmp/ninebig.csv" | head -n "$(echo "$a" | wc -l)")
+[ -n "$a" ] && [ "$a" = "$b" ] || die "inclusive without evictions differs from non-inclusive: $a / $b"
+"$bin" sim "$tmp/t.rtt" --hierarchy L1=4K/2/64/lru,LLC=8K/full/64/lru,exclusive > "$tmp/exc.txt" || die "exclusive exit"
+grep -q '^# .*hierarchy L1=4K/2/64/lru,LLC=8K/full/64/lru,exclusive, .*, exclusive$' "$tmp/exc.txt" || die "exclusive heading"
+"$bin" sim "$tmp/t.rtt" --hierarchy L1=4K/2/64/lru,LLC=8K/full/64/lru,exclusive --db "$tmp/x.db" >/dev/null 2>&1
+[ $? -eq 2 ] || die "an exclusive hierarchy with --db must be a usage error"
+"$bin" sim "$tmp/t.rtt" --hierarchy L1=4K/2/64/srrip,LLC=8K/full/64/lru,inclusive >/dev/null 2>"$tmp/err"
+[ $? -eq 2 ] && grep -q 'level L1: inclusive needs lru' "$tmp/err" || die "inclusive srrip must be refused"
+"$bin" sim "$tmp/t.rtt" --hierarchy L1=4K/2/64/lru,LLC=8K/full/64/lru,inclusiv >/dev/null 2>"$tmp/err"
+[ $? -eq 2 ] && grep -q "'inclusiv'" "$tmp/err" || die "a misspelt inclusion must be a usage error naming it"
+"$bin" sweep --scenes cornell --tracers recursive --hierarchy L1=1K/full/64/lru,LLC=4K/full/64/lru,inclusive --db "$tmp/x.db" >/dev/null 2>&1
+[ $? -eq 2 ] || die "sweep of an inclusive hierarchy must be a usage error"
+
 exit $fail
