@@ -391,6 +391,7 @@ static void walk_blas(walk *W, uint32_t k)
     const rt_inst_rec *q = &I->inst[k];
     const rt_inst_blas *bl = &I->blas[q->blas];
     const rt_ray *r = W->r;
+    tv->nodes++; /* entering an instance is a step of the walk: its record is read */
     REC_NODE(tv, tv->reg_inst, k, RT_INST_RECSIZE);
     float o[3], d[3], inv[3];
     const float wo[3] = {r->o.x, r->o.y, r->o.z}, wd[3] = {r->d.x, r->d.y, r->d.z};

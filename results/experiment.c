@@ -280,7 +280,7 @@ void rt_exp_run_from_meta(const rt_tr_meta *m, rt_db_run *r)
     r->H = m->H;
     r->lights = m->lights;
     r->light_model = strstr(m->params, "light_model=authored") ? "authored" : NULL; /* the run key says it */
-    r->instances = strstr(m->params, "accel=inst") ? "bvh" : NULL;
+    r->instances = strstr(m->params, "instances=bvh") ? "bvh" : NULL;
     r->sched_size = m->sched_size;
     r->gmax = m->gmax;
     r->params = m->params;
