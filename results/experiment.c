@@ -252,6 +252,10 @@ void rt_exp_job_key(const rt_exp_config *c, const rt_exp_job *jb, const rt_scene
     r->sim_params = rt_exp_sim_params(c->model, &c->sim, k->exact_sim_params, sizeof k->exact_sim_params);
     r->repl = c->sim.repl ? rt_sim_repl_name(c->sim.repl) : NULL;
     if (c->hier) r->hierarchy = rt_hier_spec(c->hier, k->hierarchy, sizeof k->hierarchy);
+    /* simulated cores of a splitting tracer (--cores N in a one-core sweep: their interleaved
+     * stream in the one cache); the dynamic tracer's --cores is its threads= parameter */
+    const rt_tracer *ktr = rt_tracer_find(jb->tracer);
+    r->cores = ktr && (ktr->opts & RT_OPTG_THREADS) && ro.cores > 1 ? ro.cores : 1;
     if (is_mesh_spec(c->scenes[jb->scene])) {
         r->scene_path = c->scenes[jb->scene];
         r->scene_abspath = abs_path(c->scenes[jb->scene], k->abspath);
@@ -456,6 +460,9 @@ static int open_trace(rt_exp_worker *w, jobrun *r, const rt_exp_job *jb, long in
     rt_job_meta(&r->j, c->command, &m);
     rt_tr_wopts wo; /* as `trace` writes them: version 3, with the sample index */
     rt_si_wopts(&wo);
+    /* the fan-out carries no core ids: an N-core job's kept trace is its interleaved
+     * stream as one core's (`trace --cores N` writes the cores, version 4) */
+    m.cores = 1;
     if (!(r->tw = rt_tr_create_opts(path, &m, &wo, e))) return -1;
     return rt_exp_fan_add(&r->fan, rt_tr_sink(r->tw), e) < 0 ? -1 : 0;
 }

@@ -66,6 +66,12 @@ sqlite3 "$tmp/r.db" "$q" >"$tmp/lv_sim.txt"; sqlite3 "$tmp/s.db" "$q" >"$tmp/lv_
 [ -s "$tmp/lv_sim.txt" ] && cmp -s "$tmp/lv_sim.txt" "$tmp/lv_sweep.txt" || err "sweep and sim --hierarchy rows differ"
 "$bin" sweep --scenes cornell -W 8 -H 8 --tracers dynamic --cores 1,2 --hierarchy "$H" --db "$tmp/s.db" 2>"$tmp/u.log"
 [ $? = 2 ] && grep -q "dynamic tracer's work is not split" "$tmp/u.log" || err "sweep -t dynamic --cores 2: $(cat "$tmp/u.log")"
+# a one-cache sweep with --cores: the interleaved stream in the one cache, its own run key (cores 4)
+"$bin" sweep --scenes cornell --tracers recursive -W 16 -H 16 --sizes 64K --db "$tmp/o.db" 2>/dev/null || err "sweep"
+"$bin" sweep --scenes cornell --tracers recursive --cores 4 -W 16 -H 16 --sizes 64K --db "$tmp/o.db" 2>/dev/null \
+    || err "sweep --cores 4"
+[ "$(sqlite3 "$tmp/o.db" "SELECT GROUP_CONCAT(DISTINCT cores) FROM (SELECT cores FROM runs ORDER BY cores)")" = "1,4" ] \
+    || err "one-cache sweep cores: $(sqlite3 "$tmp/o.db" 'SELECT tracer, cores FROM runs')"
 # bad hierarchies
 for bad in "L1=32K/8/64/lru/private" "L1=32K/8/64/fifo/private,LLC=1M/full/64/lru/shared" \
     "L1=32K/8/64/lru/private,LLC=1M/full/32/lru/shared" "L1=32K/8/64/lru/shared,LLC=1M/full/64/lru/shared"; do
