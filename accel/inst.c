@@ -67,12 +67,12 @@
 #define RT_INST_LEAF 4
 #define RT_INST_PAD 1e-4f
 
-static int box_has_tri(const rt_bvh2_node *n, const rt_tri *t, float slack)
-{
+static int box_has_tri(const rt_bvh2_node *n, const rt_tri *t, float slack) {
     for (int c = 0; c < 3; c++) {
         const float *p = &t->p[c].x;
         for (int a = 0; a < 3; a++)
-            if (p[a] < n->lo[a] - slack || p[a] > n->hi[a] + slack) return 0;
+            if (p[a] < n->lo[a] - slack || p[a] > n->hi[a] + slack)
+                return 0;
     }
     return 1;
 }
@@ -85,12 +85,13 @@ typedef struct bitem {
 } bitem;
 
 static int sort_axis;
-static int cmp_item(const void *a, const void *b)
-{
+static int cmp_item(const void *a, const void *b) {
     const bitem *x = a, *y = b;
     float u = x->c[sort_axis], v = y->c[sort_axis];
-    if (u < v) return -1;
-    if (u > v) return 1;
+    if (u < v)
+        return -1;
+    if (u > v)
+        return 1;
     return x->id < y->id ? -1 : x->id > y->id;
 }
 
@@ -103,12 +104,12 @@ typedef struct builder {
 } builder;
 
 /* Median split on the widest centroid axis; depth-first node order. */
-static int build_rec(builder *B, bitem *it, uint32_t n, int depth)
-{
+static int build_rec(builder *B, bitem *it, uint32_t n, int depth) {
     if (B->n == B->cap) {
         uint32_t nc = B->cap ? 2 * B->cap : 64;
         rt_bvh2_node *nn = rt_reallocarray(B->node, nc, sizeof *nn, B->e);
-        if (!nn) return -1;
+        if (!nn)
+            return -1;
         B->node = nn;
         B->cap = nc;
     }
@@ -116,7 +117,8 @@ static int build_rec(builder *B, bitem *it, uint32_t n, int depth)
     rt_bvh2_node nd;
     memset(&nd, 0, sizeof nd);
     float clo[3], chi[3];
-    for (int a = 0; a < 3; a++) nd.lo[a] = clo[a] = INFINITY, nd.hi[a] = chi[a] = -INFINITY;
+    for (int a = 0; a < 3; a++)
+        nd.lo[a] = clo[a] = INFINITY, nd.hi[a] = chi[a] = -INFINITY;
     for (uint32_t i = 0; i < n; i++)
         for (int a = 0; a < 3; a++) {
             nd.lo[a] = fminf(nd.lo[a], it[i].lo[a]);
@@ -127,26 +129,29 @@ static int build_rec(builder *B, bitem *it, uint32_t n, int depth)
     if (n <= RT_INST_LEAF || depth >= RT_BVH_MAX_DEPTH - 1) {
         nd.offset = B->norder;
         nd.ntri = (uint16_t)n;
-        for (uint32_t i = 0; i < n; i++) B->order[B->norder++] = it[i].id;
+        for (uint32_t i = 0; i < n; i++)
+            B->order[B->norder++] = it[i].id;
         B->node[me] = nd;
         return 0;
     }
     int ax = 0;
     for (int a = 1; a < 3; a++)
-        if (chi[a] - clo[a] > chi[ax] - clo[ax]) ax = a;
+        if (chi[a] - clo[a] > chi[ax] - clo[ax])
+            ax = a;
     sort_axis = ax;
     qsort(it, n, sizeof *it, cmp_item);
     uint32_t h = n / 2;
     nd.axis = (uint8_t)ax;
-    if (build_rec(B, it, h, depth + 1) < 0) return -1;
+    if (build_rec(B, it, h, depth + 1) < 0)
+        return -1;
     nd.offset = B->n;
-    if (build_rec(B, it + h, n - h, depth + 1) < 0) return -1;
+    if (build_rec(B, it + h, n - h, depth + 1) < 0)
+        return -1;
     B->node[me] = nd;
     return 0;
 }
 
-static void tri_item(bitem *b, const rt_tri *t, uint32_t id, float pad)
-{
+static void tri_item(bitem *b, const rt_tri *t, uint32_t id, float pad) {
     for (int a = 0; a < 3; a++) {
         float x = (&t->p[0].x)[a], y = (&t->p[1].x)[a], z = (&t->p[2].x)[a];
         float lo = fminf(x, fminf(y, z)), hi = fmaxf(x, fmaxf(y, z));
@@ -159,24 +164,29 @@ static void tri_item(bitem *b, const rt_tri *t, uint32_t id, float pad)
 }
 
 /* One bottom-level tree over tris[0..n) into the shared arrays. */
-static int build_blas(rt_inst *I, const rt_tri *tris, uint32_t n, rt_inst_blas *bl, rt_err *e)
-{
+static int build_blas(rt_inst *I, const rt_tri *tris, uint32_t n, rt_inst_blas *bl, rt_err *e) {
     bitem *it = rt_reallocarray(NULL, n ? n : 1, sizeof *it, e);
     builder B = {0};
     B.e = e;
     B.order = rt_reallocarray(NULL, n ? n : 1, sizeof *B.order, e);
-    if (!it || !B.order) goto fail;
-    for (uint32_t i = 0; i < n; i++) tri_item(&it[i], &tris[i], i, RT_INST_PAD);
-    if (build_rec(&B, it, n, 0) < 0) goto fail;
+    if (!it || !B.order)
+        goto fail;
+    for (uint32_t i = 0; i < n; i++)
+        tri_item(&it[i], &tris[i], i, RT_INST_PAD);
+    if (build_rec(&B, it, n, 0) < 0)
+        goto fail;
     /* append */
     rt_bvh2_node *nn = rt_reallocarray(I->bnode, (size_t)I->nbnode + B.n, sizeof *nn, e);
-    if (!nn) goto fail;
+    if (!nn)
+        goto fail;
     I->bnode = nn;
     rt_tri *nt = rt_reallocarray(I->btri, (size_t)I->nbtri + n + 1, sizeof *nt, e);
-    if (!nt) goto fail;
+    if (!nt)
+        goto fail;
     I->btri = nt;
     uint32_t *nr = rt_reallocarray(I->bref, (size_t)I->nbtri + n + 1, sizeof *nr, e);
-    if (!nr) goto fail;
+    if (!nr)
+        goto fail;
     I->bref = nr;
     bl->node0 = I->nbnode;
     bl->nnode = B.n;
@@ -184,8 +194,10 @@ static int build_blas(rt_inst *I, const rt_tri *tris, uint32_t n, rt_inst_blas *
     bl->ntri = n;
     for (uint32_t k = 0; k < B.n; k++) {
         rt_bvh2_node d = B.node[k];
-        if (d.ntri) d.offset += bl->tri0; /* leaves: global record index */
-        else d.offset += bl->node0;       /* interior: global node index */
+        if (d.ntri)
+            d.offset += bl->tri0; /* leaves: global record index */
+        else
+            d.offset += bl->node0; /* interior: global node index */
         I->bnode[I->nbnode + k] = d;
     }
     for (uint32_t k = 0; k < n; k++) {
@@ -205,25 +217,26 @@ fail:
     return -1;
 }
 
-static int invert3x4(const double m[3][4], double r[3][4])
-{
+static int invert3x4(const double m[3][4], double r[3][4]) {
     double a = m[0][0], b = m[0][1], c = m[0][2], d = m[1][0], e = m[1][1], f = m[1][2], g = m[2][0], h = m[2][1],
            k = m[2][2];
     double det = a * (e * k - f * h) - b * (d * k - f * g) + c * (d * h - e * g);
-    if (!(fabs(det) > 1e-300) || !isfinite(det)) return -1;
+    if (!(fabs(det) > 1e-300) || !isfinite(det))
+        return -1;
     double inv[3][3] = {{(e * k - f * h) / det, (c * h - b * k) / det, (b * f - c * e) / det},
                         {(f * g - d * k) / det, (a * k - c * g) / det, (c * d - a * f) / det},
                         {(d * h - e * g) / det, (b * g - a * h) / det, (a * e - b * d) / det}};
     for (int i = 0; i < 3; i++) {
-        for (int j = 0; j < 3; j++) r[i][j] = inv[i][j];
+        for (int j = 0; j < 3; j++)
+            r[i][j] = inv[i][j];
         r[i][3] = -(inv[i][0] * m[0][3] + inv[i][1] * m[1][3] + inv[i][2] * m[2][3]);
     }
     return 0;
 }
 
-void rt_inst_free(rt_inst *I)
-{
-    if (!I) return;
+void rt_inst_free(rt_inst *I) {
+    if (!I)
+        return;
     free(I->tnode);
     free(I->torder);
     free(I->inst);
@@ -235,14 +248,15 @@ void rt_inst_free(rt_inst *I)
     free(I);
 }
 
-rt_inst *rt_inst_build(const rt_scene *sc, rt_err *e)
-{
+rt_inst *rt_inst_build(const rt_scene *sc, rt_err *e) {
     rt_inst *I = rt_calloc(1, sizeof *I, e);
-    if (!I) return NULL;
+    if (!I)
+        return NULL;
     uint8_t *cov = rt_calloc(sc->ntri ? sc->ntri : 1, 1, e);
     rt_tri *loose = NULL;
     bitem *it = NULL;
-    if (!cov) goto fail;
+    if (!cov)
+        goto fail;
     for (uint32_t i = 0; i < sc->nirec; i++) {
         const rt_scene_inst *q = &sc->irec[i];
         if (q->obj >= sc->nobj) {
@@ -254,38 +268,50 @@ rt_inst *rt_inst_build(const rt_scene *sc, rt_err *e)
             rt_errf(e, "instance %u: triangles beyond the scene", i);
             goto fail;
         }
-        for (uint32_t j = 0; j < o->count; j++) cov[q->first + j] = 1;
+        for (uint32_t j = 0; j < o->count; j++)
+            cov[q->first + j] = 1;
     }
     uint32_t nloose = 0;
-    for (uint32_t i = 0; i < sc->ntri; i++) nloose += !cov[i];
-    if (!(loose = rt_reallocarray(NULL, nloose ? nloose : 1, sizeof *loose, e))) goto fail;
-    if (!(I->covered = rt_reallocarray(NULL, nloose ? nloose : 1, sizeof *I->covered, e))) goto fail;
+    for (uint32_t i = 0; i < sc->ntri; i++)
+        nloose += !cov[i];
+    if (!(loose = rt_reallocarray(NULL, nloose ? nloose : 1, sizeof *loose, e)))
+        goto fail;
+    if (!(I->covered = rt_reallocarray(NULL, nloose ? nloose : 1, sizeof *I->covered, e)))
+        goto fail;
     for (uint32_t i = 0, k = 0; i < sc->ntri; i++)
-        if (!cov[i]) I->covered[k] = i, loose[k++] = sc->tri[i];
+        if (!cov[i])
+            I->covered[k] = i, loose[k++] = sc->tri[i];
     I->nloose = nloose;
     /* bottom level: the loose tree (index nobj), then each object once */
     I->nblas = sc->nobj + 1;
-    if (!(I->blas = rt_calloc(I->nblas, sizeof *I->blas, e))) goto fail;
+    if (!(I->blas = rt_calloc(I->nblas, sizeof *I->blas, e)))
+        goto fail;
     for (uint32_t k = 0; k < sc->nobj; k++) {
         int used = 0;
-        for (uint32_t i = 0; i < sc->nirec && !used; i++) used = sc->irec[i].obj == k;
-        if (!used) continue;
+        for (uint32_t i = 0; i < sc->nirec && !used; i++)
+            used = sc->irec[i].obj == k;
+        if (!used)
+            continue;
         const rt_scene_obj *o = &sc->obj[k];
         if ((uint64_t)o->start + o->count > sc->notri) {
             rt_errf(e, "object %u: triangles beyond the object store", k);
             goto fail;
         }
-        if (build_blas(I, sc->otri + o->start, o->count, &I->blas[k], e) < 0) goto fail;
+        if (build_blas(I, sc->otri + o->start, o->count, &I->blas[k], e) < 0)
+            goto fail;
         I->blas[k].used = 1;
     }
     if (nloose) {
-        if (build_blas(I, loose, nloose, &I->blas[sc->nobj], e) < 0) goto fail;
+        if (build_blas(I, loose, nloose, &I->blas[sc->nobj], e) < 0)
+            goto fail;
         I->blas[sc->nobj].used = 1;
     }
     /* instances: the loose one first (identity), then the records in order */
     I->ninst = sc->nirec + (nloose ? 1 : 0);
-    if (!(I->inst = rt_calloc(I->ninst ? I->ninst : 1, sizeof *I->inst, e))) goto fail;
-    if (!(it = rt_reallocarray(NULL, I->ninst ? I->ninst : 1, sizeof *it, e))) goto fail;
+    if (!(I->inst = rt_calloc(I->ninst ? I->ninst : 1, sizeof *I->inst, e)))
+        goto fail;
+    if (!(it = rt_reallocarray(NULL, I->ninst ? I->ninst : 1, sizeof *it, e)))
+        goto fail;
     for (uint32_t i = 0; i < I->ninst; i++) {
         rt_inst_rec *r = &I->inst[i];
         uint32_t first, count;
@@ -294,7 +320,8 @@ rt_inst *rt_inst_build(const rt_scene *sc, rt_err *e)
             r->blas = sc->nobj;
             r->first = 0;
             for (int a = 0; a < 3; a++)
-                for (int b = 0; b < 4; b++) r->w2o[a][b] = r->o2w[a][b] = a == b;
+                for (int b = 0; b < 4; b++)
+                    r->w2o[a][b] = r->o2w[a][b] = a == b;
             first = 0, count = 0;
         } else {
             const rt_scene_inst *q = &sc->irec[i - (nloose ? 1 : 0)];
@@ -308,26 +335,31 @@ rt_inst *rt_inst_build(const rt_scene *sc, rt_err *e)
             first = q->first, count = sc->obj[q->obj].count;
         }
         /* world box from the flattened copy */
-        for (int a = 0; a < 3; a++) it[i].lo[a] = INFINITY, it[i].hi[a] = -INFINITY;
+        for (int a = 0; a < 3; a++)
+            it[i].lo[a] = INFINITY, it[i].hi[a] = -INFINITY;
         if (r->identity) {
             for (uint32_t k = 0; k < nloose; k++) {
                 bitem t;
                 tri_item(&t, &loose[k], 0, RT_INST_PAD);
-                for (int a = 0; a < 3; a++) it[i].lo[a] = fminf(it[i].lo[a], t.lo[a]), it[i].hi[a] = fmaxf(it[i].hi[a], t.hi[a]);
+                for (int a = 0; a < 3; a++)
+                    it[i].lo[a] = fminf(it[i].lo[a], t.lo[a]), it[i].hi[a] = fmaxf(it[i].hi[a], t.hi[a]);
             }
         } else {
             for (uint32_t k = 0; k < count; k++) {
                 bitem t;
                 tri_item(&t, &sc->tri[first + k], 0, RT_INST_PAD);
-                for (int a = 0; a < 3; a++) it[i].lo[a] = fminf(it[i].lo[a], t.lo[a]), it[i].hi[a] = fmaxf(it[i].hi[a], t.hi[a]);
+                for (int a = 0; a < 3; a++)
+                    it[i].lo[a] = fminf(it[i].lo[a], t.lo[a]), it[i].hi[a] = fmaxf(it[i].hi[a], t.hi[a]);
             }
         }
-        for (int a = 0; a < 3; a++) it[i].c[a] = 0.5f * (it[i].lo[a] + it[i].hi[a]);
+        for (int a = 0; a < 3; a++)
+            it[i].c[a] = 0.5f * (it[i].lo[a] + it[i].hi[a]);
         it[i].id = i;
     }
     builder B = {0};
     B.e = e;
-    if (!(B.order = rt_reallocarray(NULL, I->ninst ? I->ninst : 1, sizeof *B.order, e))) goto fail;
+    if (!(B.order = rt_reallocarray(NULL, I->ninst ? I->ninst : 1, sizeof *B.order, e)))
+        goto fail;
     if (I->ninst && build_rec(&B, it, I->ninst, 0) < 0) {
         free(B.node);
         free(B.order);
@@ -351,20 +383,24 @@ fail:
 /* ---- walking ------------------------------------------------------------------ */
 
 /* Slab test of a box against (o, inv) on [t0, t1]. */
-static int slab(const float lo[3], const float hi[3], const float o[3], const float inv[3], float t0, float t1)
-{
+static int slab(const float lo[3], const float hi[3], const float o[3], const float inv[3], float t0, float t1) {
     for (int a = 0; a < 3; a++) {
         float n = (lo[a] - o[a]) * inv[a], f = (hi[a] - o[a]) * inv[a];
-        if (n != n) n = -INFINITY; /* 0 * inf: the origin on the plane */
-        if (f != f) f = INFINITY;
+        if (n != n)
+            n = -INFINITY; /* 0 * inf: the origin on the plane */
+        if (f != f)
+            f = INFINITY;
         if (n > f) {
             float s = n;
             n = f;
             f = s;
         }
-        if (n > t0) t0 = n;
-        if (f < t1) t1 = f;
-        if (t0 > t1) return 0;
+        if (n > t0)
+            t0 = n;
+        if (f < t1)
+            t1 = f;
+        if (t0 > t1)
+            return 0;
     }
     return 1;
 }
@@ -374,18 +410,18 @@ typedef struct walk {
     const rt_inst *I;
     const rt_ray *r;
     rt_hit best;
-    int any;      /* occluded query */
+    int any; /* occluded query */
     int found;
 } walk;
 
 #define REC_NODE(tv, reg, i, sz)                                                                                       \
-    do {                                                                                                             \
-        if ((tv)->rec && (reg) >= 0) RT_REC((tv)->rec, rt_mm_addr((tv)->L, (reg), (i)), (sz), 0, RT_CLS_NODE);      \
+    do {                                                                                                               \
+        if ((tv)->rec && (reg) >= 0)                                                                                   \
+            RT_REC((tv)->rec, rt_mm_addr((tv)->L, (reg), (i)), (sz), 0, RT_CLS_NODE);                                  \
     } while (0)
 
 /* Walks the bottom-level tree of instance k with the ray in object space. */
-static void walk_blas(walk *W, uint32_t k)
-{
+static void walk_blas(walk *W, uint32_t k) {
     rt_trav *tv = W->tv;
     const rt_inst *I = W->I;
     const rt_inst_rec *q = &I->inst[k];
@@ -405,7 +441,8 @@ static void walk_blas(walk *W, uint32_t k)
             d[a] = (float)(q->w2o[a][0] * wd[0] + q->w2o[a][1] * wd[1] + q->w2o[a][2] * wd[2]);
         }
     }
-    for (int a = 0; a < 3; a++) inv[a] = 1.0f / d[a];
+    for (int a = 0; a < 3; a++)
+        inv[a] = 1.0f / d[a];
     uint32_t stack[RT_BVH_MAX_DEPTH + 2];
     int sp = 0;
     uint32_t cur = bl->node0;
@@ -420,10 +457,13 @@ static void walk_blas(walk *W, uint32_t k)
                 for (uint32_t j = n->offset; j < n->offset + n->ntri; j++) {
                     uint32_t tri = q->identity ? I->covered[I->bref[j]] : q->first + I->bref[j];
                     tv->tests++;
-                    if (tv->mark) tv->mark[tri] |= tv->mark_bit;
-                    if (tv->rec && tv->reg_tri >= 0) RT_REC(tv->rec, rt_mm_addr(tv->L, tv->reg_tri, j), 36, 0, RT_CLS_TRI);
+                    if (tv->mark)
+                        tv->mark[tri] |= tv->mark_bit;
+                    if (tv->rec && tv->reg_tri >= 0)
+                        RT_REC(tv->rec, rt_mm_addr(tv->L, tv->reg_tri, j), 36, 0, RT_CLS_TRI);
                     float t, u, v;
-                    if (!rt_isect_core(r, &tv->sc->tri[tri], &t, &u, &v) || !(t > r->tmin)) continue;
+                    if (!rt_isect_core(r, &tv->sc->tri[tri], &t, &u, &v) || !(t > r->tmin))
+                        continue;
                     if (W->any) {
                         if (t < r->tmax) {
                             W->found = 1;
@@ -449,17 +489,18 @@ static void walk_blas(walk *W, uint32_t k)
                 continue;
             }
         }
-        if (!sp) return;
+        if (!sp)
+            return;
         cur = stack[--sp];
     }
 }
 
-static void walk_tlas(walk *W)
-{
+static void walk_tlas(walk *W) {
     rt_trav *tv = W->tv;
     const rt_inst *I = W->I;
     const rt_ray *r = W->r;
-    if (!I->ntnode) return;
+    if (!I->ntnode)
+        return;
     const float o[3] = {r->o.x, r->o.y, r->o.z}, inv[3] = {r->inv_d.x, r->inv_d.y, r->inv_d.z},
                 d[3] = {r->d.x, r->d.y, r->d.z};
     uint32_t stack[RT_BVH_MAX_DEPTH + 2];
@@ -473,7 +514,8 @@ static void walk_tlas(walk *W)
             if (n->ntri) {
                 for (uint32_t j = n->offset; j < n->offset + n->ntri; j++) {
                     walk_blas(W, I->torder[j]);
-                    if (W->any && W->found) return;
+                    if (W->any && W->found)
+                        return;
                 }
             } else {
                 uint32_t first = cur + 1, second = n->offset;
@@ -487,13 +529,13 @@ static void walk_tlas(walk *W)
                 continue;
             }
         }
-        if (!sp) return;
+        if (!sp)
+            return;
         cur = stack[--sp];
     }
 }
 
-static int inst_closest(rt_trav *tv, const rt_ray *r, rt_hit *h)
-{
+static int inst_closest(rt_trav *tv, const rt_ray *r, rt_hit *h) {
     walk W = {.tv = tv, .I = tv->as, .r = r};
     rt_hit_none(&W.best);
     W.best.t = r->tmax;
@@ -506,8 +548,7 @@ static int inst_closest(rt_trav *tv, const rt_ray *r, rt_hit *h)
     return 1;
 }
 
-static int inst_occluded(rt_trav *tv, const rt_ray *r)
-{
+static int inst_occluded(rt_trav *tv, const rt_ray *r) {
     walk W = {.tv = tv, .I = tv->as, .r = r, .any = 1};
     rt_hit_none(&W.best);
     W.best.t = r->tmax;
@@ -518,8 +559,7 @@ static int inst_occluded(rt_trav *tv, const rt_ray *r)
 /* ---- checking -------------------------------------------------------------------- */
 
 static int check_tree(const rt_bvh2_node *nd, uint32_t node0, uint32_t nnode, uint32_t rec0, uint32_t nrec,
-                      uint8_t *seen, const char *what, rt_err *e)
-{
+                      uint8_t *seen, const char *what, rt_err *e) {
     /* (I3) depth-first: walk with a stack, every node reached once */
     uint32_t stack[RT_BVH_MAX_DEPTH + 2];
     int sp = 0;
@@ -529,39 +569,46 @@ static int check_tree(const rt_bvh2_node *nd, uint32_t node0, uint32_t nnode, ui
         visited++;
         if (n->ntri) {
             if (n->ntri > RT_INST_LEAF || n->offset < rec0 || (uint64_t)n->offset + n->ntri > (uint64_t)rec0 + nrec)
-                return rt_errf(e, "inst: (I3) %s node %u: leaf range %u+%u outside its records", what, cur, n->offset, n->ntri);
+                return rt_errf(e, "inst: (I3) %s node %u: leaf range %u+%u outside its records", what, cur, n->offset,
+                               n->ntri);
             for (uint32_t j = n->offset; j < n->offset + n->ntri; j++) {
-                if (seen[j - rec0]) return rt_errf(e, "inst: (I3) %s record %u in two leaves", what, j);
+                if (seen[j - rec0])
+                    return rt_errf(e, "inst: (I3) %s record %u in two leaves", what, j);
                 seen[j - rec0] = 1;
             }
         } else {
             if (n->axis > 2 || n->offset <= cur + 1 || n->offset >= node0 + nnode || cur + 1 >= node0 + nnode)
-                return rt_errf(e, "inst: (I3) %s node %u: children %u, %u outside the tree", what, cur, cur + 1, n->offset);
+                return rt_errf(e, "inst: (I3) %s node %u: children %u, %u outside the tree", what, cur, cur + 1,
+                               n->offset);
             const rt_bvh2_node *c[2] = {&nd[cur + 1], &nd[n->offset]};
             for (int k = 0; k < 2; k++)
                 for (int a = 0; a < 3; a++)
                     if (c[k]->lo[a] < n->lo[a] || c[k]->hi[a] > n->hi[a])
                         return rt_errf(e, "inst: (I4) %s node %u: a child's box leaves its box", what, cur);
-            if (sp >= RT_BVH_MAX_DEPTH + 1) return rt_errf(e, "inst: (I3) %s deeper than %d", what, RT_BVH_MAX_DEPTH);
+            if (sp >= RT_BVH_MAX_DEPTH + 1)
+                return rt_errf(e, "inst: (I3) %s deeper than %d", what, RT_BVH_MAX_DEPTH);
             stack[sp++] = n->offset;
             cur = cur + 1;
             continue;
         }
-        if (!sp) break;
+        if (!sp)
+            break;
         cur = stack[--sp];
     }
-    if (visited != nnode) return rt_errf(e, "inst: (I3) %s: %u of %u nodes reached", what, visited, nnode);
+    if (visited != nnode)
+        return rt_errf(e, "inst: (I3) %s: %u of %u nodes reached", what, visited, nnode);
     for (uint32_t j = 0; j < nrec; j++)
-        if (!seen[j]) return rt_errf(e, "inst: (I3) %s record %u in no leaf", what, rec0 + j);
+        if (!seen[j])
+            return rt_errf(e, "inst: (I3) %s record %u in no leaf", what, rec0 + j);
     return 0;
 }
 
-int rt_inst_check(const rt_inst *I, const rt_scene *sc, rt_err *e)
-{
+int rt_inst_check(const rt_inst *I, const rt_scene *sc, rt_err *e) {
     int rc = -1;
     uint8_t *cov = rt_calloc(sc->ntri ? sc->ntri : 1, 1, e);
     uint8_t *seen = rt_calloc((size_t)I->nbtri + I->ninst + 1, 1, e);
-    if (!cov || !seen) goto out;
+    if (!cov || !seen)
+        goto out;
     /* (I1) */
     for (uint32_t i = 0; i < I->ninst; i++) {
         const rt_inst_rec *q = &I->inst[i];
@@ -571,8 +618,9 @@ int rt_inst_check(const rt_inst *I, const rt_scene *sc, rt_err *e)
         }
         const rt_inst_blas *bl = &I->blas[q->blas];
         for (uint32_t j = 0; j < bl->ntri; j++) {
-            uint32_t tri = q->identity ? (I->bref[bl->tri0 + j] < I->nloose ? I->covered[I->bref[bl->tri0 + j]] : UINT32_MAX)
-                                       : q->first + I->bref[bl->tri0 + j];
+            uint32_t tri = q->identity
+                               ? (I->bref[bl->tri0 + j] < I->nloose ? I->covered[I->bref[bl->tri0 + j]] : UINT32_MAX)
+                               : q->first + I->bref[bl->tri0 + j];
             if (tri >= sc->ntri || cov[tri]) {
                 rt_errf(e, "inst: (I1) instance %u: scene triangle %u outside the scene or in two instances", i, tri);
                 goto out;
@@ -585,7 +633,8 @@ int rt_inst_check(const rt_inst *I, const rt_scene *sc, rt_err *e)
                 for (int a = 0; a < 3; a++) {
                     double x = q->o2w[a][0] * p[0] + q->o2w[a][1] * p[1] + q->o2w[a][2] * p[2] + q->o2w[a][3];
                     if (fabs(x - w[a]) > 1e-4 * (1 + fabs(x))) {
-                        rt_errf(e, "inst: (I2) instance %u: triangle %u is not its object's triangle transformed", i, tri);
+                        rt_errf(e, "inst: (I2) instance %u: triangle %u is not its object's triangle transformed", i,
+                                tri);
                         goto out;
                     }
                 }
@@ -595,7 +644,8 @@ int rt_inst_check(const rt_inst *I, const rt_scene *sc, rt_err *e)
         for (int a = 0; a < 3; a++)
             for (int b = 0; b < 4; b++) {
                 double s = (b == 3 ? q->w2o[a][3] : 0);
-                for (int k = 0; k < 3; k++) s += q->w2o[a][k] * q->o2w[k][b];
+                for (int k = 0; k < 3; k++)
+                    s += q->w2o[a][k] * q->o2w[k][b];
                 if (fabs(s - (a == b)) > 1e-4 * (1 + fabs(q->o2w[a][b]))) {
                     rt_errf(e, "inst: (I6) instance %u: the matrices are not inverses", i);
                     goto out;
@@ -610,16 +660,19 @@ int rt_inst_check(const rt_inst *I, const rt_scene *sc, rt_err *e)
     /* (I3), (I4) per bottom-level tree */
     for (uint32_t k = 0; k < I->nblas; k++) {
         const rt_inst_blas *bl = &I->blas[k];
-        if (!bl->used) continue;
+        if (!bl->used)
+            continue;
         if ((uint64_t)bl->node0 + bl->nnode > I->nbnode || (uint64_t)bl->tri0 + bl->ntri > I->nbtri) {
             rt_errf(e, "inst: (I3) tree %u outside the shared arrays", k);
             goto out;
         }
         memset(seen, 0, (size_t)I->nbtri + 1);
-        if (check_tree(I->bnode, bl->node0, bl->nnode, bl->tri0, bl->ntri, seen, "bottom-level", e) < 0) goto out;
+        if (check_tree(I->bnode, bl->node0, bl->nnode, bl->tri0, bl->ntri, seen, "bottom-level", e) < 0)
+            goto out;
         for (uint32_t j = 0; j < bl->ntri; j++) {
             if (I->bref[bl->tri0 + j] >= bl->ntri) {
-                rt_errf(e, "inst: (I3) tree %u record %u: object triangle %u of %u", k, bl->tri0 + j, I->bref[bl->tri0 + j], bl->ntri);
+                rt_errf(e, "inst: (I3) tree %u record %u: object triangle %u of %u", k, bl->tri0 + j,
+                        I->bref[bl->tri0 + j], bl->ntri);
                 goto out;
             }
         }
@@ -635,7 +688,8 @@ int rt_inst_check(const rt_inst *I, const rt_scene *sc, rt_err *e)
     /* (I5) */
     if (I->ninst) {
         memset(seen, 0, (size_t)I->nbtri + I->ninst + 1);
-        if (check_tree(I->tnode, 0, I->ntnode, 0, I->ninst, seen, "top-level", e) < 0) goto out;
+        if (check_tree(I->tnode, 0, I->ntnode, 0, I->ninst, seen, "top-level", e) < 0)
+            goto out;
         for (uint32_t m = 0; m < I->ntnode; m++) {
             const rt_bvh2_node *n = &I->tnode[m];
             for (uint32_t j = n->offset; n->ntri && j < n->offset + n->ntri; j++) {
@@ -654,7 +708,8 @@ int rt_inst_check(const rt_inst *I, const rt_scene *sc, rt_err *e)
                 for (uint32_t t = 0; t < bl->ntri; t++) {
                     uint32_t tri = q->identity ? I->covered[I->bref[bl->tri0 + t]] : q->first + I->bref[bl->tri0 + t];
                     if (!box_has_tri(n, &sc->tri[tri], 0)) {
-                        rt_errf(e, "inst: (I5) top-level node %u: instance %u's triangle %u outside its box", m, k, tri);
+                        rt_errf(e, "inst: (I5) top-level node %u: instance %u's triangle %u outside its box", m, k,
+                                tri);
                         goto out;
                     }
                 }
@@ -670,16 +725,14 @@ out:
 
 /* ---- the accel layer's member ----------------------------------------------------- */
 
-static void *inst_build(const rt_scene *sc, const rt_accel_params *p, rt_err *e)
-{
+static void *inst_build(const rt_scene *sc, const rt_accel_params *p, rt_err *e) {
     (void)p;
     return rt_inst_build(sc, e);
 }
 
 static void inst_free(void *as) { rt_inst_free(as); }
 
-static int inst_regions(const void *as, const rt_scene *sc, rt_layout *L, rt_err *e)
-{
+static int inst_regions(const void *as, const rt_scene *sc, rt_layout *L, rt_err *e) {
     const rt_inst *I = as;
     (void)sc;
     if (rt_mm_add(L, "tlas.node", RT_CLS_NODE, 32, I->ntnode ? I->ntnode : 1, e) < 0 ||
@@ -690,11 +743,11 @@ static int inst_regions(const void *as, const rt_scene *sc, rt_layout *L, rt_err
     return 0;
 }
 
-static void inst_trav_init(rt_trav *tv, const void *as, const rt_layout *L)
-{
+static void inst_trav_init(rt_trav *tv, const void *as, const rt_layout *L) {
     tv->as = as;
     tv->width = 2;
-    if (!L) return; /* not recording */
+    if (!L)
+        return; /* not recording */
     tv->reg_top = rt_mm_find(L, "tlas.node");
     tv->reg_inst = rt_mm_find(L, "inst");
     tv->reg_node = rt_mm_find(L, "blas.node");
@@ -703,8 +756,7 @@ static void inst_trav_init(rt_trav *tv, const void *as, const rt_layout *L)
 
 static int inst_check_as(const void *as, const rt_scene *sc, rt_err *e) { return rt_inst_check(as, sc, e); }
 
-static void inst_info(const void *as, rt_accel_info *inf)
-{
+static void inst_info(const void *as, rt_accel_info *inf) {
     const rt_inst *I = as;
     inf->nodes = (uint64_t)I->ntnode + I->nbnode;
     inf->bytes = 32 * inf->nodes + (uint64_t)RT_INST_RECSIZE * I->ninst;

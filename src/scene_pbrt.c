@@ -2353,7 +2353,8 @@ static int do_object_instance(pbrt *P, const token *d)
     token tt;
     if (need_world(P, d, 1) < 0 || need_string(P, d, name, sizeof name, &tt) < 0) return -1;
     rt_esc(q, sizeof q, name, 200);
-    if (P->in_obj >= 0) return perr(P, d, "ObjectInstance \"%s\" inside an ObjectBegin block", q);
+    if (P->in_obj >= 0)
+        return perr(P, d, "ObjectInstance \"%s\" inside an ObjectBegin block (nested instancing is not supported)", q);
     int k = nm_find(&P->named_obj, name);
     if (k < 0) return perr(P, &tt, "ObjectInstance \"%s\": no such object", q);
     object *o = &P->objs[k];

@@ -4,20 +4,21 @@
  *
  * The scene: a 12-triangle box object instanced four times (identity,
  * rotated, scaled non-uniformly, rotated + scaled + translated), a
- * 20-triangle sphere object instanced twice, and a loose ground quad; all
+ * sphere object instanced twice, a flat 4-triangle card (a box of zero
+ * depth) instanced twice, and a loose ground quad; all
  * in a .pbrt file written here. Random rays (origins in and around the
  * scene, random directions, random tmin/tmax) must give bit-identical
  * closest hits and the same occlusion as rt_brute_closest/occluded on the
  * flattened triangles; the walk must have transformed rays and read the
  * instance records.
  */
-#include "config.h"
 #include "accel.h"
 #include "check.h"
+#include "config.h"
 #include "inst.h"
+#include "run.h"
 #include "scene.h"
 #include "scene_load.h"
-#include "run.h"
 #include "tracer.h"
 
 #include <math.h>
@@ -46,29 +47,32 @@ static const char *scene_text =
     "AttributeBegin Translate 3 1 2 Scale 0.5 2 1 ObjectInstance \"box\" AttributeEnd\n"
     "AttributeBegin Translate 0 2.5 3 Rotate -45 0 0 1 Scale 0.7 0.7 0.7 Translate 0.5 0 0 ObjectInstance \"box\" "
     "AttributeEnd\n"
+    "ObjectBegin \"card\"\n"
+    "Shape \"trianglemesh\" \"point3 P\" [-1 -1 0 0 -1 0 1 -1 0 -1 1 0 0 1 0 1 1 0] \"integer indices\" [0 1 4 0 4 3 1 2 5 1 5 4]\n"
+    "ObjectEnd\n"
+    "AttributeBegin Translate 0 0 -2 Rotate 33 0 1 0 Rotate 10 1 0 0 ObjectInstance \"card\" AttributeEnd\n"
+    "AttributeBegin Translate 4 0 -2 ObjectInstance \"card\" AttributeEnd\n"
     "AttributeBegin Translate -4 0 -3 ObjectInstance \"ball\" AttributeEnd\n"
     "AttributeBegin Translate 1 -1 -4 Rotate 90 1 0 0 Scale 1.5 1 1 ObjectInstance \"ball\" AttributeEnd\n";
 
 static uint64_t rng = 0x9e3779b97f4a7c15ull;
-static double urand(void)
-{
+static double urand(void) {
     rng ^= rng << 13, rng ^= rng >> 7, rng ^= rng << 17;
     return (double)(rng >> 11) / 9007199254740992.0;
 }
 
-static int same_hit(const rt_hit *a, const rt_hit *b)
-{
+static int same_hit(const rt_hit *a, const rt_hit *b) {
     return a->tri == b->tri && memcmp(&a->t, &b->t, sizeof a->t) == 0 && memcmp(&a->u, &b->u, sizeof a->u) == 0 &&
            memcmp(&a->v, &b->v, sizeof a->v) == 0;
 }
 
-static void corrupt_and_check(const rt_scene *s, rt_inst *I)
-{
+static void corrupt_and_check(const rt_scene *s, rt_inst *I) {
     rt_err e;
     CHECK(rt_inst_check(I, s, &e) == 0, "intact structure rejected: %s", e.msg);
     /* (I4): a bottom-level root's box shrunk to a point */
     rt_bvh2_node save = I->bnode[0];
-    for (int a = 0; a < 3; a++) I->bnode[0].hi[a] = I->bnode[0].lo[a];
+    for (int a = 0; a < 3; a++)
+        I->bnode[0].hi[a] = I->bnode[0].lo[a];
     CHECK(rt_inst_check(I, s, &e) < 0 && strstr(e.msg, "(I4)"), "shrunk box: '%s'", e.msg);
     I->bnode[0] = save;
     /* (I2): an instance's matrix changed (translation) */
@@ -114,30 +118,32 @@ typedef struct tally {
     uint64_t n, bad, per[RT_MM_MAX_REGIONS];
 } tally;
 
-static int tally_put(rt_sink *s, const rt_access *a, size_t n)
-{
+static int tally_put(rt_sink *s, const rt_access *a, size_t n) {
     tally *t = s->ctx;
     for (size_t i = 0; i < n; i++) {
         int r = -1;
         for (int k = 0; k < t->L->n; k++)
-            if (a[i].addr >= t->L->r[k].base && a[i].addr + a[i].size <= t->L->r[k].base + t->L->r[k].recsize * t->L->r[k].count)
+            if (a[i].addr >= t->L->r[k].base &&
+                a[i].addr + a[i].size <= t->L->r[k].base + t->L->r[k].recsize * t->L->r[k].count)
                 r = k;
         t->n++;
-        if (r < 0) t->bad++;
-        else t->per[r]++;
+        if (r < 0)
+            t->bad++;
+        else
+            t->per[r]++;
     }
     return 0;
 }
 
-static rt_image *render(rt_scene *s, int mode, int instances, tally *t, rt_job *j)
-{
+static rt_image *render(rt_scene *s, int mode, int instances, tally *t, rt_job *j) {
     rt_err e = {0};
     rt_render_opts o;
     rt_render_default_opts(&o);
     o.W = 40, o.H = 32;
     o.mode = mode;
     o.lights = 7;
-    if (instances) o.instances = 1, o.accel = RT_ACCEL_INST;
+    if (instances)
+        o.instances = 1, o.accel = RT_ACCEL_INST;
     CHECK(rt_job_setup_borrowed(j, s, NULL, "recursive", &o, &e) == 0, "setup: %s", e.msg);
     rt_image *im = rt_image_new(o.W, o.H, &e);
     t->L = &j->L;
@@ -151,8 +157,7 @@ static rt_image *render(rt_scene *s, int mode, int instances, tally *t, rt_job *
  * flattened scene's float for float, in every mode; its accesses all lie
  * in its layout, instance records and top-level nodes are read, and the
  * shared triangle region is smaller than the flattened one. */
-static void test_images(rt_scene *s)
-{
+static void test_images(rt_scene *s) {
     const int modes[] = {RT_MODE_RAYCAST, RT_MODE_SHADOW, RT_MODE_WHITTED};
     for (int m = 0; m < 3; m++) {
         tally ta = {0}, tb = {0};
@@ -162,18 +167,20 @@ static void test_images(rt_scene *s)
         rt_image *a = render(s, modes[m], 0, &ta, &ja), *b = render(s, modes[m], 1, &tb, &jb);
         if (a && b) {
             size_t diff = 0;
-            for (size_t i = 0; i < (size_t)a->W * a->H * 3; i++) diff += memcmp(&a->rgb[i], &b->rgb[i], sizeof(float)) != 0;
+            for (size_t i = 0; i < (size_t)a->W * a->H * 3; i++)
+                diff += memcmp(&a->rgb[i], &b->rgb[i], sizeof(float)) != 0;
             CHECK(diff == 0, "mode %d: %zu channel values differ between flatten and bvh", modes[m], diff);
         }
         CHECK(ta.bad == 0 && tb.bad == 0 && tb.n > 0, "mode %d: accesses off the layout: %llu, %llu", modes[m],
               (unsigned long long)ta.bad, (unsigned long long)tb.bad);
         int ri = rt_mm_find(&jb.L, "inst"), rtl = rt_mm_find(&jb.L, "tlas.node"), rbt = rt_mm_find(&jb.L, "blas.tri"),
             rft = rt_mm_find(&ja.L, "tri.verts");
-        CHECK(ri >= 0 && rtl >= 0 && rbt >= 0 && rft >= 0 && rt_mm_find(&jb.L, "tri.verts") < 0, "regions %d %d %d %d", ri,
-              rtl, rbt, rft);
+        CHECK(ri >= 0 && rtl >= 0 && rbt >= 0 && rft >= 0 && rt_mm_find(&jb.L, "tri.verts") < 0, "regions %d %d %d %d",
+              ri, rtl, rbt, rft);
         if (ri >= 0 && rtl >= 0 && rbt >= 0 && rft >= 0) {
-            CHECK(tb.per[ri] > 0 && tb.per[rtl] > 0 && tb.per[rbt] > 0, "mode %d: inst %llu, tlas %llu, blas.tri %llu reads",
-                  modes[m], (unsigned long long)tb.per[ri], (unsigned long long)tb.per[rtl], (unsigned long long)tb.per[rbt]);
+            CHECK(tb.per[ri] > 0 && tb.per[rtl] > 0 && tb.per[rbt] > 0,
+                  "mode %d: inst %llu, tlas %llu, blas.tri %llu reads", modes[m], (unsigned long long)tb.per[ri],
+                  (unsigned long long)tb.per[rtl], (unsigned long long)tb.per[rbt]);
             CHECK(jb.L.r[rbt].count < ja.L.r[rft].count, "shared triangles %llu, flattened %llu",
                   (unsigned long long)jb.L.r[rbt].count, (unsigned long long)ja.L.r[rft].count);
         }
@@ -184,22 +191,23 @@ static void test_images(rt_scene *s)
     }
 }
 
-int main(void)
-{
+int main(void) {
     rt_err e = {0};
     char *path = check_path("inst.pbrt");
     check_write_file(path, scene_text, strlen(scene_text));
     rt_scene *s = rt_scene_load(path, &e);
     CHECK(s != NULL, "load: %s", e.msg);
-    if (!s) return 1;
-    CHECK(s->ninst == 6 && s->nirec == 6 && s->nobj == 2, "instances %u, records %u, objects %u", s->ninst, s->nirec,
+    if (!s)
+        return 1;
+    CHECK(s->ninst == 8 && s->nirec == 8 && s->nobj == 3, "instances %u, records %u, objects %u", s->ninst, s->nirec,
           s->nobj);
     rt_accel a;
     CHECK(rt_accel_build(&a, RT_ACCEL_INST, s, NULL, &e) == 0, "build: %s", e.msg);
     rt_inst *I = a.as;
-    CHECK(I->ninst == 7 && I->nloose == 2, "instances %u (with the loose one), loose triangles %u", I->ninst, I->nloose);
+    CHECK(I->ninst == 9 && I->nloose == 2, "instances %u (with the loose one), loose triangles %u", I->ninst,
+          I->nloose);
     /* shared bottom level: each object's triangles once, plus the loose ones */
-    uint32_t want = s->obj[0].count + s->obj[1].count + 2;
+    uint32_t want = s->obj[0].count + s->obj[1].count + s->obj[2].count + 2;
     CHECK(I->nbtri == want, "shared records %u, expected %u (flattened: %u)", I->nbtri, want, s->ntri);
     CHECK(rt_accel_check(&a, s, &e) == 0, "check: %s", e.msg);
 
@@ -211,10 +219,12 @@ int main(void)
         rt_vec3 d = rt_v3((float)(urand() * 2 - 1), (float)(urand() * 2 - 1), (float)(urand() * 2 - 1));
         if (i % 4 == 0) /* aimed at an instance's centre */
             d = rt_v3(-3 - o.x, 0 - o.y, 1 - o.z);
-        if (i % 4 == 1) d = rt_v3(-4 - o.x, 0 - o.y, -3 - o.z);
+        if (i % 4 == 1)
+            d = rt_v3(-4 - o.x, 0 - o.y, -3 - o.z);
         rt_ray r;
         rt_ray_init(&r, o, d);
-        if (i % 3 == 1) r.tmin = (float)(urand() * 0.5), r.tmax = (float)(1 + urand() * 20);
+        if (i % 3 == 1)
+            r.tmin = (float)(urand() * 0.5), r.tmax = (float)(1 + urand() * 20);
         rt_hit h1, h2;
         int b1 = rt_brute_closest(s, &r, &h1), b2 = a.ops->closest(&tv, &r, &h2);
         if (b1 != b2 || (b1 && !same_hit(&h1, &h2))) {
@@ -224,7 +234,8 @@ int main(void)
         }
         hits += b1;
         int o1 = rt_brute_occluded(s, &r), o2 = a.ops->occluded(&tv, &r);
-        if (o1 != o2 && bad++ < 5) CHECK(0, "ray %d: occluded brute %d inst %d", i, o1, o2);
+        if (o1 != o2 && bad++ < 5)
+            CHECK(0, "ray %d: occluded brute %d inst %d", i, o1, o2);
         occl += o1;
     }
     CHECK(bad == 0, "%d rays differ", bad);
@@ -237,6 +248,7 @@ int main(void)
     rt_accel_free(&a);
     rt_scene_free(s);
 
-    if (failures) fprintf(stderr, "test_inst: %d failures\n", failures);
+    if (failures)
+        fprintf(stderr, "test_inst: %d failures\n", failures);
     return failures != 0;
 }
