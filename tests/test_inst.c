@@ -221,6 +221,8 @@ int main(void) {
             d = rt_v3(-3 - o.x, 0 - o.y, 1 - o.z);
         if (i % 4 == 1)
             d = rt_v3(-4 - o.x, 0 - o.y, -3 - o.z);
+        if (i % 4 == 2) /* at the flat card (its object-space box has no depth) */
+            d = rt_v3((float)(urand() - 0.5) - o.x, (float)(urand() - 0.5) - o.y, -2 - o.z);
         rt_ray r;
         rt_ray_init(&r, o, d);
         if (i % 3 == 1)
