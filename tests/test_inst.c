@@ -150,6 +150,8 @@ static rt_image *render(rt_scene *s, int mode, int instances, tally *t, rt_job *
     rt_sink sk = {tally_put, t};
     rt_run_stats st;
     CHECK(rt_job_run(j, &sk, im, &st, &e) == 0, "run: %s", e.msg);
+    CHECK(!instances || strstr(st.extra, "xforms="), "the bvh run's statistics lack xforms: '%s'", st.extra);
+    CHECK(instances || !strstr(st.extra, "xforms="), "the flattened run counts xforms: '%s'", st.extra);
     return im;
 }
 

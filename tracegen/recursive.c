@@ -187,6 +187,10 @@ static int rec_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
     rt_stats_finish(st, &tv, mark, sc->ntri);
     if (secondary)
         snprintf(st->extra, sizeof st->extra, "rays_secondary=%" PRIu64 " self_hits=%" PRIu64, nsec, nself);
+    if (tv.xforms) { /* the two-level structure: rays transformed into an object's space */
+        size_t l = strlen(st->extra);
+        snprintf(st->extra + l, sizeof st->extra - l, "%sxforms=%" PRIu64, l ? " " : "", tv.xforms);
+    }
     free(order);
     free(mark);
     free(lw);
