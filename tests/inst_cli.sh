@@ -55,6 +55,11 @@ for r in tlas.node inst blas.node blas.tri; do
     grep -q "^  $r " "$tmp/info" || die "trace-info lacks region $r"
 done
 
+# scene info: the records the two levels are built from
+"$bin" scene info "$sc" > "$tmp/sinfo" 2>&1 || die "scene info"
+grep -q '^two-level    5 instance records' "$tmp/sinfo" || die "scene info: $(grep -i inst "$tmp/sinfo")"
+"$bin" scene info "$sc" --json 2>/dev/null | grep -q '"instance_records": 5,' || die "scene info --json lacks instance_records"
+
 # ---- 2. refusals ----------------------------------------------------------------
 for t in packet treelet dynamic; do
     "$bin" render "$sc" -t $t --instances bvh -W 16 -H 16 -o "$tmp/x.exr" >/dev/null 2>"$tmp/err"
