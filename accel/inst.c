@@ -24,7 +24,8 @@
  * The triangles outside any instance record (outside objects, objects of
  * one or two triangles the loader copies at once, projective instances)
  * form one more bottom-level tree, in world space, entered through an
- * instance of the identity (instance 0 when there are such triangles).
+ * instance of the identity (instance 0 when there are such triangles);
+ * so do singular instances (the loader records invertible ones only).
  *
  * Hits. The walk meets boxes with the object-space ray, but tests each
  * candidate triangle on its world-space copy in tri with the shared

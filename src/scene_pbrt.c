@@ -2430,7 +2430,8 @@ static int expand_instances(pbrt *P)
                                           (unsigned long long)total, (unsigned)P->maxtri);
     if (rt_scene_reserve(s, (uint32_t)total, P->e) < 0) return -1;
     /* the instance records of the two-level structure (rt_scene_inst):
-     * affine instances only (a projective one stays flattened, loose) */
+     * invertible affine instances only (a projective or singular one
+     * stays flattened, loose) */
     if (!(s->irec = rt_reallocarray(NULL, (size_t)P->ninst, sizeof *s->irec, P->e))) return -1;
     uint32_t src = s->ntri, dst = (uint32_t)total;
     for (int i = P->ninst - 1; i >= 0; i--) {
@@ -2458,7 +2459,8 @@ static int expand_instances(pbrt *P)
             s->shade[dst + j] = P->oshade[o->start + j];
         }
         const mat4 *m = &r->ctm;
-        if (m->m[3][0] == 0 && m->m[3][1] == 0 && m->m[3][2] == 0 && m->m[3][3] == 1) {
+        double det = det3(m);
+        if (m->m[3][0] == 0 && m->m[3][1] == 0 && m->m[3][2] == 0 && m->m[3][3] == 1 && fabs(det) > 1e-30) {
             rt_scene_inst *q = &s->irec[s->nirec++];
             q->obj = (uint32_t)r->obj;
             q->first = dst;
