@@ -287,11 +287,10 @@ rt_inst *rt_inst_build(const rt_scene *sc, rt_err *e) {
     I->nblas = sc->nobj + 1;
     if (!(I->blas = rt_calloc(I->nblas, sizeof *I->blas, e)))
         goto fail;
+    for (uint32_t i = 0; i < sc->nirec; i++) /* the objects some record names (checked above) */
+        I->blas[sc->irec[i].obj].used = 1;
     for (uint32_t k = 0; k < sc->nobj; k++) {
-        int used = 0;
-        for (uint32_t i = 0; i < sc->nirec && !used; i++)
-            used = sc->irec[i].obj == k;
-        if (!used)
+        if (!I->blas[k].used)
             continue;
         const rt_scene_obj *o = &sc->obj[k];
         if ((uint64_t)o->start + o->count > sc->notri) {
