@@ -7,6 +7,7 @@
 #include "feedback.h"
 #include "image.h"
 #include "run.h"
+#include "stats.h"
 
 #include <inttypes.h>
 #include <stdio.h>
@@ -64,6 +65,12 @@ void rt_print_run_stats(FILE *f, const rt_job *j, const rt_run_stats *st, int js
         rt_accel_info_of(&j->acc, &ai);
         fprintf(f, ", \"accel\": \"%s\", \"accel_nodes\": %" PRIu64 ", \"accel_bytes\": %" PRIu64 ", \"accel_depth\": %" PRIu32,
                 rt_accel_name(j->acc.kind), ai.nodes, ai.bytes, ai.depth);
+        /* the tracer's statistics as an object; "extra" (the same as the
+         * old k=v string) is kept one release for older readers */
+        char obj[4096];
+        rt_err se;
+        if (rt_stats_json(st->extra, obj, sizeof obj, &se) == 0) fprintf(f, ", \"stats\": %s", obj);
+        else fputs(", \"stats\": null", f);
         if (st->extra[0]) {
             fputs(", \"extra\": ", f);
             rt_cmd_json_str(f, st->extra);

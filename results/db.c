@@ -2,7 +2,7 @@
  * db.c -- the SQLite results database (see db.h and docs/database.md).
  *
  * The schema lives in one string below (documented column by column in
- * docs/database.md). Version 6; older files are upgraded in place when
+ * docs/database.md). Version 7; older files are upgraded in place when
  * opened, one step after the other in one transaction (the views dropped
  * first and created again last; migrate_v1: the sched_size rename;
  * migrate_v2: where a mesh scene was found; 3 -> 4: the per-generation
@@ -10,7 +10,8 @@
  * approximate runs, table traffic_se and view v_traffic_se; migrate_v5:
  * the run's new dimensions repl, hierarchy, cores, light_model and
  * instances in its key, the per-level table level_traffic and its view
- * v_level). Unsigned 64-bit hashes are stored as 16 lowercase hex
+ * v_level; migrate_v6: runs.stats_json, the statistics as a JSON object,
+ * parsed from the old stats text where it parses, NULL where not). Unsigned 64-bit hashes are stored as 16 lowercase hex
  * digits, counters as INTEGER (they stay far below 2^63), standard errors
  * as REAL (bytes, NULL = none).
  *
@@ -40,6 +41,7 @@
 #include "db.h"
 #include "memmodel.h"
 #include "outfile.h"
+#include "stats.h"
 
 #include <ctype.h>
 #include <errno.h>
@@ -57,8 +59,13 @@ long rt_db_fail_row_after = 0;
 
 _Static_assert(RT_DB_SE_N == RT_NGROUP + 1, "rt_db_se holds one error per group and one for all classes");
 
+/* Room for a run's stats as JSON (the text is at most ~900 bytes, each
+ * token grows by at most 8). */
+#define RT_DB_STATS_JSON_MAX 4096
+
 /* Version 1's name of sched_size, kept as a generated read-only alias
- * (last column of runs, so fresh and upgraded files have the same layout). */
+ * (last column of runs but stats_json, which version 7 appended, so fresh
+ * and upgraded files have the same layout). */
 #define SCHED_ALIAS "sched_cache_size INTEGER GENERATED ALWAYS AS (sched_size) VIRTUAL"
 
 /* The runs table, as created fresh and as the version 5 -> 6 upgrade
@@ -92,6 +99,7 @@ _Static_assert(RT_DB_SE_N == RT_NGROUP + 1, "rt_db_se holds one error per group 
     "  light_model TEXT NOT NULL DEFAULT 'point', -- how lights are sampled\n" \
     "  instances TEXT NOT NULL DEFAULT 'flatten', -- how object instances are traced\n" \
     "  " SCHED_ALIAS ",\n" \
+    "  stats_json TEXT,                   -- stats as a JSON object (NULL: old text that does not parse)\n" \
     "  UNIQUE(scene_id, tracer, W, H, lights, sched_size, gmax, params, sim_method, sim_params, repl, hierarchy,\n" \
     "         cores, light_model, instances));\n"
 
@@ -205,7 +213,7 @@ static const char schema_sql[] =
     "    CASE WHEN r.sim_params LIKE 'model=%' THEN substr(r.sim_params, 7, instr(r.sim_params || ' ', ' ') - 7)\n"
     "      WHEN r.sim_method = 'exact' THEN 'lean' ELSE '' END AS model,\n"
     "    r.sim_method, r.sim_params, r.sched_size, r.gmax, r.repl, r.hierarchy, r.cores, r.light_model,\n"
-    "    r.instances, r.params, r.refs, r.git_rev, r.created, r.command\n"
+    "    r.instances, r.params, r.refs, r.git_rev, r.created, r.command, r.stats_json\n"
     "  FROM runs r JOIN scenes s ON s.id = r.scene_id;\n"
     "CREATE TABLE IF NOT EXISTS level_traffic(\n"
     "  run_id INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE,\n"
@@ -262,11 +270,11 @@ static const char *const stmt_sql[S_NSTMT] = {
     " AND r.cores = ?15 AND r.light_model = ?16 AND r.instances = ?17",
     "INSERT INTO runs(scene_id, tracer, W, H, lights, sched_size, gmax, params, sim_method, sim_params,"
     " repl, hierarchy, cores, light_model, instances,"
-    " trace_hash, refs, tool_version, git_rev, command, wall_time, stats)"
+    " trace_hash, refs, tool_version, git_rev, command, wall_time, stats, stats_json)"
     " VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19, ?20, ?21,"
-    " ?22)",
+    " ?22, ?23)",
     "UPDATE runs SET trace_hash = ?2, refs = ?3, tool_version = ?4, git_rev = ?5, command = ?6, wall_time = ?7,"
-    " stats = ?8, created = strftime('%Y-%m-%dT%H:%M:%SZ','now') WHERE id = ?1",
+    " stats = ?8, stats_json = ?9, created = strftime('%Y-%m-%dT%H:%M:%SZ','now') WHERE id = ?1",
     "INSERT OR IGNORE INTO cache_configs(size, line, assoc, policy) VALUES(?1, ?2, ?3, ?4)",
     "SELECT id FROM cache_configs WHERE size = ?1 AND line = ?2 AND assoc = ?3 AND policy = ?4",
     "DELETE FROM traffic WHERE run_id = ?1 AND config_id = ?2",
@@ -404,6 +412,55 @@ static int migrate_v5(rt_db *db, rt_err *e)
                 e);
 }
 
+/* Binds stats_json: the statistics as a JSON object, NULL when the text
+ * is not k=v with unique keys and one-word values (stats.h). Older packet
+ * runs wrote descriptive words into their statistics ("nodes=packet node
+ * visits tests=ray-triangle tests", repeating the keys nodes and tests):
+ * those words are left out of the object, so such a run parses whether it
+ * comes by the upgrade or from an old shard through db merge. */
+static void bind_stats_json(sqlite3_stmt *st, int col, const char *stats)
+{
+    static const char legacy[] = " nodes=packet node visits tests=ray-triangle tests";
+    char txt[RT_DB_STATS_JSON_MAX], obj[RT_DB_STATS_JSON_MAX];
+    rt_err ignored;
+    int n = snprintf(txt, sizeof txt, "%s", stats ? stats : "");
+    char *w = strstr(txt, legacy);
+    if (w) memmove(w, w + sizeof legacy - 1, strlen(w + sizeof legacy - 1) + 1);
+    if (n >= 0 && (size_t)n < sizeof txt && rt_stats_json(txt, obj, sizeof obj, &ignored) == 0)
+        sqlite3_bind_text(st, col, obj, -1, SQLITE_TRANSIENT);
+    else sqlite3_bind_null(st, col);
+}
+
+/* Version 6 -> 7: stats_json from every run's stats (the column itself is
+ * new in RUNS_TABLE, so a file coming from version 5 or older has it
+ * already; a version-6 file gets it appended), parsed as a store does
+ * (bind_stats_json: the old packet words left out); text that does not
+ * parse keeps NULL. */
+static int migrate_v6(rt_db *db, int64_t ver, rt_err *e)
+{
+    if (ver == 6 && exec(db, "ALTER TABLE runs ADD COLUMN stats_json TEXT", e)) return -1;
+    sqlite3_stmt *sel = NULL, *upd = NULL;
+    if (sqlite3_prepare_v2(db->h, "SELECT id, stats FROM runs ORDER BY id", -1, &sel, NULL) != SQLITE_OK ||
+        sqlite3_prepare_v2(db->h, "UPDATE runs SET stats_json = ?2 WHERE id = ?1", -1, &upd, NULL) != SQLITE_OK) {
+        sqlite3_finalize(sel);
+        return dberr(db, e, NULL);
+    }
+    int rc;
+    while ((rc = sqlite3_step(sel)) == SQLITE_ROW) {
+        sqlite3_reset(upd);
+        sqlite3_bind_int64(upd, 1, sqlite3_column_int64(sel, 0));
+        bind_stats_json(upd, 2, (const char *)sqlite3_column_text(sel, 1));
+        if (sqlite3_step(upd) != SQLITE_DONE) {
+            rc = SQLITE_ERROR;
+            break;
+        }
+    }
+    sqlite3_finalize(sel);
+    sqlite3_finalize(upd);
+    if (rc != SQLITE_DONE) return dberr(db, e, NULL);
+    return 0;
+}
+
 /* The name of a table that is not raytraffic's, or "" (none); for refusing
  * to add tables to an unrelated file. */
 static int foreign_table(rt_db *db, char *name, size_t n, rt_err *e)
@@ -503,6 +560,7 @@ static int create_schema(rt_db *db, rt_err *e)
         if (ver == 1 && migrate_v1(db, e)) goto fail;
         if (ver <= 2 && migrate_v2(db, e)) goto fail;
         if (ver <= 5 && migrate_v5(db, e)) goto fail;
+        if (ver <= 6 && migrate_v6(db, ver, e)) goto fail;
         if (exec(db, schema_sql, e)) goto fail;
         if (foreign_key_check(db, e)) goto fail;
     }
@@ -905,6 +963,7 @@ static int store(rt_db *db, const rt_db_run *r, const rt_db_rows *R, int64_t *ru
         sqlite3_bind_text(u, 6, nz(r->command), -1, SQLITE_TRANSIENT);
         sqlite3_bind_double(u, 7, r->wall_time);
         sqlite3_bind_text(u, 8, nz(r->stats), -1, SQLITE_TRANSIENT);
+        bind_stats_json(u, 9, r->stats);
         if (step_id(db, u, NULL, e) < 0) return -1;
     } else {
         sqlite3_stmt *in = st[S_RUN_INS];
@@ -917,6 +976,7 @@ static int store(rt_db *db, const rt_db_run *r, const rt_db_rows *R, int64_t *ru
         sqlite3_bind_text(in, 20, nz(r->command), -1, SQLITE_TRANSIENT);
         sqlite3_bind_double(in, 21, r->wall_time);
         sqlite3_bind_text(in, 22, nz(r->stats), -1, SQLITE_TRANSIENT);
+        bind_stats_json(in, 23, r->stats);
         if (step_id(db, in, NULL, e) < 0) return -1;
         rid = sqlite3_last_insert_rowid(db->h);
     }
@@ -1162,7 +1222,7 @@ static int shard_error(const shard *sh, rt_err *e)
 }
 
 /* Opens a shard read-only and checks it is a raytraffic database of a
- * version this build reads (1 to 6, through rt_db_open_read; older column
+ * version this build reads (1 to 7, through rt_db_open_read; older column
  * name for 1, no scene paths before 3, no generation rows before 4, no
  * standard errors before 5, no new dimensions (their defaults) and no
  * level rows before 6). */

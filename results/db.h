@@ -36,7 +36,7 @@
 
 #include <stdint.h>
 
-#define RT_DB_SCHEMA_VERSION 6
+#define RT_DB_SCHEMA_VERSION 7
 
 typedef struct rt_db rt_db;
 
@@ -155,7 +155,7 @@ typedef struct rt_db_rows {
 } rt_db_rows;
 
 /* Opens (creating if needed) the database at path and ensures the schema.
- * A version-1 to -5 file is upgraded to RT_DB_SCHEMA_VERSION in place, in
+ * A version-1 to -6 file is upgraded to RT_DB_SCHEMA_VERSION in place, in
  * one transaction. Safe for many processes opening a new file at once
  * (lock conflicts while creating it are waited out, up to 2 minutes). Fails with "PATH: message", leaving the file untouched, if
  * it cannot be created or written, is not a SQLite database, has a newer

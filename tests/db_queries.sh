@@ -27,6 +27,15 @@ for q in "$tmp"/q*.sql; do
     sqlite3 "$db" < "$q" > "$q.out" 2> "$q.err" && [ ! -s "$q.err" ] ||
         { echo "FAIL: $(head -1 "$q") ...: $(cat "$q.err")"; fail=1; }
 done
+# the statistics through json_extract: the dynamic runs' queue points as
+# their stats text says, and one run's keys as many as its text's tokens
+want=$(sqlite3 "$db" "SELECT id, tracer, W, substr(stats, instr(stats, ' queue_points=') + 14,
+    instr(substr(stats, instr(stats, ' queue_points=') + 14), ' ') - 1) FROM runs WHERE tracer = 'dynamic' ORDER BY id")
+got=$(cut -d'|' -f1-4 "$tmp/q4.sql.out" | head -n "$(echo "$want" | wc -l)")
+[ -n "$want" ] && [ "$got" = "$want" ] || { echo "FAIL: json_extract queue_points: $got, want $want"; fail=1; }
+ntok=$(sqlite3 "$db" "SELECT stats FROM runs WHERE id = 1" | wc -w)
+nkey=$(($(wc -l < "$tmp/q4.sql.out") - $(echo "$want" | wc -l)))
+[ "$nkey" = "$ntok" ] || { echo "FAIL: json_each gives $nkey keys for run 1's $ntok tokens"; fail=1; }
 # Figure 4: 2 tracers x 3 sizes, one row each (header lines of .mode column: 2)
 rows=$(($(wc -l < "$tmp/q1.sql.out") - 2))
 [ "$rows" = 6 ] || { echo "FAIL: Figure 4 query gives $rows rows, not 6:"; cat "$tmp/q1.sql.out"; fail=1; }

@@ -19,6 +19,7 @@
 #include "check.h"
 #include "run.h"
 #include "sindex.h"
+#include "stats.h"
 #include "trace.h"
 
 #include <inttypes.h>
@@ -199,6 +200,18 @@ int main(void)
                     CHECK(ty.n == st.accesses && ty.n > 0, "%s: %" PRIu64 " accesses recorded, statistics say %" PRIu64,
                           what, ty.n, st.accesses);
                     CHECK(rt_accel_check(acc, sc, &e) == 0, "%s: structure check: %s", what, e.msg);
+                    {
+                        /* the statistics' form (stats.h), also among the
+                         * keys a sweep's runs.stats puts around them */
+                        char all[1024], obj[4096];
+                        snprintf(all, sizeof all,
+                                 "rays_primary=0 rays_shadow=0 nodes=0 tests=0 pv_primary=0 pv_all=0 render_seconds=0 "
+                                 "sim_seconds=0%s%s accel=kd accel_nodes=0 accel_bytes=0 accel_build_seconds=0",
+                                 st.extra[0] ? " " : "", st.extra);
+                        CHECK(rt_stats_json(st.extra, obj, sizeof obj, &e) == 0 &&
+                                  rt_stats_json(all, obj, sizeof obj, &e) == 0,
+                              "%s: statistics '%s': %s", what, st.extra, e.msg);
+                    }
                     if (tr->traits & RT_TR_REFERENCE) {
                         /* one node record per visit, one triangle record per test */
                         CHECK(ty.refs[RT_CLS_TRI] == st.tests, "%s: %" PRIu64 " triangle reads, %" PRIu64 " tests",

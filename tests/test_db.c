@@ -11,6 +11,7 @@
 #include "rows.h"
 #include "memmodel.h"
 #include "sim.h"
+#include "stats.h"
 
 #include <math.h>
 #include <sqlite3.h>
@@ -382,7 +383,7 @@ static void test_upgrade_v1(const char *dir)
     const char *cols = (const char *)sqlite3_column_text(st, 0);
     CHECK(cols && !strcmp(cols, "id scene_id tracer W H lights sched_size gmax params sim_method sim_params trace_hash "
                                 "refs tool_version git_rev command wall_time stats created repl hierarchy cores light_model "
-                                "instances sched_cache_size"),
+                                "instances sched_cache_size stats_json"),
           "upgraded runs columns: %s", cols ? cols : "(none)");
     sqlite3_finalize(st);
     rt_db_close(db);
@@ -686,7 +687,7 @@ static void test_upgrade_v4(const char *dir)
         rt_db_close(f);
         return;
     }
-    CHECK(count(db, "PRAGMA user_version") == RT_DB_SCHEMA_VERSION && RT_DB_SCHEMA_VERSION == 6, "v4 upgraded to 6");
+    CHECK(count(db, "PRAGMA user_version") == RT_DB_SCHEMA_VERSION && RT_DB_SCHEMA_VERSION == 7, "v4 upgraded to 7");
     CHECK(count(db, "SELECT count(*) FROM runs") == 2 && count(db, "SELECT count(*) FROM traffic") == 8 &&
               count(db, "SELECT sum(traffic_bytes) FROM traffic WHERE run_id = 2") == 6656 + 3968 + 1024 + 3200,
           "v4 runs and rows kept");
@@ -782,7 +783,7 @@ static void test_upgrade_v5(const char *dir)
         rt_db_close(f);
         return;
     }
-    CHECK(count(db, "PRAGMA user_version") == 6, "v5 upgraded to 6");
+    CHECK(count(db, "PRAGMA user_version") == 7, "v5 upgraded to 7");
     CHECK(count(db, "SELECT count(*) FROM runs") == 2 && count(db, "SELECT count(*) FROM traffic") == 8 &&
               count(db, "SELECT count(*) FROM traffic_se") == 1 && count(db, "SELECT count(*) FROM traffic_gen") == 1 &&
               count(db, "SELECT sum(traffic_bytes) FROM traffic WHERE run_id = 2") == 6656 + 3968 + 1024 + 3200,
@@ -1061,6 +1062,95 @@ static void test_fresh_concurrent(const char *dir, int W, int R, const rt_db_tra
     CHECK(bad == 0, "%d of %d writers failed on a fresh database", bad, W * R);
 }
 
+/* A version-6 file (stats_json removed from a fresh one: the column was
+ * new in 7) is upgraded: stats_json is parsed from every run's stats, the
+ * old packet tracer's descriptive words left out, NULL where the text does
+ * not parse; json_extract reads it; a new store fills it. */
+static void test_upgrade_v6(const char *dir, const rt_db_traffic *rows, size_t n)
+{
+    char path[300];
+    rt_err e = {0};
+    snprintf(path, sizeof path, "%s/v6.db", dir);
+    rt_db *db = rt_db_open(path, &e);
+    CHECK(db, "open v6: %s", e.msg);
+    if (!db) return;
+    rt_db_run r;
+    run_key(&r, "packet", 0, 0);
+    r.stats = "rays_primary=10 nodes=4 tests=5 render_seconds=0.125 packet=8";
+    CHECK(rt_db_store_run(db, &r, rows, n, NULL, &e) == 0, "store packet: %s", e.msg);
+    CHECK(count(db, "SELECT count(*) FROM runs WHERE stats_json = "
+                    "'{\"rays_primary\": 10, \"nodes\": 4, \"tests\": 5, \"render_seconds\": 0.125, \"packet\": 8}'") == 1,
+          "a new run's stats_json");
+    run_key(&r, "dynamic", 0, 4096);
+    r.stats = "gmax=100 gmax_rule=given";
+    CHECK(rt_db_store_run(db, &r, rows, n, NULL, &e) == 0, "store dynamic: %s", e.msg);
+    run_key(&r, "recursive", 0, 0);
+    r.stats = "";
+    CHECK(rt_db_store_run(db, &r, rows, n, NULL, &e) == 0, "store recursive: %s", e.msg);
+    rt_db_close(db);
+    sqlite3 *h;
+    sqlite3_open(path, &h);
+    CHECK(sqlite3_exec(h,
+                       "DROP VIEW v_runs; ALTER TABLE runs DROP COLUMN stats_json;"
+                       "UPDATE runs SET stats = 'nodes=4 tests=5 packet=8 nodes=packet node visits tests=ray-triangle "
+                       "tests' WHERE tracer = 'packet';"
+                       "UPDATE runs SET stats = 'gmax=1 gmax=2' WHERE tracer = 'recursive';"
+                       "PRAGMA user_version = 6",
+                       NULL, NULL, NULL) == SQLITE_OK,
+          "make the v6 file: %s", sqlite3_errmsg(h));
+    sqlite3_close(h);
+    db = rt_db_open(path, &e);
+    CHECK(db, "reopen v6: %s", e.msg);
+    if (!db) return;
+    CHECK(count(db, "PRAGMA user_version") == 7, "v6 upgraded to 7");
+    CHECK(count(db, "SELECT count(*) FROM runs WHERE tracer = 'packet' AND stats_json = "
+                    "'{\"nodes\": 4, \"tests\": 5, \"packet\": 8}'") == 1,
+          "the old packet text parsed without its descriptive words");
+    CHECK(count(db, "SELECT json_extract(stats_json, '$.gmax') FROM runs WHERE tracer = 'dynamic'") == 100 &&
+              count(db, "SELECT count(*) FROM runs WHERE json_extract(stats_json, '$.gmax_rule') = 'given'") == 1,
+          "json_extract reads the migrated object");
+    CHECK(count(db, "SELECT count(*) FROM runs WHERE tracer = 'recursive' AND stats_json IS NULL") == 1,
+          "a repeated key leaves NULL");
+    CHECK(count(db, "SELECT count(*) FROM v_runs WHERE stats_json IS NOT NULL") == 2, "v_runs shows stats_json");
+    CHECK(count(db, "PRAGMA foreign_key_check") == -1, "no dangling rows after the v6 upgrade");
+    /* an old shard's packet run stored as db merge does: the same object */
+    run_key(&r, "packet", 1, 0);
+    r.stats = "nodes=7 packet=8 nodes=packet node visits tests=ray-triangle tests";
+    CHECK(rt_db_store_run(db, &r, rows, n, NULL, &e) == 0, "store old packet text: %s", e.msg);
+    CHECK(count(db, "SELECT count(*) FROM runs WHERE lights = 1 AND stats_json = '{\"nodes\": 7, \"packet\": 8}'") == 1,
+          "a store of the old packet text leaves its words out");
+    rt_db_close(db);
+}
+
+/* The statistics parser on hand cases: numbers in JSON's grammar become
+ * numbers, other one-word values strings; a repeated key, a token without
+ * '=', an empty key or value, a quote, a double or trailing space fail. */
+static void test_stats_json(void)
+{
+    char out[256];
+    rt_err e = {0};
+    static const struct {
+        const char *in, *want;
+    } ok[] = {
+        {"", "{}"},
+        {"a=1", "{\"a\": 1}"},
+        {"a=-1.5e3 b=0.000 c=4x4x4 d=1,2,3 e=007 f=inf g=1. h=-0", "{\"a\": -1.5e3, \"b\": 0.000, \"c\": \"4x4x4\", "
+         "\"d\": \"1,2,3\", \"e\": \"007\", \"f\": \"inf\", \"g\": \"1.\", \"h\": -0}"},
+        {"gmax_rule=top-first q_1=2E+5", "{\"gmax_rule\": \"top-first\", \"q_1\": 2E+5}"},
+    };
+    for (size_t i = 0; i < sizeof ok / sizeof ok[0]; i++) {
+        int rc = rt_stats_json(ok[i].in, out, sizeof out, &e);
+        CHECK(rc == 0 && !strcmp(out, ok[i].want), "stats json '%s': %d '%s' (%s)", ok[i].in, rc, out, e.msg);
+    }
+    static const char *bad[] = {"a=1 a=2", "ab=1 b=2 ab=3", "a=1 nodes=packet node visits", "a=1 ", "a=1  b=2", " a=1",
+                                "=1", "a=", "a", "a=\"x\"", "a=x\\y", "a-b=1", "a=1\tb=2"};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        int rc = rt_stats_json(bad[i], out, sizeof out, &e);
+        CHECK(rc == -1 && !strcmp(out, "{}") && e.msg[0], "stats json '%s' accepted: %s", bad[i], out);
+    }
+    CHECK(rt_stats_json("key=12345678901234567890", out, 16, &e) == -1, "a too small buffer is refused");
+}
+
 int main(void)
 {
     char dir[] = "/tmp/rt_test_db_XXXXXX";
@@ -1206,6 +1296,8 @@ int main(void)
     test_upgrade_v3(dir, rows, n);
     test_upgrade_v4(dir);
     test_upgrade_v5(dir);
+    test_upgrade_v6(dir, rows, n);
+    test_stats_json();
     test_se_rows(dir);
 
     if (check_rm_tree(dir) != 0) fprintf(stderr, "warning: could not remove %s\n", dir);

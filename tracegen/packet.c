@@ -833,7 +833,7 @@ static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_
                  "packet=%d rays_secondary=%" PRIu64 " secondary_packets=%" PRIu64 " secondary_fill=%.3f self_hits=%" PRIu64,
                  P, S.rays, S.packets, S.packets ? (double)S.rays / ((double)S.packets * NP) : 0.0, S.self_hits);
     else
-        snprintf(st->extra, sizeof st->extra, "packet=%d nodes=packet node visits tests=ray-triangle tests", P);
+        snprintf(st->extra, sizeof st->extra, "packet=%d", P);
     rc = 0;
 done:
     free(cull);

@@ -29,7 +29,8 @@
  *      (memmodel.h) into a region of your layout; count node visits and
  *      triangle tests in an rt_trav set up by rt_reg_trav and finish the
  *      statistics with rt_stats_finish (stats.h); put tracer-specific
- *      numbers in st->extra as "k=v k=v";
+ *      numbers in st->extra as "k=v k=v" (unique keys, one-word values:
+ *      the form stats.h states; meanings go in docs/tracers.md);
  *   4. plan()/plan_free() only if something costly depends on the tree and
  *      options alone: the job computes it once and hands it to layout and
  *      run as ctx->plan;
