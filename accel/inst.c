@@ -85,16 +85,20 @@ typedef struct bitem {
     uint32_t id;
 } bitem;
 
-static int sort_axis;
-static int cmp_item(const void *a, const void *b) {
-    const bitem *x = a, *y = b;
-    float u = x->c[sort_axis], v = y->c[sort_axis];
+/* Orders items by centroid on one axis, ties by id (a total order: the
+ * build is deterministic); one comparator per axis, no shared state, so
+ * builds may run in parallel threads. */
+static int cmp_on(const bitem *x, const bitem *y, int axis) {
+    float u = x->c[axis], v = y->c[axis];
     if (u < v)
         return -1;
     if (u > v)
         return 1;
     return x->id < y->id ? -1 : x->id > y->id;
 }
+static int cmp_x(const void *a, const void *b) { return cmp_on(a, b, 0); }
+static int cmp_y(const void *a, const void *b) { return cmp_on(a, b, 1); }
+static int cmp_z(const void *a, const void *b) { return cmp_on(a, b, 2); }
 
 typedef struct builder {
     rt_bvh2_node *node;
@@ -139,8 +143,7 @@ static int build_rec(builder *B, bitem *it, uint32_t n, int depth) {
     for (int a = 1; a < 3; a++)
         if (chi[a] - clo[a] > chi[ax] - clo[ax])
             ax = a;
-    sort_axis = ax;
-    qsort(it, n, sizeof *it, cmp_item);
+    qsort(it, n, sizeof *it, ax == 0 ? cmp_x : ax == 1 ? cmp_y : cmp_z);
     uint32_t h = n / 2;
     nd.axis = (uint8_t)ax;
     if (build_rec(B, it, h, depth + 1) < 0)
