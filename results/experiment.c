@@ -123,7 +123,10 @@ rt_render_opts rt_exp_job_opts(const rt_exp_config *c, const rt_exp_job *jb)
     /* a structure the tracer cannot run on (a sweep of several tracers):
      * its own default */
     const rt_tracer *tr = rt_tracer_find(jb->tracer);
-    if (tr && !(tr->accels & RT_ACCEL_BIT(rt_tracer_accel(tr, &ro)))) ro.accel = RT_ACCEL_DEFAULT;
+    if (tr && !(tr->accels & RT_ACCEL_BIT(rt_tracer_accel(tr, &ro)))) {
+        ro.accel = RT_ACCEL_DEFAULT;
+        ro.instances = 0; /* --instances bvh: a tracer with its own walk runs on the flattened scene */
+    }
     /* the pbrt layouts model pbrt's k-d tree: a tracer on another
      * structure keeps the compact layout (and its key) */
     if (tr && rt_geom_is_pbrt(ro.geom) && rt_tracer_accel(tr, &ro) != RT_ACCEL_KD) ro.geom = RT_GEOM_COMPACT;

@@ -8,7 +8,8 @@
 #    naming the option (exit 1), `--accel` with it is a usage error (exit 2),
 #    and an unknown mode is a usage error;
 # 3. a sweep with `--instances bvh` stores instances = 'bvh' in the runs
-#    table, a plain sweep 'flatten'.
+#    table for the recursive tracer and runs the packet tracer (its own
+#    walk) on the flattened scene ('flatten'); a plain sweep stores 'flatten'.
 set -u
 bin=${RT_BIN:-./raytraffic}
 tmp=$(mktemp -d /tmp/rt-inst-XXXXXX)
@@ -73,12 +74,13 @@ done
 [ $? -eq 2 ] && grep -q -- "--instances: unknown mode 'deep'" "$tmp/err" || die "--instances deep: '$(cat "$tmp/err")'"
 
 # ---- 3. the runs table ----------------------------------------------------------
-"$bin" sweep --scenes "$sc" --tracers recursive --lights primary -W 16 -H 12 --sizes 4K --instances bvh \
+"$bin" sweep --scenes "$sc" --tracers recursive,packet --lights primary -W 16 -H 12 --sizes 4K --instances bvh \
     --db "$tmp/a.db" >/dev/null 2>"$tmp/err" || { cat "$tmp/err"; die "sweep --instances bvh"; }
 "$bin" sweep --scenes "$sc" --tracers recursive --lights primary -W 16 -H 12 --sizes 4K \
     --db "$tmp/a.db" >/dev/null 2>"$tmp/err" || { cat "$tmp/err"; die "plain sweep"; }
-got=$(q "$tmp/a.db" "SELECT group_concat(instances, ',') FROM (SELECT instances FROM runs ORDER BY instances)")
-[ "$got" = "bvh,flatten" ] || die "runs.instances: want bvh,flatten, got '$got'"
+got=$(q "$tmp/a.db" "SELECT group_concat(t, ',') FROM (SELECT tracer || ':' || instances AS t FROM runs ORDER BY t)")
+[ "$got" = "packet:flatten,recursive:bvh,recursive:flatten" ] ||
+    die "runs (tracer:instances): want packet:flatten,recursive:bvh,recursive:flatten, got '$got'"
 
 [ $fail -eq 0 ] && echo "inst_cli: ok"
 exit $fail
