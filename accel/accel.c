@@ -11,6 +11,7 @@
 extern const rt_accel_ops rt_accel_kd;
 extern const rt_accel_ops rt_accel_grid;
 extern const rt_accel_ops rt_accel_bvh2, rt_accel_bvh4, rt_accel_bvh8;
+extern const rt_accel_ops rt_accel_inst;
 static const rt_accel_ops rt_accel_naive;
 
 const rt_accel_ops *const rt_accel_table[RT_ACCEL_NKINDS] = {
@@ -20,6 +21,7 @@ const rt_accel_ops *const rt_accel_table[RT_ACCEL_NKINDS] = {
     [RT_ACCEL_BVH2] = &rt_accel_bvh2,
     [RT_ACCEL_BVH4] = &rt_accel_bvh4,
     [RT_ACCEL_BVH8] = &rt_accel_bvh8,
+    [RT_ACCEL_INST] = &rt_accel_inst,
 };
 
 int rt_accel_bvh_width(int kind)
@@ -35,8 +37,8 @@ const char *rt_accel_name(int kind)
 
 int rt_accel_from_name(const char *name)
 {
-    for (int k = 1; k < RT_ACCEL_NKINDS; k++)
-        if (rt_accel_table[k] && !strcmp(rt_accel_table[k]->name, name)) return k;
+    for (int k = 1; k < RT_ACCEL_NKINDS; k++) /* inst is chosen by --instances, not by name */
+        if (k != RT_ACCEL_INST && rt_accel_table[k] && !strcmp(rt_accel_table[k]->name, name)) return k;
     return -1;
 }
 
@@ -46,7 +48,7 @@ const char *rt_accel_names(void)
     if (!buf[0]) {
         size_t l = 0;
         for (int k = 1; k < RT_ACCEL_NKINDS && l < sizeof buf; k++)
-            if (rt_accel_table[k])
+            if (rt_accel_table[k] && k != RT_ACCEL_INST)
                 l += (size_t)snprintf(buf + l, sizeof buf - l, "%s%s", l ? ", " : "", rt_accel_table[k]->name);
     }
     return buf;
@@ -95,7 +97,7 @@ void rt_accel_trav(const rt_accel *a, rt_trav *tv, const rt_scene *sc, rt_rec *r
     tv->sc = sc;
     tv->rec = rec;
     tv->L = L;
-    tv->reg_node = tv->reg_idx = tv->reg_tri = -1;
+    tv->reg_node = tv->reg_idx = tv->reg_tri = tv->reg_top = tv->reg_inst = -1;
     a->ops->trav_init(tv, a->as, L);
 }
 
@@ -204,7 +206,7 @@ int rt_accel_parse_mask(const char *list, unsigned *mask, rt_err *e)
     }
     if (!strcmp(list, "all")) {
         for (int k = 1; k < RT_ACCEL_NKINDS; k++)
-            if (rt_accel_table[k]) m |= RT_ACCEL_BIT(k);
+            if (rt_accel_table[k] && k != RT_ACCEL_INST) m |= RT_ACCEL_BIT(k);
         *mask = m;
         return 0;
     }

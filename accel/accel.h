@@ -16,6 +16,8 @@
  *   bvh2, bvh4, bvh8  bounding volume hierarchies: binary (pbrt's 32-byte
  *          nodes), 4-wide (Embree's 128-byte nodes), 8-wide compressed
  *          (Ylitie et al.'s 80-byte nodes); triangles in leaf order (bvh.h)
+ *   inst   true instancing: a top-level BVH over instances, one shared BVH
+ *          per object (inst.h); chosen with --instances bvh, not by name
  * A tracer's traits (tracer.h) say which members it runs on and which is its
  * default; a job builds only that one.
  *
@@ -44,7 +46,8 @@ typedef enum rt_accel_kind {
     RT_ACCEL_BVH2 = 4,    /* binary BVH, 32-byte nodes (pbrt) */
     RT_ACCEL_BVH4 = 5,    /* 4-wide BVH, 128-byte nodes (Embree) */
     RT_ACCEL_BVH8 = 6,    /* 8-wide compressed BVH, 80-byte nodes (Ylitie et al.) */
-    RT_ACCEL_NKINDS = 7
+    RT_ACCEL_INST = 7,    /* two-level BVH over object instances (inst.h; --instances bvh) */
+    RT_ACCEL_NKINDS = 8
 } rt_accel_kind;
 
 #define RT_ACCEL_BVH_BITS (RT_ACCEL_BIT(RT_ACCEL_BVH2) | RT_ACCEL_BIT(RT_ACCEL_BVH4) | RT_ACCEL_BIT(RT_ACCEL_BVH8))

@@ -61,6 +61,8 @@ typedef struct rt_trav {
                             on every test ("potentially visible" statistics) */
     uint8_t mark_bit;
     int width;           /* BVH branching factor (2, 4, 8); 0 for other structures */
+    int reg_top, reg_inst; /* inst: the top-level nodes' and instance records' regions (-1: none) */
+    uint64_t xforms;     /* inst: rays transformed into an object's space (running count) */
 } rt_trav;
 
 /* Brute force over all triangles: the obviously-correct reference. */

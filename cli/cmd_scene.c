@@ -178,6 +178,8 @@ static int cmd_info(int argc, char **argv)
         if (s->ninst)
             printf("  \"instances\": %u,\n  \"triangles_unique\": %u,\n  \"triangles_instanced\": %u,\n", s->ninst,
                    s->ntri_unique, s->ntri_inst);
+        if (s->nirec) /* what --instances bvh builds its two levels from */
+            printf("  \"instance_records\": %u,\n", s->nirec);
         if (s->film_w) printf("  \"film\": [%d, %d],\n", s->film_w, s->film_h);
         printf("  \"hash\": \"%016" PRIx64 "\",\n", h);
         json_vec("bounds_lo", s->bounds.lo, 1);
@@ -230,6 +232,8 @@ static int cmd_info(int argc, char **argv)
         if (s->ninst)
             printf("instancing   %u unique triangles; %u instances give %u of the total\n", s->ntri_unique, s->ninst,
                    s->ntri_inst);
+        if (s->nirec)
+            printf("two-level    %u instance records (objects of 3 or more triangles; --instances bvh)\n", s->nirec);
         if (s->film_w) printf("film         %dx%d (the default image size)\n", s->film_w, s->film_h);
         printf("hash         %016" PRIx64 "\n", h);
         printf("bounds       (%.6g, %.6g, %.6g) - (%.6g, %.6g, %.6g)\n", (double)s->bounds.lo.x,

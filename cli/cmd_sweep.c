@@ -809,7 +809,7 @@ static int finish_opts(sweep_opts *o)
             rt_render_opts ro = x->ro;
             ro.subsample = x->proxies[p].subsample;
             ro.subtile = x->proxies[p].subtile;
-            if (!(trs[t]->accels & RT_ACCEL_BIT(rt_tracer_accel(trs[t], &ro)))) ro.accel = RT_ACCEL_DEFAULT;
+            if (!(trs[t]->accels & RT_ACCEL_BIT(rt_tracer_accel(trs[t], &ro)))) ro.accel = RT_ACCEL_DEFAULT, ro.instances = 0;
             if (rt_tracer_check_opts(trs[t], &ro, &e) < 0) {
                 rt_cmd_error("sweep", "--proxy: %s", e.msg);
                 return -1;

@@ -55,7 +55,8 @@ static void print_text(const char *path, const rt_tr_reader *r)
     const char *acc = strstr(m->params, "accel=");
     const rt_tracer *tr = rt_tracer_find(m->tracer);
     char aname[16] = "?";
-    if (acc) sscanf(acc + 6, "%15[a-z0-9]", aname);
+    if (strstr(m->params, "instances=bvh")) snprintf(aname, sizeof aname, "%s", rt_accel_name(RT_ACCEL_INST));
+    else if (acc) sscanf(acc + 6, "%15[a-z0-9]", aname);
     else if (tr && rt_accel_name(tr->accel_default)) snprintf(aname, sizeof aname, "%s", rt_accel_name(tr->accel_default));
     printf("\nstructure:     %s", aname);
     printf("\n\nregions (%d):\n", m->layout.n);

@@ -123,7 +123,10 @@ rt_render_opts rt_exp_job_opts(const rt_exp_config *c, const rt_exp_job *jb)
     /* a structure the tracer cannot run on (a sweep of several tracers):
      * its own default */
     const rt_tracer *tr = rt_tracer_find(jb->tracer);
-    if (tr && !(tr->accels & RT_ACCEL_BIT(rt_tracer_accel(tr, &ro)))) ro.accel = RT_ACCEL_DEFAULT;
+    if (tr && !(tr->accels & RT_ACCEL_BIT(rt_tracer_accel(tr, &ro)))) {
+        ro.accel = RT_ACCEL_DEFAULT;
+        ro.instances = 0; /* --instances bvh: a tracer with its own walk runs on the flattened scene */
+    }
     /* the pbrt layouts model pbrt's k-d tree: a tracer on another
      * structure keeps the compact layout (and its key) */
     if (tr && rt_geom_is_pbrt(ro.geom) && rt_tracer_accel(tr, &ro) != RT_ACCEL_KD) ro.geom = RT_GEOM_COMPACT;
@@ -243,6 +246,8 @@ void rt_exp_job_key(const rt_exp_config *c, const rt_exp_job *jb, const rt_scene
     r->H = ro.H;
     r->lights = ro.lights;
     r->light_model = ro.light_samples ? "authored" : NULL; /* --light-samples: the file's own lights */
+    const rt_tracer *rtr = rt_tracer_find(jb->tracer);
+    r->instances = rtr && rt_tracer_accel(rtr, &ro) == RT_ACCEL_INST ? "bvh" : NULL; /* --instances bvh */
     r->sched_size = dynamic ? ro.sched_size : 0;
     r->gmax = dynamic ? ro.gmax : 0;
     r->params = rt_exp_tracer_params(jb->tracer, &ro, dynamic && c->dyn_all, k->params, sizeof k->params);
@@ -282,6 +287,7 @@ void rt_exp_run_from_meta(const rt_tr_meta *m, rt_db_run *r)
     r->H = m->H;
     r->lights = m->lights;
     r->light_model = strstr(m->params, "light_model=authored") ? "authored" : NULL; /* the run key says it */
+    r->instances = strstr(m->params, "instances=bvh") ? "bvh" : NULL;
     r->sched_size = m->sched_size;
     r->gmax = m->gmax;
     r->params = m->params;

@@ -212,6 +212,9 @@ void rt_scene_free(rt_scene *s)
     free(s->tri);
     free(s->shade);
     free(s->mat);
+    free(s->obj);
+    free(s->otri);
+    free(s->irec);
     for (uint32_t i = 0; i < s->nlight; i++) free(s->lights[i].cdf);
     free(s->lights);
     free(s->warn);

@@ -150,6 +150,22 @@ typedef struct rt_scene_warn {
     uint32_t count;  /* occurrences */
 } rt_scene_warn;
 
+/* Instancing kept beside the flattened triangles (pbrt ObjectInstance; see
+ * accel/inst.c, the two-level structure that reads them). An object is a
+ * range of otri, its triangles in the object's own space (the CTM of its
+ * definition applied); an instance record says which object, where its
+ * flattened copy starts in tri (first .. first + count) and the
+ * object-to-world matrix whose application, in double, made that copy. */
+typedef struct rt_scene_obj {
+    uint32_t start, count; /* range of otri */
+} rt_scene_obj;
+
+typedef struct rt_scene_inst {
+    uint32_t obj;     /* index into obj */
+    uint32_t first;   /* its first triangle in tri */
+    double m[3][4];   /* object-to-world, row-major (affine; pbrt's projective rows are refused at load) */
+} rt_scene_inst;
+
 typedef struct rt_scene {
     char name[256];         /* spec it was made from: built-in name or mesh file name, whole (NAME_MAX) */
     char params[128];       /* canonical parameter string, "" if none */
@@ -174,6 +190,12 @@ typedef struct rt_scene {
     rt_light *lights;       /* nlight records (see "Lights as authored") */
     rt_scene_warn *warn;    /* every load warning, one entry per kind in order of first occurrence (NULL if none; owned) */
     uint32_t nwarn;         /* entries in warn */
+    uint32_t nobj;          /* instanced objects kept in obj (0: none) */
+    rt_scene_obj *obj;      /* their ranges of otri (owned) */
+    uint32_t notri;         /* triangles in otri */
+    rt_tri *otri;           /* the objects' triangles in object space (owned) */
+    uint32_t nirec;         /* instance records (objects of 3 or more triangles; smaller ones are copied at once) */
+    rt_scene_inst *irec;    /* in file order (owned) */
 } rt_scene;
 
 void rt_scene_free(rt_scene *s);

@@ -2353,7 +2353,8 @@ static int do_object_instance(pbrt *P, const token *d)
     token tt;
     if (need_world(P, d, 1) < 0 || need_string(P, d, name, sizeof name, &tt) < 0) return -1;
     rt_esc(q, sizeof q, name, 200);
-    if (P->in_obj >= 0) return perr(P, d, "ObjectInstance \"%s\" inside an ObjectBegin block", q);
+    if (P->in_obj >= 0)
+        return perr(P, d, "ObjectInstance \"%s\" inside an ObjectBegin block (nested instancing is not supported)", q);
     int k = nm_find(&P->named_obj, name);
     if (k < 0) return perr(P, &tt, "ObjectInstance \"%s\": no such object", q);
     object *o = &P->objs[k];
@@ -2428,6 +2429,10 @@ static int expand_instances(pbrt *P)
     if (total > P->maxtri) return rt_errf(P->e, "%s: %llu triangles, more than maxtri=%u", cur(P)->path,
                                           (unsigned long long)total, (unsigned)P->maxtri);
     if (rt_scene_reserve(s, (uint32_t)total, P->e) < 0) return -1;
+    /* the instance records of the two-level structure (rt_scene_inst):
+     * invertible affine instances only (a projective or singular one
+     * stays flattened, loose) */
+    if (!(s->irec = rt_reallocarray(NULL, (size_t)P->ninst, sizeof *s->irec, P->e))) return -1;
     uint32_t src = s->ntri, dst = (uint32_t)total;
     for (int i = P->ninst - 1; i >= 0; i--) {
         const instrec *r = &P->inst[i];
@@ -2453,7 +2458,28 @@ static int expand_instances(pbrt *P)
             }
             s->shade[dst + j] = P->oshade[o->start + j];
         }
+        const mat4 *m = &r->ctm;
+        double det = det3(m);
+        if (m->m[3][0] == 0 && m->m[3][1] == 0 && m->m[3][2] == 0 && m->m[3][3] == 1 && fabs(det) > 1e-30) {
+            rt_scene_inst *q = &s->irec[s->nirec++];
+            q->obj = (uint32_t)r->obj;
+            q->first = dst;
+            for (int a = 0; a < 3; a++)
+                for (int b = 0; b < 4; b++) q->m[a][b] = m->m[a][b];
+        }
     }
+    /* records were made from the last instance back: file order */
+    for (uint32_t i = 0, j = s->nirec ? s->nirec - 1 : 0; i < j; i++, j--) {
+        rt_scene_inst t = s->irec[i];
+        s->irec[i] = s->irec[j];
+        s->irec[j] = t;
+    }
+    if (!(s->obj = rt_reallocarray(NULL, (size_t)P->nobjs, sizeof *s->obj, P->e))) return -1;
+    for (int k = 0; k < P->nobjs; k++) s->obj[k].start = P->objs[k].start, s->obj[k].count = P->objs[k].count;
+    s->nobj = (uint32_t)P->nobjs;
+    s->otri = P->otri; /* handed over: the objects' triangles stay for the two-level structure */
+    s->notri = P->on;
+    P->otri = NULL;
     s->ntri = (uint32_t)total;
     P->pend = 0;
     return 0;

@@ -551,8 +551,8 @@ static void options(void)
     CHECK(rt_accel_from_name("grid") == RT_ACCEL_GRID && rt_accel_from_name("naive") == RT_ACCEL_NAIVE &&
               rt_accel_from_name("bvh") == -1,
           "accel names");
-    o.accel = 7;
-    CHECK(rt_render_check_mode(&o, &e) < 0 && strstr(e.msg, "--accel"), "accel 7: %s", e.msg);
+    o.accel = RT_ACCEL_NKINDS; /* the first kind that does not exist */
+    CHECK(rt_render_check_mode(&o, &e) < 0 && strstr(e.msg, "--accel"), "accel %d: %s", RT_ACCEL_NKINDS, e.msg);
     o.accel = RT_ACCEL_GRID;
     o.grid_min = RT_GRID_MAX_CELLS + 1u;
     CHECK(rt_render_check_mode(&o, &e) < 0 && strstr(e.msg, "--grid-min"), "grid-min too large: %s", e.msg);

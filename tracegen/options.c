@@ -163,6 +163,9 @@ int rt_render_check_mode(const rt_render_opts *o, rt_err *e)
     if (!rt_render_qp_measure_name(o->qp_measure)) return rt_errf(e, "--qp-measure: unknown value %d", o->qp_measure);
     if (o->accel != RT_ACCEL_DEFAULT && !rt_accel_name(o->accel))
         return rt_errf(e, "--accel: unknown acceleration structure %d", o->accel);
+    if (o->instances && o->accel != RT_ACCEL_INST)
+        return rt_errf_usage(e, "--instances bvh chooses the two-level structure: it does not combine with --accel %s",
+                             rt_accel_name(o->accel) ? rt_accel_name(o->accel) : "?");
     if (o->grid_min > RT_GRID_MAX_CELLS) /* 0 = the tracer's default */
         return rt_errf(e, "--grid-min: %u is not in 1..%u", (unsigned)o->grid_min, (unsigned)RT_GRID_MAX_CELLS);
     if (!(o->grid_density >= 0) || o->grid_density > RT_GRID_DENSITY_MAX)
@@ -553,6 +556,19 @@ static int p_queue_stores(rt_render_opts *o, const char *arg, rt_err *e)
     return 0;
 }
 
+static int p_instances(rt_render_opts *o, const char *arg, rt_err *e)
+{
+    if (!strcmp(arg, "flatten")) {
+        if (o->instances) o->accel = RT_ACCEL_DEFAULT;
+        o->instances = 0;
+    } else if (!strcmp(arg, "bvh")) {
+        o->instances = 1;
+        o->accel = RT_ACCEL_INST;
+    } else
+        return rt_errf(e, "--instances: unknown mode '%s' (flatten, bvh)", arg);
+    return 0;
+}
+
 static int p_accel(rt_render_opts *o, const char *arg, rt_err *e)
 {
     int a = rt_accel_from_name(arg);
@@ -740,6 +756,10 @@ const rt_render_optdef rt_render_optdefs[] = {
      "                     acceleration structure, feedback / stream tracer options\n"
      "                     (see render --help; in the run key when not the tracer's default)\n",
      "bvh4"},
+    {"--instances", 0, "M", 0, ALL, "instances", p_instances, NULL,
+     "object instances: flatten (copied into the triangle array;" H "default) | bvh (a top-level BVH over instances, one shared" H
+     "BVH per object; the recursive tracer)",
+     "", "bvh"},
     {"--vb-size", 0, "S", RT_OPTG_VB, ALL, "vb-size", p_vb_size, NULL,
      "feedback: limit of one vertex buffer, e.g. 512M (default 2G)", "", "512M"},
     {"--grid-min", 0, "N", RT_OPTG_GRID, ALL, "grid_min", p_grid_min, NULL,

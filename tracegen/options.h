@@ -212,6 +212,8 @@ typedef struct rt_render_opts {
     int queue_stats;     /* dynamic, test/bench only: append the per-cause queue counters to the
                           * statistics (off, so existing statistics stay as they were) */
     int accel;           /* rt_accel_kind the tracer runs on; RT_ACCEL_DEFAULT = the tracer's default */
+    int instances;       /* --instances: 0 flatten (object instances copied into the triangle array), 1 bvh
+                          * (the two-level structure, accel kind inst; sets accel) */
     uint64_t vb_size;    /* feedback: limit of one vertex buffer in bytes, 0 = 2 GiB */
     uint32_t grid_min;   /* grid tracers: cells along the smallest axis; 0 = the tracer's default */
     double grid_density; /* grid tracers: cells ~ grid_density x triangles (accel/grid.c); 0 = by grid_min */

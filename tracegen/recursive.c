@@ -187,6 +187,10 @@ static int rec_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
     rt_stats_finish(st, &tv, mark, sc->ntri);
     if (secondary)
         snprintf(st->extra, sizeof st->extra, "rays_secondary=%" PRIu64 " self_hits=%" PRIu64, nsec, nself);
+    if (tv.xforms) { /* the two-level structure: rays transformed into an object's space */
+        size_t l = strlen(st->extra);
+        snprintf(st->extra + l, sizeof st->extra - l, "%sxforms=%" PRIu64, l ? " " : "", tv.xforms);
+    }
     free(order);
     free(mark);
     free(lw);
@@ -197,7 +201,7 @@ const rt_tracer rt_tracer_recursive = {
     .name = "recursive",
     .desc = "single rays in Hilbert-curve order, shadow rays depth first (Whitted)",
     .modes = RT_TRACER_ALL_MODES,
-    .accels = RT_ACCEL_BIT(RT_ACCEL_KD) | RT_ACCEL_BVH_BITS | RT_ACCEL_BIT(RT_ACCEL_NAIVE),
+    .accels = RT_ACCEL_BIT(RT_ACCEL_KD) | RT_ACCEL_BVH_BITS | RT_ACCEL_BIT(RT_ACCEL_NAIVE) | RT_ACCEL_BIT(RT_ACCEL_INST),
     .accel_default = RT_ACCEL_KD,
     .opts = RT_OPTG_THREADS | RT_OPTG_CORES,
     .traits = RT_TR_REFERENCE | RT_TR_LIGHTS,

@@ -678,7 +678,8 @@ const char *rt_job_params(const char *tracer, const rt_render_opts *o, const cha
     if (!extra) extra = "";
     /* the structure when not the tracer's default, then the tracer's own */
     if (tr && o->accel != RT_ACCEL_DEFAULT && o->accel != tr->accel_default && (tr->accels & RT_ACCEL_BIT(o->accel)))
-        snprintf(tp, sizeof tp, "accel=%s", rt_accel_name(o->accel));
+        snprintf(tp, sizeof tp, "%s%s", o->accel == RT_ACCEL_INST ? "instances=bvh" : "accel=",
+                 o->accel == RT_ACCEL_INST ? "" : rt_accel_name(o->accel));
     if (tr && tr->params) tr->params(o, own, sizeof own);
     if (own[0]) {
         size_t l = strlen(tp);

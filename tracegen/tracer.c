@@ -92,6 +92,13 @@ int rt_tracer_check_given_any(const rt_tracer *const *trs, int ntr, const rt_ren
         if (who) return rt_errf(e, "%s does not apply to the %s tracer (only to %s)", rt_render_opt_name(id), who, hint);
         return rt_errf(e, "%s does not apply: no tracer given reads it (only %s)", rt_render_opt_name(id), hint);
     }
+    if (o->accel == RT_ACCEL_INST && !(accels & RT_ACCEL_BIT(o->accel))) {
+        readers(0, o->accel, hint, sizeof hint);
+        if (who)
+            return rt_errf(e, "--instances bvh: the %s tracer walks its own structure, not the two-level one (only %s)",
+                           who, hint);
+        return rt_errf(e, "--instances bvh: no tracer given traces the two-level structure (only %s)", hint);
+    }
     if (o->accel != RT_ACCEL_DEFAULT && !(accels & RT_ACCEL_BIT(o->accel))) {
         if (who) {
             accels_of(trs[0], hint, sizeof hint);
@@ -107,6 +114,9 @@ int rt_tracer_check_opts(const rt_tracer *tr, const rt_render_opts *o, rt_err *e
 {
     if (rt_pixel_check(o, e) < 0) return -1;
     int k = rt_tracer_accel(tr, o);
+    if (k == RT_ACCEL_INST && !(tr->accels & RT_ACCEL_BIT(k)))
+        return rt_errf(e, "--instances bvh: the %s tracer walks its own structure, not the two-level one (only recursive)",
+                       tr->name);
     if (!(tr->accels & RT_ACCEL_BIT(k))) {
         char hint[128];
         accels_of(tr, hint, sizeof hint);

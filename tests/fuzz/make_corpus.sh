@@ -129,6 +129,25 @@ AttributeEnd
 Shape "trianglemesh" "point3 P" [ -5 -5 0 5 -5 0 5 5 0 -5 5 0 ] "integer indices" [ 0 1 2 0 2 3 ]
 Shape "disk"
 PBRT
+cat > "$c/pbrt/ok-instances" <<'PBRT'
+# instances for the two-level structure: rotated, scaled, translated, a flat object, a singular one
+LookAt 0 3 -12  0 0 0  0 1 0
+Camera "perspective" "float fov" 45
+WorldBegin
+Shape "trianglemesh" "point3 P" [-8 -2 -8  8 -2 -8  8 -2 8  -8 -2 8] "integer indices" [0 1 2 0 2 3]
+ObjectBegin "box"
+Shape "trianglemesh" "point3 P" [-1 -1 -1 1 -1 -1 1 1 -1 -1 1 -1 -1 -1 1 1 -1 1 1 1 1 -1 1 1]
+  "integer indices" [0 1 2 0 2 3  4 6 5 4 7 6  0 4 5 0 5 1  3 2 6 3 6 7  0 3 7 0 7 4  1 5 6 1 6 2]
+ObjectEnd
+ObjectBegin "card"
+Shape "trianglemesh" "point3 P" [-1 -1 0 0 -1 0 1 -1 0 -1 1 0 0 1 0 1 1 0] "integer indices" [0 1 4 0 4 3 1 2 5 1 5 4]
+ObjectEnd
+ObjectInstance "box"
+AttributeBegin Translate -3 0 1 Rotate 30 0 1 0 Rotate 20 1 0 0 ObjectInstance "box" AttributeEnd
+AttributeBegin Translate 3 1 2 Scale 0.5 2 1 ObjectInstance "box" AttributeEnd
+AttributeBegin Translate 0 0 -2 Rotate 33 0 1 0 ObjectInstance "card" AttributeEnd
+AttributeBegin Translate 4 0 -2 Scale 1 0 1 ObjectInstance "box" AttributeEnd
+PBRT
 cat > "$c/pbrt/ok-shapes2" <<'PBRT'
 # disk, annulus, cylinder, curves (bezier, bspline, ribbon), interface, alpha, deferred instances
 LookAt 0 -6 3  0 0 0.5  0 0 1

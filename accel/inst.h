@@ -1,0 +1,57 @@
+/*
+ * inst.h -- true instancing: the two-level BVH (accel kind "inst"; inst.c
+ * states the layout and its invariants).
+ */
+#ifndef RT_INST_H
+#define RT_INST_H
+
+#include "bvh.h" /* rt_bvh2_node */
+#include "hit.h"
+#include "rt.h"
+#include "scene.h"
+
+#include <stdint.h>
+
+#define RT_INST_RECSIZE 64 /* modeled instance record: world-to-object 3x4 floats, tree, first triangle */
+
+/* One bottom-level tree: its nodes and records in the shared arrays. */
+typedef struct rt_inst_blas {
+    uint32_t node0, nnode; /* nodes bnode[node0 .. node0 + nnode), root node0 */
+    uint32_t tri0, ntri;   /* records btri[tri0 .. tri0 + ntri) */
+    int used;              /* built (an object no instance record names is not) */
+} rt_inst_blas;
+
+/* One instance (host copy; modeled as RT_INST_RECSIZE bytes). */
+typedef struct rt_inst_rec {
+    uint32_t blas;      /* its bottom-level tree */
+    uint32_t first;     /* its first scene triangle (the loose tree: 0, through covered[]) */
+    int identity;       /* the loose triangles' instance: no transformation */
+    double o2w[3][4];   /* object-to-world */
+    double w2o[3][4];   /* world-to-object (the inverse) */
+} rt_inst_rec;
+
+typedef struct rt_inst {
+    rt_bvh2_node *tnode; /* top level, depth-first; leaves index torder */
+    uint32_t ntnode;
+    uint32_t *torder;    /* top-level leaf entries: instance indices */
+    rt_inst_rec *inst;
+    uint32_t ninst;
+    rt_inst_blas *blas;  /* one per scene object, then the loose tree (index sc->nobj) */
+    uint32_t nblas;
+    rt_bvh2_node *bnode; /* all bottom-level nodes; leaves index btri */
+    uint32_t nbnode;
+    rt_tri *btri;        /* shared triangle records in leaf order (object space) */
+    uint32_t *bref;      /* per record: its triangle's index within its object (loose: into covered) */
+    uint32_t nbtri;
+    uint32_t *covered;   /* the loose triangles' scene indices, ascending */
+    uint32_t nloose;
+} rt_inst;
+
+/* Builds the structure from the scene's instance records (a scene without
+ * any is one loose tree under one identity instance). NULL with e set. */
+rt_inst *rt_inst_build(const rt_scene *sc, rt_err *e);
+void rt_inst_free(rt_inst *I); /* accepts NULL */
+/* Verifies (I1)..(I6) of inst.c against sc: 0, or -1 naming the broken one. */
+int rt_inst_check(const rt_inst *I, const rt_scene *sc, rt_err *e);
+
+#endif

@@ -1,0 +1,86 @@
+#!/bin/sh
+# True instancing from the front end (accel/inst.c, docs/bvh.md "Instancing"):
+# 1. `render --instances bvh` writes the same PNG as the default flattened
+#    run and as `--instances flatten`, on an instanced .pbrt written here,
+#    in the shadow and whitted modes; trace-info names the structure and its
+#    four regions;
+# 2. the tracers that walk their own structure refuse `--instances bvh`
+#    naming the option (exit 1), `--accel` with it is a usage error (exit 2),
+#    and an unknown mode is a usage error;
+# 3. a sweep with `--instances bvh` stores instances = 'bvh' in the runs
+#    table for the recursive tracer and runs the packet tracer (its own
+#    walk) on the flattened scene ('flatten'); a plain sweep stores 'flatten'.
+set -u
+bin=${RT_BIN:-./raytraffic}
+tmp=$(mktemp -d /tmp/rt-inst-XXXXXX)
+trap 'rm -rf "$tmp"' EXIT
+fail=0
+die() { echo "FAIL: $*"; fail=1; }
+q() { sqlite3 "$1" "$2" 2>/dev/null || echo "sqlite error"; }
+
+sc="$tmp/inst.pbrt"
+cat > "$sc" <<'PBRT'
+LookAt 0 4 -12  0 0 0  0 1 0
+Camera "perspective" "float fov" 45
+WorldBegin
+LightSource "point" "point3 from" [2 8 -6] "rgb I" [50 50 50]
+Shape "trianglemesh" "point3 P" [-8 -1 -8  8 -1 -8  8 -1 8  -8 -1 8] "integer indices" [0 1 2 0 2 3]
+ObjectBegin "box"
+Shape "trianglemesh" "point3 P" [-1 -1 -1 1 -1 -1 1 1 -1 -1 1 -1 -1 -1 1 1 -1 1 1 1 1 -1 1 1]
+  "integer indices" [0 1 2 0 2 3  4 6 5 4 7 6  0 4 5 0 5 1  3 2 6 3 6 7  0 3 7 0 7 4  1 5 6 1 6 2]
+ObjectEnd
+ObjectBegin "ball"
+Shape "sphere" "float radius" 0.7
+ObjectEnd
+ObjectInstance "box"
+AttributeBegin Translate -3 0 1 Rotate 30 0 1 0 Rotate 20 1 0 0 ObjectInstance "box" AttributeEnd
+AttributeBegin Translate 3 1 2 Scale 0.5 2 1 ObjectInstance "box" AttributeEnd
+AttributeBegin Translate -2 2 -2 Rotate 70 0 0 1 Scale 1.5 0.6 1 ObjectInstance "ball" AttributeEnd
+AttributeBegin Translate 2 -0.2 -3 ObjectInstance "ball" AttributeEnd
+PBRT
+
+# ---- 1. images and trace-info -------------------------------------------------
+for m in shadow whitted; do
+    for i in default flatten bvh; do
+        opt=""; [ $i = default ] || opt="--instances $i"
+        "$bin" render "$sc" --mode $m --lights all -W 48 -H 40 $opt -o "$tmp/$i.exr" --png "$tmp/$i-$m.png" \
+            >/dev/null 2>"$tmp/err" || { cat "$tmp/err"; die "render $m $i"; }
+    done
+    cmp -s "$tmp/default-$m.png" "$tmp/bvh-$m.png" || die "$m: --instances bvh image differs from the flattened one"
+    cmp -s "$tmp/default-$m.png" "$tmp/flatten-$m.png" || die "$m: --instances flatten image differs from the default"
+done
+"$bin" trace "$sc" --lights all -W 24 -H 20 --instances bvh -o "$tmp/t.rtt" >/dev/null 2>&1 || die "trace --instances bvh"
+"$bin" trace-info "$tmp/t.rtt" > "$tmp/info" 2>&1 || die "trace-info"
+grep -q '^structure: *inst$' "$tmp/info" || die "trace-info does not name the inst structure: $(grep structure "$tmp/info")"
+for r in tlas.node inst blas.node blas.tri; do
+    grep -q "^  $r " "$tmp/info" || die "trace-info lacks region $r"
+done
+
+# scene info: the records the two levels are built from
+"$bin" scene info "$sc" > "$tmp/sinfo" 2>&1 || die "scene info"
+grep -q '^two-level    5 instance records' "$tmp/sinfo" || die "scene info: $(grep -i inst "$tmp/sinfo")"
+"$bin" scene info "$sc" --json 2>/dev/null | grep -q '"instance_records": 5,' || die "scene info --json lacks instance_records"
+
+# ---- 2. refusals ----------------------------------------------------------------
+for t in packet treelet dynamic; do
+    "$bin" render "$sc" -t $t --instances bvh -W 16 -H 16 -o "$tmp/x.exr" >/dev/null 2>"$tmp/err"
+    rc=$?
+    [ $rc -ne 0 ] && grep -q -- "--instances bvh: the $t tracer" "$tmp/err" ||
+        die "$t with --instances bvh: rc $rc, '$(cat "$tmp/err")'"
+done
+"$bin" render "$sc" --instances bvh --accel bvh2 -W 16 -H 16 -o "$tmp/x.exr" >/dev/null 2>"$tmp/err"
+[ $? -eq 2 ] && grep -q -- "--instances bvh chooses" "$tmp/err" || die "--instances bvh --accel bvh2: '$(cat "$tmp/err")'"
+"$bin" render "$sc" --instances deep -W 16 -H 16 -o "$tmp/x.exr" >/dev/null 2>"$tmp/err"
+[ $? -eq 2 ] && grep -q -- "--instances: unknown mode 'deep'" "$tmp/err" || die "--instances deep: '$(cat "$tmp/err")'"
+
+# ---- 3. the runs table ----------------------------------------------------------
+"$bin" sweep --scenes "$sc" --tracers recursive,packet --lights primary -W 16 -H 12 --sizes 4K --instances bvh \
+    --db "$tmp/a.db" >/dev/null 2>"$tmp/err" || { cat "$tmp/err"; die "sweep --instances bvh"; }
+"$bin" sweep --scenes "$sc" --tracers recursive --lights primary -W 16 -H 12 --sizes 4K \
+    --db "$tmp/a.db" >/dev/null 2>"$tmp/err" || { cat "$tmp/err"; die "plain sweep"; }
+got=$(q "$tmp/a.db" "SELECT group_concat(t, ',') FROM (SELECT tracer || ':' || instances AS t FROM runs ORDER BY t)")
+[ "$got" = "packet:flatten,recursive:bvh,recursive:flatten" ] ||
+    die "runs (tracer:instances): want packet:flatten,recursive:bvh,recursive:flatten, got '$got'"
+
+[ $fail -eq 0 ] && echo "inst_cli: ok"
+exit $fail

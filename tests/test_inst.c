@@ -1,0 +1,258 @@
+/*
+ * test_inst.c -- the two-level instancing structure (accel/inst.c) against
+ * brute force on the flattened scene, and its checker on corrupted copies.
+ *
+ * The scene: a 12-triangle box object instanced four times (identity,
+ * rotated, scaled non-uniformly, rotated + scaled + translated), a
+ * sphere object instanced twice, a flat 4-triangle card (a box of zero
+ * depth) instanced twice, and a loose ground quad; all
+ * in a .pbrt file written here. Random rays (origins in and around the
+ * scene, random directions, random tmin/tmax) must give bit-identical
+ * closest hits and the same occlusion as rt_brute_closest/occluded on the
+ * flattened triangles; the walk must have transformed rays and read the
+ * instance records.
+ */
+#include "accel.h"
+#include "check.h"
+#include "config.h"
+#include "inst.h"
+#include "run.h"
+#include "scene.h"
+#include "scene_load.h"
+#include "tracer.h"
+
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static const char *scene_text =
+    "LookAt 0 3 -12  0 0 0  0 1 0\n"
+    "Camera \"perspective\" \"float fov\" 45\n"
+    "WorldBegin\n"
+    "Shape \"trianglemesh\" \"point3 P\" [-8 -2 -8  8 -2 -8  8 -2 8  -8 -2 8] \"integer indices\" [0 1 2 0 2 3]\n"
+    "ObjectBegin \"box\"\n"
+    "Shape \"trianglemesh\" \"point3 P\" [-1 -1 -1 1 -1 -1 1 1 -1 -1 1 -1 -1 -1 1 1 -1 1 1 1 1 -1 1 1]\n"
+    "  \"integer indices\" [0 1 2 0 2 3  4 6 5 4 7 6  0 4 5 0 5 1  3 2 6 3 6 7  0 3 7 0 7 4  1 5 6 1 6 2]\n"
+    "ObjectEnd\n"
+    "AttributeBegin\n"
+    "  Translate 2 0 0\n"
+    "  ObjectBegin \"ball\"\n"
+    "  Shape \"sphere\" \"float radius\" 0.8\n"
+    "  ObjectEnd\n"
+    "AttributeEnd\n"
+    "ObjectInstance \"box\"\n"
+    "AttributeBegin Translate -3 0 1 Rotate 30 0 1 0 Rotate 20 1 0 0 ObjectInstance \"box\" AttributeEnd\n"
+    "AttributeBegin Translate 3 1 2 Scale 0.5 2 1 ObjectInstance \"box\" AttributeEnd\n"
+    "AttributeBegin Translate 0 2.5 3 Rotate -45 0 0 1 Scale 0.7 0.7 0.7 Translate 0.5 0 0 ObjectInstance \"box\" "
+    "AttributeEnd\n"
+    "ObjectBegin \"card\"\n"
+    "Shape \"trianglemesh\" \"point3 P\" [-1 -1 0 0 -1 0 1 -1 0 -1 1 0 0 1 0 1 1 0] \"integer indices\" [0 1 4 0 4 3 1 2 5 1 5 4]\n"
+    "ObjectEnd\n"
+    "AttributeBegin Translate 0 0 -2 Rotate 33 0 1 0 Rotate 10 1 0 0 ObjectInstance \"card\" AttributeEnd\n"
+    "AttributeBegin Translate 4 0 -2 ObjectInstance \"card\" AttributeEnd\n"
+    "AttributeBegin Translate -4 0 -3 ObjectInstance \"ball\" AttributeEnd\n"
+    "AttributeBegin Translate 1 -1 -4 Rotate 90 1 0 0 Scale 1.5 1 1 ObjectInstance \"ball\" AttributeEnd\n";
+
+static uint64_t rng = 0x9e3779b97f4a7c15ull;
+static double urand(void) {
+    rng ^= rng << 13, rng ^= rng >> 7, rng ^= rng << 17;
+    return (double)(rng >> 11) / 9007199254740992.0;
+}
+
+static int same_hit(const rt_hit *a, const rt_hit *b) {
+    return a->tri == b->tri && memcmp(&a->t, &b->t, sizeof a->t) == 0 && memcmp(&a->u, &b->u, sizeof a->u) == 0 &&
+           memcmp(&a->v, &b->v, sizeof a->v) == 0;
+}
+
+static void corrupt_and_check(const rt_scene *s, rt_inst *I) {
+    rt_err e;
+    CHECK(rt_inst_check(I, s, &e) == 0, "intact structure rejected: %s", e.msg);
+    /* (I4): a bottom-level root's box shrunk to a point */
+    rt_bvh2_node save = I->bnode[0];
+    for (int a = 0; a < 3; a++)
+        I->bnode[0].hi[a] = I->bnode[0].lo[a];
+    CHECK(rt_inst_check(I, s, &e) < 0 && strstr(e.msg, "(I4)"), "shrunk box: '%s'", e.msg);
+    I->bnode[0] = save;
+    /* (I2): an instance's matrix changed (translation) */
+    uint32_t k = I->ninst - 1;
+    double m = I->inst[k].o2w[0][3];
+    I->inst[k].o2w[0][3] += 1.0;
+    CHECK(rt_inst_check(I, s, &e) < 0 && strstr(e.msg, "(I2)"), "moved instance: '%s'", e.msg);
+    I->inst[k].o2w[0][3] = m;
+    CHECK(rt_inst_check(I, s, &e) == 0, "restored (I2): %s", e.msg);
+    /* (I6): the inverse no longer the inverse */
+    double w = I->inst[k].w2o[1][3];
+    I->inst[k].w2o[1][3] += 0.5;
+    CHECK(rt_inst_check(I, s, &e) < 0 && strstr(e.msg, "(I6)"), "bad inverse: '%s'", e.msg);
+    I->inst[k].w2o[1][3] = w;
+    /* (I1): two instances naming the same triangles */
+    uint32_t f = I->inst[2].first;
+    I->inst[2].first = I->inst[1].first;
+    CHECK(rt_inst_check(I, s, &e) < 0 && strstr(e.msg, "(I1)"), "overlapping instances: '%s'", e.msg);
+    I->inst[2].first = f;
+    /* (I3): a leaf's range beyond its tree */
+    for (uint32_t n = 0; n < I->nbnode; n++)
+        if (I->bnode[n].ntri) {
+            uint32_t o = I->bnode[n].offset;
+            I->bnode[n].offset = I->nbtri + 5;
+            CHECK(rt_inst_check(I, s, &e) < 0 && strstr(e.msg, "(I3)"), "leaf outside: '%s'", e.msg);
+            I->bnode[n].offset = o;
+            CHECK(rt_inst_check(I, s, &e) == 0, "restored (I3): %s", e.msg);
+            break;
+        }
+    /* (I5): an instance missing from the top level (its entry repeated) */
+    uint32_t t0 = I->torder[0];
+    I->torder[0] = I->torder[1];
+    e.msg[0] = 0;
+    CHECK(rt_inst_check(I, s, &e) < 0 && strstr(e.msg, "(I5)"), "top-level entry repeated: '%s'", e.msg);
+    I->torder[0] = t0;
+    CHECK(rt_inst_check(I, s, &e) == 0, "restored structure rejected: %s", e.msg);
+}
+
+/* Counts the accesses per region of the job's layout; any access outside
+ * every region is counted in bad. */
+typedef struct tally {
+    const rt_layout *L;
+    uint64_t n, bad, per[RT_MM_MAX_REGIONS];
+} tally;
+
+static int tally_put(rt_sink *s, const rt_access *a, size_t n) {
+    tally *t = s->ctx;
+    for (size_t i = 0; i < n; i++) {
+        int r = -1;
+        for (int k = 0; k < t->L->n; k++)
+            if (a[i].addr >= t->L->r[k].base &&
+                a[i].addr + a[i].size <= t->L->r[k].base + t->L->r[k].recsize * t->L->r[k].count)
+                r = k;
+        t->n++;
+        if (r < 0)
+            t->bad++;
+        else
+            t->per[r]++;
+    }
+    return 0;
+}
+
+static rt_image *render(rt_scene *s, int mode, int instances, tally *t, rt_job *j) {
+    rt_err e = {0};
+    rt_render_opts o;
+    rt_render_default_opts(&o);
+    o.W = 40, o.H = 32;
+    o.mode = mode;
+    o.lights = 7;
+    if (instances)
+        o.instances = 1, o.accel = RT_ACCEL_INST;
+    CHECK(rt_job_setup_borrowed(j, s, NULL, "recursive", &o, &e) == 0, "setup: %s", e.msg);
+    rt_image *im = rt_image_new(o.W, o.H, &e);
+    t->L = &j->L;
+    rt_sink sk = {tally_put, t};
+    rt_run_stats st;
+    CHECK(rt_job_run(j, &sk, im, &st, &e) == 0, "run: %s", e.msg);
+    CHECK(!instances || strstr(st.extra, "xforms="), "the bvh run's statistics lack xforms: '%s'", st.extra);
+    CHECK(instances || !strstr(st.extra, "xforms="), "the flattened run counts xforms: '%s'", st.extra);
+    return im;
+}
+
+/* The recursive tracer's images through the two-level structure equal the
+ * flattened scene's float for float, in every mode; its accesses all lie
+ * in its layout, instance records and top-level nodes are read, and the
+ * shared triangle region is smaller than the flattened one. */
+static void test_images(rt_scene *s) {
+    const int modes[] = {RT_MODE_RAYCAST, RT_MODE_SHADOW, RT_MODE_WHITTED};
+    for (int m = 0; m < 3; m++) {
+        tally ta = {0}, tb = {0};
+        rt_job ja, jb;
+        memset(&ja, 0, sizeof ja);
+        memset(&jb, 0, sizeof jb);
+        rt_image *a = render(s, modes[m], 0, &ta, &ja), *b = render(s, modes[m], 1, &tb, &jb);
+        if (a && b) {
+            size_t diff = 0;
+            for (size_t i = 0; i < (size_t)a->W * a->H * 3; i++)
+                diff += memcmp(&a->rgb[i], &b->rgb[i], sizeof(float)) != 0;
+            CHECK(diff == 0, "mode %d: %zu channel values differ between flatten and bvh", modes[m], diff);
+        }
+        CHECK(ta.bad == 0 && tb.bad == 0 && tb.n > 0, "mode %d: accesses off the layout: %llu, %llu", modes[m],
+              (unsigned long long)ta.bad, (unsigned long long)tb.bad);
+        int ri = rt_mm_find(&jb.L, "inst"), rtl = rt_mm_find(&jb.L, "tlas.node"), rbt = rt_mm_find(&jb.L, "blas.tri"),
+            rft = rt_mm_find(&ja.L, "tri.verts");
+        CHECK(ri >= 0 && rtl >= 0 && rbt >= 0 && rft >= 0 && rt_mm_find(&jb.L, "tri.verts") < 0, "regions %d %d %d %d",
+              ri, rtl, rbt, rft);
+        if (ri >= 0 && rtl >= 0 && rbt >= 0 && rft >= 0) {
+            CHECK(tb.per[ri] > 0 && tb.per[rtl] > 0 && tb.per[rbt] > 0,
+                  "mode %d: inst %llu, tlas %llu, blas.tri %llu reads", modes[m], (unsigned long long)tb.per[ri],
+                  (unsigned long long)tb.per[rtl], (unsigned long long)tb.per[rbt]);
+            CHECK(jb.L.r[rbt].count < ja.L.r[rft].count, "shared triangles %llu, flattened %llu",
+                  (unsigned long long)jb.L.r[rbt].count, (unsigned long long)ja.L.r[rft].count);
+        }
+        rt_image_free(a);
+        rt_image_free(b);
+        rt_job_free(&ja);
+        rt_job_free(&jb);
+    }
+}
+
+int main(void) {
+    rt_err e = {0};
+    char *path = check_path("inst.pbrt");
+    check_write_file(path, scene_text, strlen(scene_text));
+    rt_scene *s = rt_scene_load(path, &e);
+    CHECK(s != NULL, "load: %s", e.msg);
+    if (!s)
+        return 1;
+    CHECK(s->ninst == 8 && s->nirec == 8 && s->nobj == 3, "instances %u, records %u, objects %u", s->ninst, s->nirec,
+          s->nobj);
+    rt_accel a;
+    CHECK(rt_accel_build(&a, RT_ACCEL_INST, s, NULL, &e) == 0, "build: %s", e.msg);
+    rt_inst *I = a.as;
+    CHECK(I->ninst == 9 && I->nloose == 2, "instances %u (with the loose one), loose triangles %u", I->ninst,
+          I->nloose);
+    /* shared bottom level: each object's triangles once, plus the loose ones */
+    uint32_t want = s->obj[0].count + s->obj[1].count + s->obj[2].count + 2;
+    CHECK(I->nbtri == want, "shared records %u, expected %u (flattened: %u)", I->nbtri, want, s->ntri);
+    CHECK(rt_accel_check(&a, s, &e) == 0, "check: %s", e.msg);
+
+    rt_trav tv;
+    rt_accel_trav(&a, &tv, s, NULL, NULL);
+    int bad = 0, hits = 0, occl = 0;
+    for (int i = 0; i < 20000; i++) {
+        rt_vec3 o = rt_v3((float)(urand() * 20 - 10), (float)(urand() * 10 - 3), (float)(urand() * 20 - 10));
+        rt_vec3 d = rt_v3((float)(urand() * 2 - 1), (float)(urand() * 2 - 1), (float)(urand() * 2 - 1));
+        if (i % 4 == 0) /* aimed at an instance's centre */
+            d = rt_v3(-3 - o.x, 0 - o.y, 1 - o.z);
+        if (i % 4 == 1)
+            d = rt_v3(-4 - o.x, 0 - o.y, -3 - o.z);
+        if (i % 4 == 2) /* at the flat card (its object-space box has no depth) */
+            d = rt_v3((float)(urand() - 0.5) - o.x, (float)(urand() - 0.5) - o.y, -2 - o.z);
+        rt_ray r;
+        rt_ray_init(&r, o, d);
+        if (i % 3 == 1)
+            r.tmin = (float)(urand() * 0.5), r.tmax = (float)(1 + urand() * 20);
+        rt_hit h1, h2;
+        int b1 = rt_brute_closest(s, &r, &h1), b2 = a.ops->closest(&tv, &r, &h2);
+        if (b1 != b2 || (b1 && !same_hit(&h1, &h2))) {
+            if (bad++ < 5)
+                CHECK(0, "ray %d: brute %d tri %u t %.9g, inst %d tri %u t %.9g", i, b1, h1.tri, (double)h1.t, b2,
+                      h2.tri, (double)h2.t);
+        }
+        hits += b1;
+        int o1 = rt_brute_occluded(s, &r), o2 = a.ops->occluded(&tv, &r);
+        if (o1 != o2 && bad++ < 5)
+            CHECK(0, "ray %d: occluded brute %d inst %d", i, o1, o2);
+        occl += o1;
+    }
+    CHECK(bad == 0, "%d rays differ", bad);
+    CHECK(hits > 5000 && occl >= hits, "hits %d, occluded %d: the rays should meet the scene often", hits, occl);
+    CHECK(tv.xforms > 0 && tv.tests < (uint64_t)20000 * 2 * s->ntri, "transformed %llu, tests %llu",
+          (unsigned long long)tv.xforms, (unsigned long long)tv.tests);
+
+    corrupt_and_check(s, I);
+    test_images(s);
+    rt_accel_free(&a);
+    rt_scene_free(s);
+
+    if (failures)
+        fprintf(stderr, "test_inst: %d failures\n", failures);
+    return failures != 0;
+}
