@@ -4,8 +4,9 @@
 # (scripts/slurm-local.sh), then `db merge` of the shards, must equal a
 # one-machine sweep row for row (timing and command columns aside). Job 3
 # fails once in the middle of storing its run (RT_SWEEP_FAIL_JOB, a
-# test-only hook): it leaves no shard (a sweep that stored nothing removes the database it made), the engine must report the
-# failure, and resubmitting the same list must complete the matrix.
+# test-only hook): it leaves no shard (a sweep that stored nothing
+# removes the database it made), the engine must report the failure, and
+# resubmitting the same list must complete the matrix.
 # The Slurm part is skipped, with a message, when Slurm cannot start here.
 set -u
 if [ "${RT_TEST_LONG:-0}" = 0 ]; then echo "SKIP: engines.sh runs in the long tier only (make check-long)"; exit 77; fi
