@@ -44,6 +44,11 @@ void rt_cmd_set_line(int argc, char **argv);
 /* True when argv holds -h or --help anywhere before "--". */
 int rt_cmd_wants_help(int argc, char **argv);
 
+/* True when a --hierarchy argument (--hierarchy SPEC or --hierarchy=SPEC)
+ * marks levels /private or /shared: the multi-core model's command line
+ * (sim and sweep hand such a command to their *_cores.c variant). */
+int rt_cmd_wants_cores(int argc, char **argv);
+
 /* A sampling rate: a number in (0, 1] or 1/N ("1/64"). 0 or -1. */
 int rt_cmd_parse_rate(const char *s, double *out);
 

@@ -44,3 +44,12 @@ int rt_cmd_wants_help(int argc, char **argv)
     return 0;
 }
 
+int rt_cmd_wants_cores(int argc, char **argv)
+{
+    for (int a = 1; a < argc; a++) {
+        const char *spec = !strncmp(argv[a], "--hierarchy=", 12) ? argv[a] + 12
+                           : !strcmp(argv[a], "--hierarchy") && a + 1 < argc ? argv[a + 1] : NULL;
+        if (spec && (strstr(spec, "/private") || strstr(spec, "/shared"))) return 1;
+    }
+    return 0;
+}

@@ -728,11 +728,8 @@ static int sim_one(const sim_opts *o, rt_db *db, const char *path, rt_tr_meta *m
 
 int main_sim(int argc, char **argv)
 {
-    for (int a = 1; a < argc; a++) { /* levels marked private/shared: the multi-core model, cmd_sim_cores.c */
-        const char *spec = !strncmp(argv[a], "--hierarchy=", 12) ? argv[a] + 12
-                           : !strcmp(argv[a], "--hierarchy") && a + 1 < argc ? argv[a + 1] : NULL;
-        if (spec && (strstr(spec, "/private") || strstr(spec, "/shared"))) return rt_cmd_sim_cores(argc, argv);
-    }
+    /* levels marked private/shared: the multi-core model, cmd_sim_cores.c */
+    if (rt_cmd_wants_cores(argc, argv)) return rt_cmd_sim_cores(argc, argv);
     if (rt_cmd_wants_help(argc, argv)) {
         usage(stdout);
         return RT_EXIT_OK;

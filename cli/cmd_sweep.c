@@ -1021,11 +1021,8 @@ static int sweep_run(sweep_opts *o, const rt_exp_job *J, long nj)
 
 int main_sweep(int argc, char **argv)
 {
-    for (int a = 1; a < argc; a++) { /* levels marked private/shared: the multi-core matrix, cmd_sweep_cores.c */
-        const char *spec = !strncmp(argv[a], "--hierarchy=", 12) ? argv[a] + 12
-                           : !strcmp(argv[a], "--hierarchy") && a + 1 < argc ? argv[a + 1] : NULL;
-        if (spec && (strstr(spec, "/private") || strstr(spec, "/shared"))) return rt_cmd_sweep_cores(argc, argv);
-    }
+    /* levels marked private/shared: the multi-core matrix, cmd_sweep_cores.c */
+    if (rt_cmd_wants_cores(argc, argv)) return rt_cmd_sweep_cores(argc, argv);
     sweep_opts o;
     rt_err e = {0};
     rt_exp_job *J = NULL;
