@@ -170,6 +170,11 @@ int rt_cmd_sweep_cores(int argc, char **argv)
                                       "--cores 1)", cores[k], t);
                 return RT_EXIT_USAGE;
             }
+        for (int k = 0; k < nc; k++)
+            if (cores[k] > 1 && rt_tracer_is(tr, RT_TR_CORES) && rt_render_secondary(&o)) {
+                rt_cmd_error("sweep", "--cores %d: the %s tracer runs the whitted and path modes on one core", cores[k], t);
+                return RT_EXIT_USAGE;
+            }
     }
     rt_db *db = rt_db_open(dbpath, &e);
     if (!db) {
