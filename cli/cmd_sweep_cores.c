@@ -59,7 +59,7 @@ static int run_one(rt_db *db, rt_job *j, const rt_mc_config *cfg0, int n, rt_err
     rt_mc *mc = rt_mc_new(&cfg, e);
     rt_image *img = mc ? rt_image_new(j->opt.W, j->opt.H, e) : NULL;
     rt_tr_meta *m = img ? rt_calloc(1, sizeof *m, e) : NULL;
-    rt_db_traffic *tr = m ? rt_calloc((size_t)cfg.shared.nsizes * RT_NCLASS, sizeof *tr, e) : NULL;
+    rt_db_traffic *tr = m ? rt_calloc((size_t)cfg.h.level[cfg.h.nlevels - 1].nsizes * RT_NCLASS, sizeof *tr, e) : NULL;
     rt_db_level *lv = tr ? rt_calloc(rt_mc_db_level_cap(mc), sizeof *lv, e) : NULL;
     int rc = -1;
     rt_run_stats st;

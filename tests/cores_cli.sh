@@ -93,13 +93,14 @@ done
 [ "$(sqlite3 "$tmp/o.db" "SELECT GROUP_CONCAT(DISTINCT cores) FROM (SELECT cores FROM runs ORDER BY cores)")" = "1,4" ] \
     || err "one-cache sweep cores: $(sqlite3 "$tmp/o.db" 'SELECT tracer, cores FROM runs')"
 # bad hierarchies
-for bad in "L1=32K/8/64/lru/private" "L1=32K/8/64/fifo/private,LLC=1M/full/64/lru/shared" \
-    "L1=32K/8/64/lru/private,LLC=1M/full/32/lru/shared" "L1=32K/8/64/lru/shared,LLC=1M/full/64/lru/shared"; do
+for bad in "L1=32K/8/64/lru/private" "L1=32K/8/64/lru/wt/private,LLC=1M/full/64/lru/shared" \
+    "L1=32K/8/64/lru/shared,LLC=1M/full/64/lru/private" "L1=32K/8/64/lru/private,LLC=1M/full/64/lru/shared,inclusive" \
+    "L1=32K/8/64/opt/private,LLC=1M/full/64/lru/shared" "L1=32K/8/64/lru/private,L2=1M/8/128/lru/private,LLC=4M/full/128/lru/shared"; do
     "$bin" sim --hierarchy "$bad" "$tmp/c4.rtt" >/dev/null 2>"$tmp/u.log"
     [ $? = 2 ] && grep -q -- "--hierarchy" "$tmp/u.log" || err "--hierarchy $bad: $(cat "$tmp/u.log")"
 done
 "$bin" bench --what cores --scene cornell -W 24 -H 24 --cores 3 --reps 1 >"$tmp/b.txt" 2>&1 || err "bench --what cores: $(cat "$tmp/b.txt")"
-grep -q "^| median | | [0-9.]* | [0-9.]* | [0-9.]* |" "$tmp/b.txt" || err "bench: $(cat "$tmp/b.txt")"
+grep -q "^| median | [0-9.]* | | [0-9.]* | [0-9.]* |" "$tmp/b.txt" || err "bench: $(cat "$tmp/b.txt")"
 
 [ $fail = 0 ] && echo "PASS: cores_cli"
 exit $fail
