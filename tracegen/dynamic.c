@@ -455,7 +455,8 @@ struct rt_dyn {
     uint8_t *wmark;      /* per core: its triangle marks (ntri bytes each), or-ed in at the end */
     rt_err *werr;        /* per core: its error */
     struct wstage *stage; /* a worker: where enqueue stages its rays (NULL: the queues) */
-    pthread_t *wtid;     /* per core: its host thread in a round */
+    pthread_t *wtid;     /* per core: its host thread (cores 1..N-1, started at the first round) */
+    struct wpool *pool;  /* the workers' rendezvous */
 };
 typedef struct rt_dyn dyn;
 
@@ -1091,12 +1092,110 @@ static int drain_step(void *u, uint32_t q)
     return D->err;
 }
 
-static void *worker_main(void *arg)
+static void worker_round(dyn *W)
 {
-    dyn *W = arg;
     rt_rq_cur none = {0, 0, 0};
     drain_pop(W, W->pick[W->core], &none, W->stage->nlist);
+}
+
+/* The host threads of cores 1..N-1, started once per run: each waits for
+ * the next round (gen), drains its queue when it has one (core < m) and
+ * reports back (left); quit ends them. */
+typedef struct warg {
+    struct wpool *p;
+    uint32_t i; /* the worker's core */
+} warg;
+
+typedef struct wpool {
+    pthread_mutex_t mu;
+    pthread_cond_t go, done;
+    uint64_t gen;       /* rounds announced */
+    uint32_t m;         /* cores with a queue in the current round */
+    uint32_t left;      /* started workers still draining in it */
+    uint32_t started;   /* threads running: cores 1..started */
+    int quit;
+    dyn *D;
+    warg *args;         /* per core: the thread's argument */
+} wpool;
+
+static void *worker_main(void *arg)
+{
+    const warg *a = arg;
+    wpool *p = a->p;
+    uint64_t seen = 0;
+    pthread_mutex_lock(&p->mu);
+    for (;;) {
+        while (p->gen == seen && !p->quit) pthread_cond_wait(&p->go, &p->mu);
+        if (p->quit) break;
+        seen = p->gen;
+        const int mine = a->i < p->m;
+        pthread_mutex_unlock(&p->mu);
+        if (mine) worker_round(&p->D->wk[a->i]);
+        pthread_mutex_lock(&p->mu);
+        if (mine && --p->left == 0) pthread_cond_signal(&p->done);
+    }
+    pthread_mutex_unlock(&p->mu);
     return NULL;
+}
+
+static void pool_stop(dyn *D)
+{
+    wpool *p = D->pool;
+    if (!p) return;
+    pthread_mutex_lock(&p->mu);
+    p->quit = 1;
+    pthread_cond_broadcast(&p->go);
+    pthread_mutex_unlock(&p->mu);
+    for (uint32_t i = 1; i <= p->started; i++) pthread_join(D->wtid[i], NULL);
+    pthread_mutex_destroy(&p->mu);
+    pthread_cond_destroy(&p->go);
+    pthread_cond_destroy(&p->done);
+    free(p->args);
+    free(p);
+    D->pool = NULL;
+}
+
+/* Runs cores 0..m-1's rounds: core 0 (and any core whose thread could not
+ * start) here, the others on their threads; returns when all are done. */
+static void pool_round(dyn *D, uint32_t m)
+{
+    wpool *p = D->pool;
+    if (!p) { /* the first round: start the threads (none: every core runs here) */
+        p = calloc(1, sizeof *p);
+        warg *args = p ? calloc((size_t)D->ncores, sizeof *args) : NULL;
+        if (!args) {
+            free(p);
+            p = NULL;
+        } else {
+            pthread_mutex_init(&p->mu, NULL);
+            pthread_cond_init(&p->go, NULL);
+            pthread_cond_init(&p->done, NULL);
+            p->D = D;
+            p->args = args;
+            D->pool = p;
+            for (uint32_t i = 1; i < (uint32_t)D->ncores; i++) {
+                args[i] = (warg){p, i};
+                if (pthread_create(&D->wtid[i], NULL, worker_main, &args[i])) break;
+                p->started = i;
+            }
+        }
+    }
+    const uint32_t on = p ? (m - 1 < p->started ? m - 1 : p->started) : 0; /* cores 1..on on threads */
+    if (p) {
+        pthread_mutex_lock(&p->mu);
+        p->m = m;
+        p->left = on;
+        p->gen++;
+        pthread_cond_broadcast(&p->go);
+        pthread_mutex_unlock(&p->mu);
+    }
+    worker_round(&D->wk[0]);
+    for (uint32_t i = on + 1; i < m; i++) worker_round(&D->wk[i]);
+    if (p) {
+        pthread_mutex_lock(&p->mu);
+        while (p->left) pthread_cond_wait(&p->done, &p->mu);
+        pthread_mutex_unlock(&p->mu);
+    }
 }
 
 /* One round on host threads (untraced): the main thread pops the m
@@ -1140,13 +1239,7 @@ static void threaded_round(dyn *D, uint32_t m)
         W->tv.nodes = W->tv.tests = 0;
         memset(&W->qs, 0, sizeof W->qs);
     }
-    pthread_t *tid = D->wtid;
-    uint32_t started = 1;
-    for (; started < m; started++)
-        if (pthread_create(&tid[started], NULL, worker_main, &D->wk[started])) break;
-    worker_main(&D->wk[0]);
-    for (uint32_t i = started; i < m; i++) worker_main(&D->wk[i]); /* a thread that did not start: here */
-    for (uint32_t i = 1; i < started; i++) pthread_join(tid[i], NULL);
+    pool_round(D, m);
     for (uint32_t i = 0; i < m; i++) {
         dyn *W = &D->wk[i];
         D->crbslot[i] = W->rbslot;
@@ -1417,6 +1510,7 @@ static int dyn_layout(const rt_tracer_ctx *ctx, rt_layout *L, rt_err *e)
 
 static void dyn_free(dyn *D)
 {
+    pool_stop(D);
     for (int k = 0; D->crec && k < D->ncores; k++) rt_rec_free(D->crec[k]);
     for (int k = 0; D->cbuf && k < D->ncores; k++) free(D->cbuf[k].a);
     free(D->crec);
