@@ -40,7 +40,7 @@ static void test_run(const rt_scene *sc)
     o.lights = 1;
     rt_layout L;
     rt_mm_init(&L);
-    rt_tracer_ctx ctx = {sc, &acc, NULL, &o, &L, NULL, NULL, 1, NULL};
+    rt_tracer_ctx ctx = {sc, &acc, NULL, &o, &L, NULL, NULL, 1, NULL, 0, 1, NULL, NULL};
     void *pv = NULL;
     CHECK(fb_plan_make(&ctx, &pv, &e) == 0, "plan: %s", e.msg);
     fb_plan *pl = pv;

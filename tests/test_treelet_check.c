@@ -34,7 +34,7 @@ static void test_plan(const rt_scene *sc, int kind)
     rt_render_default_opts(&o);
     o.accel = kind;
     o.sched_size = 1024; /* budget 512 B: several treelets */
-    rt_tracer_ctx ctx = {sc, &acc, NULL, &o, NULL, NULL, NULL, 1, NULL, 0, 1, NULL};
+    rt_tracer_ctx ctx = {sc, &acc, NULL, &o, NULL, NULL, NULL, 1, NULL, 0, 1, NULL, NULL};
     void *pv = NULL;
     CHECK(tl_plan(&ctx, &pv, &e) == 0, "plan: %s", e.msg);
     tplan *P = pv;
@@ -90,7 +90,7 @@ static void test_state(const rt_scene *sc)
     o.sched_size = 1024;
     rt_layout L;
     rt_mm_init(&L);
-    rt_tracer_ctx ctx = {sc, &acc, NULL, &o, &L, NULL, NULL, 1, NULL, 0, 1, NULL};
+    rt_tracer_ctx ctx = {sc, &acc, NULL, &o, &L, NULL, NULL, 1, NULL, 0, 1, NULL, NULL};
     void *pv = NULL;
     CHECK(tl_plan(&ctx, &pv, &e) == 0, "plan: %s", e.msg);
     ctx.plan = pv;
@@ -162,7 +162,7 @@ static void test_state_cores(const rt_scene *sc)
     rt_mm_init(&L);
     rt_cores c;
     CHECK(rt_cores_init(&c, 3, NULL, &e) == 0, "cores: %s", e.msg);
-    rt_tracer_ctx ctx = {sc, &acc, NULL, &o, &L, NULL, NULL, 1, NULL, 0, 1, &c};
+    rt_tracer_ctx ctx = {sc, &acc, NULL, &o, &L, NULL, NULL, 1, NULL, 0, 1, NULL, &c};
     void *pv = NULL;
     CHECK(tl_plan(&ctx, &pv, &e) == 0, "plan: %s", e.msg);
     ctx.plan = pv;

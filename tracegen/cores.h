@@ -1,7 +1,7 @@
 /*
  * cores.h -- simulated cores inside one tracer run (prefix rt_cores_):
  * the per-core stepping shared by the tracers that split their own work
- * over N cores (trait RT_TR_OWN_CORES: treelet, stream-branching,
+ * over N cores (trait RT_TR_CORE_PHASES: treelet, stream-branching,
  * stream-multipass, feedback) instead of running N independent work
  * shares (run.h, rt_job_run_cores, for recursive and packet).
  *

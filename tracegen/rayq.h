@@ -167,6 +167,17 @@ int rt_rq_run(rt_rq *rq, rt_rq_step_fn step, void *user);
  * every needed class is found; changes nothing. */
 void rt_rq_pick_classes(const rt_rq *rq, uint32_t nclass, const uint8_t *need, uint32_t *pick);
 
+/* The work of one round of several cores: up to max distinct non-empty
+ * queues into out, in the order rt_rq_run would process them were none
+ * refilled meanwhile -- fullest first (the buckets from the fullest down,
+ * each bucket's queues from its head: the one last made that full first)
+ * or, in tree order, by number from *cursor on, wrapping (*cursor is then
+ * the queue after the last one picked; start it at 0). Changes nothing
+ * else (fullest first lowers bk_max past empty buckets, as rt_rq_run
+ * does); the caller takes and pops the queues. Returns how
+ * many were picked (0 when no ray is queued). */
+uint32_t rt_rq_pick(rt_rq *rq, uint32_t *out, uint32_t max, uint32_t *cursor);
+
 /* ---- batch stack -------------------------------------------------------------- */
 
 /* Level 0's rays (level_cap of them), to be filled with a generation's

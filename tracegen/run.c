@@ -16,7 +16,7 @@
 /* The tracer's plan, then its regions. On failure the plan is freed. */
 static int layout(rt_job *j, rt_err *e)
 {
-    rt_tracer_ctx ctx = {j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, NULL, NULL, 0, NULL, 0, 1, NULL};
+    rt_tracer_ctx ctx = {j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, NULL, NULL, 0, NULL, 0, 1, NULL, NULL};
     rt_mm_init(&j->L);
     if (rt_geom_uses_mesh(j->opt.geom) && !j->mesh && !(j->mesh = rt_mesh_build(j->sc, e))) return -1;
     ctx.mesh = j->mesh;
@@ -250,7 +250,7 @@ static int run_threads(rt_job *j, int n, rt_image *img, rt_run_stats *st, rt_err
     if (!tid) goto done;
     for (int k = 0; k < n; k++) {
         s[k].j = j;
-        s[k].ctx = (rt_tracer_ctx){j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, NULL, j->plan, j->check, j->mesh, k, n, NULL};
+        s[k].ctx = (rt_tracer_ctx){j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, NULL, j->plan, j->check, j->mesh, k, n, NULL, NULL};
         s[k].img = img;
         s[k].st.mark_keep = marks + (size_t)k * ntri;
     }
@@ -374,7 +374,7 @@ static int run_share(rt_job *j, rt_sink *sink, int part, int nparts, rt_image *i
         free(rl);
         return -1;
     }
-    rt_tracer_ctx ctx = {j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, trec, j->plan, j->check, j->mesh, part, nparts, NULL};
+    rt_tracer_ctx ctx = {j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, trec, j->plan, j->check, j->mesh, part, nparts, NULL, NULL};
     int rc = j->tr->run(&ctx, img, st, e);
     if (rc == 0 && nparts == 1) env_hits(j, img, st); /* n shares: once, over the whole image */
     if (trec != rec) {
@@ -410,10 +410,10 @@ int rt_job_run_part(rt_job *j, rt_sink *sink, int part, int nparts, rt_image *im
 
 /* ---- a tracer that splits its own work over the cores (cores.h) -------- */
 
-/* One run of the tracer with ctx.cores: core k records through its own
+/* One run of a tracer with RT_TR_CORE_PHASES, ctx.cores set: core k records through its own
  * recorder (and the mesh layout's translator in front of it) into the
  * phase interleave, which hands the references to cs (NULL: untraced). */
-static int run_own_cores(rt_job *j, rt_csink *cs, rt_image *img, rt_run_stats *st, rt_err *e)
+static int run_phased_cores(rt_job *j, rt_csink *cs, rt_image *img, rt_run_stats *st, rt_err *e)
 {
     const int n = j->opt.cores > 1 ? j->opt.cores : 1;
     rt_cores c;
@@ -434,7 +434,7 @@ static int run_own_cores(rt_job *j, rt_csink *cs, rt_image *img, rt_run_stats *s
         rt_cores_set_rec(&c, k, trec[k], rec[k]);
     }
     rt_tracer_ctx ctx = {j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, cs ? trec[0] : NULL, j->plan, j->check,
-                         j->mesh, 0, 1, &c};
+                         j->mesh, 0, 1, NULL, &c};
     rc = j->tr->run(&ctx, img, st, e);
     if (rt_cores_barrier(&c) < 0 && rc == 0) rc = rt_errf(e, "trace sink failed");
     if (rc == 0) env_hits(j, img, st);
@@ -480,7 +480,7 @@ int rt_job_run(rt_job *j, rt_sink *sink, rt_image *img, rt_run_stats *st, rt_err
         return rt_job_run_cores(j, &cs, img, st, e);
     }
     double t0 = rt_now();
-    int rc = !sink && j->opt.cores > 1 && rt_tracer_is(j->tr, RT_TR_OWN_CORES) ? run_own_cores(j, NULL, img, st, e)
+    int rc = !sink && j->opt.cores > 1 && rt_tracer_is(j->tr, RT_TR_CORE_PHASES) ? run_phased_cores(j, NULL, img, st, e)
                                                                                : run_share(j, sink, 0, 1, img, st, e);
     st->seconds = rt_now() - t0;
     return rc;
@@ -563,15 +563,31 @@ static size_t q_take(core_run *c, rt_access *out)
     return k;
 }
 
+/* A tracer that splits its own work over the cores (RT_TR_CORES): one run
+ * on the calling thread, handing its cores' references to cs itself. */
+static int run_own_cores(rt_job *j, rt_csink *cs, rt_image *img, rt_run_stats *st, rt_err *e)
+{
+    if (j->opt.geom != RT_GEOM_COMPACT)
+        return rt_errf_usage(e, "--cores %d: the %s tracer runs on several cores in the compact layout only (--layout %s)",
+                             j->opt.cores, j->tr->name, rt_render_geom_name(j->opt.geom));
+    rt_tracer_ctx ctx = {j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, NULL, j->plan, j->check, j->mesh, 0, 1, cs, NULL};
+    double t0 = rt_now();
+    int rc = j->tr->run(&ctx, img, st, e);
+    if (rc == 0) env_hits(j, img, st);
+    st->seconds = rt_now() - t0;
+    return rc;
+}
+
 int rt_job_run_cores(rt_job *j, rt_csink *cs, rt_image *img, rt_run_stats *st, rt_err *e)
 {
     memset(st, 0, sizeof *st);
     const int n = j->opt.cores > 1 ? j->opt.cores : 1;
     if (img->W != j->opt.W || img->H != j->opt.H)
         return rt_errf(e, "image is %dx%d, job wants %dx%d", img->W, img->H, j->opt.W, j->opt.H);
-    if (rt_tracer_is(j->tr, RT_TR_OWN_CORES)) {
+    if (n > 1 && rt_tracer_is(j->tr, RT_TR_CORES)) return run_own_cores(j, cs, img, st, e);
+    if (rt_tracer_is(j->tr, RT_TR_CORE_PHASES)) {
         double t0 = rt_now();
-        int rc = run_own_cores(j, cs, img, st, e);
+        int rc = run_phased_cores(j, cs, img, st, e);
         st->seconds = rt_now() - t0;
         return rc;
     }

@@ -702,7 +702,7 @@ static RT_ALWAYS_INLINE int leaf(const tl_run *T, const rt_ray *r, int any, thit
         mark[o] |= bit;
         RT_REC(rec, tri_base + 36ull * k, 36, 0, RT_CLS_TRI);
         float t, u, v;
-        if (!rt_isect_core(r, &b->tri[k], &t, &u, &v)) continue;
+        if (!rt_isect_core(r, rt_bvh_tri(b, k), &t, &u, &v)) continue;
         if (any) {
             if (t > r->tmin && t < r->tmax) return 1;
         } else if (t > r->tmin && rt_hit_better(&(const rt_hit){H->best, H->btri, H->bu, H->bv}, t, o)) {
@@ -1644,7 +1644,7 @@ const rt_tracer rt_tracer_treelet = {
     .accels = RT_ACCEL_BVH_BITS,
     .accel_default = RT_ACCEL_BVH4,
     .opts = RT_OPTG_SCHED | RT_OPTG_QUEUES | RT_OPTG_TREELET | RT_OPTG_THREADS | RT_OPTG_CORES,
-    .traits = RT_TR_SCHEDULED | RT_TR_QUEUES | RT_TR_LIGHTS | RT_TR_OWN_CORES,
+    .traits = RT_TR_SCHEDULED | RT_TR_QUEUES | RT_TR_LIGHTS | RT_TR_CORE_PHASES,
     .figures = RT_FIG_TREELET,
     .check_opts = tl_check_opts,
     .params = tl_params,
