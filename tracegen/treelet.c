@@ -127,9 +127,24 @@
  *       treelet is the treelet of its node (a leaf: of the node that
  *       pushed it);
  *   T6  resolution (checked as each ray finishes): its closest hit or its
- *       visibility is the one the single-ray walk finds.
+ *       visibility is the one the single-ray walk finds;
+ *   T7  simulated cores (ctx->cores, checked after every round): core k's
+ *       count cq[k] is the sum of the counts of its treelets' queues
+ *       (treelet t on core t mod N); a ray marked moving (mv: queued by
+ *       another core than its treelet's) is queued, and the rays moved =
+ *       moved rays read by the core they moved to + moved rays queued; the
+ *       interleave's C1-C3 (cores.h: nothing buffered between rounds).
  * At the end of every generation: all queues empty, every wanted ray
  * finished exactly once.
+ *
+ * Simulated cores (--cores N, ctx->cores; cores.h): treelet t belongs to
+ * core t mod N. A generation's rays are started, and later shaded, by the
+ * cores in contiguous chunks of the slots; then rounds: every core with
+ * rays queued in its treelets takes its next queue (the order's first
+ * among its own), all at the round's start, the cores walk their rays in
+ * turn (ray j of each core, then j + 1), a suspended ray goes to the queue
+ * of its next treelet whoever owns it (moved when that is another core),
+ * and a barrier ends the round. One core is rt_rq_run's order exactly.
  *
  * Images are bit-identical to the recursive tracer's on the same BVH: each
  * ray visits the same nodes and tests the same triangles in the same order
