@@ -8,7 +8,8 @@
  *     streams written out reference by reference (ticks of 16, a done core
  *     drops out, nothing crosses a barrier), the incremental sync, the
  *     turn order of rt_cores_steps; the checker rejects a core left done
- *     (C1), a miscount (C2) and a reference after a core's phase (C3);
+ *     (C1), a miscount (C2), a reference after a core's phase (C3) and
+ *     an item claimed by a core outside its chunk (C4);
  *   - per tracer, mode and core count (1, 2, 3, 8), in test mode (the
  *     tracers' own invariant checks run): one core is the one-core run
  *     reference for reference (all core 0); on N cores the image and the
@@ -190,6 +191,12 @@ static void test_interleave(void)
     c.emitted++;
     CHECK(rt_cores_check(&c, &e) < 0 && strstr(e.msg, "C2"), "emitted miscounted: '%s'", e.msg);
     c.emitted--;
+    rt_cores_claim(&c, 2, 6, 10); /* item 6 of 10 on 3 cores: core 1's chunk is 3-5, core 2's 6-9 */
+    CHECK(rt_cores_check(&c, &e) == 0, "a claim of one's own item: %s", e.msg);
+    rt_cores_claim(&c, 1, 6, 10);
+    CHECK(rt_cores_check(&c, &e) < 0 && strstr(e.msg, "C4") && strstr(e.msg, "item 6 of 10 by core 1"),
+          "an item claimed by another core: '%s'", e.msg);
+    c.bad_claims = 0;
     rt_cores_done(&c, 2);
     rec_n(r[2], 300, 1);
     rt_cores_sync(&c);

@@ -172,6 +172,10 @@ int rt_cores_check(const rt_cores *c, rt_err *e)
             return rt_errf(e, "cores C3: core %d recorded %" PRIu64 " references after its phase was done", k, b->late);
         rec += b->recorded;
     }
+    if (c->bad_claims)
+        return rt_errf(e, "cores C4: %" PRIu64 " items recorded by a core outside its chunk (the first: item %" PRIu64
+                       " of %" PRIu64 " by core %d, whose chunk is %" PRIu64 "-%" PRIu64 ")", c->bad_claims, c->bad_i,
+                       c->bad_n, c->bad_k, rt_cores_lo(c->bad_n, c->n, c->bad_k), rt_cores_lo(c->bad_n, c->n, c->bad_k + 1));
     if (c->out && !c->failed && rec != c->emitted)
         return rt_errf(e, "cores C2: %" PRIu64 " references recorded, %" PRIu64 " emitted", rec, c->emitted);
     return 0;

@@ -43,7 +43,9 @@
  * between phases): C1 every core's buffer is empty between phases (all of
  * a phase's references emitted at its barrier) and every core is open
  * again; C2 the references emitted equal the references recorded (the
- * recorders' totals); C3 within a phase a done core records nothing more.
+ * recorders' totals); C3 within a phase a done core records nothing more;
+ * C4 every item a tracer claims (rt_cores_claim: "core k records item i
+ * of n now") is in core k's chunk.
  *
  * Untraced (no core sink): the recorders are NULL, the phases and their
  * counts still advance, nothing is buffered.
@@ -78,6 +80,9 @@ typedef struct rt_cores {
     uint64_t ticks;    /* ticks emitted */
     uint64_t emitted;  /* references handed to out */
     int failed;        /* out refused a batch: later references are dropped, rt_cores_failed */
+    uint64_t bad_claims; /* C4: claims outside the claiming core's chunk; the first: */
+    uint64_t bad_i, bad_n;
+    int bad_k;
 } rt_cores;
 
 /* Sets up n cores (1..RT_TR_MAX_CORES is the caller's business) feeding
@@ -112,6 +117,19 @@ static inline uint64_t rt_cores_lo(uint64_t n, int N, int k) { return n * (uint6
 /* The core whose chunk holds item i < n. */
 static inline int rt_cores_owner(uint64_t i, uint64_t n, int N) { return (int)(((i + 1) * (uint64_t)N - 1) / n); }
 
+/* A tracer's claim as it records work on item i of a phase of n items:
+ * core k (the one whose recorder is current) is doing it. C4 holds when
+ * every claim is the chunk rule's; a wrong one is counted (the first
+ * kept) for rt_cores_check. */
+static inline void rt_cores_claim(rt_cores *c, int k, uint64_t i, uint64_t n)
+{
+    if (rt_cores_owner(i, n, c->n) != k && !c->bad_claims++) {
+        c->bad_k = k;
+        c->bad_i = i;
+        c->bad_n = n;
+    }
+}
+
 /* One phase of n items over the cores' chunks, stepped in turn: item j of
  * core 0's chunk, item j of core 1's, ..., then item j + 1, with core k's
  * recorder current for its items (fn(u, k, i) records through
@@ -120,7 +138,7 @@ static inline int rt_cores_owner(uint64_t i, uint64_t n, int N) { return (int)((
  * Returns 0, fn's value, or -1 when the sink failed. */
 int rt_cores_steps(rt_cores *c, uint64_t n, int (*fn)(void *u, int k, uint64_t i), void *u);
 
-/* C1-C3 between phases: 0, or -1 with a message naming the invariant
+/* C1-C4 between phases: 0, or -1 with a message naming the invariant
  * ("cores C1: ..."). */
 int rt_cores_check(const rt_cores *c, rt_err *e);
 

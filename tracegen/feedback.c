@@ -42,7 +42,11 @@
  * Invariants (checked every pass; ctx->check adds the per-pixel one):
  *   F1 a buffer never holds more than its capacity W H (G + G') records;
  *   F2 a pass appends at most E[k-1] + E[k] records per pixel;
- *   F3 every record read is either traced or dropped, none twice.
+ *   F3 every record read is either traced or dropped, none twice;
+ *   F4 simulated cores (ctx->cores, test mode, at every barrier): record i
+ *      of a pass's n is read by the core whose chunk holds it (cores.h C4:
+ *      records floor(k n / N) .. floor((k + 1) n / N) - 1 on core k), and
+ *      nothing of a pass is left buffered past its barrier (C1-C3).
  */
 #include "feedback.h"
 
@@ -364,19 +368,27 @@ typedef struct fb_run {
      * where one processor puts them */
     rt_cores *cores;
     int ncores;
+    int core;            /* the core whose recorder is current */
 } fb_run;
 
 /* Item i of n (a record of the pass's input, a pixel): its chunk's core
  * records (simulated cores). */
 static inline void fb_item(fb_run *R, uint64_t i, uint64_t n)
 {
-    if (R->cores) R->rec = rt_cores_rec(R->cores, rt_cores_owner(i, n, R->ncores));
+    if (!R->cores) return;
+    R->core = rt_cores_owner(i, n, R->ncores);
+    R->rec = rt_cores_rec(R->cores, R->core);
 }
 
-/* The end of a pass: the barrier. 0, or -1 with e (the trace sink failed). */
+/* The end of a pass: the barrier; in test mode F4 (the cores' C1-C4:
+ * every record read by its chunk's core, nothing buffered past the
+ * barrier). 0, or -1 with e (the trace sink failed, F4 broken). */
 static int fb_pass_end(fb_run *R, rt_err *e)
 {
-    if (R->cores && rt_cores_barrier(R->cores) < 0) return rt_errf(e, "trace sink failed");
+    if (!R->cores) return 0;
+    if (rt_cores_barrier(R->cores) < 0) return rt_errf(e, "trace sink failed");
+    rt_err ce = {0};
+    if (R->ctx->check && rt_cores_check(R->cores, &ce) < 0) return rt_errf(e, "feedback: F4: %s", ce.msg);
     return 0;
 }
 
@@ -804,6 +816,7 @@ static int stage(fb_run *R, int cur, uint64_t i, rt_err *e)
     rt_fb_ray ray;
     R->s.vs_records++;
     rt_fb_unpack(&R->vb[cur][i], &ray);
+    if (R->cores) rt_cores_claim(R->cores, R->core, i, R->n[cur]); /* F4 */
     rt_rec_set_gen(R->rec, ray.gen);
     RT_REC(R->rec, rt_mm_addr(R->L, R->reg_vb[cur], i), RT_FB_REC_SIZE, 0, RT_CLS_STREAM);
     R->s.gs_records++;

@@ -78,7 +78,17 @@
  *       reflection before refraction, each ray with its shadow rays before
  *       the next ray;
  *   S6  accounting: every byte is charged once to a kernel and once to a
- *       data type, so the sums of kbytes[] and dbytes[] are equal.
+ *       data type, so the sums of kbytes[] and dbytes[] are equal;
+ *   S7  simulated cores (ctx->cores, test mode, at every barrier): a pass's
+ *       kernel work on slot i of a stream of n is charged by the core
+ *       whose chunk holds i (cores.h C4), and nothing of a pass is left
+ *       buffered past its barrier (C1-C3).
+ *
+ * Simulated cores (--cores N, ctx->cores; cores.h): multipass, every
+ * pass's n rays in N contiguous chunks of the stream's slots, core k's
+ * kernel work on its own, a barrier per pass; branching, the Hilbert
+ * order's pixels in N contiguous chunks, the cores stepped a pixel each in
+ * turn, the frame one phase. One core is the one-core run exactly.
  */
 #include "stream.h"
 
@@ -246,12 +256,18 @@ typedef struct st_run {
      * (cores.h), a barrier per pass; branching: chunks of the pixels */
     rt_cores *cores;
     int ncores;
+    int core;            /* the core whose recorder is current */
+    size_t sn;           /* multipass: the rays of the stream whose pass runs (the chunks' n) */
+    rt_err cerr;         /* test mode: S7 broken (err 3) */
 } st_run;
 
 /* Slot i of a stream of n: its chunk's core records (simulated cores). */
 static inline void st_slot(st_run *S, size_t i, size_t n)
 {
-    if (S->cores) S->rec = rt_cores_rec(S->cores, rt_cores_owner(i, n, S->ncores));
+    if (!S->cores) return;
+    S->core = rt_cores_owner(i, n, S->ncores);
+    S->sn = n;
+    S->rec = rt_cores_rec(S->cores, S->core);
 }
 
 /* The generation stamped on every core's references. */
@@ -264,10 +280,14 @@ static void st_gen(st_run *S, int g)
     for (int k = 0; k < S->ncores; k++) rt_rec_set_gen(rt_cores_rec(S->cores, k), g);
 }
 
-/* The end of a pass: the stream processors' barrier. */
+/* The end of a pass: the stream processors' barrier; in test mode S7,
+ * the interleave's C1-C4 (cores.h: every slot's kernel work charged to its
+ * chunk's core, nothing buffered past the barrier). */
 static void st_pass_end(st_run *S)
 {
-    if (S->cores && rt_cores_barrier(S->cores) < 0) S->err = 2;
+    if (!S->cores) return;
+    if (rt_cores_barrier(S->cores) < 0) S->err = 2;
+    if (S->ctx->check && !S->err && rt_cores_check(S->cores, &S->cerr) < 0) S->err = 3;
 }
 
 static int vec_push(st_run *S, st_vec *v, const st_ray *r)
@@ -310,6 +330,7 @@ static void charge_state(st_run *S, int kern, uint32_t slot, int R, int W)
 static void charge(st_run *S, int kern, uint32_t slot)
 {
     const rt_stream_cost_row *k = rt_stream_table(S->multipass) + kern;
+    if (S->cores && S->multipass) rt_cores_claim(S->cores, S->core, slot, S->sn); /* S7 */
     S->kexec[kern]++;
     charge_state(S, kern, slot, k->R, k->W);
     if (S->multipass && k->WS) acc_rd(S, kern, RT_SD_STENCIL, S->reg_stencil, slot, 0, 1, RT_CLS_FB, 1);
@@ -826,6 +847,7 @@ typedef struct br_cores {
 static int br_core_pixel(void *u, int k, uint64_t i)
 {
     br_cores *b = u;
+    b->S->core = k;
     b->S->rec = rt_cores_rec(b->S->cores, k);
     for (int s = 0; s < b->spp && !b->S->err; s++) br_pixel(b->S, b->order[i], (uint32_t)s, b->stack, b->shadows);
     return b->S->err;
@@ -910,7 +932,8 @@ static int st_run_common(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *
         if (!S.err) mp_run(&S, &wave, npix);
     }
     if (S.err) {
-        rt_errf(e, S.err == 2 ? "trace sink failed" : "out of memory");
+        if (S.err == 3) rt_errf(e, "%s S7: %s", multipass ? "stream-multipass" : "stream-branching", S.cerr.msg);
+        else rt_errf(e, S.err == 2 ? "trace sink failed" : "out of memory");
         goto out;
     }
     /* the pixels */
