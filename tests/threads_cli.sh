@@ -46,7 +46,6 @@ grep -q "cores=3 rounds=" "$tmp/dyn3.json" || err "dynamic --threads 3: not the 
 usage "whitted and path modes on one thread" "$bin" render cornell -W 8 -H 8 -t dynamic --mode whitted --threads 2 -o "$tmp/d.exr"
 usage "now --cores N" "$bin" trace cornell -W 8 -H 8 -t recursive --threads 2 -o "$tmp/d.rtt"
 usage "now --cores N" "$bin" sweep --tracers dynamic --threads 8 --db "$tmp/u.db"
-usage "--cores does not apply" "$bin" render cornell -W 8 -H 8 -t stream-branching --cores 2 -o "$tmp/d.exr"
 usage "--threads does not apply" "$bin" render cornell -W 8 -H 8 -t stream-branching --threads 2 -o "$tmp/d.exr"
 usage "--threads: '0'" "$bin" render cornell -W 8 -H 8 --threads 0 -o "$tmp/d.exr"
 
