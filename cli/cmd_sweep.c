@@ -914,7 +914,7 @@ static int finish_opts(sweep_opts *o)
     for (int k = 0; k < x->ncores; k++)
         for (int t = 0; t < x->ntracers && x->cores[k] > 1 && x->mc; t++) {
             const rt_tracer *ct = rt_tracer_find(x->tracers[t]);
-            if (ct && !(ct->opts & RT_OPTG_THREADS) && !rt_tracer_is(ct, RT_TR_CORES)) {
+            if (ct && !rt_tracer_simulates_cores(ct) && !rt_tracer_is(ct, RT_TR_CORES)) {
                 rt_cmd_error("sweep", "--cores %d: the %s tracer's work is not split over cores yet (run it with --cores 1)",
                              x->cores[k], ct->name);
                 return -1;
