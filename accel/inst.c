@@ -55,6 +55,21 @@
  *   (I6) each instance's world-to-object matrix is the inverse of its
  *        object-to-world matrix (product within 1e-4 of the identity).
  *
+ * Kept instances (rt_scene.kept, scene.h: the loader made no flattened
+ * copy; `--instances bvh` loads a .pbrt file so). tri then holds only the
+ * loose triangles, which form the loose tree (covered[] maps them to their
+ * scene indices in the flattened numbering); a candidate triangle of an
+ * instance is made from its shared record with the loader's flattening
+ * arithmetic (rt_scene_inst_tri), so it is the flattened copy bit for bit
+ * and hits, ties and images are those of the flattened scene. An
+ * instance's world box is its object's box (the tree's root box, padded)
+ * with its eight corners transformed in double and padded again, which
+ * contains its triangles however they round. Marks go to the triangle's
+ * shading slot (rt_scene_slot: a loose triangle, or an object triangle
+ * shared by all its instances). (I1) then holds by rt_scene_check_kept's
+ * arithmetic (the records' ranges and the loose triangles partition the
+ * indices), checked here on covered[]; (I2) holds by construction.
+ *
  * Nesting: the pbrt loader refuses ObjectInstance inside ObjectBegin, so
  * instances are one level deep.
  */
@@ -252,6 +267,28 @@ void rt_inst_free(rt_inst *I) {
     free(I);
 }
 
+/* Kept scenes: the world box of instance record q, from the object's
+ * padded box corners (see the header). */
+static void kept_box(const rt_inst *I, const rt_scene_inst *q, bitem *b) {
+    const rt_bvh2_node *root = &I->bnode[I->blas[q->obj].node0];
+    for (int a = 0; a < 3; a++)
+        b->lo[a] = INFINITY, b->hi[a] = -INFINITY;
+    for (int c = 0; c < 8; c++) {
+        const double p[3] = {(c & 1) ? root->hi[0] : root->lo[0], (c & 2) ? root->hi[1] : root->lo[1],
+                             (c & 4) ? root->hi[2] : root->lo[2]};
+        for (int a = 0; a < 3; a++) {
+            double x = q->m[a][0] * p[0] + q->m[a][1] * p[1] + q->m[a][2] * p[2] + q->m[a][3];
+            b->lo[a] = fminf(b->lo[a], (float)x);
+            b->hi[a] = fmaxf(b->hi[a], (float)x);
+        }
+    }
+    for (int a = 0; a < 3; a++) {
+        float s = RT_INST_PAD * (b->hi[a] - b->lo[a] + fabsf(b->lo[a]) + fabsf(b->hi[a]));
+        b->lo[a] -= s;
+        b->hi[a] += s;
+    }
+}
+
 rt_inst *rt_inst_build(const rt_scene *sc, rt_err *e) {
     rt_inst *I = rt_calloc(1, sizeof *I, e);
     if (!I)
@@ -261,7 +298,7 @@ rt_inst *rt_inst_build(const rt_scene *sc, rt_err *e) {
     bitem *it = NULL;
     if (!cov)
         goto fail;
-    for (uint32_t i = 0; i < sc->nirec; i++) {
+    for (uint32_t i = 0; i < sc->nirec && !sc->kept; i++) {
         const rt_scene_inst *q = &sc->irec[i];
         if (q->obj >= sc->nobj) {
             rt_errf(e, "instance %u: object %u of %u", i, q->obj, sc->nobj);
@@ -285,6 +322,15 @@ rt_inst *rt_inst_build(const rt_scene *sc, rt_err *e) {
     for (uint32_t i = 0, k = 0; i < sc->ntri; i++)
         if (!cov[i])
             I->covered[k] = i, loose[k++] = sc->tri[i];
+    if (sc->kept) { /* every stored triangle is loose: its index in the flattened numbering */
+        uint32_t r = 0;
+        uint64_t inst = 0; /* the records' triangles before loose triangle k */
+        for (uint32_t k = 0; k < nloose; k++) {
+            while (r < sc->nirec && sc->irec[r].loose <= k)
+                inst += sc->obj[sc->irec[r++].obj].count;
+            I->covered[k] = (uint32_t)(k + inst);
+        }
+    }
     I->nloose = nloose;
     /* bottom level: the loose tree (index nobj), then each object once */
     I->nblas = sc->nobj + 1;
@@ -337,10 +383,12 @@ rt_inst *rt_inst_build(const rt_scene *sc, rt_err *e) {
             }
             first = q->first, count = sc->obj[q->obj].count;
         }
-        /* world box from the flattened copy */
+        /* world box from the flattened copy (kept: from the object's box) */
         for (int a = 0; a < 3; a++)
             it[i].lo[a] = INFINITY, it[i].hi[a] = -INFINITY;
-        if (r->identity) {
+        if (sc->kept && !r->identity) {
+            kept_box(I, &sc->irec[i - (nloose ? 1 : 0)], &it[i]);
+        } else if (r->identity) {
             for (uint32_t k = 0; k < nloose; k++) {
                 bitem t;
                 tri_item(&t, &loose[k], 0, RT_INST_PAD);
@@ -459,13 +507,26 @@ static void walk_blas(walk *W, uint32_t k) {
             if (n->ntri) {
                 for (uint32_t j = n->offset; j < n->offset + n->ntri; j++) {
                     uint32_t tri = q->identity ? I->covered[I->bref[j]] : q->first + I->bref[j];
+                    const rt_scene *sc = tv->sc;
+                    const rt_tri *T;
+                    rt_tri wt;
+                    uint32_t slot = tri;
+                    if (!sc->kept)
+                        T = &sc->tri[tri];
+                    else if (q->identity)
+                        T = &sc->tri[I->bref[j]], slot = I->bref[j];
+                    else {
+                        rt_scene_inst_tri(q->o2w, &I->btri[j], &wt);
+                        T = &wt;
+                        slot = sc->ntri + sc->obj[q->blas].start + I->bref[j];
+                    }
                     tv->tests++;
                     if (tv->mark)
-                        tv->mark[tri] |= tv->mark_bit;
+                        tv->mark[slot] |= tv->mark_bit;
                     if (tv->rec && tv->reg_tri >= 0)
                         RT_REC(tv->rec, rt_mm_addr(tv->L, tv->reg_tri, j), 36, 0, RT_CLS_TRI);
                     float t, u, v;
-                    if (!rt_isect_core(r, &tv->sc->tri[tri], &t, &u, &v) || !(t > r->tmin))
+                    if (!rt_isect_core(r, T, &t, &u, &v) || !(t > r->tmin))
                         continue;
                     if (W->any) {
                         if (t < r->tmax) {
@@ -610,7 +671,7 @@ int rt_inst_check(const rt_inst *I, const rt_scene *sc, rt_err *e) {
     int rc = -1;
     uint8_t *cov = rt_calloc(sc->ntri ? sc->ntri : 1, 1, e);
     uint8_t *seen = rt_calloc((size_t)I->nbtri + I->ninst + 1, 1, e);
-    if (!cov || !seen)
+    if (!cov || !seen || rt_scene_check_kept(sc, e) < 0)
         goto out;
     /* (I1) */
     for (uint32_t i = 0; i < I->ninst; i++) {
@@ -620,10 +681,28 @@ int rt_inst_check(const rt_inst *I, const rt_scene *sc, rt_err *e) {
             goto out;
         }
         const rt_inst_blas *bl = &I->blas[q->blas];
-        for (uint32_t j = 0; j < bl->ntri; j++) {
+        if (sc->kept && !q->identity) { /* (I1) by the records' arithmetic (rt_scene_check_kept), (I2) by construction */
+            const rt_scene_inst *sq = &sc->irec[i - (I->nloose ? 1 : 0)];
+            if (q->blas != sq->obj || q->first != sq->first || memcmp(q->o2w, sq->m, sizeof q->o2w)) {
+                rt_errf(e, "inst: (I1) instance %u is not its scene record", i);
+                goto out;
+            }
+        }
+        for (uint32_t j = 0; j < bl->ntri && !(sc->kept && !q->identity); j++) {
             uint32_t tri = q->identity
                                ? (I->bref[bl->tri0 + j] < I->nloose ? I->covered[I->bref[bl->tri0 + j]] : UINT32_MAX)
                                : q->first + I->bref[bl->tri0 + j];
+            if (sc->kept) { /* a loose triangle: its index maps back to its place in tri */
+                uint32_t lj;
+                if (tri >= sc->nflat || rt_scene_kept_find(sc, tri, &lj) >= 0 || lj != I->bref[bl->tri0 + j] ||
+                    lj >= sc->ntri || cov[lj]) {
+                    rt_errf(e, "inst: (I1) loose triangle %u: index %u is not its own or in two instances",
+                            I->bref[bl->tri0 + j], tri);
+                    goto out;
+                }
+                cov[lj] = 1;
+                continue;
+            }
             if (tri >= sc->ntri || cov[tri]) {
                 rt_errf(e, "inst: (I1) instance %u: scene triangle %u outside the scene or in two instances", i, tri);
                 goto out;
@@ -710,7 +789,15 @@ int rt_inst_check(const rt_inst *I, const rt_scene *sc, rt_err *e) {
                 const rt_inst_blas *bl = &I->blas[q->blas];
                 for (uint32_t t = 0; t < bl->ntri; t++) {
                     uint32_t tri = q->identity ? I->covered[I->bref[bl->tri0 + t]] : q->first + I->bref[bl->tri0 + t];
-                    if (!box_has_tri(n, &sc->tri[tri], 0)) {
+                    rt_tri wt;
+                    const rt_tri *T = &wt;
+                    if (!sc->kept)
+                        T = &sc->tri[tri];
+                    else if (q->identity)
+                        T = &sc->tri[I->bref[bl->tri0 + t]];
+                    else
+                        rt_scene_inst_tri(q->o2w, &I->btri[bl->tri0 + t], &wt);
+                    if (!box_has_tri(n, T, 0)) {
                         rt_errf(e, "inst: (I5) top-level node %u: instance %u's triangle %u outside its box", m, k,
                                 tri);
                         goto out;

@@ -303,8 +303,8 @@ int rt_scale_bench(FILE *out, const char *tmpdir, int quick, rt_err *e)
     }
     if (rt_scale_write_forest(dir, variants, crow, ccol, gridn, &unique, &instanced, e) < 0) goto done;
     {
-        char *av[] = {"raytraffic", "render", forest, "--instances", "bvh", "-W", (char *)fw, "-H", (char *)fw,
-                      "-o", img, NULL};
+        char *av[] = {"raytraffic", "render", forest, "--instances", "bvh", "--lights", "all", "-W", (char *)fw,
+                      "-H", (char *)fw, "-o", img, NULL};
         int st = run_child(av, logp, &kb, &wall);
         if (st != 0) {
             show_log(out, logp);

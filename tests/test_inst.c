@@ -193,6 +193,101 @@ static void test_images(rt_scene *s) {
     }
 }
 
+/* Kept instances (scene.h): the file loaded without its flattened copy
+ * numbers, places and shades every triangle as the flattened scene does
+ * (bit for bit), has its bounds and camera, passes both checkers (and
+ * fails them on corrupted records), and the two-level walk over it gives
+ * the flattened scene's brute-force hits; the recursive tracer's images
+ * equal the flattened scene's in every mode, and the shading reads stay in
+ * the layout. */
+static void test_kept(const char *path, rt_scene *s) {
+    rt_err e = {0};
+    rt_scene *k = rt_scene_load_flags(path, RT_LOAD_KEEP_INSTANCES, &e);
+    CHECK(k != NULL, "kept load: %s", e.msg);
+    if (!k)
+        return;
+    CHECK(k->kept && k->nflat == s->ntri && k->ntri == 2 && k->nirec == s->nirec && k->notri == s->notri &&
+              rt_scene_nshade(k) == 2 + s->notri && rt_scene_nflat(s) == s->ntri && !s->kept,
+          "kept: flat %u (flattened %u), loose %u, records %u, object triangles %u", k->nflat, s->ntri, k->ntri,
+          k->nirec, k->notri);
+    CHECK(rt_scene_check_kept(k, &e) == 0, "kept: %s", e.msg);
+    CHECK(!memcmp(&k->bounds, &s->bounds, sizeof k->bounds) && !memcmp(&k->cam, &s->cam, sizeof k->cam),
+          "kept: bounds or camera differ from the flattened scene's");
+    uint32_t bad = 0;
+    for (uint32_t i = 0; i < s->ntri && i < k->nflat; i++) {
+        rt_tri tmp;
+        const rt_tri *t = rt_scene_tri_of(k, i, &tmp);
+        bad += memcmp(t, &s->tri[i], sizeof *t) != 0 || memcmp(rt_scene_shade_of(k, i), &s->shade[i], sizeof s->shade[i]);
+    }
+    CHECK(bad == 0, "kept: %u triangles differ from the flattened copy", bad);
+    CHECK(rt_scene_check_lights(k, &e) == 0, "kept lights: %s", e.msg);
+    /* corrupted records */
+    rt_scene_inst q1 = k->irec[1];
+    k->irec[1].loose++;
+    CHECK(rt_scene_check_kept(k, &e) < 0 && strstr(e.msg, "loose triangles before it"), "loose count: %s", e.msg);
+    k->irec[1] = q1;
+    k->irec[1].first = k->irec[0].first;
+    CHECK(rt_scene_check_kept(k, &e) < 0 && strstr(e.msg, "not after"), "overlapping records: %s", e.msg);
+    k->irec[1] = q1;
+    k->nflat++;
+    CHECK(rt_scene_check_kept(k, &e) < 0, "wrong total accepted");
+    k->nflat--;
+    CHECK(rt_scene_check_kept(k, &e) == 0, "restored: %s", e.msg);
+
+    rt_accel a;
+    CHECK(rt_accel_build(&a, RT_ACCEL_INST, k, NULL, &e) == 0, "kept build: %s", e.msg);
+    if (a.as) {
+        rt_inst *I = a.as;
+        CHECK(rt_accel_check(&a, k, &e) == 0, "kept check: %s", e.msg);
+        I->covered[0] ^= 1; /* a loose triangle's index pointing at another */
+        CHECK(rt_inst_check(I, k, &e) < 0 && strstr(e.msg, "(I1)"), "kept: wrong loose index accepted: %s", e.msg);
+        I->covered[0] ^= 1;
+        rt_trav tv;
+        rt_accel_trav(&a, &tv, k, NULL, NULL);
+        int nbad = 0, hits = 0;
+        for (int i = 0; i < 20000; i++) {
+            rt_vec3 o = rt_v3((float)(urand() * 20 - 10), (float)(urand() * 10 - 3), (float)(urand() * 20 - 10));
+            rt_vec3 d = rt_v3((float)(urand() * 2 - 1), (float)(urand() * 2 - 1), (float)(urand() * 2 - 1));
+            if (i % 2 == 0) /* aimed at an instance's centre */
+                d = rt_v3(-3 - o.x, 0 - o.y, 1 - o.z);
+            rt_ray r;
+            rt_ray_init(&r, o, d);
+            if (i % 3 == 1)
+                r.tmin = (float)(urand() * 0.5), r.tmax = (float)(1 + urand() * 20);
+            rt_hit h1, h2;
+            int b1 = rt_brute_closest(s, &r, &h1), b2 = a.ops->closest(&tv, &r, &h2);
+            hits += b1;
+            if ((b1 != b2 || (b1 && !same_hit(&h1, &h2)) || rt_brute_occluded(s, &r) != a.ops->occluded(&tv, &r)) &&
+                nbad++ < 5)
+                CHECK(0, "kept ray %d: brute %d tri %u t %.9g, inst %d tri %u t %.9g", i, b1, h1.tri, (double)h1.t, b2,
+                      h2.tri, (double)h2.t);
+        }
+        CHECK(nbad == 0 && hits > 5000, "kept: %d rays differ, %d hits", nbad, hits);
+        rt_accel_free(&a);
+    }
+    const int modes[] = {RT_MODE_RAYCAST, RT_MODE_SHADOW, RT_MODE_WHITTED};
+    for (int m = 0; m < 3; m++) {
+        tally ta = {0}, tb = {0};
+        rt_job ja, jb;
+        memset(&ja, 0, sizeof ja);
+        memset(&jb, 0, sizeof jb);
+        rt_image *ia = render(s, modes[m], 0, &ta, &ja), *ib = render(k, modes[m], 1, &tb, &jb);
+        if (ia && ib) {
+            size_t diff = 0;
+            for (size_t i = 0; i < (size_t)ia->W * ia->H * 3; i++)
+                diff += memcmp(&ia->rgb[i], &ib->rgb[i], sizeof(float)) != 0;
+            CHECK(diff == 0, "kept, mode %d: %zu channel values differ from the flattened scene's", modes[m], diff);
+        }
+        CHECK(tb.bad == 0 && tb.n > 0, "kept, mode %d: %llu accesses off the layout", modes[m],
+              (unsigned long long)tb.bad);
+        rt_image_free(ia);
+        rt_image_free(ib);
+        rt_job_free(&ja);
+        rt_job_free(&jb);
+    }
+    rt_scene_free(k);
+}
+
 int main(void) {
     rt_err e = {0};
     char *path = check_path("inst.pbrt");
@@ -249,6 +344,7 @@ int main(void) {
 
     corrupt_and_check(s, I);
     test_images(s);
+    test_kept(path, s);
     rt_accel_free(&a);
     rt_scene_free(s);
 
