@@ -23,7 +23,7 @@ die() { echo "FAIL: $*"; fail=1; }
 # = 4352 unique, 6 x 6 instances = 78336 instanced.
 "$bin" bench --what scale-quick --tmpdir "$tmp" > "$tmp/out" 2>&1 || { cat "$tmp/out"; die "bench --what scale-quick"; }
 grep -q '^| torus mesh (bvh8) | 7320 | 64x64 | ' "$tmp/out" || die "torus row: $(grep torus "$tmp/out")"
-grep -q '^| forest, 36 instances of 2 trees (--instances bvh) | 78336 instanced, 4352 unique | 64x64 | ' "$tmp/out" ||
+grep -q '^| forest, 36 instances of 2 trees (--instances bvh --lights all) | 78336 instanced, 4352 unique | 64x64 | ' "$tmp/out" ||
     die "forest row: $(grep forest "$tmp/out")"
 left=$(ls "$tmp" | grep -c '^rt-scale-')
 [ "$left" -eq 0 ] || die "bench left $left folder(s) under --tmpdir"
