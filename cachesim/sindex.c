@@ -12,8 +12,10 @@
  * place that knows what they hold.
  *
  * PAYLOAD of data chunk k (docs/trace-format.md has the table): u8 flags
- * (bit 0: the last chunk; the one byte the format reads); per class 5
- * varints (line touches by reads and by writes, refs, bytes, writes of
+ * (bit 0: the last chunk; the one byte the format reads; bits 1-2: the
+ * classes stored beyond the first 10, so 10 + v classes follow, v > 0 only
+ * when the chunk has a record of class 10 or later, the highest stored
+ * being one); per stored class 5 varints (line touches by reads and by writes, refs, bytes, writes of
  * chunk k); varint ns and the ns records of chunk k that touch a sampled
  * line; varint nw and per window ending in chunk k (plus, in the last
  * chunk, the one the trace ends in): varints nwarm, scanned, u8 short,
@@ -266,8 +268,11 @@ static int sb_chunk(rt_si_maker *b, int last)
     b->out.n = 0;
     if (bb_room(&b->out, 1 + RT_NCLASS * 5 * 10 + 2 * 10 + b->samp.n + b->wins.n)) return -1;
     unsigned char *q = b->out.b;
-    *q++ = (unsigned char)(last ? 1 : 0);
-    for (int c = 0; c < RT_NCLASS; c++) {
+    int nc = RT_NCLASS_V1; /* classes stored: 10, or up to the highest with a reference (flags bits 1-2) */
+    for (int c = RT_NCLASS_V1; c < RT_NCLASS; c++)
+        if (b->refs[c]) nc = c + 1;
+    *q++ = (unsigned char)((last ? 1 : 0) | (nc - RT_NCLASS_V1) << 1);
+    for (int c = 0; c < nc; c++) {
         q = rt_trc_put_varint(q, b->touch[c][0]);
         q = rt_trc_put_varint(q, b->touch[c][1]);
         q = rt_trc_put_varint(q, b->refs[c]);
@@ -428,7 +433,8 @@ static int parse_side(rt_si_reader *d, const rt_tr_payload *pl, rt_si_side *s, r
     s->nrefs = n;
     uint64_t sum = 0, v[5];
     const char *bad = NULL;
-    for (int c = 0; c < RT_NCLASS && !bad; c++) {
+    const int nc = RT_NCLASS_V1 + ((pl->bytes[0] & RT_TR_SIDE_MAKER) >> 1); /* classes stored (10..13) */
+    for (int c = 0; c < nc && !bad; c++) {
         for (int k = 0; k < 5 && !bad; k++)
             if (rt_trc_get_varint(&p, end, &v[k]) < 0) bad = "bad class totals";
         if (bad) break;
