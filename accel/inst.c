@@ -61,14 +61,18 @@
  * scene indices in the flattened numbering); a candidate triangle of an
  * instance is made from its shared record with the loader's flattening
  * arithmetic (rt_scene_inst_tri), so it is the flattened copy bit for bit
- * and hits, ties and images are those of the flattened scene. An
- * instance's world box is its object's box (the tree's root box, padded)
- * with its eight corners transformed in double and padded again, which
- * contains its triangles however they round. Marks go to the triangle's
- * shading slot (rt_scene_slot: a loose triangle, or an object triangle
- * shared by all its instances). (I1) then holds by rt_scene_check_kept's
- * arithmetic (the records' ranges and the loose triangles partition the
- * indices), checked here on covered[]; (I2) holds by construction.
+ * and hits, ties and images are those of the flattened scene.
+ *
+ * The same model kept or flattened: an instance's world box is the exact
+ * box of its triangles (rt_scene_inst_boxes: the flattened copy's bounds,
+ * found from the object without making it) padded once by RT_INST_PAD,
+ * and a tested triangle's mark goes to its shading slot of the instancing
+ * model (rt_scene_model_slot: a loose triangle, or an object triangle
+ * shared by all its instances), so a sweep over the flattened scene and a
+ * render or trace over the kept one record the same accesses. For a kept
+ * scene (I1) holds by rt_scene_check_kept's arithmetic (the records'
+ * ranges and the loose triangles partition the indices), checked here on
+ * covered[], and (I2) by construction.
  *
  * Nesting: the pbrt loader refuses ObjectInstance inside ObjectBegin, so
  * instances are one level deep.
@@ -267,28 +271,6 @@ void rt_inst_free(rt_inst *I) {
     free(I);
 }
 
-/* Kept scenes: the world box of instance record q, from the object's
- * padded box corners (see the header). */
-static void kept_box(const rt_inst *I, const rt_scene_inst *q, bitem *b) {
-    const rt_bvh2_node *root = &I->bnode[I->blas[q->obj].node0];
-    for (int a = 0; a < 3; a++)
-        b->lo[a] = INFINITY, b->hi[a] = -INFINITY;
-    for (int c = 0; c < 8; c++) {
-        const double p[3] = {(c & 1) ? root->hi[0] : root->lo[0], (c & 2) ? root->hi[1] : root->lo[1],
-                             (c & 4) ? root->hi[2] : root->lo[2]};
-        for (int a = 0; a < 3; a++) {
-            double x = q->m[a][0] * p[0] + q->m[a][1] * p[1] + q->m[a][2] * p[2] + q->m[a][3];
-            b->lo[a] = fminf(b->lo[a], (float)x);
-            b->hi[a] = fmaxf(b->hi[a], (float)x);
-        }
-    }
-    for (int a = 0; a < 3; a++) {
-        float s = RT_INST_PAD * (b->hi[a] - b->lo[a] + fabsf(b->lo[a]) + fabsf(b->hi[a]));
-        b->lo[a] -= s;
-        b->hi[a] += s;
-    }
-}
-
 rt_inst *rt_inst_build(const rt_scene *sc, rt_err *e) {
     rt_inst *I = rt_calloc(1, sizeof *I, e);
     if (!I)
@@ -296,6 +278,7 @@ rt_inst *rt_inst_build(const rt_scene *sc, rt_err *e) {
     uint8_t *cov = rt_calloc(sc->ntri ? sc->ntri : 1, 1, e);
     rt_tri *loose = NULL;
     bitem *it = NULL;
+    rt_bounds *rbox = NULL; /* the records' exact world boxes */
     if (!cov)
         goto fail;
     for (uint32_t i = 0; i < sc->nirec && !sc->kept; i++) {
@@ -361,9 +344,10 @@ rt_inst *rt_inst_build(const rt_scene *sc, rt_err *e) {
         goto fail;
     if (!(it = rt_reallocarray(NULL, I->ninst ? I->ninst : 1, sizeof *it, e)))
         goto fail;
+    if (!(rbox = rt_calloc(sc->nirec ? sc->nirec : 1, sizeof *rbox, e)) || rt_scene_inst_boxes(sc, rbox, e) < 0)
+        goto fail;
     for (uint32_t i = 0; i < I->ninst; i++) {
         rt_inst_rec *r = &I->inst[i];
-        uint32_t first, count;
         if (nloose && i == 0) {
             r->identity = 1;
             r->blas = sc->nobj;
@@ -371,7 +355,6 @@ rt_inst *rt_inst_build(const rt_scene *sc, rt_err *e) {
             for (int a = 0; a < 3; a++)
                 for (int b = 0; b < 4; b++)
                     r->w2o[a][b] = r->o2w[a][b] = a == b;
-            first = 0, count = 0;
         } else {
             const rt_scene_inst *q = &sc->irec[i - (nloose ? 1 : 0)];
             r->blas = q->obj;
@@ -381,24 +364,24 @@ rt_inst *rt_inst_build(const rt_scene *sc, rt_err *e) {
                 rt_errf(e, "instance %u: singular transformation", i);
                 goto fail;
             }
-            first = q->first, count = sc->obj[q->obj].count;
         }
-        /* world box from the flattened copy (kept: from the object's box) */
+        /* world box: an instance's, the exact box of its triangles (the
+         * flattened copy's, kept or not: rt_scene_inst_boxes) padded once;
+         * the loose tree's, its triangles' padded boxes */
         for (int a = 0; a < 3; a++)
             it[i].lo[a] = INFINITY, it[i].hi[a] = -INFINITY;
-        if (sc->kept && !r->identity) {
-            kept_box(I, &sc->irec[i - (nloose ? 1 : 0)], &it[i]);
-        } else if (r->identity) {
+        if (!r->identity) { /* the exact box of its triangles, padded once */
+            const rt_bounds *x = &rbox[i - (nloose ? 1 : 0)];
+            const float lo[3] = {x->lo.x, x->lo.y, x->lo.z}, hi[3] = {x->hi.x, x->hi.y, x->hi.z};
+            for (int a = 0; a < 3; a++) {
+                float pad = RT_INST_PAD * (hi[a] - lo[a] + fabsf(lo[a]) + fabsf(hi[a]));
+                it[i].lo[a] = lo[a] - pad;
+                it[i].hi[a] = hi[a] + pad;
+            }
+        } else {
             for (uint32_t k = 0; k < nloose; k++) {
                 bitem t;
                 tri_item(&t, &loose[k], 0, RT_INST_PAD);
-                for (int a = 0; a < 3; a++)
-                    it[i].lo[a] = fminf(it[i].lo[a], t.lo[a]), it[i].hi[a] = fmaxf(it[i].hi[a], t.hi[a]);
-            }
-        } else {
-            for (uint32_t k = 0; k < count; k++) {
-                bitem t;
-                tri_item(&t, &sc->tri[first + k], 0, RT_INST_PAD);
                 for (int a = 0; a < 3; a++)
                     it[i].lo[a] = fminf(it[i].lo[a], t.lo[a]), it[i].hi[a] = fmaxf(it[i].hi[a], t.hi[a]);
             }
@@ -420,11 +403,13 @@ rt_inst *rt_inst_build(const rt_scene *sc, rt_err *e) {
     I->ntnode = B.n;
     I->torder = B.order;
     free(it);
+    free(rbox);
     free(loose);
     free(cov);
     return I;
 fail:
     free(it);
+    free(rbox);
     free(loose);
     free(cov);
     rt_inst_free(I);
@@ -510,15 +495,15 @@ static void walk_blas(walk *W, uint32_t k) {
                     const rt_scene *sc = tv->sc;
                     const rt_tri *T;
                     rt_tri wt;
-                    uint32_t slot = tri;
+                    /* the mark goes to the model's shading slot (rt_scene_model_slot) */
+                    const uint32_t slot = q->identity ? I->bref[j] : I->nloose + sc->obj[q->blas].start + I->bref[j];
                     if (!sc->kept)
                         T = &sc->tri[tri];
                     else if (q->identity)
-                        T = &sc->tri[I->bref[j]], slot = I->bref[j];
+                        T = &sc->tri[I->bref[j]];
                     else {
                         rt_scene_inst_tri(q->o2w, &I->btri[j], &wt);
                         T = &wt;
-                        slot = sc->ntri + sc->obj[q->blas].start + I->bref[j];
                     }
                     tv->tests++;
                     if (tv->mark)

@@ -371,7 +371,7 @@ static double kept_extreme(const double *m, const rt_tri *t, uint32_t n, const c
     return sign * best;
 }
 
-static int kept_bounds(const rt_scene *s, rt_bounds *b, rt_err *e)
+int rt_scene_inst_boxes(const rt_scene *s, rt_bounds *box, rt_err *e)
 {
     uint32_t nc = 0;
     for (uint32_t k = 0; k < s->nobj; k++) nc += (s->obj[k].count + CHUNK - 1) / CHUNK;
@@ -403,6 +403,7 @@ static int kept_bounds(const rt_scene *s, rt_bounds *b, rt_err *e)
     for (uint32_t k = 0; k < s->nirec && rc == 0; k++) {
         const rt_scene_inst *q = &s->irec[k];
         const rt_scene_obj *o = &s->obj[q->obj];
+        box[k] = rt_bounds_empty();
         if (!o->count) continue;
         const uint32_t n = (o->count + CHUNK - 1) / CHUNK;
         float lo[3], hi[3];
@@ -415,13 +416,27 @@ static int kept_bounds(const rt_scene *s, rt_bounds *b, rt_err *e)
             }
         }
         if (rc == 0) {
-            rt_bounds_grow(b, rt_v3(lo[0], lo[1], lo[2]));
-            rt_bounds_grow(b, rt_v3(hi[0], hi[1], hi[2]));
+            rt_bounds_grow(&box[k], rt_v3(lo[0], lo[1], lo[2]));
+            rt_bounds_grow(&box[k], rt_v3(hi[0], hi[1], hi[2]));
         }
     }
     free(cb);
     free(c0);
     return rc;
+}
+
+/* A kept scene's bounds: its records' boxes added to the loose triangles'. */
+static int kept_bounds(const rt_scene *s, rt_bounds *b, rt_err *e)
+{
+    rt_bounds *box = rt_calloc(s->nirec ? s->nirec : 1, sizeof *box, e);
+    if (!box || rt_scene_inst_boxes(s, box, e) < 0) {
+        free(box);
+        return -1;
+    }
+    for (uint32_t k = 0; k < s->nirec; k++)
+        if (box[k].lo.x <= box[k].hi.x) rt_bounds_grow(b, box[k].lo), rt_bounds_grow(b, box[k].hi);
+    free(box);
+    return 0;
 }
 
 int rt_scene_finish(rt_scene *s, rt_err *e)
@@ -482,6 +497,9 @@ int rt_scene_check_kept(const rt_scene *s, rt_err *e)
                            q->loose, (unsigned long long)(q->first - inst));
         inst += n;
     }
+    if (inst != s->nirec_tri)
+        return rt_errf(e, "%s: kept instances: the records hold %llu triangles, the scene says %u", s->name,
+                       (unsigned long long)inst, s->nirec_tri);
     if ((uint64_t)s->ntri + inst != s->nflat)
         return rt_errf(e, "%s: kept instances: %u loose + %llu instanced triangles, not %u", s->name, s->ntri,
                        (unsigned long long)inst, s->nflat);

@@ -233,6 +233,7 @@ typedef struct rt_scene {
     rt_scene_inst *irec;    /* in file order (owned) */
     int kept;               /* 1: instances kept, not flattened ("Kept instances" above) */
     uint32_t nflat;         /* kept: triangles of the flattened scene (indices 0 .. nflat - 1); else ntri */
+    uint32_t nirec_tri;     /* triangles of the instance records (their objects' counts summed) */
 } rt_scene;
 
 /* Triangles of the flattened scene: the range of triangle indices. */
@@ -261,6 +262,28 @@ static inline uint32_t rt_scene_slot(const rt_scene *s, uint32_t i)
     return k < 0 ? j : s->ntri + s->obj[s->irec[k].obj].start + j;
 }
 static inline const rt_shade *rt_scene_shade_of(const rt_scene *s, uint32_t i) { return &s->shade[rt_scene_slot(s, i)]; }
+/* The instancing model's shading slots (what `--instances bvh` records and
+ * marks, kept or flattened alike): with instance records, the loose
+ * triangles 0 .. L - 1 in the flattened order (L = nflat - nirec_tri),
+ * then each object's triangles once (L + obj.start + j), shared by all its
+ * instances; without records (or inst 0) the triangle index itself. For a
+ * kept scene the slot is where its shading record is (rt_scene_slot). */
+static inline uint32_t rt_scene_model_nslot(const rt_scene *s, int inst)
+{
+    return inst && s->nirec ? rt_scene_nflat(s) - s->nirec_tri + s->notri : rt_scene_nshade(s);
+}
+static inline uint32_t rt_scene_model_slot(const rt_scene *s, uint32_t i, int inst)
+{
+    if (!inst || !s->nirec) return i;
+    uint32_t j;
+    const int k = rt_scene_kept_find(s, i, &j);
+    return k < 0 ? j : rt_scene_nflat(s) - s->nirec_tri + s->obj[s->irec[k].obj].start + j;
+}
+/* Into box[k] (nirec of them) the exact bounds of record k's world
+ * triangles -- the flattened copy's, kept or not -- without transforming
+ * every triangle (scene.c, kept_bounds). 0, or -1 (out of memory, or a
+ * record whose triangles are not finite). */
+int rt_scene_inst_boxes(const rt_scene *s, rt_bounds *box, rt_err *e);
 /* The invariants of "Kept instances": 0, or -1 naming the broken one
  * (a scene that is not kept passes). */
 int rt_scene_check_kept(const rt_scene *s, rt_err *e);

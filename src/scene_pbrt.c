@@ -2471,6 +2471,7 @@ static int keep_instances(pbrt *P)
             q->loose = (uint32_t)(r->at + nonrec);
             for (int a = 0; a < 3; a++)
                 for (int b = 0; b < 4; b++) q->m[a][b] = r->ctm.m[a][b];
+            s->nirec_tri += n;
         } else nonrec += n;
         before += n;
     }
@@ -2578,6 +2579,7 @@ static int expand_instances(pbrt *P)
         s->irec[i].loose = (uint32_t)(s->irec[i].first - inst);
         inst += P->objs[s->irec[i].obj].count;
     }
+    s->nirec_tri = (uint32_t)inst;
     if (!(s->obj = rt_reallocarray(NULL, (size_t)P->nobjs, sizeof *s->obj, P->e))) return -1;
     for (int k = 0; k < P->nobjs; k++) s->obj[k].start = P->objs[k].start, s->obj[k].count = P->objs[k].count;
     s->nobj = (uint32_t)P->nobjs;
