@@ -551,25 +551,26 @@ static void put_golden_scalar(rt_shards *restrict s, const rt_access *a, size_t 
  * sampled line, a reference longer than a line) are handled by golden_ref
  * in lane order, so sampled touches reach sample() in stream order; the
  * others are counted in packed 8-bit fields (key = class * 2 +
- * write, three accumulators of eight fields, flushed before a field can
+ * write, four accumulators of eight fields, flushed before a field can
  * reach 255). Same counts and same sampled touches as the scalar filter. */
 __attribute__((target("avx512f,avx512dq"))) static void put_golden_avx512(rt_shards *restrict s, const rt_access *a,
                                                                            size_t n, uint64_t acc[RT_NCLASS][2])
 {
     _Static_assert(sizeof(rt_access) == 16, "rt_access is 16 bytes");
-    _Static_assert(RT_CLS_FB == RT_NCLASS - 1, "out-of-range classes clamp to the framebuffer");
+    _Static_assert(2 * RT_NCLASS <= 32, "keys (class * 2 + write) fit four accumulators of eight fields");
     const int sh = s->ln.shift;
     const __m512i vT = _mm512_set1_epi64((long long)s->T64), voff = _mm512_set1_epi64((long long)s->goff),
                   vG = _mm512_set1_epi64((long long)GOLD), one = _mm512_set1_epi64(1),
                   lo32 = _mm512_set1_epi64(0xffffffffLL), b8 = _mm512_set1_epi64(0xff),
                   vmax = _mm512_set1_epi64((long long)s->ln.line), vfb = _mm512_set1_epi64(RT_CLS_FB),
+                  vlast = _mm512_set1_epi64(RT_NCLASS - 1),
                   seven = _mm512_set1_epi64(7), ieven = _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14),
                   iodd = _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15);
     const __m128i vsh = _mm_set_epi64x(0, sh);
-    uint64_t cnt[24] = {0};
+    uint64_t cnt[32] = {0};
     size_t i = 0;
     while (i + 8 <= n) {
-        __m512i p0 = _mm512_setzero_si512(), p1 = p0, p2 = p0;
+        __m512i p0 = _mm512_setzero_si512(), p1 = p0, p2 = p0, p3 = p0;
         uint8_t oddm[120];
         size_t blk = i, stop = i + 8 * 120; /* at most 2 per step per field: 240 < 256 */
         if (stop > n) stop = n;
@@ -580,8 +581,9 @@ __attribute__((target("avx512f,avx512dq"))) static void put_golden_avx512(rt_sha
             __m512i f = _mm512_srl_epi64(addr, vsh);
             __m512i l = _mm512_srl_epi64(_mm512_sub_epi64(_mm512_add_epi64(addr, size), one), vsh);
             __m512i wr = _mm512_and_si512(_mm512_srli_epi64(meta, 32), b8);
-            /* classes out of range count as the framebuffer, the last class */
-            __m512i cls = _mm512_min_epu64(_mm512_and_si512(_mm512_srli_epi64(meta, 40), b8), vfb);
+            /* classes out of range count as the framebuffer */
+            __m512i cls = _mm512_and_si512(_mm512_srli_epi64(meta, 40), b8);
+            cls = _mm512_mask_mov_epi64(cls, _mm512_cmpgt_epu64_mask(cls, vlast), vfb);
             /* a reference of at most one line covers f or f, f + 1: the hash
              * of l is that of f plus G when it crosses (wider ones are odd) */
             __m512i d = _mm512_sub_epi64(l, f);
@@ -598,6 +600,7 @@ __attribute__((target("avx512f,avx512dq"))) static void put_golden_avx512(rt_sha
             p0 = _mm512_mask_add_epi64(p0, _mm512_cmpeq_epi64_mask(hi, _mm512_setzero_si512()), p0, v);
             p1 = _mm512_mask_add_epi64(p1, _mm512_cmpeq_epi64_mask(hi, one), p1, v);
             p2 = _mm512_mask_add_epi64(p2, _mm512_cmpeq_epi64_mask(hi, _mm512_add_epi64(one, one)), p2, v);
+            p3 = _mm512_mask_add_epi64(p3, _mm512_cmpeq_epi64_mask(hi, _mm512_set1_epi64(3)), p3, v);
             oddm[(i - blk) / 8] = odd;
         }
         /* second pass, out of the vector loop (no calls inside it): the
@@ -612,6 +615,8 @@ __attribute__((target("avx512f,avx512dq"))) static void put_golden_avx512(rt_sha
                 (uint64_t)_mm512_reduce_add_epi64(_mm512_and_si512(_mm512_srli_epi64(p1, 8 * (unsigned)fld), m8));
             cnt[16 + fld] +=
                 (uint64_t)_mm512_reduce_add_epi64(_mm512_and_si512(_mm512_srli_epi64(p2, 8 * (unsigned)fld), m8));
+            cnt[24 + fld] +=
+                (uint64_t)_mm512_reduce_add_epi64(_mm512_and_si512(_mm512_srli_epi64(p3, 8 * (unsigned)fld), m8));
         }
     }
     for (int k = 0; k < RT_NCLASS; k++)

@@ -5,7 +5,7 @@
 #include <string.h>
 
 static const char *const class_names[RT_NCLASS] = {
-    "node", "index", "tri", "shade", "ray", "queue", "qtable", "hit", "stream", "fb",
+    "node", "index", "tri", "shade", "ray", "queue", "qtable", "hit", "stream", "fb", "tlas", "inst", "alpha",
 };
 
 const char *rt_class_name(int cls)
@@ -24,6 +24,7 @@ rt_group rt_class_group(int cls)
 {
     switch (cls) {
     case RT_CLS_NODE: case RT_CLS_INDEX: case RT_CLS_TRI: case RT_CLS_SHADE:
+    case RT_CLS_TLAS: case RT_CLS_INST: case RT_CLS_ALPHA:
         return RT_GROUP_GEOMETRY;
     case RT_CLS_RAY: case RT_CLS_QUEUE: case RT_CLS_QTABLE: case RT_CLS_HIT: case RT_CLS_STREAM:
         return RT_GROUP_RAY;

@@ -28,7 +28,8 @@
  * untraced path costs (almost) nothing.
  *
  * Classes group into the paper's two columns: geometry (nodes, index lists,
- * triangles, shading data) and ray (ray records, queues, queue table, hit
+ * triangles, shading data, top-level nodes, instance records, alpha
+ * texels) and ray (ray records, queues, queue table, hit
  * records, stream buffers); the framebuffer is "other".
  */
 #ifndef RT_MEMMODEL_H
@@ -50,8 +51,18 @@ typedef enum rt_class {
     RT_CLS_HIT = 7,    /* hit records */
     RT_CLS_STREAM = 8, /* stream / ping-pong buffers of later tracers */
     RT_CLS_FB = 9,     /* framebuffer */
-    RT_NCLASS = 10
+    RT_CLS_TLAS = 10,  /* top-level (instance) BVH nodes */
+    RT_CLS_INST = 11,  /* instance records and transforms */
+    RT_CLS_ALPHA = 12, /* alpha-texture texels read by the any-hit cutout */
+    RT_NCLASS = 13
 } rt_class;
+
+/* The classes every trace and side payload stores: the first ten, the
+ * only ones before tlas, inst and alpha were added. A trace whose
+ * references are all of these classes is byte for byte what it was with
+ * ten classes; the footer (src/trace.c) and a sample-index side payload
+ * (cachesim/sindex.c) store more only when a later class is used. */
+#define RT_NCLASS_BASE 10
 
 typedef enum rt_group {
     RT_GROUP_GEOMETRY = 0,

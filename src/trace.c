@@ -32,7 +32,8 @@
  *            magic "RTSM", the index and n of its chunk, and a payload
  *            (below) of at most side_bound(n) bytes
  *   footer   "RTND"                   footer magic
- *            u32 nclass               10 (RT_NCLASS)
+ *            u32 nclass               10..13: 10 (RT_NCLASS_BASE), or the
+ *                                     highest class referenced + 1
  *            u64 nrefs, u64 nchunks
  *            nclass x (u64 refs, u64 bytes, u64 writes)
  *            u32 CRC-32               of the footer bytes before it
@@ -75,7 +76,8 @@
  * SIDE CHUNKS (version 3). The payload of chunk k's side chunk is opaque
  * to the format: bytes a payload maker (rt_tr_payload_ops, trace.h) made
  * from chunk k's records. The format reads one byte of it, byte 0, the
- * flags (bit 0: the last chunk; other bits zero), and bounds its length
+ * flags (bit 0: the last chunk; bit 1 the maker's, telling how many
+ * classes its totals list; other bits zero), and bounds its length
  * by the header's parameters (side_bound). raytraffic's maker is the
  * sample index, cachesim/sindex.c, which documents the rest of the bytes
  * (and docs/trace-format.md). The writer stores what its maker makes;
@@ -155,7 +157,18 @@ static const unsigned char SIDE_MAGIC[4] = {'R', 'T', 'S', 'M'};
 
 #define MAX_HDR_PAYLOAD 65536u
 #define CHUNK_HDR 24u
-#define FOOT_LEN (4u + 4u + 16u + 24u * RT_NCLASS + 4u)
+/* Footer bytes with nc classes: 268 with the base ten, 340 with all 13. */
+#define FOOT_LEN(nc) (4u + 4u + 16u + 24u * (unsigned)(nc) + 4u)
+#define FOOT_MAX FOOT_LEN(RT_NCLASS)
+
+/* Classes a footer stores: the base ten, or up to the highest class with a
+ * reference (so traces of the base classes keep their bytes). */
+static int foot_classes(const rt_tr_totals *t)
+{
+    int nc = RT_NCLASS;
+    while (nc > RT_NCLASS_BASE && t->refs[nc - 1] == 0) nc--;
+    return nc;
+}
 
 /* ---- little-endian helpers ------------------------------------------------ */
 
@@ -283,7 +296,8 @@ static int hg_str(hbuf *h, char *dst, size_t cap)
 
 /* Largest side payload of a chunk of n records: the format's bound, from
  * the header's parameters (trace.h). It is the largest sample index
- * (cachesim/sindex.c) of a chunk: flags, 50 class totals and two counts,
+ * (cachesim/sindex.c) of a chunk: flags, 5 totals per class (at most
+ * RT_NCLASS) and two counts,
  * every record sampled, and the windows that can end in it (they end at
  * least period records apart, so at most n / period + 1, plus the partial
  * one of the last chunk), each with its header and cmax + window records. */
@@ -384,7 +398,7 @@ static int w_flush_chunk(rt_tr_writer *w, int last, rt_err *e)
         const unsigned char *pb = NULL;
         size_t plen = 0;
         if (w->pops->chunk(w->pctx, last, &pb, &plen) < 0) return rt_errf(e, "%s: out of memory", w->path);
-        if (plen < 1 || plen > side_bound(&w->sp, w->nrec) || pb[0] != (last ? 1 : 0))
+        if (plen < 1 || plen > side_bound(&w->sp, w->nrec) || (pb[0] & 1) != (last ? 1 : 0) || pb[0] > 3)
             return rt_errf(e, "%s: chunk %llu: the side payload made (%zu bytes, flags %#x) does not fit the format",
                            w->path, (unsigned long long)w->tot.nchunks, plen, plen ? pb[0] : 0u);
         if (w_deflate(w, SIDE_MAGIC, w->nrec, pb, plen, e) < 0) return -1;
@@ -616,18 +630,20 @@ int rt_tr_finish(rt_tr_writer *w, rt_err *e)
         return -1;
     }
     if (w_flush_chunk(w, 1, e) < 0) goto fail;
-    unsigned char f[FOOT_LEN];
+    unsigned char f[FOOT_MAX];
+    const int nc = foot_classes(&w->tot);
+    const unsigned flen = FOOT_LEN(nc);
     memcpy(f, FOOT_MAGIC, 4);
-    put32(f + 4, RT_NCLASS);
+    put32(f + 4, (uint32_t)nc);
     put64(f + 8, w->tot.nrefs);
     put64(f + 16, w->tot.nchunks);
-    for (int c = 0; c < RT_NCLASS; c++) {
+    for (int c = 0; c < nc; c++) {
         put64(f + 24 + 24 * c, w->tot.refs[c]);
         put64(f + 32 + 24 * c, w->tot.bytes[c]);
         put64(f + 40 + 24 * c, w->tot.writes[c]);
     }
-    put32(f + FOOT_LEN - 4, crc(0, f, FOOT_LEN - 4));
-    if (w_write(w, f, FOOT_LEN, e) < 0) goto fail;
+    put32(f + flen - 4, crc(0, f, flen - 4));
+    if (w_write(w, f, flen, e) < 0) goto fail;
     rt_out *of = w->of;
     w->of = NULL;
     w->f = NULL;
@@ -979,7 +995,7 @@ static int read_side_chunk(rt_tr_reader *r, uint32_t *U)
                       (unsigned long long)idx, m[0], m[1], m[2], m[3]);
     uint32_t C;
     if (read_chunk_bytes(r, 1, U, &C) < 0 || inflate_exact(r, r->sraw, *U, C, "side chunk") < 0) return -1;
-    if (r->sraw[0] > 1)
+    if (r->sraw[0] > 3)
         return r_fail(r, r->chunk_off + CHUNK_HDR, "side chunk %llu: unknown flags %#x", (unsigned long long)idx,
                       r->sraw[0]);
     r->last_seen = r->sraw[0] & 1;
@@ -1009,16 +1025,21 @@ static int check_side(rt_tr_reader *r)
 
 static int read_footer(rt_tr_reader *r)
 {
-    unsigned char f[FOOT_LEN];
+    unsigned char f[FOOT_MAX];
     uint64_t at = r->chunk_off;
     memcpy(f, FOOT_MAGIC, 4);
-    if (r_read(r, f + 4, FOOT_LEN - 4, "the footer") < 0) return -1;
-    if (crc(0, f, FOOT_LEN - 4) != get32(f + FOOT_LEN - 4)) return r_fail(r, at, "footer CRC mismatch");
-    if (get32(f + 4) != RT_NCLASS) return r_fail(r, at + 4, "footer: %u classes, expected %d", get32(f + 4), RT_NCLASS);
+    if (r_read(r, f + 4, 4, "the footer") < 0) return -1;
+    const uint32_t nc = get32(f + 4);
+    if (nc < RT_NCLASS_BASE || nc > RT_NCLASS)
+        return r_fail(r, at + 4, "footer: %u classes, expected %d..%d", nc, RT_NCLASS_BASE, RT_NCLASS);
+    const unsigned flen = FOOT_LEN(nc);
+    if (r_read(r, f + 8, flen - 8, "the footer") < 0) return -1;
+    if (crc(0, f, flen - 4) != get32(f + flen - 4)) return r_fail(r, at, "footer CRC mismatch");
     rt_tr_totals *t = &r->foot;
+    memset(t, 0, sizeof *t);
     t->nrefs = get64(f + 8);
     t->nchunks = get64(f + 16);
-    for (int c = 0; c < RT_NCLASS; c++) {
+    for (unsigned c = 0; c < nc; c++) {
         t->refs[c] = get64(f + 24 + 24 * c);
         t->bytes[c] = get64(f + 32 + 24 * c);
         t->writes[c] = get64(f + 40 + 24 * c);
@@ -1034,6 +1055,8 @@ static int read_footer(rt_tr_reader *r)
     for (int c = 0; c < RT_NCLASS && (r->mode != RM_SIDE || r->tallied); c++)
         if (t->refs[c] != r->got.refs[c] || t->bytes[c] != r->got.bytes[c] || t->writes[c] != r->got.writes[c])
             return r_fail(r, at, "footer totals of class %s do not match the records", rt_class_name(c));
+    if ((int)nc != foot_classes(t)) /* one encoding per trace: no class stored beyond the highest used */
+        return r_fail(r, at + 4, "footer: %u classes stored, the highest referenced needs %d", nc, foot_classes(t));
     int ch = fgetc(r->f);
     if (ch != EOF) {
         uint64_t extra = r->fsize > r->off ? r->fsize - r->off : 1;

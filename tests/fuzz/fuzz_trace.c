@@ -36,7 +36,7 @@
 #include <zlib.h>
 
 #define CHUNK_HDR 24u
-#define FOOT_LEN (4u + 4u + 16u + 24u * RT_NCLASS + 4u)
+#define FOOT_LEN(nc) (4u + 4u + 16u + 24u * (size_t)(nc) + 4u) /* nc classes, 10..13 */
 
 static uint32_t rd32(const uint8_t *p) { return p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24; }
 static void wr32(uint8_t *p, uint32_t v)
@@ -74,11 +74,15 @@ static size_t rebuild(const uint8_t *in, size_t n, int plain, uint8_t *out, size
         i += CHUNK_HDR + rd32(in + i + 16);
         o += CHUNK_HDR + C;
     }
-    if (i + FOOT_LEN <= n && memcmp(in + i, "RTND", 4) == 0) {
-        memcpy(out + o, in + i, FOOT_LEN - 4);
-        wr32(out + o + FOOT_LEN - 4, crc(0, out + o, FOOT_LEN - 4));
-        i += FOOT_LEN;
-        o += FOOT_LEN;
+    if (i + 8 <= n && memcmp(in + i, "RTND", 4) == 0) {
+        uint32_t nc = rd32(in + i + 4);
+        size_t fl = nc >= RT_NCLASS_BASE && nc <= RT_NCLASS ? FOOT_LEN(nc) : FOOT_LEN(RT_NCLASS_BASE);
+        if (i + fl <= n) {
+            memcpy(out + o, in + i, fl - 4);
+            wr32(out + o + fl - 4, crc(0, out + o, fl - 4));
+            i += fl;
+            o += fl;
+        }
     }
 rest:
     memcpy(out + o, in + i, n - i);
