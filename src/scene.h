@@ -196,6 +196,7 @@ typedef struct rt_scene {
     rt_tri *otri;           /* the objects' triangles in object space (owned) */
     uint32_t nirec;         /* instance records (objects of 3 or more triangles; smaller ones are copied at once) */
     rt_scene_inst *irec;    /* in file order (owned) */
+    struct rt_scene_alpha *alpha; /* alpha textures and their triangles (src/alpha.h; owned), NULL = every hit counts */
 } rt_scene;
 
 void rt_scene_free(rt_scene *s);
