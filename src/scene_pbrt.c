@@ -220,6 +220,7 @@ typedef struct pbrt {
     float *texel;       /* their texels, map after map */
     uint64_t ntexel, ctexel;
     aspan *span;        /* shapes with an alpha texture */
+    int alpha_off;      /* spec parameter alpha=0: alpha textures drawn opaque */
     int nspan, cspan;
     const float *cur_rgb; /* colour and table index of the shape being made */
     uint32_t cur_mat;
@@ -1862,9 +1863,7 @@ static int do_texture(pbrt *P, const token *d)
     rt_esc(q, sizeof q, name, 200);
     texdef td = {-1};
     if (strcmp(type, "float") || strcmp(cls, "imagemap")) {
-        char a[40], b[40];
-        pwarn(P, d, "Texture", "Texture \"%s\" \"%s\" \"%s\" skipped (only float imagemap textures are read, as alpha)",
-              q, rt_esc(a, sizeof a, type, 20), rt_esc(b, sizeof b, cls, 20));
+        pwarn(P, d, "Texture", "Texture skipped (not a float imagemap)");
     } else {
         char fname[4096], enc[32], filt[32], wrap[32], why[200], q2[300];
         double scale;
@@ -2022,6 +2021,10 @@ static int alpha_map_of(pbrt *P, const param *alpha, const char *type, const cha
     if (strcmp(type, "trianglemesh") && strcmp(type, "bilinearmesh")) {
         pwarn(P, tt, "alpha texture shape", "Shape \"%s\": alpha texture \"%s\" ignored, drawn opaque (cutouts on "
               "trianglemesh and bilinearmesh only)", q, qt);
+        return -1;
+    }
+    if (P->alpha_off) {
+        pwarn(P, tt, "alpha off", "Shape \"%s\": alpha texture \"%s\" drawn opaque (the spec parameter alpha=0)", q, qt);
         return -1;
     }
     if (P->in_obj >= 0) {
@@ -3045,19 +3048,20 @@ int rt_scene_fit_film(rt_scene *s, int W, int H, rt_err *e)
 
 /* tess=N,maxtri=N,maxsubdiv=N */
 static int parse_spec(const char *path, const char *params, int *tess, uint32_t *maxtri, uint32_t *maxsubdiv,
-                      rt_err *e)
+                      int *alpha, rt_err *e)
 {
     *tess = 3;
+    *alpha = 1;
     *maxtri = DEFAULT_MAXTRI;
     *maxsubdiv = DEFAULT_MAXSUBDIV;
-    int seen_t = 0, seen_m = 0, seen_s = 0;
+    int seen_t = 0, seen_m = 0, seen_s = 0, seen_a = 0;
     const char *p = params ? params : "";
     while (*p) {
         const char *end = strchr(p, ',');
         size_t len = end ? (size_t)(end - p) : strlen(p);
         char item[64], *q;
         if (len == 0 || len >= sizeof item)
-            return rt_errf(e, "%s: bad parameter list '%.60s' (known: tess, maxtri, maxsubdiv)", path, params);
+            return rt_errf(e, "%s: bad parameter list '%.60s' (known: tess, maxtri, maxsubdiv, alpha)", path, params);
         memcpy(item, p, len);
         item[len] = 0;
         char *eq = strchr(item, '=');
@@ -3080,9 +3084,13 @@ static int parse_spec(const char *path, const char *params, int *tess, uint32_t 
             if (!ok || v < 1 || v > (long long)(UINT32_MAX / 2))
                 return rt_errf(e, "%s: maxsubdiv=%s out of range 1..%u", path, eq + 1, (unsigned)(UINT32_MAX / 2));
             *maxsubdiv = (uint32_t)v;
+        } else if (!strcmp(item, "alpha")) {
+            if (seen_a++) return rt_errf(e, "%s: parameter 'alpha' given twice", path);
+            if (!ok || v < 0 || v > 1) return rt_errf(e, "%s: alpha=%s is not 0 or 1", path, eq + 1);
+            *alpha = (int)v;
         } else {
             char q2[80];
-            return rt_errf(e, "%s: unknown parameter '%s' (known for .pbrt files: tess, maxtri, maxsubdiv, material)", path,
+            return rt_errf(e, "%s: unknown parameter '%s' (known for .pbrt files: tess, maxtri, maxsubdiv, alpha, material)", path,
                            rt_esc(q2, sizeof q2, item, 40));
         }
         p = end ? end + 1 : p + len;
@@ -3095,19 +3103,20 @@ rt_scene *rt_scene_load_pbrt(const char *path, const char *params, rt_err *e)
 {
     pbrt *P = rt_calloc(1, sizeof *P, e);
     if (!P) return NULL;
-    int rc = -1, tess;
+    int rc = -1, tess, alpha_on;
     uint32_t maxtri, maxsubdiv;
     P->e = e;
     P->in_obj = -1;
     P->fov = 90;
-    if (parse_spec(path, params, &tess, &maxtri, &maxsubdiv, e) < 0) goto done;
+    if (parse_spec(path, params, &tess, &maxtri, &maxsubdiv, &alpha_on, e) < 0) goto done;
+    P->alpha_off = !alpha_on;
     P->tess = tess;
     P->maxtri = maxtri;
     P->maxsubdiv = maxsubdiv;
     if (!(P->s = rt_scene_new(0, e))) goto done;
     const char *base = strrchr(path, '/');
     snprintf(P->s->name, sizeof P->s->name, "%s", base ? base + 1 : path);
-    snprintf(P->s->params, sizeof P->s->params, "tess=%d", tess);
+    snprintf(P->s->params, sizeof P->s->params, "tess=%d%s", tess, alpha_on ? "" : ",alpha=0");
     /* the top file */
     int fd;
     struct stat st;
