@@ -201,6 +201,7 @@ void rt_bvh_default_params(rt_bvh_params *p, int width)
     p->max_leaf = 4;
     p->trav_cost = 1.0f;
     p->isect_cost = 1.0f;
+    p->share_tris = -1;
 }
 
 uint32_t rt_bvh_node_size(int width)
@@ -285,6 +286,7 @@ static double barea(const rt_bounds *b)
 typedef struct build {
     const rt_bvh_params *p;
     prim *pr, *tmp;   /* prims and the partition's scratch */
+    uint32_t *idx;    /* after the tree is built: pr[i].idx alone (pr compacted in place) */
     bnode *bn;        /* binary nodes, root 0, children in pairs */
     uint32_t nb;      /* used */
     uint32_t nleaves; /* binary leaves */
@@ -504,10 +506,10 @@ typedef struct emit {
 static void emit_leaf_tris(emit *E, const bnode *nd)
 {
     for (uint32_t k = 0; k < nd->n; k++) {
-        const uint32_t idx = E->B->pr[nd->a + k].idx;
-        E->b->tri[E->tpos] = E->s->tri[idx];
+        const uint32_t idx = E->B->idx[nd->a + k];
+        if (E->b->tri) E->b->tri[E->tpos] = E->s->tri[idx];
         E->b->orig[E->tpos] = idx;
-        if (rt_isect_degenerate(&E->b->tri[E->tpos])) E->b->degen[E->tpos >> 5] |= 1u << (E->tpos & 31);
+        if (rt_isect_degenerate(&E->s->tri[idx])) E->b->degen[E->tpos >> 5] |= 1u << (E->tpos & 31);
         E->tpos++;
     }
 }
@@ -660,6 +662,26 @@ static void host8(const rt_bvh8_node *o, rt_bvh8_host *h)
     }
 }
 
+/* The wide nodes emit_wide makes (the same collapse, nothing stored), so
+ * the node arrays are allocated at their size. */
+static uint32_t count_wide(const bnode *bn, int W)
+{
+    uint32_t st[8 * (RT_BVH_MAX_DEPTH + 4)];
+    int sp = 0;
+    uint32_t nw = 1;
+    st[sp++] = 0;
+    while (sp > 0) {
+        uint32_t kids[8];
+        const int k = collapse(bn, st[--sp], W, kids);
+        for (int s = 0; s < k; s++)
+            if (!bn[kids[s]].n) {
+                nw++;
+                st[sp++] = kids[s];
+            }
+    }
+    return nw;
+}
+
 static int emit_wide(emit *E, rt_err *e)
 {
     const bnode *bn = E->B->bn;
@@ -722,7 +744,6 @@ static int emit_wide(emit *E, rt_err *e)
             }
             const rt_bounds P = it.node == 0 ? b->bounds : bn[it.bnode].box;
             quantize(o, &P, kb, k);
-            host8(o, &b->h8[it.node]);
         }
         for (int s = k; s-- > 0;)
             if (!bn[kids[s]].n) st[sp++] = (item){kids[s], child[s], it.depth + 1};
@@ -811,10 +832,16 @@ rt_bvh *rt_bvh_build(const rt_scene *s, const rt_bvh_params *params, rt_err *e)
     build B;
     memset(&B, 0, sizeof B);
     B.p = params;
-    b->tri = rt_calloc_aligned(N ? N : 1, sizeof *b->tri, 64, e);
+    /* Peak memory (docs/performance.md "Scale"): the arrays the walk keeps
+     * are made when the builder's temporaries they outlive are gone or
+     * compacted -- the triangle copy (when not shared) after the tree is
+     * built, the bvh8 host copy after the binary nodes are freed. */
+    const int share = params->share_tris < 0 ? N >= RT_BVH_SHARE_MIN : params->share_tris != 0;
+    b->stri = s->tri;
     b->orig = rt_calloc(N ? N : 1, sizeof *b->orig, e);
     b->degen = rt_calloc(N / 32 + 1, sizeof *b->degen, e);
-    if (!b->tri || !b->orig || !b->degen) goto fail;
+    if (!b->orig || !b->degen) goto fail;
+    if (N == 0 && !share && !(b->tri = rt_calloc_aligned(1, sizeof *b->tri, 64, e))) goto fail;
     if (N == 0) {
         b->build_sec = rt_now() - t0;
         return b;
@@ -840,6 +867,18 @@ rt_bvh *rt_bvh_build(const rt_scene *s, const rt_bvh_params *params, rt_err *e)
     build_tree(&B, &root);
     free(B.tmp);
     B.tmp = NULL;
+    /* the prims' scene indices alone, in place (4 of their 32 bytes) */
+    B.idx = (uint32_t *)(void *)B.pr;
+    for (uint32_t i = 0; i < N; i++) {
+        const uint32_t x = B.pr[i].idx;
+        B.idx[i] = x;
+    }
+    B.pr = NULL;
+    {
+        uint32_t *ni = realloc(B.idx, (size_t)N * sizeof *ni);
+        if (ni) B.idx = ni;
+    }
+    if (!share && !(b->tri = rt_calloc_aligned(N, sizeof *b->tri, 64, e))) goto fail;
 
     emit E = {&B, b, 0, s};
     if (W == 2) {
@@ -847,25 +886,33 @@ rt_bvh *rt_bvh_build(const rt_scene *s, const rt_bvh_params *params, rt_err *e)
         if (!b->n2) goto fail;
         emit2(&E);
     } else {
-        const uint32_t cap = B.ninner ? B.ninner : 1;
+        const uint32_t cap = count_wide(B.bn, W);
         if (W == 4) {
             b->n4 = rt_calloc_aligned(cap, sizeof *b->n4, 64, e);
             if (!b->n4) goto fail;
         } else {
             b->n8 = rt_calloc(cap, sizeof *b->n8, e);
-            b->h8 = rt_calloc_aligned(cap, sizeof *b->h8, 64, e);
-            if (!b->n8 || !b->h8) goto fail;
+            if (!b->n8) goto fail;
         }
         if (emit_wide(&E, e) < 0) goto fail;
+        RT_ASSERT(b->nnodes == cap);
     }
-    free(B.pr);
+    free(B.idx);
     free(B.bn);
+    B.idx = NULL;
+    B.bn = NULL;
+    if (W == 8) {
+        b->h8 = rt_calloc_aligned(b->nnodes ? b->nnodes : 1, sizeof *b->h8, 64, e);
+        if (!b->h8) goto fail;
+        for (uint32_t i = 0; i < b->nnodes; i++) host8(&b->n8[i], &b->h8[i]);
+    }
     b->sah = sah_cost(b, params->trav_cost, params->isect_cost);
     b->build_sec = rt_now() - t0;
     return b;
 fail:
     free(B.pr);
     free(B.tmp);
+    free(B.idx);
     free(B.bn);
     rt_bvh_free(b);
     return NULL;
@@ -937,7 +984,7 @@ static int chk_leaf(chk *C, uint32_t where, uint32_t first, uint32_t n, uint32_t
     for (uint32_t k = first; k < first + n; k++) {
         if (C->covered[k]++)
             return rt_errf(C->e, "bvh%d: triangle record %u is in two leaves", b->width, k);
-        const rt_bounds tb = tri_box(&b->tri[k], b->pad);
+        const rt_bounds tb = tri_box(rt_bvh_tri(b, k), b->pad);
         if (box && !box_inside(&tb, box))
             return rt_errf(C->e, "bvh%d: node %u: triangle %u pokes out of its leaf's box", b->width, where, b->orig[k]);
         if (exact) rt_bounds_union(exact, &tb);
@@ -1136,7 +1183,7 @@ static int check_wide(chk *C)
                 if (inner) ex = C->nbox[(uint32_t)c];
                 else
                     for (uint32_t k = rt_bvh4_first(c); k < rt_bvh4_first(c) + rt_bvh4_count(c); k++) {
-                        const rt_bounds tb = tri_box(&b->tri[k], b->pad);
+                        const rt_bounds tb = tri_box(rt_bvh_tri(b, k), b->pad);
                         rt_bounds_union(&ex, &tb);
                     }
                 for (int a = 0; a < 3; a++) {
@@ -1150,7 +1197,7 @@ static int check_wide(chk *C)
                 if (inner) ex = C->nbox[n->child_base + bits_below(n->imask, s)];
                 else
                     for (uint32_t k = n->tri_base + (n->meta[s] & 31u); k < n->tri_base + (n->meta[s] & 31u) + (n->meta[s] >> 5u); k++) {
-                        const rt_bounds tb = tri_box(&b->tri[k], b->pad);
+                        const rt_bounds tb = tri_box(rt_bvh_tri(b, k), b->pad);
                         rt_bounds_union(&ex, &tb);
                     }
                 for (int a = 0; a < 3; a++) {
@@ -1229,13 +1276,13 @@ int rt_bvh_check(const rt_bvh *b, const rt_scene *s, rt_err *e)
             rt_errf(e, "bvh%d: record %u names triangle %u twice or out of range", W, i, o);
             goto out;
         }
-        if (memcmp(&b->tri[i], &s->tri[o], sizeof(rt_tri)) != 0) {
+        if (b->tri && memcmp(&b->tri[i], &s->tri[o], sizeof(rt_tri)) != 0) {
             rt_errf(e, "bvh%d: record %u differs from scene triangle %u", W, i, o);
             goto out;
         }
-        if (rt_bvh_degenerate(b->degen, i) != rt_isect_degenerate(&b->tri[i])) {
+        if (rt_bvh_degenerate(b->degen, i) != rt_isect_degenerate(&s->tri[o])) {
             rt_errf(e, "bvh%d: record %u: degenerate flag %d, the triangle's %d", W, i, rt_bvh_degenerate(b->degen, i),
-                    rt_isect_degenerate(&b->tri[i]));
+                    rt_isect_degenerate(&s->tri[o]));
             goto out;
         }
     }

@@ -169,7 +169,13 @@ typedef struct rt_bvh_params {
     int max_leaf;     /* most triangles per leaf: 1..RT_BVH_MAX_LEAF (bvh8: 1..4); default 4 */
     float trav_cost;  /* SAH cost of visiting a node: 1 */
     float isect_cost; /* SAH cost of one triangle test: 1 */
+    int share_tris;   /* 1: no copy of the triangles in leaf order, leaves read the scene's through orig;
+                         0: the copy; -1 (default): shared from RT_BVH_SHARE_MIN triangles on */
 } rt_bvh_params;
+
+/* Scenes of this many triangles or more share the scene's triangle array
+ * by default (36 bytes per triangle less, one indirection per test). */
+#define RT_BVH_SHARE_MIN (1u << 20)
 
 /* Defaults for a width (2, 4 or 8). */
 void rt_bvh_default_params(rt_bvh_params *p, int width);
@@ -183,8 +189,10 @@ typedef struct rt_bvh {
     rt_bvh8_node *n8;       /* width 8: the modeled nodes */
     rt_bvh8_host *h8;       /* width 8: the host copy, one per node */
     uint32_t ntri;          /* triangles (the scene's) */
-    rt_tri *tri;            /* triangles in leaf order */
-    uint32_t *orig;         /* orig[i]: scene index of tri[i] */
+    rt_tri *tri;            /* triangles in leaf order; NULL when shared (rt_bvh_params.share_tris):
+                               record i is then stri[orig[i]] (rt_bvh_tri) */
+    const rt_tri *stri;     /* the scene's triangles (not owned; the scene outlives the tree) */
+    uint32_t *orig;         /* orig[i]: scene index of record i */
     uint32_t *degen;        /* bit i: tri[i] is degenerate (rt_isect_degenerate), so it never
                                hits: tested once at build, not on every hit (host only, not modeled) */
     rt_bounds bounds;       /* of all triangles (the root's box) */
@@ -201,6 +209,9 @@ typedef struct rt_bvh {
                                made the AVX copy; clearing it selects the SSE2 walk, with the
                                same results) */
 } rt_bvh;
+
+/* Triangle record i (leaf order): the copy, or the scene's triangle. */
+static inline const rt_tri *rt_bvh_tri(const rt_bvh *b, uint32_t i) { return b->tri ? &b->tri[i] : &b->stri[b->orig[i]]; }
 
 /* 1 when record i (leaf order) is a degenerate triangle, from a tree's
  * degen bits. */

@@ -170,7 +170,8 @@ typedef struct wstate {
     /* the tree's arrays and the marks, held here: a store through mark
      * (a char pointer) would otherwise force them to be reloaded from the
      * tree and the traversal state after every triangle */
-    const rt_tri *tri;
+    const rt_tri *tri;  /* the tree's copy in leaf order, or NULL: stri[orig[k]] */
+    const rt_tri *stri; /* the scene's triangles */
     const uint32_t *orig, *degen;
     uint8_t *mark;
     uint8_t mark_bit;
@@ -192,10 +193,11 @@ static RT_ALWAYS_INLINE int leaf_tris(const rt_ray *r, uint32_t first, uint32_t 
         if (S->mark) S->mark[o] |= S->mark_bit;
         RT_REC(S->rec, S->tri_base + 36ull * k, 36, 0, RT_CLS_TRI);
         float t, u, v;
+        const rt_tri *T = S->tri ? &S->tri[k] : &S->stri[o];
 #if defined(__SSE2__)
-        if (!rt_isect_core_nd_sse(&S->iq, r, &S->tri[k], &t, &u, &v)) continue;
+        if (!rt_isect_core_nd_sse(&S->iq, r, T, &t, &u, &v)) continue;
 #else
-        if (!rt_isect_core_nd(r, &S->tri[k], &t, &u, &v)) continue;
+        if (!rt_isect_core_nd(r, T, &t, &u, &v)) continue;
 #endif
         if (rt_bvh_degenerate(S->degen, k)) continue;
         if (any) {
@@ -241,6 +243,7 @@ static RT_ALWAYS_INLINE void wstate_init(wstate *S, const rt_bvh_trav *tv, const
     S->nvisit = S->ntest = 0;
     S->tri_base = tv->rec ? tv->L->r[tv->reg_tri].base : 0;
     S->tri = tv->bvh->tri;
+    S->stri = tv->bvh->stri;
     S->orig = tv->bvh->orig;
     S->degen = tv->bvh->degen;
     S->mark = tv->mark;

@@ -417,10 +417,10 @@ typedef struct walk {
     int found;
 } walk;
 
-#define REC_NODE(tv, reg, i, sz)                                                                                       \
+#define REC_NODE(tv, reg, i, sz, cls)                                                                                  \
     do {                                                                                                               \
         if ((tv)->rec && (reg) >= 0)                                                                                   \
-            RT_REC((tv)->rec, rt_mm_addr((tv)->L, (reg), (i)), (sz), 0, RT_CLS_NODE);                                  \
+            RT_REC((tv)->rec, rt_mm_addr((tv)->L, (reg), (i)), (sz), 0, (cls));                                        \
     } while (0)
 
 /* Walks the bottom-level tree of instance k with the ray in object space. */
@@ -431,7 +431,7 @@ static void walk_blas(walk *W, uint32_t k) {
     const rt_inst_blas *bl = &I->blas[q->blas];
     const rt_ray *r = W->r;
     tv->nodes++; /* entering an instance is a step of the walk: its record is read */
-    REC_NODE(tv, tv->reg_inst, k, RT_INST_RECSIZE);
+    REC_NODE(tv, tv->reg_inst, k, RT_INST_RECSIZE, RT_CLS_INST);
     float o[3], d[3], inv[3];
     const float wo[3] = {r->o.x, r->o.y, r->o.z}, wd[3] = {r->d.x, r->d.y, r->d.z};
     if (q->identity) {
@@ -452,7 +452,7 @@ static void walk_blas(walk *W, uint32_t k) {
     for (;;) {
         const rt_bvh2_node *n = &I->bnode[cur];
         tv->nodes++;
-        REC_NODE(tv, tv->reg_node, cur, 32);
+        REC_NODE(tv, tv->reg_node, cur, 32, RT_CLS_NODE);
         float t1 = W->best.t;
         t1 = t1 * (1.0f + 1e-3f) + 1e-6f; /* widened: rounding of the transformed ray only visits more */
         if (slab(n->lo, n->hi, o, inv, -1e-6f - fabsf(r->tmin) * 1e-3f + r->tmin, t1)) {
@@ -513,7 +513,7 @@ static void walk_tlas(walk *W) {
     for (;;) {
         const rt_bvh2_node *n = &I->tnode[cur];
         tv->nodes++;
-        REC_NODE(tv, tv->reg_top, cur, 32);
+        REC_NODE(tv, tv->reg_top, cur, 32, RT_CLS_TLAS);
         if (slab(n->lo, n->hi, o, inv, r->tmin - 1e-6f - fabsf(r->tmin) * 1e-3f, W->best.t * (1.0f + 1e-3f) + 1e-6f)) {
             if (n->ntri) {
                 for (uint32_t j = n->offset; j < n->offset + n->ntri; j++) {
@@ -739,8 +739,8 @@ static void inst_free(void *as) { rt_inst_free(as); }
 static int inst_regions(const void *as, const rt_scene *sc, rt_layout *L, rt_err *e) {
     const rt_inst *I = as;
     (void)sc;
-    if (rt_mm_add(L, "tlas.node", RT_CLS_NODE, 32, I->ntnode ? I->ntnode : 1, e) < 0 ||
-        rt_mm_add(L, "inst", RT_CLS_NODE, RT_INST_RECSIZE, I->ninst ? I->ninst : 1, e) < 0 ||
+    if (rt_mm_add(L, "tlas.node", RT_CLS_TLAS, 32, I->ntnode ? I->ntnode : 1, e) < 0 ||
+        rt_mm_add(L, "inst", RT_CLS_INST, RT_INST_RECSIZE, I->ninst ? I->ninst : 1, e) < 0 ||
         rt_mm_add(L, "blas.node", RT_CLS_NODE, 32, I->nbnode ? I->nbnode : 1, e) < 0 ||
         rt_mm_add(L, "blas.tri", RT_CLS_TRI, 36, I->nbtri ? I->nbtri : 1, e) < 0)
         return -1;

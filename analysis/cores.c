@@ -8,7 +8,8 @@
  * traffic rows: what reaches memory below the shared level) with one row
  * per core count and one column per tracer, then each tracer's reduction
  * against the recursive tracer on the same structure (its default, or the
- * one named in the column) at the same core count, 100 (1 - T / R) %;
+ * one named in the column) at the same core count, 100 (R / T - 1) %
+ * (rt_report_reduction, the paper's formula);
  * (a tracer on another structure than its default is its own column,
  * "recursive/bvh4") and the shared level's miss rate (misses / accesses of level 2, all
  * classes). With a plot folder: DIR/cores-SCENE.png, DRAM traffic against
@@ -141,7 +142,7 @@ int rt_report_cores(sqlite3 *h, const char *dbpath, const char *scene, int csv, 
     else
         fprintf(out, "# Many cores sharing the last level\n\nDatabase: %s. DRAM traffic in MB below the shared level "
                      "(its LRU, fully associative, 64-byte lines) against the number of cores, each with the private "
-                     "level named; reduction = 100 (1 - tracer / recursive) at the same core count, against the recursive tracer on the same structure; shared miss rate = "
+                     "level named; reduction = 100 (recursive / tracer - 1), the paper's formula, at the same core count, against the recursive tracer on the same structure; shared miss rate = "
                      "misses / accesses of the shared level.\n", dbpath);
     rc = 0;
     for (int i = 0; i < ng && rc == 0; i++) {

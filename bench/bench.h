@@ -185,4 +185,18 @@ int rt_threads_bench(FILE *out, rt_scene *sc, const rt_render_opts *base, const 
 int rt_cores_bench(FILE *out, rt_scene *sc, const rt_render_opts *base, const char *tracer, const char *hierarchy,
                    int reps, rt_err *e);
 
+/* ---- scenes at scale (scale_bench.c) -------------------------------------- */
+
+/* A closed bumpy torus of 2 x rows x cols triangles as a binary PLY. */
+int rt_scale_write_mesh(const char *path, int rows, int cols, rt_err *e);
+/* dir/tree0.ply .. tree<variants-1>.ply (a crown of rows x cols vertices and
+ * a trunk) and dir/forest.pbrt instancing them on a grid x grid field;
+ * the unique and instanced triangle counts. 0, or -1 with e set. */
+int rt_scale_write_forest(const char *dir, int variants, int rows, int cols, int grid, uint64_t *unique,
+                          uint64_t *instanced, rt_err *e);
+/* Writes both scenes under tmpdir (full size, or tiny when quick), renders
+ * each in a child process and prints a Markdown table of peak RSS and wall
+ * time to out. 0, or -1 with e set (a failing child's output printed). */
+int rt_scale_bench(FILE *out, const char *tmpdir, int quick, rt_err *e);
+
 #endif

@@ -1,43 +1,61 @@
-/* mcore.c -- many cores sharing a cache hierarchy (see mcore.h). */
+/* mcore.c -- many cores sharing a cache hierarchy (see mcore.h).
+ *
+ * Each private level of each core is one set-associative cache of
+ * setassoc.c (rt_sa: every replacement policy, touched one line at a time
+ * so the model sees each hit and miss); what it sends down goes through a
+ * small sink of this file into the core's next private level or, from the
+ * last, into a buffer of references for the shared levels, one rt_hier
+ * (hier.h) fed in batches. Buffering is exact: under NINE nothing the
+ * shared levels do changes the private ones. */
 #include "mcore.h"
 
-#include <ctype.h>
+#include "engine.h"
+#include "setassoc.h"
+#include "sim_int.h"
+
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 enum { SHBUF = 4096 };
 
-typedef struct way {
-    uint64_t tag;   /* line number + 1; 0 = empty */
-    uint64_t stamp; /* last use (the core's clock); LRU = smallest */
-    uint8_t dirty;
-    uint8_t cls, gen; /* the last write's class and generation (dirty lines) */
-} way;
-
 /* A set of line numbers (open addressing, linear probing, backward-shift
- * deletion): the lines a core lost to another core's write. */
+ * deletion): the lines a core's level lost to another core's write. */
 typedef struct lineset {
     uint64_t *k; /* line + 1; 0 = empty */
     size_t cap, n;
 } lineset;
 
-typedef struct mc_core {
-    way *w;       /* nsets x assoc */
-    uint64_t clock;
+typedef struct mc_below {
+    rt_sink sink; /* what level p of the core sends down */
+    struct rt_mc *m;
+    int core, p;  /* the sending core and level */
+} mc_below;
+
+typedef struct mc_level {
+    rt_sa *sa;
     lineset lost;
-    rt_mc_counts c[RT_NCLASS];
-    uint64_t fetches[RT_NCLASS];
+    mc_below below;
+    uint64_t coh[RT_SIM_NCG]; /* coherence misses */
+    uint64_t cwb[RT_SIM_NCG]; /* coherence write-backs (last private level only) */
+    uint64_t inv[RT_SIM_NCG]; /* invalidations, by the invalidating write's index */
+    uint64_t got;             /* touches that came from the level above (invariant 3) */
+} mc_level;
+
+typedef struct mc_core {
+    mc_level lv[RT_HIER_MAXLEVELS];
+    uint64_t sent; /* lines this core's last private level sent to the shared levels */
 } mc_core;
 
 struct rt_mc {
     rt_mc_config cfg;
-    uint32_t sets, assoc, shift; /* private level geometry; shift = log2(line) */
+    int np;        /* private levels */
+    uint32_t line; /* their line size */
     mc_core *cores;
-    rt_sim *sh;
-    rt_access buf[SHBUF]; /* pending references to the shared level */
+    rt_hier *sh;
+    rt_access buf[SHBUF]; /* pending references to the shared levels */
     size_t nbuf;
-    uint64_t sent;        /* references handed to the shared level */
+    uint64_t sent; /* references handed to the shared levels */
     uint64_t refs;
     rt_sink sink;
     rt_csink csink;
@@ -95,7 +113,6 @@ static int ls_take(lineset *s, uint64_t line)
     size_t j = (size_t)mix(key) & m;
     while (s->k[j] && s->k[j] != key) j = (j + 1) & m;
     if (!s->k[j]) return 0;
-    /* backward shift: later entries of the run move up into the hole */
     size_t hole = j;
     for (size_t i = (j + 1) & m; s->k[i]; i = (i + 1) & m) {
         size_t home = (size_t)mix(s->k[i]) & m;
@@ -111,263 +128,263 @@ static int ls_take(lineset *s, uint64_t line)
 
 /* ---- configuration ------------------------------------------------------ */
 
-static int pow2(uint64_t v) { return v && !(v & (v - 1)); }
-
-/* One level "NAME=SIZE/WAYS/LINE/REPL[/SCOPE]" (text[0..len)). */
-static int parse_level(const char *text, size_t len, char *name, uint64_t *lo, uint64_t *hi, uint32_t *ways,
-                       uint32_t *line, int *scope, rt_err *e)
+/* Scopes: 1 private, 2 shared, 0 not given. */
+static int set_scopes(rt_mc_config *c, const int *scope, rt_err *e)
 {
-    char b[128], *f[6];
-    if (len >= sizeof b) return rt_errf(e, "--hierarchy: level '%.*s' too long", (int)len, text);
-    memcpy(b, text, len);
-    b[len] = 0;
-    char *eq = strchr(b, '=');
-    if (!eq || eq == b || eq - b >= 16) return rt_errf(e, "--hierarchy: '%s' is not NAME=SIZE/WAYS/LINE/lru[/private|shared]", b);
-    *eq = 0;
-    memcpy(name, b, (size_t)(eq - b) + 1);
-    int nf = 0;
-    for (char *p = eq + 1, *save = NULL, *t = strtok_r(p, "/", &save); t; t = strtok_r(NULL, "/", &save)) {
-        if (nf == 6) break;
-        f[nf++] = t;
+    const rt_hier_config *h = &c->h;
+    const int n = h->nlevels;
+    int sc[RT_HIER_MAXLEVELS];
+    for (int k = 0; k < n; k++)
+        sc[k] = scope[k] ? scope[k] : k == n - 1 ? 2 : k == 0 ? 1 : sc[k - 1];
+    if (h->inclusion != RT_INCL_NINE)
+        return rt_errf(e, "--hierarchy: with cores the hierarchy is non-inclusive (nine), not %s",
+                       rt_hier_inclusion_name(h->inclusion));
+    if (sc[n - 1] != 2) return rt_errf(e, "--hierarchy: the last level, %s, is shared (its traffic is the memory traffic)", h->name[n - 1]);
+    c->nprivate = 0;
+    for (int k = 0; k < n; k++) {
+        if (sc[k] == 1 && k > 0 && sc[k - 1] == 2)
+            return rt_errf(e, "--hierarchy: level %s is private below the shared level %s", h->name[k], h->name[k - 1]);
+        if (sc[k] != 1) continue;
+        const rt_sim_config *l = &h->level[k];
+        if (l->write_through || l->no_write_allocate)
+            return rt_errf(e, "--hierarchy: private level %s: write-back write-allocate only (the coherence is write-back)", h->name[k]);
+        if (l->line != h->level[0].line)
+            return rt_errf(e, "--hierarchy: private levels have one line size (%s: %u, %s: %u)", h->name[0],
+                           h->level[0].line, h->name[k], l->line);
+        c->nprivate++;
     }
-    if (nf < 4 || nf > 5) return rt_errf(e, "--hierarchy: level %s needs SIZE/WAYS/LINE/lru[/private|shared]", name);
-    char *dash = strchr(f[0], '-');
-    if (dash) *dash = 0;
-    if (rt_parse_size(f[0], lo) < 0 || (dash && rt_parse_size(dash + 1, hi) < 0) || !*lo)
-        return rt_errf(e, "--hierarchy: level %s: '%s' is not a size or a range like 1K-4M", name, f[0]);
-    if (!dash) *hi = *lo;
-    if (*hi < *lo || (dash && (!pow2(*lo) || !pow2(*hi))))
-        return rt_errf(e, "--hierarchy: level %s: a size range runs between powers of two, low to high", name);
-    uint64_t v;
-    if (!strcmp(f[1], "full")) *ways = 0;
-    else if (rt_parse_size(f[1], &v) < 0 || !v || v > 65536)
-        return rt_errf(e, "--hierarchy: level %s: ways '%s' is not 1..65536 or full", name, f[1]);
-    else *ways = (uint32_t)v;
-    if (rt_parse_size(f[2], &v) < 0 || !pow2(v) || v > 65536)
-        return rt_errf(e, "--hierarchy: level %s: line '%s' is not a power of two up to 64K", name, f[2]);
-    *line = (uint32_t)v;
-    if (strcmp(f[3], "lru")) return rt_errf(e, "--hierarchy: level %s: replacement '%s': only lru", name, f[3]);
-    *scope = nf == 5 ? (!strcmp(f[4], "private") ? 1 : !strcmp(f[4], "shared") ? 2 : -1) : 0;
-    if (*scope < 0) return rt_errf(e, "--hierarchy: level %s: '%s' is not private or shared", name, f[4]);
     return 0;
 }
 
-int rt_mc_parse(const char *spec, rt_mc_config *c, rt_err *e)
+int rt_mc_parse_base(const char *spec, const rt_sim_config *base, rt_mc_config *c, rt_err *e)
 {
     memset(c, 0, sizeof *c);
-    const char *comma = spec ? strchr(spec, ',') : NULL;
-    if (!comma || strchr(comma + 1, ','))
-        return rt_errf(e, "--hierarchy: '%s': two levels, a private one and a shared one, e.g. "
-                          "L1=32K/8/64/lru/private,LLC=1K-4M/full/64/lru/shared", spec ? spec : "");
-    uint64_t lo[2], hi[2];
-    uint32_t ways[2], line[2];
-    int scope[2];
-    char name[2][16];
-    if (parse_level(spec, (size_t)(comma - spec), name[0], &lo[0], &hi[0], &ways[0], &line[0], &scope[0], e) < 0 ||
-        parse_level(comma + 1, strlen(comma + 1), name[1], &lo[1], &hi[1], &ways[1], &line[1], &scope[1], e) < 0)
-        return -1;
-    if ((scope[0] && scope[0] != 1) || (scope[1] && scope[1] != 2))
-        return rt_errf(e, "--hierarchy: the first level is private, the last shared");
-    if (line[0] != line[1]) return rt_errf(e, "--hierarchy: one line size for both levels (%u, %u)", line[0], line[1]);
-    if (lo[0] != hi[0]) return rt_errf(e, "--hierarchy: the private level %s has one size", name[0]);
-    const uint64_t lines = lo[0] / line[0];
-    if (lo[0] % line[0] || !lines || (ways[0] && lines % ways[0]))
-        return rt_errf(e, "--hierarchy: %s: %llu bytes is not a whole number of %u-way sets of %u-byte lines", name[0],
-                       (unsigned long long)lo[0], ways[0], line[0]);
-    if (ways[1]) return rt_errf(e, "--hierarchy: the shared level %s is fully associative (full) in this model", name[1]);
     c->ncores = 1;
-    snprintf(c->priv_name, sizeof c->priv_name, "%s", name[0]);
-    snprintf(c->shared_name, sizeof c->shared_name, "%s", name[1]);
-    c->priv_size = lo[0];
-    c->priv_assoc = ways[0] == lines ? 0 : ways[0];
-    c->line = line[0];
-    rt_sim_config_default(&c->shared);
-    c->shared.line = line[1];
-    c->shared.nsizes = 0;
-    for (uint64_t s = lo[1]; s <= hi[1]; s *= 2) {
-        if (c->shared.nsizes == RT_SIM_MAXSIZES) return rt_errf(e, "--hierarchy: more than %d shared sizes", RT_SIM_MAXSIZES);
-        c->shared.sizes[c->shared.nsizes++] = s;
-        if (s == hi[1]) break;
+    char buf[1024], out[1024];
+    if (!spec || !*spec || strlen(spec) >= sizeof buf) return rt_errf(e, "--hierarchy: bad spec '%s'", spec ? spec : "");
+    snprintf(buf, sizeof buf, "%s", spec);
+    int scope[RT_HIER_MAXLEVELS + 2] = {0}, nl = 0;
+    size_t at = 0;
+    out[0] = 0;
+    for (char *p = buf, *t; (t = strsep(&p, ","));) {
+        if (strchr(t, '=')) {
+            if (nl == RT_HIER_MAXLEVELS) return rt_errf(e, "--hierarchy: '%s': more than %d levels", spec, RT_HIER_MAXLEVELS);
+            size_t len = strlen(t);
+            if (len > 8 && !strcmp(t + len - 8, "/private")) scope[nl] = 1, t[len - 8] = 0;
+            else if (len > 7 && !strcmp(t + len - 7, "/shared")) scope[nl] = 2, t[len - 7] = 0;
+            nl++;
+        }
+        at += (size_t)snprintf(out + at, sizeof out - at, "%s%s", at ? "," : "", t);
     }
-    return rt_sim_config_check(&c->shared, e);
+    rt_sim_config def;
+    if (!base) rt_sim_config_default(&def);
+    if (rt_hier_parse(out, base ? base : &def, &c->h, e) < 0) {
+        char m[sizeof e->msg];
+        snprintf(m, sizeof m, "%s", e ? e->msg : "");
+        return rt_errf(e, "--hierarchy: %s", m);
+    }
+    return set_scopes(c, scope, e);
 }
 
-/* 32K, 4M, 1G, or the byte count. */
-static void fmt_size(uint64_t v, char *buf, size_t n)
+int rt_mc_parse(const char *spec, rt_mc_config *c, rt_err *e) { return rt_mc_parse_base(spec, NULL, c, e); }
+
+int rt_mc_from_hier(const rt_hier_config *h, rt_mc_config *c, rt_err *e)
 {
-    static const char suf[] = "KMG";
-    int k = -1;
-    while (k < 2 && v >= 1024 && v % 1024 == 0) v /= 1024, k++;
-    if (k < 0) snprintf(buf, n, "%llu", (unsigned long long)v);
-    else snprintf(buf, n, "%llu%c", (unsigned long long)v, suf[k]);
+    memset(c, 0, sizeof *c);
+    c->ncores = 1;
+    c->h = *h;
+    int scope[RT_HIER_MAXLEVELS] = {0};
+    return set_scopes(c, scope, e);
 }
 
 void rt_mc_spec(const rt_mc_config *c, char *buf, size_t n)
 {
-    char ps[32], lo[32], hi[32], ways[16];
-    fmt_size(c->priv_size, ps, sizeof ps);
-    fmt_size(c->shared.sizes[0], lo, sizeof lo);
-    fmt_size(c->shared.sizes[c->shared.nsizes - 1], hi, sizeof hi);
-    if (c->priv_assoc) snprintf(ways, sizeof ways, "%u", c->priv_assoc);
-    else snprintf(ways, sizeof ways, "full");
-    if (c->shared.nsizes > 1)
-        snprintf(buf, n, "%s=%s/%s/%u/lru/private,%s=%s-%s/full/%u/lru/shared", c->priv_name, ps, ways, c->line,
-                 c->shared_name, lo, hi, c->shared.line);
-    else
-        snprintf(buf, n, "%s=%s/%s/%u/lru/private,%s=%s/full/%u/lru/shared", c->priv_name, ps, ways, c->line,
-                 c->shared_name, lo, c->shared.line);
+    char h[1024];
+    rt_hier_spec(&c->h, h, sizeof h);
+    size_t at = 0;
+    int k = 0;
+    buf[0] = 0;
+    for (char *p = h, *t; (t = strsep(&p, ",")) && at < n;) {
+        const int level = strchr(t, '=') != NULL;
+        at += (size_t)snprintf(buf + at, n - at, "%s%s%s", at ? "," : "", t,
+                               !level ? "" : k < c->nprivate ? "/private" : "/shared");
+        k += level;
+    }
+}
+
+void rt_mc_shared_config(const rt_mc_config *c, rt_hier_config *out)
+{
+    memset(out, 0, sizeof *out);
+    out->inclusion = RT_INCL_NINE;
+    for (int k = c->nprivate; k < c->h.nlevels; k++) {
+        memcpy(out->name[out->nlevels], c->h.name[k], sizeof out->name[0]);
+        out->level[out->nlevels++] = c->h.level[k];
+    }
 }
 
 /* ---- the model ------------------------------------------------------------ */
+
+static int below_put(rt_sink *s, const rt_access *a, size_t n);
+
+void rt_mc_free(rt_mc *m)
+{
+    if (!m) return;
+    for (int k = 0; m->cores && k < m->cfg.ncores; k++)
+        for (int p = 0; p < m->np; p++) {
+            rt_sa_free(m->cores[k].lv[p].sa);
+            free(m->cores[k].lv[p].lost.k);
+        }
+    free(m->cores);
+    rt_hier_free(m->sh);
+    free(m);
+}
 
 rt_mc *rt_mc_new(const rt_mc_config *c, rt_err *e)
 {
     if (c->ncores < 1 || c->ncores > RT_MC_MAXCORES)
         return rt_errf(e, "%d cores not in 1..%d", c->ncores, RT_MC_MAXCORES), NULL;
-    if (!pow2(c->line) || c->shared.line != c->line || !c->priv_size || c->priv_size % c->line)
-        return rt_errf(e, "hierarchy: private level of %llu bytes, lines %u and %u", (unsigned long long)c->priv_size,
-                       c->line, c->shared.line), NULL;
-    const uint64_t lines = c->priv_size / c->line;
-    const uint32_t assoc = c->priv_assoc ? c->priv_assoc : (uint32_t)lines;
-    if (lines % assoc || lines > (1u << 24)) return rt_errf(e, "hierarchy: %llu lines in %u ways", (unsigned long long)lines, assoc), NULL;
+    if (c->nprivate < 0 || c->nprivate >= c->h.nlevels)
+        return rt_errf(e, "hierarchy: %d private levels of %d (the last is shared)", c->nprivate, c->h.nlevels), NULL;
     rt_mc *m = rt_calloc(1, sizeof *m, e);
     if (!m) return NULL;
     m->cfg = *c;
-    m->assoc = assoc;
-    m->sets = (uint32_t)(lines / assoc);
-    while ((1u << m->shift) < c->line) m->shift++;
-    m->sink.put = NULL;
+    m->np = c->nprivate;
+    m->line = c->h.level[0].line;
     if (!(m->cores = rt_calloc((size_t)c->ncores, sizeof *m->cores, e))) goto fail;
     for (int k = 0; k < c->ncores; k++)
-        if (!(m->cores[k].w = rt_calloc(lines, sizeof(way), e))) goto fail;
-    if (!(m->sh = rt_sim_new(&c->shared, e))) goto fail;
+        for (int p = 0; p < m->np; p++) {
+            const rt_sim_config *l = &c->h.level[p];
+            mc_level *v = &m->cores[k].lv[p];
+            if (l->nsizes != 1 || l->write_through || l->no_write_allocate || l->line != m->line) {
+                rt_errf(e, "hierarchy: private level %s: one size, write-back write-allocate, line %u", c->h.name[p], m->line);
+                goto fail;
+            }
+            rt_err se = {0};
+            if (rt_sim_config_check(l, &se) < 0 || (l->repl > 0 && !rt_repl_ops_for(l->repl))) {
+                rt_errf(e, "hierarchy: private level %s: %s", c->h.name[p], se.msg[0] ? se.msg : "policy not per-size");
+                goto fail;
+            }
+            if (!(v->sa = rt_sa_new(l->sizes[0], l->line, l->assoc, 0, 0, rt_repl_ops_for(l->repl), l->seed, e))) goto fail;
+            rt_sa_set_fullline(v->sa, l->write_miss_fullline);
+            v->below.sink.put = below_put;
+            v->below.sink.ctx = &v->below;
+            v->below.m = m;
+            v->below.core = k;
+            v->below.p = p;
+            if (rt_sa_set_below(v->sa, &v->below.sink, e) < 0) goto fail;
+        }
+    rt_hier_config sh;
+    rt_mc_shared_config(c, &sh);
+    if (!(m->sh = rt_hier_new(&sh, e))) goto fail;
     return m;
 fail:
     rt_mc_free(m);
     return NULL;
 }
 
-void rt_mc_free(rt_mc *m)
-{
-    if (!m) return;
-    for (int k = 0; m->cores && k < m->cfg.ncores; k++) {
-        free(m->cores[k].w);
-        free(m->cores[k].lost.k);
-    }
-    free(m->cores);
-    rt_sim_free(m->sh);
-    free(m);
-}
-
 static int sh_flush(rt_mc *m)
 {
     if (!m->nbuf) return 0;
-    int rc = rt_sim_put(m->sh, m->buf, m->nbuf);
+    int rc = rt_hier_put(m->sh, m->buf, m->nbuf);
     m->sent += m->nbuf;
     m->nbuf = 0;
+    if (rc < 0) {
+        rt_errf(&m->err, "the shared levels' state could not grow (out of memory)");
+        m->failed = 1;
+    }
     return rc;
 }
 
-static inline int sh_send(rt_mc *m, uint64_t line, int write, unsigned cls, unsigned gen)
+static inline void sh_send(rt_mc *m, const rt_access *a)
 {
-    rt_access *a = &m->buf[m->nbuf++];
-    memset(a, 0, sizeof *a);
-    a->addr = line << m->shift;
-    a->size = m->cfg.line;
-    a->write = (uint8_t)(write ? RT_WRITE_STREAM : 0);
-    a->cls = (uint8_t)cls;
-    a->gen = (uint8_t)gen;
-    return m->nbuf == SHBUF ? sh_flush(m) : 0;
+    m->buf[m->nbuf++] = *a;
+    if (m->nbuf == SHBUF) sh_flush(m);
 }
 
-/* Write-invalidate: every other core drops line (a dirty copy written back). */
-static int invalidate(rt_mc *m, int self, uint64_t line)
-{
-    const uint64_t tag = line + 1;
-    const uint32_t set = (uint32_t)(line % m->sets);
-    for (int k = 0; k < m->cfg.ncores; k++) {
-        if (k == self) continue;
-        mc_core *o = &m->cores[k];
-        way *w = o->w + (size_t)set * m->assoc;
-        for (uint32_t i = 0; i < m->assoc; i++) {
-            if (w[i].tag != tag) continue;
-            if (w[i].dirty) {
-                o->c[w[i].cls].writebacks++;
-                if (sh_send(m, line, 1, w[i].cls, w[i].gen) < 0) return -1;
-            }
-            o->c[w[i].cls].invalidations++;
-            memset(&w[i], 0, sizeof w[i]);
-            if (ls_add(&o->lost, line) < 0) return -1;
-            break;
-        }
-    }
-    return 0;
-}
-
-/* A read miss of core `self`: a copy dirty in another core is written back
- * first (to the shared level, charged to that core) and stays there clean. */
-static int downgrade(rt_mc *m, int self, uint64_t line)
-{
-    const uint64_t tag = line + 1;
-    const uint32_t set = (uint32_t)(line % m->sets);
-    for (int k = 0; k < m->cfg.ncores; k++) {
-        if (k == self) continue;
-        way *w = m->cores[k].w + (size_t)set * m->assoc;
-        for (uint32_t i = 0; i < m->assoc; i++)
-            if (w[i].tag == tag) {
-                if (w[i].dirty) {
-                    m->cores[k].c[w[i].cls].writebacks++;
-                    w[i].dirty = 0;
-                    return sh_send(m, line, 1, w[i].cls, w[i].gen); /* at most one dirty copy */
-                }
-                break;
-            }
-    }
-    return 0;
-}
-
-/* One line touch of core k. */
-static inline int touch(rt_mc *m, int k, uint64_t line, unsigned write, unsigned cls, unsigned gen)
+/* A coherence write-back of core k's line: to the shared levels, charged
+ * to its last private level. */
+static void coh_writeback(rt_mc *m, int k, uint64_t line, unsigned cg)
 {
     mc_core *c = &m->cores[k];
-    rt_mc_counts *cc = &c->c[cls];
-    const uint64_t tag = line + 1, now = ++c->clock;
-    way *w = c->w + (size_t)(line % m->sets) * m->assoc, *victim = w;
-    cc->accesses++;
-    for (uint32_t i = 0; i < m->assoc; i++) {
-        if (w[i].tag == tag) {
-            w[i].stamp = now;
-            if (write) {
-                w[i].dirty = 1;
-                w[i].cls = (uint8_t)cls;
-                w[i].gen = (uint8_t)gen;
-                if (m->cfg.ncores > 1) return invalidate(m, k, line);
-            }
-            return 0;
+    c->lv[m->np - 1].cwb[cg]++;
+    c->sent++;
+    rt_access a;
+    memset(&a, 0, sizeof a);
+    a.addr = line * m->line;
+    a.size = m->line;
+    a.write = 1;
+    a.cls = (uint8_t)(cg % RT_NCLASS);
+    a.gen = (uint8_t)(cg / RT_NCLASS);
+    sh_send(m, &a);
+}
+
+/* Write-invalidate: every other core drops line from each private level
+ * (one write-back when a copy was dirty). cg: the invalidating write's. */
+static int invalidate(rt_mc *m, int self, uint64_t line, unsigned cg)
+{
+    for (int k = 0; k < m->cfg.ncores; k++) {
+        if (k == self) continue;
+        mc_core *c = &m->cores[k];
+        int dirty = 0;
+        unsigned dcg = 0;
+        for (int p = 0; p < m->np; p++) {
+            unsigned w = 0;
+            int r = rt_sa_drop(c->lv[p].sa, line, &w);
+            if (!r) continue;
+            c->lv[p].inv[cg]++;
+            if (ls_add(&c->lv[p].lost, line) < 0) return -1;
+            if (r == 2 && !dirty) dirty = 1, dcg = w; /* the innermost dirty copy is the newest */
         }
-        if (w[i].stamp < victim->stamp) victim = &w[i]; /* empty ways (stamp 0) first */
+        if (dirty) coh_writeback(m, k, line, dcg);
     }
-    cc->misses++;
-    if (c->lost.n && ls_take(&c->lost, line)) cc->coherence_misses++;
-    /* the order the shared level sees (mcore.h): the other cores' write-backs
-     * (invalidation or downgrade), the victim's, then the fetch */
-    if (write && m->cfg.ncores > 1 && invalidate(m, k, line) < 0) return -1;
-    if (!write && m->cfg.ncores > 1 && downgrade(m, k, line) < 0) return -1;
-    if (victim->tag && victim->dirty) {
-        c->c[victim->cls].writebacks++;
-        if (sh_send(m, victim->tag - 1, 1, victim->cls, victim->gen) < 0) return -1;
-    }
-    if (write == RT_WRITE_STREAM) cc->nofetch++;
-    else {
-        c->fetches[cls]++;
-        if (sh_send(m, line, 0, cls, gen) < 0) return -1;
-    }
-    victim->tag = tag;
-    victim->stamp = now;
-    victim->dirty = write != 0;
-    victim->cls = (uint8_t)cls;
-    victim->gen = (uint8_t)gen;
     return 0;
+}
+
+/* A read miss of core `self`: the other core holding line dirty writes it
+ * back and keeps it clean. */
+static void downgrade(rt_mc *m, int self, uint64_t line)
+{
+    for (int k = 0; k < m->cfg.ncores; k++) {
+        if (k == self) continue;
+        mc_core *c = &m->cores[k];
+        int dirty = 0;
+        unsigned dcg = 0;
+        for (int p = 0; p < m->np; p++) {
+            unsigned w = 0;
+            if (rt_sa_clean(c->lv[p].sa, line, &w) && !dirty) dirty = 1, dcg = w;
+        }
+        if (dirty) {
+            coh_writeback(m, k, line, dcg);
+            return; /* at most one core holds it dirty (invariant 2) */
+        }
+    }
+}
+
+/* One touch of line at private level p of core k. */
+static inline void ptouch(rt_mc *m, int k, int p, uint64_t line, int write, unsigned cg, uint32_t bytes, uint64_t lo)
+{
+    mc_level *v = &m->cores[k].lv[p];
+    if (!rt_sa_touch(v->sa, line, write, cg, bytes, lo)) {
+        if (v->lost.n && ls_take(&v->lost, line)) v->coh[cg]++;
+        if (p == 0 && !write && m->cfg.ncores > 1) downgrade(m, k, line);
+    }
+    rt_sa_send_below(v->sa);
+}
+
+/* What level p of a core sends down: whole lines of the private line size. */
+static int below_put(rt_sink *s, const rt_access *a, size_t n)
+{
+    mc_below *b = s->ctx;
+    rt_mc *m = b->m;
+    if (b->p + 1 == m->np) {
+        for (size_t i = 0; i < n; i++) sh_send(m, &a[i]);
+        m->cores[b->core].sent += n;
+        return m->failed ? -1 : 0;
+    }
+    m->cores[b->core].lv[b->p + 1].got += n;
+    for (size_t i = 0; i < n; i++)
+        ptouch(m, b->core, b->p + 1, a[i].addr / m->line, a[i].write, rt_sim_cg(&a[i]), a[i].size, a[i].addr);
+    return m->failed ? -1 : 0;
 }
 
 int rt_mc_put(rt_mc *m, unsigned core, const rt_access *a, size_t n)
@@ -378,26 +395,31 @@ int rt_mc_put(rt_mc *m, unsigned core, const rt_access *a, size_t n)
         m->failed = 1;
         return -1;
     }
+    if (!m->np) { /* every level shared: the references go straight down */
+        for (size_t i = 0; i < n; i++) sh_send(m, &a[i]);
+        m->refs += n;
+        return m->failed ? -1 : 0;
+    }
+    const uint64_t ls = m->line;
+    const int many = m->cfg.ncores > 1;
     for (size_t i = 0; i < n; i++) {
-        if (a[i].cls >= RT_NCLASS || !a[i].size) {
-            rt_errf(&m->err, "reference %llu: %s", (unsigned long long)m->refs, a[i].size ? "class out of range" : "size 0");
-            m->failed = 1;
-            return -1;
-        }
-        uint64_t last = a[i].addr + (a[i].size - 1);
-        if (last < a[i].addr) last = UINT64_MAX;
-        const uint64_t l0 = a[i].addr >> m->shift, l1 = last >> m->shift;
-        for (uint64_t l = l0;; l++) {
-            if (touch(m, (int)core, l, a[i].write, a[i].cls, a[i].gen) < 0) {
+        const uint64_t addr = a[i].addr;
+        const uint32_t sz = a[i].size ? a[i].size : 1;
+        const unsigned cg = rt_sim_cg(&a[i]);
+        const int w = a[i].write == RT_WRITE_STREAM ? RT_WRITE_STREAM : a[i].write != 0;
+        const uint64_t end = addr + sz, first = addr / ls, last = (end - 1) / ls;
+        for (uint64_t L = first; L <= last; L++) {
+            const uint64_t lo = L == first ? addr : L * ls, hi = L == last ? end : (L + 1) * ls;
+            if (w && many && invalidate(m, (int)core, L, cg) < 0) {
                 rt_errf(&m->err, "out of memory");
                 m->failed = 1;
                 return -1;
             }
-            if (l == l1) break;
+            ptouch(m, (int)core, 0, L, w, cg, (uint32_t)(hi - lo), lo);
         }
         m->refs++;
     }
-    return 0;
+    return m->failed ? -1 : 0;
 }
 
 static int mc_cput(rt_csink *s, unsigned core, const rt_access *a, size_t n) { return rt_mc_put(s->ctx, core, a, n); }
@@ -420,29 +442,68 @@ rt_sink *rt_mc_sink(rt_mc *m)
 int rt_mc_finish(rt_mc *m)
 {
     if (m->failed) return -1;
-    if (sh_flush(m) < 0) return -1;
-    return rt_sim_finish(m->sh);
+    for (int k = 0; k < m->cfg.ncores; k++)
+        for (int p = 0; p < m->np; p++)
+            if (m->cfg.h.level[p].flush) rt_sa_flush(m->cores[k].lv[p].sa);
+    if (m->failed || sh_flush(m) < 0) return -1;
+    return rt_hier_finish(m->sh);
 }
 
 const char *rt_mc_error(const rt_mc *m) { return m->err.msg; }
 const rt_mc_config *rt_mc_get_config(const rt_mc *m) { return &m->cfg; }
-const rt_sim *rt_mc_shared(const rt_mc *m) { return m->sh; }
+const rt_hier *rt_mc_shared_hier(const rt_mc *m) { return m->sh; }
+const rt_sim *rt_mc_shared(const rt_mc *m) { return rt_hier_level(m->sh, m->cfg.h.nlevels - m->np - 1); }
 uint64_t rt_mc_refs(const rt_mc *m) { return m->refs; }
 
-void rt_mc_get(const rt_mc *m, int core, int cls, rt_mc_counts *out)
+void rt_mc_get_level(const rt_mc *m, int p, int core, int cls, int gen, rt_mc_counts *out)
 {
     memset(out, 0, sizeof *out);
-    if (core < 0 || core >= m->cfg.ncores || cls < -1 || cls >= RT_NCLASS) return;
-    const mc_core *c = &m->cores[core];
-    for (int k = cls < 0 ? 0 : cls; k < (cls < 0 ? RT_NCLASS : cls + 1); k++) {
-        out->accesses += c->c[k].accesses;
-        out->misses += c->c[k].misses;
-        out->coherence_misses += c->c[k].coherence_misses;
-        out->nofetch += c->c[k].nofetch;
-        out->writebacks += c->c[k].writebacks;
-        out->invalidations += c->c[k].invalidations;
-        out->traffic_bytes += (c->fetches[k] + c->c[k].writebacks) * m->cfg.line;
+    if (p < 0 || p >= m->np || core < 0 || core >= m->cfg.ncores || cls < -1 || cls >= RT_NCLASS || gen >= RT_MAXGEN) return;
+    const mc_level *v = &m->cores[core].lv[p];
+    for (int c = cls < 0 ? 0 : cls; c < (cls < 0 ? RT_NCLASS : cls + 1); c++) {
+        rt_sim_counts s;
+        rt_sa_get_gen(v->sa, c, gen, &s);
+        out->accesses += s.accesses;
+        out->misses += s.read_misses + s.write_misses;
+        out->nofetch += s.nofetch;
+        out->writebacks += s.writebacks;
+        out->traffic_bytes += s.traffic_bytes;
+        for (int g = gen < 0 ? 0 : gen; g < (gen < 0 ? RT_MAXGEN : gen + 1); g++) {
+            const int cg = g * RT_NCLASS + c;
+            out->coherence_misses += v->coh[cg];
+            out->coh_writebacks += v->cwb[cg];
+            out->writebacks += v->cwb[cg];
+            out->traffic_bytes += v->cwb[cg] * m->line;
+            out->invalidations += v->inv[cg];
+        }
     }
+}
+
+void rt_mc_get(const rt_mc *m, int core, int cls, rt_mc_counts *out) { rt_mc_get_level(m, 0, core, cls, -1, out); }
+
+/* ---- the checker ------------------------------------------------------- */
+
+typedef struct chk {
+    const rt_mc *m;
+    int core;
+    uint64_t line; /* the offending line */
+    int other;
+} chk;
+
+static int dirty_alone(void *ctx, uint64_t line, int dirty)
+{
+    chk *c = ctx;
+    if (!dirty) return 0;
+    for (int k = 0; k < c->m->cfg.ncores; k++) {
+        if (k == c->core) continue;
+        for (int p = 0; p < c->m->np; p++)
+            if (rt_sa_holds(c->m->cores[k].lv[p].sa, line)) {
+                c->line = line;
+                c->other = k;
+                return 1;
+            }
+    }
+    return 0;
 }
 
 int rt_mc_check(const rt_mc *m, rt_err *e)
@@ -450,41 +511,42 @@ int rt_mc_check(const rt_mc *m, rt_err *e)
     uint64_t down = 0;
     for (int k = 0; k < m->cfg.ncores; k++) {
         const mc_core *c = &m->cores[k];
-        for (uint32_t s = 0; s < m->sets; s++) {
-            const way *w = c->w + (size_t)s * m->assoc;
-            for (uint32_t i = 0; i < m->assoc; i++) {
-                if (!w[i].tag) continue;
-                const uint64_t line = w[i].tag - 1;
-                if (line % m->sets != s) return rt_errf(e, "invariant 1: core %d holds line %llu in set %u", k, (unsigned long long)line, s);
-                for (uint32_t j = i + 1; j < m->assoc; j++)
-                    if (w[j].tag == w[i].tag) return rt_errf(e, "invariant 1: core %d holds line %llu twice", k, (unsigned long long)line);
-                if (!w[i].dirty) continue;
-                for (int o = 0; o < m->cfg.ncores; o++) {
-                    if (o == k) continue;
-                    const way *x = m->cores[o].w + (size_t)s * m->assoc;
-                    for (uint32_t j = 0; j < m->assoc; j++)
-                        if (x[j].tag == w[i].tag)
-                            return rt_errf(e, "invariant 3: line %llu dirty in core %d and held by core %d",
-                                           (unsigned long long)line, k, o);
+        for (int p = 0; p < m->np; p++) {
+            const mc_level *v = &c->lv[p];
+            if (rt_sa_check(v->sa, e) < 0) return -1; /* 1 */
+            uint64_t sent = 0;
+            for (int cl = 0; cl < RT_NCLASS; cl++)
+                for (int g = 0; g < RT_MAXGEN; g++) {
+                    rt_sim_counts s;
+                    rt_sa_get_gen(v->sa, cl, g, &s);
+                    const int cg = g * RT_NCLASS + cl;
+                    if (v->coh[cg] > s.read_misses + s.write_misses)
+                        return rt_errf(e, "invariant 1: core %d level %s class %d: %llu coherence misses of %llu", k,
+                                       m->cfg.h.name[p], cl, (unsigned long long)v->coh[cg],
+                                       (unsigned long long)(s.read_misses + s.write_misses));
+                    sent += s.read_misses + s.write_misses - s.nofetch + s.writebacks;
+                    if (p + 1 < m->np && v->cwb[cg]) return rt_errf(e, "invariant 4: coherence write-backs at inner level %s", m->cfg.h.name[p]);
                 }
+            if (p + 1 < m->np && c->lv[p + 1].got != sent) /* 3 */
+                return rt_errf(e, "invariant 3: core %d: level %s sent %llu lines, %s got %llu", k, m->cfg.h.name[p],
+                               (unsigned long long)sent, m->cfg.h.name[p + 1], (unsigned long long)c->lv[p + 1].got);
+            if (p + 1 == m->np) {
+                uint64_t cw = 0;
+                for (int cg = 0; cg < RT_SIM_NCG; cg++) cw += v->cwb[cg];
+                if (sent + cw != c->sent)
+                    return rt_errf(e, "invariant 4: core %d: level %s sent %llu lines and %llu coherence write-backs, counted %llu", k,
+                                   m->cfg.h.name[p], (unsigned long long)sent, (unsigned long long)cw, (unsigned long long)c->sent);
             }
+            chk ck = {m, k, 0, -1};
+            if (rt_sa_foreach(v->sa, dirty_alone, &ck) < 0) /* 2 */
+                return rt_errf(e, "invariant 2: line %llu dirty in core %d's %s and held by core %d",
+                               (unsigned long long)ck.line, k, m->cfg.h.name[p], ck.other);
         }
-        uint64_t miss = 0, got = 0;
-        for (int cl = 0; cl < RT_NCLASS; cl++) {
-            const rt_mc_counts *x = &c->c[cl];
-            if (x->misses > x->accesses || x->coherence_misses > x->misses)
-                return rt_errf(e, "invariant 2: core %d class %d: %llu accesses, %llu misses, %llu coherence", k, cl,
-                               (unsigned long long)x->accesses, (unsigned long long)x->misses,
-                               (unsigned long long)x->coherence_misses);
-            miss += x->misses;
-            got += c->fetches[cl] + x->nofetch;
-            down += c->fetches[cl] + x->writebacks;
-        }
-        if (miss != got) return rt_errf(e, "invariant 2: core %d: %llu misses, %llu fetches and no-fetch fills", k,
-                                        (unsigned long long)miss, (unsigned long long)got);
+        down += c->sent;
     }
-    if (down != m->sent + m->nbuf)
-        return rt_errf(e, "invariant 4: the private levels sent %llu lines, the shared level got %llu",
-                       (unsigned long long)down, (unsigned long long)(m->sent + m->nbuf));
-    return rt_sim_check(m->sh, e);
+    if (!m->np) down = m->refs;
+    if (down != m->sent + m->nbuf || rt_hier_refs(m->sh) != m->sent)
+        return rt_errf(e, "invariant 4: the private levels sent %llu lines, the shared levels got %llu (+%zu pending)",
+                       (unsigned long long)down, (unsigned long long)rt_hier_refs(m->sh), m->nbuf);
+    return rt_hier_check(m->sh, e);
 }

@@ -41,8 +41,13 @@
  *                  is written back, charged to its last writer.
  * Counters are kept per (class, generation) index (sim_int.h); per-class
  * figures are sums over the generations.
+ * Coherence (rt_sa_drop, for cachesim/mcore.c): a line another core's
+ * write invalidates leaves a HOLE in its set, refilled before any fresh way
+ * or victim (the lowest hole first, as hardware fills an invalid way); a
+ * hole is in no list and not in the table. Without invalidations (every
+ * one-core cache) there are none and nothing changes.
  * Invariants (rt_sa_check): each set's list (LRU; with a policy, its first
- * used[s] slots) has used[s] <= assoc slots, all
+ * used[s] slots less the holes) has used[s] - holes[s] <= assoc slots, all
  * inside the set, each in the hash table under its line, whose set is s; a
  * dirty slot's writer index is valid; per index, misses <= accesses,
  * write-backs <= write touches, no-fetch misses <= write misses (none with
@@ -64,11 +69,13 @@ typedef struct saslot {
     uint32_t next;  /* less recent, NIL at tail */
     uint8_t dirty;  /* write-back: modified since fetched */
     uint8_t wcg;    /* (class, generation) index of the last write */
+    uint8_t hole;   /* emptied by rt_sa_drop (a coherence invalidation): free, refilled first */
 } saslot;
 
 typedef struct saset {
     uint32_t head, tail; /* MRU / LRU slot, NIL when empty */
-    uint32_t used;       /* resident lines */
+    uint32_t used;       /* slots filled so far (the first `used` of the set), holes included */
+    uint32_t holes;      /* of them, emptied by rt_sa_drop and not refilled yet */
 } saset;
 
 typedef struct sahash {
@@ -262,8 +269,8 @@ static inline void push_head(rt_sa *c, saset *s, uint32_t x)
 }
 
 /* One line touch; w = 0 read, 1 write, RT_WRITE_STREAM streaming store;
- * bytes = bytes of the reference inside this line. */
-static void touch(rt_sa *c, uint64_t L, int w, unsigned cg, uint32_t bytes, uint64_t lo)
+ * bytes = bytes of the reference inside this line. 1 on a hit, 0 on a miss. */
+static inline int touch(rt_sa *c, uint64_t L, int w, unsigned cg, uint32_t bytes, uint64_t lo)
 {
     uint64_t set = L % c->nsets;
     saset *s = &c->sets[set];
@@ -272,6 +279,7 @@ static void touch(rt_sa *c, uint64_t L, int w, unsigned cg, uint32_t bytes, uint
     c->wr[cg] += w != 0;
     c->sw[cg] += w == RT_WRITE_STREAM;
     uint32_t x = (s->head != NIL && sl[s->head].line == L) ? s->head : h_find(c, L);
+    const int hit = x != NIL;
     uint64_t wbline = UINT64_MAX; /* a dirty victim's line, written back at the end */
     unsigned wbcg = 0;
     if (x != NIL) {
@@ -288,13 +296,18 @@ static void touch(rt_sa *c, uint64_t L, int w, unsigned cg, uint32_t bytes, uint
         if (w && c->nwa) { /* write around the cache */
             c->wtb[cg] += bytes;
             emit(c, lo, bytes, 1, cg);
-            return;
+            return 0;
         }
         int fetch = !(w == RT_WRITE_STREAM || (w && c->fullline && bytes == c->line));
         if (!fetch) c->nf[cg]++; /* streaming store, or Dinero's full-line write: nothing to fetch */
         rt_repl_set rs;
         if (c->ops) rs = repl_set(c, set);
-        if (s->used < c->assoc) {
+        if (s->holes) { /* the lowest way a coherence invalidation emptied */
+            x = (uint32_t)(set * c->assoc);
+            while (!sl[x].hole) x++;
+            sl[x].hole = 0;
+            s->holes--;
+        } else if (s->used < c->assoc) {
             x = (uint32_t)(set * c->assoc + s->used++);
         } else {
             x = c->ops ? (uint32_t)(set * c->assoc + c->ops->victim(&rs)) : s->tail;
@@ -323,6 +336,7 @@ static void touch(rt_sa *c, uint64_t L, int w, unsigned cg, uint32_t bytes, uint
         }
     }
     if (wbline != UINT64_MAX) emit(c, wbline * c->line, c->line, 1, wbcg);
+    return hit;
 }
 
 void rt_sa_put(rt_sa *c, const rt_access *a, size_t n)
@@ -341,6 +355,54 @@ void rt_sa_put(rt_sa *c, const rt_access *a, size_t n)
         }
     }
     if (c->below) out_flush(c);
+}
+
+int rt_sa_touch(rt_sa *c, uint64_t line, int write, unsigned cg, uint32_t bytes, uint64_t lo)
+{
+    return touch(c, line, write, cg, bytes, lo);
+}
+
+void rt_sa_send_below(rt_sa *c)
+{
+    if (c->below) out_flush(c);
+}
+
+int rt_sa_drop(rt_sa *c, uint64_t line, unsigned *wcg)
+{
+    const uint32_t x = h_find(c, line);
+    if (x == NIL) return 0;
+    saset *s = &c->sets[line % c->nsets];
+    if (!c->ops) unlink_slot(c, s, x);
+    h_delete(c, line);
+    const int dirty = c->slots[x].dirty;
+    if (dirty && wcg) *wcg = c->slots[x].wcg;
+    c->slots[x].dirty = 0;
+    c->slots[x].hole = 1;
+    s->holes++;
+    return 1 + dirty;
+}
+
+int rt_sa_clean(rt_sa *c, uint64_t line, unsigned *wcg)
+{
+    const uint32_t x = h_find(c, line);
+    if (x == NIL || !c->slots[x].dirty) return 0;
+    if (wcg) *wcg = c->slots[x].wcg;
+    c->slots[x].dirty = 0;
+    return 1;
+}
+
+int rt_sa_holds(const rt_sa *c, uint64_t line)
+{
+    const uint32_t x = h_find(c, line);
+    return x == NIL ? 0 : 1 + c->slots[x].dirty;
+}
+
+int rt_sa_foreach(const rt_sa *c, int (*fn)(void *ctx, uint64_t line, int dirty), void *ctx)
+{
+    for (uint64_t s = 0; s < c->nsets; s++)
+        for (uint64_t x = s * c->assoc; x < s * c->assoc + c->sets[s].used; x++)
+            if (!c->slots[x].hole && fn(ctx, c->slots[x].line, c->slots[x].dirty)) return -1;
+    return 0;
 }
 
 void rt_sa_get_gen(const rt_sa *c, int cls, int gen, rt_sim_counts *out)
@@ -395,19 +457,26 @@ int rt_sa_check(const rt_sa *c, rt_err *e)
     uint64_t total = 0;
     for (uint64_t s = 0; s < c->nsets; s++) {
         const saset *st = &c->sets[s];
-        if (st->used > c->assoc) return rt_errf(e, "setassoc: set %llu over-full", (unsigned long long)s);
+        if (st->used > c->assoc || st->holes > st->used) return rt_errf(e, "setassoc: set %llu over-full", (unsigned long long)s);
         if (c->ops) {
             if (st->head != NIL || st->tail != NIL) return rt_errf(e, "setassoc: set %llu keeps a list under a policy", (unsigned long long)s);
+            uint32_t holes = 0;
             for (uint32_t x = (uint32_t)(s * c->assoc); x < s * c->assoc + st->used; x++) {
+                if (c->slots[x].hole) {
+                    holes++;
+                    if (c->slots[x].dirty) return rt_errf(e, "setassoc: slot %u is a dirty hole", x);
+                    continue;
+                }
                 if (c->slots[x].line % c->nsets != s) return rt_errf(e, "setassoc: line in wrong set");
                 if (h_find(c, c->slots[x].line) != x) return rt_errf(e, "setassoc: slot %u missing from hash", x);
                 if (c->wt && c->slots[x].dirty) return rt_errf(e, "setassoc: dirty line in write-through cache");
                 if (c->slots[x].dirty && c->slots[x].wcg >= RT_SIM_NCG)
                     return rt_errf(e, "setassoc: slot %u has writer index %u", x, c->slots[x].wcg);
             }
+            if (holes != st->holes) return rt_errf(e, "setassoc: set %llu counts %u holes, has %u", (unsigned long long)s, st->holes, holes);
             rt_repl_set rs = repl_set((rt_sa *)c, s);
             if (c->ops->check && c->ops->check(&rs, st->used, e)) return -1;
-            total += st->used;
+            total += st->used - holes;
             continue;
         }
         uint32_t n = 0, prev = NIL;
@@ -422,7 +491,10 @@ int rt_sa_check(const rt_sa *c, rt_err *e)
                 return rt_errf(e, "setassoc: slot %u has writer index %u", x, c->slots[x].wcg);
             prev = x;
         }
-        if (n != st->used || st->tail != prev) return rt_errf(e, "setassoc: set %llu count/tail mismatch", (unsigned long long)s);
+        uint32_t holes = 0;
+        for (uint32_t x = (uint32_t)(s * c->assoc); x < s * c->assoc + st->used; x++) holes += c->slots[x].hole;
+        if (holes != st->holes || n + holes != st->used || st->tail != prev)
+            return rt_errf(e, "setassoc: set %llu count/tail mismatch", (unsigned long long)s);
         total += n;
     }
     uint64_t inhash = 0;

@@ -44,6 +44,23 @@ int rt_sa_set_below(rt_sa *c, rt_sink *below, rt_err *e);
 /* Counts cnt[cg] reads that hit the most recent line of their set (the
  * repeat filter, sim.h; LRU with write-allocate only). */
 void rt_sa_add_repeats(rt_sa *c, const uint64_t *cnt);
+/* ---- one line at a time, for the multi-core model (cachesim/mcore.c) ---- */
+/* One touch of line (bytes of the reference inside it, from address lo),
+ * as rt_sa_put makes them; what it sends below stays buffered until
+ * rt_sa_send_below. 1 on a hit, 0 on a miss. */
+int rt_sa_touch(rt_sa *c, uint64_t line, int write, unsigned cg, uint32_t bytes, uint64_t lo);
+void rt_sa_send_below(rt_sa *c);
+/* Removes line (a coherence invalidation; nothing is counted or sent): 0
+ * if absent, 1 if it was clean, 2 if dirty (*wcg = its last writer's
+ * (class, generation) index). The way becomes a hole, filled first. */
+int rt_sa_drop(rt_sa *c, uint64_t line, unsigned *wcg);
+/* Marks line clean (a downgrade): 1 if it was dirty (*wcg as above), else 0. */
+int rt_sa_clean(rt_sa *c, uint64_t line, unsigned *wcg);
+/* 0 absent, 1 resident clean, 2 resident dirty. */
+int rt_sa_holds(const rt_sa *c, uint64_t line);
+/* Calls fn for every resident line (tests' checkers); stops at the first
+ * non-zero return (then -1). */
+int rt_sa_foreach(const rt_sa *c, int (*fn)(void *ctx, uint64_t line, int dirty), void *ctx);
 /* 1 once the level below refused a batch. */
 int rt_sa_below_failed(const rt_sa *c);
 

@@ -557,13 +557,12 @@ __attribute__((target("avx512f,avx512dq"))) static void put_golden_avx512(rt_sha
                                                                            size_t n, uint64_t acc[RT_NCLASS][2])
 {
     _Static_assert(sizeof(rt_access) == 16, "rt_access is 16 bytes");
-    _Static_assert(2 * RT_NCLASS <= 32, "keys (class * 2 + write) fit four accumulators of eight fields");
+    _Static_assert(2 * RT_NCLASS <= 32, "keys class * 2 + write fit four accumulators of eight fields");
     const int sh = s->ln.shift;
     const __m512i vT = _mm512_set1_epi64((long long)s->T64), voff = _mm512_set1_epi64((long long)s->goff),
                   vG = _mm512_set1_epi64((long long)GOLD), one = _mm512_set1_epi64(1),
                   lo32 = _mm512_set1_epi64(0xffffffffLL), b8 = _mm512_set1_epi64(0xff),
-                  vmax = _mm512_set1_epi64((long long)s->ln.line), vfb = _mm512_set1_epi64(RT_CLS_FB),
-                  vlast = _mm512_set1_epi64(RT_NCLASS - 1),
+                  vmax = _mm512_set1_epi64((long long)s->ln.line), vfb = _mm512_set1_epi64(RT_CLS_FB), vnc = _mm512_set1_epi64(RT_NCLASS),
                   seven = _mm512_set1_epi64(7), ieven = _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14),
                   iodd = _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15);
     const __m128i vsh = _mm_set_epi64x(0, sh);
@@ -583,7 +582,7 @@ __attribute__((target("avx512f,avx512dq"))) static void put_golden_avx512(rt_sha
             __m512i wr = _mm512_and_si512(_mm512_srli_epi64(meta, 32), b8);
             /* classes out of range count as the framebuffer */
             __m512i cls = _mm512_and_si512(_mm512_srli_epi64(meta, 40), b8);
-            cls = _mm512_mask_mov_epi64(cls, _mm512_cmpgt_epu64_mask(cls, vlast), vfb);
+            cls = _mm512_mask_mov_epi64(cls, _mm512_cmpge_epu64_mask(cls, vnc), vfb);
             /* a reference of at most one line covers f or f, f + 1: the hash
              * of l is that of f plus G when it crosses (wider ones are odd) */
             __m512i d = _mm512_sub_epi64(l, f);

@@ -12,11 +12,10 @@
  * place that knows what they hold.
  *
  * PAYLOAD of data chunk k (docs/trace-format.md has the table): u8 flags
- * (bit 0: the last chunk, the one bit the format reads; bit 1: chunk k
- * has a reference of a class >= RT_NCLASS_BASE, so all RT_NCLASS classes
- * follow, else the base ten, which keeps the payloads of traces of the
- * base classes byte for byte what they were); per class 5
- * varints (line touches by reads and by writes, refs, bytes, writes of
+ * (bit 0: the last chunk; the one byte the format reads; bits 1-2: the
+ * classes stored beyond the first 10, so 10 + v classes follow, v > 0 only
+ * when the chunk has a record of class 10 or later, the highest stored
+ * being one); per stored class 5 varints (line touches by reads and by writes, refs, bytes, writes of
  * chunk k); varint ns and the ns records of chunk k that touch a sampled
  * line; varint nw and per window ending in chunk k (plus, in the last
  * chunk, the one the trace ends in): varints nwarm, scanned, u8 short,
@@ -269,10 +268,10 @@ static int sb_chunk(rt_si_maker *b, int last)
     b->out.n = 0;
     if (bb_room(&b->out, 1 + RT_NCLASS * 5 * 10 + 2 * 10 + b->samp.n + b->wins.n)) return -1;
     unsigned char *q = b->out.b;
-    int nc = RT_NCLASS_BASE;
-    for (int c = RT_NCLASS_BASE; c < RT_NCLASS; c++)
-        if (b->refs[c]) nc = RT_NCLASS;
-    *q++ = (unsigned char)((last ? 1 : 0) | (nc > RT_NCLASS_BASE ? 2 : 0));
+    int nc = RT_NCLASS_V1; /* classes stored: 10, or up to the highest with a reference (flags bits 1-2) */
+    for (int c = RT_NCLASS_V1; c < RT_NCLASS; c++)
+        if (b->refs[c]) nc = c + 1;
+    *q++ = (unsigned char)((last ? 1 : 0) | (nc - RT_NCLASS_V1) << 1);
     for (int c = 0; c < nc; c++) {
         q = rt_trc_put_varint(q, b->touch[c][0]);
         q = rt_trc_put_varint(q, b->touch[c][1]);
@@ -434,7 +433,7 @@ static int parse_side(rt_si_reader *d, const rt_tr_payload *pl, rt_si_side *s, r
     s->nrefs = n;
     uint64_t sum = 0, v[5];
     const char *bad = NULL;
-    const int nc = pl->bytes[0] & 2 ? RT_NCLASS : RT_NCLASS_BASE;
+    const int nc = RT_NCLASS_V1 + ((pl->bytes[0] & RT_TR_SIDE_MAKER) >> 1); /* classes stored (10..13) */
     for (int c = 0; c < nc && !bad; c++) {
         for (int k = 0; k < 5 && !bad; k++)
             if (rt_trc_get_varint(&p, end, &v[k]) < 0) bad = "bad class totals";
@@ -451,11 +450,6 @@ static int parse_side(rt_si_reader *d, const rt_tr_payload *pl, rt_si_side *s, r
         sum += v[2];
     }
     if (!bad && sum != n) bad = "class totals do not add up to the chunk's records";
-    if (!bad && nc > RT_NCLASS_BASE) { /* flag bit 1 only when a later class is referenced */
-        uint64_t later = 0;
-        for (int c = RT_NCLASS_BASE; c < RT_NCLASS; c++) later += tot.refs[c];
-        if (!later) bad = "flags say later classes, none referenced";
-    }
     uint64_t ns = 0, nw = 0, nwmax = n / sp->period + 2;
     if (!bad && (rt_trc_get_varint(&p, end, &ns) < 0 || ns > n)) bad = "bad sampled record count";
     /* the records: ns sampled, then per window up to cmax + window */

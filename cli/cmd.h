@@ -125,6 +125,11 @@ int rt_cmd_check_tracer_opts(const char *cmd, const char *tracer, const rt_rende
 /* `sim --hierarchy SPEC ...` with private/shared levels: the multi-core
  * hierarchy (cmd_sim_cores.c). */
 int rt_cmd_sim_cores(int argc, char **argv);
+/* trace --sim: the simulator's options checked as `sim` parses them, before
+ * anything is traced (argv: "sim", the options, the trace to be written).
+ * 0, or -1 with the message printed (a usage error). The multi-core form
+ * (rt_cmd_wants_cores) is checked when it runs. */
+int rt_cmd_sim_check_args(int argc, char **argv);
 /* `sweep --hierarchy SPEC --cores LIST ...`: the multi-core matrix (cmd_sweep_cores.c). */
 int rt_cmd_sweep_cores(int argc, char **argv);
 

@@ -50,7 +50,11 @@ static void usage(FILE *f)
             "  --tracers LIST     comma list (default recursive,packet,dynamic)\n"
             "  --cache-size S     dynamic tracer's schedule (default 64K)\n"
             "  --what LIST        tracers,trace,sim,replay,hierarchy,approx,path-error,modes,\n"
-            "                     identical,stream,embree,bvh,treelet,threads,cores\n"
+            "                     identical,stream,embree,bvh,treelet,threads,cores,\n"
+            "                     scale, scale-quick (a 3.54 M-triangle mesh 256x256 and a\n"
+            "                     1.2 G-triangle instanced forest 512x512 --instances bvh,\n"
+            "                     each rendered by a child process: peak RSS and wall time;\n"
+            "                     scale-quick: the same at a tiny size; files under --tmpdir)\n"
             "                     (default tracers,trace,sim); replay: the exact simulator\n"
             "                     on --trace FILE, one and two threads, decoding included;\n"
             "                     hierarchy: L1 32K + 13 LLC sizes in one pass, and OPT,\n"
@@ -335,7 +339,7 @@ int main_bench(int argc, char **argv)
         return RT_EXIT_USAGE;
     }
     int do_tr = 0, do_trace = 0, do_sim = 0, do_approx = 0, do_perr = 0, do_modes = 0, do_ident = 0, do_stream = 0, do_embree = 0, do_bvh = 0,
-        do_replay = 0, do_treelet = 0, do_hier = 0, do_threads = 0, do_cores = 0;
+        do_replay = 0, do_treelet = 0, do_hier = 0, do_threads = 0, do_cores = 0, do_scale = 0;
     {
         char *list = strdup(what), *save = NULL;
         for (char *t = strtok_r(list, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
@@ -354,9 +358,11 @@ int main_bench(int argc, char **argv)
             else if (!strcmp(t, "treelet")) do_treelet = 1;
             else if (!strcmp(t, "threads")) do_threads = 1;
             else if (!strcmp(t, "cores")) do_cores = 1;
+            else if (!strcmp(t, "scale")) do_scale = 1;
+            else if (!strcmp(t, "scale-quick")) do_scale = 2;
             else {
                 rt_cmd_error("bench", "--what: unknown item '%s' (tracers, trace, sim, replay, hierarchy, approx, path-error, "
-                             "modes, identical, stream, embree, bvh, treelet, threads, cores)", t);
+                             "modes, identical, stream, embree, bvh, treelet, threads, cores, scale, scale-quick)", t);
                 free(list);
                 return RT_EXIT_USAGE;
             }
@@ -474,6 +480,15 @@ int main_bench(int argc, char **argv)
                    : -1;
         rt_scene_free(sc);
         if (r < 0) {
+            rt_cmd_error("bench", "%s", e.msg);
+            return RT_EXIT_FAIL;
+        }
+    }
+    if (do_scale) {
+        rt_err e = {0};
+        printf("Scenes at scale (%s):\n\n", do_scale == 2 ? "tiny sizes" : "3.54 M-triangle mesh, 1.2 G-triangle forest");
+        fflush(stdout);
+        if (rt_scale_bench(stdout, tmpdir, do_scale == 2, &e) < 0) {
             rt_cmd_error("bench", "%s", e.msg);
             return RT_EXIT_FAIL;
         }

@@ -726,6 +726,13 @@ static int sim_one(const sim_opts *o, rt_db *db, const char *path, rt_tr_meta *m
     return rc;
 }
 
+int rt_cmd_sim_check_args(int argc, char **argv)
+{
+    if (rt_cmd_wants_cores(argc, argv)) return 0;
+    sim_opts o;
+    return parse_args(argc, argv, &o);
+}
+
 int main_sim(int argc, char **argv)
 {
     /* levels marked private/shared: the multi-core model, cmd_sim_cores.c */

@@ -21,11 +21,12 @@ static void usage(FILE *f)
             "Usage: raytraffic sim --hierarchy SPEC [--db FILE] [--format text|csv] TRACE...\n\n"
             "Replays each .rtt trace through N cores with private caches above one shared\n"
             "level (N = the trace's simulated cores: `trace --cores N`, format version 4;\n"
-            "earlier traces are one core). SPEC is two levels,\n"
-            "NAME=SIZE/WAYS/LINE/lru[/private|shared], e.g.\n"
+            "earlier traces are one core). SPEC is 1-4 levels as for sim --hierarchy, each\n"
+            "NAME=SIZE/WAYS/LINE/POLICY[/private|/shared], e.g.\n"
             "  L1=32K/8/64/lru/private,LLC=1K-4M/full/64/lru/shared\n"
-            "(without the suffix the first level is private, the last shared; a range\n"
-            "1K-4M simulates every power of two in it at once). Writes invalidate the\n"
+            "(without the suffix the last level is shared, the first private, a middle\n"
+            "one as the level above it; the last level may give several sizes, a range\n"
+            "1K-4M or a list 256K+1M). Writes invalidate the\n"
             "other cores' copies; coherence misses are counted apart (docs/cachesim.md,\n"
             "\"Many cores\").\n\n"
             "Options:\n"
@@ -70,34 +71,39 @@ static int one(const rt_mc_config *cfg0, rt_db *db, int csv, const char *path, r
         if (!csv) printf("# %s: %d core%s, %s, %" PRIu64 " references\n", path, cfg.ncores, cfg.ncores == 1 ? "" : "s",
                          spec, rt_mc_refs(mc));
         if (!csv) printf("level core size_bytes line assoc class accesses misses coherence_misses writebacks traffic_bytes\n");
-        for (int k = 0; k < cfg.ncores; k++)
-            for (int cls = -1; cls < RT_NCLASS; cls++) {
-                rt_mc_counts x;
-                rt_mc_get(mc, k, cls, &x);
-                if (!x.accesses) continue;
-                printf(csv ? "%s,%s,%d,%" PRIu64 ",%u,%u,%s,%" PRIu64 ",%" PRIu64 ",%" PRIu64 ",%" PRIu64 ",%" PRIu64 "\n"
-                           : "%s%.0s %d %" PRIu64 " %u %u %s %" PRIu64 " %" PRIu64 " %" PRIu64 " %" PRIu64 " %" PRIu64 "\n",
-                       csv ? path : cfg.priv_name, csv ? cfg.priv_name : "", k, cfg.priv_size, cfg.line, cfg.priv_assoc,
-                       cls < 0 ? "all" : rt_class_name(cls), x.accesses, x.misses, x.coherence_misses, x.writebacks,
-                       x.traffic_bytes);
-            }
-        for (int z = 0; z < cfg.shared.nsizes; z++)
-            for (int cls = -1; cls < RT_NCLASS; cls++) {
-                rt_sim_counts x, s;
-                memset(&x, 0, sizeof x);
-                for (int c = cls < 0 ? 0 : cls; c < (cls < 0 ? RT_NCLASS : cls + 1); c++) {
-                    rt_sim_get(rt_mc_shared(mc), z, c, &s);
-                    x.accesses += s.accesses;
-                    x.read_misses += s.read_misses + s.write_misses;
-                    x.writebacks += s.writebacks;
-                    x.traffic_bytes += s.traffic_bytes;
+        for (int p = 0; p < cfg.nprivate; p++)
+            for (int k = 0; k < cfg.ncores; k++)
+                for (int cls = -1; cls < RT_NCLASS; cls++) {
+                    rt_mc_counts x;
+                    rt_mc_get_level(mc, p, k, cls, -1, &x);
+                    if (!x.accesses) continue;
+                    printf(csv ? "%s,%s,%d,%" PRIu64 ",%u,%u,%s,%" PRIu64 ",%" PRIu64 ",%" PRIu64 ",%" PRIu64 ",%" PRIu64 "\n"
+                               : "%s%.0s %d %" PRIu64 " %u %u %s %" PRIu64 " %" PRIu64 " %" PRIu64 " %" PRIu64 " %" PRIu64 "\n",
+                           csv ? path : cfg.h.name[p], csv ? cfg.h.name[p] : "", k, cfg.h.level[p].sizes[0],
+                           cfg.h.level[p].line, cfg.h.level[p].assoc, cls < 0 ? "all" : rt_class_name(cls), x.accesses,
+                           x.misses, x.coherence_misses, x.writebacks, x.traffic_bytes);
                 }
-                if (!x.accesses) continue;
-                printf(csv ? "%s,%s,-1,%" PRIu64 ",%u,0,%s,%" PRIu64 ",%" PRIu64 ",0,%" PRIu64 ",%" PRIu64 "\n"
-                           : "%s%.0s - %" PRIu64 " %u 0 %s %" PRIu64 " %" PRIu64 " 0 %" PRIu64 " %" PRIu64 "\n",
-                       csv ? path : cfg.shared_name, csv ? cfg.shared_name : "", cfg.shared.sizes[z], cfg.shared.line,
-                       cls < 0 ? "all" : rt_class_name(cls), x.accesses, x.read_misses, x.writebacks, x.traffic_bytes);
-            }
+        for (int q = cfg.nprivate; q < cfg.h.nlevels; q++) {
+            const rt_sim_config *l = &cfg.h.level[q];
+            for (int z = 0; z < l->nsizes; z++)
+                for (int cls = -1; cls < RT_NCLASS; cls++) {
+                    rt_sim_counts x;
+                    memset(&x, 0, sizeof x);
+                    for (int c = cls < 0 ? 0 : cls; c < (cls < 0 ? RT_NCLASS : cls + 1); c++) {
+                        rt_hier_counts s;
+                        rt_hier_get(rt_mc_shared_hier(mc), q - cfg.nprivate, z, c, &s);
+                        x.accesses += s.c.accesses;
+                        x.read_misses += s.c.read_misses + s.c.write_misses;
+                        x.writebacks += s.c.writebacks;
+                        x.traffic_bytes += s.c.traffic_bytes;
+                    }
+                    if (!x.accesses) continue;
+                    printf(csv ? "%s,%s,-1,%" PRIu64 ",%u,%u,%s,%" PRIu64 ",%" PRIu64 ",0,%" PRIu64 ",%" PRIu64 "\n"
+                               : "%s%.0s - %" PRIu64 " %u %u %s %" PRIu64 " %" PRIu64 " 0 %" PRIu64 " %" PRIu64 "\n",
+                           csv ? path : cfg.h.name[q], csv ? cfg.h.name[q] : "", l->sizes[z], l->line, l->assoc,
+                           cls < 0 ? "all" : rt_class_name(cls), x.accesses, x.read_misses, x.writebacks, x.traffic_bytes);
+                }
+        }
     }
     if (rc == 0 && db) {
         rt_db_run run;
@@ -108,7 +114,7 @@ static int one(const rt_mc_config *cfg0, rt_db *db, int csv, const char *path, r
         run.refs = rt_mc_refs(mc);
         run.command = rt_cmd_line();
         run.wall_time = rt_now() - t0;
-        rt_db_traffic *tr = rt_calloc((size_t)cfg.shared.nsizes * RT_NCLASS, sizeof *tr, e);
+        rt_db_traffic *tr = rt_calloc((size_t)cfg.h.level[cfg.h.nlevels - 1].nsizes * RT_NCLASS, sizeof *tr, e);
         rt_db_level *lv = tr ? rt_calloc(rt_mc_db_level_cap(mc), sizeof *lv, e) : NULL;
         int64_t id = 0;
         if (!lv || !run.refs) {

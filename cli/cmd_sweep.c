@@ -82,6 +82,7 @@ typedef struct sweep_opts {
     rt_hier_config hc;        /* parsed --hierarchy (x.hier points here) */
     const char *scenes_file;  /* --scenes-file: one spec per line (names may hold commas) */
     char *owned[MAX_LIST];    /* specs made absolute from --scenes-file */
+    int strict;               /* --strict: a scene whose loading warned is refused */
 } sweep_opts;
 
 
@@ -100,6 +101,9 @@ static void usage(FILE *f)
             "  --scenes-file FILE  the scene specs one per line instead (a name may hold\n"
             "                     commas; blank lines and lines starting with # skipped; a\n"
             "                     relative mesh path is relative to FILE's folder)\n"
+            "  --scene SPEC       the same as --scenes with one spec\n"
+            "  --strict           refuse a scene whose loading warned (every scene's\n"
+            "                     warnings are printed once, before the first job)\n"
             "  --tracers LIST     comma list of tracers\n"
             "  --lights LIST      comma list of lightings: primary, 0, 1, 2, all (with\n"
             "                     --light-samples N: the file's lights 0..31, all = every one)\n"
@@ -379,13 +383,15 @@ static void on_progress(void *ctx, long d, long s, long nj, double t0)
 
 enum { O_PRESET = 1, O_SCENES, O_TRACERS, O_LIGHTS, O_SIZES, O_LINE, O_DB, O_JOBS, O_KEEP, O_DYNALL, O_LIST, O_JOB,
        O_APPROX, O_PROXY, O_MODES, O_MODEL, O_FLUSH, O_NOFLUSH, O_FULLLINE, O_NOFULLLINE, O_ACCELS, O_NOERR,
-       O_SCENES_FILE, O_REPL, O_HIER };
+       O_SCENES_FILE, O_REPL, O_HIER, O_STRICT };
 
 /* The command's own options; the table's render options for sweep follow
  * them in sweep_longopts (--lights is its own, a list of lightings). */
 static const struct option sweep_own[] = {
     {"preset", required_argument, NULL, O_PRESET},
     {"scenes", required_argument, NULL, O_SCENES},
+    {"scene", required_argument, NULL, O_SCENES}, /* one scene: the same list */
+    {"strict", no_argument, NULL, O_STRICT},
     {"scenes-file", required_argument, NULL, O_SCENES_FILE},
     {"tracers", required_argument, NULL, O_TRACERS},
     {"lights", required_argument, NULL, O_LIGHTS},
@@ -587,6 +593,7 @@ static int parse_opt(sweep_opts *o, int c, const char *arg)
     case O_SCENES:
         if (rt_cmd_check_text("sweep", "--scenes", arg) < 0) return -1;
         return keep_copy(o, 0, arg) ? 0 : -1;
+    case O_STRICT: o->strict = 1; return 0;
     case O_SCENES_FILE:
         if (rt_cmd_check_text("sweep", "--scenes-file", arg) < 0) return -1;
         o->scenes_file = arg;
@@ -936,9 +943,11 @@ static int prepare_outputs(const sweep_opts *o)
 
 /* Every scene of the sweep (with --job K, only that job's) loads, with the
  * camera and lights of the options applied: before --list-jobs prints a
- * line or a sweep creates its database. 0, -1 (a scene that does not load:
- * the loader's FILE:LINE message printed) or -2 (the view does not fit the
- * scene: a usage error). */
+ * line or a sweep creates its database. Its load warnings are printed here,
+ * once per scene (not by each job), and --strict refuses a scene that
+ * warned. 0, -1 (a scene that does not load: the loader's FILE:LINE
+ * message printed; or warned under --strict) or -2 (the view does not fit
+ * the scene: a usage error). */
 static int check_scenes(const sweep_opts *o, const rt_exp_job *J)
 {
     for (int i = 0; i < o->x.nscenes; i++) {
@@ -957,7 +966,10 @@ static int check_scenes(const sweep_opts *o, const rt_exp_job *J)
                          split ? "; --scenes splits at commas: list a name holding one in --scenes-file" : "");
             return -1;
         }
+        rt_cmd_print_warnings("sweep", sc);
+        int refused = o->strict && rt_cmd_strict("sweep", sc) < 0;
         rt_scene_free(sc);
+        if (refused) return -1;
     }
     return 0;
 }

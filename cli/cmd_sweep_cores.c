@@ -29,8 +29,8 @@ static void usage(FILE *f)
             "  --cores LIST       core counts, e.g. 1,2,4,8,16,32,64 (default 1)\n"
             "  --scenes LIST      comma list (default sphereflake)\n"
             "  --tracers LIST     comma list of tracers that split their work (recursive,\n"
-            "                     packet, treelet; default recursive); the dynamic tracer\n"
-            "                     runs at --cores 1 only\n"
+            "                     packet, treelet: work shares; dynamic: its queues dealt\n"
+            "                     to the cores in rounds; default recursive)\n"
             "  --db FILE          results database (default raytraffic.db)\n"
             "  -W N, -H N, --lights L, --accel A, --cache-size S ...  as for render\n"
             "  -h, --help         this help\n");
@@ -59,7 +59,7 @@ static int run_one(rt_db *db, rt_job *j, const rt_mc_config *cfg0, int n, rt_err
     rt_mc *mc = rt_mc_new(&cfg, e);
     rt_image *img = mc ? rt_image_new(j->opt.W, j->opt.H, e) : NULL;
     rt_tr_meta *m = img ? rt_calloc(1, sizeof *m, e) : NULL;
-    rt_db_traffic *tr = m ? rt_calloc((size_t)cfg.shared.nsizes * RT_NCLASS, sizeof *tr, e) : NULL;
+    rt_db_traffic *tr = m ? rt_calloc((size_t)cfg.h.level[cfg.h.nlevels - 1].nsizes * RT_NCLASS, sizeof *tr, e) : NULL;
     rt_db_level *lv = tr ? rt_calloc(rt_mc_db_level_cap(mc), sizeof *lv, e) : NULL;
     int rc = -1;
     rt_run_stats st;
@@ -165,9 +165,14 @@ int rt_cmd_sweep_cores(int argc, char **argv)
             return RT_EXIT_USAGE;
         }
         for (int k = 0; k < nc; k++)
-            if (cores[k] > 1 && !(tr->opts & RT_OPTG_THREADS)) {
+            if (cores[k] > 1 && !(tr->opts & RT_OPTG_THREADS) && !rt_tracer_is(tr, RT_TR_CORES)) {
                 rt_cmd_error("sweep", "--cores %d: the %s tracer's work is not split over cores yet (run it with "
                                       "--cores 1)", cores[k], t);
+                return RT_EXIT_USAGE;
+            }
+        for (int k = 0; k < nc; k++)
+            if (cores[k] > 1 && rt_tracer_is(tr, RT_TR_CORES) && rt_render_secondary(&o)) {
+                rt_cmd_error("sweep", "--cores %d: the %s tracer runs the whitted and path modes on one core", cores[k], t);
                 return RT_EXIT_USAGE;
             }
     }

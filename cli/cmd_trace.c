@@ -36,7 +36,11 @@ static void usage(FILE *f)
             "  --no-sample        write format version 1/2, without the sample index that\n"
             "                     lets `sim --method hybrid` skip the records (about 10%%\n"
             "                     smaller; docs/trace-format.md)\n"
-            "  --strict           refuse a scene whose loading warned\n",
+            "  --strict           refuse a scene whose loading warned\n"
+            "  --sim              then replay the trace written through `sim` and print its\n"
+            "                     tables to stdout (the same as `sim` on the file)\n"
+            "  --repl P, --hierarchy SPEC, --sizes LIST, --line N, --assoc full|N\n"
+            "                     with --sim: the caches, as `sim` takes them\n",
             RT_TR_DEFAULT_LEVEL);
     rt_cmd_render_help(f, RT_OC_TRACE);
     fprintf(f,
@@ -44,7 +48,9 @@ static void usage(FILE *f)
             "  -h, --help         this help\n");
 }
 
-enum { OPT_LEVEL = 2000, OPT_NO_SAMPLE, OPT_STRICT };
+enum { OPT_LEVEL = 2000, OPT_NO_SAMPLE, OPT_STRICT, OPT_SIM, OPT_SIMOPT };
+
+#define SIM_MAXARGS (2 * 16 + 3) /* "sim", 16 options with values, the trace, NULL */
 
 int main_trace(int argc, char **argv)
 {
@@ -54,9 +60,20 @@ int main_trace(int argc, char **argv)
         {"no-sample", no_argument, NULL, OPT_NO_SAMPLE},
         {"strict", no_argument, NULL, OPT_STRICT},
         {"material", required_argument, NULL, 'M'},
+        {"sim", no_argument, NULL, OPT_SIM},
+        {"repl", required_argument, NULL, OPT_SIMOPT},
+        {"hierarchy", required_argument, NULL, OPT_SIMOPT},
+        {"sizes", required_argument, NULL, OPT_SIMOPT},
+        {"line", required_argument, NULL, OPT_SIMOPT},
+        {"assoc", required_argument, NULL, OPT_SIMOPT},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0},
     };
+    /* --sim: `sim OPTIONS OUT` once the trace is written */
+    char *sargv[SIM_MAXARGS];
+    char sopt[16][24];
+    int sargc = 1, sim = 0, nsim = 0;
+    sargv[0] = "sim";
     rt_render_opts o;
     rt_render_default_opts(&o);
     o.film = RT_FILM_W | RT_FILM_H; /* a pbrt scene's Film sets the size -W/-H do not */
@@ -75,7 +92,8 @@ int main_trace(int argc, char **argv)
     char so[32];
     if (!lo) return RT_EXIT_FAIL;
     optind = 1;
-    while ((c = getopt_long(argc, argv, rt_cmd_shortopts(RT_OC_TRACE, "o:h", so, sizeof so), lo, NULL)) != -1) {
+    int li = -1;
+    while ((c = getopt_long(argc, argv, rt_cmd_shortopts(RT_OC_TRACE, "o:h", so, sizeof so), lo, &li)) != -1) {
         int r = rt_cmd_render_opt("trace", c, optarg, &o, &tracer);
         if (r < 0) goto usage_err;
         if (r > 0) continue;
@@ -97,6 +115,16 @@ int main_trace(int argc, char **argv)
             break;
         case OPT_NO_SAMPLE: wo.payload = NULL; break;
         case OPT_STRICT: strict = 1; break;
+        case OPT_SIM: sim = 1; break;
+        case OPT_SIMOPT:
+            if (nsim == 16) {
+                rt_cmd_error("trace", "too many simulator options");
+                goto usage_err;
+            }
+            snprintf(sopt[nsim], sizeof sopt[nsim], "--%s", lo[li].name);
+            sargv[sargc++] = sopt[nsim++];
+            sargv[sargc++] = optarg;
+            break;
         case 'h': usage(stdout); free(lo); return RT_EXIT_OK;
         default: goto usage_err;
         }
@@ -107,10 +135,19 @@ int main_trace(int argc, char **argv)
         rt_cmd_error("trace", "expected exactly one SCENE (see --help)");
         return RT_EXIT_USAGE;
     }
+    const char *scene = argv[optind]; /* before sim's parsing below moves optind */
     if (!out) {
         rt_cmd_error("trace", "missing -o out.rtt");
         return RT_EXIT_USAGE;
     }
+    if (nsim && !sim) {
+        rt_cmd_error("trace", "%s applies only with --sim", sargv[1]);
+        return RT_EXIT_USAGE;
+    }
+    sargv[sargc++] = (char *)out;
+    sargv[sargc] = NULL;
+    /* the simulator's options are checked as sim checks them, before tracing */
+    if (sim && rt_cmd_sim_check_args(sargc, sargv) < 0) return RT_EXIT_USAGE;
 
     rt_err e = {0};
     rt_job j;
@@ -123,7 +160,7 @@ int main_trace(int argc, char **argv)
      * nothing, are usage errors, found before the scene is loaded */
     if (rt_cmd_check_tracer_opts("trace", tracer, &o) < 0) return RT_EXIT_USAGE;
     char specbuf[4200];
-    const char *spec = rt_cmd_scene_material("trace", argv[optind], material, specbuf, sizeof specbuf);
+    const char *spec = rt_cmd_scene_material("trace", scene, material, specbuf, sizeof specbuf);
     if (!spec) return RT_EXIT_USAGE;
     if (rt_job_setup(&j, spec, tracer, &o, &e) < 0) {
         rt_cmd_error("trace", "%s", e.msg);
@@ -177,6 +214,10 @@ int main_trace(int argc, char **argv)
             st.rays_primary, st.rays_shadow, sec,
             sec > 0 ? (double)tot.nrefs / sec * 1e-6 : 0.0);
     rc = RT_EXIT_OK;
+    if (sim) {
+        fflush(stderr);
+        rc = main_sim(sargc, sargv); /* the same tables as `sim` on the file */
+    }
     goto done;
 fail:
     rt_cmd_error("trace", "%s", e.msg);

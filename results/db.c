@@ -341,17 +341,25 @@ void rt_db_close(rt_db *db)
     free(db);
 }
 
-/* Creates the tables, views and class rows of an empty database. */
-static int create_tables(rt_db *db, rt_err *e)
+/* The class rows: every class this raytraffic knows (a file made before
+ * classes tlas, inst and alpha existed gets them on its next open for
+ * writing; rows already there are kept). */
+static int add_classes(rt_db *db, rt_err *e)
 {
-    if (exec(db, schema_sql, e)) return -1;
     char sql[128];
     for (int c = 0; c < RT_NCLASS; c++) {
-        snprintf(sql, sizeof sql, "INSERT OR REPLACE INTO classes(name, grp) VALUES('%s', '%s')", rt_class_name(c),
+        snprintf(sql, sizeof sql, "INSERT OR IGNORE INTO classes(name, grp) VALUES('%s', '%s')", rt_class_name(c),
                  rt_group_name(rt_class_group(c)));
         if (exec(db, sql, e)) return -1;
     }
     return 0;
+}
+
+/* Creates the tables, views and class rows of an empty database. */
+static int create_tables(rt_db *db, rt_err *e)
+{
+    if (exec(db, schema_sql, e)) return -1;
+    return add_classes(db, e);
 }
 
 /* Every view, dropped before an upgrade changes a table under it and
@@ -547,14 +555,19 @@ static int foreign_key_check(rt_db *db, rt_err *e)
  * schema of an empty file, upgrades an older one step by step. */
 static int create_schema(rt_db *db, rt_err *e)
 {
-    int64_t ver = 0;
+    int64_t ver = 0, ncls = 0;
     if (get_int(db, "PRAGMA user_version", &ver, e)) return -1;
-    if (ver == RT_DB_SCHEMA_VERSION) return 0;
+    if (ver == RT_DB_SCHEMA_VERSION) {
+        if (get_int(db, "SELECT COUNT(*) FROM classes", &ncls, e)) return -1;
+        if (ncls >= RT_NCLASS) return 0;
+    }
     if (exec(db, "BEGIN IMMEDIATE", e)) return -1;
     if (get_int(db, "PRAGMA user_version", &ver, e)) goto fail;
     /* re-read under the lock: another process may have done it meanwhile */
     if (ver == 0) {
         if (create_tables(db, e)) goto fail;
+    } else if (ver == RT_DB_SCHEMA_VERSION) {
+        if (add_classes(db, e)) goto fail;
     } else {
         if (exec(db, drop_views_sql, e)) goto fail;
         if (ver == 1 && migrate_v1(db, e)) goto fail;
@@ -562,6 +575,7 @@ static int create_schema(rt_db *db, rt_err *e)
         if (ver <= 5 && migrate_v5(db, e)) goto fail;
         if (ver <= 6 && migrate_v6(db, ver, e)) goto fail;
         if (exec(db, schema_sql, e)) goto fail;
+        if (add_classes(db, e)) goto fail;
         if (foreign_key_check(db, e)) goto fail;
     }
     if (ver < RT_DB_SCHEMA_VERSION) {

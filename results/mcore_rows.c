@@ -7,54 +7,74 @@
 size_t rt_mc_db_level_cap(const rt_mc *m)
 {
     const rt_mc_config *c = rt_mc_get_config(m);
-    return (size_t)(c->ncores + c->shared.nsizes) * RT_NCLASS;
+    size_t n = 0;
+    for (int k = 0; k < c->h.nlevels; k++)
+        n += (size_t)(k < c->nprivate ? c->ncores : c->h.level[k].nsizes) * RT_NCLASS * (1 + RT_MAXGEN);
+    return n;
 }
 
-size_t rt_mc_db_level_rows(const rt_mc *m, rt_db_level *rows)
+size_t rt_mc_db_level_rows_gen(const rt_mc *m, int gens, rt_db_level *rows)
 {
     const rt_mc_config *c = rt_mc_get_config(m);
     size_t n = 0;
-    for (int k = 0; k < c->ncores; k++)
-        for (int cls = 0; cls < RT_NCLASS; cls++) {
-            rt_mc_counts x;
-            rt_mc_get(m, k, cls, &x);
-            if (!x.accesses) continue;
-            rt_db_level *r = &rows[n++];
-            memset(r, 0, sizeof *r);
-            r->level = 1;
-            r->level_name = c->priv_name;
-            r->core = k;
-            r->size = c->priv_size;
-            r->line = c->line;
-            r->assoc = c->priv_assoc;
-            r->cls = cls;
-            r->gen = -1;
-            r->accesses = x.accesses;
-            r->misses = x.misses;
-            r->writebacks = x.writebacks;
-            r->traffic_bytes = x.traffic_bytes;
-        }
-    for (int z = 0; z < c->shared.nsizes; z++)
-        for (int cls = 0; cls < RT_NCLASS; cls++) {
-            rt_sim_counts x;
-            rt_sim_get(rt_mc_shared(m), z, cls, &x);
-            if (!x.accesses) continue;
-            rt_db_level *r = &rows[n++];
-            memset(r, 0, sizeof *r);
-            r->level = 2;
-            r->level_name = c->shared_name;
-            r->core = -1;
-            r->size = c->shared.sizes[z];
-            r->line = c->shared.line;
-            r->assoc = 0;
-            r->cls = cls;
-            r->gen = -1;
-            r->accesses = x.accesses;
-            r->misses = x.read_misses + x.write_misses;
-            r->writebacks = x.writebacks;
-            r->traffic_bytes = x.traffic_bytes;
-        }
+    for (int p = 0; p < c->nprivate; p++) {
+        const rt_sim_config *l = &c->h.level[p];
+        for (int k = 0; k < c->ncores; k++)
+            for (int cls = 0; cls < RT_NCLASS; cls++)
+                for (int g = -1; g < (gens ? RT_MAXGEN : 0); g++) {
+                    rt_mc_counts x;
+                    rt_mc_get_level(m, p, k, cls, g, &x);
+                    if (!x.accesses) continue;
+                    rt_db_level *r = &rows[n++];
+                    memset(r, 0, sizeof *r);
+                    r->level = p + 1;
+                    r->level_name = c->h.name[p];
+                    r->core = k;
+                    r->size = l->sizes[0];
+                    r->line = l->line;
+                    r->assoc = l->assoc;
+                    r->policy = rt_sim_policy_name(l);
+                    r->repl = rt_sim_repl_name(l->repl);
+                    r->cls = cls;
+                    r->gen = g;
+                    r->accesses = x.accesses;
+                    r->misses = x.misses;
+                    r->writebacks = x.writebacks;
+                    r->traffic_bytes = x.traffic_bytes;
+                }
+    }
+    const rt_hier *sh = rt_mc_shared_hier(m);
+    for (int s = 0; s + c->nprivate < c->h.nlevels; s++) {
+        const int k = s + c->nprivate;
+        const rt_sim_config *l = &c->h.level[k];
+        for (int i = 0; i < l->nsizes; i++)
+            for (int cls = 0; cls < RT_NCLASS; cls++)
+                for (int g = -1; g < (gens ? RT_MAXGEN : 0); g++) {
+                    rt_sim_counts t;
+                    if (g < 0) rt_sim_get(rt_hier_level(sh, s), i, cls, &t);
+                    else rt_sim_get_gen(rt_hier_level(sh, s), i, cls, g, &t);
+                    if (!t.accesses) continue;
+                    rt_db_level *r = &rows[n++];
+                    memset(r, 0, sizeof *r);
+                    r->level = k + 1;
+                    r->level_name = c->h.name[k];
+                    r->core = -1;
+                    r->size = l->sizes[i];
+                    r->line = l->line;
+                    r->assoc = l->assoc;
+                    r->policy = rt_sim_policy_name(l);
+                    r->repl = rt_sim_repl_name(l->repl);
+                    r->cls = cls;
+                    r->gen = g;
+                    r->accesses = t.accesses;
+                    r->misses = t.read_misses + t.write_misses;
+                    r->writebacks = t.writebacks;
+                    r->traffic_bytes = t.traffic_bytes;
+                }
+    }
     return n;
 }
+
+size_t rt_mc_db_level_rows(const rt_mc *m, rt_db_level *rows) { return rt_mc_db_level_rows_gen(m, 0, rows); }
 
 size_t rt_mc_db_traffic_rows(const rt_mc *m, rt_db_traffic *rows) { return rt_sim_db_rows(rt_mc_shared(m), rows); }

@@ -28,9 +28,10 @@
  * untraced path costs (almost) nothing.
  *
  * Classes group into the paper's two columns: geometry (nodes, index lists,
- * triangles, shading data, top-level nodes, instance records, alpha
- * texels) and ray (ray records, queues, queue table, hit
- * records, stream buffers); the framebuffer is "other".
+ * triangles, shading data) and ray (ray records, queues, queue table, hit
+ * records, stream buffers); the framebuffer is "other". The two-level
+ * structure's classes (tlas, inst) and alpha texels are geometry: the
+ * bottom-level trees (blas) keep the classes node and tri.
  */
 #ifndef RT_MEMMODEL_H
 #define RT_MEMMODEL_H
@@ -51,18 +52,18 @@ typedef enum rt_class {
     RT_CLS_HIT = 7,    /* hit records */
     RT_CLS_STREAM = 8, /* stream / ping-pong buffers of later tracers */
     RT_CLS_FB = 9,     /* framebuffer */
-    RT_CLS_TLAS = 10,  /* top-level (instance) BVH nodes */
-    RT_CLS_INST = 11,  /* instance records and transforms */
-    RT_CLS_ALPHA = 12, /* alpha-texture texels read by the any-hit cutout */
+    RT_CLS_TLAS = 10,  /* top-level BVH nodes of the two-level structure (--instances bvh), 32 B */
+    RT_CLS_INST = 11,  /* instance records (world-to-object matrix, tree, first triangle), 64 B */
+    RT_CLS_ALPHA = 12, /* alpha-texture texels (reserved: any-hit cutouts) */
     RT_NCLASS = 13
 } rt_class;
 
-/* The classes every trace and side payload stores: the first ten, the
- * only ones before tlas, inst and alpha were added. A trace whose
- * references are all of these classes is byte for byte what it was with
- * ten classes; the footer (src/trace.c) and a sample-index side payload
- * (cachesim/sindex.c) store more only when a later class is used. */
-#define RT_NCLASS_BASE 10
+/* Classes below this one are those of every trace written before the
+ * two-level structure existed: a trace footer and a sample-index side
+ * payload store at least RT_NCLASS_V1 classes, and more only when a
+ * record of a later class exists (docs/trace-format.md), so traces that
+ * use none of them are byte for byte what they were. */
+#define RT_NCLASS_V1 10
 
 typedef enum rt_group {
     RT_GROUP_GEOMETRY = 0,

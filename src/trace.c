@@ -32,8 +32,9 @@
  *            magic "RTSM", the index and n of its chunk, and a payload
  *            (below) of at most side_bound(n) bytes
  *   footer   "RTND"                   footer magic
- *            u32 nclass               10..13: 10 (RT_NCLASS_BASE), or the
- *                                     highest class referenced + 1
+ *            u32 nclass               10 (RT_NCLASS_V1), or up to 13
+ *                                     (RT_NCLASS): 1 + the highest class
+ *                                     with a reference when that is >= 10
  *            u64 nrefs, u64 nchunks
  *            nclass x (u64 refs, u64 bytes, u64 writes)
  *            u32 CRC-32               of the footer bytes before it
@@ -76,8 +77,8 @@
  * SIDE CHUNKS (version 3). The payload of chunk k's side chunk is opaque
  * to the format: bytes a payload maker (rt_tr_payload_ops, trace.h) made
  * from chunk k's records. The format reads one byte of it, byte 0, the
- * flags (bit 0: the last chunk; bit 1 the maker's, telling how many
- * classes its totals list; other bits zero), and bounds its length
+ * flags (bit 0: the last chunk; bits 1-2 the maker's, the sample index's
+ * count of classes beyond RT_NCLASS_V1; other bits zero), and bounds its length
  * by the header's parameters (side_bound). raytraffic's maker is the
  * sample index, cachesim/sindex.c, which documents the rest of the bytes
  * (and docs/trace-format.md). The writer stores what its maker makes;
@@ -157,16 +158,18 @@ static const unsigned char SIDE_MAGIC[4] = {'R', 'T', 'S', 'M'};
 
 #define MAX_HDR_PAYLOAD 65536u
 #define CHUNK_HDR 24u
-/* Footer bytes with nc classes: 268 with the base ten, 340 with all 13. */
-#define FOOT_LEN(nc) (4u + 4u + 16u + 24u * (unsigned)(nc) + 4u)
-#define FOOT_MAX FOOT_LEN(RT_NCLASS)
+/* A footer of nc classes; nc is RT_NCLASS_V1 .. RT_NCLASS (foot_nclass). */
+#define FOOT_LEN_N(nc) (4u + 4u + 16u + 24u * (unsigned)(nc) + 4u)
+#define FOOT_LEN FOOT_LEN_N(RT_NCLASS) /* the largest */
 
-/* Classes a footer stores: the base ten, or up to the highest class with a
- * reference (so traces of the base classes keep their bytes). */
-static int foot_classes(const rt_tr_totals *t)
+/* Classes a footer (and a sample-index payload) stores for these
+ * per-class reference counts: RT_NCLASS_V1, or up to the highest class
+ * with a reference, so traces without the later classes keep their bytes. */
+static int foot_nclass(const uint64_t *refs)
 {
-    int nc = RT_NCLASS;
-    while (nc > RT_NCLASS_BASE && t->refs[nc - 1] == 0) nc--;
+    int nc = RT_NCLASS_V1;
+    for (int c = RT_NCLASS_V1; c < RT_NCLASS; c++)
+        if (refs[c]) nc = c + 1;
     return nc;
 }
 
@@ -296,8 +299,8 @@ static int hg_str(hbuf *h, char *dst, size_t cap)
 
 /* Largest side payload of a chunk of n records: the format's bound, from
  * the header's parameters (trace.h). It is the largest sample index
- * (cachesim/sindex.c) of a chunk: flags, 5 totals per class (at most
- * RT_NCLASS) and two counts,
+ * (cachesim/sindex.c) of a chunk: flags, 65 class totals (13 classes;
+ * the bound grew by 150 bytes when classes 10..12 came) and two counts,
  * every record sampled, and the windows that can end in it (they end at
  * least period records apart, so at most n / period + 1, plus the partial
  * one of the last chunk), each with its header and cmax + window records. */
@@ -398,7 +401,7 @@ static int w_flush_chunk(rt_tr_writer *w, int last, rt_err *e)
         const unsigned char *pb = NULL;
         size_t plen = 0;
         if (w->pops->chunk(w->pctx, last, &pb, &plen) < 0) return rt_errf(e, "%s: out of memory", w->path);
-        if (plen < 1 || plen > side_bound(&w->sp, w->nrec) || (pb[0] & 1) != (last ? 1 : 0) || pb[0] > 3)
+        if (plen < 1 || plen > side_bound(&w->sp, w->nrec) || (pb[0] & ~RT_TR_SIDE_MAKER) != (last ? 1 : 0))
             return rt_errf(e, "%s: chunk %llu: the side payload made (%zu bytes, flags %#x) does not fit the format",
                            w->path, (unsigned long long)w->tot.nchunks, plen, plen ? pb[0] : 0u);
         if (w_deflate(w, SIDE_MAGIC, w->nrec, pb, plen, e) < 0) return -1;
@@ -630,9 +633,9 @@ int rt_tr_finish(rt_tr_writer *w, rt_err *e)
         return -1;
     }
     if (w_flush_chunk(w, 1, e) < 0) goto fail;
-    unsigned char f[FOOT_MAX];
-    const int nc = foot_classes(&w->tot);
-    const unsigned flen = FOOT_LEN(nc);
+    unsigned char f[FOOT_LEN];
+    const int nc = foot_nclass(w->tot.refs);
+    const unsigned flen = FOOT_LEN_N(nc);
     memcpy(f, FOOT_MAGIC, 4);
     put32(f + 4, (uint32_t)nc);
     put64(f + 8, w->tot.nrefs);
@@ -995,7 +998,7 @@ static int read_side_chunk(rt_tr_reader *r, uint32_t *U)
                       (unsigned long long)idx, m[0], m[1], m[2], m[3]);
     uint32_t C;
     if (read_chunk_bytes(r, 1, U, &C) < 0 || inflate_exact(r, r->sraw, *U, C, "side chunk") < 0) return -1;
-    if (r->sraw[0] > 3)
+    if (r->sraw[0] & ~(1 | RT_TR_SIDE_MAKER))
         return r_fail(r, r->chunk_off + CHUNK_HDR, "side chunk %llu: unknown flags %#x", (unsigned long long)idx,
                       r->sraw[0]);
     r->last_seen = r->sraw[0] & 1;
@@ -1025,21 +1028,21 @@ static int check_side(rt_tr_reader *r)
 
 static int read_footer(rt_tr_reader *r)
 {
-    unsigned char f[FOOT_MAX];
+    unsigned char f[FOOT_LEN];
     uint64_t at = r->chunk_off;
     memcpy(f, FOOT_MAGIC, 4);
     if (r_read(r, f + 4, 4, "the footer") < 0) return -1;
-    const uint32_t nc = get32(f + 4);
-    if (nc < RT_NCLASS_BASE || nc > RT_NCLASS)
-        return r_fail(r, at + 4, "footer: %u classes, expected %d..%d", nc, RT_NCLASS_BASE, RT_NCLASS);
-    const unsigned flen = FOOT_LEN(nc);
+    const uint32_t nc = get32(f + 4); /* checked before the rest is read: it sets the footer's length */
+    if (nc < RT_NCLASS_V1 || nc > RT_NCLASS)
+        return r_fail(r, at + 4, "footer: %u classes, expected %d..%d", nc, RT_NCLASS_V1, RT_NCLASS);
+    const unsigned flen = FOOT_LEN_N(nc);
     if (r_read(r, f + 8, flen - 8, "the footer") < 0) return -1;
     if (crc(0, f, flen - 4) != get32(f + flen - 4)) return r_fail(r, at, "footer CRC mismatch");
     rt_tr_totals *t = &r->foot;
-    memset(t, 0, sizeof *t);
+    memset(t, 0, sizeof *t); /* classes beyond nc: none */
     t->nrefs = get64(f + 8);
     t->nchunks = get64(f + 16);
-    for (unsigned c = 0; c < nc; c++) {
+    for (int c = 0; c < (int)nc; c++) {
         t->refs[c] = get64(f + 24 + 24 * c);
         t->bytes[c] = get64(f + 32 + 24 * c);
         t->writes[c] = get64(f + 40 + 24 * c);
@@ -1055,8 +1058,6 @@ static int read_footer(rt_tr_reader *r)
     for (int c = 0; c < RT_NCLASS && (r->mode != RM_SIDE || r->tallied); c++)
         if (t->refs[c] != r->got.refs[c] || t->bytes[c] != r->got.bytes[c] || t->writes[c] != r->got.writes[c])
             return r_fail(r, at, "footer totals of class %s do not match the records", rt_class_name(c));
-    if ((int)nc != foot_classes(t)) /* one encoding per trace: no class stored beyond the highest used */
-        return r_fail(r, at + 4, "footer: %u classes stored, the highest referenced needs %d", nc, foot_classes(t));
     int ch = fgetc(r->f);
     if (ch != EOF) {
         uint64_t extra = r->fsize > r->off ? r->fsize - r->off : 1;

@@ -125,9 +125,11 @@ typedef struct rt_tr_sample_params {
  * failure); put feeds n valid records (0, or -1: out of memory); chunk
  * ends the data chunk whose records were fed since the last call and sets
  * *bytes (owned by the maker, valid until its next call) and *len to its
- * payload, whose byte 0 must be 1 if last (the trace ends with this
- * chunk) and 0 if not, and whose length must be 1..the bound above (0, or
+ * payload, whose byte 0 must have bit 0 set if last (the trace ends with
+ * this chunk) and clear if not, bits 1-2 (RT_TR_SIDE_MAKER) as the maker
+ * likes and the others clear, and whose length must be 1..the bound above (0, or
  * -1: out of memory); close frees it (NULL is fine). */
+#define RT_TR_SIDE_MAKER 0x06 /* bits of a side payload's byte 0 the maker owns (sample index: classes beyond 10) */
 typedef struct rt_tr_payload_ops {
     rt_tr_sample_params params; /* what a writer stores in the header and opens the maker with */
     void *(*open)(const rt_tr_sample_params *p, unsigned generations, rt_err *e);

@@ -64,8 +64,28 @@ q="SELECT r.tracer, r.cores, r.hierarchy, l.level, l.core, l.cache_size, l.class
    ORDER BY 1, 2, 4, 5, 6, 7"
 sqlite3 "$tmp/r.db" "$q" >"$tmp/lv_sim.txt"; sqlite3 "$tmp/s.db" "$q" >"$tmp/lv_sweep.txt"
 [ -s "$tmp/lv_sim.txt" ] && cmp -s "$tmp/lv_sim.txt" "$tmp/lv_sweep.txt" || err "sweep and sim --hierarchy rows differ"
-"$bin" sweep --scenes cornell -W 8 -H 8 --tracers dynamic --cores 1,2 --hierarchy "$H" --db "$tmp/s.db" 2>"$tmp/u.log"
-[ $? = 2 ] && grep -q "dynamic tracer's work is not split" "$tmp/u.log" || err "sweep -t dynamic --cores 2: $(cat "$tmp/u.log")"
+# the dynamic scheduler's queues dealt to cores: the sweep of the three schedulers at 1, 8 and 64 cores
+"$bin" sweep --scenes sphereflake --cores 1,8,64 --hierarchy "$H" --tracers recursive,dynamic,treelet -W 16 -H 16 \
+    --db "$tmp/d.db" 2>"$tmp/d.log" || err "sweep -t recursive,dynamic,treelet --cores 1,8,64: $(cat "$tmp/d.log")"
+[ "$(sqlite3 "$tmp/d.db" "SELECT GROUP_CONCAT(tracer || ':' || cores, ' ') FROM (SELECT tracer, cores FROM runs
+    ORDER BY tracer, cores)")" = "dynamic:1 dynamic:8 dynamic:64 recursive:1 recursive:8 recursive:64 treelet:1 treelet:8 treelet:64" ] \
+    || err "dynamic sweep runs: $(sqlite3 "$tmp/d.db" 'SELECT tracer, cores FROM runs')"
+[ "$(sqlite3 "$tmp/d.db" "SELECT r.cores || ':' || COUNT(DISTINCT l.core) FROM level_traffic l JOIN runs r ON r.id = l.run_id
+    WHERE r.tracer = 'dynamic' AND l.level = 1 GROUP BY r.cores ORDER BY r.cores" | tr '\n' ' ')" = "1:1 8:8 64:64 " ] \
+    || err "dynamic private rows per core"
+[ "$(sqlite3 "$tmp/d.db" "SELECT COUNT(DISTINCT l.cache_size) FROM level_traffic l JOIN runs r ON r.id = l.run_id
+    WHERE r.tracer = 'dynamic' AND r.cores = 64 AND l.level = 2 AND l.core = -1")" = 13 ] || err "dynamic shared rows"
+sqlite3 "$tmp/d.db" "SELECT stats FROM runs WHERE tracer = 'dynamic' AND cores = 8" | grep -q " cores=8 rounds=[1-9][0-9]* rays_moved=[1-9]" \
+    || err "dynamic 8-core statistics: $(sqlite3 "$tmp/d.db" "SELECT stats FROM runs WHERE tracer = 'dynamic'")"
+sqlite3 "$tmp/d.db" "SELECT stats FROM runs WHERE tracer = 'dynamic' AND cores = 1" | grep -q "rays_moved" \
+    && err "one core's statistics name moved rays"
+"$bin" report --db "$tmp/d.db" --figure cores >"$tmp/d.md" 2>&1 || err "report --figure cores (dynamic): $(cat "$tmp/d.md")"
+for n in 1 8 64; do
+    grep "shared 4096K" -A7 "$tmp/d.md" | grep -q "^| $n | [0-9.]* | [0-9.]*% | [0-9.]* | [0-9.]*% | [0-9.]* | [0-9.]*% | -*[0-9.]*% |$" \
+        || err "report: dynamic vs recursive on $n cores: $(cat "$tmp/d.md")"
+done
+"$bin" sweep --scenes cornell -W 8 -H 8 --tracers dynamic --mode whitted --cores 2 --hierarchy "$H" --db "$tmp/s.db" 2>"$tmp/u.log"
+[ $? = 2 ] && grep -q "whitted and path modes on one core" "$tmp/u.log" || err "sweep -t dynamic --mode whitted --cores 2: $(cat "$tmp/u.log")"
 # a one-cache sweep with --cores: the interleaved stream in the one cache, its own run key (cores 4)
 "$bin" sweep --scenes cornell --tracers recursive -W 16 -H 16 --sizes 64K --db "$tmp/o.db" 2>/dev/null || err "sweep"
 "$bin" sweep --scenes cornell --tracers recursive --cores 4 -W 16 -H 16 --sizes 64K --db "$tmp/o.db" 2>/dev/null \
@@ -73,13 +93,14 @@ sqlite3 "$tmp/r.db" "$q" >"$tmp/lv_sim.txt"; sqlite3 "$tmp/s.db" "$q" >"$tmp/lv_
 [ "$(sqlite3 "$tmp/o.db" "SELECT GROUP_CONCAT(DISTINCT cores) FROM (SELECT cores FROM runs ORDER BY cores)")" = "1,4" ] \
     || err "one-cache sweep cores: $(sqlite3 "$tmp/o.db" 'SELECT tracer, cores FROM runs')"
 # bad hierarchies
-for bad in "L1=32K/8/64/lru/private" "L1=32K/8/64/fifo/private,LLC=1M/full/64/lru/shared" \
-    "L1=32K/8/64/lru/private,LLC=1M/full/32/lru/shared" "L1=32K/8/64/lru/shared,LLC=1M/full/64/lru/shared"; do
+for bad in "L1=32K/8/64/lru/private" "L1=32K/8/64/lru/wt/private,LLC=1M/full/64/lru/shared" \
+    "L1=32K/8/64/lru/shared,LLC=1M/full/64/lru/private" "L1=32K/8/64/lru/private,LLC=1M/full/64/lru/shared,inclusive" \
+    "L1=32K/8/64/opt/private,LLC=1M/full/64/lru/shared" "L1=32K/8/64/lru/private,L2=1M/8/128/lru/private,LLC=4M/full/128/lru/shared"; do
     "$bin" sim --hierarchy "$bad" "$tmp/c4.rtt" >/dev/null 2>"$tmp/u.log"
     [ $? = 2 ] && grep -q -- "--hierarchy" "$tmp/u.log" || err "--hierarchy $bad: $(cat "$tmp/u.log")"
 done
 "$bin" bench --what cores --scene cornell -W 24 -H 24 --cores 3 --reps 1 >"$tmp/b.txt" 2>&1 || err "bench --what cores: $(cat "$tmp/b.txt")"
-grep -q "^| median | | [0-9.]* | [0-9.]* | [0-9.]* |" "$tmp/b.txt" || err "bench: $(cat "$tmp/b.txt")"
+grep -q "^| median | [0-9.]* | | [0-9.]* | [0-9.]* |" "$tmp/b.txt" || err "bench: $(cat "$tmp/b.txt")"
 
 [ $fail = 0 ] && echo "PASS: cores_cli"
 exit $fail

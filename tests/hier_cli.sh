@@ -99,6 +99,23 @@ gap=$(awk -v l="$lru" -v o="$opt" 'BEGIN {printf "%.1f%%", 100 * (l / o - 1)}')
 grep -q "^| 1024 | .* | $gap |\$" "$tmp/rep.md" || die "report: gap $gap at 1K: $(grep '^| 1024' "$tmp/rep.md")"
 "$bin" report --db "$tmp/x.db" --figure hierarchy >/dev/null 2>&1; [ $? -eq 1 ] || die "report --figure hierarchy without runs must exit 1"
 
+# trace --sim: the tables `sim` prints for the trace written, for one level,
+# a --repl and a two-level hierarchy (byte for byte, the trace named the same)
+n=0
+for o in "--sizes 1K-8K" "--repl srrip --assoc 4 --sizes 2K,8K" "--hierarchy L1=1K/2/64/lru,LLC=1K-8K/full/64/fifo"; do
+    n=$((n + 1))
+    # shellcheck disable=SC2086
+    "$bin" trace cornell -W 16 -H 16 --lights 0 -o "$tmp/ts$n.rtt" --sim $o > "$tmp/ts$n.out" 2>/dev/null || die "trace --sim $o"
+    # shellcheck disable=SC2086
+    "$bin" sim "$tmp/ts$n.rtt" $o > "$tmp/ts$n.want" || die "sim $o"
+    [ -s "$tmp/ts$n.want" ] && cmp -s "$tmp/ts$n.out" "$tmp/ts$n.want" || die "trace --sim $o differs from sim of its trace"
+done
+grep -q '^L1 ' "$tmp/ts3.out" && grep -q '^LLC  *8192 .* fifo ' "$tmp/ts3.out" || die "trace --sim --hierarchy: level rows"
+"$bin" trace cornell -W 16 -H 16 -o "$tmp/ts9.rtt" --repl fifo >/dev/null 2>&1
+[ $? -eq 2 ] || die "trace --repl without --sim must be a usage error"
+"$bin" trace cornell -W 16 -H 16 -o "$tmp/ts9.rtt" --sim --hierarchy L1=1K/2/64/bogus >/dev/null 2>&1
+[ $? -eq 2 ] && [ ! -e "$tmp/ts9.rtt" ] || die "trace --sim with a bad hierarchy must be a usage error before tracing"
+
 # inclusion: inclusive and exclusive hierarchies print back-invalidations;
 # an inclusive one whose last level never evicts has the non-inclusive L1
 "$bin" sim "$tmp/t.rtt" --hierarchy L1=4K/2/64/lru,LLC=8K-16K/full/64/lru,inclusive --format csv > "$tmp/inc.csv" || die "inclusive exit"

@@ -9,7 +9,13 @@
 #    and an unknown mode is a usage error;
 # 3. a sweep with `--instances bvh` stores instances = 'bvh' in the runs
 #    table for the recursive tracer and runs the packet tracer (its own
-#    walk) on the flattened scene ('flatten'); a plain sweep stores 'flatten'.
+#    walk) on the flattened scene ('flatten'); a plain sweep stores 'flatten';
+#    the classes table holds tlas, inst and alpha, the bvh run has traffic
+#    rows of tlas, inst, node and tri, a 10-class file gets the new rows;
+# 1b. the instanced trace has classes tlas and inst (footer of 12 classes,
+#    sim rows); traces of the earlier writer (tests/data/
+#    oldtrace, versions 1-3) read, and the same commands write the same
+#    chunks, side chunks and footers today.
 set -u
 bin=${RT_BIN:-./raytraffic}
 tmp=$(mktemp -d /tmp/rt-inst-XXXXXX)
@@ -61,6 +67,41 @@ done
 grep -q '^two-level    5 instance records' "$tmp/sinfo" || die "scene info: $(grep -i inst "$tmp/sinfo")"
 "$bin" scene info "$sc" --json 2>/dev/null | grep -q '"instance_records": 5,' || die "scene info --json lacks instance_records"
 
+# ---- 1b. classes per level and traces of earlier writers ------------------------
+# the instanced trace's footer and sample index hold classes tlas and inst
+# (trace-info verified both above); sim gives them rows
+for c in tlas inst node tri; do
+    grep -q "^  $c  *geometry  *[1-9]" "$tmp/info" || die "trace-info: no references of class $c"
+done
+"$bin" sim "$tmp/t.rtt" --sizes 4K --format csv > "$tmp/sim.csv" 2>"$tmp/err" || { cat "$tmp/err"; die "sim exact"; }
+for c in tlas inst; do
+    grep -q ",$c," "$tmp/sim.csv" || die "sim exact: no $c row: $(cat "$tmp/sim.csv")"
+done
+# traces written before classes 10..12 existed (tests/data/oldtrace, made
+# by the earlier writer: versions 1, 2 and 3) still read, and the same
+# commands now write the very same chunks, side chunks and footer (only the
+# header, which names the git revision, may differ)
+od=${RT_SRCDIR:-.}/tests/data/oldtrace
+body() { # the bytes after the header: 16 + payload length + 4
+    P=$(od -An -t u4 -j 12 -N 4 "$1" | tr -d ' ')
+    tail -c +$((16 + P + 4 + 1)) "$1"
+}
+for v in 1 2 3; do
+    "$bin" trace-info "$od/v$v.rtt" > "$tmp/oi" 2>&1 || die "old v$v trace: $(tail -1 "$tmp/oi")"
+    grep -q "verified: CRCs.* footer totals" "$tmp/oi" || die "old v$v trace not verified"
+done
+"$bin" trace cornell -W 16 -H 12 --lights all -o "$tmp/n3.rtt" >/dev/null 2>&1 || die "trace v3"
+"$bin" trace cornell -W 16 -H 12 --lights all --no-sample -o "$tmp/n1.rtt" >/dev/null 2>&1 || die "trace v1"
+"$bin" trace cornell -W 16 -H 12 -t dynamic --mode whitted --depth 3 --no-sample -o "$tmp/n2.rtt" >/dev/null 2>&1 ||
+    die "trace v2"
+for v in 1 2 3; do
+    body "$od/v$v.rtt" > "$tmp/ob"; body "$tmp/n$v.rtt" > "$tmp/nb"
+    cmp -s "$tmp/ob" "$tmp/nb" || die "v$v: chunks or footer differ from the earlier writer's"
+done
+# a 10-class footer is 268 bytes, the instanced trace's (tlas, inst: 12) 316
+tail -c 268 "$od/v1.rtt" | head -c 4 | grep -q RTND || die "old footer not 268 bytes"
+tail -c 316 "$tmp/t.rtt" | head -c 4 | grep -q RTND || die "12-class footer not 316 bytes"
+
 # ---- 2. refusals ----------------------------------------------------------------
 for t in packet treelet dynamic; do
     "$bin" render "$sc" -t $t --instances bvh -W 16 -H 16 -o "$tmp/x.exr" >/dev/null 2>"$tmp/err"
@@ -81,6 +122,19 @@ done
 got=$(q "$tmp/a.db" "SELECT group_concat(t, ',') FROM (SELECT tracer || ':' || instances AS t FROM runs ORDER BY t)")
 [ "$got" = "packet:flatten,recursive:bvh,recursive:flatten" ] ||
     die "runs (tracer:instances): want packet:flatten,recursive:bvh,recursive:flatten, got '$got'"
+# the classes table holds all 13 classes; the instanced run has rows per level
+got=$(q "$tmp/a.db" "SELECT group_concat(name || ':' || grp, ',') FROM (SELECT * FROM classes WHERE name IN ('tlas','inst','alpha') ORDER BY name)")
+[ "$got" = "alpha:geometry,inst:geometry,tlas:geometry" ] || die "classes table: '$got'"
+got=$(q "$tmp/a.db" "SELECT group_concat(class, ',') FROM (SELECT DISTINCT t.class FROM traffic t JOIN runs r ON r.id = t.run_id WHERE r.instances = 'bvh' AND t.class IN ('tlas','inst','node','tri') ORDER BY t.class)")
+[ "$got" = "inst,node,tlas,tri" ] || die "bvh run's level classes: '$got'"
+got=$(q "$tmp/a.db" "SELECT COUNT(*) FROM traffic t JOIN runs r ON r.id = t.run_id WHERE r.instances = 'flatten' AND t.class IN ('tlas','inst')")
+[ "$got" = 0 ] || die "flattened runs have tlas/inst rows: $got"
+# a file made when there were 10 classes gets the new ones on its next open
+q "$tmp/a.db" "DELETE FROM traffic WHERE class IN ('tlas','inst'); DELETE FROM traffic_gen WHERE class IN ('tlas','inst'); DELETE FROM classes WHERE name IN ('tlas','inst','alpha')" >/dev/null
+"$bin" sweep --scenes "$sc" --tracers recursive --lights primary -W 16 -H 12 --sizes 8K --instances bvh \
+    --db "$tmp/a.db" >/dev/null 2>"$tmp/err" || { cat "$tmp/err"; die "sweep into a 10-class database"; }
+got=$(q "$tmp/a.db" "SELECT COUNT(*) FROM classes")
+[ "$got" = 13 ] || die "classes after reopening a 10-class database: $got"
 
 [ $fail -eq 0 ] && echo "inst_cli: ok"
 exit $fail

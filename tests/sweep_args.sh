@@ -8,7 +8,10 @@
 #     print no job line; the unknown-scene message names .pbrt;
 #  3. a sweep that fails before storing a run leaves no database behind
 #     (a bad scene; a job failing in the database), and one that existed
-#     before stays.
+#     before stays;
+#  4. --scene is --scenes with one spec (not an ambiguous abbreviation); a
+#     scene's load warnings are printed once per sweep, and --strict refuses
+#     it before a database is created.
 set -u
 bin=${RT_BIN:-./raytraffic}
 tmp=$(mktemp -d /tmp/rt-sweepargs-XXXXXX)
@@ -72,4 +75,18 @@ want 1 "--job 1 loads its bad scene" "$bin" sweep --scenes cornell,nosuch --trac
 cp "$tmp/f.db" "$tmp/keep.db"
 want 1 "sweep into an existing database, unknown scene" "$bin" sweep --scenes nosuch --db "$tmp/keep.db"
 cmp -s "$tmp/f.db" "$tmp/keep.db" || die "the existing database changed"
+
+# ---- 4. --scene, warnings, --strict -----------------------------------------
+want 0 "sweep --scene" "$bin" sweep --scene cornell --tracers recursive --lights primary -W 8 -H 8 --sizes 1K \
+    --db "$tmp/s1.db"
+[ "$(sqlite3 "$tmp/s1.db" "select count(*) from runs")" = 1 ] || die "--scene: not one run"
+printf 'Sampler "halton"\nWorldBegin\nShape "trianglemesh" "point3 P" [ 0 0 0 1 0 0 0 1 0 ]\n' > "$tmp/w.pbrt"
+want 0 "sweep of a scene that warns" "$bin" sweep --scene "$tmp/w.pbrt" --tracers recursive,packet --lights primary \
+    -W 8 -H 8 --sizes 1K --jobs 2 --db "$tmp/w.db"
+[ "$(grep -c "^raytraffic sweep: warning: $tmp/w.pbrt:1: Sampler skipped$" "$tmp/err")" = 1 ] ||
+    die "the warning once: $(cat "$tmp/err")"
+want 1 "sweep --strict" "$bin" sweep --scene "$tmp/w.pbrt" --strict --tracers recursive --lights primary -W 8 -H 8 \
+    --db "$tmp/ws.db"
+grep -q "w.pbrt:1: Sampler skipped (--strict: 1 kind of warnings are errors)$" "$tmp/err" || die "--strict: $(cat "$tmp/err")"
+[ -e "$tmp/ws.db" ] && die "sweep --strict left a database"
 exit $fail

@@ -403,6 +403,58 @@ static void small_scene(const char *name, const rt_scene *s, long n)
     }
 }
 
+/* A tree that shares the scene's triangles (share_tris = 1, the default
+ * from RT_BVH_SHARE_MIN triangles on) is the copying tree without its
+ * copy: the same nodes, and on n rays the same hits, visits and tests. */
+static void shared_vs_copy(const char *name, const rt_scene *s, long n)
+{
+    rt_err e = {0};
+    cam c;
+    cam_setup(&c, s);
+    for (int w = 0; w < 3; w++) {
+        rt_bvh_params p;
+        rt_bvh_default_params(&p, widths[w]);
+        CHECK(p.share_tris == -1, "default share_tris %d", p.share_tris);
+        rt_bvh *d = rt_bvh_build(s, &p, &e);
+        p.share_tris = 0;
+        rt_bvh *cp = rt_bvh_build(s, &p, &e);
+        p.share_tris = 1;
+        rt_bvh *sh = rt_bvh_build(s, &p, &e);
+        CHECK(d && cp && sh, "%s bvh%d: %s", name, widths[w], e.msg);
+        if (d && cp && sh) {
+            CHECK((d->tri == NULL) == (s->ntri >= RT_BVH_SHARE_MIN) && cp->tri != NULL && sh->tri == NULL,
+                  "%s bvh%d: which trees copy", name, widths[w]);
+            CHECK(rt_bvh_check(sh, s, &e) == 0, "%s bvh%d shared: check: %s", name, widths[w], e.msg);
+            CHECK(sh->nnodes == cp->nnodes && !memcmp(sh->orig, cp->orig, s->ntri * sizeof *sh->orig),
+                  "%s bvh%d: shared tree's nodes or order differ", name, widths[w]);
+            rt_bvh_trav ta, tb, tp;
+            rt_bvh_trav_init(&ta, cp, s, NULL, NULL);
+            rt_bvh_trav_init(&tb, sh, s, NULL, NULL);
+            rt_bvh_trav_init(&tp, sh, s, NULL, NULL);
+            long hits = 0;
+            for (long i = 0; i < n; i++) {
+                rt_ray r;
+                gen_ray(s, &c, &r, (int)i);
+                rt_hit ha, hb, hp;
+                const int a = rt_bvh_closest(&ta, &r, &ha), b = rt_bvh_closest(&tb, &r, &hb);
+                const int pl = rt_bvh_plain(&tp, &r, &hp, 0);
+                hits += a;
+                CHECK(a == b && pl == b && same_hit(&ha, &hb) && same_hit(&hp, &hb) &&
+                          rt_bvh_occluded(&ta, &r) == rt_bvh_occluded(&tb, &r),
+                      "%s bvh%d ray %ld: shared tree hit %d tri %u, copy %d tri %u", name, widths[w], i, b, hb.tri, a,
+                      ha.tri);
+            }
+            CHECK(ta.nodes == tb.nodes && ta.tests == tb.tests && hits > n / 20,
+                  "%s bvh%d: visits %llu / %llu, tests %llu / %llu, %ld hits", name, widths[w],
+                  (unsigned long long)ta.nodes, (unsigned long long)tb.nodes, (unsigned long long)ta.tests,
+                  (unsigned long long)tb.tests, hits);
+        }
+        rt_bvh_free(d);
+        rt_bvh_free(cp);
+        rt_bvh_free(sh);
+    }
+}
+
 static void test_small_cases(void)
 {
     rt_err e = {0};
@@ -699,6 +751,7 @@ int main(int argc, char **argv)
     rt_scene_free(s);
     s = make_soup(2000);
     run_scene("soup-2000", s, rays, full ? rays : rays / 2);
+    shared_vs_copy("soup-2000", s, 3000);
     rt_scene_free(s);
     s = make_sphere(8);
     run_scene("sphere-r8", s, rays, rays);

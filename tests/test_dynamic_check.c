@@ -1,7 +1,7 @@
 /*
  * test_dynamic_check.c -- the dynamic scheduler's checker (rt_dyn_check,
- * I1-I6 of tracegen/dynamic.c, with I3 the ray-queue core's Q1-Q5) can
- * fail: it passes on a real plan and a real run state with rays queued at
+ * I1-I6 of tracegen/dynamic.c, with I3 the ray-queue core's Q1-Q5, and I8
+ * on 3 simulated cores) can fail: it passes on a real plan and a real run state with rays queued at
  * several queue points, rejects each corrupted copy naming the broken
  * invariant, passes again once restored, and the run then finishes the
  * generation. The tracer file is compiled into this test (its functions
@@ -35,7 +35,7 @@ static void test_state(const rt_scene *sc, int qorder)
     o.qorder = qorder;
     rt_layout L;
     rt_mm_init(&L);
-    rt_tracer_ctx ctx = {sc, &acc, acc.as, &o, &L, NULL, NULL, 1, NULL};
+    rt_tracer_ctx ctx = {sc, &acc, acc.as, &o, &L, NULL, NULL, 1, NULL, 0, 1, NULL};
     void *pv = NULL;
     CHECK(dyn_plan(&ctx, &pv, &e) == 0, "plan: %s", e.msg);
     dplan *P = pv;
@@ -113,6 +113,87 @@ out:
     rt_accel_free(&acc);
 }
 
+static int count_put(rt_csink *s, unsigned core, const rt_access *a, size_t n)
+{
+    (void)core;
+    (void)a;
+    *(size_t *)s->ctx += n;
+    return 0;
+}
+
+/* I8 on 3 simulated cores: a real state passes, each corrupted copy fails
+ * naming I8, the restored one passes and the run finishes. */
+static void test_cores(const rt_scene *sc)
+{
+    rt_err e = {0};
+    rt_accel acc;
+    rt_accel_params ap = {0, 0, 0};
+    CHECK(rt_accel_build(&acc, RT_ACCEL_KD, sc, &ap, &e) == 0, "build: %s", e.msg);
+    rt_render_opts o;
+    rt_render_default_opts(&o);
+    o.W = o.H = 8;
+    o.accel = RT_ACCEL_KD;
+    o.sched_size = 8192;
+    o.cores = 3;
+    rt_layout L;
+    rt_mm_init(&L);
+    size_t got = 0;
+    rt_csink cs = {count_put, &got};
+    rt_tracer_ctx ctx = {sc, &acc, acc.as, &o, &L, NULL, NULL, 1, NULL, 0, 1, &cs};
+    void *pv = NULL;
+    CHECK(dyn_plan(&ctx, &pv, &e) == 0, "plan: %s", e.msg);
+    ctx.plan = pv;
+    CHECK(dyn_layout(&ctx, &L, &e) == 0, "layout: %s", e.msg);
+    rt_image *img = rt_image_new(o.W, o.H, &e);
+    rt_run_stats st;
+    memset(&st, 0, sizeof st);
+    dyn D;
+    memset(&D, 0, sizeof D);
+    CHECK(img && dyn_init(&D, &ctx, img, &st, &e) == 0, "init: %s", e.msg);
+    if (!img || D.ncores != 3) goto out;
+    D.shadow = 0;
+    D.tv.mark_bit = 1;
+    for (uint32_t p = 0; p < D.npix; p++) D.want[p] = 1;
+    for (uint32_t p = 0; p < D.npix; p++) {
+        start_core(&D, p, D.npix);
+        start(&D, p);
+    }
+    CHECK(D.core == 2, "the last ray started by core %d", D.core);
+    interleave(&D);
+    CHECK(got > 0 && D.rq.queued > 8, "%zu references, %" PRIu64 " rays queued", got, D.rq.queued);
+    CHECK(rt_dyn_check(&D, &e) == 0, "a real state fails: %s", e.msg);
+    uint32_t q0 = 0;
+    while (q0 < D.nq && !D.rq.count[q0]) q0++;
+    if (q0 == D.nq) goto out;
+    const uint32_t pix = ((const qent *)rt_rq_at(&D.rq, &(rt_rq_cur){D.rq.head[q0], 0, 1}))->pix & ~CAND_FLAG;
+    const uint8_t own = D.owner[pix];
+    D.owner[pix] = 3;
+    expect_fail(&D, "I8", "a queued ray owned by no core");
+    D.owner[pix] = own;
+    D.core_rays[1]++;
+    expect_fail(&D, "I8", "the cores' popped rays miscounted");
+    D.core_rays[1]--;
+    D.rounds = 1;
+    expect_fail(&D, "I8", "more rounds than queue events");
+    D.rounds = 0;
+    RT_REC(D.crec[1], 64, 4, 0, RT_CLS_RAY);
+    expect_fail(&D, "I8", "a core's references not interleaved");
+    D.crec[1]->n--;
+    D.core = 3;
+    expect_fail(&D, "I8", "running core out of range");
+    D.core = 2;
+    CHECK(rt_dyn_check(&D, &e) == 0, "restored state fails: %s", e.msg);
+    run_queues(&D);
+    CHECK(D.err == 0 && check_generation(&D, D.want, D.npix, &e) == 0, "generation: %s", e.msg);
+    CHECK(D.rounds > 0 && D.moved > 0 && D.core_rays[0] + D.core_rays[1] + D.core_rays[2] == D.ev_rays,
+          "rounds %" PRIu64 ", moved %" PRIu64, D.rounds, D.moved);
+out:
+    dyn_free(&D);
+    rt_image_free(img);
+    dyn_plan_free(pv);
+    rt_accel_free(&acc);
+}
+
 int main(void)
 {
     rt_err e = {0};
@@ -121,6 +202,7 @@ int main(void)
     if (!sc) return 1;
     test_state(sc, RT_QORDER_FULLEST);
     test_state(sc, RT_QORDER_TREE);
+    test_cores(sc);
     rt_scene_free(sc);
     return failures ? 1 : 0;
 }

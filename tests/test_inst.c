@@ -19,7 +19,10 @@
 #include "run.h"
 #include "scene.h"
 #include "scene_load.h"
+#include "trace.h"
 #include "tracer.h"
+
+#include <zlib.h>
 
 #include <math.h>
 #include <stdint.h>
@@ -115,7 +118,9 @@ static void corrupt_and_check(const rt_scene *s, rt_inst *I) {
  * every region is counted in bad. */
 typedef struct tally {
     const rt_layout *L;
-    uint64_t n, bad, per[RT_MM_MAX_REGIONS];
+    uint64_t n, bad, per[RT_MM_MAX_REGIONS], cls[RT_NCLASS];
+    uint64_t off;    /* accesses whose class is not their region's */
+    uint64_t xforms; /* the run's transformed rays (its statistics) */
 } tally;
 
 static int tally_put(rt_sink *s, const rt_access *a, size_t n) {
@@ -127,10 +132,14 @@ static int tally_put(rt_sink *s, const rt_access *a, size_t n) {
                 a[i].addr + a[i].size <= t->L->r[k].base + t->L->r[k].recsize * t->L->r[k].count)
                 r = k;
         t->n++;
+        if (a[i].cls < RT_NCLASS)
+            t->cls[a[i].cls]++;
         if (r < 0)
             t->bad++;
         else
             t->per[r]++;
+        if (r >= 0 && a[i].cls != t->L->r[r].cls)
+            t->off++;
     }
     return 0;
 }
@@ -152,6 +161,8 @@ static rt_image *render(rt_scene *s, int mode, int instances, tally *t, rt_job *
     CHECK(rt_job_run(j, &sk, im, &st, &e) == 0, "run: %s", e.msg);
     CHECK(!instances || strstr(st.extra, "xforms="), "the bvh run's statistics lack xforms: '%s'", st.extra);
     CHECK(instances || !strstr(st.extra, "xforms="), "the flattened run counts xforms: '%s'", st.extra);
+    const char *x = strstr(st.extra, "xforms=");
+    t->xforms = x ? strtoull(x + 7, NULL, 10) : 0;
     return im;
 }
 
@@ -186,10 +197,128 @@ static void test_images(rt_scene *s) {
             CHECK(jb.L.r[rbt].count < ja.L.r[rft].count, "shared triangles %llu, flattened %llu",
                   (unsigned long long)jb.L.r[rbt].count, (unsigned long long)ja.L.r[rft].count);
         }
+        /* traffic per level: the top level is class tlas, the instance
+         * records class inst, the bottom level node and tri, each exactly
+         * its region's accesses; the flattened run has neither new class */
+        int rbn = rt_mm_find(&jb.L, "blas.node");
+        CHECK(ta.off == 0 && tb.off == 0, "mode %d: %llu, %llu accesses with another class than their region's",
+              modes[m], (unsigned long long)ta.off, (unsigned long long)tb.off);
+        if (ri >= 0 && rtl >= 0 && rbt >= 0 && rbn >= 0) {
+            CHECK(jb.L.r[rtl].cls == RT_CLS_TLAS && jb.L.r[ri].cls == RT_CLS_INST && jb.L.r[rbn].cls == RT_CLS_NODE &&
+                      jb.L.r[rbt].cls == RT_CLS_TRI,
+                  "region classes %u %u %u %u", jb.L.r[rtl].cls, jb.L.r[ri].cls, jb.L.r[rbn].cls, jb.L.r[rbt].cls);
+            CHECK(tb.cls[RT_CLS_TLAS] == tb.per[rtl] && tb.cls[RT_CLS_INST] == tb.per[ri] &&
+                      tb.cls[RT_CLS_NODE] == tb.per[rbn] && tb.cls[RT_CLS_TRI] == tb.per[rbt],
+                  "mode %d: class counts tlas %llu inst %llu node %llu tri %llu", modes[m],
+                  (unsigned long long)tb.cls[RT_CLS_TLAS], (unsigned long long)tb.cls[RT_CLS_INST],
+                  (unsigned long long)tb.cls[RT_CLS_NODE], (unsigned long long)tb.cls[RT_CLS_TRI]);
+            /* every transformed ray read its instance's record first */
+            CHECK(tb.cls[RT_CLS_INST] >= tb.xforms && tb.xforms > 0, "mode %d: %llu record reads, %llu transformations",
+                  modes[m], (unsigned long long)tb.cls[RT_CLS_INST], (unsigned long long)tb.xforms);
+        }
+        CHECK(ta.cls[RT_CLS_TLAS] == 0 && ta.cls[RT_CLS_INST] == 0 && ta.cls[RT_CLS_ALPHA] == 0,
+              "mode %d: the flattened run has tlas %llu, inst %llu accesses", modes[m],
+              (unsigned long long)ta.cls[RT_CLS_TLAS], (unsigned long long)ta.cls[RT_CLS_INST]);
         rt_image_free(a);
         rt_image_free(b);
         rt_job_free(&ja);
         rt_job_free(&jb);
+    }
+}
+
+/* Reads a whole file; NULL if it cannot. */
+static unsigned char *slurp(const char *path, size_t *n) {
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return NULL;
+    unsigned char *b = malloc(1 << 16);
+    *n = b ? fread(b, 1, 1 << 16, f) : 0;
+    fclose(f);
+    return b;
+}
+
+/* Reads the trace at path to its end: records read, or -1 (message in e). */
+static long read_trace(const char *path, rt_tr_totals *tot, rt_err *e) {
+    rt_tr_reader *r = rt_tr_open(path, e);
+    if (!r)
+        return -1;
+    rt_access buf[256];
+    long n = 0, k;
+    while ((k = rt_tr_read(r, buf, 256, e)) > 0)
+        n += k;
+    if (k == 0 && tot)
+        *tot = *rt_tr_get_totals(r);
+    rt_tr_close(r);
+    return k < 0 ? -1 : n;
+}
+
+static void put32le(unsigned char *p, uint32_t v) {
+    for (int i = 0; i < 4; i++)
+        p[i] = (unsigned char)(v >> (8 * i));
+}
+
+/* The footer holds 10 classes, or up to the highest with a reference:
+ * a trace with records of classes tlas and inst ends in a 12-class
+ * footer (316 bytes), read back with its totals; the reader takes 10..13
+ * classes (a 13-class copy of it, the extra class empty, reads) and
+ * refuses 9 and 14 naming the footer; a 10-class trace is 268 bytes of
+ * footer. */
+static void test_footer(void) {
+    rt_err e = {0};
+    rt_tr_meta m;
+    memset(&m, 0, sizeof m);
+    snprintf(m.tracer, sizeof m.tracer, "recursive");
+    rt_mm_init(&m.layout);
+    rt_mm_add(&m.layout, "tlas.node", RT_CLS_TLAS, 32, 8, NULL);
+    rt_mm_add(&m.layout, "inst", RT_CLS_INST, 64, 4, NULL);
+    rt_mm_add(&m.layout, "blas.node", RT_CLS_NODE, 32, 8, NULL);
+    const rt_access a[] = {
+        {m.layout.r[0].base, 32, 0, RT_CLS_TLAS, 0}, {m.layout.r[1].base + 64, 64, 0, RT_CLS_INST, 0},
+        {m.layout.r[2].base, 32, 0, RT_CLS_NODE, 0}, {m.layout.r[0].base + 32, 32, 0, RT_CLS_TLAS, 0},
+    };
+    for (int withnew = 0; withnew < 2; withnew++) {
+        const char *p = check_path(withnew ? "cls12.rtt" : "cls10.rtt");
+        rt_tr_writer *w = rt_tr_create(p, &m, &e);
+        rt_sink *sk = w ? rt_tr_sink(w) : NULL;
+        CHECK(sk && sk->put(sk, withnew ? a : a + 2, withnew ? 4 : 1) == 0 && rt_tr_finish(w, &e) == 0, "write: %s",
+              e.msg);
+        size_t n = 0;
+        unsigned char *b = slurp(p, &n);
+        const size_t flen = withnew ? 28 + 24 * 12 : 268;
+        CHECK(b && n > flen && !memcmp(b + n - flen, "RTND", 4) && b[n - flen + 4] == (withnew ? 12 : 10),
+              "%s: footer of %zu bytes not found (%zu bytes)", p, flen, n);
+        rt_tr_totals t;
+        long got = read_trace(p, &t, &e);
+        CHECK(got == (withnew ? 4 : 1), "%s read: %ld (%s)", p, got, e.msg);
+        if (got > 0 && withnew)
+            CHECK(t.refs[RT_CLS_TLAS] == 2 && t.bytes[RT_CLS_TLAS] == 64 && t.refs[RT_CLS_INST] == 1 &&
+                      t.bytes[RT_CLS_INST] == 64 && t.refs[RT_CLS_NODE] == 1 && t.refs[RT_CLS_ALPHA] == 0,
+                  "totals tlas %llu inst %llu node %llu", (unsigned long long)t.refs[RT_CLS_TLAS],
+                  (unsigned long long)t.refs[RT_CLS_INST], (unsigned long long)t.refs[RT_CLS_NODE]);
+        if (!b || !withnew || n <= flen) {
+            free(b);
+            continue;
+        }
+        /* forged class counts, CRC made right */
+        const int nc[3] = {13, 9, 14};
+        for (int k = 0; k < 3; k++) {
+            unsigned char *c = calloc(1, n + 48);
+            size_t foot = n - flen, cn = foot + 28 + 24 * (size_t)(nc[k] < 12 ? 12 : nc[k]);
+            memcpy(c, b, n - 4);
+            put32le(c + foot + 4, (uint32_t)nc[k]);
+            size_t crcat = cn - 4; /* 13, 14: extra empty class slots before the CRC */
+            put32le(c + crcat, (uint32_t)crc32(0, c + foot, (uInt)(crcat - foot)));
+            const char *q = check_path("forged.rtt");
+            check_write_file(q, c, cn);
+            long r = read_trace(q, NULL, &e);
+            if (nc[k] == 13)
+                CHECK(r == 4, "13-class footer: %ld (%s)", r, e.msg);
+            else
+                CHECK(r < 0 && strstr(e.msg, "footer: ") && strstr(e.msg, "classes, expected 10..13"),
+                      "%d-class footer: %ld '%s'", nc[k], r, e.msg);
+            free(c);
+        }
+        free(b);
     }
 }
 
@@ -249,6 +378,7 @@ int main(void) {
 
     corrupt_and_check(s, I);
     test_images(s);
+    test_footer();
     rt_accel_free(&a);
     rt_scene_free(s);
 

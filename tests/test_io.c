@@ -837,8 +837,10 @@ static void test_si_check(void)
         if (i == chunk_end || i == V3_N) {
             const unsigned char *pb;
             size_t pn;
-            CHECK(rt_si_payload.chunk(m, i == V3_N, &pb, &pn) == 0 && pn > 0 && (pb[0] & 1) == (i == V3_N),
-                  "chunk at %zu", i);
+            /* bit 0: last; bits 1-2: classes stored beyond 10 (the stream has all 13) */
+            CHECK(rt_si_payload.chunk(m, i == V3_N, &pb, &pn) == 0 && pn > 0 &&
+                      pb[0] == ((i == V3_N) | (RT_NCLASS - RT_NCLASS_V1) << 1),
+                  "chunk at %zu: flags %#x", i, pn ? pb[0] : 0u);
             bad += rt_si_check(m, &e) < 0;
             checks++;
             chunk_end += V3_CHUNK;
@@ -959,8 +961,8 @@ static void test_open_target(void)
     clean_dir();
 }
 
-/* A chunk of base classes keeps the ten-class payload (flags bit 1 clear);
- * only a chunk with a later class lists all of them, and both read back
+/* A chunk of base classes keeps the ten-class payload (flags bits 1-2 zero);
+ * only a chunk with a later class lists up to it (here 12: the bits say 3), and both read back
  * through the checked reader and the sampled reader. */
 static void test_v3_later_classes(void)
 {
@@ -968,7 +970,7 @@ static void test_v3_later_classes(void)
     rt_access *a = v3_stream(V3_N), *b = malloc((V3_N + 1) * sizeof *b);
     CHECK(a && b, "out of memory");
     if (!a || !b) return;
-    for (size_t i = 0; i < V3_N; i++) a[i].cls %= RT_NCLASS_BASE;
+    for (size_t i = 0; i < V3_N; i++) a[i].cls %= RT_NCLASS_V1;
     a[2 * V3_CHUNK + 7].cls = RT_CLS_ALPHA;
     const char *p = check_path("v3cls.rtt");
     CHECK(v3_write(p, a, V3_N, 1, &e) == 0, "write: %s", e.msg);
@@ -978,7 +980,7 @@ static void test_v3_later_classes(void)
     rt_tr_payload pl;
     int k, bad = 0, nch = 0;
     while (r && (k = rt_tr_read_payload(r, &pl, &e)) > 0) {
-        bad += (pl.bytes[0] >> 1 & 1) != (pl.index == 2);
+        bad += (pl.bytes[0] >> 1) != (pl.index == 2 ? 3 : 0);
         nch++;
     }
     CHECK(nch == (int)((V3_N + V3_CHUNK - 1) / V3_CHUNK) && bad == 0, "%d chunks, %d with the wrong class flag: %s",

@@ -27,7 +27,7 @@ static void test_plan(const rt_scene *sc, int kind)
     rt_render_default_opts(&o);
     o.accel = kind;
     o.sched_size = 1024; /* budget 512 B: several treelets */
-    rt_tracer_ctx ctx = {sc, &acc, NULL, &o, NULL, NULL, NULL, 1, NULL, 0, 1};
+    rt_tracer_ctx ctx = {sc, &acc, NULL, &o, NULL, NULL, NULL, 1, NULL, 0, 1, NULL};
     void *pv = NULL;
     CHECK(tl_plan(&ctx, &pv, &e) == 0, "plan: %s", e.msg);
     tplan *P = pv;
@@ -83,7 +83,7 @@ static void test_state(const rt_scene *sc)
     o.sched_size = 1024;
     rt_layout L;
     rt_mm_init(&L);
-    rt_tracer_ctx ctx = {sc, &acc, NULL, &o, &L, NULL, NULL, 1, NULL, 0, 1};
+    rt_tracer_ctx ctx = {sc, &acc, NULL, &o, &L, NULL, NULL, 1, NULL, 0, 1, NULL};
     void *pv = NULL;
     CHECK(tl_plan(&ctx, &pv, &e) == 0, "plan: %s", e.msg);
     ctx.plan = pv;

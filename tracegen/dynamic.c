@@ -87,8 +87,41 @@
  *   I7  resolution (checked as each ray resolves, not between steps): a
  *       ray's closest hit (triangle and t), or a shadow ray's visibility,
  *       is the one the single-ray traversal finds for the same ray.
+ *   I8  cores (N > 1 simulated cores only): the running core is < N;
+ *       between steps no core holds references not yet interleaved; the
+ *       cores' popped rays and drained queues sum to the run's (ev_rays,
+ *       events); rays moved <= rays popped; rounds <= events <= N x
+ *       rounds; every queued ray's owner is a core < N.
  * check_generation adds the end-of-generation condition: queues empty and
  * every wanted pixel resolved exactly once.
+ *
+ * Many cores (opt->cores = N > 1, traced through a core sink: sweep
+ * --hierarchy ... --cores N; the whitted and path modes stay on one core).
+ * The scheduled work units -- a queue point with the rays it holds -- are
+ * dealt to cores in rounds, all on one host thread, deterministically:
+ *   - a generation's rays are started by the cores in N contiguous runs of
+ *     the pixel order (ray k of n by core k * N / n);
+ *   - then rounds until the queues are empty: up to N queues are picked in
+ *     the queue order (the N fullest, ties as for one core, or the next N
+ *     non-empty by number), core i takes the i-th (reads its table entry
+ *     and cell box, detaches it) and drains it; rays queued during the
+ *     round, also into a queue being drained, wait for a later round;
+ *   - a step (a generation's start, a round) ends with a barrier: each
+ *     core's references were recorded into its own buffer and are
+ *     interleaved in the modeled clock's ticks (run.h: RT_CORE_TICK
+ *     references of core 0, then core 1, ..., a core whose step is done
+ *     dropping out), the next step starts when all are done.
+ * Queues, the queue table, hit records and the frame buffer are shared
+ * (one copy, main memory); each core has its own ray buffer (dyn.raybuf
+ * moved up by core x the layout's span, as run.h moves a share's scratch).
+ * A ray queued by one core and popped by another moves between them: it is
+ * counted (rays_moved, bytes_moved = 32 per ray) and its 32-byte record is
+ * read by the receiving core as ray state (RT_CLS_RAY) instead of as a
+ * queue entry. Every ray follows the same path through the queue points
+ * as on one core (its traversal does not depend on the schedule), so
+ * images, node visits, triangle tests, enqueues and rays popped are those
+ * of one core; only the order, the queue events and the traffic change.
+ * N = 1 is the one-core code path, unchanged.
  *
  * Images are bit-identical to the recursive tracer's: the same camera rays,
  * the same closest hit (ties to the lower triangle index), the same shadow
@@ -100,6 +133,7 @@
 #include "camera.h"
 #include "rayq.h"
 #include "regions.h"
+#include "run.h"
 #include "shade.h"
 #include "stats.h"
 #include "tracer.h"
@@ -397,8 +431,93 @@ struct rt_dyn {
     int reg_spawn;       /* the batch stack (in rq) writes level l's rays at l * npix */
     uint64_t nsec, self_hits;
     qstat qs;            /* why rays enter queue points (opt->queue_stats) */
+    /* simulated cores (I8; opt->cores > 1 with a core sink, ctx->cs) */
+    int ncores;          /* 1: one core, rec = ctx->rec (everything below unused) */
+    int core;            /* the core whose references are being recorded: rec = crec[core] */
+    rt_rec **crec;       /* per core: its recorder, into cbuf[core] */
+    struct corebuf *cbuf; /* per core: its references of the current step, not yet interleaved */
+    uint32_t *crbslot;   /* per core: its ray-buffer slot counter (rbslot is the running core's) */
+    uint8_t *owner;      /* per ray slot: the core that queued it (valid while it is queued) */
+    uint64_t span;       /* core k's ray buffer is dyn.raybuf moved up by k x span */
+    uint64_t *core_rays; /* per core: rays it popped from queues */
+    uint64_t *core_events; /* per core: queues it drained */
+    uint64_t rounds, moved; /* rounds of queue work; popped rays another core had queued */
+    uint32_t *pick;      /* a round's queues, core i drains pick[i] */
+    uint32_t *pick_n;    /* ... and how many rays it took from it */
+    rt_rq_cur *pick_cur; /* ... and its cursor over them */
+    uint32_t tcur;       /* tree order: where the next round's pick starts */
 };
 typedef struct rt_dyn dyn;
+
+/* A core's references of the current step (a generation's start, a round
+ * of queues), held until every core's are known and interleaved. */
+typedef struct corebuf {
+    rt_sink sink;  /* the core's recorder hands its full buffers here */
+    rt_access *a;
+    size_t n, cap;
+} corebuf;
+
+static int corebuf_put(rt_sink *s, const rt_access *a, size_t n)
+{
+    corebuf *b = s->ctx;
+    if (b->n + n > b->cap) {
+        size_t cap = b->cap ? b->cap : 4 * RT_REC_BUF;
+        while (cap < b->n + n) cap *= 2;
+        rt_access *x = realloc(b->a, cap * sizeof *x);
+        if (!x) return -1;
+        b->a = x;
+        b->cap = cap;
+    }
+    memcpy(b->a + b->n, a, n * sizeof *a);
+    b->n += n;
+    return 0;
+}
+
+/* Makes core k the one whose references are recorded (its recorder, its
+ * ray-buffer slot). */
+static void set_core(dyn *D, int k)
+{
+    if (D->ncores <= 1 || k == D->core) return;
+    D->crbslot[D->core] = D->rbslot;
+    D->core = k;
+    D->rbslot = D->crbslot[k];
+    D->rec = D->crec[k];
+    D->tv.rec = D->rec;
+}
+
+/* The start of a generation: ray k of n is started by core k * N / n
+ * (N contiguous runs of the pixel order, one per core). */
+static void start_core(dyn *D, size_t k, size_t n)
+{
+    if (D->ncores > 1) set_core(D, (int)((uint64_t)k * (uint64_t)D->ncores / (uint64_t)n));
+}
+
+/* The end of a step: the cores' references in the modeled clock's ticks
+ * (run.h: RT_CORE_TICK references of core 0, then of core 1, ..., a core
+ * whose step's references are used up dropping out), handed to the core
+ * sink; the cores meet there (a barrier) before the next step. */
+static void interleave(dyn *D)
+{
+    if (D->ncores <= 1) return;
+    const unsigned N = (unsigned)D->ncores;
+    for (unsigned k = 0; k < N; k++)
+        if (rt_rec_flush(D->crec[k]) < 0 && !D->err) D->err = 3;
+    rt_csink *cs = D->ctx->cs;
+    for (size_t at = 0, any = 1; any && !D->err; at += RT_CORE_TICK) {
+        any = 0;
+        for (unsigned k = 0; k < N; k++) {
+            const corebuf *b = &D->cbuf[k];
+            if (b->n <= at) continue;
+            const size_t m = b->n - at < RT_CORE_TICK ? b->n - at : RT_CORE_TICK;
+            if (cs->put(cs, k, b->a + at, m) < 0) {
+                D->err = 3;
+                break;
+            }
+            any = 1;
+        }
+    }
+    for (unsigned k = 0; k < N; k++) D->cbuf[k].n = 0;
+}
 
 /* The pixel a ray slot belongs to. */
 static inline uint32_t PIX(const dyn *D, uint32_t slot) { return D->bpix ? D->bpix[slot] : slot; }
@@ -448,6 +567,12 @@ static void make_rays(dyn *D, uint32_t pix, rt_ray *trav, rt_ray *test)
 
 static uint64_t qaddr(const dyn *D, uint64_t at) { return rt_mm_addr(D->L, D->reg_q, at); }
 
+/* The running core's current ray-buffer slot (each core has its own buffer). */
+static uint64_t rbaddr(const dyn *D)
+{
+    return rt_mm_addr(D->L, D->reg_rb, D->rbslot % D->rbslots) + (uint64_t)D->core * D->span;
+}
+
 static void enqueue(dyn *D, uint32_t q, uint32_t pix, float t0, float t1)
 {
     RT_REC(D->rec, rt_mm_addr(D->L, D->reg_qt, q), 8, 0, RT_CLS_QTABLE);
@@ -460,6 +585,7 @@ static void enqueue(dyn *D, uint32_t q, uint32_t pix, float t0, float t1)
     e->pix = pix;
     e->t0 = t0;
     e->t1 = t1;
+    if (D->owner) D->owner[pix & ~CAND_FLAG] = (uint8_t)D->core;
     /* streaming stores: a block's lines are filled whole (two records each)
      * before the queue is drained, so they need not be fetched */
     RT_REC(D->rec, qaddr(D, at), 32, D->ctx->opt->qstores == RT_QSTORES_STREAM ? RT_WRITE_STREAM : 1, RT_CLS_QUEUE);
@@ -696,7 +822,7 @@ static void advance(dyn *D, uint32_t pixf, const rt_ray *trav, float tmin, float
         else S->first_secondary++;
         S->small += D->P->g[D->qnode[q]] <= D->gmax / 8;
         S->leaf += rt_kd_is_leaf(&D->kd->nodes[D->qnode[q]]);
-        if (from_buffer) RT_REC(D->rec, rt_mm_addr(D->L, D->reg_rb, D->rbslot % D->rbslots), 32, 0, RT_CLS_RAY);
+        if (from_buffer) RT_REC(D->rec, rbaddr(D), 32, 0, RT_CLS_RAY);
         enqueue(D, (uint32_t)q, pixf, qa, qb);
         return;
     }
@@ -833,29 +959,48 @@ static void process_oversized(dyn *D, uint32_t q, const qent *es, uint32_t n)
     }
 }
 
-/* Pops every ray of queue q (rays never re-enter q: cells are convex). */
-static void drain(dyn *D, uint32_t q)
+/* Detaches queue q for the running core (its table entry and cell box
+ * read): returns its count, *cur walks its rays. */
+static uint32_t drain_take(dyn *D, uint32_t q, rt_rq_cur *cur)
 {
     uint32_t n = D->rq.count[q];
-    if (!n) return;
+    if (!n) return 0;
     D->events++;
     D->ev_rays += n;
     if (n > D->ev_max) D->ev_max = n;
     D->qtimes[q]++;
+    if (D->core_rays) {
+        D->core_rays[D->core] += n;
+        D->core_events[D->core]++;
+    }
     RT_REC(D->rec, rt_mm_addr(D->L, D->reg_qt, q), 8, 0, RT_CLS_QTABLE);
     RT_REC(D->rec, rt_mm_addr(D->L, D->reg_box, q), 24, 0, RT_CLS_QTABLE);
-    rt_rq_cur cur;
-    rt_rq_take(&D->rq, q, &cur);
+    rt_rq_take(&D->rq, q, cur);
+    return n;
+}
+
+/* Pops and processes the n rays of queue q detached by drain_take. A ray
+ * another core queued moves to the running core: its 32-byte record is
+ * read as ray state (RT_CLS_RAY) there, not as a queue entry. */
+static void drain_pop(dyn *D, uint32_t q, rt_rq_cur *curp, uint32_t n)
+{
+    rt_rq_cur cur = *curp;
     const rt_kdnode *nd = &D->kd->nodes[D->qnode[q]];
     int oversized = rt_kd_is_leaf(nd) && 40ull * rt_kd_ntri(nd) > D->gmax;
     qent batch[256];
     uint32_t nb = 0, bsz = D->rbslots < 256 ? D->rbslots : 256;
     while (n) {
         qent e;
-        RT_REC(D->rec, qaddr(D, (uint64_t)cur.b * RT_RQ_BLK + cur.pos), 32, 0, RT_CLS_QUEUE);
+        int moved = 0;
+        if (D->owner) {
+            const qent *pe = rt_rq_at(&D->rq, &cur);
+            moved = D->owner[pe->pix & ~CAND_FLAG] != (uint8_t)D->core;
+            D->moved += (uint64_t)moved;
+        }
+        RT_REC(D->rec, qaddr(D, (uint64_t)cur.b * RT_RQ_BLK + cur.pos), 32, 0, moved ? RT_CLS_RAY : RT_CLS_QUEUE);
         rt_rq_pop(&D->rq, &cur, &e);
         D->rbslot++;
-        RT_REC(D->rec, rt_mm_addr(D->L, D->reg_rb, D->rbslot % D->rbslots), 32, 1, RT_CLS_RAY);
+        RT_REC(D->rec, rbaddr(D), 32, 1, RT_CLS_RAY);
         n--;
         if (oversized) {
             batch[nb++] = e;
@@ -867,6 +1012,15 @@ static void drain(dyn *D, uint32_t q)
             process(D, q, &e);
         }
     }
+    *curp = cur;
+}
+
+/* Pops every ray of queue q (rays never re-enter q: cells are convex). */
+static void drain(dyn *D, uint32_t q)
+{
+    rt_rq_cur cur;
+    uint32_t n = drain_take(D, q, &cur);
+    if (n) drain_pop(D, q, &cur, n);
 }
 
 static int check_state(const dyn *D, rt_err *e);
@@ -888,9 +1042,35 @@ static int drain_step(void *u, uint32_t q)
     return D->err;
 }
 
+/* N cores: rounds. Each round picks up to N queues in the queue order
+ * (rt_rq_pick: the N fullest, or the next N by number), core i takes the
+ * i-th (its table entry read, the queue detached) and then drains it; rays
+ * queued during the round wait for a later one. The cores' references are
+ * interleaved at the round's end (interleave). */
+static void run_rounds(dyn *D)
+{
+    while (!D->err && D->rq.queued) {
+        const uint32_t m = rt_rq_pick(&D->rq, D->pick, (uint32_t)D->ncores, &D->tcur);
+        if (!m) break;
+        for (uint32_t i = 0; i < m; i++) {
+            set_core(D, (int)i);
+            D->pick_n[i] = drain_take(D, D->pick[i], &D->pick_cur[i]);
+        }
+        for (uint32_t i = 0; i < m && !D->err; i++) {
+            set_core(D, (int)i);
+            drain_pop(D, D->pick[i], &D->pick_cur[i], D->pick_n[i]);
+        }
+        interleave(D);
+        D->rounds++;
+        step_check(D, 0);
+    }
+}
+
 static void run_queues(dyn *D)
 {
-    if (!D->err) rt_rq_run(&D->rq, drain_step, D);
+    if (D->err) return;
+    if (D->ncores > 1) run_rounds(D);
+    else rt_rq_run(&D->rq, drain_step, D);
 }
 
 /* Starts a ray of the current generation from the root. */
@@ -934,6 +1114,7 @@ static void start(dyn *D, uint32_t pix)
 static int check_generation(dyn *D, const uint8_t *want, size_t npix, rt_err *e)
 {
     if (D->err == 2) return -1;
+    if (D->err == 3) return rt_errf(e, "dynamic: trace sink failed (or out of memory holding a core's references)");
     if (D->err) return rt_errf(e, "dynamic: queue block pool exhausted (internal error)");
     if (D->rq.queued) return rt_errf(e, "dynamic: %" PRIu64 " rays left in queues (internal error)", D->rq.queued);
     for (size_t p = 0; p < npix; p++)
@@ -1017,11 +1198,42 @@ static int check_rays(const dyn *D, uint8_t *seen_pix, rt_err *e)
     return 0;
 }
 
-/* I3-I6: the run's state (the plan does not change during a run): the
+/* I8: the cores' state between steps. */
+static int check_cores(const dyn *D, rt_err *e)
+{
+    if (D->ncores <= 1) return 0;
+    if (D->core < 0 || D->core >= D->ncores)
+        return rt_errf(e, "dynamic I8: running core %d of %d", D->core, D->ncores);
+    uint64_t rays = 0, events = 0;
+    for (int k = 0; k < D->ncores; k++) {
+        rays += D->core_rays[k];
+        events += D->core_events[k];
+        if (D->cbuf[k].n || D->crec[k]->n)
+            return rt_errf(e, "dynamic I8: core %d holds %zu references not interleaved", k, D->cbuf[k].n + D->crec[k]->n);
+    }
+    if (rays != D->ev_rays || events != D->events)
+        return rt_errf(e, "dynamic I8: the cores popped %" PRIu64 " rays in %" PRIu64 " queue events, the run %" PRIu64
+                          " in %" PRIu64, rays, events, D->ev_rays, D->events);
+    if (D->moved > D->ev_rays)
+        return rt_errf(e, "dynamic I8: %" PRIu64 " rays moved between cores, %" PRIu64 " popped", D->moved, D->ev_rays);
+    if (D->events < D->rounds || D->events > D->rounds * (uint64_t)D->ncores)
+        return rt_errf(e, "dynamic I8: %" PRIu64 " queue events in %" PRIu64 " rounds of %d cores", D->events, D->rounds,
+                       D->ncores);
+    for (uint32_t q = 0; q < D->nq; q++)
+        for (rt_rq_cur c = rt_rq_peek(&D->rq, q); c.left; rt_rq_skip(&D->rq, &c)) {
+            const uint32_t pix = ((const qent *)rt_rq_at(&D->rq, &c))->pix & ~CAND_FLAG;
+            if (pix < D->npix && D->owner[pix] >= D->ncores)
+                return rt_errf(e, "dynamic I8: ray %u in queue %u owned by core %u of %d", pix, q, D->owner[pix],
+                               D->ncores);
+        }
+    return 0;
+}
+
+/* I3-I6, I8: the run's state (the plan does not change during a run): the
  * ray-queue core's Q1-Q5, then what its entries mean. */
 static int check_state(const dyn *D, rt_err *e)
 {
-    if (rt_rq_check(&D->rq, e) < 0) return -1;
+    if (rt_rq_check(&D->rq, e) < 0 || check_cores(D, e) < 0) return -1;
     uint8_t *seen = rt_calloc(D->npix ? D->npix : 1, 1, e);
     if (!seen) return -1;
     int rc = check_rays(D, seen, e);
@@ -1062,6 +1274,17 @@ static int dyn_layout(const rt_tracer_ctx *ctx, rt_layout *L, rt_err *e)
 
 static void dyn_free(dyn *D)
 {
+    for (int k = 0; D->crec && k < D->ncores; k++) rt_rec_free(D->crec[k]);
+    for (int k = 0; D->cbuf && k < D->ncores; k++) free(D->cbuf[k].a);
+    free(D->crec);
+    free(D->cbuf);
+    free(D->crbslot);
+    free(D->owner);
+    free(D->core_rays);
+    free(D->core_events);
+    free(D->pick);
+    free(D->pick_n);
+    free(D->pick_cur);
     free(D->lw);
     free(D->swt);
     rt_rq_free(&D->rq);
@@ -1080,6 +1303,38 @@ static void dyn_free(dyn *D)
     free(D->out);
     free(D->acc);
     free(D->h0);
+}
+
+/* N simulated cores (opt->cores > 1 with a core sink): a recorder and a
+ * buffer per core, the rays' owners, the round's picks. 0 or -1. */
+static int cores_init(dyn *D, rt_err *e)
+{
+    const rt_tracer_ctx *ctx = D->ctx;
+    D->ncores = 1;
+    if (!ctx->cs || ctx->opt->cores <= 1) return 0;
+    const int N = ctx->opt->cores;
+    if (N > RT_TR_MAX_CORES) return rt_errf_usage(e, "--cores %d: the dynamic tracer runs on 1..%d cores", N, RT_TR_MAX_CORES);
+    if (D->secondary)
+        return rt_errf_usage(e, "--cores %d: the dynamic tracer runs the whitted and path modes on one core", N);
+    if (!(D->crec = rt_calloc((size_t)N, sizeof *D->crec, e)) || !(D->cbuf = rt_calloc((size_t)N, sizeof *D->cbuf, e)))
+        return -1;
+    D->ncores = N; /* dyn_free frees what was made */
+    for (int k = 0; k < N; k++) {
+        D->cbuf[k].sink.put = corebuf_put;
+        D->cbuf[k].sink.ctx = &D->cbuf[k];
+        if (!(D->crec[k] = rt_rec_new(&D->cbuf[k].sink, e))) return -1;
+    }
+    if (!(D->crbslot = rt_calloc((size_t)N, sizeof *D->crbslot, e)) || !(D->owner = rt_calloc(D->npix ? D->npix : 1, 1, e)) ||
+        !(D->core_rays = rt_calloc((size_t)N, sizeof *D->core_rays, e)) ||
+        !(D->core_events = rt_calloc((size_t)N, sizeof *D->core_events, e)) ||
+        !(D->pick = rt_calloc((size_t)N, sizeof *D->pick, e)) || !(D->pick_n = rt_calloc((size_t)N, sizeof *D->pick_n, e)) ||
+        !(D->pick_cur = rt_calloc((size_t)N, sizeof *D->pick_cur, e)))
+        return -1;
+    D->span = (D->L->next - RT_MM_BASE + 4095) & ~(uint64_t)4095;
+    D->core = 0;
+    D->rec = D->crec[0];
+    D->tv.rec = D->rec;
+    return 0;
 }
 
 /* Sets up the run's state: regions, the plan, an empty block pool on the
@@ -1151,7 +1406,7 @@ static int dyn_init(dyn *D, const rt_tracer_ctx *ctx, rt_image *img, rt_run_stat
             return -1;
         for (size_t p = 0; p < npix; p++) D->h0[p].tri = RT_NO_HIT;
     }
-    return 0;
+    return cores_init(D, e);
 }
 
 /* Generation 0: a primary ray per traced pixel, then the queues. */
@@ -1161,10 +1416,12 @@ static int primary_generation(dyn *D, const uint32_t *order, size_t ntr, rt_err 
     D->tv.mark_bit = 1;
     for (size_t k = 0; k < ntr; k++) D->want[order[k]] = 1;
     for (size_t k = 0; k < ntr; k++) {
+        start_core(D, k, ntr);
         RT_REC(D->rec, rt_mm_addr(D->L, D->reg_ray, order[k]), 32, 0, RT_CLS_RAY);
         start(D, order[k]);
     }
     D->st->rays_primary = ntr;
+    interleave(D);
     step_check(D, 1);
     run_queues(D);
     return check_generation(D, D->want, D->npix, e);
@@ -1179,6 +1436,7 @@ static int shadow_generation(dyn *D, int li, const uint32_t *order, size_t ntr, 
     for (size_t k = 0; k < ntr; k++) {
         uint32_t pix = order[k];
         D->want[pix] = 0;
+        start_core(D, k, ntr);
         RT_REC(D->rec, rt_mm_addr(D->L, D->reg_hits, pix), 24, 0, RT_CLS_HIT);
         if (D->hit_tri[pix] == RT_NO_HIT) continue;
         rt_ray eye, sr;
@@ -1189,6 +1447,7 @@ static int shadow_generation(dyn *D, int li, const uint32_t *order, size_t ntr, 
         D->st->rays_shadow++;
         start(D, pix);
     }
+    interleave(D);
     step_check(D, 1);
     run_queues(D);
     return check_generation(D, D->want, D->npix, e);
@@ -1209,6 +1468,7 @@ static int authored_generations(dyn *D, const uint32_t *order, size_t ntr, rt_er
             for (size_t k = 0; k < ntr; k++) {
                 uint32_t pix = order[k], tri;
                 D->want[pix] = 0;
+                start_core(D, k, ntr);
                 RT_REC(D->rec, rt_mm_addr(D->L, D->reg_hits, pix), 24, 0, RT_CLS_HIT);
                 if (D->hit_tri[pix] == RT_NO_HIT) continue;
                 rt_ray eye, sr;
@@ -1220,6 +1480,7 @@ static int authored_generations(dyn *D, const uint32_t *order, size_t ntr, rt_er
                 D->st->rays_shadow++;
                 start(D, pix);
             }
+            interleave(D);
             step_check(D, 1);
             run_queues(D);
             if (check_generation(D, D->want, D->npix, e) < 0) return -1;
@@ -1274,6 +1535,19 @@ static void report(const dyn *D, rt_run_stats *st)
         size_t l = strlen(st->extra);
         snprintf(st->extra + l, sizeof st->extra - l, " batches=%" PRIu64 " rays_secondary=%" PRIu64 " self_hits=%" PRIu64,
                  D->rq.batches, D->nsec, D->self_hits);
+    }
+    if (D->ncores > 1) {
+        uint64_t cmin = UINT64_MAX, cmax = 0;
+        for (int k = 0; k < D->ncores; k++) {
+            if (D->core_rays[k] < cmin) cmin = D->core_rays[k];
+            if (D->core_rays[k] > cmax) cmax = D->core_rays[k];
+        }
+        size_t l = strlen(st->extra);
+        snprintf(st->extra + l, sizeof st->extra - l,
+                 " cores=%d rounds=%" PRIu64 " rays_moved=%" PRIu64 " bytes_moved=%" PRIu64 " core_rays_min=%" PRIu64
+                 " core_rays_max=%" PRIu64,
+                 D->ncores, D->rounds, D->moved, 32 * D->moved, cmin, cmax);
+        for (int k = 0; k < D->ncores; k++) st->accesses += D->crec[k]->total;
     }
     if (o->queue_stats) {
         const qstat *S = &D->qs;
@@ -1438,7 +1712,7 @@ const rt_tracer rt_tracer_dynamic = {
     .accels = RT_ACCEL_BIT(RT_ACCEL_KD),
     .accel_default = RT_ACCEL_KD,
     .opts = RT_OPTG_SCHED | RT_OPTG_QUEUES | RT_OPTG_CORES,
-    .traits = RT_TR_SCHEDULED | RT_TR_QUEUES | RT_TR_LIGHTS,
+    .traits = RT_TR_SCHEDULED | RT_TR_QUEUES | RT_TR_LIGHTS | RT_TR_CORES,
     .figures = RT_FIG_NAVRATIL | RT_FIG_FEEDBACK,
     .params = dyn_params,
     .layout = dyn_layout,

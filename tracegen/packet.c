@@ -313,7 +313,7 @@ static void pb_leaf(pstate *ps, uint32_t first, uint32_t n, bvlevel *l)
             float t, u, v;
             ps->tv->tests++;
             ps->ptests[i] += 1;
-            if (!rt_isect_core(r, &b->tri[k], &t, &u, &v) || !(t > r->tmin && t < r->tmax)) continue;
+            if (!rt_isect_core(r, rt_bvh_tri(b, k), &t, &u, &v) || !(t > r->tmin && t < r->tmax)) continue;
             if (ps->shadow) {
                 if (!rt_alpha_cut(ps->sc->alpha, &ps->tv->alpha, r, o, u, v)) ps->done[i] = 1;
             } else if (rt_hit_better(&ps->hit[i], t, o) && !rt_alpha_cut(ps->sc->alpha, &ps->tv->alpha, r, o, u, v)) {

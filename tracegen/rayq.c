@@ -217,6 +217,23 @@ int rt_rq_run(rt_rq *rq, rt_rq_step_fn step, void *user)
     return rc;
 }
 
+uint32_t rt_rq_pick(rt_rq *rq, uint32_t *out, uint32_t max, uint32_t *cursor)
+{
+    uint32_t m = 0;
+    if (!max || !rq->queued) return 0;
+    if (rq->order == RT_RQ_FULLEST) {
+        while (rq->bk_max > 0 && rq->bk_head[rq->bk_max] < 0) rq->bk_max--;
+        for (uint32_t c = rq->bk_max; c > 0 && m < max; c--)
+            for (int32_t q = rq->bk_head[c]; q >= 0 && m < max; q = rq->bk_next[q]) out[m++] = (uint32_t)q;
+        return m;
+    }
+    uint32_t q = *cursor < rq->nq ? *cursor : 0;
+    for (uint32_t k = 0; k < rq->nq && m < max; k++, q = q + 1 == rq->nq ? 0 : q + 1)
+        if (rq->count[q]) out[m++] = q;
+    *cursor = q;
+    return m;
+}
+
 /* ---- batch stack (Q5) ------------------------------------------------------------ */
 
 static rt_path *level(rt_rq *rq, int l, rt_err *e)

@@ -157,6 +157,17 @@ typedef int (*rt_rq_step_fn)(void *user, uint32_t q);
  * check sees rays left queued should Q3/Q4 be broken). */
 int rt_rq_run(rt_rq *rq, rt_rq_step_fn step, void *user);
 
+/* The work of one round of several cores: up to max distinct non-empty
+ * queues into out, in the order rt_rq_run would process them were none
+ * refilled meanwhile -- fullest first (the buckets from the fullest down,
+ * each bucket's queues from its head: the one last made that full first)
+ * or, in tree order, by number from *cursor on, wrapping (*cursor is then
+ * the queue after the last one picked; start it at 0). Changes nothing
+ * else (fullest first lowers bk_max past empty buckets, as rt_rq_run
+ * does); the caller takes and pops the queues. Returns how
+ * many were picked (0 when no ray is queued). */
+uint32_t rt_rq_pick(rt_rq *rq, uint32_t *out, uint32_t max, uint32_t *cursor);
+
 /* ---- batch stack -------------------------------------------------------------- */
 
 /* Level 0's rays (level_cap of them), to be filled with a generation's

@@ -15,7 +15,7 @@
 /* The tracer's plan, then its regions. On failure the plan is freed. */
 static int layout(rt_job *j, rt_err *e)
 {
-    rt_tracer_ctx ctx = {j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, NULL, NULL, 0, NULL, 0, 1};
+    rt_tracer_ctx ctx = {j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, NULL, NULL, 0, NULL, 0, 1, NULL};
     rt_mm_init(&j->L);
     if (rt_geom_uses_mesh(j->opt.geom) && !j->mesh && !(j->mesh = rt_mesh_build(j->sc, e))) return -1;
     ctx.mesh = j->mesh;
@@ -249,7 +249,7 @@ static int run_threads(rt_job *j, int n, rt_image *img, rt_run_stats *st, rt_err
     if (!tid) goto done;
     for (int k = 0; k < n; k++) {
         s[k].j = j;
-        s[k].ctx = (rt_tracer_ctx){j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, NULL, j->plan, j->check, j->mesh, k, n};
+        s[k].ctx = (rt_tracer_ctx){j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, NULL, j->plan, j->check, j->mesh, k, n, NULL};
         s[k].img = img;
         s[k].st.mark_keep = marks + (size_t)k * ntri;
     }
@@ -373,7 +373,7 @@ static int run_share(rt_job *j, rt_sink *sink, int part, int nparts, rt_image *i
         free(rl);
         return -1;
     }
-    rt_tracer_ctx ctx = {j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, trec, j->plan, j->check, j->mesh, part, nparts};
+    rt_tracer_ctx ctx = {j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, trec, j->plan, j->check, j->mesh, part, nparts, NULL};
     int rc = j->tr->run(&ctx, img, st, e);
     if (rc == 0 && nparts == 1) env_hits(j, img, st); /* n shares: once, over the whole image */
     if (trec != rec) {
@@ -519,12 +519,28 @@ static size_t q_take(core_run *c, rt_access *out)
     return k;
 }
 
+/* A tracer that splits its own work over the cores (RT_TR_CORES): one run
+ * on the calling thread, handing its cores' references to cs itself. */
+static int run_own_cores(rt_job *j, rt_csink *cs, rt_image *img, rt_run_stats *st, rt_err *e)
+{
+    if (j->opt.geom != RT_GEOM_COMPACT)
+        return rt_errf_usage(e, "--cores %d: the %s tracer runs on several cores in the compact layout only (--layout %s)",
+                             j->opt.cores, j->tr->name, rt_render_geom_name(j->opt.geom));
+    rt_tracer_ctx ctx = {j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, NULL, j->plan, j->check, j->mesh, 0, 1, cs};
+    double t0 = rt_now();
+    int rc = j->tr->run(&ctx, img, st, e);
+    if (rc == 0) env_hits(j, img, st);
+    st->seconds = rt_now() - t0;
+    return rc;
+}
+
 int rt_job_run_cores(rt_job *j, rt_csink *cs, rt_image *img, rt_run_stats *st, rt_err *e)
 {
     memset(st, 0, sizeof *st);
     const int n = j->opt.cores > 1 ? j->opt.cores : 1;
     if (img->W != j->opt.W || img->H != j->opt.H)
         return rt_errf(e, "image is %dx%d, job wants %dx%d", img->W, img->H, j->opt.W, j->opt.H);
+    if (n > 1 && rt_tracer_is(j->tr, RT_TR_CORES)) return run_own_cores(j, cs, img, st, e);
     if (n > 1 && !(j->tr->opts & RT_OPTG_THREADS))
         return rt_errf_usage(e, "--cores %d: the %s tracer does not split its work over cores", n, j->tr->name);
     const uint32_t ntri = j->sc->ntri ? j->sc->ntri : 1;

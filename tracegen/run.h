@@ -69,7 +69,10 @@ int rt_job_run(rt_job *j, rt_sink *sink, rt_image *img, rt_run_stats *st, rt_err
  * host timing, so it is the same on every machine; N = 1 is the one-core
  * run (rt_job_run). A trace of it costs one 2-byte core switch per
  * RT_CORE_TICK references (0.125 B/reference before compression).
- * Statistics are summed as for host threads. 0 or -1.
+ * Statistics are summed as for host threads. A tracer with RT_TR_CORES
+ * (the dynamic scheduler: its queues dealt to the cores in rounds,
+ * dynamic.c) is instead run once on the calling thread with cs in its
+ * context and interleaves its cores by the same tick itself. 0 or -1.
  */
 #define RT_CORE_TICK 16
 int rt_job_run_cores(rt_job *j, rt_csink *cs, rt_image *img, rt_run_stats *st, rt_err *e);

@@ -86,6 +86,11 @@ typedef struct rt_tracer_ctx {
      * group read it, through rt_pixel_order_part (recursive, treelet) or
      * rt_pixel_packet_part (packet); see "Work shares" in pixels.h. */
     int part, nparts;
+    /* Tracers with RT_TR_CORES on opt->cores > 1 simulated cores, traced:
+     * the core sink their cores' references go to, interleaved by the
+     * tracer in the modeled clock's ticks (run.h); rec is NULL then. NULL
+     * otherwise. */
+    rt_csink *cs;
 } rt_tracer_ctx;
 
 /* Traits (rt_tracer.traits). */
@@ -95,7 +100,9 @@ enum {
     RT_TR_QUEUES = 1u << 2,    /* keeps ray queues in memory (--queue-stores applies) */
     RT_TR_REFERENCE = 1u << 3, /* the reference tracer other tracers' images are compared with */
     RT_TR_MULTIPASS = 1u << 4, /* Purcell et al.'s multipass architecture (stencil passes) */
-    RT_TR_LIGHTS = 1u << 5     /* traces the authored lights' samples (--light-samples; shade.h) */
+    RT_TR_LIGHTS = 1u << 5,    /* traces the authored lights' samples (--light-samples; shade.h) */
+    RT_TR_CORES = 1u << 6      /* splits its own work over simulated cores in one run (ctx->cs,
+                                * opt->cores; the dynamic scheduler's queues: run.h) */
 };
 /* Report figures a tracer appears in (rt_tracer.figures), in registry order. */
 enum {

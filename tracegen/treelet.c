@@ -647,7 +647,7 @@ static RT_ALWAYS_INLINE int leaf(const tl_run *T, const rt_ray *r, int any, thit
         mark[o] |= bit;
         RT_REC(rec, tri_base + 36ull * k, 36, 0, RT_CLS_TRI);
         float t, u, v;
-        if (!rt_isect_core(r, &b->tri[k], &t, &u, &v)) continue;
+        if (!rt_isect_core(r, rt_bvh_tri(b, k), &t, &u, &v)) continue;
         if (any) {
             if (t > r->tmin && t < r->tmax && !rt_alpha_cut(T->tv.sc->alpha, &T->tv.alpha, r, o, u, v)) return 1;
         } else if (t > r->tmin && rt_hit_better(&(const rt_hit){H->best, H->btri, H->bu, H->bv}, t, o) &&

@@ -36,7 +36,7 @@
 #include <zlib.h>
 
 #define CHUNK_HDR 24u
-#define FOOT_LEN(nc) (4u + 4u + 16u + 24u * (size_t)(nc) + 4u) /* nc classes, 10..13 */
+#define FOOT_LEN_N(nc) (4u + 4u + 16u + 24u * (size_t)(nc) + 4u) /* nc classes, 10..13 */
 
 static uint32_t rd32(const uint8_t *p) { return p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24; }
 static void wr32(uint8_t *p, uint32_t v)
@@ -76,12 +76,12 @@ static size_t rebuild(const uint8_t *in, size_t n, int plain, uint8_t *out, size
     }
     if (i + 8 <= n && memcmp(in + i, "RTND", 4) == 0) {
         uint32_t nc = rd32(in + i + 4);
-        size_t fl = nc >= RT_NCLASS_BASE && nc <= RT_NCLASS ? FOOT_LEN(nc) : FOOT_LEN(RT_NCLASS_BASE);
-        if (i + fl <= n) {
-            memcpy(out + o, in + i, fl - 4);
-            wr32(out + o + fl - 4, crc(0, out + o, fl - 4));
-            i += fl;
-            o += fl;
+        size_t flen = FOOT_LEN_N(nc >= RT_NCLASS_V1 && nc <= RT_NCLASS ? nc : RT_NCLASS_V1);
+        if (i + flen <= n) {
+            memcpy(out + o, in + i, flen - 4);
+            wr32(out + o + flen - 4, crc(0, out + o, flen - 4));
+            i += flen;
+            o += flen;
         }
     }
 rest:
