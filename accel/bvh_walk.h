@@ -201,9 +201,9 @@ static RT_ALWAYS_INLINE int leaf_tris(const rt_ray *r, uint32_t first, uint32_t 
 #endif
         if (rt_bvh_degenerate(S->degen, k)) continue;
         if (any) {
-            if (t > S->tmin && t < S->tmax && !rt_alpha_cut(S->alpha, S->aat, r, o, u, v)) return 1;
+            if (t > S->tmin && t < S->tmax && !rt_alpha_cut(S->alpha, S->aat, S->rec, r, o, u, v)) return 1;
         } else if (t > S->tmin && (t < S->best || (t == S->best && o < S->btri)) &&
-                   !rt_alpha_cut(S->alpha, S->aat, r, o, u, v)) {
+                   !rt_alpha_cut(S->alpha, S->aat, S->rec, r, o, u, v)) {
             S->found = 1;
             S->best = t;
             S->btri = o;

@@ -187,12 +187,12 @@ static RT_ALWAYS_INLINE int traverse_plain(rt_trav *tv, const rt_ray *rp, uint32
                 float t, u, v;
                 if (!rt_isect_core(r, &tris[tri], &t, &u, &v)) continue;
                 if (any) {
-                    if (t > rtmin && t < rtmax && !rt_alpha_cut(tv->sc->alpha, &tv->alpha, r, tri, u, v)) {
+                    if (t > rtmin && t < rtmax && !rt_alpha_cut(tv->sc->alpha, &tv->alpha, tv->rec, r, tri, u, v)) {
                         occluded = 1;
                         goto done;
                     }
                 } else if (t > rtmin && (t < best || (t == best && tri < besttri)) &&
-                           !rt_alpha_cut(tv->sc->alpha, &tv->alpha, r, tri, u, v)) {
+                           !rt_alpha_cut(tv->sc->alpha, &tv->alpha, tv->rec, r, tri, u, v)) {
                     found = 1;
                     best = t;
                     besttri = tri;
@@ -291,6 +291,7 @@ typedef struct leaf_ctx {
     uint64_t tri_size;    /* hoisted: the recorder's stores may alias the layout) */
     const rt_scene_alpha *alpha; /* the scene's alpha textures (NULL: none) */
     const rt_alpha_at *aat;      /* where the filter records */
+    rt_rec *rec;                 /* the walk's recorder (NULL: not recording) */
 } leaf_ctx;
 
 /* The alpha filter (rt_alpha_cut) inside a leaf: the filter records
@@ -301,7 +302,7 @@ static RT_ALWAYS_INLINE int leaf_cut(leaf_ctx *c, const int recording, uint32_t 
 {
     if (__builtin_expect(c->alpha == NULL, 1)) return 0;
     if (recording) rt_rec_wend(&c->w);
-    const int cut = rt_alpha_cut(c->alpha, c->aat, c->r, tri, u, v);
+    const int cut = rt_alpha_cut(c->alpha, c->aat, c->rec, c->r, tri, u, v);
     if (recording) rt_rec_wbegin(&c->w, c->w.rec);
     return cut;
 }
@@ -315,6 +316,7 @@ static RT_ALWAYS_INLINE void leaf_setup(leaf_ctx *c, const rt_trav *tv, const rt
     c->mbit = tv->mark_bit;
     c->alpha = tv->sc->alpha;
     c->aat = &tv->alpha;
+    c->rec = tv->rec;
     if (recording) rt_rec_wbegin(&c->w, tv->rec);
     c->tri_base = recording ? tv->L->r[tv->reg_tri].base : 0;
     c->tri_size = recording ? tv->L->r[tv->reg_tri].recsize : 0;
@@ -624,11 +626,11 @@ int rt_kd_leaf(rt_trav *tv, const rt_ray *r, uint32_t node, rt_hit *h, int any)
         float t, u, v;
         if (!rt_isect_core(r, &tv->sc->tri[tri], &t, &u, &v) || !(t > r->tmin && t < r->tmax)) continue;
         if (any) {
-            if (rt_alpha_cut(tv->sc->alpha, &tv->alpha, r, tri, u, v)) continue;
+            if (rt_alpha_cut(tv->sc->alpha, &tv->alpha, tv->rec, r, tri, u, v)) continue;
             return 1;
         }
         if ((h->tri == RT_NO_HIT || t < h->t || (t == h->t && tri < h->tri)) &&
-            !rt_alpha_cut(tv->sc->alpha, &tv->alpha, r, tri, u, v))
+            !rt_alpha_cut(tv->sc->alpha, &tv->alpha, tv->rec, r, tri, u, v))
             changed |= take_hit(h, t, u, v, tri);
     }
     return changed;
@@ -666,11 +668,11 @@ int rt_kd_leaf_scan(const rt_trav *tv, const rt_ray *r, uint32_t node, rt_hit *h
         *ntested = k + 1;
         if (!rt_isect_core(r, &tv->sc->tri[tri], &t, &u, &v) || !(t > r->tmin && t < r->tmax)) continue;
         if (any) {
-            if (rt_alpha_cut(tv->sc->alpha, &tv->alpha, r, tri, u, v)) continue;
+            if (rt_alpha_cut(tv->sc->alpha, &tv->alpha, tv->rec, r, tri, u, v)) continue;
             return 1;
         }
         if ((h->tri == RT_NO_HIT || t < h->t || (t == h->t && tri < h->tri)) &&
-            !rt_alpha_cut(tv->sc->alpha, &tv->alpha, r, tri, u, v))
+            !rt_alpha_cut(tv->sc->alpha, &tv->alpha, tv->rec, r, tri, u, v))
             changed |= take_hit(h, t, u, v, tri);
     }
     return changed;

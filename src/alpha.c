@@ -12,10 +12,10 @@
 
 /* ---- the cutout ------------------------------------------------------------ */
 
-void rt_alpha_at_init(rt_alpha_at *at, rt_rec *rec, const rt_layout *L)
+void rt_alpha_at_init(rt_alpha_at *at, const rt_layout *L)
 {
     int a = L ? rt_mm_find(L, "alpha.tri") : -1, b = L ? rt_mm_find(L, "alpha.texel") : -1;
-    at->rec = a >= 0 && b >= 0 ? rec : NULL;
+    at->on = a >= 0 && b >= 0;
     at->tri_base = a >= 0 ? L->r[a].base : 0;
     at->tex_base = b >= 0 ? L->r[b].base : 0;
 }
@@ -36,9 +36,9 @@ static int64_t wrap(int64_t x, uint32_t n)
     return m < 0 ? m + n : m;
 }
 
-float rt_alpha_value(const rt_scene_alpha *A, const rt_alpha_at *at, uint32_t tri, float u, float v)
+float rt_alpha_value(const rt_scene_alpha *A, const rt_alpha_at *at, rt_rec *rec, uint32_t tri, float u, float v)
 {
-    rt_rec *rec = at ? at->rec : NULL;
+    if (!at || !at->on) rec = NULL;
     uint32_t k = A->tmap[tri];
     RT_REC(rec, at->tri_base + (uint64_t)RT_ALPHA_TRI_RECSIZE * tri, k ? RT_ALPHA_TRI_RECSIZE : 4, 0, RT_CLS_ALPHA);
     if (!k) return 1.0f;
@@ -110,9 +110,10 @@ float rt_alpha_hash(const rt_ray *r)
     return (float)(uint32_t)murmur64a(b, sizeof b, 0) * 0x1p-32f;
 }
 
-int rt_alpha_cut_slow(const rt_scene_alpha *A, const rt_alpha_at *at, const rt_ray *r, uint32_t tri, float u, float v)
+int rt_alpha_cut_slow(const rt_scene_alpha *A, const rt_alpha_at *at, rt_rec *rec, const rt_ray *r, uint32_t tri,
+                      float u, float v)
 {
-    const float a = rt_alpha_value(A, at, tri, u, v);
+    const float a = rt_alpha_value(A, at, rec, tri, u, v);
     if (a >= 1.0f) return 0;
     if (a <= 0.0f) return 1;
     return rt_alpha_hash(r) > a;

@@ -68,31 +68,36 @@ typedef struct rt_scene_alpha {
 #define RT_ALPHA_TRI_RECSIZE 28u
 #define RT_ALPHA_TEXEL_RECSIZE 4u
 
-/* Where the alpha reads of one run go: the recorder (NULL: not
- * recording) and the modeled bases of alpha.tri and alpha.texel. */
+/* Where the alpha reads of one run go in the modeled memory: the bases
+ * of alpha.tri and alpha.texel (on = 0: the layout has no such regions,
+ * nothing is recorded). The recorder is the caller's, passed with each
+ * test: the one its walk records its other reads into (a run on
+ * simulated cores switches it per core). */
 typedef struct rt_alpha_at {
-    rt_rec *rec;
+    int on;
     uint64_t tri_base, tex_base;
 } rt_alpha_at;
 
 /* The alpha value at barycentrics (u, v) of triangle tri (1 for an opaque
- * triangle), recording the reads into at (may be NULL). */
-float rt_alpha_value(const rt_scene_alpha *A, const rt_alpha_at *at, uint32_t tri, float u, float v);
+ * triangle), recording the reads into rec at the addresses of at (either
+ * may be NULL: nothing recorded). */
+float rt_alpha_value(const rt_scene_alpha *A, const rt_alpha_at *at, rt_rec *rec, uint32_t tri, float u, float v);
 /* pbrt's HashFloat(o, d) of the ray, in [0, 1). */
 float rt_alpha_hash(const struct rt_ray *r);
 /* rt_alpha_cut's work when A is non-NULL. */
-int rt_alpha_cut_slow(const rt_scene_alpha *A, const rt_alpha_at *at, const struct rt_ray *r, uint32_t tri, float u,
-                      float v);
+int rt_alpha_cut_slow(const rt_scene_alpha *A, const rt_alpha_at *at, rt_rec *rec, const struct rt_ray *r,
+                      uint32_t tri, float u, float v);
 
 /* 1 when the hit of r on triangle tri (scene index) at barycentrics (u, v)
  * of p[1], p[2] is cut away by its alpha texture: the one filter every
  * tracer's triangle loop calls on a hit it would otherwise accept. A
- * NULL A (no alpha textures) costs one predictable branch. */
-static inline int rt_alpha_cut(const rt_scene_alpha *A, const rt_alpha_at *at, const struct rt_ray *r, uint32_t tri,
-                               float u, float v)
+ * NULL A (no alpha textures) costs one predictable branch. The reads
+ * go to rec (NULL: not recording) at the addresses of at. */
+static inline int rt_alpha_cut(const rt_scene_alpha *A, const rt_alpha_at *at, rt_rec *rec, const struct rt_ray *r,
+                               uint32_t tri, float u, float v)
 {
     if (__builtin_expect(A == NULL, 1)) return 0;
-    return rt_alpha_cut_slow(A, at, r, tri, u, v);
+    return rt_alpha_cut_slow(A, at, rec, r, tri, u, v);
 }
 
 /* Adds the regions alpha.tri (RT_ALPHA_TRI_RECSIZE x triangles) and
@@ -102,9 +107,9 @@ static inline int rt_alpha_cut(const rt_scene_alpha *A, const rt_alpha_at *at, c
  * or -1. */
 int rt_alpha_regions(rt_layout *L, const rt_scene_alpha *A, rt_err *e);
 
-/* Fills at from a layout holding the regions alpha.tri and alpha.texel
- * (rec NULL or the regions absent: bases 0, nothing recorded). */
-void rt_alpha_at_init(rt_alpha_at *at, rt_rec *rec, const rt_layout *L);
+/* Fills at from a layout (may be NULL) holding the regions alpha.tri and
+ * alpha.texel (absent: on = 0, nothing recorded). */
+void rt_alpha_at_init(rt_alpha_at *at, const rt_layout *L);
 
 /* Checks the invariants above: 0, or -1 naming the first violation. */
 int rt_alpha_check(const rt_scene_alpha *A, rt_err *e);

@@ -13,9 +13,10 @@ trap 'rm -rf "$tmp"' EXIT
 fail=0
 err() { echo "FAIL: $*"; fail=1; }
 
-# a 4x4 mask, row 0 on top: 1 1 0 1 / 0 1 1 0 / 1 0 0 0 / 1 1 1 1
+# a 4x4 mask, row 0 on top: 1 1 0 1 / 0 1 1 0 / 1 0 0 0 / 1 1 1 1 (PNG); the EXR with
+# partial values (pbrt's hashed test: every tracer must agree ray by ray)
 "$mk" --png "$tmp/m.png" 4 4 255 255 0 255 0 255 255 0 255 0 0 0 255 255 255 255 || err "writing m.png"
-"$mk" --exr "$tmp/m.exr" 4 4 1 1 0 1 0 1 1 0 1 0 0 0 1 1 1 1 || err "writing m.exr"
+"$mk" --exr "$tmp/m.exr" 4 4 1 0.5 0 1 0 1 0.7 0 0.3 0 0 0 1 1 0.5 1 || err "writing m.exr"
 cat > "$tmp/a.pbrt" <<'EOF'
 LookAt 0 0 -3  0 0 0  0 1 0
 Camera "perspective" "float fov" 40
@@ -61,6 +62,12 @@ grep -q '^  alpha\.tri  *alpha .* 28  *6 ' "$tmp/ci" && grep -q '^  alpha\.texel
     err "regions: $(cat "$tmp/ci")"
 grep -q '^  alpha  *geometry  *[1-9]' "$tmp/ci" || err "no alpha references: $(cat "$tmp/ci")"
 grep -Eq '^  alpha[ .]' "$tmp/oi" && err "the opaque trace has alpha: $(cat "$tmp/oi")"
+# on simulated cores each core's recorder gets the alpha reads of its rays
+for t in recursive treelet stream-branching; do
+    "$bin" trace "$tmp/a.pbrt" -t $t --lights 0 --cores 2 -o "$tmp/k.rtt" 2> /dev/null || err "trace -t $t --cores 2"
+    "$bin" trace-info "$tmp/k.rtt" > "$tmp/ki" 2>&1 || err "trace-info -t $t --cores 2: $(cat "$tmp/ki")"
+    grep -q '^  alpha  *geometry  *[1-9]' "$tmp/ki" || err "$t --cores 2: no alpha references: $(cat "$tmp/ki")"
+done
 
 # malformed images: one line naming the file, exit 1
 head -c 60 "$tmp/m.png" > "$tmp/cut.png"

@@ -168,11 +168,11 @@ static void test_hand(void)
     rt_sink sk = {drop_put, NULL};
     rt_rec *rec = rt_rec_new(&sk, &e); /* the test reads rec->buf before any flush */
     rt_alpha_at at;
-    rt_alpha_at_init(&at, rec, &L);
+    rt_alpha_at_init(&at, &L);
     /* triangle 1 (a c d), uv (0,0) (1,1) (0,1): at barycentrics (0.2, 0.4)
      * uv = 0.2 (1,1) + 0.4 (0,1) = (0.2, 0.6): x = floor(0.8) = 0, row
      * floor((1 - 0.6) 4) = 1, texel 4, pattern row 1 "0110": 0 */
-    float a = rt_alpha_value(s->alpha, &at, 1, 0.2f, 0.4f);
+    float a = rt_alpha_value(s->alpha, &at, rec, 1, 0.2f, 0.4f);
     CHECK(a == 0.0f && rec->n == 2, "value %g, %zu reads", (double)a, rec->n);
     if (rec->n == 2) {
         CHECK(rec->buf[0].addr == L.r[0].base + 28 && rec->buf[0].size == 28 && rec->buf[0].cls == RT_CLS_ALPHA,
@@ -181,7 +181,7 @@ static void test_hand(void)
               (unsigned long long)rec->buf[1].addr);
     }
     rec->n = 0;
-    CHECK(rt_alpha_value(s->alpha, &at, 2, 0.2f, 0.4f) == 1.0f && rec->n == 1 && rec->buf[0].size == 4 &&
+    CHECK(rt_alpha_value(s->alpha, &at, rec, 2, 0.2f, 0.4f) == 1.0f && rec->n == 1 && rec->buf[0].size == 4 &&
               rec->buf[0].addr == L.r[0].base + 56,
           "an opaque triangle reads 4 bytes of its record");
     rec->n = 0;
