@@ -178,7 +178,7 @@ static int cmd_info(int argc, char **argv)
         printf(",\n  \"triangles\": %u,\n", s->ntri);
         if (s->alpha) {
             uint32_t cut = 0;
-            for (uint32_t t = 0; t < s->alpha->ntri; t++) cut += s->alpha->tmap[t] != 0;
+            for (uint32_t t = 0; t < s->alpha->nrec; t++) cut += s->alpha->tmap[t] != 0;
             printf("  \"alpha_textures\": %u,\n  \"alpha_texels\": %" PRIu64 ",\n  \"alpha_triangles\": %u,\n",
                    s->alpha->nmap, s->alpha->ntexel, cut);
         }
@@ -243,7 +243,7 @@ static int cmd_info(int argc, char **argv)
             printf("two-level    %u instance records (objects of 3 or more triangles; --instances bvh)\n", s->nirec);
         if (s->alpha) {
             uint32_t cut = 0;
-            for (uint32_t t = 0; t < s->alpha->ntri; t++) cut += s->alpha->tmap[t] != 0;
+            for (uint32_t t = 0; t < s->alpha->nrec; t++) cut += s->alpha->tmap[t] != 0;
             printf("alpha        %u texture%s (%" PRIu64 " texels), %u triangles with a cutout\n", s->alpha->nmap,
                    s->alpha->nmap == 1 ? "" : "s", s->alpha->ntexel, cut);
         }

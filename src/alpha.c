@@ -39,7 +39,7 @@ static int64_t wrap(int64_t x, uint32_t n)
 float rt_alpha_value(const rt_scene_alpha *A, const rt_alpha_at *at, rt_rec *rec, uint32_t tri, float u, float v)
 {
     if (!at || !at->on) rec = NULL;
-    uint32_t k = A->tmap[tri];
+    uint32_t k = tri < A->nrec ? A->tmap[tri] : 0;
     RT_REC(rec, at->tri_base + (uint64_t)RT_ALPHA_TRI_RECSIZE * tri, k ? RT_ALPHA_TRI_RECSIZE : 4, 0, RT_CLS_ALPHA);
     if (!k) return 1.0f;
     const rt_alpha_map *m = &A->map[k - 1];
@@ -138,8 +138,10 @@ int rt_alpha_check(const rt_scene_alpha *A, rt_err *e)
     for (uint64_t i = 0; i < A->ntexel; i++)
         if (!(A->texel[i] >= 0 && isfinite(A->texel[i])))
             return rt_errf(e, "alpha: texel %llu is %g", (unsigned long long)i, (double)A->texel[i]);
+    if (A->nrec < 1 || A->nrec > A->ntri)
+        return rt_errf(e, "alpha: %u triangle records for %u triangles", A->nrec, A->ntri);
     uint32_t mapped = 0;
-    for (uint32_t t = 0; t < A->ntri; t++) {
+    for (uint32_t t = 0; t < A->nrec; t++) {
         if (A->tmap[t] > A->nmap) return rt_errf(e, "alpha: triangle %u names texture %u of %u", t, A->tmap[t], A->nmap);
         mapped += A->tmap[t] != 0;
         for (int j = 0; j < 6; j++)

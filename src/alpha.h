@@ -35,9 +35,10 @@
  * them reads nothing and its traces are what they were.
  *
  * INVARIANTS (rt_alpha_check): nmap >= 1; every map has w, h >= 1 and its
- * texels lie in [0, ntexel), maps in order without overlap; tmap has ntri
- * entries each <= nmap and at least one is non-zero; every texel and uv
- * is finite and every texel >= 0.
+ * texels lie in [0, ntexel), maps in order without overlap; 1 <= nrec <=
+ * ntri; tmap has nrec entries each <= nmap, at least one non-zero; every
+ * texel and uv is finite and every texel >= 0. alpha.tri models a record
+ * for every triangle (ntri of them), whatever nrec.
  */
 #ifndef RT_ALPHA_H
 #define RT_ALPHA_H
@@ -60,9 +61,11 @@ typedef struct rt_scene_alpha {
     rt_alpha_map *map;   /* nmap records */
     uint64_t ntexel;     /* texels of all textures */
     float *texel;        /* ntexel values, map after map */
-    uint32_t ntri;       /* the scene's triangles */
-    uint32_t *tmap;      /* per triangle: texture index + 1, 0 = opaque */
-    float *uv;           /* per triangle: u0 v0 u1 v1 u2 v2 */
+    uint32_t ntri;       /* the scene's triangles in the flattened order (rt_scene_nflat: the indices hits carry) */
+    uint32_t nrec;       /* triangles the arrays hold, 0 .. nrec - 1 (<= ntri: one past the last with a
+                          * texture, so a kept scene's instanced triangles after it cost no memory) */
+    uint32_t *tmap;      /* per triangle < nrec: texture index + 1, 0 = opaque; triangles >= nrec are opaque */
+    float *uv;           /* per triangle < nrec: u0 v0 u1 v1 u2 v2 */
 } rt_scene_alpha;
 
 #define RT_ALPHA_TRI_RECSIZE 28u

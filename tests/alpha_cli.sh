@@ -69,6 +69,30 @@ for t in recursive treelet stream-branching; do
     grep -q '^  alpha  *geometry  *[1-9]' "$tmp/ki" || err "$t --cores 2: no alpha references: $(cat "$tmp/ki")"
 done
 
+# instances before the cards (their triangles come first in the flattened
+# order) and after: flattened and kept (--instances bvh) give one image
+{
+    sed -n '1,7p' "$tmp/a.pbrt"
+    echo 'ObjectBegin "box"'
+    echo 'Shape "trianglemesh" "point3 P" [-0.2 -0.2 -0.2 0.2 -0.2 -0.2 0.2 0.2 -0.2 -0.2 0.2 -0.2 -0.2 -0.2 0.2 0.2 -0.2 0.2 0.2 0.2 0.2 -0.2 0.2 0.2]'
+    echo '  "integer indices" [0 1 2 0 2 3 4 6 5 4 7 6 0 4 5 0 5 1 3 2 6 3 6 7 0 3 7 0 7 4 1 5 6 1 6 2]'
+    echo 'ObjectEnd'
+    echo 'AttributeBegin Translate -0.6 0.6 -0.5 ObjectInstance "box" AttributeEnd'
+    echo 'AttributeBegin Translate 0.6 -0.6 1 ObjectInstance "box" AttributeEnd'
+    sed -n '8,12p' "$tmp/a.pbrt"
+    echo 'AttributeBegin Translate 0.6 0.6 1.5 ObjectInstance "box" AttributeEnd'
+    sed -n '13,$p' "$tmp/a.pbrt"
+} > "$tmp/k.pbrt"
+"$bin" scene info "$tmp/k.pbrt" --no-tree > "$tmp/kinfo" 2>&1 || err "scene info k.pbrt: $(cat "$tmp/kinfo")"
+grep -q '^alpha        2 textures (32 texels), 4 triangles with a cutout$' "$tmp/kinfo" &&
+    grep -q '^two-level    3 instance records' "$tmp/kinfo" || err "k.pbrt: $(cat "$tmp/kinfo")"
+"$bin" render "$tmp/k.pbrt" --lights 0 -o "$tmp/r.exr" --ppm "$tmp/k-flat.ppm" 2> /dev/null || err "render k.pbrt"
+"$bin" render "$tmp/k.pbrt" --instances bvh --lights 0 -o "$tmp/r.exr" --ppm "$tmp/k-kept.ppm" 2> /dev/null ||
+    err "render k.pbrt --instances bvh"
+"$bin" render "$tmp/k.pbrt:alpha=0" --lights 0 -o "$tmp/r.exr" --ppm "$tmp/k-opaque.ppm" 2> /dev/null || err "k alpha=0"
+cmp -s "$tmp/k-flat.ppm" "$tmp/k-kept.ppm" || err "kept instances: the image differs from the flattened scene's"
+cmp -s "$tmp/k-flat.ppm" "$tmp/k-opaque.ppm" && err "k.pbrt: the cutout image equals the opaque one"
+
 # malformed images: one line naming the file, exit 1
 head -c 60 "$tmp/m.png" > "$tmp/cut.png"
 sed 's/m\.png/cut.png/' "$tmp/a.pbrt" > "$tmp/b.pbrt"
