@@ -968,8 +968,10 @@ static void process_oversized(dyn *D, uint32_t q, const qent *es, uint32_t n)
                 D->img->tests[PIX(D, es[i].pix & ~CAND_FLAG)] += 1;
                 if (!rt_isect_core(&test[i], &D->sc->tri[tri], &t, &u, &v) || !(t > test[i].tmin && t < test[i].tmax))
                     continue;
-                if (D->shadow) occl[i] = 1;
-                else if (btri[i] == RT_NO_HIT || t < bt[i] || (t == bt[i] && tri < btri[i])) {
+                if (D->shadow) {
+                    if (!rt_alpha_cut(D->sc->alpha, &D->tv.alpha, D->rec, &test[i], tri, u, v)) occl[i] = 1;
+                } else if ((btri[i] == RT_NO_HIT || t < bt[i] || (t == bt[i] && tri < btri[i])) &&
+                           !rt_alpha_cut(D->sc->alpha, &D->tv.alpha, D->rec, &test[i], tri, u, v)) {
                     bt[i] = t;
                     btri[i] = tri;
                 }
