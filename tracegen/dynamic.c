@@ -123,6 +123,21 @@
  * of one core; only the order, the queue events and the traffic change.
  * N = 1 is the one-core code path, unchanged.
  *
+ * Host threads (opt->host_threads = N > 1, untraced: render --threads N)
+ * run the same rounds with core i's queue drained on host thread i by a
+ * worker copy of the state (wk[i]): the main thread pops the round's
+ * queues into per-core lists before the round (counting moved rays), a
+ * worker stages the rays it queues instead of pushing them, and after the
+ * round the main thread adds the workers' counters and pushes their staged
+ * rays core by core in order -- the sequence of pushes the one-thread
+ * rounds make, so queue contents, bucket order and every later pick are
+ * the same, and so are the statistics. Within a round no location is
+ * written by two threads: a ray is in one queue at a time (I6), so the
+ * per-pixel records (hits, visibility, resolved, owner, image cost
+ * channels) a worker writes are its own; triangle marks are per worker
+ * (or-ed at the end); the ray-queue core is touched by the main thread
+ * only.
+ *
  * Images are bit-identical to the recursive tracer's: the same camera rays,
  * the same closest hit (ties to the lower triangle index), the same shadow
  * test (the shadow segment is intersected as the ray from the offset hit
