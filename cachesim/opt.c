@@ -20,20 +20,15 @@
  *   2. finish() makes one backward pass over the touches, giving each the
  *      index of the next touch of its line (one array of the last index
  *      seen per line id): O(touches) time, 4 bytes a touch.
- *   3. then, fully associative write-back write-allocate, every size in one
- *      forward pass (run_onepass: groups of lines in 4-ary max-heaps with
- *      lazy deletion, a 16-byte record per line id); otherwise per size,
- *      one forward pass: per set an indexed 4-ary max-heap of the resident
- *      slots keyed by next use, a slot per line id (no hash), so a touch
- *      costs O(log ways).
+ *   3. then, per size, one forward pass: per set an indexed 4-ary max-heap
+ *      of the resident slots keyed by next use, a slot per line id (no
+ *      hash), so a touch costs O(log ways).
  * Counters are read after finish (before it they are zero); a later finish
  * simulates everything buffered from cold again (with cfg.flush the dirty
  * lines are written back at the end of each such simulation).
  * Memory: 12 bytes a touch (a trace of 10^8 line touches needs 1.2 GB,
  * checked against the memory limit as the buffer grows) and 40 to 72 bytes
- * per distinct line (ids, table, next-use scratch), plus 22 bytes per line of the size being simulated
- * (per size) or, in one pass, 16 bytes per distinct line and 16 per line of the largest size (heaps
- * with room for as many stale entries as live ones).
+ * per distinct line (ids, table, next-use scratch), plus 22 bytes per line of the size being simulated.
  * Lines up to 65535 bytes (the bytes of a touch are 16 bits).
  *
  * INVARIANTS (rt_sim_check -> opt_check):
@@ -204,6 +199,9 @@ static int opt_access(void *st, const rt_access *a, size_t n)
     opt *o = st;
     if (o->oom) return -1;
     const uint64_t ls = o->cfg.line;
+    /* a power-of-two line (the usual case): shifts instead of the three
+     * 64-bit divisions a reference costs otherwise */
+    const int sh = (ls & (ls - 1)) == 0 ? __builtin_ctzll(ls) : -1;
     rt_err e = {0};
     o->done = 0;
     for (size_t i = 0; i < n; i++) {
@@ -212,10 +210,18 @@ static int opt_access(void *st, const rt_access *a, size_t n)
         unsigned cg = rt_sim_cg(&a[i]);
         unsigned w = a[i].write == RT_WRITE_STREAM ? RT_WRITE_STREAM : a[i].write != 0;
         if (i + OPT_AHEAD < n) { /* the table slots of a reference ahead */
-            uint64_t h = hsl(a[i + OPT_AHEAD].addr / ls, o->hcap);
+            uint64_t ahead = a[i + OPT_AHEAD].addr;
+            uint64_t h = hsl(sh >= 0 ? ahead >> sh : ahead / ls, o->hcap);
             __builtin_prefetch(&o->ht[h]);
         }
-        uint64_t end = addr + sz, first = addr / ls, last = (end - 1) / ls;
+        uint64_t end = addr + sz, first = sh >= 0 ? addr >> sh : addr / ls, last = sh >= 0 ? (end - 1) >> sh : (end - 1) / ls;
+        if (first == last) { /* one line: the whole reference is inside it */
+            if (push(o, first, w, cg, sz, &e)) {
+                o->oom = 1;
+                return -1;
+            }
+            continue;
+        }
         for (uint64_t L = first; L <= last; L++) {
             uint64_t lo = L == first ? addr : L * ls, hi = L == last ? end : (L + 1) * ls;
             if (push(o, L, w, cg, (uint32_t)(hi - lo), &e)) {
@@ -316,12 +322,13 @@ static int run_size(opt *o, int si, rt_err *e)
     ocount *k = &o->cnt[si];
     memset(k, 0, sizeof *k);
     const int wt = c->write_through, nwa = c->no_write_allocate, fl = c->write_miss_fullline;
+    const uint64_t smask = (f.nsets & (f.nsets - 1)) == 0 ? f.nsets - 1 : 0; /* a power of two: no division */
     for (uint64_t i = 0; i < o->nt; i++) {
         const otouch *t = &o->t[i];
         unsigned cg = t->cg, w = t->w;
         k->acc[cg]++;
         k->wr[cg] += w != 0;
-        uint64_t set = o->ids[t->id] % f.nsets;
+        uint64_t set = smask || f.nsets == 1 ? o->ids[t->id] & smask : o->ids[t->id] % f.nsets;
         uint32_t *h = f.heap + set * f.ways;
         uint32_t x = f.slot[t->id];
         if (x != NONE) {
@@ -386,58 +393,48 @@ static int run_size(opt *o, int si, rt_err *e)
 /* A line's state, in one 16-byte record so a touch reads one cache line. */
 typedef struct oline {
     uint32_t key;   /* next use (NONE = never) */
+    uint32_t pos;   /* position in its group's heap */
     uint32_t dirty; /* bit j: dirty in cache j */
     uint8_t grp;    /* group, k = in no cache */
     uint8_t wcg;    /* (class, generation) index of the last write */
     uint16_t pad;
-    uint32_t pad2;
 } oline;
 
-/* LAZY DELETION. A group's heap holds entries (next use << 32 | ~line
- * id): the priority order (farther next use first, then the lower id) is
- * the integer order, so sifting compares integers and touches no line
- * record. A line touched at time t leaves its entry behind (its key was
- * t) and gets a new one where it goes: the old entry is STALE. A stale
- * entry's key is a touch time already past, while every line resident in
- * a cache has a key in the future (its next use) or NONE, so at any time
- * every stale entry is below every live one: the top of a heap with a
- * live entry is live, and the victims and swaps read only tops. Stale
- * entries are never searched for; when a heap's array is full they are
- * dropped (an entry is live iff its line's record has that key and that
- * group) and the rest heapified, O(entries), at most once per cap pushes.
- * So no line record holds a heap position and a sift writes no record:
- * the random record writes of every sift, the cost that dominated, are
- * gone, and a touched line's old entry is left where it is instead of
- * being sifted out. n[j] counts the live entries (cache j's group size),
- * m[j] the array's. */
 typedef struct one {
     oline *l;
+    /* per group a max-heap of entries (next use << 32 | ~line id): the
+     * priority order (farther next use first, then the lower id) is the
+     * integer order, and sifting reads no line record */
     uint64_t *heap[RT_SIM_MAXSIZES];
-    uint32_t n[RT_SIM_MAXSIZES], m[RT_SIM_MAXSIZES], cap[RT_SIM_MAXSIZES], room[RT_SIM_MAXSIZES];
+    uint32_t n[RT_SIM_MAXSIZES], cap[RT_SIM_MAXSIZES];
 } one;
 
 static inline uint64_t oent(const one *g, uint32_t x) { return (uint64_t)g->l[x].key << 32 | (uint32_t)~x; }
 static inline uint32_t oid(uint64_t v) { return ~(uint32_t)v; }
 
-/* The heaps are 4-ary (children of i: 4i+1..4i+4, one 32-byte run, the
- * arrays aligned so they share a cache line): half the depth of a binary
- * heap; the order is total (entries are unique), so the top, and every
- * result, is the binary heap's. */
-static void o_up(uint64_t *h, uint32_t i)
+/* The heaps are 4-ary (children of i: 4i+1..4i+4, one 32-byte run): half
+ * the depth of a binary heap, so a sift moves half as many entries and
+ * writes half as many line records (their pos), the cost that dominates;
+ * the order is total (entries are unique), so the top, and every result,
+ * is the binary heap's. */
+static void o_up(one *g, int j, uint32_t i)
 {
-    uint64_t v = h[i];
+    uint64_t *h = g->heap[j], v = h[i];
     while (i > 0) {
         uint32_t p = (i - 1) / OARY;
         if (v <= h[p]) break;
         h[i] = h[p];
+        g->l[oid(h[i])].pos = i;
         i = p;
     }
     h[i] = v;
+    g->l[oid(v)].pos = i;
 }
 
-static void o_down(uint64_t *h, uint32_t n, uint32_t i)
+static void o_down(one *g, int j, uint32_t i)
 {
-    uint64_t v = h[i];
+    uint64_t *h = g->heap[j], v = h[i];
+    uint32_t n = g->n[j];
     for (;;) {
         uint32_t c = OARY * i + 1, b;
         if (c + 3 < n) { /* four children: the larger of two pairs, without branches */
@@ -451,40 +448,39 @@ static void o_down(uint64_t *h, uint32_t n, uint32_t i)
         }
         if (h[b] <= v) break;
         h[i] = h[b];
+        g->l[oid(h[i])].pos = i;
         i = b;
     }
     h[i] = v;
+    g->l[oid(v)].pos = i;
 }
 
-/* Drops group j's stale entries and heapifies the live ones. */
-static void o_compact(one *g, int j)
-{
-    uint64_t *h = g->heap[j];
-    uint32_t w = 0;
-    for (uint32_t i = 0; i < g->m[j]; i++) {
-        const oline *r = &g->l[oid(h[i])];
-        if (r->grp == j && r->key == (uint32_t)(h[i] >> 32)) h[w++] = h[i];
-    }
-    g->m[j] = w;
-    for (uint32_t i = w / OARY + 1; i-- > 0;)
-        if (i < w) o_down(h, w, i);
-}
-
-/* x (its key already set) joins group j as a live entry. */
 static void o_push(one *g, int j, uint32_t x)
 {
-    if (g->m[j] == g->room[j]) o_compact(g, j);
-    g->heap[j][g->m[j]] = oent(g, x);
+    g->heap[j][g->n[j]] = oent(g, x);
     g->l[x].grp = (uint8_t)j;
-    o_up(g->heap[j], g->m[j]++);
+    o_up(g, j, g->n[j]++);
 }
 
-/* y takes the top of group j (whose live top leaves the heap). */
-static void o_replace_top(one *g, int j, uint32_t y)
+/* y takes heap position p of group j (whatever held it leaves the heap). */
+static void o_replace(one *g, int j, uint32_t p, uint32_t y)
 {
-    g->heap[j][0] = oent(g, y);
+    g->heap[j][p] = oent(g, y);
     g->l[y].grp = (uint8_t)j;
-    o_down(g->heap[j], g->m[j], 0);
+    g->l[y].pos = p;
+    if (p) o_up(g, j, p);
+    o_down(g, j, g->l[y].pos);
+}
+
+static void o_remove(one *g, int j, uint32_t x)
+{
+    uint32_t i = g->l[x].pos;
+    uint64_t last = g->heap[j][--g->n[j]];
+    if (i == g->n[j]) return;
+    g->heap[j][i] = last;
+    g->l[oid(last)].pos = i;
+    o_up(g, j, i);
+    o_down(g, j, g->l[oid(last)].pos);
 }
 
 static int run_onepass(opt *o, rt_err *e)
@@ -497,10 +493,9 @@ static int run_onepass(opt *o, rt_err *e)
     int ok = g.l != NULL;
     for (int j = 0; j < k && ok; j++) {
         g.cap[j] = (uint32_t)((c->sizes[j] - (j ? c->sizes[j - 1] : 0)) / c->line);
-        g.room[j] = 2 * g.cap[j] + 16; /* live entries and as many stale ones, at least */
         /* 3 entries before a 64-byte boundary: the 4 children of i (4i+1..4i+4)
          * then share one cache line */
-        uint64_t *b = rt_calloc_aligned((size_t)g.room[j] + 3, sizeof *b, 64, e);
+        uint64_t *b = rt_calloc_aligned((size_t)g.cap[j] + 3, sizeof *b, 64, e);
         ok = b != NULL;
         g.heap[j] = b ? b + 3 : NULL;
     }
@@ -522,38 +517,39 @@ static int run_onepass(opt *o, rt_err *e)
         acc[cg]++;
         wr[cg] += w != 0;
         hist[cg][w == 0 ? 0 : (w == RT_WRITE_STREAM || (fl && tc->bytes == c->line)) ? 2 : 1][i]++;
-        /* x's entry in G_i (key t) goes stale; its new key is its next use */
-        g.l[x].key = tc->next;
-        if (i == 0) { /* a hit in every size: x stays in G_0 with its new priority */
-            o_push(&g, 0, x);
+        if (i == 0) { /* a hit in every size: only x's priority grows (its key was now, the least) */
+            g.l[x].key = tc->next;
+            g.heap[0][g.l[x].pos] = oent(&g, x);
+            o_up(&g, 0, g.l[x].pos);
             if (w) {
                 g.l[x].dirty = all;
                 g.l[x].wcg = (uint8_t)cg;
             }
             continue;
         }
-        if (i < k) g.n[i]--; /* x leaves G_i */
+        /* x's old key was this touch, the least of all: x is a leaf of G_i,
+         * where the last victim will take its place */
+        uint32_t px = i < k ? g.l[x].pos : 0;
+        g.l[x].key = tc->next;
         uint32_t carry = NONE;
         for (int j = 0; j < i; j++) {
             uint32_t full = g.n[j] == g.cap[j];
             if (j == 0) {
                 if (!full) { /* a cold cache: every size has room, nothing is evicted */
                     o_push(&g, 0, x);
-                    g.n[0]++;
                     break;
                 }
                 carry = oid(g.heap[0][0]); /* the farthest next use leaves cache 0; x takes its place */
-                o_replace_top(&g, 0, x);
+                o_replace(&g, 0, 0, x);
             } else {
                 if (!full) { /* room: the carried line stays in S_j, nothing above is evicted */
                     o_push(&g, j, carry);
-                    g.n[j]++;
                     carry = NONE;
                     break;
                 }
                 if (g.heap[j][0] > oent(&g, carry)) { /* G_j's top leaves cache j instead */
                     uint32_t top = oid(g.heap[j][0]);
-                    o_replace_top(&g, j, carry);
+                    o_replace(&g, j, 0, carry);
                     carry = top;
                 }
             }
@@ -562,13 +558,11 @@ static int run_onepass(opt *o, rt_err *e)
                 g.l[carry].dirty &= ~(1u << j);
             }
         }
-        if (carry != NONE) {
-            if (i < k) { /* the last victim takes x's place in G_i */
-                o_push(&g, i, carry);
-                g.n[i]++;
-            } else
-                g.l[carry].grp = (uint8_t)k;
-        }
+        if (i < k) {
+            if (carry != NONE) o_replace(&g, i, px, carry);
+            else o_remove(&g, i, x); /* (not reached: a cache with room holds every line) */
+        } else if (carry != NONE)
+            g.l[carry].grp = (uint8_t)k;
         if (w) {
             g.l[x].dirty = all;
             g.l[x].wcg = (uint8_t)cg;
