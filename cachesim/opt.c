@@ -393,7 +393,7 @@ static int run_size(opt *o, int si, rt_err *e)
 /* A line's state, in one 16-byte record so a touch reads one cache line. */
 typedef struct oline {
     uint32_t key;   /* next use (NONE = never) */
-    uint32_t pos;   /* position in its group's heap */
+    uint32_t pad2;
     uint32_t dirty; /* bit j: dirty in cache j */
     uint8_t grp;    /* group, k = in no cache */
     uint8_t wcg;    /* (class, generation) index of the last write */
@@ -402,6 +402,10 @@ typedef struct oline {
 
 typedef struct one {
     oline *l;
+    /* line id -> position in its group's heap, apart from the records: a
+     * sift writes the positions of the entries it moves, and 4 bytes a line
+     * keep four times as many of them in the cache as 16-byte records */
+    uint32_t *pos;
     /* per group a max-heap of entries (next use << 32 | ~line id): the
      * priority order (farther next use first, then the lower id) is the
      * integer order, and sifting reads no line record */
@@ -424,11 +428,11 @@ static void o_up(one *g, int j, uint32_t i)
         uint32_t p = (i - 1) / OARY;
         if (v <= h[p]) break;
         h[i] = h[p];
-        g->l[oid(h[i])].pos = i;
+        g->pos[oid(h[i])] = i;
         i = p;
     }
     h[i] = v;
-    g->l[oid(v)].pos = i;
+    g->pos[oid(v)] = i;
 }
 
 static void o_down(one *g, int j, uint32_t i)
@@ -448,11 +452,11 @@ static void o_down(one *g, int j, uint32_t i)
         }
         if (h[b] <= v) break;
         h[i] = h[b];
-        g->l[oid(h[i])].pos = i;
+        g->pos[oid(h[i])] = i;
         i = b;
     }
     h[i] = v;
-    g->l[oid(v)].pos = i;
+    g->pos[oid(v)] = i;
 }
 
 static void o_push(one *g, int j, uint32_t x)
@@ -467,20 +471,20 @@ static void o_replace(one *g, int j, uint32_t p, uint32_t y)
 {
     g->heap[j][p] = oent(g, y);
     g->l[y].grp = (uint8_t)j;
-    g->l[y].pos = p;
+    g->pos[y] = p;
     if (p) o_up(g, j, p);
-    o_down(g, j, g->l[y].pos);
+    o_down(g, j, g->pos[y]);
 }
 
 static void o_remove(one *g, int j, uint32_t x)
 {
-    uint32_t i = g->l[x].pos;
+    uint32_t i = g->pos[x];
     uint64_t last = g->heap[j][--g->n[j]];
     if (i == g->n[j]) return;
     g->heap[j][i] = last;
-    g->l[oid(last)].pos = i;
+    g->pos[oid(last)] = i;
     o_up(g, j, i);
-    o_down(g, j, g->l[oid(last)].pos);
+    o_down(g, j, g->pos[oid(last)]);
 }
 
 static int run_onepass(opt *o, rt_err *e)
@@ -490,7 +494,8 @@ static int run_onepass(opt *o, rt_err *e)
     one g = {0};
     uint32_t nid = o->nid ? o->nid : 1;
     g.l = rt_calloc(nid, sizeof *g.l, e);
-    int ok = g.l != NULL;
+    g.pos = g.l ? rt_calloc(nid, sizeof *g.pos, e) : NULL;
+    int ok = g.pos != NULL;
     for (int j = 0; j < k && ok; j++) {
         g.cap[j] = (uint32_t)((c->sizes[j] - (j ? c->sizes[j - 1] : 0)) / c->line);
         /* 3 entries before a 64-byte boundary: the 4 children of i (4i+1..4i+4)
@@ -512,15 +517,18 @@ static int run_onepass(opt *o, rt_err *e)
         const otouch *tc = &o->t[t];
         uint32_t x = tc->id;
         unsigned cg = tc->cg, w = tc->w;
-        if (t + OPT_AHEAD < o->nt) __builtin_prefetch(&g.l[o->t[t + OPT_AHEAD].id]); /* a random record, ahead */
+        if (t + OPT_AHEAD < o->nt) { /* a random record and position, ahead */
+            __builtin_prefetch(&g.l[o->t[t + OPT_AHEAD].id]);
+            __builtin_prefetch(&g.pos[o->t[t + OPT_AHEAD].id]);
+        }
         int i = g.l[x].grp;
         acc[cg]++;
         wr[cg] += w != 0;
         hist[cg][w == 0 ? 0 : (w == RT_WRITE_STREAM || (fl && tc->bytes == c->line)) ? 2 : 1][i]++;
         if (i == 0) { /* a hit in every size: only x's priority grows (its key was now, the least) */
             g.l[x].key = tc->next;
-            g.heap[0][g.l[x].pos] = oent(&g, x);
-            o_up(&g, 0, g.l[x].pos);
+            g.heap[0][g.pos[x]] = oent(&g, x);
+            o_up(&g, 0, g.pos[x]);
             if (w) {
                 g.l[x].dirty = all;
                 g.l[x].wcg = (uint8_t)cg;
@@ -529,7 +537,7 @@ static int run_onepass(opt *o, rt_err *e)
         }
         /* x's old key was this touch, the least of all: x is a leaf of G_i,
          * where the last victim will take its place */
-        uint32_t px = i < k ? g.l[x].pos : 0;
+        uint32_t px = i < k ? g.pos[x] : 0;
         g.l[x].key = tc->next;
         uint32_t carry = NONE;
         for (int j = 0; j < i; j++) {
@@ -592,6 +600,7 @@ out:
     free(wb);
     for (int j = 0; j < k; j++) free(g.heap[j] ? g.heap[j] - 3 : NULL);
     free(g.l);
+    free(g.pos);
     return rc;
 }
 
