@@ -28,7 +28,8 @@
  * lines are written back at the end of each such simulation).
  * Memory: 12 bytes a touch (a trace of 10^8 line touches needs 1.2 GB,
  * checked against the memory limit as the buffer grows) and 40 to 72 bytes
- * per distinct line (ids, table, next-use scratch), plus 22 bytes per line of the size being simulated.
+ * per distinct line (ids, table, next-use scratch), plus 22 bytes per line of the size being simulated
+ * (per size) or 20 bytes per distinct line and 8 per line of the largest size (one pass).
  * Lines up to 65535 bytes (the bytes of a touch are 16 bits).
  *
  * INVARIANTS (rt_sim_check -> opt_check):
@@ -418,7 +419,7 @@ static inline uint32_t oid(uint64_t v) { return ~(uint32_t)v; }
 
 /* The heaps are 4-ary (children of i: 4i+1..4i+4, one 32-byte run): half
  * the depth of a binary heap, so a sift moves half as many entries and
- * writes half as many line records (their pos), the cost that dominates;
+ * writes half as many heap positions (g->pos), the cost that dominates;
  * the order is total (entries are unique), so the top, and every result,
  * is the binary heap's. */
 static void o_up(one *g, int j, uint32_t i)
