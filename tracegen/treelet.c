@@ -723,8 +723,9 @@ static RT_ALWAYS_INLINE int leaf(const tl_run *T, const rt_ray *r, int any, thit
         float t, u, v;
         if (!rt_isect_core(r, rt_bvh_tri(b, k), &t, &u, &v)) continue;
         if (any) {
-            if (t > r->tmin && t < r->tmax) return 1;
-        } else if (t > r->tmin && rt_hit_better(&(const rt_hit){H->best, H->btri, H->bu, H->bv}, t, o)) {
+            if (t > r->tmin && t < r->tmax && !rt_alpha_cut(T->tv.sc->alpha, &T->tv.alpha, T->rec, r, o, u, v)) return 1;
+        } else if (t > r->tmin && rt_hit_better(&(const rt_hit){H->best, H->btri, H->bu, H->bv}, t, o) &&
+                   !rt_alpha_cut(T->tv.sc->alpha, &T->tv.alpha, T->rec, r, o, u, v)) {
             /* the hit rule of accel/hit.h (btri is 0 while none is held:
              * best is then tmax, which no hit in (tmin, tmax) ties) */
             H->found = 1;
