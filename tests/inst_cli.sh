@@ -2,14 +2,14 @@
 # True instancing from the front end (accel/inst.c, docs/bvh.md "Instancing"):
 # 1. `render --instances bvh` writes the same PNG as the default flattened
 #    run and as `--instances flatten`, on an instanced .pbrt written here,
-#    in the shadow and whitted modes; trace-info names the structure and its
-#    four regions;
-# 2. the tracers that walk their own structure refuse `--instances bvh`
-#    naming the option (exit 1), `--accel` with it is a usage error (exit 2),
-#    and an unknown mode is a usage error;
+#    in the shadow and whitted modes, for the recursive and packet tracers;
+#    trace-info names the structure and its four regions;
+# 2. the treelet and dynamic tracers refuse `--instances bvh` naming the
+#    option and the reason (exit 1), `--accel` with it is a usage error
+#    (exit 2), and an unknown mode is a usage error;
 # 3. a sweep with `--instances bvh` stores instances = 'bvh' in the runs
-#    table for the recursive tracer and runs the packet tracer (its own
-#    walk) on the flattened scene ('flatten'); a plain sweep stores 'flatten';
+#    table for the recursive and packet tracers and runs the treelet tracer
+#    on the flattened scene ('flatten'); a plain sweep stores 'flatten';
 #    the classes table holds tlas, inst and alpha, the bvh run has traffic
 #    rows of tlas, inst, node and tri, a 10-class file gets the new rows;
 # 1b. the instanced trace has classes tlas and inst (footer of 12 classes,
@@ -46,14 +46,16 @@ AttributeBegin Translate 2 -0.2 -3 ObjectInstance "ball" AttributeEnd
 PBRT
 
 # ---- 1. images and trace-info -------------------------------------------------
-for m in shadow whitted; do
-    for i in default flatten bvh; do
-        opt=""; [ $i = default ] || opt="--instances $i"
-        "$bin" render "$sc" --mode $m --lights all -W 48 -H 40 $opt -o "$tmp/$i.exr" --png "$tmp/$i-$m.png" \
-            >/dev/null 2>"$tmp/err" || { cat "$tmp/err"; die "render $m $i"; }
+for t in recursive packet; do
+    for m in shadow whitted; do
+        for i in default flatten bvh; do
+            opt=""; [ $i = default ] || opt="--instances $i"
+            "$bin" render "$sc" -t $t --mode $m --lights all -W 48 -H 40 $opt -o "$tmp/$i.exr" --png "$tmp/$i-$m.png" \
+                >/dev/null 2>"$tmp/err" || { cat "$tmp/err"; die "render $t $m $i"; }
+        done
+        cmp -s "$tmp/default-$m.png" "$tmp/bvh-$m.png" || die "$t $m: --instances bvh image differs from the flattened one"
+        cmp -s "$tmp/default-$m.png" "$tmp/flatten-$m.png" || die "$t $m: --instances flatten image differs from the default"
     done
-    cmp -s "$tmp/default-$m.png" "$tmp/bvh-$m.png" || die "$m: --instances bvh image differs from the flattened one"
-    cmp -s "$tmp/default-$m.png" "$tmp/flatten-$m.png" || die "$m: --instances flatten image differs from the default"
 done
 "$bin" trace "$sc" --lights all -W 24 -H 20 --instances bvh -o "$tmp/t.rtt" >/dev/null 2>&1 || die "trace --instances bvh"
 "$bin" trace-info "$tmp/t.rtt" > "$tmp/info" 2>&1 || die "trace-info"
@@ -103,7 +105,7 @@ tail -c 268 "$od/v1.rtt" | head -c 4 | grep -q RTND || die "old footer not 268 b
 tail -c 316 "$tmp/t.rtt" | head -c 4 | grep -q RTND || die "12-class footer not 316 bytes"
 
 # ---- 2. refusals ----------------------------------------------------------------
-for t in packet treelet dynamic; do
+for t in treelet dynamic; do
     "$bin" render "$sc" -t $t --instances bvh -W 16 -H 16 -o "$tmp/x.exr" >/dev/null 2>"$tmp/err"
     rc=$?
     [ $rc -ne 0 ] && grep -q -- "--instances bvh: the $t tracer" "$tmp/err" ||
@@ -115,13 +117,13 @@ done
 [ $? -eq 2 ] && grep -q -- "--instances: unknown mode 'deep'" "$tmp/err" || die "--instances deep: '$(cat "$tmp/err")'"
 
 # ---- 3. the runs table ----------------------------------------------------------
-"$bin" sweep --scenes "$sc" --tracers recursive,packet --lights primary -W 16 -H 12 --sizes 4K --instances bvh \
+"$bin" sweep --scenes "$sc" --tracers recursive,packet,treelet --lights primary -W 16 -H 12 --sizes 4K --instances bvh \
     --db "$tmp/a.db" >/dev/null 2>"$tmp/err" || { cat "$tmp/err"; die "sweep --instances bvh"; }
 "$bin" sweep --scenes "$sc" --tracers recursive --lights primary -W 16 -H 12 --sizes 4K \
     --db "$tmp/a.db" >/dev/null 2>"$tmp/err" || { cat "$tmp/err"; die "plain sweep"; }
 got=$(q "$tmp/a.db" "SELECT group_concat(t, ',') FROM (SELECT tracer || ':' || instances AS t FROM runs ORDER BY t)")
-[ "$got" = "packet:flatten,recursive:bvh,recursive:flatten" ] ||
-    die "runs (tracer:instances): want packet:flatten,recursive:bvh,recursive:flatten, got '$got'"
+[ "$got" = "packet:bvh,recursive:bvh,recursive:flatten,treelet:flatten" ] ||
+    die "runs (tracer:instances): want packet:bvh,recursive:bvh,recursive:flatten,treelet:flatten, got '$got'"
 # the classes table holds all 13 classes; the instanced run has rows per level
 got=$(q "$tmp/a.db" "SELECT group_concat(name || ':' || grp, ',') FROM (SELECT * FROM classes WHERE name IN ('tlas','inst','alpha') ORDER BY name)")
 [ "$got" = "alpha:geometry,inst:geometry,tlas:geometry" ] || die "classes table: '$got'"

@@ -60,6 +60,7 @@
  */
 #include "bvh.h"
 #include "camera.h"
+#include "inst.h"
 #include "regions.h"
 #include "rt_assert.h"
 #include "shade.h"
@@ -99,6 +100,7 @@ typedef struct pstate {
     struct bvlevel *lv; /* per depth: the rays entering a node */
     float *cull;     /* per ray: visit bound of its best hit so far */
     int np;          /* P * P */
+    rt_inst_pk *ipk; /* the two-level structure (--instances bvh): its packet walker, else NULL */
 } pstate;
 
 /* Drops rays that no longer need this node: occluded shadow rays, or rays
@@ -475,7 +477,8 @@ static int pk_layout(const rt_tracer_ctx *ctx, rt_layout *L, rt_err *e)
 static void trace_packet(pstate *ps, plist *l)
 {
     if (!l->n) return;
-    if (ps->bvh) pb_trace(ps, l);
+    if (ps->ipk) rt_inst_pk_trace(ps->ipk, ps->tv, ps->ray, ps->hit, ps->done, ps->shadow, ps->pnodes, ps->ptests, l->idx, l->n);
+    else if (ps->bvh) pb_trace(ps, l);
     else visit(ps, 0, l, 0);
 }
 
@@ -675,12 +678,14 @@ static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_
     int reg_shade = rt_mm_find(L, "tri.shade"), reg_hits = rt_mm_find(L, "packet.hits");
     rt_trav tv;
     rt_reg_trav(&tv, ctx);
-    pstate ps = {&tv, ctx->kd, sc, rec, L, tv.reg_node, tv.reg_idx, tv.reg_tri, NULL, NULL, NULL, 0, NULL, NULL, NULL, 0, NULL, NULL, NULL, 0};
-    const rt_bvh *bvh = tv.width ? tv.bvh : NULL; /* a BVH, else the k-d tree */
-    ps.maxdepth = bvh ? (int)bvh->depth + 2 : (int)ctx->kd->maxdepth + 2;
+    pstate ps = {&tv, ctx->kd, sc, rec, L, tv.reg_node, tv.reg_idx, tv.reg_tri, NULL, NULL, NULL, 0, NULL, NULL, NULL, 0, NULL, NULL, NULL, 0, NULL};
+    const int two_level = ctx->acc->kind == RT_ACCEL_INST; /* its own packet walk (accel/inst.c) */
+    const rt_bvh *bvh = tv.width && !two_level ? tv.bvh : NULL; /* a BVH, else the k-d tree */
+    ps.maxdepth = two_level ? 1 : bvh ? (int)bvh->depth + 2 : (int)ctx->kd->maxdepth + 2;
     ps.bvh = bvh;
     ps.np = NP;
     int rc = -1;
+    if (two_level && !(ps.ipk = rt_inst_pk_new(ctx->acc->as, NP, e))) return -1;
     rt_ray *eye = rt_calloc(NP, sizeof *eye, e);
     rt_ray *sray = eye ? rt_calloc(NP, sizeof *sray, e) : NULL;
     rt_hit *hit = sray ? rt_calloc(NP, sizeof *hit, e) : NULL;
@@ -834,8 +839,13 @@ static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_
                  P, S.rays, S.packets, S.packets ? (double)S.rays / ((double)S.packets * NP) : 0.0, S.self_hits);
     else
         snprintf(st->extra, sizeof st->extra, "packet=%d", P);
+    if (tv.xforms) { /* the two-level structure: rays transformed into an object's space */
+        size_t l = strlen(st->extra);
+        snprintf(st->extra + l, sizeof st->extra - l, " xforms=%" PRIu64, tv.xforms);
+    }
     rc = 0;
 done:
+    rt_inst_pk_free(ps.ipk);
     free(cull);
     free(lvpool);
     free(bl);
@@ -876,7 +886,7 @@ const rt_tracer rt_tracer_packet = {
     .name = "packet",
     .desc = "P x P ray packets tiled over the image, shadow packets per light",
     .modes = RT_TRACER_ALL_MODES,
-    .accels = RT_ACCEL_BIT(RT_ACCEL_KD) | RT_ACCEL_BVH_BITS,
+    .accels = RT_ACCEL_BIT(RT_ACCEL_KD) | RT_ACCEL_BVH_BITS | RT_ACCEL_BIT(RT_ACCEL_INST),
     .accel_default = RT_ACCEL_KD,
     .opts = RT_OPTG_PACKET | RT_OPTG_THREADS | RT_OPTG_CORES,
     .traits = RT_TR_LIGHTS,
