@@ -12,10 +12,13 @@
  */
 #include "hier.h"
 
+#include "engine.h"
 #include "incl.h"
 
 #include <stdlib.h>
 #include <string.h>
+
+#define RT_INCL_POLICIES "lru, fifo, random, plru, srrip, brrip"
 
 struct rt_hier {
     rt_hier_config cfg;
@@ -103,8 +106,9 @@ int rt_hier_parse(const char *spec, const rt_sim_config *base, rt_hier_config *h
             return rt_errf(e, "hierarchy '%s': %s: flush and full-line write misses are modeled only non-inclusive", spec, in);
         for (int k = 0; k < n; k++) {
             const rt_sim_config *c = &h->level[k];
-            if (c->repl != 0 || c->write_through || c->no_write_allocate)
-                return rt_errf(e, "hierarchy level %s: %s needs lru, write-back, write-allocate at every level", h->name[k], in);
+            if ((c->repl != 0 && !rt_repl_ops_for(c->repl)) || c->write_through || c->no_write_allocate)
+                return rt_errf(e, "hierarchy level %s: %s needs a per-size policy (%s, not opt), write-back, "
+                                  "write-allocate at every level", h->name[k], in, RT_INCL_POLICIES);
             if (c->line != h->level[0].line)
                 return rt_errf(e, "hierarchy level %s: %s needs one line size at every level (%u, not %u)", h->name[k], in,
                                h->level[0].line, c->line);

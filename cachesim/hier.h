@@ -30,8 +30,9 @@
  * An optional last item names the inclusion: nine (the default, never
  * written back by rt_hier_spec), inclusive or exclusive, e.g.
  * L1=32K/8/64/lru,LLC=1K-4M/full/64/lru,inclusive; those two need every
- * level LRU, write-back, write-allocate, one line size, and no flush or
- * full-line write accounting (incl.h).
+ * level write-back, write-allocate with a policy of the per-size engine
+ * (any but opt), one line size, and no flush or full-line write
+ * accounting (incl.h).
  *
  * Ownership: an rt_hier owns its levels; rt_hier_sink is valid until
  * rt_hier_free. Errors are returned through rt_err; nothing here prints.

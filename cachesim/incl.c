@@ -2,9 +2,17 @@
  * incl.c -- inclusive and exclusive hierarchies, one chain of levels per
  * last-level size (see incl.h for the model).
  *
- * Each level of a chain is an LRU cache: slots (line, dirty, classes,
- * links of its set's recency list, most recent first) and an open-
- * addressing table line -> slot.
+ * Each level of a chain is a cache: slots (line, dirty, classes, links of
+ * its set's recency list, most recent first) and an open-addressing table
+ * line -> slot. An LRU level evicts its list's tail and fills any free
+ * slot. A level with another policy (rt_repl_ops, engine.h: fifo, random,
+ * plru, srrip, brrip) keeps the list too (for the checker) but its slot
+ * s*ways + w is way w of set s: a hit calls the policy's hit hook, a fill
+ * takes the lowest free way of the set and calls fill, and the victim hook
+ * is asked only of a full set. A line that leaves without an eviction
+ * (back-invalidated, or taken out by an exclusive lookup) leaves its way
+ * free and the policy is not told: the next fill of the set takes that way
+ * first, as a cache fills invalid ways before it replaces.
  *
  * INVARIANTS (rt_incl_check):
  *   I1 every level: each set's list holds exactly its used slots, linked
@@ -17,6 +25,8 @@
  */
 #include "incl.h"
 
+#include "engine.h"
+
 #include <stdlib.h>
 #include <string.h>
 
@@ -26,6 +36,7 @@ typedef struct islot {
     uint64_t line;
     uint32_t prev, next;
     uint8_t dirty, cls, wcls; /* the last toucher's and the last writer's class */
+    uint8_t valid;            /* holds a line */
 } islot;
 
 typedef struct ilevel {
@@ -33,7 +44,11 @@ typedef struct ilevel {
     uint32_t ways;
     islot *slot;     /* nsets * ways; set s owns [s*ways, (s+1)*ways) */
     uint32_t *head, *tail, *used, *freel; /* per set: list ends, used count, a free slot stack top */
-    uint32_t *fnext; /* free-list links */
+    uint32_t *fnext; /* free-list links (LRU levels) */
+    const rt_repl_ops *ops; /* the policy's hooks, NULL = LRU (the list) */
+    uint32_t *pw, *ps;      /* ops: per way and per set words (rt_repl_set), ways of each per set */
+    uint32_t *lowfree;      /* ops: per set, every way below it holds a line */
+    uint64_t rng;           /* ops: the policy's random state, seeded as the per-size engine's */
     uint64_t *hkey;  /* line + 1, 0 = empty */
     uint32_t *hval;
     uint64_t hmask;
@@ -95,9 +110,12 @@ static void hdel(ilevel *l, uint64_t line)
     }
 }
 
-static int level_init(ilevel *l, uint64_t size, uint32_t line, uint32_t assoc, rt_err *e)
+static int level_init(ilevel *l, uint64_t size, uint32_t line, uint32_t assoc, int repl, uint64_t seed, rt_err *e)
 {
     memset(l, 0, sizeof *l);
+    l->ops = rt_repl_ops_for(repl);
+    l->rng = seed * 0x9E3779B97F4A7C15ULL + 0x2545F4914F6CDD1DULL; /* as setassoc.c; never 0 */
+    if (!l->rng) l->rng = 1;
     uint64_t lines = size / line;
     l->ways = assoc ? assoc : (uint32_t)lines;
     l->nsets = lines / l->ways;
@@ -113,6 +131,12 @@ static int level_init(ilevel *l, uint64_t size, uint32_t line, uint32_t assoc, r
     l->hkey = rt_calloc(cap, sizeof *l->hkey, e);
     l->hval = rt_calloc(cap, sizeof *l->hval, e);
     if (!l->slot || !l->head || !l->tail || !l->used || !l->freel || !l->fnext || !l->hkey || !l->hval) return -1;
+    if (l->ops) {
+        l->pw = rt_calloc(lines, sizeof *l->pw, e);
+        l->ps = rt_calloc(lines, sizeof *l->ps, e);
+        l->lowfree = rt_calloc(l->nsets, sizeof *l->lowfree, e);
+        if (!l->pw || !l->ps || !l->lowfree) return -1;
+    }
     for (uint64_t s = 0; s < l->nsets; s++) {
         l->head[s] = l->tail[s] = NIL;
         l->freel[s] = (uint32_t)(s * l->ways);
@@ -132,6 +156,23 @@ static void level_free(ilevel *l)
     free(l->fnext);
     free(l->hkey);
     free(l->hval);
+    free(l->pw);
+    free(l->ps);
+    free(l->lowfree);
+}
+
+static inline rt_repl_set rset(ilevel *l, uint64_t s)
+{
+    rt_repl_set rs = {l->ways, l->pw + s * l->ways, l->ps + s * l->ways, &l->rng};
+    return rs;
+}
+
+/* The slot a full set gives up: the list's tail (LRU) or the policy's victim. */
+static uint32_t victim(ilevel *l, uint64_t s)
+{
+    if (!l->ops) return l->tail[s];
+    rt_repl_set rs = rset(l, s);
+    return (uint32_t)(s * l->ways + l->ops->victim(&rs));
 }
 
 static void unlink_s(ilevel *l, uint64_t s, uint32_t x)
@@ -160,17 +201,34 @@ static void remove_slot(ilevel *l, uint32_t x)
     unlink_s(l, s, x);
     hdel(l, l->slot[x].line);
     l->used[s]--;
-    l->fnext[x] = l->freel[s];
-    l->freel[s] = x;
+    l->slot[x].valid = 0;
+    if (l->ops) {
+        uint32_t w = (uint32_t)(x - s * l->ways);
+        if (w < l->lowfree[s]) l->lowfree[s] = w;
+    } else {
+        l->fnext[x] = l->freel[s];
+        l->freel[s] = x;
+    }
 }
 
 /* Places line (absent, its set not full) at the most recent position. */
 static uint32_t insert(ilevel *l, uint64_t line, int dirty, unsigned cls, unsigned wcls)
 {
     uint64_t s = line % l->nsets;
-    uint32_t x = l->freel[s];
-    l->freel[s] = l->fnext[x];
+    uint32_t x;
+    if (l->ops) { /* the lowest free way */
+        uint32_t w = l->lowfree[s];
+        while (l->slot[s * l->ways + w].valid) w++;
+        l->lowfree[s] = w + 1;
+        x = (uint32_t)(s * l->ways + w);
+        rt_repl_set rs = rset(l, s);
+        l->ops->fill(&rs, w);
+    } else {
+        x = l->freel[s];
+        l->freel[s] = l->fnext[x];
+    }
     l->used[s]++;
+    l->slot[x].valid = 1;
     islot *q = &l->slot[x];
     q->line = line;
     q->dirty = (uint8_t)dirty;
@@ -184,6 +242,10 @@ static uint32_t insert(ilevel *l, uint64_t line, int dirty, unsigned cls, unsign
 static void touch_hit(ilevel *l, uint32_t x, int w, unsigned cls)
 {
     uint64_t s = l->slot[x].line % l->nsets;
+    if (l->ops) {
+        rt_repl_set rs = rset(l, s);
+        l->ops->hit(&rs, (uint32_t)(x - s * l->ways));
+    }
     if (l->head[s] != x) {
         unlink_s(l, s, x);
         push_front(l, s, x);
@@ -229,7 +291,7 @@ static void incl_touch(chain *c, int k, uint64_t L, int w, unsigned cls)
     if (k + 1 < c->n) incl_touch(c, k + 1, L, 0, cls); /* fetch (may back-invalidate here) */
     uint64_t s = L % l->nsets;
     if (l->used[s] == l->ways) {
-        uint32_t v = l->tail[s];
+        uint32_t v = victim(l, s);
         if (k > 0) back_invalidate(c, k, v);
         islot q = l->slot[v];
         remove_slot(l, v);
@@ -250,7 +312,7 @@ static void excl_down(chain *c, int k, const islot *q)
     ilevel *l = &c->lv[k];
     uint64_t s = q->line % l->nsets;
     if (l->used[s] == l->ways) {
-        uint32_t v = l->tail[s];
+        uint32_t v = victim(l, s);
         islot o = l->slot[v];
         remove_slot(l, v);
         if (o.dirty) l->wb[o.wcls]++;
@@ -287,7 +349,7 @@ static void excl_touch(chain *c, uint64_t L, int w, unsigned cls)
     }
     uint64_t s = L % l0->nsets;
     if (l0->used[s] == l0->ways) {
-        uint32_t v = l0->tail[s];
+        uint32_t v = victim(l0, s);
         islot o = l0->slot[v];
         remove_slot(l0, v);
         if (o.dirty) l0->wb[o.wcls]++;
@@ -321,7 +383,7 @@ rt_incl *rt_incl_new(const rt_hier_config *h, rt_err *e)
             const rt_sim_config *lc = &h->level[k];
             uint64_t size = k + 1 == h->nlevels ? lc->sizes[i] : lc->sizes[0];
             c->n = k + 1;
-            if (level_init(&c->lv[k], size, lc->line, lc->assoc, e)) goto fail;
+            if (level_init(&c->lv[k], size, lc->line, lc->assoc, lc->repl, lc->seed, e)) goto fail;
         }
     }
     return x;
@@ -395,6 +457,21 @@ static int level_check(const ilevel *l, const char *name, rt_err *e)
         if (cnt != l->used[s] || l->tail[s] != prev)
             return rt_errf(e, "level %s set %llu: %u lines listed, %u used", name, (unsigned long long)s, cnt,
                            l->used[s]);
+        uint32_t nvalid = 0;
+        for (uint32_t w = 0; w < l->ways; w++) nvalid += l->slot[s * l->ways + w].valid;
+        if (nvalid != cnt)
+            return rt_errf(e, "level %s set %llu: %u slots hold a line, %u listed", name, (unsigned long long)s, nvalid,
+                           cnt);
+        if (l->ops) {
+            for (uint32_t w = 0; w < l->lowfree[s] && w < l->ways; w++)
+                if (!l->slot[s * l->ways + w].valid)
+                    return rt_errf(e, "level %s set %llu: way %u is free below the first free way %u", name,
+                                   (unsigned long long)s, w, l->lowfree[s]);
+            rt_repl_set rs = rset((ilevel *)l, s);
+            /* holes left by back-invalidation: the set's state is that of a
+             * set that has been full, so the policy is checked as one */
+            if (l->ops->check && l->ops->check(&rs, l->ways, e)) return -1;
+        }
         resident += cnt;
     }
     uint64_t keys = 0;

@@ -12,13 +12,20 @@
  * level runs its own chain of levels (one chain per size; the upper levels
  * are simulated once per size).
  *
- * The model (every level LRU, write-back, write-allocate, one line size
- * for all levels; a reference is cut into touches of that line):
+ * The model (every level write-back, write-allocate, one line size for all
+ * levels; a reference is cut into touches of that line). Each level has
+ * its own replacement policy, any of the per-size engine's (lru, fifo,
+ * random, plru, srrip, brrip; not opt, which needs the whole stream of a
+ * level before it simulates): "evicts its victim" below is that policy's
+ * choice in a full set; a line that leaves a level otherwise (back-
+ * invalidated, or taken out by an exclusive lookup) frees its way, which
+ * the set's next fill takes first (the lowest free way), the policy not
+ * told of the removal (incl.c):
  *
  * INCLUSIVE. A touch that hits level 0 is done. A miss at level k fetches
  * the line from level k+1 (an access there, read, of the touch's class;
  * recursively; the last level fetches from memory), then, when its set is
- * full, evicts its LRU line; a dirty victim is written back to level k+1,
+ * full, evicts its victim; a dirty victim is written back to level k+1,
  * a write access there that always hits (inclusion) -- the same order as
  * the non-inclusive chain, fetch first, then the write-back. When a level
  * j >= 1 evicts a line, every level above that holds it loses it: a
@@ -32,8 +39,9 @@
  * looks in levels 1, 2, ... in order (an access at each, a miss where it is
  * absent); where it is found it is taken out (with its dirty bit and last
  * writer) and moved into level 0; found nowhere, it comes from memory (a
- * miss at every level). Level 0's LRU victim, clean or dirty, moves into
- * level 1 at its most recent position, level 1's victim into level 2, and
+ * miss at every level). Level 0's victim, clean or dirty, moves into
+ * level 1 (a fill there: the most recent position of an LRU level), level
+ * 1's victim into level 2, and
  * so on; the last level's dirty victims are written back to memory, its
  * clean ones dropped. Moves into a level are not accesses of it.
  *
@@ -44,7 +52,7 @@
  * sent down: its writebacks, back-invalidation write-backs and, exclusive,
  * its clean victims moved down). DRAM traffic is the last level's.
  *
- * Not modeled here (rejected by rt_hier_parse): other policies than LRU,
+ * Not modeled here (rejected by rt_hier_parse): opt,
  * write-through, no-write-allocate, flush at the end, full-line write
  * misses, differing line sizes. A streaming store is a write.
  *

@@ -165,7 +165,7 @@ int rt_cmd_sweep_cores(int argc, char **argv)
             return RT_EXIT_USAGE;
         }
         for (int k = 0; k < nc; k++)
-            if (cores[k] > 1 && !(tr->opts & RT_OPTG_THREADS) && !rt_tracer_is(tr, RT_TR_CORES)) {
+            if (cores[k] > 1 && !rt_tracer_simulates_cores(tr) && !rt_tracer_is(tr, RT_TR_CORES)) {
                 rt_cmd_error("sweep", "--cores %d: the %s tracer's work is not split over cores yet (run it with "
                                       "--cores 1)", cores[k], t);
                 return RT_EXIT_USAGE;

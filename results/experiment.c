@@ -258,7 +258,7 @@ void rt_exp_job_key(const rt_exp_config *c, const rt_exp_job *jb, const rt_scene
     /* simulated cores of a splitting tracer (--cores N in a one-core sweep: their interleaved
      * stream in the one cache); the dynamic tracer's --cores is its threads= parameter */
     const rt_tracer *ktr = rt_tracer_find(jb->tracer);
-    r->cores = ktr && (ktr->opts & RT_OPTG_THREADS) && ro.cores > 1 ? ro.cores : 1;
+    r->cores = rt_tracer_simulates_cores(ktr) && ro.cores > 1 ? ro.cores : 1;
     if (is_mesh_spec(c->scenes[jb->scene])) {
         r->scene_path = c->scenes[jb->scene];
         r->scene_abspath = abs_path(c->scenes[jb->scene], k->abspath);

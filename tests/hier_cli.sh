@@ -131,8 +131,8 @@ b=$(awk -F, '$2 == "L1" {print $7, $8, $9, $10, $11, $13, 0}' "$tmp/ninebig.csv"
 grep -q '^# .*hierarchy L1=4K/2/64/lru,LLC=8K/full/64/lru,exclusive, .*, exclusive$' "$tmp/exc.txt" || die "exclusive heading"
 "$bin" sim "$tmp/t.rtt" --hierarchy L1=4K/2/64/lru,LLC=8K/full/64/lru,exclusive --db "$tmp/x.db" >/dev/null 2>&1
 [ $? -eq 2 ] || die "an exclusive hierarchy with --db must be a usage error"
-"$bin" sim "$tmp/t.rtt" --hierarchy L1=4K/2/64/srrip,LLC=8K/full/64/lru,inclusive >/dev/null 2>"$tmp/err"
-[ $? -eq 2 ] && grep -q 'level L1: inclusive needs lru' "$tmp/err" || die "inclusive srrip must be refused"
+"$bin" sim "$tmp/t.rtt" --hierarchy L1=4K/2/64/lru,LLC=8K/full/64/opt,inclusive >/dev/null 2>"$tmp/err"
+[ $? -eq 2 ] && grep -q 'level LLC: inclusive needs a per-size policy' "$tmp/err" || die "inclusive opt must be refused"
 "$bin" sim "$tmp/t.rtt" --hierarchy L1=4K/2/64/lru,LLC=8K/full/64/lru,inclusiv >/dev/null 2>"$tmp/err"
 [ $? -eq 2 ] && grep -q "'inclusiv'" "$tmp/err" || die "a misspelt inclusion must be a usage error naming it"
 "$bin" sweep --scenes cornell --tracers recursive --hierarchy L1=1K/full/64/lru,LLC=4K/full/64/lru,inclusive --db "$tmp/x.db" >/dev/null 2>&1

@@ -5,17 +5,18 @@
  *     run of its share alone (rt_job_run_part), merged by the rule written
  *     out here (a tick: 16 references of every running core, cores in
  *     order), equal, reference for reference and core for core, what
- *     rt_job_run_cores hands its sink, for every splitting tracer, several
+ *     rt_job_run_cores hands its sink, for every work-share tracer, several
  *     core counts (1, 2, 3, 8, and more cores than share tiles) and modes;
  *   - N = 1 is the one-core run: the same references as rt_job_run; on N
- *     cores recursive and packet make the same number of references (the
- *     treelet tracer's queue traffic depends on each core's batches);
+ *     cores recursive and packet make the same number of references;
  *   - the image and the statistics are those of one core;
  *   - each core has its own copy of the scratch regions (hits, stacks,
  *     queues) above the layout, geometry stays where it is;
  *   - the interleave is the same on every machine: a golden FNV-1a hash of
  *     (core, address, size, write, class, generation) for cornell 24 x 24
  *     with all lights on 3 cores, per tracer.
+ * The tracers that split their own work over the cores (treelet, the
+ * stream tracers, feedback) are tests/test_tcores.c's.
  */
 #include "check.h"
 #include "run.h"
@@ -143,11 +144,8 @@ static uint64_t check_one(const char *tracer, int mode, int cores, int W, int H)
     j.opt.cores = 1;
     rt_sink s = {coll_put, &one};
     CHECK(rt_job_run(&j, &s, ref, &s1, &e) == 0, "%s: %s", tracer, e.msg);
-    /* recursive, packet: a pixel's references do not depend on the others
-     * (the treelet tracer's queue traffic depends on its batches: each core
-     * schedules its own) */
-    if (strcmp(tracer, "treelet"))
-        CHECK(one.n == got.n, "%s on %d cores: %zu references, one core %zu", tracer, cores, got.n, one.n);
+    /* recursive, packet: a pixel's references do not depend on the others */
+    CHECK(one.n == got.n, "%s on %d cores: %zu references, one core %zu", tracer, cores, got.n, one.n);
     if (cores == 1) {
         size_t d = 0;
         for (size_t i = 0; i < one.n && !d; i++)
@@ -181,16 +179,16 @@ static uint64_t check_one(const char *tracer, int mode, int cores, int W, int H)
 
 int main(void)
 {
-    const char *tracers[] = {"recursive", "packet", "treelet"};
+    const char *tracers[] = {"recursive", "packet"};
     const int counts[] = {1, 2, 3, 8, 40};
-    for (int t = 0; t < 3; t++) {
+    for (int t = 0; t < 2; t++) {
         for (int c = 0; c < 5; c++) check_one(tracers[t], RT_MODE_SHADOW, counts[c], 20, 12);
         check_one(tracers[t], RT_MODE_WHITTED, 3, 16, 16);
         check_one(tracers[t], RT_MODE_PATH, 2, 16, 8);
     }
     /* golden: the interleave of cornell 24 x 24, all lights, 3 cores */
-    const uint64_t golden[3] = {0x08e8ee1d1a565931ull, 0x995d4bb2f547659aull, 0x23dbc6504f7f023dull};
-    for (int t = 0; t < 3; t++) {
+    const uint64_t golden[2] = {0x08e8ee1d1a565931ull, 0x995d4bb2f547659aull};
+    for (int t = 0; t < 2; t++) {
         uint64_t h = check_one(tracers[t], RT_MODE_SHADOW, 3, 24, 24);
         if (getenv("RT_PRINT_GOLDEN")) printf("%s 0x%016" PRIx64 "\n", tracers[t], h);
         CHECK(h == golden[t], "%s: interleave hash %016" PRIx64 ", golden %016" PRIx64, tracers[t], h, golden[t]);

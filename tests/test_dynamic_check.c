@@ -35,7 +35,7 @@ static void test_state(const rt_scene *sc, int qorder)
     o.qorder = qorder;
     rt_layout L;
     rt_mm_init(&L);
-    rt_tracer_ctx ctx = {sc, &acc, acc.as, &o, &L, NULL, NULL, 1, NULL, 0, 1, NULL};
+    rt_tracer_ctx ctx = {sc, &acc, acc.as, &o, &L, NULL, NULL, 1, NULL, 0, 1, NULL, NULL};
     void *pv = NULL;
     CHECK(dyn_plan(&ctx, &pv, &e) == 0, "plan: %s", e.msg);
     dplan *P = pv;
@@ -139,7 +139,7 @@ static void test_cores(const rt_scene *sc)
     rt_mm_init(&L);
     size_t got = 0;
     rt_csink cs = {count_put, &got};
-    rt_tracer_ctx ctx = {sc, &acc, acc.as, &o, &L, NULL, NULL, 1, NULL, 0, 1, &cs};
+    rt_tracer_ctx ctx = {sc, &acc, acc.as, &o, &L, NULL, NULL, 1, NULL, 0, 1, &cs, NULL};
     void *pv = NULL;
     CHECK(dyn_plan(&ctx, &pv, &e) == 0, "plan: %s", e.msg);
     ctx.plan = pv;

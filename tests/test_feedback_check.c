@@ -5,7 +5,9 @@
  * record short of the frame: the primary fill overflows it) and F2 (the
  * per-pixel emission bounds E[] zeroed: the first pass appends more than
  * they allow); a vertex buffer holding a record still waiting for shading
- * fails naming F3 when the geometry stage reads it. The tracer file is
+ * fails naming F3 when the geometry stage reads it. On 3 simulated cores
+ * the run in test mode passes, and a record read by another core than its
+ * chunk's fails naming F4 at the pass's barrier. The tracer file is
  * compiled into this test (its functions are static) under another name
  * for its registry entry.
  */
@@ -14,6 +16,8 @@
 #include "../tracegen/feedback.c"
 
 #include "check.h"
+
+#include <inttypes.h>
 
 static int run(const rt_tracer_ctx *ctx, rt_err *e)
 {
@@ -40,7 +44,7 @@ static void test_run(const rt_scene *sc)
     o.lights = 1;
     rt_layout L;
     rt_mm_init(&L);
-    rt_tracer_ctx ctx = {sc, &acc, NULL, &o, &L, NULL, NULL, 1, NULL};
+    rt_tracer_ctx ctx = {sc, &acc, NULL, &o, &L, NULL, NULL, 1, NULL, 0, 1, NULL, NULL};
     void *pv = NULL;
     CHECK(fb_plan_make(&ctx, &pv, &e) == 0, "plan: %s", e.msg);
     fb_plan *pl = pv;
@@ -60,6 +64,25 @@ static void test_run(const rt_scene *sc)
     pl->z.E[0] = e0;
     pl->z.E[1] = e1;
     CHECK(run(&ctx, &e) == 0, "the restored plan fails: %s", e.msg);
+    /* on 3 cores (untraced): the run passes F4 at every barrier */
+    rt_cores c;
+    CHECK(rt_cores_init(&c, 3, NULL, &e) == 0, "cores: %s", e.msg);
+    ctx.cores = &c;
+    CHECK(run(&ctx, &e) == 0 && c.phases >= 3, "a real run on 3 cores fails: %s (%" PRIu64 " barriers)", e.msg, c.phases);
+    /* F4: record 0 of a pass of 10 read by core 2 (its chunk is 6-9) */
+    fb_run R;
+    memset(&R, 0, sizeof R);
+    R.ctx = &ctx;
+    R.cores = &c;
+    R.ncores = 3;
+    fb_item(&R, 0, 10);
+    rt_cores_claim(R.cores, R.core, 0, 10);
+    CHECK(fb_pass_end(&R, &e) == 0, "record 0 by its own core fails: %s", e.msg);
+    R.core = 2;
+    rt_cores_claim(R.cores, R.core, 0, 10);
+    CHECK(fb_pass_end(&R, &e) < 0 && strstr(e.msg, "F4") && strstr(e.msg, "C4"), "record 0 by core 2: '%s'", e.msg);
+    rt_cores_free(&c);
+    ctx.cores = NULL;
 out:
     fb_plan_free(pv);
     rt_accel_free(&acc);

@@ -42,11 +42,16 @@
  * Invariants (checked every pass; ctx->check adds the per-pixel one):
  *   F1 a buffer never holds more than its capacity W H (G + G') records;
  *   F2 a pass appends at most E[k-1] + E[k] records per pixel;
- *   F3 every record read is either traced or dropped, none twice.
+ *   F3 every record read is either traced or dropped, none twice;
+ *   F4 simulated cores (ctx->cores, test mode, at every barrier): record i
+ *      of a pass's n is read by the core whose chunk holds it (cores.h C4:
+ *      records floor(k n / N) .. floor((k + 1) n / N) - 1 on core k), and
+ *      nothing of a pass is left buffered past its barrier (C1-C3).
  */
 #include "feedback.h"
 
 #include "camera.h"
+#include "cores.h"
 #include "grid.h"
 #include "shade.h"
 
@@ -357,7 +362,35 @@ typedef struct fb_run {
     uint64_t n[2], alloc[2];
     uint32_t *perpix;    /* check mode: records appended per pixel this pass */
     fb_stats s;
+    /* simulated cores (ctx->cores; NULL: one processor, today's run): a
+     * pass's input records in contiguous chunks (cores.h), a barrier per
+     * pass; the stream-out keeps the input order, so core k's records go
+     * where one processor puts them */
+    rt_cores *cores;
+    int ncores;
+    int core;            /* the core whose recorder is current */
 } fb_run;
+
+/* Item i of n (a record of the pass's input, a pixel): its chunk's core
+ * records (simulated cores). */
+static inline void fb_item(fb_run *R, uint64_t i, uint64_t n)
+{
+    if (!R->cores) return;
+    R->core = rt_cores_owner(i, n, R->ncores);
+    R->rec = rt_cores_rec(R->cores, R->core);
+}
+
+/* The end of a pass: the barrier; in test mode F4 (the cores' C1-C4:
+ * every record read by its chunk's core, nothing buffered past the
+ * barrier). 0, or -1 with e (the trace sink failed, F4 broken). */
+static int fb_pass_end(fb_run *R, rt_err *e)
+{
+    if (!R->cores) return 0;
+    if (rt_cores_barrier(R->cores) < 0) return rt_errf(e, "trace sink failed");
+    rt_err ce = {0};
+    if (R->ctx->check && rt_cores_check(R->cores, &ce) < 0) return rt_errf(e, "feedback: F4: %s", ce.msg);
+    return 0;
+}
 
 /* Modeled address of texel (texture tex, slice z) of triangle tri: a 3D
  * texture stores slice after slice, so a triangle's texels share (x, y)
@@ -783,6 +816,7 @@ static int stage(fb_run *R, int cur, uint64_t i, rt_err *e)
     rt_fb_ray ray;
     R->s.vs_records++;
     rt_fb_unpack(&R->vb[cur][i], &ray);
+    if (R->cores) rt_cores_claim(R->cores, R->core, i, R->n[cur]); /* F4 */
     rt_rec_set_gen(R->rec, ray.gen);
     RT_REC(R->rec, rt_mm_addr(R->L, R->reg_vb[cur], i), RT_FB_REC_SIZE, 0, RT_CLS_STREAM);
     R->s.gs_records++;
@@ -818,6 +852,7 @@ static void composite(fb_run *R, const uint8_t *kept)
     const int nt = R->pl->ntarget;
     for (size_t pix = 0; pix < R->npix; pix++) {
         if (!kept[pix]) continue;
+        fb_item(R, pix, R->npix);
         float *rgb = &R->img->rgb[3 * pix];
         if (R->rec && R->pl->comp != COMP_EQ1) {
             for (int t = 0; t < nt; t++)
@@ -935,6 +970,11 @@ static int fb_run_tracer(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *
     R.pl = pl;
     R.rec = ctx->rec;
     R.L = ctx->L;
+    if (ctx->cores) {
+        R.cores = ctx->cores;
+        R.ncores = ctx->cores->n;
+        R.rec = rt_cores_rec(R.cores, 0);
+    }
     R.img = img;
     R.mode = rt_render_mode(o);
     R.npix = (size_t)o->W * (size_t)o->H;
@@ -965,9 +1005,13 @@ static int fb_run_tracer(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *
     /* primary rays: a W x H grid of points, row by row */
     rt_cam_frame cam;
     rt_cam_setup(&cam, R.sc, o->W, o->H);
+    uint64_t nkept = 0; /* on cores, the fill's records in chunks too */
+    for (int y = 0; R.cores && y < o->H; y++)
+        for (int x = 0; x < o->W; x++) nkept += rt_pixel_kept(o, x, y) != 0;
     for (int y = 0; y < o->H; y++)
         for (int x = 0; x < o->W; x++) {
             if (!rt_pixel_kept(o, x, y)) continue;
+            fb_item(&R, R.n[0], nkept);
             rt_ray er;
             rt_fb_ray ray;
             rt_cam_ray(&cam, x, y, &er);
@@ -982,6 +1026,7 @@ static int fb_run_tracer(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *
             if (emit(&R, 0, &ray, e) < 0) goto done;
         }
     R.s.gs_emitted = 0; /* the fill is not geometry-stage work */
+    if (fb_pass_end(&R, e) < 0) goto done;
     int cur = 0;
     uint64_t live = R.n[0];
     while (live) {
@@ -993,8 +1038,11 @@ static int fb_run_tracer(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *
         R.n[out] = 0;
         R.s.in[R.s.passes] = R.n[cur];
         if (R.perpix) memset(R.perpix, 0, R.npix * sizeof *R.perpix);
-        for (uint64_t i = 0; i < R.n[cur]; i++)
+        for (uint64_t i = 0; i < R.n[cur]; i++) {
+            fb_item(&R, i, R.n[cur]);
             if (stage(&R, cur, i, e) < 0) goto done;
+        }
+        if (fb_pass_end(&R, e) < 0) goto done;
         R.s.out[R.s.passes] = R.n[out];
         /* live records of the output: those not already written */
         live = 0;
@@ -1013,7 +1061,12 @@ static int fb_run_tracer(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *
         cur = out;
     }
     composite(&R, kept);
+    if (fb_pass_end(&R, e) < 0) goto done;
     finish_stats(&R, st);
+    if (R.ncores > 1) {
+        size_t l = strlen(st->extra);
+        snprintf(st->extra + l, sizeof st->extra - l, " cores=%d barriers=%" PRIu64, R.ncores, R.cores->phases);
+    }
     rc = 0;
 done:
     free(kept);
@@ -1047,8 +1100,8 @@ const rt_tracer rt_tracer_feedback = {
     .modes = (1u << RT_MODE_RAYCAST) | (1u << RT_MODE_SHADOW) | (1u << RT_MODE_WHITTED),
     .accels = RT_ACCEL_BIT(RT_ACCEL_GRID) | RT_ACCEL_BIT(RT_ACCEL_NAIVE),
     .accel_default = RT_ACCEL_GRID,
-    .opts = RT_OPTG_GRID | RT_OPTG_VB | RT_OPTG_RECORDS,
-    .traits = RT_TR_TEXCACHE | RT_TR_LIGHTS,
+    .opts = RT_OPTG_GRID | RT_OPTG_VB | RT_OPTG_RECORDS | RT_OPTG_CORES,
+    .traits = RT_TR_TEXCACHE | RT_TR_LIGHTS | RT_TR_CORE_PHASES,
     .figures = RT_FIG_FEEDBACK,
     .params = fb_params,
     .layout = fb_layout,

@@ -728,8 +728,9 @@ const rt_render_optdef rt_render_optdefs[] = {
      * others' cores are the run's cores column */
     {"--cores", 0, "N", RT_OPTG_CORES, ALL, NULL, p_cores, NULL,
      "dynamic: modeled cores, 2 rays buffered each (default 4; formerly" H
-     "--threads); recursive, packet, treelet: simulated cores, one work" H
-     "share each (trace: a version-4 trace; default 1)",
+     "--threads); recursive, packet: simulated cores, one work share" H
+     "each; treelet: treelets dealt to cores; stream-*, feedback: each" H
+     "pass's rays in chunks (trace: a version-4 trace; default 1)",
      "", "2"},
     {"--threads", 0, "N", RT_OPTG_THREADS, ALL, NULL, p_host_threads, NULL,
      "render, bench: real host threads (recursive, packet, treelet;" H

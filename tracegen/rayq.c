@@ -217,6 +217,24 @@ int rt_rq_run(rt_rq *rq, rt_rq_step_fn step, void *user)
     return rc;
 }
 
+void rt_rq_pick_classes(const rt_rq *rq, uint32_t nclass, const uint8_t *need, uint32_t *pick)
+{
+    uint32_t left = 0;
+    for (uint32_t c = 0; c < nclass; c++) {
+        pick[c] = UINT32_MAX;
+        left += need[c] != 0;
+    }
+    RT_ASSERT(rq->order == RT_RQ_FULLEST);
+    for (uint32_t b = rq->bk_max; b > 0 && left; b--)
+        for (int32_t q = rq->bk_head[b]; q >= 0 && left; q = rq->bk_next[q]) {
+            const uint32_t c = (uint32_t)q % nclass;
+            if (need[c] && pick[c] == UINT32_MAX) {
+                pick[c] = (uint32_t)q;
+                left--;
+            }
+        }
+}
+
 uint32_t rt_rq_pick(rt_rq *rq, uint32_t *out, uint32_t max, uint32_t *cursor)
 {
     uint32_t m = 0;

@@ -157,6 +157,16 @@ typedef int (*rt_rq_step_fn)(void *user, uint32_t q);
  * check sees rays left queued should Q3/Q4 be broken). */
 int rt_rq_run(rt_rq *rq, rt_rq_step_fn step, void *user);
 
+/* For a scheduler that deals the queues to nclass cores (queue q to class
+ * q mod nclass): into pick[c], for every class c with need[c] set, the
+ * queue of that class rt_rq_run would take first if it held only that
+ * class's queues -- fullest first, ties in bucket order -- or UINT32_MAX
+ * when the class has no non-empty queue. Fullest-first order only (tree
+ * order needs no buckets: the scheduler scans count[]). With one class it
+ * is rt_rq_run's next queue. Scans the buckets from the fullest down until
+ * every needed class is found; changes nothing. */
+void rt_rq_pick_classes(const rt_rq *rq, uint32_t nclass, const uint8_t *need, uint32_t *pick);
+
 /* The work of one round of several cores: up to max distinct non-empty
  * queues into out, in the order rt_rq_run would process them were none
  * refilled meanwhile -- fullest first (the buckets from the fullest down,

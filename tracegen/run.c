@@ -1,6 +1,7 @@
 /* run.c -- set up and run one rendering job (see run.h). */
 #include "scene_load.h"
 #include "run.h"
+#include "cores.h"
 #include "pbrtlayout.h"
 #include "shade.h"
 #include "stats.h"
@@ -15,7 +16,7 @@
 /* The tracer's plan, then its regions. On failure the plan is freed. */
 static int layout(rt_job *j, rt_err *e)
 {
-    rt_tracer_ctx ctx = {j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, NULL, NULL, 0, NULL, 0, 1, NULL};
+    rt_tracer_ctx ctx = {j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, NULL, NULL, 0, NULL, 0, 1, NULL, NULL};
     rt_mm_init(&j->L);
     if (rt_geom_uses_mesh(j->opt.geom) && !j->mesh && !(j->mesh = rt_mesh_build(j->sc, e))) return -1;
     ctx.mesh = j->mesh;
@@ -71,7 +72,7 @@ static int setup_opts(rt_job *j, const char *tracer, const rt_render_opts *o, rt
         return rt_errf_usage(e, "--layout %s: models pbrt's k-d tree; the %s tracer runs on %s", rt_render_geom_name(o->geom),
                              j->tr->name, rt_accel_name(j->opt.accel));
     if (rt_render_mode(o) == RT_MODE_RAYCAST) j->opt.lights = 0; /* primary rays only */
-    if (!(j->tr->opts & RT_OPTG_THREADS)) j->opt.cores = 1; /* dynamic: --cores is its o->threads */
+    if (!rt_tracer_simulates_cores(j->tr)) j->opt.cores = 1; /* dynamic: --cores is its o->threads */
     if (j->opt.cores < 1 || j->opt.cores > RT_TR_MAX_CORES)
         return rt_errf_usage(e, "--cores %d: the %s tracer runs on 1..%d simulated cores", j->opt.cores, j->tr->name,
                              RT_TR_MAX_CORES);
@@ -249,7 +250,7 @@ static int run_threads(rt_job *j, int n, rt_image *img, rt_run_stats *st, rt_err
     if (!tid) goto done;
     for (int k = 0; k < n; k++) {
         s[k].j = j;
-        s[k].ctx = (rt_tracer_ctx){j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, NULL, j->plan, j->check, j->mesh, k, n, NULL};
+        s[k].ctx = (rt_tracer_ctx){j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, NULL, j->plan, j->check, j->mesh, k, n, NULL, NULL};
         s[k].img = img;
         s[k].st.mark_keep = marks + (size_t)k * ntri;
     }
@@ -373,7 +374,7 @@ static int run_share(rt_job *j, rt_sink *sink, int part, int nparts, rt_image *i
         free(rl);
         return -1;
     }
-    rt_tracer_ctx ctx = {j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, trec, j->plan, j->check, j->mesh, part, nparts, NULL};
+    rt_tracer_ctx ctx = {j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, trec, j->plan, j->check, j->mesh, part, nparts, NULL, NULL};
     int rc = j->tr->run(&ctx, img, st, e);
     if (rc == 0 && nparts == 1) env_hits(j, img, st); /* n shares: once, over the whole image */
     if (trec != rec) {
@@ -407,6 +408,48 @@ int rt_job_run_part(rt_job *j, rt_sink *sink, int part, int nparts, rt_image *im
     return run_share(j, sink, part, nparts, img, st, e);
 }
 
+/* ---- a tracer that splits its own work over the cores (cores.h) -------- */
+
+/* One run of a tracer with RT_TR_CORE_PHASES, ctx.cores set: core k records through its own
+ * recorder (and the mesh layout's translator in front of it) into the
+ * phase interleave, which hands the references to cs (NULL: untraced). */
+static int run_phased_cores(rt_job *j, rt_csink *cs, rt_image *img, rt_run_stats *st, rt_err *e)
+{
+    const int n = j->opt.cores > 1 ? j->opt.cores : 1;
+    rt_cores c;
+    rt_rec **rec = NULL, **trec = NULL;
+    int rc = -1;
+    if (rt_cores_init(&c, n, cs, e) < 0) goto done;
+    if (cs && (!(rec = rt_calloc((size_t)n, sizeof *rec, e)) || !(trec = rt_calloc((size_t)n, sizeof *trec, e))))
+        goto done;
+    if (cs && rt_geom_is_pbrt(j->opt.geom)) {
+        rt_errf_usage(e, "--layout %s: one core's layout (the %s tracer splits its work over cores itself)",
+                      rt_render_geom_name(j->opt.geom), j->tr->name);
+        goto done;
+    }
+    for (int k = 0; cs && k < n; k++) {
+        if (!(rec[k] = rt_rec_new(rt_cores_sink(&c, k), e))) goto done;
+        trec[k] = rec[k];
+        if (j->opt.geom == RT_GEOM_MESH && !(trec[k] = rt_mesh_rec_new(j->mesh, &j->L, rec[k], e))) goto done;
+        rt_cores_set_rec(&c, k, trec[k], rec[k]);
+    }
+    rt_tracer_ctx ctx = {j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, cs ? trec[0] : NULL, j->plan, j->check,
+                         j->mesh, 0, 1, NULL, &c};
+    rc = j->tr->run(&ctx, img, st, e);
+    if (rt_cores_barrier(&c) < 0 && rc == 0) rc = rt_errf(e, "trace sink failed");
+    if (rc == 0) env_hits(j, img, st);
+    for (int k = 0; cs && k < n; k++) st->accesses += rec[k]->total;
+done:
+    for (int k = 0; trec && k < n; k++) {
+        if (trec[k] && trec[k] != rec[k]) rt_mesh_rec_free(trec[k]);
+        rt_rec_free(rec[k]);
+    }
+    free(trec);
+    free(rec);
+    rt_cores_free(&c);
+    return rc;
+}
+
 /* A core sink that forgets the cores: rt_job_run's sink behind the interleave. */
 static int plain_put(rt_csink *cs, unsigned core, const rt_access *a, size_t n)
 {
@@ -437,7 +480,8 @@ int rt_job_run(rt_job *j, rt_sink *sink, rt_image *img, rt_run_stats *st, rt_err
         return rt_job_run_cores(j, &cs, img, st, e);
     }
     double t0 = rt_now();
-    int rc = run_share(j, sink, 0, 1, img, st, e);
+    int rc = !sink && j->opt.cores > 1 && rt_tracer_is(j->tr, RT_TR_CORE_PHASES) ? run_phased_cores(j, NULL, img, st, e)
+                                                                               : run_share(j, sink, 0, 1, img, st, e);
     st->seconds = rt_now() - t0;
     return rc;
 }
@@ -526,7 +570,7 @@ static int run_own_cores(rt_job *j, rt_csink *cs, rt_image *img, rt_run_stats *s
     if (j->opt.geom != RT_GEOM_COMPACT)
         return rt_errf_usage(e, "--cores %d: the %s tracer runs on several cores in the compact layout only (--layout %s)",
                              j->opt.cores, j->tr->name, rt_render_geom_name(j->opt.geom));
-    rt_tracer_ctx ctx = {j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, NULL, j->plan, j->check, j->mesh, 0, 1, cs};
+    rt_tracer_ctx ctx = {j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, NULL, j->plan, j->check, j->mesh, 0, 1, cs, NULL};
     double t0 = rt_now();
     int rc = j->tr->run(&ctx, img, st, e);
     if (rc == 0) env_hits(j, img, st);
@@ -541,6 +585,12 @@ int rt_job_run_cores(rt_job *j, rt_csink *cs, rt_image *img, rt_run_stats *st, r
     if (img->W != j->opt.W || img->H != j->opt.H)
         return rt_errf(e, "image is %dx%d, job wants %dx%d", img->W, img->H, j->opt.W, j->opt.H);
     if (n > 1 && rt_tracer_is(j->tr, RT_TR_CORES)) return run_own_cores(j, cs, img, st, e);
+    if (rt_tracer_is(j->tr, RT_TR_CORE_PHASES)) {
+        double t0 = rt_now();
+        int rc = run_phased_cores(j, cs, img, st, e);
+        st->seconds = rt_now() - t0;
+        return rc;
+    }
     if (n > 1 && !(j->tr->opts & RT_OPTG_THREADS))
         return rt_errf_usage(e, "--cores %d: the %s tracer does not split its work over cores", n, j->tr->name);
     const uint32_t ntri = j->sc->ntri ? j->sc->ntri : 1;

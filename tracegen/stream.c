@@ -78,11 +78,22 @@
  *       reflection before refraction, each ray with its shadow rays before
  *       the next ray;
  *   S6  accounting: every byte is charged once to a kernel and once to a
- *       data type, so the sums of kbytes[] and dbytes[] are equal.
+ *       data type, so the sums of kbytes[] and dbytes[] are equal;
+ *   S7  simulated cores (ctx->cores, test mode, at every barrier): a pass's
+ *       kernel work on slot i of a stream of n is charged by the core
+ *       whose chunk holds i (cores.h C4), and nothing of a pass is left
+ *       buffered past its barrier (C1-C3).
+ *
+ * Simulated cores (--cores N, ctx->cores; cores.h): multipass, every
+ * pass's n rays in N contiguous chunks of the stream's slots, core k's
+ * kernel work on its own, a barrier per pass; branching, the Hilbert
+ * order's pixels in N contiguous chunks, the cores stepped a pixel each in
+ * turn, the frame one phase. One core is the one-core run exactly.
  */
 #include "stream.h"
 
 #include "camera.h"
+#include "cores.h"
 #include "grid.h"
 #include "regions.h"
 #include "rt_assert.h"
@@ -228,7 +239,7 @@ typedef struct st_run {
     float *lw;           /* authored: a pixel's per-light weights while shading */
     rt_acc *acc;         /* whitted/path: each pixel's sum */
     uint8_t *mark;       /* triangles tested (bit 1 primary, 2 shadow, 4 secondary) */
-    int err;             /* out of memory while spawning */
+    int err;             /* 1: out of memory while spawning; 2: the trace sink failed (simulated cores) */
     /* statistics */
     uint64_t rays[2];    /* closest, shadow rays traced */
     uint64_t rays_eye, rays_sec;
@@ -240,7 +251,44 @@ typedef struct st_run {
     uint64_t kbytes[RT_SK_N]; /* bytes moved per kernel (stencil included) */
     uint64_t dbytes[RT_SD_N]; /* bytes moved per data type */
     uint64_t acc_bytes;  /* shadow accumulation passes' fb traffic (in dbytes fb too) */
+    /* simulated cores (ctx->cores; NULL: one processor, today's run): the
+     * stream processors, each with a contiguous chunk of a stream's slots
+     * (cores.h), a barrier per pass; branching: chunks of the pixels */
+    rt_cores *cores;
+    int ncores;
+    int core;            /* the core whose recorder is current */
+    size_t sn;           /* multipass: the rays of the stream whose pass runs (the chunks' n) */
+    rt_err cerr;         /* test mode: S7 broken (err 3) */
 } st_run;
+
+/* Slot i of a stream of n: its chunk's core records (simulated cores). */
+static inline void st_slot(st_run *S, size_t i, size_t n)
+{
+    if (!S->cores) return;
+    S->core = rt_cores_owner(i, n, S->ncores);
+    S->sn = n;
+    S->rec = rt_cores_rec(S->cores, S->core);
+}
+
+/* The generation stamped on every core's references. */
+static void st_gen(st_run *S, int g)
+{
+    if (!S->cores) {
+        rt_rec_set_gen(S->rec, g);
+        return;
+    }
+    for (int k = 0; k < S->ncores; k++) rt_rec_set_gen(rt_cores_rec(S->cores, k), g);
+}
+
+/* The end of a pass: the stream processors' barrier; in test mode S7,
+ * the interleave's C1-C4 (cores.h: every slot's kernel work charged to its
+ * chunk's core, nothing buffered past the barrier). */
+static void st_pass_end(st_run *S)
+{
+    if (!S->cores) return;
+    if (rt_cores_barrier(S->cores) < 0) S->err = 2;
+    if (S->ctx->check && !S->err && rt_cores_check(S->cores, &S->cerr) < 0) S->err = 3;
+}
 
 static int vec_push(st_run *S, st_vec *v, const st_ray *r)
 {
@@ -282,6 +330,7 @@ static void charge_state(st_run *S, int kern, uint32_t slot, int R, int W)
 static void charge(st_run *S, int kern, uint32_t slot)
 {
     const rt_stream_cost_row *k = rt_stream_table(S->multipass) + kern;
+    if (S->cores && S->multipass) rt_cores_claim(S->cores, S->core, slot, S->sn); /* S7 */
     S->kexec[kern]++;
     charge_state(S, kern, slot, k->R, k->W);
     if (S->multipass && k->WS) acc_rd(S, kern, RT_SD_STENCIL, S->reg_stencil, slot, 0, 1, RT_CLS_FB, 1);
@@ -597,8 +646,11 @@ static void mp_pass(st_run *S, int kern, int kind, size_t n, size_t work)
     S->simd_sum += n ? (double)work / (double)n : 0;
     S->kbytes[kern] += n;
     S->dbytes[RT_SD_STENCIL] += n;
-    if (S->rec)
-        for (size_t i = 0; i < n; i++) RT_REC(S->rec, rt_mm_addr(S->L, S->reg_stencil, i), 1, 0, RT_CLS_FB);
+    if (S->rec || S->cores)
+        for (size_t i = 0; i < n; i++) {
+            st_slot(S, i, n);
+            if (S->rec) RT_REC(S->rec, rt_mm_addr(S->L, S->reg_stencil, i), 1, 0, RT_CLS_FB);
+        }
 }
 
 static int mp_oracle(const st_run *S, size_t ntrav, size_t nisect)
@@ -621,10 +673,13 @@ static void mp_loop(st_run *S, st_ray *a, size_t n)
     mp_pass(S, RT_SK_SETUP, ST_PASS_OTHER, n, active);
     for (size_t i = 0; i < n; i++)
         if (a[i].state != ST_DONE) {
+            st_slot(S, i, n);
             charge(S, RT_SK_SETUP, (uint32_t)i);
             k_setup(S, &a[i]);
         }
+    st_pass_end(S);
     mp_pass(S, RT_SK_SETUP, ST_PASS_OTHER, n, active);
+    st_pass_end(S);
     for (;;) {
         size_t ntrav = 0, nisect = 0;
         for (size_t i = 0; i < n; i++) {
@@ -638,6 +693,7 @@ static void mp_loop(st_run *S, st_ray *a, size_t n)
         for (size_t i = 0; i < n; i++) {
             st_ray *r = &a[i];
             if (r->state != want) continue;
+            st_slot(S, i, n);
             /* one state read and write per pass, the body U times */
             charge(S, kern, (uint32_t)i);
             S->kexec[kern] += (uint64_t)(U - 1);
@@ -658,6 +714,7 @@ static void mp_loop(st_run *S, st_ray *a, size_t n)
                 }
             }
         }
+        st_pass_end(S);
     }
 }
 
@@ -669,11 +726,13 @@ static void mp_closest(st_run *S, st_ray *a, size_t n, int first, st_vec *shadow
     if (first) {
         mp_pass(S, RT_SK_EYE, ST_PASS_OTHER, n, n);
         for (size_t i = 0; i < n; i++) {
+            st_slot(S, i, n);
             charge(S, RT_SK_EYE, (uint32_t)i);
             a[i].state = rt_grid_iter_init(&a[i].it, S->g, &a[i].r, a[i].r.tmin, a[i].r.tmax) ? ST_TRAV : ST_DONE;
             a[i].ready = a[i].state == ST_TRAV; /* the setup kernel reuses the iterator */
             if (a[i].state == ST_DONE) rt_hit_none(&a[i].h);
         }
+        st_pass_end(S);
     }
     mp_loop(S, a, n);
     /* shading, pass by pass: color on hits (spawning), then one shadow pass
@@ -683,6 +742,7 @@ static void mp_closest(st_run *S, st_ray *a, size_t n, int first, st_vec *shadow
     for (size_t i = 0; i < n; i++) {
         st_ray *r = &a[i];
         size_t sk = shadows->n, ck = children->n;
+        st_slot(S, i, n);
         if (r->gen) S->rays_sec++;
         if (r->h.tri != RT_NO_HIT) charge(S, RT_SK_COLOR, (uint32_t)i);
         finish_closest(S, r, (uint32_t)i, shadows, children, 0);
@@ -694,25 +754,30 @@ static void mp_closest(st_run *S, st_ray *a, size_t n, int first, st_vec *shadow
         }
     }
     mp_pass(S, RT_SK_COLOR, ST_PASS_OTHER, n, nhit);
+    st_pass_end(S);
     for (uint32_t l = 0; S->authored && l < S->sc->nlight; l++) { /* one shadow pass per light of the file */
         if (!rt_render_light_on(o, l)) continue;
         size_t w = 0;
         for (size_t k = s0; k < shadows->n; k++)
             if (shadows->a[k].alight == l) {
+                st_slot(S, shadows->a[k].parent, n);
                 charge(S, RT_SK_SHADOW, shadows->a[k].parent);
                 w++;
             }
         mp_pass(S, RT_SK_SHADOW, ST_PASS_OTHER, n, w);
+        st_pass_end(S);
     }
     for (int l = 0; l < RT_NLIGHTS && !S->authored; l++) {
         if (!(o->lights & (1u << l))) continue;
         size_t w = 0;
         for (size_t k = s0; k < shadows->n; k++)
             if (shadows->a[k].light == l) {
+                st_slot(S, shadows->a[k].parent, n);
                 charge(S, RT_SK_SHADOW, shadows->a[k].parent);
                 w++;
             }
         mp_pass(S, RT_SK_SHADOW, ST_PASS_OTHER, n, w);
+        st_pass_end(S);
     }
     const int kern = o->mode == RT_MODE_PATH ? RT_SK_PATH : RT_SK_REFL;
     for (int c = 0; c < (o->mode == RT_MODE_WHITTED ? 2 : o->mode == RT_MODE_PATH ? 1 : 0); c++) {
@@ -720,11 +785,13 @@ static void mp_closest(st_run *S, st_ray *a, size_t n, int first, st_vec *shadow
         for (size_t k = c0; k < children->n; k++) {
             const st_ray *ch = &children->a[k];
             if (ch->cidx != c) continue;
+            st_slot(S, ch->parent, n);
             charge(S, kern, ch->parent);
             acc_rd(S, kern, RT_SD_TRI, S->reg_verts, a[ch->parent].h.tri, 0, RT_GRID_VERT_BYTES, RT_CLS_TRI, 0);
             w++;
         }
         mp_pass(S, kern, ST_PASS_OTHER, n, w);
+        st_pass_end(S);
     }
 }
 
@@ -735,9 +802,11 @@ static void mp_shadow(st_run *S, st_ray *a, size_t n)
     mp_loop(S, a, n);
     for (size_t i = 0; i < n; i++) {
         nvis += !a[i].occluded;
+        st_slot(S, i, n);
         finish_shadow(S, &a[i]);
     }
     mp_pass(S, RT_SK_SHADOW, ST_PASS_OTHER, n, nvis); /* accumulation */
+    st_pass_end(S);
 }
 
 /* Waves of closest rays, each followed by its shadow rays, in screen-sized
@@ -751,7 +820,7 @@ static void mp_run(st_run *S, st_vec *wave, size_t cap)
         for (size_t b = 0; b < wave->n && !S->err; b += cap) {
             size_t n = wave->n - b < cap ? wave->n - b : cap;
             shadows.n = 0;
-            rt_rec_set_gen(S->rec, wave->a[b].gen);
+            st_gen(S, wave->a[b].gen);
             mp_closest(S, wave->a + b, n, first, &shadows, &next);
             for (size_t c = 0; c < shadows.n; c += cap)
                 mp_shadow(S, shadows.a + c, shadows.n - c < cap ? shadows.n - c : cap);
@@ -763,7 +832,25 @@ static void mp_run(st_run *S, st_vec *wave, size_t cap)
     }
     free(next.a);
     free(shadows.a);
-    rt_rec_set_gen(S->rec, 0);
+    st_gen(S, 0);
+}
+
+/* Branching on cores: core k's chunk of the pixels, one pixel of each core
+ * in turn (rt_cores_steps). */
+typedef struct br_cores {
+    st_run *S;
+    const uint32_t *order;
+    int spp;
+    st_vec *stack, *shadows;
+} br_cores;
+
+static int br_core_pixel(void *u, int k, uint64_t i)
+{
+    br_cores *b = u;
+    b->S->core = k;
+    b->S->rec = rt_cores_rec(b->S->cores, k);
+    for (int s = 0; s < b->spp && !b->S->err; s++) br_pixel(b->S, b->order[i], (uint32_t)s, b->stack, b->shadows);
+    return b->S->err;
 }
 
 /* ---- the run ---------------------------------------------------------------------- */
@@ -783,6 +870,11 @@ static int st_run_common(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *
     S.o = o;
     S.rec = ctx->rec;
     S.L = ctx->L;
+    if (ctx->cores) {
+        S.cores = ctx->cores;
+        S.ncores = ctx->cores->n;
+        S.rec = rt_cores_rec(S.cores, 0);
+    }
     S.img = img;
     S.multipass = multipass;
     S.secondary = rt_render_secondary(o);
@@ -813,7 +905,10 @@ static int st_run_common(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *
     if (!order || !S.h0 || !S.vis || (S.secondary && !S.acc) || !S.mark || (S.authored && !S.lw)) goto out;
     size_t nk = rt_pixel_order(o, order);
     for (size_t i = 0; i < npix; i++) rt_hit_none(&S.h0[i]);
-    if (!multipass) {
+    if (!multipass && S.cores) {
+        br_cores b = {&S, order, spp, &stack, &shadows};
+        if (rt_cores_steps(S.cores, nk, br_core_pixel, &b) && !S.err) S.err = 2;
+    } else if (!multipass) {
         for (size_t k = 0; k < nk && !S.err; k++)
             for (int s = 0; s < spp; s++) br_pixel(&S, order[k], (uint32_t)s, &stack, &shadows);
     } else {
@@ -837,7 +932,8 @@ static int st_run_common(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *
         if (!S.err) mp_run(&S, &wave, npix);
     }
     if (S.err) {
-        rt_errf(e, "out of memory");
+        if (S.err == 3) rt_errf(e, "%s S7: %s", multipass ? "stream-multipass" : "stream-branching", S.cerr.msg);
+        else rt_errf(e, S.err == 2 ? "trace sink failed" : "out of memory");
         goto out;
     }
     /* the pixels */
@@ -905,6 +1001,7 @@ static int st_run_common(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *
         PUT(" dbytes=");
         for (int d = 0; d < RT_SD_N; d++) PUT("%s%" PRIu64, d ? "," : "", S.dbytes[d]);
         if (S.secondary) PUT(" rays_secondary=%" PRIu64, S.rays_sec);
+        if (S.ncores > 1) PUT(" cores=%d barriers=%" PRIu64, S.ncores, S.cores->phases);
 #undef PUT
     }
     rc = 0;
@@ -960,8 +1057,8 @@ const rt_tracer rt_tracer_stream_branching = {
     .modes = RT_TRACER_ALL_MODES,
     .accels = RT_ACCEL_BIT(RT_ACCEL_GRID),
     .accel_default = RT_ACCEL_GRID,
-    .opts = RT_OPTG_GRID | RT_OPTG_RECORDS,
-    .traits = RT_TR_TEXCACHE | RT_TR_LIGHTS,
+    .opts = RT_OPTG_GRID | RT_OPTG_RECORDS | RT_OPTG_CORES,
+    .traits = RT_TR_TEXCACHE | RT_TR_LIGHTS | RT_TR_CORE_PHASES,
     .figures = RT_FIG_PURCELL,
     .params = st_params_br,
     .layout = st_layout_br,
@@ -976,8 +1073,8 @@ const rt_tracer rt_tracer_stream_multipass = {
     .modes = RT_TRACER_ALL_MODES,
     .accels = RT_ACCEL_BIT(RT_ACCEL_GRID),
     .accel_default = RT_ACCEL_GRID,
-    .opts = RT_OPTG_GRID | RT_OPTG_ORACLE | RT_OPTG_RECORDS,
-    .traits = RT_TR_TEXCACHE | RT_TR_MULTIPASS | RT_TR_LIGHTS,
+    .opts = RT_OPTG_GRID | RT_OPTG_ORACLE | RT_OPTG_RECORDS | RT_OPTG_CORES,
+    .traits = RT_TR_TEXCACHE | RT_TR_MULTIPASS | RT_TR_LIGHTS | RT_TR_CORE_PHASES,
     .figures = RT_FIG_PURCELL | RT_FIG_FEEDBACK,
     .params = st_params_mp,
     .layout = st_layout_mp,

@@ -91,6 +91,12 @@ typedef struct rt_tracer_ctx {
      * tracer in the modeled clock's ticks (run.h); rec is NULL then. NULL
      * otherwise. */
     rt_csink *cs;
+    /* Simulated cores of a tracer that splits its own work (RT_TR_CORE_PHASES;
+     * cores.h): set by the job when it runs on rt_job_run_cores, or
+     * untraced with --cores N > 1; the tracer then records core k's work
+     * into rt_cores_rec(cores, k) and ends each phase with a barrier.
+     * NULL: one core, rec as above (today's run). */
+    struct rt_cores *cores;
 } rt_tracer_ctx;
 
 /* Traits (rt_tracer.traits). */
@@ -101,8 +107,10 @@ enum {
     RT_TR_REFERENCE = 1u << 3, /* the reference tracer other tracers' images are compared with */
     RT_TR_MULTIPASS = 1u << 4, /* Purcell et al.'s multipass architecture (stencil passes) */
     RT_TR_LIGHTS = 1u << 5,    /* traces the authored lights' samples (--light-samples; shade.h) */
-    RT_TR_CORES = 1u << 6      /* splits its own work over simulated cores in one run (ctx->cs,
+    RT_TR_CORES = 1u << 6,     /* splits its own work over simulated cores in one run (ctx->cs,
                                 * opt->cores; the dynamic scheduler's queues: run.h) */
+    RT_TR_CORE_PHASES = 1u << 7 /* splits its own work over --cores N simulated cores in one run,
+                                 * phase by phase through the shared stepping (ctx->cores, cores.h) */
 };
 /* Report figures a tracer appears in (rt_tracer.figures), in registry order. */
 enum {
@@ -151,6 +159,14 @@ const char *rt_tracer_names(void);
 const rt_tracer *rt_tracer_reference(void);
 /* 1 when tr has every trait in mask; a NULL tr has none. */
 static inline int rt_tracer_is(const rt_tracer *tr, unsigned mask) { return tr && (tr->traits & mask) == mask; }
+/* 1 when --cores N > 1 gives tr's work N simulated cores (a version-4
+ * trace): the work-share tracers (RT_OPTG_THREADS) and those that split
+ * their own work (RT_TR_CORE_PHASES). The dynamic tracer's --cores is its
+ * modeled threads, one stream. */
+static inline int rt_tracer_simulates_cores(const rt_tracer *tr)
+{
+    return tr && ((tr->opts & RT_OPTG_THREADS) || (tr->traits & RT_TR_CORE_PHASES));
+}
 /* The structure tr runs on under o (o->accel, or tr's default). */
 static inline int rt_tracer_accel(const rt_tracer *tr, const rt_render_opts *o)
 {

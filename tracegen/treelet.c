@@ -127,9 +127,24 @@
  *       treelet is the treelet of its node (a leaf: of the node that
  *       pushed it);
  *   T6  resolution (checked as each ray finishes): its closest hit or its
- *       visibility is the one the single-ray walk finds.
+ *       visibility is the one the single-ray walk finds;
+ *   T7  simulated cores (ctx->cores, checked after every round): core k's
+ *       count cq[k] is the sum of the counts of its treelets' queues
+ *       (treelet t on core t mod N); a ray marked moving (mv: queued by
+ *       another core than its treelet's) is queued, and the rays moved =
+ *       moved rays read by the core they moved to + moved rays queued; the
+ *       interleave's C1-C3 (cores.h: nothing buffered between rounds).
  * At the end of every generation: all queues empty, every wanted ray
  * finished exactly once.
+ *
+ * Simulated cores (--cores N, ctx->cores; cores.h): treelet t belongs to
+ * core t mod N. A generation's rays are started, and later shaded, by the
+ * cores in contiguous chunks of the slots; then rounds: every core with
+ * rays queued in its treelets takes its next queue (the order's first
+ * among its own), all at the round's start, the cores walk their rays in
+ * turn (ray j of each core, then j + 1), a suspended ray goes to the queue
+ * of its next treelet whoever owns it (moved when that is another core),
+ * and a barrier ends the round. One core is rt_rq_run's order exactly.
  *
  * Images are bit-identical to the recursive tracer's on the same BVH: each
  * ray visits the same nodes and tests the same triangles in the same order
@@ -137,6 +152,7 @@
  */
 #include "bvh.h"
 #include "camera.h"
+#include "cores.h"
 #include "hit.h"
 #include "rayq.h"
 #include "regions.h"
@@ -565,6 +581,17 @@ typedef struct tl_run {
     rt_run_stats *st;
     rt_err *e;
     int err;          /* 1: internal failure, 2: invariant broken (message in e) */
+    /* simulated cores (ctx->cores; NULL: one core, today's run): treelet t
+     * on core t mod ncores, rounds with a barrier (T7) */
+    rt_cores *cores;
+    int ncores, core;  /* cores; the core whose work is being recorded */
+    uint64_t *cq;      /* per core: rays queued in its treelets */
+    uint64_t *cvis;    /* per core: queue visits (rays walked) */
+    uint8_t *mv;       /* per slot: queued by a core that does not own the treelet */
+    uint8_t *need;     /* per core, a round's scratch: it holds queued rays */
+    uint32_t *pick, *rn, *tcur; /* per core: a round's queue and its rays; tree order's next treelet */
+    rt_rq_cur *rcur;   /* per core: a round's cursor */
+    uint64_t rounds, moved, moved_reads;
 } tl_run;
 
 /* ---- queues ------------------------------------------------------------------- */
@@ -582,6 +609,49 @@ static void enqueue(tl_run *T, uint32_t q, uint32_t slot)
     RT_REC(T->rec, rt_mm_addr(T->L, T->reg_q, at), 4, T->qwrite, RT_CLS_QUEUE);
     RT_REC(T->rec, rt_mm_addr(T->L, T->reg_qt, q), 8, 1, RT_CLS_QTABLE);
     T->enq++;
+    if (T->cores) { /* T7: the owner's count; a ray handed to another core moves */
+        const uint32_t k = q % (uint32_t)T->ncores;
+        const uint8_t m = k != (uint32_t)T->core;
+        T->cq[k]++;
+        T->mv[slot] = m;
+        T->moved += m;
+    }
+}
+
+/* ---- simulated cores ------------------------------------------------------------ */
+
+/* Core k's work is recorded from here on. */
+static inline void use_core(tl_run *T, int k)
+{
+    T->core = k;
+    T->rec = rt_cores_rec(T->cores, k);
+}
+
+/* Per-slot work (starting, shading a slot of n): slot s is its chunk's
+ * core's (cores.h: contiguous chunks of the slots). */
+static inline void slot_core(tl_run *T, uint32_t s, uint32_t n)
+{
+    if (T->cores) use_core(T, rt_cores_owner(s, n, T->ncores));
+}
+
+/* The generation stamped on every core's references. */
+static void set_gen(tl_run *T, int g)
+{
+    if (!T->cores) {
+        rt_rec_set_gen(T->rec, g);
+        return;
+    }
+    for (int k = 0; k < T->ncores; k++) rt_rec_set_gen(rt_cores_rec(T->cores, k), g);
+}
+
+/* The end of a phase (simulated cores): the barrier. */
+static void barrier(tl_run *T)
+{
+    if (!T->cores) return;
+    if (rt_cores_barrier(T->cores) < 0 && !T->err) {
+        rt_errf(T->e, "trace sink failed");
+        T->err = 1;
+    }
 }
 
 /* ---- one ray in one treelet ---------------------------------------------------- */
@@ -900,6 +970,32 @@ static int check_state(const tl_run *T, rt_err *e)
                 T->finished, T->rq.queued);
         goto done;
     }
+    if (T->cores) { /* T7 */
+        const uint32_t N = (uint32_t)T->ncores;
+        uint64_t inflight = 0;
+        for (uint32_t k = 0; k < N; k++) {
+            uint64_t sum = 0;
+            for (uint32_t q = k; q < P->nt; q += N) sum += T->rq.count[q];
+            if (sum != T->cq[k]) {
+                rt_errf(e, "treelet T7: core %u's treelets hold %" PRIu64 " rays, its count says %" PRIu64, k, sum,
+                        T->cq[k]);
+                goto done;
+            }
+        }
+        for (uint32_t s = 0; s < T->slots; s++) {
+            if (T->mv[s] && !inq[s]) {
+                rt_errf(e, "treelet T7: ray %u is marked moving between cores but is in no queue", s);
+                goto done;
+            }
+            inflight += T->mv[s];
+        }
+        if (T->moved != T->moved_reads + inflight) {
+            rt_errf(e, "treelet T7: %" PRIu64 " rays moved between cores, %" PRIu64 " read by the core they moved to, %" PRIu64
+                    " queued on the way", T->moved, T->moved_reads, inflight);
+            goto done;
+        }
+        if (rt_cores_check(T->cores, e) < 0) goto done;
+    }
     for (uint32_t s = 0; s < T->slots; s++) {
         if (T->want[s] && !T->done[s] && !inq[s]) {
             rt_errf(e, "treelet T3: ray %u is neither queued nor finished", s);
@@ -971,6 +1067,29 @@ static inline void prefetch_top(const tl_run *T, const tray *R)
 #endif
 }
 
+/* Ray k of the n taken from queue q: its block's entries (read together
+ * at the block's first), its record, its walk in treelet q. */
+static RT_ALWAYS_INLINE void visit(tl_run *T, uint32_t q, rt_rq_cur *cur, uint32_t k, uint32_t n)
+{
+    if (cur->pos == 0) { /* a block's entries are read together */
+        const uint32_t m = n - k < QBLK ? n - k : QBLK;
+        RT_REC(T->rec, rt_mm_addr(T->L, T->reg_q, (uint64_t)cur->b * QBLK), 4 * m, 0, RT_CLS_QUEUE);
+        T->qreads++;
+    }
+    uint32_t s;
+    rt_rq_pop(&T->rq, cur, &s); /* a block read to its end goes back to the pool */
+    RT_REC(T->rec, rt_mm_addr(T->L, T->reg_rays, s), RAY_REC, 0, RT_CLS_RAY);
+    T->visits++;
+    if (T->cores) {
+        T->cvis[T->core]++;
+        if (T->mv[s]) { /* T7: the receiver reads the moved ray's state */
+            T->moved_reads++;
+            T->mv[s] = 0;
+        }
+    }
+    if (walk(T, s, q)) finish(T, s);
+}
+
 /* Takes queue q whole and walks its rays in treelet q. */
 static void process(tl_run *T, uint32_t q)
 {
@@ -999,16 +1118,7 @@ static void process(tl_run *T, uint32_t q)
             prefetch_top(T, &T->ray[*(const uint32_t *)rt_rq_at(&T->rq, &cn)]);
             rt_rq_skip(&T->rq, &cn);
         }
-        if (cur.pos == 0) { /* a block's entries are read together */
-            const uint32_t m = n - k < QBLK ? n - k : QBLK;
-            RT_REC(T->rec, rt_mm_addr(T->L, T->reg_q, (uint64_t)cur.b * QBLK), 4 * m, 0, RT_CLS_QUEUE);
-            T->qreads++;
-        }
-        uint32_t s;
-        rt_rq_pop(&T->rq, &cur, &s); /* a block read to its end goes back to the pool */
-        RT_REC(T->rec, rt_mm_addr(T->L, T->reg_rays, s), RAY_REC, 0, RT_CLS_RAY);
-        T->visits++;
-        if (walk(T, s, q)) finish(T, s);
+        visit(T, q, &cur, k, n);
     }
 }
 
@@ -1021,10 +1131,78 @@ static int process_step(void *u, uint32_t q)
     return T->err;
 }
 
+/* Tree order on cores: core k's next treelet, the first non-empty one of
+ * its own (k, k + N, ...) at or after tcur[k], wrapping (with one core,
+ * rt_rq_run's sweep by number). */
+static uint32_t tree_pick(tl_run *T, int k)
+{
+    const uint32_t N = (uint32_t)T->ncores, nq = T->rq.nq;
+    for (int pass = 0; pass < 2; pass++)
+        for (uint32_t q = pass ? (uint32_t)k : T->tcur[k]; q < nq && (!pass || q < T->tcur[k]); q += N)
+            if (T->rq.count[q]) {
+                T->tcur[k] = q + N;
+                return q;
+            }
+    return UINT32_MAX;
+}
+
+enum { ROUND_SYNC = 16 }; /* rays of each core between syncs of the interleave */
+
+/* Processes the queues on the simulated cores until all are empty, round
+ * by round (T7): every core with rays queued in its treelets takes its
+ * next queue (the order's first among its own: fullest, or tree order),
+ * all at the round's start; the cores then walk their rays in turn (ray j
+ * of core 0, of core 1, ..., then ray j + 1), a ray suspended into any
+ * treelet is appended to that treelet's queue for a later round; a
+ * barrier ends the round. With one core this is rt_rq_run's order. */
+static void run_rounds(tl_run *T)
+{
+    const int N = T->ncores;
+    for (int k = 0; k < N; k++) T->tcur[k] = (uint32_t)k;
+    while (T->rq.queued && !T->err) {
+        for (int k = 0; k < N; k++) T->need[k] = T->cq[k] > 0;
+        if (T->rq.order == RT_RQ_FULLEST) rt_rq_pick_classes(&T->rq, (uint32_t)N, T->need, T->pick);
+        else
+            for (int k = 0; k < N; k++) T->pick[k] = T->need[k] ? tree_pick(T, k) : UINT32_MAX;
+        uint32_t most = 0;
+        for (int k = 0; k < N; k++) {
+            T->rn[k] = 0;
+            if (T->pick[k] == UINT32_MAX) {
+                rt_cores_done(T->cores, k);
+                continue;
+            }
+            const uint32_t q = T->pick[k];
+            use_core(T, k);
+            RT_REC(T->rec, rt_mm_addr(T->L, T->reg_qt, q), 8, 1, RT_CLS_QTABLE); /* taken: read and reset */
+            const uint32_t n = rt_rq_take(&T->rq, q, &T->rcur[k]);
+            T->rn[k] = n;
+            T->cq[k] -= n;
+            T->events++;
+            if (n > T->ev_max) T->ev_max = n;
+            if (n > most) most = n;
+        }
+        for (uint32_t j = 0; j < most && !T->err; j++) {
+            for (int k = 0; k < N && !T->err; k++) {
+                if (j >= T->rn[k]) continue;
+                use_core(T, k);
+                visit(T, T->pick[k], &T->rcur[k], j, T->rn[k]);
+                if (j + 1 == T->rn[k]) rt_cores_done(T->cores, k);
+            }
+            if (j % ROUND_SYNC == ROUND_SYNC - 1) rt_cores_sync(T->cores);
+        }
+        if (T->err) return; /* taken rays left unpopped: the run fails */
+        barrier(T);
+        T->rounds++;
+        step_check(T);
+    }
+}
+
 /* Processes queues until all are empty. */
 static void run_queues(tl_run *T)
 {
-    if (!T->err) rt_rq_run(&T->rq, process_step, T);
+    if (T->err) return;
+    if (T->cores) run_rounds(T);
+    else rt_rq_run(&T->rq, process_step, T);
 }
 
 /* End of a generation: queues empty, each wanted ray finished once. */
@@ -1058,8 +1236,10 @@ static int gen_closest(tl_run *T, uint32_t n, const rt_cam_frame *cam, const uin
         rt_ray eye;
         if (cam) eye_ray(T, cam, pix[s], &eye);
         T->want[s] = 1;
+        slot_core(T, s, n);
         if (start(T, s, cam ? &eye : &T->bray[s], 0)) finish(T, s);
     }
+    barrier(T); /* every core's rays started */
     step_check(T);
     run_queues(T);
     return end_generation(T, n, e);
@@ -1074,12 +1254,14 @@ static int gen_shadow(tl_run *T, int li, uint32_t n, const uint8_t *wantli, rt_e
     memset(T->done, 0, T->slots);
     T->started = T->finished = 0;
     for (uint32_t s = 0; s < n; s++) {
+        slot_core(T, s, n);
         RT_REC(T->rec, rt_mm_addr(T->L, T->reg_hits, s), 24, 0, RT_CLS_HIT);
         if (!wantli[s]) continue;
         T->want[s] = 1;
         T->st->rays_shadow++;
         if (start(T, s, &T->bsray[s], 1)) finish(T, s);
     }
+    barrier(T); /* every core's rays started */
     step_check(T);
     run_queues(T);
     return end_generation(T, n, e);
@@ -1092,13 +1274,17 @@ static int window_primary(tl_run *T, const uint32_t *pix, uint32_t n, rt_err *e)
     const rt_render_opts *o = T->ctx->opt;
     rt_cam_frame cam;
     rt_cam_setup(&cam, T->sc, o->W, o->H);
-    rt_rec_set_gen(T->rec, 0);
+    set_gen(T, 0);
     T->tv.mark_bit = 1;
-    for (uint32_t s = 0; s < n; s++) RT_REC(T->rec, rt_mm_addr(T->L, T->reg_ray, pix[s]), 32, 0, RT_CLS_RAY);
+    for (uint32_t s = 0; s < n; s++) {
+        slot_core(T, s, n);
+        RT_REC(T->rec, rt_mm_addr(T->L, T->reg_ray, pix[s]), 32, 0, RT_CLS_RAY);
+    }
     T->st->rays_primary += n;
     if (gen_closest(T, n, &cam, pix, e) < 0) return -1;
     uint8_t *wl = T->want + T->slots; /* scratch beside want: n bytes */
     for (uint32_t s = 0; s < n; s++) {
+        slot_core(T, s, n);
         if (T->hit[s].tri != RT_NO_HIT) RT_REC(T->rec, rt_mm_addr(T->L, T->reg_shade, T->hit[s].tri), 16, 0, RT_CLS_SHADE);
         if (o->lights) RT_REC(T->rec, rt_mm_addr(T->L, T->reg_hits, s), 24, 1, RT_CLS_HIT);
     }
@@ -1113,6 +1299,7 @@ static int window_primary(tl_run *T, const uint32_t *pix, uint32_t n, rt_err *e)
                 rt_ray eye;
                 eye_ray(T, &cam, pix[s], &eye);
                 wl[s] = rt_shade_sample_ray(T->sc, o, &eye, &T->hit[s], li, smp, &T->bsray[s], &T->swt[s], &tri) != 0;
+                slot_core(T, s, n);
                 if (wl[s]) rt_reg_light(T->ctx, T->rec, li, tri);
             }
             if (gen_shadow(T, (int)li, n, wl, e) < 0) return -1;
@@ -1138,6 +1325,7 @@ static int window_primary(tl_run *T, const uint32_t *pix, uint32_t n, rt_err *e)
         const rt_hit *h = &T->hit[s];
         rt_ray eye;
         eye_ray(T, &cam, p, &eye);
+        slot_core(T, s, n);
         if (h->tri == RT_NO_HIT) {
             rt_shade_pixel(T->sc, &eye, NULL, NULL, o->lights, T->img, p);
         } else if (T->authored) {
@@ -1161,7 +1349,9 @@ static int batch_trace(void *u, int lv, const rt_path *rays, uint32_t n, const r
     tl_run *T = u;
     const rt_render_opts *o = T->ctx->opt;
     T->tv.mark_bit = rays[0].depth ? 4 : 1;
+    if (T->cores) set_gen(T, rays[0].depth); /* the core set the batch's on core 0's recorder */
     for (uint32_t s = 0; s < n; s++) {
+        slot_core(T, s, n);
         rt_shade_path_ray(&rays[s], &T->bray[s]);
         if (rays[s].depth) {
             RT_REC(T->rec, rt_mm_addr(T->L, T->reg_spawn, (uint64_t)lv * T->slots + s), RT_SREC_SIZE, 0, RT_CLS_RAY);
@@ -1176,6 +1366,7 @@ static int batch_trace(void *u, int lv, const rt_path *rays, uint32_t n, const r
         const rt_hit *h = &T->hit[s];
         const rt_hit *hp = h->tri != RT_NO_HIT ? h : NULL;
         const uint32_t px = rays[s].pix;
+        slot_core(T, s, n);
         if (!rays[s].depth && !rays[s].sample) T->h0[px] = *h;
         if (hp) rt_reg_shade(T->ctx, T->rec, h->tri);
         if (o->lights) RT_REC(T->rec, rt_mm_addr(T->L, T->reg_hits, s), 24, 1, RT_CLS_HIT);
@@ -1197,6 +1388,7 @@ static int batch_trace(void *u, int lv, const rt_path *rays, uint32_t n, const r
         for (uint32_t s = 0; s < n; s++)
             if (wl[s] && !T->ray[s].occluded) {
                 const uint32_t px = rays[s].pix;
+                slot_core(T, s, n);
                 rt_acc_add(&T->acc[px], T->out[s].lc[li]);
                 RT_REC(T->rec, rt_mm_addr(T->L, T->reg_fb, px), 12, 0, RT_CLS_FB);
                 RT_REC(T->rec, rt_mm_addr(T->L, T->reg_fb, px), 12, 1, RT_CLS_FB);
@@ -1220,11 +1412,15 @@ static int window_secondary(tl_run *T, const uint32_t *pix, uint32_t n, rt_err *
             rt_cam_ray(&cam, (int)(pix[k] % (uint32_t)o->W), (int)(pix[k] / (uint32_t)o->W), &eye);
             rt_shade_path_start(&base[k], &eye, pix[k], (uint32_t)s);
         }
-        if (rt_rq_batches(&T->rq, n, batch_trace, T, T->rec, T->L, T->reg_spawn, e) < 0) return -1;
+        /* on cores, core 0 writes the spawned rays' records */
+        if (rt_rq_batches(&T->rq, n, batch_trace, T, T->cores ? rt_cores_rec(T->cores, 0) : T->rec, T->L, T->reg_spawn,
+                          e) < 0)
+            return -1;
     }
-    rt_rec_set_gen(T->rec, 0);
+    set_gen(T, 0);
     for (uint32_t k = 0; k < n; k++) {
         const uint32_t p = pix[k];
+        slot_core(T, k, n);
         rt_ray eye;
         rt_cam_ray(&cam, (int)(p % (uint32_t)o->W), (int)(p / (uint32_t)o->W), &eye);
         rt_acc_pixel(&T->acc[p], spp, &eye, T->h0[p].tri != RT_NO_HIT ? &T->h0[p] : NULL, T->img, p);
@@ -1292,6 +1488,14 @@ static void tl_free(tl_run *T)
     free(T->acc);
     free(T->h0);
     free(T->mark);
+    free(T->cq);
+    free(T->cvis);
+    free(T->mv);
+    free(T->need);
+    free(T->pick);
+    free(T->rn);
+    free(T->tcur);
+    free(T->rcur);
 }
 
 /* An array whose entries are all written before they are read (queue
@@ -1360,6 +1564,17 @@ static int tl_init(tl_run *T, const rt_tracer_ctx *ctx, rt_image *img, rt_run_st
     } else if (!(T->vis = rt_calloc(T->npix, 1, e))) {
         return -1;
     }
+    if (ctx->cores) {
+        const size_t N = (size_t)ctx->cores->n;
+        T->cores = ctx->cores;
+        T->ncores = ctx->cores->n;
+        T->rec = rt_cores_rec(T->cores, 0);
+        if (!(T->cq = rt_calloc(N, sizeof *T->cq, e)) || !(T->cvis = rt_calloc(N, sizeof *T->cvis, e)) ||
+            !(T->mv = rt_calloc(ns, 1, e)) || !(T->need = rt_calloc(N, 1, e)) || !(T->pick = rt_calloc(N, sizeof *T->pick, e)) ||
+            !(T->rn = rt_calloc(N, sizeof *T->rn, e)) || !(T->tcur = rt_calloc(N, sizeof *T->tcur, e)) ||
+            !(T->rcur = rt_calloc(N, sizeof *T->rcur, e)))
+            return -1;
+    }
     T->authored = rt_shade_authored(T->sc, o) && o->lights && !T->secondary;
     if (T->authored && (!(T->lw = rt_calloc(T->npix * T->sc->nlight, sizeof *T->lw, e)) ||
                         !(T->swt = rt_calloc(ns, sizeof *T->swt, e))))
@@ -1385,6 +1600,13 @@ static void report(const tl_run *T, rt_run_stats *st)
         size_t l = strlen(st->extra);
         snprintf(st->extra + l, sizeof st->extra - l, " batches=%" PRIu64 " rays_secondary=%" PRIu64 " self_hits=%" PRIu64,
                  T->rq.batches, T->nsec, T->self_hits);
+    }
+    if (T->ncores > 1) { /* simulated cores: rounds, rays moved, the busiest core's share of the visits */
+        uint64_t mx = 0;
+        for (int k = 0; k < T->ncores; k++) mx = T->cvis[k] > mx ? T->cvis[k] : mx;
+        size_t l = strlen(st->extra);
+        snprintf(st->extra + l, sizeof st->extra - l, " cores=%d rounds=%" PRIu64 " rays_moved=%" PRIu64
+                 " core_visits_max=%" PRIu64, T->ncores, T->rounds, T->moved, mx);
     }
 }
 
@@ -1437,7 +1659,7 @@ const rt_tracer rt_tracer_treelet = {
     .accels = RT_ACCEL_BVH_BITS,
     .accel_default = RT_ACCEL_BVH4,
     .opts = RT_OPTG_SCHED | RT_OPTG_QUEUES | RT_OPTG_TREELET | RT_OPTG_THREADS | RT_OPTG_CORES,
-    .traits = RT_TR_SCHEDULED | RT_TR_QUEUES | RT_TR_LIGHTS,
+    .traits = RT_TR_SCHEDULED | RT_TR_QUEUES | RT_TR_LIGHTS | RT_TR_CORE_PHASES,
     .figures = RT_FIG_TREELET,
     .check_opts = tl_check_opts,
     .params = tl_params,
