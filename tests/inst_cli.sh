@@ -12,6 +12,10 @@
 #    on the flattened scene ('flatten'); a plain sweep stores 'flatten';
 #    the classes table holds tlas, inst and alpha, the bvh run has traffic
 #    rows of tlas, inst, node and tri, a 10-class file gets the new rows;
+# 4. report --figure instances prints the levels of the two-level run and
+#    the flattened one; its csv values are the traffic table's class sums
+#    (tlas, inst, blas = node + index + tri; nodes, tri); no such runs is
+#    an error naming what to sweep;
 # 1b. the instanced trace has classes tlas and inst (footer of 12 classes,
 #    sim rows); traces of the earlier writer (tests/data/
 #    oldtrace, versions 1-3) read, and the same commands write the same
@@ -137,6 +141,25 @@ q "$tmp/a.db" "DELETE FROM traffic WHERE class IN ('tlas','inst'); DELETE FROM t
     --db "$tmp/a.db" >/dev/null 2>"$tmp/err" || { cat "$tmp/err"; die "sweep into a 10-class database"; }
 got=$(q "$tmp/a.db" "SELECT COUNT(*) FROM classes")
 [ "$got" = 13 ] || die "classes after reopening a 10-class database: $got"
+
+# ---- 4. report --figure instances: traffic per level ----------------------------
+# the a.db runs: recursive bvh and flatten at 4K (and bvh at 8K); the csv's
+# levels are the traffic table's class sums
+"$bin" report --db "$tmp/a.db" --figure instances > "$tmp/rep.md" 2>"$tmp/err" || { cat "$tmp/err"; die "report --figure instances"; }
+grep -q "^| inst (two-level) | tlas |" "$tmp/rep.md" || die "report: no two-level tlas row: $(cat "$tmp/rep.md")"
+for l in inst blas shade geometry; do grep -q "^|  | $l |" "$tmp/rep.md" || die "report: no $l row"; done
+grep -q "^| kd (flatten) | nodes |" "$tmp/rep.md" || die "report: no flattened row"
+grep -q "^Two-level geometry over flattened: at 4 KB" "$tmp/rep.md" || die "report: no finding line"
+"$bin" report --db "$tmp/a.db" --figure instances --format csv > "$tmp/rep.csv" 2>"$tmp/err" || die "report csv: $(cat "$tmp/err")"
+lev() { grep "\",$1,$2,$3,4096," "$tmp/rep.csv" | grep "recursive" | head -1 | sed 's/.*,//'; }
+sum() { q "$tmp/a.db" "SELECT CAST(TOTAL(t.traffic_bytes) AS INTEGER) FROM traffic t JOIN runs r ON r.id = t.run_id JOIN cache_configs c ON c.id = t.config_id WHERE r.tracer = 'recursive' AND r.instances = '$1' AND r.lights = 0 AND c.size = 4096 AND c.line = 64 AND c.assoc = 0 AND t.class IN ($2)"; }
+for x in "inst bvh tlas 'tlas'" "inst bvh inst 'inst'" "inst bvh blas 'node','index','tri'" "kd flatten nodes 'node','index'" "kd flatten tri 'tri'"; do
+    set -- $x
+    got=$(lev $1 $2 $3); want=$(sum $2 "$4")
+    [ -n "$got" ] && [ "$got" = "$want" ] || die "report csv $1 $3 at 4 KB: '$got', the traffic table says '$want'"
+done
+"$bin" report --db "$tmp/a.db" --figure instances --scene nosuch > /dev/null 2>"$tmp/err"
+[ $? -ne 0 ] && grep -q "no two-level run beside a flattened run" "$tmp/err" || die "report on no runs: $(cat "$tmp/err")"
 
 [ $fail -eq 0 ] && echo "inst_cli: ok"
 exit $fail
