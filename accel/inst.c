@@ -55,8 +55,28 @@
  *   (I6) each instance's world-to-object matrix is the inverse of its
  *        object-to-world matrix (product within 1e-4 of the identity).
  *
- * Nesting: the pbrt loader refuses ObjectInstance inside ObjectBegin, so
- * instances are one level deep.
+ * Kept instances (rt_scene.kept, scene.h: the loader made no flattened
+ * copy; `--instances bvh` loads a .pbrt file so). tri then holds only the
+ * loose triangles, which form the loose tree (covered[] maps them to their
+ * scene indices in the flattened numbering); a candidate triangle of an
+ * instance is made from its shared record with the loader's flattening
+ * arithmetic (rt_scene_inst_tri), so it is the flattened copy bit for bit
+ * and hits, ties and images are those of the flattened scene.
+ *
+ * The same model kept or flattened: an instance's world box is the exact
+ * box of its triangles (rt_scene_inst_boxes: the flattened copy's bounds,
+ * found from the object without making it) padded once by RT_INST_PAD,
+ * and a tested triangle's mark goes to its shading slot of the instancing
+ * model (rt_scene_model_slot: a loose triangle, or an object triangle
+ * shared by all its instances), so a sweep over the flattened scene and a
+ * render or trace over the kept one record the same accesses. For a kept
+ * scene (I1) holds by rt_scene_check_kept's arithmetic (the records'
+ * ranges and the loose triangles partition the indices), checked here on
+ * covered[], and (I2) by construction.
+ *
+ * Nesting: the pbrt loader flattens an ObjectInstance inside ObjectBegin
+ * into the object being defined, so the records are one level deep and
+ * a nested object is one bottom-level tree.
  */
 #include "inst.h"
 #include "accel.h"
@@ -260,9 +280,10 @@ rt_inst *rt_inst_build(const rt_scene *sc, rt_err *e) {
     uint8_t *cov = rt_calloc(sc->ntri ? sc->ntri : 1, 1, e);
     rt_tri *loose = NULL;
     bitem *it = NULL;
+    rt_bounds *rbox = NULL; /* the records' exact world boxes */
     if (!cov)
         goto fail;
-    for (uint32_t i = 0; i < sc->nirec; i++) {
+    for (uint32_t i = 0; i < sc->nirec && !sc->kept; i++) {
         const rt_scene_inst *q = &sc->irec[i];
         if (q->obj >= sc->nobj) {
             rt_errf(e, "instance %u: object %u of %u", i, q->obj, sc->nobj);
@@ -286,6 +307,15 @@ rt_inst *rt_inst_build(const rt_scene *sc, rt_err *e) {
     for (uint32_t i = 0, k = 0; i < sc->ntri; i++)
         if (!cov[i])
             I->covered[k] = i, loose[k++] = sc->tri[i];
+    if (sc->kept) { /* every stored triangle is loose: its index in the flattened numbering */
+        uint32_t r = 0;
+        uint64_t inst = 0; /* the records' triangles before loose triangle k */
+        for (uint32_t k = 0; k < nloose; k++) {
+            while (r < sc->nirec && sc->irec[r].loose <= k)
+                inst += sc->obj[sc->irec[r++].obj].count;
+            I->covered[k] = (uint32_t)(k + inst);
+        }
+    }
     I->nloose = nloose;
     /* bottom level: the loose tree (index nobj), then each object once */
     I->nblas = sc->nobj + 1;
@@ -316,9 +346,10 @@ rt_inst *rt_inst_build(const rt_scene *sc, rt_err *e) {
         goto fail;
     if (!(it = rt_reallocarray(NULL, I->ninst ? I->ninst : 1, sizeof *it, e)))
         goto fail;
+    if (!(rbox = rt_calloc(sc->nirec ? sc->nirec : 1, sizeof *rbox, e)) || rt_scene_inst_boxes(sc, rbox, e) < 0)
+        goto fail;
     for (uint32_t i = 0; i < I->ninst; i++) {
         rt_inst_rec *r = &I->inst[i];
-        uint32_t first, count;
         if (nloose && i == 0) {
             r->identity = 1;
             r->blas = sc->nobj;
@@ -326,7 +357,6 @@ rt_inst *rt_inst_build(const rt_scene *sc, rt_err *e) {
             for (int a = 0; a < 3; a++)
                 for (int b = 0; b < 4; b++)
                     r->w2o[a][b] = r->o2w[a][b] = a == b;
-            first = 0, count = 0;
         } else {
             const rt_scene_inst *q = &sc->irec[i - (nloose ? 1 : 0)];
             r->blas = q->obj;
@@ -336,22 +366,24 @@ rt_inst *rt_inst_build(const rt_scene *sc, rt_err *e) {
                 rt_errf(e, "instance %u: singular transformation", i);
                 goto fail;
             }
-            first = q->first, count = sc->obj[q->obj].count;
         }
-        /* world box from the flattened copy */
+        /* world box: an instance's, the exact box of its triangles (the
+         * flattened copy's, kept or not: rt_scene_inst_boxes) padded once;
+         * the loose tree's, its triangles' padded boxes */
         for (int a = 0; a < 3; a++)
             it[i].lo[a] = INFINITY, it[i].hi[a] = -INFINITY;
-        if (r->identity) {
+        if (!r->identity) { /* the exact box of its triangles, padded once */
+            const rt_bounds *x = &rbox[i - (nloose ? 1 : 0)];
+            const float lo[3] = {x->lo.x, x->lo.y, x->lo.z}, hi[3] = {x->hi.x, x->hi.y, x->hi.z};
+            for (int a = 0; a < 3; a++) {
+                float pad = RT_INST_PAD * (hi[a] - lo[a] + fabsf(lo[a]) + fabsf(hi[a]));
+                it[i].lo[a] = lo[a] - pad;
+                it[i].hi[a] = hi[a] + pad;
+            }
+        } else {
             for (uint32_t k = 0; k < nloose; k++) {
                 bitem t;
                 tri_item(&t, &loose[k], 0, RT_INST_PAD);
-                for (int a = 0; a < 3; a++)
-                    it[i].lo[a] = fminf(it[i].lo[a], t.lo[a]), it[i].hi[a] = fmaxf(it[i].hi[a], t.hi[a]);
-            }
-        } else {
-            for (uint32_t k = 0; k < count; k++) {
-                bitem t;
-                tri_item(&t, &sc->tri[first + k], 0, RT_INST_PAD);
                 for (int a = 0; a < 3; a++)
                     it[i].lo[a] = fminf(it[i].lo[a], t.lo[a]), it[i].hi[a] = fmaxf(it[i].hi[a], t.hi[a]);
             }
@@ -373,11 +405,13 @@ rt_inst *rt_inst_build(const rt_scene *sc, rt_err *e) {
     I->ntnode = B.n;
     I->torder = B.order;
     free(it);
+    free(rbox);
     free(loose);
     free(cov);
     return I;
 fail:
     free(it);
+    free(rbox);
     free(loose);
     free(cov);
     rt_inst_free(I);
@@ -460,13 +494,26 @@ static void walk_blas(walk *W, uint32_t k) {
             if (n->ntri) {
                 for (uint32_t j = n->offset; j < n->offset + n->ntri; j++) {
                     uint32_t tri = q->identity ? I->covered[I->bref[j]] : q->first + I->bref[j];
+                    const rt_scene *sc = tv->sc;
+                    const rt_tri *T;
+                    rt_tri wt;
+                    /* the mark goes to the model's shading slot (rt_scene_model_slot) */
+                    const uint32_t slot = q->identity ? I->bref[j] : I->nloose + sc->obj[q->blas].start + I->bref[j];
+                    if (!sc->kept)
+                        T = &sc->tri[tri];
+                    else if (q->identity)
+                        T = &sc->tri[I->bref[j]];
+                    else {
+                        rt_scene_inst_tri(q->o2w, &I->btri[j], &wt);
+                        T = &wt;
+                    }
                     tv->tests++;
                     if (tv->mark)
-                        tv->mark[tri] |= tv->mark_bit;
+                        tv->mark[slot] |= tv->mark_bit;
                     if (tv->rec && tv->reg_tri >= 0)
                         RT_REC(tv->rec, rt_mm_addr(tv->L, tv->reg_tri, j), 36, 0, RT_CLS_TRI);
                     float t, u, v;
-                    if (!rt_isect_core(r, &tv->sc->tri[tri], &t, &u, &v) || !(t > r->tmin))
+                    if (!rt_isect_core(r, T, &t, &u, &v) || !(t > r->tmin))
                         continue;
                     if (W->any) {
                         if (t < r->tmax) {
@@ -668,12 +715,24 @@ static void pk_blas(rt_inst_pk *k, const rt_inst_rec *q, uint32_t cur, int d, in
         return;
     if (nd->ntri) {
         for (uint32_t j = nd->offset; j < nd->offset + nd->ntri && n > 0; j++) {
+            /* the candidate, its mark and its record as in walk_blas */
             uint32_t tri = q->identity ? I->covered[I->bref[j]] : q->first + I->bref[j];
+            const rt_scene *sc = tv->sc;
+            const uint32_t slot = q->identity ? I->bref[j] : I->nloose + sc->obj[q->blas].start + I->bref[j];
+            const rt_tri *T;
+            rt_tri wt;
+            if (!sc->kept)
+                T = &sc->tri[tri];
+            else if (q->identity)
+                T = &sc->tri[I->bref[j]];
+            else {
+                rt_scene_inst_tri(q->o2w, &I->btri[j], &wt);
+                T = &wt;
+            }
             if (tv->mark)
-                tv->mark[tri] |= tv->mark_bit;
+                tv->mark[slot] |= tv->mark_bit;
             if (tv->rec && tv->reg_tri >= 0)
                 RT_REC(tv->rec, rt_mm_addr(tv->L, tv->reg_tri, j), 36, 0, RT_CLS_TRI);
-            const rt_tri *T = &tv->sc->tri[tri];
             for (int x = 0; x < n; x++) {
                 const int i = l[x];
                 const rt_ray *r = &k->ray[i];
@@ -847,7 +906,7 @@ int rt_inst_check(const rt_inst *I, const rt_scene *sc, rt_err *e) {
     int rc = -1;
     uint8_t *cov = rt_calloc(sc->ntri ? sc->ntri : 1, 1, e);
     uint8_t *seen = rt_calloc((size_t)I->nbtri + I->ninst + 1, 1, e);
-    if (!cov || !seen)
+    if (!cov || !seen || rt_scene_check_kept(sc, e) < 0)
         goto out;
     /* (I1) */
     for (uint32_t i = 0; i < I->ninst; i++) {
@@ -857,10 +916,28 @@ int rt_inst_check(const rt_inst *I, const rt_scene *sc, rt_err *e) {
             goto out;
         }
         const rt_inst_blas *bl = &I->blas[q->blas];
-        for (uint32_t j = 0; j < bl->ntri; j++) {
+        if (sc->kept && !q->identity) { /* (I1) by the records' arithmetic (rt_scene_check_kept), (I2) by construction */
+            const rt_scene_inst *sq = &sc->irec[i - (I->nloose ? 1 : 0)];
+            if (q->blas != sq->obj || q->first != sq->first || memcmp(q->o2w, sq->m, sizeof q->o2w)) {
+                rt_errf(e, "inst: (I1) instance %u is not its scene record", i);
+                goto out;
+            }
+        }
+        for (uint32_t j = 0; j < bl->ntri && !(sc->kept && !q->identity); j++) {
             uint32_t tri = q->identity
                                ? (I->bref[bl->tri0 + j] < I->nloose ? I->covered[I->bref[bl->tri0 + j]] : UINT32_MAX)
                                : q->first + I->bref[bl->tri0 + j];
+            if (sc->kept) { /* a loose triangle: its index maps back to its place in tri */
+                uint32_t lj;
+                if (tri >= sc->nflat || rt_scene_kept_find(sc, tri, &lj) >= 0 || lj != I->bref[bl->tri0 + j] ||
+                    lj >= sc->ntri || cov[lj]) {
+                    rt_errf(e, "inst: (I1) loose triangle %u: index %u is not its own or in two instances",
+                            I->bref[bl->tri0 + j], tri);
+                    goto out;
+                }
+                cov[lj] = 1;
+                continue;
+            }
             if (tri >= sc->ntri || cov[tri]) {
                 rt_errf(e, "inst: (I1) instance %u: scene triangle %u outside the scene or in two instances", i, tri);
                 goto out;
@@ -947,7 +1024,15 @@ int rt_inst_check(const rt_inst *I, const rt_scene *sc, rt_err *e) {
                 const rt_inst_blas *bl = &I->blas[q->blas];
                 for (uint32_t t = 0; t < bl->ntri; t++) {
                     uint32_t tri = q->identity ? I->covered[I->bref[bl->tri0 + t]] : q->first + I->bref[bl->tri0 + t];
-                    if (!box_has_tri(n, &sc->tri[tri], 0)) {
+                    rt_tri wt;
+                    const rt_tri *T = &wt;
+                    if (!sc->kept)
+                        T = &sc->tri[tri];
+                    else if (q->identity)
+                        T = &sc->tri[I->bref[bl->tri0 + t]];
+                    else
+                        rt_scene_inst_tri(q->o2w, &I->btri[bl->tri0 + t], &wt);
+                    if (!box_has_tri(n, T, 0)) {
                         rt_errf(e, "inst: (I5) top-level node %u: instance %u's triangle %u outside its box", m, k,
                                 tri);
                         goto out;

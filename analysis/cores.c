@@ -11,8 +11,8 @@
  * one named in the column) at the same core count, 100 (R / T - 1) %
  * (rt_report_reduction, the paper's formula);
  * (a tracer on another structure than its default is its own column,
- * "recursive/bvh4") and the shared level's miss rate (misses / accesses of level 2, all
- * classes). With a plot folder: DIR/cores-SCENE.png, DRAM traffic against
+ * "recursive/bvh4") and the shared level's miss rate (misses / accesses of the last
+ * level, all classes). With a plot folder: DIR/cores-SCENE.png, DRAM traffic against
  * cores (log 2) at the largest of those sizes, one line per tracer.
  */
 #include "analysis_int.h"
@@ -34,7 +34,7 @@ typedef struct cell {
 typedef struct group {
     char scene[256];
     int W, H, lights;
-    char l1[64];
+    char l1[160];
     char tracer[NT][32];
     int nt;
     int cores[NC];
@@ -70,7 +70,8 @@ int rt_report_cores(sqlite3 *h, const char *dbpath, const char *scene, int csv, 
     const char *sql =
         "SELECT s.name, r.W, r.H, r.lights, r.tracer, r.cores, r.hierarchy, c.size, SUM(t.traffic_bytes),"
         " (SELECT CAST(SUM(l.misses) AS REAL) / SUM(l.accesses) FROM level_traffic l WHERE l.run_id = r.id"
-        "  AND l.level = 2 AND l.core = -1 AND l.cache_size = c.size AND l.gen = -1), r.params"
+        "  AND l.level = (SELECT MAX(m.level) FROM level_traffic m WHERE m.run_id = r.id) AND l.core = -1"
+        "  AND l.cache_size = c.size AND l.gen = -1), r.params"
         " FROM traffic t JOIN runs r ON r.id = t.run_id JOIN cache_configs c ON c.id = t.config_id"
         " JOIN scenes s ON s.id = r.scene_id"
         " WHERE r.hierarchy LIKE '%/private,%' AND (c.size = ?1 OR c.size = ?2)"
@@ -84,8 +85,9 @@ int rt_report_cores(sqlite3 *h, const char *dbpath, const char *scene, int csv, 
         if (scene && strcmp(sn, scene)) continue;
         const int W = sqlite3_column_int(st, 1), H = sqlite3_column_int(st, 2), li = sqlite3_column_int(st, 3);
         const char *hier = (const char *)sqlite3_column_text(st, 6);
-        char l1[64];
-        snprintf(l1, sizeof l1, "%.*s", (int)strcspn(hier, ","), hier);
+        char l1[160];
+        const char *lastc = strrchr(hier, ','); /* the private levels: all but the last */
+        snprintf(l1, sizeof l1, "%.*s", lastc ? (int)(lastc - hier) : (int)strlen(hier), hier);
         group *g = ng ? &G[ng - 1] : NULL;
         if (!g || strcmp(g->scene, sn) || g->W != W || g->H != H || g->lights != li || strcmp(g->l1, l1)) {
             if (ng == capg) {

@@ -130,8 +130,6 @@ int rt_cmd_sim_cores(int argc, char **argv);
  * 0, or -1 with the message printed (a usage error). The multi-core form
  * (rt_cmd_wants_cores) is checked when it runs. */
 int rt_cmd_sim_check_args(int argc, char **argv);
-/* `sweep --hierarchy SPEC --cores LIST ...`: the multi-core matrix (cmd_sweep_cores.c). */
-int rt_cmd_sweep_cores(int argc, char **argv);
 
 /* --material NAME for render and trace: checks NAME against the scene
  * library's presets and returns SPEC with ":material=NAME" (or

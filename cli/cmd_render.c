@@ -57,7 +57,7 @@ void rt_print_run_stats(FILE *f, const rt_job *j, const rt_run_stats *st, int js
                 ", \"nodes\": %" PRIu64 ", \"tests\": %" PRIu64 ", \"nodes_per_ray\": %.3f, \"tests_per_ray\": %.3f"
                 ", \"pv_primary\": %" PRIu64 ", \"pv_all\": %" PRIu64 ", \"%s_build_seconds\": %.3f"
                 ", \"render_seconds\": %.3f, \"mrays_per_second\": %.3f",
-                j->tr->name, j->opt.W, j->opt.H, j->opt.lights, j->sc->ntri, st->rays_primary, st->rays_shadow,
+                j->tr->name, j->opt.W, j->opt.H, j->opt.lights, rt_scene_nflat(j->sc), st->rays_primary, st->rays_shadow,
                 st->nodes, st->tests, (double)st->nodes * per, (double)st->tests * per, st->pv_primary, st->pv_all,
                 rt_accel_name(j->acc.kind), j->acc.build_sec, st->seconds,
                 st->seconds > 0 ? (double)rays / st->seconds * 1e-6 : 0.0);
@@ -80,7 +80,7 @@ void rt_print_run_stats(FILE *f, const rt_job *j, const rt_run_stats *st, int js
         fputs("}\n", f);
         return;
     }
-    fprintf(f, "scene %s (%" PRIu32 " triangles), tracer %s, %dx%d, lights %u\n", j->sc->name, j->sc->ntri,
+    fprintf(f, "scene %s (%" PRIu32 " triangles), tracer %s, %dx%d, lights %u\n", j->sc->name, rt_scene_nflat(j->sc),
             j->tr->name, j->opt.W, j->opt.H, j->opt.lights);
     fprintf(f, "rays: %" PRIu64 " primary + %" PRIu64 " shadow; per ray %.2f nodes, %.2f triangle tests\n",
             st->rays_primary, st->rays_shadow, (double)st->nodes * per, (double)st->tests * per);

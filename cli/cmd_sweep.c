@@ -44,6 +44,7 @@
 #include "cmd.h"
 #include "experiment.h"
 #include "hier.h"
+#include "mcore.h"
 #include "outfile.h"
 #include "pool.h"
 
@@ -80,6 +81,8 @@ typedef struct sweep_opts {
     const char *repl_arg, *hier_arg; /* --repl, --hierarchy */
     int line_given;           /* --line given (refused with --hierarchy) */
     rt_hier_config hc;        /* parsed --hierarchy (x.hier points here) */
+    rt_mc_config mcc;         /* the multi-core machine (x.mc points here): --hierarchy with --cores or scopes */
+    int cores_given;          /* --cores LIST */
     const char *scenes_file;  /* --scenes-file: one spec per line (names may hold commas) */
     char *owned[MAX_LIST];    /* specs made absolute from --scenes-file */
     int strict;               /* --strict: a scene whose loading warned is refused */
@@ -124,9 +127,13 @@ static void usage(FILE *f)
     fprintf(f,
             "  --db FILE          results database (default raytraffic.db)\n"
             "  --jobs N           worker processes (default 1)\n"
-            "  --hierarchy SPEC --cores LIST  the multi-core matrix instead: private\n"
-            "                     caches above a shared level, per core count\n"
-            "                     (sweep --hierarchy X --help)\n"
+            "  --cores LIST       simulated core counts swept, e.g. 1,2,4,8,16,32,64 (tracers\n"
+            "                     that split their work); with --hierarchy (or --preset\n"
+            "                     cpu/gpu): the multi-core machine, each core with the\n"
+            "                     private levels above the shared ones (a level ending\n"
+            "                     /private or /shared; without: the last shared, the first\n"
+            "                     private, a middle one as the one above); without: the\n"
+            "                     cores' interleaved stream in the one cache\n"
             "  --keep-traces DIR  also write every job's trace to DIR\n"
             "  --dynamic-all-sizes  simulate each dynamic schedule at every size\n"
             "  --approx LIST      also run approximate simulators on the same access stream\n"
@@ -383,7 +390,7 @@ static void on_progress(void *ctx, long d, long s, long nj, double t0)
 
 enum { O_PRESET = 1, O_SCENES, O_TRACERS, O_LIGHTS, O_SIZES, O_LINE, O_DB, O_JOBS, O_KEEP, O_DYNALL, O_LIST, O_JOB,
        O_APPROX, O_PROXY, O_MODES, O_MODEL, O_FLUSH, O_NOFLUSH, O_FULLLINE, O_NOFULLLINE, O_ACCELS, O_NOERR,
-       O_SCENES_FILE, O_REPL, O_HIER, O_STRICT };
+       O_SCENES_FILE, O_REPL, O_HIER, O_STRICT, O_CORES };
 
 /* The command's own options; the table's render options for sweep follow
  * them in sweep_longopts (--lights is its own, a list of lightings). */
@@ -399,6 +406,7 @@ static const struct option sweep_own[] = {
     {"line", required_argument, NULL, O_LINE},
     {"repl", required_argument, NULL, O_REPL},
     {"hierarchy", required_argument, NULL, O_HIER},
+    {"cores", required_argument, NULL, O_CORES}, /* a list here (render's --cores is one count) */
     {"db", required_argument, NULL, O_DB},
     {"jobs", required_argument, NULL, O_JOBS},
     {"keep-traces", required_argument, NULL, O_KEEP},
@@ -616,6 +624,31 @@ static int parse_opt(sweep_opts *o, int c, const char *arg)
     case O_LINE: o->line_given = 1; return rt_cmd_parse_line("sweep", arg, &o->x.sim.line);
     case O_REPL: o->repl_arg = arg; return 0;
     case O_HIER: o->hier_arg = arg; return 0;
+    case O_CORES: {
+        char buf[512];
+        int n = 0;
+        snprintf(buf, sizeof buf, "%s", arg);
+        for (char *save = NULL, *t = strtok_r(buf, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
+            if (n == RT_EXP_MAXLIST || rt_cmd_parse_long(t, 1, RT_TR_MAX_CORES, &v) < 0) {
+                rt_cmd_error("sweep", "--cores: '%s' is not a comma list of at most %d counts in 1..%d", arg,
+                             RT_EXP_MAXLIST, RT_TR_MAX_CORES);
+                return -1;
+            }
+            for (int k = 0; k < n; k++)
+                if (o->x.cores[k] == v) {
+                    rt_cmd_error("sweep", "--cores: %ld repeats", v);
+                    return -1;
+                }
+            o->x.cores[n++] = (int)v;
+        }
+        if (!n || strlen(arg) >= sizeof buf) {
+            rt_cmd_error("sweep", "--cores: '%s' is not a comma list of counts", arg);
+            return -1;
+        }
+        o->x.ncores = n;
+        o->cores_given = 1;
+        return 0;
+    }
     case O_DB: {
         rt_err ne = {0};
         if (rt_cmd_check_text("sweep", "--db", arg) < 0) return -1;
@@ -853,21 +886,43 @@ static int finish_opts(sweep_opts *o)
             rt_cmd_error("sweep", "%s does not apply with --hierarchy (each level gives its own)", clash);
             return -1;
         }
-        if (rt_hier_parse(o->hier_arg, &x->sim, &o->hc, &e) < 0) {
+        /* with --cores, or a level marked private or shared: the multi-core
+         * machine (cachesim/mcore.h), each job's simulated cores with their
+         * private levels above the shared ones */
+        if (o->cores_given || strstr(o->hier_arg, "/private") || strstr(o->hier_arg, "/shared")) {
+            if (rt_mc_parse_base(o->hier_arg, &x->sim, &o->mcc, &e) < 0) {
+                rt_cmd_error("sweep", "%s", e.msg);
+                return -1;
+            }
+            x->sim = o->mcc.h.level[o->mcc.h.nlevels - 1];
+            x->mc = &o->mcc;
+        } else if (rt_hier_parse(o->hier_arg, &x->sim, &o->hc, &e) < 0) {
             rt_cmd_error("sweep", "--hierarchy: %s", e.msg);
             return -1;
         }
-        if (o->hc.inclusion != RT_INCL_NINE) {
+        if (!x->mc && o->hc.inclusion != RT_INCL_NINE) {
             rt_cmd_error("sweep", "--hierarchy: %s hierarchies run with sim --hierarchy (printed, not stored)",
                          rt_hier_inclusion_name(o->hc.inclusion));
             return -1;
         }
-        x->sim = o->hc.level[o->hc.nlevels - 1];
-        x->hier = &o->hc;
+        if (!x->mc) {
+            x->sim = o->hc.level[o->hc.nlevels - 1];
+            x->hier = &o->hc;
+        }
     }
-    if ((x->sim.repl || x->hier) && x->napprox) {
+    /* simulated cores: only tracers that split their work (their traits) */
+    for (int k = 0; k < x->ncores; k++)
+        for (int t = 0; t < x->ntracers && x->cores[k] > 1 && x->mc; t++) {
+            const rt_tracer *ct = rt_tracer_find(x->tracers[t]);
+            if (ct && !rt_tracer_simulates_cores(ct) && !rt_tracer_is(ct, RT_TR_CORES)) {
+                rt_cmd_error("sweep", "--cores %d: the %s tracer's work is not split over cores yet (run it with --cores 1)",
+                             x->cores[k], ct->name);
+                return -1;
+            }
+        }
+    if ((x->sim.repl || x->hier || x->mc) && x->napprox) {
         rt_cmd_error("sweep", "--approx does not apply with %s (the sampled methods model one LRU level)",
-                     x->hier ? "--hierarchy" : "--repl");
+                     x->hier || x->mc ? "--hierarchy" : "--repl");
         return -1;
     }
     if (rt_sim_config_check(&x->sim, &e) < 0) {
@@ -1033,8 +1088,6 @@ static int sweep_run(sweep_opts *o, const rt_exp_job *J, long nj)
 
 int main_sweep(int argc, char **argv)
 {
-    /* levels marked private/shared: the multi-core matrix, cmd_sweep_cores.c */
-    if (rt_cmd_wants_cores(argc, argv)) return rt_cmd_sweep_cores(argc, argv);
     sweep_opts o;
     rt_err e = {0};
     rt_exp_job *J = NULL;

@@ -210,7 +210,7 @@ int main_trace(int argc, char **argv)
     char ln[48];
     fprintf(stderr, "scene %s (%" PRIu32 " triangles), tracer %s, %dx%d, lights %s; %" PRIu64 " primary + %" PRIu64
                     " shadow rays; traced in %.2f s (%.1f M references/s)\n",
-            j.sc->name, j.sc->ntri, j.tr->name, o.W, o.H, rt_exp_lights_name(o.lights, ln, sizeof ln),
+            j.sc->name, rt_scene_nflat(j.sc), j.tr->name, o.W, o.H, rt_exp_lights_name(o.lights, ln, sizeof ln),
             st.rays_primary, st.rays_shadow, sec,
             sec > 0 ? (double)tot.nrefs / sec * 1e-6 : 0.0);
     rc = RT_EXIT_OK;

@@ -11,6 +11,8 @@
  */
 #include "scene_load.h"
 #include "experiment.h"
+#include "mcore.h"
+#include "mcore_rows.h"
 #include "rows.h"
 #include "run.h"
 #include "sindex.h"
@@ -92,14 +94,38 @@ long rt_exp_matrix(const rt_exp_config *c, rt_exp_job **out, rt_err *e)
                         if (acc != RT_ACCEL_DEFAULT && tr && !(tr->accels & RT_ACCEL_BIT(acc))) continue;
                         if (rt_tracer_is(tr, RT_TR_SCHEDULED)) {
                             for (int k = 0; k < c->sim.nsizes; k++)
-                                J[n++] = (rt_exp_job){s, l, c->tracers[t], c->sim.sizes[k], -1, mode, acc};
+                                J[n++] = (rt_exp_job){s, l, c->tracers[t], c->sim.sizes[k], -1, mode, acc, 0};
                         } else {
-                            J[n++] = (rt_exp_job){s, l, c->tracers[t], 0, -1, mode, acc};
+                            J[n++] = (rt_exp_job){s, l, c->tracers[t], 0, -1, mode, acc, 0};
                         }
                     }
                 }
             }
         }
+    if (c->ncores > 0) { /* the core counts, innermost */
+        rt_exp_job *K = rt_calloc(n * (size_t)c->ncores + 1, sizeof *K, e);
+        if (!K) {
+            free(J);
+            return -1;
+        }
+        size_t m = 0;
+        for (size_t i = 0; i < n; i++)
+            for (int k = 0; k < c->ncores; k++) {
+                K[m] = J[i];
+                K[m++].cores = c->cores[k];
+            }
+        free(J);
+        if (c->nproxies && !(J = rt_calloc(m * (size_t)(c->nproxies + 1), sizeof *J, e))) {
+            free(K);
+            return -1;
+        }
+        if (c->nproxies) {
+            memcpy(J, K, m * sizeof *J);
+            free(K);
+        } else
+            J = K;
+        n = m;
+    }
     size_t nbase = n;
     for (int p = 0; p < c->nproxies; p++)
         for (size_t i = 0; i < nbase; i++) {
@@ -119,6 +145,10 @@ rt_render_opts rt_exp_job_opts(const rt_exp_config *c, const rt_exp_job *jb)
     /* a raycast job is the run without lights: the default mode keeps its key */
     ro.mode = jb->mode == RT_MODE_RAYCAST ? RT_MODE_DEFAULT : jb->mode;
     ro.sched_size = jb->sched_size ? jb->sched_size : ro.sched_size;
+    if (jb->cores > 0) { /* a core-count sweep: as --cores N (on the machine: its cores alone) */
+        ro.cores = jb->cores;
+        if (!c->mc) ro.threads = jb->cores;
+    }
     if (jb->accel != RT_ACCEL_DEFAULT) ro.accel = jb->accel;
     /* a structure the tracer cannot run on (a sweep of several tracers):
      * its own default */
@@ -255,10 +285,14 @@ void rt_exp_job_key(const rt_exp_config *c, const rt_exp_job *jb, const rt_scene
     r->sim_params = rt_exp_sim_params(c->model, &c->sim, k->exact_sim_params, sizeof k->exact_sim_params);
     r->repl = c->sim.repl ? rt_sim_repl_name(c->sim.repl) : NULL;
     if (c->hier) r->hierarchy = rt_hier_spec(c->hier, k->hierarchy, sizeof k->hierarchy);
+    if (c->mc) {
+        rt_mc_spec(c->mc, k->hierarchy, sizeof k->hierarchy);
+        r->hierarchy = k->hierarchy;
+    }
     /* simulated cores of a splitting tracer (--cores N in a one-core sweep: their interleaved
      * stream in the one cache); the dynamic tracer's --cores is its threads= parameter */
     const rt_tracer *ktr = rt_tracer_find(jb->tracer);
-    r->cores = rt_tracer_simulates_cores(ktr) && ro.cores > 1 ? ro.cores : 1;
+    r->cores = (rt_tracer_simulates_cores(ktr) || (c->mc && rt_tracer_is(ktr, RT_TR_CORES))) && ro.cores > 1 ? ro.cores : 1;
     if (is_mesh_spec(c->scenes[jb->scene])) {
         r->scene_path = c->scenes[jb->scene];
         r->scene_abspath = abs_path(c->scenes[jb->scene], k->abspath);
@@ -431,7 +465,24 @@ typedef struct jobrun {
     rt_run_stats st;                   /* tracer statistics */
     int accel_stats;                   /* a job of a structure sweep: its stats name the structure's footprint */
     rt_hier *hier;                     /* the configuration's hierarchy (then sim is NULL), or NULL */
+    rt_mc *mc;                         /* the configuration's multi-core machine (then sim is NULL), or NULL */
+    rt_csink tee;                      /* mc: the cores' references into mc and, without their cores, the fan */
+    double mc_sec;                     /* seconds inside mc */
+    int tee_err;                       /* the fan refused a batch */
 } jobrun;
+
+/* The core sink of a job on the multi-core machine: each core's batch into
+ * the machine, then (the texture cache, a kept trace) into the fan-out as
+ * one stream. */
+static int tee_put(rt_csink *s, unsigned core, const rt_access *a, size_t n)
+{
+    jobrun *r = s->ctx;
+    double t0 = rt_now();
+    int rc = rt_mc_put(r->mc, core, a, n);
+    r->mc_sec += rt_now() - t0;
+    if (r->fan.n && rt_exp_fan_sink(&r->fan)->put(rt_exp_fan_sink(&r->fan), a, n) < 0) r->tee_err = 1, rc = -1;
+    return rc;
+}
 
 static void jobrun_free(jobrun *r)
 {
@@ -440,6 +491,7 @@ static void jobrun_free(jobrun *r)
     rt_image_free(r->img);
     rt_sim_free(r->sim);
     rt_hier_free(r->hier);
+    rt_mc_free(r->mc);
     rt_sim_free(r->tex);
     if (r->have_job) rt_job_free(&r->j);
 }
@@ -516,9 +568,21 @@ static int render_job(rt_exp_worker *w, jobrun *r, const rt_exp_job *jb, long in
     }
     if (rt_job_setup_borrowed(&r->j, w->sc, w->kd, jb->tracer, &ro, e) < 0) return -1;
     r->have_job = 1;
+    /* on the machine, a tracer that splits its own work (the dynamic
+     * scheduler) runs on the job's cores; its --cores stays its threads */
+    if (c->mc && rt_tracer_is(r->j.tr, RT_TR_CORES)) r->j.opt.cores = ro.cores > 1 ? ro.cores : 1;
     r->accel_stats = jb->accel != RT_ACCEL_DEFAULT;
     rt_exp_fan_init(&r->fan);
-    if (c->hier) { /* the hierarchy instead of one level; its last level at the job's sizes */
+    if (c->mc) { /* the multi-core machine: the job's simulated cores, its last level at the job's sizes */
+        rt_mc_config mc = *c->mc;
+        rt_sim_config *last = &mc.h.level[mc.h.nlevels - 1];
+        last->nsizes = r->sc.nsizes;
+        memcpy(last->sizes, r->sc.sizes, sizeof last->sizes);
+        mc.ncores = r->j.opt.cores > 1 ? r->j.opt.cores : 1;
+        if (!(r->mc = rt_mc_new(&mc, e)) || !(r->img = rt_image_new(ro.W, ro.H, e))) return -1;
+        r->tee.put = tee_put;
+        r->tee.ctx = r;
+    } else if (c->hier) { /* the hierarchy instead of one level; its last level at the job's sizes */
         rt_hier_config hc = *c->hier;
         if (hc.inclusion != RT_INCL_NINE)
             return rt_errf(e, "sweep: a %s hierarchy is simulated by sim --hierarchy only; the database holds non-inclusive ones",
@@ -540,9 +604,11 @@ static int render_job(rt_exp_worker *w, jobrun *r, const rt_exp_job *jb, long in
     if (add_texture_cache(c, r, jb, e) < 0) return -1;
     if (c->keep && open_trace(w, r, jb, index, e) < 0) return -1;
     double t0 = rt_now();
-    int rrc = rt_job_run(&r->j, rt_exp_fan_sink(&r->fan), r->img, &r->st, e);
-    double sim = 0;
-    for (int i = 0; i < 1 + r->napprox; i++) sim += r->fan.sec[i];
+    int rrc = r->mc ? rt_job_run_cores(&r->j, &r->tee, r->img, &r->st, e)
+                    : rt_job_run(&r->j, rt_exp_fan_sink(&r->fan), r->img, &r->st, e);
+    if (r->mc && rrc < 0 && !r->tee_err && rt_mc_error(r->mc)[0]) rt_errf(e, "%s", rt_mc_error(r->mc));
+    double sim = r->mc ? r->mc_sec : 0;
+    for (int i = 0; i < (r->mc ? 0 : 1 + r->napprox); i++) sim += r->fan.sec[i];
     w->t.tracing += rt_now() - t0 - sim;
     w->t.simulation += sim;
     if (rrc < 0) return -1;
@@ -567,7 +633,17 @@ static int store_job(rt_exp_worker *w, jobrun *r, rt_exp_key *key, double t0, rt
     double ts = rt_now();
     rt_db_level *lv = NULL; /* a hierarchy's per-level rows */
     size_t nlv = 0;
-    if (r->hier) {
+    if (r->mc) {
+        if (rt_mc_finish(r->mc) < 0) rt_errf(e, "%s", rt_mc_error(r->mc));
+        else lv = rt_calloc(rt_mc_db_level_cap(r->mc), sizeof *lv, e);
+        if (!lv) {
+            free(rows);
+            free(se);
+            return -1;
+        }
+        r->sim = (rt_sim *)rt_mc_shared(r->mc); /* borrowed */
+        nlv = rt_mc_db_level_rows_gen(r->mc, rt_job_generations(&r->j) > 0, lv);
+    } else if (r->hier) {
         rt_hier_finish(r->hier);
         r->sim = (rt_sim *)rt_hier_level(r->hier, rt_hier_get_config(r->hier)->nlevels - 1); /* borrowed */
         if (!(lv = rt_calloc(rt_hier_db_level_max(r->hier), sizeof *lv, e))) {
@@ -594,9 +670,9 @@ static int store_job(rt_exp_worker *w, jobrun *r, rt_exp_key *key, double t0, rt
              "rays_primary=%" PRIu64 " rays_shadow=%" PRIu64 " nodes=%" PRIu64 " tests=%" PRIu64 " pv_primary=%" PRIu64
              " pv_all=%" PRIu64 " render_seconds=%.3f sim_seconds=%.3f%s%s%s",
              st->rays_primary, st->rays_shadow, st->nodes, st->tests, st->pv_primary, st->pv_all, st->seconds,
-             r->fan.sec[0], st->extra[0] ? " " : "", st->extra, acc);
+             r->mc ? r->mc_sec : r->fan.sec[0], st->extra[0] ? " " : "", st->extra, acc);
     rt_db_run run = key->run;
-    run.refs = rt_sim_refs(r->hier ? rt_hier_level(r->hier, 0) : r->sim);
+    run.refs = r->mc ? rt_mc_refs(r->mc) : rt_sim_refs(r->hier ? rt_hier_level(r->hier, 0) : r->sim);
     run.command = w->c->command;
     run.wall_time = rt_now() - t0;
     run.stats = stats;
@@ -608,7 +684,7 @@ static int store_job(rt_exp_worker *w, jobrun *r, rt_exp_key *key, double t0, rt
             free(rows);
             free(se);
             free(lv);
-            if (r->hier) r->sim = NULL;
+            if (r->hier || r->mc) r->sim = NULL;
             return -1;
         }
         ng = rt_sim_db_gen_rows(r->sim, grows);
@@ -622,7 +698,7 @@ static int store_job(rt_exp_worker *w, jobrun *r, rt_exp_key *key, double t0, rt
     sigaddset(&stop, SIGHUP);
     pthread_sigmask(SIG_BLOCK, &stop, &old);
     int rc;
-    if (r->hier) {
+    if (r->hier || r->mc) {
         rt_db_rows R = {.traffic = rows, .ntraffic = k, .gen = grows, .ngen = ng, .level = lv, .nlevel = nlv};
         rc = rt_db_store(w->db, &run, &R, NULL, e);
         r->sim = NULL; /* the hierarchy's level, freed with it */

@@ -152,10 +152,22 @@ typedef struct rt_exp_config {
      * spec, the traffic rows are the last level's, level_traffic rows the
      * levels'. No approximate runs with it. */
     const rt_hier_config *hier;
+    /* The multi-core machine (cachesim/mcore.h) every job is simulated on
+     * instead (NULL: none; then hier or sim): each job's simulated cores
+     * (rt_job_run_cores) each with the private levels, above the shared
+     * ones. Its last level's sizes are sim's; the run key carries the
+     * canonical spec (every level's scope written) and the cores, the
+     * traffic rows are the last level's, level_traffic rows per core for
+     * the private levels. No approximate runs with it. */
+    const struct rt_mc_config *mc;
+    /* Simulated core counts swept (sweep --cores LIST): every job once per
+     * count, in this order (rt_exp_job.cores); ncores 0: ro.cores alone. */
+    int cores[RT_EXP_MAXLIST];
+    int ncores;
 } rt_exp_config;
 
 /* One job of the matrix: scene x mode x lighting x tracer (x scheduled
- * size for the dynamic tracer) (x proxy). */
+ * size for the dynamic tracer) (x core count) (x proxy). */
 typedef struct rt_exp_job {
     int scene;          /* index into config scenes */
     int lighting;       /* index into config lightings; -1 = no light (a raycast job) */
@@ -164,6 +176,7 @@ typedef struct rt_exp_job {
     int proxy;          /* index into config proxies, -1 = the full experiment */
     int mode;           /* rt_mode: RT_MODE_DEFAULT (the lighting decides), RAYCAST, WHITTED, PATH */
     int accel;          /* rt_accel_kind the job runs on; RT_ACCEL_DEFAULT: the config's ro.accel */
+    int cores;          /* simulated cores (ro.cores) of a core-count sweep; 0: the config's ro.cores */
 } rt_exp_job;
 
 /* The matrix in run order: every full job, then each proxy's copies (so a

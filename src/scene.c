@@ -141,7 +141,7 @@ uint32_t rt_scene_material_flags(const rt_scene *s)
     for (uint32_t m = 1; m < s->nmat; m++) used |= s->mat[m].flags;
     if (!used) return 0;
     used = 0;
-    for (uint32_t i = 0; i < s->ntri; i++) used |= s->mat[s->shade[i].mat].flags;
+    for (uint32_t i = 0, n = rt_scene_nshade(s); i < n; i++) used |= s->mat[s->shade[i].mat].flags;
     return used;
 }
 
@@ -171,7 +171,7 @@ int rt_scene_set_material(rt_scene *s, const char *name, rt_err *e)
         if (r < 0) return -1;
         idx = (uint32_t)r;
     }
-    for (uint32_t i = 0; i < s->ntri; i++) s->shade[i].mat = idx;
+    for (uint32_t i = 0, n = rt_scene_nshade(s); i < n; i++) s->shade[i].mat = idx;
     return 0;
 }
 
@@ -179,7 +179,7 @@ int rt_scene_describe_materials(const rt_scene *s, FILE *f)
 {
     uint32_t *use = calloc(s->nmat, sizeof *use);
     if (use)
-        for (uint32_t i = 0; i < s->ntri; i++)
+        for (uint32_t i = 0, n = rt_scene_nshade(s); i < n; i++)
             if (s->shade[i].mat < s->nmat) use[s->shade[i].mat]++;
     fprintf(f, "%-4s %-20s %10s %-15s %-26s %-26s %-6s %s\n", "mat", "name", "triangles", "flags", "ks", "kt",
             "ior", "ke");
@@ -249,7 +249,8 @@ static const char *light_problem(const rt_light *l)
 static const char *mesh_problem(const rt_scene *s, const rt_light *l)
 {
     if (l->kind != RT_LIGHT_MESH) return NULL;
-    if (!l->count || l->first > s->ntri || l->count > s->ntri - l->first) return "triangles out of range (invariant 4)";
+    const uint32_t nt = rt_scene_nflat(s);
+    if (!l->count || l->first > nt || l->count > nt - l->first) return "triangles out of range (invariant 4)";
     if (!l->cdf) return "no area table (invariant 4)";
     for (uint32_t i = 0; i < l->count; i++)
         if (!(l->cdf[i] >= (i ? l->cdf[i - 1] : 0.0f))) return "area table decreasing (invariant 4)";
@@ -312,9 +313,135 @@ int rt_scene_nonpoint_lights(const rt_scene *s)
     return 0;
 }
 
+/*
+ * The bounds of a kept scene's instanced triangles, exactly those of the
+ * flattened copy, without making it. A world coordinate is
+ * (float)(x) with x = m0 vx + m1 vy + m2 vz + m3 computed in double
+ * (rt_scene_inst_tri), and rounding to float is monotone, so the largest
+ * world coordinate is (float) of the largest computed x over the object's
+ * vertices (the smallest likewise). The object's triangles are cut into
+ * chunks of CHUNK with a box each; over a chunk x lies within its box's
+ * support values (the linear bounds of the box, in double) widened by the
+ * rounding of the computation (SLACK relative, far above its few ulps),
+ * so only the chunks whose bound reaches the best value found so far are
+ * evaluated vertex by vertex, starting with the most promising one.
+ */
+#define CHUNK 64u
+#define SLACK 1e-12
+
+typedef struct chunkbox {
+    double lo[3], hi[3];
+} chunkbox;
+
+static double lin(const double *m, const double v[3]) { return m[0] * v[0] + m[1] * v[1] + m[2] * v[2] + m[3]; }
+
+/* Largest (sign 1) or smallest (sign -1) computed coordinate along row m
+ * over object triangles t[0 .. n), chunks cb. */
+static double kept_extreme(const double *m, const rt_tri *t, uint32_t n, const chunkbox *cb, uint32_t nc, int sign)
+{
+    uint32_t bestc = 0;
+    double bestu = -INFINITY;
+    for (uint32_t c = 0; c < nc; c++) { /* the chunk with the highest bound first */
+        double u = m[3];
+        for (int a = 0; a < 3; a++) {
+            const double x = m[a] * cb[c].lo[a], y = m[a] * cb[c].hi[a];
+            u += sign > 0 ? (x > y ? x : y) : (x < y ? x : y);
+        }
+        if (sign * u > bestu) bestu = sign * u, bestc = c;
+    }
+    double best = -INFINITY; /* sign x, maximized */
+    for (uint32_t pass = 0; pass < 2; pass++)
+        for (uint32_t c = pass ? 0 : bestc; c < (pass ? nc : bestc + 1); c++) {
+            if (pass && c == bestc) continue;
+            double u = m[3], mag = fabs(m[3]);
+            for (int a = 0; a < 3; a++) {
+                const double x = m[a] * cb[c].lo[a], y = m[a] * cb[c].hi[a];
+                u += sign > 0 ? (x > y ? x : y) : (x < y ? x : y);
+                mag += fabs(x) > fabs(y) ? fabs(x) : fabs(y);
+            }
+            if (pass && sign * u + SLACK * mag < best) continue;
+            const uint32_t end = (c + 1) * CHUNK < n ? (c + 1) * CHUNK : n;
+            for (uint32_t j = c * CHUNK; j < end; j++)
+                for (int k = 0; k < 3; k++) {
+                    const double v[3] = {t[j].p[k].x, t[j].p[k].y, t[j].p[k].z};
+                    const double x = sign * lin(m, v);
+                    if (x > best) best = x;
+                }
+        }
+    return sign * best;
+}
+
+int rt_scene_inst_boxes(const rt_scene *s, rt_bounds *box, rt_err *e)
+{
+    uint32_t nc = 0;
+    for (uint32_t k = 0; k < s->nobj; k++) nc += (s->obj[k].count + CHUNK - 1) / CHUNK;
+    chunkbox *cb = rt_calloc(nc ? nc : 1, sizeof *cb, e);
+    uint32_t *c0 = rt_calloc(s->nobj ? s->nobj : 1, sizeof *c0, e); /* each object's first chunk */
+    if (!cb || !c0) {
+        free(cb);
+        free(c0);
+        return -1;
+    }
+    for (uint32_t k = 0, c = 0; k < s->nobj; k++) {
+        c0[k] = c;
+        const rt_scene_obj *o = &s->obj[k];
+        for (uint32_t j = 0; j < o->count; j++) {
+            if (j % CHUNK == 0) {
+                for (int a = 0; a < 3; a++) cb[c].lo[a] = INFINITY, cb[c].hi[a] = -INFINITY;
+                c++;
+            }
+            const rt_tri *t = &s->otri[o->start + j];
+            for (int v = 0; v < 3; v++)
+                for (int a = 0; a < 3; a++) {
+                    const double x = (&t->p[v].x)[a];
+                    if (x < cb[c - 1].lo[a]) cb[c - 1].lo[a] = x;
+                    if (x > cb[c - 1].hi[a]) cb[c - 1].hi[a] = x;
+                }
+        }
+    }
+    int rc = 0;
+    for (uint32_t k = 0; k < s->nirec && rc == 0; k++) {
+        const rt_scene_inst *q = &s->irec[k];
+        const rt_scene_obj *o = &s->obj[q->obj];
+        box[k] = rt_bounds_empty();
+        if (!o->count) continue;
+        const uint32_t n = (o->count + CHUNK - 1) / CHUNK;
+        float lo[3], hi[3];
+        for (int a = 0; a < 3; a++) {
+            lo[a] = (float)kept_extreme(q->m[a], s->otri + o->start, o->count, cb + c0[q->obj], n, -1);
+            hi[a] = (float)kept_extreme(q->m[a], s->otri + o->start, o->count, cb + c0[q->obj], n, 1);
+            if (!isfinite(lo[a]) || !isfinite(hi[a])) {
+                rc = rt_errf(e, "%s: instance %u has a non-finite vertex", s->name, k);
+                break;
+            }
+        }
+        if (rc == 0) {
+            rt_bounds_grow(&box[k], rt_v3(lo[0], lo[1], lo[2]));
+            rt_bounds_grow(&box[k], rt_v3(hi[0], hi[1], hi[2]));
+        }
+    }
+    free(cb);
+    free(c0);
+    return rc;
+}
+
+/* A kept scene's bounds: its records' boxes added to the loose triangles'. */
+static int kept_bounds(const rt_scene *s, rt_bounds *b, rt_err *e)
+{
+    rt_bounds *box = rt_calloc(s->nirec ? s->nirec : 1, sizeof *box, e);
+    if (!box || rt_scene_inst_boxes(s, box, e) < 0) {
+        free(box);
+        return -1;
+    }
+    for (uint32_t k = 0; k < s->nirec; k++)
+        if (box[k].lo.x <= box[k].hi.x) rt_bounds_grow(b, box[k].lo), rt_bounds_grow(b, box[k].hi);
+    free(box);
+    return 0;
+}
+
 int rt_scene_finish(rt_scene *s, rt_err *e)
 {
-    if (s->ntri == 0) return rt_errf(e, "%s: scene has no triangles", s->name);
+    if (rt_scene_nflat(s) == 0) return rt_errf(e, "%s: scene has no triangles", s->name);
     rt_bounds b = rt_bounds_empty();
     for (uint32_t i = 0; i < s->ntri; i++)
         for (int k = 0; k < 3; k++) {
@@ -323,7 +450,59 @@ int rt_scene_finish(rt_scene *s, rt_err *e)
                 return rt_errf(e, "%s: triangle %u has a non-finite vertex", s->name, i);
             rt_bounds_grow(&b, p);
         }
+    if (s->kept && kept_bounds(s, &b, e) < 0) return -1;
     s->bounds = b;
+    return 0;
+}
+
+int rt_scene_kept_find(const rt_scene *s, uint32_t i, uint32_t *j)
+{
+    /* the last record with first <= i */
+    uint32_t lo = 0, hi = s->nirec;
+    while (lo < hi) {
+        const uint32_t mid = lo + (hi - lo) / 2;
+        if (s->irec[mid].first <= i) lo = mid + 1;
+        else hi = mid;
+    }
+    if (lo == 0) {
+        *j = i;
+        return -1;
+    }
+    const rt_scene_inst *q = &s->irec[lo - 1];
+    const uint32_t n = s->obj[q->obj].count;
+    if (i - q->first < n) {
+        *j = i - q->first;
+        return (int)(lo - 1);
+    }
+    *j = q->loose + (i - q->first - n);
+    return -1;
+}
+
+int rt_scene_check_kept(const rt_scene *s, rt_err *e)
+{
+    if (!s->kept) return 0;
+    uint64_t inst = 0;
+    for (uint32_t k = 0; k < s->nirec; k++) {
+        const rt_scene_inst *q = &s->irec[k];
+        if (q->obj >= s->nobj || (uint64_t)s->obj[q->obj].start + s->obj[q->obj].count > s->notri)
+            return rt_errf(e, "%s: kept instance %u: object %u outside the object store", s->name, k, q->obj);
+        const uint32_t n = s->obj[q->obj].count;
+        if (k && q->first < (uint64_t)s->irec[k - 1].first + s->obj[s->irec[k - 1].obj].count)
+            return rt_errf(e, "%s: kept instance %u: not after the one before it", s->name, k);
+        if ((uint64_t)q->first + n > s->nflat)
+            return rt_errf(e, "%s: kept instance %u: triangles beyond the %u of the flattened scene", s->name, k,
+                           s->nflat);
+        if ((uint64_t)q->loose + inst != q->first || q->loose > s->ntri)
+            return rt_errf(e, "%s: kept instance %u: %u loose triangles before it, its position says %llu", s->name, k,
+                           q->loose, (unsigned long long)(q->first - inst));
+        inst += n;
+    }
+    if (inst != s->nirec_tri)
+        return rt_errf(e, "%s: kept instances: the records hold %llu triangles, the scene says %u", s->name,
+                       (unsigned long long)inst, s->nirec_tri);
+    if ((uint64_t)s->ntri + inst != s->nflat)
+        return rt_errf(e, "%s: kept instances: %u loose + %llu instanced triangles, not %u", s->name, s->ntri,
+                       (unsigned long long)inst, s->nflat);
     return 0;
 }
 
@@ -446,9 +625,22 @@ uint64_t rt_scene_hash(const rt_scene *s)
     h = hash_u32(h, s->ntri);
     for (uint32_t i = 0; i < s->ntri; i++)
         for (int k = 0; k < 3; k++) h = hash_v(h, s->tri[i].p[k]);
-    for (uint32_t i = 0; i < s->ntri; i++) {
+    for (uint32_t i = 0, n = rt_scene_nshade(s); i < n; i++) {
         for (int k = 0; k < 3; k++) h = hash_f(h, s->shade[i].rgb[k]);
         h = hash_u32(h, s->shade[i].mat);
+    }
+    /* kept instances: the records and the objects' triangles, not the
+     * flattened copy (so the hash differs from the flattened scene's) */
+    if (s->kept) {
+        h = hash_u32(hash_u32(h, 0x6b657074u), s->nflat);
+        for (uint32_t i = 0; i < s->notri; i++)
+            for (int k = 0; k < 3; k++) h = hash_v(h, s->otri[i].p[k]);
+        for (uint32_t k = 0; k < s->nirec; k++) {
+            const rt_scene_inst *q = &s->irec[k];
+            h = hash_u32(hash_u32(hash_u32(hash_u32(h, q->first), s->obj[q->obj].start), s->obj[q->obj].count), q->loose);
+            for (int a = 0; a < 3; a++)
+                for (int b = 0; b < 4; b++) h = rt_fnv1a(h, &q->m[a][b], sizeof q->m[a][b]);
+        }
     }
     /* The table enters the hash only when a scene has materials beyond the
      * plain one, so scenes made before materials keep their hashes. */

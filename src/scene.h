@@ -162,9 +162,44 @@ typedef struct rt_scene_obj {
 
 typedef struct rt_scene_inst {
     uint32_t obj;     /* index into obj */
-    uint32_t first;   /* its first triangle in tri */
+    uint32_t first;   /* its first triangle in the flattened order (in tri unless the instances are kept) */
+    uint32_t loose;   /* triangles outside instance records before it in that order */
     double m[3][4];   /* object-to-world, row-major (affine; pbrt's projective rows are refused at load) */
 } rt_scene_inst;
+
+/*
+ * Kept instances (rt_scene.kept, a .pbrt loaded with RT_LOAD_KEEP_INSTANCES,
+ * which `--instances bvh` asks for). The flattened copy is not made: tri
+ * and the first ntri records of shade hold only the loose triangles (those
+ * outside instance records, singular or projective instances included), in
+ * the flattened order, and shade continues with the objects' shading
+ * records (shade[ntri + obj.start + j], notri of them). Triangle indices --
+ * hits, lights, ties -- still number the flattened scene, 0 .. nflat - 1:
+ * irec[] is sorted by first, and index i is
+ *   instance k's triangle j   when first_k <= i < first_k + count (j = i - first_k),
+ *   loose triangle i - (triangles of the records before it)  otherwise;
+ * an instanced triangle's world vertices are (float)(m x object vertex)
+ * evaluated in double as the loader's flattening evaluates them, so the
+ * triangle is the flattened copy's bit for bit (rt_scene_tri_of). Invariants
+ * (rt_scene_check_kept): records sorted by first, their ranges disjoint and
+ * inside 0 .. nflat - 1, loose counts consistent (loose_k = first_k minus the
+ * earlier records' triangles), ntri + the records' triangles = nflat, every
+ * record's object inside otri.
+ */
+#define RT_LOAD_KEEP_INSTANCES 1u
+#define RT_SCENE_MAX_FLAT 0xfffffffeu /* triangle indices of a kept scene (RT_NO_HIT excluded) */
+
+/* The world triangle of an instance record's object triangle ot (the
+ * flattening's arithmetic, bit for bit). */
+static inline void rt_scene_inst_tri(const double m[3][4], const rt_tri *ot, rt_tri *w)
+{
+    for (int c = 0; c < 3; c++) {
+        const double x = ot->p[c].x, y = ot->p[c].y, z = ot->p[c].z;
+        w->p[c].x = (float)(m[0][0] * x + m[0][1] * y + m[0][2] * z + m[0][3]);
+        w->p[c].y = (float)(m[1][0] * x + m[1][1] * y + m[1][2] * z + m[1][3]);
+        w->p[c].z = (float)(m[2][0] * x + m[2][1] * y + m[2][2] * z + m[2][3]);
+    }
+}
 
 typedef struct rt_scene {
     char name[256];         /* spec it was made from: built-in name or mesh file name, whole (NAME_MAX) */
@@ -196,7 +231,62 @@ typedef struct rt_scene {
     rt_tri *otri;           /* the objects' triangles in object space (owned) */
     uint32_t nirec;         /* instance records (objects of 3 or more triangles; smaller ones are copied at once) */
     rt_scene_inst *irec;    /* in file order (owned) */
+    int kept;               /* 1: instances kept, not flattened ("Kept instances" above) */
+    uint32_t nflat;         /* kept: triangles of the flattened scene (indices 0 .. nflat - 1); else ntri */
+    uint32_t nirec_tri;     /* triangles of the instance records (their objects' counts summed) */
 } rt_scene;
+
+/* Triangles of the flattened scene: the range of triangle indices. */
+static inline uint32_t rt_scene_nflat(const rt_scene *s) { return s->kept ? s->nflat : s->ntri; }
+/* Shading records (and per-triangle marks): ntri, kept: ntri + notri. */
+static inline uint32_t rt_scene_nshade(const rt_scene *s) { return s->kept ? s->ntri + s->notri : s->ntri; }
+/* Kept scenes: the record holding index i (-1: a loose triangle) and the
+ * loose triangle's index in tri (or the object triangle's j). */
+int rt_scene_kept_find(const rt_scene *s, uint32_t i, uint32_t *j);
+/* Triangle i of the flattened order: in tri, or made in *tmp (kept). */
+static inline const rt_tri *rt_scene_tri_of(const rt_scene *s, uint32_t i, rt_tri *tmp)
+{
+    if (!s->kept) return &s->tri[i];
+    uint32_t j;
+    const int k = rt_scene_kept_find(s, i, &j);
+    if (k < 0) return &s->tri[j];
+    rt_scene_inst_tri(s->irec[k].m, &s->otri[s->obj[s->irec[k].obj].start + j], tmp);
+    return tmp;
+}
+/* Index of triangle i's shading record in shade (and of its mark). */
+static inline uint32_t rt_scene_slot(const rt_scene *s, uint32_t i)
+{
+    if (!s->kept) return i;
+    uint32_t j;
+    const int k = rt_scene_kept_find(s, i, &j);
+    return k < 0 ? j : s->ntri + s->obj[s->irec[k].obj].start + j;
+}
+static inline const rt_shade *rt_scene_shade_of(const rt_scene *s, uint32_t i) { return &s->shade[rt_scene_slot(s, i)]; }
+/* The instancing model's shading slots (what `--instances bvh` records and
+ * marks, kept or flattened alike): with instance records, the loose
+ * triangles 0 .. L - 1 in the flattened order (L = nflat - nirec_tri),
+ * then each object's triangles once (L + obj.start + j), shared by all its
+ * instances; without records (or inst 0) the triangle index itself. For a
+ * kept scene the slot is where its shading record is (rt_scene_slot). */
+static inline uint32_t rt_scene_model_nslot(const rt_scene *s, int inst)
+{
+    return inst && s->nirec ? rt_scene_nflat(s) - s->nirec_tri + s->notri : rt_scene_nshade(s);
+}
+static inline uint32_t rt_scene_model_slot(const rt_scene *s, uint32_t i, int inst)
+{
+    if (!inst || !s->nirec) return i;
+    uint32_t j;
+    const int k = rt_scene_kept_find(s, i, &j);
+    return k < 0 ? j : rt_scene_nflat(s) - s->nirec_tri + s->obj[s->irec[k].obj].start + j;
+}
+/* Into box[k] (nirec of them) the exact bounds of record k's world
+ * triangles -- the flattened copy's, kept or not -- without transforming
+ * every triangle (scene.c, kept_bounds). 0, or -1 (out of memory, or a
+ * record whose triangles are not finite). */
+int rt_scene_inst_boxes(const rt_scene *s, rt_bounds *box, rt_err *e);
+/* The invariants of "Kept instances": 0, or -1 naming the broken one
+ * (a scene that is not kept passes). */
+int rt_scene_check_kept(const rt_scene *s, rt_err *e);
 
 void rt_scene_free(rt_scene *s);
 

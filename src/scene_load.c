@@ -44,11 +44,11 @@ static int has_type(const char *s, const char *suf)
 static int is_file(const char *s) { return has_type(s, ".obj") || has_type(s, ".ply") || has_type(s, ".pbrt"); }
 
 /* Loads a spec without its material=PRESET item. */
-static rt_scene *load_base(const char *spec, const char *params, rt_err *e)
+static rt_scene *load_base(const char *spec, const char *params, unsigned flags, rt_err *e)
 {
     char name[64];
     size_t fn = strlen(spec);
-    if (has_type(spec, ".pbrt")) return rt_scene_load_pbrt(spec, params, e);
+    if (has_type(spec, ".pbrt")) return rt_scene_load_pbrt_flags(spec, params, flags, e);
     if (has_type(spec, ".obj") || has_type(spec, ".ply")) {
         if (params[0]) {
             rt_errf(e, "%s: unknown parameter '%s' (known for mesh files: material)", spec, params);
@@ -65,7 +65,9 @@ static rt_scene *load_base(const char *spec, const char *params, rt_err *e)
     return rt_scene_builtin(name, params, e);
 }
 
-rt_scene *rt_scene_load(const char *spec, rt_err *e)
+rt_scene *rt_scene_load(const char *spec, rt_err *e) { return rt_scene_load_flags(spec, 0, e); }
+
+rt_scene *rt_scene_load_flags(const char *spec, unsigned flags, rt_err *e)
 {
     if (!spec || !*spec) {
         rt_errf(e, "empty scene spec");
@@ -133,7 +135,7 @@ rt_scene *rt_scene_load(const char *spec, rt_err *e)
         memcpy(preset, mat, matlen);
         preset[matlen] = 0;
     }
-    s = load_base(base, rest, e);
+    s = load_base(base, rest, flags, e);
     if (s && mat) {
         if (rt_scene_set_material(s, preset, e) < 0) {
             rt_scene_free(s);

@@ -31,6 +31,12 @@ rt_scene *rt_scene_load_ply(const char *path, rt_err *e);
  * loopsubdiv shape above N triangles, default 2^22). Plain or gzip files
  * (scene_file.h), told by content. */
 rt_scene *rt_scene_load_pbrt(const char *path, const char *params, rt_err *e);
+/* The same with RT_LOAD_* flags: RT_LOAD_KEEP_INSTANCES keeps the
+ * instances unflattened (scene.h, "Kept instances"). */
+rt_scene *rt_scene_load_pbrt_flags(const char *path, const char *params, unsigned flags, rt_err *e);
+/* rt_scene_load with RT_LOAD_* flags (they concern .pbrt files; other
+ * scenes load as rt_scene_load makes them). */
+rt_scene *rt_scene_load_flags(const char *spec, unsigned flags, rt_err *e);
 /* For an image W x H whose aspect differs from the scene's Film (a pbrt
  * file's xresolution x yresolution; scenes without one are left alone),
  * keeps the film's horizontal extent: the vertical field of view becomes

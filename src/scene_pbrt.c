@@ -160,6 +160,7 @@ typedef struct pbrt {
     int tess;           /* sphere tessellation */
     uint32_t maxtri;    /* triangle limit */
     uint32_t maxsubdiv; /* triangles one loopsubdiv shape may make */
+    int keep;           /* RT_LOAD_KEEP_INSTANCES: instances recorded, not flattened */
     srcfile *f[MAX_DEPTH];
     int depth;          /* files on the include stack */
     uint64_t total;     /* bytes read so far */
@@ -1307,7 +1308,9 @@ static int table_index(pbrt *P, matdef *md, const float ke[3], int emit, uint32_
 
 static int room_for(pbrt *P, const token *t, uint64_t more)
 {
-    uint64_t n = (uint64_t)P->s->ntri + P->pend + more;
+    /* kept instances hold no triangles of their own (do_object_instance
+     * bounds their indices) */
+    uint64_t n = (uint64_t)P->s->ntri + (P->keep ? 0 : P->pend) + more;
     if (n > P->maxtri)
         return perr(P, t, "the scene would have %llu triangles, more than maxtri=%u (raise it with the spec parameter "
                           "FILE.pbrt:maxtri=N)", (unsigned long long)n, (unsigned)P->maxtri);
@@ -2359,7 +2362,6 @@ static int do_object_instance(pbrt *P, const token *d)
     int k = nm_find(&P->named_obj, name);
     if (k < 0) return perr(P, &tt, "ObjectInstance \"%s\": no such object", q);
     object *o = &P->objs[k];
-    if (room_for(P, &tt, o->count) < 0) return -1;
     /* Nested instancing: an ObjectInstance inside an ObjectBegin block is
      * flattened into the object being defined (its triangles under the
      * current transformation join the outer object's, which ObjectEnd cuts
@@ -2367,9 +2369,23 @@ static int do_object_instance(pbrt *P, const token *d)
      * the outer object with the inner copies in it; an object defined so
      * can itself be instanced inside a further ObjectBegin (any depth).
      * The inner instance is not a scene instance: it counts through the
-     * outer object's triangles. */
+     * outer object's triangles. Its triangles are made at once, so the
+     * triangle limit applies as to any shape. */
     const int nested = P->in_obj >= 0;
     if (nested && k == P->in_obj) return perr(P, &tt, "ObjectInstance \"%s\" inside its own definition", q);
+    if (P->keep && !nested) {
+        /* checked before anything is made: the instances' triangles are
+         * not held, but each has an index of the flattened scene */
+        uint64_t n = (uint64_t)P->s->ntri + P->pend + o->count;
+        if (n > RT_SCENE_MAX_FLAT)
+            return perr(P, &tt, "the instances would make %llu triangles, more than the %llu triangle indices a scene "
+                                "has (kept instances: the limit is the index, not memory)",
+                        (unsigned long long)n, (unsigned long long)RT_SCENE_MAX_FLAT);
+        if (o->count * (uint64_t)(sizeof(rt_tri) + sizeof(rt_shade)) <= sizeof(instrec) &&
+            room_for(P, &tt, o->count) < 0)
+            return -1;
+    } else if (room_for(P, &tt, o->count) < 0)
+        return -1;
     /* an instance is recorded (148 bytes) only when its triangles would
      * take more (52 bytes each): the records never hold more memory than
      * the flattened scene they stand for (maxtri bounds both) */
@@ -2433,9 +2449,95 @@ static void relocate_mesh_lights(pbrt *P)
  * grows once to its final size (maxtri was checked at each instance) and,
  * from the last instance back, the triangles made after an instance move
  * up to make room for its copy. 0 or -1. */
+static int invertible_affine(const mat4 *m)
+{
+    return m->m[3][0] == 0 && m->m[3][1] == 0 && m->m[3][2] == 0 && m->m[3][3] == 1 && fabs(det3(m)) > 1e-30;
+}
+
+/* Kept instances (scene.h): the invertible affine instances become records
+ * at their flattened positions and make no triangles; the others are
+ * flattened into tri like expand_instances does, as loose triangles; the
+ * objects' shading records follow the loose ones in shade. 0 or -1. */
+static int keep_instances(pbrt *P)
+{
+    rt_scene *s = P->s;
+    uint64_t flat = (uint64_t)s->ntri + P->pend, loose = s->ntri;
+    for (int i = 0; i < P->ninst; i++)
+        if (!invertible_affine(&P->inst[i].ctm)) loose += P->objs[P->inst[i].obj].count;
+    if (loose > P->maxtri)
+        return rt_errf(P->e, "%s: %llu triangles, more than maxtri=%u", cur(P)->path, (unsigned long long)loose,
+                       (unsigned)P->maxtri);
+    if (flat > RT_SCENE_MAX_FLAT)
+        return rt_errf(P->e, "%s: %llu triangles, more than %llu triangle indices", cur(P)->path,
+                       (unsigned long long)flat, (unsigned long long)RT_SCENE_MAX_FLAT);
+    if (rt_scene_reserve(s, (uint32_t)loose, P->e) < 0) return -1;
+    if (P->ninst && !(s->irec = rt_reallocarray(NULL, (size_t)P->ninst, sizeof *s->irec, P->e))) return -1;
+    /* forward: flattened positions and loose counts */
+    uint64_t before = 0, nonrec = 0; /* triangles of earlier instances, of earlier flattened ones */
+    for (int i = 0; i < P->ninst; i++) {
+        const instrec *r = &P->inst[i];
+        const uint32_t n = P->objs[r->obj].count;
+        if (invertible_affine(&r->ctm)) {
+            rt_scene_inst *q = &s->irec[s->nirec++];
+            q->obj = (uint32_t)r->obj;
+            q->first = (uint32_t)(r->at + before);
+            q->loose = (uint32_t)(r->at + nonrec);
+            for (int a = 0; a < 3; a++)
+                for (int b = 0; b < 4; b++) q->m[a][b] = r->ctm.m[a][b];
+            s->nirec_tri += n;
+        } else nonrec += n;
+        before += n;
+    }
+    /* backward: the flattened instances' copies among the loose triangles */
+    uint32_t src = s->ntri, dst = (uint32_t)loose;
+    for (int i = P->ninst - 1; i >= 0; i--) {
+        const instrec *r = &P->inst[i];
+        if (invertible_affine(&r->ctm)) continue;
+        const object *o = &P->objs[r->obj];
+        uint32_t tail = src - r->at;
+        if (tail && dst != src) {
+            memmove(s->tri + dst - tail, s->tri + r->at, tail * sizeof *s->tri);
+            memmove(s->shade + dst - tail, s->shade + r->at, tail * sizeof *s->shade);
+        }
+        dst -= tail;
+        src = r->at;
+        dst -= o->count;
+        for (uint32_t j = 0; j < o->count; j++) {
+            const rt_tri *t = &P->otri[o->start + j];
+            rt_tri *w = &s->tri[dst + j];
+            for (int c = 0; c < 3; c++) {
+                w->p[c] = m_point(&r->ctm, t->p[c].x, t->p[c].y, t->p[c].z);
+                if (!in_range3(w->p[c]))
+                    return rt_errf(P->e, "%s:%u:%u: ObjectInstance: vertex (%g, %g, %g) is not finite or beyond %g "
+                                         "after the transformation", P->paths[r->file], (unsigned)r->line,
+                                   (unsigned)r->col, (double)w->p[c].x, (double)w->p[c].y, (double)w->p[c].z,
+                                   RT_COORD_MAX);
+            }
+            s->shade[dst + j] = P->oshade[o->start + j];
+        }
+    }
+    /* the objects' shading records after the loose ones */
+    rt_shade *ns = rt_reallocarray(s->shade, (size_t)loose + P->on + 1, sizeof *ns, P->e);
+    if (!ns) return -1;
+    s->shade = ns;
+    if (P->on) memcpy(s->shade + loose, P->oshade, P->on * sizeof *s->shade);
+    if (!(s->obj = rt_reallocarray(NULL, (size_t)P->nobjs + 1, sizeof *s->obj, P->e))) return -1;
+    for (int k = 0; k < P->nobjs; k++) s->obj[k].start = P->objs[k].start, s->obj[k].count = P->objs[k].count;
+    s->nobj = (uint32_t)P->nobjs;
+    s->otri = P->otri;
+    s->notri = P->on;
+    P->otri = NULL;
+    s->ntri = (uint32_t)loose;
+    s->kept = 1;
+    s->nflat = (uint32_t)flat;
+    P->pend = 0;
+    return 0;
+}
+
 static int expand_instances(pbrt *P)
 {
     rt_scene *s = P->s;
+    if (P->keep) return keep_instances(P);
     if (!P->ninst) return 0;
     uint64_t total = (uint64_t)s->ntri + P->pend;
     if (total > P->maxtri) return rt_errf(P->e, "%s: %llu triangles, more than maxtri=%u", cur(P)->path,
@@ -2471,8 +2573,7 @@ static int expand_instances(pbrt *P)
             s->shade[dst + j] = P->oshade[o->start + j];
         }
         const mat4 *m = &r->ctm;
-        double det = det3(m);
-        if (m->m[3][0] == 0 && m->m[3][1] == 0 && m->m[3][2] == 0 && m->m[3][3] == 1 && fabs(det) > 1e-30) {
+        if (invertible_affine(m)) {
             rt_scene_inst *q = &s->irec[s->nirec++];
             q->obj = (uint32_t)r->obj;
             q->first = dst;
@@ -2486,6 +2587,12 @@ static int expand_instances(pbrt *P)
         s->irec[i] = s->irec[j];
         s->irec[j] = t;
     }
+    uint64_t inst = 0; /* the records' triangles before each */
+    for (uint32_t i = 0; i < s->nirec; i++) {
+        s->irec[i].loose = (uint32_t)(s->irec[i].first - inst);
+        inst += P->objs[s->irec[i].obj].count;
+    }
+    s->nirec_tri = (uint32_t)inst;
     if (!(s->obj = rt_reallocarray(NULL, (size_t)P->nobjs, sizeof *s->obj, P->e))) return -1;
     for (int k = 0; k < P->nobjs; k++) s->obj[k].start = P->objs[k].start, s->obj[k].count = P->objs[k].count;
     s->nobj = (uint32_t)P->nobjs;
@@ -2784,8 +2891,14 @@ static int parse_spec(const char *path, const char *params, int *tess, uint32_t 
 
 rt_scene *rt_scene_load_pbrt(const char *path, const char *params, rt_err *e)
 {
+    return rt_scene_load_pbrt_flags(path, params, 0, e);
+}
+
+rt_scene *rt_scene_load_pbrt_flags(const char *path, const char *params, unsigned flags, rt_err *e)
+{
     pbrt *P = rt_calloc(1, sizeof *P, e);
     if (!P) return NULL;
+    P->keep = (flags & RT_LOAD_KEEP_INSTANCES) != 0;
     int rc = -1, tess;
     uint32_t maxtri, maxsubdiv;
     P->e = e;
@@ -2835,9 +2948,10 @@ rt_scene *rt_scene_load_pbrt(const char *path, const char *params, rt_err *e)
     if (!s->ninst) s->ntri_unique = 0;
     rt_err fe;
     if (rt_scene_finish(s, &fe) < 0) {
-        rt_errf(e, "%s: %s", path, s->ntri ? fe.msg : "no triangles (no supported Shape in the world block)");
+        rt_errf(e, "%s: %s", path, rt_scene_nflat(s) ? fe.msg : "no triangles (no supported Shape in the world block)");
         goto done;
     }
+    if (rt_scene_check_kept(s, e) < 0) goto done;
     if (rt_scene_check_range(s, path, e) < 0) goto done;
     if (P->have_camera) set_camera(P);
     else rt_scene_autoframe(s);

@@ -59,22 +59,26 @@ grep "shared 4096K" -A6 "$tmp/rep.md" | grep -q "^| 4 | [0-9.]* | [0-9.]*% | [0-
     --db "$tmp/s.db" 2>"$tmp/sw.log" || err "sweep --hierarchy: $(cat "$tmp/sw.log")"
 "$bin" sweep --scenes cornell -W 24 -H 24 --lights all --tracers treelet --cores 4 --hierarchy "$H" \
     --db "$tmp/s.db" 2>"$tmp/sw.log" || err "sweep --hierarchy -t treelet: $(cat "$tmp/sw.log")"
-q="SELECT r.tracer, r.cores, r.hierarchy, l.level, l.core, l.cache_size, l.class, l.accesses, l.misses, l.writebacks,
+# (the treelet tracer is scheduled: the sweep's run scheduled for the trace's 64K, at that size)
+q="SELECT r.tracer, r.cores, r.hierarchy, l.level, l.core, l.cache_size, l.class, l.gen, l.accesses, l.misses, l.writebacks,
    l.traffic_bytes FROM level_traffic l JOIN runs r ON r.id = l.run_id WHERE r.params NOT LIKE '%accel=%'
-   ORDER BY 1, 2, 4, 5, 6, 7"
+   AND r.sched_size IN (0, 65536) AND (r.sched_size = 0 OR l.level = 1 OR l.cache_size = r.sched_size)
+   ORDER BY 1, 2, 4, 5, 6, 7, 8"
 sqlite3 "$tmp/r.db" "$q" >"$tmp/lv_sim.txt"; sqlite3 "$tmp/s.db" "$q" >"$tmp/lv_sweep.txt"
 [ -s "$tmp/lv_sim.txt" ] && cmp -s "$tmp/lv_sim.txt" "$tmp/lv_sweep.txt" || err "sweep and sim --hierarchy rows differ"
 # the dynamic scheduler's queues dealt to cores: the sweep of the three schedulers at 1, 8 and 64 cores
-"$bin" sweep --scenes sphereflake --cores 1,8,64 --hierarchy "$H" --tracers recursive,dynamic,treelet -W 16 -H 16 \
+# (the scheduled tracers once per shared size, scheduled for it: two sizes here)
+H2=L1=32K/8/64/lru/private,LLC=256K+4M/full/64/lru/shared
+"$bin" sweep --scenes sphereflake --lights all --cores 1,8,64 --hierarchy "$H2" --tracers recursive,dynamic,treelet -W 16 -H 16 \
     --db "$tmp/d.db" 2>"$tmp/d.log" || err "sweep -t recursive,dynamic,treelet --cores 1,8,64: $(cat "$tmp/d.log")"
-[ "$(sqlite3 "$tmp/d.db" "SELECT GROUP_CONCAT(tracer || ':' || cores, ' ') FROM (SELECT tracer, cores FROM runs
-    ORDER BY tracer, cores)")" = "dynamic:1 dynamic:8 dynamic:64 recursive:1 recursive:8 recursive:64 treelet:1 treelet:8 treelet:64" ] \
+[ "$(sqlite3 "$tmp/d.db" "SELECT GROUP_CONCAT(tc, ' ') FROM (SELECT DISTINCT tracer || ':' || cores AS tc, tracer, cores
+    FROM runs ORDER BY tracer, cores)")" = "dynamic:1 dynamic:8 dynamic:64 recursive:1 recursive:8 recursive:64 treelet:1 treelet:8 treelet:64" ] \
     || err "dynamic sweep runs: $(sqlite3 "$tmp/d.db" 'SELECT tracer, cores FROM runs')"
 [ "$(sqlite3 "$tmp/d.db" "SELECT r.cores || ':' || COUNT(DISTINCT l.core) FROM level_traffic l JOIN runs r ON r.id = l.run_id
     WHERE r.tracer = 'dynamic' AND l.level = 1 GROUP BY r.cores ORDER BY r.cores" | tr '\n' ' ')" = "1:1 8:8 64:64 " ] \
     || err "dynamic private rows per core"
 [ "$(sqlite3 "$tmp/d.db" "SELECT COUNT(DISTINCT l.cache_size) FROM level_traffic l JOIN runs r ON r.id = l.run_id
-    WHERE r.tracer = 'dynamic' AND r.cores = 64 AND l.level = 2 AND l.core = -1")" = 13 ] || err "dynamic shared rows"
+    WHERE r.tracer = 'dynamic' AND r.cores = 64 AND l.level = 2 AND l.core = -1")" = 2 ] || err "dynamic shared rows"
 sqlite3 "$tmp/d.db" "SELECT stats FROM runs WHERE tracer = 'dynamic' AND cores = 8" | grep -q " cores=8 rounds=[1-9][0-9]* rays_moved=[1-9]" \
     || err "dynamic 8-core statistics: $(sqlite3 "$tmp/d.db" "SELECT stats FROM runs WHERE tracer = 'dynamic'")"
 sqlite3 "$tmp/d.db" "SELECT stats FROM runs WHERE tracer = 'dynamic' AND cores = 1" | grep -q "rays_moved" \
@@ -84,14 +88,49 @@ for n in 1 8 64; do
     grep "shared 4096K" -A7 "$tmp/d.md" | grep -q "^| $n | [0-9.]* | [0-9.]*% | [0-9.]* | [0-9.]*% | [0-9.]* | [0-9.]*% | -*[0-9.]*% |$" \
         || err "report: dynamic vs recursive on $n cores: $(cat "$tmp/d.md")"
 done
-"$bin" sweep --scenes cornell -W 8 -H 8 --tracers dynamic --mode whitted --cores 2 --hierarchy "$H" --db "$tmp/s.db" 2>"$tmp/u.log"
-[ $? = 2 ] && grep -q "whitted and path modes on one core" "$tmp/u.log" || err "sweep -t dynamic --mode whitted --cores 2: $(cat "$tmp/u.log")"
+"$bin" sweep --scenes cornell -W 8 -H 8 --tracers dynamic --modes whitted --cores 2 --hierarchy "$H2" --db "$tmp/s.db" 2>"$tmp/u.log"
+[ $? = 2 ] && grep -q "whitted and path modes on one core" "$tmp/u.log" || err "sweep -t dynamic --modes whitted --cores 2: $(cat "$tmp/u.log")"
 # a one-cache sweep with --cores: the interleaved stream in the one cache, its own run key (cores 4)
 "$bin" sweep --scenes cornell --tracers recursive -W 16 -H 16 --sizes 64K --db "$tmp/o.db" 2>/dev/null || err "sweep"
 "$bin" sweep --scenes cornell --tracers recursive --cores 4 -W 16 -H 16 --sizes 64K --db "$tmp/o.db" 2>/dev/null \
     || err "sweep --cores 4"
 [ "$(sqlite3 "$tmp/o.db" "SELECT GROUP_CONCAT(DISTINCT cores) FROM (SELECT cores FROM runs ORDER BY cores)")" = "1,4" ] \
     || err "one-cache sweep cores: $(sqlite3 "$tmp/o.db" 'SELECT tracer, cores FROM runs')"
+# the multi-core sweep through the job machinery: the CPU preset (L1, L2 private, LLC shared) with --cores,
+# two workers, resumed after a kill, --list-jobs and --job; per-core rows of both private levels
+A="--preset cpu --scenes cornell -W 16 -H 16 --lights all --tracers recursive,packet --cores 1,3"
+CPU=L1=32K/8/64/lru/private,L2=1M/16/64/lru/private,LLC=1K-4M/full/64/lru/shared
+RT_SWEEP_STOP_AFTER=2 "$bin" sweep $A --db "$tmp/j.db" 2>/dev/null
+[ "$(sqlite3 "$tmp/j.db" "SELECT COUNT(*) FROM runs")" = 2 ] || err "the killed sweep: $(sqlite3 "$tmp/j.db" 'SELECT tracer, cores FROM runs')"
+"$bin" sweep $A --jobs 2 --db "$tmp/j.db" 2>"$tmp/j.log" || err "sweep --preset cpu --cores --jobs 2: $(cat "$tmp/j.log")"
+grep -q "4 run(s) finished (2 already in the database)" "$tmp/j.log" || err "resume: $(cat "$tmp/j.log")"
+[ "$(sqlite3 "$tmp/j.db" "SELECT GROUP_CONCAT(x, ' ') FROM (SELECT tracer || ':' || cores || ':' || hierarchy AS x FROM runs
+    ORDER BY tracer, cores)")" = "packet:1:$CPU packet:3:$CPU recursive:1:$CPU recursive:3:$CPU" ] \
+    || err "cpu runs: $(sqlite3 "$tmp/j.db" 'SELECT tracer, cores, hierarchy FROM runs')"
+[ "$(sqlite3 "$tmp/j.db" "SELECT GROUP_CONCAT(x, ' ') FROM (SELECT DISTINCT l.level || ':' || l.core AS x FROM level_traffic l
+    JOIN runs r ON r.id = l.run_id WHERE r.cores = 3 AND r.tracer = 'packet' ORDER BY l.level, l.core)")" = "1:0 1:1 1:2 2:0 2:1 2:2 3:-1" ] \
+    || err "cpu level rows"
+"$bin" sweep $A --list-jobs --db "$tmp/j.db" >"$tmp/jobs.txt" || err "--list-jobs"
+[ "$(wc -l <"$tmp/jobs.txt")" = 4 ] && grep -q -- "'--cores' '1,3' --job 3 --db " "$tmp/jobs.txt" || err "job lines: $(cat "$tmp/jobs.txt")"
+(cd "$tmp" && sh -c "$(sed -n 4p "$tmp/jobs.txt")") 2>/dev/null || err "job line 4"
+lv="SELECT r.tracer, r.cores, l.level, l.core, l.cache_size, l.class, l.gen, l.accesses, l.misses, l.writebacks, l.traffic_bytes
+    FROM level_traffic l JOIN runs r ON r.id = l.run_id WHERE r.tracer = 'packet' AND r.cores = 3 ORDER BY 1, 2, 3, 4, 5, 6, 7"
+[ -n "$(sqlite3 "$tmp/j.job0003.db" "$lv")" ] && [ "$(sqlite3 "$tmp/j.job0003.db" "$lv")" = "$(sqlite3 "$tmp/j.db" "$lv")" ] \
+    || err "--job 3 differs from the sweep's run"
+# one core on the machine is the one-core hierarchy: the same memory traffic and level rows (private ones: core 0)
+"$bin" sweep --preset cpu --scenes cornell -W 16 -H 16 --lights all --tracers recursive --db "$tmp/one.db" 2>/dev/null || err "sweep --preset cpu"
+tq="SELECT c.size, t.class, t.accesses, t.read_misses, t.write_misses, t.writebacks, t.traffic_bytes FROM traffic t
+    JOIN runs r ON r.id = t.run_id JOIN cache_configs c ON c.id = t.config_id WHERE r.tracer = 'recursive' AND r.cores = 1 ORDER BY 1, 2"
+lq="SELECT l.level, l.cache_size, l.class, l.gen, l.accesses, l.misses, l.writebacks, l.traffic_bytes FROM level_traffic l
+    JOIN runs r ON r.id = l.run_id WHERE r.tracer = 'recursive' AND r.cores = 1 ORDER BY 1, 2, 3, 4"
+[ -n "$(sqlite3 "$tmp/one.db" "$tq")" ] && [ "$(sqlite3 "$tmp/one.db" "$tq")" = "$(sqlite3 "$tmp/j.db" "$tq")" ] \
+    || err "one core: memory traffic differs from the one-core hierarchy"
+[ "$(sqlite3 "$tmp/one.db" "$lq")" = "$(sqlite3 "$tmp/j.db" "$lq")" ] || err "one core: level rows differ from the one-core hierarchy"
+[ "$(sqlite3 "$tmp/j.db" "SELECT DISTINCT l.core FROM level_traffic l JOIN runs r ON r.id = l.run_id WHERE r.cores = 1
+    AND l.level < 3")" = 0 ] || err "one core: private rows are core 0's"
+"$bin" report --db "$tmp/j.db" --figure cores >"$tmp/jr.md" 2>&1 || err "report --figure cores (cpu): $(cat "$tmp/jr.md")"
+grep "shared 4096K" -A5 "$tmp/jr.md" | grep -q "^| 3 | [0-9.]* | [0-9.]*% | [0-9.]* | [0-9.]*% | -*[0-9.]*% |$" \
+    || err "report (cpu): $(cat "$tmp/jr.md")"
 # bad hierarchies
 for bad in "L1=32K/8/64/lru/private" "L1=32K/8/64/lru/wt/private,LLC=1M/full/64/lru/shared" \
     "L1=32K/8/64/lru/shared,LLC=1M/full/64/lru/private" "L1=32K/8/64/lru/private,LLC=1M/full/64/lru/shared,inclusive" \

@@ -121,6 +121,7 @@ typedef struct tally {
     uint64_t n, bad, per[RT_MM_MAX_REGIONS], cls[RT_NCLASS];
     uint64_t off;    /* accesses whose class is not their region's */
     uint64_t xforms; /* the run's transformed rays (its statistics) */
+    uint64_t hash;   /* FNV-1a over (address, size, class) in order: the stream */
 } tally;
 
 static int tally_put(rt_sink *s, const rt_access *a, size_t n) {
@@ -134,6 +135,9 @@ static int tally_put(rt_sink *s, const rt_access *a, size_t n) {
         t->n++;
         if (a[i].cls < RT_NCLASS)
             t->cls[a[i].cls]++;
+        const uint64_t v[3] = {a[i].addr, a[i].size, a[i].cls};
+        for (int k = 0; k < 3; k++)
+            t->hash = (t->hash ^ v[k]) * 0x100000001b3ull;
         if (r < 0)
             t->bad++;
         else
@@ -174,7 +178,7 @@ static rt_image *render(rt_scene *s, int mode, int instances, tally *t, rt_job *
  * (coherent bundles around a direction, and fully random ones), closest
  * hits bit for bit and occlusion equal to brute force on the flattened
  * triangles; the per-slot counters add up to what tv counted per ray. */
-static void test_packets(const rt_scene *s, const rt_accel *a, const char *what) {
+static void test_packets(const rt_scene *s, const rt_accel *a, const rt_scene *ref, const char *what) {
     rt_err e = {0};
     enum { NP = 64 };
     rt_inst_pk *k = rt_inst_pk_new(a->as, NP, &e);
@@ -210,7 +214,7 @@ static void test_packets(const rt_scene *s, const rt_accel *a, const char *what)
         float sn = 0, st = 0;
         for (int j = 0; j < n; j++) {
             rt_hit h;
-            int b = rt_brute_closest(s, &ray[j], &h);
+            int b = rt_brute_closest(ref, &ray[j], &h);
             if ((b != (hit[j].tri != RT_NO_HIT) || (b && !same_hit(&h, &hit[j]))) && bad++ < 5)
                 CHECK(0, "%s packet %d ray %d: brute %d tri %u t %.9g, packet tri %u t %.9g", what, p, j, b, h.tri,
                       (double)h.t, hit[j].tri, (double)hit[j].t);
@@ -222,7 +226,7 @@ static void test_packets(const rt_scene *s, const rt_accel *a, const char *what)
               what, p, (unsigned long long)(tv.tests - t0), (double)st, (unsigned long long)(tv.nodes - n0), (double)sn);
         rt_inst_pk_trace(k, &tv, ray, hit, done, 1, NULL, NULL, idx, n);
         for (int j = 0; j < n; j++) {
-            int b = rt_brute_occluded(s, &ray[j]);
+            int b = rt_brute_occluded(ref, &ray[j]);
             if (b != done[j] && bad++ < 5)
                 CHECK(0, "%s packet %d ray %d: occluded brute %d packet %d", what, p, j, b, done[j]);
             occl += b;
@@ -267,6 +271,41 @@ static void test_packet_images(rt_scene *s) {
         rt_job_free(&ja);
         rt_job_free(&jb);
     }
+}
+
+/* The packet walk over the kept scene (no flattened copy): packets'
+ * hits equal brute force on the flattened scene s, and the packet
+ * tracer's images over the kept scene equal the flattened scene's. */
+static void test_packet_kept(const char *path, rt_scene *s) {
+    rt_err e = {0};
+    rt_scene *k = rt_scene_load_flags(path, RT_LOAD_KEEP_INSTANCES, &e);
+    CHECK(k != NULL && k->kept, "kept load: %s", e.msg);
+    if (!k)
+        return;
+    rt_accel a;
+    CHECK(rt_accel_build(&a, RT_ACCEL_INST, k, NULL, &e) == 0, "kept build: %s", e.msg);
+    if (a.as) {
+        test_packets(k, &a, s, "kept");
+        rt_accel_free(&a);
+    }
+    const int modes[] = {RT_MODE_SHADOW, RT_MODE_WHITTED};
+    for (int m = 0; m < 2; m++) {
+        tally ta = {0}, tb = {0};
+        rt_job ja, jb;
+        memset(&ja, 0, sizeof ja);
+        memset(&jb, 0, sizeof jb);
+        rt_image *ia = render_with("packet", s, modes[m], 0, &ta, &ja), *ib = render_with("packet", k, modes[m], 1, &tb, &jb);
+        if (ia && ib)
+            CHECK(!memcmp(ia->rgb, ib->rgb, (size_t)ib->W * ib->H * 3 * sizeof(float)),
+                  "packet over the kept scene, mode %d: image differs from the flattened scene's", modes[m]);
+        CHECK(tb.bad == 0 && tb.off == 0 && tb.n > 0, "packet kept, mode %d: %llu accesses off the layout, %llu off class",
+              modes[m], (unsigned long long)tb.bad, (unsigned long long)tb.off);
+        rt_image_free(ia);
+        rt_image_free(ib);
+        rt_job_free(&ja);
+        rt_job_free(&jb);
+    }
+    rt_scene_free(k);
 }
 
 /* The recursive tracer's images through the two-level structure equal the
@@ -454,10 +493,132 @@ static void test_nested(void) {
         hits += b1;
     }
     CHECK(bad == 0 && hits > 1000, "nested: %d rays differ, %d hits", bad, hits);
-    test_packets(s, &a, "nested");
+    test_packets(s, &a, s, "nested");
     rt_accel_free(&a);
+    /* the same file loaded with its instances kept (no flattened copy) */
+    rt_scene *k = rt_scene_load_flags(pn, RT_LOAD_KEEP_INSTANCES, &e);
+    CHECK(k && k->kept && k->nflat == s->ntri && k->nirec == 3, "nested kept: %s", k ? "counts" : e.msg);
+    if (k && rt_accel_build(&a, RT_ACCEL_INST, k, NULL, &e) == 0) {
+        CHECK(rt_accel_check(&a, k, &e) == 0, "nested kept check: %s", e.msg);
+        test_packets(k, &a, s, "nested kept");
+        rt_accel_free(&a);
+    }
+    rt_scene_free(k);
     rt_scene_free(s);
     rt_scene_free(f);
+}
+
+/* Kept instances (scene.h): the file loaded without its flattened copy
+ * numbers, places and shades every triangle as the flattened scene does
+ * (bit for bit), has its bounds and camera, passes both checkers (and
+ * fails them on corrupted records), and the two-level walk over it gives
+ * the flattened scene's brute-force hits; the recursive tracer's images
+ * equal the flattened scene's in every mode, and the shading reads stay in
+ * the layout. */
+static void test_kept(const char *path, rt_scene *s) {
+    rt_err e = {0};
+    rt_scene *k = rt_scene_load_flags(path, RT_LOAD_KEEP_INSTANCES, &e);
+    CHECK(k != NULL, "kept load: %s", e.msg);
+    if (!k)
+        return;
+    CHECK(k->kept && k->nflat == s->ntri && k->ntri == 2 && k->nirec == s->nirec && k->notri == s->notri &&
+              rt_scene_nshade(k) == 2 + s->notri && rt_scene_nflat(s) == s->ntri && !s->kept,
+          "kept: flat %u (flattened %u), loose %u, records %u, object triangles %u", k->nflat, s->ntri, k->ntri,
+          k->nirec, k->notri);
+    CHECK(rt_scene_check_kept(k, &e) == 0, "kept: %s", e.msg);
+    CHECK(!memcmp(&k->bounds, &s->bounds, sizeof k->bounds) && !memcmp(&k->cam, &s->cam, sizeof k->cam),
+          "kept: bounds or camera differ from the flattened scene's");
+    uint32_t bad = 0;
+    for (uint32_t i = 0; i < s->ntri && i < k->nflat; i++) {
+        rt_tri tmp;
+        const rt_tri *t = rt_scene_tri_of(k, i, &tmp);
+        bad += memcmp(t, &s->tri[i], sizeof *t) != 0 || memcmp(rt_scene_shade_of(k, i), &s->shade[i], sizeof s->shade[i]);
+    }
+    CHECK(bad == 0, "kept: %u triangles differ from the flattened copy", bad);
+    CHECK(rt_scene_check_lights(k, &e) == 0, "kept lights: %s", e.msg);
+    /* corrupted records */
+    rt_scene_inst q1 = k->irec[1];
+    k->irec[1].loose++;
+    CHECK(rt_scene_check_kept(k, &e) < 0 && strstr(e.msg, "loose triangles before it"), "loose count: %s", e.msg);
+    k->irec[1] = q1;
+    k->irec[1].first = k->irec[0].first;
+    CHECK(rt_scene_check_kept(k, &e) < 0 && strstr(e.msg, "not after"), "overlapping records: %s", e.msg);
+    k->irec[1] = q1;
+    k->nflat++;
+    CHECK(rt_scene_check_kept(k, &e) < 0, "wrong total accepted");
+    k->nflat--;
+    CHECK(rt_scene_check_kept(k, &e) == 0, "restored: %s", e.msg);
+
+    rt_accel a;
+    CHECK(rt_accel_build(&a, RT_ACCEL_INST, k, NULL, &e) == 0, "kept build: %s", e.msg);
+    if (a.as) {
+        rt_inst *I = a.as;
+        CHECK(rt_accel_check(&a, k, &e) == 0, "kept check: %s", e.msg);
+        I->covered[0] ^= 1; /* a loose triangle's index pointing at another */
+        CHECK(rt_inst_check(I, k, &e) < 0 && strstr(e.msg, "(I1)"), "kept: wrong loose index accepted: %s", e.msg);
+        I->covered[0] ^= 1;
+        rt_trav tv;
+        rt_accel_trav(&a, &tv, k, NULL, NULL);
+        int nbad = 0, hits = 0;
+        for (int i = 0; i < 20000; i++) {
+            rt_vec3 o = rt_v3((float)(urand() * 20 - 10), (float)(urand() * 10 - 3), (float)(urand() * 20 - 10));
+            rt_vec3 d = rt_v3((float)(urand() * 2 - 1), (float)(urand() * 2 - 1), (float)(urand() * 2 - 1));
+            if (i % 2 == 0) /* aimed at an instance's centre */
+                d = rt_v3(-3 - o.x, 0 - o.y, 1 - o.z);
+            rt_ray r;
+            rt_ray_init(&r, o, d);
+            if (i % 3 == 1)
+                r.tmin = (float)(urand() * 0.5), r.tmax = (float)(1 + urand() * 20);
+            rt_hit h1, h2;
+            int b1 = rt_brute_closest(s, &r, &h1), b2 = a.ops->closest(&tv, &r, &h2);
+            hits += b1;
+            if ((b1 != b2 || (b1 && !same_hit(&h1, &h2)) || rt_brute_occluded(s, &r) != a.ops->occluded(&tv, &r)) &&
+                nbad++ < 5)
+                CHECK(0, "kept ray %d: brute %d tri %u t %.9g, inst %d tri %u t %.9g", i, b1, h1.tri, (double)h1.t, b2,
+                      h2.tri, (double)h2.t);
+        }
+        CHECK(nbad == 0 && hits > 5000, "kept: %d rays differ, %d hits", nbad, hits);
+        rt_accel_free(&a);
+    }
+    const int modes[] = {RT_MODE_RAYCAST, RT_MODE_SHADOW, RT_MODE_WHITTED};
+    for (int m = 0; m < 3; m++) {
+        tally ta = {0}, tb = {0}, tc = {0};
+        rt_job ja, jb, jc;
+        memset(&ja, 0, sizeof ja);
+        memset(&jb, 0, sizeof jb);
+        memset(&jc, 0, sizeof jc);
+        rt_image *ia = render(s, modes[m], 0, &ta, &ja), *ib = render(k, modes[m], 1, &tb, &jb);
+        /* the two-level structure over the flattened scene: the same model,
+         * so the same layout and the same access stream as over the kept one */
+        rt_image *ic = render(s, modes[m], 1, &tc, &jc);
+        int same_layout = jb.L.n == jc.L.n;
+        for (int r = 0; same_layout && r < jb.L.n; r++)
+            same_layout = !strcmp(jb.L.r[r].name, jc.L.r[r].name) && jb.L.r[r].count == jc.L.r[r].count &&
+                          jb.L.r[r].base == jc.L.r[r].base;
+        CHECK(same_layout && tb.n == tc.n && tb.hash == tc.hash && tb.hash != 0,
+              "kept, mode %d: layout %d, %llu accesses (hash %016llx) over the kept scene, %llu (%016llx) over the "
+              "flattened one",
+              modes[m], same_layout, (unsigned long long)tb.n, (unsigned long long)tb.hash, (unsigned long long)tc.n,
+              (unsigned long long)tc.hash);
+        if (ic && ib)
+            CHECK(!memcmp(ic->rgb, ib->rgb, (size_t)ib->W * ib->H * 3 * sizeof(float)), "kept, mode %d: image differs from "
+                  "the flattened two-level run's", modes[m]);
+        rt_image_free(ic);
+        rt_job_free(&jc);
+        if (ia && ib) {
+            size_t diff = 0;
+            for (size_t i = 0; i < (size_t)ia->W * ia->H * 3; i++)
+                diff += memcmp(&ia->rgb[i], &ib->rgb[i], sizeof(float)) != 0;
+            CHECK(diff == 0, "kept, mode %d: %zu channel values differ from the flattened scene's", modes[m], diff);
+        }
+        CHECK(tb.bad == 0 && tb.n > 0, "kept, mode %d: %llu accesses off the layout", modes[m],
+              (unsigned long long)tb.bad);
+        rt_image_free(ia);
+        rt_image_free(ib);
+        rt_job_free(&ja);
+        rt_job_free(&jb);
+    }
+    rt_scene_free(k);
 }
 
 /* Reads a whole file; NULL if it cannot. */
@@ -556,6 +717,76 @@ static void test_footer(void) {
     }
 }
 
+/* Kept instances around instances that stay flattened: a singular one
+ * (Scale 1 0 1) between two records and a loose triangle after it. The
+ * singular copy is loose, in its flattened place; every index still
+ * resolves to the flattened scene's triangle and shading record, and the
+ * walk over the kept scene gives the flattened scene's brute-force hits. */
+static void test_kept_singular(void) {
+    static const char *text =
+        "LookAt 0 3 -12  0 0 0  0 1 0\n"
+        "Camera \"perspective\" \"float fov\" 45\n"
+        "WorldBegin\n"
+        "Shape \"trianglemesh\" \"point3 P\" [-8 -2 -8  8 -2 -8  8 -2 8  -8 -2 8] \"integer indices\" [0 1 2 0 2 3]\n"
+        "ObjectBegin \"box\"\n"
+        "Material \"diffuse\" \"rgb reflectance\" [0.2 0.6 0.3]\n"
+        "Shape \"trianglemesh\" \"point3 P\" [-1 -1 -1 1 -1 -1 1 1 -1 -1 1 -1 -1 -1 1 1 -1 1 1 1 1 -1 1 1]\n"
+        "  \"integer indices\" [0 1 2 0 2 3  4 6 5 4 7 6  0 4 5 0 5 1  3 2 6 3 6 7  0 3 7 0 7 4  1 5 6 1 6 2]\n"
+        "ObjectEnd\n"
+        "AttributeBegin Translate -3 0 0 Rotate 30 0 1 0 ObjectInstance \"box\" AttributeEnd\n"
+        "AttributeBegin Translate 0 1 0 Scale 1 0 1 ObjectInstance \"box\" AttributeEnd\n"
+        "Shape \"trianglemesh\" \"point3 P\" [-1 3 0  1 3 0  0 4 0] \"integer indices\" [0 1 2]\n"
+        "AttributeBegin Translate 3 0 1 Scale 0.5 1.5 1 ObjectInstance \"box\" AttributeEnd\n";
+    rt_err e = {0};
+    char *path = check_path("kept_singular.pbrt");
+    check_write_file(path, text, strlen(text));
+    rt_scene *f = rt_scene_load(path, &e), *k = rt_scene_load_flags(path, RT_LOAD_KEEP_INSTANCES, &e);
+    CHECK(f && k, "load: %s", e.msg);
+    if (!f || !k) {
+        rt_scene_free(f);
+        rt_scene_free(k);
+        return;
+    }
+    /* flattened: 2 + 12 + 12 + 1 + 12 = 39; kept: the ground, the singular copy, the triangle */
+    CHECK(f->ntri == 39 && k->nflat == 39 && k->ntri == 15 && k->nirec == 2 && k->irec[0].first == 2 &&
+              k->irec[1].first == 27 && k->irec[1].loose == 15,
+          "flat %u/%u, loose %u, records %u", f->ntri, k->nflat, k->ntri, k->nirec);
+    CHECK(rt_scene_check_kept(k, &e) == 0, "kept: %s", e.msg);
+    uint32_t bad = 0;
+    for (uint32_t i = 0; i < f->ntri && i < k->nflat; i++) {
+        rt_tri tmp;
+        bad += memcmp(rt_scene_tri_of(k, i, &tmp), &f->tri[i], sizeof(rt_tri)) != 0 ||
+               memcmp(rt_scene_shade_of(k, i), &f->shade[i], sizeof(rt_shade)) != 0;
+    }
+    CHECK(bad == 0 && !memcmp(&k->bounds, &f->bounds, sizeof k->bounds), "%u triangles differ (or the bounds)", bad);
+    rt_accel a;
+    CHECK(rt_accel_build(&a, RT_ACCEL_INST, k, NULL, &e) == 0, "build: %s", e.msg);
+    if (a.as) {
+        CHECK(rt_accel_check(&a, k, &e) == 0, "check: %s", e.msg);
+        rt_trav tv;
+        rt_accel_trav(&a, &tv, k, NULL, NULL);
+        int nbad = 0, hits = 0;
+        for (int i = 0; i < 5000; i++) {
+            rt_vec3 o = rt_v3((float)(urand() * 12 - 6), (float)(urand() * 8 - 3), (float)(urand() * 12 - 6));
+            rt_vec3 d = rt_v3((float)(urand() * 2 - 1), (float)(urand() * 2 - 1), (float)(urand() * 2 - 1));
+            if (i % 2) /* at the singular copy, the flat square y = 1 */
+                d = rt_v3((float)(urand() * 2 - 1) - o.x, 1 - o.y, (float)(urand() * 2 - 1) - o.z);
+            rt_ray r;
+            rt_ray_init(&r, o, d);
+            rt_hit h1, h2;
+            int b1 = rt_brute_closest(f, &r, &h1), b2 = a.ops->closest(&tv, &r, &h2);
+            hits += b1;
+            if ((b1 != b2 || (b1 && !same_hit(&h1, &h2)) || rt_brute_occluded(f, &r) != a.ops->occluded(&tv, &r)) &&
+                nbad++ < 5)
+                CHECK(0, "ray %d: brute %d tri %u, kept inst %d tri %u", i, b1, h1.tri, b2, h2.tri);
+        }
+        CHECK(nbad == 0 && hits > 1000, "%d rays differ, %d hits", nbad, hits);
+        rt_accel_free(&a);
+    }
+    rt_scene_free(f);
+    rt_scene_free(k);
+}
+
 int main(void) {
     rt_err e = {0};
     char *path = check_path("inst.pbrt");
@@ -610,10 +841,13 @@ int main(void) {
     CHECK(tv.xforms > 0 && tv.tests < (uint64_t)20000 * 2 * s->ntri, "transformed %llu, tests %llu",
           (unsigned long long)tv.xforms, (unsigned long long)tv.tests);
 
-    test_packets(s, &a, "scene");
+    test_packets(s, &a, s, "scene");
     corrupt_and_check(s, I);
     test_images(s);
     test_packet_images(s);
+    test_kept(path, s);
+    test_kept_singular();
+    test_packet_kept(path, s);
     test_footer();
     test_nested();
     rt_accel_free(&a);

@@ -441,6 +441,49 @@ static double now_sec(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
+/* Kept instances (RT_LOAD_KEEP_INSTANCES, scene.h): 70,000 instances of a
+ * 972-triangle object, refused when flattened (test_amplification), load
+ * holding one copy of the object, numbered as the 68,040,000 triangles of
+ * the flattened scene; instances beyond the 2^32 - 2 triangle indices are
+ * refused at the line of the first one over, naming the limit, before the
+ * rest of the file is read. */
+static void test_kept_limits(void)
+{
+    size_t cap = 70000 * 20 + 200, k = 0;
+    char *text = malloc(cap);
+    CHECK(text != NULL, "malloc");
+    if (!text) return;
+    k += (size_t)snprintf(text, cap, "WorldBegin\nObjectBegin \"s\"\nShape \"sphere\"\nObjectEnd\n");
+    for (int i = 0; i < 70000; i++) k += (size_t)snprintf(text + k, cap - k, "ObjectInstance \"s\"\n");
+    write_text("kept70k.pbrt", text);
+    char spec[700];
+    snprintf(spec, sizeof spec, "%s:tess=9", check_path("kept70k.pbrt"));
+    rt_err e = {0};
+    double t0 = now_sec();
+    rt_scene *s = rt_scene_load_flags(spec, RT_LOAD_KEEP_INSTANCES, &e);
+    double dt = now_sec() - t0;
+    CHECK(s && s->kept && s->ntri == 0 && s->notri == 972 && s->nirec == 70000 && s->nflat == 70000u * 972 &&
+              rt_scene_nshade(s) == 972,
+          "70000 kept instances: %s", s ? "wrong counts" : e.msg);
+    CHECK(!s || rt_scene_check_kept(s, &e) == 0, "70000 kept instances: %s", e.msg);
+    CHECK(dt < 5.0, "70000 kept instances loaded in %.3f s", dt);
+    rt_scene_free(s);
+    /* a tetrahedron subdivided 8 times: 4 x 4^8 = 262,144 triangles; the
+     * 16,384th instance reaches 2^32 > 2^32 - 2 */
+    k = (size_t)snprintf(text, cap, "WorldBegin\nObjectBegin \"t\"\nShape \"loopsubdiv\" \"integer levels\" 8 "
+                                    "\"point3 P\" [0 0 0 1 0 0 0 1 0 0 0 1] \"integer indices\" [0 2 1 0 1 3 0 3 2 1 2 3]\n"
+                                    "ObjectEnd\n");
+    for (int i = 0; i < 17000; i++) k += (size_t)snprintf(text + k, cap - k, "ObjectInstance \"t\"\n");
+    write_text("kept4g.pbrt", text);
+    s = rt_scene_load_flags(check_path("kept4g.pbrt"), RT_LOAD_KEEP_INSTANCES, &e);
+    char want[200];
+    snprintf(want, sizeof want, "kept4g.pbrt:%d:16: the instances would make %llu triangles, more than the 4294967294 "
+             "triangle indices", 4 + 16384, 16384ULL * 262144);
+    CHECK(!s && strstr(e.msg, want), "kept, 17000 x 262144: '%s' lacks '%s'", s ? "accepted" : e.msg, want);
+    rt_scene_free(s);
+    free(text);
+}
+
 /* Amplification is refused before anything is allocated: a 131-byte
  * tetrahedron at levels 12 (4 x 4^12 = 2^26 triangles, exactly maxtri),
  * 70,000 instances of a 972-triangle object (68 M triangles > maxtri), each
@@ -555,6 +598,7 @@ static void test_loopsubdiv(void)
                 "loopbig.pbrt:2:20: Shape \"loopsubdiv\": 1 faces at levels 40 make over 16777216 triangles, more than "
                 "maxsubdiv=4194304 (raise it with the spec parameter FILE.pbrt:maxsubdiv=N)");
     test_amplification();
+    test_kept_limits();
 }
 
 static void test_shapes(void)

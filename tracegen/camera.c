@@ -1,6 +1,9 @@
 /* camera.c -- the shared pinhole camera (see camera.h). */
 #include "camera.h"
 
+#include <math.h>
+#include <stdlib.h>
+
 double rt_cam_tan(double x)
 {
     double s, c;
@@ -60,6 +63,49 @@ static float eye_near(const rt_scene *sc, rt_vec3 eye)
     const double p[3] = {eye.x, eye.y, eye.z}, r2 = (double)reach * reach;
     for (uint32_t i = 0; i < sc->ntri; i++)
         if (dist2_tri(p, &sc->tri[i]) <= r2) return reach;
+    /* kept instances: each object's triangles as the flattened copy has
+     * them, for the instances whose box (their object's box with its
+     * corners transformed, widened) is within reach */
+    double(*ob)[2][3] = sc->kept && sc->nobj ? calloc(sc->nobj, sizeof *ob) : NULL;
+    /* (out of memory: no boxes, every instanced triangle is tested) */
+    for (uint32_t k = 0; ob && k < sc->nobj; k++) {
+        const rt_scene_obj *o = &sc->obj[k];
+        for (int a = 0; a < 3; a++) ob[k][0][a] = INFINITY, ob[k][1][a] = -INFINITY;
+        for (uint32_t j = 0; j < o->count; j++)
+            for (int c = 0; c < 3; c++)
+                for (int a = 0; a < 3; a++) {
+                    const double x = (&sc->otri[o->start + j].p[c].x)[a];
+                    if (x < ob[k][0][a]) ob[k][0][a] = x;
+                    if (x > ob[k][1][a]) ob[k][1][a] = x;
+                }
+    }
+    for (uint32_t k = 0; sc->kept && k < sc->nirec; k++) {
+        const rt_scene_inst *q = &sc->irec[k];
+        const rt_scene_obj *o = &sc->obj[q->obj];
+        double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+        for (int c = 0; ob && c < 8; c++) {
+            const double v[3] = {ob[q->obj][c & 1][0], ob[q->obj][(c >> 1) & 1][1], ob[q->obj][(c >> 2) & 1][2]};
+            for (int a = 0; a < 3; a++) {
+                const double x = q->m[a][0] * v[0] + q->m[a][1] * v[1] + q->m[a][2] * v[2] + q->m[a][3];
+                if (x < lo[a]) lo[a] = x;
+                if (x > hi[a]) hi[a] = x;
+            }
+        }
+        int near = 1;
+        for (int a = 0; ob && a < 3; a++) {
+            const double m = 1e-6 * (fabs(lo[a]) + fabs(hi[a])) + reach;
+            if (p[a] < lo[a] - m || p[a] > hi[a] + m) near = 0;
+        }
+        for (uint32_t j = 0; near && j < o->count; j++) {
+            rt_tri w;
+            rt_scene_inst_tri(q->m, &sc->otri[o->start + j], &w);
+            if (dist2_tri(p, &w) <= r2) {
+                free(ob);
+                return reach;
+            }
+        }
+    }
+    free(ob);
     return 0.0f;
 }
 

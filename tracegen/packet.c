@@ -694,7 +694,8 @@ static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_
     int *vis = want ? rt_calloc((size_t)NP * RT_NLIGHTS, sizeof *vis, e) : NULL;
     float *pn = vis ? rt_calloc(NP, sizeof *pn, e) : NULL;
     float *pt = pn ? rt_calloc(NP, sizeof *pt, e) : NULL;
-    uint8_t *mark = pt ? rt_calloc(sc->ntri ? sc->ntri : 1, 1, e) : NULL;
+    const uint32_t nmark = rt_scene_model_nslot(sc, two_level); /* marks per shading slot of the model */
+    uint8_t *mark = pt ? rt_calloc(nmark ? nmark : 1, 1, e) : NULL;
     plist *store = mark ? rt_calloc((size_t)2 * (ps.maxdepth + 1) + 1, sizeof *store, e) : NULL;
     void *pool = store ? rt_calloc(((size_t)2 * (ps.maxdepth + 1) + 1) * NP, 12, e) : NULL;
     const int authored = rt_shade_authored(sc, o) && o->lights; /* the file's lights (--light-samples) */
@@ -782,7 +783,9 @@ static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_
                     int x = px + k % pw, y = py + k / pw;
                     uint32_t pix = (uint32_t)y * (uint32_t)W + (uint32_t)x;
                     RT_REC(rec, rt_mm_addr(L, reg_hits, k), 8, 0, RT_CLS_HIT);
-                    if (hit[k].tri != RT_NO_HIT) RT_REC(rec, rt_mm_addr(L, reg_shade, hit[k].tri), 16, 0, RT_CLS_SHADE);
+                    if (hit[k].tri != RT_NO_HIT)
+                        RT_REC(rec, rt_mm_addr(L, reg_shade, rt_scene_model_slot(sc, hit[k].tri, two_level)), 16, 0,
+                               RT_CLS_SHADE);
                     rt_shade_pixel_lw(sc, o, &eye[k], hit[k].tri != RT_NO_HIT ? &hit[k] : NULL, &lw[(size_t)k * sc->nlight],
                                       img, pix);
                     img->nodes[pix] = pn[k];
@@ -821,7 +824,8 @@ static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_
                 uint32_t pix = (uint32_t)y * (uint32_t)W + (uint32_t)x;
                 RT_REC(rec, rt_mm_addr(L, reg_hits, k), 8, 0, RT_CLS_HIT);
                 if (hit[k].tri != RT_NO_HIT) {
-                    RT_REC(rec, rt_mm_addr(L, reg_shade, hit[k].tri), 16, 0, RT_CLS_SHADE);
+                    RT_REC(rec, rt_mm_addr(L, reg_shade, rt_scene_model_slot(sc, hit[k].tri, two_level)), 16, 0,
+                           RT_CLS_SHADE);
                     rt_shade_pixel(sc, &eye[k], &hit[k], &vis[k * RT_NLIGHTS], o->lights, img, pix);
                 } else {
                     rt_shade_pixel(sc, &eye[k], NULL, NULL, o->lights, img, pix);
@@ -832,7 +836,7 @@ static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_
             }
         }
     }
-    rt_stats_finish(st, &tv, mark, sc->ntri);
+    rt_stats_finish(st, &tv, mark, nmark);
     if (secondary)
         snprintf(st->extra, sizeof st->extra,
                  "packet=%d rays_secondary=%" PRIu64 " secondary_packets=%" PRIu64 " secondary_fill=%.3f self_hits=%" PRIu64,

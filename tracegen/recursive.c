@@ -118,7 +118,9 @@ static int rec_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
     const rt_layout *L = ctx->L;
     int reg_ray = rt_mm_find(L, "rays.primary"), reg_fb = rt_mm_find(L, "fb"), reg_shade = rt_mm_find(L, "tri.shade");
     uint32_t *order = rt_calloc((size_t)W * H, sizeof *order, e);
-    uint8_t *mark = rt_calloc(sc->ntri ? sc->ntri : 1, 1, e);
+    const int inst = ctx->acc->kind == RT_ACCEL_INST; /* marks and shading reads per model slot */
+    const uint32_t nmark = rt_scene_model_nslot(sc, inst);
+    uint8_t *mark = rt_calloc(nmark ? nmark : 1, 1, e);
     if (!order || !mark) {
         free(order);
         free(mark);
@@ -160,14 +162,14 @@ static int rec_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
         if (authored) {
             int hit = ctx->acc->ops->closest(&tv, &ray, &h);
             if (hit) {
-                RT_REC(rec, rt_mm_addr(L, reg_shade, h.tri), 16, 0, RT_CLS_SHADE);
+                RT_REC(rec, rt_mm_addr(L, reg_shade, rt_scene_model_slot(sc, h.tri, inst)), 16, 0, RT_CLS_SHADE);
                 tv.mark_bit = 2;
                 rec_lights(ctx, &tv, &ray, &h, lw, st);
             }
             rt_shade_pixel_lw(sc, o, &ray, hit ? &h : NULL, lw, img, pix);
         } else if (ctx->acc->ops->closest(&tv, &ray, &h)) {
             int vis[RT_NLIGHTS] = {0};
-            RT_REC(rec, rt_mm_addr(L, reg_shade, h.tri), 16, 0, RT_CLS_SHADE);
+            RT_REC(rec, rt_mm_addr(L, reg_shade, rt_scene_model_slot(sc, h.tri, inst)), 16, 0, RT_CLS_SHADE);
             tv.mark_bit = 2;
             for (unsigned left = o->lights & ((1u << RT_NLIGHTS) - 1u); left; left &= left - 1u) {
                 const int i = __builtin_ctz(left); /* the lights in turn, none without lights */
@@ -184,7 +186,7 @@ static int rec_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt
         img->tests[pix] = (float)(tv.tests - t0);
         RT_REC(rec, rt_mm_addr(L, reg_fb, pix), 12, 1, RT_CLS_FB);
     }
-    rt_stats_finish(st, &tv, mark, sc->ntri);
+    rt_stats_finish(st, &tv, mark, nmark);
     if (secondary)
         snprintf(st->extra, sizeof st->extra, "rays_secondary=%" PRIu64 " self_hits=%" PRIu64, nsec, nself);
     if (tv.xforms) { /* the two-level structure: rays transformed into an object's space */

@@ -25,7 +25,11 @@ int rt_reg_geometry(const rt_tracer_ctx *ctx, rt_layout *L, int want_shade, rt_e
             return -1;
     } else {
         if (!own && rt_mm_add(L, "tri.verts", RT_CLS_TRI, 36, ctx->sc->ntri, e) < 0) return -1;
-        if (want_shade && rt_mm_add(L, "tri.shade", RT_CLS_SHADE, 16, ctx->sc->ntri, e) < 0) return -1;
+        /* instancing (--instances bvh): the loose triangles' records, then
+         * each object's once (rt_scene_model_slot), kept or flattened alike */
+        if (want_shade && rt_mm_add(L, "tri.shade", RT_CLS_SHADE, 16,
+                                    rt_scene_model_nslot(ctx->sc, ctx->acc->kind == RT_ACCEL_INST), e) < 0)
+            return -1;
     }
     if (want_shade && rt_reg_wants_mat(ctx) &&
         rt_mm_add(L, "mat", RT_CLS_SHADE, RT_MAT_RECSIZE, ctx->sc->nmat, e) < 0)
@@ -72,8 +76,9 @@ void rt_reg_shade(const rt_tracer_ctx *ctx, rt_rec *rec, uint32_t tri)
     if (!rec) return;
     const rt_layout *L = ctx->L;
     int rs = rt_mm_find(L, "tri.shade"), rm = rt_mm_find(L, "mat");
-    RT_REC(rec, rt_mm_addr(L, rs, tri), 16, 0, RT_CLS_SHADE);
-    if (rm >= 0) RT_REC(rec, rt_mm_addr(L, rm, ctx->sc->shade[tri].mat), RT_MAT_RECSIZE, 0, RT_CLS_SHADE);
+    RT_REC(rec, rt_mm_addr(L, rs, rt_scene_model_slot(ctx->sc, tri, ctx->acc->kind == RT_ACCEL_INST)), 16, 0,
+           RT_CLS_SHADE);
+    if (rm >= 0) RT_REC(rec, rt_mm_addr(L, rm, rt_scene_shade_of(ctx->sc, tri)->mat), RT_MAT_RECSIZE, 0, RT_CLS_SHADE);
 }
 
 void rt_reg_trav(rt_trav *tv, const rt_tracer_ctx *ctx)

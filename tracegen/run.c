@@ -123,7 +123,12 @@ int rt_job_setup_borrowed(rt_job *j, rt_scene *sc, rt_kdtree *kd, const char *tr
 int rt_job_setup(rt_job *j, const char *scene_spec, const char *tracer, const rt_render_opts *o, rt_err *e)
 {
     if (setup_opts(j, tracer, o, e) < 0) return -1;
-    j->sc = rt_scene_load(scene_spec, e);
+    /* the two-level structure reads the instances as records: for the
+     * recursive tracer (which reads triangles and shading through
+     * rt_scene_tri_of / rt_scene_slot) a .pbrt file is loaded without its
+     * flattened copy (scene.h, "Kept instances"); other tracers get it */
+    const int keep = j->opt.accel == RT_ACCEL_INST && j->tr == rt_tracer_reference();
+    j->sc = rt_scene_load_flags(scene_spec, keep ? RT_LOAD_KEEP_INSTANCES : 0, e);
     if (!j->sc) return -1;
     if (rt_render_apply_view(&j->opt, j->sc, e) < 0 || apply_film(j, e) < 0 || build_accel(j, NULL, e) < 0 ||
         layout(j, e) < 0) {
@@ -219,7 +224,8 @@ static void merge_extra(const share_run *s, int n, char *out, size_t cap)
  * of the scene's triangles, or 1 byte) or-ed for the visible sets. */
 static void merge_shares(const rt_job *j, const share_run *s, int n, uint8_t *marks, rt_run_stats *st)
 {
-    const uint32_t ntri = j->sc->ntri ? j->sc->ntri : 1;
+    const uint32_t nslot = rt_scene_model_nslot(j->sc, j->acc.kind == RT_ACCEL_INST); /* marks, per model slot */
+    const uint32_t ntri = nslot ? nslot : 1;
     for (int k = 0; k < n; k++) {
         st->rays_primary += s[k].st.rays_primary;
         st->rays_shadow += s[k].st.rays_shadow;
@@ -232,7 +238,7 @@ static void merge_shares(const rt_job *j, const share_run *s, int n, uint8_t *ma
     memset(&none, 0, sizeof none);
     rt_run_stats pv;
     memset(&pv, 0, sizeof pv);
-    rt_stats_finish(&pv, &none, marks, j->sc->ntri);
+    rt_stats_finish(&pv, &none, marks, nslot);
     st->pv_primary = pv.pv_primary;
     st->pv_all = pv.pv_all;
     merge_extra(s, n, st->extra, sizeof st->extra);
@@ -242,7 +248,8 @@ static void merge_shares(const rt_job *j, const share_run *s, int n, uint8_t *ma
  * the statistics summed and the marks or-ed for the visible sets. */
 static int run_threads(rt_job *j, int n, rt_image *img, rt_run_stats *st, rt_err *e)
 {
-    const uint32_t ntri = j->sc->ntri ? j->sc->ntri : 1;
+    const uint32_t nslot = rt_scene_model_nslot(j->sc, j->acc.kind == RT_ACCEL_INST); /* marks, per model slot */
+    const uint32_t ntri = nslot ? nslot : 1;
     share_run *s = rt_calloc((size_t)n, sizeof *s, e);
     uint8_t *marks = s ? rt_calloc((size_t)n, ntri, e) : NULL;
     pthread_t *tid = marks ? rt_calloc((size_t)n, sizeof *tid, e) : NULL;
@@ -593,7 +600,8 @@ int rt_job_run_cores(rt_job *j, rt_csink *cs, rt_image *img, rt_run_stats *st, r
     }
     if (n > 1 && !(j->tr->opts & RT_OPTG_THREADS))
         return rt_errf_usage(e, "--cores %d: the %s tracer does not split its work over cores", n, j->tr->name);
-    const uint32_t ntri = j->sc->ntri ? j->sc->ntri : 1;
+    const uint32_t nslot = rt_scene_model_nslot(j->sc, j->acc.kind == RT_ACCEL_INST); /* marks, per model slot */
+    const uint32_t ntri = nslot ? nslot : 1;
     core_run *c = rt_calloc((size_t)n, sizeof *c, e);
     uint8_t *marks = c ? rt_calloc((size_t)n, ntri, e) : NULL;
     pthread_t *tid = marks ? rt_calloc((size_t)n, sizeof *tid, e) : NULL;
@@ -694,7 +702,7 @@ void rt_job_meta(const rt_job *j, const char *command, rt_tr_meta *m)
     rt_name_fit(m->scene, sizeof m->scene, j->sc->name); /* a longer name: prefix~hash */
     snprintf(m->scene_params, sizeof m->scene_params, "%s", j->sc->params);
     m->scene_hash = rt_scene_hash(j->sc);
-    m->ntri = j->sc->ntri;
+    m->ntri = rt_scene_nflat(j->sc);
     snprintf(m->tracer, sizeof m->tracer, "%s", j->tr->name);
     m->W = j->opt.W;
     m->H = j->opt.H;

@@ -72,7 +72,13 @@ int rt_job_run(rt_job *j, rt_sink *sink, rt_image *img, rt_run_stats *st, rt_err
  * Statistics are summed as for host threads. A tracer with RT_TR_CORES
  * (the dynamic scheduler: its queues dealt to the cores in rounds,
  * dynamic.c) is instead run once on the calling thread with cs in its
- * context and interleaves its cores by the same tick itself. 0 or -1.
+ * context and interleaves its cores by the same tick itself. A tracer
+ * with RT_TR_CORE_PHASES (treelet, the stream tracers, feedback) is run
+ * once on the calling thread with ctx.cores (cores.h): a recorder per core
+ * (the mesh layout's translator in front), the same tick applied phase by
+ * phase between the tracer's barriers; for it N = 1 runs that way too and
+ * is the one-core run reference for reference, and rt_job_run untraced
+ * with N > 1 runs its N-core algorithm without recording. 0 or -1.
  */
 #define RT_CORE_TICK 16
 int rt_job_run_cores(rt_job *j, rt_csink *cs, rt_image *img, rt_run_stats *st, rt_err *e);

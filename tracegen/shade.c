@@ -9,7 +9,8 @@
 /* Unit geometric normal facing the side the eye ray came from. */
 static rt_vec3 facing_normal(const rt_scene *sc, const rt_ray *eye, const rt_hit *h)
 {
-    rt_vec3 n = rt_norm(rt_tri_normal(&sc->tri[h->tri]));
+    rt_tri tmp;
+    rt_vec3 n = rt_norm(rt_tri_normal(rt_scene_tri_of(sc, h->tri, &tmp)));
     if (rt_dot(n, eye->d) > 0) n = rt_mul(n, -1.0f);
     return n;
 }
@@ -19,7 +20,8 @@ static rt_vec3 facing_normal(const rt_scene *sc, const rt_ray *eye, const rt_hit
  * scales and let the shadow ray re-hit its own triangle). */
 static rt_vec3 hit_point(const rt_scene *sc, const rt_hit *h)
 {
-    return rt_tri_point(&sc->tri[h->tri], h->u, h->v);
+    rt_tri tmp;
+    return rt_tri_point(rt_scene_tri_of(sc, h->tri, &tmp), h->u, h->v);
 }
 
 int rt_shade_ray(const rt_scene *sc, const rt_ray *eye, const rt_hit *h, int light, rt_ray *sr)
@@ -38,7 +40,7 @@ int rt_shade_ray(const rt_scene *sc, const rt_ray *eye, const rt_hit *h, int lig
 void rt_shade_hit(const rt_scene *sc, const rt_ray *eye, const rt_hit *h, const int vis[RT_NLIGHTS],
                   unsigned lights, float rgb[3])
 {
-    const float *alb = sc->shade[h->tri].rgb;
+    const float *alb = rt_scene_shade_of(sc, h->tri)->rgb;
     rt_vec3 n = facing_normal(sc, eye, h);
     if (!lights) {
         float c = -rt_dot(n, rt_norm(eye->d));
@@ -153,7 +155,8 @@ int rt_shade_sample_ray(const rt_scene *sc, const rt_render_opts *o, const rt_ra
         *tri = L->first + lo;
         float b1 = light_rand(h, i, k, 1), b2 = light_rand(h, i, k, 2);
         if (b1 + b2 > 1.0f) b1 = 1.0f - b1, b2 = 1.0f - b2;
-        q = rt_tri_point(&sc->tri[*tri], b1, b2);
+        rt_tri tmp;
+        q = rt_tri_point(rt_scene_tri_of(sc, *tri, &tmp), b1, b2);
         tmax = 0.999f;
         break;
     }
@@ -225,7 +228,7 @@ void rt_shade_pixel_lw(const rt_scene *sc, const rt_render_opts *o, const rt_ray
 {
     float rgb[3];
     if (h) {
-        const float *alb = sc->shade[h->tri].rgb;
+        const float *alb = rt_scene_shade_of(sc, h->tri)->rgb;
         for (int k = 0; k < 3; k++) rgb[k] = alb[k] * sc->ambient;
         for (uint32_t i = 0; i < sc->nlight; i++) {
             if (!rt_render_light_on(o, i) || !(lw[i] > 0)) continue;
@@ -412,8 +415,9 @@ void rt_shade_step(const rt_scene *sc, const rt_render_opts *o, const rt_path *p
         return;
     }
     const int path = o->mode == RT_MODE_PATH;
-    const rt_tri *T = &sc->tri[h->tri];
-    const rt_shade *S = &sc->shade[h->tri];
+    rt_tri Tt;
+    const rt_tri *T = rt_scene_tri_of(sc, h->tri, &Tt);
+    const rt_shade *S = rt_scene_shade_of(sc, h->tri);
     const uint16_t m = (uint16_t)(S->mat < sc->nmat ? S->mat : 0);
     const rt_material *M = &sc->mat[m];
     const float *alb = S->rgb;
