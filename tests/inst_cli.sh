@@ -68,6 +68,20 @@ for r in tlas.node inst blas.node blas.tri; do
     grep -q "^  $r " "$tmp/info" || die "trace-info lacks region $r"
 done
 
+# the packet tracer, like the recursive one, loads the instances kept (no
+# flattened copy): the file flattens to 254 triangles but holds 124 (2
+# loose, the 12-triangle box and the 110-triangle sphere once), so under
+# maxtri=200 the flattened load is refused and the kept one renders, its
+# image the flattened run's
+"$bin" render "$sc:maxtri=200" -t packet --instances bvh --lights all -W 48 -H 40 -o "$tmp/k.exr" --png "$tmp/k-packet.png" \
+    >/dev/null 2>"$tmp/err" || die "packet kept under maxtri=200: $(cat "$tmp/err")"
+"$bin" render "$sc:maxtri=200" -t packet --lights all -W 48 -H 40 -o "$tmp/k.exr" >/dev/null 2>"$tmp/err" &&
+    die "the flattened scene loaded under maxtri=200"
+grep -q "more than maxtri=200" "$tmp/err" || die "flattened under maxtri=200: $(cat "$tmp/err")"
+"$bin" render "$sc" -t packet --lights all -W 48 -H 40 -o "$tmp/k.exr" --png "$tmp/f-packet.png" >/dev/null 2>&1 ||
+    die "packet flattened"
+cmp -s "$tmp/k-packet.png" "$tmp/f-packet.png" || die "packet over the kept instances: image differs from the flattened one"
+
 # scene info: the records the two levels are built from
 "$bin" scene info "$sc" > "$tmp/sinfo" 2>&1 || die "scene info"
 grep -q '^two-level    5 instance records' "$tmp/sinfo" || die "scene info: $(grep -i inst "$tmp/sinfo")"

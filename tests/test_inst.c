@@ -288,8 +288,8 @@ static void test_packet_kept(const char *path, rt_scene *s) {
         test_packets(k, &a, s, "kept");
         rt_accel_free(&a);
     }
-    const int modes[] = {RT_MODE_SHADOW, RT_MODE_WHITTED};
-    for (int m = 0; m < 2; m++) {
+    const int modes[] = {RT_MODE_RAYCAST, RT_MODE_SHADOW, RT_MODE_WHITTED, RT_MODE_PATH};
+    for (int m = 0; m < 4; m++) {
         tally ta = {0}, tb = {0};
         rt_job ja, jb;
         memset(&ja, 0, sizeof ja);
