@@ -99,6 +99,7 @@ void rt_accel_trav(const rt_accel *a, rt_trav *tv, const rt_scene *sc, rt_rec *r
     tv->L = L;
     tv->reg_node = tv->reg_idx = tv->reg_tri = tv->reg_top = tv->reg_inst = -1;
     a->ops->trav_init(tv, a->as, L);
+    rt_alpha_at_init(&tv->alpha, L);
 }
 
 int rt_accel_check(const rt_accel *a, const rt_scene *sc, rt_err *e)
@@ -136,16 +137,19 @@ static void naive_count(rt_trav *tv)
     }
 }
 
+static int brute_closest_at(const rt_scene *sc, const rt_ray *rp, rt_hit *h, const rt_alpha_at *at, rt_rec *rec);
+static int brute_occluded_at(const rt_scene *sc, const rt_ray *rp, const rt_alpha_at *at, rt_rec *rec);
+
 static int naive_closest(rt_trav *tv, const rt_ray *r, rt_hit *h)
 {
     naive_count(tv);
-    return rt_brute_closest(tv->sc, r, h);
+    return brute_closest_at(tv->sc, r, h, &tv->alpha, tv->rec);
 }
 
 static int naive_occluded(rt_trav *tv, const rt_ray *r)
 {
     naive_count(tv);
-    return rt_brute_occluded(tv->sc, r);
+    return brute_occluded_at(tv->sc, r, &tv->alpha, tv->rec);
 }
 
 static const rt_accel_ops rt_accel_naive = {
@@ -158,7 +162,10 @@ static const rt_accel_ops rt_accel_naive = {
 
 /* ---- the brute-force reference ------------------------------------------- */
 
-int rt_brute_closest(const rt_scene *sc, const rt_ray *rp, rt_hit *h)
+int rt_brute_closest(const rt_scene *sc, const rt_ray *rp, rt_hit *h) { return brute_closest_at(sc, rp, h, NULL, NULL); }
+int rt_brute_occluded(const rt_scene *sc, const rt_ray *rp) { return brute_occluded_at(sc, rp, NULL, NULL); }
+
+static int brute_closest_at(const rt_scene *sc, const rt_ray *rp, rt_hit *h, const rt_alpha_at *at, rt_rec *rec)
 {
     const rt_ray ray = *rp, *r = &ray;
     const rt_tri *tris = sc->tri;
@@ -170,7 +177,7 @@ int rt_brute_closest(const rt_scene *sc, const rt_ray *rp, rt_hit *h)
         float t, u, v;
         if (!rt_isect_core(r, &tris[i], &t, &u, &v)) continue;
         /* Ascending i: an equal t never beats the earlier, lower index. */
-        if (t > r->tmin && t < best.t) {
+        if (t > r->tmin && t < best.t && !rt_alpha_cut(sc->alpha, at, rec, r, i, u, v)) {
             best.t = t;
             best.tri = i;
             best.u = u;
@@ -185,14 +192,16 @@ int rt_brute_closest(const rt_scene *sc, const rt_ray *rp, rt_hit *h)
     return 1;
 }
 
-int rt_brute_occluded(const rt_scene *sc, const rt_ray *rp)
+static int brute_occluded_at(const rt_scene *sc, const rt_ray *rp, const rt_alpha_at *at, rt_rec *rec)
 {
     const rt_ray ray = *rp, *r = &ray;
     const rt_tri *tris = sc->tri;
     const uint32_t n = sc->ntri;
     for (uint32_t i = 0; i < n; i++) {
         float t, u, v;
-        if (rt_isect_core(r, &tris[i], &t, &u, &v) && t > r->tmin && t < r->tmax) return 1;
+        if (rt_isect_core(r, &tris[i], &t, &u, &v) && t > r->tmin && t < r->tmax &&
+            !rt_alpha_cut(sc->alpha, at, rec, r, i, u, v))
+            return 1;
     }
     return 0;
 }

@@ -1557,6 +1557,7 @@ void rt_bvh_trav_init(rt_bvh_trav *tv, const rt_bvh *b, const rt_scene *sc, rt_r
         tv->reg_node = nn ? rt_mm_find(L, nn) : -1;
         tv->reg_tri = rt_mm_find(L, "bvh.tri");
     }
+    rt_alpha_at_init(&tv->alpha, L);
 }
 
 /* ---- the BVHs as members of the acceleration layer (accel.h) ------------- */

@@ -176,6 +176,8 @@ typedef struct wstate {
     uint8_t *mark;
     uint8_t mark_bit;
     rt_rec *rec;
+    const rt_scene_alpha *alpha; /* the scene's alpha textures (NULL: none) */
+    const rt_alpha_at *aat;      /* where the filter records */
 #if defined(__SSE2__)
     rt_isect_sse iq;    /* the ray for the triangle test */
 #endif
@@ -199,8 +201,9 @@ static RT_ALWAYS_INLINE int leaf_tris(const rt_ray *r, uint32_t first, uint32_t 
 #endif
         if (rt_bvh_degenerate(S->degen, k)) continue;
         if (any) {
-            if (t > S->tmin && t < S->tmax) return 1;
-        } else if (t > S->tmin && (t < S->best || (t == S->best && o < S->btri))) {
+            if (t > S->tmin && t < S->tmax && !rt_alpha_cut(S->alpha, S->aat, S->rec, r, o, u, v)) return 1;
+        } else if (t > S->tmin && (t < S->best || (t == S->best && o < S->btri)) &&
+                   !rt_alpha_cut(S->alpha, S->aat, S->rec, r, o, u, v)) {
             S->found = 1;
             S->best = t;
             S->btri = o;
@@ -246,6 +249,8 @@ static RT_ALWAYS_INLINE void wstate_init(wstate *S, const rt_bvh_trav *tv, const
     S->mark = tv->mark;
     S->mark_bit = tv->mark_bit;
     S->rec = tv->rec;
+    S->alpha = tv->sc ? tv->sc->alpha : NULL;
+    S->aat = &tv->alpha;
 #if defined(__SSE2__)
     rt_isect_sse_init(&S->iq, r);
 #endif

@@ -599,6 +599,12 @@ float rt_grid_ttol(const rt_grid *g, const rt_ray *r)
 int rt_grid_cell_closest(const rt_grid *g, const rt_scene *s, const rt_ray *r, const rt_grid_cell *c, float tol,
                          rt_hit *h, uint64_t *tests)
 {
+    return rt_grid_cell_closest_at(g, s, r, c, tol, h, tests, NULL, NULL);
+}
+
+int rt_grid_cell_closest_at(const rt_grid *g, const rt_scene *s, const rt_ray *r, const rt_grid_cell *c, float tol,
+                            rt_hit *h, uint64_t *tests, const rt_alpha_at *at, rt_rec *rec)
+{
     const uint32_t w = g->cells[c->id];
     if (w == RT_GRID_NULL) return h->tri != RT_NO_HIT;
     const float lo = c->t0 - tol, hi = c->t1 + tol, rtmin = r->tmin, rtmax = r->tmax;
@@ -612,7 +618,7 @@ int rt_grid_cell_closest(const rt_grid *g, const rt_scene *s, const rt_ray *r, c
         n++;
         if (!rt_isect_core(r, &tris[tri], &t, &u, &v)) continue;
         if (!(t > rtmin && t < rtmax && t >= lo && t <= hi)) continue;
-        if (t < best || (t == best && tri < besttri)) {
+        if ((t < best || (t == best && tri < besttri)) && !rt_alpha_cut(s->alpha, at, rec, r, tri, u, v)) {
             found = 1;
             best = t;
             besttri = tri;
@@ -668,7 +674,8 @@ int rt_grid_any(const rt_grid *g, const rt_scene *s, const rt_ray *rp, rt_grid_c
         for (const uint32_t *p = g->list + w; *p != RT_GRID_NULL; p++) {
             float t, u, v;
             ntest++;
-            if (rt_isect_core(r, &tris[*p], &t, &u, &v) && t > r->tmin && t < r->tmax) {
+            if (rt_isect_core(r, &tris[*p], &t, &u, &v) && t > r->tmin && t < r->tmax &&
+                !rt_alpha_cut(s->alpha, NULL, NULL, r, *p, u, v)) {
                 hit = 1;
                 break;
             }

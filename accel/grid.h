@@ -169,6 +169,12 @@ int rt_grid_closest(const rt_grid *g, const rt_scene *s, const rt_ray *r, rt_hit
  * to *tests (may be NULL). Returns 1 when *h holds a hit afterwards. */
 int rt_grid_cell_closest(const rt_grid *g, const rt_scene *s, const rt_ray *r, const rt_grid_cell *c, float tol,
                          rt_hit *h, uint64_t *tests);
+/* The same, recording the alpha filter's reads into rec at the addresses
+ * of at (either may be NULL).
+ * Every grid walk applies the filter (rt_alpha_cut) to the hits it would
+ * accept; the others record nothing. */
+int rt_grid_cell_closest_at(const rt_grid *g, const rt_scene *s, const rt_ray *r, const rt_grid_cell *c, float tol,
+                            rt_hit *h, uint64_t *tests, const rt_alpha_at *at, rt_rec *rec);
 /* Any hit in (r->tmin, r->tmax) (shadow rays); the cell window does not
  * apply. Returns 1 if occluded. */
 int rt_grid_any(const rt_grid *g, const rt_scene *s, const rt_ray *r, rt_grid_count *cnt);

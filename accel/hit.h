@@ -7,11 +7,15 @@
  * hit when the watertight test (isect.h) finds t in (r->tmin, r->tmax); of
  * all hits the smallest t wins, and among hits at the same t the lowest
  * triangle index (the scene's original index, whatever order a structure
- * stores triangles in) wins.
+ * stores triangles in) wins. A hit that the scene's alpha texture cuts
+ * away (rt_alpha_cut, src/alpha.h) is no hit: every walk asks the filter
+ * of each hit it would accept and goes on past the cut ones, so the rule
+ * holds among the hits not cut.
  */
 #ifndef RT_HIT_H
 #define RT_HIT_H
 
+#include "alpha.h"
 #include "isect.h"
 #include "memmodel.h"
 #include "scene.h"
@@ -63,9 +67,11 @@ typedef struct rt_trav {
     int width;           /* BVH branching factor (2, 4, 8); 0 for other structures */
     int reg_top, reg_inst; /* inst: the top-level nodes' and instance records' regions (-1: none) */
     uint64_t xforms;     /* inst: rays transformed into an object's space (running count) */
+    rt_alpha_at alpha;   /* where the alpha filter's reads are recorded (rt_alpha_at_init) */
 } rt_trav;
 
-/* Brute force over all triangles: the obviously-correct reference. */
+/* Brute force over all triangles: the obviously-correct reference (the
+ * alpha filter applied to every hit, nothing recorded). */
 int rt_brute_closest(const rt_scene *sc, const rt_ray *r, rt_hit *h);
 int rt_brute_occluded(const rt_scene *sc, const rt_ray *r);
 

@@ -516,13 +516,14 @@ static void walk_blas(walk *W, uint32_t k) {
                     if (!rt_isect_core(r, T, &t, &u, &v) || !(t > r->tmin))
                         continue;
                     if (W->any) {
-                        if (t < r->tmax) {
+                        if (t < r->tmax && !rt_alpha_cut(tv->sc->alpha, &tv->alpha, tv->rec, r, tri, u, v)) {
                             W->found = 1;
                             return;
                         }
                         continue;
                     }
-                    if (rt_hit_better(&W->best, t, tri) && t < r->tmax) {
+                    if (rt_hit_better(&W->best, t, tri) && t < r->tmax &&
+                        !rt_alpha_cut(tv->sc->alpha, &tv->alpha, tv->rec, r, tri, u, v)) {
                         W->best.t = t, W->best.tri = tri, W->best.u = u, W->best.v = v;
                         W->found = 1;
                     }

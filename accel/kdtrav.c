@@ -187,11 +187,12 @@ static RT_ALWAYS_INLINE int traverse_plain(rt_trav *tv, const rt_ray *rp, uint32
                 float t, u, v;
                 if (!rt_isect_core(r, &tris[tri], &t, &u, &v)) continue;
                 if (any) {
-                    if (t > rtmin && t < rtmax) {
+                    if (t > rtmin && t < rtmax && !rt_alpha_cut(tv->sc->alpha, &tv->alpha, tv->rec, r, tri, u, v)) {
                         occluded = 1;
                         goto done;
                     }
-                } else if (t > rtmin && (t < best || (t == best && tri < besttri))) {
+                } else if (t > rtmin && (t < best || (t == best && tri < besttri)) &&
+                           !rt_alpha_cut(tv->sc->alpha, &tv->alpha, tv->rec, r, tri, u, v)) {
                     found = 1;
                     best = t;
                     besttri = tri;
@@ -288,7 +289,23 @@ typedef struct leaf_ctx {
     rt_rec_w w;           /* recorder's local writer (memmodel.h; recording walk only) */
     uint64_t tri_base;    /* triangle region: base and record size (rt_mm_addr, */
     uint64_t tri_size;    /* hoisted: the recorder's stores may alias the layout) */
+    const rt_scene_alpha *alpha; /* the scene's alpha textures (NULL: none) */
+    const rt_alpha_at *aat;      /* where the filter records */
+    rt_rec *rec;                 /* the walk's recorder (NULL: not recording) */
 } leaf_ctx;
+
+/* The alpha filter (rt_alpha_cut) inside a leaf: the filter records
+ * through the recorder itself, so the local writer hands its count back
+ * around it (memmodel.h: nothing else may record between wbegin and
+ * wend). */
+static RT_ALWAYS_INLINE int leaf_cut(leaf_ctx *c, const int recording, uint32_t tri, float u, float v)
+{
+    if (__builtin_expect(c->alpha == NULL, 1)) return 0;
+    if (recording) rt_rec_wend(&c->w);
+    const int cut = rt_alpha_cut(c->alpha, c->aat, c->rec, c->r, tri, u, v);
+    if (recording) rt_rec_wbegin(&c->w, c->w.rec);
+    return cut;
+}
 
 static RT_ALWAYS_INLINE void leaf_setup(leaf_ctx *c, const rt_trav *tv, const rt_ray *r, const float *o,
                                         const int recording)
@@ -297,6 +314,9 @@ static RT_ALWAYS_INLINE void leaf_setup(leaf_ctx *c, const rt_trav *tv, const rt
     c->tris = tv->sc->tri;
     c->mark = tv->mark;
     c->mbit = tv->mark_bit;
+    c->alpha = tv->sc->alpha;
+    c->aat = &tv->alpha;
+    c->rec = tv->rec;
     if (recording) rt_rec_wbegin(&c->w, tv->rec);
     c->tri_base = recording ? tv->L->r[tv->reg_tri].base : 0;
     c->tri_size = recording ? tv->L->r[tv->reg_tri].recsize : 0;
@@ -350,13 +370,14 @@ static RT_ALWAYS_INLINE int leaf_test(leaf_ctx *c, const rt_kd_quad *q, uint32_t
                 /* the fallback lane's triangle is live: not degenerate */
                 if (!(hit >> j & 1u) && !rt_isect_core_nd(c->r, &c->tris[tri], &t, &u, &v)) continue;
                 if (any) {
-                    if (t > rtmin && t < rtmax) {
+                    if (t > rtmin && t < rtmax && !leaf_cut(c, recording, tri, u, v)) {
                         occluded = 1;
                         lanes = j + 1;
                         break;
                     }
-                } else if (strict ? t > rtmin && t < rtmax && (!b->found || t < b->t || (t == b->t && tri < b->tri))
-                                  : t > rtmin && (t < b->t || (t == b->t && tri < b->tri))) {
+                } else if ((strict ? t > rtmin && t < rtmax && (!b->found || t < b->t || (t == b->t && tri < b->tri))
+                                   : t > rtmin && (t < b->t || (t == b->t && tri < b->tri))) &&
+                           !leaf_cut(c, recording, tri, u, v)) {
                     b->found = 1;
                     b->t = t;
                     b->tri = tri;
@@ -604,8 +625,13 @@ int rt_kd_leaf(rt_trav *tv, const rt_ray *r, uint32_t node, rt_hit *h, int any)
         if (tv->mark) tv->mark[tri] |= tv->mark_bit;
         float t, u, v;
         if (!rt_isect_core(r, &tv->sc->tri[tri], &t, &u, &v) || !(t > r->tmin && t < r->tmax)) continue;
-        if (any) return 1;
-        changed |= take_hit(h, t, u, v, tri);
+        if (any) {
+            if (rt_alpha_cut(tv->sc->alpha, &tv->alpha, tv->rec, r, tri, u, v)) continue;
+            return 1;
+        }
+        if ((h->tri == RT_NO_HIT || t < h->t || (t == h->t && tri < h->tri)) &&
+            !rt_alpha_cut(tv->sc->alpha, &tv->alpha, tv->rec, r, tri, u, v))
+            changed |= take_hit(h, t, u, v, tri);
     }
     return changed;
 }
@@ -641,8 +667,13 @@ int rt_kd_leaf_scan(const rt_trav *tv, const rt_ray *r, uint32_t node, rt_hit *h
         float t, u, v;
         *ntested = k + 1;
         if (!rt_isect_core(r, &tv->sc->tri[tri], &t, &u, &v) || !(t > r->tmin && t < r->tmax)) continue;
-        if (any) return 1;
-        changed |= take_hit(h, t, u, v, tri);
+        if (any) {
+            if (rt_alpha_cut(tv->sc->alpha, &tv->alpha, tv->rec, r, tri, u, v)) continue;
+            return 1;
+        }
+        if ((h->tri == RT_NO_HIT || t < h->t || (t == h->t && tri < h->tri)) &&
+            !rt_alpha_cut(tv->sc->alpha, &tv->alpha, tv->rec, r, tri, u, v))
+            changed |= take_hit(h, t, u, v, tri);
     }
     return changed;
 }

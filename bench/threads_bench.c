@@ -98,7 +98,7 @@ int rt_threads_bench(FILE *out, rt_scene *sc, const rt_render_opts *base, const 
             rc = rt_errf(e, "unknown tracer '%s' (%s)", t, rt_tracer_names());
             break;
         }
-        if (!(tr->opts & RT_OPTG_THREADS)) {
+        if (!(tr->opts & RT_OPTG_THREADS) && !rt_tracer_is(tr, RT_TR_CORES)) {
             fprintf(out, "| %s | (runs on one host thread) | | | | | | | |\n", t);
             continue;
         }

@@ -47,8 +47,20 @@ typedef struct mc_core {
     uint64_t sent; /* lines this core's last private level sent to the shared levels */
 } mc_core;
 
+/* The sharer filter (several cores only): a table of FBITS-bit hashes of
+ * line numbers, each slot the union over the lines hashing there of the
+ * cores (bit k % 63) that may hold them in a private level (set when a
+ * line enters a core's first private level; never cleared, so a superset)
+ * and (bit 63) whether any of them was ever written. A write probes only
+ * the cores the slot names; a read miss probes none when the slot was
+ * never written (geometry). Exact: it only skips probes that would find
+ * nothing. Small enough (128 KB) to stay in the host's cache. */
+enum { FBITS = 14 };
+#define WROTE (1ull << 63)
+
 struct rt_mc {
     rt_mc_config cfg;
+    uint64_t *hold; /* the filter: may-hold core masks and the written bit */
     int np;        /* private levels */
     uint32_t line; /* their line size */
     mc_core *cores;
@@ -235,6 +247,7 @@ void rt_mc_free(rt_mc *m)
             free(m->cores[k].lv[p].lost.k);
         }
     free(m->cores);
+    free(m->hold);
     rt_hier_free(m->sh);
     free(m);
 }
@@ -251,6 +264,9 @@ rt_mc *rt_mc_new(const rt_mc_config *c, rt_err *e)
     m->np = c->nprivate;
     m->line = c->h.level[0].line;
     if (!(m->cores = rt_calloc((size_t)c->ncores, sizeof *m->cores, e))) goto fail;
+    if (c->ncores > 1 && m->np &&
+        !(m->hold = rt_calloc((size_t)1 << FBITS, sizeof *m->hold, e)))
+        goto fail;
     for (int k = 0; k < c->ncores; k++)
         for (int p = 0; p < m->np; p++) {
             const rt_sim_config *l = &c->h.level[p];
@@ -318,12 +334,25 @@ static void coh_writeback(rt_mc *m, int k, uint64_t line, unsigned cg)
     sh_send(m, &a);
 }
 
+static inline size_t fslot(uint64_t line) { return (size_t)((line * 0x9E3779B97F4A7C15ULL) >> (64 - FBITS)); }
+static inline uint64_t cbit(const struct rt_mc *m, int k) { (void)m; return 1ull << (k % 63); }
+/* The cores other than self the slot may name (past 63 cores bits are
+ * shared: self's kept, a superset). */
+static inline uint64_t others_of(const rt_mc *m, uint64_t slot, int self)
+{
+    return slot & ~WROTE & ~(m->cfg.ncores <= 63 ? cbit(m, self) : 0);
+}
+
 /* Write-invalidate: every other core drops line from each private level
  * (one write-back when a copy was dirty). cg: the invalidating write's. */
 static int invalidate(rt_mc *m, int self, uint64_t line, unsigned cg)
 {
+    const size_t h = fslot(line);
+    m->hold[h] |= WROTE;
+    const uint64_t others = others_of(m, m->hold[h], self);
+    if (!others) return 0;
     for (int k = 0; k < m->cfg.ncores; k++) {
-        if (k == self) continue;
+        if (k == self || !(others & cbit(m, k))) continue;
         mc_core *c = &m->cores[k];
         int dirty = 0;
         unsigned dcg = 0;
@@ -344,8 +373,13 @@ static int invalidate(rt_mc *m, int self, uint64_t line, unsigned cg)
  * back and keeps it clean. */
 static void downgrade(rt_mc *m, int self, uint64_t line)
 {
+    const size_t h = fslot(line);
+    const uint64_t slot = m->hold[h];
+    m->hold[h] = slot | cbit(m, self); /* the line enters self's private levels */
+    if (!(slot & WROTE)) return;
+    const uint64_t others = others_of(m, slot, self);
     for (int k = 0; k < m->cfg.ncores; k++) {
-        if (k == self) continue;
+        if (k == self || !(others & cbit(m, k))) continue;
         mc_core *c = &m->cores[k];
         int dirty = 0;
         unsigned dcg = 0;
@@ -364,9 +398,11 @@ static void downgrade(rt_mc *m, int self, uint64_t line)
 static inline void ptouch(rt_mc *m, int k, int p, uint64_t line, int write, unsigned cg, uint32_t bytes, uint64_t lo)
 {
     mc_level *v = &m->cores[k].lv[p];
-    if (!rt_sa_touch(v->sa, line, write, cg, bytes, lo)) {
-        if (v->lost.n && ls_take(&v->lost, line)) v->coh[cg]++;
-        if (p == 0 && !write && m->cfg.ncores > 1) downgrade(m, k, line);
+    if (rt_sa_touch(v->sa, line, write, cg, bytes, lo)) return; /* a write-back write-allocate hit sends nothing */
+    if (v->lost.n && ls_take(&v->lost, line)) v->coh[cg]++;
+    if (p == 0 && m->hold) {
+        if (!write) downgrade(m, k, line);
+        else m->hold[fslot(line)] |= cbit(m, k); /* the line enters k's private levels */
     }
     rt_sa_send_below(v->sa);
 }

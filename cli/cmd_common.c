@@ -199,10 +199,17 @@ int rt_cmd_check_tracer_opts(const char *cmd, const char *tracer, const rt_rende
         return -1;
     }
     const int th = rt_render_opt_find("--threads");
-    if (th >= 0 && (o->given & ((uint64_t)1 << th)) && !(tr->opts & RT_OPTG_THREADS) && (tr->opts & RT_OPTG_SCHED)) {
+    if (th >= 0 && (o->given & ((uint64_t)1 << th)) && !(tr->opts & RT_OPTG_THREADS) && (tr->opts & RT_OPTG_SCHED) &&
+        !rt_tracer_is(tr, RT_TR_CORES)) {
         /* the former spelling of the scheduler's modeled threads */
         rt_cmd_error(cmd, "--threads: host threads do not apply to the %s tracer (one serial schedule); its modeled "
                           "threads are now --cores N", tr->name);
+        return -1;
+    }
+    if (th >= 0 && (o->given & ((uint64_t)1 << th)) && o->host_threads > 1 && rt_tracer_is(tr, RT_TR_CORES) &&
+        rt_render_secondary(o)) {
+        rt_cmd_error(cmd, "--threads %d: the %s tracer runs the whitted and path modes on one thread", o->host_threads,
+                     tr->name);
         return -1;
     }
     if (rt_tracer_check_given(tr, o, &e) < 0 || rt_tracer_check_opts(tr, o, &e) < 0 ||

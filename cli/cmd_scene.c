@@ -11,6 +11,7 @@
  */
 #include "config.h"
 #include "accel.h"
+#include "alpha.h"
 #include "cmd.h"
 #include "scene.h"
 #include "scene_load.h"
@@ -175,6 +176,12 @@ static int cmd_info(int argc, char **argv)
         printf(",\n  \"params\": ");
         json_str(s->params);
         printf(",\n  \"triangles\": %u,\n", s->ntri);
+        if (s->alpha) {
+            uint32_t cut = 0;
+            for (uint32_t t = 0; t < s->alpha->nrec; t++) cut += s->alpha->tmap[t] != 0;
+            printf("  \"alpha_textures\": %u,\n  \"alpha_texels\": %" PRIu64 ",\n  \"alpha_triangles\": %u,\n",
+                   s->alpha->nmap, s->alpha->ntexel, cut);
+        }
         if (s->ninst)
             printf("  \"instances\": %u,\n  \"triangles_unique\": %u,\n  \"triangles_instanced\": %u,\n", s->ninst,
                    s->ntri_unique, s->ntri_inst);
@@ -234,6 +241,12 @@ static int cmd_info(int argc, char **argv)
                    s->ntri_inst);
         if (s->nirec)
             printf("two-level    %u instance records (objects of 3 or more triangles; --instances bvh)\n", s->nirec);
+        if (s->alpha) {
+            uint32_t cut = 0;
+            for (uint32_t t = 0; t < s->alpha->nrec; t++) cut += s->alpha->tmap[t] != 0;
+            printf("alpha        %u texture%s (%" PRIu64 " texels), %u triangles with a cutout\n", s->alpha->nmap,
+                   s->alpha->nmap == 1 ? "" : "s", s->alpha->ntexel, cut);
+        }
         if (s->film_w) printf("film         %dx%d (the default image size)\n", s->film_w, s->film_h);
         printf("hash         %016" PRIx64 "\n", h);
         printf("bounds       (%.6g, %.6g, %.6g) - (%.6g, %.6g, %.6g)\n", (double)s->bounds.lo.x,

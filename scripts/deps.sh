@@ -11,13 +11,14 @@
 # in every Debian system (Priority: required).
 set -euo pipefail
 # build-essential autoconf automake pkg-config: the build; libsqlite3-dev
-# zlib1g-dev libopenexr-dev: the libraries; sqlite3: the tests read the
+# zlib1g-dev libopenexr-dev libpng-dev: the libraries (libpng: alpha
+# textures on PNG files); sqlite3: the tests read the
 # databases; gnuplot-nox: run.sh's plots; procps: pgrep and ps in the tests;
 # clang libclang-rt-14-dev: the fuzz harnesses (make fuzz, check-long);
 # python3: the reliability probes (check-long) and tests/fuzz/make_corpus.sh;
 # git: the revision recorded in every result (the build does without it)
 # and .ci/run's check of the golden files; ca-certificates: clones over https.
-main="build-essential autoconf automake pkg-config libsqlite3-dev zlib1g-dev libopenexr-dev sqlite3 gnuplot-nox
+main="build-essential autoconf automake pkg-config libsqlite3-dev zlib1g-dev libopenexr-dev libpng-dev sqlite3 gnuplot-nox
 procps clang libclang-rt-14-dev python3 git ca-certificates"
 engines="parallel slurm-wlm munge"
 fresh="debootstrap"

@@ -11,6 +11,7 @@
  */
 #include "config.h"
 #include "scene.h"
+#include "alpha.h"
 #include "outfile.h"
 
 #include <errno.h>
@@ -218,6 +219,7 @@ void rt_scene_free(rt_scene *s)
     for (uint32_t i = 0; i < s->nlight; i++) free(s->lights[i].cdf);
     free(s->lights);
     free(s->warn);
+    rt_alpha_free(s->alpha);
     free(s);
 }
 
@@ -669,6 +671,18 @@ uint64_t rt_scene_hash(const rt_scene *s)
             h = hash_f(hash_v(hash_v(h, l->p), l->d), l->r);
             h = hash_u32(hash_u32(hash_f(h, l->scale), l->first), l->count);
         }
+    if (s->alpha) { /* only a scene with alpha textures: other hashes unchanged */
+        const rt_scene_alpha *A = s->alpha;
+        h = hash_u32(hash_u32(h, 0x616c7068u), A->nmap);
+        for (uint32_t k = 0; k < A->nmap; k++) h = hash_u32(hash_u32(h, A->map[k].w), A->map[k].h);
+        for (uint64_t i = 0; i < A->ntexel; i++) h = hash_f(h, A->texel[i]);
+        h = hash_u32(h, A->ntri);
+        for (uint32_t t = 0; t < A->nrec; t++) {
+            h = hash_u32(h, A->tmap[t]);
+            if (A->tmap[t])
+                for (int j = 0; j < 6; j++) h = hash_f(h, A->uv[6 * (size_t)t + j]);
+        }
+    }
     return h;
 }
 

@@ -234,6 +234,7 @@ typedef struct rt_scene {
     int kept;               /* 1: instances kept, not flattened ("Kept instances" above) */
     uint32_t nflat;         /* kept: triangles of the flattened scene (indices 0 .. nflat - 1); else ntri */
     uint32_t nirec_tri;     /* triangles of the instance records (their objects' counts summed) */
+    struct rt_scene_alpha *alpha; /* alpha textures and their triangles (src/alpha.h; owned), NULL = every hit counts */
 } rt_scene;
 
 /* Triangles of the flattened scene: the range of triangle indices. */

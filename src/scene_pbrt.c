@@ -50,6 +50,7 @@
  * rt_dsincos_deg), so the triangles are the same on every machine.
  */
 #include "config.h"
+#include "alpha.h"
 #include "scene.h"
 #include "scene_load.h"
 #include "scene_file.h"
@@ -154,6 +155,21 @@ typedef struct arealight {
     char at[200];         /* "FILE:LINE" of its Shape */
 } arealight;
 
+/* A named texture (Texture "name" "float" "imagemap" ...): the image is
+ * read at the directive; map is its index among the alpha maps, -1 for a
+ * texture of another type or class (an alpha naming it is drawn opaque). */
+typedef struct texdef {
+    int map;
+} texdef;
+
+/* The triangles of one shape with an alpha texture: [first, first +
+ * count) in the order the shapes were made (instances not yet expanded),
+ * the map and each triangle's three uv (6 floats, owned). */
+typedef struct aspan {
+    uint32_t first, count, map;
+    float *uv;
+} aspan;
+
 typedef struct pbrt {
     rt_scene *s;
     rt_err *e;
@@ -200,6 +216,16 @@ typedef struct pbrt {
     int nlights_all;    /* lights seen, area lights included */
     arealight *al;      /* area-light shapes outside objects */
     int nal, cal;
+    texdef *tex;        /* named textures */
+    int ntex, ctex;
+    namemap named_tex;
+    rt_alpha_map *amap; /* alpha maps read (float imagemap textures) */
+    uint32_t namap, camap;
+    float *texel;       /* their texels, map after map */
+    uint64_t ntexel, ctexel;
+    aspan *span;        /* shapes with an alpha texture */
+    int alpha_off;      /* spec parameter alpha=0: alpha textures drawn opaque */
+    int nspan, cspan;
     const float *cur_rgb; /* colour and table index of the shape being made */
     uint32_t cur_mat;
     token shape_tok;    /* its type string, for messages */
@@ -1810,6 +1836,306 @@ static int make_curve(pbrt *P, const token *tt, plist *L)
     return 0;
 }
 
+/* ------------------------------------------------------------------------ */
+/* Alpha textures                                                            */
+
+/* 1 when name ends in ext (case-insensitive). */
+static int has_ext(const char *name, const char *ext)
+{
+    size_t n = strlen(name), k = strlen(ext);
+    if (n < k) return 0;
+    for (size_t i = 0; i < k; i++) {
+        char c = name[n - k + i];
+        if (c >= 'A' && c <= 'Z') c = (char)(c - 'A' + 'a');
+        if (c != ext[i]) return 0;
+    }
+    return 1;
+}
+
+/* Texture "name" "type" "class" params. A float imagemap is read here
+ * (PNG through libpng, OpenEXR through OpenEXRCore; the file named as
+ * pbrt resolves it, opened once like every file) into an alpha map, its
+ * texels already scaled and inverted (src/alpha.h); every other texture
+ * is skipped with a warning. A shape names the texture later by "texture
+ * alpha". */
+static int do_texture(pbrt *P, const token *d)
+{
+    char name[256], type[32], cls[32], q[300];
+    token tn, tt, tc;
+    plist L = {NULL, 0, 0};
+    if (need_string(P, d, name, sizeof name, &tn) < 0 || need_string(P, d, type, sizeof type, &tt) < 0 ||
+        need_string(P, d, cls, sizeof cls, &tc) < 0 || parse_params(P, &L) < 0)
+        goto fail;
+    rt_esc(q, sizeof q, name, 200);
+    texdef td = {-1};
+    if (strcmp(type, "float") || strcmp(cls, "imagemap")) {
+        pwarn(P, d, "Texture", "Texture skipped (not a float imagemap)");
+    } else {
+        char fname[4096], enc[32], filt[32], wrap[32], why[200], q2[300];
+        double scale;
+        const double *bv;
+        size_t nb;
+        int inv = 0;
+        if (pstring(P, &L, "filename", fname, sizeof fname) < 0 || pstring(P, &L, "encoding", enc, sizeof enc) < 0 ||
+            pstring(P, &L, "filter", filt, sizeof filt) < 0 || pstring(P, &L, "wrap", wrap, sizeof wrap) < 0 ||
+            pfloat(P, &L, "scale", 1.0, &scale) < 0)
+            goto fail;
+        int rb = pnums(P, &L, "invert", B(PT_BOOL), "bool", 1, 1, &bv, &nb);
+        if (rb < 0) goto fail;
+        if (rb) inv = bv[0] != 0;
+        if (!fname[0]) {
+            perr(P, &tc, "Texture \"%s\": missing \"string filename\"", q);
+            goto fail;
+        }
+        rt_esc(q2, sizeof q2, fname, 256);
+        if (!isfinite(scale)) {
+            perr(P, &pfind(&L, "scale")->at, "Texture \"%s\": scale is not finite", q);
+            goto fail;
+        }
+        int png = has_ext(fname, ".png"), exr = has_ext(fname, ".exr");
+        if (!png && !exr) {
+            perr(P, &pfind(&L, "filename")->at, "Texture \"%s\": \"%s\": only PNG (.png) and OpenEXR (.exr) images are read",
+                 q, q2);
+            goto fail;
+        }
+        int srgb = png; /* pbrt's default encoding: sRGB for PNG, linear otherwise */
+        if (!strcmp(enc, "linear")) srgb = 0;
+        else if (!strcmp(enc, "sRGB")) srgb = 1;
+        else if (enc[0]) {
+            char a[40];
+            pwarn(P, d, "texture encoding", "Texture \"%s\": encoding \"%s\" read as %s", q, rt_esc(a, sizeof a, enc, 20),
+                  srgb ? "sRGB" : "linear");
+        }
+        if (exr) srgb = 0;
+        if (strcmp(filt, "point"))
+            pwarn(P, d, "texture filter", "Texture \"%s\": looked up at the nearest texel (pbrt filters %s)", q,
+                  filt[0] ? "as its \"filter\" says" : "bilinearly");
+        if (wrap[0] && strcmp(wrap, "repeat")) {
+            char a[40];
+            pwarn(P, d, "texture wrap", "Texture \"%s\": wrap \"%s\" read as \"repeat\"", q, rt_esc(a, sizeof a, wrap, 20));
+        }
+        char *rel = NULL, *full = NULL, *buf = NULL;
+        size_t n = 0;
+        int fd;
+        struct stat st;
+        if (resolve(P, &pfind(&L, "filename")->at, "Texture", fname, &rel, &full) < 0) goto fail;
+        free(rel);
+        if (open_regular(full, &fd, &st, why, sizeof why) < 0 || read_fd(P, fd, &st, &buf, &n, why, sizeof why) < 0) {
+            free(full);
+            perr(P, &pfind(&L, "filename")->at, "Texture \"%s\": \"%s\": %s", q, q2, why);
+            goto fail;
+        }
+        float *px = NULL;
+        uint32_t w = 0, h = 0;
+        rt_err ie;
+        int r = png ? rt_alpha_decode_png((const unsigned char *)buf, n, full, srgb, &px, &w, &h, &ie)
+                    : rt_alpha_decode_exr((const unsigned char *)buf, n, full, &px, &w, &h, &ie);
+        free(buf);
+        free(full);
+        if (r < 0) {
+            perr(P, &pfind(&L, "filename")->at, "Texture \"%s\": %s", q, ie.msg);
+            goto fail;
+        }
+        uint64_t nt = (uint64_t)w * h;
+        if (nt > RT_ALPHA_MAX_TEXELS - P->ntexel) {
+            free(px);
+            perr(P, d, "Texture \"%s\": the alpha textures would hold more than %llu texels", q,
+                 (unsigned long long)RT_ALPHA_MAX_TEXELS);
+            goto fail;
+        }
+        for (uint64_t i = 0; i < nt; i++) { /* pbrt: scale * v, then invert: max(0, 1 - v) */
+            double v = scale * (double)px[i];
+            if (inv) v = 1 - v > 0 ? 1 - v : 0;
+            if (!(v >= 0)) v = 0; /* a negative alpha counts as 0 (pbrt: a <= 0 is cut) */
+            px[i] = (float)v;
+            if (!isfinite(px[i])) {
+                free(px);
+                perr(P, &pfind(&L, "filename")->at, "Texture \"%s\": texel %llu is not finite after the scale", q,
+                     (unsigned long long)i);
+                goto fail;
+            }
+        }
+        if (P->namap == P->camap) {
+            uint32_t nc = P->camap ? 2 * P->camap : 8;
+            rt_alpha_map *nm = rt_reallocarray(P->amap, nc, sizeof *nm, P->e);
+            if (!nm) {
+                free(px);
+                goto fail;
+            }
+            P->amap = nm;
+            P->camap = nc;
+        }
+        if (P->ntexel + nt > P->ctexel) {
+            uint64_t nc = P->ctexel ? P->ctexel : 4096;
+            while (nc < P->ntexel + nt) nc *= 2;
+            float *nx = rt_reallocarray(P->texel, (size_t)nc, sizeof *nx, P->e);
+            if (!nx) {
+                free(px);
+                goto fail;
+            }
+            P->texel = nx;
+            P->ctexel = nc;
+        }
+        memcpy(P->texel + P->ntexel, px, (size_t)nt * sizeof *px);
+        free(px);
+        rt_alpha_map *m = &P->amap[P->namap];
+        memset(m, 0, sizeof *m);
+        m->w = w;
+        m->h = h;
+        m->off = P->ntexel;
+        snprintf(m->name, sizeof m->name, "%.63s", name);
+        P->ntexel += nt;
+        td.map = (int)P->namap++;
+    }
+    int k = nm_find(&P->named_tex, name);
+    if (k >= 0) { /* pbrt: a redefinition replaces the texture */
+        pwarn(P, &tn, "texture redefined", "Texture \"%s\" defined again: the later one is used", q);
+        P->tex[k] = td;
+    } else {
+        if (P->ntex == P->ctex) {
+            int nc = P->ctex ? 2 * P->ctex : 8;
+            texdef *nt = rt_reallocarray(P->tex, (size_t)nc, sizeof *nt, P->e);
+            if (!nt) goto fail;
+            P->tex = nt;
+            P->ctex = nc;
+        }
+        if (nm_put(&P->named_tex, name, P->ntex, P->e) < 0) goto fail;
+        P->tex[P->ntex++] = td;
+    }
+    plist_free(&L);
+    return 0;
+fail:
+    plist_free(&L);
+    return -1;
+}
+
+/* The map a shape's "texture alpha" names, or -1 (drawn opaque, warned):
+ * only a float imagemap defined before it, on a trianglemesh or
+ * bilinearmesh outside an object definition. */
+static int alpha_map_of(pbrt *P, const param *alpha, const char *type, const char *q, const token *tt)
+{
+    char tn[256], qt[300];
+    if (alpha->ns != 1) return perr(P, &alpha->at, "parameter \"texture alpha\": expected one texture name"), -2;
+    if (tok_str(P, &alpha->s[0], tn, sizeof tn) < 0) return -2;
+    rt_esc(qt, sizeof qt, tn, 200);
+    int k = nm_find(&P->named_tex, tn);
+    if (k < 0 || P->tex[k].map < 0) {
+        pwarn(P, tt, "alpha texture", "Shape \"%s\": alpha texture ignored, drawn opaque: \"%s\" is not a float imagemap "
+              "Texture defined before it", q, qt);
+        return -1;
+    }
+    if (strcmp(type, "trianglemesh") && strcmp(type, "bilinearmesh")) {
+        pwarn(P, tt, "alpha texture shape", "Shape \"%s\": alpha texture \"%s\" ignored, drawn opaque (cutouts on "
+              "trianglemesh and bilinearmesh only)", q, qt);
+        return -1;
+    }
+    if (P->alpha_off) {
+        pwarn(P, tt, "alpha off", "Shape \"%s\": alpha texture \"%s\" drawn opaque (the spec parameter alpha=0)", q, qt);
+        return -1;
+    }
+    if (P->in_obj >= 0) {
+        pwarn(P, tt, "alpha texture object", "Shape \"%s\": alpha texture \"%s\" inside ObjectBegin ignored, drawn opaque",
+              q, qt);
+        return -1;
+    }
+    return P->tex[k].map;
+}
+
+/* Records the uv of the triangles [start, s->ntri) just made from the
+ * corner indices idx (3 per triangle, or 4 per bilinear patch: p00 p10
+ * p01 p11, made as (p00 p10 p11) (p00 p11 p01)) with the mesh's "uv"
+ * (point2 per vertex) or pbrt's defaults: (0,0) (1,0) (1,1) per triangle,
+ * the patch's corners (0,0) (1,0) (0,1) (1,1). */
+static int alpha_span(pbrt *P, plist *L, const token *tt, int map, uint32_t start, const long *idx, size_t ni, size_t nw,
+                      int bil)
+{
+    const double *uv;
+    size_t nuv;
+    int r = pnums(P, L, "uv", B(PT_POINT2) | B(PT_FLOAT), "point2", 2, 2, &uv, &nuv);
+    if (r < 0) return -1;
+    if (r && nuv != 2 * nw)
+        return perr(P, &pfind(L, "uv")->at, "parameter \"uv\": %zu values for %zu vertices, expected %zu", nuv, nw, 2 * nw);
+    for (size_t i = 0; r && i < nuv; i++)
+        if (!(fabs(uv[i]) < 1e30)) return perr(P, &pfind(L, "uv")->at, "parameter \"uv\": value %g is not finite", uv[i]);
+    uint32_t count = P->s->ntri - start;
+    if (!count) return 0;
+    if (P->nspan == P->cspan) {
+        int nc = P->cspan ? 2 * P->cspan : 8;
+        aspan *ns = rt_reallocarray(P->span, (size_t)nc, sizeof *ns, P->e);
+        if (!ns) return -1;
+        P->span = ns;
+        P->cspan = nc;
+    }
+    float *u = rt_reallocarray(NULL, (size_t)count, 6 * sizeof *u, P->e);
+    if (!u) return -1;
+    static const float dtri[6] = {0, 0, 1, 0, 1, 1};
+    static const float dbil[2][6] = {{0, 0, 1, 0, 1, 1}, {0, 0, 1, 1, 0, 1}};
+    static const int cbil[2][3] = {{0, 1, 3}, {0, 3, 2}};
+    for (uint32_t t = 0; t < count; t++) {
+        float *o = u + 6 * (size_t)t;
+        for (int c = 0; c < 3; c++) {
+            long v = bil ? idx[4 * (t / 2) + cbil[t & 1][c]] : idx[3 * (size_t)t + c];
+            if (r) {
+                o[2 * c] = (float)uv[2 * v];
+                o[2 * c + 1] = (float)uv[2 * v + 1];
+            } else {
+                o[2 * c] = bil ? dbil[t & 1][2 * c] : dtri[2 * c];
+                o[2 * c + 1] = bil ? dbil[t & 1][2 * c + 1] : dtri[2 * c + 1];
+            }
+        }
+    }
+    (void)ni;
+    (void)tt;
+    P->span[P->nspan++] = (aspan){start, count, (uint32_t)map, u};
+    return 0;
+}
+
+/* The alpha spans' triangles once the instances are made (as
+ * relocate_mesh_lights; called before expand_instances). */
+static void relocate_alpha(pbrt *P)
+{
+    for (int i = 0; i < P->nspan; i++) {
+        uint64_t shift = 0;
+        for (int k = 0; k < P->ninst; k++)
+            if (P->inst[k].at <= P->span[i].first) shift += P->objs[P->inst[k].obj].count;
+        P->span[i].first += (uint32_t)shift;
+    }
+}
+
+/* The scene's rt_scene_alpha from the spans (none: no alpha, and the maps
+ * read are dropped). 0 or -1. */
+static int make_alpha(pbrt *P)
+{
+    rt_scene *s = P->s;
+    if (!P->nspan) return 0;
+    rt_scene_alpha *A = rt_calloc(1, sizeof *A, P->e);
+    if (!A) return -1;
+    /* indices of the flattened order (instances kept or not: the spans
+     * were relocated into it); the arrays end at the last textured one */
+    A->ntri = rt_scene_nflat(s);
+    for (int i = 0; i < P->nspan; i++)
+        if (P->span[i].first + P->span[i].count > A->nrec) A->nrec = P->span[i].first + P->span[i].count;
+    A->tmap = rt_calloc(A->nrec, sizeof *A->tmap, P->e);
+    A->uv = rt_calloc((size_t)A->nrec * 6, sizeof *A->uv, P->e);
+    if (!A->tmap || !A->uv) {
+        rt_alpha_free(A);
+        return -1;
+    }
+    for (int i = 0; i < P->nspan; i++) {
+        const aspan *a = &P->span[i];
+        for (uint32_t t = 0; t < a->count; t++) A->tmap[a->first + t] = a->map + 1;
+        memcpy(A->uv + 6 * (size_t)a->first, a->uv, (size_t)a->count * 6 * sizeof *a->uv);
+    }
+    A->nmap = P->namap;
+    A->map = P->amap;
+    A->ntexel = P->ntexel;
+    A->texel = P->texel;
+    P->amap = NULL;
+    P->texel = NULL;
+    s->alpha = A;
+    return rt_alpha_check(A, P->e);
+}
+
 static int do_shape(pbrt *P, const token *d)
 {
     if (need_world(P, d, 1) < 0) return -1;
@@ -1828,6 +2154,7 @@ static int do_shape(pbrt *P, const token *d)
         return 0;
     }
     param *alpha = pfind(&L, "alpha");
+    int amap = -1; /* the alpha map of the shape, -1: opaque */
     if (alpha && (alpha->type == PT_FLOAT || alpha->type == PT_INT)) {
         double a;
         if (pfloat(P, &L, "alpha", 1, &a) < 0) goto fail;
@@ -1843,8 +2170,7 @@ static int do_shape(pbrt *P, const token *d)
         if (a < 1) pwarn(P, &tt, "alpha partial", "Shape \"%s\": \"float alpha\" %g drawn opaque (no stochastic "
                          "transparency)", q, a);
     } else if (alpha && alpha->type == PT_TEXTURE) {
-        pwarn(P, &tt, "alpha texture", "Shape \"%s\": alpha texture ignored, drawn opaque (no cutout: its leaves "
-              "and cards block rays)", q);
+        if ((amap = alpha_map_of(P, alpha, type, q, &tt)) == -2) goto fail;
     } else if (alpha) {
         perr(P, &alpha->at, "parameter \"%s alpha\": \"alpha\" must be float or texture", alpha->tname);
         goto fail;
@@ -1865,6 +2191,7 @@ static int do_shape(pbrt *P, const token *d)
         for (size_t i = 0; rc == 0 && bil && i + 3 < ni; i += 4) /* p00 p10 p01 p11 */
             if (emit(P, w[idx[i]], w[idx[i + 1]], w[idx[i + 3]]) < 0 || emit(P, w[idx[i]], w[idx[i + 3]], w[idx[i + 2]]) < 0)
                 rc = -1;
+        if (rc == 0 && amap >= 0) rc = alpha_span(P, &L, &tt, amap, start, idx, ni, nw, bil);
     } else if (!strcmp(type, "sphere")) {
         double r;
         rc = pfloat(P, &L, "radius", 1.0, &r);
@@ -2610,7 +2937,7 @@ static int expand_instances(pbrt *P)
 /* pbrt directives this loader skips with a warning. */
 static const char *const skipped[] = {"Accelerator", "Attribute", "ColorSpace", "Integrator", "MakeNamedMedium",
                                       "MediumInterface", "Option", "PixelFilter", "ReverseOrientation", "Sampler",
-                                      "Texture", "TransformTimes", NULL};
+                                      "TransformTimes", NULL};
 
 static int directive(pbrt *P, const token *d)
 {
@@ -2622,6 +2949,7 @@ static int directive(pbrt *P, const token *d)
     mat4 m;
     if (!strcmp(dn, "Include") || !strcmp(dn, "Import")) return do_include(P, d);
     if (!strcmp(dn, "Shape")) return do_shape(P, d);
+    if (!strcmp(dn, "Texture")) return do_texture(P, d);
     if (!strcmp(dn, "LookAt")) {
         if (need_numbers(P, d, v, 9) < 0) return -1;
         double dir[3] = {v[3] - v[0], v[4] - v[1], v[5] - v[2]}, up[3] = {v[6], v[7], v[8]};
@@ -2843,19 +3171,20 @@ int rt_scene_fit_film(rt_scene *s, int W, int H, rt_err *e)
 
 /* tess=N,maxtri=N,maxsubdiv=N */
 static int parse_spec(const char *path, const char *params, int *tess, uint32_t *maxtri, uint32_t *maxsubdiv,
-                      rt_err *e)
+                      int *alpha, rt_err *e)
 {
     *tess = 3;
+    *alpha = 1;
     *maxtri = DEFAULT_MAXTRI;
     *maxsubdiv = DEFAULT_MAXSUBDIV;
-    int seen_t = 0, seen_m = 0, seen_s = 0;
+    int seen_t = 0, seen_m = 0, seen_s = 0, seen_a = 0;
     const char *p = params ? params : "";
     while (*p) {
         const char *end = strchr(p, ',');
         size_t len = end ? (size_t)(end - p) : strlen(p);
         char item[64], *q;
         if (len == 0 || len >= sizeof item)
-            return rt_errf(e, "%s: bad parameter list '%.60s' (known: tess, maxtri, maxsubdiv)", path, params);
+            return rt_errf(e, "%s: bad parameter list '%.60s' (known: tess, maxtri, maxsubdiv, alpha)", path, params);
         memcpy(item, p, len);
         item[len] = 0;
         char *eq = strchr(item, '=');
@@ -2878,9 +3207,13 @@ static int parse_spec(const char *path, const char *params, int *tess, uint32_t 
             if (!ok || v < 1 || v > (long long)(UINT32_MAX / 2))
                 return rt_errf(e, "%s: maxsubdiv=%s out of range 1..%u", path, eq + 1, (unsigned)(UINT32_MAX / 2));
             *maxsubdiv = (uint32_t)v;
+        } else if (!strcmp(item, "alpha")) {
+            if (seen_a++) return rt_errf(e, "%s: parameter 'alpha' given twice", path);
+            if (!ok || v < 0 || v > 1) return rt_errf(e, "%s: alpha=%s is not 0 or 1", path, eq + 1);
+            *alpha = (int)v;
         } else {
             char q2[80];
-            return rt_errf(e, "%s: unknown parameter '%s' (known for .pbrt files: tess, maxtri, maxsubdiv, material)", path,
+            return rt_errf(e, "%s: unknown parameter '%s' (known for .pbrt files: tess, maxtri, maxsubdiv, alpha, material)", path,
                            rt_esc(q2, sizeof q2, item, 40));
         }
         p = end ? end + 1 : p + len;
@@ -2899,19 +3232,20 @@ rt_scene *rt_scene_load_pbrt_flags(const char *path, const char *params, unsigne
     pbrt *P = rt_calloc(1, sizeof *P, e);
     if (!P) return NULL;
     P->keep = (flags & RT_LOAD_KEEP_INSTANCES) != 0;
-    int rc = -1, tess;
+    int rc = -1, tess, alpha_on;
     uint32_t maxtri, maxsubdiv;
     P->e = e;
     P->in_obj = -1;
     P->fov = 90;
-    if (parse_spec(path, params, &tess, &maxtri, &maxsubdiv, e) < 0) goto done;
+    if (parse_spec(path, params, &tess, &maxtri, &maxsubdiv, &alpha_on, e) < 0) goto done;
+    P->alpha_off = !alpha_on;
     P->tess = tess;
     P->maxtri = maxtri;
     P->maxsubdiv = maxsubdiv;
     if (!(P->s = rt_scene_new(0, e))) goto done;
     const char *base = strrchr(path, '/');
     snprintf(P->s->name, sizeof P->s->name, "%s", base ? base + 1 : path);
-    snprintf(P->s->params, sizeof P->s->params, "tess=%d", tess);
+    snprintf(P->s->params, sizeof P->s->params, "tess=%d%s", tess, alpha_on ? "" : ",alpha=0");
     /* the top file */
     int fd;
     struct stat st;
@@ -2942,7 +3276,9 @@ rt_scene *rt_scene_load_pbrt_flags(const char *path, const char *params, unsigne
     P->g.ctm = m_ident();
     if (parse_all(P) < 0) goto done;
     relocate_mesh_lights(P);
+    relocate_alpha(P);
     if (expand_instances(P) < 0) goto done;
+    if (make_alpha(P) < 0) goto done;
     rt_scene *s = P->s;
     s->ntri_unique += P->nonobj;
     if (!s->ninst) s->ntri_unique = 0;
@@ -2974,6 +3310,12 @@ done:
     free(P->al);
     free(P->inst);
     free(P->mslot);
+    free(P->tex);
+    nm_free(&P->named_tex);
+    free(P->amap);
+    free(P->texel);
+    for (int i = 0; i < P->nspan; i++) free(P->span[i].uv);
+    free(P->span);
     for (int i = 0; i < P->npaths; i++) free(P->paths[i]);
     free(P->paths);
     rt_scene *out = P->s;

@@ -17,7 +17,10 @@
  *     up by rays_moved, RT_CLS_QUEUE down by it), other classes as on one
  *     core; every core makes references, its ray buffer its own (above the
  *     layout for cores > 0); rays popped per core within the run's;
- *   - the interleave is the same on every machine (golden hash, 3 cores).
+ *   - the interleave is the same on every machine (golden hash, 3 cores);
+ *   - host threads (rt_job_run with opt.host_threads = N, untraced: the
+ *     N-core rounds on N threads): one core's image, the statistics of the
+ *     simulated N-core run, with the invariants checked at every step.
  */
 #include "check.h"
 #include "run.h"
@@ -260,6 +263,36 @@ static uint64_t n_cores(int N, int qorder)
     return h;
 }
 
+/* render --threads N: the N-core rounds on N host threads, untraced: the
+ * image of one core, the statistics of the simulated N-core run. */
+static void host_threads(int N, int qorder, unsigned lights)
+{
+    rt_job j;
+    if (setup(&j, 16, 12, lights, qorder) < 0) return;
+    run a, b;
+    rt_err e = {0};
+    if (run_job(&j, 1, &a) == 0 && run_job(&j, N, &b) == 0) {
+        rt_image *img = rt_image_new(16, 12, &e);
+        rt_run_stats st;
+        j.opt.cores = 1;
+        j.opt.host_threads = N;
+        CHECK(img && rt_job_run(&j, NULL, img, &st, &e) == 0, "--threads %d: %s", N, e.msg);
+        const size_t np = 16 * 12;
+        CHECK(img && !memcmp(a.img->rgb, img->rgb, 3 * np * sizeof(float)) &&
+                  !memcmp(a.img->nodes, img->nodes, np * sizeof(float)) &&
+                  !memcmp(a.img->tests, img->tests, np * sizeof(float)) &&
+                  !memcmp(a.img->depth, img->depth, np * sizeof(float)),
+              "--threads %d: the image differs from one thread's", N);
+        CHECK(!strcmp(st.extra, b.st.extra) && st.nodes == b.st.nodes && st.tests == b.st.tests &&
+                  st.pv_all == b.st.pv_all && st.pv_primary == b.st.pv_primary && st.rays_shadow == b.st.rays_shadow,
+              "--threads %d: statistics '%s', the %d-core run's '%s'", N, st.extra, N, b.st.extra);
+        rt_image_free(img);
+    }
+    run_free(&a);
+    run_free(&b);
+    rt_job_free(&j);
+}
+
 int main(void)
 {
     const uint64_t h1 = one_core();
@@ -272,6 +305,9 @@ int main(void)
         if (N == 3) h3 = h;
         n_cores(N, RT_QORDER_TREE);
     }
+    host_threads(2, RT_QORDER_FULLEST, 7);
+    host_threads(3, RT_QORDER_TREE, 7);
+    host_threads(8, RT_QORDER_FULLEST, 0);
     CHECK(h3 == UINT64_C(0xab8ff5d94c8c2a70), "3 cores' stream hash %016" PRIx64 " is not the golden one", h3);
     return failures ? 1 : 0;
 }

@@ -961,6 +961,35 @@ static void test_open_target(void)
     clean_dir();
 }
 
+/* A chunk of base classes keeps the ten-class payload (flags bits 1-2 zero);
+ * only a chunk with a later class lists up to it (here 12: the bits say 3), and both read back
+ * through the checked reader and the sampled reader. */
+static void test_v3_later_classes(void)
+{
+    rt_err e = {0};
+    rt_access *a = v3_stream(V3_N), *b = malloc((V3_N + 1) * sizeof *b);
+    CHECK(a && b, "out of memory");
+    if (!a || !b) return;
+    for (size_t i = 0; i < V3_N; i++) a[i].cls %= RT_NCLASS_V1;
+    a[2 * V3_CHUNK + 7].cls = RT_CLS_ALPHA;
+    const char *p = check_path("v3cls.rtt");
+    CHECK(v3_write(p, a, V3_N, 1, &e) == 0, "write: %s", e.msg);
+    CHECK(v3_read_all(p, b, V3_N + 1, &e) == (long)V3_N, "checked read: %s", e.msg);
+    CHECK(v3_read_side(p, &e) == 0, "side read: %s", e.msg);
+    rt_tr_reader *r = rt_tr_open(p, &e);
+    rt_tr_payload pl;
+    int k, bad = 0, nch = 0;
+    while (r && (k = rt_tr_read_payload(r, &pl, &e)) > 0) {
+        bad += (pl.bytes[0] >> 1) != (pl.index == 2 ? 3 : 0);
+        nch++;
+    }
+    CHECK(nch == (int)((V3_N + V3_CHUNK - 1) / V3_CHUNK) && bad == 0, "%d chunks, %d with the wrong class flag: %s",
+          nch, bad, e.msg);
+    rt_tr_close(r);
+    free(a);
+    free(b);
+}
+
 int main(void)
 {
     alarm(120); /* a spinning loader ends the test instead of hanging it (generous: the
@@ -981,6 +1010,7 @@ int main(void)
     clean_dir();
     test_v3_roundtrip();
     test_v3_corrupt();
+    test_v3_later_classes();
     test_si_check();
     clean_dir();
     rmdir(check_dir);

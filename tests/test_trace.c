@@ -851,6 +851,50 @@ static void test_opaque_payload(void)
     free(a);
 }
 
+/* ---- classes beyond the base ten ---- */
+
+/* The footer stores ten classes unless a later class is referenced, then
+ * up to the highest referenced: a trace of the base classes keeps its
+ * 268-byte footer (and so its bytes); a count out of 10..13 is refused. */
+static void test_later_classes(void)
+{
+    rt_tr_meta m;
+    fill_meta(&m);
+    const size_t N = 3000;
+    rt_access *a = random_stream(N);
+    for (size_t i = 0; i < N; i++) a[i].cls %= RT_NCLASS_V1;
+    const char *p = check_path("cls.rtt");
+    rt_err e = {0};
+    static const struct { int cls; unsigned nc; } c[] = {
+        {-1, 10}, {RT_CLS_TLAS, 11}, {RT_CLS_INST, 12}, {RT_CLS_ALPHA, 13}};
+    for (int k = 0; k < 4; k++) {
+        if (c[k].cls >= 0) a[N / 2].cls = (uint8_t)c[k].cls;
+        CHECK(write_trace(p, &m, a, N, 6, 1000, &e) == 0, "write (class %d): %s", c[k].cls, e.msg);
+        size_t n = 0;
+        unsigned char *b = slurp(p, &n);
+        size_t fl = 28 + 24 * (size_t)c[k].nc;
+        CHECK(b && n > fl && !memcmp(b + n - fl, "RTND", 4) && b[n - fl + 4] == c[k].nc,
+              "class %d: footer of %u classes (%zu bytes) not found", c[k].cls, c[k].nc, fl);
+        int mism = 0;
+        rt_tr_totals t;
+        long got = read_all(p, 4096, a, N, &mism, &e, &t);
+        CHECK(got == (long)N && !mism && (c[k].cls < 0 || t.refs[c[k].cls] == 1), "class %d: read %ld: %s",
+              c[k].cls, got, e.msg);
+        if (k == 0 && b && n > fl) { /* a class count out of range, with a valid CRC */
+            unsigned char *f = malloc(n);
+            memcpy(f, b, n);
+            le32(f + n - fl + 4, 14);
+            le32(f + n - 4, (uint32_t)crc32(0, f + n - fl, (uInt)(fl - 4)));
+            spit(p, f, n);
+            char msg[512];
+            CHECK(rejected(p, msg, sizeof msg) && strstr(msg, "14 classes, expected 10..13"), "nc 14: %s", msg);
+            free(f);
+        }
+        free(b);
+    }
+    free(a);
+}
+
 int main(int argc, char **argv)
 {
     if (argc == 3 && !strcmp(argv[1], "--synthetic")) return synthetic(argv[2]);
@@ -866,6 +910,7 @@ int main(int argc, char **argv)
     test_deterministic();
     test_oom();
     test_opaque_payload();
+    test_later_classes();
     check_rmdir();
     fprintf(stderr, "test_trace: %d failures (%.1f s)\n", failures, rt_now() - t0);
     return failures ? 1 : 0;

@@ -270,6 +270,9 @@ static void test_rule(int N, int mode, int qorder)
           wrong, nodes);
     CHECK(seen == (1u << N) - 1, "%d cores: cores %#x read nodes", N, seen);
     CHECK(strstr(st.extra, "rays_moved=") && !strstr(st.extra, "rays_moved=0 "), "no ray moved: %s", st.extra);
+    /* the receivers read at least each moved ray's record */
+    const char *pm = strstr(st.extra, "rays_moved="), *pb = strstr(st.extra, "bytes_moved=");
+    CHECK(pm && pb && strtoull(pb + 12, NULL, 10) >= 64 * strtoull(pm + 11, NULL, 10), "bytes moved: %s", st.extra);
     free(got.a);
     free(got.core);
     rt_image_free(img);

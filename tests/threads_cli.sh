@@ -1,10 +1,11 @@
 #!/bin/sh
 # Host threads from the command line: render --threads N writes the image of
 # one thread (the EXR's pixels byte for byte; only the command attribute
-# differs); the dynamic tracer's modeled threads are --cores N (the run key
-# keeps its version-1 spelling threads=N), and --threads for it, for trace
-# and for sweep is a usage error saying so; bench --what threads compares
-# the images itself.
+# differs; the dynamic tracer: its N-core rounds on N threads, the same
+# image); the dynamic tracer's modeled threads are --cores N (the run key
+# keeps its version-1 spelling threads=N), and --threads for trace and for
+# sweep is a usage error saying so; bench --what threads compares the
+# images itself.
 set -u
 bin=${RT_BIN:-./raytraffic}
 tmp=$(mktemp -d /tmp/rt_threads_cli.XXXXXX) || exit 1
@@ -34,7 +35,15 @@ usage() { # expected-text command...
     [ "$st" = 2 ] && grep -q -- "$want" "$tmp/u.log" || err "'$*' exited $st, want 2 with '$want': $(cat "$tmp/u.log")"
     [ "$(wc -l <"$tmp/u.log")" -eq 1 ] || err "'$*': more than one line: $(cat "$tmp/u.log")"
 }
-usage "now --cores N" "$bin" render cornell -W 8 -H 8 -t dynamic --threads 2 -o "$tmp/d.exr"
+# the dynamic tracer: its N-core rounds on N host threads, one thread's image
+for n in 1 3; do
+    "$bin" render cornell -W 24 -H 20 --lights all -t dynamic --threads $n -o "$tmp/dyn$n.exr" --ppm "$tmp/dyn$n.ppm" \
+        --json >"$tmp/dyn$n.json" 2>/dev/null || err "render -t dynamic --threads $n"
+done
+cmp -s "$tmp/dyn1.ppm" "$tmp/dyn3.ppm" || err "dynamic: the PPM of 3 threads differs from one thread's"
+[ "$(cmp -l "$tmp/dyn1.exr" "$tmp/dyn3.exr" | wc -l)" -eq 3 ] || err "dynamic: the EXRs differ beyond the command"
+grep -q "cores=3 rounds=" "$tmp/dyn3.json" || err "dynamic --threads 3: not the 3-core rounds: $(cat "$tmp/dyn3.json")"
+usage "whitted and path modes on one thread" "$bin" render cornell -W 8 -H 8 -t dynamic --mode whitted --threads 2 -o "$tmp/d.exr"
 usage "now --cores N" "$bin" trace cornell -W 8 -H 8 -t recursive --threads 2 -o "$tmp/d.rtt"
 usage "now --cores N" "$bin" sweep --tracers dynamic --threads 8 --db "$tmp/u.db"
 # every tracer splits its work over simulated cores (stream-branching: its pixels in chunks, one phase)

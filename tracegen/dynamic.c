@@ -140,6 +140,7 @@
 
 #include <inttypes.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -446,8 +447,31 @@ struct rt_dyn {
     uint32_t *pick_n;    /* ... and how many rays it took from it */
     rt_rq_cur *pick_cur; /* ... and its cursor over them */
     uint32_t tcur;       /* tree order: where the next round's pick starts */
+    /* host threads (render --threads N, untraced): the N-core rounds, core
+     * i's queue drained on host thread i by its worker copy wk[i] */
+    int threaded;        /* 1: the rounds run on host threads */
+    struct rt_dyn *wk;   /* per core: the worker's copy of the run's state, for one round */
+    struct wstage *ws;   /* per core: its popped rays and the rays it queued in the round */
+    uint8_t *wmark;      /* per core: its triangle marks (ntri bytes each), or-ed in at the end */
+    rt_err *werr;        /* per core: its error */
+    struct wstage *stage; /* a worker: where enqueue stages its rays (NULL: the queues) */
+    pthread_t *wtid;     /* per core: its host thread (cores 1..N-1, started at the first round) */
+    struct wpool *pool;  /* the workers' rendezvous */
 };
 typedef struct rt_dyn dyn;
+
+/* A worker's round: the rays it pops (list, popped by the main thread
+ * before the round) and those it queues (q[i], e[i]: pushed by the main
+ * thread after the round, core by core in order, as the one-thread rounds
+ * push them). */
+typedef struct wstage {
+    struct qent *list;
+    uint32_t nlist, caplist;
+    uint32_t *q;
+    struct qent *e;
+    size_t n, cap;
+    int oom;
+} wstage;
 
 /* A core's references of the current step (a generation's start, a round
  * of queues), held until every core's are known and interleaved. */
@@ -481,8 +505,10 @@ static void set_core(dyn *D, int k)
     D->crbslot[D->core] = D->rbslot;
     D->core = k;
     D->rbslot = D->crbslot[k];
-    D->rec = D->crec[k];
-    D->tv.rec = D->rec;
+    if (D->crec) {
+        D->rec = D->crec[k];
+        D->tv.rec = D->rec;
+    }
 }
 
 /* The start of a generation: ray k of n is started by core k * N / n
@@ -498,7 +524,7 @@ static void start_core(dyn *D, size_t k, size_t n)
  * sink; the cores meet there (a barrier) before the next step. */
 static void interleave(dyn *D)
 {
-    if (D->ncores <= 1) return;
+    if (D->ncores <= 1 || !D->crec) return;
     const unsigned N = (unsigned)D->ncores;
     for (unsigned k = 0; k < N; k++)
         if (rt_rec_flush(D->crec[k]) < 0 && !D->err) D->err = 3;
@@ -575,6 +601,27 @@ static uint64_t rbaddr(const dyn *D)
 
 static void enqueue(dyn *D, uint32_t q, uint32_t pix, float t0, float t1)
 {
+    if (D->stage) { /* a worker's round (untraced): staged for the main thread */
+        wstage *w = D->stage;
+        if (w->n == w->cap) {
+            size_t cap = w->cap ? 2 * w->cap : 1024;
+            uint32_t *nq = realloc(w->q, cap * sizeof *nq);
+            if (nq) w->q = nq;
+            qent *ne = nq ? realloc(w->e, cap * sizeof *ne) : NULL;
+            if (!ne) {
+                w->oom = 1;
+                D->err = 1;
+                return;
+            }
+            w->e = ne;
+            w->cap = cap;
+        }
+        w->q[w->n] = q;
+        w->e[w->n++] = (qent){pix, t0, t1};
+        D->owner[pix & ~CAND_FLAG] = (uint8_t)D->core;
+        D->enq++;
+        return;
+    }
     RT_REC(D->rec, rt_mm_addr(D->L, D->reg_qt, q), 8, 0, RT_CLS_QTABLE);
     uint64_t at;
     qent *e = rt_rq_push(&D->rq, q, &at);
@@ -921,8 +968,10 @@ static void process_oversized(dyn *D, uint32_t q, const qent *es, uint32_t n)
                 D->img->tests[PIX(D, es[i].pix & ~CAND_FLAG)] += 1;
                 if (!rt_isect_core(&test[i], &D->sc->tri[tri], &t, &u, &v) || !(t > test[i].tmin && t < test[i].tmax))
                     continue;
-                if (D->shadow) occl[i] = 1;
-                else if (btri[i] == RT_NO_HIT || t < bt[i] || (t == bt[i] && tri < btri[i])) {
+                if (D->shadow) {
+                    if (!rt_alpha_cut(D->sc->alpha, &D->tv.alpha, D->rec, &test[i], tri, u, v)) occl[i] = 1;
+                } else if ((btri[i] == RT_NO_HIT || t < bt[i] || (t == bt[i] && tri < btri[i])) &&
+                           !rt_alpha_cut(D->sc->alpha, &D->tv.alpha, D->rec, &test[i], tri, u, v)) {
                     bt[i] = t;
                     btri[i] = tri;
                 }
@@ -983,6 +1032,7 @@ static uint32_t drain_take(dyn *D, uint32_t q, rt_rq_cur *cur)
 static void drain_pop(dyn *D, uint32_t q, rt_rq_cur *curp, uint32_t n)
 {
     rt_rq_cur cur = *curp;
+    const qent *list = D->stage ? D->stage->list : NULL; /* a worker: popped for it */
     const rt_kdnode *nd = &D->kd->nodes[D->qnode[q]];
     int oversized = rt_kd_is_leaf(nd) && 40ull * rt_kd_ntri(nd) > D->gmax;
     qent batch[256];
@@ -990,13 +1040,17 @@ static void drain_pop(dyn *D, uint32_t q, rt_rq_cur *curp, uint32_t n)
     while (n) {
         qent e;
         int moved = 0;
-        if (D->owner) {
+        if (list) {
+            e = *list++;
+        } else if (D->owner) {
             const qent *pe = rt_rq_at(&D->rq, &cur);
             moved = D->owner[pe->pix & ~CAND_FLAG] != (uint8_t)D->core;
             D->moved += (uint64_t)moved;
         }
-        RT_REC(D->rec, qaddr(D, (uint64_t)cur.b * RT_RQ_BLK + cur.pos), 32, 0, moved ? RT_CLS_RAY : RT_CLS_QUEUE);
-        rt_rq_pop(&D->rq, &cur, &e);
+        if (!list) {
+            RT_REC(D->rec, qaddr(D, (uint64_t)cur.b * RT_RQ_BLK + cur.pos), 32, 0, moved ? RT_CLS_RAY : RT_CLS_QUEUE);
+            rt_rq_pop(&D->rq, &cur, &e);
+        }
         D->rbslot++;
         RT_REC(D->rec, rbaddr(D), 32, 1, RT_CLS_RAY);
         n--;
@@ -1040,6 +1094,188 @@ static int drain_step(void *u, uint32_t q)
     return D->err;
 }
 
+static void worker_round(dyn *W)
+{
+    rt_rq_cur none = {0, 0, 0};
+    drain_pop(W, W->pick[W->core], &none, W->stage->nlist);
+}
+
+/* The host threads of cores 1..N-1, started once per run: each waits for
+ * the next round (gen), drains its queue when it has one (core < m) and
+ * reports back (left); quit ends them. */
+typedef struct warg {
+    struct wpool *p;
+    uint32_t i; /* the worker's core */
+} warg;
+
+typedef struct wpool {
+    pthread_mutex_t mu;
+    pthread_cond_t go, done;
+    uint64_t gen;       /* rounds announced */
+    uint32_t m;         /* cores with a queue in the current round */
+    uint32_t left;      /* started workers still draining in it */
+    uint32_t started;   /* threads running: cores 1..started */
+    int quit;
+    dyn *D;
+    warg *args;         /* per core: the thread's argument */
+} wpool;
+
+static void *worker_main(void *arg)
+{
+    const warg *a = arg;
+    wpool *p = a->p;
+    uint64_t seen = 0;
+    pthread_mutex_lock(&p->mu);
+    for (;;) {
+        while (p->gen == seen && !p->quit) pthread_cond_wait(&p->go, &p->mu);
+        if (p->quit) break;
+        seen = p->gen;
+        const int mine = a->i < p->m;
+        pthread_mutex_unlock(&p->mu);
+        if (mine) worker_round(&p->D->wk[a->i]);
+        pthread_mutex_lock(&p->mu);
+        if (mine && --p->left == 0) pthread_cond_signal(&p->done);
+    }
+    pthread_mutex_unlock(&p->mu);
+    return NULL;
+}
+
+static void pool_stop(dyn *D)
+{
+    wpool *p = D->pool;
+    if (!p) return;
+    pthread_mutex_lock(&p->mu);
+    p->quit = 1;
+    pthread_cond_broadcast(&p->go);
+    pthread_mutex_unlock(&p->mu);
+    for (uint32_t i = 1; i <= p->started; i++) pthread_join(D->wtid[i], NULL);
+    pthread_mutex_destroy(&p->mu);
+    pthread_cond_destroy(&p->go);
+    pthread_cond_destroy(&p->done);
+    free(p->args);
+    free(p);
+    D->pool = NULL;
+}
+
+/* Runs cores 0..m-1's rounds: core 0 (and any core whose thread could not
+ * start) here, the others on their threads; returns when all are done. */
+static void pool_round(dyn *D, uint32_t m)
+{
+    wpool *p = D->pool;
+    if (!p) { /* the first round: start the threads (none: every core runs here) */
+        p = calloc(1, sizeof *p);
+        warg *args = p ? calloc((size_t)D->ncores, sizeof *args) : NULL;
+        if (!args) {
+            free(p);
+            p = NULL;
+        } else {
+            pthread_mutex_init(&p->mu, NULL);
+            pthread_cond_init(&p->go, NULL);
+            pthread_cond_init(&p->done, NULL);
+            p->D = D;
+            p->args = args;
+            D->pool = p;
+            for (uint32_t i = 1; i < (uint32_t)D->ncores; i++) {
+                args[i] = (warg){p, i};
+                if (pthread_create(&D->wtid[i], NULL, worker_main, &args[i])) break;
+                p->started = i;
+            }
+        }
+    }
+    const uint32_t on = p ? (m - 1 < p->started ? m - 1 : p->started) : 0; /* cores 1..on on threads */
+    if (p) {
+        pthread_mutex_lock(&p->mu);
+        p->m = m;
+        p->left = on;
+        p->gen++;
+        pthread_cond_broadcast(&p->go);
+        pthread_mutex_unlock(&p->mu);
+    }
+    worker_round(&D->wk[0]);
+    for (uint32_t i = on + 1; i < m; i++) worker_round(&D->wk[i]);
+    if (p) {
+        pthread_mutex_lock(&p->mu);
+        while (p->left) pthread_cond_wait(&p->done, &p->mu);
+        pthread_mutex_unlock(&p->mu);
+    }
+}
+
+/* One round on host threads (untraced): the main thread pops the m
+ * picked queues (counting the rays that change cores, as drain_pop does),
+ * worker i drains its list on host thread i (worker 0 on this thread) into
+ * its own counters, marks and staged queue entries, and after the join the
+ * main thread adds the counters and pushes the staged entries, worker by
+ * worker in order: the queues then hold what the one-thread round leaves
+ * there, in the same order, so the next rounds are the same. */
+static void threaded_round(dyn *D, uint32_t m)
+{
+    for (uint32_t i = 0; i < m; i++) {
+        wstage *w = &D->ws[i];
+        const uint32_t n = D->pick_n[i];
+        w->n = 0;
+        w->nlist = 0;
+        if (n > w->caplist) {
+            qent *x = realloc(w->list, (size_t)n * sizeof *x);
+            if (!x) {
+                D->err = 1;
+                return;
+            }
+            w->list = x;
+            w->caplist = n;
+        }
+        for (uint32_t k = 0; k < n; k++) {
+            const qent *pe = rt_rq_at(&D->rq, &D->pick_cur[i]);
+            D->moved += (uint64_t)(D->owner[pe->pix & ~CAND_FLAG] != (uint8_t)i);
+            rt_rq_pop(&D->rq, &D->pick_cur[i], &w->list[w->nlist++]);
+        }
+        dyn *W = &D->wk[i];
+        *W = *D; /* the run's state; what is the worker's own follows */
+        W->threaded = 0;
+        W->stage = w;
+        W->core = (int)i;
+        W->rbslot = D->crbslot[i];
+        W->mark = W->tv.mark = D->wmark + (size_t)i * (D->sc->ntri ? D->sc->ntri : 1);
+        W->e = &D->werr[i];
+        W->err = 0;
+        W->enq = W->done = 0;
+        W->tv.nodes = W->tv.tests = 0;
+        memset(&W->qs, 0, sizeof W->qs);
+    }
+    pool_round(D, m);
+    for (uint32_t i = 0; i < m; i++) {
+        dyn *W = &D->wk[i];
+        D->crbslot[i] = W->rbslot;
+        D->enq += W->enq;
+        D->done += W->done;
+        D->tv.nodes += W->tv.nodes;
+        D->tv.tests += W->tv.tests;
+        const qstat *a = &W->qs;
+        qstat *b = &D->qs;
+        b->first_primary += a->first_primary;
+        b->first_secondary += a->first_secondary;
+        b->first_shadow += a->first_shadow;
+        b->exit += a->exit;
+        b->cand += a->cand;
+        b->small += a->small;
+        b->leaf += a->leaf;
+        b->visits += a->visits;
+        b->v_notest += a->v_notest;
+        b->v_cand += a->v_cand;
+        b->v_cand_kept += a->v_cand_kept;
+        if (W->err && !D->err) {
+            D->err = W->err;
+            if (W->err == 2) *D->e = *W->e;
+        }
+        const wstage *w = &D->ws[i];
+        for (size_t k = 0; k < w->n && !D->err; k++) {
+            uint64_t at;
+            qent *e = rt_rq_push(&D->rq, w->q[k], &at);
+            if (!e) D->err = 1;
+            else *e = w->e[k];
+        }
+    }
+}
+
 /* N cores: rounds. Each round picks up to N queues in the queue order
  * (rt_rq_pick: the N fullest, or the next N by number), core i takes the
  * i-th (its table entry read, the queue detached) and then drains it; rays
@@ -1054,9 +1290,13 @@ static void run_rounds(dyn *D)
             set_core(D, (int)i);
             D->pick_n[i] = drain_take(D, D->pick[i], &D->pick_cur[i]);
         }
-        for (uint32_t i = 0; i < m && !D->err; i++) {
-            set_core(D, (int)i);
-            drain_pop(D, D->pick[i], &D->pick_cur[i], D->pick_n[i]);
+        if (D->threaded) {
+            threaded_round(D, m);
+        } else {
+            for (uint32_t i = 0; i < m && !D->err; i++) {
+                set_core(D, (int)i);
+                drain_pop(D, D->pick[i], &D->pick_cur[i], D->pick_n[i]);
+            }
         }
         interleave(D);
         D->rounds++;
@@ -1206,7 +1446,7 @@ static int check_cores(const dyn *D, rt_err *e)
     for (int k = 0; k < D->ncores; k++) {
         rays += D->core_rays[k];
         events += D->core_events[k];
-        if (D->cbuf[k].n || D->crec[k]->n)
+        if (D->crec && (D->cbuf[k].n || D->crec[k]->n))
             return rt_errf(e, "dynamic I8: core %d holds %zu references not interleaved", k, D->cbuf[k].n + D->crec[k]->n);
     }
     if (rays != D->ev_rays || events != D->events)
@@ -1272,6 +1512,7 @@ static int dyn_layout(const rt_tracer_ctx *ctx, rt_layout *L, rt_err *e)
 
 static void dyn_free(dyn *D)
 {
+    pool_stop(D);
     for (int k = 0; D->crec && k < D->ncores; k++) rt_rec_free(D->crec[k]);
     for (int k = 0; D->cbuf && k < D->ncores; k++) free(D->cbuf[k].a);
     free(D->crec);
@@ -1283,6 +1524,16 @@ static void dyn_free(dyn *D)
     free(D->pick);
     free(D->pick_n);
     free(D->pick_cur);
+    for (int k = 0; D->ws && k < D->ncores; k++) {
+        free(D->ws[k].list);
+        free(D->ws[k].q);
+        free(D->ws[k].e);
+    }
+    free(D->ws);
+    free(D->wk);
+    free(D->wmark);
+    free(D->werr);
+    free(D->wtid);
     free(D->lw);
     free(D->swt);
     rt_rq_free(&D->rq);
@@ -1309,15 +1560,29 @@ static int cores_init(dyn *D, rt_err *e)
 {
     const rt_tracer_ctx *ctx = D->ctx;
     D->ncores = 1;
-    if (!ctx->cs || ctx->opt->cores <= 1) return 0;
-    const int N = ctx->opt->cores;
-    if (N > RT_TR_MAX_CORES) return rt_errf_usage(e, "--cores %d: the dynamic tracer runs on 1..%d cores", N, RT_TR_MAX_CORES);
+    const int threaded = !ctx->rec && !ctx->cs && ctx->opt->host_threads > 1;
+    if (!threaded && (!ctx->cs || ctx->opt->cores <= 1)) return 0;
+    const int N = threaded ? ctx->opt->host_threads : ctx->opt->cores;
+    if (N > RT_TR_MAX_CORES)
+        return rt_errf_usage(e, "--%s %d: the dynamic tracer runs on 1..%d cores", threaded ? "threads" : "cores", N,
+                             RT_TR_MAX_CORES);
     if (D->secondary)
-        return rt_errf_usage(e, "--cores %d: the dynamic tracer runs the whitted and path modes on one core", N);
-    if (!(D->crec = rt_calloc((size_t)N, sizeof *D->crec, e)) || !(D->cbuf = rt_calloc((size_t)N, sizeof *D->cbuf, e)))
-        return -1;
-    D->ncores = N; /* dyn_free frees what was made */
-    for (int k = 0; k < N; k++) {
+        return rt_errf_usage(e, "--%s %d: the dynamic tracer runs the whitted and path modes on one %s",
+                             threaded ? "threads" : "cores", N, threaded ? "thread" : "core");
+    if (threaded) {
+        const size_t ntri = D->sc->ntri ? D->sc->ntri : 1;
+        D->threaded = 1;
+        if (!(D->wk = rt_calloc((size_t)N, sizeof *D->wk, e)) || !(D->ws = rt_calloc((size_t)N, sizeof *D->ws, e)) ||
+            !(D->wmark = rt_calloc((size_t)N, ntri, e)) || !(D->werr = rt_calloc((size_t)N, sizeof *D->werr, e)) ||
+            !(D->wtid = rt_calloc((size_t)N, sizeof *D->wtid, e)))
+            return -1;
+        D->ncores = N;
+    } else {
+        if (!(D->crec = rt_calloc((size_t)N, sizeof *D->crec, e)) || !(D->cbuf = rt_calloc((size_t)N, sizeof *D->cbuf, e)))
+            return -1;
+        D->ncores = N; /* dyn_free frees what was made */
+    }
+    for (int k = 0; k < N && D->crec; k++) {
         D->cbuf[k].sink.put = corebuf_put;
         D->cbuf[k].sink.ctx = &D->cbuf[k];
         if (!(D->crec[k] = rt_rec_new(&D->cbuf[k].sink, e))) return -1;
@@ -1330,8 +1595,10 @@ static int cores_init(dyn *D, rt_err *e)
         return -1;
     D->span = (D->L->next - RT_MM_BASE + 4095) & ~(uint64_t)4095;
     D->core = 0;
-    D->rec = D->crec[0];
-    D->tv.rec = D->rec;
+    if (D->crec) {
+        D->rec = D->crec[0];
+        D->tv.rec = D->rec;
+    }
     return 0;
 }
 
@@ -1514,6 +1781,9 @@ static void shade_image(dyn *D)
 static void report(const dyn *D, rt_run_stats *st)
 {
     const rt_render_opts *o = D->ctx->opt;
+    if (D->threaded) /* the workers' marks */
+        for (int k = 0; k < D->ncores; k++)
+            for (uint32_t t = 0; t < D->sc->ntri; t++) D->mark[t] |= D->wmark[(size_t)k * D->sc->ntri + t];
     rt_stats_finish(st, &D->tv, D->mark, D->sc->ntri);
     uint32_t qmax = 0, oversized = 0;
     for (uint32_t q = 0; q < D->nq; q++) {
@@ -1545,7 +1815,7 @@ static void report(const dyn *D, rt_run_stats *st)
                  " cores=%d rounds=%" PRIu64 " rays_moved=%" PRIu64 " bytes_moved=%" PRIu64 " core_rays_min=%" PRIu64
                  " core_rays_max=%" PRIu64,
                  D->ncores, D->rounds, D->moved, 32 * D->moved, cmin, cmax);
-        for (int k = 0; k < D->ncores; k++) st->accesses += D->crec[k]->total;
+        for (int k = 0; D->crec && k < D->ncores; k++) st->accesses += D->crec[k]->total;
     }
     if (o->queue_stats) {
         const qstat *S = &D->qs;

@@ -300,6 +300,7 @@ static int fb_layout(const rt_tracer_ctx *ctx, rt_layout *L, rt_err *e)
         if (rt_mm_add(L, "list", RT_CLS_INDEX, RT_GRID_WORD, pl->grid->nlist ? pl->grid->nlist : 1, e) < 0) return -1;
     }
     if (rt_mm_add(L, "tri", RT_CLS_TRI, 16, 8 * ntri, e) < 0) return -1;
+    if (rt_alpha_regions(L, ctx->sc->alpha, e) < 0) return -1;
     if (rt_mm_add(L, "vb.read", RT_CLS_STREAM, RT_FB_REC_SIZE, pl->cap, e) < 0) return -1;
     if (rt_mm_add(L, "vb.write", RT_CLS_STREAM, RT_FB_REC_SIZE, pl->cap, e) < 0) return -1;
     if (rt_mm_add(L, "fb", RT_CLS_FB, pl->texel, npix * (uint64_t)pl->ntarget, e) < 0) return -1;
@@ -361,6 +362,7 @@ typedef struct fb_run {
     rt_fb_rec *vb[2];    /* the two buffers (grown on demand up to cap) */
     uint64_t n[2], alloc[2];
     uint32_t *perpix;    /* check mode: records appended per pixel this pass */
+    rt_alpha_at aat;     /* the alpha filter's regions */
     fb_stats s;
     /* simulated cores (ctx->cores; NULL: one processor, today's run): a
      * pass's input records in contiguous chunks (cores.h), a barrier per
@@ -483,7 +485,8 @@ static int intersect(fb_run *R, const rt_ray *r, rt_hit *h, int any, int eye, ui
                     RT_REC(R->rec, rt_mm_addr(R->L, R->reg_list, (uint64_t)(p - g->list)), RT_GRID_WORD, 0,
                            RT_CLS_INDEX);
                     count_test(R, *p, eye);
-                    if (rt_isect_core(r, &sc->tri[*p], &t, &u, &v) && t > r->tmin && t < r->tmax) {
+                    if (rt_isect_core(r, &sc->tri[*p], &t, &u, &v) && t > r->tmin && t < r->tmax &&
+                        !rt_alpha_cut(sc->alpha, &R->aat, R->rec, r, *p, u, v)) {
                         found = 1;
                         h->tri = *p;
                         h->t = t;
@@ -503,7 +506,7 @@ static int intersect(fb_run *R, const rt_ray *r, rt_hit *h, int any, int eye, ui
             }
             R->s.vs_list++;
             RT_REC(R->rec, rt_mm_addr(R->L, R->reg_list, (uint64_t)(p - g->list)), RT_GRID_WORD, 0, RT_CLS_INDEX);
-            found = rt_grid_cell_closest(g, sc, r, &c, tol, h, &R->s.vs_tests);
+            found = rt_grid_cell_closest_at(g, sc, r, &c, tol, h, &R->s.vs_tests, &R->aat, R->rec);
             if (found && h->t < c.t1 - tol) break;
         }
     } else if (!box_hit(&R->pl->box, r)) {
@@ -512,7 +515,8 @@ static int intersect(fb_run *R, const rt_ray *r, rt_hit *h, int any, int eye, ui
         for (uint32_t i = 0; i < sc->ntri && !found; i++) {
             float t, u, v;
             count_test(R, i, eye);
-            if (rt_isect_core(r, &sc->tri[i], &t, &u, &v) && t > r->tmin && t < r->tmax) {
+            if (rt_isect_core(r, &sc->tri[i], &t, &u, &v) && t > r->tmin && t < r->tmax &&
+                !rt_alpha_cut(sc->alpha, &R->aat, R->rec, r, i, u, v)) {
                 found = 1;
                 h->tri = i;
                 h->t = t;
@@ -524,7 +528,7 @@ static int intersect(fb_run *R, const rt_ray *r, rt_hit *h, int any, int eye, ui
             float t, u, v;
             count_test(R, i, eye);
             if (!rt_isect_core(r, &sc->tri[i], &t, &u, &v)) continue;
-            if (t > r->tmin && t < best) {
+            if (t > r->tmin && t < best && !rt_alpha_cut(sc->alpha, &R->aat, R->rec, r, i, u, v)) {
                 best = t;
                 h->t = t;
                 h->tri = i;
@@ -984,6 +988,7 @@ static int fb_run_tracer(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *
     R.reg_vb[0] = rt_mm_find(R.L, "vb.read");
     R.reg_vb[1] = rt_mm_find(R.L, "vb.write");
     R.reg_fb = rt_mm_find(R.L, "fb");
+    rt_alpha_at_init(&R.aat, R.L);
     R.mats = R.mode == RT_MODE_WHITTED && rt_scene_material_flags(R.sc) != 0;
     if (R.mode != RT_MODE_RAYCAST)
         for (int i = 0; i < RT_NLIGHTS; i++)

@@ -172,10 +172,11 @@ static void leaf(pstate *ps, const rt_kdnode *nd, plist *l)
             ps->ptests[i] += 1;
             if (!rt_isect_core(r, T, &t, &u, &v) || !(t > r->tmin && t < r->tmax)) continue;
             if (ps->shadow) {
-                ps->done[i] = 1;
+                if (!rt_alpha_cut(ps->sc->alpha, &ps->tv->alpha, ps->rec, r, tri, u, v)) ps->done[i] = 1;
             } else {
                 rt_hit *h = &ps->hit[i];
-                if (h->tri == RT_NO_HIT || t < h->t || (t == h->t && tri < h->tri)) {
+                if ((h->tri == RT_NO_HIT || t < h->t || (t == h->t && tri < h->tri)) &&
+                    !rt_alpha_cut(ps->sc->alpha, &ps->tv->alpha, ps->rec, r, tri, u, v)) {
                     h->t = t;
                     h->tri = tri;
                     h->u = u;
@@ -316,8 +317,8 @@ static void pb_leaf(pstate *ps, uint32_t first, uint32_t n, bvlevel *l)
             ps->ptests[i] += 1;
             if (!rt_isect_core(r, rt_bvh_tri(b, k), &t, &u, &v) || !(t > r->tmin && t < r->tmax)) continue;
             if (ps->shadow) {
-                ps->done[i] = 1;
-            } else if (rt_hit_better(&ps->hit[i], t, o)) {
+                if (!rt_alpha_cut(ps->sc->alpha, &ps->tv->alpha, ps->rec, r, o, u, v)) ps->done[i] = 1;
+            } else if (rt_hit_better(&ps->hit[i], t, o) && !rt_alpha_cut(ps->sc->alpha, &ps->tv->alpha, ps->rec, r, o, u, v)) {
                 rt_hit *h = &ps->hit[i];
                 h->t = t;
                 h->tri = o;

@@ -41,7 +41,7 @@ int rt_reg_geometry(const rt_tracer_ctx *ctx, rt_layout *L, int want_shade, rt_e
         if (rt_mm_add(L, "lights", RT_CLS_SHADE, RT_LIGHT_RECSIZE, ctx->sc->nlight, e) < 0) return -1;
         if (ncdf && rt_mm_add(L, "lights.cdf", RT_CLS_SHADE, 4, ncdf, e) < 0) return -1;
     }
-    return 0;
+    return rt_alpha_regions(L, ctx->sc->alpha, e);
 }
 
 int rt_reg_wants_lights(const rt_tracer_ctx *ctx)

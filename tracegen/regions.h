@@ -20,7 +20,9 @@
  * want_shade, tri.shade (16 B x triangles) and, when rt_reg_wants_mat, mat.
  * In the mesh layout (ctx->opt->geom, ctx->mesh) tri.verts is replaced by
  * tri.vidx (12 B x triangles) and mesh.pos (12 B x vertices), and
- * tri.shade is followed by mesh.normal (12 B x vertices). Look them up
+ * tri.shade is followed by mesh.normal (12 B x vertices). Last, for a
+ * scene with alpha textures, alpha.tri and alpha.texel (rt_alpha_regions,
+ * src/alpha.h). Look them up
  * with rt_mm_find. 0, or -1 when the layout is full. */
 int rt_reg_geometry(const rt_tracer_ctx *ctx, rt_layout *L, int want_shade, rt_err *e);
 

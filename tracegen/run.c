@@ -476,6 +476,14 @@ int rt_job_run(rt_job *j, rt_sink *sink, rt_image *img, rt_run_stats *st, rt_err
         if (sink)
             return rt_errf_usage(e, "--threads %d: a trace is one ordered stream, recorded on one thread "
                                     "(simulated cores: --cores)", j->opt.host_threads);
+        if (rt_tracer_is(j->tr, RT_TR_CORES)) { /* its N-core rounds on N host threads */
+            double t0 = rt_now();
+            rt_tracer_ctx ctx = {j->sc, &j->acc, rt_job_kd(j), &j->opt, &j->L, NULL, j->plan, j->check, j->mesh, 0, 1, NULL, NULL};
+            int rc = j->tr->run(&ctx, img, st, e);
+            if (rc == 0) env_hits(j, img, st);
+            st->seconds = rt_now() - t0;
+            return rc;
+        }
         if (!(j->tr->opts & RT_OPTG_THREADS))
             return rt_errf_usage(e, "--threads %d: the %s tracer runs on one host thread", j->opt.host_threads,
                                  j->tr->name);

@@ -239,6 +239,7 @@ typedef struct st_run {
     float *lw;           /* authored: a pixel's per-light weights while shading */
     rt_acc *acc;         /* whitted/path: each pixel's sum */
     uint8_t *mark;       /* triangles tested (bit 1 primary, 2 shadow, 4 secondary) */
+    rt_alpha_at aat;     /* the alpha filter's regions */
     int err;             /* 1: out of memory while spawning; 2: the trace sink failed (simulated cores) */
     /* statistics */
     uint64_t rays[2];    /* closest, shadow rays traced */
@@ -396,13 +397,13 @@ static RT_ALWAYS_INLINE void k_isect_body(st_run *S, st_ray *r)
     float t, u, v;
     int hit = rt_isect_core(&r->r, &S->sc->tri[tri], &t, &u, &v) && t > r->r.tmin && t < r->r.tmax;
     if (r->kind == ST_SHADOW) {
-        if (hit) {
+        if (hit && !rt_alpha_cut(S->sc->alpha, &S->aat, S->rec, &r->r, tri, u, v)) {
             r->occluded = 1;
             r->state = ST_DONE;
             return;
         }
     } else if (hit && t >= r->c.t0 - r->tol && t <= r->c.t1 + r->tol &&
-               (t < r->h.t || (t == r->h.t && tri < r->h.tri))) {
+               (t < r->h.t || (t == r->h.t && tri < r->h.tri)) && !rt_alpha_cut(S->sc->alpha, &S->aat, S->rec, &r->r, tri, u, v)) {
         r->h.t = t;
         r->h.tri = tri;
         r->h.u = u;
@@ -870,6 +871,7 @@ static int st_run_common(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *
     S.o = o;
     S.rec = ctx->rec;
     S.L = ctx->L;
+    rt_alpha_at_init(&S.aat, S.L);
     if (ctx->cores) {
         S.cores = ctx->cores;
         S.ncores = ctx->cores->n;

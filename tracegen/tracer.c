@@ -92,6 +92,8 @@ int rt_tracer_check_given_any(const rt_tracer *const *trs, int ntr, const rt_ren
     unsigned opts = 0, accels = 0;
     for (int i = 0; i < ntr; i++) {
         opts |= trs[i]->opts;
+        /* --threads also runs a tracer's own cores on host threads (the dynamic scheduler's rounds) */
+        if (rt_tracer_is(trs[i], RT_TR_CORES)) opts |= RT_OPTG_THREADS;
         accels |= trs[i]->accels;
     }
     const char *who = ntr == 1 ? trs[0]->name : NULL;

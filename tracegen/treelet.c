@@ -145,6 +145,8 @@
  * turn (ray j of each core, then j + 1), a suspended ray goes to the queue
  * of its next treelet whoever owns it (moved when that is another core),
  * and a barrier ends the round. One core is rt_rq_run's order exactly.
+ * The receiver's first references to a moved ray (its record, the deep
+ * stack entries it refills in that visit) are counted as bytes_moved.
  *
  * Images are bit-identical to the recursive tracer's on the same BVH: each
  * ray visits the same nodes and tests the same triangles in the same order
@@ -592,6 +594,8 @@ typedef struct tl_run {
     uint32_t *pick, *rn, *tcur; /* per core: a round's queue and its rays; tree order's next treelet */
     rt_rq_cur *rcur;   /* per core: a round's cursor */
     uint64_t rounds, moved, moved_reads;
+    uint64_t moved_bytes; /* ray state the receivers read for moved rays: records and deep stack refills */
+    int moving;        /* the ray being walked has just moved to this core */
 } tl_run;
 
 /* ---- queues ------------------------------------------------------------------- */
@@ -719,8 +723,9 @@ static RT_ALWAYS_INLINE int leaf(const tl_run *T, const rt_ray *r, int any, thit
         float t, u, v;
         if (!rt_isect_core(r, rt_bvh_tri(b, k), &t, &u, &v)) continue;
         if (any) {
-            if (t > r->tmin && t < r->tmax) return 1;
-        } else if (t > r->tmin && rt_hit_better(&(const rt_hit){H->best, H->btri, H->bu, H->bv}, t, o)) {
+            if (t > r->tmin && t < r->tmax && !rt_alpha_cut(T->tv.sc->alpha, &T->tv.alpha, T->rec, r, o, u, v)) return 1;
+        } else if (t > r->tmin && rt_hit_better(&(const rt_hit){H->best, H->btri, H->bu, H->bv}, t, o) &&
+                   !rt_alpha_cut(T->tv.sc->alpha, &T->tv.alpha, T->rec, r, o, u, v)) {
             /* the hit rule of accel/hit.h (btri is 0 while none is held:
              * best is then tmax, which no hit in (tmin, tmax) ties) */
             H->found = 1;
@@ -801,6 +806,7 @@ static int walk(tl_run *T, uint32_t s, uint32_t t)
             if (idx >= nin) {
                 lo = idx + 1 >= nin + REFILL ? idx + 1 - REFILL : nin;
                 RT_REC(rec, stack_addr(T, s, lo), (idx + 1 - lo) * esize, 0, RT_CLS_STREAM);
+                if (T->moving) T->moved_bytes += (idx + 1 - lo) * esize;
                 T->stack_r += idx + 1 - lo;
                 T->refills++;
             }
@@ -1082,12 +1088,15 @@ static RT_ALWAYS_INLINE void visit(tl_run *T, uint32_t q, rt_rq_cur *cur, uint32
     T->visits++;
     if (T->cores) {
         T->cvis[T->core]++;
+        T->moving = T->mv[s];
         if (T->mv[s]) { /* T7: the receiver reads the moved ray's state */
             T->moved_reads++;
+            T->moved_bytes += RAY_REC;
             T->mv[s] = 0;
         }
     }
     if (walk(T, s, q)) finish(T, s);
+    T->moving = 0;
 }
 
 /* Takes queue q whole and walks its rays in treelet q. */
@@ -1606,7 +1615,7 @@ static void report(const tl_run *T, rt_run_stats *st)
         for (int k = 0; k < T->ncores; k++) mx = T->cvis[k] > mx ? T->cvis[k] : mx;
         size_t l = strlen(st->extra);
         snprintf(st->extra + l, sizeof st->extra - l, " cores=%d rounds=%" PRIu64 " rays_moved=%" PRIu64
-                 " core_visits_max=%" PRIu64, T->ncores, T->rounds, T->moved, mx);
+                 " bytes_moved=%" PRIu64 " core_visits_max=%" PRIu64, T->ncores, T->rounds, T->moved, T->moved_bytes, mx);
     }
 }
 
