@@ -728,13 +728,15 @@ const rt_render_optdef rt_render_optdefs[] = {
      * others' cores are the run's cores column */
     {"--cores", 0, "N", RT_OPTG_CORES, ALL, NULL, p_cores, NULL,
      "dynamic: modeled cores, 2 rays buffered each (default 4; formerly" H
-     "--threads); recursive, packet: simulated cores, one work share" H
+     "--threads; sweep --hierarchy: its queues dealt to N cores in" H
+     "rounds); recursive, packet: simulated cores, one work share" H
      "each; treelet: treelets dealt to cores; stream-*, feedback: each" H
      "pass's rays in chunks (trace: a version-4 trace; default 1)",
      "", "2"},
     {"--threads", 0, "N", RT_OPTG_THREADS, ALL, NULL, p_host_threads, NULL,
      "render, bench: real host threads (recursive, packet, treelet;" H
-     "images identical to one thread; default 1); trace and sweep refuse it",
+     "dynamic: its N-core rounds; images identical to one thread;" H
+     "default 1); trace and sweep refuse it",
      "", "2"},
     {"--mode", 0, "M", 0, RT_OC_RUN, "mode", p_mode, NULL,
      "raycast | shadow | whitted | path (default shadow with lights," H "else raycast)", NULL, "shadow"},
@@ -759,7 +761,7 @@ const rt_render_optdef rt_render_optdefs[] = {
      "bvh4"},
     {"--instances", 0, "M", 0, ALL, "instances", p_instances, NULL,
      "object instances: flatten (copied into the triangle array;" H "default) | bvh (a top-level BVH over instances, one shared" H
-     "BVH per object; the recursive tracer; render and trace" H "then load a .pbrt file's instances unflattened)",
+     "BVH per object; the recursive and packet tracers; render and trace" H "then load a .pbrt file's instances unflattened)",
      "", "bvh"},
     {"--vb-size", 0, "S", RT_OPTG_VB, ALL, "vb-size", p_vb_size, NULL,
      "feedback: limit of one vertex buffer, e.g. 512M (default 2G)", "", "512M"},
