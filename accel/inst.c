@@ -74,11 +74,13 @@
  * ranges and the loose triangles partition the indices), checked here on
  * covered[], and (I2) by construction.
  *
- * Nesting: the pbrt loader refuses ObjectInstance inside ObjectBegin, so
- * instances are one level deep.
+ * Nesting: the pbrt loader flattens an ObjectInstance inside ObjectBegin
+ * into the object being defined, so the records are one level deep and
+ * a nested object is one bottom-level tree.
  */
 #include "inst.h"
 #include "accel.h"
+#include "rt_assert.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -604,6 +606,254 @@ static int inst_occluded(rt_trav *tv, const rt_ray *r) {
     W.best.t = r->tmax;
     walk_tlas(&W);
     return W.found;
+}
+
+/* ---- packets (the packet tracer) -------------------------------------------------
+ *
+ * A packet walks both levels together, with the discipline of the packet
+ * tracer's BVH walk (tracegen/packet.c): a node is visited when one of the
+ * packet's rays still needs it, its record read once per packet visit and
+ * counted once in tv->nodes; every ray present tests the node's box by
+ * itself with the single-ray walk's widened interval above (its own best
+ * hit bounding it), so each ray visits exactly the nodes whose box it
+ * meets within its bound, and tests every triangle that could beat its
+ * hit. Children go in the order of the packet's first ray present (its
+ * direction's sign on the split axis; in the bottom level its object-space
+ * direction). At a top-level leaf each instance is entered by the rays
+ * whose walk reaches it: its 64-byte record is read once for the packet
+ * (one node visit), each of those rays is transformed into object space
+ * (tv->xforms counts rays, as the single walk does) and the packet walks
+ * the shared bottom-level tree with them; a leaf's shared triangle
+ * records are read once per packet visit and tested against every ray
+ * present, on the world-space copies with the world rays (rt_isect_core),
+ * so hits are the hit rule's (hit.h) bit for bit. In any-hit mode an
+ * occluded ray leaves, and the walk stops when none is left.
+ */
+struct rt_inst_pk {
+    const rt_inst *I;
+    int np;
+    uint16_t *lv;       /* per level np slots: the rays present */
+    int nlv;            /* levels: 2 (RT_BVH_MAX_DEPTH + 2) */
+    float (*oo)[3], (*od)[3], (*oinv)[3]; /* per slot: the ray in the current instance's object space */
+    /* per call */
+    rt_trav *tv;
+    const rt_ray *ray;
+    rt_hit *hit;
+    uint8_t *done;
+    int shadow;
+    float *pnodes, *ptests;
+};
+
+rt_inst_pk *rt_inst_pk_new(const rt_inst *I, int np, rt_err *e) {
+    rt_inst_pk *k = rt_calloc(1, sizeof *k, e);
+    if (!k)
+        return NULL;
+    k->I = I;
+    k->np = np;
+    k->nlv = 2 * (RT_BVH_MAX_DEPTH + 2);
+    k->lv = rt_calloc((size_t)k->nlv * np, sizeof *k->lv, e);
+    k->oo = rt_calloc((size_t)np, sizeof *k->oo, e);
+    k->od = rt_calloc((size_t)np, sizeof *k->od, e);
+    k->oinv = rt_calloc((size_t)np, sizeof *k->oinv, e);
+    if (!k->lv || !k->oo || !k->od || !k->oinv) {
+        rt_inst_pk_free(k);
+        return NULL;
+    }
+    return k;
+}
+
+void rt_inst_pk_free(rt_inst_pk *k) {
+    if (!k)
+        return;
+    free(k->lv);
+    free(k->oo);
+    free(k->od);
+    free(k->oinv);
+    free(k);
+}
+
+/* The visit bound of slot i: its best hit so far (closest), else tmax. */
+static inline float pk_bound(const rt_inst_pk *k, int i) {
+    float t = !k->shadow && k->hit[i].tri != RT_NO_HIT ? k->hit[i].t : k->ray[i].tmax;
+    return t * (1.0f + 1e-3f) + 1e-6f;
+}
+
+static inline float pk_lo(const rt_ray *r) { return r->tmin - 1e-6f - fabsf(r->tmin) * 1e-3f; }
+
+/* Drops the occluded rays (any-hit) of the n slots at l; the rays left. */
+static int pk_live(const rt_inst_pk *k, uint16_t *l, int n) {
+    if (!k->shadow)
+        return n;
+    int m = 0;
+    for (int j = 0; j < n; j++)
+        if (!k->done[l[j]])
+            l[m++] = l[j];
+    return m;
+}
+
+/* Bottom-level node cur of instance q with the n rays at level d. */
+static void pk_blas(rt_inst_pk *k, const rt_inst_rec *q, uint32_t cur, int d, int n) {
+    rt_trav *tv = k->tv;
+    const rt_inst *I = k->I;
+    uint16_t *l = k->lv + (size_t)d * k->np;
+    RT_ASSERT(d < k->nlv && n <= k->np);
+    n = pk_live(k, l, n);
+    if (!n)
+        return;
+    const rt_bvh2_node *nd = &I->bnode[cur];
+    tv->nodes++;
+    REC_NODE(tv, tv->reg_node, cur, 32, RT_CLS_NODE);
+    int m = 0;
+    for (int j = 0; j < n; j++) {
+        const int i = l[j];
+        if (k->pnodes)
+            k->pnodes[i] += 1;
+        if (slab(nd->lo, nd->hi, k->oo[i], k->oinv[i], pk_lo(&k->ray[i]), pk_bound(k, i)))
+            l[m++] = (uint16_t)i;
+    }
+    n = m;
+    if (!n)
+        return;
+    if (nd->ntri) {
+        for (uint32_t j = nd->offset; j < nd->offset + nd->ntri && n > 0; j++) {
+            /* the candidate, its mark and its record as in walk_blas */
+            uint32_t tri = q->identity ? I->covered[I->bref[j]] : q->first + I->bref[j];
+            const rt_scene *sc = tv->sc;
+            const uint32_t slot = q->identity ? I->bref[j] : I->nloose + sc->obj[q->blas].start + I->bref[j];
+            const rt_tri *T;
+            rt_tri wt;
+            if (!sc->kept)
+                T = &sc->tri[tri];
+            else if (q->identity)
+                T = &sc->tri[I->bref[j]];
+            else {
+                rt_scene_inst_tri(q->o2w, &I->btri[j], &wt);
+                T = &wt;
+            }
+            if (tv->mark)
+                tv->mark[slot] |= tv->mark_bit;
+            if (tv->rec && tv->reg_tri >= 0)
+                RT_REC(tv->rec, rt_mm_addr(tv->L, tv->reg_tri, j), 36, 0, RT_CLS_TRI);
+            for (int x = 0; x < n; x++) {
+                const int i = l[x];
+                const rt_ray *r = &k->ray[i];
+                float t, u, v;
+                tv->tests++;
+                if (k->ptests)
+                    k->ptests[i] += 1;
+                if (!rt_isect_core(r, T, &t, &u, &v) || !(t > r->tmin && t < r->tmax))
+                    continue;
+                if (k->shadow) {
+                    k->done[i] = 1;
+                } else if (rt_hit_better(&k->hit[i], t, tri)) {
+                    rt_hit *h = &k->hit[i];
+                    h->t = t, h->tri = tri, h->u = u, h->v = v;
+                }
+            }
+            n = pk_live(k, l, n);
+        }
+        return;
+    }
+    const int i0 = l[0];
+    const uint32_t c[2] = {k->od[i0][nd->axis] < 0 ? nd->offset : cur + 1, k->od[i0][nd->axis] < 0 ? cur + 1 : nd->offset};
+    uint16_t *nx = l + k->np;
+    for (int ci = 0; ci < 2; ci++) {
+        memcpy(nx, l, sizeof *l * (size_t)n);
+        pk_blas(k, q, c[ci], d + 1, n);
+    }
+}
+
+/* Instance e with the n rays at level d (their walk reached it). */
+static void pk_enter(rt_inst_pk *k, uint32_t e, int d, int n) {
+    rt_trav *tv = k->tv;
+    const rt_inst_rec *q = &k->I->inst[e];
+    uint16_t *l = k->lv + (size_t)d * k->np;
+    n = pk_live(k, l, n);
+    if (!n)
+        return;
+    tv->nodes++; /* the record: once for the packet */
+    REC_NODE(tv, tv->reg_inst, e, RT_INST_RECSIZE, RT_CLS_INST);
+    for (int j = 0; j < n; j++) {
+        const int i = l[j];
+        const rt_ray *r = &k->ray[i];
+        const float wo[3] = {r->o.x, r->o.y, r->o.z}, wd[3] = {r->d.x, r->d.y, r->d.z};
+        if (k->pnodes)
+            k->pnodes[i] += 1;
+        if (q->identity) {
+            memcpy(k->oo[i], wo, sizeof wo);
+            memcpy(k->od[i], wd, sizeof wd);
+        } else {
+            tv->xforms++;
+            for (int a = 0; a < 3; a++) {
+                k->oo[i][a] = (float)(q->w2o[a][0] * wo[0] + q->w2o[a][1] * wo[1] + q->w2o[a][2] * wo[2] + q->w2o[a][3]);
+                k->od[i][a] = (float)(q->w2o[a][0] * wd[0] + q->w2o[a][1] * wd[1] + q->w2o[a][2] * wd[2]);
+            }
+        }
+        for (int a = 0; a < 3; a++)
+            k->oinv[i][a] = 1.0f / k->od[i][a];
+    }
+    uint16_t *nx = l + k->np;
+    memcpy(nx, l, sizeof *l * (size_t)n);
+    pk_blas(k, q, k->I->blas[q->blas].node0, d + 1, n);
+}
+
+/* Top-level node cur with the n rays at level d. */
+static void pk_tlas(rt_inst_pk *k, uint32_t cur, int d, int n) {
+    rt_trav *tv = k->tv;
+    const rt_inst *I = k->I;
+    uint16_t *l = k->lv + (size_t)d * k->np;
+    RT_ASSERT(d < k->nlv && n <= k->np);
+    n = pk_live(k, l, n);
+    if (!n)
+        return;
+    const rt_bvh2_node *nd = &I->tnode[cur];
+    tv->nodes++;
+    REC_NODE(tv, tv->reg_top, cur, 32, RT_CLS_TLAS);
+    int m = 0;
+    for (int j = 0; j < n; j++) {
+        const int i = l[j];
+        const rt_ray *r = &k->ray[i];
+        const float o[3] = {r->o.x, r->o.y, r->o.z}, inv[3] = {r->inv_d.x, r->inv_d.y, r->inv_d.z};
+        if (k->pnodes)
+            k->pnodes[i] += 1;
+        if (slab(nd->lo, nd->hi, o, inv, pk_lo(r), pk_bound(k, i)))
+            l[m++] = (uint16_t)i;
+    }
+    n = m;
+    if (!n)
+        return;
+    uint16_t *nx = l + k->np;
+    if (nd->ntri) {
+        for (uint32_t j = nd->offset; j < nd->offset + nd->ntri && n > 0; j++) {
+            memcpy(nx, l, sizeof *l * (size_t)n);
+            pk_enter(k, I->torder[j], d + 1, n);
+            n = pk_live(k, l, n);
+        }
+        return;
+    }
+    const rt_ray *r0 = &k->ray[l[0]];
+    const float d0 = nd->axis == 0 ? r0->d.x : nd->axis == 1 ? r0->d.y : r0->d.z;
+    const uint32_t c[2] = {d0 < 0 ? nd->offset : cur + 1, d0 < 0 ? cur + 1 : nd->offset};
+    for (int ci = 0; ci < 2; ci++) {
+        memcpy(nx, l, sizeof *l * (size_t)n);
+        pk_tlas(k, c[ci], d + 1, n);
+    }
+}
+
+void rt_inst_pk_trace(rt_inst_pk *k, rt_trav *tv, const rt_ray *ray, rt_hit *hit, uint8_t *done, int shadow,
+                      float *pnodes, float *ptests, const uint16_t *idx, int n) {
+    if (!k->I->ntnode || n <= 0)
+        return;
+    RT_ASSERT(n <= k->np);
+    k->tv = tv;
+    k->ray = ray;
+    k->hit = hit;
+    k->done = done;
+    k->shadow = shadow;
+    k->pnodes = pnodes;
+    k->ptests = ptests;
+    memcpy(k->lv, idx, sizeof *idx * (size_t)n);
+    pk_tlas(k, 0, 0, n);
 }
 
 /* ---- checking -------------------------------------------------------------------- */

@@ -54,4 +54,18 @@ void rt_inst_free(rt_inst *I); /* accepts NULL */
 /* Verifies (I1)..(I6) of inst.c against sc: 0, or -1 naming the broken one. */
 int rt_inst_check(const rt_inst *I, const rt_scene *sc, rt_err *e);
 
+/* Packets (the packet tracer; inst.c states the discipline): a walker for
+ * packets of at most np rays; NULL with e set. */
+typedef struct rt_inst_pk rt_inst_pk;
+rt_inst_pk *rt_inst_pk_new(const rt_inst *I, int np, rt_err *e);
+void rt_inst_pk_free(rt_inst_pk *k); /* accepts NULL */
+/* Traces the rays ray[idx[0..n)] (slots < np, world space) through both
+ * levels: closest hits into hit[] (slots start with tri RT_NO_HIT or a
+ * hit to beat), or (shadow) done[slot] = 1 for occluded rays (slots
+ * already done are skipped). Counts visits and tests in tv (recording
+ * through tv->rec, marking tv->mark) and per slot in pnodes/ptests
+ * (NULL: not kept). */
+void rt_inst_pk_trace(rt_inst_pk *k, rt_trav *tv, const rt_ray *ray, rt_hit *hit, uint8_t *done, int shadow,
+                      float *pnodes, float *ptests, const uint16_t *idx, int n);
+
 #endif

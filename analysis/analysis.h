@@ -294,6 +294,17 @@ int rt_report_speed_error(sqlite3 *h, int csv, const rt_plot_opts *plot, FILE *o
  * group of two structures or more is an error naming the sweep to run. */
 int rt_report_accel(sqlite3 *h, const char *scene, int csv, const rt_plot_opts *plot, FILE *out, rt_err *e);
 
+/* `report --figure instances` (instances.c): groups of runs of one tracer
+ * that differ only in their structure, holding an `--instances bvh` run
+ * and a flattened one; per run and 64-byte fully associative cache size
+ * the geometry traffic by level: two-level tlas, inst, blas (node, index,
+ * tri), shade; flattened nodes (node, index), tri, shade; both the whole
+ * geometry group. Markdown adds the two-level geometry over each
+ * flattened run's at the smallest and largest size; csv one row per
+ * (group, structure, level, size). scene NULL: every scene. No such group
+ * is an error naming the sweeps to run. */
+int rt_report_instances(sqlite3 *h, const char *scene, int csv, FILE *out, rt_err *e);
+
 /* Secondary rays (analysis/secondary.c): per scene, mode (with its
  * parameters), lighting, resolution and cache size, the reduction of
  * dynamic against recursive (rt_report_reduction) in geometry and in total

@@ -8,7 +8,11 @@
  *      not ''), one row per (level, cache size): the level's accesses,
  *      misses and the bytes it moves to the level below, per class group
  *      (geometry, ray, other, KB = 1024 bytes); the last level's bytes are
- *      the DRAM traffic.
+ *      the DRAM traffic. The heading names the inclusion (non-inclusive,
+ *      inclusive, exclusive); an inclusive or exclusive run has its levels
+ *      once per last-level size (one chain each: the rows lead with that
+ *      size) and two more columns, the back-invalidations and their
+ *      write-backs. A file older than schema 8 has no such runs.
  *   2. Policy comparison: single-level exact runs that differ only in their
  *      replacement policy (same scene, hash, tracer, resolution, lights,
  *      run key, simulator parameters, no hierarchy) and include an `opt`
@@ -29,44 +33,80 @@
 #define NPOL 7
 static const char *const pols[NPOL] = {"lru", "plru", "srrip", "brrip", "fifo", "random", "opt"};
 
+/* 1 if level_traffic has schema 8's inclusion columns. */
+static int has_inclusion(sqlite3 *h)
+{
+    sqlite3_stmt *st;
+    int r = 0;
+    if (sqlite3_prepare_v2(h, "SELECT 1 FROM pragma_table_info('level_traffic') WHERE name = 'last_size'", -1, &st,
+                           NULL) == SQLITE_OK)
+        r = sqlite3_step(st) == SQLITE_ROW;
+    sqlite3_finalize(st);
+    return r;
+}
+
+/* The inclusion of a stored spec (rt_hier_spec writes it last, nine never). */
+static const char *inclusion_of(const char *spec, int *incl)
+{
+    size_t n = strlen(spec);
+    *incl = 1;
+    if (n > 10 && !strcmp(spec + n - 10, ",inclusive")) return "inclusive";
+    if (n > 10 && !strcmp(spec + n - 10, ",exclusive")) return "exclusive";
+    *incl = 0;
+    return "non-inclusive";
+}
+
 static int levels(sqlite3 *h, const char *scene, FILE *out, int *nrows, rt_err *e)
 {
-    sqlite3_stmt *st = rt_report_stmt(
-        h,
-        "SELECT r.id, s.name, r.tracer, r.W, r.H, r.lights, r.hierarchy, l.level, l.level_name, l.cache_size, l.line,"
-        " l.assoc, l.repl, SUM(l.accesses), SUM(l.misses),"
-        " TOTAL(CASE WHEN k.grp = 'geometry' THEN l.traffic_bytes END),"
-        " TOTAL(CASE WHEN k.grp = 'ray' THEN l.traffic_bytes END),"
-        " TOTAL(CASE WHEN k.grp = 'other' THEN l.traffic_bytes END)"
-        " FROM level_traffic l JOIN runs r ON r.id = l.run_id JOIN scenes s ON s.id = r.scene_id"
-        " JOIN classes k ON k.name = l.class"
-        " WHERE r.hierarchy <> '' AND l.gen = -1 AND l.core = -1 AND (?1 IS NULL OR s.name = ?1)"
-        " GROUP BY r.id, l.level, l.cache_size, l.line, l.assoc, l.policy, l.repl"
-        " ORDER BY s.name, r.W, r.H, r.lights, r.tracer, r.id, l.level, l.cache_size",
-        "hierarchy", e, scene ? "s" : "", scene);
+    int hi = has_inclusion(h);
+    char sql[1600];
+    snprintf(sql, sizeof sql,
+             "SELECT r.id, s.name, r.tracer, r.W, r.H, r.lights, r.hierarchy, l.level, l.level_name, l.cache_size, l.line,"
+             " l.assoc, l.repl, SUM(l.accesses), SUM(l.misses),"
+             " TOTAL(CASE WHEN k.grp = 'geometry' THEN l.traffic_bytes END),"
+             " TOTAL(CASE WHEN k.grp = 'ray' THEN l.traffic_bytes END),"
+             " TOTAL(CASE WHEN k.grp = 'other' THEN l.traffic_bytes END), %s"
+             " FROM level_traffic l JOIN runs r ON r.id = l.run_id JOIN scenes s ON s.id = r.scene_id"
+             " JOIN classes k ON k.name = l.class"
+             " WHERE r.hierarchy <> '' AND l.gen = -1 AND l.core = -1 AND (?1 IS NULL OR s.name = ?1)"
+             " GROUP BY r.id, %s l.level, l.cache_size, l.line, l.assoc, l.policy, l.repl"
+             " ORDER BY s.name, r.W, r.H, r.lights, r.tracer, r.id, %s l.level, l.cache_size",
+             hi ? "l.last_size, SUM(l.backinvals), SUM(l.bi_writebacks)" : "0, 0, 0", hi ? "l.last_size," : "",
+             hi ? "l.last_size," : "");
+    sqlite3_stmt *st = rt_report_stmt(h, sql, "hierarchy", e, scene ? "s" : "", scene);
     if (!st) return -1;
     long long last = -1;
-    int rc;
+    int rc, incl = 0;
     while ((rc = sqlite3_step(st)) == SQLITE_ROW) {
         long long id = sqlite3_column_int64(st, 0);
         if (id != last) {
             if (!*nrows) fprintf(out, "## Cache hierarchies: traffic per level\n");
-            fprintf(out, "\n### %s, %s, %dx%d, lights %d, run %lld: %s\n\n", sqlite3_column_text(st, 1),
+            const char *spec = (const char *)sqlite3_column_text(st, 6);
+            const char *in = inclusion_of(spec, &incl);
+            fprintf(out, "\n### %s, %s, %dx%d, lights %d, run %lld: %s (%s)\n\n", sqlite3_column_text(st, 1),
                     sqlite3_column_text(st, 2), sqlite3_column_int(st, 3), sqlite3_column_int(st, 4),
-                    sqlite3_column_int(st, 5), id, sqlite3_column_text(st, 6));
-            fprintf(out, "| level | size | line | ways | repl | accesses | misses | geometry KB | ray KB | other KB |"
-                         " to the level below KB |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
+                    sqlite3_column_int(st, 5), id, spec, in);
+            if (incl)
+                fprintf(out, "| last-level size | level | size | line | ways | repl | accesses | misses | geometry KB |"
+                             " ray KB | other KB | to the level below KB | back-invalidations | their write-backs |\n"
+                             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+            else
+                fprintf(out, "| level | size | line | ways | repl | accesses | misses | geometry KB | ray KB | other KB |"
+                             " to the level below KB |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
             last = id;
         }
+        if (incl) fprintf(out, "| %lld ", sqlite3_column_int64(st, 18));
         double g = sqlite3_column_double(st, 15), r = sqlite3_column_double(st, 16), o = sqlite3_column_double(st, 17);
         int assoc = sqlite3_column_int(st, 11);
         char ways[16];
         if (assoc) snprintf(ways, sizeof ways, "%d", assoc);
         else strcpy(ways, "full");
-        fprintf(out, "| %s | %lld | %d | %s | %s | %lld | %lld | %.1f | %.1f | %.1f | %.1f |\n", sqlite3_column_text(st, 8),
+        fprintf(out, "| %s | %lld | %d | %s | %s | %lld | %lld | %.1f | %.1f | %.1f | %.1f |", sqlite3_column_text(st, 8),
                 sqlite3_column_int64(st, 9), sqlite3_column_int(st, 10), ways, sqlite3_column_text(st, 12),
                 sqlite3_column_int64(st, 13), sqlite3_column_int64(st, 14), g / 1024, r / 1024, o / 1024,
                 (g + r + o) / 1024);
+        if (incl) fprintf(out, " %lld | %lld |", sqlite3_column_int64(st, 19), sqlite3_column_int64(st, 20));
+        fputc('\n', out);
         (*nrows)++;
     }
     return rt_report_done(st, rc, "hierarchy", e);

@@ -72,6 +72,10 @@ typedef struct rt_cache_engine {
      * fetches, write-backs and written-through bytes become references to
      * below, in order (rt_sa_set_below). 0, or -1 with a message. */
     int (*set_below)(void *st, rt_sink *below, rt_err *e);
+    /* An offline engine's phases in its last finish, in seconds (NULL:
+     * none): out[0] the backward next-use pass, out[1] the forward
+     * simulation of every size. */
+    void (*phases)(const void *st, double *out);
 } rt_cache_engine;
 
 /* The table, in the order rt_sim_new tries it, ended by NULL. */

@@ -28,7 +28,8 @@
  * lines are written back at the end of each such simulation).
  * Memory: 12 bytes a touch (a trace of 10^8 line touches needs 1.2 GB,
  * checked against the memory limit as the buffer grows) and 40 to 72 bytes
- * per distinct line (ids, table, next-use scratch), plus 22 bytes per line of the size being simulated.
+ * per distinct line (ids, table, next-use scratch), plus 22 bytes per line of the size being simulated
+ * (per size) or 20 bytes per distinct line and 8 per line of the largest size (one pass).
  * Lines up to 65535 bytes (the bytes of a touch are 16 bits).
  *
  * INVARIANTS (rt_sim_check -> opt_check):
@@ -84,6 +85,7 @@ typedef struct opt {
     int oom;            /* growth failed: later batches are refused */
     ocount *cnt;        /* per size */
     uint64_t rep[RT_SIM_NCG]; /* reads counted by the repeat filter: hits in every size */
+    double sec[2];            /* the last finish: backward pass, forward simulation (s) */
 } opt;
 
 static inline uint64_t hsl(uint64_t line, uint64_t cap) { return (line * 0x9E3779B97F4A7C15ULL) & (cap - 1); }
@@ -198,6 +200,9 @@ static int opt_access(void *st, const rt_access *a, size_t n)
     opt *o = st;
     if (o->oom) return -1;
     const uint64_t ls = o->cfg.line;
+    /* a power-of-two line (the usual case): shifts instead of the three
+     * 64-bit divisions a reference costs otherwise */
+    const int sh = (ls & (ls - 1)) == 0 ? __builtin_ctzll(ls) : -1;
     rt_err e = {0};
     o->done = 0;
     for (size_t i = 0; i < n; i++) {
@@ -206,10 +211,18 @@ static int opt_access(void *st, const rt_access *a, size_t n)
         unsigned cg = rt_sim_cg(&a[i]);
         unsigned w = a[i].write == RT_WRITE_STREAM ? RT_WRITE_STREAM : a[i].write != 0;
         if (i + OPT_AHEAD < n) { /* the table slots of a reference ahead */
-            uint64_t h = hsl(a[i + OPT_AHEAD].addr / ls, o->hcap);
+            uint64_t ahead = a[i + OPT_AHEAD].addr;
+            uint64_t h = hsl(sh >= 0 ? ahead >> sh : ahead / ls, o->hcap);
             __builtin_prefetch(&o->ht[h]);
         }
-        uint64_t end = addr + sz, first = addr / ls, last = (end - 1) / ls;
+        uint64_t end = addr + sz, first = sh >= 0 ? addr >> sh : addr / ls, last = sh >= 0 ? (end - 1) >> sh : (end - 1) / ls;
+        if (first == last) { /* one line: the whole reference is inside it */
+            if (push(o, first, w, cg, sz, &e)) {
+                o->oom = 1;
+                return -1;
+            }
+            continue;
+        }
         for (uint64_t L = first; L <= last; L++) {
             uint64_t lo = L == first ? addr : L * ls, hi = L == last ? end : (L + 1) * ls;
             if (push(o, L, w, cg, (uint32_t)(hi - lo), &e)) {
@@ -310,12 +323,13 @@ static int run_size(opt *o, int si, rt_err *e)
     ocount *k = &o->cnt[si];
     memset(k, 0, sizeof *k);
     const int wt = c->write_through, nwa = c->no_write_allocate, fl = c->write_miss_fullline;
+    const uint64_t smask = (f.nsets & (f.nsets - 1)) == 0 ? f.nsets - 1 : 0; /* a power of two: no division */
     for (uint64_t i = 0; i < o->nt; i++) {
         const otouch *t = &o->t[i];
         unsigned cg = t->cg, w = t->w;
         k->acc[cg]++;
         k->wr[cg] += w != 0;
-        uint64_t set = o->ids[t->id] % f.nsets;
+        uint64_t set = smask || f.nsets == 1 ? o->ids[t->id] & smask : o->ids[t->id] % f.nsets;
         uint32_t *h = f.heap + set * f.ways;
         uint32_t x = f.slot[t->id];
         if (x != NONE) {
@@ -380,7 +394,7 @@ static int run_size(opt *o, int si, rt_err *e)
 /* A line's state, in one 16-byte record so a touch reads one cache line. */
 typedef struct oline {
     uint32_t key;   /* next use (NONE = never) */
-    uint32_t pos;   /* position in its group's heap */
+    uint32_t pad2;
     uint32_t dirty; /* bit j: dirty in cache j */
     uint8_t grp;    /* group, k = in no cache */
     uint8_t wcg;    /* (class, generation) index of the last write */
@@ -389,6 +403,10 @@ typedef struct oline {
 
 typedef struct one {
     oline *l;
+    /* line id -> position in its group's heap, apart from the records: a
+     * sift writes the positions of the entries it moves, and 4 bytes a line
+     * keep four times as many of them in the cache as 16-byte records */
+    uint32_t *pos;
     /* per group a max-heap of entries (next use << 32 | ~line id): the
      * priority order (farther next use first, then the lower id) is the
      * integer order, and sifting reads no line record */
@@ -401,7 +419,7 @@ static inline uint32_t oid(uint64_t v) { return ~(uint32_t)v; }
 
 /* The heaps are 4-ary (children of i: 4i+1..4i+4, one 32-byte run): half
  * the depth of a binary heap, so a sift moves half as many entries and
- * writes half as many line records (their pos), the cost that dominates;
+ * writes half as many heap positions (g->pos), the cost that dominates;
  * the order is total (entries are unique), so the top, and every result,
  * is the binary heap's. */
 static void o_up(one *g, int j, uint32_t i)
@@ -411,11 +429,11 @@ static void o_up(one *g, int j, uint32_t i)
         uint32_t p = (i - 1) / OARY;
         if (v <= h[p]) break;
         h[i] = h[p];
-        g->l[oid(h[i])].pos = i;
+        g->pos[oid(h[i])] = i;
         i = p;
     }
     h[i] = v;
-    g->l[oid(v)].pos = i;
+    g->pos[oid(v)] = i;
 }
 
 static void o_down(one *g, int j, uint32_t i)
@@ -435,11 +453,11 @@ static void o_down(one *g, int j, uint32_t i)
         }
         if (h[b] <= v) break;
         h[i] = h[b];
-        g->l[oid(h[i])].pos = i;
+        g->pos[oid(h[i])] = i;
         i = b;
     }
     h[i] = v;
-    g->l[oid(v)].pos = i;
+    g->pos[oid(v)] = i;
 }
 
 static void o_push(one *g, int j, uint32_t x)
@@ -454,20 +472,20 @@ static void o_replace(one *g, int j, uint32_t p, uint32_t y)
 {
     g->heap[j][p] = oent(g, y);
     g->l[y].grp = (uint8_t)j;
-    g->l[y].pos = p;
+    g->pos[y] = p;
     if (p) o_up(g, j, p);
-    o_down(g, j, g->l[y].pos);
+    o_down(g, j, g->pos[y]);
 }
 
 static void o_remove(one *g, int j, uint32_t x)
 {
-    uint32_t i = g->l[x].pos;
+    uint32_t i = g->pos[x];
     uint64_t last = g->heap[j][--g->n[j]];
     if (i == g->n[j]) return;
     g->heap[j][i] = last;
-    g->l[oid(last)].pos = i;
+    g->pos[oid(last)] = i;
     o_up(g, j, i);
-    o_down(g, j, g->l[oid(last)].pos);
+    o_down(g, j, g->pos[oid(last)]);
 }
 
 static int run_onepass(opt *o, rt_err *e)
@@ -477,7 +495,8 @@ static int run_onepass(opt *o, rt_err *e)
     one g = {0};
     uint32_t nid = o->nid ? o->nid : 1;
     g.l = rt_calloc(nid, sizeof *g.l, e);
-    int ok = g.l != NULL;
+    g.pos = g.l ? rt_calloc(nid, sizeof *g.pos, e) : NULL;
+    int ok = g.pos != NULL;
     for (int j = 0; j < k && ok; j++) {
         g.cap[j] = (uint32_t)((c->sizes[j] - (j ? c->sizes[j - 1] : 0)) / c->line);
         /* 3 entries before a 64-byte boundary: the 4 children of i (4i+1..4i+4)
@@ -499,15 +518,18 @@ static int run_onepass(opt *o, rt_err *e)
         const otouch *tc = &o->t[t];
         uint32_t x = tc->id;
         unsigned cg = tc->cg, w = tc->w;
-        if (t + OPT_AHEAD < o->nt) __builtin_prefetch(&g.l[o->t[t + OPT_AHEAD].id]); /* a random record, ahead */
+        if (t + OPT_AHEAD < o->nt) { /* a random record and position, ahead */
+            __builtin_prefetch(&g.l[o->t[t + OPT_AHEAD].id]);
+            __builtin_prefetch(&g.pos[o->t[t + OPT_AHEAD].id]);
+        }
         int i = g.l[x].grp;
         acc[cg]++;
         wr[cg] += w != 0;
         hist[cg][w == 0 ? 0 : (w == RT_WRITE_STREAM || (fl && tc->bytes == c->line)) ? 2 : 1][i]++;
         if (i == 0) { /* a hit in every size: only x's priority grows (its key was now, the least) */
             g.l[x].key = tc->next;
-            g.heap[0][g.l[x].pos] = oent(&g, x);
-            o_up(&g, 0, g.l[x].pos);
+            g.heap[0][g.pos[x]] = oent(&g, x);
+            o_up(&g, 0, g.pos[x]);
             if (w) {
                 g.l[x].dirty = all;
                 g.l[x].wcg = (uint8_t)cg;
@@ -516,7 +538,7 @@ static int run_onepass(opt *o, rt_err *e)
         }
         /* x's old key was this touch, the least of all: x is a leaf of G_i,
          * where the last victim will take its place */
-        uint32_t px = i < k ? g.l[x].pos : 0;
+        uint32_t px = i < k ? g.pos[x] : 0;
         g.l[x].key = tc->next;
         uint32_t carry = NONE;
         for (int j = 0; j < i; j++) {
@@ -579,6 +601,7 @@ out:
     free(wb);
     for (int j = 0; j < k; j++) free(g.heap[j] ? g.heap[j] - 3 : NULL);
     free(g.l);
+    free(g.pos);
     return rc;
 }
 
@@ -588,6 +611,7 @@ static void opt_finish(void *st, int flush)
     opt *o = st;
     if (o->oom) return;
     rt_err e = {0};
+    double t0 = rt_now();
     /* the backward pass: next use of every touch */
     uint32_t *last = rt_calloc(o->nid ? o->nid : 1, sizeof *last, &e);
     if (!last) {
@@ -601,6 +625,8 @@ static void opt_finish(void *st, int flush)
         last[o->t[i].id] = (uint32_t)i;
     }
     free(last);
+    double t1 = rt_now();
+    o->sec[0] = t1 - t0;
     if (opt_onepass(&o->cfg)) {
         if (run_onepass(o, &e)) o->oom = 1;
     } else {
@@ -610,6 +636,7 @@ static void opt_finish(void *st, int flush)
                 return;
             }
     }
+    o->sec[1] = rt_now() - t1;
     o->done = !o->oom;
 }
 
@@ -674,6 +701,13 @@ static void opt_repeats(void *st, const uint64_t *cnt)
     for (int cg = 0; cg < RT_SIM_NCG; cg++) o->rep[cg] += cnt[cg];
 }
 
+static void opt_phases(const void *st, double *out)
+{
+    const opt *o = st;
+    out[0] = o->sec[0];
+    out[1] = o->sec[1];
+}
+
 const rt_cache_engine rt_engine_opt = {
     .name = "exact-opt",
     .repl = "opt",
@@ -686,4 +720,5 @@ const rt_cache_engine rt_engine_opt = {
     .counts = opt_counts,
     .check = opt_check,
     .repeats = opt_repeats,
+    .phases = opt_phases,
 };

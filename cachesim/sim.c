@@ -149,6 +149,14 @@ void rt_sim_free(rt_sim *s)
 
 const rt_sim_config *rt_sim_get_config(const rt_sim *s) { return &s->cfg; }
 const char *rt_sim_engine(const rt_sim *s) { return s->eng->name; }
+
+int rt_sim_phases(const rt_sim *s, double out[2])
+{
+    out[0] = out[1] = 0;
+    if (!s->eng->phases) return -1;
+    s->eng->phases(s->st, out);
+    return 0;
+}
 rt_sink *rt_sim_sink(rt_sim *s) { return &s->sink; }
 
 static void sim_add_repeats(void *ctx, const uint64_t *cnt)

@@ -145,6 +145,10 @@ const rt_sim_config *rt_sim_get_config(const rt_sim *s);
 /* The engine's name (engine.h): "exact-stack" (one-pass msim) or
  * "exact-persize" (setassoc per size, any replacement policy). */
 const char *rt_sim_engine(const rt_sim *s);
+/* The seconds of an offline engine's phases in the last rt_sim_finish
+ * (OPT: out[0] the backward next-use pass, out[1] the forward simulation);
+ * 0, or -1 (out zero) for an engine without phases. For bench. */
+int rt_sim_phases(const rt_sim *s, double out[2]);
 
 /* Simulates n references. Never fails (returns 0); references with size 0
  * are treated as size 1. Class values >= RT_NCLASS are counted as RT_CLS_FB

@@ -39,6 +39,9 @@ static void usage(FILE *f)
             "                     accel: the structures of each tracer side by side: footprint,\n"
             "                     nodes and tests per ray, geometry traffic per cache size\n"
             "                     (runs of sweep --accels; --plot: traffic against cache size)\n"
+            "                     instances: --instances bvh runs beside the same tracer on the\n"
+            "                     flattened scene, geometry traffic per level (tlas, inst, blas)\n"
+            "                     and cache size\n"
             "                     treelet: treelet vs recursive on the BVH, dynamic vs recursive\n"
             "                     on the k-d tree, traffic split geometry/ray/stack/queue (--plot)\n"
             "                     cores: DRAM traffic and shared-level miss rate against the\n"
@@ -94,8 +97,9 @@ int main_report(int argc, char **argv)
         case 'f':
             if (strcmp(optarg, "all") && strcmp(optarg, "scenes") && strcmp(optarg, "secondary") && strcmp(optarg, "purcell") && strcmp(optarg, "feedback") &&
                 strcmp(optarg, "accel") && strcmp(optarg, "treelet") && strcmp(optarg, "hierarchy") && strcmp(optarg, "cores") &&
+                strcmp(optarg, "instances") &&
                 !(strlen(optarg) == 1 && optarg[0] >= '4' && optarg[0] <= '9')) {
-                rt_cmd_error("report", "--figure: '%s' is not 4..9, scenes, secondary, purcell, feedback, accel, treelet, hierarchy, cores or all", optarg);
+                rt_cmd_error("report", "--figure: '%s' is not 4..9, scenes, secondary, purcell, feedback, accel, instances, treelet, hierarchy, cores or all", optarg);
                 return RT_EXIT_USAGE;
             }
             figure = optarg;
@@ -199,6 +203,8 @@ int main_report(int argc, char **argv)
         rc = rt_report_feedback(h, o.scene, o.csv, plotdir ? &po : NULL, out, &e);
     } else if (rc == 0 && !strcmp(figure, "accel")) {
         rc = rt_report_accel(h, o.scene, o.csv, plotdir ? &po : NULL, out, &e);
+    } else if (rc == 0 && !strcmp(figure, "instances")) {
+        rc = rt_report_instances(h, o.scene, o.csv, out, &e);
     } else if (rc == 0 && !strcmp(figure, "hierarchy")) {
         rc = rt_report_hierarchy(h, o.scene, out, &e);
     } else if (rc == 0 && !strcmp(figure, "treelet")) {

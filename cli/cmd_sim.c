@@ -56,8 +56,9 @@ static void usage(FILE *f)
             "                         (only the last level may have several sizes: A-B or\n"
             "                         A+B+C); rows per level, DRAM = the last level;\n"
             "                         a last item nine (default), inclusive or exclusive\n"
-            "                         sets the inclusion (all-LRU levels, one line size; one\n"
-            "                         chain per last-level size; back-invalidations shown)\n"
+            "                         sets the inclusion (any policy but opt, one line size;\n"
+            "                         one chain per last-level size; back-invalidations\n"
+            "                         shown, and stored with --db)\n"
             "  --write-through        write-through instead of write-back\n"
             "  --no-write-allocate    write misses do not allocate (write around)\n"
             "  --flush                write back the lines still dirty at the end, as\n"
@@ -519,11 +520,6 @@ static int parse_args(int argc, char **argv, sim_opts *o)
             rt_cmd_error("sim", "--hierarchy: %s", err.msg);
             return -1;
         }
-        if (o->db && o->hc.inclusion != RT_INCL_NINE) {
-            rt_cmd_error("sim", "--hierarchy: %s hierarchies are printed, not stored (--db holds non-inclusive ones)",
-                         rt_hier_inclusion_name(o->hc.inclusion));
-            return -1;
-        }
         return 0;
     }
     if (rt_sim_config_check(&o->cfg, &err) || rt_approx_config_check(&o->cfg, &o->ac, &err)) {
@@ -628,10 +624,7 @@ static int store_hier(rt_db *db, const char *path, const rt_hier *h, const rt_tr
                       double secs, int din_class, rt_err *e)
 {
     const rt_hier_config *hc = rt_hier_get_config(h);
-    if (hc->inclusion != RT_INCL_NINE)
-        return rt_errf(e, "%s: %s hierarchies are printed, not stored (--db): the database holds non-inclusive ones", path,
-                       rt_hier_inclusion_name(hc->inclusion));
-    const rt_sim *last = rt_hier_level(h, hc->nlevels - 1);
+    const rt_sim *last = rt_hier_level(h, hc->nlevels - 1); /* NULL when inclusive or exclusive */
     const rt_sim_config *lc = &hc->level[hc->nlevels - 1];
     if (in->refs == 0) return rt_errf(e, "%s: no references in the trace; nothing stored", path);
     rt_exp_key k;
@@ -658,12 +651,12 @@ static int store_hier(rt_db *db, const char *path, const rt_hier *h, const rt_tr
     rt_db_gen *grows = NULL;
     size_t ng = 0;
     int rc = -1;
-    if (in->has_meta && m->generations > 0 &&
-        (grows = calloc((size_t)lc->nsizes * RT_NCLASS * RT_MAXGEN, sizeof *grows)))
+    int gens = last && in->has_meta && m->generations > 0; /* inclusion pools the generations */
+    if (gens && (grows = calloc((size_t)lc->nsizes * RT_NCLASS * RT_MAXGEN, sizeof *grows)))
         ng = rt_sim_db_gen_rows(last, grows);
-    if (!rows || !lv || (in->has_meta && m->generations > 0 && !grows)) rt_errf(e, "out of memory");
+    if (!rows || !lv || (gens && !grows)) rt_errf(e, "out of memory");
     else {
-        size_t n = rt_sim_db_rows(last, rows), nl = rt_hier_db_level_rows(h, in->has_meta && m->generations > 0, lv);
+        size_t n = rt_hier_db_rows(h, rows), nl = rt_hier_db_level_rows(h, gens, lv);
         rt_db_rows R = {rows, n, grows, ng, NULL, 0, lv, nl};
         int64_t id = 0;
         rc = rt_db_store(db, &r, &R, &id, e);

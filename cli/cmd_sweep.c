@@ -900,11 +900,6 @@ static int finish_opts(sweep_opts *o)
             rt_cmd_error("sweep", "--hierarchy: %s", e.msg);
             return -1;
         }
-        if (!x->mc && o->hc.inclusion != RT_INCL_NINE) {
-            rt_cmd_error("sweep", "--hierarchy: %s hierarchies run with sim --hierarchy (printed, not stored)",
-                         rt_hier_inclusion_name(o->hc.inclusion));
-            return -1;
-        }
         if (!x->mc) {
             x->sim = o->hc.level[o->hc.nlevels - 1];
             x->hier = &o->hc;

@@ -11,7 +11,9 @@
  * the run's new dimensions repl, hierarchy, cores, light_model and
  * instances in its key, the per-level table level_traffic and its view
  * v_level; migrate_v6: runs.stats_json, the statistics as a JSON object,
- * parsed from the old stats text where it parses, NULL where not). Unsigned 64-bit hashes are stored as 16 lowercase hex
+ * parsed from the old stats text where it parses, NULL where not;
+ * migrate_v7: level_traffic gains last_size, backinvals and
+ * bi_writebacks, the chain's last-level size part of its UNIQUE key). Unsigned 64-bit hashes are stored as 16 lowercase hex
  * digits, counters as INTEGER (they stay far below 2^63), standard errors
  * as REAL (bytes, NULL = none).
  *
@@ -112,6 +114,10 @@ _Static_assert(RT_DB_SE_N == RT_NGROUP + 1, "rt_db_se holds one error per group 
 
 /* A light mask as names: bit i is light i, "0+2" for lights 0 and 2
  * (lights 0..7; 0 = "none"). */
+/* the inclusion of a run's hierarchy: '' (no hierarchy), nine, inclusive, exclusive */
+#define INCLUSION_EXPR                                                                                               \
+    "CASE WHEN r.hierarchy = '' THEN '' WHEN r.hierarchy LIKE '%,inclusive' THEN 'inclusive'"                        \
+    " WHEN r.hierarchy LIKE '%,exclusive' THEN 'exclusive' ELSE 'nine' END"
 #define LIGHT_BITS "CASE WHEN r.lights & 1 THEN '+0' ELSE '' END || CASE WHEN r.lights & 2 THEN '+1' ELSE '' END || CASE WHEN r.lights & 4 THEN '+2' ELSE '' END || CASE WHEN r.lights & 8 THEN '+3' ELSE '' END || CASE WHEN r.lights & 16 THEN '+4' ELSE '' END || CASE WHEN r.lights & 32 THEN '+5' ELSE '' END || CASE WHEN r.lights & 64 THEN '+6' ELSE '' END || CASE WHEN r.lights & 128 THEN '+7' ELSE '' END"
 
 static const char schema_sql[] =
@@ -231,19 +237,23 @@ static const char schema_sql[] =
     "  misses INTEGER NOT NULL,            -- of them, misses (read and write)\n"
     "  writebacks INTEGER NOT NULL,        -- dirty evictions out of this level\n"
     "  traffic_bytes INTEGER NOT NULL,     -- bytes this level moves to the level below it\n"
-    "  UNIQUE(run_id, level, core, cache_size, line, assoc, policy, repl, class, gen));\n"
+    "  last_size INTEGER NOT NULL DEFAULT 0, -- inclusive/exclusive: the chain's last-level size; 0 = none\n"
+    "  backinvals INTEGER NOT NULL DEFAULT 0, -- lines lost to back-invalidation (inclusive)\n"
+    "  bi_writebacks INTEGER NOT NULL DEFAULT 0, -- of them, dirty ones written down first\n"
+    "  UNIQUE(run_id, level, core, cache_size, line, assoc, policy, repl, class, gen, last_size));\n"
     "CREATE VIEW IF NOT EXISTS v_level AS\n"
     "  SELECT l.run_id, s.name AS scene, s.params AS scene_params, r.tracer, r.W, r.H, r.lights, r.hierarchy,\n"
     "    r.cores, r.light_model, r.instances, r.sim_method, l.level, l.level_name, l.core, l.cache_size, l.line,\n"
     "    l.assoc, l.policy, l.repl, l.gen,\n"
+    "    " INCLUSION_EXPR " AS inclusion, l.last_size,\n"
     "    SUM(CASE WHEN k.grp = 'geometry' THEN l.traffic_bytes ELSE 0 END) AS geometry_bytes,\n"
     "    SUM(CASE WHEN k.grp = 'ray' THEN l.traffic_bytes ELSE 0 END) AS ray_bytes,\n"
     "    SUM(CASE WHEN k.grp = 'other' THEN l.traffic_bytes ELSE 0 END) AS other_bytes,\n"
     "    SUM(l.traffic_bytes) AS total_bytes, SUM(l.accesses) AS accesses, SUM(l.misses) AS misses,\n"
-    "    SUM(l.writebacks) AS writebacks\n"
+    "    SUM(l.writebacks) AS writebacks, SUM(l.backinvals) AS backinvals, SUM(l.bi_writebacks) AS bi_writebacks\n"
     "  FROM level_traffic l JOIN classes k ON k.name = l.class JOIN runs r ON r.id = l.run_id\n"
     "    JOIN scenes s ON s.id = r.scene_id\n"
-    "  GROUP BY l.run_id, l.level, l.core, l.cache_size, l.line, l.assoc, l.policy, l.repl, l.gen;\n";
+    "  GROUP BY l.run_id, l.level, l.core, l.cache_size, l.line, l.assoc, l.policy, l.repl, l.gen, l.last_size;\n";
 
 struct rt_db {
     sqlite3 *h;        /* connection */
@@ -287,10 +297,10 @@ static const char *const stmt_sql[S_NSTMT] = {
     "INSERT INTO traffic_se(run_id, config_id, geometry_se, ray_se, other_se, total_se) VALUES(?1, ?2, ?3, ?4, ?5, ?6)",
     "SELECT 1 FROM traffic WHERE run_id = ?1 AND config_id = ?2 LIMIT 1",
     "DELETE FROM level_traffic WHERE run_id = ?1 AND level = ?2 AND core = ?3 AND cache_size = ?4 AND line = ?5"
-    " AND assoc = ?6 AND policy = ?7 AND repl = ?8",
+    " AND assoc = ?6 AND policy = ?7 AND repl = ?8 AND last_size = ?9",
     "INSERT INTO level_traffic(run_id, level, level_name, core, cache_size, line, assoc, policy, repl, class, gen,"
-    " accesses, misses, writebacks, traffic_bytes)"
-    " VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15)",
+    " accesses, misses, writebacks, traffic_bytes, last_size, backinvals, bi_writebacks)"
+    " VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18)",
 };
 
 const char *rt_db_schema_sql(void) { return schema_sql; }
@@ -469,6 +479,33 @@ static int migrate_v6(rt_db *db, int64_t ver, rt_err *e)
     return 0;
 }
 
+/* Version 7 -> 8: level_traffic gains the chain's last-level size (part
+ * of its UNIQUE key, so the table is rebuilt as runs was by migrate_v5:
+ * a copy with the current definition filled with every row, the old table
+ * dropped, the copy renamed), back-invalidations and their write-backs;
+ * the rows stored before are non-inclusive: 0 in all three. Before version
+ * 6 there was no level_traffic: the schema creates it. */
+static int migrate_v7(rt_db *db, rt_err *e)
+{
+    static const char head[] = "CREATE TABLE IF NOT EXISTS level_traffic(";
+    char sql[4096];
+    const char *def = strstr(schema_sql, head);
+    const char *end = def ? strstr(def, ");\n") : NULL; /* the table's closing parenthesis */
+    if (!end) return rt_errf(e, "%s: level_traffic definition not found", db->path);
+    int n = snprintf(sql, sizeof sql, "DROP TABLE IF EXISTS level_traffic_v8;\nCREATE TABLE level_traffic_v8(%.*s);\n",
+                     (int)(end - def - (sizeof head - 1)), def + sizeof head - 1);
+    if (n < 0 || (size_t)n >= sizeof sql) return rt_errf(e, "%s: level_traffic definition too long", db->path);
+    if (exec(db, sql, e)) return -1;
+    return exec(db,
+                "INSERT INTO level_traffic_v8(run_id, level, level_name, core, cache_size, line, assoc, policy, repl,"
+                " class, gen, accesses, misses, writebacks, traffic_bytes)\n"
+                "  SELECT run_id, level, level_name, core, cache_size, line, assoc, policy, repl, class, gen, accesses,"
+                " misses, writebacks, traffic_bytes FROM level_traffic;\n"
+                "DROP TABLE level_traffic;\n"
+                "ALTER TABLE level_traffic_v8 RENAME TO level_traffic;\n",
+                e);
+}
+
 /* The name of a table that is not raytraffic's, or "" (none); for refusing
  * to add tables to an unrelated file. */
 static int foreign_table(rt_db *db, char *name, size_t n, rt_err *e)
@@ -574,6 +611,7 @@ static int create_schema(rt_db *db, rt_err *e)
         if (ver <= 2 && migrate_v2(db, e)) goto fail;
         if (ver <= 5 && migrate_v5(db, e)) goto fail;
         if (ver <= 6 && migrate_v6(db, ver, e)) goto fail;
+        if (ver >= 6 && ver <= 7 && migrate_v7(db, e)) goto fail;
         if (exec(db, schema_sql, e)) goto fail;
         if (add_classes(db, e)) goto fail;
         if (foreign_key_check(db, e)) goto fail;
@@ -928,6 +966,9 @@ static int store_levels(rt_db *db, int64_t rid, int pass, const rt_db_level *lv,
                 return rt_errf(e, "%s: level row %zu has generation %d (-1..%d)", db->path, i, x->gen, RT_MAXGEN - 1);
             if (x->line == 0 || x->misses > x->accesses)
                 return rt_errf(e, "%s: level row %zu has line 0 or more misses than accesses", db->path, i);
+            if (x->bi_writebacks > x->backinvals)
+                return rt_errf(e, "%s: level row %zu has more back-invalidation write-backs than back-invalidations",
+                               db->path, i);
         }
         sqlite3_stmt *st = db->st[pass == 0 ? S_LV_DEL : S_LV_INS];
         sqlite3_bind_int64(st, 1, rid);
@@ -939,7 +980,11 @@ static int store_levels(rt_db *db, int64_t rid, int pass, const rt_db_level *lv,
         sqlite3_bind_int64(st, 6 + first, x->assoc);
         sqlite3_bind_text(st, 7 + first, pol, -1, SQLITE_TRANSIENT);
         sqlite3_bind_text(st, 8 + first, repl, -1, SQLITE_TRANSIENT);
+        if (!pass) sqlite3_bind_int64(st, 9, (sqlite3_int64)x->last_size);
         if (pass) {
+            sqlite3_bind_int64(st, 16, (sqlite3_int64)x->last_size);
+            sqlite3_bind_int64(st, 17, (sqlite3_int64)x->backinvals);
+            sqlite3_bind_int64(st, 18, (sqlite3_int64)x->bi_writebacks);
             sqlite3_bind_text(st, 10, cname, -1, SQLITE_STATIC);
             sqlite3_bind_int(st, 11, x->gen);
             sqlite3_bind_int64(st, 12, (sqlite3_int64)x->accesses);
@@ -1274,10 +1319,13 @@ static int shard_open(shard *sh, const char *path, rt_err *e)
         " JOIN cache_configs c ON c.id = e.config_id WHERE e.run_id = ?1 ORDER BY c.size, c.line, c.assoc, c.policy";
     if (ver >= 5 && sqlite3_prepare_v2(sh->h, ses_sql, -1, &sh->ses, NULL) != SQLITE_OK)
         return shard_error(sh, e);
-    static const char lvs_sql[] =
-        "SELECT level, level_name, core, cache_size, line, assoc, policy, repl, class, gen, accesses, misses,"
-        " writebacks, traffic_bytes FROM level_traffic WHERE run_id = ?1"
-        " ORDER BY level, core, cache_size, line, assoc, policy, repl, class, gen";
+    /* version 8 added the inclusion's columns: 0 (non-inclusive) before */
+    char lvs_sql[512];
+    snprintf(lvs_sql, sizeof lvs_sql,
+             "SELECT level, level_name, core, cache_size, line, assoc, policy, repl, class, gen, accesses, misses,"
+             " writebacks, traffic_bytes, %s FROM level_traffic WHERE run_id = ?1"
+             " ORDER BY level, core, cache_size, line, assoc, policy, repl, class, gen%s",
+             ver >= 8 ? "last_size, backinvals, bi_writebacks" : "0, 0, 0", ver >= 8 ? ", last_size" : "");
     if (ver >= 6 && sqlite3_prepare_v2(sh->h, lvs_sql, -1, &sh->lvs, NULL) != SQLITE_OK)
         return shard_error(sh, e);
     return 0;
@@ -1496,9 +1544,9 @@ static long read_levels(const shard *sh, int64_t id, rt_db_level **lv, size_t *c
         char row[128];
         snprintf(row, sizeof row, "run %lld, level row (level %s, size %s, class %s)", (long long)id, txt(st, 0),
                  txt(st, 3), txt(st, 8));
-        static const int cols[8] = {0, 3, 4, 5, 10, 11, 12, 13};
-        uint64_t v[8];
-        for (int k = 0; k < 8; k++)
+        static const int cols[11] = {0, 3, 4, 5, 10, 11, 12, 13, 14, 15, 16};
+        uint64_t v[11];
+        for (int k = 0; k < 11; k++)
             if (count_col(sh, st, cols[k], row, &v[k], e)) goto fail;
         sqlite3_int64 core = sqlite3_column_int64(st, 2), gen = sqlite3_column_int64(st, 9);
         if (sqlite3_column_type(st, 2) != SQLITE_INTEGER || sqlite3_column_type(st, 9) != SQLITE_INTEGER ||
@@ -1522,6 +1570,9 @@ static long read_levels(const shard *sh, int64_t id, rt_db_level **lv, size_t *c
         x->misses = v[5];
         x->writebacks = v[6];
         x->traffic_bytes = v[7];
+        x->last_size = v[8];
+        x->backinvals = v[9];
+        x->bi_writebacks = v[10];
         n++;
         if (!(x->level_name = strdup(txt(st, 1))) || !(x->policy = strdup(txt(st, 6))) ||
             !(x->repl = strdup(txt(st, 7)))) {

@@ -36,7 +36,7 @@
 
 #include <stdint.h>
 
-#define RT_DB_SCHEMA_VERSION 7
+#define RT_DB_SCHEMA_VERSION 8
 
 typedef struct rt_db rt_db;
 
@@ -118,8 +118,13 @@ typedef struct rt_db_se {
  * cache hierarchy: the counters of class cls at one level (of one core's
  * private cache, or of a shared level) restricted to generation gen (-1:
  * all generations). The level's configuration is (level, core, size,
- * line, assoc, policy, repl); a store replaces the run's old rows of every
- * level configuration it stores. traffic_bytes is what the level moves to
+ * line, assoc, policy, repl, last_size); a store replaces the run's old
+ * rows of every level configuration it stores. An inclusive or exclusive
+ * hierarchy runs one chain of levels per last-level size (cachesim/incl.h):
+ * its rows carry the chain's last-level size (last_size) and the level's
+ * back-invalidations and their write-backs; a non-inclusive one has
+ * last_size 0 (its upper levels do not depend on the last level) and
+ * zeros there (schema version 8; older files read so). traffic_bytes is what the level moves to
  * the level below it (fetches and write-backs, in bytes); the traffic
  * table keeps holding what reaches memory. */
 typedef struct rt_db_level {
@@ -137,6 +142,9 @@ typedef struct rt_db_level {
     uint64_t misses;        /* of them, misses (<= accesses) */
     uint64_t writebacks;    /* dirty evictions out of this level */
     uint64_t traffic_bytes; /* bytes moved to the level below */
+    uint64_t last_size;     /* inclusive/exclusive: the last level's size of this row's chain; 0 = none */
+    uint64_t backinvals;    /* lines this level lost to a back-invalidation (inclusive) */
+    uint64_t bi_writebacks; /* of them, dirty ones written down first */
 } rt_db_level;
 
 /* Everything stored with one run: its traffic rows, its per-generation

@@ -584,9 +584,6 @@ static int render_job(rt_exp_worker *w, jobrun *r, const rt_exp_job *jb, long in
         r->tee.ctx = r;
     } else if (c->hier) { /* the hierarchy instead of one level; its last level at the job's sizes */
         rt_hier_config hc = *c->hier;
-        if (hc.inclusion != RT_INCL_NINE)
-            return rt_errf(e, "sweep: a %s hierarchy is simulated by sim --hierarchy only; the database holds non-inclusive ones",
-                           rt_hier_inclusion_name(hc.inclusion));
         rt_sim_config *last = &hc.level[hc.nlevels - 1];
         last->nsizes = r->sc.nsizes;
         memcpy(last->sizes, r->sc.sizes, sizeof last->sizes);
@@ -645,7 +642,8 @@ static int store_job(rt_exp_worker *w, jobrun *r, rt_exp_key *key, double t0, rt
         nlv = rt_mc_db_level_rows_gen(r->mc, rt_job_generations(&r->j) > 0, lv);
     } else if (r->hier) {
         rt_hier_finish(r->hier);
-        r->sim = (rt_sim *)rt_hier_level(r->hier, rt_hier_get_config(r->hier)->nlevels - 1); /* borrowed */
+        /* borrowed; NULL for an inclusive or exclusive hierarchy (its rows: rt_hier_db_rows, no generations) */
+        r->sim = (rt_sim *)rt_hier_level(r->hier, rt_hier_get_config(r->hier)->nlevels - 1);
         if (!(lv = rt_calloc(rt_hier_db_level_max(r->hier), sizeof *lv, e))) {
             r->sim = NULL;
             free(rows);
@@ -655,7 +653,7 @@ static int store_job(rt_exp_worker *w, jobrun *r, rt_exp_key *key, double t0, rt
         nlv = rt_hier_db_level_rows(r->hier, rt_job_generations(&r->j) > 0, lv);
     } else
         rt_sim_finish(r->sim); /* the flush, when the accounting asks for it */
-    size_t k = rt_sim_db_rows(r->sim, rows);
+    size_t k = r->hier ? rt_hier_db_rows(r->hier, rows) : rt_sim_db_rows(r->sim, rows);
     if (r->tex) k += rt_sim_db_rows(r->tex, rows + k);
     w->t.simulation += rt_now() - ts;
     char stats[896], acc[128] = "";
@@ -672,14 +670,14 @@ static int store_job(rt_exp_worker *w, jobrun *r, rt_exp_key *key, double t0, rt
              st->rays_primary, st->rays_shadow, st->nodes, st->tests, st->pv_primary, st->pv_all, st->seconds,
              r->mc ? r->mc_sec : r->fan.sec[0], st->extra[0] ? " " : "", st->extra, acc);
     rt_db_run run = key->run;
-    run.refs = r->mc ? rt_mc_refs(r->mc) : rt_sim_refs(r->hier ? rt_hier_level(r->hier, 0) : r->sim);
+    run.refs = r->mc ? rt_mc_refs(r->mc) : r->hier ? rt_hier_refs(r->hier) : rt_sim_refs(r->sim);
     run.command = w->c->command;
     run.wall_time = rt_now() - t0;
     run.stats = stats;
     /* per-generation rows when the stream carried generations (exact only) */
     rt_db_gen *grows = NULL;
     size_t ng = 0;
-    if (rt_job_generations(&r->j) > 0) {
+    if (rt_job_generations(&r->j) > 0 && r->sim) {
         if (!(grows = rt_calloc(nrows * RT_MAXGEN, sizeof *grows, e))) {
             free(rows);
             free(se);

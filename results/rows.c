@@ -105,7 +105,73 @@ size_t rt_hier_db_level_max(const rt_hier *h)
 {
     const rt_hier_config *hc = rt_hier_get_config(h);
     size_t n = 0;
+    if (hc->inclusion != RT_INCL_NINE) return (size_t)hc->nlevels * hc->level[hc->nlevels - 1].nsizes * RT_NCLASS;
     for (int k = 0; k < hc->nlevels; k++) n += (size_t)hc->level[k].nsizes * RT_NCLASS * (1 + RT_MAXGEN);
+    return n;
+}
+
+/* An inclusive or exclusive hierarchy's level rows: per chain, level, class. */
+static size_t incl_level_rows(const rt_hier *h, rt_db_level *out)
+{
+    const rt_hier_config *hc = rt_hier_get_config(h);
+    const rt_sim_config *lc = &hc->level[hc->nlevels - 1];
+    size_t n = 0;
+    for (int i = 0; i < lc->nsizes; i++)
+        for (int k = 0; k < hc->nlevels; k++) {
+            const rt_sim_config *c = &hc->level[k];
+            for (int cls = 0; cls < RT_NCLASS; cls++) {
+                rt_hier_counts t;
+                rt_hier_get(h, k, i, cls, &t);
+                if (!t.c.accesses && !t.backinvals) continue;
+                rt_db_level *r = &out[n++];
+                memset(r, 0, sizeof *r);
+                r->level = k + 1;
+                r->level_name = hc->name[k];
+                r->core = -1;
+                r->size = k + 1 == hc->nlevels ? lc->sizes[i] : c->sizes[0];
+                r->line = c->line;
+                r->assoc = c->assoc;
+                r->policy = rt_sim_policy_name(c);
+                r->repl = rt_sim_repl_name(c->repl);
+                r->cls = cls;
+                r->gen = -1;
+                r->accesses = t.c.accesses;
+                r->misses = t.c.read_misses + t.c.write_misses;
+                r->writebacks = t.c.writebacks;
+                r->traffic_bytes = t.c.traffic_bytes;
+                r->last_size = lc->sizes[i];
+                r->backinvals = t.backinvals;
+                r->bi_writebacks = t.bi_writebacks;
+            }
+        }
+    return n;
+}
+
+size_t rt_hier_db_rows(const rt_hier *h, rt_db_traffic *rows)
+{
+    const rt_hier_config *hc = rt_hier_get_config(h);
+    const rt_sim_config *lc = &hc->level[hc->nlevels - 1];
+    if (hc->inclusion == RT_INCL_NINE) return rt_sim_db_rows(rt_hier_level(h, hc->nlevels - 1), rows);
+    size_t n = 0;
+    for (int i = 0; i < lc->nsizes; i++)
+        for (int cls = 0; cls < RT_NCLASS; cls++) {
+            rt_hier_counts t;
+            rt_hier_get(h, hc->nlevels - 1, i, cls, &t);
+            if (!t.c.accesses) continue;
+            rt_db_traffic *r = &rows[n++];
+            memset(r, 0, sizeof *r);
+            r->size = lc->sizes[i];
+            r->line = lc->line;
+            r->assoc = lc->assoc;
+            r->policy = rt_sim_policy_name(lc);
+            r->cls = cls;
+            r->accesses = t.c.accesses;
+            r->read_misses = t.c.read_misses;
+            r->write_misses = t.c.write_misses;
+            r->writebacks = t.c.writebacks;
+            r->wt_bytes = t.c.wt_bytes;
+            r->traffic_bytes = t.c.traffic_bytes;
+        }
     return n;
 }
 
@@ -113,6 +179,7 @@ size_t rt_hier_db_level_rows(const rt_hier *h, int gens, rt_db_level *out)
 {
     const rt_hier_config *hc = rt_hier_get_config(h);
     size_t n = 0;
+    if (hc->inclusion != RT_INCL_NINE) return incl_level_rows(h, out);
     for (int k = 0; k < hc->nlevels; k++) {
         const rt_sim_config *c = &hc->level[k];
         for (int i = 0; i < c->nsizes; i++)

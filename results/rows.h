@@ -42,10 +42,18 @@ size_t rt_approx_db_se_rows(const rt_approx *a, rt_db_se *se);
  * size, class) with accesses, generation -1 (all), and with gens one per
  * (level, size, class, generation bucket) with accesses too; core -1 (shared);
  * misses = read + write misses, traffic_bytes = what the level moves to the
- * one below. out must hold rt_hier_db_level_max(h) entries; returns the rows
- * written. The traffic rows of such a run are rt_sim_db_rows of its last
- * level (what reaches memory). */
+ * one below. An inclusive or exclusive hierarchy (one chain per last-level
+ * size, generations pooled) has one row per (chain, level, class) with
+ * accesses or back-invalidations: last_size the chain's last-level size,
+ * backinvals and bi_writebacks filled in, generation -1 only (gens is
+ * ignored). out must hold rt_hier_db_level_max(h) entries; returns the
+ * rows written. */
 size_t rt_hier_db_level_max(const rt_hier *h);
 size_t rt_hier_db_level_rows(const rt_hier *h, int gens, rt_db_level *out);
+/* The traffic rows of a hierarchy run (what reaches memory): its last
+ * level's counters per size and class, as rt_sim_db_rows writes them (for
+ * a non-inclusive one, exactly rt_sim_db_rows of the last level). rows
+ * must hold last-level sizes x RT_NCLASS entries; returns the rows written. */
+size_t rt_hier_db_rows(const rt_hier *h, rt_db_traffic *rows);
 
 #endif

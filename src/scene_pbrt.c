@@ -22,7 +22,10 @@
  *             others and cut out into the object store at ObjectEnd;
  *             ObjectInstance records the object and its matrix, and once
  *             the file is read every instance is expanded in file order
- *             (instances are flattened, the counts kept).
+ *             (instances are flattened, the counts kept); an
+ *             ObjectInstance inside an ObjectBegin block (nested
+ *             instancing) is expanded at once into the object being
+ *             defined.
  *
  * What is mapped and what is skipped is listed in docs/scenes.md ("pbrt
  * scene files"). Invariants: (I1) every triangle in the scene was made
@@ -2683,12 +2686,21 @@ static int do_object_instance(pbrt *P, const token *d)
     token tt;
     if (need_world(P, d, 1) < 0 || need_string(P, d, name, sizeof name, &tt) < 0) return -1;
     rt_esc(q, sizeof q, name, 200);
-    if (P->in_obj >= 0)
-        return perr(P, d, "ObjectInstance \"%s\" inside an ObjectBegin block (nested instancing is not supported)", q);
     int k = nm_find(&P->named_obj, name);
     if (k < 0) return perr(P, &tt, "ObjectInstance \"%s\": no such object", q);
     object *o = &P->objs[k];
-    if (P->keep) {
+    /* Nested instancing: an ObjectInstance inside an ObjectBegin block is
+     * flattened into the object being defined (its triangles under the
+     * current transformation join the outer object's, which ObjectEnd cuts
+     * out), so the two-level structure builds one bottom-level tree over
+     * the outer object with the inner copies in it; an object defined so
+     * can itself be instanced inside a further ObjectBegin (any depth).
+     * The inner instance is not a scene instance: it counts through the
+     * outer object's triangles. Its triangles are made at once, so the
+     * triangle limit applies as to any shape. */
+    const int nested = P->in_obj >= 0;
+    if (nested && k == P->in_obj) return perr(P, &tt, "ObjectInstance \"%s\" inside its own definition", q);
+    if (P->keep && !nested) {
         /* checked before anything is made: the instances' triangles are
          * not held, but each has an index of the flattened scene */
         uint64_t n = (uint64_t)P->s->ntri + P->pend + o->count;
@@ -2704,7 +2716,7 @@ static int do_object_instance(pbrt *P, const token *d)
     /* an instance is recorded (148 bytes) only when its triangles would
      * take more (52 bytes each): the records never hold more memory than
      * the flattened scene they stand for (maxtri bounds both) */
-    if (o->count * (uint64_t)(sizeof(rt_tri) + sizeof(rt_shade)) <= sizeof(instrec)) {
+    if (nested || o->count * (uint64_t)(sizeof(rt_tri) + sizeof(rt_shade)) <= sizeof(instrec)) {
         for (uint32_t i = 0; i < o->count; i++) {
             const rt_tri *t = &P->otri[o->start + i];
             const rt_shade *h = &P->oshade[o->start + i];
@@ -2717,6 +2729,7 @@ static int do_object_instance(pbrt *P, const token *d)
             }
             if (rt_scene_add_tri_mat(P->s, c[0], c[1], c[2], h->rgb, h->mat, P->e) < 0) return -1;
         }
+        if (nested) return 0;
         goto count;
     }
     if (P->ninst == P->cinst) {

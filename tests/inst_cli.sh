@@ -2,16 +2,20 @@
 # True instancing from the front end (accel/inst.c, docs/bvh.md "Instancing"):
 # 1. `render --instances bvh` writes the same PNG as the default flattened
 #    run and as `--instances flatten`, on an instanced .pbrt written here,
-#    in the shadow and whitted modes; trace-info names the structure and its
-#    four regions;
-# 2. the tracers that walk their own structure refuse `--instances bvh`
-#    naming the option (exit 1), `--accel` with it is a usage error (exit 2),
-#    and an unknown mode is a usage error;
+#    in the shadow and whitted modes, for the recursive and packet tracers;
+#    trace-info names the structure and its four regions;
+# 2. the treelet and dynamic tracers refuse `--instances bvh` naming the
+#    option and the reason (exit 1), `--accel` with it is a usage error
+#    (exit 2), and an unknown mode is a usage error;
 # 3. a sweep with `--instances bvh` stores instances = 'bvh' in the runs
-#    table for the recursive tracer and runs the packet tracer (its own
-#    walk) on the flattened scene ('flatten'); a plain sweep stores 'flatten';
+#    table for the recursive and packet tracers and runs the treelet tracer
+#    on the flattened scene ('flatten'); a plain sweep stores 'flatten';
 #    the classes table holds tlas, inst and alpha, the bvh run has traffic
 #    rows of tlas, inst, node and tri, a 10-class file gets the new rows;
+# 4. report --figure instances prints the levels of the two-level run and
+#    the flattened one; its csv values are the traffic table's class sums
+#    (tlas, inst, blas = node + index + tri; nodes, tri); no such runs is
+#    an error naming what to sweep;
 # 1b. the instanced trace has classes tlas and inst (footer of 12 classes,
 #    sim rows); traces of the earlier writer (tests/data/
 #    oldtrace, versions 1-3) read, and the same commands write the same
@@ -46,14 +50,16 @@ AttributeBegin Translate 2 -0.2 -3 ObjectInstance "ball" AttributeEnd
 PBRT
 
 # ---- 1. images and trace-info -------------------------------------------------
-for m in shadow whitted; do
-    for i in default flatten bvh; do
-        opt=""; [ $i = default ] || opt="--instances $i"
-        "$bin" render "$sc" --mode $m --lights all -W 48 -H 40 $opt -o "$tmp/$i.exr" --png "$tmp/$i-$m.png" \
-            >/dev/null 2>"$tmp/err" || { cat "$tmp/err"; die "render $m $i"; }
+for t in recursive packet; do
+    for m in shadow whitted; do
+        for i in default flatten bvh; do
+            opt=""; [ $i = default ] || opt="--instances $i"
+            "$bin" render "$sc" -t $t --mode $m --lights all -W 48 -H 40 $opt -o "$tmp/$i.exr" --png "$tmp/$i-$m.png" \
+                >/dev/null 2>"$tmp/err" || { cat "$tmp/err"; die "render $t $m $i"; }
+        done
+        cmp -s "$tmp/default-$m.png" "$tmp/bvh-$m.png" || die "$t $m: --instances bvh image differs from the flattened one"
+        cmp -s "$tmp/default-$m.png" "$tmp/flatten-$m.png" || die "$t $m: --instances flatten image differs from the default"
     done
-    cmp -s "$tmp/default-$m.png" "$tmp/bvh-$m.png" || die "$m: --instances bvh image differs from the flattened one"
-    cmp -s "$tmp/default-$m.png" "$tmp/flatten-$m.png" || die "$m: --instances flatten image differs from the default"
 done
 "$bin" trace "$sc" --lights all -W 24 -H 20 --instances bvh -o "$tmp/t.rtt" >/dev/null 2>&1 || die "trace --instances bvh"
 "$bin" trace-info "$tmp/t.rtt" > "$tmp/info" 2>&1 || die "trace-info"
@@ -61,6 +67,20 @@ grep -q '^structure: *inst$' "$tmp/info" || die "trace-info does not name the in
 for r in tlas.node inst blas.node blas.tri; do
     grep -q "^  $r " "$tmp/info" || die "trace-info lacks region $r"
 done
+
+# the packet tracer, like the recursive one, loads the instances kept (no
+# flattened copy): the file flattens to 254 triangles but holds 124 (2
+# loose, the 12-triangle box and the 110-triangle sphere once), so under
+# maxtri=200 the flattened load is refused and the kept one renders, its
+# image the flattened run's
+"$bin" render "$sc:maxtri=200" -t packet --instances bvh --lights all -W 48 -H 40 -o "$tmp/k.exr" --png "$tmp/k-packet.png" \
+    >/dev/null 2>"$tmp/err" || die "packet kept under maxtri=200: $(cat "$tmp/err")"
+"$bin" render "$sc:maxtri=200" -t packet --lights all -W 48 -H 40 -o "$tmp/k.exr" >/dev/null 2>"$tmp/err" &&
+    die "the flattened scene loaded under maxtri=200"
+grep -q "more than maxtri=200" "$tmp/err" || die "flattened under maxtri=200: $(cat "$tmp/err")"
+"$bin" render "$sc" -t packet --lights all -W 48 -H 40 -o "$tmp/k.exr" --png "$tmp/f-packet.png" >/dev/null 2>&1 ||
+    die "packet flattened"
+cmp -s "$tmp/k-packet.png" "$tmp/f-packet.png" || die "packet over the kept instances: image differs from the flattened one"
 
 # scene info: the records the two levels are built from
 "$bin" scene info "$sc" > "$tmp/sinfo" 2>&1 || die "scene info"
@@ -103,7 +123,7 @@ tail -c 268 "$od/v1.rtt" | head -c 4 | grep -q RTND || die "old footer not 268 b
 tail -c 316 "$tmp/t.rtt" | head -c 4 | grep -q RTND || die "12-class footer not 316 bytes"
 
 # ---- 2. refusals ----------------------------------------------------------------
-for t in packet treelet dynamic; do
+for t in treelet dynamic; do
     "$bin" render "$sc" -t $t --instances bvh -W 16 -H 16 -o "$tmp/x.exr" >/dev/null 2>"$tmp/err"
     rc=$?
     [ $rc -ne 0 ] && grep -q -- "--instances bvh: the $t tracer" "$tmp/err" ||
@@ -115,13 +135,13 @@ done
 [ $? -eq 2 ] && grep -q -- "--instances: unknown mode 'deep'" "$tmp/err" || die "--instances deep: '$(cat "$tmp/err")'"
 
 # ---- 3. the runs table ----------------------------------------------------------
-"$bin" sweep --scenes "$sc" --tracers recursive,packet --lights primary -W 16 -H 12 --sizes 4K --instances bvh \
+"$bin" sweep --scenes "$sc" --tracers recursive,packet,treelet --lights primary -W 16 -H 12 --sizes 4K --instances bvh \
     --db "$tmp/a.db" >/dev/null 2>"$tmp/err" || { cat "$tmp/err"; die "sweep --instances bvh"; }
 "$bin" sweep --scenes "$sc" --tracers recursive --lights primary -W 16 -H 12 --sizes 4K \
     --db "$tmp/a.db" >/dev/null 2>"$tmp/err" || { cat "$tmp/err"; die "plain sweep"; }
 got=$(q "$tmp/a.db" "SELECT group_concat(t, ',') FROM (SELECT tracer || ':' || instances AS t FROM runs ORDER BY t)")
-[ "$got" = "packet:flatten,recursive:bvh,recursive:flatten" ] ||
-    die "runs (tracer:instances): want packet:flatten,recursive:bvh,recursive:flatten, got '$got'"
+[ "$got" = "packet:bvh,recursive:bvh,recursive:flatten,treelet:flatten" ] ||
+    die "runs (tracer:instances): want packet:bvh,recursive:bvh,recursive:flatten,treelet:flatten, got '$got'"
 # the classes table holds all 13 classes; the instanced run has rows per level
 got=$(q "$tmp/a.db" "SELECT group_concat(name || ':' || grp, ',') FROM (SELECT * FROM classes WHERE name IN ('tlas','inst','alpha') ORDER BY name)")
 [ "$got" = "alpha:geometry,inst:geometry,tlas:geometry" ] || die "classes table: '$got'"
@@ -135,6 +155,25 @@ q "$tmp/a.db" "DELETE FROM traffic WHERE class IN ('tlas','inst'); DELETE FROM t
     --db "$tmp/a.db" >/dev/null 2>"$tmp/err" || { cat "$tmp/err"; die "sweep into a 10-class database"; }
 got=$(q "$tmp/a.db" "SELECT COUNT(*) FROM classes")
 [ "$got" = 13 ] || die "classes after reopening a 10-class database: $got"
+
+# ---- 4. report --figure instances: traffic per level ----------------------------
+# the a.db runs: recursive bvh and flatten at 4K (and bvh at 8K); the csv's
+# levels are the traffic table's class sums
+"$bin" report --db "$tmp/a.db" --figure instances > "$tmp/rep.md" 2>"$tmp/err" || { cat "$tmp/err"; die "report --figure instances"; }
+grep -q "^| inst (two-level) | tlas |" "$tmp/rep.md" || die "report: no two-level tlas row: $(cat "$tmp/rep.md")"
+for l in inst blas shade geometry; do grep -q "^|  | $l |" "$tmp/rep.md" || die "report: no $l row"; done
+grep -q "^| kd (flatten) | nodes |" "$tmp/rep.md" || die "report: no flattened row"
+grep -q "^Two-level geometry over flattened: at 4 KB" "$tmp/rep.md" || die "report: no finding line"
+"$bin" report --db "$tmp/a.db" --figure instances --format csv > "$tmp/rep.csv" 2>"$tmp/err" || die "report csv: $(cat "$tmp/err")"
+lev() { grep "\",$1,$2,$3,4096," "$tmp/rep.csv" | grep "recursive" | head -1 | sed 's/.*,//'; }
+sum() { q "$tmp/a.db" "SELECT CAST(TOTAL(t.traffic_bytes) AS INTEGER) FROM traffic t JOIN runs r ON r.id = t.run_id JOIN cache_configs c ON c.id = t.config_id WHERE r.tracer = 'recursive' AND r.instances = '$1' AND r.lights = 0 AND c.size = 4096 AND c.line = 64 AND c.assoc = 0 AND t.class IN ($2)"; }
+for x in "inst bvh tlas 'tlas'" "inst bvh inst 'inst'" "inst bvh blas 'node','index','tri'" "kd flatten nodes 'node','index'" "kd flatten tri 'tri'"; do
+    set -- $x
+    got=$(lev $1 $2 $3); want=$(sum $2 "$4")
+    [ -n "$got" ] && [ "$got" = "$want" ] || die "report csv $1 $3 at 4 KB: '$got', the traffic table says '$want'"
+done
+"$bin" report --db "$tmp/a.db" --figure instances --scene nosuch > /dev/null 2>"$tmp/err"
+[ $? -ne 0 ] && grep -q "no two-level run beside a flattened run" "$tmp/err" || die "report on no runs: $(cat "$tmp/err")"
 
 [ $fail -eq 0 ] && echo "inst_cli: ok"
 exit $fail

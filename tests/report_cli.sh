@@ -83,9 +83,9 @@ rc=$?
 [ -e none.db ] && { echo "FAIL: missing database was created"; fail=1; }
 
 # 6. newer schema refused
-cp i.db newer.db && sqlite3 newer.db "PRAGMA user_version = 8" 2>/dev/null
+cp i.db newer.db && sqlite3 newer.db "PRAGMA user_version = 9" 2>/dev/null
 "$bin" report --db newer.db >/dev/null 2>log && { echo "FAIL: newer schema accepted"; fail=1; }
-grep -q "schema version 8 is newer" log || { echo "FAIL: newer schema message"; cat log; fail=1; }
+grep -q "schema version 9 is newer" log || { echo "FAIL: newer schema message"; cat log; fail=1; }
 
 # 7. nothing to show: one line on stderr, exit 1, nothing on stdout (a
 # figure of a scene the database lacks, in Markdown and CSV; a figure of

@@ -127,16 +127,16 @@ grep -q "Standard errors" "$tmp/v4.md" && die "v4 report has a standard-error se
 t4=$(sqlite3 "$tmp/v4.db" "SELECT count(*), sum(traffic_bytes) FROM traffic")
 "$bin" sweep $args --approx hybrid:1/4:4K:2048 --no-error --db "$tmp/v4.db" 2>/dev/null || die "sweep into a v4 file"
 [ "$(sqlite3 "$tmp/v4.db" "PRAGMA user_version; SELECT count(*) FROM traffic_se; SELECT count(*), sum(traffic_bytes) FROM traffic")" = \
-  "$(printf '7\n0\n%s' "$t4")" ] || die "v4 upgrade: $(sqlite3 "$tmp/v4.db" "PRAGMA user_version; SELECT count(*) FROM traffic")"
+  "$(printf '8\n0\n%s' "$t4")" ] || die "v4 upgrade: $(sqlite3 "$tmp/v4.db" "PRAGMA user_version; SELECT count(*) FROM traffic")"
 
 # 5. bad input: an unwritable database, a newer schema
 "$bin" sweep $args --approx hybrid --db "$tmp/no/such/dir/x.db" >/dev/null 2>"$tmp/e1"; st=$?
 [ $st = 1 ] && [ "$(wc -l < "$tmp/e1")" -le 2 ] && grep -q "$tmp/no/such/dir/x.db" "$tmp/e1" ||
     die "unwritable: exit $st $(cat "$tmp/e1")"
 cp "$tmp/a.db" "$tmp/new.db"
-sqlite3 "$tmp/new.db" "PRAGMA user_version = 8"
+sqlite3 "$tmp/new.db" "PRAGMA user_version = 9"
 "$bin" sweep $args --approx hybrid --db "$tmp/new.db" >/dev/null 2>"$tmp/e2"; st=$?
-[ $st = 1 ] && grep -q "new.db: database schema version 8 is newer" "$tmp/e2" || die "newer: exit $st $(cat "$tmp/e2")"
+[ $st = 1 ] && grep -q "new.db: database schema version 9 is newer" "$tmp/e2" || die "newer: exit $st $(cat "$tmp/e2")"
 
 [ $fail -eq 0 ] && echo "sweep_se tests passed"
 exit $fail

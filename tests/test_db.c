@@ -687,7 +687,7 @@ static void test_upgrade_v4(const char *dir)
         rt_db_close(f);
         return;
     }
-    CHECK(count(db, "PRAGMA user_version") == RT_DB_SCHEMA_VERSION && RT_DB_SCHEMA_VERSION == 7, "v4 upgraded to 7");
+    CHECK(count(db, "PRAGMA user_version") == RT_DB_SCHEMA_VERSION && RT_DB_SCHEMA_VERSION == 8, "v4 upgraded to 8");
     CHECK(count(db, "SELECT count(*) FROM runs") == 2 && count(db, "SELECT count(*) FROM traffic") == 8 &&
               count(db, "SELECT sum(traffic_bytes) FROM traffic WHERE run_id = 2") == 6656 + 3968 + 1024 + 3200,
           "v4 runs and rows kept");
@@ -783,7 +783,7 @@ static void test_upgrade_v5(const char *dir)
         rt_db_close(f);
         return;
     }
-    CHECK(count(db, "PRAGMA user_version") == 7, "v5 upgraded to 7");
+    CHECK(count(db, "PRAGMA user_version") == 8, "v5 upgraded to 8");
     CHECK(count(db, "SELECT count(*) FROM runs") == 2 && count(db, "SELECT count(*) FROM traffic") == 8 &&
               count(db, "SELECT count(*) FROM traffic_se") == 1 && count(db, "SELECT count(*) FROM traffic_gen") == 1 &&
               count(db, "SELECT sum(traffic_bytes) FROM traffic WHERE run_id = 2") == 6656 + 3968 + 1024 + 3200,
@@ -1102,7 +1102,7 @@ static void test_upgrade_v6(const char *dir, const rt_db_traffic *rows, size_t n
     db = rt_db_open(path, &e);
     CHECK(db, "reopen v6: %s", e.msg);
     if (!db) return;
-    CHECK(count(db, "PRAGMA user_version") == 7, "v6 upgraded to 7");
+    CHECK(count(db, "PRAGMA user_version") == 8, "v6 upgraded to 8");
     CHECK(count(db, "SELECT count(*) FROM runs WHERE tracer = 'packet' AND stats_json = "
                     "'{\"nodes\": 4, \"tests\": 5, \"packet\": 8}'") == 1,
           "the old packet text parsed without its descriptive words");
@@ -1120,6 +1120,112 @@ static void test_upgrade_v6(const char *dir, const rt_db_traffic *rows, size_t n
     CHECK(count(db, "SELECT count(*) FROM runs WHERE lights = 1 AND stats_json = '{\"nodes\": 7, \"packet\": 8}'") == 1,
           "a store of the old packet text leaves its words out");
     rt_db_close(db);
+}
+
+/* Version 7's level_traffic (before the inclusion's columns), for making a
+ * version-7 file out of a fresh one. */
+static const char v7_level_sql[] =
+    "DROP VIEW v_level;\n"
+    "CREATE TABLE lt7(run_id INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE, level INTEGER NOT NULL,"
+    " level_name TEXT NOT NULL DEFAULT '', core INTEGER NOT NULL DEFAULT -1, cache_size INTEGER NOT NULL,"
+    " line INTEGER NOT NULL, assoc INTEGER NOT NULL, policy TEXT NOT NULL DEFAULT 'wb-wa',"
+    " repl TEXT NOT NULL DEFAULT 'lru', class TEXT NOT NULL REFERENCES classes(name),"
+    " gen INTEGER NOT NULL DEFAULT -1, accesses INTEGER NOT NULL, misses INTEGER NOT NULL,"
+    " writebacks INTEGER NOT NULL, traffic_bytes INTEGER NOT NULL,"
+    " UNIQUE(run_id, level, core, cache_size, line, assoc, policy, repl, class, gen));\n"
+    "INSERT INTO lt7 SELECT run_id, level, level_name, core, cache_size, line, assoc, policy, repl, class, gen,"
+    " accesses, misses, writebacks, traffic_bytes FROM level_traffic;\n"
+    "DROP TABLE level_traffic;\n"
+    "ALTER TABLE lt7 RENAME TO level_traffic;\n"
+    "PRAGMA user_version = 7;\n";
+
+/* A version-7 file (level_traffic without last_size, backinvals,
+ * bi_writebacks) is upgraded: its level rows kept with 0 in the new
+ * columns, the table's columns those of a fresh file; an inclusive run's
+ * two chains (the same L1 configuration, two last-level sizes) are stored
+ * side by side and v_level names the inclusion; a version-7 shard merges
+ * (its rows non-inclusive); bi_writebacks > backinvals is refused. */
+static void test_upgrade_v7(const char *dir)
+{
+    char path[300], fresh[300], out[300], a[512], b[512];
+    rt_err e = {0};
+    snprintf(path, sizeof path, "%s/v7.db", dir);
+    snprintf(fresh, sizeof fresh, "%s/v7fresh.db", dir);
+    snprintf(out, sizeof out, "%s/v7merged.db", dir);
+    rt_db *db = rt_db_open(path, &e);
+    CHECK(db, "open v7: %s", e.msg);
+    if (!db) return;
+    rt_db_run r;
+    run_key(&r, "recursive", 0, 0);
+    r.hierarchy = "L1=4K/2/64/lru,L2=64K/8/64/lru";
+    rt_db_traffic t[1] = {{65536, 64, 8, "wb-wa", RT_CLS_TRI, 50, 5, 0, 0, 0, 320}};
+    rt_db_level lv[2] = {
+        {1, "L1", -1, 4096, 64, 2, NULL, NULL, RT_CLS_TRI, -1, 1000, 50, 0, 3200, 0, 0, 0},
+        {2, "L2", -1, 65536, 64, 8, NULL, NULL, RT_CLS_TRI, -1, 50, 5, 0, 320, 0, 0, 0},
+    };
+    rt_db_rows R = {.traffic = t, .ntraffic = 1, .level = lv, .nlevel = 2};
+    CHECK(rt_db_store(db, &r, &R, NULL, &e) == 0, "store: %s", e.msg);
+    rt_db_close(db);
+    sqlite3 *h;
+    sqlite3_open(path, &h);
+    CHECK(sqlite3_exec(h, v7_level_sql, NULL, NULL, NULL) == SQLITE_OK, "make the v7 file: %s", sqlite3_errmsg(h));
+    sqlite3_close(h);
+    /* a copy of the version-7 file, merged below as an old shard */
+    char shard[300], cmd[700];
+    snprintf(shard, sizeof shard, "%s/v7shard.db", dir);
+    snprintf(cmd, sizeof cmd, "cp '%s' '%s'", path, shard);
+    CHECK(system(cmd) == 0, "copy the v7 file");
+    db = rt_db_open(path, &e);
+    rt_db *f = rt_db_open(fresh, &e);
+    CHECK(db && f, "reopen v7: %s", e.msg);
+    if (!db || !f) return;
+    CHECK(count(db, "PRAGMA user_version") == 8, "v7 upgraded to 8");
+    columns(db, "level_traffic", a, sizeof a);
+    columns(f, "level_traffic", b, sizeof b);
+    CHECK(a[0] && !strcmp(a, b), "level_traffic: upgraded columns %s, fresh %s", a, b);
+    columns(db, "v_level", a, sizeof a);
+    columns(f, "v_level", b, sizeof b);
+    CHECK(a[0] && !strcmp(a, b), "v_level: upgraded columns %s, fresh %s", a, b);
+    CHECK(count(db, "SELECT count(*) FROM level_traffic WHERE last_size = 0 AND backinvals = 0 AND bi_writebacks = 0") ==
+                  2 &&
+              count(db, "SELECT sum(traffic_bytes) FROM level_traffic") == 3520,
+          "v7 level rows kept, non-inclusive");
+    CHECK(count(db, "SELECT count(*) FROM v_level WHERE inclusion = 'nine'") == 2, "v_level: a v7 hierarchy is nine");
+    /* an inclusive run: L1 once per last-level size */
+    run_key(&r, "recursive", 1, 0);
+    r.hierarchy = "L1=4K/2/64/lru,L2=8K+16K/8/64/lru,inclusive";
+    rt_db_traffic t2[2] = {{8192, 64, 8, "wb-wa", RT_CLS_TRI, 60, 30, 0, 0, 0, 1920},
+                           {16384, 64, 8, "wb-wa", RT_CLS_TRI, 55, 20, 0, 0, 0, 1280}};
+    rt_db_level il[4] = {
+        {1, "L1", -1, 4096, 64, 2, NULL, "lru", RT_CLS_TRI, -1, 1000, 60, 0, 3840, 8192, 12, 3},
+        {2, "L2", -1, 8192, 64, 8, NULL, "lru", RT_CLS_TRI, -1, 60, 30, 0, 1920, 8192, 0, 0},
+        {1, "L1", -1, 4096, 64, 2, NULL, "lru", RT_CLS_TRI, -1, 1000, 55, 0, 3520, 16384, 4, 1},
+        {2, "L2", -1, 16384, 64, 8, NULL, "lru", RT_CLS_TRI, -1, 55, 20, 0, 1280, 16384, 0, 0},
+    };
+    rt_db_rows R2 = {.traffic = t2, .ntraffic = 2, .level = il, .nlevel = 4};
+    CHECK(rt_db_store(db, &r, &R2, NULL, &e) == 0, "store inclusive: %s", e.msg);
+    CHECK(count(db, "SELECT count(*) FROM level_traffic WHERE level = 1 AND last_size > 0") == 2 &&
+              count(db, "SELECT sum(backinvals) FROM level_traffic WHERE level = 1") == 16 &&
+              count(db, "SELECT bi_writebacks FROM level_traffic WHERE level = 1 AND last_size = 8192") == 3,
+          "both chains stored");
+    CHECK(count(db, "SELECT backinvals FROM v_level WHERE inclusion = 'inclusive' AND level = 1 AND last_size = 16384") ==
+              4,
+          "v_level: the inclusion and the chain");
+    CHECK(rt_db_store(db, &r, &R2, NULL, &e) == 0 && count(db, "SELECT count(*) FROM level_traffic") == 6,
+          "a re-store replaces the chains' rows: %s", e.msg);
+    il[0].bi_writebacks = il[0].backinvals + 1;
+    CHECK(rt_db_store(db, &r, &R2, NULL, &e) < 0 && strstr(e.msg, "back-invalidation"), "biwb > bi refused: %s", e.msg);
+    rt_db_close(db);
+    rt_db_close(f);
+    long nr = -1;
+    rt_db *m = rt_db_open(out, &e);
+    CHECK(m && rt_db_merge(m, shard, &nr, &e) == 0 && nr == 1, "merge a v7 shard: %ld %s", nr, e.msg);
+    CHECK(m && count(m, "SELECT count(*) FROM level_traffic WHERE last_size = 0 AND backinvals = 0") == 2,
+          "the v7 shard's level rows merged");
+    CHECK(m && rt_db_merge(m, path, &nr, &e) == 0 && nr == 2 &&
+              count(m, "SELECT count(*) FROM level_traffic WHERE last_size = 16384 AND backinvals = 4") == 1,
+          "a v8 file's inclusive rows merged: %s", e.msg);
+    rt_db_close(m);
 }
 
 /* The statistics parser on hand cases: numbers in JSON's grammar become
@@ -1297,6 +1403,7 @@ int main(void)
     test_upgrade_v4(dir);
     test_upgrade_v5(dir);
     test_upgrade_v6(dir, rows, n);
+    test_upgrade_v7(dir);
     test_stats_json();
     test_se_rows(dir);
 

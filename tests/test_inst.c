@@ -148,7 +148,7 @@ static int tally_put(rt_sink *s, const rt_access *a, size_t n) {
     return 0;
 }
 
-static rt_image *render(rt_scene *s, int mode, int instances, tally *t, rt_job *j) {
+static rt_image *render_with(const char *tracer, rt_scene *s, int mode, int instances, tally *t, rt_job *j) {
     rt_err e = {0};
     rt_render_opts o;
     rt_render_default_opts(&o);
@@ -157,7 +157,7 @@ static rt_image *render(rt_scene *s, int mode, int instances, tally *t, rt_job *
     o.lights = 7;
     if (instances)
         o.instances = 1, o.accel = RT_ACCEL_INST;
-    CHECK(rt_job_setup_borrowed(j, s, NULL, "recursive", &o, &e) == 0, "setup: %s", e.msg);
+    CHECK(rt_job_setup_borrowed(j, s, NULL, tracer, &o, &e) == 0, "setup %s: %s", tracer, e.msg);
     rt_image *im = rt_image_new(o.W, o.H, &e);
     t->L = &j->L;
     rt_sink sk = {tally_put, t};
@@ -168,6 +168,144 @@ static rt_image *render(rt_scene *s, int mode, int instances, tally *t, rt_job *
     const char *x = strstr(st.extra, "xforms=");
     t->xforms = x ? strtoull(x + 7, NULL, 10) : 0;
     return im;
+}
+
+static rt_image *render(rt_scene *s, int mode, int instances, tally *t, rt_job *j) {
+    return render_with("recursive", s, mode, instances, t, j);
+}
+
+/* Packets straight through rt_inst_pk_trace: random packets of 64 rays
+ * (coherent bundles around a direction, and fully random ones), closest
+ * hits bit for bit and occlusion equal to brute force on the flattened
+ * triangles; the per-slot counters add up to what tv counted per ray. */
+static void test_packets(const rt_scene *s, const rt_accel *a, const rt_scene *ref, const char *what) {
+    rt_err e = {0};
+    enum { NP = 64 };
+    rt_inst_pk *k = rt_inst_pk_new(a->as, NP, &e);
+    CHECK(k != NULL, "%s: packet walker: %s", what, e.msg);
+    if (!k)
+        return;
+    rt_trav tv;
+    rt_accel_trav(a, &tv, s, NULL, NULL);
+    int bad = 0, hits = 0, occl = 0;
+    for (int p = 0; p < 300; p++) {
+        rt_ray ray[NP];
+        rt_hit hit[NP];
+        uint8_t done[NP];
+        uint16_t idx[NP];
+        float pn[NP] = {0}, pt[NP] = {0};
+        rt_vec3 o = rt_v3((float)(urand() * 20 - 10), (float)(urand() * 8 - 2), (float)(urand() * 10 - 14));
+        rt_vec3 c = rt_v3((float)(urand() * 10 - 5), (float)(urand() * 4 - 2), (float)(urand() * 10));
+        int n = 1 + (int)(urand() * NP);
+        for (int j = 0; j < n; j++) {
+            rt_vec3 d = rt_v3(c.x - o.x + (float)(urand() * 4 - 2), c.y - o.y + (float)(urand() * 4 - 2),
+                              c.z - o.z + (float)(urand() * 4 - 2));
+            if (p % 3 == 2)
+                d = rt_v3((float)(urand() * 2 - 1), (float)(urand() * 2 - 1), (float)(urand() * 2 - 1));
+            rt_ray_init(&ray[j], p % 5 == 4 ? rt_v3(o.x + (float)urand(), o.y, o.z) : o, d);
+            if (j % 4 == 1)
+                ray[j].tmin = (float)(urand() * 0.5), ray[j].tmax = (float)(1 + urand() * 20);
+            rt_hit_none(&hit[j]);
+            done[j] = 0;
+            idx[j] = (uint16_t)(n - 1 - j); /* slots in any order */
+        }
+        uint64_t n0 = tv.nodes, t0 = tv.tests;
+        rt_inst_pk_trace(k, &tv, ray, hit, done, 0, pn, pt, idx, n);
+        float sn = 0, st = 0;
+        for (int j = 0; j < n; j++) {
+            rt_hit h;
+            int b = rt_brute_closest(ref, &ray[j], &h);
+            if ((b != (hit[j].tri != RT_NO_HIT) || (b && !same_hit(&h, &hit[j]))) && bad++ < 5)
+                CHECK(0, "%s packet %d ray %d: brute %d tri %u t %.9g, packet tri %u t %.9g", what, p, j, b, h.tri,
+                      (double)h.t, hit[j].tri, (double)hit[j].t);
+            hits += b;
+            sn += pn[j], st += pt[j];
+        }
+        /* a packet test is one test per ray present; a visit is counted once per packet */
+        CHECK((uint64_t)st == tv.tests - t0 && tv.nodes - n0 <= (uint64_t)sn, "%s packet %d: tests %llu vs %g, nodes %llu vs %g",
+              what, p, (unsigned long long)(tv.tests - t0), (double)st, (unsigned long long)(tv.nodes - n0), (double)sn);
+        rt_inst_pk_trace(k, &tv, ray, hit, done, 1, NULL, NULL, idx, n);
+        for (int j = 0; j < n; j++) {
+            int b = rt_brute_occluded(ref, &ray[j]);
+            if (b != done[j] && bad++ < 5)
+                CHECK(0, "%s packet %d ray %d: occluded brute %d packet %d", what, p, j, b, done[j]);
+            occl += b;
+        }
+    }
+    CHECK(bad == 0, "%s: %d packet rays differ", what, bad);
+    CHECK(hits > 2000 && occl >= hits, "%s: %d hits, %d occluded: the packets should meet the scene", what, hits, occl);
+    CHECK(tv.xforms > 0, "%s: no packet ray transformed", what);
+    rt_inst_pk_free(k);
+}
+
+/* The packet tracer through the two-level structure: float images equal
+ * the flattened scene's in every mode, accesses by class as the recursive
+ * tracer's (tlas, inst, blas node/tri exactly their regions'). */
+static void test_packet_images(rt_scene *s) {
+    const int modes[] = {RT_MODE_RAYCAST, RT_MODE_SHADOW, RT_MODE_WHITTED, RT_MODE_PATH};
+    for (int m = 0; m < 4; m++) {
+        tally ta = {0}, tb = {0};
+        rt_job ja, jb;
+        memset(&ja, 0, sizeof ja);
+        memset(&jb, 0, sizeof jb);
+        rt_image *a = render_with("packet", s, modes[m], 0, &ta, &ja), *b = render_with("packet", s, modes[m], 1, &tb, &jb);
+        if (a && b) {
+            size_t diff = 0;
+            for (size_t i = 0; i < (size_t)a->W * a->H * 3; i++)
+                diff += memcmp(&a->rgb[i], &b->rgb[i], sizeof(float)) != 0;
+            CHECK(diff == 0, "packet mode %d: %zu channel values differ between flatten and bvh", modes[m], diff);
+        }
+        int ri = rt_mm_find(&jb.L, "inst"), rtl = rt_mm_find(&jb.L, "tlas.node"), rbn = rt_mm_find(&jb.L, "blas.node"),
+            rbt = rt_mm_find(&jb.L, "blas.tri");
+        CHECK(ta.bad == 0 && tb.bad == 0 && tb.off == 0 && ri >= 0 && rtl >= 0 && rbn >= 0 && rbt >= 0,
+              "packet mode %d: off-layout %llu, %llu, off-class %llu", modes[m], (unsigned long long)ta.bad,
+              (unsigned long long)tb.bad, (unsigned long long)tb.off);
+        if (ri >= 0 && rtl >= 0 && rbn >= 0 && rbt >= 0)
+            CHECK(tb.cls[RT_CLS_TLAS] == tb.per[rtl] && tb.cls[RT_CLS_INST] == tb.per[ri] && tb.per[ri] > 0 &&
+                      tb.cls[RT_CLS_NODE] == tb.per[rbn] && tb.cls[RT_CLS_TRI] == tb.per[rbt] && tb.xforms > 0,
+                  "packet mode %d: classes tlas %llu inst %llu, %llu xforms", modes[m],
+                  (unsigned long long)tb.cls[RT_CLS_TLAS], (unsigned long long)tb.cls[RT_CLS_INST],
+                  (unsigned long long)tb.xforms);
+        rt_image_free(a);
+        rt_image_free(b);
+        rt_job_free(&ja);
+        rt_job_free(&jb);
+    }
+}
+
+/* The packet walk over the kept scene (no flattened copy): packets'
+ * hits equal brute force on the flattened scene s, and the packet
+ * tracer's images over the kept scene equal the flattened scene's. */
+static void test_packet_kept(const char *path, rt_scene *s) {
+    rt_err e = {0};
+    rt_scene *k = rt_scene_load_flags(path, RT_LOAD_KEEP_INSTANCES, &e);
+    CHECK(k != NULL && k->kept, "kept load: %s", e.msg);
+    if (!k)
+        return;
+    rt_accel a;
+    CHECK(rt_accel_build(&a, RT_ACCEL_INST, k, NULL, &e) == 0, "kept build: %s", e.msg);
+    if (a.as) {
+        test_packets(k, &a, s, "kept");
+        rt_accel_free(&a);
+    }
+    const int modes[] = {RT_MODE_RAYCAST, RT_MODE_SHADOW, RT_MODE_WHITTED, RT_MODE_PATH};
+    for (int m = 0; m < 4; m++) {
+        tally ta = {0}, tb = {0};
+        rt_job ja, jb;
+        memset(&ja, 0, sizeof ja);
+        memset(&jb, 0, sizeof jb);
+        rt_image *ia = render_with("packet", s, modes[m], 0, &ta, &ja), *ib = render_with("packet", k, modes[m], 1, &tb, &jb);
+        if (ia && ib)
+            CHECK(!memcmp(ia->rgb, ib->rgb, (size_t)ib->W * ib->H * 3 * sizeof(float)),
+                  "packet over the kept scene, mode %d: image differs from the flattened scene's", modes[m]);
+        CHECK(tb.bad == 0 && tb.off == 0 && tb.n > 0, "packet kept, mode %d: %llu accesses off the layout, %llu off class",
+              modes[m], (unsigned long long)tb.bad, (unsigned long long)tb.off);
+        rt_image_free(ia);
+        rt_image_free(ib);
+        rt_job_free(&ja);
+        rt_job_free(&jb);
+    }
+    rt_scene_free(k);
 }
 
 /* The recursive tracer's images through the two-level structure equal the
@@ -228,6 +366,146 @@ static void test_images(rt_scene *s) {
         rt_job_free(&ja);
         rt_job_free(&jb);
     }
+}
+
+/* Nested instancing two deep: "leaf" (a box), "branch" (two leaves and a
+ * triangle of its own), "tree" (three branches); instanced at the top as
+ * two trees and one branch. The same geometry written without objects
+ * (each instance an AttributeBegin block with its transformation around
+ * the shapes) is the independent expectation: the two files' triangles
+ * must be the same set within rounding, the two-level structure must hold
+ * the three top-level instances (each a record: the objects are large),
+ * pass its checker and give brute force's hits for every ray. */
+#define NEST_BOX "Shape \"trianglemesh\" \"point3 P\" [-1 -1 -1 1 -1 -1 1 1 -1 -1 1 -1 -1 -1 1 1 -1 1 1 1 1 -1 1 1] " \
+                 "\"integer indices\" [0 1 2 0 2 3  4 6 5 4 7 6  0 4 5 0 5 1  3 2 6 3 6 7  0 3 7 0 7 4  1 5 6 1 6 2]\n"
+#define NEST_TRI "Shape \"trianglemesh\" \"point3 P\" [0 0 0  1 0 0  0 2 0] \"integer indices\" [0 1 2]\n"
+#define NEST_L1 "AttributeBegin Translate 2 0 0 Rotate 30 0 0 1 Scale 0.5 0.5 0.5 "
+#define NEST_L2 "AttributeBegin Translate -2 1 0 Rotate 45 0 1 0 "
+#define NEST_B1 "AttributeBegin Translate 0 3 0 Rotate 20 1 0 0 "
+#define NEST_B2 "AttributeBegin Translate 0 -3 1 Scale 1 0.5 1 "
+#define NEST_B3 "AttributeBegin Translate 4 0 -2 Rotate 90 0 0 1 "
+#define NEST_T1 "AttributeBegin Translate -6 0 8 Rotate 15 0 1 0 "
+#define NEST_T2 "AttributeBegin Translate 6 0 10 Scale 1.2 1.2 1.2 "
+#define NEST_TB "AttributeBegin Translate 0 -1 4 Rotate 60 0 0 1 "
+#define END "AttributeEnd\n"
+#define NEST_HEAD "LookAt 0 2 -10  0 0 6  0 1 0\nCamera \"perspective\" \"float fov\" 50\nWorldBegin\n" \
+                  "LightSource \"point\" \"point3 from\" [0 10 -5] \"rgb I\" [40 40 40]\n"
+#define BRANCH_FLAT NEST_L1 NEST_BOX END NEST_L2 NEST_BOX END NEST_TRI
+#define TREE_FLAT NEST_B1 BRANCH_FLAT END NEST_B2 BRANCH_FLAT END NEST_B3 BRANCH_FLAT END
+static const char *nest_text =
+    NEST_HEAD "ObjectBegin \"leaf\"\n" NEST_BOX "ObjectEnd\n"
+    "ObjectBegin \"branch\"\n" NEST_L1 "ObjectInstance \"leaf\"\n" END NEST_L2 "ObjectInstance \"leaf\"\n" END NEST_TRI
+    "ObjectEnd\n"
+    "ObjectBegin \"tree\"\n" NEST_B1 "ObjectInstance \"branch\"\n" END NEST_B2 "ObjectInstance \"branch\"\n" END NEST_B3
+    "ObjectInstance \"branch\"\n" END "ObjectEnd\n"
+    "Shape \"trianglemesh\" \"point3 P\" [-20 -4 -20  20 -4 -20  20 -4 30  -20 -4 30] \"integer indices\" [0 1 2 0 2 3]\n"
+    NEST_T1 "ObjectInstance \"tree\"\n" END NEST_T2 "ObjectInstance \"tree\"\n" END NEST_TB "ObjectInstance \"branch\"\n" END;
+static const char *nest_flat_text =
+    NEST_HEAD "Shape \"trianglemesh\" \"point3 P\" [-20 -4 -20  20 -4 -20  20 -4 30  -20 -4 30] \"integer indices\" [0 1 2 0 2 3]\n"
+    NEST_T1 TREE_FLAT END NEST_T2 TREE_FLAT END NEST_TB BRANCH_FLAT END;
+
+static int cmp_f3(const void *a, const void *b) {
+    const float *x = a, *y = b;
+    for (int i = 0; i < 3; i++)
+        if (x[i] != y[i])
+            return x[i] < y[i] ? -1 : 1;
+    return 0;
+}
+
+static int cmp_f9(const void *a, const void *b) {
+    const float *x = a, *y = b;
+    for (int i = 0; i < 9; i++)
+        if (x[i] != y[i])
+            return x[i] < y[i] ? -1 : 1;
+    return 0;
+}
+
+/* The scene's triangles as sorted 9-float keys (vertices rounded to 1e-3,
+ * each triangle's vertices in sorted order), for comparing two scenes as
+ * sets. */
+static float *tri_keys(const rt_scene *s) {
+    float *k = malloc((size_t)s->ntri * 9 * sizeof *k);
+    if (!k)
+        return NULL;
+    for (uint32_t i = 0; i < s->ntri; i++) {
+        float v[3][3];
+        for (int c = 0; c < 3; c++) {
+            const float *p = &s->tri[i].p[c].x;
+            for (int a = 0; a < 3; a++)
+                v[c][a] = roundf(p[a] * 1000.0f) / 1000.0f + 0.0f;
+        }
+        qsort(v, 3, sizeof v[0], cmp_f3);
+        memcpy(k + 9 * (size_t)i, v, sizeof v);
+    }
+    qsort(k, s->ntri, 9 * sizeof *k, cmp_f9);
+    return k;
+}
+
+static void test_nested(void) {
+    rt_err e = {0};
+    char *pn = check_path("nested.pbrt"), *pf = check_path("nested_flat.pbrt");
+    check_write_file(pn, nest_text, strlen(nest_text));
+    check_write_file(pf, nest_flat_text, strlen(nest_flat_text));
+    rt_scene *s = rt_scene_load(pn, &e);
+    CHECK(s != NULL, "nested: %s", e.msg);
+    rt_scene *f = rt_scene_load(pf, &e);
+    CHECK(f != NULL, "nested, written flat: %s", e.msg);
+    if (!s || !f) {
+        rt_scene_free(s);
+        rt_scene_free(f);
+        return;
+    }
+    /* branch = 2 x 12 + 1 = 25 triangles, tree = 75; 2 trees + 1 branch + ground */
+    CHECK(s->ntri == 2 + 2 * 75 + 25 && f->ntri == s->ntri, "triangles: nested %u, flat %u, want %u", s->ntri, f->ntri,
+          2 + 2 * 75 + 25);
+    CHECK(s->nirec == 3 && s->ninst == 3, "top-level instance records %u, instances %u (want 3)", s->nirec, s->ninst);
+    float *ka = tri_keys(s), *kb = tri_keys(f);
+    size_t diff = 0;
+    for (uint32_t i = 0; ka && kb && i < s->ntri && s->ntri == f->ntri; i++)
+        for (int j = 0; j < 9; j++)
+            diff += fabsf(ka[9 * i + j] - kb[9 * i + j]) > 2e-3f;
+    CHECK(ka && kb && diff == 0, "nested and flat triangles differ in %zu coordinates", diff);
+    free(ka);
+    free(kb);
+    rt_accel a;
+    CHECK(rt_accel_build(&a, RT_ACCEL_INST, s, NULL, &e) == 0, "nested build: %s", e.msg);
+    rt_inst *I = a.as;
+    CHECK(rt_accel_check(&a, s, &e) == 0, "nested check: %s", e.msg);
+    CHECK(I->ninst == 4 && I->nloose == 2, "nested: %u instances (with the loose one), %u loose", I->ninst, I->nloose);
+    /* shared: tree (75) and branch (25) once each, the ground's 2 */
+    CHECK(I->nbtri == 75 + 25 + 2, "nested: %u shared records, want 102", I->nbtri);
+    rt_trav tv;
+    rt_accel_trav(&a, &tv, s, NULL, NULL);
+    int bad = 0, hits = 0;
+    for (int i = 0; i < 5000; i++) {
+        rt_vec3 o = rt_v3((float)(urand() * 30 - 15), (float)(urand() * 10 - 3), (float)(urand() * 30 - 10));
+        rt_vec3 d = rt_v3((float)(urand() * 2 - 1), (float)(urand() * 2 - 1), (float)(urand() * 2 - 1));
+        if (i % 2 == 0)
+            d = rt_v3((float)(urand() * 16 - 8) - o.x, (float)(urand() * 6 - 3) - o.y, (float)(urand() * 8 + 4) - o.z);
+        rt_ray r;
+        rt_ray_init(&r, o, d);
+        rt_hit h1, h2;
+        int b1 = rt_brute_closest(s, &r, &h1), b2 = a.ops->closest(&tv, &r, &h2);
+        if ((b1 != b2 || (b1 && !same_hit(&h1, &h2))) && bad++ < 5)
+            CHECK(0, "nested ray %d: brute %d tri %u, inst %d tri %u", i, b1, h1.tri, b2, h2.tri);
+        if (rt_brute_occluded(s, &r) != a.ops->occluded(&tv, &r) && bad++ < 5)
+            CHECK(0, "nested ray %d: occlusion differs", i);
+        hits += b1;
+    }
+    CHECK(bad == 0 && hits > 1000, "nested: %d rays differ, %d hits", bad, hits);
+    test_packets(s, &a, s, "nested");
+    rt_accel_free(&a);
+    /* the same file loaded with its instances kept (no flattened copy) */
+    rt_scene *k = rt_scene_load_flags(pn, RT_LOAD_KEEP_INSTANCES, &e);
+    CHECK(k && k->kept && k->nflat == s->ntri && k->nirec == 3, "nested kept: %s", k ? "counts" : e.msg);
+    if (k && rt_accel_build(&a, RT_ACCEL_INST, k, NULL, &e) == 0) {
+        CHECK(rt_accel_check(&a, k, &e) == 0, "nested kept check: %s", e.msg);
+        test_packets(k, &a, s, "nested kept");
+        rt_accel_free(&a);
+    }
+    rt_scene_free(k);
+    rt_scene_free(s);
+    rt_scene_free(f);
 }
 
 /* Kept instances (scene.h): the file loaded without its flattened copy
@@ -563,11 +841,15 @@ int main(void) {
     CHECK(tv.xforms > 0 && tv.tests < (uint64_t)20000 * 2 * s->ntri, "transformed %llu, tests %llu",
           (unsigned long long)tv.xforms, (unsigned long long)tv.tests);
 
+    test_packets(s, &a, s, "scene");
     corrupt_and_check(s, I);
     test_images(s);
+    test_packet_images(s);
     test_kept(path, s);
     test_kept_singular();
+    test_packet_kept(path, s);
     test_footer();
+    test_nested();
     rt_accel_free(&a);
     rt_scene_free(s);
 

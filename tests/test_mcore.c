@@ -9,7 +9,7 @@
  *
  *   - random multi-core streams (a small address range, so lines are
  *     shared and written by several cores; reads, writes and streaming
- *     stores; several classes and generations), 1, 2, 3 and 8 cores, on
+ *     stores; several classes and generations), 1, 2, 3, 8 and 70 cores, on
  *     hierarchies of one to three levels with every replacement policy at
  *     the private levels (lru fifo random plru srrip brrip) and at the
  *     shared ones (those, set-associative, and OPT at the last), a fully
@@ -38,6 +38,8 @@
 
 /* ---- the naive machine ---------------------------------------------------- */
 
+enum { NMAXC = 72 }; /* cores of the naive machine: past 63, the model's sharer filter shares bits */
+
 typedef struct lostset {
     uint64_t *l;
     size_t n, cap;
@@ -46,11 +48,11 @@ typedef struct lostset {
 typedef struct nmachine {
     int ncores, np, ns;
     uint32_t line;
-    naive *priv[8][RT_HIER_MAXLEVELS];
-    lostset lost[8][RT_HIER_MAXLEVELS];
-    uint64_t coh[8][RT_HIER_MAXLEVELS][RT_NCLASS][RT_MAXGEN];
-    uint64_t inv[8][RT_HIER_MAXLEVELS][RT_NCLASS][RT_MAXGEN];
-    uint64_t cwb[8][RT_NCLASS][RT_MAXGEN];
+    naive *priv[NMAXC][RT_HIER_MAXLEVELS];
+    lostset lost[NMAXC][RT_HIER_MAXLEVELS];
+    uint64_t coh[NMAXC][RT_HIER_MAXLEVELS][RT_NCLASS][RT_MAXGEN];
+    uint64_t inv[NMAXC][RT_HIER_MAXLEVELS][RT_NCLASS][RT_MAXGEN];
+    uint64_t cwb[NMAXC][RT_NCLASS][RT_MAXGEN];
     rt_access *sh; /* the stream the shared levels see */
     size_t nsh, capsh;
     naive *shared[RT_HIER_MAXLEVELS][RT_SIM_MAXSIZES]; /* shared level s, size i */
@@ -535,6 +537,8 @@ int main(void)
         /* every level shared */
         compare("LLC=1K-4K/full/64/lru", n, 0, 0, 3000, 64 * 200);
     }
+    /* 70 cores: the sharer filter's bits stand for several cores */
+    compare("L1=256/2/32/plru,L2=1K/4/32/lru,LLC=2K+8K/full/32/lru", 70, 0, 0, 8000, 32 * 300);
     one_core("L1=512/4/32/lru,L2=2K/8/32/plru,LLC=1K-16K/full/32/lru", 0, 20000, 32 * 800);
     one_core("L1=512/4/32/brrip,L2=2K/8/32/fifo,LLC=1K-16K/full/32/lru", 1, 20000, 32 * 800);
     one_core("L1=1K/8/64/random,LLC=4K+8K/8/64/srrip", 0, 20000, 64 * 400);

@@ -945,7 +945,7 @@ static void test_errors(void)
         {"WorldBegin\nObjectInstance \"x\"\n", "ObjectInstance \"x\": no such object"},
         {"WorldBegin\nNamedMaterial \"x\"\n", "NamedMaterial \"x\": no such material"},
         {"WorldBegin\nObjectBegin \"a\"\nObjectBegin \"b\"\n", "e.pbrt:3:1: ObjectBegin \"b\" inside another ObjectBegin"},
-        {"WorldBegin\nObjectBegin \"a\"\nObjectInstance \"a\"\n", "inside an ObjectBegin block (nested instancing is not supported)"},
+        {"WorldBegin\nObjectBegin \"a\"\nObjectInstance \"a\"\n", "ObjectInstance \"a\" inside its own definition"},
         {"WorldBegin\nObjectBegin \"a\"\n" TRI, "e.pbrt:2:1 has no ObjectEnd"},
         {"WorldBegin\nObjectBegin \"a\"\nObjectEnd\nObjectBegin \"a\"\n", "object defined twice"},
         {"WorldBegin\nObjectEnd\n", "ObjectEnd without ObjectBegin"},

@@ -60,6 +60,7 @@
  */
 #include "bvh.h"
 #include "camera.h"
+#include "inst.h"
 #include "regions.h"
 #include "rt_assert.h"
 #include "shade.h"
@@ -99,6 +100,7 @@ typedef struct pstate {
     struct bvlevel *lv; /* per depth: the rays entering a node */
     float *cull;     /* per ray: visit bound of its best hit so far */
     int np;          /* P * P */
+    rt_inst_pk *ipk; /* the two-level structure (--instances bvh): its packet walker, else NULL */
 } pstate;
 
 /* Drops rays that no longer need this node: occluded shadow rays, or rays
@@ -476,7 +478,8 @@ static int pk_layout(const rt_tracer_ctx *ctx, rt_layout *L, rt_err *e)
 static void trace_packet(pstate *ps, plist *l)
 {
     if (!l->n) return;
-    if (ps->bvh) pb_trace(ps, l);
+    if (ps->ipk) rt_inst_pk_trace(ps->ipk, ps->tv, ps->ray, ps->hit, ps->done, ps->shadow, ps->pnodes, ps->ptests, l->idx, l->n);
+    else if (ps->bvh) pb_trace(ps, l);
     else visit(ps, 0, l, 0);
 }
 
@@ -676,12 +679,14 @@ static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_
     int reg_shade = rt_mm_find(L, "tri.shade"), reg_hits = rt_mm_find(L, "packet.hits");
     rt_trav tv;
     rt_reg_trav(&tv, ctx);
-    pstate ps = {&tv, ctx->kd, sc, rec, L, tv.reg_node, tv.reg_idx, tv.reg_tri, NULL, NULL, NULL, 0, NULL, NULL, NULL, 0, NULL, NULL, NULL, 0};
-    const rt_bvh *bvh = tv.width ? tv.bvh : NULL; /* a BVH, else the k-d tree */
-    ps.maxdepth = bvh ? (int)bvh->depth + 2 : (int)ctx->kd->maxdepth + 2;
+    pstate ps = {&tv, ctx->kd, sc, rec, L, tv.reg_node, tv.reg_idx, tv.reg_tri, NULL, NULL, NULL, 0, NULL, NULL, NULL, 0, NULL, NULL, NULL, 0, NULL};
+    const int two_level = ctx->acc->kind == RT_ACCEL_INST; /* its own packet walk (accel/inst.c) */
+    const rt_bvh *bvh = tv.width && !two_level ? tv.bvh : NULL; /* a BVH, else the k-d tree */
+    ps.maxdepth = two_level ? 1 : bvh ? (int)bvh->depth + 2 : (int)ctx->kd->maxdepth + 2;
     ps.bvh = bvh;
     ps.np = NP;
     int rc = -1;
+    if (two_level && !(ps.ipk = rt_inst_pk_new(ctx->acc->as, NP, e))) return -1;
     rt_ray *eye = rt_calloc(NP, sizeof *eye, e);
     rt_ray *sray = eye ? rt_calloc(NP, sizeof *sray, e) : NULL;
     rt_hit *hit = sray ? rt_calloc(NP, sizeof *hit, e) : NULL;
@@ -690,7 +695,8 @@ static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_
     int *vis = want ? rt_calloc((size_t)NP * RT_NLIGHTS, sizeof *vis, e) : NULL;
     float *pn = vis ? rt_calloc(NP, sizeof *pn, e) : NULL;
     float *pt = pn ? rt_calloc(NP, sizeof *pt, e) : NULL;
-    uint8_t *mark = pt ? rt_calloc(sc->ntri ? sc->ntri : 1, 1, e) : NULL;
+    const uint32_t nmark = rt_scene_model_nslot(sc, two_level); /* marks per shading slot of the model */
+    uint8_t *mark = pt ? rt_calloc(nmark ? nmark : 1, 1, e) : NULL;
     plist *store = mark ? rt_calloc((size_t)2 * (ps.maxdepth + 1) + 1, sizeof *store, e) : NULL;
     void *pool = store ? rt_calloc(((size_t)2 * (ps.maxdepth + 1) + 1) * NP, 12, e) : NULL;
     const int authored = rt_shade_authored(sc, o) && o->lights; /* the file's lights (--light-samples) */
@@ -778,7 +784,9 @@ static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_
                     int x = px + k % pw, y = py + k / pw;
                     uint32_t pix = (uint32_t)y * (uint32_t)W + (uint32_t)x;
                     RT_REC(rec, rt_mm_addr(L, reg_hits, k), 8, 0, RT_CLS_HIT);
-                    if (hit[k].tri != RT_NO_HIT) RT_REC(rec, rt_mm_addr(L, reg_shade, hit[k].tri), 16, 0, RT_CLS_SHADE);
+                    if (hit[k].tri != RT_NO_HIT)
+                        RT_REC(rec, rt_mm_addr(L, reg_shade, rt_scene_model_slot(sc, hit[k].tri, two_level)), 16, 0,
+                               RT_CLS_SHADE);
                     rt_shade_pixel_lw(sc, o, &eye[k], hit[k].tri != RT_NO_HIT ? &hit[k] : NULL, &lw[(size_t)k * sc->nlight],
                                       img, pix);
                     img->nodes[pix] = pn[k];
@@ -817,7 +825,8 @@ static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_
                 uint32_t pix = (uint32_t)y * (uint32_t)W + (uint32_t)x;
                 RT_REC(rec, rt_mm_addr(L, reg_hits, k), 8, 0, RT_CLS_HIT);
                 if (hit[k].tri != RT_NO_HIT) {
-                    RT_REC(rec, rt_mm_addr(L, reg_shade, hit[k].tri), 16, 0, RT_CLS_SHADE);
+                    RT_REC(rec, rt_mm_addr(L, reg_shade, rt_scene_model_slot(sc, hit[k].tri, two_level)), 16, 0,
+                           RT_CLS_SHADE);
                     rt_shade_pixel(sc, &eye[k], &hit[k], &vis[k * RT_NLIGHTS], o->lights, img, pix);
                 } else {
                     rt_shade_pixel(sc, &eye[k], NULL, NULL, o->lights, img, pix);
@@ -828,15 +837,20 @@ static int pk_run(const rt_tracer_ctx *ctx, rt_image *img, rt_run_stats *st, rt_
             }
         }
     }
-    rt_stats_finish(st, &tv, mark, sc->ntri);
+    rt_stats_finish(st, &tv, mark, nmark);
     if (secondary)
         snprintf(st->extra, sizeof st->extra,
                  "packet=%d rays_secondary=%" PRIu64 " secondary_packets=%" PRIu64 " secondary_fill=%.3f self_hits=%" PRIu64,
                  P, S.rays, S.packets, S.packets ? (double)S.rays / ((double)S.packets * NP) : 0.0, S.self_hits);
     else
         snprintf(st->extra, sizeof st->extra, "packet=%d", P);
+    if (tv.xforms) { /* the two-level structure: rays transformed into an object's space */
+        size_t l = strlen(st->extra);
+        snprintf(st->extra + l, sizeof st->extra - l, " xforms=%" PRIu64, tv.xforms);
+    }
     rc = 0;
 done:
+    rt_inst_pk_free(ps.ipk);
     free(cull);
     free(lvpool);
     free(bl);
@@ -877,7 +891,7 @@ const rt_tracer rt_tracer_packet = {
     .name = "packet",
     .desc = "P x P ray packets tiled over the image, shadow packets per light",
     .modes = RT_TRACER_ALL_MODES,
-    .accels = RT_ACCEL_BIT(RT_ACCEL_KD) | RT_ACCEL_BVH_BITS,
+    .accels = RT_ACCEL_BIT(RT_ACCEL_KD) | RT_ACCEL_BVH_BITS | RT_ACCEL_BIT(RT_ACCEL_INST),
     .accel_default = RT_ACCEL_KD,
     .opts = RT_OPTG_PACKET | RT_OPTG_THREADS | RT_OPTG_CORES,
     .traits = RT_TR_LIGHTS,

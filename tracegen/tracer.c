@@ -75,6 +75,18 @@ static void accels_of(const rt_tracer *tr, char *buf, size_t n)
         if (tr->accels & RT_ACCEL_BIT(k)) l += (size_t)snprintf(buf + l, n - l, "%s%s", l ? ", " : "", rt_accel_name(k));
 }
 
+/* Why a tracer does not trace the two-level structure (docs/bvh.md,
+ * "Instancing"). */
+static const char *inst_why(const rt_tracer *tr)
+{
+    if (!strcmp(tr->name, "dynamic"))
+        return "schedules rays on the cells of one k-d tree over world space, which cannot sit under a top-level BVH "
+               "(a cell of a shared object's tree is a different region of space in every instance)";
+    if (!strcmp(tr->name, "treelet"))
+        return "cuts one BVH into treelets and suspends rays at their borders; it does not cut the two-level structure";
+    return "walks its own structure, not the two-level one";
+}
+
 int rt_tracer_check_given_any(const rt_tracer *const *trs, int ntr, const rt_render_opts *o, rt_err *e)
 {
     unsigned opts = 0, accels = 0;
@@ -96,9 +108,7 @@ int rt_tracer_check_given_any(const rt_tracer *const *trs, int ntr, const rt_ren
     }
     if (o->accel == RT_ACCEL_INST && !(accels & RT_ACCEL_BIT(o->accel))) {
         readers(0, o->accel, hint, sizeof hint);
-        if (who)
-            return rt_errf(e, "--instances bvh: the %s tracer walks its own structure, not the two-level one (only %s)",
-                           who, hint);
+        if (who) return rt_errf(e, "--instances bvh: the %s tracer %s (only %s)", who, inst_why(trs[0]), hint);
         return rt_errf(e, "--instances bvh: no tracer given traces the two-level structure (only %s)", hint);
     }
     if (o->accel != RT_ACCEL_DEFAULT && !(accels & RT_ACCEL_BIT(o->accel))) {
@@ -116,9 +126,11 @@ int rt_tracer_check_opts(const rt_tracer *tr, const rt_render_opts *o, rt_err *e
 {
     if (rt_pixel_check(o, e) < 0) return -1;
     int k = rt_tracer_accel(tr, o);
-    if (k == RT_ACCEL_INST && !(tr->accels & RT_ACCEL_BIT(k)))
-        return rt_errf(e, "--instances bvh: the %s tracer walks its own structure, not the two-level one (only recursive)",
-                       tr->name);
+    if (k == RT_ACCEL_INST && !(tr->accels & RT_ACCEL_BIT(k))) {
+        char hint[128];
+        readers(0, k, hint, sizeof hint);
+        return rt_errf(e, "--instances bvh: the %s tracer %s (only %s)", tr->name, inst_why(tr), hint);
+    }
     if (!(tr->accels & RT_ACCEL_BIT(k))) {
         char hint[128];
         accels_of(tr, hint, sizeof hint);

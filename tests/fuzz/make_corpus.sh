@@ -148,6 +148,28 @@ AttributeBegin Translate 3 1 2 Scale 0.5 2 1 ObjectInstance "box" AttributeEnd
 AttributeBegin Translate 0 0 -2 Rotate 33 0 1 0 ObjectInstance "card" AttributeEnd
 AttributeBegin Translate 4 0 -2 Scale 1 0 1 ObjectInstance "box" AttributeEnd
 PBRT
+cat > "$c/pbrt/ok-nested" <<'PBRT'
+# nested instancing two deep: leaf in branch in tree, instanced at the top
+LookAt 0 2 -10  0 0 6  0 1 0
+Camera "perspective" "float fov" 50
+WorldBegin
+ObjectBegin "leaf"
+Shape "trianglemesh" "point3 P" [-1 -1 -1 1 -1 -1 1 1 -1 -1 1 -1 -1 -1 1 1 -1 1 1 1 1 -1 1 1]
+  "integer indices" [0 1 2 0 2 3  4 6 5 4 7 6  0 4 5 0 5 1  3 2 6 3 6 7  0 3 7 0 7 4  1 5 6 1 6 2]
+ObjectEnd
+ObjectBegin "branch"
+AttributeBegin Translate 2 0 0 Rotate 30 0 0 1 Scale 0.5 0.5 0.5 ObjectInstance "leaf" AttributeEnd
+AttributeBegin Translate -2 1 0 Rotate 45 0 1 0 ObjectInstance "leaf" AttributeEnd
+Shape "trianglemesh" "point3 P" [0 0 0  1 0 0  0 2 0] "integer indices" [0 1 2]
+ObjectEnd
+ObjectBegin "tree"
+AttributeBegin Translate 0 3 0 ObjectInstance "branch" AttributeEnd
+AttributeBegin Translate 0 -3 1 Scale 1 0.5 1 ObjectInstance "branch" AttributeEnd
+ObjectEnd
+AttributeBegin Translate -6 0 8 Rotate 15 0 1 0 ObjectInstance "tree" AttributeEnd
+AttributeBegin Translate 6 0 10 Scale 1.2 1.2 1.2 ObjectInstance "tree" AttributeEnd
+AttributeBegin Translate 0 -1 4 ObjectInstance "branch" AttributeEnd
+PBRT
 cat > "$c/pbrt/ok-shapes2" <<'PBRT'
 # disk, annulus, cylinder, curves (bezier, bspline, ribbon), interface, alpha, deferred instances
 LookAt 0 -6 3  0 0 0.5  0 0 1
