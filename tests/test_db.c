@@ -824,9 +824,9 @@ static void test_upgrade_v5(const char *dir)
     r.hierarchy = "L1:4K:64:2,L2:64K:64:8";
     rt_db_traffic t[1] = {{65536, 64, 8, "wb-wa", RT_CLS_TRI, 50, 5, 0, 0, 0, 320}};
     rt_db_level lv[3] = {
-        {1, "L1", 0, 4096, 64, 2, NULL, NULL, RT_CLS_TRI, -1, 1000, 50, 0, 3200},
-        {1, "L1", 1, 4096, 64, 2, NULL, NULL, RT_CLS_TRI, -1, 900, 40, 0, 2560},
-        {2, "L2", -1, 65536, 64, 8, "wb-wa", "lru", RT_CLS_TRI, -1, 90, 5, 0, 320},
+        {1, "L1", 0, 4096, 64, 2, NULL, NULL, RT_CLS_TRI, -1, 1000, 50, 0, 3200, 0, 0, 0},
+        {1, "L1", 1, 4096, 64, 2, NULL, NULL, RT_CLS_TRI, -1, 900, 40, 0, 2560, 0, 0, 0},
+        {2, "L2", -1, 65536, 64, 8, "wb-wa", "lru", RT_CLS_TRI, -1, 90, 5, 0, 320, 0, 0, 0},
     };
     rt_db_rows R = {.traffic = t, .ntraffic = 1, .level = lv, .nlevel = 3};
     int64_t rid = 0;

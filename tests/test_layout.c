@@ -655,7 +655,7 @@ static void pbrt_writebacks(const char *spec)
     memset(&xc, 0, sizeof xc);
     rt_render_default_opts(&xc.ro);
     xc.ro.geom = RT_GEOM_PBRT;
-    rt_exp_job jr = {0, -1, "recursive", 0, -1, RT_MODE_DEFAULT, RT_ACCEL_DEFAULT}, js = jr;
+    rt_exp_job jr = {.scene = 0, .lighting = -1, .tracer = "recursive", .proxy = -1, .mode = RT_MODE_DEFAULT, .accel = RT_ACCEL_DEFAULT}, js = jr;
     js.tracer = "stream-branching";
     CHECK(rt_exp_job_opts(&xc, &jr).geom == RT_GEOM_PBRT && rt_exp_job_opts(&xc, &js).geom == RT_GEOM_COMPACT,
           "pbrt layout in a sweep of k-d and grid tracers");
