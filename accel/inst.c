@@ -587,6 +587,38 @@ static void walk_tlas(walk *W) {
     }
 }
 
+int rt_inst_visit(rt_trav *tv, const rt_ray *r, uint32_t cur, rt_hit *best, int any, int *found, uint32_t kid[2]) {
+    walk W = {.tv = tv, .I = tv->as, .r = r, .best = *best, .any = any};
+    const rt_inst *I = W.I;
+    const rt_bvh2_node *n = &I->tnode[cur];
+    int k = 0;
+    tv->nodes++;
+    REC_NODE(tv, tv->reg_top, cur, 32, RT_CLS_TLAS);
+    const float o[3] = {r->o.x, r->o.y, r->o.z}, inv[3] = {r->inv_d.x, r->inv_d.y, r->inv_d.z},
+                d[3] = {r->d.x, r->d.y, r->d.z};
+    if (slab(n->lo, n->hi, o, inv, r->tmin - 1e-6f - fabsf(r->tmin) * 1e-3f, W.best.t * (1.0f + 1e-3f) + 1e-6f)) {
+        if (n->ntri) {
+            for (uint32_t j = n->offset; j < n->offset + n->ntri; j++) {
+                walk_blas(&W, I->torder[j]);
+                if (W.any && W.found)
+                    break;
+            }
+        } else {
+            /* walk_tlas's order: the first child is walked next, the second stacked */
+            kid[0] = cur + 1, kid[1] = n->offset;
+            if (d[n->axis] < 0) {
+                kid[0] = n->offset;
+                kid[1] = cur + 1;
+            }
+            k = 2;
+        }
+    }
+    *best = W.best;
+    if (W.found)
+        *found = 1;
+    return k;
+}
+
 static int inst_closest(rt_trav *tv, const rt_ray *r, rt_hit *h) {
     walk W = {.tv = tv, .I = tv->as, .r = r};
     rt_hit_none(&W.best);

@@ -54,6 +54,18 @@ void rt_inst_free(rt_inst *I); /* accepts NULL */
 /* Verifies (I1)..(I6) of inst.c against sc: 0, or -1 naming the broken one. */
 int rt_inst_check(const rt_inst *I, const rt_scene *sc, rt_err *e);
 
+/* One step of the single-ray walk (inst_closest / inst_occluded) at
+ * top-level node cur, for tracers that keep the top-level stack
+ * themselves (the treelet tracer): the node is visited (counted in
+ * tv->nodes, recorded as tlas); if the world ray r meets its box within
+ * best->t, an interior node gives its children in walk order (kid[0]
+ * next, kid[1] below it on the stack: returns 2), a leaf enters each of
+ * its instances (record read, ray transformed, the shared tree walked to
+ * completion, as the single walk does) improving *best, or (any) stopping
+ * at the first occluder; *found is set when a hit was taken. Returns 0
+ * for a leaf or a missed box. The tv must be the structure's (tv->as). */
+int rt_inst_visit(rt_trav *tv, const rt_ray *r, uint32_t cur, rt_hit *best, int any, int *found, uint32_t kid[2]);
+
 /* Packets (the packet tracer; inst.c states the discipline): a walker for
  * packets of at most np rays; NULL with e set. */
 typedef struct rt_inst_pk rt_inst_pk;

@@ -4,12 +4,15 @@
 #    run and as `--instances flatten`, on an instanced .pbrt written here,
 #    in the shadow and whitted modes, for the recursive and packet tracers;
 #    trace-info names the structure and its four regions;
-# 2. the treelet and dynamic tracers refuse `--instances bvh` naming the
-#    option and the reason (exit 1), `--accel` with it is a usage error
-#    (exit 2), and an unknown mode is a usage error;
+# 2. the dynamic tracer refuses `--instances bvh` naming the option and the
+#    reason (exit 1), `--accel` with it is a usage error (exit 2), and an
+#    unknown mode is a usage error; the treelet tracer traces it: on this
+#    scene, data/pbrt/instances-grid.pbrt and with a 64-byte budget (many
+#    treelets over the top level) its PNG equals the flattened run's, and
+#    its trace reads tlas and inst, as many as the recursive tracer's;
 # 3. a sweep with `--instances bvh` stores instances = 'bvh' in the runs
-#    table for the recursive and packet tracers and runs the treelet tracer
-#    on the flattened scene ('flatten'); a plain sweep stores 'flatten';
+#    table for the recursive, packet and treelet tracers; a plain sweep
+#    stores 'flatten';
 #    the classes table holds tlas, inst and alpha, the bvh run has traffic
 #    rows of tlas, inst, node and tri, a 10-class file gets the new rows;
 # 4. report --figure instances prints the levels of the two-level run and
@@ -123,12 +126,37 @@ tail -c 268 "$od/v1.rtt" | head -c 4 | grep -q RTND || die "old footer not 268 b
 tail -c 316 "$tmp/t.rtt" | head -c 4 | grep -q RTND || die "12-class footer not 316 bytes"
 
 # ---- 2. refusals ----------------------------------------------------------------
-for t in treelet dynamic; do
+for t in dynamic; do
     "$bin" render "$sc" -t $t --instances bvh -W 16 -H 16 -o "$tmp/x.exr" >/dev/null 2>"$tmp/err"
     rc=$?
     [ $rc -ne 0 ] && grep -q -- "--instances bvh: the $t tracer" "$tmp/err" ||
         die "$t with --instances bvh: rc $rc, '$(cat "$tmp/err")'"
 done
+grid=${RT_SRCDIR:-.}/data/pbrt/instances-grid.pbrt
+for f in "$sc" "$grid"; do
+    for g in 64 0; do
+        go=""; [ $g = 0 ] || go="--gmax $g"
+        "$bin" render "$f" -t treelet --mode shadow --lights all -W 40 -H 30 -o "$tmp/x.exr" --png "$tmp/tf.png" \
+            >/dev/null 2>"$tmp/err" || { cat "$tmp/err"; die "treelet flatten $f"; }
+        "$bin" render "$f" -t treelet --instances bvh --mode shadow --lights all -W 40 -H 30 $go -o "$tmp/x.exr" \
+            --png "$tmp/tb.png" >"$tmp/out" 2>&1 || { cat "$tmp/out"; die "treelet --instances bvh $f"; }
+        cmp -s "$tmp/tf.png" "$tmp/tb.png" || die "treelet --instances bvh $g on $f: image differs from the flattened one"
+        [ $g = 0 ] || grep -Eq "treelets=([2-9]|[1-9][0-9]+) .* suspends=[1-9]" "$tmp/out" ||
+            die "treelet --gmax 64 on $f: too few treelets or no suspends: $(cat "$tmp/out")"
+    done
+done
+# the trace's geometry classes: tlas and inst read, each class's references
+# the recursive tracer's (the same nodes, records and triangles per ray)
+"$bin" trace "$grid" -t treelet --instances bvh --gmax 64 --lights all -W 24 -H 16 -o "$tmp/tl.rtt" >/dev/null 2>"$tmp/err" ||
+    { cat "$tmp/err"; die "trace -t treelet --instances bvh"; }
+"$bin" trace "$grid" -t recursive --instances bvh --lights all -W 24 -H 16 -o "$tmp/rc.rtt" >/dev/null 2>"$tmp/err" ||
+    { cat "$tmp/err"; die "trace -t recursive --instances bvh"; }
+refs() { "$bin" trace-info "$1" 2>/dev/null | sed -n '/^references by class/,$p' | awk -v c="$2" '$1 == c {print $3}'; }
+for c in tlas inst node tri shade; do
+    a=$(refs "$tmp/tl.rtt" $c); b=$(refs "$tmp/rc.rtt" $c)
+    [ -n "$a" ] && [ "$a" = "$b" ] || die "class $c: treelet --instances bvh reads $a, the recursive tracer $b"
+done
+[ "$(refs "$tmp/tl.rtt" tlas)" -gt 0 ] && [ "$(refs "$tmp/tl.rtt" inst)" -gt 0 ] || die "treelet trace: no tlas or inst reads"
 "$bin" render "$sc" --instances bvh --accel bvh2 -W 16 -H 16 -o "$tmp/x.exr" >/dev/null 2>"$tmp/err"
 [ $? -eq 2 ] && grep -q -- "--instances bvh chooses" "$tmp/err" || die "--instances bvh --accel bvh2: '$(cat "$tmp/err")'"
 "$bin" render "$sc" --instances deep -W 16 -H 16 -o "$tmp/x.exr" >/dev/null 2>"$tmp/err"
@@ -140,8 +168,8 @@ done
 "$bin" sweep --scenes "$sc" --tracers recursive --lights primary -W 16 -H 12 --sizes 4K \
     --db "$tmp/a.db" >/dev/null 2>"$tmp/err" || { cat "$tmp/err"; die "plain sweep"; }
 got=$(q "$tmp/a.db" "SELECT group_concat(t, ',') FROM (SELECT tracer || ':' || instances AS t FROM runs ORDER BY t)")
-[ "$got" = "packet:bvh,recursive:bvh,recursive:flatten,treelet:flatten" ] ||
-    die "runs (tracer:instances): want packet:bvh,recursive:bvh,recursive:flatten,treelet:flatten, got '$got'"
+[ "$got" = "packet:bvh,recursive:bvh,recursive:flatten,treelet:bvh" ] ||
+    die "runs (tracer:instances): want packet:bvh,recursive:bvh,recursive:flatten,treelet:bvh, got '$got'"
 # the classes table holds all 13 classes; the instanced run has rows per level
 got=$(q "$tmp/a.db" "SELECT group_concat(name || ':' || grp, ',') FROM (SELECT * FROM classes WHERE name IN ('tlas','inst','alpha') ORDER BY name)")
 [ "$got" = "alpha:geometry,inst:geometry,tlas:geometry" ] || die "classes table: '$got'"

@@ -368,6 +368,99 @@ static void test_images(rt_scene *s) {
     }
 }
 
+/* The treelet tracer on the two-level structure (treelets over the top
+ * level; an instance leaf walked to completion inside the treelet that
+ * holds it): in test mode (T1-T7, T6 comparing every ray with the
+ * single-ray walk the random rays above compare with brute force), with a
+ * budget of 64 bytes (two top-level nodes per treelet: several treelets
+ * and suspended rays where the top level has more nodes), its images
+ * equal the flattened scene's treelet run's and the recursive tracer's
+ * bit for bit, and its accesses per class are the
+ * recursive tracer's on the same structure (tlas, inst, node, tri: the
+ * same nodes, records and triangles per ray), each exactly its region's. */
+static rt_image *render_tl(const char *tracer, rt_scene *s, int mode, int instances, uint64_t gmax, tally *t, rt_job *j,
+                           rt_run_stats *st) {
+    rt_err e = {0};
+    rt_render_opts o;
+    rt_render_default_opts(&o);
+    o.W = 24, o.H = 20;
+    o.mode = mode;
+    o.lights = 7;
+    o.gmax = gmax;
+    if (instances)
+        o.instances = 1, o.accel = RT_ACCEL_INST;
+    CHECK(rt_job_setup_borrowed(j, s, NULL, tracer, &o, &e) == 0, "setup %s: %s", tracer, e.msg);
+    j->check = 1;
+    rt_image *im = rt_image_new(o.W, o.H, &e);
+    t->L = &j->L;
+    rt_sink sk = {tally_put, t};
+    CHECK(rt_job_run(j, &sk, im, st, &e) == 0, "run %s: %s", tracer, e.msg);
+    return im;
+}
+
+static double kv(const char *s, const char *k) {
+    size_t n = strlen(k);
+    for (const char *p = s; (p = strstr(p, k)); p += n)
+        if ((p == s || p[-1] == ' ') && p[n] == '=')
+            return atof(p + n + 1);
+    return -1;
+}
+
+static void test_treelet(rt_scene *s, const char *what, int min_tl) {
+    const int modes[] = {RT_MODE_SHADOW, RT_MODE_WHITTED, RT_MODE_PATH};
+    const uint64_t gm[] = {64};
+    for (int m = 0; m < 3; m++)
+        for (int g = 0; g < 1; g++) {
+            tally ta = {0}, tb = {0}, tr = {0};
+            rt_job ja, jb, jr;
+            rt_run_stats sa, sb, sr;
+            memset(&ja, 0, sizeof ja);
+            memset(&jb, 0, sizeof jb);
+            memset(&jr, 0, sizeof jr);
+            rt_image *a = render_tl("treelet", s, modes[m], 0, 0, &ta, &ja, &sa); /* bvh4 nodes: the default budget */
+            rt_image *b = render_tl("treelet", s, modes[m], 1, gm[g], &tb, &jb, &sb);
+            rt_image *r = render_tl("recursive", s, modes[m], 1, 0, &tr, &jr, &sr);
+            if (a && b && r) {
+                size_t diff = 0, dr = 0;
+                for (size_t i = 0; i < (size_t)a->W * a->H * 3; i++) {
+                    diff += memcmp(&a->rgb[i], &b->rgb[i], sizeof(float)) != 0;
+                    dr += memcmp(&r->rgb[i], &b->rgb[i], sizeof(float)) != 0;
+                }
+                CHECK(diff == 0 && dr == 0, "%s treelet mode %d gmax %llu: %zu channel values differ from the flattened "
+                      "run, %zu from the recursive bvh run", what, modes[m], (unsigned long long)gm[g], diff, dr);
+            }
+            const double ntl = kv(sb.extra, "treelets"), nsusp = kv(sb.extra, "suspends");
+            CHECK(ntl >= min_tl && (min_tl < 2 || nsusp > 0), "%s treelet mode %d: %g treelets (want %d), %g suspends "
+                  "with gmax 64", what, modes[m], ntl, min_tl, nsusp);
+            int ri = rt_mm_find(&jb.L, "inst"), rtl = rt_mm_find(&jb.L, "tlas.node"), rbn = rt_mm_find(&jb.L, "blas.node"),
+                rbt = rt_mm_find(&jb.L, "blas.tri");
+            CHECK(ta.bad == 0 && tb.bad == 0 && tb.off == 0 && ri >= 0 && rtl >= 0 && rbn >= 0 && rbt >= 0,
+                  "%s treelet mode %d: off-layout %llu, %llu, off-class %llu", what, modes[m],
+                  (unsigned long long)ta.bad, (unsigned long long)tb.bad, (unsigned long long)tb.off);
+            if (ri >= 0 && rtl >= 0 && rbn >= 0 && rbt >= 0)
+                CHECK(tb.cls[RT_CLS_TLAS] == tb.per[rtl] && tb.cls[RT_CLS_INST] == tb.per[ri] &&
+                          tb.cls[RT_CLS_NODE] == tb.per[rbn] && tb.cls[RT_CLS_TRI] == tb.per[rbt] &&
+                          tb.cls[RT_CLS_TLAS] > 0 && tb.cls[RT_CLS_INST] > 0,
+                      "%s treelet mode %d: regions' accesses off their classes", what, modes[m]);
+            static const int geo[] = {RT_CLS_TLAS, RT_CLS_INST, RT_CLS_NODE, RT_CLS_TRI, RT_CLS_SHADE};
+            for (int c = 0; c < 5; c++)
+                CHECK(tb.cls[geo[c]] == tr.cls[geo[c]], "%s treelet mode %d gmax %llu: class %d accesses %llu, the "
+                      "recursive tracer's %llu", what, modes[m], (unsigned long long)gm[g], geo[c],
+                      (unsigned long long)tb.cls[geo[c]], (unsigned long long)tr.cls[geo[c]]);
+            CHECK(sb.nodes == sr.nodes && sb.tests == sr.tests && sb.pv_all == sr.pv_all,
+                  "%s treelet mode %d: nodes %llu tests %llu, recursive %llu %llu", what, modes[m],
+                  (unsigned long long)sb.nodes, (unsigned long long)sb.tests, (unsigned long long)sr.nodes,
+                  (unsigned long long)sr.tests);
+            CHECK(ta.cls[RT_CLS_TLAS] == 0 && ta.cls[RT_CLS_INST] == 0, "%s treelet flattened run reads tlas/inst", what);
+            rt_image_free(a);
+            rt_image_free(b);
+            rt_image_free(r);
+            rt_job_free(&ja);
+            rt_job_free(&jb);
+            rt_job_free(&jr);
+        }
+}
+
 /* Nested instancing two deep: "leaf" (a box), "branch" (two leaves and a
  * triangle of its own), "tree" (three branches); instanced at the top as
  * two trees and one branch. The same geometry written without objects
@@ -494,6 +587,7 @@ static void test_nested(void) {
     }
     CHECK(bad == 0 && hits > 1000, "nested: %d rays differ, %d hits", bad, hits);
     test_packets(s, &a, s, "nested");
+    test_treelet(s, "nested", 1); /* three top-level instances: one node */
     rt_accel_free(&a);
     /* the same file loaded with its instances kept (no flattened copy) */
     rt_scene *k = rt_scene_load_flags(pn, RT_LOAD_KEEP_INSTANCES, &e);
@@ -845,6 +939,7 @@ int main(void) {
     corrupt_and_check(s, I);
     test_images(s);
     test_packet_images(s);
+    test_treelet(s, "scene", 3);
     test_kept(path, s);
     test_kept_singular();
     test_packet_kept(path, s);

@@ -82,8 +82,6 @@ static const char *inst_why(const rt_tracer *tr)
     if (!strcmp(tr->name, "dynamic"))
         return "schedules rays on the cells of one k-d tree over world space, which cannot sit under a top-level BVH "
                "(a cell of a shared object's tree is a different region of space in every instance)";
-    if (!strcmp(tr->name, "treelet"))
-        return "cuts one BVH into treelets and suspends rays at their borders; it does not cut the two-level structure";
     return "walks its own structure, not the two-level one";
 }
 

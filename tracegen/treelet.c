@@ -148,12 +148,26 @@
  * The receiver's first references to a moved ray (its record, the deep
  * stack entries it refills in that visit) are counted as bytes_moved.
  *
+ * Two-level instancing (--instances bvh, accel/inst.c; P->inst). The plan
+ * cuts the top-level BVH (a bvh2 over instances, seen as P->top; with
+ * --treelet-tris a leaf counts its 64-byte instance records) and a ray
+ * walks it exactly as the single-ray walk does (rt_inst_visit: the same
+ * top-level nodes in the same order). An instance leaf the ray reaches is
+ * handled inside the treelet holding the leaf: rt_inst_visit reads the
+ * instance's record (class inst), transforms the ray and walks the
+ * object's shared tree to completion (classes node and tri, shared by all
+ * instances), so a suspended ray carries only top-level stack entries and
+ * never an instance. T1-T7 hold as stated over the top level (T4's node
+ * is a top-level node; T6 compares with the two-level single walk). Marks
+ * and shading reads go to the model's shading slots (rt_scene_model_slot).
+ *
  * Images are bit-identical to the recursive tracer's on the same BVH: each
  * ray visits the same nodes and tests the same triangles in the same order
  * as rt_bvh_closest / rt_bvh_occluded, so it ends with the same hit.
  */
 #include "bvh.h"
 #include "camera.h"
+#include "inst.h"
 #include "cores.h"
 #include "hit.h"
 #include "rayq.h"
@@ -214,6 +228,8 @@ typedef struct tplan {
     uint32_t *tdepth;   /* treelets on the path from the root, the treelet's own included */
     uint32_t maxdepth;  /* deepest tdepth */
     uint64_t bytes_max; /* largest treelet */
+    const rt_inst *inst; /* the two-level structure (--instances bvh): the plan cuts its top level */
+    rt_bvh top;          /* ... seen as a bvh2 (nodes borrowed from inst->tnode); unused otherwise */
 } tplan;
 
 static void tl_plan_free(void *p)
@@ -332,12 +348,21 @@ static uint64_t tl_budget(const rt_render_opts *o, const char **opt)
 
 static int tl_plan(const rt_tracer_ctx *ctx, void **out, rt_err *e)
 {
-    const rt_bvh *b = ctx->acc->as;
+    const int two = ctx->acc->kind == RT_ACCEL_INST;
     *out = NULL;
-    if (!b || !rt_accel_bvh_width(ctx->acc->kind))
+    if (!ctx->acc->as || (!two && !rt_accel_bvh_width(ctx->acc->kind)))
         return rt_errf(e, "treelet: runs on a BVH only (internal error)");
     tplan *P = rt_calloc(1, sizeof *P, e);
     if (!P) return -1;
+    const rt_bvh *b = ctx->acc->as;
+    if (two) { /* the top level, a bvh2 over the instances: its leaves' entries are instances */
+        P->inst = ctx->acc->as;
+        P->top.width = 2;
+        P->top.nnodes = P->inst->ntnode;
+        P->top.n2 = P->inst->tnode;
+        b = &P->top;
+    }
+    const uint32_t leafrec = two ? RT_INST_RECSIZE : 36u; /* --treelet-tris: a leaf entry's bytes */
     P->width = b->width;
     P->budget = tl_budget(ctx->opt, NULL);
     P->tris = ctx->opt->treelet_tris;
@@ -362,7 +387,7 @@ static int tl_plan(const rt_tracer_ctx *ctx, void **out, rt_err *e)
         uint32_t kid[8], nt;
         float ka[8];
         int k = children(b, i, kid, ka, &nt);
-        P->cost[i] = nsize + (P->tris ? 36u * nt : 0u);
+        P->cost[i] = nsize + (P->tris ? leafrec * nt : 0u);
         for (int j = 0; j < k; j++) {
             P->parent[kid[j]] = i;
             P->area[kid[j]] = ka[j];
@@ -428,6 +453,8 @@ fail:
 /* T1 on a plan against its tree. */
 static int check_plan(const tplan *P, const rt_bvh *b, rt_err *e)
 {
+    if (P->inst && (b != &P->top || P->top.width != 2 || P->top.n2 != P->inst->tnode || P->top.nnodes != P->inst->ntnode))
+        return rt_errf(e, "treelet T1: the plan's tree is not the two-level structure's top level");
     if (!b->nnodes) return 0;
     uint64_t *sum = rt_calloc(P->nt, sizeof *sum, e);
     uint32_t *cnt = rt_calloc(P->nt, sizeof *cnt, e);
@@ -550,6 +577,7 @@ typedef struct tl_run {
     int reg_ray, reg_fb, reg_rays, reg_stack, reg_qt, reg_q, reg_hits, reg_spawn, reg_shade;
     uint32_t nsize, esize, stack_bound;
     uint32_t slots;   /* ray slots (the window) */
+    uint32_t nslot;   /* the model's shading slots (rt_scene_model_nslot): the marks */
     size_t npix;
     tray *ray;        /* slots records of TRAY_SIZE bytes, line-aligned inside ray_mem */
     void *ray_mem;    /* the allocation holding ray */
@@ -748,6 +776,100 @@ static uint64_t stack_addr(const tl_run *T, uint32_t s, uint32_t k)
     return rt_mm_addr(T->L, T->reg_stack, (uint64_t)s * T->stack_bound + (k - nin));
 }
 
+/* walk() on the two-level structure (P->inst): the ray walks the top
+ * level as rt_inst_visit's single walk does, node by node in this
+ * treelet; an instance leaf it reaches is handled inside this treelet by
+ * rt_inst_visit walking the instance's shared tree to completion (its
+ * record read as inst, the ray transformed, the bottom-level nodes and
+ * shared triangles read as node and tri), so a suspended ray carries only
+ * top-level stack entries, never an instance. */
+static int walk_inst(tl_run *T, uint32_t s, uint32_t t)
+{
+    tray *R = &T->ray[s];
+    const rt_ray ray = R->r;
+    const int any = R->any;
+    rt_rec *rec = T->rec;
+    T->tv.rec = rec; /* the instance walk records through tv (this core's recorder) */
+    const uint32_t *ptl = T->P->tl;
+    const uint64_t *rootbit = T->P->rootbit;
+    const uint32_t esize = T->esize, nin = SHORT_STACK / esize;
+    rt_hit best = {.t = R->best, .tri = R->found ? R->btri : RT_NO_HIT, .u = R->bu, .v = R->bv};
+    int found = R->found;
+    sent *stk = R->stk;
+    uint32_t sp = R->sp, mem = R->mem, reg = R->reg, cap = R->cap, max_sp = T->max_sp;
+    int ret = 1, occluded = 0;
+    for (;;) {
+        if (sp == 0) break;
+        const uint32_t idx = sp - 1;
+        const sent e = stk[idx];
+        if (e.tl != t) { /* suspend, as walk() does */
+            const uint32_t top_in = sp < nin ? sp : nin;
+            const uint32_t end = mem < top_in ? RAY_STATE + top_in * esize : RAY_SUSP_OFS + RAY_SUSP;
+            RT_REC(rec, rt_mm_addr(T->L, T->reg_rays, s) + RAY_SUSP_OFS, end - RAY_SUSP_OFS, 1, RT_CLS_RAY);
+            const uint32_t lo = mem > nin ? mem : nin;
+            if (sp > lo) {
+                RT_REC(rec, stack_addr(T, s, lo), (sp - lo) * esize, 1, RT_CLS_STREAM);
+                T->stack_w += sp - lo;
+                T->spills++;
+            }
+            mem = reg = sp;
+            T->susp++;
+            enqueue(T, e.tl, s);
+            ret = 0;
+            break;
+        }
+        if (idx < reg) { /* the refill, as walk() does */
+            uint32_t lo = idx;
+            if (idx >= nin) {
+                lo = idx + 1 >= nin + REFILL ? idx + 1 - REFILL : nin;
+                RT_REC(rec, stack_addr(T, s, lo), (idx + 1 - lo) * esize, 0, RT_CLS_STREAM);
+                if (T->moving) T->moved_bytes += (idx + 1 - lo) * esize;
+                T->stack_r += idx + 1 - lo;
+                T->refills++;
+            }
+            reg = lo;
+        }
+        sp = idx;
+        if (mem > idx) mem = idx;
+        uint32_t kid[2];
+        int hit = 0;
+        const int k = rt_inst_visit(&T->tv, &ray, e.a, &best, any, &hit, kid);
+        if (hit) found = 1;
+        if (any && hit) {
+            occluded = 1;
+            break;
+        }
+        if (!k) continue;
+        if (sp + 2 > cap) {
+            R->sp = (uint16_t)sp;
+            if (grow(T, R) < 0) break;
+            stk = R->stk;
+            cap = R->cap;
+        }
+        if (mem > sp) mem = sp;
+        for (int j = 1; j >= 0; j--) { /* kid[0] on top: walked next */
+            const uint32_t a = kid[j];
+            const uint32_t tl = rootbit[a / 64] >> (a % 64) & 1 ? ptl[a] : t;
+            stk[sp++] = (sent){a, 0, ray.tmin, tl};
+        }
+        if (sp > max_sp) max_sp = sp;
+    }
+    if (occluded) {
+        R->occluded = 1;
+        sp = mem = reg = 0;
+    }
+    R->sp = (uint16_t)sp;
+    R->mem = (uint16_t)mem;
+    R->reg = (uint16_t)reg;
+    R->best = best.t;
+    R->bu = best.u;
+    R->bv = best.v;
+    R->btri = found ? best.tri : 0;
+    R->found = (uint8_t)found;
+    T->max_sp = max_sp;
+    return ret;
+}
+
 /* Walks ray slot s inside treelet t. Returns 1 when it finished (stack
  * empty or occluded), 0 when it was suspended and queued at its next
  * treelet. The ray's stack depths, hit state and counters live in locals
@@ -756,6 +878,7 @@ static uint64_t stack_addr(const tl_run *T, uint32_t s, uint32_t k)
  * its record when it leaves. */
 static int walk(tl_run *T, uint32_t s, uint32_t t)
 {
+    if (T->P->inst) return walk_inst(T, s, t);
     tray *R = &T->ray[s];
     const rt_bvh *b = T->b;
     const int W = b->width;
@@ -1294,7 +1417,9 @@ static int window_primary(tl_run *T, const uint32_t *pix, uint32_t n, rt_err *e)
     uint8_t *wl = T->want + T->slots; /* scratch beside want: n bytes */
     for (uint32_t s = 0; s < n; s++) {
         slot_core(T, s, n);
-        if (T->hit[s].tri != RT_NO_HIT) RT_REC(T->rec, rt_mm_addr(T->L, T->reg_shade, T->hit[s].tri), 16, 0, RT_CLS_SHADE);
+        if (T->hit[s].tri != RT_NO_HIT)
+            RT_REC(T->rec, rt_mm_addr(T->L, T->reg_shade, rt_scene_model_slot(T->sc, T->hit[s].tri, T->P->inst != NULL)), 16,
+                   0, RT_CLS_SHADE);
         if (o->lights) RT_REC(T->rec, rt_mm_addr(T->L, T->reg_hits, s), 24, 1, RT_CLS_HIT);
     }
     T->tv.mark_bit = 2;
@@ -1521,7 +1646,7 @@ static int tl_init(tl_run *T, const rt_tracer_ctx *ctx, rt_image *img, rt_run_st
     if (!P) return rt_errf(e, "treelet: run without a plan (internal error)");
     T->ctx = ctx;
     T->sc = ctx->sc;
-    T->b = ctx->acc->as;
+    T->b = P->inst ? &P->top : ctx->acc->as;
     T->P = P;
     T->L = ctx->L;
     T->rec = ctx->rec;
@@ -1533,6 +1658,7 @@ static int tl_init(tl_run *T, const rt_tracer_ctx *ctx, rt_image *img, rt_run_st
     T->nsize = rt_bvh_node_size(P->width);
     T->esize = P->width == 2 ? 4 : 8;
     T->stack_bound = stack_bound_of(P->width);
+    T->nslot = rt_scene_model_nslot(T->sc, P->inst != NULL); /* marks and shading records per model slot */
     rt_reg_trav(&T->tv, ctx);
     T->reg_ray = rt_mm_find(T->L, "rays.primary");
     T->reg_fb = rt_mm_find(T->L, "fb");
@@ -1556,7 +1682,7 @@ static int tl_init(tl_run *T, const rt_tracer_ctx *ctx, rt_image *img, rt_run_st
                              .level_cap = ns};
     if (rt_rq_init(&T->rq, &qc, e) < 0 || !(T->ray_mem = rt_calloc((size_t)ns + 1, TRAY_SIZE, e)) ||
         !(T->want = rt_calloc(2 * (size_t)ns, 1, e)) || !(T->done = rt_calloc(ns, 1, e)) ||
-        !(T->hit = uninit(ns, sizeof *T->hit, e)) || !(T->bsray = uninit(ns, sizeof *T->bsray, e)) || !(T->mark = rt_calloc(T->sc->ntri ? T->sc->ntri : 1, 1, e)))
+        !(T->hit = uninit(ns, sizeof *T->hit, e)) || !(T->bsray = uninit(ns, sizeof *T->bsray, e)) || !(T->mark = rt_calloc(T->nslot ? T->nslot : 1, 1, e)))
         return -1;
     T->ray = (tray *)(void *)((char *)T->ray_mem + (64 - (uintptr_t)T->ray_mem % 64) % 64);
     hint_huge(T->ray_mem, ((size_t)ns + 1) * TRAY_SIZE);
@@ -1594,7 +1720,7 @@ static int tl_init(tl_run *T, const rt_tracer_ctx *ctx, rt_image *img, rt_run_st
 static void report(const tl_run *T, rt_run_stats *st)
 {
     const tplan *P = T->P;
-    rt_stats_finish(st, &T->tv, T->mark, T->sc->ntri);
+    rt_stats_finish(st, &T->tv, T->mark, T->nslot);
     uint64_t sum = 0;
     for (uint32_t t = 0; t < P->nt; t++) sum += P->tbytes[t];
     snprintf(st->extra, sizeof st->extra,
@@ -1646,7 +1772,8 @@ static int tl_check_opts(const rt_render_opts *o, rt_err *e)
     const char *opt;
     const uint64_t budget = tl_budget(o, &opt);
     const int k = rt_tracer_accel(&rt_tracer_treelet, o);
-    const int width = rt_accel_bvh_width(k) ? rt_accel_bvh_width(k) : 4; /* the default, bvh4, before the check */
+    const int width = k == RT_ACCEL_INST ? 2 /* the top level */
+                      : rt_accel_bvh_width(k) ? rt_accel_bvh_width(k) : 4; /* the default, bvh4, before the check */
     const uint32_t ns = rt_bvh_node_size(width);
     if (budget < ns)
         return rt_errf_usage(e, "%s: a treelet budget of %" PRIu64 " bytes%s is smaller than one %u-byte bvh%d node", opt,
@@ -1665,7 +1792,7 @@ const rt_tracer rt_tracer_treelet = {
     .name = "treelet",
     .desc = "rays queued at cache-sized BVH treelets (Aila and Karras 2010)",
     .modes = RT_TRACER_ALL_MODES,
-    .accels = RT_ACCEL_BVH_BITS,
+    .accels = RT_ACCEL_BVH_BITS | RT_ACCEL_BIT(RT_ACCEL_INST),
     .accel_default = RT_ACCEL_BVH4,
     .opts = RT_OPTG_SCHED | RT_OPTG_QUEUES | RT_OPTG_TREELET | RT_OPTG_THREADS | RT_OPTG_CORES,
     .traits = RT_TR_SCHEDULED | RT_TR_QUEUES | RT_TR_LIGHTS | RT_TR_CORE_PHASES,
