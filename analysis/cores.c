@@ -16,6 +16,7 @@
  * cores (log 2) at the largest of those sizes, one line per tracer.
  */
 #include "analysis_int.h"
+#include "experiment.h"
 
 #include <inttypes.h>
 #include <math.h>
@@ -171,8 +172,9 @@ int rt_report_cores(sqlite3 *h, const char *dbpath, const char *scene, int csv, 
                 for (int t = 0; t < g->nt; t++) any |= !isnan(g->v[z][c][t].mb);
             if (!any) continue;
             if (!csv) {
-                fprintf(out, "\n### %s, %dx%d, lights %d, private %s, shared %" PRIu64 "K\n\n| cores |", g->scene, g->W,
-                        g->H, g->lights, g->l1, cores_sizes[z] / 1024);
+                char ln[64];
+                fprintf(out, "\n### %s, %dx%d, lights %s, private %s, shared %" PRIu64 "K\n\n| cores |", g->scene, g->W,
+                        g->H, rt_exp_lights_name((unsigned)g->lights, ln, sizeof ln), g->l1, cores_sizes[z] / 1024);
                 for (int t = 0; t < g->nt; t++) fprintf(out, " %s MB | miss |", g->tracer[t]);
                 for (int t = 0; t < g->nt; t++)
                     if (base[t] >= 0) fprintf(out, " %s vs %s |", g->tracer[t], g->tracer[base[t]]);
@@ -236,9 +238,10 @@ int rt_report_cores(sqlite3 *h, const char *dbpath, const char *scene, int csv, 
                 rc = -1;
                 break;
             }
-            char title[900];
-            snprintf(title, sizeof title, "%s, %dx%d, lights %d: DRAM traffic below a shared %" PRIu64 "K, private %s",
-                     g->scene, g->W, g->H, g->lights, cores_sizes[NSZ - 1] / 1024, g->l1);
+            char title[900], ln[64];
+            snprintf(title, sizeof title, "%s, %dx%d, lights %s: DRAM traffic below a shared %" PRIu64 "K, private %s",
+                     g->scene, g->W, g->H, rt_exp_lights_name((unsigned)g->lights, ln, sizeof ln),
+                     cores_sizes[NSZ - 1] / 1024, g->l1);
             fprintf(f, "set terminal pngcairo size 800,500\nset output ");
             rt_plot_quote_path(f, png);
             fprintf(f, "\nset title ");

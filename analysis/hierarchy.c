@@ -25,6 +25,7 @@
  * Returns -1 with a message when neither table has a run.
  */
 #include "analysis_int.h"
+#include "experiment.h"
 
 #include <inttypes.h>
 #include <stdlib.h>
@@ -83,9 +84,10 @@ static int levels(sqlite3 *h, const char *scene, FILE *out, int *nrows, rt_err *
             if (!*nrows) fprintf(out, "## Cache hierarchies: traffic per level\n");
             const char *spec = (const char *)sqlite3_column_text(st, 6);
             const char *in = inclusion_of(spec, &incl);
-            fprintf(out, "\n### %s, %s, %dx%d, lights %d, run %lld: %s (%s)\n\n", sqlite3_column_text(st, 1),
+            char ln[64];
+            fprintf(out, "\n### %s, %s, %dx%d, lights %s, run %lld: %s (%s)\n\n", sqlite3_column_text(st, 1),
                     sqlite3_column_text(st, 2), sqlite3_column_int(st, 3), sqlite3_column_int(st, 4),
-                    sqlite3_column_int(st, 5), id, spec, in);
+                    rt_exp_lights_name((unsigned)sqlite3_column_int(st, 5), ln, sizeof ln), id, spec, in);
             if (incl)
                 fprintf(out, "| last-level size | level | size | line | ways | repl | accesses | misses | geometry KB |"
                              " ray KB | other KB | to the level below KB | back-invalidations | their write-backs |\n"
@@ -198,9 +200,10 @@ static int policies(sqlite3 *h, const char *scene, FILE *out, int *ngroups, rt_e
         char ways[32];
         if (g.assoc) snprintf(ways, sizeof ways, "%d-way", g.assoc);
         else strcpy(ways, "fully associative");
-        fprintf(out, "\n### %s, %s, %dx%d, lights %d (%s, 64-byte lines; total traffic)\n\n", sqlite3_column_text(st, 1),
+        char ln[64];
+        fprintf(out, "\n### %s, %s, %dx%d, lights %s (%s, 64-byte lines; total traffic)\n\n", sqlite3_column_text(st, 1),
                 sqlite3_column_text(st, 3), sqlite3_column_int(st, 4), sqlite3_column_int(st, 5),
-                sqlite3_column_int(st, 6), ways);
+                rt_exp_lights_name((unsigned)sqlite3_column_int(st, 6), ln, sizeof ln), ways);
         if (policy_table(h, &g, out, e) < 0) return sqlite3_finalize(st), -1;
         (*ngroups)++;
     }

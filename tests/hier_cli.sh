@@ -89,7 +89,7 @@ for p in lru opt; do
         >/dev/null 2>&1 || die "sweep --repl $p"
 done
 "$bin" report --db "$tmp/s.db" --figure hierarchy > "$tmp/rep.md" || die "report --figure hierarchy exit"
-grep -q '^### cornell, recursive, 24x24, lights 0, run 1: L1=2K/4/64/lru,LLC=1K-16K/full/64/lru (non-inclusive)$' "$tmp/rep.md" || die "report: hierarchy heading"
+grep -q '^### cornell, recursive, 24x24, lights none, run 1: L1=2K/4/64/lru,LLC=1K-16K/full/64/lru (non-inclusive)$' "$tmp/rep.md" || die "report: hierarchy heading"
 [ "$(grep -c '^| LLC | ' "$tmp/rep.md")" = 5 ] || die "report: LLC rows"
 grep -q '^| size | lru KB | fifo KB | opt KB | LRU gap to OPT |$' "$tmp/rep.md" || die "report: policy header"
 # the gap is computed from the stored totals
@@ -161,7 +161,7 @@ mkdir -p "$tmp/si"; "$bin" sweep --scenes cornell --tracers recursive -W 16 -H 1
 q="select level, last_size, class, accesses, misses, writebacks, traffic_bytes, backinvals, bi_writebacks from level_traffic order by 1, 2, 3"
 [ "$(sqlite3 "$tmp/si.db" "$q")" = "$(sqlite3 "$tmp/si2.db" "$q")" ] && [ -n "$(sqlite3 "$tmp/si.db" "$q")" ] || die "sweep inclusive rows differ from sim's"
 "$bin" report --db "$tmp/si.db" --figure hierarchy > "$tmp/repi.md" || die "report inclusive"
-grep -q "^### cornell, recursive, 16x16, lights 0, run 1: $spec (inclusive)\$" "$tmp/repi.md" || die "report: inclusive heading"
+grep -q "^### cornell, recursive, 16x16, lights none, run 1: $spec (inclusive)\$" "$tmp/repi.md" || die "report: inclusive heading"
 grep -q '^| last-level size | level | .* | back-invalidations | their write-backs |$' "$tmp/repi.md" || die "report: inclusive header"
 bi=$(sqlite3 "$tmp/si.db" "select sum(backinvals) from level_traffic where level = 1 and last_size = 2048")
 grep -q "^| 2048 | L1 | 1024 | .* | $bi | [0-9]* |\$" "$tmp/repi.md" || die "report: L1 row of the 2K chain ($bi back-invalidations)"
