@@ -377,7 +377,9 @@ static void test_images(rt_scene *s) {
  * equal the flattened scene's treelet run's and the recursive tracer's
  * bit for bit, and its accesses per class are the
  * recursive tracer's on the same structure (tlas, inst, node, tri: the
- * same nodes, records and triangles per ray), each exactly its region's. */
+ * same nodes, records and triangles per ray), each exactly its region's;
+ * on the scene loaded kept (no flattened copy) the same image and the very
+ * same record stream. */
 static rt_image *render_tl(const char *tracer, rt_scene *s, int mode, int instances, uint64_t gmax, tally *t, rt_job *j,
                            rt_run_stats *st) {
     rt_err e = {0};
@@ -406,7 +408,7 @@ static double kv(const char *s, const char *k) {
     return -1;
 }
 
-static void test_treelet(rt_scene *s, const char *what, int min_tl) {
+static void test_treelet(rt_scene *s, rt_scene *kept, const char *what, int min_tl) {
     const int modes[] = {RT_MODE_SHADOW, RT_MODE_WHITTED, RT_MODE_PATH};
     const uint64_t gm[] = {64};
     for (int m = 0; m < 3; m++)
@@ -420,6 +422,21 @@ static void test_treelet(rt_scene *s, const char *what, int min_tl) {
             rt_image *a = render_tl("treelet", s, modes[m], 0, 0, &ta, &ja, &sa); /* bvh4 nodes: the default budget */
             rt_image *b = render_tl("treelet", s, modes[m], 1, gm[g], &tb, &jb, &sb);
             rt_image *r = render_tl("recursive", s, modes[m], 1, 0, &tr, &jr, &sr);
+            if (kept) { /* the kept scene (no flattened copy): the same image and accesses */
+                tally tk = {0};
+                rt_job jk;
+                rt_run_stats sk;
+                memset(&jk, 0, sizeof jk);
+                rt_image *k = render_tl("treelet", kept, modes[m], 1, gm[g], &tk, &jk, &sk);
+                size_t dk = 0;
+                for (size_t i = 0; k && b && i < (size_t)k->W * k->H * 3; i++)
+                    dk += memcmp(&k->rgb[i], &b->rgb[i], sizeof(float)) != 0;
+                CHECK(k && b && dk == 0 && tk.bad == 0 && tk.n == tb.n && tk.hash == tb.hash,
+                      "%s kept treelet mode %d: %zu channel values differ, %llu accesses (flattened %llu), off-layout %llu",
+                      what, modes[m], dk, (unsigned long long)tk.n, (unsigned long long)tb.n, (unsigned long long)tk.bad);
+                rt_image_free(k);
+                rt_job_free(&jk);
+            }
             if (a && b && r) {
                 size_t diff = 0, dr = 0;
                 for (size_t i = 0; i < (size_t)a->W * a->H * 3; i++) {
@@ -587,7 +604,7 @@ static void test_nested(void) {
     }
     CHECK(bad == 0 && hits > 1000, "nested: %d rays differ, %d hits", bad, hits);
     test_packets(s, &a, s, "nested");
-    test_treelet(s, "nested", 1); /* three top-level instances: one node */
+    test_treelet(s, NULL, "nested", 1); /* three top-level instances: one node */
     rt_accel_free(&a);
     /* the same file loaded with its instances kept (no flattened copy) */
     rt_scene *k = rt_scene_load_flags(pn, RT_LOAD_KEEP_INSTANCES, &e);
@@ -939,7 +956,12 @@ int main(void) {
     corrupt_and_check(s, I);
     test_images(s);
     test_packet_images(s);
-    test_treelet(s, "scene", 3);
+    {
+        rt_scene *k = rt_scene_load_flags(path, RT_LOAD_KEEP_INSTANCES, &e);
+        CHECK(k && k->kept, "kept load: %s", k ? "not kept" : e.msg);
+        test_treelet(s, k, "scene", 3);
+        rt_scene_free(k);
+    }
     test_kept(path, s);
     test_kept_singular();
     test_packet_kept(path, s);

@@ -761,8 +761,8 @@ const rt_render_optdef rt_render_optdefs[] = {
      "bvh4"},
     {"--instances", 0, "M", 0, ALL, "instances", p_instances, NULL,
      "object instances: flatten (copied into the triangle array;" H "default) | bvh (a top-level BVH over instances, one shared" H
-     "BVH per object; the recursive, packet and treelet" H "tracers; render and trace load a .pbrt file's" H
-     "instances unflattened for the first two)",
+     "BVH per object; the recursive, packet and treelet" H "tracers; render and trace then load a .pbrt file's" H
+     "instances unflattened)",
      "", "bvh"},
     {"--vb-size", 0, "S", RT_OPTG_VB, ALL, "vb-size", p_vb_size, NULL,
      "feedback: limit of one vertex buffer, e.g. 512M (default 2G)", "", "512M"},

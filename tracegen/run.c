@@ -124,12 +124,12 @@ int rt_job_setup(rt_job *j, const char *scene_spec, const char *tracer, const rt
 {
     if (setup_opts(j, tracer, o, e) < 0) return -1;
     /* the two-level structure reads the instances as records: for the
-     * recursive and packet tracers (which read triangles and shading
-     * through rt_scene_tri_of / rt_scene_slot) a .pbrt file is loaded
-     * without its flattened copy (scene.h, "Kept instances"); other
+     * recursive, packet and treelet tracers (which read triangles and
+     * shading through rt_scene_tri_of / rt_scene_slot) a .pbrt file is
+     * loaded without its flattened copy (scene.h, "Kept instances"); other
      * tracers get it */
-    const int keep =
-        j->opt.accel == RT_ACCEL_INST && (j->tr == rt_tracer_reference() || !strcmp(j->tr->name, "packet"));
+    const int keep = j->opt.accel == RT_ACCEL_INST && (j->tr == rt_tracer_reference() || !strcmp(j->tr->name, "packet") ||
+                                                       !strcmp(j->tr->name, "treelet"));
     j->sc = rt_scene_load_flags(scene_spec, keep ? RT_LOAD_KEEP_INSTANCES : 0, e);
     if (!j->sc) return -1;
     if (rt_render_apply_view(&j->opt, j->sc, e) < 0 || apply_film(j, e) < 0 || build_accel(j, NULL, e) < 0 ||
