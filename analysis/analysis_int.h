@@ -22,6 +22,15 @@ sqlite3_stmt *rt_report_stmt(sqlite3 *h, const char *sql, const char *context, r
  * SQLITE_ROW or SQLITE_DONE, else -1 with "context: sqlite message". */
 int rt_report_done(sqlite3_stmt *st, int rc, const char *context, rt_err *e);
 
+/* Merges the ascending sizes add[0..nadd) into the ascending union
+ * sz[0..ns) (each size once, at most max kept); returns the new count. */
+int rt_report_size_union(uint64_t *sz, int ns, int max, const uint64_t *add, int nadd);
+
+/* A run's group label "SCENE WxH lights L: TRACER[ KEY][ SIM_PARAMS]"
+ * (the figures' headings) into b (n bytes). */
+void rt_report_run_label(char *b, size_t n, const char *scene, int W, int H, int lights, const char *tracer,
+                         const char *key, const char *sim_params);
+
 /* 0 if everything written to out so far reached it (fflush), else -1
  * with "write error: reason". */
 int rt_report_flush(FILE *out, rt_err *e);

@@ -160,25 +160,13 @@ static void cell(FILE *o, int csv, double v)
 static int group_sizes(const irun *g, int n, uint64_t *sz)
 {
     int ns = 0;
-    for (int i = 0; i < n; i++)
-        for (int k = 0; k < g[i].nsizes; k++) {
-            int j = 0;
-            while (j < ns && sz[j] < g[i].size[k]) j++;
-            if (j < ns && sz[j] == g[i].size[k]) continue;
-            if (ns == MAXS) continue;
-            memmove(sz + j + 1, sz + j, sizeof *sz * (size_t)(ns - j));
-            sz[j] = g[i].size[k];
-            ns++;
-        }
+    for (int i = 0; i < n; i++) ns = rt_report_size_union(sz, ns, MAXS, g[i].size, g[i].nsizes);
     return ns;
 }
 
 static void group_label(const irun *a, char *b, size_t n)
 {
-    char ln[48];
-    snprintf(b, n, "%s %dx%d lights %s: %s%s%s%s%s", a->scene, a->W, a->H,
-             rt_exp_lights_name((unsigned)a->lights, ln, sizeof ln), a->tracer, a->key[0] ? " " : "", a->key,
-             a->sim_params[0] ? " " : "", a->sim_params);
+    rt_report_run_label(b, n, a->scene, a->W, a->H, a->lights, a->tracer, a->key, a->sim_params);
 }
 
 /* The value of level row r of run a at size s (NAN: not simulated). */

@@ -343,6 +343,27 @@ int rt_report_set_model(rt_report *R, int model, rt_err *e)
     return rt_report_done(st, rc, R->dbpath, e);
 }
 
+int rt_report_size_union(uint64_t *sz, int ns, int max, const uint64_t *add, int nadd)
+{
+    for (int k = 0; k < nadd; k++) {
+        int j = 0;
+        while (j < ns && sz[j] < add[k]) j++;
+        if ((j < ns && sz[j] == add[k]) || ns == max) continue;
+        memmove(sz + j + 1, sz + j, sizeof *sz * (size_t)(ns - j));
+        sz[j] = add[k];
+        ns++;
+    }
+    return ns;
+}
+
+void rt_report_run_label(char *b, size_t n, const char *scene, int W, int H, int lights, const char *tracer,
+                         const char *key, const char *sim_params)
+{
+    char ln[48];
+    snprintf(b, n, "%s %dx%d lights %s: %s%s%s%s%s", scene, W, H, rt_exp_lights_name((unsigned)lights, ln, sizeof ln),
+             tracer, key[0] ? " " : "", key, sim_params[0] ? " " : "", sim_params);
+}
+
 double rt_report_reduction(double base, double dyn)
 {
     if (!(base > 0) || !(dyn > 0)) return NAN;
