@@ -125,7 +125,7 @@ static void n_ptouch(nmachine *M, int k, int p, uint64_t L, int w, int cls, int 
     }
     size_t no = n->nout;
     rt_access out[4];
-    memcpy(out, n->out, no * sizeof *out);
+    if (no) memcpy(out, n->out, no * sizeof *out); /* n->out is NULL before the first output */
     n->nout = 0;
     for (size_t i = 0; i < no; i++) {
         if (p + 1 == M->np) sh_emit(M, &out[i]);
