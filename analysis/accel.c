@@ -39,8 +39,7 @@
 
 typedef struct arun {
     long long id;
-    char scene[128], hash[17], tracer[64], key[256], sim_params[160];
-    int W, H, lights;
+    rt_report_group g;            /* the group it is compared in */
     int accel;                    /* rt_accel_kind */
     double nodes, bytes;          /* footprint; NAN when not stored */
     double nvisit, ntest, rays;   /* the run's counts */
@@ -104,23 +103,13 @@ static int read_geom(sqlite3 *h, arun *a, rt_err *e)
     return rt_report_done(st, rc, "accel", e);
 }
 
-static int same_group(const arun *a, const arun *b)
-{
-    return !strcmp(a->scene, b->scene) && !strcmp(a->hash, b->hash) && a->W == b->W && a->H == b->H &&
-           a->lights == b->lights && !strcmp(a->tracer, b->tracer) && !strcmp(a->key, b->key) &&
-           !strcmp(a->sim_params, b->sim_params);
-}
+static int same_group(const arun *a, const arun *b) { return !rt_report_group_cmp(&a->g, &b->g); }
 
 static int by_group(const void *x, const void *y)
 {
     const arun *a = x, *b = y;
-    int c;
-    if ((c = strcmp(a->scene, b->scene)) || (c = strcmp(a->hash, b->hash))) return c;
-    if (a->W != b->W) return a->W < b->W ? -1 : 1;
-    if (a->H != b->H) return a->H < b->H ? -1 : 1;
-    if (a->lights != b->lights) return a->lights < b->lights ? -1 : 1;
-    if ((c = strcmp(a->tracer, b->tracer)) || (c = strcmp(a->key, b->key)) || (c = strcmp(a->sim_params, b->sim_params)))
-        return c;
+    int c = rt_report_group_cmp(&a->g, &b->g);
+    if (c) return c;
     if (a->accel != b->accel) return a->accel < b->accel ? -1 : 1;
     return a->id < b->id ? -1 : a->id > b->id;
 }
@@ -152,7 +141,7 @@ static int group_sizes(const arun *g, int n, uint64_t *sz)
 
 static void group_label(const arun *a, char *b, size_t n)
 {
-    rt_report_run_label(b, n, a->scene, a->W, a->H, a->lights, a->tracer, a->key, a->sim_params);
+    rt_report_run_label(b, n, &a->g);
 }
 
 /* The structure moving the least geometry at size s (NULL: none). */
@@ -299,15 +288,15 @@ int rt_report_accel(sqlite3 *h, const char *scene, int csv, const rt_plot_opts *
         memset(&a, 0, sizeof a);
         const char *params = (const char *)sqlite3_column_text(st, 7), *stats = (const char *)sqlite3_column_text(st, 8);
         const char *sp = (const char *)sqlite3_column_text(st, 9);
-        snprintf(a.tracer, sizeof a.tracer, "%s", (const char *)sqlite3_column_text(st, 6));
-        if (split_key(a.tracer, params ? params : "", a.key, sizeof a.key, &a.accel) < 0) continue;
+        snprintf(a.g.tracer, sizeof a.g.tracer, "%s", (const char *)sqlite3_column_text(st, 6));
+        if (split_key(a.g.tracer, params ? params : "", a.g.key, sizeof a.g.key, &a.accel) < 0) continue;
         a.id = sqlite3_column_int64(st, 0);
-        snprintf(a.scene, sizeof a.scene, "%s", (const char *)sqlite3_column_text(st, 1));
-        snprintf(a.hash, sizeof a.hash, "%s", (const char *)sqlite3_column_text(st, 2));
-        a.W = sqlite3_column_int(st, 3);
-        a.H = sqlite3_column_int(st, 4);
-        a.lights = sqlite3_column_int(st, 5);
-        snprintf(a.sim_params, sizeof a.sim_params, "%s", sp ? sp : "");
+        snprintf(a.g.scene, sizeof a.g.scene, "%s", (const char *)sqlite3_column_text(st, 1));
+        snprintf(a.g.hash, sizeof a.g.hash, "%s", (const char *)sqlite3_column_text(st, 2));
+        a.g.W = sqlite3_column_int(st, 3);
+        a.g.H = sqlite3_column_int(st, 4);
+        a.g.lights = sqlite3_column_int(st, 5);
+        snprintf(a.g.sim_params, sizeof a.g.sim_params, "%s", sp ? sp : "");
         a.nodes = stat_num(stats, "accel_nodes");
         a.bytes = stat_num(stats, "accel_bytes");
         a.nvisit = stat_num(stats, "nodes");

@@ -26,10 +26,21 @@ int rt_report_done(sqlite3_stmt *st, int rc, const char *context, rt_err *e);
  * sz[0..ns) (each size once, at most max kept); returns the new count. */
 int rt_report_size_union(uint64_t *sz, int ns, int max, const uint64_t *add, int nadd);
 
-/* A run's group label "SCENE WxH lights L: TRACER[ KEY][ SIM_PARAMS]"
- * (the figures' headings) into b (n bytes). */
-void rt_report_run_label(char *b, size_t n, const char *scene, int W, int H, int lights, const char *tracer,
-                         const char *key, const char *sim_params);
+/* What groups the runs of a figure that compares structures (accel.c,
+ * instances.c): one scene, resolution, lighting, tracer, run key without
+ * the structure, and simulator parameters. */
+typedef struct rt_report_group {
+    char scene[128], hash[17], tracer[64], key[256], sim_params[160];
+    int W, H, lights;
+} rt_report_group;
+
+/* Orders groups by scene, hash, W, H, lights, tracer, key, sim_params;
+ * 0 when they are the same group. */
+int rt_report_group_cmp(const rt_report_group *a, const rt_report_group *b);
+
+/* A group's label "SCENE WxH lights L: TRACER[ KEY][ SIM_PARAMS]" (the
+ * figures' headings) into b (n bytes). */
+void rt_report_run_label(char *b, size_t n, const rt_report_group *g);
 
 /* 0 if everything written to out so far reached it (fflush), else -1
  * with "write error: reason". */

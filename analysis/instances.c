@@ -43,8 +43,8 @@ enum { L_TLAS, L_INST, L_BLAS, L_SHADE, L_GEOM, NLEV }; /* two-level levels; fla
 
 typedef struct irun {
     long long id;
-    char scene[128], hash[17], tracer[64], key[256], sim_params[160], structure[32];
-    int W, H, lights;
+    rt_report_group g; /* the group it is compared in */
+    char structure[32];
     int two_level;
     int nsizes;
     uint64_t size[MAXS];
@@ -118,23 +118,13 @@ static int read_levels(sqlite3 *h, irun *a, rt_err *e)
     return rt_report_done(st, rc, "instances", e);
 }
 
-static int same_group(const irun *a, const irun *b)
-{
-    return !strcmp(a->scene, b->scene) && !strcmp(a->hash, b->hash) && a->W == b->W && a->H == b->H &&
-           a->lights == b->lights && !strcmp(a->tracer, b->tracer) && !strcmp(a->key, b->key) &&
-           !strcmp(a->sim_params, b->sim_params);
-}
+static int same_group(const irun *a, const irun *b) { return !rt_report_group_cmp(&a->g, &b->g); }
 
 static int by_group(const void *x, const void *y)
 {
     const irun *a = x, *b = y;
-    int c;
-    if ((c = strcmp(a->scene, b->scene)) || (c = strcmp(a->hash, b->hash))) return c;
-    if (a->W != b->W) return a->W < b->W ? -1 : 1;
-    if (a->H != b->H) return a->H < b->H ? -1 : 1;
-    if (a->lights != b->lights) return a->lights < b->lights ? -1 : 1;
-    if ((c = strcmp(a->tracer, b->tracer)) || (c = strcmp(a->key, b->key)) || (c = strcmp(a->sim_params, b->sim_params)))
-        return c;
+    int c = rt_report_group_cmp(&a->g, &b->g);
+    if (c) return c;
     if (a->two_level != b->two_level) return a->two_level > b->two_level ? -1 : 1; /* the two-level run first */
     if ((c = strcmp(a->structure, b->structure))) return c;
     return a->id < b->id ? -1 : a->id > b->id;
@@ -166,7 +156,7 @@ static int group_sizes(const irun *g, int n, uint64_t *sz)
 
 static void group_label(const irun *a, char *b, size_t n)
 {
-    rt_report_run_label(b, n, a->scene, a->W, a->H, a->lights, a->tracer, a->key, a->sim_params);
+    rt_report_run_label(b, n, &a->g);
 }
 
 /* The value of level row r of run a at size s (NAN: not simulated). */
@@ -258,17 +248,17 @@ int rt_report_instances(sqlite3 *h, const char *scene, int csv, FILE *out, rt_er
         irun *a = &A[n];
         memset(a, 0, sizeof *a);
         const char *params = (const char *)sqlite3_column_text(st, 7), *sp = (const char *)sqlite3_column_text(st, 8);
-        snprintf(a->tracer, sizeof a->tracer, "%s", (const char *)sqlite3_column_text(st, 6));
-        if (split_key(a->tracer, params ? params : "", a->key, sizeof a->key, a->structure, sizeof a->structure,
+        snprintf(a->g.tracer, sizeof a->g.tracer, "%s", (const char *)sqlite3_column_text(st, 6));
+        if (split_key(a->g.tracer, params ? params : "", a->g.key, sizeof a->g.key, a->structure, sizeof a->structure,
                       &a->two_level) < 0)
             continue;
         a->id = sqlite3_column_int64(st, 0);
-        snprintf(a->scene, sizeof a->scene, "%s", (const char *)sqlite3_column_text(st, 1));
-        snprintf(a->hash, sizeof a->hash, "%s", (const char *)sqlite3_column_text(st, 2));
-        a->W = sqlite3_column_int(st, 3);
-        a->H = sqlite3_column_int(st, 4);
-        a->lights = sqlite3_column_int(st, 5);
-        snprintf(a->sim_params, sizeof a->sim_params, "%s", sp ? sp : "");
+        snprintf(a->g.scene, sizeof a->g.scene, "%s", (const char *)sqlite3_column_text(st, 1));
+        snprintf(a->g.hash, sizeof a->g.hash, "%s", (const char *)sqlite3_column_text(st, 2));
+        a->g.W = sqlite3_column_int(st, 3);
+        a->g.H = sqlite3_column_int(st, 4);
+        a->g.lights = sqlite3_column_int(st, 5);
+        snprintf(a->g.sim_params, sizeof a->g.sim_params, "%s", sp ? sp : "");
         n++;
     }
     if (rt_report_done(st, rc, "instances", e) < 0) {

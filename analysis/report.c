@@ -356,12 +356,23 @@ int rt_report_size_union(uint64_t *sz, int ns, int max, const uint64_t *add, int
     return ns;
 }
 
-void rt_report_run_label(char *b, size_t n, const char *scene, int W, int H, int lights, const char *tracer,
-                         const char *key, const char *sim_params)
+int rt_report_group_cmp(const rt_report_group *a, const rt_report_group *b)
+{
+    int c;
+    if ((c = strcmp(a->scene, b->scene)) || (c = strcmp(a->hash, b->hash))) return c;
+    if (a->W != b->W) return a->W < b->W ? -1 : 1;
+    if (a->H != b->H) return a->H < b->H ? -1 : 1;
+    if (a->lights != b->lights) return a->lights < b->lights ? -1 : 1;
+    if ((c = strcmp(a->tracer, b->tracer)) || (c = strcmp(a->key, b->key))) return c;
+    return strcmp(a->sim_params, b->sim_params);
+}
+
+void rt_report_run_label(char *b, size_t n, const rt_report_group *g)
 {
     char ln[48];
-    snprintf(b, n, "%s %dx%d lights %s: %s%s%s%s%s", scene, W, H, rt_exp_lights_name((unsigned)lights, ln, sizeof ln),
-             tracer, key[0] ? " " : "", key, sim_params[0] ? " " : "", sim_params);
+    snprintf(b, n, "%s %dx%d lights %s: %s%s%s%s%s", g->scene, g->W, g->H,
+             rt_exp_lights_name((unsigned)g->lights, ln, sizeof ln), g->tracer, g->key[0] ? " " : "", g->key,
+             g->sim_params[0] ? " " : "", g->sim_params);
 }
 
 double rt_report_reduction(double base, double dyn)
