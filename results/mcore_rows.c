@@ -43,36 +43,7 @@ size_t rt_mc_db_level_rows_gen(const rt_mc *m, int gens, rt_db_level *rows)
                     r->traffic_bytes = x.traffic_bytes;
                 }
     }
-    const rt_hier *sh = rt_mc_shared_hier(m);
-    for (int s = 0; s + c->nprivate < c->h.nlevels; s++) {
-        const int k = s + c->nprivate;
-        const rt_sim_config *l = &c->h.level[k];
-        for (int i = 0; i < l->nsizes; i++)
-            for (int cls = 0; cls < RT_NCLASS; cls++)
-                for (int g = -1; g < (gens ? RT_MAXGEN : 0); g++) {
-                    rt_sim_counts t;
-                    if (g < 0) rt_sim_get(rt_hier_level(sh, s), i, cls, &t);
-                    else rt_sim_get_gen(rt_hier_level(sh, s), i, cls, g, &t);
-                    if (!t.accesses) continue;
-                    rt_db_level *r = &rows[n++];
-                    memset(r, 0, sizeof *r);
-                    r->level = k + 1;
-                    r->level_name = c->h.name[k];
-                    r->core = -1;
-                    r->size = l->sizes[i];
-                    r->line = l->line;
-                    r->assoc = l->assoc;
-                    r->policy = rt_sim_policy_name(l);
-                    r->repl = rt_sim_repl_name(l->repl);
-                    r->cls = cls;
-                    r->gen = g;
-                    r->accesses = t.accesses;
-                    r->misses = t.read_misses + t.write_misses;
-                    r->writebacks = t.writebacks;
-                    r->traffic_bytes = t.traffic_bytes;
-                }
-    }
-    return n;
+    return n + rt_hier_level_rows_at(rt_mc_shared_hier(m), &c->h, c->nprivate, gens, rows + n);
 }
 
 size_t rt_mc_db_level_rows(const rt_mc *m, rt_db_level *rows) { return rt_mc_db_level_rows_gen(m, 0, rows); }

@@ -175,19 +175,17 @@ size_t rt_hier_db_rows(const rt_hier *h, rt_db_traffic *rows)
     return n;
 }
 
-size_t rt_hier_db_level_rows(const rt_hier *h, int gens, rt_db_level *out)
+size_t rt_hier_level_rows_at(const rt_hier *h, const rt_hier_config *hc, int first, int gens, rt_db_level *out)
 {
-    const rt_hier_config *hc = rt_hier_get_config(h);
     size_t n = 0;
-    if (hc->inclusion != RT_INCL_NINE) return incl_level_rows(h, out);
-    for (int k = 0; k < hc->nlevels; k++) {
+    for (int k = first; k < hc->nlevels; k++) {
         const rt_sim_config *c = &hc->level[k];
         for (int i = 0; i < c->nsizes; i++)
             for (int cls = 0; cls < RT_NCLASS; cls++)
                 for (int g = -1; g < (gens ? RT_MAXGEN : 0); g++) {
                     rt_sim_counts t;
-                    if (g < 0) rt_sim_get(rt_hier_level(h, k), i, cls, &t);
-                    else rt_sim_get_gen(rt_hier_level(h, k), i, cls, g, &t);
+                    if (g < 0) rt_sim_get(rt_hier_level(h, k - first), i, cls, &t);
+                    else rt_sim_get_gen(rt_hier_level(h, k - first), i, cls, g, &t);
                     if (!t.accesses) continue;
                     rt_db_level *r = &out[n++];
                     memset(r, 0, sizeof *r);
@@ -208,4 +206,11 @@ size_t rt_hier_db_level_rows(const rt_hier *h, int gens, rt_db_level *out)
                 }
     }
     return n;
+}
+
+size_t rt_hier_db_level_rows(const rt_hier *h, int gens, rt_db_level *out)
+{
+    const rt_hier_config *hc = rt_hier_get_config(h);
+    if (hc->inclusion != RT_INCL_NINE) return incl_level_rows(h, out);
+    return rt_hier_level_rows_at(h, hc, 0, gens, out);
 }

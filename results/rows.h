@@ -50,6 +50,10 @@ size_t rt_approx_db_se_rows(const rt_approx *a, rt_db_se *se);
  * rows written. */
 size_t rt_hier_db_level_max(const rt_hier *h);
 size_t rt_hier_db_level_rows(const rt_hier *h, int gens, rt_db_level *out);
+/* The same rows for the levels first.. of hc simulated by h (h's level 0
+ * is hc's level first: the shared levels of a multi-core machine, named
+ * and numbered as in the whole hierarchy), non-inclusive. */
+size_t rt_hier_level_rows_at(const rt_hier *h, const rt_hier_config *hc, int first, int gens, rt_db_level *out);
 /* The traffic rows of a hierarchy run (what reaches memory): its last
  * level's counters per size and class, as rt_sim_db_rows writes them (for
  * a non-inclusive one, exactly rt_sim_db_rows of the last level). rows
